@@ -1,0 +1,22 @@
+# Every OpenCL C file is listed here and embedded into the library as a string at build time (included
+# from the top-level CMakeLists so the generating rule lives in the directory of the volcl target).
+set(VOLCL_KERNEL_FILES
+  volcl_shared.h
+  transfer_function.h
+  phantoms.cl
+  copy.cl
+  tf_sample.cl
+  lifting.cl
+  preint.cl
+)
+list(TRANSFORM VOLCL_KERNEL_FILES PREPEND ${PROJECT_SOURCE_DIR}/cl/ OUTPUT_VARIABLE _kernel_paths)
+list(JOIN _kernel_paths "|" _kernel_paths_joined)
+set(_generated ${PROJECT_BINARY_DIR}/generated/EmbeddedKernels.cpp)
+add_custom_command(
+  OUTPUT ${_generated}
+  COMMAND ${CMAKE_COMMAND} -DOUTPUT=${_generated} "-DINPUTS=${_kernel_paths_joined}"
+          -P ${PROJECT_SOURCE_DIR}/cmake/EmbedKernels.cmake
+  DEPENDS ${_kernel_paths} ${PROJECT_SOURCE_DIR}/cmake/EmbedKernels.cmake
+  COMMENT "Embedding OpenCL kernels"
+  VERBATIM)
+target_sources(volcl PRIVATE ${_generated})

@@ -1,0 +1,54 @@
+// Image files through OpenImageIO: float RGBA(+extra channels) buffers, EXR attributes, PNG display encoding.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <string>
+#include <variant>
+#include <vector>
+
+namespace volcl {
+
+struct ImageAttribute {
+    std::string name;
+    std::variant<std::string, float, int, std::array<float, 2>> value; ///< v2f for EXR "volcl:domain"
+};
+
+/// Interleaved float pixels, row 0 at the top. Example:
+/// ```
+/// volcl::ImageBuffer img(256, 256, {"R", "G", "B", "A"});
+/// img.at(3, 4, 0) = 0.5f;
+/// img.attributes.push_back({"volcl:method", std::string("exact")});
+/// volcl::writeImage(img, "table.exr");
+/// ```
+struct ImageBuffer {
+    ImageBuffer() = default;
+    ImageBuffer(int width, int height, std::vector<std::string> channelNames);
+    int width = 0, height = 0;
+    std::vector<std::string> channels;
+    std::vector<float> pixels;
+    std::vector<ImageAttribute> attributes;
+    int channelCount() const noexcept { return static_cast<int>(channels.size()); }
+    float& at(int x, int y, int c) { return pixels[(static_cast<std::size_t>(y) * width + x) * channels.size() + c]; }
+    float at(int x, int y, int c) const {
+        return pixels[(static_cast<std::size_t>(y) * width + x) * channels.size() + c];
+    }
+    const ImageAttribute* findAttribute(std::string_view name) const;
+};
+
+struct ImageWriteOptions {
+    bool halfFloat = false; ///< EXR: store HALF instead of FLOAT
+};
+
+/// Writes EXR (float or half, all channels and attributes) or PNG (8-bit, values clamped to [0,1], no
+/// transform: encode first). Atomic: temporary file + rename. Throws IoError naming the file.
+void writeImage(const ImageBuffer& image, const std::filesystem::path& path, const ImageWriteOptions& options = {});
+/// Reads any image OpenImageIO can read as float, with its attributes. Throws IoError naming the file.
+ImageBuffer readImage(const std::filesystem::path& path);
+
+/// Display encoding of linear associated RGBA: composite over `background` (straight RGBA), then sRGB
+/// encode. Result has channels R,G,B,A with A = 1 - (1 - a)(1 - background alpha).
+ImageBuffer compositeOverSrgb(const ImageBuffer& linearAssociatedRgba, std::array<float, 4> background);
+float linearToSrgb(float linear) noexcept;
+
+} // namespace volcl

@@ -1,0 +1,437 @@
+// Transfer functions: canonical/ParaView JSON and strip import, validation, exact sampling and kernel knots.
+#include "host/tf/TransferFunction.hpp"
+
+#include "host/Error.hpp"
+#include "host/image/ImageIo.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <set>
+#include <sstream>
+
+namespace volcl {
+namespace {
+
+using nlohmann::json;
+
+constexpr double kFloatMax = static_cast<double>(std::numeric_limits<float>::max());
+
+std::string describe(double v) {
+    std::ostringstream os;
+    os.precision(17);
+    os << v;
+    return os.str();
+}
+
+/// tau for an opacity per unit length; a = 1 has no finite answer and maps to kMaxImportedExtinction.
+double opacityToExtinction(double a, const std::string& where) {
+    if (!std::isfinite(a) || a < 0.0 || a > 1.0)
+        throw DataError(where + ": opacity " + describe(a) + " is outside [0, 1]");
+    if (a >= 1.0) return kMaxImportedExtinction;
+    return std::min(-std::log1p(-a), kMaxImportedExtinction);
+}
+
+double number(const json& v, const std::string& where) {
+    if (!v.is_number()) throw DataError(where + ": expected a number, got " + std::string(v.type_name()));
+    return v.get<double>();
+}
+
+json parseJson(std::string_view text) {
+    try {
+        return json::parse(text.begin(), text.end());
+    } catch (const json::parse_error& e) {
+        throw DataError(std::string("transfer function: invalid JSON (") + e.what() + ")");
+    }
+}
+
+/// Left value (what holds at s itself) of a piecewise-linear list; `get` reads a point's value.
+template <class P, class Get> auto valueAt(const std::vector<P>& pts, double s, Get get) {
+    if (s <= pts.front().s) return get(pts.front());
+    if (s > pts.back().s) return get(pts.back());
+    // Last point strictly below s; the next one is at or above s and strictly to the right of it.
+    auto it = std::lower_bound(pts.begin(), pts.end(), s, [](const P& p, double x) { return p.s < x; });
+    const P& b = *it;
+    const P& a = *(it - 1);
+    const double t = (s - a.s) / (b.s - a.s);
+    auto va = get(a), vb = get(b);
+    decltype(va) out{};
+    for (std::size_t c = 0; c < va.size(); ++c)
+        out[c] = va[c] + t * (vb[c] - va[c]);
+    return out;
+}
+
+/// Right limit (value just above s): the last point at s when one lies there, else the interpolated value.
+template <class P, class Get> auto rightValueAt(const std::vector<P>& pts, double s, Get get) {
+    auto it = std::upper_bound(pts.begin(), pts.end(), s, [](double x, const P& p) { return x < p.s; });
+    if (it != pts.begin() && (it - 1)->s == s) return get(*(it - 1));
+    return valueAt(pts, s, get);
+}
+
+std::array<double, 4> leftRgbt(const TransferFunction& tf, double s) {
+    auto c = tf.colorAt(s);
+    return {c[0], c[1], c[2], tf.extinctionAt(s)};
+}
+std::array<double, 4> rightRgbt(const TransferFunction& tf, double s) {
+    auto c = rightValueAt(tf.color, s, [](const ColorPoint& p) { return p.rgb; });
+    auto t =
+        rightValueAt(tf.extinction, s, [](const ExtinctionPoint& p) { return std::array<double, 1>{p.tau}; });
+    return {c[0], c[1], c[2], t[0]};
+}
+
+float toFloatSaturated(double v) {
+    return static_cast<float>(std::clamp(v, -kFloatMax, kFloatMax));
+}
+
+// ParaView's vtkPiecewiseFunction interpolation between two nodes (midpoint, sharpness of the first node).
+double paraViewOpacity(double x1, double y1, double x2, double y2, double midpoint, double sharpness,
+                       double x) {
+    midpoint = std::clamp(midpoint, 0.00001, 0.99999);
+    double s = (x - x1) / (x2 - x1);
+    s = s < midpoint ? 0.5 * s / midpoint : 0.5 + 0.5 * (s - midpoint) / (1.0 - midpoint);
+    if (sharpness > 0.99) return s < 0.5 ? y1 : y2;
+    if (sharpness < 0.01) return (1.0 - s) * y1 + s * y2;
+    if (s < 0.5)
+        s = 0.5 * std::pow(s * 2.0, 1.0 + 10.0 * sharpness);
+    else if (s > 0.5)
+        s = 1.0 - 0.5 * std::pow((1.0 - s) * 2.0, 1.0 + 10.0 * sharpness);
+    const double ss = s * s, sss = ss * s;
+    const double h1 = 2 * sss - 3 * ss + 1, h2 = -2 * sss + 3 * ss, h3 = sss - 2 * ss + s, h4 = sss - ss;
+    const double t = (1.0 - sharpness) * (y2 - y1);
+    const double v = h1 * y1 + h2 * y2 + h3 * t + h4 * t;
+    return std::clamp(v, std::min(y1, y2), std::max(y1, y2));
+}
+
+// Sub-intervals used to follow a curved (hermite) ParaView opacity segment with linear pieces.
+constexpr int kParaViewCurveSamples = 64;
+
+} // namespace
+
+TransferFunction TransferFunction::fromJson(std::string_view text) {
+    json j = parseJson(text);
+    const bool paraView =
+        (j.is_array() && !j.empty() && j.front().is_object() && j.front().contains("RGBPoints")) ||
+        (j.is_object() && (j.contains("RGBPoints") || j.contains("Points")));
+    if (paraView) return fromParaView(text);
+    if (!j.is_object())
+        throw DataError("transfer function: expected a JSON object with 'color' and 'extinction'");
+
+    TransferFunction tf;
+    for (const auto& [key, value] : j.items()) {
+        if (key != "domain" && key != "color" && key != "extinction" && key != "name")
+            throw DataError("transfer function: unknown key '" + key +
+                            "' (expected domain, color, extinction, name)");
+        (void)value;
+    }
+    for (const char* key : {"color", "extinction"})
+        if (!j.contains(key) || !j[key].is_array())
+            throw DataError(std::string("transfer function: missing array '") + key + "'");
+
+    std::size_t i = 0;
+    for (const auto& p : j["color"]) {
+        const std::string where = "transfer function: color[" + std::to_string(i++) + "]";
+        if (!p.is_array() || p.size() != 4) throw DataError(where + ": expected [s, r, g, b]");
+        tf.color.push_back(
+            {number(p[0], where), {number(p[1], where), number(p[2], where), number(p[3], where)}});
+    }
+    i = 0;
+    for (const auto& p : j["extinction"]) {
+        const std::string where = "transfer function: extinction[" + std::to_string(i++) + "]";
+        if (!p.is_array() || p.size() != 2) throw DataError(where + ": expected [s, tau]");
+        tf.extinction.push_back({number(p[0], where), number(p[1], where)});
+    }
+    if (j.contains("domain")) {
+        const auto& d = j["domain"];
+        if (!d.is_array() || d.size() != 2) throw DataError("transfer function: 'domain' must be [lo, hi]");
+        tf.domain = {number(d[0], "transfer function: domain"), number(d[1], "transfer function: domain")};
+    } else if (!tf.color.empty() && !tf.extinction.empty()) {
+        tf.domain = {std::min(tf.color.front().s, tf.extinction.front().s),
+                     std::max(tf.color.back().s, tf.extinction.back().s)};
+    }
+    tf.validate();
+    return tf;
+}
+
+TransferFunction TransferFunction::fromParaView(std::string_view text) {
+    json root = parseJson(text);
+    const json* j = &root;
+    if (root.is_array()) {
+        if (root.empty() || !root.front().is_object())
+            throw DataError("ParaView colour map: expected an array holding one colour-map object");
+        j = &root.front();
+    }
+    if (!j->is_object()) throw DataError("ParaView colour map: expected a JSON object");
+
+    TransferFunction tf;
+    if (j->contains("ColorSpace")) {
+        const std::string space = (*j)["ColorSpace"].is_string() ? (*j)["ColorSpace"].get<std::string>() : "";
+        if (space != "RGB")
+            throw DataError("ParaView colour map: ColorSpace '" + space +
+                            "' interpolates outside RGB; re-save the map with ColorSpace RGB");
+    }
+    if (j->contains("RGBPoints")) {
+        const json& p = (*j)["RGBPoints"];
+        if (!p.is_array() || p.empty() || p.size() % 4 != 0)
+            throw DataError("ParaView colour map: 'RGBPoints' must hold groups of 4 numbers (x, r, g, b)");
+        for (std::size_t i = 0; i < p.size(); i += 4) {
+            const std::string where = "ParaView colour map: RGBPoints[" + std::to_string(i) + "]";
+            tf.color.push_back({number(p[i], where),
+                                {number(p[i + 1], where), number(p[i + 2], where), number(p[i + 3], where)}});
+        }
+    }
+    struct OpacityNode {
+        double x, a, midpoint, sharpness;
+    };
+    std::vector<OpacityNode> nodes;
+    if (j->contains("Points")) {
+        const json& p = (*j)["Points"];
+        if (!p.is_array() || p.empty() || p.size() % 4 != 0)
+            throw DataError(
+                "ParaView colour map: 'Points' must hold groups of 4 numbers (x, a, midpoint, sharpness)");
+        for (std::size_t i = 0; i < p.size(); i += 4) {
+            const std::string where = "ParaView colour map: Points[" + std::to_string(i) + "]";
+            nodes.push_back({number(p[i], where), number(p[i + 1], where), number(p[i + 2], where),
+                             number(p[i + 3], where)});
+            if (!(nodes.back().a >= 0.0 && nodes.back().a <= 1.0))
+                throw DataError(where + ": opacity " + describe(nodes.back().a) + " is outside [0, 1]");
+        }
+    }
+    if (tf.color.empty()) throw DataError("ParaView colour map: no 'RGBPoints'");
+    if (nodes.empty()) {
+        // A colour-only preset: fully opaque per unit length is never what a volume wants; ParaView
+        // itself pairs such presets with a linear ramp from 0 to 1 over the colour range.
+        nodes.push_back({tf.color.front().s, 0.0, 0.5, 0.0});
+        nodes.push_back({tf.color.back().s, 1.0, 0.5, 0.0});
+    }
+    for (std::size_t i = 1; i < nodes.size(); ++i)
+        if (!(nodes[i].x >= nodes[i - 1].x))
+            throw DataError("ParaView colour map: 'Points' are not sorted by x at node " + std::to_string(i));
+
+    const std::string where = "ParaView colour map";
+    auto push = [&](double x, double a) { tf.extinction.push_back({x, opacityToExtinction(a, where)}); };
+    push(nodes.front().x, nodes.front().a);
+    for (std::size_t i = 0; i + 1 < nodes.size(); ++i) {
+        const OpacityNode& n = nodes[i];
+        const OpacityNode& m = nodes[i + 1];
+        const double width = m.x - n.x;
+        const bool linear = n.sharpness < 0.01;
+        if (width > 0.0 && n.sharpness > 0.99) {
+            // Piecewise constant: a step where the remapped position crosses one half (at the midpoint).
+            const double xm = n.x + std::clamp(n.midpoint, 0.00001, 0.99999) * width;
+            push(xm, n.a);
+            push(xm, m.a);
+        } else if (width > 0.0 && linear && std::abs(n.midpoint - 0.5) > 1e-12) {
+            push(n.x + std::clamp(n.midpoint, 0.00001, 0.99999) * width, 0.5 * (n.a + m.a));
+        } else if (width > 0.0 && !linear) {
+            for (int k = 1; k < kParaViewCurveSamples; ++k) {
+                const double x = n.x + width * k / kParaViewCurveSamples;
+                push(x, paraViewOpacity(n.x, n.a, m.x, m.a, n.midpoint, n.sharpness, x));
+            }
+        }
+        push(m.x, m.a);
+    }
+    tf.domain = {std::min(tf.color.front().s, nodes.front().x), std::max(tf.color.back().s, nodes.back().x)};
+    if (!(tf.domain[0] < tf.domain[1]))
+        throw DataError("ParaView colour map: all points sit at one value " + describe(tf.domain[0]) +
+                        ", so it spans no data range");
+    tf.validate();
+    return tf;
+}
+
+TransferFunction TransferFunction::fromRgbaStrip(const std::vector<std::array<float, 4>>& pixels,
+                                                 std::array<double, 2> domain) {
+    if (pixels.empty()) throw DataError("RGBA strip: no pixels");
+    if (!(std::isfinite(domain[0]) && std::isfinite(domain[1]) && domain[0] < domain[1]))
+        throw DataError("RGBA strip: domain [" + describe(domain[0]) + ", " + describe(domain[1]) +
+                        "] must be finite with lo < hi");
+    TransferFunction tf;
+    tf.domain = domain;
+    const std::size_t n = pixels.size();
+    for (std::size_t i = 0; i < n; ++i) {
+        const double s = n == 1 ? domain[0] : domain[0] + (domain[1] - domain[0]) * double(i) / double(n - 1);
+        const auto& p = pixels[i];
+        const std::string where = "RGBA strip pixel " + std::to_string(i);
+        for (float v : p)
+            if (!std::isfinite(v)) throw DataError(where + ": value is not finite");
+        tf.color.push_back({s, {p[0], p[1], p[2]}});
+        tf.extinction.push_back({s, opacityToExtinction(p[3], where)});
+    }
+    tf.validate();
+    return tf;
+}
+
+TransferFunction TransferFunction::fromFile(const std::filesystem::path& path,
+                                            std::array<double, 2> stripDomain) {
+    std::string ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
+    const std::string name = path.string();
+    if (!std::filesystem::is_regular_file(path)) throw IoError(name + ": transfer function file not found");
+    try {
+        if (ext == ".json") {
+            std::ifstream in(path, std::ios::binary);
+            std::ostringstream text;
+            text << in.rdbuf();
+            if (!in.good() && !in.eof()) throw IoError(name + ": cannot read transfer function");
+            return fromJson(text.str());
+        }
+        if (ext == ".png" || ext == ".exr" || ext == ".tif" || ext == ".tiff") {
+            ImageBuffer img = readImage(path);
+            if (img.height != 1)
+                throw DataError("RGBA strip must be 1 pixel high, this one is " + std::to_string(img.width) +
+                                "x" + std::to_string(img.height));
+            if (img.channelCount() < 4)
+                throw DataError("RGBA strip needs 4 channels (R, G, B, A), this one has " +
+                                std::to_string(img.channelCount()));
+            std::vector<std::array<float, 4>> px(static_cast<std::size_t>(img.width));
+            for (int x = 0; x < img.width; ++x)
+                for (int c = 0; c < 4; ++c)
+                    px[std::size_t(x)][std::size_t(c)] = img.at(x, 0, c);
+            return fromRgbaStrip(px, stripDomain);
+        }
+    } catch (const DataError& e) {
+        throw DataError(name + ": " + e.what());
+    }
+    throw IoError(name + ": unknown transfer function format '" + ext + "' (expected .json, .png or .exr)");
+}
+
+std::string TransferFunction::toJson() const {
+    json j;
+    j["domain"] = {domain[0], domain[1]};
+    j["color"] = json::array();
+    for (const auto& p : color)
+        j["color"].push_back({p.s, p.rgb[0], p.rgb[1], p.rgb[2]});
+    j["extinction"] = json::array();
+    for (const auto& p : extinction)
+        j["extinction"].push_back({p.s, p.tau});
+    return j.dump(2);
+}
+
+void TransferFunction::validate() const {
+    auto finiteInFloat = [](double v) { return std::isfinite(v) && std::abs(v) <= kFloatMax; };
+    if (!(finiteInFloat(domain[0]) && finiteInFloat(domain[1])))
+        throw DataError("transfer function: domain is not finite");
+    if (!(domain[0] < domain[1]))
+        throw DataError("transfer function: domain [" + describe(domain[0]) + ", " + describe(domain[1]) +
+                        "] needs lo < hi");
+    if (color.empty()) throw DataError("transfer function: 'color' has no points");
+    if (extinction.empty()) throw DataError("transfer function: 'extinction' has no points");
+    for (std::size_t i = 0; i < color.size(); ++i) {
+        const auto& p = color[i];
+        const std::string where = "transfer function: color[" + std::to_string(i) + "]";
+        if (!finiteInFloat(p.s)) throw DataError(where + ": s is not a finite float");
+        for (double c : p.rgb)
+            if (!finiteInFloat(c))
+                throw DataError(where + ": colour " + describe(c) + " is not a finite float");
+        if (i > 0 && p.s < color[i - 1].s)
+            throw DataError(where + ": s = " + describe(p.s) + " is below the previous point's " +
+                            describe(color[i - 1].s) + " (points must be sorted)");
+    }
+    for (std::size_t i = 0; i < extinction.size(); ++i) {
+        const auto& p = extinction[i];
+        const std::string where = "transfer function: extinction[" + std::to_string(i) + "]";
+        if (!finiteInFloat(p.s)) throw DataError(where + ": s is not a finite float");
+        if (!finiteInFloat(p.tau))
+            throw DataError(where + ": tau " + describe(p.tau) + " is not a finite float");
+        if (p.tau < 0.0) throw DataError(where + ": tau " + describe(p.tau) + " is negative");
+        if (i > 0 && p.s < extinction[i - 1].s)
+            throw DataError(where + ": s = " + describe(p.s) + " is below the previous point's " +
+                            describe(extinction[i - 1].s) + " (points must be sorted)");
+    }
+}
+
+std::array<double, 3> TransferFunction::colorAt(double s) const {
+    return valueAt(color, s, [](const ColorPoint& p) { return p.rgb; });
+}
+
+double TransferFunction::extinctionAt(double s) const {
+    return valueAt(extinction, s, [](const ExtinctionPoint& p) { return std::array<double, 1>{p.tau}; })[0];
+}
+
+std::vector<double> TransferFunction::breakpoints() const {
+    std::set<double> s;
+    for (const auto& p : color)
+        if (p.s >= domain[0] && p.s <= domain[1]) s.insert(p.s);
+    for (const auto& p : extinction)
+        if (p.s >= domain[0] && p.s <= domain[1]) s.insert(p.s);
+    return {s.begin(), s.end()};
+}
+
+double TransferFunction::maxExtinction() const {
+    double m = 0.0;
+    for (const auto& p : extinction)
+        m = std::max(m, p.tau);
+    return m;
+}
+
+double TransferFunction::maxColor() const {
+    double m = 0.0;
+    for (const auto& p : color)
+        for (double c : p.rgb)
+            m = std::max(m, c);
+    return m;
+}
+
+std::vector<VolclTfKnot> TransferFunction::packKnots() const {
+    validate();
+    std::set<double> all;
+    for (const auto& p : color)
+        all.insert(p.s);
+    for (const auto& p : extinction)
+        all.insert(p.s);
+    const std::vector<double> s(all.begin(), all.end());
+
+    auto knot = [](float at, const std::array<double, 4>& v) {
+        VolclTfKnot k{};
+        k.s = at;
+        for (int c = 0; c < 4; ++c)
+            k.value[c] = toFloatSaturated(v[std::size_t(c)]);
+        return k;
+    };
+    std::vector<VolclTfKnot> knots;
+    knots.reserve(s.size() + 1);
+    // At and below the first breakpoint the left value holds; a step there needs its own flat knot.
+    const auto left0 = leftRgbt(*this, s.front());
+    const auto right0 = rightRgbt(*this, s.front());
+    if (left0 != right0) knots.push_back(knot(static_cast<float>(s.front()), left0));
+    for (std::size_t i = 0; i < s.size(); ++i) {
+        VolclTfKnot k = knot(static_cast<float>(s[i]), rightRgbt(*this, s[i]));
+        if (i + 1 < s.size()) {
+            const auto end = leftRgbt(*this, s[i + 1]);
+            const float width = static_cast<float>(s[i + 1]) - k.s;
+            // Two breakpoints that round to one float never see d > 0 in this interval: keep it flat.
+            if (width > 0.0f)
+                for (int c = 0; c < 4; ++c)
+                    k.slope[c] = toFloatSaturated(
+                        (end[std::size_t(c)] - rightRgbt(*this, s[i])[std::size_t(c)]) / (s[i + 1] - s[i]));
+        }
+        knots.push_back(k);
+    }
+    return knots;
+}
+
+std::array<float, 4> TransferFunction::sampleFloat(const std::vector<VolclTfKnot>& knots, float s) {
+    if (knots.empty()) throw UsageError("TransferFunction::sampleFloat: no knots");
+    // Same binary search and arithmetic as tf_sample() in cl/transfer_function.h, operation for operation.
+    std::uint32_t lo = 0, hi = static_cast<std::uint32_t>(knots.size());
+    while (hi - lo > 1) {
+        std::uint32_t mid = (lo + hi) / 2;
+        if (knots[mid].s < s)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    const VolclTfKnot& kn = knots[lo];
+    const float d = s > kn.s ? std::fmin(s - kn.s, std::numeric_limits<float>::max()) : 0.0f;
+    std::array<float, 4> out{};
+    for (int c = 0; c < 4; ++c) {
+        const float prod = d * kn.slope[c];
+        out[std::size_t(c)] = kn.value[c] + prod;
+    }
+    return out;
+}
+
+} // namespace volcl

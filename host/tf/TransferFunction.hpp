@@ -1,0 +1,68 @@
+// Transfer functions (CONTRACT section 2): canonical JSON, ParaView import, RGBA strips, exact sampling.
+#pragma once
+
+#include "cl/volcl_shared.h"
+
+#include <array>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace volcl {
+
+/// Extinction used for an imported opacity of exactly 1 (tau = -ln(1 - a) is infinite there).
+inline constexpr double kMaxImportedExtinction = 1000.0;
+
+struct ColorPoint {
+    double s;
+    std::array<double, 3> rgb;
+};
+struct ExtinctionPoint {
+    double s;
+    double tau;
+};
+
+/// Piecewise-linear colour c(s) and extinction tau(s) in data units, constant beyond the end points.
+/// Two points at the same s form a step: at s exactly the earlier point's value holds, above it the later.
+/// Example:
+/// ```
+/// auto tf = volcl::TransferFunction::fromFile("tf.json");
+/// double tau = tf.extinctionAt(80.0);
+/// auto knots = tf.packKnots();   // upload for kernels; tf.sampleFloat(s) gives the kernel's exact value
+/// ```
+class TransferFunction {
+public:
+    std::array<double, 2> domain{0.0, 255.0};
+    std::vector<ColorPoint> color;           ///< sorted by s (stable: steps keep their order)
+    std::vector<ExtinctionPoint> extinction; ///< sorted by s, tau >= 0
+
+    /// Canonical JSON, ParaView colour-map JSON (detected by keys), or a 1D RGBA strip image (.png/.exr;
+    /// `stripDomain` gives its data range). Throws IoError/DataError with the file name on bad input.
+    static TransferFunction fromFile(const std::filesystem::path& path,
+                                     std::array<double, 2> stripDomain = {0.0, 255.0});
+    static TransferFunction fromJson(std::string_view json); ///< canonical or ParaView
+    static TransferFunction fromParaView(std::string_view json);
+    /// Strip of `n` RGBA pixels spanning `domain`; alpha is opacity per unit length.
+    static TransferFunction fromRgbaStrip(const std::vector<std::array<float, 4>>& pixels,
+                                          std::array<double, 2> domain);
+    std::string toJson() const; ///< canonical JSON
+
+    /// Checks ordering, finiteness, tau >= 0, domain lo < hi, at least one point each. Throws DataError.
+    void validate() const;
+
+    /// Exact double-precision values (used by references).
+    std::array<double, 3> colorAt(double s) const;
+    double extinctionAt(double s) const; ///< (named apart from the `extinction` member)
+    /// Sorted, de-duplicated s of every control point inside (and at) the domain.
+    std::vector<double> breakpoints() const;
+    double maxExtinction() const;
+    double maxColor() const; ///< largest colour channel value
+
+    /// Merged colour+extinction knots for kernels (see cl/transfer_function.h).
+    std::vector<VolclTfKnot> packKnots() const;
+    /// Float evaluation identical, bit for bit, to tf_sample() in kernels: (r, g, b, tau).
+    static std::array<float, 4> sampleFloat(const std::vector<VolclTfKnot>& knots, float s);
+};
+
+} // namespace volcl
