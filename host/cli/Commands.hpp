@@ -1,0 +1,31 @@
+// Subcommand registration for the volcl executable; each group lives in its own file.
+#pragma once
+
+#include "host/Volume.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <ostream>
+
+#include <functional>
+#include <string>
+
+namespace volcl::cli {
+
+/// Options shared by every subcommand (set before the subcommand callback runs).
+struct GlobalOptions {
+    std::string device; ///< --device, else $VOLCL_DEVICE, else the first device
+    bool quiet = false; ///< --quiet: no progress bar
+};
+
+/// Each add* function adds its subcommands to `app` (or to the `bench` subcommand for benchmarks).
+/// Callbacks throw volcl::Error subclasses; main() turns them into exit codes and one-line messages.
+void addInfoCommands(CLI::App& app, GlobalOptions& global);    // info, devices, convert
+void addDemoCommand(CLI::App& app, GlobalOptions& global);     // demo
+void addPreintCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global); // preint, bench preint
+void addCodecCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global);  // encode, decode, compare, bench codec
+
+/// Prints `volcl info` for a series (text, or JSON when `json`); used by info and demo.
+void printVolumeInfo(std::ostream& out, const std::string& path, const TimeSeries& ts, bool json);
+
+} // namespace volcl::cli

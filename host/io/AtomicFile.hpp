@@ -1,0 +1,48 @@
+// Atomic file output: data goes to a temporary beside the target and is renamed into place on commit.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <fstream>
+#include <span>
+#include <string_view>
+#include <vector>
+
+namespace volcl {
+
+/// Writes a file so that readers never see a partial result: a failed or interrupted run leaves the
+/// target untouched. Example:
+/// ```
+/// volcl::AtomicFile out("table.exr");
+/// writeSomething(out.tempPath());   // or out.stream() << ...
+/// out.commit();                     // rename into place; without it the temporary is removed
+/// ```
+class AtomicFile {
+public:
+    /// Refuses (IoError) when the target's directory does not exist.
+    explicit AtomicFile(std::filesystem::path target);
+    ~AtomicFile(); // removes the temporary unless committed; never throws
+    AtomicFile(const AtomicFile&) = delete;
+    AtomicFile& operator=(const AtomicFile&) = delete;
+
+    const std::filesystem::path& tempPath() const noexcept { return temp_; }
+    const std::filesystem::path& target() const noexcept { return target_; }
+    /// Binary stream on the temporary file (opened on first use).
+    std::ofstream& stream();
+    void write(std::span<const std::byte> bytes);
+    void write(std::string_view text);
+    /// Flushes, checks for write errors and renames over the target. Throws IoError on failure.
+    void commit();
+
+private:
+    std::filesystem::path target_, temp_;
+    std::ofstream stream_;
+    bool committed_ = false;
+};
+
+/// Whole file as bytes; throws IoError naming the file when it cannot be read.
+std::vector<std::byte> readFileBytes(const std::filesystem::path& path);
+/// Refuses to write output over one of the inputs (compares canonical paths). Throws UsageError.
+void checkNotSameFile(const std::filesystem::path& input, const std::filesystem::path& output);
+
+} // namespace volcl

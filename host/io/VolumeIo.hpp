@@ -1,0 +1,58 @@
+// Reading and writing volume files: format detection, per-format readers and writers, raw options.
+#pragma once
+
+#include "host/Volume.hpp"
+
+#include <filesystem>
+#include <optional>
+#include <string_view>
+
+namespace volcl {
+
+enum class Endian : std::uint8_t { Little, Big };
+
+enum class VolumeFormat : std::uint8_t {
+    Raw,         ///< headerless; dims/type from `<name>_<X>x<Y>x<Z>_<type>.raw` or from ReadOptions
+    Nrrd,        ///< .nrrd / .nhdr (raw or gzip encoding, detached data, `data file:` patterns)
+    MetaImage,   ///< .mhd / .mha (raw or zlib)
+    Nifti,       ///< .nii / .nii.gz, 3D or 4D
+    VtkXmlImage, ///< .vti (inline/appended, raw/zlib)
+    VtkLegacy,   ///< .vtk STRUCTURED_POINTS
+    Slc,         ///< VolVis .slc (run-length)
+    Vdb,         ///< OpenVDB float/double grid, densified over the active bounding box
+    InviwoDat,   ///< Inviwo .dat text header + raw file
+    VoreenVvd,   ///< Voreen .vvd XML header + raw file
+};
+
+std::string_view volumeFormatName(VolumeFormat f) noexcept;
+/// Format from extension (and magic bytes where the extension is ambiguous). Throws IoError if unknown.
+VolumeFormat detectVolumeFormat(const std::filesystem::path& path);
+
+/// Options for reading; only raw files need dims/type. Flags override what a raw file name says.
+struct ReadOptions {
+    std::optional<Dims> dims;
+    std::optional<ScalarType> type;
+    Endian endian = Endian::Little;
+    std::size_t headerBytes = 0;              ///< raw only: bytes to skip before the payload
+    std::optional<std::string> vdbGrid;       ///< VDB: grid name (default: the first scalar grid)
+};
+
+/// Reads every frame of a volume file (a 3D file gives one frame). Validates header against payload:
+/// throws IoError for truncated, oversized or garbage files, DataError for unsupported content.
+TimeSeries readVolumeFile(const std::filesystem::path& path, const ReadOptions& options = {});
+/// Reads a 3D volume; a 4D file gives its first frame.
+Volume readVolume(const std::filesystem::path& path, const ReadOptions& options = {});
+
+struct WriteOptions {
+    Endian endian = Endian::Little; ///< raw and NRRD
+    bool compress = true;           ///< NRRD gzip encoding, VDB Blosc/zip where available
+};
+
+/// Writers: Raw (.raw), Nrrd (.nrrd attached, .nhdr detached + .raw), Vdb (.vdb). The format comes from
+/// the extension. Writes atomically (temporary + rename). Throws UsageError for an unsupported format.
+void writeVolumeFile(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options = {});
+
+/// Parses `<X>x<Y>x<Z>_<type>` from a raw file name such as `head_256x256x113_uint16.raw`.
+std::optional<std::pair<Dims, ScalarType>> parseRawFileName(std::string_view fileName);
+
+} // namespace volcl

@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Runs the whole test suite through ctest: the normal build, then the host code under ASan + UBSan.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+jobs=$(nproc 2>/dev/null || echo 2)
+
+echo "== tests (Release build)"
+ctest --test-dir build --output-on-failure -j"$jobs" --timeout 900
+
+echo "== tests (AddressSanitizer + UndefinedBehaviorSanitizer)"
+cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DVOLCL_SANITIZE=ON -DVOLCL_BUILD_BENCH=OFF >/dev/null
+cmake --build build-asan -j"$jobs" -- --no-print-directory >/dev/null || cmake --build build-asan -j1
+# Leak reports from third-party libraries are suppressed in tests/lsan.supp (each with its reason).
+ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:halt_on_error=1 \
+UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+LSAN_OPTIONS=suppressions=$PWD/tests/lsan.supp \
+  ctest --test-dir build-asan --output-on-failure -j"$jobs" --timeout 1800

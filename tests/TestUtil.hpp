@@ -1,0 +1,41 @@
+// Helpers shared by the test suites: temp dirs, shared-data lookup, one compute context per process.
+#pragma once
+
+#include "host/runtime/ClRuntime.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <memory>
+#include <string>
+
+namespace volcl::test {
+
+/// Fresh empty directory under the build tree for one test.
+inline std::filesystem::path tempDir(const std::string& name) {
+    auto d = std::filesystem::path(VOLCL_TEST_TMP_DIR) / name;
+    std::filesystem::remove_all(d);
+    std::filesystem::create_directories(d);
+    return d;
+}
+
+/// ../shared/data, or empty when absent (tests then GTEST_SKIP with a message).
+inline std::filesystem::path sharedData() {
+    std::filesystem::path p(VOLCL_SHARED_DATA_DIR);
+    return std::filesystem::is_directory(p) ? p : std::filesystem::path();
+}
+
+#define VOLCL_REQUIRE_SHARED_DATA(path)                                                                        \
+    do {                                                                                                       \
+        if (::volcl::test::sharedData().empty())                                                               \
+            GTEST_SKIP() << "../shared/data is absent: skipping tests on real volumes";                        \
+        path = ::volcl::test::sharedData();                                                                    \
+    } while (0)
+
+/// One ComputeContext per test process: building contexts and kernels repeatedly only costs time.
+inline ComputeContext& computeContext() {
+    static ComputeContext cc;
+    return cc;
+}
+
+} // namespace volcl::test

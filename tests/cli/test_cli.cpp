@@ -1,0 +1,157 @@
+// The volcl executable: exit codes (0/1/2), one-line errors on stderr, atomic outputs, demo end to end.
+#include "host/io/VolumeIo.hpp"
+#include "../TestUtil.hpp"
+
+#include <sys/wait.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+using namespace volcl;
+
+namespace {
+
+struct RunResult {
+    int exitCode;
+    std::string out, err;
+};
+
+std::string slurp(const std::filesystem::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+RunResult run(const std::string& args, const std::filesystem::path& dir) {
+    auto out = dir / "stdout.txt", err = dir / "stderr.txt";
+    std::string cmd = std::string(VOLCL_EXE) + " " + args + " >" + out.string() + " 2>" + err.string() + " </dev/null";
+    int status = std::system(cmd.c_str());
+    int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    return {code, slurp(out), slurp(err)};
+}
+
+std::size_t lineCount(const std::string& s) { return std::count(s.begin(), s.end(), '\n'); }
+
+} // namespace
+
+TEST(Cli, HelpExitsZero) {
+    auto dir = test::tempDir("cli_help");
+    RunResult r = run("--help", dir);
+    EXPECT_EQ(r.exitCode, 0);
+    EXPECT_NE(r.out.find("info"), std::string::npos);
+    EXPECT_NE(r.out.find("demo"), std::string::npos);
+}
+
+TEST(Cli, UsageErrorsExitTwo) {
+    auto dir = test::tempDir("cli_usage");
+    EXPECT_EQ(run("", dir).exitCode, 2);
+    EXPECT_EQ(run("no-such-command", dir).exitCode, 2);
+    RunResult r = run("info", dir); // missing required file
+    EXPECT_EQ(r.exitCode, 2);
+    EXPECT_EQ(lineCount(r.err), 1u) << r.err;
+    EXPECT_EQ(run("info x.raw --type double", dir).exitCode, 2);
+}
+
+TEST(Cli, MissingFileExitsOneWithOneLine) {
+    auto dir = test::tempDir("cli_missing");
+    RunResult r = run("info " + (dir / "nope.nrrd").string(), dir);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_EQ(lineCount(r.err), 1u) << r.err;
+    EXPECT_NE(r.err.find("nope.nrrd"), std::string::npos) << r.err;
+}
+
+TEST(Cli, GarbageFileExitsOneWithoutCrash) {
+    auto dir = test::tempDir("cli_garbage");
+    std::ofstream(dir / "bad.nrrd") << "NRRD0004\nsizes: 99999 99999 99999\ntype: float\nencoding: raw\n\nxx";
+    RunResult r = run("info " + (dir / "bad.nrrd").string(), dir);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_EQ(lineCount(r.err), 1u) << r.err;
+}
+
+TEST(Cli, ConvertRefusesToOverwriteItsInput) {
+    auto dir = test::tempDir("cli_same");
+    Volume v({4, 4, 4}, ScalarType::UInt8);
+    writeVolumeFile(v, dir / "a.nrrd");
+    std::string before = slurp(dir / "a.nrrd");
+    RunResult r = run("convert " + (dir / "a.nrrd").string() + " -o " + (dir / "a.nrrd").string(), dir);
+    EXPECT_NE(r.exitCode, 0);
+    EXPECT_EQ(slurp(dir / "a.nrrd"), before) << "input must stay untouched";
+}
+
+TEST(Cli, FailedConvertLeavesNoOutput) {
+    auto dir = test::tempDir("cli_atomic");
+    Volume v({4, 4, 4}, ScalarType::UInt8);
+    writeVolumeFile(v, dir / "a.nrrd");
+    RunResult r = run("convert " + (dir / "a.nrrd").string() + " -o " + (dir / "out.nrrd").string() +
+                          " --crop 0,0,0:9,9,9",
+                      dir);
+    EXPECT_NE(r.exitCode, 0);
+    EXPECT_FALSE(std::filesystem::exists(dir / "out.nrrd"));
+    for (const auto& e : std::filesystem::directory_iterator(dir))
+        EXPECT_EQ(e.path().filename().string().find("out.nrrd"), std::string::npos) << "leftover " << e.path();
+}
+
+TEST(Cli, ConvertRoundTripsRawNrrdVdbBitExactly) {
+    auto dir = test::tempDir("cli_roundtrip");
+    for (ScalarType t : {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16}) {
+        // Fill with a full-range pattern through float conversion (exact for these integers).
+        Volume f({13, 7, 5}, ScalarType::Float32);
+        auto fv = f.values<float>();
+        for (std::size_t i = 0; i < fv.size(); ++i) {
+            long long r = (long long)((i * 2654435761ull) % 65536);
+            fv[i] = float(t == ScalarType::UInt8 ? r % 256 : t == ScalarType::Int16 ? r - 32768 : r);
+        }
+        fv[0] = 0; // zero voxels must survive VDB's background handling
+        Volume v = f.convertedTo(t);
+        std::string name(scalarTypeName(t));
+        auto raw = dir / ("v_13x7x5_" + name + ".raw");
+        writeVolumeFile(v, raw);
+        ASSERT_EQ(run("convert " + raw.string() + " -o " + (dir / (name + ".nrrd")).string(), dir).exitCode, 0);
+        ASSERT_EQ(run("convert " + (dir / (name + ".nrrd")).string() + " -o " + (dir / (name + ".vdb")).string(), dir)
+                      .exitCode,
+                  0);
+        RunResult back = run("convert " + (dir / (name + ".vdb")).string() + " -o " +
+                                 (dir / ("back_13x7x5_" + name + ".raw")).string(),
+                             dir);
+        ASSERT_EQ(back.exitCode, 0) << back.err;
+        Volume r = readVolume(dir / ("back_13x7x5_" + name + ".raw"));
+        EXPECT_EQ(r.type(), t);
+        EXPECT_TRUE(std::equal(r.bytes().begin(), r.bytes().end(), v.bytes().begin(), v.bytes().end()))
+            << "raw -> NRRD -> VDB -> raw must be bit-exact for " << name;
+    }
+}
+
+TEST(Cli, InfoJsonHasContractFields) {
+    auto dir = test::tempDir("cli_info");
+    Volume v({3, 2, 1}, ScalarType::UInt16);
+    v.values<std::uint16_t>()[5] = 1000;
+    writeVolumeFile(v, dir / "v.nrrd");
+    RunResult r = run("info --json " + (dir / "v.nrrd").string(), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    auto j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j["dims"], nlohmann::json({3, 2, 1}));
+    EXPECT_EQ(j["type"], "uint16");
+    EXPECT_EQ(j["range"], nlohmann::json({0.0, 1000.0}));
+}
+
+TEST(Cli, DevicesListsPocl) {
+    auto dir = test::tempDir("cli_devices");
+    RunResult r = run("devices", dir);
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("0: "), std::string::npos) << r.out;
+}
+
+TEST(Cli, DemoRunsAndWritesPhantoms) {
+    auto dir = test::tempDir("cli_demo");
+    RunResult r = run("demo -o " + (dir / "demo").string() + " --phantom-size 48", dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    Volume ml = readVolume(dir / "demo" / "marschner_lobb.nrrd");
+    EXPECT_EQ(ml.dims(), (Dims{41, 41, 41}));
+    Volume sl = readVolume(dir / "demo" / "shepp_logan.nrrd");
+    EXPECT_EQ(sl.dims(), (Dims{48, 48, 48}));
+    EXPECT_NE(r.out.find("range"), std::string::npos);
+}

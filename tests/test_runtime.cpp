@@ -1,0 +1,139 @@
+// OpenCL runtime: discovery, selection, program cache, defines, build-log errors, buffers, launches.
+#include "host/runtime/ClRuntime.hpp"
+#include "host/runtime/KernelSources.hpp"
+#include "host/runtime/Timing.hpp"
+#include "TestUtil.hpp"
+
+#include <cstdlib>
+#include <fstream>
+#include <numeric>
+
+using namespace volcl;
+
+TEST(Runtime, ListsAtLeastOneDevice) {
+    auto devices = listDevices();
+    ASSERT_FALSE(devices.empty()) << "PoCL (pocl-opencl-icd) must provide a CPU device";
+    for (std::size_t i = 0; i < devices.size(); ++i) {
+        EXPECT_EQ(devices[i].index, i);
+        EXPECT_FALSE(devices[i].name.empty());
+        EXPECT_GT(devices[i].computeUnits, 0u);
+        EXPECT_GT(devices[i].maxAllocBytes, 0u);
+    }
+}
+
+TEST(Runtime, SelectsDeviceByIndexAndName) {
+    auto devices = listDevices();
+    ASSERT_FALSE(devices.empty());
+    ComputeContext byIndex("0");
+    EXPECT_EQ(byIndex.device().name, devices[0].name);
+    std::string part = devices[0].platform.substr(0, 3);
+    ComputeContext byName(part);
+    EXPECT_FALSE(byName.device().name.empty());
+    EXPECT_THROW(ComputeContext("99"), UsageError);
+    EXPECT_THROW(ComputeContext("no-such-device-xyz"), UsageError);
+}
+
+TEST(Runtime, CopyKernelRoundTripsDataWithOddSizes) {
+    ComputeContext& cc = test::computeContext();
+    for (std::size_t n : {1u, 63u, 64u, 65u, 1000u}) {
+        std::vector<float> host(n);
+        std::iota(host.begin(), host.end(), -3.5f);
+        auto src = cc.upload(host);
+        auto dst = cc.allocate<float>(n);
+        cl::Kernel k = cc.kernel("copy.cl", "copy_float");
+        setArgs(k, src, dst, cl_uint(n));
+        cc.launch1d(k, n, 64);
+        EXPECT_EQ(cc.download(dst), host) << "n = " << n;
+    }
+}
+
+TEST(Runtime, ProgramCacheKeysOnSourceAndOptions) {
+    ComputeContext cc;
+    cc.kernel("copy.cl", "copy_float");
+    cc.kernel("copy.cl", "copy_float16");
+    EXPECT_EQ(cc.cachedProgramCount(), 1u) << "same file, same options: one program";
+    cc.kernel("copy.cl", "copy_float", KernelDefines().set("UNUSED_FLAG", 1));
+    EXPECT_EQ(cc.cachedProgramCount(), 2u) << "different defines: a second program";
+    cc.kernel("copy.cl", "copy_float", KernelDefines().set("UNUSED_FLAG", 1));
+    EXPECT_EQ(cc.cachedProgramCount(), 2u);
+}
+
+TEST(Runtime, DefinesSpecialiseKernels) {
+    auto dir = test::tempDir("runtime_defines");
+    std::ofstream(dir / "scale.cl") << "#include \"helper.h\"\n"
+                                       "__kernel void scale(__global float* a) { a[get_global_id(0)] = "
+                                       "HELPER(a[get_global_id(0)]) * FACTOR; }\n";
+    std::ofstream(dir / "helper.h") << "#define HELPER(x) ((x) + OFFSET)\n";
+    setenv("VOLCL_KERNEL_DIR", dir.c_str(), 1);
+    ComputeContext cc;
+    unsetenv("VOLCL_KERNEL_DIR");
+    std::vector<float> v{1.0f, 2.0f, 3.0f, 4.0f};
+    auto buf = cc.upload(v);
+    cl::Kernel k = cc.kernel("scale.cl", "scale", KernelDefines().set("FACTOR", 2.5).set("OFFSET", 1));
+    setArgs(k, buf);
+    cc.launch(k, cl::NDRange(4), cl::NDRange(4));
+    EXPECT_EQ(cc.download(buf), (std::vector<float>{5.0f, 7.5f, 10.0f, 12.5f}));
+}
+
+TEST(Runtime, BrokenKernelReportsBuildLog) {
+    auto dir = test::tempDir("runtime_broken");
+    std::ofstream(dir / "broken.cl") << "__kernel void broken(__global float* a) { a[0] = undefined_symbol_xyz; }\n";
+    setenv("VOLCL_KERNEL_DIR", dir.c_str(), 1);
+    ComputeContext cc;
+    unsetenv("VOLCL_KERNEL_DIR");
+    try {
+        cc.kernel("broken.cl", "broken");
+        FAIL() << "a broken kernel must not build";
+    } catch (const ClError& e) {
+        EXPECT_EQ(e.code(), CL_BUILD_PROGRAM_FAILURE);
+        EXPECT_NE(e.buildLog().find("undefined_symbol_xyz"), std::string::npos) << e.buildLog();
+        EXPECT_NE(std::string(e.what()).find("broken.cl"), std::string::npos) << e.what();
+    }
+}
+
+TEST(Runtime, MissingKernelFileAndNameAreClearErrors) {
+    ComputeContext& cc = test::computeContext();
+    EXPECT_THROW(cc.kernel("no_such_file.cl", "x"), Error);
+    try {
+        cc.kernel("copy.cl", "no_such_kernel");
+        FAIL();
+    } catch (const ClError& e) {
+        EXPECT_NE(std::string(e.what()).find("no_such_kernel"), std::string::npos);
+    }
+}
+
+TEST(Runtime, IncludesExpandOnceWithLineMarkers) {
+    KernelSourceLibrary lib;
+    std::string src = lib.resolve("phantoms.cl");
+    EXPECT_NE(src.find("typedef struct VolclEllipsoid"), std::string::npos);
+    EXPECT_EQ(src.find("#include"), std::string::npos);
+    EXPECT_NE(src.find("#line 1 \"volcl_shared.h\""), std::string::npos);
+}
+
+TEST(Runtime, KernelDefinesAreSortedAndRefuseNonFinite) {
+    KernelDefines a, b;
+    a.set("B", 2).set("A", 1);
+    b.set("A", 1).set("B", 2);
+    EXPECT_EQ(a.toOptions(), b.toOptions());
+    EXPECT_EQ(a.toOptions(), "-DA=1 -DB=2");
+    EXPECT_THROW(KernelDefines().set("X", std::nan("")), UsageError);
+    EXPECT_THROW(KernelDefines().set("X", INFINITY), UsageError);
+}
+
+TEST(Runtime, EventTimingIsPositiveAndBandwidthMeasurable) {
+    ComputeContext& cc = test::computeContext();
+    double gbs = copyKernelBandwidthGBs(cc, 1 << 20, 3);
+    EXPECT_GT(gbs, 0.0);
+    EXPECT_TRUE(std::isfinite(gbs));
+}
+
+TEST(Runtime, OversizedBufferIsRefused) {
+    ComputeContext& cc = test::computeContext();
+    EXPECT_THROW(cc.allocate<float>(cc.device().maxAllocBytes), DataError);
+}
+
+TEST(Timing, MedianOfOddAndEvenCounts) {
+    EXPECT_EQ(median({3, 1, 2}), 2.0);
+    EXPECT_EQ(median({4, 1, 3, 2}), 2.5);
+    EXPECT_EQ(median({}), 0.0);
+}
