@@ -1,0 +1,300 @@
+// Lifting transforms: C++ references (textbook in-place lifting) and the OpenCL pass driver.
+#include "wavelet/LiftingTransform.hpp"
+
+#include "host/Error.hpp"
+
+#include <algorithm>
+#include <string>
+#include <type_traits>
+
+namespace volcl {
+
+std::string_view waveletName(Wavelet w) noexcept {
+    switch (w) {
+    case Wavelet::Cdf53: return "cdf53";
+    case Wavelet::Cdf97: return "cdf97";
+    case Wavelet::Haar: return "haar";
+    case Wavelet::Cdf26: return "cdf26";
+    }
+    return "unknown";
+}
+
+Wavelet parseWavelet(std::string_view name) {
+    for (Wavelet w : {Wavelet::Cdf53, Wavelet::Cdf97, Wavelet::Haar, Wavelet::Cdf26})
+        if (name == waveletName(w)) return w;
+    throw UsageError("unknown wavelet '" + std::string(name) + "' (use cdf53, cdf97, haar or cdf26)");
+}
+
+bool hasIntegerForm(Wavelet w) noexcept { return w != Wavelet::Cdf97; }
+
+Dims levelDims(Dims d, int level) noexcept {
+    auto shrink = [level](std::size_t n) { return level <= 0 ? n : ((n - 1) >> level) + 1; };
+    return {shrink(d.x), shrink(d.y), shrink(d.z)};
+}
+
+namespace {
+
+// CDF 9/7 lifting constants in double (the kernels use the same values rounded to float).
+constexpr double kA = -1.586134342059924, kB = -0.052980118572961, kG = 0.882911075530934,
+                 kD = 0.443506852043971, kK = 1.230174104914001;
+
+// Rounding of the integer forms (floor via arithmetic shift) and the linear float forms.
+inline std::int32_t half(std::int32_t a) { return a >> 1; }
+inline std::int32_t quarterR(std::int32_t a) { return (a + 2) >> 2; }
+inline double half(double a) { return a * 0.5; }
+inline double quarterR(double a) { return a * 0.25; }
+
+int mirror(int i, int n) {
+    const int p = 2 * (n - 1);
+    i %= p;
+    if (i < 0) i += p;
+    return i < n ? i : p - i;
+}
+
+template <class T> void deinterleave(const std::vector<T>& t, std::span<T> x) {
+    const std::size_t n = t.size(), ms = (n + 1) / 2;
+    for (std::size_t i = 0; i < n; ++i) x[(i & 1) ? ms + i / 2 : i / 2] = t[i];
+}
+template <class T> std::vector<T> interleave(std::span<const T> x) {
+    const std::size_t n = x.size(), ms = (n + 1) / 2;
+    std::vector<T> t(n);
+    for (std::size_t i = 0; i < n; ++i) t[i] = x[(i & 1) ? ms + i / 2 : i / 2];
+    return t;
+}
+
+// One lifting step on the interleaved signal with whole-sample symmetric extension:
+// t[i] += f(t[i-1] + t[i+1]) for every i of the given parity.
+template <class T, class F> void liftStep(std::vector<T>& t, int parity, F f) {
+    const int n = static_cast<int>(t.size());
+    for (int i = parity; i < n; i += 2) t[i] += f(t[mirror(i - 1, n)] + t[mirror(i + 1, n)]);
+}
+
+template <class T> void forwardLine(std::span<T> x, Wavelet w) {
+    const int n = static_cast<int>(x.size());
+    if (n < 2) return;
+    const int ms = (n + 1) / 2, md = n / 2;
+    if (w == Wavelet::Cdf53) {
+        std::vector<T> t(x.begin(), x.end());
+        liftStep(t, 1, [](T v) { return -half(v); });
+        liftStep(t, 0, [](T v) { return quarterR(v); });
+        deinterleave(t, x);
+    } else if (w == Wavelet::Cdf97) {
+        if constexpr (std::is_same_v<T, double>) {
+            std::vector<T> t(x.begin(), x.end());
+            liftStep(t, 1, [](T v) { return kA * v; });
+            liftStep(t, 0, [](T v) { return kB * v; });
+            liftStep(t, 1, [](T v) { return kG * v; });
+            liftStep(t, 0, [](T v) { return kD * v; });
+            for (int i = 0; i < n; ++i) t[i] *= (i & 1) ? 0.5 * kK : 1.0 / kK;
+            deinterleave(t, x);
+        } else {
+            throw UsageError("cdf97 has no reversible integer form");
+        }
+    } else {
+        std::vector<T> s(ms), d(md);
+        for (int i = 0; i < ms; ++i) {
+            if (2 * i + 1 < n) {
+                d[i] = x[2 * i + 1] - x[2 * i];
+                s[i] = x[2 * i] + half(d[i]);
+            } else {
+                s[i] = x[2 * i];
+            }
+        }
+        if (w == Wavelet::Cdf26) {
+            for (int i = 0; i < md; ++i) d[i] += quarterR(s[std::max(i - 1, 0)] - s[std::min(i + 1, ms - 1)]);
+        }
+        std::copy(s.begin(), s.end(), x.begin());
+        std::copy(d.begin(), d.end(), x.begin() + ms);
+    }
+}
+
+template <class T> void inverseLine(std::span<T> x, Wavelet w) {
+    const int n = static_cast<int>(x.size());
+    if (n < 2) return;
+    const int ms = (n + 1) / 2;
+    if (w == Wavelet::Cdf53) {
+        std::vector<T> t = interleave<T>(x);
+        liftStep(t, 0, [](T v) { return -quarterR(v); });
+        liftStep(t, 1, [](T v) { return half(v); });
+        std::copy(t.begin(), t.end(), x.begin());
+    } else if (w == Wavelet::Cdf97) {
+        if constexpr (std::is_same_v<T, double>) {
+            std::vector<T> t = interleave<T>(x);
+            for (int i = 0; i < n; ++i) t[i] *= (i & 1) ? 2.0 / kK : kK;
+            liftStep(t, 0, [](T v) { return -kD * v; });
+            liftStep(t, 1, [](T v) { return -kG * v; });
+            liftStep(t, 0, [](T v) { return -kB * v; });
+            liftStep(t, 1, [](T v) { return -kA * v; });
+            std::copy(t.begin(), t.end(), x.begin());
+        } else {
+            throw UsageError("cdf97 has no reversible integer form");
+        }
+    } else {
+        std::vector<T> s(x.begin(), x.begin() + ms), d(x.begin() + ms, x.end());
+        for (int i = 0; i < ms; ++i) {
+            if (2 * i + 1 >= n) {
+                x[2 * i] = s[i];
+                continue;
+            }
+            T d1 = d[i];
+            if (w == Wavelet::Cdf26) d1 -= quarterR(s[std::max(i - 1, 0)] - s[std::min(i + 1, ms - 1)]);
+            const T e = s[i] - half(d1);
+            x[2 * i] = e;
+            x[2 * i + 1] = d1 + e;
+        }
+    }
+}
+
+// Applies `fn` to every line along `axis` of the active corner `a` of a brick with full dims `d`.
+template <class T, class F> void forEachLine(std::span<T> data, Dims d, Dims a, int axis, F fn) {
+    const std::size_t len = axis == 0 ? a.x : axis == 1 ? a.y : a.z;
+    const std::size_t stride = axis == 0 ? 1 : axis == 1 ? d.x : d.x * d.y;
+    std::vector<T> line(len);
+    const std::size_t n1 = axis == 0 ? a.y : a.x, n2 = axis == 2 ? a.y : a.z;
+    for (std::size_t j = 0; j < n2; ++j) {
+        for (std::size_t i = 0; i < n1; ++i) {
+            std::size_t base = 0;
+            if (axis == 0) base = (j * d.y + i) * d.x;
+            if (axis == 1) base = j * d.x * d.y + i;
+            if (axis == 2) base = j * d.x + i;
+            for (std::size_t k = 0; k < len; ++k) line[k] = data[base + k * stride];
+            fn(std::span<T>(line));
+            for (std::size_t k = 0; k < len; ++k) data[base + k * stride] = line[k];
+        }
+    }
+}
+
+template <class T> void forward3dImpl(std::span<T> data, Dims dims, int levels, Wavelet w) {
+    if (data.size() != dims.count()) throw UsageError("reference transform: data size does not match dims");
+    for (int l = 0; l < levels; ++l) {
+        const Dims a = levelDims(dims, l);
+        for (int axis = 0; axis < 3; ++axis) forEachLine(data, dims, a, axis, [w](std::span<T> s) { forwardLine(s, w); });
+    }
+}
+
+template <class T> void inverse3dImpl(std::span<T> data, Dims dims, int levels, Wavelet w, int stopLevel) {
+    if (data.size() != dims.count()) throw UsageError("reference transform: data size does not match dims");
+    for (int l = levels - 1; l >= stopLevel; --l) {
+        const Dims a = levelDims(dims, l);
+        for (int axis = 2; axis >= 0; --axis) forEachLine(data, dims, a, axis, [w](std::span<T> s) { inverseLine(s, w); });
+    }
+}
+
+} // namespace
+
+namespace reference {
+void forward1d(std::span<std::int32_t> line, Wavelet w) { forwardLine(line, w); }
+void inverse1d(std::span<std::int32_t> line, Wavelet w) { inverseLine(line, w); }
+void forward1d(std::span<double> line, Wavelet w) { forwardLine(line, w); }
+void inverse1d(std::span<double> line, Wavelet w) { inverseLine(line, w); }
+void forward3d(std::span<std::int32_t> data, Dims dims, int levels, Wavelet w) { forward3dImpl(data, dims, levels, w); }
+void forward3d(std::span<double> data, Dims dims, int levels, Wavelet w) { forward3dImpl(data, dims, levels, w); }
+void inverse3d(std::span<std::int32_t> data, Dims dims, int levels, Wavelet w, int stopLevel) {
+    inverse3dImpl(data, dims, levels, w, stopLevel);
+}
+void inverse3d(std::span<double> data, Dims dims, int levels, Wavelet w, int stopLevel) {
+    inverse3dImpl(data, dims, levels, w, stopLevel);
+}
+} // namespace reference
+
+// ------------------------------------------------------------------------------------------ device
+
+template <class T>
+BrickBatch<T>::BrickBatch(ComputeContext& cc, Dims brick, std::size_t count)
+    : brick_(brick), count_(count), pitch_(roundUp(std::max<std::size_t>(brick.x, 1), 16)) {
+    if (brick.count() == 0 || count == 0) throw UsageError("brick batch: empty brick or zero bricks");
+    a_ = cc.allocate<T>(brickStride() * count_);
+    b_ = cc.allocate<T>(brickStride() * count_);
+}
+
+template <class T> void BrickBatch<T>::upload(ComputeContext& cc, std::span<const T> host) {
+    if (host.size() != brickStride() * count_) throw Error("internal: brick batch upload size mismatch");
+    current_ = false;
+    cc.write(a_, host);
+}
+
+template <class T> void BrickBatch<T>::download(ComputeContext& cc, std::span<T> host) {
+    if (host.size() != brickStride() * count_) throw Error("internal: brick batch download size mismatch");
+    cc.read(data(), host);
+}
+
+template <class T> LiftingTransform<T>::LiftingTransform(ComputeContext& cc, Wavelet w) : wavelet_(w) {
+    constexpr bool isFloat = std::is_same_v<T, float>;
+    if (!isFloat && !hasIntegerForm(w)) throw UsageError("wavelet cdf97 has no reversible integer form");
+    KernelDefines fwd;
+    fwd.set("WAVELET", static_cast<long long>(w));
+    if (isFloat) fwd.set("LIFT_FLOAT");
+    KernelDefines inv = fwd;
+    inv.set("LIFT_INVERSE");
+    fwdX_ = cc.kernel("lifting.cl", "lift_x", fwd);
+    fwdYz_ = cc.kernel("lifting.cl", "lift_yz", fwd);
+    invX_ = cc.kernel("lifting.cl", "lift_x", inv);
+    invYz_ = cc.kernel("lifting.cl", "lift_yz", inv);
+    copy_ = cc.kernel("lifting.cl", "copy_corner", fwd);
+}
+
+// One fixed local size: PoCL specialises a kernel per local size, so varying it costs a build each time.
+constexpr std::size_t kLocalY = 8;
+
+template <class T>
+double LiftingTransform<T>::pass(ComputeContext& cc, cl::Kernel& k, BrickBatch<T>& batch, Dims a, int axis) {
+    const Dims b = batch.brick();
+    const cl_uint count = static_cast<cl_uint>(batch.count());
+    cl::Event ev;
+    if (axis == 0) {
+        setArgs(k, batch.data(), batch.scratch(), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z), cl_uint(a.x),
+                cl_uint(a.y), cl_uint(a.z), count);
+        const std::size_t chunks = ((a.x + 1) / 2 + 15) / 16;
+        ev = cc.launch3d(k, chunks, a.y, a.z * count, 1, kLocalY, 1);
+    } else {
+        setArgs(k, batch.data(), batch.scratch(), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z), cl_uint(a.x),
+                cl_uint(a.y), cl_uint(a.z), count, cl_uint(axis));
+        const std::size_t chunks = (a.x + 15) / 16;
+        const std::size_t len = axis == 1 ? a.y : a.z, other = axis == 1 ? a.z : a.y;
+        ev = cc.launch3d(k, chunks, (len + 1) / 2, other * count, 1, kLocalY, 1);
+    }
+    batch.swap();
+    return eventMilliseconds(ev);
+}
+
+template <class T> double LiftingTransform<T>::copyBack(ComputeContext& cc, BrickBatch<T>& batch, Dims a) {
+    const Dims b = batch.brick();
+    setArgs(copy_, batch.data(), batch.scratch(), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z), cl_uint(a.x),
+            cl_uint(a.y), cl_uint(a.z), cl_uint(batch.count()));
+    cl::Event ev = cc.launch3d(copy_, a.x, a.y, a.z * batch.count(), 16, 1, 1);
+    batch.swap();
+    return eventMilliseconds(ev);
+}
+
+template <class T> double LiftingTransform<T>::forward(ComputeContext& cc, BrickBatch<T>& batch, int levels) {
+    double ms = 0;
+    for (int l = 0; l < levels; ++l) {
+        const Dims a = levelDims(batch.brick(), l);
+        ms += pass(cc, fwdX_, batch, a, 0);
+        ms += pass(cc, fwdYz_, batch, a, 1);
+        ms += pass(cc, fwdYz_, batch, a, 2);
+        // Level 0 rewrote every voxel; deeper levels only their corner, the rest lives in the other buffer.
+        if (l > 0) ms += copyBack(cc, batch, a);
+    }
+    return ms;
+}
+
+template <class T>
+double LiftingTransform<T>::inverse(ComputeContext& cc, BrickBatch<T>& batch, int levels, int stopLevel) {
+    double ms = 0;
+    for (int l = levels - 1; l >= stopLevel; --l) {
+        const Dims a = levelDims(batch.brick(), l);
+        ms += pass(cc, invYz_, batch, a, 2);
+        ms += pass(cc, invYz_, batch, a, 1);
+        ms += pass(cc, invX_, batch, a, 0);
+        if (l > 0) ms += copyBack(cc, batch, a);
+    }
+    return ms;
+}
+
+template class BrickBatch<std::int32_t>;
+template class BrickBatch<float>;
+template class LiftingTransform<std::int32_t>;
+template class LiftingTransform<float>;
+
+} // namespace volcl

@@ -1,0 +1,95 @@
+// 3D separable lifting wavelet transforms: OpenCL passes over batches of bricks and plain C++ references.
+#pragma once
+
+#include "host/Volume.hpp"
+#include "host/runtime/ClRuntime.hpp"
+
+#include <cstdint>
+#include <span>
+#include <string_view>
+#include <vector>
+
+namespace volcl {
+
+/// Wavelet filters. Cdf53, Haar and Cdf26 have reversible integer forms (lossless) and linear float forms;
+/// Cdf97 is float only. The numeric values are stored in .vcz files: never renumber.
+enum class Wavelet : std::uint8_t { Cdf53 = 0, Cdf97 = 1, Haar = 2, Cdf26 = 3 };
+
+std::string_view waveletName(Wavelet w) noexcept; ///< "cdf53", "cdf97", "haar", "cdf26"
+/// Parses a wavelet name; throws UsageError listing the valid names.
+Wavelet parseWavelet(std::string_view name);
+/// True when the wavelet has a reversible integer form.
+bool hasIntegerForm(Wavelet w) noexcept;
+
+/// Size of the low-pass corner after `level` levels: ceil(n / 2^level) per axis.
+Dims levelDims(Dims d, int level) noexcept;
+
+/// Plain C++ references (sequential in-place lifting on the interleaved signal, the textbook form),
+/// used by tests to check the kernels. Outputs use the Mallat layout: ceil(n/2) low then floor(n/2) high.
+namespace reference {
+void forward1d(std::span<std::int32_t> line, Wavelet w); ///< reversible integer form; Cdf97 throws
+void inverse1d(std::span<std::int32_t> line, Wavelet w);
+void forward1d(std::span<double> line, Wavelet w); ///< linear float form
+void inverse1d(std::span<double> line, Wavelet w);
+/// `levels` levels of x, y, z passes on the shrinking low corner of a brick stored x fastest.
+void forward3d(std::span<std::int32_t> data, Dims dims, int levels, Wavelet w);
+void forward3d(std::span<double> data, Dims dims, int levels, Wavelet w);
+/// Undoes levels levels-1 .. stopLevel; with stopLevel k the low corner levelDims(dims, k) holds the
+/// level-k approximation.
+void inverse3d(std::span<std::int32_t> data, Dims dims, int levels, Wavelet w, int stopLevel = 0);
+void inverse3d(std::span<double> data, Dims dims, int levels, Wavelet w, int stopLevel = 0);
+} // namespace reference
+
+/// `count` bricks of the same dims on the device, stacked along z with the row pitch rounded up to 16
+/// (the x pass works on 16-wide vectors). Two buffers ping-pong between passes; `data()` is the current.
+/// T is std::int32_t (reversible path) or float (lossy path).
+template <class T> class BrickBatch {
+public:
+    BrickBatch(ComputeContext& cc, Dims brick, std::size_t count);
+    Dims brick() const noexcept { return brick_; }
+    std::size_t count() const noexcept { return count_; }
+    std::size_t pitch() const noexcept { return pitch_; }
+    /// Elements per brick in the padded layout (pitch * by * bz).
+    std::size_t brickStride() const noexcept { return pitch_ * brick_.y * brick_.z; }
+    /// Host array in the padded layout, brick after brick, ready for upload()/filled by download().
+    std::vector<T> makeHost() const { return std::vector<T>(brickStride() * count_); }
+    void upload(ComputeContext& cc, std::span<const T> host);
+    void download(ComputeContext& cc, std::span<T> host);
+    DeviceBuffer<T>& data() noexcept { return current_ ? b_ : a_; }
+    DeviceBuffer<T>& scratch() noexcept { return current_ ? a_ : b_; }
+    void swap() noexcept { current_ = !current_; }
+
+private:
+    Dims brick_;
+    std::size_t count_ = 0, pitch_ = 0;
+    DeviceBuffer<T> a_, b_;
+    bool current_ = false;
+};
+
+/// Runs the lifting passes of one wavelet on the device. Build once, reuse for many batches.
+/// Example:
+/// ```
+/// volcl::LiftingTransform<std::int32_t> t(cc, volcl::Wavelet::Cdf53);
+/// volcl::BrickBatch<std::int32_t> batch(cc, {64, 64, 64}, 8);
+/// batch.upload(cc, host);
+/// t.forward(cc, batch, 3);
+/// batch.download(cc, host);   // Mallat-ordered coefficients per brick
+/// ```
+template <class T> class LiftingTransform {
+public:
+    /// Throws UsageError for an integer transform of a wavelet without an integer form.
+    LiftingTransform(ComputeContext& cc, Wavelet w);
+    Wavelet wavelet() const noexcept { return wavelet_; }
+    /// Forward transform with `levels` levels. Returns the summed kernel time in milliseconds.
+    double forward(ComputeContext& cc, BrickBatch<T>& batch, int levels);
+    /// Inverse from level levels-1 down to stopLevel. Returns the summed kernel time in milliseconds.
+    double inverse(ComputeContext& cc, BrickBatch<T>& batch, int levels, int stopLevel = 0);
+
+private:
+    double pass(ComputeContext& cc, cl::Kernel& k, BrickBatch<T>& batch, Dims active, int axis);
+    double copyBack(ComputeContext& cc, BrickBatch<T>& batch, Dims active);
+    Wavelet wavelet_;
+    cl::Kernel fwdX_, fwdYz_, invX_, invYz_, copy_;
+};
+
+} // namespace volcl
