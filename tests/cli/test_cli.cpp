@@ -155,3 +155,37 @@ TEST(Cli, DemoRunsAndWritesPhantoms) {
     EXPECT_EQ(sl.dims(), (Dims{48, 48, 48}));
     EXPECT_NE(r.out.find("range"), std::string::npos);
 }
+
+TEST(Cli, InfoRefusesPointsVdbAndCorruptedCopiesWithOneLine) {
+    std::filesystem::path data;
+    VOLCL_REQUIRE_SHARED_DATA(data);
+    auto dir = test::tempDir("cli_corrupt");
+    RunResult points = run("info " + (data / "vdb" / "sphere_points.vdb").string(), dir);
+    EXPECT_EQ(points.exitCode, 1);
+    EXPECT_EQ(lineCount(points.err), 1u) << points.err;
+    EXPECT_NE(points.err.find("sphere_points.vdb"), std::string::npos) << points.err;
+
+    // Truncated copies of real files in several formats. Detached headers keep their header and get
+    // half of their payload file; single files lose their last third.
+    struct Case {
+        const char* file;
+        const char* payload; // detached payload beside the header, or nullptr
+    };
+    for (Case c : {Case{"regular/nucleon.nrrd", "nucleon.raw"}, Case{"regular/HeadMRVolume.mhd", "HeadMRVolume.raw"},
+                   Case{"regular/neghip.slc", nullptr}, Case{"regular/ironProt.vtk", nullptr},
+                   Case{"vdb/grid0.vdb", nullptr}, Case{"timevarying/functional.nii.gz", nullptr},
+                   Case{"timevarying/viscousfingers/001_density_001_064_2.0.vti", nullptr}}) {
+        std::filesystem::path src = data / c.file;
+        std::string bytes = slurp(src);
+        if (c.payload) {
+            std::string payload = slurp(src.parent_path() / c.payload);
+            std::ofstream(dir / c.payload, std::ios::binary) << payload.substr(0, payload.size() / 2);
+        } else {
+            bytes = bytes.substr(0, bytes.size() * 2 / 3);
+        }
+        std::ofstream(dir / src.filename(), std::ios::binary) << bytes;
+        RunResult r = run("info " + (dir / src.filename()).string(), dir);
+        EXPECT_EQ(r.exitCode, 1) << c.file << ": " << r.err;
+        EXPECT_EQ(lineCount(r.err), 1u) << c.file << ": " << r.err;
+    }
+}
