@@ -1,0 +1,317 @@
+// Wavelet codec: lossless exactness, --max-error on every voxel, PSNR / bpv targets, region and level
+// decoding against full decodes, hard inputs, and corruption detection (byte flips and truncations).
+#include "host/Error.hpp"
+#include "tests/TestUtil.hpp"
+#include "wavelet/Codec.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+
+using namespace volcl;
+
+namespace {
+
+// Smooth field plus noise: compresses like real data (unlike white noise) and has edges at brick seams.
+Volume makeVolume(Dims d, ScalarType type, unsigned seed = 1, double noise = 2.0) {
+    Volume v(d, type);
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> n(0, noise);
+    const double hi = type == ScalarType::UInt8 ? 255 : type == ScalarType::Float32 ? 1000 : 4000;
+    const double lo = type == ScalarType::Int16 ? -2000 : 0;
+    for (std::size_t z = 0; z < d.z; ++z)
+        for (std::size_t y = 0; y < d.y; ++y)
+            for (std::size_t x = 0; x < d.x; ++x) {
+                double s = 0.5 + 0.25 * std::sin(0.21 * double(x)) * std::cos(0.17 * double(y)) + 0.2 * std::sin(0.13 * double(z));
+                if ((x / 9 + y / 7 + z / 5) % 3 == 0) s += 0.1; // discontinuities
+                double val = lo + (hi - lo) * std::clamp(s, 0.0, 1.0) + n(rng);
+                val = std::clamp(val, lo, hi);
+                const std::size_t i = v.index(x, y, z);
+                switch (type) {
+                case ScalarType::UInt8: v.values<std::uint8_t>()[i] = static_cast<std::uint8_t>(std::lround(val)); break;
+                case ScalarType::UInt16: v.values<std::uint16_t>()[i] = static_cast<std::uint16_t>(std::lround(val)); break;
+                case ScalarType::Int16: v.values<std::int16_t>()[i] = static_cast<std::int16_t>(std::lround(val)); break;
+                case ScalarType::Float32: v.values<float>()[i] = static_cast<float>(val); break;
+                }
+            }
+    return v;
+}
+
+CodecOptions lossless(Wavelet w = Wavelet::Cdf53, EntropyMode m = EntropyMode::Dense, Dims brick = {16, 16, 16}, int levels = 3) {
+    CodecOptions o;
+    o.rate = RateMode::Lossless;
+    o.wavelet = w;
+    o.entropy = m;
+    o.brick = brick;
+    o.levels = levels;
+    return o;
+}
+
+CodecOptions lossy(RateMode r, double target, Dims brick = {16, 16, 16}, int levels = 3) {
+    CodecOptions o;
+    o.rate = r;
+    o.target = target;
+    o.brick = brick;
+    o.levels = levels;
+    return o;
+}
+
+Volume roundTrip(const Volume& v, const CodecOptions& o, EncodeReport* rep = nullptr) {
+    ComputeContext& cc = test::computeContext();
+    const auto bytes = encodeVolume(cc, v, o, rep);
+    return decodeVolume(cc, bytes);
+}
+
+} // namespace
+
+TEST(CodecLossless, BitExactOnAwkwardSizesTypesAndWavelets) {
+    const Dims sizes[] = {{1, 1, 1}, {1, 37, 1}, {23, 1, 1}, {2, 3, 5}, {17, 19, 23}, {31, 29, 37}, {40, 33, 17}};
+    for (ScalarType t : {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16}) {
+        for (Dims d : sizes) {
+            const Volume v = makeVolume(d, t, unsigned(d.x + d.y));
+            for (Wavelet w : {Wavelet::Cdf53, Wavelet::Haar, Wavelet::Cdf26}) {
+                for (EntropyMode m : {EntropyMode::Dense, EntropyMode::Fast}) {
+                    const Volume out = roundTrip(v, lossless(w, m));
+                    ASSERT_TRUE(out == v) << scalarTypeName(t) << " " << d.x << "x" << d.y << "x" << d.z << " "
+                                          << waveletName(w) << " mode " << int(m);
+                }
+            }
+        }
+    }
+}
+
+TEST(CodecLossless, ExtremeSixteenBitAlternationIsExact) {
+    Volume v({33, 18, 20}, ScalarType::UInt16);
+    auto s = v.values<std::uint16_t>();
+    for (std::size_t i = 0; i < s.size(); ++i) s[i] = ((i + i / 33 + i / (33 * 18)) & 1) ? 65535 : 0;
+    Volume w({33, 18, 20}, ScalarType::Int16);
+    auto t = w.values<std::int16_t>();
+    for (std::size_t i = 0; i < t.size(); ++i) t[i] = (i & 1) ? 32767 : -32768;
+    for (const Volume* vol : {&v, &w})
+        for (Wavelet wl : {Wavelet::Cdf53, Wavelet::Haar, Wavelet::Cdf26}) {
+            EXPECT_TRUE(roundTrip(*vol, lossless(wl, EntropyMode::Dense, {32, 32, 32}, 5)) == *vol) << waveletName(wl);
+        }
+}
+
+TEST(CodecLossless, ConstantVolumeIsTiny) {
+    Volume v({64, 64, 64}, ScalarType::UInt8);
+    for (auto& x : v.values<std::uint8_t>()) x = 77;
+    EncodeReport rep;
+    const Volume out = roundTrip(v, lossless(Wavelet::Cdf53, EntropyMode::Dense, {32, 32, 32}, 4), &rep);
+    EXPECT_TRUE(out == v);
+    // Only fixed costs remain: header, index (40 bytes per brick) and per-brick section headers.
+    EXPECT_LT(rep.bytes, 1500u);
+}
+
+TEST(CodecLossless, FloatKeepsNanInfAndHugeRangeBitForBit) {
+    Volume v = makeVolume({19, 17, 13}, ScalarType::Float32);
+    auto s = v.values<float>();
+    s[0] = std::numeric_limits<float>::quiet_NaN();
+    s[1] = std::numeric_limits<float>::infinity();
+    s[2] = -std::numeric_limits<float>::infinity();
+    s[3] = 3.0e38f;
+    s[4] = 1.0e-38f;
+    s[5] = -0.0f;
+    const Volume out = roundTrip(v, lossless());
+    ASSERT_EQ(std::memcmp(out.bytes().data(), v.bytes().data(), v.byteSize()), 0);
+}
+
+TEST(CodecLossy, MaxErrorHoldsOnEveryVoxel) {
+    const Dims d{37, 29, 23};
+    for (ScalarType t : {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16, ScalarType::Float32}) {
+        const Volume v = makeVolume(d, t, 5, 3.0);
+        for (double e : {0.5, 1.0, 2.0, 7.5}) {
+            for (Wavelet w : {Wavelet::Cdf97, Wavelet::Cdf53, Wavelet::Cdf26}) {
+                CodecOptions o = lossy(RateMode::MaxError, e);
+                o.wavelet = w;
+                EncodeReport rep;
+                const Volume out = roundTrip(v, o, &rep);
+                ASSERT_TRUE(out.sameGrid(v));
+                EXPECT_LE(maxAbsError(v, out), e) << scalarTypeName(t) << " E=" << e << " " << waveletName(w);
+                EXPECT_LE(rep.maxError, e);
+            }
+        }
+    }
+}
+
+TEST(CodecLossy, MaxErrorOnHugeDynamicRangeFloats) {
+    Volume v({24, 20, 18}, ScalarType::Float32);
+    auto s = v.values<float>();
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<double> ex(-30, 30);
+    for (auto& x : s) x = static_cast<float>(std::pow(10.0, ex(rng)) * ((rng() & 1) ? 1 : -1));
+    const Volume out = roundTrip(v, lossy(RateMode::MaxError, 1e-3));
+    EXPECT_LE(maxAbsError(v, out), 1e-3);
+}
+
+TEST(CodecLossy, RefusesNanAndInf) {
+    Volume v = makeVolume({8, 8, 8}, ScalarType::Float32);
+    v.values<float>()[17] = std::numeric_limits<float>::quiet_NaN();
+    EXPECT_THROW(encodeVolume(test::computeContext(), v, lossy(RateMode::Psnr, 40)), DataError);
+    v.values<float>()[17] = std::numeric_limits<float>::infinity();
+    EXPECT_THROW(encodeVolume(test::computeContext(), v, lossy(RateMode::MaxError, 1)), DataError);
+}
+
+TEST(CodecLossy, PsnrTargetIsMetWithinHalfADecibel) {
+    const Volume v = makeVolume({48, 40, 36}, ScalarType::UInt16, 3, 20.0);
+    for (double p : {40.0, 50.0, 60.0}) {
+        EncodeReport rep;
+        const Volume out = roundTrip(v, lossy(RateMode::Psnr, p, {16, 16, 16}, 3), &rep);
+        const double got = psnr(v, out);
+        EXPECT_GE(got, p) << p;
+        EXPECT_LE(got, p + 0.5) << p;
+        EXPECT_NEAR(got, rep.psnr, 1e-6);
+    }
+}
+
+TEST(CodecLossy, BitsPerVoxelTargetIsNotExceeded) {
+    const Volume v = makeVolume({48, 40, 36}, ScalarType::UInt8, 4, 4.0);
+    for (double r : {0.5, 1.0, 2.0}) {
+        EncodeReport rep;
+        const Volume out = roundTrip(v, lossy(RateMode::Bpv, r, {16, 16, 16}, 3), &rep);
+        EXPECT_LE(rep.bitsPerVoxel, r);
+        EXPECT_GT(rep.bitsPerVoxel, 0.6 * r) << "rate control left most of the budget unused";
+        EXPECT_GT(psnr(v, out), 20.0);
+    }
+}
+
+TEST(CodecAccess, RegionDecodeEqualsCropOfFullDecode) {
+    ComputeContext& cc = test::computeContext();
+    const Volume v = makeVolume({45, 38, 29}, ScalarType::UInt16, 8, 10.0);
+    for (const CodecOptions& o : {lossless(), lossy(RateMode::MaxError, 3.0), lossy(RateMode::Psnr, 45.0)}) {
+        const auto bytes = encodeVolume(cc, v, o);
+        const Volume full = decodeVolume(cc, bytes);
+        for (const Region& r : {Region{{0, 0, 0}, {1, 1, 1}}, Region{{3, 5, 7}, {40, 17, 29}}, Region{{15, 15, 15}, {17, 17, 17}},
+                                Region{{44, 37, 28}, {45, 38, 29}}}) {
+            DecodeOptions d;
+            d.region = r;
+            const Volume part = decodeVolume(cc, bytes, d);
+            const Volume ref = full.cropped(r.lo, r.hi);
+            ASSERT_TRUE(part.sameGrid(ref));
+            ASSERT_TRUE(part == ref);
+        }
+    }
+}
+
+TEST(CodecAccess, LevelDecodeIsTheLowBandAndRegionsAgree) {
+    ComputeContext& cc = test::computeContext();
+    const Dims d{45, 38, 29};
+    const Volume v = makeVolume(d, ScalarType::Int16, 6, 10.0);
+    const auto bytes = encodeVolume(cc, v, lossless(Wavelet::Cdf53, EntropyMode::Dense, {16, 16, 16}, 3));
+    VczReader reader(bytes, "mem");
+    for (int k = 1; k <= 3; ++k) {
+        DecodeOptions o;
+        o.level = k;
+        const Volume lv = reader.decode(cc, o);
+        const Dims ld = levelDims(d, k);
+        ASSERT_EQ(lv.dims(), ld);
+        EXPECT_DOUBLE_EQ(lv.spacing[0], double(1 << k));
+        // Each brick's level-k band from the reference transform of the original voxels.
+        for (std::size_t b = 0; b < reader.header().brickCount(); ++b) {
+            const Dims bo = reader.header().brickOrigin(b), bd = reader.header().brickDims(b);
+            const Volume crop = v.cropped(bo, {bo.x + bd.x, bo.y + bd.y, bo.z + bd.z});
+            std::vector<std::int32_t> c(bd.count());
+            for (std::size_t i = 0; i < c.size(); ++i) c[i] = crop.values<std::int16_t>()[i];
+            reference::forward3d(std::span<std::int32_t>(c), bd, 3, Wavelet::Cdf53);
+            reference::inverse3d(std::span<std::int32_t>(c), bd, 3, Wavelet::Cdf53, k);
+            const Dims bl = levelDims(bd, k);
+            for (std::size_t z = 0; z < bl.z; ++z)
+                for (std::size_t y = 0; y < bl.y; ++y)
+                    for (std::size_t x = 0; x < bl.x; ++x) {
+                        const double want = std::clamp<double>(c[(z * bd.y + y) * bd.x + x], -32768, 32767);
+                        ASSERT_EQ(lv.valueAt(lv.index((bo.x >> k) + x, (bo.y >> k) + y, (bo.z >> k) + z)), want);
+                    }
+        }
+        // Region at a level equals the matching crop of the level decode.
+        o.region = Region{{5, 9, 3}, {41, 30, 27}};
+        const Volume part = reader.decode(cc, o);
+        const std::size_t f = std::size_t(1) << k;
+        auto up = [f](std::size_t x) { return (x + f - 1) / f; };
+        const Volume ref = lv.cropped({up(5), up(9), up(3)}, {up(41), up(30), up(27)});
+        ASSERT_TRUE(part == ref) << "level " << k;
+        // Bricks on demand match too.
+        const Volume brick = reader.decodeBrick(cc, 0, 1, k);
+        const Dims b1 = reader.header().brickOrigin(1), bd1 = reader.header().brickDims(1);
+        const Volume bref = lv.cropped({b1.x >> k, b1.y >> k, b1.z >> k},
+                                       {(b1.x >> k) + levelDims(bd1, k).x, (b1.y >> k) + levelDims(bd1, k).y,
+                                        (b1.z >> k) + levelDims(bd1, k).z});
+        ASSERT_TRUE(brick == bref);
+    }
+}
+
+TEST(CodecAccess, BadRequestsAreUsageErrors) {
+    ComputeContext& cc = test::computeContext();
+    const Volume v = makeVolume({20, 20, 20}, ScalarType::UInt8);
+    const auto bytes = encodeVolume(cc, v, lossless());
+    DecodeOptions o;
+    o.level = 4;
+    EXPECT_THROW(decodeVolume(cc, bytes, o), UsageError);
+    o.level = 0;
+    o.region = Region{{0, 0, 0}, {21, 5, 5}};
+    EXPECT_THROW(decodeVolume(cc, bytes, o), UsageError);
+    EXPECT_THROW(parseRegion("1,2,3:4,5"), UsageError);
+    EXPECT_THROW(parseRegion("4,2,3:1,5,6"), UsageError);
+    CodecOptions bad = lossless();
+    bad.brick = {12, 16, 16};
+    EXPECT_THROW(encodeVolume(cc, v, bad), UsageError);
+    bad = lossless(Wavelet::Cdf97);
+    EXPECT_THROW(encodeVolume(cc, v, bad), UsageError);
+}
+
+TEST(CodecCorruption, EveryByteFlipAndTruncationIsDetected) {
+    ComputeContext& cc = test::computeContext();
+    const Volume v = makeVolume({20, 18, 9}, ScalarType::UInt8, 2, 3.0);
+    for (const CodecOptions& o : {lossless(Wavelet::Cdf53, EntropyMode::Dense, {16, 16, 16}, 2), lossy(RateMode::MaxError, 2.0, {16, 16, 16}, 2)}) {
+        const auto good = encodeVolume(cc, v, o);
+        ASSERT_TRUE(decodeVolume(cc, good).sameGrid(v));
+        std::size_t checked = 0;
+        // Every byte of this small file, flipped in two ways.
+        for (std::size_t pos = 0; pos < good.size(); ++pos) {
+            for (unsigned char mask : {0x01, 0xA5}) {
+                auto bad = good;
+                bad[pos] ^= std::byte{mask};
+                EXPECT_THROW(decodeVolume(cc, bad), IoError) << "flip at " << pos << " of " << good.size();
+                ++checked;
+            }
+        }
+        // Every truncation.
+        for (std::size_t len = 0; len < good.size(); ++len) {
+            std::vector<std::byte> bad(good.begin(), good.begin() + std::ptrdiff_t(len));
+            EXPECT_THROW(decodeVolume(cc, bad), IoError) << "truncated to " << len;
+            ++checked;
+        }
+        EXPECT_GT(checked, 3 * good.size() - 1);
+    }
+}
+
+TEST(CodecCorruption, ErrorNamesTheBrick) {
+    ComputeContext& cc = test::computeContext();
+    const Volume v = makeVolume({32, 16, 16}, ScalarType::UInt8);
+    auto bytes = encodeVolume(cc, v, lossless());
+    bytes[bytes.size() - 3] ^= std::byte{0x10};
+    try {
+        decodeVolume(cc, bytes, {}, "x.vcz");
+        FAIL() << "corruption not detected";
+    } catch (const IoError& e) {
+        EXPECT_NE(std::string(e.what()).find("x.vcz: brick 1"), std::string::npos) << e.what();
+    }
+}
+
+TEST(CodecSeries, FramesRoundTrip) {
+    ComputeContext& cc = test::computeContext();
+    TimeSeries s;
+    for (unsigned f = 0; f < 3; ++f) s.frames.push_back(makeVolume({20, 17, 11}, ScalarType::UInt8, f + 1));
+    s.times = {0.0, 0.5, 1.0};
+    const auto bytes = encodeSeries(cc, s, lossless());
+    VczReader r(bytes, "series");
+    ASSERT_EQ(r.header().frames.size(), 3u);
+    for (std::size_t f = 0; f < 3; ++f) {
+        DecodeOptions o;
+        o.frame = f;
+        EXPECT_TRUE(r.decode(cc, o) == s.frames[f]);
+        EXPECT_DOUBLE_EQ(r.header().frames[f].time, s.times[f]);
+    }
+}

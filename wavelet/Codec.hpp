@@ -1,0 +1,106 @@
+// Wavelet volume codec: encode/decode in memory, region and level decoding, brick access for renderers.
+#pragma once
+
+#include "host/Volume.hpp"
+#include "host/runtime/ClRuntime.hpp"
+#include "wavelet/EntropyCoder.hpp"
+#include "wavelet/LiftingTransform.hpp"
+#include "wavelet/VczFormat.hpp"
+
+#include <cstddef>
+#include <map>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace volcl {
+
+/// Encoder settings. Example (lossy, every voxel within 0.5 of the input):
+/// ```
+/// volcl::CodecOptions o;
+/// o.rate = volcl::RateMode::MaxError;
+/// o.target = 0.5;
+/// std::vector<std::byte> vcz = volcl::encodeVolume(cc, volume, o);
+/// ```
+struct CodecOptions {
+    RateMode rate = RateMode::Lossless;
+    double target = 0; ///< MaxError: E in data units; Psnr: dB; Bpv: bits per voxel
+    /// Default: cdf53 for lossless, cdf97 for lossy.
+    std::optional<Wavelet> wavelet;
+    int levels = 4;
+    Dims brick{64, 64, 64}; ///< each axis a multiple of 2^levels
+    EntropyMode entropy = EntropyMode::Dense;
+    unsigned threads = 2; ///< host threads for entropy coding
+    std::map<std::string, std::string> metadata;
+};
+
+/// What an encoding measured about itself (for benchmarks and `volcl encode` reports).
+struct EncodeReport {
+    std::size_t bytes = 0;
+    double bitsPerVoxel = 0;
+    double psnr = 0;     ///< against the input's value range; +inf when exact
+    double maxError = 0; ///< over every voxel
+    std::size_t corrections = 0; ///< voxels stored exactly to hold --max-error
+    double transformMs = 0;      ///< kernel time of the final forward transform
+};
+
+/// Encodes one volume into .vcz bytes. Throws UsageError for invalid options, DataError for NaN/Inf
+/// in lossy mode (lossless keeps float bit patterns, NaN and Inf included).
+std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, const CodecOptions& options,
+                                    EncodeReport* report = nullptr);
+/// Encodes every frame of a series as an I frame.
+std::vector<std::byte> encodeSeries(ComputeContext& cc, const TimeSeries& series, const CodecOptions& options);
+
+/// Region [lo, hi) in full-resolution voxel indices.
+struct Region {
+    Dims lo, hi;
+};
+/// Parses "x0,y0,z0:x1,y1,z1" (half-open). Throws UsageError.
+Region parseRegion(std::string_view text);
+
+struct DecodeOptions {
+    std::optional<Region> region; ///< default: the whole volume
+    int level = 0;                ///< 2^level-downsampled approximation (no finer detail is decoded)
+    std::size_t frame = 0;
+    unsigned threads = 2;
+};
+
+/// Random access to a .vcz held in memory: validates header and index on construction, checks each
+/// brick's checksum when it is decoded. Example:
+/// ```
+/// volcl::VczReader r(volcl::readFileBytes("head.vcz"), "head.vcz");
+/// volcl::Volume coarse = r.decode(cc, {.level = 2});
+/// volcl::Volume brick = r.decodeBrick(cc, 0, 5, 0);   // frame 0, brick 5, full resolution
+/// ```
+class VczReader {
+public:
+    VczReader(std::vector<std::byte> bytes, std::string name);
+    const VczHeader& header() const noexcept { return header_; }
+    const std::string& name() const noexcept { return name_; }
+    std::size_t fileSize() const noexcept { return bytes_.size(); }
+    /// One brick at level `level` (its voxel origin is header().brickOrigin(brick) / 2^level).
+    Volume decodeBrick(ComputeContext& cc, std::size_t frame, std::size_t brick, int level = 0) const;
+    /// The whole volume or a region, at full or reduced resolution. Output spacing grows by 2^level and
+    /// the origin moves to the first kept sample.
+    Volume decode(ComputeContext& cc, const DecodeOptions& options = {}) const;
+
+private:
+    std::vector<std::byte> bytes_;
+    std::string name_;
+    VczHeader header_;
+};
+
+/// Decodes .vcz bytes (whole volume or per `options`).
+Volume decodeVolume(ComputeContext& cc, std::span<const std::byte> vcz, const DecodeOptions& options = {},
+                    const std::string& name = "input");
+
+/// PSNR of b against a in dB over a's value range (max - min); +inf when equal, NaN for a constant a
+/// that differs from b. Throws UsageError when the grids differ.
+double psnr(const Volume& a, const Volume& b);
+/// Largest absolute voxel difference.
+double maxAbsError(const Volume& a, const Volume& b);
+/// Root mean square voxel difference.
+double rmse(const Volume& a, const Volume& b);
+
+} // namespace volcl

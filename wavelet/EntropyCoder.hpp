@@ -1,0 +1,43 @@
+// Entropy coding of quantised wavelet coefficients: subband layout, the dense context-adaptive binary range
+// coder and the fast zstd-over-byte-planes coder. Internal to the codec.
+#pragma once
+
+#include "host/Volume.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace volcl {
+
+/// How coefficient sections are entropy coded. Stored in .vcz files: never renumber.
+enum class EntropyMode : std::uint8_t {
+    Fast = 0,  ///< sign-folded coefficients split into byte planes, then zstd
+    Dense = 1, ///< context-adaptive binary range coding of magnitude classes, mantissas and signs
+};
+
+/// One subband of a brick in the Mallat layout: voxel box [x0,x1) x [y0,y1) x [z0,z1) of the brick.
+struct SubbandBox {
+    std::size_t x0 = 0, x1 = 0, y0 = 0, y1 = 0, z0 = 0, z1 = 0;
+    int level = 0;  ///< 0 for the low band, else 1 (finest) .. L (coarsest)
+    int orient = 0; ///< bit 0: high along x, bit 1: high along y, bit 2: high along z (0 for the low band)
+    std::size_t count() const noexcept { return (x1 - x0) * (y1 - y0) * (z1 - z0); }
+};
+
+/// Sections of a brick transformed with `levels` levels: section 0 holds the low band, section j >= 1 the
+/// non-empty detail subbands of level levels-j+1. Decoding sections 0..levels-k gives the level-k image.
+std::vector<std::vector<SubbandBox>> sectionLayout(Dims brick, int levels);
+
+/// Appends the coded section `s` of the coefficient array (brick dims, x fastest) to `out`.
+/// Magnitudes must stay below 2^30 (the caller guarantees it).
+void encodeSection(std::span<const std::int32_t> coeffs, Dims brick, const std::vector<std::vector<SubbandBox>>& layout,
+                   std::size_t s, EntropyMode mode, std::vector<std::uint8_t>& out);
+
+/// Decodes section `s` from `in` into its subbands of `coeffs` (earlier sections must be decoded: they
+/// give the parent context). Throws IoError naming `what` when the data are inconsistent.
+void decodeSection(std::span<const std::uint8_t> in, std::span<std::int32_t> coeffs, Dims brick,
+                   const std::vector<std::vector<SubbandBox>>& layout, std::size_t s, EntropyMode mode,
+                   const char* what);
+
+} // namespace volcl
