@@ -6,6 +6,10 @@ set(VOLCL_KERNEL_FILES
   phantoms.cl
   copy.cl
   tf_sample.cl
+  raymarch_shared.h
+  raymarch_core.h
+  raymarch.cl
+  raymarch_plain.cl
   lifting.cl
   preint.cl
 )

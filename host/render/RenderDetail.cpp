@@ -1,0 +1,191 @@
+// Renderer internals: value range, world box, macrocell min/max and emptiness, kernel parameter block.
+#include "host/render/RenderDetail.hpp"
+
+#include "host/Error.hpp"
+#include "host/Volume.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace volcl::render_detail {
+
+ValueRange valueRange(const Volume& volume) {
+    ValueRange r{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+    for (std::size_t i = 0; i < volume.voxelCount(); ++i) {
+        const double v = volume.valueAt(i);
+        if (!std::isfinite(v)) continue;
+        r.min = std::min(r.min, v);
+        r.max = std::max(r.max, v);
+    }
+    if (r.min > r.max) r = {0.0, 0.0};
+    return r;
+}
+
+std::array<Vec3, 2> worldBox(const Volume& volume) {
+    const Dims& d = volume.dims();
+    const Vec3 lo = volume.origin;
+    const Vec3 hi{lo[0] + double(d.x - 1) * volume.spacing[0], lo[1] + double(d.y - 1) * volume.spacing[1],
+                  lo[2] + double(d.z - 1) * volume.spacing[2]};
+    return {lo, hi};
+}
+
+MacrocellGrid buildMacrocells(const Volume& volume, unsigned edge) {
+    const Dims& d = volume.dims();
+    MacrocellGrid g;
+    g.edge = edge;
+    auto cells = [edge](std::size_t n) {
+        return unsigned(std::max<std::size_t>(1, (n - 1 + edge - 1) / edge));
+    };
+    g.nx = cells(d.x);
+    g.ny = cells(d.y);
+    g.nz = cells(d.z);
+    const std::size_t count = std::size_t(g.nx) * g.ny * g.nz;
+    g.min.assign(count, std::numeric_limits<float>::infinity());
+    g.max.assign(count, -std::numeric_limits<float>::infinity());
+    const std::vector<float> v = volume.toFloat();
+    // Each voxel belongs to the cells whose closed range holds it (two along an axis on a shared face).
+    auto range = [edge](std::size_t i, unsigned n, unsigned& c0, unsigned& c1) {
+        c1 = std::min<unsigned>(unsigned(i / edge), n - 1);
+        c0 = (i % edge == 0 && i > 0) ? unsigned(i / edge) - 1 : c1;
+    };
+    for (std::size_t k = 0; k < d.z; ++k) {
+        unsigned z0, z1;
+        range(k, g.nz, z0, z1);
+        for (std::size_t j = 0; j < d.y; ++j) {
+            unsigned y0, y1;
+            range(j, g.ny, y0, y1);
+            const float* row = v.data() + volume.index(0, j, k);
+            for (std::size_t i = 0; i < d.x; ++i) {
+                unsigned x0, x1;
+                range(i, g.nx, x0, x1);
+                const float s = row[i];
+                for (unsigned cz = z0; cz <= z1; ++cz)
+                    for (unsigned cy = y0; cy <= y1; ++cy)
+                        for (unsigned cx = x0; cx <= x1; ++cx) {
+                            const std::size_t c = (std::size_t(cz) * g.ny + cy) * g.nx + cx;
+                            g.min[c] = std::min(g.min[c], s);
+                            g.max[c] = std::max(g.max[c], s);
+                        }
+            }
+        }
+    }
+    return g;
+}
+
+double maxExtinctionOver(const TransferFunction& tf, double a, double b) {
+    double m = std::max(tf.extinctionAt(a), tf.extinctionAt(b));
+    // Right limit at a (a step exactly at a holds above a) and every point inside.
+    for (const auto& p : tf.extinction)
+        if (p.s >= a && p.s <= b) m = std::max(m, p.tau);
+    return m;
+}
+
+std::vector<unsigned char> emptyMacrocells(const MacrocellGrid& grid, const TransferFunction& tf,
+                                           const std::vector<double>& isoValues, bool isoOnly,
+                                           int tableNodes) {
+    std::vector<unsigned char> empty(grid.min.size(), 0);
+    const double lo = tf.domain[0], hi = tf.domain[1];
+    for (std::size_t c = 0; c < empty.size(); ++c) {
+        double a = grid.min[c], b = grid.max[c];
+        bool visible = false;
+        for (double iso : isoValues)
+            visible |= iso > a && iso <= b;
+        if (!isoOnly && !visible) {
+            if (tableNodes > 1) {
+                // A table lookup clamps to the domain and blends the neighbouring nodes.
+                const double h = (hi - lo) / double(tableNodes - 1);
+                a = lo + std::floor((std::clamp(a, lo, hi) - lo) / h) * h;
+                b = lo + std::ceil((std::clamp(b, lo, hi) - lo) / h) * h;
+            }
+            visible = maxExtinctionOver(tf, a, b) > 0.0;
+        }
+        empty[c] = visible ? 0 : 1;
+    }
+    return empty;
+}
+
+double gradientThreshold(const Volume& volume) {
+    const ValueRange r = valueRange(volume);
+    const double s = std::max({volume.spacing[0], volume.spacing[1], volume.spacing[2]});
+    return 1e-6 * std::max(r.max - r.min, 1e-30) / s;
+}
+
+VolclRenderParams makeParams(const Scene& scene, const Camera& cam, const Volume& volume,
+                             const TransferFunction& tf, const EffectPlan& plan, const MacrocellGrid& grid,
+                             std::size_t knotCount, int tableLengths) {
+    VolclRenderParams p{};
+    auto put = [](float* dst, const Vec3& v, float w = 0.0f) {
+        for (int i = 0; i < 3; ++i)
+            dst[i] = static_cast<float>(v[std::size_t(i)]);
+        dst[3] = w;
+    };
+    const Vec3 f = normalized(sub(cam.target, cam.eye));
+    const Vec3 r = normalized(cross(f, cam.up));
+    const Vec3 u = cross(r, f);
+    const double aspect = double(scene.width) / double(scene.height);
+    const double half = cam.projection == Projection::Orthographic
+                            ? cam.height / 2.0
+                            : std::tan(cam.fovYDeg * 3.14159265358979323846 / 360.0);
+    put(p.camOrigin, cam.eye);
+    put(p.camRight, scale(r, half * aspect));
+    put(p.camUp, scale(u, half));
+    put(p.camForward, f);
+    put(p.volOrigin, volume.origin);
+    put(p.volSpacing, volume.spacing);
+    put(p.volInvSpacing, {1.0 / volume.spacing[0], 1.0 / volume.spacing[1], 1.0 / volume.spacing[2]});
+    const Dims& d = volume.dims();
+    p.dims[0] = volcl_uint(d.x);
+    p.dims[1] = volcl_uint(d.y);
+    p.dims[2] = volcl_uint(d.z);
+    p.dims[3] = cam.projection == Projection::Perspective ? 1u : 0u;
+    p.macroDims[0] = grid.nx;
+    p.macroDims[1] = grid.ny;
+    p.macroDims[2] = grid.nz;
+    p.macroDims[3] = grid.edge;
+    p.width = volcl_uint(scene.width);
+    p.height = volcl_uint(scene.height);
+    p.knotCount = volcl_uint(knotCount);
+    p.tableSize = volcl_uint(scene.tableSize);
+    p.step = static_cast<float>(scene.step);
+    p.earlyTermination = static_cast<float>(scene.earlyTermination);
+    p.domainLo = static_cast<float>(tf.domain[0]);
+    p.domainHi = static_cast<float>(tf.domain[1]);
+    p.tableMaxLength = static_cast<float>(scene.step);
+    p.tableLengths = volcl_uint(std::max(tableLengths, 1));
+    p.shadowStep = static_cast<float>(scene.effects.shadowStep > 0.0 ? scene.effects.shadowStep : scene.step);
+    p.gradientMin = static_cast<float>(gradientThreshold(volume));
+    const SceneEffects& fx = scene.effects;
+    p.ambient = float(fx.ambient);
+    p.diffuse = float(fx.diffuse);
+    p.specular = float(fx.specular);
+    p.shininess = float(fx.shininess);
+    p.albedo = float(fx.albedo);
+    p.phaseG = float(fx.phaseG);
+    unsigned nl = 0;
+    for (const auto& l : scene.lights) {
+        if (!(l.intensity > 0.0) || nl >= VOLCL_MAX_LIGHTS) continue;
+        const float kind = l.kind == LightKind::Directional ? VOLCL_LIGHT_DIRECTIONAL
+                           : l.kind == LightKind::Point     ? VOLCL_LIGHT_POINT
+                                                            : VOLCL_LIGHT_HEAD;
+        put(p.lightPos[nl], l.kind == LightKind::Directional ? normalized(l.vector) : l.vector, kind);
+        put(p.lightColor[nl], scale(l.color, l.intensity));
+        ++nl;
+    }
+    p.lightCount = nl;
+    p.clipCount = volcl_uint(plan.clipPlanes.size());
+    for (std::size_t i = 0; i < plan.clipPlanes.size(); ++i) {
+        const double n = norm(plan.clipPlanes[i].normal);
+        put(p.clipPlane[i], scale(plan.clipPlanes[i].normal, 1.0 / n), float(plan.clipPlanes[i].offset / n));
+    }
+    p.isoCount = volcl_uint(plan.isosurfaces.size());
+    for (std::size_t i = 0; i < plan.isosurfaces.size(); ++i) {
+        const IsoLayer& iso = plan.isosurfaces[i];
+        p.isoValue[i][0] = float(iso.value);
+        const double cs = plan.colorScale;
+        put(p.isoColor[i], {iso.rgba[0] * cs, iso.rgba[1] * cs, iso.rgba[2] * cs}, float(iso.rgba[3]));
+    }
+    return p;
+}
+
+} // namespace volcl::render_detail

@@ -1,0 +1,47 @@
+// Internals shared by the renderer and its reference: value range, box, macrocells, kernel parameters.
+#pragma once
+
+#include "cl/raymarch_shared.h"
+#include "host/render/Renderer.hpp"
+#include "host/render/VecMath.hpp"
+
+#include <array>
+#include <vector>
+
+namespace volcl::render_detail {
+
+struct ValueRange {
+    double min = 0.0, max = 0.0;
+};
+ValueRange valueRange(const Volume& volume);
+
+/// World-space box [lo, hi] of the node-centred volume.
+std::array<Vec3, 2> worldBox(const Volume& volume);
+
+/// Min/max per macrocell; cell c covers voxels [c*edge, (c+1)*edge] (shared faces, so every trilinear cell
+/// inside it is covered).
+struct MacrocellGrid {
+    unsigned edge = 8;
+    unsigned nx = 1, ny = 1, nz = 1;
+    std::vector<float> min, max;
+};
+MacrocellGrid buildMacrocells(const Volume& volume, unsigned edge);
+
+/// 1 for cells where nothing can be seen: tau = 0 over the cell's value range (widened to the table nodes a
+/// pre-integration lookup would touch when tableNodes > 0) and no iso-value crossed. `isoOnly`: only
+/// iso-surfaces are drawn, so tau does not matter.
+std::vector<unsigned char> emptyMacrocells(const MacrocellGrid& grid, const TransferFunction& tf,
+                                           const std::vector<double>& isoValues, bool isoOnly,
+                                           int tableNodes);
+
+/// Largest tau over [a, b] (exact for the piecewise-linear TF).
+double maxExtinctionOver(const TransferFunction& tf, double a, double b);
+
+/// Gradient magnitude below which a sample has no defined normal.
+double gradientThreshold(const Volume& volume);
+
+VolclRenderParams makeParams(const Scene& scene, const Camera& camera, const Volume& volume,
+                             const TransferFunction& tf, const EffectPlan& plan, const MacrocellGrid& grid,
+                             std::size_t knotCount, int tableLengths);
+
+} // namespace volcl::render_detail

@@ -1,0 +1,106 @@
+// Render scenes (CONTRACT section 4): camera, image, mode, lights and effects, read from JSON.
+#pragma once
+
+#include <array>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace volcl {
+
+class Volume;
+
+enum class RenderMode { Dvr, Mip, Iso, Xray };
+enum class Preintegration { None, Table2d, Table3d };
+enum class Projection { Orthographic, Perspective };
+enum class LightKind { Directional, Point, Head };
+enum class GradientKind { Central, Sobel };
+
+std::string_view renderModeName(RenderMode m);
+RenderMode parseRenderMode(std::string_view s); ///< throws UsageError
+std::string_view preintegrationName(Preintegration p);
+Preintegration parsePreintegration(std::string_view s); ///< "none", "2d", "3d"; throws UsageError
+
+using Vec3 = std::array<double, 3>;
+
+/// GLM lookAt camera. `height` is the orthographic view height in world units; `fovYDeg` the perspective one.
+struct Camera {
+    Projection projection = Projection::Orthographic;
+    Vec3 eye{0, 0, -1}, target{0, 0, 0}, up{0, 1, 0};
+    double height = 1.0;
+    double fovYDeg = 30.0;
+};
+
+/// A light: direction toward the light (directional), position (point), or at the eye (head).
+struct Light {
+    LightKind kind = LightKind::Directional;
+    Vec3 vector{0, 0, -1};
+    Vec3 color{1, 1, 1};
+    double intensity = 1.0;
+};
+
+/// A transparent or opaque iso-surface: straight colour and opacity.
+struct IsoLayer {
+    double value = 0.0;
+    std::array<double, 4> rgba{1, 1, 1, 1};
+};
+
+/// Keeps the half-space dot(normal, x) + offset >= 0.
+struct ClipPlane {
+    Vec3 normal{1, 0, 0};
+    double offset = 0.0;
+};
+
+/// What a scene asks for; Effects planning decides what is compiled (see planEffects()).
+struct SceneEffects {
+    bool shading = false; ///< Blinn-Phong requested ("shading" object present)
+    double ambient = 0.2, diffuse = 0.7, specular = 0.3, shininess = 32.0;
+    GradientKind gradient = GradientKind::Central;
+    bool shadows = false;
+    double shadowStep = 1.0;           ///< world units; 0 = the render step
+    double albedo = 0.0, phaseG = 0.0; ///< single scattering when albedo > 0 ("scattering" object)
+    bool scattering = false;
+    std::vector<ClipPlane> clipPlanes;
+    std::vector<IsoLayer> isosurfaces;
+};
+
+/// A complete scene. Paths are resolved against the scene file's folder. Example:
+/// ```
+/// volcl::Scene s = volcl::Scene::fromFile("head.json");
+/// s.width = 256;                       // flags override fields
+/// s.validate();
+/// ```
+struct Scene {
+    std::filesystem::path volume, tf;
+    std::optional<Camera> camera; ///< absent: defaultCamera() looks down +z at the whole volume
+    int width = 512, height = 512;
+    std::array<double, 4> background{0, 0, 0, 1};
+    RenderMode mode = RenderMode::Dvr;
+    double step = 0.5;
+    Preintegration preintegration = Preintegration::None;
+    double earlyTermination = 0.995; ///< 1 disables early termination
+    bool skipping = true;
+    int tableSize = 256;   ///< pre-integration table nodes
+    int tableLengths = 16; ///< 3D table: lengths between step / L and step
+    std::vector<Light> lights;
+    SceneEffects effects;
+
+    static Scene fromJson(std::string_view json, const std::filesystem::path& baseDir = {});
+    static Scene fromFile(const std::filesystem::path& path);
+    std::string toJson() const;
+    /// Throws UsageError naming the field for out-of-range values.
+    void validate() const;
+};
+
+/// Orthographic camera along +z through the centre of the volume's box, sized to show all of it.
+Camera defaultCamera(const Volume& volume);
+
+/// World-space ray of pixel (x, y) (y = 0 at the top), double precision, CONTRACT section 4.
+struct CameraRay {
+    Vec3 origin, direction;
+};
+CameraRay cameraRay(const Camera& camera, int width, int height, double x, double y);
+
+} // namespace volcl
