@@ -4,6 +4,7 @@
 #include "cl/volcl_shared.h"
 #include "host/runtime/ClRuntime.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <numbers>
@@ -104,7 +105,7 @@ Volume sheppLoganReference(Dims dims) {
         double density = 0.0;
         for (const auto& e : kEllipsoids)
             if (quadraticForm(e, x, y, z) <= 1.0) density += e.value;
-        return density;
+        return std::max(density, 0.0);
     });
 }
 
