@@ -42,21 +42,24 @@ typedef CAT(REAL, LANES) VEC;
 
 /* One linear piece of the transfer function along a segment, in segment coordinates. */
 typedef struct {
-    REAL h;        /* width as a fraction of the segment */
+    REAL h; /* width as a fraction of the segment */
     REAL tauA, tauB;
     REAL cA[3], cB[3];
 } PreintPiece;
 
-/* Transfer-function value (r, g, b, tau) at s using the formula of knot interval k (-1: below the first knot). */
+/* Transfer-function value (r, g, b, tau) at s using the formula of knot interval k (-1: below the first
+ * knot). */
 inline void preint_eval(__global const VolclTfKnot* knots, int k, REAL s, REAL out[4]) {
     int kk = k < 0 ? 0 : k;
     REAL d = k < 0 ? REAL_C(0.0) : s - (REAL)knots[kk].s;
-    for (int c = 0; c < 4; ++c) out[c] = (REAL)knots[kk].value[c] + d * (REAL)knots[kk].slope[c];
+    for (int c = 0; c < 4; ++c)
+        out[c] = (REAL)knots[kk].value[c] + d * (REAL)knots[kk].slope[c];
 }
 
-/* Walks the knot intervals a segment from sf to sb (sf != sb) passes. State: current s and interval k. Returns
-   0 when the segment is finished, else fills `piece`. Upwards the interval starting at the last knot <= s is
-   entered; downwards the interval (S_k, S_k+1] holding s, so steps take the value on the side being entered. */
+/* Walks the knot intervals a segment from sf to sb (sf != sb) passes. State: current s and interval k.
+   Returns 0 when the segment is finished, else fills `piece`. Upwards the interval starting at the last knot
+   <= s is entered; downwards the interval (S_k, S_k+1] holding s, so steps take the value on the side being
+   entered. */
 typedef struct {
     REAL s, sb, invSpan;
     int k, up;
@@ -90,7 +93,8 @@ inline int preint_walk_next(__global const VolclTfKnot* knots, uint count, Prein
     preint_eval(knots, k, w->s, a);
     preint_eval(knots, k, se, b);
     if (w->k == (int)count - 1) { /* above the last knot the value is constant */
-        for (int c = 0; c < 4; ++c) b[c] = a[c];
+        for (int c = 0; c < 4; ++c)
+            b[c] = a[c];
     }
     p->h = (se - w->s) * w->invSpan;
     p->tauA = fmax(a[3], REAL_C(0.0));
@@ -190,7 +194,8 @@ __kernel void preint_exact(__global const VolclTfKnot* knots, uint knotCount, ui
                     ca[c] = p.cA[c] + (p.cB[c] - p.cA[c]) * v;
                     dc[c] = (p.cB[c] - p.cA[c]) * (v1 - v);
                 }
-                VEC e0 = exp(-len[0] * x0), e1 = exp(-len[0] * x1), e2 = exp(-len[0] * x2), ee = exp(-len[0] * xe);
+                VEC e0 = exp(-len[0] * x0), e1 = exp(-len[0] * x1), e2 = exp(-len[0] * x2),
+                    ee = exp(-len[0] * xe);
                 REAL f0 = 0, f1 = 0, f2 = 0, fe = 0;
                 if (uniformStep > REAL_C(0.0) && BLOCKS > 1) {
                     f0 = exp(-blockShift * x0);
@@ -223,8 +228,8 @@ __kernel void preint_exact(__global const VolclTfKnot* knots, uint knotCount, ui
                 depth = xe;
                 v = v1;
             } while (v < REAL_C(1.0));
-            if (colourDone) depth += (REAL_C(1.0) - v) * p.h * REAL_C(0.5) *
-                                     (p.tauA + (p.tauB - p.tauA) * v + p.tauB);
+            if (colourDone)
+                depth += (REAL_C(1.0) - v) * p.h * REAL_C(0.5) * (p.tauA + (p.tauB - p.tauA) * v + p.tauB);
         }
     }
 
@@ -239,14 +244,146 @@ __kernel void preint_exact(__global const VolclTfKnot* knots, uint knotCount, ui
         for (int l = 0; l < LANES; ++l) {
             uint j = chunk * CHUNK + (uint)(b * LANES + l);
             if (j < lengthCount)
-                out[((size_t)j * n + jf) * n + ib] = (float4)((float)r[l], (float)g[l], (float)bl[l], (float)a[l]);
+                out[((size_t)j * n + jf) * n + ib] =
+                    (float4)((float)r[l], (float)g[l], (float)bl[l], (float)a[l]);
         }
     }
 }
 
+#if LANES == 16
+inline REAL preint_hmax(VEC v) {
+    CAT(REAL, 8) a = fmax(v.lo, v.hi);
+    CAT(REAL, 4) b = fmax(a.lo, a.hi);
+    CAT(REAL, 2) c = fmax(b.lo, b.hi);
+    return fmax(c.x, c.y);
+}
+
+/* One direction of the 2D walk for 16 segments that share s_f (lanes = 16 consecutive back nodes). `dir` = +1
+   walks upwards for the lanes with s_b > s_f, -1 downwards for s_b < s_f; other lanes see zero-width pieces.
+   The knot intervals are common to all lanes (they start at the same s_f), so the loop over them is uniform;
+   within a piece every lane splits the part that still matters (optical depth below PREINT_CUTOFF) into the
+   same number of Gauss-Legendre sub-pieces, enough for the lane that needs most. */
+inline void preint_row_pass(__global const VolclTfKnot* knots, uint count, REAL sf, VEC sb, REAL len, int dir,
+                            REAL maxSubstepDepth, VEC* depth, VEC* tCur, VEC* accR, VEC* accG, VEC* accB) {
+    const REAL glU0 = REAL_C(0.1127016653792583), glU1 = REAL_C(0.5), glU2 = REAL_C(0.8872983346207417);
+    const REAL glW0 = REAL_C(0.2777777777777778), glW1 = REAL_C(0.4444444444444444);
+    VEC span = dir > 0 ? sb - sf : sf - sb;
+    VEC invSpan = span > (VEC)(REAL_C(0.0)) ? REAL_C(1.0) / span : (VEC)(REAL_C(0.0));
+    REAL far = dir > 0 ? preint_hmax(sb) : -preint_hmax(-sb);
+    if (dir > 0 ? far <= sf : far >= sf) return;
+    int k = -1;
+    for (uint i = 0; i < count; ++i) {
+        REAL si = (REAL)knots[i].s;
+        if (dir > 0 ? si <= sf : si < sf) k = (int)i;
+    }
+    REAL s = sf;
+    while (dir > 0 ? s < far : s > far) {
+        REAL edge;
+        if (dir > 0)
+            edge = (k + 1 < (int)count) ? (REAL)knots[k + 1].s : far;
+        else
+            edge = (k >= 0) ? (REAL)knots[k].s : far;
+        edge = dir > 0 ? fmin(edge, far) : fmax(edge, far);
+        VEC se = dir > 0 ? fmax(fmin((VEC)(edge), sb), (VEC)(s)) : fmin(fmax((VEC)(edge), sb), (VEC)(s));
+        REAL a[4];
+        int kk = k < (int)count ? k : (int)count - 1;
+        preint_eval(knots, kk, s, a);
+        int kc = kk < 0 ? 0 : kk;
+        REAL slope[4];
+        for (int c = 0; c < 4; ++c)
+            slope[c] = (k < 0 || k == (int)count - 1) ? REAL_C(0.0) : (REAL)knots[kc].slope[c];
+        VEC ds = se - s; /* signed s distance of each lane's piece */
+        VEC h = fabs(ds) * invSpan;
+        REAL tauA = fmax(a[3], REAL_C(0.0));
+        VEC tauB = fmax(a[3] + ds * slope[3], (VEC)(REAL_C(0.0)));
+        VEC P = len * h * tauA, Q = len * h * tauB;
+        VEC X = REAL_C(0.5) * (P + Q);
+        VEC rest = PREINT_CUTOFF - len * (*depth);
+        /* Fraction of the piece before the optical depth reaches the cutoff (root of P v + (Q-P) v^2 / 2 =
+         * rest). */
+        VEC disc = sqrt(fmax(P * P + REAL_C(2.0) * (Q - P) * rest, (VEC)(REAL_C(0.0))));
+        VEC vEnd = X <= rest ? (VEC)(REAL_C(1.0)) : REAL_C(2.0) * rest / (P + disc);
+        vEnd = rest > (VEC)(REAL_C(0.0)) ? clamp(vEnd, (VEC)(REAL_C(0.0)), (VEC)(REAL_C(1.0)))
+                                         : (VEC)(REAL_C(0.0));
+        VEC rateEnd = fmax(P, P + (Q - P) * vEnd);
+        REAL need = preint_hmax(rateEnd * vEnd) / maxSubstepDepth;
+        int nsub = (int)ceil(fmin(need, (REAL)1e6));
+        nsub = nsub < 1 ? 1 : nsub;
+        VEC dv = vEnd / (REAL)nsub;
+        VEC dP = Q - P;
+        VEC cA[3], dcv[3];
+        for (int c = 0; c < 3; ++c) {
+            cA[c] = (VEC)(a[c]);
+            dcv[c] = ds * slope[c]; /* colour change over the whole piece */
+        }
+        VEC base = len * (*depth);
+        for (int i = 0; i < nsub; ++i) {
+            VEC v0 = dv * (REAL)i, v1 = v0 + dv;
+            VEC u0 = v0 + dv * glU0, u1 = v0 + dv * glU1, u2 = v0 + dv * glU2;
+            VEC e0 = exp(-(base + u0 * (P + REAL_C(0.5) * dP * u0)));
+            VEC e1 = exp(-(base + u1 * (P + REAL_C(0.5) * dP * u1)));
+            VEC e2 = exp(-(base + u2 * (P + REAL_C(0.5) * dP * u2)));
+            VEC ee = exp(-(base + v1 * (P + REAL_C(0.5) * dP * v1)));
+            VEC meanT = glW0 * (e0 + e2) + glW1 * e1;
+            VEC t0 = *tCur;
+            VEC w = t0 - ee, m = meanT - ee;
+            *accR += (cA[0] + dcv[0] * v0) * w + dcv[0] * dv * m;
+            *accG += (cA[1] + dcv[1] * v0) * w + dcv[1] * dv * m;
+            *accB += (cA[2] + dcv[2] * v0) * w + dcv[2] * dv * m;
+            *tCur = ee;
+        }
+        *depth += h * REAL_C(0.5) * (tauA + tauB);
+        s = edge;
+        k += dir;
+    }
+}
+
+/* 2D tables: one length, 16 consecutive back nodes per work-item as one vector (gid0 = group of 16 back
+   nodes, gid1 = front node). Same integration as preint_exact, vectorised across segments instead of lengths.
+ */
+__kernel void preint_exact_row(__global const VolclTfKnot* knots, uint knotCount, uint n, REAL lo, REAL hi,
+                               REAL len, REAL maxColor, REAL maxSubstepDepth, __global float4* out) {
+    uint group = get_global_id(0), jf = get_global_id(1);
+    uint ib0 = group * 16;
+    if (ib0 >= n || jf >= n) return;
+    REAL step = (hi - lo) / (REAL)(n - 1);
+    REAL sf = jf == n - 1 ? hi : lo + (REAL)jf * step;
+    VEC idx = (VEC)(REAL_C(0.0), REAL_C(1.0), REAL_C(2.0), REAL_C(3.0), REAL_C(4.0), REAL_C(5.0), REAL_C(6.0),
+                    REAL_C(7.0), REAL_C(8.0), REAL_C(9.0), REAL_C(10.0), REAL_C(11.0), REAL_C(12.0),
+                    REAL_C(13.0), REAL_C(14.0), REAL_C(15.0)) +
+              (REAL)ib0;
+    idx = fmin(idx, (VEC)((REAL)(n - 1)));
+    VEC sb = lo + idx * step;
+    sb = idx == (VEC)((REAL)(n - 1)) ? (VEC)(hi) : sb;
+    VEC depth = (VEC)(REAL_C(0.0)), tCur = (VEC)(REAL_C(1.0));
+    VEC accR = (VEC)(REAL_C(0.0)), accG = accR, accB = accR;
+    preint_row_pass(knots, knotCount, sf, sb, len, 1, maxSubstepDepth, &depth, &tCur, &accR, &accG, &accB);
+    preint_row_pass(knots, knotCount, sf, sb, len, -1, maxSubstepDepth, &depth, &tCur, &accR, &accG, &accB);
+    REAL r[16], g[16], b[16], al[16];
+    VEC alpha = -expm1(-len * depth);
+    VEC bound = alpha * maxColor;
+    VSTORE(clamp(accR, (VEC)(REAL_C(0.0)), bound), r);
+    VSTORE(clamp(accG, (VEC)(REAL_C(0.0)), bound), g);
+    VSTORE(clamp(accB, (VEC)(REAL_C(0.0)), bound), b);
+    VSTORE(alpha, al);
+    for (int l = 0; l < 16; ++l) {
+        uint ib = ib0 + (uint)l;
+        if (ib >= n) break;
+        float4 v = (float4)((float)r[l], (float)g[l], (float)b[l], (float)al[l]);
+        if (ib == jf) { /* the diagonal: constant TF along the segment, closed form */
+            REAL d[4];
+            preint_value_at(knots, knotCount, sf, d);
+            REAL a1 = -expm1(-len * d[3]);
+            v = (float4)((float)(d[0] * a1), (float)(d[1] * a1), (float)(d[2] * a1), (float)a1);
+        }
+        out[(size_t)jf * n + ib] = v;
+    }
+}
+#endif
+
 /* Weiler-style length recursion (as in VTK's incremental builder): the segment (s_f, s_b, l_k) is the first
-   length step l_0 from s_f to s_m = s_f + (s_b - s_f) l_0 / l_k, composited in front of the segment (s_m, s_b,
-   l_k - l_0) from the previous slice. Unlike VTK, s_m is not rounded to a node: both lookups interpolate
+   length step l_0 from s_f to s_m = s_f + (s_b - s_f) l_0 / l_k, composited in front of the segment (s_m,
+   s_b, l_k - l_0) from the previous slice. Unlike VTK, s_m is not rounded to a node: both lookups interpolate
    linearly between the two nearest nodes. Requires lengths l_k = (k + 1) l_0; one launch per slice k >= 1. */
 __kernel void preint_incremental_slice(uint n, uint k, __global float4* table) {
     uint ib = get_global_id(0), jf = get_global_id(1);
@@ -254,7 +391,7 @@ __kernel void preint_incremental_slice(uint n, uint k, __global float4* table) {
     float m = ((float)jf * (float)k + (float)ib) / (float)(k + 1); /* node coordinate of s_m */
     uint m0 = min((uint)m, n - 1), m1 = min(m0 + 1, n - 1);
     float t = m - (float)m0;
-    __global const float4* first = table;                      /* slice 0: length l_0 */
+    __global const float4* first = table;                          /* slice 0: length l_0 */
     __global const float4* rest = table + (size_t)(k - 1) * n * n; /* slice k-1: length k l_0 */
     float4 front = mix(first[(size_t)jf * n + m0], first[(size_t)jf * n + m1], t);
     float4 back = mix(rest[(size_t)m0 * n + ib], rest[(size_t)m1 * n + ib], t);
@@ -262,9 +399,9 @@ __kernel void preint_incremental_slice(uint n, uint k, __global float4* table) {
     table[((size_t)k * n + jf) * n + ib] = fmax(c, (float4)(0.0f));
 }
 
-/* Engel et al.'s integral-function table: no self-attenuation inside the segment. `integrals` holds, per node,
-   (K_r, K_g, K_b, Phi) with K = int c tau ds and Phi = int tau ds from the domain start (computed exactly in
-   double on the host); `diag` holds (c tau, tau) at each node for the s_f = s_b limit. */
+/* Engel et al.'s integral-function table: no self-attenuation inside the segment. `integrals` holds, per
+   node, (K_r, K_g, K_b, Phi) with K = int c tau ds and Phi = int tau ds from the domain start (computed
+   exactly in double on the host); `diag` holds (c tau, tau) at each node for the s_f = s_b limit. */
 __kernel void preint_integral_function(__global const REAL* integrals, __global const REAL* diag, uint n,
                                        REAL lo, REAL hi, __global const REAL* lengths, uint lengthCount,
                                        REAL maxColor, __global float4* out) {
@@ -273,17 +410,20 @@ __kernel void preint_integral_function(__global const REAL* integrals, __global 
     REAL ds = (hi - lo) / (REAL)(n - 1);
     REAL mean[4];
     if (ib == jf) {
-        for (int c = 0; c < 4; ++c) mean[c] = diag[4 * ib + c];
+        for (int c = 0; c < 4; ++c)
+            mean[c] = diag[4 * ib + c];
     } else {
         REAL inv = REAL_C(1.0) / ((REAL)((int)ib - (int)jf) * ds);
-        for (int c = 0; c < 4; ++c) mean[c] = (integrals[4 * ib + c] - integrals[4 * jf + c]) * inv;
+        for (int c = 0; c < 4; ++c)
+            mean[c] = (integrals[4 * ib + c] - integrals[4 * jf + c]) * inv;
     }
     for (uint j = 0; j < lengthCount; ++j) {
         REAL l = lengths[j];
         REAL a = -expm1(-l * fmax(mean[3], REAL_C(0.0)));
         REAL bound = a * maxColor;
         out[((size_t)j * n + jf) * n + ib] =
-            (float4)((float)clamp(l * mean[0], REAL_C(0.0), bound), (float)clamp(l * mean[1], REAL_C(0.0), bound),
+            (float4)((float)clamp(l * mean[0], REAL_C(0.0), bound),
+                     (float)clamp(l * mean[1], REAL_C(0.0), bound),
                      (float)clamp(l * mean[2], REAL_C(0.0), bound), (float)a);
     }
 }
@@ -306,8 +446,9 @@ __kernel void preint_roettger_linear(__global const float4* table2d, uint n, flo
 /* Roettger's 2D+1D model (thesis 9.1): alpha = 1 - exp(-l rhoHat) exactly, colour = alpha * sum_i
    (l / lMax)^i C_i with the chromaticity coefficients C_i fitted through DEGREE + 1 constant-length slices.
    `coeffs` holds per pair DEGREE + 1 float4: (C_i rgb, rhoHat in .w of the first). */
-__kernel void preint_polynomial(__global const float4* coeffs, uint n, uint degree, float lMax, float maxColor,
-                                __global const float* lengths, uint lengthCount, __global float4* out) {
+__kernel void preint_polynomial(__global const float4* coeffs, uint n, uint degree, float lMax,
+                                float maxColor, __global const float* lengths, uint lengthCount,
+                                __global float4* out) {
     uint ib = get_global_id(0), jf = get_global_id(1);
     if (ib >= n || jf >= n) return;
     __global const float4* c = coeffs + ((size_t)jf * n + ib) * (degree + 1);
@@ -316,7 +457,8 @@ __kernel void preint_polynomial(__global const float4* coeffs, uint n, uint degr
         float l = lengths[j];
         float x = l / lMax;
         float3 chroma = c[degree].xyz;
-        for (int i = (int)degree - 1; i >= 0; --i) chroma = chroma * x + c[i].xyz;
+        for (int i = (int)degree - 1; i >= 0; --i)
+            chroma = chroma * x + c[i].xyz;
         float a = -expm1(-l * rhoHat);
         float3 rgb = clamp(chroma * a, 0.0f, a * maxColor);
         out[((size_t)j * n + jf) * n + ib] = (float4)(rgb, a);

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <random>
 #include <sstream>
 
@@ -64,6 +65,27 @@ KernelDefines realDefines(const GeneratorOptions& o, ComputeContext& cc) {
 double runExact(ComputeContext& cc, const TransferFunction& tf, int n, const std::vector<double>& lengths,
                 double uniformStep, const GeneratorOptions& o, cl::Buffer& out) {
     const std::size_t count = lengths.size();
+    RealArgs real{o.precision == Precision::Double};
+    auto knots = tf.packKnots();
+    auto knotBuf = cc.upload<VolclTfKnot>(knots, CL_MEM_READ_ONLY);
+    if (count == 1) {
+        // One length: vectorise across 16 back nodes instead of across lengths.
+        KernelDefines defs = realDefines(o, cc);
+        defs.set("LANES", 16LL).set("BLOCKS", 1LL);
+        cl::Kernel k = cc.kernel("preint.cl", "preint_exact_row", defs);
+        clCheck(k.setArg(0, knotBuf.get()), "clSetKernelArg");
+        clCheck(k.setArg(1, static_cast<cl_uint>(knots.size())), "clSetKernelArg");
+        clCheck(k.setArg(2, static_cast<cl_uint>(n)), "clSetKernelArg");
+        real.set(k, 3, tf.domain[0]);
+        real.set(k, 4, tf.domain[1]);
+        real.set(k, 5, lengths[0]);
+        real.set(k, 6, std::max(tf.maxColor(), 0.0));
+        real.set(k, 7, o.maxSubstepDepth);
+        clCheck(k.setArg(8, out), "clSetKernelArg");
+        std::size_t groups = (static_cast<std::size_t>(n) + 15) / 16;
+        return eventMilliseconds(
+            cc.launch2d(k, groups, static_cast<std::size_t>(n), std::min<std::size_t>(16, groups), 1));
+    }
     int lanes = 1;
     while (lanes < 16 && static_cast<std::size_t>(lanes) < count)
         lanes *= 2;
@@ -76,9 +98,6 @@ double runExact(ComputeContext& cc, const TransferFunction& tf, int n, const std
     KernelDefines defs = realDefines(o, cc);
     defs.set("LANES", static_cast<long long>(lanes)).set("BLOCKS", static_cast<long long>(blocks));
     cl::Kernel k = cc.kernel("preint.cl", "preint_exact", defs);
-    RealArgs real{o.precision == Precision::Double};
-    auto knots = tf.packKnots();
-    auto knotBuf = cc.upload<VolclTfKnot>(knots, CL_MEM_READ_ONLY);
     cl::Buffer lenBuf = real.upload(cc, padded);
     clCheck(k.setArg(0, knotBuf.get()), "clSetKernelArg");
     clCheck(k.setArg(1, static_cast<cl_uint>(knots.size())), "clSetKernelArg");
@@ -455,7 +474,10 @@ PreintegrationTable PreintegrationTable::readExr(const std::filesystem::path& pa
 // ---------------------------------------------------------------------------------------------- generator
 
 struct PreintegrationGenerator::Buffers {
+    // `table` wraps the output vector's own memory (CL_MEM_USE_HOST_PTR): on CPU devices the kernel writes
+    // straight into it and mapping replaces the copy. Rebuilt when the vector moves or grows.
     DeviceBuffer<cl_float4> table, scratch;
+    const float* tableHost = nullptr;
 };
 
 PreintegrationGenerator::PreintegrationGenerator(ComputeContext* cc)
@@ -496,7 +518,16 @@ void PreintegrationGenerator::generate(const TransferFunction& tf, const TableSp
         }
         return b;
     };
-    auto& out = ensure(buffers_->table, nn * slices);
+    if (buffers_->tableHost != t.rgba.data() || buffers_->table.size() != nn * slices) {
+        buffers_->table = DeviceBuffer<cl_float4>();
+        cl_int err = CL_SUCCESS;
+        cl::Buffer b(cc->context(), CL_MEM_READ_WRITE | CL_MEM_USE_HOST_PTR, nn * slices * sizeof(cl_float4),
+                     t.rgba.data(), &err);
+        clCheck(err, "clCreateBuffer(CL_MEM_USE_HOST_PTR)");
+        buffers_->table = DeviceBuffer<cl_float4>(b, nn * slices);
+        buffers_->tableHost = t.rgba.data();
+    }
+    auto& out = buffers_->table;
     const double uniform = spec.axis == LengthAxis::Linear ? spec.maxLength / spec.lengths : 0.0;
     double ms = 0.0;
     switch (o.method) {
@@ -545,7 +576,14 @@ void PreintegrationGenerator::generate(const TransferFunction& tf, const TableSp
         break;
     }
     t.deviceMilliseconds = ms;
-    cc->read(out, std::span<cl_float4>(reinterpret_cast<cl_float4*>(t.rgba.data()), nn * slices));
+    // Map/unmap makes the entries visible in t.rgba (no copy on devices that use the host pointer directly).
+    cl_int err = CL_SUCCESS;
+    void* p = cc->queue().enqueueMapBuffer(out.get(), CL_TRUE, CL_MAP_READ, 0,
+                                           nn * slices * sizeof(cl_float4), nullptr, nullptr, &err);
+    clCheck(err, "clEnqueueMapBuffer");
+    if (p != t.rgba.data()) std::memcpy(t.rgba.data(), p, nn * slices * sizeof(cl_float4));
+    clCheck(cc->queue().enqueueUnmapMemObject(out.get(), p), "clEnqueueUnmapMemObject");
+    cc->finish();
 }
 
 PreintegrationTable generatePreintegrationTable(const TransferFunction& tf, const TableSpec& spec,
