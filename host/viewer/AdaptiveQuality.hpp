@@ -1,0 +1,61 @@
+// Adaptive quality for interaction: sizes the next frame's work from the last frame's time (Callahan 5.1.1).
+#pragma once
+
+namespace volcl::viewer {
+
+/// How much coarser than full quality one frame is rendered.
+struct QualityLevel {
+    double resolutionScale = 1.0; ///< image edge relative to the viewport, (0, 1]
+    double stepScale = 1.0;       ///< ray step relative to the scene's step, >= 1
+    /// Work relative to full quality: rays times samples per ray.
+    double work() const noexcept { return resolutionScale * resolutionScale / stepScale; }
+    bool full() const noexcept { return resolutionScale >= 1.0 && stepScale <= 1.0; }
+};
+
+struct AdaptiveQualityOptions {
+    bool enabled = true;
+    double targetMs = 100.0; ///< frame time to hold while the user interacts
+    double minResolutionScale = 0.125;
+    double maxStepScale = 4.0;
+    /// Largest change of the work per frame (either way): one outlier (a kernel rebuild, a busy core) must
+    /// not throw the next frame to an extreme.
+    double maxChange = 4.0;
+    /// Step scales come from the ladder 2^(k/4): a pre-integration table is rebuilt per distinct step, so
+    /// a few levels keep tables cached rather than rebuilt every frame.
+    int stepLevelsPerOctave = 4;
+};
+
+/// Frame-rate controller. While interacting, work_next = work_last * target / time_last (Callahan 2005,
+/// section 5.1.1, which sizes the LOD face count the same way); the work is split between a coarser step
+/// and a lower resolution, equally in log scale until the step reaches its limit, then by resolution alone.
+/// When the user is still, the viewer renders full quality and leaves the controller's state as it was, so
+/// the next interaction starts from the level that held the target. Example:
+/// ```
+/// volcl::viewer::AdaptiveQuality aq({.targetMs = 100});
+/// auto level = aq.next();            // level for the next interactive frame
+/// double ms = renderAt(level);       // render + present, wall time
+/// aq.report(level, ms);
+/// ```
+class AdaptiveQuality {
+public:
+    explicit AdaptiveQuality(const AdaptiveQualityOptions& options = {});
+    const AdaptiveQualityOptions& options() const noexcept { return options_; }
+    /// Off: every frame renders at full quality; the learnt work fraction is kept for when it is back on.
+    void setEnabled(bool on) noexcept { options_.enabled = on; }
+    /// Level for the next interactive frame (full quality when disabled).
+    QualityLevel next() const;
+    /// Records that a frame rendered at `used` took `frameMs`; non-finite or non-positive times are ignored.
+    void report(const QualityLevel& used, double frameMs);
+    /// Work fraction the controller aims at for the next interactive frame.
+    double work() const noexcept { return work_; }
+    /// Splits a work fraction into step and resolution (exposed for tests and the benchmark).
+    QualityLevel split(double work) const;
+    /// Smallest work the limits allow (minimum resolution at the largest step).
+    double minWork() const noexcept;
+
+private:
+    AdaptiveQualityOptions options_;
+    double work_ = 1.0;
+};
+
+} // namespace volcl::viewer
