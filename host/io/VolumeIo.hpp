@@ -33,8 +33,8 @@ struct ReadOptions {
     std::optional<Dims> dims;
     std::optional<ScalarType> type;
     Endian endian = Endian::Little;
-    std::size_t headerBytes = 0;              ///< raw only: bytes to skip before the payload
-    std::optional<std::string> vdbGrid;       ///< VDB: grid name (default: the first scalar grid)
+    std::size_t headerBytes = 0;        ///< raw only: bytes to skip before the payload
+    std::optional<std::string> vdbGrid; ///< VDB: grid name (default: the first scalar grid)
 };
 
 /// Reads every frame of a volume file (a 3D file gives one frame). Validates header against payload:
@@ -50,7 +50,8 @@ struct WriteOptions {
 
 /// Writers: Raw (.raw), Nrrd (.nrrd attached, .nhdr detached + .raw), Vdb (.vdb). The format comes from
 /// the extension. Writes atomically (temporary + rename). Throws UsageError for an unsupported format.
-void writeVolumeFile(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options = {});
+void writeVolumeFile(const Volume& volume, const std::filesystem::path& path,
+                     const WriteOptions& options = {});
 
 /// Parses `<X>x<Y>x<Z>_<type>` from a raw file name such as `head_256x256x113_uint16.raw`.
 std::optional<std::pair<Dims, ScalarType>> parseRawFileName(std::string_view fileName);

@@ -1,0 +1,734 @@
+// Shared reader/writer helpers: sample conversion to the volume model, zlib with exact sizes, text parsing.
+#include "host/io/IoDetail.hpp"
+
+#include "host/io/AtomicFile.hpp"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <bit>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <type_traits>
+
+namespace volcl::io {
+
+namespace fs = std::filesystem;
+
+std::size_t sampleSize(SampleType t) noexcept {
+    switch (t) {
+    case SampleType::Int8:
+    case SampleType::UInt8:
+        return 1;
+    case SampleType::Int16:
+    case SampleType::UInt16:
+        return 2;
+    case SampleType::Int32:
+    case SampleType::UInt32:
+    case SampleType::Float32:
+        return 4;
+    case SampleType::Int64:
+    case SampleType::UInt64:
+    case SampleType::Float64:
+        return 8;
+    }
+    return 1;
+}
+
+std::string_view sampleTypeName(SampleType t) noexcept {
+    switch (t) {
+    case SampleType::Int8:
+        return "int8";
+    case SampleType::UInt8:
+        return "uint8";
+    case SampleType::Int16:
+        return "int16";
+    case SampleType::UInt16:
+        return "uint16";
+    case SampleType::Int32:
+        return "int32";
+    case SampleType::UInt32:
+        return "uint32";
+    case SampleType::Int64:
+        return "int64";
+    case SampleType::UInt64:
+        return "uint64";
+    case SampleType::Float32:
+        return "float32";
+    case SampleType::Float64:
+        return "float64";
+    }
+    return "?";
+}
+
+ScalarType volumeTypeFor(SampleType t) noexcept {
+    switch (t) {
+    case SampleType::UInt8:
+        return ScalarType::UInt8;
+    case SampleType::Int8:
+    case SampleType::Int16:
+        return ScalarType::Int16;
+    case SampleType::UInt16:
+        return ScalarType::UInt16;
+    default:
+        return ScalarType::Float32;
+    }
+}
+
+SampleType sampleTypeOf(ScalarType t) noexcept {
+    switch (t) {
+    case ScalarType::UInt8:
+        return SampleType::UInt8;
+    case ScalarType::UInt16:
+        return SampleType::UInt16;
+    case ScalarType::Int16:
+        return SampleType::Int16;
+    case ScalarType::Float32:
+        return SampleType::Float32;
+    }
+    return SampleType::UInt8;
+}
+
+void fail(const fs::path& file, const std::string& problem) {
+    throw IoError(file.string() + ": " + problem);
+}
+void unsupported(const fs::path& file, const std::string& problem) {
+    throw DataError(file.string() + ": " + problem);
+}
+
+namespace {
+// No real file holds more than 2^48 bytes; anything above is a corrupt or lying header.
+constexpr std::size_t kMaxPayloadBytes = std::size_t{1} << 48;
+} // namespace
+
+namespace {
+std::string dimsText(const Dims& dims, std::size_t frames) {
+    std::string t = std::to_string(dims.x);
+    for (std::size_t d : {dims.y, dims.z})
+        t.append("x").append(std::to_string(d));
+    if (frames != 1) t.append("x").append(std::to_string(frames));
+    return t;
+}
+} // namespace
+
+std::size_t checkedVoxelCount(const Dims& dims, std::size_t frames, const fs::path& file) {
+    if (dims.x == 0 || dims.y == 0 || dims.z == 0 || frames == 0)
+        fail(file, "dimensions " + dimsText(dims, frames) + " contain a zero");
+    std::size_t n = 1;
+    for (std::size_t d : {dims.x, dims.y, dims.z, frames}) {
+        if (n > kMaxPayloadBytes / d)
+            fail(file, "dimensions " + dimsText(dims, frames) + " are impossibly large");
+        n *= d;
+    }
+    return n;
+}
+
+std::size_t checkedByteCount(std::size_t voxels, std::size_t sampleBytes, const fs::path& file) {
+    if (voxels > kMaxPayloadBytes / sampleBytes) fail(file, "payload size overflows");
+    return voxels * sampleBytes;
+}
+
+bool hostIsLittleEndian() noexcept {
+    return std::endian::native == std::endian::little;
+}
+Endian hostEndian() noexcept {
+    return hostIsLittleEndian() ? Endian::Little : Endian::Big;
+}
+
+namespace {
+
+template <class T> T loadSample(const std::byte* p, bool swap) noexcept {
+    T v;
+    if (!swap) {
+        std::memcpy(&v, p, sizeof(T));
+        return v;
+    }
+    std::byte tmp[sizeof(T)];
+    for (std::size_t i = 0; i < sizeof(T); ++i)
+        tmp[i] = p[sizeof(T) - 1 - i];
+    std::memcpy(&v, tmp, sizeof(T));
+    return v;
+}
+
+template <class Src, class Dst>
+void convertLoop(const std::byte* src, std::size_t count, bool swap, Dst* dst) {
+    if constexpr (std::is_same_v<Src, Dst>) {
+        if (!swap) {
+            std::memcpy(dst, src, count * sizeof(Src));
+            return;
+        }
+    }
+    for (std::size_t i = 0; i < count; ++i)
+        dst[i] = static_cast<Dst>(loadSample<Src>(src + i * sizeof(Src), swap));
+}
+
+template <class Src>
+void convertTo(const std::byte* src, std::size_t count, bool swap, Volume& dst, std::size_t first) {
+    switch (dst.type()) {
+    case ScalarType::UInt8:
+        convertLoop<Src>(src, count, swap, dst.values<std::uint8_t>().data() + first);
+        break;
+    case ScalarType::UInt16:
+        convertLoop<Src>(src, count, swap, dst.values<std::uint16_t>().data() + first);
+        break;
+    case ScalarType::Int16:
+        convertLoop<Src>(src, count, swap, dst.values<std::int16_t>().data() + first);
+        break;
+    case ScalarType::Float32:
+        convertLoop<Src>(src, count, swap, dst.values<float>().data() + first);
+        break;
+    }
+}
+
+} // namespace
+
+void decodeSamples(std::span<const std::byte> src, SampleType st, Endian endian, Volume& dst,
+                   std::size_t firstVoxel) {
+    const std::size_t size = sampleSize(st);
+    const std::size_t count = src.size() / size;
+    if (dst.type() != volumeTypeFor(st) || src.size() % size != 0 || firstVoxel + count > dst.voxelCount())
+        throw Error("internal: decodeSamples called with mismatched sizes or types");
+    const bool swap = size > 1 && endian != hostEndian();
+    const std::byte* p = src.data();
+    switch (st) {
+    case SampleType::Int8:
+        convertTo<std::int8_t>(p, count, swap, dst, firstVoxel);
+        break;
+    case SampleType::UInt8:
+        convertTo<std::uint8_t>(p, count, swap, dst, firstVoxel);
+        break;
+    case SampleType::Int16:
+        convertTo<std::int16_t>(p, count, swap, dst, firstVoxel);
+        break;
+    case SampleType::UInt16:
+        convertTo<std::uint16_t>(p, count, swap, dst, firstVoxel);
+        break;
+    case SampleType::Int32:
+        convertTo<std::int32_t>(p, count, swap, dst, firstVoxel);
+        break;
+    case SampleType::UInt32:
+        convertTo<std::uint32_t>(p, count, swap, dst, firstVoxel);
+        break;
+    case SampleType::Int64:
+        convertTo<std::int64_t>(p, count, swap, dst, firstVoxel);
+        break;
+    case SampleType::UInt64:
+        convertTo<std::uint64_t>(p, count, swap, dst, firstVoxel);
+        break;
+    case SampleType::Float32:
+        convertTo<float>(p, count, swap, dst, firstVoxel);
+        break;
+    case SampleType::Float64:
+        convertTo<double>(p, count, swap, dst, firstVoxel);
+        break;
+    }
+}
+
+TimeSeries decodeFrames(std::span<const std::byte> payload, SampleType st, Endian endian, const Dims& dims,
+                        std::size_t frames, const std::array<double, 3>& spacing,
+                        const std::array<double, 3>& origin) {
+    TimeSeries series;
+    const std::size_t frameBytes = dims.count() * sampleSize(st);
+    if (payload.size() != frameBytes * frames) throw Error("internal: decodeFrames payload size mismatch");
+    series.frames.reserve(frames);
+    for (std::size_t f = 0; f < frames; ++f) {
+        Volume v(dims, volumeTypeFor(st));
+        v.spacing = spacing;
+        v.origin = origin;
+        decodeSamples(payload.subspan(f * frameBytes, frameBytes), st, endian, v);
+        series.frames.push_back(std::move(v));
+    }
+    return series;
+}
+
+void requireAsciiCapacity(std::string_view text, std::size_t count, const fs::path& file) {
+    if (count > text.size() / 2 + 1)
+        fail(file, "truncated: " + std::to_string(text.size()) + " bytes of ASCII data cannot hold " +
+                       std::to_string(count) + " values");
+}
+
+void decodeAsciiSamples(std::string_view text, SampleType st, Volume& dst, std::size_t firstVoxel,
+                        std::size_t count, const fs::path& file) {
+    std::size_t pos = 0, n = 0;
+    auto put = [&](double v) {
+        const std::size_t i = firstVoxel + n;
+        switch (dst.type()) {
+        case ScalarType::UInt8:
+            dst.values<std::uint8_t>()[i] = static_cast<std::uint8_t>(v);
+            break;
+        case ScalarType::UInt16:
+            dst.values<std::uint16_t>()[i] = static_cast<std::uint16_t>(v);
+            break;
+        case ScalarType::Int16:
+            dst.values<std::int16_t>()[i] = static_cast<std::int16_t>(v);
+            break;
+        case ScalarType::Float32:
+            dst.values<float>()[i] = static_cast<float>(v);
+            break;
+        }
+    };
+    const bool integer = st != SampleType::Float32 && st != SampleType::Float64;
+    while (true) {
+        while (pos < text.size() && std::isspace(static_cast<unsigned char>(text[pos])))
+            ++pos;
+        if (pos >= text.size()) break;
+        std::size_t end = pos;
+        while (end < text.size() && !std::isspace(static_cast<unsigned char>(text[end])))
+            ++end;
+        const std::string_view tok = text.substr(pos, end - pos);
+        if (n >= count) fail(file, "more than the expected " + std::to_string(count) + " ASCII values");
+        double v = 0;
+        if (integer) {
+            const auto iv = parseNumber<long long>(tok);
+            if (!iv) fail(file, "ASCII value '" + std::string(tok.substr(0, 32)) + "' is not an integer");
+            // Range check against the file's declared type so a value never wraps silently.
+            double lo = 0, hi = 0;
+            switch (st) {
+            case SampleType::Int8:
+                lo = -128, hi = 127;
+                break;
+            case SampleType::UInt8:
+                lo = 0, hi = 255;
+                break;
+            case SampleType::Int16:
+                lo = -32768, hi = 32767;
+                break;
+            case SampleType::UInt16:
+                lo = 0, hi = 65535;
+                break;
+            case SampleType::Int32:
+                lo = -2147483648.0, hi = 2147483647.0;
+                break;
+            case SampleType::UInt32:
+                lo = 0, hi = 4294967295.0;
+                break;
+            default:
+                lo = -9.3e18, hi = 1.85e19;
+                break;
+            }
+            v = static_cast<double>(*iv);
+            if (v < lo || v > hi)
+                fail(file, "ASCII value " + std::string(tok) + " is outside type " +
+                               std::string(sampleTypeName(st)));
+        } else {
+            std::string t(tok);
+            char* endp = nullptr;
+            v = std::strtod(t.c_str(), &endp);
+            if (endp != t.c_str() + t.size())
+                fail(file, "ASCII value '" + std::string(tok.substr(0, 32)) + "' is not a number");
+        }
+        put(v);
+        ++n;
+        pos = end;
+    }
+    if (n != count)
+        fail(file, "truncated: " + std::to_string(n) + " ASCII values, expected " + std::to_string(count));
+}
+
+// ---- zlib ---------------------------------------------------------------------------------------
+
+namespace {
+
+// Deflate cannot expand data more than ~1032:1; a header promising more than that from the bytes
+// at hand is lying, and is refused before the output buffer is allocated.
+constexpr std::size_t kMaxDeflateRatio = 1040;
+
+bool isGzipMagic(std::span<const std::byte> b) noexcept {
+    return b.size() >= 2 && b[0] == std::byte{0x1f} && b[1] == std::byte{0x8b};
+}
+
+class Inflater {
+public:
+    Inflater() {
+        std::memset(&s_, 0, sizeof(s_));
+        ok_ = inflateInit2(&s_, 15 + 32) == Z_OK; // 32: accept zlib and gzip headers
+    }
+    ~Inflater() {
+        if (ok_) inflateEnd(&s_);
+    }
+    Inflater(const Inflater&) = delete;
+    Inflater& operator=(const Inflater&) = delete;
+    z_stream& s() { return s_; }
+    bool ok() const { return ok_; }
+
+private:
+    z_stream s_;
+    bool ok_ = false;
+};
+
+} // namespace
+
+bool looksCompressed(std::span<const std::byte> b) noexcept {
+    if (isGzipMagic(b)) return true;
+    if (b.size() < 2) return false;
+    const unsigned cmf = std::to_integer<unsigned>(b[0]), flg = std::to_integer<unsigned>(b[1]);
+    return (cmf & 0x0f) == 8 && (cmf >> 4) <= 7 && ((cmf << 8) | flg) % 31 == 0;
+}
+
+std::vector<std::byte> inflateExact(std::span<const std::byte> in, std::size_t expected, const fs::path& file,
+                                    std::string_view what) {
+    const std::string label = std::string(what);
+    if (in.empty()) fail(file, label + ": no compressed data (truncated)");
+    if (expected / kMaxDeflateRatio > in.size())
+        fail(file, label + ": header promises " + std::to_string(expected) + " bytes but only " +
+                       std::to_string(in.size()) + " compressed bytes are present (truncated or corrupt)");
+    if (!looksCompressed(in)) fail(file, label + ": not a zlib/gzip stream");
+    std::vector<std::byte> out(expected);
+    Inflater inf;
+    if (!inf.ok()) throw IoError("zlib initialisation failed");
+    z_stream& s = inf.s();
+    std::size_t inPos = 0, outPos = 0;
+    constexpr std::size_t kChunk = std::size_t{1} << 30; // zlib counts in 32-bit uInt
+    unsigned char probe = 0;
+    while (true) {
+        const std::size_t inAvail = std::min(in.size() - inPos, kChunk);
+        s.next_in = reinterpret_cast<Bytef*>(const_cast<std::byte*>(in.data() + inPos));
+        s.avail_in = static_cast<uInt>(inAvail);
+        const bool outFull = outPos == out.size();
+        if (outFull) {
+            // Output is complete; inflating one more byte tells "ends here" from "too long".
+            s.next_out = &probe;
+            s.avail_out = 1;
+        } else {
+            s.next_out = reinterpret_cast<Bytef*>(out.data() + outPos);
+            s.avail_out = static_cast<uInt>(std::min(out.size() - outPos, kChunk));
+        }
+        const uInt outBefore = s.avail_out;
+        const int rc = inflate(&s, Z_NO_FLUSH);
+        inPos += inAvail - s.avail_in;
+        const std::size_t produced = outBefore - s.avail_out;
+        if (outFull && produced > 0)
+            fail(file,
+                 label + ": decompresses to more than the expected " + std::to_string(expected) + " bytes");
+        outPos += outFull ? 0 : produced;
+        if (rc == Z_STREAM_END) {
+            const std::span<const std::byte> rest = in.subspan(inPos);
+            if (rest.empty()) break;
+            if (isGzipMagic(rest)) { // another gzip member follows
+                inflateReset(&s);
+                continue;
+            }
+            fail(file, label + ": " + std::to_string(rest.size()) +
+                           " bytes of trailing data after the compressed stream");
+        }
+        if (rc == Z_DATA_ERROR)
+            fail(file,
+                 label + ": corrupted compressed data (" + std::string(s.msg ? s.msg : "bad stream") + ")");
+        if (rc == Z_MEM_ERROR) throw IoError(file.string() + ": out of memory while decompressing");
+        if (rc == Z_NEED_DICT) fail(file, label + ": compressed stream needs a preset dictionary");
+        const bool stalled = produced == 0 && inAvail == s.avail_in;
+        if (rc == Z_BUF_ERROR || stalled) {
+            if (inPos >= in.size())
+                fail(file, label + ": truncated compressed data (" + std::to_string(outPos) + " of " +
+                               std::to_string(expected) + " bytes decoded)");
+            if (stalled) fail(file, label + ": compressed stream makes no progress (corrupt)");
+        }
+    }
+    if (outPos != expected)
+        fail(file, label + ": decompresses to " + std::to_string(outPos) + " bytes, expected " +
+                       std::to_string(expected));
+    return out;
+}
+
+std::vector<std::byte> inflatePrefix(std::span<const std::byte> in, std::size_t n, const fs::path& file) {
+    std::vector<std::byte> out(n);
+    if (!looksCompressed(in)) fail(file, "not a gzip/zlib stream");
+    Inflater inf;
+    if (!inf.ok()) throw IoError("zlib initialisation failed");
+    z_stream& s = inf.s();
+    s.next_in = reinterpret_cast<Bytef*>(const_cast<std::byte*>(in.data()));
+    s.avail_in = static_cast<uInt>(std::min<std::size_t>(in.size(), std::numeric_limits<uInt>::max()));
+    s.next_out = reinterpret_cast<Bytef*>(out.data());
+    s.avail_out = static_cast<uInt>(n);
+    while (s.avail_out > 0) {
+        const int rc = inflate(&s, Z_NO_FLUSH);
+        if (rc == Z_STREAM_END) break;
+        if (rc == Z_DATA_ERROR)
+            fail(file, "corrupted compressed data (" + std::string(s.msg ? s.msg : "bad stream") + ")");
+        if (rc != Z_OK) break;
+    }
+    out.resize(n - s.avail_out);
+    return out;
+}
+
+std::vector<std::byte> deflateBytes(std::span<const std::byte> data, Wrapper wrapper, int level) {
+    z_stream s;
+    std::memset(&s, 0, sizeof(s));
+    if (deflateInit2(&s, level, Z_DEFLATED, wrapper == Wrapper::Gzip ? 15 + 16 : 15, 8, Z_DEFAULT_STRATEGY) !=
+        Z_OK)
+        throw IoError("zlib initialisation failed");
+    std::vector<std::byte> out;
+    out.resize(deflateBound(&s, static_cast<uLong>(std::min<std::size_t>(data.size(), 1u << 30))) + 64);
+    std::size_t inPos = 0, outPos = 0;
+    constexpr std::size_t kChunk = std::size_t{1} << 30;
+    int rc = Z_OK;
+    while (rc != Z_STREAM_END) {
+        const std::size_t inAvail = std::min(data.size() - inPos, kChunk);
+        s.next_in = reinterpret_cast<Bytef*>(const_cast<std::byte*>(data.data() + inPos));
+        s.avail_in = static_cast<uInt>(inAvail);
+        if (out.size() - outPos < (1u << 16)) out.resize(out.size() * 2 + (1u << 16));
+        s.next_out = reinterpret_cast<Bytef*>(out.data() + outPos);
+        s.avail_out = static_cast<uInt>(std::min(out.size() - outPos, kChunk));
+        const uInt outBefore = s.avail_out;
+        const bool last = inPos + inAvail == data.size();
+        rc = deflate(&s, last ? Z_FINISH : Z_NO_FLUSH);
+        inPos += inAvail - s.avail_in;
+        outPos += outBefore - s.avail_out;
+        if (rc == Z_STREAM_ERROR) {
+            deflateEnd(&s);
+            throw IoError("zlib compression failed");
+        }
+    }
+    deflateEnd(&s);
+    out.resize(outPos);
+    return out;
+}
+
+std::vector<std::byte> bytesInOrder(const Volume& v, Endian endian) {
+    std::vector<std::byte> out(v.bytes().begin(), v.bytes().end());
+    const std::size_t size = scalarSize(v.type());
+    if (size > 1 && endian != hostEndian())
+        for (std::size_t i = 0; i + size <= out.size(); i += size)
+            std::reverse(out.begin() + i, out.begin() + i + size);
+    return out;
+}
+
+// ---- text ---------------------------------------------------------------------------------------
+
+std::string_view trim(std::string_view s) noexcept {
+    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front())))
+        s.remove_prefix(1);
+    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back())))
+        s.remove_suffix(1);
+    return s;
+}
+
+std::string lower(std::string_view s) {
+    std::string r(s);
+    for (char& c : r)
+        c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return r;
+}
+
+bool iequals(std::string_view a, std::string_view b) noexcept {
+    if (a.size() != b.size()) return false;
+    for (std::size_t i = 0; i < a.size(); ++i)
+        if (std::tolower(static_cast<unsigned char>(a[i])) != std::tolower(static_cast<unsigned char>(b[i])))
+            return false;
+    return true;
+}
+
+bool endsWithI(std::string_view s, std::string_view suffix) noexcept {
+    return s.size() >= suffix.size() && iequals(s.substr(s.size() - suffix.size()), suffix);
+}
+
+std::vector<std::string_view> splitWords(std::string_view s) {
+    std::vector<std::string_view> words;
+    std::size_t i = 0;
+    while (i < s.size()) {
+        while (i < s.size() && std::isspace(static_cast<unsigned char>(s[i])))
+            ++i;
+        std::size_t j = i;
+        while (j < s.size() && !std::isspace(static_cast<unsigned char>(s[j])))
+            ++j;
+        if (j > i) words.push_back(s.substr(i, j - i));
+        i = j;
+    }
+    return words;
+}
+
+std::string_view asText(std::span<const std::byte> bytes) noexcept {
+    return {reinterpret_cast<const char*>(bytes.data()), bytes.size()};
+}
+
+std::optional<std::string_view> nextLine(std::string_view text, std::size_t& pos) {
+    if (pos >= text.size()) return std::nullopt;
+    const std::size_t nl = text.find('\n', pos);
+    std::string_view line =
+        text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
+    pos = nl == std::string_view::npos ? text.size() : nl + 1;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    return line;
+}
+
+double requireDouble(std::string_view token, const fs::path& file, std::string_view what) {
+    std::string t(trim(token));
+    if (!t.empty() && t.size() < 64) {
+        char* end = nullptr;
+        const double v = std::strtod(t.c_str(), &end);
+        if (end == t.c_str() + t.size()) return v;
+    }
+    fail(file, std::string(what) + ": '" + std::string(token.substr(0, 40)) + "' is not a number");
+}
+
+long long requireInt(std::string_view token, const fs::path& file, std::string_view what) {
+    if (auto v = parseNumber<long long>(token)) return *v;
+    fail(file, std::string(what) + ": '" + std::string(token.substr(0, 40)) + "' is not an integer");
+}
+
+std::array<double, 3> requireTriple(const std::vector<std::string_view>& words, std::size_t first,
+                                    const fs::path& file, std::string_view what, bool positive) {
+    if (words.size() < first + 3) fail(file, std::string(what) + " needs 3 values");
+    std::array<double, 3> r{};
+    for (int i = 0; i < 3; ++i) {
+        r[i] = requireDouble(words[first + i], file, what);
+        if (!std::isfinite(r[i]) || (positive && r[i] <= 0))
+            fail(file, std::string(what) + ": value " + std::string(words[first + i]) + " is not " +
+                           (positive ? "a positive finite number" : "finite"));
+    }
+    return r;
+}
+
+Dims requireDims(const std::vector<std::string_view>& words, std::size_t first, std::size_t count,
+                 const fs::path& file, std::string_view what) {
+    if (words.size() < first + count)
+        fail(file, std::string(what) + " needs " + std::to_string(count) + " values");
+    std::size_t d[3] = {1, 1, 1};
+    for (std::size_t i = 0; i < count && i < 3; ++i) {
+        const long long v = requireInt(words[first + i], file, what);
+        if (v <= 0)
+            fail(file, std::string(what) + ": size " + std::string(words[first + i]) + " must be positive");
+        d[i] = static_cast<std::size_t>(v);
+    }
+    return {d[0], d[1], d[2]};
+}
+
+std::string formatDouble(double v) {
+    char buf[64];
+    auto [ptr, ec] = std::to_chars(buf, buf + sizeof(buf), v);
+    return std::string(buf, ec == std::errc() ? ptr : buf);
+}
+
+fs::path siblingPath(const fs::path& header, std::string_view name) {
+    const fs::path p{std::string(name)};
+    if (p.is_absolute()) return p;
+    return header.parent_path() / p;
+}
+
+std::vector<std::string> expandFilePattern(std::string_view pattern, long long first, long long last,
+                                           long long step, const fs::path& header) {
+    // Locate the single integer conversion; everything else is literal ("%%" is a literal %).
+    std::string prefix, suffix;
+    bool found = false, zeroPad = false, leftAlign = false;
+    int width = 0;
+    for (std::size_t i = 0; i < pattern.size(); ++i) {
+        const char c = pattern[i];
+        if (c != '%') {
+            (found ? suffix : prefix) += c;
+            continue;
+        }
+        if (i + 1 < pattern.size() && pattern[i + 1] == '%') {
+            (found ? suffix : prefix) += '%';
+            ++i;
+            continue;
+        }
+        if (found)
+            fail(header, "data file pattern '" + std::string(pattern) + "' has more than one % conversion");
+        std::size_t j = i + 1;
+        while (j < pattern.size() && (pattern[j] == '0' || pattern[j] == '-')) {
+            zeroPad |= pattern[j] == '0';
+            leftAlign |= pattern[j] == '-';
+            ++j;
+        }
+        while (j < pattern.size() && std::isdigit(static_cast<unsigned char>(pattern[j])) && width < 100)
+            width = width * 10 + (pattern[j++] - '0');
+        if (j >= pattern.size() || (pattern[j] != 'd' && pattern[j] != 'i' && pattern[j] != 'u'))
+            fail(header, "data file pattern '" + std::string(pattern) + "' needs one %d conversion");
+        found = true;
+        i = j;
+    }
+    if (!found) fail(header, "data file pattern '" + std::string(pattern) + "' has no %d conversion");
+    if (step == 0 || (step > 0 && last < first) || (step < 0 && last > first))
+        fail(header, "data file range " + std::to_string(first) + " " + std::to_string(last) + " " +
+                         std::to_string(step) + " is empty or endless");
+    const long long span = step > 0 ? last - first : first - last;
+    const long long count = span / (step > 0 ? step : -step) + 1;
+    if (count > 10'000'000) fail(header, "data file range lists more than 10 million files");
+    std::vector<std::string> names;
+    names.reserve(static_cast<std::size_t>(count));
+    for (long long k = 0; k < count; ++k) {
+        const long long v = first + k * step;
+        std::string digits = std::to_string(v < 0 ? -v : v);
+        std::string number = (v < 0 ? "-" : "");
+        const int len = static_cast<int>(digits.size() + number.size());
+        if (zeroPad && !leftAlign && len < width)
+            number += std::string(static_cast<std::size_t>(width - len), '0');
+        number += digits;
+        if (static_cast<int>(number.size()) < width) {
+            const std::string pad(static_cast<std::size_t>(width) - number.size(), ' ');
+            number = leftAlign ? number + pad : pad + number;
+        }
+        names.push_back(prefix + number + suffix);
+    }
+    return names;
+}
+
+std::vector<std::byte> readDataFile(const fs::path& header, const fs::path& data) {
+    std::error_code ec;
+    if (!fs::is_regular_file(data, ec))
+        fail(header, "data file '" + data.string() + "' does not exist or is not a regular file");
+    return readFileBytes(data);
+}
+
+std::vector<std::byte> readDetachedPayload(const fs::path& header, const std::vector<fs::path>& files,
+                                           std::size_t totalBytes, PayloadEncoding encoding,
+                                           long long byteSkip, std::size_t lineSkip) {
+    if (files.empty()) fail(header, "no data files listed");
+    if (encoding != PayloadEncoding::Ascii && totalBytes % files.size() != 0)
+        fail(header, std::to_string(files.size()) + " data files cannot evenly hold " +
+                         std::to_string(totalBytes) + " bytes");
+    const std::size_t part = encoding == PayloadEncoding::Ascii ? 0 : totalBytes / files.size();
+    std::vector<std::byte> out;
+    if (encoding != PayloadEncoding::Ascii) out.reserve(totalBytes);
+    for (const fs::path& f : files) {
+        std::error_code ec;
+        if (!fs::is_regular_file(f, ec))
+            fail(header, "data file '" + f.string() + "' does not exist or is not a regular file");
+        // Refuse before reading when a raw file cannot possibly hold its part.
+        if (encoding == PayloadEncoding::Raw && fs::file_size(f, ec) < part)
+            fail(f, "truncated: " + std::to_string(fs::file_size(f, ec)) + " bytes, expected " +
+                        std::to_string(part));
+        std::vector<std::byte> bytes = readFileBytes(f);
+        std::size_t pos = 0;
+        for (std::size_t l = 0; l < lineSkip; ++l) {
+            while (pos < bytes.size() && bytes[pos] != std::byte{'\n'})
+                ++pos;
+            if (pos >= bytes.size())
+                fail(f, "truncated: fewer than " + std::to_string(lineSkip) + " lines to skip");
+            ++pos;
+        }
+        std::span<const std::byte> rest(bytes.data() + pos, bytes.size() - pos);
+        if (encoding == PayloadEncoding::Ascii) {
+            out.insert(out.end(), rest.begin(), rest.end());
+            out.push_back(std::byte{'\n'});
+            continue;
+        }
+        std::vector<std::byte> inflated;
+        if (encoding == PayloadEncoding::Compressed) {
+            // byte skip counts decoded bytes here; the decoded size is part + skip (skip -1 is raw-only).
+            if (byteSkip < 0) fail(header, "byte skip -1 is only valid for raw data");
+            inflated = inflateExact(rest, part + static_cast<std::size_t>(byteSkip), f, "compressed data");
+            rest = std::span<const std::byte>(inflated).subspan(static_cast<std::size_t>(byteSkip));
+        } else if (byteSkip < 0) {
+            if (rest.size() < part)
+                fail(f, "truncated: " + std::to_string(rest.size()) + " bytes, expected " +
+                            std::to_string(part));
+            rest = rest.subspan(rest.size() - part);
+        } else {
+            const std::size_t skip = static_cast<std::size_t>(byteSkip);
+            if (rest.size() < skip + part)
+                fail(f, "truncated: " + std::to_string(rest.size()) + " bytes, expected " +
+                            std::to_string(skip + part));
+            if (rest.size() > skip + part)
+                fail(f, "oversized: " + std::to_string(rest.size() - skip - part) +
+                            " unexpected trailing bytes");
+            rest = rest.subspan(skip);
+        }
+        out.insert(out.end(), rest.begin(), rest.end());
+    }
+    return out;
+}
+
+} // namespace volcl::io

@@ -1,0 +1,150 @@
+// Internal helpers shared by the format readers and writers: sample decoding, size checks, zlib, text.
+#pragma once
+
+#include "host/Error.hpp"
+#include "host/Volume.hpp"
+#include "host/io/VolumeIo.hpp"
+
+#include <charconv>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace volcl::io {
+
+/// Sample types found in files. The volume model holds fewer; volumeTypeFor() says where each lands.
+enum class SampleType : std::uint8_t {
+    Int8,
+    UInt8,
+    Int16,
+    UInt16,
+    Int32,
+    UInt32,
+    Int64,
+    UInt64,
+    Float32,
+    Float64
+};
+
+std::size_t sampleSize(SampleType t) noexcept;
+std::string_view sampleTypeName(SampleType t) noexcept;
+/// int8 -> Int16 (exact); 32/64-bit integers and float64 -> Float32 (rounded); the rest keep their type.
+ScalarType volumeTypeFor(SampleType t) noexcept;
+SampleType sampleTypeOf(ScalarType t) noexcept;
+
+/// Throws IoError "<file>: <problem>"; every reader reports through it so messages look alike.
+[[noreturn]] void fail(const std::filesystem::path& file, const std::string& problem);
+[[noreturn]] void unsupported(const std::filesystem::path& file, const std::string& problem); // DataError
+
+/// Voxel count of `dims` times `frames`, refusing zero sizes and products that overflow or exceed
+/// what any file could hold (a lying header must not reach an allocation).
+std::size_t checkedVoxelCount(const Dims& dims, std::size_t frames, const std::filesystem::path& file);
+std::size_t checkedByteCount(std::size_t voxels, std::size_t sampleBytes, const std::filesystem::path& file);
+
+/// Decodes `count` samples of type `st` stored with byte order `endian` into `dst` from voxel
+/// `firstVoxel` on; dst.type() must be volumeTypeFor(st). `src` must hold exactly count samples.
+void decodeSamples(std::span<const std::byte> src, SampleType st, Endian endian, Volume& dst,
+                   std::size_t firstVoxel = 0);
+/// Splits a payload of `frames` consecutive volumes into a time series with the model's types.
+TimeSeries decodeFrames(std::span<const std::byte> payload, SampleType st, Endian endian, const Dims& dims,
+                        std::size_t frames, const std::array<double, 3>& spacing,
+                        const std::array<double, 3>& origin);
+/// Refuses ASCII text too short to hold `count` values (each needs a character and a separator)
+/// before the caller allocates a volume for them.
+void requireAsciiCapacity(std::string_view text, std::size_t count, const std::filesystem::path& file);
+/// Parses whitespace-separated numbers (ASCII encodings) into a volume of the model's type.
+void decodeAsciiSamples(std::string_view text, SampleType st, Volume& dst, std::size_t firstVoxel,
+                        std::size_t count, const std::filesystem::path& file);
+
+/// Inflates a zlib or gzip stream (detected from its first bytes; concatenated gzip members are
+/// joined) that must decompress to exactly `expected` bytes. Truncated, corrupted (CRC/Adler), short,
+/// long or trailing-garbage streams raise IoError naming `file` and `what`. The size is checked against
+/// the maximum deflate ratio before anything is allocated.
+std::vector<std::byte> inflateExact(std::span<const std::byte> compressed, std::size_t expected,
+                                    const std::filesystem::path& file, std::string_view what);
+/// The first `n` decompressed bytes of a zlib/gzip stream (fewer when the stream is shorter).
+std::vector<std::byte> inflatePrefix(std::span<const std::byte> compressed, std::size_t n,
+                                     const std::filesystem::path& file);
+bool looksCompressed(std::span<const std::byte> bytes) noexcept; ///< gzip magic or a zlib header
+enum class Wrapper : std::uint8_t { Gzip, Zlib };
+std::vector<std::byte> deflateBytes(std::span<const std::byte> data, Wrapper wrapper, int level = 6);
+
+bool hostIsLittleEndian() noexcept;
+Endian hostEndian() noexcept;
+/// Copy of a volume's bytes in the requested byte order.
+std::vector<std::byte> bytesInOrder(const Volume& v, Endian endian);
+
+// ---- text helpers -------------------------------------------------------------------------------
+std::string_view trim(std::string_view s) noexcept;
+std::string lower(std::string_view s);
+bool iequals(std::string_view a, std::string_view b) noexcept;
+bool endsWithI(std::string_view s, std::string_view suffix) noexcept;
+std::vector<std::string_view> splitWords(std::string_view s); ///< on spaces, tabs, CR, LF
+std::string_view asText(std::span<const std::byte> bytes) noexcept;
+
+/// Reads one line from `text` starting at `pos` (without CR/LF); advances pos past the newline.
+/// Returns nullopt at the end of the text.
+std::optional<std::string_view> nextLine(std::string_view text, std::size_t& pos);
+
+template <class T> std::optional<T> parseNumber(std::string_view token) noexcept {
+    token = trim(token);
+    if (!token.empty() && token.front() == '+') token.remove_prefix(1);
+    T value{};
+    const char* end = token.data() + token.size();
+    auto [ptr, ec] = std::from_chars(token.data(), end, value);
+    if (ec != std::errc() || ptr != end || token.empty()) return std::nullopt;
+    return value;
+}
+/// Parses a number or throws IoError "<file>: <what>: '<token>' is not a number".
+double requireDouble(std::string_view token, const std::filesystem::path& file, std::string_view what);
+long long requireInt(std::string_view token, const std::filesystem::path& file, std::string_view what);
+/// Three numbers (spacing, origin); `positive` also refuses zero, negative and non-finite values.
+std::array<double, 3> requireTriple(const std::vector<std::string_view>& words, std::size_t first,
+                                    const std::filesystem::path& file, std::string_view what, bool positive);
+Dims requireDims(const std::vector<std::string_view>& words, std::size_t first, std::size_t count,
+                 const std::filesystem::path& file, std::string_view what);
+
+/// Shortest text that reads back to the same double.
+std::string formatDouble(double v);
+
+/// Resolves a data file named inside a header relative to the header's directory.
+std::filesystem::path siblingPath(const std::filesystem::path& header, std::string_view name);
+/// File names of a NRRD/MetaImage `<printf pattern> <min> <max> <step>` list. Only one integer
+/// conversion (%d, %i or %u with optional 0/- flags and width) is accepted.
+std::vector<std::string> expandFilePattern(std::string_view pattern, long long first, long long last,
+                                           long long step, const std::filesystem::path& header);
+/// Reads a data file that a header refers to; a missing file names both the header and the data file.
+std::vector<std::byte> readDataFile(const std::filesystem::path& header, const std::filesystem::path& data);
+
+enum class PayloadEncoding : std::uint8_t { Raw, Compressed, Ascii };
+/// Payload of `totalBytes` spread evenly over detached data files (one file, a LIST or a pattern).
+/// Per file: `lineSkip` text lines are dropped, then (raw) `byteSkip` bytes, -1 meaning "the data
+/// sits at the end of the file"; compressed files are inflated first and byteSkip applies to the
+/// inflated bytes. Ascii files are returned joined by newlines (totalBytes is then ignored).
+std::vector<std::byte> readDetachedPayload(const std::filesystem::path& header,
+                                           const std::vector<std::filesystem::path>& files,
+                                           std::size_t totalBytes, PayloadEncoding encoding,
+                                           long long byteSkip, std::size_t lineSkip);
+
+// ---- per-format entry points ---------------------------------------------------------------------
+TimeSeries readRaw(const std::filesystem::path& path, const ReadOptions& options);
+TimeSeries readNrrd(const std::filesystem::path& path);
+TimeSeries readMetaImage(const std::filesystem::path& path);
+TimeSeries readNifti(const std::filesystem::path& path);
+TimeSeries readVtkXmlImage(const std::filesystem::path& path);
+TimeSeries readVtkLegacy(const std::filesystem::path& path);
+TimeSeries readSlc(const std::filesystem::path& path);
+TimeSeries readVdb(const std::filesystem::path& path, const ReadOptions& options);
+TimeSeries readInviwoDat(const std::filesystem::path& path);
+TimeSeries readVoreenVvd(const std::filesystem::path& path);
+
+void writeRaw(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
+void writeNrrd(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
+void writeVdb(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
+
+} // namespace volcl::io

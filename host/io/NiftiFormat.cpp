@@ -1,0 +1,175 @@
+// NIfTI-1 single files (.nii, .nii.gz): 3D and 4D, either byte order, scl_slope/inter, pixdim spacing.
+#include "host/io/AtomicFile.hpp"
+#include "host/io/IoDetail.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+namespace volcl::io {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr std::size_t kHeaderSize = 348;
+
+class HeaderView {
+public:
+    HeaderView(std::span<const std::byte> h, bool swap) : h_(h), swap_(swap) {}
+    template <class T> T get(std::size_t offset) const {
+        std::byte tmp[sizeof(T)];
+        std::memcpy(tmp, h_.data() + offset, sizeof(T));
+        if (swap_) std::reverse(tmp, tmp + sizeof(T));
+        T v;
+        std::memcpy(&v, tmp, sizeof(T));
+        return v;
+    }
+
+private:
+    std::span<const std::byte> h_;
+    bool swap_;
+};
+
+std::optional<SampleType> niftiType(int code) {
+    switch (code) {
+    case 2:
+        return SampleType::UInt8;
+    case 4:
+        return SampleType::Int16;
+    case 8:
+        return SampleType::Int32;
+    case 16:
+        return SampleType::Float32;
+    case 64:
+        return SampleType::Float64;
+    case 256:
+        return SampleType::Int8;
+    case 512:
+        return SampleType::UInt16;
+    case 768:
+        return SampleType::UInt32;
+    case 1024:
+        return SampleType::Int64;
+    case 1280:
+        return SampleType::UInt64;
+    default:
+        return std::nullopt;
+    }
+}
+
+} // namespace
+
+TimeSeries readNifti(const fs::path& path) {
+    const std::vector<std::byte> file = readFileBytes(path);
+    const bool gz = looksCompressed(file); // .nii files are sometimes gzipped without the .gz suffix
+    std::vector<std::byte> head =
+        gz ? inflatePrefix(file, kHeaderSize, path)
+           : std::vector<std::byte>(file.begin(), file.begin() + std::min(file.size(), kHeaderSize));
+    if (head.size() < kHeaderSize)
+        fail(path, "truncated: " + std::to_string(head.size()) + " bytes, a NIfTI-1 header needs 348");
+    std::int32_t sizeofHdr = 0;
+    std::memcpy(&sizeofHdr, head.data(), 4);
+    bool swap = false;
+    if (sizeofHdr != 348) {
+        const auto swapped =
+            static_cast<std::int32_t>(__builtin_bswap32(static_cast<std::uint32_t>(sizeofHdr)));
+        if (swapped == 540 || sizeofHdr == 540) unsupported(path, "NIfTI-2 files are not supported");
+        if (swapped != 348) fail(path, "not a NIfTI-1 file (sizeof_hdr is not 348 in either byte order)");
+        swap = true;
+    }
+    const Endian endian = (swap ? (hostIsLittleEndian() ? Endian::Big : Endian::Little) : hostEndian());
+    const HeaderView h(head, swap);
+    const std::string_view magic(reinterpret_cast<const char*>(head.data()) + 344, 4);
+    if (magic == std::string_view("ni1\0", 4))
+        unsupported(path,
+                    "header/image pairs (.hdr/.img, magic 'ni1') are not supported; use a single .nii file");
+    if (magic != std::string_view("n+1\0", 4)) fail(path, "bad NIfTI-1 magic (expected 'n+1')");
+
+    const int rank = h.get<std::int16_t>(40);
+    if (rank < 1 || rank > 7) fail(path, "dim[0] = " + std::to_string(rank) + " is outside 1..7");
+    std::size_t sizes[7] = {1, 1, 1, 1, 1, 1, 1};
+    for (int i = 0; i < rank; ++i) {
+        const int d = h.get<std::int16_t>(42 + 2 * i);
+        if (d <= 0)
+            fail(path, "dim[" + std::to_string(i + 1) + "] = " + std::to_string(d) + " must be positive");
+        sizes[i] = static_cast<std::size_t>(d);
+    }
+    for (int i = 4; i < 7; ++i)
+        if (sizes[i] != 1)
+            unsupported(path, "dimension " + std::to_string(i + 1) + " has size " + std::to_string(sizes[i]) +
+                                  ": only 3D and 4D volumes are supported");
+    const int datatype = h.get<std::int16_t>(70);
+    const auto st = niftiType(datatype);
+    if (!st)
+        unsupported(path,
+                    "datatype " + std::to_string(datatype) + " (complex, RGB or unknown) is not supported");
+    const int bitpix = h.get<std::int16_t>(72);
+    if (bitpix != static_cast<int>(8 * sampleSize(*st)))
+        fail(path,
+             "bitpix " + std::to_string(bitpix) + " does not match datatype " + std::to_string(datatype));
+
+    std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
+    for (int i = 0; i < 3; ++i) {
+        const double p = std::abs(static_cast<double>(h.get<float>(80 + 4 * i)));
+        if (std::isfinite(p) && p > 0) spacing[i] = p;
+    }
+    const int qformCode = h.get<std::int16_t>(252), sformCode = h.get<std::int16_t>(254);
+    if (sformCode > 0) {
+        for (int i = 0; i < 3; ++i)
+            origin[i] = h.get<float>(280 + 16 * i + 12);
+    } else if (qformCode > 0) {
+        for (int i = 0; i < 3; ++i)
+            origin[i] = h.get<float>(268 + 4 * i);
+    }
+    for (double& o : origin)
+        if (!std::isfinite(o)) o = 0;
+
+    const float voxOffsetF = h.get<float>(108);
+    if (!std::isfinite(voxOffsetF) || voxOffsetF < 0 || voxOffsetF > 1e12f ||
+        voxOffsetF != std::floor(voxOffsetF))
+        fail(path, "vox_offset " + formatDouble(voxOffsetF) + " is not a valid byte offset");
+    const std::size_t voxOffset = std::max<std::size_t>(static_cast<std::size_t>(voxOffsetF), kHeaderSize);
+
+    const Dims dims{sizes[0], sizes[1], sizes[2]};
+    const std::size_t frames = sizes[3];
+    const std::size_t payload =
+        checkedByteCount(checkedVoxelCount(dims, frames, path), sampleSize(*st), path);
+    const std::size_t total = voxOffset + payload;
+    std::vector<std::byte> inflated;
+    std::span<const std::byte> all(file);
+    if (gz) {
+        inflated = inflateExact(file, total, path, "gzip data");
+        all = inflated;
+    } else if (file.size() != total) {
+        fail(path, std::string(file.size() < total ? "truncated" : "oversized") + ": file has " +
+                       std::to_string(file.size()) + " bytes, the header needs " + std::to_string(total));
+    }
+    TimeSeries series =
+        decodeFrames(all.subspan(voxOffset, payload), *st, endian, dims, frames, spacing, origin);
+
+    // scl_slope = 0 means "no scaling" by the standard; 1/0 is the identity.
+    const double slope = h.get<float>(112), inter = h.get<float>(116);
+    if (std::isfinite(slope) && std::isfinite(inter) && slope != 0 && (slope != 1 || inter != 0)) {
+        for (Volume& v : series.frames) {
+            Volume f(v.dims(), ScalarType::Float32);
+            f.spacing = v.spacing;
+            f.origin = v.origin;
+            auto out = f.values<float>();
+            for (std::size_t i = 0; i < out.size(); ++i)
+                out[i] = static_cast<float>(v.valueAt(i) * slope + inter);
+            v = std::move(f);
+        }
+    }
+    // pixdim[4] is the time step; xyzt_units says whether it is in s, ms or us. Times are in seconds.
+    const double dt = h.get<float>(92);
+    if (frames > 1 && std::isfinite(dt) && dt > 0) {
+        const int timeUnits = static_cast<int>(std::to_integer<unsigned>(head[123])) & 0x38;
+        const double scale = timeUnits == 16 ? 1e-3 : timeUnits == 24 ? 1e-6 : 1.0;
+        for (std::size_t f = 0; f < frames; ++f)
+            series.times.push_back(static_cast<double>(f) * dt * scale);
+    }
+    return series;
+}
+
+} // namespace volcl::io

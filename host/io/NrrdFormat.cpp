@@ -1,0 +1,415 @@
+// NRRD (.nrrd attached / .nhdr detached): raw, gzip and ascii encodings, data file patterns; writer.
+#include "host/io/AtomicFile.hpp"
+#include "host/io/IoDetail.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+namespace volcl::io {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::optional<SampleType> nrrdType(std::string_view name) {
+    static const std::map<std::string, SampleType> types = {
+        {"signed char", SampleType::Int8},
+        {"int8", SampleType::Int8},
+        {"int8_t", SampleType::Int8},
+        {"uchar", SampleType::UInt8},
+        {"unsigned char", SampleType::UInt8},
+        {"uint8", SampleType::UInt8},
+        {"uint8_t", SampleType::UInt8},
+        {"short", SampleType::Int16},
+        {"short int", SampleType::Int16},
+        {"signed short", SampleType::Int16},
+        {"signed short int", SampleType::Int16},
+        {"int16", SampleType::Int16},
+        {"int16_t", SampleType::Int16},
+        {"ushort", SampleType::UInt16},
+        {"unsigned short", SampleType::UInt16},
+        {"unsigned short int", SampleType::UInt16},
+        {"uint16", SampleType::UInt16},
+        {"uint16_t", SampleType::UInt16},
+        {"int", SampleType::Int32},
+        {"signed int", SampleType::Int32},
+        {"int32", SampleType::Int32},
+        {"int32_t", SampleType::Int32},
+        {"uint", SampleType::UInt32},
+        {"unsigned int", SampleType::UInt32},
+        {"uint32", SampleType::UInt32},
+        {"uint32_t", SampleType::UInt32},
+        {"longlong", SampleType::Int64},
+        {"long long", SampleType::Int64},
+        {"long long int", SampleType::Int64},
+        {"signed long long", SampleType::Int64},
+        {"signed long long int", SampleType::Int64},
+        {"int64", SampleType::Int64},
+        {"int64_t", SampleType::Int64},
+        {"ulonglong", SampleType::UInt64},
+        {"unsigned long long", SampleType::UInt64},
+        {"unsigned long long int", SampleType::UInt64},
+        {"uint64", SampleType::UInt64},
+        {"uint64_t", SampleType::UInt64},
+        {"float", SampleType::Float32},
+        {"double", SampleType::Float64},
+    };
+    std::string key;
+    for (std::string_view w : splitWords(name)) {
+        if (!key.empty()) key.push_back(' ');
+        key.append(lower(w));
+    }
+    auto it = types.find(key);
+    if (it == types.end()) return std::nullopt;
+    return it->second;
+}
+
+// "(1.5,0,0)" -> {1.5, 0, 0}; "none" -> nullopt.
+std::optional<std::array<double, 3>> parseVector(std::string_view token, const fs::path& file,
+                                                 std::string_view what) {
+    token = trim(token);
+    if (iequals(token, "none")) return std::nullopt;
+    if (token.size() < 2 || token.front() != '(' || token.back() != ')')
+        fail(file,
+             std::string(what) + ": '" + std::string(token.substr(0, 60)) + "' is not a (x,y,z) vector");
+    token = token.substr(1, token.size() - 2);
+    std::array<double, 3> v{};
+    std::size_t i = 0;
+    while (true) {
+        const std::size_t comma = token.find(',');
+        if (i >= 3) fail(file, std::string(what) + ": only 3D space vectors are supported");
+        v[i++] = requireDouble(token.substr(0, comma), file, what);
+        if (!std::isfinite(v[i - 1])) fail(file, std::string(what) + ": non-finite component");
+        if (comma == std::string_view::npos) break;
+        token.remove_prefix(comma + 1);
+    }
+    if (i != 3) fail(file, std::string(what) + ": only 3D space vectors are supported");
+    return v;
+}
+
+// Vector-valued tokens like "(1,0,0) (0,1,0) none" may contain spaces inside parentheses.
+std::vector<std::string> splitVectors(std::string_view s) {
+    std::vector<std::string> out;
+    std::string cur;
+    int depth = 0;
+    for (char c : s) {
+        if (c == '(') ++depth;
+        if (c == ')') --depth;
+        if ((c == ' ' || c == '\t') && depth == 0) {
+            if (!cur.empty()) out.push_back(cur);
+            cur.clear();
+        } else if (c != ' ' && c != '\t') {
+            cur += c;
+        }
+    }
+    if (!cur.empty()) out.push_back(cur);
+    return out;
+}
+
+// Axis kinds that make a sample non-scalar (vectors, colours, tensors).
+const char* const kNonScalarKinds[] = {"vector",
+                                       "covariant-vector",
+                                       "normal",
+                                       "complex",
+                                       "2-vector",
+                                       "3-color",
+                                       "rgb-color",
+                                       "hsv-color",
+                                       "xyz-color",
+                                       "4-color",
+                                       "rgba-color",
+                                       "3-vector",
+                                       "3-gradient",
+                                       "3-normal",
+                                       "4-vector",
+                                       "quaternion",
+                                       "2d-symmetric-matrix",
+                                       "2d-masked-symmetric-matrix",
+                                       "2d-matrix",
+                                       "2d-masked-matrix",
+                                       "3d-symmetric-matrix",
+                                       "3d-masked-symmetric-matrix",
+                                       "3d-matrix",
+                                       "3d-masked-matrix"};
+
+} // namespace
+
+TimeSeries readNrrd(const fs::path& path) {
+    const std::vector<std::byte> bytes = readFileBytes(path);
+    const std::string_view text = asText(bytes);
+    std::size_t pos = 0;
+    auto magic = nextLine(text, pos);
+    if (!magic || !magic->starts_with("NRRD000") || magic->size() != 8)
+        fail(path, "not a NRRD file (no NRRD000x magic line)");
+
+    std::map<std::string, std::string> fields;
+    std::vector<std::string> listFiles;
+    bool blankLineSeen = false, listMode = false;
+    while (auto line = nextLine(text, pos)) {
+        if (listMode) {
+            const std::string_view name = trim(*line);
+            if (name.empty()) break;
+            listFiles.emplace_back(name);
+            continue;
+        }
+        if (line->empty()) {
+            blankLineSeen = true;
+            break;
+        }
+        if (line->front() == '#') continue;
+        if (line->find(":=") != std::string_view::npos) continue; // key/value pairs carry no geometry
+        const std::size_t colon = line->find(": ");
+        if (colon == std::string_view::npos)
+            fail(path, "malformed header line '" + std::string(line->substr(0, 60)) + "'");
+        const std::string key = lower(trim(line->substr(0, colon)));
+        const std::string value(trim(line->substr(colon + 2)));
+        if (key.size() > 64 || value.size() > 100000) fail(path, "header line too long");
+        fields[key == "datafile" ? "data file" : key] = value;
+        if (key == "data file" || key == "datafile") {
+            const auto w = splitWords(value);
+            listMode = !w.empty() && w[0] == "LIST";
+        }
+    }
+    // Structure before content: a cut header must read as truncated, not as an odd field value.
+    if (!fields.contains("data file") && !blankLineSeen)
+        fail(path, "truncated: header does not end with a blank line and names no data file");
+    auto field = [&](const std::string& key) -> std::optional<std::string> {
+        auto it = fields.find(key);
+        if (it == fields.end()) return std::nullopt;
+        return it->second;
+    };
+    auto require = [&](const std::string& key) -> std::string {
+        auto v = field(key);
+        if (!v) fail(path, "header has no '" + key + "' field (truncated or not a volume)");
+        return *v;
+    };
+
+    const long long dimension = requireInt(require("dimension"), path, "dimension");
+    if (dimension < 1 || dimension > 4)
+        unsupported(path, "dimension " + std::to_string(dimension) + " (1 to 4 supported)");
+    const std::string typeName = require("type");
+    const auto st = nrrdType(typeName);
+    if (!st) unsupported(path, "type '" + typeName + "' is not supported");
+    const std::string sizeText = require("sizes");
+    const auto sizeWords = splitWords(sizeText);
+    if (sizeWords.size() != static_cast<std::size_t>(dimension))
+        fail(path, "'sizes' has " + std::to_string(sizeWords.size()) + " entries for dimension " +
+                       std::to_string(dimension));
+    std::size_t sizes[4] = {1, 1, 1, 1};
+    for (std::size_t i = 0; i < sizeWords.size(); ++i) {
+        const long long s = requireInt(sizeWords[i], path, "sizes");
+        if (s <= 0) fail(path, "sizes: " + std::string(sizeWords[i]) + " must be positive");
+        sizes[i] = static_cast<std::size_t>(s);
+    }
+    if (auto kinds = field("kinds")) {
+        const auto k = splitWords(*kinds);
+        for (std::size_t i = 0; i < k.size() && i < 3; ++i)
+            for (const char* bad : kNonScalarKinds)
+                if (iequals(k[i], bad))
+                    unsupported(path, "axis " + std::to_string(i) + " has kind '" + std::string(k[i]) +
+                                          "': only scalar volumes are supported");
+    }
+    const Dims dims{sizes[0], sizes[1], sizes[2]};
+    const std::size_t frames = sizes[3];
+    const std::size_t voxels = checkedVoxelCount(dims, frames, path);
+    const std::size_t payload = checkedByteCount(voxels, sampleSize(*st), path);
+
+    Endian endian = Endian::Little;
+    if (auto e = field("endian")) {
+        if (iequals(*e, "big"))
+            endian = Endian::Big;
+        else if (!iequals(*e, "little"))
+            fail(path, "endian '" + *e + "' is neither little nor big");
+    }
+    const std::string encodingName = lower(require("encoding"));
+    PayloadEncoding encoding = PayloadEncoding::Raw;
+    if (encodingName == "raw")
+        encoding = PayloadEncoding::Raw;
+    else if (encodingName == "gzip" || encodingName == "gz")
+        encoding = PayloadEncoding::Compressed;
+    else if (encodingName == "ascii" || encodingName == "text" || encodingName == "txt")
+        encoding = PayloadEncoding::Ascii;
+    else
+        unsupported(path, "encoding '" + encodingName + "' is not supported (raw, gzip, ascii)");
+
+    // Geometry: spacings or space directions (their lengths), space origin or axis mins.
+    std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
+    if (auto sp = field("spacings")) {
+        const auto w = splitWords(*sp);
+        for (std::size_t i = 0; i < w.size() && i < 3; ++i) {
+            const double v = iequals(w[i], "nan") ? NAN : requireDouble(w[i], path, "spacings");
+            if (std::isfinite(v) && v != 0) spacing[i] = std::abs(v);
+        }
+    }
+    if (auto dirs = field("space directions")) {
+        const auto vecs = splitVectors(*dirs);
+        if (vecs.size() != static_cast<std::size_t>(dimension))
+            fail(path, "'space directions' has " + std::to_string(vecs.size()) + " entries for dimension " +
+                           std::to_string(dimension));
+        for (std::size_t i = 0; i < 3 && i < vecs.size(); ++i) {
+            if (auto v = parseVector(vecs[i], path, "space directions")) {
+                const double len = std::sqrt((*v)[0] * (*v)[0] + (*v)[1] * (*v)[1] + (*v)[2] * (*v)[2]);
+                if (len > 0) spacing[i] = len;
+            } else if (sizes[i] > 1) {
+                unsupported(path,
+                            "axis " + std::to_string(i) +
+                                " is not spatial ('none' direction): only scalar volumes are supported");
+            }
+        }
+    }
+    if (auto o = field("space origin")) {
+        if (auto v = parseVector(*o, path, "space origin")) origin = *v;
+    } else if (auto mins = field("axis mins")) {
+        const auto w = splitWords(*mins);
+        for (std::size_t i = 0; i < w.size() && i < 3; ++i) {
+            const double v = iequals(w[i], "nan") ? NAN : requireDouble(w[i], path, "axis mins");
+            if (std::isfinite(v)) origin[i] = v;
+        }
+    }
+
+    long long byteSkip = 0;
+    std::size_t lineSkip = 0;
+    if (auto b = field("byte skip")) byteSkip = requireInt(*b, path, "byte skip");
+    if (auto l = field("line skip")) {
+        const long long v = requireInt(*l, path, "line skip");
+        if (v < 0) fail(path, "line skip must not be negative");
+        lineSkip = static_cast<std::size_t>(v);
+    }
+    if (byteSkip < -1) fail(path, "byte skip must be -1 or more");
+    if (byteSkip == -1 && encoding != PayloadEncoding::Raw)
+        fail(path, "byte skip -1 is only valid for raw encoding");
+
+    std::vector<std::byte> data;
+    if (auto df = field("data file")) {
+        const auto w = splitWords(*df);
+        std::vector<fs::path> files;
+        if (w.empty()) fail(path, "empty 'data file' field");
+        if (w[0] == "LIST") {
+            for (const std::string& f : listFiles)
+                files.push_back(siblingPath(path, f));
+        } else if (w.size() >= 4) {
+            const auto names = expandFilePattern(w[0], requireInt(w[1], path, "data file min"),
+                                                 requireInt(w[2], path, "data file max"),
+                                                 requireInt(w[3], path, "data file step"), path);
+            for (const std::string& n : names)
+                files.push_back(siblingPath(path, n));
+            if (w.size() >= 5) {
+                const long long subdim = requireInt(w[4], path, "data file subdim");
+                std::size_t expectFiles = 1;
+                for (long long a = subdim; a < dimension && a >= 0; ++a)
+                    expectFiles *= sizes[a];
+                if (subdim < 1 || subdim > dimension || expectFiles != files.size())
+                    fail(path, "data file subdim " + std::to_string(subdim) + " does not match " +
+                                   std::to_string(files.size()) + " files");
+            }
+        } else {
+            files.push_back(siblingPath(path, *df));
+        }
+        if (files.size() > voxels) fail(path, "more data files than voxels");
+        data = readDetachedPayload(path, files, payload, encoding, byteSkip, lineSkip);
+    } else {
+        if (!blankLineSeen)
+            fail(path, "truncated: header does not end with a blank line and names no data file");
+        for (std::size_t l = 0; l < lineSkip; ++l)
+            if (!nextLine(text, pos)) fail(path, "truncated: fewer lines than 'line skip'");
+        std::span<const std::byte> rest(bytes.data() + pos, bytes.size() - pos);
+        if (encoding == PayloadEncoding::Compressed) {
+            data = inflateExact(rest, payload + static_cast<std::size_t>(byteSkip), path, "gzip data");
+            data.erase(data.begin(), data.begin() + byteSkip);
+        } else if (encoding == PayloadEncoding::Raw) {
+            if (byteSkip == -1) {
+                if (rest.size() < payload)
+                    fail(path, "truncated: " + std::to_string(rest.size()) + " data bytes, expected " +
+                                   std::to_string(payload));
+                rest = rest.subspan(rest.size() - payload);
+            } else {
+                const std::size_t need = payload + static_cast<std::size_t>(byteSkip);
+                if (rest.size() < need)
+                    fail(path, "truncated: " + std::to_string(rest.size()) + " data bytes, expected " +
+                                   std::to_string(need));
+                if (rest.size() > need)
+                    fail(path, "oversized: " + std::to_string(rest.size() - need) + " bytes after the data");
+                rest = rest.subspan(static_cast<std::size_t>(byteSkip));
+            }
+            data.assign(rest.begin(), rest.end());
+        } else {
+            data.assign(rest.begin(), rest.end());
+        }
+    }
+
+    if (encoding == PayloadEncoding::Ascii) {
+        TimeSeries series;
+        const std::string_view asciiText = asText(data);
+        requireAsciiCapacity(asciiText, voxels, path);
+        const std::size_t frameVoxels = dims.count();
+        // Parse all values once, frame by frame, through a flat volume holding every frame.
+        Volume all(Dims{dims.x, dims.y, dims.z * frames}, volumeTypeFor(*st));
+        decodeAsciiSamples(asciiText, *st, all, 0, voxels, path);
+        for (std::size_t f = 0; f < frames; ++f) {
+            Volume v(dims, all.type());
+            const std::size_t b = frameVoxels * scalarSize(all.type());
+            std::copy_n(all.bytes().begin() + static_cast<std::ptrdiff_t>(f * b), b, v.bytes().begin());
+            v.spacing = spacing;
+            v.origin = origin;
+            series.frames.push_back(std::move(v));
+        }
+        return series;
+    }
+    return decodeFrames(data, *st, endian, dims, frames, spacing, origin);
+}
+
+void writeNrrd(const Volume& volume, const fs::path& path, const WriteOptions& options) {
+    const bool detached = endsWithI(path.filename().string(), ".nhdr");
+    const char* type = "uchar";
+    switch (volume.type()) {
+    case ScalarType::UInt8:
+        type = "uchar";
+        break;
+    case ScalarType::UInt16:
+        type = "ushort";
+        break;
+    case ScalarType::Int16:
+        type = "short";
+        break;
+    case ScalarType::Float32:
+        type = "float";
+        break;
+    }
+    const Dims& d = volume.dims();
+    const auto& s = volume.spacing;
+    const auto& o = volume.origin;
+    const bool gzip = options.compress && !detached;
+    std::string header =
+        "NRRD0004\n# written by volcl; format: http://teem.sourceforge.net/nrrd/format.html\n";
+    header += "type: " + std::string(type) + "\ndimension: 3\nspace dimension: 3\n";
+    header += "sizes: " + std::to_string(d.x) + " " + std::to_string(d.y) + " " + std::to_string(d.z) + "\n";
+    header += "space directions: (" + formatDouble(s[0]) + ",0,0) (0," + formatDouble(s[1]) + ",0) (0,0," +
+              formatDouble(s[2]) + ")\n";
+    header +=
+        "space origin: (" + formatDouble(o[0]) + "," + formatDouble(o[1]) + "," + formatDouble(o[2]) + ")\n";
+    header += "kinds: domain domain domain\n";
+    if (scalarSize(volume.type()) > 1)
+        header += std::string("endian: ") + (options.endian == Endian::Little ? "little" : "big") + "\n";
+    header += std::string("encoding: ") + (gzip ? "gzip" : "raw") + "\n";
+    const std::vector<std::byte> data = bytesInOrder(volume, options.endian);
+    if (detached) {
+        fs::path dataPath = path;
+        dataPath.replace_extension(".raw");
+        header += "data file: " + dataPath.filename().string() + "\n";
+        AtomicFile dataOut(dataPath);
+        dataOut.write(data);
+        AtomicFile headerOut(path);
+        headerOut.write(header);
+        dataOut.commit(); // data first: a visible header always has its data beside it
+        headerOut.commit();
+        return;
+    }
+    header += "\n";
+    AtomicFile out(path);
+    out.write(header);
+    out.write(gzip ? deflateBytes(data, Wrapper::Gzip) : data);
+    out.commit();
+}
+
+} // namespace volcl::io

@@ -1,0 +1,58 @@
+// Headerless raw volumes (optionally gzipped): dims/type from the file name or ReadOptions.
+#include "host/io/AtomicFile.hpp"
+#include "host/io/IoDetail.hpp"
+
+namespace volcl::io {
+
+namespace fs = std::filesystem;
+
+TimeSeries readRaw(const fs::path& path, const ReadOptions& options) {
+    const auto fromName = parseRawFileName(path.filename().string());
+    std::optional<Dims> dims = options.dims;
+    std::optional<ScalarType> type = options.type;
+    if (fromName) {
+        if (!dims) dims = fromName->first;
+        if (!type) type = fromName->second;
+    }
+    if (!dims || !type)
+        throw UsageError(path.string() +
+                         ": a raw file needs its size and type: name it <name>_<X>x<Y>x<Z>_<type>.raw "
+                         "or give --dims and --type");
+    const std::size_t voxels = checkedVoxelCount(*dims, 1, path);
+    const SampleType st = sampleTypeOf(*type);
+    const std::size_t payload = checkedByteCount(voxels, sampleSize(st), path);
+    const std::size_t expected = payload + options.headerBytes;
+    const std::string what = std::to_string(dims->x) + "x" + std::to_string(dims->y) + "x" +
+                             std::to_string(dims->z) + " " + std::string(scalarTypeName(*type));
+
+    std::error_code ec;
+    const std::uintmax_t fileSize = fs::file_size(path, ec);
+    if (ec) fail(path, "cannot determine the file size: " + ec.message());
+    const std::string name = path.filename().string();
+    const bool gz = endsWithI(name, ".gz") || endsWithI(name, "-gz");
+    if (!gz && fileSize != expected)
+        fail(path, std::string(fileSize < expected ? "truncated" : "oversized") + ": file has " +
+                       std::to_string(fileSize) + " bytes, " + what + " needs " + std::to_string(expected) +
+                       (options.headerBytes
+                            ? " (including " + std::to_string(options.headerBytes) + " header bytes)"
+                            : ""));
+    std::vector<std::byte> bytes = readFileBytes(path);
+    if (gz) bytes = inflateExact(bytes, expected, path, "gzip data for " + what);
+    Volume v(*dims, *type);
+    decodeSamples(std::span<const std::byte>(bytes).subspan(options.headerBytes), st, options.endian, v);
+    TimeSeries series;
+    series.frames.push_back(std::move(v));
+    return series;
+}
+
+void writeRaw(const Volume& volume, const fs::path& path, const WriteOptions& options) {
+    const std::vector<std::byte> bytes = bytesInOrder(volume, options.endian);
+    AtomicFile out(path);
+    if (endsWithI(path.filename().string(), ".gz"))
+        out.write(deflateBytes(bytes, Wrapper::Gzip));
+    else
+        out.write(bytes);
+    out.commit();
+}
+
+} // namespace volcl::io

@@ -1,0 +1,176 @@
+// Text/XML headers that describe a separate raw file: Inviwo/Roettger .dat and Voreen .vvd.
+#include "host/io/AtomicFile.hpp"
+#include "host/io/IoDetail.hpp"
+#include "host/io/XmlScan.hpp"
+
+#include <cmath>
+#include <map>
+
+namespace volcl::io {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Reads `frames` volumes stored back to back in one raw file; its size must match exactly.
+TimeSeries readSidecarRaw(const fs::path& header, const fs::path& data, const Dims& dims, std::size_t frames,
+                          SampleType st, Endian endian, std::size_t byteOffset,
+                          const std::array<double, 3>& spacing, const std::array<double, 3>& origin) {
+    const std::size_t payload =
+        checkedByteCount(checkedVoxelCount(dims, frames, header), sampleSize(st), header);
+    std::error_code ec;
+    if (!fs::is_regular_file(data, ec)) fail(header, "data file '" + data.string() + "' does not exist");
+    const std::uintmax_t size = fs::file_size(data, ec);
+    if (size != byteOffset + payload)
+        fail(data, std::string(size < byteOffset + payload ? "truncated" : "oversized") + ": file has " +
+                       std::to_string(size) + " bytes, header " + header.filename().string() + " needs " +
+                       std::to_string(byteOffset + payload));
+    const std::vector<std::byte> bytes = readFileBytes(data);
+    if (bytes.size() != byteOffset + payload) fail(data, "file changed while reading");
+    return decodeFrames(std::span<const std::byte>(bytes).subspan(byteOffset), st, endian, dims, frames,
+                        spacing, origin);
+}
+
+std::optional<SampleType> inviwoType(std::string_view name) {
+    static const std::map<std::string, SampleType> types = {
+        {"uchar", SampleType::UInt8},      {"char", SampleType::Int8},     {"ushort", SampleType::UInt16},
+        {"ushort_12", SampleType::UInt16}, {"short", SampleType::Int16},   {"uint", SampleType::UInt32},
+        {"int", SampleType::Int32},        {"float", SampleType::Float32}, {"double", SampleType::Float64},
+        {"uint8", SampleType::UInt8},      {"int8", SampleType::Int8},     {"uint16", SampleType::UInt16},
+        {"int16", SampleType::Int16},      {"uint32", SampleType::UInt32}, {"int32", SampleType::Int32},
+        {"uint64", SampleType::UInt64},    {"int64", SampleType::Int64},   {"float32", SampleType::Float32},
+        {"float64", SampleType::Float64},
+    };
+    auto it = types.find(lower(trim(name)));
+    if (it == types.end()) return std::nullopt;
+    return it->second;
+}
+
+std::optional<SampleType> voreenType(std::string_view name) {
+    static const std::map<std::string, SampleType> types = {
+        {"uint8", SampleType::UInt8},    {"int8", SampleType::Int8},     {"uint16", SampleType::UInt16},
+        {"int16", SampleType::Int16},    {"uint32", SampleType::UInt32}, {"int32", SampleType::Int32},
+        {"uint64", SampleType::UInt64},  {"int64", SampleType::Int64},   {"float", SampleType::Float32},
+        {"double", SampleType::Float64},
+    };
+    auto it = types.find(lower(trim(name)));
+    if (it == types.end()) return std::nullopt;
+    return it->second;
+}
+
+} // namespace
+
+TimeSeries readInviwoDat(const fs::path& path) {
+    const std::vector<std::byte> bytes = readFileBytes(path);
+    const std::string_view text = asText(bytes);
+    std::map<std::string, std::string> fields;
+    std::size_t pos = 0;
+    while (auto line = nextLine(text, pos)) {
+        const std::string_view l = trim(*line);
+        if (l.empty() || l.front() == '#') continue;
+        const std::size_t colon = l.find(':');
+        if (colon == std::string_view::npos)
+            fail(path, "malformed line '" + std::string(l.substr(0, 60)) + "' (expected Key: value)");
+        const std::string key = lower(trim(l.substr(0, colon)));
+        if (key.size() > 64 || l.size() > 100000) fail(path, "header line too long");
+        fields[key] = std::string(trim(l.substr(colon + 1)));
+    }
+    auto field = [&](const std::string& k) -> std::optional<std::string> {
+        auto it = fields.find(k);
+        if (it == fields.end()) return std::nullopt;
+        return it->second;
+    };
+    const auto rawName = field("objectfilename");
+    if (!rawName || rawName->empty()) fail(path, "no ObjectFileName (truncated or not an Inviwo .dat file)");
+    const auto res = field("resolution");
+    if (!res) fail(path, "no Resolution");
+    const Dims dims = requireDims(splitWords(*res), 0, 3, path, "Resolution");
+    const auto format = field("format");
+    if (!format) fail(path, "no Format");
+    const auto st = inviwoType(*format);
+    if (!st)
+        unsupported(path, "Format " + *format + " is not supported (vector formats are not scalar volumes)");
+    Endian endian = Endian::Little;
+    if (auto bo = field("byteorder")) {
+        if (iequals(*bo, "bigendian"))
+            endian = Endian::Big;
+        else if (!iequals(*bo, "littleendian"))
+            fail(path, "ByteOrder '" + *bo + "' is unknown");
+    }
+    std::size_t byteOffset = 0;
+    if (auto off = field("byteoffset")) {
+        const long long v = requireInt(*off, path, "ByteOffset");
+        if (v < 0) fail(path, "ByteOffset must not be negative");
+        byteOffset = static_cast<std::size_t>(v);
+    }
+    std::size_t frames = 1;
+    if (auto seq = field("sequences")) {
+        const long long v = requireInt(*seq, path, "Sequences");
+        if (v < 1) fail(path, "Sequences must be positive");
+        frames = static_cast<std::size_t>(v);
+    }
+    std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
+    if (auto st3 = field("slicethickness")) {
+        spacing = requireTriple(splitWords(*st3), 0, path, "SliceThickness", true);
+    } else if (field("basisvector1") && field("basisvector2") && field("basisvector3")) {
+        // Inviwo basis vectors span the whole volume; per-voxel spacing is their length over the size.
+        const std::size_t n[3] = {dims.x, dims.y, dims.z};
+        for (int a = 0; a < 3; ++a) {
+            const auto b = requireTriple(splitWords(*field("basisvector" + std::to_string(a + 1))), 0, path,
+                                         "BasisVector", false);
+            const double len = std::sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
+            if (len > 0) spacing[a] = len / static_cast<double>(n[a]);
+        }
+    } else if (auto sp = field("spacing")) {
+        spacing = requireTriple(splitWords(*sp), 0, path, "Spacing", true);
+    }
+    if (auto off = field("offset")) origin = requireTriple(splitWords(*off), 0, path, "Offset", false);
+    return readSidecarRaw(path, siblingPath(path, *rawName), dims, frames, *st, endian, byteOffset, spacing,
+                          origin);
+}
+
+TimeSeries readVoreenVvd(const fs::path& path) {
+    const std::vector<std::byte> bytes = readFileBytes(path);
+    const XmlDocument doc = scanXml(asText(bytes), path);
+    if (doc.elements[0].name != "VoreenData")
+        fail(path, "not a Voreen .vvd file (root is <" + doc.elements[0].name + ">)");
+    TimeSeries series;
+    for (std::size_t i = 0; i < doc.elements.size(); ++i) {
+        if (doc.elements[i].name != "Volume") continue;
+        const auto raws = doc.childrenNamed(static_cast<int>(i), "RawData");
+        if (raws.size() != 1) fail(path, "a <Volume> needs exactly one <RawData>");
+        const XmlElement& raw = doc.elements[static_cast<std::size_t>(raws[0])];
+        const auto file = raw.attr("filename");
+        const auto format = raw.attr("format");
+        if (!file || !format) fail(path, "<RawData> needs filename and format");
+        const auto st = voreenType(*format);
+        if (!st) unsupported(path, "RawData format '" + *format + "' is not supported (only scalar formats)");
+        std::vector<std::string_view> sizeWords;
+        const std::string x = raw.attr("x").value_or(""), y = raw.attr("y").value_or(""),
+                          z = raw.attr("z").value_or("");
+        sizeWords = {x, y, z};
+        const Dims dims = requireDims(sizeWords, 0, 3, path, "RawData x/y/z");
+        std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
+        for (int meta : doc.childrenNamed(static_cast<int>(i), "MetaData")) {
+            for (int item : doc.childrenNamed(meta, "MetaItem")) {
+                const XmlElement& mi = doc.elements[static_cast<std::size_t>(item)];
+                const std::string name = mi.attr("name").value_or("");
+                if (name != "Spacing" && name != "Offset") continue;
+                const auto values = doc.childrenNamed(item, "value");
+                if (values.empty()) fail(path, "MetaItem " + name + " has no <value>");
+                const XmlElement& val = doc.elements[static_cast<std::size_t>(values[0])];
+                const std::string vx = val.attr("x").value_or(""), vy = val.attr("y").value_or(""),
+                                  vz = val.attr("z").value_or("");
+                const auto t = requireTriple({vx, vy, vz}, 0, path, name, name == "Spacing");
+                (name == "Spacing" ? spacing : origin) = t;
+            }
+        }
+        TimeSeries one =
+            readSidecarRaw(path, siblingPath(path, *file), dims, 1, *st, Endian::Little, 0, spacing, origin);
+        series.frames.push_back(std::move(one.frames.front()));
+    }
+    if (series.frames.empty()) fail(path, "no <Volume> element");
+    return series;
+}
+
+} // namespace volcl::io

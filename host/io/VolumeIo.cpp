@@ -1,0 +1,208 @@
+// Volume file dispatch: format detection from extension and magic bytes, raw file-name parsing.
+#include "host/io/VolumeIo.hpp"
+
+#include "host/Error.hpp"
+#include "host/io/IoDetail.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cstring>
+#include <fstream>
+
+namespace volcl {
+
+namespace fs = std::filesystem;
+using io::endsWithI;
+
+std::string_view volumeFormatName(VolumeFormat f) noexcept {
+    switch (f) {
+    case VolumeFormat::Raw:
+        return "raw";
+    case VolumeFormat::Nrrd:
+        return "NRRD";
+    case VolumeFormat::MetaImage:
+        return "MetaImage";
+    case VolumeFormat::Nifti:
+        return "NIfTI-1";
+    case VolumeFormat::VtkXmlImage:
+        return "VTK XML ImageData";
+    case VolumeFormat::VtkLegacy:
+        return "legacy VTK";
+    case VolumeFormat::Slc:
+        return "VolVis SLC";
+    case VolumeFormat::Vdb:
+        return "OpenVDB";
+    case VolumeFormat::InviwoDat:
+        return "Inviwo dat";
+    case VolumeFormat::VoreenVvd:
+        return "Voreen vvd";
+    }
+    return "unknown";
+}
+
+namespace {
+
+std::optional<VolumeFormat> formatFromExtension(std::string_view name) {
+    struct Ext {
+        std::string_view suffix;
+        VolumeFormat format;
+    };
+    // Longer suffixes first so ".nii.gz" wins over ".gz".
+    static constexpr Ext table[] = {
+        {".nii.gz", VolumeFormat::Nifti},    {".raw.gz", VolumeFormat::Raw},
+        {".bin-gz", VolumeFormat::Raw},      {".raw", VolumeFormat::Raw},
+        {".bin", VolumeFormat::Raw},         {".nrrd", VolumeFormat::Nrrd},
+        {".nhdr", VolumeFormat::Nrrd},       {".mhd", VolumeFormat::MetaImage},
+        {".mha", VolumeFormat::MetaImage},   {".nii", VolumeFormat::Nifti},
+        {".vti", VolumeFormat::VtkXmlImage}, {".vtk", VolumeFormat::VtkLegacy},
+        {".slc", VolumeFormat::Slc},         {".vdb", VolumeFormat::Vdb},
+        {".dat", VolumeFormat::InviwoDat},   {".vvd", VolumeFormat::VoreenVvd},
+    };
+    for (const Ext& e : table)
+        if (endsWithI(name, e.suffix)) return e.format;
+    return std::nullopt;
+}
+
+std::optional<VolumeFormat> formatFromMagic(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return std::nullopt;
+    char head[512] = {};
+    in.read(head, sizeof(head));
+    const std::size_t n = static_cast<std::size_t>(in.gcount());
+    const std::string_view h(head, n);
+    if (h.starts_with("NRRD000")) return VolumeFormat::Nrrd;
+    if (h.starts_with("# vtk DataFile")) return VolumeFormat::VtkLegacy;
+    if (h.find("<VTKFile") != std::string_view::npos) return VolumeFormat::VtkXmlImage;
+    if (h.find("<VoreenData") != std::string_view::npos) return VolumeFormat::VoreenVvd;
+    if (h.starts_with("ObjectFileName")) return VolumeFormat::InviwoDat;
+    if (h.starts_with("ObjectType") || h.starts_with("NDims")) return VolumeFormat::MetaImage;
+    if (n >= 4 && std::memcmp(head, "\x20\x42\x44\x56", 4) == 0) return VolumeFormat::Vdb;
+    if (h.starts_with("11111")) return VolumeFormat::Slc;
+    if (n >= 348) {
+        std::int32_t sz = 0;
+        std::memcpy(&sz, head, 4);
+        const std::int32_t swapped =
+            static_cast<std::int32_t>(__builtin_bswap32(static_cast<std::uint32_t>(sz)));
+        if ((sz == 348 || swapped == 348) && (h.substr(344, 3) == "n+1" || h.substr(344, 3) == "ni1"))
+            return VolumeFormat::Nifti;
+    }
+    return std::nullopt;
+}
+
+} // namespace
+
+VolumeFormat detectVolumeFormat(const fs::path& path) {
+    const std::string name = path.filename().string();
+    if (auto f = formatFromExtension(name)) return *f;
+    std::error_code ec;
+    if (fs::is_regular_file(path, ec)) {
+        if (auto f = formatFromMagic(path)) return *f;
+        if (parseRawFileName(name)) return VolumeFormat::Raw;
+    } else if (!fs::exists(path, ec)) {
+        if (parseRawFileName(name)) return VolumeFormat::Raw;
+        throw IoError(path.string() + ": file does not exist");
+    }
+    throw IoError(
+        path.string() +
+        ": unknown volume format (supported: .raw .raw.gz .nrrd .nhdr .mhd .mha .nii .nii.gz .vti .vtk "
+        ".slc .vdb .dat .vvd)");
+}
+
+TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options) {
+    std::error_code ec;
+    if (!fs::exists(path, ec)) throw IoError(path.string() + ": file does not exist");
+    if (fs::is_directory(path, ec)) throw IoError(path.string() + ": is a directory, not a volume file");
+    TimeSeries series;
+    switch (detectVolumeFormat(path)) {
+    case VolumeFormat::Raw:
+        series = io::readRaw(path, options);
+        break;
+    case VolumeFormat::Nrrd:
+        series = io::readNrrd(path);
+        break;
+    case VolumeFormat::MetaImage:
+        series = io::readMetaImage(path);
+        break;
+    case VolumeFormat::Nifti:
+        series = io::readNifti(path);
+        break;
+    case VolumeFormat::VtkXmlImage:
+        series = io::readVtkXmlImage(path);
+        break;
+    case VolumeFormat::VtkLegacy:
+        series = io::readVtkLegacy(path);
+        break;
+    case VolumeFormat::Slc:
+        series = io::readSlc(path);
+        break;
+    case VolumeFormat::Vdb:
+        series = io::readVdb(path, options);
+        break;
+    case VolumeFormat::InviwoDat:
+        series = io::readInviwoDat(path);
+        break;
+    case VolumeFormat::VoreenVvd:
+        series = io::readVoreenVvd(path);
+        break;
+    }
+    if (series.frames.empty()) throw IoError(path.string() + ": contains no volume");
+    series.validate();
+    return series;
+}
+
+Volume readVolume(const fs::path& path, const ReadOptions& options) {
+    TimeSeries series = readVolumeFile(path, options);
+    return std::move(series.frames.front());
+}
+
+void writeVolumeFile(const Volume& volume, const fs::path& path, const WriteOptions& options) {
+    if (volume.empty()) throw UsageError(path.string() + ": cannot write an empty volume");
+    const std::string name = path.filename().string();
+    if (endsWithI(name, ".raw") || endsWithI(name, ".raw.gz") || endsWithI(name, ".bin"))
+        io::writeRaw(volume, path, options);
+    else if (endsWithI(name, ".nrrd") || endsWithI(name, ".nhdr"))
+        io::writeNrrd(volume, path, options);
+    else if (endsWithI(name, ".vdb"))
+        io::writeVdb(volume, path, options);
+    else
+        throw UsageError(path.string() +
+                         ": cannot write this format (writers: .raw, .raw.gz, .nrrd, .nhdr, .vdb)");
+}
+
+std::optional<std::pair<Dims, ScalarType>> parseRawFileName(std::string_view fileName) {
+    // Finds `<X>x<Y>x<Z>_<type>` anywhere, e.g. "head_256x256x113_uint16.raw" or
+    // "t1_..._180x216x180_uint8_1x1.bin-gz"; the type must end at a non-alphanumeric character.
+    auto isDigit = [](char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; };
+    auto isAlnum = [](char c) { return std::isalnum(static_cast<unsigned char>(c)) != 0; };
+    static const std::pair<std::string_view, ScalarType> types[] = {
+        {"uint8", ScalarType::UInt8},     {"u8", ScalarType::UInt8},      {"uchar", ScalarType::UInt8},
+        {"uint16", ScalarType::UInt16},   {"u16", ScalarType::UInt16},    {"ushort", ScalarType::UInt16},
+        {"int16", ScalarType::Int16},     {"i16", ScalarType::Int16},     {"short", ScalarType::Int16},
+        {"float32", ScalarType::Float32}, {"float", ScalarType::Float32}, {"f32", ScalarType::Float32},
+    };
+    const std::string name = io::lower(fileName);
+    for (std::size_t start = 0; start < name.size(); ++start) {
+        if (!isDigit(name[start]) || (start > 0 && isAlnum(name[start - 1]))) continue;
+        std::size_t pos = start;
+        std::size_t d[3] = {0, 0, 0};
+        bool ok = true;
+        for (int axis = 0; axis < 3 && ok; ++axis) {
+            const std::size_t begin = pos;
+            while (pos < name.size() && isDigit(name[pos]) && pos - begin < 12)
+                d[axis] = d[axis] * 10 + (name[pos++] - '0');
+            ok = pos > begin && d[axis] > 0 && (pos >= name.size() || !isDigit(name[pos]));
+            if (ok && axis < 2) ok = pos < name.size() && name[pos++] == 'x';
+        }
+        if (!ok || pos >= name.size() || name[pos] != '_') continue;
+        ++pos;
+        std::size_t end = pos;
+        while (end < name.size() && isAlnum(name[end]))
+            ++end;
+        const std::string_view typeName = std::string_view(name).substr(pos, end - pos);
+        for (const auto& [tn, t] : types)
+            if (typeName == tn) return std::make_pair(Dims{d[0], d[1], d[2]}, t);
+    }
+    return std::nullopt;
+}
+
+} // namespace volcl
