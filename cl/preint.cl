@@ -217,12 +217,12 @@ __kernel void preint_exact(__global const VolclTfKnot* knots, uint knotCount, ui
                             ee = exp(-len[b] * xe);
                         }
                     }
-                    VEC meanT = glW0 * (e0 + e2) + glW1 * e1;
-                    VEC t0 = tCur[b];
-                    /* c_a T_a - c_b T_b + dc * mean T, with c_b = c_a + dc */
-                    accR[b] += ca[0] * (t0 - ee) + dc[0] * (meanT - ee);
-                    accG[b] += ca[1] * (t0 - ee) + dc[1] * (meanT - ee);
-                    accB[b] += ca[2] * (t0 - ee) + dc[2] * (meanT - ee);
+                    /* c_a T_a - c_b T_b + dc * mean T, with c_b = c_a + dc (explicit mad: FP_CONTRACT is off) */
+                    VEC meanT = mad((VEC)(glW0), e0 + e2, glW1 * e1);
+                    VEC w = tCur[b] - ee, m = meanT - ee;
+                    accR[b] = mad((VEC)(ca[0]), w, mad((VEC)(dc[0]), m, accR[b]));
+                    accG[b] = mad((VEC)(ca[1]), w, mad((VEC)(dc[1]), m, accG[b]));
+                    accB[b] = mad((VEC)(ca[2]), w, mad((VEC)(dc[2]), m, accB[b]));
                     tCur[b] = ee;
                 }
                 depth = xe;
@@ -405,62 +405,51 @@ __kernel void preint_incremental_slice(uint n, uint k, __global float4* table) {
 __kernel void preint_integral_function(__global const REAL* integrals, __global const REAL* diag, uint n,
                                        REAL lo, REAL hi, __global const REAL* lengths, uint lengthCount,
                                        REAL maxColor, __global float4* out) {
-    uint ib = get_global_id(0), jf = get_global_id(1);
-    if (ib >= n || jf >= n) return;
+    uint ib = get_global_id(0), jf = get_global_id(1), j = get_global_id(2);
+    if (ib >= n || jf >= n || j >= lengthCount) return;
     REAL ds = (hi - lo) / (REAL)(n - 1);
     REAL mean[4];
     if (ib == jf) {
-        for (int c = 0; c < 4; ++c)
-            mean[c] = diag[4 * ib + c];
+        for (int c = 0; c < 4; ++c) mean[c] = diag[4 * ib + c];
     } else {
         REAL inv = REAL_C(1.0) / ((REAL)((int)ib - (int)jf) * ds);
-        for (int c = 0; c < 4; ++c)
-            mean[c] = (integrals[4 * ib + c] - integrals[4 * jf + c]) * inv;
+        for (int c = 0; c < 4; ++c) mean[c] = (integrals[4 * ib + c] - integrals[4 * jf + c]) * inv;
     }
-    for (uint j = 0; j < lengthCount; ++j) {
-        REAL l = lengths[j];
-        REAL a = -expm1(-l * fmax(mean[3], REAL_C(0.0)));
-        REAL bound = a * maxColor;
-        out[((size_t)j * n + jf) * n + ib] =
-            (float4)((float)clamp(l * mean[0], REAL_C(0.0), bound),
-                     (float)clamp(l * mean[1], REAL_C(0.0), bound),
-                     (float)clamp(l * mean[2], REAL_C(0.0), bound), (float)a);
-    }
+    REAL l = lengths[j];
+    REAL a = -expm1(-l * fmax(mean[3], REAL_C(0.0)));
+    REAL bound = a * maxColor;
+    out[((size_t)j * n + jf) * n + ib] =
+        (float4)((float)clamp(l * mean[0], REAL_C(0.0), bound), (float)clamp(l * mean[1], REAL_C(0.0), bound),
+                 (float)clamp(l * mean[2], REAL_C(0.0), bound), (float)a);
 }
 
 /* Roettger's 2D table linear in length (thesis 8.5): entries at l = lBar scaled by l / lBar; where the scaled
    opacity would exceed 1 both colour and opacity are scaled down by the same factor (his clamping rule). */
 __kernel void preint_roettger_linear(__global const float4* table2d, uint n, float lBar,
                                      __global const float* lengths, uint lengthCount, __global float4* out) {
-    uint ib = get_global_id(0), jf = get_global_id(1);
-    if (ib >= n || jf >= n) return;
+    uint ib = get_global_id(0), jf = get_global_id(1), j = get_global_id(2);
+    if (ib >= n || jf >= n || j >= lengthCount) return;
     float4 e = table2d[(size_t)jf * n + ib];
-    for (uint j = 0; j < lengthCount; ++j) {
-        float f = lengths[j] / lBar;
-        float a = f * e.w;
-        float scale = a > 1.0f ? f / a : f;
-        out[((size_t)j * n + jf) * n + ib] = fmax(e * scale, (float4)(0.0f));
-    }
+    float f = lengths[j] / lBar;
+    float a = f * e.w;
+    float scale = a > 1.0f ? f / a : f;
+    out[((size_t)j * n + jf) * n + ib] = fmax(e * scale, (float4)(0.0f));
 }
 
 /* Roettger's 2D+1D model (thesis 9.1): alpha = 1 - exp(-l rhoHat) exactly, colour = alpha * sum_i
    (l / lMax)^i C_i with the chromaticity coefficients C_i fitted through DEGREE + 1 constant-length slices.
    `coeffs` holds per pair DEGREE + 1 float4: (C_i rgb, rhoHat in .w of the first). */
-__kernel void preint_polynomial(__global const float4* coeffs, uint n, uint degree, float lMax,
-                                float maxColor, __global const float* lengths, uint lengthCount,
-                                __global float4* out) {
-    uint ib = get_global_id(0), jf = get_global_id(1);
-    if (ib >= n || jf >= n) return;
+__kernel void preint_polynomial(__global const float4* coeffs, uint n, uint degree, float lMax, float maxColor,
+                                __global const float* lengths, uint lengthCount, __global float4* out) {
+    uint ib = get_global_id(0), jf = get_global_id(1), j = get_global_id(2);
+    if (ib >= n || jf >= n || j >= lengthCount) return;
     __global const float4* c = coeffs + ((size_t)jf * n + ib) * (degree + 1);
     float rhoHat = c[0].w;
-    for (uint j = 0; j < lengthCount; ++j) {
-        float l = lengths[j];
-        float x = l / lMax;
-        float3 chroma = c[degree].xyz;
-        for (int i = (int)degree - 1; i >= 0; --i)
-            chroma = chroma * x + c[i].xyz;
-        float a = -expm1(-l * rhoHat);
-        float3 rgb = clamp(chroma * a, 0.0f, a * maxColor);
-        out[((size_t)j * n + jf) * n + ib] = (float4)(rgb, a);
-    }
+    float l = lengths[j];
+    float x = l / lMax;
+    float3 chroma = c[degree].xyz;
+    for (int i = (int)degree - 1; i >= 0; --i) chroma = chroma * x + c[i].xyz;
+    float a = -expm1(-l * rhoHat);
+    float3 rgb = clamp(chroma * a, 0.0f, a * maxColor);
+    out[((size_t)j * n + jf) * n + ib] = (float4)(rgb, a);
 }

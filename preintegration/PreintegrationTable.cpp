@@ -186,8 +186,8 @@ double runIntegralFunction(ComputeContext& cc, const TransferFunction& tf, int n
     clCheck(k.setArg(6, static_cast<cl_uint>(lengths.size())), "clSetKernelArg");
     real.set(k, 7, std::max(tf.maxColor(), 0.0));
     clCheck(k.setArg(8, out), "clSetKernelArg");
-    return eventMilliseconds(
-        cc.launch2d(k, static_cast<std::size_t>(n), static_cast<std::size_t>(n), localX(n), 1));
+    return eventMilliseconds(cc.launch3d(k, static_cast<std::size_t>(n), static_cast<std::size_t>(n),
+                                         lengths.size(), localX(n), 1, 1));
 }
 
 // Chromaticity polynomial (Roettger 9.1): fit through the l -> 0 limit and `degree` exact constant-length
@@ -255,8 +255,8 @@ double runPolynomial(ComputeContext& cc, const TransferFunction& tf, int n,
     setArgs(k, coeffBuf, static_cast<cl_uint>(n), static_cast<cl_uint>(deg), static_cast<float>(lMax),
             static_cast<float>(std::max(tf.maxColor(), 0.0)), lenBuf, static_cast<cl_uint>(lengths.size()));
     clCheck(k.setArg(7, out), "clSetKernelArg");
-    return ms + eventMilliseconds(
-                    cc.launch2d(k, static_cast<std::size_t>(n), static_cast<std::size_t>(n), localX(n), 1));
+    return ms + eventMilliseconds(cc.launch3d(k, static_cast<std::size_t>(n), static_cast<std::size_t>(n),
+                                              lengths.size(), localX(n), 1, 1));
 }
 
 void referenceTable(const TransferFunction& tf, PreintegrationTable& t, int threads) {
@@ -565,8 +565,8 @@ void PreintegrationGenerator::generate(const TransferFunction& tf, const TableSp
         cl::Kernel k = cc->kernel("preint.cl", "preint_roettger_linear");
         setArgs(k, base, static_cast<cl_uint>(n), static_cast<float>(lBar), lenBuf,
                 static_cast<cl_uint>(slices), out);
-        ms += eventMilliseconds(
-            cc->launch2d(k, static_cast<std::size_t>(n), static_cast<std::size_t>(n), localX(n), 1));
+        ms += eventMilliseconds(cc->launch3d(k, static_cast<std::size_t>(n), static_cast<std::size_t>(n),
+                                             slices, localX(n), 1, 1));
         break;
     }
     case PreintMethod::Polynomial:
