@@ -24,8 +24,10 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global);    // info, devices,
 void addDemoCommand(CLI::App& app, GlobalOptions& global);     // demo
 void addPreintCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global); // preint, bench preint
 void addCodecCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global);  // encode, decode, compare, bench codec
+void addViewCommand(CLI::App& app, GlobalOptions& global);     // view (OpenGL window or headless EGL)
+void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global); // render, bench render
 
 /// Prints `volcl info` for a series (text, or JSON when `json`); used by info and demo.
-void printVolumeInfo(std::ostream& out, const std::string& path, const TimeSeries& ts, bool json);
+void printVolumeInfo(std::ostream& out, const std::string& path, const TimeSeries& ts, bool json, bool quiet);
 
 } // namespace volcl::cli

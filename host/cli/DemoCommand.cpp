@@ -83,7 +83,7 @@ void addDemoCommand(CLI::App& app, GlobalOptions& global) {
         auto slPath = std::filesystem::path(a->outDir) / "shepp_logan.nrrd";
         writeVolumeFile(ml, mlPath);
         writeVolumeFile(sl, slPath);
-        for (const auto& p : {mlPath, slPath}) printVolumeInfo(std::cout, p.string(), readVolumeFile(p), false);
+        for (const auto& p : {mlPath, slPath}) printVolumeInfo(std::cout, p.string(), readVolumeFile(p), false, global.quiet);
     });
 }
 

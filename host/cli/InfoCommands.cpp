@@ -22,13 +22,16 @@ namespace {
 constexpr std::size_t kHistogramBins = 16;
 
 // Statistics over every frame of a series, so a 4D file reports its whole range.
-VolumeStats seriesStats(const TimeSeries& ts) {
+VolumeStats seriesStats(const TimeSeries& ts, bool quiet) {
     if (ts.frames.size() == 1) return ts.frames[0].stats(kHistogramBins);
+    // Two passes over every frame (range, then histogram): long for big series, so show progress.
+    Progress progress("statistics", 2 * ts.frames.size(), quiet);
     VolumeStats all;
     double lo = INFINITY, hi = -INFINITY, sum = 0, sum2 = 0;
     std::size_t n = 0;
     for (const Volume& v : ts.frames) {
         VolumeStats s = v.stats(1);
+        progress.advance();
         all.nanCount += s.nanCount;
         all.infCount += s.infCount;
         std::size_t finite = v.voxelCount() - s.nanCount - s.infCount;
@@ -46,12 +49,14 @@ VolumeStats seriesStats(const TimeSeries& ts) {
     all.stddev = std::sqrt(std::max(0.0, sum2 / double(n) - all.mean * all.mean));
     all.histogram.assign(kHistogramBins, 0);
     double width = hi > lo ? (hi - lo) / double(kHistogramBins) : 1.0;
-    for (const Volume& v : ts.frames)
+    for (const Volume& v : ts.frames) {
         for (std::size_t i = 0; i < v.voxelCount(); ++i) {
             double x = v.valueAt(i);
             if (std::isfinite(x))
                 ++all.histogram[std::min<std::size_t>(std::size_t((x - lo) / width), kHistogramBins - 1)];
         }
+        progress.advance();
+    }
     return all;
 }
 
@@ -108,9 +113,9 @@ void printInfoText(std::ostream& out, const nlohmann::json& j) {
 
 } // namespace
 
-void printVolumeInfo(std::ostream& out, const std::string& path, const TimeSeries& ts, bool json) {
+void printVolumeInfo(std::ostream& out, const std::string& path, const TimeSeries& ts, bool json, bool quiet) {
     ts.validate();
-    nlohmann::json j = infoJson(path, detectVolumeFormat(path), ts, seriesStats(ts));
+    nlohmann::json j = infoJson(path, detectVolumeFormat(path), ts, seriesStats(ts, quiet));
     if (json) out << j.dump(2) << '\n';
     else printInfoText(out, j);
 }
@@ -125,9 +130,9 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
         cmd->add_option("file", *file, "Volume file")->required();
         cmd->add_flag("--json", *json, "Print JSON instead of text");
         raw->add(*cmd);
-        cmd->callback([file, json, raw] {
+        cmd->callback([file, json, raw, &global] {
             TimeSeries ts = readVolumeFile(*file, raw->toReadOptions());
-            printVolumeInfo(std::cout, *file, ts, *json);
+            printVolumeInfo(std::cout, *file, ts, *json, global.quiet);
         });
     }
     // devices
