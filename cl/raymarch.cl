@@ -28,7 +28,7 @@
 
 #if defined(SHADING) || ISO_COUNT > 0
 /* World-space gradient at voxel coordinates p. */
-inline float3 gradient(__global const float* vol, const VolclRenderParams* P, float3 p) {
+inline float3 gradient(__global const voxel_t* vol, const VolclRenderParams* P, float3 p) {
     const float3 inv = v3(P->volInvSpacing);
 #ifdef GRADIENT_SOBEL
     /* Sobel-weighted central differences: each axis smoothed over the other two with weights 1-2-1. */
@@ -74,7 +74,7 @@ inline float3 light_dir(const VolclRenderParams* P, const Ray* r, int i, float3 
 
 #ifdef SHADOWS
 /* Transmittance from world point x toward a light, point sampled at params.shadowStep. */
-inline float shadow_transmittance(__global const float* vol, __global const VolclTfKnot* knots,
+inline float shadow_transmittance(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                                   const VolclRenderParams* P, float3 x, float3 L, float dist) {
     const float3 inv = v3(P->volInvSpacing);
     const float3 o = (x - v3(P->volOrigin)) * inv, d = L * inv;
@@ -93,7 +93,7 @@ inline float shadow_transmittance(__global const float* vol, __global const Volc
 #endif
 
 /* Light reaching the eye from a sample of straight colour c at world point x: shading and/or scattering. */
-inline float3 light_sample(__global const float* vol, __global const VolclTfKnot* knots, const VolclRenderParams* P,
+inline float3 light_sample(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclRenderParams* P,
                            const Ray* r, float3 x, float3 p, float3 c) {
     float3 out = (float3)(0.0f);
 #ifdef SHADING
@@ -219,7 +219,7 @@ inline uint macro_cell(const VolclRenderParams* P, const Ray* r, float t, float*
 #if ISO_COUNT > 0
 /* Root of s(t) = iso in [ta, tb] (fa = s(ta) - iso, opposite in sign to s(tb) - iso): bisection on the
    trilinear field until the interval no longer shrinks in float or 40 halvings (2^-40 of the step). */
-inline float refine_iso(__global const float* vol, const VolclRenderParams* P, const Ray* r, float iso, float ta,
+inline float refine_iso(__global const voxel_t* vol, const VolclRenderParams* P, const Ray* r, float iso, float ta,
                         float fa, float tb) {
     for (int it = 0; it < 40; ++it) {
         const float tm = 0.5f * (ta + tb);
@@ -236,7 +236,7 @@ inline float refine_iso(__global const float* vol, const VolclRenderParams* P, c
 }
 
 /* Composites the iso-surfaces crossed between (t0, s0) and (t1, s1) in ray order. */
-inline void iso_segment(__global const float* vol, __global const VolclTfKnot* knots, const VolclRenderParams* P,
+inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclRenderParams* P,
                         const Ray* r, float t0, float s0, float t1, float s1, float3* rgb, float* T, float* depth) {
     float th[ISO_COUNT];
     int order[ISO_COUNT];
@@ -270,7 +270,7 @@ inline void iso_segment(__global const float* vol, __global const VolclTfKnot* k
 }
 #endif
 
-__kernel void raymarch(__global const float* vol, __global const VolclTfKnot* knots, __global const float4* table,
+__kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* knots, __global const float4* table,
                        __global const uchar* macroEmpty, const VolclRenderParams params, __global float4* out,
                        __global float* depthOut) {
     const uint x = get_global_id(0), y = get_global_id(1);

@@ -4,7 +4,7 @@
 
 /* Point-sampled emission-absorption with early termination: the same arithmetic as raymarch.cl built with
    MODE=0 PREINT=0 EARLY_TERMINATION, but from source that never contained the other features. */
-__kernel void raymarch_plain(__global const float* vol, __global const VolclTfKnot* knots,
+__kernel void raymarch_plain(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                              __global const float4* table, __global const uchar* macroEmpty,
                              const VolclRenderParams params, __global float4* out, __global float* depthOut) {
     const uint x = get_global_id(0), y = get_global_id(1);

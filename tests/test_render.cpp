@@ -262,7 +262,7 @@ TEST(Render, PlainKernelMatchesBaseline) {
     s.skipping = false;
     s.earlyTermination = 0.99;
     Renderer r(computeContext(), v, tf, s);
-    EXPECT_EQ(r.plan().defines.toOptions(), "-DEARLY_TERMINATION -DMODE=0");
+    EXPECT_EQ(r.plan().defines.toOptions(), "-DEARLY_TERMINATION -DMODE=0 -DVOXEL_TYPE=0");
     EXPECT_LT(maxAbsDiff(r.render(), r.renderPlainBaseline()), 1e-7);
 }
 

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
     volcl::cli::addInfoCommands(app, global);
     volcl::cli::addDemoCommand(app, global);
     volcl::cli::addPreintCommands(app, *bench, global);
+    volcl::cli::addRenderCommands(app, *bench, global);
     // Area command groups register here as they land (addPreintCommands, addCodecCommands, ...).
 
     // The single place where errors become messages and exit codes (CONTRACT section 5).

@@ -111,14 +111,11 @@ double gradientThreshold(const Volume& volume) {
     return 1e-6 * std::max(r.max - r.min, 1e-30) / s;
 }
 
-VolclRenderParams makeParams(const Scene& scene, const Camera& cam, const Volume& volume,
-                             const TransferFunction& tf, const EffectPlan& plan, const MacrocellGrid& grid,
-                             std::size_t knotCount, int tableLengths) {
-    VolclRenderParams p{};
-    auto put = [](float* dst, const Vec3& v, float w = 0.0f) {
+void setCameraParams(VolclRenderParams& p, const Scene& scene, const Camera& cam) {
+    auto put = [](float* dst, const Vec3& v) {
         for (int i = 0; i < 3; ++i)
             dst[i] = static_cast<float>(v[std::size_t(i)]);
-        dst[3] = w;
+        dst[3] = 0.0f;
     };
     const Vec3 f = normalized(sub(cam.target, cam.eye));
     const Vec3 r = normalized(cross(f, cam.up));
@@ -131,6 +128,21 @@ VolclRenderParams makeParams(const Scene& scene, const Camera& cam, const Volume
     put(p.camRight, scale(r, half * aspect));
     put(p.camUp, scale(u, half));
     put(p.camForward, f);
+    p.dims[3] = cam.projection == Projection::Perspective ? 1u : 0u;
+    p.width = volcl_uint(scene.width);
+    p.height = volcl_uint(scene.height);
+}
+
+VolclRenderParams makeParams(const Scene& scene, const Camera& cam, const Volume& volume,
+                             const TransferFunction& tf, const EffectPlan& plan, const MacrocellGrid& grid,
+                             std::size_t knotCount, int tableLengths) {
+    VolclRenderParams p{};
+    auto put = [](float* dst, const Vec3& v, float w = 0.0f) {
+        for (int i = 0; i < 3; ++i)
+            dst[i] = static_cast<float>(v[std::size_t(i)]);
+        dst[3] = w;
+    };
+    setCameraParams(p, scene, cam);
     put(p.volOrigin, volume.origin);
     put(p.volSpacing, volume.spacing);
     put(p.volInvSpacing, {1.0 / volume.spacing[0], 1.0 / volume.spacing[1], 1.0 / volume.spacing[2]});
@@ -138,13 +150,10 @@ VolclRenderParams makeParams(const Scene& scene, const Camera& cam, const Volume
     p.dims[0] = volcl_uint(d.x);
     p.dims[1] = volcl_uint(d.y);
     p.dims[2] = volcl_uint(d.z);
-    p.dims[3] = cam.projection == Projection::Perspective ? 1u : 0u;
     p.macroDims[0] = grid.nx;
     p.macroDims[1] = grid.ny;
     p.macroDims[2] = grid.nz;
     p.macroDims[3] = grid.edge;
-    p.width = volcl_uint(scene.width);
-    p.height = volcl_uint(scene.height);
     p.knotCount = volcl_uint(knotCount);
     p.tableSize = volcl_uint(scene.tableSize);
     p.step = static_cast<float>(scene.step);

@@ -40,6 +40,8 @@ double maxExtinctionOver(const TransferFunction& tf, double a, double b);
 /// Gradient magnitude below which a sample has no defined normal.
 double gradientThreshold(const Volume& volume);
 
+/// The camera and image-size fields of the parameter block (the only ones a view change touches).
+void setCameraParams(VolclRenderParams& params, const Scene& scene, const Camera& camera);
 VolclRenderParams makeParams(const Scene& scene, const Camera& camera, const Volume& volume,
                              const TransferFunction& tf, const EffectPlan& plan, const MacrocellGrid& grid,
                              std::size_t knotCount, int tableLengths);

@@ -50,6 +50,12 @@ EffectPlan planEffects(const Scene& scene, const Volume& volume, const TransferF
                                                  : mode == RenderMode::Iso ? 2
                                                                            : 3));
     p.compiled.push_back("mode " + modeName);
+    // Voxels keep their stored type on the device; the kernel converts on load (exact for all four types).
+    p.voxelType = volume.type() == ScalarType::UInt8    ? 1
+                  : volume.type() == ScalarType::UInt16 ? 2
+                  : volume.type() == ScalarType::Int16  ? 3
+                                                        : 0;
+    p.defines.set("VOXEL_TYPE", static_cast<long long>(p.voxelType));
 
     const render_detail::ValueRange range = render_detail::valueRange(volume);
     // Iso-surfaces: crossed only when min < value <= max (the kernel's sign test), visible only if opaque at
@@ -183,7 +189,7 @@ EffectPlan planEffects(const Scene& scene, const Volume& volume, const TransferF
 }
 
 struct Renderer::Impl {
-    DeviceBuffer<float> volume;
+    DeviceBuffer<cl_uchar> volume; ///< voxels in their stored type, plus one spare voxel (raymarch_core.h)
     DeviceBuffer<VolclTfKnot> knots;
     DeviceBuffer<cl_float4> table;
     DeviceBuffer<cl_uchar> empty;
@@ -206,15 +212,17 @@ Renderer::Renderer(ComputeContext& cc, const Volume& volume, const TransferFunct
     if (volume.voxelCount() >= (std::size_t(1) << 32))
         throw DataError("volume has " + std::to_string(volume.voxelCount()) +
                         " voxels; the ray marcher indexes at most 2^32 - 1");
-    std::vector<float> values = volume.toFloat();
-    std::size_t bad = 0;
-    for (float v : values)
-        bad += std::isfinite(v) ? 0 : 1;
-    if (bad)
-        throw DataError(
-            "volume has " + std::to_string(bad) +
-            " NaN/Inf voxels; the ray marcher needs finite data (replace them first, e.g. volcl convert)");
-    impl_->volume = cc_.upload(values, CL_MEM_READ_ONLY);
+    if (volume.type() == ScalarType::Float32) {
+        std::size_t bad = 0;
+        for (float v : volume.values<float>())
+            bad += std::isfinite(v) ? 0 : 1;
+        if (bad)
+            throw DataError("volume has " + std::to_string(bad) +
+                            " NaN/Inf voxels; the ray marcher needs finite data (replace them first)");
+    }
+    std::vector<cl_uchar> bytes(volume.byteSize() + scalarSize(volume.type()), 0);
+    std::memcpy(bytes.data(), volume.bytes().data(), volume.byteSize());
+    impl_->volume = cc_.upload(bytes, CL_MEM_READ_ONLY);
     impl_->macro = render_detail::buildMacrocells(volume, kMacrocellEdge);
     impl_->out = cc_.allocate<cl_float4>(1);
     impl_->depth = cc_.allocate<float>(1);
@@ -231,6 +239,22 @@ void Renderer::setScene(const Scene& scene) {
     scene.validate();
     scene_ = scene;
     rebuild(false);
+}
+
+void Renderer::setView(const Camera& camera, int width, int height, double step) {
+    Scene s = scene_;
+    s.camera = camera;
+    s.width = width;
+    s.height = height;
+    s.step = step;
+    if (step != scene_.step) {
+        setScene(s);
+        return;
+    }
+    s.validate();
+    scene_ = s;
+    camera_ = camera;
+    render_detail::setCameraParams(impl_->params, scene_, camera_);
 }
 
 void Renderer::setTransferFunction(const TransferFunction& tf) {
@@ -320,7 +344,8 @@ ImageBuffer Renderer::launch(cl::Kernel& kernel, bool withDepth) {
         m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
     }
     setArgs(kernel, m.volume, m.knots, m.table, m.empty, m.params, m.out, m.depth);
-    cl::Event ev = cc_.launch2d(kernel, std::size_t(scene_.width), std::size_t(scene_.height), 16, 1);
+    // 8x8 tiles: neighbouring rays share cache lines in y as well as x.
+    cl::Event ev = cc_.launch2d(kernel, std::size_t(scene_.width), std::size_t(scene_.height), 8, 8);
     lastMs_ = eventMilliseconds(ev);
     const auto rgba = cc_.download(m.out);
     std::vector<std::string> channels{"R", "G", "B", "A"};
@@ -349,7 +374,9 @@ ImageBuffer Renderer::render() {
 ImageBuffer Renderer::renderPlainBaseline() {
     if (scene_.mode != RenderMode::Dvr || scene_.preintegration != Preintegration::None)
         throw UsageError("the plain baseline kernel renders point-sampled dvr only");
-    cl::Kernel k = cc_.kernel("raymarch_plain.cl", "raymarch_plain");
+    KernelDefines d;
+    d.set("VOXEL_TYPE", static_cast<long long>(plan_.voxelType));
+    cl::Kernel k = cc_.kernel("raymarch_plain.cl", "raymarch_plain", d);
     return launch(k, false);
 }
 

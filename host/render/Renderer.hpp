@@ -22,7 +22,8 @@ struct EffectPlan {
     std::vector<std::string> dropped;  ///< "shadows: no light in the scene"
     bool shading = false, shadows = false, scattering = false, clipping = false, skipping = false;
     bool earlyTermination = false, sobel = false;
-    double colorScale = 1.0;           ///< ambient-only shading folded into the TF colours
+    double colorScale = 1.0; ///< ambient-only shading folded into the TF colours
+    int voxelType = 0;       ///< VOXEL_TYPE: 0 float, 1 uint8, 2 uint16, 3 int16 (stored type on the device)
     std::vector<IsoLayer> isosurfaces; ///< the ones that can appear
     std::vector<ClipPlane> clipPlanes; ///< the ones that cut the volume box
     std::string explain() const;       ///< multi-line report for `volcl render --explain`
@@ -50,6 +51,10 @@ public:
     /// Replaces the scene (camera, mode, effects); rebuilds kernels and tables only when needed.
     void setScene(const Scene& scene);
     void setTransferFunction(const TransferFunction& tf);
+    /// Moves the camera and resizes the image without re-planning effects or re-scanning the volume, for
+    /// interactive viewers (setScene re-plans: tens of milliseconds on large volumes). A new step goes
+    /// through setScene, since tables and guards depend on it.
+    void setView(const Camera& camera, int width, int height, double step);
     ImageBuffer render();
     /// Renders with the effect-free baseline kernel (raymarch_plain.cl); DVR, point sampling only.
     ImageBuffer renderPlainBaseline();

@@ -1,0 +1,535 @@
+// `volcl render` (scene + flag overrides -> EXR/PNG, --explain) and `volcl bench render` (accuracy/time,
+// effects, VTK).
+#include "host/Error.hpp"
+#include "host/cli/CliParsing.hpp"
+#include "host/cli/Commands.hpp"
+#include "host/image/ImageIo.hpp"
+#include "host/io/AtomicFile.hpp"
+#include "host/io/VolumeIo.hpp"
+#include "host/render/Renderer.hpp"
+#include "host/render/Scene.hpp"
+#include "host/runtime/ClRuntime.hpp"
+#include "host/runtime/Timing.hpp"
+#include "host/tf/TransferFunction.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <sstream>
+
+#include <unistd.h>
+
+namespace volcl::cli {
+namespace {
+
+std::vector<double> parseNumbers(const std::string& text, std::size_t count, const std::string& what) {
+    std::vector<double> out;
+    std::stringstream ss(text);
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+        try {
+            std::size_t used = 0;
+            out.push_back(std::stod(item, &used));
+            if (used != item.size()) throw std::invalid_argument(item);
+        } catch (const std::exception&) {
+            throw UsageError(what + ": '" + item + "' is not a number");
+        }
+    }
+    if (count && out.size() != count)
+        throw UsageError(what + ": expected " + std::to_string(count) + " comma-separated numbers, got '" +
+                         text + "'");
+    return out;
+}
+
+Vec3 vec3(const std::string& text, const std::string& what) {
+    const auto v = parseNumbers(text, 3, what);
+    return {v[0], v[1], v[2]};
+}
+
+/// Scene fields a command line may override; empty means "keep the scene's value".
+struct SceneFlags {
+    std::string scene, volume, tf, mode, preint, projection, eye, target, up, background;
+    std::optional<double> step, viewHeight, fov, earlyTermination, shadowStep;
+    std::optional<int> width, height, tableSize, tableLengths;
+    bool noSkipping = false, sobel = false, shadows = false;
+    std::string shading, scattering;
+    std::vector<std::string> isos, lights, clips;
+    RawReadFlags raw;
+
+    void add(CLI::App* cmd) {
+        cmd->add_option("--scene", scene, "Scene JSON (CONTRACT section 4); flags below override its fields");
+        cmd->add_option("--volume", volume, "Volume file (overrides the scene's)");
+        cmd->add_option("--tf", tf, "Transfer function: canonical/ParaView JSON or an RGBA strip image");
+        cmd->add_option("--mode", mode, "dvr, mip, iso or xray");
+        cmd->add_option("--step", step, "Sampling distance in world units");
+        cmd->add_option("--preintegration", preint, "none, 2d or 3d (dvr only)");
+        cmd->add_option("--width", width, "Image width in pixels");
+        cmd->add_option("--height", height, "Image height in pixels");
+        cmd->add_option("--projection", projection, "orthographic or perspective");
+        cmd->add_option("--eye", eye, "Camera position x,y,z");
+        cmd->add_option("--target", target, "Camera target x,y,z");
+        cmd->add_option("--up", up, "Camera up vector x,y,z");
+        cmd->add_option("--view-height", viewHeight, "Orthographic view height in world units");
+        cmd->add_option("--fov", fov, "Perspective vertical field of view in degrees");
+        cmd->add_option("--background", background, "PNG background r,g,b,a (straight, linear)");
+        cmd->add_option("--early-termination", earlyTermination, "Stop rays at this opacity (1 = never)");
+        cmd->add_flag("--no-skipping", noSkipping, "Disable empty-space skipping");
+        cmd->add_option("--table-size", tableSize, "Pre-integration table nodes");
+        cmd->add_option("--table-lengths", tableLengths, "3D pre-integration: number of lengths");
+        cmd->add_option("--iso", isos, "Iso-surface value[:r,g,b,a] (repeatable)");
+        cmd->add_option("--light", lights,
+                        "Light: head | dir:x,y,z | point:x,y,z, optionally @intensity (repeatable)");
+        cmd->add_option("--shading", shading, "Blinn-Phong ambient,diffuse,specular,shininess");
+        cmd->add_flag("--sobel", sobel, "Sobel gradients instead of central differences");
+        cmd->add_flag("--shadows", shadows, "Shadows by secondary marching toward each light");
+        cmd->add_option("--shadow-step", shadowStep, "Shadow ray step in world units");
+        cmd->add_option("--scattering", scattering, "Single scattering albedo,g (Henyey-Greenstein)");
+        cmd->add_option("--clip", clips,
+                        "Clipping plane nx,ny,nz,offset keeping n.x + offset >= 0 (repeatable)");
+        raw.add(*cmd);
+    }
+
+    Scene build() const {
+        Scene s = scene.empty() ? Scene{} : Scene::fromFile(scene);
+        if (!volume.empty()) s.volume = volume;
+        if (!tf.empty()) s.tf = tf;
+        if (!mode.empty()) s.mode = parseRenderMode(mode);
+        if (step) s.step = *step;
+        if (!preint.empty()) s.preintegration = parsePreintegration(preint);
+        if (width) s.width = *width;
+        if (height) s.height = *height;
+        if (earlyTermination) s.earlyTermination = *earlyTermination;
+        if (noSkipping) s.skipping = false;
+        if (tableSize) s.tableSize = *tableSize;
+        if (tableLengths) s.tableLengths = *tableLengths;
+        if (!background.empty()) {
+            const auto b = parseNumbers(background, 4, "--background");
+            s.background = {b[0], b[1], b[2], b[3]};
+        }
+        const bool cameraFlag =
+            !projection.empty() || !eye.empty() || !target.empty() || !up.empty() || viewHeight || fov;
+        if (cameraFlag) {
+            Camera c = s.camera ? *s.camera : Camera{};
+            if (!s.camera && (eye.empty() || target.empty()))
+                throw UsageError("--eye and --target are needed when the scene has no camera");
+            if (!projection.empty()) {
+                if (projection == "orthographic")
+                    c.projection = Projection::Orthographic;
+                else if (projection == "perspective")
+                    c.projection = Projection::Perspective;
+                else
+                    throw UsageError("--projection '" + projection +
+                                     "' is unknown (orthographic, perspective)");
+            } else if (fov) {
+                c.projection = Projection::Perspective;
+            }
+            if (!eye.empty()) c.eye = vec3(eye, "--eye");
+            if (!target.empty()) c.target = vec3(target, "--target");
+            if (!up.empty()) c.up = vec3(up, "--up");
+            if (viewHeight) c.height = *viewHeight;
+            if (fov) c.fovYDeg = *fov;
+            s.camera = c;
+        }
+        for (const auto& text : isos) {
+            IsoLayer iso;
+            const auto colon = text.find(':');
+            iso.value = parseNumbers(text.substr(0, colon), 1, "--iso")[0];
+            if (colon != std::string::npos) {
+                const auto c = parseNumbers(text.substr(colon + 1), 4, "--iso colour");
+                iso.rgba = {c[0], c[1], c[2], c[3]};
+            }
+            s.effects.isosurfaces.push_back(iso);
+        }
+        for (const auto& text : lights) {
+            Light l;
+            std::string spec = text;
+            const auto at = spec.find('@');
+            if (at != std::string::npos) {
+                l.intensity = parseNumbers(spec.substr(at + 1), 1, "--light intensity")[0];
+                spec = spec.substr(0, at);
+            }
+            if (spec == "head")
+                l.kind = LightKind::Head;
+            else if (spec.rfind("dir:", 0) == 0) {
+                l.kind = LightKind::Directional;
+                l.vector = vec3(spec.substr(4), "--light dir");
+            } else if (spec.rfind("point:", 0) == 0) {
+                l.kind = LightKind::Point;
+                l.vector = vec3(spec.substr(6), "--light point");
+            } else {
+                throw UsageError("--light '" + text + "' is not head, dir:x,y,z or point:x,y,z");
+            }
+            s.lights.push_back(l);
+        }
+        if (!shading.empty()) {
+            const auto v = parseNumbers(shading, 4, "--shading");
+            s.effects.shading = true;
+            s.effects.ambient = v[0];
+            s.effects.diffuse = v[1];
+            s.effects.specular = v[2];
+            s.effects.shininess = v[3];
+        }
+        if (sobel) s.effects.gradient = GradientKind::Sobel;
+        if (shadows) s.effects.shadows = true;
+        if (shadowStep) s.effects.shadowStep = *shadowStep;
+        if (!scattering.empty()) {
+            const auto v = parseNumbers(scattering, 2, "--scattering");
+            s.effects.scattering = true;
+            s.effects.albedo = v[0];
+            s.effects.phaseG = v[1];
+        }
+        for (const auto& text : clips) {
+            const auto v = parseNumbers(text, 4, "--clip");
+            s.effects.clipPlanes.push_back({{v[0], v[1], v[2]}, v[3]});
+        }
+        if (s.volume.empty()) throw UsageError("no volume: give --volume or a scene with \"volume\"");
+        if (s.tf.empty()) throw UsageError("no transfer function: give --tf or a scene with \"tf\"");
+        s.validate();
+        return s;
+    }
+};
+
+TransferFunction loadTf(const std::filesystem::path& path, const Volume& v) {
+    const VolumeStats st = v.stats(1);
+    std::array<double, 2> range{st.min, st.max > st.min ? st.max : st.min + 1.0};
+    return TransferFunction::fromFile(path, range);
+}
+
+void writeRendered(const ImageBuffer& img, const std::filesystem::path& out, const Scene& s, bool half) {
+    std::string ext = out.extension().string();
+    for (auto& c : ext)
+        c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (ext == ".exr") {
+        writeImage(img, out, {.halfFloat = half});
+    } else if (ext == ".png") {
+        const auto& b = s.background;
+        writeImage(compositeOverSrgb(img, {float(b[0]), float(b[1]), float(b[2]), float(b[3])}), out);
+    } else {
+        throw UsageError(out.string() +
+                         ": output must be .exr (linear associated RGBA) or .png (sRGB over background)");
+    }
+}
+
+double rmseRgb(const ImageBuffer& a, const ImageBuffer& b) {
+    double sum = 0.0;
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x)
+            for (int c = 0; c < 3; ++c) {
+                const double d = double(a.at(x, y, c)) - double(b.at(x, y, c));
+                sum += d * d;
+            }
+    return std::sqrt(sum / (3.0 * a.width * a.height));
+}
+
+std::string shellQuote(const std::string& s) {
+    std::string out = "'";
+    for (char c : s)
+        out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return out + "'";
+}
+
+struct BenchArgs {
+    SceneFlags scene;
+    std::string steps = "0.25,0.5,1,2";
+    int runs = 5;
+    double referenceStep = 0.05;
+    std::string csv, vtkImage;
+    bool effects = false, vtk = false, sweep = true;
+    std::string vtkScript = std::string(VOLCL_SOURCE_DIR) + "/bench/vtk_raycast.py";
+};
+
+/// Median kernel milliseconds of `runs` frames after one warm-up frame (kernel build excluded).
+double timeFrames(Renderer& r, int runs) {
+    r.render();
+    std::vector<double> ms;
+    for (int i = 0; i < runs; ++i) {
+        r.render();
+        ms.push_back(r.lastKernelMilliseconds());
+    }
+    return median(ms);
+}
+
+void benchEffects(ComputeContext& cc, const Volume& v, const TransferFunction& tf, Scene base, int runs) {
+    base.preintegration = Preintegration::None;
+    base.skipping = false;
+    base.effects = {};
+    base.lights.clear();
+    Renderer r(cc, v, tf, base);
+    // Plain kernel from the full source vs the baseline file that never contained any effect, interleaved.
+    std::vector<double> plain, baseline;
+    r.render();
+    r.renderPlainBaseline();
+    for (int i = 0; i < std::max(runs, 7); ++i) {
+        r.render();
+        plain.push_back(r.lastKernelMilliseconds());
+        r.renderPlainBaseline();
+        baseline.push_back(r.lastKernelMilliseconds());
+    }
+    const double plainMs = median(plain), baseMs = median(baseline);
+    std::cout << "effect cost, " << base.width << "x" << base.height << ", step " << base.step
+              << ", median of " << plain.size() << " frames (ms, ratio to plain)\n";
+    std::cout << std::fixed << std::setprecision(2);
+    std::cout << "  plain (raymarch.cl, no -D effects)      " << std::setw(9) << plainMs << "  1.000\n";
+    std::cout << "  baseline (raymarch_plain.cl)            " << std::setw(9) << baseMs << "  "
+              << std::setprecision(3) << baseMs / plainMs << "  plain/baseline " << plainMs / baseMs
+              << (plainMs <= 1.03 * baseMs ? " (within 3%)" : " (over 3%)") << '\n';
+    const auto box = v.dims();
+    const Vec3 centre{v.origin[0] + 0.5 * double(box.x - 1) * v.spacing[0],
+                      v.origin[1] + 0.5 * double(box.y - 1) * v.spacing[1],
+                      v.origin[2] + 0.5 * double(box.z - 1) * v.spacing[2]};
+    const double mid = 0.5 * (tf.domain[0] + tf.domain[1]);
+    struct Variant {
+        const char* name;
+        std::function<void(Scene&)> apply;
+    };
+    const Light light{LightKind::Directional, {0.4, 0.6, -0.7}, {1, 1, 1}, 1.0};
+    const std::vector<Variant> variants = {
+        {"shading (1 light, central diff.)",
+         [&](Scene& s) {
+             s.lights = {light};
+             s.effects.shading = true;
+         }},
+        {"shading, Sobel gradients",
+         [&](Scene& s) {
+             s.lights = {light};
+             s.effects.shading = true;
+             s.effects.gradient = GradientKind::Sobel;
+         }},
+        {"shading + shadows",
+         [&](Scene& s) {
+             s.lights = {light};
+             s.effects.shading = true;
+             s.effects.shadows = true;
+             s.effects.shadowStep = 2.0 * s.step;
+         }},
+        {"single scattering",
+         [&](Scene& s) {
+             s.lights = {light};
+             s.effects.scattering = true;
+             s.effects.albedo = 0.7;
+             s.effects.phaseG = 0.3;
+         }},
+        {"clipping plane",
+         [&](Scene& s) {
+             s.effects.clipPlanes = {{{1, 0, 0}, -centre[0]}};
+         }},
+        {"iso-surface mixed into dvr",
+         [&](Scene& s) {
+             s.effects.isosurfaces = {{mid, {1, 1, 1, 0.5}}};
+         }},
+        {"empty-space skipping", [&](Scene& s) { s.skipping = true; }},
+        {"2D pre-integration", [&](Scene& s) { s.preintegration = Preintegration::Table2d; }},
+        {"3D pre-integration", [&](Scene& s) { s.preintegration = Preintegration::Table3d; }},
+    };
+    for (const auto& var : variants) {
+        Scene s = base;
+        var.apply(s);
+        r.setScene(s);
+        const double ms = timeFrames(r, runs);
+        std::cout << "  " << std::left << std::setw(40) << var.name << std::right << std::setw(9)
+                  << std::setprecision(2) << ms << "  " << std::setprecision(3) << ms / plainMs << "  ["
+                  << r.plan().defines.toOptions() << "]\n";
+    }
+}
+
+/// Runs VTK's vtkFixedPointVolumeRayCastMapper through python3-vtk9 on the same volume, TF, camera, size and
+/// sample distance. Returns its median ms per frame and its image (RGB over black, i.e. associated colour).
+std::pair<double, ImageBuffer> runVtk(const BenchArgs& a, const Volume& v, const TransferFunction& tf,
+                                      const Scene& s, const Camera& cam, const std::filesystem::path& dir) {
+    const auto rawPath = dir / "vtk-volume.f32";
+    {
+        const std::vector<float> f = v.toFloat();
+        std::ofstream out(rawPath, std::ios::binary);
+        out.write(reinterpret_cast<const char*>(f.data()), std::streamsize(f.size() * sizeof(float)));
+        if (!out) throw IoError(rawPath.string() + ": cannot write the VTK input");
+    }
+    nlohmann::json job;
+    job["volume"] = rawPath.string();
+    job["dims"] = {v.dims().x, v.dims().y, v.dims().z};
+    job["spacing"] = v.spacing;
+    job["origin"] = v.origin;
+    // The TF densely sampled: VTK interpolates opacity linearly, ours is linear in tau.
+    nlohmann::json samples = nlohmann::json::array();
+    const int n = 1024;
+    for (int i = 0; i < n; ++i) {
+        const double x = tf.domain[0] + (tf.domain[1] - tf.domain[0]) * i / (n - 1);
+        const auto c = tf.colorAt(x);
+        samples.push_back({x, c[0], c[1], c[2], 1.0 - std::exp(-tf.extinctionAt(x))});
+    }
+    job["tf"] = samples;
+    job["camera"] = {{"eye", cam.eye},
+                     {"target", cam.target},
+                     {"up", cam.up},
+                     {"height", cam.height},
+                     {"perspective", cam.projection == Projection::Perspective},
+                     {"fov_y_deg", cam.fovYDeg}};
+    job["width"] = s.width;
+    job["height"] = s.height;
+    job["step"] = s.step;
+    job["runs"] = a.runs;
+    job["image"] = (dir / "vtk-image.f32").string();
+    job["result"] = (dir / "vtk-result.json").string();
+    const auto jobPath = dir / "vtk-job.json";
+    std::ofstream(jobPath) << job.dump(2);
+    const std::string cmd =
+        "xvfb-run -a /usr/bin/python3 " + shellQuote(a.vtkScript) + " " + shellQuote(jobPath.string());
+    if (std::system(cmd.c_str()) != 0)
+        throw Error("VTK peer failed (" + cmd + "); is python3-vtk9 installed (scripts/apt-packages.txt)?");
+    std::ifstream res(dir / "vtk-result.json");
+    const nlohmann::json r = nlohmann::json::parse(res);
+    const auto bytes = readFileBytes(dir / "vtk-image.f32");
+    ImageBuffer img(s.width, s.height, {"R", "G", "B", "A"});
+    if (bytes.size() != img.pixels.size() * sizeof(float)) throw IoError("VTK peer image has the wrong size");
+    std::memcpy(img.pixels.data(), bytes.data(), bytes.size());
+    return {r.at("median_ms").get<double>(), img};
+}
+
+void benchRender(const BenchArgs& a, GlobalOptions& global) {
+    Scene scene = a.scene.build();
+    const Volume v = readVolume(scene.volume, a.scene.raw.toReadOptions());
+    const TransferFunction tf = loadTf(scene.tf, v);
+    ComputeContext cc(global.device);
+    std::cerr << "volcl bench render: " << scene.volume.string() << " " << v.dims().x << "x" << v.dims().y
+              << "x" << v.dims().z << ", " << scene.width << "x" << scene.height << ", device "
+              << cc.device().name << '\n';
+    if (a.effects) benchEffects(cc, v, tf, scene, a.runs);
+    if (!a.sweep && !a.vtk) return;
+
+    // Reference at the same image size: the accuracy every configuration is measured against.
+    Stopwatch sw;
+    const double minSpacing = std::min({v.spacing[0], v.spacing[1], v.spacing[2]});
+    const ImageBuffer ref = referenceRender(v, tf, scene, {.step = a.referenceStep * minSpacing});
+    std::cerr << "reference (double, step " << a.referenceStep * minSpacing << "): " << std::fixed
+              << std::setprecision(1) << sw.milliseconds() / 1000.0 << " s\n";
+
+    std::ostringstream csv;
+    csv << "step,preintegration,skipping,ms_per_frame,table_ms,rmse_rgba,rmse_rgb\n";
+    if (a.sweep) {
+        std::cout << "accuracy vs time, median of " << a.runs
+                  << " frames, RMSE against the double reference\n";
+        std::cout << "  step   preint  skip   ms/frame   table ms   RMSE rgba    RMSE rgb\n";
+        for (double step : parseNumbers(a.steps, 0, "--steps")) {
+            for (Preintegration pre :
+                 {Preintegration::None, Preintegration::Table2d, Preintegration::Table3d}) {
+                for (bool skip : {true, false}) {
+                    Scene s = scene;
+                    s.step = step * minSpacing;
+                    s.preintegration = pre;
+                    s.skipping = skip;
+                    Renderer r(cc, v, tf, s);
+                    const double tableMs = r.lastTableMilliseconds();
+                    const double ms = timeFrames(r, a.runs);
+                    const ImageBuffer img = r.render();
+                    const double e4 = imageRmse(img, ref), e3 = rmseRgb(img, ref);
+                    std::cout << std::setprecision(3) << "  " << std::setw(5) << step << "  " << std::setw(6)
+                              << preintegrationName(pre) << "  " << std::setw(4) << (skip ? "on" : "off")
+                              << "  " << std::setw(9) << std::setprecision(2) << ms << "  " << std::setw(9)
+                              << tableMs << "  " << std::scientific << std::setprecision(3) << std::setw(10)
+                              << e4 << "  " << std::setw(10) << e3 << std::fixed << '\n';
+                    csv << step << ',' << preintegrationName(pre) << ',' << (skip ? 1 : 0) << ',' << ms << ','
+                        << tableMs << ',' << e4 << ',' << e3 << '\n';
+                }
+            }
+        }
+    }
+    if (a.vtk) {
+        const auto dir = std::filesystem::temp_directory_path() / ("volcl-vtk-" + std::to_string(::getpid()));
+        std::filesystem::create_directories(dir);
+        Renderer r(cc, v, tf, scene);
+        const auto [vtkMs, vtkImg] = runVtk(a, v, tf, scene, r.camera(), dir);
+        std::filesystem::remove_all(dir);
+        const double ms = timeFrames(r, a.runs);
+        const double ours = rmseRgb(r.render(), ref), theirs = rmseRgb(vtkImg, ref);
+        if (!a.vtkImage.empty()) {
+            writeImage(vtkImg, a.vtkImage);
+            writeImage(ref, std::filesystem::path(a.vtkImage).replace_extension(".reference.exr"));
+        }
+        std::cout << "peer comparison, " << scene.width << "x" << scene.height << ", step " << scene.step
+                  << ", same volume/TF/camera, RMSE of RGB (associated, over black) against the reference\n";
+        std::cout << std::setprecision(2) << "  volcl " << preintegrationName(scene.preintegration)
+                  << (scene.skipping ? " +skip" : "") << ": " << ms << " ms/frame, RMSE " << std::scientific
+                  << std::setprecision(3) << ours << std::fixed << '\n';
+        std::cout << std::setprecision(2) << "  VTK vtkFixedPointVolumeRayCastMapper: " << vtkMs
+                  << " ms/frame, RMSE " << std::scientific << std::setprecision(3) << theirs << std::fixed
+                  << '\n';
+        std::cout << std::setprecision(2) << "  speed ratio VTK/volcl: " << vtkMs / ms << "x\n";
+        csv << "# vtk," << vtkMs << ',' << theirs << ",volcl," << ms << ',' << ours << '\n';
+    }
+    if (!a.csv.empty()) {
+        AtomicFile out(a.csv);
+        out.write(csv.str());
+        out.commit();
+    }
+}
+
+} // namespace
+
+void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
+    auto* cmd = app.add_subcommand("render", "Ray-march a volume: dvr, mip, iso or xray, to EXR or PNG");
+    struct Args {
+        SceneFlags scene;
+        std::string out;
+        bool explain = false, half = false;
+    };
+    auto a = std::make_shared<Args>();
+    a->scene.add(cmd);
+    cmd->add_option("-o,--output", a->out,
+                    ".exr (linear associated RGBA, + Z with iso-surfaces) or .png (sRGB)");
+    cmd->add_flag("--explain", a->explain,
+                  "Print the effects compiled into the kernel and why others were dropped");
+    cmd->add_flag("--half", a->half, "EXR: store half floats");
+    cmd->callback([a, &global] {
+        if (a->out.empty() && !a->explain) throw UsageError("render: give -o/--output (or --explain)");
+        const Scene scene = a->scene.build();
+        if (!a->out.empty()) checkNotSameFile(scene.volume, a->out);
+        const Volume v = readVolume(scene.volume, a->scene.raw.toReadOptions());
+        const TransferFunction tf = loadTf(scene.tf, v);
+        if (a->explain && a->out.empty()) {
+            std::cout << planEffects(scene, v, tf).explain();
+            return;
+        }
+        ComputeContext cc(global.device);
+        Renderer r(cc, v, tf, scene);
+        if (a->explain)
+            std::cout << r.plan().explain() << "macrocells: " << r.macrocellCount() << ", "
+                      << std::setprecision(1) << std::fixed << 100.0 * r.emptyMacrocellFraction()
+                      << "% empty\n";
+        const ImageBuffer img = r.render();
+        writeRendered(img, a->out, scene, a->half);
+        if (!global.quiet)
+            std::cerr << "volcl render: " << scene.width << "x" << scene.height << " "
+                      << renderModeName(scene.mode) << ", step " << scene.step << ": " << std::fixed
+                      << std::setprecision(1) << r.lastKernelMilliseconds() << " ms kernel"
+                      << (r.lastTableMilliseconds() > 0
+                              ? ", table " + std::to_string(int(r.lastTableMilliseconds())) + " ms"
+                              : "")
+                      << " -> " << a->out << '\n';
+    });
+
+    auto* b = bench.add_subcommand("render", "Ray marcher: error vs time sweep, effect costs, VTK peer");
+    auto ba = std::make_shared<BenchArgs>();
+    ba->scene.add(b);
+    b->add_option("--steps", ba->steps, "Steps to sweep, in units of the smallest voxel spacing")
+        ->capture_default_str();
+    b->add_option("--runs", ba->runs, "Timed frames per configuration (median)")->capture_default_str();
+    b->add_option("--reference-step", ba->referenceStep, "Reference step in voxel spacings")
+        ->capture_default_str();
+    b->add_option("--csv", ba->csv, "Write the sweep as CSV (for bench/plot_render.py)");
+    b->add_flag("--effects", ba->effects,
+                "Cost of each effect alone, and plain vs effect-free baseline kernel");
+    b->add_flag("--vtk", ba->vtk, "Compare with VTK's vtkFixedPointVolumeRayCastMapper (python3-vtk9, xvfb)");
+    b->add_flag("!--no-sweep", ba->sweep, "Skip the step x pre-integration x skipping sweep");
+    b->add_option("--vtk-image", ba->vtkImage, "Save VTK's image (EXR) and the reference beside it");
+    b->add_option("--vtk-script", ba->vtkScript, "Path of bench/vtk_raycast.py")->capture_default_str();
+    b->callback([ba, &global] { benchRender(*ba, global); });
+}
+
+} // namespace volcl::cli
