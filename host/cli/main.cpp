@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
 
     volcl::cli::addInfoCommands(app, global);
     volcl::cli::addDemoCommand(app, global);
+    volcl::cli::addViewCommand(app, global);
     volcl::cli::addPreintCommands(app, *bench, global);
     volcl::cli::addRenderCommands(app, *bench, global);
     // Area command groups register here as they land (addPreintCommands, addCodecCommands, ...).

@@ -151,7 +151,7 @@ std::string ViewerSession::apply(ViewerAction action) {
         return " (added a directional light from the upper left)";
     };
     std::string what;
-    structureChanged_ = true;
+    bool structural = true; // the next frame re-plans the renderer's effects
     switch (action) {
     case ViewerAction::CycleMode: {
         static constexpr RenderMode order[] = {RenderMode::Dvr, RenderMode::Mip, RenderMode::Iso,
@@ -215,7 +215,6 @@ std::string ViewerSession::apply(ViewerAction action) {
         break;
     case ViewerAction::ReloadTf: {
         if (tfPath_.empty()) {
-            structureChanged_ = false;
             return "no transfer-function file to reload";
         }
         try {
@@ -229,26 +228,25 @@ std::string ViewerSession::apply(ViewerAction action) {
             what = "reloaded " + tfPath_.string();
         } catch (const Error& e) {
             // A file half-way through an edit must not end the session: keep the TF in use.
-            structureChanged_ = false;
             return std::string("reload failed, keeping the current transfer function: ") + e.what();
         }
         break;
     }
     case ViewerAction::ToggleAdaptive:
         adaptive_.setEnabled(!adaptive_.options().enabled);
-        structureChanged_ = false;
+        structural = false;
         what = std::string("adaptive quality ") + (adaptive_.options().enabled ? "on" : "off");
         break;
     case ViewerAction::ResetCamera:
         camera_ = CameraController(*original_.camera);
-        structureChanged_ = false;
+        structural = false;
         what = "camera reset";
         break;
     case ViewerAction::Screenshot:
     case ViewerAction::Quit:
-        structureChanged_ = false;
         return {};
     }
+    structureChanged_ = structureChanged_ || structural;
     return what;
 }
 
@@ -270,7 +268,11 @@ ViewerFrame ViewerSession::renderFrame(int width, int height, bool interactive) 
 
     const KernelDefines before = renderer_->plan().defines;
     Stopwatch sw;
-    renderer_->setScene(s);
+    // Camera, size and step alone take the renderer's cheap path; effect or mode changes re-plan.
+    if (structureChanged_)
+        renderer_->setScene(s);
+    else
+        renderer_->setView(*s.camera, s.width, s.height, s.step);
     f.setupMs = sw.milliseconds();
     f.structureChanged = structureChanged_ || !(renderer_->plan().defines == before) ||
                          renderer_->lastTableMilliseconds() > 0.0;

@@ -1,0 +1,153 @@
+// `volcl view --headless` as a user runs it: its PNG equals `volcl render`'s PNG of the same scene within
+// 1/255, per-frame statistics, and clear refusals (exit codes, one line, no output left behind).
+#include "TestUtil.hpp"
+
+#include "host/Volume.hpp"
+#include "host/image/ImageIo.hpp"
+#include "host/io/VolumeIo.hpp"
+
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+using namespace volcl;
+
+namespace {
+
+struct Outcome {
+    int code = -1;
+    std::string err;
+};
+
+// Runs volcl with `args` in `dir`, without an X display (as on CI), and returns exit code and stderr.
+Outcome runVolcl(const std::string& args, const std::filesystem::path& dir) {
+    const auto err = dir / "stderr.txt";
+    const std::string cmd = "cd '" + dir.string() + "' && env -u DISPLAY -u WAYLAND_DISPLAY " +
+                            std::string(VOLCL_EXE) + " " + args + " >/dev/null 2>'" + err.string() +
+                            "' </dev/null";
+    const int status = std::system(cmd.c_str());
+    Outcome o;
+    o.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    std::ifstream in(err);
+    std::ostringstream s;
+    s << in.rdbuf();
+    o.err = s.str();
+    return o;
+}
+
+std::size_t lines(const std::string& s) {
+    return std::size_t(std::count(s.begin(), s.end(), '\n'));
+}
+
+// A raw volume named so its dims and type come from the file name, a TF, and a scene using both.
+void writeScene(const std::filesystem::path& dir, const std::string& effects) {
+    Volume v({30, 26, 22}, ScalarType::UInt8);
+    auto a = v.values<std::uint8_t>();
+    for (std::size_t k = 0; k < 22; ++k)
+        for (std::size_t j = 0; j < 26; ++j)
+            for (std::size_t i = 0; i < 30; ++i) {
+                const double x = i - 14.5, y = j - 12.5, z = k - 10.5;
+                a[v.index(i, j, k)] =
+                    std::uint8_t(std::clamp(255.0 * std::exp(-(x * x + y * y + z * z) / 60.0), 0.0, 255.0));
+            }
+    writeVolumeFile(v, dir / "blob_30x26x22_uint8.raw");
+    std::ofstream(dir / "tf.json") << R"({"domain": [0, 255],
+        "color": [[0, 0.2, 0.3, 0.9], [128, 1.0, 0.5, 0.2], [255, 1.0, 1.0, 0.9]],
+        "extinction": [[0, 0.0], [30, 0.0], [128, 0.2], [255, 0.5]]})";
+    std::ofstream(dir / "scene.json") << R"({"volume": "blob_30x26x22_uint8.raw", "tf": "tf.json",
+        "camera": {"projection": "orthographic", "eye": [40, 30, -60], "target": [14.5, 12.5, 10.5],
+                   "up": [0, 1, 0], "height": 40},
+        "image": {"width": 72, "height": 56, "background": [0.1, 0.2, 0.3, 1]},
+        "render": {"mode": "dvr", "step": 0.5})"
+                                      << effects << "}";
+}
+
+double maxDifference255(const ImageBuffer& a, const ImageBuffer& b) {
+    EXPECT_EQ(a.width, b.width);
+    EXPECT_EQ(a.height, b.height);
+    EXPECT_EQ(a.channelCount(), b.channelCount());
+    double m = 0.0;
+    for (std::size_t i = 0; i < std::min(a.pixels.size(), b.pixels.size()); ++i)
+        m = std::max(m, std::abs(double(a.pixels[i]) - double(b.pixels[i])) * 255.0);
+    return m;
+}
+
+} // namespace
+
+TEST(ViewerCli, HeadlessPngEqualsRenderPng) {
+    for (const std::string effects :
+         {std::string(), std::string(R"(, "lights": [{"type": "directional", "direction": [-1, 1, -1]}],
+              "effects": {"shading": {"ambient": 0.3}, "clip_planes": [{"normal": [1, 0, 0], "offset": -12}]})")}) {
+        const auto dir = test::tempDir("viewer_cli_equal");
+        writeScene(dir, effects);
+        const Outcome r = runVolcl("render --scene scene.json -o render.png", dir);
+        ASSERT_EQ(r.code, 0) << r.err;
+        const Outcome v = runVolcl("view scene.json --headless --frames 2 -o view.png", dir);
+        ASSERT_EQ(v.code, 0) << v.err;
+        const ImageBuffer a = readImage(dir / "render.png"), b = readImage(dir / "view.png");
+        EXPECT_LE(maxDifference255(a, b), 1.0) << "effects: " << effects;
+        EXPECT_EQ(b.width, 72);
+        EXPECT_EQ(b.height, 56);
+    }
+}
+
+TEST(ViewerCli, OrbitWritesPerFrameStatistics) {
+    const auto dir = test::tempDir("viewer_cli_stats");
+    writeScene(dir, "");
+    const Outcome v =
+        runVolcl("view scene.json --headless --frames 5 --orbit 15 --keys 1m --stats frames.csv "
+                 "--target-ms 50 -o last.png",
+                 dir);
+    ASSERT_EQ(v.code, 0) << v.err;
+    EXPECT_NE(v.err.find("shading on"), std::string::npos) << v.err;
+    EXPECT_NE(v.err.find("mode mip"), std::string::npos) << v.err;
+    EXPECT_NE(v.err.find("interactive frames: median"), std::string::npos) << v.err;
+    std::ifstream csv(dir / "frames.csv");
+    std::string line;
+    std::getline(csv, line);
+    EXPECT_EQ(line.rfind("frame,interactive,width,height,step", 0), 0u) << line;
+    int rows = 0, interactive = 0;
+    while (std::getline(csv, line)) {
+        ++rows;
+        interactive += line.find(",1,") == line.find(',') ? 1 : 0;
+        double ms = std::stod(line.substr(line.rfind(',') + 1));
+        EXPECT_GT(ms, 0.0);
+        EXPECT_TRUE(std::isfinite(ms));
+    }
+    EXPECT_EQ(rows, 5);
+    EXPECT_EQ(interactive, 4);
+    EXPECT_TRUE(std::filesystem::exists(dir / "last.png"));
+}
+
+TEST(ViewerCli, RefusesBadInputWithOneLineAndNoOutput) {
+    const auto dir = test::tempDir("viewer_cli_errors");
+    writeScene(dir, "");
+    struct Case {
+        std::string args;
+        int code;
+        std::string mentions;
+    };
+    const Case cases[] = {
+        {"view missing.json --headless -o out.png", 1, "missing.json"},
+        {"view scene.json --headless --keys z -o out.png", 2, "'z'"},
+        {"view scene.json --headless --frames 0 -o out.png", 2, "frames"},
+        {"view scene.json --headless --target-ms 0 -o out.png", 2, "target-ms"},
+        {"view scene.json --headless --mode fog -o out.png", 2, "fog"},
+        {"view scene.json --headless --tf nope.json -o out.png", 1, "nope.json"},
+        {"view scene.json --headless -o blob_30x26x22_uint8.raw", 2, "blob_30x26x22_uint8.raw"},
+        // No display and no --headless: a clear message instead of a crash.
+        {"view scene.json", 1, "--headless"},
+    };
+    const auto before = std::filesystem::file_size(dir / "blob_30x26x22_uint8.raw");
+    for (const Case& c : cases) {
+        const Outcome o = runVolcl(c.args, dir);
+        EXPECT_EQ(o.code, c.code) << c.args << "\n" << o.err;
+        EXPECT_EQ(lines(o.err.substr(o.err.find("volcl:"))), 1u) << c.args << "\n" << o.err;
+        EXPECT_NE(o.err.find(c.mentions), std::string::npos) << c.args << "\n" << o.err;
+        EXPECT_FALSE(std::filesystem::exists(dir / "out.png")) << c.args;
+    }
+    EXPECT_EQ(std::filesystem::file_size(dir / "blob_30x26x22_uint8.raw"), before); // input untouched
+}
