@@ -39,7 +39,7 @@ def piecewise_points(points):
     return out
 
 
-def build_volume(tf, max_length_vtk):
+def build_volume(tf, max_length_vtk, workaround=True):
     lo, hi = tf["domain"]
     pts = vcore.vtkPoints()
     pts.SetDataTypeToDouble()
@@ -61,6 +61,18 @@ def build_volume(tf, max_length_vtk):
     ctf = vrc.vtkColorTransferFunction()
     for s, r, g, b in piecewise_points(tf["color"]):
         ctf.AddRGBPoint(s, r, g, b)
+    if workaround:
+        # vtkPartialPreIntegrationTransferFunction::GetTransferFunction collects the opacity function's control
+        # points in a loop that stops at the first one (it tests `function[0] == function_range[0]`), so
+        # extinction knots that are not colour knots are ignored and tau is interpolated across them. Adding
+        # colour points on the colour function's own line at those knots leaves the TF unchanged and lets VTK
+        # see every knot.
+        known = {p[0] for p in piecewise_points(tf["color"])}
+        for s, _ in piecewise_points(tf["extinction"]):
+            if s not in known:
+                rgb = [0.0, 0.0, 0.0]
+                ctf.GetColor(s, rgb)
+                ctf.AddRGBPoint(s, *rgb)
     otf = vcore.vtkPiecewiseFunction() if hasattr(vcore, "vtkPiecewiseFunction") else vdm.vtkPiecewiseFunction()
     for s, tau in piecewise_points(tf["extinction"]):
         otf.AddPoint(s, tau)
@@ -103,12 +115,14 @@ def main():
     ap.add_argument("--runs", type=int, default=5)
     ap.add_argument("--out-dir", required=True)
     ap.add_argument("--report", required=True)
+    ap.add_argument("--as-is", action="store_true",
+                    help="do not add colour points at extinction knots (shows VTK's opacity control-point bug)")
     args = ap.parse_args()
     with open(args.tf) as f:
         tf = json.load(f)
     max_length_vtk = args.max_length * (args.lengths - 1) / args.lengths
-    volume, scalars, keep = build_volume(tf, max_length_vtk)
-    report = {"runs": args.runs, "size": args.size, "lengths": args.lengths, "max_length": args.max_length,
+    volume, scalars, keep = build_volume(tf, max_length_vtk, workaround=not args.as_is)
+    report = {"runs": args.runs, "workaround": not args.as_is, "size": args.size, "lengths": args.lengths, "max_length": args.max_length,
               "vtk_version": vcore.vtkVersion.GetVTKVersion()}
     for mode, incremental in (("incremental", True), ("direct", False)):
         build_table(volume, scalars, args.size, args.lengths, incremental)  # warm-up (allocator, caches)

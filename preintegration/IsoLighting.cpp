@@ -33,9 +33,7 @@ ImageBuffer isoSurfaceTableImage(const std::vector<IsoSurface>& surfaces, std::a
               [](const IsoSurface& a, const IsoSurface& b) { return a.value < b.value; });
 
     ImageBuffer img(size, size, {"R", "G", "B", "A"});
-    auto node = [&](int i) {
-        return i == size - 1 ? domain[1] : domain[0] + i * (domain[1] - domain[0]) / (size - 1);
-    };
+    auto node = [&](int i) { return preint::nodeValue(domain, size, i); };
     for (int jf = 0; jf < size; ++jf) {
         const double sf = node(jf);
         for (int ib = 0; ib < size; ++ib) {
@@ -115,9 +113,7 @@ ImageBuffer lightingTableImage(const TransferFunction& tf, int size, double step
     spec.validate();
     ImageBuffer img(size, size,
                     {"R", "G", "B", "A", "Df.R", "Df.G", "Df.B", "Db.R", "Db.G", "Db.B", "omega"});
-    auto node = [&](int i) {
-        return i == size - 1 ? tf.domain[1] : tf.domain[0] + i * (tf.domain[1] - tf.domain[0]) / (size - 1);
-    };
+    auto node = [&](int i) { return preint::nodeValue(tf.domain, size, i); };
     preint::parallelFor(static_cast<std::size_t>(size) * size, threads, [&](std::size_t pair) {
         int jf = static_cast<int>(pair / size), ib = static_cast<int>(pair % size);
         LightingEntry e = referenceLighting(tf, node(jf), node(ib), step);

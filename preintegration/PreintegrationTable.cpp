@@ -89,7 +89,9 @@ double runExact(ComputeContext& cc, const TransferFunction& tf, int n, const std
     int lanes = 1;
     while (lanes < 16 && static_cast<std::size_t>(lanes) < count)
         lanes *= 2;
-    int blocks = static_cast<int>(std::min<std::size_t>(16, (count + lanes - 1) / lanes));
+    // Four blocks per work-item: measured 2x faster than 16 on PoCL 3.1 (the state stays in registers), while
+    // the TF walk is still shared by 64 lengths.
+    int blocks = static_cast<int>(std::min<std::size_t>(4, (count + lanes - 1) / lanes));
     std::size_t chunk = static_cast<std::size_t>(lanes * blocks);
     std::size_t chunks = (count + chunk - 1) / chunk;
     std::vector<double> padded(lengths);
@@ -117,7 +119,7 @@ double runExact(ComputeContext& cc, const TransferFunction& tf, int n, const std
 // Exact cumulative integrals at every node from the domain start: (K_r, K_g, K_b, Phi) with K = int c tau ds
 // (c tau is quadratic between breakpoints: Simpson is exact) and Phi = int tau ds (trapezoid is exact).
 std::vector<double> nodeIntegrals(const TransferFunction& tf, int n) {
-    const double lo = tf.domain[0], hi = tf.domain[1];
+    const double lo = tf.domain[0];
     std::vector<double> bps = tf.breakpoints();
     std::vector<double> out(4 * static_cast<std::size_t>(n), 0.0);
     std::array<double, 4> acc{0, 0, 0, 0};
@@ -141,7 +143,7 @@ std::vector<double> nodeIntegrals(const TransferFunction& tf, int n) {
         acc[3] += w * 0.5 * (va[3] + vc[3]);
     };
     for (int i = 0; i < n; ++i) {
-        double si = i == n - 1 ? hi : lo + i * (hi - lo) / (n - 1);
+        double si = preint::nodeValue(tf.domain, n, i);
         while (b < bps.size() && bps[b] < si) {
             if (bps[b] > s) {
                 integrate(s, bps[b]);
@@ -160,7 +162,7 @@ std::vector<double> nodeIntegrals(const TransferFunction& tf, int n) {
 std::vector<double> nodeDiagonal(const TransferFunction& tf, int n) {
     std::vector<double> out(4 * static_cast<std::size_t>(n));
     for (int i = 0; i < n; ++i) {
-        double s = i == n - 1 ? tf.domain[1] : tf.domain[0] + i * (tf.domain[1] - tf.domain[0]) / (n - 1);
+        double s = preint::nodeValue(tf.domain, n, i);
         auto c = tf.colorAt(s);
         double tau = std::max(tf.extinctionAt(s), 0.0);
         for (int q = 0; q < 3; ++q)
@@ -315,9 +317,7 @@ std::vector<double> TableSpec::lengthValues() const {
 }
 
 double PreintegrationTable::node(int i) const {
-    const int n = spec.size;
-    if (i == n - 1) return domain[1];
-    return domain[0] + i * (domain[1] - domain[0]) / (n - 1);
+    return preint::nodeValue(domain, spec.size, i);
 }
 
 std::array<float, 4> PreintegrationTable::entry(int k, int front, int back) const {

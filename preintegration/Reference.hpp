@@ -11,6 +11,11 @@ class TransferFunction;
 
 namespace preint {
 
+/// Table node i of n over `domain` (node-centred, both ends exact): the one definition kernels mirror.
+inline double nodeValue(const std::array<double, 2>& domain, int n, int i) {
+    return i == n - 1 ? domain[1] : domain[0] + i * (domain[1] - domain[0]) / (n - 1);
+}
+
 /// One linear piece of the TF along a segment: width h as a fraction of the segment, values at both ends
 /// (one-sided limits, so steps are exact), position w0 of its start in [0, 1].
 struct Piece {

@@ -136,7 +136,7 @@ struct BenchArgs {
     std::string tfPath, csvPath, jsonPath,
         vtkScript = std::string(VOLCL_SOURCE_DIR) + "/bench/vtk_preint_peer.py";
     int runs = 5;
-    bool quick = false, vtk = false;
+    bool quick = false, vtk = false, headline = false;
     double step = 1.0, maxLength = 4.0;
     std::size_t samples = 200000;
 };
@@ -254,6 +254,7 @@ void runBench(const BenchArgs& a, GlobalOptions& global) {
     std::vector<Precision> precisions{Precision::Float};
     if (cc.device().fp64) precisions.push_back(Precision::Double);
 
+    if (a.headline) precisions.clear(); // --headline: only the knob rows below at their defaults, and VTK
     // Methods x sizes x (2D, 3D) x precision. 3D tables keep at most 2^22 entries: L = min(256, 2^22 / N^2).
     for (Precision p : precisions)
         for (PreintMethod m : methods) {
@@ -279,7 +280,7 @@ void runBench(const BenchArgs& a, GlobalOptions& global) {
             }
         }
     // The oracle's own cost, for scale.
-    for (int n : std::vector<int>{64, 256}) {
+    for (int n : a.headline ? std::vector<int>{} : std::vector<int>{64, 256}) {
         TableSpec s;
         s.size = n;
         s.step = a.step;
@@ -299,12 +300,13 @@ void runBench(const BenchArgs& a, GlobalOptions& global) {
     s3.lengths = 256;
     s3.maxLength = a.maxLength;
     for (const TableSpec* s : {&s2, &s3}) {
-        for (double d : {0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0}) {
+        for (double d : a.headline ? std::vector<double>{1.0}
+                                   : std::vector<double>{0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0}) {
             GeneratorOptions o;
             o.maxSubstepDepth = d;
             measure(*s, o, "depth", d, true);
         }
-        for (int deg : {1, 2, 3, 4}) {
+        for (int deg : a.headline ? std::vector<int>{} : std::vector<int>{1, 2, 3, 4}) {
             GeneratorOptions o;
             o.method = PreintMethod::Polynomial;
             o.polynomialDegree = deg;
@@ -514,6 +516,8 @@ void addPreintCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     b->add_option("--tf", ba->tfPath, "Transfer function (default: the CONTRACT example)");
     b->add_option("--runs", ba->runs, "Timed runs per row (median)")->capture_default_str();
     b->add_flag("--quick", ba->quick, "Fewer sizes (for development)");
+    b->add_flag("--headline", ba->headline,
+                "Only exact on 2D 256^2 and 3D 128x128x256 (every entry checked), incremental, and --vtk");
     b->add_option("--step", ba->step, "2D segment length")->capture_default_str();
     b->add_option("--max-length", ba->maxLength, "3D largest length")->capture_default_str();
     b->add_option("--samples", ba->samples, "Entries compared with the reference per row (sweep rows)")
