@@ -569,12 +569,20 @@ private:
         const double range = st.max - st.min;
         const double n = double(v.voxelCount());
         const double rangeSq = range * range;
+        double lastDelta = 0, bestDelta = 0;
         auto setDelta = [&](double delta) {
+            lastDelta = delta;
             h.steps = subbandSteps(h.wavelet, h.levels, delta);
             clampSteps(h, coeffs);
         };
         Trial best;
+        if (o_.step && chooseStep) {
+            if (!(*o_.step > 0) || !std::isfinite(*o_.step)) throw UsageError("the quantiser step must be a positive number");
+            setDelta(*o_.step);
+            chooseStep = false;
+        }
         if (!chooseStep) {
+            bestDelta = lastDelta;
             best = trial(v, h, t, coeffs, h.rate == RateMode::MaxError ? std::optional(o_.target) : std::nullopt);
         } else if (h.rate == RateMode::MaxError) {
             // Larger steps leave more voxels to store exactly: keep the candidate with the smallest file.
@@ -588,6 +596,7 @@ private:
                     bestBytes = bytes;
                     best = std::move(tr);
                     bestSteps = h.steps;
+                    bestDelta = lastDelta;
                 }
             }
             h.steps = bestSteps;
@@ -623,6 +632,7 @@ private:
                         found = true;
                         best = std::move(tr);
                         bestSteps = h.steps;
+                    bestDelta = lastDelta;
                         if (psnrMode && quality < o_.target + 0.25) break;
                     }
                     // PSNR: ok -> try a larger step. Rate: ok -> try a smaller step.
@@ -636,10 +646,12 @@ private:
                 setDelta(std::exp2(lo));
                 best = trial(v, h, t, coeffs, std::nullopt);
                 bestSteps = h.steps;
+                    bestDelta = lastDelta;
             }
             h.steps = bestSteps;
         }
         codedBytes(h, best, &r.payloads);
+        r.report.step = bestDelta;
         std::size_t corr = 0;
         for (const auto& c : best.corrections) corr += c.size();
         r.report.corrections = corr;

@@ -31,6 +31,9 @@ struct CodecOptions {
     int levels = 4;
     Dims brick{64, 64, 64}; ///< each axis a multiple of 2^levels
     EntropyMode entropy = EntropyMode::Dense;
+    /// Lossy only: use this base quantiser step instead of searching one for the target (the search
+    /// encodes several trials; benchmarks time a fixed-step encode separately).
+    std::optional<double> step;
     unsigned threads = 2; ///< host threads for entropy coding
     std::map<std::string, std::string> metadata;
 };
@@ -43,6 +46,7 @@ struct EncodeReport {
     double maxError = 0; ///< over every voxel
     std::size_t corrections = 0; ///< voxels stored exactly to hold --max-error
     double transformMs = 0;      ///< kernel time of the final forward transform
+    double step = 0;             ///< base quantiser step chosen (lossy)
 };
 
 /// Encodes one volume into .vcz bytes. Throws UsageError for invalid options, DataError for NaN/Inf

@@ -1,0 +1,118 @@
+#!/usr/bin/python3
+"""Plots `volcl bench codec --json` output: rate-distortion curves (PSNR vs bits/voxel, ours vs zfp),
+lossless ratios against zstd/xz, and throughput bars; prints the markdown tables for docs/codec.md.
+
+Usage: /usr/bin/python3 bench/plot_codec.py bench-codec.json docs/
+"""
+import json
+import math
+import sys
+from collections import defaultdict
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def num(v):
+    if isinstance(v, str):
+        return math.inf if v == "inf" else math.nan
+    return v
+
+
+def main():
+    if len(sys.argv) != 3:
+        sys.exit(__doc__)
+    data = json.load(open(sys.argv[1]))
+    out = sys.argv[2].rstrip("/")
+    rows = data["rows"]
+    sets = list(dict.fromkeys(r["dataset"] for r in rows))
+
+    # Rate-distortion: one panel per data set.
+    cols = 3
+    nrows = math.ceil(len(sets) / cols)
+    fig, axes = plt.subplots(nrows, cols, figsize=(5 * cols, 3.8 * nrows), squeeze=False)
+    for ax, ds in zip(axes.flat, sets):
+        for codec, style in (("volcl-dense", "o-"), ("zfp", "s--")):
+            pts = sorted((r["bits_per_voxel"], num(r["psnr_db"])) for r in rows
+                         if r["dataset"] == ds and r["codec"] == codec and r["mode"].startswith("psnr"))
+            if pts:
+                ax.plot([p[0] for p in pts], [p[1] for p in pts], style, label=codec)
+        ax.set_title(ds)
+        ax.set_xlabel("bits / voxel")
+        ax.set_ylabel("PSNR (dB)")
+        ax.set_xscale("log")
+        ax.grid(True, alpha=0.3)
+        ax.legend()
+    for ax in list(axes.flat)[len(sets):]:
+        ax.axis("off")
+    fig.tight_layout()
+    fig.savefig(f"{out}/codec-rate-distortion.png", dpi=90)
+
+    # Throughput bars: lossless encode/decode MB/s per codec.
+    codecs = ["volcl-dense", "volcl-fast", "zfp", "zstd-3", "zstd-19"]
+    fig, axes = plt.subplots(1, 2, figsize=(15, 4.5))
+    width = 0.8 / len(codecs)
+    for k, key in enumerate(("encode_MBps", "decode_MBps")):
+        ax = axes[k]
+        for i, c in enumerate(codecs):
+            vals = []
+            for ds in sets:
+                m = [r[key] for r in rows if r["dataset"] == ds and r["codec"] == c and r["mode"] == "lossless"]
+                vals.append(m[0] if m else 0)
+            ax.bar([j + i * width for j in range(len(sets))], vals, width, label=c)
+        ax.set_xticks([j + 0.4 - width / 2 for j in range(len(sets))])
+        ax.set_xticklabels(sets, rotation=30, ha="right")
+        ax.set_ylabel("MB/s of original voxels")
+        ax.set_yscale("log")
+        ax.set_title("lossless " + key.split("_")[0])
+        ax.grid(True, axis="y", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(f"{out}/codec-throughput.png", dpi=90)
+
+    # Markdown tables.
+    by = defaultdict(dict)
+    for r in rows:
+        by[(r["dataset"], r["mode"])][r["codec"]] = r
+    print("| data set | volcl dense | volcl fast | zfp reversible | zstd -3 | zstd -19 | xz -9 | dense enc MB/s | dense dec MB/s |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for ds in sets:
+        m = by[(ds, "lossless")]
+        cell = lambda c: f"{m[c]['ratio']:.2f}" if c in m else "-"  # noqa: E731
+        d = m.get("volcl-dense")
+        print(f"| {ds} | {cell('volcl-dense')} | {cell('volcl-fast')} | {cell('zfp')} | {cell('zstd-3')} | "
+              f"{cell('zstd-19')} | {cell('xz-9')} | {d['encode_MBps']:.0f} | {d['decode_MBps']:.0f} |")
+    print()
+    print("| data set | target | volcl bpv | volcl PSNR | zfp bpv | zfp PSNR | volcl/zfp bits | volcl enc MB/s | volcl dec MB/s |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for ds in sets:
+        for mode in sorted({r["mode"] for r in rows if r["dataset"] == ds and r["mode"].startswith("psnr")},
+                           key=lambda s: float(s[4:])):
+            m = by[(ds, mode)]
+            if "volcl-dense" not in m or "zfp" not in m:
+                continue
+            a, z = m["volcl-dense"], m["zfp"]
+            print(f"| {ds} | {mode[4:]} dB | {a['bits_per_voxel']:.3f} | {num(a['psnr_db']):.2f} | "
+                  f"{z['bits_per_voxel']:.3f} | {num(z['psnr_db']):.2f} | {a['bits_per_voxel'] / z['bits_per_voxel']:.2f} | "
+                  f"{a['encode_MBps']:.0f} | {a['decode_MBps']:.0f} |")
+    print()
+    print("| data set | mode | bpv | PSNR | max error | enc MB/s | dec MB/s |")
+    print("|---|---|---|---|---|---|---|")
+    for ds in sets:
+        for mode in ("bpv1", "bpv2", "maxerr0.5%"):
+            a = by[(ds, mode)].get("volcl-dense")
+            if a:
+                print(f"| {ds} | {mode} | {a['bits_per_voxel']:.3f} | {num(a['psnr_db']):.2f} | {a['max_abs_error']:.4g} | "
+                      f"{a['encode_MBps']:.0f} | {a['decode_MBps']:.0f} |")
+    print()
+    print("| data set | transform | Gvoxel/s | GB/s | copy GB/s | fraction of copy |")
+    print("|---|---|---|---|---|---|")
+    for t in data.get("transforms", []):
+        print(f"| {t['dataset']} | {t['transform']} | {t['gvoxel_per_s']:.3f} | {t['gb_per_s']:.1f} | "
+              f"{t['copy_gb_per_s']:.1f} | {t['fraction_of_copy']:.2f} |")
+
+
+if __name__ == "__main__":
+    main()

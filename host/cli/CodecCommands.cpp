@@ -1,0 +1,588 @@
+// `volcl encode`, `volcl decode`, `volcl compare` and `volcl bench codec` (ours against zfp, zstd and xz).
+#include "host/Error.hpp"
+#include "host/cli/CliParsing.hpp"
+#include "host/cli/Commands.hpp"
+#include "host/io/AtomicFile.hpp"
+#include "host/io/VolumeIo.hpp"
+#include "host/runtime/ClRuntime.hpp"
+#include "host/runtime/Timing.hpp"
+#include "wavelet/Codec.hpp"
+
+#include <nlohmann/json.hpp>
+#include <zfp.h>
+#include <zlib.h>
+#include <zstd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+namespace volcl::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+bool isVcz(const fs::path& p) { return p.extension() == ".vcz"; }
+
+// A volume file or a .vcz (decoded whole).
+Volume loadAny(ComputeContext* cc, const std::string& path, std::size_t* vczBytes) {
+    if (isVcz(path)) {
+        if (!cc) throw Error("internal: decoding needs a compute context");
+        VczReader r(readFileBytes(path), path);
+        if (vczBytes) *vczBytes = r.fileSize();
+        return r.decode(*cc);
+    }
+    return readVolume(path);
+}
+
+std::string fmt(double v, int digits = 2) {
+    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+    if (std::isnan(v)) return "nan";
+    std::ostringstream s;
+    s << std::fixed << std::setprecision(digits) << v;
+    return s.str();
+}
+
+nlohmann::json jsonNumber(double v) {
+    if (std::isfinite(v)) return v;
+    return std::isnan(v) ? nlohmann::json("nan") : nlohmann::json(v > 0 ? "inf" : "-inf");
+}
+
+// ------------------------------------------------------------------------------ encode / decode / compare
+
+struct EncodeArgs {
+    std::string in, out, wavelet, entropy = "dense", brick = "64";
+    bool lossless = false;
+    double maxError = 0, psnr = 0, bpv = 0, step = 0;
+    int levels = 4;
+    unsigned threads = 2;
+    RawReadFlags raw;
+};
+
+CodecOptions toOptions(const EncodeArgs& a, const CLI::App& cmd) {
+    CodecOptions o;
+    int chosen = 0;
+    if (cmd.count("--lossless")) ++chosen;
+    if (cmd.count("--max-error")) {
+        ++chosen;
+        o.rate = RateMode::MaxError;
+        o.target = a.maxError;
+    }
+    if (cmd.count("--psnr")) {
+        ++chosen;
+        o.rate = RateMode::Psnr;
+        o.target = a.psnr;
+    }
+    if (cmd.count("--bpv")) {
+        ++chosen;
+        o.rate = RateMode::Bpv;
+        o.target = a.bpv;
+    }
+    if (chosen > 1) throw UsageError("choose one of --lossless, --max-error, --psnr, --bpv");
+    if (cmd.count("--step")) {
+        if (o.rate == RateMode::Lossless) throw UsageError("--step needs a lossy mode (--max-error, --psnr or --bpv)");
+        o.step = a.step;
+    }
+    if (!a.wavelet.empty()) o.wavelet = parseWavelet(a.wavelet);
+    if (a.entropy == "dense") o.entropy = EntropyMode::Dense;
+    else if (a.entropy == "fast") o.entropy = EntropyMode::Fast;
+    else throw UsageError("--entropy must be fast or dense");
+    if (a.brick.find_first_of(",xX") != std::string::npos) {
+        o.brick = parseDims(a.brick, "--brick");
+    } else {
+        std::size_t b = 0;
+        try {
+            b = std::stoul(a.brick);
+        } catch (const std::exception&) {
+            throw UsageError("--brick '" + a.brick + "' must be a number or X,Y,Z");
+        }
+        o.brick = {b, b, b};
+    }
+    o.levels = a.levels;
+    o.threads = std::max(1u, a.threads);
+    return o;
+}
+
+void addEncode(CLI::App& app, GlobalOptions& global) {
+    auto* cmd = app.add_subcommand("encode", "Compress a volume into a .vcz file (wavelet lifting codec)");
+    auto a = std::make_shared<EncodeArgs>();
+    cmd->add_option("input", a->in, "Input volume (any supported format; a time series keeps its frames)")->required();
+    cmd->add_option("-o,--output", a->out, "Output .vcz file")->required();
+    cmd->add_flag("--lossless", a->lossless, "Bit-exact (default)");
+    cmd->add_option("--max-error", a->maxError, "Lossy: every voxel within E of the input (guaranteed)");
+    cmd->add_option("--psnr", a->psnr, "Lossy: PSNR in dB over the input's value range (met within 0.5 dB)");
+    cmd->add_option("--bpv", a->bpv, "Lossy: at most R bits per voxel, file overhead included");
+    cmd->add_option("--step", a->step, "Lossy: fixed base quantiser step instead of a search for the target");
+    cmd->add_option("--wavelet", a->wavelet, "cdf53 | cdf97 | haar | cdf26 (default cdf53 lossless, cdf97 lossy)");
+    cmd->add_option("--levels", a->levels, "Transform levels (default 4)");
+    cmd->add_option("--brick", a->brick, "Brick size B or X,Y,Z, multiples of 2^levels (default 64)");
+    cmd->add_option("--entropy", a->entropy, "fast (zstd) or dense (context-adaptive range coder, default)");
+    cmd->add_option("--threads", a->threads, "Host threads for entropy coding (default 2)");
+    a->raw.add(*cmd);
+    cmd->callback([a, cmd, &global] {
+        const CodecOptions o = toOptions(*a, *cmd);
+        if (!isVcz(a->out)) throw UsageError("output " + a->out + " must end in .vcz");
+        checkNotSameFile(a->in, a->out);
+        TimeSeries ts = readVolumeFile(a->in, a->raw.toReadOptions());
+        ComputeContext cc(global.device);
+        EncodeReport rep;
+        Stopwatch sw;
+        std::vector<std::byte> bytes = ts.frames.size() == 1 ? encodeVolume(cc, ts.frames[0], o, &rep) : encodeSeries(cc, ts, o);
+        const double ms = sw.milliseconds();
+        AtomicFile out(a->out);
+        out.write(bytes);
+        out.commit();
+        if (!global.quiet) {
+            std::size_t raw = 0, voxels = 0;
+            for (const Volume& v : ts.frames) {
+                raw += v.byteSize();
+                voxels += v.voxelCount();
+            }
+            std::cerr << "volcl: wrote " << a->out << ": " << bytes.size() << " bytes, ratio " << fmt(double(raw) / double(bytes.size()))
+                      << ":1, " << fmt(double(bytes.size()) * 8 / double(voxels), 3) << " bits/voxel";
+            if (ts.frames.size() == 1 && o.rate != RateMode::Lossless)
+                std::cerr << ", PSNR " << fmt(rep.psnr) << " dB, max error " << rep.maxError << " (" << rep.corrections
+                          << " voxels stored exactly)";
+            std::cerr << ", " << fmt(double(raw) / 1e3 / ms, 1) << " MB/s\n";
+        }
+    });
+}
+
+void addDecode(CLI::App& app, GlobalOptions& global) {
+    auto* cmd = app.add_subcommand("decode", "Decompress a .vcz file (whole, a region, or a coarser level)");
+    struct Args {
+        std::string in, out, region;
+        int level = 0;
+        std::size_t frame = 0;
+        unsigned threads = 2;
+    };
+    auto a = std::make_shared<Args>();
+    cmd->add_option("input", a->in, "Input .vcz file")->required();
+    cmd->add_option("-o,--output", a->out, "Output volume: .raw, .nrrd, .nhdr or .vdb")->required();
+    cmd->add_option("--region", a->region, "Voxel box x0,y0,z0:x1,y1,z1 (half-open, full-resolution indices)");
+    cmd->add_option("--level", a->level, "2^k-downsampled approximation without decoding finer detail");
+    cmd->add_option("--frame", a->frame, "Frame of a time series (default 0)");
+    cmd->add_option("--threads", a->threads, "Host threads for entropy decoding (default 2)");
+    cmd->callback([a, &global] {
+        checkNotSameFile(a->in, a->out);
+        DecodeOptions o;
+        if (!a->region.empty()) o.region = parseRegion(a->region);
+        o.level = a->level;
+        o.frame = a->frame;
+        o.threads = std::max(1u, a->threads);
+        VczReader r(readFileBytes(a->in), a->in);
+        ComputeContext cc(global.device);
+        const Volume v = r.decode(cc, o);
+        writeVolumeFile(v, a->out);
+        if (!global.quiet)
+            std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x" << v.dims().z << " "
+                      << scalarTypeName(v.type()) << ")\n";
+    });
+}
+
+void addCompare(CLI::App& app, GlobalOptions& global) {
+    auto* cmd = app.add_subcommand("compare", "PSNR, RMSE and max error of B against A (B may be a .vcz)");
+    struct Args {
+        std::string a, b;
+        bool json = false;
+    };
+    auto a = std::make_shared<Args>();
+    cmd->add_option("a", a->a, "Reference volume")->required();
+    cmd->add_option("b", a->b, "Volume or .vcz to compare")->required();
+    cmd->add_flag("--json", a->json, "JSON output");
+    cmd->callback([a, &global] {
+        std::unique_ptr<ComputeContext> cc;
+        if (isVcz(a->a) || isVcz(a->b)) cc = std::make_unique<ComputeContext>(global.device);
+        std::size_t vczBytes = 0;
+        const Volume va = loadAny(cc.get(), a->a, nullptr);
+        const Volume vb = loadAny(cc.get(), a->b, &vczBytes);
+        if (va.dims() != vb.dims())
+            throw UsageError(a->a + " and " + a->b + " differ in dimensions: cannot compare");
+        const double p = psnr(va, vb), r = rmse(va, vb), m = maxAbsError(va, vb);
+        const double bpv = vczBytes ? double(vczBytes) * 8 / double(va.voxelCount()) : NAN;
+        if (a->json) {
+            nlohmann::json j{{"a", a->a}, {"b", a->b}, {"psnr_db", jsonNumber(p)}, {"rmse", r}, {"max_abs_error", m}};
+            if (vczBytes) {
+                j["bits_per_voxel"] = bpv;
+                j["ratio"] = double(va.byteSize()) / double(vczBytes);
+            }
+            std::cout << j.dump(2) << '\n';
+        } else {
+            std::cout << "psnr_db " << fmt(p, 3) << "\nrmse " << r << "\nmax_abs_error " << m << '\n';
+            if (vczBytes) std::cout << "bits_per_voxel " << fmt(bpv, 4) << '\n';
+        }
+    });
+}
+
+// ------------------------------------------------------------------------------ bench codec
+
+struct BenchData {
+    std::string name;
+    Volume volume;
+    bool realScan = false; ///< CT/MRI: the lossless ratio goal against xz -9 applies
+};
+
+Volume readGzipRaw(const fs::path& p, Dims d, ScalarType t) {
+    Volume v(d, t);
+    gzFile f = gzopen(p.string().c_str(), "rb");
+    if (!f) throw IoError(p.string() + ": cannot open");
+    const int n = gzread(f, v.bytes().data(), static_cast<unsigned>(v.byteSize()));
+    char extra;
+    const int more = gzread(f, &extra, 1);
+    gzclose(f);
+    if (n != static_cast<int>(v.byteSize()) || more != 0) throw IoError(p.string() + ": unexpected size after gunzip");
+    return v;
+}
+
+std::vector<BenchData> loadBenchData(const fs::path& shared, const std::string& filter, bool withLarge) {
+    std::vector<BenchData> out;
+    auto want = [&](const std::string& n) { return filter.empty() || n.find(filter) != std::string::npos; };
+    auto add = [&](const std::string& name, const std::function<Volume()>& load, bool scan) {
+        if (!want(name)) return;
+        try {
+            out.push_back({name, load(), scan});
+        } catch (const Error& e) {
+            std::cerr << "volcl bench codec: skipping " << name << ": " << e.what() << '\n';
+        }
+    };
+    const fs::path r = shared / "regular";
+    if (fs::is_directory(r)) {
+        add("hydrogenatom", [&] { return readVolume(r / "hydrogenatom.dat"); }, false);
+        add("walnut-ct", [&] { return readVolume(r / "walnut.vvd"); }, true);
+        add("headsq-ct", [&] { return readVolume(r / "headsq/quarter.nhdr"); }, true);
+        add("brainweb-mri", [&] {
+            return readGzipRaw(r / "t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz", {180, 216, 180}, ScalarType::UInt8);
+        }, true);
+        add("head-mri-small", [&] { return readVolume(r / "HeadMRVolume.mhd"); }, true);
+        if (withLarge) add("frog-labels", [&] { return readVolume(r / "froggy/frogtissue.mhd"); }, false);
+    } else {
+        std::cerr << "volcl bench codec: " << shared.string() << " is absent: skipping the shared data sets\n";
+    }
+    const fs::path t = shared / "timevarying";
+    if (fs::is_directory(t)) {
+        add("isabel-02", [&] { return readVolume(t / "isabel/isabel_02.vti"); }, false);
+        add("isabel-30", [&] { return readVolume(t / "isabel/isabel_30.vti"); }, false);
+        add("viscous-005", [&] { return readVolume(t / "viscousfingers/005_density_005_064_2.0.vti"); }, false);
+        add("viscous-015", [&] { return readVolume(t / "viscousfingers/015_density_015_064_2.0.vti"); }, false);
+    }
+    const fs::path mri = "/usr/share/mricron/templates/ch2better.nii.gz";
+    if (fs::exists(mri)) add("ch2better-mri", [&] { return readVolume(mri); }, true);
+    else if (want("ch2better-mri")) std::cerr << "volcl bench codec: " << mri << " is absent (apt-get install mricron-data): skipping\n";
+    return out;
+}
+
+struct BenchRow {
+    std::string dataset, codec, mode;
+    double ratio = 0, bpv = 0, psnr = 0, maxError = 0, encodeMBs = 0, decodeMBs = 0;
+};
+
+// zfp on the same voxels: reversible on int32 copies of integer data, fixed accuracy on float copies.
+struct ZfpResult {
+    std::size_t bytes = 0;
+    Volume decoded;
+    double encodeMs = 0, decodeMs = 0;
+};
+
+ZfpResult runZfp(const Volume& v, std::optional<double> tolerance, int runs) {
+    const Dims d = v.dims();
+    const bool reversible = !tolerance;
+    std::vector<std::int32_t> ints;
+    std::vector<float> floats;
+    if (reversible && v.type() != ScalarType::Float32) {
+        ints.resize(v.voxelCount());
+        for (std::size_t i = 0; i < ints.size(); ++i) ints[i] = static_cast<std::int32_t>(v.valueAt(i));
+    } else {
+        floats = v.toFloat();
+    }
+    void* data = ints.empty() ? static_cast<void*>(floats.data()) : static_cast<void*>(ints.data());
+    const zfp_type type = ints.empty() ? zfp_type_float : zfp_type_int32;
+    zfp_field* field = zfp_field_3d(data, type, d.x, d.y, d.z);
+    zfp_stream* zs = zfp_stream_open(nullptr);
+    if (reversible) zfp_stream_set_reversible(zs);
+    else zfp_stream_set_accuracy(zs, *tolerance);
+    std::vector<unsigned char> buffer(zfp_stream_maximum_size(zs, field));
+    bitstream* bs = stream_open(buffer.data(), buffer.size());
+    zfp_stream_set_bit_stream(zs, bs);
+    ZfpResult r;
+    const bool omp = zfp_stream_set_execution(zs, zfp_exec_omp);
+    r.encodeMs = medianMilliseconds(runs, [&] {
+        zfp_stream_rewind(zs);
+        r.bytes = zfp_compress(zs, field);
+    });
+    if (omp) zfp_stream_set_execution(zs, zfp_exec_serial); // zfp 1.0 decompresses serially
+    std::vector<std::int32_t> outInts(ints.size());
+    std::vector<float> outFloats(floats.size());
+    zfp_field* outField = zfp_field_3d(ints.empty() ? static_cast<void*>(outFloats.data()) : static_cast<void*>(outInts.data()),
+                                       type, d.x, d.y, d.z);
+    r.decodeMs = medianMilliseconds(runs, [&] {
+        zfp_stream_rewind(zs);
+        zfp_decompress(zs, outField);
+    });
+    zfp_field_free(outField);
+    zfp_field_free(field);
+    zfp_stream_close(zs);
+    stream_close(bs);
+    if (r.bytes == 0) throw Error("zfp compression failed");
+    Volume out(d, ScalarType::Float32);
+    auto o = out.values<float>();
+    for (std::size_t i = 0; i < o.size(); ++i) o[i] = ints.empty() ? outFloats[i] : static_cast<float>(outInts[i]);
+    r.decoded = std::move(out);
+    return r;
+}
+
+// PSNR of a float decode against the volume, with integer data rounded and clamped like a real decoder.
+double psnrAsType(const Volume& v, const Volume& decodedFloat) { return psnr(v, decodedFloat.convertedTo(v.type())); }
+
+// zfp accuracy tolerance that reaches `target` dB (bisection on log tolerance; largest tolerance meeting it).
+ZfpResult zfpAtPsnr(const Volume& v, double target, int runs) {
+    const VolumeStats st = v.stats(1);
+    const double range = std::max(st.max - st.min, 1e-30);
+    double lo = std::log2(range) - 40, hi = std::log2(range);
+    double best = lo;
+    for (int it = 0; it < 18; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        ZfpResult r = runZfp(v, std::exp2(mid), 0);
+        if (psnrAsType(v, r.decoded) >= target) {
+            best = mid;
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    return runZfp(v, std::exp2(best), runs);
+}
+
+std::size_t zstdSize(const Volume& v, int level, double& ms, double& decMs, int runs) {
+    std::vector<char> out(ZSTD_compressBound(v.byteSize()));
+    std::size_t n = 0;
+    ms = medianMilliseconds(runs, [&] { n = ZSTD_compress(out.data(), out.size(), v.bytes().data(), v.byteSize(), level); });
+    if (ZSTD_isError(n)) throw Error("zstd failed");
+    std::vector<char> back(v.byteSize());
+    decMs = medianMilliseconds(runs, [&] { ZSTD_decompress(back.data(), back.size(), out.data(), n); });
+    return n;
+}
+
+// xz -9 through the xz binary (the general-purpose reference ratio); one run, single-threaded.
+std::size_t xzSize(const Volume& v, const fs::path& tmpDir, double& ms) {
+    const fs::path in = tmpDir / "volcl-bench-xz.raw";
+    {
+        std::ofstream f(in, std::ios::binary);
+        f.write(reinterpret_cast<const char*>(v.bytes().data()), static_cast<std::streamsize>(v.byteSize()));
+    }
+    Stopwatch sw;
+    const std::string cmd = "xz -9 -T1 -c '" + in.string() + "' | wc -c";
+    FILE* p = popen(cmd.c_str(), "r");
+    std::size_t n = 0;
+    if (p) {
+        if (std::fscanf(p, "%zu", &n) != 1) n = 0;
+        pclose(p);
+    }
+    ms = sw.milliseconds();
+    fs::remove(in);
+    return n;
+}
+
+struct BenchArgs {
+    std::string data = std::string(VOLCL_SOURCE_DIR) + "/../shared/data", filter, csv, json;
+    int runs = 3, levels = 4;
+    std::size_t brick = 64;
+    bool noXz = false, large = false;
+    std::vector<double> psnrs{30, 40, 50, 60, 70};
+};
+
+void benchCodec(const BenchArgs& a, GlobalOptions& global) {
+    ComputeContext cc(global.device);
+    std::cerr << "volcl bench codec: device " << cc.device().name << ", median of " << a.runs
+              << " runs after a warm-up (kernel builds excluded), 2 host threads\n";
+    std::vector<BenchData> sets = loadBenchData(a.data, a.filter, a.large);
+    if (sets.empty()) throw UsageError("no data set to benchmark (see --data and --dataset)");
+    std::vector<BenchRow> rows;
+    nlohmann::json transforms = nlohmann::json::array();
+    const fs::path tmp = fs::temp_directory_path();
+    for (const BenchData& ds : sets) {
+        const Volume& v = ds.volume;
+        const double mb = double(v.byteSize()) / 1e6;
+        const double n = double(v.voxelCount());
+        std::cerr << "== " << ds.name << " " << v.dims().x << "x" << v.dims().y << "x" << v.dims().z << " "
+                  << scalarTypeName(v.type()) << '\n';
+        auto ours = [&](const std::string& mode, CodecOptions o) {
+            o.levels = a.levels;
+            o.brick = {a.brick, a.brick, a.brick};
+            EncodeReport rep;
+            auto bytes = encodeVolume(cc, v, o, &rep);
+            // Time a fixed-step encode for lossy targets: the step search is a one-off cost of the target.
+            CodecOptions timed = o;
+            if (o.rate != RateMode::Lossless && o.rate != RateMode::MaxError) timed.step = rep.step;
+            const double encMs = medianMilliseconds(a.runs, [&] { bytes = encodeVolume(cc, v, timed, &rep); });
+            Volume out;
+            const double decMs = medianMilliseconds(a.runs, [&] { out = decodeVolume(cc, bytes); });
+            BenchRow r{ds.name, std::string("volcl-") + (o.entropy == EntropyMode::Dense ? "dense" : "fast"), mode};
+            r.ratio = double(v.byteSize()) / double(bytes.size());
+            r.bpv = double(bytes.size()) * 8 / n;
+            r.psnr = psnr(v, out);
+            r.maxError = maxAbsError(v, out);
+            r.encodeMBs = mb / (encMs / 1e3);
+            r.decodeMBs = mb / (decMs / 1e3);
+            if (o.rate == RateMode::Lossless && !(out == v)) throw Error(ds.name + ": lossless round trip is not exact");
+            rows.push_back(r);
+            std::cerr << "  " << r.codec << " " << mode << ": ratio " << fmt(r.ratio) << " bpv " << fmt(r.bpv, 3) << " PSNR "
+                      << fmt(r.psnr) << " maxerr " << r.maxError << " enc " << fmt(r.encodeMBs, 1) << " MB/s dec "
+                      << fmt(r.decodeMBs, 1) << " MB/s\n";
+        };
+        const bool integer = v.type() != ScalarType::Float32;
+        CodecOptions o;
+        o.rate = RateMode::Lossless;
+        for (EntropyMode m : {EntropyMode::Dense, EntropyMode::Fast}) {
+            o.entropy = m;
+            ours("lossless", o);
+        }
+        if (integer) {
+            ZfpResult z = runZfp(v, std::nullopt, a.runs);
+            BenchRow r{ds.name, "zfp", "lossless"};
+            r.ratio = double(v.byteSize()) / double(z.bytes);
+            r.bpv = double(z.bytes) * 8 / n;
+            r.psnr = psnr(v, z.decoded.convertedTo(v.type()));
+            r.maxError = maxAbsError(v, z.decoded);
+            r.encodeMBs = mb / (z.encodeMs / 1e3);
+            r.decodeMBs = mb / (z.decodeMs / 1e3);
+            rows.push_back(r);
+            std::cerr << "  zfp reversible: ratio " << fmt(r.ratio) << " enc " << fmt(r.encodeMBs, 1) << " dec " << fmt(r.decodeMBs, 1) << '\n';
+        }
+        for (int level : {3, 19}) {
+            double ms = 0, dms = 0;
+            const std::size_t bytes = zstdSize(v, level, ms, dms, a.runs);
+            BenchRow r{ds.name, "zstd-" + std::to_string(level), "lossless"};
+            r.ratio = double(v.byteSize()) / double(bytes);
+            r.bpv = double(bytes) * 8 / n;
+            r.psnr = INFINITY;
+            r.encodeMBs = mb / (ms / 1e3);
+            r.decodeMBs = mb / (dms / 1e3);
+            rows.push_back(r);
+        }
+        if (!a.noXz) {
+            double ms = 0;
+            const std::size_t bytes = xzSize(v, tmp, ms);
+            if (bytes > 0) {
+                BenchRow r{ds.name, "xz-9", "lossless"};
+                r.ratio = double(v.byteSize()) / double(bytes);
+                r.bpv = double(bytes) * 8 / n;
+                r.psnr = INFINITY;
+                r.encodeMBs = mb / (ms / 1e3);
+                rows.push_back(r);
+                std::cerr << "  xz -9: ratio " << fmt(r.ratio) << '\n';
+            }
+        }
+        // Rate-distortion at equal PSNR: ours (target PSNR) against zfp tuned to the same PSNR.
+        for (double p : a.psnrs) {
+            CodecOptions lo;
+            lo.rate = RateMode::Psnr;
+            lo.target = p;
+            ours("psnr" + fmt(p, 0), lo);
+            ZfpResult z = zfpAtPsnr(v, p, a.runs);
+            BenchRow r{ds.name, "zfp", "psnr" + fmt(p, 0)};
+            const Volume zd = integer ? z.decoded.convertedTo(v.type()) : z.decoded;
+            r.ratio = double(v.byteSize()) / double(z.bytes);
+            r.bpv = double(z.bytes) * 8 / n;
+            r.psnr = psnr(v, zd);
+            r.maxError = maxAbsError(v, zd);
+            r.encodeMBs = mb / (z.encodeMs / 1e3);
+            r.decodeMBs = mb / (z.decodeMs / 1e3);
+            rows.push_back(r);
+            std::cerr << "  zfp psnr" << p << ": bpv " << fmt(r.bpv, 3) << " PSNR " << fmt(r.psnr) << '\n';
+        }
+        for (double bpv : {1.0, 2.0}) {
+            CodecOptions lo;
+            lo.rate = RateMode::Bpv;
+            lo.target = bpv;
+            ours("bpv" + fmt(bpv, 0), lo);
+        }
+        {
+            const VolumeStats st = v.stats(1);
+            CodecOptions lo;
+            lo.rate = RateMode::MaxError;
+            lo.target = std::max((st.max - st.min) * 0.005, integer ? 1.0 : 1e-6);
+            ours("maxerr0.5%", lo);
+        }
+        // Transform only: one level of 3D 5/3 on the codec's bricks, against the copy kernel on the same bytes.
+        {
+            Dims bd{std::min<std::size_t>(a.brick, v.dims().x), std::min<std::size_t>(a.brick, v.dims().y),
+                    std::min<std::size_t>(a.brick, v.dims().z)};
+            const std::size_t count = std::max<std::size_t>(1, v.voxelCount() / bd.count());
+            LiftingTransform<std::int32_t> t(cc, Wavelet::Cdf53);
+            BrickBatch<std::int32_t> batch(cc, bd, count);
+            std::vector<std::int32_t> host = batch.makeHost();
+            batch.upload(cc, host);
+            t.forward(cc, batch, 1); // warm-up: builds and specialises the kernels
+            std::vector<double> ms;
+            for (int i = 0; i < std::max(3, a.runs); ++i) ms.push_back(t.forward(cc, batch, 1));
+            const double med = median(ms);
+            const double voxels = double(bd.count() * count);
+            const double copy = copyKernelBandwidthGBs(cc, batch.brickStride() * count * 4);
+            const double gbs = voxels * 3 * 8 / (med * 1e6); // three passes, int32 read + write each
+            transforms.push_back({{"dataset", ds.name}, {"transform", "cdf53 1 level 3D"}, {"gvoxel_per_s", voxels / (med * 1e6)},
+                                  {"gb_per_s", gbs}, {"copy_gb_per_s", copy}, {"fraction_of_copy", gbs / copy}});
+            std::cerr << "  transform cdf53 1 level: " << fmt(voxels / (med * 1e6), 3) << " Gvoxel/s, " << fmt(gbs, 1)
+                      << " GB/s = " << fmt(100 * gbs / copy, 0) << "% of the copy kernel (" << fmt(copy, 1) << " GB/s)\n";
+        }
+    }
+    // Output.
+    std::ostringstream csv;
+    csv << "dataset,codec,mode,ratio,bits_per_voxel,psnr_db,max_abs_error,encode_MBps,decode_MBps\n";
+    nlohmann::json j;
+    j["device"] = cc.device().name;
+    j["runs"] = a.runs;
+    j["rows"] = nlohmann::json::array();
+    for (const BenchRow& r : rows) {
+        csv << r.dataset << ',' << r.codec << ',' << r.mode << ',' << r.ratio << ',' << r.bpv << ',' << fmt(r.psnr, 4) << ','
+            << r.maxError << ',' << r.encodeMBs << ',' << r.decodeMBs << '\n';
+        j["rows"].push_back({{"dataset", r.dataset}, {"codec", r.codec}, {"mode", r.mode}, {"ratio", r.ratio},
+                             {"bits_per_voxel", r.bpv}, {"psnr_db", jsonNumber(r.psnr)}, {"max_abs_error", r.maxError},
+                             {"encode_MBps", r.encodeMBs}, {"decode_MBps", r.decodeMBs}});
+    }
+    j["transforms"] = transforms;
+    if (!a.csv.empty()) {
+        AtomicFile f(a.csv);
+        f.write(csv.str());
+        f.commit();
+    } else {
+        std::cout << csv.str();
+    }
+    if (!a.json.empty()) {
+        AtomicFile f(a.json);
+        f.write(j.dump(1));
+        f.commit();
+    }
+}
+
+} // namespace
+
+void addCodecCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
+    addEncode(app, global);
+    addDecode(app, global);
+    addCompare(app, global);
+    auto* b = bench.add_subcommand("codec", "Codec: ratio, PSNR, speed against zfp, zstd and xz on real volumes");
+    auto a = std::make_shared<BenchArgs>();
+    b->add_option("--data", a->data, "Shared data directory")->capture_default_str();
+    b->add_option("--dataset", a->filter, "Only data sets whose name contains this text");
+    b->add_option("--runs", a->runs, "Timed runs per measurement (median)")->capture_default_str();
+    b->add_option("--levels", a->levels, "Transform levels")->capture_default_str();
+    b->add_option("--brick", a->brick, "Brick size")->capture_default_str();
+    b->add_option("--psnr", a->psnrs, "PSNR targets in dB for the rate-distortion curves");
+    b->add_flag("--no-xz", a->noXz, "Skip the (slow) xz -9 reference");
+    b->add_flag("--large", a->large, "Include the 500x470x136 frog labels");
+    b->add_option("--csv", a->csv, "CSV output file (default: stdout)");
+    b->add_option("--json", a->json, "JSON output file");
+    b->callback([a, &global] {
+        if (a->runs < 1) throw UsageError("--runs must be at least 1");
+        benchCodec(*a, global);
+    });
+}
+
+} // namespace volcl::cli
