@@ -581,6 +581,21 @@ std::array<double, 3> requireTriple(const std::vector<std::string_view>& words, 
     return r;
 }
 
+std::array<std::size_t, 4> requireSizes(std::string_view text, std::size_t count, const fs::path& file,
+                                        std::string_view what) {
+    const auto words = splitWords(text);
+    if (words.size() != count)
+        fail(file, std::string(what) + " has " + std::to_string(words.size()) + " entries for " +
+                       std::to_string(count) + " dimensions");
+    std::array<std::size_t, 4> sizes{1, 1, 1, 1};
+    for (std::size_t i = 0; i < words.size() && i < 4; ++i) {
+        const long long v = requireInt(words[i], file, what);
+        if (v <= 0) fail(file, std::string(what) + ": size " + std::string(words[i]) + " must be positive");
+        sizes[i] = static_cast<std::size_t>(v);
+    }
+    return sizes;
+}
+
 Dims requireDims(const std::vector<std::string_view>& words, std::size_t first, std::size_t count,
                  const fs::path& file, std::string_view what) {
     if (words.size() < first + count)

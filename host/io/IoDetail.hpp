@@ -106,6 +106,9 @@ long long requireInt(std::string_view token, const std::filesystem::path& file, 
 /// Three numbers (spacing, origin); `positive` also refuses zero, negative and non-finite values.
 std::array<double, 3> requireTriple(const std::vector<std::string_view>& words, std::size_t first,
                                     const std::filesystem::path& file, std::string_view what, bool positive);
+/// `count` positive sizes (NRRD `sizes`, MetaImage `DimSize`), padded with 1 to four axes.
+std::array<std::size_t, 4> requireSizes(std::string_view text, std::size_t count,
+                                        const std::filesystem::path& file, std::string_view what);
 Dims requireDims(const std::vector<std::string_view>& words, std::size_t first, std::size_t count,
                  const std::filesystem::path& file, std::string_view what);
 

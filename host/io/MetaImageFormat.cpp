@@ -73,17 +73,8 @@ TimeSeries readMetaImage(const fs::path& path) {
 
     const long long ndims = requireInt(require("ndims", "NDims"), path, "NDims");
     if (ndims < 1 || ndims > 4) unsupported(path, "NDims " + std::to_string(ndims) + " (1 to 4 supported)");
-    const std::string dimText = require("dimsize", "DimSize");
-    const auto dimWords = splitWords(dimText);
-    if (dimWords.size() != static_cast<std::size_t>(ndims))
-        fail(path, "DimSize has " + std::to_string(dimWords.size()) + " entries for NDims " +
-                       std::to_string(ndims));
-    std::size_t sizes[4] = {1, 1, 1, 1};
-    for (std::size_t i = 0; i < dimWords.size(); ++i) {
-        const long long v = requireInt(dimWords[i], path, "DimSize");
-        if (v <= 0) fail(path, "DimSize " + std::string(dimWords[i]) + " must be positive");
-        sizes[i] = static_cast<std::size_t>(v);
-    }
+    const auto sizes =
+        requireSizes(require("dimsize", "DimSize"), static_cast<std::size_t>(ndims), path, "DimSize");
     if (auto ch = field("elementnumberofchannels");
         ch && requireInt(*ch, path, "ElementNumberOfChannels") != 1)
         unsupported(path, "ElementNumberOfChannels " + *ch + ": only scalar volumes are supported");

@@ -129,7 +129,9 @@ TimeSeries readNifti(const fs::path& path) {
     if (!std::isfinite(voxOffsetF) || voxOffsetF < 0 || voxOffsetF > 1e12f ||
         voxOffsetF != std::floor(voxOffsetF))
         fail(path, "vox_offset " + formatDouble(voxOffsetF) + " is not a valid byte offset");
-    const std::size_t voxOffset = std::max<std::size_t>(static_cast<std::size_t>(voxOffsetF), kHeaderSize);
+    // Single files keep their data at 352 or later; writers that leave vox_offset at 0 mean 352.
+    const std::size_t voxOffset =
+        voxOffsetF < static_cast<float>(kHeaderSize) ? kHeaderSize + 4 : static_cast<std::size_t>(voxOffsetF);
 
     const Dims dims{sizes[0], sizes[1], sizes[2]};
     const std::size_t frames = sizes[3];

@@ -191,17 +191,7 @@ TimeSeries readNrrd(const fs::path& path) {
     const std::string typeName = require("type");
     const auto st = nrrdType(typeName);
     if (!st) unsupported(path, "type '" + typeName + "' is not supported");
-    const std::string sizeText = require("sizes");
-    const auto sizeWords = splitWords(sizeText);
-    if (sizeWords.size() != static_cast<std::size_t>(dimension))
-        fail(path, "'sizes' has " + std::to_string(sizeWords.size()) + " entries for dimension " +
-                       std::to_string(dimension));
-    std::size_t sizes[4] = {1, 1, 1, 1};
-    for (std::size_t i = 0; i < sizeWords.size(); ++i) {
-        const long long s = requireInt(sizeWords[i], path, "sizes");
-        if (s <= 0) fail(path, "sizes: " + std::string(sizeWords[i]) + " must be positive");
-        sizes[i] = static_cast<std::size_t>(s);
-    }
+    const auto sizes = requireSizes(require("sizes"), static_cast<std::size_t>(dimension), path, "sizes");
     if (auto kinds = field("kinds")) {
         const auto k = splitWords(*kinds);
         for (std::size_t i = 0; i < k.size() && i < 3; ++i)

@@ -6,11 +6,16 @@
 #include <openvdb/openvdb.h>
 
 #include <bit>
+#include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <new>
 
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 namespace volcl::io {
@@ -173,7 +178,6 @@ void checkVdbLayout(const fs::path& path) {
 
 TimeSeries readVdbImpl(const fs::path& path, const ReadOptions& options) {
     initOpenVdb();
-    checkVdbLayout(path);
     openvdb::io::File file(path.string());
     file.open(false); // no delayed loading: the whole file is validated while reading, no mapping kept
     const openvdb::GridPtrVecPtr metas = file.readAllGridMetadata();
@@ -211,7 +215,16 @@ TimeSeries readVdbImpl(const fs::path& path, const ReadOptions& options) {
     openvdb::CoordBBox box;
     const auto dimsMeta = base->getMetadata<openvdb::Vec3IMetadata>("volcl:dims");
     const auto minMeta = base->getMetadata<openvdb::Vec3IMetadata>("volcl:indexMin");
-    const openvdb::CoordBBox active = base->evalActiveVoxelBoundingBox();
+    // Serial on purpose: this runs in a forked child where TBB's worker pool must not be used.
+    openvdb::CoordBBox active;
+    auto expand = [&](const auto& grid) {
+        for (auto it = grid.cbeginValueOn(); it; ++it)
+            active.expand(it.getBoundingBox());
+    };
+    if (auto fg = openvdb::gridConstPtrCast<openvdb::FloatGrid>(base))
+        expand(*fg);
+    else if (auto dg = openvdb::gridConstPtrCast<openvdb::DoubleGrid>(base))
+        expand(*dg);
     if (dimsMeta) {
         const openvdb::Vec3i d = dimsMeta->value();
         const openvdb::Vec3i m = minMeta ? minMeta->value() : openvdb::Vec3i(0, 0, 0);
@@ -278,20 +291,136 @@ TimeSeries readVdbImpl(const fs::path& path, const ReadOptions& options) {
     return series;
 }
 
+// ---- isolation ------------------------------------------------------------------------------------
+// libopenvdb trusts the node data inside a grid: corrupt topology can make it free memory twice or
+// loop. The grid is therefore decoded in a forked child that sends the dense volume (or the error)
+// back through a pipe; a crash or hang there becomes an IoError here instead of killing the caller.
+
+enum class ChildStatus : std::uint8_t { Ok, Io, Data, Usage };
+
+bool writeAll(int fd, const void* data, std::size_t n) {
+    const auto* p = static_cast<const char*>(data);
+    while (n > 0) {
+        const ssize_t w = ::write(fd, p, n);
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) return false;
+        p += w;
+        n -= static_cast<std::size_t>(w);
+    }
+    return true;
+}
+
+[[noreturn]] void childMain(int fd, const fs::path& path, const ReadOptions& options) {
+    ChildStatus status = ChildStatus::Ok;
+    std::string message;
+    Volume v;
+    try {
+        TimeSeries s = readVdbImpl(path, options);
+        v = std::move(s.frames.front());
+    } catch (const UsageError& e) {
+        status = ChildStatus::Usage, message = e.what();
+    } catch (const DataError& e) {
+        status = ChildStatus::Data, message = e.what();
+    } catch (const Error& e) {
+        status = ChildStatus::Io, message = e.what();
+    } catch (const std::bad_alloc&) {
+        status = ChildStatus::Io,
+        message = path.string() + ": not enough memory to read the grid (corrupt or too large)";
+    } catch (const std::exception& e) {
+        status = ChildStatus::Io, message = path.string() + ": OpenVDB cannot read it: " + e.what();
+    }
+    bool ok = writeAll(fd, &status, 1);
+    if (status != ChildStatus::Ok) {
+        const std::uint64_t n = message.size();
+        ok = ok && writeAll(fd, &n, 8) && writeAll(fd, message.data(), message.size());
+    } else {
+        const std::uint64_t head[4] = {v.dims().x, v.dims().y, v.dims().z,
+                                       static_cast<std::uint64_t>(v.type())};
+        ok = ok && writeAll(fd, head, sizeof(head)) && writeAll(fd, v.spacing.data(), 24) &&
+             writeAll(fd, v.origin.data(), 24) && writeAll(fd, v.bytes().data(), v.byteSize());
+    }
+    ::close(fd);
+    ::_exit(ok ? 0 : 3); // no atexit handlers or destructors of the parent's state
+}
+
 } // namespace
 
 TimeSeries readVdb(const fs::path& path, const ReadOptions& options) {
-    try {
-        return readVdbImpl(path, options);
-    } catch (const Error&) {
-        throw;
-    } catch (const std::bad_alloc&) {
-        fail(path, "not enough memory to read the grid (corrupt or too large)");
-    } catch (const openvdb::Exception& e) {
-        fail(path, std::string("OpenVDB cannot read it: ") + e.what());
-    } catch (const std::exception& e) {
-        fail(path, std::string("OpenVDB cannot read it: ") + e.what());
+    checkVdbLayout(path);
+    int fds[2];
+    if (::pipe(fds) != 0) throw IoError(path.string() + ": cannot create a pipe: " + std::strerror(errno));
+    const pid_t child = ::fork();
+    if (child < 0) {
+        ::close(fds[0]);
+        ::close(fds[1]);
+        throw IoError(path.string() + ": cannot fork the OpenVDB reader: " + std::strerror(errno));
     }
+    if (child == 0) {
+        ::close(fds[0]);
+        childMain(fds[1], path, options);
+    }
+    ::close(fds[1]);
+    std::vector<std::byte> reply;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(5);
+    bool timedOut = false;
+    std::byte buf[1 << 16];
+    while (true) {
+        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+            deadline - std::chrono::steady_clock::now());
+        if (left.count() <= 0) {
+            timedOut = true;
+            break;
+        }
+        pollfd pfd{fds[0], POLLIN, 0};
+        const int pr = ::poll(&pfd, 1, static_cast<int>(std::min<long long>(left.count(), 1000)));
+        if (pr < 0 && errno == EINTR) continue;
+        if (pr == 0) continue;
+        const ssize_t r = ::read(fds[0], buf, sizeof(buf));
+        if (r < 0 && errno == EINTR) continue;
+        if (r <= 0) break;
+        reply.insert(reply.end(), buf, buf + r);
+    }
+    ::close(fds[0]);
+    if (timedOut) ::kill(child, SIGKILL);
+    int wstatus = 0;
+    while (::waitpid(child, &wstatus, 0) < 0 && errno == EINTR) {
+    }
+    if (timedOut) fail(path, "OpenVDB did not finish reading within 5 minutes (corrupt grid data?)");
+    if (WIFSIGNALED(wstatus))
+        fail(path, "corrupt grid data: OpenVDB crashed reading it (signal " +
+                       std::to_string(WTERMSIG(wstatus)) + ")");
+    if (reply.empty()) fail(path, "corrupt grid data: the OpenVDB reader stopped without a result");
+
+    std::size_t pos = 1;
+    auto take = [&](void* dst, std::size_t n) {
+        if (reply.size() - pos < n) fail(path, "corrupt grid data: the OpenVDB reader stopped early");
+        std::memcpy(dst, reply.data() + pos, n);
+        pos += n;
+    };
+    const auto status = static_cast<ChildStatus>(reply[0]);
+    if (status != ChildStatus::Ok) {
+        std::uint64_t n = 0;
+        take(&n, 8);
+        if (n > reply.size()) fail(path, "corrupt grid data: the OpenVDB reader stopped early");
+        std::string message(static_cast<std::size_t>(n), '\0');
+        take(message.data(), message.size());
+        if (status == ChildStatus::Usage) throw UsageError(message);
+        if (status == ChildStatus::Data) throw DataError(message);
+        throw IoError(message);
+    }
+    std::uint64_t head[4];
+    take(head, sizeof(head));
+    if (head[3] > static_cast<std::uint64_t>(ScalarType::Float32))
+        fail(path, "corrupt reply from the OpenVDB reader");
+    Volume v(Dims{static_cast<std::size_t>(head[0]), static_cast<std::size_t>(head[1]),
+                  static_cast<std::size_t>(head[2])},
+             static_cast<ScalarType>(head[3]));
+    take(v.spacing.data(), 24);
+    take(v.origin.data(), 24);
+    take(v.bytes().data(), v.byteSize());
+    TimeSeries series;
+    series.frames.push_back(std::move(v));
+    return series;
 }
 
 void writeVdb(const Volume& volume, const fs::path& path, const WriteOptions& options) {
