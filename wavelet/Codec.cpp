@@ -606,7 +606,8 @@ private:
             const bool psnrMode = h.rate == RateMode::Psnr;
             const double guess = psnrMode ? std::log2(std::max(range, 1e-30) * std::pow(10.0, -o_.target / 20) * 3.0)
                                           : std::log2(std::max(range, 1e-30)) - 2 * o_.target;
-            double lo = guess - 6, hi = guess + 6;
+            // Rate targets span many octaves of delta (a smooth volume fits 1 bit/voxel at tiny steps).
+            double lo = psnrMode ? guess - 8 : guess - 30, hi = guess + 8;
             bool found = false;
             std::vector<double> bestSteps;
             for (int attempt = 0; attempt < 2 && !found; ++attempt) {

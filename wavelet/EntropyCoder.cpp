@@ -73,16 +73,6 @@ public:
             shiftLow();
         }
     }
-    void direct(std::uint32_t value, int nbits) {
-        for (int i = nbits - 1; i >= 0; --i) {
-            range_ >>= 1;
-            if ((value >> i) & 1u) low_ += range_;
-            while (range_ < kTop) {
-                range_ <<= 8;
-                shiftLow();
-            }
-        }
-    }
     void finish() {
         for (int i = 0; i < 5; ++i) shiftLow();
     }
@@ -132,20 +122,6 @@ public:
         }
         return b;
     }
-    std::uint32_t direct(int nbits) {
-        std::uint32_t v = 0;
-        for (int i = 0; i < nbits; ++i) {
-            range_ >>= 1;
-            std::uint32_t b = code_ >= range_ ? 1u : 0u;
-            if (b) code_ -= range_;
-            v = (v << 1) | b;
-            if (range_ < kTop) {
-                range_ <<= 8;
-                code_ = (code_ << 8) | next();
-            }
-        }
-        return v;
-    }
     /// The encoder flushes 5 bytes; reading further than that means the stream is inconsistent.
     void checkEnd() const {
         if (overrun_ > 0) throw IoError(std::string(what_) + ": entropy stream ends early (corrupted data)");
@@ -184,25 +160,80 @@ struct BandModel {
 inline int bitLength(std::uint32_t v) { return v ? 32 - std::countl_zero(v) : 0; }
 inline std::uint32_t magnitude(std::int32_t v) { return v < 0 ? 0u - static_cast<std::uint32_t>(v) : static_cast<std::uint32_t>(v); }
 
+// Mantissa and sign bits are nearly equiprobable: they bypass the range coder into a plain bit stream,
+// which costs no modelling and no renormalisation per bit.
+class BitWriter {
+public:
+    void put(std::uint32_t v, int n) {
+        acc_ |= std::uint64_t(v) << fill_;
+        fill_ += n;
+        while (fill_ >= 8) {
+            bytes.push_back(static_cast<std::uint8_t>(acc_));
+            acc_ >>= 8;
+            fill_ -= 8;
+        }
+    }
+    void finish() {
+        if (fill_ > 0) bytes.push_back(static_cast<std::uint8_t>(acc_));
+        acc_ = 0;
+        fill_ = 0;
+    }
+    std::vector<std::uint8_t> bytes;
+
+private:
+    std::uint64_t acc_ = 0;
+    int fill_ = 0;
+};
+
+class BitReader {
+public:
+    explicit BitReader(std::span<const std::uint8_t> in) : in_(in) {}
+    std::uint32_t get(int n) {
+        while (fill_ < n) {
+            std::uint64_t b = 0;
+            if (pos_ < in_.size()) b = in_[pos_];
+            else ++overrun_;
+            ++pos_;
+            acc_ |= b << fill_;
+            fill_ += 8;
+        }
+        const auto v = static_cast<std::uint32_t>(acc_ & ((std::uint64_t(1) << n) - 1));
+        acc_ >>= n;
+        fill_ -= n;
+        return v;
+    }
+    bool overrun() const noexcept { return overrun_ > 0; }
+    bool fullyRead() const noexcept { return pos_ == in_.size(); }
+
+private:
+    std::span<const std::uint8_t> in_;
+    std::size_t pos_ = 0;
+    std::uint64_t acc_ = 0;
+    int fill_ = 0;
+    std::size_t overrun_ = 0;
+};
+
 // Adapters giving the encoder and decoder one interface, so one routine (codeDense) defines the bitstream
 // for both directions: bit() codes `b` when encoding and returns the decoded bit when decoding.
 struct EncodeSide {
     RangeEncoder& rc;
+    BitWriter& raw;
     static constexpr bool decoding = false;
     unsigned bit(std::uint16_t& p, unsigned b) {
         rc.bit(p, b);
         return b;
     }
     std::uint32_t direct(std::uint32_t v, int n) {
-        rc.direct(v, n);
+        raw.put(v, n);
         return v;
     }
 };
 struct DecodeSide {
     RangeDecoder& rc;
+    BitReader& raw;
     static constexpr bool decoding = true;
     unsigned bit(std::uint16_t& p, unsigned) { return rc.bit(p); }
-    std::uint32_t direct(std::uint32_t, int n) { return rc.direct(n); }
+    std::uint32_t direct(std::uint32_t, int n) { return raw.get(n); }
 };
 
 // Codes the subbands of section s in raster order. Per row: an "all zero" flag (context: were the rows
@@ -286,19 +317,34 @@ void codeDense(Side side, std::int32_t* c, Dims brick, const std::vector<std::ve
     }
 }
 
+// Dense section: u32 length of the range-coded stream, that stream, then the raw bit stream.
 void encodeDense(std::span<const std::int32_t> c, Dims brick, const std::vector<std::vector<SubbandBox>>& layout,
                  std::size_t s, std::vector<std::uint8_t>& out) {
-    RangeEncoder rc(out);
+    std::vector<std::uint8_t> coded;
+    RangeEncoder rc(coded);
+    BitWriter raw;
     // The encoding side only reads the coefficients.
-    codeDense(EncodeSide{rc}, const_cast<std::int32_t*>(c.data()), brick, layout, s, "encoder");
+    codeDense(EncodeSide{rc, raw}, const_cast<std::int32_t*>(c.data()), brick, layout, s, "encoder");
     rc.finish();
+    raw.finish();
+    const auto n = static_cast<std::uint32_t>(coded.size());
+    const auto* p = reinterpret_cast<const std::uint8_t*>(&n);
+    out.insert(out.end(), p, p + 4);
+    out.insert(out.end(), coded.begin(), coded.end());
+    out.insert(out.end(), raw.bytes.begin(), raw.bytes.end());
 }
 
 void decodeDense(std::span<const std::uint8_t> in, std::span<std::int32_t> c, Dims brick,
                  const std::vector<std::vector<SubbandBox>>& layout, std::size_t s, const char* what) {
-    RangeDecoder rc(in, what);
-    codeDense(DecodeSide{rc}, c.data(), brick, layout, s, what);
+    std::uint32_t n = 0;
+    if (in.size() < 4) throw IoError(std::string(what) + ": truncated entropy section");
+    std::memcpy(&n, in.data(), 4);
+    if (n > in.size() - 4) throw IoError(std::string(what) + ": entropy section sizes exceed the brick");
+    RangeDecoder rc(in.subspan(4, n), what);
+    BitReader raw(in.subspan(4 + n));
+    codeDense(DecodeSide{rc, raw}, c.data(), brick, layout, s, what);
     rc.checkEnd();
+    if (raw.overrun() || !raw.fullyRead()) throw IoError(std::string(what) + ": raw bit stream length mismatch (corrupted data)");
 }
 
 // ------------------------------------------------------------------------------ fast mode
