@@ -191,7 +191,7 @@ TEST(AdaptiveQuality, SplitKeepsTheRequestedWorkAndUsesTheStepLadder) {
     }
     // Below the limits: the smallest frame at the largest step, never less.
     const QualityLevel tiny = aq.split(1e-9);
-    EXPECT_DOUBLE_EQ(tiny.resolutionScale, 0.125);
+    EXPECT_DOUBLE_EQ(tiny.resolutionScale, 1.0 / 16.0);
     EXPECT_DOUBLE_EQ(tiny.stepScale, 4.0);
     EXPECT_NEAR(aq.split(1e-9).work(), aq.minWork(), 1e-15);
 }
@@ -225,6 +225,15 @@ TEST(AdaptiveQuality, HoldsTheTargetUnderNoise) {
     EXPECT_NEAR(percentile(times, 50), 100.0, 15.0);
 }
 
+TEST(AdaptiveQuality, AFullQualityFrameSeedsTheFirstInteractiveLevel) {
+    AdaptiveQuality aq({.targetMs = 100.0});
+    aq.seed(800.0);
+    EXPECT_NEAR(aq.next().work(), 0.125, 1e-12);
+    aq.report(aq.next(), 100.0);
+    aq.seed(50.0); // after interactive history, full-quality frames no longer move the level
+    EXPECT_NEAR(aq.work(), 0.125, 1e-12);
+}
+
 TEST(AdaptiveQuality, CheapScenesStayAtFullQuality) {
     AdaptiveQuality aq({.targetMs = 100.0});
     for (int i = 0; i < 5; ++i)
@@ -232,10 +241,12 @@ TEST(AdaptiveQuality, CheapScenesStayAtFullQuality) {
     EXPECT_TRUE(aq.next().full());
 }
 
-TEST(AdaptiveQuality, OutliersAreBoundedAndBadTimesIgnored) {
+TEST(AdaptiveQuality, CutsAtOnceGrowsBoundedAndIgnoresBadTimes) {
     AdaptiveQuality aq({.targetMs = 100.0});
-    aq.report(aq.next(), 1e6);           // a frame that included a kernel build
-    EXPECT_NEAR(aq.work(), 0.25, 1e-12); // at most 4x per frame
+    aq.report(aq.next(), 1e6); // far over the target: straight to the floor
+    EXPECT_DOUBLE_EQ(aq.work(), aq.minWork());
+    aq.report(aq.next(), 1e-3); // a freak fast frame: at most 4x growth
+    EXPECT_NEAR(aq.work(), 4.0 * aq.minWork(), 1e-15);
     const double w = aq.work();
     for (double bad :
          {0.0, -5.0, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()})
@@ -252,7 +263,7 @@ TEST(AdaptiveQuality, RefusesInvalidOptions) {
     EXPECT_THROW(AdaptiveQuality({.targetMs = std::numeric_limits<double>::quiet_NaN()}), UsageError);
     EXPECT_THROW(AdaptiveQuality({.minResolutionScale = 0.0}), UsageError);
     EXPECT_THROW(AdaptiveQuality({.maxStepScale = 0.5}), UsageError);
-    EXPECT_THROW(AdaptiveQuality({.maxChange = 1.0}), UsageError);
+    EXPECT_THROW(AdaptiveQuality({.maxGrowth = 1.0}), UsageError);
 }
 
 TEST(ViewerKeys, BindingsAndPercentile) {
@@ -526,7 +537,8 @@ TEST(ViewerEndToEnd, HeadlessRunOnTheMriMatchesRender) {
     std::ostringstream log;
     const HeadlessResult r = runHeadless(s, o, log);
     ASSERT_EQ(r.frames.size(), 4u);
-    EXPECT_TRUE(r.frames[0].interactive);
+    EXPECT_FALSE(r.frames[0].interactive);
+    EXPECT_TRUE(r.frames[1].interactive);
     EXPECT_FALSE(r.frames.back().interactive);
     Scene now = s.currentScene();
     Renderer fresh(test::computeContext(), v, tf, now);

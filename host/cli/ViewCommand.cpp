@@ -142,11 +142,11 @@ void addViewCommand(CLI::App& app, GlobalOptions& global) {
     cmd->add_option("--height", a->height, "Window / framebuffer height (default: the scene's image height)")
         ->check(CLI::Range(1, 16384));
     cmd->add_flag("--headless", a->headless, "No window: render through an EGL offscreen context");
-    cmd->add_option("--frames", a->frames, "Headless: frames to render; the last is full quality")
+    cmd->add_option("--frames", a->frames, "Headless: frames to render; the first and last are full quality")
         ->check(CLI::Range(1, 100000))
         ->capture_default_str();
     cmd->add_option("--orbit", a->orbit,
-                    "Headless: degrees to orbit before each frame but the last (interaction)");
+                    "Headless: degrees to orbit before each frame in between (interaction)");
     cmd->add_option("--keys", a->keys,
                     "Headless: key actions to apply first, e.g. \"1m\" (see the list below)");
     cmd->add_option(

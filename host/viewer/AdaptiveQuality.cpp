@@ -15,8 +15,8 @@ AdaptiveQuality::AdaptiveQuality(const AdaptiveQualityOptions& options) : option
         throw UsageError("adaptive quality: minimum resolution scale must be in (0, 1]");
     if (!(options_.maxStepScale >= 1.0) || !std::isfinite(options_.maxStepScale))
         throw UsageError("adaptive quality: maximum step scale must be >= 1");
-    if (!(options_.maxChange > 1.0))
-        throw UsageError("adaptive quality: maximum change per frame must exceed 1");
+    if (!(options_.maxGrowth > 1.0))
+        throw UsageError("adaptive quality: maximum growth per frame must exceed 1");
     if (options_.stepLevelsPerOctave < 1)
         throw UsageError("adaptive quality: step levels per octave must be >= 1");
 }
@@ -45,9 +45,14 @@ QualityLevel AdaptiveQuality::next() const {
 
 void AdaptiveQuality::report(const QualityLevel& used, double frameMs) {
     if (!options_.enabled || !(frameMs > 0.0) || !std::isfinite(frameMs)) return;
-    const double ratio =
-        std::clamp(options_.targetMs / frameMs, 1.0 / options_.maxChange, options_.maxChange);
+    const double ratio = std::min(options_.targetMs / frameMs, options_.maxGrowth);
     work_ = std::clamp(used.work() * ratio, minWork(), 1.0);
+    reported_ = true;
+}
+
+void AdaptiveQuality::seed(double fullQualityMs) {
+    if (reported_ || !(fullQualityMs > 0.0) || !std::isfinite(fullQualityMs)) return;
+    work_ = std::clamp(options_.targetMs / fullQualityMs, minWork(), 1.0);
 }
 
 } // namespace volcl::viewer

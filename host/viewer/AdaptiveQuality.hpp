@@ -15,11 +15,12 @@ struct QualityLevel {
 struct AdaptiveQualityOptions {
     bool enabled = true;
     double targetMs = 100.0; ///< frame time to hold while the user interacts
-    double minResolutionScale = 0.125;
+    double minResolutionScale = 1.0 / 16.0;
     double maxStepScale = 4.0;
-    /// Largest change of the work per frame (either way): one outlier (a kernel rebuild, a busy core) must
-    /// not throw the next frame to an extreme.
-    double maxChange = 4.0;
+    /// Largest growth of the work per frame. Cuts are not limited (a frame far over the target is what
+    /// interaction must never see twice); growth is, so one fast outlier cannot throw the next frame to an
+    /// expensive extreme.
+    double maxGrowth = 4.0;
     /// Step scales come from the ladder 2^(k/4): a pre-integration table is rebuilt per distinct step, so
     /// a few levels keep tables cached rather than rebuilt every frame.
     int stepLevelsPerOctave = 4;
@@ -46,6 +47,9 @@ public:
     QualityLevel next() const;
     /// Records that a frame rendered at `used` took `frameMs`; non-finite or non-positive times are ignored.
     void report(const QualityLevel& used, double frameMs);
+    /// A full-quality frame's time sets the starting work until the first interactive report, so the first
+    /// interactive frame is already near the target instead of a full-quality one.
+    void seed(double fullQualityMs);
     /// Work fraction the controller aims at for the next interactive frame.
     double work() const noexcept { return work_; }
     /// Splits a work fraction into step and resolution (exposed for tests and the benchmark).
@@ -56,6 +60,7 @@ public:
 private:
     AdaptiveQualityOptions options_;
     double work_ = 1.0;
+    bool reported_ = false;
 };
 
 } // namespace volcl::viewer

@@ -77,7 +77,8 @@ HeadlessResult runHeadless(ViewerSession& session, const HeadlessOptions& o, std
     FramePresenter presenter;
     OffscreenFramebuffer target(o.width, o.height);
     for (int i = 0; i < o.frames; ++i) {
-        const bool interactive = i + 1 < o.frames && o.orbitDegrees != 0.0;
+        // Like a user: the viewer opens on a full-quality frame, the orbit follows, the view settles.
+        const bool interactive = i > 0 && i + 1 < o.frames && o.orbitDegrees != 0.0;
         if (interactive) session.camera().orbit(o.orbitDegrees * kPi / 180.0, 0.0);
         Stopwatch sw;
         ViewerFrame f = session.renderFrame(o.width, o.height, interactive);

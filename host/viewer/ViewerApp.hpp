@@ -25,8 +25,8 @@ struct FrameRecord {
 
 struct HeadlessOptions {
     int width = 512, height = 512; ///< viewport (framebuffer) size
-    int frames = 1;                ///< the last one is always a still, full-quality frame
-    double orbitDegrees = 0.0;     ///< yaw per frame before each frame but the last; non-zero = interacting
+    int frames = 1;                ///< the first and the last are still, full-quality frames
+    double orbitDegrees = 0.0;     ///< yaw before each frame between them; non-zero = interacting
     std::string keys;              ///< key actions applied before the first frame (see keyBindingsHelp())
     std::filesystem::path output;  ///< PNG/EXR of the last frame as read back from GL; empty: none
     bool quiet = false;

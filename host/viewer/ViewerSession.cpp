@@ -285,7 +285,11 @@ ViewerFrame ViewerSession::renderFrame(int width, int height, bool interactive) 
 }
 
 void ViewerSession::frameDone(const ViewerFrame& frame, double frameMs) {
-    if (frame.interactive && !frame.structureChanged) adaptive_.report(frame.level, frameMs);
+    if (frame.structureChanged) return;
+    if (frame.interactive)
+        adaptive_.report(frame.level, frameMs);
+    else
+        adaptive_.seed(frameMs);
 }
 
 std::string ViewerSession::compiledSummary() const {

@@ -86,8 +86,9 @@ public:
     /// Renders for a viewport of width x height: full quality when not interactive, else at the adaptive
     /// controller's level.
     ViewerFrame renderFrame(int width, int height, bool interactive);
-    /// Reports the whole frame's wall time (render + upload + draw) to the controller. Frames after a
-    /// structural change (kernel rebuild) are skipped: build time says nothing about the next frame.
+    /// Reports the whole frame's wall time (render + upload + draw) to the controller; a full-quality frame
+    /// seeds it. Frames after a structural change (kernel rebuild) are skipped: build time says nothing
+    /// about the next frame.
     void frameDone(const ViewerFrame& frame, double frameMs);
 
     /// The scene as the next frame will render it at full quality (camera included).
