@@ -12,6 +12,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <memory>
 
 using namespace volcl;
@@ -162,6 +163,8 @@ TEST(PreintExact, MatchesReference2dOnEveryEntry) {
             auto t = exact(tf, spec2d(256, step));
             expectBounded(t, tf.maxColor());
             TableError e = compareWithReference(t, tf);
+            std::cout << "[ info ] 2D 256^2 step " << step << ": max |exact - reference| = " << e.maxAbs
+                      << '\n';
             EXPECT_EQ(e.entries, 256u * 256u);
             EXPECT_LE(e.maxAbs, 1e-4) << "step " << step << " worst (front " << e.worstFront << ", back "
                                       << e.worstBack << ", channel " << e.worstChannel << ")";
@@ -174,6 +177,7 @@ TEST(PreintExact, MatchesReference3dOnEveryEntry) {
         auto t = exact(tf, spec3d(256, 12, 6.0));
         expectBounded(t, tf.maxColor());
         TableError e = compareWithReference(t, tf);
+        std::cout << "[ info ] 3D 256^2 x 12: max |exact - reference| = " << e.maxAbs << '\n';
         EXPECT_EQ(e.entries, 256u * 256u * 12u);
         EXPECT_LE(e.maxAbs, 1e-4) << "worst slice " << e.worstK << " (front " << e.worstFront << ", back "
                                   << e.worstBack << ")";
