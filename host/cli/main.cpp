@@ -19,7 +19,6 @@ int main(int argc, char** argv) {
     volcl::cli::addPreintCommands(app, *bench, global);
     volcl::cli::addRenderCommands(app, *bench, global);
     volcl::cli::addCodecCommands(app, *bench, global);
-    // Area command groups register here as they land (addPreintCommands, addCodecCommands, ...).
 
     // The single place where errors become messages and exit codes (CONTRACT section 5).
     try {
