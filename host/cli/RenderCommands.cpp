@@ -203,18 +203,22 @@ TransferFunction loadTf(const std::filesystem::path& path, const Volume& v) {
     return TransferFunction::fromFile(path, range);
 }
 
-void writeRendered(const ImageBuffer& img, const std::filesystem::path& out, const Scene& s, bool half) {
+std::string outputExtension(const std::filesystem::path& out) {
     std::string ext = out.extension().string();
     for (auto& c : ext)
         c = char(std::tolower(static_cast<unsigned char>(c)));
-    if (ext == ".exr") {
-        writeImage(img, out, {.halfFloat = half});
-    } else if (ext == ".png") {
-        const auto& b = s.background;
-        writeImage(compositeOverSrgb(img, {float(b[0]), float(b[1]), float(b[2]), float(b[3])}), out);
-    } else {
+    if (ext != ".exr" && ext != ".png")
         throw UsageError(out.string() +
                          ": output must be .exr (linear associated RGBA) or .png (sRGB over background)");
+    return ext;
+}
+
+void writeRendered(const ImageBuffer& img, const std::filesystem::path& out, const Scene& s, bool half) {
+    if (outputExtension(out) == ".exr") {
+        writeImage(img, out, {.halfFloat = half});
+    } else {
+        const auto& b = s.background;
+        writeImage(compositeOverSrgb(img, {float(b[0]), float(b[1]), float(b[2]), float(b[3])}), out);
     }
 }
 
@@ -489,7 +493,10 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     cmd->callback([a, &global] {
         if (a->out.empty() && !a->explain) throw UsageError("render: give -o/--output (or --explain)");
         const Scene scene = a->scene.build();
-        if (!a->out.empty()) checkNotSameFile(scene.volume, a->out);
+        if (!a->out.empty()) {
+            outputExtension(a->out); // refuse a bad output name before any work
+            checkNotSameFile(scene.volume, a->out);
+        }
         const Volume v = readVolume(scene.volume, a->scene.raw.toReadOptions());
         const TransferFunction tf = loadTf(scene.tf, v);
         if (a->explain && a->out.empty()) {
