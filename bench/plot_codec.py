@@ -3,9 +3,11 @@
 lossless ratios against zstd/xz, and throughput bars; prints the markdown tables for docs/codec.md.
 
 Usage: /usr/bin/python3 bench/plot_codec.py bench-codec.json docs/
+       (a saved stderr log of the bench, *.log, works too: it lacks the zstd rows)
 """
 import json
 import math
+import re
 import sys
 from collections import defaultdict
 
@@ -21,10 +23,49 @@ def num(v):
     return v
 
 
+def parse_log(path):
+    """Rows from the progress lines `volcl bench codec` prints on stderr."""
+    rows, transforms, ds = [], [], None
+    f = r"([-+0-9.eE]+|inf|nan)"
+    for line in open(path):
+        line = line.rstrip()
+        m = re.match(r"== (\S+) ", line)
+        if m:
+            ds = m.group(1)
+            continue
+        m = re.match(rf"  (volcl-\w+) (\S+): ratio {f} bpv {f} PSNR {f} maxerr {f} enc {f} MB/s dec {f} MB/s", line)
+        if m:
+            rows.append(dict(dataset=ds, codec=m.group(1), mode=m.group(2), ratio=float(m.group(3)),
+                             bits_per_voxel=float(m.group(4)), psnr_db=m.group(5) if m.group(5) == "inf" else float(m.group(5)),
+                             max_abs_error=float(m.group(6)), encode_MBps=float(m.group(7)), decode_MBps=float(m.group(8))))
+            continue
+        m = re.match(rf"  zfp reversible: ratio {f} enc {f} dec {f}", line)
+        if m:
+            rows.append(dict(dataset=ds, codec="zfp", mode="lossless", ratio=float(m.group(1)), bits_per_voxel=math.nan,
+                             psnr_db="inf", max_abs_error=0.0, encode_MBps=float(m.group(2)), decode_MBps=float(m.group(3))))
+            continue
+        m = re.match(rf"  xz -9: ratio {f}", line)
+        if m:
+            rows.append(dict(dataset=ds, codec="xz-9", mode="lossless", ratio=float(m.group(1)), bits_per_voxel=math.nan,
+                             psnr_db="inf", max_abs_error=0.0, encode_MBps=math.nan, decode_MBps=math.nan))
+            continue
+        m = re.match(rf"  zfp (psnr\d+): bpv {f} PSNR {f}", line)
+        if m:
+            rows.append(dict(dataset=ds, codec="zfp", mode=m.group(1), ratio=math.nan, bits_per_voxel=float(m.group(2)),
+                             psnr_db=float(m.group(3)), max_abs_error=math.nan, encode_MBps=math.nan, decode_MBps=math.nan))
+            continue
+        m = re.match(rf"  transform (.+): {f} Gvoxel/s, {f} GB/s = {f}% of the copy kernel \({f} GB/s\)", line)
+        if m:
+            transforms.append(dict(dataset=ds, transform=m.group(1), gvoxel_per_s=float(m.group(2)),
+                                   gb_per_s=float(m.group(3)), copy_gb_per_s=float(m.group(5)),
+                                   fraction_of_copy=float(m.group(4)) / 100))
+    return dict(rows=rows, transforms=transforms)
+
+
 def main():
     if len(sys.argv) != 3:
         sys.exit(__doc__)
-    data = json.load(open(sys.argv[1]))
+    data = parse_log(sys.argv[1]) if sys.argv[1].endswith(".log") else json.load(open(sys.argv[1]))
     out = sys.argv[2].rstrip("/")
     rows = data["rows"]
     sets = list(dict.fromkeys(r["dataset"] for r in rows))

@@ -44,6 +44,7 @@ typedef int16 V;
 
 /* Whole-sample symmetric reflection of index i into [0, n), n >= 2; keeps the parity of i. */
 inline int mirror_index(int i, int n) {
+    if ((uint)i < (uint)n) return i; /* the common case, without the division below */
     int p = 2 * (n - 1);
     i = i % p;
     if (i < 0) i += p;
@@ -215,18 +216,6 @@ inline int high_pos(int m, int n) {
 
 /* ---------------------------------------------------------------- forward */
 
-#define DECL_FWD_SCALAR(line, n, pair, N)                                                                  \
-    T e_m2 = 0, e_m1 = 0, e_0 = 0, e_p1 = 0, e_p2 = 0, o_m2 = 0, o_m1 = 0, o_0 = 0, o_p1 = 0;              \
-    if (IN_WIN(-2, WIN_FWD_E_LO, WIN_FWD_E_HI)) e_m2 = line[even_pos(pair - 2, N) * (n)];                  \
-    if (IN_WIN(-1, WIN_FWD_E_LO, WIN_FWD_E_HI)) e_m1 = line[even_pos(pair - 1, N) * (n)];                  \
-    e_0 = line[even_pos(pair, N) * (n)];                                                                   \
-    if (IN_WIN(1, WIN_FWD_E_LO, WIN_FWD_E_HI)) e_p1 = line[even_pos(pair + 1, N) * (n)];                   \
-    if (IN_WIN(2, WIN_FWD_E_LO, WIN_FWD_E_HI)) e_p2 = line[even_pos(pair + 2, N) * (n)];                   \
-    if (IN_WIN(-2, WIN_FWD_O_LO, WIN_FWD_O_HI)) o_m2 = line[odd_pos(pair - 2, N) * (n)];                   \
-    if (IN_WIN(-1, WIN_FWD_O_LO, WIN_FWD_O_HI)) o_m1 = line[odd_pos(pair - 1, N) * (n)];                   \
-    o_0 = line[odd_pos(pair, N) * (n)];                                                                    \
-    if (IN_WIN(1, WIN_FWD_O_LO, WIN_FWD_O_HI)) o_p1 = line[odd_pos(pair + 1, N) * (n)];
-
 /* x pass: one work-item makes 16 consecutive (low, high) pairs of one row. */
 kernel void lift_x(global const T* src, global T* dst, uint px, uint by, uint bz, uint nx, uint ny, uint nz,
                    uint count) {
@@ -267,14 +256,34 @@ kernel void lift_x(global const T* src, global T* dst, uint px, uint by, uint bz
         vstore16(d_out, 0, out + ms + n0);
         return;
     }
-    for (int i = 0; i < 16; ++i) {
-        const int pair = n0 + i;
-        if (pair >= ms) break;
-        DECL_FWD_SCALAR(in, 1, pair, N)
-        T s_out, d_out;
-        FWD_BODY(T)
-        out[pair] = s_out;
-        if (pair < md) out[ms + pair] = d_out;
+    /* Line ends: stage pairs n0-2 .. n0+17 (extension applied) in private memory, then the same vector code. */
+    T buf[40];
+    for (int j = 0; j < 40; ++j) {
+        const int m = n0 - 2 + (j >> 1);
+        buf[j] = in[(j & 1) ? odd_pos(m, N) : even_pos(m, N)];
+    }
+    V e_m2 = 0, e_m1 = 0, e_0, e_p1 = 0, e_p2 = 0, o_m2 = 0, o_m1 = 0, o_0, o_p1 = 0, unused;
+#define LD_STAGED(k, E, O)                                                                                 \
+    {                                                                                                      \
+        V a = vload16(0, buf + 2 * ((k) + 2));                                                             \
+        V b = vload16(0, buf + 2 * ((k) + 2) + 16);                                                        \
+        E = (V)(a.even, b.even);                                                                           \
+        O = (V)(a.odd, b.odd);                                                                             \
+    }
+    if (IN_WIN(-2, WIN_FWD_E_LO, WIN_FWD_E_HI)) LD_STAGED(-2, e_m2, o_m2);
+    if (IN_WIN(-1, WIN_FWD_E_LO, WIN_FWD_E_HI)) LD_STAGED(-1, e_m1, o_m1);
+    LD_STAGED(0, e_0, o_0);
+    if (IN_WIN(1, WIN_FWD_E_LO, WIN_FWD_E_HI)) LD_STAGED(1, e_p1, o_p1);
+    if (IN_WIN(2, WIN_FWD_E_LO, WIN_FWD_E_HI)) LD_STAGED(2, e_p2, unused);
+#undef LD_STAGED
+    V s_out, d_out;
+    FWD_BODY(V)
+    T sa[16], da[16];
+    vstore16(s_out, 0, sa);
+    vstore16(d_out, 0, da);
+    for (int i = 0; i < 16 && n0 + i < ms; ++i) {
+        out[n0 + i] = sa[i];
+        if (n0 + i < md) out[ms + n0 + i] = da[i];
     }
 }
 
@@ -335,18 +344,6 @@ kernel void lift_yz(global const T* src, global T* dst, uint px, uint by, uint b
 
 /* ---------------------------------------------------------------- inverse */
 
-#define DECL_INV_SCALAR(line, ms, pair, N)                                                                 \
-    T s_m1 = 0, s_0 = 0, s_p1 = 0, s_p2 = 0, d_m2 = 0, d_m1 = 0, d_0 = 0, d_p1 = 0, d_p2 = 0;              \
-    if (IN_WIN(-1, WIN_INV_S_LO, WIN_INV_S_HI)) s_m1 = line[low_pos(pair - 1, N)];                         \
-    s_0 = line[low_pos(pair, N)];                                                                          \
-    if (IN_WIN(1, WIN_INV_S_LO, WIN_INV_S_HI)) s_p1 = line[low_pos(pair + 1, N)];                          \
-    if (IN_WIN(2, WIN_INV_S_LO, WIN_INV_S_HI)) s_p2 = line[low_pos(pair + 2, N)];                          \
-    if (IN_WIN(-2, WIN_INV_D_LO, WIN_INV_D_HI)) d_m2 = line[ms + high_pos(pair - 2, N)];                   \
-    if (IN_WIN(-1, WIN_INV_D_LO, WIN_INV_D_HI)) d_m1 = line[ms + high_pos(pair - 1, N)];                   \
-    if (SYMMETRIC_EXTENSION || 2 * pair + 1 < N) d_0 = line[ms + high_pos(pair, N)];                       \
-    if (IN_WIN(1, WIN_INV_D_LO, WIN_INV_D_HI)) d_p1 = line[ms + high_pos(pair + 1, N)];                    \
-    if (IN_WIN(2, WIN_INV_D_LO, WIN_INV_D_HI)) d_p2 = line[ms + high_pos(pair + 2, N)];
-
 kernel void lift_x(global const T* src, global T* dst, uint px, uint by, uint bz, uint nx, uint ny, uint nz,
                    uint count) {
     const int chunk = get_global_id(0);
@@ -383,18 +380,30 @@ kernel void lift_x(global const T* src, global T* dst, uint px, uint by, uint bz
                  0, out + 2 * n0 + 16);
         return;
     }
-    for (int i = 0; i < 16; ++i) {
+    /* Line ends: stage coefficients of pairs n0-2 .. n0+17 (extension applied), then the vector code. */
+    T sbuf[20], dbuf[20];
+    for (int j = 0; j < 20; ++j) {
+        const int m = n0 - 2 + j;
+        sbuf[j] = in[low_pos(m, N)];
+        dbuf[j] = (SYMMETRIC_EXTENSION || (m >= 0 && 2 * m + 1 < N)) ? in[ms + high_pos(m, N)] : 0;
+    }
+    V s_m1 = vload16(0, sbuf + 1), s_0 = vload16(0, sbuf + 2), s_p1 = vload16(0, sbuf + 3), s_p2 = vload16(0, sbuf + 4);
+    V d_m2 = vload16(0, dbuf), d_m1 = vload16(0, dbuf + 1), d_0 = vload16(0, dbuf + 2), d_p1 = vload16(0, dbuf + 3);
+    V d_p2 = vload16(0, dbuf + 4);
+    V e_out, o_out;
+    INV_BODY(V)
+    T ea[16], oa[16], sa[16];
+    vstore16(e_out, 0, ea);
+    vstore16(o_out, 0, oa);
+    vstore16(s_0, 0, sa);
+    for (int i = 0; i < 16 && n0 + i < ms; ++i) {
         const int pair = n0 + i;
-        if (pair >= ms) break;
-        DECL_INV_SCALAR(in, ms, pair, N)
-        T e_out, o_out;
-        INV_BODY(T)
         if (2 * pair + 1 < N) {
-            out[2 * pair + 1] = o_out;
+            out[2 * pair + 1] = oa[i];
+            out[2 * pair] = ea[i];
         } else {
-            LONE_FIX(e_out, s_0);
+            out[2 * pair] = SYMMETRIC_EXTENSION ? ea[i] : sa[i];
         }
-        out[2 * pair] = e_out;
     }
 }
 
