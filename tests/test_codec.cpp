@@ -28,22 +28,32 @@ Volume makeVolume(Dims d, ScalarType type, unsigned seed = 1, double noise = 2.0
     for (std::size_t z = 0; z < d.z; ++z)
         for (std::size_t y = 0; y < d.y; ++y)
             for (std::size_t x = 0; x < d.x; ++x) {
-                double s = 0.5 + 0.25 * std::sin(0.21 * double(x)) * std::cos(0.17 * double(y)) + 0.2 * std::sin(0.13 * double(z));
+                double s = 0.5 + 0.25 * std::sin(0.21 * double(x)) * std::cos(0.17 * double(y)) +
+                           0.2 * std::sin(0.13 * double(z));
                 if ((x / 9 + y / 7 + z / 5) % 3 == 0) s += 0.1; // discontinuities
                 double val = lo + (hi - lo) * std::clamp(s, 0.0, 1.0) + n(rng);
                 val = std::clamp(val, lo, hi);
                 const std::size_t i = v.index(x, y, z);
                 switch (type) {
-                case ScalarType::UInt8: v.values<std::uint8_t>()[i] = static_cast<std::uint8_t>(std::lround(val)); break;
-                case ScalarType::UInt16: v.values<std::uint16_t>()[i] = static_cast<std::uint16_t>(std::lround(val)); break;
-                case ScalarType::Int16: v.values<std::int16_t>()[i] = static_cast<std::int16_t>(std::lround(val)); break;
-                case ScalarType::Float32: v.values<float>()[i] = static_cast<float>(val); break;
+                case ScalarType::UInt8:
+                    v.values<std::uint8_t>()[i] = static_cast<std::uint8_t>(std::lround(val));
+                    break;
+                case ScalarType::UInt16:
+                    v.values<std::uint16_t>()[i] = static_cast<std::uint16_t>(std::lround(val));
+                    break;
+                case ScalarType::Int16:
+                    v.values<std::int16_t>()[i] = static_cast<std::int16_t>(std::lround(val));
+                    break;
+                case ScalarType::Float32:
+                    v.values<float>()[i] = static_cast<float>(val);
+                    break;
                 }
             }
     return v;
 }
 
-CodecOptions lossless(Wavelet w = Wavelet::Cdf53, EntropyMode m = EntropyMode::Dense, Dims brick = {16, 16, 16}, int levels = 3) {
+CodecOptions lossless(Wavelet w = Wavelet::Cdf53, EntropyMode m = EntropyMode::Dense,
+                      Dims brick = {16, 16, 16}, int levels = 3) {
     CodecOptions o;
     o.rate = RateMode::Lossless;
     o.wavelet = w;
@@ -71,15 +81,16 @@ Volume roundTrip(const Volume& v, const CodecOptions& o, EncodeReport* rep = nul
 } // namespace
 
 TEST(CodecLossless, BitExactOnAwkwardSizesTypesAndWavelets) {
-    const Dims sizes[] = {{1, 1, 1}, {1, 37, 1}, {23, 1, 1}, {2, 3, 5}, {17, 19, 23}, {31, 29, 37}, {40, 33, 17}};
+    const Dims sizes[] = {{1, 1, 1},    {1, 37, 1},   {23, 1, 1},  {2, 3, 5},
+                          {17, 19, 23}, {31, 29, 37}, {40, 33, 17}};
     for (ScalarType t : {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16}) {
         for (Dims d : sizes) {
             const Volume v = makeVolume(d, t, unsigned(d.x + d.y));
             for (Wavelet w : {Wavelet::Cdf53, Wavelet::Haar, Wavelet::Cdf26}) {
                 for (EntropyMode m : {EntropyMode::Dense, EntropyMode::Fast}) {
                     const Volume out = roundTrip(v, lossless(w, m));
-                    ASSERT_TRUE(out == v) << scalarTypeName(t) << " " << d.x << "x" << d.y << "x" << d.z << " "
-                                          << waveletName(w) << " mode " << int(m);
+                    ASSERT_TRUE(out == v) << scalarTypeName(t) << " " << d.x << "x" << d.y << "x" << d.z
+                                          << " " << waveletName(w) << " mode " << int(m);
                 }
             }
         }
@@ -89,19 +100,23 @@ TEST(CodecLossless, BitExactOnAwkwardSizesTypesAndWavelets) {
 TEST(CodecLossless, ExtremeSixteenBitAlternationIsExact) {
     Volume v({33, 18, 20}, ScalarType::UInt16);
     auto s = v.values<std::uint16_t>();
-    for (std::size_t i = 0; i < s.size(); ++i) s[i] = ((i + i / 33 + i / (33 * 18)) & 1) ? 65535 : 0;
+    for (std::size_t i = 0; i < s.size(); ++i)
+        s[i] = ((i + i / 33 + i / (33 * 18)) & 1) ? 65535 : 0;
     Volume w({33, 18, 20}, ScalarType::Int16);
     auto t = w.values<std::int16_t>();
-    for (std::size_t i = 0; i < t.size(); ++i) t[i] = (i & 1) ? 32767 : -32768;
+    for (std::size_t i = 0; i < t.size(); ++i)
+        t[i] = (i & 1) ? 32767 : -32768;
     for (const Volume* vol : {&v, &w})
         for (Wavelet wl : {Wavelet::Cdf53, Wavelet::Haar, Wavelet::Cdf26}) {
-            EXPECT_TRUE(roundTrip(*vol, lossless(wl, EntropyMode::Dense, {32, 32, 32}, 5)) == *vol) << waveletName(wl);
+            EXPECT_TRUE(roundTrip(*vol, lossless(wl, EntropyMode::Dense, {32, 32, 32}, 5)) == *vol)
+                << waveletName(wl);
         }
 }
 
 TEST(CodecLossless, ConstantVolumeIsTiny) {
     Volume v({64, 64, 64}, ScalarType::UInt8);
-    for (auto& x : v.values<std::uint8_t>()) x = 77;
+    for (auto& x : v.values<std::uint8_t>())
+        x = 77;
     EncodeReport rep;
     const Volume out = roundTrip(v, lossless(Wavelet::Cdf53, EntropyMode::Dense, {32, 32, 32}, 4), &rep);
     EXPECT_TRUE(out == v);
@@ -145,7 +160,8 @@ TEST(CodecLossy, MaxErrorOnHugeDynamicRangeFloats) {
     auto s = v.values<float>();
     std::mt19937 rng(9);
     std::uniform_real_distribution<double> ex(-30, 30);
-    for (auto& x : s) x = static_cast<float>(std::pow(10.0, ex(rng)) * ((rng() & 1) ? 1 : -1));
+    for (auto& x : s)
+        x = static_cast<float>(std::pow(10.0, ex(rng)) * ((rng() & 1) ? 1 : -1));
     const Volume out = roundTrip(v, lossy(RateMode::MaxError, 1e-3));
     EXPECT_LE(maxAbsError(v, out), 1e-3);
 }
@@ -187,8 +203,8 @@ TEST(CodecAccess, RegionDecodeEqualsCropOfFullDecode) {
     for (const CodecOptions& o : {lossless(), lossy(RateMode::MaxError, 3.0), lossy(RateMode::Psnr, 45.0)}) {
         const auto bytes = encodeVolume(cc, v, o);
         const Volume full = decodeVolume(cc, bytes);
-        for (const Region& r : {Region{{0, 0, 0}, {1, 1, 1}}, Region{{3, 5, 7}, {40, 17, 29}}, Region{{15, 15, 15}, {17, 17, 17}},
-                                Region{{44, 37, 28}, {45, 38, 29}}}) {
+        for (const Region& r : {Region{{0, 0, 0}, {1, 1, 1}}, Region{{3, 5, 7}, {40, 17, 29}},
+                                Region{{15, 15, 15}, {17, 17, 17}}, Region{{44, 37, 28}, {45, 38, 29}}}) {
             DecodeOptions d;
             d.region = r;
             const Volume part = decodeVolume(cc, bytes, d);
@@ -217,7 +233,8 @@ TEST(CodecAccess, LevelDecodeIsTheLowBandAndRegionsAgree) {
             const Dims bo = reader.header().brickOrigin(b), bd = reader.header().brickDims(b);
             const Volume crop = v.cropped(bo, {bo.x + bd.x, bo.y + bd.y, bo.z + bd.z});
             std::vector<std::int32_t> c(bd.count());
-            for (std::size_t i = 0; i < c.size(); ++i) c[i] = crop.values<std::int16_t>()[i];
+            for (std::size_t i = 0; i < c.size(); ++i)
+                c[i] = crop.values<std::int16_t>()[i];
             reference::forward3d(std::span<std::int32_t>(c), bd, 3, Wavelet::Cdf53);
             reference::inverse3d(std::span<std::int32_t>(c), bd, 3, Wavelet::Cdf53, k);
             const Dims bl = levelDims(bd, k);
@@ -225,7 +242,8 @@ TEST(CodecAccess, LevelDecodeIsTheLowBandAndRegionsAgree) {
                 for (std::size_t y = 0; y < bl.y; ++y)
                     for (std::size_t x = 0; x < bl.x; ++x) {
                         const double want = std::clamp<double>(c[(z * bd.y + y) * bd.x + x], -32768, 32767);
-                        ASSERT_EQ(lv.valueAt(lv.index((bo.x >> k) + x, (bo.y >> k) + y, (bo.z >> k) + z)), want);
+                        ASSERT_EQ(lv.valueAt(lv.index((bo.x >> k) + x, (bo.y >> k) + y, (bo.z >> k) + z)),
+                                  want);
                     }
         }
         // Region at a level equals the matching crop of the level decode.
@@ -267,7 +285,8 @@ TEST(CodecAccess, BadRequestsAreUsageErrors) {
 TEST(CodecCorruption, EveryByteFlipAndTruncationIsDetected) {
     ComputeContext& cc = test::computeContext();
     const Volume v = makeVolume({20, 18, 9}, ScalarType::UInt8, 2, 3.0);
-    for (const CodecOptions& o : {lossless(Wavelet::Cdf53, EntropyMode::Dense, {16, 16, 16}, 2), lossy(RateMode::MaxError, 2.0, {16, 16, 16}, 2)}) {
+    for (const CodecOptions& o : {lossless(Wavelet::Cdf53, EntropyMode::Dense, {16, 16, 16}, 2),
+                                  lossy(RateMode::MaxError, 2.0, {16, 16, 16}, 2)}) {
         const auto good = encodeVolume(cc, v, o);
         ASSERT_TRUE(decodeVolume(cc, good).sameGrid(v));
         std::size_t checked = 0;
@@ -306,7 +325,8 @@ TEST(CodecCorruption, ErrorNamesTheBrick) {
 TEST(CodecSeries, FramesRoundTrip) {
     ComputeContext& cc = test::computeContext();
     TimeSeries s;
-    for (unsigned f = 0; f < 3; ++f) s.frames.push_back(makeVolume({20, 17, 11}, ScalarType::UInt8, f + 1));
+    for (unsigned f = 0; f < 3; ++f)
+        s.frames.push_back(makeVolume({20, 17, 11}, ScalarType::UInt8, f + 1));
     s.times = {0.0, 0.5, 1.0};
     const auto bytes = encodeSeries(cc, s, lossless());
     VczReader r(bytes, "series");
@@ -341,20 +361,22 @@ TEST(CodecRealData, LosslessIsBitExactOnEverySharedVolume) {
     bucky.type = ScalarType::UInt8;
     std::vector<std::pair<std::string, TimeSeries>> sets;
     sets.emplace_back("Bucky", readVolumeFile(r / "Bucky.raw", bucky));
-    for (const char* f : {"nucleon.nrrd", "hydrogenatom.dat", "neghip.slc", "ironProt.vtk", "headsq/quarter.nhdr",
-                          "HeadMRVolume.mhd", "walnut.vvd", "froggy/frogtissue.mhd"})
+    for (const char* f : {"nucleon.nrrd", "hydrogenatom.dat", "neghip.slc", "ironProt.vtk",
+                          "headsq/quarter.nhdr", "HeadMRVolume.mhd", "walnut.vvd", "froggy/frogtissue.mhd"})
         sets.emplace_back(f, readVolumeFile(r / f));
     TimeSeries brain;
-    brain.frames.push_back(readGzipVolume(r / "t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz", {180, 216, 180},
-                                          ScalarType::UInt8));
+    brain.frames.push_back(readGzipVolume(r / "t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz",
+                                          {180, 216, 180}, ScalarType::UInt8));
     sets.emplace_back("brainweb", std::move(brain));
     sets.emplace_back("functional.nii.gz (4D int16)", readVolumeFile(data / "timevarying/functional.nii.gz"));
     ComputeContext& cc = test::computeContext();
     for (const auto& [name, ts] : sets) {
-        // Readers that apply scale factors (NIfTI scl_slope) hand out float32: lossless keeps those bit for bit.
+        // Readers that apply scale factors (NIfTI scl_slope) hand out float32: lossless keeps those bit for
+        // bit.
         CodecOptions o;
         o.rate = RateMode::Lossless;
-        const auto bytes = ts.frames.size() == 1 ? encodeVolume(cc, ts.frames[0], o) : encodeSeries(cc, ts, o);
+        const auto bytes =
+            ts.frames.size() == 1 ? encodeVolume(cc, ts.frames[0], o) : encodeSeries(cc, ts, o);
         VczReader reader(bytes, name);
         for (std::size_t f = 0; f < ts.frames.size(); ++f) {
             DecodeOptions d;
@@ -362,7 +384,8 @@ TEST(CodecRealData, LosslessIsBitExactOnEverySharedVolume) {
             ASSERT_TRUE(reader.decode(cc, d) == ts.frames[f]) << name << " frame " << f;
         }
         std::size_t raw = 0;
-        for (const Volume& v : ts.frames) raw += v.byteSize();
+        for (const Volume& v : ts.frames)
+            raw += v.byteSize();
         EXPECT_LT(bytes.size(), raw) << name << ": lossless did not compress";
     }
 }

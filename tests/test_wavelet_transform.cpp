@@ -22,7 +22,8 @@ std::vector<std::int32_t> randomInts(std::size_t n, std::int32_t lo, std::int32_
     std::mt19937 rng(seed);
     std::uniform_int_distribution<std::int32_t> dist(lo, hi);
     std::vector<std::int32_t> v(n);
-    for (auto& x : v) x = dist(rng);
+    for (auto& x : v)
+        x = dist(rng);
     return v;
 }
 
@@ -34,10 +35,12 @@ template <class T> std::vector<T> pack(const BrickBatch<T>& b, const std::vector
         for (std::size_t z = 0; z < d.z; ++z)
             for (std::size_t y = 0; y < d.y; ++y)
                 for (std::size_t x = 0; x < d.x; ++x)
-                    host[c * b.brickStride() + (z * d.y + y) * b.pitch() + x] = bricks[c][(z * d.y + y) * d.x + x];
+                    host[c * b.brickStride() + (z * d.y + y) * b.pitch() + x] =
+                        bricks[c][(z * d.y + y) * d.x + x];
     return host;
 }
-template <class T> std::vector<T> unpackBrick(const BrickBatch<T>& b, const std::vector<T>& host, std::size_t c) {
+template <class T>
+std::vector<T> unpackBrick(const BrickBatch<T>& b, const std::vector<T>& host, std::size_t c) {
     const Dims d = b.brick();
     std::vector<T> out(d.count());
     for (std::size_t z = 0; z < d.z; ++z)
@@ -51,8 +54,9 @@ struct Case {
     Dims dims;
     int levels;
 };
-const Case kCases[] = {{{1, 1, 1}, 3},   {{1, 13, 1}, 3},  {{2, 3, 5}, 2},   {{7, 1, 1}, 2},    {{17, 19, 23}, 3},
-                       {{31, 2, 3}, 4},  {{64, 64, 8}, 4}, {{97, 5, 11}, 3}, {{67, 33, 17}, 5}, {{40, 41, 43}, 3}};
+const Case kCases[] = {{{1, 1, 1}, 3},    {{1, 13, 1}, 3},  {{2, 3, 5}, 2},   {{7, 1, 1}, 2},
+                       {{17, 19, 23}, 3}, {{31, 2, 3}, 4},  {{64, 64, 8}, 4}, {{97, 5, 11}, 3},
+                       {{67, 33, 17}, 5}, {{40, 41, 43}, 3}};
 
 } // namespace
 
@@ -72,11 +76,13 @@ TEST(WaveletReference, FloatLiftingReconstructs) {
     for (Wavelet w : kAllWavelets) {
         for (int n = 1; n <= 70; ++n) {
             std::vector<double> x(n);
-            for (int i = 0; i < n; ++i) x[i] = std::sin(0.37 * i) * 100 + (i % 3);
+            for (int i = 0; i < n; ++i)
+                x[i] = std::sin(0.37 * i) * 100 + (i % 3);
             auto y = x;
             reference::forward1d(std::span<double>(y), w);
             reference::inverse1d(std::span<double>(y), w);
-            for (int i = 0; i < n; ++i) ASSERT_NEAR(x[i], y[i], 1e-9) << waveletName(w) << " n=" << n;
+            for (int i = 0; i < n; ++i)
+                ASSERT_NEAR(x[i], y[i], 1e-9) << waveletName(w) << " n=" << n;
         }
     }
 }
@@ -85,8 +91,10 @@ TEST(WaveletReference, LowBandHasUnitDcGainAndZeroDetail) {
     for (Wavelet w : kAllWavelets) {
         std::vector<double> x(37, 42.0);
         reference::forward1d(std::span<double>(x), w);
-        for (int i = 0; i < 19; ++i) EXPECT_NEAR(x[i], 42.0, 1e-6) << waveletName(w);
-        for (int i = 19; i < 37; ++i) EXPECT_NEAR(x[i], 0.0, 1e-6) << waveletName(w);
+        for (int i = 0; i < 19; ++i)
+            EXPECT_NEAR(x[i], 42.0, 1e-6) << waveletName(w);
+        for (int i = 19; i < 37; ++i)
+            EXPECT_NEAR(x[i], 0.0, 1e-6) << waveletName(w);
     }
 }
 
@@ -94,7 +102,8 @@ TEST(WaveletReference, CoefficientsOfExtreme16BitDataFitInt32) {
     // 0/65535 checkerboard: the worst case for detail growth through several levels.
     const Dims d{33, 34, 35};
     std::vector<std::int32_t> v(d.count());
-    for (std::size_t i = 0; i < v.size(); ++i) v[i] = ((i + i / d.x + i / (d.x * d.y)) & 1) ? 65535 : 0;
+    for (std::size_t i = 0; i < v.size(); ++i)
+        v[i] = ((i + i / d.x + i / (d.x * d.y)) & 1) ? 65535 : 0;
     for (Wavelet w : kIntegerWavelets) {
         auto c = v;
         reference::forward3d(std::span<std::int32_t>(c), d, 5, w);
@@ -113,7 +122,8 @@ TEST(WaveletKernels, IntegerKernelsMatchReferenceBitExactly) {
             const std::size_t count = 3;
             std::vector<std::vector<std::int32_t>> bricks;
             for (std::size_t c = 0; c < count; ++c)
-                bricks.push_back(randomInts(cs.dims.count(), c == 1 ? 0 : -32768, c == 1 ? 65535 : 32767, unsigned(c)));
+                bricks.push_back(
+                    randomInts(cs.dims.count(), c == 1 ? 0 : -32768, c == 1 ? 65535 : 32767, unsigned(c)));
             BrickBatch<std::int32_t> batch(cc, cs.dims, count);
             auto host = pack(batch, bricks);
             batch.upload(cc, host);
@@ -122,12 +132,14 @@ TEST(WaveletKernels, IntegerKernelsMatchReferenceBitExactly) {
             for (std::size_t c = 0; c < count; ++c) {
                 auto ref = bricks[c];
                 reference::forward3d(std::span<std::int32_t>(ref), cs.dims, cs.levels, w);
-                ASSERT_EQ(unpackBrick(batch, host, c), ref) << waveletName(w) << " dims " << cs.dims.x << "x"
-                                                            << cs.dims.y << "x" << cs.dims.z << " brick " << c;
+                ASSERT_EQ(unpackBrick(batch, host, c), ref)
+                    << waveletName(w) << " dims " << cs.dims.x << "x" << cs.dims.y << "x" << cs.dims.z
+                    << " brick " << c;
             }
             t.inverse(cc, batch, cs.levels);
             batch.download(cc, host);
-            for (std::size_t c = 0; c < count; ++c) ASSERT_EQ(unpackBrick(batch, host, c), bricks[c]) << waveletName(w);
+            for (std::size_t c = 0; c < count; ++c)
+                ASSERT_EQ(unpackBrick(batch, host, c), bricks[c]) << waveletName(w);
         }
     }
 }
@@ -140,7 +152,8 @@ TEST(WaveletKernels, FloatKernelsMatchDoubleReference) {
             std::vector<double> src(cs.dims.count());
             std::mt19937 rng(3);
             std::normal_distribution<double> noise(0, 5);
-            for (std::size_t i = 0; i < src.size(); ++i) src[i] = 1000 * std::sin(0.01 * double(i)) + noise(rng);
+            for (std::size_t i = 0; i < src.size(); ++i)
+                src[i] = 1000 * std::sin(0.01 * double(i)) + noise(rng);
             std::vector<float> f(src.begin(), src.end());
             BrickBatch<float> batch(cc, cs.dims, 1);
             auto host = pack(batch, {f});
@@ -151,14 +164,17 @@ TEST(WaveletKernels, FloatKernelsMatchDoubleReference) {
             reference::forward3d(std::span<double>(ref), cs.dims, cs.levels, w);
             auto got = unpackBrick(batch, host, 0);
             double maxErr = 0;
-            for (std::size_t i = 0; i < ref.size(); ++i) maxErr = std::max(maxErr, std::abs(ref[i] - double(got[i])));
+            for (std::size_t i = 0; i < ref.size(); ++i)
+                maxErr = std::max(maxErr, std::abs(ref[i] - double(got[i])));
             // float32 rounding through up to 5 levels of 4 lifting steps on values of magnitude ~1e3
-            EXPECT_LT(maxErr, 2e-3) << waveletName(w) << " " << cs.dims.x << "x" << cs.dims.y << "x" << cs.dims.z;
+            EXPECT_LT(maxErr, 2e-3) << waveletName(w) << " " << cs.dims.x << "x" << cs.dims.y << "x"
+                                    << cs.dims.z;
             t.inverse(cc, batch, cs.levels);
             batch.download(cc, host);
             got = unpackBrick(batch, host, 0);
             maxErr = 0;
-            for (std::size_t i = 0; i < src.size(); ++i) maxErr = std::max(maxErr, std::abs(double(f[i]) - got[i]));
+            for (std::size_t i = 0; i < src.size(); ++i)
+                maxErr = std::max(maxErr, std::abs(double(f[i]) - got[i]));
             EXPECT_LT(maxErr, 2e-3) << waveletName(w);
         }
     }

@@ -26,7 +26,8 @@ constexpr double kMaxQuantIndex = double(1 << 29); // keeps magnitude classes we
 template <class Fn> void parallelFor(std::size_t n, unsigned threads, Fn fn) {
     threads = std::max(1u, std::min<unsigned>(threads, static_cast<unsigned>(std::max<std::size_t>(n, 1))));
     if (threads == 1) {
-        for (std::size_t i = 0; i < n; ++i) fn(i);
+        for (std::size_t i = 0; i < n; ++i)
+            fn(i);
         return;
     }
     std::atomic<std::size_t> next{0};
@@ -47,28 +48,38 @@ template <class Fn> void parallelFor(std::size_t n, unsigned threads, Fn fn) {
         }
     };
     std::vector<std::thread> pool;
-    for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
+    for (unsigned t = 1; t < threads; ++t)
+        pool.emplace_back(work);
     work();
-    for (auto& t : pool) t.join();
+    for (auto& t : pool)
+        t.join();
     if (error) std::rethrow_exception(error);
 }
 
 // Calls fn with the volume's typed span.
 template <class Fn> decltype(auto) visitTyped(const Volume& v, Fn fn) {
     switch (v.type()) {
-    case ScalarType::UInt8: return fn(v.values<std::uint8_t>());
-    case ScalarType::UInt16: return fn(v.values<std::uint16_t>());
-    case ScalarType::Int16: return fn(v.values<std::int16_t>());
-    case ScalarType::Float32: return fn(v.values<float>());
+    case ScalarType::UInt8:
+        return fn(v.values<std::uint8_t>());
+    case ScalarType::UInt16:
+        return fn(v.values<std::uint16_t>());
+    case ScalarType::Int16:
+        return fn(v.values<std::int16_t>());
+    case ScalarType::Float32:
+        return fn(v.values<float>());
     }
     throw Error("internal: unknown scalar type");
 }
 template <class Fn> decltype(auto) visitTyped(Volume& v, Fn fn) {
     switch (v.type()) {
-    case ScalarType::UInt8: return fn(v.values<std::uint8_t>());
-    case ScalarType::UInt16: return fn(v.values<std::uint16_t>());
-    case ScalarType::Int16: return fn(v.values<std::int16_t>());
-    case ScalarType::Float32: return fn(v.values<float>());
+    case ScalarType::UInt8:
+        return fn(v.values<std::uint8_t>());
+    case ScalarType::UInt16:
+        return fn(v.values<std::uint16_t>());
+    case ScalarType::Int16:
+        return fn(v.values<std::int16_t>());
+    case ScalarType::Float32:
+        return fn(v.values<float>());
     }
     throw Error("internal: unknown scalar type");
 }
@@ -79,7 +90,8 @@ template <class T> T toVoxel(double v) {
         return static_cast<float>(v);
     } else {
         const double r = std::nearbyint(v);
-        return static_cast<T>(std::clamp(r, double(std::numeric_limits<T>::min()), double(std::numeric_limits<T>::max())));
+        return static_cast<T>(
+            std::clamp(r, double(std::numeric_limits<T>::min()), double(std::numeric_limits<T>::max())));
     }
 }
 
@@ -92,7 +104,8 @@ std::vector<BrickGroup> groupBricks(const VczHeader& h, const std::vector<std::s
     std::vector<BrickGroup> groups;
     for (std::size_t b : which) {
         const Dims d = h.brickDims(b);
-        auto it = std::find_if(groups.begin(), groups.end(), [&](const BrickGroup& g) { return g.dims == d; });
+        auto it =
+            std::find_if(groups.begin(), groups.end(), [&](const BrickGroup& g) { return g.dims == d; });
         if (it == groups.end()) {
             groups.push_back({d, {}});
             it = groups.end() - 1;
@@ -103,17 +116,21 @@ std::vector<BrickGroup> groupBricks(const VczHeader& h, const std::vector<std::s
 }
 
 // Dense brick arrays (brick dims, x fastest) <-> the batch's padded layout.
-template <class T> void toBatch(const BrickBatch<T>& b, std::size_t slot, std::span<const T> dense, std::vector<T>& host) {
+template <class T>
+void toBatch(const BrickBatch<T>& b, std::size_t slot, std::span<const T> dense, std::vector<T>& host) {
     const Dims d = b.brick();
     for (std::size_t z = 0; z < d.z; ++z)
         for (std::size_t y = 0; y < d.y; ++y)
-            std::copy_n(dense.data() + (z * d.y + y) * d.x, d.x, host.data() + slot * b.brickStride() + (z * d.y + y) * b.pitch());
+            std::copy_n(dense.data() + (z * d.y + y) * d.x, d.x,
+                        host.data() + slot * b.brickStride() + (z * d.y + y) * b.pitch());
 }
-template <class T> void fromBatch(const BrickBatch<T>& b, std::size_t slot, const std::vector<T>& host, std::span<T> dense) {
+template <class T>
+void fromBatch(const BrickBatch<T>& b, std::size_t slot, const std::vector<T>& host, std::span<T> dense) {
     const Dims d = b.brick();
     for (std::size_t z = 0; z < d.z; ++z)
         for (std::size_t y = 0; y < d.y; ++y)
-            std::copy_n(host.data() + slot * b.brickStride() + (z * d.y + y) * b.pitch(), d.x, dense.data() + (z * d.y + y) * d.x);
+            std::copy_n(host.data() + slot * b.brickStride() + (z * d.y + y) * b.pitch(), d.x,
+                        dense.data() + (z * d.y + y) * d.x);
 }
 
 // Voxels of one brick of the volume as T (dense brick layout).
@@ -126,7 +143,8 @@ template <class T> std::vector<T> brickVoxels(const Volume& v, const VczHeader& 
                 const std::size_t s = v.index(o.x, o.y + y, o.z + z);
                 T* dst = out.data() + (z * d.y + y) * d.x;
                 for (std::size_t x = 0; x < d.x; ++x) {
-                    if constexpr (std::is_same_v<T, std::int32_t> && std::is_same_v<typename decltype(src)::element_type, const float>) {
+                    if constexpr (std::is_same_v<T, std::int32_t> &&
+                                  std::is_same_v<typename decltype(src)::element_type, const float>) {
                         std::int32_t bits;
                         std::memcpy(&bits, &src[s + x], 4);
                         dst[x] = bits;
@@ -141,10 +159,11 @@ template <class T> std::vector<T> brickVoxels(const Volume& v, const VczHeader& 
 
 // Forward transform of the listed bricks; returns dense coefficient arrays and adds kernel time to `ms`.
 template <class T>
-std::vector<std::vector<T>> forwardBricks(ComputeContext& cc, LiftingTransform<T>& t, const Volume& v, const VczHeader& h,
-                                          double& ms) {
+std::vector<std::vector<T>> forwardBricks(ComputeContext& cc, LiftingTransform<T>& t, const Volume& v,
+                                          const VczHeader& h, double& ms) {
     std::vector<std::size_t> all(h.brickCount());
-    for (std::size_t i = 0; i < all.size(); ++i) all[i] = i;
+    for (std::size_t i = 0; i < all.size(); ++i)
+        all[i] = i;
     std::vector<std::vector<T>> coeffs(all.size());
     for (const BrickGroup& g : groupBricks(h, all)) {
         BrickBatch<T> batch(cc, g.dims, g.bricks.size());
@@ -156,23 +175,26 @@ std::vector<std::vector<T>> forwardBricks(ComputeContext& cc, LiftingTransform<T
         batch.upload(cc, host);
         ms += t.forward(cc, batch, h.levels);
         batch.download(cc, host);
-        for (std::size_t s = 0; s < g.bricks.size(); ++s) fromBatch<T>(batch, s, host, coeffs[g.bricks[s]]);
+        for (std::size_t s = 0; s < g.bricks.size(); ++s)
+            fromBatch<T>(batch, s, host, coeffs[g.bricks[s]]);
     }
     return coeffs;
 }
 
 // Inverse transform of dense coefficient arrays (brick dims) in place, stopping at `level`.
 template <class T>
-void inverseBricks(ComputeContext& cc, LiftingTransform<T>& t, const VczHeader& h, const std::vector<std::size_t>& which,
-                   std::vector<std::vector<T>>& coeffs, int level) {
+void inverseBricks(ComputeContext& cc, LiftingTransform<T>& t, const VczHeader& h,
+                   const std::vector<std::size_t>& which, std::vector<std::vector<T>>& coeffs, int level) {
     for (const BrickGroup& g : groupBricks(h, which)) {
         BrickBatch<T> batch(cc, g.dims, g.bricks.size());
         std::vector<T> host = batch.makeHost();
-        for (std::size_t s = 0; s < g.bricks.size(); ++s) toBatch<T>(batch, s, coeffs[g.bricks[s]], host);
+        for (std::size_t s = 0; s < g.bricks.size(); ++s)
+            toBatch<T>(batch, s, coeffs[g.bricks[s]], host);
         batch.upload(cc, host);
         t.inverse(cc, batch, h.levels, level);
         batch.download(cc, host);
-        for (std::size_t s = 0; s < g.bricks.size(); ++s) fromBatch<T>(batch, s, host, coeffs[g.bricks[s]]);
+        for (std::size_t s = 0; s < g.bricks.size(); ++s)
+            fromBatch<T>(batch, s, host, coeffs[g.bricks[s]]);
     }
 }
 
@@ -186,7 +208,8 @@ double synthesisGain(Wavelet w, int level, bool high) {
     line[high ? lowLen + highLen / 2 : lowLen / 2] = 1.0;
     reference::inverse3d(std::span<double>(line), {n, 1, 1}, level, w);
     double s = 0;
-    for (double v : line) s += v * v;
+    for (double v : line)
+        s += v * v;
     return std::sqrt(s);
 }
 
@@ -214,7 +237,8 @@ template <class Fn> void forEachSubbandCoefficient(const VczHeader& h, Dims d, F
             const double step = h.step(b.level, b.orient);
             for (std::size_t z = b.z0; z < b.z1; ++z)
                 for (std::size_t y = b.y0; y < b.y1; ++y)
-                    for (std::size_t x = b.x0; x < b.x1; ++x) fn((z * d.y + y) * d.x + x, step);
+                    for (std::size_t x = b.x0; x < b.x1; ++x)
+                        fn((z * d.y + y) * d.x + x, step);
         }
 }
 
@@ -232,7 +256,9 @@ std::vector<float> dequantise(const VczHeader& h, Dims d, std::span<const std::i
     std::vector<float> c(q.size());
     forEachSubbandCoefficient(h, d, [&](std::size_t i, double step) {
         const std::int32_t v = q[i];
-        c[i] = v == 0 ? 0.0f : static_cast<float>((v < 0 ? -1.0 : 1.0) * (std::abs(double(v)) + h.reconstructionBias) * step);
+        c[i] = v == 0 ? 0.0f
+                      : static_cast<float>((v < 0 ? -1.0 : 1.0) *
+                                           (std::abs(double(v)) + h.reconstructionBias) * step);
     });
     return c;
 }
@@ -271,7 +297,9 @@ std::vector<std::uint8_t> encodeCorrections(const std::vector<Correction>& corr,
         prev = c.index;
         std::uint8_t bytes[4];
         switch (type) {
-        case ScalarType::UInt8: bytes[0] = static_cast<std::uint8_t>(c.value); break;
+        case ScalarType::UInt8:
+            bytes[0] = static_cast<std::uint8_t>(c.value);
+            break;
         case ScalarType::UInt16: {
             auto v = static_cast<std::uint16_t>(c.value);
             std::memcpy(bytes, &v, 2);
@@ -297,8 +325,8 @@ std::vector<std::uint8_t> encodeCorrections(const std::vector<Correction>& corr,
     return out;
 }
 
-std::vector<Correction> decodeCorrections(std::span<const std::uint8_t> in, ScalarType type, std::size_t brickVoxels,
-                                          const std::string& what) {
+std::vector<Correction> decodeCorrections(std::span<const std::uint8_t> in, ScalarType type,
+                                          std::size_t brickVoxels, const std::string& what) {
     const unsigned long long size = ZSTD_getFrameContentSize(in.data(), in.size());
     const std::size_t maxSize = 10 + brickVoxels * (5 + scalarSize(type));
     if (size == ZSTD_CONTENTSIZE_ERROR || size == ZSTD_CONTENTSIZE_UNKNOWN || size > maxSize)
@@ -313,11 +341,14 @@ std::vector<Correction> decodeCorrections(std::span<const std::uint8_t> in, Scal
     std::uint64_t index = 0;
     for (Correction& c : out) {
         index += getVarint(raw, pos, what);
-        if (index >= brickVoxels || raw.size() - pos < scalarSize(type)) throw IoError(what + ": invalid corrections");
+        if (index >= brickVoxels || raw.size() - pos < scalarSize(type))
+            throw IoError(what + ": invalid corrections");
         c.index = static_cast<std::uint32_t>(index);
         const std::uint8_t* b = raw.data() + pos;
         switch (type) {
-        case ScalarType::UInt8: c.value = b[0]; break;
+        case ScalarType::UInt8:
+            c.value = b[0];
+            break;
         case ScalarType::UInt16: {
             std::uint16_t v;
             std::memcpy(&v, b, 2);
@@ -348,7 +379,8 @@ std::vector<std::uint8_t> buildPayload(const VczHeader& h, Dims d, std::span<con
     const int levels = h.transform == TransformKind::RawBits ? 0 : h.levels;
     const auto layout = sectionLayout(d, levels);
     std::vector<std::vector<std::uint8_t>> sections(layout.size());
-    for (std::size_t s = 0; s < layout.size(); ++s) encodeSection(q, d, layout, s, h.entropy, sections[s]);
+    for (std::size_t s = 0; s < layout.size(); ++s)
+        encodeSection(q, d, layout, s, h.entropy, sections[s]);
     std::vector<std::uint8_t> corrBytes;
     if (!corr.empty()) corrBytes = encodeCorrections(corr, h.type);
     std::vector<std::uint8_t> out;
@@ -356,11 +388,14 @@ std::vector<std::uint8_t> buildPayload(const VczHeader& h, Dims d, std::span<con
     out.push_back(corr.empty() ? 0 : 1);
     auto put32 = [&](std::size_t v) {
         const auto u = static_cast<std::uint32_t>(v);
-        out.insert(out.end(), reinterpret_cast<const std::uint8_t*>(&u), reinterpret_cast<const std::uint8_t*>(&u) + 4);
+        out.insert(out.end(), reinterpret_cast<const std::uint8_t*>(&u),
+                   reinterpret_cast<const std::uint8_t*>(&u) + 4);
     };
-    for (const auto& s : sections) put32(s.size());
+    for (const auto& s : sections)
+        put32(s.size());
     put32(corrBytes.size());
-    for (const auto& s : sections) out.insert(out.end(), s.begin(), s.end());
+    for (const auto& s : sections)
+        out.insert(out.end(), s.begin(), s.end());
     out.insert(out.end(), corrBytes.begin(), corrBytes.end());
     return out;
 }
@@ -369,7 +404,8 @@ struct ParsedPayload {
     std::vector<std::span<const std::uint8_t>> sections;
     std::span<const std::uint8_t> corrections;
 };
-ParsedPayload parsePayload(std::span<const std::uint8_t> p, std::size_t expectedSections, const std::string& what) {
+ParsedPayload parsePayload(std::span<const std::uint8_t> p, std::size_t expectedSections,
+                           const std::string& what) {
     if (p.size() < 2 || p[0] != expectedSections || p[1] > 1) throw IoError(what + ": invalid brick header");
     std::size_t pos = 2;
     auto get32 = [&]() -> std::size_t {
@@ -380,14 +416,17 @@ ParsedPayload parsePayload(std::span<const std::uint8_t> p, std::size_t expected
         return v;
     };
     std::vector<std::size_t> sizes(expectedSections + 1);
-    for (auto& s : sizes) s = get32();
+    for (auto& s : sizes)
+        s = get32();
     ParsedPayload out;
     for (std::size_t i = 0; i <= expectedSections; ++i) {
         if (sizes[i] > p.size() - pos) throw IoError(what + ": section sizes exceed the brick");
         auto span = p.subspan(pos, sizes[i]);
         pos += sizes[i];
-        if (i < expectedSections) out.sections.push_back(span);
-        else out.corrections = span;
+        if (i < expectedSections)
+            out.sections.push_back(span);
+        else
+            out.corrections = span;
     }
     if (pos != p.size()) throw IoError(what + ": unexpected bytes after the brick data");
     if ((p[1] == 1) != !out.corrections.empty()) throw IoError(what + ": inconsistent corrections flag");
@@ -416,7 +455,8 @@ public:
         const std::size_t m = std::size_t(1) << o_.levels;
         for (std::size_t b : {o_.brick.x, o_.brick.y, o_.brick.z})
             if (b == 0 || b % m != 0 || b > 1024)
-                throw UsageError("--brick must be a positive multiple of 2^levels (" + std::to_string(m) + ") up to 1024");
+                throw UsageError("--brick must be a positive multiple of 2^levels (" + std::to_string(m) +
+                                 ") up to 1024");
         VczHeader h;
         h.dims = v.dims();
         h.type = v.type();
@@ -431,7 +471,8 @@ public:
         const bool integer = v.type() != ScalarType::Float32;
         if (o_.rate == RateMode::Lossless) {
             h.wavelet = o_.wavelet.value_or(Wavelet::Cdf53);
-            if (!hasIntegerForm(h.wavelet)) throw UsageError("--lossless needs a reversible wavelet: cdf53, haar or cdf26");
+            if (!hasIntegerForm(h.wavelet))
+                throw UsageError("--lossless needs a reversible wavelet: cdf53, haar or cdf26");
             if (integer) {
                 h.transform = TransformKind::IntegerLifting;
             } else {
@@ -443,7 +484,8 @@ public:
         } else {
             h.wavelet = o_.wavelet.value_or(Wavelet::Cdf97);
             h.transform = TransformKind::FloatLifting;
-            if (!(o_.target > 0) || !std::isfinite(o_.target)) throw UsageError("the rate target must be a positive number");
+            if (!(o_.target > 0) || !std::isfinite(o_.target))
+                throw UsageError("the rate target must be a positive number");
             if (o_.rate == RateMode::MaxError && integer && o_.target < 1.0) {
                 // An integer volume within |error| < 1 is the volume itself.
                 h.rate = RateMode::Lossless;
@@ -509,8 +551,8 @@ private:
         std::vector<std::vector<Correction>> corrections;
         ErrorStats err;
     };
-    Trial trial(const Volume& v, const VczHeader& h, LiftingTransform<float>& t, const std::vector<std::vector<float>>& coeffs,
-                std::optional<double> bound) {
+    Trial trial(const Volume& v, const VczHeader& h, LiftingTransform<float>& t,
+                const std::vector<std::vector<float>>& coeffs, std::optional<double> bound) {
         Trial tr;
         const std::size_t n = coeffs.size();
         tr.q.resize(n);
@@ -521,7 +563,8 @@ private:
             rec[b] = dequantise(h, h.brickDims(b), tr.q[b]);
         });
         std::vector<std::size_t> all(n);
-        for (std::size_t i = 0; i < n; ++i) all[i] = i;
+        for (std::size_t i = 0; i < n; ++i)
+            all[i] = i;
         inverseBricks(cc_, t, h, all, rec, 0);
         std::vector<ErrorStats> es(n);
         parallelFor(n, o_.threads, [&](std::size_t b) {
@@ -546,12 +589,15 @@ private:
         return tr;
     }
 
-    std::size_t codedBytes(const VczHeader& h, const Trial& tr, std::vector<std::vector<std::uint8_t>>* payloads) {
+    std::size_t codedBytes(const VczHeader& h, const Trial& tr,
+                           std::vector<std::vector<std::uint8_t>>* payloads) {
         std::vector<std::vector<std::uint8_t>> p(tr.q.size());
-        parallelFor(p.size(), o_.threads,
-                    [&](std::size_t b) { p[b] = buildPayload(h, h.brickDims(b), tr.q[b], tr.corrections[b]); });
+        parallelFor(p.size(), o_.threads, [&](std::size_t b) {
+            p[b] = buildPayload(h, h.brickDims(b), tr.q[b], tr.corrections[b]);
+        });
         std::size_t total = vczPreambleSize(h);
-        for (const auto& x : p) total += x.size();
+        for (const auto& x : p)
+            total += x.size();
         if (payloads) *payloads = std::move(p);
         return total;
     }
@@ -559,13 +605,15 @@ private:
     FrameResult encodeLossy(const Volume& v, VczHeader& h, bool chooseStep) {
         const VolumeStats st = v.stats(1);
         if (st.nanCount > 0 || st.infCount > 0)
-            throw DataError("lossy encoding needs finite voxels (found NaN/Inf): use --lossless to keep them exactly");
+            throw DataError(
+                "lossy encoding needs finite voxels (found NaN/Inf): use --lossless to keep them exactly");
         LiftingTransform<float> t(cc_, h.wavelet);
         FrameResult r;
         auto coeffs = forwardBricks(cc_, t, v, h, r.report.transformMs);
         for (const auto& c : coeffs)
             for (float x : c)
-                if (!std::isfinite(x)) throw DataError("voxel values too large for the float transform: use --lossless");
+                if (!std::isfinite(x))
+                    throw DataError("voxel values too large for the float transform: use --lossless");
         const double range = st.max - st.min;
         const double n = double(v.voxelCount());
         const double rangeSq = range * range;
@@ -577,13 +625,15 @@ private:
         };
         Trial best;
         if (o_.step && chooseStep) {
-            if (!(*o_.step > 0) || !std::isfinite(*o_.step)) throw UsageError("the quantiser step must be a positive number");
+            if (!(*o_.step > 0) || !std::isfinite(*o_.step))
+                throw UsageError("the quantiser step must be a positive number");
             setDelta(*o_.step);
             chooseStep = false;
         }
         if (!chooseStep) {
             bestDelta = lastDelta;
-            best = trial(v, h, t, coeffs, h.rate == RateMode::MaxError ? std::optional(o_.target) : std::nullopt);
+            best = trial(v, h, t, coeffs,
+                         h.rate == RateMode::MaxError ? std::optional(o_.target) : std::nullopt);
         } else if (h.rate == RateMode::MaxError) {
             // Larger steps leave more voxels to store exactly: keep the candidate with the smallest file.
             std::size_t bestBytes = std::numeric_limits<std::size_t>::max();
@@ -604,8 +654,9 @@ private:
             // Bisection on log2(delta) around a first guess. PSNR falls and size shrinks as delta grows: keep
             // the largest delta with PSNR >= P, or the smallest with size <= R bits/voxel.
             const bool psnrMode = h.rate == RateMode::Psnr;
-            const double guess = psnrMode ? std::log2(std::max(range, 1e-30) * std::pow(10.0, -o_.target / 20) * 3.0)
-                                          : std::log2(std::max(range, 1e-30)) - 2 * o_.target;
+            const double guess =
+                psnrMode ? std::log2(std::max(range, 1e-30) * std::pow(10.0, -o_.target / 20) * 3.0)
+                         : std::log2(std::max(range, 1e-30)) - 2 * o_.target;
             // Rate targets span many octaves of delta (a smooth volume fits 1 bit/voxel at tiny steps).
             double lo = psnrMode ? guess - 8 : guess - 30, hi = guess + 8;
             bool found = false;
@@ -623,7 +674,8 @@ private:
                     bool ok;
                     if (psnrMode) {
                         const double mse = tr.err.sumSq / n;
-                        quality = mse == 0 ? std::numeric_limits<double>::infinity() : 10 * std::log10(rangeSq / mse);
+                        quality = mse == 0 ? std::numeric_limits<double>::infinity()
+                                           : 10 * std::log10(rangeSq / mse);
                         ok = range == 0 || quality >= o_.target;
                     } else {
                         quality = double(codedBytes(h, tr, nullptr)) * 8 / n;
@@ -633,28 +685,32 @@ private:
                         found = true;
                         best = std::move(tr);
                         bestSteps = h.steps;
-                    bestDelta = lastDelta;
+                        bestDelta = lastDelta;
                         if (psnrMode && quality < o_.target + 0.25) break;
                     }
                     // PSNR: ok -> try a larger step. Rate: ok -> try a smaller step.
-                    if (ok == psnrMode) lo = mid;
-                    else hi = mid;
+                    if (ok == psnrMode)
+                        lo = mid;
+                    else
+                        hi = mid;
                 }
             }
             if (!found) {
                 if (!psnrMode)
-                    throw UsageError("--bpv " + std::to_string(o_.target) + " is below what this volume can be coded in");
+                    throw UsageError("--bpv " + std::to_string(o_.target) +
+                                     " is below what this volume can be coded in");
                 setDelta(std::exp2(lo));
                 best = trial(v, h, t, coeffs, std::nullopt);
                 bestSteps = h.steps;
-                    bestDelta = lastDelta;
+                bestDelta = lastDelta;
             }
             h.steps = bestSteps;
         }
         codedBytes(h, best, &r.payloads);
         r.report.step = bestDelta;
         std::size_t corr = 0;
-        for (const auto& c : best.corrections) corr += c.size();
+        for (const auto& c : best.corrections)
+            corr += c.size();
         r.report.corrections = corr;
         r.report.maxError = best.err.maxErr;
         const double mse = best.err.sumSq / n;
@@ -671,14 +727,17 @@ private:
             const Dims d = h.brickDims(b);
             for (const auto& sec : layout)
                 for (const SubbandBox& sb : sec) {
-                    const std::size_t si = sb.level == 0 ? 0 : 1 + std::size_t(sb.level - 1) * 7 + std::size_t(sb.orient - 1);
+                    const std::size_t si =
+                        sb.level == 0 ? 0 : 1 + std::size_t(sb.level - 1) * 7 + std::size_t(sb.orient - 1);
                     for (std::size_t z = sb.z0; z < sb.z1; ++z)
                         for (std::size_t y = sb.y0; y < sb.y1; ++y)
                             for (std::size_t x = sb.x0; x < sb.x1; ++x)
-                                maxAbs[si] = std::max(maxAbs[si], double(std::abs(coeffs[b][(z * d.y + y) * d.x + x])));
+                                maxAbs[si] = std::max(maxAbs[si],
+                                                      double(std::abs(coeffs[b][(z * d.y + y) * d.x + x])));
                 }
         }
-        for (std::size_t i = 0; i < h.steps.size(); ++i) h.steps[i] = std::max(h.steps[i], maxAbs[i] / (kMaxQuantIndex - 2));
+        for (std::size_t i = 0; i < h.steps.size(); ++i)
+            h.steps[i] = std::max(h.steps[i], maxAbs[i] / (kMaxQuantIndex - 2));
     }
 
     ComputeContext& cc_;
@@ -725,7 +784,8 @@ std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, co
     return bytes;
 }
 
-std::vector<std::byte> encodeSeries(ComputeContext& cc, const TimeSeries& series, const CodecOptions& options) {
+std::vector<std::byte> encodeSeries(ComputeContext& cc, const TimeSeries& series,
+                                    const CodecOptions& options) {
     series.validate();
     if (series.frames.empty()) throw UsageError("cannot encode an empty time series");
     Encoder enc(cc, options);
@@ -752,9 +812,10 @@ Region parseRegion(std::string_view text) {
     const std::string s(text);
     char c1, c2, c3, c4, c5;
     int consumed = 0;
-    if (std::sscanf(s.c_str(), "%zu %c %zu %c %zu %c %zu %c %zu %c %zu%n", &v[0], &c1, &v[1], &c2, &v[2], &c3, &v[3], &c4,
-                    &v[4], &c5, &v[5], &consumed) != 11 ||
-        c1 != ',' || c2 != ',' || c3 != ':' || c4 != ',' || c5 != ',' || static_cast<std::size_t>(consumed) != s.size())
+    if (std::sscanf(s.c_str(), "%zu %c %zu %c %zu %c %zu %c %zu %c %zu%n", &v[0], &c1, &v[1], &c2, &v[2], &c3,
+                    &v[3], &c4, &v[4], &c5, &v[5], &consumed) != 11 ||
+        c1 != ',' || c2 != ',' || c3 != ':' || c4 != ',' || c5 != ',' ||
+        static_cast<std::size_t>(consumed) != s.size())
         throw UsageError("--region must look like x0,y0,z0:x1,y1,z1 (got '" + s + "')");
     r.lo = {v[0], v[1], v[2]};
     r.hi = {v[3], v[4], v[5]};
@@ -765,7 +826,8 @@ Region parseRegion(std::string_view text) {
 
 // ------------------------------------------------------------------------------ decoder
 
-VczReader::VczReader(std::vector<std::byte> bytes, std::string name) : bytes_(std::move(bytes)), name_(std::move(name)) {
+VczReader::VczReader(std::vector<std::byte> bytes, std::string name)
+    : bytes_(std::move(bytes)), name_(std::move(name)) {
     header_ = readVczHeader(bytes_, name_);
 }
 
@@ -778,11 +840,13 @@ struct DecodedBricks {
     std::vector<std::vector<Correction>> corrections;
 };
 
-DecodedBricks decodeBricks(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h, std::size_t frame,
-                           const std::vector<std::size_t>& which, int level, unsigned threads, const std::string& name) {
+DecodedBricks decodeBricks(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h,
+                           std::size_t frame, const std::vector<std::size_t>& which, int level,
+                           unsigned threads, const std::string& name) {
     if (frame >= h.frames.size()) throw UsageError(name + ": no frame " + std::to_string(frame));
     if (h.frames[frame].type != FrameType::I)
-        throw DataError(name + ": frame " + std::to_string(frame) + " is a motion-compensated frame; this decoder reads I frames");
+        throw DataError(name + ": frame " + std::to_string(frame) +
+                        " is a motion-compensated frame; this decoder reads I frames");
     const std::size_t n = h.brickCount();
     const int levels = h.transform == TransformKind::RawBits ? 0 : h.levels;
     const int stop = h.transform == TransformKind::RawBits ? 0 : level;
@@ -799,7 +863,8 @@ DecodedBricks decodeBricks(ComputeContext& cc, std::span<const std::byte> file, 
         out.ints[b].assign(d.count(), 0);
         for (std::size_t s = 0; s + stop < layout.size(); ++s)
             decodeSection(p.sections[s], out.ints[b], d, layout, s, h.entropy, what.c_str());
-        if (!p.corrections.empty() && level == 0) out.corrections[b] = decodeCorrections(p.corrections, h.type, d.count(), what);
+        if (!p.corrections.empty() && level == 0)
+            out.corrections[b] = decodeCorrections(p.corrections, h.type, d.count(), what);
     });
     if (h.transform == TransformKind::IntegerLifting) {
         LiftingTransform<std::int32_t> t(cc, h.wavelet);
@@ -821,14 +886,16 @@ DecodedBricks decodeBricks(ComputeContext& cc, std::span<const std::byte> file, 
 // full-resolution voxel j * 2^k) into `out`. Lifting bricks hold the level-k approximation in their low
 // corner; raw bricks are decimated.
 template <class V>
-void placeBrick(const VczHeader& h, const DecodedBricks& db, std::size_t b, int level, Dims a, Dims e, std::span<V> out,
-                Dims outDims) {
+void placeBrick(const VczHeader& h, const DecodedBricks& db, std::size_t b, int level, Dims a, Dims e,
+                std::span<V> out, Dims outDims) {
     const Dims o = h.brickOrigin(b), d = h.brickDims(b);
     const bool raw = h.transform == TransformKind::RawBits;
     const std::size_t f = std::size_t(1) << level;
     auto up = [f](std::size_t v) { return (v + f - 1) / f; };
     const Dims first{up(o.x), up(o.y), up(o.z)}, last{up(o.x + d.x), up(o.y + d.y), up(o.z + d.z)};
-    auto local = [&](std::size_t j, std::size_t origin, std::size_t firstJ) { return raw ? j * f - origin : j - firstJ; };
+    auto local = [&](std::size_t j, std::size_t origin, std::size_t firstJ) {
+        return raw ? j * f - origin : j - firstJ;
+    };
     for (std::size_t z = std::max(first.z, a.z); z < std::min(last.z, e.z); ++z)
         for (std::size_t y = std::max(first.y, a.y); y < std::min(last.y, e.y); ++y) {
             const std::size_t row = (local(z, o.z, first.z) * d.y + local(y, o.y, first.y)) * d.x;
@@ -852,7 +919,8 @@ void placeBrick(const VczHeader& h, const DecodedBricks& db, std::size_t b, int 
         }
     if (level == 0)
         for (const Correction& c : db.corrections[b]) {
-            const std::size_t x = o.x + c.index % d.x, y = o.y + c.index / d.x % d.y, z = o.z + c.index / (d.x * d.y);
+            const std::size_t x = o.x + c.index % d.x, y = o.y + c.index / d.x % d.y,
+                              z = o.z + c.index / (d.x * d.y);
             if (x >= a.x && x < e.x && y >= a.y && y < e.y && z >= a.z && z < e.z)
                 out[((z - a.z) * outDims.y + (y - a.y)) * outDims.x + (x - a.x)] = static_cast<V>(c.value);
         }
@@ -864,12 +932,13 @@ Volume VczReader::decode(ComputeContext& cc, const DecodeOptions& o) const {
     const VczHeader& h = header_;
     const int maxLevel = h.transform == TransformKind::RawBits ? 16 : h.levels;
     if (o.level < 0 || o.level > maxLevel)
-        throw UsageError(name_ + ": --level must be between 0 and " + std::to_string(maxLevel) + " (the encoded levels)");
+        throw UsageError(name_ + ": --level must be between 0 and " + std::to_string(maxLevel) +
+                         " (the encoded levels)");
     Region r{{0, 0, 0}, h.dims};
     if (o.region) {
         r = *o.region;
-        if (r.hi.x > h.dims.x || r.hi.y > h.dims.y || r.hi.z > h.dims.z || r.lo.x >= r.hi.x || r.lo.y >= r.hi.y ||
-            r.lo.z >= r.hi.z)
+        if (r.hi.x > h.dims.x || r.hi.y > h.dims.y || r.hi.z > h.dims.z || r.lo.x >= r.hi.x ||
+            r.lo.y >= r.hi.y || r.lo.z >= r.hi.z)
             throw UsageError(name_ + ": --region lies outside the volume (" + std::to_string(h.dims.x) + "x" +
                              std::to_string(h.dims.y) + "x" + std::to_string(h.dims.z) + ")");
     }
@@ -877,7 +946,8 @@ Volume VczReader::decode(ComputeContext& cc, const DecodeOptions& o) const {
     auto up = [f](std::size_t v) { return (v + f - 1) / f; };
     const Dims a{up(r.lo.x), up(r.lo.y), up(r.lo.z)}, e{up(r.hi.x), up(r.hi.y), up(r.hi.z)};
     const Dims outDims{e.x - a.x, e.y - a.y, e.z - a.z};
-    if (outDims.count() == 0) throw UsageError(name_ + ": the region holds no sample at level " + std::to_string(o.level));
+    if (outDims.count() == 0)
+        throw UsageError(name_ + ": the region holds no sample at level " + std::to_string(o.level));
     std::vector<std::size_t> which;
     for (std::size_t b = 0; b < h.brickCount(); ++b) {
         const Dims bo = h.brickOrigin(b), bd = h.brickDims(b);
@@ -893,7 +963,8 @@ Volume VczReader::decode(ComputeContext& cc, const DecodeOptions& o) const {
         out.origin[i] = h.origin[i] + double(first * f) * h.spacing[i];
     }
     visitTyped(out, [&](auto span) {
-        for (std::size_t b : which) placeBrick(h, db, b, o.level, a, e, span, outDims);
+        for (std::size_t b : which)
+            placeBrick(h, db, b, o.level, a, e, span, outDims);
     });
     return out;
 }
@@ -909,7 +980,8 @@ Volume VczReader::decodeBrick(ComputeContext& cc, std::size_t frame, std::size_t
     return decode(cc, opt);
 }
 
-Volume decodeVolume(ComputeContext& cc, std::span<const std::byte> vcz, const DecodeOptions& options, const std::string& name) {
+Volume decodeVolume(ComputeContext& cc, std::span<const std::byte> vcz, const DecodeOptions& options,
+                    const std::string& name) {
     VczReader r(std::vector<std::byte>(vcz.begin(), vcz.end()), name);
     return r.decode(cc, options);
 }
@@ -919,7 +991,8 @@ Volume decodeVolume(ComputeContext& cc, std::span<const std::byte> vcz, const De
 namespace {
 template <class Fn> void forEachPair(const Volume& a, const Volume& b, Fn fn) {
     if (a.dims() != b.dims()) throw UsageError("volumes differ in dimensions: cannot compare");
-    for (std::size_t i = 0; i < a.voxelCount(); ++i) fn(a.valueAt(i), b.valueAt(i));
+    for (std::size_t i = 0; i < a.voxelCount(); ++i)
+        fn(a.valueAt(i), b.valueAt(i));
 }
 } // namespace
 

@@ -42,8 +42,8 @@ struct CodecOptions {
 struct EncodeReport {
     std::size_t bytes = 0;
     double bitsPerVoxel = 0;
-    double psnr = 0;     ///< against the input's value range; +inf when exact
-    double maxError = 0; ///< over every voxel
+    double psnr = 0;             ///< against the input's value range; +inf when exact
+    double maxError = 0;         ///< over every voxel
     std::size_t corrections = 0; ///< voxels stored exactly to hold --max-error
     double transformMs = 0;      ///< kernel time of the final forward transform
     double step = 0;             ///< base quantiser step chosen (lossy)
@@ -54,7 +54,8 @@ struct EncodeReport {
 std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, const CodecOptions& options,
                                     EncodeReport* report = nullptr);
 /// Encodes every frame of a series as an I frame.
-std::vector<std::byte> encodeSeries(ComputeContext& cc, const TimeSeries& series, const CodecOptions& options);
+std::vector<std::byte> encodeSeries(ComputeContext& cc, const TimeSeries& series,
+                                    const CodecOptions& options);
 
 /// Region [lo, hi) in full-resolution voxel indices.
 struct Region {

@@ -74,7 +74,8 @@ public:
         }
     }
     void finish() {
-        for (int i = 0; i < 5; ++i) shiftLow();
+        for (int i = 0; i < 5; ++i)
+            shiftLow();
     }
 
 private:
@@ -100,8 +101,10 @@ private:
 
 class RangeDecoder {
 public:
-    RangeDecoder(std::span<const std::uint8_t> in, const char* what) : p_(in.data()), end_(in.data() + in.size()), what_(what) {
-        for (int i = 0; i < 5; ++i) code_ = (code_ << 8) | next();
+    RangeDecoder(std::span<const std::uint8_t> in, const char* what)
+        : p_(in.data()), end_(in.data() + in.size()), what_(what) {
+        for (int i = 0; i < 5; ++i)
+            code_ = (code_ << 8) | next();
     }
     unsigned bit(std::uint16_t& p) {
         const std::uint32_t bound = (range_ >> kProbBits) * p;
@@ -152,13 +155,19 @@ struct BandModel {
     std::array<std::array<std::uint16_t, kUnarySlots>, kContexts> unary;
     std::array<std::array<std::uint16_t, kMaxBits + 1>, kContexts / kParentClasses> mantissa;
     BandModel() {
-        for (auto& a : unary) a.fill(kProbInit);
-        for (auto& a : mantissa) a.fill(kProbInit);
+        for (auto& a : unary)
+            a.fill(kProbInit);
+        for (auto& a : mantissa)
+            a.fill(kProbInit);
     }
 };
 
-inline int bitLength(std::uint32_t v) { return v ? 32 - std::countl_zero(v) : 0; }
-inline std::uint32_t magnitude(std::int32_t v) { return v < 0 ? 0u - static_cast<std::uint32_t>(v) : static_cast<std::uint32_t>(v); }
+inline int bitLength(std::uint32_t v) {
+    return v ? 32 - std::countl_zero(v) : 0;
+}
+inline std::uint32_t magnitude(std::int32_t v) {
+    return v < 0 ? 0u - static_cast<std::uint32_t>(v) : static_cast<std::uint32_t>(v);
+}
 
 // Mantissa and sign bits are nearly equiprobable: they bypass the range coder into a plain bit stream,
 // which costs no modelling and no renormalisation per bit.
@@ -191,8 +200,10 @@ public:
     std::uint32_t get(int n) {
         while (fill_ < n) {
             std::uint64_t b = 0;
-            if (pos_ < in_.size()) b = in_[pos_];
-            else ++overrun_;
+            if (pos_ < in_.size())
+                b = in_[pos_];
+            else
+                ++overrun_;
             ++pos_;
             acc_ |= b << fill_;
             fill_ += 8;
@@ -241,11 +252,12 @@ struct DecodeSide {
 // probabilities chosen by the neighbour/parent context, then the first mantissa bit (adaptive), the
 // rest of the mantissa and the sign (equiprobable).
 template <class Side>
-void codeDense(Side side, std::int32_t* c, Dims brick, const std::vector<std::vector<SubbandBox>>& layout, std::size_t s,
-               const char* what) {
+void codeDense(Side side, std::int32_t* c, Dims brick, const std::vector<std::vector<SubbandBox>>& layout,
+               std::size_t s, const char* what) {
     std::vector<BandModel> models(8);
     std::array<std::array<std::uint16_t, 4>, 8> rowModels;
-    for (auto& r : rowModels) r.fill(kProbInit);
+    for (auto& r : rowModels)
+        r.fill(kProbInit);
     const std::size_t sx = brick.x, sxy = brick.x * brick.y;
     std::vector<std::uint8_t> prevSliceZero, sliceZero;
     for (const SubbandBox& b : layout[s]) {
@@ -263,8 +275,10 @@ void codeDense(Side side, std::int32_t* c, Dims brick, const std::vector<std::ve
                 const std::size_t row = z * sxy + y * sx;
                 unsigned zero = 1;
                 if (!Side::decoding)
-                    for (std::size_t x = b.x0; x < b.x1 && zero; ++x) zero = c[row + x] == 0;
-                const unsigned rctx = (y > b.y0 ? sliceZero[y - b.y0 - 1] : 1u) + 2u * prevSliceZero[y - b.y0];
+                    for (std::size_t x = b.x0; x < b.x1 && zero; ++x)
+                        zero = c[row + x] == 0;
+                const unsigned rctx =
+                    (y > b.y0 ? sliceZero[y - b.y0 - 1] : 1u) + 2u * prevSliceZero[y - b.y0];
                 zero = side.bit(rowModel[rctx], zero);
                 sliceZero[y - b.y0] = static_cast<std::uint8_t>(zero);
                 if (zero) {
@@ -285,28 +299,35 @@ void codeDense(Side side, std::int32_t* c, Dims brick, const std::vector<std::ve
                     if (z > b.z0) nb += magnitude(c[i - sxy]);
                     int pc = 0;
                     if (parent)
-                        pc = std::min(bitLength(magnitude(c[pRow + std::min(parent->x0 + (x - b.x0) / 2, parent->x1 - 1)])),
+                        pc = std::min(bitLength(magnitude(
+                                          c[pRow + std::min(parent->x0 + (x - b.x0) / 2, parent->x1 - 1)])),
                                       kParentClasses - 1);
                     const int nc = std::min(bitLength(nb), kNeighbourClasses - 1);
                     auto& un = m.unary[static_cast<std::size_t>(nc * kParentClasses + pc)];
                     const std::int32_t v = Side::decoding ? 0 : c[i];
                     const std::uint32_t u0 = magnitude(v);
                     const int n0 = bitLength(u0);
-                    if (!Side::decoding && n0 >= kMaxBits) throw Error("internal: wavelet coefficient magnitude out of range");
+                    if (!Side::decoding && n0 >= kMaxBits)
+                        throw Error("internal: wavelet coefficient magnitude out of range");
                     int n = 0;
-                    while (side.bit(un[static_cast<std::size_t>(std::min(n, kUnarySlots - 1))], n < n0 ? 1u : 0u)) {
-                        if (++n >= kMaxBits) throw IoError(std::string(what) + ": invalid coefficient in entropy stream");
+                    while (side.bit(un[static_cast<std::size_t>(std::min(n, kUnarySlots - 1))],
+                                    n < n0 ? 1u : 0u)) {
+                        if (++n >= kMaxBits)
+                            throw IoError(std::string(what) + ": invalid coefficient in entropy stream");
                     }
                     std::uint32_t u = 0;
                     if (n >= 1) {
                         u = 1;
                         if (n >= 2) {
-                            u = (u << 1) | side.bit(m.mantissa[static_cast<std::size_t>(nc)][static_cast<std::size_t>(n)],
-                                                    (u0 >> (n - 2)) & 1u);
+                            u = (u << 1) |
+                                side.bit(
+                                    m.mantissa[static_cast<std::size_t>(nc)][static_cast<std::size_t>(n)],
+                                    (u0 >> (n - 2)) & 1u);
                             if (n >= 3) u = (u << (n - 2)) | side.direct(u0 & ((1u << (n - 2)) - 1u), n - 2);
                         }
                         const unsigned negative = side.direct(v < 0 ? 1u : 0u, 1);
-                        if (Side::decoding) c[i] = negative ? -static_cast<std::int32_t>(u) : static_cast<std::int32_t>(u);
+                        if (Side::decoding)
+                            c[i] = negative ? -static_cast<std::int32_t>(u) : static_cast<std::int32_t>(u);
                     } else if (Side::decoding) {
                         c[i] = 0;
                     }
@@ -318,8 +339,9 @@ void codeDense(Side side, std::int32_t* c, Dims brick, const std::vector<std::ve
 }
 
 // Dense section: u32 length of the range-coded stream, that stream, then the raw bit stream.
-void encodeDense(std::span<const std::int32_t> c, Dims brick, const std::vector<std::vector<SubbandBox>>& layout,
-                 std::size_t s, std::vector<std::uint8_t>& out) {
+void encodeDense(std::span<const std::int32_t> c, Dims brick,
+                 const std::vector<std::vector<SubbandBox>>& layout, std::size_t s,
+                 std::vector<std::uint8_t>& out) {
     std::vector<std::uint8_t> coded;
     RangeEncoder rc(coded);
     BitWriter raw;
@@ -344,7 +366,8 @@ void decodeDense(std::span<const std::uint8_t> in, std::span<std::int32_t> c, Di
     BitReader raw(in.subspan(4 + n));
     codeDense(DecodeSide{rc, raw}, c.data(), brick, layout, s, what);
     rc.checkEnd();
-    if (raw.overrun() || !raw.fullyRead()) throw IoError(std::string(what) + ": raw bit stream length mismatch (corrupted data)");
+    if (raw.overrun() || !raw.fullyRead())
+        throw IoError(std::string(what) + ": raw bit stream length mismatch (corrupted data)");
 }
 
 // ------------------------------------------------------------------------------ fast mode
@@ -357,7 +380,8 @@ void encodeFast(std::span<const std::int32_t> c, const std::vector<SubbandBox>& 
             for (std::size_t y = b.y0; y < b.y1; ++y)
                 for (std::size_t x = b.x0; x < b.x1; ++x) {
                     const std::int32_t v = c[(z * brick.y + y) * brick.x + x];
-                    folded.push_back((static_cast<std::uint32_t>(v) << 1) ^ static_cast<std::uint32_t>(v >> 31));
+                    folded.push_back((static_cast<std::uint32_t>(v) << 1) ^
+                                     static_cast<std::uint32_t>(v >> 31));
                 }
     if (folded.empty()) return;
     const std::uint32_t maxV = *std::max_element(folded.begin(), folded.end());
@@ -365,45 +389,54 @@ void encodeFast(std::span<const std::int32_t> c, const std::vector<SubbandBox>& 
     std::vector<std::uint8_t> raw(folded.size() * static_cast<std::size_t>(planes));
     for (int p = 0; p < planes; ++p)
         for (std::size_t i = 0; i < folded.size(); ++i)
-            raw[static_cast<std::size_t>(p) * folded.size() + i] = static_cast<std::uint8_t>(folded[i] >> (8 * p));
+            raw[static_cast<std::size_t>(p) * folded.size() + i] =
+                static_cast<std::uint8_t>(folded[i] >> (8 * p));
     const std::size_t start = out.size();
     out.resize(start + 1 + ZSTD_compressBound(raw.size()));
     out[start] = static_cast<std::uint8_t>(planes);
-    const std::size_t n = ZSTD_compress(out.data() + start + 1, out.size() - start - 1, raw.data(), raw.size(), 1);
+    const std::size_t n =
+        ZSTD_compress(out.data() + start + 1, out.size() - start - 1, raw.data(), raw.size(), 1);
     if (ZSTD_isError(n)) throw Error(std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
     out.resize(start + 1 + n);
 }
 
-void decodeFast(std::span<const std::uint8_t> in, std::span<std::int32_t> c, const std::vector<SubbandBox>& sec,
-                Dims brick, const char* what) {
+void decodeFast(std::span<const std::uint8_t> in, std::span<std::int32_t> c,
+                const std::vector<SubbandBox>& sec, Dims brick, const char* what) {
     std::size_t count = 0;
-    for (const SubbandBox& b : sec) count += b.count();
+    for (const SubbandBox& b : sec)
+        count += b.count();
     if (count == 0) {
         if (!in.empty()) throw IoError(std::string(what) + ": unexpected data in an empty section");
         return;
     }
-    if (in.size() < 2 || in[0] < 1 || in[0] > 4) throw IoError(std::string(what) + ": invalid fast-mode section");
+    if (in.size() < 2 || in[0] < 1 || in[0] > 4)
+        throw IoError(std::string(what) + ": invalid fast-mode section");
     const std::size_t planes = in[0];
     std::vector<std::uint8_t> raw(count * planes);
     const std::size_t n = ZSTD_decompress(raw.data(), raw.size(), in.data() + 1, in.size() - 1);
-    if (ZSTD_isError(n) || n != raw.size()) throw IoError(std::string(what) + ": zstd section does not decode to its size");
+    if (ZSTD_isError(n) || n != raw.size())
+        throw IoError(std::string(what) + ": zstd section does not decode to its size");
     std::size_t i = 0;
     for (const SubbandBox& b : sec)
         for (std::size_t z = b.z0; z < b.z1; ++z)
             for (std::size_t y = b.y0; y < b.y1; ++y)
                 for (std::size_t x = b.x0; x < b.x1; ++x, ++i) {
                     std::uint32_t f = 0;
-                    for (std::size_t p = 0; p < planes; ++p) f |= static_cast<std::uint32_t>(raw[p * count + i]) << (8 * p);
-                    c[(z * brick.y + y) * brick.x + x] = static_cast<std::int32_t>((f >> 1) ^ (0u - (f & 1u)));
+                    for (std::size_t p = 0; p < planes; ++p)
+                        f |= static_cast<std::uint32_t>(raw[p * count + i]) << (8 * p);
+                    c[(z * brick.y + y) * brick.x + x] =
+                        static_cast<std::int32_t>((f >> 1) ^ (0u - (f & 1u)));
                 }
 }
 
 } // namespace
 
-void encodeSection(std::span<const std::int32_t> coeffs, Dims brick, const std::vector<std::vector<SubbandBox>>& layout,
-                   std::size_t s, EntropyMode mode, std::vector<std::uint8_t>& out) {
+void encodeSection(std::span<const std::int32_t> coeffs, Dims brick,
+                   const std::vector<std::vector<SubbandBox>>& layout, std::size_t s, EntropyMode mode,
+                   std::vector<std::uint8_t>& out) {
     std::size_t count = 0;
-    for (const SubbandBox& b : layout[s]) count += b.count();
+    for (const SubbandBox& b : layout[s])
+        count += b.count();
     if (count == 0) return;
     if (mode == EntropyMode::Dense) {
         encodeDense(coeffs, brick, layout, s, out);
@@ -416,7 +449,8 @@ void decodeSection(std::span<const std::uint8_t> in, std::span<std::int32_t> coe
                    const std::vector<std::vector<SubbandBox>>& layout, std::size_t s, EntropyMode mode,
                    const char* what) {
     std::size_t count = 0;
-    for (const SubbandBox& b : layout[s]) count += b.count();
+    for (const SubbandBox& b : layout[s])
+        count += b.count();
     if (count == 0) {
         if (!in.empty()) throw IoError(std::string(what) + ": unexpected data in an empty section");
         return;

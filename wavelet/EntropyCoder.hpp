@@ -31,8 +31,9 @@ std::vector<std::vector<SubbandBox>> sectionLayout(Dims brick, int levels);
 
 /// Appends the coded section `s` of the coefficient array (brick dims, x fastest) to `out`.
 /// Magnitudes must stay below 2^30 (the caller guarantees it).
-void encodeSection(std::span<const std::int32_t> coeffs, Dims brick, const std::vector<std::vector<SubbandBox>>& layout,
-                   std::size_t s, EntropyMode mode, std::vector<std::uint8_t>& out);
+void encodeSection(std::span<const std::int32_t> coeffs, Dims brick,
+                   const std::vector<std::vector<SubbandBox>>& layout, std::size_t s, EntropyMode mode,
+                   std::vector<std::uint8_t>& out);
 
 /// Decodes section `s` from `in` into its subbands of `coeffs` (earlier sections must be decoded: they
 /// give the parent context). Throws IoError naming `what` when the data are inconsistent.

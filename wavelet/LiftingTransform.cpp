@@ -11,10 +11,14 @@ namespace volcl {
 
 std::string_view waveletName(Wavelet w) noexcept {
     switch (w) {
-    case Wavelet::Cdf53: return "cdf53";
-    case Wavelet::Cdf97: return "cdf97";
-    case Wavelet::Haar: return "haar";
-    case Wavelet::Cdf26: return "cdf26";
+    case Wavelet::Cdf53:
+        return "cdf53";
+    case Wavelet::Cdf97:
+        return "cdf97";
+    case Wavelet::Haar:
+        return "haar";
+    case Wavelet::Cdf26:
+        return "cdf26";
     }
     return "unknown";
 }
@@ -25,7 +29,9 @@ Wavelet parseWavelet(std::string_view name) {
     throw UsageError("unknown wavelet '" + std::string(name) + "' (use cdf53, cdf97, haar or cdf26)");
 }
 
-bool hasIntegerForm(Wavelet w) noexcept { return w != Wavelet::Cdf97; }
+bool hasIntegerForm(Wavelet w) noexcept {
+    return w != Wavelet::Cdf97;
+}
 
 Dims levelDims(Dims d, int level) noexcept {
     auto shrink = [level](std::size_t n) { return level <= 0 ? n : ((n - 1) >> level) + 1; };
@@ -39,10 +45,18 @@ constexpr double kA = -1.586134342059924, kB = -0.052980118572961, kG = 0.882911
                  kD = 0.443506852043971, kK = 1.230174104914001;
 
 // Rounding of the integer forms (floor via arithmetic shift) and the linear float forms.
-inline std::int32_t half(std::int32_t a) { return a >> 1; }
-inline std::int32_t quarterR(std::int32_t a) { return (a + 2) >> 2; }
-inline double half(double a) { return a * 0.5; }
-inline double quarterR(double a) { return a * 0.25; }
+inline std::int32_t half(std::int32_t a) {
+    return a >> 1;
+}
+inline std::int32_t quarterR(std::int32_t a) {
+    return (a + 2) >> 2;
+}
+inline double half(double a) {
+    return a * 0.5;
+}
+inline double quarterR(double a) {
+    return a * 0.25;
+}
 
 int mirror(int i, int n) {
     const int p = 2 * (n - 1);
@@ -53,12 +67,14 @@ int mirror(int i, int n) {
 
 template <class T> void deinterleave(const std::vector<T>& t, std::span<T> x) {
     const std::size_t n = t.size(), ms = (n + 1) / 2;
-    for (std::size_t i = 0; i < n; ++i) x[(i & 1) ? ms + i / 2 : i / 2] = t[i];
+    for (std::size_t i = 0; i < n; ++i)
+        x[(i & 1) ? ms + i / 2 : i / 2] = t[i];
 }
 template <class T> std::vector<T> interleave(std::span<const T> x) {
     const std::size_t n = x.size(), ms = (n + 1) / 2;
     std::vector<T> t(n);
-    for (std::size_t i = 0; i < n; ++i) t[i] = x[(i & 1) ? ms + i / 2 : i / 2];
+    for (std::size_t i = 0; i < n; ++i)
+        t[i] = x[(i & 1) ? ms + i / 2 : i / 2];
     return t;
 }
 
@@ -66,7 +82,8 @@ template <class T> std::vector<T> interleave(std::span<const T> x) {
 // t[i] += f(t[i-1] + t[i+1]) for every i of the given parity.
 template <class T, class F> void liftStep(std::vector<T>& t, int parity, F f) {
     const int n = static_cast<int>(t.size());
-    for (int i = parity; i < n; i += 2) t[i] += f(t[mirror(i - 1, n)] + t[mirror(i + 1, n)]);
+    for (int i = parity; i < n; i += 2)
+        t[i] += f(t[mirror(i - 1, n)] + t[mirror(i + 1, n)]);
 }
 
 template <class T> void forwardLine(std::span<T> x, Wavelet w) {
@@ -85,7 +102,8 @@ template <class T> void forwardLine(std::span<T> x, Wavelet w) {
             liftStep(t, 0, [](T v) { return kB * v; });
             liftStep(t, 1, [](T v) { return kG * v; });
             liftStep(t, 0, [](T v) { return kD * v; });
-            for (int i = 0; i < n; ++i) t[i] *= (i & 1) ? 0.5 * kK : 1.0 / kK;
+            for (int i = 0; i < n; ++i)
+                t[i] *= (i & 1) ? 0.5 * kK : 1.0 / kK;
             deinterleave(t, x);
         } else {
             throw UsageError("cdf97 has no reversible integer form");
@@ -101,7 +119,8 @@ template <class T> void forwardLine(std::span<T> x, Wavelet w) {
             }
         }
         if (w == Wavelet::Cdf26) {
-            for (int i = 0; i < md; ++i) d[i] += quarterR(s[std::max(i - 1, 0)] - s[std::min(i + 1, ms - 1)]);
+            for (int i = 0; i < md; ++i)
+                d[i] += quarterR(s[std::max(i - 1, 0)] - s[std::min(i + 1, ms - 1)]);
         }
         std::copy(s.begin(), s.end(), x.begin());
         std::copy(d.begin(), d.end(), x.begin() + ms);
@@ -120,7 +139,8 @@ template <class T> void inverseLine(std::span<T> x, Wavelet w) {
     } else if (w == Wavelet::Cdf97) {
         if constexpr (std::is_same_v<T, double>) {
             std::vector<T> t = interleave<T>(x);
-            for (int i = 0; i < n; ++i) t[i] *= (i & 1) ? 2.0 / kK : kK;
+            for (int i = 0; i < n; ++i)
+                t[i] *= (i & 1) ? 2.0 / kK : kK;
             liftStep(t, 0, [](T v) { return -kD * v; });
             liftStep(t, 1, [](T v) { return -kG * v; });
             liftStep(t, 0, [](T v) { return -kB * v; });
@@ -157,9 +177,11 @@ template <class T, class F> void forEachLine(std::span<T> data, Dims d, Dims a, 
             if (axis == 0) base = (j * d.y + i) * d.x;
             if (axis == 1) base = j * d.x * d.y + i;
             if (axis == 2) base = j * d.x + i;
-            for (std::size_t k = 0; k < len; ++k) line[k] = data[base + k * stride];
+            for (std::size_t k = 0; k < len; ++k)
+                line[k] = data[base + k * stride];
             fn(std::span<T>(line));
-            for (std::size_t k = 0; k < len; ++k) data[base + k * stride] = line[k];
+            for (std::size_t k = 0; k < len; ++k)
+                data[base + k * stride] = line[k];
         }
     }
 }
@@ -168,7 +190,8 @@ template <class T> void forward3dImpl(std::span<T> data, Dims dims, int levels, 
     if (data.size() != dims.count()) throw UsageError("reference transform: data size does not match dims");
     for (int l = 0; l < levels; ++l) {
         const Dims a = levelDims(dims, l);
-        for (int axis = 0; axis < 3; ++axis) forEachLine(data, dims, a, axis, [w](std::span<T> s) { forwardLine(s, w); });
+        for (int axis = 0; axis < 3; ++axis)
+            forEachLine(data, dims, a, axis, [w](std::span<T> s) { forwardLine(s, w); });
     }
 }
 
@@ -176,19 +199,32 @@ template <class T> void inverse3dImpl(std::span<T> data, Dims dims, int levels, 
     if (data.size() != dims.count()) throw UsageError("reference transform: data size does not match dims");
     for (int l = levels - 1; l >= stopLevel; --l) {
         const Dims a = levelDims(dims, l);
-        for (int axis = 2; axis >= 0; --axis) forEachLine(data, dims, a, axis, [w](std::span<T> s) { inverseLine(s, w); });
+        for (int axis = 2; axis >= 0; --axis)
+            forEachLine(data, dims, a, axis, [w](std::span<T> s) { inverseLine(s, w); });
     }
 }
 
 } // namespace
 
 namespace reference {
-void forward1d(std::span<std::int32_t> line, Wavelet w) { forwardLine(line, w); }
-void inverse1d(std::span<std::int32_t> line, Wavelet w) { inverseLine(line, w); }
-void forward1d(std::span<double> line, Wavelet w) { forwardLine(line, w); }
-void inverse1d(std::span<double> line, Wavelet w) { inverseLine(line, w); }
-void forward3d(std::span<std::int32_t> data, Dims dims, int levels, Wavelet w) { forward3dImpl(data, dims, levels, w); }
-void forward3d(std::span<double> data, Dims dims, int levels, Wavelet w) { forward3dImpl(data, dims, levels, w); }
+void forward1d(std::span<std::int32_t> line, Wavelet w) {
+    forwardLine(line, w);
+}
+void inverse1d(std::span<std::int32_t> line, Wavelet w) {
+    inverseLine(line, w);
+}
+void forward1d(std::span<double> line, Wavelet w) {
+    forwardLine(line, w);
+}
+void inverse1d(std::span<double> line, Wavelet w) {
+    inverseLine(line, w);
+}
+void forward3d(std::span<std::int32_t> data, Dims dims, int levels, Wavelet w) {
+    forward3dImpl(data, dims, levels, w);
+}
+void forward3d(std::span<double> data, Dims dims, int levels, Wavelet w) {
+    forward3dImpl(data, dims, levels, w);
+}
 void inverse3d(std::span<std::int32_t> data, Dims dims, int levels, Wavelet w, int stopLevel) {
     inverse3dImpl(data, dims, levels, w, stopLevel);
 }
@@ -242,13 +278,13 @@ double LiftingTransform<T>::pass(ComputeContext& cc, cl::Kernel& k, BrickBatch<T
     const cl_uint count = static_cast<cl_uint>(batch.count());
     cl::Event ev;
     if (axis == 0) {
-        setArgs(k, batch.data(), batch.scratch(), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z), cl_uint(a.x),
-                cl_uint(a.y), cl_uint(a.z), count);
+        setArgs(k, batch.data(), batch.scratch(), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z),
+                cl_uint(a.x), cl_uint(a.y), cl_uint(a.z), count);
         const std::size_t chunks = ((a.x + 1) / 2 + 15) / 16;
         ev = cc.launch3d(k, chunks, a.y, a.z * count, 1, kLocalY, 1);
     } else {
-        setArgs(k, batch.data(), batch.scratch(), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z), cl_uint(a.x),
-                cl_uint(a.y), cl_uint(a.z), count, cl_uint(axis));
+        setArgs(k, batch.data(), batch.scratch(), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z),
+                cl_uint(a.x), cl_uint(a.y), cl_uint(a.z), count, cl_uint(axis));
         const std::size_t chunks = (a.x + 15) / 16;
         const std::size_t len = axis == 1 ? a.y : a.z, other = axis == 1 ? a.z : a.y;
         ev = cc.launch3d(k, chunks, (len + 1) / 2, other * count, 1, kLocalY, 1);
@@ -259,8 +295,8 @@ double LiftingTransform<T>::pass(ComputeContext& cc, cl::Kernel& k, BrickBatch<T
 
 template <class T> double LiftingTransform<T>::copyBack(ComputeContext& cc, BrickBatch<T>& batch, Dims a) {
     const Dims b = batch.brick();
-    setArgs(copy_, batch.data(), batch.scratch(), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z), cl_uint(a.x),
-            cl_uint(a.y), cl_uint(a.z), cl_uint(batch.count()));
+    setArgs(copy_, batch.data(), batch.scratch(), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z),
+            cl_uint(a.x), cl_uint(a.y), cl_uint(a.z), cl_uint(batch.count()));
     cl::Event ev = cc.launch3d(copy_, a.x, a.y, a.z * batch.count(), 16, 1, 1);
     batch.swap();
     return eventMilliseconds(ev);

@@ -25,16 +25,20 @@ Dims VczHeader::brickOrigin(std::size_t i) const noexcept {
 
 Dims VczHeader::brickDims(std::size_t i) const noexcept {
     const Dims o = brickOrigin(i);
-    return {std::min(brick.x, dims.x - o.x), std::min(brick.y, dims.y - o.y), std::min(brick.z, dims.z - o.z)};
+    return {std::min(brick.x, dims.x - o.x), std::min(brick.y, dims.y - o.y),
+            std::min(brick.z, dims.z - o.z)};
 }
 
 double VczHeader::step(int level, int orient) const {
-    const std::size_t i = level == 0 ? 0 : 1 + static_cast<std::size_t>(level - 1) * 7 + static_cast<std::size_t>(orient - 1);
+    const std::size_t i =
+        level == 0 ? 0 : 1 + static_cast<std::size_t>(level - 1) * 7 + static_cast<std::size_t>(orient - 1);
     if (i >= steps.size()) throw Error("internal: subband step index out of range");
     return steps[i];
 }
 
-std::uint64_t vczChecksum(std::span<const std::uint8_t> bytes) noexcept { return XXH3_64bits(bytes.data(), bytes.size()); }
+std::uint64_t vczChecksum(std::span<const std::uint8_t> bytes) noexcept {
+    return XXH3_64bits(bytes.data(), bytes.size());
+}
 
 namespace {
 
@@ -42,7 +46,8 @@ class Writer {
 public:
     std::vector<std::uint8_t> bytes;
     template <class T> void put(T v) {
-        static_assert(std::endian::native == std::endian::little, "volcl writes little-endian files on little-endian hosts");
+        static_assert(std::endian::native == std::endian::little,
+                      "volcl writes little-endian files on little-endian hosts");
         const auto* p = reinterpret_cast<const std::uint8_t*>(&v);
         bytes.insert(bytes.end(), p, p + sizeof(T));
     }
@@ -54,7 +59,8 @@ public:
 
 class Reader {
 public:
-    Reader(std::span<const std::uint8_t> b, const std::string& name, const char* part) : b_(b), name_(name), part_(part) {}
+    Reader(std::span<const std::uint8_t> b, const std::string& name, const char* part)
+        : b_(b), name_(name), part_(part) {}
     template <class T> T get() {
         need(sizeof(T));
         T v;
@@ -70,7 +76,9 @@ public:
         return s;
     }
     std::size_t remaining() const noexcept { return b_.size() - pos_; }
-    [[noreturn]] void fail(const std::string& what) const { throw IoError(name_ + ": " + part_ + ": " + what); }
+    [[noreturn]] void fail(const std::string& what) const {
+        throw IoError(name_ + ": " + part_ + ": " + what);
+    }
 
 private:
     void need(std::size_t n) const {
@@ -93,8 +101,10 @@ std::vector<std::uint8_t> headerBody(const VczHeader& h) {
     w.put<std::uint8_t>(static_cast<std::uint8_t>(h.levels));
     w.put<std::uint8_t>(static_cast<std::uint8_t>(h.entropy));
     w.put<std::uint8_t>(static_cast<std::uint8_t>(h.rate));
-    for (double v : h.spacing) w.put(v);
-    for (double v : h.origin) w.put(v);
+    for (double v : h.spacing)
+        w.put(v);
+    for (double v : h.origin)
+        w.put(v);
     w.put<std::uint32_t>(static_cast<std::uint32_t>(h.brick.x));
     w.put<std::uint32_t>(static_cast<std::uint32_t>(h.brick.y));
     w.put<std::uint32_t>(static_cast<std::uint32_t>(h.brick.z));
@@ -103,7 +113,8 @@ std::vector<std::uint8_t> headerBody(const VczHeader& h) {
     w.put(h.valueMin);
     w.put(h.valueMax);
     w.put<std::uint32_t>(static_cast<std::uint32_t>(h.steps.size()));
-    for (double s : h.steps) w.put(s);
+    for (double s : h.steps)
+        w.put(s);
     w.put<std::uint32_t>(static_cast<std::uint32_t>(h.frames.size()));
     for (const VczFrame& f : h.frames) {
         w.put<std::uint8_t>(static_cast<std::uint8_t>(f.type));
@@ -150,14 +161,16 @@ std::vector<std::byte> writeVcz(const VczHeader& h, std::span<const std::vector<
         }
     }
     w.put<std::uint64_t>(vczChecksum(std::span(w.bytes).subspan(indexStart)));
-    for (const auto& p : payloads) w.bytes.insert(w.bytes.end(), p.begin(), p.end());
+    for (const auto& p : payloads)
+        w.bytes.insert(w.bytes.end(), p.begin(), p.end());
     std::vector<std::byte> out(w.bytes.size());
     std::memcpy(out.data(), w.bytes.data(), out.size());
     return out;
 }
 
 VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string& name) {
-    const std::span<const std::uint8_t> file(reinterpret_cast<const std::uint8_t*>(fileBytes.data()), fileBytes.size());
+    const std::span<const std::uint8_t> file(reinterpret_cast<const std::uint8_t*>(fileBytes.data()),
+                                             fileBytes.size());
     if (file.size() < kVczMagic.size() + 8 || !std::equal(kVczMagic.begin(), kVczMagic.end(), file.begin()))
         throw IoError(name + ": not a .vcz file (bad magic)");
     Reader pre(file.subspan(kVczMagic.size()), name, "header");
@@ -177,7 +190,8 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
     h.dims.x = r.get<std::uint64_t>();
     h.dims.y = r.get<std::uint64_t>();
     h.dims.z = r.get<std::uint64_t>();
-    const auto type = r.get<std::uint8_t>(), transform = r.get<std::uint8_t>(), wavelet = r.get<std::uint8_t>();
+    const auto type = r.get<std::uint8_t>(), transform = r.get<std::uint8_t>(),
+               wavelet = r.get<std::uint8_t>();
     const auto levels = r.get<std::uint8_t>(), entropy = r.get<std::uint8_t>(), rate = r.get<std::uint8_t>();
     if (type > 3 || transform > 2 || wavelet > 3 || levels > 16 || entropy > 1 || rate > 3)
         r.fail("invalid field value");
@@ -187,8 +201,10 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
     h.levels = levels;
     h.entropy = static_cast<EntropyMode>(entropy);
     h.rate = static_cast<RateMode>(rate);
-    for (double& v : h.spacing) v = r.get<double>();
-    for (double& v : h.origin) v = r.get<double>();
+    for (double& v : h.spacing)
+        v = r.get<double>();
+    for (double& v : h.origin)
+        v = r.get<double>();
     h.brick.x = r.get<std::uint32_t>();
     h.brick.y = r.get<std::uint32_t>();
     h.brick.z = r.get<std::uint32_t>();
@@ -197,15 +213,18 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
     h.valueMin = r.get<double>();
     h.valueMax = r.get<double>();
     constexpr std::uint64_t kMaxDim = 1u << 20;
-    if (h.dims.x == 0 || h.dims.y == 0 || h.dims.z == 0 || h.dims.x > kMaxDim || h.dims.y > kMaxDim || h.dims.z > kMaxDim)
+    if (h.dims.x == 0 || h.dims.y == 0 || h.dims.z == 0 || h.dims.x > kMaxDim || h.dims.y > kMaxDim ||
+        h.dims.z > kMaxDim)
         r.fail("invalid dimensions");
     if (h.brick.x == 0 || h.brick.y == 0 || h.brick.z == 0) r.fail("invalid brick size");
     const auto nSteps = r.get<std::uint32_t>();
     if (nSteps > r.remaining() / 8) r.fail("truncated");
     h.steps.resize(nSteps);
-    for (double& s : h.steps) s = r.get<double>();
+    for (double& s : h.steps)
+        s = r.get<double>();
     if (h.transform == TransformKind::FloatLifting) {
-        if (h.steps.size() != 1 + 7 * static_cast<std::size_t>(h.levels)) r.fail("wrong number of quantisation steps");
+        if (h.steps.size() != 1 + 7 * static_cast<std::size_t>(h.levels))
+            r.fail("wrong number of quantisation steps");
         for (double s : h.steps)
             if (!(s > 0) || !std::isfinite(s)) r.fail("invalid quantisation step");
     }
@@ -222,7 +241,8 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
         f.auxOffset = r.get<std::uint64_t>();
         f.auxSize = r.get<std::uint64_t>();
         f.auxChecksum = r.get<std::uint64_t>();
-        if (f.auxSize > file.size() || f.auxOffset > file.size() - f.auxSize) r.fail("frame data outside the file");
+        if (f.auxSize > file.size() || f.auxOffset > file.size() - f.auxSize)
+            r.fail("frame data outside the file");
     }
     const auto nMeta = r.get<std::uint32_t>();
     for (std::uint32_t i = 0; i < nMeta; ++i) {
@@ -258,10 +278,12 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
     return h;
 }
 
-std::span<const std::uint8_t> vczBrickPayload(std::span<const std::byte> fileBytes, const VczHeader& h, std::size_t frame,
-                                              std::size_t brick, const std::string& name) {
-    const std::span<const std::uint8_t> file(reinterpret_cast<const std::uint8_t*>(fileBytes.data()), fileBytes.size());
-    if (frame >= h.bricks.size() || brick >= h.bricks[frame].size()) throw UsageError(name + ": no such brick");
+std::span<const std::uint8_t> vczBrickPayload(std::span<const std::byte> fileBytes, const VczHeader& h,
+                                              std::size_t frame, std::size_t brick, const std::string& name) {
+    const std::span<const std::uint8_t> file(reinterpret_cast<const std::uint8_t*>(fileBytes.data()),
+                                             fileBytes.size());
+    if (frame >= h.bricks.size() || brick >= h.bricks[frame].size())
+        throw UsageError(name + ": no such brick");
     const VczBrickEntry& e = h.bricks[frame][brick];
     if (e.size > file.size() || e.offset > file.size() - e.size)
         throw IoError(name + ": brick " + std::to_string(brick) + " lies outside the file (truncated?)");
@@ -269,7 +291,8 @@ std::span<const std::uint8_t> vczBrickPayload(std::span<const std::byte> fileByt
     if (vczChecksum(payload) != e.checksum) {
         const Dims o = h.brickOrigin(brick);
         throw IoError(name + ": brick " + std::to_string(brick) + " (voxel " + std::to_string(o.x) + "," +
-                      std::to_string(o.y) + "," + std::to_string(o.z) + ") checksum mismatch (corrupted data)");
+                      std::to_string(o.y) + "," + std::to_string(o.z) +
+                      ") checksum mismatch (corrupted data)");
     }
     return payload;
 }

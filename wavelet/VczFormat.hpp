@@ -20,7 +20,7 @@ enum class RateMode : std::uint8_t { Lossless = 0, MaxError = 1, Psnr = 2, Bpv =
 
 /// What the bricks hold. Stored in .vcz files: never renumber.
 enum class TransformKind : std::uint8_t {
-    RawBits = 0,       ///< no transform: the voxels' bit patterns (lossless float32)
+    RawBits = 0,        ///< no transform: the voxels' bit patterns (lossless float32)
     IntegerLifting = 1, ///< reversible integer lifting of integer voxels (lossless)
     FloatLifting = 2,   ///< float lifting + dead-zone quantisation (lossy)
 };

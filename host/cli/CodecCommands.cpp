@@ -29,7 +29,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool isVcz(const fs::path& p) { return p.extension() == ".vcz"; }
+bool isVcz(const fs::path& p) {
+    return p.extension() == ".vcz";
+}
 
 // A volume file or a .vcz (decoded whole).
 Volume loadAny(ComputeContext* cc, const std::string& path, std::size_t* vczBytes) {
@@ -87,13 +89,17 @@ CodecOptions toOptions(const EncodeArgs& a, const CLI::App& cmd) {
     }
     if (chosen > 1) throw UsageError("choose one of --lossless, --max-error, --psnr, --bpv");
     if (cmd.count("--step")) {
-        if (o.rate == RateMode::Lossless) throw UsageError("--step needs a lossy mode (--max-error, --psnr or --bpv)");
+        if (o.rate == RateMode::Lossless)
+            throw UsageError("--step needs a lossy mode (--max-error, --psnr or --bpv)");
         o.step = a.step;
     }
     if (!a.wavelet.empty()) o.wavelet = parseWavelet(a.wavelet);
-    if (a.entropy == "dense") o.entropy = EntropyMode::Dense;
-    else if (a.entropy == "fast") o.entropy = EntropyMode::Fast;
-    else throw UsageError("--entropy must be fast or dense");
+    if (a.entropy == "dense")
+        o.entropy = EntropyMode::Dense;
+    else if (a.entropy == "fast")
+        o.entropy = EntropyMode::Fast;
+    else
+        throw UsageError("--entropy must be fast or dense");
     if (a.brick.find_first_of(",xX") != std::string::npos) {
         o.brick = parseDims(a.brick, "--brick");
     } else {
@@ -113,14 +119,16 @@ CodecOptions toOptions(const EncodeArgs& a, const CLI::App& cmd) {
 void addEncode(CLI::App& app, GlobalOptions& global) {
     auto* cmd = app.add_subcommand("encode", "Compress a volume into a .vcz file (wavelet lifting codec)");
     auto a = std::make_shared<EncodeArgs>();
-    cmd->add_option("input", a->in, "Input volume (any supported format; a time series keeps its frames)")->required();
+    cmd->add_option("input", a->in, "Input volume (any supported format; a time series keeps its frames)")
+        ->required();
     cmd->add_option("-o,--output", a->out, "Output .vcz file")->required();
     cmd->add_flag("--lossless", a->lossless, "Bit-exact (default)");
     cmd->add_option("--max-error", a->maxError, "Lossy: every voxel within E of the input (guaranteed)");
     cmd->add_option("--psnr", a->psnr, "Lossy: PSNR in dB over the input's value range (met within 0.5 dB)");
     cmd->add_option("--bpv", a->bpv, "Lossy: at most R bits per voxel, file overhead included");
     cmd->add_option("--step", a->step, "Lossy: fixed base quantiser step instead of a search for the target");
-    cmd->add_option("--wavelet", a->wavelet, "cdf53 | cdf97 | haar | cdf26 (default cdf53 lossless, cdf97 lossy)");
+    cmd->add_option("--wavelet", a->wavelet,
+                    "cdf53 | cdf97 | haar | cdf26 (default cdf53 lossless, cdf97 lossy)");
     cmd->add_option("--levels", a->levels, "Transform levels (default 4)");
     cmd->add_option("--brick", a->brick, "Brick size B or X,Y,Z, multiples of 2^levels (default 64)");
     cmd->add_option("--entropy", a->entropy, "fast (zstd) or dense (context-adaptive range coder, default)");
@@ -134,7 +142,8 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         ComputeContext cc(global.device);
         EncodeReport rep;
         Stopwatch sw;
-        std::vector<std::byte> bytes = ts.frames.size() == 1 ? encodeVolume(cc, ts.frames[0], o, &rep) : encodeSeries(cc, ts, o);
+        std::vector<std::byte> bytes =
+            ts.frames.size() == 1 ? encodeVolume(cc, ts.frames[0], o, &rep) : encodeSeries(cc, ts, o);
         const double ms = sw.milliseconds();
         AtomicFile out(a->out);
         out.write(bytes);
@@ -145,11 +154,12 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                 raw += v.byteSize();
                 voxels += v.voxelCount();
             }
-            std::cerr << "volcl: wrote " << a->out << ": " << bytes.size() << " bytes, ratio " << fmt(double(raw) / double(bytes.size()))
-                      << ":1, " << fmt(double(bytes.size()) * 8 / double(voxels), 3) << " bits/voxel";
+            std::cerr << "volcl: wrote " << a->out << ": " << bytes.size() << " bytes, ratio "
+                      << fmt(double(raw) / double(bytes.size())) << ":1, "
+                      << fmt(double(bytes.size()) * 8 / double(voxels), 3) << " bits/voxel";
             if (ts.frames.size() == 1 && o.rate != RateMode::Lossless)
-                std::cerr << ", PSNR " << fmt(rep.psnr) << " dB, max error " << rep.maxError << " (" << rep.corrections
-                          << " voxels stored exactly)";
+                std::cerr << ", PSNR " << fmt(rep.psnr) << " dB, max error " << rep.maxError << " ("
+                          << rep.corrections << " voxels stored exactly)";
             std::cerr << ", " << fmt(double(raw) / 1e3 / ms, 1) << " MB/s\n";
         }
     });
@@ -166,7 +176,8 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
     auto a = std::make_shared<Args>();
     cmd->add_option("input", a->in, "Input .vcz file")->required();
     cmd->add_option("-o,--output", a->out, "Output volume: .raw, .nrrd, .nhdr or .vdb")->required();
-    cmd->add_option("--region", a->region, "Voxel box x0,y0,z0:x1,y1,z1 (half-open, full-resolution indices)");
+    cmd->add_option("--region", a->region,
+                    "Voxel box x0,y0,z0:x1,y1,z1 (half-open, full-resolution indices)");
     cmd->add_option("--level", a->level, "2^k-downsampled approximation without decoding finer detail");
     cmd->add_option("--frame", a->frame, "Frame of a time series (default 0)");
     cmd->add_option("--threads", a->threads, "Host threads for entropy decoding (default 2)");
@@ -182,8 +193,8 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
         const Volume v = r.decode(cc, o);
         writeVolumeFile(v, a->out);
         if (!global.quiet)
-            std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x" << v.dims().z << " "
-                      << scalarTypeName(v.type()) << ")\n";
+            std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x"
+                      << v.dims().z << " " << scalarTypeName(v.type()) << ")\n";
     });
 }
 
@@ -208,7 +219,8 @@ void addCompare(CLI::App& app, GlobalOptions& global) {
         const double p = psnr(va, vb), r = rmse(va, vb), m = maxAbsError(va, vb);
         const double bpv = vczBytes ? double(vczBytes) * 8 / double(va.voxelCount()) : NAN;
         if (a->json) {
-            nlohmann::json j{{"a", a->a}, {"b", a->b}, {"psnr_db", jsonNumber(p)}, {"rmse", r}, {"max_abs_error", m}};
+            nlohmann::json j{
+                {"a", a->a}, {"b", a->b}, {"psnr_db", jsonNumber(p)}, {"rmse", r}, {"max_abs_error", m}};
             if (vczBytes) {
                 j["bits_per_voxel"] = bpv;
                 j["ratio"] = double(va.byteSize()) / double(vczBytes);
@@ -237,7 +249,8 @@ Volume readGzipRaw(const fs::path& p, Dims d, ScalarType t) {
     char extra;
     const int more = gzread(f, &extra, 1);
     gzclose(f);
-    if (n != static_cast<int>(v.byteSize()) || more != 0) throw IoError(p.string() + ": unexpected size after gunzip");
+    if (n != static_cast<int>(v.byteSize()) || more != 0)
+        throw IoError(p.string() + ": unexpected size after gunzip");
     return v;
 }
 
@@ -254,27 +267,47 @@ std::vector<BenchData> loadBenchData(const fs::path& shared, const std::string& 
     };
     const fs::path r = shared / "regular";
     if (fs::is_directory(r)) {
-        add("hydrogenatom", [&] { return readVolume(r / "hydrogenatom.dat"); }, false);
-        add("walnut-ct", [&] { return readVolume(r / "walnut.vvd"); }, true);
-        add("headsq-ct", [&] { return readVolume(r / "headsq/quarter.nhdr"); }, true);
-        add("brainweb-mri", [&] {
-            return readGzipRaw(r / "t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz", {180, 216, 180}, ScalarType::UInt8);
-        }, true);
-        add("head-mri-small", [&] { return readVolume(r / "HeadMRVolume.mhd"); }, true);
-        if (withLarge) add("frog-labels", [&] { return readVolume(r / "froggy/frogtissue.mhd"); }, false);
+        add(
+            "hydrogenatom", [&] { return readVolume(r / "hydrogenatom.dat"); }, false);
+        add(
+            "walnut-ct", [&] { return readVolume(r / "walnut.vvd"); }, true);
+        add(
+            "headsq-ct", [&] { return readVolume(r / "headsq/quarter.nhdr"); }, true);
+        add(
+            "brainweb-mri",
+            [&] {
+                return readGzipRaw(r / "t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz",
+                                   {180, 216, 180}, ScalarType::UInt8);
+            },
+            true);
+        add(
+            "head-mri-small", [&] { return readVolume(r / "HeadMRVolume.mhd"); }, true);
+        if (withLarge)
+            add(
+                "frog-labels", [&] { return readVolume(r / "froggy/frogtissue.mhd"); }, false);
     } else {
-        std::cerr << "volcl bench codec: " << shared.string() << " is absent: skipping the shared data sets\n";
+        std::cerr << "volcl bench codec: " << shared.string()
+                  << " is absent: skipping the shared data sets\n";
     }
     const fs::path t = shared / "timevarying";
     if (fs::is_directory(t)) {
-        add("isabel-02", [&] { return readVolume(t / "isabel/isabel_02.vti"); }, false);
-        add("isabel-30", [&] { return readVolume(t / "isabel/isabel_30.vti"); }, false);
-        add("viscous-005", [&] { return readVolume(t / "viscousfingers/005_density_005_064_2.0.vti"); }, false);
-        add("viscous-015", [&] { return readVolume(t / "viscousfingers/015_density_015_064_2.0.vti"); }, false);
+        add(
+            "isabel-02", [&] { return readVolume(t / "isabel/isabel_02.vti"); }, false);
+        add(
+            "isabel-30", [&] { return readVolume(t / "isabel/isabel_30.vti"); }, false);
+        add(
+            "viscous-005", [&] { return readVolume(t / "viscousfingers/005_density_005_064_2.0.vti"); },
+            false);
+        add(
+            "viscous-015", [&] { return readVolume(t / "viscousfingers/015_density_015_064_2.0.vti"); },
+            false);
     }
     const fs::path mri = "/usr/share/mricron/templates/ch2better.nii.gz";
-    if (fs::exists(mri)) add("ch2better-mri", [&] { return readVolume(mri); }, true);
-    else if (want("ch2better-mri")) std::cerr << "volcl bench codec: " << mri << " is absent (apt-get install mricron-data): skipping\n";
+    if (fs::exists(mri))
+        add(
+            "ch2better-mri", [&] { return readVolume(mri); }, true);
+    else if (want("ch2better-mri"))
+        std::cerr << "volcl bench codec: " << mri << " is absent (apt-get install mricron-data): skipping\n";
     return out;
 }
 
@@ -297,7 +330,8 @@ ZfpResult runZfp(const Volume& v, std::optional<double> tolerance, int runs) {
     std::vector<float> floats;
     if (reversible && v.type() != ScalarType::Float32) {
         ints.resize(v.voxelCount());
-        for (std::size_t i = 0; i < ints.size(); ++i) ints[i] = static_cast<std::int32_t>(v.valueAt(i));
+        for (std::size_t i = 0; i < ints.size(); ++i)
+            ints[i] = static_cast<std::int32_t>(v.valueAt(i));
     } else {
         floats = v.toFloat();
     }
@@ -305,8 +339,10 @@ ZfpResult runZfp(const Volume& v, std::optional<double> tolerance, int runs) {
     const zfp_type type = ints.empty() ? zfp_type_float : zfp_type_int32;
     zfp_field* field = zfp_field_3d(data, type, d.x, d.y, d.z);
     zfp_stream* zs = zfp_stream_open(nullptr);
-    if (reversible) zfp_stream_set_reversible(zs);
-    else zfp_stream_set_accuracy(zs, *tolerance);
+    if (reversible)
+        zfp_stream_set_reversible(zs);
+    else
+        zfp_stream_set_accuracy(zs, *tolerance);
     std::vector<unsigned char> buffer(zfp_stream_maximum_size(zs, field));
     bitstream* bs = stream_open(buffer.data(), buffer.size());
     zfp_stream_set_bit_stream(zs, bs);
@@ -319,8 +355,9 @@ ZfpResult runZfp(const Volume& v, std::optional<double> tolerance, int runs) {
     if (omp) zfp_stream_set_execution(zs, zfp_exec_serial); // zfp 1.0 decompresses serially
     std::vector<std::int32_t> outInts(ints.size());
     std::vector<float> outFloats(floats.size());
-    zfp_field* outField = zfp_field_3d(ints.empty() ? static_cast<void*>(outFloats.data()) : static_cast<void*>(outInts.data()),
-                                       type, d.x, d.y, d.z);
+    zfp_field* outField =
+        zfp_field_3d(ints.empty() ? static_cast<void*>(outFloats.data()) : static_cast<void*>(outInts.data()),
+                     type, d.x, d.y, d.z);
     r.decodeMs = medianMilliseconds(runs, [&] {
         zfp_stream_rewind(zs);
         zfp_decompress(zs, outField);
@@ -332,13 +369,16 @@ ZfpResult runZfp(const Volume& v, std::optional<double> tolerance, int runs) {
     if (r.bytes == 0) throw Error("zfp compression failed");
     Volume out(d, ScalarType::Float32);
     auto o = out.values<float>();
-    for (std::size_t i = 0; i < o.size(); ++i) o[i] = ints.empty() ? outFloats[i] : static_cast<float>(outInts[i]);
+    for (std::size_t i = 0; i < o.size(); ++i)
+        o[i] = ints.empty() ? outFloats[i] : static_cast<float>(outInts[i]);
     r.decoded = std::move(out);
     return r;
 }
 
 // PSNR of a float decode against the volume, with integer data rounded and clamped like a real decoder.
-double psnrAsType(const Volume& v, const Volume& decodedFloat) { return psnr(v, decodedFloat.convertedTo(v.type())); }
+double psnrAsType(const Volume& v, const Volume& decodedFloat) {
+    return psnr(v, decodedFloat.convertedTo(v.type()));
+}
 
 // zfp accuracy tolerance that reaches `target` dB (bisection on log tolerance; largest tolerance meeting it).
 ZfpResult zfpAtPsnr(const Volume& v, double target, int runs) {
@@ -362,7 +402,8 @@ ZfpResult zfpAtPsnr(const Volume& v, double target, int runs) {
 std::size_t zstdSize(const Volume& v, int level, double& ms, double& decMs, int runs) {
     std::vector<char> out(ZSTD_compressBound(v.byteSize()));
     std::size_t n = 0;
-    ms = medianMilliseconds(runs, [&] { n = ZSTD_compress(out.data(), out.size(), v.bytes().data(), v.byteSize(), level); });
+    ms = medianMilliseconds(
+        runs, [&] { n = ZSTD_compress(out.data(), out.size(), v.bytes().data(), v.byteSize(), level); });
     if (ZSTD_isError(n)) throw Error("zstd failed");
     std::vector<char> back(v.byteSize());
     decMs = medianMilliseconds(runs, [&] { ZSTD_decompress(back.data(), back.size(), out.data(), n); });
@@ -420,21 +461,24 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
             // Time a fixed-step encode for lossy targets: the step search is a one-off cost of the target.
             CodecOptions timed = o;
             if (o.rate != RateMode::Lossless && o.rate != RateMode::MaxError) timed.step = rep.step;
-            const double encMs = medianMilliseconds(a.runs, [&] { bytes = encodeVolume(cc, v, timed, &rep); });
+            const double encMs =
+                medianMilliseconds(a.runs, [&] { bytes = encodeVolume(cc, v, timed, &rep); });
             Volume out;
             const double decMs = medianMilliseconds(a.runs, [&] { out = decodeVolume(cc, bytes); });
-            BenchRow r{ds.name, std::string("volcl-") + (o.entropy == EntropyMode::Dense ? "dense" : "fast"), mode};
+            BenchRow r{ds.name, std::string("volcl-") + (o.entropy == EntropyMode::Dense ? "dense" : "fast"),
+                       mode};
             r.ratio = double(v.byteSize()) / double(bytes.size());
             r.bpv = double(bytes.size()) * 8 / n;
             r.psnr = psnr(v, out);
             r.maxError = maxAbsError(v, out);
             r.encodeMBs = mb / (encMs / 1e3);
             r.decodeMBs = mb / (decMs / 1e3);
-            if (o.rate == RateMode::Lossless && !(out == v)) throw Error(ds.name + ": lossless round trip is not exact");
+            if (o.rate == RateMode::Lossless && !(out == v))
+                throw Error(ds.name + ": lossless round trip is not exact");
             rows.push_back(r);
-            std::cerr << "  " << r.codec << " " << mode << ": ratio " << fmt(r.ratio) << " bpv " << fmt(r.bpv, 3) << " PSNR "
-                      << fmt(r.psnr) << " maxerr " << r.maxError << " enc " << fmt(r.encodeMBs, 1) << " MB/s dec "
-                      << fmt(r.decodeMBs, 1) << " MB/s\n";
+            std::cerr << "  " << r.codec << " " << mode << ": ratio " << fmt(r.ratio) << " bpv "
+                      << fmt(r.bpv, 3) << " PSNR " << fmt(r.psnr) << " maxerr " << r.maxError << " enc "
+                      << fmt(r.encodeMBs, 1) << " MB/s dec " << fmt(r.decodeMBs, 1) << " MB/s\n";
         };
         const bool integer = v.type() != ScalarType::Float32;
         CodecOptions o;
@@ -453,7 +497,8 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
             r.encodeMBs = mb / (z.encodeMs / 1e3);
             r.decodeMBs = mb / (z.decodeMs / 1e3);
             rows.push_back(r);
-            std::cerr << "  zfp reversible: ratio " << fmt(r.ratio) << " enc " << fmt(r.encodeMBs, 1) << " dec " << fmt(r.decodeMBs, 1) << '\n';
+            std::cerr << "  zfp reversible: ratio " << fmt(r.ratio) << " enc " << fmt(r.encodeMBs, 1)
+                      << " dec " << fmt(r.decodeMBs, 1) << '\n';
         }
         for (int level : {3, 19}) {
             double ms = 0, dms = 0;
@@ -510,7 +555,8 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
             lo.target = std::max((st.max - st.min) * 0.005, integer ? 1.0 : 1e-6);
             ours("maxerr0.5%", lo);
         }
-        // Transform only: one level of 3D 5/3 on the codec's bricks, against the copy kernel on the same bytes.
+        // Transform only: one level of 3D 5/3 on the codec's bricks, against the copy kernel on the same
+        // bytes.
         {
             Dims bd{std::min<std::size_t>(a.brick, v.dims().x), std::min<std::size_t>(a.brick, v.dims().y),
                     std::min<std::size_t>(a.brick, v.dims().z)};
@@ -521,15 +567,21 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
             batch.upload(cc, host);
             t.forward(cc, batch, 1); // warm-up: builds and specialises the kernels
             std::vector<double> ms;
-            for (int i = 0; i < std::max(3, a.runs); ++i) ms.push_back(t.forward(cc, batch, 1));
+            for (int i = 0; i < std::max(3, a.runs); ++i)
+                ms.push_back(t.forward(cc, batch, 1));
             const double med = median(ms);
             const double voxels = double(bd.count() * count);
             const double copy = copyKernelBandwidthGBs(cc, batch.brickStride() * count * 4);
             const double gbs = voxels * 3 * 8 / (med * 1e6); // three passes, int32 read + write each
-            transforms.push_back({{"dataset", ds.name}, {"transform", "cdf53 1 level 3D"}, {"gvoxel_per_s", voxels / (med * 1e6)},
-                                  {"gb_per_s", gbs}, {"copy_gb_per_s", copy}, {"fraction_of_copy", gbs / copy}});
-            std::cerr << "  transform cdf53 1 level: " << fmt(voxels / (med * 1e6), 3) << " Gvoxel/s, " << fmt(gbs, 1)
-                      << " GB/s = " << fmt(100 * gbs / copy, 0) << "% of the copy kernel (" << fmt(copy, 1) << " GB/s)\n";
+            transforms.push_back({{"dataset", ds.name},
+                                  {"transform", "cdf53 1 level 3D"},
+                                  {"gvoxel_per_s", voxels / (med * 1e6)},
+                                  {"gb_per_s", gbs},
+                                  {"copy_gb_per_s", copy},
+                                  {"fraction_of_copy", gbs / copy}});
+            std::cerr << "  transform cdf53 1 level: " << fmt(voxels / (med * 1e6), 3) << " Gvoxel/s, "
+                      << fmt(gbs, 1) << " GB/s = " << fmt(100 * gbs / copy, 0) << "% of the copy kernel ("
+                      << fmt(copy, 1) << " GB/s)\n";
         }
     }
     // Output.
@@ -540,11 +592,17 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
     j["runs"] = a.runs;
     j["rows"] = nlohmann::json::array();
     for (const BenchRow& r : rows) {
-        csv << r.dataset << ',' << r.codec << ',' << r.mode << ',' << r.ratio << ',' << r.bpv << ',' << fmt(r.psnr, 4) << ','
-            << r.maxError << ',' << r.encodeMBs << ',' << r.decodeMBs << '\n';
-        j["rows"].push_back({{"dataset", r.dataset}, {"codec", r.codec}, {"mode", r.mode}, {"ratio", r.ratio},
-                             {"bits_per_voxel", r.bpv}, {"psnr_db", jsonNumber(r.psnr)}, {"max_abs_error", r.maxError},
-                             {"encode_MBps", r.encodeMBs}, {"decode_MBps", r.decodeMBs}});
+        csv << r.dataset << ',' << r.codec << ',' << r.mode << ',' << r.ratio << ',' << r.bpv << ','
+            << fmt(r.psnr, 4) << ',' << r.maxError << ',' << r.encodeMBs << ',' << r.decodeMBs << '\n';
+        j["rows"].push_back({{"dataset", r.dataset},
+                             {"codec", r.codec},
+                             {"mode", r.mode},
+                             {"ratio", r.ratio},
+                             {"bits_per_voxel", r.bpv},
+                             {"psnr_db", jsonNumber(r.psnr)},
+                             {"max_abs_error", r.maxError},
+                             {"encode_MBps", r.encodeMBs},
+                             {"decode_MBps", r.decodeMBs}});
     }
     j["transforms"] = transforms;
     if (!a.csv.empty()) {
@@ -567,7 +625,8 @@ void addCodecCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     addEncode(app, global);
     addDecode(app, global);
     addCompare(app, global);
-    auto* b = bench.add_subcommand("codec", "Codec: ratio, PSNR, speed against zfp, zstd and xz on real volumes");
+    auto* b =
+        bench.add_subcommand("codec", "Codec: ratio, PSNR, speed against zfp, zstd and xz on real volumes");
     auto a = std::make_shared<BenchArgs>();
     b->add_option("--data", a->data, "Shared data directory")->capture_default_str();
     b->add_option("--dataset", a->filter, "Only data sets whose name contains this text");
