@@ -390,7 +390,7 @@ TEST(CodecRealData, LosslessIsBitExactOnEverySharedVolume) {
     }
 }
 
-TEST(CodecRealData, MriTemplateFromDebianIsLosslessAndMaxErrorHolds) {
+TEST(CodecRealData, MriTemplateFromDebianIsLossless) {
     const std::filesystem::path mri = "/usr/share/mricron/templates/ch2better.nii.gz";
     if (!std::filesystem::exists(mri)) GTEST_SKIP() << mri << " is absent (apt-get install mricron-data)";
     const Volume v = readVolume(mri);
@@ -402,9 +402,4 @@ TEST(CodecRealData, MriTemplateFromDebianIsLosslessAndMaxErrorHolds) {
     // Regression guard: 6.21:1 measured (docs/codec.md). xz -9 reaches 6.49:1 on this volume, so the
     // issue's goal (>= xz) is not met here yet; it is met on the walnut CT and the BrainWeb MRI.
     EXPECT_GT(double(v.byteSize()) / double(bytes.size()), 6.1);
-    CodecOptions e;
-    e.rate = RateMode::MaxError;
-    e.target = 2.0;
-    const auto lossyBytes = encodeVolume(cc, v, e);
-    EXPECT_LE(maxAbsError(v, decodeVolume(cc, lossyBytes)), 2.0);
 }
