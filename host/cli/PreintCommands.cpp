@@ -409,6 +409,7 @@ void addPreintCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
         std::size_t samples = 20000;
         double tolerance = -1.0;
         std::vector<std::string> iso;
+        std::vector<double> isoDomain{0.0, 255.0};
     };
     auto a = std::make_shared<Args>();
     cmd->add_option("--tf", a->tf, "Transfer function (canonical JSON, ParaView JSON or RGBA strip)");
@@ -427,6 +428,9 @@ void addPreintCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     cmd->add_option("--degree", a->degree, "polynomial: degree in length")->capture_default_str();
     cmd->add_flag("--half", a->half, "Store half floats in the EXR");
     cmd->add_option("--iso", a->iso, "Iso-surface table instead: VALUE:R,G,B,A (associated), repeatable");
+    cmd->add_option("--domain", a->isoDomain, "--iso: scalar range LO HI of the table's nodes")
+        ->expected(2)
+        ->capture_default_str();
     cmd->add_flag("--lighting", a->lighting, "Lighting table instead (Guthe 1.3.4; needs --tf and --step)");
     cmd->add_option("-o,--output", a->out, "Output EXR");
     cmd->add_option("--check", a->check, "Recompute a sample of a table's entries with the reference");
@@ -465,7 +469,7 @@ void addPreintCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
             std::vector<IsoSurface> surfaces;
             for (const auto& s : a->iso)
                 surfaces.push_back(parseIso(s));
-            std::array<double, 2> domain{0.0, 255.0};
+            std::array<double, 2> domain{a->isoDomain[0], a->isoDomain[1]};
             writeImage(isoSurfaceTableImage(surfaces, domain, a->size), a->out, {a->half});
             std::cerr << "volcl preint: iso table " << a->size << "x" << a->size << " -> " << a->out << '\n';
             return;
