@@ -112,7 +112,7 @@ private:
     CameraController camera_;
     AdaptiveQuality adaptive_;
     std::unique_ptr<Renderer> renderer_;
-    bool structureChanged_ = true;
+    bool structureChanged_ = false; // the constructor planned and built the first kernel
 };
 
 } // namespace volcl::viewer
