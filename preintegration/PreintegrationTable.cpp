@@ -9,7 +9,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <cstring>
 #include <random>
 #include <sstream>
@@ -29,9 +28,7 @@ std::string fmt(double v) {
 // Work-group width along the back index: PoCL pays a fixed cost per work-group, so groups are made wide,
 // but never wider than the table row (rounded up to a multiple of 16).
 std::size_t localX(int n) {
-    const char* env = std::getenv("VOLCL_PREINT_LOCAL");
-    std::size_t want = env ? std::strtoul(env, nullptr, 10) : 64;
-    return std::min<std::size_t>(want, roundUp(static_cast<std::size_t>(n), 16));
+    return std::min<std::size_t>(64, roundUp(static_cast<std::size_t>(n), 16));
 }
 
 // One REAL-typed kernel argument: float or double depending on the precision the kernel was built with.
