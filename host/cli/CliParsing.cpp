@@ -47,6 +47,7 @@ void RawReadFlags::add(CLI::App& cmd) {
     cmd.add_option("--type", type, "Raw input type: uint8, uint16, int16, float32");
     cmd.add_option("--endian", endian, "Raw input byte order")->check(CLI::IsMember({"little", "big"}));
     cmd.add_option("--header-bytes", headerBytes, "Raw input: bytes to skip before the voxels");
+    cmd.add_option("--grid", vdbGrid, "OpenVDB input: grid name (default: the first scalar grid)");
 }
 
 ReadOptions RawReadFlags::toReadOptions() const {
@@ -55,6 +56,7 @@ ReadOptions RawReadFlags::toReadOptions() const {
     if (!type.empty()) o.type = parseScalarType(type);
     o.endian = endian == "big" ? Endian::Big : Endian::Little;
     o.headerBytes = headerBytes;
+    if (!vdbGrid.empty()) o.vdbGrid = vdbGrid;
     return o;
 }
 

@@ -14,9 +14,10 @@ Dims parseDims(const std::string& text, const std::string& what);
 /// "x0,y0,z0:x1,y1,z1" (half-open voxel box) -> (lo, hi); throws UsageError.
 std::pair<Dims, Dims> parseBox(const std::string& text, const std::string& what);
 
-/// Flags describing headerless raw input (--dims, --type, --endian, --header-bytes), shared by commands.
+/// Input flags shared by commands: raw layout (--dims, --type, --endian, --header-bytes) and --grid (VDB).
 struct RawReadFlags {
     std::string dims, type, endian = "little";
+    std::string vdbGrid; ///< --grid: OpenVDB grid name
     std::size_t headerBytes = 0;
     void add(CLI::App& cmd);
     ReadOptions toReadOptions() const;
