@@ -42,6 +42,13 @@ std::pair<Dims, Dims> parseBox(const std::string& text, const std::string& what)
     return {{lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}};
 }
 
+std::string shellQuote(const std::string& s) {
+    std::string out = "'";
+    for (char c : s)
+        out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return out + "'";
+}
+
 void RawReadFlags::add(CLI::App& cmd) {
     cmd.add_option("--dims", dims, "Raw input dimensions X,Y,Z (overrides the file name)");
     cmd.add_option("--type", type, "Raw input type: uint8, uint16, int16, float32");

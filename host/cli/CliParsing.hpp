@@ -14,6 +14,9 @@ Dims parseDims(const std::string& text, const std::string& what);
 /// "x0,y0,z0:x1,y1,z1" (half-open voxel box) -> (lo, hi); throws UsageError.
 std::pair<Dims, Dims> parseBox(const std::string& text, const std::string& what);
 
+/// Single-quotes `s` for /bin/sh (peer benchmarks run Python scripts through std::system).
+std::string shellQuote(const std::string& s);
+
 /// Input flags shared by commands: raw layout (--dims, --type, --endian, --header-bytes) and --grid (VDB).
 struct RawReadFlags {
     std::string dims, type, endian = "little";

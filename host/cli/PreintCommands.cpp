@@ -1,6 +1,7 @@
 // `volcl preint` (build, check, iso and lighting tables) and `volcl bench preint` (error versus time, VTK
 // peer).
 #include "host/Error.hpp"
+#include "host/cli/CliParsing.hpp"
 #include "host/cli/Commands.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/AtomicFile.hpp"
@@ -66,13 +67,6 @@ IsoSurface parseIso(const std::string& text) {
         if (i != 4) throw UsageError("--iso '" + text + "': expected four colour components");
     }
     return s;
-}
-
-std::string shellQuote(const std::string& s) {
-    std::string out = "'";
-    for (char c : s)
-        out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return out + "'";
 }
 
 struct BenchRow {

@@ -233,13 +233,6 @@ double rmseRgb(const ImageBuffer& a, const ImageBuffer& b) {
     return std::sqrt(sum / (3.0 * a.width * a.height));
 }
 
-std::string shellQuote(const std::string& s) {
-    std::string out = "'";
-    for (char c : s)
-        out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return out + "'";
-}
-
 struct BenchArgs {
     SceneFlags scene;
     std::string steps = "0.25,0.5,1,2";
