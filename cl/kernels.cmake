@@ -8,6 +8,7 @@ set(VOLCL_KERNEL_FILES
   tf_sample.cl
   raymarch_shared.h
   raymarch_core.h
+  raymarch_iso.h
   raymarch.cl
   raymarch_plain.cl
   lifting.cl
