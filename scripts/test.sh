@@ -13,7 +13,7 @@ echo "== tests (AddressSanitizer + UndefinedBehaviorSanitizer)"
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=None "-DCMAKE_CXX_FLAGS=-O1 -g1" -DVOLCL_SANITIZE=ON \
   -DVOLCL_BUILD_BENCH=OFF >/dev/null
 cmake --build build-asan -j"$jobs" -- --no-print-directory >/dev/null || cmake --build build-asan -j1
-# Leak checking is off for now: with PoCL's worker threads LeakSanitizer hit a fatal error in one render
+# Leak checking is off: with PoCL's worker threads LeakSanitizer hit a fatal error in one render
 # test, and the GL viewer tests report small unsymbolised leaks from driver paths (Mesa/EGL) that the
 # suppressions in tests/lsan.supp do not yet match. Memory errors (ASan) and UB (UBSan) stay fatal.
 ASAN_OPTIONS=detect_leaks=0:abort_on_error=0:halt_on_error=1 \

@@ -157,7 +157,7 @@ cl::Program ComputeContext::program(std::string_view file, const KernelDefines& 
                                     std::string_view extraOptions) {
     std::string source = sources_->resolve(file);
     std::string options = defines.toOptions();
-    if (!extraOptions.empty()) options += " " + std::string(extraOptions);
+    if (!extraOptions.empty()) options.append(" ").append(extraOptions); // (" " + string) trips GCC 12's -Wrestrict
     auto key = std::make_tuple(fnv1a64(source), options);
     if (auto it = programs_.find(key); it != programs_.end()) return it->second;
 
