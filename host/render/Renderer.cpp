@@ -367,6 +367,10 @@ ImageBuffer Renderer::launch(cl::Kernel& kernel, bool withDepth) {
     return img;
 }
 
+const cl::Buffer& Renderer::outputBuffer() const noexcept {
+    return impl_->out.get();
+}
+
 ImageBuffer Renderer::render() {
     return launch(impl_->kernel, !plan_.isosurfaces.empty());
 }

@@ -59,6 +59,9 @@ public:
     /// Renders with the effect-free baseline kernel (raymarch_plain.cl); DVR, point sampling only.
     ImageBuffer renderPlainBaseline();
     double lastKernelMilliseconds() const noexcept { return lastMs_; }
+    /// The device buffer the last render() wrote: width x height float4 (linear associated R, G, B, A), row 0
+    /// at the top. Lets a viewer copy the frame into an OpenGL buffer shared through cl_khr_gl_sharing.
+    const cl::Buffer& outputBuffer() const noexcept;
     const EffectPlan& plan() const noexcept { return plan_; }
     const Scene& scene() const noexcept { return scene_; }
     const Camera& camera() const noexcept { return camera_; }

@@ -110,7 +110,9 @@ std::string KernelDefines::toOptions() const {
     return out;
 }
 
-ComputeContext::ComputeContext(std::string_view selector) {
+ComputeContext::ComputeContext(std::string_view selector) : ComputeContext(selector, {}) {}
+
+ComputeContext::ComputeContext(std::string_view selector, std::span<const cl_context_properties> extraProperties) {
     std::string sel(selector);
     if (sel.empty())
         if (const char* env = std::getenv("VOLCL_DEVICE")) sel = env;
@@ -141,7 +143,14 @@ ComputeContext::ComputeContext(std::string_view selector) {
     }
     device_ = *chosen;
     cl_int err = CL_SUCCESS;
-    context_ = cl::Context(device_.device, nullptr, nullptr, nullptr, &err);
+    std::vector<cl_context_properties> props;
+    if (!extraProperties.empty()) {
+        props.push_back(CL_CONTEXT_PLATFORM);
+        props.push_back(reinterpret_cast<cl_context_properties>(device_.device.getInfo<CL_DEVICE_PLATFORM>()));
+        props.insert(props.end(), extraProperties.begin(), extraProperties.end());
+        props.push_back(0);
+    }
+    context_ = cl::Context(device_.device, props.empty() ? nullptr : props.data(), nullptr, nullptr, &err);
     clCheck(err, "clCreateContext");
     queue_ = cl::CommandQueue(context_, device_.device, CL_QUEUE_PROFILING_ENABLE, &err);
     clCheck(err, "clCreateCommandQueue");

@@ -93,6 +93,9 @@ public:
     /// `selector`: empty (use $VOLCL_DEVICE, else the first device), a device index ("1"), or a
     /// case-insensitive substring of the device or platform name. Throws Error when nothing matches.
     explicit ComputeContext(std::string_view selector = {});
+    /// As above, with extra context properties (key, value pairs, no terminator) after CL_CONTEXT_PLATFORM,
+    /// e.g. CL_GL_CONTEXT_KHR and CL_GLX_DISPLAY_KHR for a context that shares objects with OpenGL.
+    ComputeContext(std::string_view selector, std::span<const cl_context_properties> extraProperties);
     ~ComputeContext();
     ComputeContext(const ComputeContext&) = delete;
     ComputeContext& operator=(const ComputeContext&) = delete;
