@@ -349,3 +349,144 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
     depthOut[pix] = depth;
 #endif
 }
+
+#if MODE == 0 && !defined(NEEDS_LIGHTS) && ISO_COUNT == 0
+/* Macrocells of a packet at ray parameter t: index and the parameter where each ray leaves its cell
+   (macro_cell per lane, vectorised). */
+inline uint8 macro_cell8(const VolclRenderParams* P, const RayPacket* r, float8 t, float8* exitT) {
+    const float8 px = r->ox + t * r->dx, py = r->oy + t * r->dy, pz = r->oz + t * r->dz;
+    const float B = (float)P->macroDims[3];
+    const int8 cx = clamp(convert_int8(floor(px / B)), 0, (int)P->macroDims[0] - 1);
+    const int8 cy = clamp(convert_int8(floor(py / B)), 0, (int)P->macroDims[1] - 1);
+    const int8 cz = clamp(convert_int8(floor(pz / B)), 0, (int)P->macroDims[2] - 1);
+    const float8 lx = convert_float8(cx) * B, ly = convert_float8(cy) * B, lz = convert_float8(cz) * B;
+    const float8 hx = fmin(lx + B, (float)(P->dims[0] - 1)), hy = fmin(ly + B, (float)(P->dims[1] - 1)),
+                 hz = fmin(lz + B, (float)(P->dims[2] - 1));
+    float8 e = (float8)(INFINITY);
+    e = select(e, fmin(e, (hx - px) / r->dx), r->dx > 0.0f);
+    e = select(e, fmin(e, (lx - px) / r->dx), r->dx < 0.0f);
+    e = select(e, fmin(e, (hy - py) / r->dy), r->dy > 0.0f);
+    e = select(e, fmin(e, (ly - py) / r->dy), r->dy < 0.0f);
+    e = select(e, fmin(e, (hz - pz) / r->dz), r->dz > 0.0f);
+    e = select(e, fmin(e, (lz - pz) / r->dz), r->dz < 0.0f);
+    *exitT = t + fmax(e, 0.0f);
+    return (convert_uint8(cz) * P->macroDims[1] + convert_uint8(cy)) * P->macroDims[0] + convert_uint8(cx);
+}
+
+/* DVR (point sampled or pre-integrated, skipping, early termination, clipping) for a 4x2 block of pixels
+   per work-item; the host launches it instead of `raymarch` when the scene has no lights and no
+   iso-surfaces. Same image as `raymarch`. */
+__kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclTfKnot* knots,
+                              __global const float4* table, __global const uchar* macroEmpty,
+                              const VolclRenderParams params, __global float4* out, __global float* depthOut) {
+    const VolclRenderParams* P = &params;
+    const uint x0 = get_global_id(0) * PACKET_W, y0 = get_global_id(1) * PACKET_H;
+    if (x0 >= params.width || y0 >= params.height) return;
+    const float3 hi = (float3)(P->dims[0] - 1, P->dims[1] - 1, P->dims[2] - 1);
+    RayPacket rp;
+    LaneF ox, oy, oz, dx, dy, dz, enter, exit;
+    LaneI nsegL, act;
+    for (int l = 0; l < RAY_LANES; ++l) {
+        const uint x = x0 + (uint)(l % PACKET_W), y = y0 + (uint)(l / PACKET_W);
+        const Ray r = camera_ray(P, min(x, params.width - 1), min(y, params.height - 1));
+        float2 span = clip_box(r.o, r.d, hi, 0.0f, INFINITY);
+#ifdef CLIPPING
+        for (uint i = 0; i < P->clipCount; ++i) {
+            const float3 n = v3(P->clipPlane[i]);
+            const float a = dot(n, r.oWorld) + P->clipPlane[i][3], b = dot(n, r.dWorld);
+            if (b > 0.0f) span.x = fmax(span.x, -a / b);
+            else if (b < 0.0f) span.y = fmin(span.y, -a / b);
+            else if (a < 0.0f) span.y = -INFINITY;
+        }
+#endif
+        const bool on = x < params.width && y < params.height && span.y > span.x;
+        ox.a[l] = r.o.x; oy.a[l] = r.o.y; oz.a[l] = r.o.z;
+        dx.a[l] = r.d.x; dy.a[l] = r.d.y; dz.a[l] = r.d.z;
+        enter.a[l] = on ? span.x : 0.0f;
+        exit.a[l] = on ? span.y : 0.0f;
+        nsegL.a[l] = on ? max((int)ceil((span.y - span.x) / P->step), 1) : 0;
+        act.a[l] = on ? -1 : 0;
+    }
+    rp.ox = ox.v; rp.oy = oy.v; rp.oz = oz.v; rp.dx = dx.v; rp.dy = dy.v; rp.dz = dz.v;
+    const float8 tEnter = enter.v, tExit = exit.v;
+    const int8 nseg = nsegL.v;
+    const float step = P->step;
+    int8 active = act.v;
+    int8 k = (int8)(0);
+    float8 cr = (float8)(0.0f), cg = (float8)(0.0f), cb = (float8)(0.0f), T = (float8)(1.0f);
+#if PREINT != 0
+    float8 sPrev = sample_packet(vol, P, &rp, tEnter);
+#endif
+#ifdef SKIPPING
+    float8 cellExit = (float8)(-INFINITY);
+#endif
+    while (any(active)) {
+        float8 t0 = tEnter + convert_float8(k) * step;
+#ifdef SKIPPING
+        const int8 need = active & (t0 >= cellExit);
+        if (any(need)) {
+            float8 exitT;
+            LaneU cell;
+            cell.v = macro_cell8(P, &rp, t0, &exitT);
+            cellExit = select(cellExit, exitT, need);
+            LaneI empty;
+            for (int l = 0; l < RAY_LANES; ++l) empty.a[l] = macroEmpty[cell.a[l]] ? -1 : 0;
+            /* Segments with both ends in an empty cell add nothing: jump to the last one starting in it. */
+            const int8 j = min(convert_int8(floor((exitT - tEnter) / step)), nseg);
+            const int8 jump = need & empty.v & (j > k);
+            if (any(jump)) {
+                k = select(k, j, jump);
+                active &= k < nseg;
+                t0 = tEnter + convert_float8(k) * step;
+#if PREINT != 0
+                sPrev = select(sPrev, sample_packet(vol, P, &rp, t0), jump);
+#endif
+                if (!any(active)) break;
+            }
+        }
+#endif
+        const float8 t1 = select(fmin(t0 + step, tExit), tExit, k == nseg - 1);
+        const float8 len = t1 - t0;
+        LaneF er, eg, eb, ea;
+#if PREINT == 0
+        LaneF s;
+        s.v = sample_packet(vol, P, &rp, t0 + 0.5f * len);
+        for (int l = 0; l < RAY_LANES; ++l) {
+            const float4 e = tf_sample(knots, P->knotCount, s.a[l]);
+            er.a[l] = e.x; eg.a[l] = e.y; eb.a[l] = e.z; ea.a[l] = e.w;
+        }
+        const float8 a = 1.0f - exp(-ea.v * len);
+        const float8 wr = T * a * er.v, wg = T * a * eg.v, wb = T * a * eb.v;
+#else
+        const float8 sNext = sample_packet(vol, P, &rp, t1);
+        LaneF sf, sb, ln;
+        sf.v = sPrev;
+        sb.v = sNext;
+        ln.v = len;
+        for (int l = 0; l < RAY_LANES; ++l) {
+            const float4 e = preint_segment(table, P, sf.a[l], sb.a[l], ln.a[l]);
+            er.a[l] = e.x; eg.a[l] = e.y; eb.a[l] = e.z; ea.a[l] = e.w;
+        }
+        const float8 a = ea.v;
+        const float8 wr = T * er.v, wg = T * eg.v, wb = T * eb.v;
+        sPrev = sNext;
+#endif
+        cr = select(cr, cr + wr, active);
+        cg = select(cg, cg + wg, active);
+        cb = select(cb, cb + wb, active);
+        T = select(T, T * (1.0f - a), active);
+        k -= active; /* active lanes are -1 */
+        active &= k < nseg;
+#ifdef EARLY_TERMINATION
+        active &= !(1.0f - T >= P->earlyTermination);
+#endif
+    }
+    LaneF R, G, Bc, A;
+    R.v = cr; G.v = cg; Bc.v = cb; A.v = 1.0f - T;
+    for (int l = 0; l < RAY_LANES; ++l) {
+        const uint x = x0 + (uint)(l % PACKET_W), y = y0 + (uint)(l / PACKET_W);
+        if (x < params.width && y < params.height)
+            out[(size_t)y * params.width + x] = (float4)(R.a[l], G.a[l], Bc.a[l], A.a[l]);
+    }
+}
+#endif

@@ -199,6 +199,7 @@ struct Renderer::Impl {
     render_detail::MacrocellGrid macro;
     std::vector<unsigned char> emptyHost;
     cl::Kernel kernel;
+    bool packet = false; ///< kernel is raymarch_packet: one work-item per 4x2 block of pixels
     std::string tableKey;
     int tableLengths = 1;
     VolclRenderParams params{};
@@ -331,12 +332,14 @@ void Renderer::rebuild(bool tfChanged) {
     emptyFraction_ = m.emptyHost.empty() ? 0.0 : double(emptyCount) / double(m.emptyHost.size());
     m.empty = cc_.upload(m.emptyHost, CL_MEM_READ_ONLY);
 
-    m.kernel = cc_.kernel("raymarch.cl", "raymarch", plan_.defines);
+    // Unlit DVR without iso-surfaces (the common, time-critical case) runs as explicit 8-ray packets.
+    m.packet = scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
+    m.kernel = cc_.kernel("raymarch.cl", m.packet ? "raymarch_packet" : "raymarch", plan_.defines);
     m.params =
         render_detail::makeParams(scene_, camera_, volume_, tf_, plan_, m.macro, m.knotCount, m.tableLengths);
 }
 
-ImageBuffer Renderer::launch(cl::Kernel& kernel, bool withDepth) {
+ImageBuffer Renderer::launch(cl::Kernel& kernel, bool withDepth, bool packet) {
     Impl& m = *impl_;
     const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
     if (m.out.size() != pixels) {
@@ -344,8 +347,9 @@ ImageBuffer Renderer::launch(cl::Kernel& kernel, bool withDepth) {
         m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
     }
     setArgs(kernel, m.volume, m.knots, m.table, m.empty, m.params, m.out, m.depth);
-    // 8x8 tiles: neighbouring rays share cache lines in y as well as x.
-    cl::Event ev = cc_.launch2d(kernel, std::size_t(scene_.width), std::size_t(scene_.height), 8, 8);
+    // Tiles of nearby rays share cache lines in y as well as x: 8x8 rays, or 4x4 packets of 4x2 rays.
+    const std::size_t w = std::size_t(scene_.width), h = std::size_t(scene_.height);
+    cl::Event ev = packet ? cc_.launch2d(kernel, (w + 3) / 4, (h + 1) / 2, 4, 4) : cc_.launch2d(kernel, w, h, 8, 8);
     lastMs_ = eventMilliseconds(ev);
     const auto rgba = cc_.download(m.out);
     std::vector<std::string> channels{"R", "G", "B", "A"};
@@ -372,7 +376,7 @@ const cl::Buffer& Renderer::outputBuffer() const noexcept {
 }
 
 ImageBuffer Renderer::render() {
-    return launch(impl_->kernel, !plan_.isosurfaces.empty());
+    return launch(impl_->kernel, !plan_.isosurfaces.empty(), impl_->packet);
 }
 
 ImageBuffer Renderer::renderPlainBaseline() {
@@ -381,7 +385,7 @@ ImageBuffer Renderer::renderPlainBaseline() {
     KernelDefines d;
     d.set("VOXEL_TYPE", static_cast<long long>(plan_.voxelType));
     cl::Kernel k = cc_.kernel("raymarch_plain.cl", "raymarch_plain", d);
-    return launch(k, false);
+    return launch(k, false, true);
 }
 
 double imageRmse(const ImageBuffer& a, const ImageBuffer& b) {

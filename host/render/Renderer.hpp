@@ -73,7 +73,7 @@ public:
 private:
     struct Impl;
     void rebuild(bool tfChanged);
-    ImageBuffer launch(cl::Kernel& kernel, bool depth);
+    ImageBuffer launch(cl::Kernel& kernel, bool depth, bool packet);
     ComputeContext& cc_;
     const Volume& volume_;
     TransferFunction tf_;
