@@ -9,8 +9,10 @@
 #include "host/render/Renderer.hpp"
 #include "host/render/VecMath.hpp"
 #include "host/viewer/AdaptiveQuality.hpp"
+#include "host/viewer/ClGlSharing.hpp"
 #include "host/viewer/GlPresenter.hpp"
 #include "host/viewer/HeadlessGl.hpp"
+#include "host/viewer/Overlay.hpp"
 #include "host/viewer/ViewerApp.hpp"
 #include "host/viewer/ViewerCamera.hpp"
 #include "host/viewer/ViewerSession.hpp"
@@ -397,6 +399,146 @@ TEST(ViewerGl, TransportFollowsTheDeviceExtension) {
     EXPECT_EQ(availableTransport(fake), FrameTransport::Pbo);
 }
 
+TEST(ViewerGl, TransportChoiceChecksTheExtensionFirst) {
+    ComputeContext& cc = test::computeContext();
+    DeviceInfo without = cc.device(), with = cc.device();
+    without.extensions = "cl_khr_fp64 cl_khr_gl_sharing_ext";
+    with.extensions = "cl_khr_fp64 cl_khr_gl_sharing";
+    EXPECT_EQ(chooseTransport(TransportRequest::Auto, without), FrameTransport::Pbo);
+    EXPECT_EQ(chooseTransport(TransportRequest::Auto, with), FrameTransport::ClGlSharing);
+    EXPECT_EQ(chooseTransport(TransportRequest::Pbo, with), FrameTransport::Pbo);
+    EXPECT_EQ(chooseTransport(TransportRequest::Share, with), FrameTransport::ClGlSharing);
+    try {
+        chooseTransport(TransportRequest::Share, without);
+        ADD_FAILURE() << "share without cl_khr_gl_sharing was accepted";
+    } catch (const UsageError&) {
+        ADD_FAILURE() << "an unsupported device is a runtime error (exit 1), not a usage error";
+    } catch (const Error& e) {
+        const std::string m = e.what();
+        EXPECT_NE(m.find("cl_khr_gl_sharing"), std::string::npos) << m;
+        EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+    }
+    EXPECT_EQ(parseTransportRequest("auto"), TransportRequest::Auto);
+    EXPECT_EQ(parseTransportRequest("pbo"), TransportRequest::Pbo);
+    EXPECT_EQ(parseTransportRequest("share"), TransportRequest::Share);
+    EXPECT_THROW(parseTransportRequest("Share "), UsageError);
+    EXPECT_THROW(parseTransportRequest(""), UsageError);
+}
+
+TEST(ViewerGl, SharedBufferRefusesADeviceWithoutTheExtension) {
+    gl();
+    ComputeContext& cc = test::computeContext();
+    // The refusal must come before any GL entry point of the OpenCL platform is looked up or called
+    // (PoCL aborts in them), so on such a device this is an exception, never a crash.
+    if (!cc.device().hasExtension("cl_khr_gl_sharing")) {
+        EXPECT_THROW(SharedFrameBuffer{cc}, Error);
+    } else {
+        EXPECT_NO_THROW(SharedFrameBuffer{cc});
+    }
+    // The properties name the current EGL context and its display.
+    const std::vector<cl_context_properties> props = glSharingContextProperties();
+    ASSERT_EQ(props.size(), 4u);
+    EXPECT_EQ(props[0], CL_GL_CONTEXT_KHR);
+    EXPECT_NE(props[1], 0);
+    EXPECT_EQ(props[2], CL_EGL_DISPLAY_KHR);
+    EXPECT_NE(props[3], 0);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Overlay: host text rasterisation, wrapping, and the blended panel in the top-left corner
+
+TEST(ViewerOverlay, RasterisesGlyphsIntoTheirCells) {
+    const TextMask m = rasteriseText({"|a", " ?", "\x01"});
+    EXPECT_EQ(m.width, 2 * kGlyphWidth + 2 * kTextMargin);
+    EXPECT_EQ(m.height, 3 * kGlyphHeight + 2 * kTextMargin);
+    ASSERT_EQ(m.coverage.size(), std::size_t(m.width) * std::size_t(m.height));
+    const auto cellCount = [&](int row, int col) {
+        int n = 0;
+        for (int y = 0; y < kGlyphHeight; ++y)
+            for (int x = 0; x < kGlyphWidth; ++x)
+                n += m.coverage[std::size_t(kTextMargin + row * kGlyphHeight + y) * std::size_t(m.width) +
+                                std::size_t(kTextMargin + col * kGlyphWidth + x)] != 0;
+        return n;
+    };
+    EXPECT_GE(cellCount(0, 0), 7); // '|': a vertical bar
+    EXPECT_GT(cellCount(0, 1), 5); // 'a'
+    EXPECT_EQ(cellCount(1, 0), 0); // space
+    EXPECT_GT(cellCount(1, 1), 5); // '?'
+    EXPECT_EQ(cellCount(2, 0), cellCount(1, 1)); // a control character is drawn as '?'
+    EXPECT_EQ(cellCount(2, 1), 0);               // past the end of a short line: nothing
+    // The margin stays empty.
+    for (int x = 0; x < m.width; ++x)
+        EXPECT_EQ(m.coverage[std::size_t(x)], 0) << x;
+    EXPECT_EQ(rasteriseText({}).width, 0);
+    EXPECT_EQ(rasteriseText({""}).coverage.size(), 0u);
+}
+
+TEST(ViewerOverlay, WrapsListsAtCommasWithinTheWidth) {
+    const std::string list = "shading, shadows, clipping, isosurfaces 2, skipping, early termination";
+    const auto lines = wrapList("compiled: ", list, 30);
+    ASSERT_GT(lines.size(), 1u);
+    std::string joined;
+    for (const auto& l : lines) {
+        EXPECT_LE(l.size(), 30u) << l;
+        std::string t = l.substr(10); // the prefix, or its indentation
+        joined += t;
+        if (!joined.empty() && joined.back() == ',') joined += ' ';
+    }
+    EXPECT_EQ(lines.front().rfind("compiled: ", 0), 0u);
+    EXPECT_EQ(joined, list);
+    EXPECT_EQ(wrapList("x: ", "", 10), std::vector<std::string>{"x: "});
+    // One item longer than the width stays whole rather than being cut.
+    EXPECT_EQ(wrapList("", "abcdefghijkl", 5), std::vector<std::string>{"abcdefghijkl"});
+}
+
+TEST(ViewerOverlay, DrawsOnlyInsideItsPanelWithWhiteText) {
+    gl();
+    FramePresenter p;
+    TextOverlay overlay;
+    const int w = 160, h = 90;
+    ImageBuffer f(w, h, {"R", "G", "B", "A"});
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            f.at(x, y, 0) = 0.4f * float(x) / float(w);
+            f.at(x, y, 1) = 0.3f;
+            f.at(x, y, 2) = 0.6f * float(y) / float(h);
+            f.at(x, y, 3) = 0.8f;
+        }
+    OffscreenFramebuffer fb(w, h);
+    p.upload(f);
+    p.draw(w, h, {0, 0, 0, 1});
+    const ImageBuffer plain = readFramebuffer(w, h);
+    overlay.setText({"frame 12 ms", "mode dvr"});
+    ASSERT_GT(overlay.width(), 0);
+    ASSERT_LT(overlay.width(), w);
+    ASSERT_LT(overlay.height(), h);
+    overlay.draw(w, h);
+    const ImageBuffer withText = readFramebuffer(w, h);
+    const TextMask mask = rasteriseText({"frame 12 ms", "mode dvr"});
+    int white = 0, darker = 0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            const bool inside = x < mask.width && y < mask.height;
+            for (int c = 0; c < 3; ++c) {
+                if (!inside) {
+                    ASSERT_EQ(withText.at(x, y, c), plain.at(x, y, c)) << x << "," << y;
+                }
+            }
+            if (!inside) continue;
+            const bool ink = mask.coverage[std::size_t(y) * std::size_t(mask.width) + std::size_t(x)] != 0;
+            if (ink) {
+                white += withText.at(x, y, 0) > 0.99f && withText.at(x, y, 1) > 0.99f && withText.at(x, y, 2) > 0.99f;
+            } else {
+                darker += withText.at(x, y, 1) < plain.at(x, y, 1) ? 1 : 0;
+            }
+        }
+    int inkPixels = 0;
+    for (unsigned char c : mask.coverage)
+        inkPixels += c != 0;
+    EXPECT_EQ(white, inkPixels);                                 // every glyph pixel is white
+    EXPECT_EQ(darker, mask.width * mask.height - inkPixels);     // the panel darkens the rest
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // End to end: the frame read back from GL equals `volcl render`'s PNG for the same scene within 1/255,
 // after resizes, effect toggles, mode switches, TF presets and interactive (coarse) frames in between.
@@ -496,6 +638,28 @@ TEST(ViewerEndToEnd, InteractiveFramesAreCoarserAndReportedFramesSteerTheControl
     const ViewerFrame still = s.renderFrame(96, 96, false);
     EXPECT_EQ(still.image.width, 96);
     EXPECT_TRUE(still.level.full());
+}
+
+TEST(ViewerEndToEnd, OverlayLinesNameLevelEffectsAndTransport) {
+    const Volume v = phantom({20, 18, 16});
+    Scene scene;
+    scene.effects.shading = true;
+    scene.lights.push_back(Light{});
+    ViewerSession s(test::computeContext(), v, scene, phantomTf(), {}, {});
+    const ViewerFrame f = s.renderFrame(40, 30, false);
+    const auto lines = overlayLines(s, f, 123.0, FrameTransport::Pbo, 40);
+    std::string all;
+    for (const auto& l : lines) {
+        EXPECT_LE(l.size(), 40u) << l;
+        all += l + "\n";
+    }
+    EXPECT_NE(all.find("last frame 123 ms"), std::string::npos) << all;
+    EXPECT_NE(all.find("8.1 fps"), std::string::npos) << all;
+    EXPECT_NE(all.find("render 40x30 step"), std::string::npos) << all;
+    EXPECT_NE(all.find("adaptive: target 100 ms"), std::string::npos) << all;
+    EXPECT_NE(all.find("mode dvr"), std::string::npos) << all;
+    EXPECT_NE(all.find("shading"), std::string::npos) << all;
+    EXPECT_NE(all.find("transport: pixel buffer object"), std::string::npos) << all;
 }
 
 TEST(ViewerEndToEnd, ReloadKeepsTheCurrentTfOnABrokenFile) {

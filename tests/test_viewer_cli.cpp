@@ -151,3 +151,122 @@ TEST(ViewerCli, RefusesBadInputWithOneLineAndNoOutput) {
     }
     EXPECT_EQ(std::filesystem::file_size(dir / "blob_30x26x22_uint8.raw"), before); // input untouched
 }
+
+TEST(ViewerCli, TransportIsChosenFromTheDeviceAndShareIsRefusedWithoutIt) {
+    const auto dir = test::tempDir("viewer_cli_transport");
+    writeScene(dir, "");
+    const bool sharing = test::computeContext().device().hasExtension("cl_khr_gl_sharing");
+    const Outcome autoRun = runVolcl("view scene.json --headless --transport auto -o auto.png", dir);
+    ASSERT_EQ(autoRun.code, 0) << autoRun.err;
+    EXPECT_NE(autoRun.err.find(sharing ? "through cl_khr_gl_sharing" : "through pixel buffer object"),
+              std::string::npos)
+        << autoRun.err;
+    const Outcome pbo = runVolcl("view scene.json --headless --transport pbo -o pbo.png", dir);
+    ASSERT_EQ(pbo.code, 0) << pbo.err;
+    EXPECT_NE(pbo.err.find("through pixel buffer object"), std::string::npos) << pbo.err;
+    EXPECT_LE(maxDifference255(readImage(dir / "auto.png"), readImage(dir / "pbo.png")), 1.0);
+
+    const Outcome share = runVolcl("view scene.json --headless --transport share -o share.png", dir);
+    if (sharing) {
+        EXPECT_EQ(share.code, 0) << share.err;
+        EXPECT_LE(maxDifference255(readImage(dir / "share.png"), readImage(dir / "pbo.png")), 1.0);
+    } else {
+        EXPECT_EQ(share.code, 1) << share.err;
+        EXPECT_EQ(lines(share.err.substr(share.err.find("volcl:"))), 1u) << share.err;
+        EXPECT_NE(share.err.find("cl_khr_gl_sharing"), std::string::npos) << share.err;
+        EXPECT_FALSE(std::filesystem::exists(dir / "share.png"));
+    }
+    const Outcome bad = runVolcl("view scene.json --headless --transport gl -o bad.png", dir);
+    EXPECT_EQ(bad.code, 2) << bad.err;
+    EXPECT_NE(bad.err.find("'gl'"), std::string::npos) << bad.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "bad.png"));
+}
+
+TEST(ViewerCli, TakesEverySceneFlagOfRender) {
+    const auto dir = test::tempDir("viewer_cli_flags");
+    writeScene(dir, "");
+    // The same overrides on both commands: camera, image, step, effects, lights, clipping, iso, background.
+    const std::string flags =
+        "--eye 50,-20,-40 --target 14,12,10 --up 0,0,1 --view-height 36 --width 64 --height 50 --step 0.4 "
+        "--background 0.3,0.1,0.1,1 --light dir:-1,1,-1@1.2 --shading 0.3,0.7,0.2,16 --clip 1,0,0,-13 "
+        "--early-termination 0.97";
+    const Outcome r = runVolcl("render --scene scene.json " + flags + " -o render.png", dir);
+    ASSERT_EQ(r.code, 0) << r.err;
+    const Outcome v = runVolcl("view scene.json --headless " + flags + " -o view.png", dir);
+    ASSERT_EQ(v.code, 0) << v.err;
+    EXPECT_NE(v.err.find("shading"), std::string::npos) << v.err;
+    EXPECT_NE(v.err.find("clipping"), std::string::npos) << v.err;
+    const ImageBuffer a = readImage(dir / "render.png"), b = readImage(dir / "view.png");
+    EXPECT_EQ(b.width, 64);
+    EXPECT_EQ(b.height, 50);
+    EXPECT_LE(maxDifference255(a, b), 1.0);
+    // The scene given by --scene and the volume given by --volume work like the positional input.
+    const Outcome viaFlag = runVolcl("view --scene scene.json --headless " + flags + " -o flag.png", dir);
+    ASSERT_EQ(viaFlag.code, 0) << viaFlag.err;
+    EXPECT_LE(maxDifference255(a, readImage(dir / "flag.png")), 1.0);
+    const Outcome twice = runVolcl("view scene.json --scene scene.json --headless -o twice.png", dir);
+    EXPECT_EQ(twice.code, 2) << twice.err;
+    const Outcome badLight = runVolcl("view scene.json --headless --light sun -o bad.png", dir);
+    EXPECT_EQ(badLight.code, 2) << badLight.err;
+    EXPECT_NE(badLight.err.find("sun"), std::string::npos) << badLight.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "bad.png"));
+}
+
+TEST(ViewerCli, HeadlessOverlayChangesOnlyTheTopLeftCorner) {
+    const auto dir = test::tempDir("viewer_cli_overlay");
+    writeScene(dir, "");
+    const Outcome plain = runVolcl("view scene.json --headless --width 320 --height 200 -o plain.png", dir);
+    ASSERT_EQ(plain.code, 0) << plain.err;
+    const Outcome over =
+        runVolcl("view scene.json --headless --width 320 --height 200 --overlay -o overlay.png", dir);
+    ASSERT_EQ(over.code, 0) << over.err;
+    const ImageBuffer a = readImage(dir / "plain.png"), b = readImage(dir / "overlay.png");
+    ASSERT_EQ(a.width, b.width);
+    ASSERT_EQ(a.height, b.height);
+    int changedOutside = 0, white = 0, changedInside = 0;
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x) {
+            bool differs = false;
+            for (int c = 0; c < 3; ++c)
+                differs = differs || a.at(x, y, c) != b.at(x, y, c);
+            // The panel is at most 52 characters (320 px) wide and 7 lines (13 px) tall plus its margins.
+            const bool corner = y < 7 * 13 + 8;
+            if (differs && !corner) ++changedOutside;
+            if (differs && corner) ++changedInside;
+            white += b.at(x, y, 0) == 1.0f && b.at(x, y, 1) == 1.0f && b.at(x, y, 2) == 1.0f;
+        }
+    EXPECT_EQ(changedOutside, 0);
+    EXPECT_GT(changedInside, 1000);
+    EXPECT_GT(white, 200); // glyph pixels
+}
+
+TEST(ViewerCli, BenchViewReportsFrameTimesAgainstTheTarget) {
+    const auto dir = test::tempDir("viewer_cli_bench");
+    writeScene(dir, "");
+    const Outcome o = runVolcl("bench view scene.json --width 64 --height 48 --frames 5 --orbit 12 --stills 2 "
+                               "--target-ms 80 --csv frames.csv --json summary.json",
+                               dir);
+    ASSERT_EQ(o.code, 0) << o.err;
+    std::ifstream in(dir / "summary.json");
+    std::stringstream js;
+    js << in.rdbuf();
+    const std::string j = js.str();
+    for (const char* key :
+         {"\"interactive_median_ms\"", "\"interactive_p90_ms\"", "\"fraction_within_target_plus_10pct\"",
+          "\"still_median_ms\"", "\"interactive_upload_median_ms\"", "\"still_render_median_ms\"",
+          "\"transport\"", "\"target_ms\": 80"})
+        EXPECT_NE(j.find(key), std::string::npos) << key << "\n" << j;
+    EXPECT_NE(j.find("\"interactive_frames\": 3"), std::string::npos) << j;
+    EXPECT_NE(j.find("\"still_frames\": 3"), std::string::npos) << j; // the orbit's last + 2 stills
+    std::ifstream csv(dir / "frames.csv");
+    std::string line;
+    std::getline(csv, line);
+    EXPECT_NE(line.find("upload_ms"), std::string::npos) << line;
+    int rows = 0;
+    while (std::getline(csv, line))
+        ++rows;
+    EXPECT_EQ(rows, 7); // 5 orbit frames + 2 stills
+    const Outcome bad = runVolcl("bench view scene.json --frames 2 --csv bad.csv", dir);
+    EXPECT_EQ(bad.code, 2) << bad.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "bad.csv"));
+}

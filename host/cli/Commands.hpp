@@ -24,7 +24,7 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global);    // info, devices,
 void addDemoCommand(CLI::App& app, GlobalOptions& global);     // demo
 void addPreintCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global); // preint, bench preint
 void addCodecCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global);  // encode, decode, compare, bench codec
-void addViewCommand(CLI::App& app, GlobalOptions& global);     // view (OpenGL window or headless EGL)
+void addViewCommand(CLI::App& app, CLI::App& bench, GlobalOptions& global); // view, bench view
 void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global); // render, bench render
 
 /// Prints `volcl info` for a series (text, or JSON when `json`); used by info and demo.

@@ -65,7 +65,7 @@ void SceneFlags::add(CLI::App* cmd) {
     raw.add(*cmd);
 }
 
-Scene SceneFlags::build() const {
+Scene SceneFlags::build(bool requireTf) const {
     Scene s = scene.empty() ? Scene{} : Scene::fromFile(scene);
     if (!volume.empty()) s.volume = volume;
     if (!tf.empty()) s.tf = tf;
@@ -159,7 +159,7 @@ Scene SceneFlags::build() const {
         s.effects.clipPlanes.push_back({{v[0], v[1], v[2]}, v[3]});
     }
     if (s.volume.empty()) throw UsageError("no volume: give --volume or a scene with \"volume\"");
-    if (s.tf.empty()) throw UsageError("no transfer function: give --tf or a scene with \"tf\"");
+    if (requireTf && s.tf.empty()) throw UsageError("no transfer function: give --tf or a scene with \"tf\"");
     s.validate();
     return s;
 }

@@ -29,8 +29,9 @@ struct SceneFlags {
 
     /// Registers every scene flag on `cmd`.
     void add(CLI::App* cmd);
-    /// The scene file (if any) with the flags applied, validated. Throws UsageError.
-    Scene build() const;
+    /// The scene file (if any) with the flags applied, validated. Throws UsageError. `requireTf` false lets
+    /// a scene without a transfer function through (the viewer then starts on a preset).
+    Scene build(bool requireTf = true) const;
 };
 
 } // namespace volcl::cli

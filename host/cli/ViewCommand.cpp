@@ -1,15 +1,22 @@
-// `volcl view`: the interactive OpenGL viewer and its headless EGL run (frames from the ray marcher).
+// `volcl view` (the OpenGL viewer, or --headless through EGL) and `volcl bench view` (adaptive-quality
+// orbit).
 #include "host/Error.hpp"
 #include "host/cli/CliParsing.hpp"
 #include "host/cli/Commands.hpp"
+#include "host/cli/SceneFlags.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "host/render/Scene.hpp"
 #include "host/runtime/ClRuntime.hpp"
 #include "host/tf/TransferFunction.hpp"
+#include "host/viewer/ClGlSharing.hpp"
 #include "host/viewer/GlPresenter.hpp"
+#include "host/viewer/HeadlessGl.hpp"
 #include "host/viewer/ViewerApp.hpp"
 
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -20,11 +27,11 @@ namespace volcl::cli {
 namespace {
 
 struct ViewArgs {
-    std::string input, tf, mode, output, stats, keys;
-    RawReadFlags raw;
-    int width = 0, height = 0, frames = 1;
-    double step = 0.0, orbit = 0.0, targetMs = 100.0;
-    bool headless = false, noAdaptive = false;
+    std::string input, output, stats, keys, transport = "auto";
+    SceneFlags scene;
+    int frames = 1;
+    double orbit = 0.0, targetMs = 100.0;
+    bool headless = false, noAdaptive = false, overlay = false, noOverlay = false;
 };
 
 bool isSceneFile(const std::filesystem::path& p) {
@@ -36,67 +43,103 @@ bool isSceneFile(const std::filesystem::path& p) {
 
 std::string statsCsv(const std::vector<viewer::FrameRecord>& frames) {
     std::ostringstream os;
-    os << "frame,interactive,width,height,step,setup_ms,render_ms,kernel_ms,present_ms,frame_ms\n";
+    os << "frame,interactive,width,height,step,setup_ms,render_ms,kernel_ms,upload_ms,present_ms,frame_ms\n";
     for (const auto& f : frames)
         os << f.index << ',' << (f.interactive ? 1 : 0) << ',' << f.width << ',' << f.height << ',' << f.step
-           << ',' << f.setupMs << ',' << f.renderMs << ',' << f.kernelMs << ',' << f.presentMs << ','
-           << f.frameMs << '\n';
+           << ',' << f.setupMs << ',' << f.renderMs << ',' << f.kernelMs << ',' << f.uploadMs << ','
+           << f.presentMs << ',' << f.frameMs << '\n';
     return os.str();
 }
 
-void runView(const ViewArgs& a, const GlobalOptions& global) {
-    const std::filesystem::path input(a.input);
+/// The scene from the positional input (scene JSON or volume) and the scene flags.
+Scene viewScene(ViewArgs a) {
+    if (!a.input.empty()) {
+        if (isSceneFile(a.input)) {
+            if (!a.scene.scene.empty()) throw UsageError("view: give the scene once (positional or --scene)");
+            a.scene.scene = a.input;
+        } else {
+            if (!a.scene.volume.empty())
+                throw UsageError("view: give the volume once (positional or --volume)");
+            a.scene.volume = a.input;
+        }
+    }
+    return a.scene.build(/*requireTf=*/false);
+}
+
+/// Everything a viewer run needs, made in the order cl_khr_gl_sharing requires: the OpenCL device is
+/// probed for the extension first, then the GL context is made, then (for sharing) the OpenCL context that
+/// shares with it, then the session that renders on it.
+struct ViewerSetup {
     Scene scene;
-    if (isSceneFile(input)) {
-        scene = Scene::fromFile(input);
-    } else {
-        scene.volume = input;
-    }
-    if (!a.tf.empty()) scene.tf = a.tf;
-    if (!a.mode.empty()) scene.mode = parseRenderMode(a.mode);
-    if (a.step != 0.0) scene.step = a.step;
-    if (a.width > 0) scene.width = a.width;
-    if (a.height > 0) scene.height = a.height;
-    scene.validate();
-    if (scene.volume.empty()) throw UsageError(a.input + ": the scene names no volume");
-
-    const Volume volume = readVolume(scene.volume, a.raw.toReadOptions());
+    Volume volume;
     std::optional<TransferFunction> tf;
-    if (!scene.tf.empty()) tf = TransferFunction::fromFile(scene.tf);
-    if (!a.output.empty() && a.headless) checkNotSameFile(scene.volume, a.output);
+    viewer::FrameTransport transport = viewer::FrameTransport::Pbo;
+    std::unique_ptr<viewer::HeadlessGlContext> headlessGl;
+    std::unique_ptr<viewer::ViewerWindow> window;
+    std::unique_ptr<ComputeContext> cc;
+    std::unique_ptr<viewer::ViewerSession> session;
 
-    ComputeContext cc(global.device);
-    viewer::AdaptiveQualityOptions adaptive;
-    adaptive.enabled = !a.noAdaptive;
-    adaptive.targetMs = a.targetMs;
-    viewer::ViewerSession session(cc, volume, scene, tf, scene.tf, adaptive);
-    if (!global.quiet)
-        std::cerr << "view: device " << cc.device().name << ", frames reach OpenGL through a "
-                  << viewer::frameTransportName(viewer::FrameTransport::Pbo)
-                  << (viewer::availableTransport(cc.device()) == viewer::FrameTransport::Pbo
-                          ? " (the device has no cl_khr_gl_sharing)"
-                          : " (the device lists cl_khr_gl_sharing; the viewer does not use it yet)")
-                  << "\n";
-
-    if (!a.headless) {
-        viewer::WindowOptions w;
-        w.width = scene.width;
-        w.height = scene.height;
-        if (!a.output.empty()) w.screenshot = a.output;
-        w.quiet = global.quiet;
-        viewer::runWindow(session, w, std::cerr);
-        return;
+    ViewerSetup(const ViewArgs& a, const GlobalOptions& global, bool headless) {
+        scene = viewScene(a);
+        if (!a.output.empty() && headless) checkNotSameFile(scene.volume, a.output);
+        const viewer::TransportRequest request = viewer::parseTransportRequest(a.transport);
+        volume = readVolume(scene.volume, a.scene.raw.toReadOptions());
+        if (!scene.tf.empty()) tf = TransferFunction::fromFile(scene.tf);
+        cc = std::make_unique<ComputeContext>(global.device);
+        transport = viewer::chooseTransport(request, cc->device());
+        if (headless)
+            headlessGl = std::make_unique<viewer::HeadlessGlContext>();
+        else
+            window = std::make_unique<viewer::ViewerWindow>(scene.width, scene.height);
+        if (transport == viewer::FrameTransport::ClGlSharing) {
+            cc.reset(); // one context per device at a time: the shared one replaces the probe
+            cc = std::make_unique<ComputeContext>(global.device, viewer::glSharingContextProperties());
+        }
+        viewer::AdaptiveQualityOptions adaptive;
+        adaptive.enabled = !a.noAdaptive;
+        adaptive.targetMs = a.targetMs;
+        session = std::make_unique<viewer::ViewerSession>(*cc, volume, scene, tf, scene.tf, adaptive);
+        if (!global.quiet)
+            std::cerr << "view: device " << cc->device().name << "; frames reach OpenGL through "
+                      << viewer::frameTransportName(transport)
+                      << (viewer::availableTransport(cc->device()) == viewer::FrameTransport::Pbo
+                              ? " (the device has no cl_khr_gl_sharing)"
+                              : (transport == viewer::FrameTransport::Pbo
+                                     ? " (sharing refused by --transport)"
+                                     : ""))
+                      << '\n';
     }
+};
 
+viewer::HeadlessOptions headlessOptions(const ViewArgs& a, const ViewerSetup& s, bool quiet) {
     viewer::HeadlessOptions h;
-    h.width = scene.width;
-    h.height = scene.height;
+    h.width = s.scene.width;
+    h.height = s.scene.height;
     h.frames = a.frames;
     h.orbitDegrees = a.orbit;
     h.keys = a.keys;
     h.output = a.output;
-    h.quiet = global.quiet;
-    const viewer::HeadlessResult r = viewer::runHeadless(session, h, std::cerr);
+    h.transport = s.transport;
+    h.overlay = a.overlay;
+    h.quiet = quiet;
+    return h;
+}
+
+void runView(const ViewArgs& a, const GlobalOptions& global) {
+    ViewerSetup s(a, global, a.headless);
+    if (!a.headless) {
+        viewer::WindowOptions w;
+        w.width = s.scene.width;
+        w.height = s.scene.height;
+        if (!a.output.empty()) w.screenshot = a.output;
+        w.transport = s.transport;
+        w.overlay = !a.noOverlay;
+        w.quiet = global.quiet;
+        viewer::runWindow(*s.session, w, *s.window, std::cerr);
+        return;
+    }
+    const viewer::HeadlessResult r =
+        viewer::runHeadless(*s.session, headlessOptions(a, s, global.quiet), *s.headlessGl, std::cerr);
     if (!a.stats.empty()) {
         AtomicFile out(a.stats);
         out.write(statsCsv(r.frames));
@@ -116,50 +159,181 @@ void runView(const ViewArgs& a, const GlobalOptions& global) {
                           a.noAdaptive ? ", adaptive quality off" : "");
             std::cerr << line;
         }
-        std::snprintf(line, sizeof line,
-                      "view: full-quality frame %dx%d step %g: %.1f ms (render %.1f, kernel %.1f, "
-                      "present %.1f)\n",
-                      last.width, last.height, last.step, last.frameMs, last.renderMs, last.kernelMs,
-                      last.presentMs);
+        std::snprintf(
+            line, sizeof line,
+            "view: full-quality frame %dx%d step %g: %.1f ms (render %.1f, kernel %.1f, upload %.1f, "
+            "present %.1f)\n",
+            last.width, last.height, last.step, last.frameMs, last.renderMs, last.kernelMs, last.uploadMs,
+            last.presentMs);
         std::cerr << line;
-        std::cerr << "view: compiled: " << session.compiledSummary() << '\n';
+        std::cerr << "view: compiled: " << s.session->compiledSummary() << '\n';
     }
+}
+
+// ---- bench view ------------------------------------------------------------------------------------------
+
+struct BenchViewArgs {
+    ViewArgs view;
+    int stills = 3;
+    std::string csv, json;
+};
+
+void runBenchView(BenchViewArgs b, const GlobalOptions& global) {
+    ViewArgs& a = b.view;
+    a.headless = true;
+    // The figure is at 512x512 whatever the scene says; --width/--height choose another size.
+    if (!a.scene.width) a.scene.width = 512;
+    if (!a.scene.height) a.scene.height = 512;
+    if (!b.csv.empty()) checkNotSameFile(a.input.empty() ? a.scene.volume : a.input, b.csv);
+    if (!b.json.empty()) checkNotSameFile(a.input.empty() ? a.scene.volume : a.input, b.json);
+    ViewerSetup s(a, global, true);
+    viewer::HeadlessOptions h = headlessOptions(a, s, true);
+    h.output.clear();
+    // The orbit: a full-quality frame, `frames - 2` interactive frames, a full-quality frame, then the still
+    // frames. The first frame also pays for GL shader compilation, so the still figures leave it out.
+    h.stillFrames = b.stills;
+    const viewer::HeadlessResult orbit = viewer::runHeadless(*s.session, h, *s.headlessGl, std::cerr);
+    const std::vector<viewer::FrameRecord>& frames = orbit.frames;
+    std::vector<double> inter, interUpload, interRender, stillMs, stillUpload, stillRender;
+    int within = 0, rebuilds = 0;
+    for (const auto& f : frames) {
+        if (f.interactive) {
+            inter.push_back(f.frameMs);
+            interUpload.push_back(f.uploadMs);
+            interRender.push_back(f.renderMs);
+            within += f.frameMs <= 1.1 * a.targetMs ? 1 : 0;
+            rebuilds += f.setupMs > 0.5 * f.frameMs ? 1 : 0;
+        } else if (f.index > 0) {
+            stillMs.push_back(f.frameMs);
+            stillUpload.push_back(f.uploadMs);
+            stillRender.push_back(f.renderMs);
+        }
+    }
+    const auto med = [](const std::vector<double>& v) { return viewer::percentile(v, 50); };
+    nlohmann::json j;
+    j["device"] = s.cc->device().name;
+    j["gl"] = orbit.gl;
+    j["transport"] = std::string(viewer::frameTransportName(s.transport));
+    j["viewport"] = {s.scene.width, s.scene.height};
+    j["step"] = s.scene.step;
+    j["target_ms"] = a.targetMs;
+    j["adaptive"] = !a.noAdaptive;
+    j["interactive_frames"] = inter.size();
+    j["interactive_median_ms"] = med(inter);
+    j["interactive_p90_ms"] = viewer::percentile(inter, 90);
+    j["fraction_within_target_plus_10pct"] = inter.empty() ? 0.0 : double(within) / double(inter.size());
+    j["interactive_upload_median_ms"] = med(interUpload);
+    j["interactive_render_median_ms"] = med(interRender);
+    j["still_frames"] = stillMs.size();
+    j["still_median_ms"] = med(stillMs);
+    j["still_upload_median_ms"] = med(stillUpload);
+    j["still_render_median_ms"] = med(stillRender);
+    j["compiled"] = s.session->compiledSummary();
+
+    if (!b.csv.empty()) {
+        AtomicFile out(b.csv);
+        out.write(statsCsv(frames));
+        out.commit();
+    }
+    if (!b.json.empty()) {
+        AtomicFile out(b.json);
+        out.write(j.dump(2) + "\n");
+        out.commit();
+    }
+    char line[512];
+    std::printf("bench view: %s, %dx%d, step %g, %s; device %s; GL %s\n",
+                s.session->compiledSummary().c_str(), s.scene.width, s.scene.height, s.scene.step,
+                std::string(viewer::frameTransportName(s.transport)).c_str(), s.cc->device().name.c_str(),
+                orbit.gl.c_str());
+    if (!inter.empty()) {
+        std::snprintf(
+            line, sizeof line,
+            "interactive (%zu frames, target %.0f ms%s): median %.1f ms, p90 %.1f ms, within target+10%% "
+            "%.0f%% (%d of %zu); frames dominated by a step change (setScene) %d\n",
+            inter.size(), a.targetMs, a.noAdaptive ? ", adaptive off" : "", med(inter),
+            viewer::percentile(inter, 90), 100.0 * within / double(inter.size()), within, inter.size(),
+            rebuilds);
+        std::fputs(line, stdout);
+        std::snprintf(line, sizeof line,
+                      "interactive transport: upload median %.2f ms vs render median %.2f ms (ratio %.3f)\n",
+                      med(interUpload), med(interRender),
+                      med(interRender) > 0 ? med(interUpload) / med(interRender) : 0.0);
+        std::fputs(line, stdout);
+    }
+    std::snprintf(
+        line, sizeof line,
+        "full-quality still (%zu frames): median %.1f ms; upload median %.2f ms vs render median %.1f ms "
+        "(ratio %.4f)\n",
+        stillMs.size(), med(stillMs), med(stillUpload), med(stillRender),
+        med(stillRender) > 0 ? med(stillUpload) / med(stillRender) : 0.0);
+    std::fputs(line, stdout);
+    if (!inter.empty() && med(stillMs) > 0) {
+        std::snprintf(line, sizeof line, "interactive median / still median: %.4f\n",
+                      med(inter) / med(stillMs));
+        std::fputs(line, stdout);
+    }
+}
+
+void addViewFlags(CLI::App* cmd, ViewArgs& a) {
+    a.scene.add(cmd);
+    cmd->add_option("--target-ms", a.targetMs, "Adaptive quality: frame time to hold while interacting")
+        ->check(CLI::Range(1.0, 10000.0))
+        ->capture_default_str();
+    cmd->add_flag("--no-adaptive", a.noAdaptive, "Render every frame at full quality");
+    cmd->add_option("--transport", a.transport,
+                    "How frames reach OpenGL: auto (sharing when the device lists cl_khr_gl_sharing), pbo, "
+                    "share")
+        ->capture_default_str();
+    cmd->add_option("--keys", a.keys,
+                    "Headless: key actions to apply first, e.g. \"1m\" (see the list below)");
 }
 
 } // namespace
 
-void addViewCommand(CLI::App& app, GlobalOptions& global) {
+void addViewCommand(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     auto* cmd = app.add_subcommand(
         "view", "Interactive OpenGL viewer of the ray marcher (or --headless through EGL)");
     auto a = std::make_shared<ViewArgs>();
-    cmd->add_option("input", a->input, "Scene JSON, or a volume file (then give --tf)")->required();
-    cmd->add_option("--tf", a->tf,
-                    "Transfer function (canonical or ParaView JSON, RGBA strip); overrides the scene's");
-    cmd->add_option("--mode", a->mode, "Start in this mode: dvr, mip, iso, xray");
-    cmd->add_option("--step", a->step, "Full-quality ray step in world units (default: the scene's)");
-    cmd->add_option("--width", a->width, "Window / framebuffer width (default: the scene's image width)")
-        ->check(CLI::Range(1, 16384));
-    cmd->add_option("--height", a->height, "Window / framebuffer height (default: the scene's image height)")
-        ->check(CLI::Range(1, 16384));
+    cmd->add_option("input", a->input,
+                    "Scene JSON, or a volume file (then give --tf); or use --scene/--volume");
+    addViewFlags(cmd, *a);
     cmd->add_flag("--headless", a->headless, "No window: render through an EGL offscreen context");
     cmd->add_option("--frames", a->frames, "Headless: frames to render; the first and last are full quality")
         ->check(CLI::Range(1, 100000))
         ->capture_default_str();
     cmd->add_option("--orbit", a->orbit,
                     "Headless: degrees to orbit before each frame in between (interaction)");
-    cmd->add_option("--keys", a->keys,
-                    "Headless: key actions to apply first, e.g. \"1m\" (see the list below)");
     cmd->add_option(
         "-o,--output", a->output,
         "Headless: PNG/EXR of the last frame read back from OpenGL; window: screenshot path for 's'");
     cmd->add_option("--stats", a->stats, "Headless: per-frame timings as CSV");
-    cmd->add_option("--target-ms", a->targetMs, "Adaptive quality: frame time to hold while interacting")
-        ->check(CLI::Range(1.0, 10000.0))
-        ->capture_default_str();
-    cmd->add_flag("--no-adaptive", a->noAdaptive, "Render every frame at full quality");
-    a->raw.add(*cmd);
+    cmd->add_flag("--overlay", a->overlay, "Headless: draw the text overlay into the frame (off by default)");
+    cmd->add_flag("--no-overlay", a->noOverlay,
+                  "Window: start with the text overlay hidden ('o' toggles it)");
     cmd->footer("Keys and mouse:\n" + viewer::keyBindingsHelp());
     cmd->callback([a, &global] { runView(*a, global); });
+
+    auto* b = bench.add_subcommand(
+        "view",
+        "Viewer: adaptive-quality orbit (headless EGL), frame times against the target, transport cost");
+    auto ba = std::make_shared<BenchViewArgs>();
+    ba->view.frames = 62;
+    ba->view.orbit = 3.0;
+    b->add_option("input", ba->view.input, "Scene JSON, or a volume file (then give --tf)");
+    addViewFlags(b, ba->view);
+    b->add_option("--frames", ba->view.frames, "Orbit frames: the first and last are full quality")
+        ->check(CLI::Range(3, 100000))
+        ->capture_default_str();
+    b->add_option("--orbit", ba->view.orbit, "Degrees of yaw before each interactive frame")
+        ->capture_default_str();
+    b->add_option(
+         "--stills", ba->stills,
+         "Full-quality frames after the orbit (the still frame time is their median with the orbit's last)")
+        ->check(CLI::Range(0, 1000))
+        ->capture_default_str();
+    b->add_option("--csv", ba->csv, "Per-frame CSV (orbit, then the stills)");
+    b->add_option("--json", ba->json, "Summary JSON");
+    b->callback([ba, &global] { runBenchView(*ba, global); });
 }
 
 } // namespace volcl::cli

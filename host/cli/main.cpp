@@ -15,7 +15,7 @@ int main(int argc, char** argv) {
 
     volcl::cli::addInfoCommands(app, global);
     volcl::cli::addDemoCommand(app, global);
-    volcl::cli::addViewCommand(app, global);
+    volcl::cli::addViewCommand(app, *bench, global);
     volcl::cli::addPreintCommands(app, *bench, global);
     volcl::cli::addRenderCommands(app, *bench, global);
     volcl::cli::addCodecCommands(app, *bench, global);

@@ -70,8 +70,31 @@ std::string_view frameTransportName(FrameTransport t) noexcept {
     return t == FrameTransport::Pbo ? "pixel buffer object" : "cl_khr_gl_sharing";
 }
 
+TransportRequest parseTransportRequest(std::string_view text) {
+    if (text == "auto") return TransportRequest::Auto;
+    if (text == "pbo") return TransportRequest::Pbo;
+    if (text == "share") return TransportRequest::Share;
+    throw UsageError("--transport '" + std::string(text) + "' is unknown (auto, pbo, share)");
+}
+
 FrameTransport availableTransport(const DeviceInfo& device) {
     return device.hasExtension("cl_khr_gl_sharing") ? FrameTransport::ClGlSharing : FrameTransport::Pbo;
+}
+
+FrameTransport chooseTransport(TransportRequest request, const DeviceInfo& device) {
+    const FrameTransport available = availableTransport(device);
+    switch (request) {
+    case TransportRequest::Pbo:
+        return FrameTransport::Pbo;
+    case TransportRequest::Auto:
+        return available;
+    case TransportRequest::Share:
+        break;
+    }
+    if (available != FrameTransport::ClGlSharing)
+        throw Error("view: --transport share: OpenCL device '" + device.name +
+                    "' does not list cl_khr_gl_sharing (use --transport pbo or auto)");
+    return FrameTransport::ClGlSharing;
 }
 
 void glCheck(const char* what) {
@@ -137,18 +160,7 @@ void FramePresenter::upload(const ImageBuffer& frame) {
 
     const std::size_t pixels = std::size_t(frame.width) * std::size_t(frame.height);
     const std::size_t bytes = pixels * 4 * sizeof(float);
-    glBindTexture(GL_TEXTURE_2D, texture_);
-    // Allocate before binding the unpack buffer: with one bound, the null pointer would read from it.
-    glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
-    if (frame.width != texWidth_ || frame.height != texHeight_) {
-        glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, frame.width, frame.height, 0, GL_RGBA, GL_FLOAT, nullptr);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
-        texWidth_ = frame.width;
-        texHeight_ = frame.height;
-    }
+    ensureTexture(frame.width, frame.height);
     glBindBuffer(GL_PIXEL_UNPACK_BUFFER, pbo_);
     // Orphan the buffer so the driver never waits for the previous frame's transfer.
     glBufferData(GL_PIXEL_UNPACK_BUFFER, GLsizeiptr(bytes), nullptr, GL_STREAM_DRAW);
@@ -173,6 +185,29 @@ void FramePresenter::upload(const ImageBuffer& frame) {
     glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, frame.width, frame.height, GL_RGBA, GL_FLOAT, nullptr);
     glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
     glCheck("frame upload");
+}
+
+void FramePresenter::ensureTexture(int width, int height) {
+    glBindTexture(GL_TEXTURE_2D, texture_);
+    // Allocate before binding an unpack buffer: with one bound, the null pointer would read from it.
+    glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
+    if (width == texWidth_ && height == texHeight_) return;
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, width, height, 0, GL_RGBA, GL_FLOAT, nullptr);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+    texWidth_ = width;
+    texHeight_ = height;
+}
+
+void FramePresenter::uploadFromBuffer(unsigned unpackBuffer, int width, int height) {
+    if (width <= 0 || height <= 0) throw Error("viewer: empty frame");
+    ensureTexture(width, height);
+    glBindBuffer(GL_PIXEL_UNPACK_BUFFER, unpackBuffer);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width, height, GL_RGBA, GL_FLOAT, nullptr);
+    glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
+    glCheck("shared frame upload");
 }
 
 void FramePresenter::draw(int width, int height, std::array<double, 4> background) {

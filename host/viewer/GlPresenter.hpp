@@ -17,14 +17,22 @@ namespace volcl::viewer {
 /// How a frame travels from OpenCL to OpenGL.
 enum class FrameTransport {
     Pbo,        ///< host image -> mapped pixel-unpack buffer -> texture (works with every device)
-    ClGlSharing ///< cl_khr_gl_sharing: the device writes a GL object directly
+    ClGlSharing ///< cl_khr_gl_sharing: the device copies the frame into a shared GL buffer -> texture
 };
 std::string_view frameTransportName(FrameTransport t) noexcept;
 
+/// What `--transport` asks for.
+enum class TransportRequest { Auto, Pbo, Share };
+/// "auto", "pbo" or "share"; throws UsageError otherwise.
+TransportRequest parseTransportRequest(std::string_view text);
+
 /// The transport a device allows. PoCL lacks cl_khr_gl_sharing and aborts if its GL entry points are
-/// called, so the extension is checked before anything else. The viewer presents through the PBO either
-/// way (see docs/viewer.md); this records what the device would allow.
+/// called, so the extension is checked before anything else touches CL-GL interop.
 FrameTransport availableTransport(const DeviceInfo& device);
+
+/// Auto: sharing when the device lists cl_khr_gl_sharing, else the PBO. Pbo: always the PBO. Share: sharing,
+/// or volcl::Error (exit 1) naming the device when it lacks the extension.
+FrameTransport chooseTransport(TransportRequest request, const DeviceInfo& device);
 
 /// Throws volcl::Error naming `what` if OpenGL has recorded an error.
 void glCheck(const char* what);
@@ -47,6 +55,9 @@ public:
     /// Copies the R, G, B, A channels (other channels such as Z are skipped) into the pixel-unpack buffer
     /// and from there into the frame texture, reallocating both when the frame size changes.
     void upload(const ImageBuffer& frame);
+    /// Uploads a frame that already sits in the GL buffer `unpackBuffer` as width x height RGBA floats (the
+    /// cl_khr_gl_sharing path: OpenCL wrote it, no host copy).
+    void uploadFromBuffer(unsigned unpackBuffer, int width, int height);
     /// Draws the frame texture over a viewport of `width` x `height` pixels of the bound framebuffer.
     /// A frame of the viewport's size is sampled texel for texel; a smaller one is magnified bilinearly.
     void draw(int width, int height, std::array<double, 4> background);
@@ -54,6 +65,7 @@ public:
     int frameHeight() const noexcept { return texHeight_; }
 
 private:
+    void ensureTexture(int width, int height);
     unsigned program_ = 0, vao_ = 0, texture_ = 0, pbo_ = 0;
     int locBackground_ = -1, locFrame_ = -1;
     int texWidth_ = 0, texHeight_ = 0;

@@ -3,8 +3,10 @@
 
 #include "host/Error.hpp"
 #include "host/runtime/Timing.hpp"
+#include "host/viewer/ClGlSharing.hpp"
 #include "host/viewer/GlPresenter.hpp"
 #include "host/viewer/HeadlessGl.hpp"
+#include "host/viewer/Overlay.hpp"
 
 #include <epoxy/gl.h>
 // GLFW after epoxy: epoxy provides the GL declarations, GLFW must not pull in its own.
@@ -14,6 +16,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <deque>
 #include <memory>
 
@@ -22,17 +25,48 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
+// What presents frames: the presenter, the shared buffer on the cl_khr_gl_sharing path, the overlay.
+struct FrameSink {
+    FramePresenter presenter;
+    std::unique_ptr<SharedFrameBuffer> shared; ///< set only for FrameTransport::ClGlSharing
+    std::unique_ptr<TextOverlay> overlay;      ///< set when the overlay may be drawn
+    FrameTransport transport = FrameTransport::Pbo;
+
+    FrameSink(ViewerSession& session, FrameTransport t, bool withOverlay) : transport(t) {
+        if (t == FrameTransport::ClGlSharing) shared = std::make_unique<SharedFrameBuffer>(session.compute());
+        if (withOverlay) overlay = std::make_unique<TextOverlay>();
+    }
+};
+
+struct PresentTimes {
+    double uploadMs = 0.0, totalMs = 0.0;
+};
+
 // Presents one frame into the bound framebuffer and waits for GL, so the frame time covers the whole path.
-double present(FramePresenter& presenter, const ViewerFrame& frame, int width, int height,
-               const std::array<double, 4>& background) {
+// The overlay shows the previous frame's total time (this one's is not known until it is drawn).
+PresentTimes present(FrameSink& sink, ViewerSession& session, const ViewerFrame& frame, int width, int height,
+                     bool overlay, double shownFrameMs) {
     Stopwatch sw;
-    presenter.upload(frame.image);
-    presenter.draw(width, height, background);
+    PresentTimes t;
+    if (sink.shared)
+        sink.shared->present(session.renderer().outputBuffer(), frame.image.width, frame.image.height,
+                             sink.presenter);
+    else
+        sink.presenter.upload(frame.image);
     glFinish();
-    return sw.milliseconds();
+    t.uploadMs = sw.milliseconds();
+    sink.presenter.draw(width, height, session.currentScene().background);
+    if (overlay && sink.overlay) {
+        sink.overlay->setText(overlayLines(session, frame, shownFrameMs, sink.transport,
+                                           std::size_t(std::max(width - 2 * kTextMargin, 0) / kGlyphWidth)));
+        sink.overlay->draw(width, height);
+    }
+    glFinish();
+    t.totalMs = sw.milliseconds();
+    return t;
 }
 
-FrameRecord record(int index, const ViewerFrame& f, double step, double presentMs, double frameMs) {
+FrameRecord record(int index, const ViewerFrame& f, double step, PresentTimes present, double frameMs) {
     FrameRecord r;
     r.index = index;
     r.interactive = f.interactive;
@@ -42,7 +76,8 @@ FrameRecord record(int index, const ViewerFrame& f, double step, double presentM
     r.setupMs = f.setupMs;
     r.renderMs = f.renderMs;
     r.kernelMs = f.kernelMs;
-    r.presentMs = presentMs;
+    r.uploadMs = present.uploadMs;
+    r.presentMs = present.totalMs;
     r.frameMs = frameMs;
     return r;
 }
@@ -58,7 +93,38 @@ double percentile(std::vector<double> samples, double p) {
     return samples[i] + (samples[j] - samples[i]) * (pos - double(i));
 }
 
+std::vector<std::string> overlayLines(const ViewerSession& session, const ViewerFrame& frame, double frameMs,
+                                      FrameTransport transport, std::size_t maxChars) {
+    char buf[160];
+    std::vector<std::string> lines;
+    std::snprintf(buf, sizeof buf, "last frame %.0f ms  %.1f fps", frameMs,
+                  frameMs > 0 ? 1000.0 / frameMs : 0.0);
+    lines.emplace_back(buf);
+    const Scene scene = session.currentScene();
+    std::snprintf(buf, sizeof buf, "render %dx%d step %.3g%s", frame.image.width, frame.image.height,
+                  scene.step * frame.level.stepScale, frame.level.full() ? "" : " (interactive)");
+    lines.emplace_back(buf);
+    if (session.adaptive().options().enabled)
+        std::snprintf(buf, sizeof buf, "adaptive: target %.0f ms", session.adaptive().options().targetMs);
+    else
+        std::snprintf(buf, sizeof buf, "adaptive: off");
+    lines.emplace_back(buf);
+    lines.push_back("mode " + std::string(renderModeName(scene.mode)) + "  TF " + session.tfPresetName());
+    for (auto& l : wrapList("compiled: ", session.compiledSummary(), std::max<std::size_t>(maxChars, 24)))
+        lines.push_back(std::move(l));
+    lines.push_back("transport: " + std::string(frameTransportName(transport)));
+    return lines;
+}
+
 HeadlessResult runHeadless(ViewerSession& session, const HeadlessOptions& o, std::ostream& log) {
+    if (o.transport != FrameTransport::Pbo)
+        throw Error("view: the shared transport needs the OpenCL context made after the GL one");
+    HeadlessGlContext gl;
+    return runHeadless(session, o, gl, log);
+}
+
+HeadlessResult runHeadless(ViewerSession& session, const HeadlessOptions& o, HeadlessGlContext& gl,
+                           std::ostream& log) {
     if (o.width <= 0 || o.height <= 0) throw UsageError("view: --width and --height must be positive");
     if (o.frames < 1) throw UsageError("view: --frames must be at least 1");
     if (!std::isfinite(o.orbitDegrees)) throw UsageError("view: --orbit must be a finite angle");
@@ -71,23 +137,24 @@ HeadlessResult runHeadless(ViewerSession& session, const HeadlessOptions& o, std
     }
 
     HeadlessResult result;
-    HeadlessGlContext gl;
     result.gl = gl.description();
     if (!o.quiet) log << "view: " << result.gl << '\n';
-    FramePresenter presenter;
+    FrameSink sink(session, o.transport, o.overlay);
     OffscreenFramebuffer target(o.width, o.height);
-    for (int i = 0; i < o.frames; ++i) {
+    double lastFrameMs = 0.0;
+    if (o.stillFrames < 0) throw UsageError("view: still frames must not be negative");
+    for (int i = 0; i < o.frames + o.stillFrames; ++i) {
         // Like a user: the viewer opens on a full-quality frame, the orbit follows, the view settles.
         const bool interactive = i > 0 && i + 1 < o.frames && o.orbitDegrees != 0.0;
         if (interactive) session.camera().orbit(o.orbitDegrees * kPi / 180.0, 0.0);
         Stopwatch sw;
         ViewerFrame f = session.renderFrame(o.width, o.height, interactive);
         target.bind();
-        const double presentMs = present(presenter, f, o.width, o.height, session.currentScene().background);
+        const PresentTimes pt = present(sink, session, f, o.width, o.height, o.overlay, lastFrameMs);
         const double frameMs = sw.milliseconds();
+        lastFrameMs = frameMs;
         session.frameDone(f, frameMs);
-        result.frames.push_back(
-            record(i, f, session.currentScene().step * f.level.stepScale, presentMs, frameMs));
+        result.frames.push_back(record(i, f, session.currentScene().step * f.level.stepScale, pt, frameMs));
     }
     result.readback = readFramebuffer(o.width, o.height);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
@@ -159,18 +226,6 @@ void onScroll(GLFWwindow* w, double, double yoffset) {
     inputOf(w).zoomSteps += yoffset;
 }
 
-struct GlfwLibrary {
-    GlfwLibrary() {
-        if (!glfwInit()) {
-            const char* why = nullptr;
-            glfwGetError(&why);
-            throw Error(std::string("view: cannot open a window (") +
-                        (why ? why : "GLFW initialisation failed") + "); set DISPLAY, or use --headless");
-        }
-    }
-    ~GlfwLibrary() { glfwTerminate(); }
-};
-
 std::filesystem::path numbered(const std::filesystem::path& p, int n) {
     if (n == 0) return p;
     return p.parent_path() / (p.stem().string() + "-" + std::to_string(n) + p.extension().string());
@@ -178,24 +233,45 @@ std::filesystem::path numbered(const std::filesystem::path& p, int n) {
 
 } // namespace
 
-void runWindow(ViewerSession& session, const WindowOptions& o, std::ostream& log) {
-    if (o.width <= 0 || o.height <= 0) throw UsageError("view: --width and --height must be positive");
-    GlfwLibrary glfw;
+ViewerWindow::ViewerWindow(int width, int height) {
+    if (width <= 0 || height <= 0) throw UsageError("view: --width and --height must be positive");
+    if (!glfwInit()) {
+        const char* why = nullptr;
+        glfwGetError(&why);
+        throw Error(std::string("view: cannot open a window (") + (why ? why : "GLFW initialisation failed") +
+                    "); set DISPLAY, or use --headless");
+    }
     glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
     glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
     glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
     glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
-    std::unique_ptr<GLFWwindow, void (*)(GLFWwindow*)> window(
-        glfwCreateWindow(o.width, o.height, "volcl view", nullptr, nullptr), glfwDestroyWindow);
-    if (!window) {
+    GLFWwindow* w = glfwCreateWindow(width, height, "volcl view", nullptr, nullptr);
+    if (!w) {
         const char* why = nullptr;
         glfwGetError(&why);
+        glfwTerminate();
         throw Error(std::string("view: cannot create an OpenGL 3.3 core window (") +
                     (why ? why : "unknown reason") + ")");
     }
-    GLFWwindow* w = window.get();
     glfwMakeContextCurrent(w);
     glfwSwapInterval(0); // frame pacing is the adaptive controller's job, not the vertical retrace's
+    window_ = w;
+}
+
+ViewerWindow::~ViewerWindow() {
+    glfwDestroyWindow(static_cast<GLFWwindow*>(window_));
+    glfwTerminate();
+}
+
+void runWindow(ViewerSession& session, const WindowOptions& o, std::ostream& log) {
+    if (o.transport != FrameTransport::Pbo)
+        throw Error("view: the shared transport needs the OpenCL context made after the GL one");
+    ViewerWindow window(o.width, o.height);
+    runWindow(session, o, window, log);
+}
+
+void runWindow(ViewerSession& session, const WindowOptions& o, ViewerWindow& window, std::ostream& log) {
+    GLFWwindow* w = static_cast<GLFWwindow*>(window.handle());
     InputState in;
     in.session = &session;
     glfwSetWindowUserPointer(w, &in);
@@ -204,7 +280,9 @@ void runWindow(ViewerSession& session, const WindowOptions& o, std::ostream& log
     glfwSetCursorPosCallback(w, onCursor);
     glfwSetScrollCallback(w, onScroll);
 
-    FramePresenter presenter;
+    FrameSink sink(session, o.transport, true);
+    bool overlay = o.overlay;
+    double lastFrameMs = 0.0;
     if (!o.quiet)
         log << "view: OpenGL " << reinterpret_cast<const char*>(glGetString(GL_VERSION)) << ", "
             << reinterpret_cast<const char*>(glGetString(GL_RENDERER)) << "\n"
@@ -233,7 +311,11 @@ void runWindow(ViewerSession& session, const WindowOptions& o, std::ostream& log
                 in.quit = true;
             else if (*action == ViewerAction::Screenshot)
                 saveShot = needFull = true;
-            else {
+            else if (*action == ViewerAction::ToggleOverlay) {
+                overlay = !overlay;
+                if (!o.quiet) log << "view: overlay " << (overlay ? "on" : "off") << '\n';
+                needFull = true;
+            } else {
                 const std::string what = session.apply(*action);
                 if (!o.quiet && !what.empty()) log << "view: " << what << '\n';
                 needFull = true;
@@ -278,8 +360,9 @@ void runWindow(ViewerSession& session, const WindowOptions& o, std::ostream& log
             continue;
         }
         glBindFramebuffer(GL_FRAMEBUFFER, 0);
-        present(presenter, f, fw, fh, session.currentScene().background);
+        present(sink, session, f, fw, fh, overlay, lastFrameMs);
         const double frameMs = sw.milliseconds();
+        lastFrameMs = frameMs;
         session.frameDone(f, frameMs);
         if (saveShot && !interactiveFrame) {
             const std::filesystem::path path = numbered(o.screenshot, shots++);

@@ -33,6 +33,7 @@ constexpr KeyBinding kBindings[] = {
     {'a', ViewerAction::ToggleAdaptive, "toggle adaptive quality"},
     {'c', ViewerAction::ResetCamera, "reset the camera"},
     {'s', ViewerAction::Screenshot, "save a screenshot (PNG of the window)"},
+    {'o', ViewerAction::ToggleOverlay, "toggle the text overlay (frame time, level, effects, transport)"},
     {'q', ViewerAction::Quit, "quit (also Escape)"},
 };
 
@@ -243,6 +244,7 @@ std::string ViewerSession::apply(ViewerAction action) {
         what = "camera reset";
         break;
     case ViewerAction::Screenshot:
+    case ViewerAction::ToggleOverlay:
     case ViewerAction::Quit:
         return {};
     }

@@ -33,6 +33,7 @@ enum class ViewerAction {
     ToggleAdaptive,    ///< a
     ResetCamera,       ///< c
     Screenshot,        ///< s (handled by the front end: it owns the framebuffer)
+    ToggleOverlay,     ///< o (the front end's: text over the frame)
     Quit,              ///< q, Escape
 };
 
@@ -94,6 +95,7 @@ public:
     /// The scene as the next frame will render it at full quality (camera included).
     Scene currentScene() const;
     const Renderer& renderer() const noexcept { return *renderer_; }
+    ComputeContext& compute() const noexcept { return cc_; }
     const AdaptiveQuality& adaptive() const noexcept { return adaptive_; }
     const std::string& tfPresetName() const noexcept { return presets_[presetIndex_].name; }
     /// Short names of what the current kernel compiles in, e.g. "shading, shadows, skipping".
