@@ -1,6 +1,7 @@
 #!/usr/bin/python3
-"""Plots a `volcl view --headless --stats` CSV: frame time per frame against the target, and the rendered
-image edge. Usage: plot_viewer_orbit.py FRAMES.csv TARGET_MS OUT.png"""
+"""Plots a `volcl bench view --csv` (or `volcl view --headless --stats`) CSV: frame time per frame against
+the target, the transport (upload) time, and the rendered image edge.
+Usage: plot_viewer_orbit.py FRAMES.csv TARGET_MS OUT.png"""
 import csv
 import sys
 
@@ -29,9 +30,13 @@ def main():
                 label=f"interactive frames (median {med:.0f} ms, p90 {p90:.0f} ms)")
     ax.semilogy([f for f, i in zip(frame, inter) if not i], [m for m, i in zip(ms, inter) if not i], "s",
                 color="C3", label="full-quality frames (512x512, scene step)")
+    if "upload_ms" in rows[0]:
+        up = [float(r["upload_ms"]) for r in rows]
+        ax.semilogy(frame, up, ".", color="C4", ms=3, label="of which transport (PBO upload + glFinish)")
     ax.axhline(target, color="k", ls="--", lw=1, label=f"target {target:.0f} ms")
+    ax.axhline(1.1 * target, color="k", ls=":", lw=1, label="target + 10 %")
     ax.set_xlabel("frame")
-    ax.set_ylabel("frame time, ms (render + PBO upload + draw)")
+    ax.set_ylabel("frame time, ms (render + upload + draw)")
     ax2 = ax.twinx()
     ax2.plot(frame, edge, color="C2", lw=1, alpha=0.7, label="rendered edge (pixels)")
     ax2.set_ylabel("rendered image edge, pixels")

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Opens `volcl view` on the BrainWeb MRI in an Xvfb X server, drives it with xdotool (orbit drag, wheel
-# zoom, effect and mode keys, the screenshot key), checks from the viewer's log that each input took effect,
+# zoom, the shading key, overlay off and on, the screenshot key), checks from the viewer's log that each input took effect,
 # and saves a screenshot of the X screen. Usage:
 #   bench/viewer_xvfb.sh [VOLCL_BINARY] [SCREENSHOT.png]
 # Defaults: build/volcl and docs/viewer-screenshot.png. Needs xvfb, xdotool, imagemagick (scripts/apt-packages.txt).
@@ -80,6 +80,12 @@ xdotool key 1
 wait_log "shading on"
 t=$(wait_title "shading.*$full")
 echo "after key 1:   $t"
+# The overlay (frame time, level, effects, transport) toggles with o; it is on in the screenshot.
+xdotool key o
+wait_log "overlay off"
+xdotool key o
+wait_log "overlay on"
+t=$(wait_title "$full")
 xdotool key s
 wait_log "view: screenshot"
 [[ -s "$work/key-shot.png" ]] || { echo "viewer_xvfb: the s key wrote no screenshot" >&2; exit 1; }

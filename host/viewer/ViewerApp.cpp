@@ -42,6 +42,17 @@ struct PresentTimes {
     double uploadMs = 0.0, totalMs = 0.0;
 };
 
+// Draws the uploaded frame and, when on, the overlay into the bound framebuffer.
+void drawFrame(FrameSink& sink, const ViewerSession& session, const ViewerFrame& frame, int width, int height,
+               bool overlay, double shownFrameMs) {
+    sink.presenter.draw(width, height, session.currentScene().background);
+    if (overlay && sink.overlay) {
+        sink.overlay->setText(overlayLines(session, frame, shownFrameMs, sink.transport,
+                                           std::size_t(std::max(width - 2 * kTextMargin, 0) / kGlyphWidth)));
+        sink.overlay->draw(width, height);
+    }
+}
+
 // Presents one frame into the bound framebuffer and waits for GL, so the frame time covers the whole path.
 // The overlay shows the previous frame's total time (this one's is not known until it is drawn).
 PresentTimes present(FrameSink& sink, ViewerSession& session, const ViewerFrame& frame, int width, int height,
@@ -55,12 +66,7 @@ PresentTimes present(FrameSink& sink, ViewerSession& session, const ViewerFrame&
         sink.presenter.upload(frame.image);
     glFinish();
     t.uploadMs = sw.milliseconds();
-    sink.presenter.draw(width, height, session.currentScene().background);
-    if (overlay && sink.overlay) {
-        sink.overlay->setText(overlayLines(session, frame, shownFrameMs, sink.transport,
-                                           std::size_t(std::max(width - 2 * kTextMargin, 0) / kGlyphWidth)));
-        sink.overlay->draw(width, height);
-    }
+    drawFrame(sink, session, frame, width, height, overlay, shownFrameMs);
     glFinish();
     t.totalMs = sw.milliseconds();
     return t;
@@ -289,6 +295,8 @@ void runWindow(ViewerSession& session, const WindowOptions& o, ViewerWindow& win
             << keyBindingsHelp();
 
     bool needFull = true, saveShot = false;
+    bool redraw = false; // draw the frame on screen again (overlay toggled, screenshot of a still frame)
+    ViewerFrame shown;   // what is on screen, without its pixels (they are in the texture)
     int shots = 0, lastW = 0, lastH = 0;
     using Clock = std::chrono::steady_clock;
     Clock::time_point lastMotion = Clock::now();
@@ -297,7 +305,7 @@ void runWindow(ViewerSession& session, const WindowOptions& o, ViewerWindow& win
     bool interacting = false;
 
     while (!glfwWindowShouldClose(w) && !in.quit) {
-        if (needFull)
+        if (needFull || redraw)
             glfwPollEvents();
         else
             glfwWaitEventsTimeout(interacting ? 0.02 : 0.25); // idle: sleep until input arrives
@@ -309,12 +317,17 @@ void runWindow(ViewerSession& session, const WindowOptions& o, ViewerWindow& win
             if (!action) continue;
             if (*action == ViewerAction::Quit)
                 in.quit = true;
-            else if (*action == ViewerAction::Screenshot)
-                saveShot = needFull = true;
-            else if (*action == ViewerAction::ToggleOverlay) {
+            else if (*action == ViewerAction::Screenshot) {
+                // A still, full-quality frame on screen is saved as it is; else after the next full one.
+                saveShot = true;
+                if (shown.image.width > 0 && shown.level.full() && !interacting)
+                    redraw = true;
+                else
+                    needFull = true;
+            } else if (*action == ViewerAction::ToggleOverlay) {
                 overlay = !overlay;
                 if (!o.quiet) log << "view: overlay " << (overlay ? "on" : "off") << '\n';
-                needFull = true;
+                redraw = shown.image.width > 0; // no new render: the frame is in the texture
             } else {
                 const std::string what = session.apply(*action);
                 if (!o.quiet && !what.empty()) log << "view: " << what << '\n';
@@ -346,7 +359,22 @@ void runWindow(ViewerSession& session, const WindowOptions& o, ViewerWindow& win
             lastH = fh;
             needFull = true;
         }
-        if (!moved && !needFull) continue;
+        if (!moved && !needFull && !redraw) continue;
+        if (!moved && !needFull) {
+            glBindFramebuffer(GL_FRAMEBUFFER, 0);
+            drawFrame(sink, session, shown, fw, fh, overlay, lastFrameMs);
+            if (saveShot) {
+                const std::filesystem::path path = numbered(o.screenshot, shots++);
+                glReadBuffer(GL_BACK);
+                writeImage(readFramebuffer(fw, fh), path);
+                if (!o.quiet) log << "view: screenshot " << path.string() << '\n';
+                saveShot = false;
+            }
+            glfwSwapBuffers(w);
+            redraw = false;
+            continue;
+        }
+        redraw = false;
 
         const bool interactiveFrame = moved;
         Stopwatch sw;
@@ -373,6 +401,8 @@ void runWindow(ViewerSession& session, const WindowOptions& o, ViewerWindow& win
         }
         glfwSwapBuffers(w);
         glfwSetWindowTitle(w, session.title(f, frameMs).c_str());
+        shown = f;
+        shown.image.pixels = {};
         if (!interactiveFrame) needFull = false;
     }
 }
