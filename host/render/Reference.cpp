@@ -76,11 +76,15 @@ public:
         }
         Vec3 rgb{0, 0, 0};
         double T = 1.0, depth = inf();
-        double sPrev = sample(at(t0));
+        // Iso-surface crossings are exact (independent of the step); each is composited before the segment
+        // that holds it, as in the kernel.
+        const auto hits =
+            isos_.empty() ? std::vector<std::pair<double, std::size_t>>{} : isoHits(o, d, t0, t1);
+        std::size_t nextHit = 0;
         for (long k = 0; k < n; ++k) {
-            const double ta = t0 + double(k) * h, tb = t0 + double(k + 1) * h;
-            const double sNext = sample(at(tb));
-            if (!isos_.empty()) isoSegment(o, d, ray, ta, sPrev, tb, sNext, rgb, T, depth);
+            const double ta = t0 + double(k) * h, tb = k + 1 == n ? t1 : t0 + double(k + 1) * h;
+            for (; nextHit < hits.size() && hits[nextHit].first <= tb; ++nextHit)
+                isoComposite(o, d, ray, hits[nextHit].first, isos_[hits[nextHit].second], rgb, T, depth);
             if (scene_.mode == RenderMode::Dvr) {
                 const double tm = 0.5 * (ta + tb);
                 const Vec3 pm = at(tm);
@@ -94,7 +98,6 @@ public:
                     T *= 1.0 - a;
                 }
             }
-            sPrev = sNext;
             if (T < 1e-12) break; // below anything a float image can show
         }
         return {rgb[0], rgb[1], rgb[2], 1.0 - T, depth};
@@ -243,34 +246,140 @@ private:
         return out;
     }
 
-    void isoSegment(const Vec3& o, const Vec3& d, const CameraRay& ray, double ta, double sa, double tb,
-                    double sb, Vec3& rgb, double& T, double& depth) const {
-        std::vector<std::pair<double, const IsoLayer*>> hits;
-        for (const auto& iso : isos_) {
-            double fa = sa - iso.value;
-            const double fb = sb - iso.value;
-            if ((fa < 0.0) == (fb < 0.0)) continue;
-            double a = ta, b = tb;
-            for (int it = 0; it < 60 && b - a > 1e-12 * std::max(1.0, std::abs(b)); ++it) {
-                const double m = 0.5 * (a + b);
-                const double fm = sample(add(o, scale(d, m))) - iso.value;
-                if ((fm < 0.0) == (fa < 0.0)) {
-                    a = m;
-                    fa = fm;
+    /// Every crossing of every iso-value along the ray in [t0, t1], in ray order: the ray is walked cell by
+    /// cell, the trilinear field along it is an exact cubic per cell, split at its derivative's roots into
+    /// monotone pieces whose crossings are bisected to the last bit of a double. Sides are s >= iso or s <
+    /// iso (as in the kernel); a side change on a cell face is a crossing there.
+    std::vector<std::pair<double, std::size_t>> isoHits(const Vec3& o, const Vec3& d, double t0,
+                                                        double t1) const {
+        std::vector<std::pair<double, std::size_t>> hits;
+        long c[3];
+        int dir[3];
+        double tNext[3], tDelta[3];
+        const Vec3 p0 = add(o, scale(d, t0));
+        for (int a = 0; a < 3; ++a) {
+            const long top = std::max(long(n_[a]) - 2, 0L);
+            dir[a] = d[a] > 0.0 ? 1 : d[a] < 0.0 ? -1 : 0;
+            const double f = d[a] < 0.0 ? std::ceil(p0[a]) - 1.0 : std::floor(p0[a]);
+            c[a] = std::clamp(long(std::clamp(f, -1.0, double(top) + 1.0)), 0L, top);
+            tNext[a] = dir[a] == 0 ? inf() : (double(c[a] + (dir[a] > 0 ? 1 : 0)) - o[a]) / d[a];
+            tDelta[a] = dir[a] == 0 ? inf() : 1.0 / std::abs(d[a]);
+        }
+        std::vector<char> inside(isos_.size(), 0);
+        bool started = false;
+        double ta = t0;
+        while (ta < t1) {
+            const double tOut = std::min({tNext[0], tNext[1], tNext[2]});
+            const double tb = std::min(t1, tOut);
+            if (tb > ta) isoCell(o, d, c, ta, tb, inside, started, hits);
+            ta = std::max(ta, tb);
+            if (ta >= t1) break;
+            const int a = tNext[0] <= tNext[1] && tNext[0] <= tNext[2] ? 0 : tNext[1] <= tNext[2] ? 1 : 2;
+            c[a] += dir[a];
+            tNext[a] += tDelta[a];
+        }
+        std::stable_sort(hits.begin(), hits.end(),
+                         [](const auto& x, const auto& y) { return x.first < y.first; });
+        return hits;
+    }
+
+    /// Crossings on the piece [ta, tb] of the ray inside DDA cell c (clamped to the grid).
+    void isoCell(const Vec3& o, const Vec3& d, const long* cell, double ta, double tb,
+                 std::vector<char>& inside, bool& started,
+                 std::vector<std::pair<double, std::size_t>>& hits) const {
+        std::size_t i0[3], i1[3];
+        Vec3 a;
+        const Vec3 p = add(o, scale(d, ta));
+        for (int k = 0; k < 3; ++k) {
+            const long top = std::max(long(n_[k]) - 2, 0L);
+            i0[k] = std::size_t(std::clamp(cell[k], 0L, top));
+            i1[k] = std::min(i0[k] + 1, n_[k] - 1);
+            a[k] = p[k] - double(i0[k]);
+        }
+        double v[2][2][2];
+        double lo = inf(), hi = -inf();
+        for (int z = 0; z < 2; ++z)
+            for (int y = 0; y < 2; ++y)
+                for (int x = 0; x < 2; ++x) {
+                    v[z][y][x] = voxel(x ? i1[0] : i0[0], y ? i1[1] : i0[1], z ? i1[2] : i0[2]);
+                    lo = std::min(lo, v[z][y][x]);
+                    hi = std::max(hi, v[z][y][x]);
+                }
+        // s = k0 + kx x + ky y + kz z + kxy xy + kxz xz + kyz yz + kxyz xyz over the cell's unit cube.
+        const double k0 = v[0][0][0], kx = v[0][0][1] - k0, ky = v[0][1][0] - k0, kz = v[1][0][0] - k0;
+        const double kxy = v[0][1][1] - v[0][1][0] - v[0][0][1] + k0;
+        const double kxz = v[1][0][1] - v[1][0][0] - v[0][0][1] + k0;
+        const double kyz = v[1][1][0] - v[1][0][0] - v[0][1][0] + k0;
+        const double kxyz =
+            v[1][1][1] - v[1][1][0] - v[1][0][1] - v[0][1][1] + v[1][0][0] + v[0][1][0] + v[0][0][1] - k0;
+        // Along x = a + u d: s = c3 u^3 + c2 u^2 + c1 u + c0.
+        const double c3 = kxyz * d[0] * d[1] * d[2];
+        const double c2 = (kxy + kxyz * a[2]) * d[0] * d[1] + (kxz + kxyz * a[1]) * d[0] * d[2] +
+                          (kyz + kxyz * a[0]) * d[1] * d[2];
+        const double c1 = (kx + kxy * a[1] + kxz * a[2] + kxyz * a[1] * a[2]) * d[0] +
+                          (ky + kxy * a[0] + kyz * a[2] + kxyz * a[0] * a[2]) * d[1] +
+                          (kz + kxz * a[0] + kyz * a[1] + kxyz * a[0] * a[1]) * d[2];
+        const double c0 = k0 + kx * a[0] + ky * a[1] + kz * a[2] + kxy * a[0] * a[1] + kxz * a[0] * a[2] +
+                          kyz * a[1] * a[2] + kxyz * a[0] * a[1] * a[2];
+        auto s = [&](double u) { return ((c3 * u + c2) * u + c1) * u + c0; };
+        // Monotone pieces: split at the real roots of 3 c3 u^2 + 2 c2 u + c1 inside (0, len).
+        const double len = tb - ta;
+        std::vector<double> knots{0.0};
+        const double A = 3.0 * c3, B = 2.0 * c2, C = c1;
+        if (A != 0.0) {
+            const double disc = B * B - 4.0 * A * C;
+            if (disc >= 0.0) {
+                const double q = -0.5 * (B + std::copysign(std::sqrt(disc), B));
+                if (q != 0.0) {
+                    knots.push_back(q / A);
+                    knots.push_back(C / q);
                 } else {
-                    b = m;
+                    knots.push_back(0.0); // B = C = 0: the only stationary point is u = 0
                 }
             }
-            hits.push_back({0.5 * (a + b), &iso});
+        } else if (B != 0.0) {
+            knots.push_back(-C / B);
         }
-        std::sort(hits.begin(), hits.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
-        for (const auto& [t, iso] : hits) {
-            const Vec3 c = light(ray, add(ray.origin, scale(ray.direction, t)), add(o, scale(d, t)),
-                                 {iso->rgba[0], iso->rgba[1], iso->rgba[2]});
-            if (std::isinf(depth)) depth = t;
-            rgb = add(rgb, scale(c, T * iso->rgba[3]));
-            T *= 1.0 - iso->rgba[3];
+        knots.erase(
+            std::remove_if(knots.begin() + 1, knots.end(), [&](double u) { return !(u > 0.0 && u < len); }),
+            knots.end());
+        std::sort(knots.begin(), knots.end());
+        knots.push_back(len);
+        for (std::size_t i = 0; i < isos_.size(); ++i) {
+            const double iso = isos_[i].value;
+            const bool crossing = lo < iso && iso <= hi;
+            const char side0 = crossing ? s(0.0) >= iso : iso <= lo;
+            if (!started) inside[i] = side0;
+            if (side0 != inside[i]) hits.push_back({ta, i});
+            char side = side0;
+            if (crossing)
+                for (std::size_t j = 1; j < knots.size(); ++j) {
+                    const char next = s(knots[j]) >= iso;
+                    if (next == side) continue;
+                    double l = knots[j - 1], r = knots[j];
+                    for (int it = 0; it < 200; ++it) {
+                        const double m = 0.5 * (l + r);
+                        if (!(m > l && m < r)) break;
+                        if ((s(m) >= iso) == bool(side))
+                            l = m;
+                        else
+                            r = m;
+                    }
+                    hits.push_back({ta + 0.5 * (l + r), i});
+                    side = next;
+                }
+            inside[i] = side;
         }
+        started = true;
+    }
+
+    void isoComposite(const Vec3& o, const Vec3& d, const CameraRay& ray, double t, const IsoLayer& iso,
+                      Vec3& rgb, double& T, double& depth) const {
+        const Vec3 c = light(ray, add(ray.origin, scale(ray.direction, t)), add(o, scale(d, t)),
+                             {iso.rgba[0], iso.rgba[1], iso.rgba[2]});
+        if (std::isinf(depth)) depth = t;
+        rgb = add(rgb, scale(c, T * iso.rgba[3]));
+        T *= 1.0 - iso.rgba[3];
     }
 
     const Volume& vol_;
