@@ -212,6 +212,27 @@ inline int high_pos(int m, int n) {
 #define LONE_FIX(e_out, s_0) e_out = (s_0) - 0
 #endif
 
+/* Shifted copies of a 16-lane vector: lanes move by one and `edge` fills the freed lane. The x passes
+   build their neighbour windows this way from two aligned loads instead of loading at odd offsets. */
+inline V shift_up(V x, T next) {
+    return shuffle2(x, (V)(next), (uint16)(1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16));
+}
+inline V shift_down(V x, T prev) {
+    return shuffle2(x, (V)(prev), (uint16)(16, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14));
+}
+
+/* y/z passes: work-item (gid0, gid1, brick) with gid0 = x chunk + chunks * a. For y, a = pair and gid1 = z;
+   for z, a = y and gid1 = pair, so neighbouring work-items touch neighbouring 64-byte rows of one plane. */
+#define YZ_COORDS()                                                                                        \
+    const int chunks = ((int)nx + 15) >> 4;                                                                \
+    const int g0 = get_global_id(0);                                                                       \
+    const int chunk = g0 % chunks;                                                                         \
+    const int ga = g0 / chunks;                                                                            \
+    const int gb = get_global_id(1);                                                                       \
+    const int c = get_global_id(2);                                                                        \
+    const int pair = axis == 1 ? ga : gb;                                                                  \
+    const int o = axis == 1 ? gb : ga;
+
 #ifndef LIFT_INVERSE
 
 /* ---------------------------------------------------------------- forward */
@@ -234,22 +255,19 @@ kernel void lift_x(global const T* src, global T* dst, uint px, uint by, uint bz
         out[0] = in[0];
         return;
     }
-    if (2 * (n0 + WIN_FWD_E_LO) >= 0 && 2 * (n0 + 2) + 32 <= N && n0 + 16 <= md) {
-        V e_m2 = 0, e_m1 = 0, e_0, e_p1 = 0, e_p2 = 0, o_m2 = 0, o_m1 = 0, o_0, o_p1 = 0;
-#define LD_PAIR(k, E, O)                                                                                   \
-    {                                                                                                      \
-        V a = vload16(0, in + 2 * (n0 + (k)));                                                             \
-        V b = vload16(0, in + 2 * (n0 + (k)) + 16);                                                        \
-        E = (V)(a.even, b.even);                                                                           \
-        O = (V)(a.odd, b.odd);                                                                             \
-    }
-        V unused;
-        if (IN_WIN(-2, WIN_FWD_E_LO, WIN_FWD_E_HI)) LD_PAIR(-2, e_m2, o_m2);
-        if (IN_WIN(-1, WIN_FWD_E_LO, WIN_FWD_E_HI)) LD_PAIR(-1, e_m1, o_m1);
-        LD_PAIR(0, e_0, o_0);
-        if (IN_WIN(1, WIN_FWD_E_LO, WIN_FWD_E_HI)) LD_PAIR(1, e_p1, o_p1);
-        if (IN_WIN(2, WIN_FWD_E_LO, WIN_FWD_E_HI)) LD_PAIR(2, e_p2, unused);
-#undef LD_PAIR
+    if (2 * n0 + 32 <= N) {
+        /* 16 whole pairs: two aligned loads; the neighbours are shifted copies plus a few scalar samples
+           fetched through the extension (mirror or clamp), as in the staged path below. */
+        V a = vload16(0, in + 2 * n0), b = vload16(0, in + 2 * n0 + 16);
+        V e_0 = (V)(a.even, b.even), o_0 = (V)(a.odd, b.odd);
+        V e_m2 = 0, e_m1 = 0, e_p1 = 0, e_p2 = 0, o_m2 = 0, o_m1 = 0, o_p1 = 0;
+        if (IN_WIN(-1, WIN_FWD_E_LO, WIN_FWD_E_HI)) e_m1 = shift_down(e_0, in[even_pos(n0 - 1, N)]);
+        if (IN_WIN(-2, WIN_FWD_E_LO, WIN_FWD_E_HI)) e_m2 = shift_down(e_m1, in[even_pos(n0 - 2, N)]);
+        if (IN_WIN(1, WIN_FWD_E_LO, WIN_FWD_E_HI)) e_p1 = shift_up(e_0, in[even_pos(n0 + 16, N)]);
+        if (IN_WIN(2, WIN_FWD_E_LO, WIN_FWD_E_HI)) e_p2 = shift_up(e_p1, in[even_pos(n0 + 17, N)]);
+        if (IN_WIN(-1, WIN_FWD_O_LO, WIN_FWD_O_HI)) o_m1 = shift_down(o_0, in[odd_pos(n0 - 1, N)]);
+        if (IN_WIN(-2, WIN_FWD_O_LO, WIN_FWD_O_HI)) o_m2 = shift_down(o_m1, in[odd_pos(n0 - 2, N)]);
+        if (IN_WIN(1, WIN_FWD_O_LO, WIN_FWD_O_HI)) o_p1 = shift_up(o_0, in[odd_pos(n0 + 16, N)]);
         V s_out, d_out;
         FWD_BODY(V)
         vstore16(s_out, 0, out + n0);
@@ -290,14 +308,11 @@ kernel void lift_x(global const T* src, global T* dst, uint px, uint by, uint bz
 /* y or z pass: one work-item makes one (low, high) pair for 16 consecutive x. */
 kernel void lift_yz(global const T* src, global T* dst, uint px, uint by, uint bz, uint nx, uint ny, uint nz,
                     uint count, uint axis) {
-    const int chunk = get_global_id(0);
-    const int pair = get_global_id(1);
-    const int g = get_global_id(2);
+    YZ_COORDS()
     const int N = axis == 1 ? ny : nz;
     const int other = axis == 1 ? nz : ny;
     const int ms = (N + 1) >> 1, md = N >> 1;
-    if (chunk * 16 >= (int)nx || pair >= ms || g >= (int)(count * other)) return;
-    const int c = g / other, o = g % other;
+    if (pair >= ms || o >= other || c >= (int)count) return;
     const size_t stride = axis == 1 ? (size_t)px : (size_t)px * by;
     const size_t base = axis == 1 ? ((size_t)(c * bz + o) * by) * px : ((size_t)(c * bz) * by + o) * px;
     global const T* in = src + base + chunk * 16;
@@ -361,17 +376,17 @@ kernel void lift_x(global const T* src, global T* dst, uint px, uint by, uint bz
         out[0] = in[0];
         return;
     }
-    if (n0 - 2 >= 0 && n0 + 18 <= md) {
-        V s_m1 = 0, s_0, s_p1 = 0, s_p2 = 0, d_m2 = 0, d_m1 = 0, d_0, d_p1 = 0, d_p2 = 0;
-        if (IN_WIN(-1, WIN_INV_S_LO, WIN_INV_S_HI)) s_m1 = vload16(0, in + n0 - 1);
-        s_0 = vload16(0, in + n0);
-        if (IN_WIN(1, WIN_INV_S_LO, WIN_INV_S_HI)) s_p1 = vload16(0, in + n0 + 1);
-        if (IN_WIN(2, WIN_INV_S_LO, WIN_INV_S_HI)) s_p2 = vload16(0, in + n0 + 2);
-        if (IN_WIN(-2, WIN_INV_D_LO, WIN_INV_D_HI)) d_m2 = vload16(0, in + ms + n0 - 2);
-        if (IN_WIN(-1, WIN_INV_D_LO, WIN_INV_D_HI)) d_m1 = vload16(0, in + ms + n0 - 1);
-        d_0 = vload16(0, in + ms + n0);
-        if (IN_WIN(1, WIN_INV_D_LO, WIN_INV_D_HI)) d_p1 = vload16(0, in + ms + n0 + 1);
-        if (IN_WIN(2, WIN_INV_D_LO, WIN_INV_D_HI)) d_p2 = vload16(0, in + ms + n0 + 2);
+    if (2 * n0 + 32 <= N) {
+        /* 16 whole pairs: aligned loads of s and d, neighbours as shifted copies (see the forward pass). */
+        V s_0 = vload16(0, in + n0), d_0 = vload16(0, in + ms + n0);
+        V s_m1 = 0, s_p1 = 0, s_p2 = 0, d_m2 = 0, d_m1 = 0, d_p1 = 0, d_p2 = 0;
+        if (IN_WIN(-1, WIN_INV_S_LO, WIN_INV_S_HI)) s_m1 = shift_down(s_0, in[low_pos(n0 - 1, N)]);
+        if (IN_WIN(1, WIN_INV_S_LO, WIN_INV_S_HI)) s_p1 = shift_up(s_0, in[low_pos(n0 + 16, N)]);
+        if (IN_WIN(2, WIN_INV_S_LO, WIN_INV_S_HI)) s_p2 = shift_up(s_p1, in[low_pos(n0 + 17, N)]);
+        if (IN_WIN(-1, WIN_INV_D_LO, WIN_INV_D_HI)) d_m1 = shift_down(d_0, in[ms + high_pos(n0 - 1, N)]);
+        if (IN_WIN(-2, WIN_INV_D_LO, WIN_INV_D_HI)) d_m2 = shift_down(d_m1, in[ms + high_pos(n0 - 2, N)]);
+        if (IN_WIN(1, WIN_INV_D_LO, WIN_INV_D_HI)) d_p1 = shift_up(d_0, in[ms + high_pos(n0 + 16, N)]);
+        if (IN_WIN(2, WIN_INV_D_LO, WIN_INV_D_HI)) d_p2 = shift_up(d_p1, in[ms + high_pos(n0 + 17, N)]);
         V e_out, o_out;
         INV_BODY(V)
         vstore16(shuffle2(e_out, o_out, (uint16)(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23)), 0,
@@ -409,14 +424,11 @@ kernel void lift_x(global const T* src, global T* dst, uint px, uint by, uint bz
 
 kernel void lift_yz(global const T* src, global T* dst, uint px, uint by, uint bz, uint nx, uint ny, uint nz,
                     uint count, uint axis) {
-    const int chunk = get_global_id(0);
-    const int pair = get_global_id(1);
-    const int g = get_global_id(2);
+    YZ_COORDS()
     const int N = axis == 1 ? ny : nz;
     const int other = axis == 1 ? nz : ny;
     const int ms = (N + 1) >> 1;
-    if (chunk * 16 >= (int)nx || pair >= ms || g >= (int)(count * other)) return;
-    const int c = g / other, o = g % other;
+    if (pair >= ms || o >= other || c >= (int)count) return;
     const size_t stride = axis == 1 ? (size_t)px : (size_t)px * by;
     const size_t base = axis == 1 ? ((size_t)(c * bz + o) * by) * px : ((size_t)(c * bz) * by + o) * px;
     global const T* in = src + base + chunk * 16;

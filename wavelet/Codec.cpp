@@ -3,6 +3,7 @@
 #include "wavelet/Codec.hpp"
 
 #include "host/Error.hpp"
+#include "host/runtime/Timing.hpp"
 
 #include <zstd.h>
 
@@ -84,15 +85,74 @@ template <class Fn> decltype(auto) visitTyped(Volume& v, Fn fn) {
     throw Error("internal: unknown scalar type");
 }
 
-// Converts a reconstructed value to the voxel type: round to nearest and clamp for integers.
-template <class T> T toVoxel(double v) {
+// Converts a reconstructed value to the voxel type: round to nearest (even) and clamp for integers.
+// Without a libm call: clamping first is equivalent (the bounds are integers) and keeps |v| < 2^22, where
+// adding and subtracting 1.5 * 2^23 rounds exactly like std::nearbyint. The encoder's error check and the
+// decoder's output both use this, so the bound is checked on what the decoder writes.
+template <class T> T toVoxel(float v) {
     if constexpr (std::is_same_v<T, float>) {
-        return static_cast<float>(v);
+        return v;
     } else {
-        const double r = std::nearbyint(v);
-        return static_cast<T>(
-            std::clamp(r, double(std::numeric_limits<T>::min()), double(std::numeric_limits<T>::max())));
+        const float c =
+            std::clamp(v, float(std::numeric_limits<T>::min()), float(std::numeric_limits<T>::max()));
+        return static_cast<T>(static_cast<std::int32_t>((c + 12582912.0f) - 12582912.0f));
     }
+}
+
+// Min and max over the finite voxels and whether any voxel is NaN or Inf, in one typed pass on host threads
+// (Volume::stats also builds moments and a histogram, which the codec does not need).
+struct ValueRange {
+    double min = 0, max = 0;
+    bool nonFinite = false;
+};
+ValueRange valueRange(const Volume& v, unsigned threads) {
+    constexpr std::size_t kParts = 16;
+    struct Part {
+        double lo = std::numeric_limits<double>::infinity(), hi = -std::numeric_limits<double>::infinity();
+        bool nonFinite = false;
+    };
+    std::vector<Part> parts(kParts);
+    const std::size_t n = v.voxelCount();
+    visitTyped(v, [&](auto span) {
+        using S = std::remove_const_t<typename decltype(span)::element_type>;
+        parallelFor(kParts, threads, [&](std::size_t p) {
+            const std::size_t b = n * p / kParts, e = n * (p + 1) / kParts;
+            if (b == e) return;
+            if constexpr (std::is_same_v<S, float>) {
+                float lo = std::numeric_limits<float>::infinity(), hi = -lo;
+                bool bad = false;
+                for (std::size_t i = b; i < e; ++i) {
+                    const float x = span[i];
+                    if (!std::isfinite(x)) {
+                        bad = true;
+                        continue;
+                    }
+                    lo = std::min(lo, x);
+                    hi = std::max(hi, x);
+                }
+                parts[p] = {lo, hi, bad};
+            } else {
+                S lo = span[b], hi = span[b];
+                for (std::size_t i = b; i < e; ++i) {
+                    lo = std::min(lo, span[i]);
+                    hi = std::max(hi, span[i]);
+                }
+                parts[p] = {double(lo), double(hi), false};
+            }
+        });
+    });
+    ValueRange r;
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (const Part& p : parts) {
+        lo = std::min(lo, p.lo);
+        hi = std::max(hi, p.hi);
+        r.nonFinite = r.nonFinite || p.nonFinite;
+    }
+    if (lo <= hi) {
+        r.min = lo;
+        r.max = hi;
+    }
+    return r;
 }
 
 // Bricks of equal dims are transformed together in one batch.
@@ -115,21 +175,24 @@ std::vector<BrickGroup> groupBricks(const VczHeader& h, const std::vector<std::s
     return groups;
 }
 
-// Dense brick arrays (brick dims, x fastest) <-> the batch's padded layout.
-template <class T>
-void toBatch(const BrickBatch<T>& b, std::size_t slot, std::span<const T> dense, std::vector<T>& host) {
-    const Dims d = b.brick();
-    for (std::size_t z = 0; z < d.z; ++z)
-        for (std::size_t y = 0; y < d.y; ++y)
-            std::copy_n(dense.data() + (z * d.y + y) * d.x, d.x,
-                        host.data() + slot * b.brickStride() + (z * d.y + y) * b.pitch());
+// Adds the wall time of fn() to one stage of the profile (when profiling).
+template <class Fn> void timeStage(CodecProfile* p, double CodecProfile::*stage, Fn&& fn) {
+    if (!p) {
+        fn();
+        return;
+    }
+    Stopwatch sw;
+    fn();
+    p->*stage += sw.milliseconds();
 }
+
+// Slot `slot` of a batch's padded layout -> a dense brick array (brick dims, x fastest).
 template <class T>
-void fromBatch(const BrickBatch<T>& b, std::size_t slot, const std::vector<T>& host, std::span<T> dense) {
+void fromBatch(const BrickBatch<T>& b, std::size_t slot, const T* batch, std::span<T> dense) {
     const Dims d = b.brick();
     for (std::size_t z = 0; z < d.z; ++z)
         for (std::size_t y = 0; y < d.y; ++y)
-            std::copy_n(host.data() + slot * b.brickStride() + (z * d.y + y) * b.pitch(), d.x,
+            std::copy_n(batch + slot * b.brickStride() + (z * d.y + y) * b.pitch(), d.x,
                         dense.data() + (z * d.y + y) * d.x);
 }
 
@@ -157,44 +220,98 @@ template <class T> std::vector<T> brickVoxels(const Volume& v, const VczHeader& 
     return out;
 }
 
-// Forward transform of the listed bricks; returns dense coefficient arrays and adds kernel time to `ms`.
+// Writes the voxels of one brick, converted to T, straight into a batch layout with row pitch `pitch`;
+// returns the brick's voxel min and max (values convert exactly: integers to int32, up to 16 bits to float).
+template <class T>
+std::pair<double, double> gatherBrick(const Volume& v, const VczHeader& h, std::size_t brick, T* dst,
+                                      std::size_t pitch) {
+    const Dims o = h.brickOrigin(brick), d = h.brickDims(brick);
+    return visitTyped(v, [&](auto src) {
+        using S = std::remove_const_t<typename decltype(src)::element_type>;
+        S lo = src[v.index(o.x, o.y, o.z)], hi = lo;
+        for (std::size_t z = 0; z < d.z; ++z)
+            for (std::size_t y = 0; y < d.y; ++y) {
+                const S* in = src.data() + v.index(o.x, o.y + y, o.z + z);
+                T* out = dst + (z * d.y + y) * pitch;
+                for (std::size_t x = 0; x < d.x; ++x) {
+                    out[x] = static_cast<T>(in[x]);
+                    lo = std::min(lo, in[x]);
+                    hi = std::max(hi, in[x]);
+                }
+            }
+        return std::pair<double, double>(double(lo), double(hi));
+    });
+}
+
+// Forward transform of every brick; returns dense coefficient arrays, adds kernel time to `ms` and, with
+// `ranges`, stores each brick's voxel min and max (gathered on the way).
 template <class T>
 std::vector<std::vector<T>> forwardBricks(ComputeContext& cc, LiftingTransform<T>& t, const Volume& v,
-                                          const VczHeader& h, double& ms) {
+                                          const VczHeader& h, unsigned threads, CodecProfile* prof,
+                                          double& ms,
+                                          std::vector<std::pair<double, double>>* ranges = nullptr) {
     std::vector<std::size_t> all(h.brickCount());
     for (std::size_t i = 0; i < all.size(); ++i)
         all[i] = i;
     std::vector<std::vector<T>> coeffs(all.size());
+    if (ranges) ranges->assign(all.size(), {0.0, 0.0});
     for (const BrickGroup& g : groupBricks(h, all)) {
         BrickBatch<T> batch(cc, g.dims, g.bricks.size());
-        std::vector<T> host = batch.makeHost();
-        for (std::size_t s = 0; s < g.bricks.size(); ++s) {
-            coeffs[g.bricks[s]] = brickVoxels<T>(v, h, g.bricks[s]);
-            toBatch<T>(batch, s, coeffs[g.bricks[s]], host);
+        {
+            BatchMapping<T> m;
+            timeStage(prof, &CodecProfile::upload, [&] { m = batch.mapForWrite(cc); });
+            timeStage(prof, &CodecProfile::gather, [&] {
+                parallelFor(g.bricks.size(), threads, [&](std::size_t s) {
+                    const auto r =
+                        gatherBrick<T>(v, h, g.bricks[s], m.data() + s * batch.brickStride(), batch.pitch());
+                    if (ranges) (*ranges)[g.bricks[s]] = r;
+                });
+            });
+            timeStage(prof, &CodecProfile::upload, [&] { m.unmap(); });
         }
-        batch.upload(cc, host);
-        ms += t.forward(cc, batch, h.levels);
-        batch.download(cc, host);
-        for (std::size_t s = 0; s < g.bricks.size(); ++s)
-            fromBatch<T>(batch, s, host, coeffs[g.bricks[s]]);
+        timeStage(prof, &CodecProfile::transform, [&] { ms += t.forward(cc, batch, h.levels); });
+        BatchMapping<T> m;
+        timeStage(prof, &CodecProfile::download, [&] { m = batch.mapForRead(cc); });
+        timeStage(prof, &CodecProfile::gather, [&] {
+            parallelFor(g.bricks.size(), threads, [&](std::size_t s) {
+                auto& c = coeffs[g.bricks[s]];
+                c.resize(g.dims.count());
+                fromBatch<T>(batch, s, m.data(), c);
+            });
+        });
     }
     return coeffs;
 }
 
-// Inverse transform of dense coefficient arrays (brick dims) in place, stopping at `level`.
-template <class T>
+// Inverse transform of the listed bricks, stopping at `level`: fill(b, dst, pitch) writes brick b's
+// coefficients straight into its batch slot (rows of `pitch`, timed as `fillStage`); the result goes to
+// out[b] (dense, brick dims).
+template <class T, class Fill>
 void inverseBricks(ComputeContext& cc, LiftingTransform<T>& t, const VczHeader& h,
-                   const std::vector<std::size_t>& which, std::vector<std::vector<T>>& coeffs, int level) {
+                   const std::vector<std::size_t>& which, std::vector<std::vector<T>>& out, int level,
+                   unsigned threads, CodecProfile* prof, double CodecProfile::*fillStage, Fill fill) {
     for (const BrickGroup& g : groupBricks(h, which)) {
         BrickBatch<T> batch(cc, g.dims, g.bricks.size());
-        std::vector<T> host = batch.makeHost();
-        for (std::size_t s = 0; s < g.bricks.size(); ++s)
-            toBatch<T>(batch, s, coeffs[g.bricks[s]], host);
-        batch.upload(cc, host);
-        t.inverse(cc, batch, h.levels, level);
-        batch.download(cc, host);
-        for (std::size_t s = 0; s < g.bricks.size(); ++s)
-            fromBatch<T>(batch, s, host, coeffs[g.bricks[s]]);
+        {
+            BatchMapping<T> m;
+            timeStage(prof, &CodecProfile::upload, [&] { m = batch.mapForWrite(cc); });
+            timeStage(prof, fillStage, [&] {
+                parallelFor(g.bricks.size(), threads, [&](std::size_t s) {
+                    fill(g.bricks[s], m.data() + s * batch.brickStride(), batch.pitch());
+                });
+            });
+            timeStage(prof, &CodecProfile::upload, [&] { m.unmap(); });
+        }
+        timeStage(prof, &CodecProfile::transform, [&] { t.inverse(cc, batch, h.levels, level); });
+        BatchMapping<T> m;
+        timeStage(prof, &CodecProfile::download, [&] { m = batch.mapForRead(cc); });
+        timeStage(prof, &CodecProfile::gather, [&] {
+            parallelFor(g.bricks.size(), threads, [&](std::size_t s) {
+                auto& o = out[g.bricks[s]];
+                o.resize(g.dims.count());
+                fromBatch<T>(batch, s, m.data(), o);
+            });
+        });
     }
 }
 
@@ -229,38 +346,50 @@ std::vector<double> subbandSteps(Wavelet w, int levels, double delta) {
     return steps;
 }
 
-// Calls fn(index, step) for every coefficient of a brick of dims d.
-template <class Fn> void forEachSubbandCoefficient(const VczHeader& h, Dims d, Fn fn) {
-    const auto layout = sectionLayout(d, h.levels);
-    for (const auto& sec : layout)
+// Calls fn(z, y, x0, length, step) for every row of every subband of a brick of dims d: per-row loops with
+// one step vectorise, per-coefficient callbacks did not.
+template <class Fn> void forEachSubbandRow(const VczHeader& h, Dims d, Fn fn) {
+    for (const auto& sec : sectionLayout(d, h.levels))
         for (const SubbandBox& b : sec) {
             const double step = h.step(b.level, b.orient);
             for (std::size_t z = b.z0; z < b.z1; ++z)
                 for (std::size_t y = b.y0; y < b.y1; ++y)
-                    for (std::size_t x = b.x0; x < b.x1; ++x)
-                        fn((z * d.y + y) * d.x + x, step);
+                    fn(z, y, b.x0, b.x1 - b.x0, step);
         }
 }
 
+// Dead-zone quantiser q = sign(c) floor(|c| / step), in float with the reciprocal step (truncation is floor
+// for |c| >= 0). Only the encoder quantises and it checks what the decoder will reconstruct from q, so a
+// rounding difference at a cell boundary cannot break a bound.
 std::vector<std::int32_t> quantise(const VczHeader& h, Dims d, const std::vector<float>& c) {
     std::vector<std::int32_t> q(c.size());
-    forEachSubbandCoefficient(h, d, [&](std::size_t i, double step) {
-        const double a = std::floor(std::abs(double(c[i])) / step);
-        const auto m = static_cast<std::int32_t>(std::min(a, kMaxQuantIndex));
-        q[i] = c[i] < 0 ? -m : m;
+    forEachSubbandRow(h, d, [&](std::size_t z, std::size_t y, std::size_t x0, std::size_t len, double step) {
+        const std::size_t at = (z * d.y + y) * d.x + x0;
+        const float inv = static_cast<float>(1.0 / step), cap = static_cast<float>(kMaxQuantIndex);
+        const float* in = c.data() + at;
+        std::int32_t* out = q.data() + at;
+        for (std::size_t i = 0; i < len; ++i) {
+            const auto m = static_cast<std::int32_t>(std::min(std::abs(in[i]) * inv, cap));
+            out[i] = in[i] < 0 ? -m : m;
+        }
     });
     return q;
 }
 
-std::vector<float> dequantise(const VczHeader& h, Dims d, std::span<const std::int32_t> q) {
-    std::vector<float> c(q.size());
-    forEachSubbandCoefficient(h, d, [&](std::size_t i, double step) {
-        const std::int32_t v = q[i];
-        c[i] = v == 0 ? 0.0f
-                      : static_cast<float>((v < 0 ? -1.0 : 1.0) *
-                                           (std::abs(double(v)) + h.reconstructionBias) * step);
+// Reconstruction at (|q| + bias) * step with the sign of q, written to rows of `pitch` elements (the dense
+// brick layout when pitch == d.x, a batch slot otherwise). Encoder trials and the decoder share it.
+void dequantiseInto(const VczHeader& h, Dims d, std::span<const std::int32_t> q, float* dst,
+                    std::size_t pitch) {
+    const double bias = h.reconstructionBias;
+    forEachSubbandRow(h, d, [&](std::size_t z, std::size_t y, std::size_t x0, std::size_t len, double step) {
+        const std::int32_t* in = q.data() + (z * d.y + y) * d.x + x0;
+        float* out = dst + (z * d.y + y) * pitch + x0;
+        for (std::size_t i = 0; i < len; ++i) {
+            const std::int32_t v = in[i];
+            const double m = (std::abs(double(v)) + bias) * step;
+            out[i] = v == 0 ? 0.0f : static_cast<float>(v < 0 ? -m : m);
+        }
     });
-    return c;
 }
 
 // ------------------------------------------------------------------------------ brick payloads
@@ -523,11 +652,14 @@ private:
     FrameResult encodeLossless(const Volume& v, VczHeader& h) {
         LiftingTransform<std::int32_t> t(cc_, h.wavelet);
         FrameResult r;
-        auto coeffs = forwardBricks(cc_, t, v, h, r.report.transformMs);
+        CodecProfile* prof = &r.report.profile;
+        auto coeffs = forwardBricks(cc_, t, v, h, o_.threads, prof, r.report.transformMs, &r.ranges);
         r.payloads.resize(coeffs.size());
-        parallelFor(coeffs.size(), o_.threads,
-                    [&](std::size_t b) { r.payloads[b] = buildPayload(h, h.brickDims(b), coeffs[b], {}); });
-        r.ranges = brickRanges(v, h);
+        timeStage(prof, &CodecProfile::entropy, [&] {
+            parallelFor(coeffs.size(), o_.threads, [&](std::size_t b) {
+                r.payloads[b] = buildPayload(h, h.brickDims(b), coeffs[b], {});
+            });
+        });
         r.report.psnr = std::numeric_limits<double>::infinity();
         return r;
     }
@@ -535,11 +667,13 @@ private:
     FrameResult encodeRaw(const Volume& v, VczHeader& h) {
         FrameResult r;
         r.payloads.resize(h.brickCount());
-        parallelFor(r.payloads.size(), o_.threads, [&](std::size_t b) {
-            const auto bits = brickVoxels<std::int32_t>(v, h, b);
-            r.payloads[b] = buildPayload(h, h.brickDims(b), bits, {});
+        timeStage(&r.report.profile, &CodecProfile::entropy, [&] {
+            parallelFor(r.payloads.size(), o_.threads, [&](std::size_t b) {
+                const auto bits = brickVoxels<std::int32_t>(v, h, b);
+                r.payloads[b] = buildPayload(h, h.brickDims(b), bits, {});
+            });
         });
-        r.ranges = brickRanges(v, h);
+        timeStage(&r.report.profile, &CodecProfile::assemble, [&] { r.ranges = brickRanges(v, h); });
         r.report.psnr = std::numeric_limits<double>::infinity();
         return r;
     }
@@ -551,49 +685,70 @@ private:
         std::vector<std::vector<Correction>> corrections;
         ErrorStats err;
     };
+    // With `reconstruct` false only the quantisation runs (a fixed-step encode whose error is not wanted).
     Trial trial(const Volume& v, const VczHeader& h, LiftingTransform<float>& t,
-                const std::vector<std::vector<float>>& coeffs, std::optional<double> bound) {
+                const std::vector<std::vector<float>>& coeffs, std::optional<double> bound,
+                CodecProfile* prof, bool reconstruct = true) {
         Trial tr;
         const std::size_t n = coeffs.size();
         tr.q.resize(n);
         tr.corrections.resize(n);
+        ++prof->trials;
         std::vector<std::vector<float>> rec(n);
-        parallelFor(n, o_.threads, [&](std::size_t b) {
-            tr.q[b] = quantise(h, h.brickDims(b), coeffs[b]);
-            rec[b] = dequantise(h, h.brickDims(b), tr.q[b]);
+        timeStage(prof, &CodecProfile::quantise, [&] {
+            parallelFor(n, o_.threads,
+                        [&](std::size_t b) { tr.q[b] = quantise(h, h.brickDims(b), coeffs[b]); });
         });
+        if (!reconstruct) {
+            tr.err.sumSq = tr.err.maxErr = std::numeric_limits<double>::quiet_NaN();
+            return tr;
+        }
         std::vector<std::size_t> all(n);
         for (std::size_t i = 0; i < n; ++i)
             all[i] = i;
-        inverseBricks(cc_, t, h, all, rec, 0);
-        std::vector<ErrorStats> es(n);
-        parallelFor(n, o_.threads, [&](std::size_t b) {
-            const auto orig = brickVoxels<double>(v, h, b);
-            visitTyped(v, [&](auto span) {
-                using V = std::remove_const_t<typename decltype(span)::element_type>;
-                for (std::size_t i = 0; i < orig.size(); ++i) {
-                    const double e = std::abs(double(toVoxel<V>(rec[b][i])) - orig[i]);
-                    if (bound && e > *bound) {
-                        tr.corrections[b].push_back({static_cast<std::uint32_t>(i), orig[i]});
-                        continue;
-                    }
-                    es[b].sumSq += e * e;
-                    es[b].maxErr = std::max(es[b].maxErr, e);
-                }
+        timeStage(prof, &CodecProfile::reconstruct, [&] {
+            inverseBricks(cc_, t, h, all, rec, 0, o_.threads, nullptr, &CodecProfile::reconstruct,
+                          [&](std::size_t b, float* dst, std::size_t pitch) {
+                              dequantiseInto(h, h.brickDims(b), tr.q[b], dst, pitch);
+                          });
+            std::vector<ErrorStats> es(n);
+            parallelFor(n, o_.threads, [&](std::size_t b) {
+                const Dims o = h.brickOrigin(b), d = h.brickDims(b);
+                visitTyped(v, [&](auto span) {
+                    using V = std::remove_const_t<typename decltype(span)::element_type>;
+                    for (std::size_t z = 0; z < d.z; ++z)
+                        for (std::size_t y = 0; y < d.y; ++y) {
+                            const V* in = span.data() + v.index(o.x, o.y + y, o.z + z);
+                            const float* r = rec[b].data() + (z * d.y + y) * d.x;
+                            for (std::size_t x = 0; x < d.x; ++x) {
+                                const double orig = double(in[x]);
+                                const double e = std::abs(double(toVoxel<V>(r[x])) - orig);
+                                if (bound && e > *bound) {
+                                    tr.corrections[b].push_back(
+                                        {static_cast<std::uint32_t>((z * d.y + y) * d.x + x), orig});
+                                    continue;
+                                }
+                                es[b].sumSq += e * e;
+                                es[b].maxErr = std::max(es[b].maxErr, e);
+                            }
+                        }
+                });
             });
+            for (const auto& e : es) {
+                tr.err.sumSq += e.sumSq;
+                tr.err.maxErr = std::max(tr.err.maxErr, e.maxErr);
+            }
         });
-        for (const auto& e : es) {
-            tr.err.sumSq += e.sumSq;
-            tr.err.maxErr = std::max(tr.err.maxErr, e.maxErr);
-        }
         return tr;
     }
 
     std::size_t codedBytes(const VczHeader& h, const Trial& tr,
-                           std::vector<std::vector<std::uint8_t>>* payloads) {
+                           std::vector<std::vector<std::uint8_t>>* payloads, CodecProfile* prof) {
         std::vector<std::vector<std::uint8_t>> p(tr.q.size());
-        parallelFor(p.size(), o_.threads, [&](std::size_t b) {
-            p[b] = buildPayload(h, h.brickDims(b), tr.q[b], tr.corrections[b]);
+        timeStage(prof, &CodecProfile::entropy, [&] {
+            parallelFor(p.size(), o_.threads, [&](std::size_t b) {
+                p[b] = buildPayload(h, h.brickDims(b), tr.q[b], tr.corrections[b]);
+            });
         });
         std::size_t total = vczPreambleSize(h);
         for (const auto& x : p)
@@ -603,13 +758,14 @@ private:
     }
 
     FrameResult encodeLossy(const Volume& v, VczHeader& h, bool chooseStep) {
-        const VolumeStats st = v.stats(1);
-        if (st.nanCount > 0 || st.infCount > 0)
+        const ValueRange st = valueRange(v, o_.threads);
+        if (st.nonFinite)
             throw DataError(
                 "lossy encoding needs finite voxels (found NaN/Inf): use --lossless to keep them exactly");
         LiftingTransform<float> t(cc_, h.wavelet);
         FrameResult r;
-        auto coeffs = forwardBricks(cc_, t, v, h, r.report.transformMs);
+        CodecProfile* prof = &r.report.profile;
+        auto coeffs = forwardBricks(cc_, t, v, h, o_.threads, prof, r.report.transformMs, &r.ranges);
         for (const auto& c : coeffs)
             for (float x : c)
                 if (!std::isfinite(x))
@@ -632,16 +788,17 @@ private:
         }
         if (!chooseStep) {
             bestDelta = lastDelta;
-            best = trial(v, h, t, coeffs,
-                         h.rate == RateMode::MaxError ? std::optional(o_.target) : std::nullopt);
+            const bool bounded = h.rate == RateMode::MaxError;
+            best = trial(v, h, t, coeffs, bounded ? std::optional(o_.target) : std::nullopt, prof,
+                         bounded || o_.measureError);
         } else if (h.rate == RateMode::MaxError) {
             // Larger steps leave more voxels to store exactly: keep the candidate with the smallest file.
             std::size_t bestBytes = std::numeric_limits<std::size_t>::max();
             std::vector<double> bestSteps;
             for (double k : {0.9, 1.4, 2.0, 2.8}) {
                 setDelta(k * o_.target);
-                Trial tr = trial(v, h, t, coeffs, o_.target);
-                const std::size_t bytes = codedBytes(h, tr, nullptr);
+                Trial tr = trial(v, h, t, coeffs, o_.target, prof);
+                const std::size_t bytes = codedBytes(h, tr, nullptr, prof);
                 if (bytes < bestBytes) {
                     bestBytes = bytes;
                     best = std::move(tr);
@@ -669,7 +826,7 @@ private:
                 for (int it = 0; it < 24 && hi - lo > 0.02; ++it) {
                     const double mid = 0.5 * (lo + hi);
                     setDelta(std::exp2(mid));
-                    Trial tr = trial(v, h, t, coeffs, std::nullopt);
+                    Trial tr = trial(v, h, t, coeffs, std::nullopt, prof);
                     double quality;
                     bool ok;
                     if (psnrMode) {
@@ -678,7 +835,7 @@ private:
                                            : 10 * std::log10(rangeSq / mse);
                         ok = range == 0 || quality >= o_.target;
                     } else {
-                        quality = double(codedBytes(h, tr, nullptr)) * 8 / n;
+                        quality = double(codedBytes(h, tr, nullptr, prof)) * 8 / n;
                         ok = quality <= o_.target;
                     }
                     if (ok) {
@@ -700,13 +857,13 @@ private:
                     throw UsageError("--bpv " + std::to_string(o_.target) +
                                      " is below what this volume can be coded in");
                 setDelta(std::exp2(lo));
-                best = trial(v, h, t, coeffs, std::nullopt);
+                best = trial(v, h, t, coeffs, std::nullopt, prof);
                 bestSteps = h.steps;
                 bestDelta = lastDelta;
             }
             h.steps = bestSteps;
         }
-        codedBytes(h, best, &r.payloads);
+        codedBytes(h, best, &r.payloads, prof);
         r.report.step = bestDelta;
         std::size_t corr = 0;
         for (const auto& c : best.corrections)
@@ -715,7 +872,6 @@ private:
         r.report.maxError = best.err.maxErr;
         const double mse = best.err.sumSq / n;
         r.report.psnr = mse == 0 ? std::numeric_limits<double>::infinity() : 10 * std::log10(rangeSq / mse);
-        r.ranges = brickRanges(v, h);
         return r;
     }
 
@@ -729,11 +885,14 @@ private:
                 for (const SubbandBox& sb : sec) {
                     const std::size_t si =
                         sb.level == 0 ? 0 : 1 + std::size_t(sb.level - 1) * 7 + std::size_t(sb.orient - 1);
+                    float m = 0;
                     for (std::size_t z = sb.z0; z < sb.z1; ++z)
-                        for (std::size_t y = sb.y0; y < sb.y1; ++y)
+                        for (std::size_t y = sb.y0; y < sb.y1; ++y) {
+                            const float* row = coeffs[b].data() + (z * d.y + y) * d.x;
                             for (std::size_t x = sb.x0; x < sb.x1; ++x)
-                                maxAbs[si] = std::max(maxAbs[si],
-                                                      double(std::abs(coeffs[b][(z * d.y + y) * d.x + x])));
+                                m = std::max(m, std::abs(row[x]));
+                        }
+                    maxAbs[si] = std::max(maxAbs[si], double(m));
                 }
         }
         for (std::size_t i = 0; i < h.steps.size(); ++i)
@@ -768,14 +927,17 @@ std::vector<std::byte> assemble(VczHeader& h, std::vector<FrameResult>& frames) 
 
 std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, const CodecOptions& options,
                                     EncodeReport* report) {
+    Stopwatch total;
     Encoder enc(cc, options);
     VczHeader h = enc.plan(volume);
-    const VolumeStats st = volume.stats(1);
+    const ValueRange st = valueRange(volume, options.threads);
     h.valueMin = st.min;
     h.valueMax = st.max;
     std::vector<FrameResult> frames;
     frames.push_back(enc.encodeFrame(volume, h, true));
-    auto bytes = assemble(h, frames);
+    std::vector<std::byte> bytes;
+    timeStage(&frames[0].report.profile, &CodecProfile::assemble, [&] { bytes = assemble(h, frames); });
+    frames[0].report.profile.total = total.milliseconds();
     if (report) {
         *report = frames[0].report;
         report->bytes = bytes.size();
@@ -842,7 +1004,7 @@ struct DecodedBricks {
 
 DecodedBricks decodeBricks(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h,
                            std::size_t frame, const std::vector<std::size_t>& which, int level,
-                           unsigned threads, const std::string& name) {
+                           unsigned threads, const std::string& name, CodecProfile* prof) {
     if (frame >= h.frames.size()) throw UsageError(name + ": no frame " + std::to_string(frame));
     if (h.frames[frame].type != FrameType::I)
         throw DataError(name + ": frame " + std::to_string(frame) +
@@ -853,31 +1015,39 @@ DecodedBricks decodeBricks(ComputeContext& cc, std::span<const std::byte> file, 
     DecodedBricks out;
     out.ints.resize(n);
     out.corrections.resize(n);
-    parallelFor(which.size(), threads, [&](std::size_t k) {
-        const std::size_t b = which[k];
-        const std::string what = name + ": brick " + std::to_string(b);
-        const auto payload = vczBrickPayload(file, h, frame, b, name);
-        const Dims d = h.brickDims(b);
-        const auto layout = sectionLayout(d, levels);
-        const ParsedPayload p = parsePayload(payload, layout.size(), what);
-        out.ints[b].assign(d.count(), 0);
-        for (std::size_t s = 0; s + stop < layout.size(); ++s)
-            decodeSection(p.sections[s], out.ints[b], d, layout, s, h.entropy, what.c_str());
-        if (!p.corrections.empty() && level == 0)
-            out.corrections[b] = decodeCorrections(p.corrections, h.type, d.count(), what);
+    timeStage(prof, &CodecProfile::entropy, [&] {
+        parallelFor(which.size(), threads, [&](std::size_t k) {
+            const std::size_t b = which[k];
+            const std::string what = name + ": brick " + std::to_string(b);
+            const auto payload = vczBrickPayload(file, h, frame, b, name);
+            const Dims d = h.brickDims(b);
+            const auto layout = sectionLayout(d, levels);
+            const ParsedPayload p = parsePayload(payload, layout.size(), what);
+            out.ints[b].assign(d.count(), 0);
+            for (std::size_t s = 0; s + stop < layout.size(); ++s)
+                decodeSection(p.sections[s], out.ints[b], d, layout, s, h.entropy, what.c_str());
+            if (!p.corrections.empty() && level == 0)
+                out.corrections[b] = decodeCorrections(p.corrections, h.type, d.count(), what);
+        });
     });
     if (h.transform == TransformKind::IntegerLifting) {
         LiftingTransform<std::int32_t> t(cc, h.wavelet);
-        inverseBricks(cc, t, h, which, out.ints, level);
+        inverseBricks(cc, t, h, which, out.ints, level, threads, prof, &CodecProfile::gather,
+                      [&](std::size_t b, std::int32_t* dst, std::size_t pitch) {
+                          const Dims d = h.brickDims(b);
+                          for (std::size_t r = 0; r < d.y * d.z; ++r)
+                              std::copy_n(out.ints[b].data() + r * d.x, d.x, dst + r * pitch);
+                      });
     } else if (h.transform == TransformKind::FloatLifting) {
+        // Dequantised straight into the batch: no dense float copy of the coefficients.
         out.floats.resize(n);
-        parallelFor(which.size(), threads, [&](std::size_t k) {
-            const std::size_t b = which[k];
-            out.floats[b] = dequantise(h, h.brickDims(b), out.ints[b]);
-            std::vector<std::int32_t>().swap(out.ints[b]);
-        });
         LiftingTransform<float> t(cc, h.wavelet);
-        inverseBricks(cc, t, h, which, out.floats, level);
+        inverseBricks(cc, t, h, which, out.floats, level, threads, prof, &CodecProfile::quantise,
+                      [&](std::size_t b, float* dst, std::size_t pitch) {
+                          dequantiseInto(h, h.brickDims(b), out.ints[b], dst, pitch);
+                      });
+        for (std::size_t b : which)
+            std::vector<std::int32_t>().swap(out.ints[b]);
     }
     return out;
 }
@@ -896,23 +1066,38 @@ void placeBrick(const VczHeader& h, const DecodedBricks& db, std::size_t b, int 
     auto local = [&](std::size_t j, std::size_t origin, std::size_t firstJ) {
         return raw ? j * f - origin : j - firstJ;
     };
+    const std::size_t x0 = std::max(first.x, a.x), x1 = std::min(last.x, e.x);
     for (std::size_t z = std::max(first.z, a.z); z < std::min(last.z, e.z); ++z)
         for (std::size_t y = std::max(first.y, a.y); y < std::min(last.y, e.y); ++y) {
             const std::size_t row = (local(z, o.z, first.z) * d.y + local(y, o.y, first.y)) * d.x;
             V* dst = out.data() + ((z - a.z) * outDims.y + (y - a.y)) * outDims.x;
-            for (std::size_t x = std::max(first.x, a.x); x < std::min(last.x, e.x); ++x) {
+            if (!raw && x0 < x1) {
+                // Lifting bricks: one contiguous run per row, converted in a loop the compiler vectorises.
+                const std::size_t at = row + (x0 - first.x), len = x1 - x0;
+                V* o1 = dst + (x0 - a.x);
+                if (h.transform == TransformKind::IntegerLifting) {
+                    const std::int32_t* src = db.ints[b].data() + at;
+                    for (std::size_t i = 0; i < len; ++i) {
+                        if constexpr (std::is_same_v<V, float>)
+                            o1[i] = static_cast<float>(src[i]);
+                        else
+                            o1[i] = static_cast<V>(std::clamp<std::int32_t>(
+                                src[i], std::numeric_limits<V>::min(), std::numeric_limits<V>::max()));
+                    }
+                } else {
+                    const float* src = db.floats[b].data() + at;
+                    for (std::size_t i = 0; i < len; ++i)
+                        o1[i] = toVoxel<V>(src[i]);
+                }
+                continue;
+            }
+            for (std::size_t x = x0; x < x1; ++x) { // raw bricks (decimated at level k)
                 const std::size_t i = row + local(x, o.x, first.x);
                 V v;
-                if (raw) {
-                    if constexpr (std::is_same_v<V, float>) {
-                        std::memcpy(&v, &db.ints[b][i], 4);
-                    } else {
-                        v = static_cast<V>(db.ints[b][i]);
-                    }
-                } else if (h.transform == TransformKind::IntegerLifting) {
-                    v = toVoxel<V>(double(db.ints[b][i]));
+                if constexpr (std::is_same_v<V, float>) {
+                    std::memcpy(&v, &db.ints[b][i], 4);
                 } else {
-                    v = toVoxel<V>(double(db.floats[b][i]));
+                    v = static_cast<V>(db.ints[b][i]);
                 }
                 dst[x - a.x] = v;
             }
@@ -955,17 +1140,23 @@ Volume VczReader::decode(ComputeContext& cc, const DecodeOptions& o) const {
             bo.z + bd.z > r.lo.z)
             which.push_back(b);
     }
-    const DecodedBricks db = decodeBricks(cc, bytes_, h, o.frame, which, o.level, o.threads, name_);
+    Stopwatch total;
+    const DecodedBricks db =
+        decodeBricks(cc, bytes_, h, o.frame, which, o.level, o.threads, name_, o.profile);
     Volume out(outDims, h.type);
     for (int i = 0; i < 3; ++i) {
         const std::size_t first = i == 0 ? a.x : i == 1 ? a.y : a.z;
         out.spacing[i] = h.spacing[i] * double(f);
         out.origin[i] = h.origin[i] + double(first * f) * h.spacing[i];
     }
-    visitTyped(out, [&](auto span) {
-        for (std::size_t b : which)
-            placeBrick(h, db, b, o.level, a, e, span, outDims);
+    timeStage(o.profile, &CodecProfile::assemble, [&] {
+        visitTyped(out, [&](auto span) {
+            // Bricks cover disjoint parts of the output, so they are placed in parallel.
+            parallelFor(which.size(), o.threads,
+                        [&](std::size_t k) { placeBrick(h, db, which[k], o.level, a, e, span, outDims); });
+        });
     });
+    if (o.profile) o.profile->total += total.milliseconds();
     return out;
 }
 

@@ -35,7 +35,25 @@ struct CodecOptions {
     /// encodes several trials; benchmarks time a fixed-step encode separately).
     std::optional<double> step;
     unsigned threads = 2; ///< host threads for entropy coding
+    /// --psnr / --bpv with a fixed `step`: reconstruct to report PSNR and max error. False skips that
+    /// pass (the report's error fields are then NaN); --max-error always reconstructs to hold its bound.
+    bool measureError = true;
     std::map<std::string, std::string> metadata;
+};
+
+/// Wall time per pipeline stage in milliseconds, summed over every pass of a call (rate-control trials
+/// included), so a benchmark can show where encode and decode time goes.
+struct CodecProfile {
+    double gather = 0;      ///< voxels -> brick arrays in the batch layout, coefficients back to bricks
+    double upload = 0;      ///< host -> device copies
+    double transform = 0;   ///< lifting kernels (wall time of the launches)
+    double download = 0;    ///< device -> host copies
+    double quantise = 0;    ///< quantise / dequantise
+    double entropy = 0;     ///< section (de)coding and payload building
+    double reconstruct = 0; ///< encoder: inverse transform and error check of the rate-control trials
+    double assemble = 0;    ///< encoder: brick ranges and the container; decoder: placing bricks, corrections
+    double total = 0;       ///< the whole call
+    int trials = 0;         ///< quantise + reconstruct rounds run by the rate control
 };
 
 /// What an encoding measured about itself (for benchmarks and `volcl encode` reports).
@@ -47,6 +65,7 @@ struct EncodeReport {
     std::size_t corrections = 0; ///< voxels stored exactly to hold --max-error
     double transformMs = 0;      ///< kernel time of the final forward transform
     double step = 0;             ///< base quantiser step chosen (lossy)
+    CodecProfile profile;
 };
 
 /// Encodes one volume into .vcz bytes. Throws UsageError for invalid options, DataError for NaN/Inf
@@ -69,6 +88,7 @@ struct DecodeOptions {
     int level = 0;                ///< 2^level-downsampled approximation (no finer detail is decoded)
     std::size_t frame = 0;
     unsigned threads = 2;
+    CodecProfile* profile = nullptr; ///< when set, receives the stage times of the decode
 };
 
 /// Random access to a .vcz held in memory: validates header and index on construction, checks each

@@ -40,6 +40,28 @@ void inverse3d(std::span<std::int32_t> data, Dims dims, int levels, Wavelet w, i
 void inverse3d(std::span<double> data, Dims dims, int levels, Wavelet w, int stopLevel = 0);
 } // namespace reference
 
+/// Host view of a device buffer, mapped until destroyed or unmap() (zero-copy on CPU devices, where the
+/// buffer is allocated in host memory). Kernels must not use the buffer while it is mapped.
+template <class T> class BatchMapping {
+public:
+    BatchMapping() = default;
+    BatchMapping(cl::CommandQueue& queue, cl::Buffer& buffer, std::size_t count, cl_map_flags flags);
+    ~BatchMapping() { unmap(); }
+    BatchMapping(const BatchMapping&) = delete;
+    BatchMapping& operator=(const BatchMapping&) = delete;
+    BatchMapping(BatchMapping&& o) noexcept { *this = std::move(o); }
+    BatchMapping& operator=(BatchMapping&& o) noexcept;
+    std::span<T> span() const noexcept { return {ptr_, count_}; }
+    T* data() const noexcept { return ptr_; }
+    void unmap() noexcept;
+
+private:
+    cl::CommandQueue* queue_ = nullptr;
+    cl::Buffer* buffer_ = nullptr;
+    T* ptr_ = nullptr;
+    std::size_t count_ = 0;
+};
+
 /// `count` bricks of the same dims on the device, stacked along z with the row pitch rounded up to 16
 /// (the x pass works on 16-wide vectors). Two buffers ping-pong between passes; `data()` is the current.
 /// T is std::int32_t (reversible path) or float (lossy path).
@@ -55,6 +77,10 @@ public:
     std::vector<T> makeHost() const { return std::vector<T>(brickStride() * count_); }
     void upload(ComputeContext& cc, std::span<const T> host);
     void download(ComputeContext& cc, std::span<T> host);
+    /// Maps the input buffer for writing bricks in place (no host copy); forward()/inverse() start from it.
+    BatchMapping<T> mapForWrite(ComputeContext& cc);
+    /// Maps the current buffer (the transform's result) for reading.
+    BatchMapping<T> mapForRead(ComputeContext& cc);
     DeviceBuffer<T>& data() noexcept { return current_ ? b_ : a_; }
     DeviceBuffer<T>& scratch() noexcept { return current_ ? a_ : b_; }
     void swap() noexcept { current_ = !current_; }
