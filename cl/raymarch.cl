@@ -279,10 +279,6 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 #ifdef SKIPPING
     float cellExit = -INFINITY;
 #endif
-#if ISO_COUNT > 0
-    IsoState iso; /* the iso-surfaces' cell walk carries over from segment to segment */
-    iso_begin(&iso, &r);
-#endif
     int k = 0;
     while (k < nseg) {
         const float t0 = tEnter + (float)k * step;
@@ -310,7 +306,7 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
         const float sNext = sample_volume(vol, P, ray_at(&r, t1));
 #endif
 #if ISO_COUNT > 0
-        iso_march(vol, knots, P, &r, &iso, t0, t1, &rgb, &T, &depth);
+        iso_segment(vol, knots, P, &r, t0, sPrev, t1, sNext, &rgb, &T, &depth);
 #endif
 #if MODE == 0
 #if PREINT == 0
@@ -377,6 +373,78 @@ inline uint8 macro_cell8(const VolclRenderParams* P, const RayPacket* r, float8 
     return (convert_uint8(cz) * P->macroDims[1] + convert_uint8(cy)) * P->macroDims[0] + convert_uint8(cx);
 }
 
+#if PREINT == 2 || PREINT == 3
+/* Bilinear table value of slice k at node cell (i0, j0) with fractions (fu, fv): table_bilinear's arithmetic
+   after its index computation. */
+inline float4 table_cell(__global const float4* table, uint n, uint k, uint i0, uint j0, float fu, float fv) {
+    __global const float4* row0 = table + ((size_t)k * n + i0) * n;
+    __global const float4* row1 = row0 + n;
+    const float4 a = row0[j0] + fv * (row0[j0 + 1] - row0[j0]);
+    const float4 b = row1[j0] + fv * (row1[j0 + 1] - row1[j0]);
+    return a + fu * (b - a);
+}
+
+/* preint_segment for a packet: index arithmetic and the length correction in float8, the four table reads
+   per lane. Returns associated (r, g, b, alpha) per lane. */
+inline void preint_packet(__global const float4* table, const VolclRenderParams* P, float8 sf, float8 sb, float8 len,
+                          float8* outR, float8* outG, float8* outB, float8* outA) {
+    const uint n = P->tableSize;
+    const float scale = (float)(n - 1) / (P->domainHi - P->domainLo);
+    const float hi = (float)(n - 1);
+    const float8 u = clamp((sf - P->domainLo) * scale, 0.0f, hi), v = clamp((sb - P->domainLo) * scale, 0.0f, hi);
+    LaneU i0, j0;
+    i0.v = min(convert_uint8(u), n - 2);
+    j0.v = min(convert_uint8(v), n - 2);
+    LaneF fu, fv;
+    fu.v = u - convert_float8(i0.v);
+    fv.v = v - convert_float8(j0.v);
+    LaneF er, eg, eb, ea;
+#if PREINT == 2
+    _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
+        const float4 e = table_cell(table, n, 0, i0.a[l], j0.a[l], fu.a[l], fv.a[l]);
+        er.a[l] = e.x; eg.a[l] = e.y; eb.a[l] = e.z; ea.a[l] = e.w;
+    }
+    const float8 tableLen = (float8)(P->step);
+#else
+    /* Slices hold l_k = (k + 1) D / L; below l_0 interpolate toward the empty segment. */
+    const uint L = P->tableLengths;
+    LaneF kf;
+    kf.v = len * (float)L / P->tableMaxLength - 1.0f;
+    _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
+        const float k = kf.a[l];
+        float4 e;
+        if (k <= 0.0f) {
+            e = table_cell(table, n, 0, i0.a[l], j0.a[l], fu.a[l], fv.a[l]) * fmax(k + 1.0f, 0.0f);
+        } else if (k >= (float)(L - 1)) {
+            e = table_cell(table, n, L - 1, i0.a[l], j0.a[l], fu.a[l], fv.a[l]);
+        } else {
+            const uint k0 = (uint)k;
+            const float fk = k - (float)k0;
+            const float4 a = table_cell(table, n, k0, i0.a[l], j0.a[l], fu.a[l], fv.a[l]);
+            e = a + fk * (table_cell(table, n, k0 + 1, i0.a[l], j0.a[l], fu.a[l], fv.a[l]) - a);
+        }
+        er.a[l] = e.x; eg.a[l] = e.y; eb.a[l] = e.z; ea.a[l] = e.w;
+    }
+    const float8 tableLen = select(len, (float8)(P->tableMaxLength), (kf.v > 0.0f) & (kf.v >= (float)(L - 1)));
+#endif
+    const int8 other = len != tableLen;
+    if (any(other)) {
+        /* Other length: exact for a constant scalar (alpha from optical depth, colour in proportion). */
+        const float8 a = clamp(ea.v, 0.0f, 1.0f);
+        const float8 an = select((float8)(1.0f), 1.0f - pow(1.0f - a, len / tableLen), a < 1.0f);
+        const float8 ratio = select(len / tableLen, an / a, a > 0.0f);
+        er.v = select(er.v, er.v * ratio, other);
+        eg.v = select(eg.v, eg.v * ratio, other);
+        eb.v = select(eb.v, eb.v * ratio, other);
+        ea.v = select(ea.v, an, other);
+    }
+    *outR = er.v;
+    *outG = eg.v;
+    *outB = eb.v;
+    *outA = ea.v;
+}
+#endif
+
 /* DVR (point sampled or pre-integrated, skipping, early termination, clipping) for a 4x2 block of pixels
    per work-item; the host launches it instead of `raymarch` when the scene has no lights and no
    iso-surfaces. Same image as `raymarch`. */
@@ -390,7 +458,7 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
     RayPacket rp;
     LaneF ox, oy, oz, dx, dy, dz, enter, exit;
     LaneI nsegL, act;
-    for (int l = 0; l < RAY_LANES; ++l) {
+    _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
         const uint x = x0 + (uint)(l % PACKET_W), y = y0 + (uint)(l / PACKET_W);
         const Ray r = camera_ray(P, min(x, params.width - 1), min(y, params.height - 1));
         float2 span = clip_box(r.o, r.d, hi, 0.0f, INFINITY);
@@ -434,7 +502,7 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
             cell.v = macro_cell8(P, &rp, t0, &exitT);
             cellExit = select(cellExit, exitT, need);
             LaneI empty;
-            for (int l = 0; l < RAY_LANES; ++l) empty.a[l] = macroEmpty[cell.a[l]] ? -1 : 0;
+            _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) empty.a[l] = macroEmpty[cell.a[l]] ? -1 : 0;
             /* Segments with both ends in an empty cell add nothing: jump to the last one starting in it. */
             const int8 j = min(convert_int8(floor((exitT - tEnter) / step)), nseg);
             const int8 jump = need & empty.v & (j > k);
@@ -455,7 +523,7 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
 #if PREINT == 0
         LaneF s;
         s.v = sample_packet(vol, P, &rp, t0 + 0.5f * len);
-        for (int l = 0; l < RAY_LANES; ++l) {
+        _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
             const float4 e = tf_sample(knots, P->knotCount, s.a[l]);
             er.a[l] = e.x; eg.a[l] = e.y; eb.a[l] = e.z; ea.a[l] = e.w;
         }
@@ -463,14 +531,7 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
         const float8 wr = T * a * er.v, wg = T * a * eg.v, wb = T * a * eb.v;
 #else
         const float8 sNext = sample_packet(vol, P, &rp, t1);
-        LaneF sf, sb, ln;
-        sf.v = sPrev;
-        sb.v = sNext;
-        ln.v = len;
-        for (int l = 0; l < RAY_LANES; ++l) {
-            const float4 e = preint_segment(table, P, sf.a[l], sb.a[l], ln.a[l]);
-            er.a[l] = e.x; eg.a[l] = e.y; eb.a[l] = e.z; ea.a[l] = e.w;
-        }
+        preint_packet(table, P, sPrev, sNext, len, &er.v, &eg.v, &eb.v, &ea.v);
         const float8 a = ea.v;
         const float8 wr = T * er.v, wg = T * eg.v, wb = T * eb.v;
         sPrev = sNext;
@@ -487,7 +548,7 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
     }
     LaneF R, G, Bc, A;
     R.v = cr; G.v = cg; Bc.v = cb; A.v = 1.0f - T;
-    for (int l = 0; l < RAY_LANES; ++l) {
+    _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
         const uint x = x0 + (uint)(l % PACKET_W), y = y0 + (uint)(l / PACKET_W);
         if (x < params.width && y < params.height)
             out[(size_t)y * params.width + x] = (float4)(R.a[l], G.a[l], Bc.a[l], A.a[l]);

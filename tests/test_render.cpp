@@ -419,6 +419,39 @@ TEST(Render, HardGeometry) {
     }
 }
 
+TEST(Render, Uint8CornerLayoutMatchesLinearLayout) {
+    // uint8 volumes reach the packet kernels as 8 corner bytes per cell (CORNER_VOXELS); the same voxels as
+    // float take the linear path. Same arithmetic, so the images agree exactly, also on grids two voxels
+    // thin (clamped neighbours) and images whose size is not a multiple of the 4x2 packet.
+    for (const Dims n : {Dims{9, 6, 5}, Dims{2, 7, 3}, Dims{3, 2, 6}, Dims{5, 4, 2}}) {
+        Volume u8(n, ScalarType::UInt8), f32(n, ScalarType::Float32);
+        auto bytes = u8.values<std::uint8_t>();
+        auto floats = f32.values<float>();
+        for (std::size_t i = 0; i < bytes.size(); ++i) {
+            bytes[i] = std::uint8_t((i * 97 + 31) % 251);
+            floats[i] = float(bytes[i]);
+        }
+        TransferFunction tf;
+        tf.domain = {0, 255};
+        tf.color = {{0, {0.2, 0.4, 1.0}}, {255, {1.0, 0.8, 0.1}}};
+        tf.extinction = {{0, 0.0}, {60, 0.0}, {120, 0.2}, {255, 0.6}};
+        for (Preintegration pre : {Preintegration::None, Preintegration::Table2d, Preintegration::Table3d}) {
+            Scene s = orthoScene(n, 12.0, 11, 7);
+            Camera cam = *s.camera;
+            cam.eye = {-20, 30, -25};
+            s.camera = cam;
+            s.step = 0.3;
+            s.preintegration = pre;
+            const ImageBuffer a = Renderer(computeContext(), u8, tf, s).render();
+            const ImageBuffer b = Renderer(computeContext(), f32, tf, s).render();
+            EXPECT_GT(maxAbsDiff(b, ImageBuffer(b.width, b.height, {"R", "G", "B", "A"})), 0.01)
+                << "the scene must show something";
+            EXPECT_LT(maxAbsDiff(a, b), 1e-6) << n.x << "x" << n.y << "x" << n.z << " "
+                                               << preintegrationName(pre);
+        }
+    }
+}
+
 TEST(Render, DegenerateVolumesAndSteps) {
     // One voxel thick: the box has no depth, so nothing is integrated (CONTRACT: the box is [o, o+(n-1)s]).
     const Volume slab = makeVolume({8, 8, 1}, [](double, double, double) { return 1.0f; });

@@ -73,6 +73,40 @@ MacrocellGrid buildMacrocells(const Volume& volume, unsigned edge) {
     return g;
 }
 
+std::vector<unsigned char> cellCorners(const Volume& volume) {
+    if (volume.type() != ScalarType::UInt8) throw UsageError("cellCorners: uint8 volumes only");
+    const auto d = volume.dims();
+    const std::size_t nx = d.x, ny = d.y, nz = d.z;
+    const std::size_t bx = (nx + 3) / 4, by = (ny + 3) / 4, bz = (nz + 3) / 4;
+    const auto v = volume.values<std::uint8_t>();
+    std::vector<unsigned char> out(bx * by * bz * 64 * 8, 0);
+    for (std::size_t z = 0; z < nz; ++z) {
+        const std::size_t z1 = std::min(z + 1, nz - 1);
+        for (std::size_t y = 0; y < ny; ++y) {
+            const std::size_t y1 = std::min(y + 1, ny - 1);
+            const std::uint8_t* r00 = &v[(z * ny + y) * nx];
+            const std::uint8_t* r10 = &v[(z * ny + y1) * nx];
+            const std::uint8_t* r01 = &v[(z1 * ny + y) * nx];
+            const std::uint8_t* r11 = &v[(z1 * ny + y1) * nx];
+            for (std::size_t x = 0; x < nx; ++x) {
+                const std::size_t x1 = std::min(x + 1, nx - 1);
+                const std::size_t cell =
+                    (((z / 4) * by + y / 4) * bx + x / 4) * 64 + (z % 4) * 16 + (y % 4) * 4 + x % 4;
+                unsigned char* o = &out[cell * 8];
+                o[0] = r00[x];
+                o[1] = r00[x1];
+                o[2] = r10[x];
+                o[3] = r10[x1];
+                o[4] = r01[x];
+                o[5] = r01[x1];
+                o[6] = r11[x];
+                o[7] = r11[x1];
+            }
+        }
+    }
+    return out;
+}
+
 double maxExtinctionOver(const TransferFunction& tf, double a, double b) {
     double m = std::max(tf.extinctionAt(a), tf.extinctionAt(b));
     // Right limit at a (a step exactly at a holds above a) and every point inside.

@@ -34,6 +34,15 @@ std::vector<unsigned char> emptyMacrocells(const MacrocellGrid& grid, const Tran
                                            const std::vector<double>& isoValues, bool isoOnly,
                                            int tableNodes);
 
+/// Most voxels a uint8 volume may have for the 8-bytes-per-cell copy (cellCorners): 64 Mi voxels, 512 MiB.
+constexpr std::size_t kMaxCornerVoxels = std::size_t(1) << 26;
+
+/// For a uint8 volume: the 8 corner values of the trilinear cell at every voxel (x, y, z), in the order
+/// (x, y, z), (x+1, y, z), (x, y+1, z), (x+1, y+1, z), then the same at z+1, neighbours clamped to the grid,
+/// so the packet kernel fetches a cell with one 8-byte load (CORNER_VOXELS in cl/raymarch_core.h). Cells are
+/// stored in 4x4x4 bricks (brick-major, then z, y, x inside the brick) for cache locality along any ray.
+std::vector<unsigned char> cellCorners(const Volume& volume);
+
 /// Largest tau over [a, b] (exact for the piecewise-linear TF).
 double maxExtinctionOver(const TransferFunction& tf, double a, double b);
 

@@ -190,6 +190,8 @@ EffectPlan planEffects(const Scene& scene, const Volume& volume, const TransferF
 
 struct Renderer::Impl {
     DeviceBuffer<cl_uchar> volume; ///< voxels in their stored type, plus one spare voxel (raymarch_core.h)
+    DeviceBuffer<cl_uchar> corners; ///< uint8 volumes: 8 corner values per cell for the packet kernels
+    bool useCorners = false;        ///< packet kernels read `corners` (-DCORNER_VOXELS)
     DeviceBuffer<VolclTfKnot> knots;
     DeviceBuffer<cl_float4> table;
     DeviceBuffer<cl_uchar> empty;
@@ -225,6 +227,8 @@ Renderer::Renderer(ComputeContext& cc, const Volume& volume, const TransferFunct
     std::memcpy(bytes.data(), volume.bytes().data(), volume.byteSize());
     impl_->volume = cc_.upload(bytes, CL_MEM_READ_ONLY);
     impl_->macro = render_detail::buildMacrocells(volume, kMacrocellEdge);
+    impl_->useCorners =
+        volume.type() == ScalarType::UInt8 && volume.voxelCount() <= render_detail::kMaxCornerVoxels;
     impl_->out = cc_.allocate<cl_float4>(1);
     impl_->depth = cc_.allocate<float>(1);
     rebuild(true);
@@ -334,9 +338,19 @@ void Renderer::rebuild(bool tfChanged) {
 
     // Unlit DVR without iso-surfaces (the common, time-critical case) runs as explicit 8-ray packets.
     m.packet = scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
-    m.kernel = cc_.kernel("raymarch.cl", m.packet ? "raymarch_packet" : "raymarch", plan_.defines);
+    m.kernel = cc_.kernel("raymarch.cl", m.packet ? "raymarch_packet" : "raymarch", m.packet ? packetDefines(plan_.defines) : plan_.defines);
     m.params =
         render_detail::makeParams(scene_, camera_, volume_, tf_, plan_, m.macro, m.knotCount, m.tableLengths);
+}
+
+KernelDefines Renderer::packetDefines(KernelDefines d) {
+    Impl& m = *impl_;
+    if (m.useCorners) {
+        // A memory layout, not an effect: kept out of plan_.defines (what --explain and the EXR report).
+        d.set("CORNER_VOXELS");
+        if (m.corners.size() == 0) m.corners = cc_.upload(render_detail::cellCorners(volume_), CL_MEM_READ_ONLY);
+    }
+    return d;
 }
 
 ImageBuffer Renderer::launch(cl::Kernel& kernel, bool withDepth, bool packet) {
@@ -346,7 +360,8 @@ ImageBuffer Renderer::launch(cl::Kernel& kernel, bool withDepth, bool packet) {
         m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
         m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
     }
-    setArgs(kernel, m.volume, m.knots, m.table, m.empty, m.params, m.out, m.depth);
+    setArgs(kernel, packet && m.useCorners ? m.corners : m.volume, m.knots, m.table, m.empty, m.params, m.out,
+            m.depth);
     // Tiles of nearby rays share cache lines in y as well as x: 8x8 rays, or 4x4 packets of 4x2 rays.
     const std::size_t w = std::size_t(scene_.width), h = std::size_t(scene_.height);
     cl::Event ev = packet ? cc_.launch2d(kernel, (w + 3) / 4, (h + 1) / 2, 4, 4) : cc_.launch2d(kernel, w, h, 8, 8);
@@ -384,7 +399,7 @@ ImageBuffer Renderer::renderPlainBaseline() {
         throw UsageError("the plain baseline kernel renders point-sampled dvr only");
     KernelDefines d;
     d.set("VOXEL_TYPE", static_cast<long long>(plan_.voxelType));
-    cl::Kernel k = cc_.kernel("raymarch_plain.cl", "raymarch_plain", d);
+    cl::Kernel k = cc_.kernel("raymarch_plain.cl", "raymarch_plain", packetDefines(d));
     return launch(k, false, true);
 }
 

@@ -74,6 +74,8 @@ private:
     struct Impl;
     void rebuild(bool tfChanged);
     ImageBuffer launch(cl::Kernel& kernel, bool depth, bool packet);
+    /// d plus the volume layout the packet kernels read (uploads the corner copy on first use).
+    KernelDefines packetDefines(KernelDefines d);
     ComputeContext& cc_;
     const Volume& volume_;
     TransferFunction tf_;
