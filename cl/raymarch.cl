@@ -279,6 +279,10 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 #ifdef SKIPPING
     float cellExit = -INFINITY;
 #endif
+#if ISO_COUNT > 0
+    IsoState iso; /* the iso-surfaces' cell walk carries over from segment to segment */
+    iso_begin(&iso, &r);
+#endif
     int k = 0;
     while (k < nseg) {
         const float t0 = tEnter + (float)k * step;
@@ -306,7 +310,7 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
         const float sNext = sample_volume(vol, P, ray_at(&r, t1));
 #endif
 #if ISO_COUNT > 0
-        iso_segment(vol, knots, P, &r, t0, sPrev, t1, sNext, &rgb, &T, &depth);
+        iso_march(vol, knots, P, &r, &iso, t0, t1, &rgb, &T, &depth);
 #endif
 #if MODE == 0
 #if PREINT == 0
