@@ -17,12 +17,14 @@
 #include "host/viewer/ViewerCamera.hpp"
 #include "host/viewer/ViewerSession.hpp"
 
+#include <epoxy/gl.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <map>
 #include <memory>
 #include <random>
 #include <sstream>
@@ -444,6 +446,79 @@ TEST(ViewerGl, SharedBufferRefusesADeviceWithoutTheExtension) {
     EXPECT_NE(props[3], 0);
 }
 
+// cl_khr_gl_sharing emulated with copies, so the shared-buffer frame path (buffer sizing, acquire, device
+// copy, release, texture upload from the GL buffer, draw) runs on a device without the extension. Only the
+// driver's zero-copy aliasing is not exercised: release copies the CL buffer into the GL buffer instead.
+namespace emulated {
+std::map<cl_mem, GLuint> glOf;
+int creates = 0, acquires = 0, releases = 0;
+
+cl_mem CL_API_CALL createFromGlBuffer(cl_context ctx, cl_mem_flags flags, cl_GLuint buffer, cl_int* err) {
+    GLint size = 0;
+    glBindBuffer(GL_COPY_READ_BUFFER, buffer);
+    glGetBufferParameteriv(GL_COPY_READ_BUFFER, GL_BUFFER_SIZE, &size);
+    glBindBuffer(GL_COPY_READ_BUFFER, 0);
+    cl_mem m = clCreateBuffer(ctx, flags, std::size_t(size), nullptr, err);
+    glOf[m] = buffer;
+    ++creates;
+    return m;
+}
+cl_int CL_API_CALL acquire(cl_command_queue, cl_uint, const cl_mem*, cl_uint, const cl_event*, cl_event*) {
+    ++acquires;
+    return CL_SUCCESS;
+}
+cl_int CL_API_CALL release(cl_command_queue q, cl_uint n, const cl_mem* mems, cl_uint, const cl_event*,
+                           cl_event*) {
+    ++releases;
+    for (cl_uint i = 0; i < n; ++i) {
+        std::size_t size = 0;
+        clGetMemObjectInfo(mems[i], CL_MEM_SIZE, sizeof size, &size, nullptr);
+        std::vector<unsigned char> host(size);
+        const cl_int e = clEnqueueReadBuffer(q, mems[i], CL_TRUE, 0, size, host.data(), 0, nullptr, nullptr);
+        if (e != CL_SUCCESS) return e;
+        glBindBuffer(GL_COPY_WRITE_BUFFER, glOf.at(mems[i]));
+        glBufferSubData(GL_COPY_WRITE_BUFFER, 0, GLsizeiptr(size), host.data());
+        glBindBuffer(GL_COPY_WRITE_BUFFER, 0);
+    }
+    return CL_SUCCESS;
+}
+} // namespace emulated
+
+TEST(ViewerGl, SharedBufferPathEqualsThePboPath) {
+    gl();
+    const Volume v = phantom({24, 20, 18});
+    ViewerSession s(test::computeContext(), v, Scene{}, phantomTf(), {}, {});
+    FramePresenter viaPbo, viaShare;
+    SharedFrameBuffer shared(test::computeContext(),
+                             {emulated::createFromGlBuffer, emulated::acquire, emulated::release});
+    int frames = 0;
+    // Two sizes and back: the shared buffer is re-made for each new size.
+    for (const auto& [w, h] : {std::pair{48, 40}, std::pair{31, 57}, std::pair{48, 40}}) {
+        const ViewerFrame f = s.renderFrame(w, h, false);
+        OffscreenFramebuffer fb(w, h);
+        viaPbo.upload(f.image);
+        viaPbo.draw(w, h, {0.1, 0.2, 0.3, 1});
+        const ImageBuffer a = readFramebuffer(w, h);
+        shared.present(s.renderer().outputBuffer(), w, h, viaShare);
+        viaShare.draw(w, h, {0.1, 0.2, 0.3, 1});
+        const ImageBuffer b = readFramebuffer(w, h);
+        ++frames;
+        EXPECT_EQ(maxDifference255(a, b), 0.0) << w << "x" << h;
+        double spread = 0.0;
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x)
+                spread = std::max(spread, std::abs(double(b.at(x, y, 0) - b.at(0, 0, 0))));
+        EXPECT_GT(spread, 0.05) << "the frame shows nothing";
+    }
+    EXPECT_EQ(emulated::creates, 3);
+    EXPECT_EQ(emulated::acquires, frames);
+    EXPECT_EQ(emulated::releases, frames);
+    // A frame larger than the rendered buffer is refused before anything is enqueued.
+    EXPECT_THROW(shared.present(s.renderer().outputBuffer(), 480, 400, viaShare), Error);
+    EXPECT_EQ(emulated::acquires, frames);
+    EXPECT_THROW((SharedFrameBuffer{test::computeContext(), ClGlEntryPoints{}}), Error);
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // Overlay: host text rasterisation, wrapping, and the blended panel in the top-left corner
 
@@ -460,10 +535,10 @@ TEST(ViewerOverlay, RasterisesGlyphsIntoTheirCells) {
                                 std::size_t(kTextMargin + col * kGlyphWidth + x)] != 0;
         return n;
     };
-    EXPECT_GE(cellCount(0, 0), 7); // '|': a vertical bar
-    EXPECT_GT(cellCount(0, 1), 5); // 'a'
-    EXPECT_EQ(cellCount(1, 0), 0); // space
-    EXPECT_GT(cellCount(1, 1), 5); // '?'
+    EXPECT_GE(cellCount(0, 0), 7);               // '|': a vertical bar
+    EXPECT_GT(cellCount(0, 1), 5);               // 'a'
+    EXPECT_EQ(cellCount(1, 0), 0);               // space
+    EXPECT_GT(cellCount(1, 1), 5);               // '?'
     EXPECT_EQ(cellCount(2, 0), cellCount(1, 1)); // a control character is drawn as '?'
     EXPECT_EQ(cellCount(2, 1), 0);               // past the end of a short line: nothing
     // The margin stays empty.
@@ -527,7 +602,8 @@ TEST(ViewerOverlay, DrawsOnlyInsideItsPanelWithWhiteText) {
             if (!inside) continue;
             const bool ink = mask.coverage[std::size_t(y) * std::size_t(mask.width) + std::size_t(x)] != 0;
             if (ink) {
-                white += withText.at(x, y, 0) > 0.99f && withText.at(x, y, 1) > 0.99f && withText.at(x, y, 2) > 0.99f;
+                white += withText.at(x, y, 0) > 0.99f && withText.at(x, y, 1) > 0.99f &&
+                         withText.at(x, y, 2) > 0.99f;
             } else {
                 darker += withText.at(x, y, 1) < plain.at(x, y, 1) ? 1 : 0;
             }
@@ -535,8 +611,8 @@ TEST(ViewerOverlay, DrawsOnlyInsideItsPanelWithWhiteText) {
     int inkPixels = 0;
     for (unsigned char c : mask.coverage)
         inkPixels += c != 0;
-    EXPECT_EQ(white, inkPixels);                                 // every glyph pixel is white
-    EXPECT_EQ(darker, mask.width * mask.height - inkPixels);     // the panel darkens the rest
+    EXPECT_EQ(white, inkPixels);                             // every glyph pixel is white
+    EXPECT_EQ(darker, mask.width * mask.height - inkPixels); // the panel darkens the rest
 }
 
 // ---------------------------------------------------------------------------------------------------------

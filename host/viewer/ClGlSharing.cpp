@@ -27,22 +27,36 @@ std::vector<cl_context_properties> glSharingContextProperties() {
     throw Error("cl_khr_gl_sharing: no current EGL or GLX context to share with");
 }
 
-SharedFrameBuffer::SharedFrameBuffer(ComputeContext& cc) : cc_(cc) {
+namespace {
+
+ClGlEntryPoints lookUpEntryPoints(const ComputeContext& cc) {
     // Never look up the entry points on a device without the extension (PoCL aborts in them).
     if (!cc.device().hasExtension("cl_khr_gl_sharing"))
         throw Error("OpenCL device '" + cc.device().name + "' does not list cl_khr_gl_sharing");
     const cl_platform_id platform = cc.device().device.getInfo<CL_DEVICE_PLATFORM>();
-    createFromGlBuffer_ = reinterpret_cast<CreateFromGlBuffer>(
+    ClGlEntryPoints fn;
+    fn.createFromGlBuffer = reinterpret_cast<ClGlEntryPoints::CreateFromGlBuffer>(
         clGetExtensionFunctionAddressForPlatform(platform, "clCreateFromGLBuffer"));
-    acquire_ = reinterpret_cast<EnqueueGlObjects>(
+    fn.acquire = reinterpret_cast<ClGlEntryPoints::EnqueueGlObjects>(
         clGetExtensionFunctionAddressForPlatform(platform, "clEnqueueAcquireGLObjects"));
-    release_ = reinterpret_cast<EnqueueGlObjects>(
+    fn.release = reinterpret_cast<ClGlEntryPoints::EnqueueGlObjects>(
         clGetExtensionFunctionAddressForPlatform(platform, "clEnqueueReleaseGLObjects"));
     // ICD platforms may keep these in the loader's dispatch table rather than answer the lookup; the
     // loader's exports dispatch to the same driver functions.
-    if (!createFromGlBuffer_) createFromGlBuffer_ = &::clCreateFromGLBuffer;
-    if (!acquire_) acquire_ = &::clEnqueueAcquireGLObjects;
-    if (!release_) release_ = &::clEnqueueReleaseGLObjects;
+    if (!fn.createFromGlBuffer) fn.createFromGlBuffer = &::clCreateFromGLBuffer;
+    if (!fn.acquire) fn.acquire = &::clEnqueueAcquireGLObjects;
+    if (!fn.release) fn.release = &::clEnqueueReleaseGLObjects;
+    return fn;
+}
+
+} // namespace
+
+SharedFrameBuffer::SharedFrameBuffer(ComputeContext& cc) : SharedFrameBuffer(cc, lookUpEntryPoints(cc)) {}
+
+SharedFrameBuffer::SharedFrameBuffer(ComputeContext& cc, const ClGlEntryPoints& entryPoints)
+    : cc_(cc), fn_(entryPoints) {
+    if (!fn_.createFromGlBuffer || !fn_.acquire || !fn_.release)
+        throw Error("cl_khr_gl_sharing: missing entry points");
     glGenBuffers(1, &glBuffer_);
     glCheck("shared buffer");
 }
@@ -55,6 +69,9 @@ SharedFrameBuffer::~SharedFrameBuffer() {
 void SharedFrameBuffer::present(const cl::Buffer& frame, int width, int height, FramePresenter& presenter) {
     if (width <= 0 || height <= 0) throw Error("viewer: empty frame");
     const std::size_t bytes = std::size_t(width) * std::size_t(height) * 4 * sizeof(float);
+    if (!frame() || frame.getInfo<CL_MEM_SIZE>() < bytes)
+        throw Error("viewer: the rendered frame buffer is smaller than " + std::to_string(width) + "x" +
+                    std::to_string(height) + " float4");
     if (bytes != bytes_) {
         shared_ = cl::Buffer();
         glBindBuffer(GL_PIXEL_UNPACK_BUFFER, glBuffer_);
@@ -62,7 +79,7 @@ void SharedFrameBuffer::present(const cl::Buffer& frame, int width, int height, 
         glBindBuffer(GL_PIXEL_UNPACK_BUFFER, 0);
         glCheck("shared buffer storage");
         cl_int err = CL_SUCCESS;
-        cl_mem mem = createFromGlBuffer_(cc_.context()(), CL_MEM_WRITE_ONLY, glBuffer_, &err);
+        cl_mem mem = fn_.createFromGlBuffer(cc_.context()(), CL_MEM_WRITE_ONLY, glBuffer_, &err);
         clCheck(err, "clCreateFromGLBuffer");
         shared_ = cl::Buffer(mem); // takes the reference clCreateFromGLBuffer returned
         bytes_ = bytes;
@@ -71,9 +88,9 @@ void SharedFrameBuffer::present(const cl::Buffer& frame, int width, int height, 
     glFinish();
     cl_command_queue q = cc_.queue()();
     cl_mem mem = shared_();
-    clCheck(acquire_(q, 1, &mem, 0, nullptr, nullptr), "clEnqueueAcquireGLObjects");
+    clCheck(fn_.acquire(q, 1, &mem, 0, nullptr, nullptr), "clEnqueueAcquireGLObjects");
     clCheck(cc_.queue().enqueueCopyBuffer(frame, shared_, 0, 0, bytes), "clEnqueueCopyBuffer");
-    clCheck(release_(q, 1, &mem, 0, nullptr, nullptr), "clEnqueueReleaseGLObjects");
+    clCheck(fn_.release(q, 1, &mem, 0, nullptr, nullptr), "clEnqueueReleaseGLObjects");
     clCheck(cc_.queue().finish(), "clFinish");
     presenter.uploadFromBuffer(glBuffer_, width, height);
 }

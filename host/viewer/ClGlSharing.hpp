@@ -18,6 +18,15 @@ class FramePresenter;
 /// Pass them to ComputeContext(selector, properties). Throws volcl::Error when no GL context is current.
 std::vector<cl_context_properties> glSharingContextProperties();
 
+/// The cl_khr_gl_sharing entry points the viewer calls.
+struct ClGlEntryPoints {
+    using CreateFromGlBuffer = cl_mem(CL_API_CALL*)(cl_context, cl_mem_flags, cl_GLuint, cl_int*);
+    using EnqueueGlObjects = cl_int(CL_API_CALL*)(cl_command_queue, cl_uint, const cl_mem*, cl_uint,
+                                                  const cl_event*, cl_event*);
+    CreateFromGlBuffer createFromGlBuffer = nullptr;
+    EnqueueGlObjects acquire = nullptr, release = nullptr;
+};
+
 /// One GL buffer shared with OpenCL. Only for a ComputeContext whose device lists cl_khr_gl_sharing and
 /// which was created with glSharingContextProperties(): PoCL aborts when its GL entry points are called,
 /// so the constructor checks the extension first and throws volcl::Error without it. Example:
@@ -30,6 +39,9 @@ std::vector<cl_context_properties> glSharingContextProperties();
 class SharedFrameBuffer {
 public:
     explicit SharedFrameBuffer(ComputeContext& cc);
+    /// With given entry points (no extension check, no lookup): lets tests run the whole frame path on a
+    /// device without the extension by emulating the sharing with copies.
+    SharedFrameBuffer(ComputeContext& cc, const ClGlEntryPoints& entryPoints);
     ~SharedFrameBuffer();
     SharedFrameBuffer(const SharedFrameBuffer&) = delete;
     SharedFrameBuffer& operator=(const SharedFrameBuffer&) = delete;
@@ -40,12 +52,8 @@ public:
     void present(const cl::Buffer& frame, int width, int height, FramePresenter& presenter);
 
 private:
-    using CreateFromGlBuffer = cl_mem(CL_API_CALL*)(cl_context, cl_mem_flags, cl_GLuint, cl_int*);
-    using EnqueueGlObjects = cl_int(CL_API_CALL*)(cl_command_queue, cl_uint, const cl_mem*, cl_uint,
-                                                  const cl_event*, cl_event*);
     ComputeContext& cc_;
-    CreateFromGlBuffer createFromGlBuffer_ = nullptr;
-    EnqueueGlObjects acquire_ = nullptr, release_ = nullptr;
+    ClGlEntryPoints fn_;
     unsigned glBuffer_ = 0;
     cl::Buffer shared_;
     std::size_t bytes_ = 0;
