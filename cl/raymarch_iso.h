@@ -20,9 +20,10 @@ typedef struct {
     float3 tDelta;  /* ray parameter per cell along each axis */
     int3 dir;       /* -1, 0, +1 per axis */
     float tOut;     /* min(tNext): where the ray leaves the current cell */
-    float k[8];     /* trilinear coefficients: k0 + kx x + ky y + kz z + kxy xy + kxz xz + kyz yz + kxyz xyz */
-    float3 base;    /* lower corner of the cell the coefficients belong to (the DDA cell clamped to the grid) */
-    float lo, hi;   /* min and max corner value of the cell: the field inside lies between them */
+    float8 v;       /* corner values v000 v100 v010 v110 v001 v101 v011 v111 (x fastest) */
+    float3 base;    /* lower corner of the cell the values belong to (the DDA cell clamped to the grid) */
+    uint cubic;     /* bit i: iso_i in (min, max] of the corners (the field lies between them): may cross */
+    uint side0;     /* bit i: iso_i <= min, the side of the whole cell for isos not in cubic */
     float3 invD;    /* 1 / direction */
     uint inside;    /* bit i: s >= iso_i where the last piece ended */
     int started;    /* 0 until the first piece sets the sides */
@@ -37,7 +38,7 @@ inline void iso_begin(IsoState* st, const Ray* r) {
     st->tDelta = select(fabs(st->invD), (float3)(INFINITY), r->d == 0.0f);
 }
 
-/* Loads the corners of the DDA's cell (clamped to the grid) into the trilinear coefficients. */
+/* Loads the corners of the DDA's cell (clamped to the grid) and classifies the iso-values against them. */
 inline void iso_load_cell(__global const voxel_t* vol, const VolclRenderParams* P, IsoState* st) {
     const int3 hiI = (int3)((int)P->dims[0] - 1, (int)P->dims[1] - 1, (int)P->dims[2] - 1);
     const int3 c0 = clamp(st->cell, (int3)(0), max(hiI - 1, (int3)(0)));
@@ -55,16 +56,24 @@ inline void iso_load_cell(__global const voxel_t* vol, const VolclRenderParams* 
         a01.y = a01.x;
         a11.y = a11.x;
     }
-    st->k[0] = a00.x;
-    st->k[1] = a00.y - a00.x;
-    st->k[2] = a10.x - a00.x;
-    st->k[3] = a01.x - a00.x;
-    st->k[4] = (a10.y - a10.x) - (a00.y - a00.x);
-    st->k[5] = (a01.y - a01.x) - (a00.y - a00.x);
-    st->k[6] = (a11.x - a01.x) - (a10.x - a00.x);
-    st->k[7] = ((a11.y - a11.x) - (a01.y - a01.x)) - ((a10.y - a10.x) - (a00.y - a00.x));
-    st->lo = fmin(fmin(fmin(a00.x, a00.y), fmin(a10.x, a10.y)), fmin(fmin(a01.x, a01.y), fmin(a11.x, a11.y)));
-    st->hi = fmax(fmax(fmax(a00.x, a00.y), fmax(a10.x, a10.y)), fmax(fmax(a01.x, a01.y), fmax(a11.x, a11.y)));
+    st->v = (float8)(a00, a10, a01, a11);
+    const float4 mn4 = fmin(st->v.lo, st->v.hi), mx4 = fmax(st->v.lo, st->v.hi);
+    const float2 mn2 = fmin(mn4.lo, mn4.hi), mx2 = fmax(mx4.lo, mx4.hi);
+    const float lo = fmin(mn2.x, mn2.y), hi = fmax(mx2.x, mx2.y);
+    uint cubic = 0u, side0 = 0u;
+    for (int i = 0; i < ISO_COUNT; ++i) {
+        const float iso = P->isoValue[i][0];
+        cubic |= (lo < iso && iso <= hi) ? 1u << i : 0u;
+        side0 |= iso <= lo ? 1u << i : 0u;
+    }
+    st->cubic = cubic;
+    st->side0 = side0;
+}
+
+/* True when the piece can hold a crossing or the sides are not set yet; false for a cell entirely on the
+   sides the ray already carries (most cells: no corner loads beyond the cell's own, no cubic). */
+inline int iso_piece_needed(const IsoState* st) {
+    return st->cubic != 0u || !st->started || ((st->side0 ^ st->inside) & ((1u << ISO_COUNT) - 1u)) != 0u;
 }
 
 inline float iso_tout(float3 tn) { return fmin(tn.x, fmin(tn.y, tn.z)); }
@@ -174,13 +183,7 @@ inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* k
     float th[ISO_COUNT];
     int order[ISO_COUNT];
     int n = 0;
-    uint cubic = 0u; /* isos whose value lies in (lo, hi]: side changes possible inside the cell */
-    uint side0 = 0u;
-    for (int i = 0; i < ISO_COUNT; ++i) {
-        const float iso = P->isoValue[i][0];
-        cubic |= (st->lo < iso && iso <= st->hi) ? 1u << i : 0u;
-        side0 |= iso <= st->lo ? 1u << i : 0u; /* the side of a cell without a crossing */
-    }
+    const uint cubic = st->cubic, side0 = st->side0;
     float4 c = (float4)(0.0f);
     float u[4] = {0.0f, 0.0f, 0.0f, tb - ta};
     float g[4] = {0.0f, 0.0f, 0.0f, 0.0f};
@@ -188,7 +191,17 @@ inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* k
         /* The cubic in u = t - ta from the trilinear coefficients at a = p(ta) - cell, direction d. */
         const float3 a = ray_at(r, ta) - st->base;
         const float3 d = r->d;
-        const float* k = st->k;
+        /* trilinear coefficients: k0 + kx x + ky y + kz z + kxy xy + kxz xz + kyz yz + kxyz xyz */
+        const float8 v = st->v;
+        float k[8];
+        k[0] = v.s0;
+        k[1] = v.s1 - v.s0;
+        k[2] = v.s2 - v.s0;
+        k[3] = v.s4 - v.s0;
+        k[4] = (v.s3 - v.s2) - (v.s1 - v.s0);
+        k[5] = (v.s5 - v.s4) - (v.s1 - v.s0);
+        k[6] = (v.s6 - v.s4) - (v.s2 - v.s0);
+        k[7] = ((v.s7 - v.s6) - (v.s5 - v.s4)) - ((v.s3 - v.s2) - (v.s1 - v.s0));
         const float ex = k[1] + k[4] * a.y + k[5] * a.z + k[7] * a.y * a.z; /* df/dx at a */
         const float ey = k[2] + k[4] * a.x + k[6] * a.z + k[7] * a.x * a.z;
         const float ez = k[3] + k[5] * a.x + k[6] * a.y + k[7] * a.x * a.y;
@@ -266,7 +279,7 @@ inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot*
     float ta = t0;
     for (;;) {
         const float tb = fmin(t1, st.tOut);
-        if (tb > ta) iso_piece(vol, knots, P, r, &st, ta, tb, rgb, T, depth);
+        if (tb > ta && iso_piece_needed(&st)) iso_piece(vol, knots, P, r, &st, ta, tb, rgb, T, depth);
         ta = fmax(ta, tb);
         if (ta >= t1) break;
         iso_step(vol, P, &st);
@@ -304,7 +317,7 @@ inline void iso_march(__global const voxel_t* vol, __global const VolclTfKnot* k
     }
     for (;;) {
         const float tb = fmin(t1, st->tOut);
-        if (tb > ta) iso_piece(vol, knots, P, r, st, ta, tb, rgb, T, depth);
+        if (tb > ta && iso_piece_needed(st)) iso_piece(vol, knots, P, r, st, ta, tb, rgb, T, depth);
         ta = fmax(ta, tb);
         if (ta >= t1) break;
         iso_step(vol, P, st);
