@@ -277,7 +277,8 @@ inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot*
     }
     iso_locate(vol, P, r, t0, &st);
     float ta = t0;
-    for (;;) {
+    const int maxSteps = (int)(P->dims[0] + P->dims[1] + P->dims[2]) + 4; /* as in iso_march */
+    for (int guard = 0; guard < maxSteps; ++guard) {
         const float tb = fmin(t1, st.tOut);
         if (tb > ta && iso_piece_needed(&st)) iso_piece(vol, knots, P, r, &st, ta, tb, rgb, T, depth);
         ta = fmax(ta, tb);
@@ -313,9 +314,12 @@ inline void iso_march(__global const voxel_t* vol, __global const VolclTfKnot* k
         if (!st->started || ta > st->tOut + fmin(st->tDelta.x, fmin(st->tDelta.y, st->tDelta.z)))
             iso_locate(vol, P, r, ta, st);
         else
-            while (st->tOut <= ta) iso_step(vol, P, st);
+            for (int s = 0; s < 6 && st->tOut <= ta; ++s) iso_step(vol, P, st);
     }
-    for (;;) {
+    /* A segment crosses at most dims[0] + dims[1] + dims[2] faces; the cap only matters when a voxel is
+       below float resolution of t (cell steps would then not advance t). */
+    const int maxSteps = (int)(P->dims[0] + P->dims[1] + P->dims[2]) + 4;
+    for (int guard = 0; guard < maxSteps; ++guard) {
         const float tb = fmin(t1, st->tOut);
         if (tb > ta && iso_piece_needed(st)) iso_piece(vol, knots, P, r, st, ta, tb, rgb, T, depth);
         ta = fmax(ta, tb);
