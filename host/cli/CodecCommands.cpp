@@ -52,6 +52,20 @@ std::string fmt(double v, int digits = 2) {
     return s.str();
 }
 
+// Stage times of one encode or decode, so speed claims can name their bottleneck.
+void printProfile(const char* what, const CodecProfile& p, std::size_t searchTrials) {
+    const double staged =
+        p.gather + p.upload + p.transform + p.download + p.quantise + p.entropy + p.reconstruct + p.assemble;
+    std::cerr << "    " << what << " ms: total " << fmt(p.total, 1) << " = gather " << fmt(p.gather, 1)
+              << " upload " << fmt(p.upload, 1) << " transform " << fmt(p.transform, 1) << " download "
+              << fmt(p.download, 1) << " quantise " << fmt(p.quantise, 1) << " entropy " << fmt(p.entropy, 1)
+              << " reconstruct " << fmt(p.reconstruct, 1) << " assemble " << fmt(p.assemble, 1) << " other "
+              << fmt(p.total - staged, 1);
+    if (p.trials > 0) std::cerr << " (" << p.trials << " quantisation rounds)";
+    if (searchTrials > 0) std::cerr << " [target search: " << searchTrials << " rounds, not timed]";
+    std::cerr << '\n';
+}
+
 nlohmann::json jsonNumber(double v) {
     if (std::isfinite(v)) return v;
     return std::isnan(v) ? nlohmann::json("nan") : nlohmann::json(v > 0 ? "inf" : "-inf");
@@ -61,7 +75,7 @@ nlohmann::json jsonNumber(double v) {
 
 struct EncodeArgs {
     std::string in, out, wavelet, entropy = "dense", brick = "64";
-    bool lossless = false;
+    bool lossless = false, profile = false;
     double maxError = 0, psnr = 0, bpv = 0, step = 0;
     int levels = 4;
     unsigned threads = 2;
@@ -133,6 +147,7 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
     cmd->add_option("--brick", a->brick, "Brick size B or X,Y,Z, multiples of 2^levels (default 64)");
     cmd->add_option("--entropy", a->entropy, "fast (zstd) or dense (context-adaptive range coder, default)");
     cmd->add_option("--threads", a->threads, "Host threads for entropy coding (default 2)");
+    cmd->add_flag("--profile", a->profile, "Print the time of each pipeline stage");
     a->raw.add(*cmd);
     cmd->callback([a, cmd, &global] {
         const CodecOptions o = toOptions(*a, *cmd);
@@ -161,6 +176,7 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                 std::cerr << ", PSNR " << fmt(rep.psnr) << " dB, max error " << rep.maxError << " ("
                           << rep.corrections << " voxels stored exactly)";
             std::cerr << ", " << fmt(double(raw) / 1e3 / ms, 1) << " MB/s\n";
+            if (a->profile && ts.frames.size() == 1) printProfile("encode", rep.profile, 0);
         }
     });
 }
@@ -428,20 +444,6 @@ std::size_t xzSize(const Volume& v, const fs::path& tmpDir, double& ms) {
     ms = sw.milliseconds();
     fs::remove(in);
     return n;
-}
-
-// Stage times of one encode or decode (the last timed run), so speed claims can name their bottleneck.
-void printProfile(const char* what, const CodecProfile& p, std::size_t searchTrials) {
-    const double staged =
-        p.gather + p.upload + p.transform + p.download + p.quantise + p.entropy + p.reconstruct + p.assemble;
-    std::cerr << "    " << what << " ms: total " << fmt(p.total, 1) << " = gather " << fmt(p.gather, 1)
-              << " upload " << fmt(p.upload, 1) << " transform " << fmt(p.transform, 1) << " download "
-              << fmt(p.download, 1) << " quantise " << fmt(p.quantise, 1) << " entropy " << fmt(p.entropy, 1)
-              << " reconstruct " << fmt(p.reconstruct, 1) << " assemble " << fmt(p.assemble, 1) << " other "
-              << fmt(p.total - staged, 1);
-    if (p.trials > 0) std::cerr << " (" << p.trials << " quantisation rounds)";
-    if (searchTrials > 0) std::cerr << " [target search: " << searchTrials << " rounds, not timed]";
-    std::cerr << '\n';
 }
 
 struct BenchArgs {
