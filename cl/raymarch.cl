@@ -357,7 +357,7 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 #if MODE == 0 && !defined(NEEDS_LIGHTS) && ISO_COUNT == 0
 /* Macrocells of a packet at ray parameter t: index and the parameter where each ray leaves its cell
    (macro_cell per lane, vectorised). */
-inline uint8 macro_cell8(const VolclRenderParams* P, const RayPacket* r, float8 t, float8* exitT) {
+PACKET_INLINE uint8 macro_cell8(const VolclRenderParams* P, const RayPacket* r, float8 t, float8* exitT) {
     const float8 px = r->ox + t * r->dx, py = r->oy + t * r->dy, pz = r->oz + t * r->dz;
     const float B = (float)P->macroDims[3];
     const int8 cx = clamp(convert_int8(floor(px / B)), 0, (int)P->macroDims[0] - 1);
@@ -380,7 +380,7 @@ inline uint8 macro_cell8(const VolclRenderParams* P, const RayPacket* r, float8 
 #if PREINT == 2 || PREINT == 3
 /* Bilinear table value of slice k at node cell (i0, j0) with fractions (fu, fv): table_bilinear's arithmetic
    after its index computation. */
-inline float4 table_cell(__global const float4* table, uint n, uint k, uint i0, uint j0, float fu, float fv) {
+PACKET_INLINE float4 table_cell(__global const float4* table, uint n, uint k, uint i0, uint j0, float fu, float fv) {
     __global const float4* row0 = table + ((size_t)k * n + i0) * n;
     __global const float4* row1 = row0 + n;
     const float4 a = row0[j0] + fv * (row0[j0 + 1] - row0[j0]);
@@ -390,8 +390,8 @@ inline float4 table_cell(__global const float4* table, uint n, uint k, uint i0, 
 
 /* preint_segment for a packet: index arithmetic and the length correction in float8, the four table reads
    per lane. Returns associated (r, g, b, alpha) per lane. */
-inline void preint_packet(__global const float4* table, const VolclRenderParams* P, float8 sf, float8 sb, float8 len,
-                          float8* outR, float8* outG, float8* outB, float8* outA) {
+PACKET_INLINE void preint_packet(__global const float4* table, const VolclRenderParams* P, float8 sf, float8 sb,
+                                 float8 len, float8* outR, float8* outG, float8* outB, float8* outA) {
     const uint n = P->tableSize;
     const float scale = (float)(n - 1) / (P->domainHi - P->domainLo);
     const float hi = (float)(n - 1);

@@ -92,6 +92,8 @@ inline float3 ray_at(const Ray* r, float t) { return r->o + t * r->d; }
    Lanes finish independently (masks); the arithmetic per lane is the scalar kernel's, operation for
    operation, so the image is the same. */
 #define RAY_LANES 8
+/* Packet helpers are inlined into the ray loop: as calls they pass their float8 values through the stack. */
+#define PACKET_INLINE __attribute__((always_inline)) inline
 #define PACKET_W 4
 #define PACKET_H 2
 
@@ -105,8 +107,8 @@ typedef struct {
 } RayPacket;
 
 /* sample_volume for eight points at once: the same clamps, cell choice and lerp order per lane. */
-inline float8 sample_volume8(__global const voxel_t* vol, const VolclRenderParams* P, float8 px, float8 py,
-                             float8 pz) {
+PACKET_INLINE float8 sample_volume8(__global const voxel_t* vol, const VolclRenderParams* P, float8 px,
+                                    float8 py, float8 pz) {
     const int hx = (int)P->dims[0] - 1, hy = (int)P->dims[1] - 1, hz = (int)P->dims[2] - 1;
     px = clamp(px, 0.0f, (float)hx);
     py = clamp(py, 0.0f, (float)hy);
@@ -160,7 +162,8 @@ inline float8 sample_volume8(__global const voxel_t* vol, const VolclRenderParam
     return c0 + fz * (c1 - c0);
 }
 
-inline float8 sample_packet(__global const voxel_t* vol, const VolclRenderParams* P, const RayPacket* r, float8 t) {
+PACKET_INLINE float8 sample_packet(__global const voxel_t* vol, const VolclRenderParams* P, const RayPacket* r,
+                                   float8 t) {
     return sample_volume8(vol, P, r->ox + t * r->dx, r->oy + t * r->dy, r->oz + t * r->dz);
 }
 

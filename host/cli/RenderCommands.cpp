@@ -285,7 +285,7 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
         }
         std::cout << "peer comparison, " << scene.width << "x" << scene.height << ", step " << scene.step
                   << ", same volume/TF/camera, RMSE of RGB (associated, over black) against the reference\n";
-        std::cout << std::setprecision(2) << "  volcl " << preintegrationName(scene.preintegration)
+        std::cout << std::fixed << std::setprecision(2) << "  volcl " << preintegrationName(scene.preintegration)
                   << (scene.skipping ? " +skip" : "") << ": " << ms << " ms/frame, RMSE " << std::scientific
                   << std::setprecision(3) << ours << std::fixed << '\n';
         std::cout << std::setprecision(2) << "  VTK vtkFixedPointVolumeRayCastMapper: " << vtkMs
