@@ -1,5 +1,5 @@
-// Entropy coding of quantised wavelet coefficients: subband layout, the dense context-adaptive binary range
-// coder and the fast zstd-over-byte-planes coder. Internal to the codec.
+// Entropy coding of quantised wavelet coefficients: subband layout, the dense context-modelled rANS coder
+// and the fast zstd-over-byte-planes coder. Internal to the codec.
 #pragma once
 
 #include "host/Volume.hpp"
@@ -14,7 +14,8 @@ namespace volcl {
 /// How coefficient sections are entropy coded. Stored in .vcz files: never renumber.
 enum class EntropyMode : std::uint8_t {
     Fast = 0,  ///< sign-folded coefficients split into byte planes, then zstd
-    Dense = 1, ///< context-adaptive binary range coding of magnitude classes, mantissas and signs
+    Dense = 1, ///< rANS: magnitude classes from per-section tables chosen by neighbour/parent context,
+               ///< adaptive signs and row flags, raw mantissa bits
 };
 
 /// One subband of a brick in the Mallat layout: voxel box [x0,x1) x [y0,y1) x [z0,z1) of the brick.

@@ -1,0 +1,240 @@
+// Entropy coder tests: bit-exact round trips of coefficient sections in both modes (random, all-zero,
+// single coefficient, extreme magnitudes, tiny and odd subbands) and fuzzing of decodeSection with
+// truncated, bit-flipped and random sections (IoError or a clean result, never a crash).
+#include "host/Error.hpp"
+#include "wavelet/EntropyCoder.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+using namespace volcl;
+
+namespace {
+
+constexpr std::int32_t kMaxMagnitude = (1 << 30) - 1; // the largest magnitude the caller may pass
+
+struct Coded {
+    std::vector<std::vector<std::uint8_t>> sections;
+};
+
+Coded encodeAll(const std::vector<std::int32_t>& c, Dims d, int levels, EntropyMode mode) {
+    const auto layout = sectionLayout(d, levels);
+    Coded out;
+    out.sections.resize(layout.size());
+    for (std::size_t s = 0; s < layout.size(); ++s)
+        encodeSection(c, d, layout, s, mode, out.sections[s]);
+    return out;
+}
+
+std::vector<std::int32_t> decodeAll(const Coded& coded, Dims d, int levels, EntropyMode mode) {
+    const auto layout = sectionLayout(d, levels);
+    // A fill value the decoder must overwrite everywhere.
+    std::vector<std::int32_t> out(d.count(), 0x5A5A5A5A);
+    for (std::size_t s = 0; s < layout.size(); ++s)
+        decodeSection(coded.sections[s], out, d, layout, s, mode, "test");
+    return out;
+}
+
+// Checks the round trip and that encoding does not touch its input and is deterministic.
+void expectRoundTrip(const std::vector<std::int32_t>& c, Dims d, int levels, EntropyMode mode) {
+    const std::vector<std::int32_t> copy = c;
+    const Coded a = encodeAll(c, d, levels, mode);
+    EXPECT_EQ(c, copy) << "encoder modified its input";
+    const Coded b = encodeAll(c, d, levels, mode);
+    EXPECT_EQ(a.sections, b.sections) << "encoding is not deterministic";
+    const auto decoded = decodeAll(a, d, levels, mode);
+    ASSERT_EQ(decoded.size(), c.size());
+    std::size_t mismatches = 0;
+    for (std::size_t i = 0; i < c.size(); ++i)
+        mismatches += decoded[i] != c[i];
+    EXPECT_EQ(mismatches, 0u) << "dims " << d.x << "x" << d.y << "x" << d.z << ", " << levels << " levels, mode "
+                              << int(mode);
+}
+
+// Wavelet-like coefficients: Laplacian magnitudes whose scale varies smoothly in space, plus zero regions.
+std::vector<std::int32_t> waveletLike(Dims d, std::uint32_t seed, double scale) {
+    std::mt19937 rng(seed);
+    std::exponential_distribution<double> expo(1.0);
+    std::vector<std::int32_t> c(d.count());
+    for (std::size_t z = 0; z < d.z; ++z)
+        for (std::size_t y = 0; y < d.y; ++y)
+            for (std::size_t x = 0; x < d.x; ++x) {
+                const double local = scale * (1.0 + 0.9 * std::sin(0.3 * double(x) + 0.2 * double(y) + 0.1 * double(z)));
+                const bool empty = (x + 2 * y + 3 * z) % 11 < 3; // zero patches for the row flags
+                const double m = empty ? 0.0 : expo(rng) * local;
+                const auto v = static_cast<std::int32_t>(std::min(m, double(kMaxMagnitude)));
+                c[(z * d.y + y) * d.x + x] = (rng() & 1) ? -v : v;
+            }
+    return c;
+}
+
+const EntropyMode kModes[] = {EntropyMode::Dense, EntropyMode::Fast};
+
+const Dims kShapes[] = {{1, 1, 1}, {1, 7, 1}, {2, 3, 5}, {5, 1, 3}, {16, 16, 16}, {17, 9, 33}, {31, 2, 1}, {64, 40, 24}};
+
+} // namespace
+
+TEST(Entropy, RoundTripWaveletLikeSections) {
+    std::uint32_t seed = 1;
+    for (EntropyMode mode : kModes)
+        for (const Dims& d : kShapes)
+            for (int levels : {0, 1, 3, 5})
+                for (double scale : {0.3, 4.0, 300.0})
+                    expectRoundTrip(waveletLike(d, seed++, scale), d, levels, mode);
+}
+
+TEST(Entropy, RoundTripAllZero) {
+    for (EntropyMode mode : kModes)
+        for (const Dims& d : kShapes)
+            for (int levels : {0, 2, 4})
+                expectRoundTrip(std::vector<std::int32_t>(d.count(), 0), d, levels, mode);
+}
+
+TEST(Entropy, RoundTripSingleNonZero) {
+    const Dims d{13, 10, 7};
+    for (EntropyMode mode : kModes)
+        for (std::int32_t v : {1, -1, 2, -3, 1000, -kMaxMagnitude, kMaxMagnitude})
+            for (std::size_t pos : {std::size_t(0), std::size_t(1), std::size_t(500), d.count() - 1}) {
+                std::vector<std::int32_t> c(d.count(), 0);
+                c[pos] = v;
+                expectRoundTrip(c, d, 3, mode);
+            }
+}
+
+TEST(Entropy, RoundTripExtremeMagnitudes) {
+    std::mt19937 rng(7);
+    for (EntropyMode mode : kModes)
+        for (const Dims& d : {Dims{1, 1, 1}, Dims{9, 8, 7}, Dims{32, 32, 32}}) {
+            // Every coefficient at the largest magnitude, random signs.
+            std::vector<std::int32_t> c(d.count());
+            for (auto& v : c)
+                v = (rng() & 1) ? kMaxMagnitude : -kMaxMagnitude;
+            expectRoundTrip(c, d, 3, mode);
+            // Every bit length 0..30 mixed at random.
+            for (auto& v : c) {
+                const int n = static_cast<int>(rng() % 31);
+                const auto m = n == 0 ? 0 : static_cast<std::int32_t>((1u << (n - 1)) | (rng() & ((1u << (n - 1)) - 1)));
+                v = (rng() & 1) ? -m : m;
+            }
+            expectRoundTrip(c, d, 3, mode);
+        }
+}
+
+TEST(Entropy, FastModeKeepsAny32BitPattern) {
+    // Lossless float volumes send raw bit patterns (NaN, Inf, -0) through the fast coder untransformed.
+    const Dims d{7, 5, 3};
+    std::mt19937 rng(3);
+    std::vector<std::int32_t> c(d.count());
+    for (auto& v : c)
+        v = static_cast<std::int32_t>(rng());
+    c[0] = INT32_MIN;
+    c[1] = INT32_MAX;
+    c[2] = -1;
+    expectRoundTrip(c, d, 0, EntropyMode::Fast);
+}
+
+TEST(Entropy, DenseRefusesOutOfRangeMagnitudes) {
+    const Dims d{4, 4, 4};
+    const auto layout = sectionLayout(d, 0);
+    for (std::int32_t v : {kMaxMagnitude + 1, -kMaxMagnitude - 1, INT32_MIN}) {
+        std::vector<std::int32_t> c(d.count(), 0);
+        c[5] = v;
+        std::vector<std::uint8_t> out;
+        EXPECT_THROW(encodeSection(c, d, layout, 0, EntropyMode::Dense, out), Error);
+    }
+}
+
+TEST(Entropy, DenseIsSmallerThanFastOnCorrelatedData) {
+    // The dense coder's contexts must pay for themselves on data with spatially varying scale.
+    const Dims d{64, 64, 32};
+    const auto c = waveletLike(d, 11, 20.0);
+    std::size_t dense = 0, fast = 0;
+    for (const auto& s : encodeAll(c, d, 3, EntropyMode::Dense).sections)
+        dense += s.size();
+    for (const auto& s : encodeAll(c, d, 3, EntropyMode::Fast).sections)
+        fast += s.size();
+    EXPECT_LT(dense, fast);
+}
+
+namespace {
+
+// Decodes one damaged section: IoError is the only acceptable failure. Returns true when it was detected.
+bool decodeDamaged(const std::vector<std::uint8_t>& bytes, Dims d, int levels, std::size_t s, EntropyMode mode,
+                   const std::vector<std::int32_t>& earlier) {
+    const auto layout = sectionLayout(d, levels);
+    std::vector<std::int32_t> out = earlier; // earlier sections give the parent contexts
+    try {
+        decodeSection(bytes, out, d, layout, s, mode, "fuzz");
+    } catch (const IoError&) {
+        return true;
+    }
+    return false;
+}
+
+} // namespace
+
+TEST(Entropy, DamagedSectionsAreRejectedWithoutCrashing) {
+    const Dims d{24, 17, 9};
+    const int levels = 2;
+    const auto c = waveletLike(d, 5, 12.0);
+    const auto layout = sectionLayout(d, levels);
+    std::mt19937 rng(9);
+    for (EntropyMode mode : kModes) {
+        const Coded coded = encodeAll(c, d, levels, mode);
+        for (std::size_t s = 0; s < layout.size(); ++s) {
+            const auto& good = coded.sections[s];
+            ASSERT_FALSE(good.empty());
+            // Every truncation is detected: each stream's length is implied by its content.
+            for (std::size_t len = 0; len < good.size(); ++len) {
+                const std::vector<std::uint8_t> cut(good.begin(), good.begin() + static_cast<std::ptrdiff_t>(len));
+                EXPECT_TRUE(decodeDamaged(cut, d, levels, s, mode, c)) << "section " << s << " cut to " << len;
+            }
+            // An extra byte is detected.
+            auto longer = good;
+            longer.push_back(0);
+            EXPECT_TRUE(decodeDamaged(longer, d, levels, s, mode, c));
+            // Bit flips anywhere: never a crash or another exception; most are detected (raw mantissa bits
+            // carry no redundancy, the container's checksums catch those).
+            std::size_t detected = 0, flips = 0;
+            for (std::size_t pos = 0; pos < good.size(); pos += 1 + good.size() / 64)
+                for (int bit : {0, 5}) {
+                    auto bad = good;
+                    bad[pos] ^= static_cast<std::uint8_t>(1u << bit);
+                    detected += decodeDamaged(bad, d, levels, s, mode, c);
+                    ++flips;
+                }
+            EXPECT_GT(detected, 0u) << "section " << s;
+            EXPECT_LE(detected, flips);
+        }
+        // Random bytes of many lengths as any section.
+        for (int trial = 0; trial < 200; ++trial) {
+            std::vector<std::uint8_t> junk(rng() % 300);
+            for (auto& b : junk)
+                b = static_cast<std::uint8_t>(rng());
+            const std::size_t s = rng() % layout.size();
+            std::vector<std::int32_t> out(d.count(), 0);
+            try {
+                decodeSection(junk, out, d, layout, s, mode, "fuzz");
+            } catch (const IoError&) {
+            }
+        }
+    }
+}
+
+TEST(Entropy, EmptySectionMustBeEmpty) {
+    // A 1x1x1 brick with 2 levels has empty detail sections; data there is an error.
+    const Dims d{1, 1, 1};
+    const auto layout = sectionLayout(d, 2);
+    ASSERT_EQ(layout.size(), 3u);
+    std::vector<std::int32_t> out(1, 0);
+    for (EntropyMode mode : kModes) {
+        std::vector<std::uint8_t> coded;
+        encodeSection(out, d, layout, 1, mode, coded);
+        EXPECT_TRUE(coded.empty());
+        EXPECT_THROW(decodeSection(std::vector<std::uint8_t>{1}, out, d, layout, 1, mode, "t"), IoError);
+    }
+}
