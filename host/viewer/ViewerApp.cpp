@@ -134,10 +134,15 @@ HeadlessResult runHeadless(ViewerSession& session, const HeadlessOptions& o, Hea
     if (o.width <= 0 || o.height <= 0) throw UsageError("view: --width and --height must be positive");
     if (o.frames < 1) throw UsageError("view: --frames must be at least 1");
     if (!std::isfinite(o.orbitDegrees)) throw UsageError("view: --orbit must be a finite angle");
+    bool overlay = o.overlay;
     for (char k : o.keys) {
         const auto action = actionForKey(k);
         if (!action) throw UsageError(std::string("view: --keys: no action is bound to '") + k + "'");
         if (*action == ViewerAction::Screenshot || *action == ViewerAction::Quit) continue;
+        if (*action == ViewerAction::ToggleOverlay) {
+            overlay = !overlay;
+            continue;
+        }
         const std::string what = session.apply(*action);
         if (!o.quiet && !what.empty()) log << "view: " << what << '\n';
     }
@@ -145,7 +150,7 @@ HeadlessResult runHeadless(ViewerSession& session, const HeadlessOptions& o, Hea
     HeadlessResult result;
     result.gl = gl.description();
     if (!o.quiet) log << "view: " << result.gl << '\n';
-    FrameSink sink(session, o.transport, o.overlay);
+    FrameSink sink(session, o.transport, overlay);
     OffscreenFramebuffer target(o.width, o.height);
     double lastFrameMs = 0.0;
     if (o.stillFrames < 0) throw UsageError("view: still frames must not be negative");
@@ -156,7 +161,7 @@ HeadlessResult runHeadless(ViewerSession& session, const HeadlessOptions& o, Hea
         Stopwatch sw;
         ViewerFrame f = session.renderFrame(o.width, o.height, interactive);
         target.bind();
-        const PresentTimes pt = present(sink, session, f, o.width, o.height, o.overlay, lastFrameMs);
+        const PresentTimes pt = present(sink, session, f, o.width, o.height, overlay, lastFrameMs);
         const double frameMs = sw.milliseconds();
         lastFrameMs = frameMs;
         session.frameDone(f, frameMs);

@@ -33,7 +33,8 @@ struct HeadlessOptions {
     std::string keys;              ///< key actions applied before the first frame (see keyBindingsHelp())
     std::filesystem::path output;  ///< PNG/EXR of the last frame as read back from GL; empty: none
     FrameTransport transport = FrameTransport::Pbo; ///< ClGlSharing needs the session's context made for it
-    bool overlay = false; ///< draw the text overlay (off: the read-back is the volume image alone)
+    bool overlay =
+        false; ///< draw the text overlay (off: the read-back is the volume image alone); `o` in keys flips it
     bool quiet = false;
 };
 
