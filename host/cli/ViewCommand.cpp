@@ -93,7 +93,18 @@ struct ViewerSetup {
             window = std::make_unique<viewer::ViewerWindow>(scene.width, scene.height);
         if (transport == viewer::FrameTransport::ClGlSharing) {
             cc.reset(); // one context per device at a time: the shared one replaces the probe
-            cc = std::make_unique<ComputeContext>(global.device, viewer::glSharingContextProperties());
+            try {
+                cc = std::make_unique<ComputeContext>(global.device, viewer::glSharingContextProperties());
+            } catch (const Error& e) {
+                // A driver may list the extension yet refuse this GL context (another GPU, another API):
+                // auto falls back to the copy path, share reports why.
+                if (request == viewer::TransportRequest::Share) throw;
+                if (!global.quiet)
+                    std::cerr << "view: no OpenCL context sharing with this OpenGL context (" << e.what()
+                              << "); using the pixel buffer object\n";
+                transport = viewer::FrameTransport::Pbo;
+                cc = std::make_unique<ComputeContext>(global.device);
+            }
         }
         viewer::AdaptiveQualityOptions adaptive;
         adaptive.enabled = !a.noAdaptive;
