@@ -1,7 +1,7 @@
 // Entropy coders for wavelet coefficient sections: dense (context-modelled interleaved rANS) and fast
 // (libzstd over byte planes).
 //
-// Dense mode is a hand-written rANS coder (four interleaved 32-bit states sharing one stream of 16-bit
+// Dense mode is a hand-written rANS coder (three interleaved 32-bit states sharing one stream of 16-bit
 // words) because the ratio comes from the coefficient model and no Debian library takes caller-defined
 // contexts: zstd, xz and brotli model bytes, libzstd's FSE/huff0 are not public API, and htscodecs' rANS
 // (libhtscodecs-dev) has order-0/1 byte models only. The model mixes two kinds of decisions in one stream:
@@ -172,11 +172,12 @@ private:
 
 // ------------------------------------------------------------------------------ rANS
 
-// Four states share one stream of 16-bit words: magnitude symbols of even and odd x on lanes 0 and 1 (row
-// flags on lane 0), their signs on lanes 2 and 3, so that four short dependency chains overlap in the
-// decoder. States live in [2^16, 2^32).
+// Three states share one stream of 16-bit words: magnitude symbols of even and odd x on lanes 0 and 1 (row
+// flags on lane 0) so that two symbol chains overlap in the decoder, signs on lane 2. States live in
+// [2^16, 2^32).
 constexpr std::uint32_t kRansLow = 1u << 16;
-constexpr int kLanes = 4;
+constexpr int kLanes = 3;
+constexpr unsigned kSignLane = 2;
 constexpr int kBinaryScaleBits = 12; // adaptive binary decisions
 constexpr std::uint32_t kBinaryScale = 1u << kBinaryScaleBits;
 // Magnitude tables use 11 bits: the decoder's 25 slot-to-symbol tables (50 KB) then stay near L1.
@@ -214,7 +215,7 @@ struct RansEvent {
 void ransEncode(const std::vector<RansEvent>& ev, std::vector<std::uint8_t>& out) {
     std::vector<std::uint16_t> words;
     words.reserve(ev.size() / 2 + 8);
-    std::uint32_t x[kLanes] = {kRansLow, kRansLow, kRansLow, kRansLow};
+    std::uint32_t x[kLanes] = {kRansLow, kRansLow, kRansLow};
     for (std::size_t k = ev.size(); k-- > 0;) {
         const RansEvent& e = ev[k];
         std::uint32_t& s = x[e.lane];
@@ -302,7 +303,7 @@ private:
     const std::uint8_t* data_;
     std::size_t size_;
     std::size_t pos_ = 0;
-    std::uint32_t x_[kLanes] = {0, 0, 0, 0};
+    std::uint32_t x_[kLanes] = {0, 0, 0};
     bool bad_ = false;
 };
 
@@ -512,22 +513,22 @@ struct EncodeSide {
             events.push_back({static_cast<std::uint16_t>(ctx * 64 + sym), 0, 0, lane});
             const int rawBits = std::max(sym / 2 - 1, 0);
             raw.put(u & ((1u << rawBits) - 1u), rawBits);
-            // A zero has no sign: the decoder's matching decision is a no-op that needs no event.
-            if (u != 0) binary(2u + lane, model.signs[signBase[x] + signClass(m[x - 1])], v < 0 ? 1u : 0u);
             m[x] = v;
         }
+        // Signs of the row's non-zero coefficients follow its symbols (the decoder's second pass).
+        for (std::size_t x = 0; x < nx; ++x)
+            if (row[x] != 0) binary(kSignLane, model.signs[signBase[x] + signClass(m[x - 1])], row[x] < 0 ? 1u : 0u);
     }
 };
 
-// Decoder: per row, one pass decodes the magnitude symbols and signs from the rANS stream (even and odd x
-// on separate states, positions and states held in locals so they stay in registers), a second pass adds
-// the raw mantissa bits.
+// Decoder: per row, one branch-free pass decodes the magnitude symbols (even and odd x on separate states,
+// positions and states held in locals so they stay in registers), a second pass the signs and raw mantissa
+// bits of the non-zero ones.
 struct DecodeSide {
     RansDecoder rans;
     RawReader raw;
     DenseModel model;
-    const DecoderTable* tables;
-    unsigned contextMask; // 0 when the section has a single table
+    std::array<const DecoderTable*, kActivityContexts> tables;
     std::vector<std::uint8_t> syms;
 
     bool rowFlag(unsigned rctx, std::int32_t* row, std::size_t nx) {
@@ -543,17 +544,14 @@ struct DecodeSide {
         RansDecoder r = rans;
         if (syms.size() < nx) syms.resize(nx);
         std::uint8_t* sy = syms.data();
-        // m[x] holds 0, +1 or -1 after this pass (sign context of the next x), the magnitude comes later.
+        // Pass 1, branch-free: the magnitude symbols.
         auto step = [&](std::size_t x, auto lane) {
             const DecoderTable& t =
-                tables[static_cast<unsigned>(activityContext(activity[x] + 4 * symbolFloor(prevSym))) & contextMask];
+                *tables[static_cast<std::size_t>(activityContext(activity[x] + 4 * symbolFloor(prevSym)))];
             const unsigned sym = t.lookup[r.slot(lane, kTableScaleBits)];
             r.advance(lane, kTableScaleBits, t.start[sym], t.freq[sym]);
-            const std::uint32_t nonzero = sym != 0 ? 1u : 0u;
-            const unsigned negative = r.bit(2 + lane, model.signs[signBase[x] + signClass(m[x - 1])], nonzero);
             sy[x] = static_cast<std::uint8_t>(sym);
             prevSym = sym;
-            m[x] = static_cast<std::int32_t>(nonzero) * (1 - 2 * static_cast<std::int32_t>(negative));
         };
         std::size_t x = 0;
         for (; x + 1 < nx; x += 2) {
@@ -561,27 +559,33 @@ struct DecodeSide {
             step(x + 1, std::integral_constant<unsigned, 1>{});
         }
         if (x < nx) step(x, std::integral_constant<unsigned, 0>{});
-        rans = r;
+        // Pass 2: sign and raw mantissa bits of the non-zero coefficients. This branch is taken
+        // predictably at low rates (mostly zeros) and in lossless data (mostly non-zero).
         RawReader b = raw;
         for (x = 0; x < nx; ++x) {
             const unsigned sym = sy[x];
+            if (sym == 0) {
+                m[x] = 0;
+                row[x] = 0;
+                continue;
+            }
+            const unsigned negative = r.bit(kSignLane, model.signs[signBase[x] + signClass(m[x - 1])]);
             const auto rawBits = static_cast<unsigned>(std::max(static_cast<int>(sym / 2) - 1, 0));
             const std::uint32_t low = b.get(rawBits);
             const std::uint32_t big = ((2u | (sym & 1u)) << rawBits) | low;
-            const std::uint32_t small = 0u - (sym < 2 ? 1u : 0u);
-            const std::uint32_t u = (sym & small) | (big & ~small);
-            const std::uint32_t negative = static_cast<std::uint32_t>(m[x] >> 31); // all ones when negative
-            const auto v = static_cast<std::int32_t>((u ^ negative) - negative);
+            const std::uint32_t u = sym < 2 ? sym : big;
+            const std::int32_t v = negative ? -static_cast<std::int32_t>(u) : static_cast<std::int32_t>(u);
             m[x] = v;
             row[x] = v;
         }
+        rans = r;
         raw = b;
     }
 };
 
 // Section layout (dense): u8 mode (0: one table, 1: one table per activity class, 2: every coefficient is
 // zero and nothing follows), the tables (bit packed: per table 6 bits nsym, then nsym 6-bit quantised log
-// weights; nsym 0 = unused table), varint size of the rANS stream, the rANS stream (varints of the four
+// weights; nsym 0 = unused table), varint size of the rANS stream, the rANS stream (varints of the three
 // final states minus 2^16, then 16-bit words), the raw mantissa bits.
 constexpr std::uint8_t kOneTable = 0, kContextTables = 1, kAllZero = 2;
 void encodeDense(std::span<const std::int32_t> coeffs, Dims brick,
@@ -599,7 +603,10 @@ void encodeDense(std::span<const std::int32_t> coeffs, Dims brick,
         return;
     }
     EncodeSide side;
-    side.events.reserve(coeffs.size() / 2);
+    std::size_t count = 0;
+    for (const SubbandBox& b : layout[s])
+        count += b.count();
+    side.events.reserve(count + count / 2);
     SectionWalker walker{brick, layout, s, {}, {}, {}, {}, {}};
     // The walker writes back the value it was given, so the array is not modified.
     walker.run(const_cast<std::int32_t*>(coeffs.data()), side);
@@ -689,11 +696,19 @@ void decodeDense(std::span<const std::uint8_t> in, std::span<std::int32_t> coeff
     const int ntables = useContexts ? kActivityContexts : 1;
     // Tables a valid stream never selects decode everything as symbol 0 at no cost; a corrupted stream
     // that reaches them fails the final state check.
-    std::vector<DecoderTable> tables(static_cast<std::size_t>(ntables));
-    for (DecoderTable& t : tables) {
+    // Contexts without a table point to one that decodes symbol 0 at no cost: a valid stream never uses
+    // them, a corrupted one that does fails the final state check. Only sent tables are built (small
+    // sections would otherwise pay for all 25).
+    static const DecoderTable kUnused = [] {
+        DecoderTable t;
         t.freq[0] = kTableScale;
         std::memset(t.lookup, 0, sizeof t.lookup);
-    }
+        return t;
+    }();
+    std::vector<DecoderTable> tables;
+    tables.reserve(static_cast<std::size_t>(ntables));
+    std::array<const DecoderTable*, kActivityContexts> tablePtr;
+    tablePtr.fill(&kUnused);
     // Table bits: a byte-aligned bit stream whose length follows from its content.
     BitReader tb(in.subspan(1));
     std::size_t tableBitCount = 0;
@@ -708,12 +723,16 @@ void decodeDense(std::span<const std::uint8_t> in, std::span<std::int32_t> coeff
         tableBitCount += 6 * static_cast<std::size_t>(nsym);
         SymbolTable st;
         if (!buildTable(q, nsym, st)) corrupt(what, "empty symbol table");
-        DecoderTable& d = tables[static_cast<std::size_t>(t)];
+        DecoderTable& d = tables.emplace_back();
         for (std::size_t sym = 0; sym < kSymbols; ++sym) {
             d.start[sym] = st.start[sym];
             d.freq[sym] = st.freq[sym];
             std::memset(d.lookup + st.start[sym], static_cast<int>(sym), st.freq[sym]);
         }
+        if (useContexts)
+            tablePtr[static_cast<std::size_t>(t)] = &d;
+        else
+            tablePtr.fill(&d);
     }
     const std::size_t tableBytes = (tableBitCount + 7) / 8;
     if (in.size() - 1 < tableBytes) corrupt(what, "truncated dense section");
@@ -723,8 +742,7 @@ void decodeDense(std::span<const std::uint8_t> in, std::span<std::int32_t> coeff
     if (n > in.size() - head) corrupt(what, "entropy section sizes exceed the brick");
     const std::vector<std::uint8_t> ransBytes = RansDecoder::padded(in.subspan(head, n));
     const std::vector<std::uint8_t> rawBytes = RawReader::padded(in.subspan(head + n));
-    DecodeSide side{RansDecoder(ransBytes, n), RawReader(rawBytes, in.size() - head - n), {}, tables.data(),
-                    useContexts ? 0xFFu : 0u, {}};
+    DecodeSide side{RansDecoder(ransBytes, n), RawReader(rawBytes, in.size() - head - n), {}, tablePtr, {}};
     SectionWalker walker{brick, layout, s, {}, {}, {}, {}, {}};
     walker.run(coeffs.data(), side);
     if (!side.rans.exact()) corrupt(what, "entropy stream does not end where its size says");
