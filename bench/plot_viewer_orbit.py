@@ -43,7 +43,7 @@ def main():
     ax2.set_ylim(0, max(edge) * 1.05)
     lines = ax.get_legend_handles_labels()
     lines2 = ax2.get_legend_handles_labels()
-    ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], loc="upper right", fontsize=8)
+    ax.legend(lines[0] + lines2[0], lines[1] + lines2[1], loc="upper center", fontsize=8)
     ax.set_title(f"Orbiting the 180x216x180 MRI at 512x512 with adaptive quality "
                  f"(interactive step x{max(step) / min(step):.0f})", fontsize=10)
     fig.tight_layout()
