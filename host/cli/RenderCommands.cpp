@@ -246,7 +246,7 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
     if (a.sweep) {
         std::cout << "accuracy vs time, median of " << a.runs
                   << " frames, RMSE against the double reference\n";
-        std::cout << "  step   preint  skip   ms/frame   table ms   RMSE rgba    RMSE rgb\n";
+        std::cout << std::fixed << "  step   preint  skip   ms/frame   table ms   RMSE rgba    RMSE rgb\n";
         for (double step : parseNumbers(a.steps, 0, "--steps")) {
             for (Preintegration pre :
                  {Preintegration::None, Preintegration::Table2d, Preintegration::Table3d}) {
