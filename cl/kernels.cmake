@@ -6,7 +6,6 @@ set(VOLCL_KERNEL_FILES
   phantoms.cl
   copy.cl
   tf_sample.cl
-  raymarch_shared.h
   raymarch_core.h
   raymarch_iso.h
   raymarch.cl

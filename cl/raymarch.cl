@@ -1,5 +1,5 @@
 /* Ray marcher: DVR (point sampled or pre-integrated), MIP, x-ray, iso-surfaces; effects only when -D asks. */
-#include "raymarch_shared.h"
+#include "volcl_shared.h"
 #include "transfer_function.h"
 #include "raymarch_core.h"
 

@@ -2,7 +2,7 @@
 #ifndef VOLCL_RAYMARCH_CORE_H
 #define VOLCL_RAYMARCH_CORE_H
 
-#include "raymarch_shared.h"
+#include "volcl_shared.h"
 
 #pragma OPENCL FP_CONTRACT OFF
 

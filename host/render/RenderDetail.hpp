@@ -1,7 +1,7 @@
 // Internals shared by the renderer and its reference: value range, box, macrocells, kernel parameters.
 #pragma once
 
-#include "cl/raymarch_shared.h"
+#include "cl/volcl_shared.h"
 #include "host/render/Renderer.hpp"
 #include "host/render/VecMath.hpp"
 

@@ -1,7 +1,7 @@
 // The OpenCL ray marcher: effect planning, macrocell emptiness, tables, kernel parameters and launches.
 #include "host/render/Renderer.hpp"
 
-#include "cl/raymarch_shared.h"
+#include "cl/volcl_shared.h"
 #include "host/Error.hpp"
 #include "host/Volume.hpp"
 #include "host/render/RenderDetail.hpp"
