@@ -145,7 +145,7 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                     "cdf53 | cdf97 | haar | cdf26 (default cdf53 lossless, cdf97 lossy)");
     cmd->add_option("--levels", a->levels, "Transform levels (default 4)");
     cmd->add_option("--brick", a->brick, "Brick size B or X,Y,Z, multiples of 2^levels (default 64)");
-    cmd->add_option("--entropy", a->entropy, "fast (zstd) or dense (context-adaptive range coder, default)");
+    cmd->add_option("--entropy", a->entropy, "fast (zstd over byte planes) or dense (context-modelled rANS, default)");
     cmd->add_option("--threads", a->threads, "Host threads for entropy coding (default 2)");
     cmd->add_flag("--profile", a->profile, "Print the time of each pipeline stage");
     a->raw.add(*cmd);
