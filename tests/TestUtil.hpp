@@ -1,11 +1,13 @@
 // Helpers shared by the test suites: temp dirs, shared-data lookup, one compute context per process.
 #pragma once
 
+#include "host/Volume.hpp"
 #include "host/runtime/ClRuntime.hpp"
 
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -31,6 +33,17 @@ inline std::filesystem::path sharedData() {
             GTEST_SKIP() << "../shared/data is absent: skipping tests on real volumes";                        \
         path = ::volcl::test::sharedData();                                                                    \
     } while (0)
+
+/// Float32 volume with voxel (i, j, k) = f(i, j, k): analytic fields for renderer tests.
+inline Volume makeFloatVolume(Dims d, const std::function<double(double, double, double)>& f) {
+    Volume v(d, ScalarType::Float32);
+    auto vals = v.values<float>();
+    for (std::size_t k = 0; k < d.z; ++k)
+        for (std::size_t j = 0; j < d.y; ++j)
+            for (std::size_t i = 0; i < d.x; ++i)
+                vals[v.index(i, j, k)] = float(f(double(i), double(j), double(k)));
+    return v;
+}
 
 /// One ComputeContext per test process: building contexts and kernels repeatedly only costs time.
 inline ComputeContext& computeContext() {

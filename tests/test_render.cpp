@@ -19,16 +19,7 @@ namespace {
 
 using namespace volcl;
 using volcl::test::computeContext;
-
-Volume makeVolume(Dims d, const std::function<float(double, double, double)>& f) {
-    Volume v(d, ScalarType::Float32);
-    auto vals = v.values<float>();
-    for (std::size_t k = 0; k < d.z; ++k)
-        for (std::size_t j = 0; j < d.y; ++j)
-            for (std::size_t i = 0; i < d.x; ++i)
-                vals[v.index(i, j, k)] = f(double(i), double(j), double(k));
-    return v;
-}
+using volcl::test::makeFloatVolume;
 
 TransferFunction constantTf(double tau, std::array<double, 3> rgb = {1.0, 0.5, 0.25}) {
     TransferFunction tf;
@@ -74,7 +65,7 @@ void expectFiniteBounded(const ImageBuffer& img) {
 
 TEST(Render, ConstantBoxMatchesBeerLambert) {
     const Dims n{17, 17, 17};
-    const Volume v = makeVolume(n, [](double, double, double) { return 1.0f; });
+    const Volume v = makeFloatVolume(n, [](double, double, double) { return 1.0f; });
     const TransferFunction tf = constantTf(0.1);
     const double alpha = 1.0 - std::exp(-0.1 * 16.0);
     for (Preintegration pre : {Preintegration::None, Preintegration::Table2d, Preintegration::Table3d}) {
@@ -100,7 +91,7 @@ TEST(Render, ConstantBoxMatchesBeerLambert) {
 TEST(Render, LinearRampOpticalDepth) {
     // s = z along the ray, tau(s) = 0.02 s: optical depth over z in [0, 31] is 0.01 * 31^2.
     const Dims n{9, 9, 32};
-    const Volume v = makeVolume(n, [](double, double, double z) { return float(z); });
+    const Volume v = makeFloatVolume(n, [](double, double, double z) { return float(z); });
     TransferFunction tf;
     tf.domain = {0, 31};
     tf.color = {{0, {0.0, 1.0, 0.0}}, {31, {1.0, 1.0, 0.0}}};
@@ -130,7 +121,7 @@ TEST(Render, LinearRampOpticalDepth) {
 
 TEST(Render, ReferenceConvergesWithStep) {
     const Dims n{24, 20, 18};
-    const Volume v = makeVolume(n, [](double x, double y, double z) {
+    const Volume v = makeFloatVolume(n, [](double x, double y, double z) {
         return float(1.0 + std::sin(0.5 * x) * std::cos(0.4 * y) * std::sin(0.3 * z + 1.0));
     });
     TransferFunction tf;
@@ -150,7 +141,7 @@ TEST(Render, ReferenceConvergesWithStep) {
 TEST(Render, SphereIsoHitsAnalyticSurface) {
     const Dims n{48, 48, 48};
     const double c = 23.5, R = 17.0;
-    const Volume v = makeVolume(n, [&](double x, double y, double z) {
+    const Volume v = makeFloatVolume(n, [&](double x, double y, double z) {
         return float((x - c) * (x - c) + (y - c) * (y - c) + (z - c) * (z - c));
     });
     TransferFunction tf = constantTf(0.0);
@@ -203,7 +194,7 @@ TEST(Render, SphereIsoHitsAnalyticSurface) {
 TEST(Render, TransparentIsoSurfacesCompositeInOrder) {
     const Dims n{32, 32, 32};
     const double c = 15.5;
-    const Volume v = makeVolume(n, [&](double x, double y, double z) {
+    const Volume v = makeFloatVolume(n, [&](double x, double y, double z) {
         return float(std::sqrt((x - c) * (x - c) + (y - c) * (y - c) + (z - c) * (z - c)));
     });
     TransferFunction tf = constantTf(0.0);
@@ -222,7 +213,7 @@ TEST(Render, TransparentIsoSurfacesCompositeInOrder) {
 
 TEST(Render, SkippingChangesNothingBeyondFloatNoise) {
     const Dims n{40, 36, 30};
-    const Volume v = makeVolume(n, [](double x, double y, double z) {
+    const Volume v = makeFloatVolume(n, [](double x, double y, double z) {
         const double r = std::sqrt((x - 20) * (x - 20) + (y - 18) * (y - 18) + (z - 15) * (z - 15));
         return float(std::max(0.0, 100.0 - 9.0 * r) + (x > 30 ? 40.0 : 0.0));
     });
@@ -253,7 +244,7 @@ TEST(Render, SkippingChangesNothingBeyondFloatNoise) {
 TEST(Render, PlainKernelMatchesBaseline) {
     const Dims n{20, 20, 20};
     const Volume v =
-        makeVolume(n, [](double x, double y, double z) { return float(x + 0.5 * y + 0.25 * z); });
+        makeFloatVolume(n, [](double x, double y, double z) { return float(x + 0.5 * y + 0.25 * z); });
     TransferFunction tf;
     tf.domain = {0, 35};
     tf.color = {{0, {0, 0, 1}}, {35, {1, 0, 0}}};
@@ -268,7 +259,7 @@ TEST(Render, PlainKernelMatchesBaseline) {
 
 TEST(Render, EffectsCompiledOnlyWhenTheyMatter) {
     const Dims n{16, 16, 16};
-    const Volume v = makeVolume(n, [](double x, double, double) { return float(x); });
+    const Volume v = makeFloatVolume(n, [](double x, double, double) { return float(x); });
     TransferFunction tf;
     tf.domain = {0, 15};
     tf.color = {{0, {1, 1, 1}}};
@@ -314,7 +305,7 @@ TEST(Render, EffectsCompiledOnlyWhenTheyMatter) {
 
 TEST(Render, ShadingShadowsScatteringAndClippingMatchReference) {
     const Dims n{24, 24, 24};
-    const Volume v = makeVolume(n, [](double x, double y, double z) {
+    const Volume v = makeFloatVolume(n, [](double x, double y, double z) {
         const double r =
             std::sqrt((x - 11.5) * (x - 11.5) + (y - 11.5) * (y - 11.5) + (z - 11.5) * (z - 11.5));
         return float(std::max(0.0, 10.0 - r));
@@ -346,7 +337,7 @@ TEST(Render, ShadingShadowsScatteringAndClippingMatchReference) {
 
 TEST(Render, MipAndXrayMatchReference) {
     const Dims n{30, 26, 22};
-    const Volume v = makeVolume(n, [](double x, double y, double z) {
+    const Volume v = makeFloatVolume(n, [](double x, double y, double z) {
         return float(50.0 + 40.0 * std::sin(0.3 * x) * std::cos(0.25 * y + 0.1 * z));
     });
     TransferFunction tf;
@@ -366,7 +357,7 @@ TEST(Render, MipAndXrayMatchReference) {
 
 TEST(Render, HardGeometry) {
     const Dims n{16, 16, 16};
-    const Volume v = makeVolume(n, [](double x, double y, double z) { return float((x + y + z) / 45.0); });
+    const Volume v = makeFloatVolume(n, [](double x, double y, double z) { return float((x + y + z) / 45.0); });
     TransferFunction tf;
     tf.domain = {0, 1};
     tf.color = {{0, {1, 0, 0}}, {1, {0, 0, 1}}};
@@ -454,23 +445,23 @@ TEST(Render, Uint8CornerLayoutMatchesLinearLayout) {
 
 TEST(Render, DegenerateVolumesAndSteps) {
     // One voxel thick: the box has no depth, so nothing is integrated (CONTRACT: the box is [o, o+(n-1)s]).
-    const Volume slab = makeVolume({8, 8, 1}, [](double, double, double) { return 1.0f; });
+    const Volume slab = makeFloatVolume({8, 8, 1}, [](double, double, double) { return 1.0f; });
     Scene s = orthoScene({8, 8, 1}, 8.0);
     ImageBuffer img = Renderer(computeContext(), slab, constantTf(5.0), s).render();
     for (float p : img.pixels)
         EXPECT_EQ(p, 0.0f);
     // Two voxels thick: one voxel of depth.
-    const Volume thin = makeVolume({8, 8, 2}, [](double, double, double) { return 1.0f; });
+    const Volume thin = makeFloatVolume({8, 8, 2}, [](double, double, double) { return 1.0f; });
     s = orthoScene({8, 8, 2}, 6.0);
     img = Renderer(computeContext(), thin, constantTf(0.5), s).render();
     EXPECT_NEAR(img.at(4, 4, 3), 1.0 - std::exp(-0.5), 1e-6);
     // A single voxel.
-    const Volume one = makeVolume({1, 1, 1}, [](double, double, double) { return 1.0f; });
+    const Volume one = makeFloatVolume({1, 1, 1}, [](double, double, double) { return 1.0f; });
     img = Renderer(computeContext(), one, constantTf(5.0), orthoScene({1, 1, 1}, 1.0, 1, 1)).render();
     EXPECT_EQ(img.at(0, 0, 3), 0.0f);
 
     const Dims n{12, 12, 12};
-    const Volume box = makeVolume(n, [](double, double, double) { return 1.0f; });
+    const Volume box = makeFloatVolume(n, [](double, double, double) { return 1.0f; });
     // Tiny and huge steps stay finite and correct on a constant box.
     for (double step : {1e-3, 1e6}) {
         Scene t = orthoScene(n, 6.0, 2, 2);
@@ -493,7 +484,7 @@ TEST(Render, DegenerateVolumesAndSteps) {
 
 TEST(Render, IsoValuesOnVoxelsAndOutsideTheRange) {
     const Dims n{10, 10, 10};
-    const Volume v = makeVolume(n, [](double, double, double z) { return float(z); });
+    const Volume v = makeFloatVolume(n, [](double, double, double z) { return float(z); });
     Scene s = orthoScene(n, 6.0, 3, 3);
     s.mode = RenderMode::Iso;
     s.effects.isosurfaces = {{4.0, {1, 1, 1, 1}}}; // exactly the values of the slice z = 4
@@ -512,7 +503,7 @@ TEST(Render, IsoValuesOnVoxelsAndOutsideTheRange) {
 }
 
 TEST(Render, BadInputIsRefused) {
-    Volume v = makeVolume({4, 4, 4}, [](double, double, double) { return 1.0f; });
+    Volume v = makeFloatVolume({4, 4, 4}, [](double, double, double) { return 1.0f; });
     v.values<float>()[5] = std::numeric_limits<float>::quiet_NaN();
     EXPECT_THROW(Renderer(computeContext(), v, constantTf(1.0), orthoScene({4, 4, 4}, 4.0)), DataError);
     EXPECT_THROW(Scene::fromJson(R"({"render": {"mode": "volume"}})"), UsageError);

@@ -22,16 +22,7 @@ namespace {
 
 using namespace volcl;
 using volcl::test::computeContext;
-
-Volume makeVolume(Dims d, const std::function<double(double, double, double)>& f) {
-    Volume v(d, ScalarType::Float32);
-    auto vals = v.values<float>();
-    for (std::size_t k = 0; k < d.z; ++k)
-        for (std::size_t j = 0; j < d.y; ++j)
-            for (std::size_t i = 0; i < d.x; ++i)
-                vals[v.index(i, j, k)] = float(f(double(i), double(j), double(k)));
-    return v;
-}
+using volcl::test::makeFloatVolume;
 
 /// A TF that adds nothing: iso scenes only show their surfaces.
 TransferFunction clearTf(double lo, double hi) {
@@ -149,7 +140,7 @@ TEST(RenderIso, KernelRootsMatchExactTrilinearRoots) {
     // Sphere |x - c|^2 (not trilinear: the trilinear surface differs from the sphere, the roots may not).
     const Dims n{40, 40, 40};
     const double c = 19.5;
-    const Volume sphere = makeVolume(n, [&](double x, double y, double z) {
+    const Volume sphere = makeFloatVolume(n, [&](double x, double y, double z) {
         return (x - c) * (x - c) + (y - c) * (y - c) + (z - c) * (z - c);
     });
     for (double step : {0.25, 1.0, 4.0}) {
@@ -179,7 +170,7 @@ TEST(RenderIso, KernelRootsMatchExactTrilinearRoots) {
             for (int i = 0; i < 6; ++i)
                 t[std::size_t(i)] = i < 3 ? freq(rng) : phase(rng);
         const Dims m{30, 26, 28};
-        const Volume v = makeVolume(m, [&](double x, double y, double z) {
+        const Volume v = makeFloatVolume(m, [&](double x, double y, double z) {
             double s = 1.0;
             for (const auto& t : w)
                 s += 0.33 * std::sin(t[0] * x + t[3]) * std::sin(t[1] * y + t[4]) * std::sin(t[2] * z + t[5]);
@@ -246,7 +237,7 @@ TEST(RenderIso, KernelRootsMatchExactRootsOnRealAndAnisotropicVolumes) {
         worst = std::max(worst, d.worst);
         hits += d.both;
     }
-    Volume aniso = makeVolume({24, 30, 20}, [](double x, double y, double z) {
+    Volume aniso = makeFloatVolume({24, 30, 20}, [](double x, double y, double z) {
         return std::sin(0.4 * x) * std::cos(0.3 * y) + 0.5 * std::sin(0.5 * z + 0.3 * x);
     });
     aniso.spacing = {0.5, 0.4, 0.8};
@@ -273,7 +264,7 @@ TEST(RenderIso, HitsWithin1e3VoxelOfAnalyticSphere) {
     const double R = 1000.0;
     const Dims n{48, 48, 40};
     const Vec3 c{23.5, 23.5, 30.0 - R}; // the top of the sphere at z = 30, the cap falls ~0.6 over the volume
-    const Volume v = makeVolume(n, [&](double x, double y, double z) {
+    const Volume v = makeFloatVolume(n, [&](double x, double y, double z) {
         return std::sqrt((x - c[0]) * (x - c[0]) + (y - c[1]) * (y - c[1]) + (z - c[2]) * (z - c[2])) - R;
     });
     Camera persp;
@@ -327,7 +318,7 @@ TEST(RenderIso, HitsWithin1e3VoxelOfAnalyticSphere) {
 TEST(RenderIso, ShellThinnerThanTheStepIsHit) {
     const Dims n{12, 12, 20};
     // One voxel-thick slab: 1 on the plane z = 10, 0 elsewhere; s >= 0.5 for z in [9.5, 10.5].
-    const Volume v = makeVolume(n, [](double, double, double z) { return z == 10.0 ? 1.0 : 0.0; });
+    const Volume v = makeFloatVolume(n, [](double, double, double z) { return z == 10.0 ? 1.0 : 0.0; });
     for (double step : {3.0, 2.25}) {
         // Eye plane z = -50, box entry z = 0: the samples lie at z = 0, step, 2 step, ... where s = 0.
         for (int k = 0; k * step <= 19.0; ++k)
@@ -361,7 +352,7 @@ TEST(RenderIso, ShellThinnerThanTheStepIsHit) {
 // field is reproduced exactly by trilinear interpolation, so the surfaces are exact planes.
 TEST(RenderIso, HardRaysOnAnExactPlane) {
     const Dims n{16, 16, 16};
-    const Volume v = makeVolume(n, [](double x, double y, double z) { return x + 2.0 * y + 3.0 * z; });
+    const Volume v = makeFloatVolume(n, [](double x, double y, double z) { return x + 2.0 * y + 3.0 * z; });
     const TransferFunction tf = clearTf(0, 90);
     double worst = 0.0, worstRef = 0.0;
     auto check = [&](const Camera& cam, int w, int h, double iso, double step, const char* what) {
@@ -423,7 +414,7 @@ TEST(RenderIso, HardRaysOnAnExactPlane) {
 // reference.
 TEST(RenderIso, MixedWithDvrAndShadedMatchReference) {
     const Dims n{36, 32, 30};
-    const Volume v = makeVolume(n, [](double x, double y, double z) {
+    const Volume v = makeFloatVolume(n, [](double x, double y, double z) {
         const double r =
             std::sqrt((x - 17.5) * (x - 17.5) + (y - 15.5) * (y - 15.5) + (z - 14.5) * (z - 14.5));
         return 100.0 - 3.0 * r + 3.0 * std::sin(0.7 * x);

@@ -49,7 +49,10 @@ void main() {
 }
 )";
 
-unsigned compileShader(GLenum kind, const char* source) {
+
+} // namespace
+
+unsigned compileShader(unsigned kind, const char* source, std::string_view what) {
     const GLuint s = glCreateShader(kind);
     glShaderSource(s, 1, &source, nullptr);
     glCompileShader(s);
@@ -59,12 +62,10 @@ unsigned compileShader(GLenum kind, const char* source) {
         char log[2048] = {};
         glGetShaderInfoLog(s, sizeof log, nullptr, log);
         glDeleteShader(s);
-        throw Error(std::string("OpenGL: viewer shader does not compile: ") + log);
+        throw Error("OpenGL: " + std::string(what) + " shader does not compile: " + log);
     }
     return s;
 }
-
-} // namespace
 
 std::string_view frameTransportName(FrameTransport t) noexcept {
     return t == FrameTransport::Pbo ? "pixel buffer object" : "cl_khr_gl_sharing";
@@ -111,10 +112,10 @@ FramePresenter::FramePresenter() {
     if (epoxy_gl_version() < 33)
         throw Error("OpenGL: the viewer needs OpenGL 3.3, the context offers " +
                     std::to_string(epoxy_gl_version() / 10) + "." + std::to_string(epoxy_gl_version() % 10));
-    const GLuint vs = compileShader(GL_VERTEX_SHADER, kVertexShader);
+    const GLuint vs = compileShader(GL_VERTEX_SHADER, kVertexShader, "viewer");
     GLuint fs = 0;
     try {
-        fs = compileShader(GL_FRAGMENT_SHADER, kFragmentShader);
+        fs = compileShader(GL_FRAGMENT_SHADER, kFragmentShader, "viewer");
     } catch (...) {
         glDeleteShader(vs);
         throw;

@@ -40,21 +40,6 @@ void main() {
 }
 )";
 
-unsigned compile(GLenum kind, const char* source) {
-    const GLuint s = glCreateShader(kind);
-    glShaderSource(s, 1, &source, nullptr);
-    glCompileShader(s);
-    GLint ok = GL_FALSE;
-    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
-    if (ok != GL_TRUE) {
-        char log[2048] = {};
-        glGetShaderInfoLog(s, sizeof log, nullptr, log);
-        glDeleteShader(s);
-        throw Error(std::string("OpenGL: overlay shader does not compile: ") + log);
-    }
-    return s;
-}
-
 } // namespace
 
 TextMask rasteriseText(const std::vector<std::string>& lines) {
@@ -103,10 +88,10 @@ std::vector<std::string> wrapList(const std::string& prefix, const std::string& 
 }
 
 TextOverlay::TextOverlay() {
-    const GLuint vs = compile(GL_VERTEX_SHADER, kVertexShader);
+    const GLuint vs = compileShader(GL_VERTEX_SHADER, kVertexShader, "overlay");
     GLuint fs = 0;
     try {
-        fs = compile(GL_FRAGMENT_SHADER, kFragmentShader);
+        fs = compileShader(GL_FRAGMENT_SHADER, kFragmentShader, "overlay");
     } catch (...) {
         glDeleteShader(vs);
         throw;
