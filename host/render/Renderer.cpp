@@ -38,8 +38,19 @@ std::string EffectPlan::explain() const {
     return os.str();
 }
 
+namespace {
+/// planEffects with the volume's value range already known: the Renderer scans the volume once, not on
+/// every scene change (a 7M-voxel scan per adaptive-quality step change cost more than the coarse frame).
+EffectPlan planEffectsInRange(const Scene& scene, const Volume& volume, const render_detail::ValueRange& range);
+} // namespace
+
 EffectPlan planEffects(const Scene& scene, const Volume& volume, const TransferFunction& tf) {
     (void)tf;
+    return planEffectsInRange(scene, volume, render_detail::valueRange(volume));
+}
+
+namespace {
+EffectPlan planEffectsInRange(const Scene& scene, const Volume& volume, const render_detail::ValueRange& range) {
     EffectPlan p;
     const SceneEffects& fx = scene.effects;
     const RenderMode mode = scene.mode;
@@ -57,7 +68,6 @@ EffectPlan planEffects(const Scene& scene, const Volume& volume, const TransferF
                                                         : 0;
     p.defines.set("VOXEL_TYPE", static_cast<long long>(p.voxelType));
 
-    const render_detail::ValueRange range = render_detail::valueRange(volume);
     // Iso-surfaces: crossed only when min < value <= max (the kernel's sign test), visible only if opaque at
     // all.
     if (!fx.isosurfaces.empty()) {
@@ -187,8 +197,10 @@ EffectPlan planEffects(const Scene& scene, const Volume& volume, const TransferF
     }
     return p;
 }
+} // namespace
 
 struct Renderer::Impl {
+    render_detail::ValueRange range; ///< of the volume, scanned once at construction
     DeviceBuffer<cl_uchar> volume; ///< voxels in their stored type, plus one spare voxel (raymarch_core.h)
     DeviceBuffer<cl_uchar> corners; ///< uint8 volumes: 8 corner values per cell for the packet kernels
     bool useCorners = false;        ///< packet kernels read `corners` (-DCORNER_VOXELS)
@@ -204,6 +216,15 @@ struct Renderer::Impl {
     bool packet = false; ///< kernel is raymarch_packet: one work-item per 4x2 block of pixels
     std::string tableKey;
     int tableLengths = 1;
+    /// Recently used tables, most recent last: an interactive viewer alternates between a few steps, and a
+    /// 2D table per step costs 10-100 ms to rebuild (far more than a coarse frame).
+    struct CachedTable {
+        std::string key;
+        DeviceBuffer<cl_float4> table;
+        int lengths = 1;
+    };
+    std::vector<CachedTable> tableCache;
+    static constexpr std::size_t kTableCacheSize = 8;
     VolclRenderParams params{};
 };
 
@@ -227,6 +248,7 @@ Renderer::Renderer(ComputeContext& cc, const Volume& volume, const TransferFunct
     std::memcpy(bytes.data(), volume.bytes().data(), volume.byteSize());
     impl_->volume = cc_.upload(bytes, CL_MEM_READ_ONLY);
     impl_->macro = render_detail::buildMacrocells(volume, kMacrocellEdge);
+    impl_->range = render_detail::valueRange(volume);
     impl_->useCorners =
         volume.type() == ScalarType::UInt8 && volume.voxelCount() <= render_detail::kMaxCornerVoxels;
     impl_->out = cc_.allocate<cl_float4>(1);
@@ -271,7 +293,7 @@ void Renderer::setTransferFunction(const TransferFunction& tf) {
 void Renderer::rebuild(bool tfChanged) {
     camera_ = scene_.camera ? *scene_.camera : defaultCamera(volume_);
     const EffectPlan previous = plan_;
-    plan_ = planEffects(scene_, volume_, tf_);
+    plan_ = planEffectsInRange(scene_, volume_, impl_->range);
     Impl& m = *impl_;
 
     // Guard against steps so small that one ray would take longer than any frame should.
@@ -310,14 +332,25 @@ void Renderer::rebuild(bool tfChanged) {
                                 std::to_string(spec.size) + "|" + fmt(scene_.step) + "|" +
                                 std::to_string(spec.lengths);
         if (key != m.tableKey) {
-            Stopwatch sw;
-            const PreintegrationTable t = generatePreintegrationTable(shaded, spec, {}, &cc_);
-            tableMs_ = sw.milliseconds();
-            std::vector<cl_float4> rgba(t.rgba.size() / 4);
-            std::memcpy(rgba.data(), t.rgba.data(), rgba.size() * sizeof(cl_float4));
-            m.table = cc_.upload(rgba, CL_MEM_READ_ONLY);
+            auto hit = std::find_if(m.tableCache.begin(), m.tableCache.end(),
+                                    [&](const Impl::CachedTable& c) { return c.key == key; });
+            Impl::CachedTable entry;
+            if (hit != m.tableCache.end()) {
+                entry = std::move(*hit);
+                m.tableCache.erase(hit);
+            } else {
+                Stopwatch sw;
+                const PreintegrationTable t = generatePreintegrationTable(shaded, spec, {}, &cc_);
+                tableMs_ = sw.milliseconds();
+                std::vector<cl_float4> rgba(t.rgba.size() / 4);
+                std::memcpy(rgba.data(), t.rgba.data(), rgba.size() * sizeof(cl_float4));
+                entry = {key, cc_.upload(rgba, CL_MEM_READ_ONLY), int(t.sliceCount())};
+            }
+            m.table = entry.table;
             m.tableKey = key;
-            m.tableLengths = t.sliceCount();
+            m.tableLengths = entry.lengths;
+            m.tableCache.push_back(std::move(entry));
+            if (m.tableCache.size() > Impl::kTableCacheSize) m.tableCache.erase(m.tableCache.begin());
         }
     } else if (m.table.size() == 0) {
         m.table = cc_.allocate<cl_float4>(1, CL_MEM_READ_ONLY);
