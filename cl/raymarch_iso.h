@@ -78,6 +78,21 @@ inline int iso_piece_needed(const IsoState* st) {
 
 inline float iso_tout(float3 tn) { return fmin(tn.x, fmin(tn.y, tn.z)); }
 
+/* Moves the DDA across the nearest cell face (ties: x, then y, then z). */
+inline void iso_cross_face(IsoState* st) {
+    const float3 tn = st->tNext;
+    if (tn.x <= tn.y && tn.x <= tn.z) {
+        st->cell.x += st->dir.x;
+        st->tNext.x += st->tDelta.x;
+    } else if (tn.y <= tn.z) {
+        st->cell.y += st->dir.y;
+        st->tNext.y += st->tDelta.y;
+    } else {
+        st->cell.z += st->dir.z;
+        st->tNext.z += st->tDelta.z;
+    }
+}
+
 /* Puts the DDA in the cell the ray occupies just after t (a ray leaving a face downward belongs to the lower
    cell), then steps past cells that float rounding says it has already left. */
 inline void iso_locate(__global const voxel_t* vol, const VolclRenderParams* P, const Ray* r, float t, IsoState* st) {
@@ -90,17 +105,7 @@ inline void iso_locate(__global const voxel_t* vol, const VolclRenderParams* P, 
     st->tNext = select((face - r->o) * st->invD, (float3)(INFINITY), r->d == 0.0f);
     /* rounding can leave p a hair behind a face the ray has crossed: at most one cell per axis */
     for (int s = 0; s < 3 && iso_tout(st->tNext) <= t; ++s) {
-        const float3 tn = st->tNext;
-        if (tn.x <= tn.y && tn.x <= tn.z) {
-            st->cell.x += st->dir.x;
-            st->tNext.x += st->tDelta.x;
-        } else if (tn.y <= tn.z) {
-            st->cell.y += st->dir.y;
-            st->tNext.y += st->tDelta.y;
-        } else {
-            st->cell.z += st->dir.z;
-            st->tNext.z += st->tDelta.z;
-        }
+        iso_cross_face(st);
     }
     st->tOut = iso_tout(st->tNext);
     iso_load_cell(vol, P, st);
@@ -108,17 +113,7 @@ inline void iso_locate(__global const voxel_t* vol, const VolclRenderParams* P, 
 
 /* One DDA step into the next cell. */
 inline void iso_step(__global const voxel_t* vol, const VolclRenderParams* P, IsoState* st) {
-    const float3 tn = st->tNext;
-    if (tn.x <= tn.y && tn.x <= tn.z) {
-        st->cell.x += st->dir.x;
-        st->tNext.x += st->tDelta.x;
-    } else if (tn.y <= tn.z) {
-        st->cell.y += st->dir.y;
-        st->tNext.y += st->tDelta.y;
-    } else {
-        st->cell.z += st->dir.z;
-        st->tNext.z += st->tDelta.z;
-    }
+    iso_cross_face(st);
     st->tOut = iso_tout(st->tNext);
     iso_load_cell(vol, P, st);
 }

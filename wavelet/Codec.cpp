@@ -58,29 +58,16 @@ template <class Fn> void parallelFor(std::size_t n, unsigned threads, Fn fn) {
 }
 
 // Calls fn with the volume's typed span.
-template <class Fn> decltype(auto) visitTyped(const Volume& v, Fn fn) {
+template <class V, class Fn> decltype(auto) visitTyped(V& v, Fn fn) { // V: Volume or const Volume
     switch (v.type()) {
     case ScalarType::UInt8:
-        return fn(v.values<std::uint8_t>());
+        return fn(v.template values<std::uint8_t>());
     case ScalarType::UInt16:
-        return fn(v.values<std::uint16_t>());
+        return fn(v.template values<std::uint16_t>());
     case ScalarType::Int16:
-        return fn(v.values<std::int16_t>());
+        return fn(v.template values<std::int16_t>());
     case ScalarType::Float32:
-        return fn(v.values<float>());
-    }
-    throw Error("internal: unknown scalar type");
-}
-template <class Fn> decltype(auto) visitTyped(Volume& v, Fn fn) {
-    switch (v.type()) {
-    case ScalarType::UInt8:
-        return fn(v.values<std::uint8_t>());
-    case ScalarType::UInt16:
-        return fn(v.values<std::uint16_t>());
-    case ScalarType::Int16:
-        return fn(v.values<std::int16_t>());
-    case ScalarType::Float32:
-        return fn(v.values<float>());
+        return fn(v.template values<float>());
     }
     throw Error("internal: unknown scalar type");
 }

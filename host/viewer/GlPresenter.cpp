@@ -67,6 +67,32 @@ unsigned compileShader(unsigned kind, const char* source, std::string_view what)
     return s;
 }
 
+unsigned linkProgram(const char* vertexSource, const char* fragmentSource, std::string_view what) {
+    const GLuint vs = compileShader(GL_VERTEX_SHADER, vertexSource, what);
+    GLuint fs = 0;
+    try {
+        fs = compileShader(GL_FRAGMENT_SHADER, fragmentSource, what);
+    } catch (...) {
+        glDeleteShader(vs);
+        throw;
+    }
+    const GLuint program = glCreateProgram();
+    glAttachShader(program, vs);
+    glAttachShader(program, fs);
+    glLinkProgram(program);
+    glDeleteShader(vs);
+    glDeleteShader(fs);
+    GLint ok = GL_FALSE;
+    glGetProgramiv(program, GL_LINK_STATUS, &ok);
+    if (ok != GL_TRUE) {
+        char log[2048] = {};
+        glGetProgramInfoLog(program, sizeof log, nullptr, log);
+        glDeleteProgram(program);
+        throw Error("OpenGL: " + std::string(what) + " program does not link: " + log);
+    }
+    return program;
+}
+
 std::string_view frameTransportName(FrameTransport t) noexcept {
     return t == FrameTransport::Pbo ? "pixel buffer object" : "cl_khr_gl_sharing";
 }
@@ -112,28 +138,7 @@ FramePresenter::FramePresenter() {
     if (epoxy_gl_version() < 33)
         throw Error("OpenGL: the viewer needs OpenGL 3.3, the context offers " +
                     std::to_string(epoxy_gl_version() / 10) + "." + std::to_string(epoxy_gl_version() % 10));
-    const GLuint vs = compileShader(GL_VERTEX_SHADER, kVertexShader, "viewer");
-    GLuint fs = 0;
-    try {
-        fs = compileShader(GL_FRAGMENT_SHADER, kFragmentShader, "viewer");
-    } catch (...) {
-        glDeleteShader(vs);
-        throw;
-    }
-    program_ = glCreateProgram();
-    glAttachShader(program_, vs);
-    glAttachShader(program_, fs);
-    glLinkProgram(program_);
-    glDeleteShader(vs);
-    glDeleteShader(fs);
-    GLint ok = GL_FALSE;
-    glGetProgramiv(program_, GL_LINK_STATUS, &ok);
-    if (ok != GL_TRUE) {
-        char log[2048] = {};
-        glGetProgramInfoLog(program_, sizeof log, nullptr, log);
-        glDeleteProgram(program_);
-        throw Error(std::string("OpenGL: viewer program does not link: ") + log);
-    }
+    program_ = linkProgram(kVertexShader, kFragmentShader, "viewer");
     locFrame_ = glGetUniformLocation(program_, "frame");
     locBackground_ = glGetUniformLocation(program_, "background");
     glGenVertexArrays(1, &vao_); // core profile draws need a bound vertex array, even an empty one

@@ -91,6 +91,8 @@ private:
 /// Compiles one GLSL shader stage (kind: GL_VERTEX_SHADER, ...); throws Error with the info log, naming
 /// `what` ("viewer", "overlay").
 unsigned compileShader(unsigned kind, const char* source, std::string_view what);
+/// Compiles and links a vertex + fragment shader program; throws Error with the logs, naming `what`.
+unsigned linkProgram(const char* vertexSource, const char* fragmentSource, std::string_view what);
 
 /// Reads the bound framebuffer's colour as 8-bit RGBA into R, G, B, A channels holding k/255, row 0 at the
 /// top (writeImage() stores those exactly as the 8-bit values read).

@@ -88,26 +88,7 @@ std::vector<std::string> wrapList(const std::string& prefix, const std::string& 
 }
 
 TextOverlay::TextOverlay() {
-    const GLuint vs = compileShader(GL_VERTEX_SHADER, kVertexShader, "overlay");
-    GLuint fs = 0;
-    try {
-        fs = compileShader(GL_FRAGMENT_SHADER, kFragmentShader, "overlay");
-    } catch (...) {
-        glDeleteShader(vs);
-        throw;
-    }
-    program_ = glCreateProgram();
-    glAttachShader(program_, vs);
-    glAttachShader(program_, fs);
-    glLinkProgram(program_);
-    glDeleteShader(vs);
-    glDeleteShader(fs);
-    GLint ok = GL_FALSE;
-    glGetProgramiv(program_, GL_LINK_STATUS, &ok);
-    if (ok != GL_TRUE) {
-        glDeleteProgram(program_);
-        throw Error("OpenGL: overlay program does not link");
-    }
+    program_ = linkProgram(kVertexShader, kFragmentShader, "overlay");
     locOrigin_ = glGetUniformLocation(program_, "origin");
     locSize_ = glGetUniformLocation(program_, "size");
     locViewport_ = glGetUniformLocation(program_, "viewport");
