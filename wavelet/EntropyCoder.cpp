@@ -172,12 +172,12 @@ private:
 
 // ------------------------------------------------------------------------------ rANS
 
-// Three states share one stream of 16-bit words: magnitude symbols of even and odd x on lanes 0 and 1 (row
-// flags on lane 0) so that two symbol chains overlap in the decoder, signs on lane 2. States live in
+// One state per subband of a section (up to 7) shares one stream of 16-bit words: the subbands of a section
+// depend on each other only through the previous section, so the decoder works on the same row of every
+// subband at once and their serial symbol chains overlap in the out-of-order core. States live in
 // [2^16, 2^32).
 constexpr std::uint32_t kRansLow = 1u << 16;
-constexpr int kLanes = 3;
-constexpr unsigned kSignLane = 2;
+constexpr int kMaxLanes = 7;
 constexpr int kBinaryScaleBits = 12; // adaptive binary decisions
 constexpr std::uint32_t kBinaryScale = 1u << kBinaryScaleBits;
 // Magnitude tables use 11 bits: the decoder's 25 slot-to-symbol tables (50 KB) then stay near L1.
@@ -212,23 +212,39 @@ struct RansEvent {
 
 // Encodes events given in decoding order; the rANS encoder runs backwards, so they are collected first.
 // Appends the stream to `out`.
-void ransEncode(const std::vector<RansEvent>& ev, std::vector<std::uint8_t>& out) {
-    std::vector<std::uint16_t> words;
-    words.reserve(ev.size() / 2 + 8);
-    std::uint32_t x[kLanes] = {kRansLow, kRansLow, kRansLow};
+// ceil(2^64 / f) for f in [2, 4096] (0 for f < 2): floor(x / f) = high 64 bits of x * that for any 32-bit x,
+// since the rounding error stays below 2^-32 and x / f is at least 1/f < 2^-12 short of the next integer. A
+// multiplication instead of a division in the encoder's serial chain.
+__extension__ using Uint128 = unsigned __int128; // GCC and Clang
+constexpr std::array<std::uint64_t, 4097> kReciprocal = [] {
+    std::array<std::uint64_t, 4097> r{};
+    for (std::uint64_t f = 2; f <= 4096; ++f)
+        r[f] = ~std::uint64_t(0) / f + 1;
+    return r;
+}();
+void ransEncode(const std::vector<RansEvent>& ev, int lanes, std::vector<std::uint8_t>& out) {
+    std::vector<std::uint16_t> words(ev.size() + 1);
+    std::uint16_t* w = words.data();
+    std::uint32_t x[kMaxLanes];
+    std::fill(x, x + kMaxLanes, kRansLow);
     for (std::size_t k = ev.size(); k-- > 0;) {
         const RansEvent& e = ev[k];
-        std::uint32_t& s = x[e.lane];
+        std::uint32_t s = x[e.lane];
         const std::uint32_t freq = e.freq;
-        if (std::uint64_t(s) >= (std::uint64_t(freq) << (32 - e.scaleBits))) {
-            words.push_back(static_cast<std::uint16_t>(s));
-            s >>= 16;
-        }
-        s = ((s / freq) << e.scaleBits) + (s % freq) + e.start;
+        // At most one 16-bit word per event: states stay below 2^32 and freq >= 1.
+        const bool flush = std::uint64_t(s) >= (std::uint64_t(freq) << (32 - e.scaleBits));
+        *w = static_cast<std::uint16_t>(s);
+        w += flush;
+        s >>= 16 * flush;
+        const auto q = freq == 1 ? s
+                                 : static_cast<std::uint32_t>(
+                                       (static_cast<Uint128>(s) * kReciprocal[freq]) >> 64);
+        x[e.lane] = (q << e.scaleBits) + (s - q * freq) + e.start;
     }
+    words.resize(static_cast<std::size_t>(w - words.data()));
     // Final states as varints of x - 2^16 (an unused lane costs one byte), then the words.
-    for (std::uint32_t state : x)
-        putVarint(out, state - kRansLow);
+    for (int lane = 0; lane < lanes; ++lane)
+        putVarint(out, x[lane] - kRansLow);
     const std::size_t base = out.size();
     out.resize(base + 2 * words.size());
     std::uint8_t* p = out.data() + base;
@@ -243,9 +259,38 @@ struct BitModel {
     std::uint32_t p0 = kBinaryScale / 2;
 };
 
-// Branch-free decoder: data-dependent decisions are turned into masks and arithmetic instead of jumps,
-// because they are close to random and mispredicted jumps cost more than the arithmetic. The stream is
-// read from a copy with zero padding (made by padded()) at a clamped position, so reads never leave it.
+// Read side of the word stream. Decoding is branch-free: data-dependent decisions are turned into masks and
+// arithmetic instead of jumps, because they are close to random and mispredicted jumps cost more than the
+// arithmetic. The stream is read from a copy with zero padding (made by RansDecoder::padded()) at a clamped
+// position, so reads never leave it. States are held by the callers, so hot loops keep them in locals.
+struct WordReader {
+    const std::uint8_t* data;
+    std::size_t size;
+    std::size_t pos = 0;
+
+    /// The state after decoding slots [start, start + freq) out of 2^scaleBits, renormalised.
+    std::uint32_t advance(std::uint32_t s, int scaleBits, std::uint32_t start, std::uint32_t freq) noexcept {
+        s = freq * (s >> scaleBits) + (s & ((1u << scaleBits) - 1)) - start;
+        const std::uint32_t renorm = s < kRansLow ? 1u : 0u;
+        // The word at the read position, or zeros past the end (the position keeps counting, exact() notices).
+        const std::uint8_t* q = data + std::min(pos, size);
+        const std::uint32_t w = q[0] | (std::uint32_t(q[1]) << 8);
+        pos += 2 * renorm;
+        return (s << (16 * renorm)) | (w & (0u - renorm));
+    }
+    /// Adaptive binary decision on state s.
+    unsigned bit(std::uint32_t& s, BitModel& m) noexcept {
+        const std::uint32_t p0 = m.p0;
+        const std::uint32_t one = (s & (kBinaryScale - 1)) >= p0 ? 1u : 0u;
+        const std::uint32_t freq = p0 + one * (kBinaryScale - 2 * p0);
+        s = advance(s, kBinaryScaleBits, one * p0, freq);
+        const std::uint32_t up = p0 + ((kBinaryScale - p0) >> 5), down = p0 - (p0 >> 5);
+        m.p0 = up + one * (down - up);
+        return one;
+    }
+};
+
+// The decoder's states and stream.
 class RansDecoder {
 public:
     static std::vector<std::uint8_t> padded(std::span<const std::uint8_t> in) {
@@ -254,56 +299,27 @@ public:
         return b;
     }
     /// `bytes` comes from padded(); `size` is the unpadded length.
-    RansDecoder(const std::vector<std::uint8_t>& bytes, std::size_t size) : data_(bytes.data()), size_(size) {
-        const std::span<const std::uint8_t> in(data_, size_);
-        for (std::uint32_t& s : x_) {
+    RansDecoder(const std::vector<std::uint8_t>& bytes, std::size_t size, int lanes) : in{bytes.data(), size} {
+        const std::span<const std::uint8_t> span(in.data, in.size);
+        std::fill(x, x + kMaxLanes, kRansLow);
+        for (int lane = 0; lane < lanes; ++lane) {
             std::uint64_t v = 0;
-            if (!getVarint(in, pos_, v) || v > 0xFFFFFFFFu - kRansLow) {
+            if (!getVarint(span, in.pos, v) || v > 0xFFFFFFFFu - kRansLow) {
                 bad_ = true; // decoding goes on harmlessly (any state is safe); exact() reports it
                 v = 0;
             }
-            s = static_cast<std::uint32_t>(v) + kRansLow;
+            x[lane] = static_cast<std::uint32_t>(v) + kRansLow;
         }
-    }
-    std::uint32_t slot(unsigned lane, int scaleBits) const noexcept {
-        return x_[lane] & ((1u << scaleBits) - 1);
-    }
-    void advance(unsigned lane, int scaleBits, std::uint32_t start, std::uint32_t freq) noexcept {
-        std::uint32_t s = x_[lane];
-        s = freq * (s >> scaleBits) + (s & ((1u << scaleBits) - 1)) - start;
-        const std::uint32_t renorm = s < kRansLow ? 1u : 0u;
-        const std::uint32_t w = word();
-        x_[lane] = (s << (16 * renorm)) | (w & (0u - renorm));
-        pos_ += 2 * renorm;
-    }
-    /// Adaptive binary decision; with active = 0 a no-op that returns 0 and leaves everything as is.
-    unsigned bit(unsigned lane, BitModel& m, std::uint32_t active = 1) noexcept {
-        const std::uint32_t p0 = m.p0;
-        const std::uint32_t one = (slot(lane, kBinaryScaleBits) >= p0 ? 1u : 0u) & active;
-        const std::uint32_t freqActive = p0 + one * (kBinaryScale - 2 * p0);
-        const std::uint32_t freq = freqActive + (1u - active) * (kBinaryScale - freqActive);
-        advance(lane, kBinaryScaleBits, one * p0, freq);
-        const std::uint32_t up = p0 + ((kBinaryScale - p0) >> 5), down = p0 - (p0 >> 5);
-        const std::uint32_t next = up + one * (down - up);
-        m.p0 = p0 + ((0u - active) & (next - p0));
-        return one;
     }
     /// An intact stream ends exactly at its last word with every state back at the encoder's start.
     bool exact() const noexcept {
-        return !bad_ && pos_ == size_ &&
-               std::all_of(x_, x_ + kLanes, [](std::uint32_t s) { return s == kRansLow; });
+        return !bad_ && in.pos == in.size &&
+               std::all_of(x, x + kMaxLanes, [](std::uint32_t s) { return s == kRansLow; });
     }
+    WordReader in;
+    std::uint32_t x[kMaxLanes];
 
 private:
-    // The word at the read position, or zeros past the end (the position keeps counting, exact() notices).
-    std::uint32_t word() const noexcept {
-        const std::uint8_t* q = data_ + std::min(pos_, size_);
-        return q[0] | (std::uint32_t(q[1]) << 8);
-    }
-    const std::uint8_t* data_;
-    std::size_t size_;
-    std::size_t pos_ = 0;
-    std::uint32_t x_[kLanes] = {0, 0, 0};
     bool bad_ = false;
 };
 
@@ -326,18 +342,30 @@ inline int symbolOf(std::uint32_t u) {
     const int n = bitLength(u);
     return n <= 1 ? n : 2 * (n - 1) + static_cast<int>((u >> (n - 2)) & 1u);
 }
-// Smallest magnitude with symbol `sym`: stands in for the previous coefficient in the activity, because its
-// raw mantissa bits are read in a later pass.
-inline std::uint32_t symbolFloor(unsigned sym) {
-    const std::uint32_t big = (2u | (sym & 1u)) << std::max(static_cast<int>(sym / 2) - 1, 0);
-    const std::uint32_t small = 0u - static_cast<std::uint32_t>(sym < 2);
-    return (sym & small) | (big & ~small);
-}
+// Per symbol: how many raw mantissa bits follow it, its magnitude with those bits zero (base), and 4 base,
+// the previous coefficient's share of the activity (its smallest magnitude stands in for it, because its
+// raw bits are read in a later pass). Tables instead of arithmetic: shorter chains, no branches.
+struct SymbolInfo {
+    std::array<std::uint8_t, 64> rawBits{};
+    std::array<std::uint32_t, 64> base{}, west{};
+};
+constexpr SymbolInfo kSymbolInfo = [] {
+    SymbolInfo t;
+    for (unsigned sym = 0; sym < kSymbols; ++sym) {
+        const unsigned n = sym < 2 ? 0 : sym / 2 - 1;
+        t.rawBits[sym] = static_cast<std::uint8_t>(n);
+        t.base[sym] = sym < 2 ? sym : (2u | (sym & 1u)) << n;
+        t.west[sym] = 4 * t.base[sym];
+    }
+    return t;
+}();
+// 0 for a = 0, 1 for a = 1, then two classes per octave (the bit below the leading one), capped: that is
+// the float exponent and top mantissa bit of a, read from its bits (exact below 2^24; from a = 4096 on the
+// class is capped anyway; checked against the bit-length form for every 32-bit a).
 inline int activityContext(std::uint32_t a) {
-    // 0 for a = 0, 1 for a = 1, then two classes per octave (the bit below the leading one), capped.
-    const int n = bitLength(a | 1u);
-    const int half = static_cast<int>((a >> std::max(n - 2, 0)) & 1u) & static_cast<int>(a > 1);
-    return std::min(2 * n - 1 + half, kActivityContexts - 1) & -static_cast<int>(a != 0);
+    const float f = static_cast<float>(static_cast<std::int64_t>(a));
+    const int c = static_cast<int>(std::bit_cast<std::uint32_t>(f) >> 22) - 253;
+    return std::clamp(c, 0, kActivityContexts - 1);
 }
 inline unsigned signClass(std::int32_t v) {
     return static_cast<unsigned>(v > 0) + 2 * static_cast<unsigned>(v < 0);
@@ -408,177 +436,294 @@ struct DenseModel {
     std::array<BitModel, kSignContexts> signs;
 };
 
-// Walks the subbands of section s in raster order. Per row: side.rowFlag codes the "all zero" flag; for a
-// non-zero row the walker first computes every coefficient's magnitude context and the neighbour part of
-// its sign context from the previous row, the previous slice and the parent (no dependence on the row
-// itself, so this loop has no serial chain), then side.row codes the row. Neighbours come from
-// zero-padded copies of the current and the previous slice, so no loop has boundary tests.
+// One non-zero row of one subband, handed by the walker to a side with its contexts precomputed.
+struct RowJob {
+    unsigned lane;                 // the subband's index in its section, which is also its rANS state
+    std::size_t nx;
+    const std::uint32_t* activity; // per x: neighbour and parent part of the magnitude context
+    const std::uint16_t* signBase; // per x: neighbour part of the sign context
+    std::int32_t* row;             // the row in the brick
+    std::uint32_t* mag;            // its magnitudes in the zero-padded slice copy (mag[-1] and mag[nx] are 0)
+    std::uint8_t* sgn;             // its sign classes (signClass) likewise
+    std::uint8_t* syms;            // scratch: magnitude symbol per x
+    std::uint32_t* nonZero;        // scratch: x of the non-zero coefficients in order, `count` of them
+    std::size_t count;
+};
+
+// Walks section s row by row: at each (slice, row) position it takes that row of every subband of the
+// section (they are independent given the previous section), codes their "all zero" flags, computes each
+// non-zero row's magnitude and sign contexts from the previous row, the previous slice and the parent (no
+// dependence on the row itself, so these loops have no serial chain), then hands the non-zero rows to
+// side.rows, which interleaves them. Neighbours come from zero-padded copies of the current and the
+// previous slice of each subband, so no loop has boundary tests.
 struct SectionWalker {
     Dims brick;
     const std::vector<std::vector<SubbandBox>>& layout;
     std::size_t s;
-    std::vector<std::int32_t> cur, prev;
-    std::vector<std::uint32_t> parentRow;
-    std::vector<std::uint32_t> activity;
-    std::vector<std::uint16_t> signBase;
+
+    struct Band {
+        const SubbandBox* box = nullptr;
+        const SubbandBox* parent = nullptr;
+        std::size_t nx = 0, ny = 0, nz = 0, pitch = 0;
+        // Slice buffers of magnitudes and sign classes: row 0 is the zero row above y0; row r+1 holds row
+        // y0+r; columns 0 and nx+1 are zero. Magnitudes are kept apart so that the context loops are plain
+        // sums that vectorise.
+        std::vector<std::uint32_t> cur, prev;
+        std::vector<std::uint8_t> curSign, prevSign;
+        std::size_t parentY = SIZE_MAX, parentZ = SIZE_MAX; // the parent row held in parentRow
+        std::vector<std::uint8_t> rowZero, prevRowZero;
+        std::vector<std::uint32_t> parentRow, activity, nonZero;
+        std::vector<std::uint16_t> signBase;
+        std::vector<std::uint8_t> syms;
+    };
 
     template <class Side> void run(std::int32_t* c, Side& side) {
         const std::size_t sx = brick.x, sxy = brick.x * brick.y;
-        for (const SubbandBox& b : layout[s]) {
-            const SubbandBox* parent = nullptr;
-            if (b.level > 0 && s >= 2)
+        const std::size_t nb = layout[s].size();
+        std::array<Band, kMaxLanes> bands;
+        std::size_t maxNy = 0, maxNz = 0;
+        for (std::size_t k = 0; k < nb; ++k) {
+            Band& b = bands[k];
+            b.box = &layout[s][k];
+            if (b.box->level > 0 && s >= 2)
                 for (const SubbandBox& pb : layout[s - 1])
-                    if (pb.orient == b.orient) parent = &pb;
-            const std::size_t nx = b.x1 - b.x0, ny = b.y1 - b.y0, pitch = nx + 2;
-            // Slice buffers: row 0 is the zero row above y0; row r+1 holds row y0+r; columns 0 and nx+1 are zero.
-            cur.assign((ny + 1) * pitch, 0);
-            prev.assign((ny + 1) * pitch, 0);
-            parentRow.assign(nx, 0);
-            activity.assign(nx, 0);
-            signBase.assign(nx, 0);
-            std::vector<std::uint8_t> rowZero(ny, 1), prevRowZero(ny, 1);
-            const unsigned orient = static_cast<unsigned>(b.orient);
-            for (std::size_t z = b.z0; z < b.z1; ++z) {
-                for (std::size_t r = 0; r < ny; ++r) {
-                    std::int32_t* row = c + z * sxy + (b.y0 + r) * sx + b.x0;
-                    std::int32_t* m = cur.data() + (r + 1) * pitch + 1;
-                    const unsigned rctx = orient * 4 + (r > 0 ? rowZero[r - 1] : 1u) + 2u * prevRowZero[r];
-                    const bool zero = side.rowFlag(rctx, row, nx);
-                    rowZero[r] = zero;
+                    if (pb.orient == b.box->orient) b.parent = &pb;
+            b.nx = b.box->x1 - b.box->x0;
+            b.ny = b.box->y1 - b.box->y0;
+            b.nz = b.box->z1 - b.box->z0;
+            b.pitch = b.nx + 2;
+            b.cur.assign((b.ny + 1) * b.pitch, 0);
+            b.prev.assign((b.ny + 1) * b.pitch, 0);
+            b.curSign.assign((b.ny + 1) * b.pitch, 0);
+            b.prevSign.assign((b.ny + 1) * b.pitch, 0);
+            b.rowZero.assign(b.ny, 1);
+            b.prevRowZero.assign(b.ny, 1);
+            b.parentRow.assign(b.nx, 0);
+            b.activity.assign(b.nx, 0);
+            b.nonZero.assign(b.nx, 0);
+            b.signBase.assign(b.nx, 0);
+            b.syms.assign(b.nx, 0);
+            maxNy = std::max(maxNy, b.ny);
+            maxNz = std::max(maxNz, b.nz);
+        }
+        for (std::size_t zi = 0; zi < maxNz; ++zi) {
+            for (std::size_t r = 0; r < maxNy; ++r) {
+                std::array<RowJob, kMaxLanes> jobs;
+                std::size_t nj = 0;
+                for (std::size_t k = 0; k < nb; ++k) {
+                    Band& b = bands[k];
+                    if (zi >= b.nz || r >= b.ny) continue;
+                    const SubbandBox& box = *b.box;
+                    const std::size_t nx = b.nx, pitch = b.pitch, z = box.z0 + zi;
+                    std::int32_t* row = c + z * sxy + (box.y0 + r) * sx + box.x0;
+                    std::uint32_t* m = b.cur.data() + (r + 1) * pitch + 1;
+                    std::uint8_t* sg = b.curSign.data() + (r + 1) * pitch + 1;
+                    const auto orient = static_cast<unsigned>(box.orient);
+                    const unsigned rctx = orient * 4 + (r > 0 ? b.rowZero[r - 1] : 1u) + 2u * b.prevRowZero[r];
+                    const bool zero = side.rowFlag(static_cast<unsigned>(k), rctx, row, nx);
+                    b.rowZero[r] = zero;
                     if (zero) {
                         std::fill(m, m + nx, 0);
+                        std::fill(sg, sg + nx, 0);
                         continue;
                     }
-                    if (parent) {
-                        const std::size_t pz = std::min(parent->z0 + (z - b.z0) / 2, parent->z1 - 1);
-                        const std::size_t py = std::min(parent->y0 + r / 2, parent->y1 - 1);
-                        const std::int32_t* prow = c + pz * sxy + py * sx;
-                        for (std::size_t x = 0; x < nx; ++x)
-                            parentRow[x] = 2 * magnitude(prow[std::min(parent->x0 + x / 2, parent->x1 - 1)]);
+                    std::uint32_t* parentRow = b.parentRow.data();
+                    if (b.parent) {
+                        // Rows 2k and 2k+1 share their parent row.
+                        const SubbandBox& p = *b.parent;
+                        const std::size_t pz = std::min(p.z0 + zi / 2, p.z1 - 1);
+                        const std::size_t py = std::min(p.y0 + r / 2, p.y1 - 1);
+                        if (pz != b.parentZ || py != b.parentY) {
+                            const std::int32_t* prow = c + pz * sxy + py * sx;
+                            for (std::size_t x = 0; x < nx; ++x)
+                                parentRow[x] = 2 * magnitude(prow[std::min(p.x0 + x / 2, p.x1 - 1)]);
+                            b.parentZ = pz;
+                            b.parentY = py;
+                        }
                     }
-                    const std::int32_t* n = m - pitch;
-                    const std::int32_t* u = prev.data() + (r + 1) * pitch + 1;
-                    const std::int32_t* un = u - pitch;
-                    const unsigned sctx0 = orient * 27;
-                    for (std::size_t x = 0; x < nx; ++x) {
-                        const std::uint32_t a = 4 * (magnitude(n[x]) + magnitude(u[x])) + magnitude(n[x - 1]) +
-                                                magnitude(n[x + 1]) + magnitude(u[x - 1]) + magnitude(u[x + 1]) +
-                                                magnitude(un[x]) + parentRow[x];
-                        activity[x] = a;
-                        signBase[x] = static_cast<std::uint16_t>(sctx0 + 3 * signClass(n[x]) + 9 * signClass(u[x]));
-                    }
-                    side.row(activity.data(), signBase.data(), row, m, nx);
+                    const std::uint32_t* n = m - pitch;
+                    const std::uint32_t* u = b.prev.data() + (r + 1) * pitch + 1;
+                    const std::uint32_t* un = u - pitch;
+                    std::uint32_t* activity = b.activity.data();
+                    for (std::size_t x = 0; x < nx; ++x)
+                        activity[x] = 4 * (n[x] + u[x]) + n[x - 1] + n[x + 1] + u[x - 1] + u[x + 1] + un[x] + parentRow[x];
+                    const std::uint8_t* ns = sg - pitch;
+                    const std::uint8_t* us = b.prevSign.data() + (r + 1) * pitch + 1;
+                    const auto sctx0 = static_cast<std::uint16_t>(orient * 27);
+                    std::uint16_t* signBase = b.signBase.data();
+                    for (std::size_t x = 0; x < nx; ++x)
+                        signBase[x] = static_cast<std::uint16_t>(sctx0 + 3 * ns[x] + 9 * us[x]);
+                    jobs[nj++] = {static_cast<unsigned>(k), nx, activity, signBase, row, m, sg,
+                                  b.syms.data(),            b.nonZero.data(), 0};
                 }
-                std::swap(cur, prev);
-                std::swap(rowZero, prevRowZero);
+                if (nj > 0) side.rows(jobs.data(), nj);
             }
+            for (std::size_t k = 0; k < nb; ++k)
+                if (zi < bands[k].nz) {
+                    std::swap(bands[k].cur, bands[k].prev);
+                    std::swap(bands[k].curSign, bands[k].prevSign);
+                    std::swap(bands[k].rowZero, bands[k].prevRowZero);
+                }
         }
     }
 };
+
+// The order in which a side visits the coefficients of a row group, shared by encoder and decoder so both
+// see the same decision order: magnitude symbols interleaved across the rows (x outer, row inner) up to
+// the shortest row, then the rest of each row; then signs of the non-zero coefficients interleaved the
+// same way (their n-th non-zero coefficient each); then each row's raw mantissa bits in turn.
+template <class Step> void interleaveSymbols(RowJob* jobs, std::size_t nj, Step&& step) {
+    std::size_t minNx = jobs[0].nx;
+    for (std::size_t i = 1; i < nj; ++i)
+        minNx = std::min(minNx, jobs[i].nx);
+    unsigned prevSym[kMaxLanes] = {};
+    for (std::size_t x = 0; x < minNx; ++x)
+        for (std::size_t i = 0; i < nj; ++i)
+            step(jobs[i], prevSym[i], x);
+    for (std::size_t i = 0; i < nj; ++i)
+        for (std::size_t x = minNx; x < jobs[i].nx; ++x)
+            step(jobs[i], prevSym[i], x);
+}
+template <class Step> void interleaveSigns(RowJob* jobs, std::size_t nj, Step&& step) {
+    std::size_t maxCount = 0;
+    for (std::size_t i = 0; i < nj; ++i)
+        maxCount = std::max(maxCount, jobs[i].count);
+    for (std::size_t n = 0; n < maxCount; ++n)
+        for (std::size_t i = 0; i < nj; ++i)
+            if (n < jobs[i].count) step(jobs[i], jobs[i].nonZero[n]);
+}
 
 // Encoder pass 1: adaptive decisions become events at once; magnitude symbols are recorded as pending
 // events (scaleBits 0, start = context * 64 + symbol) and resolved once the tables exist.
 struct EncodeSide {
     DenseModel model;
+    // Preallocated for the worst case (a row flag per row, a symbol and a sign per coefficient), filled at next.
     std::vector<RansEvent> events;
+    RansEvent* next = nullptr;
     std::array<std::array<std::uint32_t, kSymbols>, kActivityContexts> counts{};
     BitWriter raw;
 
     void binary(unsigned lane, BitModel& m, unsigned bit) {
         const auto p0 = static_cast<std::uint16_t>(m.p0);
-        events.push_back(bit ? RansEvent{p0, static_cast<std::uint16_t>(kBinaryScale - p0), kBinaryScaleBits,
-                                         static_cast<std::uint8_t>(lane)}
-                             : RansEvent{0, p0, kBinaryScaleBits, static_cast<std::uint8_t>(lane)});
+        *next++ = bit ? RansEvent{p0, static_cast<std::uint16_t>(kBinaryScale - p0), kBinaryScaleBits,
+                                  static_cast<std::uint8_t>(lane)}
+                      : RansEvent{0, p0, kBinaryScaleBits, static_cast<std::uint8_t>(lane)};
         m.p0 = bit ? m.p0 - (m.p0 >> 5) : m.p0 + ((kBinaryScale - m.p0) >> 5);
     }
-    bool rowFlag(unsigned rctx, const std::int32_t* row, std::size_t nx) {
+    bool rowFlag(unsigned lane, unsigned rctx, const std::int32_t* row, std::size_t nx) {
         bool zero = true;
         for (std::size_t x = 0; x < nx && zero; ++x)
             zero = row[x] == 0;
-        binary(0, model.rows[rctx], zero ? 1u : 0u);
+        binary(lane, model.rows[rctx], zero ? 1u : 0u);
         return zero;
     }
-    void row(const std::uint32_t* activity, const std::uint16_t* signBase, const std::int32_t* row, std::int32_t* m,
-             std::size_t nx) {
-        unsigned prevSym = 0;
-        for (std::size_t x = 0; x < nx; ++x) {
-            const std::int32_t v = row[x];
+    void rows(RowJob* jobs, std::size_t nj) {
+        interleaveSymbols(jobs, nj, [&](RowJob& j, unsigned& prevSym, std::size_t x) {
+            const std::int32_t v = j.row[x];
             const std::uint32_t u = magnitude(v);
             if (bitLength(u) > kMaxBitLength) throw Error("internal: wavelet coefficient magnitude out of range");
             const int sym = symbolOf(u);
-            const auto lane = static_cast<std::uint8_t>(x & 1);
-            const auto ctx = static_cast<std::size_t>(activityContext(activity[x] + 4 * symbolFloor(prevSym)));
+            const auto ctx = static_cast<std::size_t>(activityContext(j.activity[x] + kSymbolInfo.west[prevSym]));
             prevSym = static_cast<unsigned>(sym);
             ++counts[ctx][static_cast<std::size_t>(sym)];
-            events.push_back({static_cast<std::uint16_t>(ctx * 64 + sym), 0, 0, lane});
-            const int rawBits = std::max(sym / 2 - 1, 0);
-            raw.put(u & ((1u << rawBits) - 1u), rawBits);
-            m[x] = v;
-        }
-        // Signs of the row's non-zero coefficients follow its symbols (the decoder's second pass).
-        for (std::size_t x = 0; x < nx; ++x)
-            if (row[x] != 0) binary(kSignLane, model.signs[signBase[x] + signClass(m[x - 1])], row[x] < 0 ? 1u : 0u);
+            j.syms[x] = static_cast<std::uint8_t>(sym);
+            *next++ = {static_cast<std::uint16_t>(ctx * 64 + sym), 0, 0, static_cast<std::uint8_t>(j.lane)};
+            j.mag[x] = u;
+            j.sgn[x] = static_cast<std::uint8_t>(signClass(v));
+            j.nonZero[j.count] = static_cast<std::uint32_t>(x);
+            j.count += v != 0;
+        });
+        interleaveSigns(jobs, nj, [&](RowJob& j, std::size_t x) {
+            binary(j.lane, model.signs[j.signBase[x] + j.sgn[x - 1]], j.row[x] < 0 ? 1u : 0u);
+        });
+        for (std::size_t i = 0; i < nj; ++i)
+            for (std::size_t n = 0; n < jobs[i].count; ++n) {
+                const std::size_t x = jobs[i].nonZero[n];
+                const int rawBits = kSymbolInfo.rawBits[jobs[i].syms[x]];
+                raw.put(jobs[i].mag[x] & ((1u << rawBits) - 1u), rawBits);
+            }
     }
 };
 
-// Decoder: per row, one branch-free pass decodes the magnitude symbols (even and odd x on separate states,
-// positions and states held in locals so they stay in registers), a second pass the signs and raw mantissa
-// bits of the non-zero ones.
+// Decoder: per row group, one branch-free pass decodes the magnitude symbols of every row interleaved (one
+// serial chain per row through the previous symbol, overlapping each other), a second the signs of the
+// non-zero ones, interleaved likewise, a third their raw mantissa bits.
 struct DecodeSide {
     RansDecoder rans;
     RawReader raw;
     DenseModel model;
     std::array<const DecoderTable*, kActivityContexts> tables;
-    std::vector<std::uint8_t> syms;
 
-    bool rowFlag(unsigned rctx, std::int32_t* row, std::size_t nx) {
-        RansDecoder r = rans;
-        const bool zero = r.bit(0, model.rows[rctx]) != 0;
-        rans = r;
+    bool rowFlag(unsigned lane, unsigned rctx, std::int32_t* row, std::size_t nx) {
+        const bool zero = rans.in.bit(rans.x[lane], model.rows[rctx]) != 0;
         if (zero) std::fill(row, row + nx, 0);
         return zero;
     }
-    void row(const std::uint32_t* activity, const std::uint16_t* signBase, std::int32_t* row, std::int32_t* m,
-             std::size_t nx) {
-        unsigned prevSym = 0;
-        RansDecoder r = rans;
-        if (syms.size() < nx) syms.resize(nx);
-        std::uint8_t* sy = syms.data();
-        // Pass 1, branch-free: the magnitude symbols.
-        auto step = [&](std::size_t x, auto lane) {
+    void rows(RowJob* jobs, std::size_t nj) {
+        // Locals that no store through the rows' pointers can alias, so they stay in registers or at least
+        // out of the dependency chains.
+        WordReader in = rans.in;
+        std::uint32_t st[kMaxLanes];
+        for (std::size_t i = 0; i < nj; ++i)
+            st[i] = rans.x[jobs[i].lane];
+        const std::array<const DecoderTable*, kActivityContexts> tab = tables;
+        std::size_t minNx = jobs[0].nx;
+        for (std::size_t i = 1; i < nj; ++i)
+            minNx = std::min(minNx, jobs[i].nx);
+        unsigned prevSym[kMaxLanes] = {};
+        auto step = [&](std::size_t i, std::size_t x) {
+            const RowJob& j = jobs[i];
             const DecoderTable& t =
-                *tables[static_cast<std::size_t>(activityContext(activity[x] + 4 * symbolFloor(prevSym)))];
-            const unsigned sym = t.lookup[r.slot(lane, kTableScaleBits)];
-            r.advance(lane, kTableScaleBits, t.start[sym], t.freq[sym]);
-            sy[x] = static_cast<std::uint8_t>(sym);
-            prevSym = sym;
+                *tab[static_cast<std::size_t>(activityContext(j.activity[x] + kSymbolInfo.west[prevSym[i]]))];
+            const std::uint32_t s = st[i];
+            const unsigned sym = t.lookup[s & (kTableScale - 1)];
+            st[i] = in.advance(s, kTableScaleBits, t.start[sym], t.freq[sym]);
+            j.syms[x] = static_cast<std::uint8_t>(sym);
+            prevSym[i] = sym;
         };
-        std::size_t x = 0;
-        for (; x + 1 < nx; x += 2) {
-            step(x, std::integral_constant<unsigned, 0>{});
-            step(x + 1, std::integral_constant<unsigned, 1>{});
-        }
-        if (x < nx) step(x, std::integral_constant<unsigned, 0>{});
-        // Pass 2: sign and raw mantissa bits of the non-zero coefficients. This branch is taken
-        // predictably at low rates (mostly zeros) and in lossless data (mostly non-zero).
-        RawReader b = raw;
-        for (x = 0; x < nx; ++x) {
-            const unsigned sym = sy[x];
-            if (sym == 0) {
-                m[x] = 0;
-                row[x] = 0;
-                continue;
+        for (std::size_t x = 0; x < minNx; ++x)
+            for (std::size_t i = 0; i < nj; ++i)
+                step(i, x);
+        for (std::size_t i = 0; i < nj; ++i)
+            for (std::size_t x = minNx; x < jobs[i].nx; ++x)
+                step(i, x);
+        std::size_t maxCount = 0;
+        for (std::size_t i = 0; i < nj; ++i) {
+            RowJob& j = jobs[i];
+            std::size_t count = 0;
+            std::fill(j.mag, j.mag + j.nx, 0);
+            std::fill(j.sgn, j.sgn + j.nx, 0);
+            for (std::size_t x = 0; x < j.nx; ++x) {
+                j.nonZero[count] = static_cast<std::uint32_t>(x);
+                count += j.syms[x] != 0;
             }
-            const unsigned negative = r.bit(kSignLane, model.signs[signBase[x] + signClass(m[x - 1])]);
-            const auto rawBits = static_cast<unsigned>(std::max(static_cast<int>(sym / 2) - 1, 0));
-            const std::uint32_t low = b.get(rawBits);
-            const std::uint32_t big = ((2u | (sym & 1u)) << rawBits) | low;
-            const std::uint32_t u = sym < 2 ? sym : big;
-            const std::int32_t v = negative ? -static_cast<std::int32_t>(u) : static_cast<std::int32_t>(u);
-            m[x] = v;
-            row[x] = v;
+            j.count = count;
+            maxCount = std::max(maxCount, count);
         }
-        rans = r;
+        for (std::size_t n = 0; n < maxCount; ++n)
+            for (std::size_t i = 0; i < nj; ++i) {
+                const RowJob& j = jobs[i];
+                if (n >= j.count) continue;
+                const std::size_t x = j.nonZero[n];
+                const unsigned negative = in.bit(st[i], model.signs[j.signBase[x] + j.sgn[x - 1]]);
+                j.sgn[x] = static_cast<std::uint8_t>(1 + negative);
+            }
+        for (std::size_t i = 0; i < nj; ++i)
+            rans.x[jobs[i].lane] = st[i];
+        rans.in = in;
+        RawReader b = raw;
+        for (std::size_t i = 0; i < nj; ++i) {
+            RowJob& j = jobs[i];
+            for (std::size_t n = 0; n < j.count; ++n) {
+                const std::size_t x = j.nonZero[n];
+                const unsigned sym = j.syms[x];
+                j.mag[x] = kSymbolInfo.base[sym] | b.get(kSymbolInfo.rawBits[sym]);
+            }
+            for (std::size_t x = 0; x < j.nx; ++x) {
+                const std::uint32_t negative = 0u - static_cast<std::uint32_t>(j.sgn[x] >> 1);
+                j.row[x] = static_cast<std::int32_t>((j.mag[x] ^ negative) - negative);
+            }
+        }
         raw = b;
     }
 };
@@ -603,13 +748,15 @@ void encodeDense(std::span<const std::int32_t> coeffs, Dims brick,
         return;
     }
     EncodeSide side;
-    std::size_t count = 0;
+    std::size_t maxEvents = 0;
     for (const SubbandBox& b : layout[s])
-        count += b.count();
-    side.events.reserve(count + count / 2);
-    SectionWalker walker{brick, layout, s, {}, {}, {}, {}, {}};
-    // The walker writes back the value it was given, so the array is not modified.
+        maxEvents += 2 * b.count() + (b.y1 - b.y0) * (b.z1 - b.z0);
+    side.events.resize(maxEvents);
+    side.next = side.events.data();
+    SectionWalker walker{brick, layout, s};
+    // The encoder side only reads the coefficient array.
     walker.run(const_cast<std::int32_t*>(coeffs.data()), side);
+    side.events.resize(static_cast<std::size_t>(side.next - side.events.data()));
     side.raw.finish();
 
     // Cost estimate of both context modes from the counts (entropy plus table bits); keep the cheaper one.
@@ -670,7 +817,7 @@ void encodeDense(std::span<const std::int32_t> coeffs, Dims brick,
             e = {tables[t].start[sym], tables[t].freq[sym], kTableScaleBits, e.lane};
         }
     std::vector<std::uint8_t> stream;
-    ransEncode(side.events, stream);
+    ransEncode(side.events, static_cast<int>(layout[s].size()), stream);
 
     out.push_back(useContexts ? kContextTables : kOneTable);
     out.insert(out.end(), tableBits.bytes.begin(), tableBits.bytes.end());
@@ -742,8 +889,9 @@ void decodeDense(std::span<const std::uint8_t> in, std::span<std::int32_t> coeff
     if (n > in.size() - head) corrupt(what, "entropy section sizes exceed the brick");
     const std::vector<std::uint8_t> ransBytes = RansDecoder::padded(in.subspan(head, n));
     const std::vector<std::uint8_t> rawBytes = RawReader::padded(in.subspan(head + n));
-    DecodeSide side{RansDecoder(ransBytes, n), RawReader(rawBytes, in.size() - head - n), {}, tablePtr, {}};
-    SectionWalker walker{brick, layout, s, {}, {}, {}, {}, {}};
+    DecodeSide side{RansDecoder(ransBytes, n, static_cast<int>(layout[s].size())),
+                    RawReader(rawBytes, in.size() - head - n), {}, tablePtr};
+    SectionWalker walker{brick, layout, s};
     walker.run(coeffs.data(), side);
     if (!side.rans.exact()) corrupt(what, "entropy stream does not end where its size says");
     if (!side.raw.exact()) corrupt(what, "raw bit stream length mismatch");
