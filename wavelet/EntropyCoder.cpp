@@ -222,13 +222,15 @@ constexpr std::array<std::uint64_t, 4097> kReciprocal = [] {
         r[f] = ~std::uint64_t(0) / f + 1;
     return r;
 }();
-void ransEncode(const std::vector<RansEvent>& ev, int lanes, std::vector<std::uint8_t>& out) {
-    std::vector<std::uint16_t> words(ev.size() + 1);
+// Events with scaleBits 0 are pending magnitude symbols: resolve(e) gives their slots.
+template <class Resolve>
+void ransEncode(std::span<const RansEvent> events, int lanes, Resolve&& resolve, std::vector<std::uint8_t>& out) {
+    std::vector<std::uint16_t> words(events.size() + 1);
     std::uint16_t* w = words.data();
     std::uint32_t x[kMaxLanes];
     std::fill(x, x + kMaxLanes, kRansLow);
-    for (std::size_t k = ev.size(); k-- > 0;) {
-        const RansEvent& e = ev[k];
+    for (std::size_t k = events.size(); k-- > 0;) {
+        const RansEvent e = events[k].scaleBits == 0 ? resolve(events[k]) : events[k];
         std::uint32_t s = x[e.lane];
         const std::uint32_t freq = e.freq;
         // At most one 16-bit word per event: states stay below 2^32 and freq >= 1.
@@ -534,9 +536,13 @@ struct SectionWalker {
                         const std::size_t pz = std::min(p.z0 + zi / 2, p.z1 - 1);
                         const std::size_t py = std::min(p.y0 + r / 2, p.y1 - 1);
                         if (pz != b.parentZ || py != b.parentY) {
-                            const std::int32_t* prow = c + pz * sxy + py * sx;
-                            for (std::size_t x = 0; x < nx; ++x)
-                                parentRow[x] = 2 * magnitude(prow[std::min(p.x0 + x / 2, p.x1 - 1)]);
+                            // Child x has parent x / 2, clamped to the parent's last column.
+                            const std::int32_t* prow = c + pz * sxy + py * sx + p.x0;
+                            const std::size_t pairs = std::min(nx / 2, p.x1 - p.x0);
+                            for (std::size_t px = 0; px < pairs; ++px)
+                                parentRow[2 * px] = parentRow[2 * px + 1] = 2 * magnitude(prow[px]);
+                            for (std::size_t x = 2 * pairs; x < nx; ++x)
+                                parentRow[x] = 2 * magnitude(prow[std::min(x / 2, p.x1 - p.x0 - 1)]);
                             b.parentZ = pz;
                             b.parentY = py;
                         }
@@ -598,10 +604,11 @@ template <class Step> void interleaveSigns(RowJob* jobs, std::size_t nj, Step&& 
 struct EncodeSide {
     DenseModel model;
     // Preallocated for the worst case (a row flag per row, a symbol and a sign per coefficient), filled at next.
-    std::vector<RansEvent> events;
+    std::unique_ptr<RansEvent[]> events;
     RansEvent* next = nullptr;
     std::array<std::array<std::uint32_t, kSymbols>, kActivityContexts> counts{};
     BitWriter raw;
+    std::vector<std::uint16_t> codeBuffer; // per row of a group: context * 64 + symbol per x
 
     void binary(unsigned lane, BitModel& m, unsigned bit) {
         const auto p0 = static_cast<std::uint16_t>(m.p0);
@@ -618,21 +625,49 @@ struct EncodeSide {
         return zero;
     }
     void rows(RowJob* jobs, std::size_t nj) {
-        interleaveSymbols(jobs, nj, [&](RowJob& j, unsigned& prevSym, std::size_t x) {
-            const std::int32_t v = j.row[x];
-            const std::uint32_t u = magnitude(v);
-            if (bitLength(u) > kMaxBitLength) throw Error("internal: wavelet coefficient magnitude out of range");
-            const int sym = symbolOf(u);
-            const auto ctx = static_cast<std::size_t>(activityContext(j.activity[x] + kSymbolInfo.west[prevSym]));
-            prevSym = static_cast<unsigned>(sym);
-            ++counts[ctx][static_cast<std::size_t>(sym)];
-            j.syms[x] = static_cast<std::uint8_t>(sym);
-            *next++ = {static_cast<std::uint16_t>(ctx * 64 + sym), 0, 0, static_cast<std::uint8_t>(j.lane)};
-            j.mag[x] = u;
-            j.sgn[x] = static_cast<std::uint8_t>(signClass(v));
-            j.nonZero[j.count] = static_cast<std::uint32_t>(x);
-            j.count += v != 0;
+        // Per row: symbols, contexts and counts in a loop of locals (the encoder knows the previous symbol, so
+        // nothing chains across rows); then the symbol events in the decoder's interleaved order.
+        std::size_t maxNx = 0;
+        for (std::size_t i = 0; i < nj; ++i)
+            maxNx = std::max(maxNx, jobs[i].nx);
+        if (codeBuffer.size() < nj * maxNx) codeBuffer.resize(nj * maxNx);
+        std::uint32_t any = 0;
+        for (std::size_t i = 0; i < nj; ++i) {
+            RowJob& j = jobs[i];
+            const std::int32_t* row = j.row;
+            const std::uint32_t* activity = j.activity;
+            std::uint32_t* mag = j.mag;
+            std::uint8_t* sgn = j.sgn;
+            std::uint8_t* syms = j.syms;
+            std::uint32_t* nonZero = j.nonZero;
+            std::uint16_t* code = codeBuffer.data() + i * maxNx;
+            unsigned prevSym = 0;
+            std::size_t count = 0;
+            for (std::size_t x = 0; x < j.nx; ++x) {
+                const std::int32_t v = row[x];
+                const std::uint32_t u = magnitude(v);
+                any |= u;
+                const auto sym = static_cast<unsigned>(symbolOf(u));
+                const auto ctx = static_cast<unsigned>(activityContext(activity[x] + kSymbolInfo.west[prevSym]));
+                prevSym = sym;
+                ++counts[ctx][sym];
+                code[x] = static_cast<std::uint16_t>(ctx * 64 + sym);
+                syms[x] = static_cast<std::uint8_t>(sym);
+                mag[x] = u;
+                sgn[x] = static_cast<std::uint8_t>(signClass(v));
+                nonZero[count] = static_cast<std::uint32_t>(x);
+                count += v != 0;
+            }
+            j.count = count;
+        }
+        if (bitLength(any) > kMaxBitLength) throw Error("internal: wavelet coefficient magnitude out of range");
+        std::size_t i = 0;
+        RansEvent* ev = next;
+        interleaveSymbols(jobs, nj, [&](RowJob& j, unsigned&, std::size_t x) {
+            i = static_cast<std::size_t>(&j - jobs);
+            *ev++ = {codeBuffer[i * maxNx + x], 0, 0, static_cast<std::uint8_t>(j.lane)};
         });
+        next = ev;
         interleaveSigns(jobs, nj, [&](RowJob& j, std::size_t x) {
             binary(j.lane, model.signs[j.signBase[x] + j.sgn[x - 1]], j.row[x] < 0 ? 1u : 0u);
         });
@@ -751,12 +786,11 @@ void encodeDense(std::span<const std::int32_t> coeffs, Dims brick,
     std::size_t maxEvents = 0;
     for (const SubbandBox& b : layout[s])
         maxEvents += 2 * b.count() + (b.y1 - b.y0) * (b.z1 - b.z0);
-    side.events.resize(maxEvents);
-    side.next = side.events.data();
+    side.events = std::make_unique_for_overwrite<RansEvent[]>(maxEvents);
+    side.next = side.events.get();
     SectionWalker walker{brick, layout, s};
     // The encoder side only reads the coefficient array.
     walker.run(const_cast<std::int32_t*>(coeffs.data()), side);
-    side.events.resize(static_cast<std::size_t>(side.next - side.events.data()));
     side.raw.finish();
 
     // Cost estimate of both context modes from the counts (entropy plus table bits); keep the cheaper one.
@@ -810,14 +844,13 @@ void encodeDense(std::span<const std::int32_t> coeffs, Dims brick,
     }
     tableBits.finish();
 
-    for (RansEvent& e : side.events)
-        if (e.scaleBits == 0) {
-            const std::size_t t = useContexts ? e.start / 64 : 0;
-            const unsigned sym = e.start % 64;
-            e = {tables[t].start[sym], tables[t].freq[sym], kTableScaleBits, e.lane};
-        }
+    const auto resolve = [&](const RansEvent& e) {
+        const std::size_t t = useContexts ? e.start / 64 : 0;
+        const unsigned sym = e.start % 64;
+        return RansEvent{tables[t].start[sym], tables[t].freq[sym], kTableScaleBits, e.lane};
+    };
     std::vector<std::uint8_t> stream;
-    ransEncode(side.events, static_cast<int>(layout[s].size()), stream);
+    ransEncode({side.events.get(), side.next}, static_cast<int>(layout[s].size()), resolve, stream);
 
     out.push_back(useContexts ? kContextTables : kOneTable);
     out.insert(out.end(), tableBits.bytes.begin(), tableBits.bytes.end());
