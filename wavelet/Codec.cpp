@@ -14,6 +14,7 @@
 #include <cstring>
 #include <exception>
 #include <limits>
+#include <memory>
 #include <mutex>
 #include <thread>
 
@@ -173,14 +174,12 @@ template <class Fn> void timeStage(CodecProfile* p, double CodecProfile::*stage,
     p->*stage += sw.milliseconds();
 }
 
-// Slot `slot` of a batch's padded layout -> a dense brick array (brick dims, x fastest).
-template <class T>
-void fromBatch(const BrickBatch<T>& b, std::size_t slot, const T* batch, std::span<T> dense) {
-    const Dims d = b.brick();
-    for (std::size_t z = 0; z < d.z; ++z)
-        for (std::size_t y = 0; y < d.y; ++y)
-            std::copy_n(batch + slot * b.brickStride() + (z * d.y + y) * b.pitch(), d.x,
-                        dense.data() + (z * d.y + y) * d.x);
+// Rows of `pitch` elements (a batch slot) -> a dense brick array (brick dims, x fastest).
+template <class T> std::vector<T> denseBrick(Dims d, const T* src, std::size_t pitch) {
+    std::vector<T> dense(d.count());
+    for (std::size_t r = 0; r < d.y * d.z; ++r)
+        std::copy_n(src + r * pitch, d.x, dense.data() + r * d.x);
+    return dense;
 }
 
 // Voxels of one brick of the volume as T (dense brick layout).
@@ -230,76 +229,88 @@ std::pair<double, double> gatherBrick(const Volume& v, const VczHeader& h, std::
     });
 }
 
-// Forward transform of every brick; returns dense coefficient arrays, adds kernel time to `ms` and, with
-// `ranges`, stores each brick's voxel min and max (gathered on the way).
-template <class T>
-std::vector<std::vector<T>> forwardBricks(ComputeContext& cc, LiftingTransform<T>& t, const Volume& v,
-                                          const VczHeader& h, unsigned threads, CodecProfile* prof,
-                                          double& ms,
-                                          std::vector<std::pair<double, double>>* ranges = nullptr) {
+// Runs one transform over the listed bricks, batched by brick shape. fill(b, dst, pitch) writes brick b
+// into its batch slot (rows of `pitch` elements; timed as `fillStage`), run(transform, batch) transforms a
+// batch, emit(b, src, pitch) reads the result from the mapped batch (timed as `emitStage`), so no dense
+// copy is made. All batches are filled, then transformed, then emitted, each step in one parallel loop
+// over every brick: per-shape loops left a thread idle on shapes with a single brick.
+template <class T, class Fill, class Run, class Emit>
+void transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<std::size_t>& which,
+                     unsigned threads, CodecProfile* prof, double CodecProfile::*fillStage, Fill fill, Run run,
+                     double CodecProfile::*emitStage, Emit emit) {
+    const std::vector<BrickGroup> groups = groupBricks(h, which);
+    std::vector<std::unique_ptr<BrickBatch<T>>> batches;
+    struct Slot {
+        std::size_t brick, group, index;
+    };
+    std::vector<Slot> slots;
+    for (std::size_t g = 0; g < groups.size(); ++g) {
+        batches.push_back(std::make_unique<BrickBatch<T>>(cc, groups[g].dims, groups[g].bricks.size()));
+        for (std::size_t i = 0; i < groups[g].bricks.size(); ++i)
+            slots.push_back({groups[g].bricks[i], g, i});
+    }
+    std::vector<BatchMapping<T>> maps(groups.size());
+    auto forEachSlot = [&](double CodecProfile::*stage, auto fn) {
+        timeStage(prof, stage, [&] {
+            parallelFor(slots.size(), threads, [&](std::size_t k) {
+                const Slot& s = slots[k];
+                fn(s.brick, maps[s.group].data() + s.index * batches[s.group]->brickStride(),
+                   batches[s.group]->pitch());
+            });
+        });
+    };
+    timeStage(prof, &CodecProfile::upload, [&] {
+        for (std::size_t g = 0; g < groups.size(); ++g)
+            maps[g] = batches[g]->mapForWrite(cc);
+    });
+    forEachSlot(fillStage, fill);
+    timeStage(prof, &CodecProfile::upload, [&] {
+        for (auto& m : maps)
+            m.unmap();
+    });
+    timeStage(prof, &CodecProfile::transform, [&] {
+        for (auto& b : batches)
+            run(*b);
+    });
+    timeStage(prof, &CodecProfile::download, [&] {
+        for (std::size_t g = 0; g < groups.size(); ++g)
+            maps[g] = batches[g]->mapForRead(cc);
+    });
+    forEachSlot(emitStage, [&](std::size_t b, T* src, std::size_t pitch) { emit(b, static_cast<const T*>(src), pitch); });
+}
+
+std::vector<std::size_t> allBricks(const VczHeader& h) {
     std::vector<std::size_t> all(h.brickCount());
     for (std::size_t i = 0; i < all.size(); ++i)
         all[i] = i;
-    std::vector<std::vector<T>> coeffs(all.size());
-    if (ranges) ranges->assign(all.size(), {0.0, 0.0});
-    for (const BrickGroup& g : groupBricks(h, all)) {
-        BrickBatch<T> batch(cc, g.dims, g.bricks.size());
-        {
-            BatchMapping<T> m;
-            timeStage(prof, &CodecProfile::upload, [&] { m = batch.mapForWrite(cc); });
-            timeStage(prof, &CodecProfile::gather, [&] {
-                parallelFor(g.bricks.size(), threads, [&](std::size_t s) {
-                    const auto r =
-                        gatherBrick<T>(v, h, g.bricks[s], m.data() + s * batch.brickStride(), batch.pitch());
-                    if (ranges) (*ranges)[g.bricks[s]] = r;
-                });
-            });
-            timeStage(prof, &CodecProfile::upload, [&] { m.unmap(); });
-        }
-        timeStage(prof, &CodecProfile::transform, [&] { ms += t.forward(cc, batch, h.levels); });
-        BatchMapping<T> m;
-        timeStage(prof, &CodecProfile::download, [&] { m = batch.mapForRead(cc); });
-        timeStage(prof, &CodecProfile::gather, [&] {
-            parallelFor(g.bricks.size(), threads, [&](std::size_t s) {
-                auto& c = coeffs[g.bricks[s]];
-                c.resize(g.dims.count());
-                fromBatch<T>(batch, s, m.data(), c);
-            });
-        });
-    }
-    return coeffs;
+    return all;
 }
 
-// Inverse transform of the listed bricks, stopping at `level`: fill(b, dst, pitch) writes brick b's
-// coefficients straight into its batch slot (rows of `pitch`, timed as `fillStage`); the result goes to
-// out[b] (dense, brick dims).
-template <class T, class Fill>
+// Forward transform of every brick: emit(b, coefficients, pitch) sees each brick's coefficients in the mapped
+// batch. Adds kernel time to `ms` and, with `ranges`, stores each brick's voxel min and max (gathered on the
+// way).
+template <class T, class Emit>
+void forwardBricks(ComputeContext& cc, LiftingTransform<T>& t, const Volume& v, const VczHeader& h,
+                   unsigned threads, CodecProfile* prof, double& ms, std::vector<std::pair<double, double>>* ranges,
+                   double CodecProfile::*emitStage, Emit emit) {
+    if (ranges) ranges->assign(h.brickCount(), {0.0, 0.0});
+    transformBricks<T>(
+        cc, h, allBricks(h), threads, prof, &CodecProfile::gather,
+        [&](std::size_t b, T* dst, std::size_t pitch) {
+            const auto r = gatherBrick<T>(v, h, b, dst, pitch);
+            if (ranges) (*ranges)[b] = r;
+        },
+        [&](BrickBatch<T>& batch) { ms += t.forward(cc, batch, h.levels); }, emitStage, emit);
+}
+
+// Inverse transform of the listed bricks down to `level` (see transformBricks for fill and emit).
+template <class T, class Fill, class Emit>
 void inverseBricks(ComputeContext& cc, LiftingTransform<T>& t, const VczHeader& h,
-                   const std::vector<std::size_t>& which, std::vector<std::vector<T>>& out, int level,
-                   unsigned threads, CodecProfile* prof, double CodecProfile::*fillStage, Fill fill) {
-    for (const BrickGroup& g : groupBricks(h, which)) {
-        BrickBatch<T> batch(cc, g.dims, g.bricks.size());
-        {
-            BatchMapping<T> m;
-            timeStage(prof, &CodecProfile::upload, [&] { m = batch.mapForWrite(cc); });
-            timeStage(prof, fillStage, [&] {
-                parallelFor(g.bricks.size(), threads, [&](std::size_t s) {
-                    fill(g.bricks[s], m.data() + s * batch.brickStride(), batch.pitch());
-                });
-            });
-            timeStage(prof, &CodecProfile::upload, [&] { m.unmap(); });
-        }
-        timeStage(prof, &CodecProfile::transform, [&] { t.inverse(cc, batch, h.levels, level); });
-        BatchMapping<T> m;
-        timeStage(prof, &CodecProfile::download, [&] { m = batch.mapForRead(cc); });
-        timeStage(prof, &CodecProfile::gather, [&] {
-            parallelFor(g.bricks.size(), threads, [&](std::size_t s) {
-                auto& o = out[g.bricks[s]];
-                o.resize(g.dims.count());
-                fromBatch<T>(batch, s, m.data(), o);
-            });
-        });
-    }
+                   const std::vector<std::size_t>& which, int level, unsigned threads, CodecProfile* prof,
+                   double CodecProfile::*fillStage, Fill fill, double CodecProfile::*emitStage, Emit emit) {
+    transformBricks<T>(
+        cc, h, which, threads, prof, fillStage, fill,
+        [&](BrickBatch<T>& batch) { t.inverse(cc, batch, h.levels, level); }, emitStage, emit);
 }
 
 // ------------------------------------------------------------------------------ quantisation
@@ -371,10 +382,12 @@ void dequantiseInto(const VczHeader& h, Dims d, std::span<const std::int32_t> q,
     forEachSubbandRow(h, d, [&](std::size_t z, std::size_t y, std::size_t x0, std::size_t len, double step) {
         const std::int32_t* in = q.data() + (z * d.y + y) * d.x + x0;
         float* out = dst + (z * d.y + y) * pitch + x0;
+        // Selects instead of branches so that the loop vectorises; |q| <= 2^29, so the negation is safe.
         for (std::size_t i = 0; i < len; ++i) {
             const std::int32_t v = in[i];
-            const double m = (std::abs(double(v)) + bias) * step;
-            out[i] = v == 0 ? 0.0f : static_cast<float>(v < 0 ? -m : m);
+            const float m = static_cast<float>((double(v < 0 ? -v : v) + bias) * step);
+            const float r = v < 0 ? -m : m;
+            out[i] = v == 0 ? 0.0f : r;
         }
     });
 }
@@ -490,13 +503,15 @@ std::vector<Correction> decodeCorrections(std::span<const std::uint8_t> in, Scal
 }
 
 // Payload: u8 section count, u8 flags (bit 0: corrections), u32 size per section, u32 corrections size, data.
+// `q` holds the brick's coefficients in rows of `pitch` elements (0: dense, pitch d.x).
 std::vector<std::uint8_t> buildPayload(const VczHeader& h, Dims d, std::span<const std::int32_t> q,
-                                       const std::vector<Correction>& corr) {
+                                       const std::vector<Correction>& corr, std::size_t pitch = 0) {
     const int levels = h.transform == TransformKind::RawBits ? 0 : h.levels;
     const auto layout = sectionLayout(d, levels);
+    const Dims storage{pitch ? pitch : d.x, d.y, d.z};
     std::vector<std::vector<std::uint8_t>> sections(layout.size());
     for (std::size_t s = 0; s < layout.size(); ++s)
-        encodeSection(q, d, layout, s, h.entropy, sections[s]);
+        encodeSection(q, storage, layout, s, h.entropy, sections[s]);
     std::vector<std::uint8_t> corrBytes;
     if (!corr.empty()) corrBytes = encodeCorrections(corr, h.type);
     std::vector<std::uint8_t> out;
@@ -619,6 +634,15 @@ public:
         return encodeLossy(v, h, chooseStep);
     }
 
+    /// The volume's value range, scanned once per volume (encodeVolume and the lossy path both need it).
+    const ValueRange& rangeOf(const Volume& v) {
+        if (rangeOf_ != &v) {
+            range_ = valueRange(v, o_.threads);
+            rangeOf_ = &v;
+        }
+        return range_;
+    }
+
 private:
     std::vector<std::pair<double, double>> brickRanges(const Volume& v, const VczHeader& h) {
         std::vector<std::pair<double, double>> r(h.brickCount());
@@ -640,13 +664,14 @@ private:
         LiftingTransform<std::int32_t> t(cc_, h.wavelet);
         FrameResult r;
         CodecProfile* prof = &r.report.profile;
-        auto coeffs = forwardBricks(cc_, t, v, h, o_.threads, prof, r.report.transformMs, &r.ranges);
-        r.payloads.resize(coeffs.size());
-        timeStage(prof, &CodecProfile::entropy, [&] {
-            parallelFor(coeffs.size(), o_.threads, [&](std::size_t b) {
-                r.payloads[b] = buildPayload(h, h.brickDims(b), coeffs[b], {});
-            });
-        });
+        r.payloads.resize(h.brickCount());
+        // Coded straight from the mapped batch.
+        forwardBricks<std::int32_t>(cc_, t, v, h, o_.threads, prof, r.report.transformMs, &r.ranges,
+                                    &CodecProfile::entropy,
+                                    [&](std::size_t b, const std::int32_t* c, std::size_t pitch) {
+                                        const Dims d = h.brickDims(b);
+                                        r.payloads[b] = buildPayload(h, d, {c, pitch * d.y * d.z}, {}, pitch);
+                                    });
         r.report.psnr = std::numeric_limits<double>::infinity();
         return r;
     }
@@ -681,7 +706,6 @@ private:
         tr.q.resize(n);
         tr.corrections.resize(n);
         ++prof->trials;
-        std::vector<std::vector<float>> rec(n);
         timeStage(prof, &CodecProfile::quantise, [&] {
             parallelFor(n, o_.threads,
                         [&](std::size_t b) { tr.q[b] = quantise(h, h.brickDims(b), coeffs[b]); });
@@ -690,37 +714,38 @@ private:
             tr.err.sumSq = tr.err.maxErr = std::numeric_limits<double>::quiet_NaN();
             return tr;
         }
-        std::vector<std::size_t> all(n);
-        for (std::size_t i = 0; i < n; ++i)
-            all[i] = i;
         timeStage(prof, &CodecProfile::reconstruct, [&] {
-            inverseBricks(cc_, t, h, all, rec, 0, o_.threads, nullptr, &CodecProfile::reconstruct,
-                          [&](std::size_t b, float* dst, std::size_t pitch) {
-                              dequantiseInto(h, h.brickDims(b), tr.q[b], dst, pitch);
-                          });
             std::vector<ErrorStats> es(n);
-            parallelFor(n, o_.threads, [&](std::size_t b) {
-                const Dims o = h.brickOrigin(b), d = h.brickDims(b);
-                visitTyped(v, [&](auto span) {
-                    using V = std::remove_const_t<typename decltype(span)::element_type>;
-                    for (std::size_t z = 0; z < d.z; ++z)
-                        for (std::size_t y = 0; y < d.y; ++y) {
-                            const V* in = span.data() + v.index(o.x, o.y + y, o.z + z);
-                            const float* r = rec[b].data() + (z * d.y + y) * d.x;
-                            for (std::size_t x = 0; x < d.x; ++x) {
-                                const double orig = double(in[x]);
-                                const double e = std::abs(double(toVoxel<V>(r[x])) - orig);
-                                if (bound && e > *bound) {
-                                    tr.corrections[b].push_back(
-                                        {static_cast<std::uint32_t>((z * d.y + y) * d.x + x), orig});
-                                    continue;
+            inverseBricks(
+                cc_, t, h, allBricks(h), 0, o_.threads, nullptr, &CodecProfile::reconstruct,
+                [&](std::size_t b, float* dst, std::size_t pitch) {
+                    dequantiseInto(h, h.brickDims(b), tr.q[b], dst, pitch);
+                },
+                &CodecProfile::reconstruct,
+                [&](std::size_t b, const float* rec, std::size_t pitch) {
+                    const Dims o = h.brickOrigin(b), d = h.brickDims(b);
+                    double sumSq = 0, maxErr = 0;
+                    visitTyped(v, [&](auto span) {
+                        using V = std::remove_const_t<typename decltype(span)::element_type>;
+                        for (std::size_t z = 0; z < d.z; ++z)
+                            for (std::size_t y = 0; y < d.y; ++y) {
+                                const V* in = span.data() + v.index(o.x, o.y + y, o.z + z);
+                                const float* r = rec + (z * d.y + y) * pitch;
+                                for (std::size_t x = 0; x < d.x; ++x) {
+                                    const double orig = double(in[x]);
+                                    const double e = std::abs(double(toVoxel<V>(r[x])) - orig);
+                                    if (bound && e > *bound) {
+                                        tr.corrections[b].push_back(
+                                            {static_cast<std::uint32_t>((z * d.y + y) * d.x + x), orig});
+                                        continue;
+                                    }
+                                    sumSq += e * e;
+                                    maxErr = std::max(maxErr, e);
                                 }
-                                es[b].sumSq += e * e;
-                                es[b].maxErr = std::max(es[b].maxErr, e);
                             }
-                        }
+                    });
+                    es[b] = {sumSq, maxErr};
                 });
-            });
             for (const auto& e : es) {
                 tr.err.sumSq += e.sumSq;
                 tr.err.maxErr = std::max(tr.err.maxErr, e.maxErr);
@@ -745,18 +770,19 @@ private:
     }
 
     FrameResult encodeLossy(const Volume& v, VczHeader& h, bool chooseStep) {
-        const ValueRange st = valueRange(v, o_.threads);
+        const ValueRange st = rangeOf(v);
         if (st.nonFinite)
             throw DataError(
                 "lossy encoding needs finite voxels (found NaN/Inf): use --lossless to keep them exactly");
         LiftingTransform<float> t(cc_, h.wavelet);
         FrameResult r;
         CodecProfile* prof = &r.report.profile;
-        auto coeffs = forwardBricks(cc_, t, v, h, o_.threads, prof, r.report.transformMs, &r.ranges);
-        for (const auto& c : coeffs)
-            for (float x : c)
-                if (!std::isfinite(x))
-                    throw DataError("voxel values too large for the float transform: use --lossless");
+        std::vector<std::vector<float>> coeffs(h.brickCount());
+        forwardBricks<float>(cc_, t, v, h, o_.threads, prof, r.report.transformMs, &r.ranges,
+                             &CodecProfile::gather, [&](std::size_t b, const float* c, std::size_t pitch) {
+                                 coeffs[b] = denseBrick(h.brickDims(b), c, pitch);
+                             });
+        const std::vector<double> maxAbs = subbandMaxAbs(h, coeffs);
         const double range = st.max - st.min;
         const double n = double(v.voxelCount());
         const double rangeSq = range * range;
@@ -764,7 +790,9 @@ private:
         auto setDelta = [&](double delta) {
             lastDelta = delta;
             h.steps = subbandSteps(h.wavelet, h.levels, delta);
-            clampSteps(h, coeffs);
+            // Keeps quantisation indices inside the coder's range for data of huge dynamic range.
+            for (std::size_t i = 0; i < h.steps.size(); ++i)
+                h.steps[i] = std::max(h.steps[i], maxAbs[i] / (kMaxQuantIndex - 2));
         };
         Trial best;
         if (o_.step && chooseStep) {
@@ -901,13 +929,16 @@ private:
         return r;
     }
 
-    // Keeps quantisation indices inside the coder's range for data of huge dynamic range.
-    static void clampSteps(VczHeader& h, const std::vector<std::vector<float>>& coeffs) {
-        std::vector<double> maxAbs(h.steps.size(), 0.0);
-        for (std::size_t b = 0; b < coeffs.size(); ++b) {
-            const auto layout = sectionLayout(h.brickDims(b), h.levels);
+    // Largest coefficient magnitude per subband (index as in h.steps) over all bricks, in one pass on host
+    // threads; refuses non-finite coefficients (voxel values beyond the float transform's range).
+    std::vector<double> subbandMaxAbs(const VczHeader& h, const std::vector<std::vector<float>>& coeffs) const {
+        const std::size_t nsub = 1 + 7 * std::size_t(h.levels);
+        std::vector<std::vector<float>> perBrick(coeffs.size(), std::vector<float>(nsub, 0.0f));
+        std::atomic<bool> bad{false};
+        parallelFor(coeffs.size(), o_.threads, [&](std::size_t b) {
             const Dims d = h.brickDims(b);
-            for (const auto& sec : layout)
+            bool nonFinite = false;
+            for (const auto& sec : sectionLayout(d, h.levels))
                 for (const SubbandBox& sb : sec) {
                     const std::size_t si =
                         sb.level == 0 ? 0 : 1 + std::size_t(sb.level - 1) * 7 + std::size_t(sb.orient - 1);
@@ -915,18 +946,28 @@ private:
                     for (std::size_t z = sb.z0; z < sb.z1; ++z)
                         for (std::size_t y = sb.y0; y < sb.y1; ++y) {
                             const float* row = coeffs[b].data() + (z * d.y + y) * d.x;
-                            for (std::size_t x = sb.x0; x < sb.x1; ++x)
-                                m = std::max(m, std::abs(row[x]));
+                            for (std::size_t x = sb.x0; x < sb.x1; ++x) {
+                                const float a = std::abs(row[x]);
+                                nonFinite |= !(a <= std::numeric_limits<float>::max());
+                                m = std::max(m, a);
+                            }
                         }
-                    maxAbs[si] = std::max(maxAbs[si], double(m));
+                    perBrick[b][si] = std::max(perBrick[b][si], m);
                 }
-        }
-        for (std::size_t i = 0; i < h.steps.size(); ++i)
-            h.steps[i] = std::max(h.steps[i], maxAbs[i] / (kMaxQuantIndex - 2));
+            if (nonFinite) bad = true;
+        });
+        if (bad) throw DataError("voxel values too large for the float transform: use --lossless");
+        std::vector<double> maxAbs(nsub, 0.0);
+        for (const auto& p : perBrick)
+            for (std::size_t i = 0; i < nsub; ++i)
+                maxAbs[i] = std::max(maxAbs[i], double(p[i]));
+        return maxAbs;
     }
 
     ComputeContext& cc_;
     const CodecOptions& o_;
+    const Volume* rangeOf_ = nullptr;
+    ValueRange range_;
 };
 
 std::vector<std::byte> assemble(VczHeader& h, std::vector<FrameResult>& frames) {
@@ -956,7 +997,7 @@ std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, co
     Stopwatch total;
     Encoder enc(cc, options);
     VczHeader h = enc.plan(volume);
-    const ValueRange st = valueRange(volume, options.threads);
+    const ValueRange st = enc.rangeOf(volume);
     h.valueMin = st.min;
     h.valueMax = st.max;
     std::vector<FrameResult> frames;
@@ -1021,69 +1062,13 @@ VczReader::VczReader(std::vector<std::byte> bytes, std::string name)
 
 namespace {
 
-// Decoded bricks at one level, as float or int32 (dense, levelDims(brickDims, level)).
-struct DecodedBricks {
-    std::vector<std::vector<std::int32_t>> ints;
-    std::vector<std::vector<float>> floats;
-    std::vector<std::vector<Correction>> corrections;
-};
-
-DecodedBricks decodeBricks(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h,
-                           std::size_t frame, const std::vector<std::size_t>& which, int level,
-                           unsigned threads, const std::string& name, CodecProfile* prof) {
-    if (frame >= h.frames.size()) throw UsageError(name + ": no frame " + std::to_string(frame));
-    if (h.frames[frame].type != FrameType::I)
-        throw DataError(name + ": frame " + std::to_string(frame) +
-                        " is a motion-compensated frame; this decoder reads I frames");
-    const std::size_t n = h.brickCount();
-    const int levels = h.transform == TransformKind::RawBits ? 0 : h.levels;
-    const int stop = h.transform == TransformKind::RawBits ? 0 : level;
-    DecodedBricks out;
-    out.ints.resize(n);
-    out.corrections.resize(n);
-    timeStage(prof, &CodecProfile::entropy, [&] {
-        parallelFor(which.size(), threads, [&](std::size_t k) {
-            const std::size_t b = which[k];
-            const std::string what = name + ": brick " + std::to_string(b);
-            const auto payload = vczBrickPayload(file, h, frame, b, name);
-            const Dims d = h.brickDims(b);
-            const auto layout = sectionLayout(d, levels);
-            const ParsedPayload p = parsePayload(payload, layout.size(), what);
-            out.ints[b].assign(d.count(), 0);
-            for (std::size_t s = 0; s + stop < layout.size(); ++s)
-                decodeSection(p.sections[s], out.ints[b], d, layout, s, h.entropy, what.c_str());
-            if (!p.corrections.empty() && level == 0)
-                out.corrections[b] = decodeCorrections(p.corrections, h.type, d.count(), what);
-        });
-    });
-    if (h.transform == TransformKind::IntegerLifting) {
-        LiftingTransform<std::int32_t> t(cc, h.wavelet);
-        inverseBricks(cc, t, h, which, out.ints, level, threads, prof, &CodecProfile::gather,
-                      [&](std::size_t b, std::int32_t* dst, std::size_t pitch) {
-                          const Dims d = h.brickDims(b);
-                          for (std::size_t r = 0; r < d.y * d.z; ++r)
-                              std::copy_n(out.ints[b].data() + r * d.x, d.x, dst + r * pitch);
-                      });
-    } else if (h.transform == TransformKind::FloatLifting) {
-        // Dequantised straight into the batch: no dense float copy of the coefficients.
-        out.floats.resize(n);
-        LiftingTransform<float> t(cc, h.wavelet);
-        inverseBricks(cc, t, h, which, out.floats, level, threads, prof, &CodecProfile::quantise,
-                      [&](std::size_t b, float* dst, std::size_t pitch) {
-                          dequantiseInto(h, h.brickDims(b), out.ints[b], dst, pitch);
-                      });
-        for (std::size_t b : which)
-            std::vector<std::int32_t>().swap(out.ints[b]);
-    }
-    return out;
-}
-
-// Copies the samples of decoded brick b that fall in [a, e) (level-k sample indices; sample j sits at
-// full-resolution voxel j * 2^k) into `out`. Lifting bricks hold the level-k approximation in their low
-// corner; raw bricks are decimated.
-template <class V>
-void placeBrick(const VczHeader& h, const DecodedBricks& db, std::size_t b, int level, Dims a, Dims e,
-                std::span<V> out, Dims outDims) {
+// Copies the samples of brick b that fall in [a, e) (level-k sample indices; sample j sits at
+// full-resolution voxel j * 2^k) into `out`. `src` holds the brick with rows of `pitch` elements: for
+// lifting bricks the inverse-transformed batch slot with the level-k approximation in its low corner, for
+// raw bricks the dense decoded bit patterns (decimated here). Corrections apply at full resolution.
+template <class V, class S>
+void placeBrick(const VczHeader& h, std::size_t b, int level, Dims a, Dims e, std::span<V> out, Dims outDims,
+                const S* src, std::size_t pitch, const std::vector<Correction>& corrections) {
     const Dims o = h.brickOrigin(b), d = h.brickDims(b);
     const bool raw = h.transform == TransformKind::RawBits;
     const std::size_t f = std::size_t(1) << level;
@@ -1095,46 +1080,114 @@ void placeBrick(const VczHeader& h, const DecodedBricks& db, std::size_t b, int 
     const std::size_t x0 = std::max(first.x, a.x), x1 = std::min(last.x, e.x);
     for (std::size_t z = std::max(first.z, a.z); z < std::min(last.z, e.z); ++z)
         for (std::size_t y = std::max(first.y, a.y); y < std::min(last.y, e.y); ++y) {
-            const std::size_t row = (local(z, o.z, first.z) * d.y + local(y, o.y, first.y)) * d.x;
+            const S* row = src + (local(z, o.z, first.z) * d.y + local(y, o.y, first.y)) * pitch;
             V* dst = out.data() + ((z - a.z) * outDims.y + (y - a.y)) * outDims.x;
             if (!raw && x0 < x1) {
                 // Lifting bricks: one contiguous run per row, converted in a loop the compiler vectorises.
-                const std::size_t at = row + (x0 - first.x), len = x1 - x0;
+                const S* in = row + (x0 - first.x);
                 V* o1 = dst + (x0 - a.x);
-                if (h.transform == TransformKind::IntegerLifting) {
-                    const std::int32_t* src = db.ints[b].data() + at;
+                const std::size_t len = x1 - x0;
+                if constexpr (std::is_same_v<S, std::int32_t>) {
                     for (std::size_t i = 0; i < len; ++i) {
                         if constexpr (std::is_same_v<V, float>)
-                            o1[i] = static_cast<float>(src[i]);
+                            o1[i] = static_cast<float>(in[i]);
                         else
-                            o1[i] = static_cast<V>(std::clamp<std::int32_t>(
-                                src[i], std::numeric_limits<V>::min(), std::numeric_limits<V>::max()));
+                            o1[i] = static_cast<V>(std::clamp<std::int32_t>(in[i], std::numeric_limits<V>::min(),
+                                                                           std::numeric_limits<V>::max()));
                     }
                 } else {
-                    const float* src = db.floats[b].data() + at;
                     for (std::size_t i = 0; i < len; ++i)
-                        o1[i] = toVoxel<V>(src[i]);
+                        o1[i] = toVoxel<V>(in[i]);
                 }
                 continue;
             }
-            for (std::size_t x = x0; x < x1; ++x) { // raw bricks (decimated at level k)
-                const std::size_t i = row + local(x, o.x, first.x);
-                V v;
-                if constexpr (std::is_same_v<V, float>) {
-                    std::memcpy(&v, &db.ints[b][i], 4);
-                } else {
-                    v = static_cast<V>(db.ints[b][i]);
+            if constexpr (std::is_same_v<S, std::int32_t>)
+                for (std::size_t x = x0; x < x1; ++x) { // raw bricks (decimated at level k)
+                    const std::int32_t bits = row[local(x, o.x, first.x)];
+                    V v;
+                    if constexpr (std::is_same_v<V, float>)
+                        std::memcpy(&v, &bits, 4);
+                    else
+                        v = static_cast<V>(bits);
+                    dst[x - a.x] = v;
                 }
-                dst[x - a.x] = v;
-            }
         }
     if (level == 0)
-        for (const Correction& c : db.corrections[b]) {
+        for (const Correction& c : corrections) {
             const std::size_t x = o.x + c.index % d.x, y = o.y + c.index / d.x % d.y,
                               z = o.z + c.index / (d.x * d.y);
             if (x >= a.x && x < e.x && y >= a.y && y < e.y && z >= a.z && z < e.z)
                 out[((z - a.z) * outDims.y + (y - a.y)) * outDims.x + (x - a.x)] = static_cast<V>(c.value);
         }
+}
+
+// Entropy decodes the listed bricks of one frame on host threads, inverts them on the device down to
+// `level` and places each brick's part of [a, e) into `out` straight from the mapped batch.
+template <class V>
+void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h, std::size_t frame,
+                      const std::vector<std::size_t>& which, int level, unsigned threads, const std::string& name,
+                      CodecProfile* prof, Dims a, Dims e, std::span<V> out, Dims outDims) {
+    if (frame >= h.frames.size()) throw UsageError(name + ": no frame " + std::to_string(frame));
+    if (h.frames[frame].type != FrameType::I)
+        throw DataError(name + ": frame " + std::to_string(frame) +
+                        " is a motion-compensated frame; this decoder reads I frames");
+    const std::size_t n = h.brickCount();
+    const int levels = h.transform == TransformKind::RawBits ? 0 : h.levels;
+    const int stop = h.transform == TransformKind::RawBits ? 0 : level;
+    std::vector<std::vector<std::int32_t>> ints(n);
+    std::vector<std::vector<Correction>> corrections(n);
+    // Entropy decodes brick b into rows of `pitch` elements (a batch slot, or a dense array).
+    auto entropyDecode = [&](std::size_t b, std::int32_t* dst, std::size_t pitch) {
+        const std::string what = name + ": brick " + std::to_string(b);
+        const auto payload = vczBrickPayload(file, h, frame, b, name);
+        const Dims d = h.brickDims(b), storage{pitch, d.y, d.z};
+        const auto layout = sectionLayout(d, levels);
+        const ParsedPayload p = parsePayload(payload, layout.size(), what);
+        const std::span<std::int32_t> c(dst, storage.count());
+        // Sections finer than the level are not decoded; the inverse never reads them, but keep them defined.
+        if (stop > 0) std::fill(c.begin(), c.end(), 0);
+        for (std::size_t s = 0; s + stop < layout.size(); ++s)
+            decodeSection(p.sections[s], c, storage, layout, s, h.entropy, what.c_str());
+        if (!p.corrections.empty() && level == 0)
+            corrections[b] = decodeCorrections(p.corrections, h.type, d.count(), what);
+    };
+    auto denseDecode = [&] {
+        timeStage(prof, &CodecProfile::entropy, [&] {
+            parallelFor(which.size(), threads, [&](std::size_t k) {
+                const std::size_t b = which[k];
+                ints[b].resize(h.brickDims(b).count());
+                entropyDecode(b, ints[b].data(), h.brickDims(b).x);
+            });
+        });
+    };
+    auto place = [&](std::size_t b, const auto* src, std::size_t pitch) {
+        placeBrick(h, b, level, a, e, out, outDims, src, pitch, corrections[b]);
+    };
+    if (h.transform == TransformKind::IntegerLifting) {
+        // Decoded straight into the batch.
+        LiftingTransform<std::int32_t> t(cc, h.wavelet);
+        inverseBricks(cc, t, h, which, level, threads, prof, &CodecProfile::entropy, entropyDecode,
+                      &CodecProfile::assemble, place);
+    } else if (h.transform == TransformKind::FloatLifting) {
+        // Dequantised straight into the batch: no dense float copy of the coefficients.
+        denseDecode();
+        LiftingTransform<float> t(cc, h.wavelet);
+        inverseBricks(
+            cc, t, h, which, level, threads, prof, &CodecProfile::quantise,
+            [&](std::size_t b, float* dst, std::size_t pitch) {
+                dequantiseInto(h, h.brickDims(b), ints[b], dst, pitch);
+                std::vector<std::int32_t>().swap(ints[b]);
+            },
+            &CodecProfile::assemble, place);
+    } else {
+        denseDecode();
+        timeStage(prof, &CodecProfile::assemble, [&] {
+            parallelFor(which.size(), threads, [&](std::size_t k) {
+                const std::size_t b = which[k];
+                place(b, ints[b].data(), h.brickDims(b).x);
+            });
+        });
+    }
 }
 
 } // namespace
@@ -1167,20 +1220,15 @@ Volume VczReader::decode(ComputeContext& cc, const DecodeOptions& o) const {
             which.push_back(b);
     }
     Stopwatch total;
-    const DecodedBricks db =
-        decodeBricks(cc, bytes_, h, o.frame, which, o.level, o.threads, name_, o.profile);
     Volume out(outDims, h.type);
     for (int i = 0; i < 3; ++i) {
         const std::size_t first = i == 0 ? a.x : i == 1 ? a.y : a.z;
         out.spacing[i] = h.spacing[i] * double(f);
         out.origin[i] = h.origin[i] + double(first * f) * h.spacing[i];
     }
-    timeStage(o.profile, &CodecProfile::assemble, [&] {
-        visitTyped(out, [&](auto span) {
-            // Bricks cover disjoint parts of the output, so they are placed in parallel.
-            parallelFor(which.size(), o.threads,
-                        [&](std::size_t k) { placeBrick(h, db, which[k], o.level, a, e, span, outDims); });
-        });
+    // Bricks cover disjoint parts of the output, so they are placed in parallel.
+    visitTyped(out, [&](auto span) {
+        decodeBricksInto(cc, bytes_, h, o.frame, which, o.level, o.threads, name_, o.profile, a, e, span, outDims);
     });
     if (o.profile) o.profile->total += total.milliseconds();
     return out;
