@@ -573,12 +573,15 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
             rows.push_back(r);
             std::cerr << "  zfp psnr" << p << ": bpv " << fmt(r.bpv, 3) << " PSNR " << fmt(r.psnr) << '\n';
         }
-        for (double bpv : {1.0, 2.0}) {
-            CodecOptions lo;
-            lo.rate = RateMode::Bpv;
-            lo.target = bpv;
-            ours("bpv" + fmt(bpv, 0), lo);
-        }
+        // The speed goal at 1-2 bits/voxel, with both entropy coders.
+        for (EntropyMode m : {EntropyMode::Dense, EntropyMode::Fast})
+            for (double bpv : {1.0, 2.0}) {
+                CodecOptions lo;
+                lo.rate = RateMode::Bpv;
+                lo.target = bpv;
+                lo.entropy = m;
+                ours("bpv" + fmt(bpv, 0), lo);
+            }
         {
             const VolumeStats st = v.stats(1);
             CodecOptions lo;
