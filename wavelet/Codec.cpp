@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -229,14 +230,20 @@ std::pair<double, double> gatherBrick(const Volume& v, const VczHeader& h, std::
     });
 }
 
-// Runs one transform over the listed bricks, batched by brick shape. fill(b, dst, pitch) writes brick b
-// into its batch slot (rows of `pitch` elements; timed as `fillStage`), run(transform, batch) transforms a
-// batch, emit(b, src, pitch) reads the result from the mapped batch (timed as `emitStage`), so no dense
-// copy is made. All batches are filled, then transformed, then emitted, each step in one parallel loop
-// over every brick: per-shape loops left a thread idle on shapes with a single brick.
-template <class T, class Fill, class Run, class Emit>
+// One step that writes a brick into its batch slot: fn(b, dst, pitch) with rows of `pitch` elements,
+// timed as `stage`.
+template <class T> struct FillStep {
+    double CodecProfile::*stage;
+    std::function<void(std::size_t, T*, std::size_t)> fn;
+};
+
+// Runs one transform over the listed bricks, batched by brick shape. The fill steps write each brick into
+// its batch slot, one after the other; run(batch) transforms a batch; emit(b, src, pitch) reads the result
+// from the mapped batch (timed as `emitStage`), so no dense copy is made. Every step is one parallel loop
+// over all bricks of all batches: per-shape loops left a thread idle on shapes with a single brick.
+template <class T, class Run, class Emit>
 void transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<std::size_t>& which,
-                     unsigned threads, CodecProfile* prof, double CodecProfile::*fillStage, Fill fill, Run run,
+                     unsigned threads, CodecProfile* prof, const std::vector<FillStep<T>>& fills, Run run,
                      double CodecProfile::*emitStage, Emit emit) {
     const std::vector<BrickGroup> groups = groupBricks(h, which);
     std::vector<std::unique_ptr<BrickBatch<T>>> batches;
@@ -263,7 +270,8 @@ void transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<s
         for (std::size_t g = 0; g < groups.size(); ++g)
             maps[g] = batches[g]->mapForWrite(cc);
     });
-    forEachSlot(fillStage, fill);
+    for (const FillStep<T>& f : fills)
+        forEachSlot(f.stage, f.fn);
     timeStage(prof, &CodecProfile::upload, [&] {
         for (auto& m : maps)
             m.unmap();
@@ -295,21 +303,22 @@ void forwardBricks(ComputeContext& cc, LiftingTransform<T>& t, const Volume& v, 
                    double CodecProfile::*emitStage, Emit emit) {
     if (ranges) ranges->assign(h.brickCount(), {0.0, 0.0});
     transformBricks<T>(
-        cc, h, allBricks(h), threads, prof, &CodecProfile::gather,
-        [&](std::size_t b, T* dst, std::size_t pitch) {
-            const auto r = gatherBrick<T>(v, h, b, dst, pitch);
-            if (ranges) (*ranges)[b] = r;
-        },
+        cc, h, allBricks(h), threads, prof,
+        {{&CodecProfile::gather,
+          [&](std::size_t b, T* dst, std::size_t pitch) {
+              const auto r = gatherBrick<T>(v, h, b, dst, pitch);
+              if (ranges) (*ranges)[b] = r;
+          }}},
         [&](BrickBatch<T>& batch) { ms += t.forward(cc, batch, h.levels); }, emitStage, emit);
 }
 
 // Inverse transform of the listed bricks down to `level` (see transformBricks for fill and emit).
-template <class T, class Fill, class Emit>
+template <class T, class Emit>
 void inverseBricks(ComputeContext& cc, LiftingTransform<T>& t, const VczHeader& h,
                    const std::vector<std::size_t>& which, int level, unsigned threads, CodecProfile* prof,
-                   double CodecProfile::*fillStage, Fill fill, double CodecProfile::*emitStage, Emit emit) {
+                   const std::vector<FillStep<T>>& fills, double CodecProfile::*emitStage, Emit emit) {
     transformBricks<T>(
-        cc, h, which, threads, prof, fillStage, fill,
+        cc, h, which, threads, prof, fills,
         [&](BrickBatch<T>& batch) { t.inverse(cc, batch, h.levels, level); }, emitStage, emit);
 }
 
@@ -376,11 +385,13 @@ std::vector<std::int32_t> quantise(const VczHeader& h, Dims d, const std::vector
 
 // Reconstruction at (|q| + bias) * step with the sign of q, written to rows of `pitch` elements (the dense
 // brick layout when pitch == d.x, a batch slot otherwise). Encoder trials and the decoder share it.
-void dequantiseInto(const VczHeader& h, Dims d, std::span<const std::int32_t> q, float* dst,
+// `q` has rows of `qPitch` elements; it may be `dst` itself (in place, equal pitches): each element is read
+// before it is overwritten.
+void dequantiseInto(const VczHeader& h, Dims d, const std::int32_t* q, std::size_t qPitch, float* dst,
                     std::size_t pitch) {
     const double bias = h.reconstructionBias;
     forEachSubbandRow(h, d, [&](std::size_t z, std::size_t y, std::size_t x0, std::size_t len, double step) {
-        const std::int32_t* in = q.data() + (z * d.y + y) * d.x + x0;
+        const std::int32_t* in = q + (z * d.y + y) * qPitch + x0;
         float* out = dst + (z * d.y + y) * pitch + x0;
         // Selects instead of branches so that the loop vectorises; |q| <= 2^29, so the negation is safe.
         for (std::size_t i = 0; i < len; ++i) {
@@ -717,10 +728,11 @@ private:
         timeStage(prof, &CodecProfile::reconstruct, [&] {
             std::vector<ErrorStats> es(n);
             inverseBricks(
-                cc_, t, h, allBricks(h), 0, o_.threads, nullptr, &CodecProfile::reconstruct,
-                [&](std::size_t b, float* dst, std::size_t pitch) {
-                    dequantiseInto(h, h.brickDims(b), tr.q[b], dst, pitch);
-                },
+                cc_, t, h, allBricks(h), 0, o_.threads, nullptr,
+                {{&CodecProfile::reconstruct,
+                  [&](std::size_t b, float* dst, std::size_t pitch) {
+                      dequantiseInto(h, h.brickDims(b), tr.q[b].data(), h.brickDims(b).x, dst, pitch);
+                  }}},
                 &CodecProfile::reconstruct,
                 [&](std::size_t b, const float* rec, std::size_t pitch) {
                     const Dims o = h.brickOrigin(b), d = h.brickDims(b);
@@ -1151,7 +1163,29 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
         if (!p.corrections.empty() && level == 0)
             corrections[b] = decodeCorrections(p.corrections, h.type, d.count(), what);
     };
-    auto denseDecode = [&] {
+    auto place = [&](std::size_t b, const auto* src, std::size_t pitch) {
+        placeBrick(h, b, level, a, e, out, outDims, src, pitch, corrections[b]);
+    };
+    if (h.transform == TransformKind::IntegerLifting) {
+        // Decoded straight into the batch.
+        LiftingTransform<std::int32_t> t(cc, h.wavelet);
+        inverseBricks(cc, t, h, which, level, threads, prof, {{&CodecProfile::entropy, entropyDecode}},
+                      &CodecProfile::assemble, place);
+    } else if (h.transform == TransformKind::FloatLifting) {
+        // Quantisation indices are decoded into the batch slot as int32 and dequantised there in place: no
+        // separate index array.
+        LiftingTransform<float> t(cc, h.wavelet);
+        auto indices = [](float* slot) { return reinterpret_cast<std::int32_t*>(slot); };
+        inverseBricks(
+            cc, t, h, which, level, threads, prof,
+            {{&CodecProfile::entropy,
+              [&](std::size_t b, float* dst, std::size_t pitch) { entropyDecode(b, indices(dst), pitch); }},
+             {&CodecProfile::quantise,
+              [&](std::size_t b, float* dst, std::size_t pitch) {
+                  dequantiseInto(h, h.brickDims(b), indices(dst), pitch, dst, pitch);
+              }}},
+            &CodecProfile::assemble, place);
+    } else {
         timeStage(prof, &CodecProfile::entropy, [&] {
             parallelFor(which.size(), threads, [&](std::size_t k) {
                 const std::size_t b = which[k];
@@ -1159,28 +1193,6 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
                 entropyDecode(b, ints[b].data(), h.brickDims(b).x);
             });
         });
-    };
-    auto place = [&](std::size_t b, const auto* src, std::size_t pitch) {
-        placeBrick(h, b, level, a, e, out, outDims, src, pitch, corrections[b]);
-    };
-    if (h.transform == TransformKind::IntegerLifting) {
-        // Decoded straight into the batch.
-        LiftingTransform<std::int32_t> t(cc, h.wavelet);
-        inverseBricks(cc, t, h, which, level, threads, prof, &CodecProfile::entropy, entropyDecode,
-                      &CodecProfile::assemble, place);
-    } else if (h.transform == TransformKind::FloatLifting) {
-        // Dequantised straight into the batch: no dense float copy of the coefficients.
-        denseDecode();
-        LiftingTransform<float> t(cc, h.wavelet);
-        inverseBricks(
-            cc, t, h, which, level, threads, prof, &CodecProfile::quantise,
-            [&](std::size_t b, float* dst, std::size_t pitch) {
-                dequantiseInto(h, h.brickDims(b), ints[b], dst, pitch);
-                std::vector<std::int32_t>().swap(ints[b]);
-            },
-            &CodecProfile::assemble, place);
-    } else {
-        denseDecode();
         timeStage(prof, &CodecProfile::assemble, [&] {
             parallelFor(which.size(), threads, [&](std::size_t k) {
                 const std::size_t b = which[k];
