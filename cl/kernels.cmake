@@ -10,7 +10,9 @@ set(VOLCL_KERNEL_FILES
   raymarch_iso.h
   raymarch.cl
   raymarch_plain.cl
+  lifting_common.h
   lifting.cl
+  lifting_brick.cl
   preint.cl
 )
 list(TRANSFORM VOLCL_KERNEL_FILES PREPEND ${PROJECT_SOURCE_DIR}/cl/ OUTPUT_VARIABLE _kernel_paths)

@@ -16,6 +16,13 @@ using namespace volcl;
 namespace {
 
 const Wavelet kIntegerWavelets[] = {Wavelet::Cdf53, Wavelet::Haar, Wavelet::Cdf26};
+// Both kernel paths must equal the references: the streaming passes and the brick-resident kernel.
+const LiftingPath kPaths[] = {LiftingPath::Streaming, LiftingPath::BrickResident};
+const char* pathName(LiftingPath p) {
+    return p == LiftingPath::Streaming       ? "streaming"
+           : p == LiftingPath::BrickResident ? "brick-resident"
+                                             : "auto";
+}
 const Wavelet kAllWavelets[] = {Wavelet::Cdf53, Wavelet::Cdf97, Wavelet::Haar, Wavelet::Cdf26};
 
 std::vector<std::int32_t> randomInts(std::size_t n, std::int32_t lo, std::int32_t hi, unsigned seed) {
@@ -116,91 +123,99 @@ TEST(WaveletReference, CoefficientsOfExtreme16BitDataFitInt32) {
 
 TEST(WaveletKernels, IntegerKernelsMatchReferenceBitExactly) {
     ComputeContext& cc = test::computeContext();
-    for (Wavelet w : kIntegerWavelets) {
-        LiftingTransform<std::int32_t> t(cc, w);
-        for (const Case& cs : kCases) {
-            const std::size_t count = 3;
-            std::vector<std::vector<std::int32_t>> bricks;
-            for (std::size_t c = 0; c < count; ++c)
-                bricks.push_back(
-                    randomInts(cs.dims.count(), c == 1 ? 0 : -32768, c == 1 ? 65535 : 32767, unsigned(c)));
-            BrickBatch<std::int32_t> batch(cc, cs.dims, count);
-            auto host = pack(batch, bricks);
-            batch.upload(cc, host);
-            t.forward(cc, batch, cs.levels);
-            batch.download(cc, host);
-            for (std::size_t c = 0; c < count; ++c) {
-                auto ref = bricks[c];
-                reference::forward3d(std::span<std::int32_t>(ref), cs.dims, cs.levels, w);
-                ASSERT_EQ(unpackBrick(batch, host, c), ref)
-                    << waveletName(w) << " dims " << cs.dims.x << "x" << cs.dims.y << "x" << cs.dims.z
-                    << " brick " << c;
+    for (LiftingPath path : kPaths)
+        for (Wavelet w : kIntegerWavelets) {
+            LiftingTransform<std::int32_t> t(cc, w);
+            t.setPath(path);
+            for (const Case& cs : kCases) {
+                const std::size_t count = 3;
+                std::vector<std::vector<std::int32_t>> bricks;
+                for (std::size_t c = 0; c < count; ++c)
+                    bricks.push_back(randomInts(cs.dims.count(), c == 1 ? 0 : -32768, c == 1 ? 65535 : 32767,
+                                                unsigned(c)));
+                BrickBatch<std::int32_t> batch(cc, cs.dims, count);
+                auto host = pack(batch, bricks);
+                batch.upload(cc, host);
+                t.forward(cc, batch, cs.levels);
+                batch.download(cc, host);
+                for (std::size_t c = 0; c < count; ++c) {
+                    auto ref = bricks[c];
+                    reference::forward3d(std::span<std::int32_t>(ref), cs.dims, cs.levels, w);
+                    ASSERT_EQ(unpackBrick(batch, host, c), ref)
+                        << pathName(path) << " " << waveletName(w) << " dims " << cs.dims.x << "x"
+                        << cs.dims.y << "x" << cs.dims.z << " brick " << c;
+                }
+                t.inverse(cc, batch, cs.levels);
+                batch.download(cc, host);
+                for (std::size_t c = 0; c < count; ++c)
+                    ASSERT_EQ(unpackBrick(batch, host, c), bricks[c])
+                        << pathName(path) << " " << waveletName(w);
             }
-            t.inverse(cc, batch, cs.levels);
-            batch.download(cc, host);
-            for (std::size_t c = 0; c < count; ++c)
-                ASSERT_EQ(unpackBrick(batch, host, c), bricks[c]) << waveletName(w);
         }
-    }
 }
 
 TEST(WaveletKernels, FloatKernelsMatchDoubleReference) {
     ComputeContext& cc = test::computeContext();
-    for (Wavelet w : kAllWavelets) {
-        LiftingTransform<float> t(cc, w);
-        for (const Case& cs : kCases) {
-            std::vector<double> src(cs.dims.count());
-            std::mt19937 rng(3);
-            std::normal_distribution<double> noise(0, 5);
-            for (std::size_t i = 0; i < src.size(); ++i)
-                src[i] = 1000 * std::sin(0.01 * double(i)) + noise(rng);
-            std::vector<float> f(src.begin(), src.end());
-            BrickBatch<float> batch(cc, cs.dims, 1);
-            auto host = pack(batch, {f});
-            batch.upload(cc, host);
-            t.forward(cc, batch, cs.levels);
-            batch.download(cc, host);
-            auto ref = std::vector<double>(f.begin(), f.end());
-            reference::forward3d(std::span<double>(ref), cs.dims, cs.levels, w);
-            auto got = unpackBrick(batch, host, 0);
-            double maxErr = 0;
-            for (std::size_t i = 0; i < ref.size(); ++i)
-                maxErr = std::max(maxErr, std::abs(ref[i] - double(got[i])));
-            // float32 rounding through up to 5 levels of 4 lifting steps on values of magnitude ~1e3
-            EXPECT_LT(maxErr, 2e-3) << waveletName(w) << " " << cs.dims.x << "x" << cs.dims.y << "x"
-                                    << cs.dims.z;
-            t.inverse(cc, batch, cs.levels);
-            batch.download(cc, host);
-            got = unpackBrick(batch, host, 0);
-            maxErr = 0;
-            for (std::size_t i = 0; i < src.size(); ++i)
-                maxErr = std::max(maxErr, std::abs(double(f[i]) - got[i]));
-            EXPECT_LT(maxErr, 2e-3) << waveletName(w);
+    for (LiftingPath path : kPaths)
+        for (Wavelet w : kAllWavelets) {
+            LiftingTransform<float> t(cc, w);
+            t.setPath(path);
+            for (const Case& cs : kCases) {
+                std::vector<double> src(cs.dims.count());
+                std::mt19937 rng(3);
+                std::normal_distribution<double> noise(0, 5);
+                for (std::size_t i = 0; i < src.size(); ++i)
+                    src[i] = 1000 * std::sin(0.01 * double(i)) + noise(rng);
+                std::vector<float> f(src.begin(), src.end());
+                BrickBatch<float> batch(cc, cs.dims, 1);
+                auto host = pack(batch, {f});
+                batch.upload(cc, host);
+                t.forward(cc, batch, cs.levels);
+                batch.download(cc, host);
+                auto ref = std::vector<double>(f.begin(), f.end());
+                reference::forward3d(std::span<double>(ref), cs.dims, cs.levels, w);
+                auto got = unpackBrick(batch, host, 0);
+                double maxErr = 0;
+                for (std::size_t i = 0; i < ref.size(); ++i)
+                    maxErr = std::max(maxErr, std::abs(ref[i] - double(got[i])));
+                // float32 rounding through up to 5 levels of 4 lifting steps on values of magnitude ~1e3
+                EXPECT_LT(maxErr, 2e-3) << pathName(path) << " " << waveletName(w) << " " << cs.dims.x << "x"
+                                        << cs.dims.y << "x" << cs.dims.z;
+                t.inverse(cc, batch, cs.levels);
+                batch.download(cc, host);
+                got = unpackBrick(batch, host, 0);
+                maxErr = 0;
+                for (std::size_t i = 0; i < src.size(); ++i)
+                    maxErr = std::max(maxErr, std::abs(double(f[i]) - got[i]));
+                EXPECT_LT(maxErr, 2e-3) << pathName(path) << " " << waveletName(w);
+            }
         }
-    }
 }
 
 TEST(WaveletKernels, PartialInverseGivesTheLevelApproximation) {
     ComputeContext& cc = test::computeContext();
     const Dims d{45, 38, 29};
     auto v = randomInts(d.count(), 0, 4095, 11);
-    LiftingTransform<std::int32_t> t(cc, Wavelet::Cdf53);
-    BrickBatch<std::int32_t> batch(cc, d, 1);
-    auto host = pack(batch, {v});
-    batch.upload(cc, host);
-    t.forward(cc, batch, 4);
-    t.inverse(cc, batch, 4, 2);
-    batch.download(cc, host);
-    auto got = unpackBrick(batch, host, 0);
-    auto ref = v;
-    reference::forward3d(std::span<std::int32_t>(ref), d, 2, Wavelet::Cdf53);
-    const Dims l2 = levelDims(d, 2);
-    for (std::size_t z = 0; z < l2.z; ++z)
-        for (std::size_t y = 0; y < l2.y; ++y)
-            for (std::size_t x = 0; x < l2.x; ++x) {
-                const std::size_t i = (z * d.y + y) * d.x + x;
-                ASSERT_EQ(got[i], ref[i]) << x << "," << y << "," << z;
-            }
+    for (LiftingPath path : kPaths) {
+        LiftingTransform<std::int32_t> t(cc, Wavelet::Cdf53);
+        t.setPath(path);
+        BrickBatch<std::int32_t> batch(cc, d, 1);
+        auto host = pack(batch, {v});
+        batch.upload(cc, host);
+        t.forward(cc, batch, 4);
+        t.inverse(cc, batch, 4, 2);
+        batch.download(cc, host);
+        auto got = unpackBrick(batch, host, 0);
+        auto ref = v;
+        reference::forward3d(std::span<std::int32_t>(ref), d, 2, Wavelet::Cdf53);
+        const Dims l2 = levelDims(d, 2);
+        for (std::size_t z = 0; z < l2.z; ++z)
+            for (std::size_t y = 0; y < l2.y; ++y)
+                for (std::size_t x = 0; x < l2.x; ++x) {
+                    const std::size_t i = (z * d.y + y) * d.x + x;
+                    ASSERT_EQ(got[i], ref[i]) << pathName(path) << " " << x << "," << y << "," << z;
+                }
+    }
 }
 
 TEST(WaveletKernels, MappedBatchesRoundTripExtremeDataThroughTheVectorPaths) {
@@ -213,31 +228,66 @@ TEST(WaveletKernels, MappedBatchesRoundTripExtremeDataThroughTheVectorPaths) {
                                                       randomInts(d.count(), 0, 65535, 5)};
         for (std::size_t i = 0; i < d.count(); ++i)
             bricks[0][i] = ((i + i / d.x + i / (d.x * d.y)) & 1) ? 65535 : 0;
-        for (Wavelet w : kIntegerWavelets) {
-            LiftingTransform<std::int32_t> t(cc, w);
-            BrickBatch<std::int32_t> batch(cc, d, bricks.size());
-            const auto host = pack(batch, bricks);
-            {
-                BatchMapping<std::int32_t> m = batch.mapForWrite(cc);
-                ASSERT_EQ(m.span().size(), host.size());
-                std::copy(host.begin(), host.end(), m.data());
+        for (LiftingPath path : kPaths)
+            for (Wavelet w : kIntegerWavelets) {
+                LiftingTransform<std::int32_t> t(cc, w);
+                t.setPath(path);
+                BrickBatch<std::int32_t> batch(cc, d, bricks.size());
+                const auto host = pack(batch, bricks);
+                {
+                    BatchMapping<std::int32_t> m = batch.mapForWrite(cc);
+                    ASSERT_EQ(m.span().size(), host.size());
+                    std::copy(host.begin(), host.end(), m.data());
+                }
+                auto readBack = [&] {
+                    BatchMapping<std::int32_t> m = batch.mapForRead(cc);
+                    return std::vector<std::int32_t>(m.span().begin(), m.span().end());
+                };
+                t.forward(cc, batch, 4);
+                const auto coeffs = readBack();
+                for (std::size_t c = 0; c < bricks.size(); ++c) {
+                    auto ref = bricks[c];
+                    reference::forward3d(std::span<std::int32_t>(ref), d, 4, w);
+                    ASSERT_EQ(unpackBrick(batch, coeffs, c), ref)
+                        << pathName(path) << " " << waveletName(w) << " " << d.x << " brick " << c;
+                }
+                t.inverse(cc, batch, 4);
+                const auto back = readBack();
+                for (std::size_t c = 0; c < bricks.size(); ++c)
+                    ASSERT_EQ(unpackBrick(batch, back, c), bricks[c])
+                        << pathName(path) << " " << waveletName(w) << " " << d.x;
             }
-            auto readBack = [&] {
-                BatchMapping<std::int32_t> m = batch.mapForRead(cc);
-                return std::vector<std::int32_t>(m.span().begin(), m.span().end());
-            };
-            t.forward(cc, batch, 4);
-            const auto coeffs = readBack();
-            for (std::size_t c = 0; c < bricks.size(); ++c) {
-                auto ref = bricks[c];
-                reference::forward3d(std::span<std::int32_t>(ref), d, 4, w);
-                ASSERT_EQ(unpackBrick(batch, coeffs, c), ref)
-                    << waveletName(w) << " " << d.x << " brick " << c;
-            }
-            t.inverse(cc, batch, 4);
-            const auto back = readBack();
-            for (std::size_t c = 0; c < bricks.size(); ++c)
-                ASSERT_EQ(unpackBrick(batch, back, c), bricks[c]) << waveletName(w) << " " << d.x;
+    }
+}
+
+TEST(WaveletKernels, PathsAgreeAndAutoFallsBackForLargeBricks) {
+    // Auto takes the brick-resident kernel on CPU devices up to kBrickResidentMaxDim and the streaming passes
+    // beyond; the two paths give identical integer coefficients, so one path's forward inverts with the
+    // other's inverse, also for bricks whose longest axis needs the largest LIFT_MAXN (256) and for a
+    // 300-voxel axis (streaming only).
+    ComputeContext& cc = test::computeContext();
+    LiftingTransform<std::int32_t> a(cc, Wavelet::Cdf53), s(cc, Wavelet::Cdf53), b(cc, Wavelet::Cdf53);
+    s.setPath(LiftingPath::Streaming);
+    b.setPath(LiftingPath::BrickResident);
+    for (const Dims d : {Dims{256, 7, 5}, Dims{3, 200, 9}, Dims{300, 3, 2}}) {
+        const bool fits = std::max({d.x, d.y, d.z}) <= LiftingTransform<std::int32_t>::kBrickResidentMaxDim;
+        BrickBatch<std::int32_t> batch(cc, d, 2);
+        EXPECT_EQ(a.pathFor(batch),
+                  fits && cc.device().isCpu ? LiftingPath::BrickResident : LiftingPath::Streaming);
+        const std::vector<std::vector<std::int32_t>> bricks{randomInts(d.count(), 0, 65535, 21),
+                                                            randomInts(d.count(), -32768, 32767, 22)};
+        auto host = pack(batch, bricks);
+        batch.upload(cc, host);
+        (fits ? b : s).forward(cc, batch, 4);
+        batch.download(cc, host);
+        for (std::size_t c = 0; c < bricks.size(); ++c) {
+            auto ref = bricks[c];
+            reference::forward3d(std::span<std::int32_t>(ref), d, 4, Wavelet::Cdf53);
+            ASSERT_EQ(unpackBrick(batch, host, c), ref) << d.x << "x" << d.y << "x" << d.z;
         }
+        a.inverse(cc, batch, 4);
+        batch.download(cc, host);
+        for (std::size_t c = 0; c < bricks.size(); ++c)
+            ASSERT_EQ(unpackBrick(batch, host, c), bricks[c]) << d.x << "x" << d.y << "x" << d.z;
     }
 }

@@ -293,7 +293,9 @@ template <class T> void BrickBatch<T>::download(ComputeContext& cc, std::span<T>
     cc.read(data(), host);
 }
 
-template <class T> LiftingTransform<T>::LiftingTransform(ComputeContext& cc, Wavelet w) : wavelet_(w) {
+template <class T>
+LiftingTransform<T>::LiftingTransform(ComputeContext& cc, Wavelet w)
+    : wavelet_(w), cpuDevice_(cc.device().isCpu) {
     constexpr bool isFloat = std::is_same_v<T, float>;
     if (!isFloat && !hasIntegerForm(w)) throw UsageError("wavelet cdf97 has no reversible integer form");
     KernelDefines fwd;
@@ -345,7 +347,49 @@ template <class T> double LiftingTransform<T>::copyBack(ComputeContext& cc, Bric
     return eventMilliseconds(ev);
 }
 
+template <class T> LiftingPath LiftingTransform<T>::pathFor(const BrickBatch<T>& batch) const noexcept {
+    if (path_ != LiftingPath::Auto) return path_;
+    const Dims b = batch.brick();
+    // One work-item per brick keeps the brick in one core's cache; on GPUs that is far too little
+    // parallelism, and past kBrickResidentMaxDim the private line buffers grow too large.
+    const bool fits = std::max({b.x, b.y, b.z}) <= kBrickResidentMaxDim;
+    return cpuDevice_ && fits ? LiftingPath::BrickResident : LiftingPath::Streaming;
+}
+
+template <class T>
+double LiftingTransform<T>::brickResident(ComputeContext& cc, BrickBatch<T>& batch, bool inverse, int levels,
+                                          int stopLevel) {
+    const Dims b = batch.brick();
+    // LIFT_MAXN sizes the kernel's private line buffers. Powers of two from 64 up, so a volume's interior
+    // and edge bricks (and every brick of the default size) share one program: a build takes seconds.
+    std::size_t maxN = 64;
+    while (maxN < std::max({b.x, b.y, b.z}))
+        maxN *= 2;
+    if (maxN > kBrickResidentMaxDim) throw UsageError("brick-resident lifting: brick larger than 256 voxels");
+    if (maxN != brickMaxN_) {
+        KernelDefines d;
+        d.set("WAVELET", static_cast<long long>(wavelet_));
+        d.set("LIFT_MAXN", static_cast<long long>(maxN));
+        if (std::is_same_v<T, float>) d.set("LIFT_FLOAT");
+        fwdBrick_ = cc.kernel("lifting_brick.cl", "lift_brick", d);
+        d.set("LIFT_INVERSE");
+        invBrick_ = cc.kernel("lifting_brick.cl", "lift_brick", d);
+        brickMaxN_ = maxN;
+    }
+    if (brickNext_.size() == 0) brickNext_ = cc.allocate<cl_int>(1);
+    cc.fill(brickNext_, cl_int(0));
+    cl::Kernel& k = inverse ? invBrick_ : fwdBrick_;
+    setArgs(k, batch.data(), brickNext_, cl_uint(batch.pitch()), cl_uint(b.x), cl_uint(b.y), cl_uint(b.z),
+            cl_uint(levels), cl_uint(std::max(stopLevel, 0)), cl_uint(batch.count()));
+    // A few work-items per core, each pulling bricks from the counter (see lift_brick).
+    const std::size_t items = std::min<std::size_t>(batch.count(), 4 * std::max(1u, cc.device().computeUnits));
+    cl::Event ev = cc.launch1d(k, items, 1);
+    return eventMilliseconds(ev);
+}
+
 template <class T> double LiftingTransform<T>::forward(ComputeContext& cc, BrickBatch<T>& batch, int levels) {
+    if (levels <= 0) return 0;
+    if (pathFor(batch) == LiftingPath::BrickResident) return brickResident(cc, batch, false, levels, 0);
     double ms = 0;
     for (int l = 0; l < levels; ++l) {
         const Dims a = levelDims(batch.brick(), l);
@@ -360,6 +404,9 @@ template <class T> double LiftingTransform<T>::forward(ComputeContext& cc, Brick
 
 template <class T>
 double LiftingTransform<T>::inverse(ComputeContext& cc, BrickBatch<T>& batch, int levels, int stopLevel) {
+    if (levels <= stopLevel) return 0;
+    if (pathFor(batch) == LiftingPath::BrickResident)
+        return brickResident(cc, batch, true, levels, stopLevel);
     double ms = 0;
     for (int l = levels - 1; l >= stopLevel; --l) {
         const Dims a = levelDims(batch.brick(), l);

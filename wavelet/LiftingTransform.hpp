@@ -92,6 +92,12 @@ private:
     bool current_ = false;
 };
 
+/// Which kernels run a transform. Streaming: one launch per pass over the whole batch (lifting.cl), any
+/// device and brick size. BrickResident: one work-item per brick runs every pass of every level in place
+/// (lifting_brick.cl), so the brick stays in a CPU core's cache. Auto picks BrickResident on CPU devices
+/// for bricks up to kBrickResidentMaxDim per axis, Streaming otherwise.
+enum class LiftingPath : std::uint8_t { Auto, Streaming, BrickResident };
+
 /// Runs the lifting passes of one wavelet on the device. Build once, reuse for many batches.
 /// Example:
 /// ```
@@ -106,6 +112,12 @@ public:
     /// Throws UsageError for an integer transform of a wavelet without an integer form.
     LiftingTransform(ComputeContext& cc, Wavelet w);
     Wavelet wavelet() const noexcept { return wavelet_; }
+    /// Forces a kernel path (tests compare both); the default Auto chooses per batch.
+    void setPath(LiftingPath p) noexcept { path_ = p; }
+    /// The path forward()/inverse() take for this batch.
+    LiftingPath pathFor(const BrickBatch<T>& batch) const noexcept;
+    /// Largest brick dimension the brick-resident kernel takes (its private line buffers are sized by it).
+    static constexpr std::size_t kBrickResidentMaxDim = 256;
     /// Forward transform with `levels` levels. Returns the summed kernel time in milliseconds.
     double forward(ComputeContext& cc, BrickBatch<T>& batch, int levels);
     /// Inverse from level levels-1 down to stopLevel. Returns the summed kernel time in milliseconds.
@@ -114,8 +126,14 @@ public:
 private:
     double pass(ComputeContext& cc, cl::Kernel& k, BrickBatch<T>& batch, Dims active, int axis);
     double copyBack(ComputeContext& cc, BrickBatch<T>& batch, Dims active);
+    double brickResident(ComputeContext& cc, BrickBatch<T>& batch, bool inverse, int levels, int stopLevel);
     Wavelet wavelet_;
+    LiftingPath path_ = LiftingPath::Auto;
+    bool cpuDevice_ = false;
     cl::Kernel fwdX_, fwdYz_, invX_, invYz_, copy_;
+    std::size_t brickMaxN_ = 0; // LIFT_MAXN the brick kernels below were built with (0: not built)
+    cl::Kernel fwdBrick_, invBrick_;
+    DeviceBuffer<cl_int> brickNext_; // the brick kernel's work counter
 };
 
 } // namespace volcl

@@ -1,0 +1,291 @@
+/* Brick-resident lifting: one work-item runs every pass of every requested level on one brick, in place.
+
+   Why: the streaming passes of lifting.cl move the whole batch (tens of MB) through memory three times per
+   level and ping-pong between two buffers. Here a brick (1 MiB at 64^3 int32 or float) is touched by one
+   core only, from its first pass to its last, so it stays in that core's L2; there is no second buffer and
+   no copy of the low corner between levels. Work-groups of one work-item (one per brick) spread over the
+   cores.
+
+   Lines are lifted 16 at a time, one per vector lane: a y or z "line" is a column of 16 consecutive x; for
+   x, 16 rows are transposed in registers so that their samples line up the same way. The 16 lines are
+   staged in private memory already split into even (S) and odd (D) samples, and the lifting steps run one
+   after the other on the staged halves as in the C++ reference (the same formulas in the same order, so
+   the integer forms are bit-exact): each step is plain vector arithmetic between neighbouring pairs, all
+   in L1, with no recomputation of intermediate steps (the streaming kernels recompute them to avoid
+   barriers). After each step the margins (pairs -2, -1 and the two after the last) are refreshed from the
+   extension rule, which is how the reference's mirror indexing sees the updated signal. Staging makes the
+   in-place update safe; lanes right of the active corner, which hold earlier levels' coefficients, and
+   rows past the corner are never stored.
+
+   Extra define: LIFT_MAXN, at least the largest brick dimension, a multiple of 16 (sizes the private
+   staging arrays; one program serves every brick shape up to it). */
+
+#include "lifting_common.h"
+
+/* Column staging: pairs -2 .. ms + 1, 16 lanes each. */
+#define COL_SLOTS (16 * (LIFT_MAXN / 2 + 4))
+
+/* 16-lane accesses at any element alignment through a 4-byte-aligned vector type: one 64-byte load or
+   store each, where PoCL's vstore16 stores four 16-byte pieces and a 64-byte load right after them (the
+   next lifting step reads what this one stored) stalls on store forwarding. */
+typedef V VU __attribute__((aligned(4)));
+#define LD(p) (*(const VU*)(p))
+#define ST(p, v) (*(VU*)(p) = (v))
+#define LDG(p) (*(global const VU*)(p))
+#define STG(p, v) (*(global VU*)(p) = (v))
+
+/* A staged half holds each pair as W consecutive 16-lane vectors (W lines side by side per lane group).
+   Margin refresh: pairs -2, -1, len, len + 1. Low half: the pair at low_pos (mirror, or clamp for Haar and
+   2/6). High half: the pair at high_pos under symmetric extension; zero for Haar and 2/6 (a lone last
+   sample has no detail). */
+#define ALWAYS_INLINE __attribute__((always_inline)) inline
+ALWAYS_INLINE void refresh_low(T* s, int ms, int n, const int W) {
+    for (int k = 0; k < 4; ++k) {
+        const int m = k < 2 ? k - 2 : ms + k - 2, src = low_pos(m, n);
+        for (int w = 0; w < W; ++w)
+            ST(s + 16 * (m * W + w), LD(s + 16 * (src * W + w)));
+    }
+}
+ALWAYS_INLINE void refresh_high(T* d, int md, int n, const int W) {
+    for (int k = 0; k < 4; ++k) {
+        const int m = k < 2 ? k - 2 : md + k - 2;
+        for (int w = 0; w < W; ++w)
+#if SYMMETRIC_EXTENSION
+            ST(d + 16 * (m * W + w), LD(d + 16 * (high_pos(m, n) * W + w)));
+#else
+            ST(d + 16 * (m * W + w), (V)(0));
+#endif
+    }
+}
+
+/* One lifting step over the pairs of a half: D[m] += F(a, b) with a = S[m], b = S[m + 1] (STEP_HIGH),
+   S[m] += F(a, b) with a = D[m - 1], b = D[m] (STEP_LOW), or D[m] += F(a, b) with a = S[m - 1], b = S[m + 1]
+   (STEP_HIGH_OUTER, the 2/6 prediction); then the updated half's margins are refreshed. Vector v of the
+   half belongs to pair v / W, so the neighbour pair is W vectors away. */
+#define STEP(dst, src, lo, hi, F, pairs)                                                                   \
+    for (int v = 0; v < (pairs) * W; ++v) {                                                                \
+        const V a = LD((src) + 16 * (v + (lo) * W)), b = LD((src) + 16 * (v + (hi) * W));                  \
+        ST((dst) + 16 * v, LD((dst) + 16 * v) + (F));                                                      \
+    }
+#define STEP_HIGH(F) STEP(D, S, 0, 1, F, md) refresh_high(D, md, n, W);
+#define STEP_LOW(F) STEP(S, D, -1, 0, F, ms) refresh_low(S, ms, n, W);
+#define STEP_HIGH_OUTER(F) STEP(D, S, -1, 1, F, md) refresh_high(D, md, n, W);
+#define SCALE(H, f, pairs)                                                                                 \
+    for (int v = 0; v < (pairs) * W; ++v)                                                                  \
+        ST((H) + 16 * v, LD((H) + 16 * v) * (f));
+
+/* The lifting steps of the wavelet on the staged halves of 16 W lines of n >= 2 samples: S[16 (m W + w) +
+   lane] is the even sample (low coefficient) of pair m, D the odd one (high), m in [-2, ms + 2). */
+ALWAYS_INLINE void lift_halves(T* S, T* D, int n, const int W) {
+    const int ms = (n + 1) >> 1, md = n >> 1;
+    refresh_low(S, ms, n, W);
+    refresh_high(D, md, n, W);
+#ifndef LIFT_INVERSE
+#if WAVELET == 0
+    STEP_HIGH(-HALF(a + b))
+    STEP_LOW(QUARTER_R(a + b))
+#elif WAVELET == 1
+    STEP_HIGH(L97_A * (a + b))
+    STEP_LOW(L97_B * (a + b))
+    STEP_HIGH(L97_G * (a + b))
+    STEP_LOW(L97_D * (a + b))
+    SCALE(S, 1.0f / L97_K, ms)
+    SCALE(D, 0.5f * L97_K, md)
+#else
+    STEP_HIGH(-a)
+    STEP_LOW(HALF(b))
+#if WAVELET == 3
+    STEP_HIGH_OUTER(QUARTER_R(a - b))
+#endif
+#endif
+#else /* inverse: the forward steps undone in reverse order */
+#if WAVELET == 0
+    STEP_LOW(-QUARTER_R(a + b))
+    STEP_HIGH(HALF(a + b))
+#elif WAVELET == 1
+    SCALE(S, L97_K, ms)
+    SCALE(D, 2.0f / L97_K, md)
+    refresh_low(S, ms, n, W);
+    refresh_high(D, md, n, W);
+    STEP_LOW(-L97_D * (a + b))
+    STEP_HIGH(-L97_G * (a + b))
+    STEP_LOW(-L97_B * (a + b))
+    STEP_HIGH(-L97_A * (a + b))
+#else
+#if WAVELET == 3
+    STEP_HIGH_OUTER(-QUARTER_R(a - b))
+#endif
+    STEP_LOW(-HALF(b))
+    STEP_HIGH(a)
+#endif
+#endif
+}
+
+/* Lanes [0, lim) of a column vector (the lanes right of the active corner keep their data). */
+inline void store_lanes(global T* p, V v, int lim) {
+    if (lim >= 16) {
+        STG(p, v);
+        return;
+    }
+    T t[16];
+    ST(t, v);
+    for (int i = 0; i < lim; ++i)
+        p[i] = t[i];
+}
+
+/* 16 x 16 transpose of m[0..15] (m[r] lane c -> m[c] lane r): four perfect-shuffle rounds of 16 shuffles. */
+ALWAYS_INLINE void transpose16(V* m) {
+#pragma unroll
+    for (int round = 0; round < 4; ++round) {
+        V t[16];
+#pragma unroll
+        for (int i = 0; i < 8; ++i) {
+            t[2 * i] = shuffle2(m[i], m[i + 8], (uint16)(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23));
+            t[2 * i + 1] =
+                shuffle2(m[i], m[i + 8], (uint16)(8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31));
+        }
+#pragma unroll
+        for (int i = 0; i < 16; ++i)
+            m[i] = t[i];
+    }
+}
+
+/* Up to 16 rows of n >= 2 samples (`rows` of them, `pitch` apart), in place. Why transposed: a row is short
+   (64 samples), so lifting it along its own vectors pays margins and cross-lane neighbours on every row;
+   with the 16 rows as the 16 lanes, an x line is lifted exactly like a y or z column (lift_halves, whole
+   aligned vectors only), and the transposes cost 4 shuffles per vector each way. Lanes past `rows` repeat
+   the last row and are never stored. */
+inline void lift_rows(global T* first, size_t pitch, int n, int rows) {
+    const int ms = (n + 1) >> 1, md = n >> 1;
+    T sbuf[COL_SLOTS], dbuf[COL_SLOTS];
+    T* S = sbuf + 32;
+    T* D = dbuf + 32;
+    for (int x0 = 0; x0 < n; x0 += 16) {
+        V m[16];
+#pragma unroll
+        for (int r = 0; r < 16; ++r)
+            m[r] = LDG(first + min(r, rows - 1) * pitch + x0);
+        transpose16(m);
+#pragma unroll
+        for (int c = 0; c < 16; ++c) {
+            const int x = x0 + c;
+            if (x >= n) break;
+#ifndef LIFT_INVERSE
+            ST(((x & 1) ? D : S) + 16 * (x >> 1), m[c]);
+#else
+            ST(x < ms ? S + 16 * x : D + 16 * (x - ms), m[c]);
+#endif
+        }
+    }
+    lift_halves(S, D, n, 1);
+    for (int x0 = 0; x0 < n; x0 += 16) {
+        V m[16];
+#pragma unroll
+        for (int c = 0; c < 16; ++c) {
+            const int x = min(x0 + c, n - 1);
+#ifndef LIFT_INVERSE
+            m[c] = x < ms ? LD(S + 16 * x) : LD(D + 16 * (x - ms));
+#else
+            m[c] = LD(((x & 1) ? D : S) + 16 * (x >> 1));
+#endif
+        }
+        transpose16(m);
+        for (int r = 0; r < rows; ++r)
+            store_lanes(first + r * pitch + x0, m[r], n - x0);
+    }
+}
+
+/* W columns of 16 consecutive x side by side (lanes [0, lim) of the 16 W active) with n >= 2 samples
+   `stride` apart, in place. W = 4 reads 256 contiguous bytes per sample: the z pass's samples are a plane
+   (16 KB) apart, and a 64-byte column paid a cache and TLB miss per sample. */
+ALWAYS_INLINE void lift_column(global T* col, size_t stride, int n, int lim, const int W) {
+    const int ms = (n + 1) >> 1, md = n >> 1;
+    T sbuf[4 * COL_SLOTS], dbuf[4 * COL_SLOTS];
+    T* S = sbuf + 32 * W;
+    T* D = dbuf + 32 * W;
+#ifndef LIFT_INVERSE
+#define SRC_S(m) (2 * (m))
+#define SRC_D(m) (2 * (m) + 1)
+#define DST_S(m) (m)
+#define DST_D(m) (ms + (m))
+#else
+#define SRC_S(m) (m)
+#define SRC_D(m) (ms + (m))
+#define DST_S(m) (2 * (m))
+#define DST_D(m) (2 * (m) + 1)
+#endif
+    for (int m = 0; m < ms; ++m)
+        for (int w = 0; w < W; ++w)
+            ST(S + 16 * (m * W + w), LDG(col + SRC_S(m) * stride + 16 * w));
+    for (int m = 0; m < md; ++m)
+        for (int w = 0; w < W; ++w)
+            ST(D + 16 * (m * W + w), LDG(col + SRC_D(m) * stride + 16 * w));
+    lift_halves(S, D, n, W);
+    for (int m = 0; m < ms; ++m)
+        for (int w = 0; w < W && 16 * w < lim; ++w)
+            store_lanes(col + DST_S(m) * stride + 16 * w, LD(S + 16 * (m * W + w)), lim - 16 * w);
+    for (int m = 0; m < md; ++m)
+        for (int w = 0; w < W && 16 * w < lim; ++w)
+            store_lanes(col + DST_D(m) * stride + 16 * w, LD(D + 16 * (m * W + w)), lim - 16 * w);
+#undef SRC_S
+#undef SRC_D
+#undef DST_S
+#undef DST_D
+}
+
+/* The y or z pass over the active columns of one plane-row: 64-wide groups where the row pitch allows
+   (never reading past it: the last row may end the buffer), then 16-wide ones. */
+inline void lift_columns(global T* first, size_t stride, int n, int nx, int px) {
+    int x = 0;
+    for (; nx - x > 16 && x + 64 <= px; x += 64)
+        lift_column(first + x, stride, n, nx - x, 4);
+    for (; x < nx; x += 16)
+        lift_column(first + x, stride, n, nx - x, 1);
+}
+
+/* The x, y and z passes of one level (z, y, x for the inverse) on the active corner (nx, ny, nz) of a
+   brick with row pitch px and by rows per plane; a length-1 axis is passed through. */
+inline void lift_level(global T* brick, int px, int by, int nx, int ny, int nz) {
+    const size_t plane = (size_t)px * by;
+    for (int step = 0; step < 3; ++step) {
+#ifdef LIFT_INVERSE
+        const int axis = 2 - step;
+#else
+        const int axis = step;
+#endif
+        if (axis == 0) {
+            if (nx > 1)
+                for (int z = 0; z < nz; ++z)
+                    for (int y = 0; y < ny; y += 16)
+                        lift_rows(brick + z * plane + (size_t)y * px, (size_t)px, nx, min(16, ny - y));
+        } else if (axis == 1) {
+            if (ny > 1)
+                for (int z = 0; z < nz; ++z)
+                    lift_columns(brick + z * plane, (size_t)px, ny, nx, px);
+        } else if (nz > 1) {
+            for (int y = 0; y < ny; ++y)
+                lift_columns(brick + (size_t)y * px, plane, nz, nx, px);
+        }
+    }
+}
+
+/* Each work-item takes bricks from the shared counter `next` (zero at launch) until none is left: bricks of
+   bx x by x bz, row pitch px, stacked along z; forward levels 0 .. levels-1, or inverse levels levels-1 ..
+   stop. Why a counter instead of one work-group per brick: PoCL hands a thread the first 1 + n/2 of n
+   work-groups in one chunk, so with a dozen bricks one core took most of them while the other idled;
+   pulling bricks one at a time balances the cores whatever the chunking. */
+kernel __attribute__((reqd_work_group_size(1, 1, 1))) void lift_brick(global T* data, volatile global int* next,
+                                                                       uint px, uint bx, uint by, uint bz,
+                                                                       uint levels, uint stop, uint count) {
+    for (;;) {
+        const int c = atomic_inc(next);
+        if (c >= (int)count) return;
+        global T* brick = data + (size_t)c * px * by * bz;
+#ifdef LIFT_INVERSE
+        for (int l = (int)levels - 1; l >= (int)stop; --l)
+#else
+        for (int l = 0; l < (int)levels; ++l)
+#endif
+            lift_level(brick, px, by, ((bx - 1) >> l) + 1, ((by - 1) >> l) + 1, ((bz - 1) >> l) + 1);
+    }
+}
