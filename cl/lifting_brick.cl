@@ -190,8 +190,16 @@ inline void lift_rows(global T* first, size_t pitch, int n, int rows) {
 #endif
         }
         transpose16(m);
-        for (int r = 0; r < rows; ++r)
-            store_lanes(first + r * pitch + x0, m[r], n - x0);
+        /* unrolled with constant indices so m[] stays in registers */
+        if (n - x0 >= 16) {
+#pragma unroll
+            for (int r = 0; r < 16; ++r)
+                if (r < rows) STG(first + r * pitch + x0, m[r]);
+        } else {
+#pragma unroll
+            for (int r = 0; r < 16; ++r)
+                if (r < rows) store_lanes(first + r * pitch + x0, m[r], n - x0);
+        }
     }
 }
 

@@ -4,6 +4,7 @@
 #include "host/Error.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <string>
 #include <type_traits>
 
@@ -308,6 +309,17 @@ LiftingTransform<T>::LiftingTransform(ComputeContext& cc, Wavelet w)
     invX_ = cc.kernel("lifting.cl", "lift_x", inv);
     invYz_ = cc.kernel("lifting.cl", "lift_yz", inv);
     copy_ = cc.kernel("lifting.cl", "copy_corner", fwd);
+    // VOLCL_LIFTING_PATH=streaming|brick forces a path for the whole process, so the codec's end-to-end
+    // timings can be compared between the two kernels (bench, --profile) without a second build.
+    if (const char* env = std::getenv("VOLCL_LIFTING_PATH")) {
+        const std::string_view p(env);
+        if (p == "streaming")
+            path_ = LiftingPath::Streaming;
+        else if (p == "brick")
+            path_ = LiftingPath::BrickResident;
+        else if (p != "auto")
+            throw UsageError("VOLCL_LIFTING_PATH must be auto, streaming or brick");
+    }
 }
 
 // One fixed local size: PoCL specialises a kernel per local size, so varying it costs a build each time.
@@ -382,7 +394,8 @@ double LiftingTransform<T>::brickResident(ComputeContext& cc, BrickBatch<T>& bat
     setArgs(k, batch.data(), brickNext_, cl_uint(batch.pitch()), cl_uint(b.x), cl_uint(b.y), cl_uint(b.z),
             cl_uint(levels), cl_uint(std::max(stopLevel, 0)), cl_uint(batch.count()));
     // A few work-items per core, each pulling bricks from the counter (see lift_brick).
-    const std::size_t items = std::min<std::size_t>(batch.count(), 4 * std::max(1u, cc.device().computeUnits));
+    const std::size_t items =
+        std::min<std::size_t>(batch.count(), 4 * std::max(1u, cc.device().computeUnits));
     cl::Event ev = cc.launch1d(k, items, 1);
     return eventMilliseconds(ev);
 }
