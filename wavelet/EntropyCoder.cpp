@@ -1,8 +1,8 @@
 // Entropy coders for wavelet coefficient sections: dense (context-modelled interleaved rANS) and fast
 // (libzstd over byte planes).
 //
-// Dense mode is a hand-written rANS coder (three interleaved 32-bit states sharing one stream of 16-bit
-// words) because the ratio comes from the coefficient model and no Debian library takes caller-defined
+// Dense mode is a hand-written rANS coder (one 32-bit state per subband of a section, up to 7, sharing one
+// stream of 16-bit words) because the ratio comes from the coefficient model and no Debian library takes caller-defined
 // contexts: zstd, xz and brotli model bytes, libzstd's FSE/huff0 are not public API, and htscodecs' rANS
 // (libhtscodecs-dev) has order-0/1 byte models only. The model mixes two kinds of decisions in one stream:
 // magnitude symbols from static per-section tables (chosen by a context of neighbour and parent
@@ -331,11 +331,10 @@ private:
 // mantissa bit, and its n-2 lower bits go raw. Magnitudes below 2^30 give symbols below 60.
 constexpr int kSymbols = 60;
 constexpr int kMaxBitLength = 30;
-// Activity contexts: half-octave classes of 4(N+U) + (NW+NE+UW+UE+UN) + 2 parent (magnitudes of the
-// neighbours in the previous row and slice and of the parent one level coarser). The previous coefficient
-// W is left out on purpose: without it a row's contexts do not depend on the row being decoded, so the
-// decoder's symbol chains for even and odd x run in parallel (measured: about 1 % larger files, several
-// times faster decoding).
+// Activity contexts: half-octave classes of 4(N+U) + (NW+NE+UW+UE+UN) + 2 parent + 4 W (magnitudes of the
+// neighbours in the previous row and slice, of the parent one level coarser, and the smallest magnitude of
+// the previous coefficient's symbol). W makes each row a serial chain in the decoder (worth about 1 % on
+// ch2better); the chains of the section's subbands are decoded interleaved so that they overlap.
 constexpr int kActivityContexts = 25;
 constexpr int kSignContexts = 27 * 8; // signs of W, N, U (negative, zero, positive) per orientation
 constexpr int kTableBitsPerEntry = 6;
@@ -631,7 +630,6 @@ struct EncodeSide {
         for (std::size_t i = 0; i < nj; ++i)
             maxNx = std::max(maxNx, jobs[i].nx);
         if (codeBuffer.size() < nj * maxNx) codeBuffer.resize(nj * maxNx);
-        std::uint32_t any = 0;
         for (std::size_t i = 0; i < nj; ++i) {
             RowJob& j = jobs[i];
             const std::int32_t* row = j.row;
@@ -646,7 +644,8 @@ struct EncodeSide {
             for (std::size_t x = 0; x < j.nx; ++x) {
                 const std::int32_t v = row[x];
                 const std::uint32_t u = magnitude(v);
-                any |= u;
+                // Before the counts are indexed with its symbol (a predictable branch).
+                if (u >> kMaxBitLength) throw Error("internal: wavelet coefficient magnitude out of range");
                 const auto sym = static_cast<unsigned>(symbolOf(u));
                 const auto ctx = static_cast<unsigned>(activityContext(activity[x] + kSymbolInfo.west[prevSym]));
                 prevSym = sym;
@@ -660,7 +659,6 @@ struct EncodeSide {
             }
             j.count = count;
         }
-        if (bitLength(any) > kMaxBitLength) throw Error("internal: wavelet coefficient magnitude out of range");
         std::size_t i = 0;
         RansEvent* ev = next;
         interleaveSymbols(jobs, nj, [&](RowJob& j, unsigned&, std::size_t x) {
@@ -765,8 +763,8 @@ struct DecodeSide {
 
 // Section layout (dense): u8 mode (0: one table, 1: one table per activity class, 2: every coefficient is
 // zero and nothing follows), the tables (bit packed: per table 6 bits nsym, then nsym 6-bit quantised log
-// weights; nsym 0 = unused table), varint size of the rANS stream, the rANS stream (varints of the three
-// final states minus 2^16, then 16-bit words), the raw mantissa bits.
+// weights; nsym 0 = unused table), varint size of the rANS stream, the rANS stream (varints of the final
+// states minus 2^16, one per subband of the section, then 16-bit words), the raw mantissa bits.
 constexpr std::uint8_t kOneTable = 0, kContextTables = 1, kAllZero = 2;
 void encodeDense(std::span<const std::int32_t> coeffs, Dims brick,
                  const std::vector<std::vector<SubbandBox>>& layout, std::size_t s,
