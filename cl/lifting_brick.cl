@@ -70,47 +70,102 @@ ALWAYS_INLINE void refresh_high(T* d, int md, int n, const int W) {
 #define STEP_HIGH(F) STEP(D, S, 0, 1, F, md) refresh_high(D, md, n, W);
 #define STEP_LOW(F) STEP(S, D, -1, 0, F, ms) refresh_low(S, ms, n, W);
 #define STEP_HIGH_OUTER(F) STEP(D, S, -1, 1, F, md) refresh_high(D, md, n, W);
-#define SCALE(H, f, pairs)                                                                                 \
-    for (int v = 0; v < (pairs) * W; ++v)                                                                  \
-        ST((H) + 16 * v, LD((H) + 16 * v) * (f));
+#if WAVELET <= 1
+/* A predict + update pair of lifting steps (5/3: the whole wavelet; 9/7: two such pairs) in one sweep per
+   lane group, in place on the staged halves: both steps of pair m are done before pair m + 1 (the
+   prediction d[m] is ready when the update of s[m] needs it; d[m - 1] is carried in a register), so each
+   staged vector is loaded and stored once per pair of steps instead of read three times per step, and the
+   symmetric extension is applied at the two ends instead of refreshing margins: d[-1] = d[0];
+   e[ms] = e[ms - 1] (even n); d[md] = d[md - 1] (odd n). Forward: d[m] = o[m] + PRED(e[m] + e[m + 1]),
+   s[m] = e[m] + UPD(d[m - 1] + d[m]), stored as OUT_S(s), OUT_D(d). Inverse: the inputs are read as
+   IN_S(s), IN_D(d), then e[m] = s[m] - UPD(d[m - 1] + d[m]), o[m] = d[m] - PRED(e[m] + e[m + 1]). The same
+   formulas in the same order per sample as the reference, so the integer 5/3 is bit-exact. P: elements
+   from one pair to the next. */
+#define DEFINE_SWEEP_FORWARD(name, PRED, UPD, OUT_S, OUT_D)                                                \
+    ALWAYS_INLINE void name(T* s, T* d, int n, int P) {                                                    \
+        const int ms = (n + 1) >> 1, md = n >> 1;                                                          \
+        V em = LD(s);                                                                                      \
+        V ep = ms > 1 ? LD(s + P) : em;                                                                    \
+        V dm = LD(d) + PRED(em + ep), dm1 = dm;                                                            \
+        for (int m = 0; m < ms; ++m) {                                                                     \
+            /* em = e[m], ep = e[m + 1], dm = d[m], dm1 = d[m - 1] */                                      \
+            ST(s + m * P, OUT_S(em + UPD(dm1 + dm)));                                                      \
+            if (m < md) ST(d + m * P, OUT_D(dm));                                                          \
+            dm1 = dm;                                                                                      \
+            em = ep;                                                                                       \
+            if (m + 1 < md) {                                                                              \
+                ep = m + 2 < ms ? LD(s + (m + 2) * P) : em;                                                \
+                dm = LD(d + (m + 1) * P) + PRED(em + ep);                                                  \
+            }                                                                                              \
+        }                                                                                                  \
+    }
+#define DEFINE_SWEEP_INVERSE(name, PRED, UPD, IN_S, IN_D)                                                  \
+    ALWAYS_INLINE void name(T* s, T* d, int n, int P) {                                                    \
+        const int ms = (n + 1) >> 1, md = n >> 1;                                                          \
+        V dm = IN_D(LD(d));                                                                                \
+        V em = IN_S(LD(s)) - UPD(dm + dm);                                                                 \
+        for (int m = 0; m < ms; ++m) {                                                                     \
+            /* em = e[m], dm = d[m]; dn = d[m + 1], en = e[m + 1] */                                       \
+            const V dn = m + 1 < md ? IN_D(LD(d + (m + 1) * P)) : dm;                                      \
+            const V en = m + 1 < ms ? IN_S(LD(s + (m + 1) * P)) - UPD(dm + dn) : em;                       \
+            ST(s + m * P, em);                                                                             \
+            if (m < md) ST(d + m * P, dm - PRED(em + en));                                                 \
+            em = en;                                                                                       \
+            dm = dn;                                                                                       \
+        }                                                                                                  \
+    }
+#define AS_IS(v) (v)
+#if WAVELET == 0
+#define PRED53(v) (-HALF(v))
+#define UPD53(v) QUARTER_R(v)
+#ifndef LIFT_INVERSE
+DEFINE_SWEEP_FORWARD(sweep53, PRED53, UPD53, AS_IS, AS_IS)
+#else
+DEFINE_SWEEP_INVERSE(sweep53, PRED53, UPD53, AS_IS, AS_IS)
+#endif
+#else
+#define PRED97A(v) (L97_A * (v))
+#define UPD97B(v) (L97_B * (v))
+#define PRED97G(v) (L97_G * (v))
+#define UPD97D(v) (L97_D * (v))
+#define SCALE_LOW(v) ((v) * (1.0f / L97_K))
+#define SCALE_HIGH(v) ((v) * (0.5f * L97_K))
+#define UNSCALE_LOW(v) ((v) * L97_K)
+#define UNSCALE_HIGH(v) ((v) * (2.0f / L97_K))
+#ifndef LIFT_INVERSE
+DEFINE_SWEEP_FORWARD(sweep97ab, PRED97A, UPD97B, AS_IS, AS_IS)
+DEFINE_SWEEP_FORWARD(sweep97gd, PRED97G, UPD97D, SCALE_LOW, SCALE_HIGH)
+#else
+DEFINE_SWEEP_INVERSE(sweep97gd, PRED97G, UPD97D, UNSCALE_LOW, UNSCALE_HIGH)
+DEFINE_SWEEP_INVERSE(sweep97ab, PRED97A, UPD97B, AS_IS, AS_IS)
+#endif
+#endif
+#endif
 
 /* The lifting steps of the wavelet on the staged halves of 16 W lines of n >= 2 samples: S[16 (m W + w) +
    lane] is the even sample (low coefficient) of pair m, D the odd one (high), m in [-2, ms + 2). */
 ALWAYS_INLINE void lift_halves(T* S, T* D, int n, const int W) {
+    for (int w = 0; w < W; ++w) {
+#if WAVELET == 0
+        sweep53(S + 16 * w, D + 16 * w, n, 16 * W);
+#elif WAVELET == 1 && !defined(LIFT_INVERSE)
+        sweep97ab(S + 16 * w, D + 16 * w, n, 16 * W);
+        sweep97gd(S + 16 * w, D + 16 * w, n, 16 * W);
+#elif WAVELET == 1
+        sweep97gd(S + 16 * w, D + 16 * w, n, 16 * W);
+        sweep97ab(S + 16 * w, D + 16 * w, n, 16 * W);
+#endif
+    }
+#if WAVELET >= 2 /* Haar and 2/6: step by step with margin refreshes (comparison filters, not tuned) */
     const int ms = (n + 1) >> 1, md = n >> 1;
     refresh_low(S, ms, n, W);
     refresh_high(D, md, n, W);
 #ifndef LIFT_INVERSE
-#if WAVELET == 0
-    STEP_HIGH(-HALF(a + b))
-    STEP_LOW(QUARTER_R(a + b))
-#elif WAVELET == 1
-    STEP_HIGH(L97_A * (a + b))
-    STEP_LOW(L97_B * (a + b))
-    STEP_HIGH(L97_G * (a + b))
-    STEP_LOW(L97_D * (a + b))
-    SCALE(S, 1.0f / L97_K, ms)
-    SCALE(D, 0.5f * L97_K, md)
-#else
     STEP_HIGH(-a)
     STEP_LOW(HALF(b))
 #if WAVELET == 3
     STEP_HIGH_OUTER(QUARTER_R(a - b))
 #endif
-#endif
-#else /* inverse: the forward steps undone in reverse order */
-#if WAVELET == 0
-    STEP_LOW(-QUARTER_R(a + b))
-    STEP_HIGH(HALF(a + b))
-#elif WAVELET == 1
-    SCALE(S, L97_K, ms)
-    SCALE(D, 2.0f / L97_K, md)
-    refresh_low(S, ms, n, W);
-    refresh_high(D, md, n, W);
-    STEP_LOW(-L97_D * (a + b))
-    STEP_HIGH(-L97_G * (a + b))
-    STEP_LOW(-L97_B * (a + b))
-    STEP_HIGH(-L97_A * (a + b))
 #else
 #if WAVELET == 3
     STEP_HIGH_OUTER(-QUARTER_R(a - b))
