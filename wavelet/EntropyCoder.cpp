@@ -577,25 +577,25 @@ struct SectionWalker {
 // see the same decision order: magnitude symbols interleaved across the rows (x outer, row inner) up to
 // the shortest row, then the rest of each row; then signs of the non-zero coefficients interleaved the
 // same way (their n-th non-zero coefficient each); then each row's raw mantissa bits in turn.
-template <class Step> void interleaveSymbols(RowJob* jobs, std::size_t nj, Step&& step) {
+template <class Step> void interleaveSymbols(const RowJob* jobs, std::size_t nj, Step&& step) {
     std::size_t minNx = jobs[0].nx;
     for (std::size_t i = 1; i < nj; ++i)
         minNx = std::min(minNx, jobs[i].nx);
-    unsigned prevSym[kMaxLanes] = {};
     for (std::size_t x = 0; x < minNx; ++x)
         for (std::size_t i = 0; i < nj; ++i)
-            step(jobs[i], prevSym[i], x);
+            step(i, x);
     for (std::size_t i = 0; i < nj; ++i)
         for (std::size_t x = minNx; x < jobs[i].nx; ++x)
-            step(jobs[i], prevSym[i], x);
+            step(i, x);
 }
-template <class Step> void interleaveSigns(RowJob* jobs, std::size_t nj, Step&& step) {
+/// step(i, n) for the n-th non-zero coefficient of row i.
+template <class Step> void interleaveSigns(const RowJob* jobs, std::size_t nj, Step&& step) {
     std::size_t maxCount = 0;
     for (std::size_t i = 0; i < nj; ++i)
         maxCount = std::max(maxCount, jobs[i].count);
     for (std::size_t n = 0; n < maxCount; ++n)
         for (std::size_t i = 0; i < nj; ++i)
-            if (n < jobs[i].count) step(jobs[i], jobs[i].nonZero[n]);
+            if (n < jobs[i].count) step(i, n);
 }
 
 // Encoder pass 1: adaptive decisions become events at once; magnitude symbols are recorded as pending
@@ -608,13 +608,17 @@ struct EncodeSide {
     std::array<std::array<std::uint32_t, kSymbols>, kActivityContexts> counts{};
     BitWriter raw;
     std::vector<std::uint16_t> codeBuffer; // per row of a group: context * 64 + symbol per x
+    std::vector<RansEvent> signBuffer;     // per row of a group: its sign events in order
 
-    void binary(unsigned lane, BitModel& m, unsigned bit) {
+    /// The event of an adaptive binary decision; updates the model.
+    static RansEvent binaryEvent(BitModel& m, unsigned bit, std::uint8_t lane) {
         const auto p0 = static_cast<std::uint16_t>(m.p0);
-        *next++ = bit ? RansEvent{p0, static_cast<std::uint16_t>(kBinaryScale - p0), kBinaryScaleBits,
-                                  static_cast<std::uint8_t>(lane)}
-                      : RansEvent{0, p0, kBinaryScaleBits, static_cast<std::uint8_t>(lane)};
         m.p0 = bit ? m.p0 - (m.p0 >> 5) : m.p0 + ((kBinaryScale - m.p0) >> 5);
+        return bit ? RansEvent{p0, static_cast<std::uint16_t>(kBinaryScale - p0), kBinaryScaleBits, lane}
+                   : RansEvent{0, p0, kBinaryScaleBits, lane};
+    }
+    void binary(unsigned lane, BitModel& m, unsigned bit) {
+        *next++ = binaryEvent(m, bit, static_cast<std::uint8_t>(lane));
     }
     bool rowFlag(unsigned lane, unsigned rctx, const std::int32_t* row, std::size_t nx) {
         bool zero = true;
@@ -659,16 +663,32 @@ struct EncodeSide {
             }
             j.count = count;
         }
-        std::size_t i = 0;
         RansEvent* ev = next;
-        interleaveSymbols(jobs, nj, [&](RowJob& j, unsigned&, std::size_t x) {
-            i = static_cast<std::size_t>(&j - jobs);
-            *ev++ = {codeBuffer[i * maxNx + x], 0, 0, static_cast<std::uint8_t>(j.lane)};
+        interleaveSymbols(jobs, nj, [&](std::size_t i, std::size_t x) {
+            *ev++ = {codeBuffer[i * maxNx + x], 0, 0, static_cast<std::uint8_t>(jobs[i].lane)};
         });
         next = ev;
-        interleaveSigns(jobs, nj, [&](RowJob& j, std::size_t x) {
-            binary(j.lane, model.signs[j.signBase[x] + j.sgn[x - 1]], j.row[x] < 0 ? 1u : 0u);
-        });
+        // Sign events per row, again in a loop of locals: rows of a group belong to different subbands and so
+        // use disjoint sign models, so coding them row by row gives the same probabilities as the decoder's
+        // interleaved order, into which they are then copied.
+        if (signBuffer.size() < nj * maxNx) signBuffer.resize(nj * maxNx);
+        for (std::size_t i = 0; i < nj; ++i) {
+            const RowJob& j = jobs[i];
+            const std::int32_t* row = j.row;
+            const std::uint16_t* signBase = j.signBase;
+            const std::uint8_t* sgn = j.sgn;
+            const std::uint32_t* nonZero = j.nonZero;
+            RansEvent* out = signBuffer.data() + i * maxNx;
+            const auto lane = static_cast<std::uint8_t>(j.lane);
+            for (std::size_t n = 0; n < j.count; ++n) {
+                const std::size_t x = nonZero[n];
+                BitModel& m = model.signs[signBase[x] + sgn[x - 1]];
+                out[n] = binaryEvent(m, row[x] < 0 ? 1u : 0u, lane);
+            }
+        }
+        ev = next;
+        interleaveSigns(jobs, nj, [&](std::size_t i, std::size_t n) { *ev++ = signBuffer[i * maxNx + n]; });
+        next = ev;
         for (std::size_t i = 0; i < nj; ++i)
             for (std::size_t n = 0; n < jobs[i].count; ++n) {
                 const std::size_t x = jobs[i].nonZero[n];
@@ -700,11 +720,8 @@ struct DecodeSide {
         for (std::size_t i = 0; i < nj; ++i)
             st[i] = rans.x[jobs[i].lane];
         const std::array<const DecoderTable*, kActivityContexts> tab = tables;
-        std::size_t minNx = jobs[0].nx;
-        for (std::size_t i = 1; i < nj; ++i)
-            minNx = std::min(minNx, jobs[i].nx);
         unsigned prevSym[kMaxLanes] = {};
-        auto step = [&](std::size_t i, std::size_t x) {
+        interleaveSymbols(jobs, nj, [&](std::size_t i, std::size_t x) {
             const RowJob& j = jobs[i];
             const DecoderTable& t =
                 *tab[static_cast<std::size_t>(activityContext(j.activity[x] + kSymbolInfo.west[prevSym[i]]))];
@@ -713,14 +730,7 @@ struct DecodeSide {
             st[i] = in.advance(s, kTableScaleBits, t.start[sym], t.freq[sym]);
             j.syms[x] = static_cast<std::uint8_t>(sym);
             prevSym[i] = sym;
-        };
-        for (std::size_t x = 0; x < minNx; ++x)
-            for (std::size_t i = 0; i < nj; ++i)
-                step(i, x);
-        for (std::size_t i = 0; i < nj; ++i)
-            for (std::size_t x = minNx; x < jobs[i].nx; ++x)
-                step(i, x);
-        std::size_t maxCount = 0;
+        });
         for (std::size_t i = 0; i < nj; ++i) {
             RowJob& j = jobs[i];
             std::size_t count = 0;
@@ -731,16 +741,13 @@ struct DecodeSide {
                 count += j.syms[x] != 0;
             }
             j.count = count;
-            maxCount = std::max(maxCount, count);
         }
-        for (std::size_t n = 0; n < maxCount; ++n)
-            for (std::size_t i = 0; i < nj; ++i) {
-                const RowJob& j = jobs[i];
-                if (n >= j.count) continue;
-                const std::size_t x = j.nonZero[n];
-                const unsigned negative = in.bit(st[i], model.signs[j.signBase[x] + j.sgn[x - 1]]);
-                j.sgn[x] = static_cast<std::uint8_t>(1 + negative);
-            }
+        interleaveSigns(jobs, nj, [&](std::size_t i, std::size_t n) {
+            const RowJob& j = jobs[i];
+            const std::size_t x = j.nonZero[n];
+            const unsigned negative = in.bit(st[i], model.signs[j.signBase[x] + j.sgn[x - 1]]);
+            j.sgn[x] = static_cast<std::uint8_t>(1 + negative);
+        });
         for (std::size_t i = 0; i < nj; ++i)
             rans.x[jobs[i].lane] = st[i];
         rans.in = in;
