@@ -299,16 +299,6 @@ LiftingTransform<T>::LiftingTransform(ComputeContext& cc, Wavelet w)
     : wavelet_(w), cpuDevice_(cc.device().isCpu) {
     constexpr bool isFloat = std::is_same_v<T, float>;
     if (!isFloat && !hasIntegerForm(w)) throw UsageError("wavelet cdf97 has no reversible integer form");
-    KernelDefines fwd;
-    fwd.set("WAVELET", static_cast<long long>(w));
-    if (isFloat) fwd.set("LIFT_FLOAT");
-    KernelDefines inv = fwd;
-    inv.set("LIFT_INVERSE");
-    fwdX_ = cc.kernel("lifting.cl", "lift_x", fwd);
-    fwdYz_ = cc.kernel("lifting.cl", "lift_yz", fwd);
-    invX_ = cc.kernel("lifting.cl", "lift_x", inv);
-    invYz_ = cc.kernel("lifting.cl", "lift_yz", inv);
-    copy_ = cc.kernel("lifting.cl", "copy_corner", fwd);
     // VOLCL_LIFTING_PATH=streaming|brick forces a path for the whole process, so the codec's end-to-end
     // timings can be compared between the two kernels (bench, --profile) without a second build.
     if (const char* env = std::getenv("VOLCL_LIFTING_PATH")) {
@@ -320,6 +310,40 @@ LiftingTransform<T>::LiftingTransform(ComputeContext& cc, Wavelet w)
         else if (p != "auto")
             throw UsageError("VOLCL_LIFTING_PATH must be auto, streaming or brick");
     }
+    // Build here the programs the device will most likely run (even a cached build costs tens of ms, which
+    // belong to setup, not to the transform): on CPUs the brick kernel for bricks up to 64, the default
+    // size; the other path is built on first use.
+    if (path_ == LiftingPath::Streaming || (!cpuDevice_ && path_ == LiftingPath::Auto))
+        buildStreaming(cc);
+    else
+        buildBrick(cc, 64);
+}
+
+template <class T> void LiftingTransform<T>::buildStreaming(ComputeContext& cc) {
+    if (streamingBuilt_) return;
+    KernelDefines fwd;
+    fwd.set("WAVELET", static_cast<long long>(wavelet_));
+    if (std::is_same_v<T, float>) fwd.set("LIFT_FLOAT");
+    KernelDefines inv = fwd;
+    inv.set("LIFT_INVERSE");
+    fwdX_ = cc.kernel("lifting.cl", "lift_x", fwd);
+    fwdYz_ = cc.kernel("lifting.cl", "lift_yz", fwd);
+    invX_ = cc.kernel("lifting.cl", "lift_x", inv);
+    invYz_ = cc.kernel("lifting.cl", "lift_yz", inv);
+    copy_ = cc.kernel("lifting.cl", "copy_corner", fwd);
+    streamingBuilt_ = true;
+}
+
+template <class T> void LiftingTransform<T>::buildBrick(ComputeContext& cc, std::size_t maxN) {
+    if (maxN == brickMaxN_) return;
+    KernelDefines d;
+    d.set("WAVELET", static_cast<long long>(wavelet_));
+    d.set("LIFT_MAXN", static_cast<long long>(maxN));
+    if (std::is_same_v<T, float>) d.set("LIFT_FLOAT");
+    fwdBrick_ = cc.kernel("lifting_brick.cl", "lift_brick", d);
+    d.set("LIFT_INVERSE");
+    invBrick_ = cc.kernel("lifting_brick.cl", "lift_brick", d);
+    brickMaxN_ = maxN;
 }
 
 // One fixed local size: PoCL specialises a kernel per local size, so varying it costs a build each time.
@@ -378,16 +402,7 @@ double LiftingTransform<T>::brickResident(ComputeContext& cc, BrickBatch<T>& bat
     while (maxN < std::max({b.x, b.y, b.z}))
         maxN *= 2;
     if (maxN > kBrickResidentMaxDim) throw UsageError("brick-resident lifting: brick larger than 256 voxels");
-    if (maxN != brickMaxN_) {
-        KernelDefines d;
-        d.set("WAVELET", static_cast<long long>(wavelet_));
-        d.set("LIFT_MAXN", static_cast<long long>(maxN));
-        if (std::is_same_v<T, float>) d.set("LIFT_FLOAT");
-        fwdBrick_ = cc.kernel("lifting_brick.cl", "lift_brick", d);
-        d.set("LIFT_INVERSE");
-        invBrick_ = cc.kernel("lifting_brick.cl", "lift_brick", d);
-        brickMaxN_ = maxN;
-    }
+    buildBrick(cc, maxN);
     if (brickNext_.size() == 0) brickNext_ = cc.allocate<cl_int>(1);
     cc.fill(brickNext_, cl_int(0));
     cl::Kernel& k = inverse ? invBrick_ : fwdBrick_;
@@ -403,6 +418,7 @@ double LiftingTransform<T>::brickResident(ComputeContext& cc, BrickBatch<T>& bat
 template <class T> double LiftingTransform<T>::forward(ComputeContext& cc, BrickBatch<T>& batch, int levels) {
     if (levels <= 0) return 0;
     if (pathFor(batch) == LiftingPath::BrickResident) return brickResident(cc, batch, false, levels, 0);
+    buildStreaming(cc);
     double ms = 0;
     for (int l = 0; l < levels; ++l) {
         const Dims a = levelDims(batch.brick(), l);
@@ -420,6 +436,7 @@ double LiftingTransform<T>::inverse(ComputeContext& cc, BrickBatch<T>& batch, in
     if (levels <= stopLevel) return 0;
     if (pathFor(batch) == LiftingPath::BrickResident)
         return brickResident(cc, batch, true, levels, stopLevel);
+    buildStreaming(cc);
     double ms = 0;
     for (int l = levels - 1; l >= stopLevel; --l) {
         const Dims a = levelDims(batch.brick(), l);

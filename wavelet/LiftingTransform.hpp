@@ -127,9 +127,12 @@ private:
     double pass(ComputeContext& cc, cl::Kernel& k, BrickBatch<T>& batch, Dims active, int axis);
     double copyBack(ComputeContext& cc, BrickBatch<T>& batch, Dims active);
     double brickResident(ComputeContext& cc, BrickBatch<T>& batch, bool inverse, int levels, int stopLevel);
+    void buildStreaming(ComputeContext& cc);               // the lifting.cl kernels, once
+    void buildBrick(ComputeContext& cc, std::size_t maxN); // the lifting_brick.cl kernels for LIFT_MAXN maxN
     Wavelet wavelet_;
     LiftingPath path_ = LiftingPath::Auto;
     bool cpuDevice_ = false;
+    bool streamingBuilt_ = false;
     cl::Kernel fwdX_, fwdYz_, invX_, invYz_, copy_;
     std::size_t brickMaxN_ = 0; // LIFT_MAXN the brick kernels below were built with (0: not built)
     cl::Kernel fwdBrick_, invBrick_;
