@@ -259,8 +259,9 @@ inline void lift_rows(global T* first, size_t pitch, int n, int rows) {
 }
 
 /* W columns of 16 consecutive x side by side (lanes [0, lim) of the 16 W active) with n >= 2 samples
-   `stride` apart, in place. W = 4 reads 256 contiguous bytes per sample: the z pass's samples are a plane
-   (16 KB) apart, and a 64-byte column paid a cache and TLB miss per sample. */
+   `stride` apart, in place. W = 4 reads 256 contiguous bytes per sample rather than 64, since the z pass's
+   samples are a plane (16 KB) apart; on the shared test machine it measured no slower than W = 1, and any
+   gain was within the noise. */
 ALWAYS_INLINE void lift_column(global T* col, size_t stride, int n, int lim, const int W) {
     const int ms = (n + 1) >> 1, md = n >> 1;
     T sbuf[4 * COL_SLOTS], dbuf[4 * COL_SLOTS];
