@@ -360,13 +360,21 @@ constexpr SymbolInfo kSymbolInfo = [] {
     }
     return t;
 }();
-// 0 for a = 0, 1 for a = 1, then two classes per octave (the bit below the leading one), capped: that is
-// the float exponent and top mantissa bit of a, read from its bits (exact below 2^24; from a = 4096 on the
-// class is capped anyway; checked against the bit-length form for every 32-bit a).
+// 0 for a = 0, 1 for a = 1, then two classes per octave (the bit below the leading one), capped at 24,
+// which every a >= 2^11.5 reaches: a 4 KB table indexed by min(a, 4095) (three instructions).
+constexpr std::array<std::uint8_t, 4096> kActivityClass = [] {
+    std::array<std::uint8_t, 4096> t{};
+    for (std::uint32_t a = 1; a < 4096; ++a) {
+        int n = 0;
+        while ((a >> n) > 1)
+            ++n; // a has bit length n + 1
+        const int half = n > 0 ? static_cast<int>((a >> (n - 1)) & 1u) : 0;
+        t[a] = static_cast<std::uint8_t>(std::min(2 * n + 1 + half, kActivityContexts - 1));
+    }
+    return t;
+}();
 inline int activityContext(std::uint32_t a) {
-    const float f = static_cast<float>(static_cast<std::int64_t>(a));
-    const int c = static_cast<int>(std::bit_cast<std::uint32_t>(f) >> 22) - 253;
-    return std::clamp(c, 0, kActivityContexts - 1);
+    return kActivityClass[std::min<std::uint32_t>(a, 4095)];
 }
 inline unsigned signClass(std::int32_t v) {
     return static_cast<unsigned>(v > 0) + 2 * static_cast<unsigned>(v < 0);
