@@ -1,24 +1,17 @@
 // Entropy coder tests: bit-exact round trips of coefficient sections in both modes (random, all-zero,
 // single coefficient, extreme magnitudes, tiny and odd subbands) and fuzzing of decodeSection with
-// truncated, bit-flipped and random sections (IoError or a clean result, never a crash); a disabled
-// entropy-only speed benchmark on real codec coefficients.
+// truncated, bit-flipped and random sections (IoError or a clean result, never a crash). The entropy-only
+// speed benchmark is bench/entropy_speed.cpp.
 #include "host/Error.hpp"
 #include "wavelet/EntropyCoder.hpp"
-#include "wavelet/VczFormat.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
-#include <cstdlib>
 #include <cstring>
-#include <ctime>
-#include <fstream>
-#include <iterator>
 #include <random>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -247,100 +240,5 @@ TEST(Entropy, EmptySectionMustBeEmpty) {
         encodeSection(out, d, layout, 1, mode, coded);
         EXPECT_TRUE(coded.empty());
         EXPECT_THROW(decodeSection(std::vector<std::uint8_t>{1}, out, d, layout, 1, mode, "t"), IoError);
-    }
-}
-
-namespace {
-
-// Coefficient bricks of a .vcz file, entropy decoded with the file's own mode.
-struct CodedVolume {
-    std::vector<Dims> dims;
-    std::vector<std::vector<std::int32_t>> coeffs;
-    int levels = 0;
-    std::size_t voxelBytes = 0;
-};
-
-CodedVolume readCoefficients(const std::string& path) {
-    std::ifstream f(path, std::ios::binary);
-    const std::vector<char> chars((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    std::vector<std::byte> file(chars.size());
-    std::memcpy(file.data(), chars.data(), chars.size());
-    const VczHeader h = readVczHeader(file, path);
-    CodedVolume v;
-    v.levels = h.levels;
-    v.voxelBytes = scalarSize(h.type);
-    for (std::size_t b = 0; b < h.brickCount(); ++b) {
-        // Payload: u8 section count, u8 flags, u32 size per section and for the corrections, then the data.
-        const auto p = vczBrickPayload(file, h, 0, b, path);
-        const Dims d = h.brickDims(b);
-        const auto layout = sectionLayout(d, h.levels);
-        std::vector<std::int32_t> c(d.count());
-        std::size_t pos = 2 + 4 * (layout.size() + 1);
-        for (std::size_t s = 0; s < layout.size(); ++s) {
-            std::uint32_t size;
-            std::memcpy(&size, p.data() + 2 + 4 * s, 4);
-            decodeSection(p.subspan(pos, size), c, d, layout, s, h.entropy, path.c_str());
-            pos += size;
-        }
-        v.dims.push_back(d);
-        v.coeffs.push_back(std::move(c));
-    }
-    return v;
-}
-
-double threadSeconds() {
-    timespec t;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
-}
-
-} // namespace
-
-// Entropy-only speed of the dense coder on real codec coefficients: one thread, CPU time, median of 5.
-// Timings never run in the normal suite. Make inputs with e.g. `volcl encode IN -o X.vcz --entropy fast`
-// (lossless, or --psnr 50) and run
-//   VOLCL_ENTROPY_BENCH=a.vcz,b.vcz test_entropy --gtest_also_run_disabled_tests --gtest_filter='*Speed*'
-TEST(Entropy, DISABLED_DenseSpeedOnCodecCoefficients) {
-    const char* list = std::getenv("VOLCL_ENTROPY_BENCH");
-    if (!list) GTEST_SKIP() << "set VOLCL_ENTROPY_BENCH to a comma-separated list of .vcz files";
-    std::stringstream names(list);
-    for (std::string path; std::getline(names, path, ',');) {
-        const CodedVolume v = readCoefficients(path);
-        std::size_t n = 0;
-        for (const auto& c : v.coeffs)
-            n += c.size();
-        std::vector<std::vector<std::vector<std::uint8_t>>> coded(v.coeffs.size());
-        std::vector<double> enc, dec;
-        std::vector<std::int32_t> out;
-        for (int rep = 0; rep < 5; ++rep) {
-            double t0 = threadSeconds();
-            for (std::size_t b = 0; b < v.coeffs.size(); ++b) {
-                const auto layout = sectionLayout(v.dims[b], v.levels);
-                coded[b].assign(layout.size(), {});
-                for (std::size_t s = 0; s < layout.size(); ++s)
-                    encodeSection(v.coeffs[b], v.dims[b], layout, s, EntropyMode::Dense, coded[b][s]);
-            }
-            enc.push_back(threadSeconds() - t0);
-            t0 = threadSeconds();
-            for (std::size_t b = 0; b < v.coeffs.size(); ++b) {
-                const auto layout = sectionLayout(v.dims[b], v.levels);
-                out.assign(v.coeffs[b].size(), 0);
-                for (std::size_t s = 0; s < layout.size(); ++s)
-                    decodeSection(coded[b][s], out, v.dims[b], layout, s, EntropyMode::Dense, "bench");
-                ASSERT_EQ(out, v.coeffs[b]) << path << " brick " << b;
-            }
-            dec.push_back(threadSeconds() - t0);
-        }
-        std::size_t bytes = 0; // sections plus the codec's per-brick payload header
-        for (const auto& brick : coded) {
-            bytes += 2 + 4 * (brick.size() + 1);
-            for (const auto& s : brick)
-                bytes += s.size();
-        }
-        std::sort(enc.begin(), enc.end());
-        std::sort(dec.begin(), dec.end());
-        std::printf("%s: %zu coefficients, %zu bytes (ratio %.4f), dense encode %.1f / decode %.1f Mcoef/s\n",
-                    path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes), double(n) / enc[2] / 1e6,
-                    double(n) / dec[2] / 1e6);
     }
 }
