@@ -193,12 +193,12 @@ cl::Kernel ComputeContext::kernel(std::string_view file, std::string_view name, 
     return k;
 }
 
-cl::Buffer ComputeContext::createBuffer(cl_mem_flags flags, std::size_t bytes) {
+cl::Buffer ComputeContext::createBuffer(cl_mem_flags flags, std::size_t bytes, void* host) {
     if (bytes > device_.maxAllocBytes)
         throw DataError("buffer of " + std::to_string(bytes) + " bytes exceeds the device's maximum allocation (" +
                         std::to_string(device_.maxAllocBytes) + " bytes)");
     cl_int err = CL_SUCCESS;
-    cl::Buffer b(context_, flags, bytes, nullptr, &err);
+    cl::Buffer b(context_, flags, bytes, host, &err);
     clCheck(err, "clCreateBuffer");
     return b;
 }
