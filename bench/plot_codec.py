@@ -54,11 +54,12 @@ def parse_log(path):
             rows.append(dict(dataset=ds, codec="zfp", mode=m.group(1), ratio=math.nan, bits_per_voxel=float(m.group(2)),
                              psnr_db=float(m.group(3)), max_abs_error=math.nan, encode_MBps=math.nan, decode_MBps=math.nan))
             continue
-        m = re.match(rf"  transform (.+): {f} Gvoxel/s, {f} GB/s = {f}% of the copy kernel \({f} GB/s\)", line)
+        m = re.match(rf"  transform (.+?), (\S+): {f} Gvoxel/s, {f} GB/s of pass traffic = {f}% of the copy kernel "
+                     rf"\({f} GB/s\)", line)
         if m:
-            transforms.append(dict(dataset=ds, transform=m.group(1), gvoxel_per_s=float(m.group(2)),
-                                   gb_per_s=float(m.group(3)), copy_gb_per_s=float(m.group(5)),
-                                   fraction_of_copy=float(m.group(4)) / 100))
+            transforms.append(dict(dataset=ds, transform=m.group(1) + " 3D", kernel=m.group(2),
+                                   gvoxel_per_s=float(m.group(3)), gb_per_s=float(m.group(4)),
+                                   copy_gb_per_s=float(m.group(6)), fraction_of_copy=float(m.group(5)) / 100))
     return dict(rows=rows, transforms=transforms)
 
 
@@ -149,11 +150,11 @@ def main():
                     print(f"| {ds} | {mode} | {codec[6:]} | {a['bits_per_voxel']:.3f} | {num(a['psnr_db']):.2f} | "
                           f"{a['max_abs_error']:.4g} | {a['encode_MBps']:.0f} | {a['decode_MBps']:.0f} |")
     print()
-    print("| data set | transform | Gvoxel/s | GB/s | copy GB/s | fraction of copy |")
-    print("|---|---|---|---|---|---|")
+    print("| data set | transform | kernel | Gvoxel/s | GB/s | copy GB/s | fraction of copy |")
+    print("|---|---|---|---|---|---|---|")
     for t in data.get("transforms", []):
-        print(f"| {t['dataset']} | {t['transform']} | {t['gvoxel_per_s']:.3f} | {t['gb_per_s']:.1f} | "
-              f"{t['copy_gb_per_s']:.1f} | {t['fraction_of_copy']:.2f} |")
+        print(f"| {t['dataset']} | {t['transform']} | {t.get('kernel', '-')} | {t['gvoxel_per_s']:.3f} | "
+              f"{t['gb_per_s']:.1f} | {t['copy_gb_per_s']:.1f} | {t['fraction_of_copy']:.2f} |")
 
 
 if __name__ == "__main__":
