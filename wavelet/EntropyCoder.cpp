@@ -138,16 +138,19 @@ private:
     std::size_t overrun_ = 0;
 };
 
+// A copy of `in` followed by `pad` zero bytes: the stream readers load whole words at clamped positions.
+std::vector<std::uint8_t> zeroPadded(std::span<const std::uint8_t> in, std::size_t pad) {
+    std::vector<std::uint8_t> b(in.size() + pad, 0);
+    std::copy(in.begin(), in.end(), b.begin());
+    return b;
+}
+
 // Branch-free reader for the raw mantissa bits (up to 28 per call): it reads from a copy of the stream
 // with 8 zero bytes of padding (made by padded()), so every read is one unaligned 8-byte load; positions
 // past the end are clamped to the padding and reported by exact(). Cheap to copy (no ownership).
 class RawReader {
 public:
-    static std::vector<std::uint8_t> padded(std::span<const std::uint8_t> in) {
-        std::vector<std::uint8_t> b(in.size() + 8, 0);
-        std::copy(in.begin(), in.end(), b.begin());
-        return b;
-    }
+    static std::vector<std::uint8_t> padded(std::span<const std::uint8_t> in) { return zeroPadded(in, 8); }
     /// `bytes` comes from padded(); `size` is the unpadded length.
     RawReader(const std::vector<std::uint8_t>& bytes, std::size_t size) : data_(bytes.data()), size_(size) {}
     std::uint32_t get(unsigned n) noexcept {
@@ -295,11 +298,7 @@ struct WordReader {
 // The decoder's states and stream.
 class RansDecoder {
 public:
-    static std::vector<std::uint8_t> padded(std::span<const std::uint8_t> in) {
-        std::vector<std::uint8_t> b(in.size() + 2, 0);
-        std::copy(in.begin(), in.end(), b.begin());
-        return b;
-    }
+    static std::vector<std::uint8_t> padded(std::span<const std::uint8_t> in) { return zeroPadded(in, 2); }
     /// `bytes` comes from padded(); `size` is the unpadded length.
     RansDecoder(const std::vector<std::uint8_t>& bytes, std::size_t size, int lanes) : in{bytes.data(), size} {
         const std::span<const std::uint8_t> span(in.data, in.size);
