@@ -5,13 +5,8 @@
 
 #include <algorithm>
 #include <cstdlib>
-#include <memory>
 #include <string>
 #include <type_traits>
-
-#ifdef __linux__
-#include <sys/mman.h>
-#endif
 
 namespace volcl {
 
@@ -270,32 +265,14 @@ template <class T> void BatchMapping<T>::unmap() noexcept {
     ptr_ = nullptr;
 }
 
-template <class T> void BrickBatch<T>::FreeDeleter::operator()(void* p) const noexcept {
-    std::free(p);
-}
-
-// Host-allocated buffers: mapping them is free on CPU devices, so bricks are written and read in place.
-// On CPU devices the input buffer wraps memory of our own, 2 MiB aligned and advised for transparent huge
-// pages: a batch is written once right after it is allocated, and with 4 KiB pages that first touch cost
-// one page fault per 4 KiB (BrainWeb: 7,000 faults per batch set, ch2better 34,000).
+// Host-allocated buffers: mapping them is free on CPU devices, so bricks are written and read in place
+// (ComputeContext gives large ones huge pages there).
 template <class T>
 BrickBatch<T>::BrickBatch(ComputeContext& cc, Dims brick, std::size_t count)
     : brick_(brick), count_(count), pitch_(roundUp(std::max<std::size_t>(brick.x, 1), 16)) {
     if (brick.count() == 0 || count == 0) throw UsageError("brick batch: empty brick or zero bricks");
-    const std::size_t elements = brickStride() * count_;
-    if (cc.device().isCpu) {
-        constexpr std::size_t kHuge = std::size_t(2) << 20;
-        const std::size_t bytes = roundUp(elements * sizeof(T), kHuge);
-        hostA_.reset(std::aligned_alloc(kHuge, bytes));
-        if (!hostA_) throw Error("out of memory for a brick batch of " + std::to_string(bytes) + " bytes");
-#ifdef MADV_HUGEPAGE
-        madvise(hostA_.get(), bytes, MADV_HUGEPAGE); // advice only: without it the pages are just smaller
-#endif
-        a_ = cc.wrapHost<T>(static_cast<T*>(hostA_.get()), elements, CL_MEM_READ_WRITE);
-    } else {
-        a_ = cc.allocate<T>(elements, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
-    }
-    b_ = cc.allocate<T>(elements, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
+    a_ = cc.allocate<T>(brickStride() * count_, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
+    b_ = cc.allocate<T>(brickStride() * count_, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
 }
 
 template <class T> BatchMapping<T> BrickBatch<T>::mapForWrite(ComputeContext& cc) {

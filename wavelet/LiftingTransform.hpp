@@ -5,7 +5,6 @@
 #include "host/runtime/ClRuntime.hpp"
 
 #include <cstdint>
-#include <memory>
 #include <span>
 #include <string_view>
 #include <vector>
@@ -87,12 +86,8 @@ public:
     void swap() noexcept { current_ = !current_; }
 
 private:
-    struct FreeDeleter {
-        void operator()(void* p) const noexcept;
-    };
     Dims brick_;
     std::size_t count_ = 0, pitch_ = 0;
-    std::unique_ptr<void, FreeDeleter> hostA_; ///< a_'s memory on CPU devices; declared first, freed last
     DeviceBuffer<T> a_, b_;
     bool current_ = false;
 };

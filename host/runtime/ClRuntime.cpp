@@ -10,9 +10,20 @@
 #include <cstdlib>
 #include <sstream>
 
+#ifdef __linux__
+#include <sys/mman.h>
+#endif
+
 namespace volcl {
 
 namespace {
+
+constexpr std::size_t kHugePage = std::size_t(2) << 20;
+
+// Destructor callback of buffers over memory from createBuffer's aligned_alloc.
+void CL_CALLBACK freeHostMemory(cl_mem, void* memory) {
+    std::free(memory);
+}
 
 std::string lower(std::string_view s) {
     std::string out(s);
@@ -193,12 +204,32 @@ cl::Kernel ComputeContext::kernel(std::string_view file, std::string_view name, 
     return k;
 }
 
-cl::Buffer ComputeContext::createBuffer(cl_mem_flags flags, std::size_t bytes, void* host) {
+cl::Buffer ComputeContext::createBuffer(cl_mem_flags flags, std::size_t bytes) {
     if (bytes > device_.maxAllocBytes)
         throw DataError("buffer of " + std::to_string(bytes) + " bytes exceeds the device's maximum allocation (" +
                         std::to_string(device_.maxAllocBytes) + " bytes)");
     cl_int err = CL_SUCCESS;
-    cl::Buffer b(context_, flags, bytes, host, &err);
+    if (device_.isCpu && (flags & CL_MEM_ALLOC_HOST_PTR) && bytes >= kHugePage) {
+        // Host-allocated buffers on CPU devices use memory of our own, 2 MiB aligned and advised for
+        // transparent huge pages: they are written right after allocation (codec batches), and with 4 KiB
+        // pages that first touch cost a page fault per 4 KiB. Freed when the runtime releases the buffer.
+        const std::size_t rounded = (bytes + kHugePage - 1) / kHugePage * kHugePage;
+        if (void* mem = std::aligned_alloc(kHugePage, rounded)) {
+#ifdef MADV_HUGEPAGE
+            madvise(mem, rounded, MADV_HUGEPAGE); // advice only: without it the pages are just smaller
+#endif
+            cl::Buffer b(context_, (flags & ~cl_mem_flags(CL_MEM_ALLOC_HOST_PTR)) | CL_MEM_USE_HOST_PTR, bytes, mem,
+                         &err);
+            if (err == CL_SUCCESS) err = clSetMemObjectDestructorCallback(b(), freeHostMemory, mem);
+            if (err != CL_SUCCESS) {
+                b = cl::Buffer(); // released before its memory goes
+                std::free(mem);
+                clCheck(err, "clCreateBuffer");
+            }
+            return b;
+        }
+    }
+    cl::Buffer b(context_, flags, bytes, nullptr, &err);
     clCheck(err, "clCreateBuffer");
     return b;
 }

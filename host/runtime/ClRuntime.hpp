@@ -115,11 +115,6 @@ public:
     template <class T> DeviceBuffer<T> allocate(std::size_t count, cl_mem_flags flags = CL_MEM_READ_WRITE) {
         return DeviceBuffer<T>(createBuffer(flags, std::max<std::size_t>(count, 1) * sizeof(T)), count);
     }
-    /// A buffer over caller-owned host memory (CL_MEM_USE_HOST_PTR is added); `host` must outlive it.
-    template <class T> DeviceBuffer<T> wrapHost(T* host, std::size_t count, cl_mem_flags flags = CL_MEM_READ_WRITE) {
-        return DeviceBuffer<T>(createBuffer(flags | CL_MEM_USE_HOST_PTR, std::max<std::size_t>(count, 1) * sizeof(T), host),
-                               count);
-    }
     template <class T> DeviceBuffer<T> upload(std::span<const T> host, cl_mem_flags flags = CL_MEM_READ_WRITE) {
         DeviceBuffer<T> b = allocate<T>(host.size(), flags);
         write(b, host);
@@ -160,7 +155,7 @@ public:
     void finish();
 
 private:
-    cl::Buffer createBuffer(cl_mem_flags flags, std::size_t bytes, void* host = nullptr);
+    cl::Buffer createBuffer(cl_mem_flags flags, std::size_t bytes);
 
     DeviceInfo device_;
     cl::Context context_;
