@@ -188,6 +188,7 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
         int level = 0;
         std::size_t frame = 0;
         unsigned threads = 2;
+        bool profile = false;
     };
     auto a = std::make_shared<Args>();
     cmd->add_option("input", a->in, "Input .vcz file")->required();
@@ -197,9 +198,12 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
     cmd->add_option("--level", a->level, "2^k-downsampled approximation without decoding finer detail");
     cmd->add_option("--frame", a->frame, "Frame of a time series (default 0)");
     cmd->add_option("--threads", a->threads, "Host threads for entropy decoding (default 2)");
+    cmd->add_flag("--profile", a->profile, "Print the time of each pipeline stage");
     cmd->callback([a, &global] {
         checkNotSameFile(a->in, a->out);
         DecodeOptions o;
+        CodecProfile prof;
+        if (a->profile) o.profile = &prof;
         if (!a->region.empty()) o.region = parseRegion(a->region);
         o.level = a->level;
         o.frame = a->frame;
@@ -211,6 +215,7 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
         if (!global.quiet)
             std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x"
                       << v.dims().z << " " << scalarTypeName(v.type()) << ")\n";
+        if (a->profile && !global.quiet) printProfile("decode", prof, 0);
     });
 }
 
@@ -452,6 +457,12 @@ struct BenchArgs {
     std::size_t brick = 64;
     bool noXz = false, large = false;
     std::vector<double> psnrs{30, 40, 50, 60, 70};
+    std::vector<std::string> modes; ///< only rows whose mode contains one of these (empty: all)
+    std::string coder;              ///< only this entropy coder's rows (empty: both)
+    bool wants(const std::string& mode) const {
+        return modes.empty() || std::any_of(modes.begin(), modes.end(),
+                                            [&](const std::string& m) { return mode.find(m) != std::string::npos; });
+    }
 };
 
 void benchCodec(const BenchArgs& a, GlobalOptions& global) {
@@ -470,6 +481,8 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
         std::cerr << "== " << ds.name << " " << v.dims().x << "x" << v.dims().y << "x" << v.dims().z << " "
                   << scalarTypeName(v.type()) << '\n';
         auto ours = [&](const std::string& mode, CodecOptions o) {
+            const char* coder = o.entropy == EntropyMode::Dense ? "dense" : "fast";
+            if (!a.wants(mode) || (!a.coder.empty() && a.coder != coder)) return;
             o.levels = a.levels;
             o.brick = {a.brick, a.brick, a.brick};
             EncodeReport rep;
@@ -494,8 +507,7 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
                 dec = {};
                 out = reader.decode(cc, dopt);
             });
-            BenchRow r{ds.name, std::string("volcl-") + (o.entropy == EntropyMode::Dense ? "dense" : "fast"),
-                       mode};
+            BenchRow r{ds.name, std::string("volcl-") + coder, mode};
             r.ratio = double(v.byteSize()) / double(bytes.size());
             r.bpv = double(bytes.size()) * 8 / n;
             r.psnr = psnr(v, out);
@@ -518,7 +530,8 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
             o.entropy = m;
             ours("lossless", o);
         }
-        if (integer) {
+        const bool lossless = a.wants("lossless");
+        if (integer && lossless) {
             ZfpResult z = runZfp(v, std::nullopt, a.runs);
             BenchRow r{ds.name, "zfp", "lossless"};
             r.ratio = double(v.byteSize()) / double(z.bytes);
@@ -532,6 +545,7 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
                       << " dec " << fmt(r.decodeMBs, 1) << '\n';
         }
         for (int level : {3, 19}) {
+            if (!lossless) break;
             double ms = 0, dms = 0;
             const std::size_t bytes = zstdSize(v, level, ms, dms, a.runs);
             BenchRow r{ds.name, "zstd-" + std::to_string(level), "lossless"};
@@ -542,7 +556,7 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
             r.decodeMBs = mb / (dms / 1e3);
             rows.push_back(r);
         }
-        if (!a.noXz) {
+        if (!a.noXz && lossless) {
             double ms = 0;
             const std::size_t bytes = xzSize(v, tmp, ms);
             if (bytes > 0) {
@@ -557,6 +571,7 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
         }
         // Rate-distortion at equal PSNR: ours (target PSNR) against zfp tuned to the same PSNR.
         for (double p : a.psnrs) {
+            if (!a.wants("psnr" + fmt(p, 0))) continue;
             CodecOptions lo;
             lo.rate = RateMode::Psnr;
             lo.target = p;
@@ -592,7 +607,7 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
         // Transform only: one level of 3D 5/3 on the codec's bricks, against the copy kernel on the same
         // bytes; the brick-resident kernel (what the codec runs on CPUs) and the streaming passes (the
         // general path) measured in the same run.
-        {
+        if (a.wants("transform")) {
             Dims bd{std::min<std::size_t>(a.brick, v.dims().x), std::min<std::size_t>(a.brick, v.dims().y),
                     std::min<std::size_t>(a.brick, v.dims().z)};
             const std::size_t count = std::max<std::size_t>(1, v.voxelCount() / bd.count());
@@ -686,6 +701,11 @@ void addCodecCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     b->add_flag("--large", a->large, "Include the 500x470x136 frog labels");
     b->add_option("--csv", a->csv, "CSV output file (default: stdout)");
     b->add_option("--json", a->json, "JSON output file");
+    b->add_option("--mode", a->modes,
+                  "Only rows whose mode contains this text: lossless, psnr50, bpv1, maxerr, transform "
+                  "(repeatable; default all)");
+    b->add_option("--coder", a->coder, "Only this entropy coder's rows: fast or dense (default both)")
+        ->check(CLI::IsMember({"fast", "dense"}));
     b->callback([a, &global] {
         if (a->runs < 1) throw UsageError("--runs must be at least 1");
         benchCodec(*a, global);
