@@ -174,6 +174,16 @@ TEST(CodecLossy, RefusesNanAndInf) {
     EXPECT_THROW(encodeVolume(test::computeContext(), v, lossy(RateMode::MaxError, 1)), DataError);
 }
 
+// Finite voxels near the float limit whose wavelet coefficients overflow to Inf: refused, not coded as garbage.
+TEST(CodecLossy, RefusesValuesBeyondTheFloatTransformsRange) {
+    Volume v({16, 12, 10}, ScalarType::Float32);
+    auto s = v.values<float>();
+    for (std::size_t i = 0; i < s.size(); ++i)
+        s[i] = (i % 2 ? 1.0f : -1.0f) * 3.0e38f;
+    EXPECT_THROW(encodeVolume(test::computeContext(), v, lossy(RateMode::Psnr, 40)), DataError);
+    EXPECT_NO_THROW(roundTrip(v, CodecOptions{})); // lossless keeps them bit for bit
+}
+
 TEST(CodecLossy, PsnrTargetIsMetWithinHalfADecibel) {
     const Volume v = makeVolume({48, 40, 36}, ScalarType::UInt16, 3, 20.0);
     for (double p : {40.0, 50.0, 60.0}) {

@@ -8,7 +8,9 @@
 #include <zstd.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -17,6 +19,7 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <numeric>
 #include <thread>
 
 namespace volcl {
@@ -238,9 +241,10 @@ template <class T> struct FillStep {
 };
 
 // Runs one transform over the listed bricks, batched by brick shape. The fill steps write each brick into
-// its batch slot, one after the other; run(batch) transforms a batch; emit(b, src, pitch) reads the result
-// from the mapped batch (timed as `emitStage`), so no dense copy is made. Every step is one parallel loop
-// over all bricks of all batches: per-shape loops left a thread idle on shapes with a single brick.
+// its batch slot; run(batch) transforms a batch; emit(b, src, pitch) reads the result from the mapped batch
+// (timed as `emitStage`), so no dense copy is made. Filling and emitting are each one parallel loop over all
+// bricks of all batches (per-shape loops left a thread idle on shapes with a single brick), and a brick's
+// fill steps run back to back, so later steps find the brick in cache.
 template <class T, class Run, class Emit>
 void transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<std::size_t>& which,
                      unsigned threads, CodecProfile* prof, const std::vector<FillStep<T>>& fills, Run run,
@@ -270,8 +274,30 @@ void transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<s
         for (std::size_t g = 0; g < groups.size(); ++g)
             maps[g] = batches[g]->mapForWrite(cc);
     });
-    for (const FillStep<T>& f : fills)
-        forEachSlot(f.stage, f.fn);
+    {
+        // Each fill stage gets the loop's wall time in proportion to its summed per-brick time.
+        std::vector<double> stepMs(fills.size() * slots.size(), 0.0);
+        Stopwatch wall;
+        parallelFor(slots.size(), threads, [&](std::size_t k) {
+            const Slot& s = slots[k];
+            T* dst = maps[s.group].data() + s.index * batches[s.group]->brickStride();
+            for (std::size_t f = 0; f < fills.size(); ++f) {
+                Stopwatch sw;
+                fills[f].fn(s.brick, dst, batches[s.group]->pitch());
+                if (prof) stepMs[f * slots.size() + k] = sw.milliseconds();
+            }
+        });
+        if (prof) {
+            const double ms = wall.milliseconds();
+            std::vector<double> perStep(fills.size(), 0.0);
+            for (std::size_t f = 0; f < fills.size(); ++f)
+                for (std::size_t k = 0; k < slots.size(); ++k)
+                    perStep[f] += stepMs[f * slots.size() + k];
+            const double sum = std::accumulate(perStep.begin(), perStep.end(), 0.0);
+            for (std::size_t f = 0; f < fills.size(); ++f)
+                prof->*(fills[f].stage) += sum > 0 ? ms * perStep[f] / sum : ms / double(fills.size());
+        }
+    }
     timeStage(prof, &CodecProfile::upload, [&] {
         for (auto& m : maps)
             m.unmap();
@@ -368,38 +394,52 @@ template <class Fn> void forEachSubbandRow(const VczHeader& h, Dims d, Fn fn) {
 // Dead-zone quantiser q = sign(c) floor(|c| / step), in float with the reciprocal step (truncation is floor
 // for |c| >= 0). Only the encoder quantises and it checks what the decoder will reconstruct from q, so a
 // rounding difference at a cell boundary cannot break a bound.
-std::vector<std::int32_t> quantise(const VczHeader& h, Dims d, const std::vector<float>& c) {
-    std::vector<std::int32_t> q(c.size());
-    forEachSubbandRow(h, d, [&](std::size_t z, std::size_t y, std::size_t x0, std::size_t len, double step) {
-        const std::size_t at = (z * d.y + y) * d.x + x0;
-        const float inv = static_cast<float>(1.0 / step), cap = static_cast<float>(kMaxQuantIndex);
-        const float* in = c.data() + at;
-        std::int32_t* out = q.data() + at;
-        for (std::size_t i = 0; i < len; ++i) {
-            const auto m = static_cast<std::int32_t>(std::min(std::abs(in[i]) * inv, cap));
-            out[i] = in[i] < 0 ? -m : m;
-        }
-    });
-    return q;
+void quantiseRow(const float* in, std::int32_t* out, std::size_t len, double step) {
+    const float inv = static_cast<float>(1.0 / step), cap = static_cast<float>(kMaxQuantIndex);
+    for (std::size_t i = 0; i < len; ++i) {
+        const auto m = static_cast<std::int32_t>(std::min(std::abs(in[i]) * inv, cap));
+        out[i] = in[i] < 0 ? -m : m;
+    }
 }
 
-// Reconstruction at (|q| + bias) * step with the sign of q, written to rows of `pitch` elements (the dense
-// brick layout when pitch == d.x, a batch slot otherwise). Encoder trials and the decoder share it.
-// `q` has rows of `qPitch` elements; it may be `dst` itself (in place, equal pitches): each element is read
-// before it is overwritten.
+// Reconstruction at (|q| + bias) * step with the sign of q. `in` may be `out` reinterpreted (in place): each
+// element is read before it is overwritten. Float arithmetic and selects instead of branches, so that the
+// loop runs 4 lanes wide on baseline x86-64 (double took two conversions per lane); |q| <= 2^29, so the
+// negation is safe.
+void dequantiseRow(const std::int32_t* in, float* out, std::size_t len, double step, double bias) {
+    const float s = static_cast<float>(step), bs = static_cast<float>(bias * step);
+    for (std::size_t i = 0; i < len; ++i) {
+        const std::int32_t v = in[i];
+        const float m = static_cast<float>(v < 0 ? -v : v) * s + bs;
+        const float r = v < 0 ? -m : m;
+        out[i] = v == 0 ? 0.0f : r;
+    }
+}
+
+// Quantisation indices of a dense brick of coefficients (brick dims, x fastest) into `q` (same layout).
+void quantiseInto(const VczHeader& h, Dims d, const float* c, std::int32_t* q) {
+    forEachSubbandRow(h, d, [&](std::size_t z, std::size_t y, std::size_t x0, std::size_t len, double step) {
+        const std::size_t at = (z * d.y + y) * d.x + x0;
+        quantiseRow(c + at, q + at, len, step);
+    });
+}
+
+// Dequantised indices `q` (rows of `qPitch`; may alias `dst` with equal pitches) into rows of `pitch`.
 void dequantiseInto(const VczHeader& h, Dims d, const std::int32_t* q, std::size_t qPitch, float* dst,
                     std::size_t pitch) {
-    const double bias = h.reconstructionBias;
     forEachSubbandRow(h, d, [&](std::size_t z, std::size_t y, std::size_t x0, std::size_t len, double step) {
-        const std::int32_t* in = q + (z * d.y + y) * qPitch + x0;
-        float* out = dst + (z * d.y + y) * pitch + x0;
-        // Selects instead of branches so that the loop vectorises; |q| <= 2^29, so the negation is safe.
-        for (std::size_t i = 0; i < len; ++i) {
-            const std::int32_t v = in[i];
-            const float m = static_cast<float>((double(v < 0 ? -v : v) + bias) * step);
-            const float r = v < 0 ? -m : m;
-            out[i] = v == 0 ? 0.0f : r;
-        }
+        dequantiseRow(q + (z * d.y + y) * qPitch + x0, dst + (z * d.y + y) * pitch + x0, len, step,
+                      h.reconstructionBias);
+    });
+}
+
+// What the decoder will reconstruct from a dense brick of coefficients quantised with the header's steps,
+// written to rows of `pitch`: quantised and dequantised row by row, with no index array.
+void requantiseInto(const VczHeader& h, Dims d, const float* c, float* dst, std::size_t pitch) {
+    std::array<std::int32_t, 1024> q; // a brick row is at most 1024 (Encoder::plan)
+    forEachSubbandRow(h, d, [&](std::size_t z, std::size_t y, std::size_t x0, std::size_t len, double step) {
+        quantiseRow(c + (z * d.y + y) * d.x + x0, q.data(), len, step);
+        dequantiseRow(q.data(), dst + (z * d.y + y) * pitch + x0, len, step, h.reconstructionBias);
     });
 }
 
@@ -704,7 +744,6 @@ private:
     // Quantises with the header's steps, reconstructs like the decoder and measures the error;
     // with `bound` it also lists the voxels to store exactly.
     struct Trial {
-        std::vector<std::vector<std::int32_t>> q;
         std::vector<std::vector<Correction>> corrections;
         ErrorStats err;
     };
@@ -714,13 +753,8 @@ private:
                 CodecProfile* prof, bool reconstruct = true) {
         Trial tr;
         const std::size_t n = coeffs.size();
-        tr.q.resize(n);
         tr.corrections.resize(n);
         ++prof->trials;
-        timeStage(prof, &CodecProfile::quantise, [&] {
-            parallelFor(n, o_.threads,
-                        [&](std::size_t b) { tr.q[b] = quantise(h, h.brickDims(b), coeffs[b]); });
-        });
         if (!reconstruct) {
             tr.err.sumSq = tr.err.maxErr = std::numeric_limits<double>::quiet_NaN();
             return tr;
@@ -731,7 +765,7 @@ private:
                 cc_, t, h, allBricks(h), 0, o_.threads, nullptr,
                 {{&CodecProfile::reconstruct,
                   [&](std::size_t b, float* dst, std::size_t pitch) {
-                      dequantiseInto(h, h.brickDims(b), tr.q[b].data(), h.brickDims(b).x, dst, pitch);
+                      requantiseInto(h, h.brickDims(b), coeffs[b].data(), dst, pitch);
                   }}},
                 &CodecProfile::reconstruct,
                 [&](std::size_t b, const float* rec, std::size_t pitch) {
@@ -766,12 +800,17 @@ private:
         return tr;
     }
 
-    std::size_t codedBytes(const VczHeader& h, const Trial& tr,
+    // Quantises each brick into a per-thread index array (reused, cache-resident) and codes it.
+    std::size_t codedBytes(const VczHeader& h, const std::vector<std::vector<float>>& coeffs, const Trial& tr,
                            std::vector<std::vector<std::uint8_t>>* payloads, CodecProfile* prof) {
-        std::vector<std::vector<std::uint8_t>> p(tr.q.size());
+        std::vector<std::vector<std::uint8_t>> p(coeffs.size());
         timeStage(prof, &CodecProfile::entropy, [&] {
             parallelFor(p.size(), o_.threads, [&](std::size_t b) {
-                p[b] = buildPayload(h, h.brickDims(b), tr.q[b], tr.corrections[b]);
+                thread_local std::vector<std::int32_t> q;
+                const Dims d = h.brickDims(b);
+                q.resize(d.count());
+                quantiseInto(h, d, coeffs[b].data(), q.data());
+                p[b] = buildPayload(h, d, q, tr.corrections[b]);
             });
         });
         std::size_t total = vczPreambleSize(h);
@@ -790,11 +829,19 @@ private:
         FrameResult r;
         CodecProfile* prof = &r.report.profile;
         std::vector<std::vector<float>> coeffs(h.brickCount());
+        const std::size_t nsub = 1 + 7 * std::size_t(h.levels);
+        std::vector<std::int32_t> brickMax(h.brickCount() * nsub, 0);
         forwardBricks<float>(cc_, t, v, h, o_.threads, prof, r.report.transformMs, &r.ranges,
                              &CodecProfile::gather, [&](std::size_t b, const float* c, std::size_t pitch) {
                                  coeffs[b] = denseBrick(h.brickDims(b), c, pitch);
+                                 subbandMaxAbs(h, h.brickDims(b), coeffs[b].data(), &brickMax[b * nsub]);
                              });
-        const std::vector<double> maxAbs = subbandMaxAbs(h, coeffs);
+        // Magnitude bit patterns order like the magnitudes, with Inf and NaN above every finite value.
+        if (!brickMax.empty() && std::ranges::max(brickMax) >= 0x7f800000)
+            throw DataError("voxel values too large for the float transform: use --lossless");
+        std::vector<double> maxAbs(nsub, 0.0);
+        for (std::size_t i = 0; i < brickMax.size(); ++i)
+            maxAbs[i % nsub] = std::max(maxAbs[i % nsub], double(std::bit_cast<float>(brickMax[i])));
         const double range = st.max - st.min;
         const double n = double(v.voxelCount());
         const double rangeSq = range * range;
@@ -825,7 +872,7 @@ private:
             for (double k : {0.9, 1.4, 2.0, 2.8}) {
                 setDelta(k * o_.target);
                 Trial tr = trial(v, h, t, coeffs, o_.target, prof);
-                const std::size_t bytes = codedBytes(h, tr, nullptr, prof);
+                const std::size_t bytes = codedBytes(h, coeffs, tr, nullptr, prof);
                 if (bytes < bestBytes) {
                     bestBytes = bytes;
                     best = std::move(tr);
@@ -867,7 +914,7 @@ private:
                     q = mse == 0 ? std::numeric_limits<double>::infinity() : 10 * std::log10(rangeSq / mse);
                     ok = range == 0 || q >= o_.target;
                 } else {
-                    q = double(codedBytes(h, tr, &payloads, prof)) * 8 / n;
+                    q = double(codedBytes(h, coeffs, tr, &payloads, prof)) * 8 / n;
                     ok = q <= o_.target;
                 }
                 if (ok && (!found || (psnrMode ? x > bestX : x < bestX))) {
@@ -925,11 +972,10 @@ private:
             h.steps = bestSteps;
             if (!psnrMode) {
                 if (o_.measureError) best = trial(v, h, t, coeffs, std::nullopt, prof);
-                best.q.clear();
                 r.payloads = std::move(bestPayloads);
             }
         }
-        if (!best.q.empty()) codedBytes(h, best, &r.payloads, prof);
+        if (r.payloads.empty()) codedBytes(h, coeffs, best, &r.payloads, prof);
         r.report.step = bestDelta;
         std::size_t corr = 0;
         for (const auto& c : best.corrections)
@@ -941,39 +987,25 @@ private:
         return r;
     }
 
-    // Largest coefficient magnitude per subband (index as in h.steps) over all bricks, in one pass on host
-    // threads; refuses non-finite coefficients (voxel values beyond the float transform's range).
-    std::vector<double> subbandMaxAbs(const VczHeader& h, const std::vector<std::vector<float>>& coeffs) const {
-        const std::size_t nsub = 1 + 7 * std::size_t(h.levels);
-        std::vector<std::vector<float>> perBrick(coeffs.size(), std::vector<float>(nsub, 0.0f));
-        std::atomic<bool> bad{false};
-        parallelFor(coeffs.size(), o_.threads, [&](std::size_t b) {
-            const Dims d = h.brickDims(b);
-            bool nonFinite = false;
-            for (const auto& sec : sectionLayout(d, h.levels))
-                for (const SubbandBox& sb : sec) {
-                    const std::size_t si =
-                        sb.level == 0 ? 0 : 1 + std::size_t(sb.level - 1) * 7 + std::size_t(sb.orient - 1);
-                    float m = 0;
-                    for (std::size_t z = sb.z0; z < sb.z1; ++z)
-                        for (std::size_t y = sb.y0; y < sb.y1; ++y) {
-                            const float* row = coeffs[b].data() + (z * d.y + y) * d.x;
-                            for (std::size_t x = sb.x0; x < sb.x1; ++x) {
-                                const float a = std::abs(row[x]);
-                                nonFinite |= !(a <= std::numeric_limits<float>::max());
-                                m = std::max(m, a);
-                            }
-                        }
-                    perBrick[b][si] = std::max(perBrick[b][si], m);
-                }
-            if (nonFinite) bad = true;
-        });
-        if (bad) throw DataError("voxel values too large for the float transform: use --lossless");
-        std::vector<double> maxAbs(nsub, 0.0);
-        for (const auto& p : perBrick)
-            for (std::size_t i = 0; i < nsub; ++i)
-                maxAbs[i] = std::max(maxAbs[i], double(p[i]));
-        return maxAbs;
+    // Bit pattern of the largest coefficient magnitude per subband of a dense brick (index as in h.steps),
+    // merged into `out`. Bit patterns of magnitudes order like the magnitudes (Inf and NaN above all finite
+    // ones), and an integer max reduction vectorises where a float one does not (NaN semantics).
+    static void subbandMaxAbs(const VczHeader& h, Dims d, const float* c, std::int32_t* out) {
+        for (const auto& sec : sectionLayout(d, h.levels))
+            for (const SubbandBox& sb : sec) {
+                const std::size_t si =
+                    sb.level == 0 ? 0 : 1 + std::size_t(sb.level - 1) * 7 + std::size_t(sb.orient - 1);
+                std::int32_t m = 0;
+                for (std::size_t z = sb.z0; z < sb.z1; ++z)
+                    for (std::size_t y = sb.y0; y < sb.y1; ++y) {
+                        const float* row = c + (z * d.y + y) * d.x;
+                        std::int32_t rm = 0;
+                        for (std::size_t x = sb.x0; x < sb.x1; ++x)
+                            rm = std::max(rm, std::bit_cast<std::int32_t>(row[x]) & 0x7fffffff);
+                        m = std::max(m, rm);
+                    }
+                out[si] = std::max(out[si], m);
+            }
     }
 
     ComputeContext& cc_;

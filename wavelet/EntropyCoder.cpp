@@ -944,30 +944,101 @@ void decodeDense(std::span<const std::uint8_t> in, std::span<std::int32_t> coeff
 
 // ------------------------------------------------------------------------------ fast mode
 
-void encodeFast(std::span<const std::int32_t> c, const std::vector<SubbandBox>& sec, Dims brick,
-                std::vector<std::uint8_t>& out) {
-    std::vector<std::uint32_t> folded;
+// Per-thread zstd contexts and byte-plane buffer, reused across sections: a fresh context per call (what
+// ZSTD_compress/ZSTD_decompress make) and a zero-filled buffer per section cost more than coding a
+// mostly-zero lossy section.
+struct FastScratch {
+    struct FreeC {
+        void operator()(ZSTD_CCtx* c) const noexcept { ZSTD_freeCCtx(c); }
+    };
+    struct FreeD {
+        void operator()(ZSTD_DCtx* d) const noexcept { ZSTD_freeDCtx(d); }
+    };
+    std::unique_ptr<ZSTD_CCtx, FreeC> cctx{ZSTD_createCCtx()};
+    std::unique_ptr<ZSTD_DCtx, FreeD> dctx{ZSTD_createDCtx()};
+    std::vector<std::uint8_t> planes;
+};
+FastScratch& fastScratch() {
+    thread_local FastScratch s;
+    if (!s.cctx || !s.dctx) throw Error("zstd: out of memory for a coding context");
+    return s;
+}
+
+// Calls fn(row, len) for each row of the section's subbands (x fastest, in coding order).
+template <class T, class Fn> void forEachSectionRow(T* c, const std::vector<SubbandBox>& sec, Dims brick, Fn fn) {
     for (const SubbandBox& b : sec)
         for (std::size_t z = b.z0; z < b.z1; ++z)
             for (std::size_t y = b.y0; y < b.y1; ++y)
-                for (std::size_t x = b.x0; x < b.x1; ++x) {
-                    const std::int32_t v = c[(z * brick.y + y) * brick.x + x];
-                    folded.push_back((static_cast<std::uint32_t>(v) << 1) ^
-                                     static_cast<std::uint32_t>(v >> 31));
-                }
-    if (folded.empty()) return;
-    const std::uint32_t maxV = *std::max_element(folded.begin(), folded.end());
-    const int planes = maxV < 0x100u ? 1 : maxV < 0x10000u ? 2 : maxV < 0x1000000u ? 3 : 4;
-    std::vector<std::uint8_t> raw(folded.size() * static_cast<std::size_t>(planes));
-    for (int p = 0; p < planes; ++p)
-        for (std::size_t i = 0; i < folded.size(); ++i)
-            raw[static_cast<std::size_t>(p) * folded.size() + i] =
-                static_cast<std::uint8_t>(folded[i] >> (8 * p));
+                fn(c + (z * brick.y + y) * brick.x + b.x0, b.x1 - b.x0);
+}
+
+std::uint32_t foldSign(std::int32_t v) {
+    return (static_cast<std::uint32_t>(v) << 1) ^ static_cast<std::uint32_t>(v >> 31);
+}
+
+// Byte planes of `planes` bytes per coefficient, plane p at p * count; rows written with one loop per plane.
+template <int Planes>
+void foldIntoPlanes(const std::int32_t* c, const std::vector<SubbandBox>& sec, Dims brick, std::uint8_t* raw,
+                    std::size_t count) {
+    std::size_t i = 0;
+    forEachSectionRow(c, sec, brick, [&](const std::int32_t* row, std::size_t len) {
+        for (int p = 0; p < Planes; ++p) {
+            std::uint8_t* dst = raw + std::size_t(p) * count + i;
+            for (std::size_t k = 0; k < len; ++k)
+                dst[k] = static_cast<std::uint8_t>(foldSign(row[k]) >> (8 * p));
+        }
+        i += len;
+    });
+}
+
+template <int Planes>
+void unfoldFromPlanes(const std::uint8_t* raw, std::size_t count, std::int32_t* c,
+                      const std::vector<SubbandBox>& sec, Dims brick) {
+    std::size_t i = 0;
+    forEachSectionRow(c, sec, brick, [&](std::int32_t* row, std::size_t len) {
+        const std::uint8_t* src = raw + i;
+        for (std::size_t k = 0; k < len; ++k) {
+            std::uint32_t f = 0;
+            for (int p = 0; p < Planes; ++p)
+                f |= static_cast<std::uint32_t>(src[std::size_t(p) * count + k]) << (8 * p);
+            row[k] = static_cast<std::int32_t>((f >> 1) ^ (0u - (f & 1u)));
+        }
+        i += len;
+    });
+}
+
+template <class Fn> void withPlanes(std::size_t planes, Fn fn) {
+    switch (planes) {
+    case 1: return fn(std::integral_constant<int, 1>{});
+    case 2: return fn(std::integral_constant<int, 2>{});
+    case 3: return fn(std::integral_constant<int, 3>{});
+    default: return fn(std::integral_constant<int, 4>{});
+    }
+}
+
+void encodeFast(std::span<const std::int32_t> c, const std::vector<SubbandBox>& sec, Dims brick,
+                std::vector<std::uint8_t>& out) {
+    std::size_t count = 0;
+    for (const SubbandBox& b : sec)
+        count += b.count();
+    if (count == 0) return;
+    // The OR of the folded values has the same highest bit as their maximum (and vectorises on SSE2).
+    std::uint32_t bits = 0;
+    forEachSectionRow(c.data(), sec, brick, [&](const std::int32_t* row, std::size_t len) {
+        std::uint32_t o = 0;
+        for (std::size_t k = 0; k < len; ++k)
+            o |= foldSign(row[k]);
+        bits |= o;
+    });
+    const std::size_t planes = bits < 0x100u ? 1 : bits < 0x10000u ? 2 : bits < 0x1000000u ? 3 : 4;
+    FastScratch& s = fastScratch();
+    s.planes.resize(count * planes);
+    withPlanes(planes, [&](auto p) { foldIntoPlanes<p()>(c.data(), sec, brick, s.planes.data(), count); });
     const std::size_t start = out.size();
-    out.resize(start + 1 + ZSTD_compressBound(raw.size()));
+    out.resize(start + 1 + ZSTD_compressBound(s.planes.size()));
     out[start] = static_cast<std::uint8_t>(planes);
-    const std::size_t n =
-        ZSTD_compress(out.data() + start + 1, out.size() - start - 1, raw.data(), raw.size(), 1);
+    const std::size_t n = ZSTD_compressCCtx(s.cctx.get(), out.data() + start + 1, out.size() - start - 1,
+                                            s.planes.data(), s.planes.size(), 1);
     if (ZSTD_isError(n)) throw Error(std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
     out.resize(start + 1 + n);
 }
@@ -984,21 +1055,13 @@ void decodeFast(std::span<const std::uint8_t> in, std::span<std::int32_t> c,
     if (in.size() < 2 || in[0] < 1 || in[0] > 4)
         throw IoError(std::string(what) + ": invalid fast-mode section");
     const std::size_t planes = in[0];
-    std::vector<std::uint8_t> raw(count * planes);
-    const std::size_t n = ZSTD_decompress(raw.data(), raw.size(), in.data() + 1, in.size() - 1);
-    if (ZSTD_isError(n) || n != raw.size())
+    FastScratch& s = fastScratch();
+    s.planes.resize(count * planes);
+    const std::size_t n =
+        ZSTD_decompressDCtx(s.dctx.get(), s.planes.data(), s.planes.size(), in.data() + 1, in.size() - 1);
+    if (ZSTD_isError(n) || n != s.planes.size())
         throw IoError(std::string(what) + ": zstd section does not decode to its size");
-    std::size_t i = 0;
-    for (const SubbandBox& b : sec)
-        for (std::size_t z = b.z0; z < b.z1; ++z)
-            for (std::size_t y = b.y0; y < b.y1; ++y)
-                for (std::size_t x = b.x0; x < b.x1; ++x, ++i) {
-                    std::uint32_t f = 0;
-                    for (std::size_t p = 0; p < planes; ++p)
-                        f |= static_cast<std::uint32_t>(raw[p * count + i]) << (8 * p);
-                    c[(z * brick.y + y) * brick.x + x] =
-                        static_cast<std::int32_t>((f >> 1) ^ (0u - (f & 1u)));
-                }
+    withPlanes(planes, [&](auto p) { unfoldFromPlanes<p()>(s.planes.data(), count, c.data(), sec, brick); });
 }
 
 } // namespace
