@@ -184,6 +184,34 @@ TEST(CodecLossy, RefusesValuesBeyondTheFloatTransformsRange) {
     EXPECT_NO_THROW(roundTrip(v, CodecOptions{})); // lossless keeps them bit for bit
 }
 
+// A fixed-step encode without error measurement codes straight from the transform (no coefficient copy);
+// it must write the same file as the measured path, also when huge magnitudes force larger steps (the
+// direct path detects that and falls back).
+TEST(CodecLossy, DirectFixedStepEncodeWritesTheSameFile) {
+    ComputeContext& cc = test::computeContext();
+    Volume huge({24, 20, 18}, ScalarType::Float32);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> ex(-30, 30);
+    for (auto& x : huge.values<float>())
+        x = static_cast<float>(std::pow(10.0, ex(rng)) * ((rng() & 1) ? 1 : -1));
+    const std::vector<std::pair<Volume, double>> cases{
+        {makeVolume({37, 29, 23}, ScalarType::UInt16, 3, 20.0), 8.0},
+        {makeVolume({20, 16, 12}, ScalarType::UInt8), 0.5},
+        {huge, 1e-6}}; // steps below maxAbs / 2^29: raised by the encoder
+    for (const auto& [v, step] : cases)
+        for (EntropyMode m : {EntropyMode::Fast, EntropyMode::Dense}) {
+            CodecOptions o = lossy(RateMode::Psnr, 40);
+            o.entropy = m;
+            o.step = step;
+            const auto measured = encodeVolume(cc, v, o);
+            o.measureError = false;
+            EncodeReport rep;
+            const auto direct = encodeVolume(cc, v, o, &rep);
+            EXPECT_EQ(direct, measured) << "step " << step << " entropy " << int(m);
+            EXPECT_EQ(rep.step, step);
+        }
+}
+
 TEST(CodecLossy, PsnrTargetIsMetWithinHalfADecibel) {
     const Volume v = makeVolume({48, 40, 36}, ScalarType::UInt16, 3, 20.0);
     for (double p : {40.0, 50.0, 60.0}) {

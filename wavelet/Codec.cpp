@@ -126,8 +126,9 @@ ValueRange valueRange(const Volume& v, unsigned threads) {
             } else {
                 S lo = span[b], hi = span[b];
                 for (std::size_t i = b; i < e; ++i) {
-                    lo = std::min(lo, span[i]);
-                    hi = std::max(hi, span[i]);
+                    const S x = span[i]; // value selects vectorise; std::min on references did not
+                    lo = x < lo ? x : lo;
+                    hi = x > hi ? x : hi;
                 }
                 parts[p] = {double(lo), double(hi), false};
             }
@@ -224,9 +225,10 @@ std::pair<double, double> gatherBrick(const Volume& v, const VczHeader& h, std::
                 const S* in = src.data() + v.index(o.x, o.y + y, o.z + z);
                 T* out = dst + (z * d.y + y) * pitch;
                 for (std::size_t x = 0; x < d.x; ++x) {
-                    out[x] = static_cast<T>(in[x]);
-                    lo = std::min(lo, in[x]);
-                    hi = std::max(hi, in[x]);
+                    const S s = in[x];
+                    out[x] = static_cast<T>(s);
+                    lo = s < lo ? s : lo; // value selects vectorise; std::min on references did not
+                    hi = s > hi ? s : hi;
                 }
             }
         return std::pair<double, double>(double(lo), double(hi));
@@ -416,11 +418,10 @@ void dequantiseRow(const std::int32_t* in, float* out, std::size_t len, double s
     }
 }
 
-// Quantisation indices of a dense brick of coefficients (brick dims, x fastest) into `q` (same layout).
-void quantiseInto(const VczHeader& h, Dims d, const float* c, std::int32_t* q) {
+// Quantisation indices of a brick of coefficients in rows of `pitch` into `q` (dense brick layout).
+void quantiseInto(const VczHeader& h, Dims d, const float* c, std::size_t pitch, std::int32_t* q) {
     forEachSubbandRow(h, d, [&](std::size_t z, std::size_t y, std::size_t x0, std::size_t len, double step) {
-        const std::size_t at = (z * d.y + y) * d.x + x0;
-        quantiseRow(c + at, q + at, len, step);
+        quantiseRow(c + (z * d.y + y) * pitch + x0, q + (z * d.y + y) * d.x + x0, len, step);
     });
 }
 
@@ -809,7 +810,7 @@ private:
                 thread_local std::vector<std::int32_t> q;
                 const Dims d = h.brickDims(b);
                 q.resize(d.count());
-                quantiseInto(h, d, coeffs[b].data(), q.data());
+                quantiseInto(h, d, coeffs[b].data(), d.x, q.data());
                 p[b] = buildPayload(h, d, q, tr.corrections[b]);
             });
         });
@@ -826,6 +827,11 @@ private:
             throw DataError(
                 "lossy encoding needs finite voxels (found NaN/Inf): use --lossless to keep them exactly");
         LiftingTransform<float> t(cc_, h.wavelet);
+        if (o_.step && chooseStep && (!(*o_.step > 0) || !std::isfinite(*o_.step)))
+            throw UsageError("the quantiser step must be a positive number");
+        if ((!chooseStep || o_.step) && h.rate != RateMode::MaxError && !o_.measureError)
+            if (std::optional<FrameResult> r = encodeDirect(v, h, t, chooseStep ? o_.step : std::nullopt))
+                return std::move(*r);
         FrameResult r;
         CodecProfile* prof = &r.report.profile;
         std::vector<std::vector<float>> coeffs(h.brickCount());
@@ -834,14 +840,9 @@ private:
         forwardBricks<float>(cc_, t, v, h, o_.threads, prof, r.report.transformMs, &r.ranges,
                              &CodecProfile::gather, [&](std::size_t b, const float* c, std::size_t pitch) {
                                  coeffs[b] = denseBrick(h.brickDims(b), c, pitch);
-                                 subbandMaxAbs(h, h.brickDims(b), coeffs[b].data(), &brickMax[b * nsub]);
+                                 subbandMaxAbs(h, h.brickDims(b), coeffs[b].data(), h.brickDims(b).x, &brickMax[b * nsub]);
                              });
-        // Magnitude bit patterns order like the magnitudes, with Inf and NaN above every finite value.
-        if (!brickMax.empty() && std::ranges::max(brickMax) >= 0x7f800000)
-            throw DataError("voxel values too large for the float transform: use --lossless");
-        std::vector<double> maxAbs(nsub, 0.0);
-        for (std::size_t i = 0; i < brickMax.size(); ++i)
-            maxAbs[i % nsub] = std::max(maxAbs[i % nsub], double(std::bit_cast<float>(brickMax[i])));
+        const std::vector<double> maxAbs = mergeMaxima(brickMax, nsub);
         const double range = st.max - st.min;
         const double n = double(v.voxelCount());
         const double rangeSq = range * range;
@@ -855,8 +856,6 @@ private:
         };
         Trial best;
         if (o_.step && chooseStep) {
-            if (!(*o_.step > 0) || !std::isfinite(*o_.step))
-                throw UsageError("the quantiser step must be a positive number");
             setDelta(*o_.step);
             chooseStep = false;
         }
@@ -987,10 +986,52 @@ private:
         return r;
     }
 
+    // A fixed step whose error is not wanted (a fixed-step encode without a bound, a series frame reusing the
+    // first frame's steps): each brick is quantised and coded straight from the mapped batch, with no
+    // coefficient copy and no index array. `delta` sets the steps (else the header's are kept). Returns
+    // nothing, having coded in vain, when a subband's magnitudes need a larger step than `delta` gives (data
+    // of huge dynamic range; encodeLossy's setDelta raises such steps).
+    std::optional<FrameResult> encodeDirect(const Volume& v, VczHeader& h, LiftingTransform<float>& t,
+                                            std::optional<double> delta) {
+        if (delta) h.steps = subbandSteps(h.wavelet, h.levels, *delta);
+        FrameResult r;
+        r.payloads.resize(h.brickCount());
+        const std::size_t nsub = 1 + 7 * std::size_t(h.levels);
+        std::vector<std::int32_t> brickMax(h.brickCount() * nsub, 0);
+        forwardBricks<float>(cc_, t, v, h, o_.threads, &r.report.profile, r.report.transformMs, &r.ranges,
+                             &CodecProfile::entropy, [&](std::size_t b, const float* c, std::size_t pitch) {
+                                 const Dims d = h.brickDims(b);
+                                 subbandMaxAbs(h, d, c, pitch, &brickMax[b * nsub]);
+                                 thread_local std::vector<std::int32_t> q;
+                                 q.resize(d.count());
+                                 quantiseInto(h, d, c, pitch, q.data());
+                                 r.payloads[b] = buildPayload(h, d, q, {});
+                             });
+        const std::vector<double> maxAbs = mergeMaxima(brickMax, nsub);
+        for (std::size_t i = 0; i < nsub; ++i)
+            if (h.steps[i] < maxAbs[i] / (kMaxQuantIndex - 2)) return std::nullopt;
+        ++r.report.profile.trials;
+        r.report.step = delta.value_or(0.0);
+        r.report.maxError = r.report.psnr = std::numeric_limits<double>::quiet_NaN();
+        return r;
+    }
+
+    // Per-subband maxima over all bricks from subbandMaxAbs's bit patterns (nsub per brick); refuses Inf and
+    // NaN coefficients (finite voxels beyond the float transform's range): their bit patterns sort above
+    // every finite magnitude's.
+    static std::vector<double> mergeMaxima(const std::vector<std::int32_t>& brickMax, std::size_t nsub) {
+        if (!brickMax.empty() && std::ranges::max(brickMax) >= 0x7f800000)
+            throw DataError("voxel values too large for the float transform: use --lossless");
+        std::vector<double> maxAbs(nsub, 0.0);
+        for (std::size_t i = 0; i < brickMax.size(); ++i)
+            maxAbs[i % nsub] = std::max(maxAbs[i % nsub], double(std::bit_cast<float>(brickMax[i])));
+        return maxAbs;
+    }
+
     // Bit pattern of the largest coefficient magnitude per subband of a dense brick (index as in h.steps),
     // merged into `out`. Bit patterns of magnitudes order like the magnitudes (Inf and NaN above all finite
     // ones), and an integer max reduction vectorises where a float one does not (NaN semantics).
-    static void subbandMaxAbs(const VczHeader& h, Dims d, const float* c, std::int32_t* out) {
+    static void subbandMaxAbs(const VczHeader& h, Dims d, const float* c, std::size_t pitch, std::int32_t* out) {
         for (const auto& sec : sectionLayout(d, h.levels))
             for (const SubbandBox& sb : sec) {
                 const std::size_t si =
@@ -998,10 +1039,12 @@ private:
                 std::int32_t m = 0;
                 for (std::size_t z = sb.z0; z < sb.z1; ++z)
                     for (std::size_t y = sb.y0; y < sb.y1; ++y) {
-                        const float* row = c + (z * d.y + y) * d.x;
+                        const float* row = c + (z * d.y + y) * pitch;
                         std::int32_t rm = 0;
-                        for (std::size_t x = sb.x0; x < sb.x1; ++x)
-                            rm = std::max(rm, std::bit_cast<std::int32_t>(row[x]) & 0x7fffffff);
+                        for (std::size_t x = sb.x0; x < sb.x1; ++x) {
+                            const std::int32_t a = std::bit_cast<std::int32_t>(row[x]) & 0x7fffffff;
+                            rm = a > rm ? a : rm;
+                        }
                         m = std::max(m, rm);
                     }
                 out[si] = std::max(out[si], m);
