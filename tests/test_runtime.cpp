@@ -128,6 +128,31 @@ TEST(Runtime, EventTimingIsPositiveAndBandwidthMeasurable) {
     EXPECT_TRUE(std::isfinite(gbs));
 }
 
+// Host-allocated buffers of 2 MiB and more come from a pool on CPU devices: memory handed back by a released
+// buffer is handed out again. Reused memory must carry what the new owner writes (no stale data visible to a
+// kernel), and buffers may outlive their context (the pool lives on with them).
+TEST(Runtime, PooledHostBuffersAreReusedAndOutliveTheirContext) {
+    ComputeContext& cc = test::computeContext();
+    for (std::size_t n : {std::size_t(600'000), std::size_t(524'288), std::size_t(600'000), std::size_t(3'000'001)})
+        for (int round = 0; round < 3; ++round) {
+            std::vector<float> host(n);
+            std::iota(host.begin(), host.end(), float(round) - 7.0f);
+            auto src = cc.allocate<float>(n, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
+            auto dst = cc.allocate<float>(n, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
+            cc.write(src, std::span<const float>(host));
+            cl::Kernel k = cc.kernel("copy.cl", "copy_float");
+            setArgs(k, src, dst, cl_uint(n));
+            cc.launch1d(k, n, 64);
+            ASSERT_EQ(cc.download(dst), host) << "n = " << n << ", round " << round;
+        }
+    DeviceBuffer<float> survivor;
+    {
+        ComputeContext local;
+        survivor = local.allocate<float>(1 << 20, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
+    }
+    EXPECT_EQ(survivor.size(), std::size_t(1) << 20);
+}
+
 TEST(Runtime, OversizedBufferIsRefused) {
     ComputeContext& cc = test::computeContext();
     EXPECT_THROW(cc.allocate<float>(cc.device().maxAllocBytes), DataError);

@@ -20,9 +20,73 @@ namespace {
 
 constexpr std::size_t kHugePage = std::size_t(2) << 20;
 
-// Destructor callback of buffers over memory from createBuffer's aligned_alloc.
-void CL_CALLBACK freeHostMemory(cl_mem, void* memory) {
-    std::free(memory);
+} // namespace
+
+// Host memory for buffers on CPU devices: 2 MiB aligned blocks advised for transparent huge pages, kept
+// after their buffer is released and handed out again for the same size. Codec batches are allocated per
+// call and written right away; fresh memory costs a page fault and a zeroed page on first touch (28 MB of
+// page clearing per BrainWeb decode). Idle blocks beyond kKeepBytes are freed.
+class HostMemoryPool {
+public:
+    static constexpr std::size_t kKeepBytes = std::size_t(512) << 20;
+    HostMemoryPool() = default;
+    HostMemoryPool(const HostMemoryPool&) = delete;
+    HostMemoryPool& operator=(const HostMemoryPool&) = delete;
+    ~HostMemoryPool() {
+        for (auto& [bytes, mem] : idle_)
+            std::free(mem);
+    }
+
+    /// A block of `bytes` (a multiple of kHugePage), or nullptr when out of memory.
+    void* take(std::size_t bytes) {
+        {
+            std::lock_guard lock(mutex_);
+            if (auto it = idle_.find(bytes); it != idle_.end()) {
+                void* mem = it->second;
+                idle_.erase(it);
+                idleBytes_ -= bytes;
+                return mem;
+            }
+        }
+        void* mem = std::aligned_alloc(kHugePage, bytes);
+#ifdef MADV_HUGEPAGE
+        if (mem) madvise(mem, bytes, MADV_HUGEPAGE); // advice only: without it the pages are just smaller
+#endif
+        return mem;
+    }
+
+    /// Returns a block from take(); runs in OpenCL callbacks, so it never throws.
+    void give(void* mem, std::size_t bytes) noexcept {
+        try {
+            std::lock_guard lock(mutex_);
+            if (idleBytes_ + bytes <= kKeepBytes) {
+                idle_.emplace(bytes, mem);
+                idleBytes_ += bytes;
+                return;
+            }
+        } catch (...) {
+        }
+        std::free(mem);
+    }
+
+private:
+    std::mutex mutex_;
+    std::multimap<std::size_t, void*> idle_;
+    std::size_t idleBytes_ = 0;
+};
+
+namespace {
+
+// What a buffer's destructor callback needs to hand its memory back.
+struct HostLease {
+    std::shared_ptr<HostMemoryPool> pool;
+    void* mem;
+    std::size_t bytes;
+};
+
+void CL_CALLBACK returnHostMemory(cl_mem, void* lease) {
+    std::unique_ptr<HostLease> l(static_cast<HostLease*>(lease));
+    l->pool->give(l->mem, l->bytes);
 }
 
 std::string lower(std::string_view s) {
@@ -123,7 +187,8 @@ std::string KernelDefines::toOptions() const {
 
 ComputeContext::ComputeContext(std::string_view selector) : ComputeContext(selector, {}) {}
 
-ComputeContext::ComputeContext(std::string_view selector, std::span<const cl_context_properties> extraProperties) {
+ComputeContext::ComputeContext(std::string_view selector, std::span<const cl_context_properties> extraProperties)
+    : hostMemory_(std::make_shared<HostMemoryPool>()) {
     std::string sel(selector);
     if (sel.empty())
         if (const char* env = std::getenv("VOLCL_DEVICE")) sel = env;
@@ -210,22 +275,20 @@ cl::Buffer ComputeContext::createBuffer(cl_mem_flags flags, std::size_t bytes) {
                         std::to_string(device_.maxAllocBytes) + " bytes)");
     cl_int err = CL_SUCCESS;
     if (device_.isCpu && (flags & CL_MEM_ALLOC_HOST_PTR) && bytes >= kHugePage) {
-        // Host-allocated buffers on CPU devices use memory of our own, 2 MiB aligned and advised for
-        // transparent huge pages: they are written right after allocation (codec batches), and with 4 KiB
-        // pages that first touch cost a page fault per 4 KiB. Freed when the runtime releases the buffer.
-        const std::size_t rounded = (bytes + kHugePage - 1) / kHugePage * kHugePage;
-        if (void* mem = std::aligned_alloc(kHugePage, rounded)) {
-#ifdef MADV_HUGEPAGE
-            madvise(mem, rounded, MADV_HUGEPAGE); // advice only: without it the pages are just smaller
-#endif
+        // Host-allocated buffers on CPU devices use pooled memory of our own (see HostMemoryPool), handed
+        // back when the runtime releases the buffer.
+        const std::size_t rounded = roundUp(bytes, kHugePage);
+        if (void* mem = hostMemory_->take(rounded)) {
+            auto lease = std::make_unique<HostLease>(HostLease{hostMemory_, mem, rounded});
             cl::Buffer b(context_, (flags & ~cl_mem_flags(CL_MEM_ALLOC_HOST_PTR)) | CL_MEM_USE_HOST_PTR, bytes, mem,
                          &err);
-            if (err == CL_SUCCESS) err = clSetMemObjectDestructorCallback(b(), freeHostMemory, mem);
+            if (err == CL_SUCCESS) err = clSetMemObjectDestructorCallback(b(), returnHostMemory, lease.get());
             if (err != CL_SUCCESS) {
                 b = cl::Buffer(); // released before its memory goes
-                std::free(mem);
+                hostMemory_->give(mem, rounded);
                 clCheck(err, "clCreateBuffer");
             }
+            lease.release(); // owned by the callback now
             return b;
         }
     }

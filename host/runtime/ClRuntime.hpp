@@ -88,6 +88,8 @@ private:
 /// cc.launch1d(k, hostData.size(), 64);
 /// std::vector<float> out = cc.download(b);
 /// ```
+class HostMemoryPool;
+
 class ComputeContext {
 public:
     /// `selector`: empty (use $VOLCL_DEVICE, else the first device), a device index ("1"), or a
@@ -162,6 +164,7 @@ private:
     cl::CommandQueue queue_;
     std::unique_ptr<KernelSourceLibrary> sources_;
     std::map<std::tuple<std::uint64_t, std::string>, cl::Program> programs_; // (source hash, options)
+    std::shared_ptr<HostMemoryPool> hostMemory_; // shared with buffers that outlive the context
 };
 
 /// Kernel time between CL_PROFILING_COMMAND_START and END, in milliseconds (waits for the event).
