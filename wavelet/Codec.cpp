@@ -404,33 +404,10 @@ void quantiseRow(const float* in, std::int32_t* out, std::size_t len, double ste
     }
 }
 
-// Reconstruction at (|q| + bias) * step with the sign of q. `in` may be `out` reinterpreted (in place): each
-// element is read before it is overwritten. Float arithmetic and selects instead of branches, so that the
-// loop runs 4 lanes wide on baseline x86-64 (double took two conversions per lane); |q| <= 2^29, so the
-// negation is safe.
-void dequantiseRow(const std::int32_t* in, float* out, std::size_t len, double step, double bias) {
-    const float s = static_cast<float>(step), bs = static_cast<float>(bias * step);
-    for (std::size_t i = 0; i < len; ++i) {
-        const std::int32_t v = in[i];
-        const float m = static_cast<float>(v < 0 ? -v : v) * s + bs;
-        const float r = v < 0 ? -m : m;
-        out[i] = v == 0 ? 0.0f : r;
-    }
-}
-
 // Quantisation indices of a brick of coefficients in rows of `pitch` into `q` (dense brick layout).
 void quantiseInto(const VczHeader& h, Dims d, const float* c, std::size_t pitch, std::int32_t* q) {
     forEachSubbandRow(h, d, [&](std::size_t z, std::size_t y, std::size_t x0, std::size_t len, double step) {
         quantiseRow(c + (z * d.y + y) * pitch + x0, q + (z * d.y + y) * d.x + x0, len, step);
-    });
-}
-
-// Dequantised indices `q` (rows of `qPitch`; may alias `dst` with equal pitches) into rows of `pitch`.
-void dequantiseInto(const VczHeader& h, Dims d, const std::int32_t* q, std::size_t qPitch, float* dst,
-                    std::size_t pitch) {
-    forEachSubbandRow(h, d, [&](std::size_t z, std::size_t y, std::size_t x0, std::size_t len, double step) {
-        dequantiseRow(q + (z * d.y + y) * qPitch + x0, dst + (z * d.y + y) * pitch + x0, len, step,
-                      h.reconstructionBias);
     });
 }
 
@@ -1223,7 +1200,9 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
     const int stop = h.transform == TransformKind::RawBits ? 0 : level;
     std::vector<std::vector<std::int32_t>> ints(n);
     std::vector<std::vector<Correction>> corrections(n);
-    // Entropy decodes brick b into rows of `pitch` elements (a batch slot, or a dense array).
+    const Dequantiser dq{h.steps, h.reconstructionBias};
+    // Entropy decodes brick b into rows of `pitch` elements (a batch slot, or a dense array); lossy bricks
+    // come out dequantised (float bit patterns).
     auto entropyDecode = [&](std::size_t b, std::int32_t* dst, std::size_t pitch) {
         const std::string what = name + ": brick " + std::to_string(b);
         const auto payload = vczBrickPayload(file, h, frame, b, name);
@@ -1233,8 +1212,8 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
         const std::span<std::int32_t> c(dst, storage.count());
         // Sections finer than the level are not decoded; the inverse never reads them, but keep them defined.
         if (stop > 0) std::fill(c.begin(), c.end(), 0);
-        for (std::size_t s = 0; s + stop < layout.size(); ++s)
-            decodeSection(p.sections[s], c, storage, layout, s, h.entropy, what.c_str());
+        decodeSections(std::span(p.sections).first(layout.size() - std::size_t(stop)), c, storage, layout,
+                       h.entropy, what.c_str(), h.transform == TransformKind::FloatLifting ? &dq : nullptr);
         if (!p.corrections.empty() && level == 0)
             corrections[b] = decodeCorrections(p.corrections, h.type, d.count(), what);
     };
@@ -1247,19 +1226,15 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
         inverseBricks(cc, t, h, which, level, threads, prof, {{&CodecProfile::entropy, entropyDecode}},
                       &CodecProfile::assemble, place);
     } else if (h.transform == TransformKind::FloatLifting) {
-        // Quantisation indices are decoded into the batch slot as int32 and dequantised there in place: no
-        // separate index array.
+        // Quantisation indices are decoded into the batch slot as int32 and dequantised there in place (the
+        // entropy stage includes it): no separate index array.
         LiftingTransform<float> t(cc, h.wavelet);
-        auto indices = [](float* slot) { return reinterpret_cast<std::int32_t*>(slot); };
-        inverseBricks(
-            cc, t, h, which, level, threads, prof,
-            {{&CodecProfile::entropy,
-              [&](std::size_t b, float* dst, std::size_t pitch) { entropyDecode(b, indices(dst), pitch); }},
-             {&CodecProfile::quantise,
-              [&](std::size_t b, float* dst, std::size_t pitch) {
-                  dequantiseInto(h, h.brickDims(b), indices(dst), pitch, dst, pitch);
-              }}},
-            &CodecProfile::assemble, place);
+        inverseBricks(cc, t, h, which, level, threads, prof,
+                      {{&CodecProfile::entropy,
+                        [&](std::size_t b, float* dst, std::size_t pitch) {
+                            entropyDecode(b, reinterpret_cast<std::int32_t*>(dst), pitch);
+                        }}},
+                      &CodecProfile::assemble, place);
     } else {
         timeStage(prof, &CodecProfile::entropy, [&] {
             parallelFor(which.size(), threads, [&](std::size_t k) {

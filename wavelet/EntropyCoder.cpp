@@ -964,12 +964,12 @@ FastScratch& fastScratch() {
     return s;
 }
 
-// Calls fn(row, len) for each row of the section's subbands (x fastest, in coding order).
+// Calls fn(row, len, box) for each row of the section's subbands (x fastest, in coding order).
 template <class T, class Fn> void forEachSectionRow(T* c, const std::vector<SubbandBox>& sec, Dims brick, Fn fn) {
     for (const SubbandBox& b : sec)
         for (std::size_t z = b.z0; z < b.z1; ++z)
             for (std::size_t y = b.y0; y < b.y1; ++y)
-                fn(c + (z * brick.y + y) * brick.x + b.x0, b.x1 - b.x0);
+                fn(c + (z * brick.y + y) * brick.x + b.x0, b.x1 - b.x0, b);
 }
 
 std::uint32_t foldSign(std::int32_t v) {
@@ -981,7 +981,7 @@ template <int Planes>
 void foldIntoPlanes(const std::int32_t* c, const std::vector<SubbandBox>& sec, Dims brick, std::uint8_t* raw,
                     std::size_t count) {
     std::size_t i = 0;
-    forEachSectionRow(c, sec, brick, [&](const std::int32_t* row, std::size_t len) {
+    forEachSectionRow(c, sec, brick, [&](const std::int32_t* row, std::size_t len, const SubbandBox&) {
         for (int p = 0; p < Planes; ++p) {
             std::uint8_t* dst = raw + std::size_t(p) * count + i;
             for (std::size_t k = 0; k < len; ++k)
@@ -991,11 +991,13 @@ void foldIntoPlanes(const std::int32_t* c, const std::vector<SubbandBox>& sec, D
     });
 }
 
+// Rows of sign-folded byte planes back to indices; with `dq`, each row is dequantised in place right away
+// (float bit patterns), while it is in L1.
 template <int Planes>
 void unfoldFromPlanes(const std::uint8_t* raw, std::size_t count, std::int32_t* c,
-                      const std::vector<SubbandBox>& sec, Dims brick) {
+                      const std::vector<SubbandBox>& sec, Dims brick, const Dequantiser* dq) {
     std::size_t i = 0;
-    forEachSectionRow(c, sec, brick, [&](std::int32_t* row, std::size_t len) {
+    forEachSectionRow(c, sec, brick, [&](std::int32_t* row, std::size_t len, const SubbandBox& b) {
         const std::uint8_t* src = raw + i;
         for (std::size_t k = 0; k < len; ++k) {
             std::uint32_t f = 0;
@@ -1003,6 +1005,7 @@ void unfoldFromPlanes(const std::uint8_t* raw, std::size_t count, std::int32_t* 
                 f |= static_cast<std::uint32_t>(src[std::size_t(p) * count + k]) << (8 * p);
             row[k] = static_cast<std::int32_t>((f >> 1) ^ (0u - (f & 1u)));
         }
+        if (dq) dequantiseRow(row, reinterpret_cast<float*>(row), len, dq->step(b), dq->bias);
         i += len;
     });
 }
@@ -1024,7 +1027,7 @@ void encodeFast(std::span<const std::int32_t> c, const std::vector<SubbandBox>& 
     if (count == 0) return;
     // The OR of the folded values has the same highest bit as their maximum (and vectorises on SSE2).
     std::uint32_t bits = 0;
-    forEachSectionRow(c.data(), sec, brick, [&](const std::int32_t* row, std::size_t len) {
+    forEachSectionRow(c.data(), sec, brick, [&](const std::int32_t* row, std::size_t len, const SubbandBox&) {
         std::uint32_t o = 0;
         for (std::size_t k = 0; k < len; ++k)
             o |= foldSign(row[k]);
@@ -1044,7 +1047,7 @@ void encodeFast(std::span<const std::int32_t> c, const std::vector<SubbandBox>& 
 }
 
 void decodeFast(std::span<const std::uint8_t> in, std::span<std::int32_t> c,
-                const std::vector<SubbandBox>& sec, Dims brick, const char* what) {
+                const std::vector<SubbandBox>& sec, Dims brick, const char* what, const Dequantiser* dq) {
     std::size_t count = 0;
     for (const SubbandBox& b : sec)
         count += b.count();
@@ -1061,7 +1064,7 @@ void decodeFast(std::span<const std::uint8_t> in, std::span<std::int32_t> c,
         ZSTD_decompressDCtx(s.dctx.get(), s.planes.data(), s.planes.size(), in.data() + 1, in.size() - 1);
     if (ZSTD_isError(n) || n != s.planes.size())
         throw IoError(std::string(what) + ": zstd section does not decode to its size");
-    withPlanes(planes, [&](auto p) { unfoldFromPlanes<p()>(s.planes.data(), count, c.data(), sec, brick); });
+    withPlanes(planes, [&](auto p) { unfoldFromPlanes<p()>(s.planes.data(), count, c.data(), sec, brick, dq); });
 }
 
 } // namespace
@@ -1093,8 +1096,33 @@ void decodeSection(std::span<const std::uint8_t> in, std::span<std::int32_t> coe
     if (mode == EntropyMode::Dense) {
         decodeDense(in, coeffs, brick, layout, s, what);
     } else {
-        decodeFast(in, coeffs, layout[s], brick, what);
+        decodeFast(in, coeffs, layout[s], brick, what, nullptr);
     }
+}
+
+void decodeSections(std::span<const std::span<const std::uint8_t>> sections, std::span<std::int32_t> coeffs,
+                    Dims brick, const std::vector<std::vector<SubbandBox>>& layout, EntropyMode mode,
+                    const char* what, const Dequantiser* dq) {
+    if (mode == EntropyMode::Fast) {
+        for (std::size_t s = 0; s < sections.size(); ++s) {
+            std::size_t count = 0;
+            for (const SubbandBox& b : layout[s])
+                count += b.count();
+            if (count == 0) {
+                if (!sections[s].empty()) corrupt(what, "unexpected data in an empty section");
+                continue;
+            }
+            decodeFast(sections[s], coeffs, layout[s], brick, what, dq);
+        }
+        return;
+    }
+    for (std::size_t s = 0; s < sections.size(); ++s)
+        decodeSection(sections[s], coeffs, brick, layout, s, mode, what);
+    if (dq)
+        for (std::size_t s = 0; s < sections.size(); ++s)
+            forEachSectionRow(coeffs.data(), layout[s], brick, [&](std::int32_t* row, std::size_t len, const SubbandBox& b) {
+                dequantiseRow(row, reinterpret_cast<float*>(row), len, dq->step(b), dq->bias);
+            });
 }
 
 } // namespace volcl
