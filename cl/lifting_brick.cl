@@ -258,6 +258,111 @@ inline void lift_rows(global T* first, size_t pitch, int n, int rows) {
     }
 }
 
+#if WAVELET <= 1
+/* The x pass on rows of 2 .. 64 samples without transposes: a row is four 16-lane vectors, split into its
+   even (E) and odd (O) halves of up to 32 samples by constant shuffles, and each lifting step is vector
+   arithmetic between a half and its neighbour-shifted copy (one constant shuffle per vector, plus a select
+   for the extension at the ends). Why: the transposes of lift_rows cost 8 shuffles per vector and, as
+   PoCL's LLVM compiled them, spills; this is about 2-3 shuffles per vector. Lanes past a half's length
+   hold garbage that never reaches a valid lane. Stores of partial vectors blend with what memory holds
+   (the lanes past the active row keep earlier levels' coefficients); they and the unaligned loads of the
+   inverse may touch up to 16 elements past the row, which BrickBatch's slack covers at the buffer end. */
+#define LANE ((int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
+/* Lanes [0, count) of v to p, count >= 1. */
+ALWAYS_INLINE void store_part(global T* p, V v, int count) {
+    STG(p, count >= 16 ? v : select(LDG(p), v, LANE < count));
+}
+/* x[m + 1] of a half (lo = x[0..16), hi = x[16..32)) of length len: x[m] itself at m = len - 1, which is
+   where the whole-sample symmetric extension sends e[ms] for even n (other lanes past len: don't care). */
+#define NEXT(lo, hi, len, nlo, nhi)                                                                        \
+    nlo = select(lo, shuffle2(lo, hi, (uint16)(1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16)),      \
+                 LANE + 1 < (len));                                                                       \
+    nhi = select(hi, shuffle(hi, (uint16)(1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 15)),          \
+                 LANE + 17 < (len));
+/* x[m - 1] (the extension gives d[-1] = d[0]) and x[m] clamped to len - 1 (d[md] = d[md - 1] for odd n). */
+#define PREV_CUR(lo, hi, len, plo, phi, clo, chi)                                                          \
+    plo = shuffle(lo, (uint16)(0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14));                      \
+    phi = shuffle2(lo, hi, (uint16)(15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30));      \
+    clo = select(plo, lo, LANE < (len));                                                                  \
+    chi = select(phi, hi, LANE + 16 < (len));
+/* O += PRED(E + E[m + 1]) and E += UPD(O[m - 1] + O[m]), forward (sign +) or undone (sign -), with the
+   same formulas per sample as the reference (bit-exact for the integer 5/3). */
+#define PREDICT(sign, PRED)                                                                                \
+    {                                                                                                      \
+        V n0, n1;                                                                                          \
+        NEXT(e0, e1, ms, n0, n1)                                                                           \
+        o0 = o0 sign PRED(e0 + n0);                                                                        \
+        o1 = o1 sign PRED(e1 + n1);                                                                        \
+    }
+#define UPDATE(sign, UPD)                                                                                  \
+    {                                                                                                      \
+        V p0, p1, c0, c1;                                                                                  \
+        PREV_CUR(o0, o1, md, p0, p1, c0, c1)                                                               \
+        e0 = e0 sign UPD(p0 + c0);                                                                         \
+        e1 = e1 sign UPD(p1 + c1);                                                                         \
+    }
+#define EVENS (uint16)(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30)
+#define ODDS (uint16)(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31)
+#define ZIP_LO (uint16)(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23)
+#define ZIP_HI (uint16)(8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31)
+
+/* One row of 2 <= n <= 64 samples, in place. */
+ALWAYS_INLINE void lift_row64(global T* row, int n) {
+    const int ms = (n + 1) >> 1, md = n >> 1;
+    V e0, e1, o0, o1;
+#ifndef LIFT_INVERSE
+    /* only the vectors the row reaches: the last row of the buffer ends at its pitch */
+    const V v0 = LDG(row);
+    const V v1 = n > 16 ? LDG(row + 16) : v0;
+    const V v2 = n > 32 ? LDG(row + 32) : v1;
+    const V v3 = n > 48 ? LDG(row + 48) : v2;
+    e0 = shuffle2(v0, v1, EVENS);
+    o0 = shuffle2(v0, v1, ODDS);
+    e1 = shuffle2(v2, v3, EVENS);
+    o1 = shuffle2(v2, v3, ODDS);
+#if WAVELET == 0
+    PREDICT(+, PRED53)
+    UPDATE(+, UPD53)
+#else
+    PREDICT(+, PRED97A)
+    UPDATE(+, UPD97B)
+    PREDICT(+, PRED97G)
+    UPDATE(+, UPD97D)
+    e0 = SCALE_LOW(e0);
+    e1 = SCALE_LOW(e1);
+    o0 = SCALE_HIGH(o0);
+    o1 = SCALE_HIGH(o1);
+#endif
+    store_part(row, e0, ms);
+    if (ms > 16) store_part(row + 16, e1, ms - 16);
+    store_part(row + ms, o0, md);
+    if (md > 16) store_part(row + ms + 16, o1, md - 16);
+#else
+    e0 = LDG(row);
+    e1 = ms > 16 ? LDG(row + 16) : e0;
+    o0 = LDG(row + ms);
+    o1 = md > 16 ? LDG(row + ms + 16) : o0;
+#if WAVELET == 0
+    UPDATE(-, UPD53)
+    PREDICT(-, PRED53)
+#else
+    e0 = UNSCALE_LOW(e0);
+    e1 = UNSCALE_LOW(e1);
+    o0 = UNSCALE_HIGH(o0);
+    o1 = UNSCALE_HIGH(o1);
+    UPDATE(-, UPD97D)
+    PREDICT(-, PRED97G)
+    UPDATE(-, UPD97B)
+    PREDICT(-, PRED97A)
+#endif
+    store_part(row, shuffle2(e0, o0, ZIP_LO), n);
+    if (n > 16) store_part(row + 16, shuffle2(e0, o0, ZIP_HI), n - 16);
+    if (n > 32) store_part(row + 32, shuffle2(e1, o1, ZIP_LO), n - 32);
+    if (n > 48) store_part(row + 48, shuffle2(e1, o1, ZIP_HI), n - 48);
+#endif
+}
+#endif
+
 /* W columns of 16 consecutive x side by side (lanes [0, lim) of the 16 W active) with n >= 2 samples
    `stride` apart, in place. W = 4 reads 256 contiguous bytes per sample rather than 64, since the z pass's
    samples are a plane (16 KB) apart; on the shared test machine it measured no slower than W = 1, and any
@@ -318,10 +423,18 @@ inline void lift_level(global T* brick, int px, int by, int nx, int ny, int nz) 
         const int axis = step;
 #endif
         if (axis == 0) {
-            if (nx > 1)
+            if (nx < 2) {
+#if WAVELET <= 1
+            } else if (nx <= 64) {
+                for (int z = 0; z < nz; ++z)
+                    for (int y = 0; y < ny; ++y)
+                        lift_row64(brick + z * plane + (size_t)y * px, nx);
+#endif
+            } else {
                 for (int z = 0; z < nz; ++z)
                     for (int y = 0; y < ny; y += 16)
                         lift_rows(brick + z * plane + (size_t)y * px, (size_t)px, nx, min(16, ny - y));
+            }
         } else if (axis == 1) {
             if (ny > 1)
                 for (int z = 0; z < nz; ++z)

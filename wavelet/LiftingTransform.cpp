@@ -271,17 +271,20 @@ template <class T>
 BrickBatch<T>::BrickBatch(ComputeContext& cc, Dims brick, std::size_t count)
     : brick_(brick), count_(count), pitch_(roundUp(std::max<std::size_t>(brick.x, 1), 16)) {
     if (brick.count() == 0 || count == 0) throw UsageError("brick batch: empty brick or zero bricks");
-    a_ = cc.allocate<T>(brickStride() * count_, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
-    b_ = cc.allocate<T>(brickStride() * count_, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
+    // kSlack elements past the last brick: the brick kernel's x pass reads and blends whole 16-lane vectors
+    // that may run up to 16 elements past the last row.
+    constexpr std::size_t kSlack = 32;
+    a_ = cc.allocate<T>(brickStride() * count_ + kSlack, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
+    b_ = cc.allocate<T>(brickStride() * count_ + kSlack, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
 }
 
 template <class T> BatchMapping<T> BrickBatch<T>::mapForWrite(ComputeContext& cc) {
     current_ = false;
-    return BatchMapping<T>(cc.queue(), a_.get(), a_.size(), CL_MAP_WRITE_INVALIDATE_REGION);
+    return BatchMapping<T>(cc.queue(), a_.get(), brickStride() * count_, CL_MAP_WRITE_INVALIDATE_REGION);
 }
 
 template <class T> BatchMapping<T> BrickBatch<T>::mapForRead(ComputeContext& cc) {
-    return BatchMapping<T>(cc.queue(), data().get(), data().size(), CL_MAP_READ);
+    return BatchMapping<T>(cc.queue(), data().get(), brickStride() * count_, CL_MAP_READ);
 }
 
 template <class T> void BrickBatch<T>::upload(ComputeContext& cc, std::span<const T> host) {
