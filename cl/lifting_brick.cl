@@ -72,57 +72,78 @@ ALWAYS_INLINE void refresh_high(T* d, int md, int n, const int W) {
 #define STEP_HIGH_OUTER(F) STEP(D, S, -1, 1, F, md) refresh_high(D, md, n, W);
 #if WAVELET <= 1
 /* A predict + update pair of lifting steps (5/3: the whole wavelet; 9/7: two such pairs) in one sweep per
-   lane group, in place on the staged halves: both steps of pair m are done before pair m + 1 (the
-   prediction d[m] is ready when the update of s[m] needs it; d[m - 1] is carried in a register), so each
-   staged vector is loaded and stored once per pair of steps instead of read three times per step, and the
-   symmetric extension is applied at the two ends instead of refreshing margins: d[-1] = d[0];
-   e[ms] = e[ms - 1] (even n); d[md] = d[md - 1] (odd n). Forward: d[m] = o[m] + PRED(e[m] + e[m + 1]),
-   s[m] = e[m] + UPD(d[m - 1] + d[m]), stored as OUT_S(s), OUT_D(d). Inverse: the inputs are read as
-   IN_S(s), IN_D(d), then e[m] = s[m] - UPD(d[m - 1] + d[m]), o[m] = d[m] - PRED(e[m] + e[m + 1]). The same
-   formulas in the same order per sample as the reference, so the integer 5/3 is bit-exact. P: elements
-   from one pair to the next. */
-#define DEFINE_SWEEP_FORWARD(name, PRED, UPD, OUT_S, OUT_D)                                                \
-    ALWAYS_INLINE void name(T* s, T* d, int n, int P) {                                                    \
+   lane group: both steps of pair m are done before pair m + 1 (the prediction d[m] is ready when the
+   update of s[m] needs it; d[m - 1] is carried in a register), so each vector is loaded and stored once
+   per pair of steps, and the symmetric extension is applied at the two ends instead of refreshing
+   margins: d[-1] = d[0]; e[ms] = e[ms - 1] (even n); d[md] = d[md - 1] (odd n). Forward: d[m] = o[m] +
+   PRED(e[m] + e[m + 1]), s[m] = e[m] + UPD(d[m - 1] + d[m]), stored as OUT_S(s), OUT_D(d). Inverse: the
+   inputs are read as IN_S(s), IN_D(d), then e[m] = s[m] - UPD(d[m - 1] + d[m]), o[m] = d[m] - PRED(e[m] +
+   e[m + 1]). The same formulas in the same order per sample as the reference, so the integer 5/3 is
+   bit-exact.
+   Inputs and outputs are separate (pointer, elements from one pair to the next) in the address spaces
+   IS, ID, OS, OD, so a sweep can read the brick and write the staging, or the other way round, or work in
+   place: a column pass moves each sample between the brick and L1 once instead of staging it first. In
+   place on the brick is safe where a sweep stores only positions it has read (forward: s[m] to m after
+   reading up to 2m + 2; inverse: e and o to 2m, 2m + 1 before d[m + 1] at ms + m + 1 is read, the s half
+   being staged). */
+#define LDQ(q, p) (*(q const VU*)(p))
+#define STQ(q, p, v) (*(q VU*)(p) = (v))
+#define DEFINE_SWEEP_FORWARD(name, PRED, UPD, OUT_S, OUT_D, IS, ID, OS, OD)                                \
+    ALWAYS_INLINE void name(IS T* s, size_t ps, ID T* d, size_t pd, OS T* os, size_t qs, OD T* od,         \
+                            size_t qd, int n) {                                                            \
         const int ms = (n + 1) >> 1, md = n >> 1;                                                          \
-        V em = LD(s);                                                                                      \
-        V ep = ms > 1 ? LD(s + P) : em;                                                                    \
-        V dm = LD(d) + PRED(em + ep), dm1 = dm;                                                            \
+        V em = LDQ(IS, s);                                                                                 \
+        V ep = ms > 1 ? LDQ(IS, s + ps) : em;                                                              \
+        V dm = LDQ(ID, d) + PRED(em + ep), dm1 = dm;                                                       \
         for (int m = 0; m < ms; ++m) {                                                                     \
             /* em = e[m], ep = e[m + 1], dm = d[m], dm1 = d[m - 1] */                                      \
-            ST(s + m * P, OUT_S(em + UPD(dm1 + dm)));                                                      \
-            if (m < md) ST(d + m * P, OUT_D(dm));                                                          \
+            STQ(OS, os + m * qs, OUT_S(em + UPD(dm1 + dm)));                                               \
+            if (m < md) STQ(OD, od + m * qd, OUT_D(dm));                                                   \
             dm1 = dm;                                                                                      \
             em = ep;                                                                                       \
             if (m + 1 < md) {                                                                              \
-                ep = m + 2 < ms ? LD(s + (m + 2) * P) : em;                                                \
-                dm = LD(d + (m + 1) * P) + PRED(em + ep);                                                  \
+                ep = m + 2 < ms ? LDQ(IS, s + (m + 2) * ps) : em;                                          \
+                dm = LDQ(ID, d + (m + 1) * pd) + PRED(em + ep);                                            \
             }                                                                                              \
         }                                                                                                  \
     }
-#define DEFINE_SWEEP_INVERSE(name, PRED, UPD, IN_S, IN_D)                                                  \
-    ALWAYS_INLINE void name(T* s, T* d, int n, int P) {                                                    \
+#define DEFINE_SWEEP_INVERSE(name, PRED, UPD, IN_S, IN_D, IS, ID, OS, OD)                                  \
+    ALWAYS_INLINE void name(IS T* s, size_t ps, ID T* d, size_t pd, OS T* os, size_t qs, OD T* od,         \
+                            size_t qd, int n) {                                                            \
         const int ms = (n + 1) >> 1, md = n >> 1;                                                          \
-        V dm = IN_D(LD(d));                                                                                \
-        V em = IN_S(LD(s)) - UPD(dm + dm);                                                                 \
+        V dm = IN_D(LDQ(ID, d));                                                                           \
+        V em = IN_S(LDQ(IS, s)) - UPD(dm + dm);                                                            \
         for (int m = 0; m < ms; ++m) {                                                                     \
             /* em = e[m], dm = d[m]; dn = d[m + 1], en = e[m + 1] */                                       \
-            const V dn = m + 1 < md ? IN_D(LD(d + (m + 1) * P)) : dm;                                      \
-            const V en = m + 1 < ms ? IN_S(LD(s + (m + 1) * P)) - UPD(dm + dn) : em;                       \
-            ST(s + m * P, em);                                                                             \
-            if (m < md) ST(d + m * P, dm - PRED(em + en));                                                 \
+            const V dn = m + 1 < md ? IN_D(LDQ(ID, d + (m + 1) * pd)) : dm;                                \
+            const V en = m + 1 < ms ? IN_S(LDQ(IS, s + (m + 1) * ps)) - UPD(dm + dn) : em;                 \
+            STQ(OS, os + m * qs, em);                                                                      \
+            if (m < md) STQ(OD, od + m * qd, dm - PRED(em + en));                                          \
             em = en;                                                                                       \
             dm = dn;                                                                                       \
         }                                                                                                  \
     }
+/* Each sweep in three forms: on the staging (suffix _p), brick to staging (_bp), staging to brick (_pb);
+   the 5/3 also brick to brick with the detail half staged (_bb forward: d to the staging; inverse: s from
+   it). */
+#ifndef LIFT_INVERSE
+#define DEFINE_SWEEPS(name, PRED, UPD, OUT_S, OUT_D)                                                       \
+    DEFINE_SWEEP_FORWARD(name##_p, PRED, UPD, OUT_S, OUT_D, private, private, private, private)            \
+    DEFINE_SWEEP_FORWARD(name##_bp, PRED, UPD, OUT_S, OUT_D, global, global, private, private)             \
+    DEFINE_SWEEP_FORWARD(name##_pb, PRED, UPD, OUT_S, OUT_D, private, private, global, global)             \
+    DEFINE_SWEEP_FORWARD(name##_bb, PRED, UPD, OUT_S, OUT_D, global, global, global, private)
+#else
+#define DEFINE_SWEEPS(name, PRED, UPD, OUT_S, OUT_D)                                                       \
+    DEFINE_SWEEP_INVERSE(name##_p, PRED, UPD, OUT_S, OUT_D, private, private, private, private)            \
+    DEFINE_SWEEP_INVERSE(name##_bp, PRED, UPD, OUT_S, OUT_D, global, global, private, private)             \
+    DEFINE_SWEEP_INVERSE(name##_pb, PRED, UPD, OUT_S, OUT_D, private, private, global, global)             \
+    DEFINE_SWEEP_INVERSE(name##_bb, PRED, UPD, OUT_S, OUT_D, private, global, global, global)
+#endif
 #define AS_IS(v) (v)
 #if WAVELET == 0
 #define PRED53(v) (-HALF(v))
 #define UPD53(v) QUARTER_R(v)
-#ifndef LIFT_INVERSE
-DEFINE_SWEEP_FORWARD(sweep53, PRED53, UPD53, AS_IS, AS_IS)
-#else
-DEFINE_SWEEP_INVERSE(sweep53, PRED53, UPD53, AS_IS, AS_IS)
-#endif
+DEFINE_SWEEPS(sweep53, PRED53, UPD53, AS_IS, AS_IS)
 #else
 #define PRED97A(v) (L97_A * (v))
 #define UPD97B(v) (L97_B * (v))
@@ -133,11 +154,11 @@ DEFINE_SWEEP_INVERSE(sweep53, PRED53, UPD53, AS_IS, AS_IS)
 #define UNSCALE_LOW(v) ((v) * L97_K)
 #define UNSCALE_HIGH(v) ((v) * (2.0f / L97_K))
 #ifndef LIFT_INVERSE
-DEFINE_SWEEP_FORWARD(sweep97ab, PRED97A, UPD97B, AS_IS, AS_IS)
-DEFINE_SWEEP_FORWARD(sweep97gd, PRED97G, UPD97D, SCALE_LOW, SCALE_HIGH)
+DEFINE_SWEEPS(sweep97ab, PRED97A, UPD97B, AS_IS, AS_IS)
+DEFINE_SWEEPS(sweep97gd, PRED97G, UPD97D, SCALE_LOW, SCALE_HIGH)
 #else
-DEFINE_SWEEP_INVERSE(sweep97gd, PRED97G, UPD97D, UNSCALE_LOW, UNSCALE_HIGH)
-DEFINE_SWEEP_INVERSE(sweep97ab, PRED97A, UPD97B, AS_IS, AS_IS)
+DEFINE_SWEEPS(sweep97gd, PRED97G, UPD97D, UNSCALE_LOW, UNSCALE_HIGH)
+DEFINE_SWEEPS(sweep97ab, PRED97A, UPD97B, AS_IS, AS_IS)
 #endif
 #endif
 #endif
@@ -147,13 +168,13 @@ DEFINE_SWEEP_INVERSE(sweep97ab, PRED97A, UPD97B, AS_IS, AS_IS)
 ALWAYS_INLINE void lift_halves(T* S, T* D, int n, const int W) {
     for (int w = 0; w < W; ++w) {
 #if WAVELET == 0
-        sweep53(S + 16 * w, D + 16 * w, n, 16 * W);
+        sweep53_p(S + 16 * w, 16 * W, D + 16 * w, 16 * W, S + 16 * w, 16 * W, D + 16 * w, 16 * W, n);
 #elif WAVELET == 1 && !defined(LIFT_INVERSE)
-        sweep97ab(S + 16 * w, D + 16 * w, n, 16 * W);
-        sweep97gd(S + 16 * w, D + 16 * w, n, 16 * W);
+        sweep97ab_p(S + 16 * w, 16 * W, D + 16 * w, 16 * W, S + 16 * w, 16 * W, D + 16 * w, 16 * W, n);
+        sweep97gd_p(S + 16 * w, 16 * W, D + 16 * w, 16 * W, S + 16 * w, 16 * W, D + 16 * w, 16 * W, n);
 #elif WAVELET == 1
-        sweep97gd(S + 16 * w, D + 16 * w, n, 16 * W);
-        sweep97ab(S + 16 * w, D + 16 * w, n, 16 * W);
+        sweep97gd_p(S + 16 * w, 16 * W, D + 16 * w, 16 * W, S + 16 * w, 16 * W, D + 16 * w, 16 * W, n);
+        sweep97ab_p(S + 16 * w, 16 * W, D + 16 * w, 16 * W, S + 16 * w, 16 * W, D + 16 * w, 16 * W, n);
 #endif
     }
 #if WAVELET >= 2 /* Haar and 2/6: step by step with margin refreshes (comparison filters, not tuned) */
@@ -402,10 +423,39 @@ ALWAYS_INLINE void lift_column(global T* col, size_t stride, int n, int lim, con
 #undef DST_D
 }
 
+#if WAVELET <= 1
+/* 16 columns of n >= 2 samples `stride` apart, every lane active, lifted between the brick and the staging
+   without a separate staging copy (see the sweeps): 5/3 goes brick to brick with one half staged, 9/7
+   brick to staging in its first sweep and back in its second. */
+ALWAYS_INLINE void lift_column_direct(global T* col, size_t stride, int n) {
+    const int ms = (n + 1) >> 1, md = n >> 1;
+    T sbuf[COL_SLOTS], dbuf[COL_SLOTS];
+#if WAVELET == 0 && !defined(LIFT_INVERSE)
+    sweep53_bb(col, 2 * stride, col + stride, 2 * stride, col, stride, dbuf, 16, n);
+    for (int m = 0; m < md; ++m)
+        STG(col + (ms + m) * stride, LD(dbuf + 16 * m));
+#elif WAVELET == 0
+    for (int m = 0; m < ms; ++m)
+        ST(sbuf + 16 * m, LDG(col + m * stride));
+    sweep53_bb(sbuf, 16, col + ms * stride, stride, col, 2 * stride, col + stride, 2 * stride, n);
+#elif !defined(LIFT_INVERSE)
+    sweep97ab_bp(col, 2 * stride, col + stride, 2 * stride, sbuf, 16, dbuf, 16, n);
+    sweep97gd_pb(sbuf, 16, dbuf, 16, col, stride, col + ms * stride, stride, n);
+#else
+    sweep97gd_bp(col, stride, col + ms * stride, stride, sbuf, 16, dbuf, 16, n);
+    sweep97ab_pb(sbuf, 16, dbuf, 16, col, 2 * stride, col + stride, 2 * stride, n);
+#endif
+}
+#endif
+
 /* The y or z pass over the active columns of one plane-row: 64-wide groups where the row pitch allows
    (never reading past it: the last row may end the buffer), then 16-wide ones. */
 inline void lift_columns(global T* first, size_t stride, int n, int nx, int px) {
     int x = 0;
+#if WAVELET <= 1
+    for (; nx - x >= 16; x += 16)
+        lift_column_direct(first + x, stride, n);
+#endif
     for (; nx - x > 16 && x + 64 <= px; x += 64)
         lift_column(first + x, stride, n, nx - x, 4);
     for (; x < nx; x += 16)
