@@ -496,23 +496,41 @@ inline void lift_level(global T* brick, int px, int by, int nx, int ny, int nz) 
     }
 }
 
-/* Each work-item takes bricks from the shared counter `next` (zero at launch) until none is left: bricks of
-   bx x by x bz, row pitch px, stacked along z; forward levels 0 .. levels-1, or inverse levels levels-1 ..
-   stop. Why a counter instead of one work-group per brick: PoCL hands a thread the first 1 + n/2 of n
+/* Each work-item takes bricks from the shared counter `next` (zero at launch) until none is left; forward
+   levels 0 .. levels-1, or inverse levels levels-1 .. stop. Bricks come from up to kMaxShapes batches (one
+   per brick shape, buffers d0 .. d7): batch k holds bricks end[k - 1] .. end[k] - 1 of the counter, of
+   bx[k] x by[k] x bz[k] with row pitch px[k], stacked along z; unused batches repeat the last buffer.
+   Why a counter instead of one work-group per brick: PoCL hands a thread the first 1 + n/2 of n
    work-groups in one chunk, so with a dozen bricks one core took most of them while the other idled;
-   pulling bricks one at a time balances the cores whatever the chunking. */
-kernel __attribute__((reqd_work_group_size(1, 1, 1))) void lift_brick(global T* data, volatile global int* next,
-                                                                       uint px, uint bx, uint by, uint bz,
-                                                                       uint levels, uint stop, uint count) {
+   pulling bricks one at a time balances the cores whatever the chunking. Why every shape in one launch:
+   a volume's edge bricks come in up to 8 shapes of a few bricks each, and a launch per shape paid its
+   overhead and left a core idle at the end of each (the host orders the batches largest bricks first,
+   so the last bricks handed out are the small ones). */
+kernel __attribute__((reqd_work_group_size(1, 1, 1))) void lift_bricks(
+    global T* d0, global T* d1, global T* d2, global T* d3, global T* d4, global T* d5, global T* d6,
+    global T* d7, volatile global int* next, uint8 px8, uint8 bx8, uint8 by8, uint8 bz8, uint8 end8,
+    uint levels, uint stop) {
+    uint px[8], bx[8], by[8], bz[8], end[8];
+    vstore8(px8, 0, px);
+    vstore8(bx8, 0, bx);
+    vstore8(by8, 0, by);
+    vstore8(bz8, 0, bz);
+    vstore8(end8, 0, end);
     for (;;) {
         const int c = atomic_inc(next);
-        if (c >= (int)count) return;
-        global T* brick = data + (size_t)c * px * by * bz;
+        if (c >= (int)end[7]) return;
+        int k = 0;
+        while (c >= (int)end[k])
+            ++k;
+        global T* const base[8] = {d0, d1, d2, d3, d4, d5, d6, d7};
+        const size_t i = (size_t)(c - (k > 0 ? (int)end[k - 1] : 0));
+        global T* brick = base[k] + i * px[k] * by[k] * bz[k];
 #ifdef LIFT_INVERSE
         for (int l = (int)levels - 1; l >= (int)stop; --l)
 #else
         for (int l = 0; l < (int)levels; ++l)
 #endif
-            lift_level(brick, px, by, ((bx - 1) >> l) + 1, ((by - 1) >> l) + 1, ((bz - 1) >> l) + 1);
+            lift_level(brick, px[k], by[k], ((bx[k] - 1) >> l) + 1, ((by[k] - 1) >> l) + 1,
+                       ((bz[k] - 1) >> l) + 1);
     }
 }

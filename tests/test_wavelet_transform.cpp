@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <iterator>
+#include <memory>
 #include <random>
 #include <vector>
 
@@ -232,6 +234,50 @@ TEST(WaveletKernels, EveryRowLengthMatchesTheReference) {
         got = unpackBrick(bf, hf, 0);
         for (std::size_t i = 0; i < f.size(); ++i)
             ASSERT_NEAR(got[i], f[i], 0.05) << "cdf97 inverse n=" << n << " i=" << i;
+    }
+}
+
+TEST(WaveletKernels, SeveralShapesInOneCallMatchTheReference) {
+    // The codec transforms all of a volume's brick shapes in one call: one launch of the brick kernel per 8
+    // batches (here 10 shapes on that path, so two launches, bricks handed out largest first), and a batch
+    // too large for it (300 voxels along x) on the streaming passes in the same call.
+    ComputeContext& cc = test::computeContext();
+    const Dims shapes[] = {{17, 19, 23}, {1, 1, 1}, {2, 3, 5}, {40, 41, 43}, {7, 1, 1}, {300, 3, 2},
+                           {31, 2, 3},   {64, 64, 8}, {3, 5, 2}, {9, 9, 9},   {64, 24, 52}};
+    for (Wavelet w : {Wavelet::Cdf53, Wavelet::Cdf26}) {
+        LiftingTransform<std::int32_t> t(cc, w);
+        std::vector<std::unique_ptr<BrickBatch<std::int32_t>>> batches;
+        std::vector<BrickBatch<std::int32_t>*> ptrs;
+        std::vector<std::vector<std::vector<std::int32_t>>> bricks;
+        for (std::size_t i = 0; i < std::size(shapes); ++i) {
+            const std::size_t count = 1 + i % 3;
+            bricks.emplace_back();
+            for (std::size_t c = 0; c < count; ++c)
+                bricks.back().push_back(randomInts(shapes[i].count(), -32768, 65535, unsigned(10 * i + c)));
+            batches.push_back(std::make_unique<BrickBatch<std::int32_t>>(cc, shapes[i], count));
+            ptrs.push_back(batches.back().get());
+            batches.back()->upload(cc, pack(*batches.back(), bricks.back()));
+        }
+        t.forward(cc, std::span<BrickBatch<std::int32_t>* const>(ptrs), 3);
+        for (std::size_t i = 0; i < batches.size(); ++i) {
+            auto host = batches[i]->makeHost();
+            batches[i]->download(cc, host);
+            for (std::size_t c = 0; c < bricks[i].size(); ++c) {
+                auto ref = bricks[i][c];
+                reference::forward3d(std::span<std::int32_t>(ref), shapes[i], 3, w);
+                ASSERT_EQ(unpackBrick(*batches[i], host, c), ref)
+                    << waveletName(w) << " shape " << i << " brick " << c;
+            }
+        }
+        t.inverse(cc, std::span<BrickBatch<std::int32_t>* const>(ptrs), 3, 1);
+        t.inverse(cc, std::span<BrickBatch<std::int32_t>* const>(ptrs), 1);
+        for (std::size_t i = 0; i < batches.size(); ++i) {
+            auto host = batches[i]->makeHost();
+            batches[i]->download(cc, host);
+            for (std::size_t c = 0; c < bricks[i].size(); ++c)
+                ASSERT_EQ(unpackBrick(*batches[i], host, c), bricks[i][c])
+                    << waveletName(w) << " inverse shape " << i << " brick " << c;
+        }
     }
 }
 
