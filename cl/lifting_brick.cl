@@ -6,16 +6,18 @@
    no copy of the low corner between levels. Work-groups of one work-item (one per brick) spread over the
    cores.
 
-   Lines are lifted 16 at a time, one per vector lane: a y or z "line" is a column of 16 consecutive x; for
-   x, 16 rows are transposed in registers so that their samples line up the same way. The 16 lines are
-   staged in private memory already split into even (S) and odd (D) samples, and the lifting steps run one
-   after the other on the staged halves as in the C++ reference (the same formulas in the same order, so
-   the integer forms are bit-exact): each step is plain vector arithmetic between neighbouring pairs, all
-   in L1, with no recomputation of intermediate steps (the streaming kernels recompute them to avoid
-   barriers). After each step the margins (pairs -2, -1 and the two after the last) are refreshed from the
-   extension rule, which is how the reference's mirror indexing sees the updated signal. Staging makes the
-   in-place update safe; lanes right of the active corner, which hold earlier levels' coefficients, and
-   rows past the corner are never stored.
+   Lines are lifted 16 at a time, one per vector lane: a y or z "line" is a column of 16 consecutive x.
+   5/3 and 9/7 columns with all 16 lanes active are lifted between the brick and a private staging in
+   predict+update sweeps (lift_column_direct); x rows of up to 64 samples are lifted along their own
+   vectors (lift_row64). Otherwise (partial column groups, longer rows, Haar and 2/6) the 16 lines are
+   staged in private memory already split into even (S) and odd (D) samples, for x after transposing 16
+   rows in registers so that their samples line up the same way, and the lifting steps run on the staged
+   halves. Every form uses the reference's formulas in the reference's order, so the integer forms are
+   bit-exact, and none recomputes intermediate steps (the streaming kernels do, to avoid barriers). Step
+   by step (Haar, 2/6), the margins (pairs -2, -1 and the two after the last) are refreshed after each
+   step from the extension rule, which is how the reference's mirror indexing sees the updated signal.
+   Lanes right of the active corner, which hold earlier levels' coefficients, and rows past the corner
+   are never changed.
 
    Extra define: LIFT_MAXN, at least the largest brick dimension, a multiple of 16 (sizes the private
    staging arrays; one program serves every brick shape up to it). */
@@ -123,22 +125,22 @@ ALWAYS_INLINE void refresh_high(T* d, int md, int n, const int W) {
             dm = dn;                                                                                       \
         }                                                                                                  \
     }
-/* Each sweep in three forms: on the staging (suffix _p), brick to staging (_bp), staging to brick (_pb);
-   the 5/3 also brick to brick with the detail half staged (_bb forward: d to the staging; inverse: s from
-   it). */
+/* Each sweep in four forms: on the staging (suffix _p), brick to staging (_bp), staging to brick (_pb),
+   and brick to brick with one half staged (_bb, the 5/3's: forward writes d to the staging, inverse reads
+   s from it; BB_SPACES, since the macro argument holds commas, goes through DEFINE_SWEEP_ to expand). */
 #ifndef LIFT_INVERSE
-#define DEFINE_SWEEPS(name, PRED, UPD, OUT_S, OUT_D)                                                       \
-    DEFINE_SWEEP_FORWARD(name##_p, PRED, UPD, OUT_S, OUT_D, private, private, private, private)            \
-    DEFINE_SWEEP_FORWARD(name##_bp, PRED, UPD, OUT_S, OUT_D, global, global, private, private)             \
-    DEFINE_SWEEP_FORWARD(name##_pb, PRED, UPD, OUT_S, OUT_D, private, private, global, global)             \
-    DEFINE_SWEEP_FORWARD(name##_bb, PRED, UPD, OUT_S, OUT_D, global, global, global, private)
+#define DEFINE_SWEEP DEFINE_SWEEP_FORWARD
+#define BB_SPACES global, global, global, private
 #else
-#define DEFINE_SWEEPS(name, PRED, UPD, OUT_S, OUT_D)                                                       \
-    DEFINE_SWEEP_INVERSE(name##_p, PRED, UPD, OUT_S, OUT_D, private, private, private, private)            \
-    DEFINE_SWEEP_INVERSE(name##_bp, PRED, UPD, OUT_S, OUT_D, global, global, private, private)             \
-    DEFINE_SWEEP_INVERSE(name##_pb, PRED, UPD, OUT_S, OUT_D, private, private, global, global)             \
-    DEFINE_SWEEP_INVERSE(name##_bb, PRED, UPD, OUT_S, OUT_D, private, global, global, global)
+#define DEFINE_SWEEP DEFINE_SWEEP_INVERSE
+#define BB_SPACES private, global, global, global
 #endif
+#define DEFINE_SWEEP_(...) DEFINE_SWEEP(__VA_ARGS__)
+#define DEFINE_SWEEPS(name, PRED, UPD, OUT_S, OUT_D)                                                       \
+    DEFINE_SWEEP(name##_p, PRED, UPD, OUT_S, OUT_D, private, private, private, private)                    \
+    DEFINE_SWEEP(name##_bp, PRED, UPD, OUT_S, OUT_D, global, global, private, private)                     \
+    DEFINE_SWEEP(name##_pb, PRED, UPD, OUT_S, OUT_D, private, private, global, global)                     \
+    DEFINE_SWEEP_(name##_bb, PRED, UPD, OUT_S, OUT_D, BB_SPACES)
 #define AS_IS(v) (v)
 #if WAVELET == 0
 #define PRED53(v) (-HALF(v))
