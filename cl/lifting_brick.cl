@@ -6,16 +6,18 @@
    no copy of the low corner between levels. Work-groups of one work-item (one per brick) spread over the
    cores.
 
-   Lines are lifted 16 at a time, one per vector lane: a y or z "line" is a column of 16 consecutive x; for
-   x, 16 rows are transposed in registers so that their samples line up the same way. The 16 lines are
-   staged in private memory already split into even (S) and odd (D) samples, and the lifting steps run one
-   after the other on the staged halves as in the C++ reference (the same formulas in the same order, so
-   the integer forms are bit-exact): each step is plain vector arithmetic between neighbouring pairs, all
-   in L1, with no recomputation of intermediate steps (the streaming kernels recompute them to avoid
-   barriers). After each step the margins (pairs -2, -1 and the two after the last) are refreshed from the
-   extension rule, which is how the reference's mirror indexing sees the updated signal. Staging makes the
-   in-place update safe; lanes right of the active corner, which hold earlier levels' coefficients, and
-   rows past the corner are never stored.
+   Lines are lifted 16 at a time, one per vector lane: a y or z "line" is a column of 16 consecutive x.
+   5/3 and 9/7 columns with all 16 lanes active are lifted between the brick and a private staging in
+   predict+update sweeps (lift_column_direct); x rows of up to 64 samples are lifted along their own
+   vectors (lift_row64). Otherwise (partial column groups, longer rows, Haar and 2/6) the 16 lines are
+   staged in private memory already split into even (S) and odd (D) samples, for x after transposing 16
+   rows in registers so that their samples line up the same way, and the lifting steps run on the staged
+   halves. Every form uses the reference's formulas in the reference's order, so the integer forms are
+   bit-exact, and none recomputes intermediate steps (the streaming kernels do, to avoid barriers). Step
+   by step (Haar, 2/6), the margins (pairs -2, -1 and the two after the last) are refreshed after each
+   step from the extension rule, which is how the reference's mirror indexing sees the updated signal.
+   Lanes right of the active corner, which hold earlier levels' coefficients, and rows past the corner
+   are never changed.
 
    Extra define: LIFT_MAXN, at least the largest brick dimension, a multiple of 16 (sizes the private
    staging arrays; one program serves every brick shape up to it). */
@@ -72,57 +74,78 @@ ALWAYS_INLINE void refresh_high(T* d, int md, int n, const int W) {
 #define STEP_HIGH_OUTER(F) STEP(D, S, -1, 1, F, md) refresh_high(D, md, n, W);
 #if WAVELET <= 1
 /* A predict + update pair of lifting steps (5/3: the whole wavelet; 9/7: two such pairs) in one sweep per
-   lane group, in place on the staged halves: both steps of pair m are done before pair m + 1 (the
-   prediction d[m] is ready when the update of s[m] needs it; d[m - 1] is carried in a register), so each
-   staged vector is loaded and stored once per pair of steps instead of read three times per step, and the
-   symmetric extension is applied at the two ends instead of refreshing margins: d[-1] = d[0];
-   e[ms] = e[ms - 1] (even n); d[md] = d[md - 1] (odd n). Forward: d[m] = o[m] + PRED(e[m] + e[m + 1]),
-   s[m] = e[m] + UPD(d[m - 1] + d[m]), stored as OUT_S(s), OUT_D(d). Inverse: the inputs are read as
-   IN_S(s), IN_D(d), then e[m] = s[m] - UPD(d[m - 1] + d[m]), o[m] = d[m] - PRED(e[m] + e[m + 1]). The same
-   formulas in the same order per sample as the reference, so the integer 5/3 is bit-exact. P: elements
-   from one pair to the next. */
-#define DEFINE_SWEEP_FORWARD(name, PRED, UPD, OUT_S, OUT_D)                                                \
-    ALWAYS_INLINE void name(T* s, T* d, int n, int P) {                                                    \
+   lane group: both steps of pair m are done before pair m + 1 (the prediction d[m] is ready when the
+   update of s[m] needs it; d[m - 1] is carried in a register), so each vector is loaded and stored once
+   per pair of steps, and the symmetric extension is applied at the two ends instead of refreshing
+   margins: d[-1] = d[0]; e[ms] = e[ms - 1] (even n); d[md] = d[md - 1] (odd n). Forward: d[m] = o[m] +
+   PRED(e[m] + e[m + 1]), s[m] = e[m] + UPD(d[m - 1] + d[m]), stored as OUT_S(s), OUT_D(d). Inverse: the
+   inputs are read as IN_S(s), IN_D(d), then e[m] = s[m] - UPD(d[m - 1] + d[m]), o[m] = d[m] - PRED(e[m] +
+   e[m + 1]). The same formulas in the same order per sample as the reference, so the integer 5/3 is
+   bit-exact.
+   Inputs and outputs are separate (pointer, elements from one pair to the next) in the address spaces
+   IS, ID, OS, OD, so a sweep can read the brick and write the staging, or the other way round, or work in
+   place: a column pass moves each sample between the brick and L1 once instead of staging it first. In
+   place on the brick is safe where a sweep stores only positions it has read (forward: s[m] to m after
+   reading up to 2m + 2; inverse: e and o to 2m, 2m + 1 before d[m + 1] at ms + m + 1 is read, the s half
+   being staged). */
+#define LDQ(q, p) (*(q const VU*)(p))
+#define STQ(q, p, v) (*(q VU*)(p) = (v))
+#define DEFINE_SWEEP_FORWARD(name, PRED, UPD, OUT_S, OUT_D, IS, ID, OS, OD)                                \
+    ALWAYS_INLINE void name(IS T* s, size_t ps, ID T* d, size_t pd, OS T* os, size_t qs, OD T* od,         \
+                            size_t qd, int n) {                                                            \
         const int ms = (n + 1) >> 1, md = n >> 1;                                                          \
-        V em = LD(s);                                                                                      \
-        V ep = ms > 1 ? LD(s + P) : em;                                                                    \
-        V dm = LD(d) + PRED(em + ep), dm1 = dm;                                                            \
+        V em = LDQ(IS, s);                                                                                 \
+        V ep = ms > 1 ? LDQ(IS, s + ps) : em;                                                              \
+        V dm = LDQ(ID, d) + PRED(em + ep), dm1 = dm;                                                       \
         for (int m = 0; m < ms; ++m) {                                                                     \
             /* em = e[m], ep = e[m + 1], dm = d[m], dm1 = d[m - 1] */                                      \
-            ST(s + m * P, OUT_S(em + UPD(dm1 + dm)));                                                      \
-            if (m < md) ST(d + m * P, OUT_D(dm));                                                          \
+            STQ(OS, os + m * qs, OUT_S(em + UPD(dm1 + dm)));                                               \
+            if (m < md) STQ(OD, od + m * qd, OUT_D(dm));                                                   \
             dm1 = dm;                                                                                      \
             em = ep;                                                                                       \
             if (m + 1 < md) {                                                                              \
-                ep = m + 2 < ms ? LD(s + (m + 2) * P) : em;                                                \
-                dm = LD(d + (m + 1) * P) + PRED(em + ep);                                                  \
+                ep = m + 2 < ms ? LDQ(IS, s + (m + 2) * ps) : em;                                          \
+                dm = LDQ(ID, d + (m + 1) * pd) + PRED(em + ep);                                            \
             }                                                                                              \
         }                                                                                                  \
     }
-#define DEFINE_SWEEP_INVERSE(name, PRED, UPD, IN_S, IN_D)                                                  \
-    ALWAYS_INLINE void name(T* s, T* d, int n, int P) {                                                    \
+#define DEFINE_SWEEP_INVERSE(name, PRED, UPD, IN_S, IN_D, IS, ID, OS, OD)                                  \
+    ALWAYS_INLINE void name(IS T* s, size_t ps, ID T* d, size_t pd, OS T* os, size_t qs, OD T* od,         \
+                            size_t qd, int n) {                                                            \
         const int ms = (n + 1) >> 1, md = n >> 1;                                                          \
-        V dm = IN_D(LD(d));                                                                                \
-        V em = IN_S(LD(s)) - UPD(dm + dm);                                                                 \
+        V dm = IN_D(LDQ(ID, d));                                                                           \
+        V em = IN_S(LDQ(IS, s)) - UPD(dm + dm);                                                            \
         for (int m = 0; m < ms; ++m) {                                                                     \
             /* em = e[m], dm = d[m]; dn = d[m + 1], en = e[m + 1] */                                       \
-            const V dn = m + 1 < md ? IN_D(LD(d + (m + 1) * P)) : dm;                                      \
-            const V en = m + 1 < ms ? IN_S(LD(s + (m + 1) * P)) - UPD(dm + dn) : em;                       \
-            ST(s + m * P, em);                                                                             \
-            if (m < md) ST(d + m * P, dm - PRED(em + en));                                                 \
+            const V dn = m + 1 < md ? IN_D(LDQ(ID, d + (m + 1) * pd)) : dm;                                \
+            const V en = m + 1 < ms ? IN_S(LDQ(IS, s + (m + 1) * ps)) - UPD(dm + dn) : em;                 \
+            STQ(OS, os + m * qs, em);                                                                      \
+            if (m < md) STQ(OD, od + m * qd, dm - PRED(em + en));                                          \
             em = en;                                                                                       \
             dm = dn;                                                                                       \
         }                                                                                                  \
     }
+/* Each sweep in four forms: on the staging (suffix _p), brick to staging (_bp), staging to brick (_pb),
+   and brick to brick with one half staged (_bb, the 5/3's: forward writes d to the staging, inverse reads
+   s from it; BB_SPACES, since the macro argument holds commas, goes through DEFINE_SWEEP_ to expand). */
+#ifndef LIFT_INVERSE
+#define DEFINE_SWEEP DEFINE_SWEEP_FORWARD
+#define BB_SPACES global, global, global, private
+#else
+#define DEFINE_SWEEP DEFINE_SWEEP_INVERSE
+#define BB_SPACES private, global, global, global
+#endif
+#define DEFINE_SWEEP_(...) DEFINE_SWEEP(__VA_ARGS__)
+#define DEFINE_SWEEPS(name, PRED, UPD, OUT_S, OUT_D)                                                       \
+    DEFINE_SWEEP(name##_p, PRED, UPD, OUT_S, OUT_D, private, private, private, private)                    \
+    DEFINE_SWEEP(name##_bp, PRED, UPD, OUT_S, OUT_D, global, global, private, private)                     \
+    DEFINE_SWEEP(name##_pb, PRED, UPD, OUT_S, OUT_D, private, private, global, global)                     \
+    DEFINE_SWEEP_(name##_bb, PRED, UPD, OUT_S, OUT_D, BB_SPACES)
 #define AS_IS(v) (v)
 #if WAVELET == 0
 #define PRED53(v) (-HALF(v))
 #define UPD53(v) QUARTER_R(v)
-#ifndef LIFT_INVERSE
-DEFINE_SWEEP_FORWARD(sweep53, PRED53, UPD53, AS_IS, AS_IS)
-#else
-DEFINE_SWEEP_INVERSE(sweep53, PRED53, UPD53, AS_IS, AS_IS)
-#endif
+DEFINE_SWEEPS(sweep53, PRED53, UPD53, AS_IS, AS_IS)
 #else
 #define PRED97A(v) (L97_A * (v))
 #define UPD97B(v) (L97_B * (v))
@@ -133,11 +156,11 @@ DEFINE_SWEEP_INVERSE(sweep53, PRED53, UPD53, AS_IS, AS_IS)
 #define UNSCALE_LOW(v) ((v) * L97_K)
 #define UNSCALE_HIGH(v) ((v) * (2.0f / L97_K))
 #ifndef LIFT_INVERSE
-DEFINE_SWEEP_FORWARD(sweep97ab, PRED97A, UPD97B, AS_IS, AS_IS)
-DEFINE_SWEEP_FORWARD(sweep97gd, PRED97G, UPD97D, SCALE_LOW, SCALE_HIGH)
+DEFINE_SWEEPS(sweep97ab, PRED97A, UPD97B, AS_IS, AS_IS)
+DEFINE_SWEEPS(sweep97gd, PRED97G, UPD97D, SCALE_LOW, SCALE_HIGH)
 #else
-DEFINE_SWEEP_INVERSE(sweep97gd, PRED97G, UPD97D, UNSCALE_LOW, UNSCALE_HIGH)
-DEFINE_SWEEP_INVERSE(sweep97ab, PRED97A, UPD97B, AS_IS, AS_IS)
+DEFINE_SWEEPS(sweep97gd, PRED97G, UPD97D, UNSCALE_LOW, UNSCALE_HIGH)
+DEFINE_SWEEPS(sweep97ab, PRED97A, UPD97B, AS_IS, AS_IS)
 #endif
 #endif
 #endif
@@ -147,13 +170,13 @@ DEFINE_SWEEP_INVERSE(sweep97ab, PRED97A, UPD97B, AS_IS, AS_IS)
 ALWAYS_INLINE void lift_halves(T* S, T* D, int n, const int W) {
     for (int w = 0; w < W; ++w) {
 #if WAVELET == 0
-        sweep53(S + 16 * w, D + 16 * w, n, 16 * W);
+        sweep53_p(S + 16 * w, 16 * W, D + 16 * w, 16 * W, S + 16 * w, 16 * W, D + 16 * w, 16 * W, n);
 #elif WAVELET == 1 && !defined(LIFT_INVERSE)
-        sweep97ab(S + 16 * w, D + 16 * w, n, 16 * W);
-        sweep97gd(S + 16 * w, D + 16 * w, n, 16 * W);
+        sweep97ab_p(S + 16 * w, 16 * W, D + 16 * w, 16 * W, S + 16 * w, 16 * W, D + 16 * w, 16 * W, n);
+        sweep97gd_p(S + 16 * w, 16 * W, D + 16 * w, 16 * W, S + 16 * w, 16 * W, D + 16 * w, 16 * W, n);
 #elif WAVELET == 1
-        sweep97gd(S + 16 * w, D + 16 * w, n, 16 * W);
-        sweep97ab(S + 16 * w, D + 16 * w, n, 16 * W);
+        sweep97gd_p(S + 16 * w, 16 * W, D + 16 * w, 16 * W, S + 16 * w, 16 * W, D + 16 * w, 16 * W, n);
+        sweep97ab_p(S + 16 * w, 16 * W, D + 16 * w, 16 * W, S + 16 * w, 16 * W, D + 16 * w, 16 * W, n);
 #endif
     }
 #if WAVELET >= 2 /* Haar and 2/6: step by step with margin refreshes (comparison filters, not tuned) */
@@ -258,6 +281,111 @@ inline void lift_rows(global T* first, size_t pitch, int n, int rows) {
     }
 }
 
+#if WAVELET <= 1
+/* The x pass on rows of 2 .. 64 samples without transposes: a row is four 16-lane vectors, split into its
+   even (E) and odd (O) halves of up to 32 samples by constant shuffles, and each lifting step is vector
+   arithmetic between a half and its neighbour-shifted copy (one constant shuffle per vector, plus a select
+   for the extension at the ends). Why: the transposes of lift_rows cost 8 shuffles per vector and, as
+   PoCL's LLVM compiled them, spills; this is about 2-3 shuffles per vector. Lanes past a half's length
+   hold garbage that never reaches a valid lane. Stores of partial vectors blend with what memory holds
+   (the lanes past the active row keep earlier levels' coefficients); they and the unaligned loads of the
+   inverse may touch up to 16 elements past the row, which BrickBatch's slack covers at the buffer end. */
+#define LANE ((int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
+/* Lanes [0, count) of v to p, count >= 1. */
+ALWAYS_INLINE void store_part(global T* p, V v, int count) {
+    STG(p, count >= 16 ? v : select(LDG(p), v, LANE < count));
+}
+/* x[m + 1] of a half (lo = x[0..16), hi = x[16..32)) of length len: x[m] itself at m = len - 1, which is
+   where the whole-sample symmetric extension sends e[ms] for even n (other lanes past len: don't care). */
+#define NEXT(lo, hi, len, nlo, nhi)                                                                        \
+    nlo = select(lo, shuffle2(lo, hi, (uint16)(1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16)),      \
+                 LANE + 1 < (len));                                                                       \
+    nhi = select(hi, shuffle(hi, (uint16)(1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 15)),          \
+                 LANE + 17 < (len));
+/* x[m - 1] (the extension gives d[-1] = d[0]) and x[m] clamped to len - 1 (d[md] = d[md - 1] for odd n). */
+#define PREV_CUR(lo, hi, len, plo, phi, clo, chi)                                                          \
+    plo = shuffle(lo, (uint16)(0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14));                      \
+    phi = shuffle2(lo, hi, (uint16)(15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30));      \
+    clo = select(plo, lo, LANE < (len));                                                                  \
+    chi = select(phi, hi, LANE + 16 < (len));
+/* O += PRED(E + E[m + 1]) and E += UPD(O[m - 1] + O[m]), forward (sign +) or undone (sign -), with the
+   same formulas per sample as the reference (bit-exact for the integer 5/3). */
+#define PREDICT(sign, PRED)                                                                                \
+    {                                                                                                      \
+        V n0, n1;                                                                                          \
+        NEXT(e0, e1, ms, n0, n1)                                                                           \
+        o0 = o0 sign PRED(e0 + n0);                                                                        \
+        o1 = o1 sign PRED(e1 + n1);                                                                        \
+    }
+#define UPDATE(sign, UPD)                                                                                  \
+    {                                                                                                      \
+        V p0, p1, c0, c1;                                                                                  \
+        PREV_CUR(o0, o1, md, p0, p1, c0, c1)                                                               \
+        e0 = e0 sign UPD(p0 + c0);                                                                         \
+        e1 = e1 sign UPD(p1 + c1);                                                                         \
+    }
+#define EVENS (uint16)(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30)
+#define ODDS (uint16)(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31)
+#define ZIP_LO (uint16)(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23)
+#define ZIP_HI (uint16)(8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31)
+
+/* One row of 2 <= n <= 64 samples, in place. */
+ALWAYS_INLINE void lift_row64(global T* row, int n) {
+    const int ms = (n + 1) >> 1, md = n >> 1;
+    V e0, e1, o0, o1;
+#ifndef LIFT_INVERSE
+    /* only the vectors the row reaches: the last row of the buffer ends at its pitch */
+    const V v0 = LDG(row);
+    const V v1 = n > 16 ? LDG(row + 16) : v0;
+    const V v2 = n > 32 ? LDG(row + 32) : v1;
+    const V v3 = n > 48 ? LDG(row + 48) : v2;
+    e0 = shuffle2(v0, v1, EVENS);
+    o0 = shuffle2(v0, v1, ODDS);
+    e1 = shuffle2(v2, v3, EVENS);
+    o1 = shuffle2(v2, v3, ODDS);
+#if WAVELET == 0
+    PREDICT(+, PRED53)
+    UPDATE(+, UPD53)
+#else
+    PREDICT(+, PRED97A)
+    UPDATE(+, UPD97B)
+    PREDICT(+, PRED97G)
+    UPDATE(+, UPD97D)
+    e0 = SCALE_LOW(e0);
+    e1 = SCALE_LOW(e1);
+    o0 = SCALE_HIGH(o0);
+    o1 = SCALE_HIGH(o1);
+#endif
+    store_part(row, e0, ms);
+    if (ms > 16) store_part(row + 16, e1, ms - 16);
+    store_part(row + ms, o0, md);
+    if (md > 16) store_part(row + ms + 16, o1, md - 16);
+#else
+    e0 = LDG(row);
+    e1 = ms > 16 ? LDG(row + 16) : e0;
+    o0 = LDG(row + ms);
+    o1 = md > 16 ? LDG(row + ms + 16) : o0;
+#if WAVELET == 0
+    UPDATE(-, UPD53)
+    PREDICT(-, PRED53)
+#else
+    e0 = UNSCALE_LOW(e0);
+    e1 = UNSCALE_LOW(e1);
+    o0 = UNSCALE_HIGH(o0);
+    o1 = UNSCALE_HIGH(o1);
+    UPDATE(-, UPD97D)
+    PREDICT(-, PRED97G)
+    UPDATE(-, UPD97B)
+    PREDICT(-, PRED97A)
+#endif
+    store_part(row, shuffle2(e0, o0, ZIP_LO), n);
+    if (n > 16) store_part(row + 16, shuffle2(e0, o0, ZIP_HI), n - 16);
+    if (n > 32) store_part(row + 32, shuffle2(e1, o1, ZIP_LO), n - 32);
+    if (n > 48) store_part(row + 48, shuffle2(e1, o1, ZIP_HI), n - 48);
+#endif
+}
+#endif
+
 /* W columns of 16 consecutive x side by side (lanes [0, lim) of the 16 W active) with n >= 2 samples
    `stride` apart, in place. W = 4 reads 256 contiguous bytes per sample rather than 64, since the z pass's
    samples are a plane (16 KB) apart; on the shared test machine it measured no slower than W = 1, and any
@@ -297,10 +425,39 @@ ALWAYS_INLINE void lift_column(global T* col, size_t stride, int n, int lim, con
 #undef DST_D
 }
 
+#if WAVELET <= 1
+/* 16 columns of n >= 2 samples `stride` apart, every lane active, lifted between the brick and the staging
+   without a separate staging copy (see the sweeps): 5/3 goes brick to brick with one half staged, 9/7
+   brick to staging in its first sweep and back in its second. */
+ALWAYS_INLINE void lift_column_direct(global T* col, size_t stride, int n) {
+    const int ms = (n + 1) >> 1, md = n >> 1;
+    T sbuf[COL_SLOTS], dbuf[COL_SLOTS];
+#if WAVELET == 0 && !defined(LIFT_INVERSE)
+    sweep53_bb(col, 2 * stride, col + stride, 2 * stride, col, stride, dbuf, 16, n);
+    for (int m = 0; m < md; ++m)
+        STG(col + (ms + m) * stride, LD(dbuf + 16 * m));
+#elif WAVELET == 0
+    for (int m = 0; m < ms; ++m)
+        ST(sbuf + 16 * m, LDG(col + m * stride));
+    sweep53_bb(sbuf, 16, col + ms * stride, stride, col, 2 * stride, col + stride, 2 * stride, n);
+#elif !defined(LIFT_INVERSE)
+    sweep97ab_bp(col, 2 * stride, col + stride, 2 * stride, sbuf, 16, dbuf, 16, n);
+    sweep97gd_pb(sbuf, 16, dbuf, 16, col, stride, col + ms * stride, stride, n);
+#else
+    sweep97gd_bp(col, stride, col + ms * stride, stride, sbuf, 16, dbuf, 16, n);
+    sweep97ab_pb(sbuf, 16, dbuf, 16, col, 2 * stride, col + stride, 2 * stride, n);
+#endif
+}
+#endif
+
 /* The y or z pass over the active columns of one plane-row: 64-wide groups where the row pitch allows
    (never reading past it: the last row may end the buffer), then 16-wide ones. */
 inline void lift_columns(global T* first, size_t stride, int n, int nx, int px) {
     int x = 0;
+#if WAVELET <= 1
+    for (; nx - x >= 16; x += 16)
+        lift_column_direct(first + x, stride, n);
+#endif
     for (; nx - x > 16 && x + 64 <= px; x += 64)
         lift_column(first + x, stride, n, nx - x, 4);
     for (; x < nx; x += 16)
@@ -318,10 +475,18 @@ inline void lift_level(global T* brick, int px, int by, int nx, int ny, int nz) 
         const int axis = step;
 #endif
         if (axis == 0) {
-            if (nx > 1)
+            if (nx < 2) {
+#if WAVELET <= 1
+            } else if (nx <= 64) {
+                for (int z = 0; z < nz; ++z)
+                    for (int y = 0; y < ny; ++y)
+                        lift_row64(brick + z * plane + (size_t)y * px, nx);
+#endif
+            } else {
                 for (int z = 0; z < nz; ++z)
                     for (int y = 0; y < ny; y += 16)
                         lift_rows(brick + z * plane + (size_t)y * px, (size_t)px, nx, min(16, ny - y));
+            }
         } else if (axis == 1) {
             if (ny > 1)
                 for (int z = 0; z < nz; ++z)
@@ -333,23 +498,41 @@ inline void lift_level(global T* brick, int px, int by, int nx, int ny, int nz) 
     }
 }
 
-/* Each work-item takes bricks from the shared counter `next` (zero at launch) until none is left: bricks of
-   bx x by x bz, row pitch px, stacked along z; forward levels 0 .. levels-1, or inverse levels levels-1 ..
-   stop. Why a counter instead of one work-group per brick: PoCL hands a thread the first 1 + n/2 of n
+/* Each work-item takes bricks from the shared counter `next` (zero at launch) until none is left; forward
+   levels 0 .. levels-1, or inverse levels levels-1 .. stop. Bricks come from up to kMaxShapes batches (one
+   per brick shape, buffers d0 .. d7): batch k holds bricks end[k - 1] .. end[k] - 1 of the counter, of
+   bx[k] x by[k] x bz[k] with row pitch px[k], stacked along z; unused batches repeat the last buffer.
+   Why a counter instead of one work-group per brick: PoCL hands a thread the first 1 + n/2 of n
    work-groups in one chunk, so with a dozen bricks one core took most of them while the other idled;
-   pulling bricks one at a time balances the cores whatever the chunking. */
-kernel __attribute__((reqd_work_group_size(1, 1, 1))) void lift_brick(global T* data, volatile global int* next,
-                                                                       uint px, uint bx, uint by, uint bz,
-                                                                       uint levels, uint stop, uint count) {
+   pulling bricks one at a time balances the cores whatever the chunking. Why every shape in one launch:
+   a volume's edge bricks come in up to 8 shapes of a few bricks each, and a launch per shape paid its
+   overhead and left a core idle at the end of each (the host orders the batches largest bricks first,
+   so the last bricks handed out are the small ones). */
+kernel __attribute__((reqd_work_group_size(1, 1, 1))) void lift_bricks(
+    global T* d0, global T* d1, global T* d2, global T* d3, global T* d4, global T* d5, global T* d6,
+    global T* d7, volatile global int* next, uint8 px8, uint8 bx8, uint8 by8, uint8 bz8, uint8 end8,
+    uint levels, uint stop) {
+    uint px[8], bx[8], by[8], bz[8], end[8];
+    vstore8(px8, 0, px);
+    vstore8(bx8, 0, bx);
+    vstore8(by8, 0, by);
+    vstore8(bz8, 0, bz);
+    vstore8(end8, 0, end);
     for (;;) {
         const int c = atomic_inc(next);
-        if (c >= (int)count) return;
-        global T* brick = data + (size_t)c * px * by * bz;
+        if (c >= (int)end[7]) return;
+        int k = 0;
+        while (c >= (int)end[k])
+            ++k;
+        global T* const base[8] = {d0, d1, d2, d3, d4, d5, d6, d7};
+        const size_t i = (size_t)(c - (k > 0 ? (int)end[k - 1] : 0));
+        global T* brick = base[k] + i * px[k] * by[k] * bz[k];
 #ifdef LIFT_INVERSE
         for (int l = (int)levels - 1; l >= (int)stop; --l)
 #else
         for (int l = 0; l < (int)levels; ++l)
 #endif
-            lift_level(brick, px, by, ((bx - 1) >> l) + 1, ((by - 1) >> l) + 1, ((bz - 1) >> l) + 1);
+            lift_level(brick, px[k], by[k], ((bx[k] - 1) >> l) + 1, ((by[k] - 1) >> l) + 1,
+                       ((bz[k] - 1) >> l) + 1);
     }
 }

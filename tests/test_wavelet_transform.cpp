@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <iterator>
+#include <memory>
 #include <random>
 #include <vector>
 
@@ -190,6 +192,93 @@ TEST(WaveletKernels, FloatKernelsMatchDoubleReference) {
                 EXPECT_LT(maxErr, 2e-3) << pathName(path) << " " << waveletName(w);
             }
         }
+}
+
+TEST(WaveletKernels, EveryRowLengthMatchesTheReference) {
+    // The brick kernel lifts rows of up to 64 samples as vectors of 16 (a half of up to 32 samples in two
+    // vectors, partial vectors blended into memory, unaligned loads past the row end); every length from 1
+    // to 66 (past the row path too), through 3 levels, with the last row ending the buffer.
+    ComputeContext& cc = test::computeContext();
+    LiftingTransform<std::int32_t> ti(cc, Wavelet::Cdf53);
+    LiftingTransform<float> tf(cc, Wavelet::Cdf97);
+    ti.setPath(LiftingPath::BrickResident);
+    tf.setPath(LiftingPath::BrickResident);
+    for (std::size_t n = 1; n <= 66; ++n) {
+        const Dims d{n, 3, 2};
+        const auto v = randomInts(d.count(), -32768, 65535, unsigned(n));
+        BrickBatch<std::int32_t> bi(cc, d, 2);
+        auto host = pack(bi, {v, v});
+        bi.upload(cc, host);
+        ti.forward(cc, bi, 3);
+        bi.download(cc, host);
+        auto ref = v;
+        reference::forward3d(std::span<std::int32_t>(ref), d, 3, Wavelet::Cdf53);
+        ASSERT_EQ(unpackBrick(bi, host, 1), ref) << "cdf53 n=" << n;
+        ti.inverse(cc, bi, 3);
+        bi.download(cc, host);
+        ASSERT_EQ(unpackBrick(bi, host, 1), v) << "cdf53 inverse n=" << n;
+
+        std::vector<float> f(v.begin(), v.end());
+        BrickBatch<float> bf(cc, d, 1);
+        auto hf = pack(bf, {f});
+        bf.upload(cc, hf);
+        tf.forward(cc, bf, 3);
+        bf.download(cc, hf);
+        std::vector<double> refd(v.begin(), v.end());
+        reference::forward3d(std::span<double>(refd), d, 3, Wavelet::Cdf97);
+        auto got = unpackBrick(bf, hf, 0);
+        for (std::size_t i = 0; i < refd.size(); ++i)
+            ASSERT_NEAR(got[i], refd[i], 0.05) << "cdf97 n=" << n << " i=" << i;
+        tf.inverse(cc, bf, 3);
+        bf.download(cc, hf);
+        got = unpackBrick(bf, hf, 0);
+        for (std::size_t i = 0; i < f.size(); ++i)
+            ASSERT_NEAR(got[i], f[i], 0.05) << "cdf97 inverse n=" << n << " i=" << i;
+    }
+}
+
+TEST(WaveletKernels, SeveralShapesInOneCallMatchTheReference) {
+    // The codec transforms all of a volume's brick shapes in one call: one launch of the brick kernel per 8
+    // batches (here 10 shapes on that path, so two launches, bricks handed out largest first), and a batch
+    // too large for it (300 voxels along x) on the streaming passes in the same call.
+    ComputeContext& cc = test::computeContext();
+    const Dims shapes[] = {{17, 19, 23}, {1, 1, 1}, {2, 3, 5}, {40, 41, 43}, {7, 1, 1}, {300, 3, 2},
+                           {31, 2, 3},   {64, 64, 8}, {3, 5, 2}, {9, 9, 9},   {64, 24, 52}};
+    for (Wavelet w : {Wavelet::Cdf53, Wavelet::Cdf26}) {
+        LiftingTransform<std::int32_t> t(cc, w);
+        std::vector<std::unique_ptr<BrickBatch<std::int32_t>>> batches;
+        std::vector<BrickBatch<std::int32_t>*> ptrs;
+        std::vector<std::vector<std::vector<std::int32_t>>> bricks;
+        for (std::size_t i = 0; i < std::size(shapes); ++i) {
+            const std::size_t count = 1 + i % 3;
+            bricks.emplace_back();
+            for (std::size_t c = 0; c < count; ++c)
+                bricks.back().push_back(randomInts(shapes[i].count(), -32768, 65535, unsigned(10 * i + c)));
+            batches.push_back(std::make_unique<BrickBatch<std::int32_t>>(cc, shapes[i], count));
+            ptrs.push_back(batches.back().get());
+            batches.back()->upload(cc, pack(*batches.back(), bricks.back()));
+        }
+        t.forward(cc, std::span<BrickBatch<std::int32_t>* const>(ptrs), 3);
+        for (std::size_t i = 0; i < batches.size(); ++i) {
+            auto host = batches[i]->makeHost();
+            batches[i]->download(cc, host);
+            for (std::size_t c = 0; c < bricks[i].size(); ++c) {
+                auto ref = bricks[i][c];
+                reference::forward3d(std::span<std::int32_t>(ref), shapes[i], 3, w);
+                ASSERT_EQ(unpackBrick(*batches[i], host, c), ref)
+                    << waveletName(w) << " shape " << i << " brick " << c;
+            }
+        }
+        t.inverse(cc, std::span<BrickBatch<std::int32_t>* const>(ptrs), 3, 1);
+        t.inverse(cc, std::span<BrickBatch<std::int32_t>* const>(ptrs), 1);
+        for (std::size_t i = 0; i < batches.size(); ++i) {
+            auto host = batches[i]->makeHost();
+            batches[i]->download(cc, host);
+            for (std::size_t c = 0; c < bricks[i].size(); ++c)
+                ASSERT_EQ(unpackBrick(*batches[i], host, c), bricks[i][c])
+                    << waveletName(w) << " inverse shape " << i << " brick " << c;
+        }
+    }
 }
 
 TEST(WaveletKernels, PartialInverseGivesTheLevelApproximation) {

@@ -243,10 +243,10 @@ template <class T> struct FillStep {
 };
 
 // Runs one transform over the listed bricks, batched by brick shape. The fill steps write each brick into
-// its batch slot; run(batch) transforms a batch; emit(b, src, pitch) reads the result from the mapped batch
-// (timed as `emitStage`), so no dense copy is made. Filling and emitting are each one parallel loop over all
-// bricks of all batches (per-shape loops left a thread idle on shapes with a single brick), and a brick's
-// fill steps run back to back, so later steps find the brick in cache.
+// its batch slot; run(batches) transforms them all (one launch on CPUs); emit(b, src, pitch) reads the result
+// from the mapped batch (timed as `emitStage`), so no dense copy is made. Filling and emitting are each one
+// parallel loop over all bricks of all batches (per-shape loops left a thread idle on shapes with a single
+// brick), and a brick's fill steps run back to back, so later steps find the brick in cache.
 template <class T, class Run, class Emit>
 void transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<std::size_t>& which,
                      unsigned threads, CodecProfile* prof, const std::vector<FillStep<T>>& fills, Run run,
@@ -304,10 +304,10 @@ void transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<s
         for (auto& m : maps)
             m.unmap();
     });
-    timeStage(prof, &CodecProfile::transform, [&] {
-        for (auto& b : batches)
-            run(*b);
-    });
+    std::vector<BrickBatch<T>*> all;
+    for (auto& b : batches)
+        all.push_back(b.get());
+    timeStage(prof, &CodecProfile::transform, [&] { run(std::span<BrickBatch<T>* const>(all)); });
     timeStage(prof, &CodecProfile::download, [&] {
         for (std::size_t g = 0; g < groups.size(); ++g)
             maps[g] = batches[g]->mapForRead(cc);
@@ -337,7 +337,7 @@ void forwardBricks(ComputeContext& cc, LiftingTransform<T>& t, const Volume& v, 
               const auto r = gatherBrick<T>(v, h, b, dst, pitch);
               if (ranges) (*ranges)[b] = r;
           }}},
-        [&](BrickBatch<T>& batch) { ms += t.forward(cc, batch, h.levels); }, emitStage, emit);
+        [&](std::span<BrickBatch<T>* const> b) { ms += t.forward(cc, b, h.levels); }, emitStage, emit);
 }
 
 // Inverse transform of the listed bricks down to `level` (see transformBricks for fill and emit).
@@ -347,7 +347,7 @@ void inverseBricks(ComputeContext& cc, LiftingTransform<T>& t, const VczHeader& 
                    const std::vector<FillStep<T>>& fills, double CodecProfile::*emitStage, Emit emit) {
     transformBricks<T>(
         cc, h, which, threads, prof, fills,
-        [&](BrickBatch<T>& batch) { t.inverse(cc, batch, h.levels, level); }, emitStage, emit);
+        [&](std::span<BrickBatch<T>* const> b) { t.inverse(cc, b, h.levels, level); }, emitStage, emit);
 }
 
 // ------------------------------------------------------------------------------ quantisation

@@ -271,17 +271,20 @@ template <class T>
 BrickBatch<T>::BrickBatch(ComputeContext& cc, Dims brick, std::size_t count)
     : brick_(brick), count_(count), pitch_(roundUp(std::max<std::size_t>(brick.x, 1), 16)) {
     if (brick.count() == 0 || count == 0) throw UsageError("brick batch: empty brick or zero bricks");
-    a_ = cc.allocate<T>(brickStride() * count_, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
-    b_ = cc.allocate<T>(brickStride() * count_, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
+    // kSlack elements past the last brick: the brick kernel's x pass reads and blends whole 16-lane vectors
+    // that may run up to 16 elements past the last row.
+    constexpr std::size_t kSlack = 32;
+    a_ = cc.allocate<T>(brickStride() * count_ + kSlack, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
+    b_ = cc.allocate<T>(brickStride() * count_ + kSlack, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
 }
 
 template <class T> BatchMapping<T> BrickBatch<T>::mapForWrite(ComputeContext& cc) {
     current_ = false;
-    return BatchMapping<T>(cc.queue(), a_.get(), a_.size(), CL_MAP_WRITE_INVALIDATE_REGION);
+    return BatchMapping<T>(cc.queue(), a_.get(), brickStride() * count_, CL_MAP_WRITE_INVALIDATE_REGION);
 }
 
 template <class T> BatchMapping<T> BrickBatch<T>::mapForRead(ComputeContext& cc) {
-    return BatchMapping<T>(cc.queue(), data().get(), data().size(), CL_MAP_READ);
+    return BatchMapping<T>(cc.queue(), data().get(), brickStride() * count_, CL_MAP_READ);
 }
 
 template <class T> void BrickBatch<T>::upload(ComputeContext& cc, std::span<const T> host) {
@@ -341,9 +344,9 @@ template <class T> void LiftingTransform<T>::buildBrick(ComputeContext& cc, std:
     d.set("WAVELET", static_cast<long long>(wavelet_));
     d.set("LIFT_MAXN", static_cast<long long>(maxN));
     if (std::is_same_v<T, float>) d.set("LIFT_FLOAT");
-    fwdBrick_ = cc.kernel("lifting_brick.cl", "lift_brick", d);
+    fwdBrick_ = cc.kernel("lifting_brick.cl", "lift_bricks", d);
     d.set("LIFT_INVERSE");
-    invBrick_ = cc.kernel("lifting_brick.cl", "lift_brick", d);
+    invBrick_ = cc.kernel("lifting_brick.cl", "lift_bricks", d);
     brickMaxN_ = maxN;
 }
 
@@ -394,31 +397,82 @@ template <class T> LiftingPath LiftingTransform<T>::pathFor(const BrickBatch<T>&
 }
 
 template <class T>
-double LiftingTransform<T>::brickResident(ComputeContext& cc, BrickBatch<T>& batch, bool inverse, int levels,
-                                          int stopLevel) {
-    const Dims b = batch.brick();
+double LiftingTransform<T>::brickResident(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse,
+                                          int levels, int stopLevel) {
+    // Largest bricks first: the kernel's counter hands bricks out in this order, so the cores end on the
+    // small ones and finish together.
+    std::vector<BrickBatch<T>*> order(batches.begin(), batches.end());
+    std::stable_sort(order.begin(), order.end(),
+                     [](const BrickBatch<T>* a, const BrickBatch<T>* b) { return a->brick().count() > b->brick().count(); });
+    // Unused shape slots repeat the last batch with an empty range of bricks.
+    auto slot = [&](std::size_t k) -> BrickBatch<T>& { return *order[std::min(k, order.size() - 1)]; };
+    cl_uint8 px{}, bx{}, by{}, bz{}, end{};
+    std::size_t total = 0, maxDim = 1;
+    for (std::size_t k = 0; k < kMaxShapes; ++k) {
+        const Dims b = slot(k).brick();
+        if (k < order.size()) {
+            total += slot(k).count();
+            maxDim = std::max({maxDim, b.x, b.y, b.z});
+        }
+        px.s[k] = cl_uint(slot(k).pitch());
+        bx.s[k] = cl_uint(b.x);
+        by.s[k] = cl_uint(b.y);
+        bz.s[k] = cl_uint(b.z);
+        end.s[k] = cl_uint(total);
+    }
     // LIFT_MAXN sizes the kernel's private line buffers. Powers of two from 64 up, so a volume's interior
     // and edge bricks (and every brick of the default size) share one program: a build takes seconds.
     std::size_t maxN = 64;
-    while (maxN < std::max({b.x, b.y, b.z}))
+    while (maxN < maxDim)
         maxN *= 2;
     if (maxN > kBrickResidentMaxDim) throw UsageError("brick-resident lifting: brick larger than 256 voxels");
     buildBrick(cc, maxN);
     if (brickNext_.size() == 0) brickNext_ = cc.allocate<cl_int>(1);
     cc.fill(brickNext_, cl_int(0));
     cl::Kernel& k = inverse ? invBrick_ : fwdBrick_;
-    setArgs(k, batch.data(), brickNext_, cl_uint(batch.pitch()), cl_uint(b.x), cl_uint(b.y), cl_uint(b.z),
-            cl_uint(levels), cl_uint(std::max(stopLevel, 0)), cl_uint(batch.count()));
-    // A few work-items per core, each pulling bricks from the counter (see lift_brick).
-    const std::size_t items =
-        std::min<std::size_t>(batch.count(), 4 * std::max(1u, cc.device().computeUnits));
+    setArgs(k, slot(0).data(), slot(1).data(), slot(2).data(), slot(3).data(), slot(4).data(), slot(5).data(),
+            slot(6).data(), slot(7).data(), brickNext_, px, bx, by, bz, end, cl_uint(levels),
+            cl_uint(std::max(stopLevel, 0)));
+    // A few work-items per core, each pulling bricks from the counter (see lift_bricks).
+    const std::size_t items = std::min<std::size_t>(total, 4 * std::max(1u, cc.device().computeUnits));
     cl::Event ev = cc.launch1d(k, items, 1);
     return eventMilliseconds(ev);
 }
 
+template <class T>
+double LiftingTransform<T>::transformAll(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse,
+                                         int levels, int stopLevel) {
+    double ms = 0;
+    std::vector<BrickBatch<T>*> resident;
+    for (BrickBatch<T>* b : batches) {
+        if (pathFor(*b) == LiftingPath::BrickResident)
+            resident.push_back(b);
+        else
+            ms += inverse ? this->inverse(cc, *b, levels, stopLevel) : forward(cc, *b, levels);
+    }
+    const std::span<BrickBatch<T>* const> all(resident);
+    for (std::size_t i = 0; i < all.size(); i += kMaxShapes)
+        ms += brickResident(cc, all.subspan(i, std::min(kMaxShapes, all.size() - i)), inverse, levels, stopLevel);
+    return ms;
+}
+
+template <class T>
+double LiftingTransform<T>::forward(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, int levels) {
+    return levels <= 0 ? 0 : transformAll(cc, batches, false, levels, 0);
+}
+
+template <class T>
+double LiftingTransform<T>::inverse(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, int levels,
+                                    int stopLevel) {
+    return levels <= stopLevel ? 0 : transformAll(cc, batches, true, levels, stopLevel);
+}
+
 template <class T> double LiftingTransform<T>::forward(ComputeContext& cc, BrickBatch<T>& batch, int levels) {
     if (levels <= 0) return 0;
-    if (pathFor(batch) == LiftingPath::BrickResident) return brickResident(cc, batch, false, levels, 0);
+    if (pathFor(batch) == LiftingPath::BrickResident) {
+        BrickBatch<T>* one[] = {&batch};
+        return brickResident(cc, one, false, levels, 0);
+    }
     buildStreaming(cc);
     double ms = 0;
     for (int l = 0; l < levels; ++l) {
@@ -435,8 +489,10 @@ template <class T> double LiftingTransform<T>::forward(ComputeContext& cc, Brick
 template <class T>
 double LiftingTransform<T>::inverse(ComputeContext& cc, BrickBatch<T>& batch, int levels, int stopLevel) {
     if (levels <= stopLevel) return 0;
-    if (pathFor(batch) == LiftingPath::BrickResident)
-        return brickResident(cc, batch, true, levels, stopLevel);
+    if (pathFor(batch) == LiftingPath::BrickResident) {
+        BrickBatch<T>* one[] = {&batch};
+        return brickResident(cc, one, true, levels, stopLevel);
+    }
     buildStreaming(cc);
     double ms = 0;
     for (int l = levels - 1; l >= stopLevel; --l) {

@@ -122,11 +122,23 @@ public:
     double forward(ComputeContext& cc, BrickBatch<T>& batch, int levels);
     /// Inverse from level levels-1 down to stopLevel. Returns the summed kernel time in milliseconds.
     double inverse(ComputeContext& cc, BrickBatch<T>& batch, int levels, int stopLevel = 0);
+    /// Batches the brick-resident kernel transforms in one launch: a volume's bricks come in at most 8
+    /// shapes (an interior and an edge size per axis).
+    static constexpr std::size_t kMaxShapes = 8;
+    /// forward() of several batches (e.g. one per brick shape of a volume): those on the brick-resident
+    /// path in one launch (per kMaxShapes batches), so the cores stay busy across shapes. Returns the summed
+    /// kernel time in milliseconds.
+    double forward(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, int levels);
+    /// inverse() of several batches, as forward() above.
+    double inverse(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, int levels, int stopLevel = 0);
 
 private:
     double pass(ComputeContext& cc, cl::Kernel& k, BrickBatch<T>& batch, Dims active, int axis);
     double copyBack(ComputeContext& cc, BrickBatch<T>& batch, Dims active);
-    double brickResident(ComputeContext& cc, BrickBatch<T>& batch, bool inverse, int levels, int stopLevel);
+    double brickResident(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse, int levels,
+                         int stopLevel);
+    double transformAll(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse, int levels,
+                        int stopLevel);
     void buildStreaming(ComputeContext& cc);               // the lifting.cl kernels, once
     void buildBrick(ComputeContext& cc, std::size_t maxN); // the lifting_brick.cl kernels for LIFT_MAXN maxN
     Wavelet wavelet_;
