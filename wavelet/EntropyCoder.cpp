@@ -976,13 +976,14 @@ std::uint32_t foldSign(std::int32_t v) {
     return (static_cast<std::uint32_t>(v) << 1) ^ static_cast<std::uint32_t>(v >> 31);
 }
 
-// Byte planes of `planes` bytes per coefficient, plane p at p * count; rows written with one loop per plane.
-template <int Planes>
+// Byte planes First..Planes-1 of the sign-folded coefficients, plane p at p * count; rows written with one
+// loop per plane.
+template <int First, int Planes>
 void foldIntoPlanes(const std::int32_t* c, const std::vector<SubbandBox>& sec, Dims brick, std::uint8_t* raw,
                     std::size_t count) {
     std::size_t i = 0;
     forEachSectionRow(c, sec, brick, [&](const std::int32_t* row, std::size_t len, const SubbandBox&) {
-        for (int p = 0; p < Planes; ++p) {
+        for (int p = First; p < Planes; ++p) {
             std::uint8_t* dst = raw + std::size_t(p) * count + i;
             for (std::size_t k = 0; k < len; ++k)
                 dst[k] = static_cast<std::uint8_t>(foldSign(row[k]) >> (8 * p));
@@ -1025,18 +1026,28 @@ void encodeFast(std::span<const std::int32_t> c, const std::vector<SubbandBox>& 
     for (const SubbandBox& b : sec)
         count += b.count();
     if (count == 0) return;
-    // The OR of the folded values has the same highest bit as their maximum (and vectorises on SSE2).
+    // Plane 0 is written in the pass that finds the plane count (the OR of the folded values has the same
+    // highest bit as their maximum, and vectorises on SSE2): lossy sections mostly need that plane only.
+    FastScratch& s = fastScratch();
+    s.planes.resize(count);
     std::uint32_t bits = 0;
+    std::size_t i = 0;
     forEachSectionRow(c.data(), sec, brick, [&](const std::int32_t* row, std::size_t len, const SubbandBox&) {
         std::uint32_t o = 0;
-        for (std::size_t k = 0; k < len; ++k)
-            o |= foldSign(row[k]);
+        std::uint8_t* dst = s.planes.data() + i;
+        for (std::size_t k = 0; k < len; ++k) {
+            const std::uint32_t f = foldSign(row[k]);
+            o |= f;
+            dst[k] = static_cast<std::uint8_t>(f);
+        }
         bits |= o;
+        i += len;
     });
     const std::size_t planes = bits < 0x100u ? 1 : bits < 0x10000u ? 2 : bits < 0x1000000u ? 3 : 4;
-    FastScratch& s = fastScratch();
-    s.planes.resize(count * planes);
-    withPlanes(planes, [&](auto p) { foldIntoPlanes<p()>(c.data(), sec, brick, s.planes.data(), count); });
+    if (planes > 1) {
+        s.planes.resize(count * planes);
+        withPlanes(planes, [&](auto p) { foldIntoPlanes<1, p()>(c.data(), sec, brick, s.planes.data(), count); });
+    }
     const std::size_t start = out.size();
     out.resize(start + 1 + ZSTD_compressBound(s.planes.size()));
     out[start] = static_cast<std::uint8_t>(planes);
