@@ -60,11 +60,10 @@ namespace {
     throw IoError(std::string(what) + ": " + why + " (corrupted data)");
 }
 
-inline int bitLength(std::uint32_t v) {
-    return 32 - std::countl_zero(v);
-}
+// Sign-mask arithmetic: GCC compiles `v < 0 ? -v : v` to a jump here, mispredicted on random signs.
 inline std::uint32_t magnitude(std::int32_t v) {
-    return v < 0 ? 0u - static_cast<std::uint32_t>(v) : static_cast<std::uint32_t>(v);
+    const auto m = static_cast<std::uint32_t>(v >> 31);
+    return (static_cast<std::uint32_t>(v) ^ m) - m;
 }
 
 // ------------------------------------------------------------------------------ raw bit streams
@@ -338,9 +337,12 @@ constexpr int kActivityContexts = 25;
 constexpr int kSignContexts = 27 * 8; // signs of W, N, U (negative, zero, positive) per orientation
 constexpr int kTableBitsPerEntry = 6;
 
+// Without jumps (the encoder's symbol loop mispredicted on them): k = floor(log2 max(u, 1)) and
+// sh = max(k - 1, 0); u >> sh is the top two bits of u (u >= 2), or u itself (u < 2).
 inline int symbolOf(std::uint32_t u) {
-    const int n = bitLength(u);
-    return n <= 1 ? n : 2 * (n - 1) + static_cast<int>((u >> (n - 2)) & 1u);
+    const int k = 31 - std::countl_zero(u | 1u);
+    const int sh = k - (k != 0 ? 1 : 0);
+    return 2 * sh + static_cast<int>(u >> sh);
 }
 // Per symbol: how many raw mantissa bits follow it, its magnitude with those bits zero (base), and 4 base,
 // the previous coefficient's share of the activity (its smallest magnitude stands in for it, because its
@@ -612,17 +614,21 @@ struct EncodeSide {
     // Preallocated for the worst case (a row flag per row, a symbol and a sign per coefficient), filled at next.
     std::unique_ptr<RansEvent[]> events;
     RansEvent* next = nullptr;
-    std::array<std::array<std::uint32_t, kSymbols>, kActivityContexts> counts{};
+    // Symbol counts per context * 64 + symbol, in two halves (see rows()), summed by encodeDense().
+    std::array<std::array<std::uint32_t, kActivityContexts * 64>, 2> counts{};
     BitWriter raw;
+
     std::vector<std::uint16_t> codeBuffer; // per row of a group: context * 64 + symbol per x
     std::vector<RansEvent> signBuffer;     // per row of a group: its sign events in order
 
     /// The event of an adaptive binary decision; updates the model.
+    /// Masks instead of selects (signs are close to random, and GCC makes jumps of the selects).
     static RansEvent binaryEvent(BitModel& m, unsigned bit, std::uint8_t lane) {
-        const auto p0 = static_cast<std::uint16_t>(m.p0);
-        m.p0 = bit ? m.p0 - (m.p0 >> 5) : m.p0 + ((kBinaryScale - m.p0) >> 5);
-        return bit ? RansEvent{p0, static_cast<std::uint16_t>(kBinaryScale - p0), kBinaryScaleBits, lane}
-                   : RansEvent{0, p0, kBinaryScaleBits, lane};
+        const std::uint32_t p0 = m.p0, one = 0u - static_cast<std::uint32_t>(bit);
+        const std::uint32_t up = p0 + ((kBinaryScale - p0) >> 5), down = p0 - (p0 >> 5);
+        m.p0 = up ^ ((up ^ down) & one);
+        return RansEvent{static_cast<std::uint16_t>(p0 & one),
+                         static_cast<std::uint16_t>(p0 ^ ((p0 ^ (kBinaryScale - p0)) & one)), kBinaryScaleBits, lane};
     }
     void binary(unsigned lane, BitModel& m, unsigned bit) {
         *next++ = binaryEvent(m, bit, static_cast<std::uint8_t>(lane));
@@ -652,15 +658,14 @@ struct EncodeSide {
             std::uint16_t* code = codeBuffer.data() + i * maxNx;
             unsigned prevSym = 0;
             std::size_t count = 0;
+            std::uint32_t all = 0;
             for (std::size_t x = 0; x < j.nx; ++x) {
                 const std::int32_t v = row[x];
                 const std::uint32_t u = magnitude(v);
-                // Before the counts are indexed with its symbol (a predictable branch).
-                if (u >> kMaxBitLength) throw Error("internal: wavelet coefficient magnitude out of range");
+                all |= u;
                 const auto sym = static_cast<unsigned>(symbolOf(u));
                 const auto ctx = static_cast<unsigned>(activityContext(activity[x] + kSymbolInfo.west[prevSym]));
                 prevSym = sym;
-                ++counts[ctx][sym];
                 code[x] = static_cast<std::uint16_t>(ctx * 64 + sym);
                 syms[x] = static_cast<std::uint8_t>(sym);
                 mag[x] = u;
@@ -668,6 +673,16 @@ struct EncodeSide {
                 nonZero[count] = static_cast<std::uint32_t>(x);
                 count += v != 0;
             }
+            // Before the counts are indexed with the symbols.
+            if (all >> kMaxBitLength) throw Error("internal: wavelet coefficient magnitude out of range");
+            // Two histograms taken in turn: runs of one code (mostly zeros) would otherwise chain every
+            // increment to the previous one through memory.
+            std::size_t x = 0;
+            for (; x + 1 < j.nx; x += 2) {
+                ++counts[0][code[x]];
+                ++counts[1][code[x + 1]];
+            }
+            if (x < j.nx) ++counts[0][code[x]];
             j.count = count;
         }
         RansEvent* ev = next;
@@ -819,9 +834,13 @@ void encodeDense(std::span<const std::int32_t> coeffs, Dims brick,
             if (v) bits -= double(v) * std::log2(double(v) / double(total));
         return bits;
     };
+    std::array<std::array<std::uint32_t, kSymbols>, kActivityContexts> contextCounts{};
+    for (std::size_t c = 0; c < kActivityContexts; ++c)
+        for (std::size_t i = 0; i < kSymbols; ++i)
+            contextCounts[c][i] = side.counts[0][c * 64 + i] + side.counts[1][c * 64 + i];
     std::array<std::uint32_t, kSymbols> merged{};
     double split = 0;
-    for (const auto& cnt : side.counts) {
+    for (const auto& cnt : contextCounts) {
         split += cost(cnt);
         for (std::size_t i = 0; i < kSymbols; ++i)
             merged[i] += cnt[i];
@@ -830,7 +849,7 @@ void encodeDense(std::span<const std::int32_t> coeffs, Dims brick,
 
     std::array<std::array<std::uint32_t, kSymbols>, kActivityContexts> counts{};
     if (useContexts)
-        counts = side.counts;
+        counts = contextCounts;
     else
         counts[0] = merged;
     std::array<SymbolTable, kActivityContexts> tables{};
