@@ -963,8 +963,8 @@ private:
         return r;
     }
 
-    // A fixed step whose error is not wanted (a fixed-step encode without a bound, a series frame reusing the
-    // first frame's steps): each brick is quantised and coded straight from the mapped batch, with no
+    // A fixed step whose error is not wanted (CodecOptions::step or a series frame reusing the first frame's
+    // steps, with measureError off and no bound): each brick is quantised and coded straight from the mapped batch, with no
     // coefficient copy and no index array. `delta` sets the steps (else the header's are kept). Returns
     // nothing, having coded in vain, when a subband's magnitudes need a larger step than `delta` gives (data
     // of huge dynamic range; encodeLossy's setDelta raises such steps).
