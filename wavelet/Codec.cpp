@@ -288,6 +288,14 @@ void transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<s
                 fills[f].fn(s.brick, dst, batches[s.group]->pitch());
                 if (prof) stepMs[f * slots.size() + k] = sw.milliseconds();
             }
+            // The kernels' full-width vector steps compute on row padding too: keep it zero, since pooled
+            // memory may hold old integers there, which read as floats are denormals (an assist per vector
+            // instruction on x86). A precaution: no speed difference was measurable under load.
+            const Dims d = groups[s.group].dims;
+            const std::size_t pitch = batches[s.group]->pitch();
+            if (pitch > d.x)
+                for (std::size_t r = 0; r < d.y * d.z; ++r)
+                    std::fill(dst + r * pitch + d.x, dst + (r + 1) * pitch, T(0));
         });
         if (prof) {
             const double ms = wall.milliseconds();
