@@ -109,8 +109,9 @@ int main(int argc, char** argv) try {
         // On a shared machine the best run is the steadier guide to a code change; the median is printed too.
         std::printf("%s: %zu coefficients, %zu bytes (ratio %.4f), dense encode %.1f / decode %.1f Mcoef/s "
                     "(best %.1f / %.1f)\n",
-                    path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes), double(n) / enc[2] / 1e6,
-                    double(n) / dec[2] / 1e6, double(n) / enc[0] / 1e6, double(n) / dec[0] / 1e6);
+                    path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes),
+                    double(n) / enc[2] / 1e6, double(n) / dec[2] / 1e6, double(n) / enc[0] / 1e6,
+                    double(n) / dec[0] / 1e6);
     }
     return 0;
 } catch (const std::exception& e) {

@@ -174,7 +174,8 @@ TEST(CodecLossy, RefusesNanAndInf) {
     EXPECT_THROW(encodeVolume(test::computeContext(), v, lossy(RateMode::MaxError, 1)), DataError);
 }
 
-// Finite voxels near the float limit whose wavelet coefficients overflow to Inf: refused, not coded as garbage.
+// Finite voxels near the float limit whose wavelet coefficients overflow to Inf: refused, not coded as
+// garbage.
 TEST(CodecLossy, RefusesValuesBeyondTheFloatTransformsRange) {
     Volume v({16, 12, 10}, ScalarType::Float32);
     auto s = v.values<float>();

@@ -133,7 +133,8 @@ TEST(Runtime, EventTimingIsPositiveAndBandwidthMeasurable) {
 // kernel), and buffers may outlive their context (the pool lives on with them).
 TEST(Runtime, PooledHostBuffersAreReusedAndOutliveTheirContext) {
     ComputeContext& cc = test::computeContext();
-    for (std::size_t n : {std::size_t(600'000), std::size_t(524'288), std::size_t(600'000), std::size_t(3'000'001)})
+    for (std::size_t n :
+         {std::size_t(600'000), std::size_t(524'288), std::size_t(600'000), std::size_t(3'000'001)})
         for (int round = 0; round < 3; ++round) {
             std::vector<float> host(n);
             std::iota(host.begin(), host.end(), float(round) - 7.0f);

@@ -242,8 +242,8 @@ TEST(WaveletKernels, SeveralShapesInOneCallMatchTheReference) {
     // batches (here 10 shapes on that path, so two launches, bricks handed out largest first), and a batch
     // too large for it (300 voxels along x) on the streaming passes in the same call.
     ComputeContext& cc = test::computeContext();
-    const Dims shapes[] = {{17, 19, 23}, {1, 1, 1}, {2, 3, 5}, {40, 41, 43}, {7, 1, 1}, {300, 3, 2},
-                           {31, 2, 3},   {64, 64, 8}, {3, 5, 2}, {9, 9, 9},   {64, 24, 52}};
+    const Dims shapes[] = {{17, 19, 23}, {1, 1, 1},   {2, 3, 5}, {40, 41, 43}, {7, 1, 1},   {300, 3, 2},
+                           {31, 2, 3},   {64, 64, 8}, {3, 5, 2}, {9, 9, 9},    {64, 24, 52}};
     for (Wavelet w : {Wavelet::Cdf53, Wavelet::Cdf26}) {
         LiftingTransform<std::int32_t> t(cc, w);
         std::vector<std::unique_ptr<BrickBatch<std::int32_t>>> batches;

@@ -753,8 +753,7 @@ private:
                   [&](std::size_t b, float* dst, std::size_t pitch) {
                       requantiseInto(h, h.brickDims(b), coeffs[b].data(), dst, pitch);
                   }}},
-                &CodecProfile::reconstruct,
-                [&](std::size_t b, const float* rec, std::size_t pitch) {
+                &CodecProfile::reconstruct, [&](std::size_t b, const float* rec, std::size_t pitch) {
                     const Dims o = h.brickOrigin(b), d = h.brickDims(b);
                     double sumSq = 0, maxErr = 0;
                     visitTyped(v, [&](auto span) {
@@ -825,7 +824,8 @@ private:
         forwardBricks<float>(cc_, t, v, h, o_.threads, prof, r.report.transformMs, &r.ranges,
                              &CodecProfile::gather, [&](std::size_t b, const float* c, std::size_t pitch) {
                                  coeffs[b] = denseBrick(h.brickDims(b), c, pitch);
-                                 subbandMaxAbs(h, h.brickDims(b), coeffs[b].data(), h.brickDims(b).x, &brickMax[b * nsub]);
+                                 subbandMaxAbs(h, h.brickDims(b), coeffs[b].data(), h.brickDims(b).x,
+                                               &brickMax[b * nsub]);
                              });
         const std::vector<double> maxAbs = mergeMaxima(brickMax, nsub);
         const double range = st.max - st.min;
@@ -972,10 +972,10 @@ private:
     }
 
     // A fixed step whose error is not wanted (CodecOptions::step or a series frame reusing the first frame's
-    // steps, with measureError off and no bound): each brick is quantised and coded straight from the mapped batch, with no
-    // coefficient copy and no index array. `delta` sets the steps (else the header's are kept). Returns
-    // nothing, having coded in vain, when a subband's magnitudes need a larger step than `delta` gives (data
-    // of huge dynamic range; encodeLossy's setDelta raises such steps).
+    // steps, with measureError off and no bound): each brick is quantised and coded straight from the mapped
+    // batch, with no coefficient copy and no index array. `delta` sets the steps (else the header's are
+    // kept). Returns nothing, having coded in vain, when a subband's magnitudes need a larger step than
+    // `delta` gives (data of huge dynamic range; encodeLossy's setDelta raises such steps).
     std::optional<FrameResult> encodeDirect(const Volume& v, VczHeader& h, LiftingTransform<float>& t,
                                             std::optional<double> delta) {
         if (delta) h.steps = subbandSteps(h.wavelet, h.levels, *delta);
@@ -1016,11 +1016,11 @@ private:
     // Bit pattern of the largest coefficient magnitude per subband of a dense brick (index as in h.steps),
     // merged into `out`. Bit patterns of magnitudes order like the magnitudes (Inf and NaN above all finite
     // ones), and an integer max reduction vectorises where a float one does not (NaN semantics).
-    static void subbandMaxAbs(const VczHeader& h, Dims d, const float* c, std::size_t pitch, std::int32_t* out) {
+    static void subbandMaxAbs(const VczHeader& h, Dims d, const float* c, std::size_t pitch,
+                              std::int32_t* out) {
         for (const auto& sec : sectionLayout(d, h.levels))
             for (const SubbandBox& sb : sec) {
-                const std::size_t si =
-                    sb.level == 0 ? 0 : 1 + std::size_t(sb.level - 1) * 7 + std::size_t(sb.orient - 1);
+                const std::size_t si = subbandIndex(sb.level, sb.orient);
                 std::int32_t m = 0;
                 for (std::size_t z = sb.z0; z < sb.z1; ++z)
                     for (std::size_t y = sb.y0; y < sb.y1; ++y) {

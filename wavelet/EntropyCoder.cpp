@@ -628,7 +628,8 @@ struct EncodeSide {
         const std::uint32_t up = p0 + ((kBinaryScale - p0) >> 5), down = p0 - (p0 >> 5);
         m.p0 = up ^ ((up ^ down) & one);
         return RansEvent{static_cast<std::uint16_t>(p0 & one),
-                         static_cast<std::uint16_t>(p0 ^ ((p0 ^ (kBinaryScale - p0)) & one)), kBinaryScaleBits, lane};
+                         static_cast<std::uint16_t>(p0 ^ ((p0 ^ (kBinaryScale - p0)) & one)),
+                         kBinaryScaleBits, lane};
     }
     void binary(unsigned lane, BitModel& m, unsigned bit) {
         *next++ = binaryEvent(m, bit, static_cast<std::uint8_t>(lane));
@@ -984,7 +985,8 @@ FastScratch& fastScratch() {
 }
 
 // Calls fn(row, len, box) for each row of the section's subbands (x fastest, in coding order).
-template <class T, class Fn> void forEachSectionRow(T* c, const std::vector<SubbandBox>& sec, Dims brick, Fn fn) {
+template <class T, class Fn>
+void forEachSectionRow(T* c, const std::vector<SubbandBox>& sec, Dims brick, Fn fn) {
     for (const SubbandBox& b : sec)
         for (std::size_t z = b.z0; z < b.z1; ++z)
             for (std::size_t y = b.y0; y < b.y1; ++y)
@@ -1032,10 +1034,14 @@ void unfoldFromPlanes(const std::uint8_t* raw, std::size_t count, std::int32_t* 
 
 template <class Fn> void withPlanes(std::size_t planes, Fn fn) {
     switch (planes) {
-    case 1: return fn(std::integral_constant<int, 1>{});
-    case 2: return fn(std::integral_constant<int, 2>{});
-    case 3: return fn(std::integral_constant<int, 3>{});
-    default: return fn(std::integral_constant<int, 4>{});
+    case 1:
+        return fn(std::integral_constant<int, 1>{});
+    case 2:
+        return fn(std::integral_constant<int, 2>{});
+    case 3:
+        return fn(std::integral_constant<int, 3>{});
+    default:
+        return fn(std::integral_constant<int, 4>{});
     }
 }
 
@@ -1065,7 +1071,8 @@ void encodeFast(std::span<const std::int32_t> c, const std::vector<SubbandBox>& 
     const std::size_t planes = bits < 0x100u ? 1 : bits < 0x10000u ? 2 : bits < 0x1000000u ? 3 : 4;
     if (planes > 1) {
         s.planes.resize(count * planes);
-        withPlanes(planes, [&](auto p) { foldIntoPlanes<1, p()>(c.data(), sec, brick, s.planes.data(), count); });
+        withPlanes(planes,
+                   [&](auto p) { foldIntoPlanes<1, p()>(c.data(), sec, brick, s.planes.data(), count); });
     }
     const std::size_t start = out.size();
     out.resize(start + 1 + ZSTD_compressBound(s.planes.size()));
@@ -1094,7 +1101,8 @@ void decodeFast(std::span<const std::uint8_t> in, std::span<std::int32_t> c,
         ZSTD_decompressDCtx(s.dctx.get(), s.planes.data(), s.planes.size(), in.data() + 1, in.size() - 1);
     if (ZSTD_isError(n) || n != s.planes.size())
         throw IoError(std::string(what) + ": zstd section does not decode to its size");
-    withPlanes(planes, [&](auto p) { unfoldFromPlanes<p()>(s.planes.data(), count, c.data(), sec, brick, dq); });
+    withPlanes(planes,
+               [&](auto p) { unfoldFromPlanes<p()>(s.planes.data(), count, c.data(), sec, brick, dq); });
 }
 
 } // namespace
@@ -1150,9 +1158,11 @@ void decodeSections(std::span<const std::span<const std::uint8_t>> sections, std
         decodeSection(sections[s], coeffs, brick, layout, s, mode, what);
     if (dq)
         for (std::size_t s = 0; s < sections.size(); ++s)
-            forEachSectionRow(coeffs.data(), layout[s], brick, [&](std::int32_t* row, std::size_t len, const SubbandBox& b) {
-                dequantiseRow(row, reinterpret_cast<float*>(row), len, dq->step(b), dq->bias);
-            });
+            forEachSectionRow(coeffs.data(), layout[s], brick,
+                              [&](std::int32_t* row, std::size_t len, const SubbandBox& b) {
+                                  dequantiseRow(row, reinterpret_cast<float*>(row), len, dq->step(b),
+                                                dq->bias);
+                              });
 }
 
 } // namespace volcl

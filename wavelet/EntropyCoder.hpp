@@ -26,6 +26,12 @@ struct SubbandBox {
     std::size_t count() const noexcept { return (x1 - x0) * (y1 - y0) * (z1 - z0); }
 };
 
+/// Index of a subband in per-subband tables such as VczHeader::steps: 0 for the low band, then 7 per level
+/// (1 = finest), by orientation 1..7.
+constexpr std::size_t subbandIndex(int level, int orient) noexcept {
+    return level == 0 ? 0 : 1 + 7 * std::size_t(level - 1) + std::size_t(orient - 1);
+}
+
 /// Sections of a brick transformed with `levels` levels: section 0 holds the low band, section j >= 1 the
 /// non-empty detail subbands of level levels-j+1. Decoding sections 0..levels-k gives the level-k image.
 std::vector<std::vector<SubbandBox>> sectionLayout(Dims brick, int levels);
@@ -51,14 +57,11 @@ inline void dequantiseRow(const std::int32_t* in, float* out, std::size_t len, d
     }
 }
 
-/// Dequantisation applied while a section is decoded. `steps[i]` is the step of subband i: 0 for the low
-/// band, 1 + 7 (level - 1) + (orient - 1) for detail subbands (VczHeader::steps).
+/// Dequantisation applied while a section is decoded: `steps` indexed by subbandIndex (VczHeader::steps).
 struct Dequantiser {
     std::span<const double> steps;
     double bias = 0.5;
-    double step(const SubbandBox& b) const {
-        return steps[b.level == 0 ? 0 : 1 + 7 * std::size_t(b.level - 1) + std::size_t(b.orient - 1)];
-    }
+    double step(const SubbandBox& b) const { return steps[subbandIndex(b.level, b.orient)]; }
 };
 
 /// Decodes section `s` from `in` into its subbands of `coeffs` (earlier sections must be decoded: they

@@ -280,7 +280,8 @@ BrickBatch<T>::BrickBatch(ComputeContext& cc, Dims brick, std::size_t count)
     // old bit patterns there, and old integers read as floats are denormals (a microcode assist per vector
     // instruction). Row padding is the filler's to zero (the codec does it as it fills each brick).
     for (DeviceBuffer<T>* b : {&a_, &b_})
-        clCheck(cc.queue().enqueueFillBuffer(b->get(), T(0), brickStride() * count_ * sizeof(T), kSlack * sizeof(T)),
+        clCheck(cc.queue().enqueueFillBuffer(b->get(), T(0), brickStride() * count_ * sizeof(T),
+                                             kSlack * sizeof(T)),
                 "clEnqueueFillBuffer");
 }
 
@@ -403,13 +404,14 @@ template <class T> LiftingPath LiftingTransform<T>::pathFor(const BrickBatch<T>&
 }
 
 template <class T>
-double LiftingTransform<T>::brickResident(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse,
-                                          int levels, int stopLevel) {
+double LiftingTransform<T>::brickResident(ComputeContext& cc, std::span<BrickBatch<T>* const> batches,
+                                          bool inverse, int levels, int stopLevel) {
     // Largest bricks first: the kernel's counter hands bricks out in this order, so the cores end on the
     // small ones and finish together.
     std::vector<BrickBatch<T>*> order(batches.begin(), batches.end());
-    std::stable_sort(order.begin(), order.end(),
-                     [](const BrickBatch<T>* a, const BrickBatch<T>* b) { return a->brick().count() > b->brick().count(); });
+    std::stable_sort(order.begin(), order.end(), [](const BrickBatch<T>* a, const BrickBatch<T>* b) {
+        return a->brick().count() > b->brick().count();
+    });
     // Unused shape slots repeat the last batch with an empty range of bricks.
     auto slot = [&](std::size_t k) -> BrickBatch<T>& { return *order[std::min(k, order.size() - 1)]; };
     cl_uint8 px{}, bx{}, by{}, bz{}, end{};
@@ -446,8 +448,8 @@ double LiftingTransform<T>::brickResident(ComputeContext& cc, std::span<BrickBat
 }
 
 template <class T>
-double LiftingTransform<T>::transformAll(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse,
-                                         int levels, int stopLevel) {
+double LiftingTransform<T>::transformAll(ComputeContext& cc, std::span<BrickBatch<T>* const> batches,
+                                         bool inverse, int levels, int stopLevel) {
     double ms = 0;
     std::vector<BrickBatch<T>*> resident;
     for (BrickBatch<T>* b : batches) {
@@ -458,7 +460,8 @@ double LiftingTransform<T>::transformAll(ComputeContext& cc, std::span<BrickBatc
     }
     const std::span<BrickBatch<T>* const> all(resident);
     for (std::size_t i = 0; i < all.size(); i += kMaxShapes)
-        ms += brickResident(cc, all.subspan(i, std::min(kMaxShapes, all.size() - i)), inverse, levels, stopLevel);
+        ms += brickResident(cc, all.subspan(i, std::min(kMaxShapes, all.size() - i)), inverse, levels,
+                            stopLevel);
     return ms;
 }
 

@@ -130,13 +130,14 @@ public:
     /// kernel time in milliseconds.
     double forward(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, int levels);
     /// inverse() of several batches, as forward() above.
-    double inverse(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, int levels, int stopLevel = 0);
+    double inverse(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, int levels,
+                   int stopLevel = 0);
 
 private:
     double pass(ComputeContext& cc, cl::Kernel& k, BrickBatch<T>& batch, Dims active, int axis);
     double copyBack(ComputeContext& cc, BrickBatch<T>& batch, Dims active);
-    double brickResident(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse, int levels,
-                         int stopLevel);
+    double brickResident(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse,
+                         int levels, int stopLevel);
     double transformAll(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse, int levels,
                         int stopLevel);
     void buildStreaming(ComputeContext& cc);               // the lifting.cl kernels, once

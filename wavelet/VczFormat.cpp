@@ -30,8 +30,7 @@ Dims VczHeader::brickDims(std::size_t i) const noexcept {
 }
 
 double VczHeader::step(int level, int orient) const {
-    const std::size_t i =
-        level == 0 ? 0 : 1 + static_cast<std::size_t>(level - 1) * 7 + static_cast<std::size_t>(orient - 1);
+    const std::size_t i = subbandIndex(level, orient);
     if (i >= steps.size()) throw Error("internal: subband step index out of range");
     return steps[i];
 }

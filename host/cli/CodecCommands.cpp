@@ -460,8 +460,9 @@ struct BenchArgs {
     std::vector<std::string> modes; ///< only rows whose mode contains one of these (empty: all)
     std::string coder;              ///< only this entropy coder's rows (empty: both)
     bool wants(const std::string& mode) const {
-        return modes.empty() || std::any_of(modes.begin(), modes.end(),
-                                            [&](const std::string& m) { return mode.find(m) != std::string::npos; });
+        return modes.empty() || std::any_of(modes.begin(), modes.end(), [&](const std::string& m) {
+                   return mode.find(m) != std::string::npos;
+               });
     }
 };
 

@@ -187,7 +187,8 @@ std::string KernelDefines::toOptions() const {
 
 ComputeContext::ComputeContext(std::string_view selector) : ComputeContext(selector, {}) {}
 
-ComputeContext::ComputeContext(std::string_view selector, std::span<const cl_context_properties> extraProperties)
+ComputeContext::ComputeContext(std::string_view selector,
+                               std::span<const cl_context_properties> extraProperties)
     : hostMemory_(std::make_shared<HostMemoryPool>()) {
     std::string sel(selector);
     if (sel.empty())
