@@ -48,8 +48,7 @@ struct CodecProfile {
     double upload = 0;      ///< host -> device copies
     double transform = 0;   ///< lifting kernels (wall time of the launches)
     double download = 0;    ///< device -> host copies
-    double quantise = 0;    ///< quantise / dequantise
-    double entropy = 0;     ///< section (de)coding and payload building
+    double entropy = 0;     ///< section (de)coding with the (de)quantisation fused into it, payload building
     double reconstruct = 0; ///< encoder: inverse transform and error check of the rate-control trials
     double assemble = 0;    ///< encoder: brick ranges and the container; decoder: placing bricks, corrections
     double total = 0;       ///< the whole call
