@@ -290,7 +290,9 @@ void transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<s
             }
             // The kernels' full-width vector steps compute on row padding too: keep it zero, since pooled
             // memory may hold old integers there, which read as floats are denormals (an assist per vector
-            // instruction on x86). A precaution: no speed difference was measurable under load.
+            // instruction on x86). A precaution: no speed difference was measurable under load. (The slack
+            // after the last brick is left alone: only the last row's vector reads reach it, and zeroing it
+            // cost two fill commands per batch.)
             const Dims d = groups[s.group].dims;
             const std::size_t pitch = batches[s.group]->pitch();
             if (pitch > d.x)

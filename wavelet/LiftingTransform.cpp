@@ -276,13 +276,6 @@ BrickBatch<T>::BrickBatch(ComputeContext& cc, Dims brick, std::size_t count)
     constexpr std::size_t kSlack = 32;
     a_ = cc.allocate<T>(brickStride() * count_ + kSlack, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
     b_ = cc.allocate<T>(brickStride() * count_ + kSlack, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
-    // The slack is never mapped, but the kernels compute on it: zero it, since pooled host memory may hold
-    // old bit patterns there, and old integers read as floats are denormals (a microcode assist per vector
-    // instruction). Row padding is the filler's to zero (the codec does it as it fills each brick).
-    for (DeviceBuffer<T>* b : {&a_, &b_})
-        clCheck(cc.queue().enqueueFillBuffer(b->get(), T(0), brickStride() * count_ * sizeof(T),
-                                             kSlack * sizeof(T)),
-                "clEnqueueFillBuffer");
 }
 
 template <class T> BatchMapping<T> BrickBatch<T>::mapForWrite(ComputeContext& cc) {
