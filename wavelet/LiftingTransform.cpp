@@ -275,7 +275,12 @@ BrickBatch<T>::BrickBatch(ComputeContext& cc, Dims brick, std::size_t count)
     // that may run up to 16 elements past the last row.
     constexpr std::size_t kSlack = 32;
     a_ = cc.allocate<T>(brickStride() * count_ + kSlack, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
-    b_ = cc.allocate<T>(brickStride() * count_ + kSlack, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
+}
+
+template <class T> DeviceBuffer<T>& BrickBatch<T>::scratch(ComputeContext& cc) {
+    if (current_) return a_; // b_ exists: it became current by a swap after a pass
+    if (b_.size() == 0) b_ = cc.allocate<T>(a_.size(), CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
+    return b_;
 }
 
 template <class T> BatchMapping<T> BrickBatch<T>::mapForWrite(ComputeContext& cc) {
@@ -359,12 +364,12 @@ double LiftingTransform<T>::pass(ComputeContext& cc, cl::Kernel& k, BrickBatch<T
     const cl_uint count = static_cast<cl_uint>(batch.count());
     cl::Event ev;
     if (axis == 0) {
-        setArgs(k, batch.data(), batch.scratch(), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z),
+        setArgs(k, batch.data(), batch.scratch(cc), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z),
                 cl_uint(a.x), cl_uint(a.y), cl_uint(a.z), count);
         const std::size_t chunks = ((a.x + 1) / 2 + 15) / 16;
         ev = cc.launch3d(k, chunks, a.y, a.z * count, 1, kLocalY, 1);
     } else {
-        setArgs(k, batch.data(), batch.scratch(), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z),
+        setArgs(k, batch.data(), batch.scratch(cc), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z),
                 cl_uint(a.x), cl_uint(a.y), cl_uint(a.z), count, cl_uint(axis));
         // Dimension 0 runs over x chunks and then the in-plane coordinate (pairs along y, rows for z), so a
         // work-group streams neighbouring rows of one plane (the z pass was 3-4x slower with pairs there).
@@ -380,7 +385,7 @@ double LiftingTransform<T>::pass(ComputeContext& cc, cl::Kernel& k, BrickBatch<T
 
 template <class T> double LiftingTransform<T>::copyBack(ComputeContext& cc, BrickBatch<T>& batch, Dims a) {
     const Dims b = batch.brick();
-    setArgs(copy_, batch.data(), batch.scratch(), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z),
+    setArgs(copy_, batch.data(), batch.scratch(cc), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z),
             cl_uint(a.x), cl_uint(a.y), cl_uint(a.z), cl_uint(batch.count()));
     cl::Event ev = cc.launch3d(copy_, a.x, a.y, a.z * batch.count(), 16, 1, 1);
     batch.swap();

@@ -63,7 +63,8 @@ private:
 };
 
 /// `count` bricks of the same dims on the device, stacked along z with the row pitch rounded up to 16
-/// (the x pass works on 16-wide vectors). Two buffers ping-pong between passes; `data()` is the current.
+/// (the x pass works on 16-wide vectors). The streaming passes ping-pong between two buffers (the second
+/// allocated on first use); `data()` is the current.
 /// T is std::int32_t (reversible path) or float (lossy path).
 template <class T> class BrickBatch {
 public:
@@ -82,7 +83,9 @@ public:
     /// Maps the current buffer (the transform's result) for reading.
     BatchMapping<T> mapForRead(ComputeContext& cc);
     DeviceBuffer<T>& data() noexcept { return current_ ? b_ : a_; }
-    DeviceBuffer<T>& scratch() noexcept { return current_ ? a_ : b_; }
+    /// The streaming passes' second buffer, allocated on first use: the brick-resident kernel (CPUs) works
+    /// in place and never needs it.
+    DeviceBuffer<T>& scratch(ComputeContext& cc);
     void swap() noexcept { current_ = !current_; }
 
 private:
