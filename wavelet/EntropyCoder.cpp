@@ -1141,22 +1141,13 @@ void decodeSection(std::span<const std::uint8_t> in, std::span<std::int32_t> coe
 void decodeSections(std::span<const std::span<const std::uint8_t>> sections, std::span<std::int32_t> coeffs,
                     Dims brick, const std::vector<std::vector<SubbandBox>>& layout, EntropyMode mode,
                     const char* what, const Dequantiser* dq) {
-    if (mode == EntropyMode::Fast) {
-        for (std::size_t s = 0; s < sections.size(); ++s) {
-            std::size_t count = 0;
-            for (const SubbandBox& b : layout[s])
-                count += b.count();
-            if (count == 0) {
-                if (!sections[s].empty()) corrupt(what, "unexpected data in an empty section");
-                continue;
-            }
-            decodeFast(sections[s], coeffs, layout[s], brick, what, dq);
-        }
-        return;
+    for (std::size_t s = 0; s < sections.size(); ++s) {
+        if (mode == EntropyMode::Fast)
+            decodeFast(sections[s], coeffs, layout[s], brick, what, dq); // checks empty sections itself
+        else
+            decodeSection(sections[s], coeffs, brick, layout, s, mode, what);
     }
-    for (std::size_t s = 0; s < sections.size(); ++s)
-        decodeSection(sections[s], coeffs, brick, layout, s, mode, what);
-    if (dq)
+    if (dq && mode == EntropyMode::Dense)
         for (std::size_t s = 0; s < sections.size(); ++s)
             forEachSectionRow(coeffs.data(), layout[s], brick,
                               [&](std::int32_t* row, std::size_t len, const SubbandBox& b) {
