@@ -49,7 +49,7 @@ Volume::Volume(Dims dims, ScalarType type) : dims_(dims), type_(type) {
     std::size_t s = scalarSize(type);
     if (dims.x > kMax / dims.y || dims.x * dims.y > kMax / dims.z || dims.count() > kMax / s)
         throw DataError("volume dimensions overflow the address space");
-    bytes_.resize(dims.count() * s);
+    bytes_ = ZeroedBytes(dims.count() * s);
 }
 
 void Volume::checkType(ScalarType t) const {

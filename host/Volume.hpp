@@ -9,6 +9,8 @@
 #include <string_view>
 #include <vector>
 
+#include "host/ZeroedBytes.hpp"
+
 namespace volcl {
 
 /// Voxel types a volume can hold. float64 input is converted to Float32 by the readers.
@@ -94,7 +96,7 @@ private:
     void checkType(ScalarType t) const;
     Dims dims_{};
     ScalarType type_ = ScalarType::UInt8;
-    std::vector<std::byte> bytes_;
+    ZeroedBytes bytes_;
 };
 
 /// An ordered list of volumes on one grid. A plain 3D file reads as a series of one frame.

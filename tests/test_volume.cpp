@@ -1,10 +1,13 @@
 // Volume model: layout, types, conversion, cropping, statistics, series validation.
 #include "host/Error.hpp"
 #include "host/Volume.hpp"
+#include "host/ZeroedBytes.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 using namespace volcl;
@@ -19,6 +22,43 @@ TEST(Volume, XFastestLayoutAndTypedAccess) {
     v.values<std::uint16_t>()[v.index(2, 3, 4)] = 65535;
     EXPECT_EQ(v.valueAt(59), 65535.0);
     EXPECT_THROW(v.values<float>(), DataError);
+}
+
+// Small blocks come from the heap, large ones from mapped pages: both must start zero and behave as values.
+TEST(ZeroedBytes, SmallAndMappedBlocksAreZeroAndCopyDeeply) {
+    for (std::size_t size :
+         {std::size_t(1), std::size_t(4097), kHugePageBytes - 1, kHugePageBytes, 3 * kHugePageBytes + 5}) {
+        ZeroedBytes b(size);
+        ASSERT_EQ(b.size(), size);
+        EXPECT_TRUE(std::all_of(b.data(), b.data() + size, [](std::byte v) { return v == std::byte{0}; }))
+            << size;
+        if (size >= kHugePageBytes)
+            EXPECT_EQ(reinterpret_cast<std::uintptr_t>(b.data()) % kHugePageBytes, 0u);
+        b.data()[size - 1] = std::byte{9};
+        ZeroedBytes c(b);
+        EXPECT_TRUE(c == b);
+        c.data()[size - 1] = std::byte{1};
+        EXPECT_FALSE(c == b);
+        EXPECT_EQ(b.data()[size - 1], std::byte{9}); // the copy owns its own memory
+        ZeroedBytes moved(std::move(c));
+        EXPECT_TRUE(c.empty());
+        EXPECT_EQ(moved.data()[size - 1], std::byte{1});
+        moved = b; // copy-assign over a block of the same size
+        EXPECT_TRUE(moved == b);
+        moved = ZeroedBytes(3);
+        EXPECT_EQ(moved.size(), 3u);
+    }
+    EXPECT_TRUE(ZeroedBytes() == ZeroedBytes(0));
+}
+
+TEST(Volume, LargeVolumesStartZero) {
+    Volume v({256, 256, 33}, ScalarType::Float32); // 8.6 MB: mapped pages
+    const auto f = v.values<float>();
+    EXPECT_TRUE(std::all_of(f.begin(), f.end(), [](float x) { return x == 0.0f; }));
+    Volume w = v;
+    w.values<float>()[5] = 1.0f;
+    EXPECT_FALSE(w == v);
+    EXPECT_EQ(v.values<float>()[5], 0.0f);
 }
 
 TEST(Volume, DefaultsAreOriginZeroSpacingOne) {

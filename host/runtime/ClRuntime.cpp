@@ -1,6 +1,7 @@
 // OpenCL runtime implementation: discovery, device selection, program cache and launches.
 #include "host/runtime/ClRuntime.hpp"
 
+#include "host/ZeroedBytes.hpp"
 #include "host/runtime/KernelSources.hpp"
 
 #include <algorithm>
@@ -10,17 +11,7 @@
 #include <cstdlib>
 #include <sstream>
 
-#ifdef __linux__
-#include <sys/mman.h>
-#endif
-
 namespace volcl {
-
-namespace {
-
-constexpr std::size_t kHugePage = std::size_t(2) << 20;
-
-} // namespace
 
 // Host memory for buffers on CPU devices: 2 MiB aligned blocks advised for transparent huge pages, kept
 // after their buffer is released and handed out again for the same size. Codec batches are allocated per
@@ -34,10 +25,10 @@ public:
     HostMemoryPool& operator=(const HostMemoryPool&) = delete;
     ~HostMemoryPool() {
         for (auto& [bytes, mem] : idle_)
-            std::free(mem);
+            unmapPages(mem, bytes);
     }
 
-    /// A block of `bytes` (a multiple of kHugePage), or nullptr when out of memory.
+    /// A block of `bytes` (a multiple of kHugePageBytes), or nullptr when out of memory.
     void* take(std::size_t bytes) {
         {
             std::lock_guard lock(mutex_);
@@ -48,11 +39,7 @@ public:
                 return mem;
             }
         }
-        void* mem = std::aligned_alloc(kHugePage, bytes);
-#ifdef MADV_HUGEPAGE
-        if (mem) madvise(mem, bytes, MADV_HUGEPAGE); // advice only: without it the pages are just smaller
-#endif
-        return mem;
+        return mapZeroedPages(bytes);
     }
 
     /// Returns a block from take(); runs in OpenCL callbacks, so it never throws.
@@ -66,7 +53,7 @@ public:
             }
         } catch (...) {
         }
-        std::free(mem);
+        unmapPages(mem, bytes);
     }
 
 private:
@@ -275,10 +262,10 @@ cl::Buffer ComputeContext::createBuffer(cl_mem_flags flags, std::size_t bytes) {
         throw DataError("buffer of " + std::to_string(bytes) + " bytes exceeds the device's maximum allocation (" +
                         std::to_string(device_.maxAllocBytes) + " bytes)");
     cl_int err = CL_SUCCESS;
-    if (device_.isCpu && (flags & CL_MEM_ALLOC_HOST_PTR) && bytes >= kHugePage) {
+    if (device_.isCpu && (flags & CL_MEM_ALLOC_HOST_PTR) && bytes >= kHugePageBytes) {
         // Host-allocated buffers on CPU devices use pooled memory of our own (see HostMemoryPool), handed
         // back when the runtime releases the buffer.
-        const std::size_t rounded = roundUp(bytes, kHugePage);
+        const std::size_t rounded = roundUp(bytes, kHugePageBytes);
         if (void* mem = hostMemory_->take(rounded)) {
             auto lease = std::make_unique<HostLease>(HostLease{hostMemory_, mem, rounded});
             cl::Buffer b(context_, (flags & ~cl_mem_flags(CL_MEM_ALLOC_HOST_PTR)) | CL_MEM_USE_HOST_PTR, bytes, mem,
