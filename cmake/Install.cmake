@@ -12,6 +12,8 @@ foreach(_dir host preintegration wavelet cl)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${_dir}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/volcl/${_dir}
           FILES_MATCHING PATTERN "*.hpp" PATTERN "*.h" PATTERN "cli" EXCLUDE)
 endforeach()
+# The OpenImageIO module is loaded from libvolcl's directory at run time (not linked, not exported).
+install(TARGETS volcl_oiio LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
 install(EXPORT volclTargets NAMESPACE volcl:: DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/volcl)
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/volclConfig.cmake.in
   ${PROJECT_BINARY_DIR}/volclConfig.cmake INSTALL_DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/volcl)

@@ -1,19 +1,17 @@
-// Image files through OpenImageIO (EXR float/half with attributes, 8-bit PNG) and sRGB display encoding.
+// Image files (EXR float/half with attributes, 8-bit PNG; OpenImageIO in a module) and sRGB display encoding.
 #include "host/image/ImageIo.hpp"
 
 #include "host/Error.hpp"
-#include "host/io/AtomicFile.hpp"
-
-#include <OpenImageIO/imageio.h>
+#include "host/image/OiioModule.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 
+#include <dlfcn.h>
+
 namespace volcl {
 namespace {
-
-namespace OIIO = OIIO_NAMESPACE;
 
 std::string lowerExtension(const std::filesystem::path& p) {
     std::string ext = p.extension().string();
@@ -23,6 +21,36 @@ std::string lowerExtension(const std::filesystem::path& p) {
 }
 
 constexpr float kHalfMax = 65504.0f;
+
+// Loads the OpenImageIO module from libvolcl's own directory, else from the library search path.
+const OiioModule* loadOiioModule() {
+    std::string tried;
+    Dl_info self{};
+    std::vector<std::string> candidates;
+    if (dladdr(reinterpret_cast<void*>(&readImage), &self) && self.dli_fname)
+        candidates.push_back(
+            (std::filesystem::path(self.dli_fname).parent_path() / kOiioModuleFile).string());
+    candidates.push_back(kOiioModuleFile);
+    for (const std::string& file : candidates) {
+        // Kept loaded for the life of the process: OpenImageIO holds global state.
+        if (void* handle = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL)) {
+            using Entry = const OiioModule* (*)();
+            if (auto entry = reinterpret_cast<Entry>(dlsym(handle, kOiioModuleEntry))) return entry();
+            throw IoError(file + ": not a volcl image module (no " + kOiioModuleEntry + ")");
+        }
+        const char* why = dlerror();
+        tried += (tried.empty() ? "" : "; ") + std::string(why ? why : file);
+    }
+    throw IoError(std::string("image I/O needs ") + kOiioModuleFile +
+                  " (OpenImageIO), which did not load: " + tried);
+}
+
+// A failed load throws and is retried on the next call (a function-local static is initialised only once it
+// succeeds).
+const OiioModule& oiioModule() {
+    static const OiioModule* module = loadOiioModule();
+    return *module;
+}
 
 } // namespace
 
@@ -61,91 +89,13 @@ void writeImage(const ImageBuffer& image, const std::filesystem::path& path,
                 throw DataError(name + ": value " + std::to_string(v) +
                                 " does not fit in half float (max 65504); write float EXR instead");
 
-    AtomicFile out(path);
-    // The temporary has a different name, so choose the writer from the target's extension.
-    auto writer = OIIO::ImageOutput::create(name);
-    if (!writer) throw IoError(name + ": no image writer available (" + OIIO::geterror() + ")");
-
-    const OIIO::TypeDesc format =
-        png ? OIIO::TypeDesc::UINT8 : (options.halfFloat ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
-    OIIO::ImageSpec spec(image.width, image.height, image.channelCount(), format);
-    spec.channelnames = image.channels;
-    spec.alpha_channel = -1;
-    for (int c = 0; c < image.channelCount(); ++c)
-        if (image.channels[std::size_t(c)] == "A") spec.alpha_channel = c;
-    if (exr) spec.attribute("compression", "zip");
-    // PNG pixels are display values with straight alpha already: stop OIIO from un-premultiplying them.
-    if (png) spec.attribute("oiio:UnassociatedAlpha", 1);
-    for (const auto& a : image.attributes) {
-        if (const auto* s = std::get_if<std::string>(&a.value))
-            spec.attribute(a.name, *s);
-        else if (const auto* f = std::get_if<float>(&a.value))
-            spec.attribute(a.name, *f);
-        else if (const auto* i = std::get_if<int>(&a.value))
-            spec.attribute(a.name, *i);
-        else if (const auto* v = std::get_if<std::array<float, 2>>(&a.value))
-            spec.attribute(a.name, OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, OIIO::TypeDesc::VEC2), v->data());
-    }
-
-    if (!writer->open(out.tempPath().string(), spec))
-        throw IoError(name + ": cannot open for writing (" + writer->geterror() + ")");
-    bool ok = false;
-    if (png) {
-        // Explicit rounding so the 8-bit values do not depend on the library's conversion.
-        std::vector<std::uint8_t> bytes(image.pixels.size());
-        for (std::size_t i = 0; i < bytes.size(); ++i) {
-            const float v = image.pixels[i];
-            const float c = std::isnan(v) ? 0.0f : std::clamp(v, 0.0f, 1.0f);
-            bytes[i] = static_cast<std::uint8_t>(std::lround(c * 255.0f));
-        }
-        ok = writer->write_image(OIIO::TypeDesc::UINT8, bytes.data());
-    } else {
-        ok = writer->write_image(OIIO::TypeDesc::FLOAT, image.pixels.data());
-    }
-    const std::string error = ok ? std::string() : writer->geterror();
-    if (!writer->close() && ok) throw IoError(name + ": cannot finish writing (" + writer->geterror() + ")");
-    if (!ok) throw IoError(name + ": cannot write pixels (" + error + ")");
-    writer.reset();
-    out.commit();
+    oiioModule().write(image, path, png ? ImageFileFormat::Png : ImageFileFormat::Exr, options);
 }
 
 ImageBuffer readImage(const std::filesystem::path& path) {
     const std::string name = path.string();
     if (!std::filesystem::is_regular_file(path)) throw IoError(name + ": image file not found");
-    // Keep stored values as they are (PNG alpha is straight; OIIO would otherwise premultiply on read).
-    OIIO::ImageSpec config;
-    config.attribute("oiio:UnassociatedAlpha", 1);
-    auto in = OIIO::ImageInput::open(name, &config);
-    if (!in) throw IoError(name + ": cannot read image (" + OIIO::geterror() + ")");
-    const OIIO::ImageSpec& spec = in->spec();
-    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
-        throw IoError(name + ": image has no pixels");
-    if (spec.depth > 1) throw IoError(name + ": volume images are not supported as 2D images");
-
-    std::vector<std::string> names;
-    for (int c = 0; c < spec.nchannels; ++c)
-        names.push_back(c < int(spec.channelnames.size()) ? spec.channelnames[std::size_t(c)]
-                                                          : "channel" + std::to_string(c));
-    ImageBuffer img(spec.width, spec.height, names);
-    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, img.pixels.data()))
-        throw IoError(name + ": corrupted or truncated image (" + in->geterror() + ")");
-    for (const auto& pv : spec.extra_attribs) {
-        const OIIO::TypeDesc t = pv.type();
-        const std::string attrName = pv.name().string();
-        if (pv.nvalues() != 1) continue;
-        if (t == OIIO::TypeDesc::STRING)
-            img.attributes.push_back({attrName, std::string(pv.get_ustring().string())});
-        else if (t == OIIO::TypeDesc::FLOAT)
-            img.attributes.push_back({attrName, pv.get_float()});
-        else if (t == OIIO::TypeDesc::INT)
-            img.attributes.push_back({attrName, pv.get_int()});
-        else if (t == OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, OIIO::TypeDesc::VEC2)) {
-            const auto* f = static_cast<const float*>(pv.data());
-            img.attributes.push_back({attrName, std::array<float, 2>{f[0], f[1]}});
-        }
-    }
-    in->close();
-    return img;
+    return oiioModule().read(path);
 }
 
 float linearToSrgb(float linear) noexcept {

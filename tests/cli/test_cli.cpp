@@ -26,9 +26,9 @@ std::string slurp(const std::filesystem::path& p) {
     return s.str();
 }
 
-RunResult run(const std::string& args, const std::filesystem::path& dir) {
+RunResult run(const std::string& args, const std::filesystem::path& dir, const std::string& exe = VOLCL_EXE) {
     auto out = dir / "stdout.txt", err = dir / "stderr.txt";
-    std::string cmd = std::string(VOLCL_EXE) + " " + args + " >" + out.string() + " 2>" + err.string() + " </dev/null";
+    std::string cmd = exe + " " + args + " >" + out.string() + " 2>" + err.string() + " </dev/null";
     int status = std::system(cmd.c_str());
     int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     return {code, slurp(out), slurp(err)};
@@ -154,6 +154,26 @@ TEST(Cli, DemoRunsAndWritesPhantoms) {
     Volume sl = readVolume(dir / "demo" / "shepp_logan.nrrd");
     EXPECT_EQ(sl.dims(), (Dims{48, 48, 48}));
     EXPECT_NE(r.out.find("range"), std::string::npos);
+}
+
+// OpenImageIO is a module loaded on first image access; without it, image commands fail with one line.
+TEST(Cli, MissingImageModuleIsAOneLineError) {
+    auto dir = test::tempDir("cli_no_oiio");
+    const std::filesystem::path exe(VOLCL_EXE), bin = dir / "bin";
+    std::filesystem::create_directories(bin);
+    std::filesystem::copy_file(exe, bin / "volcl");
+    std::filesystem::copy_file(exe.parent_path() / "libvolcl.so", bin / "libvolcl.so");
+    // LD_LIBRARY_PATH wins over the copy's RUNPATH, so the library (and its module lookup) is the copy's.
+    const std::string copy = "LD_LIBRARY_PATH=" + bin.string() + " " + (bin / "volcl").string();
+    EXPECT_EQ(run("--help", dir, copy).exitCode, 0);
+    RunResult r = run("demo -o " + (dir / "demo").string() + " --phantom-size 16", dir, copy);
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    // demo reports progress on stderr before it writes its first image; the error is one line after it.
+    const std::size_t last = r.err.rfind('\n', r.err.size() - 2);
+    const std::string error = r.err.substr(last == std::string::npos ? 0 : last + 1);
+    EXPECT_EQ(error.rfind("volcl: ", 0), 0u) << r.err;
+    EXPECT_EQ(lineCount(error), 1u) << r.err;
+    EXPECT_NE(error.find("libvolcl_oiio.so"), std::string::npos) << r.err;
 }
 
 TEST(Cli, InfoRefusesPointsVdbAndCorruptedCopiesWithOneLine) {

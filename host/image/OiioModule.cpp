@@ -1,0 +1,115 @@
+// OpenImageIO module: EXR (float/half, attributes) and 8-bit PNG writing, reading of any format OIIO knows.
+#include "host/image/OiioModule.hpp"
+
+#include "host/Error.hpp"
+#include "host/io/AtomicFile.hpp"
+
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+namespace volcl {
+namespace {
+
+namespace OIIO = OIIO_NAMESPACE;
+
+void write(const ImageBuffer& image, const std::filesystem::path& path, ImageFileFormat fileFormat,
+           const ImageWriteOptions& options) {
+    const std::string name = path.string();
+    const bool png = fileFormat == ImageFileFormat::Png, exr = !png;
+    AtomicFile out(path);
+    // The temporary has a different name, so choose the writer from the target's extension.
+    auto writer = OIIO::ImageOutput::create(name);
+    if (!writer) throw IoError(name + ": no image writer available (" + OIIO::geterror() + ")");
+
+    const OIIO::TypeDesc format =
+        png ? OIIO::TypeDesc::UINT8 : (options.halfFloat ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
+    OIIO::ImageSpec spec(image.width, image.height, image.channelCount(), format);
+    spec.channelnames = image.channels;
+    spec.alpha_channel = -1;
+    for (int c = 0; c < image.channelCount(); ++c)
+        if (image.channels[std::size_t(c)] == "A") spec.alpha_channel = c;
+    if (exr) spec.attribute("compression", "zip");
+    // PNG pixels are display values with straight alpha already: stop OIIO from un-premultiplying them.
+    if (png) spec.attribute("oiio:UnassociatedAlpha", 1);
+    for (const auto& a : image.attributes) {
+        if (const auto* s = std::get_if<std::string>(&a.value))
+            spec.attribute(a.name, *s);
+        else if (const auto* f = std::get_if<float>(&a.value))
+            spec.attribute(a.name, *f);
+        else if (const auto* i = std::get_if<int>(&a.value))
+            spec.attribute(a.name, *i);
+        else if (const auto* v = std::get_if<std::array<float, 2>>(&a.value))
+            spec.attribute(a.name, OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, OIIO::TypeDesc::VEC2), v->data());
+    }
+
+    if (!writer->open(out.tempPath().string(), spec))
+        throw IoError(name + ": cannot open for writing (" + writer->geterror() + ")");
+    bool ok = false;
+    if (png) {
+        // Explicit rounding so the 8-bit values do not depend on the library's conversion.
+        std::vector<std::uint8_t> bytes(image.pixels.size());
+        for (std::size_t i = 0; i < bytes.size(); ++i) {
+            const float v = image.pixels[i];
+            const float c = std::isnan(v) ? 0.0f : std::clamp(v, 0.0f, 1.0f);
+            bytes[i] = static_cast<std::uint8_t>(std::lround(c * 255.0f));
+        }
+        ok = writer->write_image(OIIO::TypeDesc::UINT8, bytes.data());
+    } else {
+        ok = writer->write_image(OIIO::TypeDesc::FLOAT, image.pixels.data());
+    }
+    const std::string error = ok ? std::string() : writer->geterror();
+    if (!writer->close() && ok) throw IoError(name + ": cannot finish writing (" + writer->geterror() + ")");
+    if (!ok) throw IoError(name + ": cannot write pixels (" + error + ")");
+    writer.reset();
+    out.commit();
+}
+
+ImageBuffer read(const std::filesystem::path& path) {
+    const std::string name = path.string();
+    // Keep stored values as they are (PNG alpha is straight; OIIO would otherwise premultiply on read).
+    OIIO::ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    auto in = OIIO::ImageInput::open(name, &config);
+    if (!in) throw IoError(name + ": cannot read image (" + OIIO::geterror() + ")");
+    const OIIO::ImageSpec& spec = in->spec();
+    if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
+        throw IoError(name + ": image has no pixels");
+    if (spec.depth > 1) throw IoError(name + ": volume images are not supported as 2D images");
+
+    std::vector<std::string> names;
+    for (int c = 0; c < spec.nchannels; ++c)
+        names.push_back(c < int(spec.channelnames.size()) ? spec.channelnames[std::size_t(c)]
+                                                          : "channel" + std::to_string(c));
+    ImageBuffer img(spec.width, spec.height, names);
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, img.pixels.data()))
+        throw IoError(name + ": corrupted or truncated image (" + in->geterror() + ")");
+    for (const auto& pv : spec.extra_attribs) {
+        const OIIO::TypeDesc t = pv.type();
+        const std::string attrName = pv.name().string();
+        if (pv.nvalues() != 1) continue;
+        if (t == OIIO::TypeDesc::STRING)
+            img.attributes.push_back({attrName, std::string(pv.get_ustring().string())});
+        else if (t == OIIO::TypeDesc::FLOAT)
+            img.attributes.push_back({attrName, pv.get_float()});
+        else if (t == OIIO::TypeDesc::INT)
+            img.attributes.push_back({attrName, pv.get_int()});
+        else if (t == OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, OIIO::TypeDesc::VEC2)) {
+            const auto* f = static_cast<const float*>(pv.data());
+            img.attributes.push_back({attrName, std::array<float, 2>{f[0], f[1]}});
+        }
+    }
+    in->close();
+    return img;
+}
+
+const OiioModule kModule{write, read};
+
+} // namespace
+} // namespace volcl
+
+extern "C" __attribute__((visibility("default"))) const volcl::OiioModule* volcl_oiio_module() {
+    return &volcl::kModule;
+}
