@@ -1,13 +1,15 @@
 // OpenCL runtime: discovery, selection, program cache, defines, build-log errors, buffers, launches.
+#include "TestUtil.hpp"
 #include "host/runtime/ClRuntime.hpp"
 #include "host/runtime/KernelSources.hpp"
+#include "host/runtime/ProgramBinaryCache.hpp"
 #include "host/runtime/Timing.hpp"
-#include "TestUtil.hpp"
 
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <numeric>
+#include <optional>
 
 using namespace volcl;
 
@@ -57,6 +59,93 @@ TEST(Runtime, ProgramCacheKeysOnSourceAndOptions) {
     EXPECT_EQ(cc.cachedProgramCount(), 2u) << "different defines: a second program";
     cc.kernel("copy.cl", "copy_float", KernelDefines().set("UNUSED_FLAG", 1));
     EXPECT_EQ(cc.cachedProgramCount(), 2u);
+}
+
+namespace {
+
+// Sets an environment variable for the life of a test and restores it afterwards.
+class ScopedEnv {
+public:
+    ScopedEnv(const char* name, const std::string& value) : name_(name) {
+        if (const char* old = std::getenv(name)) old_ = old;
+        setenv(name, value.c_str(), 1);
+    }
+    ~ScopedEnv() {
+        if (old_)
+            setenv(name_, old_->c_str(), 1);
+        else
+            unsetenv(name_);
+    }
+
+private:
+    const char* name_;
+    std::optional<std::string> old_;
+};
+
+// Runs copy_float through a fresh context and checks the result (a program from the disk cache must work).
+std::size_t copyThroughFreshContext() {
+    ComputeContext cc;
+    std::vector<float> host(100);
+    std::iota(host.begin(), host.end(), 0.25f);
+    auto src = cc.upload(host);
+    auto dst = cc.allocate<float>(host.size());
+    cl::Kernel k = cc.kernel("copy.cl", "copy_float");
+    setArgs(k, src, dst, cl_uint(host.size()));
+    cc.launch1d(k, host.size(), 64);
+    EXPECT_EQ(cc.download(dst), host);
+    return cc.programsFromDiskCache();
+}
+
+} // namespace
+
+TEST(Runtime, ProgramBinariesAreCachedOnDiskAndDamagedEntriesRebuilt) {
+    const auto dir = test::tempDir("runtime_binary_cache");
+    ScopedEnv env("VOLCL_CACHE_DIR", dir.string());
+    EXPECT_EQ(copyThroughFreshContext(), 0u) << "first build: from source";
+    const ComputeContext probe;
+    const ProgramBinaryCache entry(probe.device(), "", probe.sources().resolve("copy.cl"));
+    ASSERT_TRUE(entry.file());
+    ASSERT_TRUE(std::filesystem::exists(*entry.file())) << entry.file()->string();
+    ASSERT_TRUE(entry.load());
+    EXPECT_EQ(copyThroughFreshContext(), 1u) << "second context: from the disk cache";
+    // Other options or source are other entries.
+    EXPECT_FALSE(ProgramBinaryCache(probe.device(), "-DX=1", probe.sources().resolve("copy.cl")).load());
+    EXPECT_FALSE(ProgramBinaryCache(probe.device(), "", probe.sources().resolve("copy.cl") + " ").load());
+
+    // A flipped byte anywhere (key, checksum or binary) or a truncation makes the entry unusable: the
+    // program is rebuilt from source and the entry replaced.
+    const std::uintmax_t size = std::filesystem::file_size(*entry.file());
+    for (std::uintmax_t at : {std::uintmax_t(3), std::uintmax_t(20), size / 2, size - 1}) {
+        {
+            std::fstream f(*entry.file(), std::ios::in | std::ios::out | std::ios::binary);
+            f.seekg(std::streamoff(at));
+            const char c = char(f.get());
+            f.seekp(std::streamoff(at));
+            f.put(char(c ^ 0x41));
+        }
+        EXPECT_FALSE(entry.load()) << "byte " << at;
+        EXPECT_EQ(copyThroughFreshContext(), 0u) << "byte " << at;
+        EXPECT_TRUE(entry.load()) << "rewritten after byte " << at;
+    }
+    std::filesystem::resize_file(*entry.file(), size - 7);
+    EXPECT_FALSE(entry.load());
+    EXPECT_EQ(copyThroughFreshContext(), 0u);
+    EXPECT_EQ(copyThroughFreshContext(), 1u);
+}
+
+TEST(Runtime, ProgramBinaryCacheCanBeOffOrUnwritable) {
+    {
+        ScopedEnv env("VOLCL_CACHE_DIR", "off");
+        EXPECT_FALSE(ProgramBinaryCache::directory());
+        EXPECT_EQ(copyThroughFreshContext(), 0u);
+        EXPECT_EQ(copyThroughFreshContext(), 0u);
+    }
+    // A cache "directory" that is a file: nothing can be stored, kernels still build and run.
+    const auto dir = test::tempDir("runtime_binary_cache_file");
+    std::ofstream(dir / "not-a-dir") << "x";
+    ScopedEnv env("VOLCL_CACHE_DIR", (dir / "not-a-dir").string());
+    EXPECT_EQ(copyThroughFreshContext(), 0u);
+    EXPECT_EQ(copyThroughFreshContext(), 0u);
 }
 
 TEST(Runtime, DefinesSpecialiseKernels) {

@@ -113,6 +113,8 @@ public:
     cl::Kernel kernel(std::string_view file, std::string_view name, const KernelDefines& defines = {},
                       std::string_view extraOptions = {});
     std::size_t cachedProgramCount() const noexcept { return programs_.size(); }
+    /// Programs this context created from the on-disk binary cache (see ProgramBinaryCache).
+    std::size_t programsFromDiskCache() const noexcept { return programsFromDisk_; }
 
     template <class T> DeviceBuffer<T> allocate(std::size_t count, cl_mem_flags flags = CL_MEM_READ_WRITE) {
         return DeviceBuffer<T>(createBuffer(flags, std::max<std::size_t>(count, 1) * sizeof(T)), count);
@@ -164,6 +166,7 @@ private:
     cl::CommandQueue queue_;
     std::unique_ptr<KernelSourceLibrary> sources_;
     std::map<std::tuple<std::uint64_t, std::string>, cl::Program> programs_; // (source hash, options)
+    std::size_t programsFromDisk_ = 0;
     std::shared_ptr<HostMemoryPool> hostMemory_; // shared with buffers that outlive the context
 };
 
