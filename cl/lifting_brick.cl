@@ -288,12 +288,27 @@ inline void lift_rows(global T* first, size_t pitch, int n, int rows) {
    for the extension at the ends). Why: the transposes of lift_rows cost 8 shuffles per vector and, as
    PoCL's LLVM compiled them, spills; this is about 2-3 shuffles per vector. Lanes past a half's length
    hold garbage that never reaches a valid lane. Stores of partial vectors blend with what memory holds
-   (the lanes past the active row keep earlier levels' coefficients); they and the unaligned loads of the
-   inverse may touch up to 16 elements past the row, which BrickBatch's slack covers at the buffer end. */
+   (the lanes past the active row keep earlier levels' coefficients) but never write past the row's pitch
+   (store_part); the unaligned loads of the inverse may read up to 16 elements past the row, which
+   BrickBatch's slack covers at the buffer end. */
 #define LANE ((int16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
-/* Lanes [0, count) of v to p, count >= 1. */
-ALWAYS_INLINE void store_part(global T* p, V v, int count) {
-    STG(p, count >= 16 ? v : select(LDG(p), v, LANE < count));
+/* Lanes [0, count) of v to p, count >= 1; `room` elements from p to the end of the row's pitch. A partial
+   vector is blended with what memory holds, which rewrites the lanes past count with the values read: safe
+   within this brick (only this work-item writes it) but not past the pitch of a brick's last row, where the
+   next brick begins and another work-item may be changing it (seen as lost updates: the codec's lossless
+   round trips of awkward sizes with small edge bricks failed now and then once PoCL's workers were pinned
+   and ran bricks at the same time). There, lane by lane. */
+ALWAYS_INLINE void store_part(global T* p, V v, int count, int room) {
+    if (count >= 16) {
+        STG(p, v);
+    } else if (room >= 16) {
+        STG(p, select(LDG(p), v, LANE < count));
+    } else {
+        T t[16];
+        ST(t, v);
+        for (int i = 0; i < count; ++i)
+            p[i] = t[i];
+    }
 }
 /* x[m + 1] of a half (lo = x[0..16), hi = x[16..32)) of length len: x[m] itself at m = len - 1, which is
    where the whole-sample symmetric extension sends e[ms] for even n (other lanes past len: don't care). */
@@ -330,7 +345,7 @@ ALWAYS_INLINE void store_part(global T* p, V v, int count) {
 #define ZIP_HI (uint16)(8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31)
 
 /* One row of 2 <= n <= 64 samples, in place. */
-ALWAYS_INLINE void lift_row64(global T* row, int n) {
+ALWAYS_INLINE void lift_row64(global T* row, int n, int px) {
     const int ms = (n + 1) >> 1, md = n >> 1;
     V e0, e1, o0, o1;
 #ifndef LIFT_INVERSE
@@ -356,10 +371,10 @@ ALWAYS_INLINE void lift_row64(global T* row, int n) {
     o0 = SCALE_HIGH(o0);
     o1 = SCALE_HIGH(o1);
 #endif
-    store_part(row, e0, ms);
-    if (ms > 16) store_part(row + 16, e1, ms - 16);
-    store_part(row + ms, o0, md);
-    if (md > 16) store_part(row + ms + 16, o1, md - 16);
+    store_part(row, e0, ms, px);
+    if (ms > 16) store_part(row + 16, e1, ms - 16, px - 16);
+    store_part(row + ms, o0, md, px - ms);
+    if (md > 16) store_part(row + ms + 16, o1, md - 16, px - ms - 16);
 #else
     e0 = LDG(row);
     e1 = ms > 16 ? LDG(row + 16) : e0;
@@ -378,10 +393,10 @@ ALWAYS_INLINE void lift_row64(global T* row, int n) {
     UPDATE(-, UPD97B)
     PREDICT(-, PRED97A)
 #endif
-    store_part(row, shuffle2(e0, o0, ZIP_LO), n);
-    if (n > 16) store_part(row + 16, shuffle2(e0, o0, ZIP_HI), n - 16);
-    if (n > 32) store_part(row + 32, shuffle2(e1, o1, ZIP_LO), n - 32);
-    if (n > 48) store_part(row + 48, shuffle2(e1, o1, ZIP_HI), n - 48);
+    store_part(row, shuffle2(e0, o0, ZIP_LO), n, px);
+    if (n > 16) store_part(row + 16, shuffle2(e0, o0, ZIP_HI), n - 16, px - 16);
+    if (n > 32) store_part(row + 32, shuffle2(e1, o1, ZIP_LO), n - 32, px - 32);
+    if (n > 48) store_part(row + 48, shuffle2(e1, o1, ZIP_HI), n - 48, px - 48);
 #endif
 }
 #endif
@@ -480,7 +495,7 @@ inline void lift_level(global T* brick, int px, int by, int nx, int ny, int nz) 
             } else if (nx <= 64) {
                 for (int z = 0; z < nz; ++z)
                     for (int y = 0; y < ny; ++y)
-                        lift_row64(brick + z * plane + (size_t)y * px, nx);
+                        lift_row64(brick + z * plane + (size_t)y * px, nx, px);
 #endif
             } else {
                 for (int z = 0; z < nz; ++z)

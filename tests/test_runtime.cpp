@@ -11,6 +11,11 @@
 #include <numeric>
 #include <optional>
 
+#ifdef __linux__
+#include <sched.h>
+#include <unistd.h>
+#endif
+
 using namespace volcl;
 
 TEST(Runtime, ListsAtLeastOneDevice) {
@@ -22,6 +27,23 @@ TEST(Runtime, ListsAtLeastOneDevice) {
         EXPECT_GT(devices[i].computeUnits, 0u);
         EXPECT_GT(devices[i].maxAllocBytes, 0u);
     }
+}
+
+TEST(Runtime, AsksPoclToPinItsWorkersWhenEveryCpuIsAvailable) {
+#ifdef __linux__
+    listDevices();
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    ASSERT_EQ(sched_getaffinity(0, sizeof set, &set), 0);
+    const long online = sysconf(_SC_NPROCESSORS_ONLN);
+    bool everyCpu = online > 1;
+    for (long i = 0; i < online && everyCpu; ++i)
+        everyCpu = CPU_ISSET(i, &set);
+    // Set before PoCL started its threads (by us, or by the user, whose value is kept).
+    if (everyCpu) EXPECT_NE(std::getenv("POCL_AFFINITY"), nullptr);
+#else
+    GTEST_SKIP() << "PoCL worker pinning is Linux-only";
+#endif
 }
 
 TEST(Runtime, SelectsDeviceByIndexAndName) {

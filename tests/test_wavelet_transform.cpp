@@ -156,6 +156,42 @@ TEST(WaveletKernels, IntegerKernelsMatchReferenceBitExactly) {
         }
 }
 
+// The x pass blends partial vectors into memory; where a brick's last row ends closer than 16 elements before
+// its pitch does, a blend would rewrite the next brick's first elements with the values it read, losing
+// whatever the work-item transforming that brick stored meanwhile. Many small bricks whose rows end like
+// that, transformed concurrently (PoCL's workers are pinned to different cores) and repeatedly: a race
+// shows as a brick that differs from the reference.
+TEST(WaveletKernels, ConcurrentBricksNeverTouchTheirNeighbours) {
+    ComputeContext& cc = test::computeContext();
+    LiftingTransform<std::int32_t> t(cc, Wavelet::Cdf53);
+    t.setPath(LiftingPath::BrickResident);
+    for (const Dims d : {Dims{15, 4, 3}, Dims{8, 3, 2}, Dims{40, 2, 3}}) {
+        const std::size_t count = 256;
+        std::vector<std::vector<std::int32_t>> bricks, refs;
+        for (std::size_t c = 0; c < count; ++c) {
+            bricks.push_back(randomInts(d.count(), -32768, 32767, unsigned(c)));
+            refs.push_back(bricks.back());
+            reference::forward3d(std::span<std::int32_t>(refs.back()), d, 2, Wavelet::Cdf53);
+        }
+        BrickBatch<std::int32_t> batch(cc, d, count);
+        std::vector<std::int32_t> host = pack(batch, bricks);
+        for (int rep = 0; rep < 20; ++rep) {
+            batch.upload(cc, host);
+            t.forward(cc, batch, 2);
+            std::vector<std::int32_t> out = batch.makeHost();
+            batch.download(cc, out);
+            for (std::size_t c = 0; c < count; ++c)
+                ASSERT_EQ(unpackBrick(batch, out, c), refs[c]) << d.x << "x" << d.y << "x" << d.z << " brick " << c
+                                                               << " forward, repetition " << rep;
+            t.inverse(cc, batch, 2);
+            batch.download(cc, out);
+            for (std::size_t c = 0; c < count; ++c)
+                ASSERT_EQ(unpackBrick(batch, out, c), bricks[c]) << d.x << "x" << d.y << "x" << d.z << " brick "
+                                                                 << c << " inverse, repetition " << rep;
+        }
+    }
+}
+
 TEST(WaveletKernels, FloatKernelsMatchDoubleReference) {
     ComputeContext& cc = test::computeContext();
     for (LiftingPath path : kPaths)

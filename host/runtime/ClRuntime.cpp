@@ -10,9 +10,42 @@
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
+#include <mutex>
 #include <sstream>
 
+#ifdef __linux__
+#include <sched.h>
+#include <unistd.h>
+#endif
+
 namespace volcl {
+
+namespace {
+
+// Asks PoCL's CPU driver to pin its worker thread i to CPU i (POCL_AFFINITY=1), before PoCL starts them; a
+// value the user set wins. Why: unpinned, the workers of a 2-core machine where another process keeps one
+// core busy settle on the same core as each other for the life of the process (2 + 1 is as balanced as 3
+// threads on 2 cores get, and the scheduler keeps it), so a kernel gets one core in some processes and
+// one and a half in others: the codec's transform stage took its whole CPU time as wall time (BrainWeb
+// 9/7 inverse: wall = CPU = 6.6-9.8 ms in 5 of 5 processes), pinned 0.63-0.87 of it (bench/inverse_speed.cpp).
+// Skipped unless the process may run on CPUs 0 .. n-1, all of them online (not under taskset or a cgroup
+// cpuset that excludes some): PoCL pins by thread index.
+void pinCpuWorkers() {
+#ifdef __linux__
+    static std::once_flag once;
+    std::call_once(once, [] {
+        cpu_set_t set;
+        CPU_ZERO(&set);
+        const long online = sysconf(_SC_NPROCESSORS_ONLN);
+        if (online < 2 || online > CPU_SETSIZE || sched_getaffinity(0, sizeof set, &set) != 0) return;
+        for (long i = 0; i < online; ++i)
+            if (!CPU_ISSET(i, &set)) return;
+        setenv("POCL_AFFINITY", "1", 0);
+    });
+#endif
+}
+
+} // namespace
 
 // Host memory for buffers on CPU devices: 2 MiB aligned blocks advised for transparent huge pages, kept
 // after their buffer is released and handed out again for the same size. Codec batches are allocated per
@@ -105,6 +138,7 @@ bool DeviceInfo::hasExtension(std::string_view ext) const {
 }
 
 std::vector<DeviceInfo> listDevices() {
+    pinCpuWorkers(); // before the ICD loads PoCL
     std::vector<cl::Platform> platforms;
     cl_int err = cl::Platform::get(&platforms);
     // No ICD at all reports CL_PLATFORM_NOT_FOUND_KHR: that is "no devices", not an error.
