@@ -280,16 +280,26 @@ struct WordReader {
         const std::uint8_t* q = data + std::min(pos, size);
         const std::uint32_t w = q[0] | (std::uint32_t(q[1]) << 8);
         pos += 2 * renorm;
-        return (s << (16 * renorm)) | (w & (0u - renorm));
+        return select(renorm, (s << 16) | w, s);
+    }
+    /// c ? a : b without a jump. GCC turns the plain select into a jump here, which mispredicts on the
+    /// renormalisation (close to random); on x86-64 a cmov is forced, elsewhere mask arithmetic is used.
+    static std::uint32_t select(std::uint32_t c, std::uint32_t a, std::uint32_t b) noexcept {
+#if defined(__x86_64__) && defined(__GNUC__)
+        __asm__("testl %1, %1\n\tcmovnzl %2, %0" : "+r"(b) : "r"(c), "r"(a) : "cc");
+        return b;
+#else
+        return b ^ ((a ^ b) & (0u - c));
+#endif
     }
     /// Adaptive binary decision on state s.
     unsigned bit(std::uint32_t& s, BitModel& m) noexcept {
         const std::uint32_t p0 = m.p0;
-        const std::uint32_t one = (s & (kBinaryScale - 1)) >= p0 ? 1u : 0u;
-        const std::uint32_t freq = p0 + one * (kBinaryScale - 2 * p0);
-        s = advance(s, kBinaryScaleBits, one * p0, freq);
+        const std::uint32_t one = (s & (kBinaryScale - 1)) >= p0 ? 1u : 0u, mask = 0u - one;
         const std::uint32_t up = p0 + ((kBinaryScale - p0) >> 5), down = p0 - (p0 >> 5);
-        m.p0 = up + one * (down - up);
+        // Masks instead of multiplications by `one` (shorter; signs are close to random, so no jumps).
+        s = advance(s, kBinaryScaleBits, p0 & mask, p0 ^ ((p0 ^ (kBinaryScale - p0)) & mask));
+        m.p0 = up ^ ((up ^ down) & mask);
         return one;
     }
 };
@@ -876,10 +886,17 @@ void encodeDense(std::span<const std::int32_t> coeffs, Dims brick,
     }
     tableBits.finish();
 
+    // Slots of every pending code (context * 64 + symbol) in one flat table: the backward pass then resolves
+    // an event with two loads, no test of the mode and no division.
+    std::array<std::uint16_t, kActivityContexts * 64> codeStart{}, codeFreq{};
+    for (std::size_t c = 0; c < kActivityContexts; ++c)
+        for (std::size_t sym = 0; sym < kSymbols; ++sym) {
+            const SymbolTable& t = tables[useContexts ? c : 0];
+            codeStart[c * 64 + sym] = t.start[sym];
+            codeFreq[c * 64 + sym] = t.freq[sym];
+        }
     const auto resolve = [&](const RansEvent& e) {
-        const std::size_t t = useContexts ? e.start / 64 : 0;
-        const unsigned sym = e.start % 64;
-        return RansEvent{tables[t].start[sym], tables[t].freq[sym], kTableScaleBits, e.lane};
+        return RansEvent{codeStart[e.start], codeFreq[e.start], kTableScaleBits, e.lane};
     };
     std::vector<std::uint8_t> stream;
     ransEncode({side.events.get(), side.next}, static_cast<int>(layout[s].size()), resolve, stream);
