@@ -465,7 +465,7 @@ struct RowJob {
     std::int32_t* row;             // the row in the brick
     std::uint32_t* mag;            // its magnitudes in the zero-padded slice copy (mag[-1] and mag[nx] are 0)
     std::uint8_t* sgn;             // its sign classes (signClass) likewise
-    std::uint8_t* syms;            // scratch: magnitude symbol per x
+    std::uint8_t* syms;            // magnitude symbol per x (syms[-1] is 0: the previous symbol of x = 0)
     std::uint32_t* nonZero;        // scratch: x of the non-zero coefficients in order, `count` of them
     std::size_t count;
 };
@@ -522,7 +522,7 @@ struct SectionWalker {
             b.activity.assign(b.nx, 0);
             b.nonZero.assign(b.nx, 0);
             b.signBase.assign(b.nx, 0);
-            b.syms.assign(b.nx, 0);
+            b.syms.assign(b.nx + 1, 0); // syms[0] stays 0: the symbol before x = 0
             maxNy = std::max(maxNy, b.ny);
             maxNz = std::max(maxNz, b.nz);
         }
@@ -578,7 +578,7 @@ struct SectionWalker {
                     for (std::size_t x = 0; x < nx; ++x)
                         signBase[x] = static_cast<std::uint16_t>(sctx0 + 3 * ns[x] + 9 * us[x]);
                     jobs[nj++] = {static_cast<unsigned>(k), nx, activity, signBase, row, m, sg,
-                                  b.syms.data(),            b.nonZero.data(), 0};
+                                  b.syms.data() + 1,        b.nonZero.data(), 0};
                 }
                 if (nj > 0) side.rows(jobs.data(), nj);
             }
@@ -753,16 +753,14 @@ struct DecodeSide {
         for (std::size_t i = 0; i < nj; ++i)
             st[i] = rans.x[jobs[i].lane];
         const std::array<const DecoderTable*, kActivityContexts> tab = tables;
-        unsigned prevSym[kMaxLanes] = {};
         interleaveSymbols(jobs, nj, [&](std::size_t i, std::size_t x) {
             const RowJob& j = jobs[i];
             const DecoderTable& t =
-                *tab[static_cast<std::size_t>(activityContext(j.activity[x] + kSymbolInfo.west[prevSym[i]]))];
+                *tab[static_cast<std::size_t>(activityContext(j.activity[x] + kSymbolInfo.west[j.syms[x - 1]]))];
             const std::uint32_t s = st[i];
             const unsigned sym = t.lookup[s & (kTableScale - 1)];
             st[i] = in.advance(s, kTableScaleBits, t.start[sym], t.freq[sym]);
             j.syms[x] = static_cast<std::uint8_t>(sym);
-            prevSym[i] = sym;
         });
         for (std::size_t i = 0; i < nj; ++i) {
             RowJob& j = jobs[i];
