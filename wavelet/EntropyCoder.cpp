@@ -280,16 +280,26 @@ struct WordReader {
         const std::uint8_t* q = data + std::min(pos, size);
         const std::uint32_t w = q[0] | (std::uint32_t(q[1]) << 8);
         pos += 2 * renorm;
-        return (s << (16 * renorm)) | (w & (0u - renorm));
+        return select(renorm, (s << 16) | w, s);
+    }
+    /// c ? a : b without a jump. GCC turns the plain select into a jump here, which mispredicts on the
+    /// renormalisation (close to random); on x86-64 a cmov is forced, elsewhere mask arithmetic is used.
+    static std::uint32_t select(std::uint32_t c, std::uint32_t a, std::uint32_t b) noexcept {
+#if defined(__x86_64__) && defined(__GNUC__)
+        __asm__("testl %1, %1\n\tcmovnzl %2, %0" : "+r"(b) : "r"(c), "r"(a) : "cc");
+        return b;
+#else
+        return b ^ ((a ^ b) & (0u - c));
+#endif
     }
     /// Adaptive binary decision on state s.
     unsigned bit(std::uint32_t& s, BitModel& m) noexcept {
         const std::uint32_t p0 = m.p0;
-        const std::uint32_t one = (s & (kBinaryScale - 1)) >= p0 ? 1u : 0u;
-        const std::uint32_t freq = p0 + one * (kBinaryScale - 2 * p0);
-        s = advance(s, kBinaryScaleBits, one * p0, freq);
+        const std::uint32_t one = (s & (kBinaryScale - 1)) >= p0 ? 1u : 0u, mask = 0u - one;
         const std::uint32_t up = p0 + ((kBinaryScale - p0) >> 5), down = p0 - (p0 >> 5);
-        m.p0 = up + one * (down - up);
+        // Masks instead of multiplications by `one` (shorter; signs are close to random, so no jumps).
+        s = advance(s, kBinaryScaleBits, p0 & mask, p0 ^ ((p0 ^ (kBinaryScale - p0)) & mask));
+        m.p0 = up ^ ((up ^ down) & mask);
         return one;
     }
 };
@@ -455,7 +465,7 @@ struct RowJob {
     std::int32_t* row;             // the row in the brick
     std::uint32_t* mag;            // its magnitudes in the zero-padded slice copy (mag[-1] and mag[nx] are 0)
     std::uint8_t* sgn;             // its sign classes (signClass) likewise
-    std::uint8_t* syms;            // scratch: magnitude symbol per x
+    std::uint8_t* syms;            // magnitude symbol per x (syms[-1] is 0: the previous symbol of x = 0)
     std::uint32_t* nonZero;        // scratch: x of the non-zero coefficients in order, `count` of them
     std::size_t count;
 };
@@ -512,7 +522,7 @@ struct SectionWalker {
             b.activity.assign(b.nx, 0);
             b.nonZero.assign(b.nx, 0);
             b.signBase.assign(b.nx, 0);
-            b.syms.assign(b.nx, 0);
+            b.syms.assign(b.nx + 1, 0); // syms[0] stays 0: the symbol before x = 0
             maxNy = std::max(maxNy, b.ny);
             maxNz = std::max(maxNz, b.nz);
         }
@@ -568,7 +578,7 @@ struct SectionWalker {
                     for (std::size_t x = 0; x < nx; ++x)
                         signBase[x] = static_cast<std::uint16_t>(sctx0 + 3 * ns[x] + 9 * us[x]);
                     jobs[nj++] = {static_cast<unsigned>(k), nx, activity, signBase, row, m, sg,
-                                  b.syms.data(),            b.nonZero.data(), 0};
+                                  b.syms.data() + 1,        b.nonZero.data(), 0};
                 }
                 if (nj > 0) side.rows(jobs.data(), nj);
             }
@@ -743,16 +753,14 @@ struct DecodeSide {
         for (std::size_t i = 0; i < nj; ++i)
             st[i] = rans.x[jobs[i].lane];
         const std::array<const DecoderTable*, kActivityContexts> tab = tables;
-        unsigned prevSym[kMaxLanes] = {};
         interleaveSymbols(jobs, nj, [&](std::size_t i, std::size_t x) {
             const RowJob& j = jobs[i];
             const DecoderTable& t =
-                *tab[static_cast<std::size_t>(activityContext(j.activity[x] + kSymbolInfo.west[prevSym[i]]))];
+                *tab[static_cast<std::size_t>(activityContext(j.activity[x] + kSymbolInfo.west[j.syms[x - 1]]))];
             const std::uint32_t s = st[i];
             const unsigned sym = t.lookup[s & (kTableScale - 1)];
             st[i] = in.advance(s, kTableScaleBits, t.start[sym], t.freq[sym]);
             j.syms[x] = static_cast<std::uint8_t>(sym);
-            prevSym[i] = sym;
         });
         for (std::size_t i = 0; i < nj; ++i) {
             RowJob& j = jobs[i];
@@ -876,10 +884,17 @@ void encodeDense(std::span<const std::int32_t> coeffs, Dims brick,
     }
     tableBits.finish();
 
+    // Slots of every pending code (context * 64 + symbol) in one flat table: the backward pass then resolves
+    // an event with two loads, no test of the mode and no division.
+    std::array<std::uint16_t, kActivityContexts * 64> codeStart{}, codeFreq{};
+    for (std::size_t c = 0; c < kActivityContexts; ++c)
+        for (std::size_t sym = 0; sym < kSymbols; ++sym) {
+            const SymbolTable& t = tables[useContexts ? c : 0];
+            codeStart[c * 64 + sym] = t.start[sym];
+            codeFreq[c * 64 + sym] = t.freq[sym];
+        }
     const auto resolve = [&](const RansEvent& e) {
-        const std::size_t t = useContexts ? e.start / 64 : 0;
-        const unsigned sym = e.start % 64;
-        return RansEvent{tables[t].start[sym], tables[t].freq[sym], kTableScaleBits, e.lane};
+        return RansEvent{codeStart[e.start], codeFreq[e.start], kTableScaleBits, e.lane};
     };
     std::vector<std::uint8_t> stream;
     ransEncode({side.events.get(), side.next}, static_cast<int>(layout[s].size()), resolve, stream);
