@@ -20,7 +20,10 @@
    are never changed.
 
    Extra define: LIFT_MAXN, at least the largest brick dimension, a multiple of 16 (sizes the private
-   staging arrays; one program serves every brick shape up to it). */
+   staging arrays; one program serves every brick shape up to it).
+   Optional: VOXEL_TYPE (0 float, 1 uint8, 2 uint16, 3 int16; inverse only) adds an output volume to the
+   kernel: each brick, right after its last level, is converted to voxels and written at its place in the
+   volume while it is still in the core's cache, instead of being read back from memory by the host. */
 
 #include "lifting_common.h"
 
@@ -513,6 +516,66 @@ inline void lift_level(global T* brick, int px, int by, int nx, int ny, int nz) 
     }
 }
 
+#ifdef VOXEL_TYPE
+/* Voxels as the host's placement makes them: lossy floats rounded to nearest even, integers clamped to the
+   type's range. Spelled out as rint, clamp and a plain conversion: PoCL's convert_*_sat_rte builtins
+   compile to long compare-and-select chains. */
+#if VOXEL_TYPE == 1
+typedef uchar voxel_t;
+typedef uchar16 voxel16;
+#define VOXEL_MIN 0
+#define VOXEL_MAX 255
+#define CONVERT_VOXEL convert_uchar16
+#elif VOXEL_TYPE == 2
+typedef ushort voxel_t;
+typedef ushort16 voxel16;
+#define VOXEL_MIN 0
+#define VOXEL_MAX 65535
+#define CONVERT_VOXEL convert_ushort16
+#elif VOXEL_TYPE == 3
+typedef short voxel_t;
+typedef short16 voxel16;
+#define VOXEL_MIN (-32768)
+#define VOXEL_MAX 32767
+#define CONVERT_VOXEL convert_short16
+#else
+typedef float voxel_t;
+typedef float16 voxel16;
+#endif
+#if VOXEL_TYPE == 0 && defined(LIFT_FLOAT)
+#define TO_VOXEL(v) (v)
+#elif VOXEL_TYPE == 0
+#define TO_VOXEL(v) convert_float16(v)
+#elif defined(LIFT_FLOAT)
+#define TO_VOXEL(v) CONVERT_VOXEL(convert_int16(clamp(rint(v), (float16)(VOXEL_MIN), (float16)(VOXEL_MAX))))
+#else
+#define TO_VOXEL(v) CONVERT_VOXEL(clamp((v), (int16)(VOXEL_MIN), (int16)(VOXEL_MAX)))
+#endif
+/* One store per vector at any alignment (vstore16 of small types is split into single elements). */
+typedef voxel16 voxel16u __attribute__((aligned(sizeof(voxel_t))));
+
+/* The nx x ny x nz brick (row pitch px, by rows per plane) as voxels at `out`, rows `row` and planes `plane`
+   apart. A row's last partial vector is stored lane by lane: the next brick's voxels follow it in the volume
+   and another work-item may be writing them. */
+inline void store_voxels(global const T* brick, int px, int by, int nx, int ny, int nz, global voxel_t* out,
+                         ulong row, ulong plane) {
+    for (int z = 0; z < nz; ++z)
+        for (int y = 0; y < ny; ++y) {
+            global const T* src = brick + ((size_t)z * by + y) * px;
+            global voxel_t* dst = out + z * plane + y * row;
+            int x = 0;
+            for (; x + 16 <= nx; x += 16)
+                *(global voxel16u*)(dst + x) = TO_VOXEL(LDG(src + x));
+            if (x < nx) {
+                voxel_t t[16];
+                *(voxel16u*)t = TO_VOXEL(LDG(src + x));
+                for (int i = 0; x + i < nx; ++i)
+                    dst[x + i] = t[i];
+            }
+        }
+}
+#endif
+
 /* Each work-item takes bricks from the shared counter `next` (zero at launch) until none is left; forward
    levels 0 .. levels-1, or inverse levels levels-1 .. stop. Bricks come from up to kMaxShapes batches (one
    per brick shape, buffers d0 .. d7): batch k holds bricks end[k - 1] .. end[k] - 1 of the counter, of
@@ -526,7 +589,12 @@ inline void lift_level(global T* brick, int px, int by, int nx, int ny, int nz) 
 kernel __attribute__((reqd_work_group_size(1, 1, 1))) void lift_bricks(
     global T* d0, global T* d1, global T* d2, global T* d3, global T* d4, global T* d5, global T* d6,
     global T* d7, volatile global int* next, uint8 px8, uint8 bx8, uint8 by8, uint8 bz8, uint8 end8,
-    uint levels, uint stop) {
+    uint levels, uint stop
+#ifdef VOXEL_TYPE
+    /* brick c goes to out + out_offset[c] (stop is 0) */
+    , global voxel_t* out, global const ulong* out_offset, ulong out_row, ulong out_plane
+#endif
+) {
     uint px[8], bx[8], by[8], bz[8], end[8];
     vstore8(px8, 0, px);
     vstore8(bx8, 0, bx);
@@ -549,5 +617,8 @@ kernel __attribute__((reqd_work_group_size(1, 1, 1))) void lift_bricks(
 #endif
             lift_level(brick, px[k], by[k], ((bx[k] - 1) >> l) + 1, ((by[k] - 1) >> l) + 1,
                        ((bz[k] - 1) >> l) + 1);
+#ifdef VOXEL_TYPE
+        store_voxels(brick, px[k], by[k], bx[k], by[k], bz[k], out + out_offset[c], out_row, out_plane);
+#endif
     }
 }

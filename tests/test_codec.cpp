@@ -254,6 +254,41 @@ TEST(CodecAccess, RegionDecodeEqualsCropOfFullDecode) {
     }
 }
 
+// The inverse kernel's own voxel conversion and placement (CPU devices) against the host's, on every voxel
+// type, lossless and lossy (saturated regions make the lossy reconstruction overshoot, so the clamps are
+// exercised; --max-error adds corrections), edge bricks of several shapes, and a brick-aligned region
+// (placed relative to its corner).
+TEST(CodecAccess, DevicePlacementEqualsHostPlacement) {
+    ComputeContext& cc = test::computeContext();
+    for (ScalarType t : {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16, ScalarType::Float32}) {
+        // Slabs at each end of the type's range (floats: +-1e5, far beyond the rest), set in float and
+        // converted (which clamps to the type).
+        Volume f = makeVolume({37, 29, 23}, t, 11, 4.0).convertedTo(ScalarType::Float32);
+        for (std::size_t z = 0; z < 23; ++z)
+            for (std::size_t y = 0; y < 29; ++y)
+                for (std::size_t x = 0; x < 6; ++x) {
+                    f.values<float>()[f.index(x, y, z)] = -1e5f;
+                    f.values<float>()[f.index(36 - x, y, z)] = 1e5f;
+                }
+        const Volume v = f.convertedTo(t);
+        std::vector<CodecOptions> opts = {lossless(), lossless(Wavelet::Haar, EntropyMode::Fast),
+                                          lossy(RateMode::Bpv, 0.5), lossy(RateMode::MaxError, 2.0)};
+        if (t == ScalarType::Float32) opts.erase(opts.begin(), opts.begin() + 2); // lossless floats: raw bits
+        for (const CodecOptions& o : opts) {
+            const auto bytes = encodeVolume(cc, v, o);
+            for (const Region& r : {Region{{0, 0, 0}, {37, 29, 23}}, Region{{16, 0, 16}, {37, 29, 23}}}) {
+                DecodeOptions onDevice, onHost;
+                onDevice.region = onHost.region = r;
+                onHost.placeOnDevice = false;
+                const Volume a = decodeVolume(cc, bytes, onDevice), b = decodeVolume(cc, bytes, onHost);
+                ASSERT_TRUE(a.sameGrid(b));
+                EXPECT_TRUE(a == b) << scalarTypeName(t) << " rate " << int(o.rate) << " region x0 "
+                                    << r.lo.x;
+            }
+        }
+    }
+}
+
 TEST(CodecAccess, LevelDecodeIsTheLowBandAndRegionsAgree) {
     ComputeContext& cc = test::computeContext();
     const Dims d{45, 38, 29};

@@ -243,12 +243,13 @@ template <class T> struct FillStep {
 };
 
 // Runs one transform over the listed bricks, batched by brick shape. The fill steps write each brick into
-// its batch slot; run(batches) transforms them all (one launch on CPUs); emit(b, src, pitch) reads the result
-// from the mapped batch (timed as `emitStage`), so no dense copy is made. Filling and emitting are each one
+// its batch slot; run(batches, groups) transforms them all (one launch on CPUs) and returns true when it
+// also delivered the result (as voxels, see VoxelPlacement); otherwise emit(b, src, pitch) reads it from the
+// mapped batch (timed as `emitStage`), so no dense copy is made. Filling and emitting are each one
 // parallel loop over all bricks of all batches (per-shape loops left a thread idle on shapes with a single
 // brick), and a brick's fill steps run back to back, so later steps find the brick in cache.
 template <class T, class Run, class Emit>
-void transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<std::size_t>& which,
+bool transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<std::size_t>& which,
                      unsigned threads, CodecProfile* prof, const std::vector<FillStep<T>>& fills, Run run,
                      double CodecProfile::*emitStage, Emit emit) {
     const std::vector<BrickGroup> groups = groupBricks(h, which);
@@ -317,12 +318,16 @@ void transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<s
     std::vector<BrickBatch<T>*> all;
     for (auto& b : batches)
         all.push_back(b.get());
-    timeStage(prof, &CodecProfile::transform, [&] { run(std::span<BrickBatch<T>* const>(all)); });
+    bool emitted = false;
+    timeStage(prof, &CodecProfile::transform,
+              [&] { emitted = run(std::span<BrickBatch<T>* const>(all), groups); });
+    if (emitted) return true;
     timeStage(prof, &CodecProfile::download, [&] {
         for (std::size_t g = 0; g < groups.size(); ++g)
             maps[g] = batches[g]->mapForRead(cc);
     });
     forEachSlot(emitStage, [&](std::size_t b, T* src, std::size_t pitch) { emit(b, static_cast<const T*>(src), pitch); });
+    return false;
 }
 
 std::vector<std::size_t> allBricks(const VczHeader& h) {
@@ -347,17 +352,51 @@ void forwardBricks(ComputeContext& cc, LiftingTransform<T>& t, const Volume& v, 
               const auto r = gatherBrick<T>(v, h, b, dst, pitch);
               if (ranges) (*ranges)[b] = r;
           }}},
-        [&](std::span<BrickBatch<T>* const> b) { ms += t.forward(cc, b, h.levels); }, emitStage, emit);
+        [&](std::span<BrickBatch<T>* const> b, const std::vector<BrickGroup>&) {
+            ms += t.forward(cc, b, h.levels);
+            return false;
+        },
+        emitStage, emit);
 }
 
-// Inverse transform of the listed bricks down to `level` (see transformBricks for fill and emit).
+// An output volume the inverse kernel may write voxels into directly: `voxels` over its memory, holding
+// the full-resolution box that starts at `first`.
+struct VoxelPlacement {
+    cl::Buffer voxels;
+    ScalarType type;
+    Dims dims, first;
+};
+
+// Inverse transform of the listed bricks down to `level` (see transformBricks for fill and emit). With
+// `toVoxels`, a full-resolution inverse on the brick-resident path writes the voxels from the kernel, emit
+// is not called and the result is true (every listed brick must lie inside the placement's box); the host
+// must map the placement's buffer before reading them.
+
 template <class T, class Emit>
-void inverseBricks(ComputeContext& cc, LiftingTransform<T>& t, const VczHeader& h,
+bool inverseBricks(ComputeContext& cc, LiftingTransform<T>& t, const VczHeader& h,
                    const std::vector<std::size_t>& which, int level, unsigned threads, CodecProfile* prof,
-                   const std::vector<FillStep<T>>& fills, double CodecProfile::*emitStage, Emit emit) {
-    transformBricks<T>(
+                   const std::vector<FillStep<T>>& fills, double CodecProfile::*emitStage, Emit emit,
+                   const VoxelPlacement* toVoxels = nullptr) {
+    return transformBricks<T>(
         cc, h, which, threads, prof, fills,
-        [&](std::span<BrickBatch<T>* const> b) { t.inverse(cc, b, h.levels, level); }, emitStage, emit);
+        [&](std::span<BrickBatch<T>* const> b, const std::vector<BrickGroup>& groups) {
+            if (toVoxels && level == 0 && t.canWriteVoxels(b)) {
+                VoxelTarget target{toVoxels->voxels, toVoxels->type, toVoxels->dims, {}};
+                for (const BrickGroup& g : groups) {
+                    auto& o = target.origins.emplace_back();
+                    for (std::size_t brick : g.bricks) {
+                        const Dims bo = h.brickOrigin(brick);
+                        o.push_back(
+                            {bo.x - toVoxels->first.x, bo.y - toVoxels->first.y, bo.z - toVoxels->first.z});
+                    }
+                }
+                t.inverseToVoxels(cc, b, h.levels, target);
+                return true;
+            }
+            t.inverse(cc, b, h.levels, level);
+            return false;
+        },
+        emitStage, emit);
 }
 
 // ------------------------------------------------------------------------------ quantisation
@@ -1136,6 +1175,19 @@ VczReader::VczReader(std::vector<std::byte> bytes, std::string name)
 
 namespace {
 
+// Brick b's exactly stored voxels (--max-error outliers) that fall into [a, e), at full resolution.
+template <class V>
+void applyCorrections(const VczHeader& h, std::size_t b, Dims a, Dims e, std::span<V> out, Dims outDims,
+                      const std::vector<Correction>& corrections) {
+    const Dims o = h.brickOrigin(b), d = h.brickDims(b);
+    for (const Correction& c : corrections) {
+        const std::size_t x = o.x + c.index % d.x, y = o.y + c.index / d.x % d.y,
+                          z = o.z + c.index / (d.x * d.y);
+        if (x >= a.x && x < e.x && y >= a.y && y < e.y && z >= a.z && z < e.z)
+            out[((z - a.z) * outDims.y + (y - a.y)) * outDims.x + (x - a.x)] = static_cast<V>(c.value);
+    }
+}
+
 // Copies the samples of brick b that fall in [a, e) (level-k sample indices; sample j sits at
 // full-resolution voxel j * 2^k) into `out`. `src` holds the brick with rows of `pitch` elements: for
 // lifting bricks the inverse-transformed batch slot with the level-k approximation in its low corner, for
@@ -1186,21 +1238,16 @@ void placeBrick(const VczHeader& h, std::size_t b, int level, Dims a, Dims e, st
                     dst[x - a.x] = v;
                 }
         }
-    if (level == 0)
-        for (const Correction& c : corrections) {
-            const std::size_t x = o.x + c.index % d.x, y = o.y + c.index / d.x % d.y,
-                              z = o.z + c.index / (d.x * d.y);
-            if (x >= a.x && x < e.x && y >= a.y && y < e.y && z >= a.z && z < e.z)
-                out[((z - a.z) * outDims.y + (y - a.y)) * outDims.x + (x - a.x)] = static_cast<V>(c.value);
-        }
+    if (level == 0) applyCorrections(h, b, a, e, out, outDims, corrections);
 }
 
 // Entropy decodes the listed bricks of one frame on host threads, inverts them on the device down to
 // `level` and places each brick's part of [a, e) into `out` straight from the mapped batch.
 template <class V>
-void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h, std::size_t frame,
-                      const std::vector<std::size_t>& which, int level, unsigned threads, const std::string& name,
-                      CodecProfile* prof, Dims a, Dims e, std::span<V> out, Dims outDims) {
+void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h,
+                      std::size_t frame, const std::vector<std::size_t>& which, int level, unsigned threads,
+                      const std::string& name, CodecProfile* prof, Dims a, Dims e, std::span<V> out,
+                      Dims outDims, bool placeOnDevice) {
     if (frame >= h.frames.size()) throw UsageError(name + ": no frame " + std::to_string(frame));
     if (h.frames[frame].type != FrameType::I)
         throw DataError(name + ": frame " + std::to_string(frame) +
@@ -1230,21 +1277,33 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
     auto place = [&](std::size_t b, const auto* src, std::size_t pitch) {
         placeBrick(h, b, level, a, e, out, outDims, src, pitch, corrections[b]);
     };
+    // Whole bricks at full resolution: the inverse kernel may write the voxels itself while each brick is
+    // in cache (CPU devices); then only the corrections are left for the host.
+    std::optional<VoxelPlacement> toVoxels;
+    if (placeOnDevice && level == 0 && h.transform != TransformKind::RawBits &&
+        std::all_of(which.begin(), which.end(), [&](std::size_t b) {
+            const Dims o = h.brickOrigin(b), d = h.brickDims(b);
+            return o.x >= a.x && o.y >= a.y && o.z >= a.z && o.x + d.x <= e.x && o.y + d.y <= e.y &&
+                   o.z + d.z <= e.z;
+        }))
+        toVoxels = VoxelPlacement{cc.wrapHost(out).get(), scalarTypeOf<V>(), outDims, a};
+    bool placedOnDevice = false;
     if (h.transform == TransformKind::IntegerLifting) {
         // Decoded straight into the batch.
         LiftingTransform<std::int32_t> t(cc, h.wavelet);
-        inverseBricks(cc, t, h, which, level, threads, prof, {{&CodecProfile::entropy, entropyDecode}},
-                      &CodecProfile::assemble, place);
+        placedOnDevice =
+            inverseBricks(cc, t, h, which, level, threads, prof, {{&CodecProfile::entropy, entropyDecode}},
+                          &CodecProfile::assemble, place, toVoxels ? &*toVoxels : nullptr);
     } else if (h.transform == TransformKind::FloatLifting) {
         // Quantisation indices are decoded into the batch slot as int32 and dequantised there in place (the
         // entropy stage includes it): no separate index array.
         LiftingTransform<float> t(cc, h.wavelet);
-        inverseBricks(cc, t, h, which, level, threads, prof,
-                      {{&CodecProfile::entropy,
-                        [&](std::size_t b, float* dst, std::size_t pitch) {
-                            entropyDecode(b, reinterpret_cast<std::int32_t*>(dst), pitch);
-                        }}},
-                      &CodecProfile::assemble, place);
+        placedOnDevice = inverseBricks(cc, t, h, which, level, threads, prof,
+                                       {{&CodecProfile::entropy,
+                                         [&](std::size_t b, float* dst, std::size_t pitch) {
+                                             entropyDecode(b, reinterpret_cast<std::int32_t*>(dst), pitch);
+                                         }}},
+                                       &CodecProfile::assemble, place, toVoxels ? &*toVoxels : nullptr);
     } else {
         timeStage(prof, &CodecProfile::entropy, [&] {
             parallelFor(which.size(), threads, [&](std::size_t k) {
@@ -1260,6 +1319,13 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
             });
         });
     }
+    if (placedOnDevice)
+        timeStage(prof, &CodecProfile::assemble, [&] {
+            // Mapping makes the kernel's writes visible in `out` (no copy where the device works in it).
+            BatchMapping<V> m(cc.queue(), toVoxels->voxels, out.size(), CL_MAP_READ | CL_MAP_WRITE);
+            for (std::size_t b : which)
+                applyCorrections(h, b, a, e, std::span<V>(m.data(), out.size()), outDims, corrections[b]);
+        });
 }
 
 } // namespace
@@ -1300,7 +1366,8 @@ Volume VczReader::decode(ComputeContext& cc, const DecodeOptions& o) const {
     }
     // Bricks cover disjoint parts of the output, so they are placed in parallel.
     visitTyped(out, [&](auto span) {
-        decodeBricksInto(cc, bytes_, h, o.frame, which, o.level, o.threads, name_, o.profile, a, e, span, outDims);
+        decodeBricksInto(cc, bytes_, h, o.frame, which, o.level, o.threads, name_, o.profile, a, e, span,
+                         outDims, o.placeOnDevice);
     });
     if (o.profile) o.profile->total += total.milliseconds();
     return out;

@@ -88,6 +88,10 @@ struct DecodeOptions {
     std::size_t frame = 0;
     unsigned threads = 2;
     CodecProfile* profile = nullptr; ///< when set, receives the stage times of the decode
+    /// Full-resolution decodes of whole bricks on CPU devices: the inverse kernel converts each brick to
+    /// voxels and writes it into the output while the brick is in cache (no read-back). False places the
+    /// voxels on host threads from the transform's buffers; both give the same voxels (tests compare them).
+    bool placeOnDevice = true;
 };
 
 /// Random access to a .vcz held in memory: validates header and index on construction, checks each

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <numeric>
 #include <string>
 #include <type_traits>
 
@@ -352,6 +353,7 @@ template <class T> void LiftingTransform<T>::buildBrick(ComputeContext& cc, std:
     fwdBrick_ = cc.kernel("lifting_brick.cl", "lift_bricks", d);
     d.set("LIFT_INVERSE");
     invBrick_ = cc.kernel("lifting_brick.cl", "lift_bricks", d);
+    invBrickVoxels_ = {}; // built for this LIFT_MAXN when asked for
     brickMaxN_ = maxN;
 }
 
@@ -403,15 +405,19 @@ template <class T> LiftingPath LiftingTransform<T>::pathFor(const BrickBatch<T>&
 
 template <class T>
 double LiftingTransform<T>::brickResident(ComputeContext& cc, std::span<BrickBatch<T>* const> batches,
-                                          bool inverse, int levels, int stopLevel) {
+                                          bool inverse, int levels, int stopLevel, const VoxelTarget* target,
+                                          std::size_t first) {
     // Largest bricks first: the kernel's counter hands bricks out in this order, so the cores end on the
     // small ones and finish together.
-    std::vector<BrickBatch<T>*> order(batches.begin(), batches.end());
-    std::stable_sort(order.begin(), order.end(), [](const BrickBatch<T>* a, const BrickBatch<T>* b) {
-        return a->brick().count() > b->brick().count();
+    std::vector<std::size_t> order(batches.size());
+    std::iota(order.begin(), order.end(), std::size_t(0));
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+        return batches[a]->brick().count() > batches[b]->brick().count();
     });
     // Unused shape slots repeat the last batch with an empty range of bricks.
-    auto slot = [&](std::size_t k) -> BrickBatch<T>& { return *order[std::min(k, order.size() - 1)]; };
+    auto slot = [&](std::size_t k) -> BrickBatch<T>& {
+        return *batches[order[std::min(k, order.size() - 1)]];
+    };
     cl_uint8 px{}, bx{}, by{}, bz{}, end{};
     std::size_t total = 0, maxDim = 1;
     for (std::size_t k = 0; k < kMaxShapes; ++k) {
@@ -435,10 +441,25 @@ double LiftingTransform<T>::brickResident(ComputeContext& cc, std::span<BrickBat
     buildBrick(cc, maxN);
     if (brickNext_.size() == 0) brickNext_ = cc.allocate<cl_int>(1);
     cc.fill(brickNext_, cl_int(0));
-    cl::Kernel& k = inverse ? invBrick_ : fwdBrick_;
+    cl::Kernel& k = target ? voxelKernel(cc, target->type) : inverse ? invBrick_ : fwdBrick_;
     setArgs(k, slot(0).data(), slot(1).data(), slot(2).data(), slot(3).data(), slot(4).data(), slot(5).data(),
             slot(6).data(), slot(7).data(), brickNext_, px, bx, by, bz, end, cl_uint(levels),
             cl_uint(std::max(stopLevel, 0)));
+    DeviceBuffer<cl_ulong> offsets;
+    if (target) {
+        // Voxel offset of each brick in the kernel's counter order.
+        std::vector<cl_ulong> off;
+        off.reserve(total);
+        for (std::size_t k2 : order)
+            for (const Dims& o : target->origins[first + k2])
+                off.push_back((o.z * target->dims.y + o.y) * target->dims.x + o.x);
+        offsets = cc.upload<cl_ulong>(off, CL_MEM_READ_ONLY);
+        // After lift_bricks' 16 arguments.
+        detail::setArg(k, 16, target->voxels);
+        detail::setArg(k, 17, offsets);
+        detail::setArg(k, 18, cl_ulong(target->dims.x));
+        detail::setArg(k, 19, cl_ulong(target->dims.x * target->dims.y));
+    }
     // A few work-items per core, each pulling bricks from the counter (see lift_bricks).
     const std::size_t items = std::min<std::size_t>(total, 4 * std::max(1u, cc.device().computeUnits));
     cl::Event ev = cc.launch1d(k, items, 1);
@@ -460,6 +481,50 @@ double LiftingTransform<T>::transformAll(ComputeContext& cc, std::span<BrickBatc
     for (std::size_t i = 0; i < all.size(); i += kMaxShapes)
         ms += brickResident(cc, all.subspan(i, std::min(kMaxShapes, all.size() - i)), inverse, levels,
                             stopLevel);
+    return ms;
+}
+
+template <class T> cl::Kernel& LiftingTransform<T>::voxelKernel(ComputeContext& cc, ScalarType type) {
+    cl::Kernel& k = invBrickVoxels_[static_cast<std::size_t>(type)];
+    if (!k()) {
+        KernelDefines d;
+        d.set("WAVELET", static_cast<long long>(wavelet_));
+        d.set("LIFT_MAXN", static_cast<long long>(brickMaxN_));
+        if (std::is_same_v<T, float>) d.set("LIFT_FLOAT");
+        d.set("LIFT_INVERSE");
+        // The ray marcher's numbering (cl/raymarch_core.h).
+        static constexpr std::array<int, 4> kVoxelType = {1, 2, 3, 0}; // UInt8, UInt16, Int16, Float32
+        d.set("VOXEL_TYPE", kVoxelType[static_cast<std::size_t>(type)]);
+        k = cc.kernel("lifting_brick.cl", "lift_bricks", d);
+    }
+    return k;
+}
+
+template <class T>
+bool LiftingTransform<T>::canWriteVoxels(std::span<BrickBatch<T>* const> batches) const noexcept {
+    return std::all_of(batches.begin(), batches.end(),
+                       [&](const BrickBatch<T>* b) { return pathFor(*b) == LiftingPath::BrickResident; });
+}
+
+template <class T>
+double LiftingTransform<T>::inverseToVoxels(ComputeContext& cc, std::span<BrickBatch<T>* const> batches,
+                                            int levels, const VoxelTarget& target) {
+    if (!canWriteVoxels(batches)) throw Error("internal: inverseToVoxels needs the brick-resident path");
+    if (target.origins.size() != batches.size())
+        throw Error("internal: inverseToVoxels needs origins per batch");
+    for (std::size_t k = 0; k < batches.size(); ++k) {
+        const Dims b = batches[k]->brick();
+        if (target.origins[k].size() != batches[k]->count())
+            throw Error("internal: inverseToVoxels needs an origin per brick");
+        for (const Dims& o : target.origins[k])
+            if (o.x + b.x > target.dims.x || o.y + b.y > target.dims.y || o.z + b.z > target.dims.z)
+                throw Error("internal: inverseToVoxels brick outside the volume");
+    }
+    if (levels <= 0) throw Error("internal: inverseToVoxels needs at least one level");
+    double ms = 0;
+    for (std::size_t i = 0; i < batches.size(); i += kMaxShapes)
+        ms += brickResident(cc, batches.subspan(i, std::min(kMaxShapes, batches.size() - i)), true, levels, 0,
+                            &target, i);
     return ms;
 }
 
@@ -514,6 +579,10 @@ double LiftingTransform<T>::inverse(ComputeContext& cc, BrickBatch<T>& batch, in
 
 template class BatchMapping<std::int32_t>;
 template class BatchMapping<float>;
+// Output volumes the inverse writes voxels into (inverseToVoxels) are mapped as well.
+template class BatchMapping<std::uint8_t>;
+template class BatchMapping<std::uint16_t>;
+template class BatchMapping<std::int16_t>;
 template class BrickBatch<std::int32_t>;
 template class BrickBatch<float>;
 template class LiftingTransform<std::int32_t>;

@@ -4,6 +4,7 @@
 #include "host/Volume.hpp"
 #include "host/runtime/ClRuntime.hpp"
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <string_view>
@@ -101,6 +102,16 @@ private:
 /// for bricks up to kBrickResidentMaxDim per axis, Streaming otherwise.
 enum class LiftingPath : std::uint8_t { Auto, Streaming, BrickResident };
 
+/// Where an inverse transform also writes its bricks as voxels (see LiftingTransform::inverseToVoxels):
+/// a volume of `type` and `dims` in `voxels`; brick i of batch k lands with its first voxel at
+/// `origins[k][i]`. Bricks must lie inside the volume and not overlap.
+struct VoxelTarget {
+    cl::Buffer voxels;
+    ScalarType type = ScalarType::Float32;
+    Dims dims;
+    std::vector<std::vector<Dims>> origins;
+};
+
 /// Runs the lifting passes of one wavelet on the device. Build once, reuse for many batches.
 /// Example:
 /// ```
@@ -136,15 +147,33 @@ public:
     double inverse(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, int levels,
                    int stopLevel = 0);
 
+    /// True when inverseToVoxels() takes these batches (every one on the brick-resident path).
+    bool canWriteVoxels(std::span<BrickBatch<T>* const> batches) const noexcept;
+    /// inverse() down to level 0 that also converts each brick to voxels and writes it into `target` from
+    /// inside the kernel, right after its last level while it is in the core's cache, so nobody reads the
+    /// batch back: integers are clamped to the voxel type, floats rounded to nearest even and clamped (what
+    /// the decoder's host placement does). The batches keep the reconstruction too. Throws Error unless
+    /// canWriteVoxels(batches). Returns the summed kernel time in milliseconds. Example:
+    /// ```
+    /// volcl::VoxelTarget v{cc.wrapHost(out.values<std::uint8_t>()).get(), volcl::ScalarType::UInt8,
+    ///                      out.dims(), {{{0, 0, 0}, {64, 0, 0}}}};
+    /// t.inverseToVoxels(cc, batches, 4, v);
+    /// ```
+    double inverseToVoxels(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, int levels,
+                           const VoxelTarget& target);
+
 private:
     double pass(ComputeContext& cc, cl::Kernel& k, BrickBatch<T>& batch, Dims active, int axis);
     double copyBack(ComputeContext& cc, BrickBatch<T>& batch, Dims active);
+    // `target`: also write voxels (inverse to level 0 only), `first` = the index of batches[0] in it.
     double brickResident(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse,
-                         int levels, int stopLevel);
+                         int levels, int stopLevel, const VoxelTarget* target = nullptr,
+                         std::size_t first = 0);
     double transformAll(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse, int levels,
                         int stopLevel);
     void buildStreaming(ComputeContext& cc);               // the lifting.cl kernels, once
     void buildBrick(ComputeContext& cc, std::size_t maxN); // the lifting_brick.cl kernels for LIFT_MAXN maxN
+    cl::Kernel& voxelKernel(ComputeContext& cc, ScalarType type); // the inverse writing `type` voxels
     Wavelet wavelet_;
     LiftingPath path_ = LiftingPath::Auto;
     bool cpuDevice_ = false;
@@ -152,6 +181,7 @@ private:
     cl::Kernel fwdX_, fwdYz_, invX_, invYz_, copy_;
     std::size_t brickMaxN_ = 0; // LIFT_MAXN the brick kernels below were built with (0: not built)
     cl::Kernel fwdBrick_, invBrick_;
+    std::array<cl::Kernel, 4> invBrickVoxels_; // per ScalarType, built on first use for brickMaxN_
     DeviceBuffer<cl_int> brickNext_; // the brick kernel's work counter
 };
 

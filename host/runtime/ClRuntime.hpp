@@ -119,6 +119,15 @@ public:
     template <class T> DeviceBuffer<T> allocate(std::size_t count, cl_mem_flags flags = CL_MEM_READ_WRITE) {
         return DeviceBuffer<T>(createBuffer(flags, std::max<std::size_t>(count, 1) * sizeof(T)), count);
     }
+    /// A buffer over caller-owned host memory (CL_MEM_USE_HOST_PTR): on CPU devices kernels work on it in
+    /// place. `host` must outlive the buffer; see the OpenCL rules on mapping before the host reads results.
+    template <class T> DeviceBuffer<T> wrapHost(std::span<T> host, cl_mem_flags flags = CL_MEM_READ_WRITE) {
+        cl_int err = CL_SUCCESS;
+        cl::Buffer b(context_, flags | CL_MEM_USE_HOST_PTR, std::max<std::size_t>(host.size_bytes(), 1),
+                     host.data(), &err);
+        clCheck(err, "clCreateBuffer(CL_MEM_USE_HOST_PTR)");
+        return DeviceBuffer<T>(std::move(b), host.size());
+    }
     template <class T> DeviceBuffer<T> upload(std::span<const T> host, cl_mem_flags flags = CL_MEM_READ_WRITE) {
         DeviceBuffer<T> b = allocate<T>(host.size(), flags);
         write(b, host);
