@@ -21,9 +21,11 @@
 
    Extra define: LIFT_MAXN, at least the largest brick dimension, a multiple of 16 (sizes the private
    staging arrays; one program serves every brick shape up to it).
-   Optional: VOXEL_TYPE (0 float, 1 uint8, 2 uint16, 3 int16; inverse only) adds an output volume to the
-   kernel: each brick, right after its last level, is converted to voxels and written at its place in the
-   volume while it is still in the core's cache, instead of being read back from memory by the host. */
+   Optional: VOXEL_TYPE (0 float, 1 uint8, 2 uint16, 3 int16) adds a volume to the kernel. The inverse
+   converts each brick, right after its last level, to voxels and writes it at its place in the volume while
+   it is still in the core's cache, instead of the host reading it back from memory; the forward reads the
+   brick's voxels itself before its first level (and reports their range), instead of the host writing the
+   batch first. */
 
 #include "lifting_common.h"
 
@@ -551,12 +553,72 @@ typedef float16 voxel16;
 #else
 #define TO_VOXEL(v) CONVERT_VOXEL(clamp((v), (int16)(VOXEL_MIN), (int16)(VOXEL_MAX)))
 #endif
-/* One store per vector at any alignment (vstore16 of small types is split into single elements). */
+/* One load or store per vector at any alignment (vload16/vstore16 of small types are split into single
+   elements). */
 typedef voxel16 voxel16u __attribute__((aligned(sizeof(voxel_t))));
+#ifdef LIFT_FLOAT
+#define FROM_VOXEL(v) convert_float16(v)
+#define VMIN fmin
+#define VMAX fmax
+#else
+#define FROM_VOXEL(v) convert_int16(v)
+#define VMIN min
+#define VMAX max
+#endif
+
+#ifndef LIFT_INVERSE
+/* The forward transform's input: the nx x ny x nz brick of voxels at `in` (rows `row`, planes `plane` apart)
+   converted into the brick (row pitch px, by rows per plane) with zeros in each row's padding up to px (the
+   x pass computes whole vectors there, and old integers read as floats would be denormals). Returns the
+   brick's smallest and largest voxel in range[0], range[1]. A row's last partial vector is loaded lane by
+   lane, so no read leaves the volume. */
+inline void load_voxels(global T* brick, int px, int by, int nx, int ny, int nz, global const voxel_t* in,
+                        ulong row, ulong plane, global T* range) {
+    V lo = (V)((T)in[0]), hi = lo;
+    for (int z = 0; z < nz; ++z)
+        for (int y = 0; y < ny; ++y) {
+            global const voxel_t* src = in + z * plane + y * row;
+            global T* dst = brick + ((size_t)z * by + y) * px;
+            int x = 0;
+            for (; x + 16 <= nx; x += 16) {
+                const V v = FROM_VOXEL(*(global const voxel16u*)(src + x));
+                lo = VMIN(lo, v);
+                hi = VMAX(hi, v);
+                STG(dst + x, v);
+            }
+            if (x < nx) {
+                T t[16], m[16];
+                for (int i = 0; i < 16; ++i) {
+                    const bool inside = x + i < nx;
+                    t[i] = inside ? (T)src[x + i] : (T)0;
+                    m[i] = inside ? t[i] : (T)src[x]; /* neutral for min and max */
+                }
+                const V v = LD(t), w = LD(m);
+                lo = VMIN(lo, w);
+                hi = VMAX(hi, w);
+                STG(dst + x, v);
+                x += 16;
+            }
+            for (; x < px; x += 16)
+                STG(dst + x, (V)(0));
+        }
+    T l[16], h[16];
+    ST(l, lo);
+    ST(h, hi);
+    T a = l[0], b = h[0];
+    for (int i = 1; i < 16; ++i) {
+        a = min(a, l[i]);
+        b = max(b, h[i]);
+    }
+    range[0] = a;
+    range[1] = b;
+}
+#endif
 
 /* The nx x ny x nz brick (row pitch px, by rows per plane) as voxels at `out`, rows `row` and planes `plane`
    apart. A row's last partial vector is stored lane by lane: the next brick's voxels follow it in the volume
    and another work-item may be writing them. */
+#ifdef LIFT_INVERSE
 inline void store_voxels(global const T* brick, int px, int by, int nx, int ny, int nz, global voxel_t* out,
                          ulong row, ulong plane) {
     for (int z = 0; z < nz; ++z)
@@ -575,6 +637,7 @@ inline void store_voxels(global const T* brick, int px, int by, int nx, int ny, 
         }
 }
 #endif
+#endif
 
 /* Each work-item takes bricks from the shared counter `next` (zero at launch) until none is left; forward
    levels 0 .. levels-1, or inverse levels levels-1 .. stop. Bricks come from up to kMaxShapes batches (one
@@ -591,8 +654,12 @@ kernel __attribute__((reqd_work_group_size(1, 1, 1))) void lift_bricks(
     global T* d7, volatile global int* next, uint8 px8, uint8 bx8, uint8 by8, uint8 bz8, uint8 end8,
     uint levels, uint stop
 #ifdef VOXEL_TYPE
-    /* brick c goes to out + out_offset[c] (stop is 0) */
+    /* Inverse: brick c goes to out + out_offset[c] (stop is 0). Forward: brick c comes from there, and its
+       voxel range goes to range[2c], range[2c + 1]. */
     , global voxel_t* out, global const ulong* out_offset, ulong out_row, ulong out_plane
+#ifndef LIFT_INVERSE
+    , global T* range
+#endif
 #endif
 ) {
     uint px[8], bx[8], by[8], bz[8], end[8];
@@ -610,6 +677,10 @@ kernel __attribute__((reqd_work_group_size(1, 1, 1))) void lift_bricks(
         global T* const base[8] = {d0, d1, d2, d3, d4, d5, d6, d7};
         const size_t i = (size_t)(c - (k > 0 ? (int)end[k - 1] : 0));
         global T* brick = base[k] + i * px[k] * by[k] * bz[k];
+#if defined(VOXEL_TYPE) && !defined(LIFT_INVERSE)
+        load_voxels(brick, px[k], by[k], bx[k], by[k], bz[k], out + out_offset[c], out_row, out_plane,
+                    range + 2 * c);
+#endif
 #ifdef LIFT_INVERSE
         for (int l = (int)levels - 1; l >= (int)stop; --l)
 #else
@@ -617,7 +688,7 @@ kernel __attribute__((reqd_work_group_size(1, 1, 1))) void lift_bricks(
 #endif
             lift_level(brick, px[k], by[k], ((bx[k] - 1) >> l) + 1, ((by[k] - 1) >> l) + 1,
                        ((bz[k] - 1) >> l) + 1);
-#ifdef VOXEL_TYPE
+#if defined(VOXEL_TYPE) && defined(LIFT_INVERSE)
         store_voxels(brick, px[k], by[k], bx[k], by[k], bz[k], out + out_offset[c], out_row, out_plane);
 #endif
     }

@@ -1,5 +1,6 @@
 // Lifting transforms: references are perfect-reconstruction, kernels match the references (bit-exact for
 // the integer forms), on odd, prime, tiny and extreme inputs.
+#include "host/Volume.hpp"
 #include "tests/TestUtil.hpp"
 #include "wavelet/LiftingTransform.hpp"
 
@@ -9,8 +10,10 @@
 #include <cmath>
 #include <cstdint>
 #include <iterator>
+#include <map>
 #include <memory>
 #include <random>
+#include <tuple>
 #include <vector>
 
 using namespace volcl;
@@ -415,4 +418,115 @@ TEST(WaveletKernels, PathsAgreeAndAutoFallsBackForLargeBricks) {
         for (std::size_t c = 0; c < bricks.size(); ++c)
             ASSERT_EQ(unpackBrick(batch, host, c), bricks[c]) << d.x << "x" << d.y << "x" << d.z;
     }
+}
+
+// forwardFromVoxels reads each brick's voxels in the kernel: it must give the same coefficients as a batch
+// the host filled, and each brick's voxel range; inverseToVoxels writes voxels as the host would convert
+// them (round to nearest even, clamp to the type). Bricks of 7 shapes (edges of a 32-voxel grid) in one
+// call, a volume with a saturated slab so the lossy reconstruction leaves the type's range.
+TEST(WaveletKernels, VoxelVolumesInAndOutMatchHostGatherAndPlacement) {
+    ComputeContext& cc = test::computeContext();
+    const Dims dims{70, 45, 33}, grid{32, 32, 32};
+    struct Run {
+        ScalarType type;
+        Wavelet w;
+    };
+    auto check = [&]<class T>(LiftingTransform<T>& t, const Volume& v) {
+        // Bricks grouped by shape, as the codec does.
+        std::map<std::tuple<std::size_t, std::size_t, std::size_t>, std::vector<Dims>> groups;
+        for (std::size_t z = 0; z < dims.z; z += grid.z)
+            for (std::size_t y = 0; y < dims.y; y += grid.y)
+                for (std::size_t x = 0; x < dims.x; x += grid.x)
+                    groups[{std::min(grid.x, dims.x - x), std::min(grid.y, dims.y - y),
+                            std::min(grid.z, dims.z - z)}]
+                        .push_back({x, y, z});
+        std::vector<std::unique_ptr<BrickBatch<T>>> host, kernel;
+        std::vector<BrickBatch<T>*> hostPtrs, kernelPtrs;
+        VoxelVolume in{
+            cc.wrapHost(const_cast<Volume&>(v).bytes(), CL_MEM_READ_ONLY).get(), v.type(), dims, {}};
+        std::vector<std::vector<std::pair<double, double>>> wantRanges;
+        for (const auto& [shape, origins] : groups) {
+            const Dims s{std::get<0>(shape), std::get<1>(shape), std::get<2>(shape)};
+            host.push_back(std::make_unique<BrickBatch<T>>(cc, s, origins.size()));
+            kernel.push_back(std::make_unique<BrickBatch<T>>(cc, s, origins.size()));
+            hostPtrs.push_back(host.back().get());
+            kernelPtrs.push_back(kernel.back().get());
+            std::vector<std::vector<T>> bricks;
+            auto& ranges = wantRanges.emplace_back();
+            for (const Dims& o : origins) {
+                auto& b = bricks.emplace_back();
+                for (std::size_t z = 0; z < s.z; ++z)
+                    for (std::size_t y = 0; y < s.y; ++y)
+                        for (std::size_t x = 0; x < s.x; ++x)
+                            b.push_back(static_cast<T>(v.valueAt(v.index(o.x + x, o.y + y, o.z + z))));
+                const auto [lo, hi] = std::minmax_element(b.begin(), b.end());
+                ranges.push_back({double(*lo), double(*hi)});
+            }
+            host.back()->upload(cc, pack(*host.back(), bricks));
+            in.origins.push_back(origins);
+        }
+        ASSERT_TRUE(t.canUseVoxels(kernelPtrs));
+        t.forward(cc, std::span<BrickBatch<T>* const>(hostPtrs), 3);
+        std::vector<std::vector<std::pair<double, double>>> ranges;
+        t.forwardFromVoxels(cc, std::span<BrickBatch<T>* const>(kernelPtrs), 3, in, &ranges);
+        EXPECT_EQ(ranges, wantRanges);
+        for (std::size_t k = 0; k < host.size(); ++k) {
+            auto a = host[k]->makeHost(), b = kernel[k]->makeHost();
+            host[k]->download(cc, a);
+            kernel[k]->download(cc, b);
+            for (std::size_t c = 0; c < host[k]->count(); ++c)
+                ASSERT_EQ(unpackBrick(*host[k], a, c), unpackBrick(*kernel[k], b, c))
+                    << "forward batch " << k;
+        }
+        // Floats: zero every third coefficient of both batches alike, so that the reconstruction needs
+        // rounding and overshoots the type's range next to the slab (integers stay exact).
+        if constexpr (std::is_same_v<T, float>)
+            for (std::size_t k = 0; k < host.size(); ++k) {
+                auto a = host[k]->makeHost();
+                host[k]->download(cc, a);
+                for (std::size_t i = 0; i < a.size(); i += 3)
+                    a[i] = 0;
+                host[k]->upload(cc, a);
+                kernel[k]->upload(cc, a);
+            }
+        Volume out(dims, v.type());
+        VoxelVolume target{cc.wrapHost(out.bytes()).get(), v.type(), dims, in.origins};
+        t.inverse(cc, std::span<BrickBatch<T>* const>(hostPtrs), 3);
+        t.inverseToVoxels(cc, std::span<BrickBatch<T>* const>(kernelPtrs), 3, target);
+        BatchMapping<std::uint8_t> m(cc.queue(), target.voxels, out.bytes().size(), CL_MAP_READ);
+        std::size_t k = 0;
+        for (const auto& [shape, origins] : groups) {
+            auto a = host[k]->makeHost();
+            host[k]->download(cc, a);
+            for (std::size_t c = 0; c < origins.size(); ++c) {
+                const auto rec = unpackBrick(*host[k], a, c);
+                const Dims s = host[k]->brick(), o = origins[c];
+                for (std::size_t i = 0; i < rec.size(); ++i) {
+                    const std::size_t x = i % s.x, y = i / s.x % s.y, z = i / (s.x * s.y);
+                    const Volume one = [&] {
+                        Volume f({1, 1, 1}, ScalarType::Float32);
+                        f.values<float>()[0] = static_cast<float>(rec[i]);
+                        return f.convertedTo(v.type());
+                    }();
+                    ASSERT_EQ(out.valueAt(out.index(o.x + x, o.y + y, o.z + z)), one.valueAt(0))
+                        << "brick " << c << " of shape " << k << " voxel " << i;
+                }
+            }
+            ++k;
+        }
+    };
+    Volume u8(dims, ScalarType::UInt8), i16(dims, ScalarType::Int16), f32(dims, ScalarType::Float32);
+    std::mt19937 rng(5);
+    for (std::size_t i = 0; i < dims.count(); ++i) {
+        const bool slab = i % dims.x < 9;
+        u8.values<std::uint8_t>()[i] = slab ? 255 : std::uint8_t(rng() % 200);
+        i16.values<std::int16_t>()[i] = slab ? -32768 : std::int16_t(rng() % 60000 - 30000);
+        f32.values<float>()[i] = slab ? 1e6f : float(rng() % 1000) * 0.37f;
+    }
+    LiftingTransform<float> f97(cc, Wavelet::Cdf97), haar(cc, Wavelet::Haar);
+    LiftingTransform<std::int32_t> i53(cc, Wavelet::Cdf53);
+    check(f97, u8);
+    check(haar, f32);
+    check(i53, i16);
+    check(i53, u8);
 }

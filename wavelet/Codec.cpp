@@ -273,11 +273,12 @@ bool transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<s
             });
         });
     };
-    timeStage(prof, &CodecProfile::upload, [&] {
-        for (std::size_t g = 0; g < groups.size(); ++g)
-            maps[g] = batches[g]->mapForWrite(cc);
-    });
-    {
+    // Without fill steps the transform fills the batches itself (forwardFromVoxels).
+    if (!fills.empty()) {
+        timeStage(prof, &CodecProfile::upload, [&] {
+            for (std::size_t g = 0; g < groups.size(); ++g)
+                maps[g] = batches[g]->mapForWrite(cc);
+        });
         // Each fill stage gets the loop's wall time in proportion to its summed per-brick time.
         std::vector<double> stepMs(fills.size() * slots.size(), 0.0);
         Stopwatch wall;
@@ -310,11 +311,11 @@ bool transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<s
             for (std::size_t f = 0; f < fills.size(); ++f)
                 prof->*(fills[f].stage) += sum > 0 ? ms * perStep[f] / sum : ms / double(fills.size());
         }
+        timeStage(prof, &CodecProfile::upload, [&] {
+            for (auto& m : maps)
+                m.unmap();
+        });
     }
-    timeStage(prof, &CodecProfile::upload, [&] {
-        for (auto& m : maps)
-            m.unmap();
-    });
     std::vector<BrickBatch<T>*> all;
     for (auto& b : batches)
         all.push_back(b.get());
@@ -345,15 +346,36 @@ void forwardBricks(ComputeContext& cc, LiftingTransform<T>& t, const Volume& v, 
                    unsigned threads, CodecProfile* prof, double& ms, std::vector<std::pair<double, double>>* ranges,
                    double CodecProfile::*emitStage, Emit emit) {
     if (ranges) ranges->assign(h.brickCount(), {0.0, 0.0});
+    // On the brick-resident path the kernel reads each brick's voxels itself, so the brick is in cache for
+    // its first level and no host pass writes the batch (the integer transform takes integer voxels only).
+    const bool fromVoxels = h.levels > 0 && t.pathFor(h.brick) == LiftingPath::BrickResident &&
+                            (std::is_same_v<T, float> || v.type() != ScalarType::Float32);
+    std::vector<FillStep<T>> fills;
+    if (!fromVoxels)
+        fills.push_back({&CodecProfile::gather, [&](std::size_t b, T* dst, std::size_t pitch) {
+                             const auto r = gatherBrick<T>(v, h, b, dst, pitch);
+                             if (ranges) (*ranges)[b] = r;
+                         }});
     transformBricks<T>(
-        cc, h, allBricks(h), threads, prof,
-        {{&CodecProfile::gather,
-          [&](std::size_t b, T* dst, std::size_t pitch) {
-              const auto r = gatherBrick<T>(v, h, b, dst, pitch);
-              if (ranges) (*ranges)[b] = r;
-          }}},
-        [&](std::span<BrickBatch<T>* const> b, const std::vector<BrickGroup>&) {
-            ms += t.forward(cc, b, h.levels);
+        cc, h, allBricks(h), threads, prof, fills,
+        [&](std::span<BrickBatch<T>* const> b, const std::vector<BrickGroup>& groups) {
+            if (!fromVoxels) {
+                ms += t.forward(cc, b, h.levels);
+                return false;
+            }
+            auto bytes = const_cast<Volume&>(v).bytes(); // read only (CL_MEM_READ_ONLY)
+            VoxelVolume source{cc.wrapHost(bytes, CL_MEM_READ_ONLY).get(), v.type(), v.dims(), {}};
+            for (const BrickGroup& g : groups) {
+                auto& o = source.origins.emplace_back();
+                for (std::size_t brick : g.bricks)
+                    o.push_back(h.brickOrigin(brick));
+            }
+            std::vector<std::vector<std::pair<double, double>>> r;
+            ms += t.forwardFromVoxels(cc, b, h.levels, source, ranges ? &r : nullptr);
+            if (ranges)
+                for (std::size_t g = 0; g < groups.size(); ++g)
+                    for (std::size_t i = 0; i < groups[g].bricks.size(); ++i)
+                        (*ranges)[groups[g].bricks[i]] = r[g][i];
             return false;
         },
         emitStage, emit);
@@ -380,8 +402,8 @@ bool inverseBricks(ComputeContext& cc, LiftingTransform<T>& t, const VczHeader& 
     return transformBricks<T>(
         cc, h, which, threads, prof, fills,
         [&](std::span<BrickBatch<T>* const> b, const std::vector<BrickGroup>& groups) {
-            if (toVoxels && level == 0 && t.canWriteVoxels(b)) {
-                VoxelTarget target{toVoxels->voxels, toVoxels->type, toVoxels->dims, {}};
+            if (toVoxels && level == 0 && t.canUseVoxels(b)) {
+                VoxelVolume target{toVoxels->voxels, toVoxels->type, toVoxels->dims, {}};
                 for (const BrickGroup& g : groups) {
                     auto& o = target.origins.emplace_back();
                     for (std::size_t brick : g.bricks) {

@@ -353,7 +353,7 @@ template <class T> void LiftingTransform<T>::buildBrick(ComputeContext& cc, std:
     fwdBrick_ = cc.kernel("lifting_brick.cl", "lift_bricks", d);
     d.set("LIFT_INVERSE");
     invBrick_ = cc.kernel("lifting_brick.cl", "lift_bricks", d);
-    invBrickVoxels_ = {}; // built for this LIFT_MAXN when asked for
+    brickVoxels_ = {}; // built for this LIFT_MAXN when asked for
     brickMaxN_ = maxN;
 }
 
@@ -394,9 +394,8 @@ template <class T> double LiftingTransform<T>::copyBack(ComputeContext& cc, Bric
     return eventMilliseconds(ev);
 }
 
-template <class T> LiftingPath LiftingTransform<T>::pathFor(const BrickBatch<T>& batch) const noexcept {
+template <class T> LiftingPath LiftingTransform<T>::pathFor(Dims b) const noexcept {
     if (path_ != LiftingPath::Auto) return path_;
-    const Dims b = batch.brick();
     // One work-item per brick keeps the brick in one core's cache; on GPUs that is far too little
     // parallelism, and past kBrickResidentMaxDim the private line buffers grow too large.
     const bool fits = std::max({b.x, b.y, b.z}) <= kBrickResidentMaxDim;
@@ -405,8 +404,9 @@ template <class T> LiftingPath LiftingTransform<T>::pathFor(const BrickBatch<T>&
 
 template <class T>
 double LiftingTransform<T>::brickResident(ComputeContext& cc, std::span<BrickBatch<T>* const> batches,
-                                          bool inverse, int levels, int stopLevel, const VoxelTarget* target,
-                                          std::size_t first) {
+                                          bool inverse, int levels, int stopLevel, const VoxelVolume* voxels,
+                                          std::size_t first,
+                                          std::vector<std::vector<std::pair<double, double>>>* ranges) {
     // Largest bricks first: the kernel's counter hands bricks out in this order, so the cores end on the
     // small ones and finish together.
     std::vector<std::size_t> order(batches.size());
@@ -441,29 +441,45 @@ double LiftingTransform<T>::brickResident(ComputeContext& cc, std::span<BrickBat
     buildBrick(cc, maxN);
     if (brickNext_.size() == 0) brickNext_ = cc.allocate<cl_int>(1);
     cc.fill(brickNext_, cl_int(0));
-    cl::Kernel& k = target ? voxelKernel(cc, target->type) : inverse ? invBrick_ : fwdBrick_;
+    cl::Kernel& k = voxels ? voxelKernel(cc, voxels->type, inverse) : inverse ? invBrick_ : fwdBrick_;
     setArgs(k, slot(0).data(), slot(1).data(), slot(2).data(), slot(3).data(), slot(4).data(), slot(5).data(),
             slot(6).data(), slot(7).data(), brickNext_, px, bx, by, bz, end, cl_uint(levels),
             cl_uint(std::max(stopLevel, 0)));
     DeviceBuffer<cl_ulong> offsets;
-    if (target) {
+    DeviceBuffer<T> rangeBuffer;
+    if (voxels) {
         // Voxel offset of each brick in the kernel's counter order.
         std::vector<cl_ulong> off;
         off.reserve(total);
-        for (std::size_t k2 : order)
-            for (const Dims& o : target->origins[first + k2])
-                off.push_back((o.z * target->dims.y + o.y) * target->dims.x + o.x);
+        for (std::size_t b : order)
+            for (const Dims& o : voxels->origins[first + b])
+                off.push_back((o.z * voxels->dims.y + o.y) * voxels->dims.x + o.x);
         offsets = cc.upload<cl_ulong>(off, CL_MEM_READ_ONLY);
         // After lift_bricks' 16 arguments.
-        detail::setArg(k, 16, target->voxels);
+        detail::setArg(k, 16, voxels->voxels);
         detail::setArg(k, 17, offsets);
-        detail::setArg(k, 18, cl_ulong(target->dims.x));
-        detail::setArg(k, 19, cl_ulong(target->dims.x * target->dims.y));
+        detail::setArg(k, 18, cl_ulong(voxels->dims.x));
+        detail::setArg(k, 19, cl_ulong(voxels->dims.x * voxels->dims.y));
+        if (!inverse) {
+            rangeBuffer = cc.allocate<T>(2 * total, CL_MEM_WRITE_ONLY);
+            detail::setArg(k, 20, rangeBuffer);
+        }
     }
     // A few work-items per core, each pulling bricks from the counter (see lift_bricks).
     const std::size_t items = std::min<std::size_t>(total, 4 * std::max(1u, cc.device().computeUnits));
     cl::Event ev = cc.launch1d(k, items, 1);
-    return eventMilliseconds(ev);
+    const double ms = eventMilliseconds(ev);
+    if (ranges && rangeBuffer.size() > 0) {
+        std::vector<T> r(2 * total);
+        cc.read(rangeBuffer, std::span<T>(r));
+        std::size_t c = 0;
+        for (std::size_t b : order)
+            for (auto& range : (*ranges)[first + b]) {
+                range = {double(r[2 * c]), double(r[2 * c + 1])};
+                ++c;
+            }
+    }
+    return ms;
 }
 
 template <class T>
@@ -484,14 +500,15 @@ double LiftingTransform<T>::transformAll(ComputeContext& cc, std::span<BrickBatc
     return ms;
 }
 
-template <class T> cl::Kernel& LiftingTransform<T>::voxelKernel(ComputeContext& cc, ScalarType type) {
-    cl::Kernel& k = invBrickVoxels_[static_cast<std::size_t>(type)];
+template <class T>
+cl::Kernel& LiftingTransform<T>::voxelKernel(ComputeContext& cc, ScalarType type, bool inverse) {
+    cl::Kernel& k = brickVoxels_[(inverse ? 4 : 0) + static_cast<std::size_t>(type)];
     if (!k()) {
         KernelDefines d;
         d.set("WAVELET", static_cast<long long>(wavelet_));
         d.set("LIFT_MAXN", static_cast<long long>(brickMaxN_));
         if (std::is_same_v<T, float>) d.set("LIFT_FLOAT");
-        d.set("LIFT_INVERSE");
+        if (inverse) d.set("LIFT_INVERSE");
         // The ray marcher's numbering (cl/raymarch_core.h).
         static constexpr std::array<int, 4> kVoxelType = {1, 2, 3, 0}; // UInt8, UInt16, Int16, Float32
         d.set("VOXEL_TYPE", kVoxelType[static_cast<std::size_t>(type)]);
@@ -501,30 +518,55 @@ template <class T> cl::Kernel& LiftingTransform<T>::voxelKernel(ComputeContext& 
 }
 
 template <class T>
-bool LiftingTransform<T>::canWriteVoxels(std::span<BrickBatch<T>* const> batches) const noexcept {
+bool LiftingTransform<T>::canUseVoxels(std::span<BrickBatch<T>* const> batches) const noexcept {
     return std::all_of(batches.begin(), batches.end(),
                        [&](const BrickBatch<T>* b) { return pathFor(*b) == LiftingPath::BrickResident; });
 }
 
 template <class T>
-double LiftingTransform<T>::inverseToVoxels(ComputeContext& cc, std::span<BrickBatch<T>* const> batches,
-                                            int levels, const VoxelTarget& target) {
-    if (!canWriteVoxels(batches)) throw Error("internal: inverseToVoxels needs the brick-resident path");
-    if (target.origins.size() != batches.size())
-        throw Error("internal: inverseToVoxels needs origins per batch");
+void LiftingTransform<T>::checkVoxels(std::span<BrickBatch<T>* const> batches, int levels,
+                                      const VoxelVolume& v) const {
+    if (!canUseVoxels(batches))
+        throw Error("internal: transforms from/to voxels need the brick-resident path");
+    if (levels <= 0) throw Error("internal: transforms from/to voxels need at least one level");
+    if (std::is_integral_v<T> && v.type == ScalarType::Float32)
+        throw Error("internal: the integer transform takes integer voxels only");
+    if (v.origins.size() != batches.size()) throw Error("internal: voxel origins needed per batch");
     for (std::size_t k = 0; k < batches.size(); ++k) {
         const Dims b = batches[k]->brick();
-        if (target.origins[k].size() != batches[k]->count())
-            throw Error("internal: inverseToVoxels needs an origin per brick");
-        for (const Dims& o : target.origins[k])
-            if (o.x + b.x > target.dims.x || o.y + b.y > target.dims.y || o.z + b.z > target.dims.z)
-                throw Error("internal: inverseToVoxels brick outside the volume");
+        if (v.origins[k].size() != batches[k]->count())
+            throw Error("internal: a voxel origin needed per brick");
+        for (const Dims& o : v.origins[k])
+            if (o.x + b.x > v.dims.x || o.y + b.y > v.dims.y || o.z + b.z > v.dims.z)
+                throw Error("internal: brick outside the voxel volume");
     }
-    if (levels <= 0) throw Error("internal: inverseToVoxels needs at least one level");
+}
+
+template <class T>
+double LiftingTransform<T>::inverseToVoxels(ComputeContext& cc, std::span<BrickBatch<T>* const> batches,
+                                            int levels, const VoxelVolume& target) {
+    checkVoxels(batches, levels, target);
     double ms = 0;
     for (std::size_t i = 0; i < batches.size(); i += kMaxShapes)
         ms += brickResident(cc, batches.subspan(i, std::min(kMaxShapes, batches.size() - i)), true, levels, 0,
                             &target, i);
+    return ms;
+}
+
+template <class T>
+double LiftingTransform<T>::forwardFromVoxels(ComputeContext& cc, std::span<BrickBatch<T>* const> batches,
+                                              int levels, const VoxelVolume& source,
+                                              std::vector<std::vector<std::pair<double, double>>>* ranges) {
+    checkVoxels(batches, levels, source);
+    if (ranges) {
+        ranges->resize(batches.size());
+        for (std::size_t k = 0; k < batches.size(); ++k)
+            (*ranges)[k].assign(batches[k]->count(), {0.0, 0.0});
+    }
+    double ms = 0;
+    for (std::size_t i = 0; i < batches.size(); i += kMaxShapes)
+        ms += brickResident(cc, batches.subspan(i, std::min(kMaxShapes, batches.size() - i)), false, levels,
+                            0, &source, i, ranges);
     return ms;
 }
 

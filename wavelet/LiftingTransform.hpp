@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <span>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace volcl {
@@ -102,10 +103,10 @@ private:
 /// for bricks up to kBrickResidentMaxDim per axis, Streaming otherwise.
 enum class LiftingPath : std::uint8_t { Auto, Streaming, BrickResident };
 
-/// Where an inverse transform also writes its bricks as voxels (see LiftingTransform::inverseToVoxels):
-/// a volume of `type` and `dims` in `voxels`; brick i of batch k lands with its first voxel at
-/// `origins[k][i]`. Bricks must lie inside the volume and not overlap.
-struct VoxelTarget {
+/// A volume whose voxels a transform reads (LiftingTransform::forwardFromVoxels) or writes
+/// (inverseToVoxels): `type` and `dims`, the voxels in `voxels`; brick i of batch k has its first voxel at
+/// `origins[k][i]`. Bricks must lie inside the volume (and not overlap, when written).
+struct VoxelVolume {
     cl::Buffer voxels;
     ScalarType type = ScalarType::Float32;
     Dims dims;
@@ -129,7 +130,9 @@ public:
     /// Forces a kernel path (tests compare both); the default Auto chooses per batch.
     void setPath(LiftingPath p) noexcept { path_ = p; }
     /// The path forward()/inverse() take for this batch.
-    LiftingPath pathFor(const BrickBatch<T>& batch) const noexcept;
+    LiftingPath pathFor(const BrickBatch<T>& batch) const noexcept { return pathFor(batch.brick()); }
+    /// The path for batches of bricks of these dims.
+    LiftingPath pathFor(Dims brick) const noexcept;
     /// Largest brick dimension the brick-resident kernel takes (its private line buffers are sized by it).
     static constexpr std::size_t kBrickResidentMaxDim = 256;
     /// Forward transform with `levels` levels. Returns the summed kernel time in milliseconds.
@@ -147,33 +150,46 @@ public:
     double inverse(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, int levels,
                    int stopLevel = 0);
 
-    /// True when inverseToVoxels() takes these batches (every one on the brick-resident path).
-    bool canWriteVoxels(std::span<BrickBatch<T>* const> batches) const noexcept;
+    /// True when forwardFromVoxels() and inverseToVoxels() take these batches (every one on the
+    /// brick-resident path).
+    bool canUseVoxels(std::span<BrickBatch<T>* const> batches) const noexcept;
     /// inverse() down to level 0 that also converts each brick to voxels and writes it into `target` from
     /// inside the kernel, right after its last level while it is in the core's cache, so nobody reads the
     /// batch back: integers are clamped to the voxel type, floats rounded to nearest even and clamped (what
     /// the decoder's host placement does). The batches keep the reconstruction too. Throws Error unless
-    /// canWriteVoxels(batches). Returns the summed kernel time in milliseconds. Example:
+    /// canUseVoxels(batches). Returns the summed kernel time in milliseconds. Example:
     /// ```
-    /// volcl::VoxelTarget v{cc.wrapHost(out.values<std::uint8_t>()).get(), volcl::ScalarType::UInt8,
+    /// volcl::VoxelVolume v{cc.wrapHost(out.values<std::uint8_t>()).get(), volcl::ScalarType::UInt8,
     ///                      out.dims(), {{{0, 0, 0}, {64, 0, 0}}}};
     /// t.inverseToVoxels(cc, batches, 4, v);
     /// ```
     double inverseToVoxels(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, int levels,
-                           const VoxelTarget& target);
+                           const VoxelVolume& target);
+    /// forward() that first reads each brick's voxels from `source` inside the kernel (converting them to T)
+    /// instead of from a batch the host filled, so the brick is in the core's cache when its first level
+    /// starts; the batches' contents before the call do not matter. With `ranges`, (*ranges)[k][i] receives
+    /// the smallest and largest voxel of brick i of batch k. Integer transforms take integer voxels only.
+    /// Throws Error unless canUseVoxels(batches). Returns the summed kernel time in milliseconds.
+    double forwardFromVoxels(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, int levels,
+                             const VoxelVolume& source,
+                             std::vector<std::vector<std::pair<double, double>>>* ranges = nullptr);
 
 private:
     double pass(ComputeContext& cc, cl::Kernel& k, BrickBatch<T>& batch, Dims active, int axis);
     double copyBack(ComputeContext& cc, BrickBatch<T>& batch, Dims active);
-    // `target`: also write voxels (inverse to level 0 only), `first` = the index of batches[0] in it.
+    // `voxels`: the inverse (to level 0 only) also writes voxels there, the forward reads them from there
+    // and stores each brick's range in `ranges`; `first` = the index of batches[0] in them.
     double brickResident(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse,
-                         int levels, int stopLevel, const VoxelTarget* target = nullptr,
-                         std::size_t first = 0);
+                         int levels, int stopLevel, const VoxelVolume* voxels = nullptr,
+                         std::size_t first = 0,
+                         std::vector<std::vector<std::pair<double, double>>>* ranges = nullptr);
+    void checkVoxels(std::span<BrickBatch<T>* const> batches, int levels, const VoxelVolume& v) const;
     double transformAll(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse, int levels,
                         int stopLevel);
     void buildStreaming(ComputeContext& cc);               // the lifting.cl kernels, once
     void buildBrick(ComputeContext& cc, std::size_t maxN); // the lifting_brick.cl kernels for LIFT_MAXN maxN
-    cl::Kernel& voxelKernel(ComputeContext& cc, ScalarType type); // the inverse writing `type` voxels
+    cl::Kernel& voxelKernel(ComputeContext& cc, ScalarType type,
+                            bool inverse); // reading/writing `type` voxels
     Wavelet wavelet_;
     LiftingPath path_ = LiftingPath::Auto;
     bool cpuDevice_ = false;
@@ -181,7 +197,7 @@ private:
     cl::Kernel fwdX_, fwdYz_, invX_, invYz_, copy_;
     std::size_t brickMaxN_ = 0; // LIFT_MAXN the brick kernels below were built with (0: not built)
     cl::Kernel fwdBrick_, invBrick_;
-    std::array<cl::Kernel, 4> invBrickVoxels_; // per ScalarType, built on first use for brickMaxN_
+    std::array<cl::Kernel, 8> brickVoxels_; // [inverse * 4 + ScalarType], built on first use for brickMaxN_
     DeviceBuffer<cl_int> brickNext_; // the brick kernel's work counter
 };
 
