@@ -17,12 +17,19 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <memory>
 #include <string>
 #include <type_traits>
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#define VOLCL_DENSE_SIMD 1
+#include <immintrin.h>
+#endif
 
 namespace volcl {
 
@@ -307,7 +314,8 @@ struct WordReader {
 // The decoder's states and stream.
 class RansDecoder {
 public:
-    static std::vector<std::uint8_t> padded(std::span<const std::uint8_t> in) { return zeroPadded(in, 2); }
+    // 16 bytes: the SIMD decoder loads up to 7 words at a time from the clamped position.
+    static std::vector<std::uint8_t> padded(std::span<const std::uint8_t> in) { return zeroPadded(in, 16); }
     /// `bytes` comes from padded(); `size` is the unpadded length.
     RansDecoder(const std::vector<std::uint8_t>& bytes, std::size_t size, int lanes) : in{bytes.data(), size} {
         const std::span<const std::uint8_t> span(in.data, in.size);
@@ -617,6 +625,179 @@ template <class Step> void interleaveSigns(const RowJob* jobs, std::size_t nj, S
             if (n < jobs[i].count) step(i, n);
 }
 
+// ------------------------------------------------------------------------------ SIMD symbol pass
+
+// The decoder's per-slot view of all tables of a section for the SIMD pass: per table 2048 entries of
+// (slot - start) | freq << 11 | symbol << 23 (one gather gives the symbol and the rANS step), blocks of
+// 2048 one after the other (block 0 decodes symbol 0 at no cost, for contexts without a table), and per
+// activity class the offset of its block in entries (32 entries: the permutation reads two registers).
+struct PackedTables {
+    std::vector<std::uint32_t> entries;
+    alignas(64) std::uint32_t offset[32] = {};
+};
+
+constexpr std::uint32_t packedEntry(std::uint32_t bias, std::uint32_t freq, std::uint32_t sym) {
+    return bias | freq << 11 | sym << 23;
+}
+
+// Row groups with fewer rows take the scalar pass (one SIMD step costs about as much as this many scalar symbols).
+constexpr std::size_t kSimdMinRows = 1;
+
+bool cpuHasDenseSimd() noexcept {
+#ifdef VOLCL_DENSE_SIMD
+    static const bool ok = [] {
+        __builtin_cpu_init();
+        return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+               __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512dq") &&
+               __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512vbmi2") &&
+               __builtin_cpu_supports("avx512vpopcntdq") &&
+               __builtin_cpu_supports("bmi2") && __builtin_cpu_supports("popcnt");
+    }();
+    return ok;
+#else
+    return false;
+#endif
+}
+
+std::atomic<bool> gForceScalar{[] {
+    const char* e = std::getenv("VOLCL_DENSE_SCALAR");
+    return e != nullptr && *e != '\0' && *e != '0';
+}()};
+
+#ifdef VOLCL_DENSE_SIMD
+// GCC 12 reports its own intrinsics' undefined-register idiom (_mm512_undefined_*) as maybe uninitialised.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#define VOLCL_SIMD_TARGET __attribute__((target("avx512f,avx512bw,avx512cd,avx512dq,avx512vl,avx512vbmi2,avx512vpopcntdq,bmi,bmi2,popcnt,lzcnt")))
+
+// The new states of the `active` lanes after a decoding step gave s (64-bit lanes): the lanes below 2^16
+// take the next 16-bit words of the stream in lane order, the scalar decoder's order.
+VOLCL_SIMD_TARGET inline __m512i renormalise(__m512i state, __m512i s, __mmask8 active, const std::uint8_t* data,
+                                             std::size_t size, std::size_t& pos) {
+    const __mmask8 renorm = _mm512_mask_cmplt_epu64_mask(active, s, _mm512_set1_epi64(kRansLow));
+    // Word index of each renormalising lane = the renormalising lanes below it, computed in vectors (a
+    // mask through a general register and vpexpandw was slower); past the end the padding gives zeros.
+    const __m512i words =
+        _mm512_broadcast_i32x4(_mm_loadu_si128(reinterpret_cast<const __m128i*>(data + std::min(pos, size))));
+    const __m512i below = _mm512_set_epi64(0x7F, 0x3F, 0x1F, 0xF, 0x7, 0x3, 0x1, 0);
+    const __m512i k = _mm512_popcnt_epi64(_mm512_and_si512(_mm512_broadcastmb_epi64(renorm), below));
+    const __m512i w = _mm512_maskz_permutexvar_epi16(0x11111111u, k, words);
+    pos += 2 * static_cast<std::size_t>(_mm_popcnt_u32(renorm));
+    state = _mm512_mask_mov_epi64(state, active, s);
+    return _mm512_mask_mov_epi64(state, renorm, _mm512_or_si512(_mm512_slli_epi64(s, 16), w));
+}
+
+// Decodes the magnitude symbols of columns [0, steps) of a row group, one column per step: lane i of the
+// vectors is row i of the group, and the lanes that renormalise take the next words of the stream in lane
+// order (an expanding load), which is the scalar decoder's order (x outer, row inner), so the stream is the
+// same. `lastMask` is the set of rows active in the last column (rows of a group differ by one column at
+// most when this runs with steps > min nx). actI (8 per column, lane i = row i) holds the rows' activity;
+// symbols come out in symI likewise. States in 64-bit lanes: vpmuludq is half the latency of vpmulld.
+VOLCL_SIMD_TARGET
+void symbolsSimd(std::size_t nj, std::size_t steps, __mmask8 lastMask, WordReader& in, std::uint32_t* st,
+                 const PackedTables& pt, const std::uint32_t* actI, std::uint8_t* symI) {
+    const __mmask8 full = static_cast<__mmask8>((1u << nj) - 1u);
+    __m512i state = _mm512_set1_epi64(kRansLow);
+    for (std::size_t i = 0; i < nj; ++i)
+        state = _mm512_mask_set1_epi64(state, static_cast<__mmask8>(1u << i), st[i]);
+    const __m512i offLo = _mm512_load_si512(pt.offset), offHi = _mm512_load_si512(pt.offset + 16);
+    const __m512i one = _mm512_set1_epi64(1), two = _mm512_set1_epi64(2), low32 = _mm512_set1_epi64(0xFFFFFFFF);
+    const __m512i slotMask = _mm512_set1_epi64(kTableScale - 1), maxClass = _mm512_set1_epi64(kActivityContexts - 1);
+    const __m512i c125 = _mm512_set1_epi64(125), c62 = _mm512_set1_epi64(62);
+    const __m512i m11 = _mm512_set1_epi64(0x7FF), m12 = _mm512_set1_epi64(0xFFF), m6 = _mm512_set1_epi64(0x3F);
+    const std::uint32_t* table = pt.entries.data();
+    const std::uint8_t* data = in.data;
+    const std::size_t size = in.size;
+    std::size_t pos = in.pos;
+    __m512i sym = _mm512_setzero_si512();
+    for (std::size_t x = 0; x < steps; ++x) {
+        const __mmask8 active = x + 1 == steps ? lastMask : full;
+        // Activity class of activity + 4 base(previous symbol), as the scalar kActivityClass (u32 sum).
+        const __m512i v = _mm512_min_epu64(sym, _mm512_or_si512(_mm512_and_si512(sym, one), two));
+        const __m512i t = _mm512_max_epu64(_mm512_add_epi64(_mm512_srli_epi64(sym, 1), one), two);
+        const __m512i act = _mm512_cvtepu32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(actI + 8 * x)));
+        const __m512i a = _mm512_and_si512(_mm512_add_epi64(act, _mm512_sllv_epi64(v, t)), low32);
+        const __m512i lz = _mm512_lzcnt_epi64(a);
+        // 2n - 1 + (top two bits) with n = 63 - lz, the bit length less one; a < 2 is the class a.
+        __m512i cls = _mm512_add_epi64(_mm512_sub_epi64(c125, _mm512_add_epi64(lz, lz)),
+                                       _mm512_srlv_epi64(a, _mm512_sub_epi64(c62, lz)));
+        cls = _mm512_min_epi64(_mm512_max_epi64(cls, _mm512_min_epu64(a, one)), maxClass);
+        const __m512i off = _mm512_maskz_permutex2var_epi32(0x5555, offLo, cls, offHi);
+        // Eight scalar loads instead of vpgatherqq: the gather's latency is the longest link of the chain.
+        alignas(64) std::uint64_t ix[8];
+        _mm512_store_si512(ix, _mm512_add_epi64(off, _mm512_and_si512(state, slotMask)));
+        const __m128i e01 = _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[0]])), table[ix[1]], 1);
+        const __m128i e23 = _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[2]])), table[ix[3]], 1);
+        const __m128i e45 = _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[4]])), table[ix[5]], 1);
+        const __m128i e67 = _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[6]])), table[ix[7]], 1);
+        const __m512i e = _mm512_inserti64x4(
+            _mm512_castsi256_si512(_mm256_inserti128_si256(_mm256_castsi128_si256(e01), e23, 1)),
+            _mm256_inserti128_si256(_mm256_castsi128_si256(e45), e67, 1), 1);
+        sym = _mm512_and_si512(_mm512_srli_epi64(e, 23), m6);
+        const __m512i freq = _mm512_and_si512(_mm512_srli_epi64(e, 11), m12);
+        const __m512i s = _mm512_add_epi64(_mm512_mul_epu32(freq, _mm512_srli_epi64(state, kTableScaleBits)),
+                                           _mm512_and_si512(e, m11));
+        state = renormalise(state, s, active, data, size, pos);
+        _mm_storel_epi64(reinterpret_cast<__m128i*>(symI + 8 * x), _mm512_cvtepi64_epi8(sym));
+    }
+    in.pos = pos;
+    alignas(64) std::uint64_t out[8];
+    _mm512_store_si512(out, state);
+    for (std::size_t i = 0; i < nj; ++i)
+        st[i] = static_cast<std::uint32_t>(out[i]);
+}
+
+// Decodes the signs of a row group's non-zero coefficients, their n-th in step n (the scalar order): lane i
+// is row i; ctxI holds per step and lane the neighbour part of the sign context (signBase), westI 1 where
+// the coefficient before it is the previous step's one (its sign is then the context's W part, else W is
+// zero); signs come out in sgnI as sign classes. The rows of a group are subbands of different orientation,
+// so their sign models are disjoint and one gather and one scatter per step see no conflicts.
+VOLCL_SIMD_TARGET
+void signsSimd(std::size_t nj, std::size_t steps, const std::uint32_t* counts, WordReader& in, std::uint32_t* st,
+               BitModel* models, const std::uint16_t* ctxI, const std::uint8_t* westI, std::uint8_t* sgnI) {
+    __m512i state = _mm512_set1_epi64(kRansLow), count = _mm512_setzero_si512();
+    for (std::size_t i = 0; i < nj; ++i) {
+        state = _mm512_mask_set1_epi64(state, static_cast<__mmask8>(1u << i), st[i]);
+        count = _mm512_mask_set1_epi64(count, static_cast<__mmask8>(1u << i), counts[i]);
+    }
+    const __m512i scale = _mm512_set1_epi64(kBinaryScale), slotMask = _mm512_set1_epi64(kBinaryScale - 1);
+    const __m512i one = _mm512_set1_epi64(1);
+    const std::uint8_t* data = in.data;
+    const std::size_t size = in.size;
+    std::size_t pos = in.pos;
+    __m512i sgn = _mm512_setzero_si512();
+    auto* p0s = reinterpret_cast<int*>(models);
+    for (std::size_t n = 0; n < steps; ++n) {
+        const __mmask8 active = _mm512_cmpgt_epu64_mask(count, _mm512_set1_epi64(static_cast<long long>(n)));
+        const __m512i base = _mm512_cvtepu16_epi64(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ctxI + 8 * n)));
+        const __mmask8 west = _mm512_test_epi64_mask(
+            _mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(westI + 8 * n))), one);
+        const __m512i ctx = _mm512_mask_add_epi64(base, west, base, sgn);
+        const __m512i p0 =
+            _mm512_cvtepu32_epi64(_mm512_mask_i64gather_epi32(_mm256_setzero_si256(), active, ctx, p0s, 4));
+        const __m512i slot = _mm512_and_si512(state, slotMask);
+        const __mmask8 neg = _mm512_cmpge_epu64_mask(slot, p0);
+        const __m512i q = _mm512_sub_epi64(scale, p0);
+        const __m512i freq = _mm512_mask_mov_epi64(p0, neg, q);
+        const __m512i start = _mm512_maskz_mov_epi64(neg, p0);
+        const __m512i s = _mm512_add_epi64(_mm512_mul_epu32(freq, _mm512_srli_epi64(state, kBinaryScaleBits)),
+                                           _mm512_sub_epi64(slot, start));
+        state = renormalise(state, s, active, data, size, pos);
+        const __m512i up = _mm512_add_epi64(p0, _mm512_srli_epi64(q, 5));
+        const __m512i down = _mm512_sub_epi64(p0, _mm512_srli_epi64(p0, 5));
+        _mm512_mask_i64scatter_epi32(p0s, active, ctx, _mm512_cvtepi64_epi32(_mm512_mask_mov_epi64(up, neg, down)), 4);
+        sgn = _mm512_mask_add_epi64(one, neg, one, one);
+        _mm_storel_epi64(reinterpret_cast<__m128i*>(sgnI + 8 * n), _mm512_cvtepi64_epi8(sgn));
+    }
+    in.pos = pos;
+    alignas(64) std::uint64_t out[8];
+    _mm512_store_si512(out, state);
+    for (std::size_t i = 0; i < nj; ++i)
+        st[i] = static_cast<std::uint32_t>(out[i]);
+}
+#pragma GCC diagnostic pop
+#endif
+
 // Encoder pass 1: adaptive decisions become events at once; magnitude symbols are recorded as pending
 // events (scaleBits 0, start = context * 64 + symbol) and resolved once the tables exist.
 struct EncodeSide {
@@ -739,6 +920,91 @@ struct DecodeSide {
     RawReader raw;
     DenseModel model;
     std::array<const DecoderTable*, kActivityContexts> tables;
+    const PackedTables* packed = nullptr; // set when the SIMD symbol pass runs
+    std::vector<std::uint32_t> actI;      // SIMD pass: activity per column, 8 lanes (row i of the group in lane i)
+    std::vector<std::uint8_t> symI;       // SIMD pass: symbols likewise
+    std::vector<std::uint16_t> ctxI;      // SIMD sign pass: per step (n-th non-zero) and lane: signBase
+    std::vector<std::uint8_t> westI, sgnI; // ... whether W is the previous step's coefficient; the signs
+
+#ifdef VOLCL_DENSE_SIMD
+    // The SIMD pass over the columns all rows have (and the last one when the rows differ by one column
+    // only, as the subbands of a section do: then the scalar order "x outer, row inner" is unchanged), the
+    // rest of each row scalar.
+    template <class Step>
+    void symbolsVector(const RowJob* jobs, std::size_t nj, WordReader& in, std::uint32_t* st, Step& step) {
+        std::size_t minNx = jobs[0].nx, maxNx = jobs[0].nx;
+        for (std::size_t i = 1; i < nj; ++i) {
+            minNx = std::min(minNx, jobs[i].nx);
+            maxNx = std::max(maxNx, jobs[i].nx);
+        }
+        const std::size_t steps = maxNx - minNx <= 1 ? maxNx : minNx;
+        unsigned lastMask = 0;
+        for (std::size_t i = 0; i < nj; ++i)
+            lastMask |= (jobs[i].nx >= steps ? 1u : 0u) << i;
+        if (actI.size() < 8 * steps) {
+            actI.resize(8 * steps);
+            symI.resize(8 * steps);
+        }
+        // Lanes beyond the rows keep stale activities: any value gives a valid class, and they are masked.
+        for (std::size_t i = 0; i < nj; ++i) {
+            const std::uint32_t* a = jobs[i].activity;
+            const std::size_t n = std::min(steps, jobs[i].nx);
+            for (std::size_t x = 0; x < n; ++x)
+                actI[8 * x + i] = a[x];
+        }
+        const std::uint8_t* const si = symI.data();
+        symbolsSimd(nj, steps, static_cast<__mmask8>(lastMask), in, st, *packed, actI.data(), symI.data());
+        for (std::size_t i = 0; i < nj; ++i) {
+            std::uint8_t* const sy = jobs[i].syms;
+            const std::size_t n = std::min(steps, jobs[i].nx);
+            for (std::size_t x = 0; x < n; ++x)
+                sy[x] = si[8 * x + i];
+        }
+        for (std::size_t i = 0; i < nj; ++i)
+            for (std::size_t x = steps; x < jobs[i].nx; ++x)
+                step(i, x);
+    }
+
+    void signsVector(const RowJob* jobs, std::size_t nj, WordReader& in, std::uint32_t* st) {
+        std::size_t maxCount = 0;
+        std::uint32_t counts[kMaxLanes];
+        for (std::size_t i = 0; i < nj; ++i) {
+            counts[i] = static_cast<std::uint32_t>(jobs[i].count);
+            maxCount = std::max(maxCount, jobs[i].count);
+        }
+        if (maxCount == 0) return;
+        if (ctxI.size() < 8 * maxCount) {
+            ctxI.resize(8 * maxCount);
+            westI.resize(8 * maxCount);
+            sgnI.resize(8 * maxCount);
+        }
+        // Steps beyond a row's count keep stale entries: its lane is masked there. Pointers in locals: the
+        // byte stores may alias anything, so members would be reloaded at every step.
+        std::uint16_t* const ci = ctxI.data();
+        std::uint8_t* const wi = westI.data();
+        std::uint8_t* const si = sgnI.data();
+        for (std::size_t i = 0; i < nj; ++i) {
+            const std::uint32_t* const nz = jobs[i].nonZero;
+            const std::uint16_t* const sb = jobs[i].signBase;
+            const std::size_t count = jobs[i].count;
+            std::uint32_t prev = ~0u - 1; // no coefficient before the first non-zero one
+            for (std::size_t n = 0; n < count; ++n) {
+                const std::uint32_t x = nz[n];
+                ci[8 * n + i] = sb[x];
+                wi[8 * n + i] = prev + 1 == x ? 1 : 0;
+                prev = x;
+            }
+        }
+        signsSimd(nj, maxCount, counts, in, st, model.signs.data(), ci, wi, si);
+        for (std::size_t i = 0; i < nj; ++i) {
+            const std::uint32_t* const nz = jobs[i].nonZero;
+            std::uint8_t* const sg = jobs[i].sgn;
+            const std::size_t count = jobs[i].count;
+            for (std::size_t n = 0; n < count; ++n)
+                sg[nz[n]] = si[8 * n + i];
+        }
+    }
+#endif
 
     bool rowFlag(unsigned lane, unsigned rctx, std::int32_t* row, std::size_t nx) {
         const bool zero = rans.in.bit(rans.x[lane], model.rows[rctx]) != 0;
@@ -753,7 +1019,7 @@ struct DecodeSide {
         for (std::size_t i = 0; i < nj; ++i)
             st[i] = rans.x[jobs[i].lane];
         const std::array<const DecoderTable*, kActivityContexts> tab = tables;
-        interleaveSymbols(jobs, nj, [&](std::size_t i, std::size_t x) {
+        const auto step = [&](std::size_t i, std::size_t x) {
             const RowJob& j = jobs[i];
             const DecoderTable& t =
                 *tab[static_cast<std::size_t>(activityContext(j.activity[x] + kSymbolInfo.west[j.syms[x - 1]]))];
@@ -761,7 +1027,13 @@ struct DecodeSide {
             const unsigned sym = t.lookup[s & (kTableScale - 1)];
             st[i] = in.advance(s, kTableScaleBits, t.start[sym], t.freq[sym]);
             j.syms[x] = static_cast<std::uint8_t>(sym);
-        });
+        };
+#ifdef VOLCL_DENSE_SIMD
+        if (packed != nullptr && nj >= kSimdMinRows)
+            symbolsVector(jobs, nj, in, st, step);
+        else
+#endif
+            interleaveSymbols(jobs, nj, step);
         for (std::size_t i = 0; i < nj; ++i) {
             RowJob& j = jobs[i];
             std::size_t count = 0;
@@ -773,12 +1045,17 @@ struct DecodeSide {
             }
             j.count = count;
         }
-        interleaveSigns(jobs, nj, [&](std::size_t i, std::size_t n) {
-            const RowJob& j = jobs[i];
-            const std::size_t x = j.nonZero[n];
-            const unsigned negative = in.bit(st[i], model.signs[j.signBase[x] + j.sgn[x - 1]]);
-            j.sgn[x] = static_cast<std::uint8_t>(1 + negative);
-        });
+#ifdef VOLCL_DENSE_SIMD
+        if (packed != nullptr && nj >= kSimdMinRows)
+            signsVector(jobs, nj, in, st);
+        else
+#endif
+            interleaveSigns(jobs, nj, [&](std::size_t i, std::size_t n) {
+                const RowJob& j = jobs[i];
+                const std::size_t x = j.nonZero[n];
+                const unsigned negative = in.bit(st[i], model.signs[j.signBase[x] + j.sgn[x - 1]]);
+                j.sgn[x] = static_cast<std::uint8_t>(1 + negative);
+            });
         for (std::size_t i = 0; i < nj; ++i)
             rans.x[jobs[i].lane] = st[i];
         rans.in = in;
@@ -970,12 +1247,39 @@ void decodeDense(std::span<const std::uint8_t> in, std::span<std::int32_t> coeff
     const std::vector<std::uint8_t> ransBytes = RansDecoder::padded(in.subspan(head, n));
     const std::vector<std::uint8_t> rawBytes = RawReader::padded(in.subspan(head + n));
     DecodeSide side{RansDecoder(ransBytes, n, static_cast<int>(layout[s].size())),
-                    RawReader(rawBytes, in.size() - head - n), {}, tablePtr};
+                    RawReader(rawBytes, in.size() - head - n), {}, tablePtr, nullptr, {}, {}, {}, {}, {}};
+    if (!denseDecoderIsScalar()) {
+        // Reused across sections: 25 tables are 200 KB, which malloc would map and unmap every time.
+        thread_local PackedTables pt;
+        pt.entries.resize((tables.size() + 1) * kTableScale + 2);
+        for (std::uint32_t slot = 0; slot < kTableScale; ++slot)
+            pt.entries[slot] = packedEntry(slot, kTableScale, 0);
+        std::fill(pt.offset, pt.offset + 32, 0u);
+        for (std::size_t b = 0; b < tables.size(); ++b) {
+            const DecoderTable& d = tables[b];
+            std::uint32_t* e = pt.entries.data() + (b + 1) * kTableScale;
+            for (std::uint32_t sym = 0; sym < kSymbols; ++sym)
+                for (std::uint32_t k = 0; k < d.freq[sym]; ++k)
+                    e[d.start[sym] + k] = packedEntry(k, d.freq[sym], sym);
+        }
+        for (std::size_t c = 0; c < kActivityContexts; ++c)
+            if (tablePtr[c] != &kUnused)
+                pt.offset[c] = static_cast<std::uint32_t>(tablePtr[c] - tables.data() + 1) * kTableScale;
+        side.packed = &pt;
+    }
     SectionWalker walker{brick, layout, s};
     walker.run(coeffs.data(), side);
     if (!side.rans.exact()) corrupt(what, "entropy stream does not end where its size says");
     if (!side.raw.exact()) corrupt(what, "raw bit stream length mismatch");
 }
+
+} // namespace
+
+bool denseDecoderSimdAvailable() noexcept { return cpuHasDenseSimd(); }
+void setDenseDecoderScalar(bool force) noexcept { gForceScalar.store(force, std::memory_order_relaxed); }
+bool denseDecoderIsScalar() noexcept { return !cpuHasDenseSimd() || gForceScalar.load(std::memory_order_relaxed); }
+
+namespace {
 
 // ------------------------------------------------------------------------------ fast mode
 
