@@ -965,36 +965,42 @@ struct DecodeSide {
                 step(i, x);
     }
 
-    void signsVector(const RowJob* jobs, std::size_t nj, WordReader& in, std::uint32_t* st) {
-        std::size_t maxCount = 0;
-        std::uint32_t counts[kMaxLanes];
-        for (std::size_t i = 0; i < nj; ++i) {
-            counts[i] = static_cast<std::uint32_t>(jobs[i].count);
-            maxCount = std::max(maxCount, jobs[i].count);
+    // Also makes the rows' lists of non-zero coefficients (jobs[i].nonZero, count), and in the same loop
+    // the sign pass's per-step inputs.
+    void signsVector(RowJob* jobs, std::size_t nj, WordReader& in, std::uint32_t* st) {
+        std::size_t maxNx = 0;
+        for (std::size_t i = 0; i < nj; ++i)
+            maxNx = std::max(maxNx, jobs[i].nx);
+        if (ctxI.size() < 8 * (maxNx + 1)) {
+            ctxI.resize(8 * (maxNx + 1));
+            westI.resize(8 * (maxNx + 1));
+            sgnI.resize(8 * (maxNx + 1));
         }
-        if (maxCount == 0) return;
-        if (ctxI.size() < 8 * maxCount) {
-            ctxI.resize(8 * maxCount);
-            westI.resize(8 * maxCount);
-            sgnI.resize(8 * maxCount);
-        }
-        // Steps beyond a row's count keep stale entries: its lane is masked there. Pointers in locals: the
-        // byte stores may alias anything, so members would be reloaded at every step.
+        // Entries are written at every x and kept where x is non-zero (no jumps); steps beyond a row's count
+        // keep stale entries, its lane is masked there. Pointers in locals: the byte stores may alias
+        // anything, so members would be reloaded at every x.
         std::uint16_t* const ci = ctxI.data();
         std::uint8_t* const wi = westI.data();
         std::uint8_t* const si = sgnI.data();
+        std::size_t maxCount = 0;
+        std::uint32_t counts[kMaxLanes];
         for (std::size_t i = 0; i < nj; ++i) {
-            const std::uint32_t* const nz = jobs[i].nonZero;
+            std::uint32_t* const nz = jobs[i].nonZero;
             const std::uint16_t* const sb = jobs[i].signBase;
-            const std::size_t count = jobs[i].count;
-            std::uint32_t prev = ~0u - 1; // no coefficient before the first non-zero one
-            for (std::size_t n = 0; n < count; ++n) {
-                const std::uint32_t x = nz[n];
-                ci[8 * n + i] = sb[x];
-                wi[8 * n + i] = prev + 1 == x ? 1 : 0;
-                prev = x;
+            const std::uint8_t* const sy = jobs[i].syms; // sy[-1] is 0
+            const std::size_t nx = jobs[i].nx;
+            std::size_t count = 0;
+            for (std::size_t x = 0; x < nx; ++x) {
+                nz[count] = static_cast<std::uint32_t>(x);
+                ci[8 * count + i] = sb[x];
+                wi[8 * count + i] = sy[x - 1] != 0 ? 1 : 0; // W is then the previous step's coefficient
+                count += sy[x] != 0;
             }
+            jobs[i].count = count;
+            counts[i] = static_cast<std::uint32_t>(count);
+            maxCount = std::max(maxCount, count);
         }
+        if (maxCount == 0) return;
         signsSimd(nj, maxCount, counts, in, st, model.signs.data(), ci, wi, si);
         for (std::size_t i = 0; i < nj; ++i) {
             const std::uint32_t* const nz = jobs[i].nonZero;
@@ -1034,28 +1040,34 @@ struct DecodeSide {
         else
 #endif
             interleaveSymbols(jobs, nj, step);
+        const bool simd = packed != nullptr && nj >= kSimdMinRows;
         for (std::size_t i = 0; i < nj; ++i) {
             RowJob& j = jobs[i];
-            std::size_t count = 0;
             std::fill(j.mag, j.mag + j.nx, 0);
             std::fill(j.sgn, j.sgn + j.nx, 0);
-            for (std::size_t x = 0; x < j.nx; ++x) {
-                j.nonZero[count] = static_cast<std::uint32_t>(x);
-                count += j.syms[x] != 0;
-            }
-            j.count = count;
         }
 #ifdef VOLCL_DENSE_SIMD
-        if (packed != nullptr && nj >= kSimdMinRows)
+        if (simd) {
             signsVector(jobs, nj, in, st);
-        else
+        } else
 #endif
+        {
+            for (std::size_t i = 0; i < nj; ++i) {
+                RowJob& j = jobs[i];
+                std::size_t count = 0;
+                for (std::size_t x = 0; x < j.nx; ++x) {
+                    j.nonZero[count] = static_cast<std::uint32_t>(x);
+                    count += j.syms[x] != 0;
+                }
+                j.count = count;
+            }
             interleaveSigns(jobs, nj, [&](std::size_t i, std::size_t n) {
                 const RowJob& j = jobs[i];
                 const std::size_t x = j.nonZero[n];
                 const unsigned negative = in.bit(st[i], model.signs[j.signBase[x] + j.sgn[x - 1]]);
                 j.sgn[x] = static_cast<std::uint8_t>(1 + negative);
             });
+        }
         for (std::size_t i = 0; i < nj; ++i)
             rans.x[jobs[i].lane] = st[i];
         rans.in = in;
