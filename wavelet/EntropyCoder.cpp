@@ -665,10 +665,20 @@ std::atomic<bool> gForceScalar{[] {
 }()};
 
 #ifdef VOLCL_DENSE_SIMD
-// GCC 12 reports its own intrinsics' undefined-register idiom (_mm512_undefined_*) as maybe uninitialised.
+// GCC 12 reports its own intrinsics' undefined-register idiom (_mm512_undefined_*) as (maybe) uninitialised.
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
 #define VOLCL_SIMD_TARGET __attribute__((target("avx512f,avx512bw,avx512cd,avx512dq,avx512vl,avx512vbmi2,avx512vpopcntdq,bmi,bmi2,popcnt,lzcnt")))
+
+// Lanes 0..nj-1 from v, the others `fill`; and back.
+VOLCL_SIMD_TARGET inline __m512i loadLanes(const std::uint32_t* v, std::size_t nj, std::uint32_t fill) {
+    const __mmask8 lanes = static_cast<__mmask8>((1u << nj) - 1u);
+    return _mm512_cvtepu32_epi64(_mm256_mask_loadu_epi32(_mm256_set1_epi32(static_cast<int>(fill)), lanes, v));
+}
+VOLCL_SIMD_TARGET inline void storeStates(__m512i state, std::uint32_t* st, std::size_t nj) {
+    _mm256_mask_storeu_epi32(st, static_cast<__mmask8>((1u << nj) - 1u), _mm512_cvtepi64_epi32(state));
+}
 
 // The new states of the `active` lanes after a decoding step gave s (64-bit lanes): the lanes below 2^16
 // take the next 16-bit words of the stream in lane order, the scalar decoder's order.
@@ -697,9 +707,7 @@ VOLCL_SIMD_TARGET
 void symbolsSimd(std::size_t nj, std::size_t steps, __mmask8 lastMask, WordReader& in, std::uint32_t* st,
                  const PackedTables& pt, const std::uint32_t* actI, std::uint8_t* symI) {
     const __mmask8 full = static_cast<__mmask8>((1u << nj) - 1u);
-    __m512i state = _mm512_set1_epi64(kRansLow);
-    for (std::size_t i = 0; i < nj; ++i)
-        state = _mm512_mask_set1_epi64(state, static_cast<__mmask8>(1u << i), st[i]);
+    __m512i state = loadLanes(st, nj, kRansLow);
     const __m512i offLo = _mm512_load_si512(pt.offset), offHi = _mm512_load_si512(pt.offset + 16);
     const __m512i one = _mm512_set1_epi64(1), two = _mm512_set1_epi64(2), low32 = _mm512_set1_epi64(0xFFFFFFFF);
     const __m512i slotMask = _mm512_set1_epi64(kTableScale - 1), maxClass = _mm512_set1_epi64(kActivityContexts - 1);
@@ -741,10 +749,7 @@ void symbolsSimd(std::size_t nj, std::size_t steps, __mmask8 lastMask, WordReade
         _mm_storel_epi64(reinterpret_cast<__m128i*>(symI + 8 * x), _mm512_cvtepi64_epi8(sym));
     }
     in.pos = pos;
-    alignas(64) std::uint64_t out[8];
-    _mm512_store_si512(out, state);
-    for (std::size_t i = 0; i < nj; ++i)
-        st[i] = static_cast<std::uint32_t>(out[i]);
+    storeStates(state, st, nj);
 }
 
 // Decodes the signs of a row group's non-zero coefficients, their n-th in step n (the scalar order): lane i
@@ -755,11 +760,8 @@ void symbolsSimd(std::size_t nj, std::size_t steps, __mmask8 lastMask, WordReade
 VOLCL_SIMD_TARGET
 void signsSimd(std::size_t nj, std::size_t steps, const std::uint32_t* counts, WordReader& in, std::uint32_t* st,
                BitModel* models, const std::uint16_t* ctxI, const std::uint8_t* westI, std::uint8_t* sgnI) {
-    __m512i state = _mm512_set1_epi64(kRansLow), count = _mm512_setzero_si512();
-    for (std::size_t i = 0; i < nj; ++i) {
-        state = _mm512_mask_set1_epi64(state, static_cast<__mmask8>(1u << i), st[i]);
-        count = _mm512_mask_set1_epi64(count, static_cast<__mmask8>(1u << i), counts[i]);
-    }
+    __m512i state = loadLanes(st, nj, kRansLow);
+    const __m512i count = loadLanes(counts, nj, 0);
     const __m512i scale = _mm512_set1_epi64(kBinaryScale), slotMask = _mm512_set1_epi64(kBinaryScale - 1);
     const __m512i one = _mm512_set1_epi64(1);
     const std::uint8_t* data = in.data;
@@ -790,10 +792,7 @@ void signsSimd(std::size_t nj, std::size_t steps, const std::uint32_t* counts, W
         _mm_storel_epi64(reinterpret_cast<__m128i*>(sgnI + 8 * n), _mm512_cvtepi64_epi8(sgn));
     }
     in.pos = pos;
-    alignas(64) std::uint64_t out[8];
-    _mm512_store_si512(out, state);
-    for (std::size_t i = 0; i < nj; ++i)
-        st[i] = static_cast<std::uint32_t>(out[i]);
+    storeStates(state, st, nj);
 }
 #pragma GCC diagnostic pop
 #endif
