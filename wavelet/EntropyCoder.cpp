@@ -640,9 +640,6 @@ constexpr std::uint32_t packedEntry(std::uint32_t bias, std::uint32_t freq, std:
     return bias | freq << 11 | sym << 23;
 }
 
-// Row groups with fewer rows take the scalar pass (one SIMD step costs about as much as this many scalar symbols).
-constexpr std::size_t kSimdMinRows = 1;
-
 bool cpuHasDenseSimd() noexcept {
 #ifdef VOLCL_DENSE_SIMD
     static const bool ok = [] {
@@ -1034,12 +1031,12 @@ struct DecodeSide {
             j.syms[x] = static_cast<std::uint8_t>(sym);
         };
 #ifdef VOLCL_DENSE_SIMD
-        if (packed != nullptr && nj >= kSimdMinRows)
+        if (packed != nullptr)
             symbolsVector(jobs, nj, in, st, step);
         else
 #endif
             interleaveSymbols(jobs, nj, step);
-        const bool simd = packed != nullptr && nj >= kSimdMinRows;
+        const bool simd = packed != nullptr;
         for (std::size_t i = 0; i < nj; ++i) {
             RowJob& j = jobs[i];
             std::fill(j.mag, j.mag + j.nx, 0);
