@@ -647,7 +647,6 @@ bool cpuHasDenseSimd() noexcept {
         return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
                __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512dq") &&
                __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512vbmi2") &&
-               __builtin_cpu_supports("avx512vpopcntdq") &&
                __builtin_cpu_supports("bmi2") && __builtin_cpu_supports("popcnt");
     }();
     return ok;
@@ -666,7 +665,7 @@ std::atomic<bool> gForceScalar{[] {
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #pragma GCC diagnostic ignored "-Wuninitialized"
-#define VOLCL_SIMD_TARGET __attribute__((target("avx512f,avx512bw,avx512cd,avx512dq,avx512vl,avx512vbmi2,avx512vpopcntdq,bmi,bmi2,popcnt,lzcnt")))
+#define VOLCL_SIMD_TARGET __attribute__((target("avx512f,avx512bw,avx512cd,avx512dq,avx512vl,avx512vbmi2,bmi,bmi2,popcnt,lzcnt")))
 
 // Lanes 0..nj-1 from v, the others `fill`; and back.
 VOLCL_SIMD_TARGET inline __m512i loadLanes(const std::uint32_t* v, std::size_t nj, std::uint32_t fill) {
@@ -682,13 +681,9 @@ VOLCL_SIMD_TARGET inline void storeStates(__m512i state, std::uint32_t* st, std:
 VOLCL_SIMD_TARGET inline __m512i renormalise(__m512i state, __m512i s, __mmask8 active, const std::uint8_t* data,
                                              std::size_t size, std::size_t& pos) {
     const __mmask8 renorm = _mm512_mask_cmplt_epu64_mask(active, s, _mm512_set1_epi64(kRansLow));
-    // Word index of each renormalising lane = the renormalising lanes below it, computed in vectors (a
-    // mask through a general register and vpexpandw was slower); past the end the padding gives zeros.
-    const __m512i words =
-        _mm512_broadcast_i32x4(_mm_loadu_si128(reinterpret_cast<const __m128i*>(data + std::min(pos, size))));
-    const __m512i below = _mm512_set_epi64(0x7F, 0x3F, 0x1F, 0xF, 0x7, 0x3, 0x1, 0);
-    const __m512i k = _mm512_popcnt_epi64(_mm512_and_si512(_mm512_broadcastmb_epi64(renorm), below));
-    const __m512i w = _mm512_maskz_permutexvar_epi16(0x11111111u, k, words);
+    // vpexpandw puts the next words into the renormalising lanes in lane order (the mask spread to the low
+    // word of each 64-bit lane); past the end the padding gives zeros.
+    const __m512i w = _mm512_maskz_expandloadu_epi16(_pdep_u32(renorm, 0x11111111u), data + std::min(pos, size));
     pos += 2 * static_cast<std::size_t>(_mm_popcnt_u32(renorm));
     state = _mm512_mask_mov_epi64(state, active, s);
     return _mm512_mask_mov_epi64(state, renorm, _mm512_or_si512(_mm512_slli_epi64(s, 16), w));
