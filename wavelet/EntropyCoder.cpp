@@ -530,7 +530,7 @@ struct SectionWalker {
             b.activity.assign(b.nx, 0);
             b.nonZero.assign(b.nx, 0);
             b.signBase.assign(b.nx, 0);
-            b.syms.assign(b.nx + 1, 0); // syms[0] stays 0: the symbol before x = 0
+            b.syms.assign(b.nx + 4, 0); // syms[0] stays 0: the symbol before x = 0; 3 bytes for 4-byte stores
             maxNy = std::max(maxNy, b.ny);
             maxNz = std::max(maxNz, b.nz);
         }
@@ -693,12 +693,22 @@ VOLCL_SIMD_TARGET inline __m512i renormalise(__m512i state, __m512i s, __mmask8 
 // vectors is row i of the group, and the lanes that renormalise take the next words of the stream in lane
 // order (an expanding load), which is the scalar decoder's order (x outer, row inner), so the stream is the
 // same. `lastMask` is the set of rows active in the last column (rows of a group differ by one column at
-// most when this runs with steps > min nx). actI (8 per column, lane i = row i) holds the rows' activity;
-// symbols come out in symI likewise. States in 64-bit lanes: vpmuludq is half the latency of vpmulld.
+// most when this runs with steps > min nx). Activities are gathered from the rows and symbols scattered to
+// them (off the serial chain). States in 64-bit lanes: vpmuludq is half the latency of vpmulld.
 VOLCL_SIMD_TARGET
-void symbolsSimd(std::size_t nj, std::size_t steps, __mmask8 lastMask, WordReader& in, std::uint32_t* st,
-                 const PackedTables& pt, const std::uint32_t* actI, std::uint8_t* symI) {
+void symbolsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, __mmask8 lastMask, WordReader& in,
+                 std::uint32_t* st, const PackedTables& pt) {
     const __mmask8 full = static_cast<__mmask8>((1u << nj) - 1u);
+    // Rows addressed relative to the first row's arrays (byte offsets per lane).
+    const auto* act0 = reinterpret_cast<const std::uint8_t*>(jobs[0].activity);
+    std::uint8_t* const sym0 = jobs[0].syms;
+    alignas(64) std::int64_t actOff[8] = {}, symOff[8] = {};
+    for (std::size_t i = 0; i < nj; ++i) {
+        actOff[i] = reinterpret_cast<const std::uint8_t*>(jobs[i].activity) - act0;
+        symOff[i] = jobs[i].syms - sym0;
+    }
+    __m512i actIdx = _mm512_load_si512(actOff), symIdx = _mm512_load_si512(symOff);
+    const __m512i four = _mm512_set1_epi64(4);
     __m512i state = loadLanes(st, nj, kRansLow);
     const __m512i offLo = _mm512_load_si512(pt.offset), offHi = _mm512_load_si512(pt.offset + 16);
     const __m512i one = _mm512_set1_epi64(1), two = _mm512_set1_epi64(2), low32 = _mm512_set1_epi64(0xFFFFFFFF);
@@ -715,7 +725,8 @@ void symbolsSimd(std::size_t nj, std::size_t steps, __mmask8 lastMask, WordReade
         // Activity class of activity + 4 base(previous symbol), as the scalar kActivityClass (u32 sum).
         const __m512i v = _mm512_min_epu64(sym, _mm512_or_si512(_mm512_and_si512(sym, one), two));
         const __m512i t = _mm512_max_epu64(_mm512_add_epi64(_mm512_srli_epi64(sym, 1), one), two);
-        const __m512i act = _mm512_cvtepu32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(actI + 8 * x)));
+        const __m512i act = _mm512_cvtepu32_epi64(_mm512_mask_i64gather_epi32(_mm256_setzero_si256(), active, actIdx, act0, 1));
+        actIdx = _mm512_add_epi64(actIdx, four);
         const __m512i a = _mm512_and_si512(_mm512_add_epi64(act, _mm512_sllv_epi64(v, t)), low32);
         const __m512i lz = _mm512_lzcnt_epi64(a);
         // 2n - 1 + (top two bits) with n = 63 - lz, the bit length less one; a < 2 is the class a.
@@ -738,7 +749,9 @@ void symbolsSimd(std::size_t nj, std::size_t steps, __mmask8 lastMask, WordReade
         const __m512i s = _mm512_add_epi64(_mm512_mul_epu32(freq, _mm512_srli_epi64(state, kTableScaleBits)),
                                            _mm512_and_si512(e, m11));
         state = renormalise(state, s, active, data, size, pos);
-        _mm_storel_epi64(reinterpret_cast<__m128i*>(symI + 8 * x), _mm512_cvtepi64_epi8(sym));
+        // 4 bytes per row: the 3 after x are written by the next steps or lie in the row's padding.
+        _mm512_mask_i64scatter_epi32(sym0, active, symIdx, _mm512_cvtepi64_epi32(sym), 1);
+        symIdx = _mm512_add_epi64(symIdx, one);
     }
     in.pos = pos;
     storeStates(state, st, nj);
@@ -912,8 +925,6 @@ struct DecodeSide {
     DenseModel model;
     std::array<const DecoderTable*, kActivityContexts> tables;
     const PackedTables* packed = nullptr; // set when the SIMD symbol pass runs
-    std::vector<std::uint32_t> actI;      // SIMD pass: activity per column, 8 lanes (row i of the group in lane i)
-    std::vector<std::uint8_t> symI;       // SIMD pass: symbols likewise
     std::vector<std::uint16_t> ctxI;      // SIMD sign pass: per step (n-th non-zero) and lane: signBase
     std::vector<std::uint8_t> westI, sgnI; // ... whether W is the previous step's coefficient; the signs
 
@@ -932,25 +943,7 @@ struct DecodeSide {
         unsigned lastMask = 0;
         for (std::size_t i = 0; i < nj; ++i)
             lastMask |= (jobs[i].nx >= steps ? 1u : 0u) << i;
-        if (actI.size() < 8 * steps) {
-            actI.resize(8 * steps);
-            symI.resize(8 * steps);
-        }
-        // Lanes beyond the rows keep stale activities: any value gives a valid class, and they are masked.
-        for (std::size_t i = 0; i < nj; ++i) {
-            const std::uint32_t* a = jobs[i].activity;
-            const std::size_t n = std::min(steps, jobs[i].nx);
-            for (std::size_t x = 0; x < n; ++x)
-                actI[8 * x + i] = a[x];
-        }
-        const std::uint8_t* const si = symI.data();
-        symbolsSimd(nj, steps, static_cast<__mmask8>(lastMask), in, st, *packed, actI.data(), symI.data());
-        for (std::size_t i = 0; i < nj; ++i) {
-            std::uint8_t* const sy = jobs[i].syms;
-            const std::size_t n = std::min(steps, jobs[i].nx);
-            for (std::size_t x = 0; x < n; ++x)
-                sy[x] = si[8 * x + i];
-        }
+        symbolsSimd(jobs, nj, steps, static_cast<__mmask8>(lastMask), in, st, *packed);
         for (std::size_t i = 0; i < nj; ++i)
             for (std::size_t x = steps; x < jobs[i].nx; ++x)
                 step(i, x);
@@ -1250,7 +1243,7 @@ void decodeDense(std::span<const std::uint8_t> in, std::span<std::int32_t> coeff
     const std::vector<std::uint8_t> ransBytes = RansDecoder::padded(in.subspan(head, n));
     const std::vector<std::uint8_t> rawBytes = RawReader::padded(in.subspan(head + n));
     DecodeSide side{RansDecoder(ransBytes, n, static_cast<int>(layout[s].size())),
-                    RawReader(rawBytes, in.size() - head - n), {}, tablePtr, nullptr, {}, {}, {}, {}, {}};
+                    RawReader(rawBytes, in.size() - head - n), {}, tablePtr, nullptr, {}, {}, {}};
     if (!denseDecoderIsScalar()) {
         // Reused across sections: 25 tables are 200 KB, which malloc would map and unmap every time.
         thread_local PackedTables pt;
