@@ -522,8 +522,9 @@ struct SectionWalker {
             b.pitch = b.nx + 2;
             b.cur.assign((b.ny + 1) * b.pitch, 0);
             b.prev.assign((b.ny + 1) * b.pitch, 0);
-            b.curSign.assign((b.ny + 1) * b.pitch, 0);
-            b.prevSign.assign((b.ny + 1) * b.pitch, 0);
+            // 4 bytes more: the SIMD sign pass stores 4 bytes per sign (zeros after it, see signsSimd).
+            b.curSign.assign((b.ny + 1) * b.pitch + 4, 0);
+            b.prevSign.assign((b.ny + 1) * b.pitch + 4, 0);
             b.rowZero.assign(b.ny, 1);
             b.prevRowZero.assign(b.ny, 1);
             b.parentRow.assign(b.nx, 0);
@@ -760,11 +761,18 @@ void symbolsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, __mmask8
 // Decodes the signs of a row group's non-zero coefficients, their n-th in step n (the scalar order): lane i
 // is row i; ctxI holds per step and lane the neighbour part of the sign context (signBase), westI 1 where
 // the coefficient before it is the previous step's one (its sign is then the context's W part, else W is
-// zero); signs come out in sgnI as sign classes. The rows of a group are subbands of different orientation,
-// so their sign models are disjoint and one gather and one scatter per step see no conflicts.
+// zero), xI its x; the sign classes are stored into the rows' sign bytes. The rows of a group are subbands
+// of different orientation, so their sign models are disjoint and one gather and one scatter per step see
+// no conflicts.
 VOLCL_SIMD_TARGET
-void signsSimd(std::size_t nj, std::size_t steps, const std::uint32_t* counts, WordReader& in, std::uint32_t* st,
-               BitModel* models, const std::uint16_t* ctxI, const std::uint8_t* westI, std::uint8_t* sgnI) {
+void signsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, const std::uint32_t* counts, WordReader& in,
+               std::uint32_t* st, BitModel* models, const std::uint16_t* ctxI, const std::uint8_t* westI,
+               const std::uint32_t* xI) {
+    std::uint8_t* const sgn0 = jobs[0].sgn;
+    alignas(64) std::int64_t sgnOff[8] = {};
+    for (std::size_t i = 0; i < nj; ++i)
+        sgnOff[i] = jobs[i].sgn - sgn0;
+    const __m512i rowOff = _mm512_load_si512(sgnOff);
     __m512i state = loadLanes(st, nj, kRansLow);
     const __m512i count = loadLanes(counts, nj, 0);
     const __m512i scale = _mm512_set1_epi64(kBinaryScale), slotMask = _mm512_set1_epi64(kBinaryScale - 1);
@@ -794,7 +802,10 @@ void signsSimd(std::size_t nj, std::size_t steps, const std::uint32_t* counts, W
         const __m512i down = _mm512_sub_epi64(p0, _mm512_srli_epi64(p0, 5));
         _mm512_mask_i64scatter_epi32(p0s, active, ctx, _mm512_cvtepi64_epi32(_mm512_mask_mov_epi64(up, neg, down)), 4);
         sgn = _mm512_mask_add_epi64(one, neg, one, one);
-        _mm_storel_epi64(reinterpret_cast<__m128i*>(sgnI + 8 * n), _mm512_cvtepi64_epi8(sgn));
+        // 4 bytes at x: the 3 after it are zero (coefficients after x, whose signs come in later steps, and
+        // the slice buffer's zero border and padding).
+        const __m512i at = _mm512_add_epi64(rowOff, _mm512_cvtepu32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(xI + 8 * n))));
+        _mm512_mask_i64scatter_epi32(sgn0, active, at, _mm512_cvtepi64_epi32(sgn), 1);
     }
     in.pos = pos;
     storeStates(state, st, nj);
@@ -926,7 +937,8 @@ struct DecodeSide {
     std::array<const DecoderTable*, kActivityContexts> tables;
     const PackedTables* packed = nullptr; // set when the SIMD symbol pass runs
     std::vector<std::uint16_t> ctxI;      // SIMD sign pass: per step (n-th non-zero) and lane: signBase
-    std::vector<std::uint8_t> westI, sgnI; // ... whether W is the previous step's coefficient; the signs
+    std::vector<std::uint8_t> westI;      // ... whether W is the previous step's coefficient
+    std::vector<std::uint32_t> xI;        // ... its x
 
 #ifdef VOLCL_DENSE_SIMD
     // The SIMD pass over the columns all rows have (and the last one when the rows differ by one column
@@ -958,14 +970,14 @@ struct DecodeSide {
         if (ctxI.size() < 8 * (maxNx + 1)) {
             ctxI.resize(8 * (maxNx + 1));
             westI.resize(8 * (maxNx + 1));
-            sgnI.resize(8 * (maxNx + 1));
+            xI.resize(8 * (maxNx + 1));
         }
         // Entries are written at every x and kept where x is non-zero (no jumps); steps beyond a row's count
         // keep stale entries, its lane is masked there. Pointers in locals: the byte stores may alias
         // anything, so members would be reloaded at every x.
         std::uint16_t* const ci = ctxI.data();
         std::uint8_t* const wi = westI.data();
-        std::uint8_t* const si = sgnI.data();
+        std::uint32_t* const xi = xI.data();
         std::size_t maxCount = 0;
         std::uint32_t counts[kMaxLanes];
         for (std::size_t i = 0; i < nj; ++i) {
@@ -976,6 +988,7 @@ struct DecodeSide {
             std::size_t count = 0;
             for (std::size_t x = 0; x < nx; ++x) {
                 nz[count] = static_cast<std::uint32_t>(x);
+                xi[8 * count + i] = static_cast<std::uint32_t>(x);
                 ci[8 * count + i] = sb[x];
                 wi[8 * count + i] = sy[x - 1] != 0 ? 1 : 0; // W is then the previous step's coefficient
                 count += sy[x] != 0;
@@ -985,14 +998,7 @@ struct DecodeSide {
             maxCount = std::max(maxCount, count);
         }
         if (maxCount == 0) return;
-        signsSimd(nj, maxCount, counts, in, st, model.signs.data(), ci, wi, si);
-        for (std::size_t i = 0; i < nj; ++i) {
-            const std::uint32_t* const nz = jobs[i].nonZero;
-            std::uint8_t* const sg = jobs[i].sgn;
-            const std::size_t count = jobs[i].count;
-            for (std::size_t n = 0; n < count; ++n)
-                sg[nz[n]] = si[8 * n + i];
-        }
+        signsSimd(jobs, nj, maxCount, counts, in, st, model.signs.data(), ci, wi, xi);
     }
 #endif
 
