@@ -1,6 +1,8 @@
 // Entropy-only speed of the dense coder on real codec coefficients: one thread, CPU time, median of 5.
 // Reads the coefficients of each .vcz file given (entropy decoded with the file's own mode), then times
 // dense encode and decode of every section and checks the round trip. Timings live here, not in tests.
+// When the SIMD dense decoder is selected, each brick is also decoded with the scalar one (VOLCL_DENSE_SCALAR=1
+// measures the scalar one alone, VOLCL_BENCH_SIMD_ONLY=1 the SIMD one alone, e.g. for a profile).
 #include "host/Error.hpp"
 #include "wavelet/EntropyCoder.hpp"
 #include "wavelet/VczFormat.hpp"
@@ -8,6 +10,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <exception>
@@ -70,6 +73,7 @@ int main(int argc, char** argv) try {
                              "fast, lossless or --psnr 50)\n", argv[0]);
         return 2;
     }
+    const bool forcedScalar = denseDecoderIsScalar(), compare = !forcedScalar && !std::getenv("VOLCL_BENCH_SIMD_ONLY");
     for (int arg = 1; arg < argc; ++arg) {
         const std::string path = argv[arg];
         const CodedVolume v = readCoefficients(path);
@@ -77,7 +81,7 @@ int main(int argc, char** argv) try {
         for (const auto& c : v.coeffs)
             n += c.size();
         std::vector<std::vector<std::vector<std::uint8_t>>> coded(v.coeffs.size());
-        std::vector<double> enc, dec;
+        std::vector<double> enc, dec, decScalar, ratio;
         std::vector<std::int32_t> out;
         for (int rep = 0; rep < 5; ++rep) {
             double t0 = threadSeconds();
@@ -88,15 +92,27 @@ int main(int argc, char** argv) try {
                     encodeSection(v.coeffs[b], v.dims[b], layout, s, EntropyMode::Dense, coded[b][s]);
             }
             enc.push_back(threadSeconds() - t0);
-            t0 = threadSeconds();
+            // With the SIMD decoder selected, each brick is decoded by both decoders in turn (the first one
+            // alternating): the machine is shared, and load changes over a run would bias whole-run pairs.
+            double tSimd = 0, tScalar = 0;
             for (std::size_t b = 0; b < v.coeffs.size(); ++b) {
                 const auto layout = sectionLayout(v.dims[b], v.levels);
-                out.assign(v.coeffs[b].size(), 0);
-                for (std::size_t s = 0; s < layout.size(); ++s)
-                    decodeSection(coded[b][s], out, v.dims[b], layout, s, EntropyMode::Dense, "bench");
-                if (out != v.coeffs[b]) throw Error(path + ": round trip differs in brick " + std::to_string(b));
+                for (int k = 0; k < (compare ? 2 : 1); ++k) {
+                    const bool scalar = forcedScalar || (compare && ((b + static_cast<std::size_t>(k)) & 1) != 0);
+                    setDenseDecoderScalar(scalar);
+                    out.assign(v.coeffs[b].size(), 0);
+                    t0 = threadSeconds();
+                    for (std::size_t s = 0; s < layout.size(); ++s)
+                        decodeSection(coded[b][s], out, v.dims[b], layout, s, EntropyMode::Dense, "bench");
+                    (scalar && compare ? tScalar : tSimd) += threadSeconds() - t0;
+                    if (out != v.coeffs[b])
+                        throw Error(path + ": round trip differs in brick " + std::to_string(b));
+                }
             }
-            dec.push_back(threadSeconds() - t0);
+            setDenseDecoderScalar(forcedScalar);
+            dec.push_back(tSimd);
+            if (compare) decScalar.push_back(tScalar);
+            if (compare) ratio.push_back(decScalar.back() / dec.back());
         }
         std::size_t bytes = 0; // sections plus the codec's per-brick payload header
         for (const auto& brick : coded) {
@@ -112,6 +128,13 @@ int main(int argc, char** argv) try {
                     path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes),
                     double(n) / enc[2] / 1e6, double(n) / dec[2] / 1e6, double(n) / enc[0] / 1e6,
                     double(n) / dec[0] / 1e6);
+        if (compare) {
+            std::sort(decScalar.begin(), decScalar.end());
+            std::sort(ratio.begin(), ratio.end());
+            std::printf("  scalar decoder alternating: %.1f Mcoef/s (best %.1f); SIMD speed-up per pair: median "
+                        "%.2fx (%.2f-%.2f)\n",
+                        double(n) / decScalar[2] / 1e6, double(n) / decScalar[0] / 1e6, ratio[2], ratio[0], ratio[4]);
+        }
     }
     return 0;
 } catch (const std::exception& e) {

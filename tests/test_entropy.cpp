@@ -1,6 +1,7 @@
 // Entropy coder tests: bit-exact round trips of coefficient sections in both modes (random, all-zero,
 // single coefficient, extreme magnitudes, tiny and odd subbands) and fuzzing of decodeSection with
-// truncated, bit-flipped and random sections (IoError or a clean result, never a crash). The entropy-only
+// truncated, bit-flipped and random sections (IoError or a clean result, never a crash); every dense decode
+// runs both the scalar and the SIMD decoder (where the CPU has it), which must agree. The entropy-only
 // speed benchmark is bench/entropy_speed.cpp.
 #include "host/Error.hpp"
 #include "wavelet/EntropyCoder.hpp"
@@ -10,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <random>
 #include <string>
@@ -34,13 +36,29 @@ Coded encodeAll(const std::vector<std::int32_t>& c, Dims d, int levels, EntropyM
     return out;
 }
 
-std::vector<std::int32_t> decodeAll(const Coded& coded, Dims d, int levels, EntropyMode mode) {
+// Forces the scalar dense decoder while it lives (the SIMD one is the default where the CPU has it).
+struct ScalarDecoder {
+    explicit ScalarDecoder(bool on) : before(denseDecoderIsScalar()) { setDenseDecoderScalar(on); }
+    ~ScalarDecoder() { setDenseDecoderScalar(before); }
+    bool before;
+};
+
+std::vector<std::int32_t> decodeAllWith(const Coded& coded, Dims d, int levels, EntropyMode mode, bool scalar) {
+    const ScalarDecoder path(scalar);
     const auto layout = sectionLayout(d, levels);
     // A fill value the decoder must overwrite everywhere.
     std::vector<std::int32_t> out(d.count(), 0x5A5A5A5A);
     for (std::size_t s = 0; s < layout.size(); ++s)
         decodeSection(coded.sections[s], out, d, layout, s, mode, "test");
     return out;
+}
+
+// Decodes with both dense decoders (scalar and, where the CPU has it, SIMD), which must agree.
+std::vector<std::int32_t> decodeAll(const Coded& coded, Dims d, int levels, EntropyMode mode) {
+    const auto scalar = decodeAllWith(coded, d, levels, mode, true);
+    const auto simd = decodeAllWith(coded, d, levels, mode, false);
+    EXPECT_EQ(scalar, simd) << "scalar and SIMD dense decoders differ";
+    return simd;
 }
 
 // Checks the round trip and that encoding does not touch its input and is deterministic.
@@ -167,16 +185,23 @@ TEST(Entropy, DenseIsSmallerThanFastOnCorrelatedData) {
 namespace {
 
 // Decodes one damaged section: IoError is the only acceptable failure. Returns true when it was detected.
+// Both dense decoders must reach the same verdict and, when they accept the data, the same coefficients.
 bool decodeDamaged(const std::vector<std::uint8_t>& bytes, Dims d, int levels, std::size_t s, EntropyMode mode,
                    const std::vector<std::int32_t>& earlier) {
     const auto layout = sectionLayout(d, levels);
-    std::vector<std::int32_t> out = earlier; // earlier sections give the parent contexts
-    try {
-        decodeSection(bytes, out, d, layout, s, mode, "fuzz");
-    } catch (const IoError&) {
-        return true;
+    std::vector<std::int32_t> out[2] = {earlier, earlier}; // earlier sections give the parent contexts
+    bool detected[2] = {false, false};
+    for (int scalar = 0; scalar < 2; ++scalar) {
+        const ScalarDecoder path(scalar != 0);
+        try {
+            decodeSection(bytes, out[scalar], d, layout, s, mode, "fuzz");
+        } catch (const IoError&) {
+            detected[scalar] = true;
+        }
     }
-    return false;
+    EXPECT_EQ(detected[0], detected[1]) << "scalar and SIMD dense decoders disagree on damaged data";
+    if (!detected[0] && !detected[1]) EXPECT_EQ(out[0], out[1]);
+    return detected[0];
 }
 
 } // namespace
@@ -220,13 +245,27 @@ TEST(Entropy, DamagedSectionsAreRejectedWithoutCrashing) {
             for (auto& b : junk)
                 b = static_cast<std::uint8_t>(rng());
             const std::size_t s = rng() % layout.size();
-            std::vector<std::int32_t> out(d.count(), 0);
-            try {
-                decodeSection(junk, out, d, layout, s, mode, "fuzz");
-            } catch (const IoError&) {
-            }
+            decodeDamaged(junk, d, levels, s, mode, std::vector<std::int32_t>(d.count(), 0));
         }
     }
+}
+
+TEST(Entropy, DenseDecodersAgreeOnEveryLaneCountAndRaggedRows) {
+    // Sections of 1..7 subbands (sizes 1 along an axis have no high band there), odd sizes whose low and
+    // high bands differ by one column or row, sparse data (many zero rows, so row groups of every size and
+    // rows with different non-zero counts), dense data and large magnitudes; decodeAll compares both paths.
+    if (!denseDecoderSimdAvailable()) std::printf("note: no AVX-512 dense decoder on this CPU, scalar only\n");
+    std::uint32_t seed = 100;
+    std::mt19937 rng(seed);
+    for (const Dims& d : {Dims{1, 1, 9}, Dims{1, 7, 5}, Dims{3, 1, 1}, Dims{5, 6, 1}, Dims{7, 1, 6}, Dims{2, 2, 2},
+                          Dims{9, 7, 5}, Dims{33, 17, 9}, Dims{64, 3, 5}, Dims{40, 40, 8}})
+        for (int levels : {1, 2, 3})
+            for (double scale : {0.05, 0.4, 6.0, 5000.0}) {
+                auto c = waveletLike(d, seed++, scale);
+                for (auto& v : c) // extra zero runs: rows of a group with very different non-zero counts
+                    if (rng() % 3 == 0) v = 0;
+                expectRoundTrip(c, d, levels, EntropyMode::Dense);
+            }
 }
 
 TEST(Entropy, EmptySectionMustBeEmpty) {

@@ -17,12 +17,19 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <bit>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <memory>
 #include <string>
 #include <type_traits>
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#define VOLCL_DENSE_SIMD 1
+#include <immintrin.h>
+#endif
 
 namespace volcl {
 
@@ -307,7 +314,8 @@ struct WordReader {
 // The decoder's states and stream.
 class RansDecoder {
 public:
-    static std::vector<std::uint8_t> padded(std::span<const std::uint8_t> in) { return zeroPadded(in, 2); }
+    // 16 bytes: the SIMD decoder loads up to 7 words at a time from the clamped position.
+    static std::vector<std::uint8_t> padded(std::span<const std::uint8_t> in) { return zeroPadded(in, 16); }
     /// `bytes` comes from padded(); `size` is the unpadded length.
     RansDecoder(const std::vector<std::uint8_t>& bytes, std::size_t size, int lanes) : in{bytes.data(), size} {
         const std::span<const std::uint8_t> span(in.data, in.size);
@@ -514,15 +522,16 @@ struct SectionWalker {
             b.pitch = b.nx + 2;
             b.cur.assign((b.ny + 1) * b.pitch, 0);
             b.prev.assign((b.ny + 1) * b.pitch, 0);
-            b.curSign.assign((b.ny + 1) * b.pitch, 0);
-            b.prevSign.assign((b.ny + 1) * b.pitch, 0);
+            // 4 bytes more: the SIMD sign pass stores 4 bytes per sign (zeros after it, see signsSimd).
+            b.curSign.assign((b.ny + 1) * b.pitch + 4, 0);
+            b.prevSign.assign((b.ny + 1) * b.pitch + 4, 0);
             b.rowZero.assign(b.ny, 1);
             b.prevRowZero.assign(b.ny, 1);
             b.parentRow.assign(b.nx, 0);
             b.activity.assign(b.nx, 0);
             b.nonZero.assign(b.nx, 0);
             b.signBase.assign(b.nx, 0);
-            b.syms.assign(b.nx + 1, 0); // syms[0] stays 0: the symbol before x = 0
+            b.syms.assign(b.nx + 4, 0); // syms[0] stays 0: the symbol before x = 0; 3 bytes for 4-byte stores
             maxNy = std::max(maxNy, b.ny);
             maxNz = std::max(maxNz, b.nz);
         }
@@ -616,6 +625,193 @@ template <class Step> void interleaveSigns(const RowJob* jobs, std::size_t nj, S
         for (std::size_t i = 0; i < nj; ++i)
             if (n < jobs[i].count) step(i, n);
 }
+
+// ------------------------------------------------------------------------------ SIMD symbol pass
+
+// The decoder's per-slot view of all tables of a section for the SIMD pass: per table 2048 entries of
+// (slot - start) | freq << 11 | symbol << 23 (one gather gives the symbol and the rANS step), blocks of
+// 2048 one after the other (block 0 decodes symbol 0 at no cost, for contexts without a table), and per
+// activity class the offset of its block in entries (32 entries: the permutation reads two registers).
+struct PackedTables {
+    std::vector<std::uint32_t> entries;
+    alignas(64) std::uint32_t offset[32] = {};
+};
+
+constexpr std::uint32_t packedEntry(std::uint32_t bias, std::uint32_t freq, std::uint32_t sym) {
+    return bias | freq << 11 | sym << 23;
+}
+
+bool cpuHasDenseSimd() noexcept {
+#ifdef VOLCL_DENSE_SIMD
+    static const bool ok = [] {
+        __builtin_cpu_init();
+        return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+               __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512dq") &&
+               __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512vbmi2") &&
+               __builtin_cpu_supports("bmi2") && __builtin_cpu_supports("popcnt");
+    }();
+    return ok;
+#else
+    return false;
+#endif
+}
+
+std::atomic<bool> gForceScalar{[] {
+    const char* e = std::getenv("VOLCL_DENSE_SCALAR");
+    return e != nullptr && *e != '\0' && *e != '0';
+}()};
+
+#ifdef VOLCL_DENSE_SIMD
+// GCC 12 reports its own intrinsics' undefined-register idiom (_mm512_undefined_*) as (maybe) uninitialised.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#define VOLCL_SIMD_TARGET __attribute__((target("avx512f,avx512bw,avx512cd,avx512dq,avx512vl,avx512vbmi2,bmi,bmi2,popcnt,lzcnt")))
+
+// Lanes 0..nj-1 from v, the others `fill`; and back.
+VOLCL_SIMD_TARGET inline __m512i loadLanes(const std::uint32_t* v, std::size_t nj, std::uint32_t fill) {
+    const __mmask8 lanes = static_cast<__mmask8>((1u << nj) - 1u);
+    return _mm512_cvtepu32_epi64(_mm256_mask_loadu_epi32(_mm256_set1_epi32(static_cast<int>(fill)), lanes, v));
+}
+VOLCL_SIMD_TARGET inline void storeStates(__m512i state, std::uint32_t* st, std::size_t nj) {
+    _mm256_mask_storeu_epi32(st, static_cast<__mmask8>((1u << nj) - 1u), _mm512_cvtepi64_epi32(state));
+}
+
+// The new states of the `active` lanes after a decoding step gave s (64-bit lanes): the lanes below 2^16
+// take the next 16-bit words of the stream in lane order, the scalar decoder's order.
+VOLCL_SIMD_TARGET inline __m512i renormalise(__m512i state, __m512i s, __mmask8 active, const std::uint8_t* data,
+                                             std::size_t size, std::size_t& pos) {
+    const __mmask8 renorm = _mm512_mask_cmplt_epu64_mask(active, s, _mm512_set1_epi64(kRansLow));
+    // vpexpandw puts the next words into the renormalising lanes in lane order (the mask spread to the low
+    // word of each 64-bit lane); past the end the padding gives zeros.
+    const __m512i w = _mm512_maskz_expandloadu_epi16(_pdep_u32(renorm, 0x11111111u), data + std::min(pos, size));
+    pos += 2 * static_cast<std::size_t>(_mm_popcnt_u32(renorm));
+    state = _mm512_mask_mov_epi64(state, active, s);
+    return _mm512_mask_mov_epi64(state, renorm, _mm512_or_si512(_mm512_slli_epi64(s, 16), w));
+}
+
+// Decodes the magnitude symbols of columns [0, steps) of a row group, one column per step: lane i of the
+// vectors is row i of the group, and the lanes that renormalise take the next words of the stream in lane
+// order (an expanding load), which is the scalar decoder's order (x outer, row inner), so the stream is the
+// same. `lastMask` is the set of rows active in the last column (rows of a group differ by one column at
+// most when this runs with steps > min nx). Activities are gathered from the rows and symbols scattered to
+// them (off the serial chain). States in 64-bit lanes: vpmuludq is half the latency of vpmulld.
+VOLCL_SIMD_TARGET
+void symbolsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, __mmask8 lastMask, WordReader& in,
+                 std::uint32_t* st, const PackedTables& pt) {
+    const __mmask8 full = static_cast<__mmask8>((1u << nj) - 1u);
+    // Rows addressed relative to the first row's arrays (byte offsets per lane).
+    const auto* act0 = reinterpret_cast<const std::uint8_t*>(jobs[0].activity);
+    std::uint8_t* const sym0 = jobs[0].syms;
+    alignas(64) std::int64_t actOff[8] = {}, symOff[8] = {};
+    for (std::size_t i = 0; i < nj; ++i) {
+        actOff[i] = reinterpret_cast<const std::uint8_t*>(jobs[i].activity) - act0;
+        symOff[i] = jobs[i].syms - sym0;
+    }
+    __m512i actIdx = _mm512_load_si512(actOff), symIdx = _mm512_load_si512(symOff);
+    const __m512i four = _mm512_set1_epi64(4);
+    __m512i state = loadLanes(st, nj, kRansLow);
+    const __m512i offLo = _mm512_load_si512(pt.offset), offHi = _mm512_load_si512(pt.offset + 16);
+    const __m512i one = _mm512_set1_epi64(1), two = _mm512_set1_epi64(2), low32 = _mm512_set1_epi64(0xFFFFFFFF);
+    const __m512i slotMask = _mm512_set1_epi64(kTableScale - 1), maxClass = _mm512_set1_epi64(kActivityContexts - 1);
+    const __m512i c125 = _mm512_set1_epi64(125), c62 = _mm512_set1_epi64(62);
+    const __m512i m11 = _mm512_set1_epi64(0x7FF), m12 = _mm512_set1_epi64(0xFFF), m6 = _mm512_set1_epi64(0x3F);
+    const std::uint32_t* table = pt.entries.data();
+    const std::uint8_t* data = in.data;
+    const std::size_t size = in.size;
+    std::size_t pos = in.pos;
+    __m512i sym = _mm512_setzero_si512();
+    for (std::size_t x = 0; x < steps; ++x) {
+        const __mmask8 active = x + 1 == steps ? lastMask : full;
+        // Activity class of activity + 4 base(previous symbol), as the scalar kActivityClass (u32 sum).
+        const __m512i v = _mm512_min_epu64(sym, _mm512_or_si512(_mm512_and_si512(sym, one), two));
+        const __m512i t = _mm512_max_epu64(_mm512_add_epi64(_mm512_srli_epi64(sym, 1), one), two);
+        const __m512i act = _mm512_cvtepu32_epi64(_mm512_mask_i64gather_epi32(_mm256_setzero_si256(), active, actIdx, act0, 1));
+        actIdx = _mm512_add_epi64(actIdx, four);
+        const __m512i a = _mm512_and_si512(_mm512_add_epi64(act, _mm512_sllv_epi64(v, t)), low32);
+        const __m512i lz = _mm512_lzcnt_epi64(a);
+        // 2n - 1 + (top two bits) with n = 63 - lz, the bit length less one; a < 2 is the class a.
+        __m512i cls = _mm512_add_epi64(_mm512_sub_epi64(c125, _mm512_add_epi64(lz, lz)),
+                                       _mm512_srlv_epi64(a, _mm512_sub_epi64(c62, lz)));
+        cls = _mm512_min_epi64(_mm512_max_epi64(cls, _mm512_min_epu64(a, one)), maxClass);
+        const __m512i off = _mm512_maskz_permutex2var_epi32(0x5555, offLo, cls, offHi);
+        // Eight scalar loads instead of vpgatherqq: the gather's latency is the longest link of the chain.
+        alignas(64) std::uint64_t ix[8];
+        _mm512_store_si512(ix, _mm512_add_epi64(off, _mm512_and_si512(state, slotMask)));
+        const __m128i e01 = _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[0]])), table[ix[1]], 1);
+        const __m128i e23 = _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[2]])), table[ix[3]], 1);
+        const __m128i e45 = _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[4]])), table[ix[5]], 1);
+        const __m128i e67 = _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[6]])), table[ix[7]], 1);
+        const __m512i e = _mm512_inserti64x4(
+            _mm512_castsi256_si512(_mm256_inserti128_si256(_mm256_castsi128_si256(e01), e23, 1)),
+            _mm256_inserti128_si256(_mm256_castsi128_si256(e45), e67, 1), 1);
+        sym = _mm512_and_si512(_mm512_srli_epi64(e, 23), m6);
+        const __m512i freq = _mm512_and_si512(_mm512_srli_epi64(e, 11), m12);
+        const __m512i s = _mm512_add_epi64(_mm512_mul_epu32(freq, _mm512_srli_epi64(state, kTableScaleBits)),
+                                           _mm512_and_si512(e, m11));
+        state = renormalise(state, s, active, data, size, pos);
+        // 4 bytes per row: the 3 after x are written by the next steps or lie in the row's padding.
+        _mm512_mask_i64scatter_epi32(sym0, active, symIdx, _mm512_cvtepi64_epi32(sym), 1);
+        symIdx = _mm512_add_epi64(symIdx, one);
+    }
+    in.pos = pos;
+    storeStates(state, st, nj);
+}
+
+// Decodes the signs of a row group's non-zero coefficients, their n-th in step n (the scalar order): lane i
+// is row i; ctxI holds per step and lane the neighbour part of the sign context (signBase), westI 1 where
+// the coefficient before it is the previous step's one (its sign is then the context's W part, else W is
+// zero), xI its x; the sign classes are stored into the rows' sign bytes. The rows of a group are subbands
+// of different orientation, so their sign models are disjoint and one gather and one scatter per step see
+// no conflicts.
+VOLCL_SIMD_TARGET
+void signsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, const std::uint32_t* counts, WordReader& in,
+               std::uint32_t* st, BitModel* models, const std::uint16_t* ctxI, const std::uint8_t* westI,
+               const std::uint32_t* xI) {
+    std::uint8_t* const sgn0 = jobs[0].sgn;
+    alignas(64) std::int64_t sgnOff[8] = {};
+    for (std::size_t i = 0; i < nj; ++i)
+        sgnOff[i] = jobs[i].sgn - sgn0;
+    const __m512i rowOff = _mm512_load_si512(sgnOff);
+    __m512i state = loadLanes(st, nj, kRansLow);
+    const __m512i count = loadLanes(counts, nj, 0);
+    const __m512i scale = _mm512_set1_epi64(kBinaryScale), slotMask = _mm512_set1_epi64(kBinaryScale - 1);
+    const __m512i one = _mm512_set1_epi64(1);
+    const std::uint8_t* data = in.data;
+    const std::size_t size = in.size;
+    std::size_t pos = in.pos;
+    __m512i sgn = _mm512_setzero_si512();
+    auto* p0s = reinterpret_cast<int*>(models);
+    for (std::size_t n = 0; n < steps; ++n) {
+        const __mmask8 active = _mm512_cmpgt_epu64_mask(count, _mm512_set1_epi64(static_cast<long long>(n)));
+        const __m512i base = _mm512_cvtepu16_epi64(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ctxI + 8 * n)));
+        const __mmask8 west = _mm512_test_epi64_mask(
+            _mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(westI + 8 * n))), one);
+        const __m512i ctx = _mm512_mask_add_epi64(base, west, base, sgn);
+        const __m512i p0 =
+            _mm512_cvtepu32_epi64(_mm512_mask_i64gather_epi32(_mm256_setzero_si256(), active, ctx, p0s, 4));
+        const __m512i slot = _mm512_and_si512(state, slotMask);
+        const __mmask8 neg = _mm512_cmpge_epu64_mask(slot, p0);
+        const __m512i q = _mm512_sub_epi64(scale, p0);
+        const __m512i freq = _mm512_mask_mov_epi64(p0, neg, q);
+        const __m512i start = _mm512_maskz_mov_epi64(neg, p0);
+        const __m512i s = _mm512_add_epi64(_mm512_mul_epu32(freq, _mm512_srli_epi64(state, kBinaryScaleBits)),
+                                           _mm512_sub_epi64(slot, start));
+        state = renormalise(state, s, active, data, size, pos);
+        const __m512i up = _mm512_add_epi64(p0, _mm512_srli_epi64(q, 5));
+        const __m512i down = _mm512_sub_epi64(p0, _mm512_srli_epi64(p0, 5));
+        _mm512_mask_i64scatter_epi32(p0s, active, ctx, _mm512_cvtepi64_epi32(_mm512_mask_mov_epi64(up, neg, down)), 4);
+        sgn = _mm512_mask_add_epi64(one, neg, one, one);
+        // 4 bytes at x: the 3 after it are zero (coefficients after x, whose signs come in later steps, and
+        // the slice buffer's zero border and padding).
+        const __m512i at = _mm512_add_epi64(rowOff, _mm512_cvtepu32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(xI + 8 * n))));
+        _mm512_mask_i64scatter_epi32(sgn0, active, at, _mm512_cvtepi64_epi32(sgn), 1);
+    }
+    in.pos = pos;
+    storeStates(state, st, nj);
+}
+#pragma GCC diagnostic pop
+#endif
 
 // Encoder pass 1: adaptive decisions become events at once; magnitude symbols are recorded as pending
 // events (scaleBits 0, start = context * 64 + symbol) and resolved once the tables exist.
@@ -739,6 +935,72 @@ struct DecodeSide {
     RawReader raw;
     DenseModel model;
     std::array<const DecoderTable*, kActivityContexts> tables;
+    const PackedTables* packed = nullptr; // set when the SIMD symbol pass runs
+    std::vector<std::uint16_t> ctxI;      // SIMD sign pass: per step (n-th non-zero) and lane: signBase
+    std::vector<std::uint8_t> westI;      // ... whether W is the previous step's coefficient
+    std::vector<std::uint32_t> xI;        // ... its x
+
+#ifdef VOLCL_DENSE_SIMD
+    // The SIMD pass over the columns all rows have (and the last one when the rows differ by one column
+    // only, as the subbands of a section do: then the scalar order "x outer, row inner" is unchanged), the
+    // rest of each row scalar.
+    template <class Step>
+    void symbolsVector(const RowJob* jobs, std::size_t nj, WordReader& in, std::uint32_t* st, Step& step) {
+        std::size_t minNx = jobs[0].nx, maxNx = jobs[0].nx;
+        for (std::size_t i = 1; i < nj; ++i) {
+            minNx = std::min(minNx, jobs[i].nx);
+            maxNx = std::max(maxNx, jobs[i].nx);
+        }
+        const std::size_t steps = maxNx - minNx <= 1 ? maxNx : minNx;
+        unsigned lastMask = 0;
+        for (std::size_t i = 0; i < nj; ++i)
+            lastMask |= (jobs[i].nx >= steps ? 1u : 0u) << i;
+        symbolsSimd(jobs, nj, steps, static_cast<__mmask8>(lastMask), in, st, *packed);
+        for (std::size_t i = 0; i < nj; ++i)
+            for (std::size_t x = steps; x < jobs[i].nx; ++x)
+                step(i, x);
+    }
+
+    // Also makes the rows' lists of non-zero coefficients (jobs[i].nonZero, count), and in the same loop
+    // the sign pass's per-step inputs.
+    void signsVector(RowJob* jobs, std::size_t nj, WordReader& in, std::uint32_t* st) {
+        std::size_t maxNx = 0;
+        for (std::size_t i = 0; i < nj; ++i)
+            maxNx = std::max(maxNx, jobs[i].nx);
+        if (ctxI.size() < 8 * (maxNx + 1)) {
+            ctxI.resize(8 * (maxNx + 1));
+            westI.resize(8 * (maxNx + 1));
+            xI.resize(8 * (maxNx + 1));
+        }
+        // Entries are written at every x and kept where x is non-zero (no jumps); steps beyond a row's count
+        // keep stale entries, its lane is masked there. Pointers in locals: the byte stores may alias
+        // anything, so members would be reloaded at every x.
+        std::uint16_t* const ci = ctxI.data();
+        std::uint8_t* const wi = westI.data();
+        std::uint32_t* const xi = xI.data();
+        std::size_t maxCount = 0;
+        std::uint32_t counts[kMaxLanes];
+        for (std::size_t i = 0; i < nj; ++i) {
+            std::uint32_t* const nz = jobs[i].nonZero;
+            const std::uint16_t* const sb = jobs[i].signBase;
+            const std::uint8_t* const sy = jobs[i].syms; // sy[-1] is 0
+            const std::size_t nx = jobs[i].nx;
+            std::size_t count = 0;
+            for (std::size_t x = 0; x < nx; ++x) {
+                nz[count] = static_cast<std::uint32_t>(x);
+                xi[8 * count + i] = static_cast<std::uint32_t>(x);
+                ci[8 * count + i] = sb[x];
+                wi[8 * count + i] = sy[x - 1] != 0 ? 1 : 0; // W is then the previous step's coefficient
+                count += sy[x] != 0;
+            }
+            jobs[i].count = count;
+            counts[i] = static_cast<std::uint32_t>(count);
+            maxCount = std::max(maxCount, count);
+        }
+        if (maxCount == 0) return;
+        signsSimd(jobs, nj, maxCount, counts, in, st, model.signs.data(), ci, wi, xi);
+    }
+#endif
 
     bool rowFlag(unsigned lane, unsigned rctx, std::int32_t* row, std::size_t nx) {
         const bool zero = rans.in.bit(rans.x[lane], model.rows[rctx]) != 0;
@@ -753,7 +1015,7 @@ struct DecodeSide {
         for (std::size_t i = 0; i < nj; ++i)
             st[i] = rans.x[jobs[i].lane];
         const std::array<const DecoderTable*, kActivityContexts> tab = tables;
-        interleaveSymbols(jobs, nj, [&](std::size_t i, std::size_t x) {
+        const auto step = [&](std::size_t i, std::size_t x) {
             const RowJob& j = jobs[i];
             const DecoderTable& t =
                 *tab[static_cast<std::size_t>(activityContext(j.activity[x] + kSymbolInfo.west[j.syms[x - 1]]))];
@@ -761,24 +1023,41 @@ struct DecodeSide {
             const unsigned sym = t.lookup[s & (kTableScale - 1)];
             st[i] = in.advance(s, kTableScaleBits, t.start[sym], t.freq[sym]);
             j.syms[x] = static_cast<std::uint8_t>(sym);
-        });
+        };
+#ifdef VOLCL_DENSE_SIMD
+        if (packed != nullptr)
+            symbolsVector(jobs, nj, in, st, step);
+        else
+#endif
+            interleaveSymbols(jobs, nj, step);
+        const bool simd = packed != nullptr;
         for (std::size_t i = 0; i < nj; ++i) {
             RowJob& j = jobs[i];
-            std::size_t count = 0;
             std::fill(j.mag, j.mag + j.nx, 0);
             std::fill(j.sgn, j.sgn + j.nx, 0);
-            for (std::size_t x = 0; x < j.nx; ++x) {
-                j.nonZero[count] = static_cast<std::uint32_t>(x);
-                count += j.syms[x] != 0;
-            }
-            j.count = count;
         }
-        interleaveSigns(jobs, nj, [&](std::size_t i, std::size_t n) {
-            const RowJob& j = jobs[i];
-            const std::size_t x = j.nonZero[n];
-            const unsigned negative = in.bit(st[i], model.signs[j.signBase[x] + j.sgn[x - 1]]);
-            j.sgn[x] = static_cast<std::uint8_t>(1 + negative);
-        });
+#ifdef VOLCL_DENSE_SIMD
+        if (simd) {
+            signsVector(jobs, nj, in, st);
+        } else
+#endif
+        {
+            for (std::size_t i = 0; i < nj; ++i) {
+                RowJob& j = jobs[i];
+                std::size_t count = 0;
+                for (std::size_t x = 0; x < j.nx; ++x) {
+                    j.nonZero[count] = static_cast<std::uint32_t>(x);
+                    count += j.syms[x] != 0;
+                }
+                j.count = count;
+            }
+            interleaveSigns(jobs, nj, [&](std::size_t i, std::size_t n) {
+                const RowJob& j = jobs[i];
+                const std::size_t x = j.nonZero[n];
+                const unsigned negative = in.bit(st[i], model.signs[j.signBase[x] + j.sgn[x - 1]]);
+                j.sgn[x] = static_cast<std::uint8_t>(1 + negative);
+            });
+        }
         for (std::size_t i = 0; i < nj; ++i)
             rans.x[jobs[i].lane] = st[i];
         rans.in = in;
@@ -970,12 +1249,39 @@ void decodeDense(std::span<const std::uint8_t> in, std::span<std::int32_t> coeff
     const std::vector<std::uint8_t> ransBytes = RansDecoder::padded(in.subspan(head, n));
     const std::vector<std::uint8_t> rawBytes = RawReader::padded(in.subspan(head + n));
     DecodeSide side{RansDecoder(ransBytes, n, static_cast<int>(layout[s].size())),
-                    RawReader(rawBytes, in.size() - head - n), {}, tablePtr};
+                    RawReader(rawBytes, in.size() - head - n), {}, tablePtr, nullptr, {}, {}, {}};
+    if (!denseDecoderIsScalar()) {
+        // Reused across sections: 25 tables are 200 KB, which malloc would map and unmap every time.
+        thread_local PackedTables pt;
+        pt.entries.resize((tables.size() + 1) * kTableScale + 2);
+        for (std::uint32_t slot = 0; slot < kTableScale; ++slot)
+            pt.entries[slot] = packedEntry(slot, kTableScale, 0);
+        std::fill(pt.offset, pt.offset + 32, 0u);
+        for (std::size_t b = 0; b < tables.size(); ++b) {
+            const DecoderTable& d = tables[b];
+            std::uint32_t* e = pt.entries.data() + (b + 1) * kTableScale;
+            for (std::uint32_t sym = 0; sym < kSymbols; ++sym)
+                for (std::uint32_t k = 0; k < d.freq[sym]; ++k)
+                    e[d.start[sym] + k] = packedEntry(k, d.freq[sym], sym);
+        }
+        for (std::size_t c = 0; c < kActivityContexts; ++c)
+            if (tablePtr[c] != &kUnused)
+                pt.offset[c] = static_cast<std::uint32_t>(tablePtr[c] - tables.data() + 1) * kTableScale;
+        side.packed = &pt;
+    }
     SectionWalker walker{brick, layout, s};
     walker.run(coeffs.data(), side);
     if (!side.rans.exact()) corrupt(what, "entropy stream does not end where its size says");
     if (!side.raw.exact()) corrupt(what, "raw bit stream length mismatch");
 }
+
+} // namespace
+
+bool denseDecoderSimdAvailable() noexcept { return cpuHasDenseSimd(); }
+void setDenseDecoderScalar(bool force) noexcept { gForceScalar.store(force, std::memory_order_relaxed); }
+bool denseDecoderIsScalar() noexcept { return !cpuHasDenseSimd() || gForceScalar.load(std::memory_order_relaxed); }
+
+namespace {
 
 // ------------------------------------------------------------------------------ fast mode
 

@@ -70,6 +70,13 @@ void decodeSection(std::span<const std::uint8_t> in, std::span<std::int32_t> coe
                    const std::vector<std::vector<SubbandBox>>& layout, std::size_t s, EntropyMode mode,
                    const char* what);
 
+/// Which dense decoder runs: the AVX-512 one (VBMI2 and friends, chosen at run time when the CPU has them)
+/// or the portable scalar one. Both decode every stream identically (tests run both); forcing the scalar
+/// path is for tests and measurements. The environment variable VOLCL_DENSE_SCALAR=1 forces it at start.
+bool denseDecoderSimdAvailable() noexcept;
+void setDenseDecoderScalar(bool force) noexcept;
+bool denseDecoderIsScalar() noexcept;
+
 /// Decodes sections 0 .. sections.size()-1 of a brick (as decodeSection). With `dq` the coefficients come
 /// out dequantised, as float bit patterns in `coeffs`: fast mode dequantises each row as it decodes it;
 /// dense mode after the last section (decoded coefficients are the next section's context).
