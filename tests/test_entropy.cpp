@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <cstring>
 #include <random>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -139,6 +140,39 @@ TEST(Entropy, FastModeKeepsAny32BitPattern) {
     c[1] = INT32_MAX;
     c[2] = -1;
     expectRoundTrip(c, d, 0, EntropyMode::Fast);
+}
+
+TEST(Entropy, DequantisedDecodingEqualsDequantiseRow) {
+    // decodeSections with a Dequantiser (the fast decoder fuses unfolding and dequantisation) must give
+    // exactly dequantiseRow of the decoded indices, bit for bit, for 1-4 byte planes (|q| <= 2^29).
+    std::mt19937 rng(5);
+    std::vector<double> steps(1 + 7 * 5);
+    for (auto& st : steps)
+        st = 0.01 + 3.7 * std::generate_canonical<double, 53>(rng);
+    for (EntropyMode mode : kModes)
+        for (const Dims& d : {Dims{1, 1, 1}, Dims{17, 9, 33}, Dims{64, 40, 24}})
+            for (std::int32_t limit : {1, 100, 40000, 5000000, 1 << 29})
+                for (double bias : {0.5, 0.375}) {
+                    const int levels = 3;
+                    std::vector<std::int32_t> c = waveletLike(d, rng(), 0.05 * limit);
+                    for (auto& v : c)
+                        v = std::clamp(v, -limit, limit);
+                    const Coded coded = encodeAll(c, d, levels, mode);
+                    const auto layout = sectionLayout(d, levels);
+                    std::vector<std::int32_t> expect = decodeAll(coded, d, levels, mode);
+                    const Dequantiser dq{steps, bias};
+                    for (const auto& sec : layout)
+                        for (const SubbandBox& b : sec)
+                            for (std::size_t z = b.z0; z < b.z1; ++z)
+                                for (std::size_t y = b.y0; y < b.y1; ++y) {
+                                    std::int32_t* row = expect.data() + (z * d.y + y) * d.x + b.x0;
+                                    dequantiseRow(row, reinterpret_cast<float*>(row), b.x1 - b.x0, dq.step(b), bias);
+                                }
+                    std::vector<std::int32_t> got(d.count(), 0x5A5A5A5A);
+                    const std::vector<std::span<const std::uint8_t>> spans(coded.sections.begin(), coded.sections.end());
+                    decodeSections(spans, got, d, layout, mode, "test", &dq);
+                    EXPECT_EQ(got, expect) << "mode " << int(mode) << ", limit " << limit << ", bias " << bias;
+                }
 }
 
 TEST(Entropy, DenseRefusesOutOfRangeMagnitudes) {
