@@ -263,6 +263,67 @@ TEST(Entropy, DamagedSectionsAreRejectedWithoutCrashing) {
     }
 }
 
+namespace {
+
+// A zstd frame holding `raw` in one raw block (frame format, RFC 8878): for sections that the encoder
+// would never write.
+std::vector<std::uint8_t> rawZstdFrame(const std::vector<std::uint8_t>& raw) {
+    std::vector<std::uint8_t> f{0x28, 0xB5, 0x2F, 0xFD, 0x20, static_cast<std::uint8_t>(raw.size())};
+    const std::uint32_t blockHeader = 1u | static_cast<std::uint32_t>(raw.size()) << 3; // last, raw
+    for (int i = 0; i < 3; ++i)
+        f.push_back(static_cast<std::uint8_t>(blockHeader >> (8 * i)));
+    f.insert(f.end(), raw.begin(), raw.end());
+    return f;
+}
+
+} // namespace
+
+TEST(Entropy, FastZeroBlockSkipping) {
+    // Mostly-zero sections are sent as a bitmap of non-zero 4-byte blocks plus those blocks (flag 0x80 in
+    // the section's first byte), dense ones plainly; both round-trip, and damage to the skip layout is
+    // detected or decodes cleanly (never a crash: run under ASan).
+    const Dims d{64, 40, 24};
+    const int levels = 3;
+    std::vector<std::int32_t> c = waveletLike(d, 21, 0.4);
+    const auto layout = sectionLayout(d, levels);
+    const Coded coded = encodeAll(c, d, levels, EntropyMode::Fast);
+    ASSERT_EQ(coded.sections.back()[0], 0x81) << "the finest, mostly zero section skips zero blocks";
+    const Coded dense = encodeAll(waveletLike(d, 22, 300.0), d, levels, EntropyMode::Fast);
+    EXPECT_EQ(dense.sections.back()[0] & 0x80, 0) << "a section with few zero blocks is sent plainly";
+    expectRoundTrip(c, d, levels, EntropyMode::Fast);
+    const std::size_t s = layout.size() - 1;
+    const auto& good = coded.sections[s];
+    for (std::size_t len = 0; len < good.size(); ++len) {
+        const std::vector<std::uint8_t> cut(good.begin(), good.begin() + static_cast<std::ptrdiff_t>(len));
+        EXPECT_TRUE(decodeDamaged(cut, d, levels, s, EntropyMode::Fast, c)) << "cut to " << len;
+    }
+    for (std::size_t pos = 0; pos < good.size(); ++pos)
+        for (int bit = 0; bit < 8; ++bit) {
+            auto bad = good;
+            bad[pos] ^= static_cast<std::uint8_t>(1u << bit);
+            decodeDamaged(bad, d, levels, s, EntropyMode::Fast, c);
+        }
+    // Hand-made sections of a 15-coefficient brick (4 blocks, one bitmap byte): the layout's own checks.
+    const Dims t{5, 1, 3};
+    const auto tl = sectionLayout(t, 0);
+    auto decode = [&](const std::vector<std::uint8_t>& raw) {
+        std::vector<std::uint8_t> section{0x81};
+        const auto frame = rawZstdFrame(raw);
+        section.insert(section.end(), frame.begin(), frame.end());
+        std::vector<std::int32_t> out(t.count(), 7);
+        decodeSection(section, out, t, tl, 0, EntropyMode::Fast, "test");
+        return out;
+    };
+    std::vector<std::int32_t> expect(t.count(), 0);
+    expect[4] = 1;   // folded 2 at byte 4: block 1
+    expect[14] = -1; // folded 1 at byte 14: block 3
+    EXPECT_EQ(decode({0x0A, 2, 0, 0, 0, 0, 0, 1, 0}), expect);
+    EXPECT_THROW(decode({0x1A, 2, 0, 0, 0, 0, 0, 1, 0}), IoError) << "bit past the last block";
+    EXPECT_THROW(decode({0x0B, 2, 0, 0, 0, 0, 0, 1, 0}), IoError) << "more blocks flagged than sent";
+    EXPECT_THROW(decode({0x02, 2, 0, 0, 0, 0, 0, 1, 0}), IoError) << "more blocks sent than flagged";
+    EXPECT_THROW(decode({}), IoError) << "no bitmap";
+}
+
 TEST(Entropy, EmptySectionMustBeEmpty) {
     // A 1x1x1 brick with 2 levels has empty detail sections; data there is an error.
     const Dims d{1, 1, 1};

@@ -1009,7 +1009,7 @@ struct FastScratch {
     };
     std::unique_ptr<ZSTD_CCtx, FreeC> cctx{ZSTD_createCCtx()};
     std::unique_ptr<ZSTD_DCtx, FreeD> dctx{ZSTD_createDCtx()};
-    std::vector<std::uint8_t> planes;
+    std::vector<std::uint8_t> planes, packed;
     FastScratch() {
         if (cctx) setFastParameters(cctx.get());
     }
@@ -1098,6 +1098,72 @@ template <class Fn> void withPlanes(std::size_t planes, Fn fn) {
     }
 }
 
+// Zero-block skipping: the plane bytes as 4-byte blocks, a bitmap with one bit per block (bit k % 8 of byte
+// k / 8: block k is not all zero) followed by the non-zero blocks only, all in one zstd frame. Lossy 1-2 bpv
+// sections are mostly zero blocks; zstd then codes a short bitmap and the blocks that carry information
+// instead of zero runs between them: BrainWeb fast, section bytes -1.9 % at 2 bpv and -5.3 % at 1 bpv, zstd
+// CPU time about -40 % both ways (4-byte blocks beat 8: +2.0 % and +4.4 % bytes, and 16 or 32). Sections
+// with few zero blocks keep the plain layout (the bitmap is then a cost: lossless BrainWeb +0.8 %).
+constexpr std::uint8_t kZeroSkip = 0x80; // flag in the section's first byte, beside the plane count
+constexpr std::size_t kSkipBlock = 4;
+
+std::uint32_t load32(const std::uint8_t* p) {
+    std::uint32_t v;
+    std::memcpy(&v, p, 4);
+    return v;
+}
+void store32(std::uint8_t* p, std::uint32_t v) { std::memcpy(p, &v, 4); }
+
+// Writes the bitmap and the non-zero blocks of `bytes` (`blocks` whole blocks, readable) to `out`, which has
+// room for the bitmap and every block; returns the bytes written. Branch-free per block: each block is
+// stored and the output advances past it only if it is non-zero.
+std::size_t packNonZeroBlocks(const std::uint8_t* bytes, std::size_t blocks, std::uint8_t* out) {
+    const std::size_t mapBytes = (blocks + 7) / 8;
+    std::uint8_t* pk = out + mapBytes;
+    for (std::size_t m = 0; m < mapBytes; ++m) {
+        std::uint32_t bits = 0;
+        const std::size_t end = std::min<std::size_t>(8, blocks - 8 * m);
+        for (std::size_t j = 0; j < end; ++j) {
+            const std::uint32_t w = load32(bytes + kSkipBlock * (8 * m + j));
+            const std::uint32_t nz = w != 0;
+            store32(pk, w);
+            pk += kSkipBlock * nz;
+            bits |= nz << j;
+        }
+        out[m] = static_cast<std::uint8_t>(bits);
+    }
+    return static_cast<std::size_t>(pk - out);
+}
+
+// Inverse of packNonZeroBlocks into `bytes` (`blocks` whole blocks); `in` holds `size` bytes and 4 readable
+// bytes after them. Returns false if the bitmap and the size disagree (bits past the last block set, or a
+// block count that does not match the data).
+bool unpackNonZeroBlocks(const std::uint8_t* in, std::size_t size, std::size_t blocks, std::uint8_t* bytes) {
+    const std::size_t mapBytes = (blocks + 7) / 8;
+    if (size < mapBytes) return false;
+    if (blocks % 8 && in[mapBytes - 1] >> (blocks % 8)) return false;
+    std::size_t set = 0;
+    for (std::size_t m = 0; m < mapBytes; ++m)
+        set += static_cast<std::size_t>(std::popcount(in[m]));
+    if (size - mapBytes != kSkipBlock * set) return false;
+    const std::uint8_t* pk = in + mapBytes;
+    for (std::size_t m = 0; m < mapBytes; ++m) {
+        const std::uint32_t bits = in[m];
+        std::uint8_t* dst = bytes + kSkipBlock * 8 * m;
+        const std::size_t end = std::min<std::size_t>(8, blocks - 8 * m);
+        if (bits == 0) { // the common case in lossy sections
+            std::memset(dst, 0, kSkipBlock * end);
+            continue;
+        }
+        for (std::size_t j = 0; j < end; ++j) {
+            const std::uint32_t nz = (bits >> j) & 1u;
+            store32(dst + kSkipBlock * j, load32(pk) & (0u - nz));
+            pk += kSkipBlock * nz;
+        }
+    }
+    return true;
+}
+
 void encodeFast(std::span<const std::int32_t> c, const std::vector<SubbandBox>& sec, Dims brick,
                 std::vector<std::uint8_t>& out) {
     std::size_t count = 0;
@@ -1127,12 +1193,20 @@ void encodeFast(std::span<const std::int32_t> c, const std::vector<SubbandBox>& 
         withPlanes(planes,
                    [&](auto p) { foldIntoPlanes<1, p()>(c.data(), sec, brick, s.planes.data(), count); });
     }
+    // Whole blocks: the plane bytes padded with zeros to a multiple of the block size.
+    const std::size_t total = s.planes.size(), blocks = (total + kSkipBlock - 1) / kSkipBlock;
+    s.planes.resize(blocks * kSkipBlock, 0);
+    s.packed.resize((blocks + 7) / 8 + blocks * kSkipBlock + kSkipBlock);
+    const std::size_t packedSize = packNonZeroBlocks(s.planes.data(), blocks, s.packed.data());
+    // Skip zero blocks when that removes at least 1/8 of the bytes (lossless sections rarely do).
+    const bool skip = 8 * packedSize <= 7 * total;
+    const std::uint8_t* src = skip ? s.packed.data() : s.planes.data();
+    const std::size_t srcSize = skip ? packedSize : total;
     const std::size_t start = out.size();
-    out.resize(start + 1 + ZSTD_compressBound(s.planes.size()));
-    out[start] = static_cast<std::uint8_t>(planes);
+    out.resize(start + 1 + ZSTD_compressBound(srcSize));
+    out[start] = static_cast<std::uint8_t>(planes | (skip ? kZeroSkip : 0));
     // The parameters set on the context stay for every frame (ZSTD_compress2 resets only the session).
-    const std::size_t n = ZSTD_compress2(s.cctx.get(), out.data() + start + 1, out.size() - start - 1,
-                                         s.planes.data(), s.planes.size());
+    const std::size_t n = ZSTD_compress2(s.cctx.get(), out.data() + start + 1, out.size() - start - 1, src, srcSize);
     if (ZSTD_isError(n)) throw Error(std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
     out.resize(start + 1 + n);
 }
@@ -1146,15 +1220,22 @@ void decodeFast(std::span<const std::uint8_t> in, std::span<std::int32_t> c,
         if (!in.empty()) throw IoError(std::string(what) + ": unexpected data in an empty section");
         return;
     }
-    if (in.size() < 2 || in[0] < 1 || in[0] > 4)
-        throw IoError(std::string(what) + ": invalid fast-mode section");
-    const std::size_t planes = in[0];
+    const std::size_t planes = in.empty() ? 0 : in[0] & ~kZeroSkip;
+    if (in.size() < 2 || planes < 1 || planes > 4) throw IoError(std::string(what) + ": invalid fast-mode section");
     FastScratch& s = fastScratch();
-    s.planes.resize(count * planes);
-    const std::size_t n =
-        ZSTD_decompressDCtx(s.dctx.get(), s.planes.data(), s.planes.size(), in.data() + 1, in.size() - 1);
-    if (ZSTD_isError(n) || n != s.planes.size())
-        throw IoError(std::string(what) + ": zstd section does not decode to its size");
+    const std::size_t total = count * planes, blocks = (total + kSkipBlock - 1) / kSkipBlock;
+    s.planes.resize(blocks * kSkipBlock);
+    if (in[0] & kZeroSkip) {
+        const std::size_t capacity = (blocks + 7) / 8 + blocks * kSkipBlock;
+        s.packed.resize(capacity + kSkipBlock);
+        const std::size_t n = ZSTD_decompressDCtx(s.dctx.get(), s.packed.data(), capacity, in.data() + 1, in.size() - 1);
+        if (ZSTD_isError(n) || !unpackNonZeroBlocks(s.packed.data(), n, blocks, s.planes.data()))
+            throw IoError(std::string(what) + ": zstd section does not decode to its size");
+    } else {
+        const std::size_t n = ZSTD_decompressDCtx(s.dctx.get(), s.planes.data(), total, in.data() + 1, in.size() - 1);
+        if (ZSTD_isError(n) || n != total)
+            throw IoError(std::string(what) + ": zstd section does not decode to its size");
+    }
     withPlanes(planes,
                [&](auto p) { unfoldFromPlanes<p()>(s.planes.data(), count, c.data(), sec, brick, dq); });
 }
