@@ -1009,9 +1009,15 @@ struct FastScratch {
     };
     std::unique_ptr<ZSTD_CCtx, FreeC> cctx{ZSTD_createCCtx()};
     std::unique_ptr<ZSTD_DCtx, FreeD> dctx{ZSTD_createDCtx()};
-    std::vector<std::uint8_t> planes, packed;
+    std::vector<std::uint8_t> planes, packed, frame;
     FastScratch() {
         if (cctx) setFastParameters(cctx.get());
+    }
+    // The buffers only grow: a vector resized down for a small section and up again for the next large
+    // one zero-fills the difference, which was about 1/10 of the fast coder's instructions at 2 bpv.
+    static std::uint8_t* atLeast(std::vector<std::uint8_t>& v, std::size_t n) {
+        if (v.size() < n) v.resize(n);
+        return v.data();
     }
 };
 FastScratch& fastScratch() {
@@ -1053,33 +1059,49 @@ void foldIntoPlanes(const std::int32_t* c, const std::vector<SubbandBox>& sec, D
 // patterns) in the same loop: |q| = (f + 1) >> 1 and the sign is f's low bit, so the value is
 // dequantiseRow's (|q| + bias) * step with that sign bit or'ed in, 0 for f = 0; bit-identical to it (one
 // pass per row instead of an index pass and a dequantisation pass; the loops vectorise on SSE2).
+// One row of Planes byte planes (plane p at src + p * count) to dequantised values or indices. Restrict
+// pointers: without them the byte loads may alias the stores, and each row paid a run-time overlap check.
+template <int Planes>
+std::uint32_t foldedAt(const std::uint8_t* __restrict src, std::size_t count, std::size_t k) {
+    std::uint32_t f = 0;
+    for (int p = 0; p < Planes; ++p)
+        f |= static_cast<std::uint32_t>(src[std::size_t(p) * count + k]) << (8 * p);
+    return f;
+}
+template <int Planes>
+void dequantiseFoldedRow(const std::uint8_t* __restrict src, std::size_t count, std::uint32_t* __restrict out,
+                         std::size_t len, float s, float bs) {
+    for (std::size_t k = 0; k < len; ++k) {
+        const std::uint32_t f = foldedAt<Planes>(src, count, k);
+        const float m = static_cast<float>(static_cast<std::int32_t>((f + 1) >> 1)) * s + bs;
+        const std::uint32_t r = std::bit_cast<std::uint32_t>(m) | (f << 31);
+        out[k] = f == 0 ? 0u : r;
+    }
+}
+template <int Planes>
+void unfoldFoldedRow(const std::uint8_t* __restrict src, std::size_t count, std::int32_t* __restrict out,
+                     std::size_t len) {
+    for (std::size_t k = 0; k < len; ++k) {
+        const std::uint32_t f = foldedAt<Planes>(src, count, k);
+        out[k] = static_cast<std::int32_t>((f >> 1) ^ (0u - (f & 1u)));
+    }
+}
+
+// Rows of sign-folded byte planes back to indices, or with `dq` straight to dequantised values (float bit
+// patterns) in the same loop: |q| = (f + 1) >> 1 and the sign is f's low bit, so the value is
+// dequantiseRow's (|q| + bias) * step with that sign bit or'ed in, 0 for f = 0; bit-identical to it (one
+// pass per row instead of an index pass and a dequantisation pass; the loops vectorise on SSE2).
 template <int Planes>
 void unfoldFromPlanes(const std::uint8_t* raw, std::size_t count, std::int32_t* c,
                       const std::vector<SubbandBox>& sec, Dims brick, const Dequantiser* dq) {
     std::size_t i = 0;
     forEachSectionRow(c, sec, brick, [&](std::int32_t* row, std::size_t len, const SubbandBox& b) {
-        const std::uint8_t* src = raw + i;
-        auto folded = [&](std::size_t k) {
-            std::uint32_t f = 0;
-            for (int p = 0; p < Planes; ++p)
-                f |= static_cast<std::uint32_t>(src[std::size_t(p) * count + k]) << (8 * p);
-            return f;
-        };
         if (dq) {
             const double step = dq->step(b);
-            const float s = static_cast<float>(step), bs = static_cast<float>(dq->bias * step);
-            auto* out = reinterpret_cast<std::uint32_t*>(row);
-            for (std::size_t k = 0; k < len; ++k) {
-                const std::uint32_t f = folded(k);
-                const float m = static_cast<float>(static_cast<std::int32_t>((f + 1) >> 1)) * s + bs;
-                const std::uint32_t r = std::bit_cast<std::uint32_t>(m) | (f << 31);
-                out[k] = f == 0 ? 0u : r;
-            }
+            dequantiseFoldedRow<Planes>(raw + i, count, reinterpret_cast<std::uint32_t*>(row), len,
+                                        static_cast<float>(step), static_cast<float>(dq->bias * step));
         } else {
-            for (std::size_t k = 0; k < len; ++k) {
-                const std::uint32_t f = folded(k);
-                row[k] = static_cast<std::int32_t>((f >> 1) ^ (0u - (f & 1u)));
-            }
+            unfoldFoldedRow<Planes>(raw + i, count, row, len);
         }
         i += len;
     });
@@ -1123,6 +1145,14 @@ std::size_t packNonZeroBlocks(const std::uint8_t* bytes, std::size_t blocks, std
     for (std::size_t m = 0; m < mapBytes; ++m) {
         std::uint32_t bits = 0;
         const std::size_t end = std::min<std::size_t>(8, blocks - 8 * m);
+        if (end == 8) { // eight zero blocks at once: the common case in lossy sections
+            std::uint64_t w[4];
+            std::memcpy(w, bytes + kSkipBlock * 8 * m, sizeof w);
+            if ((w[0] | w[1] | w[2] | w[3]) == 0) {
+                out[m] = 0;
+                continue;
+            }
+        }
         for (std::size_t j = 0; j < end; ++j) {
             const std::uint32_t w = load32(bytes + kSkipBlock * (8 * m + j));
             const std::uint32_t nz = w != 0;
@@ -1151,8 +1181,13 @@ bool unpackNonZeroBlocks(const std::uint8_t* in, std::size_t size, std::size_t b
         const std::uint32_t bits = in[m];
         std::uint8_t* dst = bytes + kSkipBlock * 8 * m;
         const std::size_t end = std::min<std::size_t>(8, blocks - 8 * m);
-        if (bits == 0) { // the common case in lossy sections
-            std::memset(dst, 0, kSkipBlock * end);
+        if (end == 8 && (bits == 0 || bits == 0xFF)) { // fixed-size copies, inlined
+            if (bits == 0) {
+                std::memset(dst, 0, kSkipBlock * 8);
+            } else {
+                std::memcpy(dst, pk, kSkipBlock * 8);
+                pk += kSkipBlock * 8;
+            }
             continue;
         }
         for (std::size_t j = 0; j < end; ++j) {
@@ -1173,12 +1208,12 @@ void encodeFast(std::span<const std::int32_t> c, const std::vector<SubbandBox>& 
     // Plane 0 is written in the pass that finds the plane count (the OR of the folded values has the same
     // highest bit as their maximum, and vectorises on SSE2): lossy sections mostly need that plane only.
     FastScratch& s = fastScratch();
-    s.planes.resize(count);
+    std::uint8_t* raw = FastScratch::atLeast(s.planes, count + kSkipBlock);
     std::uint32_t bits = 0;
     std::size_t i = 0;
     forEachSectionRow(c.data(), sec, brick, [&](const std::int32_t* row, std::size_t len, const SubbandBox&) {
         std::uint32_t o = 0;
-        std::uint8_t* dst = s.planes.data() + i;
+        std::uint8_t* dst = raw + i;
         for (std::size_t k = 0; k < len; ++k) {
             const std::uint32_t f = foldSign(row[k]);
             o |= f;
@@ -1188,27 +1223,27 @@ void encodeFast(std::span<const std::int32_t> c, const std::vector<SubbandBox>& 
         i += len;
     });
     const std::size_t planes = bits < 0x100u ? 1 : bits < 0x10000u ? 2 : bits < 0x1000000u ? 3 : 4;
+    const std::size_t total = count * planes, blocks = (total + kSkipBlock - 1) / kSkipBlock;
     if (planes > 1) {
-        s.planes.resize(count * planes);
-        withPlanes(planes,
-                   [&](auto p) { foldIntoPlanes<1, p()>(c.data(), sec, brick, s.planes.data(), count); });
+        raw = FastScratch::atLeast(s.planes, total + kSkipBlock); // keeps plane 0
+        withPlanes(planes, [&](auto p) { foldIntoPlanes<1, p()>(c.data(), sec, brick, raw, count); });
     }
     // Whole blocks: the plane bytes padded with zeros to a multiple of the block size.
-    const std::size_t total = s.planes.size(), blocks = (total + kSkipBlock - 1) / kSkipBlock;
-    s.planes.resize(blocks * kSkipBlock, 0);
-    s.packed.resize((blocks + 7) / 8 + blocks * kSkipBlock + kSkipBlock);
-    const std::size_t packedSize = packNonZeroBlocks(s.planes.data(), blocks, s.packed.data());
+    std::fill(raw + total, raw + blocks * kSkipBlock, std::uint8_t(0));
+    std::uint8_t* packed = FastScratch::atLeast(s.packed, (blocks + 7) / 8 + blocks * kSkipBlock + kSkipBlock);
+    const std::size_t packedSize = packNonZeroBlocks(raw, blocks, packed);
     // Skip zero blocks when that removes at least 1/8 of the bytes (lossless sections rarely do).
     const bool skip = 8 * packedSize <= 7 * total;
-    const std::uint8_t* src = skip ? s.packed.data() : s.planes.data();
+    const std::uint8_t* src = skip ? packed : raw;
     const std::size_t srcSize = skip ? packedSize : total;
-    const std::size_t start = out.size();
-    out.resize(start + 1 + ZSTD_compressBound(srcSize));
-    out[start] = static_cast<std::uint8_t>(planes | (skip ? kZeroSkip : 0));
+    // Compressed into scratch and appended: growing `out` by the bound would zero-fill it first.
+    const std::size_t bound = ZSTD_compressBound(srcSize);
+    std::uint8_t* frame = FastScratch::atLeast(s.frame, bound);
     // The parameters set on the context stay for every frame (ZSTD_compress2 resets only the session).
-    const std::size_t n = ZSTD_compress2(s.cctx.get(), out.data() + start + 1, out.size() - start - 1, src, srcSize);
+    const std::size_t n = ZSTD_compress2(s.cctx.get(), frame, bound, src, srcSize);
     if (ZSTD_isError(n)) throw Error(std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
-    out.resize(start + 1 + n);
+    out.push_back(static_cast<std::uint8_t>(planes | (skip ? kZeroSkip : 0)));
+    out.insert(out.end(), frame, frame + n);
 }
 
 void decodeFast(std::span<const std::uint8_t> in, std::span<std::int32_t> c,
@@ -1224,20 +1259,20 @@ void decodeFast(std::span<const std::uint8_t> in, std::span<std::int32_t> c,
     if (in.size() < 2 || planes < 1 || planes > 4) throw IoError(std::string(what) + ": invalid fast-mode section");
     FastScratch& s = fastScratch();
     const std::size_t total = count * planes, blocks = (total + kSkipBlock - 1) / kSkipBlock;
-    s.planes.resize(blocks * kSkipBlock);
+    std::uint8_t* raw = FastScratch::atLeast(s.planes, blocks * kSkipBlock);
     if (in[0] & kZeroSkip) {
         const std::size_t capacity = (blocks + 7) / 8 + blocks * kSkipBlock;
-        s.packed.resize(capacity + kSkipBlock);
-        const std::size_t n = ZSTD_decompressDCtx(s.dctx.get(), s.packed.data(), capacity, in.data() + 1, in.size() - 1);
-        if (ZSTD_isError(n) || !unpackNonZeroBlocks(s.packed.data(), n, blocks, s.planes.data()))
+        std::uint8_t* packed = FastScratch::atLeast(s.packed, capacity + kSkipBlock);
+        const std::size_t n = ZSTD_decompressDCtx(s.dctx.get(), packed, capacity, in.data() + 1, in.size() - 1);
+        if (ZSTD_isError(n) || !unpackNonZeroBlocks(packed, n, blocks, raw))
             throw IoError(std::string(what) + ": zstd section does not decode to its size");
     } else {
-        const std::size_t n = ZSTD_decompressDCtx(s.dctx.get(), s.planes.data(), total, in.data() + 1, in.size() - 1);
+        const std::size_t n = ZSTD_decompressDCtx(s.dctx.get(), raw, total, in.data() + 1, in.size() - 1);
         if (ZSTD_isError(n) || n != total)
             throw IoError(std::string(what) + ": zstd section does not decode to its size");
     }
     withPlanes(planes,
-               [&](auto p) { unfoldFromPlanes<p()>(s.planes.data(), count, c.data(), sec, brick, dq); });
+               [&](auto p) { unfoldFromPlanes<p()>(raw, count, c.data(), sec, brick, dq); });
 }
 
 } // namespace
