@@ -131,15 +131,19 @@ TEST(Entropy, RoundTripExtremeMagnitudes) {
 
 TEST(Entropy, FastModeKeepsAny32BitPattern) {
     // Lossless float volumes send raw bit patterns (NaN, Inf, -0) through the fast coder untransformed.
-    const Dims d{7, 5, 3};
+    // Rows of 7 take the encoder's scalar loop, rows of 40 its 16-wide SSE2 loop and then the scalar tail.
     std::mt19937 rng(3);
-    std::vector<std::int32_t> c(d.count());
-    for (auto& v : c)
-        v = static_cast<std::int32_t>(rng());
-    c[0] = INT32_MIN;
-    c[1] = INT32_MAX;
-    c[2] = -1;
-    expectRoundTrip(c, d, 0, EntropyMode::Fast);
+    for (const Dims& d : {Dims{7, 5, 3}, Dims{40, 3, 2}}) {
+        std::vector<std::int32_t> c(d.count());
+        for (auto& v : c)
+            v = static_cast<std::int32_t>(rng());
+        for (std::size_t i : {std::size_t(0), std::size_t(17), std::size_t(38)}) {
+            c[i] = INT32_MIN;
+            c[i + 1] = INT32_MAX;
+            c[i + 2] = -1;
+        }
+        expectRoundTrip(c, d, 0, EntropyMode::Fast);
+    }
 }
 
 TEST(Entropy, DequantisedDecodingEqualsDequantiseRow) {

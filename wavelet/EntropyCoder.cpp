@@ -14,6 +14,9 @@
 #include "host/Error.hpp"
 
 #include <zstd.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include <algorithm>
 #include <array>
@@ -1214,7 +1217,29 @@ void encodeFast(std::span<const std::int32_t> c, const std::vector<SubbandBox>& 
     forEachSectionRow(c.data(), sec, brick, [&](const std::int32_t* row, std::size_t len, const SubbandBox&) {
         std::uint32_t o = 0;
         std::uint8_t* dst = raw + i;
-        for (std::size_t k = 0; k < len; ++k) {
+        std::size_t k = 0;
+#ifdef __SSE2__
+        // 16 at a time by hand: fold, OR into the plane-count mask, low bytes out; 3 % fewer encoder
+        // instructions than GCC's vectorised loop, whose entry and exit cost much on 32-long rows (the same
+        // change to the decoder's dequantising loop saved 0.2 % and was left out).
+        __m128i vo = _mm_setzero_si128();
+        const __m128i lowByte = _mm_set1_epi32(0xFF);
+        for (; k + 16 <= len; k += 16) {
+            __m128i f[4];
+            for (int j = 0; j < 4; ++j) {
+                const __m128i v = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + k + 4 * j));
+                f[j] = _mm_xor_si128(_mm_slli_epi32(v, 1), _mm_srai_epi32(v, 31));
+                vo = _mm_or_si128(vo, f[j]);
+                f[j] = _mm_and_si128(f[j], lowByte);
+            }
+            _mm_storeu_si128(reinterpret_cast<__m128i*>(dst + k),
+                             _mm_packus_epi16(_mm_packs_epi32(f[0], f[1]), _mm_packs_epi32(f[2], f[3])));
+        }
+        vo = _mm_or_si128(vo, _mm_srli_si128(vo, 8));
+        vo = _mm_or_si128(vo, _mm_srli_si128(vo, 4));
+        o = static_cast<std::uint32_t>(_mm_cvtsi128_si32(vo));
+#endif
+        for (; k < len; ++k) {
             const std::uint32_t f = foldSign(row[k]);
             o |= f;
             dst[k] = static_cast<std::uint8_t>(f);
