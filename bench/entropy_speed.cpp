@@ -1,6 +1,7 @@
-// Entropy-only speed of the dense coder on real codec coefficients: one thread, CPU time, median of 5.
-// Reads the coefficients of each .vcz file given (entropy decoded with the file's own mode), then times
-// dense encode and decode of every section and checks the round trip. Timings live here, not in tests.
+// Entropy-only speed of the dense (default) or fast (--fast) coder on real codec coefficients: one thread,
+// CPU time, median of 5. Reads the coefficients of each .vcz file given (entropy decoded with the file's own
+// mode), then times encode and decode of every section and checks the round trip; with --fast, lossy files
+// decode through decodeSections with dequantisation, as the codec does. Timings live here, not in tests.
 // When the SIMD dense decoder is selected, each brick is also decoded with the scalar one (VOLCL_DENSE_SCALAR=1
 // measures the scalar one alone, VOLCL_BENCH_SIMD_ONLY=1 the SIMD one alone, e.g. for a profile).
 #include "host/Error.hpp"
@@ -29,6 +30,9 @@ struct CodedVolume {
     std::vector<std::vector<std::int32_t>> coeffs;
     int levels = 0;
     std::size_t voxelBytes = 0;
+    bool lossy = false;
+    std::vector<double> steps;
+    double bias = 0.5;
 };
 
 CodedVolume readCoefficients(const std::string& path) {
@@ -40,6 +44,9 @@ CodedVolume readCoefficients(const std::string& path) {
     CodedVolume v;
     v.levels = h.levels;
     v.voxelBytes = scalarSize(h.type);
+    v.lossy = h.transform == TransformKind::FloatLifting;
+    v.steps = h.steps;
+    v.bias = h.reconstructionBias;
     for (std::size_t b = 0; b < h.brickCount(); ++b) {
         // Payload: u8 section count, u8 flags, u32 size per section and for the corrections, then the data.
         const auto p = vczBrickPayload(file, h, 0, b, path);
@@ -68,13 +75,16 @@ double threadSeconds() {
 } // namespace
 
 int main(int argc, char** argv) try {
-    if (argc < 2) {
-        std::fprintf(stderr, "usage: %s FILE.vcz...  (make inputs with e.g. volcl encode IN -o X.vcz --entropy "
+    const bool fast = argc > 1 && std::string(argv[1]) == "--fast";
+    const EntropyMode mode = fast ? EntropyMode::Fast : EntropyMode::Dense;
+    if (argc < 2 + int(fast)) {
+        std::fprintf(stderr, "usage: %s [--fast] FILE.vcz...  (make inputs with e.g. volcl encode IN -o X.vcz --entropy "
                              "fast, lossless or --psnr 50)\n", argv[0]);
         return 2;
     }
-    const bool forcedScalar = denseDecoderIsScalar(), compare = !forcedScalar && !std::getenv("VOLCL_BENCH_SIMD_ONLY");
-    for (int arg = 1; arg < argc; ++arg) {
+    const bool forcedScalar = denseDecoderIsScalar();
+    const bool compare = !fast && !forcedScalar && !std::getenv("VOLCL_BENCH_SIMD_ONLY");
+    for (int arg = 1 + int(fast); arg < argc; ++arg) {
         const std::string path = argv[arg];
         const CodedVolume v = readCoefficients(path);
         std::size_t n = 0;
@@ -82,31 +92,42 @@ int main(int argc, char** argv) try {
             n += c.size();
         std::vector<std::vector<std::vector<std::uint8_t>>> coded(v.coeffs.size());
         std::vector<double> enc, dec, decScalar, ratio;
-        std::vector<std::int32_t> out;
+        // Reference output: the coefficients, dequantised when the decoder dequantises.
+        const Dequantiser dq{v.steps, v.bias};
+        const Dequantiser* dqp = fast && v.lossy ? &dq : nullptr;
+        std::vector<std::vector<std::int32_t>> ref = v.coeffs, out(v.coeffs.size());
+        for (std::size_t b = 0; b < v.coeffs.size() && dqp; ++b)
+            for (const auto& sec : sectionLayout(v.dims[b], v.levels))
+                for (const SubbandBox& x : sec)
+                    for (std::size_t z = x.z0; z < x.z1; ++z)
+                        for (std::size_t y = x.y0; y < x.y1; ++y) {
+                            std::int32_t* r = ref[b].data() + (z * v.dims[b].y + y) * v.dims[b].x + x.x0;
+                            dequantiseRow(r, reinterpret_cast<float*>(r), x.x1 - x.x0, dq.step(x), dq.bias);
+                        }
         for (int rep = 0; rep < 5; ++rep) {
             double t0 = threadSeconds();
             for (std::size_t b = 0; b < v.coeffs.size(); ++b) {
                 const auto layout = sectionLayout(v.dims[b], v.levels);
                 coded[b].assign(layout.size(), {});
                 for (std::size_t s = 0; s < layout.size(); ++s)
-                    encodeSection(v.coeffs[b], v.dims[b], layout, s, EntropyMode::Dense, coded[b][s]);
+                    encodeSection(v.coeffs[b], v.dims[b], layout, s, mode, coded[b][s]);
             }
             enc.push_back(threadSeconds() - t0);
-            // With the SIMD decoder selected, each brick is decoded by both decoders in turn (the first one
+            // Only the decoding is timed (the codec decodes into a batch slot that it does not clear). With the
+            // SIMD dense decoder selected, each brick is decoded by both decoders in turn (the first one
             // alternating): the machine is shared, and load changes over a run would bias whole-run pairs.
             double tSimd = 0, tScalar = 0;
             for (std::size_t b = 0; b < v.coeffs.size(); ++b) {
                 const auto layout = sectionLayout(v.dims[b], v.levels);
+                const std::vector<std::span<const std::uint8_t>> spans(coded[b].begin(), coded[b].end());
                 for (int k = 0; k < (compare ? 2 : 1); ++k) {
                     const bool scalar = forcedScalar || (compare && ((b + static_cast<std::size_t>(k)) & 1) != 0);
                     setDenseDecoderScalar(scalar);
-                    out.assign(v.coeffs[b].size(), 0);
+                    out[b].assign(v.coeffs[b].size(), 0);
                     t0 = threadSeconds();
-                    for (std::size_t s = 0; s < layout.size(); ++s)
-                        decodeSection(coded[b][s], out, v.dims[b], layout, s, EntropyMode::Dense, "bench");
+                    decodeSections(spans, out[b], v.dims[b], layout, mode, "bench", dqp);
                     (scalar && compare ? tScalar : tSimd) += threadSeconds() - t0;
-                    if (out != v.coeffs[b])
-                        throw Error(path + ": round trip differs in brick " + std::to_string(b));
+                    if (out[b] != ref[b]) throw Error(path + ": round trip differs in brick " + std::to_string(b));
                 }
             }
             setDenseDecoderScalar(forcedScalar);
@@ -123,9 +144,9 @@ int main(int argc, char** argv) try {
         std::sort(enc.begin(), enc.end());
         std::sort(dec.begin(), dec.end());
         // On a shared machine the best run is the steadier guide to a code change; the median is printed too.
-        std::printf("%s: %zu coefficients, %zu bytes (ratio %.4f), dense encode %.1f / decode %.1f Mcoef/s "
+        std::printf("%s: %zu coefficients, %zu bytes (ratio %.4f), %s encode %.1f / decode %.1f Mcoef/s "
                     "(best %.1f / %.1f)\n",
-                    path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes),
+                    path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes), fast ? "fast" : "dense",
                     double(n) / enc[2] / 1e6, double(n) / dec[2] / 1e6, double(n) / enc[0] / 1e6,
                     double(n) / dec[0] / 1e6);
         if (compare) {

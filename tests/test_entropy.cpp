@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <cstring>
 #include <random>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -148,15 +149,52 @@ TEST(Entropy, RoundTripExtremeMagnitudes) {
 
 TEST(Entropy, FastModeKeepsAny32BitPattern) {
     // Lossless float volumes send raw bit patterns (NaN, Inf, -0) through the fast coder untransformed.
-    const Dims d{7, 5, 3};
+    // Rows of 7 take the encoder's scalar loop, rows of 40 its 16-wide SSE2 loop and then the scalar tail.
     std::mt19937 rng(3);
-    std::vector<std::int32_t> c(d.count());
-    for (auto& v : c)
-        v = static_cast<std::int32_t>(rng());
-    c[0] = INT32_MIN;
-    c[1] = INT32_MAX;
-    c[2] = -1;
-    expectRoundTrip(c, d, 0, EntropyMode::Fast);
+    for (const Dims& d : {Dims{7, 5, 3}, Dims{40, 3, 2}}) {
+        std::vector<std::int32_t> c(d.count());
+        for (auto& v : c)
+            v = static_cast<std::int32_t>(rng());
+        for (std::size_t i : {std::size_t(0), std::size_t(17), std::size_t(38)}) {
+            c[i] = INT32_MIN;
+            c[i + 1] = INT32_MAX;
+            c[i + 2] = -1;
+        }
+        expectRoundTrip(c, d, 0, EntropyMode::Fast);
+    }
+}
+
+TEST(Entropy, DequantisedDecodingEqualsDequantiseRow) {
+    // decodeSections with a Dequantiser (the fast decoder fuses unfolding and dequantisation) must give
+    // exactly dequantiseRow of the decoded indices, bit for bit, for 1-4 byte planes (|q| <= 2^29).
+    std::mt19937 rng(5);
+    std::vector<double> steps(1 + 7 * 5);
+    for (auto& st : steps)
+        st = 0.01 + 3.7 * std::generate_canonical<double, 53>(rng);
+    for (EntropyMode mode : kModes)
+        for (const Dims& d : {Dims{1, 1, 1}, Dims{17, 9, 33}, Dims{64, 40, 24}})
+            for (std::int32_t limit : {1, 100, 40000, 5000000, 1 << 29})
+                for (double bias : {0.5, 0.375}) {
+                    const int levels = 3;
+                    std::vector<std::int32_t> c = waveletLike(d, rng(), 0.05 * limit);
+                    for (auto& v : c)
+                        v = std::clamp(v, -limit, limit);
+                    const Coded coded = encodeAll(c, d, levels, mode);
+                    const auto layout = sectionLayout(d, levels);
+                    std::vector<std::int32_t> expect = decodeAll(coded, d, levels, mode);
+                    const Dequantiser dq{steps, bias};
+                    for (const auto& sec : layout)
+                        for (const SubbandBox& b : sec)
+                            for (std::size_t z = b.z0; z < b.z1; ++z)
+                                for (std::size_t y = b.y0; y < b.y1; ++y) {
+                                    std::int32_t* row = expect.data() + (z * d.y + y) * d.x + b.x0;
+                                    dequantiseRow(row, reinterpret_cast<float*>(row), b.x1 - b.x0, dq.step(b), bias);
+                                }
+                    std::vector<std::int32_t> got(d.count(), 0x5A5A5A5A);
+                    const std::vector<std::span<const std::uint8_t>> spans(coded.sections.begin(), coded.sections.end());
+                    decodeSections(spans, got, d, layout, mode, "test", &dq);
+                    EXPECT_EQ(got, expect) << "mode " << int(mode) << ", limit " << limit << ", bias " << bias;
+                }
 }
 
 TEST(Entropy, DenseRefusesOutOfRangeMagnitudes) {
@@ -266,6 +304,67 @@ TEST(Entropy, DenseDecodersAgreeOnEveryLaneCountAndRaggedRows) {
                     if (rng() % 3 == 0) v = 0;
                 expectRoundTrip(c, d, levels, EntropyMode::Dense);
             }
+}
+
+namespace {
+
+// A zstd frame holding `raw` in one raw block (frame format, RFC 8878): for sections that the encoder
+// would never write.
+std::vector<std::uint8_t> rawZstdFrame(const std::vector<std::uint8_t>& raw) {
+    std::vector<std::uint8_t> f{0x28, 0xB5, 0x2F, 0xFD, 0x20, static_cast<std::uint8_t>(raw.size())};
+    const std::uint32_t blockHeader = 1u | static_cast<std::uint32_t>(raw.size()) << 3; // last, raw
+    for (int i = 0; i < 3; ++i)
+        f.push_back(static_cast<std::uint8_t>(blockHeader >> (8 * i)));
+    f.insert(f.end(), raw.begin(), raw.end());
+    return f;
+}
+
+} // namespace
+
+TEST(Entropy, FastZeroBlockSkipping) {
+    // Mostly-zero sections are sent as a bitmap of non-zero 4-byte blocks plus those blocks (flag 0x80 in
+    // the section's first byte), dense ones plainly; both round-trip, and damage to the skip layout is
+    // detected or decodes cleanly (never a crash: run under ASan).
+    const Dims d{64, 40, 24};
+    const int levels = 3;
+    std::vector<std::int32_t> c = waveletLike(d, 21, 0.4);
+    const auto layout = sectionLayout(d, levels);
+    const Coded coded = encodeAll(c, d, levels, EntropyMode::Fast);
+    ASSERT_EQ(coded.sections.back()[0], 0x81) << "the finest, mostly zero section skips zero blocks";
+    const Coded dense = encodeAll(waveletLike(d, 22, 300.0), d, levels, EntropyMode::Fast);
+    EXPECT_EQ(dense.sections.back()[0] & 0x80, 0) << "a section with few zero blocks is sent plainly";
+    expectRoundTrip(c, d, levels, EntropyMode::Fast);
+    const std::size_t s = layout.size() - 1;
+    const auto& good = coded.sections[s];
+    for (std::size_t len = 0; len < good.size(); ++len) {
+        const std::vector<std::uint8_t> cut(good.begin(), good.begin() + static_cast<std::ptrdiff_t>(len));
+        EXPECT_TRUE(decodeDamaged(cut, d, levels, s, EntropyMode::Fast, c)) << "cut to " << len;
+    }
+    for (std::size_t pos = 0; pos < good.size(); ++pos)
+        for (int bit = 0; bit < 8; ++bit) {
+            auto bad = good;
+            bad[pos] ^= static_cast<std::uint8_t>(1u << bit);
+            decodeDamaged(bad, d, levels, s, EntropyMode::Fast, c);
+        }
+    // Hand-made sections of a 15-coefficient brick (4 blocks, one bitmap byte): the layout's own checks.
+    const Dims t{5, 1, 3};
+    const auto tl = sectionLayout(t, 0);
+    auto decode = [&](const std::vector<std::uint8_t>& raw) {
+        std::vector<std::uint8_t> section{0x81};
+        const auto frame = rawZstdFrame(raw);
+        section.insert(section.end(), frame.begin(), frame.end());
+        std::vector<std::int32_t> out(t.count(), 7);
+        decodeSection(section, out, t, tl, 0, EntropyMode::Fast, "test");
+        return out;
+    };
+    std::vector<std::int32_t> expect(t.count(), 0);
+    expect[4] = 1;   // folded 2 at byte 4: block 1
+    expect[14] = -1; // folded 1 at byte 14: block 3
+    EXPECT_EQ(decode({0x0A, 2, 0, 0, 0, 0, 0, 1, 0}), expect);
+    EXPECT_THROW(decode({0x1A, 2, 0, 0, 0, 0, 0, 1, 0}), IoError) << "bit past the last block";
+    EXPECT_THROW(decode({0x0B, 2, 0, 0, 0, 0, 0, 1, 0}), IoError) << "more blocks flagged than sent";
+    EXPECT_THROW(decode({0x02, 2, 0, 0, 0, 0, 0, 1, 0}), IoError) << "more blocks sent than flagged";
+    EXPECT_THROW(decode({}), IoError) << "no bitmap";
 }
 
 TEST(Entropy, EmptySectionMustBeEmpty) {

@@ -74,7 +74,9 @@ struct VczHeader {
 
 /// Magic bytes at the start of every .vcz file.
 inline constexpr std::array<unsigned char, 8> kVczMagic{0x89, 'V', 'C', 'Z', '\r', '\n', 0x1a, '\n'};
-inline constexpr std::uint32_t kVczVersion = 2;
+/// Version written. 3: fast-mode sections may skip zero blocks (flag 0x80 beside the plane count); version 2
+/// files, whose sections never set it, are read too.
+inline constexpr std::uint32_t kVczVersion = 3;
 
 /// Serialises the header and index (brick offsets must be final) followed by the payloads, which must
 /// lie in `payloads` in index order starting right after the index.
