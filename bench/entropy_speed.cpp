@@ -2,8 +2,9 @@
 // CPU time, median of 5. Reads the coefficients of each .vcz file given (entropy decoded with the file's own
 // mode), then times encode and decode of every section and checks the round trip; with --fast, lossy files
 // decode through decodeSections with dequantisation, as the codec does. Timings live here, not in tests.
-// When the SIMD dense decoder is selected, each brick is also decoded with the scalar one (VOLCL_DENSE_SCALAR=1
-// measures the scalar one alone, VOLCL_BENCH_SIMD_ONLY=1 the SIMD one alone, e.g. for a profile).
+// When the SIMD dense decoder is selected, each brick is also decoded with the scalar one
+// (VOLCL_DENSE_SCALAR=1 measures the scalar one alone, VOLCL_BENCH_SIMD_ONLY=1 the SIMD one alone, e.g. for a
+// profile).
 #include "host/Error.hpp"
 #include "wavelet/EntropyCoder.hpp"
 #include "wavelet/VczFormat.hpp"
@@ -78,8 +79,11 @@ int main(int argc, char** argv) try {
     const bool fast = argc > 1 && std::string(argv[1]) == "--fast";
     const EntropyMode mode = fast ? EntropyMode::Fast : EntropyMode::Dense;
     if (argc < 2 + int(fast)) {
-        std::fprintf(stderr, "usage: %s [--fast] FILE.vcz...  (make inputs with e.g. volcl encode IN -o X.vcz --entropy "
-                             "fast, lossless or --psnr 50)\n", argv[0]);
+        std::fprintf(
+            stderr,
+            "usage: %s [--fast] FILE.vcz...  (make inputs with e.g. volcl encode IN -o X.vcz --entropy "
+            "fast, lossless or --psnr 50)\n",
+            argv[0]);
         return 2;
     }
     const bool forcedScalar = denseDecoderIsScalar();
@@ -113,21 +117,23 @@ int main(int argc, char** argv) try {
                     encodeSection(v.coeffs[b], v.dims[b], layout, s, mode, coded[b][s]);
             }
             enc.push_back(threadSeconds() - t0);
-            // Only the decoding is timed (the codec decodes into a batch slot that it does not clear). With the
-            // SIMD dense decoder selected, each brick is decoded by both decoders in turn (the first one
+            // Only the decoding is timed (the codec decodes into a batch slot that it does not clear). With
+            // the SIMD dense decoder selected, each brick is decoded by both decoders in turn (the first one
             // alternating): the machine is shared, and load changes over a run would bias whole-run pairs.
             double tSimd = 0, tScalar = 0;
             for (std::size_t b = 0; b < v.coeffs.size(); ++b) {
                 const auto layout = sectionLayout(v.dims[b], v.levels);
                 const std::vector<std::span<const std::uint8_t>> spans(coded[b].begin(), coded[b].end());
                 for (int k = 0; k < (compare ? 2 : 1); ++k) {
-                    const bool scalar = forcedScalar || (compare && ((b + static_cast<std::size_t>(k)) & 1) != 0);
+                    const bool scalar =
+                        forcedScalar || (compare && ((b + static_cast<std::size_t>(k)) & 1) != 0);
                     setDenseDecoderScalar(scalar);
                     out[b].assign(v.coeffs[b].size(), 0);
                     t0 = threadSeconds();
                     decodeSections(spans, out[b], v.dims[b], layout, mode, "bench", dqp);
                     (scalar && compare ? tScalar : tSimd) += threadSeconds() - t0;
-                    if (out[b] != ref[b]) throw Error(path + ": round trip differs in brick " + std::to_string(b));
+                    if (out[b] != ref[b])
+                        throw Error(path + ": round trip differs in brick " + std::to_string(b));
                 }
             }
             setDenseDecoderScalar(forcedScalar);
@@ -152,9 +158,10 @@ int main(int argc, char** argv) try {
         if (compare) {
             std::sort(decScalar.begin(), decScalar.end());
             std::sort(ratio.begin(), ratio.end());
-            std::printf("  scalar decoder alternating: %.1f Mcoef/s (best %.1f); SIMD speed-up per pair: median "
-                        "%.2fx (%.2f-%.2f)\n",
-                        double(n) / decScalar[2] / 1e6, double(n) / decScalar[0] / 1e6, ratio[2], ratio[0], ratio[4]);
+            std::printf(
+                "  scalar decoder alternating: %.1f Mcoef/s (best %.1f); SIMD speed-up per pair: median "
+                "%.2fx (%.2f-%.2f)\n",
+                double(n) / decScalar[2] / 1e6, double(n) / decScalar[0] / 1e6, ratio[2], ratio[0], ratio[4]);
         }
     }
     return 0;

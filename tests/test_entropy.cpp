@@ -44,7 +44,8 @@ struct ScalarDecoder {
     bool before;
 };
 
-std::vector<std::int32_t> decodeAllWith(const Coded& coded, Dims d, int levels, EntropyMode mode, bool scalar) {
+std::vector<std::int32_t> decodeAllWith(const Coded& coded, Dims d, int levels, EntropyMode mode,
+                                        bool scalar) {
     const ScalarDecoder path(scalar);
     const auto layout = sectionLayout(d, levels);
     // A fill value the decoder must overwrite everywhere.
@@ -188,12 +189,15 @@ TEST(Entropy, DequantisedDecodingEqualsDequantiseRow) {
                             for (std::size_t z = b.z0; z < b.z1; ++z)
                                 for (std::size_t y = b.y0; y < b.y1; ++y) {
                                     std::int32_t* row = expect.data() + (z * d.y + y) * d.x + b.x0;
-                                    dequantiseRow(row, reinterpret_cast<float*>(row), b.x1 - b.x0, dq.step(b), bias);
+                                    dequantiseRow(row, reinterpret_cast<float*>(row), b.x1 - b.x0, dq.step(b),
+                                                  bias);
                                 }
                     std::vector<std::int32_t> got(d.count(), 0x5A5A5A5A);
-                    const std::vector<std::span<const std::uint8_t>> spans(coded.sections.begin(), coded.sections.end());
+                    const std::vector<std::span<const std::uint8_t>> spans(coded.sections.begin(),
+                                                                           coded.sections.end());
                     decodeSections(spans, got, d, layout, mode, "test", &dq);
-                    EXPECT_EQ(got, expect) << "mode " << int(mode) << ", limit " << limit << ", bias " << bias;
+                    EXPECT_EQ(got, expect)
+                        << "mode " << int(mode) << ", limit " << limit << ", bias " << bias;
                 }
 }
 
@@ -292,11 +296,12 @@ TEST(Entropy, DenseDecodersAgreeOnEveryLaneCountAndRaggedRows) {
     // Sections of 1..7 subbands (sizes 1 along an axis have no high band there), odd sizes whose low and
     // high bands differ by one column or row, sparse data (many zero rows, so row groups of every size and
     // rows with different non-zero counts), dense data and large magnitudes; decodeAll compares both paths.
-    if (!denseDecoderSimdAvailable()) std::printf("note: no AVX-512 dense decoder on this CPU, scalar only\n");
+    if (!denseDecoderSimdAvailable())
+        std::printf("note: no AVX-512 dense decoder on this CPU, scalar only\n");
     std::uint32_t seed = 100;
     std::mt19937 rng(seed);
-    for (const Dims& d : {Dims{1, 1, 9}, Dims{1, 7, 5}, Dims{3, 1, 1}, Dims{5, 6, 1}, Dims{7, 1, 6}, Dims{2, 2, 2},
-                          Dims{9, 7, 5}, Dims{33, 17, 9}, Dims{64, 3, 5}, Dims{40, 40, 8}})
+    for (const Dims& d : {Dims{1, 1, 9}, Dims{1, 7, 5}, Dims{3, 1, 1}, Dims{5, 6, 1}, Dims{7, 1, 6},
+                          Dims{2, 2, 2}, Dims{9, 7, 5}, Dims{33, 17, 9}, Dims{64, 3, 5}, Dims{40, 40, 8}})
         for (int levels : {1, 2, 3})
             for (double scale : {0.05, 0.4, 6.0, 5000.0}) {
                 auto c = waveletLike(d, seed++, scale);

@@ -670,12 +670,14 @@ std::atomic<bool> gForceScalar{[] {
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #pragma GCC diagnostic ignored "-Wuninitialized"
-#define VOLCL_SIMD_TARGET __attribute__((target("avx512f,avx512bw,avx512cd,avx512dq,avx512vl,avx512vbmi2,bmi,bmi2,popcnt,lzcnt")))
+#define VOLCL_SIMD_TARGET                                                                                    \
+    __attribute__((target("avx512f,avx512bw,avx512cd,avx512dq,avx512vl,avx512vbmi2,bmi,bmi2,popcnt,lzcnt")))
 
 // Lanes 0..nj-1 from v, the others `fill`; and back.
 VOLCL_SIMD_TARGET inline __m512i loadLanes(const std::uint32_t* v, std::size_t nj, std::uint32_t fill) {
     const __mmask8 lanes = static_cast<__mmask8>((1u << nj) - 1u);
-    return _mm512_cvtepu32_epi64(_mm256_mask_loadu_epi32(_mm256_set1_epi32(static_cast<int>(fill)), lanes, v));
+    return _mm512_cvtepu32_epi64(
+        _mm256_mask_loadu_epi32(_mm256_set1_epi32(static_cast<int>(fill)), lanes, v));
 }
 VOLCL_SIMD_TARGET inline void storeStates(__m512i state, std::uint32_t* st, std::size_t nj) {
     _mm256_mask_storeu_epi32(st, static_cast<__mmask8>((1u << nj) - 1u), _mm512_cvtepi64_epi32(state));
@@ -683,12 +685,13 @@ VOLCL_SIMD_TARGET inline void storeStates(__m512i state, std::uint32_t* st, std:
 
 // The new states of the `active` lanes after a decoding step gave s (64-bit lanes): the lanes below 2^16
 // take the next 16-bit words of the stream in lane order, the scalar decoder's order.
-VOLCL_SIMD_TARGET inline __m512i renormalise(__m512i state, __m512i s, __mmask8 active, const std::uint8_t* data,
-                                             std::size_t size, std::size_t& pos) {
+VOLCL_SIMD_TARGET inline __m512i renormalise(__m512i state, __m512i s, __mmask8 active,
+                                             const std::uint8_t* data, std::size_t size, std::size_t& pos) {
     const __mmask8 renorm = _mm512_mask_cmplt_epu64_mask(active, s, _mm512_set1_epi64(kRansLow));
     // vpexpandw puts the next words into the renormalising lanes in lane order (the mask spread to the low
     // word of each 64-bit lane); past the end the padding gives zeros.
-    const __m512i w = _mm512_maskz_expandloadu_epi16(_pdep_u32(renorm, 0x11111111u), data + std::min(pos, size));
+    const __m512i w =
+        _mm512_maskz_expandloadu_epi16(_pdep_u32(renorm, 0x11111111u), data + std::min(pos, size));
     pos += 2 * static_cast<std::size_t>(_mm_popcnt_u32(renorm));
     state = _mm512_mask_mov_epi64(state, active, s);
     return _mm512_mask_mov_epi64(state, renorm, _mm512_or_si512(_mm512_slli_epi64(s, 16), w));
@@ -716,10 +719,13 @@ void symbolsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, __mmask8
     const __m512i four = _mm512_set1_epi64(4);
     __m512i state = loadLanes(st, nj, kRansLow);
     const __m512i offLo = _mm512_load_si512(pt.offset), offHi = _mm512_load_si512(pt.offset + 16);
-    const __m512i one = _mm512_set1_epi64(1), two = _mm512_set1_epi64(2), low32 = _mm512_set1_epi64(0xFFFFFFFF);
-    const __m512i slotMask = _mm512_set1_epi64(kTableScale - 1), maxClass = _mm512_set1_epi64(kActivityContexts - 1);
+    const __m512i one = _mm512_set1_epi64(1), two = _mm512_set1_epi64(2),
+                  low32 = _mm512_set1_epi64(0xFFFFFFFF);
+    const __m512i slotMask = _mm512_set1_epi64(kTableScale - 1),
+                  maxClass = _mm512_set1_epi64(kActivityContexts - 1);
     const __m512i c125 = _mm512_set1_epi64(125), c62 = _mm512_set1_epi64(62);
-    const __m512i m11 = _mm512_set1_epi64(0x7FF), m12 = _mm512_set1_epi64(0xFFF), m6 = _mm512_set1_epi64(0x3F);
+    const __m512i m11 = _mm512_set1_epi64(0x7FF), m12 = _mm512_set1_epi64(0xFFF),
+                  m6 = _mm512_set1_epi64(0x3F);
     const std::uint32_t* table = pt.entries.data();
     const std::uint8_t* data = in.data;
     const std::size_t size = in.size;
@@ -730,7 +736,8 @@ void symbolsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, __mmask8
         // Activity class of activity + 4 base(previous symbol), as the scalar kActivityClass (u32 sum).
         const __m512i v = _mm512_min_epu64(sym, _mm512_or_si512(_mm512_and_si512(sym, one), two));
         const __m512i t = _mm512_max_epu64(_mm512_add_epi64(_mm512_srli_epi64(sym, 1), one), two);
-        const __m512i act = _mm512_cvtepu32_epi64(_mm512_mask_i64gather_epi32(_mm256_setzero_si256(), active, actIdx, act0, 1));
+        const __m512i act = _mm512_cvtepu32_epi64(
+            _mm512_mask_i64gather_epi32(_mm256_setzero_si256(), active, actIdx, act0, 1));
         actIdx = _mm512_add_epi64(actIdx, four);
         const __m512i a = _mm512_and_si512(_mm512_add_epi64(act, _mm512_sllv_epi64(v, t)), low32);
         const __m512i lz = _mm512_lzcnt_epi64(a);
@@ -742,10 +749,14 @@ void symbolsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, __mmask8
         // Eight scalar loads instead of vpgatherqq: the gather's latency is the longest link of the chain.
         alignas(64) std::uint64_t ix[8];
         _mm512_store_si512(ix, _mm512_add_epi64(off, _mm512_and_si512(state, slotMask)));
-        const __m128i e01 = _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[0]])), table[ix[1]], 1);
-        const __m128i e23 = _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[2]])), table[ix[3]], 1);
-        const __m128i e45 = _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[4]])), table[ix[5]], 1);
-        const __m128i e67 = _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[6]])), table[ix[7]], 1);
+        const __m128i e01 =
+            _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[0]])), table[ix[1]], 1);
+        const __m128i e23 =
+            _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[2]])), table[ix[3]], 1);
+        const __m128i e45 =
+            _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[4]])), table[ix[5]], 1);
+        const __m128i e67 =
+            _mm_insert_epi64(_mm_cvtsi32_si128(static_cast<int>(table[ix[6]])), table[ix[7]], 1);
         const __m512i e = _mm512_inserti64x4(
             _mm512_castsi256_si512(_mm256_inserti128_si256(_mm256_castsi128_si256(e01), e23, 1)),
             _mm256_inserti128_si256(_mm256_castsi128_si256(e45), e67, 1), 1);
@@ -769,9 +780,9 @@ void symbolsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, __mmask8
 // of different orientation, so their sign models are disjoint and one gather and one scatter per step see
 // no conflicts.
 VOLCL_SIMD_TARGET
-void signsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, const std::uint32_t* counts, WordReader& in,
-               std::uint32_t* st, BitModel* models, const std::uint16_t* ctxI, const std::uint8_t* westI,
-               const std::uint32_t* xI) {
+void signsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, const std::uint32_t* counts,
+               WordReader& in, std::uint32_t* st, BitModel* models, const std::uint16_t* ctxI,
+               const std::uint8_t* westI, const std::uint32_t* xI) {
     std::uint8_t* const sgn0 = jobs[0].sgn;
     alignas(64) std::int64_t sgnOff[8] = {};
     for (std::size_t i = 0; i < nj; ++i)
@@ -788,7 +799,8 @@ void signsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, const std:
     auto* p0s = reinterpret_cast<int*>(models);
     for (std::size_t n = 0; n < steps; ++n) {
         const __mmask8 active = _mm512_cmpgt_epu64_mask(count, _mm512_set1_epi64(static_cast<long long>(n)));
-        const __m512i base = _mm512_cvtepu16_epi64(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ctxI + 8 * n)));
+        const __m512i base =
+            _mm512_cvtepu16_epi64(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ctxI + 8 * n)));
         const __mmask8 west = _mm512_test_epi64_mask(
             _mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(westI + 8 * n))), one);
         const __m512i ctx = _mm512_mask_add_epi64(base, west, base, sgn);
@@ -804,11 +816,13 @@ void signsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, const std:
         state = renormalise(state, s, active, data, size, pos);
         const __m512i up = _mm512_add_epi64(p0, _mm512_srli_epi64(q, 5));
         const __m512i down = _mm512_sub_epi64(p0, _mm512_srli_epi64(p0, 5));
-        _mm512_mask_i64scatter_epi32(p0s, active, ctx, _mm512_cvtepi64_epi32(_mm512_mask_mov_epi64(up, neg, down)), 4);
+        _mm512_mask_i64scatter_epi32(p0s, active, ctx,
+                                     _mm512_cvtepi64_epi32(_mm512_mask_mov_epi64(up, neg, down)), 4);
         sgn = _mm512_mask_add_epi64(one, neg, one, one);
         // 4 bytes at x: the 3 after it are zero (coefficients after x, whose signs come in later steps, and
         // the slice buffer's zero border and padding).
-        const __m512i at = _mm512_add_epi64(rowOff, _mm512_cvtepu32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(xI + 8 * n))));
+        const __m512i at = _mm512_add_epi64(
+            rowOff, _mm512_cvtepu32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(xI + 8 * n))));
         _mm512_mask_i64scatter_epi32(sgn0, active, at, _mm512_cvtepi64_epi32(sgn), 1);
     }
     in.pos = pos;
@@ -1253,7 +1267,13 @@ void decodeDense(std::span<const std::uint8_t> in, std::span<std::int32_t> coeff
     const std::vector<std::uint8_t> ransBytes = RansDecoder::padded(in.subspan(head, n));
     const std::vector<std::uint8_t> rawBytes = RawReader::padded(in.subspan(head + n));
     DecodeSide side{RansDecoder(ransBytes, n, static_cast<int>(layout[s].size())),
-                    RawReader(rawBytes, in.size() - head - n), {}, tablePtr, nullptr, {}, {}, {}};
+                    RawReader(rawBytes, in.size() - head - n),
+                    {},
+                    tablePtr,
+                    nullptr,
+                    {},
+                    {},
+                    {}};
     if (!denseDecoderIsScalar()) {
         // Reused across sections: 25 tables are 200 KB, which malloc would map and unmap every time.
         thread_local PackedTables pt;
@@ -1281,9 +1301,15 @@ void decodeDense(std::span<const std::uint8_t> in, std::span<std::int32_t> coeff
 
 } // namespace
 
-bool denseDecoderSimdAvailable() noexcept { return cpuHasDenseSimd(); }
-void setDenseDecoderScalar(bool force) noexcept { gForceScalar.store(force, std::memory_order_relaxed); }
-bool denseDecoderIsScalar() noexcept { return !cpuHasDenseSimd() || gForceScalar.load(std::memory_order_relaxed); }
+bool denseDecoderSimdAvailable() noexcept {
+    return cpuHasDenseSimd();
+}
+void setDenseDecoderScalar(bool force) noexcept {
+    gForceScalar.store(force, std::memory_order_relaxed);
+}
+bool denseDecoderIsScalar() noexcept {
+    return !cpuHasDenseSimd() || gForceScalar.load(std::memory_order_relaxed);
+}
 
 namespace {
 
@@ -1297,12 +1323,13 @@ namespace {
 // -35 %, decode -5 to -15 %). Plain zstd frames: the decoder needs no parameters.
 void setFastParameters(ZSTD_CCtx* c) {
     const std::pair<ZSTD_cParameter, int> params[] = {{ZSTD_c_compressionLevel, 1},
-                                                       {ZSTD_c_strategy, ZSTD_fast},
-                                                       {ZSTD_c_minMatch, 7},
-                                                       {ZSTD_c_hashLog, 6}};
+                                                      {ZSTD_c_strategy, ZSTD_fast},
+                                                      {ZSTD_c_minMatch, 7},
+                                                      {ZSTD_c_hashLog, 6}};
     for (const auto& [param, value] : params) {
         const std::size_t r = ZSTD_CCtx_setParameter(c, param, value);
-        if (ZSTD_isError(r)) throw Error(std::string("zstd: cannot set a parameter: ") + ZSTD_getErrorName(r));
+        if (ZSTD_isError(r))
+            throw Error(std::string("zstd: cannot set a parameter: ") + ZSTD_getErrorName(r));
     }
 }
 
@@ -1443,7 +1470,9 @@ std::uint32_t load32(const std::uint8_t* p) {
     std::memcpy(&v, p, 4);
     return v;
 }
-void store32(std::uint8_t* p, std::uint32_t v) { std::memcpy(p, &v, 4); }
+void store32(std::uint8_t* p, std::uint32_t v) {
+    std::memcpy(p, &v, 4);
+}
 
 // Writes the bitmap and the non-zero blocks of `bytes` (`blocks` whole blocks, readable) to `out`, which has
 // room for the bitmap and every block; returns the bytes written. Branch-free per block: each block is
@@ -1561,7 +1590,8 @@ void encodeFast(std::span<const std::int32_t> c, const std::vector<SubbandBox>& 
     }
     // Whole blocks: the plane bytes padded with zeros to a multiple of the block size.
     std::fill(raw + total, raw + blocks * kSkipBlock, std::uint8_t(0));
-    std::uint8_t* packed = FastScratch::atLeast(s.packed, (blocks + 7) / 8 + blocks * kSkipBlock + kSkipBlock);
+    std::uint8_t* packed =
+        FastScratch::atLeast(s.packed, (blocks + 7) / 8 + blocks * kSkipBlock + kSkipBlock);
     const std::size_t packedSize = packNonZeroBlocks(raw, blocks, packed);
     // Skip zero blocks when that removes at least 1/8 of the bytes (lossless sections rarely do).
     const bool skip = 8 * packedSize <= 7 * total;
@@ -1587,14 +1617,16 @@ void decodeFast(std::span<const std::uint8_t> in, std::span<std::int32_t> c,
         return;
     }
     const std::size_t planes = in.empty() ? 0 : in[0] & ~kZeroSkip;
-    if (in.size() < 2 || planes < 1 || planes > 4) throw IoError(std::string(what) + ": invalid fast-mode section");
+    if (in.size() < 2 || planes < 1 || planes > 4)
+        throw IoError(std::string(what) + ": invalid fast-mode section");
     FastScratch& s = fastScratch();
     const std::size_t total = count * planes, blocks = (total + kSkipBlock - 1) / kSkipBlock;
     std::uint8_t* raw = FastScratch::atLeast(s.planes, blocks * kSkipBlock);
     if (in[0] & kZeroSkip) {
         const std::size_t capacity = (blocks + 7) / 8 + blocks * kSkipBlock;
         std::uint8_t* packed = FastScratch::atLeast(s.packed, capacity + kSkipBlock);
-        const std::size_t n = ZSTD_decompressDCtx(s.dctx.get(), packed, capacity, in.data() + 1, in.size() - 1);
+        const std::size_t n =
+            ZSTD_decompressDCtx(s.dctx.get(), packed, capacity, in.data() + 1, in.size() - 1);
         if (ZSTD_isError(n) || !unpackNonZeroBlocks(packed, n, blocks, raw))
             throw IoError(std::string(what) + ": zstd section does not decode to its size");
     } else {
@@ -1602,8 +1634,7 @@ void decodeFast(std::span<const std::uint8_t> in, std::span<std::int32_t> c,
         if (ZSTD_isError(n) || n != total)
             throw IoError(std::string(what) + ": zstd section does not decode to its size");
     }
-    withPlanes(planes,
-               [&](auto p) { unfoldFromPlanes<p()>(raw, count, c.data(), sec, brick, dq); });
+    withPlanes(planes, [&](auto p) { unfoldFromPlanes<p()>(raw, count, c.data(), sec, brick, dq); });
 }
 
 } // namespace

@@ -174,7 +174,8 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
         throw IoError(name + ": not a .vcz file (bad magic)");
     Reader pre(file.subspan(kVczMagic.size()), name, "header");
     const auto version = pre.get<std::uint32_t>();
-    if (version != kVczVersion && version != 2) throw IoError(name + ": unsupported .vcz version " + std::to_string(version));
+    if (version != kVczVersion && version != 2)
+        throw IoError(name + ": unsupported .vcz version " + std::to_string(version));
     const auto bodySize = pre.get<std::uint32_t>();
     const std::size_t bodyStart = kVczMagic.size() + 8;
     if (bodySize > file.size() - bodyStart || file.size() - bodyStart - bodySize < 8)
