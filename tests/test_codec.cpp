@@ -383,6 +383,38 @@ TEST(CodecCorruption, EveryByteFlipAndTruncationIsDetected) {
     }
 }
 
+// Files written before the fast coder's zero-block layout (version 2) are still read; other versions are
+// refused. A version-2 file is made by rewriting a current file's version field and header checksum: the
+// dense format and fast sections without the zero-block flag did not change.
+TEST(CodecCompatibility, VersionTwoFilesAreReadOthersRefused) {
+    ComputeContext& cc = test::computeContext();
+    const Volume v = makeVolume({37, 29, 23}, ScalarType::UInt16, 4, 40.0);
+    auto withVersion = [](std::vector<std::byte> f, std::uint32_t version) {
+        std::memcpy(f.data() + kVczMagic.size(), &version, 4);
+        std::uint32_t body;
+        std::memcpy(&body, f.data() + kVczMagic.size() + 4, 4);
+        const std::size_t end = kVczMagic.size() + 8 + body;
+        const std::uint64_t sum =
+            vczChecksum(std::span(reinterpret_cast<const std::uint8_t*>(f.data()), end));
+        std::memcpy(f.data() + end, &sum, 8);
+        return f;
+    };
+    for (EntropyMode m : {EntropyMode::Dense, EntropyMode::Fast}) {
+        const auto bytes = encodeVolume(cc, v, lossless(Wavelet::Cdf53, m));
+        const Volume old = decodeVolume(cc, withVersion(bytes, 2));
+        EXPECT_TRUE(old == v) << "mode " << int(m);
+        for (std::uint32_t bad : {1u, 4u, 0xFFFFFFFFu}) {
+            try {
+                decodeVolume(cc, withVersion(bytes, bad));
+                ADD_FAILURE() << "version " << bad << " accepted";
+            } catch (const IoError& e) {
+                EXPECT_NE(std::string(e.what()).find("unsupported .vcz version"), std::string::npos)
+                    << e.what();
+            }
+        }
+    }
+}
+
 TEST(CodecCorruption, ErrorNamesTheBrick) {
     ComputeContext& cc = test::computeContext();
     const Volume v = makeVolume({32, 16, 16}, ScalarType::UInt8);
