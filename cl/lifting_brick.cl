@@ -654,9 +654,9 @@ kernel __attribute__((reqd_work_group_size(1, 1, 1))) void lift_bricks(
     global T* d7, volatile global int* next, uint8 px8, uint8 bx8, uint8 by8, uint8 bz8, uint8 end8,
     uint levels, uint stop
 #ifdef VOXEL_TYPE
-    /* Inverse: brick c goes to out + out_offset[c] (stop is 0). Forward: brick c comes from there, and its
+    /* Inverse: brick c goes to vox + vox_offset[c] (stop is 0). Forward: brick c comes from there, and its
        voxel range goes to range[2c], range[2c + 1]. */
-    , global voxel_t* out, global const ulong* out_offset, ulong out_row, ulong out_plane
+    , global voxel_t* vox, global const ulong* vox_offset, ulong vox_row, ulong vox_plane
 #ifndef LIFT_INVERSE
     , global T* range
 #endif
@@ -678,7 +678,7 @@ kernel __attribute__((reqd_work_group_size(1, 1, 1))) void lift_bricks(
         const size_t i = (size_t)(c - (k > 0 ? (int)end[k - 1] : 0));
         global T* brick = base[k] + i * px[k] * by[k] * bz[k];
 #if defined(VOXEL_TYPE) && !defined(LIFT_INVERSE)
-        load_voxels(brick, px[k], by[k], bx[k], by[k], bz[k], out + out_offset[c], out_row, out_plane,
+        load_voxels(brick, px[k], by[k], bx[k], by[k], bz[k], vox + vox_offset[c], vox_row, vox_plane,
                     range + 2 * c);
 #endif
 #ifdef LIFT_INVERSE
@@ -689,7 +689,7 @@ kernel __attribute__((reqd_work_group_size(1, 1, 1))) void lift_bricks(
             lift_level(brick, px[k], by[k], ((bx[k] - 1) >> l) + 1, ((by[k] - 1) >> l) + 1,
                        ((bz[k] - 1) >> l) + 1);
 #if defined(VOXEL_TYPE) && defined(LIFT_INVERSE)
-        store_voxels(brick, px[k], by[k], bx[k], by[k], bz[k], out + out_offset[c], out_row, out_plane);
+        store_voxels(brick, px[k], by[k], bx[k], by[k], bz[k], vox + vox_offset[c], vox_row, vox_plane);
 #endif
     }
 }

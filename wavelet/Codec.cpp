@@ -338,6 +338,20 @@ std::vector<std::size_t> allBricks(const VczHeader& h) {
     return all;
 }
 
+// Each brick's first voxel relative to `first`, per batch group (VoxelVolume::origins).
+std::vector<std::vector<Dims>> brickOrigins(const VczHeader& h, const std::vector<BrickGroup>& groups,
+                                            Dims first) {
+    std::vector<std::vector<Dims>> origins;
+    for (const BrickGroup& g : groups) {
+        auto& o = origins.emplace_back();
+        for (std::size_t brick : g.bricks) {
+            const Dims bo = h.brickOrigin(brick);
+            o.push_back({bo.x - first.x, bo.y - first.y, bo.z - first.z});
+        }
+    }
+    return origins;
+}
+
 // Forward transform of every brick: emit(b, coefficients, pitch) sees each brick's coefficients in the mapped
 // batch. Adds kernel time to `ms` and, with `ranges`, stores each brick's voxel min and max (gathered on the
 // way).
@@ -364,12 +378,8 @@ void forwardBricks(ComputeContext& cc, LiftingTransform<T>& t, const Volume& v, 
                 return false;
             }
             auto bytes = const_cast<Volume&>(v).bytes(); // read only (CL_MEM_READ_ONLY)
-            VoxelVolume source{cc.wrapHost(bytes, CL_MEM_READ_ONLY).get(), v.type(), v.dims(), {}};
-            for (const BrickGroup& g : groups) {
-                auto& o = source.origins.emplace_back();
-                for (std::size_t brick : g.bricks)
-                    o.push_back(h.brickOrigin(brick));
-            }
+            const VoxelVolume source{cc.wrapHost(bytes, CL_MEM_READ_ONLY).get(), v.type(), v.dims(),
+                                     brickOrigins(h, groups, {0, 0, 0})};
             std::vector<std::vector<std::pair<double, double>>> r;
             ms += t.forwardFromVoxels(cc, b, h.levels, source, ranges ? &r : nullptr);
             if (ranges)
@@ -393,7 +403,6 @@ struct VoxelPlacement {
 // `toVoxels`, a full-resolution inverse on the brick-resident path writes the voxels from the kernel, emit
 // is not called and the result is true (every listed brick must lie inside the placement's box); the host
 // must map the placement's buffer before reading them.
-
 template <class T, class Emit>
 bool inverseBricks(ComputeContext& cc, LiftingTransform<T>& t, const VczHeader& h,
                    const std::vector<std::size_t>& which, int level, unsigned threads, CodecProfile* prof,
@@ -403,16 +412,9 @@ bool inverseBricks(ComputeContext& cc, LiftingTransform<T>& t, const VczHeader& 
         cc, h, which, threads, prof, fills,
         [&](std::span<BrickBatch<T>* const> b, const std::vector<BrickGroup>& groups) {
             if (toVoxels && level == 0 && t.canUseVoxels(b)) {
-                VoxelVolume target{toVoxels->voxels, toVoxels->type, toVoxels->dims, {}};
-                for (const BrickGroup& g : groups) {
-                    auto& o = target.origins.emplace_back();
-                    for (std::size_t brick : g.bricks) {
-                        const Dims bo = h.brickOrigin(brick);
-                        o.push_back(
-                            {bo.x - toVoxels->first.x, bo.y - toVoxels->first.y, bo.z - toVoxels->first.z});
-                    }
-                }
-                t.inverseToVoxels(cc, b, h.levels, target);
+                t.inverseToVoxels(cc, b, h.levels,
+                                  {toVoxels->voxels, toVoxels->type, toVoxels->dims,
+                                   brickOrigins(h, groups, toVoxels->first)});
                 return true;
             }
             t.inverse(cc, b, h.levels, level);

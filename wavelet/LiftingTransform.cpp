@@ -543,21 +543,10 @@ void LiftingTransform<T>::checkVoxels(std::span<BrickBatch<T>* const> batches, i
 }
 
 template <class T>
-double LiftingTransform<T>::inverseToVoxels(ComputeContext& cc, std::span<BrickBatch<T>* const> batches,
-                                            int levels, const VoxelVolume& target) {
-    checkVoxels(batches, levels, target);
-    double ms = 0;
-    for (std::size_t i = 0; i < batches.size(); i += kMaxShapes)
-        ms += brickResident(cc, batches.subspan(i, std::min(kMaxShapes, batches.size() - i)), true, levels, 0,
-                            &target, i);
-    return ms;
-}
-
-template <class T>
-double LiftingTransform<T>::forwardFromVoxels(ComputeContext& cc, std::span<BrickBatch<T>* const> batches,
-                                              int levels, const VoxelVolume& source,
-                                              std::vector<std::vector<std::pair<double, double>>>* ranges) {
-    checkVoxels(batches, levels, source);
+double LiftingTransform<T>::withVoxels(ComputeContext& cc, std::span<BrickBatch<T>* const> batches,
+                                       bool inverse, int levels, const VoxelVolume& v,
+                                       std::vector<std::vector<std::pair<double, double>>>* ranges) {
+    checkVoxels(batches, levels, v);
     if (ranges) {
         ranges->resize(batches.size());
         for (std::size_t k = 0; k < batches.size(); ++k)
@@ -565,9 +554,22 @@ double LiftingTransform<T>::forwardFromVoxels(ComputeContext& cc, std::span<Bric
     }
     double ms = 0;
     for (std::size_t i = 0; i < batches.size(); i += kMaxShapes)
-        ms += brickResident(cc, batches.subspan(i, std::min(kMaxShapes, batches.size() - i)), false, levels,
-                            0, &source, i, ranges);
+        ms += brickResident(cc, batches.subspan(i, std::min(kMaxShapes, batches.size() - i)), inverse, levels,
+                            0, &v, i, ranges);
     return ms;
+}
+
+template <class T>
+double LiftingTransform<T>::inverseToVoxels(ComputeContext& cc, std::span<BrickBatch<T>* const> batches,
+                                            int levels, const VoxelVolume& target) {
+    return withVoxels(cc, batches, true, levels, target, nullptr);
+}
+
+template <class T>
+double LiftingTransform<T>::forwardFromVoxels(ComputeContext& cc, std::span<BrickBatch<T>* const> batches,
+                                              int levels, const VoxelVolume& source,
+                                              std::vector<std::vector<std::pair<double, double>>>* ranges) {
+    return withVoxels(cc, batches, false, levels, source, ranges);
 }
 
 template <class T>

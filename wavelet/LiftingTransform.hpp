@@ -184,6 +184,9 @@ private:
                          std::size_t first = 0,
                          std::vector<std::vector<std::pair<double, double>>>* ranges = nullptr);
     void checkVoxels(std::span<BrickBatch<T>* const> batches, int levels, const VoxelVolume& v) const;
+    // forwardFromVoxels() / inverseToVoxels(): the brick kernel per kMaxShapes batches.
+    double withVoxels(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse, int levels,
+                      const VoxelVolume& v, std::vector<std::vector<std::pair<double, double>>>* ranges);
     double transformAll(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse, int levels,
                         int stopLevel);
     void buildStreaming(ComputeContext& cc);               // the lifting.cl kernels, once
