@@ -468,6 +468,9 @@ struct DenseModel {
     std::array<BitModel, kSignContexts> signs;
 };
 
+// x in a RowJob::nonZero entry (x < 2^24; signBase, below 256, may sit above it).
+constexpr std::uint32_t kListX = 0xFFFFFF;
+
 // One non-zero row of one subband, handed by the walker to a side with its contexts precomputed.
 struct RowJob {
     unsigned lane;                 // the subband's index in its section, which is also its rANS state
@@ -478,7 +481,8 @@ struct RowJob {
     std::uint32_t* mag;            // its magnitudes in the zero-padded slice copy (mag[-1] and mag[nx] are 0)
     std::uint8_t* sgn;             // its sign classes (signClass) likewise
     std::uint8_t* syms;            // magnitude symbol per x (syms[-1] is 0: the previous symbol of x = 0)
-    std::uint32_t* nonZero;        // scratch: x of the non-zero coefficients in order, `count` of them
+    std::uint32_t* nonZero;        // scratch: x of the non-zero coefficients in order, `count` of them (the
+                                   // SIMD decoder keeps signBase[x] in bits 24-31: read x as & kListX)
     std::size_t count;
 };
 
@@ -533,7 +537,7 @@ struct SectionWalker {
             b.prevRowZero.assign(b.ny, 1);
             b.parentRow.assign(b.nx, 0);
             b.activity.assign(b.nx, 0);
-            b.nonZero.assign(b.nx, 0);
+            b.nonZero.assign(b.nx + 16, 0); // the SIMD decoder stores 16 entries at a time
             b.signBase.assign(b.nx, 0);
             b.syms.assign(b.nx + 4, 0); // syms[0] stays 0: the symbol before x = 0; 3 bytes for 4-byte stores
             maxNy = std::max(maxNy, b.ny);
@@ -773,36 +777,64 @@ void symbolsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, __mmask8
     storeStates(state, st, nj);
 }
 
+// The list of row's non-zero coefficients (syms[x] != 0) as x | signBase[x] << 24, 16 columns per step
+// (compressed in registers: vpcompressd to memory is microcoded); returns their number. `out` has room for
+// nx + 16 entries. A list made with plain x for the scalar passes would cost four stores per column.
+VOLCL_SIMD_TARGET
+std::size_t listNonZero(const std::uint8_t* syms, const std::uint16_t* signBase, std::size_t nx,
+                        std::uint32_t* out) {
+    const __m512i iota = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
+    std::size_t count = 0;
+    for (std::size_t x = 0; x < nx; x += 16) {
+        const __mmask16 inRow =
+            nx - x >= 16 ? __mmask16(0xFFFF) : static_cast<__mmask16>((1u << (nx - x)) - 1u);
+        const __mmask16 nz =
+            _mm_mask_test_epi8_mask(inRow, _mm_maskz_loadu_epi8(inRow, syms + x), _mm_set1_epi8(-1));
+        const __m512i sb = _mm512_cvtepu16_epi32(_mm256_maskz_loadu_epi16(inRow, signBase + x));
+        const __m512i entry = _mm512_or_si512(_mm512_add_epi32(iota, _mm512_set1_epi32(static_cast<int>(x))),
+                                              _mm512_slli_epi32(sb, 24));
+        _mm512_storeu_si512(out + count, _mm512_maskz_compress_epi32(nz, entry));
+        count += static_cast<std::size_t>(_mm_popcnt_u32(nz));
+    }
+    return count;
+}
+
 // Decodes the signs of a row group's non-zero coefficients, their n-th in step n (the scalar order): lane i
-// is row i; ctxI holds per step and lane the neighbour part of the sign context (signBase), westI 1 where
-// the coefficient before it is the previous step's one (its sign is then the context's W part, else W is
-// zero), xI its x; the sign classes are stored into the rows' sign bytes. The rows of a group are subbands
-// of different orientation, so their sign models are disjoint and one gather and one scatter per step see
-// no conflicts.
+// is row i, whose n-th list entry (listNonZero) gives x and the neighbour part of the sign context; W's
+// sign is the previous step's when that coefficient was at x - 1 (else W is zero). The sign classes are
+// stored into the rows' sign bytes. The rows of a group are subbands of different orientation, so their
+// sign models are disjoint and one gather and one scatter per step see no conflicts.
 VOLCL_SIMD_TARGET
 void signsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, const std::uint32_t* counts,
-               WordReader& in, std::uint32_t* st, BitModel* models, const std::uint16_t* ctxI,
-               const std::uint8_t* westI, const std::uint32_t* xI) {
+               WordReader& in, std::uint32_t* st, BitModel* models) {
     std::uint8_t* const sgn0 = jobs[0].sgn;
-    alignas(64) std::int64_t sgnOff[8] = {};
-    for (std::size_t i = 0; i < nj; ++i)
+    const auto* list0 = reinterpret_cast<const std::uint8_t*>(jobs[0].nonZero);
+    alignas(64) std::int64_t sgnOff[8] = {}, listOff[8] = {};
+    for (std::size_t i = 0; i < nj; ++i) {
         sgnOff[i] = jobs[i].sgn - sgn0;
+        listOff[i] = reinterpret_cast<const std::uint8_t*>(jobs[i].nonZero) - list0;
+    }
     const __m512i rowOff = _mm512_load_si512(sgnOff);
+    __m512i listIdx = _mm512_load_si512(listOff);
     __m512i state = loadLanes(st, nj, kRansLow);
     const __m512i count = loadLanes(counts, nj, 0);
     const __m512i scale = _mm512_set1_epi64(kBinaryScale), slotMask = _mm512_set1_epi64(kBinaryScale - 1);
-    const __m512i one = _mm512_set1_epi64(1);
+    const __m512i one = _mm512_set1_epi64(1), four = _mm512_set1_epi64(4), xMask = _mm512_set1_epi64(kListX);
     const std::uint8_t* data = in.data;
     const std::size_t size = in.size;
     std::size_t pos = in.pos;
     __m512i sgn = _mm512_setzero_si512();
+    __m512i prevX = _mm512_set1_epi64(-2);
     auto* p0s = reinterpret_cast<int*>(models);
     for (std::size_t n = 0; n < steps; ++n) {
         const __mmask8 active = _mm512_cmpgt_epu64_mask(count, _mm512_set1_epi64(static_cast<long long>(n)));
-        const __m512i base =
-            _mm512_cvtepu16_epi64(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ctxI + 8 * n)));
-        const __mmask8 west = _mm512_test_epi64_mask(
-            _mm512_cvtepu8_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(westI + 8 * n))), one);
+        const __m512i entry = _mm512_cvtepu32_epi64(
+            _mm512_mask_i64gather_epi32(_mm256_setzero_si256(), active, listIdx, list0, 1));
+        listIdx = _mm512_add_epi64(listIdx, four);
+        const __m512i x = _mm512_and_si512(entry, xMask);
+        const __mmask8 west = _mm512_cmpeq_epi64_mask(x, _mm512_add_epi64(prevX, one));
+        prevX = x;
+        const __m512i base = _mm512_srli_epi64(entry, 24);
         const __m512i ctx = _mm512_mask_add_epi64(base, west, base, sgn);
         const __m512i p0 =
             _mm512_cvtepu32_epi64(_mm512_mask_i64gather_epi32(_mm256_setzero_si256(), active, ctx, p0s, 4));
@@ -821,9 +853,8 @@ void signsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, const std:
         sgn = _mm512_mask_add_epi64(one, neg, one, one);
         // 4 bytes at x: the 3 after it are zero (coefficients after x, whose signs come in later steps, and
         // the slice buffer's zero border and padding).
-        const __m512i at = _mm512_add_epi64(
-            rowOff, _mm512_cvtepu32_epi64(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(xI + 8 * n))));
-        _mm512_mask_i64scatter_epi32(sgn0, active, at, _mm512_cvtepi64_epi32(sgn), 1);
+        _mm512_mask_i64scatter_epi32(sgn0, active, _mm512_add_epi64(rowOff, x), _mm512_cvtepi64_epi32(sgn),
+                                     1);
     }
     in.pos = pos;
     storeStates(state, st, nj);
@@ -954,9 +985,6 @@ struct DecodeSide {
     DenseModel model;
     std::array<const DecoderTable*, kActivityContexts> tables;
     const PackedTables* packed = nullptr; // set when the SIMD symbol pass runs
-    std::vector<std::uint16_t> ctxI;      // SIMD sign pass: per step (n-th non-zero) and lane: signBase
-    std::vector<std::uint8_t> westI;      // ... whether W is the previous step's coefficient
-    std::vector<std::uint32_t> xI;        // ... its x
 
 #ifdef VOLCL_DENSE_SIMD
     // The SIMD pass over the columns all rows have (and the last one when the rows differ by one column
@@ -979,44 +1007,17 @@ struct DecodeSide {
                 step(i, x);
     }
 
-    // Also makes the rows' lists of non-zero coefficients (jobs[i].nonZero, count), and in the same loop
-    // the sign pass's per-step inputs.
+    // Also makes the rows' lists of non-zero coefficients (jobs[i].nonZero, count).
     void signsVector(RowJob* jobs, std::size_t nj, WordReader& in, std::uint32_t* st) {
-        std::size_t maxNx = 0;
-        for (std::size_t i = 0; i < nj; ++i)
-            maxNx = std::max(maxNx, jobs[i].nx);
-        if (ctxI.size() < 8 * (maxNx + 1)) {
-            ctxI.resize(8 * (maxNx + 1));
-            westI.resize(8 * (maxNx + 1));
-            xI.resize(8 * (maxNx + 1));
-        }
-        // Entries are written at every x and kept where x is non-zero (no jumps); steps beyond a row's count
-        // keep stale entries, its lane is masked there. Pointers in locals: the byte stores may alias
-        // anything, so members would be reloaded at every x.
-        std::uint16_t* const ci = ctxI.data();
-        std::uint8_t* const wi = westI.data();
-        std::uint32_t* const xi = xI.data();
         std::size_t maxCount = 0;
         std::uint32_t counts[kMaxLanes];
         for (std::size_t i = 0; i < nj; ++i) {
-            std::uint32_t* const nz = jobs[i].nonZero;
-            const std::uint16_t* const sb = jobs[i].signBase;
-            const std::uint8_t* const sy = jobs[i].syms; // sy[-1] is 0
-            const std::size_t nx = jobs[i].nx;
-            std::size_t count = 0;
-            for (std::size_t x = 0; x < nx; ++x) {
-                nz[count] = static_cast<std::uint32_t>(x);
-                xi[8 * count + i] = static_cast<std::uint32_t>(x);
-                ci[8 * count + i] = sb[x];
-                wi[8 * count + i] = sy[x - 1] != 0 ? 1 : 0; // W is then the previous step's coefficient
-                count += sy[x] != 0;
-            }
-            jobs[i].count = count;
-            counts[i] = static_cast<std::uint32_t>(count);
-            maxCount = std::max(maxCount, count);
+            jobs[i].count = listNonZero(jobs[i].syms, jobs[i].signBase, jobs[i].nx, jobs[i].nonZero);
+            counts[i] = static_cast<std::uint32_t>(jobs[i].count);
+            maxCount = std::max(maxCount, jobs[i].count);
         }
         if (maxCount == 0) return;
-        signsSimd(jobs, nj, maxCount, counts, in, st, model.signs.data(), ci, wi, xi);
+        signsSimd(jobs, nj, maxCount, counts, in, st, model.signs.data());
     }
 #endif
 
@@ -1083,7 +1084,7 @@ struct DecodeSide {
         for (std::size_t i = 0; i < nj; ++i) {
             RowJob& j = jobs[i];
             for (std::size_t n = 0; n < j.count; ++n) {
-                const std::size_t x = j.nonZero[n];
+                const std::size_t x = j.nonZero[n] & kListX;
                 const unsigned sym = j.syms[x];
                 j.mag[x] = kSymbolInfo.base[sym] | b.get(kSymbolInfo.rawBits[sym]);
             }
@@ -1270,11 +1271,9 @@ void decodeDense(std::span<const std::uint8_t> in, std::span<std::int32_t> coeff
                     RawReader(rawBytes, in.size() - head - n),
                     {},
                     tablePtr,
-                    nullptr,
-                    {},
-                    {},
-                    {}};
-    if (!denseDecoderIsScalar()) {
+                    nullptr};
+    // Entries of the SIMD decoder's non-zero lists hold x in 24 bits.
+    if (!denseDecoderIsScalar() && brick.x <= kListX) {
         // Reused across sections: 25 tables are 200 KB, which malloc would map and unmap every time.
         thread_local PackedTables pt;
         pt.entries.resize((tables.size() + 1) * kTableScale + 2);
