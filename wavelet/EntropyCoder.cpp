@@ -483,7 +483,9 @@ struct RowJob {
     std::uint8_t* syms;            // magnitude symbol per x (syms[-1] is 0: the previous symbol of x = 0)
     std::uint32_t* nonZero;        // scratch: x of the non-zero coefficients in order, `count` of them (the
                                    // SIMD decoder keeps signBase[x] in bits 24-31: read x as & kListX)
+    std::uint32_t* withRawBits;    // SIMD decoder's scratch: the entries of nonZero with raw bits, `rawCount`
     std::size_t count;
+    std::size_t rawCount;
 };
 
 // Walks section s row by row: at each (slice, row) position it takes that row of every subband of the
@@ -508,7 +510,7 @@ struct SectionWalker {
         std::vector<std::uint8_t> curSign, prevSign;
         std::size_t parentY = SIZE_MAX, parentZ = SIZE_MAX; // the parent row held in parentRow
         std::vector<std::uint8_t> rowZero, prevRowZero;
-        std::vector<std::uint32_t> parentRow, activity, nonZero;
+        std::vector<std::uint32_t> parentRow, activity, nonZero, withRawBits;
         std::vector<std::uint16_t> signBase;
         std::vector<std::uint8_t> syms;
     };
@@ -538,6 +540,7 @@ struct SectionWalker {
             b.parentRow.assign(b.nx, 0);
             b.activity.assign(b.nx, 0);
             b.nonZero.assign(b.nx + 16, 0); // the SIMD decoder stores 16 entries at a time
+            b.withRawBits.assign(b.nx + 16, 0);
             b.signBase.assign(b.nx, 0);
             b.syms.assign(b.nx + 4, 0); // syms[0] stays 0: the symbol before x = 0; 3 bytes for 4-byte stores
             maxNy = std::max(maxNy, b.ny);
@@ -594,8 +597,18 @@ struct SectionWalker {
                     std::uint16_t* signBase = b.signBase.data();
                     for (std::size_t x = 0; x < nx; ++x)
                         signBase[x] = static_cast<std::uint16_t>(sctx0 + 3 * ns[x] + 9 * us[x]);
-                    jobs[nj++] = {static_cast<unsigned>(k), nx, activity, signBase, row, m, sg,
-                                  b.syms.data() + 1,        b.nonZero.data(), 0};
+                    jobs[nj++] = {static_cast<unsigned>(k),
+                                  nx,
+                                  activity,
+                                  signBase,
+                                  row,
+                                  m,
+                                  sg,
+                                  b.syms.data() + 1,
+                                  b.nonZero.data(),
+                                  b.withRawBits.data(),
+                                  0,
+                                  0};
                 }
                 if (nj > 0) side.rows(jobs.data(), nj);
             }
@@ -777,26 +790,44 @@ void symbolsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, __mmask8
     storeStates(state, st, nj);
 }
 
-// The list of row's non-zero coefficients (syms[x] != 0) as x | signBase[x] << 24, 16 columns per step
-// (compressed in registers: vpcompressd to memory is microcoded); returns their number. `out` has room for
-// nx + 16 entries. A list made with plain x for the scalar passes would cost four stores per column.
+// A row's list of non-zero coefficients (syms[x] != 0) as x | signBase[x] << 24 (j.nonZero, j.count), and
+// the entries whose symbol has raw mantissa bits (symbol >= 4; j.withRawBits, j.rawCount), 16 columns per
+// step, compressed in registers (vpcompressd to memory is microcoded). Also sets mag[x] to the symbol's
+// base magnitude (the raw-bit pass then only visits the entries that have raw bits) and clears the row's
+// sign classes. A scalar loop making the lists with plain x cost four stores per column.
 VOLCL_SIMD_TARGET
-std::size_t listNonZero(const std::uint8_t* syms, const std::uint16_t* signBase, std::size_t nx,
-                        std::uint32_t* out) {
+void listNonZero(RowJob& j) {
     const __m512i iota = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
-    std::size_t count = 0;
+    // kSymbolInfo.base of symbols 0-31 and 32-63 (two-register permutations).
+    alignas(64) std::uint32_t baseTable[64];
+    for (std::size_t k = 0; k < 64; ++k)
+        baseTable[k] = kSymbolInfo.base[k];
+    const __m512i b0 = _mm512_load_si512(baseTable), b1 = _mm512_load_si512(baseTable + 16);
+    const __m512i b2 = _mm512_load_si512(baseTable + 32), b3 = _mm512_load_si512(baseTable + 48);
+    const std::size_t nx = j.nx;
+    std::size_t count = 0, rawCount = 0;
     for (std::size_t x = 0; x < nx; x += 16) {
         const __mmask16 inRow =
             nx - x >= 16 ? __mmask16(0xFFFF) : static_cast<__mmask16>((1u << (nx - x)) - 1u);
-        const __mmask16 nz =
-            _mm_mask_test_epi8_mask(inRow, _mm_maskz_loadu_epi8(inRow, syms + x), _mm_set1_epi8(-1));
-        const __m512i sb = _mm512_cvtepu16_epi32(_mm256_maskz_loadu_epi16(inRow, signBase + x));
+        const __m128i sy = _mm_maskz_loadu_epi8(inRow, j.syms + x);
+        const __mmask16 nz = _mm_mask_test_epi8_mask(inRow, sy, _mm_set1_epi8(-1));
+        const __mmask16 raw = _mm_mask_cmpge_epu8_mask(inRow, sy, _mm_set1_epi8(4));
+        const __m512i sym = _mm512_cvtepu8_epi32(sy);
+        const __m512i base = _mm512_mask_blend_epi32(_mm512_test_epi32_mask(sym, _mm512_set1_epi32(32)),
+                                                     _mm512_permutex2var_epi32(b0, sym, b1),
+                                                     _mm512_permutex2var_epi32(b2, sym, b3));
+        _mm512_mask_storeu_epi32(j.mag + x, inRow, base);
+        _mm_mask_storeu_epi8(j.sgn + x, inRow, _mm_setzero_si128());
+        const __m512i sb = _mm512_cvtepu16_epi32(_mm256_maskz_loadu_epi16(inRow, j.signBase + x));
         const __m512i entry = _mm512_or_si512(_mm512_add_epi32(iota, _mm512_set1_epi32(static_cast<int>(x))),
                                               _mm512_slli_epi32(sb, 24));
-        _mm512_storeu_si512(out + count, _mm512_maskz_compress_epi32(nz, entry));
+        _mm512_storeu_si512(j.nonZero + count, _mm512_maskz_compress_epi32(nz, entry));
+        _mm512_storeu_si512(j.withRawBits + rawCount, _mm512_maskz_compress_epi32(raw, entry));
         count += static_cast<std::size_t>(_mm_popcnt_u32(nz));
+        rawCount += static_cast<std::size_t>(_mm_popcnt_u32(raw));
     }
-    return count;
+    j.count = count;
+    j.rawCount = rawCount;
 }
 
 // Decodes the signs of a row group's non-zero coefficients, their n-th in step n (the scalar order): lane i
@@ -1007,12 +1038,12 @@ struct DecodeSide {
                 step(i, x);
     }
 
-    // Also makes the rows' lists of non-zero coefficients (jobs[i].nonZero, count).
+    // Also makes the rows' lists (listNonZero).
     void signsVector(RowJob* jobs, std::size_t nj, WordReader& in, std::uint32_t* st) {
         std::size_t maxCount = 0;
         std::uint32_t counts[kMaxLanes];
         for (std::size_t i = 0; i < nj; ++i) {
-            jobs[i].count = listNonZero(jobs[i].syms, jobs[i].signBase, jobs[i].nx, jobs[i].nonZero);
+            listNonZero(jobs[i]);
             counts[i] = static_cast<std::uint32_t>(jobs[i].count);
             maxCount = std::max(maxCount, jobs[i].count);
         }
@@ -1050,11 +1081,6 @@ struct DecodeSide {
 #endif
             interleaveSymbols(jobs, nj, step);
         const bool simd = packed != nullptr;
-        for (std::size_t i = 0; i < nj; ++i) {
-            RowJob& j = jobs[i];
-            std::fill(j.mag, j.mag + j.nx, 0);
-            std::fill(j.sgn, j.sgn + j.nx, 0);
-        }
 #ifdef VOLCL_DENSE_SIMD
         if (simd) {
             signsVector(jobs, nj, in, st);
@@ -1063,12 +1089,16 @@ struct DecodeSide {
         {
             for (std::size_t i = 0; i < nj; ++i) {
                 RowJob& j = jobs[i];
+                std::fill(j.mag, j.mag + j.nx, 0);
+                std::fill(j.sgn, j.sgn + j.nx, 0);
                 std::size_t count = 0;
                 for (std::size_t x = 0; x < j.nx; ++x) {
                     j.nonZero[count] = static_cast<std::uint32_t>(x);
                     count += j.syms[x] != 0;
                 }
                 j.count = count;
+                j.withRawBits = j.nonZero;
+                j.rawCount = count;
             }
             interleaveSigns(jobs, nj, [&](std::size_t i, std::size_t n) {
                 const RowJob& j = jobs[i];
@@ -1083,8 +1113,8 @@ struct DecodeSide {
         RawReader b = raw;
         for (std::size_t i = 0; i < nj; ++i) {
             RowJob& j = jobs[i];
-            for (std::size_t n = 0; n < j.count; ++n) {
-                const std::size_t x = j.nonZero[n] & kListX;
+            for (std::size_t n = 0; n < j.rawCount; ++n) {
+                const std::size_t x = j.withRawBits[n] & kListX;
                 const unsigned sym = j.syms[x];
                 j.mag[x] = kSymbolInfo.base[sym] | b.get(kSymbolInfo.rawBits[sym]);
             }
