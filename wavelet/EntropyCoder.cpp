@@ -371,7 +371,8 @@ inline int symbolOf(std::uint32_t u) {
 // raw bits are read in a later pass). Tables instead of arithmetic: shorter chains, no branches.
 struct SymbolInfo {
     std::array<std::uint8_t, 64> rawBits{};
-    std::array<std::uint32_t, 64> base{}, west{};
+    alignas(64) std::array<std::uint32_t, 64> base{}; // aligned for the SIMD decoder's permutations
+    std::array<std::uint32_t, 64> west{};
 };
 constexpr SymbolInfo kSymbolInfo = [] {
     SymbolInfo t;
@@ -799,9 +800,7 @@ VOLCL_SIMD_TARGET
 void listNonZero(RowJob& j) {
     const __m512i iota = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
     // kSymbolInfo.base of symbols 0-31 and 32-63 (two-register permutations).
-    alignas(64) std::uint32_t baseTable[64];
-    for (std::size_t k = 0; k < 64; ++k)
-        baseTable[k] = kSymbolInfo.base[k];
+    const std::uint32_t* baseTable = kSymbolInfo.base.data();
     const __m512i b0 = _mm512_load_si512(baseTable), b1 = _mm512_load_si512(baseTable + 16);
     const __m512i b2 = _mm512_load_si512(baseTable + 32), b3 = _mm512_load_si512(baseTable + 48);
     const std::size_t nx = j.nx;
