@@ -78,6 +78,31 @@ Volume roundTrip(const Volume& v, const CodecOptions& o, EncodeReport* rep = nul
     return decodeVolume(cc, bytes);
 }
 
+// Each brick's level-k band in `lv` (a level-k decode of a lossless integer file made from v) against the
+// reference transform of the brick's original voxels, clamped to the voxel type as the decoder does.
+void expectLowBandsOfReference(const VczReader& reader, const Volume& v, const Volume& lv, int k, Wavelet w) {
+    const VczHeader& h = reader.header();
+    const double lo = v.type() == ScalarType::Int16 ? -32768 : 0;
+    const double hi = v.type() == ScalarType::UInt8 ? 255 : v.type() == ScalarType::UInt16 ? 65535 : 32767;
+    for (std::size_t b = 0; b < h.brickCount(); ++b) {
+        const Dims bo = h.brickOrigin(b), bd = h.brickDims(b);
+        const Volume crop = v.cropped(bo, {bo.x + bd.x, bo.y + bd.y, bo.z + bd.z});
+        std::vector<std::int32_t> c(bd.count());
+        for (std::size_t i = 0; i < c.size(); ++i)
+            c[i] = static_cast<std::int32_t>(crop.valueAt(i));
+        reference::forward3d(std::span<std::int32_t>(c), bd, h.levels, w);
+        reference::inverse3d(std::span<std::int32_t>(c), bd, h.levels, w, k);
+        const Dims bl = levelDims(bd, k);
+        for (std::size_t z = 0; z < bl.z; ++z)
+            for (std::size_t y = 0; y < bl.y; ++y)
+                for (std::size_t x = 0; x < bl.x; ++x) {
+                    const double want = std::clamp<double>(c[(z * bd.y + y) * bd.x + x], lo, hi);
+                    ASSERT_EQ(lv.valueAt(lv.index((bo.x >> k) + x, (bo.y >> k) + y, (bo.z >> k) + z)), want)
+                        << "brick " << b << " level " << k;
+                }
+    }
+}
+
 } // namespace
 
 TEST(CodecLossless, BitExactOnAwkwardSizesTypesAndWavelets) {
@@ -302,24 +327,7 @@ TEST(CodecAccess, LevelDecodeIsTheLowBandAndRegionsAgree) {
         const Dims ld = levelDims(d, k);
         ASSERT_EQ(lv.dims(), ld);
         EXPECT_DOUBLE_EQ(lv.spacing[0], double(1 << k));
-        // Each brick's level-k band from the reference transform of the original voxels.
-        for (std::size_t b = 0; b < reader.header().brickCount(); ++b) {
-            const Dims bo = reader.header().brickOrigin(b), bd = reader.header().brickDims(b);
-            const Volume crop = v.cropped(bo, {bo.x + bd.x, bo.y + bd.y, bo.z + bd.z});
-            std::vector<std::int32_t> c(bd.count());
-            for (std::size_t i = 0; i < c.size(); ++i)
-                c[i] = crop.values<std::int16_t>()[i];
-            reference::forward3d(std::span<std::int32_t>(c), bd, 3, Wavelet::Cdf53);
-            reference::inverse3d(std::span<std::int32_t>(c), bd, 3, Wavelet::Cdf53, k);
-            const Dims bl = levelDims(bd, k);
-            for (std::size_t z = 0; z < bl.z; ++z)
-                for (std::size_t y = 0; y < bl.y; ++y)
-                    for (std::size_t x = 0; x < bl.x; ++x) {
-                        const double want = std::clamp<double>(c[(z * bd.y + y) * bd.x + x], -32768, 32767);
-                        ASSERT_EQ(lv.valueAt(lv.index((bo.x >> k) + x, (bo.y >> k) + y, (bo.z >> k) + z)),
-                                  want);
-                    }
-        }
+        expectLowBandsOfReference(reader, v, lv, k, Wavelet::Cdf53);
         // Region at a level equals the matching crop of the level decode.
         o.region = Region{{5, 9, 3}, {41, 30, 27}};
         const Volume part = reader.decode(cc, o);
@@ -334,6 +342,68 @@ TEST(CodecAccess, LevelDecodeIsTheLowBandAndRegionsAgree) {
                                        {(b1.x >> k) + levelDims(bd1, k).x, (b1.y >> k) + levelDims(bd1, k).y,
                                         (b1.z >> k) + levelDims(bd1, k).z});
         ASSERT_TRUE(brick == bref);
+    }
+}
+
+// Lossless integer bricks of one value (min == max in the index) are filled, not decoded: exact at every
+// level, in regions that cut them and brick by brick, for zero, the type's extremes and other values, with
+// every reversible filter and both coders; damage to such a brick's payload is still detected.
+TEST(CodecAccess, UniformBricksDecodeExactlyAtEveryLevel) {
+    ComputeContext& cc = test::computeContext();
+    const Dims d{45, 38, 29};
+    for (ScalarType t : {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16}) {
+        Volume f = makeVolume(d, t, 9, 6.0).convertedTo(ScalarType::Float32);
+        // Bricks (16^3, edge bricks 13/6/13 wide): (0,0,0) zero, (1,0,0) the type's maximum, (2,1,0) an edge
+        // brick at the type's minimum, (0,2,1) a corner brick of 77, and (1,1,1) uniform but for one voxel.
+        const std::array<std::pair<Dims, float>, 5> fills{
+            {{{0, 0, 0}, 0.f}, {{1, 0, 0}, 1e6f}, {{2, 1, 0}, -1e6f}, {{0, 2, 1}, 77.f}, {{1, 1, 1}, 5.f}}};
+        for (const auto& [g, value] : fills)
+            for (std::size_t z = g.z * 16; z < std::min(d.z, g.z * 16 + 16); ++z)
+                for (std::size_t y = g.y * 16; y < std::min(d.y, g.y * 16 + 16); ++y)
+                    for (std::size_t x = g.x * 16; x < std::min(d.x, g.x * 16 + 16); ++x)
+                        f.values<float>()[f.index(x, y, z)] = value;
+        f.values<float>()[f.index(20, 20, 20)] = 6.f;
+        const Volume v = f.convertedTo(t); // clamps +-1e6 to the type's range
+        for (auto [w, m] :
+             {std::pair{Wavelet::Cdf53, EntropyMode::Dense}, std::pair{Wavelet::Haar, EntropyMode::Fast},
+              std::pair{Wavelet::Cdf26, EntropyMode::Dense}}) {
+            const auto bytes = encodeVolume(cc, v, lossless(w, m));
+            VczReader reader(bytes, "mem");
+            std::size_t uniform = 0;
+            for (const VczBrickEntry& e : reader.header().bricks[0])
+                uniform += e.min == e.max ? 1 : 0;
+            ASSERT_EQ(uniform, 4u);
+            ASSERT_TRUE(reader.decode(cc) == v) << scalarTypeName(t);
+            for (int k = 0; k <= 3; ++k) {
+                DecodeOptions o;
+                o.level = k;
+                const Volume lv = reader.decode(cc, o);
+                expectLowBandsOfReference(reader, v, lv, k, w);
+                o.region = Region{{5, 9, 3}, {41, 38, 27}};
+                const std::size_t s = std::size_t(1) << k;
+                auto up = [s](std::size_t x) { return (x + s - 1) / s; };
+                EXPECT_TRUE(reader.decode(cc, o) ==
+                            lv.cropped({up(5), up(9), up(3)}, {up(41), up(38), up(27)}))
+                    << "level " << k;
+                // Brick (2,1,0) = 2 + 3 * 1.
+                const Volume brick = reader.decodeBrick(cc, 0, 5, k);
+                const Dims b5 = reader.header().brickOrigin(5);
+                const Dims bl = levelDims(reader.header().brickDims(5), k);
+                EXPECT_TRUE(brick ==
+                            lv.cropped({b5.x >> k, b5.y >> k, b5.z >> k},
+                                       {(b5.x >> k) + bl.x, (b5.y >> k) + bl.y, (b5.z >> k) + bl.z}));
+            }
+            // A flipped byte in the payload of uniform brick 1 (the type's maximum).
+            auto bad = bytes;
+            const VczBrickEntry& e1 = reader.header().bricks[0][1];
+            bad[e1.offset + e1.size / 2] ^= std::byte{0x40};
+            try {
+                decodeVolume(cc, bad, {}, "u.vcz");
+                ADD_FAILURE() << "damaged uniform brick accepted";
+            } catch (const IoError& err) {
+                EXPECT_NE(std::string(err.what()).find("brick 1"), std::string::npos) << err.what();
+            }
+        }
     }
 }
 
