@@ -160,10 +160,18 @@ std::vector<std::byte> writeVcz(const VczHeader& h, std::span<const std::vector<
         }
     }
     w.put<std::uint64_t>(vczChecksum(std::span(w.bytes).subspan(indexStart)));
+    // One allocation of the final size: appending the payloads grew a vector through several reallocations
+    // and then copied it into the result (ch2better lossless: ~11 ms of an encode, mostly page faults).
+    std::size_t total = w.bytes.size();
     for (const auto& p : payloads)
-        w.bytes.insert(w.bytes.end(), p.begin(), p.end());
-    std::vector<std::byte> out(w.bytes.size());
-    std::memcpy(out.data(), w.bytes.data(), out.size());
+        total += p.size();
+    std::vector<std::byte> out(total);
+    std::memcpy(out.data(), w.bytes.data(), w.bytes.size());
+    std::size_t at = w.bytes.size();
+    for (const auto& p : payloads) {
+        if (!p.empty()) std::memcpy(out.data() + at, p.data(), p.size());
+        at += p.size();
+    }
     return out;
 }
 
