@@ -1134,11 +1134,21 @@ std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, co
     Stopwatch total;
     Encoder enc(cc, options);
     VczHeader h = enc.plan(volume);
-    const ValueRange st = enc.rangeOf(volume);
-    h.valueMin = st.min;
-    h.valueMax = st.max;
     std::vector<FrameResult> frames;
     frames.push_back(enc.encodeFrame(volume, h, true));
+    if (h.transform == TransformKind::IntegerLifting) {
+        // The bricks' ranges (measured by the forward pass) give the volume's: no scan of the voxels.
+        h.valueMin = std::numeric_limits<double>::infinity();
+        h.valueMax = -h.valueMin;
+        for (const auto& [lo, hi] : frames[0].ranges) {
+            h.valueMin = std::min(h.valueMin, lo);
+            h.valueMax = std::max(h.valueMax, hi);
+        }
+    } else {
+        const ValueRange st = enc.rangeOf(volume);
+        h.valueMin = st.min;
+        h.valueMax = st.max;
+    }
     std::vector<std::byte> bytes;
     timeStage(&frames[0].report.profile, &CodecProfile::assemble, [&] { bytes = assemble(h, frames); });
     frames[0].report.profile.total = total.milliseconds();
