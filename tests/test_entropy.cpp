@@ -1,7 +1,8 @@
 // Entropy coder tests: bit-exact round trips of coefficient sections in both modes (random, all-zero,
 // single coefficient, extreme magnitudes, tiny and odd subbands) and fuzzing of decodeSection with
 // truncated, bit-flipped and random sections (IoError or a clean result, never a crash); every dense decode
-// runs both the scalar and the SIMD decoder (where the CPU has it), which must agree. The entropy-only
+// runs both the scalar and the SIMD decoder (where the CPU has it), which must agree, and every dense
+// encode both encoders, which must write the same bytes. The entropy-only
 // speed benchmark is bench/entropy_speed.cpp.
 #include "host/Error.hpp"
 #include "wavelet/EntropyCoder.hpp"
@@ -44,6 +45,13 @@ struct ScalarDecoder {
     bool before;
 };
 
+// Forces the scalar dense encoder while it lives (the SIMD one is the default where the CPU has it).
+struct ScalarEncoder {
+    explicit ScalarEncoder(bool on) : before(denseEncoderIsScalar()) { setDenseEncoderScalar(on); }
+    ~ScalarEncoder() { setDenseEncoderScalar(before); }
+    bool before;
+};
+
 std::vector<std::int32_t> decodeAllWith(const Coded& coded, Dims d, int levels, EntropyMode mode,
                                         bool scalar) {
     const ScalarDecoder path(scalar);
@@ -70,6 +78,11 @@ void expectRoundTrip(const std::vector<std::int32_t>& c, Dims d, int levels, Ent
     EXPECT_EQ(c, copy) << "encoder modified its input";
     const Coded b = encodeAll(c, d, levels, mode);
     EXPECT_EQ(a.sections, b.sections) << "encoding is not deterministic";
+    if (mode == EntropyMode::Dense) {
+        const ScalarEncoder path(true);
+        const Coded scalar = encodeAll(c, d, levels, mode);
+        EXPECT_EQ(a.sections, scalar.sections) << "scalar and SIMD dense encoders differ";
+    }
     const auto decoded = decodeAll(a, d, levels, mode);
     ASSERT_EQ(decoded.size(), c.size());
     std::size_t mismatches = 0;
