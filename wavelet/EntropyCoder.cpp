@@ -113,21 +113,38 @@ private:
 // and advances by the whole bytes filled. Values come with a 1 above their bits, which gives their length.
 class RawWriter {
 public:
+    /// Writes into `bytes` from its start (its size is only grown).
+    explicit RawWriter(std::vector<std::uint8_t>& bytes) : bytes_(bytes) {}
     /// Room for n more values.
     void reserve(std::size_t n) {
-        const std::size_t need = pos_ + 4 * n + 8;
+        const std::size_t need = pos_ + 4 * n + 16;
         if (bytes_.size() < need) bytes_.resize(std::max(need, 2 * bytes_.size()));
     }
-    /// `code` is 1 << n | (n bits to write), n <= 28.
-    void put(std::uint32_t code) {
-        const int n = 31 - std::countl_zero(code);
-        acc_ |= std::uint64_t(code ^ (1u << n)) << fill_;
-        fill_ += n;
-        std::memcpy(bytes_.data() + pos_, &acc_, 8);
-        const int whole = fill_ >> 3; // at most 4: fill_ < 8 before the put
-        pos_ += static_cast<std::size_t>(whole);
-        acc_ >>= 8 * whole;
-        fill_ &= 7;
+    /// `count` values, each 1 << n | (n bits to write) with n <= 28, two per store: the 8-byte
+    /// accumulator takes the fill (< 8 bits) and 56 more. State in locals: the byte stores may alias the
+    /// members.
+    void put(const std::uint32_t* codes, std::size_t count) {
+        reserve(count);
+        std::uint8_t* const out = bytes_.data();
+        std::size_t pos = pos_;
+        std::uint64_t acc = acc_;
+        unsigned fill = fill_;
+        for (std::size_t n = 0; n < count; n += 2) {
+            const std::uint32_t code0 = codes[n], code1 = n + 1 < count ? codes[n + 1] : 1u;
+            const unsigned n0 = 31u - static_cast<unsigned>(__builtin_clz(code0)); // codes are >= 1
+            const unsigned n1 = 31u - static_cast<unsigned>(__builtin_clz(code1));
+            const std::uint64_t bits = (code0 ^ (1u << n0)) | std::uint64_t(code1 ^ (1u << n1)) << n0;
+            acc |= bits << fill;
+            fill += n0 + n1;
+            std::memcpy(out + pos, &acc, 8);
+            const unsigned whole = fill >> 3; // at most 7
+            pos += whole;
+            acc >>= 8 * whole;
+            fill &= 7;
+        }
+        pos_ = pos;
+        acc_ = acc;
+        fill_ = fill;
     }
     std::span<const std::uint8_t> finish() {
         reserve(0);
@@ -138,10 +155,10 @@ public:
     }
 
 private:
-    std::vector<std::uint8_t> bytes_;
+    std::vector<std::uint8_t>& bytes_;
     std::size_t pos_ = 0;
     std::uint64_t acc_ = 0;
-    int fill_ = 0;
+    unsigned fill_ = 0;
 };
 
 // Reads up to 32 bits at a time; past the end it delivers zeros and remembers the overrun.
@@ -280,18 +297,36 @@ constexpr std::array<std::uint64_t, 4097> kReciprocal = [] {
         r[f] = ~std::uint64_t(0) / f + 1;
     return r;
 }();
-// The encoder's word buffer: filled from the end towards the start (the backward pass meets the words in
-// reverse stream order), so the stream is [first, end) when the pass is done.
-struct WordBuffer {
+// The encoder's buffers, per thread and reused across sections: they only grow, so that a section costs
+// no allocation, page faults or zero fill (per section they were several percent of the encoder's time).
+struct EncoderScratch {
+    std::vector<RansEvent> events, codes;
+    std::vector<std::uint32_t> signCodes, rawCodes, starts;
     std::vector<std::uint16_t> words;
-    std::uint16_t* first = nullptr;
-    explicit WordBuffer(std::size_t events) : words(events + 1) { first = words.data() + words.size(); }
+    std::vector<std::uint8_t> raw;
+    template <class T> static T* atLeast(std::vector<T>& v, std::size_t n) {
+        if (v.size() < n) v.resize(std::max(n, v.size() + v.size() / 2));
+        return v.data();
+    }
+};
+EncoderScratch& encoderScratch() {
+    thread_local EncoderScratch s;
+    return s;
+}
+// The encoder's word buffer: filled from the end towards the start (the backward pass meets the words in
+// reverse stream order), so the stream is [first, end) when the pass is done. Room for `words` words and
+// one spare below them.
+struct WordBuffer {
+    std::uint16_t* end;
+    std::uint16_t* first;
+    explicit WordBuffer(std::size_t words)
+        : end(EncoderScratch::atLeast(encoderScratch().words, words + 1) + words + 1), first(end) {}
 };
 // Final states as varints of x - 2^16 (an unused lane costs one byte), then the words.
 void putStream(const std::uint32_t* x, int lanes, const WordBuffer& wb, std::vector<std::uint8_t>& out) {
     for (int lane = 0; lane < lanes; ++lane)
         putVarint(out, x[lane] - kRansLow);
-    const std::uint16_t* end = wb.words.data() + wb.words.size();
+    const std::uint16_t* end = wb.end;
     const std::size_t base = out.size();
     out.resize(base + 2 * static_cast<std::size_t>(end - wb.first));
     std::uint8_t* p = out.data() + base;
@@ -944,6 +979,17 @@ std::size_t resolveAndGroup(RansEvent* ev, std::size_t n, const RansEvent* codeS
     return g;
 }
 
+// Whether the row is all zero, 16 coefficients at a time (the scalar loop's exit mispredicted).
+VOLCL_SIMD_ENCODER_TARGET
+bool rowIsZeroSimd(const std::int32_t* row, std::size_t nx) {
+    for (std::size_t x = 0; x < nx; x += 16) {
+        const auto valid = static_cast<__mmask16>(nx - x >= 16 ? 0xFFFFu : (1u << (nx - x)) - 1u);
+        const __m512i v = _mm512_maskz_loadu_epi32(valid, row + x);
+        if (_mm512_test_epi32_mask(v, v) != 0) return false;
+    }
+    return true;
+}
+
 // encodeRow 16 coefficients at a time (same outputs): the symbol and the previous one (a shifted vector),
 // W and the activity class by arithmetic (lzcnt) where encodeRow reads tables, the per non-zero outputs
 // by compressing stores.
@@ -1021,10 +1067,8 @@ void ransEncodeSimd(std::span<RansEvent> events, int lanes, const RansEvent* cod
     WordBuffer wb(events.size() + 8);
     std::uint16_t* w = wb.first;
     RansEvent* ev = events.data();
-    thread_local std::vector<std::uint32_t> startBuffer;
-    if (startBuffer.size() < events.size() + 1) startBuffer.resize(events.size() + 1);
-    const std::uint32_t* starts = startBuffer.data();
-    const std::size_t groups = resolveAndGroup(ev, events.size(), codeSlots, startBuffer.data());
+    std::uint32_t* const starts = EncoderScratch::atLeast(encoderScratch().starts, events.size() + 1);
+    const std::size_t groups = resolveAndGroup(ev, events.size(), codeSlots, starts);
     const __m256i one32 = _mm256_set1_epi32(1), fieldMask = _mm256_set1_epi32(kEventFieldMask),
                   freqMask = _mm256_set1_epi32(kEventFreqMask);
     const __m512i c21 = _mm512_set1_epi64(21), c11 = _mm512_set1_epi64(kTableScaleBits),
@@ -1080,19 +1124,13 @@ void ransEncodeSimd(std::span<RansEvent> events, int lanes, const RansEvent* cod
 // events (scaleBits 0, start = context * 64 + symbol) and resolved once the tables exist.
 struct EncodeSide {
     DenseModel model;
-    // Preallocated for the worst case (a row flag per row, a symbol and a sign per coefficient), filled at next.
-    std::unique_ptr<RansEvent[]> events;
+    EncoderScratch& scratch = encoderScratch();
+    // Room for the worst case (a row flag per row, a symbol and a sign per coefficient), filled at next.
     RansEvent* next = nullptr;
     // Symbol counts per context * 64 + symbol, in two halves (see rows()), summed by encodeDense().
     std::array<std::array<std::uint32_t, kActivityContexts * 64>, 2> counts{};
-    RawWriter raw;
+    RawWriter raw{scratch.raw};
     bool simd = false; // encodeRowSimd instead of encodeRow
-
-    // Per row of a group, from the row pass: pending symbol events per x; per non-zero coefficient the
-    // sign context | negative << 16, its raw bits with a 1 above them, its sign event.
-    std::vector<RansEvent> codeBuffer;
-    std::vector<std::uint32_t> signCodes, rawCodes;
-    std::vector<RansEvent> signBuffer;
 
     /// The event of an adaptive binary decision; updates the model.
     /// Masks instead of selects (signs are close to random, and GCC makes jumps of the selects).
@@ -1107,8 +1145,13 @@ struct EncodeSide {
     }
     bool rowFlag(unsigned lane, unsigned rctx, const std::int32_t* row, std::size_t nx) {
         bool zero = true;
-        for (std::size_t x = 0; x < nx && zero; ++x)
-            zero = row[x] == 0;
+#ifdef VOLCL_DENSE_SIMD
+        if (simd)
+            zero = rowIsZeroSimd(row, nx);
+        else
+#endif
+            for (std::size_t x = 0; x < nx && zero; ++x)
+                zero = row[x] == 0;
         binary(lane, model.rows[rctx], zero ? 1u : 0u);
         return zero;
     }
@@ -1156,31 +1199,29 @@ struct EncodeSide {
         std::size_t maxNx = 0;
         for (std::size_t i = 0; i < nj; ++i)
             maxNx = std::max(maxNx, jobs[i].nx);
-        if (codeBuffer.size() < nj * maxNx) {
-            codeBuffer.resize(nj * maxNx);
-            signCodes.resize(nj * maxNx);
-            rawCodes.resize(nj * maxNx);
-            signBuffer.resize(nj * maxNx);
-        }
+        // Per row of the group, from the row pass: pending symbol events per x; per non-zero coefficient the
+        // sign context | negative << 16 and the raw bits with a 1 above them.
+        RansEvent* const codeBuffer = EncoderScratch::atLeast(scratch.codes, nj * maxNx);
+        std::uint32_t* const signCodes = EncoderScratch::atLeast(scratch.signCodes, nj * maxNx);
+        std::uint32_t* const rawCodes = EncoderScratch::atLeast(scratch.rawCodes, nj * maxNx);
+
         std::uint32_t all = 0;
-        std::size_t nonZero = 0;
         for (std::size_t i = 0; i < nj; ++i) {
             RowJob& j = jobs[i];
-            RansEvent* code = codeBuffer.data() + i * maxNx;
+            RansEvent* code = codeBuffer + i * maxNx;
 #ifdef VOLCL_DENSE_SIMD
             if (simd)
-                j.count = encodeRowSimd(j, code, signCodes.data() + i * maxNx, rawCodes.data() + i * maxNx, all);
+                j.count = encodeRowSimd(j, code, signCodes + i * maxNx, rawCodes + i * maxNx, all);
             else
 #endif
-                j.count = encodeRow(j, code, signCodes.data() + i * maxNx, rawCodes.data() + i * maxNx, all);
-            nonZero += j.count;
+                j.count = encodeRow(j, code, signCodes + i * maxNx, rawCodes + i * maxNx, all);
         }
         // Before the counts are indexed with the symbols.
         if (all >> kMaxBitLength) throw Error("internal: wavelet coefficient magnitude out of range");
         for (std::size_t i = 0; i < nj; ++i) {
             // Two histograms taken in turn: runs of one code (mostly zeros) would otherwise chain every
             // increment to the previous one through memory.
-            const RansEvent* code = codeBuffer.data() + i * maxNx;
+            const RansEvent* code = codeBuffer + i * maxNx;
             const std::size_t nx = jobs[i].nx;
             std::size_t x = 0;
             for (; x + 1 < nx; x += 2) {
@@ -1192,25 +1233,26 @@ struct EncodeSide {
         RansEvent* ev = next;
         interleaveSymbols(jobs, nj, [&](std::size_t i, std::size_t x) { *ev++ = codeBuffer[i * maxNx + x]; });
         next = ev;
-        // Sign events per row, again in a loop of locals: rows of a group belong to different subbands and so
-        // use disjoint sign models, so coding them row by row gives the same probabilities as the decoder's
-        // interleaved order, into which they are then copied.
-        for (std::size_t i = 0; i < nj; ++i) {
-            const std::uint32_t* sc = signCodes.data() + i * maxNx;
-            RansEvent* out = signBuffer.data() + i * maxNx;
-            const unsigned lane = jobs[i].lane;
-            for (std::size_t n = 0; n < jobs[i].count; ++n)
-                out[n] = binaryEvent(model.signs[sc[n] & 0xFFFF], sc[n] >> 16, lane);
-        }
+        // Sign events straight in the decoder's interleaved order (the n-th non-zero coefficient of each row
+        // in turn), without jumps: steps past a row's count code a dummy model and leave no event (the
+        // store lands where the next event goes). Rows of a group use disjoint sign models, so their model
+        // chains are independent and overlap.
+        std::size_t maxCount = 0;
+        for (std::size_t i = 0; i < nj; ++i)
+            maxCount = std::max(maxCount, jobs[i].count);
+        BitModel dummy;
         ev = next;
-        interleaveSigns(jobs, nj, [&](std::size_t i, std::size_t n) { *ev++ = signBuffer[i * maxNx + n]; });
+        for (std::size_t n = 0; n < maxCount; ++n)
+            for (std::size_t i = 0; i < nj; ++i) {
+                const bool valid = n < jobs[i].count;
+                const std::uint32_t sc = signCodes[i * maxNx + n];
+                BitModel& m = valid ? model.signs[sc & 0xFFFF] : dummy;
+                *ev = binaryEvent(m, sc >> 16, jobs[i].lane);
+                ev += valid;
+            }
         next = ev;
-        raw.reserve(nonZero);
-        for (std::size_t i = 0; i < nj; ++i) {
-            const std::uint32_t* rc = rawCodes.data() + i * maxNx;
-            for (std::size_t n = 0; n < jobs[i].count; ++n)
-                raw.put(rc[n]);
-        }
+        for (std::size_t i = 0; i < nj; ++i)
+            raw.put(rawCodes + i * maxNx, jobs[i].count);
     }
 };
 
@@ -1390,8 +1432,8 @@ void encodeDense(std::span<const std::int32_t> coeffs, Dims brick,
     for (const SubbandBox& b : layout[s])
         maxEvents += 2 * b.count() + (b.y1 - b.y0) * (b.z1 - b.z0);
     // 8 events more: the SIMD pass loads 8 events from a group's start.
-    side.events = std::make_unique_for_overwrite<RansEvent[]>(maxEvents + 8);
-    side.next = side.events.get();
+    RansEvent* const firstEvent = EncoderScratch::atLeast(side.scratch.events, maxEvents + 8);
+    side.next = firstEvent;
     SectionWalker walker{brick, layout, s};
     // The encoder side only reads the coefficient array.
     walker.run(const_cast<std::int32_t*>(coeffs.data()), side);
@@ -1462,7 +1504,7 @@ void encodeDense(std::span<const std::int32_t> coeffs, Dims brick,
         }
     std::vector<std::uint8_t> stream;
     std::fill(side.next, side.next + 8, RansEvent(0)); // defined values in the SIMD pass's last loads
-    const std::span<RansEvent> events(side.events.get(), side.next);
+    const std::span<RansEvent> events(firstEvent, side.next);
     const int lanes = static_cast<int>(layout[s].size());
 #ifdef VOLCL_DENSE_SIMD
     if (!denseEncoderIsScalar())
