@@ -4,7 +4,8 @@
 // decode through decodeSections with dequantisation, as the codec does. Timings live here, not in tests.
 // When the SIMD dense coder is selected, each brick is also encoded and decoded with the scalar one (the
 // encoders must write the same bytes; VOLCL_DENSE_SCALAR=1 measures the scalar ones alone,
-// VOLCL_BENCH_SIMD_ONLY=1 the SIMD ones alone, e.g. for a profile).
+// VOLCL_BENCH_SIMD_ONLY=1 the SIMD ones alone, e.g. for a profile; VOLCL_BENCH_ENCODE_ONLY=1 skips the timed
+// decodes, for profiles and counters of the encoder).
 #include "host/Error.hpp"
 #include "wavelet/EntropyCoder.hpp"
 #include "wavelet/VczFormat.hpp"
@@ -88,6 +89,7 @@ int main(int argc, char** argv) try {
     }
     const bool forcedScalar = denseDecoderIsScalar(), encoderForcedScalar = denseEncoderIsScalar();
     const bool compare = !fast && !forcedScalar && !std::getenv("VOLCL_BENCH_SIMD_ONLY");
+    const bool encodeOnly = std::getenv("VOLCL_BENCH_ENCODE_ONLY") != nullptr;
     for (int arg = 1 + int(fast); arg < argc; ++arg) {
         const std::string path = argv[arg];
         const CodedVolume v = readCoefficients(path);
@@ -136,7 +138,7 @@ int main(int argc, char** argv) try {
             // the SIMD dense decoder selected, each brick is decoded by both decoders in turn (the first one
             // alternating): the machine is shared, and load changes over a run would bias whole-run pairs.
             double tSimd = 0, tScalar = 0;
-            for (std::size_t b = 0; b < v.coeffs.size(); ++b) {
+            for (std::size_t b = 0; b < v.coeffs.size() && !encodeOnly; ++b) {
                 const auto layout = sectionLayout(v.dims[b], v.levels);
                 const std::vector<std::span<const std::uint8_t>> spans(coded[b].begin(), coded[b].end());
                 for (int k = 0; k < (compare ? 2 : 1); ++k) {
@@ -165,11 +167,17 @@ int main(int argc, char** argv) try {
         std::sort(enc.begin(), enc.end());
         std::sort(dec.begin(), dec.end());
         // On a shared machine the best run is the steadier guide to a code change; the median is printed too.
-        std::printf("%s: %zu coefficients, %zu bytes (ratio %.4f), %s encode %.1f / decode %.1f Mcoef/s "
-                    "(best %.1f / %.1f)\n",
-                    path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes), fast ? "fast" : "dense",
-                    double(n) / enc[2] / 1e6, double(n) / dec[2] / 1e6, double(n) / enc[0] / 1e6,
-                    double(n) / dec[0] / 1e6);
+        if (encodeOnly)
+            std::printf("%s: %zu coefficients, %zu bytes (ratio %.4f), %s encode %.1f Mcoef/s (best %.1f), "
+                        "decoding skipped\n",
+                        path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes), fast ? "fast" : "dense",
+                        double(n) / enc[2] / 1e6, double(n) / enc[0] / 1e6);
+        else
+            std::printf("%s: %zu coefficients, %zu bytes (ratio %.4f), %s encode %.1f / decode %.1f Mcoef/s "
+                        "(best %.1f / %.1f)\n",
+                        path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes), fast ? "fast" : "dense",
+                        double(n) / enc[2] / 1e6, double(n) / dec[2] / 1e6, double(n) / enc[0] / 1e6,
+                        double(n) / dec[0] / 1e6);
         if (compare) {
             std::sort(encScalar.begin(), encScalar.end());
             std::sort(encRatio.begin(), encRatio.end());
@@ -178,6 +186,8 @@ int main(int argc, char** argv) try {
                 "%.2fx (%.2f-%.2f)\n",
                 double(n) / encScalar[2] / 1e6, double(n) / encScalar[0] / 1e6, encRatio[2], encRatio[0],
                 encRatio[4]);
+        }
+        if (compare && !encodeOnly) {
             std::sort(decScalar.begin(), decScalar.end());
             std::sort(ratio.begin(), ratio.end());
             std::printf(

@@ -300,7 +300,7 @@ constexpr std::array<std::uint64_t, 4097> kReciprocal = [] {
 // The encoder's buffers, per thread and reused across sections: they only grow, so that a section costs
 // no allocation, page faults or zero fill (per section they were several percent of the encoder's time).
 struct EncoderScratch {
-    std::vector<RansEvent> events, codes;
+    std::vector<RansEvent> events;
     std::vector<std::uint32_t> signCodes, rawCodes, starts;
     std::vector<std::uint16_t> words;
     std::vector<std::uint8_t> raw;
@@ -575,6 +575,14 @@ struct RowJob {
     std::uint8_t* syms;            // magnitude symbol per x (syms[-1] is 0: the previous symbol of x = 0)
     std::uint32_t* nonZero;        // scratch: x of the non-zero coefficients in order, `count` of them
     std::size_t count;
+};
+
+// Where the encoder puts row `row`'s pending symbol events among the `rows` rows of a group, in the
+// decoder's order (interleaveSymbols): x < minNx at events[x * rows + row], the other x at events[tail + x]
+// (after the interleaved part and the ends of the rows before it).
+struct SymbolSlots {
+    RansEvent* events;
+    std::size_t rows, row, minNx, tail;
 };
 
 // Walks section s row by row: at each (slice, row) position it takes that row of every subband of the
@@ -994,15 +1002,24 @@ bool rowIsZeroSimd(const std::int32_t* row, std::size_t nx) {
 // W and the activity class by arithmetic (lzcnt) where encodeRow reads tables, the per non-zero outputs
 // by compressing stores.
 VOLCL_SIMD_ENCODER_TARGET
-std::size_t encodeRowSimd(const RowJob& j, RansEvent* codes, std::uint32_t* signs, std::uint32_t* raws,
-                          std::uint32_t& all) {
+std::size_t encodeRowSimd(const RowJob& j, const SymbolSlots& slots, std::uint32_t* signs, std::uint32_t* raws,
+                          std::size_t& rawCount, std::uint32_t& all) {
     const __m512i zero = _mm512_setzero_si512(), one = _mm512_set1_epi32(1), two = _mm512_set1_epi32(2),
                   c31 = _mm512_set1_epi32(31), c30 = _mm512_set1_epi32(30), c61 = _mm512_set1_epi32(61),
                   maxClass = _mm512_set1_epi32(kActivityContexts - 1),
                   laneBits = _mm512_set1_epi32(static_cast<int>(j.lane << kEventLaneShift)),
                   negBit = _mm512_set1_epi32(1 << 16);
     __m512i prevSym = zero, prevSign = zero, any = zero;
-    std::size_t count = 0;
+    // Slots of the 16 x of a step (SymbolSlots): x * rows + row below minNx, tail + x from there.
+    const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    const auto rows = static_cast<int>(slots.rows);
+    __m512i xs = iota, interleaved = _mm512_add_epi32(_mm512_mullo_epi32(iota, _mm512_set1_epi32(rows)),
+                                                      _mm512_set1_epi32(static_cast<int>(slots.row)));
+    const __m512i minNx = _mm512_set1_epi32(static_cast<int>(slots.minNx)),
+                  tail = _mm512_set1_epi32(static_cast<int>(slots.tail)), sixteen = _mm512_set1_epi32(16),
+                  interleavedStep = _mm512_set1_epi32(16 * rows);
+    const __m512i three = _mm512_set1_epi32(3);
+    std::size_t count = 0, rawN = 0;
     for (std::size_t x = 0; x < j.nx; x += 16) {
         const auto valid = static_cast<__mmask16>(j.nx - x >= 16 ? 0xFFFFu : (1u << (j.nx - x)) - 1u);
         const __m512i v = _mm512_maskz_loadu_epi32(valid, j.row + x);
@@ -1026,29 +1043,78 @@ std::size_t encodeRowSimd(const RowJob& j, RansEvent* codes, std::uint32_t* sign
         __m512i cls = _mm512_add_epi32(_mm512_sub_epi32(c61, _mm512_add_epi32(lz, lz)),
                                        _mm512_srlv_epi32(a, _mm512_sub_epi32(c30, lz)));
         cls = _mm512_min_epi32(_mm512_max_epi32(cls, _mm512_min_epu32(a, one)), maxClass);
-        _mm512_mask_storeu_epi32(codes + x, valid,
-                                 _mm512_or_si512(_mm512_add_epi32(_mm512_slli_epi32(cls, 6), sym), laneBits));
+        const __m512i slot = _mm512_mask_add_epi32(interleaved, _mm512_cmpge_epu32_mask(xs, minNx), xs, tail);
+        _mm512_mask_i32scatter_epi32(slots.events, valid, slot,
+                                     _mm512_or_si512(_mm512_add_epi32(_mm512_slli_epi32(cls, 6), sym), laneBits), 4);
+        xs = _mm512_add_epi32(xs, sixteen);
+        interleaved = _mm512_add_epi32(interleaved, interleavedStep);
         _mm512_mask_cvtepi32_storeu_epi8(j.syms + x, valid, sym);
         _mm512_mask_storeu_epi32(j.mag + x, valid, u);
         const __mmask16 neg = _mm512_cmplt_epi32_mask(v, zero);
         const __mmask16 nz = _mm512_mask_cmpneq_epi32_mask(valid, v, zero);
         const __m512i sign = _mm512_mask_mov_epi32(_mm512_maskz_mov_epi32(nz, one), neg, two);
         _mm512_mask_cvtepi32_storeu_epi8(j.sgn + x, valid, sign);
-        // Per non-zero: sign context (neighbour part + previous coefficient's sign class) | negative << 16,
-        // raw bits (n = max(sym / 2 - 1, 0) of them) with a 1 above.
+        // Per non-zero: sign context (neighbour part + previous coefficient's sign class) | negative << 16;
+        // per symbol >= 4: its sym / 2 - 1 raw bits with a 1 above.
         const __m512i base = _mm512_cvtepu16_epi32(
             _mm256_maskz_loadu_epi16(valid, reinterpret_cast<const __m256i*>(j.signBase + x)));
         const __m512i sctx = _mm512_add_epi32(base, _mm512_alignr_epi32(sign, prevSign, 15));
         prevSign = sign;
         _mm512_mask_compressstoreu_epi32(signs + count, nz, _mm512_mask_or_epi32(sctx, neg, sctx, negBit));
-        const __m512i rawBits = _mm512_max_epi32(_mm512_sub_epi32(_mm512_srli_epi32(sym, 1), one), zero);
-        const __m512i top = _mm512_sllv_epi32(one, rawBits);
+        const __mmask16 hasRaw = _mm512_mask_cmpgt_epu32_mask(valid, sym, three);
+        const __m512i top = _mm512_sllv_epi32(one, _mm512_sub_epi32(_mm512_srli_epi32(sym, 1), one));
         _mm512_mask_compressstoreu_epi32(
-            raws + count, nz, _mm512_or_si512(_mm512_and_si512(u, _mm512_sub_epi32(top, one)), top));
+            raws + rawN, hasRaw, _mm512_or_si512(_mm512_and_si512(u, _mm512_sub_epi32(top, one)), top));
         count += static_cast<std::size_t>(_mm_popcnt_u32(nz));
+        rawN += static_cast<std::size_t>(_mm_popcnt_u32(hasRaw));
     }
     all |= static_cast<std::uint32_t>(_mm512_reduce_or_epi32(any));
+    rawCount = rawN;
     return count;
+}
+
+// The sign events of a row group in the decoder's order, as EncodeSide::rows' scalar loop: step n codes the
+// n-th non-zero coefficient of every row that has one, a row per lane. The rows' models are disjoint (one
+// orientation each), so one gather and one scatter per step see no conflicts; the events of a step are
+// compressed in row order. Returns the end of the events written at `ev`.
+VOLCL_SIMD_ENCODER_TARGET
+RansEvent* signEventsSimd(const std::size_t* rowCount, const unsigned* rowLane, std::size_t nj,
+                          std::size_t steps, const std::uint32_t* signCodes, std::size_t pitch,
+                          BitModel* models, RansEvent* ev) {
+    alignas(32) std::uint32_t count[8] = {}, bits[8] = {}, base[8] = {};
+    for (std::size_t i = 0; i < nj; ++i) {
+        count[i] = static_cast<std::uint32_t>(rowCount[i]);
+        bits[i] = ransEvent(0, 0, true, rowLane[i]);
+        base[i] = static_cast<std::uint32_t>(i * pitch);
+    }
+    const __m256i counts = _mm256_load_si256(reinterpret_cast<const __m256i*>(count));
+    const __m256i laneBits = _mm256_load_si256(reinterpret_cast<const __m256i*>(bits));
+    __m256i at = _mm256_load_si256(reinterpret_cast<const __m256i*>(base));
+    const __m256i one = _mm256_set1_epi32(1), scale = _mm256_set1_epi32(kBinaryScale),
+                  ctxMask = _mm256_set1_epi32(0xFFFF), negBit = _mm256_set1_epi32(1 << 16);
+    __m256i step = _mm256_setzero_si256();
+    auto* p0s = reinterpret_cast<int*>(models);
+    for (std::size_t n = 0; n < steps; ++n) {
+        const __mmask8 valid = _mm256_cmpgt_epu32_mask(counts, step);
+        step = _mm256_add_epi32(step, one);
+        const __m256i sc = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), valid, at,
+                                                        reinterpret_cast<const int*>(signCodes), 4);
+        at = _mm256_add_epi32(at, one);
+        const __m256i ctx = _mm256_and_si256(sc, ctxMask);
+        const __mmask8 neg = _mm256_test_epi32_mask(sc, negBit);
+        const __m256i p0 = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), valid, ctx, p0s, 4);
+        const __m256i q = _mm256_sub_epi32(scale, p0);
+        const __m256i up = _mm256_add_epi32(p0, _mm256_srli_epi32(q, 5));
+        const __m256i down = _mm256_sub_epi32(p0, _mm256_srli_epi32(p0, 5));
+        _mm256_mask_i32scatter_epi32(p0s, valid, ctx, _mm256_mask_mov_epi32(up, neg, down), 4);
+        const __m256i freq = _mm256_mask_mov_epi32(p0, neg, q);
+        const __m256i e = _mm256_or_si256(_mm256_or_si256(_mm256_maskz_mov_epi32(neg, p0),
+                                                          _mm256_slli_epi32(freq, kEventFreqShift)),
+                                          laneBits);
+        _mm256_mask_compressstoreu_epi32(ev, valid, e);
+        ev += _mm_popcnt_u32(valid);
+    }
+    return ev;
 }
 
 // The backward pass a group of events at a time, for the same stream as ransEncode: a run of events on
@@ -1155,13 +1221,14 @@ struct EncodeSide {
         binary(lane, model.rows[rctx], zero ? 1u : 0u);
         return zero;
     }
-    /// One row's pass: per x the pending symbol event (codes), the symbol, magnitude and sign class
-    /// (j.syms, j.mag, j.sgn: the walker's context); per non-zero coefficient its sign context |
-    /// negative << 16 (signs) and its raw mantissa bits with a 1 above them (raws). Returns the non-zero
-    /// count; `all` collects the magnitudes' bits. The encoder knows the previous symbol, so nothing chains
-    /// from one x to the next. The reference for encodeRowSimd.
-    static std::size_t encodeRow(const RowJob& j, RansEvent* codes, std::uint32_t* signs, std::uint32_t* raws,
-                                 std::uint32_t& all) {
+    /// One row's pass: per x the pending symbol event, straight into its place in the group's events (see
+    /// SymbolSlots), the symbol, magnitude and sign class (j.syms, j.mag, j.sgn: the walker's context); per
+    /// non-zero coefficient its sign context | negative << 16 (signs); per coefficient with raw mantissa
+    /// bits (symbol >= 4) those bits with a 1 above them (raws, `rawCount` of them). Returns the non-zero
+    /// count; `all` collects the magnitudes' bits. The encoder knows
+    /// the previous symbol, so nothing chains from one x to the next. The reference for encodeRowSimd.
+    static std::size_t encodeRow(const RowJob& j, const SymbolSlots& slots, std::uint32_t* signs,
+                                 std::uint32_t* raws, std::size_t& rawCount, std::uint32_t& all) {
         const std::int32_t* row = j.row;
         const std::uint32_t* activity = j.activity;
         const std::uint16_t* signBase = j.signBase;
@@ -1169,7 +1236,7 @@ struct EncodeSide {
         std::uint8_t* sgn = j.sgn;
         std::uint8_t* syms = j.syms;
         unsigned prevSym = 0, prevSign = 0;
-        std::size_t count = 0;
+        std::size_t count = 0, rawN = 0;
         std::uint32_t any = 0;
         for (std::size_t x = 0; x < j.nx; ++x) {
             const std::int32_t v = row[x];
@@ -1178,7 +1245,8 @@ struct EncodeSide {
             const auto sym = static_cast<unsigned>(symbolOf(u));
             const auto ctx = static_cast<unsigned>(activityContext(activity[x] + kSymbolInfo.west[prevSym]));
             prevSym = sym;
-            codes[x] = pendingEvent(ctx * 64 + sym, j.lane);
+            slots.events[x < slots.minNx ? x * slots.rows + slots.row : slots.tail + x] =
+                pendingEvent(ctx * 64 + sym, j.lane);
             syms[x] = static_cast<std::uint8_t>(sym);
             mag[x] = u;
             const unsigned sign = signClass(v);
@@ -1186,11 +1254,13 @@ struct EncodeSide {
             signs[count] = (signBase[x] + prevSign) | static_cast<std::uint32_t>(v < 0) << 16;
             prevSign = sign;
             // Symbols above 59 (magnitudes out of range) are refused before anything uses these.
-            const unsigned rawBits = kSymbolInfo.rawBits[sym & 63];
-            raws[count] = (u & ((1u << rawBits) - 1u)) | 1u << rawBits;
+            const unsigned rawBits = kSymbolInfo.rawBits[sym & 63]; // 0 for symbols below 4
+            raws[rawN] = (u & ((1u << rawBits) - 1u)) | 1u << rawBits;
+            rawN += rawBits != 0;
             count += v != 0;
         }
         all |= any;
+        rawCount = rawN;
         return count;
     }
     void rows(RowJob* jobs, std::size_t nj) {
@@ -1199,60 +1269,68 @@ struct EncodeSide {
         std::size_t maxNx = 0;
         for (std::size_t i = 0; i < nj; ++i)
             maxNx = std::max(maxNx, jobs[i].nx);
-        // Per row of the group, from the row pass: pending symbol events per x; per non-zero coefficient the
-        // sign context | negative << 16 and the raw bits with a 1 above them.
-        RansEvent* const codeBuffer = EncoderScratch::atLeast(scratch.codes, nj * maxNx);
+        // Per row of the group, from the row pass: per non-zero coefficient the sign context | negative << 16,
+        // per coefficient with raw bits those bits with a 1 above them.
         std::uint32_t* const signCodes = EncoderScratch::atLeast(scratch.signCodes, nj * maxNx);
         std::uint32_t* const rawCodes = EncoderScratch::atLeast(scratch.rawCodes, nj * maxNx);
-
+        std::size_t minNx = maxNx;
+        for (std::size_t i = 0; i < nj; ++i)
+            minNx = std::min(minNx, jobs[i].nx);
         std::uint32_t all = 0;
+        std::size_t tail = minNx * nj; // where the part of the row past minNx goes
+        std::size_t rawCount[kMaxLanes];
         for (std::size_t i = 0; i < nj; ++i) {
             RowJob& j = jobs[i];
-            RansEvent* code = codeBuffer + i * maxNx;
+            const SymbolSlots slots{next, nj, i, minNx, tail - minNx};
+            tail += j.nx - minNx;
 #ifdef VOLCL_DENSE_SIMD
             if (simd)
-                j.count = encodeRowSimd(j, code, signCodes + i * maxNx, rawCodes + i * maxNx, all);
+                j.count = encodeRowSimd(j, slots, signCodes + i * maxNx, rawCodes + i * maxNx, rawCount[i], all);
             else
 #endif
-                j.count = encodeRow(j, code, signCodes + i * maxNx, rawCodes + i * maxNx, all);
+                j.count = encodeRow(j, slots, signCodes + i * maxNx, rawCodes + i * maxNx, rawCount[i], all);
         }
         // Before the counts are indexed with the symbols.
         if (all >> kMaxBitLength) throw Error("internal: wavelet coefficient magnitude out of range");
-        for (std::size_t i = 0; i < nj; ++i) {
-            // Two histograms taken in turn: runs of one code (mostly zeros) would otherwise chain every
-            // increment to the previous one through memory.
-            const RansEvent* code = codeBuffer + i * maxNx;
-            const std::size_t nx = jobs[i].nx;
-            std::size_t x = 0;
-            for (; x + 1 < nx; x += 2) {
-                ++counts[0][code[x] & kEventFieldMask];
-                ++counts[1][code[x + 1] & kEventFieldMask];
-            }
-            if (x < nx) ++counts[0][code[x] & kEventFieldMask];
+        // Two histograms taken in turn: runs of one code (mostly zeros) would otherwise chain every
+        // increment to the previous one through memory.
+        std::size_t k = 0;
+        for (; k + 1 < tail; k += 2) {
+            ++counts[0][next[k] & kEventFieldMask];
+            ++counts[1][next[k + 1] & kEventFieldMask];
         }
-        RansEvent* ev = next;
-        interleaveSymbols(jobs, nj, [&](std::size_t i, std::size_t x) { *ev++ = codeBuffer[i * maxNx + x]; });
-        next = ev;
+        if (k < tail) ++counts[0][next[k] & kEventFieldMask];
+        next += tail;
         // Sign events straight in the decoder's interleaved order (the n-th non-zero coefficient of each row
         // in turn), without jumps: steps past a row's count code a dummy model and leave no event (the
         // store lands where the next event goes). Rows of a group use disjoint sign models, so their model
         // chains are independent and overlap.
         std::size_t maxCount = 0;
-        for (std::size_t i = 0; i < nj; ++i)
+        std::size_t rowCount[kMaxLanes];
+        unsigned rowLane[kMaxLanes];
+        for (std::size_t i = 0; i < nj; ++i) {
+            rowCount[i] = jobs[i].count;
+            rowLane[i] = jobs[i].lane;
             maxCount = std::max(maxCount, jobs[i].count);
+        }
         BitModel dummy;
-        ev = next;
+        RansEvent* ev = next;
+#ifdef VOLCL_DENSE_SIMD
+        if (simd)
+            ev = signEventsSimd(rowCount, rowLane, nj, maxCount, signCodes, maxNx, model.signs.data(), ev);
+        else
+#endif
         for (std::size_t n = 0; n < maxCount; ++n)
             for (std::size_t i = 0; i < nj; ++i) {
-                const bool valid = n < jobs[i].count;
+                const bool valid = n < rowCount[i];
                 const std::uint32_t sc = signCodes[i * maxNx + n];
                 BitModel& m = valid ? model.signs[sc & 0xFFFF] : dummy;
-                *ev = binaryEvent(m, sc >> 16, jobs[i].lane);
+                *ev = binaryEvent(m, sc >> 16, rowLane[i]);
                 ev += valid;
             }
         next = ev;
         for (std::size_t i = 0; i < nj; ++i)
-            raw.put(rawCodes + i * maxNx, jobs[i].count);
+            raw.put(rawCodes + i * maxNx, rawCount[i]);
     }
 };
 
