@@ -305,6 +305,12 @@ TEST(Entropy, DamagedSectionsAreRejectedWithoutCrashing) {
     }
 }
 
+TEST(Entropy, SimdEncoderArithmeticEqualsTheTables) {
+    // The SIMD encoder computes by lzcnt arithmetic what the scalar coder looks up: magnitude symbols,
+    // the previous symbol's share W of the activity, activity classes (including u32 sums past 2^31).
+    EXPECT_TRUE(denseEncoderArithmeticMatchesTables());
+}
+
 TEST(Entropy, DenseDecodersAgreeOnEveryLaneCountAndRaggedRows) {
     // Sections of 1..7 subbands (sizes 1 along an axis have no high band there), odd sizes whose low and
     // high bands differ by one column or row, sparse data (many zero rows, so row groups of every size and

@@ -998,6 +998,68 @@ bool rowIsZeroSimd(const std::int32_t* row, std::size_t nx) {
     return true;
 }
 
+// The scalar coder's table lookups as arithmetic on 16 lanes (checked against the tables for every input
+// class by denseEncoderArithmeticMatchesTables). symbolOf: 2 sh + (u >> sh), sh = max(k - 1, 0),
+// k = floor(log2 max(u, 1)).
+VOLCL_SIMD_ENCODER_TARGET inline __m512i symbolsOf(__m512i u) {
+    const __m512i one = _mm512_set1_epi32(1);
+    const __m512i k = _mm512_sub_epi32(_mm512_set1_epi32(31), _mm512_lzcnt_epi32(_mm512_or_si512(u, one)));
+    const __m512i sh = _mm512_max_epi32(_mm512_sub_epi32(k, one), _mm512_setzero_si512());
+    return _mm512_add_epi32(_mm512_add_epi32(sh, sh), _mm512_srlv_epi32(u, sh));
+}
+// kSymbolInfo.west[p] = 4 base(p) = min(p, 2 | (p & 1)) << max(p / 2 + 1, 2).
+VOLCL_SIMD_ENCODER_TARGET inline __m512i westOf(__m512i p) {
+    const __m512i one = _mm512_set1_epi32(1), two = _mm512_set1_epi32(2);
+    return _mm512_sllv_epi32(_mm512_min_epu32(p, _mm512_or_si512(_mm512_and_si512(p, one), two)),
+                             _mm512_max_epu32(_mm512_add_epi32(_mm512_srli_epi32(p, 1), one), two));
+}
+// activityContext(a): 2n + 1 + (the bit below the leading one) for bit length n + 1 >= 2, written
+// 61 - 2 lz + (a >> (30 - lz)); a < 2 is its own class (the shift count is then out of range and gives 0);
+// capped at 24.
+VOLCL_SIMD_ENCODER_TARGET inline __m512i activityClassesOf(__m512i a) {
+    const __m512i lz = _mm512_lzcnt_epi32(a);
+    const __m512i cls = _mm512_add_epi32(_mm512_sub_epi32(_mm512_set1_epi32(61), _mm512_add_epi32(lz, lz)),
+                                         _mm512_srlv_epi32(a, _mm512_sub_epi32(_mm512_set1_epi32(30), lz)));
+    return _mm512_min_epi32(_mm512_max_epi32(cls, _mm512_min_epu32(a, _mm512_set1_epi32(1))),
+                            _mm512_set1_epi32(kActivityContexts - 1));
+}
+
+// Inputs that cover every class of symbolsOf (u below 2^16, and 2^k - 1, 2^k, 2^k + 2^(k-1) - 1 and
+// 2^k + 2^(k-1) up to 2^31) and of activityClassesOf (a below 2^16, the same boundaries, 2^32 - 1), each
+// compared with the tables; W for every symbol.
+VOLCL_SIMD_ENCODER_TARGET bool arithmeticMatchesTables() {
+    std::vector<std::uint32_t> in;
+    for (std::uint32_t v = 0; v < (1u << 16); ++v)
+        in.push_back(v);
+    for (int k = 1; k < 32; ++k) {
+        const std::uint32_t p = 1u << k, h = p >> 1;
+        for (const std::uint32_t v : {p - 1, p, p + h - 1, p + h})
+            in.push_back(v);
+    }
+    in.push_back(0xFFFFFFFFu);
+    while (in.size() % 16)
+        in.push_back(0);
+    alignas(64) std::uint32_t sym[16], cls[16], west[16];
+    for (std::size_t i = 0; i < in.size(); i += 16) {
+        const __m512i v = _mm512_loadu_si512(in.data() + i);
+        _mm512_store_si512(sym, symbolsOf(v));
+        _mm512_store_si512(cls, activityClassesOf(v));
+        for (std::size_t k = 0; k < 16; ++k) {
+            const std::uint32_t u = in[i + k];
+            if (u < (1u << kMaxBitLength) && sym[k] != static_cast<std::uint32_t>(symbolOf(u))) return false;
+            if (cls[k] != static_cast<std::uint32_t>(activityContext(u))) return false;
+        }
+    }
+    for (std::uint32_t p = 0; p < 64; p += 16) {
+        _mm512_store_si512(west, westOf(_mm512_add_epi32(_mm512_set1_epi32(static_cast<int>(p)),
+                                                         _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11,
+                                                                           12, 13, 14, 15))));
+        for (std::uint32_t k = 0; k < 16; ++k)
+            if (p + k < kSymbols && west[k] != kSymbolInfo.west[p + k]) return false;
+    }
+    return true;
+}
+
 // encodeRow 16 coefficients at a time (same outputs): the symbol and the previous one (a shifted vector),
 // W and the activity class by arithmetic (lzcnt) where encodeRow reads tables, the per non-zero outputs
 // by compressing stores.
@@ -1005,8 +1067,6 @@ VOLCL_SIMD_ENCODER_TARGET
 std::size_t encodeRowSimd(const RowJob& j, const SymbolSlots& slots, std::uint32_t* signs, std::uint32_t* raws,
                           std::size_t& rawCount, std::uint32_t& all) {
     const __m512i zero = _mm512_setzero_si512(), one = _mm512_set1_epi32(1), two = _mm512_set1_epi32(2),
-                  c31 = _mm512_set1_epi32(31), c30 = _mm512_set1_epi32(30), c61 = _mm512_set1_epi32(61),
-                  maxClass = _mm512_set1_epi32(kActivityContexts - 1),
                   laneBits = _mm512_set1_epi32(static_cast<int>(j.lane << kEventLaneShift)),
                   negBit = _mm512_set1_epi32(1 << 16);
     __m512i prevSym = zero, prevSign = zero, any = zero;
@@ -1025,24 +1085,13 @@ std::size_t encodeRowSimd(const RowJob& j, const SymbolSlots& slots, std::uint32
         const __m512i v = _mm512_maskz_loadu_epi32(valid, j.row + x);
         const __m512i u = _mm512_abs_epi32(v);
         any = _mm512_or_si512(any, u);
-        // symbol = 2 sh + (u >> sh), sh = max(k - 1, 0), k = floor(log2 max(u, 1))
-        const __m512i k = _mm512_sub_epi32(c31, _mm512_lzcnt_epi32(_mm512_or_si512(u, one)));
-        const __m512i sh = _mm512_max_epi32(_mm512_sub_epi32(k, one), zero);
-        const __m512i sym = _mm512_add_epi32(_mm512_add_epi32(sh, sh), _mm512_srlv_epi32(u, sh));
-        // W of the previous symbol p: 4 base(p) = min(p, 2 | (p & 1)) << max(p / 2 + 1, 2)
-        const __m512i p = _mm512_alignr_epi32(sym, prevSym, 15);
+        const __m512i sym = symbolsOf(u);
+        // W from the previous symbol (the previous lane, or the last of the previous step), the activity
+        // sum in u32 as the scalar one.
+        const __m512i west = westOf(_mm512_alignr_epi32(sym, prevSym, 15));
         prevSym = sym;
-        const __m512i west =
-            _mm512_sllv_epi32(_mm512_min_epu32(p, _mm512_or_si512(_mm512_and_si512(p, one), two)),
-                              _mm512_max_epu32(_mm512_add_epi32(_mm512_srli_epi32(p, 1), one), two));
-        // Class of a (u32 sum, as the scalar one): 2n + 1 + (the bit below the leading one) for bit length
-        // n + 1 >= 2, written 61 - 2 lz + (a >> (30 - lz)); a < 2 is its own class (the shift count is then
-        // out of range and gives 0); capped at 24.
-        const __m512i a = _mm512_add_epi32(_mm512_maskz_loadu_epi32(valid, j.activity + x), west);
-        const __m512i lz = _mm512_lzcnt_epi32(a);
-        __m512i cls = _mm512_add_epi32(_mm512_sub_epi32(c61, _mm512_add_epi32(lz, lz)),
-                                       _mm512_srlv_epi32(a, _mm512_sub_epi32(c30, lz)));
-        cls = _mm512_min_epi32(_mm512_max_epi32(cls, _mm512_min_epu32(a, one)), maxClass);
+        const __m512i cls =
+            activityClassesOf(_mm512_add_epi32(_mm512_maskz_loadu_epi32(valid, j.activity + x), west));
         const __m512i slot = _mm512_mask_add_epi32(interleaved, _mm512_cmpge_epu32_mask(xs, minNx), xs, tail);
         _mm512_mask_i32scatter_epi32(slots.events, valid, slot,
                                      _mm512_or_si512(_mm512_add_epi32(_mm512_slli_epi32(cls, 6), sym), laneBits), 4);
@@ -1704,6 +1753,12 @@ void setDenseDecoderScalar(bool force) noexcept {
 }
 bool denseDecoderIsScalar() noexcept {
     return !cpuHasDenseSimd() || gForceScalar.load(std::memory_order_relaxed);
+}
+bool denseEncoderArithmeticMatchesTables() {
+#ifdef VOLCL_DENSE_SIMD
+    if (cpuHasDenseSimd()) return arithmeticMatchesTables();
+#endif
+    return true;
 }
 void setDenseEncoderScalar(bool force) noexcept {
     gForceScalarEncoder.store(force, std::memory_order_relaxed);
