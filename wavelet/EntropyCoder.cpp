@@ -1245,6 +1245,7 @@ struct EncodeSide {
     // Symbol counts per context * 64 + symbol, in two halves (see rows()), summed by encodeDense().
     std::array<std::array<std::uint32_t, kActivityContexts * 64>, 2> counts{};
     RawWriter raw{scratch.raw};
+    std::uintptr_t previousRow[kMaxLanes] = {}; // per lane, the row of its last row flag
     bool simd = false; // encodeRowSimd instead of encodeRow
 
     /// The event of an adaptive binary decision; updates the model.
@@ -1259,6 +1260,13 @@ struct EncodeSide {
         *next++ = binaryEvent(m, bit, lane);
     }
     bool rowFlag(unsigned lane, unsigned rctx, const std::int32_t* row, std::size_t nx) {
+        // The lane's next row is likely as far on as this one from its previous row: fetch it now (the
+        // walker visits up to 7 subbands' rows in turn, a pattern the hardware prefetchers miss).
+        const auto at = reinterpret_cast<std::uintptr_t>(row);
+        const std::uintptr_t ahead = at + (at - previousRow[lane]);
+        previousRow[lane] = at;
+        for (std::uintptr_t line = 0; line < 4 * nx; line += 64)
+            __builtin_prefetch(reinterpret_cast<const void*>(ahead + line));
         bool zero = true;
 #ifdef VOLCL_DENSE_SIMD
         if (simd)
