@@ -2,7 +2,7 @@
 // single coefficient, extreme magnitudes, tiny and odd subbands) and fuzzing of decodeSection with
 // truncated, bit-flipped and random sections (IoError or a clean result, never a crash); every dense decode
 // runs both the scalar and the SIMD decoder (where the CPU has it), which must agree, and every dense
-// encode both encoders, which must write the same bytes. The entropy-only
+// encode (encodeAll) both encoders, which must write the same bytes. The entropy-only
 // speed benchmark is bench/entropy_speed.cpp.
 #include "host/Error.hpp"
 #include "wavelet/EntropyCoder.hpp"
@@ -29,15 +29,6 @@ struct Coded {
     std::vector<std::vector<std::uint8_t>> sections;
 };
 
-Coded encodeAll(const std::vector<std::int32_t>& c, Dims d, int levels, EntropyMode mode) {
-    const auto layout = sectionLayout(d, levels);
-    Coded out;
-    out.sections.resize(layout.size());
-    for (std::size_t s = 0; s < layout.size(); ++s)
-        encodeSection(c, d, layout, s, mode, out.sections[s]);
-    return out;
-}
-
 // Forces the scalar dense decoder while it lives (the SIMD one is the default where the CPU has it).
 struct ScalarDecoder {
     explicit ScalarDecoder(bool on) : before(denseDecoderIsScalar()) { setDenseDecoderScalar(on); }
@@ -51,6 +42,25 @@ struct ScalarEncoder {
     ~ScalarEncoder() { setDenseEncoderScalar(before); }
     bool before;
 };
+
+Coded encodeAllWith(const std::vector<std::int32_t>& c, Dims d, int levels, EntropyMode mode, bool scalar) {
+    const ScalarEncoder path(scalar);
+    const auto layout = sectionLayout(d, levels);
+    Coded out;
+    out.sections.resize(layout.size());
+    for (std::size_t s = 0; s < layout.size(); ++s)
+        encodeSection(c, d, layout, s, mode, out.sections[s]);
+    return out;
+}
+
+// Encodes with the default encoder; dense sections also with the scalar one, which must write the same bytes.
+Coded encodeAll(const std::vector<std::int32_t>& c, Dims d, int levels, EntropyMode mode) {
+    const Coded coded = encodeAllWith(c, d, levels, mode, false);
+    if (mode == EntropyMode::Dense)
+        EXPECT_EQ(coded.sections, encodeAllWith(c, d, levels, mode, true).sections)
+            << "scalar and SIMD dense encoders differ";
+    return coded;
+}
 
 std::vector<std::int32_t> decodeAllWith(const Coded& coded, Dims d, int levels, EntropyMode mode,
                                         bool scalar) {
@@ -78,11 +88,6 @@ void expectRoundTrip(const std::vector<std::int32_t>& c, Dims d, int levels, Ent
     EXPECT_EQ(c, copy) << "encoder modified its input";
     const Coded b = encodeAll(c, d, levels, mode);
     EXPECT_EQ(a.sections, b.sections) << "encoding is not deterministic";
-    if (mode == EntropyMode::Dense) {
-        const ScalarEncoder path(true);
-        const Coded scalar = encodeAll(c, d, levels, mode);
-        EXPECT_EQ(a.sections, scalar.sections) << "scalar and SIMD dense encoders differ";
-    }
     const auto decoded = decodeAll(a, d, levels, mode);
     ASSERT_EQ(decoded.size(), c.size());
     std::size_t mismatches = 0;
@@ -217,12 +222,14 @@ TEST(Entropy, DequantisedDecodingEqualsDequantiseRow) {
 TEST(Entropy, DenseRefusesOutOfRangeMagnitudes) {
     const Dims d{4, 4, 4};
     const auto layout = sectionLayout(d, 0);
-    for (std::int32_t v : {kMaxMagnitude + 1, -kMaxMagnitude - 1, INT32_MIN}) {
-        std::vector<std::int32_t> c(d.count(), 0);
-        c[5] = v;
-        std::vector<std::uint8_t> out;
-        EXPECT_THROW(encodeSection(c, d, layout, 0, EntropyMode::Dense, out), Error);
-    }
+    for (std::int32_t v : {kMaxMagnitude + 1, -kMaxMagnitude - 1, INT32_MIN})
+        for (const bool scalar : {false, true}) {
+            const ScalarEncoder path(scalar);
+            std::vector<std::int32_t> c(d.count(), 0);
+            c[5] = v;
+            std::vector<std::uint8_t> out;
+            EXPECT_THROW(encodeSection(c, d, layout, 0, EntropyMode::Dense, out), Error);
+        }
 }
 
 TEST(Entropy, DenseIsSmallerThanFastOnCorrelatedData) {
