@@ -2,9 +2,10 @@
 // CPU time, median of 5. Reads the coefficients of each .vcz file given (entropy decoded with the file's own
 // mode), then times encode and decode of every section and checks the round trip; with --fast, lossy files
 // decode through decodeSections with dequantisation, as the codec does. Timings live here, not in tests.
-// When the SIMD dense decoder is selected, each brick is also decoded with the scalar one
-// (VOLCL_DENSE_SCALAR=1 measures the scalar one alone, VOLCL_BENCH_SIMD_ONLY=1 the SIMD one alone, e.g. for a
-// profile).
+// When the SIMD dense coder is selected, each brick is also encoded and decoded with the scalar one (the
+// encoders must write the same bytes; VOLCL_DENSE_SCALAR=1 measures the scalar ones alone,
+// VOLCL_BENCH_SIMD_ONLY=1 the SIMD ones alone, e.g. for a profile; VOLCL_BENCH_ENCODE_ONLY=1 skips the timed
+// decodes, for profiles and counters of the encoder).
 #include "host/Error.hpp"
 #include "wavelet/EntropyCoder.hpp"
 #include "wavelet/VczFormat.hpp"
@@ -86,8 +87,9 @@ int main(int argc, char** argv) try {
             argv[0]);
         return 2;
     }
-    const bool forcedScalar = denseDecoderIsScalar();
+    const bool forcedScalar = denseDecoderIsScalar(), encoderForcedScalar = denseEncoderIsScalar();
     const bool compare = !fast && !forcedScalar && !std::getenv("VOLCL_BENCH_SIMD_ONLY");
+    const bool encodeOnly = std::getenv("VOLCL_BENCH_ENCODE_ONLY") != nullptr;
     for (int arg = 1 + int(fast); arg < argc; ++arg) {
         const std::string path = argv[arg];
         const CodedVolume v = readCoefficients(path);
@@ -95,7 +97,7 @@ int main(int argc, char** argv) try {
         for (const auto& c : v.coeffs)
             n += c.size();
         std::vector<std::vector<std::vector<std::uint8_t>>> coded(v.coeffs.size());
-        std::vector<double> enc, dec, decScalar, ratio;
+        std::vector<double> enc, dec, decScalar, ratio, encScalar, encRatio;
         // Reference output: the coefficients, dequantised when the decoder dequantises.
         const Dequantiser dq{v.steps, v.bias};
         const Dequantiser* dqp = fast && v.lossy ? &dq : nullptr;
@@ -109,19 +111,34 @@ int main(int argc, char** argv) try {
                             dequantiseRow(r, reinterpret_cast<float*>(r), x.x1 - x.x0, dq.step(x), dq.bias);
                         }
         for (int rep = 0; rep < 5; ++rep) {
-            double t0 = threadSeconds();
+            // Encoders alternate per brick like the decoders below.
+            double t0 = 0, eSimd = 0, eScalar = 0;
             for (std::size_t b = 0; b < v.coeffs.size(); ++b) {
                 const auto layout = sectionLayout(v.dims[b], v.levels);
-                coded[b].assign(layout.size(), {});
-                for (std::size_t s = 0; s < layout.size(); ++s)
-                    encodeSection(v.coeffs[b], v.dims[b], layout, s, mode, coded[b][s]);
+                std::vector<std::vector<std::uint8_t>> other;
+                for (int k = 0; k < (compare ? 2 : 1); ++k) {
+                    const bool scalar =
+                        encoderForcedScalar || (compare && ((b + static_cast<std::size_t>(k)) & 1) != 0);
+                    setDenseEncoderScalar(scalar);
+                    auto& dst = k == 0 ? coded[b] : other;
+                    dst.assign(layout.size(), {});
+                    t0 = threadSeconds();
+                    for (std::size_t s = 0; s < layout.size(); ++s)
+                        encodeSection(v.coeffs[b], v.dims[b], layout, s, mode, dst[s]);
+                    (scalar && compare ? eScalar : eSimd) += threadSeconds() - t0;
+                }
+                if (compare && other != coded[b])
+                    throw Error(path + ": scalar and SIMD encoders differ in brick " + std::to_string(b));
             }
-            enc.push_back(threadSeconds() - t0);
+            setDenseEncoderScalar(encoderForcedScalar);
+            enc.push_back(eSimd);
+            if (compare) encScalar.push_back(eScalar);
+            if (compare) encRatio.push_back(eScalar / eSimd);
             // Only the decoding is timed (the codec decodes into a batch slot that it does not clear). With
             // the SIMD dense decoder selected, each brick is decoded by both decoders in turn (the first one
             // alternating): the machine is shared, and load changes over a run would bias whole-run pairs.
             double tSimd = 0, tScalar = 0;
-            for (std::size_t b = 0; b < v.coeffs.size(); ++b) {
+            for (std::size_t b = 0; b < v.coeffs.size() && !encodeOnly; ++b) {
                 const auto layout = sectionLayout(v.dims[b], v.levels);
                 const std::vector<std::span<const std::uint8_t>> spans(coded[b].begin(), coded[b].end());
                 for (int k = 0; k < (compare ? 2 : 1); ++k) {
@@ -150,12 +167,27 @@ int main(int argc, char** argv) try {
         std::sort(enc.begin(), enc.end());
         std::sort(dec.begin(), dec.end());
         // On a shared machine the best run is the steadier guide to a code change; the median is printed too.
-        std::printf("%s: %zu coefficients, %zu bytes (ratio %.4f), %s encode %.1f / decode %.1f Mcoef/s "
-                    "(best %.1f / %.1f)\n",
-                    path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes), fast ? "fast" : "dense",
-                    double(n) / enc[2] / 1e6, double(n) / dec[2] / 1e6, double(n) / enc[0] / 1e6,
-                    double(n) / dec[0] / 1e6);
+        if (encodeOnly)
+            std::printf("%s: %zu coefficients, %zu bytes (ratio %.4f), %s encode %.1f Mcoef/s (best %.1f), "
+                        "decoding skipped\n",
+                        path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes), fast ? "fast" : "dense",
+                        double(n) / enc[2] / 1e6, double(n) / enc[0] / 1e6);
+        else
+            std::printf("%s: %zu coefficients, %zu bytes (ratio %.4f), %s encode %.1f / decode %.1f Mcoef/s "
+                        "(best %.1f / %.1f)\n",
+                        path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes), fast ? "fast" : "dense",
+                        double(n) / enc[2] / 1e6, double(n) / dec[2] / 1e6, double(n) / enc[0] / 1e6,
+                        double(n) / dec[0] / 1e6);
         if (compare) {
+            std::sort(encScalar.begin(), encScalar.end());
+            std::sort(encRatio.begin(), encRatio.end());
+            std::printf(
+                "  scalar encoder alternating: %.1f Mcoef/s (best %.1f); SIMD speed-up per pair: median "
+                "%.2fx (%.2f-%.2f)\n",
+                double(n) / encScalar[2] / 1e6, double(n) / encScalar[0] / 1e6, encRatio[2], encRatio[0],
+                encRatio[4]);
+        }
+        if (compare && !encodeOnly) {
             std::sort(decScalar.begin(), decScalar.end());
             std::sort(ratio.begin(), ratio.end());
             std::printf(

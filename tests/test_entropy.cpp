@@ -1,7 +1,8 @@
 // Entropy coder tests: bit-exact round trips of coefficient sections in both modes (random, all-zero,
 // single coefficient, extreme magnitudes, tiny and odd subbands) and fuzzing of decodeSection with
 // truncated, bit-flipped and random sections (IoError or a clean result, never a crash); every dense decode
-// runs both the scalar and the SIMD decoder (where the CPU has it), which must agree. The entropy-only
+// runs both the scalar and the SIMD decoder (where the CPU has it), which must agree, and every dense
+// encode (encodeAll) both encoders, which must write the same bytes. The entropy-only
 // speed benchmark is bench/entropy_speed.cpp.
 #include "host/Error.hpp"
 #include "wavelet/EntropyCoder.hpp"
@@ -28,7 +29,22 @@ struct Coded {
     std::vector<std::vector<std::uint8_t>> sections;
 };
 
-Coded encodeAll(const std::vector<std::int32_t>& c, Dims d, int levels, EntropyMode mode) {
+// Forces the scalar dense decoder while it lives (the SIMD one is the default where the CPU has it).
+struct ScalarDecoder {
+    explicit ScalarDecoder(bool on) : before(denseDecoderIsScalar()) { setDenseDecoderScalar(on); }
+    ~ScalarDecoder() { setDenseDecoderScalar(before); }
+    bool before;
+};
+
+// Forces the scalar dense encoder while it lives (the SIMD one is the default where the CPU has it).
+struct ScalarEncoder {
+    explicit ScalarEncoder(bool on) : before(denseEncoderIsScalar()) { setDenseEncoderScalar(on); }
+    ~ScalarEncoder() { setDenseEncoderScalar(before); }
+    bool before;
+};
+
+Coded encodeAllWith(const std::vector<std::int32_t>& c, Dims d, int levels, EntropyMode mode, bool scalar) {
+    const ScalarEncoder path(scalar);
     const auto layout = sectionLayout(d, levels);
     Coded out;
     out.sections.resize(layout.size());
@@ -37,12 +53,14 @@ Coded encodeAll(const std::vector<std::int32_t>& c, Dims d, int levels, EntropyM
     return out;
 }
 
-// Forces the scalar dense decoder while it lives (the SIMD one is the default where the CPU has it).
-struct ScalarDecoder {
-    explicit ScalarDecoder(bool on) : before(denseDecoderIsScalar()) { setDenseDecoderScalar(on); }
-    ~ScalarDecoder() { setDenseDecoderScalar(before); }
-    bool before;
-};
+// Encodes with the default encoder; dense sections also with the scalar one, which must write the same bytes.
+Coded encodeAll(const std::vector<std::int32_t>& c, Dims d, int levels, EntropyMode mode) {
+    const Coded coded = encodeAllWith(c, d, levels, mode, false);
+    if (mode == EntropyMode::Dense)
+        EXPECT_EQ(coded.sections, encodeAllWith(c, d, levels, mode, true).sections)
+            << "scalar and SIMD dense encoders differ";
+    return coded;
+}
 
 std::vector<std::int32_t> decodeAllWith(const Coded& coded, Dims d, int levels, EntropyMode mode,
                                         bool scalar) {
@@ -204,12 +222,14 @@ TEST(Entropy, DequantisedDecodingEqualsDequantiseRow) {
 TEST(Entropy, DenseRefusesOutOfRangeMagnitudes) {
     const Dims d{4, 4, 4};
     const auto layout = sectionLayout(d, 0);
-    for (std::int32_t v : {kMaxMagnitude + 1, -kMaxMagnitude - 1, INT32_MIN}) {
-        std::vector<std::int32_t> c(d.count(), 0);
-        c[5] = v;
-        std::vector<std::uint8_t> out;
-        EXPECT_THROW(encodeSection(c, d, layout, 0, EntropyMode::Dense, out), Error);
-    }
+    for (std::int32_t v : {kMaxMagnitude + 1, -kMaxMagnitude - 1, INT32_MIN})
+        for (const bool scalar : {false, true}) {
+            const ScalarEncoder path(scalar);
+            std::vector<std::int32_t> c(d.count(), 0);
+            c[5] = v;
+            std::vector<std::uint8_t> out;
+            EXPECT_THROW(encodeSection(c, d, layout, 0, EntropyMode::Dense, out), Error);
+        }
 }
 
 TEST(Entropy, DenseIsSmallerThanFastOnCorrelatedData) {
@@ -290,6 +310,12 @@ TEST(Entropy, DamagedSectionsAreRejectedWithoutCrashing) {
             decodeDamaged(junk, d, levels, s, mode, std::vector<std::int32_t>(d.count(), 0));
         }
     }
+}
+
+TEST(Entropy, SimdEncoderArithmeticEqualsTheTables) {
+    // The SIMD encoder computes by lzcnt arithmetic what the scalar coder looks up: magnitude symbols,
+    // the previous symbol's share W of the activity, activity classes (including u32 sums past 2^31).
+    EXPECT_TRUE(denseEncoderArithmeticMatchesTables());
 }
 
 TEST(Entropy, DenseDecodersAgreeOnEveryLaneCountAndRaggedRows) {

@@ -109,6 +109,58 @@ private:
     int fill_ = 0;
 };
 
+// The encoder's raw mantissa bits, the same bytes as BitWriter without its jump: each put stores 8 bytes
+// and advances by the whole bytes filled. Values come with a 1 above their bits, which gives their length.
+class RawWriter {
+public:
+    /// Writes into `bytes` from its start (its size is only grown).
+    explicit RawWriter(std::vector<std::uint8_t>& bytes) : bytes_(bytes) {}
+    /// Room for n more values.
+    void reserve(std::size_t n) {
+        const std::size_t need = pos_ + 4 * n + 16;
+        if (bytes_.size() < need) bytes_.resize(std::max(need, 2 * bytes_.size()));
+    }
+    /// `count` values, each 1 << n | (n bits to write) with n <= 28, two per store: the 8-byte
+    /// accumulator takes the fill (< 8 bits) and 56 more. State in locals: the byte stores may alias the
+    /// members.
+    void put(const std::uint32_t* codes, std::size_t count) {
+        reserve(count);
+        std::uint8_t* const out = bytes_.data();
+        std::size_t pos = pos_;
+        std::uint64_t acc = acc_;
+        unsigned fill = fill_;
+        for (std::size_t n = 0; n < count; n += 2) {
+            const std::uint32_t code0 = codes[n], code1 = n + 1 < count ? codes[n + 1] : 1u;
+            const unsigned n0 = 31u - static_cast<unsigned>(__builtin_clz(code0)); // codes are >= 1
+            const unsigned n1 = 31u - static_cast<unsigned>(__builtin_clz(code1));
+            const std::uint64_t bits = (code0 ^ (1u << n0)) | std::uint64_t(code1 ^ (1u << n1)) << n0;
+            acc |= bits << fill;
+            fill += n0 + n1;
+            std::memcpy(out + pos, &acc, 8);
+            const unsigned whole = fill >> 3; // at most 7
+            pos += whole;
+            acc >>= 8 * whole;
+            fill &= 7;
+        }
+        pos_ = pos;
+        acc_ = acc;
+        fill_ = fill;
+    }
+    std::span<const std::uint8_t> finish() {
+        reserve(0);
+        if (fill_ > 0) bytes_[pos_++] = static_cast<std::uint8_t>(acc_);
+        acc_ = 0;
+        fill_ = 0;
+        return {bytes_.data(), pos_};
+    }
+
+private:
+    std::vector<std::uint8_t>& bytes_;
+    std::size_t pos_ = 0;
+    std::uint64_t acc_ = 0;
+    unsigned fill_ = 0;
+};
+
 // Reads up to 32 bits at a time; past the end it delivers zeros and remembers the overrun.
 class BitReader {
 public:
@@ -217,11 +269,21 @@ bool getVarint(std::span<const std::uint8_t> in, std::size_t& pos, std::uint64_t
     return false;
 }
 
-// One coded decision: slots [start, start + freq) out of 2^scaleBits, on state `lane`.
-struct RansEvent {
-    std::uint16_t start, freq;
-    std::uint8_t scaleBits, lane;
-};
+// One coded decision, packed in 4 bytes (the encoder keeps a section's events, up to ~2 MB with 6-byte
+// ones, beside the 1 MB brick in L2): slots [start, start + freq) out of 2^scaleBits on state `lane`.
+// Bits 0-11 start, 12-24 freq, bit 25 set for the 12-bit scale of binary decisions (else 11 bits, the
+// tables'), bits 29-31 the lane. A pending magnitude symbol has freq 0 and its code (context * 64 +
+// symbol, below 1600) in the start bits; the lane in the top bits lets the SIMD pass find groups of
+// distinct lanes with one shift.
+using RansEvent = std::uint32_t;
+constexpr int kEventFreqShift = 12, kEventBinaryShift = 25, kEventLaneShift = 29;
+constexpr RansEvent kEventFieldMask = 0xFFF, kEventFreqMask = 0x1FFF;
+constexpr RansEvent ransEvent(std::uint32_t start, std::uint32_t freq, bool binary, unsigned lane) {
+    return start | freq << kEventFreqShift | std::uint32_t(binary) << kEventBinaryShift | lane << kEventLaneShift;
+}
+constexpr RansEvent pendingEvent(std::uint32_t code, unsigned lane) {
+    return code | lane << kEventLaneShift;
+}
 
 // Encodes events given in decoding order; the rANS encoder runs backwards, so they are collected first.
 // Appends the stream to `out`.
@@ -235,38 +297,71 @@ constexpr std::array<std::uint64_t, 4097> kReciprocal = [] {
         r[f] = ~std::uint64_t(0) / f + 1;
     return r;
 }();
-// Events with scaleBits 0 are pending magnitude symbols: resolve(e) gives their slots.
-template <class Resolve>
-void ransEncode(std::span<const RansEvent> events, int lanes, Resolve&& resolve, std::vector<std::uint8_t>& out) {
-    std::vector<std::uint16_t> words(events.size() + 1);
-    std::uint16_t* w = words.data();
+// The encoder's buffers, per thread and reused across sections: they only grow, so that a section costs
+// no allocation, page faults or zero fill (per section they were several percent of the encoder's time).
+struct EncoderScratch {
+    std::vector<RansEvent> events;
+    std::vector<std::uint32_t> signCodes, rawCodes, starts;
+    std::vector<std::uint16_t> words;
+    std::vector<std::uint8_t> raw;
+    template <class T> static T* atLeast(std::vector<T>& v, std::size_t n) {
+        if (v.size() < n) v.resize(std::max(n, v.size() + v.size() / 2));
+        return v.data();
+    }
+};
+EncoderScratch& encoderScratch() {
+    thread_local EncoderScratch s;
+    return s;
+}
+// The encoder's word buffer: filled from the end towards the start (the backward pass meets the words in
+// reverse stream order), so the stream is [first, end) when the pass is done. Room for `words` words and
+// one spare below them.
+struct WordBuffer {
+    std::uint16_t* end;
+    std::uint16_t* first;
+    explicit WordBuffer(std::size_t words)
+        : end(EncoderScratch::atLeast(encoderScratch().words, words + 1) + words + 1), first(end) {}
+};
+// Final states as varints of x - 2^16 (an unused lane costs one byte), then the words.
+void putStream(const std::uint32_t* x, int lanes, const WordBuffer& wb, std::vector<std::uint8_t>& out) {
+    for (int lane = 0; lane < lanes; ++lane)
+        putVarint(out, x[lane] - kRansLow);
+    const std::uint16_t* end = wb.end;
+    const std::size_t base = out.size();
+    out.resize(base + 2 * static_cast<std::size_t>(end - wb.first));
+    std::uint8_t* p = out.data() + base;
+    for (const std::uint16_t* w = wb.first; w < end; ++w, p += 2) {
+        p[0] = static_cast<std::uint8_t>(*w);
+        p[1] = static_cast<std::uint8_t>(*w >> 8);
+    }
+}
+// The scalar backward pass (the reference for the SIMD one). Pending events take their slots from
+// `codeSlots` (per code, an event without lane).
+void ransEncode(std::span<const RansEvent> events, int lanes, const RansEvent* codeSlots,
+                std::vector<std::uint8_t>& out) {
+    WordBuffer wb(events.size());
+    std::uint16_t* w = wb.first;
     std::uint32_t x[kMaxLanes];
     std::fill(x, x + kMaxLanes, kRansLow);
     for (std::size_t k = events.size(); k-- > 0;) {
-        const RansEvent e = events[k].scaleBits == 0 ? resolve(events[k]) : events[k];
-        std::uint32_t s = x[e.lane];
-        const std::uint32_t freq = e.freq;
+        const RansEvent raw = events[k];
+        const unsigned lane = raw >> kEventLaneShift;
+        const RansEvent e = (raw >> kEventFreqShift & kEventFreqMask) == 0 ? codeSlots[raw & kEventFieldMask] : raw;
+        const std::uint32_t start = e & kEventFieldMask, freq = e >> kEventFreqShift & kEventFreqMask;
+        const int scaleBits = kTableScaleBits + static_cast<int>(e >> kEventBinaryShift & 1u);
+        std::uint32_t s = x[lane];
         // At most one 16-bit word per event: states stay below 2^32 and freq >= 1.
-        const bool flush = std::uint64_t(s) >= (std::uint64_t(freq) << (32 - e.scaleBits));
-        *w = static_cast<std::uint16_t>(s);
-        w += flush;
+        const bool flush = std::uint64_t(s) >= (std::uint64_t(freq) << (32 - scaleBits));
+        w[-1] = static_cast<std::uint16_t>(s); // without a flush a later word overwrites it (one spare word)
+        w -= flush;
         s >>= 16 * flush;
         const auto q = freq == 1 ? s
                                  : static_cast<std::uint32_t>(
                                        (static_cast<Uint128>(s) * kReciprocal[freq]) >> 64);
-        x[e.lane] = (q << e.scaleBits) + (s - q * freq) + e.start;
+        x[lane] = (q << scaleBits) + (s - q * freq) + start;
     }
-    words.resize(static_cast<std::size_t>(w - words.data()));
-    // Final states as varints of x - 2^16 (an unused lane costs one byte), then the words.
-    for (int lane = 0; lane < lanes; ++lane)
-        putVarint(out, x[lane] - kRansLow);
-    const std::size_t base = out.size();
-    out.resize(base + 2 * words.size());
-    std::uint8_t* p = out.data() + base;
-    for (std::size_t i = words.size(); i-- > 0; p += 2) {
-        p[0] = static_cast<std::uint8_t>(words[i]);
-        p[1] = static_cast<std::uint8_t>(words[i] >> 8);
-    }
+    wb.first = w;
+    putStream(x, lanes, wb, out);
 }
 
 // Adaptive binary probability of a 0 out of 2^12; shift-5 updates keep it within [31, 4065].
@@ -489,6 +584,14 @@ struct RowJob {
     std::size_t rawCount;
 };
 
+// Where the encoder puts row `row`'s pending symbol events among the `rows` rows of a group, in the
+// decoder's order (interleaveSymbols): x < minNx at events[x * rows + row], the other x at events[tail + x]
+// (after the interleaved part and the ends of the rows before it).
+struct SymbolSlots {
+    RansEvent* events;
+    std::size_t rows, row, minNx, tail;
+};
+
 // Walks section s row by row: at each (slice, row) position it takes that row of every subband of the
 // section (they are independent given the previous section), codes their "all zero" flags, computes each
 // non-zero row's magnitude and sign contexts from the previous row, the previous slice and the parent (no
@@ -663,6 +766,7 @@ constexpr std::uint32_t packedEntry(std::uint32_t bias, std::uint32_t freq, std:
     return bias | freq << 11 | sym << 23;
 }
 
+// The SIMD decoder's instruction sets; the SIMD encoder also needs IFMA (its division).
 bool cpuHasDenseSimd() noexcept {
 #ifdef VOLCL_DENSE_SIMD
     static const bool ok = [] {
@@ -677,11 +781,21 @@ bool cpuHasDenseSimd() noexcept {
     return false;
 #endif
 }
+bool cpuHasDenseEncoderSimd() noexcept {
+#ifdef VOLCL_DENSE_SIMD
+    static const bool ok = cpuHasDenseSimd() && __builtin_cpu_supports("avx512ifma");
+    return ok;
+#else
+    return false;
+#endif
+}
 
 std::atomic<bool> gForceScalar{[] {
     const char* e = std::getenv("VOLCL_DENSE_SCALAR");
     return e != nullptr && *e != '\0' && *e != '0';
 }()};
+// The encoder's switch, apart so that tests can pair either encoder with either decoder.
+std::atomic<bool> gForceScalarEncoder{gForceScalar.load()};
 
 #ifdef VOLCL_DENSE_SIMD
 // GCC 12 reports its own intrinsics' undefined-register idiom (_mm512_undefined_*) as (maybe) uninitialised.
@@ -892,117 +1006,457 @@ void signsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, const std:
 #pragma GCC diagnostic pop
 #endif
 
+#ifdef VOLCL_DENSE_SIMD
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+// The encoder's SIMD functions need IFMA besides the decoder's set (cpuHasDenseEncoderSimd checks for it).
+#define VOLCL_SIMD_ENCODER_TARGET                                                                            \
+    __attribute__((target("avx512f,avx512bw,avx512cd,avx512dq,avx512vl,avx512vbmi2,avx512ifma,bmi,bmi2,"    \
+                          "popcnt,lzcnt")))
+
+// ceil(2^52 / f) for f in [2, 4096]: floor(s m / 2^52) = floor(s / f) for s < 2^32, since s m / 2^52
+// exceeds s / f by less than s / 2^52 < 2^-20 and s / f is at least 1/f >= 2^-12 short of the next
+// integer. One 52-bit multiply-high (vpmadd52huq). For f = 1, 2^52 - 1 gives s - 1 (s >= 1), which the
+// SIMD pass makes up for in the start.
+constexpr std::array<std::uint64_t, 4097> kReciprocal52 = [] {
+    std::array<std::uint64_t, 4097> r{};
+    r[1] = (std::uint64_t(1) << 52) - 1;
+    for (std::uint64_t f = 2; f <= 4096; ++f)
+        r[f] = ((std::uint64_t(1) << 52) + f - 1) / f;
+    return r;
+}();
+
+// Starts of the groups of events[0, n) (maximal runs of strictly increasing lane) into `starts`, n after
+// the last one; returns the group count. Resolves the pending symbols in place on the way (their slots
+// from `codeSlots`, the lane kept). 16 events per step: a boundary is a lane <= the previous event's lane.
+VOLCL_SIMD_ENCODER_TARGET
+std::size_t resolveAndGroup(RansEvent* ev, std::size_t n, const RansEvent* codeSlots, std::uint32_t* starts) {
+    __m512i prev = _mm512_set1_epi32(7); // before the first event: no lane is above it
+    const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    const __m512i freqBits = _mm512_set1_epi32(static_cast<int>(kEventFreqMask << kEventFreqShift)),
+                  fieldMask = _mm512_set1_epi32(kEventFieldMask),
+                  laneBits = _mm512_set1_epi32(static_cast<int>(~0u << kEventLaneShift));
+    std::size_t g = 0;
+    for (std::size_t i = 0; i < n; i += 16) {
+        const auto valid = static_cast<__mmask16>(n - i >= 16 ? 0xFFFFu : (1u << (n - i)) - 1u);
+        const __m512i e = _mm512_maskz_loadu_epi32(valid, ev + i);
+        const __mmask16 pending = _mm512_mask_testn_epi32_mask(valid, e, freqBits);
+        const __m512i slots = _mm512_mask_i32gather_epi32(e, pending, _mm512_and_si512(e, fieldMask),
+                                                          reinterpret_cast<const int*>(codeSlots), 4);
+        _mm512_mask_storeu_epi32(ev + i, pending, _mm512_or_si512(slots, _mm512_and_si512(e, laneBits)));
+        const __m512i lane = _mm512_srli_epi32(e, kEventLaneShift);
+        const __mmask16 bound = _mm512_mask_cmple_epu32_mask(valid, lane, _mm512_alignr_epi32(lane, prev, 15));
+        _mm512_mask_compressstoreu_epi32(starts + g, bound,
+                                         _mm512_add_epi32(iota, _mm512_set1_epi32(static_cast<int>(i))));
+        g += static_cast<std::size_t>(_mm_popcnt_u32(bound));
+        prev = lane;
+    }
+    starts[g] = static_cast<std::uint32_t>(n);
+    return g;
+}
+
+// Whether the row is all zero, 16 coefficients at a time (the scalar loop's exit mispredicted).
+VOLCL_SIMD_ENCODER_TARGET
+bool rowIsZeroSimd(const std::int32_t* row, std::size_t nx) {
+    for (std::size_t x = 0; x < nx; x += 16) {
+        const auto valid = static_cast<__mmask16>(nx - x >= 16 ? 0xFFFFu : (1u << (nx - x)) - 1u);
+        const __m512i v = _mm512_maskz_loadu_epi32(valid, row + x);
+        if (_mm512_test_epi32_mask(v, v) != 0) return false;
+    }
+    return true;
+}
+
+// The scalar coder's table lookups as arithmetic on 16 lanes (checked against the tables for every input
+// class by denseEncoderArithmeticMatchesTables). symbolOf: 2 sh + (u >> sh), sh = max(k - 1, 0),
+// k = floor(log2 max(u, 1)).
+VOLCL_SIMD_ENCODER_TARGET inline __m512i symbolsOf(__m512i u) {
+    const __m512i one = _mm512_set1_epi32(1);
+    const __m512i k = _mm512_sub_epi32(_mm512_set1_epi32(31), _mm512_lzcnt_epi32(_mm512_or_si512(u, one)));
+    const __m512i sh = _mm512_max_epi32(_mm512_sub_epi32(k, one), _mm512_setzero_si512());
+    return _mm512_add_epi32(_mm512_add_epi32(sh, sh), _mm512_srlv_epi32(u, sh));
+}
+// kSymbolInfo.west[p] = 4 base(p) = min(p, 2 | (p & 1)) << max(p / 2 + 1, 2).
+VOLCL_SIMD_ENCODER_TARGET inline __m512i westOf(__m512i p) {
+    const __m512i one = _mm512_set1_epi32(1), two = _mm512_set1_epi32(2);
+    return _mm512_sllv_epi32(_mm512_min_epu32(p, _mm512_or_si512(_mm512_and_si512(p, one), two)),
+                             _mm512_max_epu32(_mm512_add_epi32(_mm512_srli_epi32(p, 1), one), two));
+}
+// activityContext(a): 2n + 1 + (the bit below the leading one) for bit length n + 1 >= 2, written
+// 61 - 2 lz + (a >> (30 - lz)); a < 2 is its own class (the shift count is then out of range and gives 0);
+// capped at 24.
+VOLCL_SIMD_ENCODER_TARGET inline __m512i activityClassesOf(__m512i a) {
+    const __m512i lz = _mm512_lzcnt_epi32(a);
+    const __m512i cls = _mm512_add_epi32(_mm512_sub_epi32(_mm512_set1_epi32(61), _mm512_add_epi32(lz, lz)),
+                                         _mm512_srlv_epi32(a, _mm512_sub_epi32(_mm512_set1_epi32(30), lz)));
+    return _mm512_min_epi32(_mm512_max_epi32(cls, _mm512_min_epu32(a, _mm512_set1_epi32(1))),
+                            _mm512_set1_epi32(kActivityContexts - 1));
+}
+
+// Inputs that cover every class of symbolsOf (u below 2^16, and 2^k - 1, 2^k, 2^k + 2^(k-1) - 1 and
+// 2^k + 2^(k-1) up to 2^31) and of activityClassesOf (a below 2^16, the same boundaries, 2^32 - 1), each
+// compared with the tables; W for every symbol.
+VOLCL_SIMD_ENCODER_TARGET bool arithmeticMatchesTables() {
+    std::vector<std::uint32_t> in;
+    for (std::uint32_t v = 0; v < (1u << 16); ++v)
+        in.push_back(v);
+    for (int k = 1; k < 32; ++k) {
+        const std::uint32_t p = 1u << k, h = p >> 1;
+        for (const std::uint32_t v : {p - 1, p, p + h - 1, p + h})
+            in.push_back(v);
+    }
+    in.push_back(0xFFFFFFFFu);
+    while (in.size() % 16)
+        in.push_back(0);
+    alignas(64) std::uint32_t sym[16], cls[16], west[16];
+    for (std::size_t i = 0; i < in.size(); i += 16) {
+        const __m512i v = _mm512_loadu_si512(in.data() + i);
+        _mm512_store_si512(sym, symbolsOf(v));
+        _mm512_store_si512(cls, activityClassesOf(v));
+        for (std::size_t k = 0; k < 16; ++k) {
+            const std::uint32_t u = in[i + k];
+            if (u < (1u << kMaxBitLength) && sym[k] != static_cast<std::uint32_t>(symbolOf(u))) return false;
+            if (cls[k] != static_cast<std::uint32_t>(activityContext(u))) return false;
+        }
+    }
+    for (std::uint32_t p = 0; p < 64; p += 16) {
+        _mm512_store_si512(west, westOf(_mm512_add_epi32(_mm512_set1_epi32(static_cast<int>(p)),
+                                                         _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11,
+                                                                           12, 13, 14, 15))));
+        for (std::uint32_t k = 0; k < 16; ++k)
+            if (p + k < kSymbols && west[k] != kSymbolInfo.west[p + k]) return false;
+    }
+    return true;
+}
+
+// encodeRow 16 coefficients at a time (same outputs): the symbol and the previous one (a shifted vector),
+// W and the activity class by arithmetic (lzcnt) where encodeRow reads tables, the per non-zero outputs
+// by compressing stores.
+VOLCL_SIMD_ENCODER_TARGET
+std::size_t encodeRowSimd(const RowJob& j, const SymbolSlots& slots, std::uint32_t* signs, std::uint32_t* raws,
+                          std::size_t& rawCount, std::uint32_t& all) {
+    const __m512i zero = _mm512_setzero_si512(), one = _mm512_set1_epi32(1), two = _mm512_set1_epi32(2),
+                  laneBits = _mm512_set1_epi32(static_cast<int>(j.lane << kEventLaneShift)),
+                  negBit = _mm512_set1_epi32(1 << 16);
+    __m512i prevSym = zero, prevSign = zero, any = zero;
+    // Slots of the 16 x of a step (SymbolSlots): x * rows + row below minNx, tail + x from there.
+    const __m512i iota = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    const auto rows = static_cast<int>(slots.rows);
+    __m512i xs = iota, interleaved = _mm512_add_epi32(_mm512_mullo_epi32(iota, _mm512_set1_epi32(rows)),
+                                                      _mm512_set1_epi32(static_cast<int>(slots.row)));
+    const __m512i minNx = _mm512_set1_epi32(static_cast<int>(slots.minNx)),
+                  tail = _mm512_set1_epi32(static_cast<int>(slots.tail)), sixteen = _mm512_set1_epi32(16),
+                  interleavedStep = _mm512_set1_epi32(16 * rows);
+    const __m512i three = _mm512_set1_epi32(3);
+    std::size_t count = 0, rawN = 0;
+    for (std::size_t x = 0; x < j.nx; x += 16) {
+        const auto valid = static_cast<__mmask16>(j.nx - x >= 16 ? 0xFFFFu : (1u << (j.nx - x)) - 1u);
+        const __m512i v = _mm512_maskz_loadu_epi32(valid, j.row + x);
+        const __m512i u = _mm512_abs_epi32(v);
+        any = _mm512_or_si512(any, u);
+        const __m512i sym = symbolsOf(u);
+        // W from the previous symbol (the previous lane, or the last of the previous step), the activity
+        // sum in u32 as the scalar one.
+        const __m512i west = westOf(_mm512_alignr_epi32(sym, prevSym, 15));
+        prevSym = sym;
+        const __m512i cls =
+            activityClassesOf(_mm512_add_epi32(_mm512_maskz_loadu_epi32(valid, j.activity + x), west));
+        const __m512i slot = _mm512_mask_add_epi32(interleaved, _mm512_cmpge_epu32_mask(xs, minNx), xs, tail);
+        _mm512_mask_i32scatter_epi32(slots.events, valid, slot,
+                                     _mm512_or_si512(_mm512_add_epi32(_mm512_slli_epi32(cls, 6), sym), laneBits), 4);
+        xs = _mm512_add_epi32(xs, sixteen);
+        interleaved = _mm512_add_epi32(interleaved, interleavedStep);
+        _mm512_mask_cvtepi32_storeu_epi8(j.syms + x, valid, sym);
+        _mm512_mask_storeu_epi32(j.mag + x, valid, u);
+        const __mmask16 neg = _mm512_cmplt_epi32_mask(v, zero);
+        const __mmask16 nz = _mm512_mask_cmpneq_epi32_mask(valid, v, zero);
+        const __m512i sign = _mm512_mask_mov_epi32(_mm512_maskz_mov_epi32(nz, one), neg, two);
+        _mm512_mask_cvtepi32_storeu_epi8(j.sgn + x, valid, sign);
+        // Per non-zero: sign context (neighbour part + previous coefficient's sign class) | negative << 16;
+        // per symbol >= 4: its sym / 2 - 1 raw bits with a 1 above.
+        const __m512i base = _mm512_cvtepu16_epi32(
+            _mm256_maskz_loadu_epi16(valid, reinterpret_cast<const __m256i*>(j.signBase + x)));
+        const __m512i sctx = _mm512_add_epi32(base, _mm512_alignr_epi32(sign, prevSign, 15));
+        prevSign = sign;
+        _mm512_mask_compressstoreu_epi32(signs + count, nz, _mm512_mask_or_epi32(sctx, neg, sctx, negBit));
+        const __mmask16 hasRaw = _mm512_mask_cmpgt_epu32_mask(valid, sym, three);
+        const __m512i top = _mm512_sllv_epi32(one, _mm512_sub_epi32(_mm512_srli_epi32(sym, 1), one));
+        _mm512_mask_compressstoreu_epi32(
+            raws + rawN, hasRaw, _mm512_or_si512(_mm512_and_si512(u, _mm512_sub_epi32(top, one)), top));
+        count += static_cast<std::size_t>(_mm_popcnt_u32(nz));
+        rawN += static_cast<std::size_t>(_mm_popcnt_u32(hasRaw));
+    }
+    all |= static_cast<std::uint32_t>(_mm512_reduce_or_epi32(any));
+    rawCount = rawN;
+    return count;
+}
+
+// The sign events of a row group in the decoder's order, as EncodeSide::rows' scalar loop: step n codes the
+// n-th non-zero coefficient of every row that has one, a row per lane. The rows' models are disjoint (one
+// orientation each), so one gather and one scatter per step see no conflicts; the events of a step are
+// compressed in row order. Returns the end of the events written at `ev`.
+VOLCL_SIMD_ENCODER_TARGET
+RansEvent* signEventsSimd(const std::size_t* rowCount, const unsigned* rowLane, std::size_t nj,
+                          std::size_t steps, const std::uint32_t* signCodes, std::size_t pitch,
+                          BitModel* models, RansEvent* ev) {
+    alignas(32) std::uint32_t count[8] = {}, bits[8] = {}, base[8] = {};
+    for (std::size_t i = 0; i < nj; ++i) {
+        count[i] = static_cast<std::uint32_t>(rowCount[i]);
+        bits[i] = ransEvent(0, 0, true, rowLane[i]);
+        base[i] = static_cast<std::uint32_t>(i * pitch);
+    }
+    const __m256i counts = _mm256_load_si256(reinterpret_cast<const __m256i*>(count));
+    const __m256i laneBits = _mm256_load_si256(reinterpret_cast<const __m256i*>(bits));
+    __m256i at = _mm256_load_si256(reinterpret_cast<const __m256i*>(base));
+    const __m256i one = _mm256_set1_epi32(1), scale = _mm256_set1_epi32(kBinaryScale),
+                  ctxMask = _mm256_set1_epi32(0xFFFF), negBit = _mm256_set1_epi32(1 << 16);
+    __m256i step = _mm256_setzero_si256();
+    auto* p0s = reinterpret_cast<int*>(models);
+    for (std::size_t n = 0; n < steps; ++n) {
+        const __mmask8 valid = _mm256_cmpgt_epu32_mask(counts, step);
+        step = _mm256_add_epi32(step, one);
+        const __m256i sc = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), valid, at,
+                                                        reinterpret_cast<const int*>(signCodes), 4);
+        at = _mm256_add_epi32(at, one);
+        const __m256i ctx = _mm256_and_si256(sc, ctxMask);
+        const __mmask8 neg = _mm256_test_epi32_mask(sc, negBit);
+        const __m256i p0 = _mm256_mmask_i32gather_epi32(_mm256_setzero_si256(), valid, ctx, p0s, 4);
+        const __m256i q = _mm256_sub_epi32(scale, p0);
+        const __m256i up = _mm256_add_epi32(p0, _mm256_srli_epi32(q, 5));
+        const __m256i down = _mm256_sub_epi32(p0, _mm256_srli_epi32(p0, 5));
+        _mm256_mask_i32scatter_epi32(p0s, valid, ctx, _mm256_mask_mov_epi32(up, neg, down), 4);
+        const __m256i freq = _mm256_mask_mov_epi32(p0, neg, q);
+        const __m256i e = _mm256_or_si256(_mm256_or_si256(_mm256_maskz_mov_epi32(neg, p0),
+                                                          _mm256_slli_epi32(freq, kEventFreqShift)),
+                                          laneBits);
+        _mm256_mask_compressstoreu_epi32(ev, valid, e);
+        ev += _mm_popcnt_u32(valid);
+    }
+    return ev;
+}
+
+// The backward pass a group of events at a time, for the same stream as ransEncode: a run of events on
+// distinct lanes can be coded as one step when the words it flushes go to the stream in event order,
+// since each event then sees the state it sees in the one-at-a-time pass. Groups are maximal runs of
+// strictly increasing lane (the walker emits row flags, symbol columns and sign steps so, up to 7 events).
+// A group's events are expanded into their lanes (increasing lanes: vpexpandd with the lane mask), the
+// flushed low words compressed in lane order, q = floor(s / freq) is one 52-bit multiply-high by the
+// reciprocal and the new state s + start + q (2^scaleBits - freq) one multiply-add: the chain from state
+// to state is compare, shift, two IFMAs (about 12 cycles) with the states in a register. `events` are
+// resolved in place; 8 readable events follow them.
+VOLCL_SIMD_ENCODER_TARGET
+void ransEncodeSimd(std::span<RansEvent> events, int lanes, const RansEvent* codeSlots,
+                    std::vector<std::uint8_t>& out) {
+    // 8 spare words: a group's store writes 8 words, those below its own lie below the stream's start.
+    WordBuffer wb(events.size() + 8);
+    std::uint16_t* w = wb.first;
+    RansEvent* ev = events.data();
+    std::uint32_t* const starts = EncoderScratch::atLeast(encoderScratch().starts, events.size() + 1);
+    const std::size_t groups = resolveAndGroup(ev, events.size(), codeSlots, starts);
+    const __m256i one32 = _mm256_set1_epi32(1), fieldMask = _mm256_set1_epi32(kEventFieldMask),
+                  freqMask = _mm256_set1_epi32(kEventFreqMask);
+    const __m512i c21 = _mm512_set1_epi64(21), c11 = _mm512_set1_epi64(kTableScaleBits),
+                  one = _mm512_set1_epi64(1);
+    const auto* recip = reinterpret_cast<const long long*>(kReciprocal52.data());
+    __m512i x = _mm512_set1_epi64(kRansLow);
+    for (std::size_t g = groups; g-- > 0;) {
+        // Nothing here depends on the groups after it but the states, so the loads, lane masks and
+        // reciprocal lookups of the next groups overlap the state chain.
+        const std::size_t start = starts[g];
+        const auto len = static_cast<unsigned>(starts[g + 1] - start);
+        const __m256i win = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ev + start));
+        // The group's lanes as a bit mask: a byte 1 << lane per event, summed (the lanes are distinct).
+        const __m256i bits = _mm256_maskz_sllv_epi32(static_cast<__mmask8>((1u << len) - 1u), one32,
+                                                     _mm256_srli_epi32(win, kEventLaneShift));
+        const auto active = static_cast<__mmask8>(
+            _mm_cvtsi128_si32(_mm_sad_epu8(_mm256_cvtepi32_epi8(bits), _mm_setzero_si128())));
+        const __m256i e = _mm256_maskz_expand_epi32(active, win);
+        const __m256i freq32 = _mm256_and_si256(_mm256_srli_epi32(e, kEventFreqShift), freqMask);
+        const __m512i freq = _mm512_cvtepu32_epi64(freq32);
+        const __m512i binary = _mm512_cvtepu32_epi64(_mm256_and_si256(_mm256_srli_epi32(e, kEventBinaryShift), one32));
+        // Off the chain: the flush threshold freq << (32 - scaleBits), 2^scaleBits - freq, the reciprocal.
+        const __m512i threshold = _mm512_sllv_epi64(freq, _mm512_sub_epi64(c21, binary));
+        const __m512i gap = _mm512_sub_epi64(_mm512_sllv_epi64(one, _mm512_add_epi64(c11, binary)), freq);
+        const __m512i m = _mm512_mask_i32gather_epi64(_mm512_setzero_si512(), active, freq32, recip, 8);
+        __m512i startv = _mm512_cvtepu32_epi64(_mm256_and_si256(e, fieldMask));
+        startv = _mm512_mask_add_epi64(startv, _mm512_cmpeq_epu64_mask(freq, one), startv, gap);
+        // The chain: flush, divide, advance.
+        const __mmask8 flush = _mm512_mask_cmpge_epu64_mask(active, x, threshold);
+        const auto n = static_cast<unsigned>(_mm_popcnt_u32(flush));
+        // Compressed words to the top of 8 and stored below the words so far (the 8 - n below them are
+        // overwritten by earlier groups or lie in the spare words).
+        const __m128i words = _mm_maskz_expand_epi16(static_cast<__mmask8>(0xFF00u >> n),
+                                                      _mm_maskz_compress_epi16(flush, _mm512_cvtepi64_epi16(x)));
+        w -= n;
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(w + n - 8), words);
+        const __m512i s = _mm512_mask_srli_epi64(x, flush, x, 16);
+        const __m512i q = _mm512_madd52hi_epu64(_mm512_setzero_si512(), s, m);
+        x = _mm512_mask_madd52lo_epu64(_mm512_mask_add_epi64(x, active, s, startv), active, q, gap);
+    }
+    wb.first = w;
+    alignas(64) std::uint64_t states[8];
+    _mm512_store_si512(states, x);
+    std::uint32_t x32[kMaxLanes];
+    for (int lane = 0; lane < kMaxLanes; ++lane)
+        x32[lane] = static_cast<std::uint32_t>(states[lane]);
+    putStream(x32, lanes, wb, out);
+}
+#pragma GCC diagnostic pop
+#endif
+
 // Encoder pass 1: adaptive decisions become events at once; magnitude symbols are recorded as pending
 // events (scaleBits 0, start = context * 64 + symbol) and resolved once the tables exist.
 struct EncodeSide {
     DenseModel model;
-    // Preallocated for the worst case (a row flag per row, a symbol and a sign per coefficient), filled at next.
-    std::unique_ptr<RansEvent[]> events;
+    EncoderScratch& scratch = encoderScratch();
+    // Room for the worst case (a row flag per row, a symbol and a sign per coefficient), filled at next.
     RansEvent* next = nullptr;
     // Symbol counts per context * 64 + symbol, in two halves (see rows()), summed by encodeDense().
     std::array<std::array<std::uint32_t, kActivityContexts * 64>, 2> counts{};
-    BitWriter raw;
-
-    std::vector<std::uint16_t> codeBuffer; // per row of a group: context * 64 + symbol per x
-    std::vector<RansEvent> signBuffer;     // per row of a group: its sign events in order
+    RawWriter raw{scratch.raw};
+    std::uintptr_t previousRow[kMaxLanes] = {}; // per lane, the row of its last row flag
+    bool simd = false; // encodeRowSimd instead of encodeRow
 
     /// The event of an adaptive binary decision; updates the model.
     /// Masks instead of selects (signs are close to random, and GCC makes jumps of the selects).
-    static RansEvent binaryEvent(BitModel& m, unsigned bit, std::uint8_t lane) {
+    static RansEvent binaryEvent(BitModel& m, unsigned bit, unsigned lane) {
         const std::uint32_t p0 = m.p0, one = 0u - static_cast<std::uint32_t>(bit);
         const std::uint32_t up = p0 + ((kBinaryScale - p0) >> 5), down = p0 - (p0 >> 5);
         m.p0 = up ^ ((up ^ down) & one);
-        return RansEvent{static_cast<std::uint16_t>(p0 & one),
-                         static_cast<std::uint16_t>(p0 ^ ((p0 ^ (kBinaryScale - p0)) & one)),
-                         kBinaryScaleBits, lane};
+        return ransEvent(p0 & one, p0 ^ ((p0 ^ (kBinaryScale - p0)) & one), true, lane);
     }
     void binary(unsigned lane, BitModel& m, unsigned bit) {
-        *next++ = binaryEvent(m, bit, static_cast<std::uint8_t>(lane));
+        *next++ = binaryEvent(m, bit, lane);
     }
     bool rowFlag(unsigned lane, unsigned rctx, const std::int32_t* row, std::size_t nx) {
+        // The lane's next row is likely as far on as this one from its previous row: fetch it now (the
+        // walker visits up to 7 subbands' rows in turn, a pattern the hardware prefetchers miss).
+        const auto at = reinterpret_cast<std::uintptr_t>(row);
+        const std::uintptr_t ahead = at + (at - previousRow[lane]);
+        previousRow[lane] = at;
+        for (std::uintptr_t line = 0; line < 4 * nx; line += 64)
+            __builtin_prefetch(reinterpret_cast<const void*>(ahead + line));
         bool zero = true;
-        for (std::size_t x = 0; x < nx && zero; ++x)
-            zero = row[x] == 0;
+#ifdef VOLCL_DENSE_SIMD
+        if (simd)
+            zero = rowIsZeroSimd(row, nx);
+        else
+#endif
+            for (std::size_t x = 0; x < nx && zero; ++x)
+                zero = row[x] == 0;
         binary(lane, model.rows[rctx], zero ? 1u : 0u);
         return zero;
     }
+    /// One row's pass: per x the pending symbol event, straight into its place in the group's events (see
+    /// SymbolSlots), the symbol, magnitude and sign class (j.syms, j.mag, j.sgn: the walker's context); per
+    /// non-zero coefficient its sign context | negative << 16 (signs); per coefficient with raw mantissa
+    /// bits (symbol >= 4) those bits with a 1 above them (raws, `rawCount` of them). Returns the non-zero
+    /// count; `all` collects the magnitudes' bits. The encoder knows
+    /// the previous symbol, so nothing chains from one x to the next. The reference for encodeRowSimd.
+    static std::size_t encodeRow(const RowJob& j, const SymbolSlots& slots, std::uint32_t* signs,
+                                 std::uint32_t* raws, std::size_t& rawCount, std::uint32_t& all) {
+        const std::int32_t* row = j.row;
+        const std::uint32_t* activity = j.activity;
+        const std::uint16_t* signBase = j.signBase;
+        std::uint32_t* mag = j.mag;
+        std::uint8_t* sgn = j.sgn;
+        std::uint8_t* syms = j.syms;
+        unsigned prevSym = 0, prevSign = 0;
+        std::size_t count = 0, rawN = 0;
+        std::uint32_t any = 0;
+        for (std::size_t x = 0; x < j.nx; ++x) {
+            const std::int32_t v = row[x];
+            const std::uint32_t u = magnitude(v);
+            any |= u;
+            const auto sym = static_cast<unsigned>(symbolOf(u));
+            const auto ctx = static_cast<unsigned>(activityContext(activity[x] + kSymbolInfo.west[prevSym]));
+            prevSym = sym;
+            slots.events[x < slots.minNx ? x * slots.rows + slots.row : slots.tail + x] =
+                pendingEvent(ctx * 64 + sym, j.lane);
+            syms[x] = static_cast<std::uint8_t>(sym);
+            mag[x] = u;
+            const unsigned sign = signClass(v);
+            sgn[x] = static_cast<std::uint8_t>(sign);
+            signs[count] = (signBase[x] + prevSign) | static_cast<std::uint32_t>(v < 0) << 16;
+            prevSign = sign;
+            // Symbols above 59 (magnitudes out of range) are refused before anything uses these.
+            const unsigned rawBits = kSymbolInfo.rawBits[sym & 63]; // 0 for symbols below 4
+            raws[rawN] = (u & ((1u << rawBits) - 1u)) | 1u << rawBits;
+            rawN += rawBits != 0;
+            count += v != 0;
+        }
+        all |= any;
+        rawCount = rawN;
+        return count;
+    }
     void rows(RowJob* jobs, std::size_t nj) {
-        // Per row: symbols, contexts and counts in a loop of locals (the encoder knows the previous symbol, so
-        // nothing chains across rows); then the symbol events in the decoder's interleaved order.
+        // Per row: the row pass (encodeRow or its SIMD twin) and the symbol counts; then the symbol events in
+        // the decoder's interleaved order.
         std::size_t maxNx = 0;
         for (std::size_t i = 0; i < nj; ++i)
             maxNx = std::max(maxNx, jobs[i].nx);
-        if (codeBuffer.size() < nj * maxNx) codeBuffer.resize(nj * maxNx);
+        // Per row of the group, from the row pass: per non-zero coefficient the sign context | negative << 16,
+        // per coefficient with raw bits those bits with a 1 above them.
+        std::uint32_t* const signCodes = EncoderScratch::atLeast(scratch.signCodes, nj * maxNx);
+        std::uint32_t* const rawCodes = EncoderScratch::atLeast(scratch.rawCodes, nj * maxNx);
+        std::size_t minNx = maxNx;
+        for (std::size_t i = 0; i < nj; ++i)
+            minNx = std::min(minNx, jobs[i].nx);
+        std::uint32_t all = 0;
+        std::size_t tail = minNx * nj; // where the part of the row past minNx goes
+        std::size_t rawCount[kMaxLanes];
         for (std::size_t i = 0; i < nj; ++i) {
             RowJob& j = jobs[i];
-            const std::int32_t* row = j.row;
-            const std::uint32_t* activity = j.activity;
-            std::uint32_t* mag = j.mag;
-            std::uint8_t* sgn = j.sgn;
-            std::uint8_t* syms = j.syms;
-            std::uint32_t* nonZero = j.nonZero;
-            std::uint16_t* code = codeBuffer.data() + i * maxNx;
-            unsigned prevSym = 0;
-            std::size_t count = 0;
-            std::uint32_t all = 0;
-            for (std::size_t x = 0; x < j.nx; ++x) {
-                const std::int32_t v = row[x];
-                const std::uint32_t u = magnitude(v);
-                all |= u;
-                const auto sym = static_cast<unsigned>(symbolOf(u));
-                const auto ctx = static_cast<unsigned>(activityContext(activity[x] + kSymbolInfo.west[prevSym]));
-                prevSym = sym;
-                code[x] = static_cast<std::uint16_t>(ctx * 64 + sym);
-                syms[x] = static_cast<std::uint8_t>(sym);
-                mag[x] = u;
-                sgn[x] = static_cast<std::uint8_t>(signClass(v));
-                nonZero[count] = static_cast<std::uint32_t>(x);
-                count += v != 0;
-            }
-            // Before the counts are indexed with the symbols.
-            if (all >> kMaxBitLength) throw Error("internal: wavelet coefficient magnitude out of range");
-            // Two histograms taken in turn: runs of one code (mostly zeros) would otherwise chain every
-            // increment to the previous one through memory.
-            std::size_t x = 0;
-            for (; x + 1 < j.nx; x += 2) {
-                ++counts[0][code[x]];
-                ++counts[1][code[x + 1]];
-            }
-            if (x < j.nx) ++counts[0][code[x]];
-            j.count = count;
+            const SymbolSlots slots{next, nj, i, minNx, tail - minNx};
+            tail += j.nx - minNx;
+#ifdef VOLCL_DENSE_SIMD
+            if (simd)
+                j.count = encodeRowSimd(j, slots, signCodes + i * maxNx, rawCodes + i * maxNx, rawCount[i], all);
+            else
+#endif
+                j.count = encodeRow(j, slots, signCodes + i * maxNx, rawCodes + i * maxNx, rawCount[i], all);
         }
-        RansEvent* ev = next;
-        interleaveSymbols(jobs, nj, [&](std::size_t i, std::size_t x) {
-            *ev++ = {codeBuffer[i * maxNx + x], 0, 0, static_cast<std::uint8_t>(jobs[i].lane)};
-        });
-        next = ev;
-        // Sign events per row, again in a loop of locals: rows of a group belong to different subbands and so
-        // use disjoint sign models, so coding them row by row gives the same probabilities as the decoder's
-        // interleaved order, into which they are then copied.
-        if (signBuffer.size() < nj * maxNx) signBuffer.resize(nj * maxNx);
+        // Before the counts are indexed with the symbols.
+        if (all >> kMaxBitLength) throw Error("internal: wavelet coefficient magnitude out of range");
+        // Two histograms taken in turn: runs of one code (mostly zeros) would otherwise chain every
+        // increment to the previous one through memory.
+        std::size_t k = 0;
+        for (; k + 1 < tail; k += 2) {
+            ++counts[0][next[k] & kEventFieldMask];
+            ++counts[1][next[k + 1] & kEventFieldMask];
+        }
+        if (k < tail) ++counts[0][next[k] & kEventFieldMask];
+        next += tail;
+        // Sign events straight in the decoder's interleaved order (the n-th non-zero coefficient of each row
+        // in turn), without jumps: steps past a row's count code a dummy model and leave no event (the
+        // store lands where the next event goes). Rows of a group use disjoint sign models, so their model
+        // chains are independent and overlap.
+        std::size_t maxCount = 0;
+        std::size_t rowCount[kMaxLanes];
+        unsigned rowLane[kMaxLanes];
         for (std::size_t i = 0; i < nj; ++i) {
-            const RowJob& j = jobs[i];
-            const std::int32_t* row = j.row;
-            const std::uint16_t* signBase = j.signBase;
-            const std::uint8_t* sgn = j.sgn;
-            const std::uint32_t* nonZero = j.nonZero;
-            RansEvent* out = signBuffer.data() + i * maxNx;
-            const auto lane = static_cast<std::uint8_t>(j.lane);
-            for (std::size_t n = 0; n < j.count; ++n) {
-                const std::size_t x = nonZero[n];
-                BitModel& m = model.signs[signBase[x] + sgn[x - 1]];
-                out[n] = binaryEvent(m, row[x] < 0 ? 1u : 0u, lane);
-            }
+            rowCount[i] = jobs[i].count;
+            rowLane[i] = jobs[i].lane;
+            maxCount = std::max(maxCount, jobs[i].count);
         }
-        ev = next;
-        interleaveSigns(jobs, nj, [&](std::size_t i, std::size_t n) { *ev++ = signBuffer[i * maxNx + n]; });
+        BitModel dummy;
+        RansEvent* ev = next;
+#ifdef VOLCL_DENSE_SIMD
+        if (simd)
+            ev = signEventsSimd(rowCount, rowLane, nj, maxCount, signCodes, maxNx, model.signs.data(), ev);
+        else
+#endif
+        for (std::size_t n = 0; n < maxCount; ++n)
+            for (std::size_t i = 0; i < nj; ++i) {
+                const bool valid = n < rowCount[i];
+                const std::uint32_t sc = signCodes[i * maxNx + n];
+                BitModel& m = valid ? model.signs[sc & 0xFFFF] : dummy;
+                *ev = binaryEvent(m, sc >> 16, rowLane[i]);
+                ev += valid;
+            }
         next = ev;
         for (std::size_t i = 0; i < nj; ++i)
-            for (std::size_t n = 0; n < jobs[i].count; ++n) {
-                const std::size_t x = jobs[i].nonZero[n];
-                const int rawBits = kSymbolInfo.rawBits[jobs[i].syms[x]];
-                raw.put(jobs[i].mag[x] & ((1u << rawBits) - 1u), rawBits);
-            }
+            raw.put(rawCodes + i * maxNx, rawCount[i]);
     }
 };
 
@@ -1146,15 +1600,17 @@ void encodeDense(std::span<const std::int32_t> coeffs, Dims brick,
         return;
     }
     EncodeSide side;
+    side.simd = !denseEncoderIsScalar();
     std::size_t maxEvents = 0;
     for (const SubbandBox& b : layout[s])
         maxEvents += 2 * b.count() + (b.y1 - b.y0) * (b.z1 - b.z0);
-    side.events = std::make_unique_for_overwrite<RansEvent[]>(maxEvents);
-    side.next = side.events.get();
+    // 8 events more: the SIMD pass loads 8 events from a group's start.
+    RansEvent* const firstEvent = EncoderScratch::atLeast(side.scratch.events, maxEvents + 8);
+    side.next = firstEvent;
     SectionWalker walker{brick, layout, s};
     // The encoder side only reads the coefficient array.
     walker.run(const_cast<std::int32_t*>(coeffs.data()), side);
-    side.raw.finish();
+    const std::span<const std::uint8_t> rawBytes = side.raw.finish();
 
     // Cost estimate of both context modes from the counts (entropy plus table bits); keep the cheaper one.
     auto cost = [](const std::array<std::uint32_t, kSymbols>& cnt) {
@@ -1212,25 +1668,29 @@ void encodeDense(std::span<const std::int32_t> coeffs, Dims brick,
     tableBits.finish();
 
     // Slots of every pending code (context * 64 + symbol) in one flat table: the backward pass then resolves
-    // an event with two loads, no test of the mode and no division.
-    std::array<std::uint16_t, kActivityContexts * 64> codeStart{}, codeFreq{};
+    // an event with one load, no test of the mode and no division.
+    std::array<RansEvent, kActivityContexts * 64> codeSlots{};
     for (std::size_t c = 0; c < kActivityContexts; ++c)
         for (std::size_t sym = 0; sym < kSymbols; ++sym) {
             const SymbolTable& t = tables[useContexts ? c : 0];
-            codeStart[c * 64 + sym] = t.start[sym];
-            codeFreq[c * 64 + sym] = t.freq[sym];
+            codeSlots[c * 64 + sym] = ransEvent(t.start[sym], t.freq[sym], false, 0);
         }
-    const auto resolve = [&](const RansEvent& e) {
-        return RansEvent{codeStart[e.start], codeFreq[e.start], kTableScaleBits, e.lane};
-    };
     std::vector<std::uint8_t> stream;
-    ransEncode({side.events.get(), side.next}, static_cast<int>(layout[s].size()), resolve, stream);
+    std::fill(side.next, side.next + 8, RansEvent(0)); // defined values in the SIMD pass's last loads
+    const std::span<RansEvent> events(firstEvent, side.next);
+    const int lanes = static_cast<int>(layout[s].size());
+#ifdef VOLCL_DENSE_SIMD
+    if (!denseEncoderIsScalar())
+        ransEncodeSimd(events, lanes, codeSlots.data(), stream);
+    else
+#endif
+        ransEncode(events, lanes, codeSlots.data(), stream);
 
     out.push_back(useContexts ? kContextTables : kOneTable);
     out.insert(out.end(), tableBits.bytes.begin(), tableBits.bytes.end());
     putVarint(out, stream.size());
     out.insert(out.end(), stream.begin(), stream.end());
-    out.insert(out.end(), side.raw.bytes.begin(), side.raw.bytes.end());
+    out.insert(out.end(), rawBytes.begin(), rawBytes.end());
 }
 
 void decodeDense(std::span<const std::uint8_t> in, std::span<std::int32_t> coeffs, Dims brick,
@@ -1337,6 +1797,18 @@ void setDenseDecoderScalar(bool force) noexcept {
 }
 bool denseDecoderIsScalar() noexcept {
     return !cpuHasDenseSimd() || gForceScalar.load(std::memory_order_relaxed);
+}
+bool denseEncoderArithmeticMatchesTables() {
+#ifdef VOLCL_DENSE_SIMD
+    if (cpuHasDenseEncoderSimd()) return arithmeticMatchesTables();
+#endif
+    return true;
+}
+void setDenseEncoderScalar(bool force) noexcept {
+    gForceScalarEncoder.store(force, std::memory_order_relaxed);
+}
+bool denseEncoderIsScalar() noexcept {
+    return !cpuHasDenseEncoderSimd() || gForceScalarEncoder.load(std::memory_order_relaxed);
 }
 
 namespace {

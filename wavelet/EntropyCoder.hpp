@@ -76,6 +76,14 @@ void decodeSection(std::span<const std::uint8_t> in, std::span<std::int32_t> coe
 bool denseDecoderSimdAvailable() noexcept;
 void setDenseDecoderScalar(bool force) noexcept;
 bool denseDecoderIsScalar() noexcept;
+/// Likewise for the dense encoder (AVX-512 where the CPU has it, else scalar), a switch of its own: both
+/// write the same bytes (tests compare them). VOLCL_DENSE_SCALAR=1 forces the scalar encoder too.
+void setDenseEncoderScalar(bool force) noexcept;
+bool denseEncoderIsScalar() noexcept;
+/// For tests: whether the SIMD encoder's arithmetic stand-ins for the scalar coder's tables (magnitude
+/// symbol, the previous symbol's W, activity class) agree with the tables on every class of input; true
+/// where the CPU has no SIMD encoder.
+bool denseEncoderArithmeticMatchesTables();
 
 /// Decodes sections 0 .. sections.size()-1 of a brick (as decodeSection). With `dq` the coefficients come
 /// out dequantised, as float bit patterns in `coeffs`: fast mode dequantises each row as it decodes it;
