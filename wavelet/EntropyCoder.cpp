@@ -726,8 +726,9 @@ struct SectionWalker {
     }
 };
 
-// The order in which a side visits the coefficients of a row group, shared by encoder and decoder so both
-// see the same decision order: magnitude symbols interleaved across the rows (x outer, row inner) up to
+// The order in which the scalar decoder visits the coefficients of a row group, which is the stream's
+// decision order (the SIMD decoder steps through it column by column, and the encoder writes its events
+// straight into it): magnitude symbols interleaved across the rows (x outer, row inner) up to
 // the shortest row, then the rest of each row; then signs of the non-zero coefficients interleaved the
 // same way (their n-th non-zero coefficient each); then each row's raw mantissa bits in turn.
 template <class Step> void interleaveSymbols(const RowJob* jobs, std::size_t nj, Step&& step) {
@@ -865,7 +866,9 @@ void symbolsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, __mmask8
     __m512i sym = _mm512_setzero_si512();
     for (std::size_t x = 0; x < steps; ++x) {
         const __mmask8 active = x + 1 == steps ? lastMask : full;
-        // Activity class of activity + 4 base(previous symbol), as the scalar kActivityClass (u32 sum).
+        // Activity class of activity + 4 base(previous symbol), as the scalar kActivityClass (u32 sum). The
+        // encoder's westOf/activityClassesOf compute the same in 32-bit lanes (checked against the tables);
+        // here the states' 64-bit lanes are kept, since conversions would lengthen the serial chain.
         const __m512i v = _mm512_min_epu64(sym, _mm512_or_si512(_mm512_and_si512(sym, one), two));
         const __m512i t = _mm512_max_epu64(_mm512_add_epi64(_mm512_srli_epi64(sym, 1), one), two);
         const __m512i act = _mm512_cvtepu32_epi64(
