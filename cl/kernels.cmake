@@ -1,12 +1,16 @@
 # Every OpenCL C file is listed here and embedded into the library as a string at build time (included
-# from the top-level CMakeLists so the generating rule lives in the directory of the volcl target).
+# from the top-level CMakeLists so the generating rule lives in the directory of the volcl target). A file
+# is embedded under its path relative to cl/ ("common/shading.h"); `#include "x.h"` in a kernel resolves
+# against the including file's folder first, then against cl/, as a C compiler with -I cl would.
 set(VOLCL_KERNEL_FILES
   volcl_shared.h
-  transfer_function.h
+  common/camera_rays.h
+  common/shading.h
+  common/tf_lookup.h
+  common/grid_sample.h
   phantoms.cl
   copy.cl
   tf_sample.cl
-  raymarch_core.h
   raymarch_iso.h
   raymarch.cl
   raymarch_plain.cl
@@ -21,6 +25,7 @@ set(_generated ${PROJECT_BINARY_DIR}/generated/EmbeddedKernels.cpp)
 add_custom_command(
   OUTPUT ${_generated}
   COMMAND ${CMAKE_COMMAND} -DOUTPUT=${_generated} "-DINPUTS=${_kernel_paths_joined}"
+          -DBASE=${PROJECT_SOURCE_DIR}/cl
           -P ${PROJECT_SOURCE_DIR}/cmake/EmbedKernels.cmake
   DEPENDS ${_kernel_paths} ${PROJECT_SOURCE_DIR}/cmake/EmbedKernels.cmake
   COMMENT "Embedding OpenCL kernels"

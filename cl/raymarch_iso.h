@@ -39,12 +39,12 @@ inline void iso_begin(IsoState* st, const Ray* r) {
 }
 
 /* Loads the corners of the DDA's cell (clamped to the grid) and classifies the iso-values against them. */
-inline void iso_load_cell(__global const voxel_t* vol, const VolclRenderParams* P, IsoState* st) {
-    const int3 hiI = (int3)((int)P->dims[0] - 1, (int)P->dims[1] - 1, (int)P->dims[2] - 1);
+inline void iso_load_cell(__global const voxel_t* vol, const VolclGridRenderParams* P, IsoState* st) {
+    const int3 hiI = (int3)((int)P->grid.dims[0] - 1, (int)P->grid.dims[1] - 1, (int)P->grid.dims[2] - 1);
     const int3 c0 = clamp(st->cell, (int3)(0), max(hiI - 1, (int3)(0)));
     const int3 c1 = min(c0 + 1, hiI);
     st->base = convert_float3(c0);
-    const uint nx = P->dims[0], nxy = P->dims[0] * P->dims[1];
+    const uint nx = P->grid.dims[0], nxy = P->grid.dims[0] * P->grid.dims[1];
     const uint z0 = (uint)c0.z * nxy, z1 = (uint)c1.z * nxy, y0 = (uint)c0.y * nx, y1 = (uint)c1.y * nx;
     float2 a00 = convert_float2(vload2(0, vol + z0 + y0 + c0.x));
     float2 a10 = convert_float2(vload2(0, vol + z0 + y1 + c0.x));
@@ -62,7 +62,7 @@ inline void iso_load_cell(__global const voxel_t* vol, const VolclRenderParams* 
     const float lo = fmin(mn2.x, mn2.y), hi = fmax(mx2.x, mx2.y);
     uint cubic = 0u, side0 = 0u;
     for (int i = 0; i < ISO_COUNT; ++i) {
-        const float iso = P->isoValue[i][0];
+        const float iso = P->iso.value[i];
         cubic |= (lo < iso && iso <= hi) ? 1u << i : 0u;
         side0 |= iso <= lo ? 1u << i : 0u;
     }
@@ -95,9 +95,9 @@ inline void iso_cross_face(IsoState* st) {
 
 /* Puts the DDA in the cell the ray occupies just after t (a ray leaving a face downward belongs to the lower
    cell), then steps past cells that float rounding says it has already left. */
-inline void iso_locate(__global const voxel_t* vol, const VolclRenderParams* P, const Ray* r, float t, IsoState* st) {
+inline void iso_locate(__global const voxel_t* vol, const VolclGridRenderParams* P, const Ray* r, float t, IsoState* st) {
     const float3 p = ray_at(r, t);
-    const int3 hiI = (int3)((int)P->dims[0] - 1, (int)P->dims[1] - 1, (int)P->dims[2] - 1);
+    const int3 hiI = (int3)((int)P->grid.dims[0] - 1, (int)P->grid.dims[1] - 1, (int)P->grid.dims[2] - 1);
     int3 c = select(convert_int3(floor(p)), convert_int3(ceil(p)) - 1, r->d < 0.0f);
     c = clamp(c, (int3)(0), max(hiI - 1, (int3)(0)));
     const float3 face = convert_float3(c + select((int3)(0), (int3)(1), r->d > 0.0f));
@@ -112,7 +112,7 @@ inline void iso_locate(__global const voxel_t* vol, const VolclRenderParams* P, 
 }
 
 /* One DDA step into the next cell. */
-inline void iso_step(__global const voxel_t* vol, const VolclRenderParams* P, IsoState* st) {
+inline void iso_step(__global const voxel_t* vol, const VolclGridRenderParams* P, IsoState* st) {
     iso_cross_face(st);
     st->tOut = iso_tout(st->tNext);
     iso_load_cell(vol, P, st);
@@ -152,7 +152,7 @@ inline float iso_refine(float4 c, float iso, float ua, float ub, int sa, float t
 }
 
 /* Composites n hits (ray parameters th, iso indices order) in the given order. */
-inline void iso_composite(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclRenderParams* P,
+inline void iso_composite(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclGridRenderParams* P,
                           const Ray* r, float* th, int* order, int n, float3* rgb, float* T, float* depth) {
     for (int a = 1; a < n; ++a) /* insertion sort by hit distance */
         for (int b = a; b > 0 && th[b] < th[b - 1]; --b) {
@@ -161,8 +161,8 @@ inline void iso_composite(__global const voxel_t* vol, __global const VolclTfKno
         }
     for (int a = 0; a < n; ++a) {
         const int i = order[a];
-        const float alpha = P->isoColor[i][3];
-        float3 c = v3(P->isoColor[i]);
+        const float alpha = P->iso.color[i][3];
+        float3 c = v3(P->iso.color[i]);
 #ifdef NEEDS_LIGHTS
         c = light_sample(vol, knots, P, r, r->oWorld + th[a] * r->dWorld, ray_at(r, th[a]), c);
 #endif
@@ -173,7 +173,7 @@ inline void iso_composite(__global const voxel_t* vol, __global const VolclTfKno
 }
 
 /* Hits of every iso-value on the piece [ta, tb] of the ray inside the current cell, composited in order. */
-inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclRenderParams* P,
+inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclGridRenderParams* P,
                       const Ray* r, IsoState* st, float ta, float tb, float3* rgb, float* T, float* depth) {
     float th[ISO_COUNT];
     int order[ISO_COUNT];
@@ -218,7 +218,7 @@ inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* k
     /* Sides where the piece starts; a change against the carried sides is a crossing on the cell face. */
     uint sideStart = side0 & ~cubic;
     for (int i = 0; i < ISO_COUNT; ++i)
-        if (cubic & (1u << i)) sideStart |= g[0] >= P->isoValue[i][0] ? 1u << i : 0u;
+        if (cubic & (1u << i)) sideStart |= g[0] >= P->iso.value[i] ? 1u << i : 0u;
     if (!st->started) {
         st->inside = sideStart;
         st->started = 1;
@@ -239,7 +239,7 @@ inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* k
             uint sideEnd = side;
             for (int i = 0; i < ISO_COUNT; ++i) {
                 if (!(cubic & (1u << i))) continue;
-                const float iso = P->isoValue[i][0];
+                const float iso = P->iso.value[i];
                 const uint bit = 1u << i;
                 const uint s1 = g[j] >= iso ? bit : 0u;
                 sideEnd = (sideEnd & ~bit) | s1;
@@ -259,7 +259,7 @@ inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* k
 /* Composites the iso-surfaces crossed between (t0, s0) and (t1, s1) in ray order. The sides where the
    segment starts and ends come from the march's own samples s0 and s1, so consecutive segments agree on
    them and a crossing on a segment end is counted once. */
-inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclRenderParams* P,
+inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclGridRenderParams* P,
                         const Ray* r, float t0, float s0, float t1, float s1, float3* rgb, float* T, float* depth) {
     if (!(*T > 0.0f)) return; /* behind an opaque surface nothing more shows */
     IsoState st;
@@ -267,12 +267,12 @@ inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot*
     st.started = 1;
     uint end = 0u;
     for (int i = 0; i < ISO_COUNT; ++i) {
-        st.inside |= s0 >= P->isoValue[i][0] ? 1u << i : 0u;
-        end |= s1 >= P->isoValue[i][0] ? 1u << i : 0u;
+        st.inside |= s0 >= P->iso.value[i] ? 1u << i : 0u;
+        end |= s1 >= P->iso.value[i] ? 1u << i : 0u;
     }
     iso_locate(vol, P, r, t0, &st);
     float ta = t0;
-    const int maxSteps = (int)(P->dims[0] + P->dims[1] + P->dims[2]) + 4; /* as in iso_march */
+    const int maxSteps = (int)(P->grid.dims[0] + P->grid.dims[1] + P->grid.dims[2]) + 4; /* as in iso_march */
     for (int guard = 0; guard < maxSteps; ++guard) {
         const float tb = fmin(t1, st.tOut);
         if (tb > ta && iso_piece_needed(&st)) iso_piece(vol, knots, P, r, &st, ta, tb, rgb, T, depth);
@@ -300,7 +300,7 @@ inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot*
    corners of the current cell carry over from one segment to the next, and so do the sides, so the march
    needs no samples of its own. Composites the crossings in [t0, t1] in ray order (t0 of each call is t1 of
    the last, or further on after empty space was skipped). */
-inline void iso_march(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclRenderParams* P,
+inline void iso_march(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclGridRenderParams* P,
                       const Ray* r, IsoState* st, float t0, float t1, float3* rgb, float* T, float* depth) {
     if (!(*T > 0.0f)) return; /* behind an opaque surface nothing more shows */
     float ta = t0;
@@ -313,7 +313,7 @@ inline void iso_march(__global const voxel_t* vol, __global const VolclTfKnot* k
     }
     /* A segment crosses at most dims[0] + dims[1] + dims[2] faces; the cap only matters when a voxel is
        below float resolution of t (cell steps would then not advance t). */
-    const int maxSteps = (int)(P->dims[0] + P->dims[1] + P->dims[2]) + 4;
+    const int maxSteps = (int)(P->grid.dims[0] + P->grid.dims[1] + P->grid.dims[2]) + 4;
     for (int guard = 0; guard < maxSteps; ++guard) {
         const float tb = fmin(t1, st->tOut);
         if (tb > ta && iso_piece_needed(st)) iso_piece(vol, knots, P, r, st, ta, tb, rgb, T, depth);

@@ -1,5 +1,5 @@
 /* Samples a packed transfer function at many data values (tests host/kernel bit-identity of tf_sample). */
-#include "transfer_function.h"
+#include "common/tf_lookup.h"
 
 /* out[i] = tf_sample(s[i]) as (r, g, b, tau). */
 __kernel void tf_sample_points(__global const VolclTfKnot* knots, uint knotCount, __global const float* s,

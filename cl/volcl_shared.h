@@ -21,13 +21,6 @@ typedef struct VolclTfKnot {
     float pad[3];
 } VolclTfKnot;
 
-/* Grid geometry of a volume as kernels see it: node-centred, x fastest. */
-typedef struct VolclGrid {
-    volcl_uint nx, ny, nz, pad0;
-    float origin[4];
-    float spacing[4];
-} VolclGrid;
-
 /* One ellipsoid of the 3D Shepp-Logan phantom: p' = rot * p; inside when
    sum(((p' - centre) * invSemiAxis)^2) <= 1; adds `value` to the density. */
 typedef struct VolclEllipsoid {
@@ -37,47 +30,99 @@ typedef struct VolclEllipsoid {
     float value;
 } VolclEllipsoid;
 
-/* Ray marcher (cl/raymarch*.cl). */
+/* Renderers (cl/raymarch*.cl today; mesh and brick renderers alike). A frame's parameters come in one
+   struct per concern, so a kernel family passes the ones it uses and the helpers in cl/common/ take only
+   theirs: camera_rays.h reads VolclCameraParams and VolclClipParams, shading.h VolclLightingParams,
+   tf_lookup.h VolclTfParams, grid_sample.h VolclGridParams. Values that change per frame live here, not in
+   -D defines, so changing the camera or the TF never rebuilds a kernel. Vectors are xyz + one spare float;
+   every struct is a multiple of 16 bytes of 4-byte fields, so host and device agree on the layout. */
 #define VOLCL_MAX_LIGHTS 4
 #define VOLCL_MAX_CLIP_PLANES 4
 #define VOLCL_MAX_ISOSURFACES 4
 
-/* Light kinds (lightPos[i][3]). */
+/* Light kinds (VolclLightingParams::lightPos[i][3]). */
 #define VOLCL_LIGHT_DIRECTIONAL 0
 #define VOLCL_LIGHT_POINT 1
 #define VOLCL_LIGHT_HEAD 2
 
-/* Everything a frame needs besides buffers; values that change per frame live here, not in -D defines,
-   so changing the camera or the TF never rebuilds a kernel. Vectors are xyz + one spare float. */
-typedef struct VolclRenderParams {
-    float camOrigin[4];  /* orthographic: eye; perspective: eye */
-    float camRight[4];   /* r scaled by the half-width of the view (world units or tan(fov/2) * aspect) */
-    float camUp[4];      /* u scaled by the half-height of the view */
-    float camForward[4]; /* f */
-    float volOrigin[4];  /* world position of voxel (0,0,0) */
-    float volSpacing[4];
-    float volInvSpacing[4];
-    volcl_uint dims[4];      /* nx, ny, nz, perspective flag */
-    volcl_uint macroDims[4]; /* macrocells per axis, voxels per macrocell edge */
-    volcl_uint width, height, knotCount, tableSize;
-    float step, earlyTermination, domainLo, domainHi;
-    float tableMaxLength, shadowStep, gradientMin, pad0;
-    volcl_uint tableLengths, lightCount, clipCount, isoCount;
+/* Camera and image: pixel (x, y) -> world ray. */
+typedef struct VolclCameraParams {
+    float origin[4];  /* orthographic: eye; perspective: eye */
+    float right[4];   /* r scaled by the half-width of the view (world units or tan(fov/2) * aspect) */
+    float up[4];      /* u scaled by the half-height of the view */
+    float forward[4]; /* f */
+    volcl_uint width, height, perspective, pad0;
+} VolclCameraParams;
+
+/* Clip planes: keep points with dot(n, x) + w >= 0 (n unit length). */
+typedef struct VolclClipParams {
+    volcl_uint count, pad0, pad1, pad2;
+    float plane[VOLCL_MAX_CLIP_PLANES][4];
+} VolclClipParams;
+
+/* The march along a ray: sampling distance (world units) and the opacity that ends a ray. */
+typedef struct VolclMarchParams {
+    float step, earlyTermination, pad0, pad1;
+} VolclMarchParams;
+
+/* Transfer function (knots in their own buffer) and pre-integration table geometry. */
+typedef struct VolclTfParams {
+    volcl_uint knotCount, tableSize, tableLengths, pad0;
+    float domainLo, domainHi;
+    float tableMaxLength; /* segment length of the 2D table, of the last slice of the 3D table */
+    float pad1;
+} VolclTfParams;
+
+/* Lights, Blinn-Phong and single-scattering coefficients, shadow rays. */
+typedef struct VolclLightingParams {
+    volcl_uint lightCount, pad0, pad1, pad2;
     float ambient, diffuse, specular, shininess;
-    float albedo, phaseG, pad1, pad2;
+    float albedo, phaseG;
+    float gradientMin; /* gradient magnitude below which a sample has no normal */
+    float shadowStep;  /* world units */
     float lightPos[VOLCL_MAX_LIGHTS][4];   /* xyz: direction toward the light or position; w: kind */
     float lightColor[VOLCL_MAX_LIGHTS][4]; /* rgb * intensity */
-    float clipPlane[VOLCL_MAX_CLIP_PLANES][4]; /* keep points with dot(n, x) + w >= 0 */
-    float isoValue[VOLCL_MAX_ISOSURFACES][4];  /* x: value */
-    float isoColor[VOLCL_MAX_ISOSURFACES][4];  /* straight rgb, opacity */
-} VolclRenderParams;
+} VolclLightingParams;
+
+/* Iso-surfaces composited where the field crosses value[i]. */
+typedef struct VolclIsoParams {
+    volcl_uint count, pad0, pad1, pad2;
+    float value[VOLCL_MAX_ISOSURFACES];
+    float color[VOLCL_MAX_ISOSURFACES][4]; /* straight rgb, opacity */
+} VolclIsoParams;
+
+/* A node-centred grid (x fastest) and its macrocells. */
+typedef struct VolclGridParams {
+    float origin[4]; /* world position of voxel (0,0,0) */
+    float spacing[4];
+    float invSpacing[4];
+    volcl_uint dims[4];      /* nx, ny, nz, spare */
+    volcl_uint macroDims[4]; /* macrocells per axis, voxels per macrocell edge */
+} VolclGridParams;
+
+/* Everything a grid ray-marching frame needs besides buffers. */
+typedef struct VolclGridRenderParams {
+    VolclCameraParams camera;
+    VolclClipParams clip;
+    VolclMarchParams march;
+    VolclTfParams tf;
+    VolclLightingParams lighting;
+    VolclIsoParams iso;
+    VolclGridParams grid;
+} VolclGridRenderParams;
 
 #ifndef __OPENCL_VERSION__
 static_assert(sizeof(VolclEllipsoid) == 64, "VolclEllipsoid layout must match OpenCL C");
 static_assert(sizeof(VolclTfKnot) == 48, "VolclTfKnot layout must match OpenCL C");
-static_assert(sizeof(VolclGrid) == 48, "VolclGrid layout must match OpenCL C");
-static_assert(sizeof(VolclRenderParams) == 16 * 9 + 16 * 6 + 64 * 5,
-              "VolclRenderParams layout must match OpenCL C");
+static_assert(sizeof(VolclCameraParams) == 80, "VolclCameraParams layout must match OpenCL C");
+static_assert(sizeof(VolclClipParams) == 80, "VolclClipParams layout must match OpenCL C");
+static_assert(sizeof(VolclMarchParams) == 16, "VolclMarchParams layout must match OpenCL C");
+static_assert(sizeof(VolclTfParams) == 32, "VolclTfParams layout must match OpenCL C");
+static_assert(sizeof(VolclLightingParams) == 176, "VolclLightingParams layout must match OpenCL C");
+static_assert(sizeof(VolclIsoParams) == 96, "VolclIsoParams layout must match OpenCL C");
+static_assert(sizeof(VolclGridParams) == 80, "VolclGridParams layout must match OpenCL C");
+static_assert(sizeof(VolclGridRenderParams) == 80 + 80 + 16 + 32 + 176 + 96 + 80,
+              "VolclGridRenderParams layout must match OpenCL C");
 #endif
 
 #endif

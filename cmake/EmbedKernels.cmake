@@ -1,10 +1,11 @@
-# Turns the listed .cl/.h kernel files into a C++ table of (file name, source text) raw string literals.
-# Usage: cmake -DOUTPUT=out.cpp "-DINPUTS=a.cl|b.h" -P EmbedKernels.cmake
+# Turns the listed .cl/.h kernel files into a C++ table of (name, source text) raw string literals; a file's
+# name is its path relative to BASE (the cl/ folder), e.g. "common/shading.h".
+# Usage: cmake -DOUTPUT=out.cpp "-DINPUTS=a.cl|common/b.h" -DBASE=cl -P EmbedKernels.cmake
 string(REPLACE "|" ";" INPUTS "${INPUTS}")
 set(_body "")
 set(_count 0)
 foreach(_path IN LISTS INPUTS)
-  get_filename_component(_name ${_path} NAME)
+  file(RELATIVE_PATH _name ${BASE} ${_path})
   file(READ ${_path} _text)
   string(FIND "${_text}" ")volcl_cl\"" _clash)
   if(NOT _clash EQUAL -1)

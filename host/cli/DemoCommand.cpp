@@ -5,7 +5,7 @@
 #include "host/io/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "host/phantoms/Phantoms.hpp"
-#include "host/render/Renderer.hpp"
+#include "host/render/RenderInput.hpp"
 #include "host/runtime/ClRuntime.hpp"
 #include "host/runtime/Timing.hpp"
 #include "host/tf/TransferFunction.hpp"
@@ -152,11 +152,11 @@ void addDemoCommand(CLI::App& app, GlobalOptions& global) {
         scene.step = 0.5;
         scene.preintegration = Preintegration::Table2d;
         scene.validate();
-        Renderer renderer(cc, sl, tf, scene);
-        ImageBuffer image = renderer.render();
+        const std::unique_ptr<VolumeRenderer> renderer = RenderInput::borrow(sl).makeRenderer(cc, tf, scene);
+        ImageBuffer image = renderer->render();
         writeImage(compositeOverSrgb(image, {0.0f, 0.0f, 0.0f, 1.0f}), dir / "phantom.png");
         std::cout << "rendered " << scene.width << "x" << scene.height << " DVR (2D pre-integration, step "
-                  << scene.step << ") in " << renderer.lastKernelMilliseconds() << " ms kernel time\n  -> "
+                  << scene.step << ") in " << renderer->lastKernelMilliseconds() << " ms kernel time\n  -> "
                   << (dir / "phantom.png").string() << '\n';
 
         // Wavelet codec: lossless and --max-error round trips of the Marschner-Lobb volume.

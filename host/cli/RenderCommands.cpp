@@ -7,8 +7,9 @@
 #include "host/image/ImageIo.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
-#include "host/render/Renderer.hpp"
+#include "host/render/RenderInput.hpp"
 #include "host/render/Scene.hpp"
+#include "host/render/VolumeRenderer.hpp"
 #include "host/runtime/ClRuntime.hpp"
 #include "host/runtime/Timing.hpp"
 #include "host/tf/TransferFunction.hpp"
@@ -31,9 +32,9 @@
 namespace volcl::cli {
 namespace {
 
-TransferFunction loadTf(const std::filesystem::path& path, const Volume& v) {
-    const VolumeStats st = v.stats(1);
-    std::array<double, 2> range{st.min, st.max > st.min ? st.max : st.min + 1.0};
+TransferFunction loadTf(const std::filesystem::path& path, const RenderInput& input) {
+    const ValueRange r = input.valueRange();
+    std::array<double, 2> range{r.min, r.max > r.min ? r.max : r.min + 1.0};
     return TransferFunction::fromFile(path, range);
 }
 
@@ -78,7 +79,7 @@ struct BenchArgs {
 };
 
 /// Median kernel milliseconds of `runs` frames after one warm-up frame (kernel build excluded).
-double timeFrames(Renderer& r, int runs) {
+double timeFrames(VolumeRenderer& r, int runs) {
     r.render();
     std::vector<double> ms;
     for (int i = 0; i < runs; ++i) {
@@ -88,12 +89,14 @@ double timeFrames(Renderer& r, int runs) {
     return median(ms);
 }
 
-void benchEffects(ComputeContext& cc, const Volume& v, const TransferFunction& tf, Scene base, int runs) {
+void benchEffects(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, Scene base,
+                  int runs) {
     base.preintegration = Preintegration::None;
     base.skipping = false;
     base.effects = {};
     base.lights.clear();
-    Renderer r(cc, v, tf, base);
+    const std::unique_ptr<VolumeRenderer> renderer = input.makeRenderer(cc, tf, base);
+    VolumeRenderer& r = *renderer;
     // Plain kernel from the full source vs the baseline file that never contained any effect, interleaved.
     std::vector<double> plain, baseline;
     r.render();
@@ -112,10 +115,9 @@ void benchEffects(ComputeContext& cc, const Volume& v, const TransferFunction& t
     std::cout << "  baseline (raymarch_plain.cl)            " << std::setw(9) << baseMs << "  "
               << std::setprecision(3) << baseMs / plainMs << "  plain/baseline " << plainMs / baseMs
               << (plainMs <= 1.03 * baseMs ? " (within 3%)" : " (over 3%)") << '\n';
-    const auto box = v.dims();
-    const Vec3 centre{v.origin[0] + 0.5 * double(box.x - 1) * v.spacing[0],
-                      v.origin[1] + 0.5 * double(box.y - 1) * v.spacing[1],
-                      v.origin[2] + 0.5 * double(box.z - 1) * v.spacing[2]};
+    const WorldBox box = input.bounds();
+    const Vec3 centre{box.origin[0] + 0.5 * box.extent[0], box.origin[1] + 0.5 * box.extent[1],
+                      box.origin[2] + 0.5 * box.extent[2]};
     const double mid = 0.5 * (tf.domain[0] + tf.domain[1]);
     struct Variant {
         const char* name;
@@ -225,19 +227,21 @@ std::pair<double, ImageBuffer> runVtk(const BenchArgs& a, const Volume& v, const
 
 void benchRender(const BenchArgs& a, GlobalOptions& global) {
     Scene scene = a.scene.build();
-    const Volume v = readVolume(scene.volume, a.scene.raw.toReadOptions());
-    const TransferFunction tf = loadTf(scene.tf, v);
+    const RenderInput input = RenderInput::open(scene.volume, a.scene.raw.toReadOptions());
+    const TransferFunction tf = loadTf(scene.tf, input);
     ComputeContext cc(global.device);
-    std::cerr << "volcl bench render: " << scene.volume.string() << " " << v.dims().x << "x" << v.dims().y
-              << "x" << v.dims().z << ", " << scene.width << "x" << scene.height << ", device "
-              << cc.device().name << '\n';
-    if (a.effects) benchEffects(cc, v, tf, scene, a.runs);
+    std::cerr << "volcl bench render: " << scene.volume.string() << " " << input.summary() << ", "
+              << scene.width << "x" << scene.height << ", device " << cc.device().name << '\n';
+    if (a.effects) benchEffects(cc, input, tf, scene, a.runs);
     if (!a.sweep && !a.vtk) return;
+    const Volume* grid = input.grid();
+    if (!grid) throw UsageError("bench render: the sweep and --vtk measure grids (give a volume)");
+    const Volume& v = *grid;
 
     // Reference at the same image size: the accuracy every configuration is measured against.
     Stopwatch sw;
     const double minSpacing = std::min({v.spacing[0], v.spacing[1], v.spacing[2]});
-    const ImageBuffer ref = referenceRender(v, tf, scene, {.step = a.referenceStep * minSpacing});
+    const ImageBuffer ref = input.renderReference(tf, scene, {.step = a.referenceStep * minSpacing});
     std::cerr << "reference (double, step " << a.referenceStep * minSpacing << "): " << std::fixed
               << std::setprecision(1) << sw.milliseconds() / 1000.0 << " s\n";
 
@@ -255,10 +259,10 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
                     s.step = step * minSpacing;
                     s.preintegration = pre;
                     s.skipping = skip;
-                    Renderer r(cc, v, tf, s);
-                    const double tableMs = r.lastTableMilliseconds();
-                    const double ms = timeFrames(r, a.runs);
-                    const ImageBuffer img = r.render();
+                    const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, s);
+                    const double tableMs = r->lastTableMilliseconds();
+                    const double ms = timeFrames(*r, a.runs);
+                    const ImageBuffer img = r->render();
                     const double e4 = imageRmse(img, ref), e3 = rmseRgb(img, ref);
                     std::cout << std::setprecision(3) << "  " << std::setw(5) << step << "  " << std::setw(6)
                               << preintegrationName(pre) << "  " << std::setw(4) << (skip ? "on" : "off")
@@ -274,11 +278,11 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
     if (a.vtk) {
         const auto dir = std::filesystem::temp_directory_path() / ("volcl-vtk-" + std::to_string(::getpid()));
         std::filesystem::create_directories(dir);
-        Renderer r(cc, v, tf, scene);
-        const auto [vtkMs, vtkImg] = runVtk(a, v, tf, scene, r.camera(), dir);
+        const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, scene);
+        const auto [vtkMs, vtkImg] = runVtk(a, v, tf, scene, r->camera(), dir);
         std::filesystem::remove_all(dir);
-        const double ms = timeFrames(r, a.runs);
-        const double ours = rmseRgb(r.render(), ref), theirs = rmseRgb(vtkImg, ref);
+        const double ms = timeFrames(*r, a.runs);
+        const double ours = rmseRgb(r->render(), ref), theirs = rmseRgb(vtkImg, ref);
         if (!a.vtkImage.empty()) {
             writeImage(vtkImg, a.vtkImage);
             writeImage(ref, std::filesystem::path(a.vtkImage).replace_extension(".reference.exr"));
@@ -324,18 +328,16 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
             outputExtension(a->out); // refuse a bad output name before any work
             checkNotSameFile(scene.volume, a->out);
         }
-        const Volume v = readVolume(scene.volume, a->scene.raw.toReadOptions());
-        const TransferFunction tf = loadTf(scene.tf, v);
+        const RenderInput input = RenderInput::open(scene.volume, a->scene.raw.toReadOptions());
+        const TransferFunction tf = loadTf(scene.tf, input);
         if (a->explain && a->out.empty()) {
-            std::cout << planEffects(scene, v, tf).explain();
+            std::cout << input.planEffects(scene, tf).explain();
             return;
         }
         ComputeContext cc(global.device);
-        Renderer r(cc, v, tf, scene);
-        if (a->explain)
-            std::cout << r.plan().explain() << "macrocells: " << r.macrocellCount() << ", "
-                      << std::setprecision(1) << std::fixed << 100.0 * r.emptyMacrocellFraction()
-                      << "% empty\n";
+        const std::unique_ptr<VolumeRenderer> renderer = input.makeRenderer(cc, tf, scene);
+        VolumeRenderer& r = *renderer;
+        if (a->explain) std::cout << r.plan().explain() << r.statistics() << '\n';
         const ImageBuffer img = r.render();
         writeRendered(img, a->out, scene, a->half);
         if (!global.quiet)

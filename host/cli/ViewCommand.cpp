@@ -5,7 +5,7 @@
 #include "host/cli/Commands.hpp"
 #include "host/cli/SceneFlags.hpp"
 #include "host/io/AtomicFile.hpp"
-#include "host/io/VolumeIo.hpp"
+#include "host/render/RenderInput.hpp"
 #include "host/render/Scene.hpp"
 #include "host/runtime/ClRuntime.hpp"
 #include "host/tf/TransferFunction.hpp"
@@ -71,7 +71,7 @@ Scene viewScene(ViewArgs a) {
 /// shares with it, then the session that renders on it.
 struct ViewerSetup {
     Scene scene;
-    Volume volume;
+    std::optional<RenderInput> input;
     std::optional<TransferFunction> tf;
     viewer::FrameTransport transport = viewer::FrameTransport::Pbo;
     std::unique_ptr<viewer::HeadlessGlContext> headlessGl;
@@ -83,7 +83,7 @@ struct ViewerSetup {
         scene = viewScene(a);
         if (!a.output.empty() && headless) checkNotSameFile(scene.volume, a.output);
         const viewer::TransportRequest request = viewer::parseTransportRequest(a.transport);
-        volume = readVolume(scene.volume, a.scene.raw.toReadOptions());
+        input = RenderInput::open(scene.volume, a.scene.raw.toReadOptions());
         if (!scene.tf.empty()) tf = TransferFunction::fromFile(scene.tf);
         cc = std::make_unique<ComputeContext>(global.device);
         transport = viewer::chooseTransport(request, cc->device());
@@ -109,7 +109,7 @@ struct ViewerSetup {
         viewer::AdaptiveQualityOptions adaptive;
         adaptive.enabled = !a.noAdaptive;
         adaptive.targetMs = a.targetMs;
-        session = std::make_unique<viewer::ViewerSession>(*cc, volume, scene, tf, scene.tf, adaptive);
+        session = std::make_unique<viewer::ViewerSession>(*cc, *input, scene, tf, scene.tf, adaptive);
         if (!global.quiet)
             std::cerr << "view: device " << cc->device().name << "; frames reach OpenGL through "
                       << viewer::frameTransportName(transport)

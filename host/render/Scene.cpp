@@ -3,7 +3,6 @@
 #include "host/render/Scene.hpp"
 
 #include "host/Error.hpp"
-#include "host/Volume.hpp"
 #include "host/render/VecMath.hpp"
 
 #include <nlohmann/json.hpp>
@@ -389,10 +388,8 @@ void Scene::validate() const {
     if (mode == RenderMode::Iso) need(!e.isosurfaces.empty(), "mode iso needs effects.isosurfaces");
 }
 
-Camera defaultCamera(const Volume& volume) {
-    const Dims& d = volume.dims();
-    Vec3 lo = volume.origin, ext{double(d.x - 1) * volume.spacing[0], double(d.y - 1) * volume.spacing[1],
-                                 double(d.z - 1) * volume.spacing[2]};
+Camera defaultCamera(const WorldBox& box) {
+    const Vec3 lo = box.origin, ext = box.extent;
     const Vec3 centre = add(lo, scale(ext, 0.5));
     const double diag = std::max(norm(ext), 1.0);
     Camera c;

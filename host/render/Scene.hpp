@@ -1,6 +1,8 @@
 // Render scenes (CONTRACT section 4): camera, image, mode, lights and effects, read from JSON.
 #pragma once
 
+#include "host/render/Bounds.hpp"
+
 #include <array>
 #include <filesystem>
 #include <optional>
@@ -9,8 +11,6 @@
 #include <vector>
 
 namespace volcl {
-
-class Volume;
 
 enum class RenderMode { Dvr, Mip, Iso, Xray };
 enum class Preintegration { None, Table2d, Table3d };
@@ -22,8 +22,6 @@ std::string_view renderModeName(RenderMode m);
 RenderMode parseRenderMode(std::string_view s); ///< throws UsageError
 std::string_view preintegrationName(Preintegration p);
 Preintegration parsePreintegration(std::string_view s); ///< "none", "2d", "3d"; throws UsageError
-
-using Vec3 = std::array<double, 3>;
 
 /// GLM lookAt camera. `height` is the orthographic view height in world units; `fovYDeg` the perspective one.
 struct Camera {
@@ -73,8 +71,8 @@ struct SceneEffects {
 /// s.validate();
 /// ```
 struct Scene {
-    std::filesystem::path volume, tf;
-    std::optional<Camera> camera; ///< absent: defaultCamera() looks down +z at the whole volume
+    std::filesystem::path volume, tf; ///< volume: the data file; RenderInput::open picks its renderer
+    std::optional<Camera> camera;     ///< absent: defaultCamera() looks down +z at the data's whole box
     int width = 512, height = 512;
     std::array<double, 4> background{0, 0, 0, 1};
     RenderMode mode = RenderMode::Dvr;
@@ -94,8 +92,9 @@ struct Scene {
     void validate() const;
 };
 
-/// Orthographic camera along +z through the centre of the volume's box, sized to show all of it.
-Camera defaultCamera(const Volume& volume);
+/// Orthographic camera along +z through the centre of a world box, sized to show all of it (every
+/// renderer's default: the box is VolumeRenderer::bounds()).
+Camera defaultCamera(const WorldBox& box);
 
 /// World-space ray of pixel (x, y) (y = 0 at the top), double precision, CONTRACT section 4.
 struct CameraRay {

@@ -43,7 +43,25 @@ std::string KernelSourceLibrary::raw(std::string_view file) const {
     throw Error("kernel file " + std::string(file) + " is not embedded (missing from cl/kernels.cmake?)");
 }
 
+bool KernelSourceLibrary::has(std::string_view file) const {
+    if (overrideDir_) return std::filesystem::is_regular_file(*overrideDir_ / std::string(file));
+    for (std::size_t i = 0; i < detail::kEmbeddedKernelFileCount; ++i)
+        if (file == detail::kEmbeddedKernelFiles[i].name) return true;
+    return false;
+}
+
 namespace {
+// The library name of `#include "name"` in file `includer`: beside the includer when such a file exists
+// (as a C compiler looks first), else relative to cl/ itself. Names are normalised ("common/../x.h" is
+// "x.h"), so a file reached by two spellings is still included once.
+std::string includeName(const KernelSourceLibrary& lib, std::string_view includer, std::string_view name) {
+    namespace fs = std::filesystem;
+    const fs::path folder = fs::path(std::string(includer)).parent_path();
+    const std::string beside = (folder / std::string(name)).lexically_normal().generic_string();
+    if (!folder.empty() && lib.has(beside)) return beside;
+    return fs::path(std::string(name)).lexically_normal().generic_string();
+}
+
 // Expands `#include "name"` lines; each file is included once, like a header guard would do.
 void expand(const KernelSourceLibrary& lib, std::string_view file, const std::function<std::string(std::string_view)>& raw,
             std::set<std::string>& seen, std::string& out) {
@@ -58,7 +76,8 @@ void expand(const KernelSourceLibrary& lib, std::string_view file, const std::fu
         if (p != std::string::npos && line.compare(p, 8, "#include") == 0) {
             std::size_t q1 = line.find('"', p), q2 = q1 == std::string::npos ? q1 : line.find('"', q1 + 1);
             if (q2 != std::string::npos) {
-                expand(lib, std::string_view(line).substr(q1 + 1, q2 - q1 - 1), raw, seen, out);
+                expand(lib, includeName(lib, file, std::string_view(line).substr(q1 + 1, q2 - q1 - 1)), raw,
+                       seen, out);
                 out += "#line " + std::to_string(lineNo + 1) + " \"" + std::string(file) + "\"\n";
                 continue;
             }

@@ -20,7 +20,9 @@ extern const std::size_t kEmbeddedKernelFileCount;
 } // namespace detail
 
 /// Resolves a kernel file to self-contained source: `#include "x.h"` lines naming other cl/ files are
-/// expanded in place (each file once), so the program text and its hash cover everything it uses.
+/// expanded in place (each file once), so the program text and its hash cover everything it uses. Files
+/// are named by their path relative to cl/ ("raymarch.cl", "common/shading.h"); an include is looked up
+/// beside the including file first, then relative to cl/.
 class KernelSourceLibrary {
 public:
     /// `overrideDir`: read files from this directory instead of the embedded copies (development).
@@ -31,6 +33,8 @@ public:
     /// Expanded source of `file` (e.g. "phantoms.cl"). Throws Error when a file is missing.
     std::string resolve(std::string_view file) const;
     const std::optional<std::filesystem::path>& overrideDir() const noexcept { return overrideDir_; }
+    /// True when `file` (a path relative to cl/) exists in the embedded set or the override directory.
+    bool has(std::string_view file) const;
 
 private:
     std::string raw(std::string_view file) const;

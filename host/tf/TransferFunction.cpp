@@ -415,7 +415,7 @@ std::vector<VolclTfKnot> TransferFunction::packKnots() const {
 
 std::array<float, 4> TransferFunction::sampleFloat(const std::vector<VolclTfKnot>& knots, float s) {
     if (knots.empty()) throw UsageError("TransferFunction::sampleFloat: no knots");
-    // Same binary search and arithmetic as tf_sample() in cl/transfer_function.h, operation for operation.
+    // Same binary search and arithmetic as tf_sample() in cl/common/tf_lookup.h, operation for operation.
     std::uint32_t lo = 0, hi = static_cast<std::uint32_t>(knots.size());
     while (hi - lo > 1) {
         std::uint32_t mid = (lo + hi) / 2;

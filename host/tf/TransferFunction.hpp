@@ -59,7 +59,7 @@ public:
     double maxExtinction() const;
     double maxColor() const; ///< largest colour channel value
 
-    /// Merged colour+extinction knots for kernels (see cl/transfer_function.h).
+    /// Merged colour+extinction knots for kernels (see cl/common/tf_lookup.h).
     std::vector<VolclTfKnot> packKnots() const;
     /// Float evaluation identical, bit for bit, to tf_sample() in kernels: (r, g, b, tau).
     static std::array<float, 4> sampleFloat(const std::vector<VolclTfKnot>& knots, float s);

@@ -4,6 +4,7 @@
 #include "host/Error.hpp"
 #include "host/Volume.hpp"
 #include "host/render/VecMath.hpp"
+#include "host/render/grid/GridRenderer.hpp"
 #include "host/runtime/Timing.hpp"
 
 #include <algorithm>
@@ -44,18 +45,15 @@ std::string fmt(double v, int digits = 3) {
     return os.str();
 }
 
-std::array<double, 2> valueRange(const Volume& v) {
-    const VolumeStats st = v.stats(1);
-    double lo = st.min, hi = st.max;
+/// The data range the presets span; a constant field gets a unit-wide range.
+std::array<double, 2> presetRange(const ValueRange& r) {
+    double lo = r.min, hi = r.max;
     if (!(hi > lo)) hi = lo + 1.0;
     return {lo, hi};
 }
 
-double boxDiagonal(const Volume& v) {
-    const Dims& d = v.dims();
-    const Vec3 ext{double(d.x - 1) * v.spacing[0], double(d.y - 1) * v.spacing[1],
-                   double(d.z - 1) * v.spacing[2]};
-    return std::max(norm(ext), 1.0);
+double boxDiagonal(const WorldBox& box) {
+    return std::max(norm(box.extent), 1.0);
 }
 
 } // namespace
@@ -76,11 +74,16 @@ std::string keyBindingsHelp() {
 
 std::vector<TfPreset> transferFunctionPresets(const Volume& volume,
                                               const std::optional<TransferFunction>& sceneTf) {
+    return transferFunctionPresets(RenderInput::borrow(volume).valueRange(), gridBounds(volume), sceneTf);
+}
+
+std::vector<TfPreset> transferFunctionPresets(const ValueRange& range, const WorldBox& box,
+                                              const std::optional<TransferFunction>& sceneTf) {
     std::vector<TfPreset> out;
     if (sceneTf) out.push_back({"scene", *sceneTf});
-    const auto [lo, hi] = valueRange(volume);
+    const auto [lo, hi] = presetRange(range);
     const double r = hi - lo;
-    const double tauMax = 8.0 / boxDiagonal(volume);
+    const double tauMax = 8.0 / boxDiagonal(box);
     const auto at = [&](double f) { return lo + f * r; };
 
     TransferFunction grey;
@@ -116,18 +119,23 @@ std::vector<TfPreset> transferFunctionPresets(const Volume& volume,
     return out;
 }
 
-ViewerSession::ViewerSession(ComputeContext& cc, const Volume& volume, const Scene& scene,
+ViewerSession::ViewerSession(ComputeContext& cc, RenderInput input, const Scene& scene,
                              const std::optional<TransferFunction>& tf, std::filesystem::path tfPath,
                              const AdaptiveQualityOptions& adaptive)
-    : cc_(cc), volume_(volume), base_(scene), original_(scene), tfPath_(std::move(tfPath)),
-      presets_(transferFunctionPresets(volume, tf)),
-      camera_(scene.camera ? *scene.camera : defaultCamera(volume)), adaptive_(adaptive) {
+    : cc_(cc), input_(std::move(input)), range_(input_.valueRange()), base_(scene), original_(scene),
+      tfPath_(std::move(tfPath)), presets_(transferFunctionPresets(range_, input_.bounds(), tf)),
+      camera_(scene.camera ? *scene.camera : defaultCamera(input_.bounds())), adaptive_(adaptive) {
     base_.validate();
     original_.camera = camera_.camera();
     Scene first = base_;
     first.camera = camera_.camera();
-    renderer_ = std::make_unique<Renderer>(cc_, volume_, presets_[0].tf, first);
+    renderer_ = input_.makeRenderer(cc_, presets_[0].tf, first);
 }
+
+ViewerSession::ViewerSession(ComputeContext& cc, const Volume& volume, const Scene& scene,
+                             const std::optional<TransferFunction>& tf, std::filesystem::path tfPath,
+                             const AdaptiveQualityOptions& adaptive)
+    : ViewerSession(cc, RenderInput::borrow(volume), scene, tf, std::move(tfPath), adaptive) {}
 
 ViewerSession::~ViewerSession() = default;
 
@@ -204,7 +212,7 @@ std::string ViewerSession::apply(ViewerAction action) {
             fx.isosurfaces = original_.effects.isosurfaces;
             what = "isosurfaces on (the scene's)";
         } else {
-            const auto [lo, hi] = valueRange(volume_);
+            const auto [lo, hi] = presetRange(range_);
             fx.isosurfaces.push_back({0.5 * (lo + hi), {0.9, 0.85, 0.75, 1.0}});
             what = "isosurfaces on (value " + fmt(0.5 * (lo + hi)) + ")";
         }

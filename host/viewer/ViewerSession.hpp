@@ -1,9 +1,11 @@
 // The viewer's state without any OpenGL: scene, camera, effect toggles, TF presets, adaptive quality,
-// and the Renderer that draws each frame. The window and headless front ends both drive it.
+// and the renderer (any VolumeRenderer) that draws each frame. The window and headless front ends both
+// drive it.
 #pragma once
 
 #include "host/image/ImageIo.hpp"
-#include "host/render/Renderer.hpp"
+#include "host/render/RenderInput.hpp"
+#include "host/render/VolumeRenderer.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "host/viewer/AdaptiveQuality.hpp"
 #include "host/viewer/ViewerCamera.hpp"
@@ -48,9 +50,12 @@ struct TfPreset {
     TransferFunction tf;
 };
 
-/// The presets for a volume: the scene's own TF first (when there is one), then ramps and bands laid over
-/// the volume's value range, with extinction scaled so a ray through the whole box reaches optical depth
-/// about 8 at the strongest value.
+/// The presets for data with value range `range` in world box `box`: the scene's own TF first (when there
+/// is one), then ramps and bands laid over the value range, with extinction scaled so a ray through the
+/// whole box reaches optical depth about 8 at the strongest value.
+std::vector<TfPreset> transferFunctionPresets(const ValueRange& range, const WorldBox& box,
+                                              const std::optional<TransferFunction>& sceneTf);
+/// transferFunctionPresets() for a grid's range and box.
 std::vector<TfPreset> transferFunctionPresets(const Volume& volume,
                                               const std::optional<TransferFunction>& sceneTf);
 
@@ -60,8 +65,8 @@ struct ViewerFrame {
     QualityLevel level; ///< actual level (from the rounded pixel counts)
     bool interactive = false;
     bool structureChanged = false; ///< a kernel or table may have been rebuilt for this frame
-    double setupMs = 0.0;          ///< Renderer::setScene (planning, tables, kernel lookup or build)
-    double renderMs = 0.0;         ///< Renderer::render wall time (kernel + read-back)
+    double setupMs = 0.0;          ///< VolumeRenderer::setScene (planning, tables, kernel lookup or build)
+    double renderMs = 0.0;         ///< VolumeRenderer::render wall time (kernel + read-back)
     double kernelMs = 0.0;         ///< the ray-marching kernel alone (profiling event)
 };
 
@@ -74,8 +79,12 @@ struct ViewerFrame {
 /// ```
 class ViewerSession {
 public:
-    /// `scene.camera` absent: the volume's default camera. `tf` absent: the first preset. `tfPath` empty:
-    /// nothing to reload.
+    /// `scene.camera` absent: the default camera of the data's box. `tf` absent: the first preset. `tfPath`
+    /// empty: nothing to reload. The renderer comes from input.makeRenderer().
+    ViewerSession(ComputeContext& cc, RenderInput input, const Scene& scene,
+                  const std::optional<TransferFunction>& tf, std::filesystem::path tfPath,
+                  const AdaptiveQualityOptions& adaptive);
+    /// A session on a grid the caller keeps alive.
     ViewerSession(ComputeContext& cc, const Volume& volume, const Scene& scene,
                   const std::optional<TransferFunction>& tf, std::filesystem::path tfPath,
                   const AdaptiveQualityOptions& adaptive);
@@ -94,7 +103,7 @@ public:
 
     /// The scene as the next frame will render it at full quality (camera included).
     Scene currentScene() const;
-    const Renderer& renderer() const noexcept { return *renderer_; }
+    const VolumeRenderer& renderer() const noexcept { return *renderer_; }
     ComputeContext& compute() const noexcept { return cc_; }
     const AdaptiveQuality& adaptive() const noexcept { return adaptive_; }
     const std::string& tfPresetName() const noexcept { return presets_[presetIndex_].name; }
@@ -105,7 +114,8 @@ public:
 
 private:
     ComputeContext& cc_;
-    const Volume& volume_;
+    RenderInput input_;
+    ValueRange range_; ///< of the data, for presets and the default iso-value
     Scene base_; ///< the scene with the viewer's toggles applied, full quality; camera kept in camera_
     Scene original_;
     std::filesystem::path tfPath_;
@@ -113,7 +123,7 @@ private:
     std::size_t presetIndex_ = 0;
     CameraController camera_;
     AdaptiveQuality adaptive_;
-    std::unique_ptr<Renderer> renderer_;
+    std::unique_ptr<VolumeRenderer> renderer_;
     bool structureChanged_ = false; // the constructor planned and built the first kernel
 };
 

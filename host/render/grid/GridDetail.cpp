@@ -1,14 +1,15 @@
-// Renderer internals: value range, world box, macrocell min/max and emptiness, kernel parameter block.
-#include "host/render/RenderDetail.hpp"
+// Grid renderer internals: value range, macrocell min/max and emptiness, corner copy, kernel parameters.
+#include "host/render/grid/GridDetail.hpp"
 
 #include "host/Error.hpp"
 #include "host/Volume.hpp"
+#include "host/render/FrameParams.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-namespace volcl::render_detail {
+namespace volcl::grid_detail {
 
 ValueRange valueRange(const Volume& volume) {
     ValueRange r{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
@@ -20,14 +21,6 @@ ValueRange valueRange(const Volume& volume) {
     }
     if (r.min > r.max) r = {0.0, 0.0};
     return r;
-}
-
-std::array<Vec3, 2> worldBox(const Volume& volume) {
-    const Dims& d = volume.dims();
-    const Vec3 lo = volume.origin;
-    const Vec3 hi{lo[0] + double(d.x - 1) * volume.spacing[0], lo[1] + double(d.y - 1) * volume.spacing[1],
-                  lo[2] + double(d.z - 1) * volume.spacing[2]};
-    return {lo, hi};
 }
 
 MacrocellGrid buildMacrocells(const Volume& volume, unsigned edge) {
@@ -145,41 +138,16 @@ double gradientThreshold(const Volume& volume) {
     return 1e-6 * std::max(r.max - r.min, 1e-30) / s;
 }
 
-void setCameraParams(VolclRenderParams& p, const Scene& scene, const Camera& cam) {
+VolclGridParams gridParams(const Volume& volume, const MacrocellGrid& grid) {
+    VolclGridParams p{};
     auto put = [](float* dst, const Vec3& v) {
         for (int i = 0; i < 3; ++i)
             dst[i] = static_cast<float>(v[std::size_t(i)]);
         dst[3] = 0.0f;
     };
-    const Vec3 f = normalized(sub(cam.target, cam.eye));
-    const Vec3 r = normalized(cross(f, cam.up));
-    const Vec3 u = cross(r, f);
-    const double aspect = double(scene.width) / double(scene.height);
-    const double half = cam.projection == Projection::Orthographic
-                            ? cam.height / 2.0
-                            : std::tan(cam.fovYDeg * 3.14159265358979323846 / 360.0);
-    put(p.camOrigin, cam.eye);
-    put(p.camRight, scale(r, half * aspect));
-    put(p.camUp, scale(u, half));
-    put(p.camForward, f);
-    p.dims[3] = cam.projection == Projection::Perspective ? 1u : 0u;
-    p.width = volcl_uint(scene.width);
-    p.height = volcl_uint(scene.height);
-}
-
-VolclRenderParams makeParams(const Scene& scene, const Camera& cam, const Volume& volume,
-                             const TransferFunction& tf, const EffectPlan& plan, const MacrocellGrid& grid,
-                             std::size_t knotCount, int tableLengths) {
-    VolclRenderParams p{};
-    auto put = [](float* dst, const Vec3& v, float w = 0.0f) {
-        for (int i = 0; i < 3; ++i)
-            dst[i] = static_cast<float>(v[std::size_t(i)]);
-        dst[3] = w;
-    };
-    setCameraParams(p, scene, cam);
-    put(p.volOrigin, volume.origin);
-    put(p.volSpacing, volume.spacing);
-    put(p.volInvSpacing, {1.0 / volume.spacing[0], 1.0 / volume.spacing[1], 1.0 / volume.spacing[2]});
+    put(p.origin, volume.origin);
+    put(p.spacing, volume.spacing);
+    put(p.invSpacing, {1.0 / volume.spacing[0], 1.0 / volume.spacing[1], 1.0 / volume.spacing[2]});
     const Dims& d = volume.dims();
     p.dims[0] = volcl_uint(d.x);
     p.dims[1] = volcl_uint(d.y);
@@ -188,47 +156,21 @@ VolclRenderParams makeParams(const Scene& scene, const Camera& cam, const Volume
     p.macroDims[1] = grid.ny;
     p.macroDims[2] = grid.nz;
     p.macroDims[3] = grid.edge;
-    p.knotCount = volcl_uint(knotCount);
-    p.tableSize = volcl_uint(scene.tableSize);
-    p.step = static_cast<float>(scene.step);
-    p.earlyTermination = static_cast<float>(scene.earlyTermination);
-    p.domainLo = static_cast<float>(tf.domain[0]);
-    p.domainHi = static_cast<float>(tf.domain[1]);
-    p.tableMaxLength = static_cast<float>(scene.step);
-    p.tableLengths = volcl_uint(std::max(tableLengths, 1));
-    p.shadowStep = static_cast<float>(scene.effects.shadowStep > 0.0 ? scene.effects.shadowStep : scene.step);
-    p.gradientMin = static_cast<float>(gradientThreshold(volume));
-    const SceneEffects& fx = scene.effects;
-    p.ambient = float(fx.ambient);
-    p.diffuse = float(fx.diffuse);
-    p.specular = float(fx.specular);
-    p.shininess = float(fx.shininess);
-    p.albedo = float(fx.albedo);
-    p.phaseG = float(fx.phaseG);
-    unsigned nl = 0;
-    for (const auto& l : scene.lights) {
-        if (!(l.intensity > 0.0) || nl >= VOLCL_MAX_LIGHTS) continue;
-        const float kind = l.kind == LightKind::Directional ? VOLCL_LIGHT_DIRECTIONAL
-                           : l.kind == LightKind::Point     ? VOLCL_LIGHT_POINT
-                                                            : VOLCL_LIGHT_HEAD;
-        put(p.lightPos[nl], l.kind == LightKind::Directional ? normalized(l.vector) : l.vector, kind);
-        put(p.lightColor[nl], scale(l.color, l.intensity));
-        ++nl;
-    }
-    p.lightCount = nl;
-    p.clipCount = volcl_uint(plan.clipPlanes.size());
-    for (std::size_t i = 0; i < plan.clipPlanes.size(); ++i) {
-        const double n = norm(plan.clipPlanes[i].normal);
-        put(p.clipPlane[i], scale(plan.clipPlanes[i].normal, 1.0 / n), float(plan.clipPlanes[i].offset / n));
-    }
-    p.isoCount = volcl_uint(plan.isosurfaces.size());
-    for (std::size_t i = 0; i < plan.isosurfaces.size(); ++i) {
-        const IsoLayer& iso = plan.isosurfaces[i];
-        p.isoValue[i][0] = float(iso.value);
-        const double cs = plan.colorScale;
-        put(p.isoColor[i], {iso.rgba[0] * cs, iso.rgba[1] * cs, iso.rgba[2] * cs}, float(iso.rgba[3]));
-    }
     return p;
 }
 
-} // namespace volcl::render_detail
+VolclGridRenderParams makeParams(const Scene& scene, const Camera& cam, const Volume& volume,
+                                 const TransferFunction& tf, const EffectPlan& plan,
+                                 const MacrocellGrid& grid, std::size_t knotCount, int tableLengths) {
+    VolclGridRenderParams p{};
+    p.camera = cameraParams(cam, scene.width, scene.height);
+    p.clip = clipParams(plan.clipPlanes);
+    p.march = marchParams(scene);
+    p.tf = tfParams(scene, tf, knotCount, tableLengths);
+    p.lighting = lightingParams(scene, gradientThreshold(volume));
+    p.iso = isoParams(plan);
+    p.grid = gridParams(volume, grid);
+    return p;
+}
+
+} // namespace volcl::grid_detail

@@ -1,22 +1,23 @@
-// Internals shared by the renderer and its reference: value range, box, macrocells, kernel parameters.
+// Internals of the grid renderer and its reference: value range, macrocells, corner copy, kernel parameters.
 #pragma once
 
 #include "cl/volcl_shared.h"
-#include "host/render/Renderer.hpp"
-#include "host/render/VecMath.hpp"
+#include "host/render/Bounds.hpp"
+#include "host/render/EffectPlan.hpp"
+#include "host/render/Scene.hpp"
+#include "host/tf/TransferFunction.hpp"
 
-#include <array>
+#include <cstddef>
 #include <vector>
 
-namespace volcl::render_detail {
+namespace volcl {
+class Volume;
+}
 
-struct ValueRange {
-    double min = 0.0, max = 0.0;
-};
+namespace volcl::grid_detail {
+
+/// Smallest and largest finite voxel value.
 ValueRange valueRange(const Volume& volume);
-
-/// World-space box [lo, hi] of the node-centred volume.
-std::array<Vec3, 2> worldBox(const Volume& volume);
 
 /// Min/max per macrocell; cell c covers voxels [c*edge, (c+1)*edge] (shared faces, so every trilinear cell
 /// inside it is covered).
@@ -39,8 +40,8 @@ constexpr std::size_t kMaxCornerVoxels = std::size_t(1) << 26;
 
 /// For a uint8 volume: the 8 corner values of the trilinear cell at every voxel (x, y, z), in the order
 /// (x, y, z), (x+1, y, z), (x, y+1, z), (x+1, y+1, z), then the same at z+1, neighbours clamped to the grid,
-/// so the packet kernel fetches a cell with one 8-byte load (CORNER_VOXELS in cl/raymarch_core.h). Cells are
-/// stored in 4x4x4 bricks (brick-major, then z, y, x inside the brick) for cache locality along any ray.
+/// so the packet kernel fetches a cell with one 8-byte load (CORNER_VOXELS in cl/common/grid_sample.h). Cells
+/// are stored in 4x4x4 bricks (brick-major, then z, y, x inside the brick) for cache locality along any ray.
 std::vector<unsigned char> cellCorners(const Volume& volume);
 
 /// Largest tau over [a, b] (exact for the piecewise-linear TF).
@@ -49,10 +50,11 @@ double maxExtinctionOver(const TransferFunction& tf, double a, double b);
 /// Gradient magnitude below which a sample has no defined normal.
 double gradientThreshold(const Volume& volume);
 
-/// The camera and image-size fields of the parameter block (the only ones a view change touches).
-void setCameraParams(VolclRenderParams& params, const Scene& scene, const Camera& camera);
-VolclRenderParams makeParams(const Scene& scene, const Camera& camera, const Volume& volume,
-                             const TransferFunction& tf, const EffectPlan& plan, const MacrocellGrid& grid,
-                             std::size_t knotCount, int tableLengths);
+/// The grid's geometry and macrocell layout.
+VolclGridParams gridParams(const Volume& volume, const MacrocellGrid& grid);
+/// The whole parameter block of the grid kernels (cl/raymarch.cl).
+VolclGridRenderParams makeParams(const Scene& scene, const Camera& camera, const Volume& volume,
+                                 const TransferFunction& tf, const EffectPlan& plan,
+                                 const MacrocellGrid& grid, std::size_t knotCount, int tableLengths);
 
-} // namespace volcl::render_detail
+} // namespace volcl::grid_detail

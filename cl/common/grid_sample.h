@@ -1,8 +1,9 @@
-/* Ray-marcher core shared by every ray-marching kernel: camera rays, box clipping, trilinear sampling. */
-#ifndef VOLCL_RAYMARCH_CORE_H
-#define VOLCL_RAYMARCH_CORE_H
+/* Grid sampling for the grid ray marcher: voxel types, rays in voxel coordinates, the grid's box,
+   trilinear samples (one ray or a packet) and gradients. */
+#ifndef VOLCL_GRID_SAMPLE_H
+#define VOLCL_GRID_SAMPLE_H
 
-#include "volcl_shared.h"
+#include "camera_rays.h"
 
 #pragma OPENCL FP_CONTRACT OFF
 
@@ -24,18 +25,34 @@ typedef struct {
     float3 oWorld;
 } Ray;
 
-inline float3 v3(const float a[4]) { return (float3)(a[0], a[1], a[2]); }
+/* A world ray in the grid's voxel coordinates; the ray parameter stays the world distance. */
+inline Ray grid_ray(const VolclGridParams* G, WorldRay w) {
+    Ray r;
+    r.oWorld = w.o;
+    r.dWorld = w.d;
+    const float3 inv = v3(G->invSpacing);
+    r.o = (r.oWorld - v3(G->origin)) * inv;
+    r.d = r.dWorld * inv;
+    return r;
+}
+
+inline float3 ray_at(const Ray* r, float t) { return r->o + t * r->d; }
+
+/* Upper corner of the grid's box in voxel coordinates: (nx - 1, ny - 1, nz - 1). */
+inline float3 grid_hi(const VolclGridParams* G) {
+    return (float3)(G->dims[0] - 1, G->dims[1] - 1, G->dims[2] - 1);
+}
 
 /* Trilinear interpolation at voxel coordinates p (clamped to the grid). */
-inline float sample_volume(__global const voxel_t* vol, const VolclRenderParams* P, float3 p) {
-    const int3 hiI = (int3)((int)P->dims[0] - 1, (int)P->dims[1] - 1, (int)P->dims[2] - 1);
+inline float sample_volume(__global const voxel_t* vol, const VolclGridParams* G, float3 p) {
+    const int3 hiI = (int3)((int)G->dims[0] - 1, (int)G->dims[1] - 1, (int)G->dims[2] - 1);
     const float3 hi = convert_float3(hiI);
     p = clamp(p, (float3)(0.0f), hi);
     int3 i0 = convert_int3(floor(p));
     i0 = min(i0, max(hiI - 1, (int3)(0)));
     const int3 i1 = min(i0 + 1, hiI);
     const float3 f = p - convert_float3(i0);
-    const uint nx = P->dims[0], nxy = P->dims[0] * P->dims[1];
+    const uint nx = G->dims[0], nxy = G->dims[0] * G->dims[1];
     const uint z0 = (uint)i0.z * nxy, z1 = (uint)i1.z * nxy, y0 = (uint)i0.y * nx, y1 = (uint)i1.y * nx;
     /* x neighbours are adjacent: one two-wide load each. The buffer carries one spare voxel, so the pair is
        in bounds even for a one-voxel-wide grid, where the second value has weight f.x = 0. */
@@ -65,51 +82,32 @@ inline float2 clip_box(float3 o, float3 d, float3 hi, float tmin, float tmax) {
     return (float2)(tmin, tmax);
 }
 
-inline Ray camera_ray(const VolclRenderParams* P, uint x, uint y) {
-    const float ndcX = 2.0f * ((float)x + 0.5f) / (float)P->width - 1.0f;
-    const float ndcY = 1.0f - 2.0f * ((float)y + 0.5f) / (float)P->height;
-    Ray r;
-    const float3 f = v3(P->camForward), right = v3(P->camRight), up = v3(P->camUp);
-    if (P->dims[3]) {
-        r.oWorld = v3(P->camOrigin);
-        r.dWorld = normalize(f + ndcX * right + ndcY * up);
-    } else {
-        r.oWorld = v3(P->camOrigin) + ndcX * right + ndcY * up;
-        r.dWorld = f;
-    }
-    const float3 inv = v3(P->volInvSpacing);
-    r.o = (r.oWorld - v3(P->volOrigin)) * inv;
-    r.d = r.dWorld * inv;
-    return r;
+/* World-space gradient at voxel coordinates p. */
+inline float3 gradient(__global const voxel_t* vol, const VolclGridParams* G, float3 p) {
+    const float3 inv = v3(G->invSpacing);
+#ifdef GRADIENT_SOBEL
+    /* Sobel-weighted central differences: each axis smoothed over the other two with weights 1-2-1. */
+    float3 g = (float3)(0.0f);
+    for (int a = -1; a <= 1; ++a)
+        for (int b = -1; b <= 1; ++b) {
+            const float w = (a == 0 ? 2.0f : 1.0f) * (b == 0 ? 2.0f : 1.0f);
+            g.x += w * (sample_volume(vol, G, p + (float3)(1, a, b)) - sample_volume(vol, G, p + (float3)(-1, a, b)));
+            g.y += w * (sample_volume(vol, G, p + (float3)(a, 1, b)) - sample_volume(vol, G, p + (float3)(a, -1, b)));
+            g.z += w * (sample_volume(vol, G, p + (float3)(a, b, 1)) - sample_volume(vol, G, p + (float3)(a, b, -1)));
+        }
+    return g * (1.0f / 32.0f) * inv;
+#else
+    const float gx = sample_volume(vol, G, p + (float3)(1, 0, 0)) - sample_volume(vol, G, p - (float3)(1, 0, 0));
+    const float gy = sample_volume(vol, G, p + (float3)(0, 1, 0)) - sample_volume(vol, G, p - (float3)(0, 1, 0));
+    const float gz = sample_volume(vol, G, p + (float3)(0, 0, 1)) - sample_volume(vol, G, p - (float3)(0, 0, 1));
+    return (float3)(gx, gy, gz) * 0.5f * inv;
+#endif
 }
 
-inline float3 ray_at(const Ray* r, float t) { return r->o + t * r->d; }
-
-/* ---------------- ray packets ----------------
-   PoCL runs one work-item's ray loop as scalar code (it cannot vectorise divergent loops across
-   work-items), so the hot DVR kernels march RAY_LANES rays per work-item in explicit float8 vectors:
-   a 4x2 pixel block whose rays stay close, so they sample the same cache lines and end together.
-   Lanes finish independently (masks); the arithmetic per lane is the scalar kernel's, operation for
-   operation, so the image is the same. */
-#define RAY_LANES 8
-/* Packet helpers are inlined into the ray loop: as calls they pass their float8 values through the stack. */
-#define PACKET_INLINE __attribute__((always_inline)) inline
-#define PACKET_W 4
-#define PACKET_H 2
-
-typedef union { float8 v; float a[8]; } LaneF;
-typedef union { int8 v; int a[8]; } LaneI;
-typedef union { uint8 v; uint a[8]; } LaneU;
-
-/* A packet of rays in voxel coordinates: origin o, direction d (per world unit). */
-typedef struct {
-    float8 ox, oy, oz, dx, dy, dz;
-} RayPacket;
-
 /* sample_volume for eight points at once: the same clamps, cell choice and lerp order per lane. */
-PACKET_INLINE float8 sample_volume8(__global const voxel_t* vol, const VolclRenderParams* P, float8 px,
+PACKET_INLINE float8 sample_volume8(__global const voxel_t* vol, const VolclGridParams* G, float8 px,
                                     float8 py, float8 pz) {
-    const int hx = (int)P->dims[0] - 1, hy = (int)P->dims[1] - 1, hz = (int)P->dims[2] - 1;
+    const int hx = (int)G->dims[0] - 1, hy = (int)G->dims[1] - 1, hz = (int)G->dims[2] - 1;
     px = clamp(px, 0.0f, (float)hx);
     py = clamp(py, 0.0f, (float)hy);
     pz = clamp(pz, 0.0f, (float)hz);
@@ -117,7 +115,7 @@ PACKET_INLINE float8 sample_volume8(__global const voxel_t* vol, const VolclRend
     const int8 iy = min(convert_int8(floor(py)), max(hy - 1, 0));
     const int8 iz = min(convert_int8(floor(pz)), max(hz - 1, 0));
     const float8 fx = px - convert_float8(ix), fy = py - convert_float8(iy), fz = pz - convert_float8(iz);
-    const uint nx = P->dims[0];
+    const uint nx = G->dims[0];
     const uint8 xi = convert_uint8(ix);
     LaneF a00, a10, a01, a11, e00, e10, e01, e11; /* a: value at i0.x, e: at i0.x + 1 */
 #ifdef CORNER_VOXELS
@@ -125,7 +123,7 @@ PACKET_INLINE float8 sample_volume8(__global const voxel_t* vol, const VolclRend
        (x+1, y+1, z), then the same at z+1, neighbours clamped to the grid like i1 below. One aligned 8-byte
        load per sample instead of four 2-byte loads from four cache lines. Cells are stored in 4x4x4 bricks
        (512 bytes), so a ray moving in y or z stays in the cache lines it has already loaded. */
-    const uint nbx = (nx + 3u) >> 2, nby = (P->dims[1] + 3u) >> 2;
+    const uint nbx = (nx + 3u) >> 2, nby = (G->dims[1] + 3u) >> 2;
     const uint8 uy = convert_uint8(iy), uz = convert_uint8(iz);
     LaneU b;
     b.v = ((((uz >> 2) * nby + (uy >> 2)) * nbx + (xi >> 2)) << 6) | ((uz & 3u) << 4) | ((uy & 3u) << 2) | (xi & 3u);
@@ -137,7 +135,7 @@ PACKET_INLINE float8 sample_volume8(__global const voxel_t* vol, const VolclRend
         a11.a[l] = c.s6; e11.a[l] = c.s7;
     }
 #else
-    const uint nxy = nx * P->dims[1];
+    const uint nxy = nx * G->dims[1];
     const uint8 z0 = convert_uint8(iz) * nxy, y0 = convert_uint8(iy) * nx;
     const uint8 z1 = convert_uint8(min(iz + 1, hz)) * nxy, y1 = convert_uint8(min(iy + 1, hy)) * nx;
     LaneU b00, b10, b01, b11;
@@ -162,9 +160,9 @@ PACKET_INLINE float8 sample_volume8(__global const voxel_t* vol, const VolclRend
     return c0 + fz * (c1 - c0);
 }
 
-PACKET_INLINE float8 sample_packet(__global const voxel_t* vol, const VolclRenderParams* P, const RayPacket* r,
+PACKET_INLINE float8 sample_packet(__global const voxel_t* vol, const VolclGridParams* G, const RayPacket* r,
                                    float8 t) {
-    return sample_volume8(vol, P, r->ox + t * r->dx, r->oy + t * r->dy, r->oz + t * r->dz);
+    return sample_volume8(vol, G, r->ox + t * r->dx, r->oy + t * r->dy, r->oz + t * r->dz);
 }
 
 #endif

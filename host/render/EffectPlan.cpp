@@ -1,0 +1,170 @@
+// Effect planning shared by every renderer: the scene's requests against the data's box and value range.
+#include "host/render/EffectPlan.hpp"
+
+#include "host/render/VecMath.hpp"
+
+#include <sstream>
+
+namespace volcl {
+namespace {
+
+std::string fmt(double v) {
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+} // namespace
+
+std::string EffectPlan::explain() const {
+    std::ostringstream os;
+    os << "compiled: " << defines.toOptions() << '\n';
+    for (const auto& c : compiled)
+        os << "  + " << c << '\n';
+    for (const auto& d : dropped)
+        os << "  - dropped " << d << '\n';
+    return os.str();
+}
+
+EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRange& range,
+                       std::string_view skippingHow) {
+    EffectPlan p;
+    const SceneEffects& fx = scene.effects;
+    const RenderMode mode = scene.mode;
+    const bool marching = mode == RenderMode::Dvr || mode == RenderMode::Iso;
+    const std::string modeName(renderModeName(mode));
+    p.defines.set("MODE", static_cast<long long>(mode == RenderMode::Dvr   ? 0
+                                                 : mode == RenderMode::Mip ? 1
+                                                 : mode == RenderMode::Iso ? 2
+                                                                           : 3));
+    p.compiled.push_back("mode " + modeName);
+
+    // Iso-surfaces: crossed only when min < value <= max (the kernel's sign test), visible only if opaque at
+    // all.
+    if (!fx.isosurfaces.empty()) {
+        if (!marching) {
+            p.dropped.push_back("isosurfaces: mode " + modeName + " draws no surfaces");
+        } else {
+            for (const auto& iso : fx.isosurfaces) {
+                const std::string name = "isosurface " + fmt(iso.value);
+                if (iso.rgba[3] <= 0.0)
+                    p.dropped.push_back(name + ": opacity 0");
+                else if (!(iso.value > range.min && iso.value <= range.max))
+                    p.dropped.push_back(name + ": outside the data range (" + fmt(range.min) + ", " +
+                                        fmt(range.max) + "], never crossed");
+                else
+                    p.isosurfaces.push_back(iso);
+            }
+        }
+    }
+    if (!p.isosurfaces.empty()) {
+        p.defines.set("ISO_COUNT", static_cast<long long>(p.isosurfaces.size()));
+        p.compiled.push_back("isosurfaces: " + std::to_string(p.isosurfaces.size()) +
+                             " (first hit refined by bisection, composited in ray order)");
+    }
+
+    std::size_t litLights = 0;
+    for (const auto& l : scene.lights)
+        if (l.intensity > 0.0 && (l.color[0] > 0.0 || l.color[1] > 0.0 || l.color[2] > 0.0)) ++litLights;
+    const bool canLight = marching && litLights > 0;
+    const std::string noLight =
+        marching ? "no light with non-zero intensity" : "mode " + modeName + " is unlit";
+
+    if (fx.shading) {
+        if (!canLight)
+            p.dropped.push_back("shading: " + noLight + " (rendered unshaded)");
+        else if (fx.diffuse == 0.0 && fx.specular == 0.0) {
+            p.colorScale = fx.ambient;
+            p.dropped.push_back("shading: diffuse and specular are 0, so no gradients; ambient " +
+                                fmt(fx.ambient) + " folded into the colours");
+        } else {
+            p.shading = true;
+            p.defines.set("SHADING");
+            p.compiled.push_back("shading: Blinn-Phong, " + std::to_string(litLights) +
+                                 " light(s), ambient " + fmt(fx.ambient) + ", diffuse " + fmt(fx.diffuse) +
+                                 ", specular " + fmt(fx.specular) + ", shininess " + fmt(fx.shininess));
+        }
+    }
+    if (fx.gradient == GradientKind::Sobel) {
+        if (p.shading) {
+            p.sobel = true;
+            p.defines.set("GRADIENT_SOBEL");
+            p.compiled.push_back("gradient: Sobel");
+        } else {
+            p.dropped.push_back("gradient sobel: nothing uses gradients");
+        }
+    }
+    if (fx.scattering) {
+        if (fx.albedo <= 0.0)
+            p.dropped.push_back("scattering: albedo 0");
+        else if (!canLight)
+            p.dropped.push_back("scattering: " + noLight);
+        else {
+            p.scattering = true;
+            p.defines.set("SCATTERING");
+            p.compiled.push_back("scattering: single, Henyey-Greenstein g " + fmt(fx.phaseG) + ", albedo " +
+                                 fmt(fx.albedo));
+        }
+    }
+    if (fx.shadows) {
+        if (!p.shading && !p.scattering)
+            p.dropped.push_back("shadows: nothing is lit");
+        else {
+            p.shadows = true;
+            p.defines.set("SHADOWS");
+            p.compiled.push_back("shadows: secondary marching toward each light");
+        }
+    }
+    if (!fx.clipPlanes.empty()) {
+        const Vec3 lo = bounds.origin, hi = bounds.hi();
+        for (std::size_t i = 0; i < fx.clipPlanes.size(); ++i) {
+            const ClipPlane& pl = fx.clipPlanes[i];
+            bool allKept = true;
+            for (int c = 0; c < 8; ++c) {
+                const Vec3 corner{c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1], c & 4 ? hi[2] : lo[2]};
+                if (dot(pl.normal, corner) + pl.offset < 0.0) allKept = false;
+            }
+            if (allKept)
+                p.dropped.push_back("clip plane " + std::to_string(i) + ": keeps the whole volume");
+            else
+                p.clipPlanes.push_back(pl);
+        }
+        if (!p.clipPlanes.empty()) {
+            p.clipping = true;
+            p.defines.set("CLIPPING");
+            p.compiled.push_back("clipping: " + std::to_string(p.clipPlanes.size()) +
+                                 " plane(s) cut the ray interval");
+        }
+    }
+    if (scene.preintegration != Preintegration::None) {
+        if (mode != RenderMode::Dvr)
+            p.dropped.push_back("pre-integration: mode " + modeName + " integrates no segments");
+        else {
+            p.defines.set("PREINT", scene.preintegration == Preintegration::Table2d ? 2LL : 3LL);
+            p.compiled.push_back(scene.preintegration == Preintegration::Table2d
+                                     ? "pre-integration: 2D table at the render step"
+                                     : "pre-integration: 3D table over segment lengths");
+        }
+    }
+    if (scene.skipping) {
+        if (!marching)
+            p.dropped.push_back("empty-space skipping: mode " + modeName + " visits every sample");
+        else {
+            p.skipping = true;
+            p.defines.set("SKIPPING");
+            p.compiled.push_back("empty-space skipping: " + std::string(skippingHow));
+        }
+    }
+    if (scene.earlyTermination < 1.0) {
+        if (!marching)
+            p.dropped.push_back("early termination: mode " + modeName + " has no opacity to saturate");
+        else {
+            p.earlyTermination = true;
+            p.defines.set("EARLY_TERMINATION");
+            p.compiled.push_back("early termination at opacity " + fmt(scene.earlyTermination));
+        }
+    }
+    return p;
+}
+
+} // namespace volcl

@@ -1,0 +1,332 @@
+// The grid renderer: voxel upload, macrocell emptiness, tables, kernel parameters and launches.
+#include "host/render/grid/GridRenderer.hpp"
+
+#include "cl/volcl_shared.h"
+#include "host/Error.hpp"
+#include "host/Volume.hpp"
+#include "host/render/FrameParams.hpp"
+#include "host/render/VecMath.hpp"
+#include "host/render/grid/GridDetail.hpp"
+#include "host/runtime/Timing.hpp"
+#include "preintegration/PreintegrationTable.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+namespace volcl {
+namespace {
+
+constexpr unsigned kMacrocellEdge = 8; // voxels per macrocell edge: 8^3 cells keep the grid small and tight
+
+std::string fmt(double v) {
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+/// VOXEL_TYPE: voxels keep their stored type on the device; the kernel converts on load (exact for all
+/// four types). 0 float, 1 uint8, 2 uint16, 3 int16.
+int voxelTypeCode(const Volume& volume) {
+    return volume.type() == ScalarType::UInt8    ? 1
+           : volume.type() == ScalarType::UInt16 ? 2
+           : volume.type() == ScalarType::Int16  ? 3
+                                                 : 0;
+}
+
+std::string skippingHow() {
+    return std::to_string(kMacrocellEdge) + "^3-voxel macrocells";
+}
+
+/// The shared planner on the grid's box and (already scanned) value range, plus the voxel type: the
+/// renderer scans the volume once, not on every scene change (a 7M-voxel scan per adaptive-quality step
+/// change cost more than the coarse frame).
+EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& range) {
+    EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow());
+    p.defines.set("VOXEL_TYPE", static_cast<long long>(voxelTypeCode(volume)));
+    return p;
+}
+
+} // namespace
+
+WorldBox gridBounds(const Volume& volume) {
+    const Dims& d = volume.dims();
+    return {volume.origin,
+            {double(d.x - 1) * volume.spacing[0], double(d.y - 1) * volume.spacing[1],
+             double(d.z - 1) * volume.spacing[2]}};
+}
+
+EffectPlan planEffects(const Scene& scene, const Volume& volume, const TransferFunction& tf) {
+    (void)tf;
+    return planGrid(scene, volume, grid_detail::valueRange(volume));
+}
+
+Camera defaultCamera(const Volume& volume) {
+    return defaultCamera(gridBounds(volume));
+}
+
+struct GridRenderer::Impl {
+    ValueRange range;               ///< of the volume, scanned once at construction
+    DeviceBuffer<cl_uchar> volume;  ///< voxels in their stored type, plus one spare voxel (grid_sample.h)
+    DeviceBuffer<cl_uchar> corners; ///< uint8 volumes: 8 corner values per cell for the packet kernels
+    bool useCorners = false;        ///< packet kernels read `corners` (-DCORNER_VOXELS)
+    DeviceBuffer<VolclTfKnot> knots;
+    DeviceBuffer<cl_float4> table;
+    DeviceBuffer<cl_uchar> empty;
+    DeviceBuffer<cl_float4> out;
+    DeviceBuffer<float> depth;
+    std::size_t knotCount = 0;
+    grid_detail::MacrocellGrid macro;
+    std::vector<unsigned char> emptyHost;
+    cl::Kernel kernel;
+    bool packet = false; ///< kernel is raymarch_packet: one work-item per 4x2 block of pixels
+    std::string tableKey;
+    int tableLengths = 1;
+    /// Recently used tables, most recent last: an interactive viewer alternates between a few steps, and a
+    /// 2D table per step costs 10-100 ms to rebuild (far more than a coarse frame).
+    struct CachedTable {
+        std::string key;
+        DeviceBuffer<cl_float4> table;
+        int lengths = 1;
+    };
+    std::vector<CachedTable> tableCache;
+    static constexpr std::size_t kTableCacheSize = 8;
+    VolclGridRenderParams params{};
+};
+
+GridRenderer::GridRenderer(ComputeContext& cc, const Volume& volume, const TransferFunction& tf,
+                           const Scene& scene)
+    : cc_(cc), volume_(volume), tf_(tf), scene_(scene), impl_(std::make_unique<Impl>()) {
+    scene_.validate();
+    tf_.validate();
+    if (volume.empty()) throw DataError("volume is empty");
+    if (volume.voxelCount() >= (std::size_t(1) << 32))
+        throw DataError("volume has " + std::to_string(volume.voxelCount()) +
+                        " voxels; the ray marcher indexes at most 2^32 - 1");
+    if (volume.type() == ScalarType::Float32) {
+        std::size_t bad = 0;
+        for (float v : volume.values<float>())
+            bad += std::isfinite(v) ? 0 : 1;
+        if (bad)
+            throw DataError("volume has " + std::to_string(bad) +
+                            " NaN/Inf voxels; the ray marcher needs finite data (replace them first)");
+    }
+    std::vector<cl_uchar> bytes(volume.byteSize() + scalarSize(volume.type()), 0);
+    std::memcpy(bytes.data(), volume.bytes().data(), volume.byteSize());
+    impl_->volume = cc_.upload(bytes, CL_MEM_READ_ONLY);
+    impl_->macro = grid_detail::buildMacrocells(volume, kMacrocellEdge);
+    impl_->range = grid_detail::valueRange(volume);
+    impl_->useCorners =
+        volume.type() == ScalarType::UInt8 && volume.voxelCount() <= grid_detail::kMaxCornerVoxels;
+    impl_->out = cc_.allocate<cl_float4>(1);
+    impl_->depth = cc_.allocate<float>(1);
+    rebuild(true);
+}
+
+GridRenderer::~GridRenderer() = default;
+
+std::size_t GridRenderer::macrocellCount() const noexcept {
+    return impl_->macro.min.size();
+}
+
+void GridRenderer::setScene(const Scene& scene) {
+    scene.validate();
+    scene_ = scene;
+    rebuild(false);
+}
+
+void GridRenderer::setView(const Camera& camera, int width, int height, double step) {
+    Scene s = scene_;
+    s.camera = camera;
+    s.width = width;
+    s.height = height;
+    s.step = step;
+    if (step != scene_.step) {
+        setScene(s);
+        return;
+    }
+    s.validate();
+    scene_ = s;
+    camera_ = camera;
+    impl_->params.camera = cameraParams(camera_, scene_.width, scene_.height);
+}
+
+void GridRenderer::setTransferFunction(const TransferFunction& tf) {
+    tf.validate();
+    tf_ = tf;
+    rebuild(true);
+}
+
+void GridRenderer::rebuild(bool tfChanged) {
+    camera_ = scene_.camera ? *scene_.camera : defaultCamera(bounds());
+    const EffectPlan previous = plan_;
+    plan_ = planGrid(scene_, volume_, impl_->range);
+    Impl& m = *impl_;
+
+    // Guard against steps so small that one ray would take longer than any frame should.
+    const WorldBox box = bounds();
+    const double diag = norm(sub(box.hi(), box.origin));
+    if (diag / scene_.step > 5e7)
+        throw UsageError("render.step " + fmt(scene_.step) + " needs " + fmt(std::ceil(diag / scene_.step)) +
+                         " samples per ray; use a step of at least " + fmt(diag / 5e7));
+
+    TransferFunction shaded = tf_;
+    if (plan_.colorScale != 1.0)
+        for (auto& c : shaded.color)
+            for (double& v : c.rgb)
+                v *= plan_.colorScale;
+    if (tfChanged || previous.colorScale != plan_.colorScale) {
+        const auto knots = shaded.packKnots();
+        m.knots = cc_.upload(knots, CL_MEM_READ_ONLY);
+        m.knotCount = knots.size();
+    }
+
+    // Pre-integration table: rebuilt when the TF, the step, the size or the kind changes.
+    const Preintegration pre = scene_.mode == RenderMode::Dvr ? scene_.preintegration : Preintegration::None;
+    tableMs_ = 0.0;
+    if (pre != Preintegration::None) {
+        TableSpec spec;
+        spec.size = scene_.tableSize;
+        if (pre == Preintegration::Table2d) {
+            spec.axis = LengthAxis::Fixed;
+            spec.step = scene_.step;
+        } else {
+            spec.axis = LengthAxis::Linear;
+            spec.lengths = scene_.tableLengths;
+            spec.maxLength = scene_.step;
+        }
+        const std::string key = shaded.toJson() + "|" + std::to_string(int(pre)) + "|" +
+                                std::to_string(spec.size) + "|" + fmt(scene_.step) + "|" +
+                                std::to_string(spec.lengths);
+        if (key != m.tableKey) {
+            auto hit = std::find_if(m.tableCache.begin(), m.tableCache.end(),
+                                    [&](const Impl::CachedTable& c) { return c.key == key; });
+            Impl::CachedTable entry;
+            if (hit != m.tableCache.end()) {
+                entry = std::move(*hit);
+                m.tableCache.erase(hit);
+            } else {
+                Stopwatch sw;
+                const PreintegrationTable t = generatePreintegrationTable(shaded, spec, {}, &cc_);
+                tableMs_ = sw.milliseconds();
+                std::vector<cl_float4> rgba(t.rgba.size() / 4);
+                std::memcpy(rgba.data(), t.rgba.data(), rgba.size() * sizeof(cl_float4));
+                entry = {key, cc_.upload(rgba, CL_MEM_READ_ONLY), int(t.sliceCount())};
+            }
+            m.table = entry.table;
+            m.tableKey = key;
+            m.tableLengths = entry.lengths;
+            m.tableCache.push_back(std::move(entry));
+            if (m.tableCache.size() > Impl::kTableCacheSize) m.tableCache.erase(m.tableCache.begin());
+        }
+    } else if (m.table.size() == 0) {
+        m.table = cc_.allocate<cl_float4>(1, CL_MEM_READ_ONLY);
+    }
+
+    // Macrocell emptiness from the TF (and the iso-values), for the sampling the kernel will use.
+    std::vector<double> isoValues;
+    for (const auto& iso : plan_.isosurfaces)
+        isoValues.push_back(iso.value);
+    const int tableNodes = pre != Preintegration::None ? scene_.tableSize : 0;
+    m.emptyHost =
+        grid_detail::emptyMacrocells(m.macro, shaded, isoValues, scene_.mode == RenderMode::Iso, tableNodes);
+    std::size_t emptyCount = 0;
+    for (unsigned char e : m.emptyHost)
+        emptyCount += e;
+    emptyFraction_ = m.emptyHost.empty() ? 0.0 : double(emptyCount) / double(m.emptyHost.size());
+    m.empty = cc_.upload(m.emptyHost, CL_MEM_READ_ONLY);
+
+    // Unlit DVR without iso-surfaces (the common, time-critical case) runs as explicit 8-ray packets.
+    m.packet =
+        scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
+    m.kernel = cc_.kernel("raymarch.cl", m.packet ? "raymarch_packet" : "raymarch",
+                          m.packet ? packetDefines(plan_.defines) : plan_.defines);
+    m.params =
+        grid_detail::makeParams(scene_, camera_, volume_, tf_, plan_, m.macro, m.knotCount, m.tableLengths);
+}
+
+KernelDefines GridRenderer::packetDefines(KernelDefines d) {
+    Impl& m = *impl_;
+    if (m.useCorners) {
+        // A memory layout, not an effect: kept out of plan_.defines (what --explain and the EXR report).
+        d.set("CORNER_VOXELS");
+        if (m.corners.size() == 0)
+            m.corners = cc_.upload(grid_detail::cellCorners(volume_), CL_MEM_READ_ONLY);
+    }
+    return d;
+}
+
+ImageBuffer GridRenderer::launch(cl::Kernel& kernel, bool withDepth, bool packet) {
+    Impl& m = *impl_;
+    const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
+    if (m.out.size() != pixels) {
+        m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
+        m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
+    }
+    setArgs(kernel, packet && m.useCorners ? m.corners : m.volume, m.knots, m.table, m.empty, m.params, m.out,
+            m.depth);
+    // Tiles of nearby rays share cache lines in y as well as x: 8x8 rays, or 4x4 packets of 4x2 rays.
+    const std::size_t w = std::size_t(scene_.width), h = std::size_t(scene_.height);
+    cl::Event ev =
+        packet ? cc_.launch2d(kernel, (w + 3) / 4, (h + 1) / 2, 4, 4) : cc_.launch2d(kernel, w, h, 8, 8);
+    lastMs_ = eventMilliseconds(ev);
+    const auto rgba = cc_.download(m.out);
+    std::vector<std::string> channels{"R", "G", "B", "A"};
+    if (withDepth) channels.push_back("Z");
+    ImageBuffer img(scene_.width, scene_.height, channels);
+    std::vector<float> depth;
+    if (withDepth) depth = cc_.download(m.depth);
+    const int nc = img.channelCount();
+    for (std::size_t i = 0; i < pixels; ++i) {
+        for (int c = 0; c < 4; ++c)
+            img.pixels[i * nc + c] = rgba[i].s[c];
+        if (withDepth) img.pixels[i * nc + 4] = depth[i];
+    }
+    img.attributes.push_back({"volcl:mode", std::string(renderModeName(scene_.mode))});
+    img.attributes.push_back({"volcl:step", static_cast<float>(scene_.step)});
+    img.attributes.push_back(
+        {"volcl:preintegration", std::string(preintegrationName(scene_.preintegration))});
+    img.attributes.push_back({"volcl:effects", plan_.defines.toOptions()});
+    return img;
+}
+
+const cl::Buffer& GridRenderer::outputBuffer() const noexcept {
+    return impl_->out.get();
+}
+
+ImageBuffer GridRenderer::render() {
+    return launch(impl_->kernel, !plan_.isosurfaces.empty(), impl_->packet);
+}
+
+ImageBuffer GridRenderer::renderPlainBaseline() {
+    if (scene_.mode != RenderMode::Dvr || scene_.preintegration != Preintegration::None)
+        throw UsageError("the plain baseline kernel renders point-sampled dvr only");
+    KernelDefines d;
+    d.set("VOXEL_TYPE", static_cast<long long>(voxelTypeCode(volume_)));
+    cl::Kernel k = cc_.kernel("raymarch_plain.cl", "raymarch_plain", packetDefines(d));
+    return launch(k, false, true);
+}
+
+WorldBox GridRenderer::bounds() const {
+    return gridBounds(volume_);
+}
+
+ValueRange GridRenderer::valueRange() const {
+    return impl_->range;
+}
+
+EffectPlan GridRenderer::planEffects(const Scene& scene) const {
+    return planGrid(scene, volume_, impl_->range);
+}
+
+std::string GridRenderer::statistics() const {
+    std::ostringstream os;
+    os << "macrocells: " << macrocellCount() << ", " << std::setprecision(1) << std::fixed
+       << 100.0 * emptyFraction_ << "% empty";
+    return os.str();
+}
+
+} // namespace volcl
