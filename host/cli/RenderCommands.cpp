@@ -31,12 +31,6 @@
 namespace volcl::cli {
 namespace {
 
-TransferFunction loadTf(const std::filesystem::path& path, const Volume& v) {
-    const VolumeStats st = v.stats(1);
-    std::array<double, 2> range{st.min, st.max > st.min ? st.max : st.min + 1.0};
-    return TransferFunction::fromFile(path, range);
-}
-
 std::string outputExtension(const std::filesystem::path& out) {
     std::string ext = out.extension().string();
     for (auto& c : ext)
@@ -225,8 +219,14 @@ std::pair<double, ImageBuffer> runVtk(const BenchArgs& a, const Volume& v, const
 
 void benchRender(const BenchArgs& a, GlobalOptions& global) {
     Scene scene = a.scene.build();
-    const Volume v = readVolume(scene.volume, a.scene.raw.toReadOptions());
-    const TransferFunction tf = loadTf(scene.tf, v);
+    std::vector<std::string> notes;
+    const Volume v = a.scene.readSceneVolume(scene, notes);
+    for (auto& note : a.scene.finish(scene, v))
+        notes.push_back(std::move(note));
+    if (!global.quiet)
+        for (const auto& note : notes)
+            std::cerr << "volcl bench render: " << note << '\n';
+    const TransferFunction tf = a.scene.loadTf(scene, v);
     ComputeContext cc(global.device);
     std::cerr << "volcl bench render: " << scene.volume.string() << " " << v.dims().x << "x" << v.dims().y
               << "x" << v.dims().z << ", " << scene.width << "x" << scene.height << ", device "
@@ -319,13 +319,22 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     cmd->add_flag("--half", a->half, "EXR: store half floats");
     cmd->callback([a, &global] {
         if (a->out.empty() && !a->explain) throw UsageError("render: give -o/--output (or --explain)");
-        const Scene scene = a->scene.build();
+        Scene scene = a->scene.build();
         if (!a->out.empty()) {
             outputExtension(a->out); // refuse a bad output name before any work
             checkNotSameFile(scene.volume, a->out);
         }
-        const Volume v = readVolume(scene.volume, a->scene.raw.toReadOptions());
-        const TransferFunction tf = loadTf(scene.tf, v);
+        std::vector<std::string> notes;
+        const Volume v = a->scene.readSceneVolume(scene, notes);
+        for (auto& note : a->scene.finish(scene, v))
+            notes.push_back(std::move(note));
+        const TransferFunction tf = a->scene.loadTf(scene, v);
+        if (!global.quiet)
+            for (const auto& note : notes)
+                std::cerr << "volcl render: " << note << '\n';
+        if (a->explain)
+            for (const auto& note : notes)
+                std::cout << "default: " << note << '\n';
         if (a->explain && a->out.empty()) {
             std::cout << planEffects(scene, v, tf).explain();
             return;

@@ -56,6 +56,7 @@ struct ClipPlane {
 /// What a scene asks for; Effects planning decides what is compiled (see planEffects()).
 struct SceneEffects {
     bool shading = false; ///< Blinn-Phong requested ("shading" object present)
+    bool shadingGiven = false; ///< the scene or a flag said whether to shade (iso mode shades unless told)
     double ambient = 0.2, diffuse = 0.7, specular = 0.3, shininess = 32.0;
     GradientKind gradient = GradientKind::Central;
     bool shadows = false;
@@ -93,6 +94,11 @@ struct Scene {
     /// Throws UsageError naming the field for out-of-range values.
     void validate() const;
 };
+
+/// Fills in what a scene leaves to defaults, before planning: iso mode shades when nothing says otherwise,
+/// and shading (or scattering, or shadows) with no lit light gets a head light. Returns one line per change
+/// (for a stderr note and `--explain`).
+std::vector<std::string> applyLightingDefaults(Scene& scene);
 
 /// Orthographic camera along +z through the centre of the volume's box, sized to show all of it.
 Camera defaultCamera(const Volume& volume);
