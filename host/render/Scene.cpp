@@ -1,5 +1,5 @@
-// Scene JSON parsing and validation, default camera, and the double-precision camera rays of CONTRACT
-// section 4.
+// Scene JSON parsing and validation, lighting defaults, default camera, and the double-precision camera
+// rays (docs/contract.md, "Scenes and images").
 #include "host/render/Scene.hpp"
 
 #include "host/Error.hpp"

@@ -1,4 +1,4 @@
-// Render scenes (CONTRACT section 4): camera, image, mode, lights and effects, read from JSON.
+// Render scenes (docs/contract.md): camera, image, mode, lights and effects, read from JSON.
 #pragma once
 
 #include <array>
@@ -103,7 +103,7 @@ std::vector<std::string> applyLightingDefaults(Scene& scene);
 /// Orthographic camera along +z through the centre of the volume's box, sized to show all of it.
 Camera defaultCamera(const Volume& volume);
 
-/// World-space ray of pixel (x, y) (y = 0 at the top), double precision, CONTRACT section 4.
+/// World-space ray of pixel (x, y) (y = 0 at the top), double precision (lookAt convention).
 struct CameraRay {
     Vec3 origin, direction;
 };
