@@ -87,7 +87,7 @@ def main():
     knob_panel(axes[1], rows, "3D", 128, 256, vtk,
                "(b) 3D 128x128x256, max length %g: error vs time" % data["max_length"])
     size_panel(axes[2], rows)
-    fig.suptitle("volcl pre-integration tables on %s (TF: CONTRACT example)" % data["device"], fontsize=11)
+    fig.suptitle("volcl pre-integration tables on %s (TF: the documented example)" % data["device"], fontsize=11)
     fig.tight_layout()
     fig.savefig(sys.argv[2], dpi=110)
 

@@ -1,4 +1,4 @@
-// Pre-integration tables (CONTRACT section 3): table model, generators for every method, EXR layout.
+// Pre-integration tables (docs/contract.md): table model, generators for every method, EXR layout.
 #pragma once
 
 #include <array>
@@ -85,7 +85,7 @@ public:
     std::array<float, 4> entry(int k, int front, int back) const;
     double node(int i) const; ///< s_i = lo + i (hi - lo) / (N - 1)
 
-    /// EXR image with channels R, G, B, A and the CONTRACT attributes.
+    /// EXR image with channels R, G, B, A and the volcl:* header attributes.
     ImageBuffer toImage() const;
     /// Inverse of toImage(); throws IoError/DataError when the attributes or the shape do not describe a
     /// table.

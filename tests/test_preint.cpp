@@ -28,7 +28,7 @@ TransferFunction tfFrom(const std::string& json) {
     return TransferFunction::fromJson(json);
 }
 
-// The CONTRACT example: ramps, a transparent band, colour and extinction breakpoints that differ.
+// The documented example TF (docs/contract.md): ramps, a transparent band, colour and extinction breakpoints that differ.
 TransferFunction contractTf() {
     return tfFrom(R"({"domain":[0,255],"color":[[0,0,0,0],[128,1,0.6,0.2],[255,1,1,1]],
                       "extinction":[[0,0],[60,0],[80,0.8],[255,0.05]]})");

@@ -444,7 +444,7 @@ TEST(Render, Uint8CornerLayoutMatchesLinearLayout) {
 }
 
 TEST(Render, DegenerateVolumesAndSteps) {
-    // One voxel thick: the box has no depth, so nothing is integrated (CONTRACT: the box is [o, o+(n-1)s]).
+    // One voxel thick: the box has no depth, so nothing is integrated (the box is [o, o+(n-1)s]).
     const Volume slab = makeFloatVolume({8, 8, 1}, [](double, double, double) { return 1.0f; });
     Scene s = orthoScene({8, 8, 1}, 8.0);
     ImageBuffer img = Renderer(computeContext(), slab, constantTf(5.0), s).render();

@@ -274,7 +274,7 @@ TEST(TransferFunction, ParaViewMidpointAndSharpness) {
 
 TEST(TransferFunction, ParaViewRefusals) {
     EXPECT_THROW(
-        TransferFunction::fromJson(R"([{"ColorSpace": "Diverging", "RGBPoints": [0,0,0,1, 1,1,0,0]}])"),
+        TransferFunction::fromJson(R"([{"ColorSpace": "Lab/CIEDE2000", "RGBPoints": [0,0,0,1, 1,1,0,0]}])"),
         volcl::DataError);
     EXPECT_THROW(TransferFunction::fromJson(R"({"RGBPoints": [0, 0, 0]})"), volcl::DataError);
     EXPECT_THROW(TransferFunction::fromJson(R"({"RGBPoints": [0,0,0,1], "Points": [0, 1.5, 0.5, 0]})"),

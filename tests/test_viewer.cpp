@@ -716,6 +716,43 @@ TEST(ViewerEndToEnd, InteractiveFramesAreCoarserAndReportedFramesSteerTheControl
     EXPECT_TRUE(still.level.full());
 }
 
+TEST(ViewerEndToEnd, AdaptiveQualityReactsWithPreintegration) {
+    // Before: every step change rebuilt the 2D table, the frame counted as a structure change and was never
+    // reported, so the controller held full quality however slow the frames were.
+    const Volume v = phantom({40, 33, 29});
+    Scene scene;
+    scene.step = 0.25;
+    scene.preintegration = Preintegration::Table2d;
+    AdaptiveQualityOptions ao;
+    ao.targetMs = 1.0;
+    ViewerSession s(test::computeContext(), v, scene, phantomTf(), {}, ao);
+    s.renderFrame(96, 96, false);
+    ViewerFrame f;
+    bool sawTable = false;
+    // Scripted frame sequence: each interactive frame "took" 1000 ms plus its own table build.
+    for (int i = 0; i < 6; ++i) {
+        f = s.renderFrame(96, 96, true);
+        sawTable = sawTable || f.tableMs > 0.0;
+        EXPECT_FALSE(f.structureChanged) << "frame " << i;
+        s.frameDone(f, 1000.0 + f.tableMs);
+    }
+    EXPECT_TRUE(sawTable); // the step did change, so tables were rebuilt on the way
+    EXPECT_LT(f.image.width, 96);
+    EXPECT_GT(f.level.stepScale, 1.0);
+    // The table build is kept out of the measurement: a level reported at exactly the target plus a
+    // long table build keeps its work instead of shrinking.
+    AdaptiveQualityOptions hold;
+    hold.targetMs = 100.0;
+    ViewerSession h(test::computeContext(), v, scene, phantomTf(), {}, hold);
+    h.renderFrame(96, 96, false);
+    h.frameDone(h.renderFrame(96, 96, true), 400.0); // coarsen once: the next frame needs a new table
+    ViewerFrame g = h.renderFrame(96, 96, true);
+    ASSERT_GT(g.tableMs, 0.0);
+    h.frameDone(g, 100.0 + g.tableMs);
+    const ViewerFrame after = h.renderFrame(96, 96, true);
+    EXPECT_NEAR(after.level.work(), g.level.work(), 0.05 * g.level.work() + 1e-3);
+}
+
 TEST(ViewerEndToEnd, OverlayLinesNameLevelEffectsAndTransport) {
     const Volume v = phantom({20, 18, 16});
     Scene scene;

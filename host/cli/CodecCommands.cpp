@@ -21,6 +21,7 @@
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 namespace volcl::cli {
@@ -34,16 +35,6 @@ bool isVcz(const fs::path& p) {
 }
 
 // A volume file or a .vcz (decoded whole).
-Volume loadAny(ComputeContext* cc, const std::string& path, std::size_t* vczBytes) {
-    if (isVcz(path)) {
-        if (!cc) throw Error("internal: decoding needs a compute context");
-        VczReader r(readFileBytes(path), path);
-        if (vczBytes) *vczBytes = r.fileSize();
-        return r.decode(*cc);
-    }
-    return readVolume(path);
-}
-
 std::string fmt(double v, int digits = 2) {
     if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
     if (std::isnan(v)) return "nan";
@@ -172,9 +163,11 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
             std::cerr << "volcl: wrote " << a->out << ": " << bytes.size() << " bytes, ratio "
                       << fmt(double(raw) / double(bytes.size())) << ":1, "
                       << fmt(double(bytes.size()) * 8 / double(voxels), 3) << " bits/voxel";
-            if (ts.frames.size() == 1 && o.rate != RateMode::Lossless)
-                std::cerr << ", PSNR " << fmt(rep.psnr) << " dB, max error " << rep.maxError << " ("
-                          << rep.corrections << " voxels stored exactly)";
+            if (ts.frames.size() == 1 && o.rate != RateMode::Lossless) {
+                std::cerr << ", PSNR " << fmt(rep.psnr) << " dB, max error " << rep.maxError;
+                // Only --max-error stores voxels exactly (to hold its bound); elsewhere the count is 0.
+                if (o.rate == RateMode::MaxError) std::cerr << " (" << rep.corrections << " voxels stored exactly)";
+            }
             std::cerr << ", " << fmt(double(raw) / 1e3 / ms, 1) << " MB/s\n";
             if (a->profile && ts.frames.size() == 1) printProfile("encode", rep.profile, 0);
         }
@@ -219,24 +212,81 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
     });
 }
 
+/// A plain volume seen the way a .vcz decode at `level` over `region` sees it: encoded with the other
+/// side's transform (wavelet, levels, brick; lossless where the transform is integer, else a float
+/// transform with a negligible error bound) and decoded at that level, so both sides share one low band.
+Volume levelView(ComputeContext& cc, const Volume& v, const VczHeader* like, const DecodeOptions& d) {
+    CodecOptions o;
+    if (like) {
+        o.wavelet = like->wavelet;
+        o.levels = like->levels;
+        o.brick = like->brick;
+    }
+    const bool integer = !like || like->transform != TransformKind::FloatLifting;
+    if (integer && v.type() != ScalarType::Float32) {
+        o.rate = RateMode::Lossless;
+    } else {
+        const VolumeStats st = v.stats(1);
+        o.rate = RateMode::MaxError;
+        o.target = std::max(1e-6 * (st.max - st.min), 1e-12);
+        if (!like) o.wavelet = Wavelet::Cdf97;
+    }
+    const std::vector<std::byte> bytes = encodeVolume(cc, v, o);
+    return decodeVolume(cc, bytes, d, "reference");
+}
+
 void addCompare(CLI::App& app, GlobalOptions& global) {
     auto* cmd = app.add_subcommand("compare", "PSNR, RMSE and max error of B against A (B may be a .vcz)");
     struct Args {
-        std::string a, b;
+        std::string a, b, region;
+        int level = 0;
+        std::size_t frame = 0;
         bool json = false;
     };
     auto a = std::make_shared<Args>();
     cmd->add_option("a", a->a, "Reference volume")->required();
     cmd->add_option("b", a->b, "Volume or .vcz to compare")->required();
+    cmd->add_option("--level", a->level,
+                    "Compare 2^k-downsampled approximations: a .vcz side decodes at level k, a plain volume "
+                    "takes the same wavelet low band")
+        ->capture_default_str();
+    cmd->add_option("--region", a->region, "Compare only the voxel box x0,y0,z0:x1,y1,z1 (half-open, full resolution)");
+    cmd->add_option("--frame", a->frame, "Frame of a time series .vcz")->capture_default_str();
     cmd->add_flag("--json", a->json, "JSON output");
     cmd->callback([a, &global] {
         std::unique_ptr<ComputeContext> cc;
-        if (isVcz(a->a) || isVcz(a->b)) cc = std::make_unique<ComputeContext>(global.device);
+        if (isVcz(a->a) || isVcz(a->b) || a->level > 0) cc = std::make_unique<ComputeContext>(global.device);
+        if (a->level < 0) throw UsageError("--level must be >= 0");
+        DecodeOptions d;
+        d.level = a->level;
+        d.frame = a->frame;
+        if (!a->region.empty()) d.region = parseRegion(a->region);
         std::size_t vczBytes = 0;
-        const Volume va = loadAny(cc.get(), a->a, nullptr);
-        const Volume vb = loadAny(cc.get(), a->b, &vczBytes);
+        std::optional<VczReader> ra, rb;
+        if (isVcz(a->a)) ra.emplace(readFileBytes(a->a), a->a);
+        if (isVcz(a->b)) {
+            rb.emplace(readFileBytes(a->b), a->b);
+            vczBytes = rb->fileSize();
+        }
+        const VczHeader* like = rb ? &rb->header() : (ra ? &ra->header() : nullptr);
+        auto load = [&](const std::string& path, std::optional<VczReader>& r) {
+            if (r) return r->decode(*cc, d);
+            Volume v = readVolume(path);
+            if (a->level > 0) return levelView(*cc, v, like, d);
+            if (d.region) {
+                if (!(d.region->hi.x <= v.dims().x && d.region->hi.y <= v.dims().y && d.region->hi.z <= v.dims().z))
+                    throw UsageError("--region " + a->region + " lies outside " + path);
+                return v.cropped(d.region->lo, d.region->hi);
+            }
+            return v;
+        };
+        const Volume va = load(a->a, ra);
+        const Volume vb = load(a->b, rb);
         if (va.dims() != vb.dims())
-            throw UsageError(a->a + " and " + a->b + " differ in dimensions: cannot compare");
+            throw UsageError(a->a + " and " + a->b + " differ in dimensions (" + std::to_string(va.dims().x) + "x" +
+                             std::to_string(va.dims().y) + "x" + std::to_string(va.dims().z) + " against " +
+                             std::to_string(vb.dims().x) + "x" + std::to_string(vb.dims().y) + "x" +
+                             std::to_string(vb.dims().z) + "): give --level K to compare a level decode with its source");
         const double p = psnr(va, vb), r = rmse(va, vb), m = maxAbsError(va, vb);
         const double bpv = vczBytes ? double(vczBytes) * 8 / double(va.voxelCount()) : NAN;
         if (a->json) {

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <optional>
 #include <memory>
 #include <sstream>
 
@@ -184,6 +185,7 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
             std::string in, out, type, crop;
             std::size_t frame = 0;
             bool bigEndianOut = false;
+            std::optional<double> replaceNan;
             RawReadFlags raw;
         };
         auto a = std::make_shared<Args>();
@@ -192,6 +194,8 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
         cmd->add_option("--to-type", a->type, "Convert voxels to uint8, uint16, int16 or float32 (clamped)");
         cmd->add_option("--crop", a->crop, "Keep the voxel box x0,y0,z0:x1,y1,z1 (half-open)");
         cmd->add_option("--frame", a->frame, "Frame of a time series to convert (default 0)");
+        cmd->add_option("--replace-nan", a->replaceNan,
+                        "Replace NaN voxels (float32) by this value, e.g. 0, so the volume can be rendered");
         cmd->add_flag("--big-endian", a->bigEndianOut, "Write raw/NRRD output big-endian");
         a->raw.add(*cmd);
         cmd->callback([a, &global] {
@@ -201,6 +205,18 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
                 throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in + " has " +
                                  std::to_string(ts.frames.size()) + " frame(s)");
             Volume v = std::move(ts.frames[a->frame]);
+            if (a->replaceNan) {
+                if (!std::isfinite(*a->replaceNan)) throw UsageError("--replace-nan: the value must be finite");
+                std::size_t replaced = 0;
+                if (v.type() == ScalarType::Float32)
+                    for (float& x : v.values<float>())
+                        if (std::isnan(x)) {
+                            x = static_cast<float>(*a->replaceNan);
+                            ++replaced;
+                        }
+                if (!global.quiet)
+                    std::cerr << "volcl: replaced " << replaced << " NaN voxel(s) by " << *a->replaceNan << '\n';
+            }
             if (!a->crop.empty()) {
                 auto [lo, hi] = parseBox(a->crop, "--crop");
                 v = v.cropped(lo, hi);

@@ -34,7 +34,7 @@ namespace volcl::cli {
 
 namespace {
 
-// The CONTRACT's example transfer function: the default for `bench preint`.
+// The documented example transfer function (docs/contract.md): the default for `bench preint`.
 constexpr const char* kDefaultBenchTf = R"({"domain": [0, 255],
   "color": [[0, 0.0, 0.0, 0.0], [128, 1.0, 0.6, 0.2], [255, 1.0, 1.0, 1.0]],
   "extinction": [[0, 0.0], [60, 0.0], [80, 0.8], [255, 0.05]]})";
@@ -511,7 +511,7 @@ void addPreintCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     auto* b = bench.add_subcommand("preint",
                                    "Pre-integration: every method's time and error against the reference");
     auto ba = std::make_shared<BenchArgs>();
-    b->add_option("--tf", ba->tfPath, "Transfer function (default: the CONTRACT example)");
+    b->add_option("--tf", ba->tfPath, "Transfer function (default: the example of docs/contract.md)");
     b->add_option("--runs", ba->runs, "Timed runs per row (median)")->capture_default_str();
     b->add_flag("--quick", ba->quick, "Fewer sizes (for development)");
     b->add_flag("--headline", ba->headline,

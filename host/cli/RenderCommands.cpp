@@ -32,12 +32,6 @@
 namespace volcl::cli {
 namespace {
 
-TransferFunction loadTf(const std::filesystem::path& path, const RenderInput& input) {
-    const ValueRange r = input.valueRange();
-    std::array<double, 2> range{r.min, r.max > r.min ? r.max : r.min + 1.0};
-    return TransferFunction::fromFile(path, range);
-}
-
 std::string outputExtension(const std::filesystem::path& out) {
     std::string ext = out.extension().string();
     for (auto& c : ext)
@@ -227,8 +221,15 @@ std::pair<double, ImageBuffer> runVtk(const BenchArgs& a, const Volume& v, const
 
 void benchRender(const BenchArgs& a, GlobalOptions& global) {
     Scene scene = a.scene.build();
-    const RenderInput input = RenderInput::open(scene.volume, a.scene.raw.toReadOptions());
-    const TransferFunction tf = loadTf(scene.tf, input);
+    std::vector<std::string> notes;
+    Volume volume = a.scene.readSceneVolume(scene, notes);
+    for (auto& note : a.scene.finish(scene, volume))
+        notes.push_back(std::move(note));
+    if (!global.quiet)
+        for (const auto& note : notes)
+            std::cerr << "volcl bench render: " << note << '\n';
+    const TransferFunction tf = a.scene.loadTf(scene, volume);
+    const RenderInput input = RenderInput::fromVolume(std::move(volume));
     ComputeContext cc(global.device);
     std::cerr << "volcl bench render: " << scene.volume.string() << " " << input.summary() << ", "
               << scene.width << "x" << scene.height << ", device " << cc.device().name << '\n';
@@ -323,13 +324,23 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     cmd->add_flag("--half", a->half, "EXR: store half floats");
     cmd->callback([a, &global] {
         if (a->out.empty() && !a->explain) throw UsageError("render: give -o/--output (or --explain)");
-        const Scene scene = a->scene.build();
+        Scene scene = a->scene.build();
         if (!a->out.empty()) {
             outputExtension(a->out); // refuse a bad output name before any work
             checkNotSameFile(scene.volume, a->out);
         }
-        const RenderInput input = RenderInput::open(scene.volume, a->scene.raw.toReadOptions());
-        const TransferFunction tf = loadTf(scene.tf, input);
+        std::vector<std::string> notes;
+        Volume v = a->scene.readSceneVolume(scene, notes);
+        for (auto& note : a->scene.finish(scene, v))
+            notes.push_back(std::move(note));
+        const TransferFunction tf = a->scene.loadTf(scene, v);
+        if (!global.quiet)
+            for (const auto& note : notes)
+                std::cerr << "volcl render: " << note << '\n';
+        if (a->explain)
+            for (const auto& note : notes)
+                std::cout << "default: " << note << '\n';
+        const RenderInput input = RenderInput::fromVolume(std::move(v));
         if (a->explain && a->out.empty()) {
             std::cout << input.planEffects(scene, tf).explain();
             return;

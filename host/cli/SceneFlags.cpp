@@ -2,6 +2,13 @@
 #include "host/cli/SceneFlags.hpp"
 
 #include "host/Error.hpp"
+#include "host/Volume.hpp"
+#include "host/render/CameraFraming.hpp"
+#include "host/render/VecMath.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
 
 #include <sstream>
 #include <stdexcept>
@@ -32,33 +39,69 @@ Vec3 parseVec3(const std::string& text, const std::string& what) {
     return {v[0], v[1], v[2]};
 }
 
-void SceneFlags::add(CLI::App* cmd) {
-    cmd->add_option("--scene", scene, "Scene JSON (CONTRACT section 4); flags below override its fields");
+void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
+    const Scene d; // the defaults a scene without the field gets, shown in --help
+    auto num = [](double v) {
+        std::ostringstream os;
+        os << v;
+        return os.str();
+    };
+    cmd->add_option("--scene", scene, "Scene JSON (see docs/rendering.md); flags below override its fields");
     cmd->add_option("--volume", volume, "Volume file (overrides the scene's)");
-    cmd->add_option("--tf", tf, "Transfer function: canonical/ParaView JSON or an RGBA strip image");
-    cmd->add_option("--mode", mode, "dvr, mip, iso or xray");
-    cmd->add_option("--step", step, "Sampling distance in world units");
-    cmd->add_option("--preintegration", preint, "none, 2d or 3d (dvr only)");
-    cmd->add_option("--width", width, "Image width in pixels");
-    cmd->add_option("--height", height, "Image height in pixels");
-    cmd->add_option("--projection", projection, "orthographic or perspective");
-    cmd->add_option("--eye", eye, "Camera position x,y,z");
-    cmd->add_option("--target", target, "Camera target x,y,z");
-    cmd->add_option("--up", up, "Camera up vector x,y,z");
-    cmd->add_option("--view-height", viewHeight, "Orthographic view height in world units");
-    cmd->add_option("--fov", fov, "Perspective vertical field of view in degrees");
-    cmd->add_option("--background", background, "PNG background r,g,b,a (straight, linear)");
-    cmd->add_option("--early-termination", earlyTermination, "Stop rays at this opacity (1 = never)");
+    std::string presets;
+    for (const auto& n : TransferFunction::builtinPresetNames())
+        presets += (presets.empty() ? "" : ", ") + n;
+    cmd->add_option("--tf", tf,
+                    "Transfer function: canonical/ParaView JSON, an RGBA strip image, or preset:NAME (" + presets +
+                        ")");
+    cmd->add_option("--tf-range", tfRange,
+                    "Data range LO,HI the transfer function is spread over (default: a normalised [0,1] map "
+                    "takes the data range, others stay as authored)");
+    cmd->add_option("--tf-unit-distance", tfUnitDistance,
+                    "ParaView opacity unit distance in world units, or 'auto' (ParaView's default: box "
+                    "diagonal / cube root of the cell count)")
+        ->capture_default_str();
+    cmd->add_option("--frame", frame, "Frame K (0-based) of a time series input")->default_str("0");
+    cmd->add_option("--mode", mode, "dvr, mip, iso or xray")->default_str(std::string(renderModeName(d.mode)));
+    cmd->add_option("--step", step, "Sampling distance in world units")->default_str(num(d.step));
+    cmd->add_option("--preintegration", preint, "none, 2d or 3d (dvr only)")
+        ->default_str(std::string(preintegrationName(d.preintegration)));
+    cmd->add_option("--width", width, "Image width in pixels")->default_str(num(d.width));
+    cmd->add_option("--height", height, "Image height in pixels")->default_str(num(d.height));
+    cmd->add_option("--view", view,
+                    "Named view of the volume's box in the data's axes (+z up, +y toward the viewer in "
+                    "front): front, back, left, right, top, bottom, iso (default: front for NIfTI/NRRD, "
+                    "else looking along +z)");
+    cmd->add_option(orbitFlag, orbit,
+                    "Azimuth,elevation in degrees from the front view (azimuth toward +x, elevation toward "
+                    "+z); the box is framed as by --view");
+    cmd->add_option("--projection", projection, "orthographic or perspective")->default_str("orthographic");
+    cmd->add_option("--eye", eye, "Camera position x,y,z (default: framed from --view)");
+    cmd->add_option("--target", target, "Camera target x,y,z (default: the centre of the volume's box)");
+    cmd->add_option("--up", up, "Camera up vector x,y,z (default: from the view)");
+    cmd->add_option("--view-height", viewHeight,
+                    "Orthographic view height in world units (default: fitted to show the whole box)");
+    cmd->add_option("--fov", fov, "Perspective vertical field of view in degrees")
+        ->default_str(num(Camera{}.fovYDeg));
+    cmd->add_option("--background", background, "PNG background r,g,b,a (straight, linear)")->default_str("0,0,0,1");
+    cmd->add_option("--early-termination", earlyTermination, "Stop rays at this opacity (1 = never)")
+        ->default_str(num(d.earlyTermination));
     cmd->add_flag("--no-skipping", noSkipping, "Disable empty-space skipping");
-    cmd->add_option("--table-size", tableSize, "Pre-integration table nodes");
-    cmd->add_option("--table-lengths", tableLengths, "3D pre-integration: number of lengths");
+    cmd->add_option("--table-size", tableSize, "Pre-integration table nodes")->default_str(num(d.tableSize));
+    cmd->add_option("--table-lengths", tableLengths, "3D pre-integration: number of lengths")
+        ->default_str(num(d.tableLengths));
     cmd->add_option("--iso", isos, "Iso-surface value[:r,g,b,a] (repeatable)");
     cmd->add_option("--light", lights,
-                    "Light: head | dir:x,y,z | point:x,y,z, optionally @intensity (repeatable)");
-    cmd->add_option("--shading", shading, "Blinn-Phong ambient,diffuse,specular,shininess");
+                    "Light: head | dir:x,y,z | point:x,y,z, optionally @intensity (repeatable; default: a head "
+                    "light when shading needs one)");
+    cmd->add_option("--shading", shading, "Blinn-Phong ambient,diffuse,specular,shininess (iso mode: on by default)")
+        ->default_str(num(d.effects.ambient) + "," + num(d.effects.diffuse) + "," + num(d.effects.specular) + "," +
+                      num(d.effects.shininess));
+    cmd->add_flag("--no-shading", noShading, "Do not shade (iso mode shades by default)");
     cmd->add_flag("--sobel", sobel, "Sobel gradients instead of central differences");
     cmd->add_flag("--shadows", shadows, "Shadows by secondary marching toward each light");
-    cmd->add_option("--shadow-step", shadowStep, "Shadow ray step in world units");
+    cmd->add_option("--shadow-step", shadowStep, "Shadow ray step in world units (0 = the render step)")
+        ->default_str(num(d.effects.shadowStep));
     cmd->add_option("--scattering", scattering, "Single scattering albedo,g (Henyey-Greenstein)");
     cmd->add_option("--clip", clips,
                     "Clipping plane nx,ny,nz,offset keeping n.x + offset >= 0 (repeatable)");
@@ -82,30 +125,18 @@ Scene SceneFlags::build(bool requireTf) const {
         const auto b = parseNumbers(background, 4, "--background");
         s.background = {b[0], b[1], b[2], b[3]};
     }
-    const bool cameraFlag =
-        !projection.empty() || !eye.empty() || !target.empty() || !up.empty() || viewHeight || fov;
-    if (cameraFlag) {
-        Camera c = s.camera ? *s.camera : Camera{};
-        if (!s.camera && (eye.empty() || target.empty()))
-            throw UsageError("--eye and --target are needed when the scene has no camera");
-        if (!projection.empty()) {
-            if (projection == "orthographic")
-                c.projection = Projection::Orthographic;
-            else if (projection == "perspective")
-                c.projection = Projection::Perspective;
-            else
-                throw UsageError("--projection '" + projection +
-                                 "' is unknown (orthographic, perspective)");
-        } else if (fov) {
-            c.projection = Projection::Perspective;
-        }
-        if (!eye.empty()) c.eye = parseVec3(eye, "--eye");
-        if (!target.empty()) c.target = parseVec3(target, "--target");
-        if (!up.empty()) c.up = parseVec3(up, "--up");
-        if (viewHeight) c.height = *viewHeight;
-        if (fov) c.fovYDeg = *fov;
-        s.camera = c;
-    }
+    if (!projection.empty() && projection != "orthographic" && projection != "perspective")
+        throw UsageError("--projection '" + projection + "' is unknown (orthographic, perspective)");
+    if ((!view.empty() || !orbit.empty()) && (!eye.empty() || !target.empty()))
+        throw UsageError("--view/--orbit frame the box themselves: give them without --eye/--target");
+    if (!view.empty() && !orbit.empty()) throw UsageError("give --view or --orbit, not both");
+    if (!view.empty()) parseNamedView(view);
+    if (!orbit.empty()) parseNumbers(orbit, 2, "--orbit");
+    if (!up.empty()) parseVec3(up, "--up");
+    if (!eye.empty()) parseVec3(eye, "--eye");
+    if (!target.empty()) parseVec3(target, "--target");
+    if (!tfRange.empty()) parseNumbers(tfRange, 2, "--tf-range");
+    if (noShading && !shading.empty()) throw UsageError("give --shading or --no-shading, not both");
     for (const auto& text : isos) {
         IsoLayer iso;
         const auto colon = text.find(':');
@@ -137,9 +168,14 @@ Scene SceneFlags::build(bool requireTf) const {
         }
         s.lights.push_back(l);
     }
+    if (noShading) {
+        s.effects.shading = false;
+        s.effects.shadingGiven = true;
+    }
     if (!shading.empty()) {
         const auto v = parseNumbers(shading, 4, "--shading");
         s.effects.shading = true;
+        s.effects.shadingGiven = true;
         s.effects.ambient = v[0];
         s.effects.diffuse = v[1];
         s.effects.specular = v[2];
@@ -162,6 +198,119 @@ Scene SceneFlags::build(bool requireTf) const {
     if (requireTf && s.tf.empty()) throw UsageError("no transfer function: give --tf or a scene with \"tf\"");
     s.validate();
     return s;
+}
+
+namespace {
+
+/// NIfTI and NRRD carry an anatomical frame; their default view is the front (anterior, superior up).
+bool isAnatomicalFormat(const std::filesystem::path& p) {
+    std::string name = p.filename().string();
+    for (auto& c : name)
+        c = char(std::tolower(static_cast<unsigned char>(c)));
+    auto ends = [&](std::string_view tail) {
+        return name.size() >= tail.size() && name.compare(name.size() - tail.size(), tail.size(), tail) == 0;
+    };
+    return ends(".nii") || ends(".nii.gz") || ends(".nrrd") || ends(".nhdr");
+}
+
+} // namespace
+
+std::vector<std::string> SceneFlags::finish(Scene& s, const Volume& v) const {
+    std::vector<std::string> notes;
+    const WorldBox box = volumeBox(v);
+    const double aspect = double(s.width) / double(s.height);
+    const bool anyCameraFlag = !projection.empty() || !eye.empty() || !target.empty() || !up.empty() ||
+                               viewHeight || fov || !view.empty() || !orbit.empty();
+    const bool anatomical = isAnatomicalFormat(s.volume);
+    if (anyCameraFlag || (!s.camera && anatomical)) {
+        const Camera base = s.camera ? *s.camera : Camera{};
+        Projection proj = base.projection;
+        if (!projection.empty())
+            proj = projection == "perspective" ? Projection::Perspective : Projection::Orthographic;
+        else if (fov)
+            proj = Projection::Perspective;
+        const double fovY = fov ? *fov : base.fovYDeg;
+        Camera c = base;
+        const bool framed = !view.empty() || !orbit.empty() || (!s.camera && eye.empty() && target.empty());
+        if (framed) {
+            ViewDirection dir;
+            if (!orbit.empty()) {
+                const auto ae = parseNumbers(orbit, 2, "--orbit");
+                dir = orbitDirection(ae[0], ae[1]);
+            } else if (!view.empty()) {
+                dir = namedViewDirection(parseNamedView(view));
+            } else {
+                dir = namedViewDirection(anatomical ? NamedView::Front : NamedView::Bottom);
+            }
+            if (!up.empty()) dir.up = parseVec3(up, "--up");
+            c = frameBox(box, dir, proj, fovY, aspect);
+            if (!s.camera && view.empty() && orbit.empty() && anatomical)
+                notes.push_back("camera: front view of the box (+z up; --view/--orbit choose others)");
+        } else {
+            c.projection = proj;
+            c.fovYDeg = fovY;
+            if (!target.empty()) c.target = parseVec3(target, "--target");
+            else if (!s.camera) c.target = boxCentre(box);
+            if (!eye.empty()) c.eye = parseVec3(eye, "--eye");
+            else if (!s.camera) c.eye = volcl::add(c.target, scale(Vec3{0, 0, -1}, 2.0 * boxRadius(box)));
+            if (!up.empty()) c.up = parseVec3(up, "--up");
+            // No height for this camera: neither --view-height nor a scene camera gave one.
+            if (!s.camera && !viewHeight && c.projection == Projection::Orthographic) {
+                c.height = fittedOrthographicHeight(c, box, aspect);
+                std::ostringstream os;
+                os << "camera: orthographic height " << c.height << " fitted to the box (--view-height sets it)";
+                notes.push_back(os.str());
+            }
+        }
+        if (viewHeight) c.height = *viewHeight;
+        if (norm(cross(sub(c.target, c.eye), c.up)) == 0.0)
+            throw UsageError("camera: the up vector is parallel to the view direction (give --up)");
+        s.camera = c;
+    }
+    for (auto& n : applyLightingDefaults(s))
+        notes.push_back(std::move(n));
+    s.validate();
+    return notes;
+}
+
+Volume SceneFlags::readSceneVolume(const Scene& s, std::vector<std::string>& notes) const {
+    TimeSeries ts = readVolumeFile(s.volume, raw.toReadOptions());
+    const std::size_t k = frame.value_or(0);
+    if (k >= ts.frames.size())
+        throw UsageError("--frame " + std::to_string(k) + " out of range: " + s.volume.string() + " has " +
+                         std::to_string(ts.frames.size()) + " frame(s)");
+    if (!frame && ts.frames.size() > 1)
+        notes.push_back("rendering frame 0 of " + std::to_string(ts.frames.size()) + " (--frame K picks another)");
+    return std::move(ts.frames[k]);
+}
+
+double paraViewUnitDistance(const Volume& v) {
+    const WorldBox box = volumeBox(v);
+    const Dims& d = v.dims();
+    const double cells = double(std::max<std::int64_t>(d.x - 1, 1)) * double(std::max<std::int64_t>(d.y - 1, 1)) *
+                         double(std::max<std::int64_t>(d.z - 1, 1));
+    const double diagonal = norm(box.extent);
+    return diagonal > 0.0 ? diagonal / std::cbrt(cells) : 1.0;
+}
+
+TransferFunction SceneFlags::loadTf(const Scene& s, const Volume& v) const {
+    double unit = 1.0;
+    if (tfUnitDistance == "auto")
+        unit = paraViewUnitDistance(v);
+    else
+        unit = parseNumbers(tfUnitDistance, 1, "--tf-unit-distance")[0];
+    if (!(std::isfinite(unit) && unit > 0.0))
+        throw UsageError("--tf-unit-distance must be > 0 or 'auto'");
+    const VolumeStats st = v.stats(1);
+    const std::array<double, 2> dataRange{st.min, st.max};
+    std::optional<std::array<double, 2>> range;
+    if (!tfRange.empty()) {
+        const auto r = parseNumbers(tfRange, 2, "--tf-range");
+        if (!(r[0] < r[1])) throw UsageError("--tf-range: LO must be below HI");
+        range = std::array<double, 2>{r[0], r[1]};
+    }
+    const std::array<double, 2> stripDomain{st.min, st.max > st.min ? st.max : st.min + 1.0};
+    return TransferFunction::fromFile(s.tf, stripDomain, unit).fittedTo(dataRange, range);
 }
 
 } // namespace volcl::cli

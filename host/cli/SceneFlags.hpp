@@ -3,6 +3,7 @@
 
 #include "host/cli/CliParsing.hpp"
 #include "host/render/Scene.hpp"
+#include "host/tf/TransferFunction.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -20,18 +21,35 @@ Vec3 parseVec3(const std::string& text, const std::string& what);
 /// Scene fields a command line may override; empty means "keep the scene's value".
 struct SceneFlags {
     std::string scene, volume, tf, mode, preint, projection, eye, target, up, background;
+    std::string view, orbit, tfRange, tfUnitDistance = "1";
     std::optional<double> step, viewHeight, fov, earlyTermination, shadowStep;
     std::optional<int> width, height, tableSize, tableLengths;
-    bool noSkipping = false, sobel = false, shadows = false;
+    std::optional<std::size_t> frame; ///< --frame K of a time series input
+    bool noSkipping = false, sobel = false, shadows = false, noShading = false;
     std::string shading, scattering;
     std::vector<std::string> isos, lights, clips;
     RawReadFlags raw;
 
-    /// Registers every scene flag on `cmd`.
-    void add(CLI::App* cmd);
+    /// Registers every scene flag on `cmd`; the camera orbit flag is named `orbitFlag` (the viewer keeps
+    /// `--orbit` for its per-frame turn).
+    void add(CLI::App* cmd, const std::string& orbitFlag = "--orbit");
     /// The scene file (if any) with the flags applied, validated. Throws UsageError. `requireTf` false lets
     /// a scene without a transfer function through (the viewer then starts on a preset).
     Scene build(bool requireTf = true) const;
+    /// The scene's volume: frame `--frame K` of a series (frame 0 when not given, with a note in `notes`
+    /// when the input has more frames). Throws UsageError when K is out of range.
+    Volume readSceneVolume(const Scene& s, std::vector<std::string>& notes) const;
+    /// Once the volume is read: frames the camera the scene and flags leave incomplete (a named view,
+    /// an orbit, a missing orthographic height or target, or the default view of anatomical data) and
+    /// applies the lighting defaults. Returns one note per default applied (stderr and `--explain`).
+    std::vector<std::string> finish(Scene& s, const Volume& v) const;
+    /// The scene's transfer function as the render uses it: normalised presets spread over the data
+    /// range, `--tf-range` applied, ParaView opacity per `--tf-unit-distance`.
+    TransferFunction loadTf(const Scene& s, const Volume& v) const;
 };
+
+/// The world length ParaView uses by default as the scalar opacity unit distance of a volume: the box
+/// diagonal over the cube root of the number of cells.
+double paraViewUnitDistance(const Volume& v);
 
 } // namespace volcl::cli

@@ -83,8 +83,15 @@ struct ViewerSetup {
         scene = viewScene(a);
         if (!a.output.empty() && headless) checkNotSameFile(scene.volume, a.output);
         const viewer::TransportRequest request = viewer::parseTransportRequest(a.transport);
-        input = RenderInput::open(scene.volume, a.scene.raw.toReadOptions());
-        if (!scene.tf.empty()) tf = TransferFunction::fromFile(scene.tf);
+        std::vector<std::string> notes;
+        Volume volume = a.scene.readSceneVolume(scene, notes);
+        for (auto& note : a.scene.finish(scene, volume))
+            notes.push_back(std::move(note));
+        if (!global.quiet)
+            for (const auto& note : notes)
+                std::cerr << "view: " << note << '\n';
+        if (!scene.tf.empty()) tf = a.scene.loadTf(scene, volume);
+        input = RenderInput::fromVolume(std::move(volume));
         cc = std::make_unique<ComputeContext>(global.device);
         transport = viewer::chooseTransport(request, cc->device());
         if (headless)
@@ -293,7 +300,7 @@ void runBenchView(BenchViewArgs b, const GlobalOptions& global) {
 }
 
 void addViewFlags(CLI::App* cmd, ViewArgs& a) {
-    a.scene.add(cmd);
+    a.scene.add(cmd, "--start-orbit");
     cmd->add_option("--target-ms", a.targetMs, "Adaptive quality: frame time to hold while interacting")
         ->check(CLI::Range(1.0, 10000.0))
         ->capture_default_str();

@@ -1,8 +1,43 @@
 // Entry point of the volcl executable: parses the command line and turns exceptions into exit codes.
 #include "host/Error.hpp"
+#include "host/Version.hpp"
 #include "host/cli/Commands.hpp"
 
 #include <iostream>
+#include <string>
+#include <string_view>
+
+namespace {
+
+/// The first word that is not an option (or the value of --device) names a subcommand: refuse an unknown
+/// one by name before CLI11 reports something vaguer. Descends into a group such as `bench`.
+void checkSubcommandNames(const CLI::App& app, int argc, char** argv) {
+    const CLI::App* level = &app;
+    for (int i = 1; i < argc; ++i) {
+        const std::string_view arg = argv[i];
+        if (arg == "--") return;
+        if (arg == "--device") {
+            ++i;
+            continue;
+        }
+        if (!arg.empty() && arg[0] == '-') continue;
+        const CLI::App* sub = nullptr;
+        for (const CLI::App* s : level->get_subcommands({}))
+            if (s->get_name() == arg) sub = s;
+        if (!sub) {
+            std::string names;
+            for (const CLI::App* s : level->get_subcommands({}))
+                names += (names.empty() ? "" : ", ") + s->get_name();
+            const std::string where = level == &app ? "" : " of '" + level->get_name() + "'";
+            throw volcl::UsageError("unknown subcommand '" + std::string(arg) + "'" + where + " (expected one of: " +
+                                    names + ")");
+        }
+        if (sub->get_subcommands({}).empty()) return; // its own arguments follow
+        level = sub;
+    }
+}
+
+} // namespace
 
 int main(int argc, char** argv) {
     CLI::App app{"volcl: OpenCL volume processing (codec, pre-integration, ray marching)", "volcl"};
@@ -10,6 +45,7 @@ int main(int argc, char** argv) {
     volcl::cli::GlobalOptions global;
     app.add_option("--device", global.device, "OpenCL device: index or name substring (default $VOLCL_DEVICE)");
     app.add_flag("-q,--quiet", global.quiet, "No progress output");
+    app.set_version_flag("--version", std::string(volcl::version()), "Print the version and exit");
     CLI::App* bench = app.add_subcommand("bench", "Benchmarks: speed and accuracy against peers");
     bench->require_subcommand(1);
 
@@ -19,13 +55,18 @@ int main(int argc, char** argv) {
     volcl::cli::addPreintCommands(app, *bench, global);
     volcl::cli::addRenderCommands(app, *bench, global);
     volcl::cli::addCodecCommands(app, *bench, global);
+    volcl::cli::addHelpExamples(app);
 
-    // The single place where errors become messages and exit codes (CONTRACT section 5).
+    // The single place where errors become messages and exit codes: usage errors exit 2, runtime errors 1,
+    // each with one line on stderr.
     try {
+        checkSubcommandNames(app, argc, argv);
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
     } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
         std::cerr << "volcl: " << e.what() << " (see volcl --help)\n";

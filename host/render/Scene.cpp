@@ -1,5 +1,5 @@
-// Scene JSON parsing and validation, default camera, and the double-precision camera rays of CONTRACT
-// section 4.
+// Scene JSON parsing and validation, lighting defaults, default camera, and the double-precision camera
+// rays (docs/contract.md, "Scenes and images").
 #include "host/render/Scene.hpp"
 
 #include "host/Error.hpp"
@@ -203,6 +203,7 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
             {"shading", "gradient", "shadows", "shadow_step", "scattering", "clip_planes", "isosurfaces"});
         SceneEffects& fx = s.effects;
         if (e.contains("shading")) {
+            fx.shadingGiven = true;
             const json& sh = e["shading"];
             if (sh.is_boolean()) {
                 fx.shading = sh.get<bool>();
@@ -386,6 +387,28 @@ void Scene::validate() const {
         for (double c : i.rgba)
             need(c >= 0.0 && c <= 1.0, "iso-surface colour values must be in [0, 1]");
     if (mode == RenderMode::Iso) need(!e.isosurfaces.empty(), "mode iso needs effects.isosurfaces");
+}
+
+std::vector<std::string> applyLightingDefaults(Scene& scene) {
+    std::vector<std::string> notes;
+    SceneEffects& fx = scene.effects;
+    if (scene.mode == RenderMode::Iso && !fx.shadingGiven && !fx.shading) {
+        fx.shading = true;
+        notes.push_back("iso mode: shading on (Blinn-Phong ambient " + std::to_string(fx.ambient).substr(0, 4) +
+                        ", diffuse " + std::to_string(fx.diffuse).substr(0, 4) + "); --no-shading turns it off");
+    }
+    const bool marching = scene.mode == RenderMode::Dvr || scene.mode == RenderMode::Iso;
+    const bool wantsLight = fx.shading || fx.shadows || (fx.scattering && fx.albedo > 0.0);
+    bool lit = false;
+    for (const auto& l : scene.lights)
+        lit = lit || (l.intensity > 0.0 && (l.color[0] > 0.0 || l.color[1] > 0.0 || l.color[2] > 0.0));
+    if (marching && wantsLight && !lit && scene.lights.empty()) {
+        Light head;
+        head.kind = LightKind::Head;
+        scene.lights.push_back(head);
+        notes.push_back("no light given: using a head light (at the eye, intensity 1); --light sets others");
+    }
+    return notes;
 }
 
 Camera defaultCamera(const WorldBox& box) {

@@ -1,4 +1,4 @@
-// Render scenes (CONTRACT section 4): camera, image, mode, lights and effects, read from JSON.
+// Render scenes (docs/contract.md): camera, image, mode, lights and effects, read from JSON.
 #pragma once
 
 #include "host/render/Bounds.hpp"
@@ -54,6 +54,7 @@ struct ClipPlane {
 /// What a scene asks for; Effects planning decides what is compiled (see planEffects()).
 struct SceneEffects {
     bool shading = false; ///< Blinn-Phong requested ("shading" object present)
+    bool shadingGiven = false; ///< the scene or a flag said whether to shade (iso mode shades unless told)
     double ambient = 0.2, diffuse = 0.7, specular = 0.3, shininess = 32.0;
     GradientKind gradient = GradientKind::Central;
     bool shadows = false;
@@ -92,11 +93,16 @@ struct Scene {
     void validate() const;
 };
 
+/// Fills in what a scene leaves to defaults, before planning: iso mode shades when nothing says otherwise,
+/// and shading (or scattering, or shadows) with no lit light gets a head light. Returns one line per change
+/// (for a stderr note and `--explain`).
+std::vector<std::string> applyLightingDefaults(Scene& scene);
+
 /// Orthographic camera along +z through the centre of a world box, sized to show all of it (every
 /// renderer's default: the box is VolumeRenderer::bounds()).
 Camera defaultCamera(const WorldBox& box);
 
-/// World-space ray of pixel (x, y) (y = 0 at the top), double precision, CONTRACT section 4.
+/// World-space ray of pixel (x, y) (y = 0 at the top), double precision (lookAt convention).
 struct CameraRay {
     Vec3 origin, direction;
 };

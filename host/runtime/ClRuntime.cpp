@@ -273,6 +273,9 @@ cl::Program ComputeContext::program(std::string_view file, const KernelDefines& 
     // whole source with clang on every clBuildProgram from source just to find its own cache entry, which was
     // ~30 % of a one-shot `volcl decode`.
     ProgramBinaryCache disk(device_, options, source);
+    // "-w": the OpenCL compiler's warnings (PoCL prints "N warnings generated." straight to stderr) are
+    // not for users; a failed build still reports its log in the ClError below.
+    const std::string buildOptions = options.empty() ? std::string("-w") : options + " -w";
     if (std::optional<std::vector<unsigned char>> binary = disk.load()) {
         cl_int err = CL_SUCCESS;
         cl_int binaryStatus = CL_SUCCESS;
@@ -282,7 +285,7 @@ cl::Program ComputeContext::program(std::string_view file, const KernelDefines& 
         cl_program raw = clCreateProgramWithBinary(context_(), 1, &id, &size, &data, &binaryStatus, &err);
         if (err == CL_SUCCESS && binaryStatus == CL_SUCCESS) {
             cl::Program prog(raw); // takes ownership
-            if (prog.build(std::vector<cl::Device>{device_.device}, options.c_str()) == CL_SUCCESS) {
+            if (prog.build(std::vector<cl::Device>{device_.device}, buildOptions.c_str()) == CL_SUCCESS) {
                 ++programsFromDisk_;
                 programs_.emplace(key, prog);
                 return prog;
@@ -296,7 +299,7 @@ cl::Program ComputeContext::program(std::string_view file, const KernelDefines& 
     cl_int err = CL_SUCCESS;
     cl::Program prog(context_, source, false, &err);
     clCheck(err, "clCreateProgramWithSource");
-    err = prog.build(std::vector<cl::Device>{device_.device}, options.c_str());
+    err = prog.build(std::vector<cl::Device>{device_.device}, buildOptions.c_str());
     if (err != CL_SUCCESS) {
         std::string log;
         prog.getBuildInfo(device_.device, CL_PROGRAM_BUILD_LOG, &log);

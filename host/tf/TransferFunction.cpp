@@ -3,6 +3,8 @@
 
 #include "host/Error.hpp"
 #include "host/image/ImageIo.hpp"
+#include "host/tf/BuiltinPresets.hpp"
+#include "host/tf/ColorSpaces.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -27,12 +29,23 @@ std::string describe(double v) {
     return os.str();
 }
 
-/// tau for an opacity per unit length; a = 1 has no finite answer and maps to kMaxImportedExtinction.
-double opacityToExtinction(double a, const std::string& where) {
+/// tau for an opacity per `unitDistance` of length; a = 1 has no finite answer and maps to
+/// kMaxImportedExtinction (per unit distance).
+double opacityToExtinction(double a, const std::string& where, double unitDistance = 1.0) {
     if (!std::isfinite(a) || a < 0.0 || a > 1.0)
         throw DataError(where + ": opacity " + describe(a) + " is outside [0, 1]");
-    if (a >= 1.0) return kMaxImportedExtinction;
-    return std::min(-std::log1p(-a), kMaxImportedExtinction);
+    if (a >= 1.0) return kMaxImportedExtinction / unitDistance;
+    return std::min(-std::log1p(-a), kMaxImportedExtinction) / unitDistance;
+}
+
+void checkUnitDistance(double d) {
+    if (!(std::isfinite(d) && d > 0.0))
+        throw UsageError("opacity unit distance " + describe(d) + " must be finite and > 0");
+}
+
+/// The points span exactly [0, 1]: a normalised preset.
+bool spansUnitRange(double lo, double hi) {
+    return lo == 0.0 && hi == 1.0;
 }
 
 double number(const json& v, const std::string& where) {
@@ -110,12 +123,12 @@ constexpr int kParaViewCurveSamples = 64;
 
 } // namespace
 
-TransferFunction TransferFunction::fromJson(std::string_view text) {
+TransferFunction TransferFunction::fromJson(std::string_view text, double opacityUnitDistance) {
     json j = parseJson(text);
     const bool paraView =
         (j.is_array() && !j.empty() && j.front().is_object() && j.front().contains("RGBPoints")) ||
         (j.is_object() && (j.contains("RGBPoints") || j.contains("Points")));
-    if (paraView) return fromParaView(text);
+    if (paraView) return fromParaView(text, opacityUnitDistance);
     if (!j.is_object())
         throw DataError("transfer function: expected a JSON object with 'color' and 'extinction'");
 
@@ -151,11 +164,13 @@ TransferFunction TransferFunction::fromJson(std::string_view text) {
         tf.domain = {std::min(tf.color.front().s, tf.extinction.front().s),
                      std::max(tf.color.back().s, tf.extinction.back().s)};
     }
+    tf.normalized = spansUnitRange(tf.domain[0], tf.domain[1]);
     tf.validate();
     return tf;
 }
 
-TransferFunction TransferFunction::fromParaView(std::string_view text) {
+TransferFunction TransferFunction::fromParaView(std::string_view text, double opacityUnitDistance) {
+    checkUnitDistance(opacityUnitDistance);
     json root = parseJson(text);
     const json* j = &root;
     if (root.is_array()) {
@@ -166,11 +181,14 @@ TransferFunction TransferFunction::fromParaView(std::string_view text) {
     if (!j->is_object()) throw DataError("ParaView colour map: expected a JSON object");
 
     TransferFunction tf;
+    ColorSpace space = ColorSpace::Rgb; // ParaView's default when the key is absent
     if (j->contains("ColorSpace")) {
-        const std::string space = (*j)["ColorSpace"].is_string() ? (*j)["ColorSpace"].get<std::string>() : "";
-        if (space != "RGB")
-            throw DataError("ParaView colour map: ColorSpace '" + space +
-                            "' interpolates outside RGB; re-save the map with ColorSpace RGB");
+        if (!(*j)["ColorSpace"].is_string()) throw DataError("ParaView colour map: 'ColorSpace' must be a string");
+        try {
+            space = parseColorSpace((*j)["ColorSpace"].get<std::string>());
+        } catch (const DataError& e) {
+            throw DataError(std::string("ParaView colour map: ") + e.what());
+        }
     }
     if (j->contains("RGBPoints")) {
         const json& p = (*j)["RGBPoints"];
@@ -200,18 +218,22 @@ TransferFunction TransferFunction::fromParaView(std::string_view text) {
         }
     }
     if (tf.color.empty()) throw DataError("ParaView colour map: no 'RGBPoints'");
+    for (std::size_t i = 1; i < tf.color.size(); ++i)
+        if (!(tf.color[i].s >= tf.color[i - 1].s))
+            throw DataError("ParaView colour map: 'RGBPoints' are not sorted by x at point " + std::to_string(i));
     if (nodes.empty()) {
-        // A colour-only preset: fully opaque per unit length is never what a volume wants; ParaView
-        // itself pairs such presets with a linear ramp from 0 to 1 over the colour range.
+        // A colour-only preset: a gentle linear ramp, so low values stay clear and the top is translucent.
         nodes.push_back({tf.color.front().s, 0.0, 0.5, 0.0});
-        nodes.push_back({tf.color.back().s, 1.0, 0.5, 0.0});
+        nodes.push_back({tf.color.back().s, kColorOnlyTopOpacity, 0.5, 0.0});
     }
     for (std::size_t i = 1; i < nodes.size(); ++i)
         if (!(nodes[i].x >= nodes[i - 1].x))
             throw DataError("ParaView colour map: 'Points' are not sorted by x at node " + std::to_string(i));
 
     const std::string where = "ParaView colour map";
-    auto push = [&](double x, double a) { tf.extinction.push_back({x, opacityToExtinction(a, where)}); };
+    auto push = [&](double x, double a) {
+        tf.extinction.push_back({x, opacityToExtinction(a, where, opacityUnitDistance)});
+    };
     push(nodes.front().x, nodes.front().a);
     for (std::size_t i = 0; i + 1 < nodes.size(); ++i) {
         const OpacityNode& n = nodes[i];
@@ -237,8 +259,58 @@ TransferFunction TransferFunction::fromParaView(std::string_view text) {
     if (!(tf.domain[0] < tf.domain[1]))
         throw DataError("ParaView colour map: all points sit at one value " + describe(tf.domain[0]) +
                         ", so it spans no data range");
+    tf.normalized = spansUnitRange(tf.domain[0], tf.domain[1]);
+    tf.validate(); // finiteness before the colour-space arithmetic
+    tf.color = linearizeColors(space, tf.color);
     tf.validate();
     return tf;
+}
+
+TransferFunction TransferFunction::builtinPreset(std::string_view name, double opacityUnitDistance) {
+    const std::string_view text = builtinPresetJson(name);
+    if (text.empty()) {
+        std::string list;
+        for (const auto& n : builtinPresetNames())
+            list += (list.empty() ? "" : ", ") + n;
+        throw UsageError("unknown preset '" + std::string(name) + "' (built-in presets: " + list + ")");
+    }
+    return fromParaView(text, opacityUnitDistance);
+}
+
+std::vector<std::string> TransferFunction::builtinPresetNames() {
+    std::vector<std::string> out;
+    for (std::string_view n : volcl::builtinPresetNames())
+        out.emplace_back(n);
+    return out;
+}
+
+TransferFunction TransferFunction::rescaled(std::array<double, 2> range) const {
+    if (!(std::isfinite(range[0]) && std::isfinite(range[1]) && range[0] < range[1]))
+        throw UsageError("transfer function range [" + describe(range[0]) + ", " + describe(range[1]) +
+                         "] must be finite with lo < hi");
+    const double k = (range[1] - range[0]) / (domain[1] - domain[0]);
+    auto map = [&](double s) { return range[0] + (s - domain[0]) * k; };
+    TransferFunction out = *this;
+    for (auto& p : out.color)
+        p.s = map(p.s);
+    for (auto& p : out.extinction)
+        p.s = map(p.s);
+    out.domain = range;
+    out.normalized = false;
+    out.validate();
+    return out;
+}
+
+TransferFunction TransferFunction::fittedTo(std::array<double, 2> dataRange,
+                                            std::optional<std::array<double, 2>> explicitRange) const {
+    if (explicitRange) return rescaled(*explicitRange);
+    const bool dataIsUnit = dataRange[0] >= 0.0 && dataRange[1] <= 1.0;
+    if (normalized && !dataIsUnit) {
+        // Constant data still needs a range with lo < hi: centre the colour map's middle on it.
+        if (!(dataRange[0] < dataRange[1])) dataRange = {dataRange[0] - 0.5, dataRange[0] + 0.5};
+        return rescaled(dataRange);
+    }
+    return *this;
 }
 
 TransferFunction TransferFunction::fromRgbaStrip(const std::vector<std::array<float, 4>>& pixels,
@@ -264,7 +336,10 @@ TransferFunction TransferFunction::fromRgbaStrip(const std::vector<std::array<fl
 }
 
 TransferFunction TransferFunction::fromFile(const std::filesystem::path& path,
-                                            std::array<double, 2> stripDomain) {
+                                            std::array<double, 2> stripDomain, double opacityUnitDistance) {
+    constexpr std::string_view kPresetPrefix = "preset:";
+    if (const std::string p = path.string(); p.rfind(kPresetPrefix, 0) == 0)
+        return builtinPreset(std::string_view(p).substr(kPresetPrefix.size()), opacityUnitDistance);
     std::string ext = path.extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(),
                    [](unsigned char c) { return char(std::tolower(c)); });
@@ -276,7 +351,7 @@ TransferFunction TransferFunction::fromFile(const std::filesystem::path& path,
             std::ostringstream text;
             text << in.rdbuf();
             if (!in.good() && !in.eof()) throw IoError(name + ": cannot read transfer function");
-            return fromJson(text.str());
+            return fromJson(text.str(), opacityUnitDistance);
         }
         if (ext == ".png" || ext == ".exr" || ext == ".tif" || ext == ".tiff") {
             ImageBuffer img = readImage(path);

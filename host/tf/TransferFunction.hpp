@@ -1,10 +1,11 @@
-// Transfer functions (CONTRACT section 2): canonical JSON, ParaView import, RGBA strips, exact sampling.
+// Transfer functions: canonical JSON, ParaView colour-map import, built-in presets, RGBA strips, exact sampling.
 #pragma once
 
 #include "cl/volcl_shared.h"
 
 #include <array>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -13,6 +14,9 @@ namespace volcl {
 
 /// Extinction used for an imported opacity of exactly 1 (tau = -ln(1 - a) is infinite there).
 inline constexpr double kMaxImportedExtinction = 1000.0;
+/// Opacity per unit distance given to a ParaView colour map that has no opacity `Points`: a linear ramp
+/// from 0 at the bottom of its colour range to this value at the top (translucent, never a solid blob).
+inline constexpr double kColorOnlyTopOpacity = 0.1;
 
 struct ColorPoint {
     double s;
@@ -36,17 +40,37 @@ public:
     std::array<double, 2> domain{0.0, 255.0};
     std::vector<ColorPoint> color;           ///< sorted by s (stable: steps keep their order)
     std::vector<ExtinctionPoint> extinction; ///< sorted by s, tau >= 0
+    /// The points were authored on [0, 1] (a normalised preset): fittedTo() maps them onto the data range.
+    bool normalized = false;
 
-    /// Canonical JSON, ParaView colour-map JSON (detected by keys), or a 1D RGBA strip image (.png/.exr;
-    /// `stripDomain` gives its data range). Throws IoError/DataError with the file name on bad input.
+    /// Canonical JSON, ParaView colour-map JSON (detected by keys), a built-in preset named
+    /// `preset:NAME` (see builtinPresetNames()), or a 1D RGBA strip image (.png/.exr; `stripDomain` gives
+    /// its data range). `opacityUnitDistance` is the world length over which an imported opacity a holds
+    /// (ParaView's scalar opacity unit distance): tau = -ln(1 - a) / unitDistance. Throws
+    /// IoError/DataError with the file name on bad input.
     static TransferFunction fromFile(const std::filesystem::path& path,
-                                     std::array<double, 2> stripDomain = {0.0, 255.0});
-    static TransferFunction fromJson(std::string_view json); ///< canonical or ParaView
-    static TransferFunction fromParaView(std::string_view json);
+                                     std::array<double, 2> stripDomain = {0.0, 255.0},
+                                     double opacityUnitDistance = 1.0);
+    static TransferFunction fromJson(std::string_view json, double opacityUnitDistance = 1.0);
+    /// ParaView colour map: RGBPoints interpolated in its ColorSpace (RGB, HSV, Lab, Diverging, Step) as
+    /// ParaView draws it (followed by RGB knots to 1e-4), opacity Points with midpoint and sharpness.
+    static TransferFunction fromParaView(std::string_view json, double opacityUnitDistance = 1.0);
+    /// A built-in preset (`cool-to-warm`, `viridis`, ...), normalised to [0, 1]. Throws UsageError naming
+    /// the known presets.
+    static TransferFunction builtinPreset(std::string_view name, double opacityUnitDistance = 1.0);
+    static std::vector<std::string> builtinPresetNames();
     /// Strip of `n` RGBA pixels spanning `domain`; alpha is opacity per unit length.
     static TransferFunction fromRgbaStrip(const std::vector<std::array<float, 4>>& pixels,
                                           std::array<double, 2> domain);
     std::string toJson() const; ///< canonical JSON
+
+    /// The same function with every control point and the domain mapped linearly from `domain` onto
+    /// `range` (lo < hi, finite). Extinction values are unchanged.
+    TransferFunction rescaled(std::array<double, 2> range) const;
+    /// What a render uses: `explicitRange` when given; else a normalised function spread over
+    /// `dataRange` (unless the data itself lies in [0, 1]); else this function as authored.
+    TransferFunction fittedTo(std::array<double, 2> dataRange,
+                              std::optional<std::array<double, 2>> explicitRange = std::nullopt) const;
 
     /// Checks ordering, finiteness, tau >= 0, domain lo < hi, at least one point each. Throws DataError.
     void validate() const;

@@ -5,7 +5,7 @@
 
 namespace volcl::viewer {
 
-/// Orbit/pan/zoom on a volcl::Camera, keeping the CONTRACT's lookAt convention. Orbiting turns the eye around
+/// Orbit/pan/zoom on a volcl::Camera, keeping the GLM lookAt convention of docs/contract.md. Orbiting turns the eye around
 /// the target (yaw about the camera's up vector, pitch about its right vector) and carries `up` along, so the
 /// camera passes over the poles without flipping. Example:
 /// ```

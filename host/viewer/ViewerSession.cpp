@@ -284,8 +284,10 @@ ViewerFrame ViewerSession::renderFrame(int width, int height, bool interactive) 
     else
         renderer_->setView(*s.camera, s.width, s.height, s.step);
     f.setupMs = sw.milliseconds();
-    f.structureChanged = structureChanged_ || !(renderer_->plan().defines == before) ||
-                         renderer_->lastTableMilliseconds() > 0.0;
+    // A table rebuilt for a new step is a one-off cost: the frame still tells the controller what the
+    // level costs once tableMs is taken out (with pre-integration every step change rebuilds one).
+    f.tableMs = renderer_->lastTableMilliseconds();
+    f.structureChanged = structureChanged_ || !(renderer_->plan().defines == before);
     structureChanged_ = false;
     sw.restart();
     f.image = renderer_->render();
@@ -296,10 +298,11 @@ ViewerFrame ViewerSession::renderFrame(int width, int height, bool interactive) 
 
 void ViewerSession::frameDone(const ViewerFrame& frame, double frameMs) {
     if (frame.structureChanged) return;
+    const double levelMs = frameMs - frame.tableMs;
     if (frame.interactive)
-        adaptive_.report(frame.level, frameMs);
+        adaptive_.report(frame.level, levelMs);
     else
-        adaptive_.seed(frameMs);
+        adaptive_.seed(levelMs);
 }
 
 std::string ViewerSession::compiledSummary() const {

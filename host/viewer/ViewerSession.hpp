@@ -64,8 +64,9 @@ struct ViewerFrame {
     ImageBuffer image;  ///< linear associated RGBA (+Z in iso mode), at level.resolutionScale of the viewport
     QualityLevel level; ///< actual level (from the rounded pixel counts)
     bool interactive = false;
-    bool structureChanged = false; ///< a kernel or table may have been rebuilt for this frame
+    bool structureChanged = false; ///< the kernel may have been rebuilt for this frame (a table alone is not)
     double setupMs = 0.0;          ///< VolumeRenderer::setScene (planning, tables, kernel lookup or build)
+    double tableMs = 0.0;          ///< pre-integration table built for this frame's step (part of setupMs)
     double renderMs = 0.0;         ///< VolumeRenderer::render wall time (kernel + read-back)
     double kernelMs = 0.0;         ///< the ray-marching kernel alone (profiling event)
 };

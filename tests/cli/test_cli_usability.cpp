@@ -1,0 +1,266 @@
+// The volcl executable for a first-time user: framed cameras, named views, default lights, presets,
+// --version, named unknown subcommands, help examples, --frame, compare --level, --replace-nan.
+#include "host/image/ImageIo.hpp"
+#include "host/io/VolumeIo.hpp"
+#include "../TestUtil.hpp"
+
+#include <sys/wait.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+using namespace volcl;
+
+namespace {
+
+struct RunResult {
+    int exitCode;
+    std::string out, err;
+};
+
+std::string slurp(const std::filesystem::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+RunResult run(const std::string& args, const std::filesystem::path& dir) {
+    auto out = dir / "stdout.txt", err = dir / "stderr.txt";
+    std::string cmd = std::string(VOLCL_EXE) + " " + args + " >" + out.string() + " 2>" + err.string() + " </dev/null";
+    int status = std::system(cmd.c_str());
+    int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    return {code, slurp(out), slurp(err)};
+}
+
+bool has(const std::string& text, const std::string& what) {
+    return text.find(what) != std::string::npos;
+}
+
+/// A 40^3 float blob off-centre along +x and +z, so views from different sides differ.
+std::filesystem::path writeBlob(const std::filesystem::path& dir) {
+    Volume v = test::makeFloatVolume({40, 40, 40}, [](double x, double y, double z) {
+        const double dx = x - 26, dy = y - 19.5, dz = z - 24;
+        return 200.0 * std::exp(-(dx * dx + dy * dy + dz * dz) / 60.0);
+    });
+    const auto p = dir / "blob.nrrd";
+    writeVolumeFile(v, p);
+    return p;
+}
+
+const char* kTf = R"({"domain": [0, 200], "color": [[0, 1, 1, 1], [200, 1, 1, 1]], "extinction": [[0, 0], [200, 0.5]]})";
+
+double alphaCoverage(const ImageBuffer& img) {
+    std::size_t covered = 0;
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x)
+            covered += img.at(x, y, 3) > 0.02f;
+    return double(covered) / double(img.width * img.height);
+}
+
+} // namespace
+
+TEST(CliUsability, EyeAndTargetWithoutHeightFrameTheBox) {
+    // Before: the orthographic height stayed 1 world unit: a featureless close-up of one spot.
+    auto dir = test::tempDir("cli_use_frame");
+    const auto vol = writeBlob(dir);
+    std::ofstream(dir / "tf.json") << kTf;
+    RunResult r = run("render --volume " + vol.string() + " --tf " + (dir / "tf.json").string() +
+                          " --eye 400,19.5,19.5 --target 19.5,19.5,19.5 --up 0,0,1 --width 64 --height 64 -o " +
+                          (dir / "a.exr").string(),
+                      dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(has(r.err, "fitted to the box")) << r.err;
+    const ImageBuffer img = readImage(dir / "a.exr");
+    const double c = alphaCoverage(img);
+    EXPECT_GT(c, 0.03);
+    EXPECT_LT(c, 0.9); // the blob sits inside the frame, with empty space around it
+    float lo = 1.0f, hi = 0.0f;
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x) {
+            lo = std::min(lo, img.at(x, y, 3));
+            hi = std::max(hi, img.at(x, y, 3));
+        }
+    EXPECT_GT(hi - lo, 0.5f); // structure, not one uniform close-up
+    // The image edge is empty: the whole box is in view.
+    for (int x = 0; x < img.width; ++x) EXPECT_LT(img.at(x, 0, 3), 0.02f);
+}
+
+TEST(CliUsability, FrontAndBackViewsAreMirrorImages) {
+    auto dir = test::tempDir("cli_use_views");
+    const auto vol = writeBlob(dir);
+    std::ofstream(dir / "tf.json") << kTf;
+    auto render = [&](const std::string& view, const std::string& out) {
+        RunResult r = run("render --volume " + vol.string() + " --tf " + (dir / "tf.json").string() + " --view " +
+                              view + " --width 48 --height 48 -o " + (dir / out).string(),
+                          dir);
+        EXPECT_EQ(r.exitCode, 0) << r.err;
+        return readImage(dir / out);
+    };
+    const ImageBuffer front = render("front", "front.exr"), back = render("back", "back.exr");
+    const ImageBuffer top = render("top", "top.exr");
+    // Opacity does not depend on the direction a ray runs: the back view is the front view mirrored left-right.
+    double worst = 0.0, frontTopGap = 0.0;
+    for (int y = 0; y < 48; ++y)
+        for (int x = 0; x < 48; ++x) {
+            worst = std::max(worst, double(std::abs(front.at(x, y, 3) - back.at(47 - x, y, 3))));
+            frontTopGap = std::max(frontTopGap, double(std::abs(front.at(x, y, 3) - top.at(x, y, 3))));
+        }
+    EXPECT_LT(worst, 2e-3);
+    EXPECT_GT(frontTopGap, 0.05); // a different side of an off-centre blob
+    // +z is up in the front view: the blob (above the centre in z) sits in the upper half.
+    double upper = 0.0, lower = 0.0;
+    for (int y = 0; y < 48; ++y)
+        for (int x = 0; x < 48; ++x) (y < 24 ? upper : lower) += front.at(x, y, 3);
+    EXPECT_GT(upper, lower);
+    EXPECT_EQ(run("render --volume " + vol.string() + " --tf " + (dir / "tf.json").string() +
+                      " --view sideways -o " + (dir / "x.exr").string(),
+                  dir)
+                  .exitCode,
+              2);
+    EXPECT_EQ(run("render --volume " + vol.string() + " --tf " + (dir / "tf.json").string() +
+                      " --view front --eye 1,2,3 -o " + (dir / "x.exr").string(),
+                  dir)
+                  .exitCode,
+              2);
+    EXPECT_FALSE(std::filesystem::exists(dir / "x.exr"));
+}
+
+TEST(CliUsability, ShadingWithoutALightUsesAHeadLight) {
+    // Before: --shading without --light rendered flat; only --explain said "dropped shading".
+    auto dir = test::tempDir("cli_use_light");
+    const auto vol = writeBlob(dir);
+    std::ofstream(dir / "tf.json") << kTf;
+    const std::string base = "render --volume " + vol.string() + " --tf " + (dir / "tf.json").string() +
+                             " --view front --width 32 --height 32 ";
+    RunResult r = run(base + "--shading 0.2,0.7,0.3,32 --explain -o " + (dir / "lit.exr").string(), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(has(r.err, "head light")) << r.err;
+    EXPECT_TRUE(has(r.out, "head light")) << r.out;
+    EXPECT_TRUE(has(r.out, "-DSHADING")) << r.out;
+    EXPECT_FALSE(has(r.out, "rendered unshaded")) << r.out;
+    // Iso mode shades unless told not to.
+    RunResult iso = run(base + "--mode iso --iso 100 --explain", dir);
+    ASSERT_EQ(iso.exitCode, 0) << iso.err;
+    EXPECT_TRUE(has(iso.out, "-DSHADING")) << iso.out;
+    RunResult flat = run(base + "--mode iso --iso 100 --no-shading --explain", dir);
+    ASSERT_EQ(flat.exitCode, 0) << flat.err;
+    EXPECT_FALSE(has(flat.out, "-DSHADING")) << flat.out;
+}
+
+TEST(CliUsability, PresetsAndNormalisedParaViewMaps) {
+    // Before: a colour-only map on [0, 1] kept its range and opacity 1 (tau 1000): an opaque blob.
+    auto dir = test::tempDir("cli_use_preset");
+    const auto vol = writeBlob(dir);
+    std::ofstream(dir / "pv.json") << R"([{"ColorSpace": "Diverging", "Name": "Cool to Warm",
+        "RGBPoints": [0, 0.23137254902, 0.298039215686, 0.752941176471, 0.5, 0.865, 0.865, 0.865,
+                      1, 0.705882352941, 0.0156862745098, 0.149019607843]}])";
+    const std::string base = "render --volume " + vol.string() + " --view front --width 32 --height 32 ";
+    RunResult r = run(base + "--tf " + (dir / "pv.json").string() + " -o " + (dir / "pv.exr").string(), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const ImageBuffer img = readImage(dir / "pv.exr");
+    EXPECT_LT(img.at(16, 16, 3), 0.99f); // translucent in the middle of the blob
+    EXPECT_GT(img.at(16, 16, 3), 0.05f);
+    // The built-in preset, and --tf-range pushing the whole map above the data: nothing visible.
+    RunResult p = run(base + "--tf preset:cool-to-warm -o " + (dir / "preset.exr").string(), dir);
+    ASSERT_EQ(p.exitCode, 0) << p.err;
+    RunResult high = run(base + "--tf preset:cool-to-warm --tf-range 1000,2000 -o " + (dir / "high.exr").string(), dir);
+    ASSERT_EQ(high.exitCode, 0) << high.err;
+    EXPECT_LT(readImage(dir / "high.exr").at(16, 16, 3), 1e-6f);
+    RunResult bad = run(base + "--tf preset:nope -o " + (dir / "bad.exr").string(), dir);
+    EXPECT_EQ(bad.exitCode, 2);
+    EXPECT_TRUE(has(bad.err, "viridis")) << bad.err;
+    EXPECT_EQ(run(base + "--tf preset:viridis --tf-range 5,5 -o " + (dir / "bad.exr").string(), dir).exitCode, 2);
+    EXPECT_FALSE(std::filesystem::exists(dir / "bad.exr"));
+}
+
+TEST(CliUsability, VersionSubcommandsAndExamples) {
+    auto dir = test::tempDir("cli_use_version");
+    RunResult v = run("--version", dir);
+    EXPECT_EQ(v.exitCode, 0);
+    EXPECT_TRUE(has(v.out, "0.")) << v.out;
+    RunResult foo = run("foo", dir);
+    EXPECT_EQ(foo.exitCode, 2);
+    EXPECT_TRUE(has(foo.err, "unknown subcommand 'foo'")) << foo.err;
+    EXPECT_EQ(run("bench nothing", dir).exitCode, 2);
+    for (const char* cmd : {"", "info", "devices", "convert", "demo", "preint", "encode", "decode", "compare",
+                            "render", "view", "bench", "bench codec", "bench preint", "bench render",
+                            "bench view"}) {
+        RunResult h = run(std::string(cmd) + " --help", dir);
+        EXPECT_EQ(h.exitCode, 0) << cmd;
+        EXPECT_TRUE(has(h.out, "Examples:")) << "volcl " << cmd << " --help has no example";
+        EXPECT_FALSE(has(h.out, "CONTRACT")) << cmd;
+    }
+    RunResult rh = run("render --help", dir);
+    EXPECT_TRUE(has(rh.out, "--width INT=512")) << rh.out;
+    EXPECT_TRUE(has(rh.out, "--step FLOAT=0.5")) << rh.out;
+}
+
+TEST(CliUsability, RenderFrameOfASeries) {
+    std::filesystem::path data;
+    VOLCL_REQUIRE_SHARED_DATA(data);
+    auto dir = test::tempDir("cli_use_frame_k");
+    const auto series = data / "timevarying" / "functional.nii.gz";
+    const std::string base = "render --volume " + series.string() + " --tf preset:grayscale --width 16 --height 16 ";
+    RunResult r0 = run(base + "-o " + (dir / "f0.exr").string(), dir);
+    ASSERT_EQ(r0.exitCode, 0) << r0.err;
+    EXPECT_TRUE(has(r0.err, "frame 0 of 20")) << r0.err;
+    RunResult r5 = run(base + "--frame 5 -o " + (dir / "f5.exr").string(), dir);
+    ASSERT_EQ(r5.exitCode, 0) << r5.err;
+    EXPECT_FALSE(has(r5.err, "frame 0 of")) << r5.err;
+    RunResult bad = run(base + "--frame 20 -o " + (dir / "bad.exr").string(), dir);
+    EXPECT_EQ(bad.exitCode, 2);
+    EXPECT_TRUE(has(bad.err, "--frame 20")) << bad.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "bad.exr"));
+}
+
+TEST(CliUsability, CompareAtALevelAndOverARegion) {
+    // Before: compare refused different dims, so a level decode could not be compared with its source.
+    auto dir = test::tempDir("cli_use_compare");
+    Volume v({64, 64, 64}, ScalarType::UInt8);
+    auto vals = v.values<std::uint8_t>();
+    for (std::size_t i = 0; i < vals.size(); ++i) vals[i] = std::uint8_t((i * 7919u) % 251u);
+    writeVolumeFile(v, dir / "v.nrrd");
+    ASSERT_EQ(run("encode " + (dir / "v.nrrd").string() + " --lossless -o " + (dir / "l.vcz").string(), dir).exitCode, 0);
+    RunResult lossy = run("encode " + (dir / "v.nrrd").string() + " --psnr 30 -o " + (dir / "p.vcz").string(), dir);
+    ASSERT_EQ(lossy.exitCode, 0) << lossy.err;
+    EXPECT_FALSE(has(lossy.err, "stored exactly")) << lossy.err; // only --max-error stores voxels exactly
+    RunResult maxe = run("encode " + (dir / "v.nrrd").string() + " --max-error 2 -o " + (dir / "m.vcz").string(), dir);
+    ASSERT_EQ(maxe.exitCode, 0) << maxe.err;
+    EXPECT_TRUE(has(maxe.err, "stored exactly")) << maxe.err;
+
+    RunResult level = run("compare " + (dir / "v.nrrd").string() + " " + (dir / "l.vcz").string() + " --level 1 --json", dir);
+    ASSERT_EQ(level.exitCode, 0) << level.err;
+    EXPECT_TRUE(has(level.out, "\"max_abs_error\": 0.0")) << level.out;
+    RunResult lossyLevel =
+        run("compare " + (dir / "v.nrrd").string() + " " + (dir / "p.vcz").string() + " --level 1 --json", dir);
+    ASSERT_EQ(lossyLevel.exitCode, 0) << lossyLevel.err;
+    EXPECT_TRUE(has(lossyLevel.out, "psnr_db")) << lossyLevel.out;
+    RunResult region = run("compare " + (dir / "v.nrrd").string() + " " + (dir / "l.vcz").string() +
+                               " --region 8,8,8:40,40,40 --json",
+                           dir);
+    ASSERT_EQ(region.exitCode, 0) << region.err;
+    EXPECT_TRUE(has(region.out, "\"max_abs_error\": 0.0")) << region.out;
+    // Without --level, different dims are refused with a hint.
+    ASSERT_EQ(run("decode " + (dir / "l.vcz").string() + " --level 1 -o " + (dir / "half.nrrd").string(), dir).exitCode, 0);
+    RunResult dims = run("compare " + (dir / "v.nrrd").string() + " " + (dir / "half.nrrd").string(), dir);
+    EXPECT_EQ(dims.exitCode, 2);
+    EXPECT_TRUE(has(dims.err, "--level")) << dims.err;
+}
+
+TEST(CliUsability, ConvertReplacesNans) {
+    auto dir = test::tempDir("cli_use_nan");
+    Volume v = test::makeFloatVolume({8, 8, 8}, [](double x, double, double) { return x; });
+    v.values<float>()[v.index(3, 3, 3)] = NAN;
+    writeVolumeFile(v, dir / "nan.nrrd");
+    RunResult r = run("convert " + (dir / "nan.nrrd").string() + " --replace-nan -1 -o " + (dir / "ok.nrrd").string(), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(has(r.err, "replaced 1 NaN")) << r.err;
+    const Volume out = readVolume(dir / "ok.nrrd");
+    EXPECT_EQ(out.values<float>()[out.index(3, 3, 3)], -1.0f);
+    EXPECT_EQ(out.stats().nanCount, 0u);
+    EXPECT_EQ(run("convert " + (dir / "nan.nrrd").string() + " --replace-nan nan -o " + (dir / "x.nrrd").string(), dir)
+                  .exitCode,
+              2);
+}

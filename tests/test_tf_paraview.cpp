@@ -1,0 +1,205 @@
+// ParaView colour maps against VTK: colour spaces, normalised presets fitted to the data, opacity unit
+// distance, built-in presets, colour-only defaults.
+#include "host/Error.hpp"
+#include "host/tf/BuiltinPresets.hpp"
+#include "host/tf/ColorSpaces.hpp"
+#include "host/tf/TransferFunction.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <sys/wait.h>
+
+namespace {
+
+using volcl::TransferFunction;
+
+std::filesystem::path tmpDir() {
+    std::filesystem::path d = std::filesystem::path(VOLCL_TEST_TMP_DIR) / "tf_paraview";
+    std::filesystem::create_directories(d);
+    return d;
+}
+
+struct VtkSamples {
+    bool available = false;
+    std::vector<std::array<double, 4>> xrgb;
+};
+
+/// Runs tests/vtk_ctf_reference.py (Debian's interpreter with python3-vtk9) on `json` rescaled to [lo, hi].
+VtkSamples vtkColors(const std::string& name, std::string_view json, double lo, double hi, int n) {
+    const auto file = tmpDir() / (name + ".json");
+    std::ofstream(file) << json;
+    std::ostringstream cmd;
+    cmd << "/usr/bin/python3 " << VOLCL_SOURCE_DIR << "/tests/vtk_ctf_reference.py " << file << ' ' << lo << ' '
+        << hi << ' ' << n << " 2>&1";
+    FILE* p = ::popen(cmd.str().c_str(), "r");
+    VtkSamples out;
+    if (!p) return out;
+    std::string text;
+    char buf[4096];
+    while (std::size_t got = std::fread(buf, 1, sizeof buf, p))
+        text.append(buf, got);
+    const int status = ::pclose(p);
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+        if (!(WIFEXITED(status) && WEXITSTATUS(status) == 77)) ADD_FAILURE() << "VTK reference failed: " << text;
+        return out;
+    }
+    std::istringstream in(text);
+    std::array<double, 4> v{};
+    while (in >> v[0] >> v[1] >> v[2] >> v[3])
+        out.xrgb.push_back(v);
+    out.available = true;
+    EXPECT_EQ(out.xrgb.size(), std::size_t(n));
+    return out;
+}
+
+/// Largest channel difference between volcl (exact and kernel-float sampling) and VTK over [lo, hi].
+void expectMatchesVtk(const std::string& name, std::string_view json, double lo, double hi, double tol,
+                      int samples = 256) {
+    const VtkSamples ref = vtkColors(name, json, lo, hi, samples);
+    if (!ref.available) GTEST_SKIP() << "python3-vtk9 is not installed (import vtk failed): no VTK reference";
+    const TransferFunction tf = TransferFunction::fromJson(json).fittedTo({lo, hi});
+    const auto knots = tf.packKnots();
+    double worstExact = 0.0, worstKernel = 0.0, worstAt = 0.0;
+    for (const auto& [x, r, g, b] : ref.xrgb) {
+        const auto c = tf.colorAt(x);
+        const auto k = TransferFunction::sampleFloat(knots, float(x));
+        const std::array<double, 3> want{r, g, b};
+        for (int i = 0; i < 3; ++i) {
+            if (std::abs(c[std::size_t(i)] - want[std::size_t(i)]) > worstExact) worstAt = x;
+            worstExact = std::max(worstExact, std::abs(c[std::size_t(i)] - want[std::size_t(i)]));
+            worstKernel = std::max(worstKernel, std::abs(double(k[std::size_t(i)]) - want[std::size_t(i)]));
+        }
+    }
+    EXPECT_LE(worstExact, tol) << name << " at s = " << worstAt;
+    EXPECT_LE(worstKernel, tol) << name;
+    std::printf("%s: worst channel difference to VTK %.2e (exact), %.2e (kernel floats)\n", name.c_str(),
+                worstExact, worstKernel);
+}
+
+TEST(ParaViewColorSpaces, CoolToWarmEqualsVtk) {
+    // The preset as ParaView ships it (normalised, Diverging) spread over a uint8 data range.
+    expectMatchesVtk("cool-to-warm", volcl::builtinPresetJson("cool-to-warm"), 0.0, 255.0, 1e-3);
+}
+
+TEST(ParaViewColorSpaces, NormalisedViridisEqualsVtk) {
+    // The built-in preset (Lab) and ParaView's own copy of the table (Diverging, whose teal run crosses the
+    // +-180 degree hue line and loops round the hue circle there, in VTK as here).
+    const std::string lab(volcl::builtinPresetJson("viridis"));
+    expectMatchesVtk("viridis", lab, -40.0, 1200.0, 1e-3);
+    std::string diverging = lab;
+    diverging.replace(diverging.find("\"Lab\""), 5, "\"Diverging\"");
+    expectMatchesVtk("viridis-diverging", diverging, 0.0, 255.0, 1e-3);
+    // 256 samples of a 256-point map fall on its points; 1001 land between them too.
+    expectMatchesVtk("viridis-between", lab, -40.0, 1200.0, 1e-3, 1001);
+    expectMatchesVtk("viridis-diverging-between", diverging, 0.0, 255.0, 1e-3, 1001);
+}
+
+TEST(ParaViewColorSpaces, HsvLabAndStepEqualVtk) {
+    // Hue wrap (red to magenta the short way), grey end points, a dark toe in Lab, steps.
+    expectMatchesVtk("hsv", R"({"ColorSpace": "HSV",
+        "RGBPoints": [0, 1, 0, 0,  0.3, 0.9, 0.1, 0.8,  0.7, 0.5, 0.5, 0.5,  1, 0.1, 0.9, 0.3]})",
+                     0.0, 1.0, 1e-3);
+    expectMatchesVtk("lab", R"({"ColorSpace": "Lab",
+        "RGBPoints": [0, 0.01, 0.0, 0.02,  0.5, 0.2, 0.8, 1.0,  1, 1, 0.9, 0.1]})",
+                     0.0, 1.0, 1e-3);
+    expectMatchesVtk("diverging-own", R"({"ColorSpace": "Diverging",
+        "RGBPoints": [0, 0.0, 0.6, 0.2,  1, 0.8, 0.1, 0.7]})",
+                     0.0, 1.0, 1e-3);
+    expectMatchesVtk("step", R"({"ColorSpace": "Step",
+        "RGBPoints": [0, 1, 0, 0,  0.25, 0, 1, 0,  1, 0, 0, 1]})",
+                     0.0, 1.0, 1e-9);
+}
+
+TEST(ParaViewColorSpaces, DivergingPassesThroughWhite) {
+    // Independent of VTK: two saturated ends with distant hues meet at a neutral near-white (Msh M >= 88).
+    const auto mid = volcl::interpolateColor(volcl::ColorSpace::Diverging, {0.23, 0.299, 0.754},
+                                             {0.706, 0.016, 0.150}, 0.5);
+    EXPECT_NEAR(mid[0], mid[1], 0.02);
+    EXPECT_NEAR(mid[1], mid[2], 0.02);
+    EXPECT_GT(mid[0], 0.8);
+    // Lab round trip and HSV round trip.
+    const std::array<double, 3> c{0.3, 0.6, 0.9};
+    const auto back = volcl::labToRgb(volcl::rgbToLab(c));
+    const auto hsv = volcl::hsvToRgb(volcl::rgbToHsv(c));
+    for (int i = 0; i < 3; ++i) {
+        EXPECT_NEAR(back[std::size_t(i)], c[std::size_t(i)], 1e-3);
+        EXPECT_NEAR(hsv[std::size_t(i)], c[std::size_t(i)], 1e-12);
+    }
+}
+
+TEST(ParaViewImport, NormalisedPresetIsFittedToTheDataRange) {
+    // Before: the [0, 1] map stayed on [0, 1], so uint8 data saw only its top colour and opacity.
+    const TransferFunction tf = TransferFunction::fromJson(
+        R"({"ColorSpace": "RGB", "RGBPoints": [0, 0, 0, 1, 1, 1, 0, 0], "Points": [0, 0, 0.5, 0, 1, 0.5, 0.5, 0]})");
+    EXPECT_TRUE(tf.normalized);
+    const TransferFunction fit = tf.fittedTo({0.0, 200.0});
+    EXPECT_EQ(fit.domain, (std::array<double, 2>{0.0, 200.0}));
+    EXPECT_NEAR(fit.colorAt(100.0)[0], 0.5, 1e-12);
+    EXPECT_NEAR(fit.extinctionAt(200.0), std::log(2.0), 1e-12);
+    EXPECT_NEAR(fit.extinctionAt(100.0), 0.5 * std::log(2.0), 1e-12);
+    // Data already in [0, 1] keeps the map as authored; --tf-range wins over both.
+    EXPECT_EQ(tf.fittedTo({0.0, 0.5}).domain, (std::array<double, 2>{0.0, 1.0}));
+    const std::array<double, 2> explicitRange{10.0, 20.0};
+    EXPECT_EQ(tf.fittedTo({0.0, 200.0}, explicitRange).domain, explicitRange);
+    // A map authored in data units is left alone.
+    const TransferFunction own =
+        TransferFunction::fromJson(R"({"RGBPoints": [0, 0, 0, 1, 100, 1, 0, 0], "Points": [0, 0, 0.5, 0, 100, 1, 0.5, 0]})");
+    EXPECT_FALSE(own.normalized);
+    EXPECT_EQ(own.fittedTo({0.0, 255.0}).domain, (std::array<double, 2>{0.0, 100.0}));
+    // Constant data and bad ranges.
+    EXPECT_EQ(tf.fittedTo({7.0, 7.0}).domain, (std::array<double, 2>{6.5, 7.5}));
+    EXPECT_THROW(tf.rescaled({5.0, 5.0}), volcl::UsageError);
+    EXPECT_THROW(tf.rescaled({0.0, NAN}), volcl::UsageError);
+}
+
+TEST(ParaViewImport, OpacityUnitDistance) {
+    const char* pv = R"({"RGBPoints": [0, 1, 1, 1, 100, 1, 1, 1], "Points": [0, 0.5, 0.5, 0, 100, 0.5, 0.5, 0]})";
+    // Opacity a over a unit distance d: tau = -ln(1 - a) / d, so a ray of length d keeps 1 - a.
+    EXPECT_NEAR(TransferFunction::fromJson(pv).extinctionAt(50.0), std::log(2.0), 1e-12);
+    EXPECT_NEAR(TransferFunction::fromJson(pv, 4.0).extinctionAt(50.0), std::log(2.0) / 4.0, 1e-12);
+    EXPECT_THROW(TransferFunction::fromJson(pv, 0.0), volcl::UsageError);
+    EXPECT_THROW(TransferFunction::fromJson(pv, -1.0), volcl::UsageError);
+}
+
+TEST(ParaViewImport, ColourOnlyPresetIsTranslucent) {
+    // Before: a colour-only map got opacity 1 (tau 1000) at its top and rendered as a solid blob.
+    const TransferFunction tf = TransferFunction::fromJson(R"({"RGBPoints": [0, 0, 0, 0, 1, 1, 1, 1]})");
+    EXPECT_EQ(tf.extinctionAt(0.0), 0.0);
+    EXPECT_NEAR(tf.extinctionAt(1.0), -std::log1p(-volcl::kColorOnlyTopOpacity), 1e-12);
+    EXPECT_LT(tf.maxExtinction(), 1.0);
+}
+
+TEST(ParaViewImport, BuiltinPresets) {
+    for (const auto& name : TransferFunction::builtinPresetNames()) {
+        const TransferFunction tf = TransferFunction::fromFile("preset:" + name);
+        EXPECT_TRUE(tf.normalized) << name;
+        EXPECT_EQ(tf.domain, (std::array<double, 2>{0.0, 1.0})) << name;
+        EXPECT_LT(tf.maxExtinction(), 1.0) << name;
+        EXPECT_NO_THROW(tf.packKnots()) << name;
+    }
+    EXPECT_GE(TransferFunction::builtinPresetNames().size(), 5u);
+    try {
+        TransferFunction::fromFile("preset:nope");
+        ADD_FAILURE() << "unknown preset accepted";
+    } catch (const volcl::UsageError& e) {
+        EXPECT_NE(std::string(e.what()).find("viridis"), std::string::npos) << e.what();
+    }
+}
+
+TEST(ParaViewImport, UnknownColourSpaceNamed) {
+    try {
+        TransferFunction::fromJson(R"({"ColorSpace": "Lab/CIEDE2000", "RGBPoints": [0,0,0,1, 1,1,0,0]})");
+        ADD_FAILURE() << "accepted";
+    } catch (const volcl::DataError& e) {
+        EXPECT_NE(std::string(e.what()).find("Lab/CIEDE2000"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(TransferFunction::fromJson(R"({"RGBPoints": [1,0,0,1, 0,1,0,0]})"), volcl::DataError);
+}
+
+} // namespace
