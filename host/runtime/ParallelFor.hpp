@@ -49,4 +49,9 @@ template <class Fn> void parallelFor(std::size_t n, unsigned threads, Fn&& fn) {
     if (error) std::rethrow_exception(error);
 }
 
+/// A signed thread-count option as parallelFor's count: 0 or less means the hardware concurrency.
+inline unsigned hostThreads(int threads) noexcept {
+    return threads > 0 ? static_cast<unsigned>(threads) : 0u;
+}
+
 } // namespace volcl
