@@ -124,7 +124,8 @@ std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, co
     std::vector<codec::CodedFrame> coded;
     coded.push_back(std::move(frame.coded));
     std::vector<std::byte> bytes;
-    codec::timeStage(&frame.report.profile, &CodecProfile::assemble, [&] { bytes = codec::assembleVcz(h, coded); });
+    codec::timeStage(&frame.report.profile, &CodecProfile::assemble,
+                     [&] { bytes = codec::assembleVcz(h, coded); });
     frame.report.profile.total = total.milliseconds();
     if (report) {
         *report = frame.report;
@@ -134,7 +135,8 @@ std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, co
     return bytes;
 }
 
-std::vector<std::byte> encodeSeries(ComputeContext& cc, const TimeSeries& series, const CodecOptions& options) {
+std::vector<std::byte> encodeSeries(ComputeContext& cc, const TimeSeries& series,
+                                    const CodecOptions& options) {
     series.validate();
     if (series.frames.empty()) throw UsageError("cannot encode an empty time series");
     VczHeader h = planHeader(series.frames[0], options);
@@ -214,7 +216,8 @@ Volume VczReader::decode(ComputeContext& cc, const DecodeOptions& o) const {
         out.origin[i] = h.origin[i] + double(first * f) * h.spacing[i];
     }
     if (o.frame >= h.frames.size()) throw UsageError(name_ + ": no frame " + std::to_string(o.frame));
-    const std::unique_ptr<codec::Predictor> predictor = codec::predictorFor(h.frames[o.frame], o.frame, name_);
+    const std::unique_ptr<codec::Predictor> predictor =
+        codec::predictorFor(h.frames[o.frame], o.frame, name_);
     codec::decodeFrameBricks(cc, bytes_, h, o.frame, which, o.level, o.threads, name_, o.profile, a, e, out,
                              outDims, o.placeOnDevice);
     // I frames carry no side information and reference no frame.

@@ -5,8 +5,8 @@
 #include "host/runtime/ClRuntime.hpp"
 #include "wavelet/CodecTypes.hpp"
 #include "wavelet/Metrics.hpp"
-#include "wavelet/transform/LiftingTransform.hpp" // BrickBatch, reference transforms: callers use them with the codec
 #include "wavelet/container/VczFormat.hpp"
+#include "wavelet/transform/LiftingTransform.hpp" // callers use BrickBatch and the references with it
 
 #include <cstddef>
 #include <map>

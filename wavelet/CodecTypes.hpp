@@ -1,4 +1,5 @@
-// Public types of the codec API and the .vcz header: wavelet filter, entropy coder, rate control, stage times.
+// Public types of the codec API and the .vcz header: wavelet filter, entropy coder, rate control, stage
+// times.
 #pragma once
 
 #include <cstdint>

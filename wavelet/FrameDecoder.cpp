@@ -62,8 +62,8 @@ void placeBrick(const VczHeader& h, std::size_t b, int level, Dims a, Dims e, st
                         if constexpr (std::is_same_v<V, float>)
                             o1[i] = static_cast<float>(in[i]);
                         else
-                            o1[i] = static_cast<V>(std::clamp<std::int32_t>(in[i], std::numeric_limits<V>::min(),
-                                                                           std::numeric_limits<V>::max()));
+                            o1[i] = static_cast<V>(std::clamp<std::int32_t>(
+                                in[i], std::numeric_limits<V>::min(), std::numeric_limits<V>::max()));
                     }
                 } else {
                     for (std::size_t i = 0; i < len; ++i)
@@ -211,12 +211,14 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
 
 } // namespace
 
-void decodeFrameBricks(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h, std::size_t frame,
-                       const std::vector<std::size_t>& which, int level, unsigned threads, const std::string& name,
-                       CodecProfile* prof, Dims a, Dims e, Volume& out, Dims outDims, bool placeOnDevice) {
+void decodeFrameBricks(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h,
+                       std::size_t frame, const std::vector<std::size_t>& which, int level, unsigned threads,
+                       const std::string& name, CodecProfile* prof, Dims a, Dims e, Volume& out, Dims outDims,
+                       bool placeOnDevice) {
     // Bricks cover disjoint parts of the output, so they are placed in parallel.
     visitTyped(out, [&](auto span) {
-        decodeBricksInto(cc, file, h, frame, which, level, threads, name, prof, a, e, span, outDims, placeOnDevice);
+        decodeBricksInto(cc, file, h, frame, which, level, threads, name, prof, a, e, span, outDims,
+                         placeOnDevice);
     });
 }
 

@@ -1,4 +1,5 @@
-// Plain bit streams of the entropy coders: table bits and raw mantissa bits (writers and branch-free readers).
+// Plain bit streams of the entropy coders: table bits and raw mantissa bits (writers and branch-free
+// readers).
 #pragma once
 
 #include "host/Error.hpp"

@@ -70,8 +70,8 @@ struct DecodeSide {
         const std::array<const DecoderTable*, kActivityContexts> tab = tables;
         const auto step = [&](std::size_t i, std::size_t x) {
             const RowJob& j = jobs[i];
-            const DecoderTable& t =
-                *tab[static_cast<std::size_t>(activityContext(j.activity[x] + kSymbolInfo.west[j.syms[x - 1]]))];
+            const DecoderTable& t = *tab[static_cast<std::size_t>(
+                activityContext(j.activity[x] + kSymbolInfo.west[j.syms[x - 1]]))];
             const std::uint32_t s = st[i];
             const unsigned sym = t.lookup[s & (kTableScale - 1)];
             st[i] = in.advance(s, kTableScaleBits, t.start[sym], t.freq[sym]);

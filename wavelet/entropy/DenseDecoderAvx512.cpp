@@ -1,6 +1,7 @@
-// The dense decoder's AVX-512 passes (VBMI2 and friends): magnitude symbols, non-zero lists and signs of a row
-// group, a lane per row; the same stream order as the scalar decoder. Each function carries its target, so
-// the file builds with the baseline flags and runs only where avx512DenseDecoderKernels() found the CPU able.
+// The dense decoder's AVX-512 passes (VBMI2 and friends): magnitude symbols, non-zero lists and signs of a
+// row group, a lane per row; the same stream order as the scalar decoder. Each function carries its target,
+// so the file builds with the baseline flags and runs only where avx512DenseDecoderKernels() found the CPU
+// able.
 #include "wavelet/entropy/DenseKernels.hpp"
 
 #include <immintrin.h>
@@ -49,7 +50,8 @@ VOLCL_SIMD_TARGET inline __m512i renormalise(__m512i state, __m512i s, __mmask8 
 VOLCL_SIMD_TARGET
 void symbolsSimd(const RowJob* jobs, std::size_t nj, std::size_t steps, unsigned lastMaskBits, WordReader& in,
                  std::uint32_t* st, const PackedTables& pt) {
-    const __mmask8 full = static_cast<__mmask8>((1u << nj) - 1u), lastMask = static_cast<__mmask8>(lastMaskBits);
+    const __mmask8 full = static_cast<__mmask8>((1u << nj) - 1u),
+                   lastMask = static_cast<__mmask8>(lastMaskBits);
     // Rows addressed relative to the first row's arrays (byte offsets per lane).
     const auto* act0 = reinterpret_cast<const std::uint8_t*>(jobs[0].activity);
     std::uint8_t* const sym0 = jobs[0].syms;

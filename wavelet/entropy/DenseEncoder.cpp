@@ -22,7 +22,7 @@ struct EncodeSide {
     std::array<std::array<std::uint32_t, kActivityContexts * 64>, 2> counts{};
     RawWriter raw{scratch.raw};
     std::uintptr_t previousRow[kMaxLanes] = {}; // per lane, the row of its last row flag
-    const DenseEncoderKernels* simd = nullptr; // vector passes instead of the scalar ones
+    const DenseEncoderKernels* simd = nullptr;  // vector passes instead of the scalar ones
 
     /// The event of an adaptive binary decision; updates the model.
     /// Masks instead of selects (signs are close to random, and GCC makes jumps of the selects).
@@ -32,9 +32,7 @@ struct EncodeSide {
         m.p0 = up ^ ((up ^ down) & one);
         return ransEvent(p0 & one, p0 ^ ((p0 ^ (kBinaryScale - p0)) & one), true, lane);
     }
-    void binary(unsigned lane, BitModel& m, unsigned bit) {
-        *next++ = binaryEvent(m, bit, lane);
-    }
+    void binary(unsigned lane, BitModel& m, unsigned bit) { *next++ = binaryEvent(m, bit, lane); }
     bool rowFlag(unsigned lane, unsigned rctx, const std::int32_t* row, std::size_t nx) {
         // The lane's next row is likely as far on as this one from its previous row: fetch it now (the
         // walker visits up to 7 subbands' rows in turn, a pattern the hardware prefetchers miss).
@@ -100,8 +98,8 @@ struct EncodeSide {
         std::size_t maxNx = 0;
         for (std::size_t i = 0; i < nj; ++i)
             maxNx = std::max(maxNx, jobs[i].nx);
-        // Per row of the group, from the row pass: per non-zero coefficient the sign context | negative << 16,
-        // per coefficient with raw bits those bits with a 1 above them.
+        // Per row of the group, from the row pass: per non-zero coefficient the sign context with the
+        // negative bit at 16, per coefficient with raw bits those bits with a 1 above them.
         std::uint32_t* const signCodes = EncoderScratch::atLeast(scratch.signCodes, nj * maxNx);
         std::uint32_t* const rawCodes = EncoderScratch::atLeast(scratch.rawCodes, nj * maxNx);
         std::size_t minNx = maxNx;
@@ -115,7 +113,8 @@ struct EncodeSide {
             const SymbolSlots slots{next, nj, i, minNx, tail - minNx};
             tail += j.nx - minNx;
             if (simd)
-                j.count = simd->encodeRow(j, slots, signCodes + i * maxNx, rawCodes + i * maxNx, rawCount[i], all);
+                j.count =
+                    simd->encodeRow(j, slots, signCodes + i * maxNx, rawCodes + i * maxNx, rawCount[i], all);
             else
                 j.count = encodeRow(j, slots, signCodes + i * maxNx, rawCodes + i * maxNx, rawCount[i], all);
         }
@@ -147,14 +146,14 @@ struct EncodeSide {
         if (simd)
             ev = simd->signEvents(rowCount, rowLane, nj, maxCount, signCodes, maxNx, model.signs.data(), ev);
         else
-        for (std::size_t n = 0; n < maxCount; ++n)
-            for (std::size_t i = 0; i < nj; ++i) {
-                const bool valid = n < rowCount[i];
-                const std::uint32_t sc = signCodes[i * maxNx + n];
-                BitModel& m = valid ? model.signs[sc & 0xFFFF] : dummy;
-                *ev = binaryEvent(m, sc >> 16, rowLane[i]);
-                ev += valid;
-            }
+            for (std::size_t n = 0; n < maxCount; ++n)
+                for (std::size_t i = 0; i < nj; ++i) {
+                    const bool valid = n < rowCount[i];
+                    const std::uint32_t sc = signCodes[i * maxNx + n];
+                    BitModel& m = valid ? model.signs[sc & 0xFFFF] : dummy;
+                    *ev = binaryEvent(m, sc >> 16, rowLane[i]);
+                    ev += valid;
+                }
         next = ev;
         for (std::size_t i = 0; i < nj; ++i)
             raw.put(rawCodes + i * maxNx, rawCount[i]);

@@ -16,7 +16,7 @@ namespace {
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #pragma GCC diagnostic ignored "-Wuninitialized"
 #define VOLCL_SIMD_ENCODER_TARGET                                                                            \
-    __attribute__((target("avx512f,avx512bw,avx512cd,avx512dq,avx512vl,avx512vbmi2,avx512ifma,bmi,bmi2,"    \
+    __attribute__((target("avx512f,avx512bw,avx512cd,avx512dq,avx512vl,avx512vbmi2,avx512ifma,bmi,bmi2,"     \
                           "popcnt,lzcnt")))
 
 // ceil(2^52 / f) for f in [2, 4096]: floor(s m / 2^52) = floor(s / f) for s < 2^32, since s m / 2^52
@@ -50,7 +50,8 @@ std::size_t resolveAndGroup(RansEvent* ev, std::size_t n, const RansEvent* codeS
                                                           reinterpret_cast<const int*>(codeSlots), 4);
         _mm512_mask_storeu_epi32(ev + i, pending, _mm512_or_si512(slots, _mm512_and_si512(e, laneBits)));
         const __m512i lane = _mm512_srli_epi32(e, kEventLaneShift);
-        const __mmask16 bound = _mm512_mask_cmple_epu32_mask(valid, lane, _mm512_alignr_epi32(lane, prev, 15));
+        const __mmask16 bound =
+            _mm512_mask_cmple_epu32_mask(valid, lane, _mm512_alignr_epi32(lane, prev, 15));
         _mm512_mask_compressstoreu_epi32(starts + g, bound,
                                          _mm512_add_epi32(iota, _mm512_set1_epi32(static_cast<int>(i))));
         g += static_cast<std::size_t>(_mm_popcnt_u32(bound));
@@ -125,8 +126,8 @@ VOLCL_SIMD_ENCODER_TARGET bool arithmeticMatchesTables() {
     }
     for (std::uint32_t p = 0; p < 64; p += 16) {
         _mm512_store_si512(west, westOf(_mm512_add_epi32(_mm512_set1_epi32(static_cast<int>(p)),
-                                                         _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11,
-                                                                           12, 13, 14, 15))));
+                                                         _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10,
+                                                                           11, 12, 13, 14, 15))));
         for (std::uint32_t k = 0; k < 16; ++k)
             if (p + k < kSymbols && west[k] != kSymbolInfo.west[p + k]) return false;
     }
@@ -137,8 +138,8 @@ VOLCL_SIMD_ENCODER_TARGET bool arithmeticMatchesTables() {
 // W and the activity class by arithmetic (lzcnt) where encodeRow reads tables, the per non-zero outputs
 // by compressing stores.
 VOLCL_SIMD_ENCODER_TARGET
-std::size_t encodeRowSimd(const RowJob& j, const SymbolSlots& slots, std::uint32_t* signs, std::uint32_t* raws,
-                          std::size_t& rawCount, std::uint32_t& all) {
+std::size_t encodeRowSimd(const RowJob& j, const SymbolSlots& slots, std::uint32_t* signs,
+                          std::uint32_t* raws, std::size_t& rawCount, std::uint32_t& all) {
     const __m512i zero = _mm512_setzero_si512(), one = _mm512_set1_epi32(1), two = _mm512_set1_epi32(2),
                   laneBits = _mm512_set1_epi32(static_cast<int>(j.lane << kEventLaneShift)),
                   negBit = _mm512_set1_epi32(1 << 16);
@@ -166,8 +167,9 @@ std::size_t encodeRowSimd(const RowJob& j, const SymbolSlots& slots, std::uint32
         const __m512i cls =
             activityClassesOf(_mm512_add_epi32(_mm512_maskz_loadu_epi32(valid, j.activity + x), west));
         const __m512i slot = _mm512_mask_add_epi32(interleaved, _mm512_cmpge_epu32_mask(xs, minNx), xs, tail);
-        _mm512_mask_i32scatter_epi32(slots.events, valid, slot,
-                                     _mm512_or_si512(_mm512_add_epi32(_mm512_slli_epi32(cls, 6), sym), laneBits), 4);
+        _mm512_mask_i32scatter_epi32(
+            slots.events, valid, slot,
+            _mm512_or_si512(_mm512_add_epi32(_mm512_slli_epi32(cls, 6), sym), laneBits), 4);
         xs = _mm512_add_epi32(xs, sixteen);
         interleaved = _mm512_add_epi32(interleaved, interleavedStep);
         _mm512_mask_cvtepi32_storeu_epi8(j.syms + x, valid, sym);
@@ -230,9 +232,9 @@ RansEvent* signEventsSimd(const std::size_t* rowCount, const unsigned* rowLane, 
         const __m256i down = _mm256_sub_epi32(p0, _mm256_srli_epi32(p0, 5));
         _mm256_mask_i32scatter_epi32(p0s, valid, ctx, _mm256_mask_mov_epi32(up, neg, down), 4);
         const __m256i freq = _mm256_mask_mov_epi32(p0, neg, q);
-        const __m256i e = _mm256_or_si256(_mm256_or_si256(_mm256_maskz_mov_epi32(neg, p0),
-                                                          _mm256_slli_epi32(freq, kEventFreqShift)),
-                                          laneBits);
+        const __m256i e = _mm256_or_si256(
+            _mm256_or_si256(_mm256_maskz_mov_epi32(neg, p0), _mm256_slli_epi32(freq, kEventFreqShift)),
+            laneBits);
         _mm256_mask_compressstoreu_epi32(ev, valid, e);
         ev += _mm_popcnt_u32(valid);
     }
@@ -277,7 +279,8 @@ void ransEncodeSimd(std::span<RansEvent> events, int lanes, const RansEvent* cod
         const __m256i e = _mm256_maskz_expand_epi32(active, win);
         const __m256i freq32 = _mm256_and_si256(_mm256_srli_epi32(e, kEventFreqShift), freqMask);
         const __m512i freq = _mm512_cvtepu32_epi64(freq32);
-        const __m512i binary = _mm512_cvtepu32_epi64(_mm256_and_si256(_mm256_srli_epi32(e, kEventBinaryShift), one32));
+        const __m512i binary =
+            _mm512_cvtepu32_epi64(_mm256_and_si256(_mm256_srli_epi32(e, kEventBinaryShift), one32));
         // Off the chain: the flush threshold freq << (32 - scaleBits), 2^scaleBits - freq, the reciprocal.
         const __m512i threshold = _mm512_sllv_epi64(freq, _mm512_sub_epi64(c21, binary));
         const __m512i gap = _mm512_sub_epi64(_mm512_sllv_epi64(one, _mm512_add_epi64(c11, binary)), freq);
@@ -289,8 +292,8 @@ void ransEncodeSimd(std::span<RansEvent> events, int lanes, const RansEvent* cod
         const auto n = static_cast<unsigned>(_mm_popcnt_u32(flush));
         // Compressed words to the top of 8 and stored below the words so far (the 8 - n below them are
         // overwritten by earlier groups or lie in the spare words).
-        const __m128i words = _mm_maskz_expand_epi16(static_cast<__mmask8>(0xFF00u >> n),
-                                                      _mm_maskz_compress_epi16(flush, _mm512_cvtepi64_epi16(x)));
+        const __m128i words = _mm_maskz_expand_epi16(
+            static_cast<__mmask8>(0xFF00u >> n), _mm_maskz_compress_epi16(flush, _mm512_cvtepi64_epi16(x)));
         w -= n;
         _mm_storeu_si128(reinterpret_cast<__m128i*>(w + n - 8), words);
         const __m512i s = _mm512_mask_srli_epi64(x, flush, x, 16);

@@ -105,7 +105,8 @@ inline std::uint8_t quantiseCount(std::uint64_t count, std::uint64_t total) {
 
 // Adaptive state shared by encoder and decoder.
 struct DenseModel {
-    std::array<BitModel, 4 * 8> rows; // row "all zero" flag: (previous y row zero, previous z row zero) x orientation
+    std::array<BitModel, 4 * 8>
+        rows; // row "all zero" flag: (previous y row zero, previous z row zero) x orientation
     std::array<BitModel, kSignContexts> signs;
 };
 
@@ -114,7 +115,7 @@ inline constexpr std::uint32_t kListX = 0xFFFFFF;
 
 // One non-zero row of one subband, handed by the walker to a side with its contexts precomputed.
 struct RowJob {
-    unsigned lane;                 // the subband's index in its section, which is also its rANS state
+    unsigned lane; // the subband's index in its section, which is also its rANS state
     std::size_t nx;
     const std::uint32_t* activity; // per x: neighbour and parent part of the magnitude context
     const std::uint16_t* signBase; // per x: neighbour part of the sign context
@@ -208,7 +209,8 @@ struct SectionWalker {
                     std::uint32_t* m = b.cur.data() + (r + 1) * pitch + 1;
                     std::uint8_t* sg = b.curSign.data() + (r + 1) * pitch + 1;
                     const auto orient = static_cast<unsigned>(box.orient);
-                    const unsigned rctx = orient * 4 + (r > 0 ? b.rowZero[r - 1] : 1u) + 2u * b.prevRowZero[r];
+                    const unsigned rctx =
+                        orient * 4 + (r > 0 ? b.rowZero[r - 1] : 1u) + 2u * b.prevRowZero[r];
                     const bool zero = side.rowFlag(static_cast<unsigned>(k), rctx, row, nx);
                     b.rowZero[r] = zero;
                     if (zero) {
@@ -239,7 +241,8 @@ struct SectionWalker {
                     const std::uint32_t* un = u - pitch;
                     std::uint32_t* activity = b.activity.data();
                     for (std::size_t x = 0; x < nx; ++x)
-                        activity[x] = 4 * (n[x] + u[x]) + n[x - 1] + n[x + 1] + u[x - 1] + u[x + 1] + un[x] + parentRow[x];
+                        activity[x] = 4 * (n[x] + u[x]) + n[x - 1] + n[x + 1] + u[x - 1] + u[x + 1] + un[x] +
+                                      parentRow[x];
                     const std::uint8_t* ns = sg - pitch;
                     const std::uint8_t* us = b.prevSign.data() + (r + 1) * pitch + 1;
                     const auto sctx0 = static_cast<std::uint16_t>(orient * 27);

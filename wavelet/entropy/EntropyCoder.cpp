@@ -85,17 +85,18 @@ void decodeSections(std::span<const std::span<const std::uint8_t>> sections, std
                     const char* what, const Dequantiser* dq) {
     for (std::size_t s = 0; s < sections.size(); ++s) {
         if (mode == EntropyMode::Fast)
-            entropy::decodeFast(sections[s], coeffs, layout[s], brick, what, dq); // checks empty sections itself
+            entropy::decodeFast(sections[s], coeffs, layout[s], brick, what,
+                                dq); // checks empty sections itself
         else
             decodeSection(sections[s], coeffs, brick, layout, s, mode, what);
     }
     if (dq && mode == EntropyMode::Dense)
         for (std::size_t s = 0; s < sections.size(); ++s)
             entropy::forEachSectionRow(coeffs.data(), layout[s], brick,
-                              [&](std::int32_t* row, std::size_t len, const SubbandBox& b) {
-                                  dequantiseRow(row, reinterpret_cast<float*>(row), len, dq->step(b),
-                                                dq->bias);
-                              });
+                                       [&](std::int32_t* row, std::size_t len, const SubbandBox& b) {
+                                           dequantiseRow(row, reinterpret_cast<float*>(row), len, dq->step(b),
+                                                         dq->bias);
+                                       });
 }
 
 } // namespace volcl

@@ -1,5 +1,6 @@
 // Entropy coding of quantised wavelet coefficients: subband layout and section coding by the dense
-// context-modelled rANS coder or the fast zstd-over-byte-planes coder (wavelet/entropy/). Internal to the codec.
+// context-modelled rANS coder or the fast zstd-over-byte-planes coder (wavelet/entropy/). Internal to the
+// codec.
 #pragma once
 
 #include "host/Volume.hpp"

@@ -67,7 +67,6 @@ FastScratch& fastScratch() {
     return s;
 }
 
-
 std::uint32_t foldSign(std::int32_t v) {
     return (static_cast<std::uint32_t>(v) << 1) ^ static_cast<std::uint32_t>(v >> 31);
 }

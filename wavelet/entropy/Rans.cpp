@@ -43,7 +43,8 @@ void ransEncode(std::span<const RansEvent> events, int lanes, const RansEvent* c
     for (std::size_t k = events.size(); k-- > 0;) {
         const RansEvent raw = events[k];
         const unsigned lane = raw >> kEventLaneShift;
-        const RansEvent e = (raw >> kEventFreqShift & kEventFreqMask) == 0 ? codeSlots[raw & kEventFieldMask] : raw;
+        const RansEvent e =
+            (raw >> kEventFreqShift & kEventFreqMask) == 0 ? codeSlots[raw & kEventFieldMask] : raw;
         const std::uint32_t start = e & kEventFieldMask, freq = e >> kEventFreqShift & kEventFreqMask;
         const int scaleBits = kTableScaleBits + static_cast<int>(e >> kEventBinaryShift & 1u);
         std::uint32_t s = x[lane];
@@ -52,9 +53,8 @@ void ransEncode(std::span<const RansEvent> events, int lanes, const RansEvent* c
         w[-1] = static_cast<std::uint16_t>(s); // without a flush a later word overwrites it (one spare word)
         w -= flush;
         s >>= 16 * flush;
-        const auto q = freq == 1 ? s
-                                 : static_cast<std::uint32_t>(
-                                       (static_cast<Uint128>(s) * kReciprocal[freq]) >> 64);
+        const auto q =
+            freq == 1 ? s : static_cast<std::uint32_t>((static_cast<Uint128>(s) * kReciprocal[freq]) >> 64);
         x[lane] = (q << scaleBits) + (s - q * freq) + start;
     }
     wb.first = w;

@@ -2,8 +2,8 @@
 // the encoder's per-thread scratch and backward pass, the decoder's branch-free word reader.
 #pragma once
 
-#include "wavelet/entropy/BitIo.hpp"
 #include "wavelet/Varint.hpp"
+#include "wavelet/entropy/BitIo.hpp"
 
 #include <algorithm>
 #include <array>
@@ -38,7 +38,8 @@ using RansEvent = std::uint32_t;
 inline constexpr int kEventFreqShift = 12, kEventBinaryShift = 25, kEventLaneShift = 29;
 inline constexpr RansEvent kEventFieldMask = 0xFFF, kEventFreqMask = 0x1FFF;
 inline constexpr RansEvent ransEvent(std::uint32_t start, std::uint32_t freq, bool binary, unsigned lane) {
-    return start | freq << kEventFreqShift | std::uint32_t(binary) << kEventBinaryShift | lane << kEventLaneShift;
+    return start | freq << kEventFreqShift | std::uint32_t(binary) << kEventBinaryShift |
+           lane << kEventLaneShift;
 }
 inline constexpr RansEvent pendingEvent(std::uint32_t code, unsigned lane) {
     return code | lane << kEventLaneShift;
@@ -92,7 +93,8 @@ struct WordReader {
     std::uint32_t advance(std::uint32_t s, int scaleBits, std::uint32_t start, std::uint32_t freq) noexcept {
         s = freq * (s >> scaleBits) + (s & ((1u << scaleBits) - 1)) - start;
         const std::uint32_t renorm = s < kRansLow ? 1u : 0u;
-        // The word at the read position, or zeros past the end (the position keeps counting, exact() notices).
+        // The word at the read position, or zeros past the end (the position keeps counting, exact()
+        // notices).
         const std::uint8_t* q = data + std::min(pos, size);
         const std::uint32_t w = q[0] | (std::uint32_t(q[1]) << 8);
         pos += 2 * renorm;
@@ -126,7 +128,8 @@ public:
     // 16 bytes: the SIMD decoder loads up to 7 words at a time from the clamped position.
     static std::vector<std::uint8_t> padded(std::span<const std::uint8_t> in) { return zeroPadded(in, 16); }
     /// `bytes` comes from padded(); `size` is the unpadded length.
-    RansDecoder(const std::vector<std::uint8_t>& bytes, std::size_t size, int lanes) : in{bytes.data(), size} {
+    RansDecoder(const std::vector<std::uint8_t>& bytes, std::size_t size, int lanes)
+        : in{bytes.data(), size} {
         const std::span<const std::uint8_t> span(in.data, in.size);
         std::fill(x, x + kMaxLanes, kRansLow);
         for (int lane = 0; lane < lanes; ++lane) {

@@ -24,6 +24,7 @@ struct ParsedPayload {
     std::span<const std::uint8_t> corrections;
 };
 /// Splits a payload of `expectedSections` sections; IoError naming `what` on any inconsistency.
-ParsedPayload parsePayload(std::span<const std::uint8_t> p, std::size_t expectedSections, const std::string& what);
+ParsedPayload parsePayload(std::span<const std::uint8_t> p, std::size_t expectedSections,
+                           const std::string& what);
 
 } // namespace volcl::codec

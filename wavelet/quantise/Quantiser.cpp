@@ -76,9 +76,7 @@ std::vector<double> mergeMaxima(const std::vector<std::int32_t>& brickMax, std::
     return maxAbs;
 }
 
-
-void subbandMaxAbs(const VczHeader& h, Dims d, const float* c, std::size_t pitch,
-                          std::int32_t* out) {
+void subbandMaxAbs(const VczHeader& h, Dims d, const float* c, std::size_t pitch, std::int32_t* out) {
     for (const auto& sec : sectionLayout(d, h.levels))
         for (const SubbandBox& sb : sec) {
             const std::size_t si = subbandIndex(sb.level, sb.orient);

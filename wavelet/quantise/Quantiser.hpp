@@ -12,7 +12,8 @@
 
 namespace volcl::codec {
 
-inline constexpr double kMaxQuantIndex = double(1 << 29); // keeps magnitude classes well inside the coder's range
+inline constexpr double kMaxQuantIndex =
+    double(1 << 29); // keeps magnitude classes well inside the coder's range
 
 // Per-subband steps: a coefficient error e costs about e * gain in the voxel domain, so step = delta / gain.
 std::vector<double> subbandSteps(Wavelet w, int levels, double delta);

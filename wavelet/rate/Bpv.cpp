@@ -35,7 +35,8 @@ protected:
         };
         SearchOutcome o = runStepSearch(f, s);
         if (!o.found)
-            throw UsageError("--bpv " + std::to_string(target) + " is below what this volume can be coded in");
+            throw UsageError("--bpv " + std::to_string(target) +
+                             " is below what this volume can be coded in");
         f.setSteps(std::move(o.steps));
         if (options().measureError) o.best = f.trial(std::nullopt);
         return {std::move(o.best), o.delta, std::move(o.payloads)};
@@ -44,7 +45,8 @@ protected:
 
 } // namespace
 
-std::unique_ptr<RateStrategy> makeBpvStrategy(ComputeContext& cc, const CodecOptions& o, ValueRangeCache& ranges) {
+std::unique_ptr<RateStrategy> makeBpvStrategy(ComputeContext& cc, const CodecOptions& o,
+                                              ValueRangeCache& ranges) {
     return std::make_unique<BpvStrategy>(cc, o, ranges);
 }
 

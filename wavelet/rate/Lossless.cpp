@@ -23,13 +23,12 @@ public:
         CodecProfile* prof = &r.report.profile;
         r.coded.payloads.resize(h.brickCount());
         // Coded straight from the mapped batch.
-        forwardBricks<std::int32_t>(cc_, t, v, h, o_.threads, prof, r.report.transformMs, &r.coded.ranges,
-                                    &CodecProfile::entropy,
-                                    [&](std::size_t b, const std::int32_t* c, std::size_t pitch) {
-                                        const Dims d = h.brickDims(b);
-                                        r.coded.payloads[b] =
-                                            buildPayload(h, d, {c, pitch * d.y * d.z}, {}, pitch);
-                                    });
+        forwardBricks<std::int32_t>(
+            cc_, t, v, h, o_.threads, prof, r.report.transformMs, &r.coded.ranges, &CodecProfile::entropy,
+            [&](std::size_t b, const std::int32_t* c, std::size_t pitch) {
+                const Dims d = h.brickDims(b);
+                r.coded.payloads[b] = buildPayload(h, d, {c, pitch * d.y * d.z}, {}, pitch);
+            });
         r.report.psnr = std::numeric_limits<double>::infinity();
         return r;
     }

@@ -119,7 +119,8 @@ double LossyFrame::psnrOf(const Trial& tr) const {
 FrameResult LossyStrategy::encodeFrame(const Volume& v, VczHeader& h, bool chooseStep) {
     const ValueRange& st = ranges_.of(v);
     if (st.nonFinite)
-        throw DataError("lossy encoding needs finite voxels (found NaN/Inf): use --lossless to keep them exactly");
+        throw DataError(
+            "lossy encoding needs finite voxels (found NaN/Inf): use --lossless to keep them exactly");
     LiftingTransform<float> t(cc_, h.wavelet);
     if (o_.step && chooseStep && (!(*o_.step > 0) || !std::isfinite(*o_.step)))
         throw UsageError("the quantiser step must be a positive number");
@@ -157,7 +158,8 @@ FrameResult LossyStrategy::encodeFrame(const Volume& v, VczHeader& h, bool choos
 // batch, with no coefficient copy and no index array. `delta` sets the steps (else the header's are
 // kept). Returns nothing, having coded in vain, when a subband's magnitudes need a larger step than
 // `delta` gives (data of huge dynamic range; LossyFrame::setDelta raises such steps).
-std::optional<FrameResult> LossyStrategy::encodeDirect(const Volume& v, VczHeader& h, LiftingTransform<float>& t,
+std::optional<FrameResult> LossyStrategy::encodeDirect(const Volume& v, VczHeader& h,
+                                                       LiftingTransform<float>& t,
                                                        std::optional<double> delta) {
     if (delta) h.steps = subbandSteps(h.wavelet, h.levels, *delta);
     FrameResult r;

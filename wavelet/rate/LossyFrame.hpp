@@ -17,7 +17,8 @@ struct ErrorStats {
     double sumSq = 0, maxErr = 0;
 };
 
-/// A quantisation at the header's steps: the voxels to store exactly (with a bound) and the error of the rest.
+/// A quantisation at the header's steps: the voxels to store exactly (with a bound) and the error of the
+/// rest.
 struct Trial {
     std::vector<std::vector<Correction>> corrections;
     ErrorStats err;

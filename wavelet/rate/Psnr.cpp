@@ -42,7 +42,8 @@ protected:
 
 } // namespace
 
-std::unique_ptr<RateStrategy> makePsnrStrategy(ComputeContext& cc, const CodecOptions& o, ValueRangeCache& ranges) {
+std::unique_ptr<RateStrategy> makePsnrStrategy(ComputeContext& cc, const CodecOptions& o,
+                                               ValueRangeCache& ranges) {
     return std::make_unique<PsnrStrategy>(cc, o, ranges);
 }
 

@@ -48,7 +48,8 @@ SearchOutcome runStepSearch(LossyFrame& f, const StepSearch& s) {
         if (haveLo && haveHi) {
             // Interpolate inside the bracket (bisect next to an exact trial), away from its ends so that it
             // keeps shrinking.
-            next = std::isfinite(qlo) ? lo + (g(qlo) - g(aim)) * (hi - lo) / (g(qlo) - g(qhi)) : 0.5 * (lo + hi);
+            next =
+                std::isfinite(qlo) ? lo + (g(qlo) - g(aim)) * (hi - lo) / (g(qlo) - g(qhi)) : 0.5 * (lo + hi);
             const double margin = 0.05 * (hi - lo);
             next = std::clamp(next, lo + margin, hi - margin);
         } else {

@@ -12,11 +12,12 @@ namespace volcl::codec {
 /// What a search looks for. The measured quantity q (PSNR, or bits per voxel) falls as x = log2(step)
 /// grows; the search ends once wlo <= q <= whi.
 struct StepSearch {
-    double guess = 0;          ///< first x
-    double wlo = 0, whi = 0;   ///< window of q that ends the search
-    bool logScale = false;     ///< interpolate on log(q) (sizes, closer to linear in x) instead of q
-    double slope = 0;          ///< change of the interpolated q per unit x, for the first step
-    bool keepLargest = false;  ///< among the trials that meet the target keep the largest x (else the smallest)
+    double guess = 0;        ///< first x
+    double wlo = 0, whi = 0; ///< window of q that ends the search
+    bool logScale = false;   ///< interpolate on log(q) (sizes, closer to linear in x) instead of q
+    double slope = 0;        ///< change of the interpolated q per unit x, for the first step
+    bool keepLargest =
+        false; ///< among the trials that meet the target keep the largest x (else the smallest)
     /// Runs a trial at the frame's current steps: its q, whether it meets the target, and (optionally)
     /// the payloads it coded.
     std::function<bool(Trial& tr, BrickPayloads& payloads, double& q)> measure;

@@ -9,7 +9,9 @@ std::unique_ptr<RateStrategy> makeLosslessIntegerStrategy(ComputeContext& cc, co
 std::unique_ptr<RateStrategy> makeLosslessRawStrategy(const CodecOptions& o);
 std::unique_ptr<RateStrategy> makeMaxErrorStrategy(ComputeContext& cc, const CodecOptions& o,
                                                    ValueRangeCache& ranges);
-std::unique_ptr<RateStrategy> makePsnrStrategy(ComputeContext& cc, const CodecOptions& o, ValueRangeCache& ranges);
-std::unique_ptr<RateStrategy> makeBpvStrategy(ComputeContext& cc, const CodecOptions& o, ValueRangeCache& ranges);
+std::unique_ptr<RateStrategy> makePsnrStrategy(ComputeContext& cc, const CodecOptions& o,
+                                               ValueRangeCache& ranges);
+std::unique_ptr<RateStrategy> makeBpvStrategy(ComputeContext& cc, const CodecOptions& o,
+                                              ValueRangeCache& ranges);
 
 } // namespace volcl::codec

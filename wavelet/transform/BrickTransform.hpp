@@ -117,7 +117,9 @@ bool transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<s
         for (std::size_t g = 0; g < groups.size(); ++g)
             maps[g] = batches[g]->mapForRead(cc);
     });
-    forEachSlot(emitStage, [&](std::size_t b, T* src, std::size_t pitch) { emit(b, static_cast<const T*>(src), pitch); });
+    forEachSlot(emitStage, [&](std::size_t b, T* src, std::size_t pitch) {
+        emit(b, static_cast<const T*>(src), pitch);
+    });
     return false;
 }
 
@@ -125,15 +127,17 @@ bool transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<s
 std::vector<std::size_t> allBricks(const VczHeader& h);
 
 // Each brick's first voxel relative to `first`, per batch group (VoxelVolume::origins).
-std::vector<std::vector<Dims>> brickOrigins(const VczHeader& h, const std::vector<BrickGroup>& groups, Dims first);
+std::vector<std::vector<Dims>> brickOrigins(const VczHeader& h, const std::vector<BrickGroup>& groups,
+                                            Dims first);
 
 // Forward transform of every brick: emit(b, coefficients, pitch) sees each brick's coefficients in the mapped
 // batch. Adds kernel time to `ms` and, with `ranges`, stores each brick's voxel min and max (gathered on the
 // way).
 template <class T, class Emit>
 void forwardBricks(ComputeContext& cc, LiftingTransform<T>& t, const Volume& v, const VczHeader& h,
-                   unsigned threads, CodecProfile* prof, double& ms, std::vector<std::pair<double, double>>* ranges,
-                   double CodecProfile::*emitStage, Emit emit) {
+                   unsigned threads, CodecProfile* prof, double& ms,
+                   std::vector<std::pair<double, double>>* ranges, double CodecProfile::*emitStage,
+                   Emit emit) {
     if (ranges) ranges->assign(h.brickCount(), {0.0, 0.0});
     // On the brick-resident path the kernel reads each brick's voxels itself, so the brick is in cache for
     // its first level and no host pass writes the batch (the integer transform takes integer voxels only).
