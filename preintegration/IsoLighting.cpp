@@ -1,6 +1,7 @@
 // Iso-surface tables (Roettger 8.13) and pre-integrated lighting tables (Guthe 1.3.4), both on the host.
 #include "host/Error.hpp"
 #include "host/image/ImageIo.hpp"
+#include "host/runtime/ParallelFor.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "preintegration/PreintegrationTable.hpp"
 #include "preintegration/Reference.hpp"
@@ -114,7 +115,7 @@ ImageBuffer lightingTableImage(const TransferFunction& tf, int size, double step
     ImageBuffer img(size, size,
                     {"R", "G", "B", "A", "Df.R", "Df.G", "Df.B", "Db.R", "Db.G", "Db.B", "omega"});
     auto node = [&](int i) { return preint::nodeValue(tf.domain, size, i); };
-    preint::parallelFor(static_cast<std::size_t>(size) * size, threads, [&](std::size_t pair) {
+    parallelFor(static_cast<std::size_t>(size) * size, hostThreads(threads), [&](std::size_t pair) {
         int jf = static_cast<int>(pair / size), ib = static_cast<int>(pair % size);
         LightingEntry e = referenceLighting(tf, node(jf), node(ib), step);
         float vals[11] = {float(e.ambient[0]),      float(e.ambient[1]),      float(e.ambient[2]),

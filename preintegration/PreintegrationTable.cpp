@@ -4,6 +4,7 @@
 #include "host/Error.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/runtime/ClRuntime.hpp"
+#include "host/runtime/ParallelFor.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "preintegration/Reference.hpp"
 
@@ -206,7 +207,7 @@ double runPolynomial(ComputeContext& cc, const TransferFunction& tf, int n,
     const double ds = (tf.domain[1] - tf.domain[0]) / (n - 1);
 
     std::vector<cl_float4> coeffs(nn * (deg + 1));
-    preint::parallelFor(static_cast<std::size_t>(n), o.threads, [&](std::size_t jf) {
+    parallelFor(static_cast<std::size_t>(n), hostThreads(o.threads), [&](std::size_t jf) {
         std::vector<double> x(deg + 1), y(deg + 1);
         for (std::size_t ib = 0; ib < static_cast<std::size_t>(n); ++ib) {
             double mean[4];
@@ -262,7 +263,7 @@ void referenceTable(const TransferFunction& tf, PreintegrationTable& t, int thre
     const int n = t.spec.size;
     const std::size_t nn = static_cast<std::size_t>(n) * n, slices = t.lengthValues.size();
     const std::vector<double> bps = tf.breakpoints();
-    preint::parallelFor(nn, threads, [&](std::size_t pair) {
+    parallelFor(nn, hostThreads(threads), [&](std::size_t pair) {
         int jf = static_cast<int>(pair / n), ib = static_cast<int>(pair % n);
         auto pieces = preint::segmentPieces(tf, bps, t.node(jf), t.node(ib));
         for (std::size_t k = 0; k < slices; ++k) {
@@ -620,7 +621,7 @@ TableError compareWithReference(const PreintegrationTable& table, const Transfer
     const std::vector<double> bps = tf.breakpoints();
     std::vector<double> err(picks.size()), sq(picks.size());
     std::vector<int> chan(picks.size());
-    preint::parallelFor(picks.size(), threads, [&](std::size_t q) {
+    parallelFor(picks.size(), hostThreads(threads), [&](std::size_t q) {
         std::size_t idx = picks[q], k = idx / nn, pair = idx % nn;
         int jf = static_cast<int>(pair / n), ib = static_cast<int>(pair % n);
         auto ref = preint::integratePieces(preint::segmentPieces(tf, bps, table.node(jf), table.node(ib)),

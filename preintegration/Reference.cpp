@@ -5,9 +5,7 @@
 #include "host/tf/TransferFunction.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <thread>
 
 namespace volcl::preint {
 
@@ -158,24 +156,6 @@ std::array<double, 4> integratePieces(const std::vector<Piece>& pieces, double l
     }
     out[3] = -std::expm1(-depth);
     return out;
-}
-
-void parallelFor(std::size_t count, int threads, const std::function<void(std::size_t)>& body) {
-    unsigned n =
-        threads > 0 ? static_cast<unsigned>(threads) : std::max(1u, std::thread::hardware_concurrency());
-    n = static_cast<unsigned>(std::min<std::size_t>(n, std::max<std::size_t>(count, 1)));
-    std::atomic<std::size_t> next{0};
-    auto worker = [&] {
-        for (std::size_t i; (i = next.fetch_add(1)) < count;)
-            body(i);
-    };
-    if (n <= 1) {
-        worker();
-        return;
-    }
-    std::vector<std::jthread> pool;
-    for (unsigned t = 0; t < n; ++t)
-        pool.emplace_back(worker);
 }
 
 } // namespace volcl::preint

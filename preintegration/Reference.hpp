@@ -39,8 +39,5 @@ template <std::size_t K>
 std::array<double, K> gaussKronrod(const std::function<std::array<double, K>(double)>& f, double a, double b,
                                    double absTol, double relTol);
 
-/// Runs body(i) for i in [0, count) on `threads` host threads (0 = hardware concurrency).
-void parallelFor(std::size_t count, int threads, const std::function<void(std::size_t)>& body);
-
 } // namespace preint
 } // namespace volcl

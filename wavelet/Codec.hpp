@@ -3,9 +3,10 @@
 
 #include "host/Volume.hpp"
 #include "host/runtime/ClRuntime.hpp"
-#include "wavelet/EntropyCoder.hpp"
-#include "wavelet/LiftingTransform.hpp"
-#include "wavelet/VczFormat.hpp"
+#include "wavelet/CodecTypes.hpp"
+#include "wavelet/Metrics.hpp"
+#include "wavelet/container/VczFormat.hpp"
+#include "wavelet/transform/LiftingTransform.hpp" // callers use BrickBatch and the references with it
 
 #include <cstddef>
 #include <map>
@@ -39,20 +40,6 @@ struct CodecOptions {
     /// pass (the report's error fields are then NaN); --max-error always reconstructs to hold its bound.
     bool measureError = true;
     std::map<std::string, std::string> metadata;
-};
-
-/// Wall time per pipeline stage in milliseconds, summed over every pass of a call (rate-control trials
-/// included), so a benchmark can show where encode and decode time goes.
-struct CodecProfile {
-    double gather = 0;      ///< voxels -> brick arrays in the batch layout, coefficients back to bricks
-    double upload = 0;      ///< host -> device copies
-    double transform = 0;   ///< lifting kernels (wall time of the launches)
-    double download = 0;    ///< device -> host copies
-    double entropy = 0;     ///< section (de)coding with the (de)quantisation fused into it, payload building
-    double reconstruct = 0; ///< encoder: inverse transform and error check of the rate-control trials
-    double assemble = 0;    ///< encoder: brick ranges and the container; decoder: placing bricks, corrections
-    double total = 0;       ///< the whole call
-    int trials = 0;         ///< quantise + reconstruct rounds run by the rate control
 };
 
 /// What an encoding measured about itself (for benchmarks and `volcl encode` reports).
@@ -122,13 +109,5 @@ private:
 /// Decodes .vcz bytes (whole volume or per `options`).
 Volume decodeVolume(ComputeContext& cc, std::span<const std::byte> vcz, const DecodeOptions& options = {},
                     const std::string& name = "input");
-
-/// PSNR of b against a in dB over a's value range (max - min); +inf when equal, NaN for a constant a
-/// that differs from b. Throws UsageError when the grids differ.
-double psnr(const Volume& a, const Volume& b);
-/// Largest absolute voxel difference.
-double maxAbsError(const Volume& a, const Volume& b);
-/// Root mean square voxel difference.
-double rmse(const Volume& a, const Volume& b);
 
 } // namespace volcl

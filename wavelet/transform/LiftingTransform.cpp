@@ -1,5 +1,5 @@
 // Lifting transforms: C++ references (textbook in-place lifting) and the OpenCL pass driver.
-#include "wavelet/LiftingTransform.hpp"
+#include "wavelet/transform/LiftingTransform.hpp"
 
 #include "host/Error.hpp"
 

@@ -1,7 +1,8 @@
 // .vcz serialisation and validated parsing (layout in docs/codec.md).
-#include "wavelet/VczFormat.hpp"
+#include "wavelet/container/VczFormat.hpp"
 
 #include "host/Error.hpp"
+#include "wavelet/entropy/EntropyCoder.hpp"
 
 #include <xxhash.h>
 

@@ -1,0 +1,44 @@
+// Public types of the codec API and the .vcz header: wavelet filter, entropy coder, rate control, stage
+// times.
+#pragma once
+
+#include <cstdint>
+#include <string_view>
+
+namespace volcl {
+
+/// Wavelet filters. Cdf53, Haar and Cdf26 have reversible integer forms (lossless) and linear float forms;
+/// Cdf97 is float only. The numeric values are stored in .vcz files: never renumber.
+enum class Wavelet : std::uint8_t { Cdf53 = 0, Cdf97 = 1, Haar = 2, Cdf26 = 3 };
+
+std::string_view waveletName(Wavelet w) noexcept; ///< "cdf53", "cdf97", "haar", "cdf26"
+/// Parses a wavelet name; throws UsageError listing the valid names.
+Wavelet parseWavelet(std::string_view name);
+/// True when the wavelet has a reversible integer form.
+bool hasIntegerForm(Wavelet w) noexcept;
+
+/// How coefficient sections are entropy coded. Stored in .vcz files: never renumber.
+enum class EntropyMode : std::uint8_t {
+    Fast = 0,  ///< sign-folded coefficients split into byte planes, then zstd
+    Dense = 1, ///< rANS: magnitude classes from per-section tables chosen by neighbour/parent context,
+               ///< adaptive signs and row flags, raw mantissa bits
+};
+
+/// Rate control of an encoding. Stored in .vcz files: never renumber.
+enum class RateMode : std::uint8_t { Lossless = 0, MaxError = 1, Psnr = 2, Bpv = 3 };
+
+/// Wall time per pipeline stage in milliseconds, summed over every pass of a call (rate-control trials
+/// included), so a benchmark can show where encode and decode time goes.
+struct CodecProfile {
+    double gather = 0;      ///< voxels -> brick arrays in the batch layout, coefficients back to bricks
+    double upload = 0;      ///< host -> device copies
+    double transform = 0;   ///< lifting kernels (wall time of the launches)
+    double download = 0;    ///< device -> host copies
+    double entropy = 0;     ///< section (de)coding with the (de)quantisation fused into it, payload building
+    double reconstruct = 0; ///< encoder: inverse transform and error check of the rate-control trials
+    double assemble = 0;    ///< encoder: brick ranges and the container; decoder: placing bricks, corrections
+    double total = 0;       ///< the whole call
+    int trials = 0;         ///< quantise + reconstruct rounds run by the rate control
+};
+
+} // namespace volcl

@@ -1,0 +1,26 @@
+// The decoder's stages for one frame: payloads parsed and entropy decoded (dequantised on the way) on host
+// threads, inverse transformed on the device down to a level, and placed into the output region with the
+// corrections applied.
+#pragma once
+
+#include "host/Volume.hpp"
+#include "host/runtime/ClRuntime.hpp"
+#include "wavelet/CodecTypes.hpp"
+#include "wavelet/container/VczFormat.hpp"
+
+#include <cstddef>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace volcl::codec {
+
+/// Decodes the listed bricks of frame `frame` at `level` into `out` (zeroed, of `outDims`), which holds the
+/// level-`level` samples [a, e); `placeOnDevice` lets the inverse kernel write whole bricks' voxels itself.
+/// The frame must exist. IoError naming `name` and the brick for corrupted payloads.
+void decodeFrameBricks(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h,
+                       std::size_t frame, const std::vector<std::size_t>& which, int level, unsigned threads,
+                       const std::string& name, CodecProfile* prof, Dims a, Dims e, Volume& out, Dims outDims,
+                       bool placeOnDevice);
+
+} // namespace volcl::codec

@@ -1,0 +1,26 @@
+// Assembly of coded frames into a .vcz file.
+#include "wavelet/container/FrameAssembly.hpp"
+
+namespace volcl::codec {
+
+std::vector<std::byte> assembleVcz(VczHeader& h, std::vector<CodedFrame>& frames) {
+    h.bricks.assign(frames.size(), std::vector<VczBrickEntry>(h.brickCount()));
+    std::size_t offset = vczPreambleSize(h);
+    std::vector<std::vector<std::uint8_t>> payloads;
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+        for (std::size_t b = 0; b < h.brickCount(); ++b) {
+            auto& p = frames[f].payloads[b];
+            VczBrickEntry& e = h.bricks[f][b];
+            e.offset = offset;
+            e.size = p.size();
+            e.checksum = vczChecksum(p);
+            e.min = frames[f].ranges[b].first;
+            e.max = frames[f].ranges[b].second;
+            offset += p.size();
+            payloads.push_back(std::move(p));
+        }
+    }
+    return writeVcz(h, payloads);
+}
+
+} // namespace volcl::codec

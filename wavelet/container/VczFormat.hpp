@@ -1,0 +1,94 @@
+// The .vcz container: header, frame table (I/P/B), brick index with per-brick checksums and statistics.
+#pragma once
+
+#include "host/Volume.hpp"
+#include "wavelet/CodecTypes.hpp"
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace volcl {
+
+/// What the bricks hold. Stored in .vcz files: never renumber.
+enum class TransformKind : std::uint8_t {
+    RawBits = 0,        ///< no transform: the voxels' bit patterns (lossless float32)
+    IntegerLifting = 1, ///< reversible integer lifting of integer voxels (lossless)
+    FloatLifting = 2,   ///< float lifting + dead-zone quantisation (lossy)
+};
+
+/// Frame types of a time series. Only I frames are written today; P (motion-compensated residual) and
+/// B (bidirectional) frames keep their slots in the frame table so they need no format change.
+enum class FrameType : std::uint8_t { I = 0, P = 1, B = 2 };
+
+struct VczFrame {
+    FrameType type = FrameType::I;
+    std::int32_t reference0 = -1, reference1 = -1; ///< frames a P/B frame predicts from (-1: none)
+    double time = 0;
+    /// Auxiliary per-frame block (motion vectors for P/B frames): offset, size, XXH3-64 checksum.
+    std::uint64_t auxOffset = 0, auxSize = 0, auxChecksum = 0;
+};
+
+/// Index entry of one brick of one frame.
+struct VczBrickEntry {
+    std::uint64_t offset = 0, size = 0, checksum = 0; ///< payload position in the file and its XXH3-64
+    double min = 0, max = 0;                          ///< voxel range of the brick (TF-independent stats)
+};
+
+/// Everything before the brick payloads.
+struct VczHeader {
+    Dims dims;
+    ScalarType type = ScalarType::UInt8;
+    std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
+    TransformKind transform = TransformKind::IntegerLifting;
+    Wavelet wavelet = Wavelet::Cdf53;
+    int levels = 0;
+    Dims brick{64, 64, 64};
+    EntropyMode entropy = EntropyMode::Dense;
+    RateMode rate = RateMode::Lossless;
+    double rateTarget = 0;           ///< E, PSNR in dB or bits/voxel, as asked
+    double reconstructionBias = 0.5; ///< dequantised magnitude = (|q| + bias) * step
+    std::vector<double> steps;       ///< per subband: index 0 the low band, then 7 per level (1..L)
+    double valueMin = 0, valueMax = 0;
+    std::vector<VczFrame> frames;
+    std::map<std::string, std::string> metadata;
+    std::vector<std::vector<VczBrickEntry>> bricks; ///< [frame][brick]
+
+    /// Bricks per axis and in total.
+    Dims brickGrid() const noexcept;
+    std::size_t brickCount() const noexcept { return brickGrid().count(); }
+    /// Origin (voxel index) and size of brick `i` (x fastest over the brick grid).
+    Dims brickOrigin(std::size_t i) const noexcept;
+    Dims brickDims(std::size_t i) const noexcept;
+    /// Quantisation step of subband (level, orient); level 0 is the low band.
+    double step(int level, int orient) const;
+};
+
+/// Magic bytes at the start of every .vcz file.
+inline constexpr std::array<unsigned char, 8> kVczMagic{0x89, 'V', 'C', 'Z', '\r', '\n', 0x1a, '\n'};
+/// Version written. 3: fast-mode sections may skip zero blocks (flag 0x80 beside the plane count); version 2
+/// files, whose sections never set it, are read too.
+inline constexpr std::uint32_t kVczVersion = 3;
+
+/// Serialises the header and index (brick offsets must be final) followed by the payloads, which must
+/// lie in `payloads` in index order starting right after the index.
+std::vector<std::byte> writeVcz(const VczHeader& header, std::span<const std::vector<std::uint8_t>> payloads);
+/// Size in bytes of the header + index block for this header (payload offsets start there).
+std::size_t vczPreambleSize(const VczHeader& header);
+
+/// Parses and validates magic, version, header checksum, index checksum and that every brick lies
+/// inside the file. Throws IoError naming `name` on any inconsistency; never reads out of bounds.
+VczHeader readVczHeader(std::span<const std::byte> file, const std::string& name);
+
+/// Payload of one brick after checking its checksum (IoError naming the brick on mismatch).
+std::span<const std::uint8_t> vczBrickPayload(std::span<const std::byte> file, const VczHeader& header,
+                                              std::size_t frame, std::size_t brick, const std::string& name);
+
+/// XXH3-64 of a byte range.
+std::uint64_t vczChecksum(std::span<const std::uint8_t> bytes) noexcept;
+
+} // namespace volcl

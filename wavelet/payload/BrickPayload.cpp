@@ -1,0 +1,67 @@
+// Framing of brick payloads: section sizes, sections, corrections.
+#include "wavelet/payload/BrickPayload.hpp"
+
+#include "host/Error.hpp"
+#include "wavelet/entropy/EntropyCoder.hpp"
+
+#include <cstring>
+
+namespace volcl::codec {
+
+std::vector<std::uint8_t> buildPayload(const VczHeader& h, Dims d, std::span<const std::int32_t> q,
+                                       const std::vector<Correction>& corr, std::size_t pitch) {
+    const int levels = h.transform == TransformKind::RawBits ? 0 : h.levels;
+    const auto layout = sectionLayout(d, levels);
+    const Dims storage{pitch ? pitch : d.x, d.y, d.z};
+    std::vector<std::vector<std::uint8_t>> sections(layout.size());
+    for (std::size_t s = 0; s < layout.size(); ++s)
+        encodeSection(q, storage, layout, s, h.entropy, sections[s]);
+    std::vector<std::uint8_t> corrBytes;
+    if (!corr.empty()) corrBytes = encodeCorrections(corr, h.type);
+    std::vector<std::uint8_t> out;
+    out.push_back(static_cast<std::uint8_t>(layout.size()));
+    out.push_back(corr.empty() ? 0 : 1);
+    auto put32 = [&](std::size_t v) {
+        const auto u = static_cast<std::uint32_t>(v);
+        out.insert(out.end(), reinterpret_cast<const std::uint8_t*>(&u),
+                   reinterpret_cast<const std::uint8_t*>(&u) + 4);
+    };
+    for (const auto& s : sections)
+        put32(s.size());
+    put32(corrBytes.size());
+    for (const auto& s : sections)
+        out.insert(out.end(), s.begin(), s.end());
+    out.insert(out.end(), corrBytes.begin(), corrBytes.end());
+    return out;
+}
+
+ParsedPayload parsePayload(std::span<const std::uint8_t> p, std::size_t expectedSections,
+                           const std::string& what) {
+    if (p.size() < 2 || p[0] != expectedSections || p[1] > 1) throw IoError(what + ": invalid brick header");
+    std::size_t pos = 2;
+    auto get32 = [&]() -> std::size_t {
+        if (p.size() - pos < 4) throw IoError(what + ": truncated brick header");
+        std::uint32_t v;
+        std::memcpy(&v, p.data() + pos, 4);
+        pos += 4;
+        return v;
+    };
+    std::vector<std::size_t> sizes(expectedSections + 1);
+    for (auto& s : sizes)
+        s = get32();
+    ParsedPayload out;
+    for (std::size_t i = 0; i <= expectedSections; ++i) {
+        if (sizes[i] > p.size() - pos) throw IoError(what + ": section sizes exceed the brick");
+        auto span = p.subspan(pos, sizes[i]);
+        pos += sizes[i];
+        if (i < expectedSections)
+            out.sections.push_back(span);
+        else
+            out.corrections = span;
+    }
+    if (pos != p.size()) throw IoError(what + ": unexpected bytes after the brick data");
+    if ((p[1] == 1) != !out.corrections.empty()) throw IoError(what + ": inconsistent corrections flag");
+    return out;
+}
+
+} // namespace volcl::codec

@@ -1,0 +1,41 @@
+// The correction payload of --max-error: voxels the quantiser left outside the bound, stored exactly
+// (zstd over varint index gaps and raw values), and their application on decode.
+#pragma once
+
+#include "host/Volume.hpp"
+#include "wavelet/container/VczFormat.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace volcl::codec {
+
+/// One exactly stored voxel: its index in the dense brick (x fastest) and its value.
+struct Correction {
+    std::uint32_t index;
+    double value;
+};
+
+/// The brick's corrections (indices increasing) as a zstd frame.
+std::vector<std::uint8_t> encodeCorrections(const std::vector<Correction>& corr, ScalarType type);
+/// Parses a correction payload of a brick of `brickVoxels` voxels; IoError naming `what` when invalid.
+std::vector<Correction> decodeCorrections(std::span<const std::uint8_t> in, ScalarType type,
+                                          std::size_t brickVoxels, const std::string& what);
+
+// Brick b's exactly stored voxels (--max-error outliers) that fall into [a, e), at full resolution.
+template <class V>
+void applyCorrections(const VczHeader& h, std::size_t b, Dims a, Dims e, std::span<V> out, Dims outDims,
+                      const std::vector<Correction>& corrections) {
+    const Dims o = h.brickOrigin(b), d = h.brickDims(b);
+    for (const Correction& c : corrections) {
+        const std::size_t x = o.x + c.index % d.x, y = o.y + c.index / d.x % d.y,
+                          z = o.z + c.index / (d.x * d.y);
+        if (x >= a.x && x < e.x && y >= a.y && y < e.y && z >= a.z && z < e.z)
+            out[((z - a.z) * outDims.y + (y - a.y)) * outDims.x + (x - a.x)] = static_cast<V>(c.value);
+    }
+}
+
+} // namespace volcl::codec

@@ -1,0 +1,187 @@
+// The lossy rate strategies' shared stages and their common driver.
+#include "wavelet/rate/LossyFrame.hpp"
+
+#include "host/Error.hpp"
+#include "host/runtime/ParallelFor.hpp"
+#include "wavelet/BrickVoxels.hpp"
+#include "wavelet/payload/BrickPayload.hpp"
+#include "wavelet/quantise/Quantiser.hpp"
+#include "wavelet/transform/BrickTransform.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace volcl::codec {
+
+LossyFrame::LossyFrame(ComputeContext& cc, const CodecOptions& o, const Volume& v, VczHeader& h,
+                       LiftingTransform<float>& t, const ValueRange& range, CodecProfile* prof,
+                       double& transformMs, std::vector<std::pair<double, double>>& ranges)
+    : cc_(cc), o_(o), v_(v), h_(h), t_(t), range_(range), prof_(prof), coeffs_(h.brickCount()) {
+    const std::size_t nsub = 1 + 7 * std::size_t(h.levels);
+    std::vector<std::int32_t> brickMax(h.brickCount() * nsub, 0);
+    forwardBricks<float>(cc_, t, v, h, o_.threads, prof, transformMs, &ranges, &CodecProfile::gather,
+                         [&](std::size_t b, const float* c, std::size_t pitch) {
+                             coeffs_[b] = denseBrick(h.brickDims(b), c, pitch);
+                             subbandMaxAbs(h, h.brickDims(b), coeffs_[b].data(), h.brickDims(b).x,
+                                           &brickMax[b * nsub]);
+                         });
+    maxAbs_ = mergeMaxima(brickMax, nsub);
+}
+
+void LossyFrame::setDelta(double delta) {
+    lastDelta_ = delta;
+    h_.steps = subbandSteps(h_.wavelet, h_.levels, delta);
+    // Keeps quantisation indices inside the coder's range for data of huge dynamic range.
+    for (std::size_t i = 0; i < h_.steps.size(); ++i)
+        h_.steps[i] = std::max(h_.steps[i], maxAbs_[i] / (kMaxQuantIndex - 2));
+}
+
+Trial LossyFrame::trial(std::optional<double> bound, bool reconstruct) {
+    const Volume& v = v_;
+    const VczHeader& h = h_;
+    const std::vector<std::vector<float>>& coeffs = coeffs_;
+    CodecProfile* prof = prof_;
+    Trial tr;
+    const std::size_t n = coeffs.size();
+    tr.corrections.resize(n);
+    ++prof->trials;
+    if (!reconstruct) {
+        tr.err.sumSq = tr.err.maxErr = std::numeric_limits<double>::quiet_NaN();
+        return tr;
+    }
+    timeStage(prof, &CodecProfile::reconstruct, [&] {
+        std::vector<ErrorStats> es(n);
+        inverseBricks(
+            cc_, t_, h, allBricks(h), 0, o_.threads, nullptr,
+            {{&CodecProfile::reconstruct,
+              [&](std::size_t b, float* dst, std::size_t pitch) {
+                  requantiseInto(h, h.brickDims(b), coeffs[b].data(), dst, pitch);
+              }}},
+            &CodecProfile::reconstruct, [&](std::size_t b, const float* rec, std::size_t pitch) {
+                const Dims o = h.brickOrigin(b), d = h.brickDims(b);
+                double sumSq = 0, maxErr = 0;
+                visitTyped(v, [&](auto span) {
+                    using V = std::remove_const_t<typename decltype(span)::element_type>;
+                    for (std::size_t z = 0; z < d.z; ++z)
+                        for (std::size_t y = 0; y < d.y; ++y) {
+                            const V* in = span.data() + v.index(o.x, o.y + y, o.z + z);
+                            const float* r = rec + (z * d.y + y) * pitch;
+                            for (std::size_t x = 0; x < d.x; ++x) {
+                                const double orig = double(in[x]);
+                                const double e = std::abs(double(toVoxel<V>(r[x])) - orig);
+                                if (bound && e > *bound) {
+                                    tr.corrections[b].push_back(
+                                        {static_cast<std::uint32_t>((z * d.y + y) * d.x + x), orig});
+                                    continue;
+                                }
+                                sumSq += e * e;
+                                maxErr = std::max(maxErr, e);
+                            }
+                        }
+                });
+                es[b] = {sumSq, maxErr};
+            });
+        for (const auto& e : es) {
+            tr.err.sumSq += e.sumSq;
+            tr.err.maxErr = std::max(tr.err.maxErr, e.maxErr);
+        }
+    });
+    return tr;
+}
+
+// Quantises each brick into a per-thread index array (reused, cache-resident) and codes it.
+std::size_t LossyFrame::codedBytes(const Trial& tr, BrickPayloads* payloads) {
+    const VczHeader& h = h_;
+    const std::vector<std::vector<float>>& coeffs = coeffs_;
+    CodecProfile* prof = prof_;
+    std::vector<std::vector<std::uint8_t>> p(coeffs.size());
+    timeStage(prof, &CodecProfile::entropy, [&] {
+        parallelFor(p.size(), o_.threads, [&](std::size_t b) {
+            thread_local std::vector<std::int32_t> q;
+            const Dims d = h.brickDims(b);
+            q.resize(d.count());
+            quantiseInto(h, d, coeffs[b].data(), d.x, q.data());
+            p[b] = buildPayload(h, d, q, tr.corrections[b]);
+        });
+    });
+    std::size_t total = vczPreambleSize(h);
+    for (const auto& x : p)
+        total += x.size();
+    if (payloads) *payloads = std::move(p);
+    return total;
+}
+
+double LossyFrame::psnrOf(const Trial& tr) const {
+    const double mse = tr.err.sumSq / voxels(), r = range();
+    return mse == 0 ? std::numeric_limits<double>::infinity() : 10 * std::log10(r * r / mse);
+}
+
+FrameResult LossyStrategy::encodeFrame(const Volume& v, VczHeader& h, bool chooseStep) {
+    const ValueRange& st = ranges_.of(v);
+    if (st.nonFinite)
+        throw DataError(
+            "lossy encoding needs finite voxels (found NaN/Inf): use --lossless to keep them exactly");
+    LiftingTransform<float> t(cc_, h.wavelet);
+    if (o_.step && chooseStep && (!(*o_.step > 0) || !std::isfinite(*o_.step)))
+        throw UsageError("the quantiser step must be a positive number");
+    if ((!chooseStep || o_.step) && h.rate != RateMode::MaxError && !o_.measureError)
+        if (std::optional<FrameResult> r = encodeDirect(v, h, t, chooseStep ? o_.step : std::nullopt))
+            return std::move(*r);
+    FrameResult r;
+    LossyFrame f(cc_, o_, v, h, t, st, &r.report.profile, r.report.transformMs, r.coded.ranges);
+    if (o_.step && chooseStep) {
+        f.setDelta(*o_.step);
+        chooseStep = false;
+    }
+    StepChoice c;
+    if (!chooseStep) {
+        c.delta = f.lastDelta();
+        const bool bounded = h.rate == RateMode::MaxError;
+        c.best = f.trial(bounded ? std::optional(o_.target) : std::nullopt, bounded || o_.measureError);
+    } else {
+        c = search(f);
+    }
+    if (c.payloads.empty()) f.codedBytes(c.best, &c.payloads);
+    r.coded.payloads = std::move(c.payloads);
+    r.report.step = c.delta;
+    std::size_t corr = 0;
+    for (const auto& cs : c.best.corrections)
+        corr += cs.size();
+    r.report.corrections = corr;
+    r.report.maxError = c.best.err.maxErr;
+    r.report.psnr = f.psnrOf(c.best);
+    return r;
+}
+
+// A fixed step whose error is not wanted (CodecOptions::step or a series frame reusing the first frame's
+// steps, with measureError off and no bound): each brick is quantised and coded straight from the mapped
+// batch, with no coefficient copy and no index array. `delta` sets the steps (else the header's are
+// kept). Returns nothing, having coded in vain, when a subband's magnitudes need a larger step than
+// `delta` gives (data of huge dynamic range; LossyFrame::setDelta raises such steps).
+std::optional<FrameResult> LossyStrategy::encodeDirect(const Volume& v, VczHeader& h,
+                                                       LiftingTransform<float>& t,
+                                                       std::optional<double> delta) {
+    if (delta) h.steps = subbandSteps(h.wavelet, h.levels, *delta);
+    FrameResult r;
+    r.coded.payloads.resize(h.brickCount());
+    const std::size_t nsub = 1 + 7 * std::size_t(h.levels);
+    std::vector<std::int32_t> brickMax(h.brickCount() * nsub, 0);
+    forwardBricks<float>(cc_, t, v, h, o_.threads, &r.report.profile, r.report.transformMs, &r.coded.ranges,
+                         &CodecProfile::entropy, [&](std::size_t b, const float* c, std::size_t pitch) {
+                             const Dims d = h.brickDims(b);
+                             subbandMaxAbs(h, d, c, pitch, &brickMax[b * nsub]);
+                             thread_local std::vector<std::int32_t> q;
+                             q.resize(d.count());
+                             quantiseInto(h, d, c, pitch, q.data());
+                             r.coded.payloads[b] = buildPayload(h, d, q, {});
+                         });
+    const std::vector<double> maxAbs = mergeMaxima(brickMax, nsub);
+    for (std::size_t i = 0; i < nsub; ++i)
+        if (h.steps[i] < maxAbs[i] / (kMaxQuantIndex - 2)) return std::nullopt;
+    ++r.report.profile.trials;
+    r.report.step = delta.value_or(0.0);
+    r.report.maxError = r.report.psnr = std::numeric_limits<double>::quiet_NaN();
+    return r;
+}
+
+} // namespace volcl::codec

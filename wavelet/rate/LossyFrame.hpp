@@ -1,0 +1,100 @@
+// The lossy rate strategies' shared stages: one frame's coefficients held once, trials of quantiser steps
+// (quantise, reconstruct like the decoder, measure), coded sizes, and the driver common to every lossy mode.
+#pragma once
+
+#include "wavelet/quantise/Corrections.hpp"
+#include "wavelet/rate/RateStrategy.hpp"
+#include "wavelet/transform/LiftingTransform.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+namespace volcl::codec {
+
+struct ErrorStats {
+    double sumSq = 0, maxErr = 0;
+};
+
+/// A quantisation at the header's steps: the voxels to store exactly (with a bound) and the error of the
+/// rest.
+struct Trial {
+    std::vector<std::vector<Correction>> corrections;
+    ErrorStats err;
+};
+
+/// The payloads of every brick of a frame.
+using BrickPayloads = std::vector<std::vector<std::uint8_t>>;
+
+/// One lossy frame's forward-transformed coefficients and the trials a rate search runs on them.
+class LossyFrame {
+public:
+    /// Transforms every brick of `v` (kernel time into `transformMs`, brick ranges into `ranges`).
+    LossyFrame(ComputeContext& cc, const CodecOptions& o, const Volume& v, VczHeader& h,
+               LiftingTransform<float>& t, const ValueRange& range, CodecProfile* prof, double& transformMs,
+               std::vector<std::pair<double, double>>& ranges);
+
+    /// Sets the header's steps for base step `delta`, raised where a subband's magnitudes would leave the
+    /// coder's index range.
+    void setDelta(double delta);
+    double lastDelta() const noexcept { return lastDelta_; }
+    /// Puts back the steps of an earlier trial (the one a search keeps).
+    void setSteps(std::vector<double> steps) { h_.steps = std::move(steps); }
+    /// Quantises with the header's steps, reconstructs like the decoder and measures the error; with
+    /// `bound` it also lists the voxels to store exactly. With `reconstruct` false only the quantisation
+    /// runs (the error is NaN).
+    Trial trial(std::optional<double> bound, bool reconstruct = true);
+    /// File size of the frame coded with the trial's corrections; with `payloads` it keeps them.
+    std::size_t codedBytes(const Trial& tr, BrickPayloads* payloads);
+    /// PSNR over the frame's value range of a trial's error.
+    double psnrOf(const Trial& tr) const;
+
+    const VczHeader& header() const noexcept { return h_; }
+    double range() const noexcept { return range_.max - range_.min; }
+    double voxels() const noexcept { return double(v_.voxelCount()); }
+
+private:
+    ComputeContext& cc_;
+    const CodecOptions& o_;
+    const Volume& v_;
+    VczHeader& h_;
+    LiftingTransform<float>& t_;
+    const ValueRange& range_;
+    CodecProfile* prof_;
+    std::vector<std::vector<float>> coeffs_;
+    std::vector<double> maxAbs_;
+    double lastDelta_ = 0;
+};
+
+/// What a lossy search chose: the trial kept (its steps left in the header), its base step, and the
+/// payloads when the search already coded them (else the driver codes the trial).
+struct StepChoice {
+    Trial best;
+    double delta = 0;
+    BrickPayloads payloads;
+};
+
+/// The driver of every lossy mode: checks, the direct fixed-step path, the forward transform, a fixed step
+/// or the mode's search, the final coding and the report.
+class LossyStrategy : public RateStrategy {
+public:
+    LossyStrategy(ComputeContext& cc, const CodecOptions& o, ValueRangeCache& ranges)
+        : cc_(cc), o_(o), ranges_(ranges) {}
+    FrameResult encodeFrame(const Volume& v, VczHeader& h, bool chooseStep) final;
+
+protected:
+    /// The mode's search for the steps that meet its target on `f`.
+    virtual StepChoice search(LossyFrame& f) = 0;
+    const CodecOptions& options() const noexcept { return o_; }
+
+private:
+    std::optional<FrameResult> encodeDirect(const Volume& v, VczHeader& h, LiftingTransform<float>& t,
+                                            std::optional<double> delta);
+
+    ComputeContext& cc_;
+    const CodecOptions& o_;
+    ValueRangeCache& ranges_;
+};
+
+} // namespace volcl::codec

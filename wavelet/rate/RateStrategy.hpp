@@ -1,0 +1,34 @@
+// The rate stage: rate control as a strategy that drives the transform, quantise and payload stages for one
+// frame, one strategy per mode (lossless, max-error, psnr, bpv).
+#pragma once
+
+#include "host/runtime/ClRuntime.hpp"
+#include "wavelet/Codec.hpp"
+#include "wavelet/RangeScan.hpp"
+#include "wavelet/container/FrameAssembly.hpp"
+
+#include <memory>
+
+namespace volcl::codec {
+
+/// One coded frame and what its encoding measured.
+struct FrameResult {
+    CodedFrame coded;
+    EncodeReport report;
+};
+
+class RateStrategy {
+public:
+    virtual ~RateStrategy() = default;
+    /// Codes the signal of one frame (what the predictor hands on: the frame itself for an I frame) with
+    /// the header's transform and entropy settings. With `chooseStep` the mode's search sets h.steps (the
+    /// first frame of a file); without, the header's steps are kept (later frames share one header).
+    virtual FrameResult encodeFrame(const Volume& v, VczHeader& h, bool chooseStep) = 0;
+};
+
+/// The strategy for the header's mode: lossless integer lifting, lossless raw bits (float voxels),
+/// max-error, psnr or bpv. `ranges` caches the value range of the frame being coded.
+std::unique_ptr<RateStrategy> makeRateStrategy(ComputeContext& cc, const CodecOptions& o, const VczHeader& h,
+                                               ValueRangeCache& ranges);
+
+} // namespace volcl::codec
