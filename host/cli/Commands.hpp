@@ -26,6 +26,7 @@ void addPreintCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global); /
 void addCodecCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global);  // encode, decode, compare, bench codec
 void addViewCommand(CLI::App& app, CLI::App& bench, GlobalOptions& global); // view, bench view
 void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global); // render, bench render
+void addMotionCommands(CLI::App& bench, GlobalOptions& global);                // bench motion
 
 /// Prints `volcl info` for a series (text, or JSON when `json`); used by info and demo.
 void printVolumeInfo(std::ostream& out, const std::string& path, const TimeSeries& ts, bool json, bool quiet);

@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
     volcl::cli::addPreintCommands(app, *bench, global);
     volcl::cli::addRenderCommands(app, *bench, global);
     volcl::cli::addCodecCommands(app, *bench, global);
+    volcl::cli::addMotionCommands(*bench, global);
 
     // The single place where errors become messages and exit codes (CONTRACT section 5).
     try {
