@@ -18,6 +18,7 @@ set(VOLCL_KERNEL_FILES
   lifting.cl
   lifting_brick.cl
   preint.cl
+  motion.cl
 )
 list(TRANSFORM VOLCL_KERNEL_FILES PREPEND ${PROJECT_SOURCE_DIR}/cl/ OUTPUT_VARIABLE _kernel_paths)
 list(JOIN _kernel_paths "|" _kernel_paths_joined)

@@ -3,6 +3,7 @@
 #include "host/cli/CliParsing.hpp"
 #include "host/cli/Commands.hpp"
 #include "host/io/AtomicFile.hpp"
+#include "host/io/Series.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "host/runtime/ClRuntime.hpp"
 #include "host/runtime/Timing.hpp"
@@ -65,7 +66,8 @@ nlohmann::json jsonNumber(double v) {
 // ------------------------------------------------------------------------------ encode / decode / compare
 
 struct EncodeArgs {
-    std::string in, out, wavelet, entropy = "dense", brick = "64";
+    std::vector<std::string> in; ///< one file, several files, quoted globs or a .pvd: the frames in order
+    std::string out, wavelet, entropy = "dense", brick = "64";
     bool lossless = false, profile = false;
     double maxError = 0, psnr = 0, bpv = 0, step = 0;
     int levels = 4;
@@ -124,7 +126,9 @@ CodecOptions toOptions(const EncodeArgs& a, const CLI::App& cmd) {
 void addEncode(CLI::App& app, GlobalOptions& global) {
     auto* cmd = app.add_subcommand("encode", "Compress a volume into a .vcz file (wavelet lifting codec)");
     auto a = std::make_shared<EncodeArgs>();
-    cmd->add_option("input", a->in, "Input volume (any supported format; a time series keeps its frames)")
+    cmd->add_option("input", a->in,
+                    "Input volume(s): one file (a 4D file keeps its frames), several files in frame order, a "
+                    "quoted glob ('run_*.vti', natural order) or a ParaView .pvd")
         ->required();
     cmd->add_option("-o,--output", a->out, "Output .vcz file")->required();
     cmd->add_flag("--lossless", a->lossless, "Bit-exact (default)");
@@ -143,8 +147,9 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
     cmd->callback([a, cmd, &global] {
         const CodecOptions o = toOptions(*a, *cmd);
         if (!isVcz(a->out)) throw UsageError("output " + a->out + " must end in .vcz");
-        checkNotSameFile(a->in, a->out);
-        TimeSeries ts = readVolumeFile(a->in, a->raw.toReadOptions());
+        for (const std::filesystem::path& f : expandSeriesInputs(a->in))
+            checkNotSameFile(f.string(), a->out);
+        TimeSeries ts = readSeriesInputs(a->in, a->raw.toReadOptions()).series;
         ComputeContext cc(global.device);
         EncodeReport rep;
         Stopwatch sw;

@@ -26,6 +26,7 @@ void addPreintCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global); /
 void addCodecCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global);  // encode, decode, compare, bench codec
 void addViewCommand(CLI::App& app, CLI::App& bench, GlobalOptions& global); // view, bench view
 void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global); // render, bench render
+void addMotionCommands(CLI::App& bench, GlobalOptions& global);                // bench motion
 
 /// Puts a worked example at the foot of every subcommand's --help (after all subcommands are added).
 void addHelpExamples(CLI::App& app);

@@ -1,0 +1,243 @@
+/* Motion estimation and compensation: block matching (integer and half-voxel) and overlapped block
+   motion compensation with separable raised-cosine windows. The C++ references in wavelet/predict/
+   follow the same rules; see MotionSearch.hpp and Compensation.hpp for them in words.
+
+   Search specialisation: HALF_STEP (0: every candidate is a whole-voxel vector, one load per voxel;
+   1: candidates may sit on half voxels, trilinear = mean of 2^k voxels), COST_SSD (0: SAD, 1: SSD).
+   Costs are exact integers in units of (8 x sample) for SAD and (8 x sample)^2 for SSD. */
+
+#ifndef HALF_STEP
+#define HALF_STEP 0
+#endif
+#ifndef COST_SSD
+#define COST_SSD 1
+#endif
+
+/* floor(h / 2) for any sign. */
+inline int half_floor(int h) { return (h - (h & 1)) / 2; }
+
+/* Tie-break shared with the reference: lower cost, then smaller |v|_1, then smaller (z, y, x). */
+inline bool motion_better(ulong ca, int4 va, ulong cb, int4 vb) {
+    if (ca != cb) return ca < cb;
+    const int la = abs(va.x) + abs(va.y) + abs(va.z), lb = abs(vb.x) + abs(vb.y) + abs(vb.z);
+    if (la != lb) return la < lb;
+    if (va.z != vb.z) return va.z < vb.z;
+    if (va.y != vb.y) return va.y < vb.y;
+    return va.x < vb.x;
+}
+
+/* 8 x the trilinear reference sample at voxel p displaced by v half voxels, clamp-to-edge. */
+inline int sample8(__global const int* ref, int4 dims, int px, int py, int pz, int4 v) {
+    const int hx = 2 * px + v.x, hy = 2 * py + v.y, hz = 2 * pz + v.z;
+    const int x0 = half_floor(hx), y0 = half_floor(hy), z0 = half_floor(hz);
+    const int x1 = x0 + (hx & 1), y1 = y0 + (hy & 1), z1 = z0 + (hz & 1);
+    const int ax = clamp(x0, 0, dims.x - 1), bx = clamp(x1, 0, dims.x - 1);
+    const int ay = clamp(y0, 0, dims.y - 1), by = clamp(y1, 0, dims.y - 1);
+    const int az = clamp(z0, 0, dims.z - 1), bz = clamp(z1, 0, dims.z - 1);
+    const int sx = dims.x, sxy = dims.x * dims.y;
+    return ref[ax + sx * ay + sxy * az] + ref[bx + sx * ay + sxy * az] + ref[ax + sx * by + sxy * az] +
+           ref[bx + sx * by + sxy * az] + ref[ax + sx * ay + sxy * bz] + ref[bx + sx * ay + sxy * bz] +
+           ref[ax + sx * by + sxy * bz] + ref[bx + sx * by + sxy * bz];
+}
+
+/* Cost of one block (origin o, extent e inside the volume) for one candidate vector v. */
+inline ulong block_cost(__global const int* cur, __global const int* ref, int4 dims, int4 o, int4 e, int4 v) {
+    ulong cost = 0;
+    const int sx = dims.x, sxy = dims.x * dims.y;
+#if HALF_STEP
+    for (int z = o.z; z < o.z + e.z; ++z)
+        for (int y = o.y; y < o.y + e.y; ++y)
+            for (int x = o.x; x < o.x + e.x; ++x) {
+                const long d = 8 * (long)cur[x + sx * y + sxy * z] - (long)sample8(ref, dims, x, y, z, v);
+#if COST_SSD
+                cost += (ulong)(d * d);
+#else
+                cost += (ulong)(d < 0 ? -d : d);
+#endif
+            }
+#else
+    const int wx = v.x / 2, wy = v.y / 2, wz = v.z / 2;
+    for (int z = o.z; z < o.z + e.z; ++z) {
+        const int rz = clamp(z + wz, 0, dims.z - 1);
+        for (int y = o.y; y < o.y + e.y; ++y) {
+            const int ry = clamp(y + wy, 0, dims.y - 1);
+            __global const int* c = cur + sx * y + sxy * z;
+            __global const int* r = ref + sx * ry + sxy * rz;
+            uint line = 0; /* one line of at most 32 voxels: |d| < 2^17, d^2 < 2^34 needs 64 bits */
+            ulong line2 = 0;
+            for (int x = o.x; x < o.x + e.x; ++x) {
+                const int d = c[x] - r[clamp(x + wx, 0, dims.x - 1)];
+#if COST_SSD
+                line2 += (ulong)((long)d * (long)d);
+#else
+                line += (uint)abs(d);
+#endif
+            }
+#if COST_SSD
+            cost += line2;
+#else
+            cost += line;
+#endif
+        }
+    }
+#if COST_SSD
+    cost *= 64;
+#else
+    cost *= 8;
+#endif
+#endif
+    return cost;
+}
+
+/* Blocks sit every `pitch` voxels and span `extent` voxels (extent > pitch on coarse levels, where a block
+   of the level's pitch would hold too few voxels to match reliably).
+   One work-item per (block, dx, dy) pair of a stage; it scans dz. gid = pair + pairs * block with
+   pairs = (2r+1)^2 and pair = dx + (2r+1) dy, so consecutive work-items read consecutive reference
+   voxels. A candidate is centre + step * (dx, dy, dz) - r; candidates with a component beyond `limit`
+   are skipped (the centre itself never is). Writes the pair's best cost and vector. */
+__kernel void motion_search(__global const int* restrict cur, __global const int* restrict ref, int4 dims,
+                            int pitch, int extent, int4 blocks, __global const int4* restrict centres, int radius,
+                            int step, int limit, __global ulong* restrict pairCost,
+                            __global int4* restrict pairVector) {
+    const int side = 2 * radius + 1, pairs = side * side;
+    const int gid = (int)get_global_id(0);
+    const int nblocks = blocks.x * blocks.y * blocks.z;
+    if (gid >= pairs * nblocks) return;
+    const int block = gid / pairs, pair = gid - block * pairs;
+    const int dx = pair % side - radius, dy = pair / side - radius;
+    const int bx = block % blocks.x, by = (block / blocks.x) % blocks.y, bz = block / (blocks.x * blocks.y);
+    const int4 o = (int4)(bx * pitch, by * pitch, bz * pitch, 0);
+    const int4 e = (int4)(min(extent, dims.x - o.x), min(extent, dims.y - o.y), min(extent, dims.z - o.z), 0);
+    const int4 c = centres[block];
+    ulong best = ULONG_MAX;
+    int4 bestV = c;
+    const int vx = c.x + step * dx, vy = c.y + step * dy;
+    if (abs(vx) <= limit && abs(vy) <= limit) {
+        for (int dz = -radius; dz <= radius; ++dz) {
+            const int vz = c.z + step * dz;
+            if (abs(vz) > limit) continue;
+            const int4 v = (int4)(vx, vy, vz, 0);
+            const ulong cost = block_cost(cur, ref, dims, o, e, v);
+            if (best == ULONG_MAX || motion_better(cost, v, best, bestV)) {
+                best = cost;
+                bestV = v;
+            }
+        }
+    }
+    pairCost[gid] = best;
+    pairVector[gid] = bestV;
+}
+
+/* One work-item per block: the best of its pairs (ULONG_MAX marks a pair without a valid candidate). */
+__kernel void motion_search_reduce(__global const ulong* restrict pairCost, __global const int4* restrict pairVector,
+                                   int pairs, int nblocks, __global ulong* restrict bestCost,
+                                   __global int4* restrict bestVector) {
+    const int block = (int)get_global_id(0);
+    if (block >= nblocks) return;
+    ulong best = ULONG_MAX;
+    int4 bestV = (int4)(0, 0, 0, 0);
+    bool any = false;
+    for (int p = 0; p < pairs; ++p) {
+        const ulong c = pairCost[block * pairs + p];
+        if (c == ULONG_MAX) continue;
+        const int4 v = pairVector[block * pairs + p];
+        if (!any || motion_better(c, v, best, bestV)) {
+            best = c;
+            bestV = v;
+            any = true;
+        }
+    }
+    bestCost[block] = best;
+    bestVector[block] = bestV;
+}
+
+/* ------------------------------------------------------------------ compensation (float samples) */
+
+/* Trilinear sample at voxel p displaced by v half voxels: the mean of the 8 clamped corners. */
+inline float sample_half(__global const float* ref, int4 dims, int px, int py, int pz, int4 v) {
+    const int hx = 2 * px + v.x, hy = 2 * py + v.y, hz = 2 * pz + v.z;
+    const int x0 = half_floor(hx), y0 = half_floor(hy), z0 = half_floor(hz);
+    const int ax = clamp(x0, 0, dims.x - 1), bx = clamp(x0 + (hx & 1), 0, dims.x - 1);
+    const int ay = clamp(y0, 0, dims.y - 1), by = clamp(y0 + (hy & 1), 0, dims.y - 1);
+    const int az = clamp(z0, 0, dims.z - 1), bz = clamp(z0 + (hz & 1), 0, dims.z - 1);
+    const int sx = dims.x, sxy = dims.x * dims.y;
+    return (ref[ax + sx * ay + sxy * az] + ref[bx + sx * ay + sxy * az] + ref[ax + sx * by + sxy * az] +
+            ref[bx + sx * by + sxy * az] + ref[ax + sx * ay + sxy * bz] + ref[bx + sx * ay + sxy * bz] +
+            ref[ax + sx * by + sxy * bz] + ref[bx + sx * by + sxy * bz]) *
+           0.125f;
+}
+
+/* Block modes (BlockMode in MotionField.hpp): 0 intra (block mean), 1 zero motion from reference 0,
+   2 forward, 3 backward, 4 bidirectional (mean of forward and backward). */
+inline float predict_voxel(int mode, __global const float* r0, __global const float* r1, int4 dims, int x, int y,
+                           int z, int4 f, int4 b, float intra) {
+    switch (mode) {
+    case 0: return intra;
+    case 1: return r0[x + dims.x * (y + dims.y * z)];
+    case 2: return sample_half(r0, dims, x, y, z, f);
+    case 3: return sample_half(r1, dims, x, y, z, b);
+    default: return 0.5f * (sample_half(r0, dims, x, y, z, f) + sample_half(r1, dims, x, y, z, b));
+    }
+}
+
+/* One work-item per block: its mean and the residual energy of each mode in `modeMask` (bit m = mode m)
+   over its own voxels; costs[5 block + m], modes outside the mask get 0 and are ignored by the host. */
+__kernel void motion_mode_costs(__global const float* restrict cur, __global const float* restrict r0,
+                                __global const float* restrict r1, int4 dims, int blockSize, int4 blocks,
+                                __global const int4* restrict fwd, __global const int4* restrict bwd, int modeMask,
+                                __global float* restrict costs, __global float* restrict means) {
+    const int block = (int)get_global_id(0);
+    const int nblocks = blocks.x * blocks.y * blocks.z;
+    if (block >= nblocks) return;
+    const int bx = block % blocks.x, by = (block / blocks.x) % blocks.y, bz = block / (blocks.x * blocks.y);
+    const int x0 = bx * blockSize, y0 = by * blockSize, z0 = bz * blockSize;
+    const int x1 = min(dims.x, x0 + blockSize), y1 = min(dims.y, y0 + blockSize), z1 = min(dims.z, z0 + blockSize);
+    const int sx = dims.x, sxy = dims.x * dims.y;
+    float sum = 0;
+    for (int z = z0; z < z1; ++z)
+        for (int y = y0; y < y1; ++y) {
+            float line = 0;
+            for (int x = x0; x < x1; ++x) line += cur[x + sx * y + sxy * z];
+            sum += line;
+        }
+    const float mean = sum / (float)((x1 - x0) * (y1 - y0) * (z1 - z0));
+    means[block] = mean;
+    const int4 f = fwd[block], b = bwd[block];
+    for (int m = 0; m < 5; ++m) {
+        float e = 0;
+        if ((modeMask >> m) & 1) {
+            for (int z = z0; z < z1; ++z)
+                for (int y = y0; y < y1; ++y) {
+                    float line = 0;
+                    for (int x = x0; x < x1; ++x) {
+                        const float d = cur[x + sx * y + sxy * z] - predict_voxel(m, r0, r1, dims, x, y, z, f, b, mean);
+                        line += d * d;
+                    }
+                    e += line;
+                }
+        }
+        costs[5 * block + m] = e;
+    }
+}
+
+/* Overlapped block motion compensation, one work-item per voxel (x = get_global_id(0)). Per axis, the
+   tables give the first covering block and the normalised weights of it and the next block (x entries,
+   then y, then z); the prediction is the weighted sum over the up to 8 covering blocks. */
+__kernel void motion_compensate(__global const float* restrict r0, __global const float* restrict r1, int4 dims,
+                                int4 blocks, __global const uchar* restrict modes, __global const int4* restrict fwd,
+                                __global const int4* restrict bwd, __global const float* restrict intra,
+                                __global const int* restrict first, __global const float2* restrict weights,
+                                __global float* restrict out) {
+    const int x = (int)get_global_id(0), y = (int)get_global_id(1), z = (int)get_global_id(2);
+    if (x >= dims.x || y >= dims.y || z >= dims.z) return;
+    const int fx = first[x], fy = first[dims.x + y], fz = first[dims.x + dims.y + z];
+    const float2 wx = weights[x], wy = weights[dims.x + y], wz = weights[dims.x + dims.y + z];
+    float p = 0;
+    for (int c = 0; c < 8; ++c) {
+        const float w = ((c & 1) ? wx.y : wx.x) * ((c & 2) ? wy.y : wy.x) * ((c & 4) ? wz.y : wz.x);
+        if (w == 0.0f) continue;
+        const int b = (fx + (c & 1)) + blocks.x * ((fy + ((c >> 1) & 1)) + blocks.y * (fz + (c >> 2)));
+        p += w * predict_voxel(modes[b], r0, r1, dims, x, y, z, fwd[b], bwd[b], intra[b]);
+    }
+    out[x + dims.x * (y + dims.y * z)] = p;
+}

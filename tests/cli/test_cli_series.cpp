@@ -1,0 +1,180 @@
+// `volcl encode` on series given as several files, a quoted glob, a .pvd or a 4D file; refusals; real
+// series decoded frame by frame with `volcl decode --frame K` and compared bit for bit.
+#include "host/io/VolumeIo.hpp"
+#include "../TestUtil.hpp"
+
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+using namespace volcl;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct RunResult {
+    int exitCode;
+    std::string err;
+};
+
+std::string slurp(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+RunResult run(const std::string& args, const fs::path& dir) {
+    const fs::path err = dir / "stderr.txt";
+    const std::string cmd = std::string(VOLCL_EXE) + " " + args + " >/dev/null 2>" + err.string() + " </dev/null";
+    const int status = std::system(cmd.c_str());
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), slurp(err)};
+}
+
+std::size_t lineCount(const std::string& s) { return std::count(s.begin(), s.end(), '\n'); }
+
+std::string quoted(const fs::path& p) { return "'" + p.string() + "'"; }
+
+bool sameVoxels(const Volume& a, const Volume& b) {
+    return a.dims() == b.dims() && a.type() == b.type() &&
+           std::equal(a.bytes().begin(), a.bytes().end(), b.bytes().begin(), b.bytes().end());
+}
+
+// Decodes frames of `vcz` with --frame K (all, or those in `only`) and compares each with `frames[K]` bit for bit.
+void expectFramesDecodeExactly(const fs::path& vcz, const std::vector<fs::path>& frames, const fs::path& dir,
+                               std::vector<std::size_t> only = {}) {
+    if (only.empty())
+        for (std::size_t k = 0; k < frames.size(); ++k)
+            only.push_back(k);
+    for (std::size_t k : only) {
+        const fs::path out = dir / ("frame_" + std::to_string(k) + ".nrrd");
+        const RunResult d = run("decode " + quoted(vcz) + " --frame " + std::to_string(k) + " -o " + quoted(out), dir);
+        ASSERT_EQ(d.exitCode, 0) << d.err;
+        EXPECT_TRUE(sameVoxels(readVolume(out), readVolume(frames[k]))) << "frame " << k << " of " << frames[k];
+    }
+}
+
+std::vector<fs::path> writeFrames(const fs::path& dir, std::size_t n, Dims d = {9, 7, 5}) {
+    std::vector<fs::path> out;
+    for (std::size_t k = 0; k < n; ++k) {
+        Volume v(d, ScalarType::UInt16);
+        auto vals = v.values<std::uint16_t>();
+        for (std::size_t i = 0; i < vals.size(); ++i)
+            vals[i] = static_cast<std::uint16_t>((i * 37 + k * 5003) % 65536);
+        out.push_back(dir / ("step_" + std::to_string(k) + ".nrrd"));
+        writeVolumeFile(v, out.back());
+    }
+    return out;
+}
+
+} // namespace
+
+TEST(CliSeries, EncodeTakesSeveralFilesAGlobAndAPvd) {
+    const fs::path dir = test::tempDir("cli_series_forms");
+    const auto frames = writeFrames(dir, 11); // step_10 sorts after step_9 only in natural order
+    std::string list;
+    for (const fs::path& f : frames)
+        list += quoted(f) + " ";
+    RunResult r = run("encode " + list + "-o " + quoted(dir / "list.vcz"), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    expectFramesDecodeExactly(dir / "list.vcz", frames, dir, {0, 2, 10});
+
+    r = run("encode " + quoted(dir / "step_*.nrrd") + " -o " + quoted(dir / "glob.vcz"), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(slurp(dir / "glob.vcz"), slurp(dir / "list.vcz")) << "the glob must give the list's frame order";
+
+    std::ofstream pvd(dir / "run.pvd");
+    pvd << "<VTKFile type=\"Collection\" version=\"0.1\"><Collection>\n";
+    for (std::size_t k = 0; k < frames.size(); ++k)
+        pvd << "<DataSet timestep=\"" << k << "\" part=\"0\" file=\"" << frames[k].filename().string() << "\"/>\n";
+    pvd << "</Collection></VTKFile>\n";
+    pvd.close();
+    r = run("encode " + quoted(dir / "run.pvd") + " -o " + quoted(dir / "pvd.vcz"), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    expectFramesDecodeExactly(dir / "pvd.vcz", frames, dir, {1, 9}); // the .pvd's times are stored too
+}
+
+TEST(CliSeries, RefusalsExitOneWithOneLineAndNoOutput) {
+    const fs::path dir = test::tempDir("cli_series_refusals");
+    const auto frames = writeFrames(dir, 2);
+    const fs::path odd = dir / "odd.nrrd";
+    {
+        Volume v({9, 7, 4}, ScalarType::UInt16);
+        writeVolumeFile(v, odd);
+    }
+    std::ofstream(dir / "bad.pvd") << "<VTKFile type=\"Collection\"><Collection><DataSet timestep=\"0\" "
+                                      "file=\"step_0.nrrd\"/><DataSet timestep=\"1\" file=\"nowhere.vti\"/>"
+                                      "</Collection></VTKFile>";
+    struct Case {
+        std::string inputs, mustName;
+    };
+    for (const Case& c : {Case{quoted(frames[0]) + " " + quoted(frames[1]) + " " + quoted(odd), "frame 2 (" + odd.string()},
+                          Case{quoted(frames[0]) + " " + quoted(dir / "missing.nrrd"), "missing.nrrd"},
+                          Case{quoted(dir / "none_*.vti"), "none_*.vti"},
+                          Case{quoted(dir / "bad.pvd"), (dir / "nowhere.vti").string()}}) {
+        const RunResult r = run("encode " + c.inputs + " -o " + quoted(dir / "out.vcz"), dir);
+        EXPECT_EQ(r.exitCode, 1) << c.inputs << ": " << r.err;
+        EXPECT_EQ(lineCount(r.err), 1u) << r.err;
+        EXPECT_NE(r.err.find(c.mustName), std::string::npos) << r.err;
+        EXPECT_FALSE(fs::exists(dir / "out.vcz"));
+    }
+    // The output among the inputs is a usage error, and the input stays untouched.
+    const std::string before = slurp(frames[1]);
+    const RunResult r = run("encode " + quoted(frames[0]) + " " + quoted(frames[1]) + " -o " + quoted(frames[1]), dir);
+    EXPECT_NE(r.exitCode, 0);
+    EXPECT_EQ(slurp(frames[1]), before);
+}
+
+TEST(CliSeries, ViscousFingeringRoundTripsLosslessly) {
+    fs::path data;
+    VOLCL_REQUIRE_SHARED_DATA(data);
+    const fs::path dir = test::tempDir("cli_series_viscous");
+    const fs::path src = data / "timevarying/viscousfingers";
+    std::vector<fs::path> frames;
+    for (int k = 1; k <= 20; ++k) {
+        char name[64];
+        std::snprintf(name, sizeof name, "%03d_density_%03d_064_2.0.vti", k, k);
+        frames.push_back(src / name);
+    }
+    const RunResult r = run("encode " + quoted(src / "*_density_*.vti") + " --lossless -o " + quoted(dir / "vf.vcz"), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    expectFramesDecodeExactly(dir / "vf.vcz", frames, dir);
+}
+
+TEST(CliSeries, IsabelGroupRoundTripsLosslessly) {
+    fs::path data;
+    VOLCL_REQUIRE_SHARED_DATA(data);
+    const fs::path dir = test::tempDir("cli_series_isabel");
+    const fs::path src = data / "timevarying/isabel";
+    std::vector<fs::path> frames;
+    std::string list;
+    for (int k = 2; k <= 5; ++k) {
+        frames.push_back(src / ("isabel_0" + std::to_string(k) + ".vti"));
+        list += quoted(frames.back()) + " ";
+    }
+    const RunResult r = run("encode " + list + "-o " + quoted(dir / "isabel.vcz"), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    expectFramesDecodeExactly(dir / "isabel.vcz", frames, dir);
+    // The glob form gives the same file.
+    const RunResult g = run("encode " + quoted(src / "isabel_0*.vti") + " -o " + quoted(dir / "glob.vcz"), dir);
+    ASSERT_EQ(g.exitCode, 0) << g.err;
+    EXPECT_EQ(slurp(dir / "glob.vcz"), slurp(dir / "isabel.vcz"));
+}
+
+TEST(CliSeries, FourDimensionalNiftiEncodesEveryFrame) {
+    fs::path data;
+    VOLCL_REQUIRE_SHARED_DATA(data);
+    const fs::path dir = test::tempDir("cli_series_nifti");
+    const fs::path nii = data / "timevarying/functional.nii.gz";
+    const RunResult r = run("encode " + quoted(nii) + " -o " + quoted(dir / "f.vcz"), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const TimeSeries ts = readVolumeFile(nii);
+    for (std::size_t k : {std::size_t(0), std::size_t(19)}) {
+        const fs::path out = dir / "k.nrrd";
+        const RunResult d = run("decode " + quoted(dir / "f.vcz") + " --frame " + std::to_string(k) + " -o " + quoted(out), dir);
+        ASSERT_EQ(d.exitCode, 0) << d.err;
+        EXPECT_TRUE(sameVoxels(readVolume(out), ts.frames[k])) << "frame " << k;
+    }
+}
