@@ -15,9 +15,12 @@ int main(int argc, char** argv) {
     std::vector<std::string> files;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
-        if (a == "-n" && i + 1 < argc) runs = std::stoi(argv[++i]);
-        else if (a == "--ml" && i + 1 < argc) ml = std::stoul(argv[++i]);
-        else files.push_back(a);
+        if (a == "-n" && i + 1 < argc)
+            runs = std::stoi(argv[++i]);
+        else if (a == "--ml" && i + 1 < argc)
+            ml = std::stoul(argv[++i]);
+        else
+            files.push_back(a);
     }
     auto median = [&](auto&& f) {
         std::vector<double> t;
@@ -25,7 +28,8 @@ int main(int argc, char** argv) {
         for (int r = 0; r < runs; ++r) {
             const auto t0 = std::chrono::steady_clock::now();
             tets = f().tetCount();
-            t.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+            t.push_back(
+                std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
         }
         std::sort(t.begin(), t.end());
         return std::pair{t[t.size() / 2], tets};

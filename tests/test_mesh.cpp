@@ -1,4 +1,5 @@
-// Tetrahedral meshes: model repairs, adjacency closure, splitting, readers on real meshes, .vtu round trips, refusals.
+// Tetrahedral meshes: model repairs, adjacency closure, splitting, readers on real meshes, .vtu round trips,
+// refusals.
 #include "TestUtil.hpp"
 
 #include "host/Error.hpp"
@@ -85,8 +86,9 @@ TEST(TetMesh, SingleTet) {
     // Outward winding: every face normal points away from the opposite vertex.
     for (unsigned f = 0; f < 4; ++f) {
         const auto v = m.faceVertices(faceId(0, f));
-        const auto& a = m.points[v[0]], &b = m.points[v[1]], &c = m.points[v[2]], &o = m.points[m.tets[0][f]];
-        const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+        const auto &a = m.points[v[0]], &b = m.points[v[1]], &c = m.points[v[2]], &o = m.points[m.tets[0][f]];
+        const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]},
+                     w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
         const double n[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]};
         EXPECT_LT(n[0] * (o[0] - a[0]) + n[1] * (o[1] - a[1]) + n[2] * (o[2] - a[2]), 0.0) << "face " << f;
     }
@@ -94,11 +96,11 @@ TEST(TetMesh, SingleTet) {
 
 TEST(TetMesh, InvertedAndZeroVolumeTets) {
     TetSoup s = unitTet();
-    s.points.push_back({1, 1, 0});         // 4: coplanar with 0,1,2
+    s.points.push_back({1, 1, 0}); // 4: coplanar with 0,1,2
     s.scalars.push_back(4);
-    s.tets = {{0, 2, 1, 3},                // inverted
-              {0, 1, 2, 4},                // flat: zero volume
-              {0, 1, 1, 3}};               // repeated vertex
+    s.tets = {{0, 2, 1, 3},  // inverted
+              {0, 1, 2, 4},  // flat: zero volume
+              {0, 1, 1, 3}}; // repeated vertex
     TetMesh m = buildTetMesh(std::move(s), "t", "s");
     EXPECT_EQ(m.tetCount(), 1u);
     EXPECT_EQ(m.repairs.invertedTets, 1u);
@@ -163,9 +165,8 @@ TEST(TetMesh, NanScalarRefusedNamingThePoint) {
 }
 
 TEST(CellSplit, HexGridClosesAndFillsTheBox) {
-    TetMesh m = generateHexGridMesh({5, 4, 3}, {-1, 0, 2}, {2, 1, 3.5}, [](double x, double y, double z) {
-        return x + 2 * y - z;
-    });
+    TetMesh m = generateHexGridMesh({5, 4, 3}, {-1, 0, 2}, {2, 1, 3.5},
+                                    [](double x, double y, double z) { return x + 2 * y - z; });
     EXPECT_EQ(m.tetCount(), 6u * 5 * 4 * 3);
     EXPECT_EQ(m.repairs.invertedTets, 0u);
     EXPECT_EQ(m.repairs.zeroVolumeTets, 0u);
@@ -178,7 +179,8 @@ TEST(CellSplit, HexGridClosesAndFillsTheBox) {
 TEST(CellSplit, WedgePyramidAndVoxelAreConformingAndPositive) {
     // A unit cube as two wedges, as six pyramids around the centre, and as one voxel: each must
     // close and fill the cube exactly with positive tets.
-    const std::vector<Point3> cube = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}, {0.5, 0.5, 0.5}};
+    const std::vector<Point3> cube = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},      {0, 0, 1},
+                                      {1, 0, 1}, {1, 1, 1}, {0, 1, 1}, {0.5, 0.5, 0.5}};
     auto build = [&](const std::vector<std::pair<VtkCellType, std::vector<std::uint32_t>>>& cells) {
         TetSoup s;
         s.points = cube;
@@ -189,10 +191,14 @@ TEST(CellSplit, WedgePyramidAndVoxelAreConformingAndPositive) {
     };
     // VTK pyramid: the base (0,1,2,3) is wound so its normal points to the apex.
     // VTK wedge: (0,1,2) and (3,4,5) triangles; (0,1,2) wound so its normal points away from (3,4,5).
-    TetMesh wedges = build({{VtkCellType::Wedge, {0, 2, 1, 4, 6, 5}}, {VtkCellType::Wedge, {0, 3, 2, 4, 7, 6}}});
-    TetMesh pyramids = build({{VtkCellType::Pyramid, {0, 1, 2, 3, 8}}, {VtkCellType::Pyramid, {4, 7, 6, 5, 8}},
-                              {VtkCellType::Pyramid, {0, 4, 5, 1, 8}}, {VtkCellType::Pyramid, {1, 5, 6, 2, 8}},
-                              {VtkCellType::Pyramid, {2, 6, 7, 3, 8}}, {VtkCellType::Pyramid, {3, 7, 4, 0, 8}}});
+    TetMesh wedges =
+        build({{VtkCellType::Wedge, {0, 2, 1, 4, 6, 5}}, {VtkCellType::Wedge, {0, 3, 2, 4, 7, 6}}});
+    TetMesh pyramids = build({{VtkCellType::Pyramid, {0, 1, 2, 3, 8}},
+                              {VtkCellType::Pyramid, {4, 7, 6, 5, 8}},
+                              {VtkCellType::Pyramid, {0, 4, 5, 1, 8}},
+                              {VtkCellType::Pyramid, {1, 5, 6, 2, 8}},
+                              {VtkCellType::Pyramid, {2, 6, 7, 3, 8}},
+                              {VtkCellType::Pyramid, {3, 7, 4, 0, 8}}});
     TetMesh voxel = build({{VtkCellType::Voxel, {0, 1, 3, 2, 4, 5, 7, 6}}});
     for (const TetMesh* m : {&wedges, &pyramids, &voxel}) {
         EXPECT_EQ(m->repairs.invertedTets, 0u);
@@ -271,9 +277,8 @@ TEST(MeshIo, LegacyAsciiAndBinaryAndRefusals) {
 
 TEST(MeshIo, VtuRoundTripEveryEncoding) {
     const fs::path dir = test::tempDir("mesh_vtu");
-    TetMesh m = generateHexGridMesh({4, 3, 2}, {0, 0, 0}, {1, 0.3, 0.7}, [](double x, double y, double z) {
-        return std::sin(3 * x) + y * z;
-    });
+    TetMesh m = generateHexGridMesh({4, 3, 2}, {0, 0, 0}, {1, 0.3, 0.7},
+                                    [](double x, double y, double z) { return std::sin(3 * x) + y * z; });
     for (VtuEncoding enc : {VtuEncoding::Appended, VtuEncoding::Base64})
         for (bool zlib : {false, true}) {
             const fs::path p = dir / ("m" + std::to_string(int(enc)) + std::to_string(zlib) + ".vtu");
@@ -299,16 +304,18 @@ TEST(MeshIo, VtkReadsOurVtu) {
     if (std::system("/usr/bin/python3 -c 'import vtk' >/dev/null 2>&1") != 0)
         GTEST_SKIP() << "python3-vtk9 is not installed";
     const fs::path dir = test::tempDir("mesh_vtk_peer");
-    TetMesh m = generateHexGridMesh({3, 3, 3}, {0, 0, 0}, {1, 1, 1}, [](double x, double, double) { return x; });
+    TetMesh m =
+        generateHexGridMesh({3, 3, 3}, {0, 0, 0}, {1, 1, 1}, [](double x, double, double) { return x; });
     writeVtu(m, dir / "a.vtu", {VtuEncoding::Appended, true});
     writeVtu(m, dir / "b.vtu", {VtuEncoding::Base64, false});
     const std::string script =
-        "import vtk,sys\nfor f in sys.argv[1:]:\n r=vtk.vtkXMLUnstructuredGridReader();r.SetFileName(f);r.Update()\n"
+        "import vtk,sys\nfor f in sys.argv[1:]:\n "
+        "r=vtk.vtkXMLUnstructuredGridReader();r.SetFileName(f);r.Update()\n"
         " g=r.GetOutput();a=g.GetPointData().GetArray('f')\n"
         " assert g.GetNumberOfPoints()==64 and g.GetNumberOfCells()==162 and a.GetRange()==(0.0,1.0)\n";
     writeText(dir / "check.py", script);
-    EXPECT_EQ(std::system(("/usr/bin/python3 " + (dir / "check.py").string() + " " + (dir / "a.vtu").string() + " " +
-                           (dir / "b.vtu").string())
+    EXPECT_EQ(std::system(("/usr/bin/python3 " + (dir / "check.py").string() + " " +
+                           (dir / "a.vtu").string() + " " + (dir / "b.vtu").string())
                               .c_str()),
               0);
 }

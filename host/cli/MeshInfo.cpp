@@ -10,7 +10,8 @@ namespace volcl::cli {
 
 void MeshReadFlags::add(CLI::App& cmd) {
     cmd.add_option("--array", array, "Mesh: scalar array to use (default: the first scalar point array)");
-    cmd.add_option("--q-var", qVariable, "PLOT3D: q variable 0..4 (0 density, 1-3 momentum, 4 energy; default 0)");
+    cmd.add_option("--q-var", qVariable,
+                   "PLOT3D: q variable 0..4 (0 density, 1-3 momentum, 4 energy; default 0)");
     cmd.add_option("--q", qFile, "PLOT3D: solution file (default: the grid name with xyz -> q)");
 }
 
@@ -90,12 +91,13 @@ void printMeshInfo(std::ostream& out, const std::string& path, const mesh::TetMe
     out << "  points    " << m.pointCount() << "  (" << r.inputPoints << " in the file)\n";
     out << "  tets      " << m.tetCount() << "  (from " << r.inputCells << " cells, " << r.candidateTets
         << " candidate tets)\n";
-    out << "  faces     " << m.boundaryFaces.size() << " boundary, " << m.internalFaceCount() << " internal\n";
+    out << "  faces     " << m.boundaryFaces.size() << " boundary, " << m.internalFaceCount()
+        << " internal\n";
     out << "  bounds    [" << m.boundsMin[0] << ", " << m.boundsMax[0] << "] x [" << m.boundsMin[1] << ", "
         << m.boundsMax[1] << "] x [" << m.boundsMin[2] << ", " << m.boundsMax[2] << "]\n";
     out << "  volume    " << m.totalVolume() << "  (longest edge " << m.maxEdgeLength << ")\n";
-    out << "  scalar    " << m.scalarName << (r.scalarFromCells ? "  (cell data averaged onto the points)" : "")
-        << '\n';
+    out << "  scalar    " << m.scalarName
+        << (r.scalarFromCells ? "  (cell data averaged onto the points)" : "") << '\n';
     out << "  range     " << m.valueMin << " .. " << m.valueMax << '\n';
     out << "  arrays   ";
     for (const mesh::MeshArrayInfo& a : m.arrays)
@@ -113,8 +115,12 @@ void printMeshInfo(std::ostream& out, const std::string& path, const mesh::TetMe
     item(r.quadraticTets, "quadratic tets reduced to their corners");
     item(r.blankedCells, "cells blanked (iblank 0)");
     item(r.mergedPoints, "duplicate points merged");
-    item(r.mergedScalarConflicts, "merged groups with differing scalars (averaged, max difference " +
-                                      [&] { std::ostringstream s; s << std::setprecision(3) << r.mergedScalarMaxDifference; return s.str(); }() + ")");
+    item(
+        r.mergedScalarConflicts, "merged groups with differing scalars (averaged, max difference " + [&] {
+            std::ostringstream s;
+            s << std::setprecision(3) << r.mergedScalarMaxDifference;
+            return s.str();
+        }() + ")");
     item(r.zeroVolumeTets, "zero-volume tets dropped");
     item(r.invertedTets, "inverted tets re-oriented");
     item(r.nonManifoldFaces, "non-manifold faces (left as boundary)");

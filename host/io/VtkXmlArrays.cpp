@@ -1,4 +1,5 @@
-// VTK XML DataArray payloads: base64 (one run or VTK's separate header and data runs), zlib blocks, appended data.
+// VTK XML DataArray payloads: base64 (one run or VTK's separate header and data runs), zlib blocks, appended
+// data.
 #include "host/io/VtkXmlArrays.hpp"
 
 #include <algorithm>
@@ -64,7 +65,6 @@ std::size_t base64Chars(std::size_t bytes) {
     return (bytes + 2) / 3 * 4;
 }
 
-
 std::uint64_t headerWordAt(std::span<const std::byte> b, std::size_t index, const VtkXmlLayout& L) {
     std::byte tmp[8] = {};
     std::memcpy(tmp, b.data() + index * L.headerWord, L.headerWord);
@@ -118,8 +118,8 @@ BlockHeader parseBlockHeader(std::span<const std::byte> b, const VtkXmlLayout& L
 }
 
 // Decodes a complete array (header + stored data at the start of `b`) into its uncompressed bytes.
-std::vector<std::byte> decodeBlocks(std::span<const std::byte> b, const VtkXmlLayout& L, std::string_view name,
-                                    std::size_t expected) {
+std::vector<std::byte> decodeBlocks(std::span<const std::byte> b, const VtkXmlLayout& L,
+                                    std::string_view name, std::size_t expected) {
     const fs::path& f = L.file;
     const std::string what = "array '" + std::string(name) + "'";
     const BlockHeader h = parseBlockHeader(b, L, name);

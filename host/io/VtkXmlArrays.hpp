@@ -1,4 +1,5 @@
-// VTK XML DataArray payloads (internal to volcl): byte order, header words, zlib blocks, base64, appended data.
+// VTK XML DataArray payloads (internal to volcl): byte order, header words, zlib blocks, base64, appended
+// data.
 #pragma once
 
 #include "host/io/IoDetail.hpp"

@@ -40,7 +40,8 @@ void splitCell(VtkCellType type, std::span<const std::uint32_t> ids, std::vector
 /// Tets of a structured ni x nj x nk point grid (point (i,j,k) has index i + ni*(j + nj*k)): each hexahedral
 /// cell split by splitCell. Cells with a corner whose `keepPoint` entry is 0 are skipped and counted in
 /// `skippedCells` (PLOT3D iblank); `keepPoint` may be empty.
-void splitStructuredGrid(std::size_t ni, std::size_t nj, std::size_t nk, std::span<const std::uint8_t> keepPoint,
-                         std::vector<Tet>& out, std::size_t& skippedCells);
+void splitStructuredGrid(std::size_t ni, std::size_t nj, std::size_t nk,
+                         std::span<const std::uint8_t> keepPoint, std::vector<Tet>& out,
+                         std::size_t& skippedCells);
 
 } // namespace volcl::mesh

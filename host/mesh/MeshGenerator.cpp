@@ -25,7 +25,8 @@ TetMesh generateHexGridMesh(std::array<std::size_t, 3> cells, Point3 lo, Point3 
             for (std::size_t i = 0; i < ni; ++i) {
                 const std::size_t id = i + ni * (j + nj * k);
                 soup.points[id] = {coord(0, i, ni), coord(1, j, nj), coord(2, k, nk)};
-                soup.scalars[id] = static_cast<float>(f(soup.points[id][0], soup.points[id][1], soup.points[id][2]));
+                soup.scalars[id] =
+                    static_cast<float>(f(soup.points[id][0], soup.points[id][1], soup.points[id][2]));
             }
     soup.repairs.inputPoints = soup.points.size();
     soup.repairs.inputCells = cells[0] * cells[1] * cells[2];

@@ -1,4 +1,5 @@
-// Generated tetrahedral meshes: structured hex grids split into tets, with analytic scalars (benchmarks, tests).
+// Generated tetrahedral meshes: structured hex grids split into tets, with analytic scalars (benchmarks,
+// tests).
 #pragma once
 
 #include "host/mesh/TetMesh.hpp"
@@ -9,7 +10,8 @@ namespace volcl::mesh {
 
 /// A box [lo, hi] cut into cells[0] x cells[1] x cells[2] hexahedra, each split into 6 tets by the
 /// conforming rule of splitCell, with point scalar f(x, y, z). 6 * cells tets, (cells + 1) points.
-/// Example: `TetMesh m = generateHexGridMesh({8, 8, 8}, {0, 0, 0}, {1, 1, 1}, [](double x, double, double) { return x; });`
+/// Example: `TetMesh m = generateHexGridMesh({8, 8, 8}, {0, 0, 0}, {1, 1, 1}, [](double x, double, double) {
+/// return x; });`
 TetMesh generateHexGridMesh(std::array<std::size_t, 3> cells, Point3 lo, Point3 hi,
                             const std::function<double(double, double, double)>& f);
 

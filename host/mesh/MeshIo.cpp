@@ -56,7 +56,8 @@ std::optional<MeshFormat> detectMeshFormat(const fs::path& path) {
     if (head.find("<VTKFile") != std::string::npos) {
         const std::size_t root = head.find("<VTKFile");
         const std::size_t close = head.find('>', root);
-        const std::string_view tag = std::string_view(head).substr(root, close == std::string::npos ? 200 : close - root);
+        const std::string_view tag =
+            std::string_view(head).substr(root, close == std::string::npos ? 200 : close - root);
         if (tag.find("\"UnstructuredGrid\"") != std::string_view::npos) return MeshFormat::VtkXml;
         return std::nullopt;
     }
@@ -103,15 +104,14 @@ TetMesh readMesh(const fs::path& path, const MeshReadOptions& options) {
 
 namespace detail {
 
-std::size_t chooseScalarArray(const std::vector<MeshArrayInfo>& arrays, const std::optional<std::string>& name,
-                              const fs::path& file) {
+std::size_t chooseScalarArray(const std::vector<MeshArrayInfo>& arrays,
+                              const std::optional<std::string>& name, const fs::path& file) {
     auto list = [&] {
         std::string s;
         for (const MeshArrayInfo& a : arrays)
-            s += (s.empty() ? "" : ", ") + ("'" + a.name + "' (" + (a.pointData ? "point" : "cell") +
-                                            (a.components == 1 ? "" : ", " + std::to_string(a.components) +
-                                                                          " components") +
-                                            ")");
+            s += (s.empty() ? "" : ", ") +
+                 ("'" + a.name + "' (" + (a.pointData ? "point" : "cell") +
+                  (a.components == 1 ? "" : ", " + std::to_string(a.components) + " components") + ")");
         return s.empty() ? std::string("none") : s;
     };
     if (name) {
@@ -119,7 +119,8 @@ std::size_t chooseScalarArray(const std::vector<MeshArrayInfo>& arrays, const st
             for (std::size_t i = 0; i < arrays.size(); ++i)
                 if (arrays[i].name == *name && arrays[i].pointData == (pass == 0)) {
                     if (arrays[i].components != 1)
-                        unsupported(file, "array '" + *name + "' has " + std::to_string(arrays[i].components) +
+                        unsupported(file, "array '" + *name + "' has " +
+                                              std::to_string(arrays[i].components) +
                                               " components: only scalars can be rendered");
                     return i;
                 }
@@ -144,14 +145,15 @@ std::vector<double> parseAsciiNumbers(std::string_view text, std::size_t count, 
     for (std::size_t i = 0; i < count; ++i) {
         skipSpace();
         if (p >= end)
-            fail(file, "truncated: " + std::string(what) + " has " + std::to_string(i) + " values, expected " +
-                           std::to_string(count));
+            fail(file, "truncated: " + std::string(what) + " has " + std::to_string(i) +
+                           " values, expected " + std::to_string(count));
         const char* q = p;
         if (*q == '+') ++q;
         auto [ptr, ec] = std::from_chars(q, end, out[i]);
         if (ec == std::errc::result_out_of_range) {
-            out[i] = std::strtod(std::string(q, std::min<std::size_t>(64, static_cast<std::size_t>(end - q))).c_str(),
-                                 nullptr);
+            out[i] = std::strtod(
+                std::string(q, std::min<std::size_t>(64, static_cast<std::size_t>(end - q))).c_str(),
+                nullptr);
         } else if (ec != std::errc() || (ptr < end && !std::isspace(static_cast<unsigned char>(*ptr)))) {
             std::size_t n = 0;
             while (p + n < end && n < 30 && !std::isspace(static_cast<unsigned char>(p[n])))
@@ -165,7 +167,8 @@ std::vector<double> parseAsciiNumbers(std::string_view text, std::size_t count, 
     }
     skipSpace();
     if (p < end)
-        fail(file, "oversized: " + std::string(what) + " holds more than " + std::to_string(count) + " values");
+        fail(file,
+             "oversized: " + std::string(what) + " holds more than " + std::to_string(count) + " values");
     return out;
 }
 
@@ -175,8 +178,9 @@ TetMesh meshFromCells(CellSoup soup, const fs::path& file, MeshFormat format) {
     if (nPoints > 0xFFFFFFF0u) unsupported(file, std::to_string(nPoints) + " points exceed the 2^32 limit");
     if (soup.offsets[0] != 0) fail(file, "cell 0: offsets do not start at 0");
     if (soup.offsets[nCells] != static_cast<double>(soup.connectivity.size()))
-        fail(file, "the cell offsets end at " + io::formatDouble(soup.offsets[nCells]) + " but the connectivity holds " +
-                       std::to_string(soup.connectivity.size()) + " point ids");
+        fail(file, "the cell offsets end at " + io::formatDouble(soup.offsets[nCells]) +
+                       " but the connectivity holds " + std::to_string(soup.connectivity.size()) +
+                       " point ids");
     TetSoup tets;
     tets.repairs.inputPoints = nPoints;
     tets.repairs.inputCells = nCells;
@@ -192,10 +196,11 @@ TetMesh meshFromCells(CellSoup soup, const fs::path& file, MeshFormat format) {
         const int type = t >= 0 && t < 256 && t == std::floor(t) ? static_cast<int>(t) : -1;
         const auto need = supportedCellPoints(type);
         if (!need)
-            unsupported(file, "cell " + std::to_string(c) + " is a " + std::string(vtkCellTypeName(type)) +
-                                  " (VTK type " + io::formatDouble(t) +
-                                  "): only tetra (10), voxel (11), hexahedron (12), wedge (13), pyramid (14) and "
-                                  "quadratic tetra (24) cells are read");
+            unsupported(file,
+                        "cell " + std::to_string(c) + " is a " + std::string(vtkCellTypeName(type)) +
+                            " (VTK type " + io::formatDouble(t) +
+                            "): only tetra (10), voxel (11), hexahedron (12), wedge (13), pyramid (14) and "
+                            "quadratic tetra (24) cells are read");
         const double b = soup.offsets[c], e = soup.offsets[c + 1];
         if (!(e >= b) || e - b != static_cast<double>(*need))
             fail(file, "cell " + std::to_string(c) + ": a " + std::string(vtkCellTypeName(type)) + " needs " +
@@ -204,8 +209,8 @@ TetMesh meshFromCells(CellSoup soup, const fs::path& file, MeshFormat format) {
         for (std::size_t k = static_cast<std::size_t>(b); k < static_cast<std::size_t>(e); ++k) {
             const double id = soup.connectivity[k];
             if (!(id >= 0 && id < static_cast<double>(nPoints)) || id != std::floor(id))
-                fail(file, "cell " + std::to_string(c) + ": point id " + io::formatDouble(id) + " is out of range (" +
-                               std::to_string(nPoints) + " points)");
+                fail(file, "cell " + std::to_string(c) + ": point id " + io::formatDouble(id) +
+                               " is out of range (" + std::to_string(nPoints) + " points)");
             ids.push_back(static_cast<std::uint32_t>(id));
         }
         if (!soup.valuesOnPoints)
@@ -214,7 +219,8 @@ TetMesh meshFromCells(CellSoup soup, const fs::path& file, MeshFormat format) {
                 weight[id] += 1;
             }
         if (type == static_cast<int>(VtkCellType::QuadraticTetra)) ++tets.repairs.quadraticTets;
-        if (type != static_cast<int>(VtkCellType::Tetra) && type != static_cast<int>(VtkCellType::QuadraticTetra))
+        if (type != static_cast<int>(VtkCellType::Tetra) &&
+            type != static_cast<int>(VtkCellType::QuadraticTetra))
             ++tets.repairs.splitCells;
         splitCell(static_cast<VtkCellType>(type), ids, tets.tets);
         if (tets.tets.size() > kMaxTets)

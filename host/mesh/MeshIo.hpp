@@ -18,8 +18,8 @@ enum class MeshFormat : std::uint8_t {
 std::string_view meshFormatName(MeshFormat f) noexcept;
 
 struct MeshReadOptions {
-    std::optional<std::string> array;  ///< scalar array by name (default: the first scalar point array)
-    int qVariable = 0;                 ///< PLOT3D: 0 density, 1-3 momentum x/y/z, 4 energy
+    std::optional<std::string> array; ///< scalar array by name (default: the first scalar point array)
+    int qVariable = 0;                ///< PLOT3D: 0 density, 1-3 momentum x/y/z, 4 energy
     std::optional<std::filesystem::path> qFile; ///< PLOT3D: default = the grid's name with "xyz" -> "q"
 };
 

@@ -101,6 +101,14 @@ std::vector<double> reals(std::span<const std::byte> bytes, std::size_t offset, 
 
 const char* const kQNames[5] = {"density", "x momentum", "y momentum", "z momentum", "energy"};
 
+// "q0 (density)" ... "q4 (energy)".
+std::string qName(int k) {
+    std::string s = "q";
+    s += static_cast<char>('0' + k);
+    s.append(" (").append(kQNames[k]).append(")");
+    return s;
+}
+
 } // namespace
 
 bool looksLikePlot3dGrid(const fs::path& path) {
@@ -111,14 +119,15 @@ bool looksLikePlot3dGrid(const fs::path& path) {
 
 TetMesh readPlot3d(const fs::path& path, const MeshReadOptions& options) {
     const std::vector<std::byte> grid = readFileBytes(path);
-    const auto layout = gridLayout(std::span(grid).first(std::min<std::size_t>(64, grid.size())), grid.size());
+    const auto layout =
+        gridLayout(std::span(grid).first(std::min<std::size_t>(64, grid.size())), grid.size());
     if (!layout) fail(path, "not a single-block 3D PLOT3D grid (no header layout matches the file size)");
     const Plot3dLayout& L = *layout;
     const std::size_t n = io::checkedVoxelCount({L.ni, L.nj, L.nk}, 1, path);
     if (n > 0xFFFFFFF0u) unsupported(path, std::to_string(n) + " points exceed the 2^32 limit");
     if (L.ni < 2 || L.nj < 2 || L.nk < 2)
-        unsupported(path, "grid " + std::to_string(L.ni) + "x" + std::to_string(L.nj) + "x" + std::to_string(L.nk) +
-                              " has no 3D cells");
+        unsupported(path, "grid " + std::to_string(L.ni) + "x" + std::to_string(L.nj) + "x" +
+                              std::to_string(L.nk) + " has no 3D cells");
 
     // Grid: x, y, z arrays, then iblank (int32).
     std::size_t off = headerBytes(L) + (L.recordMarkers ? 4 : 0);
@@ -141,7 +150,8 @@ TetMesh readPlot3d(const fs::path& path, const MeshReadOptions& options) {
     const fs::path qPath = options.qFile ? *options.qFile : plot3dSolutionFor(path).value_or(fs::path());
     std::error_code ec;
     if (qPath.empty() || !fs::is_regular_file(qPath, ec))
-        fail(path, "PLOT3D solution file " + (qPath.empty() ? std::string("not given") : "'" + qPath.string() + "' not found") +
+        fail(path, "PLOT3D solution file " +
+                       (qPath.empty() ? std::string("not given") : "'" + qPath.string() + "' not found") +
                        " (name it with --q FILE)");
     const std::vector<std::byte> q = readFileBytes(qPath);
     {
@@ -154,11 +164,13 @@ TetMesh readPlot3d(const fs::path& path, const MeshReadOptions& options) {
     const std::size_t qData = qOff + 4 * L.realBytes + (L.recordMarkers ? 8 : 0);
     const std::size_t qNeed = qData + 5 * n * L.realBytes + (L.recordMarkers ? 4 : 0);
     if (q.size() < qNeed)
-        fail(qPath, "truncated: " + std::to_string(q.size()) + " bytes, the grid's solution needs " + std::to_string(qNeed));
+        fail(qPath, "truncated: " + std::to_string(q.size()) + " bytes, the grid's solution needs " +
+                        std::to_string(qNeed));
     // Some writers pad the file (the NASA blunt-fin q file carries 484 zero bytes): zeros are accepted.
     for (std::size_t i = qNeed; i < q.size(); ++i)
         if (q[i] != std::byte{0})
-            fail(qPath, "oversized: " + std::to_string(q.size() - qNeed) + " bytes after the solution are not padding");
+            fail(qPath, "oversized: " + std::to_string(q.size() - qNeed) +
+                            " bytes after the solution are not padding");
     const std::vector<double> value =
         reals(q, qData + static_cast<std::size_t>(options.qVariable) * n * L.realBytes, n, L);
     soup.scalars.resize(n);
@@ -173,8 +185,10 @@ TetMesh readPlot3d(const fs::path& path, const MeshReadOptions& options) {
     // grid rather than report every cell as inverted.
     std::size_t negative = 0, positive = 0;
     for (const Tet& t : soup.tets) {
-        const Point3 &a = soup.points[t[0]], &b = soup.points[t[1]], &c = soup.points[t[2]], &d = soup.points[t[3]];
-        const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]},
+        const Point3 &a = soup.points[t[0]], &b = soup.points[t[1]], &c = soup.points[t[2]],
+                     &d = soup.points[t[3]];
+        const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]},
+                     v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]},
                      w[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
         const double o = u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) +
                          u[2] * (v[0] * w[1] - v[1] * w[0]);
@@ -186,13 +200,13 @@ TetMesh readPlot3d(const fs::path& path, const MeshReadOptions& options) {
             std::swap(t[1], t[2]);
         soup.repairs.leftHandedGrid = true;
     }
-    const std::string name = std::string("q") + std::to_string(options.qVariable) + " (" + kQNames[options.qVariable] + ")";
+    const std::string name = qName(options.qVariable);
     TetMesh m = buildTetMesh(std::move(soup), path.string(), name);
     for (int k = 0; k < 5; ++k)
-        m.arrays.push_back({std::string("q") + std::to_string(k) + " (" + kQNames[k] + ")", true, 1,
-                            L.realBytes == 4 ? "float32" : "float64"});
+        m.arrays.push_back({qName(k), true, 1, L.realBytes == 4 ? "float32" : "float64"});
     m.format = std::string(meshFormatName(MeshFormat::Plot3d)) + (L.iblank ? " with iblank" : "") +
-               (L.recordMarkers ? ", Fortran records" : "") + (L.endian == Endian::Big ? ", big-endian" : ", little-endian");
+               (L.recordMarkers ? ", Fortran records" : "") +
+               (L.endian == Endian::Big ? ", big-endian" : ", little-endian");
     return m;
 }
 

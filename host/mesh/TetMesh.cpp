@@ -184,8 +184,8 @@ TetMesh buildTetMesh(TetSoup soup, const std::string& source, const std::string&
     if (soup.scalars.size() != soup.points.size())
         throw Error("internal: buildTetMesh needs one scalar per point");
     if (soup.tets.size() > kMaxTets)
-        throw DataError(source + ": " + std::to_string(soup.tets.size()) + " tetrahedra exceed the limit of " +
-                        std::to_string(kMaxTets));
+        throw DataError(source + ": " + std::to_string(soup.tets.size()) +
+                        " tetrahedra exceed the limit of " + std::to_string(kMaxTets));
     refuseNonFinite(soup, source, scalarName);
     MeshRepairs r = soup.repairs;
     r.candidateTets = soup.tets.size();
@@ -197,8 +197,8 @@ TetMesh buildTetMesh(TetSoup soup, const std::string& source, const std::string&
     kept.reserve(soup.tets.size());
     for (const Tet& t0 : soup.tets) {
         Tet t{rep[t0[0]], rep[t0[1]], rep[t0[2]], rep[t0[3]]};
-        const bool repeated = t[0] == t[1] || t[0] == t[2] || t[0] == t[3] || t[1] == t[2] || t[1] == t[3] ||
-                              t[2] == t[3];
+        const bool repeated =
+            t[0] == t[1] || t[0] == t[2] || t[0] == t[3] || t[1] == t[2] || t[1] == t[3] || t[2] == t[3];
         if (repeated) {
             ++r.zeroVolumeTets;
             continue;
@@ -216,8 +216,9 @@ TetMesh buildTetMesh(TetSoup soup, const std::string& source, const std::string&
         kept.push_back(t);
     }
     if (kept.empty())
-        throw DataError(source + ": no tetrahedron with a non-zero volume (" + std::to_string(r.candidateTets) +
-                        " candidates, " + std::to_string(r.zeroVolumeTets) + " of zero volume)");
+        throw DataError(source + ": no tetrahedron with a non-zero volume (" +
+                        std::to_string(r.candidateTets) + " candidates, " + std::to_string(r.zeroVolumeTets) +
+                        " of zero volume)");
 
     // Remove unused points (merged duplicates are never used: tets refer to representatives).
     std::vector<std::uint32_t> newIndex(soup.points.size(), 0xFFFFFFFFu);

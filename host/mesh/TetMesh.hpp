@@ -24,27 +24,31 @@ inline constexpr std::size_t kMaxTets = (std::size_t{1} << 30) - 1; ///< FaceId 
 inline constexpr FaceId faceId(std::size_t tet, unsigned face) noexcept {
     return static_cast<FaceId>(tet * 4 + face);
 }
-inline constexpr std::size_t faceTet(FaceId f) noexcept { return f >> 2; }
-inline constexpr unsigned faceLocal(FaceId f) noexcept { return f & 3u; }
+inline constexpr std::size_t faceTet(FaceId f) noexcept {
+    return f >> 2;
+}
+inline constexpr unsigned faceLocal(FaceId f) noexcept {
+    return f & 3u;
+}
 
 /// What reading and repairing a mesh did. Every count is reported by `volcl info`.
 struct MeshRepairs {
-    std::size_t inputPoints = 0;    ///< points in the file
-    std::size_t inputCells = 0;     ///< cells in the file (hexahedra for a PLOT3D grid)
-    std::size_t splitCells = 0;     ///< voxels, hexahedra, wedges and pyramids split into tets
-    std::size_t quadraticTets = 0;  ///< 10-node tets reduced to their 4 corners
-    std::size_t blankedCells = 0;   ///< PLOT3D cells dropped because a corner has iblank 0
-    std::size_t candidateTets = 0;  ///< tets before the repairs below
-    std::size_t mergedPoints = 0;   ///< points merged into an earlier point at exactly the same position
+    std::size_t inputPoints = 0;   ///< points in the file
+    std::size_t inputCells = 0;    ///< cells in the file (hexahedra for a PLOT3D grid)
+    std::size_t splitCells = 0;    ///< voxels, hexahedra, wedges and pyramids split into tets
+    std::size_t quadraticTets = 0; ///< 10-node tets reduced to their 4 corners
+    std::size_t blankedCells = 0;  ///< PLOT3D cells dropped because a corner has iblank 0
+    std::size_t candidateTets = 0; ///< tets before the repairs below
+    std::size_t mergedPoints = 0;  ///< points merged into an earlier point at exactly the same position
     std::size_t mergedScalarConflicts = 0; ///< merged groups whose scalars differed (they are averaged)
     double mergedScalarMaxDifference = 0;  ///< largest max - min of such a group
-    std::size_t zeroVolumeTets = 0; ///< dropped: a repeated vertex, or |volume| <= 1e-12 * (longest edge)^3
-    std::size_t invertedTets = 0;   ///< negative volume: two vertices swapped so it is positive
+    std::size_t zeroVolumeTets = 0;   ///< dropped: a repeated vertex, or |volume| <= 1e-12 * (longest edge)^3
+    std::size_t invertedTets = 0;     ///< negative volume: two vertices swapped so it is positive
     std::size_t nonManifoldFaces = 0; ///< triangles shared by more than two tets: each copy becomes boundary
     std::size_t overlappingFaces = 0; ///< triangles whose two tets lie on the same side: both become boundary
-    std::size_t unusedPoints = 0;   ///< points no kept tet uses: removed
-    bool leftHandedGrid = false;    ///< PLOT3D grid with negative i,j,k handedness: every cell re-ordered
-    bool scalarFromCells = false;   ///< the scalar was cell data, averaged onto the points
+    std::size_t unusedPoints = 0;     ///< points no kept tet uses: removed
+    bool leftHandedGrid = false;      ///< PLOT3D grid with negative i,j,k handedness: every cell re-ordered
+    bool scalarFromCells = false;     ///< the scalar was cell data, averaged onto the points
 };
 
 /// An array the file holds (any number of components); the mesh's scalar is one of them.
@@ -52,7 +56,7 @@ struct MeshArrayInfo {
     std::string name;
     bool pointData = true; ///< false: cell data
     int components = 1;
-    std::string type;      ///< the file's type name, e.g. "Float32", "float", "int"
+    std::string type; ///< the file's type name, e.g. "Float32", "float", "int"
 };
 
 /// A conforming tetrahedral mesh with a linear scalar per tet (barycentric interpolation of its vertex
@@ -61,10 +65,10 @@ struct MeshArrayInfo {
 /// a position; neighbors[f] is the face on the other side of face f (and neighbors[neighbors[f]] == f),
 /// or kNoFace for boundary faces, which boundaryFaces lists in increasing order; scalars are finite.
 struct TetMesh {
-    std::vector<Point3> points;      ///< world coordinates
-    std::vector<Tet> tets;           ///< four point indices each, positively oriented
-    std::vector<float> scalars;      ///< one per point
-    std::vector<FaceId> neighbors;   ///< 4 per tet, indexed by faceId(tet, face)
+    std::vector<Point3> points;    ///< world coordinates
+    std::vector<Tet> tets;         ///< four point indices each, positively oriented
+    std::vector<float> scalars;    ///< one per point
+    std::vector<FaceId> neighbors; ///< 4 per tet, indexed by faceId(tet, face)
     std::vector<FaceId> boundaryFaces;
     Point3 boundsMin{0, 0, 0}, boundsMax{0, 0, 0};
     float valueMin = 0, valueMax = 0;
@@ -90,7 +94,7 @@ struct TetSoup {
     std::vector<Point3> points;
     std::vector<float> scalars; ///< one per point
     std::vector<Tet> tets;
-    MeshRepairs repairs;        ///< counts of the reading stage (input sizes, splits, blanking)
+    MeshRepairs repairs; ///< counts of the reading stage (input sizes, splits, blanking)
 };
 
 /// Builds a mesh from a soup. The repairs, in this order:

@@ -17,7 +17,8 @@ namespace {
 // Walks a legacy file: keyword lines as text, data blocks as ASCII tokens or raw big-endian bytes.
 class LegacyCursor {
 public:
-    LegacyCursor(std::string_view text, bool binary, const fs::path& file) : text_(text), binary_(binary), file_(file) {}
+    LegacyCursor(std::string_view text, bool binary, const fs::path& file)
+        : text_(text), binary_(binary), file_(file) {}
 
     /// The next non-empty line split into words; empty at the end of the file.
     std::vector<std::string_view> keywordLine() {
@@ -26,7 +27,8 @@ public:
             const auto line = io::nextLine(text_, pos_);
             const auto words = io::splitWords(*line);
             if (words.empty()) continue;
-            if (text_[pos_ - 1] != '\n') fail(file_, "truncated after '" + std::string(line->substr(0, 40)) + "'");
+            if (text_[pos_ - 1] != '\n')
+                fail(file_, "truncated after '" + std::string(line->substr(0, 40)) + "'");
             return words;
         }
         return {};
@@ -43,14 +45,15 @@ public:
                                 std::to_string(text_.size() - pos_) + " remain");
             if (out)
                 *out = io::decodeToDouble(
-                    std::span(reinterpret_cast<const std::byte*>(text_.data() + pos_), bytes), st, Endian::Big);
+                    std::span(reinterpret_cast<const std::byte*>(text_.data() + pos_), bytes), st,
+                    Endian::Big);
             pos_ += bytes;
             return;
         }
         // Refuse before scanning when the text cannot hold the values (each needs a digit and a space).
         if (count > (text_.size() - pos_ + 1) / 2)
-            fail(file_, "truncated: " + what + " needs " + std::to_string(count) + " values, the rest of the file " +
-                            "cannot hold them");
+            fail(file_, "truncated: " + what + " needs " + std::to_string(count) +
+                            " values, the rest of the file " + "cannot hold them");
         std::size_t p = pos_, n = 0;
         while (n < count) {
             while (p < text_.size() && std::isspace(static_cast<unsigned char>(text_[p])))
@@ -86,7 +89,8 @@ SampleType requireType(const std::vector<std::string_view>& w, std::size_t i, co
                        std::string_view what) {
     if (w.size() <= i) fail(file, std::string(what) + " needs a data type");
     const auto st = io::vtkLegacyType(w[i]);
-    if (!st) unsupported(file, std::string(what) + ": data type '" + std::string(w[i]) + "' is not supported");
+    if (!st)
+        unsupported(file, std::string(what) + ": data type '" + std::string(w[i]) + "' is not supported");
     return *st;
 }
 
@@ -104,7 +108,8 @@ CellSoup readLegacyCells(const fs::path& path, const MeshReadOptions& options) {
     const std::string_view text = io::asText(bytes);
     std::size_t pos = 0;
     const auto line1 = io::nextLine(text, pos);
-    if (!line1 || !line1->starts_with("# vtk DataFile Version")) fail(path, "not a legacy VTK file (bad first line)");
+    if (!line1 || !line1->starts_with("# vtk DataFile Version"))
+        fail(path, "not a legacy VTK file (bad first line)");
     const double version = io::parseNumber<double>(io::trim(line1->substr(22))).value_or(2.0);
     if (!io::nextLine(text, pos)) fail(path, "truncated: no title line");
     auto modeLine = io::nextLine(text, pos);
@@ -113,7 +118,8 @@ CellSoup readLegacyCells(const fs::path& path, const MeshReadOptions& options) {
     if (!modeLine) fail(path, "truncated: no ASCII/BINARY line");
     const std::string mode = io::lower(io::trim(*modeLine));
     if (mode != "ascii" && mode != "binary")
-        fail(path, "third line must be ASCII or BINARY, not '" + std::string(io::trim(*modeLine).substr(0, 30)) + "'");
+        fail(path, "third line must be ASCII or BINARY, not '" +
+                       std::string(io::trim(*modeLine).substr(0, 30)) + "'");
     LegacyCursor cur(text, mode == "binary", path);
     cur.seek(pos);
 
@@ -123,11 +129,13 @@ CellSoup readLegacyCells(const fs::path& path, const MeshReadOptions& options) {
     std::optional<bool> section; // POINT_DATA (true) or CELL_DATA (false), once seen
     std::size_t sectionCount = 0;
     std::vector<ArrayPlace> places;
-    auto attribute = [&](std::string name, std::size_t comps, std::size_t count, SampleType st, std::string type) {
+    auto attribute = [&](std::string name, std::size_t comps, std::size_t count, SampleType st,
+                         std::string type) {
         if (!section) fail(path, "attribute '" + name + "' outside POINT_DATA or CELL_DATA");
         soup.arrays.push_back({std::move(name), *section, static_cast<int>(comps), std::move(type)});
         places.push_back({cur.position(), count, st});
-        cur.values(io::checkedByteCount(count, comps, path), st, "array '" + soup.arrays.back().name + "'", nullptr);
+        cur.values(io::checkedByteCount(count, comps, path), st, "array '" + soup.arrays.back().name + "'",
+                   nullptr);
     };
     while (true) {
         const auto w = cur.keywordLine();
@@ -159,7 +167,8 @@ CellSoup readLegacyCells(const fs::path& path, const MeshReadOptions& options) {
             if (wo.empty() || !io::iequals(wo[0], "offsets")) fail(path, "CELLS: OFFSETS block missing");
             cur.values(nOffsets, requireType(wo, 1, path, "OFFSETS"), "OFFSETS", &soup.offsets);
             const auto wc = cur.keywordLine();
-            if (wc.empty() || !io::iequals(wc[0], "connectivity")) fail(path, "CELLS: CONNECTIVITY block missing");
+            if (wc.empty() || !io::iequals(wc[0], "connectivity"))
+                fail(path, "CELLS: CONNECTIVITY block missing");
             cur.values(nConn, requireType(wc, 1, path, "CONNECTIVITY"), "CONNECTIVITY", &soup.connectivity);
             for (std::size_t c = 0; c < nCells; ++c)
                 if (!(soup.offsets[c + 1] >= soup.offsets[c]))
@@ -176,7 +185,9 @@ CellSoup readLegacyCells(const fs::path& path, const MeshReadOptions& options) {
             soup.connectivity.reserve(size >= nCells ? size - nCells : 0);
             std::size_t p = 0;
             for (std::size_t c = 0; c < nCells; ++c) {
-                if (p >= size) fail(path, "cell " + std::to_string(c) + ": CELLS data ends (size " + std::to_string(size) + ")");
+                if (p >= size)
+                    fail(path, "cell " + std::to_string(c) + ": CELLS data ends (size " +
+                                   std::to_string(size) + ")");
                 const double k = data[p++];
                 if (!(k >= 0) || k > static_cast<double>(size - p))
                     fail(path, "cell " + std::to_string(c) + ": point count " + io::formatDouble(k) +
@@ -186,14 +197,15 @@ CellSoup readLegacyCells(const fs::path& path, const MeshReadOptions& options) {
                 soup.offsets.push_back(static_cast<double>(soup.connectivity.size()));
             }
             if (p != size)
-                fail(path, "CELLS size " + std::to_string(size) + " disagrees with its " + std::to_string(nCells) +
-                               " cells (" + std::to_string(p) + " values used)");
+                fail(path, "CELLS size " + std::to_string(size) + " disagrees with its " +
+                               std::to_string(nCells) + " cells (" + std::to_string(p) + " values used)");
             haveCells = true;
         } else if (key == "cell_types") {
             const std::size_t n = requireCount(w, 1, path, "CELL_TYPES");
             if (!haveCells) fail(path, "CELL_TYPES before CELLS");
             if (n != nCells)
-                fail(path, "CELL_TYPES " + std::to_string(n) + " disagrees with CELLS " + std::to_string(nCells));
+                fail(path,
+                     "CELL_TYPES " + std::to_string(n) + " disagrees with CELLS " + std::to_string(nCells));
             cur.values(n, SampleType::Int32, "CELL_TYPES", &soup.types);
             haveTypes = true;
         } else if (key == "point_data" || key == "cell_data") {
@@ -216,7 +228,8 @@ CellSoup readLegacyCells(const fs::path& path, const MeshReadOptions& options) {
         } else if (key == "vectors" || key == "normals" || key == "tensors" || key == "tensors6") {
             if (w.size() < 3) fail(path, std::string(w[0]) + " needs a name and a type");
             const std::size_t comps = key == "tensors" ? 9 : key == "tensors6" ? 6 : 3;
-            attribute(std::string(w[1]), comps, sectionCount, requireType(w, 2, path, w[0]), std::string(w[2]));
+            attribute(std::string(w[1]), comps, sectionCount, requireType(w, 2, path, w[0]),
+                      std::string(w[2]));
         } else if (key == "texture_coordinates") {
             if (w.size() < 4) fail(path, "TEXTURE_COORDINATES needs a name, a dimension and a type");
             const std::size_t dim = requireCount(w, 2, path, "TEXTURE_COORDINATES");
@@ -225,17 +238,18 @@ CellSoup readLegacyCells(const fs::path& path, const MeshReadOptions& options) {
         } else if (key == "color_scalars") {
             const std::size_t n = requireCount(w, 2, path, "COLOR_SCALARS");
             if (n < 1 || n > 4) fail(path, "COLOR_SCALARS needs 1 to 4 values");
-            attribute(std::string(w[1]), n, sectionCount, mode == "binary" ? SampleType::UInt8 : SampleType::Float32,
-                      "color");
+            attribute(std::string(w[1]), n, sectionCount,
+                      mode == "binary" ? SampleType::UInt8 : SampleType::Float32, "color");
         } else if (key == "lookup_table") {
             const std::size_t n = requireCount(w, 2, path, "LOOKUP_TABLE");
-            cur.values(io::checkedByteCount(n, 4, path), mode == "binary" ? SampleType::UInt8 : SampleType::Float32,
-                       "LOOKUP_TABLE", nullptr);
+            cur.values(io::checkedByteCount(n, 4, path),
+                       mode == "binary" ? SampleType::UInt8 : SampleType::Float32, "LOOKUP_TABLE", nullptr);
         } else if (key == "field") {
             const std::size_t n = requireCount(w, 2, path, "FIELD");
             for (std::size_t a = 0; a < n; ++a) {
                 const auto fw = cur.keywordLine();
-                if (fw.size() < 4) fail(path, "FIELD array " + std::to_string(a) + " needs name, components, tuples, type");
+                if (fw.size() < 4)
+                    fail(path, "FIELD array " + std::to_string(a) + " needs name, components, tuples, type");
                 const std::size_t comps = requireCount(fw, 1, path, "FIELD components");
                 const std::size_t tuples = requireCount(fw, 2, path, "FIELD tuples");
                 const SampleType st = requireType(fw, 3, path, "FIELD");

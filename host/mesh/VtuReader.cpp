@@ -47,7 +47,8 @@ std::size_t countAttr(const io::XmlElement& e, std::string_view key, const fs::p
 }
 
 int components(const io::XmlElement& da, const fs::path& path) {
-    const long long n = io::requireInt(da.attr("NumberOfComponents").value_or("1"), path, "NumberOfComponents");
+    const long long n =
+        io::requireInt(da.attr("NumberOfComponents").value_or("1"), path, "NumberOfComponents");
     if (n < 1 || n > 1024) fail(path, "NumberOfComponents " + std::to_string(n) + " is invalid");
     return static_cast<int>(n);
 }
@@ -61,7 +62,8 @@ CellSoup readVtuCells(const fs::path& path, const MeshReadOptions& options) {
     const io::XmlElement& root = doc.elements[0];
     if (root.name != "VTKFile") fail(path, "not a VTK XML file (root element is <" + root.name + ">)");
     const std::string fileType = root.attr("type").value_or("");
-    if (fileType != "UnstructuredGrid") unsupported(path, "VTK XML type '" + fileType + "' is not UnstructuredGrid");
+    if (fileType != "UnstructuredGrid")
+        unsupported(path, "VTK XML type '" + fileType + "' is not UnstructuredGrid");
     const io::VtkXmlPayload payload(doc, bytes, io::vtkXmlLayout(root, path));
     const VtuArrays arrays{doc, payload, bytes.size()};
 

@@ -61,11 +61,20 @@ std::string xmlEscape(std::string_view s) {
     std::string out;
     for (char c : s) {
         switch (c) {
-        case '&': out += "&amp;"; break;
-        case '<': out += "&lt;"; break;
-        case '>': out += "&gt;"; break;
-        case '"': out += "&quot;"; break;
-        default: out += c;
+        case '&':
+            out += "&amp;";
+            break;
+        case '<':
+            out += "&lt;";
+            break;
+        case '>':
+            out += "&gt;";
+            break;
+        case '"':
+            out += "&quot;";
+            break;
+        default:
+            out += c;
         }
     }
     return out;
@@ -105,7 +114,8 @@ void writeVtu(const TetMesh& mesh, const fs::path& path, const VtuWriteOptions& 
     arrays.push_back({std::string("type=\"") + (floatPoints ? "Float32" : "Float64") +
                           "\" Name=\"Points\" NumberOfComponents=\"3\"",
                       encode(pointBytes, options.zlib)});
-    arrays.push_back({"type=\"Int64\" Name=\"connectivity\"", encode(littleBytes(connectivity), options.zlib)});
+    arrays.push_back(
+        {"type=\"Int64\" Name=\"connectivity\"", encode(littleBytes(connectivity), options.zlib)});
     arrays.push_back({"type=\"Int64\" Name=\"offsets\"", encode(littleBytes(offsets), options.zlib)});
     arrays.push_back({"type=\"UInt8\" Name=\"types\"", encode(littleBytes(types), options.zlib)});
 
@@ -124,11 +134,14 @@ void writeVtu(const TetMesh& mesh, const fs::path& path, const VtuWriteOptions& 
         return s;
     };
     std::ostringstream x;
-    x << "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+    x << "<?xml version=\"1.0\"?>\n<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" "
+         "byte_order=\"LittleEndian\" "
          "header_type=\"UInt64\""
       << (options.zlib ? " compressor=\"vtkZLibDataCompressor\"" : "") << ">\n  <UnstructuredGrid>\n"
-      << "    <Piece NumberOfPoints=\"" << mesh.points.size() << "\" NumberOfCells=\"" << mesh.tets.size() << "\">\n"
-      << "      <PointData Scalars=\"" << name << "\">\n        " << element(arrays[0]) << "      </PointData>\n"
+      << "    <Piece NumberOfPoints=\"" << mesh.points.size() << "\" NumberOfCells=\"" << mesh.tets.size()
+      << "\">\n"
+      << "      <PointData Scalars=\"" << name << "\">\n        " << element(arrays[0])
+      << "      </PointData>\n"
       << "      <CellData>\n      </CellData>\n"
       << "      <Points>\n        " << element(arrays[1]) << "      </Points>\n"
       << "      <Cells>\n        " << element(arrays[2]) << "        " << element(arrays[3]) << "        "
