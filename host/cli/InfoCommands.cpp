@@ -2,6 +2,7 @@
 #include "host/Error.hpp"
 #include "host/cli/CliParsing.hpp"
 #include "host/cli/Commands.hpp"
+#include "host/cli/MeshInfo.hpp"
 #include "host/cli/Progress.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
@@ -128,10 +129,16 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
         auto file = std::make_shared<std::string>();
         auto json = std::make_shared<bool>(false);
         auto raw = std::make_shared<RawReadFlags>();
-        cmd->add_option("file", *file, "Volume file")->required();
+        auto meshFlags = std::make_shared<MeshReadFlags>();
+        cmd->add_option("file", *file, "Volume or mesh file")->required();
         cmd->add_flag("--json", *json, "Print JSON instead of text");
         raw->add(*cmd);
-        cmd->callback([file, json, raw, &global] {
+        meshFlags->add(*cmd);
+        cmd->callback([file, json, raw, meshFlags, &global] {
+            if (mesh::detectMeshFormat(*file)) {
+                printMeshInfo(std::cout, *file, mesh::readMesh(*file, meshFlags->toReadOptions()), *json);
+                return;
+            }
             TimeSeries ts = readVolumeFile(*file, raw->toReadOptions());
             printVolumeInfo(std::cout, *file, ts, *json, global.quiet);
         });
@@ -187,6 +194,8 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
             bool bigEndianOut = false;
             std::optional<double> replaceNan;
             RawReadFlags raw;
+            MeshReadFlags mesh;
+            VtuWriteFlags vtu;
         };
         auto a = std::make_shared<Args>();
         cmd->add_option("input", a->in, "Input volume (any supported format)")->required();
@@ -198,8 +207,20 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
                         "Replace NaN voxels (float32) by this value, e.g. 0, so the volume can be rendered");
         cmd->add_flag("--big-endian", a->bigEndianOut, "Write raw/NRRD output big-endian");
         a->raw.add(*cmd);
+        a->mesh.add(*cmd);
+        a->vtu.add(*cmd);
         cmd->callback([a, &global] {
             checkNotSameFile(a->in, a->out);
+            if (mesh::detectMeshFormat(a->in)) { // a mesh converts to .vtu only
+                if (!a->out.ends_with(".vtu")) throw UsageError("-o " + a->out + ": a mesh converts to .vtu");
+                const mesh::VtuWriteOptions wo = a->vtu.toWriteOptions();
+                const mesh::TetMesh m = mesh::readMesh(a->in, a->mesh.toReadOptions());
+                mesh::writeVtu(m, a->out, wo);
+                if (!global.quiet)
+                    std::cerr << "volcl: wrote " << a->out << " (" << m.pointCount() << " points, " << m.tetCount()
+                              << " tets)\n";
+                return;
+            }
             TimeSeries ts = readVolumeFile(a->in, a->raw.toReadOptions());
             if (a->frame >= ts.frames.size())
                 throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in + " has " +

@@ -91,6 +91,34 @@ SampleType sampleTypeOf(ScalarType t) noexcept {
     return SampleType::UInt8;
 }
 
+std::optional<SampleType> vtkLegacyType(std::string_view name) {
+    static const std::pair<std::string_view, SampleType> types[] = {
+        {"unsigned_char", SampleType::UInt8},
+        {"char", SampleType::Int8},
+        {"signed_char", SampleType::Int8},
+        {"unsigned_short", SampleType::UInt16},
+        {"short", SampleType::Int16},
+        {"unsigned_int", SampleType::UInt32},
+        {"int", SampleType::Int32},
+        {"unsigned_long", SampleType::UInt64},
+        {"long", SampleType::Int64},
+        {"vtktypeint8", SampleType::Int8},
+        {"vtktypeuint8", SampleType::UInt8},
+        {"vtktypeint16", SampleType::Int16},
+        {"vtktypeuint16", SampleType::UInt16},
+        {"vtktypeint32", SampleType::Int32},
+        {"vtktypeuint32", SampleType::UInt32},
+        {"vtktypeint64", SampleType::Int64},
+        {"vtktypeuint64", SampleType::UInt64},
+        {"float", SampleType::Float32},
+        {"double", SampleType::Float64},
+    };
+    const std::string l = lower(name);
+    for (const auto& [n, t] : types)
+        if (n == l) return t;
+    return std::nullopt;
+}
+
 void fail(const fs::path& file, const std::string& problem) {
     throw IoError(file.string() + ": " + problem);
 }
@@ -183,6 +211,48 @@ void convertTo(const std::byte* src, std::size_t count, bool swap, Volume& dst, 
 }
 
 } // namespace
+
+std::vector<double> decodeToDouble(std::span<const std::byte> src, SampleType st, Endian endian) {
+    const std::size_t size = sampleSize(st);
+    if (src.size() % size != 0) throw Error("internal: decodeToDouble called with a partial sample");
+    const std::size_t count = src.size() / size;
+    const bool swap = size > 1 && endian != hostEndian();
+    std::vector<double> out(count);
+    const std::byte* p = src.data();
+    switch (st) {
+    case SampleType::Int8:
+        convertLoop<std::int8_t>(p, count, swap, out.data());
+        break;
+    case SampleType::UInt8:
+        convertLoop<std::uint8_t>(p, count, swap, out.data());
+        break;
+    case SampleType::Int16:
+        convertLoop<std::int16_t>(p, count, swap, out.data());
+        break;
+    case SampleType::UInt16:
+        convertLoop<std::uint16_t>(p, count, swap, out.data());
+        break;
+    case SampleType::Int32:
+        convertLoop<std::int32_t>(p, count, swap, out.data());
+        break;
+    case SampleType::UInt32:
+        convertLoop<std::uint32_t>(p, count, swap, out.data());
+        break;
+    case SampleType::Int64:
+        convertLoop<std::int64_t>(p, count, swap, out.data());
+        break;
+    case SampleType::UInt64:
+        convertLoop<std::uint64_t>(p, count, swap, out.data());
+        break;
+    case SampleType::Float32:
+        convertLoop<float>(p, count, swap, out.data());
+        break;
+    case SampleType::Float64:
+        convertLoop<double>(p, count, swap, out.data());
+        break;
+    }
+    return out;
+}
 
 void decodeSamples(std::span<const std::byte> src, SampleType st, Endian endian, Volume& dst,
                    std::size_t firstVoxel) {

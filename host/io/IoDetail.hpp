@@ -37,6 +37,9 @@ std::string_view sampleTypeName(SampleType t) noexcept;
 ScalarType volumeTypeFor(SampleType t) noexcept;
 SampleType sampleTypeOf(ScalarType t) noexcept;
 
+/// Legacy VTK type names (`unsigned_char` ... `double`, `vtktypeint64`); `long` is 64-bit as VTK writes it on Linux.
+std::optional<SampleType> vtkLegacyType(std::string_view name);
+
 /// Throws IoError "<file>: <problem>"; every reader reports through it so messages look alike.
 [[noreturn]] void fail(const std::filesystem::path& file, const std::string& problem);
 [[noreturn]] void unsupported(const std::filesystem::path& file, const std::string& problem); // DataError
@@ -50,6 +53,9 @@ std::size_t checkedByteCount(std::size_t voxels, std::size_t sampleBytes, const 
 /// `firstVoxel` on; dst.type() must be volumeTypeFor(st). `src` must hold exactly count samples.
 void decodeSamples(std::span<const std::byte> src, SampleType st, Endian endian, Volume& dst,
                    std::size_t firstVoxel = 0);
+/// Decodes `src` (whole samples of type `st` in byte order `endian`) into doubles: meshes keep their
+/// coordinates, indices and scalars at full precision until they are checked.
+std::vector<double> decodeToDouble(std::span<const std::byte> src, SampleType st, Endian endian);
 /// Splits a payload of `frames` consecutive volumes into a time series with the model's types.
 TimeSeries decodeFrames(std::span<const std::byte> payload, SampleType st, Endian endian, const Dims& dims,
                         std::size_t frames, const std::array<double, 3>& spacing,

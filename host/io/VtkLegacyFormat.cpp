@@ -10,28 +10,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::optional<SampleType> legacyType(std::string_view name) {
-    static const std::pair<std::string_view, SampleType> types[] = {
-        {"unsigned_char", SampleType::UInt8},
-        {"char", SampleType::Int8},
-        {"signed_char", SampleType::Int8},
-        {"unsigned_short", SampleType::UInt16},
-        {"short", SampleType::Int16},
-        {"unsigned_int", SampleType::UInt32},
-        {"int", SampleType::Int32},
-        {"unsigned_long", SampleType::UInt64},
-        {"long", SampleType::Int64},
-        {"vtktypeint64", SampleType::Int64},
-        {"vtktypeuint64", SampleType::UInt64},
-        {"float", SampleType::Float32},
-        {"double", SampleType::Float64},
-    };
-    const std::string l = lower(name);
-    for (const auto& [n, t] : types)
-        if (n == l) return t;
-    return std::nullopt;
-}
-
 // Keywords that may follow the scalars (further attributes); anything else after the data is garbage.
 bool startsWithSectionKeyword(std::string_view s) {
     static const std::string_view keywords[] = {
@@ -98,7 +76,7 @@ TimeSeries readVtkLegacy(const fs::path& path) {
             if (!pointCount) unsupported(path, "SCALARS outside POINT_DATA");
             if (w.size() < 3) fail(path, "SCALARS needs a name and a type");
             scalarName = std::string(w[1]);
-            st = legacyType(w[2]);
+            st = vtkLegacyType(w[2]);
             if (!st) unsupported(path, "SCALARS type '" + std::string(w[2]) + "' is not supported");
             if (w.size() >= 4 && requireInt(w[3], path, "SCALARS components") != 1)
                 unsupported(path,
