@@ -153,7 +153,9 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         const CodecOptions o = toOptions(*a, *cmd);
         if (!isVcz(a->out)) throw UsageError("output " + a->out + " must end in .vcz");
         checkNotSameFile(a->in, a->out);
-        TimeSeries ts = readVolumeFile(a->in, a->raw.toReadOptions());
+        std::vector<std::filesystem::path> inputs;
+        TimeSeries ts = readVolumeFile(a->in, a->raw.toReadOptions(), inputs);
+        checkNotSameFile(inputs, {std::filesystem::path(a->out)});
         ComputeContext cc(global.device);
         EncodeReport rep;
         Stopwatch sw;
@@ -200,7 +202,7 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
     cmd->add_option("--threads", a->threads, "Host threads for entropy decoding (default 2)");
     cmd->add_flag("--profile", a->profile, "Print the time of each pipeline stage");
     cmd->callback([a, &global] {
-        checkNotSameFile(a->in, a->out);
+        checkNotSameFile({std::filesystem::path(a->in)}, volumeFilesWritten(a->out));
         DecodeOptions o;
         CodecProfile prof;
         if (a->profile) o.profile = &prof;

@@ -196,7 +196,10 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
         a->raw.add(*cmd);
         cmd->callback([a, &global] {
             checkNotSameFile(a->in, a->out);
-            TimeSeries ts = readVolumeFile(a->in, a->raw.toReadOptions());
+            std::vector<std::filesystem::path> inputs;
+            TimeSeries ts = readVolumeFile(a->in, a->raw.toReadOptions(), inputs);
+            // A header's data files are inputs too: converting x.nhdr to its own x.raw would destroy it.
+            checkNotSameFile(inputs, volumeFilesWritten(a->out));
             if (a->frame >= ts.frames.size())
                 throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in + " has " +
                                  std::to_string(ts.frames.size()) + " frame(s)");

@@ -324,7 +324,10 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
             outputExtension(a->out); // refuse a bad output name before any work
             checkNotSameFile(scene.volume, a->out);
         }
-        const Volume v = readVolume(scene.volume, a->scene.raw.toReadOptions());
+        std::vector<std::filesystem::path> inputs;
+        TimeSeries series = readVolumeFile(scene.volume, a->scene.raw.toReadOptions(), inputs);
+        if (!a->out.empty()) checkNotSameFile(inputs, {std::filesystem::path(a->out)});
+        const Volume v = std::move(series.frames.front());
         const TransferFunction tf = loadTf(scene.tf, v);
         if (a->explain && a->out.empty()) {
             std::cout << planEffects(scene, v, tf).explain();

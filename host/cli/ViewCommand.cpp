@@ -83,7 +83,10 @@ struct ViewerSetup {
         scene = viewScene(a);
         if (!a.output.empty() && headless) checkNotSameFile(scene.volume, a.output);
         const viewer::TransportRequest request = viewer::parseTransportRequest(a.transport);
-        volume = readVolume(scene.volume, a.scene.raw.toReadOptions());
+        std::vector<std::filesystem::path> inputs;
+        TimeSeries series = readVolumeFile(scene.volume, a.scene.raw.toReadOptions(), inputs);
+        if (!a.output.empty() && headless) checkNotSameFile(inputs, {std::filesystem::path(a.output)});
+        volume = std::move(series.frames.front());
         if (!scene.tf.empty()) tf = TransferFunction::fromFile(scene.tf);
         cc = std::make_unique<ComputeContext>(global.device);
         transport = viewer::chooseTransport(request, cc->device());

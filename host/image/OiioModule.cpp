@@ -9,6 +9,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+
+#include <sys/mman.h>
+#include <unistd.h>
 
 namespace volcl {
 namespace {
@@ -67,8 +71,38 @@ void write(const ImageBuffer& image, const std::filesystem::path& path, ImageFil
     out.commit();
 }
 
+// libpng (inside OpenImageIO) prints its errors to stderr before OIIO returns them; OIIO's error text
+// already holds the same words, and volcl's message must be one line. While an image is read, stderr goes
+// to an anonymous memory file that is dropped afterwards.
+class StderrSilencer {
+public:
+    StderrSilencer() {
+        std::fflush(stderr);
+        const int sink = ::memfd_create("volcl-image-stderr", MFD_CLOEXEC);
+        if (sink < 0) return;
+        saved_ = ::dup(2);
+        if (saved_ >= 0 && ::dup2(sink, 2) < 0) {
+            ::close(saved_);
+            saved_ = -1;
+        }
+        ::close(sink);
+    }
+    ~StderrSilencer() {
+        if (saved_ < 0) return;
+        std::fflush(stderr);
+        ::dup2(saved_, 2);
+        ::close(saved_);
+    }
+    StderrSilencer(const StderrSilencer&) = delete;
+    StderrSilencer& operator=(const StderrSilencer&) = delete;
+
+private:
+    int saved_ = -1;
+};
+
 ImageBuffer read(const std::filesystem::path& path) {
     const std::string name = path.string();
+    const StderrSilencer quiet;
     // Keep stored values as they are (PNG alpha is straight; OIIO would otherwise premultiply on read).
     OIIO::ImageSpec config;
     config.attribute("oiio:UnassociatedAlpha", 1);

@@ -296,12 +296,8 @@ void Renderer::rebuild(bool tfChanged) {
     plan_ = planEffectsInRange(scene_, volume_, impl_->range);
     Impl& m = *impl_;
 
-    // Guard against steps so small that one ray would take longer than any frame should.
     const auto box = render_detail::worldBox(volume_);
-    const double diag = norm(sub(box[1], box[0]));
-    if (diag / scene_.step > 5e7)
-        throw UsageError("render.step " + fmt(scene_.step) + " needs " + fmt(std::ceil(diag / scene_.step)) +
-                         " samples per ray; use a step of at least " + fmt(diag / 5e7));
+    scene_.validateSteps(norm(sub(box[1], box[0])));
 
     TransferFunction shaded = tf_;
     if (plan_.colorScale != 1.0)

@@ -92,6 +92,9 @@ struct Scene {
     std::string toJson() const;
     /// Throws UsageError naming the field for out-of-range values.
     void validate() const;
+    /// Refuses (UsageError) steps that would make one ray too long for a volume whose world-space diagonal
+    /// is `worldDiagonal`: render.step and effects.shadow_step each at most 5e7 samples across it.
+    void validateSteps(double worldDiagonal) const;
 };
 
 /// Orthographic camera along +z through the centre of the volume's box, sized to show all of it.

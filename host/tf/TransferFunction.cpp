@@ -43,7 +43,8 @@ double number(const json& v, const std::string& where) {
 json parseJson(std::string_view text) {
     try {
         return json::parse(text.begin(), text.end());
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {
+        // parse_error for bad syntax, out_of_range for numbers such as 1e400 that no double holds.
         throw DataError(std::string("transfer function: invalid JSON (") + e.what() + ")");
     }
 }
