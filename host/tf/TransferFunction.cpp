@@ -280,7 +280,9 @@ TransferFunction TransferFunction::fromFile(const std::filesystem::path& path,
             return fromJson(text.str());
         }
         if (ext == ".png" || ext == ".exr" || ext == ".tif" || ext == ".tiff") {
-            ImageBuffer img = readImage(path);
+            // A strip of up to 2^20 RGBA pixels; a forged EXR data window is refused before allocation.
+            constexpr std::size_t kMaxStripBytes = std::size_t{16} << 20;
+            ImageBuffer img = readImage(path, kMaxStripBytes);
             if (img.height != 1)
                 throw DataError("RGBA strip must be 1 pixel high, this one is " + std::to_string(img.width) +
                                 "x" + std::to_string(img.height));
