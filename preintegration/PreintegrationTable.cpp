@@ -59,10 +59,26 @@ KernelDefines realDefines(const GeneratorOptions& o, ComputeContext& cc) {
     return d;
 }
 
-// Runs preint_exact for `lengths` into `out` (float4 entries, layout of PreintegrationTable).
-double runExact(ComputeContext& cc, const TransferFunction& tf, int n, const std::vector<double>& lengths,
+// Longest segment worth integrating: beyond it, every segment with any extinction is opaque (optical
+// depth >= 1e16 per unit of the largest tau) and its colour is that of its first absorbing point to within
+// float resolution, so longer lengths give the same entries. Clamping there keeps the kernels' products
+// finite (a length of 1e300 is infinite in float) and their work independent of the length.
+double saturatedLength(const TransferFunction& tf) {
+    const double tauMax = tf.maxExtinction();
+    return tauMax > 0.0 ? std::min(1e16 / tauMax, 1e30) : 1.0;
+}
+
+// Runs preint_exact for `requested` lengths into `out` (float4 entries, layout of PreintegrationTable).
+double runExact(ComputeContext& cc, const TransferFunction& tf, int n, const std::vector<double>& requested,
                 double uniformStep, const GeneratorOptions& o, cl::Buffer& out) {
-    const std::size_t count = lengths.size();
+    const std::size_t count = requested.size();
+    const double lSat = saturatedLength(tf);
+    std::vector<double> lengths(requested);
+    for (double& l : lengths)
+        if (l > lSat) {
+            l = lSat;
+            uniformStep = 0.0; // clamped lengths are no longer evenly spaced
+        }
     RealArgs real{o.precision == Precision::Double};
     auto knots = tf.packKnots();
     auto knotBuf = cc.upload<VolclTfKnot>(knots, CL_MEM_READ_ONLY);
@@ -279,16 +295,23 @@ void referenceTable(const TransferFunction& tf, PreintegrationTable& t, int thre
 
 // ---------------------------------------------------------------------------------------------- spec
 
+namespace {
+// Longest segment a table may describe (a float attribute holds it); the margin admits 1e30 read back
+// from float, which rounds it up to 1.0000000150e30.
+constexpr double kMaxLength = 1e30 * (1.0 + 1e-7);
+} // namespace
+
 void TableSpec::validate() const {
     if (size < 2 || size > 16384)
         throw UsageError("table size must be between 2 and 16384 (got " + fmt(size) + ")");
     if (axis == LengthAxis::Fixed) {
-        if (!(step > 0.0) || !std::isfinite(step))
-            throw UsageError("--step must be a positive finite length (got " + fmt(step) + ")");
+        // Tables keep their lengths as float EXR attributes: 1e30 stays well inside float's range.
+        if (!(step > 0.0) || !(step <= kMaxLength))
+            throw UsageError("--step must be a positive length up to 1e30 (got " + fmt(step) + ")");
     } else {
         if (lengths < 1) throw UsageError("--lengths must be at least 1 (got " + fmt(lengths) + ")");
-        if (!(maxLength > 0.0) || !std::isfinite(maxLength))
-            throw UsageError("--max-length must be a positive finite length (got " + fmt(maxLength) + ")");
+        if (!(maxLength > 0.0) || !(maxLength <= kMaxLength))
+            throw UsageError("--max-length must be a positive length up to 1e30 (got " + fmt(maxLength) + ")");
     }
     std::size_t slices = axis == LengthAxis::Fixed ? 1 : static_cast<std::size_t>(lengths);
     if (static_cast<std::size_t>(size) * size * slices > kMaxEntries)
@@ -491,8 +514,9 @@ void PreintegrationGenerator::generate(const TransferFunction& tf, const TableSp
     t.method = o.method;
     t.tfJson = tf.toJson();
     t.deviceMilliseconds = 0.0;
-    if (!(o.maxSubstepDepth > 0.0) || !std::isfinite(o.maxSubstepDepth))
-        throw UsageError("substep depth must be a positive number (got " + fmt(o.maxSubstepDepth) + ")");
+    // The exact kernels take up to 48 / depth sub-pieces per TF piece: the bound keeps that finite.
+    if (!(o.maxSubstepDepth >= 1e-3) || !std::isfinite(o.maxSubstepDepth))
+        throw UsageError("substep depth must be a finite number >= 0.001 (got " + fmt(o.maxSubstepDepth) + ")");
     if (o.polynomialDegree < 1 || o.polynomialDegree > 6)
         throw UsageError("polynomial degree must be between 1 and 6 (got " + fmt(o.polynomialDegree) + ")");
     const int n = spec.size;

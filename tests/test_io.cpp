@@ -5,6 +5,9 @@
 #include "host/io/VolumeIo.hpp"
 
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <unistd.h>
+#include <sys/wait.h>
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/points/PointDataGrid.h>
@@ -341,7 +344,11 @@ TEST(AtomicFile, NoFileWithoutCommitAndOldContentKept) {
         AtomicFile f(dir / "out.bin");
         f.write(std::string_view("partial"));
         EXPECT_TRUE(fs::exists(f.tempPath()));
-        EXPECT_EQ(f.tempPath().parent_path(), dir);
+        // An unnamed temporary (O_TMPFILE) is invisible in the directory; a named one lives beside the target.
+        if (f.unnamedTemporary())
+            EXPECT_TRUE(listing(dir).empty());
+        else
+            EXPECT_EQ(f.tempPath().parent_path(), dir);
     }
     EXPECT_TRUE(listing(dir).empty());
     writeFile(dir / "out.bin", "old");
@@ -361,6 +368,61 @@ TEST(AtomicFile, NoFileWithoutCommitAndOldContentKept) {
     }
     EXPECT_EQ(readFile(dir / "out.bin"), "new");
     EXPECT_EQ(listing(dir), (std::set<std::string>{"out.bin"}));
+}
+
+// A writer killed with SIGKILL in the middle of a large write: the directory must hold no temporary.
+TEST(AtomicFile, SigkillMidWriteLeavesNoTemporary) {
+    const fs::path dir = test::tempDir("io-atomic-kill");
+    for (int round = 0; round < 3; ++round) {
+        int ready[2];
+        ASSERT_EQ(::pipe(ready), 0);
+        const pid_t child = ::fork();
+        ASSERT_GE(child, 0);
+        if (child == 0) {
+            ::close(ready[0]);
+            AtomicFile f(dir / "big.bin");
+            const std::vector<std::byte> chunk(1 << 20, std::byte{0x5a});
+            for (int i = 0; i < 128; ++i) {
+                f.write(chunk);
+                f.stream().flush();
+                if (i == 8) {
+                    const char c = 'x';
+                    if (::write(ready[1], &c, 1) != 1) ::_exit(3);
+                }
+            }
+            f.commit();
+            ::_exit(0);
+        }
+        ::close(ready[1]);
+        char c = 0;
+        ASSERT_EQ(::read(ready[0], &c, 1), 1); // 9 MB are written: the child is mid-write
+        ::close(ready[0]);
+        ::kill(child, SIGKILL);
+        int status = 0;
+        ::waitpid(child, &status, 0);
+        ASSERT_TRUE(WIFSIGNALED(status));
+        EXPECT_TRUE(listing(dir).empty()) << "a killed writer left a temporary";
+    }
+}
+
+// Where O_TMPFILE is unavailable the temporary has a name; a dead writer's one is removed at the next start.
+TEST(AtomicFile, StaleTemporariesOfDeadWritersAreRemoved) {
+    const fs::path dir = test::tempDir("io-atomic-stale");
+    const pid_t dead = ::fork();
+    ASSERT_GE(dead, 0);
+    if (dead == 0) ::_exit(0);
+    ::waitpid(dead, nullptr, 0);
+    const std::string stale = ".out.bin.tmp-" + std::to_string(dead) + "-0-123";
+    const std::string live = ".out.bin.tmp-" + std::to_string(::getppid()) + "-0-456"; // a live process
+    const std::string other = ".other.bin.tmp-" + std::to_string(dead) + "-0-789";  // another target's
+    for (const std::string& n : {stale, live, other})
+        writeFile(dir / n, "left over");
+    {
+        AtomicFile f(dir / "out.bin");
+        f.write(std::string_view("new"));
+        f.commit();
+    }
+    EXPECT_EQ(listing(dir), (std::set<std::string>{"out.bin", live, other}));
 }
 
 TEST(AtomicFile, TemporariesAreUniqueAndErrorsAreClear) {
@@ -457,11 +519,16 @@ TEST(NrrdReader, EncodingsEndianGeometryAndDetachedForms) {
     for (auto x : ramp16(kRampDims))
         ascii += std::to_string(x) + ((x % 7) ? " " : "\n");
     writeFile(dir / "c.nrrd",
-              "NRRD0001\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nspacings: 1 2 NaN\nencoding: ascii\n\n" +
+              "NRRD0001\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nspacings: 1 2 -4\nencoding: ascii\n\n" +
                   ascii);
     const Volume c = readVolume(dir / "c.nrrd");
     expectRamp(c, kRampDims);
-    EXPECT_EQ(c.spacing, (std::array<double, 3>{1, 2, 1}));
+    EXPECT_EQ(c.spacing, (std::array<double, 3>{1, 2, 4}));
+    // A NaN spacing would make every world position NaN: refused, naming the file.
+    writeFile(dir / "c_nan.nrrd",
+              "NRRD0001\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nspacings: 1 2 NaN\nencoding: ascii\n\n" +
+                  ascii);
+    EXPECT_THROW(readVolume(dir / "c_nan.nrrd"), IoError);
     // Detached: one file, skip lines/bytes, slices by pattern (%03d, descending), LIST, byte skip -1.
     writeFile(dir / "d.raw", "line one\nline two\nXY" + ramp);
     writeFile(dir / "d.nhdr",
@@ -1198,3 +1265,45 @@ TEST(Corruption, LyingHeadersAreRefusedBeforeAllocating) {
 }
 
 } // namespace
+
+// ---- what a read consists of, and the options that bound it ----------------------------------------------
+
+TEST(VolumeIo, FilesReadListTheHeaderAndEveryDataFile) {
+    const fs::path dir = test::tempDir("io-files-read");
+    Volume slice({4, 3, 1}, ScalarType::UInt8);
+    writeVolumeFile(slice, dir / "s0.raw");
+    writeVolumeFile(slice, dir / "s1.raw");
+    writeFile(dir / "list.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 3 2\nencoding: raw\n"
+                                 "data file: LIST\ns0.raw\ns1.raw\n");
+    std::vector<fs::path> files;
+    const TimeSeries ts = readVolumeFile(dir / "list.nhdr", {}, files);
+    ASSERT_EQ(files.size(), 3u);
+    EXPECT_EQ(files[0], dir / "list.nhdr");
+    EXPECT_EQ(files[1], dir / "s0.raw");
+    EXPECT_EQ(files[2], dir / "s1.raw");
+    EXPECT_THROW(checkNotSameFile(files, volumeFilesWritten(dir / "s1.nhdr")), UsageError); // s1.raw
+    EXPECT_NO_THROW(checkNotSameFile(files, volumeFilesWritten(dir / "other.nhdr")));
+}
+
+TEST(VolumeIo, MemoryBudgetAndExternalDataAreReadOptions) {
+    const fs::path dir = test::tempDir("io-read-options");
+    writeVolumeFile(Volume({10, 10, 10}, ScalarType::UInt16), dir / "v_10x10x10_uint16.raw");
+    ReadOptions small;
+    small.memoryBudget = 1000; // 1000 voxels of 2 + 2 bytes need 4000
+    try {
+        readVolume(dir / "v_10x10x10_uint16.raw", small);
+        ADD_FAILURE() << "a claim above the budget was read";
+    } catch (const IoError& e) {
+        EXPECT_NE(std::string(e.what()).find("memory budget"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("v_10x10x10_uint16.raw"), std::string::npos) << e.what();
+    }
+    small.memoryBudget = 4000;
+    EXPECT_NO_THROW(readVolume(dir / "v_10x10x10_uint16.raw", small));
+    fs::create_directories(dir / "h");
+    writeFile(dir / "h" / "up.mhd", "NDims = 3\nDimSize = 10 10 10\nElementType = MET_USHORT\n"
+                                    "ElementDataFile = ../v_10x10x10_uint16.raw\n");
+    EXPECT_THROW(readVolume(dir / "h" / "up.mhd"), IoError);
+    ReadOptions allow;
+    allow.allowExternalData = true;
+    EXPECT_EQ(readVolume(dir / "h" / "up.mhd", allow).dims(), (Dims{10, 10, 10}));
+}

@@ -255,6 +255,28 @@ TEST(PreintHardCases, HugeLengthAndExtinctionSaturate) {
     EXPECT_LE(compareWithReference(t, tf).maxAbs, 1e-4);
 }
 
+// Lengths far beyond any volume: every absorbing segment saturates, and the tables must still match the
+// reference (the kernels once took work growing with the length: 1e20 did not finish). Both precisions,
+// 3D (linear and exponential axes) and 2D, on the CONTRACT TF (extinction rising from zero) and on steps.
+TEST(PreintHardCases, HugeLengthsSaturateAndMatchTheReference) {
+    for (const TransferFunction& tf : {contractTf(), stepTf(), spikeTf()}) {
+        for (double len : {1e12, 1e20, 1e30}) {
+            for (Precision p : {Precision::Float, Precision::Double}) {
+                GeneratorOptions o;
+                o.precision = p;
+                for (const TableSpec& spec : {spec3d(16, 2, len), spec3d(16, 3, len, LengthAxis::Exponential),
+                                              spec2d(64, len)}) {
+                    const auto t = generatePreintegrationTable(tf, spec, o, &context());
+                    expectBounded(t, tf.maxColor());
+                    EXPECT_LE(compareWithReference(t, tf, 4000).maxAbs, 1e-4)
+                        << "length " << len << (p == Precision::Float ? " float" : " double") << " axis "
+                        << lengthAxisName(spec.axis);
+                }
+            }
+        }
+    }
+}
+
 TEST(PreintHardCases, ExtinctionFromZeroToMillion) {
     for (double tau : {0.0, 1e-6, 1e-2, 1.0, 1e2, 1e4, 1e6}) {
         std::ostringstream s;
@@ -294,6 +316,8 @@ TEST(PreintHardCases, InvalidSpecsAreRefused) {
     EXPECT_THROW(exact(tf, spec2d(64, -1.0)), UsageError);
     EXPECT_THROW(exact(tf, spec2d(64, std::nan(""))), UsageError);
     EXPECT_THROW(exact(tf, spec2d(64, INFINITY)), UsageError);
+    EXPECT_THROW(exact(tf, spec2d(64, 1e300)), UsageError); // beyond what the EXR attributes hold
+    EXPECT_THROW(exact(tf, spec3d(64, 4, 1e300)), UsageError);
     EXPECT_THROW(exact(tf, spec3d(64, 0, 1.0)), UsageError);
     EXPECT_THROW(exact(tf, spec3d(64, 4, 0.0)), UsageError);
     EXPECT_THROW(exact(tf, spec3d(65536, 4, 1.0)), UsageError);
@@ -302,6 +326,8 @@ TEST(PreintHardCases, InvalidSpecsAreRefused) {
     EXPECT_THROW(parseMethod("fast"), UsageError);
     GeneratorOptions o;
     o.maxSubstepDepth = 0.0;
+    EXPECT_THROW(generatePreintegrationTable(tf, spec2d(8, 1.0), o, &context()), UsageError);
+    o.maxSubstepDepth = 1e-9; // would mean 5e10 sub-pieces per TF piece
     EXPECT_THROW(generatePreintegrationTable(tf, spec2d(8, 1.0), o, &context()), UsageError);
     o = {};
     EXPECT_THROW(generatePreintegrationTable(tf, spec2d(8, 1.0), o, nullptr), UsageError);

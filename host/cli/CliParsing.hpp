@@ -22,6 +22,7 @@ struct RawReadFlags {
     std::string dims, type, endian = "little";
     std::string vdbGrid; ///< --grid: OpenVDB grid name
     std::size_t headerBytes = 0;
+    bool allowExternalData = false; ///< --allow-external-data: header data files outside its directory
     void add(CLI::App& cmd);
     ReadOptions toReadOptions() const;
 };

@@ -147,9 +147,10 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
     cmd->callback([a, cmd, &global] {
         const CodecOptions o = toOptions(*a, *cmd);
         if (!isVcz(a->out)) throw UsageError("output " + a->out + " must end in .vcz");
-        for (const std::filesystem::path& f : expandSeriesInputs(a->in))
-            checkNotSameFile(f.string(), a->out);
-        TimeSeries ts = readSeriesInputs(a->in, a->raw.toReadOptions()).series;
+        std::vector<std::filesystem::path> inputs;
+        TimeSeries ts = readSeriesInputs(a->in, a->raw.toReadOptions(), &inputs).series;
+        // Every file the inputs consist of (headers and the data files they name) must survive the write.
+        checkNotSameFile(inputs, {std::filesystem::path(a->out)});
         ComputeContext cc(global.device);
         EncodeReport rep;
         Stopwatch sw;
@@ -198,7 +199,7 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
     cmd->add_option("--threads", a->threads, "Host threads for entropy decoding (default 2)");
     cmd->add_flag("--profile", a->profile, "Print the time of each pipeline stage");
     cmd->callback([a, &global] {
-        checkNotSameFile(a->in, a->out);
+        checkNotSameFile({std::filesystem::path(a->in)}, volumeFilesWritten(a->out));
         DecodeOptions o;
         CodecProfile prof;
         if (a->profile) o.profile = &prof;

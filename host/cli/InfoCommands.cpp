@@ -221,7 +221,10 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
                               << " tets)\n";
                 return;
             }
-            TimeSeries ts = readVolumeFile(a->in, a->raw.toReadOptions());
+            std::vector<std::filesystem::path> inputs;
+            TimeSeries ts = readVolumeFile(a->in, a->raw.toReadOptions(), inputs);
+            // A header's data files are inputs too: converting x.nhdr to its own x.raw would destroy it.
+            checkNotSameFile(inputs, volumeFilesWritten(a->out));
             if (a->frame >= ts.frames.size())
                 throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in + " has " +
                                  std::to_string(ts.frames.size()) + " frame(s)");

@@ -330,7 +330,9 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
             checkNotSameFile(scene.volume, a->out);
         }
         std::vector<std::string> notes;
-        Volume v = a->scene.readSceneVolume(scene, notes);
+        std::vector<std::filesystem::path> inputs;
+        Volume v = a->scene.readSceneVolume(scene, notes, &inputs);
+        if (!a->out.empty()) checkNotSameFile(inputs, {std::filesystem::path(a->out)});
         for (auto& note : a->scene.finish(scene, v))
             notes.push_back(std::move(note));
         const TransferFunction tf = a->scene.loadTf(scene, v);

@@ -273,8 +273,11 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const Volume& v) const {
     return notes;
 }
 
-Volume SceneFlags::readSceneVolume(const Scene& s, std::vector<std::string>& notes) const {
-    TimeSeries ts = readVolumeFile(s.volume, raw.toReadOptions());
+Volume SceneFlags::readSceneVolume(const Scene& s, std::vector<std::string>& notes,
+                                   std::vector<std::filesystem::path>* filesRead) const {
+    std::vector<std::filesystem::path> files;
+    TimeSeries ts = readVolumeFile(s.volume, raw.toReadOptions(), files);
+    if (filesRead) *filesRead = std::move(files);
     const std::size_t k = frame.value_or(0);
     if (k >= ts.frames.size())
         throw UsageError("--frame " + std::to_string(k) + " out of range: " + s.volume.string() + " has " +

@@ -38,7 +38,9 @@ struct SceneFlags {
     Scene build(bool requireTf = true) const;
     /// The scene's volume: frame `--frame K` of a series (frame 0 when not given, with a note in `notes`
     /// when the input has more frames). Throws UsageError when K is out of range.
-    Volume readSceneVolume(const Scene& s, std::vector<std::string>& notes) const;
+    /// `filesRead`, when given, receives every file the volume consists of (header and data files).
+    Volume readSceneVolume(const Scene& s, std::vector<std::string>& notes,
+                           std::vector<std::filesystem::path>* filesRead = nullptr) const;
     /// Once the volume is read: frames the camera the scene and flags leave incomplete (a named view,
     /// an orbit, a missing orthographic height or target, or the default view of anatomical data) and
     /// applies the lighting defaults. Returns one note per default applied (stderr and `--explain`).

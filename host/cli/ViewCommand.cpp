@@ -84,7 +84,9 @@ struct ViewerSetup {
         if (!a.output.empty() && headless) checkNotSameFile(scene.volume, a.output);
         const viewer::TransportRequest request = viewer::parseTransportRequest(a.transport);
         std::vector<std::string> notes;
-        Volume volume = a.scene.readSceneVolume(scene, notes);
+        std::vector<std::filesystem::path> inputs;
+        Volume volume = a.scene.readSceneVolume(scene, notes, &inputs);
+        if (!a.output.empty() && headless) checkNotSameFile(inputs, {std::filesystem::path(a.output)});
         for (auto& note : a.scene.finish(scene, volume))
             notes.push_back(std::move(note));
         if (!global.quiet)

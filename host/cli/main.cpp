@@ -1,8 +1,10 @@
 // Entry point of the volcl executable: parses the command line and turns exceptions into exit codes.
 #include "host/Error.hpp"
+#include "host/PrintableMessage.hpp"
 #include "host/Version.hpp"
 #include "host/cli/Commands.hpp"
 
+#include <csignal>
 #include <iostream>
 #include <string>
 #include <string_view>
@@ -40,6 +42,9 @@ void checkSubcommandNames(const CLI::App& app, int argc, char** argv) {
 } // namespace
 
 int main(int argc, char** argv) {
+    // Over a file size limit (ulimit -f) a write then fails with EFBIG and ends in a clean IoError, instead
+    // of SIGXFSZ killing the process before it can report anything.
+    std::signal(SIGXFSZ, SIG_IGN);
     CLI::App app{"volcl: OpenCL volume processing (codec, pre-integration, ray marching)", "volcl"};
     app.require_subcommand(1);
     volcl::cli::GlobalOptions global;
@@ -70,19 +75,19 @@ int main(int argc, char** argv) {
     } catch (const CLI::CallForVersion& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
-        std::cerr << "volcl: " << e.what() << " (see volcl --help)\n";
+        std::cerr << "volcl: " << volcl::printableMessage(e.what()) << " (see volcl --help)\n";
         return 2;
     } catch (const volcl::UsageError& e) {
-        std::cerr << "volcl: " << e.what() << '\n';
+        std::cerr << "volcl: " << volcl::printableMessage(e.what()) << '\n';
         return 2;
     } catch (const volcl::Error& e) {
-        std::cerr << "volcl: " << e.what() << '\n';
+        std::cerr << "volcl: " << volcl::printableMessage(e.what()) << '\n';
         return 1;
     } catch (const std::bad_alloc&) {
         std::cerr << "volcl: out of memory\n";
         return 1;
     } catch (const std::exception& e) {
-        std::cerr << "volcl: internal error: " << e.what() << '\n';
+        std::cerr << "volcl: internal error: " << volcl::printableMessage(e.what()) << '\n';
         return 1;
     }
     return 0;

@@ -92,10 +92,10 @@ void writeImage(const ImageBuffer& image, const std::filesystem::path& path,
     oiioModule().write(image, path, png ? ImageFileFormat::Png : ImageFileFormat::Exr, options);
 }
 
-ImageBuffer readImage(const std::filesystem::path& path) {
+ImageBuffer readImage(const std::filesystem::path& path, std::size_t memoryBudget) {
     const std::string name = path.string();
     if (!std::filesystem::is_regular_file(path)) throw IoError(name + ": image file not found");
-    return oiioModule().read(path);
+    return oiioModule().read(path, memoryBudget);
 }
 
 float linearToSrgb(float linear) noexcept {

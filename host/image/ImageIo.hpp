@@ -44,7 +44,9 @@ struct ImageWriteOptions {
 /// transform: encode first). Atomic: temporary file + rename. Throws IoError naming the file.
 void writeImage(const ImageBuffer& image, const std::filesystem::path& path, const ImageWriteOptions& options = {});
 /// Reads any image OpenImageIO can read as float, with its attributes. Throws IoError naming the file.
-ImageBuffer readImage(const std::filesystem::path& path);
+/// `memoryBudget`: largest pixel buffer (float bytes) the file may claim, 0 = defaultMemoryBudget();
+/// a larger claim (a forged EXR data window) is an IoError naming the file, before allocation.
+ImageBuffer readImage(const std::filesystem::path& path, std::size_t memoryBudget = 0);
 
 /// Display encoding of linear associated RGBA: composite over `background` (straight RGBA), then sRGB
 /// encode. Result has channels R,G,B,A with A = 1 - (1 - a)(1 - background alpha).

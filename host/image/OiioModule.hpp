@@ -19,7 +19,9 @@ struct OiioModule {
     void (*write)(const ImageBuffer& image, const std::filesystem::path& path, ImageFileFormat format,
                   const ImageWriteOptions& options);
     /// Reads an existing file as float pixels with its attributes.
-    ImageBuffer (*read)(const std::filesystem::path& path);
+    /// Reads an image; one whose pixels (as float) exceed `memoryBudget` bytes (0 = the default budget) is
+    /// refused before they are allocated.
+    ImageBuffer (*read)(const std::filesystem::path& path, std::size_t memoryBudget);
 };
 
 /// File name of the module; it is looked up beside libvolcl, then on the library search path.

@@ -1,4 +1,4 @@
-// Atomic file output: data goes to a temporary beside the target and is renamed into place on commit.
+// Atomic file output: data goes to a temporary beside the target and is moved into place on commit.
 #pragma once
 
 #include <cstddef>
@@ -11,7 +11,10 @@
 namespace volcl {
 
 /// Writes a file so that readers never see a partial result: a failed or interrupted run leaves the
-/// target untouched. Example:
+/// target untouched. On Linux the temporary is an unnamed file (O_TMPFILE) in the target's directory,
+/// linked into place on commit, so even SIGKILL leaves nothing behind; where the file system refuses
+/// O_TMPFILE it is a hidden `.NAME.tmp-PID-...` file, and the temporaries of dead processes for the same
+/// target are removed when the next AtomicFile for it starts. Example:
 /// ```
 /// volcl::AtomicFile out("table.exr");
 /// writeSomething(out.tempPath());   // or out.stream() << ...
@@ -25,7 +28,11 @@ public:
     AtomicFile(const AtomicFile&) = delete;
     AtomicFile& operator=(const AtomicFile&) = delete;
 
+    /// A path that opens the temporary (for libraries that write to a path): `/proc/self/fd/N` for an
+    /// unnamed temporary, else the hidden file's name.
     const std::filesystem::path& tempPath() const noexcept { return temp_; }
+    /// True when the temporary has no name in the directory (O_TMPFILE).
+    bool unnamedTemporary() const noexcept { return fd_ >= 0; }
     const std::filesystem::path& target() const noexcept { return target_; }
     /// Binary stream on the temporary file (opened on first use).
     std::ofstream& stream();
@@ -37,6 +44,7 @@ public:
 private:
     std::filesystem::path target_, temp_;
     std::ofstream stream_;
+    int fd_ = -1; ///< the O_TMPFILE descriptor, -1 for a named temporary
     bool committed_ = false;
 };
 
@@ -44,5 +52,8 @@ private:
 std::vector<std::byte> readFileBytes(const std::filesystem::path& path);
 /// Refuses to write output over one of the inputs (compares canonical paths). Throws UsageError.
 void checkNotSameFile(const std::filesystem::path& input, const std::filesystem::path& output);
+/// Same for every file of an input (a header and its data files) against every file of an output.
+void checkNotSameFile(const std::vector<std::filesystem::path>& inputs,
+                      const std::vector<std::filesystem::path>& outputs);
 
 } // namespace volcl

@@ -1,6 +1,7 @@
 // Shared reader/writer helpers: sample conversion to the volume model, zlib with exact sizes, text parsing.
 #include "host/io/IoDetail.hpp"
 
+#include "host/MemoryBudget.hpp"
 #include "host/io/AtomicFile.hpp"
 
 #include <zlib.h>
@@ -130,6 +131,40 @@ namespace {
 // No real file holds more than 2^48 bytes; anything above is a corrupt or lying header.
 constexpr std::size_t kMaxPayloadBytes = std::size_t{1} << 48;
 } // namespace
+
+ReadContext::ReadContext(fs::path file, const ReadOptions& options)
+    : file_(std::move(file)), options_(options), files_{file_} {}
+
+fs::path ReadContext::dataFile(std::string_view name) {
+    if (name.find('\0') != std::string_view::npos) fail(file_, "data file name contains a NUL byte");
+    const fs::path named{std::string(name)};
+    const fs::path resolved = named.is_absolute() ? named : file_.parent_path() / named;
+    if (!options_.allowExternalData) {
+        // Compare resolved real paths, so neither `..` nor a symbolic link leads out of the directory.
+        std::error_code ec;
+        const fs::path dir = fs::weakly_canonical(file_.parent_path().empty() ? fs::path(".") : file_.parent_path(), ec);
+        const fs::path target = fs::weakly_canonical(resolved, ec);
+        const auto [d, t] = std::mismatch(dir.begin(), dir.end(), target.begin(), target.end());
+        if (ec || d != dir.end() || t == target.end())
+            fail(file_, "data file '" + std::string(name) +
+                            "' lies outside the header's directory (allow it with --allow-external-data)");
+    }
+    files_.push_back(resolved);
+    return resolved;
+}
+
+std::size_t ReadContext::voxelCount(const Dims& dims, std::size_t frames, SampleType st) const {
+    const std::size_t voxels = checkedVoxelCount(dims, frames, file_);
+    // The file's samples and the converted volume are both in memory at once.
+    const std::size_t perVoxel = sampleSize(st) + scalarSize(volumeTypeFor(st));
+    if (voxels > std::numeric_limits<std::size_t>::max() / perVoxel) fail(file_, "payload size overflows");
+    claimMemory(voxels * perVoxel, "the volume");
+    return voxels;
+}
+
+void ReadContext::claimMemory(std::size_t bytes, std::string_view what) const {
+    checkMemoryBudget(bytes, options_.memoryBudget, file_, what);
+}
 
 namespace {
 std::string dimsText(const Dims& dims, std::size_t frames) {
@@ -686,14 +721,19 @@ std::string formatDouble(double v) {
     return std::string(buf, ec == std::errc() ? ptr : buf);
 }
 
-fs::path siblingPath(const fs::path& header, std::string_view name) {
-    const fs::path p{std::string(name)};
-    if (p.is_absolute()) return p;
-    return header.parent_path() / p;
+std::size_t maxDataFiles(const Dims& dims, std::size_t frames) noexcept {
+    constexpr std::size_t kMaxFiles = 1'000'000;
+    std::size_t rows = 1;
+    for (std::size_t n : {dims.y, dims.z, frames}) {
+        if (n == 0) return 0;
+        if (rows > kMaxFiles / n) return kMaxFiles;
+        rows *= n;
+    }
+    return std::min(rows, kMaxFiles);
 }
 
 std::vector<std::string> expandFilePattern(std::string_view pattern, long long first, long long last,
-                                           long long step, const fs::path& header) {
+                                           long long step, const fs::path& header, std::size_t maxFiles) {
     // Locate the single integer conversion; everything else is literal ("%%" is a literal %).
     std::string prefix, suffix;
     bool found = false, zeroPad = false, leftAlign = false;
@@ -728,13 +768,20 @@ std::vector<std::string> expandFilePattern(std::string_view pattern, long long f
     if (step == 0 || (step > 0 && last < first) || (step < 0 && last > first))
         fail(header, "data file range " + std::to_string(first) + " " + std::to_string(last) + " " +
                          std::to_string(step) + " is empty or endless");
-    const long long span = step > 0 ? last - first : first - last;
-    const long long count = span / (step > 0 ? step : -step) + 1;
-    if (count > 10'000'000) fail(header, "data file range lists more than 10 million files");
+    // Computed in unsigned arithmetic: first - last of two huge values would overflow a long long.
+    const unsigned long long span = step > 0 ? static_cast<unsigned long long>(last) - static_cast<unsigned long long>(first)
+                                             : static_cast<unsigned long long>(first) - static_cast<unsigned long long>(last);
+    const unsigned long long stride = step > 0 ? static_cast<unsigned long long>(step)
+                                               : 0ULL - static_cast<unsigned long long>(step);
+    const unsigned long long count = span / stride + 1;
+    if (count > maxFiles)
+        fail(header, "data file range " + std::to_string(first) + " " + std::to_string(last) + " " +
+                         std::to_string(step) + " lists " + std::to_string(count) + " files for " +
+                         std::to_string(maxFiles) + " possible (each file holds at least one slice)");
     std::vector<std::string> names;
     names.reserve(static_cast<std::size_t>(count));
-    for (long long k = 0; k < count; ++k) {
-        const long long v = first + k * step;
+    for (unsigned long long k = 0; k < count; ++k) {
+        const long long v = first + static_cast<long long>(k) * step;
         std::string digits = std::to_string(v < 0 ? -v : v);
         std::string number = (v < 0 ? "-" : "");
         const int len = static_cast<int>(digits.size() + number.size());

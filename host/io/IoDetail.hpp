@@ -44,6 +44,30 @@ std::optional<SampleType> vtkLegacyType(std::string_view name);
 [[noreturn]] void fail(const std::filesystem::path& file, const std::string& problem);
 [[noreturn]] void unsupported(const std::filesystem::path& file, const std::string& problem); // DataError
 
+/// What one read needs besides its path: the caller's options, the memory budget, and the data files the
+/// header names (resolved, confined to the header's directory, and recorded for same-file checks).
+class ReadContext {
+public:
+    ReadContext(std::filesystem::path file, const ReadOptions& options);
+    const ReadOptions& options() const noexcept { return options_; }
+    const std::filesystem::path& file() const noexcept { return file_; }
+    /// Data file `name` from the header, relative to the header's directory. Refuses (IoError naming the
+    /// header) a file outside that directory unless options().allowExternalData.
+    std::filesystem::path dataFile(std::string_view name);
+    /// checkedVoxelCount() plus the memory check: `voxels` samples of `st` read and converted to the
+    /// model's type must fit the memory budget.
+    std::size_t voxelCount(const Dims& dims, std::size_t frames, SampleType st) const;
+    /// Refuses `bytes` of memory for `what` above the budget.
+    void claimMemory(std::size_t bytes, std::string_view what) const;
+    /// The header followed by every data file resolved so far.
+    const std::vector<std::filesystem::path>& files() const noexcept { return files_; }
+
+private:
+    std::filesystem::path file_;
+    const ReadOptions& options_;
+    std::vector<std::filesystem::path> files_;
+};
+
 /// Voxel count of `dims` times `frames`, refusing zero sizes and products that overflow or exceed
 /// what any file could hold (a lying header must not reach an allocation).
 std::size_t checkedVoxelCount(const Dims& dims, std::size_t frames, const std::filesystem::path& file);
@@ -121,12 +145,15 @@ Dims requireDims(const std::vector<std::string_view>& words, std::size_t first, 
 /// Shortest text that reads back to the same double.
 std::string formatDouble(double v);
 
-/// Resolves a data file named inside a header relative to the header's directory.
-std::filesystem::path siblingPath(const std::filesystem::path& header, std::string_view name);
 /// File names of a NRRD/MetaImage `<printf pattern> <min> <max> <step>` list. Only one integer
-/// conversion (%d, %i or %u with optional 0/- flags and width) is accepted.
+/// conversion (%d, %i or %u with optional 0/- flags and width) is accepted. A range of more than
+/// `maxFiles` names is refused before any name is built (each file must hold at least one sample).
+/// Most data files a volume of `dims` x `frames` may be split into: each holds at least one row of x
+/// samples, and no header may list more than 10^6 (checked before a file name is built).
+std::size_t maxDataFiles(const Dims& dims, std::size_t frames) noexcept;
 std::vector<std::string> expandFilePattern(std::string_view pattern, long long first, long long last,
-                                           long long step, const std::filesystem::path& header);
+                                           long long step, const std::filesystem::path& header,
+                                           std::size_t maxFiles);
 /// Reads a data file that a header refers to; a missing file names both the header and the data file.
 std::vector<std::byte> readDataFile(const std::filesystem::path& header, const std::filesystem::path& data);
 
@@ -141,16 +168,17 @@ std::vector<std::byte> readDetachedPayload(const std::filesystem::path& header,
                                            long long byteSkip, std::size_t lineSkip);
 
 // ---- per-format entry points ---------------------------------------------------------------------
-TimeSeries readRaw(const std::filesystem::path& path, const ReadOptions& options);
-TimeSeries readNrrd(const std::filesystem::path& path);
-TimeSeries readMetaImage(const std::filesystem::path& path);
-TimeSeries readNifti(const std::filesystem::path& path);
-TimeSeries readVtkXmlImage(const std::filesystem::path& path);
-TimeSeries readVtkLegacy(const std::filesystem::path& path);
-TimeSeries readSlc(const std::filesystem::path& path);
-TimeSeries readVdb(const std::filesystem::path& path, const ReadOptions& options);
-TimeSeries readInviwoDat(const std::filesystem::path& path);
-TimeSeries readVoreenVvd(const std::filesystem::path& path);
+// Each reads ctx.file(); ctx carries the options, the memory budget and the data-file confinement.
+TimeSeries readRaw(ReadContext& ctx);
+TimeSeries readNrrd(ReadContext& ctx);
+TimeSeries readMetaImage(ReadContext& ctx);
+TimeSeries readNifti(ReadContext& ctx);
+TimeSeries readVtkXmlImage(ReadContext& ctx);
+TimeSeries readVtkLegacy(ReadContext& ctx);
+TimeSeries readSlc(ReadContext& ctx);
+TimeSeries readVdb(ReadContext& ctx);
+TimeSeries readInviwoDat(ReadContext& ctx);
+TimeSeries readVoreenVvd(ReadContext& ctx);
 
 void writeRaw(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
 void writeNrrd(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);

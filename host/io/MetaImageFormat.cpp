@@ -33,7 +33,8 @@ bool parseBool(std::string_view v, const fs::path& file, std::string_view key) {
 
 } // namespace
 
-TimeSeries readMetaImage(const fs::path& path) {
+TimeSeries readMetaImage(ReadContext& ctx) {
+    const fs::path& path = ctx.file();
     const std::vector<std::byte> bytes = readFileBytes(path);
     const std::string_view text = asText(bytes);
     std::size_t pos = 0;
@@ -106,8 +107,11 @@ TimeSeries readMetaImage(const fs::path& path) {
     for (const char* key : {"offset", "origin", "position"}) {
         if (auto o = field(key)) {
             const auto w = splitWords(*o);
-            for (std::size_t i = 0; i < w.size() && i < 3; ++i)
+            for (std::size_t i = 0; i < w.size() && i < 3; ++i) {
                 origin[i] = requireDouble(w[i], path, "Offset");
+                if (!std::isfinite(origin[i]))
+                    fail(path, "Offset: value " + std::string(w[i]) + " is not finite");
+            }
             break;
         }
     }
@@ -115,7 +119,7 @@ TimeSeries readMetaImage(const fs::path& path) {
     const Dims dims{sizes[0], sizes[1], sizes[2]};
     const std::size_t frames = sizes[3];
     const std::size_t payload =
-        checkedByteCount(checkedVoxelCount(dims, frames, path), sampleSize(*st), path);
+        checkedByteCount(ctx.voxelCount(dims, frames, *st), sampleSize(*st), path);
     long long headerSize = 0;
     if (auto hs = field("headersize")) headerSize = requireInt(*hs, path, "HeaderSize");
     if (headerSize < -1) fail(path, "HeaderSize must be -1 or more");
@@ -140,15 +144,16 @@ TimeSeries readMetaImage(const fs::path& path) {
         std::vector<fs::path> files;
         if (!w.empty() && iequals(w[0], "LIST")) {
             for (const std::string& f : listFiles)
-                files.push_back(siblingPath(path, f));
+                files.push_back(ctx.dataFile(f));
         } else if (w.size() >= 4 && dataFile.find('%') != std::string::npos) {
             for (const std::string& n :
                  expandFilePattern(w[0], requireInt(w[1], path, "ElementDataFile min"),
                                    requireInt(w[2], path, "ElementDataFile max"),
-                                   requireInt(w[3], path, "ElementDataFile step"), path))
-                files.push_back(siblingPath(path, n));
+                                   requireInt(w[3], path, "ElementDataFile step"), path,
+                                   maxDataFiles(dims, frames)))
+                files.push_back(ctx.dataFile(n));
         } else {
-            files.push_back(siblingPath(path, dataFile));
+            files.push_back(ctx.dataFile(dataFile));
         }
         if (files.size() > payload) fail(path, "more data files than voxels");
         data = readDetachedPayload(path, files, payload,

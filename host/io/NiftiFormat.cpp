@@ -60,7 +60,8 @@ std::optional<SampleType> niftiType(int code) {
 
 } // namespace
 
-TimeSeries readNifti(const fs::path& path) {
+TimeSeries readNifti(ReadContext& ctx) {
+    const fs::path& path = ctx.file();
     const std::vector<std::byte> file = readFileBytes(path);
     const bool gz = looksCompressed(file); // .nii files are sometimes gzipped without the .gz suffix
     std::vector<std::byte> head =
@@ -112,7 +113,8 @@ TimeSeries readNifti(const fs::path& path) {
     std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
     for (int i = 0; i < 3; ++i) {
         const double p = std::abs(static_cast<double>(h.get<float>(80 + 4 * i)));
-        if (std::isfinite(p) && p > 0) spacing[i] = p;
+        if (!std::isfinite(p)) fail(path, "pixdim[" + std::to_string(i + 1) + "] is not finite");
+        if (p > 0) spacing[i] = p;
     }
     const int qformCode = h.get<std::int16_t>(252), sformCode = h.get<std::int16_t>(254);
     if (sformCode > 0) {
@@ -122,8 +124,8 @@ TimeSeries readNifti(const fs::path& path) {
         for (int i = 0; i < 3; ++i)
             origin[i] = h.get<float>(268 + 4 * i);
     }
-    for (double& o : origin)
-        if (!std::isfinite(o)) o = 0;
+    for (double o : origin)
+        if (!std::isfinite(o)) fail(path, (sformCode > 0 ? "srow" : "qoffset") + std::string(" origin is not finite"));
 
     const float voxOffsetF = h.get<float>(108);
     if (!std::isfinite(voxOffsetF) || voxOffsetF < 0 || voxOffsetF > 1e12f ||
@@ -136,7 +138,7 @@ TimeSeries readNifti(const fs::path& path) {
     const Dims dims{sizes[0], sizes[1], sizes[2]};
     const std::size_t frames = sizes[3];
     const std::size_t payload =
-        checkedByteCount(checkedVoxelCount(dims, frames, path), sampleSize(*st), path);
+        checkedByteCount(ctx.voxelCount(dims, frames, *st), sampleSize(*st), path);
     const std::size_t total = voxOffset + payload;
     std::vector<std::byte> inflated;
     std::span<const std::byte> all(file);
@@ -152,7 +154,9 @@ TimeSeries readNifti(const fs::path& path) {
 
     // scl_slope = 0 means "no scaling" by the standard; 1/0 is the identity.
     const double slope = h.get<float>(112), inter = h.get<float>(116);
-    if (std::isfinite(slope) && std::isfinite(inter) && slope != 0 && (slope != 1 || inter != 0)) {
+    if (!std::isfinite(slope) || !std::isfinite(inter))
+        fail(path, "scl_slope " + formatDouble(slope) + " / scl_inter " + formatDouble(inter) + " is not finite");
+    if (slope != 0 && (slope != 1 || inter != 0)) {
         for (Volume& v : series.frames) {
             Volume f(v.dims(), ScalarType::Float32);
             f.spacing = v.spacing;

@@ -135,13 +135,17 @@ const char* const kNonScalarKinds[] = {"vector",
 
 } // namespace
 
-TimeSeries readNrrd(const fs::path& path) {
+TimeSeries readNrrd(ReadContext& ctx) {
+    const fs::path& path = ctx.file();
     const std::vector<std::byte> bytes = readFileBytes(path);
     const std::string_view text = asText(bytes);
     std::size_t pos = 0;
     auto magic = nextLine(text, pos);
     if (!magic || !magic->starts_with("NRRD000") || magic->size() != 8)
         fail(path, "not a NRRD file (no NRRD000x magic line)");
+    // Versions 1 to 5 are the ones the NRRD format defines; anything else is not a file we understand.
+    if ((*magic)[7] < '1' || (*magic)[7] > '5')
+        fail(path, "unsupported NRRD version '" + std::string(*magic) + "' (NRRD0001 to NRRD0005 are read)");
 
     std::map<std::string, std::string> fields;
     std::vector<std::string> listFiles;
@@ -202,7 +206,7 @@ TimeSeries readNrrd(const fs::path& path) {
     }
     const Dims dims{sizes[0], sizes[1], sizes[2]};
     const std::size_t frames = sizes[3];
-    const std::size_t voxels = checkedVoxelCount(dims, frames, path);
+    const std::size_t voxels = ctx.voxelCount(dims, frames, *st);
     const std::size_t payload = checkedByteCount(voxels, sampleSize(*st), path);
 
     Endian endian = Endian::Little;
@@ -228,8 +232,10 @@ TimeSeries readNrrd(const fs::path& path) {
     if (auto sp = field("spacings")) {
         const auto w = splitWords(*sp);
         for (std::size_t i = 0; i < w.size() && i < 3; ++i) {
-            const double v = iequals(w[i], "nan") ? NAN : requireDouble(w[i], path, "spacings");
-            if (std::isfinite(v) && v != 0) spacing[i] = std::abs(v);
+            const double v = requireDouble(w[i], path, "spacings");
+            if (!std::isfinite(v) || v == 0)
+                fail(path, "spacings: value " + std::string(w[i]) + " is not a non-zero finite number");
+            spacing[i] = std::abs(v);
         }
     }
     if (auto dirs = field("space directions")) {
@@ -253,8 +259,9 @@ TimeSeries readNrrd(const fs::path& path) {
     } else if (auto mins = field("axis mins")) {
         const auto w = splitWords(*mins);
         for (std::size_t i = 0; i < w.size() && i < 3; ++i) {
-            const double v = iequals(w[i], "nan") ? NAN : requireDouble(w[i], path, "axis mins");
-            if (std::isfinite(v)) origin[i] = v;
+            const double v = requireDouble(w[i], path, "axis mins");
+            if (!std::isfinite(v)) fail(path, "axis mins: value " + std::string(w[i]) + " is not finite");
+            origin[i] = v;
         }
     }
 
@@ -277,13 +284,14 @@ TimeSeries readNrrd(const fs::path& path) {
         if (w.empty()) fail(path, "empty 'data file' field");
         if (w[0] == "LIST") {
             for (const std::string& f : listFiles)
-                files.push_back(siblingPath(path, f));
+                files.push_back(ctx.dataFile(f));
         } else if (w.size() >= 4) {
             const auto names = expandFilePattern(w[0], requireInt(w[1], path, "data file min"),
                                                  requireInt(w[2], path, "data file max"),
-                                                 requireInt(w[3], path, "data file step"), path);
+                                                 requireInt(w[3], path, "data file step"), path,
+                                                 maxDataFiles(dims, frames));
             for (const std::string& n : names)
-                files.push_back(siblingPath(path, n));
+                files.push_back(ctx.dataFile(n));
             if (w.size() >= 5) {
                 const long long subdim = requireInt(w[4], path, "data file subdim");
                 std::size_t expectFiles = 1;
@@ -294,7 +302,7 @@ TimeSeries readNrrd(const fs::path& path) {
                                    std::to_string(files.size()) + " files");
             }
         } else {
-            files.push_back(siblingPath(path, *df));
+            files.push_back(ctx.dataFile(*df));
         }
         if (files.size() > voxels) fail(path, "more data files than voxels");
         data = readDetachedPayload(path, files, payload, encoding, byteSkip, lineSkip);

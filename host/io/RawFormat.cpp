@@ -6,7 +6,9 @@ namespace volcl::io {
 
 namespace fs = std::filesystem;
 
-TimeSeries readRaw(const fs::path& path, const ReadOptions& options) {
+TimeSeries readRaw(ReadContext& ctx) {
+    const fs::path& path = ctx.file();
+    const ReadOptions& options = ctx.options();
     const auto fromName = parseRawFileName(path.filename().string());
     std::optional<Dims> dims = options.dims;
     std::optional<ScalarType> type = options.type;
@@ -18,8 +20,8 @@ TimeSeries readRaw(const fs::path& path, const ReadOptions& options) {
         throw UsageError(path.string() +
                          ": a raw file needs its size and type: name it <name>_<X>x<Y>x<Z>_<type>.raw "
                          "or give --dims and --type");
-    const std::size_t voxels = checkedVoxelCount(*dims, 1, path);
     const SampleType st = sampleTypeOf(*type);
+    const std::size_t voxels = ctx.voxelCount(*dims, 1, st);
     const std::size_t payload = checkedByteCount(voxels, sampleSize(st), path);
     const std::size_t expected = payload + options.headerBytes;
     const std::string what = std::to_string(dims->x) + "x" + std::to_string(dims->y) + "x" +

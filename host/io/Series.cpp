@@ -189,13 +189,16 @@ std::vector<fs::path> expandSeriesInputs(std::span<const std::string> inputs) {
     return out;
 }
 
-SeriesInput readSeriesInputs(std::span<const std::string> inputs, const ReadOptions& options) {
+SeriesInput readSeriesInputs(std::span<const std::string> inputs, const ReadOptions& options,
+                             std::vector<fs::path>* filesRead) {
     const std::vector<PvdEntry> files = expandAll(inputs);
     SeriesInput in;
     bool allTimed = true;
     std::vector<double> times;
     for (const PvdEntry& f : files) {
-        TimeSeries part = readVolumeFile(f.file, options);
+        std::vector<fs::path> partFiles;
+        TimeSeries part = readVolumeFile(f.file, options, partFiles);
+        if (filesRead) filesRead->insert(filesRead->end(), partFiles.begin(), partFiles.end());
         const bool fileTimed = std::isfinite(f.time) || part.times.size() == part.frames.size();
         allTimed = allTimed && fileTimed;
         for (std::size_t k = 0; k < part.frames.size(); ++k) {

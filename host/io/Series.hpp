@@ -54,7 +54,8 @@ struct SeriesInput {
 /// a mismatch throws DataError naming the frame's index and file. Missing files and empty globs throw
 /// IoError. The frames' headers are not cheaper to read than their payload for most formats, so frames
 /// are read one at a time and checked as they arrive (a mismatch stops before the next file is read).
-SeriesInput readSeriesInputs(std::span<const std::string> inputs, const ReadOptions& options = {});
+SeriesInput readSeriesInputs(std::span<const std::string> inputs, const ReadOptions& options = {},
+                             std::vector<std::filesystem::path>* filesRead = nullptr);
 
 /// The file list the inputs name, in frame order, without reading any volume (the .pvd files are parsed).
 std::vector<std::filesystem::path> expandSeriesInputs(std::span<const std::string> inputs);

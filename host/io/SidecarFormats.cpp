@@ -13,11 +13,11 @@ namespace fs = std::filesystem;
 namespace {
 
 // Reads `frames` volumes stored back to back in one raw file; its size must match exactly.
-TimeSeries readSidecarRaw(const fs::path& header, const fs::path& data, const Dims& dims, std::size_t frames,
+TimeSeries readSidecarRaw(const ReadContext& ctx, const fs::path& data, const Dims& dims, std::size_t frames,
                           SampleType st, Endian endian, std::size_t byteOffset,
                           const std::array<double, 3>& spacing, const std::array<double, 3>& origin) {
-    const std::size_t payload =
-        checkedByteCount(checkedVoxelCount(dims, frames, header), sampleSize(st), header);
+    const fs::path& header = ctx.file();
+    const std::size_t payload = checkedByteCount(ctx.voxelCount(dims, frames, st), sampleSize(st), header);
     std::error_code ec;
     if (!fs::is_regular_file(data, ec)) fail(header, "data file '" + data.string() + "' does not exist");
     const std::uintmax_t size = fs::file_size(data, ec);
@@ -60,7 +60,8 @@ std::optional<SampleType> voreenType(std::string_view name) {
 
 } // namespace
 
-TimeSeries readInviwoDat(const fs::path& path) {
+TimeSeries readInviwoDat(ReadContext& ctx) {
+    const fs::path& path = ctx.file();
     const std::vector<std::byte> bytes = readFileBytes(path);
     const std::string_view text = asText(bytes);
     std::map<std::string, std::string> fields;
@@ -125,11 +126,12 @@ TimeSeries readInviwoDat(const fs::path& path) {
         spacing = requireTriple(splitWords(*sp), 0, path, "Spacing", true);
     }
     if (auto off = field("offset")) origin = requireTriple(splitWords(*off), 0, path, "Offset", false);
-    return readSidecarRaw(path, siblingPath(path, *rawName), dims, frames, *st, endian, byteOffset, spacing,
+    return readSidecarRaw(ctx, ctx.dataFile(*rawName), dims, frames, *st, endian, byteOffset, spacing,
                           origin);
 }
 
-TimeSeries readVoreenVvd(const fs::path& path) {
+TimeSeries readVoreenVvd(ReadContext& ctx) {
+    const fs::path& path = ctx.file();
     const std::vector<std::byte> bytes = readFileBytes(path);
     const XmlDocument doc = scanXml(asText(bytes), path);
     if (doc.elements[0].name != "VoreenData")
@@ -166,7 +168,7 @@ TimeSeries readVoreenVvd(const fs::path& path) {
             }
         }
         TimeSeries one =
-            readSidecarRaw(path, siblingPath(path, *file), dims, 1, *st, Endian::Little, 0, spacing, origin);
+            readSidecarRaw(ctx, ctx.dataFile(*file), dims, 1, *st, Endian::Little, 0, spacing, origin);
         series.frames.push_back(std::move(one.frames.front()));
     }
     if (series.frames.empty()) fail(path, "no <Volume> element");

@@ -79,7 +79,8 @@ void decodeRle(std::span<const std::byte> in, std::span<std::byte> out, const fs
 
 } // namespace
 
-TimeSeries readSlc(const fs::path& path) {
+TimeSeries readSlc(ReadContext& ctx) {
+    const fs::path& path = ctx.file();
     const std::vector<std::byte> bytes = readFileBytes(path);
     SlcScanner s(bytes, path);
     if (s.integer("magic") != 11111) fail(path, "not a VolVis SLC file (magic is not 11111)");
@@ -94,7 +95,8 @@ TimeSeries readSlc(const fs::path& path) {
     std::array<double, 3> spacing{};
     for (double& u : spacing) {
         u = s.real("voxel size");
-        if (!(u > 0) || !std::isfinite(u)) u = 1.0;
+        if (!std::isfinite(u)) fail(path, "voxel size " + formatDouble(u) + " is not finite");
+        if (!(u > 0)) u = 1.0;
     }
     s.integer("unit type");
     s.integer("data source");
@@ -109,7 +111,7 @@ TimeSeries readSlc(const fs::path& path) {
 
     const Dims dims{static_cast<std::size_t>(size[0]), static_cast<std::size_t>(size[1]),
                     static_cast<std::size_t>(size[2])};
-    const std::size_t voxels = checkedVoxelCount(dims, 1, path);
+    const std::size_t voxels = ctx.voxelCount(dims, 1, SampleType::UInt8);
     const std::size_t plane = dims.x * dims.y;
     // Even run-length data needs 2 bytes per 127 voxels, so a lying header is caught before allocating.
     if ((compression == 0 ? voxels : voxels / 64) > s.remaining() + 1)

@@ -1,5 +1,6 @@
 // OpenVDB (.vdb) through libopenvdb: float/double grids densified over their box; exact FloatGrid writer.
 #include "host/io/AtomicFile.hpp"
+#include "host/MemoryBudget.hpp"
 #include "host/io/IoDetail.hpp"
 
 #include <openvdb/io/File.h>
@@ -46,21 +47,18 @@ bool isScalarGrid(const openvdb::GridBase& g) {
     return g.isType<openvdb::FloatGrid>() || g.isType<openvdb::DoubleGrid>();
 }
 
-std::size_t physicalMemoryBytes() {
-    const long pages = ::sysconf(_SC_PHYS_PAGES), pageSize = ::sysconf(_SC_PAGE_SIZE);
-    if (pages <= 0 || pageSize <= 0) return std::numeric_limits<std::size_t>::max();
-    return static_cast<std::size_t>(pages) * static_cast<std::size_t>(pageSize);
-}
-
 template <class GridT>
-Volume densify(const GridT& grid, const openvdb::CoordBBox& box, const fs::path& path) {
+Volume densify(const GridT& grid, const openvdb::CoordBBox& box, const fs::path& path,
+               std::size_t memoryBudget) {
     const openvdb::Coord size = box.dim();
     const Dims dims{static_cast<std::size_t>(size.x()), static_cast<std::size_t>(size.y()),
                     static_cast<std::size_t>(size.z())};
     const std::size_t voxels = checkedVoxelCount(dims, 1, path);
-    if (voxels > physicalMemoryBytes() / 4)
-        unsupported(path, "dense box " + std::to_string(dims.x) + "x" + std::to_string(dims.y) + "x" +
-                              std::to_string(dims.z) + " does not fit in memory");
+    // The dense float box and its copy in the volume model's type.
+    if (voxels > std::numeric_limits<std::size_t>::max() / 8) fail(path, "dense box size overflows");
+    checkMemoryBudget(voxels * 8, memoryBudget, path,
+                      "dense box " + std::to_string(dims.x) + "x" + std::to_string(dims.y) + "x" +
+                          std::to_string(dims.z));
     Volume v(dims, ScalarType::Float32);
     auto out = v.values<float>();
     std::fill(out.begin(), out.end(), static_cast<float>(grid.background()));
@@ -240,9 +238,9 @@ TimeSeries readVdbImpl(const fs::path& path, const ReadOptions& options) {
 
     Volume dense;
     if (auto fg = openvdb::gridPtrCast<openvdb::FloatGrid>(base))
-        dense = densify(*fg, box, path);
+        dense = densify(*fg, box, path, options.memoryBudget);
     else if (auto dg = openvdb::gridPtrCast<openvdb::DoubleGrid>(base))
-        dense = densify(*dg, box, path);
+        dense = densify(*dg, box, path, options.memoryBudget);
     else
         unsupported(path, describeGrid(*base));
 
@@ -345,7 +343,9 @@ bool writeAll(int fd, const void* data, std::size_t n) {
 
 } // namespace
 
-TimeSeries readVdb(const fs::path& path, const ReadOptions& options) {
+TimeSeries readVdb(ReadContext& ctx) {
+    const fs::path& path = ctx.file();
+    const ReadOptions& options = ctx.options();
     checkVdbLayout(path);
     int fds[2];
     if (::pipe(fds) != 0) throw IoError(path.string() + ": cannot create a pipe: " + std::strerror(errno));

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 
@@ -108,46 +109,62 @@ VolumeFormat detectVolumeFormat(const fs::path& path) {
         ".slc .vdb .dat .vvd)");
 }
 
-TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options) {
+TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options,
+                          std::vector<fs::path>& filesRead) {
     std::error_code ec;
     if (!fs::exists(path, ec)) throw IoError(path.string() + ": file does not exist");
     if (fs::is_directory(path, ec)) throw IoError(path.string() + ": is a directory, not a volume file");
+    io::ReadContext ctx(path, options);
     TimeSeries series;
     switch (detectVolumeFormat(path)) {
     case VolumeFormat::Raw:
-        series = io::readRaw(path, options);
+        series = io::readRaw(ctx);
         break;
     case VolumeFormat::Nrrd:
-        series = io::readNrrd(path);
+        series = io::readNrrd(ctx);
         break;
     case VolumeFormat::MetaImage:
-        series = io::readMetaImage(path);
+        series = io::readMetaImage(ctx);
         break;
     case VolumeFormat::Nifti:
-        series = io::readNifti(path);
+        series = io::readNifti(ctx);
         break;
     case VolumeFormat::VtkXmlImage:
-        series = io::readVtkXmlImage(path);
+        series = io::readVtkXmlImage(ctx);
         break;
     case VolumeFormat::VtkLegacy:
-        series = io::readVtkLegacy(path);
+        series = io::readVtkLegacy(ctx);
         break;
     case VolumeFormat::Slc:
-        series = io::readSlc(path);
+        series = io::readSlc(ctx);
         break;
     case VolumeFormat::Vdb:
-        series = io::readVdb(path, options);
+        series = io::readVdb(ctx);
         break;
     case VolumeFormat::InviwoDat:
-        series = io::readInviwoDat(path);
+        series = io::readInviwoDat(ctx);
         break;
     case VolumeFormat::VoreenVvd:
-        series = io::readVoreenVvd(path);
+        series = io::readVoreenVvd(ctx);
         break;
     }
     if (series.frames.empty()) throw IoError(path.string() + ": contains no volume");
+    // Every format's geometry passes one check: a NaN spacing or origin would poison every position.
+    for (const Volume& v : series.frames)
+        for (int a = 0; a < 3; ++a) {
+            if (!std::isfinite(v.spacing[a]) || !(v.spacing[a] > 0))
+                io::fail(path, "voxel spacing " + io::formatDouble(v.spacing[a]) + " is not a positive finite number");
+            if (!std::isfinite(v.origin[a]))
+                io::fail(path, "origin " + io::formatDouble(v.origin[a]) + " is not finite");
+        }
     series.validate();
+    filesRead = ctx.files();
     return series;
+}
+
+TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options) {
+    std::vector<fs::path> filesRead;
+    return readVolumeFile(path, options, filesRead);
 }
 
 Volume readVolume(const fs::path& path, const ReadOptions& options) {
@@ -167,6 +184,16 @@ void writeVolumeFile(const Volume& volume, const fs::path& path, const WriteOpti
     else
         throw UsageError(path.string() +
                          ": cannot write this format (writers: .raw, .raw.gz, .nrrd, .nhdr, .vdb)");
+}
+
+std::vector<fs::path> volumeFilesWritten(const fs::path& path) {
+    std::vector<fs::path> files{path};
+    if (endsWithI(path.filename().string(), ".nhdr")) {
+        fs::path data = path;
+        data.replace_extension(".raw");
+        files.push_back(data);
+    }
+    return files;
 }
 
 std::optional<std::pair<Dims, ScalarType>> parseRawFileName(std::string_view fileName) {

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <optional>
 #include <string_view>
+#include <vector>
 
 namespace volcl {
 
@@ -35,11 +36,21 @@ struct ReadOptions {
     Endian endian = Endian::Little;
     std::size_t headerBytes = 0;        ///< raw only: bytes to skip before the payload
     std::optional<std::string> vdbGrid; ///< VDB: grid name (default: the first scalar grid)
+    /// Data files a header names (NRRD/MetaImage `data file`, .dat/.vvd raw files) must lie in or below
+    /// the header's directory; true lets a header point anywhere (an absolute path, `../x`).
+    bool allowExternalData = false;
+    /// Largest memory one input may claim, in bytes (0 = defaultMemoryBudget(): half the physical
+    /// memory). Size claims above it are refused before allocation; raise it to read larger inputs.
+    std::size_t memoryBudget = 0;
 };
 
 /// Reads every frame of a volume file (a 3D file gives one frame). Validates header against payload:
 /// throws IoError for truncated, oversized or garbage files, DataError for unsupported content.
 TimeSeries readVolumeFile(const std::filesystem::path& path, const ReadOptions& options = {});
+/// Same, and lists every file the read consisted of (the header and each data file it names), so a
+/// caller can refuse to write over any of them (checkNotSameFile).
+TimeSeries readVolumeFile(const std::filesystem::path& path, const ReadOptions& options,
+                          std::vector<std::filesystem::path>& filesRead);
 /// Reads a 3D volume; a 4D file gives its first frame.
 Volume readVolume(const std::filesystem::path& path, const ReadOptions& options = {});
 
@@ -52,6 +63,9 @@ struct WriteOptions {
 /// the extension. Writes atomically (temporary + rename). Throws UsageError for an unsupported format.
 void writeVolumeFile(const Volume& volume, const std::filesystem::path& path,
                      const WriteOptions& options = {});
+
+/// Every file writeVolumeFile(volume, path) creates: the path itself and, for a detached .nhdr, its .raw.
+std::vector<std::filesystem::path> volumeFilesWritten(const std::filesystem::path& path);
 
 /// Parses `<X>x<Y>x<Z>_<type>` from a raw file name such as `head_256x256x113_uint16.raw`.
 std::optional<std::pair<Dims, ScalarType>> parseRawFileName(std::string_view fileName);

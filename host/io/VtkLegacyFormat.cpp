@@ -24,7 +24,8 @@ bool startsWithSectionKeyword(std::string_view s) {
 
 } // namespace
 
-TimeSeries readVtkLegacy(const fs::path& path) {
+TimeSeries readVtkLegacy(ReadContext& ctx) {
+    const fs::path& path = ctx.file();
     const std::vector<std::byte> bytes = readFileBytes(path);
     const std::string_view text = asText(bytes);
     std::size_t pos = 0;
@@ -98,7 +99,7 @@ TimeSeries readVtkLegacy(const fs::path& path) {
     if (!datasetSeen) fail(path, "no DATASET line (truncated or not a volume)");
     if (!dims) fail(path, "no DIMENSIONS line");
     if (!st) fail(path, "no SCALARS point data (truncated?)");
-    const std::size_t voxels = checkedVoxelCount(*dims, 1, path);
+    const std::size_t voxels = ctx.voxelCount(*dims, 1, *st);
     if (*pointCount != voxels)
         fail(path, "POINT_DATA " + std::to_string(*pointCount) + " does not match DIMENSIONS (" +
                        std::to_string(voxels) + " points)");

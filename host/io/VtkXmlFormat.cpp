@@ -52,7 +52,8 @@ double firstValue(std::span<const std::byte> b, SampleType t, bool swap) {
 
 } // namespace
 
-TimeSeries readVtkXmlImage(const fs::path& path) {
+TimeSeries readVtkXmlImage(ReadContext& ctx) {
+    const fs::path& path = ctx.file();
     const std::vector<std::byte> bytes = readFileBytes(path);
     const std::string_view text = asText(bytes);
     const XmlDocument doc = scanXml(text, path, "AppendedData");
@@ -78,7 +79,8 @@ TimeSeries readVtkXmlImage(const fs::path& path) {
         n[a] = static_cast<std::size_t>(ext[2 * a + 1] - ext[2 * a]) + 1;
     }
     const Dims dims{n[0], n[1], n[2]};
-    const std::size_t voxels = checkedVoxelCount(dims, 1, path);
+    // The sample type is only known per array; the largest (8 bytes, converted to float32) bounds it.
+    const std::size_t voxels = ctx.voxelCount(dims, 1, SampleType::Float64);
     std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
     if (auto sp = image.attr("Spacing")) spacing = requireTriple(splitWords(*sp), 0, path, "Spacing", true);
     if (auto o = image.attr("Origin")) origin = requireTriple(splitWords(*o), 0, path, "Origin", false);

@@ -350,7 +350,8 @@ void Scene::validate() const {
     };
     need(width >= 1 && height >= 1 && width <= 16384 && height <= 16384,
          "image size " + std::to_string(width) + "x" + std::to_string(height) + " must be 1..16384 per side");
-    need(std::isfinite(step) && step > 0.0, "render.step must be > 0");
+    // Lengths reach the kernels as float: 1e30 leaves headroom below float's 3.4e38.
+    need(std::isfinite(step) && step > 0.0 && step <= 1e30, "render.step must be in (0, 1e30]");
     need(earlyTermination > 0.0 && earlyTermination <= 1.0, "render.early_termination must be in (0, 1]");
     need(tableSize >= 2 && tableSize <= 4096, "render.table_size must be 2..4096");
     need(tableLengths >= 1 && tableLengths <= 1024, "render.table_lengths must be 1..1024");
@@ -376,7 +377,8 @@ void Scene::validate() const {
     const SceneEffects& e = effects;
     need(e.ambient >= 0 && e.diffuse >= 0 && e.specular >= 0 && e.shininess >= 0,
          "shading coefficients must be >= 0");
-    need(e.shadowStep >= 0.0, "effects.shadow_step must be >= 0");
+    need(std::isfinite(e.shadowStep) && e.shadowStep >= 0.0 && e.shadowStep <= 1e30,
+         "effects.shadow_step must be 0 (the render step) or in (0, 1e30]");
     need(e.albedo >= 0.0 && e.albedo <= 1.0, "effects.scattering.albedo must be in [0, 1]");
     need(e.phaseG > -1.0 && e.phaseG < 1.0, "effects.scattering.g must be in (-1, 1)");
     need(e.clipPlanes.size() <= 4, "at most 4 clipping planes");
@@ -409,6 +411,28 @@ std::vector<std::string> applyLightingDefaults(Scene& scene) {
         notes.push_back("no light given: using a head light (at the eye, intensity 1); --light sets others");
     }
     return notes;
+}
+
+namespace {
+std::string shortNumber(double v) {
+    std::ostringstream s;
+    s << v;
+    return s.str();
+}
+} // namespace
+
+void Scene::validateSteps(double worldDiagonal) const {
+    // Guard against steps so small that one ray would take longer than any frame should.
+    constexpr double kMaxSamplesPerRay = 5e7;
+    auto check = [&](double value, const char* field) {
+        if (worldDiagonal / value > kMaxSamplesPerRay)
+            throw UsageError(std::string(field) + " " + shortNumber(value) + " needs " +
+                             shortNumber(std::ceil(worldDiagonal / value)) +
+                             " samples per ray; use a step of at least " +
+                             shortNumber(worldDiagonal / kMaxSamplesPerRay));
+    };
+    check(step, "render.step");
+    if (effects.shadowStep > 0.0) check(effects.shadowStep, "effects.shadow_step");
 }
 
 Camera defaultCamera(const WorldBox& box) {

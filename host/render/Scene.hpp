@@ -91,6 +91,9 @@ struct Scene {
     std::string toJson() const;
     /// Throws UsageError naming the field for out-of-range values.
     void validate() const;
+    /// Refuses (UsageError) steps that would make one ray too long for a volume whose world-space diagonal
+    /// is `worldDiagonal`: render.step and effects.shadow_step each at most 5e7 samples across it.
+    void validateSteps(double worldDiagonal) const;
 };
 
 /// Fills in what a scene leaves to defaults, before planning: iso mode shades when nothing says otherwise,

@@ -56,7 +56,8 @@ double number(const json& v, const std::string& where) {
 json parseJson(std::string_view text) {
     try {
         return json::parse(text.begin(), text.end());
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {
+        // parse_error for bad syntax, out_of_range for numbers such as 1e400 that no double holds.
         throw DataError(std::string("transfer function: invalid JSON (") + e.what() + ")");
     }
 }
@@ -354,7 +355,9 @@ TransferFunction TransferFunction::fromFile(const std::filesystem::path& path,
             return fromJson(text.str(), opacityUnitDistance);
         }
         if (ext == ".png" || ext == ".exr" || ext == ".tif" || ext == ".tiff") {
-            ImageBuffer img = readImage(path);
+            // A strip of up to 2^20 RGBA pixels; a forged EXR data window is refused before allocation.
+            constexpr std::size_t kMaxStripBytes = std::size_t{16} << 20;
+            ImageBuffer img = readImage(path, kMaxStripBytes);
             if (img.height != 1)
                 throw DataError("RGBA strip must be 1 pixel high, this one is " + std::to_string(img.width) +
                                 "x" + std::to_string(img.height));

@@ -1,6 +1,8 @@
 // .vcz serialisation and validated parsing (layout in docs/codec.md).
 #include "wavelet/container/VczFormat.hpp"
 
+#include "host/MemoryBudget.hpp"
+
 #include "host/Error.hpp"
 #include "wavelet/entropy/EntropyCoder.hpp"
 
@@ -176,7 +178,8 @@ std::vector<std::byte> writeVcz(const VczHeader& h, std::span<const std::vector<
     return out;
 }
 
-VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string& name) {
+VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string& name,
+                        std::size_t memoryBudget) {
     const std::span<const std::uint8_t> file(reinterpret_cast<const std::uint8_t*>(fileBytes.data()),
                                              fileBytes.size());
     if (file.size() < kVczMagic.size() + 8 || !std::equal(kVczMagic.begin(), kVczMagic.end(), file.begin()))
@@ -226,6 +229,17 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
         h.dims.z > kMaxDim)
         r.fail("invalid dimensions");
     if (h.brick.x == 0 || h.brick.y == 0 || h.brick.z == 0) r.fail("invalid brick size");
+    // Combinations no encoder writes: integer lifting needs a reversible wavelet and integer voxels,
+    // raw bit planes hold float voxels.
+    if (h.transform == TransformKind::IntegerLifting && !hasIntegerForm(h.wavelet))
+        r.fail("integer transform with a wavelet that has no integer form (corrupt header)");
+    if (h.transform == TransformKind::IntegerLifting && h.type == ScalarType::Float32)
+        r.fail("integer transform of float32 voxels (corrupt header)");
+    if (h.transform == TransformKind::RawBits && h.type != ScalarType::Float32)
+        r.fail("raw bit planes of integer voxels (corrupt header)");
+    checkMemoryBudget(h.dims.count() * scalarSize(h.type), memoryBudget, name,
+                      "a " + std::to_string(h.dims.x) + "x" + std::to_string(h.dims.y) + "x" +
+                          std::to_string(h.dims.z) + " frame");
     const auto nSteps = r.get<std::uint32_t>();
     if (nSteps > r.remaining() / 8) r.fail("truncated");
     h.steps.resize(nSteps);
@@ -272,6 +286,7 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
     Reader ir(file.subspan(indexStart, indexBytes), name, "brick index");
     h.bricks.assign(nFrames, std::vector<VczBrickEntry>(bricks));
     const std::size_t payloadStart = indexStart + indexBytes + 8;
+    std::size_t payloadEnd = payloadStart;
     for (auto& frame : h.bricks) {
         for (std::size_t i = 0; i < bricks; ++i) {
             VczBrickEntry& e = frame[i];
@@ -282,8 +297,14 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
             e.max = ir.get<double>();
             if (e.offset < payloadStart || e.size > file.size() || e.offset > file.size() - e.size)
                 throw IoError(name + ": brick " + std::to_string(i) + " lies outside the file (truncated?)");
+            payloadEnd = std::max<std::size_t>(payloadEnd, e.offset + e.size);
         }
     }
+    for (const VczFrame& f : h.frames)
+        payloadEnd = std::max<std::size_t>(payloadEnd, f.auxOffset + f.auxSize);
+    if (payloadEnd != file.size())
+        throw IoError(name + ": " + std::to_string(file.size() - payloadEnd) +
+                      " bytes of trailing data after the last brick (corrupt or appended to)");
     return h;
 }
 

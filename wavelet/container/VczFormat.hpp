@@ -80,9 +80,12 @@ std::vector<std::byte> writeVcz(const VczHeader& header, std::span<const std::ve
 /// Size in bytes of the header + index block for this header (payload offsets start there).
 std::size_t vczPreambleSize(const VczHeader& header);
 
-/// Parses and validates magic, version, header checksum, index checksum and that every brick lies
-/// inside the file. Throws IoError naming `name` on any inconsistency; never reads out of bounds.
-VczHeader readVczHeader(std::span<const std::byte> file, const std::string& name);
+/// Parses and validates magic, version, header checksum, index checksum, that every brick lies inside
+/// the file and that nothing follows the last one, and that the header's fields are a combination an
+/// encoder writes. A frame larger than `memoryBudget` bytes (0 = defaultMemoryBudget()) is refused as
+/// a forged size. Throws IoError naming `name` on any inconsistency; never reads out of bounds.
+VczHeader readVczHeader(std::span<const std::byte> file, const std::string& name,
+                        std::size_t memoryBudget = 0);
 
 /// Payload of one brick after checking its checksum (IoError naming the brick on mismatch).
 std::span<const std::uint8_t> vczBrickPayload(std::span<const std::byte> file, const VczHeader& header,

@@ -166,12 +166,7 @@ void GridRenderer::rebuild(bool tfChanged) {
     plan_ = planGrid(scene_, volume_, impl_->range);
     Impl& m = *impl_;
 
-    // Guard against steps so small that one ray would take longer than any frame should.
-    const WorldBox box = bounds();
-    const double diag = norm(sub(box.hi(), box.origin));
-    if (diag / scene_.step > 5e7)
-        throw UsageError("render.step " + fmt(scene_.step) + " needs " + fmt(std::ceil(diag / scene_.step)) +
-                         " samples per ray; use a step of at least " + fmt(diag / 5e7));
+    scene_.validateSteps(norm(bounds().extent));
 
     TransferFunction shaded = tf_;
     if (plan_.colorScale != 1.0)

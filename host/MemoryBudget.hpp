@@ -1,0 +1,24 @@
+// The memory budget: the largest amount of memory one input file may make volcl allocate.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <string_view>
+
+namespace volcl {
+
+/// Default budget: half of the machine's physical memory, at least 1 GiB. A size claim above the
+/// budget (a header promising 10^11 voxels, a forged .vcz) is refused before anything is allocated,
+/// so a lying file ends in a one-line error naming it instead of an allocation failure. Readers take
+/// the budget from ReadOptions::memoryBudget (0 = this default); raise it there to read larger inputs.
+std::size_t defaultMemoryBudget() noexcept;
+
+/// `budget` itself, or the default when it is 0.
+std::size_t effectiveMemoryBudget(std::size_t budget) noexcept;
+
+/// Throws IoError "<file>: <what> needs N bytes, more than the memory budget of M bytes" when `bytes`
+/// exceeds the budget (0 = the default).
+void checkMemoryBudget(std::size_t bytes, std::size_t budget, const std::filesystem::path& file,
+                       std::string_view what);
+
+} // namespace volcl

@@ -1,0 +1,73 @@
+#!/usr/bin/env bash
+# Runs every fuzz target in turn (one fuzzer process at a time: the machine is shared).
+#   scripts/fuzz.sh --build DIR --short          fixed executions per target, fixed seed (CI, seconds)
+#   scripts/fuzz.sh --build DIR --runs N         N executions per target (long runs, e.g. 10000000)
+#   scripts/fuzz.sh --build DIR --seconds S      S seconds per target
+# DIR is a build with -DVOLCL_FUZZ=ON: libFuzzer targets with clang (coverage-guided, reports cov/ft),
+# replay-driver targets with GCC. Results go to stdout and, for long runs, to docs/fuzz-runs.csv
+# (target, engine, executions, seconds, coverage, features, findings). A failing input is saved as
+# crash-* in the working directory; keep it under fuzz/regressions/<target>/ once fixed.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build="build-fuzz"
+mode="short"
+count=0
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --build) build="$2"; shift 2 ;;
+    --short) mode="short"; shift ;;
+    --runs) mode="runs"; count="$2"; shift 2 ;;
+    --seconds) mode="seconds"; count="$2"; shift 2 ;;
+    --only) only="$2"; shift 2 ;;
+    *) echo "usage: scripts/fuzz.sh --build DIR [--short | --runs N | --seconds S] [--only TARGET]" >&2; exit 2 ;;
+  esac
+done
+targets=$(cd "$build/fuzz" && ls fuzz_* 2>/dev/null | grep -v '\.' || true)
+[ -n "$targets" ] || { echo "no fuzz targets in $build/fuzz (configure with -DVOLCL_FUZZ=ON)" >&2; exit 2; }
+csv=docs/fuzz-runs.csv
+[ "$mode" = short ] || [ -f "$csv" ] || echo "date,target,engine,executions,seconds,coverage,features,findings" >"$csv"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+status=0
+for t in $targets; do
+  [ -z "${only:-}" ] || [ "$t" = "$only" ] || continue
+  exe="$PWD/$build/fuzz/$t"
+  engine=libfuzzer
+  "$exe" -help=1 2>&1 | grep -q "ReplayDriver" && engine=replay
+  case "$mode" in
+    short)
+      # Targets that run OpenCL kernels (vcz) or fork a reader (vdb) cost milliseconds per input.
+      case "$t" in fuzz_vcz|fuzz_read_vdb) n=100 ;; *) n=500 ;; esac
+      flags=(-runs="$n" -seed=1) ;;
+    runs) n="$count"; flags=(-runs="$count") ;;
+    seconds) n=0; flags=(-max_total_time="$count") ;;
+  esac
+  corpus=("$PWD/fuzz/corpus/$t")
+  [ -d fuzz/regressions/"$t" ] && corpus+=("$PWD/fuzz/regressions/$t")
+  if [ "$engine" = libfuzzer ]; then
+    # A private copy of the seeds grows with what libFuzzer finds; the repository keeps the small seeds.
+    mkdir -p "$work/$t" && cp -r fuzz/corpus/"$t"/. "$work/$t"/
+    corpus=("$work/$t" "${corpus[@]:1}")
+    flags+=(-timeout=2 -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1)
+  else
+    flags+=(-timeout=2)
+  fi
+  start=$(date +%s.%N)
+  log="$work/$t.log"
+  if (cd "$work" && "$exe" "${flags[@]}" "${corpus[@]}") >"$log" 2>&1; then findings=0; else findings=1; status=1; fi
+  seconds=$(echo "$(date +%s.%N) - $start" | bc)
+  execs=$(grep -o 'and [0-9]* mutated' "$log" | grep -o '[0-9]*' || true); cov=""; ft=""
+  if [ "$engine" = libfuzzer ]; then
+    execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -1 || true)
+    cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | grep -o '[0-9]*' || true)
+    ft=$(grep -o 'ft: [0-9]*' "$log" | tail -1 | grep -o '[0-9]*' || true)
+  fi
+  printf '%-20s %-9s %10s execs %8.1f s cov %-6s ft %-6s %s\n' "$t" "$engine" "${execs:-?}" "$seconds" \
+    "${cov:--}" "${ft:--}" "$([ $findings = 0 ] && echo ok || echo FINDING)"
+  if [ $findings != 0 ]; then
+    tail -40 "$log"
+    cp "$work"/crash-* "$work"/timeout-* "$work"/leak-* . 2>/dev/null || true
+  fi
+  [ "$mode" = short ] || echo "$(date -u +%FT%TZ),$t,$engine,${execs:-},$seconds,${cov:-},${ft:-},$findings" >>"$csv"
+done
+exit $status

@@ -1,0 +1,371 @@
+// Hostile inputs through the volcl binary: each ends in exit 1 (2 for usage) with one line naming the file,
+// within a memory bound, and leaves every input untouched (the reproducers of the hardening work).
+#include "host/io/VolumeIo.hpp"
+#include "wavelet/VczFormat.hpp"
+#include "../TestUtil.hpp"
+
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <spawn.h>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+extern char** environ;
+
+using namespace volcl;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct RunResult {
+    int exitCode = -1;
+    std::string err;
+    long maxRssKb = 0;
+};
+
+std::string slurp(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+// Runs `volcl <args>` in `dir` through /bin/sh (exec, so the resource usage is volcl's own), with a
+// 60 s guard so a regression to a hang fails instead of blocking the suite.
+RunResult run(const std::string& args, const fs::path& dir, const std::string& prefix = "") {
+    const fs::path err = dir / "stderr.txt";
+    const std::string cmd = "cd '" + dir.string() + "' && " + prefix + " exec timeout -s KILL 60 " VOLCL_EXE " " +
+                            args + " >/dev/null 2>'" + err.string() + "' </dev/null";
+    const char* argv[] = {"/bin/sh", "-c", cmd.c_str(), nullptr};
+    pid_t pid = 0;
+    RunResult r;
+    if (posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ) != 0) return r;
+    int status = 0;
+    rusage usage{};
+    if (wait4(pid, &status, 0, &usage) != pid) return r;
+    r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    r.err = slurp(err);
+    r.maxRssKb = usage.ru_maxrss;
+    return r;
+}
+
+std::size_t lineCount(const std::string& s) {
+    return static_cast<std::size_t>(std::count(s.begin(), s.end(), '\n'));
+}
+
+void writeText(const fs::path& p, const std::string& text) {
+    std::ofstream(p, std::ios::binary) << text;
+}
+
+// A refused input: exit code as asked, one line on stderr that names `file`, less than 500 MB.
+void expectRefused(const RunResult& r, int code, const std::string& file, const std::string& why = "") {
+    EXPECT_EQ(r.exitCode, code) << r.err;
+    EXPECT_EQ(lineCount(r.err), 1u) << r.err;
+    EXPECT_NE(r.err.find(file), std::string::npos) << "message does not name " << file << ": " << r.err;
+    if (!why.empty()) EXPECT_NE(r.err.find(why), std::string::npos) << r.err;
+    EXPECT_LT(r.maxRssKb, 500 * 1024) << "peak memory " << r.maxRssKb << " kB";
+}
+
+Volume ramp(Dims d) {
+    Volume v(d, ScalarType::UInt8);
+    auto vals = v.values<std::uint8_t>();
+    for (std::size_t i = 0; i < vals.size(); ++i)
+        vals[i] = static_cast<std::uint8_t>(i * 7);
+    return v;
+}
+
+constexpr const char* kTf = R"({"domain": [0, 255],
+  "color": [[0, 0.0, 0.0, 0.0], [128, 1.0, 0.6, 0.2], [255, 1.0, 1.0, 1.0]],
+  "extinction": [[0, 0.0], [60, 0.0], [80, 0.8], [255, 0.05]]})";
+
+} // namespace
+
+// ---- inputs are never destroyed -------------------------------------------------------------------------
+
+TEST(CliHostile, ConvertRefusesToOverwriteTheDataFileOfItsHeader) {
+    const fs::path dir = test::tempDir("hostile_same_data");
+    writeVolumeFile(ramp({12, 12, 12}), dir / "a.raw");
+    // The shape of nucleon.nrrd: an attached-looking .nrrd whose data sits in ./a.raw.
+    writeText(dir / "a.nrrd", "NRRD0001\ntype: uchar\ndimension: 3\nsizes: 12 12 12\ndatafile: ./a.raw\n"
+                              "encoding: raw\n\n");
+    const std::string before = slurp(dir / "a.raw");
+    expectRefused(run("convert a.nrrd -o a.raw --crop 0,0,0:10,10,10", dir), 2, "a.raw", "same file");
+    EXPECT_EQ(slurp(dir / "a.raw"), before);
+    // A detached .nhdr output writes a .raw beside it: that must not be the input's data file either.
+    writeText(dir / "b.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 12 12 12\ndata file: a.raw\n"
+                              "encoding: raw\n\n");
+    expectRefused(run("convert b.nrrd -o a.nhdr", dir), 2, "a.raw", "same file");
+    EXPECT_EQ(slurp(dir / "a.raw"), before);
+    EXPECT_FALSE(fs::exists(dir / "a.nhdr"));
+}
+
+TEST(CliHostile, ConvertRefusesToOverwriteASliceOfAListOrASidecarsRawFile) {
+    const fs::path dir = test::tempDir("hostile_same_list");
+    Volume slice = ramp({8, 8, 1});
+    writeVolumeFile(slice, dir / "s0.raw");
+    writeVolumeFile(slice, dir / "s1.raw");
+    writeText(dir / "list.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 8 8 2\nencoding: raw\n"
+                                 "data file: LIST\ns0.raw\ns1.raw\n");
+    const std::string before = slurp(dir / "s1.raw");
+    expectRefused(run("convert list.nhdr -o s1.raw", dir), 2, "s1.raw", "same file");
+    EXPECT_EQ(slurp(dir / "s1.raw"), before);
+    writeText(dir / "v.dat", "ObjectFileName: s0.raw\nResolution: 8 8 1\nFormat: UCHAR\n");
+    expectRefused(run("convert v.dat -o s0.raw", dir), 2, "s0.raw", "same file");
+    EXPECT_EQ(slurp(dir / "s0.raw"), before);
+}
+
+// ---- data files stay beside their header unless allowed -----------------------------------------------
+
+TEST(CliHostile, HeaderDataFilesOutsideTheHeadersDirectoryAreRefusedUnlessAllowed) {
+    const fs::path root = test::tempDir("hostile_confine");
+    const fs::path dir = root / "inner";
+    fs::create_directories(dir);
+    writeVolumeFile(ramp({4, 4, 4}), root / "outside.raw");
+    writeText(dir / "passwd.nhdr", "NRRD0004\ntype: uchar\ndimension: 1\nsizes: 16\nencoding: raw\n"
+                                   "data file: /etc/passwd\nbyte skip: -1\n");
+    expectRefused(run("convert passwd.nhdr -o out.raw", dir), 1, "passwd.nhdr", "outside");
+    EXPECT_FALSE(fs::exists(dir / "out.raw"));
+    writeText(dir / "up.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n"
+                               "data file: ../outside.raw\n");
+    expectRefused(run("info up.nhdr", dir), 1, "up.nhdr", "--allow-external-data");
+    writeText(dir / "up.mhd", "NDims = 3\nDimSize = 4 4 4\nElementType = MET_UCHAR\n"
+                              "ElementDataFile = ../outside.raw\n");
+    expectRefused(run("info up.mhd", dir), 1, "up.mhd", "outside");
+    // A symbolic link inside the directory that leads out of it is outside too.
+    fs::create_symlink(root / "outside.raw", dir / "link.raw");
+    writeText(dir / "link.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n"
+                                 "data file: link.raw\n");
+    expectRefused(run("info link.nhdr", dir), 1, "link.nhdr", "outside");
+    // Allowed on request, and a subdirectory is always inside.
+    EXPECT_EQ(run("info up.nhdr --allow-external-data", dir).exitCode, 0);
+    EXPECT_EQ(run("convert up.mhd -o copy.raw --allow-external-data", dir).exitCode, 0);
+    fs::create_directories(dir / "sub");
+    writeVolumeFile(ramp({4, 4, 4}), dir / "sub" / "d.raw");
+    writeText(dir / "sub.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n"
+                                "data file: sub/d.raw\n");
+    EXPECT_EQ(run("info sub.nhdr", dir).exitCode, 0);
+}
+
+// ---- size claims are checked before allocation ---------------------------------------------------------
+
+TEST(CliHostile, HugeSizeClaimsAreRefusedBeforeAllocation) {
+    const fs::path dir = test::tempDir("hostile_sizes");
+    // Ten million data files for a 256x256x93 volume: refused before a single name is built.
+    writeText(dir / "quarter.nhdr", "NRRD0004\ntype: short\ndimension: 3\nsizes: 256 256 93\nendian: big\n"
+                                    "encoding: raw\ndata file: quarter.%d 1 10000000 1\n");
+    expectRefused(run("info quarter.nhdr", dir), 1, "quarter.nhdr", "files");
+    writeVolumeFile(ramp({10, 10, 10}), dir / "d.raw");
+    writeText(dir / "huge.mhd", "NDims = 3\nDimSize = 100000 1000 1000\nElementType = MET_UCHAR\n"
+                                "ElementDataFile = d.raw\n");
+    expectRefused(run("info huge.mhd", dir), 1, "huge.mhd");
+    writeText(dir / "huge.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 48 4294967296 42\n"
+                                 "encoding: gzip\n\n" + std::string(64, 'x'));
+    expectRefused(run("info huge.nrrd", dir), 1, "huge.nrrd");
+    writeText(dir / "huge_raw.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 48 4294967296 42\n"
+                                     "encoding: raw\n\n" + std::string(64, 'x'));
+    expectRefused(run("info huge_raw.nrrd", dir), 1, "huge_raw.nrrd");
+    writeText(dir / "huge.vtk", "# vtk DataFile Version 3.0\nx\nBINARY\nDATASET STRUCTURED_POINTS\n"
+                                "DIMENSIONS 100000 100000 100000\nPOINT_DATA 1000000000000000\n"
+                                "SCALARS s float\nLOOKUP_TABLE default\n");
+    expectRefused(run("info huge.vtk", dir), 1, "huge.vtk");
+}
+
+TEST(CliHostile, ForgedVczDimensionsWithValidChecksumsAreRefused) {
+    const fs::path dir = test::tempDir("hostile_vcz_dims");
+    VczHeader h;
+    h.dims = {1u << 20, 1u << 20, 1u << 20};
+    h.brick = {1u << 20, 1u << 20, 1u << 20};
+    h.type = ScalarType::UInt8;
+    h.levels = 0;
+    h.frames.resize(1);
+    const std::vector<std::vector<std::uint8_t>> payloads{std::vector<std::uint8_t>(16, 0)};
+    h.bricks.assign(1, std::vector<VczBrickEntry>(1));
+    h.bricks[0][0].offset = vczPreambleSize(h);
+    h.bricks[0][0].size = payloads[0].size();
+    h.bricks[0][0].checksum = vczChecksum(payloads[0]);
+    const std::vector<std::byte> file = writeVcz(h, payloads);
+    std::ofstream(dir / "forged.vcz", std::ios::binary)
+        .write(reinterpret_cast<const char*>(file.data()), static_cast<std::streamsize>(file.size()));
+    expectRefused(run("decode forged.vcz -o out.raw", dir), 1, "forged.vcz", "memory budget");
+    expectRefused(run("info forged.vcz", dir), 1, "forged.vcz");
+    EXPECT_FALSE(fs::exists(dir / "out.raw"));
+}
+
+// ---- .vcz consistency -------------------------------------------------------------------------------
+
+TEST(CliHostile, VczTrailingBytesAndImpossibleCombinationsAreCorruptFiles) {
+    const fs::path dir = test::tempDir("hostile_vcz");
+    writeVolumeFile(ramp({16, 16, 16}), dir / "v_16x16x16_uint8.raw");
+    ASSERT_EQ(run("encode v_16x16x16_uint8.raw -o v.vcz", dir).exitCode, 0);
+    std::string bytes = slurp(dir / "v.vcz");
+    writeText(dir / "appended.vcz", bytes + "extra bytes");
+    expectRefused(run("decode appended.vcz -o out.raw", dir), 1, "appended.vcz", "trailing");
+    // A lossless file re-labelled cdf97 (no integer form), with every checksum recomputed.
+    const auto* raw = reinterpret_cast<const std::byte*>(bytes.data());
+    VczHeader h = readVczHeader(std::span<const std::byte>(raw, bytes.size()), "v.vcz");
+    ASSERT_EQ(h.transform, TransformKind::IntegerLifting);
+    std::vector<std::vector<std::uint8_t>> payloads;
+    for (const VczBrickEntry& e : h.bricks[0]) {
+        const auto* p = reinterpret_cast<const std::uint8_t*>(bytes.data()) + e.offset;
+        payloads.emplace_back(p, p + e.size);
+    }
+    h.wavelet = Wavelet::Cdf97;
+    const std::vector<std::byte> forged = writeVcz(h, payloads);
+    std::ofstream(dir / "cdf97int.vcz", std::ios::binary)
+        .write(reinterpret_cast<const char*>(forged.data()), static_cast<std::streamsize>(forged.size()));
+    expectRefused(run("decode cdf97int.vcz -o out.raw", dir), 1, "cdf97int.vcz", "integer");
+    EXPECT_FALSE(fs::exists(dir / "out.raw"));
+}
+
+// ---- hangs: cost bounded by the output before any work -------------------------------------------------
+
+TEST(CliHostile, PreintegrationWithHugeLengthsFinishes) {
+    const fs::path dir = test::tempDir("hostile_preint");
+    writeText(dir / "tf.json", kTf);
+    for (const char* len : {"1e12", "1e20", "1e30"}) {
+        const RunResult r = run(std::string("preint --tf tf.json --size 8 --lengths 2 --max-length ") + len +
+                                    " -o t.exr",
+                                dir);
+        EXPECT_EQ(r.exitCode, 0) << len << ": " << r.err;
+        // The table's entries against the double reference: a saturated segment is opaque, its colour
+        // that of its first absorbing point.
+        const RunResult c = run("preint --check t.exr --samples 0 --tolerance 1e-4", dir);
+        EXPECT_EQ(c.exitCode, 0) << len << ": " << c.err;
+    }
+    // Lengths beyond 1e30 cannot be stored in the table's float attributes: a usage error at once.
+    expectRefused(run("preint --tf tf.json --size 8 --lengths 2 --max-length 1e300 -o t.exr", dir), 2,
+                  "--max-length");
+    const RunResult r2 = run("preint --tf tf.json --size 256 --step 1e30 -o t2.exr", dir);
+    EXPECT_EQ(r2.exitCode, 0) << r2.err;
+    const RunResult c2 = run("preint --check t2.exr --samples 2000 --tolerance 1e-4", dir);
+    EXPECT_EQ(c2.exitCode, 0) << c2.err;
+}
+
+TEST(CliHostile, SceneStepsAreValidatedLikeRenderStep) {
+    const fs::path dir = test::tempDir("hostile_steps");
+    writeVolumeFile(ramp({16, 16, 16}), dir / "v_16x16x16_uint8.raw");
+    writeText(dir / "tf.json", kTf);
+    auto scene = [&](const std::string& name, const std::string& render, const std::string& effects) {
+        writeText(dir / name, R"({"volume": "v_16x16x16_uint8.raw", "tf": "tf.json",
+            "image": {"width": 16, "height": 16}, "render": )" + render + R"(, "effects": )" + effects + "}");
+    };
+    scene("huge_step.json", R"({"mode": "dvr", "step": 1e308, "preintegration": "2d"})", "{}");
+    expectRefused(run("render --scene huge_step.json -o out.png", dir), 2, "render.step");
+    scene("tiny_shadow.json", R"({"mode": "dvr", "step": 0.5})",
+          R"({"shading": true, "shadows": true, "shadow_step": 1e-9})");
+    expectRefused(run("render --scene tiny_shadow.json -o out.png", dir), 2, "effects.shadow_step");
+    scene("nan_shadow.json", R"({"mode": "dvr", "step": 0.5})", R"({"shadows": true, "shadow_step": 1e300})");
+    expectRefused(run("render --scene nan_shadow.json -o out.png", dir), 2, "effects.shadow_step");
+    EXPECT_FALSE(fs::exists(dir / "out.png"));
+}
+
+// ---- messages: one line, the file named, control characters escaped ------------------------------------
+
+TEST(CliHostile, TransferFunctionErrorsAreOneLineNamingTheFile) {
+    const fs::path dir = test::tempDir("hostile_tf");
+    writeText(dir / "big.json", R"({"domain": [0, 1], "color": [[0, 1, 1, 1]], "extinction": [[0, 1e400]]})");
+    expectRefused(run("preint --tf big.json --size 8 --step 1 -o t.exr", dir), 1, "big.json");
+    writeText(dir / "garbage.png", "\x89PNG\r\n\x1a\n this is not a PNG at all, just bytes");
+    expectRefused(run("preint --tf garbage.png --size 8 --step 1 -o t.exr", dir), 1, "garbage.png");
+    EXPECT_FALSE(fs::exists(dir / "t.exr"));
+}
+
+TEST(CliHostile, ControlCharactersFromHeadersAreEscaped) {
+    const fs::path dir = test::tempDir("hostile_ctrl");
+    writeText(dir / "cr.nrrd", "NRRD0004\ntype: evil\rname\x1b[2J\ndimension: 3\nsizes: 2 2 2\n"
+                               "encoding: raw\n\n12345678");
+    const RunResult r = run("info cr.nrrd", dir);
+    expectRefused(r, 1, "cr.nrrd");
+    EXPECT_EQ(r.err.find('\r'), std::string::npos) << "raw CR reached the terminal";
+    EXPECT_EQ(r.err.find('\x1b'), std::string::npos) << "raw ESC reached the terminal";
+    EXPECT_NE(r.err.find("\\r"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("\\x1b"), std::string::npos) << r.err;
+}
+
+// ---- geometry and versions ----------------------------------------------------------------------------
+
+TEST(CliHostile, NonFiniteGeometryIsRefusedNamingTheFile) {
+    const fs::path dir = test::tempDir("hostile_geometry");
+    const std::string data(8, '\x01');
+    writeText(dir / "nan_spacing.nrrd",
+              "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nspacings: nan 1 1\nencoding: raw\n\n" + data);
+    writeText(dir / "inf_origin.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nspace dimension: 3\n"
+                                       "space origin: (inf,0,0)\nencoding: raw\n\n" + data);
+    writeText(dir / "nan.mhd", "NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nOffset = nan 0 0\n"
+                               "ElementDataFile = LOCAL\n" + data);
+    writeText(dir / "nan.vtk", "# vtk DataFile Version 3.0\nx\nASCII\nDATASET STRUCTURED_POINTS\n"
+                               "DIMENSIONS 2 2 2\nSPACING 1 nan 1\nORIGIN 0 0 0\nPOINT_DATA 8\n"
+                               "SCALARS s unsigned_char\nLOOKUP_TABLE default\n1 1 1 1 1 1 1 1\n");
+    for (const char* f : {"nan_spacing.nrrd", "inf_origin.nrrd", "nan.mhd", "nan.vtk"})
+        expectRefused(run(std::string("info ") + f, dir), 1, f);
+    // NIfTI: pixdim and scl_slope are float fields of the 348-byte header.
+    auto nifti = [&](const std::string& name, std::size_t offset, float value) {
+        std::string h(352, '\0');
+        auto put16 = [&](std::size_t at, std::int16_t v) { std::memcpy(&h[at], &v, 2); };
+        auto putF = [&](std::size_t at, float v) { std::memcpy(&h[at], &v, 4); };
+        const std::int32_t size = 348;
+        std::memcpy(&h[0], &size, 4);
+        put16(40, 3), put16(42, 2), put16(44, 2), put16(46, 2), put16(48, 1);
+        put16(70, 2), put16(72, 8); // uint8
+        putF(76, 1), putF(80, 1), putF(84, 1), putF(88, 1);
+        putF(108, 352), putF(112, 1);
+        std::memcpy(&h[344], "n+1", 4);
+        putF(offset, value);
+        writeText(dir / name, h + data);
+    };
+    nifti("nan_pixdim.nii", 84, std::numeric_limits<float>::quiet_NaN());
+    nifti("inf_slope.nii", 112, std::numeric_limits<float>::infinity());
+    nifti("good.nii", 112, 1.0f);
+    EXPECT_EQ(run("info good.nii", dir).exitCode, 0) << slurp(dir / "stderr.txt");
+    expectRefused(run("info nan_pixdim.nii", dir), 1, "nan_pixdim.nii", "pixdim");
+    expectRefused(run("info inf_slope.nii", dir), 1, "inf_slope.nii", "scl_slope");
+}
+
+TEST(CliHostile, UnknownNrrdVersionsAreRefused) {
+    const fs::path dir = test::tempDir("hostile_nrrd_version");
+    const std::string body = "type: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n" + std::string(8, '\1');
+    writeText(dir / "v9.nrrd", "NRRD0009\n" + body);
+    writeText(dir / "v5.nrrd", "NRRD0005\n" + body);
+    expectRefused(run("info v9.nrrd", dir), 1, "v9.nrrd", "version");
+    EXPECT_EQ(run("info v5.nrrd", dir).exitCode, 0) << slurp(dir / "stderr.txt");
+}
+
+// ---- signals and limits during a write -----------------------------------------------------------------
+
+TEST(CliHostile, FileSizeLimitEndsInACleanErrorWithoutTemporaries) {
+    const fs::path dir = test::tempDir("hostile_xfsz");
+    writeVolumeFile(ramp({64, 64, 64}), dir / "v_64x64x64_uint8.raw");
+    // ulimit -f counts 1024-byte blocks: the 256 KiB output cannot be written under 64 KiB.
+    const RunResult r = run("convert v_64x64x64_uint8.raw -o out.raw", dir, "ulimit -f 64;");
+    expectRefused(r, 1, "out.raw");
+    for (const auto& e : fs::directory_iterator(dir))
+        EXPECT_EQ(e.path().filename().string().find("out.raw"), std::string::npos) << "leftover " << e.path();
+}
+
+TEST(CliHostile, SigkillDuringAWriteLeavesNoTemporary) {
+    const fs::path dir = test::tempDir("hostile_kill");
+    const fs::path out = dir / "out";
+    fs::create_directories(out);
+    writeVolumeFile(ramp({256, 256, 256}), dir / "v_256x256x256_uint8.raw");
+    for (int attempt = 0; attempt < 5; ++attempt) {
+        const std::string cmd = VOLCL_EXE " -q convert " + (dir / "v_256x256x256_uint8.raw").string() + " -o " +
+                                (out / "big.nrrd").string();
+        const char* argv[] = {"/bin/sh", "-c", nullptr, nullptr};
+        const std::string full = "exec " + cmd;
+        argv[2] = full.c_str();
+        pid_t pid = 0;
+        ASSERT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
+        usleep(static_cast<useconds_t>(20000 + attempt * 40000)); // reading, converting, compressing
+        kill(pid, SIGKILL);
+        int status = 0;
+        waitpid(pid, &status, 0);
+        for (const auto& e : fs::directory_iterator(out))
+            EXPECT_EQ(e.path().filename().string(), "big.nrrd") << "leftover temporary " << e.path();
+    }
+}
