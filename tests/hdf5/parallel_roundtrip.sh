@@ -11,7 +11,7 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_btl_va
 export HDF5_PLUGIN_PATH=$plugin_dir
 mpi() { local n=$1; shift; "$mpiexec" -n "$n" --oversubscribe "$@"; }
 
-mpi 2 "$exe" write lossless.h5 --nz 96 --ny 80 --nx 72 --chunk 32
+mpi 2 "$exe" write lossless.h5 --warm --nz 96 --ny 80 --nx 72 --chunk 32
 mpi 1 "$exe" read lossless.h5 --nz 96 --ny 80 --nx 72 --chunk 32
 mpi 2 "$exe" read lossless.h5 --nz 96 --ny 80 --nx 72 --chunk 32
 mpi 2 "$exe" write lossy.h5 --nz 64 --ny 64 --nx 64 --chunk 32 --max-error 0.002
