@@ -80,21 +80,21 @@ std::vector<unsigned> userParameters(const Hdf5Runtime& h5, hid_t dcpl) {
 htri_t canApply(hid_t dcpl, hid_t type, hid_t /*space*/) {
     const Hdf5Runtime* h5 = Hdf5Runtime::of(__builtin_return_address(0));
     if (!h5) return -1;
-    std::string why;
-    hsize_t dims[H5S_MAX_RANK];
-    if (!elementType(*h5, type, why) || chunkDims(*h5, dcpl, dims, why) == 0) {
-        h5->error("H5Zvolcl can_apply", "volcl filter: " + why);
-        return 0;
-    }
-    try {
+    try { // nothing may unwind into HDF5's C code
+        std::string why;
+        hsize_t dims[H5S_MAX_RANK];
+        if (!elementType(*h5, type, why) || chunkDims(*h5, dcpl, dims, why) == 0) {
+            h5->error("H5Zvolcl can_apply", "volcl filter: " + why);
+            return 0;
+        }
         ChunkRate rate;
         double bound;
         parseUserValues(userParameters(*h5, dcpl), rate, bound);
-    } catch (const Error& e) {
+        return 1;
+    } catch (const std::exception& e) {
         h5->error("H5Zvolcl can_apply", e.what());
         return 0;
     }
-    return 1;
 }
 
 // Records element type and chunk dims in cd_values, so the filter can rebuild chunks from bytes alone.

@@ -15,6 +15,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -118,6 +120,8 @@ int run(int argc, char** argv, int rank, int size) {
 
     int ok = 1;
     if (check) { // gather the slabs on rank 0 (z slabs are contiguous in x-fastest order) and compare
+        if (mine.byteSize() > std::size_t(std::numeric_limits<int>::max()))
+            throw UsageError("--check gathers at most 2 GiB per rank");
         const int bytes = int(mine.byteSize());
         std::vector<int> counts(size), offsets(size);
         MPI_Gather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
@@ -150,6 +154,9 @@ int main(int argc, char** argv) {
         rc = run(argc, argv, rank, size);
     } catch (const UsageError& e) {
         if (rank == 0) std::fprintf(stderr, "vcz-mpi-decode: %s\n", e.what());
+        rc = 2;
+    } catch (const std::logic_error&) { // std::stoi / std::stoul on a malformed number
+        if (rank == 0) std::fprintf(stderr, "vcz-mpi-decode: malformed number in the arguments\n");
         rc = 2;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "vcz-mpi-decode: %s\n", e.what());
