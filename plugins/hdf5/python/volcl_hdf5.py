@@ -1,0 +1,29 @@
+"""h5py keyword arguments for the volcl HDF5 filter (id 420); the plugin loads from HDF5_PLUGIN_PATH.
+
+    import h5py, volcl_hdf5
+    f.create_dataset("v", data=a, chunks=(32, 32, 32), **volcl_hdf5.filter(max_error=0.5))
+
+`compression=420` alone is lossless.
+"""
+import struct
+
+FILTER_ID = 420
+LOSSLESS, MAX_ERROR, PSNR = 0, 1, 2
+
+
+def cd_values(max_error=None, psnr=None):
+    """The filter's cd_values: (0,) lossless, else (rate, low word, high word) of the bound as a double."""
+    if max_error is not None and psnr is not None:
+        raise ValueError("give max_error or psnr, not both")
+    if max_error is None and psnr is None:
+        return (LOSSLESS,)
+    rate, bound = (MAX_ERROR, max_error) if max_error is not None else (PSNR, psnr)
+    if not (bound > 0 and bound != float("inf")):
+        raise ValueError("the bound must be a finite number > 0")
+    low, high = struct.unpack("<II", struct.pack("<d", float(bound)))
+    return (rate, low, high)
+
+
+def filter(max_error=None, psnr=None):
+    """Keyword arguments for h5py's create_dataset: compression and compression_opts."""
+    return {"compression": FILTER_ID, "compression_opts": cd_values(max_error, psnr)}
