@@ -106,7 +106,7 @@ def main():
             ax.bar([j + i * width for j in range(len(sets))], vals, width, label=c)
         ax.set_xticks([j + 0.4 - width / 2 for j in range(len(sets))])
         ax.set_xticklabels(sets, rotation=30, ha="right")
-        goal = 100 if key == "encode_MBps" else 200  # the lossless speed goal
+        goal = 100 if key == "encode_MBps" else 200  # the lossless speed goal
         ax.axhline(goal, color="k", linestyle=":", linewidth=1, label=f"goal {goal} MB/s")
         ax.set_ylabel("MB/s of original voxels")
         ax.set_yscale("log")

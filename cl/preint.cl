@@ -1,4 +1,4 @@
-/* Pre-integration table kernels (CONTRACT section 3): exact segment integrals, Weiler-style length recursion,
+/* Pre-integration table kernels (the table layout of docs/contract.md): exact segment integrals, Weiler-style length recursion,
    Engel's integral functions, Roettger's linear-in-length 2D table and the 2D+1D chromaticity polynomial. */
 #include "volcl_shared.h"
 

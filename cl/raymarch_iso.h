@@ -10,7 +10,7 @@
 
 /* A root is refined until the last Newton or bisection correction is below this many voxels (along the
    ray); a Newton correction that small leaves an error of its square, a bisection one a bracket half as
-   wide, so the hit is well inside the 1e-4 voxel the issue asks for. */
+   wide, so the hit is well inside the 1e-4 voxel goal. */
 #define ISO_TOL_VOXELS 1e-5f
 #define ISO_MAX_ITER 24
 

@@ -73,7 +73,7 @@ PreintegrationTable exact(const TransferFunction& tf, const TableSpec& spec,
     return generatePreintegrationTable(tf, spec, o, &context());
 }
 
-// Every entry finite, alpha in [0, 1], rgb in [0, max colour]; the rule of the issue for every method.
+// Every entry finite, alpha in [0, 1], rgb in [0, max colour]; the rule for every method.
 void expectBounded(const PreintegrationTable& t, double maxColor) {
     std::size_t bad = 0;
     for (std::size_t i = 0; i < t.rgba.size(); i += 4) {
@@ -257,7 +257,7 @@ TEST(PreintHardCases, HugeLengthAndExtinctionSaturate) {
 
 // Lengths far beyond any volume: every absorbing segment saturates, and the tables must still match the
 // reference (the kernels once took work growing with the length: 1e20 did not finish). Both precisions,
-// 3D (linear and exponential axes) and 2D, on the CONTRACT TF (extinction rising from zero) and on steps.
+// 3D (linear and exponential axes) and 2D, on the contract example TF (extinction rising from zero) and on steps.
 TEST(PreintHardCases, HugeLengthsSaturateAndMatchTheReference) {
     for (const TransferFunction& tf : {contractTf(), stepTf(), spikeTf()}) {
         for (double len : {1e12, 1e20, 1e30}) {

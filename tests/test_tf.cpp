@@ -71,7 +71,7 @@ TEST(TransferFunction, OutOfDomainIsConstant) {
         auto v = TransferFunction::sampleFloat(knots, s);
         EXPECT_EQ(v, (std::array<float, 4>{1, 1, 1, 0.05f})) << s;
     }
-    // NaN data takes the first knot's value (documented in cl/transfer_function.h: the search ends at 0).
+    // NaN data takes the first knot's value (documented in cl/common/tf_lookup.h: the search ends at 0).
     auto v = TransferFunction::sampleFloat(knots, std::numeric_limits<float>::quiet_NaN());
     for (float x : v)
         EXPECT_TRUE(std::isfinite(x));

@@ -509,7 +509,7 @@ cl::Kernel& LiftingTransform<T>::voxelKernel(ComputeContext& cc, ScalarType type
         d.set("LIFT_MAXN", static_cast<long long>(brickMaxN_));
         if (std::is_same_v<T, float>) d.set("LIFT_FLOAT");
         if (inverse) d.set("LIFT_INVERSE");
-        // The ray marcher's numbering (cl/raymarch_core.h).
+        // The ray marcher's numbering (cl/common/grid_sample.h).
         static constexpr std::array<int, 4> kVoxelType = {1, 2, 3, 0}; // UInt8, UInt16, Int16, Float32
         d.set("VOXEL_TYPE", kVoxelType[static_cast<std::size_t>(type)]);
         k = cc.kernel("lifting_brick.cl", "lift_bricks", d);
