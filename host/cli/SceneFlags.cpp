@@ -218,6 +218,8 @@ bool isAnatomicalFormat(const std::filesystem::path& p) {
 std::vector<std::string> SceneFlags::finish(Scene& s, const Volume& v) const {
     std::vector<std::string> notes;
     const WorldBox box = volumeBox(v);
+    // Refuse impossible steps before any default is applied or reported: the error is the only line.
+    s.validateSteps(norm(box.extent));
     const double aspect = double(s.width) / double(s.height);
     const bool anyCameraFlag = !projection.empty() || !eye.empty() || !target.empty() || !up.empty() ||
                                viewHeight || fov || !view.empty() || !orbit.empty();
