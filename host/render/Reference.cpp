@@ -2,11 +2,10 @@
 #include "host/render/Reference.hpp"
 
 #include "host/Error.hpp"
+#include "host/runtime/ParallelFor.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <thread>
 
 namespace volcl {
 
@@ -29,22 +28,14 @@ ImageBuffer traceReferenceImage(const Scene& scene, const Camera& camera, bool w
     std::vector<std::string> channels{"R", "G", "B", "A"};
     if (withDepth) channels.push_back("Z");
     ImageBuffer img(scene.width, scene.height, channels);
-    const int n = threads > 0 ? threads : int(std::max(1u, std::thread::hardware_concurrency()));
-    std::atomic<int> nextRow{0};
-    auto work = [&] {
-        for (int y = nextRow++; y < scene.height; y = nextRow++)
-            for (int x = 0; x < scene.width; ++x) {
-                const auto v = trace(cameraRay(camera, scene.width, scene.height, x, y));
-                for (int c = 0; c < img.channelCount(); ++c)
-                    img.at(x, y, c) = static_cast<float>(v[std::size_t(c)]);
-            }
-    };
-    std::vector<std::thread> pool;
-    for (int i = 1; i < n; ++i)
-        pool.emplace_back(work);
-    work();
-    for (auto& t : pool)
-        t.join();
+    parallelFor(std::size_t(scene.height), threads > 0 ? unsigned(threads) : 0u, [&](std::size_t row) {
+        const int y = int(row);
+        for (int x = 0; x < scene.width; ++x) {
+            const auto v = trace(cameraRay(camera, scene.width, scene.height, x, y));
+            for (int c = 0; c < img.channelCount(); ++c)
+                img.at(x, y, c) = static_cast<float>(v[std::size_t(c)]);
+        }
+    });
     return img;
 }
 
