@@ -3,6 +3,7 @@
 
 #include "host/Error.hpp"
 #include "host/MemoryBudget.hpp"
+#include "host/image/ExrHeaderCheck.hpp"
 #include "host/io/AtomicFile.hpp"
 
 #include <OpenImageIO/imageio.h>
@@ -12,8 +13,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
-#include <string_view>
 
 #include <sys/mman.h>
 #include <unistd.h>
@@ -75,11 +74,6 @@ void write(const ImageBuffer& image, const std::filesystem::path& path, ImageFil
     out.commit();
 }
 
-std::string formatWindow(const std::int32_t box[4]) {
-    return "(" + std::to_string(box[0]) + "," + std::to_string(box[1]) + ")-(" + std::to_string(box[2]) + "," +
-           std::to_string(box[3]) + ")";
-}
-
 // libpng (inside OpenImageIO) prints its errors to stderr before OIIO returns them; OIIO's error text
 // already holds the same words, and volcl's message must be one line. While an image is read, stderr goes
 // to an anonymous memory file that is dropped afterwards.
@@ -109,47 +103,10 @@ private:
     int saved_ = -1;
 };
 
-// OpenEXR allocates its line-offset table and buffers from the header's dataWindow while the file is
-// opened, before any size is visible to volcl; so the window of an EXR is read from the header here and
-// checked against the budget first (a forged 812-byte file claimed 10^8 lines and took 1.6 GB).
-void checkExrDataWindow(const std::filesystem::path& path, std::size_t memoryBudget) {
-    std::ifstream in(path, std::ios::binary);
-    char head[4096];
-    in.read(head, sizeof(head));
-    const std::size_t n = static_cast<std::size_t>(in.gcount());
-    if (n < 8 || std::memcmp(head, "\x76\x2f\x31\x01", 4) != 0) return;
-    std::size_t pos = 8;
-    auto cstring = [&](std::string& out) {
-        const std::size_t end = std::string_view(head + pos, n - pos).find('\0');
-        if (end == std::string_view::npos) return false;
-        out.assign(head + pos, end);
-        pos += end + 1;
-        return true;
-    };
-    std::string attr, type;
-    while (pos < n && cstring(attr) && !attr.empty() && cstring(type)) {
-        if (pos + 4 > n) return;
-        std::int32_t size = 0;
-        std::memcpy(&size, head + pos, 4);
-        pos += 4;
-        if (size < 0 || pos + static_cast<std::size_t>(size) > n) return;
-        if (attr == "dataWindow" && type == "box2i" && size == 16) {
-            std::int32_t box[4];
-            std::memcpy(box, head + pos, 16);
-            const double w = double(box[2]) - box[0] + 1, h = double(box[3]) - box[1] + 1;
-            if (!(w > 0 && h > 0)) throw IoError(path.string() + ": EXR data window is empty or inverted");
-            const double bytes = w * h * 4 * sizeof(float) + h * 8; // RGBA floats and the line offsets
-            checkMemoryBudget(bytes > 1e18 ? std::size_t(-1) : static_cast<std::size_t>(bytes), memoryBudget,
-                              path, "EXR data window " + formatWindow(box));
-            return;
-        }
-        pos += static_cast<std::size_t>(size);
-    }
-}
-
 ImageBuffer read(const std::filesystem::path& path, std::size_t memoryBudget) {
     const std::string name = path.string();
-    checkExrDataWindow(path, memoryBudget);
+    // OpenEXR allocates from header claims while it opens a file: check them against the file first.
+    checkExrHeaders(path, memoryBudget);
     const StderrSilencer quiet;
     // Keep stored values as they are (PNG alpha is straight; OIIO would otherwise premultiply on read).
     OIIO::ImageSpec config;

@@ -1,0 +1,191 @@
+// Walks OpenEXR headers with bounded reads and refuses claims the file cannot back (see the header).
+#include "host/image/ExrHeaderCheck.hpp"
+
+#include "host/Error.hpp"
+#include "host/MemoryBudget.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace volcl {
+namespace {
+
+constexpr std::uint32_t kExrMagic = 20000630;
+constexpr std::uint32_t kTiledFlag = 0x200, kLongNamesFlag = 0x400, kMultipartFlag = 0x1000;
+// A channel list larger than this (thousands of channels) is not an image volcl reads.
+constexpr std::int32_t kMaxChannelListBytes = 1 << 16;
+
+// What one part's header says about its size.
+struct PartClaims {
+    std::optional<std::array<std::int32_t, 4>> dataWindow;
+    int compression = 0;
+    std::uint32_t tileX = 0, tileY = 0;
+    bool tiled = false;
+    std::int64_t chunkCount = -1; // multi-part files state it
+    std::size_t channels = 0;
+};
+
+// Lines of a scan-line chunk per compression method, as OpenEXR defines them.
+int linesPerChunk(int compression) {
+    switch (compression) {
+    case 3: case 5: return 16;           // ZIP, PXR24
+    case 4: case 6: case 7: case 8: return 32; // PIZ, B44, B44A, DWAA
+    case 9: return 256;                  // DWAB
+    default: return 1;                   // none, RLE, ZIPS and unknown (the largest table)
+    }
+}
+
+class HeaderWalker {
+public:
+    HeaderWalker(const std::filesystem::path& path, std::uintmax_t fileSize)
+        : name_(path.string()), size_(fileSize), in_(path, std::ios::binary) {
+        if (!in_) throw IoError(name_ + ": cannot open image");
+    }
+
+    [[noreturn]] void corrupt(const std::string& why) const {
+        throw IoError(name_ + ": corrupt EXR header: " + why);
+    }
+
+    std::uint64_t position() { return static_cast<std::uint64_t>(in_.tellg()); }
+    std::uint64_t remaining() { return size_ - position(); }
+
+    void read(void* out, std::size_t n) {
+        if (n > remaining() || !in_.read(static_cast<char*>(out), static_cast<std::streamsize>(n)))
+            corrupt("ends inside a header");
+    }
+    template <class T> T value() {
+        T v{};
+        read(&v, sizeof(T));
+        return v;
+    }
+    // A NUL-terminated string of at most `maxLength` characters.
+    std::string cstring(std::size_t maxLength, const char* what) {
+        std::string s;
+        for (;;) {
+            const char c = value<char>();
+            if (c == '\0') return s;
+            if (s.size() == maxLength) corrupt(std::string(what) + " longer than " + std::to_string(maxLength));
+            s.push_back(c);
+        }
+    }
+    void skip(std::uint64_t n) {
+        if (n > remaining()) corrupt("an attribute claims more bytes than the file holds");
+        in_.seekg(static_cast<std::streamoff>(n), std::ios::cur);
+    }
+    // Peeks one byte: a NUL ends a header (or, in a multi-part file, the list of headers).
+    bool atEnd() {
+        if (remaining() == 0) corrupt("the header never ends");
+        if (in_.peek() != 0) return false;
+        in_.get();
+        return true;
+    }
+
+    PartClaims part(std::size_t maxName) {
+        PartClaims claims;
+        while (!atEnd()) {
+            const std::string attr = cstring(maxName, "attribute name");
+            const std::string type = cstring(maxName, "attribute type");
+            const std::int32_t bytes = value<std::int32_t>();
+            if (bytes < 0) corrupt("attribute '" + attr + "' has a negative size");
+            if (std::uint64_t(bytes) > remaining())
+                corrupt("attribute '" + attr + "' claims " + std::to_string(bytes) + " bytes, the file has " +
+                        std::to_string(remaining()) + " left");
+            if (attr == "dataWindow" && type == "box2i" && bytes == 16) {
+                std::array<std::int32_t, 4> box{};
+                read(box.data(), 16);
+                claims.dataWindow = box;
+            } else if (attr == "compression" && type == "compression" && bytes == 1) {
+                claims.compression = value<std::uint8_t>();
+            } else if (attr == "tiles" && type == "tiledesc" && bytes == 9) {
+                claims.tileX = value<std::uint32_t>();
+                claims.tileY = value<std::uint32_t>();
+                value<std::uint8_t>(); // level mode: more levels only add chunks to the level-0 count
+                claims.tiled = true;
+            } else if (attr == "chunkCount" && type == "int" && bytes == 4) {
+                claims.chunkCount = value<std::int32_t>();
+                if (claims.chunkCount < 0) corrupt("negative chunkCount");
+            } else if (attr == "channels" && type == "chlist") {
+                if (bytes > kMaxChannelListBytes) corrupt("a channel list of " + std::to_string(bytes) + " bytes");
+                claims.channels = countChannels(bytes);
+            } else {
+                skip(std::uint64_t(bytes));
+            }
+        }
+        return claims;
+    }
+
+    // Each channel: name, NUL, then 16 bytes (type, linear, reserved, x and y sampling); a NUL ends the list.
+    std::size_t countChannels(std::int32_t bytes) {
+        std::vector<char> list(static_cast<std::size_t>(bytes));
+        read(list.data(), list.size());
+        std::size_t pos = 0, count = 0;
+        while (pos < list.size() && list[pos] != '\0') {
+            const void* end = std::memchr(list.data() + pos, '\0', list.size() - pos);
+            if (!end) corrupt("unterminated channel name");
+            pos = std::size_t(static_cast<const char*>(end) - list.data()) + 1 + 16;
+            ++count;
+        }
+        if (pos >= list.size()) corrupt("unterminated channel list");
+        return count;
+    }
+
+private:
+    std::string name_;
+    std::uint64_t size_;
+    std::ifstream in_;
+};
+
+} // namespace
+
+void checkExrHeaders(const std::filesystem::path& path, std::size_t memoryBudget) {
+    std::error_code ec;
+    const std::uintmax_t fileSize = std::filesystem::file_size(path, ec);
+    if (ec || fileSize < 8) return; // not an EXR the walker can judge: the image library reports it
+    HeaderWalker walker(path, fileSize);
+    if (walker.value<std::uint32_t>() != kExrMagic) return;
+    const std::uint32_t flags = walker.value<std::uint32_t>();
+    const std::size_t maxName = (flags & kLongNamesFlag) ? 255 : 31;
+    const bool multipart = (flags & kMultipartFlag) != 0;
+
+    std::vector<PartClaims> parts;
+    do {
+        parts.push_back(walker.part(maxName));
+    } while (multipart && !walker.atEnd());
+
+    // What follows the headers is the offset tables: 8 bytes per chunk of every part.
+    double tableBytes = 0;
+    for (const PartClaims& p : parts) {
+        if (!p.dataWindow) walker.corrupt("a part has no dataWindow");
+        const auto& b = *p.dataWindow;
+        const double w = double(b[2]) - b[0] + 1, h = double(b[3]) - b[1] + 1;
+        if (!(w > 0 && h > 0))
+            walker.corrupt("data window (" + std::to_string(b[0]) + "," + std::to_string(b[1]) + ")-(" +
+                           std::to_string(b[2]) + "," + std::to_string(b[3]) + ") is empty or inverted");
+        const double pixelBytes = w * h * double(std::max<std::size_t>(p.channels, 4)) * sizeof(float);
+        checkMemoryBudget(pixelBytes > 1e18 ? std::size_t(-1) : std::size_t(pixelBytes), memoryBudget, path,
+                          "EXR data window " + std::to_string(std::int64_t(w)) + "x" +
+                              std::to_string(std::int64_t(h)));
+        double chunks = 0;
+        if (p.chunkCount >= 0) {
+            chunks = double(p.chunkCount);
+        } else if (p.tiled || (!multipart && (flags & kTiledFlag))) {
+            if (p.tileX == 0 || p.tileY == 0) walker.corrupt("a tiled part without a valid tile size");
+            chunks = std::ceil(w / p.tileX) * std::ceil(h / p.tileY);
+        } else {
+            chunks = std::ceil(h / linesPerChunk(p.compression));
+        }
+        tableBytes += chunks * 8;
+    }
+    if (tableBytes > double(walker.remaining()))
+        walker.corrupt("its chunk offset tables need " + std::to_string(std::uint64_t(tableBytes)) +
+                       " bytes, the file has " + std::to_string(walker.remaining()) + " left");
+}
+
+} // namespace volcl

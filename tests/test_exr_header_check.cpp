@@ -1,0 +1,140 @@
+// EXR header check: claims a file cannot back (attribute sizes, data windows, offset tables) are refused
+// before OpenEXR allocates from them; valid files pass.
+#include "host/Error.hpp"
+#include "host/image/ExrHeaderCheck.hpp"
+#include "host/image/ImageIo.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path tmpDir() {
+    fs::path d = fs::path(VOLCL_TEST_TMP_DIR) / "exr-header";
+    fs::create_directories(d);
+    return d;
+}
+
+std::string fileBytes(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+fs::path writeBytes(const std::string& name, const std::string& bytes) {
+    const fs::path p = tmpDir() / name;
+    std::ofstream(p, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+    return p;
+}
+
+// A valid 16x8 RGBA float EXR written by volcl itself (zip compression: 16 lines per chunk).
+std::string validExr() {
+    volcl::ImageBuffer img(16, 8, {"R", "G", "B", "A"});
+    for (std::size_t i = 0; i < img.pixels.size(); ++i) img.pixels[i] = float(i) * 0.25f;
+    const fs::path p = tmpDir() / "valid.exr";
+    volcl::writeImage(img, p);
+    return fileBytes(p);
+}
+
+// The offset of the dataWindow attribute's 16-byte value in `exr`.
+std::size_t dataWindowValue(const std::string& exr) {
+    const std::string key = std::string("dataWindow") + '\0' + "box2i" + '\0';
+    const std::size_t at = exr.find(key);
+    EXPECT_NE(at, std::string::npos);
+    return at + key.size() + 4;
+}
+
+std::string withDataWindow(std::string exr, std::int32_t x0, std::int32_t y0, std::int32_t x1, std::int32_t y1) {
+    const std::int32_t box[4] = {x0, y0, x1, y1};
+    std::memcpy(exr.data() + dataWindowValue(exr), box, 16);
+    return exr;
+}
+
+std::string refusal(const fs::path& p, std::size_t budget = 0) {
+    try {
+        volcl::checkExrHeaders(p, budget);
+    } catch (const volcl::IoError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+TEST(ExrHeaderCheck, ValidFilesPassAndStillRead) {
+    const fs::path p = writeBytes("ok.exr", validExr());
+    EXPECT_EQ(refusal(p), "");
+    const volcl::ImageBuffer back = volcl::readImage(p);
+    EXPECT_EQ(back.width, 16);
+    EXPECT_EQ(back.height, 8);
+    EXPECT_FLOAT_EQ(back.pixels.back(), float(back.pixels.size() - 1) * 0.25f);
+}
+
+TEST(ExrHeaderCheck, NonExrFilesAreLeftToTheImageLibrary) {
+    EXPECT_EQ(refusal(writeBytes("not.exr", "\x89PNG\r\n\x1a\n not an exr at all")), "");
+    EXPECT_EQ(refusal(writeBytes("tiny.exr", "v/1")), "");
+}
+
+// The fuzzer's finding: an 812-byte file whose string attribute claims 1.5 GB made OpenEXR allocate 1.6 GB.
+TEST(ExrHeaderCheck, AttributeLargerThanTheFileIsRefused) {
+    const fs::path finding = fs::path(VOLCL_SOURCE_DIR) / "fuzz/regressions/fuzz_tf_exr/huge-string-attribute.exr";
+    ASSERT_TRUE(fs::exists(finding));
+    const std::string why = refusal(finding);
+    EXPECT_NE(why.find(finding.string()), std::string::npos) << why;
+    EXPECT_NE(why.find("claims 1543503971 bytes"), std::string::npos) << why;
+    // And through the public reader, one line naming the file.
+    try {
+        volcl::readImage(finding, 16u << 20);
+        FAIL() << "the forged EXR was read";
+    } catch (const volcl::IoError& e) {
+        EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
+        EXPECT_NE(std::string(e.what()).find("corrupt EXR header"), std::string::npos) << e.what();
+    }
+}
+
+TEST(ExrHeaderCheck, DataWindowTheOffsetTableCannotBackIsRefused) {
+    // 16 x 10^6 lines at 16 lines per chunk need a 500 kB offset table; the file has a few hundred bytes.
+    const fs::path p = writeBytes("tall.exr", withDataWindow(validExr(), 0, 0, 15, 999999));
+    const std::string why = refusal(p);
+    EXPECT_NE(why.find("offset tables need 500000 bytes"), std::string::npos) << why;
+}
+
+TEST(ExrHeaderCheck, DataWindowAboveTheBudgetIsRefused) {
+    const fs::path p = writeBytes("wide.exr", withDataWindow(validExr(), 0, 0, 99999, 7));
+    const std::string why = refusal(p, 1u << 20);
+    EXPECT_NE(why.find("memory budget"), std::string::npos) << why;
+    EXPECT_NE(why.find("100000x8"), std::string::npos) << why;
+}
+
+TEST(ExrHeaderCheck, EmptyOrInvertedWindowsAreRefused) {
+    const std::string exr = validExr();
+    EXPECT_NE(refusal(writeBytes("inverted.exr", withDataWindow(exr, 10, 0, 0, 7))).find("empty or inverted"),
+              std::string::npos);
+    // The extreme corners: the width is computed in double, so INT_MIN..INT_MAX does not overflow.
+    const std::string why = refusal(writeBytes("extreme.exr", withDataWindow(exr, INT32_MIN, INT32_MIN,
+                                                                             INT32_MAX, INT32_MAX)));
+    EXPECT_NE(why.find("memory budget"), std::string::npos) << why;
+}
+
+TEST(ExrHeaderCheck, TruncatedHeadersAreRefused) {
+    const std::string exr = validExr();
+    const std::size_t headerEnd = dataWindowValue(exr) + 16;
+    for (std::size_t cut : {std::size_t(9), std::size_t(40), headerEnd - 3}) {
+        const std::string why = refusal(writeBytes("cut.exr", exr.substr(0, cut)));
+        EXPECT_NE(why.find("corrupt EXR header"), std::string::npos) << "cut at " << cut << ": " << why;
+    }
+}
+
+TEST(ExrHeaderCheck, NegativeAttributeSizeIsRefused) {
+    std::string exr = validExr();
+    const std::size_t sizeAt = dataWindowValue(exr) - 4;
+    const std::int32_t negative = -16;
+    std::memcpy(exr.data() + sizeAt, &negative, 4);
+    EXPECT_NE(refusal(writeBytes("negative.exr", exr)).find("negative size"), std::string::npos);
+}
+
+} // namespace
