@@ -10,6 +10,7 @@
 #include <map>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace volcl {
@@ -67,6 +68,11 @@ struct VczHeader {
     /// Quantisation step of subband (level, orient); level 0 is the low band.
     double step(int level, int orient) const;
 };
+
+/// Metadata key under which `volcl encode` stores a NIfTI source's header fields (niftiMetadataToText in
+/// host/io/NiftiMetadata.hpp), so a NIfTI output of `volcl decode` keeps the source's orientation. Files
+/// without it decode as before; readers that do not know it ignore it.
+inline constexpr std::string_view kVczNiftiMetadataKey = "volcl:nifti";
 
 /// Magic bytes at the start of every .vcz file.
 inline constexpr std::array<unsigned char, 8> kVczMagic{0x89, 'V', 'C', 'Z', '\r', '\n', 0x1a, '\n'};
