@@ -135,6 +135,27 @@ def scaled_with_intent():
     same_header(l, src, "lossy decode")
 
 
+def refused_outputs():
+    # Bad outputs are one-line errors naming the file, exit 1, and leave nothing behind.
+    vcz = os.path.join(WORK, "las.vcz")
+    missing = os.path.join(WORK, "no_such_dir", "x.nii.gz")
+    r = subprocess.run([VOLCL, "decode", vcz, "-o", missing], capture_output=True, text=True)
+    lines = r.stderr.strip().splitlines()
+    check(r.returncode == 1 and len(lines) == 1 and missing in lines[0], f"decode to a missing directory: exit 1, one line ({r.stderr.strip()})")
+    check(not os.path.exists(os.path.dirname(missing)), "decode to a missing directory: nothing created")
+    src = os.path.join(WORK, "las.nii.gz")
+    before = open(src, "rb").read()
+    r = subprocess.run([VOLCL, "convert", src, "-o", src], capture_output=True, text=True)
+    check(r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1, f"convert onto its input: refused ({r.stderr.strip()})")
+    check(open(src, "rb").read() == before, "convert onto its input: input untouched")
+    wide = os.path.join(WORK, "wide_4x4x40000_uint8.raw")
+    with open(wide, "wb") as f:
+        f.write(bytes(4 * 4 * 40000))
+    out = os.path.join(WORK, "wide.nii")
+    r = subprocess.run([VOLCL, "convert", wide, "-o", out], capture_output=True, text=True)
+    check(r.returncode != 0 and "32767" in r.stderr and not os.path.exists(out), f"convert a 40000-slice volume to NIfTI-1: refused ({r.stderr.strip()})")
+
+
 def functional_series():
     path = os.path.join(SHARED, "timevarying", "functional.nii.gz") if SHARED else ""
     if not os.path.exists(path):
@@ -154,6 +175,7 @@ def functional_series():
 os.makedirs(WORK, exist_ok=True)
 las_template()
 scaled_with_intent()
+refused_outputs()
 functional_series()
 if failures:
     print(f"{len(failures)} check(s) failed")
