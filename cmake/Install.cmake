@@ -6,11 +6,13 @@ include(${CMAKE_CURRENT_LIST_DIR}/PublicHeaders.cmake)
 # 0.x releases may change the ABI with every minor version, so the SONAME carries MAJOR.MINOR.
 set_target_properties(volcl PROPERTIES VERSION ${PROJECT_VERSION}
                                        SOVERSION ${PROJECT_VERSION_MAJOR}.${PROJECT_VERSION_MINOR})
-# Installed binaries find libvolcl (and libvolcl the OpenImageIO module) relative to themselves, so an
-# installed tree runs from any prefix without LD_LIBRARY_PATH. The linker writes these as RUNPATH.
+# The installed volcl finds libvolcl relative to itself, so an installed tree runs from any prefix without
+# LD_LIBRARY_PATH (the linker writes it as RUNPATH). libvolcl needs none: its own dependencies are system
+# libraries, and it opens the OpenImageIO module by its full path beside itself (dladdr), which finds
+# libvolcl already loaded. (An INSTALL_RPATH on libvolcl would also make CMake pad its build-tree RUNPATH
+# with empty entries, which the loader reads as the current directory.)
 file(RELATIVE_PATH _volcl_bin_to_lib ${CMAKE_INSTALL_FULL_BINDIR} ${CMAKE_INSTALL_FULL_LIBDIR})
 set_target_properties(volcl-cli PROPERTIES INSTALL_RPATH "$ORIGIN/${_volcl_bin_to_lib}")
-set_target_properties(volcl volcl_oiio PROPERTIES INSTALL_RPATH "$ORIGIN")
 target_link_options(volcl-cli PRIVATE -Wl,--enable-new-dtags)
 
 install(TARGETS volcl volcl-cli EXPORT volclTargets

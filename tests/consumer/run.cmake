@@ -63,6 +63,11 @@ if(NOT STEP_OUTPUT MATCHES "${VERSION}")
   message(FATAL_ERROR "installed `volcl --version` printed '${STEP_OUTPUT}', expected ${VERSION}")
 endif()
 step(${PREFIX}/bin/volcl devices)
+# ... and loads its OpenImageIO module from the prefix (demo writes a PNG and an EXR).
+step(${PREFIX}/bin/volcl --quiet demo -o ${WORK_DIR}/demo --phantom-size 16)
+if(NOT EXISTS ${WORK_DIR}/demo/phantom.png)
+  message(FATAL_ERROR "the installed `volcl demo` wrote no phantom.png:\n${STEP_OUTPUT}")
+endif()
 
 # The consumer builds from the prefix alone: no include path into the source or build tree.
 step(${CMAKE_COMMAND} -S ${SOURCE_DIR} -B ${WORK_DIR}/build -DCMAKE_PREFIX_PATH=${PREFIX} -DVOLCL_PREFIX=${PREFIX})
