@@ -15,6 +15,11 @@
 
 namespace volcl {
 
+/// Metadata key under which `volcl encode` stores a NIfTI source's header fields (niftiMetadataToText in
+/// host/io/NiftiMetadata.hpp), so a NIfTI output of `volcl decode` keeps the source's orientation. Files
+/// without it decode as before; readers that do not know it ignore it.
+inline constexpr std::string_view kVczNiftiMetadataKey = "volcl:nifti";
+
 /// What the bricks hold. Stored in .vcz files: never renumber.
 enum class TransformKind : std::uint8_t {
     RawBits = 0,        ///< no transform: the voxels' bit patterns (lossless float32)
@@ -68,11 +73,6 @@ struct VczHeader {
     /// Quantisation step of subband (level, orient); level 0 is the low band.
     double step(int level, int orient) const;
 };
-
-/// Metadata key under which `volcl encode` stores a NIfTI source's header fields (niftiMetadataToText in
-/// host/io/NiftiMetadata.hpp), so a NIfTI output of `volcl decode` keeps the source's orientation. Files
-/// without it decode as before; readers that do not know it ignore it.
-inline constexpr std::string_view kVczNiftiMetadataKey = "volcl:nifti";
 
 /// Magic bytes at the start of every .vcz file.
 inline constexpr std::array<unsigned char, 8> kVczMagic{0x89, 'V', 'C', 'Z', '\r', '\n', 0x1a, '\n'};
