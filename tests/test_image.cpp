@@ -211,7 +211,7 @@ TEST(ImageIo, CompositeOverBackground) {
     img.at(2, 0, 0) = 0.25f;
     img.at(2, 0, 3) = 0.5f;
     img.attributes.push_back({"volcl:method", std::string("dvr")});
-    ImageBuffer out = volcl::compositeOverSrgb(img, {0.0f, 0.0f, 1.0f, 1.0f});
+    ImageBuffer out = volcl::compositeOverSrgb(img, {0.0, 0.0, 1.0, 1.0});
     EXPECT_EQ(out.channels, (std::vector<std::string>{"R", "G", "B", "A"}));
     EXPECT_EQ(out.at(0, 0, 2), 1.0f);
     EXPECT_EQ(out.at(0, 0, 0), 0.0f);
@@ -223,7 +223,7 @@ TEST(ImageIo, CompositeOverBackground) {
     ASSERT_NE(out.findAttribute("volcl:method"), nullptr);
 
     // Transparent background: alpha stays the image's and colour is un-premultiplied for display.
-    ImageBuffer clear = volcl::compositeOverSrgb(img, {1.0f, 1.0f, 1.0f, 0.0f});
+    ImageBuffer clear = volcl::compositeOverSrgb(img, {1.0, 1.0, 1.0, 0.0});
     EXPECT_EQ(clear.at(0, 0, 3), 0.0f);
     EXPECT_EQ(clear.at(2, 0, 3), 0.5f);
     EXPECT_NEAR(clear.at(2, 0, 0), srgbReference(0.5), 1e-6);

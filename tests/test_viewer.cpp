@@ -66,7 +66,7 @@ double maxDifference255(const ImageBuffer& a, const ImageBuffer& b) {
 
 // The 8-bit values `volcl render` writes to PNG: compositeOverSrgb, then rounding to k/255.
 ImageBuffer pngEncoding(const ImageBuffer& linear, const std::array<double, 4>& bg) {
-    ImageBuffer d = compositeOverSrgb(linear, {float(bg[0]), float(bg[1]), float(bg[2]), float(bg[3])});
+    ImageBuffer d = compositeOverSrgb(linear, bg);
     for (float& v : d.pixels)
         v = std::round(std::clamp(v, 0.0f, 1.0f) * 255.0f) / 255.0f;
     return d;

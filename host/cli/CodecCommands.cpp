@@ -148,14 +148,19 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         const CodecOptions o = toOptions(*a, *cmd);
         if (!isVcz(a->out)) throw UsageError("output " + a->out + " must end in .vcz");
         std::vector<std::filesystem::path> inputs;
-        TimeSeries ts = readSeriesInputs(a->in, a->raw.toReadOptions(), &inputs).series;
+        SeriesInput input = readSeriesInputs(a->in, a->raw.toReadOptions(), &inputs);
+        TimeSeries& ts = input.series;
         // Every file the inputs consist of (headers and the data files they name) must survive the write.
         checkNotSameFile(inputs, {std::filesystem::path(a->out)});
+        // A NIfTI source's orientation, units, intent and scaling travel in the .vcz for NIfTI outputs.
+        CodecOptions withMeta = o;
+        if (const auto nifti = readNiftiMetadataIfNifti(input.sources.front().file))
+            withMeta.metadata[std::string(kVczNiftiMetadataKey)] = niftiMetadataToText(*nifti);
         ComputeContext cc(global.device);
         EncodeReport rep;
         Stopwatch sw;
         std::vector<std::byte> bytes =
-            ts.frames.size() == 1 ? encodeVolume(cc, ts.frames[0], o, &rep) : encodeSeries(cc, ts, o);
+            ts.frames.size() == 1 ? encodeVolume(cc, ts.frames[0], withMeta, &rep) : encodeSeries(cc, ts, withMeta);
         const double ms = sw.milliseconds();
         AtomicFile out(a->out);
         out.write(bytes);
@@ -191,7 +196,9 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
     };
     auto a = std::make_shared<Args>();
     cmd->add_option("input", a->in, "Input .vcz file")->required();
-    cmd->add_option("-o,--output", a->out, "Output volume: .raw, .nrrd, .nhdr or .vdb")->required();
+    cmd->add_option("-o,--output", a->out,
+                    "Output volume: .raw, .nrrd, .nhdr, .nii, .nii.gz (a NIfTI source's header restored), .vti or .vdb")
+        ->required();
     cmd->add_option("--region", a->region,
                     "Voxel box x0,y0,z0:x1,y1,z1 (half-open, full-resolution indices)");
     cmd->add_option("--level", a->level, "2^k-downsampled approximation without decoding finer detail");
@@ -210,7 +217,10 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
         VczReader r(readFileBytes(a->in), a->in);
         ComputeContext cc(global.device);
         const Volume v = r.decode(cc, o);
-        writeVolumeFile(v, a->out);
+        WriteOptions wo;
+        if (const auto it = r.header().metadata.find(std::string(kVczNiftiMetadataKey)); it != r.header().metadata.end())
+            wo.nifti = niftiMetadataFromText(it->second, a->in);
+        writeVolumeFile(v, a->out, wo);
         if (!global.quiet)
             std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x"
                       << v.dims().z << " " << scalarTypeName(v.type()) << ")\n";

@@ -154,7 +154,7 @@ void addDemoCommand(CLI::App& app, GlobalOptions& global) {
         scene.validate();
         const std::unique_ptr<VolumeRenderer> renderer = RenderInput::borrow(sl).makeRenderer(cc, tf, scene);
         ImageBuffer image = renderer->render();
-        writeImage(compositeOverSrgb(image, {0.0f, 0.0f, 0.0f, 1.0f}), dir / "phantom.png");
+        writeImage(compositeOverSrgb(image, {0.0, 0.0, 0.0, 1.0}), dir / "phantom.png");
         std::cout << "rendered " << scene.width << "x" << scene.height << " DVR (2D pre-integration, step "
                   << scene.step << ") in " << renderer->lastKernelMilliseconds() << " ms kernel time\n  -> "
                   << (dir / "phantom.png").string() << '\n';

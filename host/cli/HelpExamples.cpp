@@ -13,11 +13,13 @@ const std::map<std::string, std::string>& examples() {
         {"info", "  volcl info head.nii.gz\n  volcl info series.vcz --json"},
         {"devices", "  volcl devices"},
         {"convert", "  volcl convert grid0.vdb --replace-nan 0 -o grid0.nrrd\n"
-                    "  volcl convert in.raw --dims 64,64,64 --type uint8 -o out.nrrd"},
+                    "  volcl convert in.raw --dims 64,64,64 --type uint8 -o out.nrrd\n"
+                    "  volcl convert head.nii.gz -o head.vti"},
         {"demo", "  volcl demo -o volcl-demo"},
         {"preint", "  volcl preint --tf tf.json --step 0.5 -o table.exr"},
         {"encode", "  volcl encode head.nii.gz -o head.vcz --lossless\n  volcl encode head.nii.gz -o head.vcz --psnr 50"},
-        {"decode", "  volcl decode head.vcz -o head.nrrd\n  volcl decode head.vcz --level 1 -o half.nrrd"},
+        {"decode", "  volcl decode head.vcz -o head.nrrd\n  volcl decode head.vcz --level 1 -o half.nrrd\n"
+                   "  volcl decode head.vcz -o head.nii.gz"},
         {"compare", "  volcl compare head.nii.gz head.vcz\n  volcl compare head.nii.gz head.vcz --level 1"},
         {"render", "  volcl render --volume head.nii.gz --tf preset:viridis -o head.png\n"
                    "  volcl render --volume head.nii.gz --tf pv.json --orbit 30,20 --shading 0.2,0.7,0.3,32 -o lit.png\n"

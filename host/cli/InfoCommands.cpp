@@ -187,7 +187,7 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
     }
     // convert
     {
-        auto* cmd = app.add_subcommand("convert", "Convert between volume formats (raw, NRRD, VDB out)");
+        auto* cmd = app.add_subcommand("convert", "Convert between volume formats (raw, NRRD, NIfTI, VTI, VDB out)");
         struct Args {
             std::string in, out, type, crop;
             std::size_t frame = 0;
@@ -199,7 +199,8 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
         };
         auto a = std::make_shared<Args>();
         cmd->add_option("input", a->in, "Input volume (any supported format)")->required();
-        cmd->add_option("-o,--output", a->out, "Output file: .raw, .nrrd, .nhdr or .vdb")->required();
+        cmd->add_option("-o,--output", a->out, "Output file: .raw, .nrrd, .nhdr, .nii, .nii.gz, .vti or .vdb")
+            ->required();
         cmd->add_option("--to-type", a->type, "Convert voxels to uint8, uint16, int16 or float32 (clamped)");
         cmd->add_option("--crop", a->crop, "Keep the voxel box x0,y0,z0:x1,y1,z1 (half-open)");
         cmd->add_option("--frame", a->frame, "Frame of a time series to convert (default 0)");
@@ -248,6 +249,7 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
             if (!a->type.empty()) v = v.convertedTo(parseScalarType(a->type));
             WriteOptions wo;
             wo.endian = a->bigEndianOut ? Endian::Big : Endian::Little;
+            wo.nifti = readNiftiMetadataIfNifti(a->in); // kept by NIfTI and VTI outputs
             writeVolumeFile(v, a->out, wo);
             if (!global.quiet)
                 std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x" << v.dims().z

@@ -46,8 +46,7 @@ void writeRendered(const ImageBuffer& img, const std::filesystem::path& out, con
     if (outputExtension(out) == ".exr") {
         writeImage(img, out, {.halfFloat = half});
     } else {
-        const auto& b = s.background;
-        writeImage(compositeOverSrgb(img, {float(b[0]), float(b[1]), float(b[2]), float(b[3])}), out);
+        writeImage(compositeOverSrgb(img, s.background), out);
     }
 }
 

@@ -105,7 +105,9 @@ float linearToSrgb(float linear) noexcept {
     return static_cast<float>(1.055 * std::pow(static_cast<double>(linear), 1.0 / 2.4) - 0.055);
 }
 
-ImageBuffer compositeOverSrgb(const ImageBuffer& src, std::array<float, 4> background) {
+ImageBuffer compositeOverSrgb(const ImageBuffer& src, const std::array<double, 4>& backgroundRgba) {
+    const std::array<float, 4> background{float(backgroundRgba[0]), float(backgroundRgba[1]),
+                                          float(backgroundRgba[2]), float(backgroundRgba[3])};
     int idx[4] = {-1, -1, -1, -1};
     const char* want[4] = {"R", "G", "B", "A"};
     for (int c = 0; c < src.channelCount(); ++c)

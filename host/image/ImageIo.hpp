@@ -49,8 +49,10 @@ void writeImage(const ImageBuffer& image, const std::filesystem::path& path, con
 ImageBuffer readImage(const std::filesystem::path& path, std::size_t memoryBudget = 0);
 
 /// Display encoding of linear associated RGBA: composite over `background` (straight RGBA), then sRGB
-/// encode. Result has channels R,G,B,A with A = 1 - (1 - a)(1 - background alpha).
-ImageBuffer compositeOverSrgb(const ImageBuffer& linearAssociatedRgba, std::array<float, 4> background);
+/// encode. Result has channels R,G,B,A with A = 1 - (1 - a)(1 - background alpha). `background` is the
+/// colour type of the whole API (Scene::background, light colours): straight RGBA in doubles; the
+/// compositing runs in float, as the viewer's shader does.
+ImageBuffer compositeOverSrgb(const ImageBuffer& linearAssociatedRgba, const std::array<double, 4>& background);
 float linearToSrgb(float linear) noexcept;
 
 } // namespace volcl

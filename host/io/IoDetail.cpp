@@ -591,6 +591,15 @@ std::vector<std::byte> deflateBytes(std::span<const std::byte> data, Wrapper wra
     return out;
 }
 
+void writeFileAtomically(const std::filesystem::path& path, std::span<const std::byte> bytes) {
+    AtomicFile out(path);
+    if (endsWithI(path.filename().string(), ".gz"))
+        out.write(deflateBytes(bytes, Wrapper::Gzip));
+    else
+        out.write(bytes);
+    out.commit();
+}
+
 std::vector<std::byte> bytesInOrder(const Volume& v, Endian endian) {
     std::vector<std::byte> out(v.bytes().begin(), v.bytes().end());
     const std::size_t size = scalarSize(v.type());

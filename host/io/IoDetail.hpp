@@ -104,6 +104,9 @@ bool looksCompressed(std::span<const std::byte> bytes) noexcept; ///< gzip magic
 enum class Wrapper : std::uint8_t { Gzip, Zlib };
 std::vector<std::byte> deflateBytes(std::span<const std::byte> data, Wrapper wrapper, int level = 6);
 
+/// Writes `bytes` to `path` atomically, gzip-compressed when the name ends in `.gz`.
+void writeFileAtomically(const std::filesystem::path& path, std::span<const std::byte> bytes);
+
 bool hostIsLittleEndian() noexcept;
 Endian hostEndian() noexcept;
 /// Copy of a volume's bytes in the requested byte order.
@@ -183,5 +186,7 @@ TimeSeries readVoreenVvd(ReadContext& ctx);
 void writeRaw(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
 void writeNrrd(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
 void writeVdb(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
+void writeNifti(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
+void writeVtkXmlImage(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
 
 } // namespace volcl::io

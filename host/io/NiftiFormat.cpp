@@ -1,6 +1,7 @@
 // NIfTI-1 single files (.nii, .nii.gz): 3D and 4D, either byte order, scl_slope/inter, pixdim spacing.
 #include "host/io/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
+#include "host/io/NiftiMetadata.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -58,15 +59,21 @@ std::optional<SampleType> niftiType(int code) {
     }
 }
 
-} // namespace
+/// What the reader needs from a header, plus the fields a writer restores.
+struct ParsedHeader {
+    Endian endian = Endian::Little;
+    std::size_t sizes[7] = {1, 1, 1, 1, 1, 1, 1};
+    SampleType sampleType = SampleType::UInt8;
+    NiftiMetadata meta;
+};
 
-TimeSeries readNifti(ReadContext& ctx) {
-    const fs::path& path = ctx.file();
-    const std::vector<std::byte> file = readFileBytes(path);
-    const bool gz = looksCompressed(file); // .nii files are sometimes gzipped without the .gz suffix
-    std::vector<std::byte> head =
-        gz ? inflatePrefix(file, kHeaderSize, path)
-           : std::vector<std::byte>(file.begin(), file.begin() + std::min(file.size(), kHeaderSize));
+std::string fixedText(std::span<const std::byte> head, std::size_t offset, std::size_t size) {
+    std::string s(reinterpret_cast<const char*>(head.data()) + offset, size);
+    s.resize(std::strlen(s.c_str()));
+    return s;
+}
+
+ParsedHeader parseHeader(std::span<const std::byte> head, const fs::path& path) {
     if (head.size() < kHeaderSize)
         fail(path, "truncated: " + std::to_string(head.size()) + " bytes, a NIfTI-1 header needs 348");
     std::int32_t sizeofHdr = 0;
@@ -79,7 +86,8 @@ TimeSeries readNifti(ReadContext& ctx) {
         if (swapped != 348) fail(path, "not a NIfTI-1 file (sizeof_hdr is not 348 in either byte order)");
         swap = true;
     }
-    const Endian endian = (swap ? (hostIsLittleEndian() ? Endian::Big : Endian::Little) : hostEndian());
+    ParsedHeader p;
+    p.endian = (swap ? (hostIsLittleEndian() ? Endian::Big : Endian::Little) : hostEndian());
     const HeaderView h(head, swap);
     const std::string_view magic(reinterpret_cast<const char*>(head.data()) + 344, 4);
     if (magic == std::string_view("ni1\0", 4))
@@ -89,43 +97,92 @@ TimeSeries readNifti(ReadContext& ctx) {
 
     const int rank = h.get<std::int16_t>(40);
     if (rank < 1 || rank > 7) fail(path, "dim[0] = " + std::to_string(rank) + " is outside 1..7");
-    std::size_t sizes[7] = {1, 1, 1, 1, 1, 1, 1};
     for (int i = 0; i < rank; ++i) {
         const int d = h.get<std::int16_t>(42 + 2 * i);
         if (d <= 0)
             fail(path, "dim[" + std::to_string(i + 1) + "] = " + std::to_string(d) + " must be positive");
-        sizes[i] = static_cast<std::size_t>(d);
+        p.sizes[i] = static_cast<std::size_t>(d);
     }
     for (int i = 4; i < 7; ++i)
-        if (sizes[i] != 1)
-            unsupported(path, "dimension " + std::to_string(i + 1) + " has size " + std::to_string(sizes[i]) +
+        if (p.sizes[i] != 1)
+            unsupported(path, "dimension " + std::to_string(i + 1) + " has size " + std::to_string(p.sizes[i]) +
                                   ": only 3D and 4D volumes are supported");
     const int datatype = h.get<std::int16_t>(70);
     const auto st = niftiType(datatype);
     if (!st)
         unsupported(path,
                     "datatype " + std::to_string(datatype) + " (complex, RGB or unknown) is not supported");
+    p.sampleType = *st;
     const int bitpix = h.get<std::int16_t>(72);
     if (bitpix != static_cast<int>(8 * sampleSize(*st)))
         fail(path,
              "bitpix " + std::to_string(bitpix) + " does not match datatype " + std::to_string(datatype));
 
-    std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
+    NiftiMetadata& m = p.meta;
+    m.datatype = static_cast<std::int16_t>(datatype);
     for (int i = 0; i < 3; ++i) {
-        const double p = std::abs(static_cast<double>(h.get<float>(80 + 4 * i)));
-        if (!std::isfinite(p)) fail(path, "pixdim[" + std::to_string(i + 1) + "] is not finite");
-        if (p > 0) spacing[i] = p;
+        m.pixdim[i] = h.get<float>(80 + 4 * i);
+        const double a = std::abs(static_cast<double>(m.pixdim[i]));
+        if (!std::isfinite(a)) fail(path, "pixdim[" + std::to_string(i + 1) + "] is not finite");
+        if (a > 0) m.spacing[i] = a;
     }
-    const int qformCode = h.get<std::int16_t>(252), sformCode = h.get<std::int16_t>(254);
-    if (sformCode > 0) {
-        for (int i = 0; i < 3; ++i)
-            origin[i] = h.get<float>(280 + 16 * i + 12);
-    } else if (qformCode > 0) {
-        for (int i = 0; i < 3; ++i)
-            origin[i] = h.get<float>(268 + 4 * i);
+    m.qformCode = h.get<std::int16_t>(252);
+    m.sformCode = h.get<std::int16_t>(254);
+    m.qfac = h.get<float>(76) < 0 ? -1.0f : 1.0f; // pixdim[0]: the standard reads anything but -1 as 1
+    m.quaternB = h.get<float>(256);
+    m.quaternC = h.get<float>(260);
+    m.quaternD = h.get<float>(264);
+    for (int i = 0; i < 3; ++i) {
+        m.qoffset[i] = h.get<float>(268 + 4 * i);
+        for (int j = 0; j < 4; ++j)
+            m.srow[i][j] = h.get<float>(280 + 16 * i + 4 * j);
     }
-    for (double o : origin)
-        if (!std::isfinite(o)) fail(path, (sformCode > 0 ? "srow" : "qoffset") + std::string(" origin is not finite"));
+    if (m.sformCode > 0) {
+        for (int i = 0; i < 3; ++i)
+            m.origin[i] = m.srow[i][3];
+    } else if (m.qformCode > 0) {
+        for (int i = 0; i < 3; ++i)
+            m.origin[i] = m.qoffset[i];
+    }
+    for (double o : m.origin)
+        if (!std::isfinite(o)) fail(path, (m.sformCode > 0 ? "srow" : "qoffset") + std::string(" origin is not finite"));
+    m.xyztUnits = static_cast<std::uint8_t>(std::to_integer<unsigned>(head[123]));
+    m.timeStep = h.get<float>(92);
+    m.toffset = h.get<float>(136);
+    m.intentCode = h.get<std::int16_t>(68);
+    for (int i = 0; i < 3; ++i)
+        m.intentP[i] = h.get<float>(56 + 4 * i);
+    m.intentName = fixedText(head, 328, 16);
+    m.sclSlope = h.get<float>(112);
+    m.sclInter = h.get<float>(116);
+    m.calMax = h.get<float>(124);
+    m.calMin = h.get<float>(128);
+    m.descrip = fixedText(head, 148, 80);
+    if (!std::isfinite(m.sclSlope) || !std::isfinite(m.sclInter))
+        fail(path, "scl_slope " + formatDouble(m.sclSlope) + " / scl_inter " + formatDouble(m.sclInter) +
+                       " is not finite");
+    return p;
+}
+
+std::vector<std::byte> headerBytes(std::span<const std::byte> file, bool gz, const fs::path& path) {
+    return gz ? inflatePrefix(file, kHeaderSize, path)
+              : std::vector<std::byte>(file.begin(), file.begin() + std::min(file.size(), kHeaderSize));
+}
+
+} // namespace
+
+TimeSeries readNifti(ReadContext& ctx) {
+    const fs::path& path = ctx.file();
+    const std::vector<std::byte> file = readFileBytes(path);
+    const bool gz = looksCompressed(file); // .nii files are sometimes gzipped without the .gz suffix
+    const std::vector<std::byte> head = headerBytes(file, gz, path);
+    const ParsedHeader p = parseHeader(head, path);
+    const HeaderView h(head, p.endian != hostEndian());
+    const std::size_t (&sizes)[7] = p.sizes;
+    const SampleType* st = &p.sampleType;
+    const Endian endian = p.endian;
+    const std::array<double, 3>& spacing = p.meta.spacing;
+    const std::array<double, 3>& origin = p.meta.origin;
 
     const float voxOffsetF = h.get<float>(108);
     if (!std::isfinite(voxOffsetF) || voxOffsetF < 0 || voxOffsetF > 1e12f ||
@@ -153,10 +210,8 @@ TimeSeries readNifti(ReadContext& ctx) {
         decodeFrames(all.subspan(voxOffset, payload), *st, endian, dims, frames, spacing, origin);
 
     // scl_slope = 0 means "no scaling" by the standard; 1/0 is the identity.
-    const double slope = h.get<float>(112), inter = h.get<float>(116);
-    if (!std::isfinite(slope) || !std::isfinite(inter))
-        fail(path, "scl_slope " + formatDouble(slope) + " / scl_inter " + formatDouble(inter) + " is not finite");
-    if (slope != 0 && (slope != 1 || inter != 0)) {
+    const double slope = p.meta.sclSlope, inter = p.meta.sclInter;
+    if (p.meta.scales()) {
         for (Volume& v : series.frames) {
             Volume f(v.dims(), ScalarType::Float32);
             f.spacing = v.spacing;
@@ -168,9 +223,9 @@ TimeSeries readNifti(ReadContext& ctx) {
         }
     }
     // pixdim[4] is the time step; xyzt_units says whether it is in s, ms or us. Times are in seconds.
-    const double dt = h.get<float>(92);
+    const double dt = p.meta.timeStep;
     if (frames > 1 && std::isfinite(dt) && dt > 0) {
-        const int timeUnits = static_cast<int>(std::to_integer<unsigned>(head[123])) & 0x38;
+        const int timeUnits = p.meta.xyztUnits & 0x38;
         const double scale = timeUnits == 16 ? 1e-3 : timeUnits == 24 ? 1e-6 : 1.0;
         for (std::size_t f = 0; f < frames; ++f)
             series.times.push_back(static_cast<double>(f) * dt * scale);
@@ -179,3 +234,17 @@ TimeSeries readNifti(ReadContext& ctx) {
 }
 
 } // namespace volcl::io
+
+namespace volcl {
+
+NiftiMetadata readNiftiMetadata(const std::filesystem::path& path) {
+    const std::vector<std::byte> file = readFileBytes(path);
+    return io::parseHeader(io::headerBytes(file, io::looksCompressed(file), path), path).meta;
+}
+
+std::optional<NiftiMetadata> readNiftiMetadataIfNifti(const std::filesystem::path& path) {
+    if (detectVolumeFormat(path) != VolumeFormat::Nifti) return std::nullopt;
+    return readNiftiMetadata(path);
+}
+
+} // namespace volcl

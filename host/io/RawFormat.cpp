@@ -48,13 +48,7 @@ TimeSeries readRaw(ReadContext& ctx) {
 }
 
 void writeRaw(const Volume& volume, const fs::path& path, const WriteOptions& options) {
-    const std::vector<std::byte> bytes = bytesInOrder(volume, options.endian);
-    AtomicFile out(path);
-    if (endsWithI(path.filename().string(), ".gz"))
-        out.write(deflateBytes(bytes, Wrapper::Gzip));
-    else
-        out.write(bytes);
-    out.commit();
+    writeFileAtomically(path, bytesInOrder(volume, options.endian));
 }
 
 } // namespace volcl::io

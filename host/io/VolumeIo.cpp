@@ -179,11 +179,15 @@ void writeVolumeFile(const Volume& volume, const fs::path& path, const WriteOpti
         io::writeRaw(volume, path, options);
     else if (endsWithI(name, ".nrrd") || endsWithI(name, ".nhdr"))
         io::writeNrrd(volume, path, options);
+    else if (endsWithI(name, ".nii") || endsWithI(name, ".nii.gz"))
+        io::writeNifti(volume, path, options);
+    else if (endsWithI(name, ".vti"))
+        io::writeVtkXmlImage(volume, path, options);
     else if (endsWithI(name, ".vdb"))
         io::writeVdb(volume, path, options);
     else
-        throw UsageError(path.string() +
-                         ": cannot write this format (writers: .raw, .raw.gz, .nrrd, .nhdr, .vdb)");
+        throw UsageError(path.string() + ": cannot write this format (writers: .raw, .raw.gz, .nrrd, .nhdr, "
+                                         ".nii, .nii.gz, .vti, .vdb)");
 }
 
 std::vector<fs::path> volumeFilesWritten(const fs::path& path) {

@@ -2,6 +2,7 @@
 #pragma once
 
 #include "host/Volume.hpp"
+#include "host/io/NiftiMetadata.hpp"
 
 #include <filesystem>
 #include <optional>
@@ -56,11 +57,16 @@ Volume readVolume(const std::filesystem::path& path, const ReadOptions& options 
 
 struct WriteOptions {
     Endian endian = Endian::Little; ///< raw and NRRD
-    bool compress = true;           ///< NRRD gzip encoding, VDB Blosc/zip where available
+    bool compress = true;           ///< NRRD gzip encoding, VDB Blosc/zip where available, VTI zlib blocks
+    /// NIfTI header fields of the volume's source (readNiftiMetadata, or a .vcz's stored copy): a .nii /
+    /// .nii.gz output keeps its qform/sform, units, intent and scaling, a .vti its orientation. Without
+    /// it a NIfTI output describes the volume's own spacing and origin.
+    std::optional<NiftiMetadata> nifti;
 };
 
-/// Writers: Raw (.raw), Nrrd (.nrrd attached, .nhdr detached + .raw), Vdb (.vdb). The format comes from
-/// the extension. Writes atomically (temporary + rename). Throws UsageError for an unsupported format.
+/// Writers: Raw (.raw, .raw.gz), Nrrd (.nrrd attached, .nhdr detached + .raw), NIfTI-1 (.nii, .nii.gz),
+/// VTK XML ImageData (.vti, appended data in zlib blocks) and Vdb (.vdb). The format comes from the
+/// extension. Writes atomically (temporary + rename). Throws UsageError for an unsupported format.
 void writeVolumeFile(const Volume& volume, const std::filesystem::path& path,
                      const WriteOptions& options = {});
 

@@ -306,4 +306,49 @@ std::vector<std::byte> VtkXmlPayload::decode(const XmlElement& da, std::size_t e
     return decodeBlocks(appended_.subspan(static_cast<std::size_t>(off)), layout_, name, expectedBytes);
 }
 
+VtkXmlEncodedArray encodeVtkXmlArray(std::span<const std::byte> raw, bool zlib) {
+    constexpr std::size_t kZlibBlock = 32768;
+    VtkXmlEncodedArray e;
+    if (!zlib) {
+        appendLittle<std::uint64_t>(e.header, raw.size());
+        e.data.assign(raw.begin(), raw.end());
+        return e;
+    }
+    const std::size_t blocks = (raw.size() + kZlibBlock - 1) / kZlibBlock;
+    const std::size_t last = raw.size() - (blocks ? (blocks - 1) * kZlibBlock : 0);
+    appendLittle<std::uint64_t>(e.header, blocks);
+    appendLittle<std::uint64_t>(e.header, kZlibBlock);
+    appendLittle<std::uint64_t>(e.header, blocks ? last : 0);
+    for (std::size_t b = 0; b < blocks; ++b) {
+        const std::size_t n = b + 1 == blocks ? last : kZlibBlock;
+        const auto c = deflateBytes(raw.subspan(b * kZlibBlock, n), Wrapper::Zlib);
+        appendLittle<std::uint64_t>(e.header, c.size());
+        e.data.insert(e.data.end(), c.begin(), c.end());
+    }
+    return e;
+}
+
+std::string xmlEscape(std::string_view s) {
+    std::string out;
+    for (char c : s) {
+        switch (c) {
+        case '&':
+            out += "&amp;";
+            break;
+        case '<':
+            out += "&lt;";
+            break;
+        case '>':
+            out += "&gt;";
+            break;
+        case '"':
+            out += "&quot;";
+            break;
+        default:
+            out += c;
+        }
+    }
+    return out;
+}
+
 } // namespace volcl::io

@@ -5,10 +5,13 @@
 #include "host/io/IoDetail.hpp"
 #include "host/io/XmlScan.hpp"
 
+#include <algorithm>
 #include <cstddef>
+#include <cstring>
 #include <filesystem>
 #include <optional>
 #include <span>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -50,6 +53,25 @@ private:
 
 /// Standard base64 with '=' padding (what VTK's inline `binary` and base64 appended formats hold).
 std::string base64Encode(std::span<const std::byte> bytes);
+
+/// `v` appended in little-endian byte order (VTK XML writers write little-endian files).
+template <class T> void appendLittle(std::vector<std::byte>& out, T v) {
+    std::byte b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));
+    if (!hostIsLittleEndian()) std::reverse(b, b + sizeof(T));
+    out.insert(out.end(), b, b + sizeof(T));
+}
+
+/// One array as a writer stores it with header_type UInt64: the header words (byte count, or block
+/// count, block size, last block size and each compressed size) and the data (raw, or zlib blocks of
+/// 32 KiB as VTK writes them).
+struct VtkXmlEncodedArray {
+    std::vector<std::byte> header, data;
+};
+VtkXmlEncodedArray encodeVtkXmlArray(std::span<const std::byte> raw, bool zlib);
+
+/// `s` with &, <, > and " escaped for an XML attribute value.
+std::string xmlEscape(std::string_view s);
 
 /// Text without its whitespace (base64 runs may be broken into lines).
 std::string stripSpaces(std::string_view s);

@@ -14,69 +14,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr std::size_t kZlibBlock = 32768;
-
-template <class T> void appendLittle(std::vector<std::byte>& out, T v) {
-    std::byte b[sizeof(T)];
-    std::memcpy(b, &v, sizeof(T));
-    if (!io::hostIsLittleEndian()) std::reverse(b, b + sizeof(T));
-    out.insert(out.end(), b, b + sizeof(T));
-}
-
-// The header (UInt64 words) and the stored data of one array, as VTK lays them out.
-struct EncodedArray {
-    std::vector<std::byte> header, data;
-};
-
-EncodedArray encode(const std::vector<std::byte>& raw, bool zlib) {
-    EncodedArray e;
-    if (!zlib) {
-        appendLittle<std::uint64_t>(e.header, raw.size());
-        e.data = raw;
-        return e;
-    }
-    const std::size_t blocks = (raw.size() + kZlibBlock - 1) / kZlibBlock;
-    const std::size_t last = raw.size() - (blocks ? (blocks - 1) * kZlibBlock : 0);
-    appendLittle<std::uint64_t>(e.header, blocks);
-    appendLittle<std::uint64_t>(e.header, kZlibBlock);
-    appendLittle<std::uint64_t>(e.header, blocks ? last : 0);
-    for (std::size_t b = 0; b < blocks; ++b) {
-        const std::size_t n = b + 1 == blocks ? last : kZlibBlock;
-        const auto c = io::deflateBytes(std::span(raw).subspan(b * kZlibBlock, n), io::Wrapper::Zlib);
-        appendLittle<std::uint64_t>(e.header, c.size());
-        e.data.insert(e.data.end(), c.begin(), c.end());
-    }
-    return e;
-}
-
 template <class T> std::vector<std::byte> littleBytes(const std::vector<T>& values) {
     std::vector<std::byte> out;
     out.reserve(values.size() * sizeof(T));
     for (const T& v : values)
-        appendLittle(out, v);
-    return out;
-}
-
-std::string xmlEscape(std::string_view s) {
-    std::string out;
-    for (char c : s) {
-        switch (c) {
-        case '&':
-            out += "&amp;";
-            break;
-        case '<':
-            out += "&lt;";
-            break;
-        case '>':
-            out += "&gt;";
-            break;
-        case '"':
-            out += "&quot;";
-            break;
-        default:
-            out += c;
-        }
-    }
+        io::appendLittle(out, v);
     return out;
 }
 
@@ -91,7 +33,7 @@ void writeVtu(const TetMesh& mesh, const fs::path& path, const VtuWriteOptions& 
     pointBytes.reserve(mesh.points.size() * 3 * (floatPoints ? 4 : 8));
     for (const Point3& p : mesh.points)
         for (double c : p)
-            floatPoints ? appendLittle(pointBytes, static_cast<float>(c)) : appendLittle(pointBytes, c);
+            floatPoints ? io::appendLittle(pointBytes, static_cast<float>(c)) : io::appendLittle(pointBytes, c);
     std::vector<std::int64_t> connectivity, offsets;
     connectivity.reserve(4 * mesh.tets.size());
     offsets.reserve(mesh.tets.size());
@@ -104,20 +46,20 @@ void writeVtu(const TetMesh& mesh, const fs::path& path, const VtuWriteOptions& 
 
     struct Array {
         std::string attributes;
-        EncodedArray encoded;
+        io::VtkXmlEncodedArray encoded;
     };
-    const std::string name = xmlEscape(mesh.scalarName.empty() ? "scalar" : mesh.scalarName);
+    const std::string name = io::xmlEscape(mesh.scalarName.empty() ? "scalar" : mesh.scalarName);
     std::vector<Array> arrays;
     arrays.push_back({"type=\"Float32\" Name=\"" + name + "\" RangeMin=\"" + io::formatDouble(mesh.valueMin) +
                           "\" RangeMax=\"" + io::formatDouble(mesh.valueMax) + "\"",
-                      encode(littleBytes(mesh.scalars), options.zlib)});
+                      io::encodeVtkXmlArray(littleBytes(mesh.scalars), options.zlib)});
     arrays.push_back({std::string("type=\"") + (floatPoints ? "Float32" : "Float64") +
                           "\" Name=\"Points\" NumberOfComponents=\"3\"",
-                      encode(pointBytes, options.zlib)});
+                      io::encodeVtkXmlArray(pointBytes, options.zlib)});
     arrays.push_back(
-        {"type=\"Int64\" Name=\"connectivity\"", encode(littleBytes(connectivity), options.zlib)});
-    arrays.push_back({"type=\"Int64\" Name=\"offsets\"", encode(littleBytes(offsets), options.zlib)});
-    arrays.push_back({"type=\"UInt8\" Name=\"types\"", encode(littleBytes(types), options.zlib)});
+        {"type=\"Int64\" Name=\"connectivity\"", io::encodeVtkXmlArray(littleBytes(connectivity), options.zlib)});
+    arrays.push_back({"type=\"Int64\" Name=\"offsets\"", io::encodeVtkXmlArray(littleBytes(offsets), options.zlib)});
+    arrays.push_back({"type=\"UInt8\" Name=\"types\"", io::encodeVtkXmlArray(littleBytes(types), options.zlib)});
 
     const bool appended = options.encoding == VtuEncoding::Appended;
     std::size_t offset = 0;

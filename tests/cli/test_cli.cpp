@@ -162,7 +162,11 @@ TEST(Cli, MissingImageModuleIsAOneLineError) {
     const std::filesystem::path exe(VOLCL_EXE), bin = dir / "bin";
     std::filesystem::create_directories(bin);
     std::filesystem::copy_file(exe, bin / "volcl");
-    std::filesystem::copy_file(exe.parent_path() / "libvolcl.so", bin / "libvolcl.so");
+    // The copy goes under the SONAME the executable asks for (libvolcl.so links to libvolcl.so.MAJOR.MINOR).
+    const std::filesystem::path lib = exe.parent_path() / "libvolcl.so";
+    const std::filesystem::path soname =
+        std::filesystem::is_symlink(lib) ? std::filesystem::read_symlink(lib).filename() : lib.filename();
+    std::filesystem::copy_file(lib, bin / soname);
     // LD_LIBRARY_PATH wins over the copy's RUNPATH, so the library (and its module lookup) is the copy's.
     const std::string copy = "LD_LIBRARY_PATH=" + bin.string() + " " + (bin / "volcl").string();
     EXPECT_EQ(run("--help", dir, copy).exitCode, 0);

@@ -1,10 +1,15 @@
-// Uses the installed volcl: builds a phantom on the default device and checks it against the reference.
-#include "host/Volume.hpp"
-#include "host/phantoms/Phantoms.hpp"
-#include "host/runtime/ClRuntime.hpp"
+// Uses the installed volcl through <volcl/...>: a phantom on the default device against its reference, a PNG
+// composite over a scene's background colour, and the library version.
+#include <volcl/host/Version.hpp>
+#include <volcl/host/Volume.hpp>
+#include <volcl/host/image/ImageIo.hpp>
+#include <volcl/host/phantoms/Phantoms.hpp>
+#include <volcl/host/render/Scene.hpp>
+#include <volcl/host/runtime/ClRuntime.hpp>
 
 #include <cmath>
 #include <cstdio>
+#include <string_view>
 
 int main() {
     volcl::ComputeContext cc;
@@ -12,6 +17,17 @@ int main() {
     volcl::Volume r = volcl::marschnerLobbReference({9, 9, 9});
     double err = 0;
     for (std::size_t i = 0; i < v.voxelCount(); ++i) err = std::fmax(err, std::fabs(v.valueAt(i) - r.valueAt(i)));
-    std::printf("consumer: %s, max error %.3g\n", cc.device().name.c_str(), err);
-    return err <= 1e-5 ? 0 : 1;
+
+    // Colours are one type across the API: a scene's background goes straight into the PNG composite.
+    volcl::Scene scene;
+    scene.background = {0.0, 0.0, 1.0, 1.0};
+    volcl::ImageBuffer clear(1, 1, {"R", "G", "B", "A"}); // nothing rendered: all zero
+    const volcl::ImageBuffer png = volcl::compositeOverSrgb(clear, scene.background);
+    const bool blue = png.at(0, 0, 0) == 0.0f && png.at(0, 0, 2) == 1.0f && png.at(0, 0, 3) == 1.0f;
+
+    const bool versionOk = volcl::version() == std::string_view(VOLCL_EXPECTED_VERSION);
+    std::printf("consumer: volcl %.*s on %s, phantom max error %.3g, background composite %s\n",
+                static_cast<int>(volcl::version().size()), volcl::version().data(), cc.device().name.c_str(), err,
+                blue ? "blue" : "wrong");
+    return err <= 1e-5 && blue && versionOk ? 0 : 1;
 }

@@ -10,9 +10,15 @@
 #include <map>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace volcl {
+
+/// Metadata key under which `volcl encode` stores a NIfTI source's header fields (niftiMetadataToText in
+/// host/io/NiftiMetadata.hpp), so a NIfTI output of `volcl decode` keeps the source's orientation. Files
+/// without it decode as before; readers that do not know it ignore it.
+inline constexpr std::string_view kVczNiftiMetadataKey = "volcl:nifti";
 
 /// What the bricks hold. Stored in .vcz files: never renumber.
 enum class TransformKind : std::uint8_t {
