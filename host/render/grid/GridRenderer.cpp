@@ -6,6 +6,8 @@
 #include "host/Volume.hpp"
 #include "host/render/FrameParams.hpp"
 #include "host/render/VecMath.hpp"
+#include "host/MemoryBudget.hpp"
+#include "host/render/grid/BsplineField.hpp"
 #include "host/render/grid/GridDetail.hpp"
 #include "host/runtime/Timing.hpp"
 #include "preintegration/PreintegrationTable.hpp"
@@ -46,7 +48,10 @@ std::string skippingHow() {
 /// change cost more than the coarse frame).
 EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& range) {
     EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow());
-    p.defines.set("VOXEL_TYPE", static_cast<long long>(voxelTypeCode(volume)));
+    // The cubic filters read float spline coefficients instead of the voxels.
+    p.defines.set("VOXEL_TYPE", scene.filter == ReconstructionFilter::Linear
+                                    ? static_cast<long long>(voxelTypeCode(volume))
+                                    : 0LL);
     return p;
 }
 
@@ -73,6 +78,12 @@ struct GridRenderer::Impl {
     DeviceBuffer<cl_uchar> volume;  ///< voxels in their stored type, plus one spare voxel (grid_sample.h)
     DeviceBuffer<cl_uchar> corners; ///< uint8 volumes: 8 corner values per cell for the packet kernels
     bool useCorners = false;        ///< packet kernels read `corners` (-DCORNER_VOXELS)
+    /// Cubic filters: the spline's coefficients (float, padded) and macrocells bounding the spline, for
+    /// `splineFilter` (Linear: none built yet).
+    ReconstructionFilter splineFilter = ReconstructionFilter::Linear;
+    double splineSmoothing = 0.0;
+    DeviceBuffer<float> spline;
+    grid_detail::MacrocellGrid splineMacro;
     DeviceBuffer<VolclTfKnot> knots;
     DeviceBuffer<cl_float4> table;
     DeviceBuffer<cl_uchar> empty;
@@ -221,13 +232,27 @@ void GridRenderer::rebuild(bool tfChanged) {
         m.table = cc_.allocate<cl_float4>(1, CL_MEM_READ_ONLY);
     }
 
+    // Cubic filters: the spline's coefficients, built once per filter (prefiltering a 35 MB volume takes
+    // about a second; camera and TF changes keep them).
+    const bool spline = scene_.filter != ReconstructionFilter::Linear;
+    if (spline && (m.splineFilter != scene_.filter || m.splineSmoothing != scene_.smoothing)) {
+        checkMemoryBudget(bsplineCoefficientBytes(volume_, sizeof(float)), 0, "the volume",
+                          "the cubic filter's coefficients");
+        const BsplineCoefficients<float> c = bsplineCoefficients<float>(volume_, scene_.filter, scene_.smoothing);
+        m.splineMacro = bsplineMacrocells(c, kMacrocellEdge);
+        m.spline = cc_.upload(c.c, CL_MEM_READ_ONLY);
+        m.splineFilter = scene_.filter;
+        m.splineSmoothing = scene_.smoothing;
+    }
+    const grid_detail::MacrocellGrid& macro = spline ? m.splineMacro : m.macro;
+
     // Macrocell emptiness from the TF (and the iso-values), for the sampling the kernel will use.
     std::vector<double> isoValues;
     for (const auto& iso : plan_.isosurfaces)
         isoValues.push_back(iso.value);
     const int tableNodes = pre != Preintegration::None ? scene_.tableSize : 0;
     m.emptyHost =
-        grid_detail::emptyMacrocells(m.macro, shaded, isoValues, scene_.mode == RenderMode::Iso, tableNodes);
+        grid_detail::emptyMacrocells(macro, shaded, isoValues, scene_.mode == RenderMode::Iso, tableNodes);
     std::size_t emptyCount = 0;
     for (unsigned char e : m.emptyHost)
         emptyCount += e;
@@ -238,14 +263,14 @@ void GridRenderer::rebuild(bool tfChanged) {
     m.packet =
         scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
     m.kernel = cc_.kernel("raymarch.cl", m.packet ? "raymarch_packet" : "raymarch",
-                          m.packet ? packetDefines(plan_.defines) : plan_.defines);
+                          m.packet ? packetDefines(plan_.defines, spline) : plan_.defines);
     m.params =
-        grid_detail::makeParams(scene_, camera_, volume_, tf_, plan_, m.macro, m.knotCount, m.tableLengths);
+        grid_detail::makeParams(scene_, camera_, volume_, m.range, tf_, plan_, macro, m.knotCount, m.tableLengths);
 }
 
-KernelDefines GridRenderer::packetDefines(KernelDefines d) {
+KernelDefines GridRenderer::packetDefines(KernelDefines d, bool spline) {
     Impl& m = *impl_;
-    if (m.useCorners) {
+    if (m.useCorners && !spline) {
         // A memory layout, not an effect: kept out of plan_.defines (what --explain and the EXR report).
         d.set("CORNER_VOXELS");
         if (m.corners.size() == 0)
@@ -254,14 +279,14 @@ KernelDefines GridRenderer::packetDefines(KernelDefines d) {
     return d;
 }
 
-ImageBuffer GridRenderer::launch(cl::Kernel& kernel, bool withDepth, bool packet) {
+ImageBuffer GridRenderer::launch(cl::Kernel& kernel, const cl::Buffer& voxels, bool withDepth, bool packet) {
     Impl& m = *impl_;
     const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
     if (m.out.size() != pixels) {
         m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
         m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
     }
-    setArgs(kernel, packet && m.useCorners ? m.corners : m.volume, m.knots, m.table, m.empty, m.params, m.out,
+    setArgs(kernel, voxels, m.knots, m.table, m.empty, m.params, m.out,
             m.depth);
     // Tiles of nearby rays share cache lines in y as well as x: 8x8 rays, or 4x4 packets of 4x2 rays.
     const std::size_t w = std::size_t(scene_.width), h = std::size_t(scene_.height);
@@ -285,6 +310,7 @@ ImageBuffer GridRenderer::launch(cl::Kernel& kernel, bool withDepth, bool packet
     img.attributes.push_back(
         {"volcl:preintegration", std::string(preintegrationName(scene_.preintegration))});
     img.attributes.push_back({"volcl:effects", plan_.defines.toOptions()});
+    img.attributes.push_back({"volcl:filter", std::string(filterName(scene_.filter))});
     return img;
 }
 
@@ -293,7 +319,11 @@ const cl::Buffer& GridRenderer::outputBuffer() const noexcept {
 }
 
 ImageBuffer GridRenderer::render() {
-    return launch(impl_->kernel, !plan_.isosurfaces.empty(), impl_->packet);
+    Impl& m = *impl_;
+    const cl::Buffer& voxels = scene_.filter != ReconstructionFilter::Linear ? m.spline.get()
+                               : m.packet && m.useCorners                  ? m.corners.get()
+                                                                           : m.volume.get();
+    return launch(m.kernel, voxels, !plan_.isosurfaces.empty(), m.packet);
 }
 
 ImageBuffer GridRenderer::renderPlainBaseline() {
@@ -301,8 +331,8 @@ ImageBuffer GridRenderer::renderPlainBaseline() {
         throw UsageError("the plain baseline kernel renders point-sampled dvr only");
     KernelDefines d;
     d.set("VOXEL_TYPE", static_cast<long long>(voxelTypeCode(volume_)));
-    cl::Kernel k = cc_.kernel("raymarch_plain.cl", "raymarch_plain", packetDefines(d));
-    return launch(k, false, true);
+    cl::Kernel k = cc_.kernel("raymarch_plain.cl", "raymarch_plain", packetDefines(d, false));
+    return launch(k, impl_->useCorners ? impl_->corners.get() : impl_->volume.get(), false, true);
 }
 
 WorldBox GridRenderer::bounds() const {
