@@ -10,7 +10,8 @@
 
 namespace volcl::cli {
 
-/// Times linear (central differences and Sobel), cubic and bspline filters, interleaved, as medians of
+/// Times linear (central differences and Sobel), cubic and bspline filters (the latter also on data
+/// smoothed by sigma 0.7, 1 and 1.5 voxels), interleaved, as medians of
 /// `runs` frames: on an 8-bit quantised sphere (normal and depth error against the analytic sphere) and on
 /// `scene` over `input` (shading roughness, the terrace measure, against linear). Prints a table on stdout
 /// and, when `csv` is not empty, writes its rows there.

@@ -310,7 +310,8 @@ ImageBuffer GridRenderer::launch(cl::Kernel& kernel, const cl::Buffer& voxels, b
     img.attributes.push_back(
         {"volcl:preintegration", std::string(preintegrationName(scene_.preintegration))});
     img.attributes.push_back({"volcl:effects", plan_.defines.toOptions()});
-    img.attributes.push_back({"volcl:filter", std::string(filterName(scene_.filter))});
+    if (scene_.filter != ReconstructionFilter::Linear) // absent: linear, as in images from before the filters
+        img.attributes.push_back({"volcl:filter", std::string(filterName(scene_.filter))});
     return img;
 }
 
