@@ -267,6 +267,41 @@ TEST(Filter, MipWindowGreyTfAndTfOpacity) {
     EXPECT_THROW(bad.validate(), UsageError);
 }
 
+TEST(Filter, DegenerateGridsAndExtremeValues) {
+    const TransferFunction tf = rampTf(0.0, 1.0, 2.0);
+    for (Dims n : {Dims{2, 2, 2}, Dims{1, 6, 5}, Dims{7, 1, 1}, Dims{3, 4, 2}}) {
+        const Volume v = makeFloatVolume(n, [](double x, double y, double z) { return float(0.2 + 0.1 * (x + y + z)); });
+        for (ReconstructionFilter f : {ReconstructionFilter::Cubic, ReconstructionFilter::Bspline})
+            for (RenderMode mode : {RenderMode::Dvr, RenderMode::Mip, RenderMode::Iso}) {
+                Scene s = orthoScene(n, 8.0, 9, 7);
+                s.camera->eye = {s.camera->target[0] + 0.3, s.camera->target[1] + 0.2, -20.0};
+                s.filter = f;
+                s.smoothing = 0.5;
+                s.mode = mode;
+                if (mode == RenderMode::Iso) s.effects.isosurfaces = {{0.45, {1, 1, 1, 1}}};
+                const ImageBuffer img = Renderer(computeContext(), v, tf, s).render();
+                const ImageBuffer ref = referenceRender(v, tf, s);
+                for (float p : img.pixels)
+                    if (!std::isinf(p)) ASSERT_TRUE(std::isfinite(p));
+                EXPECT_LT(imageRmse(img, ref), 2e-3) << n.x << "x" << n.y << "x" << n.z << " " << filterName(f);
+            }
+    }
+    // Values near float's limit: the approximating spline stays finite (weights sum to 1); the
+    // interpolating prefilter would overflow and is refused with a one-line error.
+    const Dims n{6, 6, 6};
+    const Volume huge = makeFloatVolume(n, [](double x, double, double) { return int(x) % 2 ? 3e38f : -3e38f; });
+    TransferFunction wide = rampTf(-3e38, 3e38, 1.0);
+    Scene s = orthoScene(n, 8.0, 8, 8);
+    s.filter = ReconstructionFilter::Bspline;
+    const ImageBuffer img = Renderer(computeContext(), huge, wide, s).render();
+    for (float p : img.pixels)
+        ASSERT_TRUE(std::isfinite(p));
+    s.filter = ReconstructionFilter::Cubic;
+    EXPECT_THROW(Renderer(computeContext(), huge, wide, s), DataError);
+    s.smoothing = 9.0;
+    EXPECT_THROW(s.validate(), UsageError);
+}
+
 TEST(Filter, SceneJsonFieldsRoundTripAndRefuseUnknowns) {
     const Scene s = Scene::fromJson(R"({"render": {"mode": "mip", "filter": "bspline", "window": [40, 80],
                                         "mip_color": "tf"}})");

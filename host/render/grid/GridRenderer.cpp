@@ -239,6 +239,11 @@ void GridRenderer::rebuild(bool tfChanged) {
         checkMemoryBudget(bsplineCoefficientBytes(volume_, sizeof(float)), 0, "the volume",
                           "the cubic filter's coefficients");
         const BsplineCoefficients<float> c = bsplineCoefficients<float>(volume_, scene_.filter, scene_.smoothing);
+        // The interpolating prefilter amplifies alternating data up to 27x: values near float's limit overflow.
+        if (!std::all_of(c.c.begin(), c.c.end(), [](float v) { return std::isfinite(v); }))
+            throw DataError("volume values up to " + fmt(m.range.max) + " overflow the " +
+                            std::string(filterName(scene_.filter)) +
+                            " filter's float coefficients (use --filter linear)");
         m.splineMacro = bsplineMacrocells(c, kMacrocellEdge);
         m.spline = cc_.upload(c.c, CL_MEM_READ_ONLY);
         m.splineFilter = scene_.filter;
