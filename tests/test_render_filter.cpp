@@ -24,16 +24,10 @@ using volcl::test::makeFloatVolume;
 
 constexpr double kPi = 3.14159265358979323846;
 
-Scene orthoScene(Dims n, double h, int w, int ht) {
-    Scene s;
-    Camera c;
-    c.target = {double(n.x - 1) / 2, double(n.y - 1) / 2, double(n.z - 1) / 2};
-    c.eye = {c.target[0] + 7.0, c.target[1] - 5.0, -60.0};
-    c.height = h;
-    s.camera = c;
-    s.width = w;
-    s.height = ht;
-    s.earlyTermination = 1.0;
+/// test::orthoScene seen slightly from the side, so rays cross cells obliquely.
+Scene obliqueScene(Dims n, double h, int w, int ht) {
+    Scene s = test::orthoScene(n, h, w, ht);
+    s.camera->eye = {s.camera->target[0] + 7.0, s.camera->target[1] - 5.0, -60.0};
     return s;
 }
 
@@ -161,7 +155,7 @@ TEST(Filter, KernelsMatchTheReferenceOnASmoothField) {
             {"xray", [](Scene& s) { s.mode = RenderMode::Xray; }, 2e-3},
         };
         for (const auto& cs : cases) {
-            Scene s = orthoScene(n, 30.0, 28, 24);
+            Scene s = obliqueScene(n, 30.0, 28, 24);
             s.step = 0.25;
             s.filter = f;
             cs.apply(s);
@@ -225,7 +219,7 @@ TEST(Filter, MipWindowGreyTfAndTfOpacity) {
     const Dims n{20, 18, 16};
     const Volume v = makeFloatVolume(n, [](double x, double y, double) { return float(10.0 + 3.0 * x + y); });
     TransferFunction tf = rampTf(0.0, 100.0, 2.0);
-    Scene s = orthoScene(n, 24.0, 20, 18);
+    Scene s = obliqueScene(n, 24.0, 20, 18);
     s.camera->eye = {s.camera->target[0], s.camera->target[1], -60.0}; // along +z: the maximum is the column's value
     s.mode = RenderMode::Mip;
     s.step = 0.25;
@@ -273,7 +267,7 @@ TEST(Filter, DegenerateGridsAndExtremeValues) {
         const Volume v = makeFloatVolume(n, [](double x, double y, double z) { return float(0.2 + 0.1 * (x + y + z)); });
         for (ReconstructionFilter f : {ReconstructionFilter::Cubic, ReconstructionFilter::Bspline})
             for (RenderMode mode : {RenderMode::Dvr, RenderMode::Mip, RenderMode::Iso}) {
-                Scene s = orthoScene(n, 8.0, 9, 7);
+                Scene s = obliqueScene(n, 8.0, 9, 7);
                 s.camera->eye = {s.camera->target[0] + 0.3, s.camera->target[1] + 0.2, -20.0};
                 s.filter = f;
                 s.smoothing = 0.5;
@@ -291,7 +285,7 @@ TEST(Filter, DegenerateGridsAndExtremeValues) {
     const Dims n{6, 6, 6};
     const Volume huge = makeFloatVolume(n, [](double x, double, double) { return int(x) % 2 ? 3e38f : -3e38f; });
     TransferFunction wide = rampTf(-3e38, 3e38, 1.0);
-    Scene s = orthoScene(n, 8.0, 8, 8);
+    Scene s = obliqueScene(n, 8.0, 8, 8);
     s.filter = ReconstructionFilter::Bspline;
     const ImageBuffer img = Renderer(computeContext(), huge, wide, s).render();
     for (float p : img.pixels)
