@@ -37,7 +37,8 @@ Volume smoothField(Dims n) {
         const double u = 2.0 * x / double(n.x - 1) - 1.0, v = 2.0 * y / double(n.y - 1) - 1.0,
                      w = 2.0 * z / double(n.z - 1) - 1.0;
         const double r = std::sqrt(u * u + v * v);
-        return (1.0 - std::sin(kPi * w / 2.0) + 0.25 * (1.0 + std::cos(2.0 * kPi * 1.5 * std::cos(kPi * r / 2.0)))) /
+        return (1.0 - std::sin(kPi * w / 2.0) +
+                0.25 * (1.0 + std::cos(2.0 * kPi * 1.5 * std::cos(kPi * r / 2.0)))) /
                2.5;
     });
 }
@@ -69,12 +70,14 @@ TEST(Filter, SplinesReproduceALinearFieldAndItsGradient) {
     // Both splines reproduce linear functions away from the mirrored border (the interpolating one's
     // prefilter spreads the border's kink by 0.268^k over k voxels); the gradient is analytic.
     const Dims n{32, 30, 28};
-    const Volume v = makeFloatVolume(n, [](double x, double y, double z) { return float(1.5 * x - 0.75 * y + 0.25 * z); });
+    const Volume v =
+        makeFloatVolume(n, [](double x, double y, double z) { return float(1.5 * x - 0.75 * y + 0.25 * z); });
     for (ReconstructionFilter f : {ReconstructionFilter::Cubic, ReconstructionFilter::Bspline}) {
         const auto c = bsplineCoefficients<double>(v, f);
         for (const Vec3 p : {Vec3{13.3, 14.7, 12.1}, Vec3{15.5, 12.25, 16.9}, Vec3{17.0, 16.0, 15.0}}) {
             Vec3 g;
-            EXPECT_NEAR(bsplineValue(c, p, &g), 1.5 * p[0] - 0.75 * p[1] + 0.25 * p[2], 1e-6) << filterName(f);
+            EXPECT_NEAR(bsplineValue(c, p, &g), 1.5 * p[0] - 0.75 * p[1] + 0.25 * p[2], 1e-6)
+                << filterName(f);
             EXPECT_NEAR(g[0], 1.5, 1e-6);
             EXPECT_NEAR(g[1], -0.75, 1e-6);
             EXPECT_NEAR(g[2], 0.25, 1e-6);
@@ -113,7 +116,8 @@ TEST(Filter, MacrocellsBoundTheSpline) {
         for (double y = 0; y <= 18; y += 0.41)
             for (double x = 0; x <= 20; x += 0.43) {
                 const double s = bsplineValue(cd, {x, y, z});
-                const unsigned cx = std::min(unsigned(x / 8), m.nx - 1), cy = std::min(unsigned(y / 8), m.ny - 1),
+                const unsigned cx = std::min(unsigned(x / 8), m.nx - 1),
+                               cy = std::min(unsigned(y / 8), m.ny - 1),
                                cz = std::min(unsigned(z / 8), m.nz - 1);
                 const std::size_t c = (std::size_t(cz) * m.ny + cy) * m.nx + cx;
                 ASSERT_GE(s, m.min[c] - 1e-5);
@@ -167,9 +171,10 @@ TEST(Filter, KernelsMatchTheReferenceOnASmoothField) {
             // scene (the step's discretisation error, which the filter does not change).
             Scene lin = s;
             lin.filter = ReconstructionFilter::Linear;
-            const double linear =
-                imageRmse(Renderer(computeContext(), v, tf, lin).render(), referenceRender(v, tf, lin, {.step = 0.04}));
-            EXPECT_LT(rmse, std::max(cs.tol, 1.5 * linear)) << filterName(f) << " " << cs.name << " (linear " << linear << ")";
+            const double linear = imageRmse(Renderer(computeContext(), v, tf, lin).render(),
+                                            referenceRender(v, tf, lin, {.step = 0.04}));
+            EXPECT_LT(rmse, std::max(cs.tol, 1.5 * linear))
+                << filterName(f) << " " << cs.name << " (linear " << linear << ")";
             EXPECT_NE(r.plan().defines.toOptions().find("-DFILTER_BSPLINE"), std::string::npos);
             // Skipping and the packet kernel change nothing beyond float noise.
             Scene noSkip = s;
@@ -203,14 +208,15 @@ TEST(Filter, SmoothingSplineRemovesQuantisationTerracesOnASphere) {
     const auto cubic = errorFor(ReconstructionFilter::Cubic, GradientKind::Central, 0.0, 0.4);
     const auto smooth = errorFor(ReconstructionFilter::Bspline, GradientKind::Central, 1.0, 0.2);
     std::cerr << "[ normals ] mean angular error (deg) / roughness: linear " << linear.first << " / "
-              << linear.second << ", sobel " << sobel.first << " / " << sobel.second << ", cubic " << cubic.first
-              << " / " << cubic.second << ", bspline smoothing 1 " << smooth.first << " / " << smooth.second << '\n';
+              << linear.second << ", sobel " << sobel.first << " / " << sobel.second << ", cubic "
+              << cubic.first << " / " << cubic.second << ", bspline smoothing 1 " << smooth.first << " / "
+              << smooth.second << '\n';
     RecordProperty("normal_error_deg_linear", std::to_string(linear.first));
     RecordProperty("normal_error_deg_bspline_smoothing_1", std::to_string(smooth.first));
-    EXPECT_GT(linear.first, 3.0); // the terraces the trilinear field shows
-    EXPECT_GT(sobel.first, 1.5);  // Sobel alone does not remove them
+    EXPECT_GT(linear.first, 3.0);         // the terraces the trilinear field shows
+    EXPECT_GT(sobel.first, 1.5);          // Sobel alone does not remove them
     EXPECT_GT(cubic.first, linear.first); // an interpolating spline follows the stairs even more closely
-    EXPECT_LT(smooth.first, 1.2); // the smoothing spline removes them
+    EXPECT_LT(smooth.first, 1.2);         // the smoothing spline removes them
     EXPECT_LT(smooth.first, 0.3 * linear.first);
     EXPECT_LT(smooth.second, 0.3 * linear.second);
 }
@@ -220,7 +226,8 @@ TEST(Filter, MipWindowGreyTfAndTfOpacity) {
     const Volume v = makeFloatVolume(n, [](double x, double y, double) { return float(10.0 + 3.0 * x + y); });
     TransferFunction tf = rampTf(0.0, 100.0, 2.0);
     Scene s = obliqueScene(n, 24.0, 20, 18);
-    s.camera->eye = {s.camera->target[0], s.camera->target[1], -60.0}; // along +z: the maximum is the column's value
+    s.camera->eye = {s.camera->target[0], s.camera->target[1],
+                     -60.0}; // along +z: the maximum is the column's value
     s.mode = RenderMode::Mip;
     s.step = 0.25;
     s.window = std::array<double, 2>{50.0, 40.0}; // 30..70
@@ -264,7 +271,8 @@ TEST(Filter, MipWindowGreyTfAndTfOpacity) {
 TEST(Filter, DegenerateGridsAndExtremeValues) {
     const TransferFunction tf = rampTf(0.0, 1.0, 2.0);
     for (Dims n : {Dims{2, 2, 2}, Dims{1, 6, 5}, Dims{7, 1, 1}, Dims{3, 4, 2}}) {
-        const Volume v = makeFloatVolume(n, [](double x, double y, double z) { return float(0.2 + 0.1 * (x + y + z)); });
+        const Volume v =
+            makeFloatVolume(n, [](double x, double y, double z) { return float(0.2 + 0.1 * (x + y + z)); });
         for (ReconstructionFilter f : {ReconstructionFilter::Cubic, ReconstructionFilter::Bspline})
             for (RenderMode mode : {RenderMode::Dvr, RenderMode::Mip, RenderMode::Iso}) {
                 Scene s = obliqueScene(n, 8.0, 9, 7);
@@ -277,13 +285,15 @@ TEST(Filter, DegenerateGridsAndExtremeValues) {
                 const ImageBuffer ref = referenceRender(v, tf, s);
                 for (float p : img.pixels)
                     if (!std::isinf(p)) ASSERT_TRUE(std::isfinite(p));
-                EXPECT_LT(imageRmse(img, ref), 2e-3) << n.x << "x" << n.y << "x" << n.z << " " << filterName(f);
+                EXPECT_LT(imageRmse(img, ref), 2e-3)
+                    << n.x << "x" << n.y << "x" << n.z << " " << filterName(f);
             }
     }
     // Values near float's limit: the approximating spline stays finite (weights sum to 1); the
     // interpolating prefilter would overflow and is refused with a one-line error.
     const Dims n{6, 6, 6};
-    const Volume huge = makeFloatVolume(n, [](double x, double, double) { return int(x) % 2 ? 3e38f : -3e38f; });
+    const Volume huge =
+        makeFloatVolume(n, [](double x, double, double) { return int(x) % 2 ? 3e38f : -3e38f; });
     TransferFunction wide = rampTf(-3e38, 3e38, 1.0);
     Scene s = obliqueScene(n, 8.0, 8, 8);
     s.filter = ReconstructionFilter::Bspline;
@@ -341,7 +351,8 @@ TEST(Filter, RealEightBitMriMatchesReference) {
             const ImageBuffer img = Renderer(computeContext(), v, tf, s).render();
             const ImageBuffer ref = referenceRender(v, tf, s, {.step = 0.05 * v.spacing[0]});
             const double rmse = imageRmse(img, ref);
-            std::cerr << "[ mri ] " << filterName(f) << " " << renderModeName(mode) << " RMSE " << rmse << '\n';
+            std::cerr << "[ mri ] " << filterName(f) << " " << renderModeName(mode) << " RMSE " << rmse
+                      << '\n';
             EXPECT_LT(rmse, 5e-3) << filterName(f) << " " << renderModeName(mode);
         }
     }

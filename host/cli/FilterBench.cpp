@@ -2,8 +2,8 @@
 #include "host/cli/FilterBench.hpp"
 
 #include "host/io/AtomicFile.hpp"
-#include "host/render/grid/FilterAccuracy.hpp"
 #include "host/render/VolumeRenderer.hpp"
+#include "host/render/grid/FilterAccuracy.hpp"
 #include "host/runtime/Timing.hpp"
 
 #include <iomanip>
@@ -28,13 +28,14 @@ struct FilterCase {
 };
 
 const std::vector<FilterCase>& filterCases() {
-    static const std::vector<FilterCase> cases = {{ReconstructionFilter::Linear, GradientKind::Central, 0.0},
-                                                  {ReconstructionFilter::Linear, GradientKind::Sobel, 0.0},
-                                                  {ReconstructionFilter::Cubic, GradientKind::Central, 0.0},
-                                                  {ReconstructionFilter::Bspline, GradientKind::Central, 0.0},
-                                                  {ReconstructionFilter::Bspline, GradientKind::Central, 0.7},
-                                                  {ReconstructionFilter::Bspline, GradientKind::Central, 1.0},
-                                                  {ReconstructionFilter::Bspline, GradientKind::Central, 1.5}};
+    static const std::vector<FilterCase> cases = {
+        {ReconstructionFilter::Linear, GradientKind::Central, 0.0},
+        {ReconstructionFilter::Linear, GradientKind::Sobel, 0.0},
+        {ReconstructionFilter::Cubic, GradientKind::Central, 0.0},
+        {ReconstructionFilter::Bspline, GradientKind::Central, 0.0},
+        {ReconstructionFilter::Bspline, GradientKind::Central, 0.7},
+        {ReconstructionFilter::Bspline, GradientKind::Central, 1.0},
+        {ReconstructionFilter::Bspline, GradientKind::Central, 1.5}};
     return cases;
 }
 
@@ -71,8 +72,8 @@ Timed timeCases(ComputeContext& cc, const RenderInput& input, const TransferFunc
 
 } // namespace
 
-void benchFilters(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, const Scene& scene,
-                  int runs, const std::filesystem::path& csvPath) {
+void benchFilters(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
+                  const Scene& scene, int runs, const std::filesystem::path& csvPath) {
     std::ostringstream csv;
     csv << "dataset,filter,setup_ms,ms_per_frame,ratio_to_linear,normal_error_deg,depth_error,roughness\n";
     std::cout << std::fixed;
@@ -100,8 +101,8 @@ void benchFilters(ComputeContext& cc, const RenderInput& input, const TransferFu
                   << std::setw(10) << st.setupMs[i] << std::setprecision(2) << std::setw(11) << st.frameMs[i]
                   << std::setw(10) << ratio << std::setw(17) << nErr << std::setprecision(4) << std::setw(12)
                   << dErr << '\n';
-        csv << "sphere," << name << ',' << st.setupMs[i] << ',' << st.frameMs[i] << ',' << ratio << ',' << nErr
-            << ',' << dErr << ",\n";
+        csv << "sphere," << name << ',' << st.setupMs[i] << ',' << st.frameMs[i] << ',' << ratio << ','
+            << nErr << ',' << dErr << ",\n";
     }
 
     // 2. The scene's own data: time and the terrace measure against linear.

@@ -15,7 +15,7 @@ namespace volcl::cli {
 /// `runs` frames: on an 8-bit quantised sphere (normal and depth error against the analytic sphere) and on
 /// `scene` over `input` (shading roughness, the terrace measure, against linear). Prints a table on stdout
 /// and, when `csv` is not empty, writes its rows there.
-void benchFilters(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, const Scene& scene,
-                  int runs, const std::filesystem::path& csv);
+void benchFilters(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
+                  const Scene& scene, int runs, const std::filesystem::path& csv);
 
 } // namespace volcl::cli

@@ -93,8 +93,10 @@ std::size_t bsplineCoefficientBytes(const Volume& volume, std::size_t bytesPerCo
 }
 
 template <class T>
-BsplineCoefficients<T> bsplineCoefficients(const Volume& volume, ReconstructionFilter filter, double smoothing) {
-    if (filter == ReconstructionFilter::Linear) throw UsageError("bsplineCoefficients: the linear filter has none");
+BsplineCoefficients<T> bsplineCoefficients(const Volume& volume, ReconstructionFilter filter,
+                                           double smoothing) {
+    if (filter == ReconstructionFilter::Linear)
+        throw UsageError("bsplineCoefficients: the linear filter has none");
     if (!(smoothing >= 0.0 && smoothing <= kMaxSmoothing))
         throw UsageError("smoothing must be in [0, " + std::to_string(int(kMaxSmoothing)) + "] voxels");
     const Dims& d = volume.dims();
@@ -134,7 +136,9 @@ BsplineCoefficients<T> bsplineCoefficients(const Volume& volume, ReconstructionF
             sum += kernel[std::size_t(j + r)] = std::exp(-0.5 * double(j * j) / (smoothing * smoothing));
         for (double& k : kernel)
             k /= sum;
-        pass([&](double* c, std::size_t n, std::vector<double>& scratch) { gaussianLine(c, n, kernel, scratch); });
+        pass([&](double* c, std::size_t n, std::vector<double>& scratch) {
+            gaussianLine(c, n, kernel, scratch);
+        });
     }
     if (filter == ReconstructionFilter::Cubic)
         pass([](double* c, std::size_t n, std::vector<double>&) { prefilterLine(c, n); });
@@ -190,7 +194,9 @@ double bsplineValue(const BsplineCoefficients<double>& field, const Vec3& p, Vec
 grid_detail::MacrocellGrid bsplineMacrocells(const BsplineCoefficients<float>& field, unsigned edge) {
     grid_detail::MacrocellGrid g;
     g.edge = edge;
-    auto cells = [edge](std::size_t n) { return unsigned(std::max<std::size_t>(1, (n - 1 + edge - 1) / edge)); };
+    auto cells = [edge](std::size_t n) {
+        return unsigned(std::max<std::size_t>(1, (n - 1 + edge - 1) / edge));
+    };
     g.nx = cells(field.dims[0]);
     g.ny = cells(field.dims[1]);
     g.nz = cells(field.dims[2]);

@@ -35,7 +35,8 @@ std::size_t bsplineCoefficientBytes(const Volume& volume, std::size_t bytesPerCo
 /// the volume first smoothed by a Gaussian of `smoothing` voxels (0: none; truncated at 3 sigma, mirror
 /// boundary). Throws UsageError for the linear filter or a smoothing outside [0, kMaxSmoothing].
 template <class T>
-BsplineCoefficients<T> bsplineCoefficients(const Volume& volume, ReconstructionFilter filter, double smoothing = 0.0);
+BsplineCoefficients<T> bsplineCoefficients(const Volume& volume, ReconstructionFilter filter,
+                                           double smoothing = 0.0);
 
 /// Largest Gaussian smoothing (voxels) the cubic filters accept: a 3-sigma kernel of 49 taps.
 constexpr double kMaxSmoothing = 8.0;

@@ -14,7 +14,8 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kMinCosView = 0.3; // 72.5 degrees
 
 /// Calls fn(ray, hit distance, true normal) for every measured pixel.
-template <class Fn> void forMeasuredPixels(const ImageBuffer& img, const Scene& s, const Vec3& centre, Fn&& fn) {
+template <class Fn>
+void forMeasuredPixels(const ImageBuffer& img, const Scene& s, const Vec3& centre, Fn&& fn) {
     for (int y = 0; y < img.height; ++y)
         for (int x = 0; x < img.width; ++x) {
             const double depth = img.at(x, y, 4);
