@@ -64,7 +64,7 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
             (scene.filter == ReconstructionFilter::Cubic
                  ? std::string("filter cubic: interpolating cubic B-spline (prefiltered), analytic gradient")
                  : std::string("filter bspline: approximating cubic B-spline of the voxels, analytic gradient")) +
-            (scene.smoothing > 0.0 ? ", data smoothed by a Gaussian of " + fmt(scene.smoothing) + " voxels" : ""));
+            (scene.smoothing > 0.0 ? ", data smoothed by a Gaussian of sigma " + fmt(scene.smoothing) + " voxel" : ""));
     } else if (scene.smoothing > 0.0) {
         p.dropped.push_back("smoothing: filter linear reads the voxels as they are (use cubic or bspline)");
     }
@@ -90,7 +90,10 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
     if (!p.isosurfaces.empty()) {
         p.defines.set("ISO_COUNT", static_cast<long long>(p.isosurfaces.size()));
         p.compiled.push_back("isosurfaces: " + std::to_string(p.isosurfaces.size()) +
-                             " (first hit refined by bisection, composited in ray order)");
+                             (scene.filter == ReconstructionFilter::Linear
+                                  ? " (exact roots of the trilinear field per cell, composited in ray order)"
+                                  : " (sign changes between samples refined on the spline, composited in ray "
+                                    "order)"));
     }
 
     std::size_t litLights = 0;

@@ -317,7 +317,7 @@ TEST(CliUsability, SmoothFilterOnEightBitIsoSurfaces) {
     RunResult ex = run(base + "--filter bspline --smoothing 1 --sobel --explain", dir);
     ASSERT_EQ(ex.exitCode, 0) << ex.err;
     EXPECT_TRUE(has(ex.out, "-DFILTER_BSPLINE")) << ex.out;
-    EXPECT_TRUE(has(ex.out, "smoothed by a Gaussian of 1 voxels")) << ex.out;
+    EXPECT_TRUE(has(ex.out, "smoothed by a Gaussian of sigma 1 voxel")) << ex.out;
     EXPECT_TRUE(has(ex.out, "dropped gradient sobel")) << ex.out;
     RunResult bad = run(base + "--filter quintic --explain", dir);
     EXPECT_EQ(bad.exitCode, 2);
