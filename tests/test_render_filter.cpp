@@ -185,6 +185,35 @@ TEST(Filter, KernelsMatchTheReferenceOnASmoothField) {
     }
 }
 
+TEST(Filter, LinearFilterOnSmoothedDataMatchesReference) {
+    const Dims n{22, 20, 19};
+    Volume v(n, ScalarType::UInt8);
+    auto vals = v.values<std::uint8_t>();
+    for (std::size_t i = 0; i < vals.size(); ++i)
+        vals[i] = std::uint8_t((i * 37) % 200); // rough: smoothing changes it everywhere
+    const TransferFunction tf = rampTf(0.0, 200.0, 0.05);
+    const Light light{LightKind::Directional, {0.4, 0.6, -0.7}, {1, 1, 1}, 1.0};
+    for (RenderMode mode : {RenderMode::Dvr, RenderMode::Iso, RenderMode::Mip}) {
+        Scene s = obliqueScene(n, 28.0, 24, 20);
+        s.step = 0.25;
+        s.smoothing = 1.0;
+        s.mode = mode;
+        s.lights = {light};
+        s.effects.shading = mode != RenderMode::Mip;
+        if (mode == RenderMode::Iso) s.effects.isosurfaces = {{95.5, {1, 1, 1, 1}}};
+        Renderer r(computeContext(), v, tf, s);
+        EXPECT_EQ(r.plan().defines.toOptions().find("FILTER_BSPLINE"), std::string::npos);
+        EXPECT_NE(r.plan().defines.toOptions().find("-DVOXEL_TYPE=0"), std::string::npos);
+        const ImageBuffer img = r.render();
+        const double rmse = imageRmse(img, referenceRender(v, tf, s, {.step = 0.04}));
+        EXPECT_LT(rmse, 3e-3) << renderModeName(mode);
+        Scene raw = s;
+        raw.smoothing = 0.0;
+        EXPECT_GT(imageRmse(Renderer(computeContext(), v, tf, raw).render(), img), 10.0 * rmse)
+            << "smoothing changes the image";
+    }
+}
+
 TEST(Filter, SmoothingSplineRemovesQuantisationTerracesOnASphere) {
     // 8-bit data of a sphere with a shallow radial ramp (one level per voxel): the trilinear field is a
     // staircase, and normals from it (central differences or Sobel) follow the stairs.
@@ -207,10 +236,12 @@ TEST(Filter, SmoothingSplineRemovesQuantisationTerracesOnASphere) {
     const auto sobel = errorFor(ReconstructionFilter::Linear, GradientKind::Sobel, 0.0, 0.25);
     const auto cubic = errorFor(ReconstructionFilter::Cubic, GradientKind::Central, 0.0, 0.4);
     const auto smooth = errorFor(ReconstructionFilter::Bspline, GradientKind::Central, 1.0, 0.2);
+    const auto smoothLinear = errorFor(ReconstructionFilter::Linear, GradientKind::Central, 1.0, 0.2);
     std::cerr << "[ normals ] mean angular error (deg) / roughness: linear " << linear.first << " / "
               << linear.second << ", sobel " << sobel.first << " / " << sobel.second << ", cubic "
               << cubic.first << " / " << cubic.second << ", bspline smoothing 1 " << smooth.first << " / "
-              << smooth.second << '\n';
+              << smooth.second << ", linear smoothing 1 " << smoothLinear.first << " / " << smoothLinear.second
+              << '\n';
     RecordProperty("normal_error_deg_linear", std::to_string(linear.first));
     RecordProperty("normal_error_deg_bspline_smoothing_1", std::to_string(smooth.first));
     EXPECT_GT(linear.first, 3.0);         // the terraces the trilinear field shows
@@ -219,6 +250,7 @@ TEST(Filter, SmoothingSplineRemovesQuantisationTerracesOnASphere) {
     EXPECT_LT(smooth.first, 1.2);         // the smoothing spline removes them
     EXPECT_LT(smooth.first, 0.3 * linear.first);
     EXPECT_LT(smooth.second, 0.3 * linear.second);
+    EXPECT_LT(smoothLinear.first, 0.5 * linear.first); // smoothing helps the trilinear field too
 }
 
 TEST(Filter, MipWindowGreyTfAndTfOpacity) {

@@ -31,6 +31,7 @@ const std::vector<FilterCase>& filterCases() {
     static const std::vector<FilterCase> cases = {
         {ReconstructionFilter::Linear, GradientKind::Central, 0.0},
         {ReconstructionFilter::Linear, GradientKind::Sobel, 0.0},
+        {ReconstructionFilter::Linear, GradientKind::Central, 1.0},
         {ReconstructionFilter::Cubic, GradientKind::Central, 0.0},
         {ReconstructionFilter::Bspline, GradientKind::Central, 0.0},
         {ReconstructionFilter::Bspline, GradientKind::Central, 0.7},

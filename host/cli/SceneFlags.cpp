@@ -72,7 +72,7 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
                     "on 8-bit iso-surfaces)")
         ->default_str(std::string(filterName(d.filter)));
     cmd->add_option("--smoothing", smoothing,
-                    "Gaussian sigma in voxels applied to the data before a cubic filter (0-8; 1 removes the "
+                    "Gaussian sigma in voxels applied to the data before the filter reads it (0-8; 1 removes the "
                     "terraces of 8-bit iso-surfaces)")
         ->default_str(num(d.smoothing));
     cmd->add_option("--window", window,

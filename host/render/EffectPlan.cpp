@@ -66,7 +66,8 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
                  : std::string("filter bspline: approximating cubic B-spline of the voxels, analytic gradient")) +
             (scene.smoothing > 0.0 ? ", data smoothed by a Gaussian of sigma " + fmt(scene.smoothing) + " voxel" : ""));
     } else if (scene.smoothing > 0.0) {
-        p.dropped.push_back("smoothing: filter linear reads the voxels as they are (use cubic or bspline)");
+        p.compiled.push_back("filter linear on the data smoothed by a Gaussian of sigma " + fmt(scene.smoothing) +
+                             " voxel (float voxels)");
     }
 
     // Iso-surfaces: crossed only when min < value <= max (the kernel's sign test), visible only if opaque at

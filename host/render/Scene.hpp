@@ -96,7 +96,7 @@ struct Scene {
     int tableSize = 256;   ///< pre-integration table nodes
     int tableLengths = 16; ///< 3D table: lengths between step / L and step
     ReconstructionFilter filter = ReconstructionFilter::Linear;
-    /// Gaussian smoothing (sigma in voxels) of the data the cubic filters are built on; 0: none.
+    /// Gaussian smoothing (sigma in voxels) of the data before any filter reads it; 0: none.
     double smoothing = 0.0;
     /// MIP window (centre, width) in data values; absent: the data's value range.
     std::optional<std::array<double, 2>> window;

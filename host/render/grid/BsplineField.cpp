@@ -159,6 +159,20 @@ BsplineCoefficients<T> bsplineCoefficients(const Volume& volume, ReconstructionF
 template BsplineCoefficients<float> bsplineCoefficients<float>(const Volume&, ReconstructionFilter, double);
 template BsplineCoefficients<double> bsplineCoefficients<double>(const Volume&, ReconstructionFilter, double);
 
+Volume smoothedVolume(const Volume& volume, double smoothing) {
+    const BsplineCoefficients<float> c = bsplineCoefficients<float>(volume, ReconstructionFilter::Bspline, smoothing);
+    Volume out(volume.dims(), ScalarType::Float32);
+    out.origin = volume.origin;
+    out.spacing = volume.spacing;
+    auto v = out.values<float>();
+    const Dims& d = volume.dims();
+    for (std::size_t k = 0; k < d.z; ++k)
+        for (std::size_t j = 0; j < d.y; ++j)
+            for (std::size_t i = 0; i < d.x; ++i)
+                v[out.index(i, j, k)] = c.c[c.index(i + 1, j + 1, k + 1)];
+    return out;
+}
+
 double bsplineValue(const BsplineCoefficients<double>& field, const Vec3& p, Vec3* gradient) {
     std::size_t i0[3];
     double w[3][4], dw[3][4];

@@ -2,6 +2,7 @@
 // themselves to smooth), the field's value and gradient in double, and its macrocell bounds.
 #pragma once
 
+#include "host/Volume.hpp"
 #include "host/render/Bounds.hpp"
 #include "host/render/Scene.hpp"
 #include "host/render/grid/GridDetail.hpp"
@@ -11,8 +12,6 @@
 #include <vector>
 
 namespace volcl {
-
-class Volume;
 
 /// Coefficients of a grid's cubic B-spline, x fastest, with a margin of one coefficient below and two
 /// above each axis (mirror extension of the grid, the boundary the prefilter assumes), so an evaluation at
@@ -40,6 +39,10 @@ BsplineCoefficients<T> bsplineCoefficients(const Volume& volume, ReconstructionF
 
 /// Largest Gaussian smoothing (voxels) the cubic filters accept: a 3-sigma kernel of 49 taps.
 constexpr double kMaxSmoothing = 8.0;
+
+/// The volume smoothed by a Gaussian of `smoothing` voxels (as bsplineCoefficients applies it), as float
+/// voxels on the same grid: what the linear filter reads when a scene asks for smoothing.
+Volume smoothedVolume(const Volume& volume, double smoothing);
 
 /// The spline at voxel coordinates p, clamped to the grid's box [0, n-1] as the trilinear sample is;
 /// `gradient`, when given, receives the analytic derivative per voxel unit (zero along a one-voxel axis).

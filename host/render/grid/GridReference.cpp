@@ -31,7 +31,10 @@ public:
             for (const auto& iso : s.effects.isosurfaces)
                 if (iso.rgba[3] > 0.0) isos_.push_back(iso);
         shadowStep_ = std::min(s.effects.shadowStep > 0.0 ? s.effects.shadowStep : s.step, 4.0 * h_);
-        if (s.filter != ReconstructionFilter::Linear) spline_ = bsplineCoefficients<double>(v, s.filter, s.smoothing);
+        if (s.filter != ReconstructionFilter::Linear)
+            spline_ = bsplineCoefficients<double>(v, s.filter, s.smoothing);
+        else if (s.smoothing > 0.0)
+            values_ = smoothedVolume(v, s.smoothing).toFloat(); // as the kernel reads them: float voxels
         window_ = mipWindow(s, grid_detail::valueRange(v));
     }
 

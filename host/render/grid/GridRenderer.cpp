@@ -48,8 +48,8 @@ std::string skippingHow() {
 /// change cost more than the coarse frame).
 EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& range) {
     EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow());
-    // The cubic filters read float spline coefficients instead of the voxels.
-    p.defines.set("VOXEL_TYPE", scene.filter == ReconstructionFilter::Linear
+    // The cubic filters read float spline coefficients instead of the voxels; smoothing, float voxels.
+    p.defines.set("VOXEL_TYPE", scene.filter == ReconstructionFilter::Linear && scene.smoothing == 0.0
                                     ? static_cast<long long>(voxelTypeCode(volume))
                                     : 0LL);
     return p;
@@ -84,6 +84,11 @@ struct GridRenderer::Impl {
     double splineSmoothing = 0.0;
     DeviceBuffer<float> spline;
     grid_detail::MacrocellGrid splineMacro;
+    /// Linear filter with smoothing: the smoothed voxels (float, one spare) and their macrocells, for
+    /// `smoothedSigma` (0: none built yet).
+    double smoothedSigma = 0.0;
+    DeviceBuffer<float> smoothed;
+    grid_detail::MacrocellGrid smoothedMacro;
     DeviceBuffer<VolclTfKnot> knots;
     DeviceBuffer<cl_float4> table;
     DeviceBuffer<cl_uchar> empty;
@@ -249,7 +254,18 @@ void GridRenderer::rebuild(bool tfChanged) {
         m.splineFilter = scene_.filter;
         m.splineSmoothing = scene_.smoothing;
     }
-    const grid_detail::MacrocellGrid& macro = spline ? m.splineMacro : m.macro;
+    // Linear filter on smoothed data: the smoothed voxels as floats, built once per sigma.
+    const bool smoothedLinear = !spline && scene_.smoothing > 0.0;
+    if (smoothedLinear && m.smoothedSigma != scene_.smoothing) {
+        checkMemoryBudget(volume_.voxelCount() * sizeof(float), 0, "the volume", "the smoothed voxels");
+        const Volume sm = smoothedVolume(volume_, scene_.smoothing);
+        m.smoothedMacro = grid_detail::buildMacrocells(sm, kMacrocellEdge);
+        std::vector<float> voxels(sm.voxelCount() + 1, 0.0f); // + the spare voxel grid_sample.h reads
+        std::memcpy(voxels.data(), sm.bytes().data(), sm.byteSize());
+        m.smoothed = cc_.upload(voxels, CL_MEM_READ_ONLY);
+        m.smoothedSigma = scene_.smoothing;
+    }
+    const grid_detail::MacrocellGrid& macro = spline ? m.splineMacro : smoothedLinear ? m.smoothedMacro : m.macro;
 
     // Macrocell emptiness from the TF (and the iso-values), for the sampling the kernel will use.
     std::vector<double> isoValues;
@@ -268,14 +284,14 @@ void GridRenderer::rebuild(bool tfChanged) {
     m.packet =
         scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
     m.kernel = cc_.kernel("raymarch.cl", m.packet ? "raymarch_packet" : "raymarch",
-                          m.packet ? packetDefines(plan_.defines, spline) : plan_.defines);
+                          m.packet ? packetDefines(plan_.defines, spline || smoothedLinear) : plan_.defines);
     m.params =
         grid_detail::makeParams(scene_, camera_, volume_, m.range, tf_, plan_, macro, m.knotCount, m.tableLengths);
 }
 
-KernelDefines GridRenderer::packetDefines(KernelDefines d, bool spline) {
+KernelDefines GridRenderer::packetDefines(KernelDefines d, bool floatCopy) {
     Impl& m = *impl_;
-    if (m.useCorners && !spline) {
+    if (m.useCorners && !floatCopy) {
         // A memory layout, not an effect: kept out of plan_.defines (what --explain and the EXR report).
         d.set("CORNER_VOXELS");
         if (m.corners.size() == 0)
@@ -327,6 +343,7 @@ const cl::Buffer& GridRenderer::outputBuffer() const noexcept {
 ImageBuffer GridRenderer::render() {
     Impl& m = *impl_;
     const cl::Buffer& voxels = scene_.filter != ReconstructionFilter::Linear ? m.spline.get()
+                               : scene_.smoothing > 0.0                    ? m.smoothed.get()
                                : m.packet && m.useCorners                  ? m.corners.get()
                                                                            : m.volume.get();
     return launch(m.kernel, voxels, !plan_.isosurfaces.empty(), m.packet);

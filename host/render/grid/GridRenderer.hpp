@@ -69,9 +69,9 @@ private:
     struct Impl;
     void rebuild(bool tfChanged);
     ImageBuffer launch(cl::Kernel& kernel, const cl::Buffer& voxels, bool depth, bool packet);
-    /// d plus the volume layout the packet kernels read (uploads the corner copy on first use); `spline`:
-    /// they read the cubic filter's coefficients instead.
-    KernelDefines packetDefines(KernelDefines d, bool spline);
+    /// d plus the volume layout the packet kernels read (uploads the corner copy on first use);
+    /// `floatCopy`: they read a float copy instead (the cubic filter's coefficients, or smoothed voxels).
+    KernelDefines packetDefines(KernelDefines d, bool floatCopy);
     ComputeContext& cc_;
     const Volume& volume_;
     TransferFunction tf_;
