@@ -22,7 +22,7 @@ const std::map<std::string, std::string>& examples() {
         {"render", "  volcl render --volume head.nii.gz --tf preset:viridis -o head.png\n"
                    "  volcl render --volume head.nii.gz --tf pv.json --orbit 30,20 --shading 0.2,0.7,0.3,32 -o lit.png\n"
                    "  volcl render --volume head.nii.gz --mode iso --iso 80 --view iso -o surface.png\n"
-                   "  volcl render --volume head.nii.gz --mode iso --iso 80 --filter bspline --smoothing 1 -o smooth.png\n"
+                   "  volcl render --volume head.nii.gz --mode iso --iso 80 --smoothing 1 -o smooth.png\n"
                    "  volcl render --volume head.nii.gz --mode mip --window 110,40 -o mip.png"},
         {"view", "  volcl view head.nii.gz --tf preset:cool-to-warm\n"
                  "  volcl view scene.json --headless --frames 8 --stats frames.csv"},

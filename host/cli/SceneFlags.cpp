@@ -68,8 +68,8 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
         ->default_str(std::string(preintegrationName(d.preintegration)));
     cmd->add_option("--filter", filter,
                     "Reconstruction of samples and gradients: linear (trilinear, finite differences), cubic "
-                    "(interpolating cubic B-spline), bspline (approximating cubic B-spline; with --smoothing 1 no terraces "
-                    "on 8-bit iso-surfaces)")
+                    "(interpolating cubic B-spline), bspline (approximating cubic B-spline); --smoothing 1 removes the "
+                    "terraces of 8-bit iso-surfaces with any of them")
         ->default_str(std::string(filterName(d.filter)));
     cmd->add_option("--smoothing", smoothing,
                     "Gaussian sigma in voxels applied to the data before the filter reads it (0-8; 1 removes the "
