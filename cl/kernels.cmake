@@ -12,6 +12,7 @@ set(VOLCL_KERNEL_FILES
   copy.cl
   tf_sample.cl
   raymarch_iso.h
+  raymarch_iso_sampled.h
   raymarch.cl
   raymarch_plain.cl
   lifting_common.h

@@ -14,12 +14,17 @@
    SHADING       Blinn-Phong with lighting.lightCount lights (GRADIENT_SOBEL: Sobel instead of central differences)
    SHADOWS       transmittance to each light by secondary marching
    SCATTERING    single scattering, Henyey-Greenstein phase
-   CLIPPING      clip.count clipping planes */
+   CLIPPING      clip.count clipping planes
+   FILTER_BSPLINE  cubic B-spline samples and analytic gradients (the volume buffer holds its coefficients)
+   MIP_COLOR     0 windowed grey, 1 TF colour brightened by the window, 2 TF colour and opacity */
 #ifndef MODE
 #define MODE 0
 #endif
 #ifndef PREINT
 #define PREINT 0
+#endif
+#ifndef MIP_COLOR
+#define MIP_COLOR 0
 #endif
 #ifndef ISO_COUNT
 #define ISO_COUNT 0
@@ -96,6 +101,7 @@ inline uint macro_cell(const VolclGridRenderParams* P, const Ray* r, float t, fl
 #endif
 
 #include "raymarch_iso.h"
+#include "raymarch_iso_sampled.h"
 
 __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* knots, __global const float4* table,
                        __global const uchar* macroEmpty, const VolclGridRenderParams params, __global float4* out,
@@ -131,9 +137,20 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
         const float t = k == nseg ? tExit : tEnter + (float)k * step;
         smax = fmax(smax, sample_volume(vol, &P->grid, ray_at(&r, t)));
     }
+#if MIP_COLOR == 2
     const float4 e = tf_sample(knots, P->tf.knotCount, smax);
     const float a = 1.0f - exp(-e.w);
     result = (float4)(e.xyz * a, a);
+#else
+    /* The window maps [centre - width/2, centre + width/2] to [0, 1]; the level is also the coverage, so
+       over a black background the pixel is the window's grey and values below the window are transparent. */
+    const float g = clamp((smax - P->march.windowLo) * P->march.windowInvWidth, 0.0f, 1.0f);
+#if MIP_COLOR == 1
+    result = (float4)(tf_sample(knots, P->tf.knotCount, smax).xyz * g, g);
+#else
+    result = (float4)(g, g, g, g);
+#endif
+#endif
 
 #elif MODE == 3 /* ---------------- x-ray: absorption only ---------------- */
     float opticalDepth = 0.0f;
@@ -152,7 +169,7 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 #ifdef SKIPPING
     float cellExit = -INFINITY;
 #endif
-#if ISO_COUNT > 0
+#if ISO_COUNT > 0 && !defined(FILTER_BSPLINE)
     IsoState iso; /* the iso-surfaces' cell walk carries over from segment to segment */
     iso_begin(&iso, &r);
 #endif
@@ -182,7 +199,9 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 #if PREINT != 0 || ISO_COUNT > 0
         const float sNext = sample_volume(vol, &P->grid, ray_at(&r, t1));
 #endif
-#if ISO_COUNT > 0
+#if ISO_COUNT > 0 && defined(FILTER_BSPLINE)
+        iso_sampled_segment(vol, knots, P, &r, t0, sPrev, t1, sNext, &rgb, &T, &depth);
+#elif ISO_COUNT > 0
         iso_march(vol, knots, P, &r, &iso, t0, t1, &rgb, &T, &depth);
 #endif
 #if MODE == 0

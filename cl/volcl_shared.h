@@ -60,9 +60,10 @@ typedef struct VolclClipParams {
     float plane[VOLCL_MAX_CLIP_PLANES][4];
 } VolclClipParams;
 
-/* The march along a ray: sampling distance (world units) and the opacity that ends a ray. */
+/* The march along a ray: sampling distance (world units), the opacity that ends a ray, and the MIP window
+   (lower end and 1 / width, in data values). */
 typedef struct VolclMarchParams {
-    float step, earlyTermination, pad0, pad1;
+    float step, earlyTermination, windowLo, windowInvWidth;
 } VolclMarchParams;
 
 /* Transfer function (knots in their own buffer) and pre-integration table geometry. */

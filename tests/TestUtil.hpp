@@ -2,6 +2,7 @@
 #pragma once
 
 #include "host/Volume.hpp"
+#include "host/render/Scene.hpp"
 #include "host/runtime/ClRuntime.hpp"
 
 #include <gtest/gtest.h>
@@ -49,6 +50,21 @@ inline Volume makeFloatVolume(Dims d, const std::function<double(double, double,
 inline ComputeContext& computeContext() {
     static ComputeContext cc;
     return cc;
+}
+
+/// Orthographic camera looking along +z at the centre of a box of `n` voxels, view height `h`, w x ht
+/// pixels, no early termination.
+inline Scene orthoScene(Dims n, double h, int w = 8, int ht = 8) {
+    Scene s;
+    Camera c;
+    c.target = {double(n.x - 1) / 2, double(n.y - 1) / 2, double(n.z - 1) / 2};
+    c.eye = {c.target[0], c.target[1], -50.0};
+    c.height = h;
+    s.camera = c;
+    s.width = w;
+    s.height = ht;
+    s.earlyTermination = 1.0;
+    return s;
 }
 
 } // namespace volcl::test

@@ -20,6 +20,7 @@ namespace {
 using namespace volcl;
 using volcl::test::computeContext;
 using volcl::test::makeFloatVolume;
+using volcl::test::orthoScene;
 
 TransferFunction constantTf(double tau, std::array<double, 3> rgb = {1.0, 0.5, 0.25}) {
     TransferFunction tf;
@@ -29,19 +30,6 @@ TransferFunction constantTf(double tau, std::array<double, 3> rgb = {1.0, 0.5, 0
     return tf;
 }
 
-/// Orthographic camera looking along +z at the centre of a box of `n` voxels, view height `h`.
-Scene orthoScene(Dims n, double h, int w = 8, int ht = 8) {
-    Scene s;
-    Camera c;
-    c.target = {double(n.x - 1) / 2, double(n.y - 1) / 2, double(n.z - 1) / 2};
-    c.eye = {c.target[0], c.target[1], -50.0};
-    c.height = h;
-    s.camera = c;
-    s.width = w;
-    s.height = ht;
-    s.earlyTermination = 1.0;
-    return s;
-}
 
 double maxAbsDiff(const ImageBuffer& a, const ImageBuffer& b, int channels = 4) {
     double m = 0.0;

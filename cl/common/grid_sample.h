@@ -1,5 +1,5 @@
 /* Grid sampling for the grid ray marcher: voxel types, rays in voxel coordinates, the grid's box,
-   trilinear samples (one ray or a packet) and gradients. */
+   trilinear or cubic B-spline samples (one ray or a packet) and gradients. */
 #ifndef VOLCL_GRID_SAMPLE_H
 #define VOLCL_GRID_SAMPLE_H
 
@@ -43,6 +43,56 @@ inline float3 grid_hi(const VolclGridParams* G) {
     return (float3)(G->dims[0] - 1, G->dims[1] - 1, G->dims[2] - 1);
 }
 
+#ifdef FILTER_BSPLINE
+/* Cubic B-spline reconstruction (host/render/grid/BsplineField.hpp): vol holds float coefficients with a
+   margin of one below and two above each axis, so the 4x4x4 neighbourhood of any point in the box is in
+   bounds without clamps. Sigg and Hadwiger's eight trilinear fetches pay off with hardware filtering; with
+   buffers the 64 reads are the same, so the separable sum is taken directly, value and gradient together. */
+inline void bspline_weights(float f, float4* w, float4* dw) {
+    const float g = 1.0f - f, f2 = f * f;
+    *w = (float4)(g * g * g, 3.0f * f2 * f - 6.0f * f2 + 4.0f, -3.0f * f2 * f + 3.0f * f2 + 3.0f * f + 1.0f,
+                  f2 * f) * (1.0f / 6.0f);
+    *dw = (float4)(-0.5f * g * g, 1.5f * f2 - 2.0f * f, -1.5f * f2 + f + 0.5f, 0.5f * f2);
+}
+
+/* The spline at voxel coordinates p (clamped to the grid) and, when grad is not NULL, its derivative per
+   voxel unit. */
+inline float bspline_eval(__global const float* coef, const VolclGridParams* G, float3 p, float3* grad) {
+    const int3 hiI = (int3)((int)G->dims[0] - 1, (int)G->dims[1] - 1, (int)G->dims[2] - 1);
+    p = clamp(p, (float3)(0.0f), convert_float3(hiI));
+    const int3 i0 = min(convert_int3(floor(p)), max(hiI - 1, (int3)(0)));
+    const float3 f = p - convert_float3(i0);
+    float4 wx, wy, wz, dx, dy, dz;
+    bspline_weights(f.x, &wx, &dx);
+    bspline_weights(f.y, &wy, &dy);
+    bspline_weights(f.z, &wz, &dz);
+    const uint px = G->dims[0] + 3u, pxy = px * (G->dims[1] + 3u);
+    __global const float* base = coef + (size_t)i0.z * pxy + (size_t)i0.y * px + (size_t)i0.x;
+    const float wya[4] = {wy.x, wy.y, wy.z, wy.w}, dya[4] = {dy.x, dy.y, dy.z, dy.w};
+    const float wza[4] = {wz.x, wz.y, wz.z, wz.w}, dza[4] = {dz.x, dz.y, dz.z, dz.w};
+    float v = 0.0f, gx = 0.0f, gy = 0.0f, gz = 0.0f;
+    for (int c = 0; c < 4; ++c) {
+        float rv = 0.0f, rx = 0.0f, ry = 0.0f; /* this z slice summed over y */
+        for (int b = 0; b < 4; ++b) {
+            const float4 row = vload4(0, base + (size_t)c * pxy + (size_t)b * px);
+            const float sw = dot(wx, row), sd = dot(dx, row);
+            rv += wya[b] * sw;
+            rx += wya[b] * sd;
+            ry += dya[b] * sw;
+        }
+        v += wza[c] * rv;
+        gx += wza[c] * rx;
+        gy += wza[c] * ry;
+        gz += dza[c] * rv;
+    }
+    if (grad) *grad = select((float3)(gx, gy, gz), (float3)(0.0f), hiI == (int3)(0));
+    return v;
+}
+
+inline float sample_volume(__global const voxel_t* vol, const VolclGridParams* G, float3 p) {
+    return bspline_eval(vol, G, p, 0);
+}
+#else
 /* Trilinear interpolation at voxel coordinates p (clamped to the grid). */
 inline float sample_volume(__global const voxel_t* vol, const VolclGridParams* G, float3 p) {
     const int3 hiI = (int3)((int)G->dims[0] - 1, (int)G->dims[1] - 1, (int)G->dims[2] - 1);
@@ -66,6 +116,8 @@ inline float sample_volume(__global const voxel_t* vol, const VolclGridParams* G
     return c0 + f.z * (c1 - c0);
 }
 
+#endif
+
 /* Ray interval inside the box [0, n-1] (voxel coordinates), intersected with [tmin, tmax]. */
 inline float2 clip_box(float3 o, float3 d, float3 hi, float tmin, float tmax) {
     const float oa[3] = {o.x, o.y, o.z}, da[3] = {d.x, d.y, d.z}, ha[3] = {hi.x, hi.y, hi.z};
@@ -85,7 +137,11 @@ inline float2 clip_box(float3 o, float3 d, float3 hi, float tmin, float tmax) {
 /* World-space gradient at voxel coordinates p. */
 inline float3 gradient(__global const voxel_t* vol, const VolclGridParams* G, float3 p) {
     const float3 inv = v3(G->invSpacing);
-#ifdef GRADIENT_SOBEL
+#if defined(FILTER_BSPLINE)
+    float3 g;
+    bspline_eval(vol, G, p, &g);
+    return g * inv;
+#elif defined(GRADIENT_SOBEL)
     /* Sobel-weighted central differences: each axis smoothed over the other two with weights 1-2-1. */
     float3 g = (float3)(0.0f);
     for (int a = -1; a <= 1; ++a)
@@ -104,6 +160,18 @@ inline float3 gradient(__global const voxel_t* vol, const VolclGridParams* G, fl
 #endif
 }
 
+#ifdef FILTER_BSPLINE
+/* The spline at eight points, lane by lane. */
+PACKET_INLINE float8 sample_volume8(__global const voxel_t* vol, const VolclGridParams* G, float8 px,
+                                    float8 py, float8 pz) {
+    LaneF x, y, z, out;
+    x.v = px;
+    y.v = py;
+    z.v = pz;
+    for (int l = 0; l < RAY_LANES; ++l) out.a[l] = bspline_eval(vol, G, (float3)(x.a[l], y.a[l], z.a[l]), 0);
+    return out.v;
+}
+#else
 /* sample_volume for eight points at once: the same clamps, cell choice and lerp order per lane. */
 PACKET_INLINE float8 sample_volume8(__global const voxel_t* vol, const VolclGridParams* G, float8 px,
                                     float8 py, float8 pz) {
@@ -159,6 +227,8 @@ PACKET_INLINE float8 sample_volume8(__global const voxel_t* vol, const VolclGrid
     const float8 c0 = c00 + fy * (c10 - c00), c1 = c01 + fy * (c11 - c01);
     return c0 + fz * (c1 - c0);
 }
+
+#endif
 
 PACKET_INLINE float8 sample_packet(__global const voxel_t* vol, const VolclGridParams* G, const RayPacket* r,
                                    float8 t) {

@@ -23,13 +23,17 @@ const std::map<std::string, std::string>& examples() {
         {"compare", "  volcl compare head.nii.gz head.vcz\n  volcl compare head.nii.gz head.vcz --level 1"},
         {"render", "  volcl render --volume head.nii.gz --tf preset:viridis -o head.png\n"
                    "  volcl render --volume head.nii.gz --tf pv.json --orbit 30,20 --shading 0.2,0.7,0.3,32 -o lit.png\n"
-                   "  volcl render --volume head.nii.gz --mode iso --iso 80 --view iso -o surface.png"},
+                   "  volcl render --volume head.nii.gz --mode iso --iso 80 --view iso -o surface.png\n"
+                   "  volcl render --volume head.nii.gz --mode iso --iso 80 --smoothing 1 -o smooth.png\n"
+                   "  volcl render --volume head.nii.gz --mode mip --window 110,40 -o mip.png"},
         {"view", "  volcl view head.nii.gz --tf preset:cool-to-warm\n"
                  "  volcl view scene.json --headless --frames 8 --stats frames.csv"},
         {"bench", "  volcl bench codec\n  volcl bench view bench/render/mri_scene.json --frames 8"},
         {"bench codec", "  volcl bench codec --quick"},
         {"bench preint", "  volcl bench preint --tf tf.json"},
-        {"bench render", "  volcl bench render --scene bench/render/mri_scene.json --steps 0.5,1"},
+        {"bench render", "  volcl bench render --scene bench/render/mri_scene.json --steps 0.5,1\n"
+                         "  volcl bench render --volume head.nii.gz --tf preset:grayscale --mode iso --iso 60.5 "
+                         "--filters --no-sweep"},
         {"bench view", "  volcl bench view bench/render/mri_scene.json --frames 8"},
     };
     return table;

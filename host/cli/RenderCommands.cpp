@@ -4,6 +4,7 @@
 #include "host/cli/CliParsing.hpp"
 #include "host/cli/SceneFlags.hpp"
 #include "host/cli/Commands.hpp"
+#include "host/cli/FilterBench.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
@@ -67,7 +68,7 @@ struct BenchArgs {
     int runs = 5;
     double referenceStep = 0.05;
     std::string csv, vtkImage;
-    bool effects = false, vtk = false, sweep = true;
+    bool effects = false, vtk = false, sweep = true, filters = false;
     std::string vtkScript = std::string(VOLCL_SOURCE_DIR) + "/bench/vtk_raycast.py";
 };
 
@@ -233,6 +234,7 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
     std::cerr << "volcl bench render: " << scene.volume.string() << " " << input.summary() << ", "
               << scene.width << "x" << scene.height << ", device " << cc.device().name << '\n';
     if (a.effects) benchEffects(cc, input, tf, scene, a.runs);
+    if (a.filters) benchFilters(cc, input, tf, scene, a.runs, a.sweep || a.vtk ? std::string() : a.csv);
     if (!a.sweep && !a.vtk) return;
     const Volume* grid = input.grid();
     if (!grid) throw UsageError("bench render: the sweep and --vtk measure grids (give a volume)");
@@ -373,6 +375,9 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     b->add_option("--csv", ba->csv, "Write the sweep as CSV (for bench/plot_render.py)");
     b->add_flag("--effects", ba->effects,
                 "Cost of each effect alone, and plain vs effect-free baseline kernel");
+    b->add_flag("--filters", ba->filters,
+                "Reconstruction filters (linear, linear+Sobel, cubic, bspline): time, normal error on an 8-bit "
+                "sphere, terrace roughness on the scene (with --no-sweep, --csv receives these rows)");
     b->add_flag("--vtk", ba->vtk, "Compare with VTK's vtkFixedPointVolumeRayCastMapper (python3-vtk9, xvfb)");
     b->add_flag("!--no-sweep", ba->sweep, "Skip the step x pre-integration x skipping sweep");
     b->add_option("--vtk-image", ba->vtkImage, "Save VTK's image (EXR) and the reference beside it");

@@ -66,6 +66,21 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
     cmd->add_option("--step", step, "Sampling distance in world units")->default_str(num(d.step));
     cmd->add_option("--preintegration", preint, "none, 2d or 3d (dvr only)")
         ->default_str(std::string(preintegrationName(d.preintegration)));
+    cmd->add_option("--filter", filter,
+                    "Reconstruction of samples and gradients: linear (trilinear, finite differences), cubic "
+                    "(interpolating cubic B-spline), bspline (approximating cubic B-spline); --smoothing 1 removes the "
+                    "terraces of 8-bit iso-surfaces with any of them")
+        ->default_str(std::string(filterName(d.filter)));
+    cmd->add_option("--smoothing", smoothing,
+                    "Gaussian sigma in voxels applied to the data before the filter reads it (0-8; 1 removes the "
+                    "terraces of 8-bit iso-surfaces)")
+        ->default_str(num(d.smoothing));
+    cmd->add_option("--window", window,
+                    "MIP window centre,width in data values (default: the data range)");
+    cmd->add_option("--mip-color", mipColor,
+                    "MIP colour: grey (windowed grey), tf (transfer-function colour, windowed brightness), "
+                    "tf-opacity (the transfer function's colour and opacity)")
+        ->default_str(std::string(mipColorName(d.mipColor)));
     cmd->add_option("--width", width, "Image width in pixels")->default_str(num(d.width));
     cmd->add_option("--height", height, "Image height in pixels")->default_str(num(d.height));
     cmd->add_option("--view", view,
@@ -117,6 +132,13 @@ Scene SceneFlags::build(bool requireTf) const {
     if (!preint.empty()) s.preintegration = parsePreintegration(preint);
     if (width) s.width = *width;
     if (height) s.height = *height;
+    if (!filter.empty()) s.filter = parseFilter(filter);
+    if (smoothing) s.smoothing = *smoothing;
+    if (!window.empty()) {
+        const auto w = parseNumbers(window, 2, "--window");
+        s.window = std::array<double, 2>{w[0], w[1]};
+    }
+    if (!mipColor.empty()) s.mipColor = parseMipColor(mipColor);
     if (earlyTermination) s.earlyTermination = *earlyTermination;
     if (noSkipping) s.skipping = false;
     if (tableSize) s.tableSize = *tableSize;

@@ -22,7 +22,8 @@ Vec3 parseVec3(const std::string& text, const std::string& what);
 struct SceneFlags {
     std::string scene, volume, tf, mode, preint, projection, eye, target, up, background;
     std::string view, orbit, tfRange, tfUnitDistance = "1";
-    std::optional<double> step, viewHeight, fov, earlyTermination, shadowStep;
+    std::string filter, window, mipColor;
+    std::optional<double> smoothing, step, viewHeight, fov, earlyTermination, shadowStep;
     std::optional<int> width, height, tableSize, tableLengths;
     std::optional<std::size_t> frame; ///< --frame K of a time series input
     bool noSkipping = false, sobel = false, shadows = false, noShading = false;

@@ -38,6 +38,37 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
                                                  : mode == RenderMode::Iso ? 2
                                                                            : 3));
     p.compiled.push_back("mode " + modeName);
+    if (mode == RenderMode::Mip) {
+        p.defines.set("MIP_COLOR", static_cast<long long>(scene.mipColor == MipColor::Grey ? 0
+                                                          : scene.mipColor == MipColor::Tf ? 1
+                                                                                           : 2));
+        const std::string window = scene.window ? "window centre " + fmt((*scene.window)[0]) + ", width " +
+                                                      fmt((*scene.window)[1])
+                                                : "window over the data range " + fmt(range.min) + ".." +
+                                                      fmt(range.max);
+        if (scene.mipColor == MipColor::Grey)
+            p.compiled.push_back("MIP colour grey: " + window);
+        else if (scene.mipColor == MipColor::Tf)
+            p.compiled.push_back("MIP colour tf: transfer-function colour, brightness and coverage from the " +
+                                 window);
+        else {
+            p.compiled.push_back("MIP colour tf-opacity: the transfer function's colour and opacity");
+            if (scene.window) p.dropped.push_back("window: MIP colour tf-opacity takes opacity from the TF");
+        }
+    } else if (scene.window) {
+        p.dropped.push_back("window: mode " + modeName + " is not mip");
+    }
+    if (scene.filter != ReconstructionFilter::Linear) {
+        p.defines.set("FILTER_BSPLINE");
+        p.compiled.push_back(
+            (scene.filter == ReconstructionFilter::Cubic
+                 ? std::string("filter cubic: interpolating cubic B-spline (prefiltered), analytic gradient")
+                 : std::string("filter bspline: approximating cubic B-spline of the voxels, analytic gradient")) +
+            (scene.smoothing > 0.0 ? ", data smoothed by a Gaussian of sigma " + fmt(scene.smoothing) + " voxel" : ""));
+    } else if (scene.smoothing > 0.0) {
+        p.compiled.push_back("filter linear on the data smoothed by a Gaussian of sigma " + fmt(scene.smoothing) +
+                             " voxel (float voxels)");
+    }
 
     // Iso-surfaces: crossed only when min < value <= max (the kernel's sign test), visible only if opaque at
     // all.
@@ -60,7 +91,10 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
     if (!p.isosurfaces.empty()) {
         p.defines.set("ISO_COUNT", static_cast<long long>(p.isosurfaces.size()));
         p.compiled.push_back("isosurfaces: " + std::to_string(p.isosurfaces.size()) +
-                             " (first hit refined by bisection, composited in ray order)");
+                             (scene.filter == ReconstructionFilter::Linear
+                                  ? " (exact roots of the trilinear field per cell, composited in ray order)"
+                                  : " (sign changes between samples refined on the spline, composited in ray "
+                                    "order)"));
     }
 
     std::size_t litLights = 0;
@@ -86,7 +120,10 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
         }
     }
     if (fx.gradient == GradientKind::Sobel) {
-        if (p.shading) {
+        if (scene.filter != ReconstructionFilter::Linear) {
+            p.dropped.push_back("gradient sobel: filter " + std::string(filterName(scene.filter)) +
+                                " takes the spline's analytic gradient");
+        } else if (p.shading) {
             p.sobel = true;
             p.defines.set("GRADIENT_SOBEL");
             p.compiled.push_back("gradient: Sobel");

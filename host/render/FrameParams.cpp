@@ -46,10 +46,19 @@ VolclClipParams clipParams(const std::vector<ClipPlane>& planes) {
     return p;
 }
 
-VolclMarchParams marchParams(const Scene& scene) {
+std::array<double, 2> mipWindow(const Scene& scene, const ValueRange& dataRange) {
+    if (scene.window) return {(*scene.window)[0] - 0.5 * (*scene.window)[1], (*scene.window)[1]};
+    const double width = dataRange.max - dataRange.min;
+    return {dataRange.min, width > 0.0 ? width : 1.0};
+}
+
+VolclMarchParams marchParams(const Scene& scene, const ValueRange& dataRange) {
     VolclMarchParams p{};
     p.step = static_cast<float>(scene.step);
     p.earlyTermination = static_cast<float>(scene.earlyTermination);
+    const auto w = mipWindow(scene, dataRange);
+    p.windowLo = static_cast<float>(w[0]);
+    p.windowInvWidth = static_cast<float>(1.0 / w[1]);
     return p;
 }
 

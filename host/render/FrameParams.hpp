@@ -6,6 +6,7 @@
 #include "host/render/Scene.hpp"
 #include "host/tf/TransferFunction.hpp"
 
+#include <array>
 #include <cstddef>
 #include <vector>
 
@@ -15,8 +16,11 @@ namespace volcl {
 VolclCameraParams cameraParams(const Camera& camera, int width, int height);
 /// The planned clip planes, normals scaled to unit length.
 VolclClipParams clipParams(const std::vector<ClipPlane>& planes);
-/// Step and early-termination opacity.
-VolclMarchParams marchParams(const Scene& scene);
+/// Step, early-termination opacity and the MIP window (the scene's, else `dataRange`).
+VolclMarchParams marchParams(const Scene& scene, const ValueRange& dataRange);
+/// The MIP window as (lower end, width): the scene's centre and width, else the data range (width 1 when
+/// the data is constant).
+std::array<double, 2> mipWindow(const Scene& scene, const ValueRange& dataRange);
 /// TF domain and the pre-integration table's geometry (`tableLengths` slices of the 3D table, 1 for 2D).
 VolclTfParams tfParams(const Scene& scene, const TransferFunction& tf, std::size_t knotCount,
                        int tableLengths);

@@ -108,6 +108,44 @@ Preintegration parsePreintegration(std::string_view s) {
     throw UsageError("pre-integration '" + std::string(s) + "' is unknown (expected none, 2d, 3d)");
 }
 
+std::string_view filterName(ReconstructionFilter f) {
+    switch (f) {
+    case ReconstructionFilter::Linear:
+        return "linear";
+    case ReconstructionFilter::Cubic:
+        return "cubic";
+    case ReconstructionFilter::Bspline:
+        return "bspline";
+    }
+    return "linear";
+}
+
+ReconstructionFilter parseFilter(std::string_view s) {
+    if (s == "linear") return ReconstructionFilter::Linear;
+    if (s == "cubic") return ReconstructionFilter::Cubic;
+    if (s == "bspline") return ReconstructionFilter::Bspline;
+    throw UsageError("filter '" + std::string(s) + "' is unknown (expected linear, cubic, bspline)");
+}
+
+std::string_view mipColorName(MipColor c) {
+    switch (c) {
+    case MipColor::Grey:
+        return "grey";
+    case MipColor::Tf:
+        return "tf";
+    case MipColor::TfOpacity:
+        return "tf-opacity";
+    }
+    return "grey";
+}
+
+MipColor parseMipColor(std::string_view s) {
+    if (s == "grey" || s == "gray") return MipColor::Grey;
+    if (s == "tf") return MipColor::Tf;
+    if (s == "tf-opacity") return MipColor::TfOpacity;
+    throw UsageError("MIP colour '" + std::string(s) + "' is unknown (expected grey, tf, tf-opacity)");
+}
+
 Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDir) {
     const json j = parse(text);
     checkKeys(j, "the scene", {"volume", "tf", "camera", "image", "render", "lights", "effects"});
@@ -152,7 +190,7 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
         const json& r = j["render"];
         checkKeys(r, "render",
                   {"mode", "step", "preintegration", "early_termination", "skipping", "table_size",
-                   "table_lengths"});
+                   "table_lengths", "filter", "smoothing", "window", "mip_color"});
         if (r.contains("mode")) s.mode = parseRenderMode(str(r["mode"], "render.mode"));
         if (r.contains("step")) s.step = num(r["step"], "render.step");
         if (r.contains("preintegration")) {
@@ -168,6 +206,10 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
             s.tableSize = static_cast<int>(num(r["table_size"], "render.table_size"));
         if (r.contains("table_lengths"))
             s.tableLengths = static_cast<int>(num(r["table_lengths"], "render.table_lengths"));
+        if (r.contains("filter")) s.filter = parseFilter(str(r["filter"], "render.filter"));
+        if (r.contains("smoothing")) s.smoothing = num(r["smoothing"], "render.smoothing");
+        if (r.contains("window")) s.window = vec<2>(r["window"], "render.window");
+        if (r.contains("mip_color")) s.mipColor = parseMipColor(str(r["mip_color"], "render.mip_color"));
     }
     if (j.contains("lights")) {
         if (!j["lights"].is_array()) throw UsageError("scene: 'lights' must be an array");
@@ -307,7 +349,11 @@ std::string Scene::toJson() const {
                    {"early_termination", earlyTermination},
                    {"skipping", skipping},
                    {"table_size", tableSize},
-                   {"table_lengths", tableLengths}};
+                   {"table_lengths", tableLengths},
+                   {"filter", std::string(filterName(filter))},
+                   {"smoothing", smoothing},
+                   {"mip_color", std::string(mipColorName(mipColor))}};
+    if (window) j["render"]["window"] = *window;
     j["lights"] = json::array();
     for (const auto& l : lights) {
         json o;
@@ -355,6 +401,12 @@ void Scene::validate() const {
     need(earlyTermination > 0.0 && earlyTermination <= 1.0, "render.early_termination must be in (0, 1]");
     need(tableSize >= 2 && tableSize <= 4096, "render.table_size must be 2..4096");
     need(tableLengths >= 1 && tableLengths <= 1024, "render.table_lengths must be 1..1024");
+    // 8 voxels: the smoothing's 3-sigma kernel stays at 49 taps (host/render/grid/BsplineField.hpp).
+    need(smoothing >= 0.0 && smoothing <= 8.0, "render.smoothing must be in [0, 8] voxels");
+    if (window)
+        need(std::isfinite((*window)[0]) && std::isfinite((*window)[1]) && (*window)[1] > 0.0 &&
+                 (*window)[1] <= 1e30 && std::abs((*window)[0]) <= 1e30,
+             "render.window must be [centre, width] with width > 0 (finite, at most 1e30)");
     for (double b : background)
         need(b >= 0.0 && b <= 1.0, "image.background values must be in [0, 1]");
     if (camera) {

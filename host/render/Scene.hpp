@@ -17,11 +17,23 @@ enum class Preintegration { None, Table2d, Table3d };
 enum class Projection { Orthographic, Perspective };
 enum class LightKind { Directional, Point, Head };
 enum class GradientKind { Central, Sobel };
+/// How samples and gradients are reconstructed from the grid: trilinear with finite-difference gradients;
+/// an interpolating cubic B-spline (prefiltered coefficients, C2, passes through the voxels); or the
+/// smoothing cubic B-spline of the voxels themselves (no prefilter: removes quantisation terraces). Both
+/// cubic filters take the gradient as the analytic derivative of the field.
+enum class ReconstructionFilter { Linear, Cubic, Bspline };
+/// What a MIP pixel shows: the windowed maximum as grey, the TF colour at the maximum brightened by the
+/// window, or the TF's own colour and opacity at the maximum.
+enum class MipColor { Grey, Tf, TfOpacity };
 
 std::string_view renderModeName(RenderMode m);
 RenderMode parseRenderMode(std::string_view s); ///< throws UsageError
 std::string_view preintegrationName(Preintegration p);
 Preintegration parsePreintegration(std::string_view s); ///< "none", "2d", "3d"; throws UsageError
+std::string_view filterName(ReconstructionFilter f);
+ReconstructionFilter parseFilter(std::string_view s); ///< "linear", "cubic", "bspline"; throws UsageError
+std::string_view mipColorName(MipColor c);
+MipColor parseMipColor(std::string_view s); ///< "grey" (or "gray"), "tf", "tf-opacity"; throws UsageError
 
 /// GLM lookAt camera. `height` is the orthographic view height in world units; `fovYDeg` the perspective one.
 struct Camera {
@@ -83,6 +95,12 @@ struct Scene {
     bool skipping = true;
     int tableSize = 256;   ///< pre-integration table nodes
     int tableLengths = 16; ///< 3D table: lengths between step / L and step
+    ReconstructionFilter filter = ReconstructionFilter::Linear;
+    /// Gaussian smoothing (sigma in voxels) of the data before any filter reads it; 0: none.
+    double smoothing = 0.0;
+    /// MIP window (centre, width) in data values; absent: the data's value range.
+    std::optional<std::array<double, 2>> window;
+    MipColor mipColor = MipColor::Grey;
     std::vector<Light> lights;
     SceneEffects effects;
 

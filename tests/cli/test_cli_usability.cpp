@@ -1,7 +1,9 @@
 // The volcl executable for a first-time user: framed cameras, named views, default lights, presets,
-// --version, named unknown subcommands, help examples, --frame, compare --level, --replace-nan.
+// --version, named unknown subcommands, help examples, --frame, compare --level, --replace-nan, MIP
+// window, smooth reconstruction filters.
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
+#include "host/render/grid/FilterAccuracy.hpp"
 #include "../TestUtil.hpp"
 
 #include <sys/wait.h>
@@ -263,4 +265,64 @@ TEST(CliUsability, ConvertReplacesNans) {
     EXPECT_EQ(run("convert " + (dir / "nan.nrrd").string() + " --replace-nan nan -o " + (dir / "x.nrrd").string(), dir)
                   .exitCode,
               2);
+}
+
+TEST(CliUsability, MipWindowGivesGreyscale) {
+    // Before: MIP went through the DVR TF's opacity (1 - exp(-tau)) and came out dull grey.
+    auto dir = test::tempDir("cli_use_mip");
+    const auto vol = writeBlob(dir);
+    std::ofstream(dir / "tf.json") << kTf;
+    const std::string base = "render --volume " + vol.string() + " --tf " + (dir / "tf.json").string() +
+                             " --view front --width 32 --height 32 --mode mip ";
+    RunResult r = run(base + "--window 100,200 --explain -o " + (dir / "mip.exr").string(), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(has(r.out, "MIP colour grey: window centre 100, width 200")) << r.out;
+    const ImageBuffer img = readImage(dir / "mip.exr");
+    // The blob's peak (about 200) is the window's top: the brightest pixel is white, grey = alpha.
+    float peak = 0.0f;
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x) {
+            peak = std::max(peak, img.at(x, y, 0));
+            EXPECT_FLOAT_EQ(img.at(x, y, 0), img.at(x, y, 3));
+        }
+    EXPECT_GT(peak, 0.95f);
+    RunResult old = run(base + "--mip-color tf-opacity --explain", dir);
+    ASSERT_EQ(old.exitCode, 0) << old.err;
+    EXPECT_TRUE(has(old.out, "-DMIP_COLOR=2")) << old.out;
+    RunResult bad = run(base + "--window 100,0 -o " + (dir / "bad.exr").string(), dir);
+    EXPECT_EQ(bad.exitCode, 2);
+    EXPECT_TRUE(has(bad.err, "render.window")) << bad.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "bad.exr"));
+    RunResult color = run(base + "--mip-color pink --explain", dir);
+    EXPECT_EQ(color.exitCode, 2);
+    EXPECT_TRUE(has(color.err, "grey, tf, tf-opacity")) << color.err;
+}
+
+TEST(CliUsability, SmoothFilterOnEightBitIsoSurfaces) {
+    // Before: no reconstruction but trilinear; 8-bit iso-surfaces showed contour-line terraces.
+    auto dir = test::tempDir("cli_use_filter");
+    const Vec3 c{19.3, 20.2, 19.6};
+    writeVolumeFile(quantisedSphere({40, 40, 40}, c, 13.0, 1.0), dir / "sphere.nrrd");
+    std::ofstream(dir / "tf.json") << R"({"domain": [0, 255], "color": [[0, 1, 1, 1]], "extinction": [[0, 0]]})";
+    const std::string base = "render --volume " + (dir / "sphere.nrrd").string() + " --tf " +
+                             (dir / "tf.json").string() + " --width 96 --height 96 --mode iso --iso 128.5 ";
+    auto roughness = [&](const std::string& flags, const std::string& name) {
+        RunResult r = run(base + flags + " -o " + (dir / name).string(), dir);
+        EXPECT_EQ(r.exitCode, 0) << r.err;
+        return shadingRoughness(readImage(dir / name));
+    };
+    const double linear = roughness("", "linear.exr");
+    const double smooth = roughness("--filter bspline --smoothing 1", "smooth.exr");
+    EXPECT_LT(smooth, 0.4 * linear) << "linear " << linear << ", bspline s1 " << smooth;
+    RunResult ex = run(base + "--filter bspline --smoothing 1 --sobel --explain", dir);
+    ASSERT_EQ(ex.exitCode, 0) << ex.err;
+    EXPECT_TRUE(has(ex.out, "-DFILTER_BSPLINE")) << ex.out;
+    EXPECT_TRUE(has(ex.out, "smoothed by a Gaussian of sigma 1 voxel")) << ex.out;
+    EXPECT_TRUE(has(ex.out, "dropped gradient sobel")) << ex.out;
+    RunResult bad = run(base + "--filter quintic --explain", dir);
+    EXPECT_EQ(bad.exitCode, 2);
+    EXPECT_TRUE(has(bad.err, "linear, cubic, bspline")) << bad.err;
+    RunResult far = run(base + "--filter bspline --smoothing 20 --explain", dir);
+    EXPECT_EQ(far.exitCode, 2);
+    EXPECT_TRUE(has(far.err, "render.smoothing")) << far.err;
 }

@@ -160,12 +160,12 @@ VolclGridParams gridParams(const Volume& volume, const MacrocellGrid& grid) {
 }
 
 VolclGridRenderParams makeParams(const Scene& scene, const Camera& cam, const Volume& volume,
-                                 const TransferFunction& tf, const EffectPlan& plan,
+                                 const ValueRange& range, const TransferFunction& tf, const EffectPlan& plan,
                                  const MacrocellGrid& grid, std::size_t knotCount, int tableLengths) {
     VolclGridRenderParams p{};
     p.camera = cameraParams(cam, scene.width, scene.height);
     p.clip = clipParams(plan.clipPlanes);
-    p.march = marchParams(scene);
+    p.march = marchParams(scene, range);
     p.tf = tfParams(scene, tf, knotCount, tableLengths);
     p.lighting = lightingParams(scene, gradientThreshold(volume));
     p.iso = isoParams(plan);

@@ -52,9 +52,9 @@ double gradientThreshold(const Volume& volume);
 
 /// The grid's geometry and macrocell layout.
 VolclGridParams gridParams(const Volume& volume, const MacrocellGrid& grid);
-/// The whole parameter block of the grid kernels (cl/raymarch.cl).
+/// The whole parameter block of the grid kernels (cl/raymarch.cl); `range` is the volume's value range.
 VolclGridRenderParams makeParams(const Scene& scene, const Camera& camera, const Volume& volume,
-                                 const TransferFunction& tf, const EffectPlan& plan,
+                                 const ValueRange& range, const TransferFunction& tf, const EffectPlan& plan,
                                  const MacrocellGrid& grid, std::size_t knotCount, int tableLengths);
 
 } // namespace volcl::grid_detail

@@ -1,14 +1,18 @@
-// The grid's double-precision reference: trilinear field, fine midpoint steps on the exact TF, every mode
-// and effect (camera rays, clip planes, the pixel loop and lighting from host/render/Reference.hpp).
+// The grid's double-precision reference: trilinear or cubic B-spline field, fine midpoint steps on the exact
+// TF, every mode and effect (camera rays, clip planes, the pixel loop and lighting from
+// host/render/Reference.hpp).
 #include "host/Error.hpp"
 #include "host/Volume.hpp"
+#include "host/render/FrameParams.hpp"
 #include "host/render/Reference.hpp"
+#include "host/render/grid/BsplineField.hpp"
 #include "host/render/grid/GridDetail.hpp"
 #include "host/render/grid/GridRenderer.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 namespace volcl {
 namespace {
@@ -27,6 +31,11 @@ public:
             for (const auto& iso : s.effects.isosurfaces)
                 if (iso.rgba[3] > 0.0) isos_.push_back(iso);
         shadowStep_ = std::min(s.effects.shadowStep > 0.0 ? s.effects.shadowStep : s.step, 4.0 * h_);
+        if (s.filter != ReconstructionFilter::Linear)
+            spline_ = bsplineCoefficients<double>(v, s.filter, s.smoothing);
+        else if (s.smoothing > 0.0)
+            values_ = smoothedVolume(v, s.smoothing).toFloat(); // as the kernel reads them: float voxels
+        window_ = mipWindow(s, grid_detail::valueRange(v));
     }
 
     const Camera& camera() const noexcept { return cam_; }
@@ -48,8 +57,13 @@ public:
             for (long k = 0; k <= n; ++k)
                 m = std::max(m, sample(at(t0 + double(k) * h)));
             const auto c = tf_.colorAt(m);
-            const double a = 1.0 - std::exp(-tf_.extinctionAt(m));
-            return {c[0] * a, c[1] * a, c[2] * a, a, inf()};
+            if (scene_.mipColor == MipColor::TfOpacity) {
+                const double a = 1.0 - std::exp(-tf_.extinctionAt(m));
+                return {c[0] * a, c[1] * a, c[2] * a, a, inf()};
+            }
+            const double g = std::clamp((m - window_[0]) / window_[1], 0.0, 1.0);
+            if (scene_.mipColor == MipColor::Tf) return {c[0] * g, c[1] * g, c[2] * g, g, inf()};
+            return {g, g, g, g, inf()};
         }
         if (scene_.mode == RenderMode::Xray) {
             double depth = 0.0;
@@ -113,8 +127,9 @@ private:
 
     double voxel(std::size_t i, std::size_t j, std::size_t k) const { return values_[vol_.index(i, j, k)]; }
 
-    /// Trilinear interpolation at voxel coordinates (clamped), as in the kernel.
+    /// The field at voxel coordinates (clamped), as in the kernel: the spline, or trilinear.
     double sample(const Vec3& p) const {
+        if (spline_) return bsplineValue(*spline_, p);
         std::size_t i0[3], i1[3];
         double f[3];
         for (int a = 0; a < 3; ++a) {
@@ -139,7 +154,9 @@ private:
 
     Vec3 gradient(const Vec3& p) const {
         Vec3 g{0, 0, 0};
-        if (scene_.effects.gradient == GradientKind::Sobel) {
+        if (spline_) {
+            bsplineValue(*spline_, p, &g); // the analytic derivative; Sobel does not apply
+        } else if (scene_.effects.gradient == GradientKind::Sobel) {
             for (int a = -1; a <= 1; ++a)
                 for (int b = -1; b <= 1; ++b) {
                     const double w = (a == 0 ? 2.0 : 1.0) * (b == 0 ? 2.0 : 1.0);
@@ -184,6 +201,7 @@ private:
     /// iso (as in the kernel); a side change on a cell face is a crossing there.
     std::vector<std::pair<double, std::size_t>> isoHits(const Vec3& o, const Vec3& d, double t0,
                                                         double t1) const {
+        if (spline_) return splineIsoHits(o, d, t0, t1);
         std::vector<std::pair<double, std::size_t>> hits;
         long c[3];
         int dir[3];
@@ -305,6 +323,41 @@ private:
         started = true;
     }
 
+    /// Crossings of the spline field, which the scene defines on the march's lattice: side changes between
+    /// samples at t0 + k * render.step and the exit (the ray's first sample sets the sides), bisected to the
+    /// last bit of a double.
+    std::vector<std::pair<double, std::size_t>> splineIsoHits(const Vec3& o, const Vec3& d, double t0,
+                                                              double t1) const {
+        std::vector<std::pair<double, std::size_t>> hits;
+        const double step = scene_.step;
+        const long n = std::max(1L, long(std::ceil((t1 - t0) / step)));
+        auto f = [&](double t) { return sample(add(o, scale(d, t))); };
+        double ta = t0, fa = f(t0);
+        for (long k = 1; k <= n; ++k) {
+            const double tb = k == n ? t1 : std::min(t0 + double(k) * step, t1), fb = f(tb);
+            for (std::size_t i = 0; i < isos_.size(); ++i) {
+                const double iso = isos_[i].value;
+                const bool sa = fa >= iso;
+                if (sa == (fb >= iso)) continue;
+                double l = ta, r = tb;
+                for (int it = 0; it < 200; ++it) {
+                    const double m = 0.5 * (l + r);
+                    if (!(m > l && m < r)) break;
+                    if ((f(m) >= iso) == sa)
+                        l = m;
+                    else
+                        r = m;
+                }
+                hits.push_back({0.5 * (l + r), i});
+            }
+            ta = tb;
+            fa = fb;
+        }
+        std::stable_sort(hits.begin(), hits.end(),
+                         [](const auto& x, const auto& y) { return x.first < y.first; });
+        return hits;
+    }
+
     void isoComposite(const Vec3& o, const Vec3& d, const CameraRay& ray, double t, const IsoLayer& iso,
                       Vec3& rgb, double& T, double& depth) const {
         const Vec3 c = light(ray, add(ray.origin, scale(ray.direction, t)), add(o, scale(d, t)),
@@ -324,6 +377,8 @@ private:
     ReferenceLighting lighting_;
     double gradMin_ = 0.0, shadowStep_ = 1.0;
     std::vector<IsoLayer> isos_;
+    std::optional<BsplineCoefficients<double>> spline_; ///< the cubic filters' coefficients
+    std::array<double, 2> window_{0.0, 1.0};              ///< MIP window: lower end, width
 };
 
 } // namespace

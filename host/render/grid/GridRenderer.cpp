@@ -6,6 +6,8 @@
 #include "host/Volume.hpp"
 #include "host/render/FrameParams.hpp"
 #include "host/render/VecMath.hpp"
+#include "host/MemoryBudget.hpp"
+#include "host/render/grid/BsplineField.hpp"
 #include "host/render/grid/GridDetail.hpp"
 #include "host/runtime/Timing.hpp"
 #include "preintegration/PreintegrationTable.hpp"
@@ -46,7 +48,10 @@ std::string skippingHow() {
 /// change cost more than the coarse frame).
 EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& range) {
     EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow());
-    p.defines.set("VOXEL_TYPE", static_cast<long long>(voxelTypeCode(volume)));
+    // The cubic filters read float spline coefficients instead of the voxels; smoothing, float voxels.
+    p.defines.set("VOXEL_TYPE", scene.filter == ReconstructionFilter::Linear && scene.smoothing == 0.0
+                                    ? static_cast<long long>(voxelTypeCode(volume))
+                                    : 0LL);
     return p;
 }
 
@@ -73,6 +78,17 @@ struct GridRenderer::Impl {
     DeviceBuffer<cl_uchar> volume;  ///< voxels in their stored type, plus one spare voxel (grid_sample.h)
     DeviceBuffer<cl_uchar> corners; ///< uint8 volumes: 8 corner values per cell for the packet kernels
     bool useCorners = false;        ///< packet kernels read `corners` (-DCORNER_VOXELS)
+    /// Cubic filters: the spline's coefficients (float, padded) and macrocells bounding the spline, for
+    /// `splineFilter` (Linear: none built yet).
+    ReconstructionFilter splineFilter = ReconstructionFilter::Linear;
+    double splineSmoothing = 0.0;
+    DeviceBuffer<float> spline;
+    grid_detail::MacrocellGrid splineMacro;
+    /// Linear filter with smoothing: the smoothed voxels (float, one spare) and their macrocells, for
+    /// `smoothedSigma` (0: none built yet).
+    double smoothedSigma = 0.0;
+    DeviceBuffer<float> smoothed;
+    grid_detail::MacrocellGrid smoothedMacro;
     DeviceBuffer<VolclTfKnot> knots;
     DeviceBuffer<cl_float4> table;
     DeviceBuffer<cl_uchar> empty;
@@ -221,13 +237,43 @@ void GridRenderer::rebuild(bool tfChanged) {
         m.table = cc_.allocate<cl_float4>(1, CL_MEM_READ_ONLY);
     }
 
+    // Cubic filters: the spline's coefficients, built once per filter (prefiltering a 35 MB volume takes
+    // about a second; camera and TF changes keep them).
+    const bool spline = scene_.filter != ReconstructionFilter::Linear;
+    if (spline && (m.splineFilter != scene_.filter || m.splineSmoothing != scene_.smoothing)) {
+        checkMemoryBudget(bsplineCoefficientBytes(volume_, sizeof(float)), 0, "the volume",
+                          "the cubic filter's coefficients");
+        const BsplineCoefficients<float> c = bsplineCoefficients<float>(volume_, scene_.filter, scene_.smoothing);
+        // The interpolating prefilter amplifies alternating data up to 27x: values near float's limit overflow.
+        if (!std::all_of(c.c.begin(), c.c.end(), [](float v) { return std::isfinite(v); }))
+            throw DataError("volume values up to " + fmt(m.range.max) + " overflow the " +
+                            std::string(filterName(scene_.filter)) +
+                            " filter's float coefficients (use --filter linear)");
+        m.splineMacro = bsplineMacrocells(c, kMacrocellEdge);
+        m.spline = cc_.upload(c.c, CL_MEM_READ_ONLY);
+        m.splineFilter = scene_.filter;
+        m.splineSmoothing = scene_.smoothing;
+    }
+    // Linear filter on smoothed data: the smoothed voxels as floats, built once per sigma.
+    const bool smoothedLinear = !spline && scene_.smoothing > 0.0;
+    if (smoothedLinear && m.smoothedSigma != scene_.smoothing) {
+        checkMemoryBudget(volume_.voxelCount() * sizeof(float), 0, "the volume", "the smoothed voxels");
+        const Volume sm = smoothedVolume(volume_, scene_.smoothing);
+        m.smoothedMacro = grid_detail::buildMacrocells(sm, kMacrocellEdge);
+        std::vector<float> voxels(sm.voxelCount() + 1, 0.0f); // + the spare voxel grid_sample.h reads
+        std::memcpy(voxels.data(), sm.bytes().data(), sm.byteSize());
+        m.smoothed = cc_.upload(voxels, CL_MEM_READ_ONLY);
+        m.smoothedSigma = scene_.smoothing;
+    }
+    const grid_detail::MacrocellGrid& macro = spline ? m.splineMacro : smoothedLinear ? m.smoothedMacro : m.macro;
+
     // Macrocell emptiness from the TF (and the iso-values), for the sampling the kernel will use.
     std::vector<double> isoValues;
     for (const auto& iso : plan_.isosurfaces)
         isoValues.push_back(iso.value);
     const int tableNodes = pre != Preintegration::None ? scene_.tableSize : 0;
     m.emptyHost =
-        grid_detail::emptyMacrocells(m.macro, shaded, isoValues, scene_.mode == RenderMode::Iso, tableNodes);
+        grid_detail::emptyMacrocells(macro, shaded, isoValues, scene_.mode == RenderMode::Iso, tableNodes);
     std::size_t emptyCount = 0;
     for (unsigned char e : m.emptyHost)
         emptyCount += e;
@@ -238,14 +284,14 @@ void GridRenderer::rebuild(bool tfChanged) {
     m.packet =
         scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
     m.kernel = cc_.kernel("raymarch.cl", m.packet ? "raymarch_packet" : "raymarch",
-                          m.packet ? packetDefines(plan_.defines) : plan_.defines);
+                          m.packet ? packetDefines(plan_.defines, spline || smoothedLinear) : plan_.defines);
     m.params =
-        grid_detail::makeParams(scene_, camera_, volume_, tf_, plan_, m.macro, m.knotCount, m.tableLengths);
+        grid_detail::makeParams(scene_, camera_, volume_, m.range, tf_, plan_, macro, m.knotCount, m.tableLengths);
 }
 
-KernelDefines GridRenderer::packetDefines(KernelDefines d) {
+KernelDefines GridRenderer::packetDefines(KernelDefines d, bool floatCopy) {
     Impl& m = *impl_;
-    if (m.useCorners) {
+    if (m.useCorners && !floatCopy) {
         // A memory layout, not an effect: kept out of plan_.defines (what --explain and the EXR report).
         d.set("CORNER_VOXELS");
         if (m.corners.size() == 0)
@@ -254,14 +300,14 @@ KernelDefines GridRenderer::packetDefines(KernelDefines d) {
     return d;
 }
 
-ImageBuffer GridRenderer::launch(cl::Kernel& kernel, bool withDepth, bool packet) {
+ImageBuffer GridRenderer::launch(cl::Kernel& kernel, const cl::Buffer& voxels, bool withDepth, bool packet) {
     Impl& m = *impl_;
     const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
     if (m.out.size() != pixels) {
         m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
         m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
     }
-    setArgs(kernel, packet && m.useCorners ? m.corners : m.volume, m.knots, m.table, m.empty, m.params, m.out,
+    setArgs(kernel, voxels, m.knots, m.table, m.empty, m.params, m.out,
             m.depth);
     // Tiles of nearby rays share cache lines in y as well as x: 8x8 rays, or 4x4 packets of 4x2 rays.
     const std::size_t w = std::size_t(scene_.width), h = std::size_t(scene_.height);
@@ -285,6 +331,8 @@ ImageBuffer GridRenderer::launch(cl::Kernel& kernel, bool withDepth, bool packet
     img.attributes.push_back(
         {"volcl:preintegration", std::string(preintegrationName(scene_.preintegration))});
     img.attributes.push_back({"volcl:effects", plan_.defines.toOptions()});
+    if (scene_.filter != ReconstructionFilter::Linear) // absent: linear, as in images from before the filters
+        img.attributes.push_back({"volcl:filter", std::string(filterName(scene_.filter))});
     return img;
 }
 
@@ -293,7 +341,12 @@ const cl::Buffer& GridRenderer::outputBuffer() const noexcept {
 }
 
 ImageBuffer GridRenderer::render() {
-    return launch(impl_->kernel, !plan_.isosurfaces.empty(), impl_->packet);
+    Impl& m = *impl_;
+    const cl::Buffer& voxels = scene_.filter != ReconstructionFilter::Linear ? m.spline.get()
+                               : scene_.smoothing > 0.0                    ? m.smoothed.get()
+                               : m.packet && m.useCorners                  ? m.corners.get()
+                                                                           : m.volume.get();
+    return launch(m.kernel, voxels, !plan_.isosurfaces.empty(), m.packet);
 }
 
 ImageBuffer GridRenderer::renderPlainBaseline() {
@@ -301,8 +354,8 @@ ImageBuffer GridRenderer::renderPlainBaseline() {
         throw UsageError("the plain baseline kernel renders point-sampled dvr only");
     KernelDefines d;
     d.set("VOXEL_TYPE", static_cast<long long>(voxelTypeCode(volume_)));
-    cl::Kernel k = cc_.kernel("raymarch_plain.cl", "raymarch_plain", packetDefines(d));
-    return launch(k, false, true);
+    cl::Kernel k = cc_.kernel("raymarch_plain.cl", "raymarch_plain", packetDefines(d, false));
+    return launch(k, impl_->useCorners ? impl_->corners.get() : impl_->volume.get(), false, true);
 }
 
 WorldBox GridRenderer::bounds() const {

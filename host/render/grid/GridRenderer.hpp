@@ -68,9 +68,10 @@ public:
 private:
     struct Impl;
     void rebuild(bool tfChanged);
-    ImageBuffer launch(cl::Kernel& kernel, bool depth, bool packet);
-    /// d plus the volume layout the packet kernels read (uploads the corner copy on first use).
-    KernelDefines packetDefines(KernelDefines d);
+    ImageBuffer launch(cl::Kernel& kernel, const cl::Buffer& voxels, bool depth, bool packet);
+    /// d plus the volume layout the packet kernels read (uploads the corner copy on first use);
+    /// `floatCopy`: they read a float copy instead (the cubic filter's coefficients, or smoothed voxels).
+    KernelDefines packetDefines(KernelDefines d, bool floatCopy);
     ComputeContext& cc_;
     const Volume& volume_;
     TransferFunction tf_;
