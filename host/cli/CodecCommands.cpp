@@ -14,6 +14,11 @@
 #include <zlib.h>
 #include <zstd.h>
 
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -391,6 +396,55 @@ std::vector<BenchData> loadBenchData(const fs::path& shared, const std::string& 
 struct BenchRow {
     std::string dataset, codec, mode;
     double ratio = 0, bpv = 0, psnr = 0, maxError = 0, encodeMBs = 0, decodeMBs = 0;
+    /// A fresh `volcl encode` / `volcl decode` process per run (wall time of the whole command, file read
+    /// and write included): what a user running the command once per file sees. 0 when not measured.
+    double encodeColdMBs = 0, decodeColdMBs = 0;
+};
+
+// Wall milliseconds of one run of this executable with `args` (stdout and stderr to /dev/null); throws
+// when it cannot start or does not exit with 0.
+double runSelfMilliseconds(const std::vector<std::string>& args) {
+    static const std::string exe = fs::read_symlink("/proc/self/exe").string();
+    std::vector<char*> argv;
+    argv.push_back(const_cast<char*>(exe.c_str()));
+    for (const std::string& s : args)
+        argv.push_back(const_cast<char*>(s.c_str()));
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t io;
+    posix_spawn_file_actions_init(&io);
+    posix_spawn_file_actions_addopen(&io, 1, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_addopen(&io, 2, "/dev/null", O_WRONLY, 0);
+    Stopwatch sw;
+    pid_t pid = 0;
+    const int started = posix_spawn(&pid, exe.c_str(), &io, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&io);
+    if (started != 0) throw Error("bench codec: cannot start " + exe + " for a cold run");
+    int status = 0;
+    while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    }
+    const double ms = sw.milliseconds();
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+        throw Error("bench codec: cold run `volcl " + args.front() + " ...` failed (status " +
+                    std::to_string(status) + ")");
+    return ms;
+}
+
+// Temporary files of the cold runs, removed however the benchmark ends.
+struct ColdFiles {
+    fs::path volume, vcz, decoded;
+    explicit ColdFiles(const fs::path& dir) {
+        const std::string stem = "volcl-bench-cold-" + std::to_string(getpid());
+        volume = dir / (stem + ".nrrd");
+        vcz = dir / (stem + ".vcz");
+        decoded = dir / (stem + "-decoded.raw");
+    }
+    ColdFiles(const ColdFiles&) = delete;
+    ColdFiles& operator=(const ColdFiles&) = delete;
+    ~ColdFiles() {
+        std::error_code ec;
+        for (const fs::path& p : {volume, vcz, decoded})
+            fs::remove(p, ec);
+    }
 };
 
 // zfp on the same voxels: reversible on int32 copies of integer data, fixed accuracy on float copies.
@@ -512,6 +566,7 @@ struct BenchArgs {
     int runs = 3, levels = 4;
     std::size_t brick = 64;
     bool noXz = false, large = false;
+    bool cold = true; ///< lossless rows also time a fresh CLI process per run
     std::vector<double> psnrs{30, 40, 50, 60, 70};
     std::vector<std::string> modes; ///< only rows whose mode contains one of these (empty: all)
     std::string coder;              ///< only this entropy coder's rows (empty: both)
@@ -534,6 +589,11 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
     for (const BenchData& ds : sets) {
         const Volume& v = ds.volume;
         const double mb = double(v.byteSize()) / 1e6;
+        std::optional<ColdFiles> cold;
+        if (a.cold) {
+            cold.emplace(tmp);
+            writeVolumeFile(v, cold->volume);
+        }
         const double n = double(v.voxelCount());
         std::cerr << "== " << ds.name << " " << v.dims().x << "x" << v.dims().y << "x" << v.dims().z << " "
                   << scalarTypeName(v.type()) << '\n';
@@ -553,18 +613,60 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
                 timed.measureError = false;
             }
             const std::size_t searchTrials = static_cast<std::size_t>(rep.profile.trials);
-            const double encMs =
-                medianMilliseconds(a.runs, [&] { bytes = encodeVolume(cc, v, timed, &rep); });
             Volume out;
             CodecProfile dec;
             const VczReader reader(bytes, ds.name);
             DecodeOptions dopt;
             dopt.profile = &dec;
-            const double decMs = medianMilliseconds(a.runs, [&] {
+            auto warmEncode = [&] { bytes = encodeVolume(cc, v, timed, &rep); };
+            auto warmDecode = [&] {
                 dec = {};
                 out = reader.decode(cc, dopt);
-            });
+            };
+            double encMs = 0, decMs = 0, encColdMs = 0, decColdMs = 0;
+            if (cold && o.rate == RateMode::Lossless) {
+                // Cold and warm runs interleaved, so both see the same load; the warm-up run of each side
+                // (kernel builds, the on-disk program cache) is not timed.
+                std::vector<std::string> global0;
+                if (!global.device.empty()) global0 = {"--device", global.device};
+                auto with = [&](std::vector<std::string> tail) {
+                    std::vector<std::string> all = global0;
+                    all.push_back("-q");
+                    all.insert(all.end(), tail.begin(), tail.end());
+                    return all;
+                };
+                const std::vector<std::string> enc =
+                    with({"encode", cold->volume.string(), "-o", cold->vcz.string(), "--lossless", "--entropy",
+                          coder, "--levels", std::to_string(a.levels), "--brick", std::to_string(a.brick)});
+                const std::vector<std::string> decArgs = with({"decode", cold->vcz.string(), "-o", cold->decoded.string()});
+                warmEncode();
+                warmDecode();
+                runSelfMilliseconds(enc);
+                runSelfMilliseconds(decArgs);
+                std::vector<double> we, wd, ce, cd;
+                for (int i = 0; i < a.runs; ++i) {
+                    Stopwatch sw;
+                    warmEncode();
+                    we.push_back(sw.milliseconds());
+                    ce.push_back(runSelfMilliseconds(enc));
+                    sw.restart();
+                    warmDecode();
+                    wd.push_back(sw.milliseconds());
+                    cd.push_back(runSelfMilliseconds(decArgs));
+                }
+                encMs = median(we);
+                decMs = median(wd);
+                encColdMs = median(ce);
+                decColdMs = median(cd);
+            } else {
+                encMs = medianMilliseconds(a.runs, warmEncode);
+                decMs = medianMilliseconds(a.runs, warmDecode);
+            }
             BenchRow r{ds.name, std::string("volcl-") + coder, mode};
+            if (encColdMs > 0) {
+                r.encodeColdMBs = mb / (encColdMs / 1e3);
+                r.decodeColdMBs = mb / (decColdMs / 1e3);
+            }
             r.ratio = double(v.byteSize()) / double(bytes.size());
             r.bpv = double(bytes.size()) * 8 / n;
             r.psnr = psnr(v, out);
@@ -577,6 +679,12 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
             std::cerr << "  " << r.codec << " " << mode << ": ratio " << fmt(r.ratio) << " bpv "
                       << fmt(r.bpv, 3) << " PSNR " << fmt(r.psnr) << " maxerr " << r.maxError << " enc "
                       << fmt(r.encodeMBs, 1) << " MB/s dec " << fmt(r.decodeMBs, 1) << " MB/s\n";
+            if (encColdMs > 0)
+                std::cerr << "    cold (a fresh volcl process per run, file read and write included): encode "
+                          << fmt(encColdMs, 1) << " ms = " << fmt(r.encodeColdMBs, 1) << " MB/s against warm "
+                          << fmt(encMs, 1) << " ms (cold/warm " << fmt(encColdMs / encMs) << "), decode "
+                          << fmt(decColdMs, 1) << " ms = " << fmt(r.decodeColdMBs, 1) << " MB/s against warm "
+                          << fmt(decMs, 1) << " ms (cold/warm " << fmt(decColdMs / decMs) << ")\n";
             printProfile("enc", rep.profile, searchTrials);
             printProfile("dec", dec, 0);
         };
@@ -706,14 +814,16 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
     }
     // Output.
     std::ostringstream csv;
-    csv << "dataset,codec,mode,ratio,bits_per_voxel,psnr_db,max_abs_error,encode_MBps,decode_MBps\n";
+    csv << "dataset,codec,mode,ratio,bits_per_voxel,psnr_db,max_abs_error,encode_MBps,decode_MBps,"
+           "encode_cold_MBps,decode_cold_MBps\n";
     nlohmann::json j;
     j["device"] = cc.device().name;
     j["runs"] = a.runs;
     j["rows"] = nlohmann::json::array();
     for (const BenchRow& r : rows) {
         csv << r.dataset << ',' << r.codec << ',' << r.mode << ',' << r.ratio << ',' << r.bpv << ','
-            << fmt(r.psnr, 4) << ',' << r.maxError << ',' << r.encodeMBs << ',' << r.decodeMBs << '\n';
+            << fmt(r.psnr, 4) << ',' << r.maxError << ',' << r.encodeMBs << ',' << r.decodeMBs << ','
+            << r.encodeColdMBs << ',' << r.decodeColdMBs << '\n';
         j["rows"].push_back({{"dataset", r.dataset},
                              {"codec", r.codec},
                              {"mode", r.mode},
@@ -722,7 +832,9 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
                              {"psnr_db", jsonNumber(r.psnr)},
                              {"max_abs_error", r.maxError},
                              {"encode_MBps", r.encodeMBs},
-                             {"decode_MBps", r.decodeMBs}});
+                             {"decode_MBps", r.decodeMBs},
+                             {"encode_cold_MBps", r.encodeColdMBs},
+                             {"decode_cold_MBps", r.decodeColdMBs}});
     }
     j["transforms"] = transforms;
     if (!a.csv.empty()) {
@@ -755,6 +867,9 @@ void addCodecCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     b->add_option("--brick", a->brick, "Brick size")->capture_default_str();
     b->add_option("--psnr", a->psnrs, "PSNR targets in dB for the rate-distortion curves");
     b->add_flag("--no-xz", a->noXz, "Skip the (slow) xz -9 reference");
+    b->add_flag("--cold,!--no-cold", a->cold,
+                "Lossless rows also time a fresh `volcl encode`/`volcl decode` process per run, interleaved "
+                "with the warm in-process runs (default on)");
     b->add_flag("--large", a->large, "Include the 500x470x136 frog labels");
     b->add_option("--csv", a->csv, "CSV output file (default: stdout)");
     b->add_option("--json", a->json, "JSON output file");
