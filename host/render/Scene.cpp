@@ -140,6 +140,7 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
         if (c.contains("height")) cam.height = num(c["height"], "camera.height");
         if (c.contains("fov_y_deg")) cam.fovYDeg = num(c["fov_y_deg"], "camera.fov_y_deg");
         s.camera = cam;
+        s.cameraGiven = {c.contains("eye"), c.contains("target"), c.contains("up"), c.contains("height")};
     }
     if (j.contains("image")) {
         const json& im = j["image"];
@@ -357,7 +358,8 @@ void Scene::validate() const {
     need(tableLengths >= 1 && tableLengths <= 1024, "render.table_lengths must be 1..1024");
     for (double b : background)
         need(b >= 0.0 && b <= 1.0, "image.background values must be in [0, 1]");
-    if (camera) {
+    // A partial camera is checked once it is completed against the volume's box.
+    if (camera && cameraGiven.complete(camera->projection)) {
         const Vec3 f = sub(camera->target, camera->eye);
         need(norm(f) > 0.0, "camera.eye and camera.target coincide");
         need(norm(cross(f, camera->up)) > 1e-12 * norm(f) * norm(camera->up),
