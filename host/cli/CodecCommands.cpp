@@ -280,10 +280,22 @@ void addCompare(CLI::App& app, GlobalOptions& global) {
             vczBytes = rb->fileSize();
         }
         const VczHeader* like = rb ? &rb->header() : (ra ? &ra->header() : nullptr);
-        auto load = [&](const std::string& path, std::optional<VczReader>& r) {
+        // Two plain volumes of different sizes under --level: the smaller is already a level decode (what the
+        // dimension error's hint suggests comparing), so only the larger is taken to the level.
+        std::optional<Volume> plainA, plainB;
+        if (!ra) plainA = readVolume(a->a);
+        if (!rb) plainB = readVolume(a->b);
+        bool coarsenA = a->level > 0, coarsenB = a->level > 0;
+        if (a->level > 0 && plainA && plainB && plainA->dims() != plainB->dims()) {
+            coarsenA = plainA->voxelCount() > plainB->voxelCount();
+            coarsenB = !coarsenA;
+        }
+        auto load = [&](const std::string& path, std::optional<VczReader>& r, std::optional<Volume>& plain,
+                        bool coarsen) {
             if (r) return r->decode(*cc, d);
-            Volume v = readVolume(path);
-            if (a->level > 0) return levelView(*cc, v, like, d);
+            Volume v = std::move(*plain);
+            if (coarsen) return levelView(*cc, v, like, d);
+            if (a->level > 0) return v;
             if (d.region) {
                 if (!(d.region->hi.x <= v.dims().x && d.region->hi.y <= v.dims().y && d.region->hi.z <= v.dims().z))
                     throw UsageError("--region " + a->region + " lies outside " + path);
@@ -291,8 +303,8 @@ void addCompare(CLI::App& app, GlobalOptions& global) {
             }
             return v;
         };
-        const Volume va = load(a->a, ra);
-        const Volume vb = load(a->b, rb);
+        const Volume va = load(a->a, ra, plainA, coarsenA);
+        const Volume vb = load(a->b, rb, plainB, coarsenB);
         if (va.dims() != vb.dims())
             throw UsageError(a->a + " and " + a->b + " differ in dimensions (" + std::to_string(va.dims().x) + "x" +
                              std::to_string(va.dims().y) + "x" + std::to_string(va.dims().z) + " against " +

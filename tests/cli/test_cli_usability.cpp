@@ -287,6 +287,12 @@ TEST(CliUsability, CompareAtALevelAndOverARegion) {
     RunResult dims = run("compare " + (dir / "v.nrrd").string() + " " + (dir / "half.nrrd").string(), dir);
     EXPECT_EQ(dims.exitCode, 2);
     EXPECT_TRUE(has(dims.err, "--level")) << dims.err;
+    // Following the hint compares the level decode with its source's low band (before: both sides were
+    // coarsened, and the sizes differed again).
+    RunResult hinted =
+        run("compare " + (dir / "v.nrrd").string() + " " + (dir / "half.nrrd").string() + " --level 1 --json", dir);
+    ASSERT_EQ(hinted.exitCode, 0) << hinted.err;
+    EXPECT_TRUE(has(hinted.out, "\"max_abs_error\": 0.0")) << hinted.out;
 }
 
 TEST(CliUsability, ConvertReplacesNans) {
