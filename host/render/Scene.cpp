@@ -358,13 +358,16 @@ void Scene::validate() const {
     need(tableLengths >= 1 && tableLengths <= 1024, "render.table_lengths must be 1..1024");
     for (double b : background)
         need(b >= 0.0 && b <= 1.0, "image.background values must be in [0, 1]");
-    // A partial camera is checked once it is completed against the volume's box.
-    if (camera && cameraGiven.complete(camera->projection)) {
+    // A partial camera's given fields are checked here; the rest once it is completed against the box.
+    if (camera) {
         const Vec3 f = sub(camera->target, camera->eye);
-        need(norm(f) > 0.0, "camera.eye and camera.target coincide");
-        need(norm(cross(f, camera->up)) > 1e-12 * norm(f) * norm(camera->up),
-             "camera.up is parallel to the view");
-        if (camera->projection == Projection::Orthographic)
+        if (cameraGiven.eye && cameraGiven.target) {
+            need(norm(f) > 0.0, "camera.eye and camera.target coincide");
+            if (cameraGiven.up)
+                need(norm(cross(f, camera->up)) > 1e-12 * norm(f) * norm(camera->up),
+                     "camera.up is parallel to the view");
+        }
+        if (camera->projection == Projection::Orthographic && cameraGiven.height)
             need(camera->height > 0.0, "camera.height must be > 0");
         else
             need(camera->fovYDeg > 0.0 && camera->fovYDeg < 180.0, "camera.fov_y_deg must be in (0, 180)");
