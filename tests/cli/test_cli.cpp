@@ -192,6 +192,35 @@ TEST(Cli, DemoImageIsSmoothAndKernelWarningsStayQuiet) {
     EXPECT_LT(roughness, 0.06) << "phantom.png ripples (moire)";
 }
 
+// `volcl bench codec` reports what a user running the CLI once per file sees (a fresh process per run)
+// beside the warm in-process figure; before, it reported the warm figure only. Speeds are not checked.
+TEST(Cli, BenchCodecReportsColdAndWarmFigures) {
+    std::filesystem::path data;
+    VOLCL_REQUIRE_SHARED_DATA(data);
+    auto dir = test::tempDir("cli_bench_cold");
+    const auto csv = dir / "codec.csv";
+    RunResult r = run("bench codec --data " + data.string() +
+                          " --dataset hydrogenatom --mode lossless --coder fast --no-xz --runs 1 --csv " +
+                          csv.string(),
+                      dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.err.find("cold (a fresh volcl process per run"), std::string::npos) << r.err;
+    std::ifstream in(csv);
+    std::string header, row;
+    std::getline(in, header);
+    ASSERT_NE(header.find("encode_cold_MBps,decode_cold_MBps"), std::string::npos) << header;
+    bool sawOurs = false;
+    while (std::getline(in, row)) {
+        if (row.find("volcl-fast") == std::string::npos) continue;
+        sawOurs = true;
+        // The last two columns are the cold figures: measured, so positive.
+        const std::size_t last = row.rfind(','), before = row.rfind(',', last - 1);
+        EXPECT_GT(std::stod(row.substr(last + 1)), 0.0) << row;
+        EXPECT_GT(std::stod(row.substr(before + 1, last - before - 1)), 0.0) << row;
+    }
+    EXPECT_TRUE(sawOurs);
+}
+
 // OpenImageIO is a module loaded on first image access; without it, image commands fail with one line.
 TEST(Cli, MissingImageModuleIsAOneLineError) {
     auto dir = test::tempDir("cli_no_oiio");
