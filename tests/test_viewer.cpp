@@ -201,7 +201,8 @@ TEST(AdaptiveQuality, SplitKeepsTheRequestedWorkAndUsesTheStepLadder) {
 }
 
 TEST(AdaptiveQuality, ConvergesToTheTargetOnAnAffineCostModel) {
-    // Frame time = fixed overhead + cost proportional to work: the controller's fixed point is the target.
+    // Frame time = fixed overhead + cost proportional to work: the controller's fixed point is its aim,
+    // 0.9 of the target.
     for (double fullMs : {150.0, 400.0, 1500.0}) {
         AdaptiveQuality aq({.targetMs = 100.0});
         const double overheadMs = 12.0;
@@ -211,7 +212,7 @@ TEST(AdaptiveQuality, ConvergesToTheTargetOnAnAffineCostModel) {
             ms = overheadMs + (fullMs - overheadMs) * q.work();
             aq.report(q, ms);
         }
-        EXPECT_NEAR(ms, 100.0, 2.0) << "full-quality frame " << fullMs << " ms";
+        EXPECT_NEAR(ms, 90.0, 2.0) << "full-quality frame " << fullMs << " ms";
     }
 }
 
@@ -227,15 +228,38 @@ TEST(AdaptiveQuality, HoldsTheTargetUnderNoise) {
         if (i >= 20) times.push_back(ms);
     }
     EXPECT_NEAR(percentile(times, 50), 100.0, 15.0);
+    EXPECT_LE(percentile(times, 50), 100.0);
+}
+
+TEST(AdaptiveQuality, UnderNoiseFramesRarelyOvershootTheTargetBy20Percent) {
+    // 15 % frame-time noise. Sized from the last frame alone and aimed at the target, ~19 % of the frames
+    // landed past target + 20 % (each frame's time was the ratio of two noisy samples); with the cost
+    // smoothed over frames and aimed at 0.9 of the target, about 5 %.
+    std::mt19937 rng(11);
+    std::normal_distribution<double> noise(1.0, 0.15);
+    AdaptiveQuality aq({.targetMs = 100.0});
+    int over = 0, counted = 0;
+    for (int i = 0; i < 2000; ++i) {
+        const QualityLevel q = aq.next();
+        const double ms = (5.0 + 2500.0 * q.work()) * std::max(0.5, noise(rng));
+        aq.report(q, ms);
+        if (i < 20) continue;
+        ++counted;
+        if (ms > 120.0) ++over;
+    }
+    EXPECT_LT(double(over) / counted, 0.08) << over << " of " << counted << " frames over 120 ms";
 }
 
 TEST(AdaptiveQuality, AFullQualityFrameSeedsTheFirstInteractiveLevel) {
     AdaptiveQuality aq({.targetMs = 100.0});
     aq.seed(800.0);
-    EXPECT_NEAR(aq.next().work(), 0.125, 1e-12);
+    EXPECT_NEAR(aq.next().work(), 0.9 * 0.125, 1e-12); // aimed at 0.9 of the target
     aq.report(aq.next(), 100.0);
+    // The cost estimate is the geometric mean of the seed's (800 ms per unit of work) and this frame's.
+    const double cost = std::sqrt(800.0 * (100.0 / (0.9 * 0.125)));
+    EXPECT_NEAR(aq.work(), 90.0 / cost, 1e-12);
     aq.seed(50.0); // after interactive history, full-quality frames no longer move the level
-    EXPECT_NEAR(aq.work(), 0.125, 1e-12);
+    EXPECT_NEAR(aq.work(), 90.0 / cost, 1e-12);
 }
 
 TEST(AdaptiveQuality, CheapScenesStayAtFullQuality) {
@@ -739,8 +763,8 @@ TEST(ViewerEndToEnd, AdaptiveQualityReactsWithPreintegration) {
     EXPECT_TRUE(sawTable); // the step did change, so tables were rebuilt on the way
     EXPECT_LT(f.image.width, 96);
     EXPECT_GT(f.level.stepScale, 1.0);
-    // The table build is kept out of the measurement: a level reported at exactly the target plus a
-    // long table build keeps its work instead of shrinking.
+    // The table build is kept out of the measurement: a level reported at exactly the controller's aim
+    // (0.9 of the target) plus a long table build keeps its work instead of shrinking.
     AdaptiveQualityOptions hold;
     hold.targetMs = 100.0;
     ViewerSession h(test::computeContext(), v, scene, phantomTf(), {}, hold);
@@ -748,7 +772,7 @@ TEST(ViewerEndToEnd, AdaptiveQualityReactsWithPreintegration) {
     h.frameDone(h.renderFrame(96, 96, true), 400.0); // coarsen once: the next frame needs a new table
     ViewerFrame g = h.renderFrame(96, 96, true);
     ASSERT_GT(g.tableMs, 0.0);
-    h.frameDone(g, 100.0 + g.tableMs);
+    h.frameDone(g, 90.0 + g.tableMs);
     const ViewerFrame after = h.renderFrame(96, 96, true);
     EXPECT_NEAR(after.level.work(), g.level.work(), 0.05 * g.level.work() + 1e-3);
 }

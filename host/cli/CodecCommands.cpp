@@ -14,11 +14,17 @@
 #include <zlib.h>
 #include <zstd.h>
 
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <future>
 #include <iomanip>
 #include <iostream>
 #include <memory>
@@ -147,6 +153,10 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
     cmd->callback([a, cmd, &global] {
         const CodecOptions o = toOptions(*a, *cmd);
         if (!isVcz(a->out)) throw UsageError("output " + a->out + " must end in .vcz");
+        // The OpenCL platform starts while the input is read: in a one-shot run its start (loading the
+        // driver's compiler libraries) is a fixed cost of the same order as reading a 35 MB volume.
+        std::future<std::unique_ptr<ComputeContext>> starting = std::async(
+            std::launch::async, [device = global.device] { return std::make_unique<ComputeContext>(device); });
         std::vector<std::filesystem::path> inputs;
         SeriesInput input = readSeriesInputs(a->in, a->raw.toReadOptions(), &inputs);
         TimeSeries& ts = input.series;
@@ -156,7 +166,8 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         CodecOptions withMeta = o;
         if (const auto nifti = readNiftiMetadataIfNifti(input.sources.front().file))
             withMeta.metadata[std::string(kVczNiftiMetadataKey)] = niftiMetadataToText(*nifti);
-        ComputeContext cc(global.device);
+        const std::unique_ptr<ComputeContext> context = starting.get();
+        ComputeContext& cc = *context;
         EncodeReport rep;
         Stopwatch sw;
         std::vector<std::byte> bytes =
@@ -285,10 +296,22 @@ void addCompare(CLI::App& app, GlobalOptions& global) {
             vczBytes = rb->fileSize();
         }
         const VczHeader* like = rb ? &rb->header() : (ra ? &ra->header() : nullptr);
-        auto load = [&](const std::string& path, std::optional<VczReader>& r) {
+        // Two plain volumes of different sizes under --level: the smaller is already a level decode (what the
+        // dimension error's hint suggests comparing), so only the larger is taken to the level.
+        std::optional<Volume> plainA, plainB;
+        if (!ra) plainA = readVolume(a->a);
+        if (!rb) plainB = readVolume(a->b);
+        bool coarsenA = a->level > 0, coarsenB = a->level > 0;
+        if (a->level > 0 && plainA && plainB && plainA->dims() != plainB->dims()) {
+            coarsenA = plainA->voxelCount() > plainB->voxelCount();
+            coarsenB = !coarsenA;
+        }
+        auto load = [&](const std::string& path, std::optional<VczReader>& r, std::optional<Volume>& plain,
+                        bool coarsen) {
             if (r) return r->decode(*cc, d);
-            Volume v = readVolume(path);
-            if (a->level > 0) return levelView(*cc, v, like, d);
+            Volume v = std::move(*plain);
+            if (coarsen) return levelView(*cc, v, like, d);
+            if (a->level > 0) return v;
             if (d.region) {
                 if (!(d.region->hi.x <= v.dims().x && d.region->hi.y <= v.dims().y && d.region->hi.z <= v.dims().z))
                     throw UsageError("--region " + a->region + " lies outside " + path);
@@ -296,8 +319,8 @@ void addCompare(CLI::App& app, GlobalOptions& global) {
             }
             return v;
         };
-        const Volume va = load(a->a, ra);
-        const Volume vb = load(a->b, rb);
+        const Volume va = load(a->a, ra, plainA, coarsenA);
+        const Volume vb = load(a->b, rb, plainB, coarsenB);
         if (va.dims() != vb.dims())
             throw UsageError(a->a + " and " + a->b + " differ in dimensions (" + std::to_string(va.dims().x) + "x" +
                              std::to_string(va.dims().y) + "x" + std::to_string(va.dims().z) + " against " +
@@ -401,6 +424,55 @@ std::vector<BenchData> loadBenchData(const fs::path& shared, const std::string& 
 struct BenchRow {
     std::string dataset, codec, mode;
     double ratio = 0, bpv = 0, psnr = 0, maxError = 0, encodeMBs = 0, decodeMBs = 0;
+    /// A fresh `volcl encode` / `volcl decode` process per run (wall time of the whole command, file read
+    /// and write included): what a user running the command once per file sees. 0 when not measured.
+    double encodeColdMBs = 0, decodeColdMBs = 0;
+};
+
+// Wall milliseconds of one run of this executable with `args` (stdout and stderr to /dev/null); throws
+// when it cannot start or does not exit with 0.
+double runSelfMilliseconds(const std::vector<std::string>& args) {
+    static const std::string exe = fs::read_symlink("/proc/self/exe").string();
+    std::vector<char*> argv;
+    argv.push_back(const_cast<char*>(exe.c_str()));
+    for (const std::string& s : args)
+        argv.push_back(const_cast<char*>(s.c_str()));
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t io;
+    posix_spawn_file_actions_init(&io);
+    posix_spawn_file_actions_addopen(&io, 1, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_addopen(&io, 2, "/dev/null", O_WRONLY, 0);
+    Stopwatch sw;
+    pid_t pid = 0;
+    const int started = posix_spawn(&pid, exe.c_str(), &io, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&io);
+    if (started != 0) throw Error("bench codec: cannot start " + exe + " for a cold run");
+    int status = 0;
+    while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    }
+    const double ms = sw.milliseconds();
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+        throw Error("bench codec: cold run `volcl " + args.front() + " ...` failed (status " +
+                    std::to_string(status) + ")");
+    return ms;
+}
+
+// Temporary files of the cold runs, removed however the benchmark ends.
+struct ColdFiles {
+    fs::path volume, vcz, decoded;
+    explicit ColdFiles(const fs::path& dir) {
+        const std::string stem = "volcl-bench-cold-" + std::to_string(getpid());
+        volume = dir / (stem + ".nrrd");
+        vcz = dir / (stem + ".vcz");
+        decoded = dir / (stem + "-decoded.raw");
+    }
+    ColdFiles(const ColdFiles&) = delete;
+    ColdFiles& operator=(const ColdFiles&) = delete;
+    ~ColdFiles() {
+        std::error_code ec;
+        for (const fs::path& p : {volume, vcz, decoded})
+            fs::remove(p, ec);
+    }
 };
 
 // zfp on the same voxels: reversible on int32 copies of integer data, fixed accuracy on float copies.
@@ -522,6 +594,7 @@ struct BenchArgs {
     int runs = 3, levels = 4;
     std::size_t brick = 64;
     bool noXz = false, large = false;
+    bool cold = true; ///< lossless rows also time a fresh CLI process per run
     std::vector<double> psnrs{30, 40, 50, 60, 70};
     std::vector<std::string> modes; ///< only rows whose mode contains one of these (empty: all)
     std::string coder;              ///< only this entropy coder's rows (empty: both)
@@ -544,6 +617,11 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
     for (const BenchData& ds : sets) {
         const Volume& v = ds.volume;
         const double mb = double(v.byteSize()) / 1e6;
+        std::optional<ColdFiles> cold;
+        if (a.cold) {
+            cold.emplace(tmp);
+            writeVolumeFile(v, cold->volume);
+        }
         const double n = double(v.voxelCount());
         std::cerr << "== " << ds.name << " " << v.dims().x << "x" << v.dims().y << "x" << v.dims().z << " "
                   << scalarTypeName(v.type()) << '\n';
@@ -563,18 +641,60 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
                 timed.measureError = false;
             }
             const std::size_t searchTrials = static_cast<std::size_t>(rep.profile.trials);
-            const double encMs =
-                medianMilliseconds(a.runs, [&] { bytes = encodeVolume(cc, v, timed, &rep); });
             Volume out;
             CodecProfile dec;
             const VczReader reader(bytes, ds.name);
             DecodeOptions dopt;
             dopt.profile = &dec;
-            const double decMs = medianMilliseconds(a.runs, [&] {
+            auto warmEncode = [&] { bytes = encodeVolume(cc, v, timed, &rep); };
+            auto warmDecode = [&] {
                 dec = {};
                 out = reader.decode(cc, dopt);
-            });
+            };
+            double encMs = 0, decMs = 0, encColdMs = 0, decColdMs = 0;
+            if (cold && o.rate == RateMode::Lossless) {
+                // Cold and warm runs interleaved, so both see the same load; the warm-up run of each side
+                // (kernel builds, the on-disk program cache) is not timed.
+                std::vector<std::string> global0;
+                if (!global.device.empty()) global0 = {"--device", global.device};
+                auto with = [&](std::vector<std::string> tail) {
+                    std::vector<std::string> all = global0;
+                    all.push_back("-q");
+                    all.insert(all.end(), tail.begin(), tail.end());
+                    return all;
+                };
+                const std::vector<std::string> enc =
+                    with({"encode", cold->volume.string(), "-o", cold->vcz.string(), "--lossless", "--entropy",
+                          coder, "--levels", std::to_string(a.levels), "--brick", std::to_string(a.brick)});
+                const std::vector<std::string> decArgs = with({"decode", cold->vcz.string(), "-o", cold->decoded.string()});
+                warmEncode();
+                warmDecode();
+                runSelfMilliseconds(enc);
+                runSelfMilliseconds(decArgs);
+                std::vector<double> we, wd, ce, cd;
+                for (int i = 0; i < a.runs; ++i) {
+                    Stopwatch sw;
+                    warmEncode();
+                    we.push_back(sw.milliseconds());
+                    ce.push_back(runSelfMilliseconds(enc));
+                    sw.restart();
+                    warmDecode();
+                    wd.push_back(sw.milliseconds());
+                    cd.push_back(runSelfMilliseconds(decArgs));
+                }
+                encMs = median(we);
+                decMs = median(wd);
+                encColdMs = median(ce);
+                decColdMs = median(cd);
+            } else {
+                encMs = medianMilliseconds(a.runs, warmEncode);
+                decMs = medianMilliseconds(a.runs, warmDecode);
+            }
             BenchRow r{ds.name, std::string("volcl-") + coder, mode};
+            if (encColdMs > 0) {
+                r.encodeColdMBs = mb / (encColdMs / 1e3);
+                r.decodeColdMBs = mb / (decColdMs / 1e3);
+            }
             r.ratio = double(v.byteSize()) / double(bytes.size());
             r.bpv = double(bytes.size()) * 8 / n;
             r.psnr = psnr(v, out);
@@ -587,6 +707,12 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
             std::cerr << "  " << r.codec << " " << mode << ": ratio " << fmt(r.ratio) << " bpv "
                       << fmt(r.bpv, 3) << " PSNR " << fmt(r.psnr) << " maxerr " << r.maxError << " enc "
                       << fmt(r.encodeMBs, 1) << " MB/s dec " << fmt(r.decodeMBs, 1) << " MB/s\n";
+            if (encColdMs > 0)
+                std::cerr << "    cold (a fresh volcl process per run, file read and write included): encode "
+                          << fmt(encColdMs, 1) << " ms = " << fmt(r.encodeColdMBs, 1) << " MB/s against warm "
+                          << fmt(encMs, 1) << " ms (cold/warm " << fmt(encColdMs / encMs) << "), decode "
+                          << fmt(decColdMs, 1) << " ms = " << fmt(r.decodeColdMBs, 1) << " MB/s against warm "
+                          << fmt(decMs, 1) << " ms (cold/warm " << fmt(decColdMs / decMs) << ")\n";
             printProfile("enc", rep.profile, searchTrials);
             printProfile("dec", dec, 0);
         };
@@ -716,14 +842,16 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
     }
     // Output.
     std::ostringstream csv;
-    csv << "dataset,codec,mode,ratio,bits_per_voxel,psnr_db,max_abs_error,encode_MBps,decode_MBps\n";
+    csv << "dataset,codec,mode,ratio,bits_per_voxel,psnr_db,max_abs_error,encode_MBps,decode_MBps,"
+           "encode_cold_MBps,decode_cold_MBps\n";
     nlohmann::json j;
     j["device"] = cc.device().name;
     j["runs"] = a.runs;
     j["rows"] = nlohmann::json::array();
     for (const BenchRow& r : rows) {
         csv << r.dataset << ',' << r.codec << ',' << r.mode << ',' << r.ratio << ',' << r.bpv << ','
-            << fmt(r.psnr, 4) << ',' << r.maxError << ',' << r.encodeMBs << ',' << r.decodeMBs << '\n';
+            << fmt(r.psnr, 4) << ',' << r.maxError << ',' << r.encodeMBs << ',' << r.decodeMBs << ','
+            << r.encodeColdMBs << ',' << r.decodeColdMBs << '\n';
         j["rows"].push_back({{"dataset", r.dataset},
                              {"codec", r.codec},
                              {"mode", r.mode},
@@ -732,7 +860,9 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
                              {"psnr_db", jsonNumber(r.psnr)},
                              {"max_abs_error", r.maxError},
                              {"encode_MBps", r.encodeMBs},
-                             {"decode_MBps", r.decodeMBs}});
+                             {"decode_MBps", r.decodeMBs},
+                             {"encode_cold_MBps", r.encodeColdMBs},
+                             {"decode_cold_MBps", r.decodeColdMBs}});
     }
     j["transforms"] = transforms;
     if (!a.csv.empty()) {
@@ -765,6 +895,9 @@ void addCodecCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     b->add_option("--brick", a->brick, "Brick size")->capture_default_str();
     b->add_option("--psnr", a->psnrs, "PSNR targets in dB for the rate-distortion curves");
     b->add_flag("--no-xz", a->noXz, "Skip the (slow) xz -9 reference");
+    b->add_flag("--cold,!--no-cold", a->cold,
+                "Lossless rows also time a fresh `volcl encode`/`volcl decode` process per run, interleaved "
+                "with the warm in-process runs (default on)");
     b->add_flag("--large", a->large, "Include the 500x470x136 frog labels");
     b->add_option("--csv", a->csv, "CSV output file (default: stdout)");
     b->add_option("--json", a->json, "JSON output file");

@@ -246,7 +246,10 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const Volume& v) const {
     const bool anyCameraFlag = !projection.empty() || !eye.empty() || !target.empty() || !up.empty() ||
                                viewHeight || fov || !view.empty() || !orbit.empty();
     const bool anatomical = isAnatomicalFormat(s.volume);
-    if (anyCameraFlag || (!s.camera && anatomical)) {
+    // What the scene file's camera gave: a partial one is completed below exactly as flags would be.
+    const CameraFieldsGiven given = s.camera ? s.cameraGiven : CameraFieldsGiven{false, false, false, false};
+    const bool partialScene = s.camera && !given.complete(s.camera->projection);
+    if (anyCameraFlag || (!s.camera && anatomical) || partialScene) {
         const Camera base = s.camera ? *s.camera : Camera{};
         Projection proj = base.projection;
         if (!projection.empty())
@@ -254,32 +257,49 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const Volume& v) const {
         else if (fov)
             proj = Projection::Perspective;
         const double fovY = fov ? *fov : base.fovYDeg;
+        const bool haveEye = !eye.empty() || given.eye, haveTarget = !target.empty() || given.target;
+        const bool haveUp = !up.empty() || given.up;
+        const ViewDirection defaultDir = namedViewDirection(anatomical ? NamedView::Front : NamedView::Bottom);
         Camera c = base;
-        const bool framed = !view.empty() || !orbit.empty() || (!s.camera && eye.empty() && target.empty());
+        const bool framed = !view.empty() || !orbit.empty() || (!haveEye && !haveTarget);
         if (framed) {
-            ViewDirection dir;
+            ViewDirection dir = defaultDir;
             if (!orbit.empty()) {
                 const auto ae = parseNumbers(orbit, 2, "--orbit");
                 dir = orbitDirection(ae[0], ae[1]);
             } else if (!view.empty()) {
                 dir = namedViewDirection(parseNamedView(view));
-            } else {
-                dir = namedViewDirection(anatomical ? NamedView::Front : NamedView::Bottom);
             }
             if (!up.empty()) dir.up = parseVec3(up, "--up");
+            else if (given.up && view.empty() && orbit.empty()) dir.up = base.up;
             c = frameBox(box, dir, proj, fovY, aspect);
+            // A height the scene gave is kept when only the camera's position was left to framing.
+            if (given.height && view.empty() && orbit.empty()) c.height = base.height;
             if (!s.camera && view.empty() && orbit.empty() && anatomical)
                 notes.push_back("camera: front view of the box (+z up; --view/--orbit choose others)");
+            else if (partialScene && view.empty() && orbit.empty())
+                notes.push_back("camera: the scene gives no eye or target: the box is framed from the " +
+                                std::string(anatomical ? "front" : "bottom") + " view");
         } else {
             c.projection = proj;
             c.fovYDeg = fovY;
             if (!target.empty()) c.target = parseVec3(target, "--target");
-            else if (!s.camera) c.target = boxCentre(box);
-            if (!eye.empty()) c.eye = parseVec3(eye, "--eye");
-            else if (!s.camera) c.eye = volcl::add(c.target, scale(Vec3{0, 0, -1}, 2.0 * boxRadius(box)));
+            else if (!given.target) c.target = boxCentre(box);
+            if (!eye.empty()) {
+                c.eye = parseVec3(eye, "--eye");
+            } else if (!given.eye) {
+                // Seen from the default view at the distance framing would choose (perspective: the box fills
+                // the view; orthographic: outside the box).
+                const Camera fitted = frameBox(box, defaultDir, proj, fovY, aspect);
+                c.eye = volcl::add(c.target, sub(fitted.eye, fitted.target));
+                if (!haveUp) c.up = defaultDir.up;
+            }
             if (!up.empty()) c.up = parseVec3(up, "--up");
-            // No height for this camera: neither --view-height nor a scene camera gave one.
-            if (!s.camera && !viewHeight && c.projection == Projection::Orthographic) {
+            // No up given and the default one runs along the view: take the next axis instead.
+            if (!haveUp && norm(cross(sub(c.target, c.eye), c.up)) <= 1e-9 * norm(sub(c.target, c.eye)))
+                c.up = Vec3{0, 0, 1};
+            // No height for this camera: neither --view-height nor the scene camera gave one.
+            if (!given.height && !viewHeight && c.projection == Projection::Orthographic) {
                 c.height = fittedOrthographicHeight(c, box, aspect);
                 std::ostringstream os;
                 os << "camera: orthographic height " << c.height << " fitted to the box (--view-height sets it)";
@@ -287,9 +307,12 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const Volume& v) const {
             }
         }
         if (viewHeight) c.height = *viewHeight;
+        if (norm(sub(c.target, c.eye)) == 0.0)
+            throw UsageError("camera: the eye and the target coincide");
         if (norm(cross(sub(c.target, c.eye), c.up)) == 0.0)
             throw UsageError("camera: the up vector is parallel to the view direction (give --up)");
         s.camera = c;
+        s.cameraGiven = {};
     }
     for (auto& n : applyLightingDefaults(s))
         notes.push_back(std::move(n));

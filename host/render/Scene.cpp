@@ -178,6 +178,7 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
         if (c.contains("height")) cam.height = num(c["height"], "camera.height");
         if (c.contains("fov_y_deg")) cam.fovYDeg = num(c["fov_y_deg"], "camera.fov_y_deg");
         s.camera = cam;
+        s.cameraGiven = {c.contains("eye"), c.contains("target"), c.contains("up"), c.contains("height")};
     }
     if (j.contains("image")) {
         const json& im = j["image"];
@@ -409,12 +410,16 @@ void Scene::validate() const {
              "render.window must be [centre, width] with width > 0 (finite, at most 1e30)");
     for (double b : background)
         need(b >= 0.0 && b <= 1.0, "image.background values must be in [0, 1]");
+    // A partial camera's given fields are checked here; the rest once it is completed against the box.
     if (camera) {
         const Vec3 f = sub(camera->target, camera->eye);
-        need(norm(f) > 0.0, "camera.eye and camera.target coincide");
-        need(norm(cross(f, camera->up)) > 1e-12 * norm(f) * norm(camera->up),
-             "camera.up is parallel to the view");
-        if (camera->projection == Projection::Orthographic)
+        if (cameraGiven.eye && cameraGiven.target) {
+            need(norm(f) > 0.0, "camera.eye and camera.target coincide");
+            if (cameraGiven.up)
+                need(norm(cross(f, camera->up)) > 1e-12 * norm(f) * norm(camera->up),
+                     "camera.up is parallel to the view");
+        }
+        if (camera->projection == Projection::Orthographic && cameraGiven.height)
             need(camera->height > 0.0, "camera.height must be > 0");
         else
             need(camera->fovYDeg > 0.0 && camera->fovYDeg < 180.0, "camera.fov_y_deg must be in (0, 180)");

@@ -43,6 +43,18 @@ struct Camera {
     double fovYDeg = 30.0;
 };
 
+/// Which camera fields a scene file gave. A camera missing its eye, target, up or (orthographic) height is
+/// completed from the volume's box the way the command line completes one (the CLI's SceneFlags::finish):
+/// a missing target is the box centre, a missing eye looks at it from the default view at a fitted
+/// distance, a missing height shows the whole box, a missing up is the view's own.
+struct CameraFieldsGiven {
+    bool eye = true, target = true, up = true, height = true;
+    /// Everything a renderer needs is there (perspective cameras need no height).
+    bool complete(Projection p) const noexcept {
+        return eye && target && up && (height || p == Projection::Perspective);
+    }
+};
+
 /// A light: direction toward the light (directional), position (point), or at the eye (head).
 struct Light {
     LightKind kind = LightKind::Directional;
@@ -86,6 +98,7 @@ struct SceneEffects {
 struct Scene {
     std::filesystem::path volume, tf; ///< volume: the data file; RenderInput::open picks its renderer
     std::optional<Camera> camera;     ///< absent: defaultCamera() looks down +z at the data's whole box
+    CameraFieldsGiven cameraGiven;    ///< from a scene file: the fields it gave (the rest are fitted)
     int width = 512, height = 512;
     std::array<double, 4> background{0, 0, 0, 1};
     RenderMode mode = RenderMode::Dvr;

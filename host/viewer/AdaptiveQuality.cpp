@@ -11,6 +11,8 @@ namespace volcl::viewer {
 AdaptiveQuality::AdaptiveQuality(const AdaptiveQualityOptions& options) : options_(options) {
     if (!(options_.targetMs > 0.0) || !std::isfinite(options_.targetMs))
         throw UsageError("adaptive quality: target frame time must be a positive number of milliseconds");
+    if (!(options_.aimFraction > 0.0 && options_.aimFraction <= 1.0))
+        throw UsageError("adaptive quality: aim fraction must be in (0, 1]");
     if (!(options_.minResolutionScale > 0.0 && options_.minResolutionScale <= 1.0))
         throw UsageError("adaptive quality: minimum resolution scale must be in (0, 1]");
     if (!(options_.maxStepScale >= 1.0) || !std::isfinite(options_.maxStepScale))
@@ -45,14 +47,23 @@ QualityLevel AdaptiveQuality::next() const {
 
 void AdaptiveQuality::report(const QualityLevel& used, double frameMs) {
     if (!options_.enabled || !(frameMs > 0.0) || !std::isfinite(frameMs)) return;
-    const double ratio = std::min(options_.targetMs / frameMs, options_.maxGrowth);
-    work_ = std::clamp(used.work() * ratio, minWork(), 1.0);
+    // Cost of the whole frame per unit of work, smoothed over frames (geometric mean, weight 1/2): sizing
+    // from the last frame alone feeds its noise straight into the next level, so a frame's time became
+    // the ratio of two noisy samples and overshot by 20 % three times as often. A frame over twice the
+    // target is not noise: its cost replaces the estimate, so a jump in cost is cut at once.
+    const double cost = frameMs / used.work();
+    const bool jump = (!reported_ && !seeded_) || frameMs > 2.0 * options_.targetMs;
+    logCost_ = jump ? std::log(cost) : 0.5 * logCost_ + 0.5 * std::log(cost);
+    const double wanted = options_.aimFraction * options_.targetMs / std::exp(logCost_);
+    work_ = std::clamp(std::min(wanted, used.work() * options_.maxGrowth), minWork(), 1.0);
     reported_ = true;
 }
 
 void AdaptiveQuality::seed(double fullQualityMs) {
     if (reported_ || !(fullQualityMs > 0.0) || !std::isfinite(fullQualityMs)) return;
-    work_ = std::clamp(options_.targetMs / fullQualityMs, minWork(), 1.0);
+    logCost_ = std::log(fullQualityMs);
+    seeded_ = true;
+    work_ = std::clamp(options_.aimFraction * options_.targetMs / fullQualityMs, minWork(), 1.0);
 }
 
 } // namespace volcl::viewer

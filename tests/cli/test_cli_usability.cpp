@@ -89,6 +89,46 @@ TEST(CliUsability, EyeAndTargetWithoutHeightFrameTheBox) {
     for (int x = 0; x < img.width; ++x) EXPECT_LT(img.at(x, 0, 3), 0.02f);
 }
 
+TEST(CliUsability, PartialSceneCamerasAreFramedAsFlagsAre) {
+    // Before: a scene camera missing fields took fixed defaults (height 1, eye 0,0,-1, target the origin):
+    // a featureless close-up instead of the framed box the same flags give.
+    auto dir = test::tempDir("cli_use_partial_camera");
+    const auto vol = writeBlob(dir);
+    std::ofstream(dir / "tf.json") << kTf;
+    auto render = [&](const std::string& args, const std::string& out) {
+        RunResult r = run("render --tf " + (dir / "tf.json").string() + " --width 48 --height 48 " + args +
+                              " -o " + (dir / out).string(),
+                          dir);
+        EXPECT_EQ(r.exitCode, 0) << r.err;
+        return readImage(dir / out);
+    };
+    auto maxDiff = [](const ImageBuffer& a, const ImageBuffer& b) {
+        double worst = 0.0;
+        for (std::size_t i = 0; i < a.pixels.size(); ++i)
+            worst = std::max(worst, double(std::abs(a.pixels[i] - b.pixels[i])));
+        return worst;
+    };
+    struct Case {
+        const char* camera; // the scene's camera object
+        const char* flags;  // the same camera as flags
+    };
+    for (Case c : {Case{R"({"eye": [400, 19.5, 19.5], "up": [0, 0, 1]})", "--eye 400,19.5,19.5 --up 0,0,1"},
+                   Case{R"({"eye": [400, 19.5, 19.5], "target": [19.5, 19.5, 19.5], "up": [0, 0, 1]})",
+                        "--eye 400,19.5,19.5 --target 19.5,19.5,19.5 --up 0,0,1"},
+                   Case{R"({"projection": "perspective"})", "--projection perspective"},
+                   Case{R"({"up": [1, 0, 0]})", "--up 1,0,0"}}) {
+        const auto scene = dir / "scene.json";
+        std::ofstream(scene) << R"({"volume": ")" << vol.string() << R"(", "camera": )" << c.camera << "}";
+        const ImageBuffer fromScene = render("--scene " + scene.string(), "scene.exr");
+        const ImageBuffer fromFlags = render("--volume " + vol.string() + " " + c.flags, "flags.exr");
+        ASSERT_EQ(fromScene.pixels.size(), fromFlags.pixels.size());
+        EXPECT_LT(maxDiff(fromScene, fromFlags), 1e-6) << c.camera;
+        const double cover = alphaCoverage(fromScene);
+        EXPECT_GT(cover, 0.03) << c.camera; // the blob is in view, not missed or a uniform close-up
+        EXPECT_LT(cover, 0.9) << c.camera;
+    }
+}
+
 TEST(CliUsability, FrontAndBackViewsAreMirrorImages) {
     auto dir = test::tempDir("cli_use_views");
     const auto vol = writeBlob(dir);
@@ -249,6 +289,12 @@ TEST(CliUsability, CompareAtALevelAndOverARegion) {
     RunResult dims = run("compare " + (dir / "v.nrrd").string() + " " + (dir / "half.nrrd").string(), dir);
     EXPECT_EQ(dims.exitCode, 2);
     EXPECT_TRUE(has(dims.err, "--level")) << dims.err;
+    // Following the hint compares the level decode with its source's low band (before: both sides were
+    // coarsened, and the sizes differed again).
+    RunResult hinted =
+        run("compare " + (dir / "v.nrrd").string() + " " + (dir / "half.nrrd").string() + " --level 1 --json", dir);
+    ASSERT_EQ(hinted.exitCode, 0) << hinted.err;
+    EXPECT_TRUE(has(hinted.out, "\"max_abs_error\": 0.0")) << hinted.out;
 }
 
 TEST(CliUsability, ConvertReplacesNans) {
