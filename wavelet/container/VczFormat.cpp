@@ -142,6 +142,10 @@ constexpr std::size_t kIndexEntryBytes = 5 * 8;
 // chain of references ends at an I frame. Older versions hold I frames only.
 void checkFrameReferences(const VczHeader& h, std::uint32_t version, const Reader& r) {
     const auto n = static_cast<std::int64_t>(h.frames.size());
+    // Encoders write version 4 only for files that hold P/B frames.
+    if (version == kVczVersionPredicted &&
+        std::all_of(h.frames.begin(), h.frames.end(), [](const VczFrame& f) { return f.type == FrameType::I; }))
+        r.fail("unsupported .vcz version 4 for a file of I frames only (corrupt header)");
     auto anchor = [&](std::int32_t k) { return k >= 0 && k < n && h.frames[std::size_t(k)].type != FrameType::B; };
     for (std::int64_t f = 0; f < n; ++f) {
         const VczFrame& e = h.frames[std::size_t(f)];
@@ -363,6 +367,7 @@ std::span<const std::uint8_t> vczFrameAux(std::span<const std::byte> fileBytes, 
                                              fileBytes.size());
     if (frame >= h.frames.size()) throw UsageError(name + ": no frame " + std::to_string(frame));
     const VczFrame& f = h.frames[frame];
+    if (f.auxSize == 0) return {}; // I frames (the reader checked that they carry none)
     if (f.auxSize > file.size() || f.auxOffset > file.size() - f.auxSize)
         throw IoError(name + ": frame " + std::to_string(frame) + ": motion data lies outside the file (truncated?)");
     auto aux = file.subspan(f.auxOffset, f.auxSize);
