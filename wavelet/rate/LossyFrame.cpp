@@ -63,42 +63,22 @@ Trial LossyFrame::trial(std::optional<double> bound, bool reconstruct) {
             &CodecProfile::reconstruct, [&](std::size_t b, const float* rec, std::size_t pitch) {
                 const Dims o = h.brickOrigin(b), d = h.brickDims(b);
                 double sumSq = 0, maxErr = 0;
-                if (target_) {
-                    // A residual: the error is the reconstructed frame's, stored voxels hold frame values.
-                    const std::span<const float> pred = target_->prediction->values<float>();
-                    visitTyped(*target_->frame, [&](auto span) {
-                        using V = std::remove_const_t<typename decltype(span)::element_type>;
-                        for (std::size_t z = 0; z < d.z; ++z)
-                            for (std::size_t y = 0; y < d.y; ++y) {
-                                const std::size_t at = v.index(o.x, o.y + y, o.z + z);
-                                const V* in = span.data() + at;
-                                const float* p = pred.data() + at;
-                                const float* r = rec + (z * d.y + y) * pitch;
-                                for (std::size_t x = 0; x < d.x; ++x) {
-                                    const double orig = double(in[x]);
-                                    const double e = std::abs(double(predictedVoxel<V>(p[x], r[x])) - orig);
-                                    if (bound && e > *bound) {
-                                        tr.corrections[b].push_back(
-                                            {static_cast<std::uint32_t>((z * d.y + y) * d.x + x), orig});
-                                        continue;
-                                    }
-                                    sumSq += e * e;
-                                    maxErr = std::max(maxErr, e);
-                                }
-                            }
-                    });
-                    es[b] = {sumSq, maxErr};
-                    return;
-                }
-                visitTyped(v, [&](auto span) {
+                // A residual is measured on the frame it reconstructs (prediction + decoded residual), and
+                // its stored voxels hold the frame's values.
+                const Volume& truth = target_ ? *target_->frame : v;
+                const float* pred = target_ ? target_->prediction->values<float>().data() : nullptr;
+                visitTyped(truth, [&](auto span) {
                     using V = std::remove_const_t<typename decltype(span)::element_type>;
                     for (std::size_t z = 0; z < d.z; ++z)
                         for (std::size_t y = 0; y < d.y; ++y) {
-                            const V* in = span.data() + v.index(o.x, o.y + y, o.z + z);
+                            const std::size_t at = v.index(o.x, o.y + y, o.z + z);
+                            const V* in = span.data() + at;
+                            const float* p = pred ? pred + at : nullptr;
                             const float* r = rec + (z * d.y + y) * pitch;
                             for (std::size_t x = 0; x < d.x; ++x) {
                                 const double orig = double(in[x]);
-                                const double e = std::abs(double(toVoxel<V>(r[x])) - orig);
+                                const V decoded = p ? predictedVoxel<V>(p[x], r[x]) : toVoxel<V>(r[x]);
+                                const double e = std::abs(double(decoded) - orig);
                                 if (bound && e > *bound) {
                                     tr.corrections[b].push_back(
                                         {static_cast<std::uint32_t>((z * d.y + y) * d.x + x), orig});
