@@ -9,8 +9,8 @@ Volume quantisedPrediction(const Volume& prediction, ScalarType frameType) {
     if (prediction.type() != ScalarType::Float32) throw Error("internal: a prediction is Float32");
     Volume out = prediction;
     if (frameType == ScalarType::Float32) return out;
-    Volume typed(prediction.dims(), frameType);
-    visitTyped(typed, [&](auto t) {
+    const Volume typeOnly({1, 1, 1}, frameType); // selects the voxel type for the rounding
+    visitTyped(typeOnly, [&](auto t) {
         using V = typename decltype(t)::element_type;
         const auto p = prediction.values<float>();
         auto o = out.values<float>();
