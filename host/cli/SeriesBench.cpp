@@ -2,6 +2,7 @@
 // per-frame PSNR, encode speed, single-frame decode time and playback rate.
 #include "host/Error.hpp"
 #include "host/cli/Commands.hpp"
+#include "host/cli/GzipVolume.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "host/io/Series.hpp"
 #include "host/runtime/ClRuntime.hpp"
@@ -10,8 +11,6 @@
 #include "wavelet/predict/TranslatedSeries.hpp"
 
 #include <nlohmann/json.hpp>
-#include <zlib.h>
-
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
@@ -67,12 +66,7 @@ std::vector<NamedSeries> loadSeries(const SeriesBenchArgs& a) {
     if (want("mri-shift")) {
         try {
             const fs::path p = fs::path(a.data) / "regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz";
-            Volume mri({180, 216, 180}, ScalarType::UInt8);
-            gzFile f = gzopen(p.string().c_str(), "rb");
-            if (!f) throw IoError(p.string() + ": cannot open");
-            const int n = gzread(f, mri.bytes().data(), static_cast<unsigned>(mri.byteSize()));
-            gzclose(f);
-            if (n != static_cast<int>(mri.byteSize())) throw IoError(p.string() + ": unexpected size after gunzip");
+            const Volume mri = readGzipUInt8(p, {180, 216, 180});
             const std::size_t c = std::min<std::size_t>(a.mriCrop, 180);
             const Dims lo{(180 - c) / 2, (216 - c) / 2, (180 - c) / 2};
             // 0.7 / -0.4 / 0.3 voxels per frame: a sub-voxel drift no search grid hits exactly.
