@@ -1,11 +1,11 @@
 // Motion-compensated series coding: P/B frames exact when lossless and within the bound when lossy on every
 // frame, closed loop, intra fallback, random access, container versions and corruption, hard cases.
+#include "TestUtil.hpp"
 #include "host/Error.hpp"
 #include "host/io/Series.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/predict/GopPlan.hpp"
 #include "wavelet/predict/TranslatedSeries.hpp"
-#include "TestUtil.hpp"
 
 #include <cmath>
 #include <cstring>
@@ -17,8 +17,8 @@ namespace {
 
 Volume smooth(Dims d, double phase = 0) {
     return test::makeFloatVolume(d, [&](double x, double y, double z) {
-        return 1000 + 400 * std::sin(0.21 * x + phase) * std::cos(0.17 * y) + 300 * std::exp(-0.01 * (z - 8) * (z - 8)) +
-               5 * x;
+        return 1000 + 400 * std::sin(0.21 * x + phase) * std::cos(0.17 * y) +
+               300 * std::exp(-0.01 * (z - 8) * (z - 8)) + 5 * x;
     });
 }
 
@@ -176,7 +176,8 @@ TEST(MotionCodec, MaxErrorHoldsOnEveryVoxelOfEveryFrame) {
                     << scalarTypeName(t) << " E " << e;
             const auto out = decodeAll(bytes);
             for (std::size_t f = 0; f < ts.frames.size(); ++f)
-                EXPECT_LE(maxAbsDiff(out[f], ts.frames[f]), e) << scalarTypeName(t) << " E " << e << " frame " << f;
+                EXPECT_LE(maxAbsDiff(out[f], ts.frames[f]), e)
+                    << scalarTypeName(t) << " E " << e << " frame " << f;
         }
     }
 }
@@ -213,7 +214,8 @@ TEST(MotionCodec, IdenticalFramesMakeNearlyFreePFrames) {
         std::vector<FrameReport> rep;
         const auto bytes = encodeSeries(cc, ts, o, &rep);
         ASSERT_EQ(rep[1].type, FrameType::P);
-        EXPECT_LT(double(rep[1].bytes), 0.05 * double(rep[0].bytes)) << rep[1].bytes << " vs " << rep[0].bytes;
+        EXPECT_LT(double(rep[1].bytes), 0.05 * double(rep[0].bytes))
+            << rep[1].bytes << " vs " << rep[0].bytes;
         const auto out = decodeAll(bytes);
         EXPECT_GE(psnr(ts.frames[1], out[1]), psnr(ts.frames[0], out[0]) - 0.5);
         if (o.rate == RateMode::MaxError) EXPECT_LE(maxAbsDiff(out[1], ts.frames[1]), 0.5);

@@ -202,7 +202,8 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                 }
                 std::cerr << "volcl: " << frames.size() << " frames: " << count[0] << " I, " << count[1] << " P, "
                           << count[2] << " B (" << fallbacks << " planned P/B coded as I)";
-                if (o.rate != RateMode::Lossless) std::cerr << ", lowest frame PSNR " << fmt(worst) << " dB, max error " << maxErr;
+                if (o.rate != RateMode::Lossless)
+                    std::cerr << ", lowest frame PSNR " << fmt(worst) << " dB, max error " << maxErr;
                 std::cerr << '\n';
             }
             if (a->profile && ts.frames.size() == 1) printProfile("encode", rep.profile, 0);

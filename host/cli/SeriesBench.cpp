@@ -10,12 +10,12 @@
 #include "wavelet/Codec.hpp"
 #include "wavelet/predict/TranslatedSeries.hpp"
 
-#include <nlohmann/json.hpp>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
 
@@ -44,11 +44,15 @@ std::string fmt(double v, int digits) {
     return s.str();
 }
 
-nlohmann::json jnum(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json("inf"); }
+nlohmann::json jnum(double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json("inf");
+}
 
 std::vector<NamedSeries> loadSeries(const SeriesBenchArgs& a) {
     std::vector<NamedSeries> out;
-    auto want = [&](const std::string& n) { return a.filter.empty() || n.find(a.filter) != std::string::npos; };
+    auto want = [&](const std::string& n) {
+        return a.filter.empty() || n.find(a.filter) != std::string::npos;
+    };
     const fs::path t = fs::path(a.data) / "timevarying";
     auto add = [&](const std::string& name, std::vector<std::string> inputs) {
         if (!want(name)) return;
@@ -65,21 +69,25 @@ std::vector<NamedSeries> loadSeries(const SeriesBenchArgs& a) {
     add("viscous-20", {"viscousfingers/*_density_*.vti"});
     if (want("mri-shift")) {
         try {
-            const fs::path p = fs::path(a.data) / "regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz";
+            const fs::path p =
+                fs::path(a.data) / "regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz";
             const Volume mri = readGzipUInt8(p, {180, 216, 180});
             const std::size_t c = std::min<std::size_t>(a.mriCrop, 180);
             const Dims lo{(180 - c) / 2, (216 - c) / 2, (180 - c) / 2};
             // 0.7 / -0.4 / 0.3 voxels per frame: a sub-voxel drift no search grid hits exactly.
-            out.push_back({"mri-shift", translatedSeries(mri.cropped(lo, {lo.x + c, lo.y + c, lo.z + c}), a.mriFrames,
-                                                         {0.7, -0.4, 0.3})});
+            out.push_back({"mri-shift", translatedSeries(mri.cropped(lo, {lo.x + c, lo.y + c, lo.z + c}),
+                                                         a.mriFrames, {0.7, -0.4, 0.3})});
         } catch (const Error& e) {
             std::cerr << "volcl bench series: skipping mri-shift: " << e.what() << '\n';
         }
     }
     add("fmri", {"functional.nii.gz"});
-    add("isabel-02-05", {"isabel/isabel_02.vti", "isabel/isabel_03.vti", "isabel/isabel_04.vti", "isabel/isabel_05.vti"});
-    add("isabel-30-33", {"isabel/isabel_30.vti", "isabel/isabel_31.vti", "isabel/isabel_32.vti", "isabel/isabel_33.vti"});
-    add("isabel-45-48", {"isabel/isabel_45.vti", "isabel/isabel_46.vti", "isabel/isabel_47.vti", "isabel/isabel_48.vti"});
+    add("isabel-02-05",
+        {"isabel/isabel_02.vti", "isabel/isabel_03.vti", "isabel/isabel_04.vti", "isabel/isabel_05.vti"});
+    add("isabel-30-33",
+        {"isabel/isabel_30.vti", "isabel/isabel_31.vti", "isabel/isabel_32.vti", "isabel/isabel_33.vti"});
+    add("isabel-45-48",
+        {"isabel/isabel_45.vti", "isabel/isabel_46.vti", "isabel/isabel_47.vti", "isabel/isabel_48.vti"});
     return out;
 }
 
@@ -165,12 +173,12 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
     const std::vector<NamedSeries> all = loadSeries(a);
     if (all.empty()) throw UsageError("no series to benchmark (see --data and --dataset)");
     nlohmann::json rows = nlohmann::json::array();
-    std::cerr << "volcl bench series: device " << cc.device().name << ", gop " << a.gop << ", b-frames " << a.bFrames
-              << ", decode times median of " << a.runs << "\n";
+    std::cerr << "volcl bench series: device " << cc.device().name << ", gop " << a.gop << ", b-frames "
+              << a.bFrames << ", decode times median of " << a.runs << "\n";
     for (const NamedSeries& s : all) {
         const Dims d = s.series.frames[0].dims();
-        std::cerr << s.name << ": " << s.series.frames.size() << " frames of " << d.x << "x" << d.y << "x" << d.z << " "
-                  << scalarTypeName(s.series.frames[0].type()) << '\n';
+        std::cerr << s.name << ": " << s.series.frames.size() << " frames of " << d.x << "x" << d.y << "x"
+                  << d.z << " " << scalarTypeName(s.series.frames[0].type()) << '\n';
         for (const std::string& rate : a.rates) {
             CodecOptions o = rateOptions(rate, s.series);
             o.gop = a.gop;
@@ -190,10 +198,11 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
                 return c.meanMse > 0 ? 10 * std::log10((hi - lo) * (hi - lo) / c.meanMse) : INFINITY;
             };
             std::cerr << "  " << std::setw(9) << rate << ": intra " << fmt(in.bpv, 4) << " bpv (min PSNR "
-                      << fmt(in.minPsnr, 2) << "), MC " << fmt(mc.bpv, 4) << " bpv (min PSNR " << fmt(mc.minPsnr, 2)
-                      << ", " << mc.p << " P " << mc.b << " B) = " << fmt(mc.bpv / in.bpv, 3) << "x; encode "
-                      << fmt(mb / in.encodeMs * 1e3, 1) << " / " << fmt(mb / mc.encodeMs * 1e3, 1)
-                      << " MB/s; frame " << fmt(in.frameMs, 1) << " / " << fmt(mc.frameMs, 1) << " ms; playback "
+                      << fmt(in.minPsnr, 2) << "), MC " << fmt(mc.bpv, 4) << " bpv (min PSNR "
+                      << fmt(mc.minPsnr, 2) << ", " << mc.p << " P " << mc.b
+                      << " B) = " << fmt(mc.bpv / in.bpv, 3) << "x; encode " << fmt(mb / in.encodeMs * 1e3, 1)
+                      << " / " << fmt(mb / mc.encodeMs * 1e3, 1) << " MB/s; frame " << fmt(in.frameMs, 1)
+                      << " / " << fmt(mc.frameMs, 1) << " ms; playback "
                       << fmt(1e3 * double(s.series.frames.size()) / in.playbackMs, 1) << " / "
                       << fmt(1e3 * double(s.series.frames.size()) / mc.playbackMs, 1) << " fps\n";
             for (const auto& [mode, c] : {std::pair<const char*, const Coding&>{"intra", in}, {"mc", mc}})
@@ -216,7 +225,10 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
                                 {"playback_fps", 1e3 * double(s.series.frames.size()) / c.playbackMs}});
         }
     }
-    const nlohmann::json j{{"device", cc.device().name}, {"gop", a.gop}, {"b_frames", a.bFrames}, {"runs", a.runs},
+    const nlohmann::json j{{"device", cc.device().name},
+                           {"gop", a.gop},
+                           {"b_frames", a.bFrames},
+                           {"runs", a.runs},
                            {"rows", rows}};
     if (a.json.empty()) {
         std::cout << j.dump(1) << '\n';
@@ -230,13 +242,16 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
 } // namespace
 
 void addSeriesBenchCommand(CLI::App& bench, GlobalOptions& global) {
-    auto* b = bench.add_subcommand("series", "Time series: motion-compensated against intra-only coding per rate "
-                                             "target (bits/voxel, PSNR, encode speed, frame decode, playback)");
+    auto* b =
+        bench.add_subcommand("series", "Time series: motion-compensated against intra-only coding per rate "
+                                       "target (bits/voxel, PSNR, encode speed, frame decode, playback)");
     auto a = std::make_shared<SeriesBenchArgs>();
     b->add_option("--data", a->data, "Shared data directory")->capture_default_str();
-    b->add_option("--dataset", a->filter, "Only series whose name contains this text (viscous, mri, fmri, isabel)");
-    b->add_option("--rate", a->rates, "Rate targets: lossless, psnrP, maxerrX% (default lossless psnr40 psnr50 "
-                                      "psnr60 maxerr1%)");
+    b->add_option("--dataset", a->filter,
+                  "Only series whose name contains this text (viscous, mri, fmri, isabel)");
+    b->add_option("--rate", a->rates,
+                  "Rate targets: lossless, psnrP, maxerrX% (default lossless psnr40 psnr50 "
+                  "psnr60 maxerr1%)");
     b->add_option("--gop", a->gop, "Frames per group")->capture_default_str();
     b->add_option("--b-frames", a->bFrames, "B frames between anchors")->capture_default_str();
     b->add_option("--mri-frames", a->mriFrames, "Frames of the shifted MRI series")->capture_default_str();

@@ -193,7 +193,8 @@ TEST(CliSeries, MotionFramesInfoAndEveryFrameByPattern) {
         frames.push_back(dir / ("m_" + std::to_string(k) + ".nrrd"));
         writeVolumeFile(v, frames.back());
     }
-    RunResult r = run("encode " + quoted(dir / "m_*.nrrd") + " -o " + quoted(dir / "m.vcz") + " --gop 4 --b-frames 1", dir);
+    RunResult r =
+        run("encode " + quoted(dir / "m_*.nrrd") + " -o " + quoted(dir / "m.vcz") + " --gop 4 --b-frames 1", dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.err.find(" P, "), std::string::npos) << r.err;
     expectFramesDecodeExactly(dir / "m.vcz", frames, dir, {1, 3, 5});
@@ -202,7 +203,8 @@ TEST(CliSeries, MotionFramesInfoAndEveryFrameByPattern) {
     for (std::size_t k = 0; k < frames.size(); ++k)
         EXPECT_TRUE(sameVoxels(readVolume(dir / ("out_0" + std::to_string(k) + ".nrrd")), readVolume(frames[k])))
             << "frame " << k;
-    const std::string info = std::string(VOLCL_EXE) + " info " + quoted(dir / "m.vcz") + " > " + (dir / "info.txt").string();
+    const std::string info =
+        std::string(VOLCL_EXE) + " info " + quoted(dir / "m.vcz") + " > " + (dir / "info.txt").string();
     ASSERT_EQ(std::system(info.c_str()), 0);
     const std::string text = slurp(dir / "info.txt");
     EXPECT_NE(text.find("(6 frames)"), std::string::npos) << text;

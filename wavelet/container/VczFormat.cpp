@@ -350,7 +350,8 @@ std::span<const std::uint8_t> vczBrickPayload(std::span<const std::byte> fileByt
     if (vczChecksum(payload) != e.checksum) {
         const Dims o = h.brickOrigin(brick);
         const std::string framePart = h.frames.size() > 1 ? "frame " + std::to_string(frame) + ", " : "";
-        throw IoError(name + ": " + framePart + "brick " + std::to_string(brick) + " (voxel " + std::to_string(o.x) + "," +
+        throw IoError(name + ": " + framePart + "brick " + std::to_string(brick) + " (voxel " +
+                      std::to_string(o.x) + "," +
                       std::to_string(o.y) + "," + std::to_string(o.z) +
                       ") checksum mismatch (corrupted data)");
     }

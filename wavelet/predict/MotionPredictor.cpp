@@ -46,8 +46,9 @@ void chooseModesByRate(MotionField& field, const std::vector<ModeCosts>& costs, 
     const std::size_t s = field.grid.size;
     for (std::size_t b = 0; b < field.modes.size(); ++b) {
         const std::size_t bx = b % nb.x, by = b / nb.x % nb.y, bz = b / (nb.x * nb.y);
-        const double n = double(std::min(s, field.grid.volume.x - bx * s) * std::min(s, field.grid.volume.y - by * s) *
-                                std::min(s, field.grid.volume.z - bz * s));
+        const double n =
+            double(std::min(s, field.grid.volume.x - bx * s) * std::min(s, field.grid.volume.y - by * s) *
+                   std::min(s, field.grid.volume.z - bz * s));
         const MotionVector fwd = field.forward[b];
         const MotionVector bwd = field.bidirectional() ? field.backward[b] : MotionVector{};
         double side[kBlockModeCount];
@@ -67,7 +68,8 @@ class MotionPredictor final : public Predictor {
 public:
     explicit MotionPredictor(const MotionSearchOptions& search) : search_(search) { validate(search_); }
 
-    Prediction predict(ComputeContext& cc, const Volume& frame, std::size_t, const ReferenceFrames& refs) override {
+    Prediction predict(ComputeContext& cc, const Volume& frame, std::size_t,
+                       const ReferenceFrames& refs) override {
         const bool bidirectional = refs.reference1 >= 0;
         const Volume& r0 = referenceAt(refs, refs.reference0, "forward");
         const Volume* r1 = bidirectional ? &referenceAt(refs, refs.reference1, "backward") : nullptr;
@@ -98,10 +100,11 @@ public:
         return p;
     }
 
-    void reconstruct(ComputeContext& cc, Volume& signal, const VczFrame& entry, std::span<const std::uint8_t> side,
-                     const ReferenceFrames& refs) override {
+    void reconstruct(ComputeContext& cc, Volume& signal, const VczFrame& entry,
+                     std::span<const std::uint8_t> side, const ReferenceFrames& refs) override {
         const Volume& r0 = referenceAt(refs, entry.reference0, "forward");
-        const Volume* r1 = entry.type == FrameType::B ? &referenceAt(refs, entry.reference1, "backward") : nullptr;
+        const Volume* r1 =
+            entry.type == FrameType::B ? &referenceAt(refs, entry.reference1, "backward") : nullptr;
         if (side.empty() || side[0] < 1 || side[0] > 5) throw IoError("motion data: invalid block size");
         const BlockGrid grid{signal.dims(), std::size_t(1) << side[0]};
         const MotionField field = decodeMotionField(side.subspan(1), grid, "motion data");
