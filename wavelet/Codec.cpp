@@ -406,14 +406,14 @@ std::vector<std::size_t> VczReader::framesNeeded(std::size_t frame, std::span<co
     // The reader checked that P frames reference earlier anchors and B frames an earlier and a later one,
     // so the anchors needed are decoded in increasing order and a B frame (never referenced) comes last.
     std::vector<char> needed(h.frames.size(), 0);
-    std::vector<std::size_t> todo{frame};
-    while (!todo.empty()) {
-        const std::size_t f = todo.back();
-        todo.pop_back();
+    std::vector<std::size_t> pending{frame};
+    while (!pending.empty()) {
+        const std::size_t f = pending.back();
+        pending.pop_back();
         if (needed[f] || (known(f) && f != frame)) continue;
         needed[f] = 1;
         for (std::int32_t r : {h.frames[f].reference0, h.frames[f].reference1})
-            if (r >= 0) todo.push_back(std::size_t(r));
+            if (r >= 0) pending.push_back(std::size_t(r));
     }
     std::vector<std::size_t> order;
     for (std::size_t f = 0; f < h.frames.size(); ++f)
