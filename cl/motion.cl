@@ -154,7 +154,7 @@ __kernel void motion_search_reduce(__global const ulong* restrict pairCost, __gl
 /* ------------------------------------------------------------------ compensation (float samples) */
 
 /* Trilinear sample at voxel p displaced by v half voxels: the mean of the 8 clamped corners. */
-inline float sample_half(__global const float* ref, int4 dims, int px, int py, int pz, int4 v) {
+inline __attribute__((always_inline)) float sample_half(__global const float* ref, int4 dims, int px, int py, int pz, int4 v) {
     const int hx = 2 * px + v.x, hy = 2 * py + v.y, hz = 2 * pz + v.z;
     const int x0 = half_floor(hx), y0 = half_floor(hy), z0 = half_floor(hz);
     const int ax = clamp(x0, 0, dims.x - 1), bx = clamp(x0 + (hx & 1), 0, dims.x - 1);
@@ -169,7 +169,7 @@ inline float sample_half(__global const float* ref, int4 dims, int px, int py, i
 
 /* Block modes (BlockMode in MotionField.hpp): 0 intra (block mean), 1 zero motion from reference 0,
    2 forward, 3 backward, 4 bidirectional (mean of forward and backward). */
-inline float predict_voxel(int mode, __global const float* r0, __global const float* r1, int4 dims, int x, int y,
+inline __attribute__((always_inline)) float predict_voxel(int mode, __global const float* r0, __global const float* r1, int4 dims, int x, int y,
                            int z, int4 f, int4 b, float intra) {
     switch (mode) {
     case 0: return intra;

@@ -5,11 +5,16 @@
 
 #include "host/Error.hpp"
 #include "host/runtime/Timing.hpp"
+#include "wavelet/BrickVoxels.hpp"
 #include "wavelet/FrameDecoder.hpp"
 #include "wavelet/RangeScan.hpp"
 #include "wavelet/StageTiming.hpp"
 #include "wavelet/container/FrameAssembly.hpp"
+#include "wavelet/predict/GopPlan.hpp"
+#include "wavelet/predict/MotionPredictor.hpp"
 #include "wavelet/predict/Predictor.hpp"
+#include "wavelet/quantise/Corrections.hpp"
+#include "wavelet/transform/BrickTransform.hpp"
 #include "wavelet/rate/RateStrategy.hpp"
 
 #include <algorithm>
@@ -17,6 +22,7 @@
 #include <cstdio>
 #include <limits>
 #include <memory>
+#include <optional>
 
 namespace volcl {
 
@@ -71,27 +77,27 @@ VczHeader planHeader(const Volume& v, const CodecOptions& o_) {
     return h;
 }
 
-// Encodes the frames in order through the predictor and the rate strategy; fills the header's frame table.
+// Encodes one volume through the `none` predictor and the rate strategy.
 class Pipeline {
 public:
     Pipeline(ComputeContext& cc, const CodecOptions& o, const VczHeader& h)
         : cc_(cc), ranges_(o.threads), predictor_(codec::makeNonePredictor()),
           rate_(codec::makeRateStrategy(cc, o, h, ranges_)) {}
 
-    /// Codes frame `index`; the rate search runs on the first frame, later frames reuse its steps (one
-    /// header for the series).
+    /// Codes frame `index` as an I frame; the rate search runs on the first frame, later frames reuse its
+    /// steps (one header for the series).
     codec::FrameResult encodeFrame(const Volume& frame, std::size_t index, VczHeader& h) {
-        // The none predictor references no frame, so no reconstruction is kept.
         const codec::Prediction p = predictor_->predict(cc_, frame, index, {});
         VczFrame& entry = h.frames[index];
         entry.type = p.type;
         entry.reference0 = p.reference0;
         entry.reference1 = p.reference1;
-        return rate_->encodeFrame(*p.signal, h, index == 0);
+        return rate_->encodeFrame(*p.signal, h, index == 0, nullptr);
     }
 
     /// The volume's value range (scanned once, shared with the rate control).
     const codec::ValueRange& rangeOf(const Volume& v) { return ranges_.of(v); }
+    codec::RateStrategy& rate() { return *rate_; }
 
 private:
     ComputeContext& cc_;
@@ -99,6 +105,65 @@ private:
     std::unique_ptr<codec::Predictor> predictor_;
     std::unique_ptr<codec::RateStrategy> rate_;
 };
+
+std::size_t codedSize(const codec::CodedFrame& c) {
+    std::size_t n = c.aux.size();
+    for (const auto& p : c.payloads)
+        n += p.size();
+    return n;
+}
+
+// Applies a predicted frame's exactly stored voxels to the reconstructed frame.
+void applyFrameCorrections(const VczHeader& h, Volume& frame,
+                           const std::vector<std::vector<codec::Correction>>& corrections) {
+    codec::visitTyped(frame, [&](auto span) {
+        for (std::size_t b = 0; b < corrections.size(); ++b)
+            if (!corrections[b].empty())
+                codec::applyCorrections(h, b, {0, 0, 0}, h.dims, span, h.dims, corrections[b]);
+    });
+}
+
+// A P/B frame from its decoded residual (Float32, corrections deferred): the predictor adds the prediction
+// from the reconstructed references, then the exactly stored voxels are applied. Motion-data errors name
+// the frame.
+Volume finishPredicted(ComputeContext& cc, const VczHeader& h, Volume residual, const VczFrame& entry,
+                       std::size_t frame, std::span<const std::uint8_t> aux, const codec::ReferenceFrames& refs,
+                       const std::vector<std::vector<codec::Correction>>& corrections, const std::string& name) {
+    try {
+        codec::predictorFor(entry)->reconstruct(cc, residual, entry, aux, refs);
+    } catch (const IoError& e) {
+        throw IoError(name + ": frame " + std::to_string(frame) + ": " + e.what());
+    }
+    applyFrameCorrections(h, residual, corrections);
+    return residual;
+}
+
+// The encoder's closed loop: the frame exactly as the decoder will reconstruct it from its coded bricks
+// (a one-frame container decoded by the decoder's stages), so later frames predict from what the decoder
+// has.
+Volume reconstructCoded(ComputeContext& cc, const VczHeader& h, const codec::CodedFrame& coded,
+                        const VczFrame& entry, std::size_t frame, const codec::ReferenceFrames& refs,
+                        unsigned threads) {
+    VczHeader one = h;
+    one.frames.assign(1, VczFrame{});
+    std::vector<codec::CodedFrame> frames{codec::CodedFrame{coded.payloads, coded.ranges, {}}};
+    const std::vector<std::byte> bytes = codec::assembleVcz(one, frames);
+    const bool predicted = entry.type != FrameType::I;
+    Volume out(h.dims, predicted ? ScalarType::Float32 : h.type);
+    out.spacing = h.spacing;
+    out.origin = h.origin;
+    std::vector<std::vector<codec::Correction>> corrections;
+    codec::decodeFrameBricks(cc, bytes, one, 0, codec::allBricks(one), 0, threads, "encoder", nullptr,
+                             {0, 0, 0}, h.dims, out, h.dims, !predicted, predicted ? &corrections : nullptr);
+    if (!predicted) return out;
+    return finishPredicted(cc, h, std::move(out), entry, frame, coded.aux, refs, corrections, "encoder");
+}
+
+// PSNR over `frame`'s value range and the max error of `rec` against it.
+void measureFrame(const Volume& frame, const Volume& rec, FrameReport& r) {
+    r.psnr = psnr(frame, rec);
+    r.maxError = maxAbsError(frame, rec);
+}
 
 } // namespace
 
@@ -135,25 +200,130 @@ std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, co
     return bytes;
 }
 
-std::vector<std::byte> encodeSeries(ComputeContext& cc, const TimeSeries& series,
-                                    const CodecOptions& options) {
+namespace {
+
+// One pass of the series encoder; `step` receives the base quantiser step the first frame chose.
+std::vector<std::byte> encodeSeriesOnce(ComputeContext& cc, const TimeSeries& series, const CodecOptions& options,
+                                        std::vector<FrameReport>* reports, double& chosenStep) {
     series.validate();
     if (series.frames.empty()) throw UsageError("cannot encode an empty time series");
+    const std::size_t n = series.frames.size();
     VczHeader h = planHeader(series.frames[0], options);
-    h.frames.resize(series.frames.size());
+    h.frames.resize(n);
+    for (std::size_t f = 0; f < n; ++f) {
+        // Lossy coding needs finite voxels: refuse naming the frame before any work.
+        if (h.transform == TransformKind::FloatLifting) {
+            const VolumeStats st = series.frames[f].stats(1);
+            if (st.nanCount || st.infCount)
+                throw DataError("frame " + std::to_string(f) + " holds NaN/Inf voxels: lossy encoding needs finite "
+                                "voxels (use --lossless to keep them exactly)");
+        }
+    }
+    const bool motion = options.motion == MotionMode::Block && h.transform != TransformKind::RawBits;
+    const std::vector<codec::PlannedFrame> plan =
+        codec::planGop(n, motion ? options.gop : 1, motion ? options.bFrames : 0);
     Pipeline pipeline(cc, options, h);
+    std::unique_ptr<codec::Predictor> predictor;
+    if (motion) predictor = codec::makeMotionPredictor(options.motionSearch);
+    const bool lossless = h.rate == RateMode::Lossless;
+    // Reconstructions of the anchors later frames predict from (the two latest are enough).
+    std::vector<std::optional<Volume>> recon(n);
+    std::vector<const Volume*> reconPtr(n, nullptr);
+    std::vector<codec::CodedFrame> coded(n);
+    std::vector<FrameReport> rep(n);
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-    std::vector<codec::CodedFrame> coded;
-    for (std::size_t f = 0; f < series.frames.size(); ++f) {
-        const VolumeStats st = series.frames[f].stats(1);
+    double step = 1; // the base quantiser step the first frame chose
+    for (std::size_t k = 0; k < plan.size(); ++k) {
+        const codec::PlannedFrame& pf = plan[k];
+        const std::size_t f = pf.frame;
+        const Volume& frame = series.frames[f];
+        const VolumeStats st = frame.stats(1);
         lo = std::min(lo, st.min);
         hi = std::max(hi, st.max);
         if (f < series.times.size()) h.frames[f].time = series.times[f];
-        coded.push_back(pipeline.encodeFrame(series.frames[f], f, h).coded);
+        VczFrame& entry = h.frames[f];
+        codec::FrameResult r = pipeline.rate().encodeFrame(frame, h, k == 0, nullptr);
+        if (k == 0) step = r.report.step;
+        entry.type = FrameType::I;
+        entry.reference0 = entry.reference1 = -1;
+        rep[f].intraFallback = false;
+        if (pf.type != FrameType::I) {
+            codec::ReferenceFrames refs{reconPtr, pf.reference0, pf.reference1, lossless ? 1.0 : step};
+            codec::Prediction p = predictor->predict(cc, frame, f, refs);
+            const codec::ResidualTarget target{&frame, &*p.prediction};
+            codec::FrameResult pr = pipeline.rate().encodeFrame(*p.signal, h, false, &target);
+            pr.coded.aux = std::move(p.side);
+            // The mode decision by actual cost, at frame level: the smaller coding wins.
+            if (codedSize(pr.coded) < codedSize(r.coded)) {
+                r = std::move(pr);
+                entry.type = p.type;
+                entry.reference0 = p.reference0;
+                entry.reference1 = p.reference1;
+            } else {
+                rep[f].intraFallback = true;
+            }
+            // Brick statistics are the frame's (renderers skip bricks by them), not the residual's.
+            r.coded.ranges = codec::brickRanges(frame, h, options.threads);
+        }
+        rep[f].type = entry.type;
+        rep[f].reference0 = entry.reference0;
+        rep[f].reference1 = entry.reference1;
+        rep[f].bytes = codedSize(r.coded);
+        rep[f].psnr = r.report.psnr;
+        rep[f].maxError = r.report.maxError;
+        const bool referenced = motion && pf.type != FrameType::B &&
+                                std::any_of(plan.begin() + std::ptrdiff_t(k) + 1, plan.end(), [&](const auto& q) {
+                                    return q.reference0 == std::int32_t(f) || q.reference1 == std::int32_t(f);
+                                });
+        if (referenced || (reports && !lossless && options.measureError)) {
+            const codec::ReferenceFrames refs{reconPtr, entry.reference0, entry.reference1};
+            Volume rec = lossless ? frame : reconstructCoded(cc, h, r.coded, entry, f, refs, options.threads);
+            if (!lossless) measureFrame(frame, rec, rep[f]);
+            if (referenced) {
+                recon[f] = std::move(rec);
+                reconPtr[f] = &*recon[f];
+            }
+        }
+        // Anchors older than the previous anchor are referenced no more.
+        for (std::size_t g = 0; g < f; ++g)
+            if (recon[g] && std::none_of(plan.begin() + std::ptrdiff_t(k) + 1, plan.end(), [&](const auto& q) {
+                    return q.reference0 == std::int32_t(g) || q.reference1 == std::int32_t(g);
+                })) {
+                recon[g].reset();
+                reconPtr[g] = nullptr;
+            }
+        coded[f] = std::move(r.coded);
     }
     h.valueMin = lo;
     h.valueMax = hi;
+    chosenStep = step;
+    if (reports) *reports = std::move(rep);
     return codec::assembleVcz(h, coded);
+}
+
+} // namespace
+
+std::vector<std::byte> encodeSeries(ComputeContext& cc, const TimeSeries& series, const CodecOptions& options,
+                                    std::vector<FrameReport>* reports) {
+    std::vector<FrameReport> rep;
+    double step = 0;
+    std::vector<std::byte> bytes = encodeSeriesOnce(cc, series, options, &rep, step);
+    // --psnr holds on every frame within 0.5 dB, but the steps the first frame chose serve every frame: when
+    // a later frame falls short the series is coded again at a step finer by the shortfall (about 6 dB per
+    // halving of the step).
+    if (options.rate == RateMode::Psnr && !options.step && options.measureError)
+        for (int attempt = 0; attempt < 4; ++attempt) {
+            double worst = std::numeric_limits<double>::infinity();
+            for (const FrameReport& f : rep)
+                if (!std::isnan(f.psnr)) worst = std::min(worst, f.psnr);
+            const double floor = options.target - 0.5;
+            if (!(worst < floor) || !(step > 0)) break;
+            CodecOptions finer = options;
+            finer.step = step * std::pow(10.0, -(floor - worst + 0.1) / 20);
+            bytes = encodeSeriesOnce(cc, series, finer, &rep, step);
+        }
+    if (reports) *reports = std::move(rep);
+    return bytes;
 }
 
 Region parseRegion(std::string_view text) {
@@ -216,14 +386,86 @@ Volume VczReader::decode(ComputeContext& cc, const DecodeOptions& o) const {
         out.origin[i] = h.origin[i] + double(first * f) * h.spacing[i];
     }
     if (o.frame >= h.frames.size()) throw UsageError(name_ + ": no frame " + std::to_string(o.frame));
-    const std::unique_ptr<codec::Predictor> predictor =
-        codec::predictorFor(h.frames[o.frame], o.frame, name_);
+    if (h.frames[o.frame].type != FrameType::I) {
+        if (o.level != 0)
+            throw UsageError(name_ + ": frame " + std::to_string(o.frame) +
+                             " is a motion-compensated frame: it decodes at --level 0 only");
+        Volume whole = decodeFrame(cc, o.frame, {}, o.threads, o.profile);
+        return o.region ? whole.cropped(r.lo, r.hi) : whole;
+    }
     codec::decodeFrameBricks(cc, bytes_, h, o.frame, which, o.level, o.threads, name_, o.profile, a, e, out,
                              outDims, o.placeOnDevice);
-    // I frames carry no side information and reference no frame.
-    predictor->reconstruct(cc, out, h.frames[o.frame], {}, {});
     if (o.profile) o.profile->total += total.milliseconds();
     return out;
+}
+
+std::vector<std::size_t> VczReader::framesNeeded(std::size_t frame, std::span<const Volume* const> decoded) const {
+    const VczHeader& h = header_;
+    if (frame >= h.frames.size()) throw UsageError(name_ + ": no frame " + std::to_string(frame));
+    auto known = [&](std::size_t f) { return f < decoded.size() && decoded[f]; };
+    // The reader checked that P frames reference earlier anchors and B frames an earlier and a later one,
+    // so the anchors needed are decoded in increasing order and a B frame (never referenced) comes last.
+    std::vector<char> needed(h.frames.size(), 0);
+    std::vector<std::size_t> pending{frame};
+    while (!pending.empty()) {
+        const std::size_t f = pending.back();
+        pending.pop_back();
+        if (needed[f] || (known(f) && f != frame)) continue;
+        needed[f] = 1;
+        for (std::int32_t r : {h.frames[f].reference0, h.frames[f].reference1})
+            if (r >= 0) pending.push_back(std::size_t(r));
+    }
+    std::vector<std::size_t> order;
+    for (std::size_t f = 0; f < h.frames.size(); ++f)
+        if (needed[f] && f != frame) order.push_back(f);
+    order.push_back(frame);
+    return order;
+}
+
+Volume VczReader::decodeFrame(ComputeContext& cc, std::size_t frame, std::span<const Volume* const> decoded,
+                              unsigned threads, CodecProfile* profile) const {
+    const VczHeader& h = header_;
+    const std::vector<std::size_t> order = framesNeeded(frame, decoded);
+    std::vector<std::optional<Volume>> own(h.frames.size());
+    std::vector<const Volume*> ptr(h.frames.size(), nullptr);
+    for (std::size_t f = 0; f < decoded.size() && f < ptr.size(); ++f)
+        ptr[f] = decoded[f];
+    for (std::size_t k = 0; k < order.size(); ++k) {
+        const std::size_t f = order[k];
+        const VczFrame& entry = h.frames[f];
+        Volume v;
+        if (entry.type == FrameType::I) {
+            DecodeOptions o;
+            o.frame = f;
+            o.threads = threads;
+            o.profile = profile;
+            v = decode(cc, o);
+        } else {
+            Stopwatch total;
+            Volume residual(h.dims, ScalarType::Float32);
+            residual.spacing = h.spacing;
+            residual.origin = h.origin;
+            std::vector<std::vector<codec::Correction>> corrections;
+            codec::decodeFrameBricks(cc, bytes_, h, f, codec::allBricks(h), 0, threads, name_, profile, {0, 0, 0},
+                                     h.dims, residual, h.dims, false, &corrections);
+            const auto aux = vczFrameAux(bytes_, h, f, name_);
+            v = finishPredicted(cc, h, std::move(residual), entry, f, aux,
+                                codec::ReferenceFrames{ptr, entry.reference0, entry.reference1}, corrections, name_);
+            if (profile) profile->total += total.milliseconds();
+        }
+        if (k + 1 == order.size()) return v;
+        own[f] = std::move(v);
+        ptr[f] = &*own[f];
+        // Frames no later frame of the order references are released.
+        for (std::size_t g = 0; g < f; ++g)
+            if (own[g] && std::none_of(order.begin() + std::ptrdiff_t(k) + 1, order.end(), [&](std::size_t q) {
+                    return h.frames[q].reference0 == std::int32_t(g) || h.frames[q].reference1 == std::int32_t(g);
+                })) {
+                own[g].reset();
+                ptr[g] = nullptr;
+            }
+    }
+    throw Error("internal: empty decoding order");
 }
 
 Volume VczReader::decodeBrick(ComputeContext& cc, std::size_t frame, std::size_t brick, int level) const {

@@ -6,6 +6,7 @@
 #include "wavelet/CodecTypes.hpp"
 #include "wavelet/Metrics.hpp"
 #include "wavelet/container/VczFormat.hpp"
+#include "wavelet/predict/MotionSearch.hpp"
 #include "wavelet/transform/LiftingTransform.hpp" // callers use BrickBatch and the references with it
 
 #include <cstddef>
@@ -40,6 +41,12 @@ struct CodecOptions {
     /// pass (the report's error fields are then NaN); --max-error always reconstructs to hold its bound.
     bool measureError = true;
     std::map<std::string, std::string> metadata;
+    /// Series only: P/B frames predicted by block motion compensation, or every frame an I frame. Lossless
+    /// float32 series (kept as raw bit patterns) are always I frames.
+    MotionMode motion = MotionMode::Block;
+    std::size_t gop = 10;    ///< frames per group, each starting with an I frame (1: I frames only)
+    std::size_t bFrames = 0; ///< B frames between two I/P frames
+    MotionSearchOptions motionSearch{.blockSize = 8, .radius = 4, .method = MotionSearchMethod::Hierarchical};
 };
 
 /// What an encoding measured about itself (for benchmarks and `volcl encode` reports).
@@ -58,9 +65,23 @@ struct EncodeReport {
 /// in lossy mode (lossless keeps float bit patterns, NaN and Inf included).
 std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, const CodecOptions& options,
                                     EncodeReport* report = nullptr);
-/// Encodes every frame of a series as an I frame.
+/// What the encoder did with one frame of a series.
+struct FrameReport {
+    FrameType type = FrameType::I;
+    std::int32_t reference0 = -1, reference1 = -1;
+    std::size_t bytes = 0;   ///< brick payloads and motion data of the frame
+    double psnr = 0;         ///< of the reconstruction against the frame's own value range (NaN: not measured)
+    double maxError = 0;     ///< over the frame's voxels (NaN: not measured)
+    bool intraFallback = false; ///< planned as P/B, coded as I because that was smaller
+};
+
+/// Encodes a series: the first frame chooses the quantiser steps for the rate target, every frame uses
+/// them. With motion, each group of `gop` frames is an I frame followed by P frames (and B frames), each
+/// predicted from the reconstructions the decoder will make (closed loop) and coded as a residual; a
+/// planned P/B frame whose coding is larger than coding it alone becomes an I frame. `frames`, when set,
+/// receives one report per frame (display order).
 std::vector<std::byte> encodeSeries(ComputeContext& cc, const TimeSeries& series,
-                                    const CodecOptions& options);
+                                    const CodecOptions& options, std::vector<FrameReport>* frames = nullptr);
 
 /// Region [lo, hi) in full-resolution voxel indices.
 struct Region {
@@ -97,8 +118,16 @@ public:
     /// One brick at level `level` (its voxel origin is header().brickOrigin(brick) / 2^level).
     Volume decodeBrick(ComputeContext& cc, std::size_t frame, std::size_t brick, int level = 0) const;
     /// The whole volume or a region, at full or reduced resolution. Output spacing grows by 2^level and
-    /// the origin moves to the first kept sample.
+    /// the origin moves to the first kept sample. P/B frames decode at level 0 only (their prediction
+    /// needs the whole reference frames), decoding the frames they reference first.
     Volume decode(ComputeContext& cc, const DecodeOptions& options = {}) const;
+    /// Frame `frame` whole at full resolution, decoding only the frames it references (directly or through
+    /// other frames) that `decoded` does not hold: `decoded[i]`, when present and non-null, is frame i as
+    /// this reader decodes it. Playback passes the frames it just showed.
+    Volume decodeFrame(ComputeContext& cc, std::size_t frame, std::span<const Volume* const> decoded = {},
+                       unsigned threads = 2, CodecProfile* profile = nullptr) const;
+    /// The frames decodeFrame(frame) decodes when given nothing, in decoding order (`frame` last).
+    std::vector<std::size_t> framesNeeded(std::size_t frame, std::span<const Volume* const> decoded = {}) const;
 
 private:
     std::vector<std::byte> bytes_;

@@ -27,6 +27,10 @@ enum class EntropyMode : std::uint8_t {
 /// Rate control of an encoding. Stored in .vcz files: never renumber.
 enum class RateMode : std::uint8_t { Lossless = 0, MaxError = 1, Psnr = 2, Bpv = 3 };
 
+/// How a series' frames are predicted: `Block` codes P/B frames by block motion compensation, `None`
+/// codes every frame as an I frame.
+enum class MotionMode : std::uint8_t { None, Block };
+
 /// Wall time per pipeline stage in milliseconds, summed over every pass of a call (rate-control trials
 /// included), so a benchmark can show where encode and decode time goes.
 struct CodecProfile {

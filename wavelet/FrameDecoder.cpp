@@ -104,7 +104,7 @@ template <class V>
 void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h,
                       std::size_t frame, const std::vector<std::size_t>& which, int level, unsigned threads,
                       const std::string& name, CodecProfile* prof, Dims a, Dims e, std::span<V> out,
-                      Dims outDims, bool placeOnDevice) {
+                      Dims outDims, bool placeOnDevice, std::vector<std::vector<Correction>>* deferred) {
     const std::size_t n = h.brickCount();
     const int levels = h.transform == TransformKind::RawBits ? 0 : h.levels;
     const int stop = h.transform == TransformKind::RawBits ? 0 : level;
@@ -127,8 +127,9 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
         if (!p.corrections.empty() && level == 0)
             corrections[b] = decodeCorrections(p.corrections, h.type, d.count(), what);
     };
+    const std::vector<Correction> none;
     auto place = [&](std::size_t b, const auto* src, std::size_t pitch) {
-        placeBrick(h, b, level, a, e, out, outDims, src, pitch, corrections[b]);
+        placeBrick(h, b, level, a, e, out, outDims, src, pitch, deferred ? none : corrections[b]);
     };
     // Uniform bricks are filled with their value, not decoded: each filter's low band of a constant is that
     // constant, so this is exact at every level. Their payload checksums are still verified. `out` starts
@@ -200,7 +201,13 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
             });
         });
     }
-    if (placedOnDevice)
+    if (deferred) {
+        *deferred = std::move(corrections);
+        if (placedOnDevice) {
+            // Mapping makes the kernel's writes visible in `out`.
+            BatchMapping<V> m(cc.queue(), toVoxels->voxels, out.size(), CL_MAP_READ | CL_MAP_WRITE);
+        }
+    } else if (placedOnDevice)
         timeStage(prof, &CodecProfile::assemble, [&] {
             // Mapping makes the kernel's writes visible in `out` (no copy where the device works in it).
             BatchMapping<V> m(cc.queue(), toVoxels->voxels, out.size(), CL_MAP_READ | CL_MAP_WRITE);
@@ -214,11 +221,11 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
 void decodeFrameBricks(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h,
                        std::size_t frame, const std::vector<std::size_t>& which, int level, unsigned threads,
                        const std::string& name, CodecProfile* prof, Dims a, Dims e, Volume& out, Dims outDims,
-                       bool placeOnDevice) {
+                       bool placeOnDevice, std::vector<std::vector<Correction>>* deferredCorrections) {
     // Bricks cover disjoint parts of the output, so they are placed in parallel.
     visitTyped(out, [&](auto span) {
         decodeBricksInto(cc, file, h, frame, which, level, threads, name, prof, a, e, span, outDims,
-                         placeOnDevice);
+                         placeOnDevice, deferredCorrections);
     });
 }
 

@@ -7,6 +7,7 @@
 #include "host/runtime/ClRuntime.hpp"
 #include "wavelet/CodecTypes.hpp"
 #include "wavelet/container/VczFormat.hpp"
+#include "wavelet/quantise/Corrections.hpp"
 
 #include <cstddef>
 #include <span>
@@ -17,10 +18,13 @@ namespace volcl::codec {
 
 /// Decodes the listed bricks of frame `frame` at `level` into `out` (zeroed, of `outDims`), which holds the
 /// level-`level` samples [a, e); `placeOnDevice` lets the inverse kernel write whole bricks' voxels itself.
-/// The frame must exist. IoError naming `name` and the brick for corrupted payloads.
+/// The frame must exist. IoError naming `name` and the brick for corrupted payloads. With
+/// `deferredCorrections` the exactly stored voxels are handed back per brick instead of applied (a P/B
+/// frame's residual, decoded into Float32, gets them after its prediction is added).
 void decodeFrameBricks(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h,
                        std::size_t frame, const std::vector<std::size_t>& which, int level, unsigned threads,
                        const std::string& name, CodecProfile* prof, Dims a, Dims e, Volume& out, Dims outDims,
-                       bool placeOnDevice);
+                       bool placeOnDevice,
+                       std::vector<std::vector<Correction>>* deferredCorrections = nullptr);
 
 } // namespace volcl::codec

@@ -3,6 +3,7 @@
 #include "host/cli/CliParsing.hpp"
 #include "host/cli/Commands.hpp"
 #include "host/io/AtomicFile.hpp"
+#include "host/io/IoDetail.hpp"
 #include "host/io/Series.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "host/runtime/ClRuntime.hpp"
@@ -73,7 +74,8 @@ nlohmann::json jsonNumber(double v) {
 
 struct EncodeArgs {
     std::vector<std::string> in; ///< one file, several files, quoted globs or a .pvd: the frames in order
-    std::string out, wavelet, entropy = "dense", brick = "64";
+    std::string out, wavelet, entropy = "dense", brick = "64", motion = "block";
+    std::size_t gop = 10, bFrames = 0;
     bool lossless = false, profile = false;
     double maxError = 0, psnr = 0, bpv = 0, step = 0;
     int levels = 4;
@@ -126,6 +128,15 @@ CodecOptions toOptions(const EncodeArgs& a, const CLI::App& cmd) {
     }
     o.levels = a.levels;
     o.threads = std::max(1u, a.threads);
+    if (a.motion == "block")
+        o.motion = MotionMode::Block;
+    else if (a.motion == "none")
+        o.motion = MotionMode::None;
+    else
+        throw UsageError("--motion must be block or none");
+    if (a.gop == 0) throw UsageError("--gop must be at least 1");
+    o.gop = a.gop;
+    o.bFrames = a.bFrames;
     return o;
 }
 
@@ -149,6 +160,10 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
     cmd->add_option("--entropy", a->entropy, "fast (zstd over byte planes) or dense (context-modelled rANS, default)");
     cmd->add_option("--threads", a->threads, "Host threads for entropy coding (default 2)");
     cmd->add_flag("--profile", a->profile, "Print the time of each pipeline stage");
+    cmd->add_option("--gop", a->gop, "Series: frames per group, each starting with an I frame (default 10)");
+    cmd->add_option("--b-frames", a->bFrames, "Series: B frames between two I/P frames (default 0)");
+    cmd->add_option("--motion", a->motion,
+                    "Series: block (motion-compensated P/B frames, default) or none (every frame an I frame)");
     a->raw.add(*cmd);
     cmd->callback([a, cmd, &global] {
         const CodecOptions o = toOptions(*a, *cmd);
@@ -170,8 +185,10 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         ComputeContext& cc = *context;
         EncodeReport rep;
         Stopwatch sw;
+        std::vector<FrameReport> frames;
         std::vector<std::byte> bytes =
-            ts.frames.size() == 1 ? encodeVolume(cc, ts.frames[0], withMeta, &rep) : encodeSeries(cc, ts, withMeta);
+            ts.frames.size() == 1 ? encodeVolume(cc, ts.frames[0], withMeta, &rep)
+                                  : encodeSeries(cc, ts, withMeta, &frames);
         const double ms = sw.milliseconds();
         AtomicFile out(a->out);
         out.write(bytes);
@@ -191,6 +208,21 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                 if (o.rate == RateMode::MaxError) std::cerr << " (" << rep.corrections << " voxels stored exactly)";
             }
             std::cerr << ", " << fmt(double(raw) / 1e3 / ms, 1) << " MB/s\n";
+            if (!frames.empty()) {
+                std::size_t count[3] = {0, 0, 0}, fallbacks = 0;
+                double worst = INFINITY, maxErr = 0;
+                for (const FrameReport& f : frames) {
+                    ++count[static_cast<int>(f.type)];
+                    fallbacks += f.intraFallback;
+                    if (!std::isnan(f.psnr)) worst = std::min(worst, f.psnr);
+                    if (!std::isnan(f.maxError)) maxErr = std::max(maxErr, f.maxError);
+                }
+                std::cerr << "volcl: " << frames.size() << " frames: " << count[0] << " I, " << count[1] << " P, "
+                          << count[2] << " B (" << fallbacks << " planned P/B coded as I)";
+                if (o.rate != RateMode::Lossless)
+                    std::cerr << ", lowest frame PSNR " << fmt(worst) << " dB, max error " << maxErr;
+                std::cerr << '\n';
+            }
             if (a->profile && ts.frames.size() == 1) printProfile("encode", rep.profile, 0);
         }
     });
@@ -213,7 +245,9 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
     cmd->add_option("--region", a->region,
                     "Voxel box x0,y0,z0:x1,y1,z1 (half-open, full-resolution indices)");
     cmd->add_option("--level", a->level, "2^k-downsampled approximation without decoding finer detail");
-    cmd->add_option("--frame", a->frame, "Frame of a time series (default 0)");
+    cmd->add_option("--frame", a->frame,
+                    "Frame of a time series (default 0); an output name with a printf pattern (frames_%03d.nrrd) "
+                    "writes every frame");
     cmd->add_option("--threads", a->threads, "Host threads for entropy decoding (default 2)");
     cmd->add_flag("--profile", a->profile, "Print the time of each pipeline stage");
     cmd->callback([a, &global] {
@@ -227,10 +261,41 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
         o.threads = std::max(1u, a->threads);
         VczReader r(readFileBytes(a->in), a->in);
         ComputeContext cc(global.device);
-        const Volume v = r.decode(cc, o);
+        // A NIfTI source's header, kept in the .vcz, goes back into NIfTI outputs.
         WriteOptions wo;
         if (const auto it = r.header().metadata.find(std::string(kVczNiftiMetadataKey)); it != r.header().metadata.end())
             wo.nifti = niftiMetadataFromText(it->second, a->in);
+        if (a->out.find('%') != std::string::npos) {
+            // A printf pattern: every frame, each decoded once (P/B frames from the frames already decoded).
+            const std::size_t n = r.header().frames.size();
+            const std::vector<std::string> names = io::expandFilePattern(a->out, 0, static_cast<long long>(n) - 1, 1,
+                                                                     a->out, n);
+            for (const std::string& name : names)
+                checkNotSameFile({std::filesystem::path(a->in)}, volumeFilesWritten(name));
+            // A frame is kept until the last frame that references it is decoded.
+            std::vector<std::size_t> lastUse(n);
+            for (std::size_t f = 0; f < n; ++f) {
+                lastUse[f] = f;
+                for (std::int32_t ref : {r.header().frames[f].reference0, r.header().frames[f].reference1})
+                    if (ref >= 0) lastUse[std::size_t(ref)] = std::max(lastUse[std::size_t(ref)], f);
+            }
+            std::vector<std::optional<Volume>> frames(n);
+            std::vector<const Volume*> known(n, nullptr);
+            for (std::size_t f = 0; f < n; ++f) {
+                frames[f] = r.decodeFrame(cc, f, known, o.threads, o.profile);
+                known[f] = &*frames[f];
+                writeVolumeFile(*frames[f], names[f], wo);
+                for (std::size_t g = 0; g <= f; ++g)
+                    if (frames[g] && lastUse[g] <= f) {
+                        frames[g].reset();
+                        known[g] = nullptr;
+                    }
+            }
+            if (!global.quiet) std::cerr << "volcl: wrote " << n << " frames to " << a->out << "\n";
+            if (a->profile && !global.quiet) printProfile("decode", prof, 0);
+            return;
+        }
+        const Volume v = r.decode(cc, o);
         writeVolumeFile(v, a->out, wo);
         if (!global.quiet)
             std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x"

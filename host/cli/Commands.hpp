@@ -27,6 +27,7 @@ void addCodecCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global);  /
 void addViewCommand(CLI::App& app, CLI::App& bench, GlobalOptions& global); // view, bench view
 void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global); // render, bench render
 void addMotionCommands(CLI::App& bench, GlobalOptions& global);                // bench motion
+void addSeriesBenchCommand(CLI::App& bench, GlobalOptions& global);            // bench series
 
 /// Puts a worked example at the foot of every subcommand's --help (after all subcommands are added).
 void addHelpExamples(CLI::App& app);

@@ -4,6 +4,7 @@
 #include "host/cli/Commands.hpp"
 #include "host/cli/MeshInfo.hpp"
 #include "host/cli/Progress.hpp"
+#include "host/cli/VczInfo.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "host/runtime/ClRuntime.hpp"
@@ -11,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <optional>
@@ -125,7 +127,8 @@ void printVolumeInfo(std::ostream& out, const std::string& path, const TimeSerie
 void addInfoCommands(CLI::App& app, GlobalOptions& global) {
     // info
     {
-        auto* cmd = app.add_subcommand("info", "Print dims, type, spacing, value range, mean and histogram");
+        auto* cmd = app.add_subcommand(
+            "info", "Print dims, type, spacing, value range, mean and histogram (of a .vcz: its frame table)");
         auto file = std::make_shared<std::string>();
         auto json = std::make_shared<bool>(false);
         auto raw = std::make_shared<RawReadFlags>();
@@ -137,6 +140,10 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
         cmd->callback([file, json, raw, meshFlags, &global] {
             if (mesh::detectMeshFormat(*file)) {
                 printMeshInfo(std::cout, *file, mesh::readMesh(*file, meshFlags->toReadOptions()), *json);
+                return;
+            }
+            if (std::filesystem::path(*file).extension() == ".vcz") {
+                printVczInfo(std::cout, *file, *json);
                 return;
             }
             TimeSeries ts = readVolumeFile(*file, raw->toReadOptions());

@@ -1,6 +1,7 @@
 // `volcl bench motion`: block-search time against block size, radius and method, with the prediction error.
 #include "host/Error.hpp"
 #include "host/cli/Commands.hpp"
+#include "host/cli/GzipVolume.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "host/io/Series.hpp"
 #include "host/io/VolumeIo.hpp"
@@ -12,7 +13,6 @@
 #include "wavelet/predict/TranslatedSeries.hpp"
 
 #include <nlohmann/json.hpp>
-#include <zlib.h>
 
 #include <cmath>
 #include <filesystem>
@@ -46,16 +46,6 @@ std::string fmt(double v, int digits) {
     std::ostringstream s;
     s << std::fixed << std::setprecision(digits) << v;
     return s.str();
-}
-
-Volume readGzipUInt8(const fs::path& p, Dims d) {
-    Volume v(d, ScalarType::UInt8);
-    gzFile f = gzopen(p.string().c_str(), "rb");
-    if (!f) throw IoError(p.string() + ": cannot open");
-    const int n = gzread(f, v.bytes().data(), static_cast<unsigned>(v.byteSize()));
-    gzclose(f);
-    if (n != static_cast<int>(v.byteSize())) throw IoError(p.string() + ": unexpected size after gunzip");
-    return v;
 }
 
 std::vector<MotionPair> loadPairs(const MotionBenchArgs& a) {

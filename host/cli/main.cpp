@@ -61,6 +61,7 @@ int main(int argc, char** argv) {
     volcl::cli::addRenderCommands(app, *bench, global);
     volcl::cli::addCodecCommands(app, *bench, global);
     volcl::cli::addMotionCommands(*bench, global);
+    volcl::cli::addSeriesBenchCommand(*bench, global);
     volcl::cli::addHelpExamples(app);
 
     // The single place where errors become messages and exit codes: usage errors exit 2, runtime errors 1,

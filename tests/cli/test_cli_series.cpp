@@ -178,3 +178,42 @@ TEST(CliSeries, FourDimensionalNiftiEncodesEveryFrame) {
         EXPECT_TRUE(sameVoxels(readVolume(out), ts.frames[k])) << "frame " << k;
     }
 }
+
+TEST(CliSeries, MotionFramesInfoAndEveryFrameByPattern) {
+    const fs::path dir = test::tempDir("cli_series_motion");
+    std::vector<fs::path> frames;
+    for (std::size_t k = 0; k < 6; ++k) {
+        // A smooth field moving by one voxel per frame: P frames pay off.
+        Volume v({24, 20, 12}, ScalarType::UInt16);
+        auto vals = v.values<std::uint16_t>();
+        for (std::size_t z = 0; z < 12; ++z)
+            for (std::size_t y = 0; y < 20; ++y)
+                for (std::size_t x = 0; x < 24; ++x)
+                    vals[v.index(x, y, z)] = static_cast<std::uint16_t>(2000 + 40 * (x + k) + 25 * y + 3 * z * z);
+        frames.push_back(dir / ("m_" + std::to_string(k) + ".nrrd"));
+        writeVolumeFile(v, frames.back());
+    }
+    RunResult r =
+        run("encode " + quoted(dir / "m_*.nrrd") + " -o " + quoted(dir / "m.vcz") + " --gop 4 --b-frames 1", dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.err.find(" P, "), std::string::npos) << r.err;
+    expectFramesDecodeExactly(dir / "m.vcz", frames, dir, {1, 3, 5});
+    r = run("decode " + quoted(dir / "m.vcz") + " -o " + quoted(dir / "out_%02d.nrrd"), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    for (std::size_t k = 0; k < frames.size(); ++k)
+        EXPECT_TRUE(sameVoxels(readVolume(dir / ("out_0" + std::to_string(k) + ".nrrd")), readVolume(frames[k])))
+            << "frame " << k;
+    const std::string info =
+        std::string(VOLCL_EXE) + " info " + quoted(dir / "m.vcz") + " > " + (dir / "info.txt").string();
+    ASSERT_EQ(std::system(info.c_str()), 0);
+    const std::string text = slurp(dir / "info.txt");
+    EXPECT_NE(text.find("(6 frames)"), std::string::npos) << text;
+    EXPECT_NE(text.find(" I "), std::string::npos) << text;
+    EXPECT_GE(lineCount(text), 6u + 7u) << text;
+    for (const std::string bad : {"--motion sideways", "--gop 0"}) {
+        r = run("encode " + quoted(dir / "m_*.nrrd") + " -o " + quoted(dir / "bad.vcz") + " " + bad, dir);
+        EXPECT_EQ(r.exitCode, 2) << bad << ": " << r.err; // usage errors
+        EXPECT_EQ(lineCount(r.err), 1u) << r.err;
+        EXPECT_FALSE(fs::exists(dir / "bad.vcz"));
+    }
+}

@@ -19,6 +19,12 @@ std::vector<std::byte> assembleVcz(VczHeader& h, std::vector<CodedFrame>& frames
             offset += p.size();
             payloads.push_back(std::move(p));
         }
+        VczFrame& entry = h.frames[f];
+        entry.auxSize = frames[f].aux.size();
+        entry.auxOffset = entry.auxSize ? offset : 0;
+        entry.auxChecksum = entry.auxSize ? vczChecksum(frames[f].aux) : 0;
+        offset += entry.auxSize;
+        if (entry.auxSize) payloads.push_back(std::move(frames[f].aux));
     }
     return writeVcz(h, payloads);
 }

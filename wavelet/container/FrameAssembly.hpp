@@ -15,9 +15,11 @@ namespace volcl::codec {
 struct CodedFrame {
     std::vector<std::vector<std::uint8_t>> payloads;
     std::vector<std::pair<double, double>> ranges;
+    std::vector<std::uint8_t> aux; ///< the frame's auxiliary block (motion data of P/B frames)
 };
 
-/// Fills h.bricks from the frames (their payloads are moved out) and writes the file.
+/// Fills h.bricks and the frames' auxiliary block entries from the frames (their payloads are moved out)
+/// and writes the file; a frame's auxiliary block follows its bricks.
 std::vector<std::byte> assembleVcz(VczHeader& h, std::vector<CodedFrame>& frames);
 
 } // namespace volcl::codec

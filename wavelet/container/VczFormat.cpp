@@ -137,6 +137,31 @@ std::vector<std::uint8_t> headerBody(const VczHeader& h) {
 
 constexpr std::size_t kIndexEntryBytes = 5 * 8;
 
+// The frame table's references form what the decoder can follow: I frames reference nothing and carry no
+// auxiliary block; a P frame references an earlier I/P frame; a B frame an earlier and a later one. So every
+// chain of references ends at an I frame. Older versions hold I frames only.
+void checkFrameReferences(const VczHeader& h, std::uint32_t version, const Reader& r) {
+    const auto n = static_cast<std::int64_t>(h.frames.size());
+    // Encoders write version 4 only for files that hold P/B frames.
+    if (version == kVczVersionPredicted &&
+        std::all_of(h.frames.begin(), h.frames.end(), [](const VczFrame& f) { return f.type == FrameType::I; }))
+        r.fail("unsupported .vcz version 4 for a file of I frames only (corrupt header)");
+    auto anchor = [&](std::int32_t k) { return k >= 0 && k < n && h.frames[std::size_t(k)].type != FrameType::B; };
+    for (std::int64_t f = 0; f < n; ++f) {
+        const VczFrame& e = h.frames[std::size_t(f)];
+        const std::string which = "frame " + std::to_string(f);
+        if (e.type != FrameType::I && version < kVczVersionPredicted)
+            r.fail(which + ": P/B frame in a version " + std::to_string(version) + " file");
+        if (e.type != FrameType::I && h.transform == TransformKind::RawBits)
+            r.fail(which + ": P/B frame of raw float bit planes");
+        const bool ok = e.type == FrameType::I   ? e.reference0 == -1 && e.reference1 == -1 && e.auxSize == 0
+                        : e.type == FrameType::P ? anchor(e.reference0) && e.reference0 < f && e.reference1 == -1
+                                                 : anchor(e.reference0) && e.reference0 < f &&
+                                                       anchor(e.reference1) && e.reference1 > f;
+        if (!ok) r.fail(which + ": invalid references");
+    }
+}
+
 } // namespace
 
 std::size_t vczPreambleSize(const VczHeader& h) {
@@ -147,7 +172,9 @@ std::size_t vczPreambleSize(const VczHeader& h) {
 std::vector<std::byte> writeVcz(const VczHeader& h, std::span<const std::vector<std::uint8_t>> payloads) {
     Writer w;
     w.bytes.assign(kVczMagic.begin(), kVczMagic.end());
-    w.put<std::uint32_t>(kVczVersion);
+    const bool predicted = std::any_of(h.frames.begin(), h.frames.end(),
+                                       [](const VczFrame& f) { return f.type != FrameType::I; });
+    w.put<std::uint32_t>(predicted ? kVczVersionPredicted : kVczVersion);
     const std::vector<std::uint8_t> body = headerBody(h);
     w.put<std::uint32_t>(static_cast<std::uint32_t>(body.size()));
     w.bytes.insert(w.bytes.end(), body.begin(), body.end());
@@ -186,7 +213,7 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
         throw IoError(name + ": not a .vcz file (bad magic)");
     Reader pre(file.subspan(kVczMagic.size()), name, "header");
     const auto version = pre.get<std::uint32_t>();
-    if (version != kVczVersion && version != 2)
+    if (version != kVczVersionPredicted && version != kVczVersion && version != 2)
         throw IoError(name + ": unsupported .vcz version " + std::to_string(version));
     const auto bodySize = pre.get<std::uint32_t>();
     const std::size_t bodyStart = kVczMagic.size() + 8;
@@ -267,6 +294,7 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
         if (f.auxSize > file.size() || f.auxOffset > file.size() - f.auxSize)
             r.fail("frame data outside the file");
     }
+    checkFrameReferences(h, version, r);
     const auto nMeta = r.get<std::uint32_t>();
     for (std::uint32_t i = 0; i < nMeta; ++i) {
         std::string k = r.getString();
@@ -287,16 +315,17 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
     h.bricks.assign(nFrames, std::vector<VczBrickEntry>(bricks));
     const std::size_t payloadStart = indexStart + indexBytes + 8;
     std::size_t payloadEnd = payloadStart;
-    for (auto& frame : h.bricks) {
+    for (std::size_t f = 0; f < nFrames; ++f) {
         for (std::size_t i = 0; i < bricks; ++i) {
-            VczBrickEntry& e = frame[i];
+            VczBrickEntry& e = h.bricks[f][i];
             e.offset = ir.get<std::uint64_t>();
             e.size = ir.get<std::uint64_t>();
             e.checksum = ir.get<std::uint64_t>();
             e.min = ir.get<double>();
             e.max = ir.get<double>();
             if (e.offset < payloadStart || e.size > file.size() || e.offset > file.size() - e.size)
-                throw IoError(name + ": brick " + std::to_string(i) + " lies outside the file (truncated?)");
+                throw IoError(name + ": " + (nFrames > 1 ? "frame " + std::to_string(f) + ", " : std::string()) +
+                              "brick " + std::to_string(i) + " lies outside the file (truncated?)");
             payloadEnd = std::max<std::size_t>(payloadEnd, e.offset + e.size);
         }
     }
@@ -320,11 +349,32 @@ std::span<const std::uint8_t> vczBrickPayload(std::span<const std::byte> fileByt
     auto payload = file.subspan(e.offset, e.size);
     if (vczChecksum(payload) != e.checksum) {
         const Dims o = h.brickOrigin(brick);
-        throw IoError(name + ": brick " + std::to_string(brick) + " (voxel " + std::to_string(o.x) + "," +
+        const std::string framePart = h.frames.size() > 1 ? "frame " + std::to_string(frame) + ", " : "";
+        throw IoError(name + ": " + framePart + "brick " + std::to_string(brick) + " (voxel " +
+                      std::to_string(o.x) + "," +
                       std::to_string(o.y) + "," + std::to_string(o.z) +
                       ") checksum mismatch (corrupted data)");
     }
     return payload;
+}
+
+} // namespace volcl
+
+namespace volcl {
+
+std::span<const std::uint8_t> vczFrameAux(std::span<const std::byte> fileBytes, const VczHeader& h,
+                                          std::size_t frame, const std::string& name) {
+    const std::span<const std::uint8_t> file(reinterpret_cast<const std::uint8_t*>(fileBytes.data()),
+                                             fileBytes.size());
+    if (frame >= h.frames.size()) throw UsageError(name + ": no frame " + std::to_string(frame));
+    const VczFrame& f = h.frames[frame];
+    if (f.auxSize == 0) return {}; // I frames (the reader checked that they carry none)
+    if (f.auxSize > file.size() || f.auxOffset > file.size() - f.auxSize)
+        throw IoError(name + ": frame " + std::to_string(frame) + ": motion data lies outside the file (truncated?)");
+    auto aux = file.subspan(f.auxOffset, f.auxSize);
+    if (vczChecksum(aux) != f.auxChecksum)
+        throw IoError(name + ": frame " + std::to_string(frame) + ": motion data checksum mismatch (corrupted data)");
+    return aux;
 }
 
 } // namespace volcl

@@ -27,8 +27,9 @@ enum class TransformKind : std::uint8_t {
     FloatLifting = 2,   ///< float lifting + dead-zone quantisation (lossy)
 };
 
-/// Frame types of a time series. Only I frames are written today; P (motion-compensated residual) and
-/// B (bidirectional) frames keep their slots in the frame table so they need no format change.
+/// Frame types of a time series: I (coded alone), P (motion-compensated from reference0 plus a coded
+/// residual), B (compensated from reference0 and reference1, an earlier and a later I/P frame, plus a
+/// residual). P and B frames are written in version 4 files only.
 enum class FrameType : std::uint8_t { I = 0, P = 1, B = 2 };
 
 struct VczFrame {
@@ -79,6 +80,9 @@ inline constexpr std::array<unsigned char, 8> kVczMagic{0x89, 'V', 'C', 'Z', '\r
 /// Version written. 3: fast-mode sections may skip zero blocks (flag 0x80 beside the plane count); version 2
 /// files, whose sections never set it, are read too.
 inline constexpr std::uint32_t kVczVersion = 3;
+/// Version of files holding P or B frames: the frame table's references and auxiliary blocks (motion data)
+/// are in use. Files of I frames only are still written as version 3, byte for byte as before.
+inline constexpr std::uint32_t kVczVersionPredicted = 4;
 
 /// Serialises the header and index (brick offsets must be final) followed by the payloads, which must
 /// lie in `payloads` in index order starting right after the index.
@@ -96,6 +100,11 @@ VczHeader readVczHeader(std::span<const std::byte> file, const std::string& name
 /// Payload of one brick after checking its checksum (IoError naming the brick on mismatch).
 std::span<const std::uint8_t> vczBrickPayload(std::span<const std::byte> file, const VczHeader& header,
                                               std::size_t frame, std::size_t brick, const std::string& name);
+
+/// The auxiliary block of a frame (motion data of P/B frames; empty for I frames) after checking its
+/// checksum (IoError naming the frame on mismatch).
+std::span<const std::uint8_t> vczFrameAux(std::span<const std::byte> file, const VczHeader& header,
+                                          std::size_t frame, const std::string& name);
 
 /// XXH3-64 of a byte range.
 std::uint64_t vczChecksum(std::span<const std::uint8_t> bytes) noexcept;

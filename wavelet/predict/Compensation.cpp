@@ -316,7 +316,7 @@ Volume MotionCompensator::compensate(ComputeContext& cc, const MotionField& fiel
     auto outB = cc.allocate<cl_float>(d.count());
     setArgs(compensateKernel_, r0B, r1B, dims4(d), dims4(field.grid.blocks()), modeB, fwdB, bwdB, intraB, firstB,
             weightB, outB);
-    kernelMs_ = eventMilliseconds(cc.launch3d(compensateKernel_, d.x, d.y, d.z, 16, 1, 1));
+    kernelMs_ = eventMilliseconds(cc.launch3d(compensateKernel_, d.x, d.y, d.z, 32, 8, 2));
     Volume out(d, ScalarType::Float32);
     out.spacing = reference0.spacing;
     out.origin = reference0.origin;

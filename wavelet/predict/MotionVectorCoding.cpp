@@ -2,6 +2,7 @@
 #include "wavelet/predict/MotionVectorCoding.hpp"
 
 #include "host/Error.hpp"
+#include "wavelet/Varint.hpp"
 
 #include <zstd.h>
 
@@ -14,18 +15,14 @@ namespace {
 
 constexpr std::uint8_t kLayoutForward = 1, kLayoutBidirectional = 2;
 
-// The length of the compressed section. One helper so the container can repoint it to the project's
-// shared varint once that lives in one place; today it is a fixed 4-byte little-endian count.
+// The length of the compressed section: the project's varint.
 void putSectionLength(std::vector<std::uint8_t>& out, std::size_t n) {
-    for (int i = 0; i < 4; ++i)
-        out.push_back(static_cast<std::uint8_t>(n >> (8 * i)));
+    putVarint(out, n);
 }
 bool getSectionLength(std::span<const std::uint8_t> in, std::size_t& pos, std::size_t& n) {
-    if (in.size() < pos + 4) return false;
-    n = 0;
-    for (int i = 0; i < 4; ++i)
-        n |= std::size_t(in[pos + std::size_t(i)]) << (8 * i);
-    pos += 4;
+    std::uint64_t v = 0;
+    if (getVarint(in, pos, v) != VarintStatus::Ok || v > in.size()) return false;
+    n = static_cast<std::size_t>(v);
     return true;
 }
 

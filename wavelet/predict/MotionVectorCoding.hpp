@@ -18,7 +18,7 @@ MotionVector medianPredictor(const std::vector<MotionVector>& vectors, Dims bloc
 /// of non-intra blocks to 0 (they are not stored).
 MotionField canonicalMotionField(const MotionField& field);
 
-/// Bytes of a motion field: a one-byte layout tag, the section length, then one zstd frame of planes:
+/// Bytes of a motion field: a one-byte layout tag, the section length (varint), then one zstd frame of planes:
 /// modes, the differences (vector - median predictor, zigzag, one byte per component) of the vectors
 /// in use, and the intra blocks' float32 values split into byte planes. Mostly-zero fields cost a few
 /// bytes. Throws DataError for a field whose vectors exceed +-63 half voxels.

@@ -1,7 +1,7 @@
 // The `none` predictor (every frame an I frame) and the choice of decoder-side predictor by frame type.
 #include "wavelet/predict/Predictor.hpp"
 
-#include "host/Error.hpp"
+#include "wavelet/predict/MotionPredictor.hpp"
 
 namespace volcl::codec {
 
@@ -25,10 +25,8 @@ std::unique_ptr<Predictor> makeNonePredictor() {
     return std::make_unique<NonePredictor>();
 }
 
-std::unique_ptr<Predictor> predictorFor(const VczFrame& entry, std::size_t frame, const std::string& name) {
-    if (entry.type != FrameType::I)
-        throw DataError(name + ": frame " + std::to_string(frame) +
-                        " is a motion-compensated frame; this decoder reads I frames");
+std::unique_ptr<Predictor> predictorFor(const VczFrame& entry) {
+    if (entry.type != FrameType::I) return makeMotionReconstructor();
     return makeNonePredictor();
 }
 

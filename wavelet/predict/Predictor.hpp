@@ -34,6 +34,12 @@ namespace volcl::codec {
 /// Reconstructed frames a prediction may use, indexed by frame number (null where not decoded).
 struct ReferenceFrames {
     std::span<const Volume* const> frames;
+    /// The encoder's choice of references for the frame being predicted (-1: none); a predictor with
+    /// references makes a P frame from reference0 alone and a B frame when reference1 is set too.
+    std::int32_t reference0 = -1, reference1 = -1;
+    /// Voxel-domain quantiser step the residual will be coded with (1 for lossless): a predictor weighs
+    /// the side bits of its choices against the residual bits they save with it.
+    double step = 1;
 };
 
 /// What the encoder codes for one frame.
@@ -43,6 +49,9 @@ struct Prediction {
     /// The signal the rate stage codes: the input frame itself (an I frame) or `ownedResidual`.
     const Volume* signal = nullptr;
     std::optional<Volume> ownedResidual;
+    /// The prediction (Float32) the residual was taken against: the rate stage checks error bounds on
+    /// prediction + decoded residual, the frame the decoder writes.
+    std::optional<Volume> prediction;
     /// Side information for the frame's auxiliary block (empty for I frames).
     std::vector<std::uint8_t> side;
 };
@@ -66,9 +75,8 @@ public:
 /// Every frame an I frame, coded as it is; reconstruction leaves the decoded frame unchanged.
 std::unique_ptr<Predictor> makeNonePredictor();
 
-/// The decoder-side predictor of a frame as the file states it; DataError naming `name` and the frame
-/// for frame types this build cannot reconstruct (P and B frames until a motion-compensated predictor
-/// is added).
-std::unique_ptr<Predictor> predictorFor(const VczFrame& entry, std::size_t frame, const std::string& name);
+/// The decoder-side predictor of a frame as the file states it: `none` for I frames, motion
+/// compensation for P and B frames.
+std::unique_ptr<Predictor> predictorFor(const VczFrame& entry);
 
 } // namespace volcl::codec

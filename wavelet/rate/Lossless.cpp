@@ -17,7 +17,7 @@ class LosslessIntegerStrategy final : public RateStrategy {
 public:
     LosslessIntegerStrategy(ComputeContext& cc, const CodecOptions& o) : cc_(cc), o_(o) {}
 
-    FrameResult encodeFrame(const Volume& v, VczHeader& h, bool) override {
+    FrameResult encodeFrame(const Volume& v, VczHeader& h, bool, const ResidualTarget*) override {
         LiftingTransform<std::int32_t> t(cc_, h.wavelet);
         FrameResult r;
         CodecProfile* prof = &r.report.profile;
@@ -42,7 +42,7 @@ class LosslessRawStrategy final : public RateStrategy {
 public:
     explicit LosslessRawStrategy(const CodecOptions& o) : o_(o) {}
 
-    FrameResult encodeFrame(const Volume& v, VczHeader& h, bool) override {
+    FrameResult encodeFrame(const Volume& v, VczHeader& h, bool, const ResidualTarget*) override {
         FrameResult r;
         r.coded.payloads.resize(h.brickCount());
         timeStage(&r.report.profile, &CodecProfile::entropy, [&] {

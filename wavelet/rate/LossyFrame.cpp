@@ -5,6 +5,7 @@
 #include "host/runtime/ParallelFor.hpp"
 #include "wavelet/BrickVoxels.hpp"
 #include "wavelet/payload/BrickPayload.hpp"
+#include "wavelet/predict/Residual.hpp"
 #include "wavelet/quantise/Quantiser.hpp"
 #include "wavelet/transform/BrickTransform.hpp"
 
@@ -15,8 +16,10 @@ namespace volcl::codec {
 
 LossyFrame::LossyFrame(ComputeContext& cc, const CodecOptions& o, const Volume& v, VczHeader& h,
                        LiftingTransform<float>& t, const ValueRange& range, CodecProfile* prof,
-                       double& transformMs, std::vector<std::pair<double, double>>& ranges)
-    : cc_(cc), o_(o), v_(v), h_(h), t_(t), range_(range), prof_(prof), coeffs_(h.brickCount()) {
+                       double& transformMs, std::vector<std::pair<double, double>>& ranges,
+                       const ResidualTarget* target)
+    : cc_(cc), o_(o), v_(v), h_(h), t_(t), range_(range), prof_(prof), target_(target),
+      coeffs_(h.brickCount()) {
     const std::size_t nsub = 1 + 7 * std::size_t(h.levels);
     std::vector<std::int32_t> brickMax(h.brickCount() * nsub, 0);
     forwardBricks<float>(cc_, t, v, h, o_.threads, prof, transformMs, &ranges, &CodecProfile::gather,
@@ -60,15 +63,22 @@ Trial LossyFrame::trial(std::optional<double> bound, bool reconstruct) {
             &CodecProfile::reconstruct, [&](std::size_t b, const float* rec, std::size_t pitch) {
                 const Dims o = h.brickOrigin(b), d = h.brickDims(b);
                 double sumSq = 0, maxErr = 0;
-                visitTyped(v, [&](auto span) {
+                // A residual is measured on the frame it reconstructs (prediction + decoded residual), and
+                // its stored voxels hold the frame's values.
+                const Volume& truth = target_ ? *target_->frame : v;
+                const float* pred = target_ ? target_->prediction->values<float>().data() : nullptr;
+                visitTyped(truth, [&](auto span) {
                     using V = std::remove_const_t<typename decltype(span)::element_type>;
                     for (std::size_t z = 0; z < d.z; ++z)
                         for (std::size_t y = 0; y < d.y; ++y) {
-                            const V* in = span.data() + v.index(o.x, o.y + y, o.z + z);
+                            const std::size_t at = v.index(o.x, o.y + y, o.z + z);
+                            const V* in = span.data() + at;
+                            const float* p = pred ? pred + at : nullptr;
                             const float* r = rec + (z * d.y + y) * pitch;
                             for (std::size_t x = 0; x < d.x; ++x) {
                                 const double orig = double(in[x]);
-                                const double e = std::abs(double(toVoxel<V>(r[x])) - orig);
+                                const V decoded = p ? predictedVoxel<V>(p[x], r[x]) : toVoxel<V>(r[x]);
+                                const double e = std::abs(double(decoded) - orig);
                                 if (bound && e > *bound) {
                                     tr.corrections[b].push_back(
                                         {static_cast<std::uint32_t>((z * d.y + y) * d.x + x), orig});
@@ -116,8 +126,10 @@ double LossyFrame::psnrOf(const Trial& tr) const {
     return mse == 0 ? std::numeric_limits<double>::infinity() : 10 * std::log10(r * r / mse);
 }
 
-FrameResult LossyStrategy::encodeFrame(const Volume& v, VczHeader& h, bool chooseStep) {
-    const ValueRange& st = ranges_.of(v);
+FrameResult LossyStrategy::encodeFrame(const Volume& v, VczHeader& h, bool chooseStep,
+                                       const ResidualTarget* target) {
+    // A residual's PSNR is the frame's, over the frame's value range.
+    const ValueRange& st = ranges_.of(target ? *target->frame : v);
     if (st.nonFinite)
         throw DataError(
             "lossy encoding needs finite voxels (found NaN/Inf): use --lossless to keep them exactly");
@@ -128,7 +140,7 @@ FrameResult LossyStrategy::encodeFrame(const Volume& v, VczHeader& h, bool choos
         if (std::optional<FrameResult> r = encodeDirect(v, h, t, chooseStep ? o_.step : std::nullopt))
             return std::move(*r);
     FrameResult r;
-    LossyFrame f(cc_, o_, v, h, t, st, &r.report.profile, r.report.transformMs, r.coded.ranges);
+    LossyFrame f(cc_, o_, v, h, t, st, &r.report.profile, r.report.transformMs, r.coded.ranges, target);
     if (o_.step && chooseStep) {
         f.setDelta(*o_.step);
         chooseStep = false;

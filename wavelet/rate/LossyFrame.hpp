@@ -33,7 +33,7 @@ public:
     /// Transforms every brick of `v` (kernel time into `transformMs`, brick ranges into `ranges`).
     LossyFrame(ComputeContext& cc, const CodecOptions& o, const Volume& v, VczHeader& h,
                LiftingTransform<float>& t, const ValueRange& range, CodecProfile* prof, double& transformMs,
-               std::vector<std::pair<double, double>>& ranges);
+               std::vector<std::pair<double, double>>& ranges, const ResidualTarget* target = nullptr);
 
     /// Sets the header's steps for base step `delta`, raised where a subband's magnitudes would leave the
     /// coder's index range.
@@ -62,6 +62,7 @@ private:
     LiftingTransform<float>& t_;
     const ValueRange& range_;
     CodecProfile* prof_;
+    const ResidualTarget* target_;
     std::vector<std::vector<float>> coeffs_;
     std::vector<double> maxAbs_;
     double lastDelta_ = 0;
@@ -81,7 +82,7 @@ class LossyStrategy : public RateStrategy {
 public:
     LossyStrategy(ComputeContext& cc, const CodecOptions& o, ValueRangeCache& ranges)
         : cc_(cc), o_(o), ranges_(ranges) {}
-    FrameResult encodeFrame(const Volume& v, VczHeader& h, bool chooseStep) final;
+    FrameResult encodeFrame(const Volume& v, VczHeader& h, bool chooseStep, const ResidualTarget* target) final;
 
 protected:
     /// The mode's search for the steps that meet its target on `f`.

@@ -17,13 +17,23 @@ struct FrameResult {
     EncodeReport report;
 };
 
+/// A predicted frame's residual is coded against the frame it reconstructs: error bounds and PSNR are
+/// measured on predictedVoxel(prediction, decoded residual) against `frame`, and voxels stored exactly
+/// hold the frame's values (the decoder applies them after adding the prediction).
+struct ResidualTarget {
+    const Volume* frame = nullptr;
+    const Volume* prediction = nullptr; ///< Float32
+};
+
 class RateStrategy {
 public:
     virtual ~RateStrategy() = default;
     /// Codes the signal of one frame (what the predictor hands on: the frame itself for an I frame) with
     /// the header's transform and entropy settings. With `chooseStep` the mode's search sets h.steps (the
     /// first frame of a file); without, the header's steps are kept (later frames share one header).
-    virtual FrameResult encodeFrame(const Volume& v, VczHeader& h, bool chooseStep) = 0;
+    /// `target` is set when `v` is a residual (lossless strategies need nothing of it: residuals are exact).
+    virtual FrameResult encodeFrame(const Volume& v, VczHeader& h, bool chooseStep,
+                                    const ResidualTarget* target) = 0;
 };
 
 /// The strategy for the header's mode: lossless integer lifting, lossless raw bits (float voxels),

@@ -1,0 +1,267 @@
+// `volcl bench series`: motion-compensated against intra-only coding of time series per rate target, with
+// per-frame PSNR, encode speed, single-frame decode time and playback rate.
+#include "host/Error.hpp"
+#include "host/cli/Commands.hpp"
+#include "host/cli/GzipVolume.hpp"
+#include "host/io/AtomicFile.hpp"
+#include "host/io/Series.hpp"
+#include "host/runtime/ClRuntime.hpp"
+#include "host/runtime/Timing.hpp"
+#include "wavelet/Codec.hpp"
+#include "wavelet/predict/TranslatedSeries.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <sstream>
+
+namespace volcl::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct SeriesBenchArgs {
+    std::string data = std::string(VOLCL_SOURCE_DIR) + "/../shared/data", filter, json;
+    std::vector<std::string> rates{"lossless", "psnr40", "psnr50", "psnr60", "maxerr1%"};
+    std::size_t gop = 10, bFrames = 0, mriFrames = 10, mriCrop = 128;
+    int runs = 3;
+};
+
+struct NamedSeries {
+    std::string name;
+    TimeSeries series;
+};
+
+std::string fmt(double v, int digits) {
+    if (std::isinf(v)) return "inf";
+    std::ostringstream s;
+    s << std::fixed << std::setprecision(digits) << v;
+    return s.str();
+}
+
+nlohmann::json jnum(double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json("inf");
+}
+
+std::vector<NamedSeries> loadSeries(const SeriesBenchArgs& a) {
+    std::vector<NamedSeries> out;
+    auto want = [&](const std::string& n) {
+        return a.filter.empty() || n.find(a.filter) != std::string::npos;
+    };
+    const fs::path t = fs::path(a.data) / "timevarying";
+    auto add = [&](const std::string& name, std::vector<std::string> inputs) {
+        if (!want(name)) return;
+        try {
+            for (std::string& s : inputs)
+                s = (t / s).string();
+            TimeSeries ts = readSeriesInputs(inputs).series;
+            ts.times.clear();
+            out.push_back({name, std::move(ts)});
+        } catch (const Error& e) {
+            std::cerr << "volcl bench series: skipping " << name << ": " << e.what() << '\n';
+        }
+    };
+    add("viscous-20", {"viscousfingers/*_density_*.vti"});
+    if (want("mri-shift")) {
+        try {
+            const fs::path p =
+                fs::path(a.data) / "regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz";
+            const Volume mri = readGzipUInt8(p, {180, 216, 180});
+            const std::size_t c = std::min<std::size_t>(a.mriCrop, 180);
+            const Dims lo{(180 - c) / 2, (216 - c) / 2, (180 - c) / 2};
+            // 0.7 / -0.4 / 0.3 voxels per frame: a sub-voxel drift no search grid hits exactly.
+            out.push_back({"mri-shift", translatedSeries(mri.cropped(lo, {lo.x + c, lo.y + c, lo.z + c}),
+                                                         a.mriFrames, {0.7, -0.4, 0.3})});
+        } catch (const Error& e) {
+            std::cerr << "volcl bench series: skipping mri-shift: " << e.what() << '\n';
+        }
+    }
+    add("fmri", {"functional.nii.gz"});
+    add("isabel-02-05",
+        {"isabel/isabel_02.vti", "isabel/isabel_03.vti", "isabel/isabel_04.vti", "isabel/isabel_05.vti"});
+    add("isabel-30-33",
+        {"isabel/isabel_30.vti", "isabel/isabel_31.vti", "isabel/isabel_32.vti", "isabel/isabel_33.vti"});
+    add("isabel-45-48",
+        {"isabel/isabel_45.vti", "isabel/isabel_46.vti", "isabel/isabel_47.vti", "isabel/isabel_48.vti"});
+    return out;
+}
+
+// The options of a rate name: lossless, psnrP, maxerrX% (X percent of the series' value range).
+CodecOptions rateOptions(const std::string& rate, const TimeSeries& ts) {
+    CodecOptions o;
+    if (rate == "lossless") return o;
+    if (rate.rfind("psnr", 0) == 0) {
+        o.rate = RateMode::Psnr;
+        o.target = std::stod(rate.substr(4));
+        return o;
+    }
+    if (rate.rfind("maxerr", 0) == 0 && rate.back() == '%') {
+        double lo = INFINITY, hi = -INFINITY;
+        for (const Volume& v : ts.frames) {
+            const VolumeStats s = v.stats(1);
+            lo = std::min(lo, s.min);
+            hi = std::max(hi, s.max);
+        }
+        o.rate = RateMode::MaxError;
+        o.target = std::stod(rate.substr(6, rate.size() - 7)) / 100 * (hi - lo);
+        return o;
+    }
+    throw UsageError("--rate must be lossless, psnrP or maxerrX% (got '" + rate + "')");
+}
+
+struct Coding {
+    std::size_t bytes = 0;
+    double bpv = 0, minPsnr = INFINITY, meanMse = 0, maxErr = 0, encodeMs = 0, playbackMs = 0, frameMs = 0;
+    std::size_t p = 0, b = 0;
+    bool exact = true;
+};
+
+// Encodes (timed once: the encoder is the slow side and the rows are many), then decodes every frame in
+// order as a player does (each P frame from the frame before it) `runs` times, and times one frame: the
+// last frame of the first group given its reference (a P frame with motion), median of `runs`.
+Coding code(ComputeContext& cc, const TimeSeries& ts, const CodecOptions& o, int runs) {
+    Coding c;
+    Stopwatch sw;
+    const std::vector<std::byte> bytes = encodeSeries(cc, ts, o);
+    c.encodeMs = sw.milliseconds();
+    c.bytes = bytes.size();
+    const double voxels = double(ts.frames[0].voxelCount() * ts.frames.size());
+    c.bpv = double(bytes.size()) * 8 / voxels;
+    VczReader r(bytes, "bench.vcz");
+    for (const VczFrame& f : r.header().frames) {
+        c.p += f.type == FrameType::P;
+        c.b += f.type == FrameType::B;
+    }
+    std::vector<std::optional<Volume>> frames(ts.frames.size());
+    std::vector<const Volume*> known(ts.frames.size(), nullptr);
+    std::vector<double> playback;
+    for (int run = 0; run < runs; ++run) {
+        std::fill(known.begin(), known.end(), nullptr);
+        Stopwatch pw;
+        for (std::size_t f = 0; f < ts.frames.size(); ++f) {
+            frames[f] = r.decodeFrame(cc, f, known);
+            known[f] = &*frames[f];
+            if (f > 0 && f - 1 < known.size()) known[f - 1] = nullptr; // a player keeps the latest frame
+            if (f > 0) frames[f - 1].reset();
+            if (run == 0) {
+                const double p = psnr(ts.frames[f], *frames[f]);
+                c.minPsnr = std::min(c.minPsnr, p);
+                c.maxErr = std::max(c.maxErr, maxAbsError(ts.frames[f], *frames[f]));
+                c.exact = c.exact && *frames[f] == ts.frames[f];
+                const double e = rmse(ts.frames[f], *frames[f]);
+                c.meanMse += e * e / double(ts.frames.size());
+            }
+        }
+        playback.push_back(pw.milliseconds());
+    }
+    c.playbackMs = median(playback);
+    const std::size_t k = std::min(ts.frames.size(), o.gop) - 1;
+    const Volume ref = r.decodeFrame(cc, k > 0 ? k - 1 : 0);
+    std::vector<const Volume*> withRef(k + 1, nullptr);
+    if (k > 0) withRef[k - 1] = &ref;
+    c.frameMs = medianMilliseconds(runs, [&] { r.decodeFrame(cc, k, withRef); });
+    return c;
+}
+
+void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
+    ComputeContext cc(global.device);
+    const std::vector<NamedSeries> all = loadSeries(a);
+    if (all.empty()) throw UsageError("no series to benchmark (see --data and --dataset)");
+    nlohmann::json rows = nlohmann::json::array();
+    std::cerr << "volcl bench series: device " << cc.device().name << ", gop " << a.gop << ", b-frames "
+              << a.bFrames << ", decode times median of " << a.runs << "\n";
+    for (const NamedSeries& s : all) {
+        const Dims d = s.series.frames[0].dims();
+        std::cerr << s.name << ": " << s.series.frames.size() << " frames of " << d.x << "x" << d.y << "x"
+                  << d.z << " " << scalarTypeName(s.series.frames[0].type()) << '\n';
+        for (const std::string& rate : a.rates) {
+            CodecOptions o = rateOptions(rate, s.series);
+            o.gop = a.gop;
+            o.bFrames = a.bFrames;
+            CodecOptions intraOnly = o;
+            intraOnly.motion = MotionMode::None;
+            // Interleaved: intra, motion.
+            const Coding in = code(cc, s.series, intraOnly, a.runs), mc = code(cc, s.series, o, a.runs);
+            const double mb = double(s.series.frames[0].byteSize() * s.series.frames.size()) / 1e6;
+            auto psnrOfMean = [&](const Coding& c) {
+                double lo = INFINITY, hi = -INFINITY;
+                for (const Volume& v : s.series.frames) {
+                    const VolumeStats st = v.stats(1);
+                    lo = std::min(lo, st.min);
+                    hi = std::max(hi, st.max);
+                }
+                return c.meanMse > 0 ? 10 * std::log10((hi - lo) * (hi - lo) / c.meanMse) : INFINITY;
+            };
+            std::cerr << "  " << std::setw(9) << rate << ": intra " << fmt(in.bpv, 4) << " bpv (min PSNR "
+                      << fmt(in.minPsnr, 2) << "), MC " << fmt(mc.bpv, 4) << " bpv (min PSNR "
+                      << fmt(mc.minPsnr, 2) << ", " << mc.p << " P " << mc.b
+                      << " B) = " << fmt(mc.bpv / in.bpv, 3) << "x; encode " << fmt(mb / in.encodeMs * 1e3, 1)
+                      << " / " << fmt(mb / mc.encodeMs * 1e3, 1) << " MB/s; frame " << fmt(in.frameMs, 1)
+                      << " / " << fmt(mc.frameMs, 1) << " ms; playback "
+                      << fmt(1e3 * double(s.series.frames.size()) / in.playbackMs, 1) << " / "
+                      << fmt(1e3 * double(s.series.frames.size()) / mc.playbackMs, 1) << " fps\n";
+            for (const auto& [mode, c] : {std::pair<const char*, const Coding&>{"intra", in}, {"mc", mc}})
+                rows.push_back({{"series", s.name},
+                                {"frames", s.series.frames.size()},
+                                {"dims", {d.x, d.y, d.z}},
+                                {"rate", rate},
+                                {"mode", mode},
+                                {"bytes", c.bytes},
+                                {"bits_per_voxel", c.bpv},
+                                {"min_frame_psnr_db", jnum(c.minPsnr)},
+                                {"series_psnr_db", jnum(psnrOfMean(c))},
+                                {"max_error", c.maxErr},
+                                {"exact", c.exact},
+                                {"p_frames", c.p},
+                                {"b_frames", c.b},
+                                {"encode_ms", c.encodeMs},
+                                {"encode_mb_s", mb / c.encodeMs * 1e3},
+                                {"frame_decode_ms", c.frameMs},
+                                {"playback_fps", 1e3 * double(s.series.frames.size()) / c.playbackMs}});
+        }
+    }
+    const nlohmann::json j{{"device", cc.device().name},
+                           {"gop", a.gop},
+                           {"b_frames", a.bFrames},
+                           {"runs", a.runs},
+                           {"rows", rows}};
+    if (a.json.empty()) {
+        std::cout << j.dump(1) << '\n';
+    } else {
+        AtomicFile f(a.json);
+        f.write(j.dump(1));
+        f.commit();
+    }
+}
+
+} // namespace
+
+void addSeriesBenchCommand(CLI::App& bench, GlobalOptions& global) {
+    auto* b =
+        bench.add_subcommand("series", "Time series: motion-compensated against intra-only coding per rate "
+                                       "target (bits/voxel, PSNR, encode speed, frame decode, playback)");
+    auto a = std::make_shared<SeriesBenchArgs>();
+    b->add_option("--data", a->data, "Shared data directory")->capture_default_str();
+    b->add_option("--dataset", a->filter,
+                  "Only series whose name contains this text (viscous, mri, fmri, isabel)");
+    b->add_option("--rate", a->rates,
+                  "Rate targets: lossless, psnrP, maxerrX% (default lossless psnr40 psnr50 "
+                  "psnr60 maxerr1%)");
+    b->add_option("--gop", a->gop, "Frames per group")->capture_default_str();
+    b->add_option("--b-frames", a->bFrames, "B frames between anchors")->capture_default_str();
+    b->add_option("--mri-frames", a->mriFrames, "Frames of the shifted MRI series")->capture_default_str();
+    b->add_option("--mri-crop", a->mriCrop, "Edge of the shifted MRI cube")->capture_default_str();
+    b->add_option("--runs", a->runs, "Timed decode runs (median)")->capture_default_str();
+    b->add_option("--json", a->json, "JSON output file (default: stdout)");
+    b->callback([a, &global] {
+        if (a->runs < 1) throw UsageError("--runs must be at least 1");
+        benchSeries(*a, global);
+    });
+}
+
+} // namespace volcl::cli
