@@ -42,8 +42,10 @@ print("region", region.shape, "level 2", coarse.array.shape, "spacing", coarse.s
 lo, hi = np.percentile(vol.array, [50, 99.5])
 tf = volcl.TransferFunction(domain=(float(lo), float(hi)),
                             color=[(lo, 0.9, 0.7, 0.6), (hi, 1.0, 1.0, 0.9)],
-                            extinction=[(lo, 0.0), (lo + 0.3 * (hi - lo), 0.0), (hi, 0.15)])
-image = volcl.render(vol, tf, view="front", width=320, height=320, step=0.5)
+                            extinction=[(lo, 0.0), (lo + 0.45 * (hi - lo), 0.0), (hi, 0.6)])
+# A head light with Blinn-Phong shading shows the folds of the cortex (effects as in the scene JSON).
+image = volcl.render(vol, tf, view="iso", width=320, height=320, step=0.5, effects={"shading": {}},
+                     lights=[{"type": "directional", "direction": [0.3, -0.6, -0.7]}])
 print("image", image.shape, image.dtype, "alpha max", float(image[..., 3].max()))
 
 # %% Show it with matplotlib: composite over black and sRGB-encode, as `volcl render -o x.png` does.
@@ -53,7 +55,7 @@ axes[0].set_title("slice z=%d (input)" % z)
 axes[1].imshow(np.abs(a[z] - b[z]), cmap="magma", origin="lower")
 axes[1].set_title(f"|error| at 50 dB ({vol.array.nbytes / len(vcz):.0f}:1)")
 axes[2].imshow(volcl.composite(image))
-axes[2].set_title("volcl.render, front view")
+axes[2].set_title("volcl.render, iso view, shaded")
 for ax in axes:
     ax.set_axis_off()
 fig.tight_layout()
