@@ -162,18 +162,22 @@ class VczFile:
 
     @property
     def dtype(self) -> np.dtype:
+        """numpy dtype of the voxels."""
         return np.dtype(self.header["dtype"])
 
     @property
     def spacing(self) -> Tuple[float, float, float]:
+        """World distance between samples along x, y, z (full resolution)."""
         return tuple(self.header["spacing"])  # type: ignore[return-value]
 
     @property
     def origin(self) -> Tuple[float, float, float]:
+        """World position of voxel (0, 0, 0), x, y, z."""
         return tuple(self.header["origin"])  # type: ignore[return-value]
 
     @property
     def frames(self) -> int:
+        """Number of frames (1 for a single volume)."""
         return len(self.header["times"])
 
     @property
@@ -183,6 +187,7 @@ class VczFile:
 
     @property
     def brick_shape(self) -> Tuple[int, int, int]:
+        """Brick size (z, y, x) at full resolution."""
         return tuple(self.header["brick"])  # type: ignore[return-value]
 
     @property
@@ -192,11 +197,13 @@ class VczFile:
 
     @property
     def brick_count(self) -> int:
+        """Bricks per frame."""
         z, y, x = self.brick_grid
         return z * y * x
 
     @property
     def metadata(self) -> Dict[str, str]:
+        """The key/value metadata stored at encoding."""
         return dict(self.header["metadata"])
 
     @property

@@ -61,10 +61,12 @@ class TransferFunction:
 
     @staticmethod
     def preset_names() -> List[str]:
+        """Names :meth:`preset` accepts (the command line's ``--tf preset:NAME``)."""
         return list(_volcl.TransferFunction.preset_names())
 
     @property
     def domain(self) -> Tuple[float, float]:
+        """The data range (lo, hi) the function is defined over (pre-integration tables span it)."""
         return tuple(self._native.domain)  # type: ignore[return-value]
 
     @property
@@ -99,6 +101,7 @@ class TransferFunction:
         return self._native.to_json()
 
     def to_dict(self) -> Dict[str, Any]:
+        """The canonical JSON, parsed."""
         return json.loads(self.to_json())
 
     def __repr__(self) -> str:
