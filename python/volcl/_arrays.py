@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import os
 import threading
-from typing import Any, Optional, Sequence, Tuple
+from typing import Any, Callable, Optional, Tuple
 
 import numpy as np
 
@@ -44,15 +44,16 @@ def volume_array(array: Any, *, allow_float64: bool = True) -> np.ndarray:
     return np.ascontiguousarray(a)
 
 
-def triple(value: Optional[Sequence[float]], default: float, name: str) -> Tuple[float, float, float]:
-    """A per-axis (x, y, z) triple; a scalar applies to all three axes."""
+def triple(value: Any, default: Any, name: str, kind: Callable[[Any], Any] = float) -> Tuple[Any, Any, Any]:
+    """A per-axis (x, y, z) triple of `kind` (float, or int for brick sizes); a scalar applies to all three
+    axes, None gives `default` on each."""
     if value is None:
-        return (default, default, default)
+        return (kind(default),) * 3
     if np.isscalar(value):
-        return (float(value),) * 3  # type: ignore[arg-type]
-    values = tuple(float(v) for v in value)  # type: ignore[union-attr]
+        return (kind(value),) * 3
+    values = tuple(kind(v) for v in value)
     if len(values) != 3:
-        raise _volcl.UsageError(f"{name} must be 3 numbers (x, y, z), got {len(values)}")
+        raise _volcl.UsageError(f"{name} must be one number or 3 (x, y, z), got {len(values)}")
     return values  # type: ignore[return-value]
 
 

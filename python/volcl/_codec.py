@@ -28,16 +28,6 @@ def _rate(lossless: Optional[bool], max_error: Optional[float], psnr: Optional[f
     return chosen[0][0], float(chosen[0][1])
 
 
-def _brick(brick: Union[int, Sequence[int]]) -> Tuple[int, int, int]:
-    """A brick size: one number, or (x, y, z) as ``volcl encode --brick X,Y,Z``."""
-    if np.isscalar(brick):
-        return (int(brick),) * 3  # type: ignore[arg-type]
-    b = tuple(int(v) for v in brick)  # type: ignore[union-attr]
-    if len(b) != 3:
-        raise _volcl.UsageError(f"brick must be one number or 3 (x, y, z), got {len(b)}")
-    return b  # type: ignore[return-value]
-
-
 def encode(data: Union[np.ndarray, Volume, Sequence[np.ndarray]], *, lossless: Optional[bool] = None,
            max_error: Optional[float] = None, psnr: Optional[float] = None, bpv: Optional[float] = None,
            step: Optional[float] = None, wavelet: Optional[str] = None, levels: int = 4,
@@ -85,7 +75,8 @@ def encode(data: Union[np.ndarray, Volume, Sequence[np.ndarray]], *, lossless: O
     rate, target = _rate(lossless, max_error, psnr, bpv)
     out, measured = _volcl.encode(_arrays.context(device), frames, _arrays.triple(spacing, 1.0, "spacing"),
                                   _arrays.triple(origin, 0.0, "origin"), rate, target,
-                                  None if step is None else float(step), wavelet, int(levels), _brick(brick),
+                                  None if step is None else float(step), wavelet, int(levels),
+                                  _arrays.triple(brick, 64, "brick", int),
                                   entropy, int(threads), {str(k): str(v) for k, v in (metadata or {}).items()})
     if report is not None:
         report.update(measured)
