@@ -71,3 +71,23 @@ def test_python_m_volcl_is_the_command_line():
     assert unknown.returncode == 2 and "unknown subcommand 'frobnicate'" in unknown.stderr
     helped = run_cli("encode", "--help")
     assert "--max-error" in helped.stdout
+
+
+def test_degenerate_sizes_and_refused_inputs():
+    tf = {"domain": [0, 1], "color": [[0, 1, 1, 1]], "extinction": [[0, 1]]}
+    for shape in ((1, 1, 1), (1, 1, 7), (3, 1, 1)):
+        a = np.arange(np.prod(shape), dtype=np.float32).reshape(shape)
+        assert np.array_equal(volcl.decode(volcl.encode(a)), a)
+        assert np.abs(volcl.decode(volcl.encode(a, max_error=0.1)) - a).max() <= 0.1
+    with pytest.raises(volcl.DataError, match="dimensions must be positive"):
+        volcl.encode(np.zeros((0, 4, 4), np.uint8))
+    with pytest.raises(volcl.IoError, match="not a .vcz"):
+        volcl.decode(b"")
+    with pytest.raises(volcl.UsageError, match="image size"):
+        volcl.render(np.zeros((4, 4, 4), np.uint8), tf, width=0, height=4)
+    with pytest.raises(volcl.UsageError, match="render.step"):
+        volcl.render(np.zeros((4, 4, 4), np.uint8), tf, step=0, width=4, height=4)
+    with pytest.raises(volcl.DataError, match="NaN/Inf"):
+        volcl.render(np.full((4, 4, 4), np.nan, np.float32), tf, width=4, height=4)
+    with pytest.raises(volcl.UsageError, match="table size"):
+        volcl.preintegration_table(tf, size=1, step=1.0)
