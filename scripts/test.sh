@@ -8,6 +8,13 @@ jobs=$(nproc 2>/dev/null || echo 2)
 echo "== tests (Release build)"
 ctest --test-dir build --output-on-failure -j"$jobs" --timeout 900
 
+# ==== Python package (a separate block; see docs/python.md) ====
+# pip install . into build/venv (reusing build/: only the module compiles), then the pytest suite, which
+# compares the module with the volcl executable's outputs and runs docs/examples/python_tour.py.
+echo "== Python package (pip install . into build/venv, pytest)"
+bash scripts/python-setup.sh --quiet
+build/venv/bin/python -m pytest -q python/tests
+
 echo "== tests (AddressSanitizer + UndefinedBehaviorSanitizer)"
 # -O1: sanitizer builds compile much faster than at -O3 and still run the suite in minutes.
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=None "-DCMAKE_CXX_FLAGS=-O1 -g1" -DVOLCL_SANITIZE=ON \

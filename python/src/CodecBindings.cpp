@@ -1,0 +1,206 @@
+// The wavelet codec for Python: encode arrays to .vcz bytes, and random access to .vcz bytes (regions,
+// levels, frames, single bricks).
+#include "python/src/Bindings.hpp"
+
+#include "host/Error.hpp"
+#include "host/io/AtomicFile.hpp"
+#include "wavelet/Codec.hpp"
+
+#include <nanobind/stl/array.h>
+#include <nanobind/stl/map.h>
+#include <nanobind/stl/optional.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/tuple.h>
+#include <nanobind/stl/vector.h>
+
+#include <memory>
+
+namespace volcl::python {
+namespace {
+
+using ByteArray = nb::ndarray<const std::uint8_t, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+
+RateMode parseRate(const std::string& rate) {
+    if (rate == "lossless") return RateMode::Lossless;
+    if (rate == "max_error") return RateMode::MaxError;
+    if (rate == "psnr") return RateMode::Psnr;
+    if (rate == "bpv") return RateMode::Bpv;
+    throw UsageError("rate '" + rate + "' must be lossless, max_error, psnr or bpv");
+}
+
+EntropyMode parseEntropy(const std::string& entropy) {
+    if (entropy == "dense") return EntropyMode::Dense;
+    if (entropy == "fast") return EntropyMode::Fast;
+    throw UsageError("entropy '" + entropy + "' must be fast or dense");
+}
+
+nb::dict reportDict(const EncodeReport& r) {
+    nb::dict d;
+    d["bytes"] = r.bytes;
+    d["bits_per_voxel"] = r.bitsPerVoxel;
+    d["psnr"] = r.psnr;
+    d["max_error"] = r.maxError;
+    d["corrections"] = r.corrections;
+    d["step"] = r.step;
+    d["milliseconds"] = r.profile.total;
+    return d;
+}
+
+// .vcz bytes and what the encoder measured (single volumes only: a series reports its size alone).
+std::tuple<nb::bytes, nb::dict> encode(Context& context, const std::vector<InputArray>& frames,
+                                       const std::array<double, 3>& spacing, const std::array<double, 3>& origin,
+                                       const std::string& rate, double target, std::optional<double> step,
+                                       std::optional<std::string> wavelet, int levels,
+                                       const std::array<std::size_t, 3>& brick, const std::string& entropy,
+                                       unsigned threads, const std::map<std::string, std::string>& metadata) {
+    if (frames.empty()) throw UsageError("encode: no frames given");
+    CodecOptions o;
+    o.rate = parseRate(rate);
+    o.target = target;
+    if (step) {
+        if (o.rate == RateMode::Lossless) throw UsageError("--step needs a lossy mode (--max-error, --psnr or --bpv)");
+        o.step = step;
+    }
+    if (wavelet) o.wavelet = parseWavelet(*wavelet);
+    o.levels = levels;
+    o.brick = {brick[0], brick[1], brick[2]};
+    o.entropy = parseEntropy(entropy);
+    o.threads = std::max(1u, threads);
+    o.metadata = metadata;
+    TimeSeries series;
+    for (const InputArray& a : frames)
+        series.frames.push_back(arrayToVolume(a, spacing, origin));
+    std::vector<std::byte> bytes;
+    EncodeReport report;
+    {
+        nb::gil_scoped_release released;
+        series.validate();
+        std::lock_guard lock(context.mutex);
+        if (series.frames.size() == 1)
+            bytes = encodeVolume(context.cc, series.frames[0], o, &report);
+        else
+            bytes = encodeSeries(context.cc, series, o);
+        report.bytes = bytes.size();
+    }
+    return {nb::bytes(bytes.data(), bytes.size()), reportDict(report)};
+}
+
+nb::dict headerDict(const VczHeader& h) {
+    nb::dict d;
+    d["shape"] = std::array<std::size_t, 3>{h.dims.z, h.dims.y, h.dims.x};
+    d["dtype"] = numpyTypeName(h.type);
+    d["spacing"] = h.spacing;
+    d["origin"] = h.origin;
+    d["wavelet"] = std::string(waveletName(h.wavelet));
+    d["levels"] = h.levels;
+    d["brick"] = std::array<std::size_t, 3>{h.brick.z, h.brick.y, h.brick.x};
+    d["brick_grid"] = std::array<std::size_t, 3>{h.brickGrid().z, h.brickGrid().y, h.brickGrid().x};
+    d["entropy"] = h.entropy == EntropyMode::Dense ? "dense" : "fast";
+    const char* rates[] = {"lossless", "max_error", "psnr", "bpv"};
+    d["rate"] = rates[static_cast<int>(h.rate)];
+    d["rate_target"] = h.rateTarget;
+    d["value_range"] = std::array<double, 2>{h.valueMin, h.valueMax};
+    std::vector<double> times;
+    std::vector<std::string> types;
+    for (const VczFrame& f : h.frames) {
+        times.push_back(f.time);
+        types.push_back(f.type == FrameType::I ? "I" : f.type == FrameType::P ? "P" : "B");
+    }
+    d["times"] = times;
+    d["frame_types"] = types;
+    d["metadata"] = h.metadata;
+    return d;
+}
+
+// A decoded volume with the grid it sits on (a level decode has a coarser spacing and a moved origin).
+using Decoded = std::tuple<nb::object, std::array<double, 3>, std::array<double, 3>>;
+
+Decoded decoded(Volume v) {
+    const auto spacing = v.spacing, origin = v.origin;
+    return {volumeToArray(std::move(v)), spacing, origin};
+}
+
+/// A .vcz held in memory; bricks and frames are decoded only when asked for.
+class Vcz {
+public:
+    Vcz(const ByteArray& data, const std::string& name)
+        : reader_(std::vector<std::byte>(reinterpret_cast<const std::byte*>(data.data()),
+                                         reinterpret_cast<const std::byte*>(data.data()) + data.size()),
+                  name) {}
+    Vcz(std::vector<std::byte> bytes, const std::string& name) : reader_(std::move(bytes), name) {}
+    /// Reads the file with the library's reader (the command line's messages for a missing file).
+    static Vcz open(const std::string& path) {
+        std::vector<std::byte> bytes;
+        {
+            nb::gil_scoped_release released;
+            bytes = readFileBytes(path);
+        }
+        return Vcz(std::move(bytes), path);
+    }
+
+    nb::dict header() const { return headerDict(reader_.header()); }
+    std::size_t fileSize() const { return reader_.fileSize(); }
+
+    Decoded decode(Context& context, std::optional<std::array<std::size_t, 3>> lo,
+                   std::optional<std::array<std::size_t, 3>> hi, int level, std::size_t frame, unsigned threads) const {
+        DecodeOptions o;
+        if (lo || hi) {
+            if (!lo || !hi) throw UsageError("region needs both corners (lo and hi)");
+            o.region = Region{{(*lo)[0], (*lo)[1], (*lo)[2]}, {(*hi)[0], (*hi)[1], (*hi)[2]}};
+        }
+        o.level = level;
+        o.frame = frame;
+        o.threads = std::max(1u, threads);
+        Volume v;
+        {
+            nb::gil_scoped_release released;
+            std::lock_guard lock(context.mutex);
+            v = reader_.decode(context.cc, o);
+        }
+        return decoded(std::move(v));
+    }
+
+    Decoded decodeBrick(Context& context, std::size_t frame, std::size_t brick, int level) const {
+        Volume v;
+        {
+            nb::gil_scoped_release released;
+            std::lock_guard lock(context.mutex);
+            v = reader_.decodeBrick(context.cc, frame, brick, level);
+        }
+        return decoded(std::move(v));
+    }
+
+    // Voxel index box of brick `i` at full resolution, as (z, y, x) corners [lo, hi).
+    std::tuple<std::array<std::size_t, 3>, std::array<std::size_t, 3>> brickBox(std::size_t i) const {
+        const VczHeader& h = reader_.header();
+        if (i >= h.brickCount())
+            throw UsageError("brick " + std::to_string(i) + " out of range (the file has " +
+                             std::to_string(h.brickCount()) + " bricks)");
+        const Dims o = h.brickOrigin(i), d = h.brickDims(i);
+        return {{o.z, o.y, o.x}, {o.z + d.z, o.y + d.y, o.x + d.x}};
+    }
+
+private:
+    VczReader reader_;
+};
+
+} // namespace
+
+void bindCodec(nb::module_& m) {
+    m.def("encode", &encode, nb::arg("context"), nb::arg("frames"), nb::arg("spacing"), nb::arg("origin"),
+          nb::arg("rate"), nb::arg("target"), nb::arg("step").none(), nb::arg("wavelet").none(), nb::arg("levels"),
+          nb::arg("brick"), nb::arg("entropy"), nb::arg("threads"), nb::arg("metadata"),
+          "Encodes one volume or a series (I frames) into .vcz bytes; returns (bytes, report).");
+    nb::class_<Vcz>(m, "Vcz", "A .vcz in memory: header parsed and checked, bricks decoded on demand.")
+        .def(nb::init<const ByteArray&, const std::string&>(), nb::arg("data"), nb::arg("name"))
+        .def_static("open", &Vcz::open, nb::arg("path"))
+        .def_prop_ro("header", &Vcz::header)
+        .def_prop_ro("file_size", &Vcz::fileSize)
+        .def("decode", &Vcz::decode, nb::arg("context"), nb::arg("lo").none(), nb::arg("hi").none(),
+             nb::arg("level"), nb::arg("frame"), nb::arg("threads"))
+        .def("decode_brick", &Vcz::decodeBrick, nb::arg("context"), nb::arg("frame"), nb::arg("brick"),
+             nb::arg("level"))
+        .def("brick_box", &Vcz::brickBox, nb::arg("brick"));
+}
+
+} // namespace volcl::python

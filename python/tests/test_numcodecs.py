@@ -1,0 +1,48 @@
+"""The volcl numcodecs codec in a chunked zarr array: exact when lossless, within the bound when lossy."""
+from __future__ import annotations
+
+import numcodecs
+import numpy as np
+import pytest
+
+import volcl
+import volcl.numcodecs
+
+zarr = pytest.importorskip("zarr")
+
+
+def test_codec_is_registered_and_configurable():
+    codec = numcodecs.get_codec({"id": "volcl", "max_error": 0.5})
+    assert isinstance(codec, volcl.numcodecs.Volcl) and codec.max_error == 0.5
+    assert numcodecs.get_codec(codec.get_config()) == codec
+
+
+def test_zarr_lossless_round_trip_is_exact(tmp_path, mri):
+    z = zarr.open_array(str(tmp_path / "mri.zarr"), mode="w", shape=mri.shape, chunks=(64, 50, 70),
+                        dtype=mri.dtype, compressor=volcl.numcodecs.Volcl())
+    z[:] = mri
+    back = zarr.open_array(str(tmp_path / "mri.zarr"), mode="r")
+    assert np.array_equal(back[:], mri)
+    assert np.array_equal(back[10:20, 100:150, 33], mri[10:20, 100:150, 33])
+    assert back.nbytes_stored < mri.nbytes / 2
+
+
+@pytest.mark.parametrize("dtype,bound", [(np.float32, 0.02), (np.uint16, 3)])
+def test_zarr_lossy_round_trip_is_within_the_bound(tmp_path, smooth_float, dtype, bound):
+    a = smooth_float if dtype == np.float32 else (smooth_float * 5000 + 20000).astype(dtype)
+    z = zarr.open_array(str(tmp_path / "a.zarr"), mode="w", shape=a.shape, chunks=(16, 16, 16), dtype=dtype,
+                        compressor=volcl.numcodecs.Volcl(max_error=bound))
+    z[:] = a
+    err = np.abs(zarr.open_array(str(tmp_path / "a.zarr"), mode="r")[:].astype(np.float64) - a).max()
+    assert err <= bound
+
+
+def test_chunks_of_other_ranks_and_refused_dtypes():
+    codec = volcl.numcodecs.Volcl()
+    for shape in ((1000,), (30, 40), (2, 3, 8, 9)):
+        a = np.arange(np.prod(shape), dtype=np.int16).reshape(shape)
+        out = np.empty_like(a)
+        codec.decode(codec.encode(a), out=out)
+        assert np.array_equal(out, a)
+    with pytest.raises(volcl.UsageError, match="float64"):
+        codec.encode(np.zeros((4, 4, 4), np.float64))

@@ -1,0 +1,61 @@
+"""Argument conversions shared by the volcl API: volume arrays, grids, device contexts."""
+from __future__ import annotations
+
+import os
+import threading
+from typing import Any, Callable, Optional, Tuple
+
+import numpy as np
+
+from . import _volcl
+
+#: numpy dtypes a volume can hold (float64 input is converted to float32).
+VOLUME_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.int16), np.dtype(np.float32))
+
+_contexts: dict = {}
+_contexts_lock = threading.Lock()
+
+
+def context(device: Optional[str] = None) -> "_volcl.Context":
+    """The shared OpenCL context for `device` (None or '': $VOLCL_DEVICE, else the first device).
+
+    Contexts are created once per selector and reused: creating one costs a device query and, on first
+    use of a kernel, its build (cached on disk afterwards)."""
+    selector = "" if device is None else str(device)
+    with _contexts_lock:
+        ctx = _contexts.get(selector)
+        if ctx is None:
+            ctx = _volcl.Context(selector)
+            _contexts[selector] = ctx
+        return ctx
+
+
+def volume_array(array: Any, *, allow_float64: bool = True) -> np.ndarray:
+    """`array` as a C-contiguous, native-byte-order numpy array of a volume dtype (no copy when it is one)."""
+    a = np.asarray(array)
+    if a.dtype.byteorder not in ("=", "|"):
+        a = a.astype(a.dtype.newbyteorder("="))
+    if a.dtype == np.float64 and allow_float64:
+        return np.ascontiguousarray(a)  # converted to float32 by the library, as every reader does
+    if a.dtype not in VOLUME_DTYPES:
+        raise _volcl.UsageError(
+            f"array dtype {a.dtype} is not a volume type (uint8, uint16, int16, float32"
+            + ("; float64 is converted)" if allow_float64 else ")"))
+    return np.ascontiguousarray(a)
+
+
+def triple(value: Any, default: Any, name: str, kind: Callable[[Any], Any] = float) -> Tuple[Any, Any, Any]:
+    """A per-axis (x, y, z) triple of `kind` (float, or int for brick sizes); a scalar applies to all three
+    axes, None gives `default` on each."""
+    if value is None:
+        return (kind(default),) * 3
+    if np.isscalar(value):
+        return (kind(value),) * 3
+    values = tuple(kind(v) for v in value)
+    if len(values) != 3:
+        raise _volcl.UsageError(f"{name} must be one number or 3 (x, y, z), got {len(values)}")
+    return values  # type: ignore[return-value]
+
+
+def fspath(path: Any) -> str:
+    return os.fspath(path)
