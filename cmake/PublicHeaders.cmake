@@ -38,6 +38,8 @@ set(VOLCL_PUBLIC_HEADERS
   wavelet/Metrics.hpp
   wavelet/VczFormat.hpp
   wavelet/container/VczFormat.hpp
+  wavelet/predict/MotionField.hpp
+  wavelet/predict/MotionSearch.hpp
   wavelet/transform/LiftingTransform.hpp
   cl/volcl_shared.h)
 
