@@ -8,9 +8,12 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <memory>
+#include <set>
 #include <string>
+#include <string_view>
 
 namespace volcl::test {
 
@@ -20,6 +23,27 @@ inline std::filesystem::path tempDir(const std::string& name) {
     std::filesystem::remove_all(d);
     std::filesystem::create_directories(d);
     return d;
+}
+
+/// Writes `data` to `p`, replacing it (test inputs made by hand).
+inline void writeFile(const std::filesystem::path& p, std::string_view data) {
+    std::ofstream out(p, std::ios::binary | std::ios::trunc);
+    out.write(data.data(), static_cast<std::streamsize>(data.size()));
+    ASSERT_TRUE(out.good()) << p;
+}
+
+/// The whole content of `p` (empty when it cannot be read).
+inline std::string readFile(const std::filesystem::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/// Names of the entries of directory `d`: checks that no temporary or partial output stays behind.
+inline std::set<std::string> listing(const std::filesystem::path& d) {
+    std::set<std::string> names;
+    for (const auto& e : std::filesystem::directory_iterator(d))
+        names.insert(e.path().filename().string());
+    return names;
 }
 
 /// ../shared/data, or empty when absent (tests then GTEST_SKIP with a message).

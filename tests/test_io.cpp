@@ -35,23 +35,9 @@ std::string bytesOf(const Volume& v) {
     return {reinterpret_cast<const char*>(v.bytes().data()), v.byteSize()};
 }
 
-void writeFile(const fs::path& p, std::string_view data) {
-    std::ofstream out(p, std::ios::binary | std::ios::trunc);
-    out.write(data.data(), static_cast<std::streamsize>(data.size()));
-    ASSERT_TRUE(out.good()) << p;
-}
-
-std::string readFile(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-std::set<std::string> listing(const fs::path& d) {
-    std::set<std::string> names;
-    for (const auto& e : fs::directory_iterator(d))
-        names.insert(e.path().filename().string());
-    return names;
-}
+using test::listing;
+using test::readFile;
+using test::writeFile;
 
 // Independent zlib use (not volcl's helpers) so the readers are checked against plain zlib output.
 std::string zlibCompress(std::string_view data, bool gzip) {
@@ -334,135 +320,6 @@ TEST(Writers, RefuseUnknownFormatsAndEmptyVolumes) {
     EXPECT_THROW(writeVolumeFile(Volume(), dir / "v.nrrd"), UsageError);
     EXPECT_THROW(writeVolumeFile(v, dir / "no-such-dir" / "v.nrrd"), IoError);
     EXPECT_TRUE(listing(dir).empty());
-}
-
-// ---- atomic output ------------------------------------------------------------------------------------
-
-TEST(AtomicFile, NoFileWithoutCommitAndOldContentKept) {
-    const fs::path dir = test::tempDir("io-atomic");
-    {
-        AtomicFile f(dir / "out.bin");
-        f.write(std::string_view("partial"));
-        EXPECT_TRUE(fs::exists(f.tempPath()));
-        // An unnamed temporary (O_TMPFILE) is invisible in the directory; a named one lives beside the target.
-        if (f.unnamedTemporary())
-            EXPECT_TRUE(listing(dir).empty());
-        else
-            EXPECT_EQ(f.tempPath().parent_path(), dir);
-    }
-    EXPECT_TRUE(listing(dir).empty());
-    writeFile(dir / "out.bin", "old");
-    try {
-        AtomicFile f(dir / "out.bin");
-        f.write(std::string_view("new but failing"));
-        throw std::runtime_error("simulated failure before commit");
-    } catch (const std::runtime_error&) {
-    }
-    EXPECT_EQ(readFile(dir / "out.bin"), "old");
-    EXPECT_EQ(listing(dir), (std::set<std::string>{"out.bin"}));
-    {
-        AtomicFile f(dir / "out.bin");
-        f.stream() << "new";
-        f.commit();
-        EXPECT_THROW(f.commit(), IoError);
-    }
-    EXPECT_EQ(readFile(dir / "out.bin"), "new");
-    EXPECT_EQ(listing(dir), (std::set<std::string>{"out.bin"}));
-}
-
-// A writer killed with SIGKILL in the middle of a large write: the directory must hold no temporary.
-TEST(AtomicFile, SigkillMidWriteLeavesNoTemporary) {
-    const fs::path dir = test::tempDir("io-atomic-kill");
-    for (int round = 0; round < 3; ++round) {
-        int ready[2];
-        ASSERT_EQ(::pipe(ready), 0);
-        const pid_t child = ::fork();
-        ASSERT_GE(child, 0);
-        if (child == 0) {
-            ::close(ready[0]);
-            AtomicFile f(dir / "big.bin");
-            const std::vector<std::byte> chunk(1 << 20, std::byte{0x5a});
-            for (int i = 0; i < 128; ++i) {
-                f.write(chunk);
-                f.stream().flush();
-                if (i == 8) {
-                    const char c = 'x';
-                    if (::write(ready[1], &c, 1) != 1) ::_exit(3);
-                }
-            }
-            f.commit();
-            ::_exit(0);
-        }
-        ::close(ready[1]);
-        char c = 0;
-        ASSERT_EQ(::read(ready[0], &c, 1), 1); // 9 MB are written: the child is mid-write
-        ::close(ready[0]);
-        ::kill(child, SIGKILL);
-        int status = 0;
-        ::waitpid(child, &status, 0);
-        ASSERT_TRUE(WIFSIGNALED(status));
-        EXPECT_TRUE(listing(dir).empty()) << "a killed writer left a temporary";
-    }
-}
-
-// Where O_TMPFILE is unavailable the temporary has a name; a dead writer's one is removed at the next start.
-TEST(AtomicFile, StaleTemporariesOfDeadWritersAreRemoved) {
-    const fs::path dir = test::tempDir("io-atomic-stale");
-    const pid_t dead = ::fork();
-    ASSERT_GE(dead, 0);
-    if (dead == 0) ::_exit(0);
-    ::waitpid(dead, nullptr, 0);
-    const std::string stale = ".out.bin.tmp-" + std::to_string(dead) + "-0-123";
-    const std::string live = ".out.bin.tmp-" + std::to_string(::getppid()) + "-0-456"; // a live process
-    const std::string other = ".other.bin.tmp-" + std::to_string(dead) + "-0-789";  // another target's
-    for (const std::string& n : {stale, live, other})
-        writeFile(dir / n, "left over");
-    {
-        AtomicFile f(dir / "out.bin");
-        f.write(std::string_view("new"));
-        f.commit();
-    }
-    EXPECT_EQ(listing(dir), (std::set<std::string>{"out.bin", live, other}));
-}
-
-TEST(AtomicFile, TemporariesAreUniqueAndErrorsAreClear) {
-    const fs::path dir = test::tempDir("io-atomic2");
-    AtomicFile a(dir / "x"), b(dir / "x");
-    EXPECT_NE(a.tempPath(), b.tempPath());
-    EXPECT_THROW(AtomicFile{dir / "missing" / "x"}, IoError);
-    EXPECT_THROW(AtomicFile{dir}, IoError); // a directory is not a file target
-    EXPECT_THROW(readFileBytes(dir / "nothing"), IoError);
-    EXPECT_THROW(readFileBytes(dir), IoError);
-    writeFile(dir / "in.raw", "abc");
-    EXPECT_THROW(checkNotSameFile(dir / "in.raw", dir / "." / "in.raw"), UsageError);
-    EXPECT_NO_THROW(checkNotSameFile(dir / "in.raw", dir / "out.raw"));
-    const auto bytes = readFileBytes(dir / "in.raw");
-    ASSERT_EQ(bytes.size(), 3u);
-    EXPECT_EQ(bytes[2], std::byte{'c'});
-}
-
-TEST(AtomicFile, FailedVolumeWriteLeavesNothing) {
-    // A real mid-write failure: the file-size limit makes the write fail with EFBIG after the first
-    // kilobyte. The old target must survive untouched and no temporary may remain.
-    const fs::path dir = test::tempDir("io-atomic3");
-    writeFile(dir / "keep.nrrd", "previous");
-    const Volume v = makeVolume({64, 64, 16}, ScalarType::Float32);
-    struct rlimit old {};
-    ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
-    const auto oldHandler = std::signal(SIGXFSZ, SIG_IGN);
-    struct rlimit small = old;
-    small.rlim_cur = 1024;
-    ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
-    EXPECT_THROW(writeVolumeFile(v, dir / "keep.nrrd", {Endian::Little, false}), IoError);
-    EXPECT_THROW(writeVolumeFile(v, dir / "new_64x64x16_float32.raw"), IoError);
-    ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &old), 0);
-    std::signal(SIGXFSZ, oldHandler);
-    EXPECT_EQ(readFile(dir / "keep.nrrd"), "previous");
-    EXPECT_EQ(listing(dir), (std::set<std::string>{"keep.nrrd"}));
-    // With the limit lifted the same write succeeds and replaces the file completely.
-    writeVolumeFile(v, dir / "keep.nrrd");
-    EXPECT_EQ(readVolume(dir / "keep.nrrd"), v);
-    EXPECT_EQ(listing(dir), (std::set<std::string>{"keep.nrrd"}));
 }
 
 // ---- readers on hand-made files -----------------------------------------------------------------------
