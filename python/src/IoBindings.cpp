@@ -64,7 +64,9 @@ void writeFile(const std::string& path, const InputArray& array, const std::arra
                const std::array<double, 3>& origin, bool compress) {
     const Volume v = arrayToVolume(array, spacing, origin);
     nb::gil_scoped_release released;
-    writeVolumeFile(v, path, {.compress = compress});
+    WriteOptions options;
+    options.compress = compress;
+    writeVolumeFile(v, path, options);
 }
 
 // An image file as float32 [height, width, channels] and its channel names (EXR keeps every channel).

@@ -95,7 +95,7 @@ std::tuple<nb::object, std::vector<double>> preintegrationTable(Context* context
 
 // The PNG `volcl render` writes, before 8-bit quantisation: RGBA [height, width, 4+] over `background`, sRGB.
 nb::object compositeOverBackground(const nb::ndarray<const float, nb::ndim<3>, nb::c_contig, nb::device::cpu>& rgba,
-                                   const std::array<float, 4>& background) {
+                                   const std::array<double, 4>& background) {
     if (rgba.shape(2) < 4) throw UsageError("composite: the image needs 4 channels (R, G, B, A)");
     const int width = int(rgba.shape(1)), height = int(rgba.shape(0));
     const std::size_t channels = rgba.shape(2);
