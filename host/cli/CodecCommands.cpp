@@ -168,12 +168,17 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
     cmd->callback([a, cmd, &global] {
         const CodecOptions o = toOptions(*a, *cmd);
         if (!isVcz(a->out)) throw UsageError("output " + a->out + " must end in .vcz");
-        // The OpenCL platform starts while the input is read: in a one-shot run its start (loading the
-        // driver's compiler libraries) is a fixed cost of the same order as reading a 35 MB volume.
-        std::future<std::unique_ptr<ComputeContext>> starting = std::async(
-            std::launch::async, [device = global.device] { return std::make_unique<ComputeContext>(device); });
+        // A second thread reads the input while the OpenCL platform starts: in a one-shot run its start
+        // (loading the driver's compiler libraries) is a fixed cost of the same order as reading a 35 MB
+        // volume. The platform starts on this thread, not the short-lived one: the driver's LLVM installs an
+        // alternate signal stack on the thread that loads it, and AddressSanitizer aborts when such a
+        // thread exits.
         std::vector<std::filesystem::path> inputs;
-        SeriesInput input = readSeriesInputs(a->in, a->raw.toReadOptions(), &inputs);
+        std::future<SeriesInput> reading = std::async(std::launch::async, [a, &inputs] {
+            return readSeriesInputs(a->in, a->raw.toReadOptions(), &inputs);
+        });
+        ComputeContext cc(global.device);
+        SeriesInput input = reading.get();
         TimeSeries& ts = input.series;
         // Every file the inputs consist of (headers and the data files they name) must survive the write.
         checkNotSameFile(inputs, {std::filesystem::path(a->out)});
@@ -181,8 +186,6 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         CodecOptions withMeta = o;
         if (const auto nifti = readNiftiMetadataIfNifti(input.sources.front().file))
             withMeta.metadata[std::string(kVczNiftiMetadataKey)] = niftiMetadataToText(*nifti);
-        const std::unique_ptr<ComputeContext> context = starting.get();
-        ComputeContext& cc = *context;
         EncodeReport rep;
         Stopwatch sw;
         std::vector<FrameReport> frames;
