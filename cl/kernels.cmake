@@ -8,6 +8,7 @@ set(VOLCL_KERNEL_FILES
   common/shading.h
   common/tf_lookup.h
   common/grid_sample.h
+  common/fog.h
   phantoms.cl
   copy.cl
   tf_sample.cl

@@ -3,6 +3,9 @@
 #include "common/grid_sample.h"
 #include "common/shading.h"
 #include "common/tf_lookup.h"
+#ifdef FOG
+#include "common/fog.h"
+#endif
 
 /* Compile-time features (the host defines exactly those a scene needs: planEffects in host/render/EffectPlan.cpp,
    VOXEL_TYPE and CORNER_VOXELS from host/render/grid/GridRenderer.cpp):
@@ -16,7 +19,11 @@
    SCATTERING    single scattering, Henyey-Greenstein phase
    CLIPPING      clip.count clipping planes
    FILTER_BSPLINE  cubic B-spline samples and analytic gradients (the volume buffer holds its coefficients)
-   MIP_COLOR     0 windowed grey, 1 TF colour brightened by the window, 2 TF colour and opacity */
+   MIP_COLOR     0 windowed grey, 1 TF colour brightened by the window, 2 TF colour and opacity
+   FOG           height fog (fog.h) composited with the volume in ray order; FOG_MAP: base from a height map
+   PREINT_LIGHTING  (PREINT 2, SHADING) shading through the pre-integrated lighting table: slices 1 and 2 of
+                 the table buffer hold (front diffuse rgb, emission centroid) and (back diffuse rgb, 0)
+   ISO_TABLE     (mode iso) surfaces from the iso-surface table (slice 0 of the table buffer) per segment */
 #ifndef MODE
 #define MODE 0
 #endif
@@ -103,9 +110,71 @@ inline uint macro_cell(const VolclGridRenderParams* P, const Ray* r, float t, fl
 #include "raymarch_iso.h"
 #include "raymarch_iso_sampled.h"
 
+#if defined(PREINT_LIGHTING) && PREINT == 2 && defined(SHADING)
+/* Pre-integrated lighting (Guthe 1.3.4): the normal is taken linear along the segment, diffuse light is the
+   table's front and back terms weighted by the diffuse factor at each end, specular is evaluated at the
+   normal interpolated to the segment's emission centroid omega and weighted by the segment's opacity.
+   e: the segment's associated (rgb, alpha); df, db: the table's raw front/back diffuse terms, scaled by
+   `ratio` to the segment's length; x: the segment's world midpoint (shadow rays start there). */
+inline float3 preint_light(__global const voxel_t* vol, __global const VolclTfKnot* knots,
+                           const VolclGridRenderParams* P, const Ray* r, float3 x, float3 gF, float3 gB, float4 e,
+                           float3 df, float3 db, float omega, float ratio) {
+    const VolclLightingParams* Lp = &P->lighting;
+    const float3 V = -r->dWorld;
+    const float lf = length(gF), lb = length(gB);
+    const bool vf = lf > Lp->gradientMin, vb = lb > Lp->gradientMin;
+    float3 Nf = vf ? -gF / lf : (float3)(0.0f), Nb = vb ? -gB / lb : (float3)(0.0f);
+    if (dot(Nf, V) < 0.0f) Nf = -Nf;
+    if (dot(Nb, V) < 0.0f) Nb = -Nb;
+    float3 Ns = vf && vb ? (1.0f - omega) * Nf + omega * Nb : vf ? Nf : Nb;
+    const float ls = length(Ns);
+    const bool vs = ls > 0.0f;
+    if (vs) Ns /= ls;
+    float3 diff = (float3)(0.0f), spec = (float3)(0.0f);
+    for (uint i = 0; i < Lp->lightCount; ++i) {
+        float dist;
+        const float3 L = light_dir(Lp, P->camera.perspective, r->oWorld, r->dWorld, (int)i, x, &dist);
+#ifdef SHADOWS
+        const float vis = shadow_transmittance(vol, knots, P, x, L, dist);
+#else
+        const float vis = 1.0f;
+#endif
+        const float3 lc = v3(Lp->lightColor[i]) * vis;
+        diff += lc * ((vf ? fmax(dot(Nf, L), 0.0f) : 1.0f) * df + (vb ? fmax(dot(Nb, L), 0.0f) : 1.0f) * db);
+        if (vs) spec += lc * pow(fmax(dot(Ns, normalize(L + V)), 0.0f), Lp->shininess);
+    }
+    return Lp->ambient * e.xyz + Lp->diffuse * ratio * diff + Lp->specular * e.w * spec;
+}
+#endif
+
+#if ISO_COUNT > 0 && defined(ISO_TABLE)
+/* Iso-surfaces through the iso-surface table (Roettger 8.13): entry (front, back) composites the surfaces
+   crossed between the segment's end values. The table is a step function of its nodes, so each end takes
+   its nearest node (interpolating would smear every surface into a ramp); shading at the segment's midpoint. */
+inline void iso_table_segment(__global const float4* table, __global const voxel_t* vol,
+                              __global const VolclTfKnot* knots, const VolclGridRenderParams* P, const Ray* r,
+                              float t0, float s0, float t1, float s1, float3* rgb, float* T, float* depth) {
+    const VolclTfParams* Tp = &P->tf;
+    const int n = (int)Tp->tableSize;
+    const float scale = (float)(n - 1) / (Tp->domainHi - Tp->domainLo);
+    const int i = clamp((int)rint((s0 - Tp->domainLo) * scale), 0, n - 1);
+    const int j = clamp((int)rint((s1 - Tp->domainLo) * scale), 0, n - 1);
+    const float4 e = table[(size_t)i * (size_t)n + (size_t)j];
+    if (!(e.w > 0.0f)) return;
+    const float tm = 0.5f * (t0 + t1);
+    float3 c = e.xyz / e.w;
+#ifdef NEEDS_LIGHTS
+    c = light_sample(vol, knots, P, r, r->oWorld + tm * r->dWorld, ray_at(r, tm), c);
+#endif
+    if (isinf(*depth)) *depth = tm;
+    *rgb += *T * e.w * c;
+    *T *= 1.0f - e.w;
+}
+#endif
+
 __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* knots, __global const float4* table,
                        __global const uchar* macroEmpty, const VolclGridRenderParams params, __global float4* out,
-                       __global float* depthOut) {
+                       __global float* depthOut, __global const float* fogMap) {
     const uint x = get_global_id(0), y = get_global_id(1);
     if (x >= params.camera.width || y >= params.camera.height) return;
     const VolclGridRenderParams* P = &params;
@@ -119,6 +188,30 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
     float T = 1.0f;
     float depth = INFINITY;
     const size_t pix = (size_t)y * params.camera.width + x;
+#ifdef FOG
+    /* The fog's own box may reach beyond the volume's: fog alone in front of and behind the volume span. */
+    const FogRay fr = fog_ray(&P->fog, r.oWorld, r.dWorld);
+    if (!(span.y > span.x)) {
+#if MODE == 3
+        float fd, fj;
+        fog_interval(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, fr.span.x, fr.span.y, 0.0f, &fd, &fj);
+        const float fa = fr.span.y > fr.span.x ? -expm1(-fd) : 0.0f;
+        out[pix] = (float4)(fa, fa, fa, fa);
+#else
+        if (fr.span.y > fr.span.x) fog_only(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, fr.span.x, fr.span.y, &rgb, &T);
+        out[pix] = (float4)(rgb, 1.0f - T);
+#endif
+#if ISO_COUNT > 0
+        depthOut[pix] = INFINITY;
+#endif
+        return;
+    }
+#if MODE != 3
+    if (fr.span.y > fr.span.x)
+        fog_only(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, fr.span.x, fmin(fr.span.y, span.x), &rgb, &T);
+#endif
+#else
+    (void)fogMap;
     if (!(span.y > span.x)) {
         out[pix] = (float4)(0.0f);
 #if ISO_COUNT > 0
@@ -126,6 +219,7 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 #endif
         return;
     }
+#endif
     const float tEnter = span.x, tExit = span.y, step = P->march.step;
     const float lenTotal = tExit - tEnter;
     const int nseg = max((int)ceil(lenTotal / step), 1);
@@ -159,6 +253,13 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
         const float len = t1 - t0;
         opticalDepth += tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, ray_at(&r, t0 + 0.5f * len))).w * len;
     }
+#ifdef FOG
+    if (fr.span.y > fr.span.x) {
+        float fd, fj;
+        fog_interval(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, fr.span.x, fr.span.y, 0.0f, &fd, &fj);
+        opticalDepth += fd;
+    }
+#endif
     const float a = 1.0f - exp(-opticalDepth);
     result = (float4)(a, a, a, a);
 
@@ -169,7 +270,11 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 #ifdef SKIPPING
     float cellExit = -INFINITY;
 #endif
-#if ISO_COUNT > 0 && !defined(FILTER_BSPLINE)
+#if defined(PREINT_LIGHTING) && PREINT == 2 && defined(SHADING)
+    float3 gPrev = (float3)(0.0f);
+    int gPrevValid = 0; /* the last segment's back gradient is this one's front gradient */
+#endif
+#if ISO_COUNT > 0 && !defined(FILTER_BSPLINE) && !defined(ISO_TABLE)
     IsoState iso; /* the iso-surfaces' cell walk carries over from segment to segment */
     iso_begin(&iso, &r);
 #endif
@@ -185,6 +290,12 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
                 /* Segments with both ends in an empty cell add nothing: jump to the last one starting in it. */
                 const int j = min((int)floor((exitT - tEnter) / step), nseg);
                 if (j > k) {
+#ifdef FOG
+                    fog_only(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, t0, j == nseg ? tExit : fmin(tEnter + (float)j * step, tExit), &rgb, &T);
+#endif
+#if defined(PREINT_LIGHTING) && PREINT == 2 && defined(SHADING)
+                    gPrevValid = 0;
+#endif
                     k = j;
 #if PREINT != 0 || ISO_COUNT > 0
                     if (k < nseg) sPrev = sample_volume(vol, &P->grid, ray_at(&r, tEnter + (float)k * step));
@@ -199,10 +310,16 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 #if PREINT != 0 || ISO_COUNT > 0
         const float sNext = sample_volume(vol, &P->grid, ray_at(&r, t1));
 #endif
-#if ISO_COUNT > 0 && defined(FILTER_BSPLINE)
+#if ISO_COUNT > 0 && defined(ISO_TABLE)
+        iso_table_segment(table, vol, knots, P, &r, t0, sPrev, t1, sNext, &rgb, &T, &depth);
+#elif ISO_COUNT > 0 && defined(FILTER_BSPLINE)
         iso_sampled_segment(vol, knots, P, &r, t0, sPrev, t1, sNext, &rgb, &T, &depth);
 #elif ISO_COUNT > 0
         iso_march(vol, knots, P, &r, &iso, t0, t1, &rgb, &T, &depth);
+#endif
+#if MODE == 2 && defined(FOG)
+        /* A surface inside this step is composited in front of the step's fog. */
+        fog_only(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, t0, t1, &rgb, &T);
 #endif
 #if MODE == 0
 #if PREINT == 0
@@ -214,20 +331,49 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 #ifdef NEEDS_LIGHTS
         if (a > 0.0f) c = light_sample(vol, knots, P, &r, r.oWorld + tm * r.dWorld, pm, c);
 #endif
+#ifdef FOG
+        fog_with_segment(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, t0, t1, e.w, c, &rgb, &T);
+#else
         rgb += T * a * c;
         T *= 1.0f - a;
+#endif
 #else
         const float4 e = preint_segment(table, &P->tf, sPrev, sNext, len);
         float3 c = e.xyz;
-#ifdef NEEDS_LIGHTS
+#if defined(PREINT_LIGHTING) && PREINT == 2 && defined(SHADING)
+        if (e.w > 0.0f) {
+            const float sc = (float)(P->tf.tableSize - 1) / (P->tf.domainHi - P->tf.domainLo);
+            const float u = (sPrev - P->tf.domainLo) * sc, v = (sNext - P->tf.domainLo) * sc;
+            const float4 e0 = table_bilinear(table, P->tf.tableSize, 0, u, v);
+            const float4 lf = table_bilinear(table, P->tf.tableSize, 1, u, v);
+            const float4 lb = table_bilinear(table, P->tf.tableSize, 2, u, v);
+            const float ratio = e0.w > 0.0f ? e.w / e0.w : len / P->tf.tableMaxLength;
+            const float3 gF = gPrevValid ? gPrev : gradient(vol, &P->grid, ray_at(&r, t0));
+            const float3 gB = gradient(vol, &P->grid, ray_at(&r, t1));
+            gPrev = gB;
+            gPrevValid = 1;
+            c = preint_light(vol, knots, P, &r, r.oWorld + (t0 + 0.5f * len) * r.dWorld, gF, gB, e, lf.xyz, lb.xyz,
+                             clamp(lf.w, 0.0f, 1.0f), ratio);
+        } else {
+            gPrevValid = 0;
+        }
+#elif defined(NEEDS_LIGHTS)
         /* Lighting scales the segment's associated colour as it would scale a straight colour. */
         if (e.w > 0.0f) {
             const float tm = t0 + 0.5f * len;
             c = light_sample(vol, knots, P, &r, r.oWorld + tm * r.dWorld, ray_at(&r, tm), c);
         }
 #endif
+#ifdef FOG
+        /* The segment as a medium of constant extinction with its optical depth and straight colour, mixed
+           with the fog over it exactly for that medium (exact whenever either is absent). */
+        const float av = clamp(e.w, 0.0f, 1.0f - 1e-7f);
+        const float tauV = av > 0.0f ? -log1p(-av) / len : 0.0f;
+        fog_with_segment(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, t0, t1, tauV, av > 0.0f ? c / e.w : (float3)(0.0f), &rgb, &T);
+#else
         rgb += T * c;
         T *= 1.0f - e.w;
+#endif
 #endif
 #endif
 #if PREINT != 0 || ISO_COUNT > 0
@@ -238,6 +384,13 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 #endif
         ++k;
     }
+#ifdef FOG
+#ifdef EARLY_TERMINATION
+    if (!(1.0f - T >= P->march.earlyTermination))
+#endif
+    if (fr.span.y > fr.span.x)
+        fog_only(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, fmax(fr.span.x, tExit), fr.span.y, &rgb, &T);
+#endif
     result = (float4)(rgb, 1.0f - T);
 #endif
     out[pix] = result;
@@ -274,7 +427,8 @@ PACKET_INLINE uint8 macro_cell8(const VolclGridRenderParams* P, const RayPacket*
    iso-surfaces. Same image as `raymarch`. */
 __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                               __global const float4* table, __global const uchar* macroEmpty,
-                              const VolclGridRenderParams params, __global float4* out, __global float* depthOut) {
+                              const VolclGridRenderParams params, __global float4* out, __global float* depthOut,
+                              __global const float* fogMap) {
     const VolclGridRenderParams* P = &params;
     const uint x0 = get_global_id(0) * PACKET_W, y0 = get_global_id(1) * PACKET_H;
     if (x0 >= params.camera.width || y0 >= params.camera.height) return;

@@ -101,6 +101,18 @@ typedef struct VolclGridParams {
     volcl_uint macroDims[4]; /* macrocells per axis, voxels per macrocell edge */
 } VolclGridParams;
 
+/* Fog (cl/common/fog.h): extinction density where dot(x, up) <= base, density * exp(-(h - base) * invFalloff)
+   above (invFalloff < 0: none above), emission color * extinction, inside the world box [lo, hi]. With a
+   height map (FOG_MAP) the base is the map's texel under x: map axes mapAxis[0] (image x) and mapAxis[1]
+   (image y) over the box, mapSize texels. */
+typedef struct VolclFogParams {
+    float up[4];    /* unit up; w: base */
+    float color[4]; /* rgb; w: density */
+    float lo[4];    /* box corner; w: 1 / falloff (0 for falloff -> infinity, -1 for falloff 0) */
+    float hi[4];    /* box corner; w: spare */
+    volcl_uint mapAxis[2], mapSize[2];
+} VolclFogParams;
+
 /* Everything a grid ray-marching frame needs besides buffers. */
 typedef struct VolclGridRenderParams {
     VolclCameraParams camera;
@@ -110,6 +122,7 @@ typedef struct VolclGridRenderParams {
     VolclLightingParams lighting;
     VolclIsoParams iso;
     VolclGridParams grid;
+    VolclFogParams fog;
 } VolclGridRenderParams;
 
 #ifndef __OPENCL_VERSION__
@@ -122,7 +135,8 @@ static_assert(sizeof(VolclTfParams) == 32, "VolclTfParams layout must match Open
 static_assert(sizeof(VolclLightingParams) == 176, "VolclLightingParams layout must match OpenCL C");
 static_assert(sizeof(VolclIsoParams) == 96, "VolclIsoParams layout must match OpenCL C");
 static_assert(sizeof(VolclGridParams) == 80, "VolclGridParams layout must match OpenCL C");
-static_assert(sizeof(VolclGridRenderParams) == 80 + 80 + 16 + 32 + 176 + 96 + 80,
+static_assert(sizeof(VolclFogParams) == 80, "VolclFogParams layout must match OpenCL C");
+static_assert(sizeof(VolclGridRenderParams) == 80 + 80 + 16 + 32 + 176 + 96 + 80 + 80,
               "VolclGridRenderParams layout must match OpenCL C");
 #endif
 

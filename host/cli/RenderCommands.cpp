@@ -5,9 +5,11 @@
 #include "host/cli/SceneFlags.hpp"
 #include "host/cli/Commands.hpp"
 #include "host/cli/FilterBench.hpp"
+#include "host/cli/MediaBench.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
+#include "host/render/EffectCosts.hpp"
 #include "host/render/RenderInput.hpp"
 #include "host/render/Scene.hpp"
 #include "host/render/VolumeRenderer.hpp"
@@ -68,7 +70,7 @@ struct BenchArgs {
     int runs = 5;
     double referenceStep = 0.05;
     std::string csv, vtkImage;
-    bool effects = false, vtk = false, sweep = true, filters = false;
+    bool effects = false, vtk = false, sweep = true, filters = false, tables = false, fog = false;
     std::string vtkScript = std::string(VOLCL_SOURCE_DIR) + "/bench/vtk_raycast.py";
 };
 
@@ -155,6 +157,19 @@ void benchEffects(ComputeContext& cc, const RenderInput& input, const TransferFu
         {"empty-space skipping", [&](Scene& s) { s.skipping = true; }},
         {"2D pre-integration", [&](Scene& s) { s.preintegration = Preintegration::Table2d; }},
         {"3D pre-integration", [&](Scene& s) { s.preintegration = Preintegration::Table3d; }},
+        {"fog, constant layer (falloff 0)",
+         [&](Scene& s) {
+             s.effects.fog.enabled = true;
+             s.effects.fog.density = 0.01;
+             s.effects.fog.base = centre[1];
+         }},
+        {"fog, exponential layer",
+         [&](Scene& s) {
+             s.effects.fog.enabled = true;
+             s.effects.fog.density = 0.01;
+             s.effects.fog.base = box.origin[1] + 0.25 * box.extent[1];
+             s.effects.fog.falloff = 0.25 * box.extent[1];
+         }},
     };
     for (const auto& var : variants) {
         Scene s = base;
@@ -235,6 +250,18 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
               << scene.width << "x" << scene.height << ", device " << cc.device().name << '\n';
     if (a.effects) benchEffects(cc, input, tf, scene, a.runs);
     if (a.filters) benchFilters(cc, input, tf, scene, a.runs, a.sweep || a.vtk ? std::string() : a.csv);
+    if (a.tables || a.fog) {
+        const Volume* g = input.grid();
+        const double sp = g ? std::min({g->spacing[0], g->spacing[1], g->spacing[2]}) : 1.0;
+        const std::string out = a.sweep || a.vtk ? std::string() : a.csv;
+        if (a.tables) {
+            std::vector<double> steps;
+            for (double st : parseNumbers(a.steps, 0, "--steps"))
+                steps.push_back(st * sp);
+            benchTables(cc, input, tf, scene, steps, a.referenceStep * sp, a.runs, out);
+        }
+        if (a.fog) benchFog(cc, input, tf, scene, a.referenceStep * sp, a.runs, a.tables ? std::string() : out);
+    }
     if (!a.sweep && !a.vtk) return;
     const Volume* grid = input.grid();
     if (!grid) throw UsageError("bench render: the sweep and --vtk measure grids (give a volume)");
@@ -315,6 +342,7 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
         SceneFlags scene;
         std::string out;
         bool explain = false, half = false;
+        double budgetMs = 0.0;
     };
     auto a = std::make_shared<Args>();
     a->scene.add(cmd);
@@ -323,9 +351,13 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     cmd->add_flag("--explain", a->explain,
                   "Print the effects compiled into the kernel and why others were dropped");
     cmd->add_flag("--half", a->half, "EXR: store half floats");
+    cmd->add_option("--budget-ms", a->budgetMs,
+                    "Frame-time budget (kernel ms): the step is chosen to fit it (render.budget_ms)");
     cmd->callback([a, &global] {
         if (a->out.empty() && !a->explain) throw UsageError("render: give -o/--output (or --explain)");
         Scene scene = a->scene.build();
+        if (a->budgetMs != 0.0) scene.budgetMs = a->budgetMs;
+        scene.validate();
         if (!a->out.empty()) {
             outputExtension(a->out); // refuse a bad output name before any work
             checkNotSameFile(scene.volume, a->out);
@@ -344,14 +376,17 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
             for (const auto& note : notes)
                 std::cout << "default: " << note << '\n';
         const RenderInput input = RenderInput::fromVolume(std::move(v));
-        if (a->explain && a->out.empty()) {
-            std::cout << input.planEffects(scene, tf).explain();
-            return;
-        }
         ComputeContext cc(global.device);
         const std::unique_ptr<VolumeRenderer> renderer = input.makeRenderer(cc, tf, scene);
         VolumeRenderer& r = *renderer;
         if (a->explain) std::cout << r.plan().explain() << r.statistics() << '\n';
+        if (scene.budgetMs > 0.0) {
+            const BudgetChoice choice = fitBudget(r, scene.budgetMs, {stepKnob(scene, r.bounds())});
+            scene = r.scene();
+            (a->explain ? std::cout : std::cerr) << choice.text();
+        }
+        if (a->explain) std::cout << measureEffectCosts(r).text();
+        if (a->out.empty()) return;
         const ImageBuffer img = r.render();
         writeRendered(img, a->out, scene, a->half);
         if (!global.quiet)
@@ -373,6 +408,12 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     b->add_option("--reference-step", ba->referenceStep, "Reference step in voxel spacings")
         ->capture_default_str();
     b->add_option("--csv", ba->csv, "Write the sweep as CSV (for bench/plot_render.py)");
+    b->add_flag("--tables", ba->tables,
+                "Pre-integrated lighting and iso-surface tables against the per-sample paths: time and RMSE vs "
+                "the reference per --steps (with --no-sweep, --csv receives these rows)");
+    b->add_flag("--fog", ba->fog,
+                "Fog (constant and exponential layer) against the plain frame: time ratio and RMSE vs the "
+                "reference");
     b->add_flag("--effects", ba->effects,
                 "Cost of each effect alone, and plain vs effect-free baseline kernel");
     b->add_flag("--filters", ba->filters,

@@ -3,6 +3,8 @@
 
 #include "host/render/VecMath.hpp"
 
+#include <algorithm>
+#include <limits>
 #include <sstream>
 
 namespace volcl {
@@ -12,6 +14,48 @@ std::string fmt(double v) {
     std::ostringstream os;
     os << v;
     return os.str();
+}
+
+/// Fog: compiled when it can change the image (non-zero density, a box the rays can cross, a mode with a ray
+/// integral).
+void planFog(const Scene& scene, const WorldBox& bounds, EffectPlan& p) {
+    const FogEffect& f = scene.effects.fog;
+    const WorldBox box = f.box ? *f.box : bounds;
+    bool flat = false;
+    for (int a = 0; a < 3; ++a)
+        flat = flat || !(box.extent[a] > 0.0);
+    if (scene.mode == RenderMode::Mip)
+        p.dropped.push_back("fog: mode mip takes a maximum, not a ray integral");
+    else if (f.density <= 0.0)
+        p.dropped.push_back("fog: density 0");
+    else if (flat)
+        p.dropped.push_back("fog: its box has no volume");
+    else if (f.falloff == 0.0 && f.heightMap.empty() && [&] {
+                 // Nothing below the base inside the box: no fog at all.
+                 const Vec3 up = normalized(f.up), lo = box.origin, hi = box.hi();
+                 double hmin = std::numeric_limits<double>::infinity();
+                 for (int c = 0; c < 8; ++c)
+                     hmin = std::min(hmin, dot(up, Vec3{c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1],
+                                                       c & 4 ? hi[2] : lo[2]}));
+                 return hmin >= f.base;
+             }())
+        p.dropped.push_back("fog: falloff 0 and the box lies above the base");
+    else {
+        p.fog = true;
+        p.defines.set("FOG");
+        std::string what = "fog: density " + fmt(f.density) +
+                           (f.heightMap.empty() ? ", base " + fmt(f.base) : ", base from the height map " +
+                                                                               f.heightMap.filename().string()) +
+                           (f.falloff == 0.0 ? ", none above the base" : ", falloff " + fmt(f.falloff)) +
+                           (f.box ? ", in its own box" : ", in the volume's box") +
+                           "; closed-form optical depth per step, composited exactly with each volume segment";
+        if (!f.heightMap.empty()) {
+            p.fogMap = true;
+            p.defines.set("FOG_MAP");
+        }
+        if (scene.mode == RenderMode::Xray) what += " (x-ray: its optical depth only)";
+        p.compiled.push_back(what);
+    }
 }
 
 } // namespace
@@ -181,6 +225,32 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
             p.compiled.push_back(scene.preintegration == Preintegration::Table2d
                                      ? "pre-integration: 2D table at the render step"
                                      : "pre-integration: 3D table over segment lengths");
+        }
+    }
+    if (fx.fog.enabled) planFog(scene, bounds, p);
+    if (fx.shadingPreintegrated) {
+        if (!p.shading)
+            p.dropped.push_back("pre-integrated lighting: nothing is shaded");
+        else if (scene.preintegration != Preintegration::Table2d || mode != RenderMode::Dvr)
+            p.dropped.push_back("pre-integrated lighting: needs dvr with render.preintegration 2d (the table is "
+                                "built for one segment length)");
+        else if (p.scattering)
+            p.dropped.push_back("pre-integrated lighting: scattering is evaluated per sample");
+        else {
+            p.preintLighting = true;
+            p.defines.set("PREINT_LIGHTING");
+            p.compiled.push_back("pre-integrated lighting: gradients at both segment ends, diffuse through the "
+                                 "table's front/back terms, specular at its emission centroid");
+        }
+    }
+    if (fx.isoTable && !p.isosurfaces.empty()) {
+        if (mode != RenderMode::Iso)
+            p.dropped.push_back("iso-surface table: only in mode iso (dvr mixes surfaces by their exact roots)");
+        else {
+            p.isoTable = true;
+            p.defines.set("ISO_TABLE");
+            p.compiled.push_back("iso-surface table: surfaces crossed between a segment's end values, one lookup "
+                                 "per step (the nearest table node of each end)");
         }
     }
     if (scene.skipping) {

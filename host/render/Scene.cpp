@@ -20,7 +20,7 @@ using nlohmann::json;
 json parse(std::string_view text) {
     try {
         return json::parse(text.begin(), text.end());
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) { // parse errors, and numbers beyond double's range (1e400)
         throw UsageError(std::string("scene: invalid JSON (") + e.what() + ")");
     }
 }
@@ -146,6 +146,34 @@ MipColor parseMipColor(std::string_view s) {
     throw UsageError("MIP colour '" + std::string(s) + "' is unknown (expected grey, tf, tf-opacity)");
 }
 
+namespace {
+
+FogEffect parseFog(const json& f, const std::filesystem::path& baseDir) {
+    checkKeys(f, "effects.fog", {"density", "base", "falloff", "color", "up", "box", "height_map", "height_range"});
+    FogEffect fog;
+    fog.enabled = true;
+    if (f.contains("density")) fog.density = num(f["density"], "effects.fog.density");
+    if (f.contains("base")) fog.base = num(f["base"], "effects.fog.base");
+    if (f.contains("falloff")) fog.falloff = num(f["falloff"], "effects.fog.falloff");
+    if (f.contains("color")) fog.color = vec<3>(f["color"], "effects.fog.color");
+    if (f.contains("up")) fog.up = vec<3>(f["up"], "effects.fog.up");
+    if (f.contains("box")) {
+        const json& b = f["box"];
+        if (!b.is_array() || b.size() != 2)
+            throw UsageError("scene: 'effects.fog.box' must be [[x0, y0, z0], [x1, y1, z1]]");
+        const Vec3 lo = vec<3>(b[0], "effects.fog.box[0]"), hi = vec<3>(b[1], "effects.fog.box[1]");
+        fog.box = WorldBox{lo, {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]}};
+    }
+    if (f.contains("height_map")) {
+        std::filesystem::path p(str(f["height_map"], "effects.fog.height_map"));
+        fog.heightMap = p.is_relative() && !baseDir.empty() ? baseDir / p : p;
+    }
+    if (f.contains("height_range")) fog.heightRange = vec<2>(f["height_range"], "effects.fog.height_range");
+    return fog;
+}
+
+} // namespace
+
 Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDir) {
     const json j = parse(text);
     checkKeys(j, "the scene", {"volume", "tf", "camera", "image", "render", "lights", "effects"});
@@ -191,7 +219,7 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
         const json& r = j["render"];
         checkKeys(r, "render",
                   {"mode", "step", "preintegration", "early_termination", "skipping", "table_size",
-                   "table_lengths", "filter", "smoothing", "window", "mip_color"});
+                   "table_lengths", "filter", "smoothing", "window", "mip_color", "budget_ms"});
         if (r.contains("mode")) s.mode = parseRenderMode(str(r["mode"], "render.mode"));
         if (r.contains("step")) s.step = num(r["step"], "render.step");
         if (r.contains("preintegration")) {
@@ -211,6 +239,7 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
         if (r.contains("smoothing")) s.smoothing = num(r["smoothing"], "render.smoothing");
         if (r.contains("window")) s.window = vec<2>(r["window"], "render.window");
         if (r.contains("mip_color")) s.mipColor = parseMipColor(str(r["mip_color"], "render.mip_color"));
+        if (r.contains("budget_ms")) s.budgetMs = num(r["budget_ms"], "render.budget_ms");
     }
     if (j.contains("lights")) {
         if (!j["lights"].is_array()) throw UsageError("scene: 'lights' must be an array");
@@ -243,7 +272,8 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
         const json& e = j["effects"];
         checkKeys(
             e, "effects",
-            {"shading", "gradient", "shadows", "shadow_step", "scattering", "clip_planes", "isosurfaces"});
+            {"shading", "gradient", "shadows", "shadow_step", "scattering", "clip_planes", "isosurfaces", "fog",
+             "isosurface_method"});
         SceneEffects& fx = s.effects;
         if (e.contains("shading")) {
             fx.shadingGiven = true;
@@ -251,7 +281,9 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
             if (sh.is_boolean()) {
                 fx.shading = sh.get<bool>();
             } else {
-                checkKeys(sh, "effects.shading", {"ambient", "diffuse", "specular", "shininess"});
+                checkKeys(sh, "effects.shading", {"ambient", "diffuse", "specular", "shininess", "preintegrated"});
+                if (sh.contains("preintegrated"))
+                    fx.shadingPreintegrated = flag(sh["preintegrated"], "effects.shading.preintegrated");
                 fx.shading = true;
                 if (sh.contains("ambient")) fx.ambient = num(sh["ambient"], "effects.shading.ambient");
                 if (sh.contains("diffuse")) fx.diffuse = num(sh["diffuse"], "effects.shading.diffuse");
@@ -311,6 +343,13 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
                 fx.isosurfaces.push_back(iso);
             }
         }
+        if (e.contains("fog")) fx.fog = parseFog(e["fog"], baseDir);
+        if (e.contains("isosurface_method")) {
+            const std::string m = str(e["isosurface_method"], "effects.isosurface_method");
+            if (m != "table" && m != "roots")
+                throw UsageError("scene: effects.isosurface_method '" + m + "' is unknown (roots, table)");
+            fx.isoTable = m == "table";
+        }
     }
     return s;
 }
@@ -355,6 +394,7 @@ std::string Scene::toJson() const {
                    {"smoothing", smoothing},
                    {"mip_color", std::string(mipColorName(mipColor))}};
     if (window) j["render"]["window"] = *window;
+    if (budgetMs > 0.0) j["render"]["budget_ms"] = budgetMs;
     j["lights"] = json::array();
     for (const auto& l : lights) {
         json o;
@@ -368,11 +408,14 @@ std::string Scene::toJson() const {
         j["lights"].push_back(o);
     }
     json e = json::object();
-    if (effects.shading)
+    if (effects.shading) {
         e["shading"] = {{"ambient", effects.ambient},
                         {"diffuse", effects.diffuse},
                         {"specular", effects.specular},
                         {"shininess", effects.shininess}};
+        if (effects.shadingPreintegrated) e["shading"]["preintegrated"] = true;
+    }
+    if (effects.isoTable) e["isosurface_method"] = "table";
     e["gradient"] = effects.gradient == GradientKind::Sobel ? "sobel" : "central";
     if (effects.shadows) e["shadows"] = true;
     e["shadow_step"] = effects.shadowStep;
@@ -387,9 +430,21 @@ std::string Scene::toJson() const {
         for (const auto& i : effects.isosurfaces)
             e["isosurfaces"].push_back({{"value", i.value}, {"color", i.rgba}});
     }
+    if (effects.fog.enabled) {
+        const FogEffect& f = effects.fog;
+        json fj = {{"density", f.density}, {"base", f.base}, {"falloff", f.falloff}, {"color", f.color}, {"up", f.up}};
+        if (f.box) fj["box"] = {f.box->origin, f.box->hi()};
+        if (!f.heightMap.empty()) fj["height_map"] = f.heightMap.string();
+        if (f.heightRange) fj["height_range"] = *f.heightRange;
+        e["fog"] = fj;
+    }
     j["effects"] = e;
     return j.dump(2);
 }
+
+namespace {
+std::string shortNumber(double v);
+} // namespace
 
 void Scene::validate() const {
     auto need = [](bool ok, const std::string& msg) {
@@ -404,6 +459,7 @@ void Scene::validate() const {
     need(tableLengths >= 1 && tableLengths <= 1024, "render.table_lengths must be 1..1024");
     // 8 voxels: the smoothing's 3-sigma kernel stays at 49 taps (host/render/grid/BsplineField.hpp).
     need(smoothing >= 0.0 && smoothing <= 8.0, "render.smoothing must be in [0, 8] voxels");
+    need(budgetMs >= 0.0 && budgetMs <= 1e9, "render.budget_ms must be in [0, 1e9] (0: no budget)");
     if (window)
         need(std::isfinite((*window)[0]) && std::isfinite((*window)[1]) && (*window)[1] > 0.0 &&
                  (*window)[1] <= 1e30 && std::abs((*window)[0]) <= 1e30,
@@ -446,6 +502,31 @@ void Scene::validate() const {
         for (double c : i.rgba)
             need(c >= 0.0 && c <= 1.0, "iso-surface colour values must be in [0, 1]");
     if (mode == RenderMode::Iso) need(!e.isosurfaces.empty(), "mode iso needs effects.isosurfaces");
+    if (e.fog.enabled) {
+        const FogEffect& f = e.fog;
+        // NaN fails every comparison, so each test below also refuses it.
+        need(f.density >= 0.0 && f.density <= 1e30, "effects.fog.density must be in [0, 1e30] (got " +
+                                                         shortNumber(f.density) + ")");
+        need(f.falloff >= 0.0 && f.falloff <= 1e30,
+             "effects.fog.falloff must be in [0, 1e30] (0: no fog above the base; got " + shortNumber(f.falloff) + ")");
+        need(std::isfinite(f.base) && std::abs(f.base) <= 1e30, "effects.fog.base must be finite");
+        for (double c : f.color)
+            need(c >= 0.0 && c <= 1e30, "effects.fog.color values must be >= 0 (and finite)");
+        need(std::isfinite(norm(f.up)) && norm(f.up) > 0.0, "effects.fog.up must be non-zero");
+        if (f.box)
+            for (int a = 0; a < 3; ++a)
+                need(std::isfinite(f.box->origin[a]) && f.box->extent[a] >= 0.0 && std::isfinite(f.box->extent[a]),
+                     "effects.fog.box must be [[x0, y0, z0], [x1, y1, z1]] with x0 <= x1, y0 <= y1, z0 <= z1");
+        if (f.heightRange)
+            need(std::isfinite((*f.heightRange)[0]) && std::isfinite((*f.heightRange)[1]),
+                 "effects.fog.height_range must be finite");
+        if (!f.heightMap.empty()) {
+            int axes = 0;
+            for (double c : f.up)
+                axes += c != 0.0 ? 1 : 0;
+            need(axes == 1, "effects.fog.height_map needs effects.fog.up along a coordinate axis");
+        }
+    }
 }
 
 std::vector<std::string> applyLightingDefaults(Scene& scene) {

@@ -75,11 +75,34 @@ struct ClipPlane {
     double offset = 0.0;
 };
 
+/// Fog (docs/media.md): with h = dot(p, normalize(up)), extinction `density` where h <= base and
+/// density * exp(-(h - base) / falloff) above (falloff 0: none above), emission color * extinction, only
+/// inside `box` (absent: the volume's box). A height map replaces `base` per texel of the ground plane.
+struct FogEffect {
+    bool enabled = false; ///< the scene has an "effects.fog" object
+    double density = 0.0, base = 0.0, falloff = 0.0;
+    Vec3 color{1, 1, 1};
+    Vec3 up{0, 1, 0};
+    std::optional<WorldBox> box;
+    /// Image (grey or R channel) giving the fog top (the base) over the ground plane; empty: none. The
+    /// map spans the box's two axes other than `up` (which must then be a coordinate axis): image x along
+    /// the lower-numbered axis, image row 0 at the low end of the other. Value v maps to
+    /// heightRange[0] + v * (heightRange[1] - heightRange[0]); absent range: the box's extent along up.
+    std::filesystem::path heightMap;
+    std::optional<std::array<double, 2>> heightRange;
+};
+
 /// What a scene asks for; Effects planning decides what is compiled (see planEffects()).
 struct SceneEffects {
     bool shading = false; ///< Blinn-Phong requested ("shading" object present)
     bool shadingGiven = false; ///< the scene or a flag said whether to shade (iso mode shades unless told)
     double ambient = 0.2, diffuse = 0.7, specular = 0.3, shininess = 32.0;
+    /// Shade through the pre-integrated lighting table (2D pre-integration): gradients at both segment ends,
+    /// diffuse weighted by the table's front/back terms, specular at the table's emission centroid.
+    bool shadingPreintegrated = false;
+    /// Iso-surfaces from the iso-surface table of the segment's end values (iso mode) instead of the exact
+    /// per-cell roots ("isosurface_method": "table" | "roots").
+    bool isoTable = false;
     GradientKind gradient = GradientKind::Central;
     bool shadows = false;
     double shadowStep = 1.0;           ///< world units; 0 = the render step
@@ -87,6 +110,7 @@ struct SceneEffects {
     bool scattering = false;
     std::vector<ClipPlane> clipPlanes;
     std::vector<IsoLayer> isosurfaces;
+    FogEffect fog;
 };
 
 /// A complete scene. Paths are resolved against the scene file's folder. Example:
@@ -114,6 +138,8 @@ struct Scene {
     /// MIP window (centre, width) in data values; absent: the data's value range.
     std::optional<std::array<double, 2>> window;
     MipColor mipColor = MipColor::Grey;
+    /// Frame-time budget (kernel milliseconds): the planner picks the step to fit it; 0: none.
+    double budgetMs = 0.0;
     std::vector<Light> lights;
     SceneEffects effects;
 

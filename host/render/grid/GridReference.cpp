@@ -3,6 +3,7 @@
 // host/render/Reference.hpp).
 #include "host/Error.hpp"
 #include "host/Volume.hpp"
+#include "host/render/FogModel.hpp"
 #include "host/render/FrameParams.hpp"
 #include "host/render/Reference.hpp"
 #include "host/render/grid/BsplineField.hpp"
@@ -36,6 +37,7 @@ public:
         else if (s.smoothing > 0.0)
             values_ = smoothedVolume(v, s.smoothing).toFloat(); // as the kernel reads them: float voxels
         window_ = mipWindow(s, grid_detail::valueRange(v));
+        if (s.effects.fog.enabled && s.mode != RenderMode::Mip) fog_.emplace(s.effects.fog, gridBounds(v));
     }
 
     const Camera& camera() const noexcept { return cam_; }
@@ -43,6 +45,7 @@ public:
     /// (r, g, b, a, depth) along one camera ray.
     ReferencePixel trace(const CameraRay& ray) const {
         const Vec3 o = toVoxel(ray.origin), d = divide(ray.direction);
+        if (fog_) return traceWithFog(ray, o, d);
         double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
         if (!clipBox(o, d, t0, t1)) return emptyReferencePixel();
         if (!clipToPlanes(scene_.effects.clipPlanes, ray, t0, t1)) return emptyReferencePixel();
@@ -103,6 +106,72 @@ public:
 
 private:
     static double inf() { return std::numeric_limits<double>::infinity(); }
+
+    /// dvr, iso and x-ray with fog: the fog's extinction and emission added to the volume's at every midpoint
+    /// (section by section between the volume's and the fog box's ends and the base crossing, so the
+    /// midpoint rule never straddles a jump).
+    ReferencePixel traceWithFog(const CameraRay& ray, const Vec3& o, const Vec3& d) const {
+        double t0 = 0.0, t1 = inf();
+        const bool vol = clipBox(o, d, t0, t1) && clipToPlanes(scene_.effects.clipPlanes, ray, t0, t1) && t1 > t0;
+        double f0 = 0.0, f1 = inf();
+        const bool fog = fog_->clip(ray.origin, ray.direction, f0, f1);
+        if (!vol && !fog) return emptyReferencePixel();
+        std::vector<double> cuts;
+        if (vol) cuts.insert(cuts.end(), {t0, t1});
+        if (fog) cuts.insert(cuts.end(), {f0, f1});
+        const double lo = *std::min_element(cuts.begin(), cuts.end()), hi = *std::max_element(cuts.begin(), cuts.end());
+        const double b = dot(ray.direction, fog_->up());
+        if (!fog_->hasMap() && b != 0.0) {
+            const double tc = (fog_->effect().base - dot(ray.origin, fog_->up())) / b;
+            if (tc > lo && tc < hi) cuts.push_back(tc);
+        }
+        std::sort(cuts.begin(), cuts.end());
+        const Vec3 fogColor = fog_->effect().color;
+        auto at = [&](double t) { return add(o, scale(d, t)); };
+        Vec3 rgb{0, 0, 0};
+        double T = 1.0, depth = inf(), optical = 0.0;
+        const auto hits = isos_.empty() || !vol ? std::vector<std::pair<double, std::size_t>>{} : isoHits(o, d, t0, t1);
+        std::size_t nextHit = 0;
+        for (std::size_t c = 0; c + 1 < cuts.size(); ++c) {
+            const double a0 = cuts[c], a1 = cuts[c + 1];
+            if (!(a1 > a0)) continue;
+            const long n = std::max(1L, long(std::ceil((a1 - a0) / h_)));
+            const double h = (a1 - a0) / double(n);
+            for (long k = 0; k < n; ++k) {
+                const double ta = a0 + double(k) * h, tb = k + 1 == n ? a1 : a0 + double(k + 1) * h;
+                for (; nextHit < hits.size() && hits[nextHit].first <= tb; ++nextHit)
+                    isoComposite(o, d, ray, hits[nextHit].first, isos_[hits[nextHit].second], rgb, T, depth);
+                const double tm = 0.5 * (ta + tb);
+                const Vec3 xw = add(ray.origin, scale(ray.direction, tm));
+                const double sf = fog_->extinction(xw);
+                double tau = 0.0;
+                Vec3 cv{0, 0, 0};
+                if (vol && tm >= t0 && tm <= t1 && scene_.mode != RenderMode::Iso) {
+                    const Vec3 pm = at(tm);
+                    const double s = sample(pm);
+                    tau = tf_.extinctionAt(s);
+                    if (tau > 0.0 && scene_.mode == RenderMode::Dvr) {
+                        const auto c0 = tf_.colorAt(s);
+                        cv = light(ray, xw, pm, {c0[0], c0[1], c0[2]});
+                    }
+                }
+                const double sigma = tau + sf;
+                if (scene_.mode == RenderMode::Xray) {
+                    optical += sigma * (tb - ta);
+                    continue;
+                }
+                if (sigma <= 0.0) continue;
+                const double a = -std::expm1(-sigma * (tb - ta));
+                rgb = add(rgb, scale(add(scale(cv, tau), scale(fogColor, sf)), T * a / sigma));
+                T *= 1.0 - a;
+            }
+        }
+        if (scene_.mode == RenderMode::Xray) {
+            const double a = -std::expm1(-optical);
+            return {a, a, a, a, inf()};
+        }
+        return {rgb[0], rgb[1], rgb[2], 1.0 - T, depth};
+    }
     Vec3 toVoxel(const Vec3& w) const {
         return {(w[0] - vol_.origin[0]) / vol_.spacing[0], (w[1] - vol_.origin[1]) / vol_.spacing[1],
                 (w[2] - vol_.origin[2]) / vol_.spacing[2]};
@@ -379,6 +448,7 @@ private:
     std::vector<IsoLayer> isos_;
     std::optional<BsplineCoefficients<double>> spline_; ///< the cubic filters' coefficients
     std::array<double, 2> window_{0.0, 1.0};              ///< MIP window: lower end, width
+    std::optional<FogField> fog_;                         ///< the scene's fog (not in mip mode)
 };
 
 } // namespace

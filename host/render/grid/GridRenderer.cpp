@@ -4,6 +4,7 @@
 #include "cl/volcl_shared.h"
 #include "host/Error.hpp"
 #include "host/Volume.hpp"
+#include "host/render/FogModel.hpp"
 #include "host/render/FrameParams.hpp"
 #include "host/render/VecMath.hpp"
 #include "host/MemoryBudget.hpp"
@@ -37,6 +38,37 @@ int voxelTypeCode(const Volume& volume) {
            : volume.type() == ScalarType::UInt16 ? 2
            : volume.type() == ScalarType::Int16  ? 3
                                                  : 0;
+}
+
+/// The iso-surface table's value range: the data's (widened when the data is constant).
+std::array<double, 2> isoTableDomain(const ValueRange& r) {
+    return {r.min, r.max > r.min ? r.max : r.min + 1.0};
+}
+
+/// The pre-integrated lighting table as three N x N slices of float4: (ambient rgb, alpha), (front diffuse
+/// rgb, emission centroid), (back diffuse rgb, 0), built on the host in double.
+std::vector<cl_float4> lightingTableSlices(const TransferFunction& tf, int size, double step) {
+    const ImageBuffer img = lightingTableImage(tf, size, step);
+    const std::size_t n = std::size_t(size) * std::size_t(size);
+    std::vector<cl_float4> out(3 * n);
+    const int nc = img.channelCount();
+    for (std::size_t i = 0; i < n; ++i) {
+        const float* px = img.pixels.data() + i * std::size_t(nc);
+        out[i] = {{px[0], px[1], px[2], px[3]}};
+        out[n + i] = {{px[4], px[5], px[6], px[10]}};
+        out[2 * n + i] = {{px[7], px[8], px[9], 0.0f}};
+    }
+    return out;
+}
+
+std::string toJsonFogRange(const FogEffect& f) {
+    std::string k = f.heightRange ? fmt((*f.heightRange)[0]) + "," + fmt((*f.heightRange)[1]) : std::string("box");
+    if (f.box)
+        for (int a = 0; a < 3; ++a)
+            k += "," + fmt(f.box->origin[a]) + "," + fmt(f.box->extent[a]);
+    for (double u : f.up)
+        k += "," + fmt(u);
+    return k;
 }
 
 std::string skippingHow() {
@@ -94,6 +126,9 @@ struct GridRenderer::Impl {
     DeviceBuffer<cl_uchar> empty;
     DeviceBuffer<cl_float4> out;
     DeviceBuffer<float> depth;
+    DeviceBuffer<float> fogMap; ///< FOG_MAP: the fog's base per height-map texel (else one unused float)
+    std::string fogMapKey;      ///< the height map's path and range the buffer holds
+    cl_uint fogMapAxes[2] = {0, 2}, fogMapSize[2] = {1, 1};
     std::size_t knotCount = 0;
     grid_detail::MacrocellGrid macro;
     std::vector<unsigned char> emptyHost;
@@ -211,7 +246,7 @@ void GridRenderer::rebuild(bool tfChanged) {
         }
         const std::string key = shaded.toJson() + "|" + std::to_string(int(pre)) + "|" +
                                 std::to_string(spec.size) + "|" + fmt(scene_.step) + "|" +
-                                std::to_string(spec.lengths);
+                                std::to_string(spec.lengths) + (plan_.preintLighting ? "|lighting" : "");
         if (key != m.tableKey) {
             auto hit = std::find_if(m.tableCache.begin(), m.tableCache.end(),
                                     [&](const Impl::CachedTable& c) { return c.key == key; });
@@ -221,17 +256,44 @@ void GridRenderer::rebuild(bool tfChanged) {
                 m.tableCache.erase(hit);
             } else {
                 Stopwatch sw;
-                const PreintegrationTable t = generatePreintegrationTable(shaded, spec, {}, &cc_);
-                tableMs_ = sw.milliseconds();
-                std::vector<cl_float4> rgba(t.rgba.size() / 4);
-                std::memcpy(rgba.data(), t.rgba.data(), rgba.size() * sizeof(cl_float4));
-                entry = {key, cc_.upload(rgba, CL_MEM_READ_ONLY), int(t.sliceCount())};
+                if (plan_.preintLighting) {
+                    entry = {key, cc_.upload(lightingTableSlices(shaded, spec.size, scene_.step), CL_MEM_READ_ONLY), 1};
+                    tableMs_ = sw.milliseconds();
+                } else {
+                    const PreintegrationTable t = generatePreintegrationTable(shaded, spec, {}, &cc_);
+                    tableMs_ = sw.milliseconds();
+                    std::vector<cl_float4> rgba(t.rgba.size() / 4);
+                    std::memcpy(rgba.data(), t.rgba.data(), rgba.size() * sizeof(cl_float4));
+                    entry = {key, cc_.upload(rgba, CL_MEM_READ_ONLY), int(t.sliceCount())};
+                }
             }
             m.table = entry.table;
             m.tableKey = key;
             m.tableLengths = entry.lengths;
             m.tableCache.push_back(std::move(entry));
             if (m.tableCache.size() > Impl::kTableCacheSize) m.tableCache.erase(m.tableCache.begin());
+        }
+    } else if (plan_.isoTable) {
+        // The iso-surface table over the data's value range (colours associated, scaled as the TF's).
+        std::vector<IsoSurface> surfaces;
+        for (const auto& iso : plan_.isosurfaces) {
+            const double a = iso.rgba[3], cs = plan_.colorScale;
+            surfaces.push_back({iso.value, {iso.rgba[0] * cs * a, iso.rgba[1] * cs * a, iso.rgba[2] * cs * a, a}});
+        }
+        const std::array<double, 2> domain = isoTableDomain(m.range);
+        std::ostringstream key;
+        key << "iso|" << scene_.tableSize << "|" << domain[0] << "|" << domain[1];
+        for (const auto& su : surfaces)
+            key << "|" << su.value << "," << su.rgba[0] << "," << su.rgba[1] << "," << su.rgba[2] << "," << su.rgba[3];
+        if (key.str() != m.tableKey) {
+            Stopwatch sw;
+            const ImageBuffer img = isoSurfaceTableImage(surfaces, domain, scene_.tableSize);
+            std::vector<cl_float4> rgba(std::size_t(img.width) * std::size_t(img.height));
+            std::memcpy(rgba.data(), img.pixels.data(), rgba.size() * sizeof(cl_float4));
+            m.table = cc_.upload(rgba, CL_MEM_READ_ONLY);
+            m.tableKey = key.str();
+            m.tableLengths = 1;
+            tableMs_ = sw.milliseconds();
         }
     } else if (m.table.size() == 0) {
         m.table = cc_.allocate<cl_float4>(1, CL_MEM_READ_ONLY);
@@ -281,12 +343,45 @@ void GridRenderer::rebuild(bool tfChanged) {
     m.empty = cc_.upload(m.emptyHost, CL_MEM_READ_ONLY);
 
     // Unlit DVR without iso-surfaces (the common, time-critical case) runs as explicit 8-ray packets.
-    m.packet =
-        scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
+    m.packet = scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty() &&
+               !plan_.fog;
     m.kernel = cc_.kernel("raymarch.cl", m.packet ? "raymarch_packet" : "raymarch",
                           m.packet ? packetDefines(plan_.defines, spline || smoothedLinear) : plan_.defines);
     m.params =
         grid_detail::makeParams(scene_, camera_, volume_, m.range, tf_, plan_, macro, m.knotCount, m.tableLengths);
+    if (plan_.isoTable) {
+        const std::array<double, 2> domain = isoTableDomain(m.range);
+        m.params.tf.domainLo = float(domain[0]);
+        m.params.tf.domainHi = float(domain[1]);
+        m.params.tf.tableSize = volcl_uint(scene_.tableSize);
+    }
+    if (plan_.fog) {
+        const FogEffect& f = scene_.effects.fog;
+        const std::string key = plan_.fogMap ? f.heightMap.string() + "|" + toJsonFogRange(f) : std::string();
+        if (plan_.fogMap && key != m.fogMapKey) {
+            const FogField field(f, bounds());
+            m.fogMap = cc_.upload(field.mapTexels(), CL_MEM_READ_ONLY);
+            m.fogMapKey = key;
+            m.params.fog = field.params();
+        } else {
+            // The map's size is all params() reads from it: resolve without re-reading the image.
+            FogEffect noMap = f;
+            noMap.heightMap.clear();
+            m.params.fog = FogField(noMap, bounds()).params();
+            if (plan_.fogMap) {
+                m.params.fog.mapAxis[0] = m.fogMapAxes[0];
+                m.params.fog.mapAxis[1] = m.fogMapAxes[1];
+                m.params.fog.mapSize[0] = m.fogMapSize[0];
+                m.params.fog.mapSize[1] = m.fogMapSize[1];
+            }
+        }
+        if (plan_.fogMap)
+            for (int i = 0; i < 2; ++i) {
+                m.fogMapAxes[i] = m.params.fog.mapAxis[i];
+                m.fogMapSize[i] = m.params.fog.mapSize[i];
+            }
+    }
+    if (m.fogMap.size() == 0) m.fogMap = cc_.allocate<float>(1, CL_MEM_READ_ONLY);
 }
 
 KernelDefines GridRenderer::packetDefines(KernelDefines d, bool floatCopy) {
@@ -307,8 +402,7 @@ ImageBuffer GridRenderer::launch(cl::Kernel& kernel, const cl::Buffer& voxels, b
         m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
         m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
     }
-    setArgs(kernel, voxels, m.knots, m.table, m.empty, m.params, m.out,
-            m.depth);
+    setArgs(kernel, voxels, m.knots, m.table, m.empty, m.params, m.out, m.depth, m.fogMap);
     // Tiles of nearby rays share cache lines in y as well as x: 8x8 rays, or 4x4 packets of 4x2 rays.
     const std::size_t w = std::size_t(scene_.width), h = std::size_t(scene_.height);
     cl::Event ev =
