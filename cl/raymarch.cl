@@ -358,10 +358,12 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
             gPrevValid = 0;
         }
 #elif defined(NEEDS_LIGHTS)
-        /* Lighting scales the segment's associated colour as it would scale a straight colour. */
+        /* The segment lit at its midpoint as a sample of straight colour rgb / alpha, weighted by alpha as
+           the point-sampled path weights its sample (the specular term is not a colour to scale: lighting
+           the associated colour added it once per segment whatever the segment's opacity). */
         if (e.w > 0.0f) {
             const float tm = t0 + 0.5f * len;
-            c = light_sample(vol, knots, P, &r, r.oWorld + tm * r.dWorld, ray_at(&r, tm), c);
+            c = light_sample(vol, knots, P, &r, r.oWorld + tm * r.dWorld, ray_at(&r, tm), c / e.w) * e.w;
         }
 #endif
 #ifdef FOG

@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iostream>
 #include <limits>
 #include <string>
 #include <vector>
@@ -203,14 +204,23 @@ void checkAgainstOracle(const Oracle& o, double tol, bool preint = true, bool re
         s.effects.fog = fogOf(o);
         GridRenderer r(computeContext(), vol, tf, s);
         ASSERT_TRUE(r.plan().fog) << r.plan().explain();
-        EXPECT_LE(maxDiff(r.render(), s, o), tol) << "point sampled";
+        const double point = maxDiff(r.render(), s, o);
+        EXPECT_LE(point, tol) << "point sampled";
+        std::cout << "  [fog oracle] " << v.name << ": max |kernel - oracle| " << point;
         if (preint) {
             Scene p = s;
             p.preintegration = Preintegration::Table2d;
             GridRenderer rp(computeContext(), vol, tf, p);
-            EXPECT_LE(maxDiff(rp.render(), p, o), tol) << "pre-integrated";
+            const double pre = maxDiff(rp.render(), p, o);
+            EXPECT_LE(pre, tol) << "pre-integrated";
+            std::cout << ", 2D pre-integrated " << pre;
         }
-        if (reference) EXPECT_LE(maxDiff(referenceRender(vol, tf, s, {0.02, 0}), s, o), tol) << "reference";
+        if (reference) {
+            const double ref = maxDiff(referenceRender(vol, tf, s, {0.02, 0}), s, o);
+            EXPECT_LE(ref, tol) << "reference";
+            std::cout << ", double reference " << ref;
+        }
+        std::cout << '\n';
     }
 }
 

@@ -60,6 +60,19 @@ inline float fog_depth_piece(const VolclFogParams* F, const FogRay* f, float bas
     return rho * exp(-fmax(hl, 0.0f) * invH) * len * fog_phi(fabs(f->b) * invH * len);
 }
 
+/* (1 - exp(-z)) / z for z of either sign (|z| <= ~1 where it is used). */
+inline float fog_phis(float z) {
+    return fabs(z) < 1e-4f ? 1.0f - 0.5f * z : -expm1(-z) / z;
+}
+
+/* Fog depth over [x, x + d] above the base from sigma(x) = sx (fast form), or the stable lower-end form
+   where the fog grows more than e-fold along it (then sx may have underflowed). */
+inline float fog_sub_depth(const VolclFogParams* F, const FogRay* f, float base, float sx, float ks, float x,
+                           float d) {
+    const float z = ks * d;
+    return z > -1.0f ? sx * d * fog_phis(z) : fog_depth_piece(F, f, base, x, x + d, true);
+}
+
 /* Accumulates one piece [u, v] (one side of the base, constant base) with volume extinction a:
    *depth += optical depth of volume + fog, *J += exp(-*depth before) * integral of exp(-depth inside). */
 inline void fog_piece(const VolclFogParams* F, const FogRay* f, float base, float u, float v, float a,
@@ -69,35 +82,38 @@ inline void fog_piece(const VolclFogParams* F, const FogRay* f, float base, floa
     const bool above = f->h0 + f->b * (0.5f * (u + v)) > base;
     const float D = fog_depth_piece(F, f, base, u, v, above);
     const float kappa = above && F->lo[3] > 0.0f ? fabs(f->b) * F->lo[3] : 0.0f;
-    const float Tin = exp(-*depth);
     if (a > 0.0f) {
+        const float Tin = *depth > 0.0f ? exp(-*depth) : 1.0f;
         if (D == 0.0f || kappa * len < 1e-6f) {
             /* Constant total extinction over the piece: closed form. */
             const float s = a + D / len;
             *J += Tin * len * fog_phi(s * len);
         } else {
             /* Exponential fog with a constant volume: sub-intervals with optical depth and fog variation
-               each at most 0.5, three-point Gauss-Legendre on exp(-depth) (error ~1e-8 relative). */
+               each at most 0.5, three-point Gauss-Legendre on exp(-depth) (error ~1e-8 relative). Inside
+               a sub-interval starting at x the fog is sigma(x) exp(-ks (t - x)), ks = dh/dt / falloff. */
             const float Phi = a * len + D;
             const int m = (int)clamp(ceil(fmax(Phi, kappa * len) * 2.0f), 1.0f, 64.0f);
             const float dlt = len / (float)m;
+            const float ks = f->b * F->lo[3];
             const float g0 = 0.5f - 0.5f * 0.7745966692f, g2 = 0.5f + 0.5f * 0.7745966692f;
             float inner = 0.0f;
             for (int i = 0; i < m; ++i) {
                 const float x = u + (float)i * dlt, y = i == m - 1 ? v : x + dlt;
                 const float w = y - x;
-                const float Ti = exp(-(*depth + inner));
+                const float Ti = inner > 0.0f ? Tin * exp(-inner) : Tin;
                 if (Ti < 1e-9f) break;
-                const float di = a * w + fog_depth_piece(F, f, base, x, y, above);
+                const float sx = fog_sigma(F, f, base, x);
+                const float di = m == 1 ? Phi : a * w + fog_depth_piece(F, f, base, x, y, true);
                 float Ji;
                 if (di > 1.0f) {
                     /* Opaque within the sub-interval: the light comes from its front. */
-                    Ji = -expm1(-di) / (a + fog_sigma(F, f, base, x));
+                    Ji = -expm1(-di) / (a + sx);
                 } else {
-                    const float xa = x + g0 * w, xb = x + 0.5f * w, xc = x + g2 * w;
-                    Ji = w * ((5.0f / 18.0f) * exp(-(a * (xa - x) + fog_depth_piece(F, f, base, x, xa, above))) +
-                              (8.0f / 18.0f) * exp(-(a * (xb - x) + fog_depth_piece(F, f, base, x, xb, above))) +
-                              (5.0f / 18.0f) * exp(-(a * (xc - x) + fog_depth_piece(F, f, base, x, xc, above))));
+                    const float da = g0 * w, db = 0.5f * w, dc = g2 * w;
+                    Ji = w * ((5.0f / 18.0f) * exp(-(a * da + fog_sub_depth(F, f, base, sx, ks, x, da))) +
+                              (8.0f / 18.0f) * exp(-(a * db + fog_sub_depth(F, f, base, sx, ks, x, db))) +
+                              (5.0f / 18.0f) * exp(-(a * dc + fog_sub_depth(F, f, base, sx, ks, x, dc))));
                 }
                 *J += Ti * Ji;
                 inner += di;

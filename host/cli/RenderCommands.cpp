@@ -356,8 +356,7 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     cmd->callback([a, &global] {
         if (a->out.empty() && !a->explain) throw UsageError("render: give -o/--output (or --explain)");
         Scene scene = a->scene.build();
-        if (a->budgetMs != 0.0) scene.budgetMs = a->budgetMs;
-        scene.validate();
+        if (a->budgetMs != 0.0) scene.budgetMs = a->budgetMs; // checked with the scene by the renderer
         if (!a->out.empty()) {
             outputExtension(a->out); // refuse a bad output name before any work
             checkNotSameFile(scene.volume, a->out);
