@@ -170,13 +170,21 @@ BudgetChoice fitBudget(VolumeRenderer& r, double budgetMs, const std::vector<Bud
     };
     double predicted = 0.0;
     double v = solve(probes[0], probes[1], predicted);
-    double ms = 0.0;
+    struct Try {
+        double v, predicted, ms;
+    };
+    std::vector<Try> tries;
     for (int it = 0; it < 4; ++it) {
         k.set(s, v);
-        ms = timeScene(r, s, runs);
+        const double ms = timeScene(r, s, runs);
+        tries.push_back({v, predicted, ms});
         c.notes.push_back("try " + k.name + " " + fixed(v, 4) + ": predicted " + fixed(predicted, 2) +
                           " ms, measured " + fixed(ms, 2) + " ms");
-        if (std::abs(ms - budgetMs) <= 0.05 * budgetMs || v == k.lo || v == k.hi) break;
+        if (std::abs(ms - budgetMs) <= 0.05 * budgetMs) break;
+        // At the knob's fast end and still too slow, or its accurate end and still too fast: nothing to gain.
+        const bool fastEnd = k.costExponent < 0 ? v == k.hi : v == k.lo;
+        const bool slowEnd = k.costExponent < 0 ? v == k.lo : v == k.hi;
+        if ((fastEnd && ms > budgetMs) || (slowEnd && ms < budgetMs)) break;
         // Refit through this frame and the probe closest to the budget.
         probes.push_back({v, ms});
         std::sort(probes.begin(), probes.end(), [&](const Probe& a, const Probe& b) {
@@ -188,12 +196,28 @@ BudgetChoice fitBudget(VolumeRenderer& r, double budgetMs, const std::vector<Bud
         v = nv;
         predicted = pr;
     }
-    if (ms > 1.2 * budgetMs && v == k.hi)
-        c.notes.push_back("the budget is below this scene's fixed cost: " + k.name + " at its largest value");
+    // The measured frame closest to the budget is the choice; the renderer is left on it.
+    const Try best = *std::min_element(tries.begin(), tries.end(), [&](const Try& a, const Try& b) {
+        return std::abs(a.ms - budgetMs) < std::abs(b.ms - budgetMs);
+    });
+    v = best.v;
+    const double ms = best.ms;
+    if (best.v != tries.back().v) {
+        k.set(s, v);
+        r.setScene(s);
+    }
+    const bool atFastEnd = k.costExponent < 0 ? v == k.hi : v == k.lo;
+    if (ms > 1.2 * budgetMs && atFastEnd)
+        c.notes.push_back("the budget is below this scene's fixed cost: " + k.name + " at its fastest value");
     c.value = v;
-    c.predictedMs = predicted;
+    c.predictedMs = best.predicted;
     c.measuredMs = ms;
-    c.expectedError = C * std::pow(v, p);
+    // RGBA lies in [0, 1]: an RMSE above 1 only says the law was extrapolated past its range.
+    c.expectedError = std::min(C * std::pow(v, p), 1.0);
+    const double vMin = std::min(v0, v1), vMax = std::max(v0, v1);
+    if (v < 0.25 * vMin || v > 4.0 * vMax)
+        c.notes.push_back("expected error extrapolated from probes at " + fixed(vMin, 4) + ".." + fixed(vMax, 4) +
+                          ": far outside them the step^2 law is only a trend");
     return c;
 }
 
