@@ -485,6 +485,16 @@ TEST(Fog, BadParametersAreRefused) {
     refused(R"({"density": 0.1, "height_map": "m.png", "up": [0, 1, 1]})", "effects.fog.height_map");
     refused(R"({"density": 0.1, "falloff": 1e400})", "invalid JSON"); // beyond double: refused while parsing
     refused(R"({"density": 0.1, "colour": [1, 1, 1]})", "colour");
+    // From a scene file the error names the file.
+    const auto sceneDir = volcl::test::tempDir("fog_bad_scene");
+    volcl::test::writeFile(sceneDir / "bad.json", R"({"effects": {"fog": {"density": -3}}})");
+    try {
+        Scene::fromFile(sceneDir / "bad.json");
+        ADD_FAILURE() << "accepted a negative density from a file";
+    } catch (const UsageError& e) {
+        EXPECT_NE(std::string(e.what()).find("bad.json"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("effects.fog.density"), std::string::npos) << e.what();
+    }
     // NaN cannot be written in JSON; from the API it is refused the same way.
     const double nan = std::numeric_limits<double>::quiet_NaN();
     for (int field = 0; field < 4; ++field) {

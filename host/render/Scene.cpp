@@ -148,6 +148,8 @@ MipColor parseMipColor(std::string_view s) {
 
 namespace {
 
+void validateFog(const FogEffect& f);
+
 FogEffect parseFog(const json& f, const std::filesystem::path& baseDir) {
     checkKeys(f, "effects.fog", {"density", "base", "falloff", "color", "up", "box", "height_map", "height_range"});
     FogEffect fog;
@@ -169,6 +171,7 @@ FogEffect parseFog(const json& f, const std::filesystem::path& baseDir) {
         fog.heightMap = p.is_relative() && !baseDir.empty() ? baseDir / p : p;
     }
     if (f.contains("height_range")) fog.heightRange = vec<2>(f["height_range"], "effects.fog.height_range");
+    validateFog(fog);
     return fog;
 }
 
@@ -444,6 +447,35 @@ std::string Scene::toJson() const {
 
 namespace {
 std::string shortNumber(double v);
+
+/// The fog's own ranges (also checked while a scene file is read, so the error names the file).
+void validateFog(const FogEffect& f) {
+    auto need = [](bool ok, const std::string& msg) {
+        if (!ok) throw UsageError("scene: " + msg);
+    };
+    // NaN fails every comparison, so each test below also refuses it.
+    need(f.density >= 0.0 && f.density <= 1e30, "effects.fog.density must be in [0, 1e30] (got " +
+                                                     shortNumber(f.density) + ")");
+    need(f.falloff >= 0.0 && f.falloff <= 1e30,
+         "effects.fog.falloff must be in [0, 1e30] (0: no fog above the base; got " + shortNumber(f.falloff) + ")");
+    need(std::isfinite(f.base) && std::abs(f.base) <= 1e30, "effects.fog.base must be finite");
+    for (double c : f.color)
+        need(c >= 0.0 && c <= 1e30, "effects.fog.color values must be >= 0 (and finite)");
+    need(std::isfinite(norm(f.up)) && norm(f.up) > 0.0, "effects.fog.up must be non-zero");
+    if (f.box)
+        for (int a = 0; a < 3; ++a)
+            need(std::isfinite(f.box->origin[a]) && f.box->extent[a] >= 0.0 && std::isfinite(f.box->extent[a]),
+                 "effects.fog.box must be [[x0, y0, z0], [x1, y1, z1]] with x0 <= x1, y0 <= y1, z0 <= z1");
+    if (f.heightRange)
+        need(std::isfinite((*f.heightRange)[0]) && std::isfinite((*f.heightRange)[1]),
+             "effects.fog.height_range must be finite");
+    if (!f.heightMap.empty()) {
+        int axes = 0;
+        for (double c : f.up)
+            axes += c != 0.0 ? 1 : 0;
+        need(axes == 1, "effects.fog.height_map needs effects.fog.up along a coordinate axis");
+    }
+}
 } // namespace
 
 void Scene::validate() const {
@@ -502,31 +534,7 @@ void Scene::validate() const {
         for (double c : i.rgba)
             need(c >= 0.0 && c <= 1.0, "iso-surface colour values must be in [0, 1]");
     if (mode == RenderMode::Iso) need(!e.isosurfaces.empty(), "mode iso needs effects.isosurfaces");
-    if (e.fog.enabled) {
-        const FogEffect& f = e.fog;
-        // NaN fails every comparison, so each test below also refuses it.
-        need(f.density >= 0.0 && f.density <= 1e30, "effects.fog.density must be in [0, 1e30] (got " +
-                                                         shortNumber(f.density) + ")");
-        need(f.falloff >= 0.0 && f.falloff <= 1e30,
-             "effects.fog.falloff must be in [0, 1e30] (0: no fog above the base; got " + shortNumber(f.falloff) + ")");
-        need(std::isfinite(f.base) && std::abs(f.base) <= 1e30, "effects.fog.base must be finite");
-        for (double c : f.color)
-            need(c >= 0.0 && c <= 1e30, "effects.fog.color values must be >= 0 (and finite)");
-        need(std::isfinite(norm(f.up)) && norm(f.up) > 0.0, "effects.fog.up must be non-zero");
-        if (f.box)
-            for (int a = 0; a < 3; ++a)
-                need(std::isfinite(f.box->origin[a]) && f.box->extent[a] >= 0.0 && std::isfinite(f.box->extent[a]),
-                     "effects.fog.box must be [[x0, y0, z0], [x1, y1, z1]] with x0 <= x1, y0 <= y1, z0 <= z1");
-        if (f.heightRange)
-            need(std::isfinite((*f.heightRange)[0]) && std::isfinite((*f.heightRange)[1]),
-                 "effects.fog.height_range must be finite");
-        if (!f.heightMap.empty()) {
-            int axes = 0;
-            for (double c : f.up)
-                axes += c != 0.0 ? 1 : 0;
-            need(axes == 1, "effects.fog.height_map needs effects.fog.up along a coordinate axis");
-        }
-    }
+    if (e.fog.enabled) validateFog(e.fog);
 }
 
 std::vector<std::string> applyLightingDefaults(Scene& scene) {
