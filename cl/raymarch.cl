@@ -438,6 +438,13 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
     RayPacket rp;
     LaneF ox, oy, oz, dx, dy, dz, enter, exit;
     LaneI nsegL, act;
+#ifdef FOG
+    FogRay fr[RAY_LANES];
+    float3 fo[RAY_LANES], fd[RAY_LANES];
+    LaneF fR, fG, fB, fTT;
+#else
+    (void)fogMap;
+#endif
     _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
         const uint x = x0 + (uint)(l % PACKET_W), y = y0 + (uint)(l / PACKET_W);
         const Ray r = grid_ray(&P->grid, camera_ray_world(&P->camera, min(x, params.camera.width - 1), min(y, params.camera.height - 1)));
@@ -452,6 +459,18 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
         exit.a[l] = on ? span.y : 0.0f;
         nsegL.a[l] = on ? max((int)ceil((span.y - span.x) / P->march.step), 1) : 0;
         act.a[l] = on ? -1 : 0;
+#ifdef FOG
+        /* Per lane: the fog's ray, and the fog in front of the volume (or all of it when the volume is missed). */
+        fo[l] = r.oWorld;
+        fd[l] = r.dWorld;
+        fr[l] = fog_ray(&P->fog, r.oWorld, r.dWorld);
+        float3 frgb = (float3)(0.0f);
+        float fT = 1.0f;
+        if (x < params.camera.width && y < params.camera.height && fr[l].span.y > fr[l].span.x)
+            fog_only(&P->fog, fogMap, &fr[l], r.oWorld, r.dWorld, fr[l].span.x,
+                     on ? fmin(fr[l].span.y, span.x) : fr[l].span.y, &frgb, &fT);
+        fR.a[l] = frgb.x; fG.a[l] = frgb.y; fB.a[l] = frgb.z; fTT.a[l] = fT;
+#endif
     }
     rp.ox = ox.v; rp.oy = oy.v; rp.oz = oz.v; rp.dx = dx.v; rp.dy = dy.v; rp.dz = dz.v;
     const float8 tEnter = enter.v, tExit = exit.v;
@@ -459,7 +478,11 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
     const float step = P->march.step;
     int8 active = act.v;
     int8 k = (int8)(0);
+#ifdef FOG
+    float8 cr = fR.v, cg = fG.v, cb = fB.v, T = fTT.v;
+#else
     float8 cr = (float8)(0.0f), cg = (float8)(0.0f), cb = (float8)(0.0f), T = (float8)(1.0f);
+#endif
 #if PREINT != 0
     float8 sPrev = sample_packet(vol, &P->grid, &rp, tEnter);
 #endif
@@ -481,6 +504,22 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
             const int8 j = min(convert_int8(floor((exitT - tEnter) / step)), nseg);
             const int8 jump = need & empty.v & (j > k);
             if (any(jump)) {
+#ifdef FOG
+                {
+                    LaneI jl, jj, kk;
+                    LaneF t0l, tx, R, G, Bq, TT;
+                    jl.v = jump; jj.v = j; kk.v = k; t0l.v = t0; tx.v = tExit;
+                    R.v = cr; G.v = cg; Bq.v = cb; TT.v = T;
+                    _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
+                        if (!jl.a[l]) continue;
+                        const float tj = jj.a[l] >= nsegL.a[l] ? tx.a[l] : fmin(enter.a[l] + (float)jj.a[l] * step, tx.a[l]);
+                        float3 c3 = (float3)(R.a[l], G.a[l], Bq.a[l]);
+                        fog_only(&P->fog, fogMap, &fr[l], fo[l], fd[l], t0l.a[l], tj, &c3, &TT.a[l]);
+                        R.a[l] = c3.x; G.a[l] = c3.y; Bq.a[l] = c3.z;
+                    }
+                    cr = R.v; cg = G.v; cb = Bq.v; T = TT.v;
+                }
+#endif
                 k = select(k, j, jump);
                 active &= k < nseg;
                 t0 = tEnter + convert_float8(k) * step;
@@ -510,16 +549,58 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
         const float8 wr = T * er.v, wg = T * eg.v, wb = T * eb.v;
         sPrev = sNext;
 #endif
+#ifdef FOG
+        {
+            /* The fog over each lane's step, composited with the segment (fog.h), lane by lane. */
+            LaneI al;
+            LaneF t0l, t1l, R, G, Bq, TT;
+            al.v = active; t0l.v = t0; t1l.v = t1;
+            R.v = cr; G.v = cg; Bq.v = cb; TT.v = T;
+            _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
+                if (!al.a[l]) continue;
+                float3 c3 = (float3)(R.a[l], G.a[l], Bq.a[l]);
+#if PREINT == 0
+                const float tauV = ea.a[l];
+                const float3 cv = (float3)(er.a[l], eg.a[l], eb.a[l]);
+#else
+                const float av = clamp(ea.a[l], 0.0f, 1.0f - 1e-7f);
+                const float tauV = av > 0.0f ? -log1p(-av) / (t1l.a[l] - t0l.a[l]) : 0.0f;
+                const float3 cv = av > 0.0f ? (float3)(er.a[l], eg.a[l], eb.a[l]) / ea.a[l] : (float3)(0.0f);
+#endif
+                fog_with_segment(&P->fog, fogMap, &fr[l], fo[l], fd[l], t0l.a[l], t1l.a[l], tauV, cv, &c3, &TT.a[l]);
+                R.a[l] = c3.x; G.a[l] = c3.y; Bq.a[l] = c3.z;
+            }
+            cr = R.v; cg = G.v; cb = Bq.v; T = TT.v;
+            (void)wr; (void)wg; (void)wb; (void)a;
+        }
+#else
         cr = select(cr, cr + wr, active);
         cg = select(cg, cg + wg, active);
         cb = select(cb, cb + wb, active);
         T = select(T, T * (1.0f - a), active);
+#endif
         k -= active; /* active lanes are -1 */
         active &= k < nseg;
 #ifdef EARLY_TERMINATION
         active &= !(1.0f - T >= P->march.earlyTermination);
 #endif
     }
+#ifdef FOG
+    {
+        LaneF R, G, Bq, TT, tx;
+        R.v = cr; G.v = cg; Bq.v = cb; TT.v = T; tx.v = tExit;
+        _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
+            if (nsegL.a[l] == 0 || !(fr[l].span.y > fr[l].span.x)) continue; /* missed volume: all done up front */
+#ifdef EARLY_TERMINATION
+            if (1.0f - TT.a[l] >= P->march.earlyTermination) continue;
+#endif
+            float3 c3 = (float3)(R.a[l], G.a[l], Bq.a[l]);
+            fog_only(&P->fog, fogMap, &fr[l], fo[l], fd[l], fmax(fr[l].span.x, tx.a[l]), fr[l].span.y, &c3, &TT.a[l]);
+            R.a[l] = c3.x; G.a[l] = c3.y; Bq.a[l] = c3.z;
+        }
+        cr = R.v; cg = G.v; cb = Bq.v; T = TT.v;
+    }
+#endif
     LaneF R, G, Bc, A;
     R.v = cr; G.v = cg; Bc.v = cb; A.v = 1.0f - T;
     _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {

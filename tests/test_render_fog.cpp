@@ -215,6 +215,20 @@ void checkAgainstOracle(const Oracle& o, double tol, bool preint = true, bool re
             EXPECT_LE(pre, tol) << "pre-integrated";
             std::cout << ", 2D pre-integrated " << pre;
         }
+        {
+            // The scalar kernel too (unlit scenes run as 8-ray packets): shading on a constant field has no
+            // normal, so ambient 0.5 + diffuse 0.5 under a unit light leaves every colour as it is.
+            Scene l = s;
+            l.lights = {{LightKind::Directional, {0.3, 0.5, -0.8}, {1, 1, 1}, 1.0}};
+            l.effects.shading = true;
+            l.effects.ambient = 0.5;
+            l.effects.diffuse = 0.5;
+            GridRenderer rl(computeContext(), vol, tf, l);
+            ASSERT_TRUE(rl.plan().shading) << rl.plan().explain();
+            const double scalar = maxDiff(rl.render(), l, o);
+            EXPECT_LE(scalar, tol) << "scalar kernel";
+            std::cout << ", scalar kernel " << scalar;
+        }
         if (reference) {
             const double ref = maxDiff(referenceRender(vol, tf, s, {0.02, 0}), s, o);
             EXPECT_LE(ref, tol) << "reference";

@@ -343,8 +343,7 @@ void GridRenderer::rebuild(bool tfChanged) {
     m.empty = cc_.upload(m.emptyHost, CL_MEM_READ_ONLY);
 
     // Unlit DVR without iso-surfaces (the common, time-critical case) runs as explicit 8-ray packets.
-    m.packet = scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty() &&
-               !plan_.fog;
+    m.packet = scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
     m.kernel = cc_.kernel("raymarch.cl", m.packet ? "raymarch_packet" : "raymarch",
                           m.packet ? packetDefines(plan_.defines, spline || smoothedLinear) : plan_.defines);
     m.params =
