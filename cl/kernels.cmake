@@ -8,6 +8,7 @@ set(VOLCL_KERNEL_FILES
   common/shading.h
   common/tf_lookup.h
   common/grid_sample.h
+  common/counter_rng.h
   phantoms.cl
   copy.cl
   tf_sample.cl
@@ -15,6 +16,7 @@ set(VOLCL_KERNEL_FILES
   raymarch_iso_sampled.h
   raymarch.cl
   raymarch_plain.cl
+  pathtrace.cl
   lifting_common.h
   lifting.cl
   lifting_brick.cl

@@ -13,7 +13,7 @@
    ISO_COUNT     iso-surfaces composited in ray order (iso mode, or mixed into dvr)
    SHADING       Blinn-Phong with lighting.lightCount lights (GRADIENT_SOBEL: Sobel instead of central differences)
    SHADOWS       transmittance to each light by secondary marching
-   SCATTERING    single scattering, Henyey-Greenstein phase
+   SCATTERING    single scattering, Henyey-Greenstein phase (NO_EMISSION: the TF colour only tints the scattered light)
    CLIPPING      clip.count clipping planes
    FILTER_BSPLINE  cubic B-spline samples and analytic gradients (the volume buffer holds its coefficients)
    MIP_COLOR     0 windowed grey, 1 TF colour brightened by the window, 2 TF colour and opacity */

@@ -87,7 +87,7 @@ inline float3 light_finish(const LightSum* s, const VolclLightingParams* Lp, flo
     float3 out = (float3)(0.0f);
 #ifdef SHADING
     out += c * (Lp->ambient + Lp->diffuse * s->diffuse) + Lp->specular * s->specular;
-#else
+#elif !defined(NO_EMISSION) /* NO_EMISSION: a purely scattering medium (effects.scattering.emission false) */
     out += c;
 #endif
 #ifdef SCATTERING

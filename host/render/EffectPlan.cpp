@@ -131,7 +131,48 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
             p.dropped.push_back("gradient sobel: nothing uses gradients");
         }
     }
-    if (fx.scattering) {
+    const bool multiple = fx.scattering && fx.scatteringOrder == ScatteringOrder::Multiple;
+    const bool skyLit = fx.environment[0] > 0.0 || fx.environment[1] > 0.0 || fx.environment[2] > 0.0;
+    if (multiple) {
+        if (fx.albedo <= 0.0 && !fx.emission)
+            p.dropped.push_back("scattering: albedo 0 and no emission");
+        else if (mode != RenderMode::Dvr)
+            p.dropped.push_back("scattering multiple: mode " + modeName + " is not dvr");
+        else if (fx.albedo > 0.0 && !canLight && !skyLit)
+            p.dropped.push_back("scattering: " + noLight + " and no environment");
+        else {
+            // The path tracer is its own kernel: nothing the ray marcher compiled so far applies.
+            EffectPlan q;
+            q.dropped = p.dropped;
+            p = std::move(q);
+            p.defines.set("MODE", 0LL);
+            p.compiled.push_back("mode dvr");
+            p.pathTracing = true;
+            p.scattering = true;
+            p.skipping = true;
+            p.defines.set("PATH_TRACE");
+            p.compiled.push_back(
+                "scattering: multiple, Monte Carlo path tracer (delta tracking on the macrocell majorants, "
+                "next-event estimation), " + std::to_string(fx.samples) + " samples/pixel, up to " +
+                std::to_string(fx.maxBounces) + " bounces, Henyey-Greenstein g " + fmt(fx.phaseG) + ", albedo " +
+                fmt(fx.albedo) + ", seed " + std::to_string(fx.seed) + (fx.emission ? "" : ", no emission") +
+                (skyLit ? ", environment " + fmt(fx.environment[0]) + "," + fmt(fx.environment[1]) + "," +
+                              fmt(fx.environment[2])
+                        : ""));
+            if (fx.shading) p.dropped.push_back("shading: the path tracer lights the medium itself");
+            if (scene.filter != ReconstructionFilter::Linear || scene.smoothing > 0.0)
+                p.dropped.push_back("filter: the path tracer reads the voxels trilinearly");
+            if (scene.earlyTermination < 1.0)
+                p.dropped.push_back("early termination: paths end by leaving the volume or Russian roulette");
+            if (fx.shadows) p.dropped.push_back("shadows: the path tracer traces its own shadow rays");
+            if (!fx.clipPlanes.empty()) p.dropped.push_back("clip planes: the path tracer does not clip");
+            if (!fx.isosurfaces.empty()) p.dropped.push_back("isosurfaces: the path tracer draws no surfaces");
+            if (scene.preintegration != Preintegration::None)
+                p.dropped.push_back("pre-integration: the path tracer samples free paths, not segments");
+            return p;
+        }
+    }
+    if (fx.scattering && !multiple) {
         if (fx.albedo <= 0.0)
             p.dropped.push_back("scattering: albedo 0");
         else if (!canLight)
@@ -141,6 +182,14 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
             p.defines.set("SCATTERING");
             p.compiled.push_back("scattering: single, Henyey-Greenstein g " + fmt(fx.phaseG) + ", albedo " +
                                  fmt(fx.albedo));
+            if (!fx.emission) {
+                if (p.shading)
+                    p.dropped.push_back("emission false: shading lights the TF colour as a surface colour");
+                else {
+                    p.defines.set("NO_EMISSION");
+                    p.compiled.push_back("no emission: the medium only scatters");
+                }
+            }
         }
     }
     if (fx.shadows) {

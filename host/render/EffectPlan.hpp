@@ -18,6 +18,7 @@ struct EffectPlan {
     std::vector<std::string> dropped;  ///< "shadows: no light in the scene"
     bool shading = false, shadows = false, scattering = false, clipping = false, skipping = false;
     bool earlyTermination = false, sobel = false;
+    bool pathTracing = false;          ///< multiple scattering: the path tracer renders the frame
     double colorScale = 1.0;           ///< ambient-only shading folded into the TF colours
     std::vector<IsoLayer> isosurfaces; ///< the ones that can appear
     std::vector<ClipPlane> clipPlanes; ///< the ones that cut the data's box

@@ -84,7 +84,7 @@ public:
             }
             if (scattering_) scattered = add(scattered, scale(lc, vis * phase(dot(L, ray.direction))));
         }
-        Vec3 out = c;
+        Vec3 out = scattering_ && !fx_.emission && !shading_ ? Vec3{0, 0, 0} : c;
         if (shading_)
             out = add(mul(c, add(Vec3{fx_.ambient, fx_.ambient, fx_.ambient}, scale(diffuse, fx_.diffuse))),
                       scale(specular, fx_.specular));

@@ -61,6 +61,13 @@ public:
     /// "macrocells: N, x% empty".
     std::string statistics() const override;
 
+    /// Multiple scattering, progressively: adds `samples` path-tracer samples per pixel to the running mean
+    /// (outputBuffer() holds it; a camera, scene or TF change starts over) and returns the samples so far.
+    /// Throws UsageError when the plan has no path tracer.
+    int accumulateSamples(int samples);
+    /// The running mean of accumulateSamples() as an image (R, G, B, A).
+    ImageBuffer accumulatedImage();
+
     const Volume& volume() const noexcept { return volume_; }
     std::size_t macrocellCount() const noexcept;
     double emptyMacrocellFraction() const noexcept { return emptyFraction_; }
@@ -69,6 +76,7 @@ private:
     struct Impl;
     void rebuild(bool tfChanged);
     ImageBuffer launch(cl::Kernel& kernel, const cl::Buffer& voxels, bool depth, bool packet);
+    ImageBuffer readImage(bool withDepth); ///< the output buffer (and depth) as an image with attributes
     /// d plus the volume layout the packet kernels read (uploads the corner copy on first use);
     /// `floatCopy`: they read a float copy instead (the cubic filter's coefficients, or smoothed voxels).
     KernelDefines packetDefines(KernelDefines d, bool floatCopy);
