@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 #include <limits>
 
 namespace {
@@ -93,6 +94,7 @@ TEST(PathTrace, WhiteFurnaceConservesEnergyForEveryPhase) {
         for (int c = 0; c < 3; ++c) {
             const MeanDiff d = meanDiff(img, c, img, 3);
             EXPECT_LT(std::abs(d.mean), 4.0 * d.se + 2e-3) << "g " << g << " channel " << c << " se " << d.se;
+            if (c == 0) std::cout << "furnace g " << g << ": mean(rgb - a) " << d.mean << ", SE " << d.se << '\n';
         }
         EXPECT_GT(img.at(4, 4, 3), 0.95f); // the medium is thick: the furnace test is not trivial
         // Albedo 0.5 absorbs: clearly less comes out than goes in.
@@ -157,10 +159,44 @@ TEST(PathTrace, OneBounceEqualsSingleScattering) {
         EXPECT_LT(std::abs(d.mean), 4.0 * d.se + 1e-3) << "channel " << c << " se " << d.se;
     }
     EXPECT_LT(imageRmse(img, ref), 0.02);
+    std::cout << "one bounce vs single scattering: RMSE " << imageRmse(img, ref) << ", mean R diff "
+              << meanDiff(img, 0, ref, 0).mean << " (SE " << meanDiff(img, 0, ref, 0).se << ")\n";
     // More bounces add light.
     pt.effects.maxBounces = 64;
     r.setScene(pt);
     EXPECT_GT(meanDiff(r.render(), 0, img, 0).mean, 0.005);
+}
+
+// The octave approximation of multiple scattering: kernel against the double reference, and closer to the
+// path tracer's multiple scattering than single scattering is.
+TEST(PathTrace, OctaveApproximationMatchesReferenceAndBeatsSingle) {
+    const Dims n{17, 17, 17};
+    const Volume v = ball(n, 8.0);
+    const TransferFunction tf = rampTf(0.8, {1, 1, 1});
+    Scene s = orthoScene(n, 16.0, 8, 8);
+    s.step = 0.05;
+    s.lights = {Light{LightKind::Directional, {0.4, 0.6, -0.7}, {1, 1, 1}, 2.0}};
+    s.effects.scattering = true;
+    s.effects.albedo = 0.95;
+    s.effects.phaseG = 0.5;
+    s.effects.emission = false;
+    s.effects.shadows = true;
+    s.effects.shadowStep = 0.05;
+    const ImageBuffer single = Renderer(computeContext(), v, tf, s).render();
+    Scene oct = s;
+    oct.effects.octaves = 4;
+    Renderer r(computeContext(), v, tf, oct);
+    EXPECT_NE(r.plan().defines.toOptions().find("-DMS_OCTAVES=4"), std::string::npos);
+    const ImageBuffer approx = r.render();
+    EXPECT_LT(imageRmse(approx, referenceRender(v, tf, oct, {.step = 0.05})), 3e-3);
+    Scene pt = s;
+    pt.effects.scatteringOrder = ScatteringOrder::Multiple;
+    pt.effects.samples = 512;
+    const ImageBuffer multiple = Renderer(computeContext(), v, tf, pt).render();
+    std::cout << "against the path tracer: octaves(4) RMSE " << imageRmse(approx, multiple) << ", single "
+              << imageRmse(single, multiple) << '\n';
+    EXPECT_LT(imageRmse(approx, multiple), imageRmse(single, multiple))
+        << "octaves " << imageRmse(approx, multiple) << ", single " << imageRmse(single, multiple);
 }
 
 // Kernel and double reference draw the same random stream: their images agree within Monte Carlo error
@@ -189,6 +225,7 @@ TEST(PathTrace, KernelMatchesDoubleReference) {
     other.effects.seed = 77;
     r.setScene(other);
     const double noise = imageRmse(img, r.render()), gap = imageRmse(img, ref);
+    std::cout << "kernel vs reference: same-seed RMSE " << gap << ", other-seed RMSE " << noise << '\n';
     EXPECT_LT(gap, 0.8 * noise) << "same-seed RMSE " << gap << ", other-seed RMSE " << noise;
 }
 
@@ -212,6 +249,8 @@ TEST(PathTrace, RmseFallsAsInverseSquareRootOfSamples) {
         logE.push_back(std::log(imageRmse(r.render(), converged)));
     }
     const double slope = (logE[2] - logE[0]) / (logN[2] - logN[0]);
+    std::cout << "convergence: RMSE " << std::exp(logE[0]) << ", " << std::exp(logE[1]) << ", " << std::exp(logE[2])
+              << " at 4, 16, 64 spp; slope " << slope << '\n';
     EXPECT_NEAR(slope, -0.5, 0.12) << "rmse " << std::exp(logE[0]) << " " << std::exp(logE[1]) << " "
                                    << std::exp(logE[2]);
 }

@@ -16,7 +16,7 @@ struct ScatterBenchOptions {
     int referenceSamples = 1024;     ///< samples per pixel of the converged reference
     int maxSamples = 256;            ///< largest sample count of the convergence sweep (powers of 2 from 1)
     std::filesystem::path csv;       ///< rows: variant, samples, ms, cost, rmse (empty: none)
-    std::filesystem::path imageDir;  ///< EXR images of every variant (empty: none)
+    std::filesystem::path imageDir;  ///< EXR and PNG (over the background) of every variant (empty: none)
 };
 
 /// The scene's scattering (or, when it asks for none, a cloud-like medium: albedo 0.95, g 0.6, no emission,

@@ -182,6 +182,11 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
             p.defines.set("SCATTERING");
             p.compiled.push_back("scattering: single, Henyey-Greenstein g " + fmt(fx.phaseG) + ", albedo " +
                                  fmt(fx.albedo));
+            if (fx.octaves > 0) {
+                p.defines.set("MS_OCTAVES", static_cast<long long>(fx.octaves));
+                p.compiled.push_back("multiple scattering approximated by " + std::to_string(fx.octaves) +
+                                     " octaves (light a^k through depth b^k, phase c^k g; a = b = c = 1/2)");
+            }
             if (!fx.emission) {
                 if (p.shading)
                     p.dropped.push_back("emission false: shading lights the TF colour as a surface colour");

@@ -274,7 +274,7 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
         if (e.contains("scattering")) {
             const json& sc = e["scattering"];
             checkKeys(sc, "effects.scattering",
-                      {"albedo", "g", "order", "samples", "bounces", "seed", "environment", "emission"});
+                      {"albedo", "g", "order", "samples", "bounces", "seed", "environment", "emission", "octaves"});
             fx.scattering = true;
             if (sc.contains("albedo")) fx.albedo = num(sc["albedo"], "effects.scattering.albedo");
             if (sc.contains("g")) fx.phaseG = num(sc["g"], "effects.scattering.g");
@@ -300,6 +300,7 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
             if (sc.contains("environment"))
                 fx.environment = vec<3>(sc["environment"], "effects.scattering.environment");
             if (sc.contains("emission")) fx.emission = flag(sc["emission"], "effects.scattering.emission");
+            if (sc.contains("octaves")) fx.octaves = int(count("octaves", 0, 8));
         }
         if (e.contains("clip_planes")) {
             if (!e["clip_planes"].is_array())
@@ -401,6 +402,8 @@ std::string Scene::toJson() const {
     e["shadow_step"] = effects.shadowStep;
     if (effects.scattering) {
         e["scattering"] = {{"albedo", effects.albedo}, {"g", effects.phaseG}};
+        if (!effects.emission) e["scattering"]["emission"] = false;
+        if (effects.octaves > 0) e["scattering"]["octaves"] = effects.octaves;
         if (effects.scatteringOrder == ScatteringOrder::Multiple) {
             json& sc = e["scattering"];
             sc["order"] = "multiple";
@@ -474,6 +477,7 @@ void Scene::validate() const {
     need(e.phaseG > -1.0 && e.phaseG < 1.0, "effects.scattering.g must be in (-1, 1)");
     need(e.samples >= 1 && e.samples <= (1 << 20), "effects.scattering.samples must be in [1, 1048576]");
     need(e.maxBounces >= 1 && e.maxBounces <= 4096, "effects.scattering.bounces must be in [1, 4096]");
+    need(e.octaves >= 0 && e.octaves <= 8, "effects.scattering.octaves must be in [0, 8]");
     for (double c : e.environment)
         need(std::isfinite(c) && c >= 0.0, "effects.scattering.environment must be finite and >= 0");
     need(e.clipPlanes.size() <= 4, "at most 4 clipping planes");

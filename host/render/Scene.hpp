@@ -94,7 +94,8 @@ struct SceneEffects {
     int maxBounces = 64;     ///< path tracer: scattering events per path
     std::uint32_t seed = 1;  ///< path tracer: same seed, same image
     Vec3 environment{0, 0, 0}; ///< path tracer: radiance of a uniform sky around the volume
-    bool emission = true;    ///< path tracer: the TF's emission c * tau adds to the scattered light
+    bool emission = true;    ///< the TF's emission c * tau adds to the scattered light
+    int octaves = 0;         ///< single scattering: > 0 approximates multiple scattering by that many octaves
     std::vector<ClipPlane> clipPlanes;
     std::vector<IsoLayer> isosurfaces;
 };
