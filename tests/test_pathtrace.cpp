@@ -270,6 +270,12 @@ TEST(PathTrace, SameSeedSameImageAndProgressiveEqualsOneShot) {
     EXPECT_EQ(r.accumulateSamples(4), 4);
     EXPECT_EQ(r.accumulateSamples(4), 8);
     EXPECT_EQ(r.accumulatedImage().pixels, a.pixels);
+    // Through the renderer interface (what the viewer calls): the same view keeps accumulating.
+    r.setScene(s);
+    VolumeRenderer& vr = r;
+    vr.renderProgressive(4);
+    r.setView(*s.camera, s.width, s.height, s.step);
+    EXPECT_EQ(vr.renderProgressive(4).pixels, a.pixels);
     s.effects.seed = 2;
     r.setScene(s);
     EXPECT_NE(r.render().pixels, a.pixels);

@@ -1,8 +1,9 @@
 #!/usr/bin/python3
-"""Plots `volcl bench render --scattering --scattering-csv` output of one or more scenes: RMSE against the
+"""Plots `volcl bench render --scatter-sweep --scatter-csv` output of one or more scenes: RMSE against the
 converged path-traced reference versus samples per pixel (with a 1/sqrt(n) line through the first point),
 and RMSE versus milliseconds per frame with the single-scattering and octave-approximation points.
-Usage: plot_scattering.py out.png name=file.csv [name=file.csv ...]"""
+Usage: plot_scattering.py out.png name=file.csv [name=file.csv ...]
+       plot_scattering.py --panel out.png IMAGE_DIR   (the --scatter-images PNGs side by side)"""
 import csv
 import math
 import sys
@@ -42,5 +43,28 @@ def main(png_path, inputs):
     fig.savefig(png_path, dpi=110)
 
 
+def panel(png_path, image_dir):
+    import glob
+    import os
+    names = [("plain", "plain (emission-absorption)"), ("single", "single scattering"),
+             ("octaves4", "single + 4 octaves"), ("multiple_1spp", "path tracer, 1 spp"),
+             ("multiple_16spp", "path tracer, 16 spp")]
+    last = sorted(glob.glob(os.path.join(image_dir, "multiple_*spp.png")),
+                  key=lambda p: int(os.path.basename(p)[9:-7]))[-1]
+    names.append((os.path.basename(last)[:-4], "path tracer, " + os.path.basename(last)[9:-7] + " spp"))
+    names.append(("reference", "reference (converged)"))
+    names = [(n, t) for n, t in names if os.path.exists(os.path.join(image_dir, n + ".png"))]
+    fig, axes = plt.subplots(1, len(names), figsize=(2.6 * len(names), 2.9))
+    for ax, (n, t) in zip(axes, names):
+        ax.imshow(plt.imread(os.path.join(image_dir, n + ".png")), interpolation="nearest")
+        ax.set_title(t, fontsize=9)
+        ax.axis("off")
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=110)
+
+
 if __name__ == "__main__":
-    main(sys.argv[1], [tuple(a.split("=", 1)) for a in sys.argv[2:]])
+    if sys.argv[1] == "--panel":
+        panel(sys.argv[2], sys.argv[3])
+    else:
+        main(sys.argv[1], [tuple(a.split("=", 1)) for a in sys.argv[2:]])

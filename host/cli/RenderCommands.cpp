@@ -394,16 +394,16 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     b->add_flag("--filters", ba->filters,
                 "Reconstruction filters (linear, linear+Sobel, cubic, bspline): time, normal error on an 8-bit "
                 "sphere, terrace roughness on the scene (with --no-sweep, --csv receives these rows)");
-    b->add_flag("--scattering", ba->scattering,
+    b->add_flag("--scatter-sweep", ba->scattering,
                 "Single and multiple scattering against a converged path-traced reference: ms/frame, cost "
                 "relative to the plain frame, RMSE against samples per pixel");
     b->add_option("--reference-samples", ba->scatter.referenceSamples,
-                  "--scattering: samples per pixel of the reference")
+                  "--scatter-sweep: samples per pixel of the reference")
         ->capture_default_str();
-    b->add_option("--max-samples", ba->scatter.maxSamples, "--scattering: largest samples per pixel of the sweep")
+    b->add_option("--max-samples", ba->scatter.maxSamples, "--scatter-sweep: largest samples per pixel of the sweep")
         ->capture_default_str();
-    b->add_option("--scattering-csv", ba->scatter.csv, "--scattering: write the rows as CSV");
-    b->add_option("--scattering-images", ba->scatter.imageDir, "--scattering: write every variant's EXR here");
+    b->add_option("--scatter-csv", ba->scatter.csv, "--scatter-sweep: write the rows as CSV");
+    b->add_option("--scatter-images", ba->scatter.imageDir, "--scatter-sweep: write every variant's EXR and PNG here");
     b->add_flag("--vtk", ba->vtk, "Compare with VTK's vtkFixedPointVolumeRayCastMapper (python3-vtk9, xvfb)");
     b->add_flag("!--no-sweep", ba->sweep, "Skip the step x pre-integration x skipping sweep");
     b->add_option("--vtk-image", ba->vtkImage, "Save VTK's image (EXR) and the reference beside it");

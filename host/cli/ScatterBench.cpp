@@ -1,4 +1,4 @@
-// `volcl bench render --scattering`: plain, single-scattering and path-traced frames against a converged
+// `volcl bench render --scatter-sweep`: plain, single-scattering and path-traced frames against a converged
 // path-traced reference (time, cost ratio, RMSE against samples).
 #include "host/cli/ScatterBench.hpp"
 
@@ -17,12 +17,15 @@
 namespace volcl::cli {
 namespace {
 
-double medianFrameMs(VolumeRenderer& r, int runs) {
-    r.render(); // warm-up: kernel build excluded
+/// Median kernel milliseconds of `runs` frames after a warm-up (kernel build excluded); `last` receives the
+/// last frame.
+double medianFrameMs(VolumeRenderer& r, int runs, ImageBuffer* last = nullptr) {
+    r.render();
     std::vector<double> ms;
     for (int i = 0; i < std::max(runs, 1); ++i) {
-        r.render();
+        ImageBuffer img = r.render();
         ms.push_back(r.lastKernelMilliseconds());
+        if (last) *last = std::move(img);
     }
     return median(ms);
 }
@@ -58,7 +61,8 @@ void benchScattering(ComputeContext& cc, const RenderInput& input, const Transfe
     plain.effects = {};
     plain.lights.clear();
     const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, plain);
-    const double plainMs = medianFrameMs(*r, o.runs);
+    ImageBuffer plainImg;
+    const double plainMs = medianFrameMs(*r, o.runs, &plainImg);
 
     Scene ref = medium;
     ref.effects.scatteringOrder = ScatteringOrder::Multiple;
@@ -75,8 +79,6 @@ void benchScattering(ComputeContext& cc, const RenderInput& input, const Transfe
         double ms, rmse;
     };
     std::vector<Row> rows;
-    r->setScene(plain);
-    const ImageBuffer plainImg = r->render();
     rows.push_back({"plain (no scattering)", 0, plainMs, imageRmse(plainImg, reference)});
 
     Scene single = medium;
@@ -84,8 +86,8 @@ void benchScattering(ComputeContext& cc, const RenderInput& input, const Transfe
     single.effects.shadows = true;
     single.effects.shadowStep = 0.0; // the render step
     r->setScene(single);
-    const double singleMs = medianFrameMs(*r, o.runs);
-    const ImageBuffer singleImg = r->render();
+    ImageBuffer singleImg;
+    const double singleMs = medianFrameMs(*r, o.runs, &singleImg);
     rows.push_back({"single scattering + shadow rays", 0, singleMs, imageRmse(singleImg, reference)});
     // The fast approximation of multiple scattering: single scattering with octaves.
     ImageBuffer octaveImg;
@@ -93,8 +95,8 @@ void benchScattering(ComputeContext& cc, const RenderInput& input, const Transfe
         Scene oct = single;
         oct.effects.octaves = octaves;
         r->setScene(oct);
-        const double ms = medianFrameMs(*r, o.runs);
-        const ImageBuffer img = r->render();
+        ImageBuffer img;
+        const double ms = medianFrameMs(*r, o.runs, &img);
         rows.push_back({"single + " + std::to_string(octaves) + " octaves (approx.)", 0, ms, imageRmse(img, reference)});
         if (octaves == 4) octaveImg = img;
     }
@@ -105,8 +107,8 @@ void benchScattering(ComputeContext& cc, const RenderInput& input, const Transfe
     for (int n = 1; n <= o.maxSamples; n *= 2) {
         multi.effects.samples = n;
         r->setScene(multi);
-        const double ms = medianFrameMs(*r, n >= 64 ? 1 : o.runs);
-        const ImageBuffer img = r->render();
+        ImageBuffer img;
+        const double ms = medianFrameMs(*r, n >= 64 ? 1 : o.runs, &img);
         rows.push_back({"multiple (path tracer)", n, ms, imageRmse(img, reference)});
         if (n == 1 || n == 16 || n == o.maxSamples || 2 * n > o.maxSamples) images.emplace_back(n, img);
     }

@@ -1,4 +1,4 @@
-// `volcl bench render --scattering`: single and multiple scattering against a converged path-traced
+// `volcl bench render --scatter-sweep`: single and multiple scattering against a converged path-traced
 // reference: time per frame, cost relative to the plain frame, error against samples.
 #pragma once
 

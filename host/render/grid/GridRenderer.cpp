@@ -169,10 +169,13 @@ void GridRenderer::setView(const Camera& camera, int width, int height, double s
         return;
     }
     s.validate();
+    const bool same = camera.projection == camera_.projection && camera.eye == camera_.eye &&
+                      camera.target == camera_.target && camera.up == camera_.up && camera.height == camera_.height &&
+                      camera.fovYDeg == camera_.fovYDeg && width == scene_.width && height == scene_.height;
     scene_ = s;
     camera_ = camera;
     impl_->params.camera = cameraParams(camera_, scene_.width, scene_.height);
-    if (impl_->pathTracer) impl_->pathTracer->reset();
+    if (impl_->pathTracer && !same) impl_->pathTracer->reset(); // the same view keeps accumulating
 }
 
 void GridRenderer::setTransferFunction(const TransferFunction& tf) {
@@ -396,6 +399,12 @@ int GridRenderer::accumulateSamples(int samples) {
     }
     lastMs_ = m.pathTracer->accumulate(m.kernel, m.volume.get(), m.knots, m.params, scene_.effects, samples, m.out);
     return m.pathTracer->samplesDone();
+}
+
+ImageBuffer GridRenderer::renderProgressive(int samples) {
+    if (!plan_.pathTracing) return render();
+    accumulateSamples(samples);
+    return accumulatedImage();
 }
 
 ImageBuffer GridRenderer::accumulatedImage() {

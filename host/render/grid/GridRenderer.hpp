@@ -49,6 +49,7 @@ public:
     /// through setScene, since tables and guards depend on it.
     void setView(const Camera& camera, int width, int height, double step) override;
     ImageBuffer render() override;
+    ImageBuffer renderProgressive(int samples) override;
     /// Renders with the effect-free baseline kernel (raymarch_plain.cl); DVR, point sampling only.
     ImageBuffer renderPlainBaseline() override;
 
