@@ -8,6 +8,7 @@
 
 #include <iostream>
 #include <memory>
+#include <optional>
 
 namespace volcl::cli {
 
@@ -19,8 +20,8 @@ void addGenerateCommand(CLI::App& app, GlobalOptions& global) {
     struct Args {
         std::string output, size, preset;
         std::uint32_t seed = 1;
-        int octaves = 0;
-        double frequency = 0.0, coverage = -1.0, erosion = -1.0;
+        std::optional<int> octaves;
+        std::optional<double> frequency, coverage, erosion;
     };
     auto a = std::make_shared<Args>();
     cmd->add_option("-o,--output", a->output, "Output volume (format from the extension: .nrrd, .nii.gz, .vti, .vdb, .raw)")
@@ -37,10 +38,10 @@ void addGenerateCommand(CLI::App& app, GlobalOptions& global) {
         CloudParams p = a->preset == "roettger" ? roettgerCloudPreset() : CloudParams{};
         if (!a->size.empty()) p.dims = parseDims(a->size, "--size");
         p.seed = a->seed;
-        if (a->octaves != 0) p.octaves = a->octaves;
-        if (a->frequency != 0.0) p.frequency = a->frequency;
-        if (a->coverage >= 0.0) p.coverage = a->coverage;
-        if (a->erosion >= 0.0) p.erosion = a->erosion;
+        if (a->octaves) p.octaves = *a->octaves;
+        if (a->frequency) p.frequency = *a->frequency;
+        if (a->coverage) p.coverage = *a->coverage;
+        if (a->erosion) p.erosion = *a->erosion;
         Stopwatch sw;
         const Volume v = generateCloud(p);
         writeVolumeFile(v, a->output);
