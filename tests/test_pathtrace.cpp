@@ -6,6 +6,7 @@
 #include "host/Volume.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "host/phantoms/Cloud.hpp"
+#include "host/render/EffectPlan.hpp"
 #include "host/render/Renderer.hpp"
 #include "host/render/Scene.hpp"
 #include "host/render/grid/PathTracer.hpp"
@@ -354,6 +355,21 @@ TEST(PathTrace, RefusesBadInput) {
     EXPECT_EQ(back.effects.seed, 5u);
     EXPECT_EQ(back.effects.maxBounces, 8);
     EXPECT_FALSE(back.effects.emission);
+}
+
+// Renderers without a path tracer (the shared planner's default) fall back to single scattering and say so.
+TEST(PathTrace, PlannerFallsBackWithoutAPathTracer) {
+    Scene s = multipleScene({9, 9, 9}, 4);
+    s.lights = {Light{LightKind::Directional, {0, 0, -1}, {1, 1, 1}, 1.0}};
+    const WorldBox box{{0, 0, 0}, {8, 8, 8}};
+    const EffectPlan other = planEffects(s, box, {0.0, 1.0}, "cells");
+    EXPECT_FALSE(other.pathTracing);
+    EXPECT_TRUE(other.scattering);
+    EXPECT_NE(other.explain().find("no path tracer"), std::string::npos) << other.explain();
+    const EffectPlan grid = planEffects(s, box, {0.0, 1.0}, "cells", true);
+    EXPECT_TRUE(grid.pathTracing);
+    EXPECT_NE(grid.defines.toOptions().find("-DPATH_TRACE"), std::string::npos);
+    EXPECT_EQ(grid.defines.toOptions().find("-DSCATTERING"), std::string::npos);
 }
 
 TEST(Cloud, SeededReproducibleAnySize) {

@@ -27,7 +27,7 @@ std::string EffectPlan::explain() const {
 }
 
 EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRange& range,
-                       std::string_view skippingHow) {
+                       std::string_view skippingHow, bool canPathTrace) {
     EffectPlan p;
     const SceneEffects& fx = scene.effects;
     const RenderMode mode = scene.mode;
@@ -131,7 +131,10 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
             p.dropped.push_back("gradient sobel: nothing uses gradients");
         }
     }
-    const bool multiple = fx.scattering && fx.scatteringOrder == ScatteringOrder::Multiple;
+    const bool wantsMultiple = fx.scattering && fx.scatteringOrder == ScatteringOrder::Multiple;
+    if (wantsMultiple && !canPathTrace)
+        p.dropped.push_back("scattering order multiple: this renderer has no path tracer (single scattering instead)");
+    const bool multiple = wantsMultiple && canPathTrace;
     const bool skyLit = fx.environment[0] > 0.0 || fx.environment[1] > 0.0 || fx.environment[2] > 0.0;
     if (multiple) {
         if (fx.albedo <= 0.0 && !fx.emission)

@@ -48,7 +48,7 @@ std::string skippingHow() {
 /// renderer scans the volume once, not on every scene change (a 7M-voxel scan per adaptive-quality step
 /// change cost more than the coarse frame).
 EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& range) {
-    EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow());
+    EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow(), true);
     // The cubic filters read float spline coefficients instead of the voxels; smoothing, float voxels.
     p.defines.set("VOXEL_TYPE", scene.filter == ReconstructionFilter::Linear && scene.smoothing == 0.0
                                     ? static_cast<long long>(voxelTypeCode(volume))
