@@ -9,6 +9,7 @@ set(VOLCL_KERNEL_FILES
   common/tf_lookup.h
   common/grid_sample.h
   common/fog.h
+  common/counter_rng.h
   phantoms.cl
   copy.cl
   tf_sample.cl
@@ -16,6 +17,7 @@ set(VOLCL_KERNEL_FILES
   raymarch_iso_sampled.h
   raymarch.cl
   raymarch_plain.cl
+  pathtrace.cl
   lifting_common.h
   lifting.cl
   lifting_brick.cl

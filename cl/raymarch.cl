@@ -16,7 +16,8 @@
    ISO_COUNT     iso-surfaces composited in ray order (iso mode, or mixed into dvr)
    SHADING       Blinn-Phong with lighting.lightCount lights (GRADIENT_SOBEL: Sobel instead of central differences)
    SHADOWS       transmittance to each light by secondary marching
-   SCATTERING    single scattering, Henyey-Greenstein phase
+   SCATTERING    single scattering, Henyey-Greenstein phase (NO_EMISSION: the TF colour only tints the scattered light;
+                 MS_OCTAVES=n: multiple scattering approximated by n octaves)
    CLIPPING      clip.count clipping planes
    FILTER_BSPLINE  cubic B-spline samples and analytic gradients (the volume buffer holds its coefficients)
    MIP_COLOR     0 windowed grey, 1 TF colour brightened by the window, 2 TF colour and opacity
@@ -55,7 +56,12 @@ inline float shadow_transmittance(__global const voxel_t* vol, __global const Vo
     for (float t = span.x + 0.5f * h; t < span.y; t += h) {
         const float len = fmin(h, span.y - (t - 0.5f * h));
         depth += tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, o + t * d)).w * len;
+#ifdef MS_OCTAVES
+        /* The octaves see the depth scaled down by up to 2^(1 - MS_OCTAVES): block only what all of them would. */
+        if (depth > 7.0f * (float)(1 << (MS_OCTAVES - 1))) return 0.0f;
+#else
         if (depth > 7.0f) return 0.0f; /* below 1e-3: the light is blocked for display purposes */
+#endif
     }
     return exp(-depth);
 }

@@ -125,6 +125,16 @@ typedef struct VolclGridRenderParams {
     VolclFogParams fog;
 } VolclGridRenderParams;
 
+/* The path tracer's per-launch parameters (cl/pathtrace.cl): samples firstSample .. firstSample +
+   sampleCount - 1 of every pixel are added to the accumulation buffer, whose mean (times invTotal) is the
+   output. environment: rgb radiance of the uniform sky the paths see (w unused). emission: 1 adds the TF's
+   emission c * tau, 0 leaves the medium purely scattering. maxBounces: scattering events per path. */
+typedef struct VolclPathParams {
+    volcl_uint seed, firstSample, sampleCount, maxBounces;
+    float environment[4];
+    float invTotal, emission, pad0, pad1;
+} VolclPathParams;
+
 #ifndef __OPENCL_VERSION__
 static_assert(sizeof(VolclEllipsoid) == 64, "VolclEllipsoid layout must match OpenCL C");
 static_assert(sizeof(VolclTfKnot) == 48, "VolclTfKnot layout must match OpenCL C");
@@ -134,6 +144,7 @@ static_assert(sizeof(VolclMarchParams) == 16, "VolclMarchParams layout must matc
 static_assert(sizeof(VolclTfParams) == 32, "VolclTfParams layout must match OpenCL C");
 static_assert(sizeof(VolclLightingParams) == 176, "VolclLightingParams layout must match OpenCL C");
 static_assert(sizeof(VolclIsoParams) == 96, "VolclIsoParams layout must match OpenCL C");
+static_assert(sizeof(VolclPathParams) == 48, "VolclPathParams layout must match OpenCL C");
 static_assert(sizeof(VolclGridParams) == 80, "VolclGridParams layout must match OpenCL C");
 static_assert(sizeof(VolclFogParams) == 80, "VolclFogParams layout must match OpenCL C");
 static_assert(sizeof(VolclGridRenderParams) == 80 + 80 + 16 + 32 + 176 + 96 + 80 + 80,

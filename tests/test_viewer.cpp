@@ -845,3 +845,31 @@ TEST(ViewerEndToEnd, HeadlessRunOnTheMriMatchesRender) {
     Renderer fresh(test::computeContext(), v, tf, now);
     EXPECT_LE(maxDifference255(r.readback, pngEncoding(fresh.render(), now.background)), 1.0);
 }
+
+// Multiple scattering converges over still frames (4 more samples per pixel each) and starts over when the
+// view moves; two still frames equal the renderer's 8-sample image.
+TEST(ViewerSession, PathTracingAccumulatesWhileTheViewStandsStill) {
+    const Volume v = phantom({24, 20, 18});
+    const TransferFunction tf = phantomTf();
+    Scene scene;
+    scene.width = 16;
+    scene.height = 16;
+    scene.step = 0.5;
+    scene.lights = {Light{LightKind::Directional, {0.3, 0.5, -0.8}, {1, 1, 1}, 2.0}};
+    scene.effects.scattering = true;
+    scene.effects.albedo = 0.9;
+    scene.effects.scatteringOrder = ScatteringOrder::Multiple;
+    ViewerSession s(test::computeContext(), v, scene, tf, {}, {});
+    const ViewerFrame a = s.renderFrame(16, 16, false);
+    ASSERT_TRUE(s.renderer().plan().pathTracing);
+    const ViewerFrame b = s.renderFrame(16, 16, false);
+    EXPECT_NE(a.image.pixels, b.image.pixels);
+    Scene now = s.currentScene();
+    now.effects.samples = 8;
+    EXPECT_EQ(b.image.pixels, Renderer(test::computeContext(), v, tf, now).render().pixels);
+    s.camera().orbit(0.3, 0.0);
+    const ViewerFrame c = s.renderFrame(16, 16, false); // a new view: 4 samples again
+    now = s.currentScene();
+    now.effects.samples = 4;
+    EXPECT_EQ(c.image.pixels, Renderer(test::computeContext(), v, tf, now).render().pixels);
+}

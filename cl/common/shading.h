@@ -75,10 +75,25 @@ inline void light_add(LightSum* s, const VolclLightingParams* Lp, int i, float3 
     }
 #endif
 #ifdef SCATTERING
-    const float g = Lp->phaseG, ct = dot(L, rayDir);
+    const float ct = dot(L, rayDir);
+#ifdef MS_OCTAVES
+    /* Multiple scattering approximated by octaves (Wrenninge et al. 2013): octave k scatters a^k of the
+       light through the optical depth scaled by b^k with the phase of anisotropy c^k g; a = b = c = 1/2. */
+    float ak = 1.0f, bk = 1.0f, g = Lp->phaseG, sum = 0.0f;
+    for (int k = 0; k < MS_OCTAVES; ++k) {
+        const float denom = 1.0f + g * g - 2.0f * g * ct;
+        sum += ak * pow(vis, bk) * (1.0f - g * g) / (4.0f * M_PI_F * denom * sqrt(denom));
+        ak *= 0.5f;
+        bk *= 0.5f;
+        g *= 0.5f;
+    }
+    s->scattered += lc * sum;
+#else
+    const float g = Lp->phaseG;
     const float denom = 1.0f + g * g - 2.0f * g * ct;
     const float phase = (1.0f - g * g) / (4.0f * M_PI_F * denom * sqrt(denom));
     s->scattered += lc * vis * phase;
+#endif
 #endif
 }
 
@@ -87,7 +102,7 @@ inline float3 light_finish(const LightSum* s, const VolclLightingParams* Lp, flo
     float3 out = (float3)(0.0f);
 #ifdef SHADING
     out += c * (Lp->ambient + Lp->diffuse * s->diffuse) + Lp->specular * s->specular;
-#else
+#elif !defined(NO_EMISSION) /* NO_EMISSION: a purely scattering medium (effects.scattering.emission false) */
     out += c;
 #endif
 #ifdef SCATTERING

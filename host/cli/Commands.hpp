@@ -22,6 +22,7 @@ struct GlobalOptions {
 /// Callbacks throw volcl::Error subclasses; main() turns them into exit codes and one-line messages.
 void addInfoCommands(CLI::App& app, GlobalOptions& global);    // info, devices, convert
 void addDemoCommand(CLI::App& app, GlobalOptions& global);     // demo
+void addGenerateCommand(CLI::App& app, GlobalOptions& global); // generate cloud
 void addPreintCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global); // preint, bench preint
 void addCodecCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global);  // encode, decode, compare, bench codec
 void addViewCommand(CLI::App& app, CLI::App& bench, GlobalOptions& global); // view, bench view

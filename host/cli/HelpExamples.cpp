@@ -16,6 +16,8 @@ const std::map<std::string, std::string>& examples() {
                     "  volcl convert in.raw --dims 64,64,64 --type uint8 -o out.nrrd\n"
                     "  volcl convert head.nii.gz -o head.vti"},
         {"demo", "  volcl demo -o volcl-demo"},
+        {"generate", "  volcl generate cloud -o cloud.nrrd --size 256,256,64 --seed 7"},
+        {"generate cloud", "  volcl generate cloud -o cloud.nrrd --seed 7\n  volcl generate cloud --preset roettger -o layer.nrrd"},
         {"preint", "  volcl preint --tf tf.json --step 0.5 -o table.exr"},
         {"encode", "  volcl encode head.nii.gz -o head.vcz --lossless\n  volcl encode head.nii.gz -o head.vcz --psnr 50"},
         {"decode", "  volcl decode head.vcz -o head.nrrd\n  volcl decode head.vcz --level 1 -o half.nrrd\n"

@@ -6,6 +6,7 @@
 #include "host/cli/Commands.hpp"
 #include "host/cli/FilterBench.hpp"
 #include "host/cli/MediaBench.hpp"
+#include "host/cli/ScatterBench.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
@@ -71,6 +72,8 @@ struct BenchArgs {
     double referenceStep = 0.05;
     std::string csv, vtkImage;
     bool effects = false, vtk = false, sweep = true, filters = false, tables = false, fog = false;
+    bool scattering = false;
+    ScatterBenchOptions scatter;
     std::string vtkScript = std::string(VOLCL_SOURCE_DIR) + "/bench/vtk_raycast.py";
 };
 
@@ -145,6 +148,15 @@ void benchEffects(ComputeContext& cc, const RenderInput& input, const TransferFu
              s.effects.scattering = true;
              s.effects.albedo = 0.7;
              s.effects.phaseG = 0.3;
+         }},
+        {"multiple scattering (path tracer, 16 spp)",
+         [&](Scene& s) {
+             s.lights = {light};
+             s.effects.scattering = true;
+             s.effects.albedo = 0.7;
+             s.effects.phaseG = 0.3;
+             s.effects.scatteringOrder = ScatteringOrder::Multiple;
+             s.effects.samples = 16;
          }},
         {"clipping plane",
          [&](Scene& s) {
@@ -249,6 +261,11 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
     std::cerr << "volcl bench render: " << scene.volume.string() << " " << input.summary() << ", "
               << scene.width << "x" << scene.height << ", device " << cc.device().name << '\n';
     if (a.effects) benchEffects(cc, input, tf, scene, a.runs);
+    if (a.scattering) {
+        ScatterBenchOptions o = a.scatter;
+        o.runs = a.runs;
+        benchScattering(cc, input, tf, scene, o);
+    }
     if (a.filters) benchFilters(cc, input, tf, scene, a.runs, a.sweep || a.vtk ? std::string() : a.csv);
     if (a.tables || a.fog) {
         const Volume* g = input.grid();
@@ -418,6 +435,16 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     b->add_flag("--filters", ba->filters,
                 "Reconstruction filters (linear, linear+Sobel, cubic, bspline): time, normal error on an 8-bit "
                 "sphere, terrace roughness on the scene (with --no-sweep, --csv receives these rows)");
+    b->add_flag("--scatter-sweep", ba->scattering,
+                "Single and multiple scattering against a converged path-traced reference: ms/frame, cost "
+                "relative to the plain frame, RMSE against samples per pixel");
+    b->add_option("--reference-samples", ba->scatter.referenceSamples,
+                  "--scatter-sweep: samples per pixel of the reference")
+        ->capture_default_str();
+    b->add_option("--max-samples", ba->scatter.maxSamples, "--scatter-sweep: largest samples per pixel of the sweep")
+        ->capture_default_str();
+    b->add_option("--scatter-csv", ba->scatter.csv, "--scatter-sweep: write the rows as CSV");
+    b->add_option("--scatter-images", ba->scatter.imageDir, "--scatter-sweep: write every variant's EXR and PNG here");
     b->add_flag("--vtk", ba->vtk, "Compare with VTK's vtkFixedPointVolumeRayCastMapper (python3-vtk9, xvfb)");
     b->add_flag("!--no-sweep", ba->sweep, "Skip the step x pre-integration x skipping sweep");
     b->add_option("--vtk-image", ba->vtkImage, "Save VTK's image (EXR) and the reference beside it");

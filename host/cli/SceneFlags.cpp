@@ -117,7 +117,10 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
     cmd->add_flag("--shadows", shadows, "Shadows by secondary marching toward each light");
     cmd->add_option("--shadow-step", shadowStep, "Shadow ray step in world units (0 = the render step)")
         ->default_str(num(d.effects.shadowStep));
-    cmd->add_option("--scattering", scattering, "Single scattering albedo,g (Henyey-Greenstein)");
+    cmd->add_option("--scattering", scattering, "Scattering albedo,g (Henyey-Greenstein)");
+    cmd->add_option("--scattering-order", scatteringOrder, "single (ray marcher) or multiple (path tracer)")
+        ->check(CLI::IsMember({"single", "multiple"}));
+    cmd->add_option("--samples", samples, "Path-tracer samples per pixel (multiple scattering)");
     cmd->add_option("--clip", clips,
                     "Clipping plane nx,ny,nz,offset keeping n.x + offset >= 0 (repeatable)");
     raw.add(*cmd);
@@ -212,6 +215,12 @@ Scene SceneFlags::build(bool requireTf) const {
         s.effects.albedo = v[0];
         s.effects.phaseG = v[1];
     }
+    if (!scatteringOrder.empty()) {
+        if (!s.effects.scattering) throw UsageError("--scattering-order needs scattering (--scattering or the scene's)");
+        s.effects.scatteringOrder =
+            scatteringOrder == "multiple" ? ScatteringOrder::Multiple : ScatteringOrder::Single;
+    }
+    if (samples) s.effects.samples = *samples;
     for (const auto& text : clips) {
         const auto v = parseNumbers(text, 4, "--clip");
         s.effects.clipPlanes.push_back({{v[0], v[1], v[2]}, v[3]});

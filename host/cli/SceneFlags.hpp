@@ -27,7 +27,8 @@ struct SceneFlags {
     std::optional<int> width, height, tableSize, tableLengths;
     std::optional<std::size_t> frame; ///< --frame K of a time series input
     bool noSkipping = false, sobel = false, shadows = false, noShading = false;
-    std::string shading, scattering;
+    std::string shading, scattering, scatteringOrder;
+    std::optional<int> samples;
     std::vector<std::string> isos, lights, clips;
     RawReadFlags raw;
 

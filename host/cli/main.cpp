@@ -56,6 +56,7 @@ int main(int argc, char** argv) {
 
     volcl::cli::addInfoCommands(app, global);
     volcl::cli::addDemoCommand(app, global);
+    volcl::cli::addGenerateCommand(app, global);
     volcl::cli::addViewCommand(app, *bench, global);
     volcl::cli::addPreintCommands(app, *bench, global);
     volcl::cli::addRenderCommands(app, *bench, global);

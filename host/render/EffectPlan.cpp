@@ -71,7 +71,7 @@ std::string EffectPlan::explain() const {
 }
 
 EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRange& range,
-                       std::string_view skippingHow) {
+                       std::string_view skippingHow, bool canPathTrace) {
     EffectPlan p;
     const SceneEffects& fx = scene.effects;
     const RenderMode mode = scene.mode;
@@ -175,7 +175,52 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
             p.dropped.push_back("gradient sobel: nothing uses gradients");
         }
     }
-    if (fx.scattering) {
+    const bool wantsMultiple = fx.scattering && fx.scatteringOrder == ScatteringOrder::Multiple;
+    if (wantsMultiple && !canPathTrace)
+        p.dropped.push_back("scattering order multiple: this renderer has no path tracer (single scattering instead)");
+    const bool multiple = wantsMultiple && canPathTrace;
+    const bool skyLit = fx.environment[0] > 0.0 || fx.environment[1] > 0.0 || fx.environment[2] > 0.0;
+    if (multiple) {
+        if (fx.albedo <= 0.0 && !fx.emission)
+            p.dropped.push_back("scattering: albedo 0 and no emission");
+        else if (mode != RenderMode::Dvr)
+            p.dropped.push_back("scattering multiple: mode " + modeName + " is not dvr");
+        else if (fx.albedo > 0.0 && !canLight && !skyLit)
+            p.dropped.push_back("scattering: " + noLight + " and no environment");
+        else {
+            // The path tracer is its own kernel: nothing the ray marcher compiled so far applies.
+            EffectPlan q;
+            q.dropped = p.dropped;
+            p = std::move(q);
+            p.defines.set("MODE", 0LL);
+            p.compiled.push_back("mode dvr");
+            p.pathTracing = true;
+            p.scattering = true;
+            p.skipping = true;
+            p.defines.set("PATH_TRACE");
+            p.compiled.push_back(
+                "scattering: multiple, Monte Carlo path tracer (delta tracking on the macrocell majorants, "
+                "next-event estimation), " + std::to_string(fx.samples) + " samples/pixel, up to " +
+                std::to_string(fx.maxBounces) + " bounces, Henyey-Greenstein g " + fmt(fx.phaseG) + ", albedo " +
+                fmt(fx.albedo) + ", seed " + std::to_string(fx.seed) + (fx.emission ? "" : ", no emission") +
+                (skyLit ? ", environment " + fmt(fx.environment[0]) + "," + fmt(fx.environment[1]) + "," +
+                              fmt(fx.environment[2])
+                        : ""));
+            if (fx.shading) p.dropped.push_back("shading: the path tracer lights the medium itself");
+            if (scene.filter != ReconstructionFilter::Linear || scene.smoothing > 0.0)
+                p.dropped.push_back("filter: the path tracer reads the voxels trilinearly");
+            if (scene.earlyTermination < 1.0)
+                p.dropped.push_back("early termination: paths end by leaving the volume or Russian roulette");
+            if (fx.shadows) p.dropped.push_back("shadows: the path tracer traces its own shadow rays");
+            if (!fx.clipPlanes.empty()) p.dropped.push_back("clip planes: the path tracer does not clip");
+            if (!fx.isosurfaces.empty()) p.dropped.push_back("isosurfaces: the path tracer draws no surfaces");
+            if (scene.preintegration != Preintegration::None)
+                p.dropped.push_back("pre-integration: the path tracer samples free paths, not segments");
+            if (fx.fog.enabled) p.dropped.push_back("fog: the path tracer does not trace through the fog");
+            return p;
+        }
+    }
+    if (fx.scattering && !multiple) {
         if (fx.albedo <= 0.0)
             p.dropped.push_back("scattering: albedo 0");
         else if (!canLight)
@@ -185,6 +230,19 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
             p.defines.set("SCATTERING");
             p.compiled.push_back("scattering: single, Henyey-Greenstein g " + fmt(fx.phaseG) + ", albedo " +
                                  fmt(fx.albedo));
+            if (fx.octaves > 0) {
+                p.defines.set("MS_OCTAVES", static_cast<long long>(fx.octaves));
+                p.compiled.push_back("multiple scattering approximated by " + std::to_string(fx.octaves) +
+                                     " octaves (light a^k through depth b^k, phase c^k g; a = b = c = 1/2)");
+            }
+            if (!fx.emission) {
+                if (p.shading)
+                    p.dropped.push_back("emission false: shading lights the TF colour as a surface colour");
+                else {
+                    p.defines.set("NO_EMISSION");
+                    p.compiled.push_back("no emission: the medium only scatters");
+                }
+            }
         }
     }
     if (fx.shadows) {

@@ -21,6 +21,7 @@ struct EffectPlan {
     bool fog = false, fogMap = false; ///< FOG (and FOG_MAP): the scene's fog is composited
     bool preintLighting = false;      ///< PREINT_LIGHTING: shading through the pre-integrated lighting table
     bool isoTable = false;            ///< ISO_TABLE: iso-surfaces from the iso-surface table
+    bool pathTracing = false;          ///< multiple scattering: the path tracer renders the frame
     double colorScale = 1.0;           ///< ambient-only shading folded into the TF colours
     std::vector<IsoLayer> isosurfaces; ///< the ones that can appear
     std::vector<ClipPlane> clipPlanes; ///< the ones that cut the data's box
@@ -31,8 +32,9 @@ struct EffectPlan {
 /// planes that keep all of it are dropped) and value range (iso-values outside it are never crossed).
 /// `skippingHow` names the renderer's empty-space skipping in the report ("8^3-voxel macrocells"). The
 /// result holds the effect defines (MODE, PREINT, ISO_COUNT, SHADING, ...); a renderer adds the defines of
-/// its data layout (a grid's VOXEL_TYPE) itself.
+/// its data layout (a grid's VOXEL_TYPE) itself. `canPathTrace`: the renderer has a path tracer for
+/// `"order": "multiple"` (others render single scattering and say so).
 EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRange& range,
-                       std::string_view skippingHow);
+                       std::string_view skippingHow, bool canPathTrace = false);
 
 } // namespace volcl

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 namespace volcl {
 
@@ -62,6 +63,11 @@ Vec3 ReferenceLighting::lightDir(const Light& l, const CameraRay& ray, const Vec
     const Vec3 v = sub(target, x);
     dist = norm(v);
     return dist > 0.0 ? scale(v, 1.0 / dist) : scale(ray.direction, -1.0);
+}
+
+double ReferenceLighting::phaseHG(double g, double ct) {
+    const double denom = 1.0 + g * g - 2.0 * g * ct;
+    return (1.0 - g * g) / (4.0 * std::numbers::pi * denom * std::sqrt(denom));
 }
 
 double ReferenceLighting::phase(double ct) const {

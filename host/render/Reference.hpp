@@ -82,9 +82,22 @@ public:
                     diffuse = add(diffuse, scale(lc, vis));
                 }
             }
-            if (scattering_) scattered = add(scattered, scale(lc, vis * phase(dot(L, ray.direction))));
+            if (scattering_) {
+                if (fx_.octaves > 0) { // the kernel's MS_OCTAVES: a = b = c = 1/2
+                    double ak = 1.0, bk = 1.0, gk = fx_.phaseG, sum = 0.0;
+                    for (int k = 0; k < fx_.octaves; ++k) {
+                        sum += ak * std::pow(vis, bk) * phaseHG(gk, dot(L, ray.direction));
+                        ak *= 0.5;
+                        bk *= 0.5;
+                        gk *= 0.5;
+                    }
+                    scattered = add(scattered, scale(lc, sum));
+                } else {
+                    scattered = add(scattered, scale(lc, vis * phase(dot(L, ray.direction))));
+                }
+            }
         }
-        Vec3 out = c;
+        Vec3 out = scattering_ && !fx_.emission && !shading_ ? Vec3{0, 0, 0} : c;
         if (shading_)
             out = add(mul(c, add(Vec3{fx_.ambient, fx_.ambient, fx_.ambient}, scale(diffuse, fx_.diffuse))),
                       scale(specular, fx_.specular));
@@ -94,6 +107,7 @@ public:
 
 private:
     double phase(double cosTheta) const; ///< Henyey-Greenstein
+    static double phaseHG(double g, double cosTheta);
     SceneEffects fx_;
     Camera camera_;
     std::vector<Light> lights_;

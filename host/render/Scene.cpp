@@ -308,10 +308,34 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
         if (e.contains("shadow_step")) fx.shadowStep = num(e["shadow_step"], "effects.shadow_step");
         if (e.contains("scattering")) {
             const json& sc = e["scattering"];
-            checkKeys(sc, "effects.scattering", {"albedo", "g"});
+            checkKeys(sc, "effects.scattering",
+                      {"albedo", "g", "order", "samples", "bounces", "seed", "environment", "emission", "octaves"});
             fx.scattering = true;
             if (sc.contains("albedo")) fx.albedo = num(sc["albedo"], "effects.scattering.albedo");
             if (sc.contains("g")) fx.phaseG = num(sc["g"], "effects.scattering.g");
+            if (sc.contains("order")) {
+                const std::string o = str(sc["order"], "effects.scattering.order");
+                if (o == "single")
+                    fx.scatteringOrder = ScatteringOrder::Single;
+                else if (o == "multiple")
+                    fx.scatteringOrder = ScatteringOrder::Multiple;
+                else
+                    throw UsageError("scene: effects.scattering.order '" + o + "' is unknown (single, multiple)");
+            }
+            auto count = [&](const char* key, double lo, double hi) {
+                const double v = num(sc[key], std::string("effects.scattering.") + key);
+                if (!(v >= lo && v <= hi) || v != std::floor(v))
+                    throw UsageError(std::string("scene: effects.scattering.") + key + " must be an integer in [" +
+                                     std::to_string(long(lo)) + ", " + std::to_string(long(hi)) + "]");
+                return v;
+            };
+            if (sc.contains("samples")) fx.samples = int(count("samples", 1, 1 << 20));
+            if (sc.contains("bounces")) fx.maxBounces = int(count("bounces", 1, 4096));
+            if (sc.contains("seed")) fx.seed = std::uint32_t(count("seed", 0, 4294967295.0));
+            if (sc.contains("environment"))
+                fx.environment = vec<3>(sc["environment"], "effects.scattering.environment");
+            if (sc.contains("emission")) fx.emission = flag(sc["emission"], "effects.scattering.emission");
+            if (sc.contains("octaves")) fx.octaves = int(count("octaves", 0, 8));
         }
         if (e.contains("clip_planes")) {
             if (!e["clip_planes"].is_array())
@@ -422,7 +446,20 @@ std::string Scene::toJson() const {
     e["gradient"] = effects.gradient == GradientKind::Sobel ? "sobel" : "central";
     if (effects.shadows) e["shadows"] = true;
     e["shadow_step"] = effects.shadowStep;
-    if (effects.scattering) e["scattering"] = {{"albedo", effects.albedo}, {"g", effects.phaseG}};
+    if (effects.scattering) {
+        e["scattering"] = {{"albedo", effects.albedo}, {"g", effects.phaseG}};
+        if (!effects.emission) e["scattering"]["emission"] = false;
+        if (effects.octaves > 0) e["scattering"]["octaves"] = effects.octaves;
+        if (effects.scatteringOrder == ScatteringOrder::Multiple) {
+            json& sc = e["scattering"];
+            sc["order"] = "multiple";
+            sc["samples"] = effects.samples;
+            sc["bounces"] = effects.maxBounces;
+            sc["seed"] = effects.seed;
+            sc["environment"] = effects.environment;
+            sc["emission"] = effects.emission;
+        }
+    }
     if (!effects.clipPlanes.empty()) {
         e["clip_planes"] = json::array();
         for (const auto& p : effects.clipPlanes)
@@ -526,6 +563,11 @@ void Scene::validate() const {
          "effects.shadow_step must be 0 (the render step) or in (0, 1e30]");
     need(e.albedo >= 0.0 && e.albedo <= 1.0, "effects.scattering.albedo must be in [0, 1]");
     need(e.phaseG > -1.0 && e.phaseG < 1.0, "effects.scattering.g must be in (-1, 1)");
+    need(e.samples >= 1 && e.samples <= (1 << 20), "effects.scattering.samples must be in [1, 1048576]");
+    need(e.maxBounces >= 1 && e.maxBounces <= 4096, "effects.scattering.bounces must be in [1, 4096]");
+    need(e.octaves >= 0 && e.octaves <= 8, "effects.scattering.octaves must be in [0, 8]");
+    for (double c : e.environment)
+        need(std::isfinite(c) && c >= 0.0, "effects.scattering.environment must be finite and >= 0");
     need(e.clipPlanes.size() <= 4, "at most 4 clipping planes");
     for (const auto& p : e.clipPlanes)
         need(norm(p.normal) > 0.0, "clipping plane normal must be non-zero");

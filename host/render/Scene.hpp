@@ -4,6 +4,7 @@
 #include "host/render/Bounds.hpp"
 
 #include <array>
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -25,6 +26,9 @@ enum class ReconstructionFilter { Linear, Cubic, Bspline };
 /// What a MIP pixel shows: the windowed maximum as grey, the TF colour at the maximum brightened by the
 /// window, or the TF's own colour and opacity at the maximum.
 enum class MipColor { Grey, Tf, TfOpacity };
+/// Scattering order: single scattering inside the ray marcher, or multiple scattering by the Monte Carlo path
+/// tracer (cl/pathtrace.cl).
+enum class ScatteringOrder { Single, Multiple };
 
 std::string_view renderModeName(RenderMode m);
 RenderMode parseRenderMode(std::string_view s); ///< throws UsageError
@@ -108,6 +112,13 @@ struct SceneEffects {
     double shadowStep = 1.0;           ///< world units; 0 = the render step
     double albedo = 0.0, phaseG = 0.0; ///< single scattering when albedo > 0 ("scattering" object)
     bool scattering = false;
+    ScatteringOrder scatteringOrder = ScatteringOrder::Single;
+    int samples = 64;        ///< path tracer: samples per pixel
+    int maxBounces = 64;     ///< path tracer: scattering events per path
+    std::uint32_t seed = 1;  ///< path tracer: same seed, same image
+    Vec3 environment{0, 0, 0}; ///< path tracer: radiance of a uniform sky around the volume
+    bool emission = true;    ///< the TF's emission c * tau adds to the scattered light
+    int octaves = 0;         ///< single scattering: > 0 approximates multiple scattering by that many octaves
     std::vector<ClipPlane> clipPlanes;
     std::vector<IsoLayer> isosurfaces;
     FogEffect fog;

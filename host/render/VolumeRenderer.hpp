@@ -41,6 +41,13 @@ public:
     virtual void setView(const Camera& camera, int width, int height, double step) = 0;
     /// Renders the current scene.
     virtual ImageBuffer render() = 0;
+    /// Multiple scattering, progressively: adds `samples` path-tracer samples per pixel to the running mean
+    /// of the current view and returns it (a viewer calls it every frame; a view change starts over).
+    /// Renderers or plans without a path tracer render().
+    virtual ImageBuffer renderProgressive(int samples) {
+        (void)samples;
+        return render();
+    }
     /// The effect-free baseline kernel on the current scene (`volcl bench render --effects`); renderers
     /// without one throw UsageError.
     virtual ImageBuffer renderPlainBaseline();

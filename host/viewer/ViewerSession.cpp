@@ -290,7 +290,9 @@ ViewerFrame ViewerSession::renderFrame(int width, int height, bool interactive) 
     f.structureChanged = structureChanged_ || !(renderer_->plan().defines == before);
     structureChanged_ = false;
     sw.restart();
-    f.image = renderer_->render();
+    // Multiple scattering converges over frames: one sample per pixel while the view moves, four more per
+    // frame while it stands still.
+    f.image = renderer_->plan().pathTracing ? renderer_->renderProgressive(interactive ? 1 : 4) : renderer_->render();
     f.renderMs = sw.milliseconds();
     f.kernelMs = renderer_->lastKernelMilliseconds();
     return f;

@@ -10,6 +10,7 @@
 #include "host/MemoryBudget.hpp"
 #include "host/render/grid/BsplineField.hpp"
 #include "host/render/grid/GridDetail.hpp"
+#include "host/render/grid/PathTracer.hpp"
 #include "host/runtime/Timing.hpp"
 #include "preintegration/PreintegrationTable.hpp"
 
@@ -79,7 +80,7 @@ std::string skippingHow() {
 /// renderer scans the volume once, not on every scene change (a 7M-voxel scan per adaptive-quality step
 /// change cost more than the coarse frame).
 EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& range) {
-    EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow());
+    EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow(), true);
     // The cubic filters read float spline coefficients instead of the voxels; smoothing, float voxels.
     p.defines.set("VOXEL_TYPE", scene.filter == ReconstructionFilter::Linear && scene.smoothing == 0.0
                                     ? static_cast<long long>(voxelTypeCode(volume))
@@ -146,6 +147,9 @@ struct GridRenderer::Impl {
     std::vector<CachedTable> tableCache;
     static constexpr std::size_t kTableCacheSize = 8;
     VolclGridRenderParams params{};
+    /// Multiple scattering: the path tracer's majorants and accumulation (built on the first such scene).
+    std::unique_ptr<GridPathTracer> pathTracer;
+    std::string majorantKey;
 };
 
 GridRenderer::GridRenderer(ComputeContext& cc, const Volume& volume, const TransferFunction& tf,
@@ -200,9 +204,13 @@ void GridRenderer::setView(const Camera& camera, int width, int height, double s
         return;
     }
     s.validate();
+    const bool same = camera.projection == camera_.projection && camera.eye == camera_.eye &&
+                      camera.target == camera_.target && camera.up == camera_.up && camera.height == camera_.height &&
+                      camera.fovYDeg == camera_.fovYDeg && width == scene_.width && height == scene_.height;
     scene_ = s;
     camera_ = camera;
     impl_->params.camera = cameraParams(camera_, scene_.width, scene_.height);
+    if (impl_->pathTracer && !same) impl_->pathTracer->reset(); // the same view keeps accumulating
 }
 
 void GridRenderer::setTransferFunction(const TransferFunction& tf) {
@@ -342,6 +350,24 @@ void GridRenderer::rebuild(bool tfChanged) {
     emptyFraction_ = m.emptyHost.empty() ? 0.0 : double(emptyCount) / double(m.emptyHost.size());
     m.empty = cc_.upload(m.emptyHost, CL_MEM_READ_ONLY);
 
+    // Multiple scattering: the path tracer reads the stored voxels trilinearly, with majorants from their
+    // macrocells.
+    if (plan_.pathTracing) {
+        if (!m.pathTracer) m.pathTracer = std::make_unique<GridPathTracer>(cc_);
+        const std::string key = shaded.toJson();
+        if (key != m.majorantKey) {
+            m.pathTracer->setMajorants(majorantGrid(m.macro, shaded));
+            m.majorantKey = key;
+        }
+        m.pathTracer->reset();
+        KernelDefines d = plan_.defines;
+        d.set("VOXEL_TYPE", static_cast<long long>(voxelTypeCode(volume_)));
+        m.packet = false;
+        m.kernel = cc_.kernel("pathtrace.cl", "pathtrace", d);
+        m.params = grid_detail::makeParams(scene_, camera_, volume_, m.range, tf_, plan_, m.macro, m.knotCount,
+                                           m.tableLengths);
+        return;
+    }
     // Unlit DVR without iso-surfaces (the common, time-critical case) runs as explicit 8-ray packets.
     m.packet = scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
     m.kernel = cc_.kernel("raymarch.cl", m.packet ? "raymarch_packet" : "raymarch",
@@ -401,12 +427,24 @@ ImageBuffer GridRenderer::launch(cl::Kernel& kernel, const cl::Buffer& voxels, b
         m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
         m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
     }
-    setArgs(kernel, voxels, m.knots, m.table, m.empty, m.params, m.out, m.depth, m.fogMap);
+    if (plan_.pathTracing) {
+        m.pathTracer->reset();
+        lastMs_ = m.pathTracer->accumulate(kernel, voxels, m.knots, m.params, scene_.effects, scene_.effects.samples,
+                                           m.out);
+        return readImage(false);
+    }
+        setArgs(kernel, voxels, m.knots, m.table, m.empty, m.params, m.out, m.depth, m.fogMap);
     // Tiles of nearby rays share cache lines in y as well as x: 8x8 rays, or 4x4 packets of 4x2 rays.
     const std::size_t w = std::size_t(scene_.width), h = std::size_t(scene_.height);
     cl::Event ev =
         packet ? cc_.launch2d(kernel, (w + 3) / 4, (h + 1) / 2, 4, 4) : cc_.launch2d(kernel, w, h, 8, 8);
     lastMs_ = eventMilliseconds(ev);
+    return readImage(withDepth);
+}
+
+ImageBuffer GridRenderer::readImage(bool withDepth) {
+    Impl& m = *impl_;
+    const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
     const auto rgba = cc_.download(m.out);
     std::vector<std::string> channels{"R", "G", "B", "A"};
     if (withDepth) channels.push_back("Z");
@@ -439,7 +477,32 @@ ImageBuffer GridRenderer::render() {
                                : scene_.smoothing > 0.0                    ? m.smoothed.get()
                                : m.packet && m.useCorners                  ? m.corners.get()
                                                                            : m.volume.get();
+    if (plan_.pathTracing) return launch(m.kernel, m.volume.get(), false, false);
     return launch(m.kernel, voxels, !plan_.isosurfaces.empty(), m.packet);
+}
+
+int GridRenderer::accumulateSamples(int samples) {
+    Impl& m = *impl_;
+    if (!plan_.pathTracing) throw UsageError("progressive accumulation needs effects.scattering.order multiple");
+    const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
+    if (m.out.size() != pixels) {
+        m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
+        m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
+        m.pathTracer->reset();
+    }
+    lastMs_ = m.pathTracer->accumulate(m.kernel, m.volume.get(), m.knots, m.params, scene_.effects, samples, m.out);
+    return m.pathTracer->samplesDone();
+}
+
+ImageBuffer GridRenderer::renderProgressive(int samples) {
+    if (!plan_.pathTracing) return render();
+    accumulateSamples(samples);
+    return accumulatedImage();
+}
+
+ImageBuffer GridRenderer::accumulatedImage() {
+    if (!plan_.pathTracing) throw UsageError("progressive accumulation needs effects.scattering.order multiple");
+    return readImage(false);
 }
 
 ImageBuffer GridRenderer::renderPlainBaseline() {

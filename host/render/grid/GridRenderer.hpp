@@ -49,6 +49,7 @@ public:
     /// through setScene, since tables and guards depend on it.
     void setView(const Camera& camera, int width, int height, double step) override;
     ImageBuffer render() override;
+    ImageBuffer renderProgressive(int samples) override;
     /// Renders with the effect-free baseline kernel (raymarch_plain.cl); DVR, point sampling only.
     ImageBuffer renderPlainBaseline() override;
 
@@ -61,6 +62,13 @@ public:
     /// "macrocells: N, x% empty".
     std::string statistics() const override;
 
+    /// Multiple scattering, progressively: adds `samples` path-tracer samples per pixel to the running mean
+    /// (outputBuffer() holds it; a camera, scene or TF change starts over) and returns the samples so far.
+    /// Throws UsageError when the plan has no path tracer.
+    int accumulateSamples(int samples);
+    /// The running mean of accumulateSamples() as an image (R, G, B, A).
+    ImageBuffer accumulatedImage();
+
     const Volume& volume() const noexcept { return volume_; }
     std::size_t macrocellCount() const noexcept;
     double emptyMacrocellFraction() const noexcept { return emptyFraction_; }
@@ -69,6 +77,7 @@ private:
     struct Impl;
     void rebuild(bool tfChanged);
     ImageBuffer launch(cl::Kernel& kernel, const cl::Buffer& voxels, bool depth, bool packet);
+    ImageBuffer readImage(bool withDepth); ///< the output buffer (and depth) as an image with attributes
     /// d plus the volume layout the packet kernels read (uploads the corner copy on first use);
     /// `floatCopy`: they read a float copy instead (the cubic filter's coefficients, or smoothed voxels).
     KernelDefines packetDefines(KernelDefines d, bool floatCopy);

@@ -1,0 +1,81 @@
+// `volcl generate cloud` and multiple scattering through the binary: reproducible outputs, exit codes,
+// one-line errors, no partial files.
+#include "../TestUtil.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <sys/wait.h>
+
+namespace {
+
+struct RunResult {
+    int exitCode;
+    std::string err;
+};
+
+RunResult run(const std::string& args, const std::filesystem::path& dir) {
+    const auto err = dir / "stderr.txt";
+    const std::string cmd = std::string(VOLCL_EXE) + " " + args + " >/dev/null 2>" + err.string() + " </dev/null";
+    const int status = std::system(cmd.c_str());
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), volcl::test::readFile(err)};
+}
+
+std::size_t lines(const std::string& s) { return std::size_t(std::count(s.begin(), s.end(), '\n')); }
+
+TEST(CliMedia, GenerateCloudIsReproducibleInAnyFormat) {
+    const auto dir = volcl::test::tempDir("cli_media_generate");
+    const std::string a = (dir / "a.nrrd").string(), b = (dir / "b.nrrd").string();
+    ASSERT_EQ(run("-q generate cloud --size 24,20,8 --seed 9 -o " + a, dir).exitCode, 0);
+    ASSERT_EQ(run("-q generate cloud --size 24,20,8 --seed 9 -o " + b, dir).exitCode, 0);
+    EXPECT_EQ(volcl::test::readFile(a), volcl::test::readFile(b));
+    ASSERT_EQ(run("-q generate cloud --size 24,20,8 --seed 10 -o " + b, dir).exitCode, 0);
+    EXPECT_NE(volcl::test::readFile(a), volcl::test::readFile(b));
+    for (const char* ext : {".vti", ".nii.gz", ".vdb", ".raw"})
+        EXPECT_EQ(run("-q generate cloud --size 8,8,4 -o " + (dir / (std::string("c") + ext)).string(), dir).exitCode, 0)
+            << ext;
+}
+
+TEST(CliMedia, GenerateCloudRefusesBadArgumentsWithoutOutput) {
+    const auto dir = volcl::test::tempDir("cli_media_refuse");
+    const std::string out = (dir / "c.nrrd").string();
+    for (const std::string bad : {"--coverage 0", "--coverage 1.5", "--erosion -1", "--octaves 40", "--size 0,4,4",
+                                  "--preset nobody", "--frequency nan"}) {
+        const RunResult r = run("generate cloud --size 8,8,8 " + bad + " -o " + out, dir);
+        EXPECT_EQ(r.exitCode, 2) << bad;
+        EXPECT_EQ(lines(r.err), 1u) << bad << ": " << r.err;
+        EXPECT_FALSE(std::filesystem::exists(out)) << bad;
+    }
+    const RunResult fmt = run("generate cloud --size 8,8,8 -o " + (dir / "c.xyz").string(), dir);
+    EXPECT_EQ(fmt.exitCode, 2);
+    EXPECT_NE(fmt.err.find("c.xyz"), std::string::npos);
+    const RunResult missing = run("generate cloud --size 8,8,8 -o " + (dir / "no" / "c.nrrd").string(), dir);
+    EXPECT_EQ(missing.exitCode, 1);
+    EXPECT_EQ(lines(missing.err), 1u);
+}
+
+TEST(CliMedia, RenderMultipleScatteringAndRefusals) {
+    const auto dir = volcl::test::tempDir("cli_media_render");
+    const std::string vol = (dir / "c.nrrd").string(), tf = (dir / "tf.json").string();
+    ASSERT_EQ(run("-q generate cloud --size 24,24,8 -o " + vol, dir).exitCode, 0);
+    volcl::test::writeFile(tf, R"({"domain": [0, 255], "color": [[0, 1, 1, 1]], "extinction": [[0, 0], [255, 0.5]]})");
+    const std::string base = "-q render --volume " + vol + " --tf " + tf + " --width 16 --height 16 ";
+    const std::string a = (dir / "a.png").string(), b = (dir / "b.png").string(); // PNG: no timestamp
+    ASSERT_EQ(run(base + "--scattering 0.9,0.5 --scattering-order multiple --samples 4 -o " + a, dir).exitCode, 0);
+    ASSERT_EQ(run(base + "--scattering 0.9,0.5 --scattering-order multiple --samples 4 -o " + b, dir).exitCode, 0);
+    EXPECT_EQ(volcl::test::readFile(a), volcl::test::readFile(b)); // same seed, same image
+    const RunResult noScatter = run(base + "--scattering-order multiple -o " + a, dir);
+    EXPECT_EQ(noScatter.exitCode, 2);
+    EXPECT_EQ(lines(noScatter.err), 1u);
+    const RunResult zero = run(base + "--scattering 0.9,0.5 --scattering-order multiple --samples 0 -o " +
+                                   (dir / "z.exr").string(),
+                               dir);
+    EXPECT_EQ(zero.exitCode, 2);
+    EXPECT_FALSE(std::filesystem::exists(dir / "z.exr"));
+}
+
+} // namespace
