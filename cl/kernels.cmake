@@ -15,6 +15,8 @@ set(VOLCL_KERNEL_FILES
   raymarch_iso_sampled.h
   raymarch.cl
   raymarch_plain.cl
+  common/brick_sample.h
+  raymarch_bricks.cl
   lifting_common.h
   lifting.cl
   lifting_brick.cl

@@ -25,6 +25,9 @@ enum class ReconstructionFilter { Linear, Cubic, Bspline };
 /// What a MIP pixel shows: the windowed maximum as grey, the TF colour at the maximum brightened by the
 /// window, or the TF's own colour and opacity at the maximum.
 enum class MipColor { Grey, Tf, TfOpacity };
+/// Level of detail of compressed-brick inputs (.vcz): level 0 everywhere, or a level per brick from its
+/// estimated screen-space error (host/render/bricks/BrickLod.hpp).
+enum class LodMode { Full, Auto };
 
 std::string_view renderModeName(RenderMode m);
 RenderMode parseRenderMode(std::string_view s); ///< throws UsageError
@@ -34,6 +37,8 @@ std::string_view filterName(ReconstructionFilter f);
 ReconstructionFilter parseFilter(std::string_view s); ///< "linear", "cubic", "bspline"; throws UsageError
 std::string_view mipColorName(MipColor c);
 MipColor parseMipColor(std::string_view s); ///< "grey" (or "gray"), "tf", "tf-opacity"; throws UsageError
+std::string_view lodModeName(LodMode m);
+LodMode parseLodMode(std::string_view s); ///< "full", "auto"; throws UsageError
 
 /// GLM lookAt camera. `height` is the orthographic view height in world units; `fovYDeg` the perspective one.
 struct Camera {
@@ -114,6 +119,10 @@ struct Scene {
     /// MIP window (centre, width) in data values; absent: the data's value range.
     std::optional<std::array<double, 2>> window;
     MipColor mipColor = MipColor::Grey;
+    /// Compressed-brick inputs only: level of detail, its error threshold and the decoded-brick budget.
+    LodMode lod = LodMode::Full;
+    double lodError = 0.002;
+    double cacheMb = 512.0;
     std::vector<Light> lights;
     SceneEffects effects;
 
