@@ -51,6 +51,14 @@ std::shared_ptr<const VczReader> encode(const Volume& v, CodecOptions o, bool st
     return std::make_shared<const VczReader>(std::move(bytes), "test.vcz");
 }
 
+/// The float field rounded into uint8 (lossless files of integer voxels use the integer lifting transform).
+Volume toU8(const Volume& v) {
+    Volume u(v.dims(), ScalarType::UInt8);
+    for (std::size_t i = 0; i < v.voxelCount(); ++i)
+        u.values<std::uint8_t>()[i] = std::uint8_t(std::clamp(std::round(v.values<float>()[i]), 0.0f, 255.0f));
+    return u;
+}
+
 CodecOptions lossless(std::size_t brick, int levels) {
     CodecOptions o;
     o.brick = {brick, brick, brick};
@@ -229,9 +237,7 @@ TEST(BrickRender, MixedLevelsMatchNodeValueReferenceWithoutCracks) {
         r.setForcedLevels(levels);
         const ImageBuffer img = r.render();
         std::vector<int> used = r.lastSelection().level;
-        std::vector<float> standIn;
-        for (const ValueRange& vr : r.lastSelection().range)
-            standIn.push_back(float(vr.min));
+        const std::vector<float>& standIn = r.lastSelection().standIn;
         EXPECT_EQ(std::count(used.begin(), used.end(), 3), std::count(levels.begin(), levels.end(), 3));
         const Volume nodes = brickNodeValues(cc, *reader, 0, used, standIn);
         GridRenderer grid(cc, nodes, tf, s);
@@ -283,10 +289,10 @@ TEST(BrickRender, AutoLodOnMriStaysCloseWhileDecodingFewerVoxels) {
 TEST(BrickRender, BricksTheTfHidesAreNeverDecoded) {
     ComputeContext& cc = computeContext();
     // Zero outside a ball: the TF hides the zero bricks.
-    const Volume v = test::makeFloatVolume({64, 64, 64}, [](double x, double y, double z) {
+    const Volume v = toU8(test::makeFloatVolume({64, 64, 64}, [](double x, double y, double z) {
         const double r = std::sqrt((x - 32) * (x - 32) + (y - 32) * (y - 32) + (z - 32) * (z - 32));
         return r < 14 ? 200 - 5 * r : 0;
-    });
+    }));
     const auto reader = encode(v, lossless(16, 2));
     TransferFunction tf = rampTf(0, 200, 1.0);
     Scene s = obliqueScene(v, 64);
@@ -320,13 +326,13 @@ TEST(BrickRender, HardCasesOfBrickAndCacheSizes) {
     const TransferFunction tf = rampTf(30, 230, 1.0);
     auto field = [](double x, double y, double z) { return 128 + 90 * std::sin(x * 0.3) * std::cos(y * 0.25 + z * 0.2); };
     // A volume of one brick.
-    const Volume one = test::makeFloatVolume({20, 17, 9}, field);
+    const Volume one = toU8(test::makeFloatVolume({20, 17, 9}, field));
     expectFullMatchesGrid("one brick", one, lossless(32, 2), tf, obliqueScene(one, 48));
     // Edge bricks smaller than the pool's granule (1 voxel wide, 1x1 corner bricks).
-    const Volume thin = test::makeFloatVolume({33, 17, 18}, field);
+    const Volume thin = toU8(test::makeFloatVolume({33, 17, 18}, field));
     expectFullMatchesGrid("1-voxel edge bricks", thin, lossless(16, 2), tf, obliqueScene(thin, 48));
     // Cache budget of one brick: the working set is coarsened to fit, and the image stays near the full one.
-    const Volume v = test::makeFloatVolume({64, 64, 64}, field);
+    const Volume v = toU8(test::makeFloatVolume({64, 64, 64}, field));
     const auto reader = encode(v, lossless(32, 3));
     Scene s = obliqueScene(v, 64);
     BrickRenderer full(cc, reader, 0, tf, s);
@@ -345,7 +351,7 @@ TEST(BrickRender, HardCasesOfBrickAndCacheSizes) {
 
 TEST(BrickRender, CorruptedBrickMetWhileRenderingNamesTheBrick) {
     ComputeContext& cc = computeContext();
-    const Volume v = test::makeFloatVolume({40, 40, 40}, [](double x, double, double) { return 50 + 4 * x; });
+    const Volume v = toU8(test::makeFloatVolume({40, 40, 40}, [](double x, double, double) { return 50 + 4 * x; }));
     std::vector<std::byte> bytes = encodeVolume(cc, v, lossless(16, 2));
     const VczHeader h = readVczHeader(bytes, "bad.vcz");
     bytes[h.bricks[0][5].offset + 3] ^= std::byte{0x40};

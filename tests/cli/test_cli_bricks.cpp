@@ -55,7 +55,7 @@ double maxAbs(const fs::path& a, const fs::path& b) {
 const char* kTf = R"({"domain": [0, 255], "color": [[0, 0.2, 0.3, 0.9], [128, 1, 0.6, 0.2], [255, 1, 1, 1]],
   "extinction": [[0, 0], [40, 0], [90, 0.2], [255, 0.5]]})";
 
-void writeVolume(const fs::path& p, int shift) {
+void writeBall(const fs::path& p, int shift) {
     const Volume v = test::makeFloatVolume({40, 36, 30}, [shift](double x, double y, double z) {
         const double r = std::sqrt((x - 20 - shift) * (x - 20 - shift) + (y - 18) * (y - 18) + (z - 15) * (z - 15));
         return r < 13 ? 250 - 12 * r : 0;
@@ -68,7 +68,7 @@ void writeVolume(const fs::path& p, int shift) {
 
 TEST(CliBricks, VczIsAVolumeEverywhere) {
     const fs::path dir = test::tempDir("cli_bricks");
-    writeVolume(dir / "ball.nrrd", 0);
+    writeBall(dir / "ball.nrrd", 0);
     test::writeFile(dir / "tf.json", kTf);
     RunResult r = run("encode " + q(dir / "ball.nrrd") + " --brick 16 --levels 2 -o " + q(dir / "ball.vcz"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
@@ -98,8 +98,8 @@ TEST(CliBricks, VczIsAVolumeEverywhere) {
 
 TEST(CliBricks, SeriesFrameAndCorruptedBrick) {
     const fs::path dir = test::tempDir("cli_bricks_series");
-    writeVolume(dir / "f0.nrrd", 0);
-    writeVolume(dir / "f1.nrrd", 4);
+    writeBall(dir / "f0.nrrd", 0);
+    writeBall(dir / "f1.nrrd", 4);
     test::writeFile(dir / "tf.json", kTf);
     RunResult r = run("encode " + q(dir / "f0.nrrd") + " " + q(dir / "f1.nrrd") + " --brick 16 --levels 2 -o " +
                           q(dir / "s.vcz"),

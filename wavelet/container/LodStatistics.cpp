@@ -32,6 +32,9 @@ std::string LodStatistics::serialise() const {
             put(s, e.min);
             put(s, e.max);
             put(s, e.error);
+            put(s, e.rms);
+            put(s, e.faceMin);
+            put(s, e.faceMax);
         }
     }
     return s;
@@ -65,6 +68,9 @@ std::optional<LodStatistics> LodStatistics::fromHeader(const VczHeader& h, const
             get(e.min);
             get(e.max);
             get(e.error);
+            get(e.rms);
+            get(e.faceMin);
+            get(e.faceMax);
         }
     }
     if (pos != s.size()) fail();
@@ -76,10 +82,19 @@ BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::spa
     BrickLevelStats st;
     st.min = std::numeric_limits<float>::infinity();
     st.max = -std::numeric_limits<float>::infinity();
-    for (float v : samples) {
-        st.min = std::min(st.min, v);
-        st.max = std::max(st.max, v);
-    }
+    st.faceMin = std::numeric_limits<float>::infinity();
+    st.faceMax = -std::numeric_limits<float>::infinity();
+    for (std::size_t k = 0; k < m.z; ++k)
+        for (std::size_t j = 0; j < m.y; ++j)
+            for (std::size_t i = 0; i < m.x; ++i) {
+                const float v = samples[(k * m.y + j) * m.x + i];
+                st.min = std::min(st.min, v);
+                st.max = std::max(st.max, v);
+                if (i == 0 || j == 0 || k == 0) {
+                    st.faceMin = std::min(st.faceMin, v);
+                    st.faceMax = std::max(st.faceMax, v);
+                }
+            }
     const double scale = 1.0 / double(std::size_t(1) << level);
     auto axis = [&](std::size_t x, std::size_t n, std::size_t& i0, std::size_t& i1, double& f) {
         const double u = std::min(double(x) * scale, double(n - 1));
@@ -88,7 +103,7 @@ BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::spa
         f = u - double(i0);
     };
     auto at = [&](std::size_t i, std::size_t j, std::size_t k) { return double(samples[(k * m.y + j) * m.x + i]); };
-    double err = 0;
+    double err = 0, sq = 0;
     for (std::size_t z = 0; z < full.z; ++z) {
         std::size_t z0, z1;
         double fz;
@@ -105,13 +120,16 @@ BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::spa
                 const double c0 = lx(y0, z0) + fy * (lx(y1, z0) - lx(y0, z0));
                 const double c1 = lx(y0, z1) + fy * (lx(y1, z1) - lx(y0, z1));
                 const double v = c0 + fz * (c1 - c0);
-                err = std::max(err, std::abs(v - double(input[(z * full.y + y) * full.x + x])));
+                const double d = std::abs(v - double(input[(z * full.y + y) * full.x + x]));
+                err = std::max(err, d);
+                sq += d * d;
             }
         }
     }
     // Rounded up so the stored bound is never below the measured deviation.
-    st.error = std::nextafter(float(err), std::numeric_limits<float>::infinity());
-    if (err == 0) st.error = 0;
+    const double rms = std::sqrt(sq / double(std::max<std::size_t>(full.count(), 1)));
+    st.error = err == 0 ? 0.0f : std::nextafter(float(err), std::numeric_limits<float>::infinity());
+    st.rms = rms == 0 ? 0.0f : std::nextafter(float(rms), std::numeric_limits<float>::infinity());
     return st;
 }
 
@@ -133,7 +151,8 @@ std::vector<std::byte> addLodStatistics(ComputeContext& cc, std::vector<std::byt
             if (l > levels) { // raw float bit planes have no coarser levels: never chosen
                 for (std::size_t b = 0; b < nb; ++b)
                     out[b * std::size_t(h.levels + 1) + std::size_t(l)] = {
-                        float(h.bricks[f][b].min), float(h.bricks[f][b].max), std::numeric_limits<float>::infinity()};
+                        float(h.bricks[f][b].min), float(h.bricks[f][b].max), std::numeric_limits<float>::infinity(),
+                        std::numeric_limits<float>::infinity(), float(h.bricks[f][b].min), float(h.bricks[f][b].max)};
                 continue;
             }
             DecodeOptions o;

@@ -22,9 +22,12 @@ inline constexpr std::string_view kVczLodKey = "volcl:lod";
 /// One brick at one level: the range of its samples and the largest |approximation - input| over the
 /// brick's full-resolution voxels, where the approximation at voxel x is the trilinear interpolation of the
 /// level's samples at (x - origin) / 2^level, clamped to the brick's last sample (the brick renderer's rule,
-/// host/render/bricks/BrickField.hpp). Level 0 of a lossy file holds the coding error itself.
+/// host/render/bricks/BrickField.hpp). Level 0 of a lossy file holds the coding error itself. `faceMin` and
+/// `faceMax` are the range of the samples on the brick's three low faces (x, y or z index 0): the only ones a
+/// neighbour's trilinear cells read.
+/// `rms` is the root mean square of the same deviation.
 struct BrickLevelStats {
-    float min = 0, max = 0, error = 0;
+    float min = 0, max = 0, error = 0, rms = 0, faceMin = 0, faceMax = 0;
 };
 
 /// Statistics of every I frame: `frames[f]` is empty for P/B frames (they decode at level 0 only), else
@@ -37,8 +40,8 @@ struct LodStatistics {
         return frames[frame][brick * std::size_t(levels + 1) + std::size_t(level)];
     }
     bool has(std::size_t frame) const noexcept { return frame < frames.size() && !frames[frame].empty(); }
-    /// Little-endian bytes: levels (u32), frame count (u32), per frame an entry count (u32) and 3 float32
-    /// per entry.
+    /// Little-endian bytes: levels (u32), frame count (u32), per frame an entry count (u32) and 6 float32
+    /// per entry (min, max, error, rms, faceMin, faceMax).
     std::string serialise() const;
     /// The statistics stored in `h`, if any. Throws IoError naming `name` when they do not match the header.
     static std::optional<LodStatistics> fromHeader(const VczHeader& h, const std::string& name);

@@ -52,8 +52,18 @@ ValueRange levelRange(const VczHeader& h, const LodStatistics* stats, std::size_
     return {e.min - w, e.max + w};
 }
 
+/// Range of the samples on the brick's low faces (what a neighbour's cells read); the whole range without
+/// statistics.
+ValueRange faceRange(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b, int level) {
+    if (stats && stats->has(frame)) {
+        const BrickLevelStats& s = stats->at(frame, b, level);
+        return {s.faceMin, s.faceMax};
+    }
+    return levelRange(h, stats, frame, b, level);
+}
+
 double dataError(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b, int level) {
-    if (stats && stats->has(frame)) return std::max<double>(stats->at(frame, b, level).error, level == 0 ? codingBound(h) : 0.0);
+    if (stats && stats->has(frame)) return std::max<double>(stats->at(frame, b, level).rms, level == 0 ? codingBound(h) : 0.0);
     if (uniformExact(h, frame, b)) return 0.0; // every filter's low band of a constant is the constant
     return level == 0 ? codingBound(h) : kInf;
 }
@@ -192,9 +202,9 @@ BrickSelection selectBricks(const VczHeader& h, const LodStatistics* stats, std:
         s.error[b] = brickError(h, stats, frame, b, level, tf, view);
     }
 
-    // Macrocells of the smallest brick edge; each covers voxels [c e, (c + 1) e] and takes the range of every
-    // brick within one voxel of that box, so the cells' trilinear samples and the node values they read are
-    // all inside it (unreached bricks too: their stand-in values must be hidden as well).
+    // Macrocells of the smallest brick edge; cell c covers voxels [c e, (c + 1) e] (closed, as the kernel's
+    // skipping assumes). Its range is every brick it overlaps: a brick it meets only in that brick's low face
+    // layer (the cell's upper face) adds its face range, the only values the cell's trilinear cells read there.
     const Dims g = h.brickGrid();
     grid_detail::MacrocellGrid& m = s.macro;
     m.edge = unsigned(std::min({h.brick.x, h.brick.y, h.brick.z}));
@@ -205,30 +215,38 @@ BrickSelection selectBricks(const VczHeader& h, const LodStatistics* stats, std:
     const std::size_t nc = std::size_t(m.nx) * m.ny * m.nz;
     m.min.assign(nc, std::numeric_limits<float>::infinity());
     m.max.assign(nc, -std::numeric_limits<float>::infinity());
-    // Brick index range overlapping voxels [lo, hi] along one axis.
-    auto bricksOver = [](long lo, long hi, std::size_t brick, std::size_t n, std::size_t& b0, std::size_t& b1) {
-        lo = std::max<long>(lo, 0);
-        hi = std::min<long>(hi, long(n) - 1);
-        b0 = std::size_t(lo) / brick;
-        b1 = std::size_t(hi) / brick;
+    std::vector<ValueRange> face(nb);
+    for (std::size_t b = 0; b < nb; ++b)
+        face[b] = faceRange(h, stats, frame, b, std::max(s.level[b], 0));
+    s.standIn.resize(nb);
+    for (std::size_t b = 0; b < nb; ++b)
+        s.standIn[b] = float(face[b].min);
+    // Along one axis: bricks over voxels [lo, hi]; `faceOnly` for a brick starting exactly at hi.
+    struct Span {
+        std::size_t b0, b1;
+    };
+    auto over = [](std::size_t lo, std::size_t hi, std::size_t brick, std::size_t n) {
+        hi = std::min(hi, n - 1);
+        return Span{lo / brick, hi / brick};
     };
     std::vector<std::vector<std::size_t>> cellBricks(nc);
     for (unsigned cz = 0; cz < m.nz; ++cz)
         for (unsigned cy = 0; cy < m.ny; ++cy)
             for (unsigned cx = 0; cx < m.nx; ++cx) {
                 const std::size_t c = (std::size_t(cz) * m.ny + cy) * m.nx + cx;
-                std::size_t x0, x1, y0, y1, z0, z1;
-                const long e = long(m.edge);
-                bricksOver(long(cx) * e - 1, long(cx + 1) * e + 1, h.brick.x, h.dims.x, x0, x1);
-                bricksOver(long(cy) * e - 1, long(cy + 1) * e + 1, h.brick.y, h.dims.y, y0, y1);
-                bricksOver(long(cz) * e - 1, long(cz + 1) * e + 1, h.brick.z, h.dims.z, z0, z1);
-                for (std::size_t bz = z0; bz <= z1; ++bz)
-                    for (std::size_t by = y0; by <= y1; ++by)
-                        for (std::size_t bx = x0; bx <= x1; ++bx) {
+                const std::size_t e = m.edge;
+                const std::size_t hx = (cx + 1) * e, hy = (cy + 1) * e, hz = (cz + 1) * e;
+                const Span sx = over(cx * e, hx, h.brick.x, h.dims.x), sy = over(cy * e, hy, h.brick.y, h.dims.y),
+                           sz = over(cz * e, hz, h.brick.z, h.dims.z);
+                for (std::size_t bz = sz.b0; bz <= sz.b1; ++bz)
+                    for (std::size_t by = sy.b0; by <= sy.b1; ++by)
+                        for (std::size_t bx = sx.b0; bx <= sx.b1; ++bx) {
                             const std::size_t b = (bz * g.y + by) * g.x + bx;
+                            const bool faceOnly = bx * h.brick.x == hx || by * h.brick.y == hy || bz * h.brick.z == hz;
+                            const ValueRange r = faceOnly ? face[b] : s.range[b];
                             cellBricks[c].push_back(b);
-                            m.min[c] = std::min(m.min[c], float(s.range[b].min));
-                            m.max[c] = std::max(m.max[c], float(s.range[b].max));
+                            m.min[c] = std::min(m.min[c], float(r.min));
+                            m.max[c] = std::max(m.max[c], float(r.max));
                         }
             }
     s.empty = grid_detail::emptyMacrocells(m, tf, view.isoValues, view.isoOnly, view.tableNodes);

@@ -26,10 +26,12 @@ struct BrickView {
 
 /// One frame's bricks. `level[b]` is the level brick b is drawn at, -1 when it is not decoded (no ray reaches
 /// it, or the transfer function hides everything it takes part in). `range` is each brick's value range at
-/// its chosen level (its stand-in value when not decoded is range.min).
+/// its chosen level; `standIn` the value a brick that is not decoded reads as (the minimum of its low faces,
+/// which every macrocell touching the brick includes in its range).
 struct BrickSelection {
     std::vector<int> level;
     std::vector<ValueRange> range;
+    std::vector<float> standIn;
     std::vector<double> error; ///< estimated screen-space error at the chosen level
     grid_detail::MacrocellGrid macro; ///< macrocells over the bricks' ranges (the kernel's skipping)
     std::vector<unsigned char> empty; ///< per macrocell: nothing visible (emptyMacrocells)

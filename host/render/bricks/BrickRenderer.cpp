@@ -340,7 +340,7 @@ void BrickRenderer::loadBricks(const BrickSelection& s) {
     for (std::size_t b = 0; b < s.level.size(); ++b) {
         page[kHeaderWords + 4 * b + 0] = uintBits(0);
         page[kHeaderWords + 4 * b + 1] = uintBits(kAbsent);
-        page[kHeaderWords + 4 * b + 2] = float(s.range[b].min);
+        page[kHeaderWords + 4 * b + 2] = s.standIn[b];
     }
     last_.visited = work.size();
     bool retried = false;
