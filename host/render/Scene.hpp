@@ -121,7 +121,7 @@ struct Scene {
     MipColor mipColor = MipColor::Grey;
     /// Compressed-brick inputs only: level of detail, its error threshold and the decoded-brick budget.
     LodMode lod = LodMode::Full;
-    double lodError = 0.002;
+    double lodError = 0.01;
     double cacheMb = 512.0;
     std::vector<Light> lights;
     SceneEffects effects;

@@ -63,7 +63,7 @@ void writeBall(const fs::path& p, int shift) {
     Volume u8(v.dims(), ScalarType::UInt8);
     for (std::size_t i = 0; i < v.voxelCount(); ++i)
         u8.values<std::uint8_t>()[i] = std::uint8_t(v.values<float>()[i]);
-    writeVolume(u8, p);
+    writeVolumeFile(u8, p);
 }
 
 TEST(CliBricks, VczIsAVolumeEverywhere) {

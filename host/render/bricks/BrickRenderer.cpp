@@ -191,7 +191,11 @@ void BrickRenderer::makePool() {
     std::size_t capacity = std::size_t(std::min<double>(budgetFloats, double(wanted)));
     while (top > 0 && full.blockFloats(top) > capacity) --top;
     const BuddyAllocator sized(granule, top, 1);
-    const std::size_t count = capacity / sized.blockFloats(top);
+    // Top blocks: as many as the budget holds, but no more than the whole frame needs (edge bricks take
+    // smaller blocks, so that is the rounded-up share of `wanted`).
+    const std::size_t topFloats = sized.blockFloats(top);
+    const std::size_t count = std::min<std::size_t>(std::size_t(budgetFloats / double(topFloats)),
+                                                    (wanted + topFloats - 1) / topFloats);
     if (count == 0)
         throw UsageError("render.cache_mb " + std::to_string(scene_.cacheMb) + " is below one brick at the coarsest level (" +
                          std::to_string(double(granule * sizeof(float)) / (1024.0 * 1024.0)) + " MB)");
