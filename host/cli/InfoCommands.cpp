@@ -268,7 +268,8 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
             if (!a->type.empty()) v = v.convertedTo(parseScalarType(a->type));
             WriteOptions wo;
             wo.endian = a->bigEndianOut ? Endian::Big : Endian::Little;
-            wo.nifti = readNiftiMetadataIfNifti(a->in); // kept by NIfTI and VTI outputs
+            // A NIfTI source's header is kept by NIfTI and VTI outputs (a .vcz carries its own: volcl decode).
+            if (std::filesystem::path(a->in).extension() != ".vcz") wo.nifti = readNiftiMetadataIfNifti(a->in);
             writeVolumeFile(v, a->out, wo);
             if (!global.quiet)
                 std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x" << v.dims().z
