@@ -295,6 +295,23 @@ TEST(BrickRender, AutoLodOnMriStaysCloseWhileDecodingFewerVoxels) {
                 EXPECT_GE(ratio, 3.0) << name;
             }
         }
+        // Budgets below the working set: bricks coarsened to fit (the accuracy a budget costs).
+        for (auto [lod, budget] : {std::pair{LodMode::Full, 8.0}, std::pair{LodMode::Full, 2.0},
+                                   std::pair{LodMode::Auto, 2.0}}) {
+            s.lod = lod;
+            s.lodError = Scene{}.lodError;
+            s.cacheMb = budget;
+            BrickRenderer tight(cc, reader, 0, tf, s);
+            const ImageBuffer img = tight.render();
+            const double e = rmse(img, ref);
+            std::cerr << name << " 512^2 zoomed out: lod " << lodModeName(lod) << ", cache " << budget << " MB: RMSE "
+                      << e << ", coarsened " << tight.lastStats().coarsened << ", peak "
+                      << double(tight.lastStats().peakPoolBytes) / (1024.0 * 1024.0) << " MB\n";
+            EXPECT_LE(tight.lastStats().peakPoolBytes, std::size_t(budget * 1024 * 1024));
+            // The sharp TF's narrow peaks show coarse levels (RMSE ~0.02): only the smooth scene has a bound.
+            if (std::string(name) == "mri") EXPECT_LE(e, 3e-3) << name;
+        }
+        s.cacheMb = Scene{}.cacheMb;
     }
 }
 
