@@ -55,7 +55,8 @@ std::shared_ptr<const VczReader> encode(const Volume& v, CodecOptions o, bool st
 Volume toU8(const Volume& v) {
     Volume u(v.dims(), ScalarType::UInt8);
     for (std::size_t i = 0; i < v.voxelCount(); ++i)
-        u.values<std::uint8_t>()[i] = std::uint8_t(std::clamp(std::round(v.values<float>()[i]), 0.0f, 255.0f));
+        u.values<std::uint8_t>()[i] =
+            std::uint8_t(std::clamp(std::round(v.values<float>()[i]), 0.0f, 255.0f));
     return u;
 }
 
@@ -136,14 +137,17 @@ TEST(LodStatistics, MeasuredOnEveryLevelAndOldFilesStayReadable) {
         u8.values<std::uint8_t>()[i] = std::uint8_t(v.values<float>()[i]);
     const std::vector<std::byte> plain = encodeVolume(cc, u8, lossless(16, 3));
     const VczReader old(plain, "old.vcz");
-    EXPECT_FALSE(LodStatistics::fromHeader(old.header(), "old.vcz")) << "files without statistics read as before";
-    const std::vector<std::byte> with = addLodStatistics(cc, plain, std::span<const Volume>(&u8, 1), "new.vcz");
+    EXPECT_FALSE(LodStatistics::fromHeader(old.header(), "old.vcz"))
+        << "files without statistics read as before";
+    const std::vector<std::byte> with =
+        addLodStatistics(cc, plain, std::span<const Volume>(&u8, 1), "new.vcz");
     const VczReader r(with, "new.vcz");
     const auto st = LodStatistics::fromHeader(r.header(), "new.vcz");
     ASSERT_TRUE(st);
     const Volume full = r.decode(cc);
     EXPECT_EQ(full.bytes().size(), u8.bytes().size());
-    EXPECT_TRUE(std::equal(full.bytes().begin(), full.bytes().end(), u8.bytes().begin())) << "payloads unchanged";
+    EXPECT_TRUE(std::equal(full.bytes().begin(), full.bytes().end(), u8.bytes().begin()))
+        << "payloads unchanged";
     for (std::size_t b = 0; b < r.header().brickCount(); ++b) {
         EXPECT_EQ(st->at(0, b, 0).error, 0.0f) << "lossless level 0";
         EXPECT_GT(st->at(0, b, 2).error, 0.0f) << "a smooth field loses detail at level 2";
@@ -157,8 +161,8 @@ TEST(LodStatistics, MeasuredOnEveryLevelAndOldFilesStayReadable) {
 }
 
 /// The brick renderer at lod full against the grid renderer on the decoded volume.
-void expectFullMatchesGrid(const std::string& what, const Volume& v, const CodecOptions& o, const TransferFunction& tf,
-                           Scene s, double tol = 1e-6) {
+void expectFullMatchesGrid(const std::string& what, const Volume& v, const CodecOptions& o,
+                           const TransferFunction& tf, Scene s, double tol = 1e-6) {
     ComputeContext& cc = computeContext();
     const auto reader = encode(v, o);
     const Volume decoded = reader->decode(cc);
@@ -187,7 +191,9 @@ TEST(BrickRender, LodFullEqualsDecodedVolumeOnRealVolumes) {
         {"regular/hydrogenatom.dat", {}, ScalarType::UInt8},
         {"regular/headsq/quarter.nhdr", {}, ScalarType::Int16},
         {"regular/walnut.vvd", {}, ScalarType::UInt16},
-        {"regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz", {180, 216, 180}, ScalarType::UInt8},
+        {"regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz",
+         {180, 216, 180},
+         ScalarType::UInt8},
     };
     for (const Case& c : cases) {
         ReadOptions ro;
@@ -254,7 +260,8 @@ TEST(BrickRender, MixedLevelsMatchNodeValueReferenceWithoutCracks) {
     const Volume nodes = brickNodeValues(cc, *reader, 0, two, standIn);
     const Volume exact = reader->decode(cc);
     for (std::size_t x = 10; x < 22; ++x) {
-        const double step = std::abs(nodes.toFloat()[nodes.index(x + 1, 5, 5)] - nodes.toFloat()[nodes.index(x, 5, 5)]);
+        const double step =
+            std::abs(nodes.toFloat()[nodes.index(x + 1, 5, 5)] - nodes.toFloat()[nodes.index(x, 5, 5)]);
         EXPECT_LT(step, 25.0) << "x " << x; // the field's slope is at most 90 * 0.21 per voxel
     }
 }
@@ -283,7 +290,8 @@ TEST(BrickRender, AutoLodOnMriStaysCloseWhileDecodingFewerVoxels) {
             BrickRenderer autoLod(cc, reader, 0, tf, s);
             const ImageBuffer img = autoLod.render();
             const double e = rmse(img, ref);
-            const double ratio = double(full.lastStats().voxelsDecoded) / double(autoLod.lastStats().voxelsDecoded);
+            const double ratio =
+                double(full.lastStats().voxelsDecoded) / double(autoLod.lastStats().voxelsDecoded);
             std::cerr << name << " 512^2 zoomed out: lod auto, lod_error " << lodError << ": RMSE " << e
                       << ", voxels decoded " << full.lastStats().voxelsDecoded << " -> "
                       << autoLod.lastStats().voxelsDecoded << " (" << ratio << "x fewer)\n";
@@ -296,16 +304,16 @@ TEST(BrickRender, AutoLodOnMriStaysCloseWhileDecodingFewerVoxels) {
             }
         }
         // Budgets below the working set: bricks coarsened to fit (the accuracy a budget costs).
-        for (auto [lod, budget] : {std::pair{LodMode::Full, 8.0}, std::pair{LodMode::Full, 2.0},
-                                   std::pair{LodMode::Auto, 2.0}}) {
+        for (auto [lod, budget] :
+             {std::pair{LodMode::Full, 8.0}, std::pair{LodMode::Full, 2.0}, std::pair{LodMode::Auto, 2.0}}) {
             s.lod = lod;
             s.lodError = Scene{}.lodError;
             s.cacheMb = budget;
             BrickRenderer tight(cc, reader, 0, tf, s);
             const ImageBuffer img = tight.render();
             const double e = rmse(img, ref);
-            std::cerr << name << " 512^2 zoomed out: lod " << lodModeName(lod) << ", cache " << budget << " MB: RMSE "
-                      << e << ", coarsened " << tight.lastStats().coarsened << ", peak "
+            std::cerr << name << " 512^2 zoomed out: lod " << lodModeName(lod) << ", cache " << budget
+                      << " MB: RMSE " << e << ", coarsened " << tight.lastStats().coarsened << ", peak "
                       << double(tight.lastStats().peakPoolBytes) / (1024.0 * 1024.0) << " MB\n";
             EXPECT_LE(tight.lastStats().peakPoolBytes, std::size_t(budget * 1024 * 1024));
             // The sharp TF's narrow peaks show coarse levels (RMSE ~0.02): only the smooth scene has a bound.
@@ -353,7 +361,9 @@ TEST(BrickRender, BricksTheTfHidesAreNeverDecoded) {
 TEST(BrickRender, HardCasesOfBrickAndCacheSizes) {
     ComputeContext& cc = computeContext();
     const TransferFunction tf = rampTf(30, 230, 1.0);
-    auto field = [](double x, double y, double z) { return 128 + 90 * std::sin(x * 0.3) * std::cos(y * 0.25 + z * 0.2); };
+    auto field = [](double x, double y, double z) {
+        return 128 + 90 * std::sin(x * 0.3) * std::cos(y * 0.25 + z * 0.2);
+    };
     // A volume of one brick.
     const Volume one = toU8(test::makeFloatVolume({20, 17, 9}, field));
     expectFullMatchesGrid("one brick", one, lossless(32, 2), tf, obliqueScene(one, 48));
@@ -380,7 +390,8 @@ TEST(BrickRender, HardCasesOfBrickAndCacheSizes) {
 
 TEST(BrickRender, CorruptedBrickMetWhileRenderingNamesTheBrick) {
     ComputeContext& cc = computeContext();
-    const Volume v = toU8(test::makeFloatVolume({40, 40, 40}, [](double x, double, double) { return 50 + 4 * x; }));
+    const Volume v =
+        toU8(test::makeFloatVolume({40, 40, 40}, [](double x, double, double) { return 50 + 4 * x; }));
     std::vector<std::byte> bytes = encodeVolume(cc, v, lossless(16, 2));
     const VczHeader h = readVczHeader(bytes, "bad.vcz");
     bytes[h.bricks[0][5].offset + 3] ^= std::byte{0x40};

@@ -45,7 +45,9 @@ std::optional<LodStatistics> LodStatistics::fromHeader(const VczHeader& h, const
     if (it == h.metadata.end()) return std::nullopt;
     const std::string& s = it->second;
     std::size_t pos = 0;
-    auto fail = [&]() -> void { throw IoError(name + ": level-of-detail statistics do not match the header"); };
+    auto fail = [&]() -> void {
+        throw IoError(name + ": level-of-detail statistics do not match the header");
+    };
     auto get = [&](auto& v) {
         if (s.size() - pos < sizeof(v)) fail();
         std::memcpy(&v, s.data() + pos, sizeof(v));
@@ -77,8 +79,8 @@ std::optional<LodStatistics> LodStatistics::fromHeader(const VczHeader& h, const
     return st;
 }
 
-BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::span<const float> input, Dims full,
-                                int level) {
+BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::span<const float> input,
+                                Dims full, int level) {
     BrickLevelStats st;
     st.min = std::numeric_limits<float>::infinity();
     st.max = -std::numeric_limits<float>::infinity();
@@ -102,7 +104,9 @@ BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::spa
         i1 = std::min(i0 + 1, n - 1);
         f = u - double(i0);
     };
-    auto at = [&](std::size_t i, std::size_t j, std::size_t k) { return double(samples[(k * m.y + j) * m.x + i]); };
+    auto at = [&](std::size_t i, std::size_t j, std::size_t k) {
+        return double(samples[(k * m.y + j) * m.x + i]);
+    };
     double err = 0, sq = 0;
     for (std::size_t z = 0; z < full.z; ++z) {
         std::size_t z0, z1;
@@ -116,7 +120,9 @@ BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::spa
                 std::size_t x0, x1;
                 double fx;
                 axis(x, m.x, x0, x1, fx);
-                auto lx = [&](std::size_t j, std::size_t k) { return at(x0, j, k) + fx * (at(x1, j, k) - at(x0, j, k)); };
+                auto lx = [&](std::size_t j, std::size_t k) {
+                    return at(x0, j, k) + fx * (at(x1, j, k) - at(x0, j, k));
+                };
                 const double c0 = lx(y0, z0) + fy * (lx(y1, z0) - lx(y0, z0));
                 const double c1 = lx(y0, z1) + fy * (lx(y1, z1) - lx(y0, z1));
                 const double v = c0 + fz * (c1 - c0);
@@ -151,8 +157,12 @@ std::vector<std::byte> addLodStatistics(ComputeContext& cc, std::vector<std::byt
             if (l > levels) { // raw float bit planes have no coarser levels: never chosen
                 for (std::size_t b = 0; b < nb; ++b)
                     out[b * std::size_t(h.levels + 1) + std::size_t(l)] = {
-                        float(h.bricks[f][b].min), float(h.bricks[f][b].max), std::numeric_limits<float>::infinity(),
-                        std::numeric_limits<float>::infinity(), float(h.bricks[f][b].min), float(h.bricks[f][b].max)};
+                        float(h.bricks[f][b].min),
+                        float(h.bricks[f][b].max),
+                        std::numeric_limits<float>::infinity(),
+                        std::numeric_limits<float>::infinity(),
+                        float(h.bricks[f][b].min),
+                        float(h.bricks[f][b].max)};
                 continue;
             }
             DecodeOptions o;
@@ -175,8 +185,10 @@ std::vector<std::byte> addLodStatistics(ComputeContext& cc, std::vector<std::byt
                 for (std::size_t k = 0; k < bd.z; ++k)
                     for (std::size_t j = 0; j < bd.y; ++j)
                         std::memcpy(full.data() + (k * bd.y + j) * bd.x,
-                                    input.data() + ((bo.z + k) * d.y + bo.y + j) * d.x + bo.x, bd.x * sizeof(float));
-                out[b * std::size_t(h.levels + 1) + std::size_t(l)] = brickLevelStats(samples, m, full, bd, l);
+                                    input.data() + ((bo.z + k) * d.y + bo.y + j) * d.x + bo.x,
+                                    bd.x * sizeof(float));
+                out[b * std::size_t(h.levels + 1) + std::size_t(l)] =
+                    brickLevelStats(samples, m, full, bd, l);
             });
         }
         st.frames[f] = std::move(out);

@@ -49,8 +49,8 @@ struct LodStatistics {
 
 /// The statistics of one brick at `level` from its level-`level` samples (`samples`, dims `m`, x fastest)
 /// and the input voxels of the brick (`input`, dims `full`, x fastest).
-BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::span<const float> input, Dims full,
-                                int level);
+BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::span<const float> input,
+                                Dims full, int level);
 
 /// Measures the statistics of `vcz` against the frames it was encoded from (`inputs`, display order) and
 /// returns the file with them in its header (payloads unchanged, offsets moved).

@@ -8,8 +8,8 @@
 
 namespace volcl {
 
-Volume brickNodeValues(ComputeContext& cc, const VczReader& reader, std::size_t frame, const std::vector<int>& levels,
-                       const std::vector<float>& standIn) {
+Volume brickNodeValues(ComputeContext& cc, const VczReader& reader, std::size_t frame,
+                       const std::vector<int>& levels, const std::vector<float>& standIn) {
     const VczHeader& h = reader.header();
     if (levels.size() != h.brickCount() || standIn.size() != h.brickCount())
         throw UsageError("brickNodeValues: one level and one stand-in per brick");
@@ -37,7 +37,9 @@ Volume brickNodeValues(ComputeContext& cc, const VczReader& reader, std::size_t 
             i1 = std::min(i0 + 1, n - 1);
             f = u - double(i0);
         };
-        auto at = [&](std::size_t i, std::size_t j, std::size_t k) { return double(s[(k * m.y + j) * m.x + i]); };
+        auto at = [&](std::size_t i, std::size_t j, std::size_t k) {
+            return double(s[(k * m.y + j) * m.x + i]);
+        };
         for (std::size_t k = 0; k < d.z; ++k) {
             std::size_t z0, z1;
             double fz;
@@ -50,7 +52,9 @@ Volume brickNodeValues(ComputeContext& cc, const VczReader& reader, std::size_t 
                     std::size_t x0, x1;
                     double fx;
                     axis(i, m.x, x0, x1, fx);
-                    auto lx = [&](std::size_t y, std::size_t z) { return at(x0, y, z) + fx * (at(x1, y, z) - at(x0, y, z)); };
+                    auto lx = [&](std::size_t y, std::size_t z) {
+                        return at(x0, y, z) + fx * (at(x1, y, z) - at(x0, y, z));
+                    };
                     const double c0 = lx(y0, z0) + fy * (lx(y1, z0) - lx(y0, z0));
                     const double c1 = lx(y0, z1) + fy * (lx(y1, z1) - lx(y0, z1));
                     v[out.index(o.x + i, o.y + j, o.z + k)] = float(c0 + fz * (c1 - c0));

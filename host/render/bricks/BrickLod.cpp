@@ -16,8 +16,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 /// Largest |slope| of a piecewise-linear function (points (s, value(i))) over [a, b]; steps inside are
 /// infinite, the constant continuations beyond the first and last point are flat.
-template <class Points, class Value>
-double maxSlope(const Points& pts, Value value, double a, double b) {
+template <class Points, class Value> double maxSlope(const Points& pts, Value value, double a, double b) {
     double m = 0;
     for (std::size_t i = 0; i + 1 < pts.size(); ++i) {
         const double s0 = pts[i].s, s1 = pts[i + 1].s;
@@ -42,7 +41,8 @@ bool uniformExact(const VczHeader& h, std::size_t frame, std::size_t b) {
     return h.rate == RateMode::Lossless && e.min == e.max;
 }
 
-ValueRange levelRange(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b, int level) {
+ValueRange levelRange(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b,
+                      int level) {
     if (stats && stats->has(frame)) {
         const BrickLevelStats& s = stats->at(frame, b, level);
         return {s.min, s.max};
@@ -54,7 +54,8 @@ ValueRange levelRange(const VczHeader& h, const LodStatistics* stats, std::size_
 
 /// Range of the samples on the brick's low faces (what a neighbour's cells read); the whole range without
 /// statistics.
-ValueRange faceRange(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b, int level) {
+ValueRange faceRange(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b,
+                     int level) {
     if (stats && stats->has(frame)) {
         const BrickLevelStats& s = stats->at(frame, b, level);
         return {s.faceMin, s.faceMax};
@@ -62,8 +63,10 @@ ValueRange faceRange(const VczHeader& h, const LodStatistics* stats, std::size_t
     return levelRange(h, stats, frame, b, level);
 }
 
-double dataError(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b, int level) {
-    if (stats && stats->has(frame)) return std::max<double>(stats->at(frame, b, level).rms, level == 0 ? codingBound(h) : 0.0);
+double dataError(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b,
+                 int level) {
+    if (stats && stats->has(frame))
+        return std::max<double>(stats->at(frame, b, level).rms, level == 0 ? codingBound(h) : 0.0);
     if (uniformExact(h, frame, b)) return 0.0; // every filter's low band of a constant is the constant
     return level == 0 ? codingBound(h) : kInf;
 }
@@ -84,7 +87,8 @@ ViewFrame viewFrame(const Camera& c) {
 std::array<Vec3, 8> brickCorners(const VczHeader& h, std::size_t b, double grow) {
     const Dims o = h.brickOrigin(b), d = h.brickDims(b);
     const double lo[3] = {double(o.x) - grow, double(o.y) - grow, double(o.z) - grow};
-    const double hi[3] = {double(o.x + d.x - 1) + grow, double(o.y + d.y - 1) + grow, double(o.z + d.z - 1) + grow};
+    const double hi[3] = {double(o.x + d.x - 1) + grow, double(o.y + d.y - 1) + grow,
+                          double(o.z + d.z - 1) + grow};
     std::array<Vec3, 8> c;
     for (int i = 0; i < 8; ++i)
         for (int a = 0; a < 3; ++a)
@@ -115,10 +119,12 @@ Dims brickSamples(const VczHeader& h, std::size_t b, int level) {
 }
 
 double tfSensitivity(const TransferFunction& tf, double a, double b, double h) {
-    const double kt = maxSlope(tf.extinction, [&](std::size_t i) { return tf.extinction[i].tau; }, a, b);
+    const double kt = maxSlope(
+        tf.extinction, [&](std::size_t i) { return tf.extinction[i].tau; }, a, b);
     double kc = 0;
     for (std::size_t ch = 0; ch < 3; ++ch)
-        kc = std::max(kc, maxSlope(tf.color, [&](std::size_t i) { return tf.color[i].rgb[ch]; }, a, b));
+        kc = std::max(kc, maxSlope(
+                              tf.color, [&](std::size_t i) { return tf.color[i].rgb[ch]; }, a, b));
     const double tmax = grid_detail::maxExtinctionOver(tf, a, b);
     if (tmax == 0 && kt == 0) return 0.0; // transparent throughout: nothing changes
     return h * kt + kc * (1.0 - std::exp(-tmax * h));
@@ -177,7 +183,8 @@ bool brickReachable(const VczHeader& h, std::size_t b, const BrickView& view) {
 }
 
 BrickSelection selectBricks(const VczHeader& h, const LodStatistics* stats, std::size_t frame, int maxLevel,
-                            const TransferFunction& tf, const BrickView& view, const std::vector<int>& forced) {
+                            const TransferFunction& tf, const BrickView& view,
+                            const std::vector<int>& forced) {
     const std::size_t nb = h.brickCount();
     BrickSelection s;
     s.level.assign(nb, 0);
@@ -204,11 +211,14 @@ BrickSelection selectBricks(const VczHeader& h, const LodStatistics* stats, std:
 
     // Macrocells of the smallest brick edge; cell c covers voxels [c e, (c + 1) e] (closed, as the kernel's
     // skipping assumes). Its range is every brick it overlaps: a brick it meets only in that brick's low face
-    // layer (the cell's upper face) adds its face range, the only values the cell's trilinear cells read there.
+    // layer (the cell's upper face) adds its face range, the only values the cell's trilinear cells read
+    // there.
     const Dims g = h.brickGrid();
     grid_detail::MacrocellGrid& m = s.macro;
     m.edge = unsigned(std::min({h.brick.x, h.brick.y, h.brick.z}));
-    auto cells = [&](std::size_t n) { return unsigned(std::max<std::size_t>(1, (n - 1 + m.edge - 1) / m.edge)); };
+    auto cells = [&](std::size_t n) {
+        return unsigned(std::max<std::size_t>(1, (n - 1 + m.edge - 1) / m.edge));
+    };
     m.nx = cells(h.dims.x);
     m.ny = cells(h.dims.y);
     m.nz = cells(h.dims.z);
@@ -236,13 +246,15 @@ BrickSelection selectBricks(const VczHeader& h, const LodStatistics* stats, std:
                 const std::size_t c = (std::size_t(cz) * m.ny + cy) * m.nx + cx;
                 const std::size_t e = m.edge;
                 const std::size_t hx = (cx + 1) * e, hy = (cy + 1) * e, hz = (cz + 1) * e;
-                const Span sx = over(cx * e, hx, h.brick.x, h.dims.x), sy = over(cy * e, hy, h.brick.y, h.dims.y),
+                const Span sx = over(cx * e, hx, h.brick.x, h.dims.x),
+                           sy = over(cy * e, hy, h.brick.y, h.dims.y),
                            sz = over(cz * e, hz, h.brick.z, h.dims.z);
                 for (std::size_t bz = sz.b0; bz <= sz.b1; ++bz)
                     for (std::size_t by = sy.b0; by <= sy.b1; ++by)
                         for (std::size_t bx = sx.b0; bx <= sx.b1; ++bx) {
                             const std::size_t b = (bz * g.y + by) * g.x + bx;
-                            const bool faceOnly = bx * h.brick.x == hx || by * h.brick.y == hy || bz * h.brick.z == hz;
+                            const bool faceOnly =
+                                bx * h.brick.x == hx || by * h.brick.y == hy || bz * h.brick.z == hz;
                             const ValueRange r = faceOnly ? face[b] : s.range[b];
                             cellBricks[c].push_back(b);
                             m.min[c] = std::min(m.min[c], float(r.min));

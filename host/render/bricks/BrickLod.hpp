@@ -32,7 +32,7 @@ struct BrickSelection {
     std::vector<int> level;
     std::vector<ValueRange> range;
     std::vector<float> standIn;
-    std::vector<double> error; ///< estimated screen-space error at the chosen level
+    std::vector<double> error;        ///< estimated screen-space error at the chosen level
     grid_detail::MacrocellGrid macro; ///< macrocells over the bricks' ranges (the kernel's skipping)
     std::vector<unsigned char> empty; ///< per macrocell: nothing visible (emptyMacrocells)
     std::size_t reachable = 0, hidden = 0;
@@ -55,7 +55,8 @@ bool brickReachable(const VczHeader& h, std::size_t b, const BrickView& view);
 /// below lodError for LodMode::Auto; `maxLevel` caps them, 0 for frames that decode at level 0 only), then
 /// macrocells and the working set. `forced`, when not empty, gives levels to use instead of choosing.
 BrickSelection selectBricks(const VczHeader& h, const LodStatistics* stats, std::size_t frame, int maxLevel,
-                            const TransferFunction& tf, const BrickView& view, const std::vector<int>& forced = {});
+                            const TransferFunction& tf, const BrickView& view,
+                            const std::vector<int>& forced = {});
 
 /// Samples per axis of brick `b` at `level`.
 Dims brickSamples(const VczHeader& h, std::size_t b, int level);

@@ -70,7 +70,8 @@ const CachedBrick* BrickCache::touch(const Key& key) {
     return &it->second.first;
 }
 
-std::optional<CachedBrick> BrickCache::insert(const Key& key, std::size_t floats, const std::set<Key>& pinned) {
+std::optional<CachedBrick> BrickCache::insert(const Key& key, std::size_t floats,
+                                              const std::set<Key>& pinned) {
     const int order = alloc_.orderFor(floats);
     if (order < 0) return std::nullopt;
     std::optional<std::size_t> off = alloc_.allocate(order);

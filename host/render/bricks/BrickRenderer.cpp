@@ -24,8 +24,8 @@ namespace volcl {
 
 namespace {
 
-constexpr std::uint32_t kHeaderWords = 16;          // VOLCL_BRICK_HEADER in cl/common/brick_sample.h
-constexpr std::uint32_t kAbsent = 0xffffffffu;      // VOLCL_BRICK_ABSENT
+constexpr std::uint32_t kHeaderWords = 16;     // VOLCL_BRICK_HEADER in cl/common/brick_sample.h
+constexpr std::uint32_t kAbsent = 0xffffffffu; // VOLCL_BRICK_ABSENT
 constexpr std::size_t kMaxPoolFloats = std::size_t(1) << 32;
 
 float uintBits(std::uint32_t v) {
@@ -70,8 +70,8 @@ std::string BrickStats::summary() const {
     std::ostringstream os;
     os << "bricks visited " << visited << " (reachable " << reachable << ", hidden by the TF " << hidden
        << "), decoded " << decoded << ", cache hits " << hits << ", misses " << decoded << ", bytes decoded "
-       << bytesDecoded << " (" << voxelsDecoded << " voxels), peak cache " << std::fixed << std::setprecision(2)
-       << double(peakPoolBytes) / (1024.0 * 1024.0) << " MB, evictions " << evictions;
+       << bytesDecoded << " (" << voxelsDecoded << " voxels), peak cache " << std::fixed
+       << std::setprecision(2) << double(peakPoolBytes) / (1024.0 * 1024.0) << " MB, evictions " << evictions;
     if (coarsened) os << ", coarsened to fit the budget " << coarsened;
     os << ", decode " << std::setprecision(1) << decodeMs << " ms";
     return os.str();
@@ -102,7 +102,8 @@ struct BrickRenderer::Impl {
 
 BrickRenderer::BrickRenderer(ComputeContext& cc, std::shared_ptr<const VczReader> reader, std::size_t frame,
                              const TransferFunction& tf, const Scene& scene)
-    : cc_(cc), reader_(std::move(reader)), frame_(frame), tf_(tf), scene_(scene), impl_(std::make_unique<Impl>()) {
+    : cc_(cc), reader_(std::move(reader)), frame_(frame), tf_(tf), scene_(scene),
+      impl_(std::make_unique<Impl>()) {
     scene_.validate();
     tf_.validate();
     Impl& m = *impl_;
@@ -137,10 +138,10 @@ ValueRange BrickRenderer::valueRange() const {
 }
 
 EffectPlan BrickRenderer::planEffects(const Scene& scene) const {
-    EffectPlan p = volcl::planEffects(scene, bounds(), impl_->range,
-                                      std::to_string(std::min({impl_->h->brick.x, impl_->h->brick.y,
-                                                               impl_->h->brick.z})) +
-                                          "^3-voxel macrocells over the brick index");
+    EffectPlan p = volcl::planEffects(
+        scene, bounds(), impl_->range,
+        std::to_string(std::min({impl_->h->brick.x, impl_->h->brick.y, impl_->h->brick.z})) +
+            "^3-voxel macrocells over the brick index");
     p.defines.set("VOXEL_TYPE", 0LL);
     return p;
 }
@@ -181,7 +182,8 @@ void BrickRenderer::makePool() {
     const std::size_t granule = std::max<std::size_t>(1, coarse.count());
     const BuddyAllocator probe(granule, 0, 1);
     int top = 0;
-    while (probe.blockFloats(top) < h.brick.count()) ++top;
+    while (probe.blockFloats(top) < h.brick.count())
+        ++top;
     const BuddyAllocator full(granule, top, 1);
     // No more than the whole frame at level 0 needs.
     std::size_t wanted = 0;
@@ -189,7 +191,8 @@ void BrickRenderer::makePool() {
         wanted += full.blockFloats(full.orderFor(brickSamples(h, b, 0).count()));
     const double budgetFloats = scene_.cacheMb * 1024.0 * 1024.0 / sizeof(float);
     std::size_t capacity = std::size_t(std::min<double>(budgetFloats, double(wanted)));
-    while (top > 0 && full.blockFloats(top) > capacity) --top;
+    while (top > 0 && full.blockFloats(top) > capacity)
+        --top;
     const BuddyAllocator sized(granule, top, 1);
     // Top blocks: as many as the budget holds, but no more than the whole frame needs (edge bricks take
     // smaller blocks, so that is the rounded-up share of `wanted`).
@@ -197,10 +200,12 @@ void BrickRenderer::makePool() {
     const std::size_t count = std::min<std::size_t>(std::size_t(budgetFloats / double(topFloats)),
                                                     (wanted + topFloats - 1) / topFloats);
     if (count == 0)
-        throw UsageError("render.cache_mb " + std::to_string(scene_.cacheMb) + " is below one brick at the coarsest level (" +
+        throw UsageError("render.cache_mb " + std::to_string(scene_.cacheMb) +
+                         " is below one brick at the coarsest level (" +
                          std::to_string(double(granule * sizeof(float)) / (1024.0 * 1024.0)) + " MB)");
     if (m.pageFloats() + count * sized.blockFloats(top) > kMaxPoolFloats)
-        throw UsageError("render.cache_mb " + std::to_string(scene_.cacheMb) + " exceeds the 16 GiB the page table addresses");
+        throw UsageError("render.cache_mb " + std::to_string(scene_.cacheMb) +
+                         " exceeds the 16 GiB the page table addresses");
     m.cache.emplace(BuddyAllocator(granule, top, count));
     m.pool = cc_.allocate<float>(m.pageFloats() + m.cache->allocator().capacity(), CL_MEM_READ_ONLY);
     m.poolMb = scene_.cacheMb;
@@ -209,7 +214,8 @@ void BrickRenderer::makePool() {
 void BrickRenderer::rebuild(bool tfChanged) {
     Impl& m = *impl_;
     if (scene_.filter != ReconstructionFilter::Linear || scene_.smoothing > 0.0)
-        throw UsageError(reader_->name() + ": compressed bricks render with the linear filter and no smoothing "
+        throw UsageError(reader_->name() +
+                         ": compressed bricks render with the linear filter and no smoothing "
                          "(decode the file for cubic filters)");
     camera_ = scene_.camera ? *scene_.camera : defaultCamera(bounds());
     const EffectPlan previous = plan_;
@@ -241,7 +247,8 @@ void BrickRenderer::rebuild(bool tfChanged) {
             spec.maxLength = scene_.step;
         }
         std::ostringstream key;
-        key << shaded.toJson() << '|' << int(pre) << '|' << spec.size << '|' << scene_.step << '|' << spec.lengths;
+        key << shaded.toJson() << '|' << int(pre) << '|' << spec.size << '|' << scene_.step << '|'
+            << spec.lengths;
         if (key.str() != m.tableKey) {
             Stopwatch sw;
             const PreintegrationTable t = generatePreintegrationTable(shaded, spec, {}, &cc_);
@@ -291,8 +298,10 @@ BrickSelection BrickRenderer::fitBudget(BrickSelection s, const BrickView& view,
         for (std::size_t b = 0; b < s.level.size(); ++b) {
             if (s.level[b] < 0) continue;
             const int order = a.orderFor(brickSamples(h, b, s.level[b]).count());
-            if (order < 0) oversized = true;
-            else need += a.blockFloats(order);
+            if (order < 0)
+                oversized = true;
+            else
+                need += a.blockFloats(order);
         }
         if (!oversized && need <= a.capacity()) break;
         // Coarsen the bricks whose next level costs the least error, a batch at a time.
@@ -337,8 +346,9 @@ void BrickRenderer::loadBricks(const BrickSelection& s) {
     });
     std::vector<float> page(m.pageFloats(), 0.0f);
     const Dims g = h.brickGrid();
-    const std::uint32_t head[6] = {std::uint32_t(h.brick.x), std::uint32_t(h.brick.y), std::uint32_t(h.brick.z),
-                                   std::uint32_t(g.x), std::uint32_t(g.y), std::uint32_t(g.z)};
+    const std::uint32_t head[6] = {std::uint32_t(h.brick.x), std::uint32_t(h.brick.y),
+                                   std::uint32_t(h.brick.z), std::uint32_t(g.x),
+                                   std::uint32_t(g.y),       std::uint32_t(g.z)};
     for (int i = 0; i < 6; ++i)
         page[std::size_t(i)] = uintBits(head[i]);
     for (std::size_t b = 0; b < s.level.size(); ++b) {
@@ -361,7 +371,8 @@ void BrickRenderer::loadBricks(const BrickSelection& s) {
             const Dims n = brickSamples(h, b, level);
             std::optional<CachedBrick> slot = m.cache->insert(key, n.count(), pinned);
             if (!slot) {
-                if (retried) throw Error("internal: the brick pool cannot hold a working set that fits its budget");
+                if (retried)
+                    throw Error("internal: the brick pool cannot hold a working set that fits its budget");
                 // Fragmented by bricks kept from earlier frames: start from an empty pool, largest first.
                 retried = true;
                 m.cache->clear();
@@ -420,7 +431,8 @@ ImageBuffer BrickRenderer::render() {
         for (int& l : forced)
             l = std::clamp(l, 0, m.maxLevel);
     }
-    BrickSelection s = selectBricks(h, m.stats ? &*m.stats : nullptr, frame_, m.maxLevel, culling, view, forced);
+    BrickSelection s =
+        selectBricks(h, m.stats ? &*m.stats : nullptr, frame_, m.maxLevel, culling, view, forced);
     s = fitBudget(std::move(s), view, culling);
     last_.reachable = s.reachable;
     last_.hidden = s.hidden;
@@ -461,7 +473,8 @@ ImageBuffer BrickRenderer::render() {
     }
     img.attributes.push_back({"volcl:mode", std::string(renderModeName(scene_.mode))});
     img.attributes.push_back({"volcl:step", static_cast<float>(scene_.step)});
-    img.attributes.push_back({"volcl:preintegration", std::string(preintegrationName(scene_.preintegration))});
+    img.attributes.push_back(
+        {"volcl:preintegration", std::string(preintegrationName(scene_.preintegration))});
     img.attributes.push_back({"volcl:effects", plan_.defines.toOptions()});
     img.attributes.push_back({"volcl:lod", std::string(lodModeName(scene_.lod))});
     return img;

@@ -16,11 +16,11 @@ class VczReader;
 /// Counters of the brick cache (`volcl render --stats`).
 struct BrickStats {
     std::size_t frames = 0;
-    std::size_t visited = 0;   ///< bricks in the working set (decoded or found in the pool)
-    std::size_t reachable = 0; ///< bricks some ray can reach
-    std::size_t hidden = 0;    ///< reachable bricks the transfer function hides (never decoded)
-    std::size_t decoded = 0;   ///< cache misses: bricks decoded
-    std::size_t hits = 0;      ///< bricks found in the pool at the wanted level
+    std::size_t visited = 0;       ///< bricks in the working set (decoded or found in the pool)
+    std::size_t reachable = 0;     ///< bricks some ray can reach
+    std::size_t hidden = 0;        ///< reachable bricks the transfer function hides (never decoded)
+    std::size_t decoded = 0;       ///< cache misses: bricks decoded
+    std::size_t hits = 0;          ///< bricks found in the pool at the wanted level
     std::size_t bytesDecoded = 0;  ///< compressed payload bytes read by the decodes
     std::size_t voxelsDecoded = 0; ///< samples the decodes produced
     std::size_t coarsened = 0; ///< bricks drawn coarser than chosen so that the working set fits the budget
@@ -73,7 +73,8 @@ public:
     const BrickStats& totalStats() const noexcept { return total_; }
     const BrickSelection& lastSelection() const noexcept { return selection_; }
     /// Draws brick b at `levels[b]` (capped at the file's levels) instead of choosing levels (tests,
-    /// benchmarks); an empty vector returns to render.lod. Reachability and the TF still decide what is decoded.
+    /// benchmarks); an empty vector returns to render.lod. Reachability and the TF still decide what is
+    /// decoded.
     void setForcedLevels(std::vector<int> levels) { forced_ = std::move(levels); }
 
 private:
