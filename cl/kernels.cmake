@@ -18,6 +18,8 @@ set(VOLCL_KERNEL_FILES
   raymarch.cl
   raymarch_plain.cl
   pathtrace.cl
+  common/brick_sample.h
+  raymarch_bricks.cl
   lifting_common.h
   lifting.cl
   lifting_brick.cl

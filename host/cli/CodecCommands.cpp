@@ -9,6 +9,7 @@
 #include "host/runtime/ClRuntime.hpp"
 #include "host/runtime/Timing.hpp"
 #include "wavelet/Codec.hpp"
+#include "wavelet/container/LodStatistics.hpp"
 
 #include <nlohmann/json.hpp>
 #include <zfp.h>
@@ -76,7 +77,7 @@ struct EncodeArgs {
     std::vector<std::string> in; ///< one file, several files, quoted globs or a .pvd: the frames in order
     std::string out, wavelet, entropy = "dense", brick = "64", motion = "block";
     std::size_t gop = 10, bFrames = 0;
-    bool lossless = false, profile = false;
+    bool lossless = false, profile = false, lodStats = true;
     double maxError = 0, psnr = 0, bpv = 0, step = 0;
     int levels = 4;
     unsigned threads = 2;
@@ -160,6 +161,8 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
     cmd->add_option("--entropy", a->entropy, "fast (zstd over byte planes) or dense (context-modelled rANS, default)");
     cmd->add_option("--threads", a->threads, "Host threads for entropy coding (default 2)");
     cmd->add_flag("--profile", a->profile, "Print the time of each pipeline stage");
+    cmd->add_flag("!--no-lod-stats", a->lodStats,
+                  "Leave out the per-brick, per-level error statistics renderers use for --lod auto");
     cmd->add_option("--gop", a->gop, "Series: frames per group, each starting with an I frame (default 10)");
     cmd->add_option("--b-frames", a->bFrames, "Series: B frames between two I/P frames (default 0)");
     cmd->add_option("--motion", a->motion,
@@ -193,6 +196,10 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
             ts.frames.size() == 1 ? encodeVolume(cc, ts.frames[0], withMeta, &rep)
                                   : encodeSeries(cc, ts, withMeta, &frames);
         const double ms = sw.milliseconds();
+        // Per brick and level: range and deviation from the input, for renderers' level of detail.
+        Stopwatch lodSw;
+        if (a->lodStats) bytes = addLodStatistics(cc, std::move(bytes), ts.frames, a->out);
+        const double lodMs = lodSw.milliseconds();
         AtomicFile out(a->out);
         out.write(bytes);
         out.commit();
@@ -210,7 +217,9 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                 // Only --max-error stores voxels exactly (to hold its bound); elsewhere the count is 0.
                 if (o.rate == RateMode::MaxError) std::cerr << " (" << rep.corrections << " voxels stored exactly)";
             }
-            std::cerr << ", " << fmt(double(raw) / 1e3 / ms, 1) << " MB/s\n";
+            std::cerr << ", " << fmt(double(raw) / 1e3 / ms, 1) << " MB/s";
+            if (a->lodStats) std::cerr << " (+ " << fmt(lodMs, 0) << " ms of level-of-detail statistics)";
+            std::cerr << '\n';
             if (!frames.empty()) {
                 std::size_t count[3] = {0, 0, 0}, fallbacks = 0;
                 double worst = INFINITY, maxErr = 0;

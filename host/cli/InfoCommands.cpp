@@ -8,6 +8,7 @@
 #include "host/io/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "host/runtime/ClRuntime.hpp"
+#include "wavelet/Codec.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -230,13 +231,24 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
                 return;
             }
             std::vector<std::filesystem::path> inputs;
-            TimeSeries ts = readVolumeFile(a->in, a->raw.toReadOptions(), inputs);
-            // A header's data files are inputs too: converting x.nhdr to its own x.raw would destroy it.
-            checkNotSameFile(inputs, volumeFilesWritten(a->out));
-            if (a->frame >= ts.frames.size())
-                throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in + " has " +
-                                 std::to_string(ts.frames.size()) + " frame(s)");
-            Volume v = std::move(ts.frames[a->frame]);
+            Volume v;
+            if (std::filesystem::path(a->in).extension() == ".vcz") { // frame K decoded whole
+                const VczReader r(readFileBytes(a->in), a->in);
+                checkNotSameFile({std::filesystem::path(a->in)}, volumeFilesWritten(a->out));
+                if (a->frame >= r.header().frames.size())
+                    throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in + " has " +
+                                     std::to_string(r.header().frames.size()) + " frame(s)");
+                ComputeContext cc(global.device);
+                v = r.decodeFrame(cc, a->frame);
+            } else {
+                TimeSeries ts = readVolumeFile(a->in, a->raw.toReadOptions(), inputs);
+                // A header's data files are inputs too: converting x.nhdr to its own x.raw would destroy it.
+                checkNotSameFile(inputs, volumeFilesWritten(a->out));
+                if (a->frame >= ts.frames.size())
+                    throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in + " has " +
+                                     std::to_string(ts.frames.size()) + " frame(s)");
+                v = std::move(ts.frames[a->frame]);
+            }
             if (a->replaceNan) {
                 if (!std::isfinite(*a->replaceNan)) throw UsageError("--replace-nan: the value must be finite");
                 std::size_t replaced = 0;
@@ -256,7 +268,8 @@ void addInfoCommands(CLI::App& app, GlobalOptions& global) {
             if (!a->type.empty()) v = v.convertedTo(parseScalarType(a->type));
             WriteOptions wo;
             wo.endian = a->bigEndianOut ? Endian::Big : Endian::Little;
-            wo.nifti = readNiftiMetadataIfNifti(a->in); // kept by NIfTI and VTI outputs
+            // A NIfTI source's header is kept by NIfTI and VTI outputs (a .vcz carries its own: volcl decode).
+            if (std::filesystem::path(a->in).extension() != ".vcz") wo.nifti = readNiftiMetadataIfNifti(a->in);
             writeVolumeFile(v, a->out, wo);
             if (!global.quiet)
                 std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x" << v.dims().z

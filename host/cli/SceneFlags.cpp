@@ -1,6 +1,10 @@
 // Command-line flags that build or override a Scene (see SceneFlags.hpp).
 #include "host/cli/SceneFlags.hpp"
 
+#include "host/io/AtomicFile.hpp"
+#include "host/runtime/ClRuntime.hpp"
+#include "wavelet/Codec.hpp"
+
 #include "host/Error.hpp"
 #include "host/Volume.hpp"
 #include "host/render/CameraFraming.hpp"
@@ -99,6 +103,14 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
     cmd->add_option("--fov", fov, "Perspective vertical field of view in degrees")
         ->default_str(num(Camera{}.fovYDeg));
     cmd->add_option("--background", background, "PNG background r,g,b,a (straight, linear)")->default_str("0,0,0,1");
+    cmd->add_option("--lod", lod,
+                    "Compressed (.vcz) inputs: full (level 0 everywhere) or auto (a level per brick from its "
+                    "estimated screen-space error)")
+        ->default_str(std::string(lodModeName(d.lod)));
+    cmd->add_option("--lod-error", lodError, "Compressed inputs, --lod auto: largest estimated error per brick")
+        ->default_str(num(d.lodError));
+    cmd->add_option("--cache-mb", cacheMb, "Compressed inputs: budget of the decoded-brick cache in MB")
+        ->default_str(num(d.cacheMb));
     cmd->add_option("--early-termination", earlyTermination, "Stop rays at this opacity (1 = never)")
         ->default_str(num(d.earlyTermination));
     cmd->add_flag("--no-skipping", noSkipping, "Disable empty-space skipping");
@@ -143,6 +155,9 @@ Scene SceneFlags::build(bool requireTf) const {
     }
     if (!mipColor.empty()) s.mipColor = parseMipColor(mipColor);
     if (earlyTermination) s.earlyTermination = *earlyTermination;
+    if (!lod.empty()) s.lod = parseLodMode(lod);
+    if (lodError) s.lodError = *lodError;
+    if (cacheMb) s.cacheMb = *cacheMb;
     if (noSkipping) s.skipping = false;
     if (tableSize) s.tableSize = *tableSize;
     if (tableLengths) s.tableLengths = *tableLengths;
@@ -331,6 +346,19 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const Volume& v) const {
 
 Volume SceneFlags::readSceneVolume(const Scene& s, std::vector<std::string>& notes,
                                    std::vector<std::filesystem::path>* filesRead) const {
+    if (s.volume.extension() == ".vcz") { // decoded whole (`volcl render` draws .vcz from its bricks instead)
+        const VczReader r(readFileBytes(s.volume), s.volume.string());
+        const std::size_t k = frame.value_or(0);
+        if (k >= r.header().frames.size())
+            throw UsageError("--frame " + std::to_string(k) + " out of range: " + s.volume.string() + " has " +
+                             std::to_string(r.header().frames.size()) + " frame(s)");
+        if (!frame && r.header().frames.size() > 1)
+            notes.push_back("rendering frame 0 of " + std::to_string(r.header().frames.size()) +
+                            " (--frame K picks another)");
+        if (filesRead) *filesRead = {s.volume};
+        ComputeContext cc(device);
+        return r.decodeFrame(cc, k);
+    }
     std::vector<std::filesystem::path> files;
     TimeSeries ts = readVolumeFile(s.volume, raw.toReadOptions(), files);
     if (filesRead) *filesRead = std::move(files);
@@ -353,6 +381,11 @@ double paraViewUnitDistance(const Volume& v) {
 }
 
 TransferFunction SceneFlags::loadTf(const Scene& s, const Volume& v) const {
+    const VolumeStats st = v.stats(1);
+    return loadTf(s, v, {st.min, st.max});
+}
+
+TransferFunction SceneFlags::loadTf(const Scene& s, const Volume& v, std::array<double, 2> dataRange) const {
     double unit = 1.0;
     if (tfUnitDistance == "auto")
         unit = paraViewUnitDistance(v);
@@ -360,15 +393,13 @@ TransferFunction SceneFlags::loadTf(const Scene& s, const Volume& v) const {
         unit = parseNumbers(tfUnitDistance, 1, "--tf-unit-distance")[0];
     if (!(std::isfinite(unit) && unit > 0.0))
         throw UsageError("--tf-unit-distance must be > 0 or 'auto'");
-    const VolumeStats st = v.stats(1);
-    const std::array<double, 2> dataRange{st.min, st.max};
     std::optional<std::array<double, 2>> range;
     if (!tfRange.empty()) {
         const auto r = parseNumbers(tfRange, 2, "--tf-range");
         if (!(r[0] < r[1])) throw UsageError("--tf-range: LO must be below HI");
         range = std::array<double, 2>{r[0], r[1]};
     }
-    const std::array<double, 2> stripDomain{st.min, st.max > st.min ? st.max : st.min + 1.0};
+    const std::array<double, 2> stripDomain{dataRange[0], dataRange[1] > dataRange[0] ? dataRange[1] : dataRange[0] + 1.0};
     return TransferFunction::fromFile(s.tf, stripDomain, unit).fittedTo(dataRange, range);
 }
 

@@ -22,7 +22,8 @@ Vec3 parseVec3(const std::string& text, const std::string& what);
 struct SceneFlags {
     std::string scene, volume, tf, mode, preint, projection, eye, target, up, background;
     std::string view, orbit, tfRange, tfUnitDistance = "1";
-    std::string filter, window, mipColor;
+    std::string filter, window, mipColor, lod;
+    std::optional<double> lodError, cacheMb;
     std::optional<double> smoothing, step, viewHeight, fov, earlyTermination, shadowStep;
     std::optional<int> width, height, tableSize, tableLengths;
     std::optional<std::size_t> frame; ///< --frame K of a time series input
@@ -31,6 +32,7 @@ struct SceneFlags {
     std::optional<int> samples;
     std::vector<std::string> isos, lights, clips;
     RawReadFlags raw;
+    std::string device; ///< OpenCL device selector for decoding a .vcz input whole (readSceneVolume)
 
     /// Registers every scene flag on `cmd`; the camera orbit flag is named `orbitFlag` (the viewer keeps
     /// `--orbit` for its per-frame turn).
@@ -50,6 +52,9 @@ struct SceneFlags {
     /// The scene's transfer function as the render uses it: normalised presets spread over the data
     /// range, `--tf-range` applied, ParaView opacity per `--tf-unit-distance`.
     TransferFunction loadTf(const Scene& s, const Volume& v) const;
+    /// As above with the data range given (a .vcz's index range, without scanning voxels); `v` supplies the
+    /// grid's geometry only.
+    TransferFunction loadTf(const Scene& s, const Volume& v, std::array<double, 2> dataRange) const;
 };
 
 /// The world length ParaView uses by default as the scalar opacity unit distance of a volume: the box

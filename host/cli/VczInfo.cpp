@@ -3,10 +3,13 @@
 
 #include "host/io/AtomicFile.hpp"
 #include "wavelet/Codec.hpp"
+#include "wavelet/container/LodStatistics.hpp"
 
 #include <nlohmann/json.hpp>
 
 #include <iomanip>
+#include <optional>
+#include <sstream>
 
 namespace volcl::cli {
 
@@ -44,6 +47,7 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json) {
     const std::vector<std::byte> bytes = readFileBytes(path);
     const VczHeader h = readVczHeader(bytes, path);
     const double voxels = double(h.dims.count());
+    const std::optional<LodStatistics> lod = LodStatistics::fromHeader(h, path);
     nlohmann::json frames = nlohmann::json::array();
     for (std::size_t f = 0; f < h.frames.size(); ++f) {
         const VczFrame& e = h.frames[f];
@@ -53,7 +57,26 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json) {
         nlohmann::json refs = nlohmann::json::array();
         for (std::int32_t r : {e.reference0, e.reference1})
             if (r >= 0) refs.push_back(r);
+        nlohmann::json bricks = nlohmann::json::array();
+        for (std::size_t b = 0; b < h.brickCount(); ++b) {
+            const Dims o = h.brickOrigin(b), d = h.brickDims(b);
+            nlohmann::json e{{"brick", b},
+                             {"origin", {o.x, o.y, o.z}},
+                             {"dims", {d.x, d.y, d.z}},
+                             {"bytes", h.bricks[f][b].size},
+                             {"range", {h.bricks[f][b].min, h.bricks[f][b].max}}};
+            if (lod && lod->has(f)) {
+                nlohmann::json levels = nlohmann::json::array();
+                for (int l = 0; l <= h.levels; ++l) {
+                    const BrickLevelStats& st = lod->at(f, b, l);
+                    levels.push_back({{"level", l}, {"range", {st.min, st.max}}, {"max_error", st.error}});
+                }
+                e["levels"] = levels;
+            }
+            bricks.push_back(e);
+        }
         frames.push_back({{"frame", f},
+                          {"bricks", bricks},
                           {"type", frameTypeName(e.type)},
                           {"references", refs},
                           {"bytes", size},
@@ -71,6 +94,8 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json) {
                      {"wavelet", std::string(waveletName(h.wavelet))},
                      {"levels", h.levels},
                      {"brick", {h.brick.x, h.brick.y, h.brick.z}},
+                     {"brick_grid", {h.brickGrid().x, h.brickGrid().y, h.brickGrid().z}},
+                     {"lod_statistics", lod.has_value()},
                      {"rate", rateName(h.rate)},
                      {"rate_target", h.rateTarget},
                      {"bytes", bytes.size()},
@@ -99,6 +124,29 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json) {
             << std::setw(10) << f["bytes"].get<std::uint64_t>() << "  " << std::setw(6)
             << f["motion_bytes"].get<std::uint64_t>() << "  " << std::setw(10) << std::setprecision(4)
             << f["bits_per_voxel"].get<double>() << '\n';
+    }
+    const Dims g = h.brickGrid();
+    out << "  bricks   " << h.brickCount() << " (" << g.x << " x " << g.y << " x " << g.z
+        << "), level-of-detail statistics " << (lod ? "stored" : "absent") << '\n';
+    for (std::size_t f = 0; f < h.frames.size(); ++f) {
+        out << "  frame " << f << ": brick  origin          dims         bytes        min        max";
+        if (lod && lod->has(f)) out << "  max error per level 0.." << h.levels;
+        out << '\n';
+        for (std::size_t b = 0; b < h.brickCount(); ++b) {
+            const Dims o = h.brickOrigin(b), d = h.brickDims(b);
+            const VczBrickEntry& e = h.bricks[f][b];
+            std::ostringstream pos, dim;
+            pos << o.x << "," << o.y << "," << o.z;
+            dim << d.x << "x" << d.y << "x" << d.z;
+            out << "  " << std::setw(13) << b << "  " << std::left << std::setw(14) << pos.str() << "  "
+                << std::setw(11) << dim.str() << std::right << "  " << std::setw(10) << e.size << "  "
+                << std::defaultfloat << std::setprecision(6) << std::setw(9) << e.min << "  " << std::setw(9)
+                << e.max;
+            if (lod && lod->has(f))
+                for (int l = 0; l <= h.levels; ++l)
+                    out << "  " << lod->at(f, b, l).error;
+            out << '\n';
+        }
     }
 }
 

@@ -12,9 +12,10 @@
 namespace volcl {
 
 class Volume;
+class VczReader;
 
-/// The data a scene renders, opened once. Today every input is a grid (a Volume from any reader); a
-/// tetrahedral mesh or a compressed-brick file becomes another kind here, with its own renderer, and the
+/// The data a scene renders, opened once: a grid (a Volume from any reader) or a frame of a compressed-brick
+/// .vcz file; a tetrahedral mesh becomes another kind here, with its own renderer, and the
 /// CLI and viewer need no change. A renderer made from an input borrows its data: keep the input alive.
 /// Example:
 /// ```
@@ -23,16 +24,22 @@ class Volume;
 /// ```
 class RenderInput {
 public:
-    enum class Kind { Grid };
+    /// Grid: a Volume in memory. Bricks: one frame of a .vcz, rendered from its compressed bricks.
+    enum class Kind { Grid, Bricks };
 
     /// Reads `path` with the matching reader. Throws what the readers throw (IoError, DataError).
     static RenderInput open(const std::filesystem::path& path, const ReadOptions& options = {});
+    /// Frame `frame` of a .vcz file (header and index validated; nothing decoded). Throws IoError.
+    static RenderInput openVcz(const std::filesystem::path& path, std::size_t frame = 0);
     /// An input owning `volume`.
     static RenderInput fromVolume(Volume volume);
     /// An input borrowing `volume`, which must outlive it and every renderer made from it.
     static RenderInput borrow(const Volume& volume);
 
-    Kind kind() const noexcept { return Kind::Grid; }
+    Kind kind() const noexcept { return vcz_ ? Kind::Bricks : Kind::Grid; }
+    /// The compressed file of a Bricks input (nullptr for other kinds) and its frame.
+    const VczReader* bricks() const noexcept { return vcz_.get(); }
+    std::size_t frame() const noexcept { return frame_; }
     /// The grid, for the peers and tools that need one (VTK's ray caster); nullptr for other kinds.
     const Volume* grid() const noexcept { return volume_.get(); }
     WorldBox bounds() const;
@@ -53,6 +60,8 @@ public:
 private:
     explicit RenderInput(std::shared_ptr<const Volume> volume);
     std::shared_ptr<const Volume> volume_;
+    std::shared_ptr<const VczReader> vcz_;
+    std::size_t frame_ = 0;
 };
 
 } // namespace volcl

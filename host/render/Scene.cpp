@@ -177,6 +177,16 @@ FogEffect parseFog(const json& f, const std::filesystem::path& baseDir) {
 
 } // namespace
 
+std::string_view lodModeName(LodMode m) {
+    return m == LodMode::Auto ? "auto" : "full";
+}
+
+LodMode parseLodMode(std::string_view s) {
+    if (s == "full") return LodMode::Full;
+    if (s == "auto") return LodMode::Auto;
+    throw UsageError("level of detail '" + std::string(s) + "' is unknown (expected full, auto)");
+}
+
 Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDir) {
     const json j = parse(text);
     checkKeys(j, "the scene", {"volume", "tf", "camera", "image", "render", "lights", "effects"});
@@ -222,7 +232,8 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
         const json& r = j["render"];
         checkKeys(r, "render",
                   {"mode", "step", "preintegration", "early_termination", "skipping", "table_size",
-                   "table_lengths", "filter", "smoothing", "window", "mip_color", "budget_ms"});
+                   "table_lengths", "filter", "smoothing", "window", "mip_color", "budget_ms", "lod", "lod_error",
+                   "cache_mb"});
         if (r.contains("mode")) s.mode = parseRenderMode(str(r["mode"], "render.mode"));
         if (r.contains("step")) s.step = num(r["step"], "render.step");
         if (r.contains("preintegration")) {
@@ -243,6 +254,9 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
         if (r.contains("window")) s.window = vec<2>(r["window"], "render.window");
         if (r.contains("mip_color")) s.mipColor = parseMipColor(str(r["mip_color"], "render.mip_color"));
         if (r.contains("budget_ms")) s.budgetMs = num(r["budget_ms"], "render.budget_ms");
+        if (r.contains("lod")) s.lod = parseLodMode(str(r["lod"], "render.lod"));
+        if (r.contains("lod_error")) s.lodError = num(r["lod_error"], "render.lod_error");
+        if (r.contains("cache_mb")) s.cacheMb = num(r["cache_mb"], "render.cache_mb");
     }
     if (j.contains("lights")) {
         if (!j["lights"].is_array()) throw UsageError("scene: 'lights' must be an array");
@@ -419,7 +433,10 @@ std::string Scene::toJson() const {
                    {"table_lengths", tableLengths},
                    {"filter", std::string(filterName(filter))},
                    {"smoothing", smoothing},
-                   {"mip_color", std::string(mipColorName(mipColor))}};
+                   {"mip_color", std::string(mipColorName(mipColor))},
+                   {"lod", std::string(lodModeName(lod))},
+                   {"lod_error", lodError},
+                   {"cache_mb", cacheMb}};
     if (window) j["render"]["window"] = *window;
     if (budgetMs > 0.0) j["render"]["budget_ms"] = budgetMs;
     j["lights"] = json::array();
@@ -529,6 +546,8 @@ void Scene::validate() const {
     // 8 voxels: the smoothing's 3-sigma kernel stays at 49 taps (host/render/grid/BsplineField.hpp).
     need(smoothing >= 0.0 && smoothing <= 8.0, "render.smoothing must be in [0, 8] voxels");
     need(budgetMs >= 0.0 && budgetMs <= 1e9, "render.budget_ms must be in [0, 1e9] (0: no budget)");
+    need(std::isfinite(lodError) && lodError >= 0.0, "render.lod_error must be finite and >= 0");
+    need(std::isfinite(cacheMb) && cacheMb > 0.0 && cacheMb <= 1e7, "render.cache_mb must be in (0, 1e7]");
     if (window)
         need(std::isfinite((*window)[0]) && std::isfinite((*window)[1]) && (*window)[1] > 0.0 &&
                  (*window)[1] <= 1e30 && std::abs((*window)[0]) <= 1e30,

@@ -29,6 +29,9 @@ enum class MipColor { Grey, Tf, TfOpacity };
 /// Scattering order: single scattering inside the ray marcher, or multiple scattering by the Monte Carlo path
 /// tracer (cl/pathtrace.cl).
 enum class ScatteringOrder { Single, Multiple };
+/// Level of detail of compressed-brick inputs (.vcz): level 0 everywhere, or a level per brick from its
+/// estimated screen-space error (host/render/bricks/BrickLod.hpp).
+enum class LodMode { Full, Auto };
 
 std::string_view renderModeName(RenderMode m);
 RenderMode parseRenderMode(std::string_view s); ///< throws UsageError
@@ -38,6 +41,8 @@ std::string_view filterName(ReconstructionFilter f);
 ReconstructionFilter parseFilter(std::string_view s); ///< "linear", "cubic", "bspline"; throws UsageError
 std::string_view mipColorName(MipColor c);
 MipColor parseMipColor(std::string_view s); ///< "grey" (or "gray"), "tf", "tf-opacity"; throws UsageError
+std::string_view lodModeName(LodMode m);
+LodMode parseLodMode(std::string_view s); ///< "full", "auto"; throws UsageError
 
 /// GLM lookAt camera. `height` is the orthographic view height in world units; `fovYDeg` the perspective one.
 struct Camera {
@@ -151,6 +156,10 @@ struct Scene {
     MipColor mipColor = MipColor::Grey;
     /// Frame-time budget (kernel milliseconds): the planner picks the step to fit it; 0: none.
     double budgetMs = 0.0;
+    /// Compressed-brick inputs only: level of detail, its error threshold and the decoded-brick budget.
+    LodMode lod = LodMode::Full;
+    double lodError = 0.01;
+    double cacheMb = 512.0;
     std::vector<Light> lights;
     SceneEffects effects;
 

@@ -1,0 +1,106 @@
+// Octal buddy allocation and LRU eviction of decoded bricks.
+#include "host/render/bricks/BrickPool.hpp"
+
+#include "host/Error.hpp"
+
+namespace volcl {
+
+BuddyAllocator::BuddyAllocator(std::size_t granule, int topOrder, std::size_t topCount)
+    : granule_(granule), topOrder_(topOrder), topCount_(topCount), free_(std::size_t(topOrder) + 1) {
+    if (granule == 0 || topOrder < 0 || topCount == 0) throw Error("internal: empty brick pool");
+    const std::size_t top = blockFloats(topOrder) / granule;
+    for (std::size_t i = 0; i < topCount; ++i)
+        free_[std::size_t(topOrder)].insert(i * top);
+}
+
+std::size_t BuddyAllocator::blockFloats(int order) const noexcept {
+    std::size_t n = granule_;
+    for (int k = 0; k < order; ++k)
+        n *= 8;
+    return n;
+}
+
+int BuddyAllocator::orderFor(std::size_t floats) const noexcept {
+    for (int k = 0; k <= topOrder_; ++k)
+        if (blockFloats(k) >= floats) return k;
+    return -1;
+}
+
+std::optional<std::size_t> BuddyAllocator::allocate(int order) {
+    if (order < 0 || order > topOrder_) return std::nullopt;
+    auto& list = free_[std::size_t(order)];
+    if (list.empty()) {
+        const auto parent = allocate(order + 1);
+        if (!parent) return std::nullopt;
+        used_ -= blockFloats(order + 1);
+        const std::size_t g = *parent / granule_, step = blockFloats(order) / granule_;
+        for (std::size_t j = 1; j < 8; ++j)
+            list.insert(g + j * step);
+        used_ += blockFloats(order);
+        return *parent;
+    }
+    const std::size_t g = *list.begin();
+    list.erase(list.begin());
+    used_ += blockFloats(order);
+    return g * granule_;
+}
+
+void BuddyAllocator::release(std::size_t offset, int order) {
+    used_ -= blockFloats(order);
+    std::size_t g = offset / granule_;
+    while (order < topOrder_) {
+        const std::size_t step = blockFloats(order) / granule_, base = g - g % (step * 8);
+        auto& list = free_[std::size_t(order)];
+        bool all = true;
+        for (std::size_t j = 0; j < 8 && all; ++j)
+            all = base + j * step == g || list.count(base + j * step);
+        if (!all) break;
+        for (std::size_t j = 0; j < 8; ++j)
+            list.erase(base + j * step);
+        g = base;
+        ++order;
+    }
+    free_[std::size_t(order)].insert(g);
+}
+
+const CachedBrick* BrickCache::touch(const Key& key) {
+    auto it = entries_.find(key);
+    if (it == entries_.end()) return nullptr;
+    lru_.splice(lru_.end(), lru_, it->second.second);
+    return &it->second.first;
+}
+
+std::optional<CachedBrick> BrickCache::insert(const Key& key, std::size_t floats,
+                                              const std::set<Key>& pinned) {
+    const int order = alloc_.orderFor(floats);
+    if (order < 0) return std::nullopt;
+    std::optional<std::size_t> off = alloc_.allocate(order);
+    auto victim = lru_.begin();
+    while (!off && victim != lru_.end()) {
+        if (pinned.count(*victim)) {
+            ++victim;
+            continue;
+        }
+        auto e = entries_.find(*victim);
+        alloc_.release(e->second.first.offset, e->second.first.order);
+        entries_.erase(e);
+        victim = lru_.erase(victim);
+        ++evictions_;
+        off = alloc_.allocate(order);
+    }
+    if (!off) return std::nullopt;
+    const CachedBrick c{*off, order, floats};
+    lru_.push_back(key);
+    entries_[key] = {c, std::prev(lru_.end())};
+    return c;
+}
+
+void BrickCache::clear() {
+    for (const auto& [k, e] : entries_)
+        alloc_.release(e.first.offset, e.first.order);
+    evictions_ += entries_.size();
+    entries_.clear();
+    lru_.clear();
+}
+
+} // namespace volcl

@@ -1,0 +1,144 @@
+// `.vcz` as a volume everywhere through the binary: info lists bricks, levels and ranges; render draws from
+// the bricks (lod full equals the decoded volume's image, --stats), convert and compare read it, --frame
+// picks a series frame, and a corrupted brick met while rendering exits 1 naming the brick with no output
+// left.
+#include "../TestUtil.hpp"
+#include "host/image/ImageIo.hpp"
+#include "host/io/VolumeIo.hpp"
+#include "wavelet/container/VczFormat.hpp"
+
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <span>
+#include <sstream>
+
+using namespace volcl;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct RunResult {
+    int exitCode;
+    std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+RunResult run(const std::string& args, const fs::path& dir) {
+    auto out = dir / "stdout.txt", err = dir / "stderr.txt";
+    std::string cmd =
+        std::string(VOLCL_EXE) + " " + args + " >" + out.string() + " 2>" + err.string() + " </dev/null";
+    int status = std::system(cmd.c_str());
+    int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    return {code, slurp(out), slurp(err)};
+}
+
+std::string q(const fs::path& p) {
+    return "'" + p.string() + "'";
+}
+
+double maxAbs(const fs::path& a, const fs::path& b) {
+    const ImageBuffer x = readImage(a), y = readImage(b);
+    EXPECT_EQ(x.pixels.size(), y.pixels.size());
+    double m = 0;
+    for (std::size_t i = 0; i < x.pixels.size() && i < y.pixels.size(); ++i)
+        m = std::max(m, double(std::abs(x.pixels[i] - y.pixels[i])));
+    return m;
+}
+
+const char* kTf = R"({"domain": [0, 255], "color": [[0, 0.2, 0.3, 0.9], [128, 1, 0.6, 0.2], [255, 1, 1, 1]],
+  "extinction": [[0, 0], [40, 0], [90, 0.2], [255, 0.5]]})";
+
+void writeBall(const fs::path& p, int shift) {
+    const Volume v = test::makeFloatVolume({40, 36, 30}, [shift](double x, double y, double z) {
+        const double r =
+            std::sqrt((x - 20 - shift) * (x - 20 - shift) + (y - 18) * (y - 18) + (z - 15) * (z - 15));
+        return r < 13 ? 250 - 12 * r : 0;
+    });
+    Volume u8(v.dims(), ScalarType::UInt8);
+    for (std::size_t i = 0; i < v.voxelCount(); ++i)
+        u8.values<std::uint8_t>()[i] = std::uint8_t(v.values<float>()[i]);
+    writeVolumeFile(u8, p);
+}
+
+TEST(CliBricks, VczIsAVolumeEverywhere) {
+    const fs::path dir = test::tempDir("cli_bricks");
+    writeBall(dir / "ball.nrrd", 0);
+    test::writeFile(dir / "tf.json", kTf);
+    RunResult r =
+        run("encode " + q(dir / "ball.nrrd") + " --brick 16 --levels 2 -o " + q(dir / "ball.vcz"), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    r = run("info " + q(dir / "ball.vcz"), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("bricks   18 (3 x 3 x 2), level-of-detail statistics stored"), std::string::npos)
+        << r.out;
+    r = run("info --json " + q(dir / "ball.vcz"), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("\"max_error\""), std::string::npos);
+    r = run("convert " + q(dir / "ball.vcz") + " -o " + q(dir / "back.nrrd"), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    r = run("compare " + q(dir / "ball.nrrd") + " " + q(dir / "back.nrrd") + " --json", dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("\"max_abs_error\": 0.0,"), std::string::npos) << r.out;
+    const std::string cam = " --tf " + q(dir / "tf.json") +
+                            " --tf-range 0,255 --width 64 --height 64 --eye 60,-30,-40 --target 20,18,15";
+    r = run("render --volume " + q(dir / "back.nrrd") + cam + " -o " + q(dir / "grid.exr"), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    r = run("render --volume " + q(dir / "ball.vcz") + cam + " --lod full --stats -o " +
+                q(dir / "bricks.exr"),
+            dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.err.find("bricks visited"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("hidden by the TF"), std::string::npos) << r.err;
+    EXPECT_LE(maxAbs(dir / "grid.exr", dir / "bricks.exr"), 1e-6);
+    r = run("render --volume " + q(dir / "ball.vcz") + cam + " --lod auto --lod-error 0.01 --cache-mb 1 -o " +
+                q(dir / "auto.exr"),
+            dir);
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+}
+
+TEST(CliBricks, SeriesFrameAndCorruptedBrick) {
+    const fs::path dir = test::tempDir("cli_bricks_series");
+    writeBall(dir / "f0.nrrd", 0);
+    writeBall(dir / "f1.nrrd", 4);
+    test::writeFile(dir / "tf.json", kTf);
+    RunResult r = run("encode " + q(dir / "f0.nrrd") + " " + q(dir / "f1.nrrd") +
+                          " --brick 16 --levels 2 -o " + q(dir / "s.vcz"),
+                      dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    r = run("decode " + q(dir / "s.vcz") + " --frame 1 -o " + q(dir / "f1back.nrrd"), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    const std::string cam = " --tf " + q(dir / "tf.json") +
+                            " --tf-range 0,255 --width 48 --height 48 --eye 60,-30,-40 --target 20,18,15";
+    r = run("render --volume " + q(dir / "f1back.nrrd") + cam + " -o " + q(dir / "grid1.exr"), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    r = run("render --volume " + q(dir / "s.vcz") + cam + " --frame 1 -o " + q(dir / "bricks1.exr"), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_LE(maxAbs(dir / "grid1.exr", dir / "bricks1.exr"), 1e-6);
+    r = run("render --volume " + q(dir / "s.vcz") + cam + " --frame 2 -o " + q(dir / "none.exr"), dir);
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_FALSE(fs::exists(dir / "none.exr"));
+
+    // Damage one payload byte of a brick the view needs (brick 4 holds the ball's centre).
+    std::string bytes = slurp(dir / "s.vcz");
+    const VczHeader h = readVczHeader(std::as_bytes(std::span(bytes.data(), bytes.size())), "s.vcz");
+    bytes[h.bricks[1][4].offset + 2] ^= 0x20;
+    test::writeFile(dir / "bad.vcz", bytes);
+    r = run("--quiet render --volume " + q(dir / "bad.vcz") + cam + " --frame 1 -o " + q(dir / "bad.exr"),
+            dir);
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_NE(r.err.find("brick 4"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("bad.vcz"), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(dir / "bad.exr"));
+}
+
+} // namespace

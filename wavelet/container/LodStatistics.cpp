@@ -1,0 +1,215 @@
+// Level-of-detail statistics: measured after encoding, serialised into the .vcz header's metadata.
+#include "wavelet/container/LodStatistics.hpp"
+
+#include "host/Error.hpp"
+#include "host/runtime/ParallelFor.hpp"
+#include "wavelet/Codec.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+namespace volcl {
+
+namespace {
+
+template <class T> void put(std::string& s, T v) {
+    char b[sizeof(T)];
+    std::memcpy(b, &v, sizeof(T));
+    s.append(b, sizeof(T));
+}
+
+} // namespace
+
+std::string LodStatistics::serialise() const {
+    std::string s;
+    put<std::uint32_t>(s, std::uint32_t(levels));
+    put<std::uint32_t>(s, std::uint32_t(frames.size()));
+    for (const auto& f : frames) {
+        put<std::uint32_t>(s, std::uint32_t(f.size()));
+        for (const BrickLevelStats& e : f) {
+            put(s, e.min);
+            put(s, e.max);
+            put(s, e.error);
+            put(s, e.rms);
+            put(s, e.faceMin);
+            put(s, e.faceMax);
+        }
+    }
+    return s;
+}
+
+std::optional<LodStatistics> LodStatistics::fromHeader(const VczHeader& h, const std::string& name) {
+    const auto it = h.metadata.find(std::string(kVczLodKey));
+    if (it == h.metadata.end()) return std::nullopt;
+    const std::string& s = it->second;
+    std::size_t pos = 0;
+    auto fail = [&]() -> void {
+        throw IoError(name + ": level-of-detail statistics do not match the header");
+    };
+    auto get = [&](auto& v) {
+        if (s.size() - pos < sizeof(v)) fail();
+        std::memcpy(&v, s.data() + pos, sizeof(v));
+        pos += sizeof(v);
+    };
+    std::uint32_t levels = 0, nFrames = 0;
+    get(levels);
+    get(nFrames);
+    if (int(levels) != h.levels || nFrames != h.frames.size()) fail();
+    LodStatistics st;
+    st.levels = int(levels);
+    st.frames.resize(nFrames);
+    const std::size_t per = h.brickCount() * (levels + 1);
+    for (auto& f : st.frames) {
+        std::uint32_t n = 0;
+        get(n);
+        if (n != 0 && n != per) fail();
+        f.resize(n);
+        for (BrickLevelStats& e : f) {
+            get(e.min);
+            get(e.max);
+            get(e.error);
+            get(e.rms);
+            get(e.faceMin);
+            get(e.faceMax);
+        }
+    }
+    if (pos != s.size()) fail();
+    return st;
+}
+
+BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::span<const float> input,
+                                Dims full, int level) {
+    BrickLevelStats st;
+    st.min = std::numeric_limits<float>::infinity();
+    st.max = -std::numeric_limits<float>::infinity();
+    st.faceMin = std::numeric_limits<float>::infinity();
+    st.faceMax = -std::numeric_limits<float>::infinity();
+    for (std::size_t k = 0; k < m.z; ++k)
+        for (std::size_t j = 0; j < m.y; ++j)
+            for (std::size_t i = 0; i < m.x; ++i) {
+                const float v = samples[(k * m.y + j) * m.x + i];
+                st.min = std::min(st.min, v);
+                st.max = std::max(st.max, v);
+                if (i == 0 || j == 0 || k == 0) {
+                    st.faceMin = std::min(st.faceMin, v);
+                    st.faceMax = std::max(st.faceMax, v);
+                }
+            }
+    const double scale = 1.0 / double(std::size_t(1) << level);
+    auto axis = [&](std::size_t x, std::size_t n, std::size_t& i0, std::size_t& i1, double& f) {
+        const double u = std::min(double(x) * scale, double(n - 1));
+        i0 = std::min(std::size_t(u), n > 1 ? n - 2 : 0);
+        i1 = std::min(i0 + 1, n - 1);
+        f = u - double(i0);
+    };
+    auto at = [&](std::size_t i, std::size_t j, std::size_t k) {
+        return double(samples[(k * m.y + j) * m.x + i]);
+    };
+    double err = 0, sq = 0;
+    for (std::size_t z = 0; z < full.z; ++z) {
+        std::size_t z0, z1;
+        double fz;
+        axis(z, m.z, z0, z1, fz);
+        for (std::size_t y = 0; y < full.y; ++y) {
+            std::size_t y0, y1;
+            double fy;
+            axis(y, m.y, y0, y1, fy);
+            for (std::size_t x = 0; x < full.x; ++x) {
+                std::size_t x0, x1;
+                double fx;
+                axis(x, m.x, x0, x1, fx);
+                auto lx = [&](std::size_t j, std::size_t k) {
+                    return at(x0, j, k) + fx * (at(x1, j, k) - at(x0, j, k));
+                };
+                const double c0 = lx(y0, z0) + fy * (lx(y1, z0) - lx(y0, z0));
+                const double c1 = lx(y0, z1) + fy * (lx(y1, z1) - lx(y0, z1));
+                const double v = c0 + fz * (c1 - c0);
+                const double d = std::abs(v - double(input[(z * full.y + y) * full.x + x]));
+                err = std::max(err, d);
+                sq += d * d;
+            }
+        }
+    }
+    // Rounded up so the stored bound is never below the measured deviation.
+    const double rms = std::sqrt(sq / double(std::max<std::size_t>(full.count(), 1)));
+    st.error = err == 0 ? 0.0f : std::nextafter(float(err), std::numeric_limits<float>::infinity());
+    st.rms = rms == 0 ? 0.0f : std::nextafter(float(rms), std::numeric_limits<float>::infinity());
+    return st;
+}
+
+std::vector<std::byte> addLodStatistics(ComputeContext& cc, std::vector<std::byte> vcz,
+                                        std::span<const Volume> inputs, const std::string& name) {
+    const VczReader reader(vcz, name);
+    const VczHeader& h = reader.header();
+    if (inputs.size() != h.frames.size()) throw Error("internal: LOD statistics need every input frame");
+    const int levels = h.transform == TransformKind::RawBits ? 0 : h.levels;
+    LodStatistics st;
+    st.levels = h.levels;
+    st.frames.resize(h.frames.size());
+    const std::size_t nb = h.brickCount();
+    for (std::size_t f = 0; f < h.frames.size(); ++f) {
+        if (h.frames[f].type != FrameType::I) continue;
+        std::vector<BrickLevelStats> out(nb * std::size_t(h.levels + 1));
+        const std::vector<float> input = inputs[f].toFloat();
+        for (int l = 0; l <= h.levels; ++l) {
+            if (l > levels) { // raw float bit planes have no coarser levels: never chosen
+                for (std::size_t b = 0; b < nb; ++b)
+                    out[b * std::size_t(h.levels + 1) + std::size_t(l)] = {
+                        float(h.bricks[f][b].min),
+                        float(h.bricks[f][b].max),
+                        std::numeric_limits<float>::infinity(),
+                        std::numeric_limits<float>::infinity(),
+                        float(h.bricks[f][b].min),
+                        float(h.bricks[f][b].max)};
+                continue;
+            }
+            DecodeOptions o;
+            o.level = l;
+            o.frame = f;
+            const Volume approx = reader.decode(cc, o);
+            const std::vector<float> a = approx.toFloat();
+            const Dims ad = approx.dims();
+            parallelFor(nb, 2, [&](std::size_t b) {
+                const Dims bo = h.brickOrigin(b), bd = h.brickDims(b);
+                const std::size_t s = std::size_t(1) << l;
+                const Dims m{(bd.x + s - 1) / s, (bd.y + s - 1) / s, (bd.z + s - 1) / s};
+                std::vector<float> samples(m.count()), full(bd.count());
+                for (std::size_t k = 0; k < m.z; ++k)
+                    for (std::size_t j = 0; j < m.y; ++j)
+                        for (std::size_t i = 0; i < m.x; ++i)
+                            samples[(k * m.y + j) * m.x + i] =
+                                a[((bo.z / s + k) * ad.y + bo.y / s + j) * ad.x + bo.x / s + i];
+                const Dims d = inputs[f].dims();
+                for (std::size_t k = 0; k < bd.z; ++k)
+                    for (std::size_t j = 0; j < bd.y; ++j)
+                        std::memcpy(full.data() + (k * bd.y + j) * bd.x,
+                                    input.data() + ((bo.z + k) * d.y + bo.y + j) * d.x + bo.x,
+                                    bd.x * sizeof(float));
+                out[b * std::size_t(h.levels + 1) + std::size_t(l)] =
+                    brickLevelStats(samples, m, full, bd, l);
+            });
+        }
+        st.frames[f] = std::move(out);
+    }
+
+    // Rewrite the header with the statistics; the payload block moves by the preamble's growth.
+    VczHeader nh = h;
+    nh.metadata[std::string(kVczLodKey)] = st.serialise();
+    const std::size_t oldStart = vczPreambleSize(h), newStart = vczPreambleSize(nh);
+    const auto shift = [&](std::uint64_t off) { return off - oldStart + newStart; };
+    for (auto& frame : nh.bricks)
+        for (VczBrickEntry& e : frame)
+            e.offset = shift(e.offset);
+    for (VczFrame& fr : nh.frames)
+        if (fr.auxSize > 0) fr.auxOffset = shift(fr.auxOffset);
+    std::vector<std::vector<std::uint8_t>> payload(1);
+    const auto* p = reinterpret_cast<const std::uint8_t*>(vcz.data());
+    payload[0].assign(p + oldStart, p + vcz.size());
+    std::vector<std::byte> out = writeVcz(nh, payload);
+    readVczHeader(out, name); // the rewritten file must parse exactly as written
+    return out;
+}
+
+} // namespace volcl
