@@ -20,6 +20,9 @@ set(VOLCL_KERNEL_FILES
   lifting_brick.cl
   preint.cl
   motion.cl
+  radix_sort.cl
+  mesh_kbuffer_shared.h
+  mesh_kbuffer.cl
 )
 list(TRANSFORM VOLCL_KERNEL_FILES PREPEND ${PROJECT_SOURCE_DIR}/cl/ OUTPUT_VARIABLE _kernel_paths)
 list(JOIN _kernel_paths "|" _kernel_paths_joined)
