@@ -1,7 +1,7 @@
 // volcl-bench-kbuffer: k-buffer mesh rendering per mesh and k (ms/frame, stage times, tets/s, out-of-order
 // pops), and the dynamic level of detail held to a frame-time target by the viewer's controller.
 // Usage: volcl-bench-kbuffer [--size 512] [--runs 5] [--k 2,4,6,8] [--ml CELLS] [--lod-target MS]
-//        [--frames N] [--q-var N] MESH...
+//        [--frames N] [--q-var N] [--table N] [--lengths L] MESH...
 #include "host/mesh/MeshGenerator.hpp"
 #include "host/mesh/MeshIo.hpp"
 #include "host/render/CameraFraming.hpp"
@@ -12,7 +12,9 @@
 #include "host/viewer/AdaptiveQuality.hpp"
 
 #include <cmath>
+#include <ctime>
 #include <cstdio>
+#include <cstdlib>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -37,14 +39,15 @@ TransferFunction benchTf(const mesh::TetMesh& m) {
 }
 
 /// Orthographic view from azimuth 35 degrees, elevation 25 degrees, framing the box (ParaView's reset).
-Scene benchScene(const KBufferRenderer* r, const WorldBox& box, int size, double azimuth = 35.0) {
-    (void)r;
+int gTableSize = 256, gTableLengths = 16;
+
+Scene benchScene(const WorldBox& box, int size, double azimuth = 35.0) {
     Scene s;
     s.width = s.height = size;
     s.camera = frameBox(box, orbitDirection(azimuth, 25.0), Projection::Orthographic, 30.0, 1.0);
     s.preintegration = Preintegration::Table3d;
-    s.tableSize = 256;
-    s.tableLengths = 16;
+    s.tableSize = gTableSize;
+    s.tableLengths = gTableLengths;
     s.earlyTermination = 0.995;
     return s;
 }
@@ -56,6 +59,14 @@ WorldBox boxOf(const mesh::TetMesh& m) {
         b.extent[i] = m.boundsMax[i] - m.boundsMin[i];
     }
     return b;
+}
+
+/// CPU time of the whole process (every thread), milliseconds: on a shared machine the work a frame costs,
+/// which the wall time hides behind the other processes' load.
+double processCpuMs() {
+    timespec ts{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
 }
 
 std::vector<int> parseList(const std::string& s) {
@@ -84,6 +95,8 @@ int main(int argc, char** argv) try {
         else if (a == "--ml" && i + 1 < argc) ml = std::stoul(next());
         else if (a == "--lod-target" && i + 1 < argc) lodTarget = std::stod(next());
         else if (a == "--frames" && i + 1 < argc) frames = std::stoi(next());
+        else if (a == "--table" && i + 1 < argc) gTableSize = std::stoi(next());
+        else if (a == "--lengths" && i + 1 < argc) gTableLengths = std::stoi(next());
         else if (a == "--q-var" && i + 1 < argc) qVar = std::stoi(next());
         else files.push_back(a);
     }
@@ -101,23 +114,25 @@ int main(int argc, char** argv) try {
     }
     if (ml > 0) inputs.push_back({"marschner_lobb_" + std::to_string(ml), mesh::marschnerLobbMesh(ml)});
 
-    std::printf("mesh,tets,faces,k,size,median_ms,kernel_ms,project_ms,keys_ms,sort_ms,bin_ms,raster_ms,"
+    std::printf("mesh,tets,faces,k,size,median_ms,cpu_ms,kernel_ms,project_ms,keys_ms,sort_ms,bin_ms,raster_ms,"
                 "tets_per_s,misordered_pops_per_pixel\n");
     for (const Input& in : inputs) {
         const TransferFunction tf = benchTf(in.mesh);
-        const Scene scene = benchScene(nullptr, boxOf(in.mesh), size);
+        const Scene scene = benchScene(boxOf(in.mesh), size);
         std::vector<std::unique_ptr<KBufferRenderer>> rs;
         for (int k : ks) {
             rs.push_back(std::make_unique<KBufferRenderer>(cc, in.mesh, tf, scene, k));
             rs.back()->render(); // warm-up: first launches build and page in
         }
-        std::vector<std::vector<double>> wall(ks.size()), kern(ks.size());
+        std::vector<std::vector<double>> wall(ks.size()), kern(ks.size()), cpu(ks.size());
         std::vector<KBufferStageTimes> stages(ks.size());
         for (int run = 0; run < runs; ++run) // interleaved, so load changes hit every k alike
             for (std::size_t i = 0; i < ks.size(); ++i) {
                 Stopwatch sw;
+                const double c0 = processCpuMs();
                 rs[i]->render();
                 wall[i].push_back(sw.milliseconds());
+                cpu[i].push_back(processCpuMs() - c0);
                 kern[i].push_back(rs[i]->lastKernelMilliseconds());
                 if (run == runs / 2) stages[i] = rs[i]->lastStageTimes();
             }
@@ -133,11 +148,22 @@ int main(int argc, char** argv) try {
                 KBufferMirrorStats st;
                 kbufferMirrorRender(mi, &st);
                 misordered = double(st.misorderedPops) / (128.0 * 128.0);
+                std::fprintf(stderr, "%s k %d at 128^2: %.1f fragments and %.1f pixel tests per pixel\n",
+                             in.name.c_str(), ks[i], double(st.fragments) / (128.0 * 128.0),
+                             double(st.pixelTests) / (128.0 * 128.0));
+            }
+            std::fprintf(stderr, "%s: %s\n", in.name.c_str(), rs[i]->statistics().c_str());
+            if (std::getenv("KB_MIRROR_TIME")) {
+                KBufferMirrorInput mi{&rs[i]->geometry(), &in.mesh.scalars, &rs[i]->faces(), rs[i]->frameParams(),
+                                      &rs[i]->tableValues(), ks[i]};
+                Stopwatch sw;
+                kbufferMirrorRender(mi);
+                std::fprintf(stderr, "C++ mirror, one thread: %.1f ms\n", sw.milliseconds());
             }
             const double ms = median(wall[i]);
             const KBufferStageTimes& t = stages[i];
-            std::printf("%s,%zu,%zu,%d,%d,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.3g,%.4g\n", in.name.c_str(),
-                        in.mesh.tetCount(), rs[i]->faces().faces.size(), ks[i], size, ms, median(kern[i]), t.project,
+            std::printf("%s,%zu,%zu,%d,%d,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.3g,%.4g\n", in.name.c_str(),
+                        in.mesh.tetCount(), rs[i]->faces().faces.size(), ks[i], size, ms, median(cpu[i]), median(kern[i]), t.project,
                         t.keys, t.sort, t.bin, t.raster, double(in.mesh.tetCount()) / ms * 1e3, misordered);
             std::fflush(stdout);
         }
@@ -152,7 +178,7 @@ int main(int argc, char** argv) try {
             KBufferRenderer& r = *rs[0];
             std::printf("# lod,mesh,frame,k,fraction,faces_drawn,frame_ms,target_ms\n");
             for (int f = 0; f < frames; ++f) {
-                Scene s = benchScene(nullptr, boxOf(in.mesh), size, 35.0 + 4.0 * f);
+                Scene s = benchScene(boxOf(in.mesh), size, 35.0 + 4.0 * f);
                 r.setView(*s.camera, size, size, s.step);
                 const viewer::QualityLevel level = aq.next();
                 r.setLodFraction(level.work());

@@ -250,6 +250,19 @@ inline KbEdge kb_make_edge(float4 u, uint iu, float4 v, uint iv, float orientSig
     return e;
 }
 
+/* Narrows [*xl, *xr] to the x where edge e can be inside on row y (the edge function is linear in x), with a
+   margin far above float rounding: the exact per-pixel test still decides, this only skips pixels. */
+inline void kb_row_span(const KbEdge* e, float fy, float* xl, float* xr) {
+    const float ex = e->qx - e->px, ey = e->qy - e->py;
+    const float b = -e->sigma * ey;
+    if (b == 0.0f) return;
+    const float ta = ex * (fy - e->py), tb = ey * e->px;
+    const float xc = -(e->sigma * (ta + tb)) / b;
+    const float m = 1.0f + 1e-5f * ((fabs(ta) + fabs(tb)) / fabs(b) + fabs(xc));
+    if (b > 0.0f) *xl = fmax(*xl, xc - m);
+    else *xr = fmin(*xr, xc + m);
+}
+
 /* Rasterises one tile (work-group): its faces in sorted order into per-pixel k-buffers in local memory, then
    flushes them and writes the composited pixels (linear, associated RGBA). */
 __kernel void kb_raster(__global const float4* proj, __global const float* scalars, __global const uint4* faces,
@@ -299,7 +312,12 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
         y0 += (int)(((uint)(KB_TILE_THREADS - ((y0 - ty0) % KB_TILE_THREADS)) + lid) % KB_TILE_THREADS);
         for (int y = y0; y <= y1; y += KB_TILE_THREADS) {
             const float fy = (float)y;
-            for (int x = x0; x <= x1; ++x) {
+            float xl = (float)x0, xr = (float)x1;
+            kb_row_span(&ea, fy, &xl, &xr);
+            kb_row_span(&eb, fy, &xl, &xr);
+            kb_row_span(&ec, fy, &xl, &xr);
+            const int xs = (int)ceil(xl), xe = (int)floor(xr);
+            for (int x = xs; x <= xe; ++x) {
                 const uint li = (uint)((y - ty0) * KB_TILE + (x - tx0));
                 if (ldone[li]) continue;
                 const float fx = (float)x;

@@ -211,6 +211,7 @@ public:
                 for (int x = x0; x <= x1; ++x) {
                     const std::size_t pi = std::size_t(y) * W + x;
                     if (pixels_[pi].done) continue;
+                    if (stats_) ++stats_->pixelTests;
                     const float fx = float(x);
                     const float wa = ea.sigma * edge(ea, fx, fy);
                     const float wb = eb.sigma * edge(eb, fx, fy);

@@ -21,7 +21,8 @@ struct MeshFace {
 /// is always drawn), the rest are the internal faces, each once (a shared triangle's two tet faces give one
 /// face), ordered from most to least important for the dynamic level of detail: Callahan's area sampling,
 /// priority = area * xi with xi uniform in [0, 1) from a fixed seed, so larger faces tend to come first
-/// while small ones keep a chance (uniform subsets clump and leave holes). A frame at level of detail q
+/// while small ones keep a chance (uniform subsets clump and leave holes). The ranking is cut into 64 equal
+/// levels, each kept in mesh order (memory locality of the per-frame passes). A frame at level of detail q
 /// draws the prefix of boundaryCount + round(q * internalCount) faces. Example:
 /// ```
 /// volcl::MeshFaces f = volcl::buildMeshFaces(mesh);
