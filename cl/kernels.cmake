@@ -19,6 +19,7 @@ set(VOLCL_KERNEL_FILES
   lifting.cl
   lifting_brick.cl
   preint.cl
+  mesh_cells.cl
   motion.cl
 )
 list(TRANSFORM VOLCL_KERNEL_FILES PREPEND ${PROJECT_SOURCE_DIR}/cl/ OUTPUT_VARIABLE _kernel_paths)
