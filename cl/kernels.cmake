@@ -19,6 +19,7 @@ set(VOLCL_KERNEL_FILES
   lifting.cl
   lifting_brick.cl
   preint.cl
+  mesh_cells.cl
   motion.cl
   radix_sort.cl
   mesh_kbuffer_shared.h

@@ -2,6 +2,7 @@
 #pragma once
 
 #include "host/io/VolumeIo.hpp"
+#include "host/mesh/MeshIo.hpp"
 #include "host/render/Reference.hpp"
 #include "host/render/VolumeRenderer.hpp"
 
@@ -13,9 +14,9 @@ namespace volcl {
 
 class Volume;
 
-/// The data a scene renders, opened once. Today every input is a grid (a Volume from any reader); a
-/// tetrahedral mesh or a compressed-brick file becomes another kind here, with its own renderer, and the
-/// CLI and viewer need no change. A renderer made from an input borrows its data: keep the input alive.
+/// The data a scene renders, opened once: a grid (a Volume from any reader) or a tetrahedral mesh (any mesh
+/// reader; render.method picks its renderer), each with its own renderer and reference, so the CLI and
+/// viewer need no change. A renderer made from an input borrows its data: keep the input alive.
 /// Example:
 /// ```
 /// volcl::RenderInput in = volcl::RenderInput::open(scene.volume);
@@ -23,22 +24,30 @@ class Volume;
 /// ```
 class RenderInput {
 public:
-    enum class Kind { Grid };
+    enum class Kind { Grid, Mesh };
 
-    /// Reads `path` with the matching reader. Throws what the readers throw (IoError, DataError).
-    static RenderInput open(const std::filesystem::path& path, const ReadOptions& options = {});
+    /// Reads `path` with the matching reader: a mesh when mesh::detectMeshFormat() recognises it (read with
+    /// `meshOptions`), else a volume. Throws what the readers throw (IoError, DataError).
+    static RenderInput open(const std::filesystem::path& path, const ReadOptions& options = {},
+                            const mesh::MeshReadOptions& meshOptions = {});
+    /// An input owning `mesh`.
+    static RenderInput fromMesh(mesh::TetMesh mesh);
+    /// An input borrowing `mesh`, which must outlive it and every renderer made from it.
+    static RenderInput borrowMesh(const mesh::TetMesh& mesh);
     /// An input owning `volume`.
     static RenderInput fromVolume(Volume volume);
     /// An input borrowing `volume`, which must outlive it and every renderer made from it.
     static RenderInput borrow(const Volume& volume);
 
-    Kind kind() const noexcept { return Kind::Grid; }
+    Kind kind() const noexcept { return mesh_ ? Kind::Mesh : Kind::Grid; }
     /// The grid, for the peers and tools that need one (VTK's ray caster); nullptr for other kinds.
     const Volume* grid() const noexcept { return volume_.get(); }
+    /// The mesh; nullptr for other kinds.
+    const mesh::TetMesh* mesh() const noexcept { return mesh_.get(); }
     WorldBox bounds() const;
     /// Smallest and largest finite data value.
     ValueRange valueRange() const;
-    /// One line for progress messages: "180x216x180 uint8".
+    /// One line for progress messages: "180x216x180 uint8", "51040 tets, 17344 points".
     std::string summary() const;
 
     /// What `scene` would compile on this data, without a device (`volcl render --explain`).
@@ -52,7 +61,9 @@ public:
 
 private:
     explicit RenderInput(std::shared_ptr<const Volume> volume);
+    explicit RenderInput(std::shared_ptr<const mesh::TetMesh> mesh);
     std::shared_ptr<const Volume> volume_;
+    std::shared_ptr<const mesh::TetMesh> mesh_;
 };
 
 } // namespace volcl

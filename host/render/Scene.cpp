@@ -146,6 +146,16 @@ MipColor parseMipColor(std::string_view s) {
     throw UsageError("MIP colour '" + std::string(s) + "' is unknown (expected grey, tf, tf-opacity)");
 }
 
+std::string_view meshMethodName(MeshMethod m) {
+    return m == MeshMethod::KBuffer ? "kbuffer" : "cells";
+}
+
+MeshMethod parseMeshMethod(std::string_view s) {
+    if (s == "cells") return MeshMethod::Cells;
+    if (s == "kbuffer") return MeshMethod::KBuffer;
+    throw UsageError("render.method '" + std::string(s) + "' is unknown (expected cells, kbuffer)");
+}
+
 Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDir) {
     const json j = parse(text);
     checkKeys(j, "the scene", {"volume", "tf", "camera", "image", "render", "lights", "effects"});
@@ -191,7 +201,7 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
         const json& r = j["render"];
         checkKeys(r, "render",
                   {"mode", "step", "preintegration", "early_termination", "skipping", "table_size",
-                   "table_lengths", "filter", "smoothing", "window", "mip_color"});
+                   "table_lengths", "filter", "smoothing", "window", "mip_color", "method", "k"});
         if (r.contains("mode")) s.mode = parseRenderMode(str(r["mode"], "render.mode"));
         if (r.contains("step")) s.step = num(r["step"], "render.step");
         if (r.contains("preintegration")) {
@@ -211,6 +221,8 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
         if (r.contains("smoothing")) s.smoothing = num(r["smoothing"], "render.smoothing");
         if (r.contains("window")) s.window = vec<2>(r["window"], "render.window");
         if (r.contains("mip_color")) s.mipColor = parseMipColor(str(r["mip_color"], "render.mip_color"));
+        if (r.contains("method")) s.meshMethod = parseMeshMethod(str(r["method"], "render.method"));
+        if (r.contains("k")) s.kBufferDepth = static_cast<int>(num(r["k"], "render.k"));
     }
     if (j.contains("lights")) {
         if (!j["lights"].is_array()) throw UsageError("scene: 'lights' must be an array");
@@ -354,6 +366,9 @@ std::string Scene::toJson() const {
                    {"filter", std::string(filterName(filter))},
                    {"smoothing", smoothing},
                    {"mip_color", std::string(mipColorName(mipColor))}};
+    // Mesh fields only when set (grid scenes' JSON stays as it was).
+    if (meshMethod != MeshMethod::Cells) j["render"]["method"] = std::string(meshMethodName(meshMethod));
+    if (kBufferDepth != 6) j["render"]["k"] = kBufferDepth;
     if (window) j["render"]["window"] = *window;
     j["lights"] = json::array();
     for (const auto& l : lights) {
@@ -402,6 +417,7 @@ void Scene::validate() const {
     need(earlyTermination > 0.0 && earlyTermination <= 1.0, "render.early_termination must be in (0, 1]");
     need(tableSize >= 2 && tableSize <= 4096, "render.table_size must be 2..4096");
     need(tableLengths >= 1 && tableLengths <= 1024, "render.table_lengths must be 1..1024");
+    need(kBufferDepth >= 2 && kBufferDepth <= 8, "render.k must be 2..8");
     // 8 voxels: the smoothing's 3-sigma kernel stays at 49 taps (host/render/grid/BsplineField.hpp).
     need(smoothing >= 0.0 && smoothing <= 8.0, "render.smoothing must be in [0, 8] voxels");
     if (window)

@@ -25,6 +25,9 @@ enum class ReconstructionFilter { Linear, Cubic, Bspline };
 /// What a MIP pixel shows: the windowed maximum as grey, the TF colour at the maximum brightened by the
 /// window, or the TF's own colour and opacity at the maximum.
 enum class MipColor { Grey, Tf, TfOpacity };
+/// How a tetrahedral mesh is rendered: exact cell-by-cell traversal, or faces sorted by centroid into a
+/// per-pixel k-buffer of depth render.k (grids ignore it).
+enum class MeshMethod { Cells, KBuffer };
 
 std::string_view renderModeName(RenderMode m);
 RenderMode parseRenderMode(std::string_view s); ///< throws UsageError
@@ -34,6 +37,8 @@ std::string_view filterName(ReconstructionFilter f);
 ReconstructionFilter parseFilter(std::string_view s); ///< "linear", "cubic", "bspline"; throws UsageError
 std::string_view mipColorName(MipColor c);
 MipColor parseMipColor(std::string_view s); ///< "grey" (or "gray"), "tf", "tf-opacity"; throws UsageError
+std::string_view meshMethodName(MeshMethod m);
+MeshMethod parseMeshMethod(std::string_view s); ///< "cells", "kbuffer"; throws UsageError
 
 /// GLM lookAt camera. `height` is the orthographic view height in world units; `fovYDeg` the perspective one.
 struct Camera {
@@ -114,6 +119,8 @@ struct Scene {
     /// MIP window (centre, width) in data values; absent: the data's value range.
     std::optional<std::array<double, 2>> window;
     MipColor mipColor = MipColor::Grey;
+    MeshMethod meshMethod = MeshMethod::Cells; ///< render.method (meshes only)
+    int kBufferDepth = 6;                     ///< render.k: k-buffer entries per pixel, 2..8
     std::vector<Light> lights;
     SceneEffects effects;
 

@@ -134,7 +134,10 @@ EffectPlan KBufferRenderer::planEffects(const Scene& scene) const {
 
 void KBufferRenderer::setScene(const Scene& scene) {
     scene.validate();
-    planKBuffer(scene, mesh_, k_, cc_.device().isCpu); // refuses before anything changes
+    // A new render.k is taken; an unchanged one keeps the k this renderer was made or set with.
+    const int k = scene.kBufferDepth != scene_.kBufferDepth ? scene.kBufferDepth : k_;
+    planKBuffer(scene, mesh_, k, cc_.device().isCpu); // refuses before anything changes
+    k_ = k;
     scene_ = scene;
     rebuild(false);
 }
@@ -267,6 +270,11 @@ ImageBuffer KBufferRenderer::render() {
     img.attributes.push_back({"volcl:k", k_});
     img.attributes.push_back({"volcl:effects", plan_.defines.toOptions()});
     return img;
+}
+
+std::unique_ptr<VolumeRenderer> makeKBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh,
+                                                    const TransferFunction& tf, const Scene& scene) {
+    return std::make_unique<KBufferRenderer>(cc, mesh, tf, scene, scene.kBufferDepth);
 }
 
 std::vector<cl_uint> KBufferRenderer::lastOrder() {

@@ -99,6 +99,11 @@ private:
     double tableMs_ = 0.0;
 };
 
+/// The renderer for render.method "kbuffer" (RenderInput::makeRenderer calls it): a KBufferRenderer of depth
+/// scene.kBufferDepth. `mesh` must outlive it.
+std::unique_ptr<VolumeRenderer> makeKBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh,
+                                                    const TransferFunction& tf, const Scene& scene);
+
 /// The plan of the k-buffer method for a scene (no device): the defines its kernels compile with and what
 /// it drops (shading, clipping, iso-surfaces: not drawn by this method). Throws UsageError for modes other
 /// than dvr.
