@@ -1,10 +1,15 @@
 // volcl-bench-kbuffer: k-buffer mesh rendering per mesh and k (ms/frame, stage times, tets/s, out-of-order
 // pops), and the dynamic level of detail held to a frame-time target by the viewer's controller.
 // Usage: volcl-bench-kbuffer [--size 512] [--runs 5] [--k 2,4,6,8] [--ml CELLS] [--lod-target MS]
-//        [--frames N] [--q-var N] [--table N] [--lengths L] MESH...
+//        [--frames N] [--q-var N] [--table N] [--lengths L] [--rmse] [--dump DIR] [--split RATIO BUDGET] MESH...
+// --rmse: RGBA RMSE of every k against the exact double reference (meshReferenceRender) of the same scene;
+// --dump: EXR images of the reference and every k into DIR; --deep-mirror: with --rmse, the C++ mirror at k = 8,
+// 32, 256 (toward exact order); --misorder-all: count out-of-order pops also on meshes above 300 k tets.
 #include "host/mesh/MeshGenerator.hpp"
 #include "host/mesh/MeshIo.hpp"
 #include "host/render/CameraFraming.hpp"
+#include "host/render/Reference.hpp"
+#include "host/render/mesh/MeshReference.hpp"
 #include "host/render/mesh/KBufferReference.hpp"
 #include "host/render/mesh/KBufferRenderer.hpp"
 #include "host/runtime/Timing.hpp"
@@ -14,7 +19,6 @@
 #include <cmath>
 #include <ctime>
 #include <cstdio>
-#include <cstdlib>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -85,6 +89,9 @@ int main(int argc, char** argv) try {
     std::vector<int> ks{2, 4, 6, 8};
     std::size_t ml = 0;
     double lodTarget = 0;
+    bool rmse = false, deepMirror = false, misorderAll = false;
+    FaceSplitOptions split;
+    std::string dumpDir;
     std::vector<std::string> files;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
@@ -95,6 +102,14 @@ int main(int argc, char** argv) try {
         else if (a == "--ml" && i + 1 < argc) ml = std::stoul(next());
         else if (a == "--lod-target" && i + 1 < argc) lodTarget = std::stod(next());
         else if (a == "--frames" && i + 1 < argc) frames = std::stoi(next());
+        else if (a == "--rmse") rmse = true;
+        else if (a == "--deep-mirror") deepMirror = true;
+        else if (a == "--misorder-all") misorderAll = true;
+        else if (a == "--split" && i + 2 < argc) {
+            split.ratio = std::stod(next());
+            split.budget = std::stod(next());
+        }
+        else if (a == "--dump" && i + 1 < argc) dumpDir = next();
         else if (a == "--table" && i + 1 < argc) gTableSize = std::stoi(next());
         else if (a == "--lengths" && i + 1 < argc) gTableLengths = std::stoi(next());
         else if (a == "--q-var" && i + 1 < argc) qVar = std::stoi(next());
@@ -115,14 +130,38 @@ int main(int argc, char** argv) try {
     if (ml > 0) inputs.push_back({"marschner_lobb_" + std::to_string(ml), mesh::marschnerLobbMesh(ml)});
 
     std::printf("mesh,tets,faces,k,size,median_ms,cpu_ms,kernel_ms,project_ms,keys_ms,sort_ms,bin_ms,raster_ms,"
-                "tets_per_s,misordered_pops_per_pixel\n");
+                "tets_per_s,misordered_pops_per_pixel,rmse,reference_ms\n");
     for (const Input& in : inputs) {
         const TransferFunction tf = benchTf(in.mesh);
         const Scene scene = benchScene(boxOf(in.mesh), size);
         std::vector<std::unique_ptr<KBufferRenderer>> rs;
         for (int k : ks) {
-            rs.push_back(std::make_unique<KBufferRenderer>(cc, in.mesh, tf, scene, k));
+            rs.push_back(std::make_unique<KBufferRenderer>(cc, in.mesh, tf, scene, k, split));
             rs.back()->render(); // warm-up: first launches build and page in
+        }
+        ImageBuffer ref;
+        double refMs = -1;
+        if (rmse) {
+            Stopwatch sw;
+            ref = meshReferenceRender(in.mesh, tf, scene);
+            refMs = sw.milliseconds();
+            if (!dumpDir.empty()) writeImage(ref, dumpDir + "/" + in.name + "_reference.exr");
+        }
+        std::vector<double> errors(ks.size(), -1.0);
+        if (rmse && deepMirror) { // the C++ mirror with deeper buffers: toward the A-buffer (exact order)
+            for (int deep : {8, 32, 256}) {
+                KBufferMirrorInput mi{&rs[0]->geometry(), &rs[0]->geometry().scalars, &rs[0]->faces(),
+                                      rs[0]->frameParams(), &rs[0]->tableValues(), deep};
+                KBufferMirrorStats st;
+                const ImageBuffer img = kbufferMirrorRender(mi, &st);
+                std::fprintf(stderr, "mirror k %d: RMSE %.4g, misordered pops per pixel %.4g\n", deep, imageRmse(img, ref),
+                             double(st.misorderedPops) / double(img.width * img.height));
+            }
+        }
+        for (std::size_t i = 0; i < ks.size() && rmse; ++i) {
+            const ImageBuffer img = rs[i]->render();
+            errors[i] = imageRmse(img, ref);
+            if (!dumpDir.empty()) writeImage(img, dumpDir + "/" + in.name + "_k" + std::to_string(ks[i]) + ".exr");
         }
         std::vector<std::vector<double>> wall(ks.size()), kern(ks.size()), cpu(ks.size());
         std::vector<KBufferStageTimes> stages(ks.size());
@@ -139,11 +178,11 @@ int main(int argc, char** argv) try {
         for (std::size_t i = 0; i < ks.size(); ++i) {
             // Out-of-order pops from the C++ mirror (same fragments), per covered pixel, at a small image.
             double misordered = -1;
-            if (in.mesh.tetCount() <= 300000) {
+            if (in.mesh.tetCount() <= 300000 || misorderAll) {
                 Scene small = scene;
                 small.width = small.height = 128;
-                KBufferRenderer probe(cc, in.mesh, tf, small, ks[i]);
-                KBufferMirrorInput mi{&probe.geometry(), &in.mesh.scalars, &probe.faces(), probe.frameParams(),
+                KBufferRenderer probe(cc, in.mesh, tf, small, ks[i], split);
+                KBufferMirrorInput mi{&probe.geometry(), &probe.geometry().scalars, &probe.faces(), probe.frameParams(),
                                       &probe.tableValues(), ks[i]};
                 KBufferMirrorStats st;
                 kbufferMirrorRender(mi, &st);
@@ -153,18 +192,11 @@ int main(int argc, char** argv) try {
                              double(st.pixelTests) / (128.0 * 128.0));
             }
             std::fprintf(stderr, "%s: %s\n", in.name.c_str(), rs[i]->statistics().c_str());
-            if (std::getenv("KB_MIRROR_TIME")) {
-                KBufferMirrorInput mi{&rs[i]->geometry(), &in.mesh.scalars, &rs[i]->faces(), rs[i]->frameParams(),
-                                      &rs[i]->tableValues(), ks[i]};
-                Stopwatch sw;
-                kbufferMirrorRender(mi);
-                std::fprintf(stderr, "C++ mirror, one thread: %.1f ms\n", sw.milliseconds());
-            }
             const double ms = median(wall[i]);
             const KBufferStageTimes& t = stages[i];
-            std::printf("%s,%zu,%zu,%d,%d,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.3g,%.4g\n", in.name.c_str(),
+            std::printf("%s,%zu,%zu,%d,%d,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.3g,%.4g,%.3g,%.0f\n", in.name.c_str(),
                         in.mesh.tetCount(), rs[i]->faces().faces.size(), ks[i], size, ms, median(cpu[i]), median(kern[i]), t.project,
-                        t.keys, t.sort, t.bin, t.raster, double(in.mesh.tetCount()) / ms * 1e3, misordered);
+                        t.keys, t.sort, t.bin, t.raster, double(in.mesh.tetCount()) / ms * 1e3, misordered, errors[i], refMs);
             std::fflush(stdout);
         }
         if (lodTarget > 0) {

@@ -8,7 +8,7 @@
 
 namespace volcl {
 
-KBufferGeometry kbufferGeometry(const mesh::TetMesh& mesh) {
+KBufferGeometry kbufferGeometry(const mesh::TetMesh& mesh, const MeshFaces& faces) {
     KBufferGeometry g;
     Vec3 extent{};
     for (int i = 0; i < 3; ++i) {
@@ -17,9 +17,12 @@ KBufferGeometry kbufferGeometry(const mesh::TetMesh& mesh) {
     }
     const double r = 0.5 * norm(extent);
     g.scale = r > 0.0 && std::isfinite(r) ? r : 1.0;
-    g.points.resize(mesh.points.size());
-    for (std::size_t i = 0; i < mesh.points.size(); ++i) {
-        const auto& p = mesh.points[i];
+    const std::size_t n = mesh.points.size();
+    g.points.resize(n + faces.extraPoints.size());
+    g.scalars = mesh.scalars;
+    g.scalars.insert(g.scalars.end(), faces.extraScalars.begin(), faces.extraScalars.end());
+    for (std::size_t i = 0; i < g.points.size(); ++i) {
+        const auto& p = i < n ? mesh.points[i] : faces.extraPoints[i - n];
         g.points[i] = {{float((p[0] - g.centre[0]) / g.scale), float((p[1] - g.centre[1]) / g.scale),
                         float((p[2] - g.centre[2]) / g.scale), 0.0f}};
     }

@@ -4,6 +4,7 @@
 
 #include "cl/mesh_kbuffer_shared.h"
 #include "host/mesh/TetMesh.hpp"
+#include "host/render/mesh/MeshFaces.hpp"
 #include "host/render/Scene.hpp"
 #include "host/runtime/ClRuntime.hpp"
 #include "preintegration/PreintegrationTable.hpp"
@@ -21,9 +22,10 @@ inline constexpr int kKBufferTile = 16; ///< tile edge in pixels (one work-group
 struct KBufferGeometry {
     Vec3 centre{0, 0, 0};
     double scale = 1.0;
-    std::vector<cl_float4> points;
+    std::vector<cl_float4> points; ///< the mesh's points, then the faces' extra points
+    std::vector<float> scalars;    ///< one per point
 };
-KBufferGeometry kbufferGeometry(const mesh::TetMesh& mesh);
+KBufferGeometry kbufferGeometry(const mesh::TetMesh& mesh, const MeshFaces& faces);
 
 /// Kernel parameters of a frame: camera in normalized coordinates, image and tile counts, the faces drawn,
 /// early termination (values >= 1 disable it) and the table geometry `tf`.

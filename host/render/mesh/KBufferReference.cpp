@@ -305,7 +305,8 @@ std::vector<std::uint32_t> kbufferMirrorOrder(const KBufferMirrorInput& in) {
 
 ImageBuffer kbufferMirrorRender(const KBufferMirrorInput& in, KBufferMirrorStats* stats) {
     if (!in.geometry || !in.scalars || !in.faces || !in.table) throw Error("internal: incomplete k-buffer mirror input");
-    if (in.k < kKBufferMinK || in.k > kKBufferMaxK) throw UsageError("render.k must be 2..8");
+    if (in.k < kKBufferMinK || in.k > kKBufferMirrorMaxK)
+        throw UsageError("k-buffer mirror: k must be 2.." + std::to_string(kKBufferMirrorMaxK));
     if (stats) *stats = {};
     Mirror m(in, stats);
     return m.run();

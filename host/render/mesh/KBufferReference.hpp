@@ -11,6 +11,10 @@
 
 namespace volcl {
 
+/// The mirror also runs deeper buffers than the kernels (2..8): with k larger than any pixel's fragment count
+/// it is an A-buffer with the exact per-pixel order, the limit the k-buffer converges to.
+inline constexpr int kKBufferMirrorMaxK = 4096;
+
 /// Inputs of one mirrored frame: the renderer's normalized points, the point scalars, the faces with the
 /// number drawn (params.faceCount), the frame parameters, the table as the device holds it (float RGBA,
 /// layout of PreintegrationTable) and k.

@@ -86,17 +86,19 @@ struct KBufferRenderer::Impl {
 };
 
 KBufferRenderer::KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf,
-                                 const Scene& scene, int k)
+                                 const Scene& scene, int k, const FaceSplitOptions& split)
     : cc_(cc), mesh_(mesh), tf_(tf), scene_(scene), k_(k), impl_(std::make_unique<Impl>(cc)) {
     scene_.validate();
     tf_.validate();
     if (mesh.tets.empty()) throw DataError("mesh has no tetrahedra");
     if (mesh.points.size() > 0xFFFFFFFFu) throw DataError("mesh has too many points for the k-buffer (2^32 - 1)");
     faces_ = buildMeshFaces(mesh);
-    geometry_ = kbufferGeometry(mesh);
+    if (split.ratio > 0.0) splitLongFaces(faces_, mesh, split.ratio, split.budget);
+    geometry_ = kbufferGeometry(mesh, faces_);
+    if (geometry_.points.size() > 0xFFFFFFFFu) throw DataError("mesh has too many points for the k-buffer (2^32 - 1)");
     Impl& m = *impl_;
     m.points = cc_.upload(geometry_.points, CL_MEM_READ_ONLY);
-    m.scalars = cc_.upload(mesh.scalars, CL_MEM_READ_ONLY);
+    m.scalars = cc_.upload(geometry_.scalars, CL_MEM_READ_ONLY);
     std::vector<cl_uint4> faceRecords(faces_.faces.size());
     for (std::size_t i = 0; i < faceRecords.size(); ++i) {
         const MeshFace& f = faces_.faces[i];

@@ -18,6 +18,15 @@ struct KBufferStageTimes {
     double total() const noexcept { return project + keys + sort + bin + raster; }
 };
 
+/// Which long faces are cut before rendering (splitLongFaces): faces longer than `ratio` times the median
+/// face, adding at most `budget` times the face count; ratio 0 cuts none. The default leaves a uniform mesh
+/// (the generated grids) untouched and brings the O-grid of the LOx post to RMSE 0.01 at k = 6 (0.035 uncut),
+/// at about twice the frame time there; docs/meshes.md has the sweep.
+struct FaceSplitOptions {
+    double ratio = 1.5;
+    double budget = 3.0;
+};
+
 /// Renders a tetrahedral mesh with the k-buffer (render.method "kbuffer"): per frame the drawn faces get a
 /// centroid key (view depth, or distance to the eye in perspective), a device radix sort orders them, a
 /// stable binning puts each into the 16x16-pixel screen tiles it touches (keeping the order) and one
@@ -40,7 +49,7 @@ class KBufferRenderer final : public VolumeRenderer {
 public:
     /// Throws UsageError for k outside 2..8 or a scene the method cannot draw (mode other than dvr).
     KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf, const Scene& scene,
-                    int k = kKBufferDefaultK);
+                    int k = kKBufferDefaultK, const FaceSplitOptions& split = {});
     ~KBufferRenderer() override;
     KBufferRenderer(const KBufferRenderer&) = delete;
     KBufferRenderer& operator=(const KBufferRenderer&) = delete;

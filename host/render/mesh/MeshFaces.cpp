@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <unordered_map>
 
 namespace volcl {
 namespace {
@@ -65,6 +66,83 @@ MeshFaces buildMeshFaces(const mesh::TetMesh& mesh, std::uint64_t seed) {
     for (std::size_t i : byLevel)
         out.faces.push_back(internal[i].face);
     return out;
+}
+
+std::size_t splitLongFaces(MeshFaces& out, const mesh::TetMesh& mesh, double ratio, double budget) {
+    const std::size_t base = mesh.points.size();
+    auto point = [&](std::uint32_t i) -> const mesh::Point3& {
+        return i < base ? mesh.points[i] : out.extraPoints[i - base];
+    };
+    auto scalar = [&](std::uint32_t i) { return i < base ? mesh.scalars[i] : out.extraScalars[i - base]; };
+    auto dist = [&](std::uint32_t i, std::uint32_t j) {
+        const auto &a = point(i), &b = point(j);
+        return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+    };
+    const std::size_t n = out.faces.size();
+    if (n == 0) return 0;
+    std::vector<double> longest(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const auto& v = out.faces[i].v;
+        longest[i] = std::max({dist(v[0], v[1]), dist(v[1], v[2]), dist(v[2], v[0])});
+    }
+    std::vector<double> sorted = longest;
+    std::nth_element(sorted.begin(), sorted.begin() + n / 2, sorted.end());
+    const double threshold = ratio * sorted[n / 2];
+    std::vector<std::size_t> byLength(n);
+    for (std::size_t i = 0; i < n; ++i)
+        byLength[i] = i;
+    std::sort(byLength.begin(), byLength.end(), [&](std::size_t a, std::size_t b) { return longest[a] > longest[b]; });
+    std::vector<int> levels(n, 0);
+    const double allowed = budget * double(n);
+    double added = 0;
+    for (std::size_t i : byLength) {
+        if (!(longest[i] > threshold)) break;
+        const int l = std::min(3, int(std::ceil(std::log2(longest[i] / threshold))));
+        const double extra = std::pow(4.0, l) - 1.0;
+        if (added + extra > allowed) break;
+        levels[i] = l;
+        added += extra;
+    }
+    if (added == 0) return 0;
+
+    std::unordered_map<std::uint64_t, std::uint32_t> midpoints;
+    auto mid = [&](std::uint32_t a, std::uint32_t b) {
+        const std::uint64_t key = (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b);
+        auto it = midpoints.find(key);
+        if (it != midpoints.end()) return it->second;
+        const auto &pa = point(a), &pb = point(b);
+        const mesh::Point3 m{0.5 * (pa[0] + pb[0]), 0.5 * (pa[1] + pb[1]), 0.5 * (pa[2] + pb[2])};
+        const float s = float(0.5 * (double(scalar(a)) + double(scalar(b))));
+        const auto index = static_cast<std::uint32_t>(base + out.extraPoints.size());
+        out.extraPoints.push_back(m);
+        out.extraScalars.push_back(s);
+        midpoints.emplace(key, index);
+        return index;
+    };
+    std::vector<MeshFace> faces;
+    faces.reserve(n + std::size_t(added));
+    std::size_t boundary = 0;
+    auto split = [&](auto&& self, std::uint32_t a, std::uint32_t b, std::uint32_t c, bool onBoundary, int l) -> void {
+        if (l == 0) {
+            faces.push_back({{a, b, c}, onBoundary});
+            boundary += onBoundary ? 1 : 0;
+            return;
+        }
+        const std::uint32_t ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
+        // The corner pieces and the middle one all keep the face's winding.
+        self(self, a, ab, ca, onBoundary, l - 1);
+        self(self, ab, b, bc, onBoundary, l - 1);
+        self(self, ca, bc, c, onBoundary, l - 1);
+        self(self, ab, bc, ca, onBoundary, l - 1);
+    };
+    for (std::size_t i = 0; i < n; ++i) {
+        const MeshFace& f = out.faces[i];
+        split(split, f.v[0], f.v[1], f.v[2], f.boundary, levels[i]);
+    }
+    const std::size_t grown = faces.size() - n;
+    out.faces = std::move(faces);
+    out.boundaryCount = boundary;
+    return grown;
 }
 
 } // namespace volcl
