@@ -105,6 +105,26 @@ mesh::TetMesh twoBoxes(float value) {
     return mesh::buildTetMesh(std::move(soup), "two boxes", "v");
 }
 
+/// A grid graded along every axis (cells from 0.005 to 0.42 of the edge): faces of very different sizes,
+/// which splitLongFaces cuts. The scalar is linear, 0.1 x + y - z.
+mesh::TetMesh gradedGrid() {
+    auto m = mesh::generateHexGridMesh({6, 6, 6}, {0, 0, 0}, {1, 1, 1}, [](double, double, double) { return 0.0; });
+    for (std::size_t i = 0; i < m.points.size(); ++i) {
+        auto& p = m.points[i];
+        for (double& c : p)
+            c = c * c * c;
+        m.scalars[i] = float(0.1 * p[0] + p[1] - p[2]);
+    }
+    m.valueMin = *std::min_element(m.scalars.begin(), m.scalars.end());
+    m.valueMax = *std::max_element(m.scalars.begin(), m.scalars.end());
+    m.maxEdgeLength = 0;
+    for (const auto& t : m.tets)
+        for (int a = 0; a < 4; ++a)
+            for (int b = a + 1; b < 4; ++b)
+                m.maxEdgeLength = std::max(m.maxEdgeLength, norm(sub(m.points[t[a]], m.points[t[b]])));
+    return m;
+}
+
 } // namespace
 
 TEST(RadixSort, FloatKeysOrderAsTheFloats) {
@@ -169,6 +189,40 @@ TEST(MeshFaces, InternalFacesOnceBoundaryFirst) {
     EXPECT_EQ(buildMeshFaces(single).boundaryCount, 12u);
 }
 
+TEST(MeshFaces, SplitLongFacesCoversTheFaceWithItsWinding) {
+    // A graded grid: its long faces are cut; the pieces keep area, normal direction and scalar.
+    const auto m = gradedGrid();
+    const MeshFaces plain = buildMeshFaces(m);
+    MeshFaces cut = plain;
+    const std::size_t added = splitLongFaces(cut, m, 1.5, 3.0);
+    ASSERT_GT(added, 0u);
+    EXPECT_EQ(cut.faces.size(), plain.faces.size() + added);
+    EXPECT_LE(double(added), 3.0 * double(plain.faces.size()));
+    EXPECT_GT(cut.boundaryCount, plain.boundaryCount);
+    auto P = [&](std::uint32_t i) { return i < m.points.size() ? m.points[i] : cut.extraPoints[i - m.points.size()]; };
+    auto S = [&](std::uint32_t i) { return i < m.points.size() ? m.scalars[i] : cut.extraScalars[i - m.points.size()]; };
+    auto areaVector = [&](const MeshFace& f) {
+        return scale(cross(sub(P(f.v[1]), P(f.v[0])), sub(P(f.v[2]), P(f.v[0]))), 0.5);
+    };
+    Vec3 sumPlain{0, 0, 0}, sumCut{0, 0, 0};
+    double absPlain = 0, absCut = 0;
+    for (const auto& f : plain.faces) {
+        sumPlain = add(sumPlain, areaVector(f));
+        absPlain += norm(areaVector(f));
+    }
+    for (std::size_t i = 0; i < cut.faces.size(); ++i) {
+        const auto& f = cut.faces[i];
+        EXPECT_EQ(f.boundary, i < cut.boundaryCount);
+        sumCut = add(sumCut, areaVector(f));
+        absCut += norm(areaVector(f));
+        for (std::uint32_t v : f.v) // the field is linear: every point keeps its value
+            EXPECT_NEAR(S(v), 0.1 * P(v)[0] + P(v)[1] - P(v)[2], 1e-5);
+    }
+    EXPECT_NEAR(absCut, absPlain, 1e-9 * absPlain); // pieces tile their faces exactly, none flipped
+    for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(sumCut[c], sumPlain[c], 1e-9 * absPlain);
+}
+
 TEST(KBuffer, KernelMatchesMirror) {
     ComputeContext& cc = context();
     const auto ml = mesh::marschnerLobbMesh(6);
@@ -176,11 +230,13 @@ TEST(KBuffer, KernelMatchesMirror) {
                                                 [](double x, double y, double z) { return (x + 1) / 3 * 0.7 + 0.1 * y * z; });
     const TransferFunction tf = rampTf(2.0);
     int cases = 0;
-    for (const mesh::TetMesh* m : {&ml, &grid}) {
+    const auto graded = gradedGrid(); // its long faces are cut: the mirror draws the same pieces
+    for (const mesh::TetMesh* m : {&ml, &grid, &graded}) {
         const TransferFunction mtf = tf.rescaled({m->valueMin, m->valueMax});
         for (bool persp : {false, true}) {
             Scene s = persp ? perspectiveScene(*m, 83, 61) : orthoScene(*m, 83, 61);
             KBufferRenderer r(cc, *m, mtf, s, 2);
+            if (m == &graded) EXPECT_GT(r.geometry().points.size(), m->points.size());
             for (int k : {2, 6, 8}) {
                 r.setK(k);
                 for (double lod : {1.0, 0.3}) {
@@ -201,7 +257,7 @@ TEST(KBuffer, KernelMatchesMirror) {
             }
         }
     }
-    EXPECT_EQ(cases, 24);
+    EXPECT_EQ(cases, 36);
 }
 
 TEST(KBuffer, ConstantScalarGivesTheChordIntegral) {
