@@ -24,5 +24,9 @@ if [[ -e $data/postxyz.bin ]]; then # energy: the density of the post is 1 every
 fi
 [[ -e $data/bluntfinxyz.bin ]] &&
   "$bench" --size 512 --runs 3 --k 2,6,8 --rmse --split 0 0 "$data/bluntfinxyz.bin" | tail -n +2 >> "$out/kbuffer-split-off.csv"
+[[ ${SKIP_ML:-0} == 1 ]] && exit 0 # SKIP_ML=1: only the shared meshes
 "$bench" --size 512 --runs 3 --k 2,4,6,8 --rmse --ml 64 > "$out/kbuffer-ml64.csv"
+uptime | tee -a "$out/kbuffer-load.txt"
+# Dynamic level of detail on the 1.57 M tet mesh: the controller holds 1 s frames while the camera orbits.
+"$bench" --size 512 --runs 1 --k 6 --ml 64 --lod-target 1000 --frames 30 > "$out/kbuffer-lod.csv"
 uptime | tee -a "$out/kbuffer-load.txt"

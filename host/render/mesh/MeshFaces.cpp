@@ -92,17 +92,23 @@ std::size_t splitLongFaces(MeshFaces& out, const mesh::TetMesh& mesh, double rat
     for (std::size_t i = 0; i < n; ++i)
         byLength[i] = i;
     std::sort(byLength.begin(), byLength.end(), [&](std::size_t a, std::size_t b) { return longest[a] > longest[b]; });
+    // Levels are handed out breadth first: every face over the threshold is cut once (longest first) before
+    // any is cut twice, so the budget spreads over the many long faces rather than a few extreme ones.
     std::vector<int> levels(n, 0);
     const double allowed = budget * double(n);
     double added = 0;
-    for (std::size_t i : byLength) {
-        if (!(longest[i] > threshold)) break;
-        const int l = std::min(3, int(std::ceil(std::log2(longest[i] / threshold))));
-        const double extra = std::pow(4.0, l) - 1.0;
-        if (added + extra > allowed) break;
-        levels[i] = l;
-        added += extra;
-    }
+    bool full = false;
+    for (int level = 1; level <= 3 && !full; ++level)
+        for (std::size_t i : byLength) {
+            if (!(longest[i] > threshold * std::exp2(level - 1))) break;
+            const double extra = 3.0 * std::pow(4.0, level - 1); // one more cut of every piece
+            if (added + extra > allowed) {
+                full = true;
+                break;
+            }
+            levels[i] = level;
+            added += extra;
+        }
     if (added == 0) return 0;
 
     std::unordered_map<std::uint64_t, std::uint32_t> midpoints;

@@ -45,7 +45,8 @@ MeshFaces buildMeshFaces(const mesh::TetMesh& mesh, std::uint64_t seed = 0x5eed5
 /// Long faces break the centroid order: a sliver's centroid can lie far from where a ray crosses it, so its
 /// fragment arrives more than k places late (the O-grid around the LOx post: 9 % of the pixels at k = 8).
 /// Faces whose longest edge exceeds `ratio` times the median longest edge are cut into 4 by their edge
-/// midpoints, up to 3 times (64 pieces), longest first, adding at most `budget` times the face count. The
+/// midpoints, up to 3 times (64 pieces; a face twice the threshold is cut twice, ...), every long face once
+/// before any twice, longest first, adding at most `budget` times the face count. The
 /// pieces cover the face exactly (same plane, the linear scalar at the midpoints), keep its winding and its
 /// place in the order; a midpoint is shared by every face split along that edge. Returns the faces added.
 std::size_t splitLongFaces(MeshFaces& faces, const mesh::TetMesh& mesh, double ratio = 4.0, double budget = 1.0);
