@@ -3,9 +3,8 @@
    k-buffer pops the nearest fragment and composites the segment to the second nearest through the 3D
    pre-integration table. Defines: KB_K (entries per pixel, 2..8), KB_TILE (tile edge in pixels),
    KB_TILE_THREADS (work-items per tile; each owns the tile rows y with (y - y0) % KB_TILE_THREADS == lid),
-   BIN_CHUNKS (work-items of the binning passes), PREINT = 3. The C++ mirror is host/render/mesh/KBufferReference.cpp. */
+   BIN_CHUNKS (work-items of the binning passes), table lookups as PREINT 3 of cl/common/tf_lookup.h. The C++ mirror is host/render/mesh/KBufferReference.cpp. */
 #include "mesh_kbuffer_shared.h"
-#include "common/tf_lookup.h"
 
 #pragma OPENCL FP_CONTRACT OFF
 
@@ -141,21 +140,67 @@ typedef struct {
     __local float4* acc;  /* composited colour per pixel */
 } KBuffer;
 
+#define KB_INLINE __attribute__((always_inline)) inline
+
+/* Table value at fractional node coordinates (front u, back v) of slice k: bilinear (tf_lookup.h's
+   table_bilinear, inlined into the fragment loop). */
+KB_INLINE float4 kb_bilinear(__global const float4* table, uint n, uint k, float u, float v) {
+    const float hi = (float)(n - 1);
+    u = clamp(u, 0.0f, hi);
+    v = clamp(v, 0.0f, hi);
+    const uint i0 = min((uint)u, n - 2), j0 = min((uint)v, n - 2);
+    const float fu = u - (float)i0, fv = v - (float)j0;
+    __global const float4* row0 = table + ((size_t)k * n + i0) * n;
+    __global const float4* row1 = row0 + n;
+    const float4 a = row0[j0] + fv * (row0[j0 + 1] - row0[j0]);
+    const float4 b = row1[j0] + fv * (row1[j0 + 1] - row1[j0]);
+    return a + fu * (b - a);
+}
+
+/* tf_lookup.h's preint_segment for the 3D table with the frame's factors precomputed (the lookup was a third
+   of the frame as a call with two divisions): associated (rgb, alpha) of the segment sf -> sb of length len. */
+KB_INLINE float4 kb_preint(__global const float4* table, const VolclKBufferParams* P, float sf, float sb, float len) {
+    const VolclTfParams* T = &P->tf;
+    const float u = (sf - T->domainLo) * P->tableScale, v = (sb - T->domainLo) * P->tableScale;
+    const float kf = len * P->lengthScale - 1.0f;
+    float4 e;
+    float tableLen = len;
+    if (kf <= 0.0f) {
+        e = kb_bilinear(table, T->tableSize, 0, u, v) * fmax(kf + 1.0f, 0.0f);
+    } else if (kf >= (float)(T->tableLengths - 1)) {
+        e = kb_bilinear(table, T->tableSize, T->tableLengths - 1, u, v);
+        tableLen = T->tableMaxLength;
+    } else {
+        const uint k0 = (uint)kf;
+        const float fk = kf - (float)k0;
+        const float4 a = kb_bilinear(table, T->tableSize, k0, u, v);
+        e = a + fk * (kb_bilinear(table, T->tableSize, k0 + 1, u, v) - a);
+    }
+    if (len != tableLen) {
+        /* Longer than the table (level of detail, misordered fragments): exact for a constant scalar. */
+        const float a = clamp(e.w, 0.0f, 1.0f);
+        const float an = a < 1.0f ? 1.0f - pow(1.0f - a, len / tableLen) : 1.0f;
+        const float3 rgb = a > 0.0f ? e.xyz * (an / a) : e.xyz * (len / tableLen);
+        e = (float4)(rgb, an);
+    }
+    return e;
+}
+
 /* Composites the segment from fragment (t0, s0, f0) to the next one (t1, s1, f1): nothing when it lies
    outside the mesh (after a leaving boundary face or before an entering one) or has no length. */
-inline float4 kb_segment(float4 acc, float t0, float s0, uint f0, float t1, float s1, uint f1,
+KB_INLINE float4 kb_segment(float4 acc, float t0, float s0, uint f0, float t1, float s1, uint f1,
                          __global const float4* table, const VolclKBufferParams* P) {
     if ((f0 & KB_FRAG_EXIT) || (f1 & KB_FRAG_ENTER)) return acc;
     const float len = (t1 - t0) * P->worldScale;
     if (!(len > 0.0f)) return acc;
-    const float4 c = preint_segment(table, &P->tf, s0, s1, len);
+    const float4 c = kb_preint(table, P, s0, s1, len);
     return acc + (1.0f - acc.w) * c;
 }
 
 /* Inserts a fragment into pixel li's k-buffer; when it is full, pops the nearest of the k + 1 fragments and
    composites it with the second nearest. Ties go to stored entries in slot order, the incoming one last.
    Returns 1 when the pixel reached the early-termination opacity. */
-inline int kb_insert(KBuffer kb, uint li, float t, float s, uint fl, __global const float4* table,
+KB_INLINE int kb_insert(KBuffer kb, uint li, float t, float s, uint fl, __global const float4* table,
                      const VolclKBufferParams* P) {
     const uint base = li * KB_K;
     const uint n = kb.count[li];
@@ -196,7 +241,7 @@ inline int kb_insert(KBuffer kb, uint li, float t, float s, uint fl, __global co
 }
 
 /* Pops the remaining fragments of pixel li in order (the k - 1 segments still stored). */
-inline void kb_flush(KBuffer kb, uint li, __global const float4* table, const VolclKBufferParams* P) {
+KB_INLINE void kb_flush(KBuffer kb, uint li, __global const float4* table, const VolclKBufferParams* P) {
     const uint base = li * KB_K;
     uint n = kb.count[li];
     float4 acc = kb.acc[li];

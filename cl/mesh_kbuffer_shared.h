@@ -22,11 +22,14 @@ typedef struct VolclKBufferParams {
     float earlyTermination;
     volcl_uint width, height, perspective, faceCount; /* faceCount: faces drawn this frame (the LOD prefix) */
     volcl_uint tilesX, tilesY, pointCount, pad0;
+    float tableScale;  /* (tf.tableSize - 1) / (tf.domainHi - tf.domainLo): table nodes per data unit */
+    float lengthScale; /* tf.tableLengths / tf.tableMaxLength: length slices per world unit */
+    float pad1, pad2;
     VolclTfParams tf;
 } VolclKBufferParams;
 
 #ifndef __OPENCL_VERSION__
-static_assert(sizeof(VolclKBufferParams) == 64 + 16 + 16 + 16 + 32, "VolclKBufferParams layout must match OpenCL C");
+static_assert(sizeof(VolclKBufferParams) == 64 + 16 + 16 + 16 + 16 + 32, "VolclKBufferParams layout must match OpenCL C");
 #endif
 
 #endif

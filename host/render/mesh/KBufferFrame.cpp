@@ -61,6 +61,8 @@ VolclKBufferParams kbufferParams(const KBufferGeometry& g, const Camera& cam, in
     p.tilesX = volcl_uint((width + kKBufferTile - 1) / kKBufferTile);
     p.tilesY = volcl_uint((height + kKBufferTile - 1) / kKBufferTile);
     p.tf = tf;
+    p.tableScale = float(tf.tableSize - 1) / (tf.domainHi - tf.domainLo);
+    p.lengthScale = float(tf.tableLengths) / tf.tableMaxLength;
     return p;
 }
 

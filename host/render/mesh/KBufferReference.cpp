@@ -59,12 +59,12 @@ std::array<float, 4> bilinear(const std::vector<float>& table, unsigned n, unsig
     return out;
 }
 
-/// tf_lookup.h's preint_segment for PREINT 3.
-std::array<float, 4> preintSegment(const std::vector<float>& table, const VolclTfParams& T, float sf, float sb,
+/// mesh_kbuffer.cl's kb_preint (tf_lookup.h's preint_segment for PREINT 3 with precomputed factors).
+std::array<float, 4> preintSegment(const std::vector<float>& table, const VolclKBufferParams& P, float sf, float sb,
                                    float len) {
-    const float scale = float(T.tableSize - 1) / (T.domainHi - T.domainLo);
-    const float u = (sf - T.domainLo) * scale, v = (sb - T.domainLo) * scale;
-    const float kf = len * float(T.tableLengths) / T.tableMaxLength - 1.0f;
+    const VolclTfParams& T = P.tf;
+    const float u = (sf - T.domainLo) * P.tableScale, v = (sb - T.domainLo) * P.tableScale;
+    const float kf = len * P.lengthScale - 1.0f;
     std::array<float, 4> e;
     float tableLen = len;
     if (kf <= 0.0f) {
@@ -119,7 +119,7 @@ public:
         if ((a.f & KB_FRAG_EXIT) || (b.f & KB_FRAG_ENTER)) return;
         const float len = (b.t - a.t) * P_.worldScale;
         if (!(len > 0.0f)) return;
-        const auto c = preintSegment(*in_.table, P_.tf, a.s, b.s, len);
+        const auto c = preintSegment(*in_.table, P_, a.s, b.s, len);
         const float keep = 1.0f - px.acc[3];
         for (int i = 0; i < 4; ++i)
             px.acc[i] = px.acc[i] + keep * c[i];

@@ -40,8 +40,7 @@ EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, boo
     p.defines.set("KB_K", k)
         .set("KB_TILE", kKBufferTile)
         .set("KB_TILE_THREADS", tileThreads(cpuDevice))
-        .set("BIN_CHUNKS", int(kBinChunks))
-        .set("PREINT", 3);
+        .set("BIN_CHUNKS", int(kBinChunks));
     p.compiled.push_back("mode dvr by k-buffer (HAVS): k = " + std::to_string(k) + ", " +
                          std::to_string(kKBufferTile) + "x" + std::to_string(kKBufferTile) +
                          "-pixel tiles, faces sorted by centroid every frame (device radix sort)");
