@@ -94,15 +94,26 @@ __kernel void kb_face_keys(__global const float4* points, __global const float4*
     rects[i] = rect;
 }
 
+/* The sorted faces and their tile rectangles gathered into sorted order once: the binning passes then read
+   both in order, and the tile lists hold face records, so the rasteriser reads its list front to back
+   instead of missing the cache on a face record per entry. */
+__kernel void kb_gather(__global const uint* order, __global const uint4* faces, __global const uint2* rects,
+                        const uint n, __global uint4* sortedFaces, __global uint2* sortedRects) {
+    const uint pos = get_global_id(0);
+    if (pos >= n) return;
+    const uint f = order[pos];
+    sortedFaces[pos] = faces[f];
+    sortedRects[pos] = rects[f];
+}
+
 /* counts[tile * BIN_CHUNKS + c] = entries chunk c (a contiguous run of sorted positions) adds to each tile. */
-__kernel void kb_bin_count(__global const uint* order, __global const uint2* rects, const uint n, const uint tilesX,
-                           __global uint* counts) {
+__kernel void kb_bin_count(__global const uint2* sortedRects, const uint n, const uint tilesX, __global uint* counts) {
     const uint c = get_global_id(0);
     if (c >= BIN_CHUNKS) return;
     const uint per = (n + BIN_CHUNKS - 1) / BIN_CHUNKS;
     const uint lo = min(n, c * per), hi = min(n, lo + per);
     for (uint pos = lo; pos < hi; ++pos) {
-        const uint2 r = rects[order[pos]];
+        const uint2 r = sortedRects[pos];
         const uint x0 = r.x & 0xFFFFu, y0 = r.x >> 16, x1 = r.y & 0xFFFFu, y1 = r.y >> 16;
         if (x0 > x1) continue;
         for (uint ty = y0; ty <= y1; ++ty)
@@ -110,19 +121,19 @@ __kernel void kb_bin_count(__global const uint* order, __global const uint2* rec
     }
 }
 
-/* After the exclusive scan of the counts: appends each chunk's faces to every tile list they touch, in sorted
-   order. Afterwards offsets[tile * BIN_CHUNKS + BIN_CHUNKS - 1] is the end of the tile's list. */
-__kernel void kb_bin_scatter(__global const uint* order, __global const uint2* rects, const uint n,
-                             const uint tilesX, __global uint* offsets, __global uint* list) {
+/* After the exclusive scan of the counts: appends each chunk's face records to every tile list they touch, in
+   sorted order. Afterwards offsets[tile * BIN_CHUNKS + BIN_CHUNKS - 1] is the end of the tile's list. */
+__kernel void kb_bin_scatter(__global const uint4* sortedFaces, __global const uint2* sortedRects, const uint n,
+                             const uint tilesX, __global uint* offsets, __global uint4* list) {
     const uint c = get_global_id(0);
     if (c >= BIN_CHUNKS) return;
     const uint per = (n + BIN_CHUNKS - 1) / BIN_CHUNKS;
     const uint lo = min(n, c * per), hi = min(n, lo + per);
     for (uint pos = lo; pos < hi; ++pos) {
-        const uint face = order[pos];
-        const uint2 r = rects[face];
+        const uint2 r = sortedRects[pos];
         const uint x0 = r.x & 0xFFFFu, y0 = r.x >> 16, x1 = r.y & 0xFFFFu, y1 = r.y >> 16;
         if (x0 > x1) continue;
+        const uint4 face = sortedFaces[pos];
         for (uint ty = y0; ty <= y1; ++ty)
             for (uint tx = x0; tx <= x1; ++tx) list[offsets[(ty * tilesX + tx) * BIN_CHUNKS + c]++] = face;
     }
@@ -310,8 +321,8 @@ inline void kb_row_span(const KbEdge* e, float fy, float* xl, float* xr) {
 
 /* Rasterises one tile (work-group): its faces in sorted order into per-pixel k-buffers in local memory, then
    flushes them and writes the composited pixels (linear, associated RGBA). */
-__kernel void kb_raster(__global const float4* proj, __global const float* scalars, __global const uint4* faces,
-                        __global const uint* binEnds, __global const uint* list, const VolclKBufferParams P,
+__kernel void kb_raster(__global const float4* proj, __global const float* scalars, __global const uint* binEnds,
+                        __global const uint4* list, const VolclKBufferParams P,
                         __global const float4* table, __global float4* out) {
     __local float lt[KB_PIXELS * KB_K];
     __local float ls[KB_PIXELS * KB_K];
@@ -339,8 +350,7 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
     const uint end = binEnds[tile * BIN_CHUNKS + BIN_CHUNKS - 1];
 
     for (uint e = start; e < end && live > 0; ++e) {
-        const uint face = list[e];
-        const uint4 fv = faces[face];
+        const uint4 fv = list[e];
         const float4 a = proj[fv.x], b = proj[fv.y], c = proj[fv.z];
         const float orient = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
         const float sg = orient > 0.0f ? 1.0f : -1.0f;

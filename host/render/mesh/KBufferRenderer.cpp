@@ -68,10 +68,10 @@ struct KBufferRenderer::Impl {
     DeviceRadixSort sorter;
     DeviceBuffer<cl_float4> points, proj, out;
     DeviceBuffer<float> scalars;
-    DeviceBuffer<cl_uint4> faces;
-    DeviceBuffer<cl_uint> keys, vals, counts, total, list;
-    DeviceBuffer<cl_uint2> rects;
-    cl::Kernel project, faceKeys, binCount, scan, binScatter, raster;
+    DeviceBuffer<cl_uint4> faces, sortedFaces, list;
+    DeviceBuffer<cl_uint> keys, vals, counts, total;
+    DeviceBuffer<cl_uint2> rects, sortedRects;
+    cl::Kernel project, faceKeys, gather, binCount, scan, binScatter, raster;
     KernelDefines defines;
     std::size_t lastEntries = 0;
     /// Tables: full quality (longest edge) and level of detail (box diagonal), built on first use.
@@ -108,8 +108,10 @@ KBufferRenderer::KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, 
     m.keys = cc_.allocate<cl_uint>(faceRecords.size());
     m.vals = cc_.allocate<cl_uint>(faceRecords.size());
     m.rects = cc_.allocate<cl_uint2>(faceRecords.size());
+    m.sortedFaces = cc_.allocate<cl_uint4>(faceRecords.size());
+    m.sortedRects = cc_.allocate<cl_uint2>(faceRecords.size());
     m.total = cc_.allocate<cl_uint>(1);
-    m.list = cc_.allocate<cl_uint>(std::max<std::size_t>(faceRecords.size(), 1));
+    m.list = cc_.allocate<cl_uint4>(std::max<std::size_t>(faceRecords.size(), 1));
     m.out = cc_.allocate<cl_float4>(1);
     rebuild(true);
 }
@@ -189,6 +191,7 @@ void KBufferRenderer::rebuild(bool tfChanged) {
         m.defines = plan_.defines;
         m.project = cc_.kernel("mesh_kbuffer.cl", "kb_project", m.defines);
         m.faceKeys = cc_.kernel("mesh_kbuffer.cl", "kb_face_keys", m.defines);
+        m.gather = cc_.kernel("mesh_kbuffer.cl", "kb_gather", m.defines);
         m.binCount = cc_.kernel("mesh_kbuffer.cl", "kb_bin_count", m.defines);
         m.binScatter = cc_.kernel("mesh_kbuffer.cl", "kb_bin_scatter", m.defines);
         m.raster = cc_.kernel("mesh_kbuffer.cl", "kb_raster", m.defines);
@@ -245,20 +248,22 @@ ImageBuffer KBufferRenderer::render() {
     m.sorter.sort(m.keys, m.vals, n);
     times_.sort = m.sorter.lastMilliseconds();
 
+    setArgs(m.gather, m.vals, m.faces, m.rects, n, m.sortedFaces, m.sortedRects);
+    times_.bin = eventMilliseconds(cc_.launch1d(m.gather, std::max<std::size_t>(n, 1), 64));
     cc_.fill(m.counts, cl_uint(0));
-    setArgs(m.binCount, m.vals, m.rects, n, P.tilesX, m.counts);
-    times_.bin = eventMilliseconds(cc_.launch1d(m.binCount, kBinChunks, 1));
+    setArgs(m.binCount, m.sortedRects, n, P.tilesX, m.counts);
+    times_.bin += eventMilliseconds(cc_.launch1d(m.binCount, kBinChunks, 1));
     setArgs(m.scan, m.counts, cl_uint(tiles * kBinChunks), m.total);
     times_.bin += eventMilliseconds(cc_.launch1d(m.scan, 1, 1));
     cl_uint entries = 0;
     cc_.read(m.total, std::span<cl_uint>(&entries, 1));
-    if (m.list.size() < entries) m.list = cc_.allocate<cl_uint>(std::size_t(entries) + entries / 4);
+    if (m.list.size() < entries) m.list = cc_.allocate<cl_uint4>(std::size_t(entries) + entries / 4);
     m.lastEntries = entries;
-    setArgs(m.binScatter, m.vals, m.rects, n, P.tilesX, m.counts, m.list);
+    setArgs(m.binScatter, m.sortedFaces, m.sortedRects, n, P.tilesX, m.counts, m.list);
     times_.bin += eventMilliseconds(cc_.launch1d(m.binScatter, kBinChunks, 1));
 
     const std::size_t threads = std::size_t(tileThreads(cc_.device().isCpu));
-    setArgs(m.raster, m.proj, m.scalars, m.faces, m.counts, m.list, P, table.device, m.out);
+    setArgs(m.raster, m.proj, m.scalars, m.counts, m.list, P, table.device, m.out);
     times_.raster = eventMilliseconds(cc_.launch(m.raster, cl::NDRange(tiles * threads), cl::NDRange(threads)));
 
     const auto rgba = cc_.download(m.out);
