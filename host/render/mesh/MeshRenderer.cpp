@@ -58,8 +58,7 @@ struct MeshRenderer::Impl {
     Vec3 centre{0, 0, 0};
     double scale = 1.0;
     std::vector<float> tetMin, tetMax;
-    DeviceBuffer<cl_float4> planes, fields, bvhNodes, bvhFaces;
-    DeviceBuffer<cl_uint4> neighbors;
+    DeviceBuffer<cl_float4> cells, bvhNodes, bvhFaces; ///< cells: 6 per tet (planes, field, neighbours)
     DeviceBuffer<cl_uchar> empty;
     DeviceBuffer<VolclTfKnot> knots;
     DeviceBuffer<float> tauIntegral;
@@ -86,11 +85,10 @@ MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const 
     const double inv = 1.0 / m.scale;
     auto normalise = [&](const Vec3& p) { return scale(sub(p, m.centre), inv); };
 
-    // Face planes (unit normals in the normalised frame). Each shared face's plane is computed from the
+    // Per tet, contiguous: face planes (unit normals in the normalised frame), field, neighbours. Each shared face's plane is computed from the
     // lower-numbered side and negated on the other, so both tets agree exactly on where a ray crosses it.
-    std::vector<cl_float4> planes(4 * nt);
-    std::vector<cl_float4> fields(nt);
-    std::vector<cl_uint4> neighbors(nt);
+    constexpr std::size_t kStride = 6; // CELL_STRIDE of cl/mesh_cells.cl
+    std::vector<cl_float4> cells(kStride * nt);
     m.tetMin.resize(nt);
     m.tetMax.resize(nt);
     parallelFor(nt, 0u, [&](std::size_t t) {
@@ -106,12 +104,12 @@ MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const 
                 n = scale(n, -1.0);
                 w = -w;
             }
-            planes[4 * t + f] = f4(n, float(w));
-            neighbors[t].s[f] = nb;
+            cells[kStride * t + f] = f4(n, float(w));
+            cells[kStride * t + 5].s[f] = bitsAsFloat(nb);
         }
         const mesh_detail::TetField fd = mesh_detail::tetField(mesh, t);
         // s(x') = value + g . (centre + scale x' - p0) = (value + g . (centre - p0)) + (scale g) . x'
-        fields[t] = f4(scale(fd.gradient, m.scale), float(fd.value + dot(fd.gradient, sub(m.centre, fd.p0))));
+        cells[kStride * t + 4] = f4(scale(fd.gradient, m.scale), float(fd.value + dot(fd.gradient, sub(m.centre, fd.p0))));
         float lo = mesh.scalars[mesh.tets[t][0]], hi = lo;
         for (int k = 1; k < 4; ++k) {
             lo = std::min(lo, mesh.scalars[mesh.tets[t][k]]);
@@ -120,9 +118,7 @@ MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const 
         m.tetMin[t] = lo;
         m.tetMax[t] = hi;
     });
-    m.planes = cc_.upload(planes, CL_MEM_READ_ONLY);
-    m.fields = cc_.upload(fields, CL_MEM_READ_ONLY);
-    m.neighbors = cc_.upload(neighbors, CL_MEM_READ_ONLY);
+    m.cells = cc_.upload(cells, CL_MEM_READ_ONLY);
 
     const mesh_detail::BoundaryBvh bvh = mesh_detail::buildBoundaryBvh(mesh);
     std::vector<cl_float4> nodes(2 * std::max<std::size_t>(bvh.nodes.size(), 1));
@@ -325,9 +321,10 @@ ImageBuffer MeshRenderer::render() {
         m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
         m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
     }
-    setArgs(m.kernel, m.planes, m.fields, m.neighbors, m.empty, m.bvhNodes, m.bvhFaces, m.knots, m.tauIntegral,
+    setArgs(m.kernel, m.cells, m.empty, m.bvhNodes, m.bvhFaces, m.knots, m.tauIntegral,
             m.table, m.params, m.out, m.depth);
-    cl::Event ev = cc_.launch2d(m.kernel, std::size_t(scene_.width), std::size_t(scene_.height), 8, 8);
+    // One work-item per 2 x 2 pixel block (RAYS_X, RAYS_Y of cl/mesh_cells.cl), 8 x 8 work-items per group.
+    cl::Event ev = cc_.launch2d(m.kernel, (std::size_t(scene_.width) + 1) / 2, (std::size_t(scene_.height) + 1) / 2, 8, 8);
     lastMs_ = eventMilliseconds(ev);
     const bool withDepth = !plan_.isosurfaces.empty();
     const auto rgba = cc_.download(m.out);
