@@ -83,7 +83,7 @@ def run(name, grid, job, prop):
     window.Render()  # warm-up: the mappers build their cell and face structures here
     first_ms = (time.perf_counter() - t0) * 1000.0
     times = []
-    for _ in range(max(1, job["runs"])):
+    for _ in range(max(1, job.get("mapper_runs", {}).get(name, job["runs"]))):
         cam.Modified()
         t0 = time.perf_counter()
         window.Render()

@@ -51,8 +51,8 @@ void writeRaw(const std::filesystem::path& p, const void* data, std::size_t byte
 
 } // namespace
 
-void benchMeshRender(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, const Scene& scene,
-                     const MeshBenchOptions& o) {
+void benchMeshRender(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
+                     const Scene& scene, const MeshBenchOptions& o) {
     const mesh::TetMesh& m = *input.mesh();
     const double tets = double(m.tetCount());
     Stopwatch sw;
@@ -79,17 +79,19 @@ void benchMeshRender(ComputeContext& cc, const RenderInput& input, const Transfe
         row.rmse = imageRmse(img, ref);
         row.rmseRgbValue = rmseRgb(img, ref);
         std::cout << "  " << std::left << std::setw(8) << method << std::setw(22) << config << std::right
-                  << std::fixed << std::setprecision(1) << std::setw(9) << row.wallMs << std::setw(9) << row.kernelMs
-                  << std::setw(9) << std::setprecision(2) << tets / (row.wallMs / 1000.0) / 1e6 << std::setw(9)
-                  << std::setprecision(0) << row.tableMs << "  " << std::scientific << std::setprecision(3)
-                  << row.rmse << "  " << row.rmseRgbValue << std::fixed << std::endl;
+                  << std::fixed << std::setprecision(1) << std::setw(9) << row.wallMs << std::setw(9)
+                  << row.kernelMs << std::setw(9) << std::setprecision(2)
+                  << tets / (row.wallMs / 1000.0) / 1e6 << std::setw(9) << std::setprecision(0) << row.tableMs
+                  << "  " << std::scientific << std::setprecision(3) << row.rmse << "  " << row.rmseRgbValue
+                  << std::fixed << std::endl;
         rows.push_back(row);
         return true;
     };
-    std::cout << "mesh " << input.summary() << ", " << scene.width << "x" << scene.height << ", median of " << o.runs
-              << " frames; RMSE against the exact double reference (" << std::setprecision(1) << refMs / 1000.0
-              << " s)\n";
-    std::cout << "  method  configuration          wall ms  kern ms  Mtets/s table ms  RMSE rgba   RMSE rgb\n";
+    std::cout << "mesh " << input.summary() << ", " << scene.width << "x" << scene.height << ", median of "
+              << o.runs << " frames; RMSE against the exact double reference (" << std::setprecision(1)
+              << refMs / 1000.0 << " s)\n";
+    std::cout
+        << "  method  configuration          wall ms  kern ms  Mtets/s table ms  RMSE rgba   RMSE rgb\n";
     for (int size : {scene.tableSize, 128})
         for (double L : parseNumbers(o.lengths, 0, "--mesh-lengths")) {
             Scene s = scene;
@@ -119,7 +121,8 @@ void benchMeshRender(ComputeContext& cc, const RenderInput& input, const Transfe
     csv << "method,config,wall_ms,kernel_ms,table_ms,mtets_per_s,rmse_rgba,rmse_rgb\n";
 
     if (o.vtk) {
-        const auto dir = std::filesystem::temp_directory_path() / ("volcl-vtk-mesh-" + std::to_string(::getpid()));
+        const auto dir =
+            std::filesystem::temp_directory_path() / ("volcl-vtk-mesh-" + std::to_string(::getpid()));
         std::filesystem::create_directories(dir);
         std::vector<double> pts(3 * m.points.size());
         for (std::size_t i = 0; i < m.points.size(); ++i)
@@ -145,20 +148,32 @@ void benchMeshRender(ComputeContext& cc, const RenderInput& input, const Transfe
             samples.push_back({x, c[0], c[1], c[2], 1.0 - std::exp(-tf.extinctionAt(x))});
         }
         job["tf"] = samples;
-        job["camera"] = {{"eye", cam.eye},       {"target", cam.target},
-                         {"up", cam.up},         {"height", cam.height},
-                         {"fov_y_deg", cam.fovYDeg}, {"perspective", cam.projection == Projection::Perspective}};
+        job["camera"] = {{"eye", cam.eye},
+                         {"target", cam.target},
+                         {"up", cam.up},
+                         {"height", cam.height},
+                         {"fov_y_deg", cam.fovYDeg},
+                         {"perspective", cam.projection == Projection::Perspective}};
         job["width"] = scene.width;
         job["height"] = scene.height;
         job["runs"] = o.runs;
-        job["mappers"] = {"bunyk", "projected_tetrahedra", "zsweep"};
+        nlohmann::json mappers = nlohmann::json::array();
+        {
+            std::stringstream ss(o.vtkMappers);
+            std::string name;
+            while (std::getline(ss, name, ','))
+                if (!name.empty()) mappers.push_back(name);
+        }
+        job["mappers"] = mappers;
+        job["mapper_runs"] = {{"zsweep", o.zsweepRuns}};
         job["image_prefix"] = (dir / "vtk-").string();
         job["result"] = (dir / "result.json").string();
         std::ofstream(dir / "job.json") << job.dump(1);
         const std::string cmd = "xvfb-run -a /usr/bin/python3 " + shellQuote(o.vtkScript) + " " +
                                 shellQuote((dir / "job.json").string());
         if (std::system(cmd.c_str()) != 0)
-            throw Error("VTK peer failed (" + cmd + "); is python3-vtk9 installed (scripts/apt-packages.txt)?");
+            throw Error("VTK peer failed (" + cmd +
+                        "); is python3-vtk9 installed (scripts/apt-packages.txt)?");
         const nlohmann::json res = nlohmann::json::parse(std::ifstream(dir / "result.json"));
         std::cout << "VTK " << res.at("vtk_version").get<std::string>()
                   << " peers, same mesh/TF/camera/image, RMSE of RGB (over black) against the reference\n";
@@ -170,18 +185,21 @@ void benchMeshRender(ComputeContext& cc, const RenderInput& input, const Transfe
         for (const auto& [name, r] : res.at("mappers").items()) {
             const auto bytes = readFileBytes(r.at("image").get<std::string>());
             ImageBuffer img(scene.width, scene.height, {"R", "G", "B", "A"});
-            if (bytes.size() != img.pixels.size() * sizeof(float)) throw IoError("VTK peer image has the wrong size");
+            if (bytes.size() != img.pixels.size() * sizeof(float))
+                throw IoError("VTK peer image has the wrong size");
             std::memcpy(img.pixels.data(), bytes.data(), bytes.size());
             const double ms = r.at("median_ms").get<double>(), err = rmseRgb(img, ref);
             if (name == "bunyk") {
                 bunykMs = ms;
                 bunykErr = err;
             }
-            std::cout << "  " << std::left << std::setw(22) << name << std::right << std::fixed << std::setprecision(1)
-                      << std::setw(9) << ms << " ms/frame " << std::setw(7) << std::setprecision(2)
-                      << tets / (ms / 1000.0) / 1e6 << " Mtets/s  RMSE rgb " << std::scientific << std::setprecision(3)
-                      << err << std::fixed << "  (" << r.at("class").get<std::string>()
-                      << (r.contains("integrator") ? ", " + r.at("integrator").get<std::string>() : "") << ")\n";
+            std::cout << "  " << std::left << std::setw(22) << name << std::right << std::fixed
+                      << std::setprecision(1) << std::setw(9) << ms << " ms/frame " << std::setw(7)
+                      << std::setprecision(2) << tets / (ms / 1000.0) / 1e6 << " Mtets/s  RMSE rgb "
+                      << std::scientific << std::setprecision(3) << err << std::fixed << "  ("
+                      << r.at("class").get<std::string>()
+                      << (r.contains("integrator") ? ", " + r.at("integrator").get<std::string>() : "")
+                      << ")\n";
             csv << "vtk," << name << ',' << ms << ",,," << tets / (ms / 1000.0) / 1e6 << ",," << err << '\n';
             if (!o.vtkImages.empty()) writeImage(img, std::filesystem::path(o.vtkImages) / (name + ".exr"));
         }
@@ -197,10 +215,11 @@ void benchMeshRender(ComputeContext& cc, const RenderInput& input, const Transfe
             best->kernelMs = median(best->kernel);
             std::cout << "  speed ratio Bunyk / fastest volcl at <= Bunyk's error (" << best->method << ", "
                       << best->config << ", " << std::setprecision(1) << best->wallMs
-                      << " ms/frame over both passes): " << std::setprecision(2) << bunykMs / best->wallMs << "x\n";
+                      << " ms/frame over both passes): " << std::setprecision(2) << bunykMs / best->wallMs
+                      << "x\n";
         } else
-            std::cout << "  no volcl configuration reached Bunyk's error " << std::scientific << bunykErr << std::fixed
-                      << '\n';
+            std::cout << "  no volcl configuration reached Bunyk's error " << std::scientific << bunykErr
+                      << std::fixed << '\n';
         std::filesystem::remove_all(dir);
     }
     for (const Row& r : rows)

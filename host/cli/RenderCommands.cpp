@@ -81,6 +81,7 @@ struct BenchArgs {
     double referenceStep = 0.05;
     std::string csv, vtkImage;
     std::string meshLengths = "8,16,32,64";
+    std::string vtkMappers = "bunyk,projected_tetrahedra,zsweep";
     bool effects = false, vtk = false, sweep = true, filters = false;
     std::string vtkScript = std::string(VOLCL_SOURCE_DIR) + "/bench/vtk_raycast.py";
 };
@@ -241,6 +242,7 @@ void benchMeshInput(const BenchArgs& a, GlobalOptions& global, Scene scene) {
     o.vtkImages = a.vtkImage;
     o.csv = a.csv;
     o.lengths = a.meshLengths;
+    o.vtkMappers = a.vtkMappers;
     benchMeshRender(cc, input, tf, scene, o);
 }
 
@@ -409,6 +411,8 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     b->add_option("--vtk-image", ba->vtkImage,
                   "Save VTK's image (EXR) and the reference beside it (meshes: a folder for every peer's image)");
     b->add_option("--mesh-lengths", ba->meshLengths, "Meshes: 3D table length counts swept by the cell method")
+        ->capture_default_str();
+    b->add_option("--vtk-mappers", ba->vtkMappers, "Meshes: VTK peers to run (bunyk, projected_tetrahedra, zsweep)")
         ->capture_default_str();
     b->add_option("--vtk-script", ba->vtkScript, "Path of bench/vtk_raycast.py")->capture_default_str();
     b->callback([ba, &global] { benchRender(*ba, global); });
