@@ -33,7 +33,7 @@ def panel(ax, title, path):
         if any(r["method"] == name for r in rows):
             ax.scatter([], [], color=color, marker=marker, label={"cells": "volcl cells", "kbuffer": "volcl k-buffer",
                                                                    "vtk": "VTK 9.1"}[name])
-    ax.legend(fontsize=8, loc="upper right")
+    ax.legend(fontsize=8, loc="center right")
 
 
 def main(argv):

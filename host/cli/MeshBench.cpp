@@ -107,7 +107,7 @@ void benchMeshRender(ComputeContext& cc, const RenderInput& input, const Transfe
         s.preintegration = Preintegration::None;
         s.step = scene.step * f;
         std::ostringstream c;
-        c << "points, step " << s.step;
+        c << "points step " << s.step;
         measure("cells", c.str(), s);
     }
     for (int k = 2; k <= 8; ++k) {
