@@ -5,9 +5,9 @@
 #include "host/Error.hpp"
 #include "host/mesh/MeshGenerator.hpp"
 #include "host/mesh/MeshIo.hpp"
+#include "host/render/CameraFraming.hpp"
 #include "host/render/RenderInput.hpp"
 #include "host/render/grid/GridRenderer.hpp"
-#include "host/render/CameraFraming.hpp"
 #include "host/render/mesh/MeshReference.hpp"
 
 #include <gtest/gtest.h>
@@ -24,7 +24,9 @@ TransferFunction rampTf(double lo, double hi, double tauMax) {
     TransferFunction tf;
     tf.domain = {lo, hi};
     tf.color = {{lo, {0.1, 0.2, 1.0}}, {0.5 * (lo + hi), {1.0, 0.6, 0.2}}, {hi, {1.0, 1.0, 0.9}}};
-    tf.extinction = {{lo, 0.0}, {lo + 0.2 * (hi - lo), 0.1 * tauMax}, {0.7 * (lo + hi) * 0.5 + 0.3 * hi, tauMax},
+    tf.extinction = {{lo, 0.0},
+                     {lo + 0.2 * (hi - lo), 0.1 * tauMax},
+                     {0.7 * (lo + hi) * 0.5 + 0.3 * hi, tauMax},
                      {hi, 0.3 * tauMax}};
     return tf;
 }
@@ -235,8 +237,8 @@ TEST(MeshCells, SharedMeshesMatchTheReference) {
         s.camera = frameBox(meshBounds(m), orbitDirection(35.0, 25.0), Projection::Orthographic, 30.0, 1.0);
         ImageBuffer gpu, ref;
         const double e = cellsVsReference(m, meshTf(m, 4.0), s, &gpu, &ref);
-        std::cout << c.file << " q" << c.qVar << ": " << m.tetCount() << " tets, RMSE " << e << ", mean alpha "
-                  << meanAlpha(ref) << '\n';
+        std::cout << c.file << " q" << c.qVar << ": " << m.tetCount() << " tets, RMSE " << e
+                  << ", mean alpha " << meanAlpha(ref) << '\n';
         EXPECT_LE(e, 0.002) << c.file;
         // Density of the LOx post is 1 everywhere: the ramp starting at its only value shows nothing.
         if (m.valueMax > m.valueMin) EXPECT_GT(meanAlpha(ref), 0.003) << c.file;
@@ -273,7 +275,8 @@ TEST(MeshCells, ModesAndEffectsMatchTheReference) {
     const mesh::TetMesh m = mesh::generateHexGridMesh({6, 5, 7}, {0, 0, 0}, {3, 2.5, 3.5}, f);
     const TransferFunction tf = meshTf(m, 5.0);
     Scene base = meshScene(m, 48, 40);
-    base.camera = frameBox(meshBounds(m), orbitDirection(-30.0, 40.0), Projection::Orthographic, 30.0, 48.0 / 40.0);
+    base.camera =
+        frameBox(meshBounds(m), orbitDirection(-30.0, 40.0), Projection::Orthographic, 30.0, 48.0 / 40.0);
     const double mid = 0.5 * (m.valueMin + m.valueMax);
     struct Variant {
         std::string name;
@@ -283,25 +286,40 @@ TEST(MeshCells, ModesAndEffectsMatchTheReference) {
     const std::vector<Variant> variants{
         {"dvr 3d", [](Scene&) {}, 0.002},
         {"mip grey", [](Scene& s) { s.mode = RenderMode::Mip; }, 1e-4},
-        {"mip tf", [](Scene& s) { s.mode = RenderMode::Mip; s.mipColor = MipColor::Tf; }, 1e-4},
+        {"mip tf",
+         [](Scene& s) {
+             s.mode = RenderMode::Mip;
+             s.mipColor = MipColor::Tf;
+         },
+         1e-4},
         {"xray", [](Scene& s) { s.mode = RenderMode::Xray; }, 1e-4},
-        {"iso shaded", [&](Scene& s) {
+        {"iso shaded",
+         [&](Scene& s) {
              s.mode = RenderMode::Iso;
              s.effects.isosurfaces = {{mid, {1, 0.8, 0.5, 0.7}}, {mid + 0.3, {0.3, 0.6, 1.0, 0.5}}};
              s.effects.shading = true;
              s.lights = {{LightKind::Directional, {0.3, -0.5, -1}, {1, 1, 1}, 1.0}};
-         }, 1e-3},
-        {"dvr shaded + iso", [&](Scene& s) {
+         },
+         1e-3},
+        {"dvr shaded + iso",
+         [&](Scene& s) {
              s.effects.isosurfaces = {{mid, {1, 1, 1, 0.4}}};
              s.effects.shading = true;
              s.lights = {{LightKind::Directional, {0.3, -0.5, -1}, {1, 1, 1}, 1.0}};
-         }, 0.002},
-        {"dvr clipped", [](Scene& s) { s.effects.clipPlanes = {{{1, 0.2, 0}, -1.4}, {{0, 0, -1}, 2.9}}; }, 0.002},
+         },
+         0.002},
+        {"dvr clipped",
+         [](Scene& s) {
+             s.effects.clipPlanes = {{{1, 0.2, 0}, -1.4}, {{0, 0, -1}, 2.9}};
+         },
+         0.002},
         {"dvr early termination", [](Scene& s) { s.earlyTermination = 0.99; }, 0.01},
-        {"dvr point sampled", [](Scene& s) {
+        {"dvr point sampled",
+         [](Scene& s) {
              s.preintegration = Preintegration::None;
              s.step = 0.01;
-         }, 0.003},
+         },
+         0.003},
     };
     for (const auto& v : variants) {
         Scene s = base;

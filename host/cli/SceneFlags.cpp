@@ -120,7 +120,11 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
     cmd->add_option("--scattering", scattering, "Single scattering albedo,g (Henyey-Greenstein)");
     cmd->add_option("--clip", clips,
                     "Clipping plane nx,ny,nz,offset keeping n.x + offset >= 0 (repeatable)");
+    cmd->add_option("--method", method, "Meshes: cells (exact cell traversal) or kbuffer (sorted faces, k-buffer)")
+        ->default_str(std::string(meshMethodName(d.meshMethod)));
+    cmd->add_option("--k", k, "Meshes, method kbuffer: k-buffer entries per pixel (2..8)")->default_str(num(d.kBufferDepth));
     raw.add(*cmd);
+    mesh.add(*cmd);
 }
 
 Scene SceneFlags::build(bool requireTf) const {
@@ -139,6 +143,8 @@ Scene SceneFlags::build(bool requireTf) const {
         s.window = std::array<double, 2>{w[0], w[1]};
     }
     if (!mipColor.empty()) s.mipColor = parseMipColor(mipColor);
+    if (!method.empty()) s.meshMethod = parseMeshMethod(method);
+    if (k) s.kBufferDepth = *k;
     if (earlyTermination) s.earlyTermination = *earlyTermination;
     if (noSkipping) s.skipping = false;
     if (tableSize) s.tableSize = *tableSize;
@@ -238,8 +244,12 @@ bool isAnatomicalFormat(const std::filesystem::path& p) {
 } // namespace
 
 std::vector<std::string> SceneFlags::finish(Scene& s, const Volume& v) const {
+    return finish(s, RenderInput::borrow(v));
+}
+
+std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) const {
     std::vector<std::string> notes;
-    const WorldBox box = volumeBox(v);
+    const WorldBox box = in.bounds();
     // Refuse impossible steps before any default is applied or reported: the error is the only line.
     s.validateSteps(norm(box.extent));
     const double aspect = double(s.width) / double(s.height);
@@ -343,15 +353,39 @@ double paraViewUnitDistance(const Volume& v) {
     return diagonal > 0.0 ? diagonal / std::cbrt(cells) : 1.0;
 }
 
+RenderInput SceneFlags::readSceneInput(const Scene& s, std::vector<std::string>& notes,
+                                       std::vector<std::filesystem::path>* filesRead) const {
+    if (mesh::detectMeshFormat(s.volume)) {
+        if (filesRead) *filesRead = {s.volume};
+        return RenderInput::fromMesh(mesh::readMesh(s.volume, mesh.toReadOptions()));
+    }
+    return RenderInput::fromVolume(readSceneVolume(s, notes, filesRead));
+}
+
 TransferFunction SceneFlags::loadTf(const Scene& s, const Volume& v) const {
+    return loadTf(s, RenderInput::borrow(v));
+}
+
+TransferFunction SceneFlags::loadTf(const Scene& s, const RenderInput& in) const {
     double unit = 1.0;
-    if (tfUnitDistance == "auto")
-        unit = paraViewUnitDistance(v);
-    else
+    if (tfUnitDistance == "auto") {
+        if (const Volume* v = in.grid())
+            unit = paraViewUnitDistance(*v);
+        else // ParaView's rule on cells: the box diagonal over the cube root of the cell count
+            unit = norm(in.bounds().extent) / std::cbrt(double(std::max<std::size_t>(in.mesh()->tetCount(), 1)));
+    } else
         unit = parseNumbers(tfUnitDistance, 1, "--tf-unit-distance")[0];
     if (!(std::isfinite(unit) && unit > 0.0))
         throw UsageError("--tf-unit-distance must be > 0 or 'auto'");
-    const VolumeStats st = v.stats(1);
+    struct {
+        double min, max;
+    } st{0.0, 0.0};
+    if (const Volume* v = in.grid()) {
+        const VolumeStats vs = v->stats(1);
+        st = {vs.min, vs.max};
+    } else {
+        st = {in.valueRange().min, in.valueRange().max};
+    }
     const std::array<double, 2> dataRange{st.min, st.max};
     std::optional<std::array<double, 2>> range;
     if (!tfRange.empty()) {

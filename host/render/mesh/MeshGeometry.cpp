@@ -15,14 +15,16 @@ TetField tetField(const mesh::TetMesh& m, std::size_t tet) {
     const double s0 = m.scalars[v[0]];
     const double d1 = double(m.scalars[v[1]]) - s0, d2 = double(m.scalars[v[2]]) - s0,
                  d3 = double(m.scalars[v[3]]) - s0;
-    // Solve [e1; e2; e3] g = (d1, d2, d3) by Cramer's rule: g = (d1 (e2 x e3) + d2 (e3 x e1) + d3 (e1 x e2)) / det.
+    // Solve [e1; e2; e3] g = (d1, d2, d3) by Cramer's rule: g = (d1 (e2 x e3) + d2 (e3 x e1) + d3 (e1 x e2))
+    // / det.
     const double det = dot(e1, cross(e2, e3));
     TetField f;
     f.p0 = p0;
     f.value = s0;
     if (det != 0.0)
-        f.gradient = scale(add(add(scale(cross(e2, e3), d1), scale(cross(e3, e1), d2)), scale(cross(e1, e2), d3)),
-                           1.0 / det);
+        f.gradient =
+            scale(add(add(scale(cross(e2, e3), d1), scale(cross(e3, e1), d2)), scale(cross(e1, e2), d3)),
+                  1.0 / det);
     return f;
 }
 
@@ -79,8 +81,8 @@ struct BvhBuilder {
 BoundaryBvh buildBoundaryBvh(const mesh::TetMesh& m) {
     BoundaryBvh bvh;
     const std::size_t n = m.boundaryFaces.size();
-    BvhBuilder b{std::vector<Vec3>(n), std::vector<Vec3>(n), std::vector<Vec3>(n), std::vector<std::uint32_t>(n),
-                 bvh};
+    BvhBuilder b{std::vector<Vec3>(n), std::vector<Vec3>(n), std::vector<Vec3>(n),
+                 std::vector<std::uint32_t>(n), bvh};
     for (std::size_t i = 0; i < n; ++i) {
         const auto v = m.faceVertices(m.boundaryFaces[i]);
         for (int a = 0; a < 3; ++a) {

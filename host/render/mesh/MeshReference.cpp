@@ -49,11 +49,13 @@ EffectPlan planMeshEffects(const Scene& scene, const mesh::TetMesh& m) {
         s.preintegration = Preintegration::Table3d;
         note = "pre-integration 2d: cell segments differ in length, so the 3D table over lengths is used";
     }
-    EffectPlan p = planEffects(s, meshBounds(m), meshValueRange(m), "tets whose scalar range the TF maps to zero");
+    EffectPlan p =
+        planEffects(s, meshBounds(m), meshValueRange(m), "tets whose scalar range the TF maps to zero");
     // The shared planner words the 3D table and gradients for grids; say what a mesh does.
     for (auto& c : p.compiled) {
         if (c == "pre-integration: 3D table over segment lengths")
-            c = "pre-integration: 3D table, each cell segment looked up exactly (lengths up to the longest edge)";
+            c = "pre-integration: 3D table, each cell segment looked up exactly (lengths up to the longest "
+                "edge)";
         if (c.rfind("shading:", 0) == 0) c += " (per-tet gradient)";
     }
     if (s.mode == RenderMode::Dvr && s.preintegration == Preintegration::None)
@@ -69,15 +71,15 @@ using mesh::FaceId;
 using mesh::kNoFace;
 
 double meshGradientThreshold(const mesh::TetMesh& m) {
-    return 1e-6 * std::max(double(m.valueMax) - double(m.valueMin), 1e-30) / std::max(m.maxEdgeLength, 1e-300);
+    return 1e-6 * std::max(double(m.valueMax) - double(m.valueMin), 1e-30) /
+           std::max(m.maxEdgeLength, 1e-300);
 }
 
 class MeshTracer {
 public:
     MeshTracer(const mesh::TetMesh& m, const TransferFunction& tf, const Scene& s)
-        : m_(m), tf_(tf), scene_(unshadowed(s)),
-          cam_(s.camera ? *s.camera : defaultCamera(meshBounds(m))), lighting_(scene_, cam_),
-          breakpoints_(tf.breakpoints()), bvh_(mesh_detail::buildBoundaryBvh(m)) {
+        : m_(m), tf_(tf), scene_(unshadowed(s)), cam_(s.camera ? *s.camera : defaultCamera(meshBounds(m))),
+          lighting_(scene_, cam_), breakpoints_(tf.breakpoints()), bvh_(mesh_detail::buildBoundaryBvh(m)) {
         const bool marching = s.mode == RenderMode::Dvr || s.mode == RenderMode::Iso;
         if (marching)
             for (const auto& iso : s.effects.isosurfaces)
@@ -232,7 +234,8 @@ private:
             u0 = u;
             const IsoLayer& iso = isos_[i];
             const double t = a + len * u;
-            const Vec3 c = light(ray, add(o, scale(d, t)), {iso.rgba[0], iso.rgba[1], iso.rgba[2]}, field.gradient);
+            const Vec3 c =
+                light(ray, add(o, scale(d, t)), {iso.rgba[0], iso.rgba[1], iso.rgba[2]}, field.gradient);
             if (std::isinf(px.depth)) px.depth = t;
             px.rgb = add(px.rgb, scale(c, px.T * iso.rgba[3]));
             px.T *= 1.0 - iso.rgba[3];

@@ -58,8 +58,7 @@ struct MeshRenderer::Impl {
     Vec3 centre{0, 0, 0};
     double scale = 1.0;
     std::vector<float> tetMin, tetMax;
-    DeviceBuffer<cl_float4> planes, fields, bvhNodes, bvhFaces;
-    DeviceBuffer<cl_uint4> neighbors;
+    DeviceBuffer<cl_float4> cells, bvhNodes, bvhFaces; ///< cells: 6 per tet (planes, field, neighbours)
     DeviceBuffer<cl_uchar> empty;
     DeviceBuffer<VolclTfKnot> knots;
     DeviceBuffer<float> tauIntegral;
@@ -86,11 +85,11 @@ MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const 
     const double inv = 1.0 / m.scale;
     auto normalise = [&](const Vec3& p) { return scale(sub(p, m.centre), inv); };
 
-    // Face planes (unit normals in the normalised frame). Each shared face's plane is computed from the
-    // lower-numbered side and negated on the other, so both tets agree exactly on where a ray crosses it.
-    std::vector<cl_float4> planes(4 * nt);
-    std::vector<cl_float4> fields(nt);
-    std::vector<cl_uint4> neighbors(nt);
+    // Per tet, contiguous: face planes (unit normals in the normalised frame), field, neighbours. Each shared
+    // face's plane is computed from the lower-numbered side and negated on the other, so both tets agree
+    // exactly on where a ray crosses it.
+    constexpr std::size_t kStride = 6; // CELL_STRIDE of cl/mesh_cells.cl
+    std::vector<cl_float4> cells(kStride * nt);
     m.tetMin.resize(nt);
     m.tetMax.resize(nt);
     parallelFor(nt, 0u, [&](std::size_t t) {
@@ -106,12 +105,13 @@ MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const 
                 n = scale(n, -1.0);
                 w = -w;
             }
-            planes[4 * t + f] = f4(n, float(w));
-            neighbors[t].s[f] = nb;
+            cells[kStride * t + f] = f4(n, float(w));
+            cells[kStride * t + 5].s[f] = bitsAsFloat(nb);
         }
         const mesh_detail::TetField fd = mesh_detail::tetField(mesh, t);
         // s(x') = value + g . (centre + scale x' - p0) = (value + g . (centre - p0)) + (scale g) . x'
-        fields[t] = f4(scale(fd.gradient, m.scale), float(fd.value + dot(fd.gradient, sub(m.centre, fd.p0))));
+        cells[kStride * t + 4] =
+            f4(scale(fd.gradient, m.scale), float(fd.value + dot(fd.gradient, sub(m.centre, fd.p0))));
         float lo = mesh.scalars[mesh.tets[t][0]], hi = lo;
         for (int k = 1; k < 4; ++k) {
             lo = std::min(lo, mesh.scalars[mesh.tets[t][k]]);
@@ -120,9 +120,7 @@ MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const 
         m.tetMin[t] = lo;
         m.tetMax[t] = hi;
     });
-    m.planes = cc_.upload(planes, CL_MEM_READ_ONLY);
-    m.fields = cc_.upload(fields, CL_MEM_READ_ONLY);
-    m.neighbors = cc_.upload(neighbors, CL_MEM_READ_ONLY);
+    m.cells = cc_.upload(cells, CL_MEM_READ_ONLY);
 
     const mesh_detail::BoundaryBvh bvh = mesh_detail::buildBoundaryBvh(mesh);
     std::vector<cl_float4> nodes(2 * std::max<std::size_t>(bvh.nodes.size(), 1));
@@ -131,12 +129,14 @@ MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const 
         const Vec3 lo = normalise(n.lo), hi = normalise(n.hi);
         nodes[2 * i] = {{outward(lo[0], false), outward(lo[1], false), outward(lo[2], false),
                          bitsAsFloat(n.count ? n.first : n.right)}};
-        nodes[2 * i + 1] = {{outward(hi[0], true), outward(hi[1], true), outward(hi[2], true), bitsAsFloat(n.count)}};
+        nodes[2 * i + 1] = {
+            {outward(hi[0], true), outward(hi[1], true), outward(hi[2], true), bitsAsFloat(n.count)}};
     }
     std::vector<cl_float4> faces(3 * std::max<std::size_t>(bvh.faces.size(), 1));
     for (std::size_t i = 0; i < bvh.faces.size(); ++i) {
         const auto v = mesh.faceVertices(bvh.faces[i]);
-        const Vec3 a = normalise(mesh.points[v[0]]), b = normalise(mesh.points[v[1]]), c = normalise(mesh.points[v[2]]);
+        const Vec3 a = normalise(mesh.points[v[0]]), b = normalise(mesh.points[v[1]]),
+                   c = normalise(mesh.points[v[2]]);
         faces[3 * i] = f4(a, bitsAsFloat(bvh.faces[i]));
         faces[3 * i + 1] = f4(sub(b, a), 0.0f);
         faces[3 * i + 2] = f4(sub(c, a), 0.0f);
@@ -256,7 +256,8 @@ void MeshRenderer::rebuild(bool tfChanged) {
         std::vector<int> visibleBefore(kEmptyBins + 1, 0);
         const bool dvr = scene_.mode == RenderMode::Dvr;
         for (int b = 0; b < kEmptyBins; ++b) {
-            const bool vis = dvr && grid_detail::maxExtinctionOver(shaded, lo + b * bw, lo + (b + 1) * bw) > 0.0;
+            const bool vis =
+                dvr && grid_detail::maxExtinctionOver(shaded, lo + b * bw, lo + (b + 1) * bw) > 0.0;
             visibleBefore[b + 1] = visibleBefore[b] + (vis ? 1 : 0);
         }
         const double pad = preint ? (hi - lo) / double(std::max(scene_.tableSize - 1, 1)) : 0.0;
@@ -287,15 +288,16 @@ void MeshRenderer::rebuild(bool tfChanged) {
     for (unsigned i = 0; i < p.clip.count; ++i) {
         const Vec3 n{p.clip.plane[i][0], p.clip.plane[i][1], p.clip.plane[i][2]};
         const double nn = norm(plan_.clipPlanes[i].normal);
-        p.clip.plane[i][3] = float((dot(scale(plan_.clipPlanes[i].normal, 1.0 / nn), m.centre) +
-                                    plan_.clipPlanes[i].offset / nn) * inv);
+        p.clip.plane[i][3] = float(
+            (dot(scale(plan_.clipPlanes[i].normal, 1.0 / nn), m.centre) + plan_.clipPlanes[i].offset / nn) *
+            inv);
         (void)n;
     }
     p.march = marchParams(scene_, meshValueRange(mesh_));
     p.tf = tfParams(scene_, shaded, m.knotCount, m.tableLengths);
     p.tf.tableMaxLength = float(m.maxSegment);
-    const double gradMin =
-        1e-6 * std::max(double(mesh_.valueMax) - double(mesh_.valueMin), 1e-30) / std::max(mesh_.maxEdgeLength, 1e-300);
+    const double gradMin = 1e-6 * std::max(double(mesh_.valueMax) - double(mesh_.valueMin), 1e-30) /
+                           std::max(mesh_.maxEdgeLength, 1e-300);
     p.lighting = lightingParams(scene_, gradMin * m.scale);
     for (unsigned i = 0; i < p.lighting.lightCount; ++i)
         if (p.lighting.lightPos[i][3] == float(VOLCL_LIGHT_POINT))
@@ -303,7 +305,8 @@ void MeshRenderer::rebuild(bool tfChanged) {
                 p.lighting.lightPos[i][a] = float((double(p.lighting.lightPos[i][a]) - m.centre[a]) * inv);
     p.iso = isoParams(plan_);
     VolclMeshParams& mp = p.mesh;
-    const Vec3 lo = scale(sub(mesh_.boundsMin, m.centre), inv), hi = scale(sub(mesh_.boundsMax, m.centre), inv);
+    const Vec3 lo = scale(sub(mesh_.boundsMin, m.centre), inv),
+               hi = scale(sub(mesh_.boundsMax, m.centre), inv);
     for (int a = 0; a < 3; ++a) {
         mp.centre[a] = float(m.centre[a]);
         mp.boxLo[a] = outward(lo[a], false);
@@ -325,9 +328,11 @@ ImageBuffer MeshRenderer::render() {
         m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
         m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
     }
-    setArgs(m.kernel, m.planes, m.fields, m.neighbors, m.empty, m.bvhNodes, m.bvhFaces, m.knots, m.tauIntegral,
-            m.table, m.params, m.out, m.depth);
-    cl::Event ev = cc_.launch2d(m.kernel, std::size_t(scene_.width), std::size_t(scene_.height), 8, 8);
+    setArgs(m.kernel, m.cells, m.empty, m.bvhNodes, m.bvhFaces, m.knots, m.tauIntegral, m.table, m.params,
+            m.out, m.depth);
+    // One work-item per 2 x 2 pixel block (RAYS_X, RAYS_Y of cl/mesh_cells.cl), 8 x 8 work-items per group.
+    cl::Event ev = cc_.launch2d(m.kernel, (std::size_t(scene_.width) + 1) / 2,
+                                (std::size_t(scene_.height) + 1) / 2, 8, 8);
     lastMs_ = eventMilliseconds(ev);
     const bool withDepth = !plan_.isosurfaces.empty();
     const auto rgba = cc_.download(m.out);
@@ -345,7 +350,8 @@ ImageBuffer MeshRenderer::render() {
     img.attributes.push_back({"volcl:mode", std::string(renderModeName(scene_.mode))});
     img.attributes.push_back({"volcl:method", std::string("cells")});
     img.attributes.push_back({"volcl:step", static_cast<float>(scene_.step)});
-    img.attributes.push_back({"volcl:preintegration", std::string(preintegrationName(scene_.preintegration))});
+    img.attributes.push_back(
+        {"volcl:preintegration", std::string(preintegrationName(scene_.preintegration))});
     img.attributes.push_back({"volcl:effects", plan_.defines.toOptions()});
     return img;
 }

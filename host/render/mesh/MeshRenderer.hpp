@@ -21,7 +21,8 @@ namespace volcl {
 class MeshRenderer final : public VolumeRenderer {
 public:
     /// Throws UsageError for an invalid scene, DataError for an invalid TF or an empty mesh.
-    MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf, const Scene& scene);
+    MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf,
+                 const Scene& scene);
     ~MeshRenderer() override;
     MeshRenderer(const MeshRenderer&) = delete;
     MeshRenderer& operator=(const MeshRenderer&) = delete;
