@@ -1,5 +1,6 @@
 // volcl-bench-mesh: read + repair + adjacency time of mesh files, and the build time of the generated
-// Marschner-Lobb mesh (median of N runs each). Usage: volcl-bench-mesh [-n runs] [--ml CELLS] files...
+// Marschner-Lobb mesh (median of N runs each). Usage: volcl-bench-mesh [-n runs] [--ml CELLS] [--write-ml OUT.vtu]
+// files... (--write-ml writes the generated mesh instead, as the >= 1 M tet input of `volcl bench render`).
 #include "host/mesh/MeshGenerator.hpp"
 #include "host/mesh/MeshIo.hpp"
 
@@ -13,14 +14,23 @@ int main(int argc, char** argv) {
     int runs = 5;
     std::size_t ml = 64;
     std::vector<std::string> files;
+    std::string writeMl;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "-n" && i + 1 < argc)
             runs = std::stoi(argv[++i]);
         else if (a == "--ml" && i + 1 < argc)
             ml = std::stoul(argv[++i]);
+        else if (a == "--write-ml" && i + 1 < argc)
+            writeMl = argv[++i];
         else
             files.push_back(a);
+    }
+    if (!writeMl.empty()) {
+        const volcl::mesh::TetMesh m = volcl::mesh::marschnerLobbMesh(ml);
+        volcl::mesh::writeVtu(m, writeMl);
+        std::printf("%s: %zu tets, %zu points\n", writeMl.c_str(), m.tetCount(), m.pointCount());
+        return 0;
     }
     auto median = [&](auto&& f) {
         std::vector<double> t;

@@ -24,7 +24,11 @@ set(VOLCL_KERNEL_FILES
   lifting.cl
   lifting_brick.cl
   preint.cl
+  mesh_cells.cl
   motion.cl
+  radix_sort.cl
+  mesh_kbuffer_shared.h
+  mesh_kbuffer.cl
 )
 list(TRANSFORM VOLCL_KERNEL_FILES PREPEND ${PROJECT_SOURCE_DIR}/cl/ OUTPUT_VARIABLE _kernel_paths)
 list(JOIN _kernel_paths "|" _kernel_paths_joined)

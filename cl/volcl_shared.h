@@ -134,8 +134,35 @@ typedef struct VolclPathParams {
     float environment[4];
     float invTotal, emission, pad0, pad1;
 } VolclPathParams;
+/* A tetrahedral mesh in the renderer's normalised frame x' = (x - centre) / scale (so huge and tiny
+   coordinates keep float precision); ray parameters t' = t / scale. */
+typedef struct VolclMeshParams {
+    float centre[4];   /* world centre of the mesh box */
+    float boxLo[4];    /* normalised mesh box */
+    float boxHi[4];
+    float scale;       /* world length of one normalised unit */
+    float invScale;
+    float epsilon;     /* normalised distance within which a re-entry counts as at the exit */
+    float maxSegment;  /* world length above which a segment is split for the 3D table (its last slice) */
+    volcl_uint tetCount, boundaryFaces, bvhNodes, pad0;
+} VolclMeshParams;
+
+/* Everything a mesh cell-ray-casting frame needs besides buffers (camera, clip planes and point lights
+   already in the normalised frame). */
+typedef struct VolclMeshRenderParams {
+    VolclCameraParams camera;
+    VolclClipParams clip;
+    VolclMarchParams march;
+    VolclTfParams tf;
+    VolclLightingParams lighting;
+    VolclIsoParams iso;
+    VolclMeshParams mesh;
+} VolclMeshRenderParams;
 
 #ifndef __OPENCL_VERSION__
+static_assert(sizeof(VolclMeshParams) == 80, "VolclMeshParams layout must match OpenCL C");
+static_assert(sizeof(VolclMeshRenderParams) == 80 + 80 + 16 + 32 + 176 + 96 + 80,
+              "VolclMeshRenderParams layout must match OpenCL C");
 static_assert(sizeof(VolclEllipsoid) == 64, "VolclEllipsoid layout must match OpenCL C");
 static_assert(sizeof(VolclTfKnot) == 48, "VolclTfKnot layout must match OpenCL C");
 static_assert(sizeof(VolclCameraParams) == 80, "VolclCameraParams layout must match OpenCL C");

@@ -7,6 +7,7 @@
 #include "host/cli/FilterBench.hpp"
 #include "host/cli/MediaBench.hpp"
 #include "host/cli/ScatterBench.hpp"
+#include "host/cli/MeshBench.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
@@ -35,6 +36,28 @@
 #include <unistd.h>
 
 namespace volcl::cli {
+
+double rmseRgb(const ImageBuffer& a, const ImageBuffer& b) {
+    double sum = 0.0;
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x)
+            for (int c = 0; c < 3; ++c) {
+                const double d = double(a.at(x, y, c)) - double(b.at(x, y, c));
+                sum += d * d;
+            }
+    return std::sqrt(sum / (3.0 * a.width * a.height));
+}
+
+double timeFrames(VolumeRenderer& r, int runs) {
+    r.render();
+    std::vector<double> ms;
+    for (int i = 0; i < runs; ++i) {
+        r.render();
+        ms.push_back(r.lastKernelMilliseconds());
+    }
+    return median(ms);
+}
+
 namespace {
 
 std::string outputExtension(const std::filesystem::path& out) {
@@ -55,17 +78,6 @@ void writeRendered(const ImageBuffer& img, const std::filesystem::path& out, con
     }
 }
 
-double rmseRgb(const ImageBuffer& a, const ImageBuffer& b) {
-    double sum = 0.0;
-    for (int y = 0; y < a.height; ++y)
-        for (int x = 0; x < a.width; ++x)
-            for (int c = 0; c < 3; ++c) {
-                const double d = double(a.at(x, y, c)) - double(b.at(x, y, c));
-                sum += d * d;
-            }
-    return std::sqrt(sum / (3.0 * a.width * a.height));
-}
-
 struct BenchArgs {
     SceneFlags scene;
     std::string steps = "0.25,0.5,1,2";
@@ -75,19 +87,10 @@ struct BenchArgs {
     bool effects = false, vtk = false, sweep = true, filters = false, tables = false, fog = false;
     bool scattering = false;
     ScatterBenchOptions scatter;
+    std::string meshLengths = "8,16,32,64";
+    std::string vtkMappers = "bunyk,projected_tetrahedra,zsweep";
     std::string vtkScript = std::string(VOLCL_SOURCE_DIR) + "/bench/vtk_raycast.py";
 };
-
-/// Median kernel milliseconds of `runs` frames after one warm-up frame (kernel build excluded).
-double timeFrames(VolumeRenderer& r, int runs) {
-    r.render();
-    std::vector<double> ms;
-    for (int i = 0; i < runs; ++i) {
-        r.render();
-        ms.push_back(r.lastKernelMilliseconds());
-    }
-    return median(ms);
-}
 
 void benchEffects(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, Scene base,
                   int runs) {
@@ -247,8 +250,33 @@ std::pair<double, ImageBuffer> runVtk(const BenchArgs& a, const Volume& v, const
     return {r.at("median_ms").get<double>(), img};
 }
 
+/// `bench render` on a tetrahedral mesh: MeshBench.cpp.
+void benchMeshInput(const BenchArgs& a, GlobalOptions& global, Scene scene) {
+    std::vector<std::string> notes;
+    const RenderInput input = a.scene.readSceneInput(scene, notes);
+    for (auto& note : a.scene.finish(scene, input))
+        notes.push_back(std::move(note));
+    if (!global.quiet)
+        for (const auto& note : notes)
+            std::cerr << "volcl bench render: " << note << '\n';
+    const TransferFunction tf = a.scene.loadTf(scene, input);
+    ComputeContext cc(global.device);
+    std::cerr << "volcl bench render: " << scene.volume.string() << " " << input.summary() << ", " << scene.width
+              << "x" << scene.height << ", device " << cc.device().name << '\n';
+    MeshBenchOptions o;
+    o.runs = a.runs;
+    o.vtk = a.vtk;
+    o.vtkScript = std::string(VOLCL_SOURCE_DIR) + "/bench/vtk_mesh.py";
+    o.vtkImages = a.vtkImage;
+    o.csv = a.csv;
+    o.lengths = a.meshLengths;
+    o.vtkMappers = a.vtkMappers;
+    benchMeshRender(cc, input, tf, scene, o);
+}
+
 void benchRender(const BenchArgs& a, GlobalOptions& global) {
     Scene scene = a.scene.build();
+    if (mesh::detectMeshFormat(scene.volume)) return benchMeshInput(a, global, scene);
     std::vector<std::string> notes;
     Volume volume = a.scene.readSceneVolume(scene, notes);
     for (auto& note : a.scene.finish(scene, volume))
@@ -355,7 +383,7 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
 } // namespace
 
 void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
-    auto* cmd = app.add_subcommand("render", "Ray-march a volume: dvr, mip, iso or xray, to EXR or PNG");
+    auto* cmd = app.add_subcommand("render", "Ray-march a volume or ray-cast a tetrahedral mesh: dvr, mip, iso or xray, to EXR or PNG");
     struct Args {
         SceneFlags scene;
         std::string out;
@@ -387,7 +415,7 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
         // A .vcz renders from its compressed bricks: only its header and index are read here, and the
         // geometry stand-in below is never touched (untouched zero pages).
         std::optional<RenderInput> bricks;
-        Volume v;
+        Volume v; // a .vcz: its geometry only (finish() and loadTf() read the box and spacing)
         std::array<double, 2> dataRange{0, 0};
         if (scene.volume.extension() == ".vcz") {
             bricks = RenderInput::openVcz(scene.volume, a->scene.frame.value_or(0));
@@ -401,20 +429,20 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
             v.origin = h.origin;
             const ValueRange r = bricks->valueRange();
             dataRange = {r.min, r.max};
-        } else {
-            v = a->scene.readSceneVolume(scene, notes, &inputs);
         }
+        std::optional<RenderInput> opened; // every other input: a grid or a mesh
+        if (!bricks) opened = a->scene.readSceneInput(scene, notes, &inputs);
         if (!a->out.empty()) checkNotSameFile(inputs, {std::filesystem::path(a->out)});
-        for (auto& note : a->scene.finish(scene, v))
+        for (auto& note : bricks ? a->scene.finish(scene, v) : a->scene.finish(scene, *opened))
             notes.push_back(std::move(note));
-        const TransferFunction tf = bricks ? a->scene.loadTf(scene, v, dataRange) : a->scene.loadTf(scene, v);
+        const TransferFunction tf = bricks ? a->scene.loadTf(scene, v, dataRange) : a->scene.loadTf(scene, *opened);
         if (!global.quiet)
             for (const auto& note : notes)
                 std::cerr << "volcl render: " << note << '\n';
         if (a->explain)
             for (const auto& note : notes)
                 std::cout << "default: " << note << '\n';
-        const RenderInput input = bricks ? std::move(*bricks) : RenderInput::fromVolume(std::move(v));
+        const RenderInput input = bricks ? std::move(*bricks) : std::move(*opened);
         ComputeContext cc(global.device);
         const std::unique_ptr<VolumeRenderer> renderer = input.makeRenderer(cc, tf, scene);
         VolumeRenderer& r = *renderer;
@@ -439,7 +467,8 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
                       << " -> " << a->out << '\n';
     });
 
-    auto* b = bench.add_subcommand("render", "Ray marcher: error vs time sweep, effect costs, VTK peer");
+    auto* b = bench.add_subcommand("render", "Ray marcher: error vs time sweep, effect costs, VTK peer (meshes: methods vs "
+                                                     "the exact reference, VTK's Bunyk, projected tetrahedra, ZSweep)");
     auto ba = std::make_shared<BenchArgs>();
     ba->scene.add(b);
     b->add_option("--steps", ba->steps, "Steps to sweep, in units of the smallest voxel spacing")
@@ -471,7 +500,12 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
     b->add_option("--scatter-images", ba->scatter.imageDir, "--scatter-sweep: write every variant's EXR and PNG here");
     b->add_flag("--vtk", ba->vtk, "Compare with VTK's vtkFixedPointVolumeRayCastMapper (python3-vtk9, xvfb)");
     b->add_flag("!--no-sweep", ba->sweep, "Skip the step x pre-integration x skipping sweep");
-    b->add_option("--vtk-image", ba->vtkImage, "Save VTK's image (EXR) and the reference beside it");
+    b->add_option("--vtk-image", ba->vtkImage,
+                  "Save VTK's image (EXR) and the reference beside it (meshes: a folder for every peer's image)");
+    b->add_option("--mesh-lengths", ba->meshLengths, "Meshes: 3D table length counts swept by the cell method")
+        ->capture_default_str();
+    b->add_option("--vtk-mappers", ba->vtkMappers, "Meshes: VTK peers to run (bunyk, projected_tetrahedra, zsweep)")
+        ->capture_default_str();
     b->add_option("--vtk-script", ba->vtkScript, "Path of bench/vtk_raycast.py")->capture_default_str();
     b->callback([ba, &global] { benchRender(*ba, global); });
 }

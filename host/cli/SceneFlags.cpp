@@ -135,7 +135,11 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
     cmd->add_option("--samples", samples, "Path-tracer samples per pixel (multiple scattering)");
     cmd->add_option("--clip", clips,
                     "Clipping plane nx,ny,nz,offset keeping n.x + offset >= 0 (repeatable)");
+    cmd->add_option("--method", method, "Meshes: cells (exact cell traversal) or kbuffer (sorted faces, k-buffer)")
+        ->default_str(std::string(meshMethodName(d.meshMethod)));
+    cmd->add_option("--k", k, "Meshes, method kbuffer: k-buffer entries per pixel (2..8)")->default_str(num(d.kBufferDepth));
     raw.add(*cmd);
+    mesh.add(*cmd);
 }
 
 Scene SceneFlags::build(bool requireTf) const {
@@ -154,6 +158,8 @@ Scene SceneFlags::build(bool requireTf) const {
         s.window = std::array<double, 2>{w[0], w[1]};
     }
     if (!mipColor.empty()) s.mipColor = parseMipColor(mipColor);
+    if (!method.empty()) s.meshMethod = parseMeshMethod(method);
+    if (k) s.kBufferDepth = *k;
     if (earlyTermination) s.earlyTermination = *earlyTermination;
     if (!lod.empty()) s.lod = parseLodMode(lod);
     if (lodError) s.lodError = *lodError;
@@ -262,8 +268,12 @@ bool isAnatomicalFormat(const std::filesystem::path& p) {
 } // namespace
 
 std::vector<std::string> SceneFlags::finish(Scene& s, const Volume& v) const {
+    return finish(s, RenderInput::borrow(v));
+}
+
+std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) const {
     std::vector<std::string> notes;
-    const WorldBox box = volumeBox(v);
+    const WorldBox box = in.bounds();
     // Refuse impossible steps before any default is applied or reported: the error is the only line.
     s.validateSteps(norm(box.extent));
     const double aspect = double(s.width) / double(s.height);
@@ -380,16 +390,42 @@ double paraViewUnitDistance(const Volume& v) {
     return diagonal > 0.0 ? diagonal / std::cbrt(cells) : 1.0;
 }
 
+RenderInput SceneFlags::readSceneInput(const Scene& s, std::vector<std::string>& notes,
+                                       std::vector<std::filesystem::path>* filesRead) const {
+    if (mesh::detectMeshFormat(s.volume)) {
+        if (filesRead) *filesRead = {s.volume};
+        return RenderInput::fromMesh(mesh::readMesh(s.volume, mesh.toReadOptions()));
+    }
+    return RenderInput::fromVolume(readSceneVolume(s, notes, filesRead));
+}
+
 TransferFunction SceneFlags::loadTf(const Scene& s, const Volume& v) const {
-    const VolumeStats st = v.stats(1);
-    return loadTf(s, v, {st.min, st.max});
+    return loadTf(s, RenderInput::borrow(v));
 }
 
 TransferFunction SceneFlags::loadTf(const Scene& s, const Volume& v, std::array<double, 2> dataRange) const {
+    return loadTf(s, RenderInput::borrow(v), dataRange);
+}
+
+TransferFunction SceneFlags::loadTf(const Scene& s, const RenderInput& in) const {
+    if (const Volume* v = in.grid()) {
+        const VolumeStats vs = v->stats(1);
+        return loadTf(s, in, {vs.min, vs.max});
+    }
+    const ValueRange r = in.valueRange();
+    return loadTf(s, in, {r.min, r.max});
+}
+
+TransferFunction SceneFlags::loadTf(const Scene& s, const RenderInput& in, std::array<double, 2> dataRange) const {
     double unit = 1.0;
-    if (tfUnitDistance == "auto")
-        unit = paraViewUnitDistance(v);
-    else
+    if (tfUnitDistance == "auto") {
+        if (const Volume* v = in.grid())
+            unit = paraViewUnitDistance(*v);
+        else if (const mesh::TetMesh* m = in.mesh()) // ParaView's rule on cells: box diagonal / cbrt(cell count)
+            unit = norm(in.bounds().extent) / std::cbrt(double(std::max<std::size_t>(m->tetCount(), 1)));
+        else
+            throw UsageError("--tf-unit-distance auto needs a grid or a mesh");
+    } else
         unit = parseNumbers(tfUnitDistance, 1, "--tf-unit-distance")[0];
     if (!(std::isfinite(unit) && unit > 0.0))
         throw UsageError("--tf-unit-distance must be > 0 or 'auto'");

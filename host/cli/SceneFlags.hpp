@@ -2,6 +2,8 @@
 #pragma once
 
 #include "host/cli/CliParsing.hpp"
+#include "host/cli/MeshInfo.hpp"
+#include "host/render/RenderInput.hpp"
 #include "host/render/Scene.hpp"
 #include "host/tf/TransferFunction.hpp"
 
@@ -22,10 +24,10 @@ Vec3 parseVec3(const std::string& text, const std::string& what);
 struct SceneFlags {
     std::string scene, volume, tf, mode, preint, projection, eye, target, up, background;
     std::string view, orbit, tfRange, tfUnitDistance = "1";
-    std::string filter, window, mipColor, lod;
+    std::string filter, window, mipColor, lod, method;
     std::optional<double> lodError, cacheMb;
     std::optional<double> smoothing, step, viewHeight, fov, earlyTermination, shadowStep;
-    std::optional<int> width, height, tableSize, tableLengths;
+    std::optional<int> width, height, tableSize, tableLengths, k;
     std::optional<std::size_t> frame; ///< --frame K of a time series input
     bool noSkipping = false, sobel = false, shadows = false, noShading = false;
     std::string shading, scattering, scatteringOrder;
@@ -33,6 +35,7 @@ struct SceneFlags {
     std::vector<std::string> isos, lights, clips;
     RawReadFlags raw;
     std::string device; ///< OpenCL device selector for decoding a .vcz input whole (readSceneVolume)
+    MeshReadFlags mesh; ///< --array, --q-var, --q for mesh inputs
 
     /// Registers every scene flag on `cmd`; the camera orbit flag is named `orbitFlag` (the viewer keeps
     /// `--orbit` for its per-frame turn).
@@ -45,6 +48,15 @@ struct SceneFlags {
     /// `filesRead`, when given, receives every file the volume consists of (header and data files).
     Volume readSceneVolume(const Scene& s, std::vector<std::string>& notes,
                            std::vector<std::filesystem::path>* filesRead = nullptr) const;
+    /// The scene's data as a renderer input: a tetrahedral mesh when the file is one (read with the mesh
+    /// flags), else readSceneVolume()'s volume.
+    RenderInput readSceneInput(const Scene& s, std::vector<std::string>& notes,
+                               std::vector<std::filesystem::path>* filesRead = nullptr) const;
+    /// finish() and loadTf() for any input (a mesh's box, value range and tet count).
+    std::vector<std::string> finish(Scene& s, const RenderInput& in) const;
+    TransferFunction loadTf(const Scene& s, const RenderInput& in) const;
+    /// loadTf() with the data range given (a .vcz's from its index).
+    TransferFunction loadTf(const Scene& s, const RenderInput& in, std::array<double, 2> dataRange) const;
     /// Once the volume is read: frames the camera the scene and flags leave incomplete (a named view,
     /// an orbit, a missing orthographic height or target, or the default view of anatomical data) and
     /// applies the lighting defaults. Returns one note per default applied (stderr and `--explain`).

@@ -85,15 +85,14 @@ struct ViewerSetup {
         const viewer::TransportRequest request = viewer::parseTransportRequest(a.transport);
         std::vector<std::string> notes;
         std::vector<std::filesystem::path> inputs;
-        Volume volume = a.scene.readSceneVolume(scene, notes, &inputs);
+        input = a.scene.readSceneInput(scene, notes, &inputs);
         if (!a.output.empty() && headless) checkNotSameFile(inputs, {std::filesystem::path(a.output)});
-        for (auto& note : a.scene.finish(scene, volume))
+        for (auto& note : a.scene.finish(scene, *input))
             notes.push_back(std::move(note));
         if (!global.quiet)
             for (const auto& note : notes)
                 std::cerr << "view: " << note << '\n';
-        if (!scene.tf.empty()) tf = a.scene.loadTf(scene, volume);
-        input = RenderInput::fromVolume(std::move(volume));
+        if (!scene.tf.empty()) tf = a.scene.loadTf(scene, *input);
         cc = std::make_unique<ComputeContext>(global.device);
         transport = viewer::chooseTransport(request, cc->device());
         if (headless)

@@ -1,10 +1,13 @@
-// Opens a scene's data and makes its renderer: grids, and frames of compressed-brick .vcz files.
+// Opens a scene's data (a grid, a frame of a compressed-brick .vcz, or a tetrahedral mesh) and makes its renderer.
 #include "host/render/RenderInput.hpp"
 
 #include "host/Volume.hpp"
 #include "host/render/grid/GridDetail.hpp"
 #include "host/render/grid/GridRenderer.hpp"
 #include "host/render/bricks/BrickRenderer.hpp"
+#include "host/render/mesh/KBufferRenderer.hpp"
+#include "host/render/mesh/MeshReference.hpp"
+#include "host/render/mesh/MeshRenderer.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "wavelet/Codec.hpp"
 
@@ -17,13 +20,25 @@ namespace volcl {
 
 RenderInput::RenderInput(std::shared_ptr<const Volume> volume) : volume_(std::move(volume)) {}
 
-RenderInput RenderInput::open(const std::filesystem::path& path, const ReadOptions& options) {
+RenderInput::RenderInput(std::shared_ptr<const mesh::TetMesh> mesh) : mesh_(std::move(mesh)) {}
+
+RenderInput RenderInput::open(const std::filesystem::path& path, const ReadOptions& options,
+                              const mesh::MeshReadOptions& meshOptions) {
     if (path.extension() == ".vcz") return openVcz(path, 0);
+    if (mesh::detectMeshFormat(path)) return fromMesh(mesh::readMesh(path, meshOptions));
     return fromVolume(readVolume(path, options));
 }
 
+RenderInput RenderInput::fromMesh(mesh::TetMesh mesh) {
+    return RenderInput(std::make_shared<const mesh::TetMesh>(std::move(mesh)));
+}
+
+RenderInput RenderInput::borrowMesh(const mesh::TetMesh& mesh) {
+    return RenderInput(std::shared_ptr<const mesh::TetMesh>(&mesh, [](const mesh::TetMesh*) {}));
+}
+
 RenderInput RenderInput::openVcz(const std::filesystem::path& path, std::size_t frame) {
-    RenderInput in(nullptr);
+    RenderInput in(std::shared_ptr<const Volume>{});
     in.vcz_ = std::make_shared<const VczReader>(readFileBytes(path), path.string());
     if (frame >= in.vcz_->header().frames.size())
         throw UsageError("--frame " + std::to_string(frame) + " out of range: " + path.string() + " has " +
@@ -46,6 +61,7 @@ WorldBox RenderInput::bounds() const {
         return {h.origin, {double(h.dims.x - 1) * h.spacing[0], double(h.dims.y - 1) * h.spacing[1],
                            double(h.dims.z - 1) * h.spacing[2]}};
     }
+    if (mesh_) return meshBounds(*mesh_);
     return gridBounds(*volume_);
 }
 
@@ -58,6 +74,7 @@ ValueRange RenderInput::valueRange() const {
         }
         return r;
     }
+    if (mesh_) return meshValueRange(*mesh_);
     return grid_detail::valueRange(*volume_);
 }
 
@@ -67,6 +84,7 @@ std::string RenderInput::summary() const {
         return std::to_string(h.dims.x) + "x" + std::to_string(h.dims.y) + "x" + std::to_string(h.dims.z) + " " +
                std::string(scalarTypeName(h.type)) + ", " + std::to_string(h.brickCount()) + " compressed bricks";
     }
+    if (mesh_) return std::to_string(mesh_->tetCount()) + " tets, " + std::to_string(mesh_->pointCount()) + " points";
     const Dims& d = volume_->dims();
     return std::to_string(d.x) + "x" + std::to_string(d.y) + "x" + std::to_string(d.z) + " " +
            std::string(scalarTypeName(volume_->type()));
@@ -78,6 +96,9 @@ EffectPlan RenderInput::planEffects(const Scene& scene, const TransferFunction& 
         p.defines.set("VOXEL_TYPE", 0LL);
         return p;
     }
+    if (mesh_ && scene.meshMethod == MeshMethod::KBuffer) // no device here: the plan as on a CPU device
+        return planKBuffer(scene, *mesh_, scene.kBufferDepth, true);
+    if (mesh_) return planMeshEffects(scene, *mesh_);
     return volcl::planEffects(scene, *volume_, tf);
 }
 
@@ -85,12 +106,17 @@ ImageBuffer RenderInput::renderReference(const TransferFunction& tf, const Scene
                                          const ReferenceOptions& options) const {
     if (vcz_)
         throw UsageError(vcz_->name() + ": the double reference renders grids: decode the file first (volcl decode)");
+    if (mesh_) return meshReferenceRender(*mesh_, tf, scene, options);
     return referenceRender(*volume_, tf, scene, options);
 }
 
 std::unique_ptr<VolumeRenderer> RenderInput::makeRenderer(ComputeContext& cc, const TransferFunction& tf,
                                                           const Scene& scene) const {
     if (vcz_) return std::make_unique<BrickRenderer>(cc, vcz_, frame_, tf, scene);
+    if (mesh_) {
+        if (scene.meshMethod == MeshMethod::KBuffer) return makeKBufferRenderer(cc, *mesh_, tf, scene);
+        return std::make_unique<MeshRenderer>(cc, *mesh_, tf, scene);
+    }
     return std::make_unique<GridRenderer>(cc, *volume_, tf, scene);
 }
 

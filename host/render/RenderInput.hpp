@@ -2,6 +2,7 @@
 #pragma once
 
 #include "host/io/VolumeIo.hpp"
+#include "host/mesh/MeshIo.hpp"
 #include "host/render/Reference.hpp"
 #include "host/render/VolumeRenderer.hpp"
 
@@ -14,9 +15,10 @@ namespace volcl {
 class Volume;
 class VczReader;
 
-/// The data a scene renders, opened once: a grid (a Volume from any reader) or a frame of a compressed-brick
-/// .vcz file; a tetrahedral mesh becomes another kind here, with its own renderer, and the
-/// CLI and viewer need no change. A renderer made from an input borrows its data: keep the input alive.
+/// The data a scene renders, opened once: a grid (a Volume from any reader), a frame of a compressed-brick
+/// .vcz file, or a tetrahedral mesh (any mesh reader; render.method picks its renderer), each with its own
+/// renderer, so the CLI and viewer need no change. A renderer made from an input borrows its data: keep the
+/// input alive.
 /// Example:
 /// ```
 /// volcl::RenderInput in = volcl::RenderInput::open(scene.volume);
@@ -24,28 +26,38 @@ class VczReader;
 /// ```
 class RenderInput {
 public:
-    /// Grid: a Volume in memory. Bricks: one frame of a .vcz, rendered from its compressed bricks.
-    enum class Kind { Grid, Bricks };
+    /// Grid: a Volume in memory. Bricks: one frame of a .vcz, rendered from its compressed bricks. Mesh: a
+    /// tetrahedral mesh.
+    enum class Kind { Grid, Bricks, Mesh };
 
-    /// Reads `path` with the matching reader. Throws what the readers throw (IoError, DataError).
-    static RenderInput open(const std::filesystem::path& path, const ReadOptions& options = {});
+    /// Reads `path` with the matching reader: a .vcz as Bricks (frame 0), a mesh when
+    /// mesh::detectMeshFormat() recognises it (read with `meshOptions`), else a volume. Throws what the
+    /// readers throw (IoError, DataError).
+    static RenderInput open(const std::filesystem::path& path, const ReadOptions& options = {},
+                            const mesh::MeshReadOptions& meshOptions = {});
     /// Frame `frame` of a .vcz file (header and index validated; nothing decoded). Throws IoError.
     static RenderInput openVcz(const std::filesystem::path& path, std::size_t frame = 0);
+    /// An input owning `mesh`.
+    static RenderInput fromMesh(mesh::TetMesh mesh);
+    /// An input borrowing `mesh`, which must outlive it and every renderer made from it.
+    static RenderInput borrowMesh(const mesh::TetMesh& mesh);
     /// An input owning `volume`.
     static RenderInput fromVolume(Volume volume);
     /// An input borrowing `volume`, which must outlive it and every renderer made from it.
     static RenderInput borrow(const Volume& volume);
 
-    Kind kind() const noexcept { return vcz_ ? Kind::Bricks : Kind::Grid; }
+    Kind kind() const noexcept { return vcz_ ? Kind::Bricks : mesh_ ? Kind::Mesh : Kind::Grid; }
     /// The compressed file of a Bricks input (nullptr for other kinds) and its frame.
     const VczReader* bricks() const noexcept { return vcz_.get(); }
     std::size_t frame() const noexcept { return frame_; }
     /// The grid, for the peers and tools that need one (VTK's ray caster); nullptr for other kinds.
     const Volume* grid() const noexcept { return volume_.get(); }
+    /// The mesh; nullptr for other kinds.
+    const mesh::TetMesh* mesh() const noexcept { return mesh_.get(); }
     WorldBox bounds() const;
     /// Smallest and largest finite data value.
     ValueRange valueRange() const;
-    /// One line for progress messages: "180x216x180 uint8".
+    /// One line for progress messages: "180x216x180 uint8", "51040 tets, 17344 points".
     std::string summary() const;
 
     /// What `scene` would compile on this data, without a device (`volcl render --explain`).
@@ -59,9 +71,11 @@ public:
 
 private:
     explicit RenderInput(std::shared_ptr<const Volume> volume);
+    explicit RenderInput(std::shared_ptr<const mesh::TetMesh> mesh);
     std::shared_ptr<const Volume> volume_;
     std::shared_ptr<const VczReader> vcz_;
     std::size_t frame_ = 0;
+    std::shared_ptr<const mesh::TetMesh> mesh_;
 };
 
 } // namespace volcl

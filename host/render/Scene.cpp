@@ -187,6 +187,16 @@ LodMode parseLodMode(std::string_view s) {
     throw UsageError("level of detail '" + std::string(s) + "' is unknown (expected full, auto)");
 }
 
+std::string_view meshMethodName(MeshMethod m) {
+    return m == MeshMethod::KBuffer ? "kbuffer" : "cells";
+}
+
+MeshMethod parseMeshMethod(std::string_view s) {
+    if (s == "cells") return MeshMethod::Cells;
+    if (s == "kbuffer") return MeshMethod::KBuffer;
+    throw UsageError("render.method '" + std::string(s) + "' is unknown (expected cells, kbuffer)");
+}
+
 Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDir) {
     const json j = parse(text);
     checkKeys(j, "the scene", {"volume", "tf", "camera", "image", "render", "lights", "effects"});
@@ -233,7 +243,7 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
         checkKeys(r, "render",
                   {"mode", "step", "preintegration", "early_termination", "skipping", "table_size",
                    "table_lengths", "filter", "smoothing", "window", "mip_color", "budget_ms", "lod", "lod_error",
-                   "cache_mb"});
+                   "cache_mb", "method", "k"});
         if (r.contains("mode")) s.mode = parseRenderMode(str(r["mode"], "render.mode"));
         if (r.contains("step")) s.step = num(r["step"], "render.step");
         if (r.contains("preintegration")) {
@@ -257,6 +267,8 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
         if (r.contains("lod")) s.lod = parseLodMode(str(r["lod"], "render.lod"));
         if (r.contains("lod_error")) s.lodError = num(r["lod_error"], "render.lod_error");
         if (r.contains("cache_mb")) s.cacheMb = num(r["cache_mb"], "render.cache_mb");
+        if (r.contains("method")) s.meshMethod = parseMeshMethod(str(r["method"], "render.method"));
+        if (r.contains("k")) s.kBufferDepth = static_cast<int>(num(r["k"], "render.k"));
     }
     if (j.contains("lights")) {
         if (!j["lights"].is_array()) throw UsageError("scene: 'lights' must be an array");
@@ -437,6 +449,9 @@ std::string Scene::toJson() const {
                    {"lod", std::string(lodModeName(lod))},
                    {"lod_error", lodError},
                    {"cache_mb", cacheMb}};
+    // Mesh fields only when set (grid scenes' JSON stays as it was).
+    if (meshMethod != MeshMethod::Cells) j["render"]["method"] = std::string(meshMethodName(meshMethod));
+    if (kBufferDepth != 6) j["render"]["k"] = kBufferDepth;
     if (window) j["render"]["window"] = *window;
     if (budgetMs > 0.0) j["render"]["budget_ms"] = budgetMs;
     j["lights"] = json::array();
@@ -543,6 +558,7 @@ void Scene::validate() const {
     need(earlyTermination > 0.0 && earlyTermination <= 1.0, "render.early_termination must be in (0, 1]");
     need(tableSize >= 2 && tableSize <= 4096, "render.table_size must be 2..4096");
     need(tableLengths >= 1 && tableLengths <= 1024, "render.table_lengths must be 1..1024");
+    need(kBufferDepth >= 2 && kBufferDepth <= 8, "render.k must be 2..8");
     // 8 voxels: the smoothing's 3-sigma kernel stays at 49 taps (host/render/grid/BsplineField.hpp).
     need(smoothing >= 0.0 && smoothing <= 8.0, "render.smoothing must be in [0, 8] voxels");
     need(budgetMs >= 0.0 && budgetMs <= 1e9, "render.budget_ms must be in [0, 1e9] (0: no budget)");

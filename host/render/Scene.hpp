@@ -32,6 +32,9 @@ enum class ScatteringOrder { Single, Multiple };
 /// Level of detail of compressed-brick inputs (.vcz): level 0 everywhere, or a level per brick from its
 /// estimated screen-space error (host/render/bricks/BrickLod.hpp).
 enum class LodMode { Full, Auto };
+/// How a tetrahedral mesh is rendered: exact cell-by-cell traversal, or faces sorted by centroid into a
+/// per-pixel k-buffer of depth render.k (grids ignore it).
+enum class MeshMethod { Cells, KBuffer };
 
 std::string_view renderModeName(RenderMode m);
 RenderMode parseRenderMode(std::string_view s); ///< throws UsageError
@@ -43,6 +46,8 @@ std::string_view mipColorName(MipColor c);
 MipColor parseMipColor(std::string_view s); ///< "grey" (or "gray"), "tf", "tf-opacity"; throws UsageError
 std::string_view lodModeName(LodMode m);
 LodMode parseLodMode(std::string_view s); ///< "full", "auto"; throws UsageError
+std::string_view meshMethodName(MeshMethod m);
+MeshMethod parseMeshMethod(std::string_view s); ///< "cells", "kbuffer"; throws UsageError
 
 /// GLM lookAt camera. `height` is the orthographic view height in world units; `fovYDeg` the perspective one.
 struct Camera {
@@ -160,6 +165,8 @@ struct Scene {
     LodMode lod = LodMode::Full;
     double lodError = 0.01;
     double cacheMb = 512.0;
+    MeshMethod meshMethod = MeshMethod::Cells; ///< render.method (meshes only)
+    int kBufferDepth = 6;                     ///< render.k: k-buffer entries per pixel, 2..8
     std::vector<Light> lights;
     SceneEffects effects;
 

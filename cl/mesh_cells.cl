@@ -1,0 +1,468 @@
+/* Exact cell ray casting of a tetrahedral mesh: rays enter at boundary faces (a BVH of them), walk
+   face-adjacent tets leaving each through the nearest face plane ahead, and re-enter after leaving a
+   non-convex mesh. Each cell segment has a linear scalar: dvr looks it up in the 3D pre-integration table
+   (PREINT 3) or point-samples it every render.step (no PREINT); iso crossings are exact; mip takes the
+   segment ends; xray integrates tau exactly. Everything runs in the mesh's normalised frame (VolclMeshParams).
+   Defines: MODE (0 dvr, 1 mip, 2 iso, 3 xray), MIP_COLOR, PREINT, ISO_COUNT, SHADING, CLIPPING, SKIPPING,
+   EARLY_TERMINATION. */
+#include "common/camera_rays.h"
+#include "common/shading.h"
+#include "common/tf_lookup.h"
+
+#pragma OPENCL FP_CONTRACT OFF
+
+#define NO_FACE 0xFFFFFFFFu
+#define MAX_ENTRIES 256
+#define MAX_STEPS (1u << 22)
+#define RECENT 4
+#define CELL_STRIDE 6
+
+#ifndef MODE
+#define MODE 0
+#endif
+
+/* Buffers, in one struct so helpers take one pointer. */
+typedef struct {
+    /* 6 per tet, one tet's data in 96 contiguous bytes (the walk is latency bound): 4 face planes (outward
+       normal n and w, n.x + w = 0 on the face), the linear field (gradient g and c, s(x) = g.x + c), and the
+       face across each face (tet * 4 + face, NO_FACE on the boundary) as uint bits. */
+    __global const float4* cells;
+    __global const uchar* empty;      /* per tet: 1 when nothing it holds can show */
+    __global const float4* bvhNodes;  /* 2 per node: lo (w: first or right child), hi (w: leaf count) */
+    __global const float4* bvhFaces;  /* 3 per leaf face: vertex a (w: face id), edge b - a, edge c - a */
+    __global const VolclTfKnot* knots;
+    __global const float* tauIntegral; /* per knot: integral of tau from knot 0 to it */
+    __global const float4* table;
+} MeshData;
+
+typedef struct {
+    float t;
+    uint face;
+} Entry;
+
+/* Ray parameter interval [x, y] of node ni's box within [tMin, tMax] (empty when x > y), padded so faces lying
+   in a box plane are not lost to rounding; NaN from 0 * inf (a ray in a slab plane) is dropped by fmin/fmax. */
+inline float2 slab(const MeshData* M, uint ni, float3 o, float3 inv, float tMin, float tMax) {
+    const float4 lo = M->bvhNodes[2 * ni], hi = M->bvhNodes[2 * ni + 1];
+    const float3 u = (lo.xyz - o) * inv, v = (hi.xyz - o) * inv;
+    const float3 mn = fmin(u, v), mx = fmax(u, v);
+    const float pad = 1e-6f;
+    return (float2)(fmax(fmax(fmax(mn.x, mn.y), mn.z) - pad, tMin), fmin(fmin(fmin(mx.x, mx.y), mx.z) + pad, tMax));
+}
+
+/* The leaf's faces first..first+count-1: keeps the nearest entering hit at t >= tMin in *best. */
+inline void leaf_faces(const MeshData* M, uint first, uint count, float3 o, float3 d, float tMin, const uint* recent,
+                       Entry* best) {
+        for (uint i = first; i < first + count; ++i) {
+            const float4 a = M->bvhFaces[3 * i], e1 = M->bvhFaces[3 * i + 1], e2 = M->bvhFaces[3 * i + 2];
+            const uint face = as_uint(a.w);
+            bool skip = false;
+            for (int r = 0; r < RECENT; ++r) skip |= recent[r] == face;
+            if (skip) continue;
+            const float3 n = cross(e1.xyz, e2.xyz);
+            if (!(dot(n, d) < 0.0f)) continue;
+            const float3 p = cross(d, e2.xyz);
+            const float det = dot(e1.xyz, p);
+            if (det == 0.0f) continue;
+            const float invDet = 1.0f / det;
+            const float3 s = o - a.xyz;
+            const float bu = dot(s, p) * invDet;
+            const float tol = 1e-5f;
+            if (bu < -tol || bu > 1.0f + tol) continue;
+            const float3 q = cross(s, e1.xyz);
+            const float bv = dot(d, q) * invDet;
+            if (bv < -tol || bu + bv > 1.0f + tol) continue;
+            const float t = dot(e2.xyz, q) * invDet;
+            if (t >= tMin && t < best->t) {
+                best->t = t;
+                best->face = face;
+            }
+        }
+}
+
+/* The nearest entering boundary face (outward normal against d) hit at t >= tMin, skipping `recent`. */
+inline Entry first_entry(const MeshData* M, const VolclMeshParams* P, float3 o, float3 d, float tMin,
+                         const uint* recent) {
+    Entry best;
+    best.t = INFINITY;
+    best.face = NO_FACE;
+    if (P->bvhNodes == 0) return best;
+    const float3 inv = (float3)(1.0f) / d;
+    uint stack[64];
+    int top = 0;
+    /* Front to back: at an inner node both children's slabs are tested and the nearer one is visited
+       first, so the nearest entry is usually found early and the rest culled by best.t. */
+    uint ni = 0;
+    for (;;) {
+        const float4 lo = M->bvhNodes[2 * ni], hi = M->bvhNodes[2 * ni + 1];
+        const uint count = as_uint(hi.w);
+        if (count == 0) {
+            const uint c0 = ni + 1, c1 = as_uint(lo.w);
+            const float2 s0 = slab(M, c0, o, inv, tMin, best.t), s1 = slab(M, c1, o, inv, tMin, best.t);
+            const bool h0 = s0.x <= s0.y, h1 = s1.x <= s1.y;
+            if (h0 && h1) {
+                const bool near0 = s0.x <= s1.x;
+                if (top < 64) stack[top++] = near0 ? c1 : c0;
+                ni = near0 ? c0 : c1;
+                continue;
+            }
+            if (h0 || h1) {
+                ni = h0 ? c0 : c1;
+                continue;
+            }
+        } else {
+            leaf_faces(M, as_uint(lo.w), count, o, d, tMin, recent, &best);
+        }
+        /* Next pending node still in front of the best hit. */
+        bool found = false;
+        while (top > 0 && !found) {
+            ni = stack[--top];
+            const float2 sn = slab(M, ni, o, inv, tMin, best.t);
+            found = sn.x <= sn.y;
+        }
+        if (!found) break;
+    }
+    return best;
+}
+
+
+/* Per-ray compositing state. */
+typedef struct {
+    float3 rgb;
+    float alpha;
+    float depth;  /* world distance to the first iso-surface */
+    float mip;
+    float xray;   /* optical depth */
+    int inside;
+    float nextSample; /* point sampling: normalised t of the next sample */
+} RayState;
+
+inline float tau_integral_at(const MeshData* M, uint count, float s) {
+    const uint k = tf_find_interval(M->knots, count, s);
+    __global const VolclTfKnot* kn = M->knots + k;
+    const float d = fmin(s - kn->s, FLT_MAX);
+    const float slope = d > 0.0f ? kn->slope[3] : 0.0f;
+    return M->tauIntegral[k] + d * kn->value[3] + 0.5f * d * d * slope;
+}
+
+/* Integral of tau over a segment of world length len with s linear from sa to sb. */
+inline float segment_depth(const MeshData* M, const VolclTfParams* T, float sa, float sb, float len) {
+    const float span = T->domainHi - T->domainLo;
+    if (fabs(sb - sa) <= 1e-4f * span) return tf_sample(M->knots, T->knotCount, 0.5f * (sa + sb)).w * len;
+    return (tau_integral_at(M, T->knotCount, sb) - tau_integral_at(M, T->knotCount, sa)) / (sb - sa) * len;
+}
+
+/* Lit colour of straight colour c as K c + S (affine in c) for a sample at normalised x with the tet's
+   normalised gradient g. */
+inline void light_affine(const VolclLightingParams* Lp, const VolclCameraParams* C, float3 eye, float3 rayDir,
+                         float3 x, float3 g, float3* K, float3* S) {
+#ifdef SHADING
+    LightSum ls = light_begin(Lp, g, rayDir);
+    for (uint i = 0; i < Lp->lightCount; ++i) {
+        float dist;
+        const float3 L = light_dir(Lp, C->perspective, eye, rayDir, (int)i, x, &dist);
+        light_add(&ls, Lp, (int)i, L, 1.0f, rayDir);
+    }
+    *S = light_finish(&ls, Lp, (float3)(0.0f));
+    *K = light_finish(&ls, Lp, (float3)(1.0f)) - *S;
+#else
+    *K = (float3)(1.0f);
+    *S = (float3)(0.0f);
+#endif
+}
+
+inline void composite(RayState* st, float3 rgb, float a) {
+    const float w = 1.0f - st->alpha;
+    st->rgb += w * rgb;
+    st->alpha += w * a;
+}
+
+/* DVR over the normalised ray interval [ta, tb] of one tet with s from sa to sb. */
+inline void dvr_piece(const MeshData* M, const VolclMeshRenderParams* Pc, const VolclTfParams* T,
+                      const VolclLightingParams* Lp, const VolclCameraParams* C, float3 eye, float3 o, float3 d,
+                      float ta, float tb, float sa, float sb, float3 g, RayState* st) {
+    if (!(tb > ta)) return;
+    const float scale = Pc->mesh.scale;
+#if PREINT == 3
+    const float len = (tb - ta) * scale;
+    const float maxLen = Pc->mesh.maxSegment;
+    const int n = len > maxLen ? (int)ceil(len / maxLen) : 1;
+    const float sub = len / (float)n;
+    float3 K = (float3)(1.0f), S = (float3)(0.0f);
+#ifdef SHADING
+    light_affine(Lp, C, eye, d, o + (0.5f * (ta + tb)) * d, g, &K, &S);
+#endif
+    for (int i = 0; i < n; ++i) {
+        const float u0 = (float)i / (float)n, u1 = (float)(i + 1) / (float)n;
+        const float4 e = preint_segment(M->table, T, sa + (sb - sa) * u0, sb + (sa - sb) * (1.0f - u1), sub);
+        composite(st, K * e.xyz + S * e.w, e.w);
+    }
+#else
+    /* Point sampling on the ray's lattice nextSample + k * step (normalised), alpha from tau * step. */
+    const float h = Pc->march.step * Pc->mesh.invScale;
+    float ts = st->nextSample;
+    if (ts < ta) ts += ceil((ta - ts) / h) * h;
+    for (; ts < tb; ts += h) {
+        const float u = (ts - ta) / (tb - ta);
+        const float s = sa + (sb - sa) * u;
+        const float4 v = tf_sample(M->knots, T->knotCount, s);
+        const float a = 1.0f - exp(-v.w * Pc->march.step);
+        if (a > 0.0f) {
+            float3 K = (float3)(1.0f), S = (float3)(0.0f);
+#ifdef SHADING
+            light_affine(Lp, C, eye, d, o + ts * d, g, &K, &S);
+#endif
+            composite(st, (K * v.xyz + S) * a, a);
+        }
+    }
+    st->nextSample = ts;
+#endif
+}
+
+/* The part [ta, tb] (normalised) of the ray inside tet `tet`. */
+inline void cell_segment(const MeshData* M, const VolclMeshRenderParams* Pc, const VolclTfParams* T,
+                         const VolclLightingParams* Lp, const VolclCameraParams* C, float3 eye, float3 o, float3 d,
+                         float tOffset, uint tet, float ta, float tb, float2 clip, RayState* st) {
+    const float a = fmax(ta, clip.x), b = fmin(tb, clip.y);
+    if (!(b >= a)) return;
+#if defined(SKIPPING) && (MODE == 0 || MODE == 2)
+    if (M->empty[tet]) return; /* point sampling: dvr_piece moves the lattice on to the next tet */
+#endif
+    const float4 f = M->cells[CELL_STRIDE * tet + 4];
+    const float sa = dot(f.xyz, o + a * d) + f.w, sb = dot(f.xyz, o + b * d) + f.w;
+#if MODE == 1
+    st->mip = fmax(st->mip, fmax(sa, sb));
+    st->inside = 1;
+#elif MODE == 3
+    if (b > a) st->xray += segment_depth(M, T, sa, sb, (b - a) * Pc->mesh.scale);
+#else
+    if (!(b > a)) return;
+    float u0 = 0.0f;
+#if ISO_COUNT > 0
+    /* Crossings inside the segment, in ray order. */
+    float us[ISO_COUNT];
+    int ids[ISO_COUNT];
+    int nc = 0;
+    for (int i = 0; i < (int)Pc->iso.count; ++i) {
+        const float v = Pc->iso.value[i];
+        if ((sa >= v) != (sb >= v)) {
+            float u = clamp((v - sa) / (sb - sa), 0.0f, 1.0f);
+            int j = nc++;
+            while (j > 0 && us[j - 1] > u) {
+                us[j] = us[j - 1];
+                ids[j] = ids[j - 1];
+                --j;
+            }
+            us[j] = u;
+            ids[j] = i;
+        }
+    }
+    for (int c = 0; c < nc; ++c) {
+        const float u = us[c];
+#if MODE == 0
+        dvr_piece(M, Pc, T, Lp, C, eye, o, d, a + (b - a) * u0, a + (b - a) * u, sa + (sb - sa) * u0,
+                  sa + (sb - sa) * u, f.xyz, st);
+#endif
+        u0 = u;
+        const int i = ids[c];
+        const float t = a + (b - a) * u;
+        float3 K, S;
+        light_affine(Lp, C, eye, d, o + t * d, f.xyz, &K, &S);
+        const float3 ic = (float3)(Pc->iso.color[i][0], Pc->iso.color[i][1], Pc->iso.color[i][2]);
+        const float ia = Pc->iso.color[i][3];
+        if (isinf(st->depth)) st->depth = (tOffset + t) * Pc->mesh.scale;
+        composite(st, (K * ic + S) * ia, ia);
+    }
+#endif
+#if MODE == 0
+    dvr_piece(M, Pc, T, Lp, C, eye, o, d, a + (b - a) * u0, b, sa + (sb - sa) * u0, sb, f.xyz, st);
+#endif
+#endif
+}
+
+/* One ray's walk: where it is and what it has gathered. */
+typedef struct {
+    float3 o, d;
+    float2 clip;
+    float tOffset, t, tMin;
+    uint tet, entered, steps;
+    uint recent[RECENT];
+    int ri, entries, phase; /* phase: 0 find the next entry, 1 walk, 2 done */
+    RayState st;
+} RayWalk;
+
+#define PHASE_ENTRY 0
+#define PHASE_WALK 1
+#define PHASE_DONE 2
+
+/* The pixel's ray in the normalised frame, its origin moved to where it meets the mesh box. */
+inline void ray_begin(RayWalk* w, const VolclMeshRenderParams* Pc, uint x, uint y) {
+    const VolclCameraParams* C = &Pc->camera;
+    const VolclMeshParams* P = &Pc->mesh;
+    w->st.rgb = (float3)(0.0f);
+    w->st.alpha = 0.0f;
+    w->st.depth = INFINITY;
+    w->st.mip = -INFINITY;
+    w->st.xray = 0.0f;
+    w->st.inside = 0;
+    w->st.nextSample = NAN; /* set at the first entry */
+    w->phase = PHASE_DONE;
+    w->steps = 0;
+    w->entries = 0;
+    w->ri = 0;
+    w->tMin = 0.0f;
+    for (int r = 0; r < RECENT; ++r) w->recent[r] = NO_FACE;
+    if (x >= C->width || y >= C->height) return;
+    const WorldRay wr = camera_ray_world(C, x, y);
+    float3 o = (wr.o - v3(P->centre)) * P->invScale;
+    const float3 d = wr.d;
+    const float3 inv = (float3)(1.0f) / d;
+    const float3 u = (v3(P->boxLo) - o) * inv, v = (v3(P->boxHi) - o) * inv;
+    const float3 mn = fmin(u, v), mx = fmax(u, v);
+    const float tBox0 = fmax(fmax(fmax(mn.x, mn.y), mn.z), 0.0f);
+    const float tBox1 = fmin(fmin(mx.x, mx.y), mx.z);
+    if (!(tBox1 >= tBox0)) return;
+    /* Relative parameters near the mesh keep float precision for far cameras. */
+    w->tOffset = fmax(tBox0 - 1e-3f, 0.0f);
+    o += w->tOffset * d;
+    w->o = o;
+    w->d = d;
+    w->clip = (float2)(-INFINITY, INFINITY);
+#ifdef CLIPPING
+    clip_planes(&Pc->clip, o, d, &w->clip);
+#endif
+    if (w->clip.y > w->clip.x) w->phase = PHASE_ENTRY;
+}
+
+/* One unit of work of a ray: find its next entry into the mesh, or cross one tet. */
+inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderParams* Pc, const VolclTfParams* T,
+                        const VolclLightingParams* Lp, float3 eye) {
+    const VolclMeshParams* P = &Pc->mesh;
+    if (w->phase == PHASE_ENTRY) {
+        const Entry hit = first_entry(M, P, w->o, w->d, w->tMin - P->epsilon, w->recent);
+        if (hit.face == NO_FACE || hit.t > w->clip.y || ++w->entries > MAX_ENTRIES) {
+            w->phase = PHASE_DONE;
+            return;
+        }
+        w->recent[w->ri] = hit.face;
+        w->ri = (w->ri + 1) % RECENT;
+        w->tet = hit.face >> 2;
+        w->entered = hit.face & 3u;
+        w->t = hit.t;
+        /* The point-sampling lattice starts half a step into the mesh. */
+        if (isnan(w->st.nextSample)) w->st.nextSample = fmax(w->t, w->clip.x) + 0.5f * Pc->march.step * P->invScale;
+        w->phase = PHASE_WALK;
+        return;
+    }
+    const uint tet = w->tet;
+    __global const float4* cell = M->cells + CELL_STRIDE * (size_t)tet;
+    float best = INFINITY, steepestNd = -INFINITY;
+    uint exitFace = 4, steepest = 0;
+    for (uint fi = 0; fi < 4; ++fi) {
+        if (fi == w->entered) continue;
+        const float4 pl = cell[fi];
+        const float nd = dot(pl.xyz, w->d);
+        if (nd > steepestNd) {
+            steepestNd = nd;
+            steepest = fi;
+        }
+        if (!(nd > 0.0f)) continue;
+        const float tf = -(dot(pl.xyz, w->o) + pl.w) / nd;
+        if (tf < best) {
+            best = tf;
+            exitFace = fi;
+        }
+    }
+    if (exitFace == 4) { /* no face ahead (a ray in the plane of a flat tet): leave at once */
+        exitFace = steepest;
+        best = w->t;
+    }
+    const float tExit = fmax(best, w->t);
+    cell_segment(M, Pc, T, Lp, &Pc->camera, eye, w->o, w->d, w->tOffset, tet, w->t, tExit, w->clip, &w->st);
+    w->t = tExit;
+#if defined(EARLY_TERMINATION) && (MODE == 0 || MODE == 2)
+    if (w->st.alpha >= Pc->march.earlyTermination) {
+        w->phase = PHASE_DONE;
+        return;
+    }
+#endif
+    if (w->t > w->clip.y || ++w->steps >= MAX_STEPS) {
+        w->phase = PHASE_DONE;
+        return;
+    }
+    const uint nb = ((__global const uint*)(cell + 5))[exitFace];
+    if (nb == NO_FACE) {
+        w->tMin = w->t;
+        w->phase = PHASE_ENTRY;
+        return;
+    }
+    w->tet = nb >> 2;
+    w->entered = nb & 3u;
+}
+
+/* The pixel's colour from its ray's state. */
+inline float4 ray_result(const RayWalk* w, const MeshData* M, const VolclMeshRenderParams* Pc) {
+    const RayState* st = &w->st;
+#if MODE == 1
+    if (!st->inside) return (float4)(0.0f);
+    const float m = st->mip;
+#if MIP_COLOR == 2
+    const float4 tv = tf_sample(M->knots, Pc->tf.knotCount, m);
+    const float a = 1.0f - exp(-tv.w);
+    return (float4)(tv.xyz * a, a);
+#else
+    const float g = clamp((m - Pc->march.windowLo) * Pc->march.windowInvWidth, 0.0f, 1.0f);
+#if MIP_COLOR == 1
+    const float4 tv = tf_sample(M->knots, Pc->tf.knotCount, m);
+    return (float4)(tv.xyz * g, g);
+#else
+    return (float4)(g, g, g, g);
+#endif
+#endif
+#elif MODE == 3
+    const float a = -expm1(-st->xray);
+    return (float4)(a, a, a, a);
+#else
+    return (float4)(st->rgb, st->alpha);
+#endif
+}
+
+/* Each work-item walks the rays of a RAYS_X x RAYS_Y pixel block together, one tet (or one entry search) per
+   ray in turn: the walk is a chain of dependent loads, and interleaving independent rays lets the CPU (or a
+   GPU's scheduler) overlap their memory latency. */
+#define RAYS_X 2
+#define RAYS_Y 2
+#define RAYS (RAYS_X * RAYS_Y)
+
+__kernel void mesh_cells(__global const float4* cells, __global const uchar* empty,
+                         __global const float4* bvhNodes, __global const float4* bvhFaces,
+                         __global const VolclTfKnot* knots, __global const float* tauIntegral,
+                         __global const float4* table, const VolclMeshRenderParams params,
+                         __global float4* out, __global float* depthOut) {
+    const VolclMeshRenderParams* Pc = &params;
+    const uint x0 = get_global_id(0) * RAYS_X, y0 = get_global_id(1) * RAYS_Y;
+    const VolclCameraParams C = Pc->camera;
+    if (x0 >= C.width || y0 >= C.height) return;
+    MeshData M = {cells, empty, bvhNodes, bvhFaces, knots, tauIntegral, table};
+    const VolclTfParams T = Pc->tf;
+    const VolclLightingParams Lp = Pc->lighting;
+    const float3 eye = (v3(C.origin) - v3(Pc->mesh.centre)) * Pc->mesh.invScale;
+    RayWalk w[RAYS];
+    for (int r = 0; r < RAYS; ++r) ray_begin(&w[r], Pc, x0 + r % RAYS_X, y0 + r / RAYS_X);
+    for (;;) {
+        bool active = false;
+        for (int r = 0; r < RAYS; ++r) {
+            if (w[r].phase == PHASE_DONE) continue;
+            active = true;
+            ray_advance(&w[r], &M, Pc, &T, &Lp, eye);
+        }
+        if (!active) break;
+    }
+    for (int r = 0; r < RAYS; ++r) {
+        const uint x = x0 + r % RAYS_X, y = y0 + r / RAYS_X;
+        if (x >= C.width || y >= C.height) continue;
+        const size_t pixel = (size_t)y * C.width + x;
+        out[pixel] = ray_result(&w[r], &M, Pc);
+        depthOut[pixel] = w[r].st.depth;
+    }
+}
