@@ -215,6 +215,55 @@ TEST(BrickRender, LodFullEqualsDecodedVolumeOnRealVolumes) {
     }
 }
 
+// Fog is composited by the same kernel code on both renderers: with lod full the brick image equals the grid
+// renderer's on the decoded volume, for a constant and an exponential layer, in the volume's box and in a
+// larger one, point-sampled and 2D pre-integrated; the table paths are dropped with a reason.
+TEST(BrickRender, FogMatchesTheGridRenderer) {
+    const Volume v = toU8(test::makeFloatVolume({40, 36, 32}, [](double x, double y, double z) {
+        return 128 + 90 * std::sin(x * 0.21) * std::cos(y * 0.17) * std::cos(z * 0.13);
+    }));
+    const TransferFunction tf = rampTf(0, 255, 1.0);
+    for (double falloff : {0.0, 6.0})
+        for (bool largerBox : {false, true})
+            for (Preintegration pre : {Preintegration::None, Preintegration::Table2d}) {
+                Scene s = obliqueScene(v, 64);
+                s.preintegration = pre;
+                s.effects.fog.enabled = true;
+                s.effects.fog.density = 0.05;
+                s.effects.fog.base = 14;
+                s.effects.fog.falloff = falloff;
+                s.effects.fog.color = {0.6, 0.65, 0.7};
+                if (largerBox) s.effects.fog.box = WorldBox{{-6, -6, -6}, {51, 47, 43}};
+                expectFullMatchesGrid("fog falloff " + std::to_string(falloff) + (largerBox ? " larger box" : "") +
+                                          (pre == Preintegration::None ? "" : " (2d)"),
+                                      v, lossless(16, 2), tf, s);
+            }
+    {
+        // ... and the fog is really there: it changes the image.
+        Scene f = obliqueScene(v, 32);
+        f.effects.fog.enabled = true;
+        f.effects.fog.density = 0.05;
+        f.effects.fog.base = 14;
+        Scene plain = obliqueScene(v, 32);
+        const auto reader = encode(v, lossless(16, 2));
+        BrickRenderer withFog(computeContext(), reader, 0, tf, f), without(computeContext(), reader, 0, tf, plain);
+        EXPECT_TRUE(withFog.plan().fog) << withFog.plan().explain();
+        EXPECT_GT(maxAbsDiff(withFog.render(), without.render()), 0.05);
+    }
+    Scene s = obliqueScene(v, 32);
+    s.preintegration = Preintegration::Table2d;
+    s.effects.shading = true;
+    s.effects.shadingPreintegrated = true;
+    s.lights.push_back(Light{});
+    const auto reader = encode(v, lossless(16, 2));
+    BrickRenderer bricks(computeContext(), reader, 0, tf, s);
+    bool dropped = false;
+    for (const std::string& d : bricks.plan().dropped)
+        dropped = dropped || d.rfind("pre-integrated lighting: compressed bricks", 0) == 0;
+    EXPECT_TRUE(dropped) << bricks.plan().explain();
+    EXPECT_FALSE(bricks.plan().preintLighting);
+}
+
 TEST(BrickRender, MixedLevelsMatchNodeValueReferenceWithoutCracks) {
     ComputeContext& cc = computeContext();
     const Volume v = test::makeFloatVolume({50, 45, 40}, [](double x, double y, double z) {
