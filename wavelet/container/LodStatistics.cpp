@@ -97,41 +97,12 @@ BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::spa
                     st.faceMax = std::max(st.faceMax, v);
                 }
             }
-    const double scale = 1.0 / double(std::size_t(1) << level);
-    auto axis = [&](std::size_t x, std::size_t n, std::size_t& i0, std::size_t& i1, double& f) {
-        const double u = std::min(double(x) * scale, double(n - 1));
-        i0 = std::min(std::size_t(u), n > 1 ? n - 2 : 0);
-        i1 = std::min(i0 + 1, n - 1);
-        f = u - double(i0);
-    };
-    auto at = [&](std::size_t i, std::size_t j, std::size_t k) {
-        return double(samples[(k * m.y + j) * m.x + i]);
-    };
     double err = 0, sq = 0;
-    for (std::size_t z = 0; z < full.z; ++z) {
-        std::size_t z0, z1;
-        double fz;
-        axis(z, m.z, z0, z1, fz);
-        for (std::size_t y = 0; y < full.y; ++y) {
-            std::size_t y0, y1;
-            double fy;
-            axis(y, m.y, y0, y1, fy);
-            for (std::size_t x = 0; x < full.x; ++x) {
-                std::size_t x0, x1;
-                double fx;
-                axis(x, m.x, x0, x1, fx);
-                auto lx = [&](std::size_t j, std::size_t k) {
-                    return at(x0, j, k) + fx * (at(x1, j, k) - at(x0, j, k));
-                };
-                const double c0 = lx(y0, z0) + fy * (lx(y1, z0) - lx(y0, z0));
-                const double c1 = lx(y0, z1) + fy * (lx(y1, z1) - lx(y0, z1));
-                const double v = c0 + fz * (c1 - c0);
-                const double d = std::abs(v - double(input[(z * full.y + y) * full.x + x]));
-                err = std::max(err, d);
-                sq += d * d;
-            }
-        }
-    }
+    forEachLevelValue(samples, m, full, level, [&](std::size_t x, std::size_t y, std::size_t z, double v) {
+        const double d = std::abs(v - double(input[(z * full.y + y) * full.x + x]));
+        err = std::max(err, d);
+        sq += d * d;
+    });
     // Rounded up so the stored bound is never below the measured deviation.
     const double rms = std::sqrt(sq / double(std::max<std::size_t>(full.count(), 1)));
     st.error = err == 0 ? 0.0f : std::nextafter(float(err), std::numeric_limits<float>::infinity());

@@ -6,6 +6,7 @@
 #include "host/runtime/ClRuntime.hpp"
 #include "wavelet/container/VczFormat.hpp"
 
+#include <algorithm>
 #include <cstddef>
 #include <optional>
 #include <span>
@@ -46,6 +47,41 @@ struct LodStatistics {
     /// The statistics stored in `h`, if any. Throws IoError naming `name` when they do not match the header.
     static std::optional<LodStatistics> fromHeader(const VczHeader& h, const std::string& name);
 };
+
+/// The value of a brick's level-`level` approximation (`coarse`, `m` samples, x fastest) at every voxel of
+/// its full-resolution extent `full`: trilinear between the coarse samples at voxel position / 2^level (the
+/// last interval extended to the brick's end). This is the field the brick renderer samples and the level
+/// whose deviation the statistics measure. Calls `fn(i, j, k, value)` with i fastest.
+template <class Fn>
+void forEachLevelValue(std::span<const float> coarse, Dims m, Dims full, int level, Fn&& fn) {
+    const double scale = 1.0 / double(std::size_t(1) << level);
+    auto axis = [&](std::size_t x, std::size_t n, std::size_t& i0, std::size_t& i1, double& f) {
+        const double u = std::min(double(x) * scale, double(n - 1));
+        i0 = std::min(std::size_t(u), n > 1 ? n - 2 : 0);
+        i1 = std::min(i0 + 1, n - 1);
+        f = u - double(i0);
+    };
+    auto at = [&](std::size_t i, std::size_t j, std::size_t k) { return double(coarse[(k * m.y + j) * m.x + i]); };
+    for (std::size_t z = 0; z < full.z; ++z) {
+        std::size_t z0, z1;
+        double fz;
+        axis(z, m.z, z0, z1, fz);
+        for (std::size_t y = 0; y < full.y; ++y) {
+            std::size_t y0, y1;
+            double fy;
+            axis(y, m.y, y0, y1, fy);
+            for (std::size_t x = 0; x < full.x; ++x) {
+                std::size_t x0, x1;
+                double fx;
+                axis(x, m.x, x0, x1, fx);
+                auto lx = [&](std::size_t j, std::size_t k) { return at(x0, j, k) + fx * (at(x1, j, k) - at(x0, j, k)); };
+                const double c0 = lx(y0, z0) + fy * (lx(y1, z0) - lx(y0, z0));
+                const double c1 = lx(y0, z1) + fy * (lx(y1, z1) - lx(y0, z1));
+                fn(x, y, z, c0 + fz * (c1 - c0));
+            }
+        }
+    }
+}
 
 /// The statistics of one brick at `level` from its level-`level` samples (`samples`, dims `m`, x fastest)
 /// and the input voxels of the brick (`input`, dims `full`, x fastest).
