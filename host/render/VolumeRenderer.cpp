@@ -9,4 +9,12 @@ ImageBuffer VolumeRenderer::renderPlainBaseline() {
     throw UsageError("this renderer has no effect-free baseline kernel");
 }
 
+Scene VolumeRenderer::withView(Scene scene, const Camera& camera, int width, int height, double step) {
+    scene.camera = camera;
+    scene.width = width;
+    scene.height = height;
+    scene.step = step;
+    return scene;
+}
+
 } // namespace volcl

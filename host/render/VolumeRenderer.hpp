@@ -65,6 +65,10 @@ public:
     virtual double lastTableMilliseconds() const noexcept = 0;
     /// One line on the renderer's acceleration structures for `--explain` ("macrocells: 512, 40.0% empty").
     virtual std::string statistics() const = 0;
+
+protected:
+    /// `scene` with a setView() call's camera, image size and step: what every renderer's setView starts from.
+    static Scene withView(Scene scene, const Camera& camera, int width, int height, double step);
 };
 
 } // namespace volcl

@@ -4,7 +4,7 @@
 #include "cl/volcl_shared.h"
 #include "host/Error.hpp"
 #include "host/Volume.hpp"
-#include "host/render/FogModel.hpp"
+#include "host/render/FogDevice.hpp"
 #include "host/render/FrameParams.hpp"
 #include "host/render/VecMath.hpp"
 #include "host/render/bricks/BrickPool.hpp"
@@ -92,7 +92,7 @@ struct BrickRenderer::Impl {
     DeviceBuffer<cl_uchar> empty;
     DeviceBuffer<cl_float4> out;
     DeviceBuffer<float> depth;
-    DeviceBuffer<float> fogMap; ///< FOG_MAP: the fog's base per height-map texel (else one unused float)
+    FogDevice fog; ///< FOG: parameters and the height-map buffer
     std::size_t knotCount = 0;
     std::string tableKey;
     int tableLengths = 1;
@@ -174,11 +174,7 @@ void BrickRenderer::setTransferFunction(const TransferFunction& tf) {
 }
 
 void BrickRenderer::setView(const Camera& camera, int width, int height, double step) {
-    Scene s = scene_;
-    s.camera = camera;
-    s.width = width;
-    s.height = height;
-    s.step = step;
+    Scene s = withView(scene_, camera, width, height, step);
     if (step != scene_.step) {
         setScene(s);
         return;
@@ -299,16 +295,7 @@ void BrickRenderer::rebuild(bool tfChanged) {
     p.grid.dims[0] = volcl_uint(h.dims.x);
     p.grid.dims[1] = volcl_uint(h.dims.y);
     p.grid.dims[2] = volcl_uint(h.dims.z);
-    // Fog is resolved against the volume's box, as in the grid renderer; the map buffer is one unused float
-    // without a height map.
-    if (plan_.fog) {
-        const FogField field(scene_.effects.fog, bounds());
-        p.fog = field.params();
-        m.fogMap = plan_.fogMap ? cc_.upload(field.mapTexels(), CL_MEM_READ_ONLY)
-                                : cc_.allocate<float>(1, CL_MEM_READ_ONLY);
-    } else if (m.fogMap.size() == 0) {
-        m.fogMap = cc_.allocate<float>(1, CL_MEM_READ_ONLY);
-    }
+    if (plan_.fog) p.fog = m.fog.update(cc_, scene_.effects.fog, bounds(), plan_.fogMap);
 }
 
 BrickSelection BrickRenderer::fitBudget(BrickSelection s, const BrickView& view, const TransferFunction& tf) {
@@ -478,7 +465,7 @@ ImageBuffer BrickRenderer::render() {
         m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
         m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
     }
-    setArgs(m.kernel, m.pool, m.knots, m.table, m.empty, m.params, m.out, m.depth, m.fogMap);
+    setArgs(m.kernel, m.pool, m.knots, m.table, m.empty, m.params, m.out, m.depth, m.fog.buffer(cc_));
     const std::size_t w = std::size_t(scene_.width), hgt = std::size_t(scene_.height);
     cl::Event ev = m.packet ? cc_.launch2d(m.kernel, (w + 3) / 4, (hgt + 1) / 2, 4, 4)
                             : cc_.launch2d(m.kernel, w, hgt, 8, 8);

@@ -4,7 +4,7 @@
 #include "cl/volcl_shared.h"
 #include "host/Error.hpp"
 #include "host/Volume.hpp"
-#include "host/render/FogModel.hpp"
+#include "host/render/FogDevice.hpp"
 #include "host/render/FrameParams.hpp"
 #include "host/render/VecMath.hpp"
 #include "host/MemoryBudget.hpp"
@@ -62,16 +62,6 @@ std::vector<cl_float4> lightingTableSlices(const TransferFunction& tf, int size,
     return out;
 }
 
-std::string toJsonFogRange(const FogEffect& f) {
-    std::string k = f.heightRange ? fmt((*f.heightRange)[0]) + "," + fmt((*f.heightRange)[1]) : std::string("box");
-    if (f.box)
-        for (int a = 0; a < 3; ++a)
-            k += "," + fmt(f.box->origin[a]) + "," + fmt(f.box->extent[a]);
-    for (double u : f.up)
-        k += "," + fmt(u);
-    return k;
-}
-
 std::string skippingHow() {
     return std::to_string(kMacrocellEdge) + "^3-voxel macrocells";
 }
@@ -127,9 +117,7 @@ struct GridRenderer::Impl {
     DeviceBuffer<cl_uchar> empty;
     DeviceBuffer<cl_float4> out;
     DeviceBuffer<float> depth;
-    DeviceBuffer<float> fogMap; ///< FOG_MAP: the fog's base per height-map texel (else one unused float)
-    std::string fogMapKey;      ///< the height map's path and range the buffer holds
-    cl_uint fogMapAxes[2] = {0, 2}, fogMapSize[2] = {1, 1};
+    FogDevice fog; ///< FOG: parameters and the height-map buffer
     std::size_t knotCount = 0;
     grid_detail::MacrocellGrid macro;
     std::vector<unsigned char> emptyHost;
@@ -194,11 +182,7 @@ void GridRenderer::setScene(const Scene& scene) {
 }
 
 void GridRenderer::setView(const Camera& camera, int width, int height, double step) {
-    Scene s = scene_;
-    s.camera = camera;
-    s.width = width;
-    s.height = height;
-    s.step = step;
+    Scene s = withView(scene_, camera, width, height, step);
     if (step != scene_.step) {
         setScene(s);
         return;
@@ -380,33 +364,7 @@ void GridRenderer::rebuild(bool tfChanged) {
         m.params.tf.domainHi = float(domain[1]);
         m.params.tf.tableSize = volcl_uint(scene_.tableSize);
     }
-    if (plan_.fog) {
-        const FogEffect& f = scene_.effects.fog;
-        const std::string key = plan_.fogMap ? f.heightMap.string() + "|" + toJsonFogRange(f) : std::string();
-        if (plan_.fogMap && key != m.fogMapKey) {
-            const FogField field(f, bounds());
-            m.fogMap = cc_.upload(field.mapTexels(), CL_MEM_READ_ONLY);
-            m.fogMapKey = key;
-            m.params.fog = field.params();
-        } else {
-            // The map's size is all params() reads from it: resolve without re-reading the image.
-            FogEffect noMap = f;
-            noMap.heightMap.clear();
-            m.params.fog = FogField(noMap, bounds()).params();
-            if (plan_.fogMap) {
-                m.params.fog.mapAxis[0] = m.fogMapAxes[0];
-                m.params.fog.mapAxis[1] = m.fogMapAxes[1];
-                m.params.fog.mapSize[0] = m.fogMapSize[0];
-                m.params.fog.mapSize[1] = m.fogMapSize[1];
-            }
-        }
-        if (plan_.fogMap)
-            for (int i = 0; i < 2; ++i) {
-                m.fogMapAxes[i] = m.params.fog.mapAxis[i];
-                m.fogMapSize[i] = m.params.fog.mapSize[i];
-            }
-    }
-    if (m.fogMap.size() == 0) m.fogMap = cc_.allocate<float>(1, CL_MEM_READ_ONLY);
+    if (plan_.fog) m.params.fog = m.fog.update(cc_, scene_.effects.fog, bounds(), plan_.fogMap);
 }
 
 KernelDefines GridRenderer::packetDefines(KernelDefines d, bool floatCopy) {
@@ -433,7 +391,7 @@ ImageBuffer GridRenderer::launch(cl::Kernel& kernel, const cl::Buffer& voxels, b
                                            m.out);
         return readImage(false);
     }
-        setArgs(kernel, voxels, m.knots, m.table, m.empty, m.params, m.out, m.depth, m.fogMap);
+        setArgs(kernel, voxels, m.knots, m.table, m.empty, m.params, m.out, m.depth, m.fog.buffer(cc_));
     // Tiles of nearby rays share cache lines in y as well as x: 8x8 rays, or 4x4 packets of 4x2 rays.
     const std::size_t w = std::size_t(scene_.width), h = std::size_t(scene_.height);
     cl::Event ev =

@@ -152,11 +152,7 @@ void KBufferRenderer::setTransferFunction(const TransferFunction& tf) {
 }
 
 void KBufferRenderer::setView(const Camera& camera, int width, int height, double step) {
-    Scene s = scene_;
-    s.camera = camera;
-    s.width = width;
-    s.height = height;
-    s.step = step;
+    Scene s = withView(scene_, camera, width, height, step);
     s.validate();
     scene_ = s;
     camera_ = camera;

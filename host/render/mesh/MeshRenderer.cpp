@@ -178,11 +178,7 @@ void MeshRenderer::setTransferFunction(const TransferFunction& tf) {
 }
 
 void MeshRenderer::setView(const Camera& camera, int width, int height, double step) {
-    Scene s = scene_;
-    s.camera = camera;
-    s.width = width;
-    s.height = height;
-    s.step = step;
+    Scene s = withView(scene_, camera, width, height, step);
     if (step != scene_.step) {
         setScene(s);
         return;
