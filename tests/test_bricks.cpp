@@ -127,6 +127,50 @@ TEST(BrickPool, LruEvictsUnpinnedOldestFirst) {
     EXPECT_FALSE(c.insert({0, 4, 0}, 9, none)) << "larger than a top block";
 }
 
+// The direct clamped trilinear formula the renderer's rule states, evaluated voxel by voxel.
+double directLevelValue(const std::vector<float>& c, Dims m, int level, std::size_t x, std::size_t y,
+                        std::size_t z) {
+    const double scale = 1.0 / double(std::size_t(1) << level);
+    auto axis = [&](std::size_t p, std::size_t n, std::size_t& i0, std::size_t& i1, double& f) {
+        const double u = std::min(double(p) * scale, double(n - 1));
+        i0 = std::min(std::size_t(u), n > 1 ? n - 2 : 0);
+        i1 = std::min(i0 + 1, n - 1);
+        f = u - double(i0);
+    };
+    std::size_t x0, x1, y0, y1, z0, z1;
+    double fx, fy, fz;
+    axis(x, m.x, x0, x1, fx);
+    axis(y, m.y, y0, y1, fy);
+    axis(z, m.z, z0, z1, fz);
+    auto at = [&](std::size_t i, std::size_t j, std::size_t k) { return double(c[(k * m.y + j) * m.x + i]); };
+    auto lx = [&](std::size_t j, std::size_t k) { return at(x0, j, k) + fx * (at(x1, j, k) - at(x0, j, k)); };
+    const double c0 = lx(y0, z0) + fy * (lx(y1, z0) - lx(y0, z0));
+    const double c1 = lx(y0, z1) + fy * (lx(y1, z1) - lx(y0, z1));
+    return c0 + fz * (c1 - c0);
+}
+
+TEST(LodStatistics, SeparableLevelValuesEqualTheTrilinearFormula) {
+    // Odd and degenerate extents (one sample along an axis, a brick shorter than 2^level) included.
+    const struct {
+        Dims full;
+        int level;
+    } cases[] = {{{16, 16, 16}, 0}, {{16, 16, 16}, 2}, {{13, 7, 5}, 1}, {{9, 1, 4}, 3}, {{3, 2, 1}, 4}, {{1, 1, 1}, 1}};
+    for (const auto& t : cases) {
+        const std::size_t s = std::size_t(1) << t.level;
+        const Dims m{(t.full.x + s - 1) / s, (t.full.y + s - 1) / s, (t.full.z + s - 1) / s};
+        std::vector<float> c(m.count());
+        for (std::size_t i = 0; i < c.size(); ++i) c[i] = float(std::sin(double(i) * 1.7) * 1e3 + double(i % 7));
+        std::size_t seen = 0;
+        forEachLevelValue(c, m, t.full, t.level, [&](std::size_t y, std::size_t z, std::span<const double> row) {
+            ASSERT_EQ(row.size(), t.full.x);
+            EXPECT_EQ(z * t.full.y + y, seen / t.full.x) << "rows in order, y fastest";
+            for (std::size_t x = 0; x < row.size(); ++x, ++seen)
+                ASSERT_EQ(row[x], directLevelValue(c, m, t.level, x, y, z)) << x << "," << y << "," << z;
+        });
+        EXPECT_EQ(seen, t.full.count());
+    }
+}
+
 TEST(LodStatistics, MeasuredOnEveryLevelAndOldFilesStayReadable) {
     ComputeContext& cc = computeContext();
     const Volume v = test::makeFloatVolume({40, 33, 20}, [](double x, double y, double z) {

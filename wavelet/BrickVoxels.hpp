@@ -54,9 +54,9 @@ template <class T> std::vector<T> denseBrick(Dims d, const T* src, std::size_t p
     return dense;
 }
 
-// Voxels of one brick of the volume as T (dense brick layout).
-template <class T> std::vector<T> brickVoxels(const Volume& v, const VczHeader& h, std::size_t brick) {
-    const Dims o = h.brickOrigin(brick), d = h.brickDims(brick);
+// Voxels of the box at origin `o`, dims `d` of the volume as T (dense, x fastest); floats convert to int32
+// by their bit pattern.
+template <class T> std::vector<T> regionVoxels(const Volume& v, Dims o, Dims d) {
     std::vector<T> out(d.count());
     visitTyped(v, [&](auto src) {
         for (std::size_t z = 0; z < d.z; ++z)
@@ -76,6 +76,11 @@ template <class T> std::vector<T> brickVoxels(const Volume& v, const VczHeader& 
             }
     });
     return out;
+}
+
+// Voxels of one brick of the volume as T (dense brick layout).
+template <class T> std::vector<T> brickVoxels(const Volume& v, const VczHeader& h, std::size_t brick) {
+    return regionVoxels<T>(v, h.brickOrigin(brick), h.brickDims(brick));
 }
 
 // Writes the voxels of one brick, converted to T, straight into a batch layout with row pitch `pitch`;

@@ -51,34 +51,54 @@ struct LodStatistics {
 /// The value of a brick's level-`level` approximation (`coarse`, `m` samples, x fastest) at every voxel of
 /// its full-resolution extent `full`: trilinear between the coarse samples at voxel position / 2^level (the
 /// last interval extended to the brick's end). This is the field the brick renderer samples and the level
-/// whose deviation the statistics measure. Calls `fn(i, j, k, value)` with i fastest.
+/// whose deviation the statistics measure. Calls `fn(j, k, row)` for every row (j, k) of `full`, `row`
+/// holding its full.x values.
+/// Evaluated separably (x, then y, then z) in the order a + f (b - a) of the full trilinear formula, so each
+/// value is the same double the formula gives, at one interpolation per voxel instead of seven.
 template <class Fn>
 void forEachLevelValue(std::span<const float> coarse, Dims m, Dims full, int level, Fn&& fn) {
-    const double scale = 1.0 / double(std::size_t(1) << level);
-    auto axis = [&](std::size_t x, std::size_t n, std::size_t& i0, std::size_t& i1, double& f) {
-        const double u = std::min(double(x) * scale, double(n - 1));
-        i0 = std::min(std::size_t(u), n > 1 ? n - 2 : 0);
-        i1 = std::min(i0 + 1, n - 1);
-        f = u - double(i0);
+    struct Tap {
+        std::size_t i0, i1;
+        double f;
     };
-    auto at = [&](std::size_t i, std::size_t j, std::size_t k) { return double(coarse[(k * m.y + j) * m.x + i]); };
-    for (std::size_t z = 0; z < full.z; ++z) {
-        std::size_t z0, z1;
-        double fz;
-        axis(z, m.z, z0, z1, fz);
+    const double scale = 1.0 / double(std::size_t(1) << level);
+    auto taps = [&](std::size_t count, std::size_t n) {
+        std::vector<Tap> t(count);
+        for (std::size_t x = 0; x < count; ++x) {
+            const double u = std::min(double(x) * scale, double(n - 1));
+            const std::size_t i0 = std::min(std::size_t(u), n > 1 ? n - 2 : 0);
+            t[x] = {i0, std::min(i0 + 1, n - 1), u - double(i0)};
+        }
+        return t;
+    };
+    const std::vector<Tap> tx = taps(full.x, m.x), ty = taps(full.y, m.y), tz = taps(full.z, m.z);
+    // Rows interpolated along x for every coarse (j, k), then planes interpolated along y for every coarse k.
+    std::vector<double> rowX(m.y * m.z * full.x), planeXY(m.z * full.y * full.x);
+    for (std::size_t r = 0; r < m.y * m.z; ++r) {
+        const float* c = coarse.data() + r * m.x;
+        double* out = rowX.data() + r * full.x;
+        for (std::size_t x = 0; x < full.x; ++x) {
+            const double a = c[tx[x].i0], b = c[tx[x].i1];
+            out[x] = a + tx[x].f * (b - a);
+        }
+    }
+    for (std::size_t k = 0; k < m.z; ++k)
         for (std::size_t y = 0; y < full.y; ++y) {
-            std::size_t y0, y1;
-            double fy;
-            axis(y, m.y, y0, y1, fy);
-            for (std::size_t x = 0; x < full.x; ++x) {
-                std::size_t x0, x1;
-                double fx;
-                axis(x, m.x, x0, x1, fx);
-                auto lx = [&](std::size_t j, std::size_t k) { return at(x0, j, k) + fx * (at(x1, j, k) - at(x0, j, k)); };
-                const double c0 = lx(y0, z0) + fy * (lx(y1, z0) - lx(y0, z0));
-                const double c1 = lx(y0, z1) + fy * (lx(y1, z1) - lx(y0, z1));
-                fn(x, y, z, c0 + fz * (c1 - c0));
-            }
+            const double* a = rowX.data() + (k * m.y + ty[y].i0) * full.x;
+            const double* b = rowX.data() + (k * m.y + ty[y].i1) * full.x;
+            const double f = ty[y].f;
+            double* out = planeXY.data() + (k * full.y + y) * full.x;
+            for (std::size_t x = 0; x < full.x; ++x) out[x] = a[x] + f * (b[x] - a[x]);
+        }
+    const std::size_t plane = full.y * full.x;
+    std::vector<double> row(full.x);
+    for (std::size_t z = 0; z < full.z; ++z) {
+        const double f = tz[z].f;
+        for (std::size_t y = 0; y < full.y; ++y) {
+            const double* a = planeXY.data() + tz[z].i0 * plane + y * full.x;
+            const double* b = planeXY.data() + tz[z].i1 * plane + y * full.x;
+            for (std::size_t x = 0; x < full.x; ++x) row[x] = a[x] + f * (b[x] - a[x]);
+            fn(y, z, std::span<const double>(row));
         }
     }
 }
