@@ -24,6 +24,10 @@ enum class EntropyMode : std::uint8_t {
                ///< adaptive signs and row flags, raw mantissa bits
 };
 
+std::string_view entropyName(EntropyMode m) noexcept; ///< "fast", "dense"
+/// Parses an entropy coder name; throws UsageError listing the valid names.
+EntropyMode parseEntropy(std::string_view name);
+
 /// Rate control of an encoding. Stored in .vcz files: never renumber.
 enum class RateMode : std::uint8_t { Lossless = 0, MaxError = 1, Psnr = 2, Bpv = 3 };
 

@@ -110,12 +110,7 @@ CodecOptions toOptions(const EncodeArgs& a, const CLI::App& cmd) {
         o.step = a.step;
     }
     if (!a.wavelet.empty()) o.wavelet = parseWavelet(a.wavelet);
-    if (a.entropy == "dense")
-        o.entropy = EntropyMode::Dense;
-    else if (a.entropy == "fast")
-        o.entropy = EntropyMode::Fast;
-    else
-        throw UsageError("--entropy must be fast or dense");
+    o.entropy = parseEntropy(a.entropy);
     if (a.brick.find_first_of(",xX") != std::string::npos) {
         o.brick = parseDims(a.brick, "--brick");
     } else {
@@ -703,7 +698,7 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
         std::cerr << "== " << ds.name << " " << v.dims().x << "x" << v.dims().y << "x" << v.dims().z << " "
                   << scalarTypeName(v.type()) << '\n';
         auto ours = [&](const std::string& mode, CodecOptions o) {
-            const char* coder = o.entropy == EntropyMode::Dense ? "dense" : "fast";
+            const std::string coder(entropyName(o.entropy));
             if (!a.wants(mode) || (!a.coder.empty() && a.coder != coder)) return;
             o.levels = a.levels;
             o.brick = {a.brick, a.brick, a.brick};

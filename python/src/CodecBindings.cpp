@@ -28,12 +28,6 @@ RateMode parseRate(const std::string& rate) {
     throw UsageError("rate '" + rate + "' must be lossless, max_error, psnr or bpv");
 }
 
-EntropyMode parseEntropy(const std::string& entropy) {
-    if (entropy == "dense") return EntropyMode::Dense;
-    if (entropy == "fast") return EntropyMode::Fast;
-    throw UsageError("entropy '" + entropy + "' must be fast or dense");
-}
-
 nb::dict reportDict(const EncodeReport& r) {
     nb::dict d;
     d["bytes"] = r.bytes;
@@ -95,7 +89,7 @@ nb::dict headerDict(const VczHeader& h) {
     d["levels"] = h.levels;
     d["brick"] = std::array<std::size_t, 3>{h.brick.z, h.brick.y, h.brick.x};
     d["brick_grid"] = std::array<std::size_t, 3>{h.brickGrid().z, h.brickGrid().y, h.brickGrid().x};
-    d["entropy"] = h.entropy == EntropyMode::Dense ? "dense" : "fast";
+    d["entropy"] = std::string(entropyName(h.entropy));
     const char* rates[] = {"lossless", "max_error", "psnr", "bpv"};
     d["rate"] = rates[static_cast<int>(h.rate)];
     d["rate_target"] = h.rateTarget;

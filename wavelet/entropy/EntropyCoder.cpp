@@ -15,6 +15,22 @@
 
 namespace volcl {
 
+std::string_view entropyName(EntropyMode m) noexcept {
+    switch (m) {
+    case EntropyMode::Fast:
+        return "fast";
+    case EntropyMode::Dense:
+        return "dense";
+    }
+    return "unknown";
+}
+
+EntropyMode parseEntropy(std::string_view name) {
+    for (EntropyMode m : {EntropyMode::Fast, EntropyMode::Dense})
+        if (name == entropyName(m)) return m;
+    throw UsageError("unknown entropy coder '" + std::string(name) + "' (use fast or dense)");
+}
+
 namespace entropy {
 void corrupt(const char* what, const char* why) {
     throw IoError(std::string(what) + ": " + why + " (corrupted data)");
