@@ -21,6 +21,14 @@
 #define MODE 0
 #endif
 
+/* Unshaded pre-integrated dvr merges runs of short segments into one lookup (see dvr_piece). */
+#if MODE == 0 && PREINT == 3 && !defined(SHADING) && !(ISO_COUNT > 0)
+#define MERGE_SEGMENTS
+#ifndef MERGE_TOL
+#define MERGE_TOL 0.5f /* in table node spacings of the scalar */
+#endif
+#endif
+
 /* Buffers, in one struct so helpers take one pointer. */
 typedef struct {
     /* 6 per tet, one tet's data in 96 contiguous bytes (the walk is latency bound): 4 face planes (outward
@@ -38,6 +46,7 @@ typedef struct {
 typedef struct {
     float t;
     uint face;
+    uint leaf; /* the face's index in bvhFaces */
 } Entry;
 
 /* Ray parameter interval [x, y] of node ni's box within [tMin, tMax] (empty when x > y), padded so faces lying
@@ -76,17 +85,22 @@ inline void leaf_faces(const MeshData* M, uint first, uint count, float3 o, floa
             if (t >= tMin && t < best->t) {
                 best->t = t;
                 best->face = face;
+                best->leaf = i;
             }
         }
 }
 
-/* The nearest entering boundary face (outward normal against d) hit at t >= tMin, skipping `recent`. */
+/* The nearest entering boundary face (outward normal against d) hit at t >= tMin, skipping `recent`.
+   `seed` (a bvhFaces index or NO_FACE) is the face a neighbouring ray entered by: neighbouring rays usually
+   enter by the same or a nearby face, and a hit there bounds the search to the nodes in front of it. */
 inline Entry first_entry(const MeshData* M, const VolclMeshParams* P, float3 o, float3 d, float tMin,
-                         const uint* recent) {
+                         const uint* recent, uint seed) {
     Entry best;
     best.t = INFINITY;
     best.face = NO_FACE;
+    best.leaf = NO_FACE;
     if (P->bvhNodes == 0) return best;
+    if (seed != NO_FACE) leaf_faces(M, seed, 1, o, d, tMin, recent, &best);
     const float3 inv = (float3)(1.0f) / d;
     uint stack[64];
     int top = 0;
@@ -135,6 +149,9 @@ typedef struct {
     float xray;   /* optical depth */
     int inside;
     float nextSample; /* point sampling: normalised t of the next sample */
+    /* MERGE_SEGMENTS: the pending run of segments, s from pendA to pendB over world length pendLen (0: none),
+       ending at normalised t pendEnd; slopes ds/dlength of the run that keep its joints within tolerance. */
+    float pendA, pendB, pendLen, pendEnd, slopeLo, slopeHi;
 } RayState;
 
 inline float tau_integral_at(const MeshData* M, uint count, float s) {
@@ -177,6 +194,17 @@ inline void composite(RayState* st, float3 rgb, float a) {
     st->alpha += w * a;
 }
 
+/* Composites the pending run of merged segments, if any. */
+inline void flush_pending(const MeshData* M, const VolclTfParams* T, RayState* st) {
+#ifdef MERGE_SEGMENTS
+    if (st->pendLen > 0.0f) {
+        const float4 e = preint_segment(M->table, T, st->pendA, st->pendB, st->pendLen);
+        composite(st, e.xyz, e.w);
+        st->pendLen = 0.0f;
+    }
+#endif
+}
+
 /* DVR over the normalised ray interval [ta, tb] of one tet with s from sa to sb. */
 inline void dvr_piece(const MeshData* M, const VolclMeshRenderParams* Pc, const VolclTfParams* T,
                       const VolclLightingParams* Lp, const VolclCameraParams* C, float3 eye, float3 o, float3 d,
@@ -185,6 +213,39 @@ inline void dvr_piece(const MeshData* M, const VolclMeshRenderParams* Pc, const 
     const float scale = Pc->mesh.scale;
 #if PREINT == 3
     const float len = (tb - ta) * scale;
+#ifdef MERGE_SEGMENTS
+    /* Fine cells give many segments far shorter than a table slice, each a full lookup. Consecutive ones are
+       looked up as one run while the scalar at every joint of the run stays within MERGE_TOL table node
+       spacings of the straight line from the run's start to its end (the slopes that allow it narrow to a
+       cone, updated per joint), so the table sees the exact run's (s_front, s_back, length) up to that
+       tolerance. Runs stay within the table's longest length, so they need no splitting. */
+    const float mergeLen = T->tableMaxLength;
+    if (st->pendLen > 0.0f) {
+        const float total = st->pendLen + len;
+        const float tol = MERGE_TOL * (T->domainHi - T->domainLo) / (float)(T->tableSize - 1);
+        const float lo = fmax(st->slopeLo, (st->pendB - tol - st->pendA) / st->pendLen);
+        const float hi = fmin(st->slopeHi, (st->pendB + tol - st->pendA) / st->pendLen);
+        const float m = (sb - st->pendA) / total;
+        if (ta == st->pendEnd && total <= mergeLen && m >= lo && m <= hi) {
+            st->pendB = sb;
+            st->pendLen = total;
+            st->pendEnd = tb;
+            st->slopeLo = lo;
+            st->slopeHi = hi;
+            return;
+        }
+        flush_pending(M, T, st);
+    }
+    if (len > 0.0f && len <= mergeLen) {
+        st->pendA = sa;
+        st->pendB = sb;
+        st->pendLen = len;
+        st->pendEnd = tb;
+        st->slopeLo = -INFINITY;
+        st->slopeHi = INFINITY;
+        return;
+    }
+#endif
     const float maxLen = Pc->mesh.maxSegment;
     const int n = len > maxLen ? (int)ceil(len / maxLen) : 1;
     const float sub = len / (float)n;
@@ -306,6 +367,10 @@ inline void ray_begin(RayWalk* w, const VolclMeshRenderParams* Pc, uint x, uint 
     w->st.xray = 0.0f;
     w->st.inside = 0;
     w->st.nextSample = NAN; /* set at the first entry */
+    w->st.pendLen = 0.0f;
+    w->st.pendA = w->st.pendB = w->st.pendEnd = 0.0f;
+    w->st.slopeLo = -INFINITY;
+    w->st.slopeHi = INFINITY;
     w->phase = PHASE_DONE;
     w->steps = 0;
     w->entries = 0;
@@ -336,14 +401,15 @@ inline void ray_begin(RayWalk* w, const VolclMeshRenderParams* Pc, uint x, uint 
 
 /* One unit of work of a ray: find its next entry into the mesh, or cross one tet. */
 inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderParams* Pc, const VolclTfParams* T,
-                        const VolclLightingParams* Lp, float3 eye) {
+                        const VolclLightingParams* Lp, float3 eye, uint* seed) {
     const VolclMeshParams* P = &Pc->mesh;
     if (w->phase == PHASE_ENTRY) {
-        const Entry hit = first_entry(M, P, w->o, w->d, w->tMin - P->epsilon, w->recent);
+        const Entry hit = first_entry(M, P, w->o, w->d, w->tMin - P->epsilon, w->recent, *seed);
         if (hit.face == NO_FACE || hit.t > w->clip.y || ++w->entries > MAX_ENTRIES) {
             w->phase = PHASE_DONE;
             return;
         }
+        *seed = hit.leaf;
         w->recent[w->ri] = hit.face;
         w->ri = (w->ri + 1) % RECENT;
         w->tet = hit.face >> 2;
@@ -356,7 +422,9 @@ inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderPara
     }
     const uint tet = w->tet;
     __global const float4* cell = M->cells + CELL_STRIDE * (size_t)tet;
-    float best = INFINITY, steepestNd = -INFINITY;
+    /* The nearest plane ahead: t_f = num_f / nd_f with nd_f > 0, compared as num_a nd_b < num_b nd_a so that
+       only the chosen face is divided. */
+    float bestNum = INFINITY, bestNd = 1.0f, steepestNd = -INFINITY;
     uint exitFace = 4, steepest = 0;
     for (uint fi = 0; fi < 4; ++fi) {
         if (fi == w->entered) continue;
@@ -367,12 +435,14 @@ inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderPara
             steepest = fi;
         }
         if (!(nd > 0.0f)) continue;
-        const float tf = -(dot(pl.xyz, w->o) + pl.w) / nd;
-        if (tf < best) {
-            best = tf;
+        const float num = -(dot(pl.xyz, w->o) + pl.w);
+        if (exitFace == 4 || num * bestNd < bestNum * nd) {
+            bestNum = num;
+            bestNd = nd;
             exitFace = fi;
         }
     }
+    float best = bestNum / bestNd;
     if (exitFace == 4) { /* no face ahead (a ray in the plane of a flat tet): leave at once */
         exitFace = steepest;
         best = w->t;
@@ -448,19 +518,21 @@ __kernel void mesh_cells(__global const float4* cells, __global const uchar* emp
     const VolclLightingParams Lp = Pc->lighting;
     const float3 eye = (v3(C.origin) - v3(Pc->mesh.centre)) * Pc->mesh.invScale;
     RayWalk w[RAYS];
+    uint seed = NO_FACE; /* the face the block's last entry search found */
     for (int r = 0; r < RAYS; ++r) ray_begin(&w[r], Pc, x0 + r % RAYS_X, y0 + r / RAYS_X);
     for (;;) {
         bool active = false;
         for (int r = 0; r < RAYS; ++r) {
             if (w[r].phase == PHASE_DONE) continue;
             active = true;
-            ray_advance(&w[r], &M, Pc, &T, &Lp, eye);
+            ray_advance(&w[r], &M, Pc, &T, &Lp, eye, &seed);
         }
         if (!active) break;
     }
     for (int r = 0; r < RAYS; ++r) {
         const uint x = x0 + r % RAYS_X, y = y0 + r / RAYS_X;
         if (x >= C.width || y >= C.height) continue;
+        flush_pending(&M, &T, &w[r].st);
         const size_t pixel = (size_t)y * C.width + x;
         out[pixel] = ray_result(&w[r], &M, Pc);
         depthOut[pixel] = w[r].st.depth;
