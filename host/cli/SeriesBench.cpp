@@ -232,9 +232,9 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
                       << " B) = " << fmt(mc.bpv / in.bpv, 3) << "x; encode " << fmt(mb / in.encodeMs * 1e3, 1)
                       << " / " << fmt(mb / mc.encodeMs * 1e3, 1) << " MB/s; frame " << fmt(in.frameMs, 1)
                       << " / " << fmt(mc.frameMs, 1) << " ms (P/I " << fmt(mc.frameMs / in.frameMs, 2)
-                      << "x); playback " << fmt(1e3 * double(s.series.frames.size()) / in.playbackMs, 1) << " / "
-                      << fmt(1e3 * double(s.series.frames.size()) / mc.playbackMs, 1) << " fps; load "
-                      << fmt(loadBefore, 1) << " -> " << fmt(loadAfter, 1) << "\n";
+                      << "x); playback " << fmt(1e3 * double(s.series.frames.size()) / in.playbackMs, 1)
+                      << " / " << fmt(1e3 * double(s.series.frames.size()) / mc.playbackMs, 1)
+                      << " fps; load " << fmt(loadBefore, 1) << " -> " << fmt(loadAfter, 1) << "\n";
             for (const auto& [mode, c] : {std::pair<const char*, const Coding&>{"intra", in}, {"mc", mc}})
                 rows.push_back({{"series", s.name},
                                 {"frames", s.series.frames.size()},
