@@ -220,16 +220,14 @@ __kernel void motion_mode_costs(__global const float* restrict cur, __global con
     }
 }
 
-/* Overlapped block motion compensation, one work-item per voxel (x = get_global_id(0)). Per axis, the
-   tables give the first covering block and the normalised weights of it and the next block (x entries,
-   then y, then z); the prediction is the weighted sum over the up to 8 covering blocks. */
-__kernel void motion_compensate(__global const float* restrict r0, __global const float* restrict r1, int4 dims,
-                                int4 blocks, __global const uchar* restrict modes, __global const int4* restrict fwd,
-                                __global const int4* restrict bwd, __global const float* restrict intra,
-                                __global const int* restrict first, __global const float2* restrict weights,
-                                __global float* restrict out) {
-    const int x = (int)get_global_id(0), y = (int)get_global_id(1), z = (int)get_global_id(2);
-    if (x >= dims.x || y >= dims.y || z >= dims.z) return;
+/* The prediction of voxel (x, y, z): the weighted sum over the up to 8 blocks whose windows cover it. Per
+   axis, the tables give the first covering block and the normalised weights of it and the next block (x
+   entries, then y, then z). The row kernel below repeats these operations lane by lane in the same order,
+   so both give the same bits (stored P/B frames depend on them). */
+inline float compensate_voxel(__global const float* r0, __global const float* r1, int4 dims, int4 blocks,
+                              __global const uchar* modes, __global const int4* fwd, __global const int4* bwd,
+                              __global const float* intra, __global const int* first,
+                              __global const float2* weights, int x, int y, int z) {
     const int fx = first[x], fy = first[dims.x + y], fz = first[dims.x + dims.y + z];
     const float2 wx = weights[x], wy = weights[dims.x + y], wz = weights[dims.x + dims.y + z];
     float p = 0;
@@ -239,5 +237,108 @@ __kernel void motion_compensate(__global const float* restrict r0, __global cons
         const int b = (fx + (c & 1)) + blocks.x * ((fy + ((c >> 1) & 1)) + blocks.y * (fz + (c >> 2)));
         p += w * predict_voxel(modes[b], r0, r1, dims, x, y, z, fwd[b], bwd[b], intra[b]);
     }
-    out[x + dims.x * (y + dims.y * z)] = p;
+    return p;
+}
+
+/* Overlapped block motion compensation, one work-item per voxel (x = get_global_id(0)): block sizes below 8,
+   where 8 voxels along x span more than a block and its two neighbours. */
+__kernel void motion_compensate(__global const float* restrict r0, __global const float* restrict r1, int4 dims,
+                                int4 blocks, __global const uchar* restrict modes, __global const int4* restrict fwd,
+                                __global const int4* restrict bwd, __global const float* restrict intra,
+                                __global const int* restrict first, __global const float2* restrict weights,
+                                __global float* restrict out) {
+    const int x = (int)get_global_id(0), y = (int)get_global_id(1), z = (int)get_global_id(2);
+    if (x >= dims.x || y >= dims.y || z >= dims.z) return;
+    out[x + dims.x * (y + dims.y * z)] = compensate_voxel(r0, r1, dims, blocks, modes, fwd, bwd, intra, first, weights, x, y, z);
+}
+
+/* Eight reference samples along x from `row` starting at index `x`, clamped to [0, n): one vector load
+   inside the row, lane by lane at its ends. */
+inline float8 row8(__global const float* row, int x, int n) {
+    if (x >= 0 && x + 8 <= n) return vload8(0, row + x);
+    const int m = n - 1; /* no private array: PoCL would keep one per work-item of the group */
+    return (float8)(row[clamp(x, 0, m)], row[clamp(x + 1, 0, m)], row[clamp(x + 2, 0, m)], row[clamp(x + 3, 0, m)],
+                    row[clamp(x + 4, 0, m)], row[clamp(x + 5, 0, m)], row[clamp(x + 6, 0, m)], row[clamp(x + 7, 0, m)]);
+}
+
+/* sample_half for the 8 voxels (x0 .. x0 + 7, y, z) with one vector v: the x corners of lane i are
+   x0 + i + floor(v.x / 2) and that + (v.x & 1), so each corner row is one vector load. Same sum order. */
+inline float8 sample_half8(__global const float* ref, int4 dims, int x0, int y, int z, int4 v) {
+    const int hy = 2 * y + v.y, hz = 2 * z + v.z;
+    const int y0 = half_floor(hy), z0 = half_floor(hz);
+    const int ay = clamp(y0, 0, dims.y - 1), by = clamp(y0 + (hy & 1), 0, dims.y - 1);
+    const int az = clamp(z0, 0, dims.z - 1), bz = clamp(z0 + (hz & 1), 0, dims.z - 1);
+    const int xa = x0 + half_floor(v.x), xb = xa + (v.x & 1);
+    const int sx = dims.x, sxy = dims.x * dims.y;
+    __global const float* r00 = ref + sx * ay + sxy * az;
+    __global const float* r10 = ref + sx * by + sxy * az;
+    __global const float* r01 = ref + sx * ay + sxy * bz;
+    __global const float* r11 = ref + sx * by + sxy * bz;
+    /* A whole-voxel component makes both corners along it the same voxel: load each distinct row once. */
+    const bool hx = v.x & 1;
+    const float8 a00 = row8(r00, xa, sx), b00 = hx ? row8(r00, xb, sx) : a00;
+    const float8 a10 = (hy & 1) ? row8(r10, xa, sx) : a00, b10 = (hy & 1) ? (hx ? row8(r10, xb, sx) : a10) : b00;
+    float8 a01 = a00, b01 = b00, a11 = a10, b11 = b10;
+    if (hz & 1) {
+        a01 = row8(r01, xa, sx);
+        b01 = hx ? row8(r01, xb, sx) : a01;
+        a11 = (hy & 1) ? row8(r11, xa, sx) : a01;
+        b11 = (hy & 1) ? (hx ? row8(r11, xb, sx) : a11) : b01;
+    }
+    return (a00 + b00 + a10 + b10 + a01 + b01 + a11 + b11) * 0.125f;
+}
+
+/* predict_voxel for 8 voxels along x inside the volume, one block's mode and vectors. */
+inline float8 predict8(int mode, __global const float* r0, __global const float* r1, int4 dims, int x0, int y,
+                       int z, int4 f, int4 b, float intra) {
+    switch (mode) {
+    case 0: return (float8)(intra);
+    case 1: return vload8(0, r0 + x0 + dims.x * (y + dims.y * z));
+    case 2: return sample_half8(r0, dims, x0, y, z, f);
+    case 3: return sample_half8(r1, dims, x0, y, z, b);
+    default: return 0.5f * (sample_half8(r0, dims, x0, y, z, f) + sample_half8(r1, dims, x0, y, z, b));
+    }
+}
+
+/* Overlapped block motion compensation for blocks of 8 voxels or more: one work-item per 8 voxels along x
+   (x0 = 8 get_global_id(0), a multiple of 8, so inside one block bx whose window overlaps only blocks
+   bx - 1 and bx + 1). Per y/z block pair it predicts the 8 voxels from each of those x blocks with vector
+   loads and blends them with the windows: lane i takes block first[x0 + i] with weight w0 and the next one
+   with w1, the terms added in compensate_voxel's order (a zero weight adds exactly nothing). The last
+   partial group of a row goes voxel by voxel. */
+__kernel void motion_compensate_rows(__global const float* restrict r0, __global const float* restrict r1,
+                                     int4 dims, int4 blocks, int blockSize, __global const uchar* restrict modes,
+                                     __global const int4* restrict fwd, __global const int4* restrict bwd,
+                                     __global const float* restrict intra, __global const int* restrict first,
+                                     __global const float2* restrict weights, __global float* restrict out) {
+    const int x0 = 8 * (int)get_global_id(0), y = (int)get_global_id(1), z = (int)get_global_id(2);
+    if (x0 >= dims.x || y >= dims.y || z >= dims.z) return;
+    __global float* o = out + dims.x * (y + dims.y * z);
+    if (x0 + 8 > dims.x) {
+        for (int x = x0; x < dims.x; ++x)
+            o[x] = compensate_voxel(r0, r1, dims, blocks, modes, fwd, bwd, intra, first, weights, x, y, z);
+        return;
+    }
+    const int bx = x0 / blockSize;
+    const int8 fx = vload8(0, first + x0);
+    const float16 wxx = vload16(0, (__global const float*)(weights + x0));
+    const float8 wx0 = wxx.even, wx1 = wxx.odd;
+    const int8 left = fx < (int8)(bx); /* lane's first block is bx - 1 (else bx) */
+    const bool hasLeft = any(left), hasRight = any(~left & (wx1 != (float8)(0.0f)));
+    const int fy = first[dims.x + y], fz = first[dims.x + dims.y + z];
+    const float2 wy = weights[dims.x + y], wz = weights[dims.x + dims.y + z];
+    float8 p = (float8)(0.0f);
+    for (int c = 0; c < 4; ++c) { /* (y, z) corner in compensate_voxel's order; x inside */
+        const float wyc = (c & 1) ? wy.y : wy.x, wzc = (c & 2) ? wz.y : wz.x;
+        if (wyc == 0.0f || wzc == 0.0f) continue;
+        const int rowBlock = blocks.x * ((fy + (c & 1)) + blocks.y * (fz + (c >> 1)));
+        const int bc = rowBlock + bx, bl = bc - 1, br = bc + 1;
+        const float8 pc = predict8(modes[bc], r0, r1, dims, x0, y, z, fwd[bc], bwd[bc], intra[bc]);
+        const float8 pl = hasLeft ? predict8(modes[bl], r0, r1, dims, x0, y, z, fwd[bl], bwd[bl], intra[bl]) : pc;
+        const float8 pr = hasRight ? predict8(modes[br], r0, r1, dims, x0, y, z, fwd[br], bwd[br], intra[br]) : pc;
+        const float8 w0 = wx0 * wyc * wzc, w1 = wx1 * wyc * wzc;
+        p += w0 * select(pc, pl, left);
+        p += w1 * select(pr, pc, left);
+    }
+    vstore8(p, 0, o + x0);
 }

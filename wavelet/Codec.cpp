@@ -128,9 +128,11 @@ void applyFrameCorrections(const VczHeader& h, Volume& frame,
 // the frame.
 Volume finishPredicted(ComputeContext& cc, const VczHeader& h, Volume residual, const VczFrame& entry,
                        std::size_t frame, std::span<const std::uint8_t> aux, const codec::ReferenceFrames& refs,
-                       const std::vector<std::vector<codec::Correction>>& corrections, const std::string& name) {
+                       const std::vector<std::vector<codec::Correction>>& corrections, const std::string& name,
+                       CodecProfile* profile = nullptr) {
     try {
-        codec::predictorFor(entry)->reconstruct(cc, residual, entry, aux, refs);
+        codec::timeStage(profile, &CodecProfile::predict,
+                  [&] { codec::predictorFor(entry)->reconstruct(cc, residual, entry, aux, refs); });
     } catch (const IoError& e) {
         throw IoError(name + ": frame " + std::to_string(frame) + ": " + e.what());
     }
@@ -450,7 +452,8 @@ Volume VczReader::decodeFrame(ComputeContext& cc, std::size_t frame, std::span<c
                                      h.dims, residual, h.dims, false, &corrections);
             const auto aux = vczFrameAux(bytes_, h, f, name_);
             v = finishPredicted(cc, h, std::move(residual), entry, f, aux,
-                                codec::ReferenceFrames{ptr, entry.reference0, entry.reference1}, corrections, name_);
+                                codec::ReferenceFrames{ptr, entry.reference0, entry.reference1}, corrections, name_,
+                                profile);
             if (profile) profile->total += total.milliseconds();
         }
         if (k + 1 == order.size()) return v;

@@ -45,6 +45,7 @@ struct CodecProfile {
     double entropy = 0;     ///< section (de)coding with the (de)quantisation fused into it, payload building
     double reconstruct = 0; ///< encoder: inverse transform and error check of the rate-control trials
     double assemble = 0;    ///< encoder: brick ranges and the container; decoder: placing bricks, corrections
+    double predict = 0;     ///< decoder: P/B frames' motion compensation and the residual added to it
     double total = 0;       ///< the whole call
     int trials = 0;         ///< quantise + reconstruct rounds run by the rate control
 };

@@ -55,11 +55,12 @@ std::string fmt(double v, int digits = 2) {
 // Stage times of one encode or decode, so speed claims can name their bottleneck.
 void printProfile(const char* what, const CodecProfile& p, std::size_t searchTrials) {
     const double staged =
-        p.gather + p.upload + p.transform + p.download + p.entropy + p.reconstruct + p.assemble;
+        p.gather + p.upload + p.transform + p.download + p.entropy + p.reconstruct + p.assemble + p.predict;
     std::cerr << "    " << what << " ms: total " << fmt(p.total, 1) << " = gather " << fmt(p.gather, 1)
               << " upload " << fmt(p.upload, 1) << " transform " << fmt(p.transform, 1) << " download "
               << fmt(p.download, 1) << " entropy " << fmt(p.entropy, 1)
-              << " reconstruct " << fmt(p.reconstruct, 1) << " assemble " << fmt(p.assemble, 1) << " other "
+              << " reconstruct " << fmt(p.reconstruct, 1) << " assemble " << fmt(p.assemble, 1) << " predict "
+              << fmt(p.predict, 1) << " other "
               << fmt(p.total - staged, 1);
     if (p.trials > 0) std::cerr << " (" << p.trials << " quantisation rounds)";
     if (searchTrials > 0) std::cerr << " [target search: " << searchTrials << " rounds, not timed]";

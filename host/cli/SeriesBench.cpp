@@ -1,5 +1,6 @@
 // `volcl bench series`: motion-compensated against intra-only coding of time series per rate target, with
-// per-frame PSNR, encode speed, single-frame decode time and playback rate.
+// per-frame PSNR, encode speed, single-frame decode time against an intra frame and playback rate (decode
+// timings interleaved between the two codings, load average stated).
 #include "host/Error.hpp"
 #include "host/cli/Commands.hpp"
 #include "host/cli/GzipVolume.hpp"
@@ -11,6 +12,7 @@
 #include "wavelet/predict/TranslatedSeries.hpp"
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -115,57 +117,74 @@ CodecOptions rateOptions(const std::string& rate, const TimeSeries& ts) {
 }
 
 struct Coding {
+    std::vector<std::byte> file;
     std::size_t bytes = 0;
     double bpv = 0, minPsnr = INFINITY, meanMse = 0, maxErr = 0, encodeMs = 0, playbackMs = 0, frameMs = 0;
+    std::vector<double> playback, frame; // per run: whole series in order, one frame given its reference
     std::size_t p = 0, b = 0;
     bool exact = true;
 };
 
-// Encodes (timed once: the encoder is the slow side and the rows are many), then decodes every frame in
-// order as a player does (each P frame from the frame before it) `runs` times, and times one frame: the
-// last frame of the first group given its reference (a P frame with motion), median of `runs`.
-Coding code(ComputeContext& cc, const TimeSeries& ts, const CodecOptions& o, int runs) {
+// Decodes every frame in order as a player does (each P frame from the frame before it, which it keeps);
+// returns the milliseconds, and with `c` the accuracy of every frame against the input.
+double playSeries(ComputeContext& cc, const VczReader& r, const TimeSeries& ts, Coding* c) {
+    std::vector<std::optional<Volume>> frames(ts.frames.size());
+    std::vector<const Volume*> known(ts.frames.size(), nullptr);
+    Stopwatch pw;
+    for (std::size_t f = 0; f < ts.frames.size(); ++f) {
+        frames[f] = r.decodeFrame(cc, f, known);
+        known[f] = &*frames[f];
+        if (f > 0) { // a player keeps the latest frame
+            known[f - 1] = nullptr;
+            frames[f - 1].reset();
+        }
+        if (c) {
+            const double p = psnr(ts.frames[f], *frames[f]);
+            c->minPsnr = std::min(c->minPsnr, p);
+            c->maxErr = std::max(c->maxErr, maxAbsError(ts.frames[f], *frames[f]));
+            c->exact = c->exact && *frames[f] == ts.frames[f];
+            const double e = rmse(ts.frames[f], *frames[f]);
+            c->meanMse += e * e / double(ts.frames.size());
+        }
+    }
+    return pw.milliseconds();
+}
+
+// Encodes (timed once: the encoder is the slow side and the rows are many) and checks every decoded frame.
+Coding code(ComputeContext& cc, const TimeSeries& ts, const CodecOptions& o) {
     Coding c;
     Stopwatch sw;
-    const std::vector<std::byte> bytes = encodeSeries(cc, ts, o);
+    c.file = encodeSeries(cc, ts, o);
     c.encodeMs = sw.milliseconds();
-    c.bytes = bytes.size();
+    c.bytes = c.file.size();
     const double voxels = double(ts.frames[0].voxelCount() * ts.frames.size());
-    c.bpv = double(bytes.size()) * 8 / voxels;
-    VczReader r(bytes, "bench.vcz");
+    c.bpv = double(c.bytes) * 8 / voxels;
+    VczReader r(c.file, "bench.vcz");
     for (const VczFrame& f : r.header().frames) {
         c.p += f.type == FrameType::P;
         c.b += f.type == FrameType::B;
     }
-    std::vector<std::optional<Volume>> frames(ts.frames.size());
-    std::vector<const Volume*> known(ts.frames.size(), nullptr);
-    std::vector<double> playback;
-    for (int run = 0; run < runs; ++run) {
-        std::fill(known.begin(), known.end(), nullptr);
-        Stopwatch pw;
-        for (std::size_t f = 0; f < ts.frames.size(); ++f) {
-            frames[f] = r.decodeFrame(cc, f, known);
-            known[f] = &*frames[f];
-            if (f > 0 && f - 1 < known.size()) known[f - 1] = nullptr; // a player keeps the latest frame
-            if (f > 0) frames[f - 1].reset();
-            if (run == 0) {
-                const double p = psnr(ts.frames[f], *frames[f]);
-                c.minPsnr = std::min(c.minPsnr, p);
-                c.maxErr = std::max(c.maxErr, maxAbsError(ts.frames[f], *frames[f]));
-                c.exact = c.exact && *frames[f] == ts.frames[f];
-                const double e = rmse(ts.frames[f], *frames[f]);
-                c.meanMse += e * e / double(ts.frames.size());
-            }
-        }
-        playback.push_back(pw.milliseconds());
-    }
-    c.playbackMs = median(playback);
-    const std::size_t k = std::min(ts.frames.size(), o.gop) - 1;
+    playSeries(cc, r, ts, &c);
+    return c;
+}
+
+// One timed run of a coding: the series played in order, then one frame decoded given its reference (the
+// last frame of the first group, a P frame with motion; an I frame in intra-only coding).
+void timeRun(ComputeContext& cc, const TimeSeries& ts, std::size_t gop, Coding& c) {
+    const VczReader r(c.file, "bench.vcz");
+    c.playback.push_back(playSeries(cc, r, ts, nullptr));
+    const std::size_t k = std::min(ts.frames.size(), gop) - 1;
     const Volume ref = r.decodeFrame(cc, k > 0 ? k - 1 : 0);
     std::vector<const Volume*> withRef(k + 1, nullptr);
     if (k > 0) withRef[k - 1] = &ref;
-    c.frameMs = medianMilliseconds(runs, [&] { r.decodeFrame(cc, k, withRef); });
-    return c;
+    Stopwatch fw;
+    r.decodeFrame(cc, k, withRef);
+    c.frame.push_back(fw.milliseconds());
+}
+
+double loadAverage() {
+    double l[1] = {0};
+    return getloadavg(l, 1) == 1 ? l[0] : NAN;
 }
 
 void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
@@ -185,8 +204,18 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
             o.bFrames = a.bFrames;
             CodecOptions intraOnly = o;
             intraOnly.motion = MotionMode::None;
-            // Interleaved: intra, motion.
-            const Coding in = code(cc, s.series, intraOnly, a.runs), mc = code(cc, s.series, o, a.runs);
+            Coding in = code(cc, s.series, intraOnly), mc = code(cc, s.series, o);
+            // Decode timings interleaved run by run (intra, motion), so both see the same load.
+            const double loadBefore = loadAverage();
+            for (int run = 0; run < a.runs; ++run) {
+                timeRun(cc, s.series, a.gop, in);
+                timeRun(cc, s.series, a.gop, mc);
+            }
+            const double loadAfter = loadAverage();
+            for (Coding* c : {&in, &mc}) {
+                c->playbackMs = median(c->playback);
+                c->frameMs = median(c->frame);
+            }
             const double mb = double(s.series.frames[0].byteSize() * s.series.frames.size()) / 1e6;
             auto psnrOfMean = [&](const Coding& c) {
                 double lo = INFINITY, hi = -INFINITY;
@@ -202,9 +231,10 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
                       << fmt(mc.minPsnr, 2) << ", " << mc.p << " P " << mc.b
                       << " B) = " << fmt(mc.bpv / in.bpv, 3) << "x; encode " << fmt(mb / in.encodeMs * 1e3, 1)
                       << " / " << fmt(mb / mc.encodeMs * 1e3, 1) << " MB/s; frame " << fmt(in.frameMs, 1)
-                      << " / " << fmt(mc.frameMs, 1) << " ms; playback "
-                      << fmt(1e3 * double(s.series.frames.size()) / in.playbackMs, 1) << " / "
-                      << fmt(1e3 * double(s.series.frames.size()) / mc.playbackMs, 1) << " fps\n";
+                      << " / " << fmt(mc.frameMs, 1) << " ms (P/I " << fmt(mc.frameMs / in.frameMs, 2)
+                      << "x); playback " << fmt(1e3 * double(s.series.frames.size()) / in.playbackMs, 1)
+                      << " / " << fmt(1e3 * double(s.series.frames.size()) / mc.playbackMs, 1)
+                      << " fps; load " << fmt(loadBefore, 1) << " -> " << fmt(loadAfter, 1) << "\n";
             for (const auto& [mode, c] : {std::pair<const char*, const Coding&>{"intra", in}, {"mc", mc}})
                 rows.push_back({{"series", s.name},
                                 {"frames", s.series.frames.size()},
@@ -222,6 +252,11 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
                                 {"encode_ms", c.encodeMs},
                                 {"encode_mb_s", mb / c.encodeMs * 1e3},
                                 {"frame_decode_ms", c.frameMs},
+                                {"frame_decode_over_intra", c.frameMs / in.frameMs},
+                                {"playback_ms_runs", c.playback},
+                                {"frame_decode_ms_runs", c.frame},
+                                {"load_before", jnum(loadBefore)},
+                                {"load_after", jnum(loadAfter)},
                                 {"playback_fps", 1e3 * double(s.series.frames.size()) / c.playbackMs}});
         }
     }

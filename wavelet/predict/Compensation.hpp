@@ -67,7 +67,7 @@ public:
     double lastKernelMilliseconds() const noexcept { return kernelMs_; }
 
 private:
-    cl::Kernel costsKernel_, compensateKernel_;
+    cl::Kernel costsKernel_, compensateKernel_, compensateRowsKernel_;
     double kernelMs_ = 0;
 };
 
