@@ -11,6 +11,7 @@
 #include "host/image/ImageIo.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
+#include "host/render/BudgetPlanner.hpp"
 #include "host/render/EffectCosts.hpp"
 #include "host/render/RenderInput.hpp"
 #include "host/render/Scene.hpp"
@@ -401,7 +402,8 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
                   "Print the effects compiled into the kernel and why others were dropped");
     cmd->add_flag("--half", a->half, "EXR: store half floats");
     cmd->add_option("--budget-ms", a->budgetMs,
-                    "Frame-time budget (kernel ms): the step is chosen to fit it (render.budget_ms)");
+                    "Frame-time budget (kernel ms): the scattering order, samples per pixel or step are chosen to fit "
+                    "it (render.budget_ms)");
     cmd->callback([a, &global] {
         if (a->out.empty() && !a->explain) throw UsageError("render: give -o/--output (or --explain)");
         Scene scene = a->scene.build();
@@ -448,7 +450,7 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
         VolumeRenderer& r = *renderer;
         if (a->explain) std::cout << r.plan().explain() << r.statistics() << '\n';
         if (scene.budgetMs > 0.0) {
-            const BudgetChoice choice = fitBudget(r, scene.budgetMs, {stepKnob(scene, r.bounds())});
+            const BudgetChoice choice = fitBudget(r, scene.budgetMs, budgetKnobs(r, scene));
             scene = r.scene();
             (a->explain ? std::cout : std::cerr) << choice.text();
         }
