@@ -6,6 +6,7 @@
 #include "host/cli/Commands.hpp"
 #include "host/cli/FilterBench.hpp"
 #include "host/cli/MediaBench.hpp"
+#include "host/cli/BudgetBench.hpp"
 #include "host/cli/ScatterBench.hpp"
 #include "host/cli/MeshBench.hpp"
 #include "host/image/ImageIo.hpp"
@@ -88,6 +89,8 @@ struct BenchArgs {
     bool effects = false, vtk = false, sweep = true, filters = false, tables = false, fog = false;
     bool scattering = false;
     ScatterBenchOptions scatter;
+    std::string budgets;       ///< --budgets: frame-time budgets in ms
+    BudgetBenchOptions budget;
     std::string meshLengths = "8,16,32,64";
     std::string vtkMappers = "bunyk,projected_tetrahedra,zsweep";
     std::string vtkScript = std::string(VOLCL_SOURCE_DIR) + "/bench/vtk_raycast.py";
@@ -296,6 +299,13 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
         o.runs = a.runs;
         benchScattering(cc, input, tf, scene, o);
     }
+    if (!a.budgets.empty()) {
+        BudgetBenchOptions o = a.budget;
+        o.budgetsMs = parseNumbers(a.budgets, 0, "--budgets");
+        o.runs = a.runs;
+        o.referenceSamples = a.scatter.referenceSamples;
+        benchBudgets(cc, input, tf, scene, o);
+    }
     if (a.filters) benchFilters(cc, input, tf, scene, a.runs, a.sweep || a.vtk ? std::string() : a.csv);
     if (a.tables || a.fog) {
         const Volume* g = input.grid();
@@ -494,11 +504,16 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
                 "Single and multiple scattering against a converged path-traced reference: ms/frame, cost "
                 "relative to the plain frame, RMSE against samples per pixel");
     b->add_option("--reference-samples", ba->scatter.referenceSamples,
-                  "--scatter-sweep: samples per pixel of the reference")
+                  "--scatter-sweep, --budgets: samples per pixel of the reference")
         ->capture_default_str();
     b->add_option("--max-samples", ba->scatter.maxSamples, "--scatter-sweep: largest samples per pixel of the sweep")
         ->capture_default_str();
     b->add_option("--scatter-csv", ba->scatter.csv, "--scatter-sweep: write the rows as CSV");
+    b->add_option("--budgets", ba->budgets,
+                  "Frame-time budgets in ms (e.g. 400,1000): the planner's choice for each, timed again in "
+                  "interleaved rounds, and its RMSE against the reference (--reference-samples)");
+    b->add_option("--budget-rounds", ba->budget.rounds, "--budgets: interleaved timing rounds")->capture_default_str();
+    b->add_option("--budget-csv", ba->budget.csv, "--budgets: write the rows as CSV");
     b->add_option("--scatter-images", ba->scatter.imageDir, "--scatter-sweep: write every variant's EXR and PNG here");
     b->add_flag("--vtk", ba->vtk, "Compare with VTK's vtkFixedPointVolumeRayCastMapper (python3-vtk9, xvfb)");
     b->add_flag("!--no-sweep", ba->sweep, "Skip the step x pre-integration x skipping sweep");
