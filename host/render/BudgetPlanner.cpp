@@ -65,15 +65,26 @@ void fitTime(const BudgetKnob& k, const Probe& a, const Probe& b, KnobModel& m) 
     }
 }
 
-/// The two measured frames nearest the budget with distinct values (the newest first on ties).
-std::array<Probe, 2> nearest(std::vector<Probe> probes, double budgetMs) {
-    std::reverse(probes.begin(), probes.end());
-    std::stable_sort(probes.begin(), probes.end(), [&](const Probe& a, const Probe& b) {
-        return std::abs(a.ms - budgetMs) < std::abs(b.ms - budgetMs);
-    });
-    for (std::size_t i = 1; i < probes.size(); ++i)
-        if (probes[i].v != probes.front().v) return {probes.front(), probes[i]};
-    return {probes.front(), probes.front()};
+/// A + B v^k by weighted least squares over every frame measured on the knob, each weighted by its closeness
+/// to the budget (1 / (1 + (off / 10%)^2)): frames near the budget decide the local law (a law that is only
+/// roughly a power law still converges like the secant method), and several of them average the noise of
+/// the machine's load instead of one lucky frame steering the fit. Fewer than two distinct values: as
+/// fitTime through the nearest.
+void fitTimeAll(const BudgetKnob& k, const std::vector<Probe>& frames, double budgetMs, KnobModel& m) {
+    double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+    const Probe* closest = &frames.front();
+    for (const Probe& f : frames) {
+        const double x = std::pow(f.v, k.costExponent), off = (f.ms - budgetMs) / (0.1 * budgetMs);
+        const double w = 1.0 / (1.0 + off * off);
+        sw += w, sx += w * x, sy += w * f.ms, sxx += w * x * x, sxy += w * x * f.ms;
+        if (std::abs(f.ms - budgetMs) < std::abs(closest->ms - budgetMs)) closest = &f;
+    }
+    const double det = sw * sxx - sx * sx;
+    if (det > 1e-12 * sw * sxx) {
+        m.B = (sw * sxy - sx * sy) / det;
+        m.A = (sy - m.B * sx) / sw;
+    }
+    if (!(det > 1e-12 * sw * sxx) || !(m.B > 0.0)) fitTime(k, *closest, *closest, m);
 }
 
 /// The mean of Monte Carlo images weighted by their sample counts: the estimate of all their samples.
@@ -169,6 +180,7 @@ BudgetChoice fitBudget(VolumeRenderer& r, double budgetMs, const std::vector<Bud
             k.set(p, v[j]);
             if (k.error == KnobError::MonteCarlo) k.reseed(p, j);
             measured[i].push_back({v[j], timeFrames(r, p, runs, &images[i][j])});
+            c.probes.push_back({k.name, v[j], measured[i].back().ms});
             c.notes.push_back("probe " + k.name + " " + value(k, v[j]) + ": " + fixed(measured[i].back().ms, 2) +
                               " ms");
         }
@@ -201,40 +213,47 @@ BudgetChoice fitBudget(VolumeRenderer& r, double budgetMs, const std::vector<Bud
         }
     }
 
-    // Choice, then measured corrections: refit the chosen knob's time law through its frame nearest the
-    // budget and choose again (possibly another knob), until a frame lands within 5%.
+    // Choice, then measured corrections: refit the chosen knob's time law to all its frames and choose again
+    // (possibly another knob) until a frame lands within 5%; if none does after three corrections, the final
+    // weighted least-squares choice is measured once more. The kept frame is the last one measured, never the luckiest
+    // of several (that one would owe its closeness to noise).
     KnobPick pick = chooseKnob(knobs, models, budgetMs);
     struct Try {
         KnobPick pick;
         double ms;
     };
     std::vector<Try> tries;
-    for (int it = 0; it < 4; ++it) {
-        const BudgetKnob& k = knobs[pick.knob];
-        Scene s = routes[pick.knob];
-        k.set(s, pick.value);
+    auto measure = [&](const KnobPick& p) {
+        const BudgetKnob& k = knobs[p.knob];
+        Scene s = routes[p.knob];
+        k.set(s, p.value);
         const double ms = timeFrames(r, s, runs);
-        tries.push_back({pick, ms});
-        c.notes.push_back("try " + k.name + " " + value(k, pick.value) + ": predicted " + fixed(pick.predictedMs, 2) +
+        tries.push_back({p, ms});
+        measured[p.knob].push_back({p.value, ms});
+        c.notes.push_back("try " + k.name + " " + value(k, p.value) + ": predicted " + fixed(p.predictedMs, 2) +
                           " ms, measured " + fixed(ms, 2) + " ms");
-        if (std::abs(ms - budgetMs) <= 0.05 * budgetMs) break;
-        measured[pick.knob].push_back({pick.value, ms});
-        const auto two = nearest(measured[pick.knob], budgetMs);
-        if (two[0].v == two[1].v) break;
-        fitTime(k, two[0], two[1], models[pick.knob]);
-        const KnobPick next = [&] {
-            try {
-                return chooseKnob(knobs, models, budgetMs);
-            } catch (const UsageError&) {
-                return pick; // the refit says unreachable: keep the frames measured so far
-            }
-        }();
+        return std::abs(ms - budgetMs) <= 0.05 * budgetMs;
+    };
+    auto refit = [&] {
+        fitTimeAll(knobs[pick.knob], measured[pick.knob], budgetMs, models[pick.knob]);
+        try {
+            return chooseKnob(knobs, models, budgetMs);
+        } catch (const UsageError&) {
+            return pick; // the refit says unreachable: keep the frames measured so far
+        }
+    };
+    bool landed = measure(pick);
+    for (int it = 0; it < 3 && !landed; ++it) {
+        const KnobPick next = refit();
         if (next.knob == pick.knob && next.value == pick.value) break;
         pick = next;
+        landed = measure(pick);
     }
-    const Try best = *std::min_element(tries.begin(), tries.end(), [&](const Try& a, const Try& b) {
-        return std::abs(a.ms - budgetMs) < std::abs(b.ms - budgetMs);
-    });
+    if (!landed) {
+        const KnobPick next = refit();
+        if (next.knob != pick.knob || next.value != pick.value) measure(pick = next);
+    }
+    const Try best = tries.back();
     const BudgetKnob& k = knobs[best.pick.knob];
     const KnobModel& model = models[best.pick.knob];
     Scene chosen = routes[best.pick.knob];

@@ -52,15 +52,20 @@ struct BudgetChoice {
     bool biasMeasured = false;
     std::string reference;             ///< the image the error is against
     std::vector<std::string> others;   ///< what every other knob would have given
+    struct Frame {
+        std::string knob;
+        double value = 0.0, ms = 0.0;
+    };
+    std::vector<Frame> probes;         ///< the calibration frames, knob by knob
     std::vector<std::string> notes;    ///< the probes, fits and corrective frames, in order
     bool met(double tolerance = 0.2) const { return std::abs(measuredMs - budgetMs) <= tolerance * budgetMs; }
     std::string text() const;
 };
 
 /// Calibrates every knob (two probe frames each, medians of `runs`), chooses (chooseKnob), then measures the
-/// choice and, while it is more than 5% off, refits the time law through that frame and chooses again (at
-/// most three corrective frames); the measured frame nearest the budget is kept and the renderer is left on
-/// it. Throws as chooseKnob does.
+/// choice and, while it is more than 5% off, refits the knob's time law to all its frames by weighted least squares
+/// and chooses again (at most three corrections, then the final fit measured once more); the last measured
+/// choice is kept and the renderer is left on it. Throws as chooseKnob does.
 BudgetChoice fitBudget(VolumeRenderer& renderer, double budgetMs, const std::vector<BudgetKnob>& knobs,
                        int runs = 3);
 
