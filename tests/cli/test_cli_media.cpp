@@ -78,4 +78,27 @@ TEST(CliMedia, RenderMultipleScatteringAndRefusals) {
     EXPECT_FALSE(std::filesystem::exists(dir / "z.exr"));
 }
 
+TEST(CliMedia, FrameTimeBudgetChoosesOrRefusesWithoutOutput) {
+    const auto dir = volcl::test::tempDir("cli_media_budget");
+    const std::string vol = (dir / "c.nrrd").string(), tf = (dir / "tf.json").string();
+    ASSERT_EQ(run("-q generate cloud --size 24,24,8 -o " + vol, dir).exitCode, 0);
+    volcl::test::writeFile(tf, R"({"domain": [0, 255], "color": [[0, 1, 1, 1]], "extinction": [[0, 0], [255, 0.5]]})");
+    const std::string base = "-q render --volume " + vol + " --tf " + tf + " --width 16 --height 16 --scattering 0.9,0.5 ";
+    // A reachable budget: the choice is reported (knob, route, expected error) and the image written.
+    const RunResult ok = run(base + "--budget-ms 30 -o " + (dir / "ok.png").string(), dir);
+    EXPECT_EQ(ok.exitCode, 0) << ok.err;
+    EXPECT_TRUE(std::filesystem::exists(dir / "ok.png"));
+    EXPECT_NE(ok.err.find("expected error: RMSE"), std::string::npos) << ok.err;
+    EXPECT_NE(ok.err.find("instead: "), std::string::npos) << "both routes were weighed: " << ok.err;
+    // Bad and unreachable budgets: exit 2, one line, nothing written.
+    for (const std::string bad : {"-1", "nan", "inf", "1e-9"}) {
+        const auto out = dir / "bad.png";
+        const RunResult r = run(base + "--budget-ms " + bad + " -o " + out.string(), dir);
+        EXPECT_EQ(r.exitCode, 2) << bad << ": " << r.err;
+        EXPECT_EQ(lines(r.err), 1u) << bad << ": " << r.err;
+        EXPECT_NE(r.err.find("budget_ms"), std::string::npos) << bad << ": " << r.err;
+        EXPECT_FALSE(std::filesystem::exists(out)) << bad;
+    }
+}
+
 } // namespace
