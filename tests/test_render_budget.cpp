@@ -17,8 +17,8 @@ namespace {
 using namespace volcl;
 
 /// The injected cost model. Ray marched: A + B / step^k ms (+ 50% with fog, + 1 ms with shading), every
-/// pixel 0.5 + C step^2 (+ `bias` with scattering: what single scattering misses). Path traced: ptA + ptB n ms
-/// for n samples per pixel, every pixel 0.5 plus the mean of n independent uniform samples of standard
+/// pixel 0.5 + C step^2 (+ `bias` with scattering: what single scattering misses). Path traced: ptA + ptB n
+/// ms for n samples per pixel, every pixel 0.5 plus the mean of n independent uniform samples of standard
 /// deviation `sigma` drawn from (seed, pixel, sample).
 struct Law {
     double A = 2.0, B = 3.0, k = 1.0, C = 0.01, bias = 0.0;
@@ -70,7 +70,8 @@ public:
             }
             return img;
         }
-        ms_ = law_.A + law_.B / std::pow(scene_.step, law_.k) * (plan_.fog ? 1.5 : 1.0) + (plan_.shading ? 1.0 : 0.0);
+        ms_ = law_.A + law_.B / std::pow(scene_.step, law_.k) * (plan_.fog ? 1.5 : 1.0) +
+              (plan_.shading ? 1.0 : 0.0);
         for (float& v : img.pixels)
             v = float(0.5 + law_.C * scene_.step * scene_.step + (plan_.scattering ? law_.bias : 0.0));
         return img;
@@ -182,7 +183,8 @@ TEST(Budget, PathTracerChosenWhenSingleScatteringIsBiased) {
     ASSERT_EQ(c.others.size(), 1u);
     EXPECT_NE(c.others[0].find("render.step"), std::string::npos);
     EXPECT_TRUE(anyLineHas(c.notes, "single scattering, ray marched against 3 pooled")) << c.text();
-    EXPECT_NE(c.text().find("against the converged multiple scattering, path traced image"), std::string::npos)
+    EXPECT_NE(c.text().find("against the converged multiple scattering, path traced image"),
+              std::string::npos)
         << c.text();
 }
 
@@ -195,7 +197,8 @@ TEST(Budget, SingleScatteringChosenWhenItIsUnbiased) {
     EXPECT_EQ(c.knob, "render.step") << c.text();
     EXPECT_NEAR(c.value, 3.0 / 39.0, 1e-9);
     EXPECT_TRUE(c.biasMeasured);
-    EXPECT_LT(c.biasError, 0.15) << "the estimate subtracts the path tracer's own noise (sigma / sqrt(3) = 0.58)";
+    EXPECT_LT(c.biasError, 0.15)
+        << "the estimate subtracts the path tracer's own noise (sigma / sqrt(3) = 0.58)";
     EXPECT_EQ(r.scene().effects.scatteringOrder, ScatteringOrder::Single);
 }
 
@@ -218,7 +221,8 @@ TEST(Budget, CorrectsAWrongTimeLawWithMeasuredFrames) {
     LawRenderer r(baseScene(), law);
     const BudgetChoice c = fitBudget(r, 60.0, budgetKnobs(r, r.scene()), 1);
     EXPECT_TRUE(c.met(0.05)) << c.text();
-    EXPECT_GT(std::count_if(c.notes.begin(), c.notes.end(), [](const std::string& n) { return n.rfind("try", 0) == 0; }),
+    EXPECT_GT(std::count_if(c.notes.begin(), c.notes.end(),
+                            [](const std::string& n) { return n.rfind("try", 0) == 0; }),
               1)
         << "the first choice was off and was corrected: " << c.text();
 }
@@ -236,7 +240,8 @@ TEST(Budget, ChoiceIsMonotoneInTheBudget) {
         lastStep = s.value;
         lastSamples = n.value;
         const KnobPick c = chooseKnob(knobs, {step, samples}, budget);
-        EXPECT_LE(c.expectedError, lastError + 1e-12) << "a larger budget never buys a worse image: " << budget;
+        EXPECT_LE(c.expectedError, lastError + 1e-12)
+            << "a larger budget never buys a worse image: " << budget;
         EXPECT_LE(std::abs(c.predictedMs - budget), 0.1 * budget) << budget;
         lastError = c.expectedError;
     }
@@ -257,7 +262,9 @@ TEST(Budget, ImpossibleAndBadBudgetsAreRefused) {
         } catch (const UsageError& e) {
             const std::string m = e.what();
             EXPECT_NE(m.find("cannot be met within 20%"), std::string::npos) << m;
-            EXPECT_NE(m.find("render.step 27.28..0.03125 (ray marched) takes 2.11e+00..9.80e+01 ms"), std::string::npos) << m;
+            EXPECT_NE(m.find("render.step 27.28..0.03125 (ray marched) takes 2.11e+00..9.80e+01 ms"),
+                      std::string::npos)
+                << m;
             EXPECT_EQ(m.find('\n'), std::string::npos) << "one line: " << m;
         }
     }

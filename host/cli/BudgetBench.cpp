@@ -27,13 +27,13 @@ std::string loadAverage() {
 
 } // namespace
 
-void benchBudgets(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, const Scene& scene,
-                  const BudgetBenchOptions& o) {
+void benchBudgets(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
+                  const Scene& scene, const BudgetBenchOptions& o) {
     if (o.budgetsMs.empty() || o.rounds < 1 || o.referenceSamples < 1)
         throw UsageError("bench render: --budgets needs budgets, rounds >= 1 and reference samples >= 1");
     const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, scene);
-    std::cout << "budget planner, " << scene.width << "x" << scene.height << ", load average " << loadAverage()
-              << '\n';
+    std::cout << "budget planner, " << scene.width << "x" << scene.height << ", load average "
+              << loadAverage() << '\n';
     struct Row {
         double budget;
         std::optional<BudgetChoice> choice;
@@ -94,24 +94,28 @@ void benchBudgets(ComputeContext& cc, const RenderInput& input, const TransferFu
                 row.ms.push_back(r->lastKernelMilliseconds());
         }
     }
-    // The planner's first probe of each budget is the same frame as the anchor (ray marched at the scene's step).
+    // The planner's first probe of each budget is the same frame as the anchor (ray marched at the scene's
+    // step).
     std::vector<double> planned;
     for (const Row& row : rows)
         if (row.choice && !row.choice->probes.empty()) planned.push_back(row.choice->probes.front().ms);
     const double drift = planned.empty() ? 1.0 : median(anchorMs) / median(planned);
 
     std::cout << "reference: " << refName << "; achieved = median of " << o.rounds
-              << " interleaved frames; load average now " << loadAverage() << "\nthe scene's own frame: "
-              << std::fixed << std::setprecision(1) << (planned.empty() ? 0.0 : median(planned)) << " ms while planning, " << median(anchorMs)
+              << " interleaved frames; load average now " << loadAverage()
+              << "\nthe scene's own frame: " << std::fixed << std::setprecision(1)
+              << (planned.empty() ? 0.0 : median(planned)) << " ms while planning, " << median(anchorMs)
               << " ms in the rounds (machine " << std::setprecision(2) << drift
               << "x as slow); load-corrected = achieved / that factor\n"
               << std::defaultfloat;
-    std::cout << "  budget_ms  choice                                     planner_ms  achieved_ms   off  within_20%"
-                 "  load-corrected  expected_rmse  rmse\n";
+    std::cout
+        << "  budget_ms  choice                                     planner_ms  achieved_ms   off  within_20%"
+           "  load-corrected  expected_rmse  rmse\n";
     std::ofstream csv;
     if (!o.csv.empty()) {
         csv.open(o.csv);
-        csv << "budget_ms,knob,value,route,planner_ms,achieved_ms,off_percent,within_20,load_corrected_off_percent,"
+        csv << "budget_ms,knob,value,route,planner_ms,achieved_ms,off_percent,within_20,load_corrected_off_"
+               "percent,"
                "expected_rmse,rmse\n";
     }
     for (const Row& row : rows) {
@@ -121,20 +125,21 @@ void benchBudgets(ComputeContext& cc, const RenderInput& input, const TransferFu
             continue;
         }
         const BudgetChoice& c = *row.choice;
-        const double ms = median(row.ms), off = 100.0 * (ms - row.budget) / row.budget, rmse = imageRmse(row.image, reference);
+        const double ms = median(row.ms), off = 100.0 * (ms - row.budget) / row.budget,
+                     rmse = imageRmse(row.image, reference);
         const double fixedOff = 100.0 * (ms / drift - row.budget) / row.budget;
         std::ostringstream choice;
         choice << c.knob << " " << std::setprecision(4) << c.value;
-        std::cout << "  " << std::setw(9) << row.budget << "  " << std::left << std::setw(42) << choice.str() << std::right
-                  << std::fixed << std::setprecision(1) << std::setw(10) << c.measuredMs << std::setw(13) << ms
-                  << std::setw(6) << std::showpos << off << "%" << std::noshowpos << std::setw(11)
-                  << (std::abs(off) <= 20.0 ? "yes" : "no") << std::setw(15) << std::showpos << fixedOff
-                  << "%" << std::noshowpos << std::scientific << std::setprecision(2)
+        std::cout << "  " << std::setw(9) << row.budget << "  " << std::left << std::setw(42) << choice.str()
+                  << std::right << std::fixed << std::setprecision(1) << std::setw(10) << c.measuredMs
+                  << std::setw(13) << ms << std::setw(6) << std::showpos << off << "%" << std::noshowpos
+                  << std::setw(11) << (std::abs(off) <= 20.0 ? "yes" : "no") << std::setw(15) << std::showpos
+                  << fixedOff << "%" << std::noshowpos << std::scientific << std::setprecision(2)
                   << std::setw(15) << c.expectedError << std::setw(10) << rmse << std::defaultfloat << '\n';
         if (csv.is_open())
-            csv << row.budget << ',' << c.knob << ',' << c.value << ",\"" << c.route << "\"," << c.measuredMs << ','
-                << ms << ',' << off << ',' << (std::abs(off) <= 20.0 ? 1 : 0) << ',' << fixedOff << ',' << c.expectedError << ','
-                << rmse << '\n';
+            csv << row.budget << ',' << c.knob << ',' << c.value << ",\"" << c.route << "\"," << c.measuredMs
+                << ',' << ms << ',' << off << ',' << (std::abs(off) <= 20.0 ? 1 : 0) << ',' << fixedOff << ','
+                << c.expectedError << ',' << rmse << '\n';
     }
     if (csv.is_open() && !csv) throw IoError(o.csv.string() + ": cannot write the budget CSV");
 }

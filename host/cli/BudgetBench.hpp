@@ -24,7 +24,7 @@ struct BudgetBenchOptions {
 /// budgets interleaved (the median is the achieved frame time) and measures its RMSE against the reference:
 /// the path tracer at `referenceSamples` with another seed when the scene scatters, else the ray marcher at
 /// 1/32 of the scene's step. Prints the planner's reports and a table on stdout.
-void benchBudgets(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, const Scene& scene,
-                  const BudgetBenchOptions& options);
+void benchBudgets(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
+                  const Scene& scene, const BudgetBenchOptions& options);
 
 } // namespace volcl::cli

@@ -12,25 +12,26 @@
 namespace volcl {
 
 /// How a knob's error behaves. A discretisation error is deterministic: two probe images differ by
-/// C |v1^p - v0^p|. Monte Carlo noise is independent between seeds: two probes differ by C sqrt(v0^2p + v1^2p),
-/// and the route converges to the reference image, which makes it the yardstick for the other routes' bias.
+/// C |v1^p - v0^p|. Monte Carlo noise is independent between seeds: two probes differ by C sqrt(v0^2p +
+/// v1^2p), and the route converges to the reference image, which makes it the yardstick for the other routes'
+/// bias.
 enum class KnobError { Discretisation, MonteCarlo };
 
 /// One knob: frame time ~ A + B value^costExponent, error ~ C value^errorExponent on top of its route's bias.
 /// A new knob (another route, another accuracy parameter) is one more factory returning this; the planner
 /// does not know knobs by name.
 struct BudgetKnob {
-    std::string name;          ///< the scene field it sets: "render.step"
-    std::string route;         ///< how frames on this knob are drawn, for the report
-    double lo = 0.0, hi = 0.0; ///< allowed values
+    std::string name;                  ///< the scene field it sets: "render.step"
+    std::string route;                 ///< how frames on this knob are drawn, for the report
+    double lo = 0.0, hi = 0.0;         ///< allowed values
     double probe0 = 0.0, probe1 = 0.0; ///< the two calibration values (cheap ones, a factor 2 apart)
     double costExponent = -1.0, errorExponent = 2.0;
     KnobError error = KnobError::Discretisation;
-    bool integer = false;      ///< only whole values (samples per pixel)
-    std::function<void(Scene&)> enter;        ///< puts a scene on this knob's route
+    bool integer = false;              ///< only whole values (samples per pixel)
+    std::function<void(Scene&)> enter; ///< puts a scene on this knob's route
     std::function<double(const Scene&)> get;
     std::function<void(Scene&, double)> set;
-    std::function<void(Scene&, int)> reseed;  ///< Monte Carlo: an independent random stream for probe i
+    std::function<void(Scene&, int)> reseed; ///< Monte Carlo: an independent random stream for probe i
 };
 
 /// The ray marcher's step (single scattering when the scene scatters): from 1/16 of the scene's step up to a

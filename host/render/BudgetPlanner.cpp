@@ -43,11 +43,16 @@ std::string percent(double ms, double budgetMs) {
 
 void checkBudget(double budgetMs) {
     if (!(budgetMs > 0.0) || !std::isfinite(budgetMs))
-        throw UsageError("render.budget_ms must be a finite number > 0 (got " + std::to_string(budgetMs) + ")");
+        throw UsageError("render.budget_ms must be a finite number > 0 (got " + std::to_string(budgetMs) +
+                         ")");
 }
 
-double fastEnd(const BudgetKnob& k) { return k.costExponent < 0 ? k.hi : k.lo; }
-double slowEnd(const BudgetKnob& k) { return k.costExponent < 0 ? k.lo : k.hi; }
+double fastEnd(const BudgetKnob& k) {
+    return k.costExponent < 0 ? k.hi : k.lo;
+}
+double slowEnd(const BudgetKnob& k) {
+    return k.costExponent < 0 ? k.lo : k.hi;
+}
 
 struct Probe {
     double v, ms;
@@ -117,8 +122,8 @@ KnobPick fitKnob(const BudgetKnob& k, const KnobModel& m, double budgetMs) {
     return p;
 }
 
-KnobPick chooseKnob(const std::vector<BudgetKnob>& knobs, const std::vector<KnobModel>& models, double budgetMs,
-                    double aim, double tolerance) {
+KnobPick chooseKnob(const std::vector<BudgetKnob>& knobs, const std::vector<KnobModel>& models,
+                    double budgetMs, double aim, double tolerance) {
     checkBudget(budgetMs);
     if (knobs.empty() || knobs.size() != models.size()) throw UsageError("budget planner: no knob to turn");
     std::optional<KnobPick> best, nearestPick;
@@ -135,8 +140,8 @@ KnobPick chooseKnob(const std::vector<BudgetKnob>& knobs, const std::vector<Knob
     os << "render.budget_ms " << budgetMs << " cannot be met within " << fixed(100 * tolerance, 0) << "%:";
     for (std::size_t i = 0; i < knobs.size(); ++i) {
         const BudgetKnob& k = knobs[i];
-        os << (i ? "," : "") << " " << k.name << " " << value(k, fastEnd(k)) << ".." << value(k, slowEnd(k)) << " ("
-           << k.route << ") takes " << sci(models[i].timeMs(k, fastEnd(k))) << ".."
+        os << (i ? "," : "") << " " << k.name << " " << value(k, fastEnd(k)) << ".." << value(k, slowEnd(k))
+           << " (" << k.route << ") takes " << sci(models[i].timeMs(k, fastEnd(k))) << ".."
            << sci(models[i].timeMs(k, slowEnd(k))) << " ms";
     }
     throw UsageError(os.str());
@@ -144,9 +149,9 @@ KnobPick chooseKnob(const std::vector<BudgetKnob>& knobs, const std::vector<Knob
 
 std::string BudgetChoice::text() const {
     std::ostringstream os;
-    os << "budget " << fixed(budgetMs, 1) << " ms: " << knob << " " << std::setprecision(4) << value << " (" << route
-       << "), predicted " << fixed(predictedMs, 1) << " ms, measured " << fixed(measuredMs, 1) << " ms ("
-       << percent(measuredMs, budgetMs) << ")\n";
+    os << "budget " << fixed(budgetMs, 1) << " ms: " << knob << " " << std::setprecision(4) << value << " ("
+       << route << "), predicted " << fixed(predictedMs, 1) << " ms, measured " << fixed(measuredMs, 1)
+       << " ms (" << percent(measuredMs, budgetMs) << ")\n";
     os << "  expected error: RMSE " << sci(expectedError) << " against " << reference << " = "
        << (biasMeasured ? "route bias " + sci(biasError) : "route bias not measured") << " (+) " << knob
        << " error " << sci(knobError) << '\n';
@@ -181,8 +186,8 @@ BudgetChoice fitBudget(VolumeRenderer& r, double budgetMs, const std::vector<Bud
             if (k.error == KnobError::MonteCarlo) k.reseed(p, j);
             measured[i].push_back({v[j], timeFrames(r, p, runs, &images[i][j])});
             c.probes.push_back({k.name, v[j], measured[i].back().ms});
-            c.notes.push_back("probe " + k.name + " " + value(k, v[j]) + ": " + fixed(measured[i].back().ms, 2) +
-                              " ms");
+            c.notes.push_back("probe " + k.name + " " + value(k, v[j]) + ": " +
+                              fixed(measured[i].back().ms, 2) + " ms");
         }
         fitTime(k, measured[i][0], measured[i][1], models[i]);
         const double d = imageRmse(images[i][0], images[i][1]), p = k.errorExponent;
@@ -193,9 +198,8 @@ BudgetChoice fitBudget(VolumeRenderer& r, double budgetMs, const std::vector<Bud
     }
     // Bias: every deterministic route against the pooled probes of the first Monte Carlo route (its own noise
     // and the route's discretisation error at the probe removed in quadrature).
-    const auto mc = std::find_if(knobs.begin(), knobs.end(), [](const BudgetKnob& k) {
-        return k.error == KnobError::MonteCarlo;
-    });
+    const auto mc = std::find_if(knobs.begin(), knobs.end(),
+                                 [](const BudgetKnob& k) { return k.error == KnobError::MonteCarlo; });
     c.reference = "the converged image of this route";
     if (mc != knobs.end()) {
         const std::size_t m = std::size_t(mc - knobs.begin());
@@ -215,8 +219,8 @@ BudgetChoice fitBudget(VolumeRenderer& r, double budgetMs, const std::vector<Bud
 
     // Choice, then measured corrections: refit the chosen knob's time law to all its frames and choose again
     // (possibly another knob) until a frame lands within 5%; if none does after three corrections, the final
-    // weighted least-squares choice is measured once more. The kept frame is the last one measured, never the luckiest
-    // of several (that one would owe its closeness to noise).
+    // weighted least-squares choice is measured once more. The kept frame is the last one measured, never the
+    // luckiest of several (that one would owe its closeness to noise).
     KnobPick pick = chooseKnob(knobs, models, budgetMs);
     struct Try {
         KnobPick pick;
@@ -230,8 +234,8 @@ BudgetChoice fitBudget(VolumeRenderer& r, double budgetMs, const std::vector<Bud
         const double ms = timeFrames(r, s, runs);
         tries.push_back({p, ms});
         measured[p.knob].push_back({p.value, ms});
-        c.notes.push_back("try " + k.name + " " + value(k, p.value) + ": predicted " + fixed(p.predictedMs, 2) +
-                          " ms, measured " + fixed(ms, 2) + " ms");
+        c.notes.push_back("try " + k.name + " " + value(k, p.value) + ": predicted " +
+                          fixed(p.predictedMs, 2) + " ms, measured " + fixed(ms, 2) + " ms");
         return std::abs(ms - budgetMs) <= 0.05 * budgetMs;
     };
     auto refit = [&] {
@@ -272,15 +276,15 @@ BudgetChoice fitBudget(VolumeRenderer& r, double budgetMs, const std::vector<Bud
         if (i == best.pick.knob) continue;
         const KnobPick o = fitKnob(knobs[i], models[i], budgetMs);
         const bool inWindow = std::abs(o.predictedMs - budgetMs) <= 0.1 * budgetMs;
-        c.others.push_back(knobs[i].name + " " + value(knobs[i], o.value) + " (" + knobs[i].route + "): predicted " +
-                           fixed(o.predictedMs, 1) + " ms (" + percent(o.predictedMs, budgetMs) +
-                           "), expected RMSE " + sci(o.expectedError) +
+        c.others.push_back(knobs[i].name + " " + value(knobs[i], o.value) + " (" + knobs[i].route +
+                           "): predicted " + fixed(o.predictedMs, 1) + " ms (" +
+                           percent(o.predictedMs, budgetMs) + "), expected RMSE " + sci(o.expectedError) +
                            (inWindow ? "" : ", not within 10% of the budget"));
     }
     const double vMin = std::min(k.probe0, k.probe1), vMax = std::max(k.probe0, k.probe1);
     if (c.value < 0.25 * vMin || c.value > 4.0 * vMax)
-        c.notes.push_back(k.name + " error extrapolated from probes at " + value(k, vMin) + ".." + value(k, vMax) +
-                          ": far outside them the power law is only a trend");
+        c.notes.push_back(k.name + " error extrapolated from probes at " + value(k, vMin) + ".." +
+                          value(k, vMax) + ": far outside them the power law is only a trend");
     if (!c.met())
         c.notes.push_back("measured " + percent(c.measuredMs, budgetMs) +
                           ": frame times moved while planning (the machine's load)");

@@ -39,8 +39,8 @@ KnobPick fitKnob(const BudgetKnob& knob, const KnobModel& model, double budgetMs
 /// the lowest expected error, else the one nearest the budget. Throws UsageError for a budget that is not a
 /// finite number > 0, for no knobs, and when no knob comes within `tolerance` of the budget (the message
 /// gives the frame times each knob spans).
-KnobPick chooseKnob(const std::vector<BudgetKnob>& knobs, const std::vector<KnobModel>& models, double budgetMs,
-                    double aim = 0.1, double tolerance = 0.2);
+KnobPick chooseKnob(const std::vector<BudgetKnob>& knobs, const std::vector<KnobModel>& models,
+                    double budgetMs, double aim = 0.1, double tolerance = 0.2);
 
 /// What the planner chose, the prediction, the measured frame and the expected error with its parts.
 struct BudgetChoice {
@@ -50,22 +50,22 @@ struct BudgetChoice {
     double predictedMs = 0.0, measuredMs = 0.0;
     double expectedError = 0.0, biasError = 0.0, knobError = 0.0;
     bool biasMeasured = false;
-    std::string reference;             ///< the image the error is against
-    std::vector<std::string> others;   ///< what every other knob would have given
+    std::string reference;           ///< the image the error is against
+    std::vector<std::string> others; ///< what every other knob would have given
     struct Frame {
         std::string knob;
         double value = 0.0, ms = 0.0;
     };
-    std::vector<Frame> probes;         ///< the calibration frames, knob by knob
-    std::vector<std::string> notes;    ///< the probes, fits and corrective frames, in order
+    std::vector<Frame> probes;      ///< the calibration frames, knob by knob
+    std::vector<std::string> notes; ///< the probes, fits and corrective frames, in order
     bool met(double tolerance = 0.2) const { return std::abs(measuredMs - budgetMs) <= tolerance * budgetMs; }
     std::string text() const;
 };
 
 /// Calibrates every knob (two probe frames each, medians of `runs`), chooses (chooseKnob), then measures the
-/// choice and, while it is more than 5% off, refits the knob's time law to all its frames by weighted least squares
-/// and chooses again (at most three corrections, then the final fit measured once more); the last measured
-/// choice is kept and the renderer is left on it. Throws as chooseKnob does.
+/// choice and, while it is more than 5% off, refits the knob's time law to all its frames by weighted least
+/// squares and chooses again (at most three corrections, then the final fit measured once more); the last
+/// measured choice is kept and the renderer is left on it. Throws as chooseKnob does.
 BudgetChoice fitBudget(VolumeRenderer& renderer, double budgetMs, const std::vector<BudgetKnob>& knobs,
                        int runs = 3);
 
