@@ -58,12 +58,19 @@ TEST(CliMedia, GenerateCloudRefusesBadArgumentsWithoutOutput) {
     EXPECT_EQ(lines(missing.err), 1u);
 }
 
+/// A 24 x 24 x 8 generated cloud and a white TF in `dir`; returns "-q render --volume ... --tf ... " at
+/// 16 x 16 pixels (empty if the cloud could not be generated).
+std::string renderSmallCloud(const std::filesystem::path& dir) {
+    const std::string vol = (dir / "c.nrrd").string(), tf = (dir / "tf.json").string();
+    if (run("-q generate cloud --size 24,24,8 -o " + vol, dir).exitCode != 0) return {};
+    volcl::test::writeFile(tf, R"({"domain": [0, 255], "color": [[0, 1, 1, 1]], "extinction": [[0, 0], [255, 0.5]]})");
+    return "-q render --volume " + vol + " --tf " + tf + " --width 16 --height 16 ";
+}
+
 TEST(CliMedia, RenderMultipleScatteringAndRefusals) {
     const auto dir = volcl::test::tempDir("cli_media_render");
-    const std::string vol = (dir / "c.nrrd").string(), tf = (dir / "tf.json").string();
-    ASSERT_EQ(run("-q generate cloud --size 24,24,8 -o " + vol, dir).exitCode, 0);
-    volcl::test::writeFile(tf, R"({"domain": [0, 255], "color": [[0, 1, 1, 1]], "extinction": [[0, 0], [255, 0.5]]})");
-    const std::string base = "-q render --volume " + vol + " --tf " + tf + " --width 16 --height 16 ";
+    const std::string base = renderSmallCloud(dir);
+    ASSERT_FALSE(base.empty());
     const std::string a = (dir / "a.png").string(), b = (dir / "b.png").string(); // PNG: no timestamp
     ASSERT_EQ(run(base + "--scattering 0.9,0.5 --scattering-order multiple --samples 4 -o " + a, dir).exitCode, 0);
     ASSERT_EQ(run(base + "--scattering 0.9,0.5 --scattering-order multiple --samples 4 -o " + b, dir).exitCode, 0);
@@ -80,10 +87,9 @@ TEST(CliMedia, RenderMultipleScatteringAndRefusals) {
 
 TEST(CliMedia, FrameTimeBudgetChoosesOrRefusesWithoutOutput) {
     const auto dir = volcl::test::tempDir("cli_media_budget");
-    const std::string vol = (dir / "c.nrrd").string(), tf = (dir / "tf.json").string();
-    ASSERT_EQ(run("-q generate cloud --size 24,24,8 -o " + vol, dir).exitCode, 0);
-    volcl::test::writeFile(tf, R"({"domain": [0, 255], "color": [[0, 1, 1, 1]], "extinction": [[0, 0], [255, 0.5]]})");
-    const std::string base = "-q render --volume " + vol + " --tf " + tf + " --width 16 --height 16 --scattering 0.9,0.5 ";
+    const std::string cloud = renderSmallCloud(dir);
+    ASSERT_FALSE(cloud.empty());
+    const std::string base = cloud + "--scattering 0.9,0.5 ";
     // A reachable budget: the choice is reported (knob, route, expected error) and the image written.
     const RunResult ok = run(base + "--budget-ms 30 -o " + (dir / "ok.png").string(), dir);
     EXPECT_EQ(ok.exitCode, 0) << ok.err;
