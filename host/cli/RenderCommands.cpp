@@ -6,11 +6,13 @@
 #include "host/cli/Commands.hpp"
 #include "host/cli/FilterBench.hpp"
 #include "host/cli/MediaBench.hpp"
+#include "host/cli/BudgetBench.hpp"
 #include "host/cli/ScatterBench.hpp"
 #include "host/cli/MeshBench.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
+#include "host/render/BudgetPlanner.hpp"
 #include "host/render/EffectCosts.hpp"
 #include "host/render/RenderInput.hpp"
 #include "host/render/Scene.hpp"
@@ -87,6 +89,8 @@ struct BenchArgs {
     bool effects = false, vtk = false, sweep = true, filters = false, tables = false, fog = false;
     bool scattering = false;
     ScatterBenchOptions scatter;
+    std::string budgets;       ///< --budgets: frame-time budgets in ms
+    BudgetBenchOptions budget;
     std::string meshLengths = "8,16,32,64";
     std::string vtkMappers = "bunyk,projected_tetrahedra,zsweep";
     std::string vtkScript = std::string(VOLCL_SOURCE_DIR) + "/bench/vtk_raycast.py";
@@ -295,6 +299,13 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
         o.runs = a.runs;
         benchScattering(cc, input, tf, scene, o);
     }
+    if (!a.budgets.empty()) {
+        BudgetBenchOptions o = a.budget;
+        o.budgetsMs = parseNumbers(a.budgets, 0, "--budgets");
+        o.runs = a.runs;
+        o.referenceSamples = a.scatter.referenceSamples;
+        benchBudgets(cc, input, tf, scene, o);
+    }
     if (a.filters) benchFilters(cc, input, tf, scene, a.runs, a.sweep || a.vtk ? std::string() : a.csv);
     if (a.tables || a.fog) {
         const Volume* g = input.grid();
@@ -401,7 +412,8 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
                   "Print the effects compiled into the kernel and why others were dropped");
     cmd->add_flag("--half", a->half, "EXR: store half floats");
     cmd->add_option("--budget-ms", a->budgetMs,
-                    "Frame-time budget (kernel ms): the step is chosen to fit it (render.budget_ms)");
+                    "Frame-time budget (kernel ms): the scattering order, samples per pixel or step are chosen to fit "
+                    "it (render.budget_ms)");
     cmd->callback([a, &global] {
         if (a->out.empty() && !a->explain) throw UsageError("render: give -o/--output (or --explain)");
         Scene scene = a->scene.build();
@@ -448,7 +460,7 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
         VolumeRenderer& r = *renderer;
         if (a->explain) std::cout << r.plan().explain() << r.statistics() << '\n';
         if (scene.budgetMs > 0.0) {
-            const BudgetChoice choice = fitBudget(r, scene.budgetMs, {stepKnob(scene, r.bounds())});
+            const BudgetChoice choice = fitBudget(r, scene.budgetMs, budgetKnobs(r, scene));
             scene = r.scene();
             (a->explain ? std::cout : std::cerr) << choice.text();
         }
@@ -492,11 +504,16 @@ void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global) {
                 "Single and multiple scattering against a converged path-traced reference: ms/frame, cost "
                 "relative to the plain frame, RMSE against samples per pixel");
     b->add_option("--reference-samples", ba->scatter.referenceSamples,
-                  "--scatter-sweep: samples per pixel of the reference")
+                  "--scatter-sweep, --budgets: samples per pixel of the reference")
         ->capture_default_str();
     b->add_option("--max-samples", ba->scatter.maxSamples, "--scatter-sweep: largest samples per pixel of the sweep")
         ->capture_default_str();
     b->add_option("--scatter-csv", ba->scatter.csv, "--scatter-sweep: write the rows as CSV");
+    b->add_option("--budgets", ba->budgets,
+                  "Frame-time budgets in ms (e.g. 400,1000): the planner's choice for each, timed again in "
+                  "interleaved rounds, and its RMSE against the reference (--reference-samples)");
+    b->add_option("--budget-rounds", ba->budget.rounds, "--budgets: interleaved timing rounds")->capture_default_str();
+    b->add_option("--budget-csv", ba->budget.csv, "--budgets: write the rows as CSV");
     b->add_option("--scatter-images", ba->scatter.imageDir, "--scatter-sweep: write every variant's EXR and PNG here");
     b->add_flag("--vtk", ba->vtk, "Compare with VTK's vtkFixedPointVolumeRayCastMapper (python3-vtk9, xvfb)");
     b->add_flag("!--no-sweep", ba->sweep, "Skip the step x pre-integration x skipping sweep");

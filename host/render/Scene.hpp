@@ -159,7 +159,7 @@ struct Scene {
     /// MIP window (centre, width) in data values; absent: the data's value range.
     std::optional<std::array<double, 2>> window;
     MipColor mipColor = MipColor::Grey;
-    /// Frame-time budget (kernel milliseconds): the planner picks the step to fit it; 0: none.
+    /// Frame-time budget (kernel milliseconds): the planner picks scattering order, samples and step; 0: none.
     double budgetMs = 0.0;
     /// Compressed-brick inputs only: level of detail, its error threshold and the decoded-brick budget.
     LodMode lod = LodMode::Full;

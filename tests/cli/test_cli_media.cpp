@@ -58,12 +58,19 @@ TEST(CliMedia, GenerateCloudRefusesBadArgumentsWithoutOutput) {
     EXPECT_EQ(lines(missing.err), 1u);
 }
 
+/// A 24 x 24 x 8 generated cloud and a white TF in `dir`; returns "-q render --volume ... --tf ... " at
+/// 16 x 16 pixels (empty if the cloud could not be generated).
+std::string renderSmallCloud(const std::filesystem::path& dir) {
+    const std::string vol = (dir / "c.nrrd").string(), tf = (dir / "tf.json").string();
+    if (run("-q generate cloud --size 24,24,8 -o " + vol, dir).exitCode != 0) return {};
+    volcl::test::writeFile(tf, R"({"domain": [0, 255], "color": [[0, 1, 1, 1]], "extinction": [[0, 0], [255, 0.5]]})");
+    return "-q render --volume " + vol + " --tf " + tf + " --width 16 --height 16 ";
+}
+
 TEST(CliMedia, RenderMultipleScatteringAndRefusals) {
     const auto dir = volcl::test::tempDir("cli_media_render");
-    const std::string vol = (dir / "c.nrrd").string(), tf = (dir / "tf.json").string();
-    ASSERT_EQ(run("-q generate cloud --size 24,24,8 -o " + vol, dir).exitCode, 0);
-    volcl::test::writeFile(tf, R"({"domain": [0, 255], "color": [[0, 1, 1, 1]], "extinction": [[0, 0], [255, 0.5]]})");
-    const std::string base = "-q render --volume " + vol + " --tf " + tf + " --width 16 --height 16 ";
+    const std::string base = renderSmallCloud(dir);
+    ASSERT_FALSE(base.empty());
     const std::string a = (dir / "a.png").string(), b = (dir / "b.png").string(); // PNG: no timestamp
     ASSERT_EQ(run(base + "--scattering 0.9,0.5 --scattering-order multiple --samples 4 -o " + a, dir).exitCode, 0);
     ASSERT_EQ(run(base + "--scattering 0.9,0.5 --scattering-order multiple --samples 4 -o " + b, dir).exitCode, 0);
@@ -76,6 +83,28 @@ TEST(CliMedia, RenderMultipleScatteringAndRefusals) {
                                dir);
     EXPECT_EQ(zero.exitCode, 2);
     EXPECT_FALSE(std::filesystem::exists(dir / "z.exr"));
+}
+
+TEST(CliMedia, FrameTimeBudgetChoosesOrRefusesWithoutOutput) {
+    const auto dir = volcl::test::tempDir("cli_media_budget");
+    const std::string cloud = renderSmallCloud(dir);
+    ASSERT_FALSE(cloud.empty());
+    const std::string base = cloud + "--scattering 0.9,0.5 ";
+    // A reachable budget: the choice is reported (knob, route, expected error) and the image written.
+    const RunResult ok = run(base + "--budget-ms 30 -o " + (dir / "ok.png").string(), dir);
+    EXPECT_EQ(ok.exitCode, 0) << ok.err;
+    EXPECT_TRUE(std::filesystem::exists(dir / "ok.png"));
+    EXPECT_NE(ok.err.find("expected error: RMSE"), std::string::npos) << ok.err;
+    EXPECT_NE(ok.err.find("instead: "), std::string::npos) << "both routes were weighed: " << ok.err;
+    // Bad and unreachable budgets: exit 2, one line, nothing written.
+    for (const std::string bad : {"-1", "nan", "inf", "1e-9"}) {
+        const auto out = dir / "bad.png";
+        const RunResult r = run(base + "--budget-ms " + bad + " -o " + out.string(), dir);
+        EXPECT_EQ(r.exitCode, 2) << bad << ": " << r.err;
+        EXPECT_EQ(lines(r.err), 1u) << bad << ": " << r.err;
+        EXPECT_NE(r.err.find("budget_ms"), std::string::npos) << bad << ": " << r.err;
+        EXPECT_FALSE(std::filesystem::exists(out)) << bad;
+    }
 }
 
 } // namespace
