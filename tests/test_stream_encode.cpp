@@ -32,9 +32,11 @@ VolumeSource sourceOf(const Volume& v) {
     return s;
 }
 
-std::vector<std::byte> streamed(const Volume& v, const CodecOptions& o, bool stats, StreamEncodeReport* r = nullptr) {
+std::vector<std::byte> streamed(const Volume& v, const CodecOptions& o, bool stats,
+                                StreamEncodeReport* r = nullptr) {
     std::stringstream out(std::ios::in | std::ios::out | std::ios::binary);
-    const StreamEncodeReport rep = encodeStreaming(test::computeContext(), sourceOf(v), o, stats, out, "stream.vcz");
+    const StreamEncodeReport rep =
+        encodeStreaming(test::computeContext(), sourceOf(v), o, stats, out, "stream.vcz");
     if (r) *r = rep;
     const std::string s = out.str();
     std::vector<std::byte> bytes(s.size());

@@ -29,8 +29,9 @@ void addGenerateCommand(CLI::App& app, GlobalOptions& global) {
         std::optional<double> frequency, coverage, erosion;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("-o,--output", a->output, "Output volume (format from the extension: .nrrd, .nii.gz, .vti, .vdb, .raw; .vcz is encoded losslessly "
-                    "while it is generated, one brick row at a time, never holding the whole volume)")
+    cmd->add_option("-o,--output", a->output,
+                    "Output volume (format from the extension: .nrrd, .nii.gz, .vti, .vdb, .raw; .vcz is encoded "
+                    "losslessly while it is generated, one brick row at a time, never holding the whole volume)")
         ->required();
     cmd->add_option("--size", a->size, "X,Y,Z voxels (default 128,128,32; the preset's size with --preset)");
     cmd->add_option("--seed", a->seed, "Noise seed: the same seed gives the same bytes")->capture_default_str();
@@ -63,7 +64,8 @@ void addGenerateCommand(CLI::App& app, GlobalOptions& global) {
                 std::cerr << "cloud " << p.dims.x << "x" << p.dims.y << "x" << p.dims.z << " seed " << p.seed
                           << " -> " << a->output << ": " << r.bytes << " bytes, " << r.rows << " brick rows of at most "
                           << r.rowBytes << " bytes, peak RSS " << peakResidentBytes() / (1024 * 1024)
-                          << " MiB for a volume of " << p.dims.count() / (1024 * 1024) << " MiB decoded (" << sw.milliseconds() << " ms)\n";
+                          << " MiB for a volume of " << p.dims.count() / (1024 * 1024) << " MiB decoded ("
+                          << sw.milliseconds() << " ms)\n";
             return;
         }
         const Volume v = generateCloud(p);

@@ -145,7 +145,8 @@ TEST(CliBricks, SeriesFrameAndCorruptedBrick) {
 
 // A cloud generated straight into a .vcz (streamed brick row by brick row) renders from its bricks, with a
 // cache holding only the clipped region's bricks, as that region decoded in full renders: the .vcz render is
-// clipped to the region's box, the cropped volume's render needs no clip. A generate into a missing directory fails naming the file and leaves nothing.
+// clipped to the region's box, the cropped volume's render needs no clip. A generate into a missing directory
+// fails naming the file and leaves nothing.
 TEST(CliBricks, StreamedCloudRendersAsACroppedRegion) {
     const fs::path dir = test::tempDir("cli_bricks_stream");
     test::writeFile(dir / "tf.json", kTf);
@@ -160,8 +161,8 @@ TEST(CliBricks, StreamedCloudRendersAsACroppedRegion) {
 
     r = run("decode " + q(dir / "cloud.vcz") + " --region 66,0,0:96,80,40 -o " + q(dir / "crop.nrrd"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    const std::string cam = " --tf " + q(dir / "tf.json") +
-                            " --tf-range 0,255 --width 64 --height 64 --eye 150,-60,90 --target 81,40,20 --view-height 110";
+    const std::string cam = " --tf " + q(dir / "tf.json") + " --tf-range 0,255 --width 64 --height 64" +
+                            " --eye 150,-60,90 --target 81,40,20 --view-height 110";
     r = run("render --volume " + q(dir / "crop.nrrd") + cam + " -o " + q(dir / "crop.exr"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     // The region shares four faces with the volume: two planes clip the others. The bricks of x < 64 lie

@@ -21,12 +21,14 @@ void writeOrThrow(std::ostream& out, const void* data, std::size_t n, const std:
 
 } // namespace
 
-StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& source, const CodecOptions& options,
-                                   bool lodStatistics, std::ostream& out, const std::string& name) {
+StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& source,
+                                   const CodecOptions& options, bool lodStatistics, std::ostream& out,
+                                   const std::string& name) {
     if (options.rate != RateMode::Lossless)
         throw UsageError("streaming encode is lossless only: a lossy rate search needs the whole volume");
     if (source.type == ScalarType::Float32)
-        throw UsageError("streaming encode needs integer voxels: float32 is kept as raw bits over the whole volume");
+        throw UsageError(
+            "streaming encode needs integer voxels: float32 is kept as raw bits over the whole volume");
     if (source.dims.count() == 0) throw UsageError("cannot encode an empty volume");
     if (!source.fill) throw Error("internal: a volume source without a fill function");
 
@@ -56,7 +58,8 @@ StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& sourc
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
     for (std::size_t r = 0; r < rows; ++r) {
         const Dims at{0, (r % grid.y) * h.brick.y, (r / grid.y) * h.brick.z};
-        Volume row({source.dims.x, std::min(h.brick.y, source.dims.y - at.y), std::min(h.brick.z, source.dims.z - at.z)},
+        Volume row({source.dims.x, std::min(h.brick.y, source.dims.y - at.y),
+                    std::min(h.brick.z, source.dims.z - at.z)},
                    source.type);
         row.spacing = source.spacing;
         row.origin = source.origin;
@@ -66,7 +69,8 @@ StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& sourc
         if (lodStatistics) coded = addLodStatistics(cc, std::move(coded), std::span(&row, 1), name);
         const VczHeader rh = readVczHeader(coded, name);
         if (r == 0) {
-            // Everything the options decide (wavelet, transform, levels, entropy, steps) as the encoder set it.
+            // Everything the options decide (wavelet, transform, levels, entropy, steps) as the encoder set
+            // it.
             VczHeader full = rh;
             full.dims = h.dims;
             full.spacing = source.spacing;
@@ -90,7 +94,8 @@ StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& sourc
         if (lodStatistics) {
             const auto rs = LodStatistics::fromHeader(rh, name);
             const std::size_t n = std::size_t(options.levels + 1);
-            std::copy_n(rs->frames[0].begin(), perRow * n, stats.frames[0].begin() + std::ptrdiff_t(r * perRow * n));
+            std::copy_n(rs->frames[0].begin(), perRow * n,
+                        stats.frames[0].begin() + std::ptrdiff_t(r * perRow * n));
         }
         ++report.rows;
     }

@@ -39,7 +39,8 @@ struct StreamEncodeReport {
 /// byte for byte, encodeVolume followed by addLodStatistics on the whole volume (tests compare them).
 /// Throws UsageError for options the stream cannot code (lossy rates, float voxels: their rate control
 /// and value range need the whole volume), IoError naming `name` when writing fails.
-StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& source, const CodecOptions& options,
-                                   bool lodStatistics, std::ostream& out, const std::string& name);
+StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& source,
+                                   const CodecOptions& options, bool lodStatistics, std::ostream& out,
+                                   const std::string& name);
 
 } // namespace volcl
