@@ -1,11 +1,16 @@
-// `volcl generate`: synthetic volumes for rendering; `generate cloud` makes cloud density from seeded noise.
+// `volcl generate`: synthetic volumes for rendering; `generate cloud` makes cloud density from seeded noise,
+// into a .vcz brick row by brick row when the output is one (volumes larger than memory).
 #include "host/Error.hpp"
 #include "host/cli/CliParsing.hpp"
 #include "host/cli/Commands.hpp"
+#include "host/io/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "host/phantoms/Cloud.hpp"
+#include "host/runtime/PeakMemory.hpp"
 #include "host/runtime/Timing.hpp"
+#include "wavelet/stream/StreamEncoder.hpp"
 
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -24,7 +29,9 @@ void addGenerateCommand(CLI::App& app, GlobalOptions& global) {
         std::optional<double> frequency, coverage, erosion;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("-o,--output", a->output, "Output volume (format from the extension: .nrrd, .nii.gz, .vti, .vdb, .raw)")
+    cmd->add_option("-o,--output", a->output,
+                    "Output volume (format from the extension: .nrrd, .nii.gz, .vti, .vdb, .raw; .vcz is encoded "
+                    "losslessly while it is generated, one brick row at a time, never holding the whole volume)")
         ->required();
     cmd->add_option("--size", a->size, "X,Y,Z voxels (default 128,128,32; the preset's size with --preset)");
     cmd->add_option("--seed", a->seed, "Noise seed: the same seed gives the same bytes")->capture_default_str();
@@ -43,6 +50,24 @@ void addGenerateCommand(CLI::App& app, GlobalOptions& global) {
         if (a->coverage) p.coverage = *a->coverage;
         if (a->erosion) p.erosion = *a->erosion;
         Stopwatch sw;
+        if (std::filesystem::path(a->output).extension() == ".vcz") {
+            // Generated and coded row by row: memory stays at one brick row whatever the size.
+            VolumeSource src;
+            src.dims = p.dims;
+            src.type = ScalarType::UInt8;
+            src.fill = [&p](Dims lo, Volume& out) { generateCloudRegion(p, lo, out); };
+            ComputeContext cc(global.device);
+            AtomicFile out(a->output);
+            const StreamEncodeReport r = encodeStreaming(cc, src, CodecOptions{}, true, out.stream(), a->output);
+            out.commit();
+            if (!global.quiet)
+                std::cerr << "cloud " << p.dims.x << "x" << p.dims.y << "x" << p.dims.z << " seed " << p.seed
+                          << " -> " << a->output << ": " << r.bytes << " bytes, " << r.rows << " brick rows of at most "
+                          << r.rowBytes << " bytes, peak RSS " << peakResidentBytes() / (1024 * 1024)
+                          << " MiB for a volume of " << p.dims.count() / (1024 * 1024) << " MiB decoded ("
+                          << sw.milliseconds() << " ms)\n";
+            return;
+        }
         const Volume v = generateCloud(p);
         writeVolumeFile(v, a->output);
         if (!global.quiet)

@@ -30,4 +30,8 @@ double cloudDensity(const CloudParams& p, double x, double y, double z, double h
 /// `Volume v = generateCloud(roettgerCloudPreset());`
 Volume generateCloud(const CloudParams& p, unsigned threads = 0);
 
+/// The box [lo, lo + out.dims()) of generateCloud(p), written into `out` (uint8): the voxels equal the whole
+/// cloud's, so a cloud larger than memory can be produced piece by piece (`volcl generate cloud -o x.vcz`).
+void generateCloudRegion(const CloudParams& p, Dims lo, Volume& out, unsigned threads = 0);
+
 } // namespace volcl

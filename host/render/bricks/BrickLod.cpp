@@ -153,7 +153,12 @@ bool brickReachable(const VczHeader& h, std::size_t b, const BrickView& view) {
     const double aspect = double(view.width) / double(view.height);
     double x0 = kInf, x1 = -kInf, y0 = kInf, y1 = -kInf, dmax = -kInf;
     bool behind = false;
-    for (const Vec3& p : brickCorners(h, b, 1.0)) {
+    const std::array<Vec3, 8> corners = brickCorners(h, b, 1.0);
+    for (const ClipPlane& cp : view.clipPlanes)
+        if (std::all_of(corners.begin(), corners.end(),
+                        [&](const Vec3& p) { return dot(cp.normal, p) + cp.offset < 0.0; }))
+            return false; // clipped away: no sample the march keeps reads it
+    for (const Vec3& p : corners) {
         const Vec3 rel = sub(p, c.eye);
         const double d = dot(rel, v.f);
         dmax = std::max(dmax, d);

@@ -22,6 +22,9 @@ struct BrickView {
     std::vector<double> isoValues;
     bool isoOnly = false;
     int tableNodes = 0; ///< pre-integration table nodes (0: point sampling)
+    /// Clipping planes of the scene: a brick (grown by the voxel its neighbours' cells reach into) wholly on
+    /// the cut side of one is out of the working set, so a clipped region renders with a cache sized for it.
+    std::vector<ClipPlane> clipPlanes;
 };
 
 /// One frame's bricks. `level[b]` is the level brick b is drawn at, -1 when it is not decoded (no ray reaches

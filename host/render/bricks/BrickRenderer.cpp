@@ -431,6 +431,7 @@ ImageBuffer BrickRenderer::render() {
     for (const auto& iso : plan_.isosurfaces)
         view.isoValues.push_back(iso.value);
     view.isoOnly = scene_.mode == RenderMode::Iso;
+    view.clipPlanes = plan_.clipPlanes;
     const Preintegration pre = scene_.mode == RenderMode::Dvr ? scene_.preintegration : Preintegration::None;
     view.tableNodes = pre != Preintegration::None ? scene_.tableSize : 0;
     // MIP and x-ray see every value: nothing is hidden by the TF there.
