@@ -9,6 +9,8 @@
 # crash-* in the working directory; keep it under fuzz/regressions/<target>/ once fixed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Leak reports count as findings; only the third-party libraries in tests/lsan.supp are exempt.
+export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$PWD/tests/lsan.supp}"
 build="build-fuzz"
 mode="short"
 count=0

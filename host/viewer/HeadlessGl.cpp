@@ -6,9 +6,13 @@
 #include <epoxy/egl.h>
 #include <epoxy/gl.h>
 
+#include <dlfcn.h>
+#include <link.h>
+
 #include <cstdlib>
 #include <cstring>
 #include <sstream>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -95,6 +99,24 @@ void release(Attempt& a) {
     a = {};
 }
 
+// Keeps every Mesa DRI driver now mapped (<libdir>/dri/*_dri.so, e.g. llvmpipe's swrast_dri.so) loaded until
+// the process exits. eglTerminate unloads the driver while its process-lifetime allocations are still held by
+// the driver's own globals: LeakSanitizer then reports them as leaks from an unknown module, which no
+// suppression can name. Pinned, they stay reachable (and attributable to the driver), and a second context
+// does not map the driver again. RTLD_NOLOAD only raises the flags of an object already loaded.
+// (The names are collected first: dlopen must not run inside dl_iterate_phdr, which holds the loader's lock.)
+void pinGlDrivers() {
+    std::vector<std::string> drivers;
+    dl_iterate_phdr(
+        [](dl_phdr_info* info, std::size_t, void* out) {
+            if (info->dlpi_name && std::strstr(info->dlpi_name, "/dri/"))
+                static_cast<std::vector<std::string>*>(out)->emplace_back(info->dlpi_name);
+            return 0;
+        },
+        &drivers);
+    for (const std::string& driver : drivers) dlopen(driver.c_str(), RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+}
+
 const char* platformName(EglPlatform p) {
     switch (p) {
     case EglPlatform::Device:
@@ -157,6 +179,7 @@ HeadlessGlContext::HeadlessGlContext() {
             context_ = a.context;
             surface_ = a.surface;
             platform_ = p;
+            pinGlDrivers();
             return;
         }
         release(a);
