@@ -35,6 +35,11 @@ std::size_t gCurrentSize = 0;
 
 // Saves the input that crashed or hung as ./crash-<pid> so it can become a regression file.
 void dumpCurrentInput() {
+    if (gCurrent == nullptr) {
+        static const char msg[] = "replay: the failure came after the inputs ran (e.g. a leak found at exit)\n";
+        (void)!::write(2, msg, sizeof(msg) - 1);
+        return;
+    }
     char name[64];
     std::snprintf(name, sizeof(name), "crash-%d", static_cast<int>(::getpid()));
     const int fd = ::open(name, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
@@ -142,6 +147,9 @@ void execute(const Bytes& input, unsigned timeoutSeconds) {
     ::alarm(timeoutSeconds);
     LLVMFuzzerTestOneInput(input.data(), input.size());
     ::alarm(0);
+    // The input is freed after this: a sanitizer death outside a run (LeakSanitizer at exit) must not read it.
+    gCurrent = nullptr;
+    gCurrentSize = 0;
 }
 
 } // namespace
