@@ -127,8 +127,8 @@ BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::spa
     return st;
 }
 
-std::vector<std::byte> addLodStatistics(ComputeContext& cc, std::vector<std::byte> vcz,
-                                        std::span<const Volume> inputs, const std::string& name) {
+LodStatistics measureLodStatistics(ComputeContext& cc, const std::vector<std::byte>& vcz,
+                                  std::span<const Volume> inputs, const std::string& name) {
     const VczReader reader(vcz, name);
     const VczHeader& h = reader.header();
     if (inputs.size() != h.frames.size()) throw Error("internal: LOD statistics need every input frame");
@@ -176,7 +176,13 @@ std::vector<std::byte> addLodStatistics(ComputeContext& cc, std::vector<std::byt
         });
         st.frames[f] = std::move(out);
     }
+    return st;
+}
 
+std::vector<std::byte> addLodStatistics(ComputeContext& cc, std::vector<std::byte> vcz,
+                                        std::span<const Volume> inputs, const std::string& name) {
+    const LodStatistics st = measureLodStatistics(cc, vcz, inputs, name);
+    const VczHeader h = readVczHeader(vcz, name);
     // Rewrite the header with the statistics; the payload block moves by the preamble's growth.
     VczHeader nh = h;
     nh.metadata[std::string(kVczLodKey)] = st.serialise();

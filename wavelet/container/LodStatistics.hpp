@@ -108,8 +108,11 @@ void forEachLevelValue(std::span<const float> coarse, Dims m, Dims full, int lev
 BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::span<const float> input,
                                 Dims full, int level);
 
-/// Measures the statistics of `vcz` against the frames it was encoded from (`inputs`, display order) and
-/// returns the file with them in its header (payloads unchanged, offsets moved).
+/// Measures the statistics of `vcz` against the frames it was encoded from (`inputs`, display order).
+LodStatistics measureLodStatistics(ComputeContext& cc, const std::vector<std::byte>& vcz,
+                                   std::span<const Volume> inputs, const std::string& name);
+
+/// measureLodStatistics, returned as the file with them in its header (payloads unchanged, offsets moved).
 std::vector<std::byte> addLodStatistics(ComputeContext& cc, std::vector<std::byte> vcz,
                                         std::span<const Volume> inputs, const std::string& name);
 

@@ -44,7 +44,8 @@ StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& sourc
     LodStatistics stats;
     stats.levels = options.levels;
     if (lodStatistics) {
-        // Fixed-size serialisation: a placeholder of the final length sizes the preamble exactly.
+        // The serialisation's size depends only on the entry count, so zero-valued statistics of the final
+        // count size the preamble exactly.
         stats.frames.assign(1, std::vector<BrickLevelStats>(nb * std::size_t(options.levels + 1)));
         h.metadata[std::string(kVczLodKey)] = stats.serialise();
     }
@@ -66,7 +67,6 @@ StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& sourc
         source.fill(at, row);
         report.rowBytes = std::max(report.rowBytes, row.byteSize());
         std::vector<std::byte> coded = encodeVolume(cc, row, options);
-        if (lodStatistics) coded = addLodStatistics(cc, std::move(coded), std::span(&row, 1), name);
         const VczHeader rh = readVczHeader(coded, name);
         if (r == 0) {
             // Everything the options decide (wavelet, transform, levels, entropy, steps) as the encoder set
@@ -92,9 +92,10 @@ StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& sourc
             h.bricks[0][r * perRow + i] = e;
         }
         if (lodStatistics) {
-            const auto rs = LodStatistics::fromHeader(rh, name);
+            // Measured on the row's own file; only the statistics are kept, the row is not rewritten.
+            const LodStatistics rs = measureLodStatistics(cc, coded, std::span(&row, 1), name);
             const std::size_t n = std::size_t(options.levels + 1);
-            std::copy_n(rs->frames[0].begin(), perRow * n,
+            std::copy_n(rs.frames[0].begin(), perRow * n,
                         stats.frames[0].begin() + std::ptrdiff_t(r * perRow * n));
         }
         ++report.rows;
