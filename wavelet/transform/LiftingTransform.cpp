@@ -270,7 +270,7 @@ template <class T> void BatchMapping<T>::unmap() noexcept {
 // (ComputeContext gives large ones huge pages there).
 template <class T>
 BrickBatch<T>::BrickBatch(ComputeContext& cc, Dims brick, std::size_t count)
-    : brick_(brick), count_(count), pitch_(roundUp(std::max<std::size_t>(brick.x, 1), 16)) {
+    : brick_(brick), count_(count), pitch_(pitchFor(brick.x)) {
     if (brick.count() == 0 || count == 0) throw UsageError("brick batch: empty brick or zero bricks");
     // kSlack elements past the last brick: the brick kernel's x pass reads and blends whole 16-lane vectors
     // that may run up to 16 elements past the last row.

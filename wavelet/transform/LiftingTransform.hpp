@@ -5,6 +5,7 @@
 #include "host/runtime/ClRuntime.hpp"
 #include "wavelet/CodecTypes.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <span>
@@ -67,6 +68,8 @@ public:
     std::size_t pitch() const noexcept { return pitch_; }
     /// Elements per brick in the padded layout (pitch * by * bz).
     std::size_t brickStride() const noexcept { return pitch_ * brick_.y * brick_.z; }
+    /// brickStride() of a batch of `brick`-shaped bricks, without making one.
+    static std::size_t strideFor(Dims brick) noexcept { return pitchFor(brick.x) * brick.y * brick.z; }
     /// Host array in the padded layout, brick after brick, ready for upload()/filled by download().
     std::vector<T> makeHost() const { return std::vector<T>(brickStride() * count_); }
     void upload(ComputeContext& cc, std::span<const T> host);
@@ -82,6 +85,7 @@ public:
     void swap() noexcept { current_ = !current_; }
 
 private:
+    static std::size_t pitchFor(std::size_t x) noexcept { return roundUp(std::max<std::size_t>(x, 1), 16); }
     Dims brick_;
     std::size_t count_ = 0, pitch_ = 0;
     DeviceBuffer<T> a_, b_;
