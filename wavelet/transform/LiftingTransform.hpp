@@ -185,7 +185,8 @@ private:
     double transformAll(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse, int levels,
                         int stopLevel);
     void buildStreaming(ComputeContext& cc);               // the lifting.cl kernels, once
-    void buildBrick(ComputeContext& cc, std::size_t maxN); // the lifting_brick.cl kernels for LIFT_MAXN maxN
+    void useBrickSize(std::size_t maxN); // the lifting_brick.cl kernels from now on are for LIFT_MAXN maxN
+    cl::Kernel& brickKernel(ComputeContext& cc, bool inverse); // built on first use
     cl::Kernel& voxelKernel(ComputeContext& cc, ScalarType type,
                             bool inverse); // reading/writing `type` voxels
     Wavelet wavelet_;
@@ -193,7 +194,7 @@ private:
     bool cpuDevice_ = false;
     bool streamingBuilt_ = false;
     cl::Kernel fwdX_, fwdYz_, invX_, invYz_, copy_;
-    std::size_t brickMaxN_ = 0; // LIFT_MAXN the brick kernels below were built with (0: not built)
+    std::size_t brickMaxN_ = 0; // LIFT_MAXN of the brick kernels below (0: none chosen yet)
     cl::Kernel fwdBrick_, invBrick_;
     std::array<cl::Kernel, 8> brickVoxels_; // [inverse * 4 + ScalarType], built on first use for brickMaxN_
     DeviceBuffer<cl_int> brickNext_; // the brick kernel's work counter
