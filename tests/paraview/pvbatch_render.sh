@@ -8,10 +8,10 @@ set -euo pipefail
 mpiexec=$1 maker=$2 plugin=$3 pvpython=$4 here=$5 work=$6
 [[ -f "$pvpython/paraview/simple.py" ]] ||
   { echo "pvbatch_render.sh: no paraview.simple under $pvpython: run scripts/setup.sh" >&2; exit 1; }
-# Debian's pvbatch renders through GLX only (no EGL or OSMesa build): every rank draws on one Xvfb display
-# (Mesa llvmpipe), started here for the whole test.
-if [[ -z "${VOLCL_PVBATCH_XVFB:-}" ]]; then
-  exec env VOLCL_PVBATCH_XVFB=1 xvfb-run -a -s "-screen 0 640x480x24" bash "$0" "$@"
+# Debian's pvbatch renders through GLX only (no EGL or OSMesa build): every rank draws on one private Xvfb
+# display (Mesa llvmpipe), started here for the whole test.
+if [[ -z "${DISPLAY_OF_TEST:-}" ]]; then
+  exec env DISPLAY_OF_TEST=1 bash "$here/with_xvfb.sh" bash "$0" "$@"
 fi
 rm -rf "$work" && mkdir -p "$work" && cd "$work"
 export PYTHONPATH=$pvpython OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
@@ -21,21 +21,20 @@ check() { /usr/bin/python3 "$here/check_render.py" "$@"; }
 one() { timeout 300 pvbatch "$script" "$plugin" "$@"; }
 two() { timeout 300 "$mpiexec" -n 2 --oversubscribe pvbatch --mpi "$script" "$plugin" "$@"; }
 
-# 96x80x128 in 32^3 bricks: 3x3x4 = 36 bricks; on 2 ranks two brick layers (18 bricks) each.
-"$maker" make field.vcz 96 80 128
-one field.vcz one.png one.json
-check bricks one.json 36
-two field.vcz two.png two.json
-check bricks two.json 18,18
-check images one.png two.png
-
+# A generated volume (32^3 bricks) on 1 and 2 ranks: bricks per rank, then the 2-rank image against the
+# 1-rank one. Usage: renders NAME NX NY NZ BRICKS_1_RANK BRICKS_PER_RANK_ON_2
+renders() {
+  "$maker" make "$1.vcz" "$2" "$3" "$4"
+  one "$1.vcz" "$1-1.png" "$1-1.json"
+  check bricks "$1-1.json" "$5"
+  two "$1.vcz" "$1-2.png" "$1-2.json"
+  check bricks "$1-2.json" "$6"
+  check images "$1-1.png" "$1-2.png"
+}
+# 96x80x128: 3x3x4 = 36 bricks; on 2 ranks two brick layers (18 bricks) each.
+renders field 96 80 128 36 18,18
 # Fewer bricks than ranks: 24x20x16 is one brick; the ranks split its samples and both decode it.
-"$maker" make tiny.vcz 24 20 16
-one tiny.vcz tiny1.png tiny1.json
-check bricks tiny1.json 1
-two tiny.vcz tiny2.png tiny2.json
-check bricks tiny2.json 1,1
-check images tiny1.png tiny2.png
+renders tiny 24 20 16 1 1,1
 
 # Corrupt files: the run exits 1 (not a signal), says which file, writes no image.
 fails() { # label, expected text, command...
