@@ -2,6 +2,8 @@
 #   check_render.py bricks REPORT.json N0,N1,...   each rank decoded exactly N_r bricks, over disjoint z slabs
 #                                                  that tile the volume
 #   check_render.py images A.png B.png             B equals A within the compositing tolerance below
+#   check_render.py differ A.png B.png             B is another picture: over 10 % of pixels beyond 4/255
+#   check_render.py frames REPORT.json T0,T1,.. F  the reader gave those time steps and every rank frame F
 import json
 import sys
 
@@ -30,13 +32,34 @@ def bricks(report_path, expected):
         sys.exit("%s: the z slabs %s do not tile the volume" % (report_path, z))
 
 
-def images(a_path, b_path):
+def difference(a_path, b_path):
     a = image.imread(a_path)[..., :3].astype(np.float64)
     b = image.imread(b_path)[..., :3].astype(np.float64)
     if a.shape != b.shape:
         sys.exit("%s and %s differ in size" % (a_path, b_path))
     d = np.abs(a - b)
-    above = float(np.mean(np.max(d, axis=2) > LEVEL))
+    return a, d, float(np.mean(np.max(d, axis=2) > LEVEL))
+
+
+def differ(a_path, b_path):
+    _, d, above = difference(a_path, b_path)
+    print("%s vs %s: %.1f %% of pixels above %.0f/255" % (b_path, a_path, 100 * above, 255 * LEVEL))
+    if above < 0.1:
+        sys.exit("%s looks like %s (%.1f %% of pixels differ)" % (b_path, a_path, 100 * above))
+
+
+def frames(report_path, steps, frame):
+    report = json.load(open(report_path))
+    want = [float(t) for t in steps.split(",")]
+    got = [p["frame"] for p in report["pieces"]]
+    print("%s: time steps %s, frame per rank %s" % (report_path, report["time_steps"], got))
+    if report["time_steps"] != want or any(f != int(frame) for f in got):
+        sys.exit("%s: time steps %s and frames %s, expected %s and frame %s" %
+                 (report_path, report["time_steps"], got, want, frame))
+
+
+def images(a_path, b_path):
+    a, d, above = difference(a_path, b_path)
     lit = float(np.mean(np.max(a, axis=2) > 8 / 255))
     print("%s vs %s: max %.1f/255, mean %.3f/255, %.3f %% of pixels above %.0f/255 (%.0f %% of pixels lit)" %
           (b_path, a_path, 255 * d.max(), 255 * d.mean(), 100 * above, 255 * LEVEL, 100 * lit))
@@ -47,4 +70,4 @@ def images(a_path, b_path):
 
 
 if __name__ == "__main__":
-    {"bricks": bricks, "images": images}[sys.argv[1]](*sys.argv[2:])
+    {"bricks": bricks, "images": images, "differ": differ, "frames": frames}[sys.argv[1]](*sys.argv[2:])

@@ -1,6 +1,7 @@
 # pvbatch script: loads the VolclReader plugin, reads a .vcz, volume-renders it and writes the image and the
 # reader's per-rank decode report (JSON). The same script runs on 1 rank and under mpiexec on several.
-# Usage: pvbatch [--mpi] pvbatch_render.py PLUGIN VCZ OUT.png OUT.json [--level L] [--size W H] [--bench K]
+# Usage: pvbatch [--mpi] pvbatch_render.py PLUGIN VCZ OUT.png OUT.json [--level L] [--time T] [--size W H]
+#        [--bench K]
 # --bench K: afterwards K rounds of decoding at the next level and back (kernels built, file read) and a
 # render from a moved camera, each timed, for docs/scaleout.md.
 # Exit 1 with one line naming the file when the reader fails (for example on a corrupt file).
@@ -14,11 +15,13 @@ from paraview.simple import (ColorBy, CreateView, GetColorTransferFunction, GetO
 
 args = sys.argv[1:]
 plugin, vcz, png, report_path = args[:4]
-level, size, bench = 0, [320, 240], 0
+level, size, bench, when = 0, [320, 240], 0, None
 rest = args[4:]
 while rest:
     if rest[0] == "--level":
         level, rest = int(rest[1]), rest[2:]
+    elif rest[0] == "--time":
+        when, rest = float(rest[1]), rest[2:]
     elif rest[0] == "--bench":
         bench, rest = int(rest[1]), rest[2:]
     elif rest[0] == "--size":
@@ -31,7 +34,10 @@ LoadPlugin(plugin, ns=globals())
 t0 = time.perf_counter()
 reader = VolclVczReader(FileName=vcz)  # noqa: F821 (defined by the plugin)
 reader.Level = level  # after creation: the level's domain default would override a constructor argument
-reader.UpdatePipeline()
+if when is None:
+    reader.UpdatePipeline()
+else:
+    reader.UpdatePipeline(when)
 t_read = time.perf_counter() - t0
 reader.UpdatePropertyInformation()
 info = reader.GetDataInformation()
@@ -42,6 +48,8 @@ if info.GetNumberOfPoints() == 0 or not report or not all(r["ok"] for r in repor
 
 view = CreateView("RenderView")
 view.ViewSize = size
+if when is not None:
+    view.ViewTime = when
 view.OrientationAxesVisibility = 0
 view.Background = [0.0, 0.0, 0.0]
 try:  # ParaView 5.10+: the background is taken from the palette unless told otherwise
@@ -85,6 +93,8 @@ for k in range(bench):
         Render(view)
         warm.append({"level": lv, "update_s": t_update, "render_s": time.perf_counter() - t1, "pieces": pieces})
 
+steps = reader.TimestepValues
 with open(report_path, "w") as f:
     json.dump({"ranks": ranks, "points": info.GetNumberOfPoints(), "bounds": list(b), "level": level,
+               "time_steps": list(steps) if hasattr(steps, "__len__") else [steps], "time": when,
                "update_s": t_read, "first_render_s": t_render, "pieces": report, "warm": warm}, f, indent=1)

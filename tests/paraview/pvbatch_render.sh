@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The ParaView reader plugin in pvbatch: a 2-rank volume render of a .vcz equals the 1-rank render within the
 # compositing tolerance (check_render.py) and each rank decodes exactly the bricks of its slab (the reader's
-# count); a .vcz of one brick on 2 ranks; a corrupt header and a corrupt brick fail with one line naming the
-# file, no crash and no hang.
+# count); a .vcz of one brick on 2 ranks; a series' time steps and frame; a corrupt header and a corrupt
+# brick fail with one line naming the file, no crash and no hang.
 # Usage: pvbatch_render.sh MPIEXEC VCZ_MPI_DECODE PLUGIN PARAVIEW_PYTHONPATH TEST_DIR WORK_DIR
 set -euo pipefail
 mpiexec=$1 maker=$2 plugin=$3 pvpython=$4 here=$5 work=$6
@@ -22,19 +22,27 @@ one() { timeout 300 pvbatch "$script" "$plugin" "$@"; }
 two() { timeout 300 "$mpiexec" -n 2 --oversubscribe pvbatch --mpi "$script" "$plugin" "$@"; }
 
 # A generated volume (32^3 bricks) on 1 and 2 ranks: bricks per rank, then the 2-rank image against the
-# 1-rank one. Usage: renders NAME NX NY NZ BRICKS_1_RANK BRICKS_PER_RANK_ON_2
+# 1-rank one. Usage: renders NAME NX NY NZ BRICKS_1_RANK BRICKS_PER_RANK_ON_2 [FRAMES TIME]
 renders() {
-  "$maker" make "$1.vcz" "$2" "$3" "$4"
-  one "$1.vcz" "$1-1.png" "$1-1.json"
-  check bricks "$1-1.json" "$5"
-  two "$1.vcz" "$1-2.png" "$1-2.json"
-  check bricks "$1-2.json" "$6"
-  check images "$1-1.png" "$1-2.png"
+  local name=$1 b1=$5 b2=$6 frames=${7:-1} at=()
+  [[ -z "${8:-}" ]] || at=(--time "$8")
+  "$maker" make "$name.vcz" "$2" "$3" "$4" "$frames"
+  one "$name.vcz" "$name-1.png" "$name-1.json" "${at[@]}"
+  check bricks "$name-1.json" "$b1"
+  two "$name.vcz" "$name-2.png" "$name-2.json" "${at[@]}"
+  check bricks "$name-2.json" "$b2"
+  check images "$name-1.png" "$name-2.png"
 }
 # 96x80x128: 3x3x4 = 36 bricks; on 2 ranks two brick layers (18 bricks) each.
 renders field 96 80 128 36 18,18
 # Fewer bricks than ranks: 24x20x16 is one brick; the ranks split its samples and both decode it.
 renders tiny 24 20 16 1 1,1
+# A series of 3 frames at times 0, 10, 20 (the ball moves): ParaView gets the time steps, and at time 20
+# every rank decodes frame 2, whose render is not frame 0's.
+renders series 96 80 128 36 18,18 3 20
+check frames series-1.json 0,10,20 2
+check frames series-2.json 0,10,20 2
+check differ field-1.png series-1.png
 
 # Corrupt files: the run exits 1 (not a signal), says which file, writes no image.
 fails() { # label, expected text, command...

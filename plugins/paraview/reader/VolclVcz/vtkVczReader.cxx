@@ -35,10 +35,14 @@ using namespace volcl;
 
 int vtkTypeOf(ScalarType t) {
     switch (t) {
-    case ScalarType::UInt8: return VTK_UNSIGNED_CHAR;
-    case ScalarType::UInt16: return VTK_UNSIGNED_SHORT;
-    case ScalarType::Int16: return VTK_SHORT;
-    case ScalarType::Float32: return VTK_FLOAT;
+    case ScalarType::UInt8:
+        return VTK_UNSIGNED_CHAR;
+    case ScalarType::UInt16:
+        return VTK_UNSIGNED_SHORT;
+    case ScalarType::Int16:
+        return VTK_SHORT;
+    case ScalarType::Float32:
+        return VTK_FLOAT;
     }
     return VTK_FLOAT;
 }
@@ -52,9 +56,9 @@ constexpr int kPlaneTag = 0x7c2a;
 
 // Figures of one rank's RequestData, gathered as doubles (AllGather of a fixed-size record).
 struct RankFigures {
-    double piece = 0, zlo = 0, zhi = 0, bricks = 0, fileBricks = 0, readMs = 0, decodeMs = 0, exchangeMs = 0,
-           ok = 1;
-    static constexpr int kCount = 9;
+    double piece = 0, frame = 0, zlo = 0, zhi = 0, bricks = 0, fileBricks = 0, readMs = 0, decodeMs = 0,
+           exchangeMs = 0, ok = 1;
+    static constexpr int kCount = 10;
     void to(double* d) const { std::copy_n(&piece, kCount, d); }
     static RankFigures from(const double* d) {
         RankFigures f;
@@ -94,17 +98,21 @@ struct vtkVczReader::Internals {
             if (f > 0 && !(times[f] > times[f - 1])) increasing = false;
         }
         if (!increasing)
-            for (std::size_t f = 0; f < times.size(); ++f) times[f] = double(f);
+            for (std::size_t f = 0; f < times.size(); ++f)
+                times[f] = double(f);
     }
 
     std::size_t frameAt(double t) const {
         std::size_t f = 0;
-        while (f + 1 < times.size() && times[f + 1] <= t + 1e-9 * std::max(1.0, std::abs(t))) ++f;
+        while (f + 1 < times.size() && times[f + 1] <= t + 1e-9 * std::max(1.0, std::abs(t)))
+            ++f;
         return f;
     }
 };
 
-vtkVczReader::vtkVczReader() : Impl(std::make_unique<Internals>()) { this->SetNumberOfInputPorts(0); }
+vtkVczReader::vtkVczReader() : Impl(std::make_unique<Internals>()) {
+    this->SetNumberOfInputPorts(0);
+}
 
 vtkVczReader::~vtkVczReader() = default;
 
@@ -115,7 +123,8 @@ int vtkVczReader::CanReadFile(const char* name) {
            std::memcmp(magic.data(), kVczMagic.data(), magic.size()) == 0;
 }
 
-int vtkVczReader::RequestInformation(vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector) {
+int vtkVczReader::RequestInformation(vtkInformation*, vtkInformationVector**,
+                                     vtkInformationVector* outputVector) {
     vtkInformation* outInfo = outputVector->GetInformationObject(0);
     try {
         this->Impl->open(this->FileName);
@@ -124,7 +133,8 @@ int vtkVczReader::RequestInformation(vtkInformation*, vtkInformationVector**, vt
         this->LevelRange[1] = h.transform == TransformKind::RawBits ? 16 : h.levels;
         if (this->Level > this->LevelRange[1])
             throw std::runtime_error(this->FileName + ": level " + std::to_string(this->Level) +
-                                     " is beyond the file's " + std::to_string(this->LevelRange[1]) + " levels");
+                                     " is beyond the file's " + std::to_string(this->LevelRange[1]) +
+                                     " levels");
         const Dims d = pieces::levelDims(h, this->Level);
         const double f = double(1 << this->Level);
         int whole[6] = {0, int(d.x) - 1, 0, int(d.y) - 1, 0, int(d.z) - 1};
@@ -161,12 +171,14 @@ int vtkVczReader::RequestData(vtkInformation*, vtkInformationVector**, vtkInform
     const int piece = outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER())
                           ? outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER())
                           : 0;
-    const int pieceCount = outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES())
-                               ? std::max(1, outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES()))
-                               : 1;
-    const std::size_t frame = outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_TIME_STEP())
-                                  ? this->Impl->frameAt(outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_TIME_STEP()))
-                                  : 0;
+    const int pieceCount =
+        outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES())
+            ? std::max(1, outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES()))
+            : 1;
+    const std::size_t frame =
+        outInfo->Has(vtkStreamingDemandDrivenPipeline::UPDATE_TIME_STEP())
+            ? this->Impl->frameAt(outInfo->Get(vtkStreamingDemandDrivenPipeline::UPDATE_TIME_STEP()))
+            : 0;
     // Under MPI with one piece per rank, the shared plane comes from the rank above; otherwise (serial,
     // or pieces not matching ranks) this piece decodes it itself.
     vtkMultiProcessController* mpc = vtkMultiProcessController::GetGlobalController();
@@ -193,6 +205,7 @@ int vtkVczReader::RequestData(vtkInformation*, vtkInformationVector**, vtkInform
 
     RankFigures mine;
     mine.piece = piece;
+    mine.frame = double(frame);
     mine.zlo = double(own.lo.z);
     mine.zhi = double(own.hi.z);
     mine.fileBricks = double(h.brickCount());
@@ -237,7 +250,8 @@ int vtkVczReader::RequestData(vtkInformation*, vtkInformationVector**, vtkInform
         }
         if (sharesAbove) {
             mpc->Receive(msg.data(), vtkIdType(msg.size()), above, kPlaneTag);
-            std::memcpy(dst + (planes - 1) * planeSamples * sampleBytes, msg.data(), planeSamples * sampleBytes);
+            std::memcpy(dst + (planes - 1) * planeSamples * sampleBytes, msg.data(),
+                        planeSamples * sampleBytes);
             if (!msg.back() && mine.ok) {
                 failure = this->FileName + ": the rank above failed to decode its slab";
                 mine.ok = 0;
@@ -252,15 +266,17 @@ int vtkVczReader::RequestData(vtkInformation*, vtkInformationVector**, vtkInform
         mine.to(send.data());
         mpc->AllGather(send.data(), recv.data(), RankFigures::kCount);
         all.clear();
-        for (int r = 0; r < pieceCount; ++r) all.push_back(RankFigures::from(recv.data() + r * RankFigures::kCount));
+        for (int r = 0; r < pieceCount; ++r)
+            all.push_back(RankFigures::from(recv.data() + r * RankFigures::kCount));
     }
     std::ostringstream report;
     report << '[';
     for (std::size_t r = 0; r < all.size(); ++r)
-        report << (r ? "," : "") << "{\"piece\":" << all[r].piece << ",\"z\":[" << all[r].zlo << ',' << all[r].zhi
-               << "],\"bricks\":" << all[r].bricks << ",\"file_bricks\":" << all[r].fileBricks
-               << ",\"read_ms\":" << all[r].readMs << ",\"decode_ms\":" << all[r].decodeMs
-               << ",\"exchange_ms\":" << all[r].exchangeMs << ",\"ok\":" << (all[r].ok ? "true" : "false") << '}';
+        report << (r ? "," : "") << "{\"piece\":" << all[r].piece << ",\"frame\":" << all[r].frame
+               << ",\"z\":[" << all[r].zlo << ',' << all[r].zhi << "],\"bricks\":" << all[r].bricks
+               << ",\"file_bricks\":" << all[r].fileBricks << ",\"read_ms\":" << all[r].readMs
+               << ",\"decode_ms\":" << all[r].decodeMs << ",\"exchange_ms\":" << all[r].exchangeMs
+               << ",\"ok\":" << (all[r].ok ? "true" : "false") << '}';
     report << ']';
     this->DecodeReport = report.str();
     this->DecodedBricks = int(mine.bricks);
@@ -268,8 +284,10 @@ int vtkVczReader::RequestData(vtkInformation*, vtkInformationVector**, vtkInform
     const bool allOk = std::all_of(all.begin(), all.end(), [](const RankFigures& f) { return f.ok != 0; });
     if (!allOk) {
         out->Initialize();
-        if (!failure.empty()) vtkErrorMacro(<< failure);
-        else vtkErrorMacro(<< this->FileName << ": another rank failed to decode its slab");
+        if (!failure.empty())
+            vtkErrorMacro(<< failure);
+        else
+            vtkErrorMacro(<< this->FileName << ": another rank failed to decode its slab");
         return 0;
     }
     const double f = double(1 << this->Level);

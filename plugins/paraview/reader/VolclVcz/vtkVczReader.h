@@ -31,8 +31,8 @@ public:
 
     /// Bricks this process decoded in its last RequestData (read from the decoder's own count).
     vtkGetMacro(DecodedBricks, int);
-    /// JSON array of the last RequestData's figures per rank (piece, z extent, bricks decoded, bricks in
-    /// the file, read and decode milliseconds), gathered from all ranks under MPI.
+    /// JSON array of the last RequestData's figures per rank (piece, frame, z extent, bricks decoded,
+    /// bricks in the file, read, decode and exchange milliseconds), gathered from all ranks under MPI.
     const char* GetDecodeReport() { return this->DecodeReport.c_str(); }
 
     /// True when the file opens as a .vcz (ParaView's reader selection).
