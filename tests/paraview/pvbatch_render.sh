@@ -22,10 +22,10 @@ one() { timeout 300 pvbatch "$script" "$plugin" "$@"; }
 two() { timeout 300 "$mpiexec" -n 2 --oversubscribe pvbatch --mpi "$script" "$plugin" "$@"; }
 
 # A generated volume (32^3 bricks) on 1 and 2 ranks: bricks per rank, then the 2-rank image against the
-# 1-rank one. Usage: renders NAME NX NY NZ BRICKS_1_RANK BRICKS_PER_RANK_ON_2 [FRAMES TIME]
+# 1-rank one. Usage: renders NAME NX NY NZ BRICKS_1_RANK BRICKS_PER_RANK_ON_2 [FRAMES TIME LEVEL]
 renders() {
   local name=$1 b1=$5 b2=$6 frames=${7:-1} at=()
-  [[ -z "${8:-}" ]] || at=(--time "$8")
+  [[ -z "${8:-}" ]] || at=(--time "$8" --level "$9")
   "$maker" make "$name.vcz" "$2" "$3" "$4" "$frames"
   one "$name.vcz" "$name-1.png" "$name-1.json" "${at[@]}"
   check bricks "$name-1.json" "$b1"
@@ -37,12 +37,11 @@ renders() {
 renders field 96 80 128 36 18,18
 # Fewer bricks than ranks: 24x20x16 is one brick; the ranks split its samples and both decode it.
 renders tiny 24 20 16 1 1,1
-# A series of 3 frames at times 0, 10, 20 (the ball moves): ParaView gets the time steps, and at time 20
-# every rank decodes frame 2, whose render is not frame 0's.
-renders series 96 80 128 36 18,18 3 20
-check frames series-1.json 0,10,20 2
-check frames series-2.json 0,10,20 2
-check differ field-1.png series-1.png
+# A series of 3 frames at times 0, 10, 20 (the ball moves), at level 1 (48x40x64 in 16^3 bricks, still 36):
+# ParaView gets the time steps, and at time 20 every rank decodes frame 2 at level 1.
+renders series 96 80 128 36 18,18 3 20 1
+check frames series-1.json 0,10,20 2 1
+check frames series-2.json 0,10,20 2 1
 
 # Corrupt files: the run exits 1 (not a signal), says which file, writes no image.
 fails() { # label, expected text, command...

@@ -56,9 +56,9 @@ constexpr int kPlaneTag = 0x7c2a;
 
 // Figures of one rank's RequestData, gathered as doubles (AllGather of a fixed-size record).
 struct RankFigures {
-    double piece = 0, frame = 0, zlo = 0, zhi = 0, bricks = 0, fileBricks = 0, readMs = 0, decodeMs = 0,
-           exchangeMs = 0, ok = 1;
-    static constexpr int kCount = 10;
+    double piece = 0, frame = 0, level = 0, zlo = 0, zhi = 0, bricks = 0, fileBricks = 0, readMs = 0,
+           decodeMs = 0, exchangeMs = 0, ok = 1;
+    static constexpr int kCount = 11;
     void to(double* d) const { std::copy_n(&piece, kCount, d); }
     static RankFigures from(const double* d) {
         RankFigures f;
@@ -206,6 +206,7 @@ int vtkVczReader::RequestData(vtkInformation*, vtkInformationVector**, vtkInform
     RankFigures mine;
     mine.piece = piece;
     mine.frame = double(frame);
+    mine.level = double(this->Level);
     mine.zlo = double(own.lo.z);
     mine.zhi = double(own.hi.z);
     mine.fileBricks = double(h.brickCount());
@@ -273,10 +274,11 @@ int vtkVczReader::RequestData(vtkInformation*, vtkInformationVector**, vtkInform
     report << '[';
     for (std::size_t r = 0; r < all.size(); ++r)
         report << (r ? "," : "") << "{\"piece\":" << all[r].piece << ",\"frame\":" << all[r].frame
-               << ",\"z\":[" << all[r].zlo << ',' << all[r].zhi << "],\"bricks\":" << all[r].bricks
-               << ",\"file_bricks\":" << all[r].fileBricks << ",\"read_ms\":" << all[r].readMs
-               << ",\"decode_ms\":" << all[r].decodeMs << ",\"exchange_ms\":" << all[r].exchangeMs
-               << ",\"ok\":" << (all[r].ok ? "true" : "false") << '}';
+               << ",\"level\":" << all[r].level << ",\"z\":[" << all[r].zlo << ',' << all[r].zhi
+               << "],\"bricks\":" << all[r].bricks << ",\"file_bricks\":" << all[r].fileBricks
+               << ",\"read_ms\":" << all[r].readMs << ",\"decode_ms\":" << all[r].decodeMs
+               << ",\"exchange_ms\":" << all[r].exchangeMs << ",\"ok\":" << (all[r].ok ? "true" : "false")
+               << '}';
     report << ']';
     this->DecodeReport = report.str();
     this->DecodedBricks = int(mine.bricks);

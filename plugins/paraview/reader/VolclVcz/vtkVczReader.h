@@ -31,7 +31,7 @@ public:
 
     /// Bricks this process decoded in its last RequestData (read from the decoder's own count).
     vtkGetMacro(DecodedBricks, int);
-    /// JSON array of the last RequestData's figures per rank (piece, frame, z extent, bricks decoded,
+    /// JSON array of the last RequestData's figures per rank (piece, frame, level, z extent, bricks decoded,
     /// bricks in the file, read, decode and exchange milliseconds), gathered from all ranks under MPI.
     const char* GetDecodeReport() { return this->DecodeReport.c_str(); }
 
