@@ -127,6 +127,43 @@ TEST(BrickPool, LruEvictsUnpinnedOldestFirst) {
     EXPECT_FALSE(c.insert({0, 4, 0}, 9, none)) << "larger than a top block";
 }
 
+TEST(BrickPool, RepackPlacesAFragmentedWorkingSetAndKeepsResidents) {
+    BrickCache c(BuddyAllocator(8, 1, 2)); // two top blocks of 64 floats, granule 8
+    std::set<BrickCache::Key> none;
+    for (std::size_t k = 0; k < 16; ++k) // 16 small bricks fill both top blocks in key order
+        ASSERT_TRUE(c.insert({0, k, 0}, 8, none));
+    // The next frame keeps brick 0 (top block 0) and brick 8 (top block 1) and wants a brick of a whole top
+    // block: 80 of 128 floats, but every top block holds a pinned brick.
+    const std::set<BrickCache::Key> pinned{{0, 0, 0}, {0, 8, 0}, {0, 20, 0}};
+    EXPECT_FALSE(c.insert({0, 20, 0}, 64, pinned)) << "fragmented: no free top block";
+    EXPECT_EQ(c.evictions(), 14u) << "every unpinned brick was evicted trying";
+    const auto placed = c.repack({{{0, 0, 0}, 8}, {{0, 8, 0}, 8}, {{0, 20, 0}, 64}});
+    ASSERT_TRUE(placed);
+    ASSERT_EQ(placed->size(), 3u);
+    EXPECT_EQ(std::get<1>((*placed)[0].key), 20u) << "largest first";
+    EXPECT_EQ((*placed)[0].slot.offset, 0u) << "the big brick takes top block 0";
+    EXPECT_FALSE((*placed)[0].resident);
+    std::vector<std::pair<std::size_t, std::size_t>> spans;
+    for (const BrickCache::Placement& p : *placed) {
+        spans.push_back({p.slot.offset, p.slot.offset + c.allocator().blockFloats(p.slot.order)});
+        const CachedBrick* e = c.touch(p.key);
+        ASSERT_TRUE(e);
+        EXPECT_EQ(e->offset, p.slot.offset);
+    }
+    EXPECT_TRUE((*placed)[1].resident && (*placed)[1].from == 0u) << "brick 0 was at offset 0";
+    EXPECT_TRUE((*placed)[2].resident && (*placed)[2].from == 64u) << "brick 8 was at offset 64";
+    std::sort(spans.begin(), spans.end());
+    for (std::size_t i = 0; i + 1 < spans.size(); ++i)
+        EXPECT_LE(spans[i].second, spans[i + 1].first) << "blocks overlap";
+    EXPECT_LE(spans.back().second, c.allocator().capacity());
+    EXPECT_EQ(c.evictions(), 14u) << "the residents are kept";
+    EXPECT_EQ(c.allocator().usedFloats(), 64u + 8u + 8u);
+    // A working set larger than the pool: nothing placed, the pool left empty.
+    EXPECT_FALSE(c.repack({{{0, 1, 0}, 64}, {{0, 2, 0}, 64}, {{0, 3, 0}, 8}}));
+    EXPECT_EQ(c.size(), 0u);
+    EXPECT_EQ(c.allocator().usedFloats(), 0u);
+}
+
 // The direct clamped trilinear formula the renderer's rule states, evaluated voxel by voxel.
 double directLevelValue(const std::vector<float>& c, Dims m, int level, std::size_t x, std::size_t y,
                         std::size_t z) {
@@ -479,6 +516,49 @@ TEST(BrickRender, HardCasesOfBrickAndCacheSizes) {
     // Below one brick at its coarsest level: refused with a clear error.
     s.cacheMb = 1e-6;
     EXPECT_THROW(BrickRenderer(cc, reader, 0, tf, s), UsageError);
+}
+
+// Bricks kept from one frame can fragment the pool for the next: the working set fits the budget, but no
+// free block is large enough. The pool is then repacked: bricks it holds move inside the pool, only the new
+// ones are decoded (an orbit frame used to decode its whole working set again), and the image is the one a
+// fresh renderer draws.
+TEST(BrickRender, FragmentedPoolIsRepackedWithoutDecodingAgain) {
+    ComputeContext& cc = computeContext();
+    const Volume v = toU8(test::makeFloatVolume({64, 64, 64}, [](double x, double y, double z) {
+        return 128 + 90 * std::sin(x * 0.3) * std::cos(y * 0.25 + z * 0.2);
+    }));
+    const auto reader = encode(v, lossless(16, 2)); // 4 x 4 x 4 bricks; level 1 is 8^3, level 2 4^3
+    const TransferFunction tf = rampTf(0, 255, 1.0);
+    Scene s = obliqueScene(v, 48);
+    s.cacheMb = 8.0 * 16 * 16 * 16 * 4 / (1024.0 * 1024.0); // 8 level-0 bricks
+    BrickRenderer r(cc, reader, 0, tf, s);
+    // Frame A: all 64 bricks at level 1 fill the pool exactly, brick k in top block k / 8.
+    r.setForcedLevels(std::vector<int>(64, 1));
+    r.render();
+    ASSERT_EQ(r.lastStats().visited, 64u);
+    ASSERT_EQ(r.lastStats().coarsened, 0u);
+    // Frame B: clipped to the bricks of x index 0 (two per top block: bricks 8t and 8t + 4). Those of top
+    // blocks 0-4 stay at level 1 (10 hits spread over five top blocks), the other 6 want level 0, a whole top
+    // block each: 6 + 10/8 of 8 top blocks, but only blocks 5-7 can be freed without a repack.
+    s.effects.clipPlanes = {ClipPlane{{-1, 0, 0}, 14.5}}; // keeps x <= 14.5: bricks reaching x = 15 are out
+    std::vector<int> levels(64, 0);
+    for (std::size_t b = 0; b < 40; ++b)
+        levels[b] = 1;
+    r.setScene(s);
+    r.setForcedLevels(levels);
+    const ImageBuffer img = r.render();
+    const BrickStats& st = r.lastStats();
+    ASSERT_EQ(st.visited, 16u);
+    EXPECT_EQ(st.repacks, 1u);
+    EXPECT_EQ(st.decoded, 6u) << "only the level-0 bricks are decoded";
+    EXPECT_EQ(st.hits, 10u);
+    EXPECT_GT(st.moved, 0u);
+    BrickRenderer fresh(cc, reader, 0, tf, s);
+    fresh.setForcedLevels(levels);
+    const ImageBuffer ref = fresh.render();
+    EXPECT_EQ(fresh.lastStats().repacks, 0u);
+    EXPECT_GT(maxValue(ref), 0.05);
+    EXPECT_EQ(maxAbsDiff(img, ref), 0.0) << "moved bricks hold their samples";
 }
 
 TEST(BrickRender, CorruptedBrickMetWhileRenderingNamesTheBrick) {
