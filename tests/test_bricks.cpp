@@ -561,6 +561,53 @@ TEST(BrickRender, FragmentedPoolIsRepackedWithoutDecodingAgain) {
     EXPECT_EQ(maxAbsDiff(img, ref), 0.0) << "moved bricks hold their samples";
 }
 
+// The level-of-detail estimate error = E x S x P, analytically: E the measured RMS deviation, S the TF's
+// largest slope over the hull of the brick's level-0 and level-l ranges (both fields stay inside them, so
+// the deviation itself does not widen it), P the level-l cell's size in pixels. A TF peak outside the hull
+// costs nothing even when the deviation would reach it; the pre-integration table's nodes widen the hull.
+TEST(BrickLod, ErrorIsDeviationTimesTfSlopeOverBothRangesTimesCellPixels) {
+    // One 32^3 brick alternating 10 / 60: its level-1 field is flat near 35, 25 data units off every voxel.
+    const Volume v = toU8(test::makeFloatVolume(
+        {32, 32, 32}, [](double x, double y, double z) { return std::fmod(x + y + z, 2.0) < 0.5 ? 10 : 60; }));
+    const auto reader = encode(v, lossless(32, 1));
+    const VczHeader& h = reader->header();
+    const auto stats = LodStatistics::fromHeader(h, "test.vcz");
+    ASSERT_TRUE(stats);
+    const BrickLevelStats& s0 = stats->at(0, 0, 0);
+    const BrickLevelStats& s1 = stats->at(0, 0, 1);
+    const double hullMin = std::min({double(s0.min), double(s1.min), h.bricks[0][0].min});
+    const double hullMax = std::max({double(s0.max), double(s1.max), h.bricks[0][0].max});
+    ASSERT_EQ(hullMin, 10.0);
+    ASSERT_EQ(hullMax, 60.0);
+    ASSERT_GT(s1.rms, 20.0) << "the deviation alone would reach past 80";
+    BrickView view;
+    Camera c = defaultCamera(v);
+    c.projection = Projection::Orthographic;
+    c.height = 64.0;
+    view.camera = c;
+    view.width = view.height = 128; // half a voxel per pixel: a level-1 cell spans 4 pixels
+    view.lod = LodMode::Auto;
+    TransferFunction tf;
+    tf.domain = {0, 256};
+    tf.color = {{0, {1, 1, 1}}, {256, {1, 1, 1}}}; // constant colour: only the extinction's slope counts
+    // A ramp inside the hull: slope 0.3 / 30 per data unit over [20, 50].
+    tf.extinction = {{0, 0.0}, {20, 0.0}, {50, 0.3}, {256, 0.3}};
+    EXPECT_NEAR(brickError(h, &*stats, 0, 0, 1, tf, view), s1.rms * 0.01 * 4.0, 1e-9 * s1.rms);
+    EXPECT_EQ(brickError(h, &*stats, 0, 0, 0, tf, view), 0.0) << "lossless level 0 is exact";
+    // A narrow peak above the hull, within the deviation's reach: neither field's values meet it.
+    tf.extinction = {{0, 0.0}, {61, 0.0}, {65, 2.0}, {70, 0.0}, {256, 0.0}};
+    EXPECT_EQ(brickError(h, &*stats, 0, 0, 1, tf, view), 0.0);
+    // Pre-integrated with 9 table nodes (32 data units apart): lookups of 60 blend the nodes at 32 and 64, so
+    // the peak's rise from 61 counts (slope 0.5 per data unit).
+    view.tableNodes = 9;
+    EXPECT_NEAR(brickError(h, &*stats, 0, 0, 1, tf, view), s1.rms * 0.5 * 4.0, 1e-9 * s1.rms);
+    // Zoomed out twice as far: the cell spans half the pixels, and so does the estimate.
+    view.tableNodes = 0;
+    tf.extinction = {{0, 0.0}, {20, 0.0}, {50, 0.3}, {256, 0.3}};
+    view.camera.height = 128.0;
+    EXPECT_NEAR(brickError(h, &*stats, 0, 0, 1, tf, view), s1.rms * 0.01 * 2.0, 1e-9 * s1.rms);
+}
+
 TEST(BrickRender, CorruptedBrickMetWhileRenderingNamesTheBrick) {
     ComputeContext& cc = computeContext();
     const Volume v =

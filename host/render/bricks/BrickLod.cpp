@@ -134,10 +134,19 @@ double brickError(const VczHeader& h, const LodStatistics* stats, std::size_t fr
                   const TransferFunction& tf, const BrickView& view) {
     const double e = dataError(h, stats, frame, b, level);
     if (e == 0) return 0.0;
-    const ValueRange r = levelRange(h, stats, frame, b, level);
+    // Both fields stay inside their measured ranges (a trilinear interpolation of samples stays inside their
+    // range), so every value between a voxel's level-0 and level-l value lies in the hull of the two ranges:
+    // the TF's largest slope there bounds the change per data unit (mean value theorem). The hull is widened
+    // only by the coding bound (a lossy file's decoded voxels may leave the input's range by that much) and
+    // to the pre-integration table nodes the lookups blend, not by the deviation itself: a brick whose values
+    // never reach a narrow TF peak at either level does not change the image there.
+    const ValueRange r0 = levelRange(h, stats, frame, b, 0), rl = levelRange(h, stats, frame, b, level);
     const double spacing = std::max({h.spacing[0], h.spacing[1], h.spacing[2]});
-    const double lo = std::min<double>(r.min, h.bricks[frame][b].min) - e,
-                 hi = std::max<double>(r.max, h.bricks[frame][b].max) + e;
+    const double w = codingBound(h);
+    const ValueRange hull = grid_detail::tableNodeSpan(
+        tf, std::min({r0.min, rl.min, h.bricks[frame][b].min}) - w,
+        std::max({r0.max, rl.max, h.bricks[frame][b].max}) + w, view.tableNodes);
+    const double lo = hull.min, hi = hull.max;
     double sens = tfSensitivity(tf, lo, hi, spacing);
     for (double iso : view.isoValues)
         if (iso >= lo && iso <= hi) sens = kInf; // a surface inside the brick moves with the data
@@ -147,44 +156,65 @@ double brickError(const VczHeader& h, const LodStatistics* stats, std::size_t fr
     return e * sens * cellPixels;
 }
 
-bool brickReachable(const VczHeader& h, std::size_t b, const BrickView& view) {
+namespace {
+
+/// Rectangle the corners project to on the image plane, in the camera's units (world units for orthographic,
+/// tangent of the angle for perspective), and the image's half extents in the same units.
+struct ProjectedRect {
+    double x0 = kInf, x1 = -kInf, y0 = kInf, y1 = -kInf, dmax = -kInf, hw = 0, hh = 0;
+    bool behind = false; ///< a corner lies at or behind the eye's plane (perspective)
+};
+
+ProjectedRect project(const std::array<Vec3, 8>& corners, const BrickView& view) {
     const Camera& c = view.camera;
     const ViewFrame v = viewFrame(c);
-    const double aspect = double(view.width) / double(view.height);
-    double x0 = kInf, x1 = -kInf, y0 = kInf, y1 = -kInf, dmax = -kInf;
-    bool behind = false;
-    const std::array<Vec3, 8> corners = brickCorners(h, b, 1.0);
-    for (const ClipPlane& cp : view.clipPlanes)
-        if (std::all_of(corners.begin(), corners.end(),
-                        [&](const Vec3& p) { return dot(cp.normal, p) + cp.offset < 0.0; }))
-            return false; // clipped away: no sample the march keeps reads it
+    ProjectedRect r;
     for (const Vec3& p : corners) {
         const Vec3 rel = sub(p, c.eye);
         const double d = dot(rel, v.f);
-        dmax = std::max(dmax, d);
+        r.dmax = std::max(r.dmax, d);
         double x = dot(rel, v.r), y = dot(rel, v.u);
         if (c.projection == Projection::Perspective) {
             if (d <= 1e-9) {
-                behind = true;
+                r.behind = true;
                 continue;
             }
             x /= d;
             y /= d;
         }
-        x0 = std::min(x0, x);
-        x1 = std::max(x1, x);
-        y0 = std::min(y0, y);
-        y1 = std::max(y1, y);
+        r.x0 = std::min(r.x0, x);
+        r.x1 = std::max(r.x1, x);
+        r.y0 = std::min(r.y0, y);
+        r.y1 = std::max(r.y1, y);
     }
-    if (dmax <= 0) return false; // wholly behind the eye
-    if (behind) return true;     // straddles the eye's plane: keep it
-    double hh;
-    if (c.projection == Projection::Orthographic)
-        hh = 0.5 * c.height;
-    else
-        hh = std::tan(c.fovYDeg * 3.14159265358979323846 / 360.0);
-    const double hw = hh * aspect;
-    return x1 >= -hw && x0 <= hw && y1 >= -hh && y0 <= hh;
+    r.hh = c.projection == Projection::Orthographic ? 0.5 * c.height
+                                                    : std::tan(c.fovYDeg * 3.14159265358979323846 / 360.0);
+    r.hw = r.hh * double(view.width) / double(view.height);
+    return r;
+}
+
+} // namespace
+
+bool brickReachable(const VczHeader& h, std::size_t b, const BrickView& view) {
+    const std::array<Vec3, 8> corners = brickCorners(h, b, 1.0);
+    for (const ClipPlane& cp : view.clipPlanes)
+        if (std::all_of(corners.begin(), corners.end(),
+                        [&](const Vec3& p) { return dot(cp.normal, p) + cp.offset < 0.0; }))
+            return false; // clipped away: no sample the march keeps reads it
+    const ProjectedRect r = project(corners, view);
+    if (r.dmax <= 0) return false; // wholly behind the eye
+    if (r.behind) return true;     // straddles the eye's plane: keep it
+    return r.x1 >= -r.hw && r.x0 <= r.hw && r.y1 >= -r.hh && r.y0 <= r.hh;
+}
+
+double brickPixels(const VczHeader& h, std::size_t b, const BrickView& view) {
+    const ProjectedRect r = project(brickCorners(h, b, 0.0), view);
+    const double all = double(view.width) * double(view.height);
+    if (r.dmax <= 0) return 0.0;
+    if (r.behind) return all;
+    const double w = std::max(0.0, std::min(r.x1, r.hw) - std::max(r.x0, -r.hw)),
+                 hgt = std::max(0.0, std::min(r.y1, r.hh) - std::max(r.y0, -r.hh));
+    return std::min(all, w * hgt / (4.0 * r.hw * r.hh) * all);
 }
 
 BrickSelection selectBricks(const VczHeader& h, const LodStatistics* stats, std::size_t frame, int maxLevel,

@@ -54,6 +54,10 @@ double brickError(const VczHeader& h, const LodStatistics* stats, std::size_t fr
 /// True when the world box of brick `b` (grown by one voxel) meets the view volume of `view`'s camera.
 bool brickReachable(const VczHeader& h, std::size_t b, const BrickView& view);
 
+/// Pixels covered by the bounding rectangle of brick b's projected box (clipped to the image; the whole
+/// image when the brick reaches the eye's plane).
+double brickPixels(const VczHeader& h, std::size_t b, const BrickView& view);
+
 /// Levels per brick for `view` (all 0 for LodMode::Full; coarser where the estimated error stays at or
 /// below lodError for LodMode::Auto; `maxLevel` caps them, 0 for frames that decode at level 0 only), then
 /// macrocells and the working set. `forced`, when not empty, gives levels to use instead of choosing.
