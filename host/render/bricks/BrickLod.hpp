@@ -46,7 +46,8 @@ struct BrickSelection {
 double tfSensitivity(const TransferFunction& tf, double a, double b, double h);
 
 /// Estimated screen-space error of brick `b` at `level`: data error (the index's statistics, plus the
-/// file's max-error bound) x TF sensitivity over the brick's range x projected size, in pixels, of one
+/// file's max-error bound) x TF sensitivity over the hull of the brick's level-0 and level-`level` ranges
+/// (widened by the coding bound and to the pre-integration table's nodes) x projected size, in pixels, of one
 /// level-`level` cell. Level 0 of a lossless file is 0.
 double brickError(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b, int level,
                   const TransferFunction& tf, const BrickView& view);
