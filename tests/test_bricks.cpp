@@ -563,10 +563,11 @@ TEST(BrickRender, FragmentedPoolIsRepackedWithoutDecodingAgain) {
 }
 
 // The level-of-detail estimate error = E x S x P, analytically: E the measured RMS deviation, S the TF's
-// largest slope over the hull of the brick's level-0 and level-l ranges (both fields stay inside them, so
-// the deviation itself does not widen it), P the level-l cell's size in pixels. A TF peak outside the hull
-// costs nothing even when the deviation would reach it; the pre-integration table's nodes widen the hull.
-TEST(BrickLod, ErrorIsDeviationTimesTfSlopeOverBothRangesTimesCellPixels) {
+// largest slope over the hull of the ranges of the brick and its neighbours at every level (every field
+// stays inside them, so the deviation itself does not widen it), P the level-l cell's size in pixels. A TF
+// peak outside the hull costs nothing even when the deviation would reach it; the pre-integration table's
+// nodes widen the hull, and so does a neighbour whose values the cells across the face interpolate with.
+TEST(BrickLod, ErrorIsDeviationTimesTfSlopeOverTheNeighbourhoodTimesCellPixels) {
     // One 32^3 brick alternating 10 / 60: its level-1 field is flat near 35, 25 data units off every voxel.
     const Volume v = toU8(test::makeFloatVolume(
         {32, 32, 32}, [](double x, double y, double z) { return std::fmod(x + y + z, 2.0) < 0.5 ? 10 : 60; }));
@@ -607,6 +608,21 @@ TEST(BrickLod, ErrorIsDeviationTimesTfSlopeOverBothRangesTimesCellPixels) {
     tf.extinction = {{0, 0.0}, {20, 0.0}, {50, 0.3}, {256, 0.3}};
     view.camera.height = 128.0;
     EXPECT_NEAR(brickError(h, &*stats, 0, 0, 1, tf, view), s1.rms * 0.01 * 2.0, 1e-9 * s1.rms);
+
+    // The same brick beside a uniform brick of 200: the cells across their face take values from 35 to 200,
+    // so the peak above 61 now counts for the alternating brick; the uniform one is exact at every level.
+    const Volume pair = toU8(test::makeFloatVolume({64, 32, 32}, [](double x, double y, double z) {
+        return x >= 32 ? 200 : std::fmod(x + y + z, 2.0) < 0.5 ? 10 : 60;
+    }));
+    const auto two = encode(pair, lossless(32, 1));
+    const auto st2 = LodStatistics::fromHeader(two->header(), "test.vcz");
+    ASSERT_TRUE(st2);
+    ASSERT_EQ(two->header().brickCount(), 2u);
+    tf.extinction = {{0, 0.0}, {61, 0.0}, {65, 2.0}, {70, 0.0}, {256, 0.0}};
+    view.camera = c;
+    const double e1 = st2->at(0, 0, 1).rms;
+    EXPECT_NEAR(brickError(two->header(), &*st2, 0, 0, 1, tf, view), e1 * 0.5 * 4.0, 1e-9 * e1);
+    EXPECT_EQ(brickError(two->header(), &*st2, 0, 1, 1, tf, view), 0.0);
 }
 
 TEST(BrickRender, CorruptedBrickMetWhileRenderingNamesTheBrick) {

@@ -63,6 +63,27 @@ ValueRange faceRange(const VczHeader& h, const LodStatistics* stats, std::size_t
     return levelRange(h, stats, frame, b, level);
 }
 
+/// Hull of the value ranges of brick b and its 26 neighbours, over every level (the input's range too).
+ValueRange neighbourhoodRange(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b) {
+    const Dims g = h.brickGrid();
+    const std::size_t bx = b % g.x, by = b / g.x % g.y, bz = b / (g.x * g.y);
+    const int levels = stats && stats->has(frame) ? stats->levels : 0;
+    ValueRange r{kInf, -kInf};
+    for (std::size_t z = bz > 0 ? bz - 1 : 0; z <= std::min(bz + 1, g.z - 1); ++z)
+        for (std::size_t y = by > 0 ? by - 1 : 0; y <= std::min(by + 1, g.y - 1); ++y)
+            for (std::size_t x = bx > 0 ? bx - 1 : 0; x <= std::min(bx + 1, g.x - 1); ++x) {
+                const std::size_t n = (z * g.y + y) * g.x + x;
+                r.min = std::min(r.min, h.bricks[frame][n].min);
+                r.max = std::max(r.max, h.bricks[frame][n].max);
+                for (int l = 0; l <= levels; ++l) {
+                    const ValueRange v = levelRange(h, stats, frame, n, l);
+                    r.min = std::min(r.min, v.min);
+                    r.max = std::max(r.max, v.max);
+                }
+            }
+    return r;
+}
+
 double dataError(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b,
                  int level) {
     if (stats && stats->has(frame))
@@ -134,18 +155,19 @@ double brickError(const VczHeader& h, const LodStatistics* stats, std::size_t fr
                   const TransferFunction& tf, const BrickView& view) {
     const double e = dataError(h, stats, frame, b, level);
     if (e == 0) return 0.0;
-    // Both fields stay inside their measured ranges (a trilinear interpolation of samples stays inside their
-    // range), so every value between a voxel's level-0 and level-l value lies in the hull of the two ranges:
-    // the TF's largest slope there bounds the change per data unit (mean value theorem). The hull is widened
-    // only by the coding bound (a lossy file's decoded voxels may leave the input's range by that much) and
-    // to the pre-integration table nodes the lookups blend, not by the deviation itself: a brick whose values
-    // never reach a narrow TF peak at either level does not change the image there.
-    const ValueRange r0 = levelRange(h, stats, frame, b, 0), rl = levelRange(h, stats, frame, b, level);
+    // The samples a coarser brick changes lie in its own cells and in the cells across its faces, which
+    // interpolate its node values with its neighbours'; a pre-integrated segment from there integrates the TF
+    // between two such values. Every field stays inside its measured ranges (a trilinear interpolation of
+    // samples stays inside their range), so all those values lie in the hull of the brick's and its 26
+    // neighbours' ranges at every level (a neighbour's level is not known here): the TF's largest slope there
+    // bounds the change per data unit (mean value theorem). The hull is widened by the coding bound (a lossy
+    // file's decoded voxels may leave the input's range by that much) and to the pre-integration table nodes
+    // the lookups blend, not by the deviation itself: where no value near the brick reaches a narrow TF peak,
+    // coarsening it does not change the image.
+    const ValueRange hull0 = neighbourhoodRange(h, stats, frame, b);
     const double spacing = std::max({h.spacing[0], h.spacing[1], h.spacing[2]});
     const double w = codingBound(h);
-    const ValueRange hull = grid_detail::tableNodeSpan(
-        tf, std::min({r0.min, rl.min, h.bricks[frame][b].min}) - w,
-        std::max({r0.max, rl.max, h.bricks[frame][b].max}) + w, view.tableNodes);
+    const ValueRange hull = grid_detail::tableNodeSpan(tf, hull0.min - w, hull0.max + w, view.tableNodes);
     const double lo = hull.min, hi = hull.max;
     double sens = tfSensitivity(tf, lo, hi, spacing);
     for (double iso : view.isoValues)
