@@ -182,7 +182,27 @@ int main(int argc, char** argv) {
                         r.lastStats().decodeMs);
         }
 
-        if (probe <= 0) return 0; // --probe-size 0: the estimate only
+        if (probe <= 0) { // --probe-size 0: the estimate only (per brick in --bricks-csv, without probes)
+            if (!bricksCsv.empty()) {
+                std::ofstream est(bricksCsv);
+                est << "brick,level,voxels,estimate,data_rms,pixels\n";
+                BrickView view;
+                view.camera = *s.camera;
+                view.width = view.height = size;
+                view.lod = LodMode::Auto;
+                view.tableNodes = s.preintegration != Preintegration::None ? s.tableSize : 0;
+                const std::optional<LodStatistics> stats = LodStatistics::fromHeader(h, file);
+                BrickView at0 = view;
+                at0.lod = LodMode::Full;
+                const BrickSelection sel0 = selectBricks(h, stats ? &*stats : nullptr, 0, h.levels, tf, at0);
+                for (std::size_t b = 0; b < h.brickCount(); ++b)
+                    for (int l = 1; l <= h.levels && sel0.level[b] >= 0; ++l)
+                        est << b << ',' << l << ',' << brickSamples(h, b, l).count() << ','
+                            << brickError(h, stats ? &*stats : nullptr, 0, b, l, tf, view) << ','
+                            << (stats ? stats->at(0, b, l).rms : -1.0) << ',' << brickPixels(h, b, view) << '\n';
+            }
+            return 0;
+        }
         // Per-brick probes at the probe size (a brick's share of the image MSE does not depend on the pixel
         // count), scaled to the full size's pixel count.
         Scene p = s;
