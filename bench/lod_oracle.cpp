@@ -182,24 +182,31 @@ int main(int argc, char** argv) {
                         r.lastStats().decodeMs);
         }
 
+        // What lod auto sees of this view (at the full size), to set its estimate beside the measurement.
+        BrickView view;
+        view.camera = *s.camera;
+        view.width = view.height = size;
+        view.lod = LodMode::Auto;
+        view.tableNodes = s.preintegration != Preintegration::None ? s.tableSize : 0;
+        const std::optional<LodStatistics> stats = LodStatistics::fromHeader(h, file);
+        const LodStatistics* st = stats ? &*stats : nullptr;
+        auto estimateColumns = [&](std::size_t b, int l) {
+            std::ostringstream os;
+            os << brickError(h, st, 0, b, l, tf, view) << ',' << (st ? st->at(0, b, l).rms : -1.0) << ','
+               << brickPixels(h, b, view);
+            return os.str();
+        };
         if (probe <= 0) { // --probe-size 0: the estimate only (per brick in --bricks-csv, without probes)
             if (!bricksCsv.empty()) {
                 std::ofstream est(bricksCsv);
                 est << "brick,level,voxels,estimate,data_rms,pixels\n";
-                BrickView view;
-                view.camera = *s.camera;
-                view.width = view.height = size;
-                view.lod = LodMode::Auto;
-                view.tableNodes = s.preintegration != Preintegration::None ? s.tableSize : 0;
-                const std::optional<LodStatistics> stats = LodStatistics::fromHeader(h, file);
                 BrickView at0 = view;
                 at0.lod = LodMode::Full;
-                const BrickSelection sel0 = selectBricks(h, stats ? &*stats : nullptr, 0, h.levels, tf, at0);
+                const BrickSelection sel0 = selectBricks(h, st, 0, h.levels, tf, at0);
                 for (std::size_t b = 0; b < h.brickCount(); ++b)
                     for (int l = 1; l <= h.levels && sel0.level[b] >= 0; ++l)
                         est << b << ',' << l << ',' << brickSamples(h, b, l).count() << ','
-                            << brickError(h, stats ? &*stats : nullptr, 0, b, l, tf, view) << ','
-                            << (stats ? stats->at(0, b, l).rms : -1.0) << ',' << brickPixels(h, b, view) << '\n';
+                            << estimateColumns(b, l) << '\n';
             }
             return 0;
         }
@@ -219,13 +226,6 @@ int main(int argc, char** argv) {
             csv.open(bricksCsv);
             csv << "brick,level,voxels,sse,rms_share,estimate,data_rms,pixels\n";
         }
-        // What lod auto sees of this view (at the full size), to set its estimate beside the measurement.
-        BrickView view;
-        view.camera = *s.camera;
-        view.width = view.height = size;
-        view.lod = LodMode::Auto;
-        view.tableNodes = s.preintegration != Preintegration::None ? s.tableSize : 0;
-        const std::optional<LodStatistics> stats = LodStatistics::fromHeader(h, file);
         const double samples = double(ref.pixels.size());
         Stopwatch probeClock;
         std::size_t probes = 0;
@@ -241,9 +241,7 @@ int main(int argc, char** argv) {
                 ++probes;
                 if (csv)
                     csv << b << ',' << l << ',' << vox[b][std::size_t(l)] << ',' << err[b][std::size_t(l)] << ','
-                        << std::sqrt(err[b][std::size_t(l)] / samples) << ','
-                        << brickError(h, stats ? &*stats : nullptr, 0, b, l, tf, view) << ','
-                        << (stats ? stats->at(0, b, l).rms : -1.0) << ',' << brickPixels(h, b, view) << '\n';
+                        << std::sqrt(err[b][std::size_t(l)] / samples) << ',' << estimateColumns(b, l) << '\n';
             }
         }
         std::printf("probes: %zu renders at %d^2 in %.0f s\n", probes, probe, probeClock.milliseconds() / 1000.0);
