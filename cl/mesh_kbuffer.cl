@@ -21,6 +21,9 @@
 #define BIN_CHUNKS 64
 #endif
 
+/* Face rectangles at least this many pixels wide (minus one) get their rows narrowed to the edges' span. */
+#define KB_SPAN_MIN 4
+
 /* Nearest view depth (normalized units) a perspective vertex may have; faces with a vertex closer are not drawn. */
 #define KB_NEAR 1e-4f
 
@@ -142,12 +145,19 @@ __kernel void kb_bin_scatter(__global const uint4* sortedFaces, __global const u
 /* ---------------- the rasteriser ---------------- */
 
 #define KB_PIXELS (KB_TILE * KB_TILE)
+/* Slots per pixel: a ring of 8 (KB_K <= 8 of them in use), so the ring index wraps with a mask. */
+#define KB_RING 8
 
+/* Per-pixel k-buffers kept sorted by distance in a ring: the nearest entry at head, the others after it in
+   order (equal distances in arrival order). A fragment arriving in order (the common case after the centroid
+   sort) then costs one comparison and one store, and a pop takes the head and its successor: no search over
+   the k entries per fragment. */
 typedef struct {
-    __local float* t;     /* KB_PIXELS * KB_K distances */
+    __local float* t;     /* KB_PIXELS * KB_RING distances */
     __local float* s;     /* scalars */
     __local uchar* f;     /* fragment flags */
     __local uchar* count; /* stored entries per pixel */
+    __local uchar* head;  /* ring slot of the nearest entry */
     __local float4* acc;  /* composited colour per pixel */
 } KBuffer;
 
@@ -208,44 +218,52 @@ KB_INLINE float4 kb_segment(float4 acc, float t0, float s0, uint f0, float t1, f
     return acc + (1.0f - acc.w) * c;
 }
 
+/* Stores (t, s, fl) into the sorted ring of n entries starting at slot h of pixel base: after every entry not
+   farther than t (equal distances keep their arrival order). */
+KB_INLINE void kb_place(KBuffer kb, uint base, uint h, uint n, float t, float s, uint fl) {
+    uint j = n;
+    while (j > 0) {
+        const uint src = base + ((h + j - 1) & (KB_RING - 1));
+        const float tj = kb.t[src];
+        if (!(tj > t)) break;
+        const uint dst = base + ((h + j) & (KB_RING - 1));
+        kb.t[dst] = tj;
+        kb.s[dst] = kb.s[src];
+        kb.f[dst] = kb.f[src];
+        --j;
+    }
+    const uint at = base + ((h + j) & (KB_RING - 1));
+    kb.t[at] = t;
+    kb.s[at] = s;
+    kb.f[at] = (uchar)fl;
+}
+
 /* Inserts a fragment into pixel li's k-buffer; when it is full, pops the nearest of the k + 1 fragments and
-   composites it with the second nearest. Ties go to stored entries in slot order, the incoming one last.
-   Returns 1 when the pixel reached the early-termination opacity. */
+   composites it with the second nearest (a stored entry nearer than or as near as the incoming fragment goes
+   first). Returns 1 when the pixel reached the early-termination opacity. */
 KB_INLINE int kb_insert(KBuffer kb, uint li, float t, float s, uint fl, __global const float4* table,
                      const VolclKBufferParams* P) {
-    const uint base = li * KB_K;
+    const uint base = li * KB_RING;
     const uint n = kb.count[li];
+    const uint h = kb.head[li];
     if (n < KB_K) {
-        kb.t[base + n] = t;
-        kb.s[base + n] = s;
-        kb.f[base + n] = (uchar)fl;
+        kb_place(kb, base, h, n, t, s, fl);
         kb.count[li] = (uchar)(n + 1);
         return 0;
     }
-    uint m = 0;
-    float mt = kb.t[base];
-    for (uint j = 1; j < KB_K; ++j) {
-        const float tj = kb.t[base + j];
-        if (tj < mt) { mt = tj; m = j; }
-    }
+    const uint h0 = base + h;
+    const float mt = kb.t[h0];
     float4 acc = kb.acc[li];
     if (t < mt) {
-        acc = kb_segment(acc, t, s, fl, mt, kb.s[base + m], kb.f[base + m], table, P);
+        acc = kb_segment(acc, t, s, fl, mt, kb.s[h0], kb.f[h0], table, P);
     } else {
-        uint r = KB_K; /* KB_K: the incoming fragment */
-        float rt = INFINITY;
-        for (uint j = 0; j < KB_K; ++j) {
-            const float tj = kb.t[base + j];
-            if (j != m && tj < rt) { rt = tj; r = j; }
-        }
-        float s1 = s;
-        uint f1 = fl;
-        if (r == KB_K || t < rt) rt = t;
-        else { s1 = kb.s[base + r]; f1 = kb.f[base + r]; }
-        acc = kb_segment(acc, mt, kb.s[base + m], kb.f[base + m], rt, s1, f1, table, P);
-        kb.t[base + m] = t;
-        kb.s[base + m] = s;
-        kb.f[base + m] = (uchar)fl;
+        const uint h1 = base + ((h + 1) & (KB_RING - 1));
+        const float rt = kb.t[h1];
+        if (t < rt) acc = kb_segment(acc, mt, kb.s[h0], kb.f[h0], t, s, fl, table, P);
+        else acc = kb_segment(acc, mt, kb.s[h0], kb.f[h0], rt, kb.s[h1], kb.f[h1], table, P);
+        const uint nh = (h + 1) & (KB_RING - 1);
+        kb.head[li] = (uchar)nh;
+        kb_place(kb, base, nh, KB_K - 1, t, s, fl);
     }
     kb.acc[li] = acc;
     return acc.w >= P->earlyTermination;
@@ -253,27 +271,14 @@ KB_INLINE int kb_insert(KBuffer kb, uint li, float t, float s, uint fl, __global
 
 /* Pops the remaining fragments of pixel li in order (the k - 1 segments still stored). */
 KB_INLINE void kb_flush(KBuffer kb, uint li, __global const float4* table, const VolclKBufferParams* P) {
-    const uint base = li * KB_K;
-    uint n = kb.count[li];
+    const uint base = li * KB_RING;
+    const uint n = kb.count[li];
+    uint h = kb.head[li];
     float4 acc = kb.acc[li];
-    while (n >= 2 && acc.w < P->earlyTermination) {
-        uint m = 0;
-        float mt = kb.t[base];
-        for (uint j = 1; j < n; ++j) {
-            const float tj = kb.t[base + j];
-            if (tj < mt) { mt = tj; m = j; }
-        }
-        uint r = n;
-        float rt = INFINITY;
-        for (uint j = 0; j < n; ++j) {
-            const float tj = kb.t[base + j];
-            if (j != m && (r == n || tj < rt)) { rt = tj; r = j; }
-        }
-        acc = kb_segment(acc, mt, kb.s[base + m], kb.f[base + m], rt, kb.s[base + r], kb.f[base + r], table, P);
-        --n;
-        kb.t[base + m] = kb.t[base + n];
-        kb.s[base + m] = kb.s[base + n];
-        kb.f[base + m] = kb.f[base + n];
+    for (uint i = 1; i < n && acc.w < P->earlyTermination; ++i) {
+        const uint a = base + h, b = base + ((h + 1) & (KB_RING - 1));
+        acc = kb_segment(acc, kb.t[a], kb.s[a], kb.f[a], kb.t[b], kb.s[b], kb.f[b], table, P);
+        h = (h + 1) & (KB_RING - 1);
     }
     kb.acc[li] = acc;
 }
@@ -324,13 +329,14 @@ inline void kb_row_span(const KbEdge* e, float fy, float* xl, float* xr) {
 __kernel void kb_raster(__global const float4* proj, __global const float* scalars, __global const uint* binEnds,
                         __global const uint4* list, const VolclKBufferParams P,
                         __global const float4* table, __global float4* out) {
-    __local float lt[KB_PIXELS * KB_K];
-    __local float ls[KB_PIXELS * KB_K];
-    __local uchar lf[KB_PIXELS * KB_K];
+    __local float lt[KB_PIXELS * KB_RING];
+    __local float ls[KB_PIXELS * KB_RING];
+    __local uchar lf[KB_PIXELS * KB_RING];
     __local uchar lcount[KB_PIXELS];
+    __local uchar lhead[KB_PIXELS];
     __local uchar ldone[KB_PIXELS];
     __local float4 lacc[KB_PIXELS];
-    KBuffer kb = {lt, ls, lf, lcount, lacc};
+    KBuffer kb = {lt, ls, lf, lcount, lhead, lacc};
 
     const uint tile = get_group_id(0);
     const uint lid = get_local_id(0);
@@ -341,6 +347,7 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
         for (int lx = 0; lx < KB_TILE; ++lx) {
             const uint li = (uint)(ly * KB_TILE + lx);
             lcount[li] = 0;
+            lhead[li] = 0;
             lacc[li] = (float4)(0.0f);
             const int in = ty0 + ly < yEnd && tx0 + lx < xEnd;
             ldone[li] = (uchar)!in;
@@ -367,11 +374,15 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
         y0 += (int)(((uint)(KB_TILE_THREADS - ((y0 - ty0) % KB_TILE_THREADS)) + lid) % KB_TILE_THREADS);
         for (int y = y0; y <= y1; y += KB_TILE_THREADS) {
             const float fy = (float)y;
-            float xl = (float)x0, xr = (float)x1;
-            kb_row_span(&ea, fy, &xl, &xr);
-            kb_row_span(&eb, fy, &xl, &xr);
-            kb_row_span(&ec, fy, &xl, &xr);
-            const int xs = (int)ceil(xl), xe = (int)floor(xr);
+            int xs = x0, xe = x1;
+            if (x1 - x0 >= KB_SPAN_MIN) { /* narrow wide rows; a few pixels are cheaper to test than to narrow */
+                float xl = (float)x0, xr = (float)x1;
+                kb_row_span(&ea, fy, &xl, &xr);
+                kb_row_span(&eb, fy, &xl, &xr);
+                kb_row_span(&ec, fy, &xl, &xr);
+                xs = (int)ceil(xl);
+                xe = (int)floor(xr);
+            }
             for (int x = xs; x <= xe; ++x) {
                 const uint li = (uint)((y - ty0) * KB_TILE + (x - tx0));
                 if (ldone[li]) continue;

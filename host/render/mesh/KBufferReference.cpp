@@ -125,62 +125,40 @@ public:
             px.acc[i] = px.acc[i] + keep * c[i];
     }
 
+    /// Stores `in` among the first n (sorted) entries of kb: after every entry not farther (the kernel's ring).
+    static void place(Frag* kb, int n, const Frag& in) {
+        int j = n;
+        while (j > 0 && kb[j - 1].t > in.t) {
+            kb[j] = kb[j - 1];
+            --j;
+        }
+        kb[j] = in;
+    }
+
     void insert(std::size_t pi, const Frag& in) {
         Pixel& px = pixels_[pi];
-        Frag* kb = &frags_[pi * std::size_t(k_)];
+        Frag* kb = &frags_[pi * std::size_t(k_)]; // sorted by distance, equal distances in arrival order
         if (stats_) ++stats_->fragments;
         if (px.count < k_) {
-            kb[px.count++] = in;
+            place(kb, px.count++, in);
             return;
         }
         if (stats_) ++stats_->overflowPops;
-        int m = 0;
-        float mt = kb[0].t;
-        for (int j = 1; j < k_; ++j)
-            if (kb[j].t < mt) {
-                mt = kb[j].t;
-                m = j;
-            }
-        if (in.t < mt) {
-            segment(px, in, kb[m]);
+        if (in.t < kb[0].t) {
+            segment(px, in, kb[0]);
         } else {
-            int r = k_;
-            float rt = std::numeric_limits<float>::infinity();
-            for (int j = 0; j < k_; ++j)
-                if (j != m && kb[j].t < rt) {
-                    rt = kb[j].t;
-                    r = j;
-                }
-            const Frag second = (r == k_ || in.t < rt) ? in : kb[r];
-            segment(px, kb[m], second);
-            kb[m] = in;
+            segment(px, kb[0], in.t < kb[1].t ? in : kb[1]);
+            std::copy(kb + 1, kb + k_, kb);
+            place(kb, k_ - 1, in);
         }
         if (px.acc[3] >= P_.earlyTermination) px.done = true;
     }
 
     void flush(std::size_t pi) {
         Pixel& px = pixels_[pi];
-        Frag* kb = &frags_[pi * std::size_t(k_)];
-        int n = px.count;
-        while (n >= 2 && px.acc[3] < P_.earlyTermination) {
-            int m = 0;
-            float mt = kb[0].t;
-            for (int j = 1; j < n; ++j)
-                if (kb[j].t < mt) {
-                    mt = kb[j].t;
-                    m = j;
-                }
-            int r = n;
-            float rt = std::numeric_limits<float>::infinity();
-            for (int j = 0; j < n; ++j)
-                if (j != m && (r == n || kb[j].t < rt)) {
-                    rt = kb[j].t;
-                    r = j;
-                }
-            segment(px, kb[m], kb[r]);
-            --n;
-            kb[m] = kb[n];
-        }
+        const Frag* kb = &frags_[pi * std::size_t(k_)];
+        for (int i = 1; i < px.count && px.acc[3] < P_.earlyTermination; ++i)
+            segment(px, kb[i - 1], kb[i]);
     }
 
     ImageBuffer run() {
