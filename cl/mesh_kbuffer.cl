@@ -142,6 +142,19 @@ __kernel void kb_bin_scatter(__global const uint4* sortedFaces, __global const u
     }
 }
 
+/* The device table is half precision (8 bytes a node and length): the lookups miss the cache on a table of
+   16 MiB (256^2 nodes x 16 lengths) and were a third of the raster in float; half of the bytes took a quarter
+   off the frame. Rounding (to nearest even, relative 2^-11) happens here; the host reads the rounded values
+   back with kb_table_from_half, so the C++ mirror uses the values the kernels see. */
+__kernel void kb_table_to_half(__global const float4* in, const uint n, __global half* out) {
+    const uint i = get_global_id(0);
+    if (i < n) vstore_half4_rte(in[i], i, out);
+}
+__kernel void kb_table_from_half(__global const half* in, const uint n, __global float4* out) {
+    const uint i = get_global_id(0);
+    if (i < n) out[i] = vload_half4(i, in);
+}
+
 /* ---------------- the rasteriser ---------------- */
 
 #define KB_PIXELS (KB_TILE * KB_TILE)
@@ -163,39 +176,65 @@ typedef struct {
 
 #define KB_INLINE __attribute__((always_inline)) inline
 
-/* Table value at fractional node coordinates (front u, back v) of slice k: bilinear (tf_lookup.h's
-   table_bilinear, inlined into the fragment loop). */
-KB_INLINE float4 kb_bilinear(__global const float4* table, uint n, uint k, float u, float v) {
+/* The device copy of the 3D table is blocked (kbufferBlockedTable on the host): KB_TBLOCK x KB_TBLOCK front x
+   back node blocks, each node's lengths contiguous. The eight entries a lookup blends (two nodes on each axis)
+   then lie in one 4 KiB block and its lengths k, k + 1 side by side; the plain layout (a slice per length,
+   rows of n nodes) put them on four pages 4 KiB and 1 MiB apart, and the lookups were half the raster. */
+#define KB_TBLOCK 4
+KB_INLINE size_t kb_table_index(uint i, uint j, uint k, uint nb, uint lengths) {
+    return (((size_t)(i / KB_TBLOCK) * nb + j / KB_TBLOCK) * (KB_TBLOCK * KB_TBLOCK) + (i % KB_TBLOCK) * KB_TBLOCK +
+            j % KB_TBLOCK) * lengths + k;
+}
+
+/* Table value at fractional node coordinates (front u, back v) of length slices k0 and k1: bilinear in each
+   (tf_lookup.h's table_bilinear, inlined into the fragment loop); a and b receive the two slices. */
+KB_INLINE void kb_bilinear2(__global const half* table, uint n, uint lengths, uint k0, uint k1, float u, float v,
+                            float4* ea, float4* eb) {
     const float hi = (float)(n - 1);
     u = clamp(u, 0.0f, hi);
     v = clamp(v, 0.0f, hi);
     const uint i0 = min((uint)u, n - 2), j0 = min((uint)v, n - 2);
     const float fu = u - (float)i0, fv = v - (float)j0;
-    __global const float4* row0 = table + ((size_t)k * n + i0) * n;
-    __global const float4* row1 = row0 + n;
-    const float4 a = row0[j0] + fv * (row0[j0 + 1] - row0[j0]);
-    const float4 b = row1[j0] + fv * (row1[j0 + 1] - row1[j0]);
-    return a + fu * (b - a);
+    const uint nb = (n + KB_TBLOCK - 1) / KB_TBLOCK;
+    const size_t p00 = kb_table_index(i0, j0, 0, nb, lengths), p01 = kb_table_index(i0, j0 + 1, 0, nb, lengths);
+    const size_t p10 = kb_table_index(i0 + 1, j0, 0, nb, lengths), p11 = kb_table_index(i0 + 1, j0 + 1, 0, nb, lengths);
+    {
+        const float4 t00 = vload_half4(p00 + k0, table), t01 = vload_half4(p01 + k0, table);
+        const float4 t10 = vload_half4(p10 + k0, table), t11 = vload_half4(p11 + k0, table);
+        const float4 a = t00 + fv * (t01 - t00);
+        const float4 b = t10 + fv * (t11 - t10);
+        *ea = a + fu * (b - a);
+    }
+    {
+        const float4 t00 = vload_half4(p00 + k1, table), t01 = vload_half4(p01 + k1, table);
+        const float4 t10 = vload_half4(p10 + k1, table), t11 = vload_half4(p11 + k1, table);
+        const float4 a = t00 + fv * (t01 - t00);
+        const float4 b = t10 + fv * (t11 - t10);
+        *eb = a + fu * (b - a);
+    }
 }
 
 /* tf_lookup.h's preint_segment for the 3D table with the frame's factors precomputed (the lookup was a third
    of the frame as a call with two divisions): associated (rgb, alpha) of the segment sf -> sb of length len. */
-KB_INLINE float4 kb_preint(__global const float4* table, const VolclKBufferParams* P, float sf, float sb, float len) {
+KB_INLINE float4 kb_preint(__global const half* table, const VolclKBufferParams* P, float sf, float sb, float len) {
     const VolclTfParams* T = &P->tf;
     const float u = (sf - T->domainLo) * P->tableScale, v = (sb - T->domainLo) * P->tableScale;
     const float kf = len * P->lengthScale - 1.0f;
-    float4 e;
+    const uint L = T->tableLengths;
+    float4 e, e1;
     float tableLen = len;
     if (kf <= 0.0f) {
-        e = kb_bilinear(table, T->tableSize, 0, u, v) * fmax(kf + 1.0f, 0.0f);
-    } else if (kf >= (float)(T->tableLengths - 1)) {
-        e = kb_bilinear(table, T->tableSize, T->tableLengths - 1, u, v);
+        kb_bilinear2(table, T->tableSize, L, 0, 0, u, v, &e, &e1);
+        e = e * fmax(kf + 1.0f, 0.0f);
+    } else if (kf >= (float)(L - 1)) {
+        kb_bilinear2(table, T->tableSize, L, L - 1, L - 1, u, v, &e, &e1);
         tableLen = T->tableMaxLength;
     } else {
         const uint k0 = (uint)kf;
         const float fk = kf - (float)k0;
-        const float4 a = kb_bilinear(table, T->tableSize, k0, u, v);
-        e = a + fk * (kb_bilinear(table, T->tableSize, k0 + 1, u, v) - a);
+        float4 a;
+        kb_bilinear2(table, T->tableSize, L, k0, k0 + 1, u, v, &a, &e1);
+        e = a + fk * (e1 - a);
     }
     if (len != tableLen) {
         /* Longer than the table (level of detail, misordered fragments): exact for a constant scalar. */
@@ -207,13 +246,17 @@ KB_INLINE float4 kb_preint(__global const float4* table, const VolclKBufferParam
     return e;
 }
 
-/* Composites the segment from fragment (t0, s0, f0) to the next one (t1, s1, f1): nothing when it lies
-   outside the mesh (after a leaving boundary face or before an entering one) or has no length. */
-KB_INLINE float4 kb_segment(float4 acc, float t0, float s0, uint f0, float t1, float s1, uint f1,
-                         __global const float4* table, const VolclKBufferParams* P) {
-    if ((f0 & KB_FRAG_EXIT) || (f1 & KB_FRAG_ENTER)) return acc;
+/* World length of the segment from fragment (t0, f0) to the next one (t1, f1); 0 when it lies outside the
+   mesh (after a leaving boundary face or before an entering one) or has no length: nothing to composite. */
+KB_INLINE float kb_segment_length(float t0, uint f0, float t1, uint f1, const VolclKBufferParams* P) {
+    if ((f0 & KB_FRAG_EXIT) || (f1 & KB_FRAG_ENTER)) return 0.0f;
     const float len = (t1 - t0) * P->worldScale;
-    if (!(len > 0.0f)) return acc;
+    return len > 0.0f ? len : 0.0f;
+}
+
+/* Composites the segment s0 -> s1 of length len > 0 behind acc. */
+KB_INLINE float4 kb_composite(float4 acc, float s0, float s1, float len, __global const half* table,
+                              const VolclKBufferParams* P) {
     const float4 c = kb_preint(table, P, s0, s1, len);
     return acc + (1.0f - acc.w) * c;
 }
@@ -238,46 +281,53 @@ KB_INLINE void kb_place(KBuffer kb, uint base, uint h, uint n, float t, float s,
     kb.f[at] = (uchar)fl;
 }
 
-/* Inserts a fragment into pixel li's k-buffer; when it is full, pops the nearest of the k + 1 fragments and
-   composites it with the second nearest (a stored entry nearer than or as near as the incoming fragment goes
-   first). Returns 1 when the pixel reached the early-termination opacity. */
-KB_INLINE int kb_insert(KBuffer kb, uint li, float t, float s, uint fl, __global const float4* table,
-                     const VolclKBufferParams* P) {
+/* Inserts a fragment into pixel li's k-buffer; when it is full, pops the nearest of the k + 1 fragments, whose
+   segment to the second nearest (a stored entry nearer than or as near as the incoming fragment goes first) is
+   returned: its length (0: nothing to composite) and its scalars in *s0, *s1. */
+KB_INLINE float kb_insert(KBuffer kb, uint li, float t, float s, uint fl, const VolclKBufferParams* P, float* s0,
+                          float* s1) {
     const uint base = li * KB_RING;
     const uint n = kb.count[li];
     const uint h = kb.head[li];
     if (n < KB_K) {
         kb_place(kb, base, h, n, t, s, fl);
         kb.count[li] = (uchar)(n + 1);
-        return 0;
+        return 0.0f;
     }
     const uint h0 = base + h;
     const float mt = kb.t[h0];
-    float4 acc = kb.acc[li];
     if (t < mt) {
-        acc = kb_segment(acc, t, s, fl, mt, kb.s[h0], kb.f[h0], table, P);
-    } else {
-        const uint h1 = base + ((h + 1) & (KB_RING - 1));
-        const float rt = kb.t[h1];
-        if (t < rt) acc = kb_segment(acc, mt, kb.s[h0], kb.f[h0], t, s, fl, table, P);
-        else acc = kb_segment(acc, mt, kb.s[h0], kb.f[h0], rt, kb.s[h1], kb.f[h1], table, P);
-        const uint nh = (h + 1) & (KB_RING - 1);
-        kb.head[li] = (uchar)nh;
-        kb_place(kb, base, nh, KB_K - 1, t, s, fl);
+        *s0 = s;
+        *s1 = kb.s[h0];
+        return kb_segment_length(t, fl, mt, kb.f[h0], P);
     }
-    kb.acc[li] = acc;
-    return acc.w >= P->earlyTermination;
+    const uint h1 = base + ((h + 1) & (KB_RING - 1));
+    const float rt = kb.t[h1];
+    float len;
+    *s0 = kb.s[h0];
+    if (t < rt) {
+        *s1 = s;
+        len = kb_segment_length(mt, kb.f[h0], t, fl, P);
+    } else {
+        *s1 = kb.s[h1];
+        len = kb_segment_length(mt, kb.f[h0], rt, kb.f[h1], P);
+    }
+    const uint nh = (h + 1) & (KB_RING - 1);
+    kb.head[li] = (uchar)nh;
+    kb_place(kb, base, nh, KB_K - 1, t, s, fl);
+    return len;
 }
 
 /* Pops the remaining fragments of pixel li in order (the k - 1 segments still stored). */
-KB_INLINE void kb_flush(KBuffer kb, uint li, __global const float4* table, const VolclKBufferParams* P) {
+KB_INLINE void kb_flush(KBuffer kb, uint li, __global const half* table, const VolclKBufferParams* P) {
     const uint base = li * KB_RING;
     const uint n = kb.count[li];
     uint h = kb.head[li];
     float4 acc = kb.acc[li];
     for (uint i = 1; i < n && acc.w < P->earlyTermination; ++i) {
         const uint a = base + h, b = base + ((h + 1) & (KB_RING - 1));
-        acc = kb_segment(acc, kb.t[a], kb.s[a], kb.f[a], kb.t[b], kb.s[b], kb.f[b], table, P);
+        const float len = kb_segment_length(kb.t[a], kb.f[a], kb.t[b], kb.f[b], P);
+        if (len > 0.0f) acc = kb_composite(acc, kb.s[a], kb.s[b], len, table, P);
         h = (h + 1) & (KB_RING - 1);
     }
     kb.acc[li] = acc;
@@ -328,7 +378,7 @@ inline void kb_row_span(const KbEdge* e, float fy, float* xl, float* xr) {
    flushes them and writes the composited pixels (linear, associated RGBA). */
 __kernel void kb_raster(__global const float4* proj, __global const float* scalars, __global const uint* binEnds,
                         __global const uint4* list, const VolclKBufferParams P,
-                        __global const float4* table, __global float4* out) {
+                        __global const half* table, __global float4* out) {
     __local float lt[KB_PIXELS * KB_RING];
     __local float ls[KB_PIXELS * KB_RING];
     __local uchar lf[KB_PIXELS * KB_RING];
@@ -337,6 +387,9 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
     __local uchar ldone[KB_PIXELS];
     __local float4 lacc[KB_PIXELS];
     KBuffer kb = {lt, ls, lf, lcount, lhead, lacc};
+    /* Pops of the current face waiting for their table lookups: KB_PIXELS / KB_TILE_THREADS per work-item. */
+    __local ushort lpli[KB_PIXELS];
+    __local float lps0[KB_PIXELS], lps1[KB_PIXELS], lplen[KB_PIXELS];
 
     const uint tile = get_group_id(0);
     const uint lid = get_local_id(0);
@@ -356,7 +409,13 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
     const uint start = tile == 0 ? 0u : binEnds[(tile - 1) * BIN_CHUNKS + BIN_CHUNKS - 1];
     const uint end = binEnds[tile * BIN_CHUNKS + BIN_CHUNKS - 1];
 
+    const uint pendingBase = lid * (KB_PIXELS / KB_TILE_THREADS);
+    __local ushort* pli = lpli + pendingBase;
+    __local float* ps0 = lps0 + pendingBase;
+    __local float* ps1 = lps1 + pendingBase;
+    __local float* plen = lplen + pendingBase;
     for (uint e = start; e < end && live > 0; ++e) {
+        uint np = 0;
         const uint4 fv = list[e];
         const float4 a = proj[fv.x], b = proj[fv.y], c = proj[fv.z];
         const float orient = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
@@ -408,10 +467,27 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
                     t = la * a.z + lb * b.z + lc * c.z;
                     s = la * sa + lb * sb + lc * sc;
                 }
-                if (kb_insert(kb, li, t, s, fl, table, &P)) {
-                    ldone[li] = 1;
-                    --live;
+                float s0, s1;
+                const float len = kb_insert(kb, li, t, s, fl, &P, &s0, &s1);
+                if (len > 0.0f) {
+                    pli[np] = (ushort)li;
+                    ps0[np] = s0;
+                    ps1[np] = s1;
+                    plen[np] = len;
+                    ++np;
                 }
+            }
+        }
+        /* The face's pops composited in a pass of their own: a face gives a pixel at most one fragment, so this
+           is the order of the inserts, and the table lookups of different pixels, independent of each other,
+           overlap their cache misses instead of each stalling the rasterisation. */
+        for (uint p = 0; p < np; ++p) {
+            const uint li = pli[p];
+            const float4 acc = kb_composite(lacc[li], ps0[p], ps1[p], plen[p], table, &P);
+            lacc[li] = acc;
+            if (acc.w >= P.earlyTermination) {
+                ldone[li] = 1;
+                --live;
             }
         }
     }
