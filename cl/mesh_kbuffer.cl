@@ -72,15 +72,20 @@ __kernel void kb_face_keys(__global const float4* points, __global const float4*
     const uint i = get_global_id(0);
     if (i >= P.faceCount) return;
     const uint4 f = faces[i];
-    const float4 p0 = points[f.x], p1 = points[f.y], p2 = points[f.z];
-    const float cx = (p0.x + p1.x + p2.x) / 3.0f - P.eye[0];
-    const float cy = (p0.y + p1.y + p2.y) / 3.0f - P.eye[1];
-    const float cz = (p0.z + p1.z + p2.z) / 3.0f - P.eye[2];
-    const float depth = P.perspective ? sqrt(cx * cx + cy * cy + cz * cz)
-                                      : cx * P.forward[0] + cy * P.forward[1] + cz * P.forward[2];
+    const float4 a = proj[f.x], b = proj[f.y], c = proj[f.z];
+    float depth;
+    if (P.perspective) {
+        const float4 p0 = points[f.x], p1 = points[f.y], p2 = points[f.z];
+        const float cx = (p0.x + p1.x + p2.x) / 3.0f - P.eye[0];
+        const float cy = (p0.y + p1.y + p2.y) / 3.0f - P.eye[1];
+        const float cz = (p0.z + p1.z + p2.z) / 3.0f - P.eye[2];
+        depth = sqrt(cx * cx + cy * cy + cz * cz);
+    } else {
+        /* The view depth is linear: the centroid's is the mean of the projected vertices' (no point reads). */
+        depth = (a.z + b.z + c.z) / 3.0f;
+    }
     keys[i] = kb_float_key(depth);
     vals[i] = i;
-    const float4 a = proj[f.x], b = proj[f.y], c = proj[f.z];
     const float orient = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
     uint2 rect = (uint2)(1u, 0u);
     if (orient != 0.0f && a.w != 0.0f && b.w != 0.0f && c.w != 0.0f) {

@@ -266,14 +266,18 @@ std::vector<std::uint32_t> kbufferMirrorOrder(const KBufferMirrorInput& in) {
     const auto& faces = in.faces->faces;
     std::vector<std::uint32_t> keys(P.faceCount), vals(P.faceCount);
     for (std::uint32_t i = 0; i < P.faceCount; ++i) {
-        const auto& p0 = pts[faces[i].v[0]].s;
-        const auto& p1 = pts[faces[i].v[1]].s;
-        const auto& p2 = pts[faces[i].v[2]].s;
-        const float cx = (p0[0] + p1[0] + p2[0]) / 3.0f - P.eye[0];
-        const float cy = (p0[1] + p1[1] + p2[1]) / 3.0f - P.eye[1];
-        const float cz = (p0[2] + p1[2] + p2[2]) / 3.0f - P.eye[2];
-        const float depth = P.perspective ? std::sqrt(cx * cx + cy * cy + cz * cz)
-                                          : cx * P.forward[0] + cy * P.forward[1] + cz * P.forward[2];
+        const auto& p0 = pts[faces[i].v[0]];
+        const auto& p1 = pts[faces[i].v[1]];
+        const auto& p2 = pts[faces[i].v[2]];
+        float depth;
+        if (P.perspective) {
+            const float cx = (p0.s[0] + p1.s[0] + p2.s[0]) / 3.0f - P.eye[0];
+            const float cy = (p0.s[1] + p1.s[1] + p2.s[1]) / 3.0f - P.eye[1];
+            const float cz = (p0.s[2] + p1.s[2] + p2.s[2]) / 3.0f - P.eye[2];
+            depth = std::sqrt(cx * cx + cy * cy + cz * cz);
+        } else {
+            depth = (project(p0, P).z + project(p1, P).z + project(p2, P).z) / 3.0f;
+        }
         keys[i] = floatSortKey(depth);
         vals[i] = i;
     }
