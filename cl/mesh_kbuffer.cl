@@ -366,16 +366,23 @@ inline KbEdge kb_make_edge(float4 u, uint iu, float4 v, uint iv, float orientSig
     return e;
 }
 
+/* The row-span factors of edge e, once per face: the x coefficient b of its inside measure and 1 / b (0 when the
+   edge is horizontal: it never narrows a row). */
+inline float2 kb_span_factors(const KbEdge* e) {
+    const float b = -e->sigma * (e->qy - e->py);
+    return (float2)(b, b != 0.0f ? 1.0f / b : 0.0f);
+}
+
 /* Narrows [*xl, *xr] to the x where edge e can be inside on row y (the edge function is linear in x), with a
-   margin far above float rounding: the exact per-pixel test still decides, this only skips pixels. */
-inline void kb_row_span(const KbEdge* e, float fy, float* xl, float* xr) {
+   margin far above float rounding (the reciprocal's included): the exact per-pixel test still decides, this
+   only skips pixels. f: kb_span_factors(e). */
+inline void kb_row_span(const KbEdge* e, float2 f, float fy, float* xl, float* xr) {
+    if (f.x == 0.0f) return;
     const float ex = e->qx - e->px, ey = e->qy - e->py;
-    const float b = -e->sigma * ey;
-    if (b == 0.0f) return;
     const float ta = ex * (fy - e->py), tb = ey * e->px;
-    const float xc = -(e->sigma * (ta + tb)) / b;
-    const float m = 1.0f + 1e-5f * ((fabs(ta) + fabs(tb)) / fabs(b) + fabs(xc));
-    if (b > 0.0f) *xl = fmax(*xl, xc - m);
+    const float xc = -(e->sigma * (ta + tb)) * f.y;
+    const float m = 1.0f + 1e-5f * ((fabs(ta) + fabs(tb)) * fabs(f.y) + fabs(xc));
+    if (f.x > 0.0f) *xl = fmax(*xl, xc - m);
     else *xr = fmin(*xr, xc + m);
 }
 
@@ -436,14 +443,22 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
         int y0 = (int)ceil(fmax(fmin(fmin(a.y, b.y), c.y), (float)ty0));
         const int y1 = (int)floor(fmin(fmax(fmax(a.y, b.y), c.y), (float)(yEnd - 1)));
         y0 += (int)(((uint)(KB_TILE_THREADS - ((y0 - ty0) % KB_TILE_THREADS)) + lid) % KB_TILE_THREADS);
+        /* Wide rows are narrowed to the edges' span; a few pixels are cheaper to test than to narrow. */
+        const int narrow = x1 - x0 >= KB_SPAN_MIN;
+        float2 fa = (float2)(0.0f), fb = (float2)(0.0f), fc = (float2)(0.0f);
+        if (narrow) {
+            fa = kb_span_factors(&ea);
+            fb = kb_span_factors(&eb);
+            fc = kb_span_factors(&ec);
+        }
         for (int y = y0; y <= y1; y += KB_TILE_THREADS) {
             const float fy = (float)y;
             int xs = x0, xe = x1;
-            if (x1 - x0 >= KB_SPAN_MIN) { /* narrow wide rows; a few pixels are cheaper to test than to narrow */
+            if (narrow) {
                 float xl = (float)x0, xr = (float)x1;
-                kb_row_span(&ea, fy, &xl, &xr);
-                kb_row_span(&eb, fy, &xl, &xr);
-                kb_row_span(&ec, fy, &xl, &xr);
+                kb_row_span(&ea, fa, fy, &xl, &xr);
+                kb_row_span(&eb, fb, fy, &xl, &xr);
+                kb_row_span(&ec, fc, fy, &xl, &xr);
                 xs = (int)ceil(xl);
                 xe = (int)floor(xr);
             }
