@@ -226,7 +226,7 @@ std::vector<std::byte> encodeSeriesOnce(ComputeContext& cc, const TimeSeries& se
         codec::planGop(n, motion ? options.gop : 1, motion ? options.bFrames : 0);
     Pipeline pipeline(cc, options, h);
     std::unique_ptr<codec::Predictor> predictor;
-    if (motion) predictor = codec::makeMotionPredictor(options.motionSearch);
+    if (motion) predictor = codec::makeMotionPredictor(options.motionSearch, options.globalShift, options.threads);
     const bool lossless = h.rate == RateMode::Lossless;
     // Reconstructions of the anchors later frames predict from (the two latest are enough).
     std::vector<std::optional<Volume>> recon(n);
