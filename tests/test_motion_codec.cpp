@@ -233,6 +233,30 @@ TEST(MotionCodec, GlobalShiftPredictsASubVoxelTranslation) {
     }
 }
 
+TEST(MotionCodec, LossyIntegerFramesPredictInFloatAndHoldPsnr) {
+    // Bit 0x40: a lossy 8-bit residual against the unrounded prediction; lossless keeps rounding.
+    ComputeContext& cc = test::computeContext();
+    Volume base = smooth({40, 36, 24});
+    for (float& x : base.values<float>())
+        x *= 0.15f;
+    const TimeSeries ts = shifted(base, 5, {0.7, -0.4, 0.3}, ScalarType::UInt8);
+    auto flagged = [](const std::vector<std::byte>& bytes) {
+        const VczHeader h = readVczHeader(bytes, "s");
+        std::size_t n = 0;
+        for (std::size_t f = 0; f < h.frames.size(); ++f)
+            if (h.frames[f].type != FrameType::I) n += (vczFrameAux(bytes, h, f, "s")[0] & 0x40) != 0;
+        return n;
+    };
+    EXPECT_EQ(flagged(encodeSeries(cc, ts, lossless())), 0u);
+    for (double p : {45.0, 60.0}) {
+        const auto bytes = encodeSeries(cc, ts, lossy(RateMode::Psnr, p));
+        EXPECT_GT(flagged(bytes), 0u) << p << " dB";
+        const auto out = decodeAll(bytes);
+        for (std::size_t f = 0; f < ts.frames.size(); ++f)
+            EXPECT_GE(psnr(ts.frames[f], out[f]), p - 0.5) << p << " dB, frame " << f;
+    }
+}
+
 TEST(MotionCodec, GlobalShiftStaysOffWithoutRigidMotion) {
     // Identical frames: the zero translation is never stored, P frames cost almost nothing.
     ComputeContext& cc = test::computeContext();

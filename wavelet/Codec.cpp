@@ -250,7 +250,7 @@ std::vector<std::byte> encodeSeriesOnce(ComputeContext& cc, const TimeSeries& se
         entry.reference0 = entry.reference1 = -1;
         rep[f].intraFallback = false;
         if (pf.type != FrameType::I) {
-            codec::ReferenceFrames refs{reconPtr, pf.reference0, pf.reference1, lossless ? 1.0 : step};
+            codec::ReferenceFrames refs{reconPtr, pf.reference0, pf.reference1, lossless ? 1.0 : step, lossless};
             codec::Prediction p = predictor->predict(cc, frame, f, refs);
             const codec::ResidualTarget target{&frame, &*p.prediction};
             codec::FrameResult pr = pipeline.rate().encodeFrame(*p.signal, h, false, &target);

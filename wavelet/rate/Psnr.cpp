@@ -38,6 +38,60 @@ protected:
         f.setSteps(std::move(o.steps));
         return {std::move(o.best), o.delta, {}};
     }
+
+    // A residual at the series' steps: its dead-zone edge is moved so the frame just meets the target, as
+    // the first frame's step search does. A prediction that leaves little to code ends above the target at
+    // the plain edge, and a wider dead zone drops the coefficients that buy the least; a residual of many
+    // coefficients near one step ends below it, and a narrower one keeps them. The decoder is unaffected.
+    void refine(LossyFrame& f, StepChoice& c, const ResidualTarget* residual) override {
+        if (!residual || f.range() == 0) return;
+        const double target = options().target;
+        auto psnrAt = [&](double edge, Trial& tr) {
+            f.setZeroBelow(edge);
+            tr = f.trial(std::nullopt);
+            return f.psnrOf(tr);
+        };
+        const double plain = f.psnrOf(c.best);
+        // Bracket [lo, hi] of edges: lo meets the target (or is the narrowest tried), hi does not.
+        double lo = 1, hi = kWidestEdge;
+        Trial keep = std::move(c.best);
+        double keptEdge = 1;
+        if (plain < target) {
+            Trial tr;
+            hi = 1;
+            lo = kNarrowestEdge;
+            if (psnrAt(lo, tr) < target) { // the narrowest edge is the best this step can do
+                c.best = std::move(tr);
+                return;
+            }
+            keep = std::move(tr);
+            keptEdge = lo;
+        } else {
+            Trial tr;
+            if (psnrAt(hi, tr) >= target) {
+                c.best = std::move(tr);
+                return;
+            }
+        }
+        for (int i = 0; i < 6; ++i) {
+            const double mid = 0.5 * (lo + hi);
+            Trial tr;
+            if (psnrAt(mid, tr) >= target) {
+                lo = mid;
+                keep = std::move(tr);
+                keptEdge = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        f.setZeroBelow(keptEdge);
+        c.best = std::move(keep);
+    }
+
+    // The dead-zone edges tried, in steps. 0.75 is halfway between the reconstructions of 0 and +-1 (1.5
+    // steps): a narrower edge adds error as well as bits, so the error no longer falls with the edge. Beyond
+    // 4 little is left to drop.
+    static constexpr double kNarrowestEdge = 0.75, kWidestEdge = 4;
 };
 
 } // namespace
