@@ -197,23 +197,33 @@ TEST(MotionCodec, PsnrHoldsOnEveryFrameAndBeatsIntra) {
     }
 }
 
-// The frames whose motion data carries a global translation (bit 0x80 of the block-size byte).
-std::size_t globalShiftFrames(const std::vector<std::byte>& bytes) {
+// The P/B frames whose motion data's block-size byte has a bit of `mask` set (0x80: a global translation,
+// 0x40: the prediction kept in float).
+std::size_t framesFlagged(const std::vector<std::byte>& bytes, std::uint8_t mask) {
     const VczHeader h = readVczHeader(bytes, "s");
     std::size_t n = 0;
     for (std::size_t f = 0; f < h.frames.size(); ++f)
-        if (h.frames[f].type != FrameType::I) n += (vczFrameAux(bytes, h, f, "s")[0] & 0x80) != 0;
+        if (h.frames[f].type != FrameType::I) n += (vczFrameAux(bytes, h, f, "s")[0] & mask) != 0;
     return n;
+}
+
+std::size_t globalShiftFrames(const std::vector<std::byte>& bytes) {
+    return framesFlagged(bytes, 0x80);
+}
+
+// 8-bit frames drifting by (0.7, -0.4, 0.3) voxels per frame: a rigid motion no half-voxel vector hits.
+TimeSeries drifting8Bit() {
+    Volume base = smooth({40, 36, 24});
+    for (float& x : base.values<float>())
+        x *= 0.15f;
+    return shifted(base, 5, {0.7, -0.4, 0.3}, ScalarType::UInt8);
 }
 
 TEST(MotionCodec, GlobalShiftPredictsASubVoxelTranslation) {
     // A rigid sub-voxel drift: the reference moved by the fitted translation predicts far better than
     // half-voxel trilinear blocks, and every frame stays exact / within its bound.
     ComputeContext& cc = test::computeContext();
-    Volume base = smooth({40, 36, 24});
-    for (float& x : base.values<float>())
-        x *= 0.15f;
-    const TimeSeries ts = shifted(base, 5, {0.7, -0.4, 0.3}, ScalarType::UInt8);
+    const TimeSeries ts = drifting8Bit();
     const auto withShift = encodeSeries(cc, ts, lossless());
     CodecOptions blocksOnly = lossless();
     blocksOnly.globalShift = false;
@@ -236,21 +246,11 @@ TEST(MotionCodec, GlobalShiftPredictsASubVoxelTranslation) {
 TEST(MotionCodec, LossyIntegerFramesPredictInFloatAndHoldPsnr) {
     // Bit 0x40: a lossy 8-bit residual against the unrounded prediction; lossless keeps rounding.
     ComputeContext& cc = test::computeContext();
-    Volume base = smooth({40, 36, 24});
-    for (float& x : base.values<float>())
-        x *= 0.15f;
-    const TimeSeries ts = shifted(base, 5, {0.7, -0.4, 0.3}, ScalarType::UInt8);
-    auto flagged = [](const std::vector<std::byte>& bytes) {
-        const VczHeader h = readVczHeader(bytes, "s");
-        std::size_t n = 0;
-        for (std::size_t f = 0; f < h.frames.size(); ++f)
-            if (h.frames[f].type != FrameType::I) n += (vczFrameAux(bytes, h, f, "s")[0] & 0x40) != 0;
-        return n;
-    };
-    EXPECT_EQ(flagged(encodeSeries(cc, ts, lossless())), 0u);
+    const TimeSeries ts = drifting8Bit();
+    EXPECT_EQ(framesFlagged(encodeSeries(cc, ts, lossless()), 0x40), 0u);
     for (double p : {45.0, 60.0}) {
         const auto bytes = encodeSeries(cc, ts, lossy(RateMode::Psnr, p));
-        EXPECT_GT(flagged(bytes), 0u) << p << " dB";
+        EXPECT_GT(framesFlagged(bytes, 0x40), 0u) << p << " dB";
         const auto out = decodeAll(bytes);
         for (std::size_t f = 0; f < ts.frames.size(); ++f)
             EXPECT_GE(psnr(ts.frames[f], out[f]), p - 0.5) << p << " dB, frame " << f;
