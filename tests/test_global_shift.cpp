@@ -51,7 +51,8 @@ TEST(GlobalShift, TranslatedSeriesIsTheCubicShift) {
 
 TEST(GlobalShift, RecoversAKnownSubVoxelTranslation) {
     const Volume v = smooth({48, 40, 32});
-    for (std::array<double, 3> t : {std::array<double, 3>{0.7, -0.4, 0.3}, {-1.25, 0.5, 0.0}, {0.0, 0.0, 0.0}}) {
+    for (std::array<double, 3> t :
+         {std::array<double, 3>{0.7, -0.4, 0.3}, {-1.25, 0.5, 0.0}, {0.0, 0.0, 0.0}}) {
         const Volume moved = cubicShifted(v, t);
         // Started half a voxel off, as the half-voxel block vectors may leave it.
         const GlobalShift g = estimateGlobalShift(moved, v, {t[0] + 0.5, t[1] - 0.5, t[2]});

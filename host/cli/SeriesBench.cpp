@@ -232,7 +232,10 @@ nlohmann::json frameBytes(const Coding& c) {
 nlohmann::json frameTypes(const Coding& c) {
     nlohmann::json j = nlohmann::json::array();
     for (const FrameReport& r : c.reports)
-        j.push_back(r.type == FrameType::P ? "P" : r.type == FrameType::B ? "B" : r.intraFallback ? "I*" : "I");
+        j.push_back(r.type == FrameType::P   ? "P"
+                    : r.type == FrameType::B ? "B"
+                    : r.intraFallback        ? "I*"
+                                             : "I");
     return j;
 }
 
@@ -314,12 +317,8 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
                                 {"playback_fps", 1e3 * double(s.series.frames.size()) / c.playbackMs}});
         }
     }
-    const nlohmann::json j{{"device", cc.device().name},
-                           {"gop", a.gop},
-                           {"global_shift", a.globalShift},
-                           {"b_frames", a.bFrames},
-                           {"runs", a.runs},
-                           {"rows", rows}};
+    const nlohmann::json j{{"device", cc.device().name}, {"gop", a.gop},   {"global_shift", a.globalShift},
+                           {"b_frames", a.bFrames},      {"runs", a.runs}, {"rows", rows}};
     if (a.json.empty()) {
         std::cout << j.dump(1) << '\n';
     } else {

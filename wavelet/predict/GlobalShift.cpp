@@ -36,7 +36,8 @@ void shiftAll(std::vector<double>& v, Dims d, std::array<double, 3> s, unsigned 
 // Solves the symmetric 3x3 system a x = b by Cramer's rule; false when it is (nearly) singular.
 bool solve3(const double a[3][3], const double b[3], double x[3]) {
     auto det = [](const double m[3][3]) {
-        return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+        return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+               m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
                m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
     };
     const double d = det(a);

@@ -134,9 +134,9 @@ public:
         // P frames may also predict from the reference moved by one global sub-voxel translation (rigid
         // motion that half-voxel vectors and trilinear samples only approximate); the block search then runs
         // again on the moved reference, and the cheaper estimate wins (the translation costs 6 bytes). Fits
-        // under a quarter voxel on every axis are left out: there the translation gains only through the cubic
-        // filter's smoothing, which the size estimate overrates (on viscous fingering such fits, 1/32 to 1/8
-        // voxel, were estimated 5-30 % smaller and coded 7-12 % larger).
+        // under a quarter voxel on every axis are left out: there the translation gains only through the
+        // cubic filter's smoothing, which the size estimate overrates (on viscous fingering such fits, 1/32
+        // to 1/8 voxel, were estimated 5-30 % smaller and coded 7-12 % larger).
         std::optional<Volume> moved;
         GlobalShift shift;
         if (globalShift_ && !bidirectional) {
