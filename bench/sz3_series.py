@@ -11,7 +11,7 @@ Each series is one 4D float32 array (frame, z, y, x) compressed by SZ3 whole, wi
 Bits/voxel count SZ3's compressed bytes over every voxel of every frame.
 
 Usage: build/sz3-venv/bin/python bench/sz3_series.py EXPORT_DIR SERIES_BENCH.json OUT.json
-(make the venv with: /usr/bin/python3 -m venv build/sz3-venv && build/sz3-venv/bin/pip install pysz numpy)
+(make the venv with: bash scripts/sz3-venv.sh)
 """
 import importlib.metadata
 import json
