@@ -109,8 +109,7 @@ public:
         const BlockGrid grid{signal.dims(), std::size_t(1) << side[0]};
         const MotionField field = decodeMotionField(side.subspan(1), grid, "motion data");
         if (!compensator_) compensator_.emplace(cc);
-        const Volume prediction = quantisedPrediction(compensator_->compensate(cc, field, r0, r1), r0.type());
-        signal = addResidual(prediction, signal, r0.type());
+        signal = compensator_->reconstruct(cc, field, r0, r1, signal);
     }
 
     bool usesReferences() const noexcept override { return true; }
