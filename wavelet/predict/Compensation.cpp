@@ -253,33 +253,48 @@ DeviceBuffer<std::byte> wrapVoxels(ComputeContext& cc, const Volume& v) {
 }
 
 // The compensation kernels' view of a motion field: modes, vectors, intra values, and per-axis tables (x
-// then y then z) of the first covering block and the two normalised weights.
+// then y then z) of the first covering block and the two normalised weights. The device works in these
+// host arrays (CL_MEM_USE_HOST_PTR) rather than in uploaded copies: no blocking write per table, each of
+// which waits for the device's threads (long waits on a machine shared with other jobs). They must outlive
+// the launch that reads them.
 struct FieldBuffers {
+    std::vector<cl_uchar> modeTable;
+    std::vector<cl_int4> fwdTable, bwdTable;
+    std::vector<cl_float> intraTable;
+    std::vector<cl_int> firstTable;
+    std::vector<cl_float2> weightTable;
     DeviceBuffer<cl_uchar> modes;
     DeviceBuffer<cl_int4> fwd, bwd;
     DeviceBuffer<cl_float> intra;
     DeviceBuffer<cl_int> first;
     DeviceBuffer<cl_float2> weights;
-};
-FieldBuffers uploadField(ComputeContext& cc, const MotionField& field) {
-    const Dims d = field.grid.volume;
-    const std::size_t n = field.grid.count();
-    std::vector<cl_uchar> modes(n);
-    for (std::size_t b = 0; b < n; ++b)
-        modes[b] = static_cast<cl_uchar>(field.modes[b]);
-    std::vector<cl_int> first;
-    std::vector<cl_float2> weights;
-    for (std::size_t len : {d.x, d.y, d.z}) {
-        const AxisWeights a = axisWeights(len, field.grid.size);
-        for (std::size_t i = 0; i < len; ++i) {
-            first.push_back(a.first[i]);
-            weights.push_back({{float(a.w0[i]), float(a.w1[i])}});
+
+    FieldBuffers(ComputeContext& cc, const MotionField& field) {
+        const Dims d = field.grid.volume;
+        const std::size_t n = field.grid.count();
+        modeTable.resize(n);
+        for (std::size_t b = 0; b < n; ++b)
+            modeTable[b] = static_cast<cl_uchar>(field.modes[b]);
+        fwdTable = packVectors(field.forward, n);
+        bwdTable = packVectors(field.backward, n);
+        intraTable = field.intraValue;
+        for (std::size_t len : {d.x, d.y, d.z}) {
+            const AxisWeights a = axisWeights(len, field.grid.size);
+            for (std::size_t i = 0; i < len; ++i) {
+                firstTable.push_back(a.first[i]);
+                weightTable.push_back({{float(a.w0[i]), float(a.w1[i])}});
+            }
         }
+        modes = cc.wrapHost(std::span(modeTable), CL_MEM_READ_ONLY);
+        fwd = cc.wrapHost(std::span(fwdTable), CL_MEM_READ_ONLY);
+        bwd = cc.wrapHost(std::span(bwdTable), CL_MEM_READ_ONLY);
+        intra = cc.wrapHost(std::span(intraTable), CL_MEM_READ_ONLY);
+        first = cc.wrapHost(std::span(firstTable), CL_MEM_READ_ONLY);
+        weights = cc.wrapHost(std::span(weightTable), CL_MEM_READ_ONLY);
     }
-    return {cc.upload(modes, CL_MEM_READ_ONLY),          cc.upload(packVectors(field.forward, n), CL_MEM_READ_ONLY),
-            cc.upload(packVectors(field.backward, n), CL_MEM_READ_ONLY), cc.upload(field.intraValue, CL_MEM_READ_ONLY),
-            cc.upload(first, CL_MEM_READ_ONLY),          cc.upload(weights, CL_MEM_READ_ONLY)};
-}
+    FieldBuffers(const FieldBuffers&) = delete; // the buffers point into this object's arrays
+    FieldBuffers& operator=(const FieldBuffers&) = delete;
+};
 
 // The row kernels' groups of 8 voxels along x start `overlap` mod 8 below a multiple of 8, so that every
 // group's voxels share their first covering block (see obmc8 in cl/motion.cl): the first group's start,
@@ -351,7 +366,7 @@ Volume MotionCompensator::compensate(ComputeContext& cc, const MotionField& fiel
                                      const Volume* reference1) {
     checkField(field, reference0, reference1);
     const Dims d = field.grid.volume;
-    const FieldBuffers fb = uploadField(cc, field);
+    const FieldBuffers fb(cc, field);
     Volume out(d, ScalarType::Float32);
     out.spacing = reference0.spacing;
     out.origin = reference0.origin;
@@ -389,7 +404,7 @@ Volume MotionCompensator::reconstruct(ComputeContext& cc, const MotionField& fie
         return codec::addResidual(codec::quantisedPrediction(compensate(cc, field, reference0, reference1), type),
                                   residual, type);
     const Dims d = field.grid.volume;
-    const FieldBuffers fb = uploadField(cc, field);
+    const FieldBuffers fb(cc, field);
     Volume out(d, type);
     out.spacing = residual.spacing;
     out.origin = residual.origin;
