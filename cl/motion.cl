@@ -252,93 +252,198 @@ __kernel void motion_compensate(__global const float* restrict r0, __global cons
     out[x + dims.x * (y + dims.y * z)] = compensate_voxel(r0, r1, dims, blocks, modes, fwd, bwd, intra, first, weights, x, y, z);
 }
 
+/* ------------------------------------------------------------------ compensation of rows (typed samples)
+
+   The row kernels read the reference frames in their voxel type, REF_TYPE: 0 uchar, 1 ushort, 2 short,
+   3 float. Every value converts to float exactly, as the host's conversion would, so a decoder keeps its
+   reference frames as they are, with no float copy. */
+
+#ifndef REF_TYPE
+#define REF_TYPE 3
+#endif
+#if REF_TYPE == 0
+typedef uchar ref_t;
+#define REF_CONVERT8 convert_uchar8
+#define REF_LO 0.0f
+#define REF_HI 255.0f
+#elif REF_TYPE == 1
+typedef ushort ref_t;
+#define REF_CONVERT8 convert_ushort8
+#define REF_LO 0.0f
+#define REF_HI 65535.0f
+#elif REF_TYPE == 2
+typedef short ref_t;
+#define REF_CONVERT8 convert_short8
+#define REF_LO -32768.0f
+#define REF_HI 32767.0f
+#else
+typedef float ref_t;
+#endif
+
+/* toVoxel (wavelet/BrickVoxels.hpp) for 8 values: integer types clamp, then round to nearest even; NaN,
+   which the host's clamp passes on and its integer conversion turns into 0, gives 0. Floats unchanged. */
+inline float8 to_voxel8(float8 v) {
+#if REF_TYPE == 3
+    return v;
+#else
+    return select(rint(clamp(v, REF_LO, REF_HI)), (float8)(0.0f), isnan(v));
+#endif
+}
+
 /* Eight reference samples along x from `row` starting at index `x`, clamped to [0, n): one vector load
    inside the row, lane by lane at its ends. */
-inline float8 row8(__global const float* row, int x, int n) {
-    if (x >= 0 && x + 8 <= n) return vload8(0, row + x);
+inline __attribute__((always_inline)) float8 row8(__global const ref_t* row, int x, int n) {
+    if (x >= 0 && x + 8 <= n) return convert_float8(vload8(0, row + x));
     const int m = n - 1; /* no private array: PoCL would keep one per work-item of the group */
-    return (float8)(row[clamp(x, 0, m)], row[clamp(x + 1, 0, m)], row[clamp(x + 2, 0, m)], row[clamp(x + 3, 0, m)],
-                    row[clamp(x + 4, 0, m)], row[clamp(x + 5, 0, m)], row[clamp(x + 6, 0, m)], row[clamp(x + 7, 0, m)]);
+    return (float8)((float)row[clamp(x, 0, m)], (float)row[clamp(x + 1, 0, m)], (float)row[clamp(x + 2, 0, m)],
+                    (float)row[clamp(x + 3, 0, m)], (float)row[clamp(x + 4, 0, m)], (float)row[clamp(x + 5, 0, m)],
+                    (float)row[clamp(x + 6, 0, m)], (float)row[clamp(x + 7, 0, m)]);
 }
 
 /* sample_half for the 8 voxels (x0 .. x0 + 7, y, z) with one vector v: the x corners of lane i are
-   x0 + i + floor(v.x / 2) and that + (v.x & 1), so each corner row is one vector load. Same sum order. */
-inline float8 sample_half8(__global const float* ref, int4 dims, int x0, int y, int z, int4 v) {
+   x0 + i + floor(v.x / 2) and that + (v.x & 1), so each corner row is one vector load. Same sum order.
+   A whole-voxel component makes both corners along it the same voxel (the clamped indices are equal), so
+   the 8 loads need no test of the vector's parity; away from the x ends of the row they need no clamps. */
+inline __attribute__((always_inline)) float8 sample_half8(__global const ref_t* ref, int4 dims, int x0, int y,
+                                                          int z, int4 v) {
     const int hy = 2 * y + v.y, hz = 2 * z + v.z;
     const int y0 = half_floor(hy), z0 = half_floor(hz);
     const int ay = clamp(y0, 0, dims.y - 1), by = clamp(y0 + (hy & 1), 0, dims.y - 1);
     const int az = clamp(z0, 0, dims.z - 1), bz = clamp(z0 + (hz & 1), 0, dims.z - 1);
     const int xa = x0 + half_floor(v.x), xb = xa + (v.x & 1);
     const int sx = dims.x, sxy = dims.x * dims.y;
-    __global const float* r00 = ref + sx * ay + sxy * az;
-    __global const float* r10 = ref + sx * by + sxy * az;
-    __global const float* r01 = ref + sx * ay + sxy * bz;
-    __global const float* r11 = ref + sx * by + sxy * bz;
-    /* A whole-voxel component makes both corners along it the same voxel: load each distinct row once. */
-    const bool hx = v.x & 1;
-    const float8 a00 = row8(r00, xa, sx), b00 = hx ? row8(r00, xb, sx) : a00;
-    const float8 a10 = (hy & 1) ? row8(r10, xa, sx) : a00, b10 = (hy & 1) ? (hx ? row8(r10, xb, sx) : a10) : b00;
-    float8 a01 = a00, b01 = b00, a11 = a10, b11 = b10;
-    if (hz & 1) {
+    __global const ref_t* r00 = ref + sx * ay + sxy * az;
+    __global const ref_t* r10 = ref + sx * by + sxy * az;
+    __global const ref_t* r01 = ref + sx * ay + sxy * bz;
+    __global const ref_t* r11 = ref + sx * by + sxy * bz;
+    float8 a00, b00, a10, b10, a01, b01, a11, b11;
+    if (xa >= 0 && xb + 8 <= sx) {
+        a00 = convert_float8(vload8(0, r00 + xa));
+        b00 = convert_float8(vload8(0, r00 + xb));
+        a10 = convert_float8(vload8(0, r10 + xa));
+        b10 = convert_float8(vload8(0, r10 + xb));
+        a01 = convert_float8(vload8(0, r01 + xa));
+        b01 = convert_float8(vload8(0, r01 + xb));
+        a11 = convert_float8(vload8(0, r11 + xa));
+        b11 = convert_float8(vload8(0, r11 + xb));
+    } else {
+        a00 = row8(r00, xa, sx);
+        b00 = row8(r00, xb, sx);
+        a10 = row8(r10, xa, sx);
+        b10 = row8(r10, xb, sx);
         a01 = row8(r01, xa, sx);
-        b01 = hx ? row8(r01, xb, sx) : a01;
-        a11 = (hy & 1) ? row8(r11, xa, sx) : a01;
-        b11 = (hy & 1) ? (hx ? row8(r11, xb, sx) : a11) : b01;
+        b01 = row8(r01, xb, sx);
+        a11 = row8(r11, xa, sx);
+        b11 = row8(r11, xb, sx);
     }
     return (a00 + b00 + a10 + b10 + a01 + b01 + a11 + b11) * 0.125f;
 }
 
-/* predict_voxel for 8 voxels along x inside the volume, one block's mode and vectors. */
-inline float8 predict8(int mode, __global const float* r0, __global const float* r1, int4 dims, int x0, int y,
+/* predict_voxel for the 8 voxels (x0 .. x0 + 7, y, z), one block's mode and vectors; lanes outside the
+   volume read clamped samples. */
+inline __attribute__((always_inline)) float8 predict8(int mode, __global const ref_t* r0, __global const ref_t* r1, int4 dims, int x0, int y,
                        int z, int4 f, int4 b, float intra) {
     switch (mode) {
     case 0: return (float8)(intra);
-    case 1: return vload8(0, r0 + x0 + dims.x * (y + dims.y * z));
+    case 1: return row8(r0 + dims.x * (y + dims.y * z), x0, dims.x);
     case 2: return sample_half8(r0, dims, x0, y, z, f);
     case 3: return sample_half8(r1, dims, x0, y, z, b);
     default: return 0.5f * (sample_half8(r0, dims, x0, y, z, f) + sample_half8(r1, dims, x0, y, z, b));
     }
 }
 
-/* Overlapped block motion compensation for blocks of 8 voxels or more: one work-item per 8 voxels along x
-   (x0 = 8 get_global_id(0), a multiple of 8, so inside one block bx whose window overlaps only blocks
-   bx - 1 and bx + 1). Per y/z block pair it predicts the 8 voxels from each of those x blocks with vector
-   loads and blends them with the windows: lane i takes block first[x0 + i] with weight w0 and the next one
-   with w1, the terms added in compensate_voxel's order (a zero weight adds exactly nothing). The last
-   partial group of a row goes voxel by voxel. */
-__kernel void motion_compensate_rows(__global const float* restrict r0, __global const float* restrict r1,
-                                     int4 dims, int4 blocks, int blockSize, __global const uchar* restrict modes,
-                                     __global const int4* restrict fwd, __global const int4* restrict bwd,
-                                     __global const float* restrict intra, __global const int* restrict first,
-                                     __global const float2* restrict weights, __global float* restrict out) {
-    const int x0 = 8 * (int)get_global_id(0), y = (int)get_global_id(1), z = (int)get_global_id(2);
-    if (x0 >= dims.x || y >= dims.y || z >= dims.z) return;
-    __global float* o = out + dims.x * (y + dims.y * z);
-    if (x0 + 8 > dims.x) {
-        for (int x = x0; x < dims.x; ++x)
-            o[x] = compensate_voxel(r0, r1, dims, blocks, modes, fwd, bwd, intra, first, weights, x, y, z);
-        return;
+/* The OBMC prediction of the 8 voxels (xs .. xs + 7, y, z), for blocks of 8 voxels or more. xs is
+   `overlap` mod 8 below a multiple of 8, so along x every voxel of the group inside the volume has the same
+   first covering block `lo` (the table's first[] is clamp(floor((x - overlap) / B), 0, nb - 1)), and the
+   second one is lo + 1: two block predictions per y/z block pair, blended lane by lane with the x weights.
+   The terms are added in compensate_voxel's order, and a zero weight adds exactly nothing (a second block
+   with zero weight on every lane is not predicted at all), so the prediction has compensate_voxel's bits.
+   Lanes outside the volume carry clamped tables and samples; the caller does not store them. */
+inline __attribute__((always_inline)) float8 obmc8(__global const ref_t* r0, __global const ref_t* r1, int4 dims, int4 blocks,
+                    __global const uchar* modes, __global const int4* fwd, __global const int4* bwd,
+                    __global const float* intra, __global const int* first, __global const float2* weights,
+                    int xs, int y, int z) {
+    float8 wx0, wx1;
+    if (xs >= 0 && xs + 8 <= dims.x) {
+        const float16 wxx = vload16(0, (__global const float*)(weights + xs));
+        wx0 = wxx.even;
+        wx1 = wxx.odd;
+    } else {
+        const int m = dims.x - 1;
+        const float2 w0 = weights[clamp(xs, 0, m)], w1 = weights[clamp(xs + 1, 0, m)],
+                     w2 = weights[clamp(xs + 2, 0, m)], w3 = weights[clamp(xs + 3, 0, m)],
+                     w4 = weights[clamp(xs + 4, 0, m)], w5 = weights[clamp(xs + 5, 0, m)],
+                     w6 = weights[clamp(xs + 6, 0, m)], w7 = weights[clamp(xs + 7, 0, m)];
+        wx0 = (float8)(w0.x, w1.x, w2.x, w3.x, w4.x, w5.x, w6.x, w7.x);
+        wx1 = (float8)(w0.y, w1.y, w2.y, w3.y, w4.y, w5.y, w6.y, w7.y);
     }
-    const int bx = x0 / blockSize;
-    const int8 fx = vload8(0, first + x0);
-    const float16 wxx = vload16(0, (__global const float*)(weights + x0));
-    const float8 wx0 = wxx.even, wx1 = wxx.odd;
-    const int8 left = fx < (int8)(bx); /* lane's first block is bx - 1 (else bx) */
-    const bool hasLeft = any(left), hasRight = any(~left & (wx1 != (float8)(0.0f)));
+    const int lo = first[max(xs, 0)];
+    const bool second = any(wx1 != (float8)(0.0f));
     const int fy = first[dims.x + y], fz = first[dims.x + dims.y + z];
     const float2 wy = weights[dims.x + y], wz = weights[dims.x + dims.y + z];
     float8 p = (float8)(0.0f);
     for (int c = 0; c < 4; ++c) { /* (y, z) corner in compensate_voxel's order; x inside */
         const float wyc = (c & 1) ? wy.y : wy.x, wzc = (c & 2) ? wz.y : wz.x;
         if (wyc == 0.0f || wzc == 0.0f) continue;
-        const int rowBlock = blocks.x * ((fy + (c & 1)) + blocks.y * (fz + (c >> 1)));
-        const int bc = rowBlock + bx, bl = bc - 1, br = bc + 1;
-        const float8 pc = predict8(modes[bc], r0, r1, dims, x0, y, z, fwd[bc], bwd[bc], intra[bc]);
-        const float8 pl = hasLeft ? predict8(modes[bl], r0, r1, dims, x0, y, z, fwd[bl], bwd[bl], intra[bl]) : pc;
-        const float8 pr = hasRight ? predict8(modes[br], r0, r1, dims, x0, y, z, fwd[br], bwd[br], intra[br]) : pc;
+        const int b0 = blocks.x * ((fy + (c & 1)) + blocks.y * (fz + (c >> 1))) + lo;
         const float8 w0 = wx0 * wyc * wzc, w1 = wx1 * wyc * wzc;
-        p += w0 * select(pc, pl, left);
-        p += w1 * select(pr, pc, left);
+        const float8 p0 = predict8(modes[b0], r0, r1, dims, xs, y, z, fwd[b0], bwd[b0], intra[b0]);
+        p += w0 * p0;
+        if (second) {
+            const int b1 = b0 + 1;
+            const float8 p1 = predict8(modes[b1], r0, r1, dims, xs, y, z, fwd[b1], bwd[b1], intra[b1]);
+            p += w1 * p1;
+        }
     }
-    vstore8(p, 0, o + x0);
+    return p;
+}
+
+/* Overlapped block motion compensation for blocks of 8 voxels or more: one work-item per 8 voxels along x
+   starting at xs = start + 8 get_global_id(0), start = (overlap mod 8) - 8 or 0 (see obmc8); writes the
+   float prediction. */
+__kernel void motion_compensate_rows(__global const ref_t* restrict r0, __global const ref_t* restrict r1,
+                                     int4 dims, int4 blocks, int start, __global const uchar* restrict modes,
+                                     __global const int4* restrict fwd, __global const int4* restrict bwd,
+                                     __global const float* restrict intra, __global const int* restrict first,
+                                     __global const float2* restrict weights, __global float* restrict out) {
+    const int xs = start + 8 * (int)get_global_id(0), y = (int)get_global_id(1), z = (int)get_global_id(2);
+    if (xs >= dims.x || y >= dims.y || z >= dims.z) return;
+    const float8 p = obmc8(r0, r1, dims, blocks, modes, fwd, bwd, intra, first, weights, xs, y, z);
+    __global float* o = out + dims.x * (y + dims.y * z);
+    if (xs >= 0 && xs + 8 <= dims.x) {
+        vstore8(p, 0, o + xs);
+    } else {
+        for (int i = max(0, -xs); i < 8 && xs + i < dims.x; ++i)
+            o[xs + i] = p[i];
+    }
+}
+
+/* The decoder's reconstruction of a P/B frame in one pass, same work-items as motion_compensate_rows: the
+   prediction converted to the voxel type (the codec's rounded prediction, quantisedPrediction), plus the
+   decoded residual, converted again (predictedVoxel in wavelet/predict/Residual.hpp), written as voxels. */
+__kernel void motion_reconstruct_rows(__global const ref_t* restrict r0, __global const ref_t* restrict r1,
+                                      int4 dims, int4 blocks, int start, __global const uchar* restrict modes,
+                                      __global const int4* restrict fwd, __global const int4* restrict bwd,
+                                      __global const float* restrict intra, __global const int* restrict first,
+                                      __global const float2* restrict weights,
+                                      __global const float* restrict residual, __global ref_t* restrict out) {
+    const int xs = start + 8 * (int)get_global_id(0), y = (int)get_global_id(1), z = (int)get_global_id(2);
+    if (xs >= dims.x || y >= dims.y || z >= dims.z) return;
+    const float8 p = to_voxel8(obmc8(r0, r1, dims, blocks, modes, fwd, bwd, intra, first, weights, xs, y, z));
+    const int row = dims.x * (y + dims.y * z);
+    __global const float* r = residual + row;
+    __global ref_t* o = out + row;
+    if (xs >= 0 && xs + 8 <= dims.x) {
+        const float8 v = to_voxel8(p + vload8(0, r + xs));
+#if REF_TYPE == 3
+        vstore8(v, 0, o + xs);
+#else
+        vstore8(REF_CONVERT8(v), 0, o + xs);
+#endif
+    } else {
+        for (int i = max(0, -xs); i < 8 && xs + i < dims.x; ++i) {
+            const float v = to_voxel8((float8)(p[i] + r[xs + i])).s0;
+            o[xs + i] = (ref_t)v;
+        }
+    }
 }

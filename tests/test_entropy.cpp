@@ -6,6 +6,7 @@
 // speed benchmark is bench/entropy_speed.cpp.
 #include "host/Error.hpp"
 #include "wavelet/EntropyCoder.hpp"
+#include "wavelet/entropy/DenseKernels.hpp"
 
 #include <gtest/gtest.h>
 
@@ -310,6 +311,17 @@ TEST(Entropy, DamagedSectionsAreRejectedWithoutCrashing) {
             decodeDamaged(junk, d, levels, s, mode, std::vector<std::int32_t>(d.count(), 0));
         }
     }
+}
+
+TEST(Entropy, DispatchUsesTheVectorKernelsTheCpuHas) {
+    // The build must hand the AVX-512 tables to the dispatcher wherever they are built: a build setting lost
+    // in a move of the files once left every coder on the scalar path, which no other test notices.
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+    // Both coders' tables come from the same dispatch unit and build setting.
+    EXPECT_EQ(denseDecoderSimdAvailable(), entropy::avx512DenseDecoderKernels() != nullptr);
+#else
+    GTEST_SKIP() << "the AVX-512 coders are built for x86-64 only";
+#endif
 }
 
 TEST(Entropy, SimdEncoderArithmeticEqualsTheTables) {

@@ -4,6 +4,7 @@
 #include "wavelet/predict/Compensation.hpp"
 #include "wavelet/predict/MotionSearch.hpp"
 #include "wavelet/predict/MotionVectorCoding.hpp"
+#include "wavelet/predict/Residual.hpp"
 #include "wavelet/predict/TranslatedSeries.hpp"
 #include "TestUtil.hpp"
 
@@ -231,29 +232,89 @@ TEST(MotionCompensation, BidirectionalPredictionAveragesBothReferences) {
     EXPECT_THROW(compensateReference(f, ts.frames[0], nullptr), DataError);
 }
 
+namespace {
+
+// A random field over `d` with blocks of `size`: every mode, half-voxel vectors up to 5 voxels (many
+// pointing outside the volume: clamp-to-edge), intra values across the range.
+MotionField randomField(Dims d, std::size_t size, std::mt19937& rng) {
+    std::uniform_int_distribution<int> mode(0, kBlockModeCount - 1), comp10(-10, 10);
+    MotionField f;
+    f.grid = {d, size};
+    for (std::size_t b = 0; b < f.grid.count(); ++b) {
+        f.modes.push_back(static_cast<BlockMode>(mode(rng)));
+        f.forward.push_back({std::int16_t(comp10(rng)), std::int16_t(comp10(rng)), std::int16_t(comp10(rng))});
+        f.backward.push_back({std::int16_t(comp10(rng)), std::int16_t(comp10(rng)), std::int16_t(comp10(rng))});
+        f.intraValue.push_back(float(comp10(rng)) * 7.5f);
+    }
+    return f;
+}
+
+// `v` (values about 0..200) moved onto most of `type`'s range: the references in each voxel type.
+Volume asType(const Volume& v, ScalarType type) {
+    const double scale = type == ScalarType::UInt8 ? 1.0 : type == ScalarType::Float32 ? 0.37 : 300.0;
+    const double offset = type == ScalarType::Int16 ? -30000.0 : 0.0;
+    Volume s(v.dims(), ScalarType::Float32);
+    const auto in = v.values<float>();
+    auto out = s.values<float>();
+    for (std::size_t i = 0; i < in.size(); ++i)
+        out[i] = float(in[i] * scale + offset);
+    return s.convertedTo(type);
+}
+
+} // namespace
+
 TEST(MotionCompensation, RandomFieldsMatchTheReferenceOnEveryPath) {
-    // Random modes and half-voxel vectors (many pointing outside the volume: clamp-to-edge) on dims that are
-    // no multiple of 8: the row kernel (blocks of 8 and 16, vector loads inside rows, lane by lane at the
-    // row ends and in the last partial group) and the per-voxel kernel (blocks of 4) against the reference.
+    // Random fields on dims that are no multiple of 8: the row kernel (blocks of 8, 16 and 32; vector loads
+    // inside rows, lane by lane at the row ends and in the first and last partial groups) and the per-voxel
+    // kernel (blocks of 4) against the reference, with references of every voxel type (the row kernel reads
+    // them as they are).
     ComputeContext& cc = test::computeContext();
     MotionCompensator comp(cc);
     const Dims d{45, 27, 19};
-    const Volume r0 = blobs(d, 11), r1 = blobs(d, 12);
     std::mt19937 rng(7);
-    std::uniform_int_distribution<int> mode(0, kBlockModeCount - 1), comp10(-10, 10);
-    for (std::size_t size : {4u, 8u, 16u}) {
-        MotionField f;
-        f.grid = {d, size};
-        const std::size_t n = f.grid.count();
-        for (std::size_t b = 0; b < n; ++b) {
-            f.modes.push_back(static_cast<BlockMode>(mode(rng)));
-            f.forward.push_back({std::int16_t(comp10(rng)), std::int16_t(comp10(rng)), std::int16_t(comp10(rng))});
-            f.backward.push_back({std::int16_t(comp10(rng)), std::int16_t(comp10(rng)), std::int16_t(comp10(rng))});
-            f.intraValue.push_back(float(comp10(rng)) * 7.5f);
+    for (ScalarType type : {ScalarType::Float32, ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16}) {
+        const Volume r0 = asType(blobs(d, 11), type), r1 = asType(blobs(d, 12), type);
+        for (std::size_t size : {4u, 8u, 16u, 32u}) {
+            const MotionField f = randomField(d, size, rng);
+            const Volume k = comp.compensate(cc, f, r0, &r1), ref = compensateReference(f, r0, &r1);
+            EXPECT_LE(maxAbsDiff(k, ref), 1e-5 * range(r0))
+                << "block size " << size << ", " << scalarTypeName(type);
         }
-        const Volume k = comp.compensate(cc, f, r0, &r1), ref = compensateReference(f, r0, &r1);
-        EXPECT_LE(maxAbsDiff(k, ref), 1e-5 * range(r0)) << "block size " << size;
     }
+}
+
+TEST(MotionCompensation, FusedReconstructionEqualsRoundedPredictionPlusResidual) {
+    // The decoder's one-pass reconstruction against the host's steps on the compensation kernel's output
+    // (quantisedPrediction, then addResidual), bit for bit: every voxel type, every row-kernel block size and
+    // the per-voxel fallback, dims no multiple of 8 along any axis. The residuals hold exact halves (ties
+    // round to even), values far outside the type's range (clamped) and, for integer types, NaN (0, as the
+    // host's conversion gives).
+    ComputeContext& cc = test::computeContext();
+    MotionCompensator comp(cc);
+    const Dims d{45, 27, 19};
+    std::mt19937 rng(21);
+    std::uniform_int_distribution<int> halves(-400, 400), special(0, 40);
+    for (ScalarType type : {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16, ScalarType::Float32}) {
+        const Volume r0 = asType(blobs(d, 13), type), r1 = asType(blobs(d, 14), type);
+        Volume residual(d, ScalarType::Float32);
+        for (float& v : residual.values<float>()) {
+            const int s = special(rng);
+            v = s == 0 ? 1e6f : s == 1 ? -1e6f : s == 2 && type != ScalarType::Float32 ? NAN : 0.5f * float(halves(rng));
+        }
+        for (std::size_t size : {4u, 8u, 16u, 32u}) {
+            const MotionField f = randomField(d, size, rng);
+            const Volume expected =
+                codec::addResidual(codec::quantisedPrediction(comp.compensate(cc, f, r0, &r1), type), residual, type);
+            const Volume fused = comp.reconstruct(cc, f, r0, &r1, residual);
+            EXPECT_EQ(fused.type(), type);
+            EXPECT_TRUE(fused == expected) << "block size " << size << ", " << scalarTypeName(type);
+        }
+    }
+    // The residual must be Float32 on the frame's grid.
+    const MotionField f = randomField(d, 8, rng);
+    const Volume r0 = asType(blobs(d, 13), ScalarType::UInt8);
+    EXPECT_THROW(comp.reconstruct(cc, f, r0, &r0, Volume(d, ScalarType::UInt8)), DataError);
+    EXPECT_THROW(comp.reconstruct(cc, f, r0, &r0, Volume({45, 27, 18}, ScalarType::Float32)), DataError);
 }
 
 TEST(MotionCompensation, BadFieldsAreRefused) {

@@ -451,7 +451,8 @@ Volume VczReader::decodeFrame(ComputeContext& cc, std::size_t frame, std::span<c
             residual.origin = h.origin;
             std::vector<std::vector<codec::Correction>> corrections;
             codec::decodeFrameBricks(cc, bytes_, h, f, codec::allBricks(h), 0, threads, name_, profile, {0, 0, 0},
-                                     h.dims, residual, h.dims, false, &corrections);
+                                     h.dims, residual, h.dims, h.transform == TransformKind::FloatLifting,
+                                     &corrections);
             const auto aux = vczFrameAux(bytes_, h, f, name_);
             v = finishPredicted(cc, h, std::move(residual), entry, f, aux,
                                 codec::ReferenceFrames{ptr, entry.reference0, entry.reference1}, corrections, name_,

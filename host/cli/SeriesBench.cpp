@@ -121,9 +121,11 @@ struct Coding {
     std::vector<std::byte> file;
     std::size_t bytes = 0;
     double bpv = 0, minPsnr = INFINITY, meanMse = 0, maxErr = 0, encodeMs = 0, playbackMs = 0, frameMs = 0;
-    std::vector<double> playback, frame; // per run: whole series in order, one frame given its reference
-    std::vector<double> framePsnr;       // per frame, decoded in order
-    std::vector<FrameReport> reports;    // per frame, what the encoder did
+    double playbackCpuMs = 0, frameCpuMs = 0;
+    // Per run: whole series in order, one frame given its reference; wall and process CPU time.
+    std::vector<double> playback, frame, playbackCpu, frameCpu;
+    std::vector<double> framePsnr;    // per frame, decoded in order
+    std::vector<FrameReport> reports; // per frame, what the encoder did
     std::size_t p = 0, b = 0;
     bool exact = true;
 };
@@ -176,14 +178,18 @@ Coding code(ComputeContext& cc, const TimeSeries& ts, const CodecOptions& o) {
 // last frame of the first group, a P frame with motion; an I frame in intra-only coding).
 void timeRun(ComputeContext& cc, const TimeSeries& ts, std::size_t gop, Coding& c) {
     const VczReader r(c.file, "bench.vcz");
+    const ProcessCpuStopwatch pc;
     c.playback.push_back(playSeries(cc, r, ts, nullptr));
+    c.playbackCpu.push_back(pc.milliseconds());
     const std::size_t k = std::min(ts.frames.size(), gop) - 1;
     const Volume ref = r.decodeFrame(cc, k > 0 ? k - 1 : 0);
     std::vector<const Volume*> withRef(k + 1, nullptr);
     if (k > 0) withRef[k - 1] = &ref;
+    const ProcessCpuStopwatch fc;
     Stopwatch fw;
     r.decodeFrame(cc, k, withRef);
     c.frame.push_back(fw.milliseconds());
+    c.frameCpu.push_back(fc.milliseconds());
 }
 
 // Writes a series for peers that read raw arrays: <dir>/<name>.f32 (every frame as float32, x fastest, then
@@ -269,6 +275,8 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
             for (Coding* c : {&in, &mc}) {
                 c->playbackMs = median(c->playback);
                 c->frameMs = median(c->frame);
+                c->playbackCpuMs = median(c->playbackCpu);
+                c->frameCpuMs = median(c->frameCpu);
             }
             const double mb = double(s.series.frames[0].byteSize() * s.series.frames.size()) / 1e6;
             auto psnrOfMean = [&](const Coding& c) {
@@ -288,7 +296,10 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
                       << " / " << fmt(mc.frameMs, 1) << " ms (P/I " << fmt(mc.frameMs / in.frameMs, 2)
                       << "x); playback " << fmt(1e3 * double(s.series.frames.size()) / in.playbackMs, 1)
                       << " / " << fmt(1e3 * double(s.series.frames.size()) / mc.playbackMs, 1)
-                      << " fps; load " << fmt(loadBefore, 1) << " -> " << fmt(loadAfter, 1) << "\n";
+                      << " fps; CPU per frame " << fmt(in.frameCpuMs, 1) << " / " << fmt(mc.frameCpuMs, 1)
+                      << " ms (P/I " << fmt(mc.frameCpuMs / in.frameCpuMs, 2) << "x), playing "
+                      << fmt(in.playbackCpuMs / double(s.series.frames.size()), 1) << " / "
+                      << fmt(mc.playbackCpuMs / double(s.series.frames.size()), 1) << " ms; load " << fmt(loadBefore, 1) << " -> " << fmt(loadAfter, 1) << "\n";
             for (const auto& [mode, c] : {std::pair<const char*, const Coding&>{"intra", in}, {"mc", mc}})
                 rows.push_back({{"series", s.name},
                                 {"frames", s.series.frames.size()},
@@ -308,6 +319,11 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
                                 {"frame_decode_ms", c.frameMs},
                                 {"frame_decode_over_intra", c.frameMs / in.frameMs},
                                 {"playback_ms_runs", c.playback},
+                                {"playback_cpu_ms_runs", c.playbackCpu},
+                                {"frame_decode_cpu_ms_runs", c.frameCpu},
+                                {"frame_decode_cpu_ms", c.frameCpuMs},
+                                {"frame_decode_cpu_over_intra", c.frameCpuMs / in.frameCpuMs},
+                                {"playback_cpu_ms_per_frame", c.playbackCpuMs / double(s.series.frames.size())},
                                 {"frame_decode_ms_runs", c.frame},
                                 {"load_before", jnum(loadBefore)},
                                 {"load_after", jnum(loadAfter)},

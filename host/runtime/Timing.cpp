@@ -1,11 +1,18 @@
-// Timing helpers: medians and the copy-kernel bandwidth ceiling.
+// Timing helpers: process CPU time, medians and the copy-kernel bandwidth ceiling.
 #include "host/runtime/Timing.hpp"
 
 #include "host/runtime/ClRuntime.hpp"
 
 #include <algorithm>
+#include <ctime>
 
 namespace volcl {
+
+double ProcessCpuStopwatch::now() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
+}
 
 double median(std::vector<double> samples) {
     if (samples.empty()) return 0.0;

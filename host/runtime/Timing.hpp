@@ -21,6 +21,18 @@ private:
     Clock::time_point start_;
 };
 
+/// CPU time of the whole process (all its threads, OpenCL CPU-device workers included) since construction:
+/// on a machine shared with other jobs it measures the work done, where wall time also measures the wait.
+class ProcessCpuStopwatch {
+public:
+    ProcessCpuStopwatch() : start_(now()) {}
+    double milliseconds() const { return now() - start_; }
+
+private:
+    static double now();
+    double start_;
+};
+
 /// Median of the samples (mean of the middle two for even counts); 0 for an empty list.
 double median(std::vector<double> samples);
 

@@ -2,6 +2,7 @@
 #include "wavelet/predict/Compensation.hpp"
 
 #include "host/Error.hpp"
+#include "wavelet/predict/Residual.hpp"
 #include "wavelet/transform/LiftingTransform.hpp"
 
 #include <algorithm>
@@ -66,6 +67,7 @@ void checkField(const MotionField& field, const Volume& r0, const Volume* r1) {
     const std::size_t n = field.grid.count();
     if (field.grid.volume != r0.dims() || (r1 && r1->dims() != r0.dims()))
         throw DataError("motion compensation: the motion field and the reference differ in dims");
+    if (r1 && r1->type() != r0.type()) throw DataError("motion compensation: the references differ in type");
     if (field.modes.size() != n || field.forward.size() != n || field.intraValue.size() != n ||
         (field.bidirectional() && field.backward.size() != n))
         throw DataError("motion compensation: the motion field is incomplete");
@@ -243,12 +245,84 @@ std::vector<cl_int4> packVectors(const std::vector<MotionVector>& v, std::size_t
 
 cl_int4 dims4(Dims d) { return {{cl_int(d.x), cl_int(d.y), cl_int(d.z), 0}}; }
 
+// A read-only device view of a volume's voxels in its host memory (CL_MEM_USE_HOST_PTR: no copy on CPU
+// devices). The kernels only read it, so the const volume is not changed.
+DeviceBuffer<std::byte> wrapVoxels(ComputeContext& cc, const Volume& v) {
+    const std::span<const std::byte> b = v.bytes();
+    return cc.wrapHost(std::span<std::byte>(const_cast<std::byte*>(b.data()), b.size()), CL_MEM_READ_ONLY);
+}
+
+// The compensation kernels' view of a motion field: modes, vectors, intra values, and per-axis tables (x
+// then y then z) of the first covering block and the two normalised weights. The device works in these
+// host arrays (CL_MEM_USE_HOST_PTR) rather than in uploaded copies: no blocking write per table, each of
+// which waits for the device's threads (long waits on a machine shared with other jobs). They must outlive
+// the launch that reads them.
+struct FieldBuffers {
+    std::vector<cl_uchar> modeTable;
+    std::vector<cl_int4> fwdTable, bwdTable;
+    std::vector<cl_float> intraTable;
+    std::vector<cl_int> firstTable;
+    std::vector<cl_float2> weightTable;
+    DeviceBuffer<cl_uchar> modes;
+    DeviceBuffer<cl_int4> fwd, bwd;
+    DeviceBuffer<cl_float> intra;
+    DeviceBuffer<cl_int> first;
+    DeviceBuffer<cl_float2> weights;
+
+    FieldBuffers(ComputeContext& cc, const MotionField& field) {
+        const Dims d = field.grid.volume;
+        const std::size_t n = field.grid.count();
+        modeTable.resize(n);
+        for (std::size_t b = 0; b < n; ++b)
+            modeTable[b] = static_cast<cl_uchar>(field.modes[b]);
+        fwdTable = packVectors(field.forward, n);
+        bwdTable = packVectors(field.backward, n);
+        intraTable = field.intraValue;
+        for (std::size_t len : {d.x, d.y, d.z}) {
+            const AxisWeights a = axisWeights(len, field.grid.size);
+            for (std::size_t i = 0; i < len; ++i) {
+                firstTable.push_back(a.first[i]);
+                weightTable.push_back({{float(a.w0[i]), float(a.w1[i])}});
+            }
+        }
+        modes = cc.wrapHost(std::span(modeTable), CL_MEM_READ_ONLY);
+        fwd = cc.wrapHost(std::span(fwdTable), CL_MEM_READ_ONLY);
+        bwd = cc.wrapHost(std::span(bwdTable), CL_MEM_READ_ONLY);
+        intra = cc.wrapHost(std::span(intraTable), CL_MEM_READ_ONLY);
+        first = cc.wrapHost(std::span(firstTable), CL_MEM_READ_ONLY);
+        weights = cc.wrapHost(std::span(weightTable), CL_MEM_READ_ONLY);
+    }
+    FieldBuffers(const FieldBuffers&) = delete; // the buffers point into this object's arrays
+    FieldBuffers& operator=(const FieldBuffers&) = delete;
+};
+
+// The row kernels' groups of 8 voxels along x start `overlap` mod 8 below a multiple of 8, so that every
+// group's voxels share their first covering block (see obmc8 in cl/motion.cl): the first group's start,
+// and the number of groups over a row of n voxels.
+cl_int rowStart(std::size_t blockSize) {
+    const int o = int(overlapFor(blockSize) % 8);
+    return o == 0 ? 0 : o - 8;
+}
+std::size_t rowGroups(std::size_t n, std::size_t blockSize) {
+    return (n + std::size_t(-rowStart(blockSize)) + 7) / 8;
+}
+
 } // namespace
 
 MotionCompensator::MotionCompensator(ComputeContext& cc) {
     costsKernel_ = cc.kernel("motion.cl", "motion_mode_costs");
     compensateKernel_ = cc.kernel("motion.cl", "motion_compensate");
-    compensateRowsKernel_ = cc.kernel("motion.cl", "motion_compensate_rows");
+}
+
+MotionCompensator::RowKernels& MotionCompensator::rowKernels(ComputeContext& cc, ScalarType type) {
+    std::optional<RowKernels>& k = rowKernels_[static_cast<std::size_t>(type)];
+    if (!k) {
+        KernelDefines d;
+        d.set("REF_TYPE", static_cast<int>(type)); // the kernel's ref_t follows ScalarType's order
+        k = RowKernels{cc.kernel("motion.cl", "motion_compensate_rows", d),
+                       cc.kernel("motion.cl", "motion_reconstruct_rows", d)};
+    }
+    return *k;
 }
 
 MotionField MotionCompensator::decideModes(ComputeContext& cc, const Volume& current, const Volume& reference0,
@@ -292,47 +366,58 @@ Volume MotionCompensator::compensate(ComputeContext& cc, const MotionField& fiel
                                      const Volume* reference1) {
     checkField(field, reference0, reference1);
     const Dims d = field.grid.volume;
-    const std::size_t n = field.grid.count();
-    std::vector<float> r0 = reference0.toFloat();
-    std::vector<float> r1 = reference1 ? reference1->toFloat() : std::vector<float>(1, 0.0f);
-    std::vector<cl_uchar> modes(n);
-    for (std::size_t b = 0; b < n; ++b)
-        modes[b] = static_cast<cl_uchar>(field.modes[b]);
-    // Per-axis tables, x then y then z: the first covering block and the two normalised weights.
-    std::vector<cl_int> first;
-    std::vector<cl_float2> weights;
-    for (std::size_t len : {d.x, d.y, d.z}) {
-        const AxisWeights a = axisWeights(len, field.grid.size);
-        for (std::size_t i = 0; i < len; ++i) {
-            first.push_back(a.first[i]);
-            weights.push_back({{float(a.w0[i]), float(a.w1[i])}});
-        }
-    }
-    // The frames and the prediction stay in host memory the device works in (no copies on CPU devices).
-    auto r0B = cc.wrapHost(std::span(r0), CL_MEM_READ_ONLY), r1B = cc.wrapHost(std::span(r1), CL_MEM_READ_ONLY);
-    auto modeB = cc.upload(modes, CL_MEM_READ_ONLY);
-    auto fwdB = cc.upload(packVectors(field.forward, n), CL_MEM_READ_ONLY);
-    auto bwdB = cc.upload(packVectors(field.backward, n), CL_MEM_READ_ONLY);
-    auto intraB = cc.upload(field.intraValue, CL_MEM_READ_ONLY);
-    auto firstB = cc.upload(first, CL_MEM_READ_ONLY);
-    auto weightB = cc.upload(weights, CL_MEM_READ_ONLY);
+    const FieldBuffers fb(cc, field);
     Volume out(d, ScalarType::Float32);
     out.spacing = reference0.spacing;
     out.origin = reference0.origin;
     auto outB = cc.wrapHost(out.values<float>());
-    // Blocks of 8 voxels or more: work-items of 8 voxels along x with vector loads (the per-voxel form reads
-    // its neighbours one by one, which PoCL runs about 30x below the copy rate); smaller blocks per voxel.
     if (field.grid.size >= 8) {
-        setArgs(compensateRowsKernel_, r0B, r1B, dims4(d), dims4(field.grid.blocks()), cl_int(field.grid.size),
-                modeB, fwdB, bwdB, intraB, firstB, weightB, outB);
-        kernelMs_ = eventMilliseconds(cc.launch3d(compensateRowsKernel_, (d.x + 7) / 8, d.y, d.z, 16, 1, 1));
+        // The references as they are (no float copy), in host memory the device works in.
+        const DeviceBuffer<std::byte> r0B = wrapVoxels(cc, reference0),
+                                      r1B = reference1 ? wrapVoxels(cc, *reference1) : r0B;
+        cl::Kernel& k = rowKernels(cc, reference0.type()).compensate;
+        setArgs(k, r0B, r1B, dims4(d), dims4(field.grid.blocks()), rowStart(field.grid.size), fb.modes, fb.fwd,
+                fb.bwd, fb.intra, fb.first, fb.weights, outB);
+        kernelMs_ = eventMilliseconds(cc.launch3d(k, rowGroups(d.x, field.grid.size), d.y, d.z, 16, 1, 1));
     } else {
-        setArgs(compensateKernel_, r0B, r1B, dims4(d), dims4(field.grid.blocks()), modeB, fwdB, bwdB, intraB,
-                firstB, weightB, outB);
+        // Blocks below 8: one work-item per voxel on float copies of the references (8 voxels along x span
+        // more than a block and its neighbour there).
+        std::vector<float> r0 = reference0.toFloat();
+        std::vector<float> r1 = reference1 ? reference1->toFloat() : std::vector<float>(1, 0.0f);
+        auto r0B = cc.wrapHost(std::span(r0), CL_MEM_READ_ONLY), r1B = cc.wrapHost(std::span(r1), CL_MEM_READ_ONLY);
+        setArgs(compensateKernel_, r0B, r1B, dims4(d), dims4(field.grid.blocks()), fb.modes, fb.fwd, fb.bwd,
+                fb.intra, fb.first, fb.weights, outB);
         kernelMs_ = eventMilliseconds(cc.launch3d(compensateKernel_, d.x, d.y, d.z, 32, 8, 2));
     }
     // Mapping makes the kernel's writes visible in `out`.
     BatchMapping<float> visible(cc.queue(), outB.get(), d.count(), CL_MAP_READ);
+    return out;
+}
+
+Volume MotionCompensator::reconstruct(ComputeContext& cc, const MotionField& field, const Volume& reference0,
+                                      const Volume* reference1, const Volume& residual) {
+    checkField(field, reference0, reference1);
+    if (residual.dims() != reference0.dims() || residual.type() != ScalarType::Float32)
+        throw DataError("motion compensation: the residual must be Float32 on the reference's grid");
+    const ScalarType type = reference0.type();
+    if (field.grid.size < 8)
+        return codec::addResidual(codec::quantisedPrediction(compensate(cc, field, reference0, reference1), type),
+                                  residual, type);
+    const Dims d = field.grid.volume;
+    const FieldBuffers fb(cc, field);
+    Volume out(d, type);
+    out.spacing = residual.spacing;
+    out.origin = residual.origin;
+    const DeviceBuffer<std::byte> r0B = wrapVoxels(cc, reference0),
+                                  r1B = reference1 ? wrapVoxels(cc, *reference1) : r0B,
+                                  resB = wrapVoxels(cc, residual);
+    auto outB = cc.wrapHost(out.bytes());
+    cl::Kernel& k = rowKernels(cc, type).reconstruct;
+    setArgs(k, r0B, r1B, dims4(d), dims4(field.grid.blocks()), rowStart(field.grid.size), fb.modes, fb.fwd, fb.bwd,
+            fb.intra, fb.first, fb.weights, resB, outB);
+    kernelMs_ = eventMilliseconds(cc.launch3d(k, rowGroups(d.x, field.grid.size), d.y, d.z, 16, 1, 1));
+    // Mapping makes the kernel's writes visible in `out`.
+    BatchMapping<std::uint8_t> visible(cc.queue(), outB.get(), out.byteSize(), CL_MAP_READ);
     return out;
 }
 

@@ -6,6 +6,7 @@
 #include "wavelet/predict/MotionField.hpp"
 
 #include <array>
+#include <optional>
 #include <vector>
 
 namespace volcl {
@@ -63,11 +64,24 @@ public:
                             const Volume* reference1, BlockGrid grid, const std::vector<MotionVector>& forward,
                             const std::vector<MotionVector>* backward, ModeChoice choice,
                             std::vector<ModeCosts>* costs = nullptr);
+    /// The prediction (Float32). The references are read in their own voxel type.
     Volume compensate(ComputeContext& cc, const MotionField& field, const Volume& reference0, const Volume* reference1);
+    /// The decoder's frame, of the references' type: the prediction rounded to that type
+    /// (quantisedPrediction) plus `residual` (Float32, the frame's dims), voxel by voxel as predictedVoxel
+    /// (wavelet/predict/Residual.hpp), in one kernel pass for blocks of 8 or more.
+    Volume reconstruct(ComputeContext& cc, const MotionField& field, const Volume& reference0,
+                       const Volume* reference1, const Volume& residual);
     double lastKernelMilliseconds() const noexcept { return kernelMs_; }
 
 private:
-    cl::Kernel costsKernel_, compensateKernel_, compensateRowsKernel_;
+    /// The row kernels for references of `type` (built on first use).
+    struct RowKernels {
+        cl::Kernel compensate, reconstruct;
+    };
+    RowKernels& rowKernels(ComputeContext& cc, ScalarType type);
+
+    cl::Kernel costsKernel_, compensateKernel_;
+    std::array<std::optional<RowKernels>, 4> rowKernels_; // indexed by ScalarType
     double kernelMs_ = 0;
 };
 
