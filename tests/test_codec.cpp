@@ -162,8 +162,8 @@ TEST(TransformRounds, PackWithinBudgetAndCoverEveryBrickOnce) {
     }
 }
 
-// A volume of more bricks of several shapes than one transform round holds (24 MB of int32 = 24 bricks of
-// 64^3) decodes exactly, whole and at a coarser level, and a lossy encode holds its bound on every voxel.
+// A volume of more bricks of several shapes than two transform rounds hold (a round of 8 MB holds 8 bricks of
+// 64^3 int32) decodes exactly, whole and at a coarser level, and a lossy encode holds its bound on every voxel.
 TEST(CodecLossless, VolumeOfManyRoundsRoundTrips) {
     const Volume v = makeVolume({300, 200, 140}, ScalarType::UInt16, 7);
     ComputeContext& cc = test::computeContext();
