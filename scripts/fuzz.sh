@@ -3,6 +3,9 @@
 #   scripts/fuzz.sh --build DIR --short          fixed executions per target, fixed seed (CI, seconds)
 #   scripts/fuzz.sh --build DIR --runs N         N executions per target (long runs, e.g. 10000000)
 #   scripts/fuzz.sh --build DIR --seconds S      S seconds per target
+#   --only TARGET                                one target
+#   --keep-corpus DIR                            libFuzzer's grown corpus persists in DIR/<target> across
+#                                                runs (default: a temporary copy of the seeds, removed at exit)
 # DIR is a build with -DVOLCL_FUZZ=ON: libFuzzer targets with clang (coverage-guided, reports cov/ft),
 # replay-driver targets with GCC. Results go to stdout and, for long runs, to docs/fuzz-runs.csv
 # (target, engine, executions, seconds, coverage, features, findings). A failing input is saved as
@@ -21,7 +24,8 @@ while [ $# -gt 0 ]; do
     --runs) mode="runs"; count="$2"; shift 2 ;;
     --seconds) mode="seconds"; count="$2"; shift 2 ;;
     --only) only="$2"; shift 2 ;;
-    *) echo "usage: scripts/fuzz.sh --build DIR [--short | --runs N | --seconds S] [--only TARGET]" >&2; exit 2 ;;
+    --keep-corpus) keep="$2"; shift 2 ;;
+    *) echo "usage: scripts/fuzz.sh --build DIR [--short | --runs N | --seconds S] [--only TARGET] [--keep-corpus DIR]" >&2; exit 2 ;;
   esac
 done
 targets=$(cd "$build/fuzz" && ls fuzz_* 2>/dev/null | grep -v '\.' || true)
@@ -48,9 +52,12 @@ for t in $targets; do
   [ -d fuzz/regressions/"$t" ] && corpus+=("$PWD/fuzz/regressions/$t")
   if [ "$engine" = libfuzzer ]; then
     # A private copy of the seeds grows with what libFuzzer finds; the repository keeps the small seeds.
-    mkdir -p "$work/$t" && cp -r fuzz/corpus/"$t"/. "$work/$t"/
-    corpus=("$work/$t" "${corpus[@]:1}")
-    flags+=(-timeout=2 -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1)
+    grown="$work/$t"
+    [ -z "${keep:-}" ] || grown="$keep/$t"
+    mkdir -p "$grown" && cp -r fuzz/corpus/"$t"/. "$grown"/
+    corpus=("$grown" "${corpus[@]:1}")
+    # 500 MB: the limit every hostile input must stay under (inputs may claim 256 MiB, kFuzzMemoryBudget).
+    flags+=(-timeout=2 -rss_limit_mb=500 -max_len=65536 -print_final_stats=1)
   else
     flags+=(-timeout=2)
   fi
