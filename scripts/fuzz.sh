@@ -8,7 +8,8 @@
 #                                                runs (default: a temporary copy of the seeds, removed at exit)
 # DIR is a build with -DVOLCL_FUZZ=ON: libFuzzer targets with clang (coverage-guided, reports cov/ft),
 # replay-driver targets with GCC. Results go to stdout and, for long runs, to docs/fuzz-runs.csv
-# (target, engine, executions, wall seconds, coverage, features, findings, CPU seconds). A failing input is saved as
+# (target, engine, executions, wall seconds, coverage, features, findings, CPU seconds, covered/total edges of
+# the target's main parser file, the first that scripts/fuzz_coverage.py lists). A failing input is saved as
 # crash-* in the working directory; keep it under fuzz/regressions/<target>/ once fixed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -31,7 +32,7 @@ done
 targets=$(cd "$build/fuzz" && ls fuzz_* 2>/dev/null | grep -v '\.' || true)
 [ -n "$targets" ] || { echo "no fuzz targets in $build/fuzz (configure with -DVOLCL_FUZZ=ON)" >&2; exit 2; }
 csv=docs/fuzz-runs.csv
-[ "$mode" = short ] || [ -f "$csv" ] || echo "date,target,engine,executions,seconds,coverage,features,findings,cpu_seconds" >"$csv"
+[ "$mode" = short ] || [ -f "$csv" ] || echo "date,target,engine,executions,seconds,coverage,features,findings,cpu_seconds,parser_edges" >"$csv"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 status=0
@@ -90,12 +91,22 @@ for t in $targets; do
     cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | grep -o '[0-9]*' || true)
     ft=$(grep -o 'ft: [0-9]*' "$log" | tail -1 | grep -o '[0-9]*' || true)
   fi
-  printf '%-20s %-9s %10s execs %8.1f s cov %-6s ft %-6s %s\n' "$t" "$engine" "${execs:-?}" "$seconds" \
-    "${cov:--}" "${ft:--}" "$([ $findings = 0 ] && echo ok || echo FINDING)"
+  edges=""
+  if [ "$engine" = libfuzzer ] && [ "$mode" != short ]; then
+    # Edge coverage of the target's own parser files over the grown corpus (scripts/fuzz_coverage.py).
+    # -print_funcs=0: nothing symbolizes before the end, so a forked reader child never shares a symbolizer.
+    malloc=(); [ "$t" = fuzz_read_vdb ] && malloc=(-malloc_limit_mb=1048576)
+    (cd "$work" && ASAN_OPTIONS="${opts/symbolize=0/symbolize=1}" "$exe" -runs=0 -print_coverage=1 -print_funcs=0 \
+      -timeout=10 -rss_limit_mb=500 "${malloc[@]}" "${corpus[@]}") >"$log.cov" 2>&1 || true
+    python3 scripts/fuzz_coverage.py "$t" <"$log.cov" | sed 's/^/  parser edges: /'
+    edges=$(python3 scripts/fuzz_coverage.py "$t" <"$log.cov" | head -1 | awk '{print $3}') # the format's own file
+  fi
+  printf '%-20s %-9s %10s execs %8.1f s (CPU %s s) cov %-6s ft %-6s %s\n' "$t" "$engine" "${execs:-?}" "$seconds" \
+    "${cpus:-?}" "${cov:--}" "${ft:--}" "$([ $findings = 0 ] && echo ok || echo FINDING)"
   if [ $findings != 0 ]; then
     tail -40 "$log"
     cp "$work"/crash-* "$work"/timeout-* "$work"/leak-* "$work"/oom-* . 2>/dev/null || true
   fi
-  [ "$mode" = short ] || echo "$(date -u +%FT%TZ),$t,$engine,${execs:-},$seconds,${cov:-},${ft:-},$findings,$cpus" >>"$csv"
+  [ "$mode" = short ] || echo "$(date -u +%FT%TZ),$t,$engine,${execs:-},$seconds,${cov:-},${ft:-},$findings,$cpus,$edges" >>"$csv"
 done
 exit $status
