@@ -105,14 +105,21 @@ template <class T> void restoreIntegers(const Volume& f, Volume& out, const fs::
     }
 }
 
-// Walks the file header and the chain of grid descriptors (each names where its grid ends) before
-// libopenvdb sees the file: libopenvdb trusts these offsets and sizes, so a truncated or padded file
-// would otherwise be read past its end or accepted with missing data.
+// Walks the file header, the chain of grid descriptors (each names where its grid ends) and each grid's
+// metadata before libopenvdb sees the file: libopenvdb trusts these offsets and sizes, so a truncated or
+// padded file would otherwise be read past its end or accepted with missing data, and a forged metadata
+// length made it allocate and zero-fill that many bytes (gigabytes from an 11 KB file) before reading.
 void checkVdbLayout(const fs::path& path) {
     const std::vector<std::byte> bytes = readFileBytes(path);
     std::size_t pos = 0;
+    // Fields are read up to `limit`: the end of the file, or of the grid whose metadata is walked.
+    std::size_t limit = bytes.size();
+    std::string inGrid;
     auto need = [&](std::size_t n, const char* what) {
-        if (bytes.size() - pos < n) fail(path, std::string("truncated: ") + what + " is cut off");
+        if (limit - pos < n) {
+            if (inGrid.empty()) fail(path, std::string("truncated: ") + what + " is cut off");
+            fail(path, "corrupt " + inGrid + ": " + what + " runs past the grid's end");
+        }
     };
     auto u32 = [&](const char* what) {
         need(4, what);
@@ -168,6 +175,19 @@ void checkVdbLayout(const fs::path& path) {
         if (static_cast<std::uint64_t>(endPos) > bytes.size())
             fail(path, "truncated: grid " + std::to_string(g) + " ends at byte " + std::to_string(endPos) +
                            " of " + std::to_string(bytes.size()));
+        // The grid starts with its compression flags and its metadata: names, types and sized values.
+        pos = static_cast<std::size_t>(gridPos);
+        limit = static_cast<std::size_t>(endPos);
+        inGrid = "grid " + std::to_string(g) + " metadata";
+        if (version >= openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) u32("the compression flags");
+        const std::uint32_t gridMetaCount = u32("the metadata count");
+        for (std::uint32_t m = 0; m < gridMetaCount; ++m) {
+            skipString("a metadata name");
+            skipString("a metadata type");
+            skipString("a metadata value");
+        }
+        inGrid.clear();
+        limit = bytes.size();
         pos = static_cast<std::size_t>(endPos);
     }
     if (pos != bytes.size())
