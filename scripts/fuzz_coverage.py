@@ -37,7 +37,7 @@ PARSER_FILES = {
                         "wavelet/entropy/FastCoder.cpp", "wavelet/entropy/Rans.cpp"],
     "fuzz_tf_json": ["host/tf/TransferFunction.cpp", "host/tf/ColorSpaces.cpp"],
     "fuzz_tf_png": ["host/tf/TransferFunction.cpp", "host/image/ImageIo.cpp"],
-    "fuzz_tf_exr": ["host/tf/TransferFunction.cpp", "host/image/ImageIo.cpp", "host/image/ExrHeaderCheck.cpp"],
+    "fuzz_tf_exr": ["host/image/ExrHeaderCheck.cpp", "host/tf/TransferFunction.cpp", "host/image/ImageIo.cpp"],
     "fuzz_scene_json": ["host/render/Scene.cpp"],
 }
 
