@@ -902,6 +902,17 @@ TEST(VdbReader, DensifiesActiveBoxWithBackgroundAndTiles) {
 // Found by fuzz_read_vdb: libopenvdb allocates and zero-fills a metadata string at its stated length before
 // reading it, so an 11 KB file whose grid metadata claimed 1.8 GB grew the reader past 2 GB. The layout walk
 // now refuses every metadata length that runs past its grid, before OpenVDB sees the file.
+// Found by fuzz_read_vdb: sizes inside the grid's data are libopenvdb's to trust, and a forged one made the
+// reader's child allocate and touch 5 GB from an 11 KB file (67 s). The child's address space is capped at
+// twice the memory budget, so the read ends as a corrupt file.
+TEST(VdbReader, ForgedGridDataSizeStaysWithinTheMemoryBudget) {
+    const fs::path finding = fs::path(VOLCL_SOURCE_DIR) / "fuzz/regressions/fuzz_read_vdb/forged-buffer-size.vdb";
+    ASSERT_TRUE(fs::exists(finding));
+    ReadOptions small;
+    small.memoryBudget = std::size_t{64} << 20;
+    expectIoError(finding, small);
+}
+
 TEST(VdbReader, ForgedGridMetadataLengthIsRefusedBeforeOpenVdbAllocates) {
     const fs::path dir = test::tempDir("io-vdb-forged-meta");
     Volume v(Dims{4, 4, 4}, ScalarType::UInt8);

@@ -10,12 +10,14 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <new>
 
 #include <poll.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -328,7 +330,28 @@ bool writeAll(int fd, const void* data, std::size_t n) {
     return true;
 }
 
+// Caps the child's address space at what it maps now plus twice the memory budget (the dense box and the
+// grid it comes from). Sizes inside the grid's data (buffers, node tables) are libopenvdb's to trust, and a
+// forged one made the child allocate and touch 5 GB from an 11 KB file; past the cap an allocation fails
+// and the read ends as a corrupt file instead of growing without bound.
+void capChildMemory(const ReadOptions& options) {
+    const std::size_t budget = options.memoryBudget ? options.memoryBudget : defaultMemoryBudget();
+    std::FILE* statm = std::fopen("/proc/self/statm", "r");
+    unsigned long long pages = 0;
+    const bool known = statm && std::fscanf(statm, "%llu", &pages) == 1;
+    if (statm) std::fclose(statm);
+    if (!known) return;
+    const unsigned long long mapped = pages * static_cast<unsigned long long>(::sysconf(_SC_PAGESIZE));
+    rlimit limit{};
+    if (::getrlimit(RLIMIT_AS, &limit) != 0) return;
+    const unsigned long long cap = mapped + 2ull * budget;
+    if (limit.rlim_max != RLIM_INFINITY && cap > limit.rlim_max) return;
+    limit.rlim_cur = static_cast<rlim_t>(cap);
+    (void)::setrlimit(RLIMIT_AS, &limit);
+}
+
 [[noreturn]] void childMain(int fd, const fs::path& path, const ReadOptions& options) {
+    capChildMemory(options);
     ChildStatus status = ChildStatus::Ok;
     std::string message;
     Volume v;
