@@ -61,7 +61,7 @@ int main(int argc, char** argv) {
         scene.cacheMb = cacheMb;
         BrickRenderer r(cc, reader, 0, tf, scene);
         std::printf("frame,azimuth,frame_ms,kernel_ms,visited,hidden,decoded,hits,hit_rate,voxels_decoded,"
-                    "peak_pool_mb,peak_rss_mb\n");
+                    "peak_pool_mb,peak_rss_mb,repacks,moved\n");
         for (int f = 0; f < frames; ++f) {
             const double az = 360.0 * turns * f / frames;
             const Camera cam =
@@ -72,10 +72,10 @@ int main(int argc, char** argv) {
             const double ms = sw.milliseconds();
             const BrickStats& s = r.lastStats();
             const double rate = s.visited ? double(s.hits) / double(s.visited) : 1.0;
-            std::printf("%d,%.1f,%.1f,%.1f,%zu,%zu,%zu,%zu,%.3f,%zu,%.1f,%.1f\n", f, az, ms,
+            std::printf("%d,%.1f,%.1f,%.1f,%zu,%zu,%zu,%zu,%.3f,%zu,%.1f,%.1f,%zu,%zu\n", f, az, ms,
                         r.lastKernelMilliseconds(), s.visited, s.hidden, s.decoded, s.hits, rate,
                         s.voxelsDecoded, double(s.peakPoolBytes) / 1048576.0,
-                        double(peakResidentBytes()) / 1048576.0);
+                        double(peakResidentBytes()) / 1048576.0, s.repacks, s.moved);
             std::fflush(stdout);
         }
         return 0;

@@ -19,8 +19,8 @@ install(TARGETS volcl volcl-cli EXPORT volclTargets
   LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
   ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
-# The OpenImageIO module is loaded from libvolcl's directory at run time (not linked, not exported).
-install(TARGETS volcl_oiio LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+# The OpenImageIO and OpenVDB modules are loaded from libvolcl's directory at run time (not linked, not exported).
+install(TARGETS volcl_oiio volcl_vdb LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
 install(EXPORT volclTargets NAMESPACE volcl:: DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/volcl)
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/volclConfig.cmake.in
   ${PROJECT_BINARY_DIR}/volclConfig.cmake INSTALL_DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/volcl)

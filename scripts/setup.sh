@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs missing Debian packages (scripts/apt-packages.txt) and builds volcl into build/.
+# Installs missing Debian packages (scripts/apt-packages.txt), unpacks pvbatch's Python modules into build/
+# and builds volcl into build/.
 # Idempotent and quiet when everything is present. Usage: scripts/setup.sh [--deps-only]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,6 +22,9 @@ if (( ${#missing[@]} )); then
   $sudo apt-get update -qq >/dev/null
   $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
+
+# pvbatch's Python modules, unpacked into build/ (see the script for why they are not installed).
+bash scripts/paraview-python.sh
 
 [[ "${1:-}" == "--deps-only" ]] && exit 0
 

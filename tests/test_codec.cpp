@@ -4,6 +4,7 @@
 #include "host/io/VolumeIo.hpp"
 #include "tests/TestUtil.hpp"
 #include "wavelet/Codec.hpp"
+#include "wavelet/transform/BrickTransform.hpp"
 
 #include <gtest/gtest.h>
 #include <zlib.h>
@@ -126,6 +127,57 @@ TEST(CodecLossless, BitExactOnAwkwardSizesTypesAndWavelets) {
             }
         }
     }
+}
+
+// Transform rounds bound the batch memory of one launch: every brick lands in exactly one round, with its
+// group's dims; a round stays within the budget unless it is one brick larger than the budget.
+TEST(TransformRounds, PackWithinBudgetAndCoverEveryBrickOnce) {
+    const std::vector<codec::BrickGroup> groups = {
+        {{64, 64, 64}, {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10}}, {{45, 64, 64}, {11, 12, 13}}, {{200, 200, 200}, {14}},
+        {{8, 8, 8}, {15, 16}}};
+    auto bytes = [](Dims d) { return BrickBatch<std::int32_t>::strideFor(d) * sizeof(std::int32_t); };
+    for (std::size_t budget : {std::size_t(1), std::size_t(3) << 20, std::size_t(5) << 20, std::size_t(1) << 30}) {
+        const auto rounds = codec::transformRounds(groups, bytes, budget);
+        std::vector<int> seen(17, 0);
+        for (const auto& round : rounds) {
+            ASSERT_FALSE(round.empty());
+            std::size_t used = 0, count = 0;
+            for (const codec::BrickGroup& g : round) {
+                ASSERT_FALSE(g.bricks.empty());
+                for (std::size_t b : g.bricks) {
+                    ++seen[b];
+                    const Dims want = b < 11 ? Dims{64, 64, 64} : b < 14 ? Dims{45, 64, 64}
+                                                 : b == 14 ? Dims{200, 200, 200} : Dims{8, 8, 8};
+                    EXPECT_EQ(g.dims, want) << "brick " << b;
+                }
+                used += g.bricks.size() * bytes(g.dims);
+                count += g.bricks.size();
+            }
+            EXPECT_TRUE(used <= budget || count == 1) << "budget " << budget << ": " << used << " bytes";
+        }
+        for (std::size_t b = 0; b < seen.size(); ++b)
+            EXPECT_EQ(seen[b], 1) << "brick " << b << " budget " << budget;
+        if (budget == (std::size_t(1) << 30)) EXPECT_EQ(rounds.size(), 1u);
+        if (budget == 1) EXPECT_EQ(rounds.size(), 17u);
+    }
+}
+
+// A volume of more bricks of several shapes than one transform round holds (24 MB of int32 = 24 bricks of
+// 64^3) decodes exactly, whole and at a coarser level, and a lossy encode holds its bound on every voxel.
+TEST(CodecLossless, VolumeOfManyRoundsRoundTrips) {
+    const Volume v = makeVolume({300, 200, 140}, ScalarType::UInt16, 7);
+    ComputeContext& cc = test::computeContext();
+    const auto bytes = encodeVolume(cc, v, lossless(Wavelet::Cdf53, EntropyMode::Dense, {64, 64, 64}, 4));
+    ASSERT_GT(readVczHeader(bytes, "mem").brickCount(), 2 * codec::kTransformRoundBytes / (std::size_t(1) << 20));
+    EXPECT_TRUE(decodeVolume(cc, bytes) == v);
+    const VczReader reader(bytes, "mem");
+    DecodeOptions o;
+    o.level = 2;
+    expectLowBandsOfReference(reader, v, reader.decode(cc, o), 2, Wavelet::Cdf53);
+    CodecOptions e = lossy(RateMode::MaxError, 3.0, {64, 64, 64}, 4);
+    const Volume back = decodeVolume(cc, encodeVolume(cc, v, e));
+    for (std::size_t i = 0; i < v.voxelCount(); ++i)
+        ASSERT_LE(std::abs(back.valueAt(i) - v.valueAt(i)), 3.0) << "voxel " << i;
 }
 
 TEST(CodecLossless, ExtremeSixteenBitAlternationIsExact) {

@@ -197,6 +197,76 @@ TEST(MotionCodec, PsnrHoldsOnEveryFrameAndBeatsIntra) {
     }
 }
 
+// The P/B frames whose motion data's block-size byte has a bit of `mask` set (0x80: a global translation,
+// 0x40: the prediction kept in float).
+std::size_t framesFlagged(const std::vector<std::byte>& bytes, std::uint8_t mask) {
+    const VczHeader h = readVczHeader(bytes, "s");
+    std::size_t n = 0;
+    for (std::size_t f = 0; f < h.frames.size(); ++f)
+        if (h.frames[f].type != FrameType::I) n += (vczFrameAux(bytes, h, f, "s")[0] & mask) != 0;
+    return n;
+}
+
+std::size_t globalShiftFrames(const std::vector<std::byte>& bytes) {
+    return framesFlagged(bytes, 0x80);
+}
+
+// 8-bit frames drifting by (0.7, -0.4, 0.3) voxels per frame: a rigid motion no half-voxel vector hits.
+TimeSeries drifting8Bit() {
+    Volume base = smooth({40, 36, 24});
+    for (float& x : base.values<float>())
+        x *= 0.15f;
+    return shifted(base, 5, {0.7, -0.4, 0.3}, ScalarType::UInt8);
+}
+
+TEST(MotionCodec, GlobalShiftPredictsASubVoxelTranslation) {
+    // A rigid sub-voxel drift: the reference moved by the fitted translation predicts far better than
+    // half-voxel trilinear blocks, and every frame stays exact / within its bound.
+    ComputeContext& cc = test::computeContext();
+    const TimeSeries ts = drifting8Bit();
+    const auto withShift = encodeSeries(cc, ts, lossless());
+    CodecOptions blocksOnly = lossless();
+    blocksOnly.globalShift = false;
+    const auto without = encodeSeries(cc, ts, blocksOnly);
+    EXPECT_GT(globalShiftFrames(withShift), 0u);
+    EXPECT_EQ(globalShiftFrames(without), 0u); // the option off writes what earlier decoders read
+    EXPECT_LT(withShift.size(), without.size());
+    const auto out = decodeAll(withShift);
+    for (std::size_t f = 0; f < ts.frames.size(); ++f)
+        EXPECT_TRUE(out[f] == ts.frames[f]) << "frame " << f;
+    for (double e : {1.0, 3.0}) {
+        const auto bytes = encodeSeries(cc, ts, lossy(RateMode::MaxError, e));
+        EXPECT_GT(globalShiftFrames(bytes), 0u) << "E " << e;
+        const auto lossyOut = decodeAll(bytes);
+        for (std::size_t f = 0; f < ts.frames.size(); ++f)
+            EXPECT_LE(maxAbsDiff(lossyOut[f], ts.frames[f]), e) << "E " << e << " frame " << f;
+    }
+}
+
+TEST(MotionCodec, LossyIntegerFramesPredictInFloatAndHoldPsnr) {
+    // Bit 0x40: a lossy 8-bit residual against the unrounded prediction; lossless keeps rounding.
+    ComputeContext& cc = test::computeContext();
+    const TimeSeries ts = drifting8Bit();
+    EXPECT_EQ(framesFlagged(encodeSeries(cc, ts, lossless()), 0x40), 0u);
+    for (double p : {45.0, 60.0}) {
+        const auto bytes = encodeSeries(cc, ts, lossy(RateMode::Psnr, p));
+        EXPECT_GT(framesFlagged(bytes, 0x40), 0u) << p << " dB";
+        const auto out = decodeAll(bytes);
+        for (std::size_t f = 0; f < ts.frames.size(); ++f)
+            EXPECT_GE(psnr(ts.frames[f], out[f]), p - 0.5) << p << " dB, frame " << f;
+    }
+}
+
+TEST(MotionCodec, GlobalShiftStaysOffWithoutRigidMotion) {
+    // Identical frames: the zero translation is never stored, P frames cost almost nothing.
+    ComputeContext& cc = test::computeContext();
+    TimeSeries ts;
+    for (int f = 0; f < 3; ++f)
+        ts.frames.push_back(smooth({32, 32, 16}));
+    const auto bytes = encodeSeries(cc, ts, lossy(RateMode::Psnr, 50));
+    EXPECT_EQ(globalShiftFrames(bytes), 0u);
+}
+
 TEST(MotionCodec, OneFrameSeries) {
     ComputeContext& cc = test::computeContext();
     TimeSeries ts;

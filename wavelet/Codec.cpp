@@ -226,7 +226,8 @@ std::vector<std::byte> encodeSeriesOnce(ComputeContext& cc, const TimeSeries& se
         codec::planGop(n, motion ? options.gop : 1, motion ? options.bFrames : 0);
     Pipeline pipeline(cc, options, h);
     std::unique_ptr<codec::Predictor> predictor;
-    if (motion) predictor = codec::makeMotionPredictor(options.motionSearch);
+    if (motion)
+        predictor = codec::makeMotionPredictor(options.motionSearch, options.globalShift, options.threads);
     const bool lossless = h.rate == RateMode::Lossless;
     // Reconstructions of the anchors later frames predict from (the two latest are enough).
     std::vector<std::optional<Volume>> recon(n);
@@ -250,7 +251,8 @@ std::vector<std::byte> encodeSeriesOnce(ComputeContext& cc, const TimeSeries& se
         entry.reference0 = entry.reference1 = -1;
         rep[f].intraFallback = false;
         if (pf.type != FrameType::I) {
-            codec::ReferenceFrames refs{reconPtr, pf.reference0, pf.reference1, lossless ? 1.0 : step};
+            codec::ReferenceFrames refs{reconPtr, pf.reference0, pf.reference1, lossless ? 1.0 : step,
+                                        lossless};
             codec::Prediction p = predictor->predict(cc, frame, f, refs);
             const codec::ResidualTarget target{&frame, &*p.prediction};
             codec::FrameResult pr = pipeline.rate().encodeFrame(*p.signal, h, false, &target);

@@ -47,6 +47,9 @@ struct CodecOptions {
     std::size_t gop = 10;    ///< frames per group, each starting with an I frame (1: I frames only)
     std::size_t bFrames = 0; ///< B frames between two I/P frames
     MotionSearchOptions motionSearch{.blockSize = 8, .radius = 4, .method = MotionSearchMethod::Hierarchical};
+    /// P frames may predict from the reference moved by a global sub-voxel translation (Keys cubic) where
+    /// that is estimated to be smaller; false keeps block motion alone (files any earlier decoder reads).
+    bool globalShift = true;
 };
 
 /// What an encoding measured about itself (for benchmarks and `volcl encode` reports).

@@ -2,6 +2,7 @@
 // times.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string_view>
 
@@ -48,6 +49,9 @@ struct CodecProfile {
     double predict = 0;     ///< decoder: P/B frames' motion compensation and the residual added to it
     double total = 0;       ///< the whole call
     int trials = 0;         ///< quantise + reconstruct rounds run by the rate control
+    /// Decoder: bricks read from the file and decoded (uniform ones included), counted where the decoder
+    /// takes them, so a distributed reader can prove each rank decodes only the bricks of its extent.
+    std::size_t bricks = 0;
 };
 
 } // namespace volcl

@@ -228,6 +228,7 @@ void decodeFrameBricks(ComputeContext& cc, std::span<const std::byte> file, cons
                        std::size_t frame, const std::vector<std::size_t>& which, int level, unsigned threads,
                        const std::string& name, CodecProfile* prof, Dims a, Dims e, Volume& out, Dims outDims,
                        bool placeOnDevice, std::vector<std::vector<Correction>>* deferredCorrections) {
+    if (prof) prof->bricks += which.size();
     // Bricks cover disjoint parts of the output, so they are placed in parallel.
     visitTyped(out, [&](auto span) {
         decodeBricksInto(cc, file, h, frame, which, level, threads, name, prof, a, e, span, outDims,

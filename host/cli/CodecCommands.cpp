@@ -78,7 +78,7 @@ struct EncodeArgs {
     std::vector<std::string> in; ///< one file, several files, quoted globs or a .pvd: the frames in order
     std::string out, wavelet, entropy = "dense", brick = "64", motion = "block";
     std::size_t gop = 10, bFrames = 0;
-    bool lossless = false, profile = false, lodStats = true;
+    bool lossless = false, profile = false, lodStats = true, globalShift = true;
     double maxError = 0, psnr = 0, bpv = 0, step = 0;
     int levels = 4;
     unsigned threads = 2;
@@ -134,6 +134,7 @@ CodecOptions toOptions(const EncodeArgs& a, const CLI::App& cmd) {
     if (a.gop == 0) throw UsageError("--gop must be at least 1");
     o.gop = a.gop;
     o.bFrames = a.bFrames;
+    o.globalShift = a.globalShift;
     return o;
 }
 
@@ -163,6 +164,9 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
     cmd->add_option("--b-frames", a->bFrames, "Series: B frames between two I/P frames (default 0)");
     cmd->add_option("--motion", a->motion,
                     "Series: block (motion-compensated P/B frames, default) or none (every frame an I frame)");
+    cmd->add_flag("!--no-global-shift", a->globalShift,
+                  "Series: P frames use block motion alone, never a global sub-voxel translation of the "
+                  "reference (files that decoders before it read)");
     a->raw.add(*cmd);
     cmd->callback([a, cmd, &global] {
         const CodecOptions o = toOptions(*a, *cmd);

@@ -28,10 +28,11 @@ namespace {
 namespace fs = std::filesystem;
 
 struct SeriesBenchArgs {
-    std::string data = std::string(VOLCL_SOURCE_DIR) + "/../shared/data", filter, json;
+    std::string data = std::string(VOLCL_SOURCE_DIR) + "/../shared/data", filter, json, exportDir;
     std::vector<std::string> rates{"lossless", "psnr40", "psnr50", "psnr60", "maxerr1%"};
     std::size_t gop = 10, bFrames = 0, mriFrames = 10, mriCrop = 128;
     int runs = 3;
+    bool globalShift = true;
 };
 
 struct NamedSeries {
@@ -121,6 +122,8 @@ struct Coding {
     std::size_t bytes = 0;
     double bpv = 0, minPsnr = INFINITY, meanMse = 0, maxErr = 0, encodeMs = 0, playbackMs = 0, frameMs = 0;
     std::vector<double> playback, frame; // per run: whole series in order, one frame given its reference
+    std::vector<double> framePsnr;       // per frame, decoded in order
+    std::vector<FrameReport> reports;    // per frame, what the encoder did
     std::size_t p = 0, b = 0;
     bool exact = true;
 };
@@ -140,6 +143,7 @@ double playSeries(ComputeContext& cc, const VczReader& r, const TimeSeries& ts, 
         }
         if (c) {
             const double p = psnr(ts.frames[f], *frames[f]);
+            c->framePsnr.push_back(p);
             c->minPsnr = std::min(c->minPsnr, p);
             c->maxErr = std::max(c->maxErr, maxAbsError(ts.frames[f], *frames[f]));
             c->exact = c->exact && *frames[f] == ts.frames[f];
@@ -154,7 +158,7 @@ double playSeries(ComputeContext& cc, const VczReader& r, const TimeSeries& ts, 
 Coding code(ComputeContext& cc, const TimeSeries& ts, const CodecOptions& o) {
     Coding c;
     Stopwatch sw;
-    c.file = encodeSeries(cc, ts, o);
+    c.file = encodeSeries(cc, ts, o, &c.reports);
     c.encodeMs = sw.milliseconds();
     c.bytes = c.file.size();
     const double voxels = double(ts.frames[0].voxelCount() * ts.frames.size());
@@ -182,9 +186,57 @@ void timeRun(ComputeContext& cc, const TimeSeries& ts, std::size_t gop, Coding& 
     c.frame.push_back(fw.milliseconds());
 }
 
+// Writes a series for peers that read raw arrays: <dir>/<name>.f32 (every frame as float32, x fastest, then
+// y, z, frame) and <dir>/<name>.json (dims, frames, voxel type).
+void exportSeries(const std::string& dir, const NamedSeries& s) {
+    fs::create_directories(dir);
+    const Dims d = s.series.frames[0].dims();
+    std::vector<float> all;
+    all.reserve(d.count() * s.series.frames.size());
+    for (const Volume& v : s.series.frames) {
+        const std::vector<float> f = v.toFloat();
+        all.insert(all.end(), f.begin(), f.end());
+    }
+    AtomicFile raw((fs::path(dir) / (s.name + ".f32")).string());
+    raw.write(std::string_view(reinterpret_cast<const char*>(all.data()), all.size() * sizeof(float)));
+    raw.commit();
+    const nlohmann::json j{{"series", s.name},
+                           {"dims", {d.x, d.y, d.z}},
+                           {"frames", s.series.frames.size()},
+                           {"type", scalarTypeName(s.series.frames[0].type())}};
+    AtomicFile meta((fs::path(dir) / (s.name + ".json")).string());
+    meta.write(j.dump(1));
+    meta.commit();
+}
+
 double loadAverage() {
     double l[1] = {0};
     return getloadavg(l, 1) == 1 ? l[0] : NAN;
+}
+
+nlohmann::json framePsnrs(const Coding& c) {
+    nlohmann::json j = nlohmann::json::array();
+    for (double p : c.framePsnr)
+        j.push_back(jnum(p));
+    return j;
+}
+
+nlohmann::json frameBytes(const Coding& c) {
+    nlohmann::json j = nlohmann::json::array();
+    for (const FrameReport& r : c.reports)
+        j.push_back(r.bytes);
+    return j;
+}
+
+// "I", "P" or "B" per frame; "I*" for a planned P/B frame coded as an I frame because that was smaller.
+nlohmann::json frameTypes(const Coding& c) {
+    nlohmann::json j = nlohmann::json::array();
+    for (const FrameReport& r : c.reports)
+        j.push_back(r.type == FrameType::P   ? "P"
+                    : r.type == FrameType::B ? "B"
+                    : r.intraFallback        ? "I*"
+                                             : "I");
+    return j;
 }
 
 void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
@@ -195,6 +247,7 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
     std::cerr << "volcl bench series: device " << cc.device().name << ", gop " << a.gop << ", b-frames "
               << a.bFrames << ", decode times median of " << a.runs << "\n";
     for (const NamedSeries& s : all) {
+        if (!a.exportDir.empty()) exportSeries(a.exportDir, s);
         const Dims d = s.series.frames[0].dims();
         std::cerr << s.name << ": " << s.series.frames.size() << " frames of " << d.x << "x" << d.y << "x"
                   << d.z << " " << scalarTypeName(s.series.frames[0].type()) << '\n';
@@ -202,6 +255,7 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
             CodecOptions o = rateOptions(rate, s.series);
             o.gop = a.gop;
             o.bFrames = a.bFrames;
+            o.globalShift = a.globalShift;
             CodecOptions intraOnly = o;
             intraOnly.motion = MotionMode::None;
             Coding in = code(cc, s.series, intraOnly), mc = code(cc, s.series, o);
@@ -257,14 +311,14 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
                                 {"frame_decode_ms_runs", c.frame},
                                 {"load_before", jnum(loadBefore)},
                                 {"load_after", jnum(loadAfter)},
+                                {"frame_psnr_db", framePsnrs(c)},
+                                {"frame_bytes", frameBytes(c)},
+                                {"frame_types", frameTypes(c)},
                                 {"playback_fps", 1e3 * double(s.series.frames.size()) / c.playbackMs}});
         }
     }
-    const nlohmann::json j{{"device", cc.device().name},
-                           {"gop", a.gop},
-                           {"b_frames", a.bFrames},
-                           {"runs", a.runs},
-                           {"rows", rows}};
+    const nlohmann::json j{{"device", cc.device().name}, {"gop", a.gop},   {"global_shift", a.globalShift},
+                           {"b_frames", a.bFrames},      {"runs", a.runs}, {"rows", rows}};
     if (a.json.empty()) {
         std::cout << j.dump(1) << '\n';
     } else {
@@ -293,6 +347,10 @@ void addSeriesBenchCommand(CLI::App& bench, GlobalOptions& global) {
     b->add_option("--mri-crop", a->mriCrop, "Edge of the shifted MRI cube")->capture_default_str();
     b->add_option("--runs", a->runs, "Timed decode runs (median)")->capture_default_str();
     b->add_option("--json", a->json, "JSON output file (default: stdout)");
+    b->add_flag("!--no-global-shift", a->globalShift,
+                "P frames use block motion alone (no global sub-voxel translation of the reference)");
+    b->add_option("--export", a->exportDir,
+                  "Also write each series as raw float32 (<name>.f32 + <name>.json) for peer codecs");
     b->callback([a, &global] {
         if (a->runs < 1) throw UsageError("--runs must be at least 1");
         benchSeries(*a, global);

@@ -3,12 +3,12 @@
 
 #include "host/Error.hpp"
 #include "host/image/OiioModule.hpp"
+#include "host/runtime/RuntimeModule.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 
-#include <dlfcn.h>
 
 namespace volcl {
 namespace {
@@ -22,33 +22,11 @@ std::string lowerExtension(const std::filesystem::path& p) {
 
 constexpr float kHalfMax = 65504.0f;
 
-// Loads the OpenImageIO module from libvolcl's own directory, else from the library search path.
-const OiioModule* loadOiioModule() {
-    std::string tried;
-    Dl_info self{};
-    std::vector<std::string> candidates;
-    if (dladdr(reinterpret_cast<void*>(&readImage), &self) && self.dli_fname)
-        candidates.push_back(
-            (std::filesystem::path(self.dli_fname).parent_path() / kOiioModuleFile).string());
-    candidates.push_back(kOiioModuleFile);
-    for (const std::string& file : candidates) {
-        // Kept loaded for the life of the process: OpenImageIO holds global state.
-        if (void* handle = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL)) {
-            using Entry = const OiioModule* (*)();
-            if (auto entry = reinterpret_cast<Entry>(dlsym(handle, kOiioModuleEntry))) return entry();
-            throw IoError(file + ": not a volcl image module (no " + kOiioModuleEntry + ")");
-        }
-        const char* why = dlerror();
-        tried += (tried.empty() ? "" : "; ") + std::string(why ? why : file);
-    }
-    throw IoError(std::string("image I/O needs ") + kOiioModuleFile +
-                  " (OpenImageIO), which did not load: " + tried);
-}
-
 // A failed load throws and is retried on the next call (a function-local static is initialised only once it
 // succeeds).
 const OiioModule& oiioModule() {
-    static const OiioModule* module = loadOiioModule();
+    static const auto* module = static_cast<const OiioModule*>(
+        loadRuntimeModule(kOiioModuleFile, kOiioModuleEntry, "image I/O (OpenImageIO)"));
     return *module;
 }
 

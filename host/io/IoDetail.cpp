@@ -609,6 +609,24 @@ std::vector<std::byte> bytesInOrder(const Volume& v, Endian endian) {
     return out;
 }
 
+void writeVoxelsInOrder(AtomicFile& out, const Volume& v, Endian endian) {
+    const std::span<const std::byte> bytes = v.bytes();
+    const std::size_t size = scalarSize(v.type());
+    if (size == 1 || endian == hostEndian()) {
+        out.write(bytes);
+        return;
+    }
+    constexpr std::size_t kChunk = std::size_t(1) << 20; // a multiple of every voxel size
+    std::vector<std::byte> chunk;
+    for (std::size_t at = 0; at < bytes.size(); at += kChunk) {
+        const auto part = bytes.subspan(at, std::min(kChunk, bytes.size() - at));
+        chunk.assign(part.begin(), part.end());
+        for (std::size_t i = 0; i + size <= chunk.size(); i += size)
+            std::reverse(chunk.begin() + std::ptrdiff_t(i), chunk.begin() + std::ptrdiff_t(i + size));
+        out.write(chunk);
+    }
+}
+
 // ---- text ---------------------------------------------------------------------------------------
 
 std::string_view trim(std::string_view s) noexcept {

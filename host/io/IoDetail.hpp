@@ -3,6 +3,7 @@
 
 #include "host/Error.hpp"
 #include "host/Volume.hpp"
+#include "host/io/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
 
 #include <charconv>
@@ -111,6 +112,10 @@ bool hostIsLittleEndian() noexcept;
 Endian hostEndian() noexcept;
 /// Copy of a volume's bytes in the requested byte order.
 std::vector<std::byte> bytesInOrder(const Volume& v, Endian endian);
+/// Writes a volume's bytes in the requested byte order to `out`: straight from the volume in the host's
+/// order (no copy: a one-shot decode would otherwise touch a second volume's worth of fresh memory), else
+/// swapped through a small buffer.
+void writeVoxelsInOrder(AtomicFile& out, const Volume& v, Endian endian);
 
 // ---- text helpers -------------------------------------------------------------------------------
 std::string_view trim(std::string_view s) noexcept;

@@ -133,10 +133,16 @@ void writeNifti(const Volume& volume, const fs::path& path, const WriteOptions& 
     }
     putText(file, 328, 16, m.intentName);
     std::memcpy(file.data() + 344, "n+1\0", 4);
-    const std::vector<std::byte> voxels = bytesInOrder(*data, Endian::Little);
-    file.insert(file.end(), voxels.begin(), voxels.end());
-
-    writeFileAtomically(path, file);
+    if (endsWithI(path.filename().string(), ".gz")) {
+        const std::vector<std::byte> voxels = bytesInOrder(*data, Endian::Little);
+        file.insert(file.end(), voxels.begin(), voxels.end());
+        writeFileAtomically(path, file);
+        return;
+    }
+    AtomicFile out(path);
+    out.write(file);
+    writeVoxelsInOrder(out, *data, Endian::Little);
+    out.commit();
 }
 
 } // namespace volcl::io

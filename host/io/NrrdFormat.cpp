@@ -390,13 +390,12 @@ void writeNrrd(const Volume& volume, const fs::path& path, const WriteOptions& o
     if (scalarSize(volume.type()) > 1)
         header += std::string("endian: ") + (options.endian == Endian::Little ? "little" : "big") + "\n";
     header += std::string("encoding: ") + (gzip ? "gzip" : "raw") + "\n";
-    const std::vector<std::byte> data = bytesInOrder(volume, options.endian);
     if (detached) {
         fs::path dataPath = path;
         dataPath.replace_extension(".raw");
         header += "data file: " + dataPath.filename().string() + "\n";
         AtomicFile dataOut(dataPath);
-        dataOut.write(data);
+        writeVoxelsInOrder(dataOut, volume, options.endian);
         AtomicFile headerOut(path);
         headerOut.write(header);
         dataOut.commit(); // data first: a visible header always has its data beside it
@@ -406,7 +405,10 @@ void writeNrrd(const Volume& volume, const fs::path& path, const WriteOptions& o
     header += "\n";
     AtomicFile out(path);
     out.write(header);
-    out.write(gzip ? deflateBytes(data, Wrapper::Gzip) : data);
+    if (gzip)
+        out.write(deflateBytes(bytesInOrder(volume, options.endian), Wrapper::Gzip));
+    else
+        writeVoxelsInOrder(out, volume, options.endian);
     out.commit();
 }
 

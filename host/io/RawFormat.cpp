@@ -48,7 +48,13 @@ TimeSeries readRaw(ReadContext& ctx) {
 }
 
 void writeRaw(const Volume& volume, const fs::path& path, const WriteOptions& options) {
-    writeFileAtomically(path, bytesInOrder(volume, options.endian));
+    if (endsWithI(path.filename().string(), ".gz")) {
+        writeFileAtomically(path, bytesInOrder(volume, options.endian));
+        return;
+    }
+    AtomicFile out(path);
+    writeVoxelsInOrder(out, volume, options.endian);
+    out.commit();
 }
 
 } // namespace volcl::io

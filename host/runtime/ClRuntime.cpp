@@ -48,9 +48,9 @@ void pinCpuWorkers() {
 } // namespace
 
 // Host memory for buffers on CPU devices: 2 MiB aligned blocks advised for transparent huge pages, kept
-// after their buffer is released and handed out again for the same size. Codec batches are allocated per
-// call and written right away; fresh memory costs a page fault and a zeroed page on first touch (28 MB of
-// page clearing per BrainWeb decode). Idle blocks beyond kKeepBytes are freed.
+// after their buffer is released and handed out again for a request of up to their size. Codec batches are
+// allocated per call and written right away; fresh memory costs a page fault and a zeroed page on first touch
+// (28 MB of page clearing per BrainWeb decode). Idle blocks beyond kKeepBytes are freed.
 class HostMemoryPool {
 public:
     static constexpr std::size_t kKeepBytes = std::size_t(512) << 20;
@@ -62,18 +62,21 @@ public:
             unmapPages(mem, bytes);
     }
 
-    /// A block of `bytes` (a multiple of kHugePageBytes), or nullptr when out of memory.
-    void* take(std::size_t bytes) {
+    /// A block of at least `bytes` (a multiple of kHugePageBytes) and its size, or {nullptr, 0} when out of
+    /// memory. An idle block up to twice the size is reused rather than fresh pages touched: a short
+    /// process's batches come in a few sizes, and fresh memory is the costliest part of its run.
+    std::pair<void*, std::size_t> take(std::size_t bytes) {
         {
             std::lock_guard lock(mutex_);
-            if (auto it = idle_.find(bytes); it != idle_.end()) {
-                void* mem = it->second;
+            if (auto it = idle_.lower_bound(bytes); it != idle_.end() && it->first <= 2 * bytes) {
+                const std::pair<void*, std::size_t> block{it->second, it->first};
                 idle_.erase(it);
-                idleBytes_ -= bytes;
-                return mem;
+                idleBytes_ -= block.second;
+                return block;
             }
         }
-        return mapZeroedPages(bytes);
+        void* mem = mapZeroedPages(bytes);
+        return {mem, mem ? bytes : 0};
     }
 
     /// Returns a block from take(); runs in OpenCL callbacks, so it never throws.
@@ -328,15 +331,15 @@ cl::Buffer ComputeContext::createBuffer(cl_mem_flags flags, std::size_t bytes) {
     if (device_.isCpu && (flags & CL_MEM_ALLOC_HOST_PTR) && bytes >= kHugePageBytes) {
         // Host-allocated buffers on CPU devices use pooled memory of our own (see HostMemoryPool), handed
         // back when the runtime releases the buffer.
-        const std::size_t rounded = roundUp(bytes, kHugePageBytes);
-        if (void* mem = hostMemory_->take(rounded)) {
-            auto lease = std::make_unique<HostLease>(HostLease{hostMemory_, mem, rounded});
+        const auto [mem, blockBytes] = hostMemory_->take(roundUp(bytes, kHugePageBytes));
+        if (mem) {
+            auto lease = std::make_unique<HostLease>(HostLease{hostMemory_, mem, blockBytes});
             cl::Buffer b(context_, (flags & ~cl_mem_flags(CL_MEM_ALLOC_HOST_PTR)) | CL_MEM_USE_HOST_PTR, bytes, mem,
                          &err);
             if (err == CL_SUCCESS) err = clSetMemObjectDestructorCallback(b(), returnHostMemory, lease.get());
             if (err != CL_SUCCESS) {
                 b = cl::Buffer(); // released before its memory goes
-                hostMemory_->give(mem, rounded);
+                hostMemory_->give(mem, blockBytes);
                 clCheck(err, "clCreateBuffer");
             }
             lease.release(); // owned by the callback now

@@ -24,8 +24,9 @@ namespace {
 
 using namespace volcl;
 
-// A smooth field with a ball and hashed noise (the test volume `make` writes).
-Volume generatedField(Dims d) {
+// A smooth field with a ball and hashed noise (the test volume `make` writes); the ball moves along x with
+// `frame` (the frames of a generated series).
+Volume generatedField(Dims d, std::size_t frame = 0) {
     Volume v(d, ScalarType::UInt16);
     auto vals = v.values<std::uint16_t>();
     for (std::size_t k = 0; k < d.z; ++k)
@@ -33,8 +34,8 @@ Volume generatedField(Dims d) {
             for (std::size_t i = 0; i < d.x; ++i) {
                 std::uint32_t hsh = std::uint32_t(i * 73856093u ^ j * 19349663u ^ k * 83492791u);
                 hsh ^= hsh >> 13, hsh *= 0x5bd1e995u, hsh ^= hsh >> 15;
-                const double r = std::hypot(double(i) - 0.5 * double(d.x), double(j) - 0.4 * double(d.y),
-                                            double(k) - 0.6 * double(d.z));
+                const double r = std::hypot(double(i) - (0.5 - 0.15 * double(frame)) * double(d.x),
+                                            double(j) - 0.4 * double(d.y), double(k) - 0.6 * double(d.z));
                 const double f = 0.5 + 0.3 * std::sin(0.09 * double(i)) * std::cos(0.07 * double(j)) +
                                  (r < 0.25 * double(d.x) ? 0.15 : 0.0);
                 vals[v.index(i, j, k)] = std::uint16_t(f * 50000 + double(hsh & 0x3f));
@@ -43,17 +44,28 @@ Volume generatedField(Dims d) {
 }
 
 int run(int argc, char** argv, int rank, int size) {
-    const std::string usage = "usage: vcz-mpi-decode make OUT.vcz [NX NY NZ] | mpiexec -n N vcz-mpi-decode FILE.vcz "
-                              "[--level L] [--frame F] [--check]";
+    const std::string usage =
+        "usage: vcz-mpi-decode make OUT.vcz [NX NY NZ [FRAMES]] | mpiexec -n N vcz-mpi-decode "
+        "FILE.vcz [--level L] [--frame F] [--check]";
     if (argc < 2) throw UsageError(usage);
     if (std::string(argv[1]) == "make") {
-        if (argc != 3 && argc != 6) throw UsageError(usage);
-        const Dims d = argc == 6 ? Dims{std::stoul(argv[3]), std::stoul(argv[4]), std::stoul(argv[5])} : Dims{96, 80, 128};
+        if (argc != 3 && argc != 6 && argc != 7) throw UsageError(usage);
+        const Dims d = argc >= 6 ? Dims{std::stoul(argv[3]), std::stoul(argv[4]), std::stoul(argv[5])}
+                                 : Dims{96, 80, 128};
+        const std::size_t frames = argc == 7 ? std::stoul(argv[6]) : 1;
+        if (frames < 1) throw UsageError(usage);
         ComputeContext cc;
         CodecOptions o;
         o.brick = {32, 32, 32};
         o.levels = 2;
-        const auto vcz = encodeVolume(cc, generatedField(d), o);
+        // A series is I frames only (frame f at time 10 f): each frame's region decodes only its own bricks.
+        o.motion = MotionMode::None;
+        TimeSeries series;
+        for (std::size_t f = 0; f < frames; ++f) {
+            series.frames.push_back(generatedField(d, f));
+            series.times.push_back(10.0 * double(f));
+        }
+        const auto vcz = frames == 1 ? encodeVolume(cc, series.frames[0], o) : encodeSeries(cc, series, o);
         AtomicFile out(argv[2]);
         out.write(vcz);
         out.commit();

@@ -10,11 +10,15 @@
 namespace volcl::codec {
 
 /// P frames (from ReferenceFrames::reference0) and B frames (both references). The side information is
-/// one byte holding log2 of the block size followed by encodeMotionField's bytes. The OBMC kernel predicts
-/// in float on the device: a file decodes to the encoder's bits on the device type that encoded it.
-std::unique_ptr<Predictor> makeMotionPredictor(const MotionSearchOptions& search);
+/// one byte holding log2 of the block size followed by encodeMotionField's bytes. With `globalShift`, a P
+/// frame may instead predict from its reference moved by a global sub-voxel translation (Keys cubic), when
+/// the estimated size says it pays: the byte then has bit 0x80 set and the translation (3 x int16) follows
+/// it. The OBMC kernel predicts in float on the device: a file decodes to the encoder's bits on the device
+/// type that encoded it. `threads` host threads run the translation.
+std::unique_ptr<Predictor> makeMotionPredictor(const MotionSearchOptions& search, bool globalShift = true,
+                                               unsigned threads = 2);
 
 /// The decoder-side motion predictor (its search options are not used).
-std::unique_ptr<Predictor> makeMotionReconstructor();
+std::unique_ptr<Predictor> makeMotionReconstructor(unsigned threads = 2);
 
 } // namespace volcl::codec

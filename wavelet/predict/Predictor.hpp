@@ -40,6 +40,9 @@ struct ReferenceFrames {
     /// Voxel-domain quantiser step the residual will be coded with (1 for lossless): a predictor weighs
     /// the side bits of its choices against the residual bits they save with it.
     double step = 1;
+    /// Lossless coding: integer frames need integer residuals, so the prediction is rounded to the voxel
+    /// type. A lossy residual need not be: the motion predictor then keeps its prediction in float.
+    bool lossless = true;
 };
 
 /// What the encoder codes for one frame.

@@ -45,24 +45,35 @@ std::vector<double> subbandSteps(Wavelet w, int levels, double delta) {
     return steps;
 }
 
-void quantiseRow(const float* in, std::int32_t* out, std::size_t len, double step) {
+void quantiseRow(const float* in, std::int32_t* out, std::size_t len, double step, double zeroBelow) {
     const float inv = static_cast<float>(1.0 / step), cap = static_cast<float>(kMaxQuantIndex);
+    if (zeroBelow == 1) { // the plain floor (kept apart: it vectorises)
+        for (std::size_t i = 0; i < len; ++i) {
+            const auto m = static_cast<std::int32_t>(std::min(std::abs(in[i]) * inv, cap));
+            out[i] = in[i] < 0 ? -m : m;
+        }
+        return;
+    }
+    const float edge = static_cast<float>(zeroBelow);
     for (std::size_t i = 0; i < len; ++i) {
-        const auto m = static_cast<std::int32_t>(std::min(std::abs(in[i]) * inv, cap));
+        const float a = std::min(std::abs(in[i]) * inv, cap);
+        const auto m = a < edge ? 0 : std::max<std::int32_t>(1, static_cast<std::int32_t>(a));
         out[i] = in[i] < 0 ? -m : m;
     }
 }
 
-void quantiseInto(const VczHeader& h, Dims d, const float* c, std::size_t pitch, std::int32_t* q) {
+void quantiseInto(const VczHeader& h, Dims d, const float* c, std::size_t pitch, std::int32_t* q,
+                  double zeroBelow) {
     forEachSubbandRow(h, d, [&](std::size_t z, std::size_t y, std::size_t x0, std::size_t len, double step) {
-        quantiseRow(c + (z * d.y + y) * pitch + x0, q + (z * d.y + y) * d.x + x0, len, step);
+        quantiseRow(c + (z * d.y + y) * pitch + x0, q + (z * d.y + y) * d.x + x0, len, step, zeroBelow);
     });
 }
 
-void requantiseInto(const VczHeader& h, Dims d, const float* c, float* dst, std::size_t pitch) {
+void requantiseInto(const VczHeader& h, Dims d, const float* c, float* dst, std::size_t pitch,
+                    double zeroBelow) {
     std::array<std::int32_t, 1024> q; // a brick row is at most 1024 (Encoder::plan)
     forEachSubbandRow(h, d, [&](std::size_t z, std::size_t y, std::size_t x0, std::size_t len, double step) {
-        quantiseRow(c + (z * d.y + y) * d.x + x0, q.data(), len, step);
+        quantiseRow(c + (z * d.y + y) * d.x + x0, q.data(), len, step, zeroBelow);
         dequantiseRow(q.data(), dst + (z * d.y + y) * pitch + x0, len, step, h.reconstructionBias);
     });
 }

@@ -33,12 +33,17 @@ template <class Fn> void forEachSubbandRow(const VczHeader& h, Dims d, Fn fn) {
 // Dead-zone quantiser q = sign(c) floor(|c| / step), in float with the reciprocal step (truncation is floor
 // for |c| >= 0). Only the encoder quantises and it checks what the decoder will reconstruct from q, so a
 // rounding difference at a cell boundary cannot break a bound.
-void quantiseRow(const float* in, std::int32_t* out, std::size_t len, double step);
+// `zeroBelow` (in steps) is the encoder's dead-zone edge: |c| / step below it codes 0, above it at least
+// +-1. The decoder does not know it (it dequantises any index the same way), so an encoder may move it per
+// frame to trade bits against error; 1 is the plain floor.
+void quantiseRow(const float* in, std::int32_t* out, std::size_t len, double step, double zeroBelow = 1);
 // Quantisation indices of a brick of coefficients in rows of `pitch` into `q` (dense brick layout).
-void quantiseInto(const VczHeader& h, Dims d, const float* c, std::size_t pitch, std::int32_t* q);
+void quantiseInto(const VczHeader& h, Dims d, const float* c, std::size_t pitch, std::int32_t* q,
+                  double zeroBelow = 1);
 // What the decoder will reconstruct from a dense brick of coefficients quantised with the header's steps,
 // written to rows of `pitch`: quantised and dequantised row by row, with no index array.
-void requantiseInto(const VczHeader& h, Dims d, const float* c, float* dst, std::size_t pitch);
+void requantiseInto(const VczHeader& h, Dims d, const float* c, float* dst, std::size_t pitch,
+                    double zeroBelow = 1);
 
 // Bit pattern of the largest coefficient magnitude per subband of a dense brick (index as in h.steps),
 // merged into `out`. Bit patterns of magnitudes order like the magnitudes (Inf and NaN above all finite

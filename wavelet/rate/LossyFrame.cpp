@@ -58,7 +58,7 @@ Trial LossyFrame::trial(std::optional<double> bound, bool reconstruct) {
             cc_, t_, h, allBricks(h), 0, o_.threads, nullptr,
             {{&CodecProfile::reconstruct,
               [&](std::size_t b, float* dst, std::size_t pitch) {
-                  requantiseInto(h, h.brickDims(b), coeffs[b].data(), dst, pitch);
+                  requantiseInto(h, h.brickDims(b), coeffs[b].data(), dst, pitch, zeroBelow_);
               }}},
             &CodecProfile::reconstruct, [&](std::size_t b, const float* rec, std::size_t pitch) {
                 const Dims o = h.brickOrigin(b), d = h.brickDims(b);
@@ -110,7 +110,7 @@ std::size_t LossyFrame::codedBytes(const Trial& tr, BrickPayloads* payloads) {
             thread_local std::vector<std::int32_t> q;
             const Dims d = h.brickDims(b);
             q.resize(d.count());
-            quantiseInto(h, d, coeffs[b].data(), d.x, q.data());
+            quantiseInto(h, d, coeffs[b].data(), d.x, q.data(), zeroBelow_);
             p[b] = buildPayload(h, d, q, tr.corrections[b]);
         });
     });
@@ -150,6 +150,7 @@ FrameResult LossyStrategy::encodeFrame(const Volume& v, VczHeader& h, bool choos
         c.delta = f.lastDelta();
         const bool bounded = h.rate == RateMode::MaxError;
         c.best = f.trial(bounded ? std::optional(o_.target) : std::nullopt, bounded || o_.measureError);
+        refine(f, c, target);
     } else {
         c = search(f);
     }

@@ -41,6 +41,9 @@ public:
     double lastDelta() const noexcept { return lastDelta_; }
     /// Puts back the steps of an earlier trial (the one a search keeps).
     void setSteps(std::vector<double> steps) { h_.steps = std::move(steps); }
+    /// The dead-zone edge (in steps) of later trials and of the coding (quantiseRow's `zeroBelow`).
+    void setZeroBelow(double edge) noexcept { zeroBelow_ = edge; }
+    double zeroBelow() const noexcept { return zeroBelow_; }
     /// Quantises with the header's steps, reconstructs like the decoder and measures the error; with
     /// `bound` it also lists the voxels to store exactly. With `reconstruct` false only the quantisation
     /// runs (the error is NaN).
@@ -66,6 +69,7 @@ private:
     std::vector<std::vector<float>> coeffs_;
     std::vector<double> maxAbs_;
     double lastDelta_ = 0;
+    double zeroBelow_ = 1;
 };
 
 /// What a lossy search chose: the trial kept (its steps left in the header), its base step, and the
@@ -87,6 +91,9 @@ public:
 protected:
     /// The mode's search for the steps that meet its target on `f`.
     virtual StepChoice search(LossyFrame& f) = 0;
+    /// A frame coded at the header's steps (a later frame of a series): the mode may still tune what the
+    /// decoder does not need to know, such as the dead-zone edge, starting from trial `c`.
+    virtual void refine(LossyFrame&, StepChoice&, const ResidualTarget*) {}
     const CodecOptions& options() const noexcept { return o_; }
 
 private:

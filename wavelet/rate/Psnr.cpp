@@ -38,6 +38,65 @@ protected:
         f.setSteps(std::move(o.steps));
         return {std::move(o.best), o.delta, {}};
     }
+
+    // A residual at the series' steps: its dead-zone edge is moved where the plain edge misses the window the
+    // series' frames are held to. A prediction that leaves little to code ends above the target: a wider
+    // dead zone drops the coefficients that buy the least until the frame just meets the target, as the
+    // first frame's step search does. A residual of many coefficients near one step can end below the floor
+    // (target - 0.5 dB), which would make the whole series be coded again finer: a narrower dead zone keeps
+    // them until the frame is back at the floor + 0.1 dB. In between, the plain edge is kept (an I frame at
+    // the series' steps gets no more). The decoder is unaffected.
+    void refine(LossyFrame& f, StepChoice& c, const ResidualTarget* residual) override {
+        if (!residual || f.range() == 0) return;
+        const double plain = f.psnrOf(c.best), floor = options().target - 0.5;
+        if (plain >= floor && plain < options().target) return;
+        const bool widen = plain >= options().target;
+        const double want = widen ? options().target : floor + 0.1;
+        auto psnrAt = [&](double edge, Trial& tr) {
+            f.setZeroBelow(edge);
+            tr = f.trial(std::nullopt);
+            return f.psnrOf(tr);
+        };
+        // Bracket [lo, hi] of edges: lo meets `want` (or is the narrowest tried), hi does not.
+        double lo = 1, hi = kWidestEdge, keptEdge = 1;
+        Trial keep = std::move(c.best);
+        if (widen) {
+            Trial tr;
+            if (psnrAt(hi, tr) >= want) {
+                c.best = std::move(tr);
+                return;
+            }
+        } else {
+            Trial tr;
+            hi = 1;
+            lo = kNarrowestEdge;
+            const double narrowest = psnrAt(lo, tr);
+            keep = std::move(tr);
+            keptEdge = lo;
+            if (narrowest < want) { // the narrowest edge is the best this step can do
+                c.best = std::move(keep);
+                return;
+            }
+        }
+        for (int i = 0; i < 6; ++i) {
+            const double mid = 0.5 * (lo + hi);
+            Trial tr;
+            if (psnrAt(mid, tr) >= want) {
+                lo = mid;
+                keep = std::move(tr);
+                keptEdge = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        f.setZeroBelow(keptEdge);
+        c.best = std::move(keep);
+    }
+
+    // The dead-zone edges tried, in steps. 0.75 is halfway between the reconstructions of 0 and +-1 (1.5
+    // steps): a narrower edge adds error as well as bits, so the error no longer falls with the edge. Beyond
+    // 4 little is left to drop.
+    static constexpr double kNarrowestEdge = 0.75, kWidestEdge = 4;
 };
 
 } // namespace

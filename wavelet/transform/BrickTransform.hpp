@@ -32,95 +32,113 @@ template <class T> struct FillStep {
     std::function<void(std::size_t, T*, std::size_t)> fn;
 };
 
-// Runs one transform over the listed bricks, batched by brick shape. The fill steps write each brick into
-// its batch slot; run(batches, groups) transforms them all (one launch on CPUs) and returns true when it
-// also delivered the result (as voxels, see VoxelPlacement); otherwise emit(b, src, pitch) reads it from the
-// mapped batch (timed as `emitStage`), so no dense copy is made. Filling and emitting are each one
-// parallel loop over all bricks of all batches (per-shape loops left a thread idle on shapes with a single
-// brick), and a brick's fill steps run back to back, so later steps find the brick in cache.
+// Batch memory of one transform round. A one-shot process (a `volcl encode` or `decode` of one file) pays for
+// every fresh page it touches, at 0.3-1.5 GB/s on a virtual machine; batches for all of a 35 MB volume's bricks
+// at once (140 MB of int32) cost more than its transform. Rounds of this size reuse the same pooled blocks
+// and still give each launch enough bricks (one work-item each) to keep every core busy.
+inline constexpr std::size_t kTransformRoundBytes = std::size_t(24) << 20;
+
+// The groups cut into rounds of at most `budget` bytes of batch memory (`strideBytes(dims)` per brick): pieces
+// of groups packed in order, a group split where it does not fit, a brick larger than the budget alone.
+std::vector<std::vector<BrickGroup>> transformRounds(const std::vector<BrickGroup>& groups,
+                                                     std::size_t (*strideBytes)(Dims), std::size_t budget);
+
+// Runs one transform over the listed bricks, batched by brick shape, in rounds of at most
+// kTransformRoundBytes of batch memory. In each round the fill steps write each brick into its batch slot;
+// run(batches, groups) transforms the round (one launch on CPUs) and returns true when it also delivered the
+// result (as voxels, see VoxelPlacement); otherwise emit(b, src, pitch) reads it from the mapped batch (timed
+// as `emitStage`), so no dense copy is made. The result is true when every round's run returned true. Filling
+// and emitting are each one parallel loop over all bricks of the round's batches (per-shape loops left a
+// thread idle on shapes with a single brick), and a brick's fill steps run back to back, so later steps find
+// the brick in cache.
 template <class T, class Run, class Emit>
 bool transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<std::size_t>& which,
                      unsigned threads, CodecProfile* prof, const std::vector<FillStep<T>>& fills, Run run,
                      double CodecProfile::*emitStage, Emit emit) {
-    const std::vector<BrickGroup> groups = groupBricks(h, which);
-    std::vector<std::unique_ptr<BrickBatch<T>>> batches;
-    struct Slot {
-        std::size_t brick, group, index;
-    };
-    std::vector<Slot> slots;
-    for (std::size_t g = 0; g < groups.size(); ++g) {
-        batches.push_back(std::make_unique<BrickBatch<T>>(cc, groups[g].dims, groups[g].bricks.size()));
-        for (std::size_t i = 0; i < groups[g].bricks.size(); ++i)
-            slots.push_back({groups[g].bricks[i], g, i});
-    }
-    std::vector<BatchMapping<T>> maps(groups.size());
-    auto forEachSlot = [&](double CodecProfile::*stage, auto fn) {
-        timeStage(prof, stage, [&] {
+    bool allEmitted = true;
+    const auto strideBytes = [](Dims d) { return BrickBatch<T>::strideFor(d) * sizeof(T); };
+    for (const std::vector<BrickGroup>& groups : transformRounds(groupBricks(h, which), strideBytes,
+                                                                  kTransformRoundBytes)) {
+        std::vector<std::unique_ptr<BrickBatch<T>>> batches;
+        struct Slot {
+            std::size_t brick, group, index;
+        };
+        std::vector<Slot> slots;
+        for (std::size_t g = 0; g < groups.size(); ++g) {
+            batches.push_back(std::make_unique<BrickBatch<T>>(cc, groups[g].dims, groups[g].bricks.size()));
+            for (std::size_t i = 0; i < groups[g].bricks.size(); ++i)
+                slots.push_back({groups[g].bricks[i], g, i});
+        }
+        std::vector<BatchMapping<T>> maps(groups.size());
+        auto forEachSlot = [&](double CodecProfile::*stage, auto fn) {
+            timeStage(prof, stage, [&] {
+                parallelFor(slots.size(), threads, [&](std::size_t k) {
+                    const Slot& s = slots[k];
+                    fn(s.brick, maps[s.group].data() + s.index * batches[s.group]->brickStride(),
+                       batches[s.group]->pitch());
+                });
+            });
+        };
+        // Without fill steps the transform fills the batches itself (forwardFromVoxels).
+        if (!fills.empty()) {
+            timeStage(prof, &CodecProfile::upload, [&] {
+                for (std::size_t g = 0; g < groups.size(); ++g)
+                    maps[g] = batches[g]->mapForWrite(cc);
+            });
+            // Each fill stage gets the loop's wall time in proportion to its summed per-brick time.
+            std::vector<double> stepMs(fills.size() * slots.size(), 0.0);
+            Stopwatch wall;
             parallelFor(slots.size(), threads, [&](std::size_t k) {
                 const Slot& s = slots[k];
-                fn(s.brick, maps[s.group].data() + s.index * batches[s.group]->brickStride(),
-                   batches[s.group]->pitch());
+                T* dst = maps[s.group].data() + s.index * batches[s.group]->brickStride();
+                for (std::size_t f = 0; f < fills.size(); ++f) {
+                    Stopwatch sw;
+                    fills[f].fn(s.brick, dst, batches[s.group]->pitch());
+                    if (prof) stepMs[f * slots.size() + k] = sw.milliseconds();
+                }
+                // The kernels' full-width vector steps compute on row padding too: keep it zero, since pooled
+                // memory may hold old integers there, which read as floats are denormals (an assist per vector
+                // instruction on x86). A precaution: no speed difference was measurable under load. (The
+                // slack after the last brick is left alone: only the last row's vector reads reach it, and
+                // zeroing it cost two fill commands per batch.)
+                const Dims d = groups[s.group].dims;
+                const std::size_t pitch = batches[s.group]->pitch();
+                if (pitch > d.x)
+                    for (std::size_t r = 0; r < d.y * d.z; ++r)
+                        std::fill(dst + r * pitch + d.x, dst + (r + 1) * pitch, T(0));
             });
-        });
-    };
-    // Without fill steps the transform fills the batches itself (forwardFromVoxels).
-    if (!fills.empty()) {
-        timeStage(prof, &CodecProfile::upload, [&] {
-            for (std::size_t g = 0; g < groups.size(); ++g)
-                maps[g] = batches[g]->mapForWrite(cc);
-        });
-        // Each fill stage gets the loop's wall time in proportion to its summed per-brick time.
-        std::vector<double> stepMs(fills.size() * slots.size(), 0.0);
-        Stopwatch wall;
-        parallelFor(slots.size(), threads, [&](std::size_t k) {
-            const Slot& s = slots[k];
-            T* dst = maps[s.group].data() + s.index * batches[s.group]->brickStride();
-            for (std::size_t f = 0; f < fills.size(); ++f) {
-                Stopwatch sw;
-                fills[f].fn(s.brick, dst, batches[s.group]->pitch());
-                if (prof) stepMs[f * slots.size() + k] = sw.milliseconds();
+            if (prof) {
+                const double ms = wall.milliseconds();
+                std::vector<double> perStep(fills.size(), 0.0);
+                for (std::size_t f = 0; f < fills.size(); ++f)
+                    for (std::size_t k = 0; k < slots.size(); ++k)
+                        perStep[f] += stepMs[f * slots.size() + k];
+                const double sum = std::accumulate(perStep.begin(), perStep.end(), 0.0);
+                for (std::size_t f = 0; f < fills.size(); ++f)
+                    prof->*(fills[f].stage) += sum > 0 ? ms * perStep[f] / sum : ms / double(fills.size());
             }
-            // The kernels' full-width vector steps compute on row padding too: keep it zero, since pooled
-            // memory may hold old integers there, which read as floats are denormals (an assist per vector
-            // instruction on x86). A precaution: no speed difference was measurable under load. (The slack
-            // after the last brick is left alone: only the last row's vector reads reach it, and zeroing it
-            // cost two fill commands per batch.)
-            const Dims d = groups[s.group].dims;
-            const std::size_t pitch = batches[s.group]->pitch();
-            if (pitch > d.x)
-                for (std::size_t r = 0; r < d.y * d.z; ++r)
-                    std::fill(dst + r * pitch + d.x, dst + (r + 1) * pitch, T(0));
-        });
-        if (prof) {
-            const double ms = wall.milliseconds();
-            std::vector<double> perStep(fills.size(), 0.0);
-            for (std::size_t f = 0; f < fills.size(); ++f)
-                for (std::size_t k = 0; k < slots.size(); ++k)
-                    perStep[f] += stepMs[f * slots.size() + k];
-            const double sum = std::accumulate(perStep.begin(), perStep.end(), 0.0);
-            for (std::size_t f = 0; f < fills.size(); ++f)
-                prof->*(fills[f].stage) += sum > 0 ? ms * perStep[f] / sum : ms / double(fills.size());
+            timeStage(prof, &CodecProfile::upload, [&] {
+                for (auto& m : maps)
+                    m.unmap();
+            });
         }
-        timeStage(prof, &CodecProfile::upload, [&] {
-            for (auto& m : maps)
-                m.unmap();
+        std::vector<BrickBatch<T>*> all;
+        for (auto& b : batches)
+            all.push_back(b.get());
+        bool emitted = false;
+        timeStage(prof, &CodecProfile::transform,
+                  [&] { emitted = run(std::span<BrickBatch<T>* const>(all), groups); });
+        if (emitted) continue;
+        allEmitted = false;
+        timeStage(prof, &CodecProfile::download, [&] {
+            for (std::size_t g = 0; g < groups.size(); ++g)
+                maps[g] = batches[g]->mapForRead(cc);
+        });
+        forEachSlot(emitStage, [&](std::size_t b, T* src, std::size_t pitch) {
+            emit(b, static_cast<const T*>(src), pitch);
         });
     }
-    std::vector<BrickBatch<T>*> all;
-    for (auto& b : batches)
-        all.push_back(b.get());
-    bool emitted = false;
-    timeStage(prof, &CodecProfile::transform,
-              [&] { emitted = run(std::span<BrickBatch<T>* const>(all), groups); });
-    if (emitted) return true;
-    timeStage(prof, &CodecProfile::download, [&] {
-        for (std::size_t g = 0; g < groups.size(); ++g)
-            maps[g] = batches[g]->mapForRead(cc);
-    });
-    forEachSlot(emitStage, [&](std::size_t b, T* src, std::size_t pitch) {
-        emit(b, static_cast<const T*>(src), pitch);
-    });
-    return false;
+    return !which.empty() && allEmitted;
 }
 
 /// 0, 1, ..., brickCount() - 1.
@@ -187,10 +205,15 @@ bool inverseBricks(ComputeContext& cc, LiftingTransform<T>& t, const VczHeader& 
                    const std::vector<std::size_t>& which, int level, unsigned threads, CodecProfile* prof,
                    const std::vector<FillStep<T>>& fills, double CodecProfile::*emitStage, Emit emit,
                    const VoxelPlacement* toVoxels = nullptr) {
+    // Decided for the whole call, not per round: either every round writes voxels or every brick is emitted.
+    const std::vector<BrickGroup> shapes = groupBricks(h, which);
+    const bool voxels = toVoxels && level == 0 && std::all_of(shapes.begin(), shapes.end(), [&](const BrickGroup& g) {
+                            return t.pathFor(g.dims) == LiftingPath::BrickResident;
+                        });
     return transformBricks<T>(
         cc, h, which, threads, prof, fills,
         [&](std::span<BrickBatch<T>* const> b, const std::vector<BrickGroup>& groups) {
-            if (toVoxels && level == 0 && t.canUseVoxels(b)) {
+            if (voxels) {
                 t.inverseToVoxels(cc, b, h.levels,
                                   {toVoxels->voxels, toVoxels->type, toVoxels->dims,
                                    brickOrigins(h, groups, toVoxels->first)});

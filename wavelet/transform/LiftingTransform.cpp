@@ -270,7 +270,7 @@ template <class T> void BatchMapping<T>::unmap() noexcept {
 // (ComputeContext gives large ones huge pages there).
 template <class T>
 BrickBatch<T>::BrickBatch(ComputeContext& cc, Dims brick, std::size_t count)
-    : brick_(brick), count_(count), pitch_(roundUp(std::max<std::size_t>(brick.x, 1), 16)) {
+    : brick_(brick), count_(count), pitch_(pitchFor(brick.x)) {
     if (brick.count() == 0 || count == 0) throw UsageError("brick batch: empty brick or zero bricks");
     // kSlack elements past the last brick: the brick kernel's x pass reads and blends whole 16-lane vectors
     // that may run up to 16 elements past the last row.
@@ -320,13 +320,11 @@ LiftingTransform<T>::LiftingTransform(ComputeContext& cc, Wavelet w)
         else if (p != "auto")
             throw UsageError("VOLCL_LIFTING_PATH must be auto, streaming or brick");
     }
-    // Build here the programs the device will most likely run (even a cached build costs tens of ms, which
-    // belong to setup, not to the transform): on CPUs the brick kernel for bricks up to 64, the default
-    // size; the other path is built on first use.
-    if (path_ == LiftingPath::Streaming || (!cpuDevice_ && path_ == LiftingPath::Auto))
-        buildStreaming(cc);
-    else
-        buildBrick(cc, 64);
+    // The streaming programs are built here when that path is the likely one (even a cached build costs
+    // milliseconds, which belong to setup, not to the transform). The brick kernels are built on first use,
+    // each variant alone: a one-shot decode runs only the inverse that writes voxels, and each program it
+    // does not need costs a cached build in a process that runs once.
+    if (path_ == LiftingPath::Streaming || (!cpuDevice_ && path_ == LiftingPath::Auto)) buildStreaming(cc);
 }
 
 template <class T> void LiftingTransform<T>::buildStreaming(ComputeContext& cc) {
@@ -344,17 +342,24 @@ template <class T> void LiftingTransform<T>::buildStreaming(ComputeContext& cc) 
     streamingBuilt_ = true;
 }
 
-template <class T> void LiftingTransform<T>::buildBrick(ComputeContext& cc, std::size_t maxN) {
+template <class T> void LiftingTransform<T>::useBrickSize(std::size_t maxN) {
     if (maxN == brickMaxN_) return;
-    KernelDefines d;
-    d.set("WAVELET", static_cast<long long>(wavelet_));
-    d.set("LIFT_MAXN", static_cast<long long>(maxN));
-    if (std::is_same_v<T, float>) d.set("LIFT_FLOAT");
-    fwdBrick_ = cc.kernel("lifting_brick.cl", "lift_bricks", d);
-    d.set("LIFT_INVERSE");
-    invBrick_ = cc.kernel("lifting_brick.cl", "lift_bricks", d);
-    brickVoxels_ = {}; // built for this LIFT_MAXN when asked for
+    fwdBrick_ = invBrick_ = cl::Kernel(); // built for this LIFT_MAXN when asked for
+    brickVoxels_ = {};
     brickMaxN_ = maxN;
+}
+
+template <class T> cl::Kernel& LiftingTransform<T>::brickKernel(ComputeContext& cc, bool inverse) {
+    cl::Kernel& k = inverse ? invBrick_ : fwdBrick_;
+    if (!k()) {
+        KernelDefines d;
+        d.set("WAVELET", static_cast<long long>(wavelet_));
+        d.set("LIFT_MAXN", static_cast<long long>(brickMaxN_));
+        if (std::is_same_v<T, float>) d.set("LIFT_FLOAT");
+        if (inverse) d.set("LIFT_INVERSE");
+        k = cc.kernel("lifting_brick.cl", "lift_bricks", d);
+    }
+    return k;
 }
 
 // One fixed local size: PoCL specialises a kernel per local size, so varying it costs a build each time.
@@ -438,10 +443,10 @@ double LiftingTransform<T>::brickResident(ComputeContext& cc, std::span<BrickBat
     while (maxN < maxDim)
         maxN *= 2;
     if (maxN > kBrickResidentMaxDim) throw UsageError("brick-resident lifting: brick larger than 256 voxels");
-    buildBrick(cc, maxN);
+    useBrickSize(maxN);
     if (brickNext_.size() == 0) brickNext_ = cc.allocate<cl_int>(1);
     cc.fill(brickNext_, cl_int(0));
-    cl::Kernel& k = voxels ? voxelKernel(cc, voxels->type, inverse) : inverse ? invBrick_ : fwdBrick_;
+    cl::Kernel& k = voxels ? voxelKernel(cc, voxels->type, inverse) : brickKernel(cc, inverse);
     setArgs(k, slot(0).data(), slot(1).data(), slot(2).data(), slot(3).data(), slot(4).data(), slot(5).data(),
             slot(6).data(), slot(7).data(), brickNext_, px, bx, by, bz, end, cl_uint(levels),
             cl_uint(std::max(stopLevel, 0)));

@@ -5,6 +5,7 @@
 #include "host/runtime/ClRuntime.hpp"
 #include "wavelet/CodecTypes.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <span>
@@ -67,6 +68,8 @@ public:
     std::size_t pitch() const noexcept { return pitch_; }
     /// Elements per brick in the padded layout (pitch * by * bz).
     std::size_t brickStride() const noexcept { return pitch_ * brick_.y * brick_.z; }
+    /// brickStride() of a batch of `brick`-shaped bricks, without making one.
+    static std::size_t strideFor(Dims brick) noexcept { return pitchFor(brick.x) * brick.y * brick.z; }
     /// Host array in the padded layout, brick after brick, ready for upload()/filled by download().
     std::vector<T> makeHost() const { return std::vector<T>(brickStride() * count_); }
     void upload(ComputeContext& cc, std::span<const T> host);
@@ -82,6 +85,7 @@ public:
     void swap() noexcept { current_ = !current_; }
 
 private:
+    static std::size_t pitchFor(std::size_t x) noexcept { return roundUp(std::max<std::size_t>(x, 1), 16); }
     Dims brick_;
     std::size_t count_ = 0, pitch_ = 0;
     DeviceBuffer<T> a_, b_;
@@ -181,7 +185,8 @@ private:
     double transformAll(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse, int levels,
                         int stopLevel);
     void buildStreaming(ComputeContext& cc);               // the lifting.cl kernels, once
-    void buildBrick(ComputeContext& cc, std::size_t maxN); // the lifting_brick.cl kernels for LIFT_MAXN maxN
+    void useBrickSize(std::size_t maxN); // the lifting_brick.cl kernels from now on are for LIFT_MAXN maxN
+    cl::Kernel& brickKernel(ComputeContext& cc, bool inverse); // built on first use
     cl::Kernel& voxelKernel(ComputeContext& cc, ScalarType type,
                             bool inverse); // reading/writing `type` voxels
     Wavelet wavelet_;
@@ -189,7 +194,7 @@ private:
     bool cpuDevice_ = false;
     bool streamingBuilt_ = false;
     cl::Kernel fwdX_, fwdYz_, invX_, invYz_, copy_;
-    std::size_t brickMaxN_ = 0; // LIFT_MAXN the brick kernels below were built with (0: not built)
+    std::size_t brickMaxN_ = 0; // LIFT_MAXN of the brick kernels below (0: none chosen yet)
     cl::Kernel fwdBrick_, invBrick_;
     std::array<cl::Kernel, 8> brickVoxels_; // [inverse * 4 + ScalarType], built on first use for brickMaxN_
     DeviceBuffer<cl_int> brickNext_; // the brick kernel's work counter

@@ -63,6 +63,27 @@ ValueRange faceRange(const VczHeader& h, const LodStatistics* stats, std::size_t
     return levelRange(h, stats, frame, b, level);
 }
 
+/// Hull of the value ranges of brick b and its 26 neighbours, over every level (the input's range too).
+ValueRange neighbourhoodRange(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b) {
+    const Dims g = h.brickGrid();
+    const std::size_t bx = b % g.x, by = b / g.x % g.y, bz = b / (g.x * g.y);
+    const int levels = stats && stats->has(frame) ? stats->levels : 0;
+    ValueRange r{kInf, -kInf};
+    for (std::size_t z = bz > 0 ? bz - 1 : 0; z <= std::min(bz + 1, g.z - 1); ++z)
+        for (std::size_t y = by > 0 ? by - 1 : 0; y <= std::min(by + 1, g.y - 1); ++y)
+            for (std::size_t x = bx > 0 ? bx - 1 : 0; x <= std::min(bx + 1, g.x - 1); ++x) {
+                const std::size_t n = (z * g.y + y) * g.x + x;
+                r.min = std::min(r.min, h.bricks[frame][n].min);
+                r.max = std::max(r.max, h.bricks[frame][n].max);
+                for (int l = 0; l <= levels; ++l) {
+                    const ValueRange v = levelRange(h, stats, frame, n, l);
+                    r.min = std::min(r.min, v.min);
+                    r.max = std::max(r.max, v.max);
+                }
+            }
+    return r;
+}
+
 double dataError(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b,
                  int level) {
     if (stats && stats->has(frame))
@@ -134,10 +155,20 @@ double brickError(const VczHeader& h, const LodStatistics* stats, std::size_t fr
                   const TransferFunction& tf, const BrickView& view) {
     const double e = dataError(h, stats, frame, b, level);
     if (e == 0) return 0.0;
-    const ValueRange r = levelRange(h, stats, frame, b, level);
+    // The samples a coarser brick changes lie in its own cells and in the cells across its faces, which
+    // interpolate its node values with its neighbours'; a pre-integrated segment from there integrates the TF
+    // between two such values. Every field stays inside its measured ranges (a trilinear interpolation of
+    // samples stays inside their range), so all those values lie in the hull of the brick's and its 26
+    // neighbours' ranges at every level (a neighbour's level is not known here): the TF's largest slope there
+    // bounds the change per data unit (mean value theorem). The hull is widened by the coding bound (a lossy
+    // file's decoded voxels may leave the input's range by that much) and to the pre-integration table nodes
+    // the lookups blend, not by the deviation itself: where no value near the brick reaches a narrow TF peak,
+    // coarsening it does not change the image.
+    const ValueRange hull0 = neighbourhoodRange(h, stats, frame, b);
     const double spacing = std::max({h.spacing[0], h.spacing[1], h.spacing[2]});
-    const double lo = std::min<double>(r.min, h.bricks[frame][b].min) - e,
-                 hi = std::max<double>(r.max, h.bricks[frame][b].max) + e;
+    const double w = codingBound(h);
+    const ValueRange hull = grid_detail::tableNodeSpan(tf, hull0.min - w, hull0.max + w, view.tableNodes);
+    const double lo = hull.min, hi = hull.max;
     double sens = tfSensitivity(tf, lo, hi, spacing);
     for (double iso : view.isoValues)
         if (iso >= lo && iso <= hi) sens = kInf; // a surface inside the brick moves with the data
@@ -147,44 +178,65 @@ double brickError(const VczHeader& h, const LodStatistics* stats, std::size_t fr
     return e * sens * cellPixels;
 }
 
-bool brickReachable(const VczHeader& h, std::size_t b, const BrickView& view) {
+namespace {
+
+/// Rectangle the corners project to on the image plane, in the camera's units (world units for orthographic,
+/// tangent of the angle for perspective), and the image's half extents in the same units.
+struct ProjectedRect {
+    double x0 = kInf, x1 = -kInf, y0 = kInf, y1 = -kInf, dmax = -kInf, hw = 0, hh = 0;
+    bool behind = false; ///< a corner lies at or behind the eye's plane (perspective)
+};
+
+ProjectedRect project(const std::array<Vec3, 8>& corners, const BrickView& view) {
     const Camera& c = view.camera;
     const ViewFrame v = viewFrame(c);
-    const double aspect = double(view.width) / double(view.height);
-    double x0 = kInf, x1 = -kInf, y0 = kInf, y1 = -kInf, dmax = -kInf;
-    bool behind = false;
-    const std::array<Vec3, 8> corners = brickCorners(h, b, 1.0);
-    for (const ClipPlane& cp : view.clipPlanes)
-        if (std::all_of(corners.begin(), corners.end(),
-                        [&](const Vec3& p) { return dot(cp.normal, p) + cp.offset < 0.0; }))
-            return false; // clipped away: no sample the march keeps reads it
+    ProjectedRect r;
     for (const Vec3& p : corners) {
         const Vec3 rel = sub(p, c.eye);
         const double d = dot(rel, v.f);
-        dmax = std::max(dmax, d);
+        r.dmax = std::max(r.dmax, d);
         double x = dot(rel, v.r), y = dot(rel, v.u);
         if (c.projection == Projection::Perspective) {
             if (d <= 1e-9) {
-                behind = true;
+                r.behind = true;
                 continue;
             }
             x /= d;
             y /= d;
         }
-        x0 = std::min(x0, x);
-        x1 = std::max(x1, x);
-        y0 = std::min(y0, y);
-        y1 = std::max(y1, y);
+        r.x0 = std::min(r.x0, x);
+        r.x1 = std::max(r.x1, x);
+        r.y0 = std::min(r.y0, y);
+        r.y1 = std::max(r.y1, y);
     }
-    if (dmax <= 0) return false; // wholly behind the eye
-    if (behind) return true;     // straddles the eye's plane: keep it
-    double hh;
-    if (c.projection == Projection::Orthographic)
-        hh = 0.5 * c.height;
-    else
-        hh = std::tan(c.fovYDeg * 3.14159265358979323846 / 360.0);
-    const double hw = hh * aspect;
-    return x1 >= -hw && x0 <= hw && y1 >= -hh && y0 <= hh;
+    r.hh = c.projection == Projection::Orthographic ? 0.5 * c.height
+                                                    : std::tan(c.fovYDeg * 3.14159265358979323846 / 360.0);
+    r.hw = r.hh * double(view.width) / double(view.height);
+    return r;
+}
+
+} // namespace
+
+bool brickReachable(const VczHeader& h, std::size_t b, const BrickView& view) {
+    const std::array<Vec3, 8> corners = brickCorners(h, b, 1.0);
+    for (const ClipPlane& cp : view.clipPlanes)
+        if (std::all_of(corners.begin(), corners.end(),
+                        [&](const Vec3& p) { return dot(cp.normal, p) + cp.offset < 0.0; }))
+            return false; // clipped away: no sample the march keeps reads it
+    const ProjectedRect r = project(corners, view);
+    if (r.dmax <= 0) return false; // wholly behind the eye
+    if (r.behind) return true;     // straddles the eye's plane: keep it
+    return r.x1 >= -r.hw && r.x0 <= r.hw && r.y1 >= -r.hh && r.y0 <= r.hh;
+}
+
+double brickPixels(const VczHeader& h, std::size_t b, const BrickView& view) {
+    const ProjectedRect r = project(brickCorners(h, b, 0.0), view);
+    const double all = double(view.width) * double(view.height);
+    if (r.dmax <= 0) return 0.0;
+    if (r.behind) return all;
+    const double w = std::max(0.0, std::min(r.x1, r.hw) - std::max(r.x0, -r.hw)),
+                 hgt = std::max(0.0, std::min(r.y1, r.hh) - std::max(r.y0, -r.hh));
+    return std::min(all, w * hgt / (4.0 * r.hw * r.hh) * all);
 }
 
 BrickSelection selectBricks(const VczHeader& h, const LodStatistics* stats, std::size_t frame, int maxLevel,

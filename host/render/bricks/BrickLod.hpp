@@ -46,13 +46,18 @@ struct BrickSelection {
 double tfSensitivity(const TransferFunction& tf, double a, double b, double h);
 
 /// Estimated screen-space error of brick `b` at `level`: data error (the index's statistics, plus the
-/// file's max-error bound) x TF sensitivity over the brick's range x projected size, in pixels, of one
+/// file's max-error bound) x TF sensitivity over the hull of the brick's level-0 and level-`level` ranges
+/// (widened by the coding bound and to the pre-integration table's nodes) x projected size, in pixels, of one
 /// level-`level` cell. Level 0 of a lossless file is 0.
 double brickError(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b, int level,
                   const TransferFunction& tf, const BrickView& view);
 
 /// True when the world box of brick `b` (grown by one voxel) meets the view volume of `view`'s camera.
 bool brickReachable(const VczHeader& h, std::size_t b, const BrickView& view);
+
+/// Pixels covered by the bounding rectangle of brick b's projected box (clipped to the image; the whole
+/// image when the brick reaches the eye's plane).
+double brickPixels(const VczHeader& h, std::size_t b, const BrickView& view);
 
 /// Levels per brick for `view` (all 0 for LodMode::Full; coarser where the estimated error stays at or
 /// below lodError for LodMode::Auto; `maxLevel` caps them, 0 for frames that decode at level 0 only), then

@@ -3,6 +3,8 @@
 
 #include "host/Error.hpp"
 
+#include <algorithm>
+
 namespace volcl {
 
 BuddyAllocator::BuddyAllocator(std::size_t granule, int topOrder, std::size_t topCount)
@@ -95,12 +97,55 @@ std::optional<CachedBrick> BrickCache::insert(const Key& key, std::size_t floats
     return c;
 }
 
-void BrickCache::clear() {
+std::optional<std::vector<BrickCache::Placement>>
+BrickCache::repack(std::vector<std::pair<Key, std::size_t>> workingSet) {
+    std::stable_sort(workingSet.begin(), workingSet.end(),
+                     [](const auto& a, const auto& b) { return a.second > b.second; });
+    std::vector<Placement> out;
+    out.reserve(workingSet.size());
+    for (const auto& [key, floats] : workingSet) {
+        Placement p;
+        p.key = key;
+        p.slot.floats = floats;
+        p.slot.order = alloc_.orderFor(floats);
+        auto it = entries_.find(key);
+        if (it != entries_.end()) {
+            p.resident = true;
+            p.from = it->second.first.offset;
+        }
+        out.push_back(p);
+    }
+    // Every block is released and placed again (the samples are not touched here); the working set's entries
+    // come back in size order, so they are the most recently used.
+    const std::size_t before = entries_.size();
+    std::size_t residents = 0;
+    releaseAll();
+    for (Placement& p : out) {
+        const std::optional<std::size_t> off = p.slot.order < 0 ? std::nullopt : alloc_.allocate(p.slot.order);
+        if (!off) {
+            releaseAll();
+            evictions_ += before;
+            return std::nullopt;
+        }
+        p.slot.offset = *off;
+        lru_.push_back(p.key);
+        entries_[p.key] = {p.slot, std::prev(lru_.end())};
+        if (p.resident) ++residents;
+    }
+    evictions_ += before - residents;
+    return out;
+}
+
+void BrickCache::releaseAll() {
     for (const auto& [k, e] : entries_)
         alloc_.release(e.first.offset, e.first.order);
-    evictions_ += entries_.size();
     entries_.clear();
     lru_.clear();
+}
+
+void BrickCache::clear() {
+    evictions_ += entries_.size();
+    releaseAll();
 }
 
 } // namespace volcl

@@ -50,6 +50,13 @@ struct CachedBrick {
 class BrickCache {
 public:
     using Key = std::tuple<std::size_t, std::size_t, int>;
+    /// Where repack() puts one brick of the working set.
+    struct Placement {
+        Key key;
+        CachedBrick slot;
+        bool resident = false;      ///< it was in the pool: its samples move from `from` to slot.offset
+        std::size_t from = 0;       ///< its float offset before the repack (resident bricks only)
+    };
     explicit BrickCache(BuddyAllocator allocator) : alloc_(std::move(allocator)) {}
 
     const BuddyAllocator& allocator() const noexcept { return alloc_; }
@@ -58,11 +65,19 @@ public:
     /// Space for `floats` samples under `key`, evicting least recently used entries not in `pinned`;
     /// nothing when even that does not free a block.
     std::optional<CachedBrick> insert(const Key& key, std::size_t floats, const std::set<Key>& pinned);
+    /// Evicts every entry outside `workingSet` (keys and sample counts) and places the working set afresh,
+    /// largest first: blocks of non-increasing order taken lowest offset first from an empty buddy allocator
+    /// pack without holes, so a working set whose blocks sum to at most the capacity always fits (nothing
+    /// is returned otherwise and the pool is left empty). Entries already in the pool keep their samples
+    /// (the caller moves them); the others are entered too, and the caller fills their slots. Used when bricks
+    /// kept from earlier frames fragment the pool: moving resident bricks instead of decoding them again.
+    std::optional<std::vector<Placement>> repack(std::vector<std::pair<Key, std::size_t>> workingSet);
     std::size_t size() const noexcept { return entries_.size(); }
     std::size_t evictions() const noexcept { return evictions_; }
     void clear();
 
 private:
+    void releaseAll(); ///< frees every entry's block, counting no eviction
     BuddyAllocator alloc_;
     std::list<Key> lru_; ///< front: least recently used
     std::map<Key, std::pair<CachedBrick, std::list<Key>::iterator>> entries_;

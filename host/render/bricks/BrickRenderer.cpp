@@ -63,6 +63,8 @@ void BrickStats::add(const BrickStats& f) {
     voxelsDecoded += f.voxelsDecoded;
     coarsened += f.coarsened;
     evictions += f.evictions;
+    repacks += f.repacks;
+    moved += f.moved;
     peakPoolBytes = std::max(peakPoolBytes, f.peakPoolBytes);
     decodeMs += f.decodeMs;
 }
@@ -74,6 +76,7 @@ std::string BrickStats::summary() const {
        << bytesDecoded << " (" << voxelsDecoded << " voxels), peak cache " << std::fixed
        << std::setprecision(2) << double(peakPoolBytes) / (1024.0 * 1024.0) << " MB, evictions " << evictions;
     if (coarsened) os << ", coarsened to fit the budget " << coarsened;
+    if (repacks) os << ", pool repacked " << repacks << " (" << moved << " bricks moved, not decoded)";
     os << ", decode " << std::setprecision(1) << decodeMs << " ms";
     return os.str();
 }
@@ -369,47 +372,77 @@ void BrickRenderer::loadBricks(const BrickSelection& s) {
         page[kHeaderWords + 4 * b + 2] = s.standIn[b];
     }
     last_.visited = work.size();
-    bool retried = false;
-    for (std::size_t i = 0; i < work.size(); ++i) {
-        const std::size_t b = work[i];
-        const int level = s.level[b];
-        const BrickCache::Key key{frame_, b, level};
-        const CachedBrick* hit = m.cache->touch(key);
-        CachedBrick c;
-        if (hit) {
-            c = *hit;
-            ++last_.hits;
-        } else {
-            const Dims n = brickSamples(h, b, level);
-            std::optional<CachedBrick> slot = m.cache->insert(key, n.count(), pinned);
-            if (!slot) {
-                if (retried)
-                    throw Error("internal: the brick pool cannot hold a working set that fits its budget");
-                // Fragmented by bricks kept from earlier frames: start from an empty pool, largest first.
-                retried = true;
-                m.cache->clear();
-                last_.hits = 0;
-                i = std::size_t(-1);
-                continue;
+    // Slots first (hits from the pool, room for the misses), then the data: a pool fragmented by bricks kept
+    // from earlier frames is repacked without decoding again what it already holds.
+    std::vector<CachedBrick> slot(s.level.size());
+    std::vector<char> decode(s.level.size(), 0);
+    bool placed = true;
+    for (std::size_t b : work) {
+        const BrickCache::Key key{frame_, b, s.level[b]};
+        if (const CachedBrick* hit = m.cache->touch(key)) {
+            slot[b] = *hit;
+            continue;
+        }
+        const std::optional<CachedBrick> room =
+            m.cache->insert(key, brickSamples(h, b, s.level[b]).count(), pinned);
+        if (!room) {
+            placed = false;
+            break;
+        }
+        slot[b] = *room;
+        decode[b] = 1;
+    }
+    if (!placed) {
+        std::vector<std::pair<BrickCache::Key, std::size_t>> ws;
+        for (std::size_t b : work)
+            ws.push_back({{frame_, b, s.level[b]}, brickSamples(h, b, s.level[b]).count()});
+        const auto placements = m.cache->repack(std::move(ws));
+        if (!placements) throw Error("internal: the brick pool cannot hold a working set that fits its budget");
+        // Read every moving brick before writing any: old and new places may overlap.
+        std::vector<std::pair<const BrickCache::Placement*, std::vector<float>>> moving;
+        for (const BrickCache::Placement& p : *placements) {
+            const std::size_t b = std::get<1>(p.key);
+            const bool filled = p.resident && !decode[b]; // slots taken this frame hold nothing yet
+            slot[b] = p.slot;
+            decode[b] = filled ? 0 : 1;
+            if (filled && p.from != p.slot.offset) {
+                std::vector<float> samples(p.slot.floats);
+                cc_.read(m.pool, std::span<float>(samples), m.pageFloats() + p.from);
+                moving.push_back({&p, std::move(samples)});
             }
-            c = *slot;
+        }
+        for (const auto& [p, samples] : moving)
+            cc_.write(m.pool, std::span<const float>(samples), m.pageFloats() + p->slot.offset);
+        ++last_.repacks;
+        last_.moved += moving.size();
+    }
+    for (std::size_t b : work) {
+        const int level = s.level[b];
+        if (decode[b]) {
             Stopwatch sw;
             Volume v;
-            if (m.whole) {
-                const Dims o = h.brickOrigin(b), d = h.brickDims(b);
-                v = m.whole->cropped(o, {o.x + d.x, o.y + d.y, o.z + d.z});
-            } else {
-                v = reader_->decodeBrick(cc_, frame_, b, level);
+            try {
+                if (m.whole) {
+                    const Dims o = h.brickOrigin(b), d = h.brickDims(b);
+                    v = m.whole->cropped(o, {o.x + d.x, o.y + d.y, o.z + d.z});
+                } else {
+                    v = reader_->decodeBrick(cc_, frame_, b, level);
+                }
+            } catch (...) {
+                m.cache->clear(); // slots of this frame hold no samples: none may be found as a hit later
+                throw;
             }
             const std::vector<float> samples = v.toFloat();
-            if (samples.size() != n.count()) throw Error("internal: decoded brick has an unexpected size");
-            cc_.write(m.pool, std::span<const float>(samples), m.pageFloats() + c.offset);
+            if (samples.size() != slot[b].floats) throw Error("internal: decoded brick has an unexpected size");
+            cc_.write(m.pool, std::span<const float>(samples), m.pageFloats() + slot[b].offset);
             last_.decodeMs += sw.milliseconds();
             ++last_.decoded;
             last_.bytesDecoded += h.bricks[frame_][b].size;
             last_.voxelsDecoded += samples.size();
+        } else {
+            ++last_.hits;
         }
-        page[kHeaderWords + 4 * b + 0] = uintBits(std::uint32_t(m.pageFloats() + c.offset));
+        page[kHeaderWords + 4 * b + 0] = uintBits(std::uint32_t(m.pageFloats() + slot[b].offset));
         page[kHeaderWords + 4 * b + 1] = uintBits(std::uint32_t(level));
     }
     last_.peakPoolBytes = m.cache->allocator().usedFloats() * sizeof(float);

@@ -25,6 +25,8 @@ struct BrickStats {
     std::size_t voxelsDecoded = 0; ///< samples the decodes produced
     std::size_t coarsened = 0; ///< bricks drawn coarser than chosen so that the working set fits the budget
     std::size_t evictions = 0;
+    std::size_t repacks = 0; ///< frames whose pool, fragmented by earlier frames' bricks, was placed afresh
+    std::size_t moved = 0;   ///< bricks those repacks moved inside the pool instead of decoding them again
     std::size_t peakPoolBytes = 0; ///< most pool bytes in use
     double decodeMs = 0;
     void add(const BrickStats& f);

@@ -108,24 +108,26 @@ double maxExtinctionOver(const TransferFunction& tf, double a, double b) {
     return m;
 }
 
+ValueRange tableNodeSpan(const TransferFunction& tf, double a, double b, int tableNodes) {
+    if (tableNodes <= 1) return {a, b};
+    // A table lookup clamps to the domain and blends the neighbouring nodes.
+    const double lo = tf.domain[0], hi = tf.domain[1], h = (hi - lo) / double(tableNodes - 1);
+    return {lo + std::floor((std::clamp(a, lo, hi) - lo) / h) * h,
+            lo + std::ceil((std::clamp(b, lo, hi) - lo) / h) * h};
+}
+
 std::vector<unsigned char> emptyMacrocells(const MacrocellGrid& grid, const TransferFunction& tf,
                                            const std::vector<double>& isoValues, bool isoOnly,
                                            int tableNodes) {
     std::vector<unsigned char> empty(grid.min.size(), 0);
-    const double lo = tf.domain[0], hi = tf.domain[1];
     for (std::size_t c = 0; c < empty.size(); ++c) {
-        double a = grid.min[c], b = grid.max[c];
+        const double a = grid.min[c], b = grid.max[c];
         bool visible = false;
         for (double iso : isoValues)
             visible |= iso > a && iso <= b;
         if (!isoOnly && !visible) {
-            if (tableNodes > 1) {
-                // A table lookup clamps to the domain and blends the neighbouring nodes.
-                const double h = (hi - lo) / double(tableNodes - 1);
-                a = lo + std::floor((std::clamp(a, lo, hi) - lo) / h) * h;
-                b = lo + std::ceil((std::clamp(b, lo, hi) - lo) / h) * h;
-            }
-            visible = maxExtinctionOver(tf, a, b) > 0.0;
+            const ValueRange r = tableNodeSpan(tf, a, b, tableNodes);
+            visible = maxExtinctionOver(tf, r.min, r.max) > 0.0;
         }
         empty[c] = visible ? 0 : 1;
     }

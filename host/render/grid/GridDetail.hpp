@@ -44,6 +44,10 @@ constexpr std::size_t kMaxCornerVoxels = std::size_t(1) << 26;
 /// are stored in 4x4x4 bricks (brick-major, then z, y, x inside the brick) for cache locality along any ray.
 std::vector<unsigned char> cellCorners(const Volume& volume);
 
+/// [a, b] widened to the pre-integration table nodes a lookup of values in [a, b] blends (the domain clamps;
+/// tableNodes <= 1: unchanged).
+ValueRange tableNodeSpan(const TransferFunction& tf, double a, double b, int tableNodes);
+
 /// Largest tau over [a, b] (exact for the piecewise-linear TF).
 double maxExtinctionOver(const TransferFunction& tf, double a, double b);
 

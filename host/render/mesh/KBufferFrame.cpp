@@ -75,6 +75,20 @@ TableSpec kbufferTableSpec(const Scene& scene, double maxLength) {
     return s;
 }
 
+std::vector<cl_float4> kbufferBlockedTable(const PreintegrationTable& table) {
+    const std::size_t n = std::size_t(table.size()), lengths = std::size_t(table.sliceCount()), B = kKBufferTableBlock;
+    const std::size_t nb = (n + B - 1) / B;
+    std::vector<cl_float4> out(nb * nb * B * B * lengths, cl_float4{{0, 0, 0, 0}});
+    for (std::size_t k = 0; k < lengths; ++k)
+        for (std::size_t i = 0; i < n; ++i)
+            for (std::size_t j = 0; j < n; ++j) {
+                const float* v = table.rgba.data() + ((k * n + i) * n + j) * 4;
+                const std::size_t at = (((i / B) * nb + j / B) * (B * B) + (i % B) * B + j % B) * lengths + k;
+                out[at] = {{v[0], v[1], v[2], v[3]}};
+            }
+    return out;
+}
+
 VolclTfParams kbufferTfParams(const PreintegrationTable& table, std::size_t knotCount) {
     VolclTfParams p{};
     p.knotCount = volcl_uint(knotCount);

@@ -36,6 +36,12 @@ VolclKBufferParams kbufferParams(const KBufferGeometry& g, const Camera& camera,
 /// lengths up to `maxLength` (the longest edge at full quality: no segment inside a tet is longer; the box
 /// diagonal while the level of detail drops faces).
 TableSpec kbufferTableSpec(const Scene& scene, double maxLength);
+/// Edge of the front x back node blocks of the device table (KB_TBLOCK in cl/mesh_kbuffer.cl).
+inline constexpr unsigned kKBufferTableBlock = 4;
+/// The table as kb_raster reads it: kKBufferTableBlock^2 node blocks (front-major), inside a block front-major
+/// nodes, each node's length slices contiguous; blocks past the last node are zero. The eight values of a
+/// lookup share one block (one page, not four) and its two lengths one cache line. Same values as `table`.
+std::vector<cl_float4> kbufferBlockedTable(const PreintegrationTable& table);
 /// Table geometry as the kernels read it.
 VolclTfParams kbufferTfParams(const PreintegrationTable& table, std::size_t knotCount);
 

@@ -125,62 +125,40 @@ public:
             px.acc[i] = px.acc[i] + keep * c[i];
     }
 
+    /// Stores `in` among the first n (sorted) entries of kb: after every entry not farther (the kernel's ring).
+    static void place(Frag* kb, int n, const Frag& in) {
+        int j = n;
+        while (j > 0 && kb[j - 1].t > in.t) {
+            kb[j] = kb[j - 1];
+            --j;
+        }
+        kb[j] = in;
+    }
+
     void insert(std::size_t pi, const Frag& in) {
         Pixel& px = pixels_[pi];
-        Frag* kb = &frags_[pi * std::size_t(k_)];
+        Frag* kb = &frags_[pi * std::size_t(k_)]; // sorted by distance, equal distances in arrival order
         if (stats_) ++stats_->fragments;
         if (px.count < k_) {
-            kb[px.count++] = in;
+            place(kb, px.count++, in);
             return;
         }
         if (stats_) ++stats_->overflowPops;
-        int m = 0;
-        float mt = kb[0].t;
-        for (int j = 1; j < k_; ++j)
-            if (kb[j].t < mt) {
-                mt = kb[j].t;
-                m = j;
-            }
-        if (in.t < mt) {
-            segment(px, in, kb[m]);
+        if (in.t < kb[0].t) {
+            segment(px, in, kb[0]);
         } else {
-            int r = k_;
-            float rt = std::numeric_limits<float>::infinity();
-            for (int j = 0; j < k_; ++j)
-                if (j != m && kb[j].t < rt) {
-                    rt = kb[j].t;
-                    r = j;
-                }
-            const Frag second = (r == k_ || in.t < rt) ? in : kb[r];
-            segment(px, kb[m], second);
-            kb[m] = in;
+            segment(px, kb[0], in.t < kb[1].t ? in : kb[1]);
+            std::copy(kb + 1, kb + k_, kb);
+            place(kb, k_ - 1, in);
         }
         if (px.acc[3] >= P_.earlyTermination) px.done = true;
     }
 
     void flush(std::size_t pi) {
         Pixel& px = pixels_[pi];
-        Frag* kb = &frags_[pi * std::size_t(k_)];
-        int n = px.count;
-        while (n >= 2 && px.acc[3] < P_.earlyTermination) {
-            int m = 0;
-            float mt = kb[0].t;
-            for (int j = 1; j < n; ++j)
-                if (kb[j].t < mt) {
-                    mt = kb[j].t;
-                    m = j;
-                }
-            int r = n;
-            float rt = std::numeric_limits<float>::infinity();
-            for (int j = 0; j < n; ++j)
-                if (j != m && (r == n || kb[j].t < rt)) {
-                    rt = kb[j].t;
-                    r = j;
-                }
-            segment(px, kb[m], kb[r]);
-            --n;
-            kb[m] = kb[n];
-        }
+        const Frag* kb = &frags_[pi * std::size_t(k_)];
+        for (int i = 1; i < px.count && px.acc[3] < P_.earlyTermination; ++i)
+            segment(px, kb[i - 1], kb[i]);
     }
 
     ImageBuffer run() {
@@ -288,14 +266,18 @@ std::vector<std::uint32_t> kbufferMirrorOrder(const KBufferMirrorInput& in) {
     const auto& faces = in.faces->faces;
     std::vector<std::uint32_t> keys(P.faceCount), vals(P.faceCount);
     for (std::uint32_t i = 0; i < P.faceCount; ++i) {
-        const auto& p0 = pts[faces[i].v[0]].s;
-        const auto& p1 = pts[faces[i].v[1]].s;
-        const auto& p2 = pts[faces[i].v[2]].s;
-        const float cx = (p0[0] + p1[0] + p2[0]) / 3.0f - P.eye[0];
-        const float cy = (p0[1] + p1[1] + p2[1]) / 3.0f - P.eye[1];
-        const float cz = (p0[2] + p1[2] + p2[2]) / 3.0f - P.eye[2];
-        const float depth = P.perspective ? std::sqrt(cx * cx + cy * cy + cz * cz)
-                                          : cx * P.forward[0] + cy * P.forward[1] + cz * P.forward[2];
+        const auto& p0 = pts[faces[i].v[0]];
+        const auto& p1 = pts[faces[i].v[1]];
+        const auto& p2 = pts[faces[i].v[2]];
+        float depth;
+        if (P.perspective) {
+            const float cx = (p0.s[0] + p1.s[0] + p2.s[0]) / 3.0f - P.eye[0];
+            const float cy = (p0.s[1] + p1.s[1] + p2.s[1]) / 3.0f - P.eye[1];
+            const float cz = (p0.s[2] + p1.s[2] + p2.s[2]) / 3.0f - P.eye[2];
+            depth = std::sqrt(cx * cx + cy * cy + cz * cz);
+        } else {
+            depth = (project(p0, P).z + project(p1, P).z + project(p2, P).z) / 3.0f;
+        }
         keys[i] = floatSortKey(depth);
         vals[i] = i;
     }

@@ -16,8 +16,9 @@ namespace volcl {
 inline constexpr int kKBufferMirrorMaxK = 4096;
 
 /// Inputs of one mirrored frame: the renderer's normalized points, the point scalars, the faces with the
-/// number drawn (params.faceCount), the frame parameters, the table as the device holds it (float RGBA,
-/// layout of PreintegrationTable) and k.
+/// number drawn (params.faceCount), the frame parameters, the table with the values the device holds (rounded
+/// to half precision; as float RGBA in PreintegrationTable's layout: the mirror does not mirror the blocking)
+/// and k.
 struct KBufferMirrorInput {
     const KBufferGeometry* geometry = nullptr;
     const std::vector<float>* scalars = nullptr;

@@ -8,7 +8,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <sstream>
 
 namespace volcl {
@@ -71,14 +70,14 @@ struct KBufferRenderer::Impl {
     DeviceBuffer<cl_uint4> faces, sortedFaces, list;
     DeviceBuffer<cl_uint> keys, vals, counts, total;
     DeviceBuffer<cl_uint2> rects, sortedRects;
-    cl::Kernel project, faceKeys, gather, binCount, scan, binScatter, raster;
+    cl::Kernel project, faceKeys, gather, binCount, scan, binScatter, raster, toHalf, fromHalf;
     KernelDefines defines;
     std::size_t lastEntries = 0;
     /// Tables: full quality (longest edge) and level of detail (box diagonal), built on first use.
     struct Table {
         std::string key;
-        PreintegrationTable host;
-        DeviceBuffer<cl_float4> device;
+        PreintegrationTable host; ///< its values rounded to half precision, as the device holds them
+        DeviceBuffer<cl_half> device; ///< blocked (kbufferBlockedTable), half precision
     };
     Table full, lod;
     std::size_t knotCount = 0;
@@ -191,6 +190,8 @@ void KBufferRenderer::rebuild(bool tfChanged) {
         m.binCount = cc_.kernel("mesh_kbuffer.cl", "kb_bin_count", m.defines);
         m.binScatter = cc_.kernel("mesh_kbuffer.cl", "kb_bin_scatter", m.defines);
         m.raster = cc_.kernel("mesh_kbuffer.cl", "kb_raster", m.defines);
+        m.toHalf = cc_.kernel("mesh_kbuffer.cl", "kb_table_to_half", m.defines);
+        m.fromHalf = cc_.kernel("mesh_kbuffer.cl", "kb_table_from_half", m.defines);
         m.scan = cc_.kernel("radix_sort.cl", "exclusive_scan");
     }
     ensureTable();
@@ -209,9 +210,28 @@ void KBufferRenderer::ensureTable() {
     Stopwatch sw;
     t.host = generatePreintegrationTable(tf_, spec, {}, &cc_);
     tableMs_ = sw.milliseconds();
-    std::vector<cl_float4> rgba(t.host.rgba.size() / 4);
-    std::memcpy(rgba.data(), t.host.rgba.data(), rgba.size() * sizeof(cl_float4));
-    t.device = cc_.upload(rgba, CL_MEM_READ_ONLY);
+    // Round on the device (vstore_half_rte) and read the rounded values back into the host table, so the C++
+    // mirror sees what the kernels see; then block the rounded values (exact in half) for kb_raster.
+    const std::size_t entries = t.host.rgba.size() / 4;
+    auto toHalf = [&](const std::vector<cl_float4>& values) {
+        const DeviceBuffer<cl_float4> f = cc_.upload(values, CL_MEM_READ_ONLY);
+        DeviceBuffer<cl_half> h = cc_.allocate<cl_half>(4 * values.size());
+        setArgs(m.toHalf, f, cl_uint(values.size()), h);
+        cc_.launch1d(m.toHalf, values.size(), 64);
+        return h;
+    };
+    std::vector<cl_float4> plain(entries);
+    for (std::size_t i = 0; i < entries; ++i)
+        plain[i] = {{t.host.rgba[4 * i], t.host.rgba[4 * i + 1], t.host.rgba[4 * i + 2], t.host.rgba[4 * i + 3]}};
+    const DeviceBuffer<cl_half> rounded = toHalf(plain);
+    DeviceBuffer<cl_float4> back = cc_.allocate<cl_float4>(entries);
+    setArgs(m.fromHalf, rounded, cl_uint(entries), back);
+    cc_.launch1d(m.fromHalf, entries, 64);
+    const std::vector<cl_float4> values = cc_.download(back);
+    for (std::size_t i = 0; i < entries; ++i)
+        for (int c = 0; c < 4; ++c)
+            t.host.rgba[4 * i + std::size_t(c)] = values[i].s[c];
+    t.device = toHalf(kbufferBlockedTable(t.host));
     t.key = key;
 }
 

@@ -84,7 +84,8 @@ public:
     /// What the C++ mirror (kbufferMirrorRender) needs to reproduce the next frame exactly.
     const KBufferGeometry& geometry() const noexcept { return geometry_; }
     VolclKBufferParams frameParams() const;
-    /// The table the next frame reads (float RGBA, PreintegrationTable layout).
+    /// The table the next frame reads (float RGBA, PreintegrationTable layout), its values rounded to half
+    /// precision as the device holds them.
     const std::vector<float>& tableValues() const;
     /// The device's face order of the last frame (downloaded; for tests).
     std::vector<cl_uint> lastOrder();
