@@ -1,6 +1,6 @@
 // Fuzz target for the host side of .vcz decoding, without OpenCL: header and index parsing, each frame's
 // motion block, and every brick's payload framing, entropy decoding (both coders) and corrections, at full
-// resolution and at the coarsest level. About 15 times the executions per CPU second of fuzz_vcz, which runs
+// resolution and at the coarsest level. About 13 times the executions per CPU second of fuzz_vcz, which runs
 // the same stages and then the inverse-transform kernels.
 #include "fuzz/FuzzSupport.hpp"
 #include "host/Error.hpp"
