@@ -1,12 +1,17 @@
-// Scratch directory of a fuzz target process: created with mkdtemp, removed when the process exits.
+// Scratch directory of a fuzz target process (created with mkdtemp, removed when the process exits) and
+// the fork handler that keeps the engine's crash reporting out of children of the code under test.
 #include "fuzz/FuzzSupport.hpp"
 
+#include <csignal>
 #include <cstdlib>
 #include <fstream>
 #include <stdexcept>
 #include <string>
 
+#include <pthread.h>
 #include <unistd.h>
+
+extern "C" void __sanitizer_set_death_callback(void (*callback)()) __attribute__((weak));
 
 namespace volcl::fuzz {
 
@@ -15,7 +20,13 @@ namespace {
 class ScratchDirectory {
 public:
     ScratchDirectory() {
-        std::string pattern = (std::filesystem::temp_directory_path() / "volcl-fuzz-XXXXXX").string();
+        std::error_code ec;
+        const std::filesystem::path shm("/dev/shm");
+        const std::filesystem::path base =
+            std::filesystem::is_directory(shm, ec) && ::access(shm.c_str(), W_OK) == 0
+                ? shm
+                : std::filesystem::temp_directory_path();
+        std::string pattern = (base / "volcl-fuzz-XXXXXX").string();
         if (!::mkdtemp(pattern.data())) throw std::runtime_error("fuzz: cannot create a scratch directory");
         path_ = pattern;
         owner_ = ::getpid();
@@ -39,6 +50,20 @@ private:
 const std::filesystem::path& scratchDirectory() {
     static const ScratchDirectory directory;
     return directory.path();
+}
+
+void quietForkedChildren() {
+    static const bool once = [] {
+        ::pthread_atfork(nullptr, nullptr, [] {
+            // In the child: the engine's death callback (libFuzzer's writes crash-<sha1>) and its fatal-signal
+            // handlers belong to the parent. The child still prints the sanitizer's report and exits non-zero.
+            if (__sanitizer_set_death_callback) __sanitizer_set_death_callback(nullptr);
+            for (int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL})
+                std::signal(sig, SIG_DFL);
+        });
+        return true;
+    }();
+    (void)once;
 }
 
 std::filesystem::path writeScratchFile(std::string_view name, std::span<const std::uint8_t> bytes) {

@@ -10,8 +10,14 @@
 namespace volcl::fuzz {
 
 /// A directory private to this process (created on first use, removed at exit) for inputs that the code
-/// under test reads from a path.
+/// under test reads from a path. It lies in /dev/shm where that exists: on a RAM file system writing and
+/// reading an input costs no disk I/O, which was a large share of a reader target's time per input.
 const std::filesystem::path& scratchDirectory();
+
+/// Makes children forked by the code under test (the OpenVDB reader decodes in a child that may die on a
+/// corrupt grid; the parent then reports a corrupt file) die quietly: no sanitizer death callback, so the
+/// fuzzing engine inherited by the child writes no crash file for what is not a finding. Idempotent.
+void quietForkedChildren();
 
 /// Writes `bytes` to scratchDirectory() / name, replacing what was there, and returns the path.
 std::filesystem::path writeScratchFile(std::string_view name, std::span<const std::uint8_t> bytes);

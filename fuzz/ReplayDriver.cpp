@@ -32,9 +32,13 @@ using Bytes = std::vector<std::uint8_t>;
 // The input being executed, for the crash handlers (plain pointers: they run in signal context).
 const std::uint8_t* gCurrent = nullptr;
 std::size_t gCurrentSize = 0;
+// The driver's own process. A reader may fork (OpenVDB decodes in a child that is allowed to die on a
+// corrupt grid: the parent reports it as a corrupt file); handlers inherited by such a child must stay quiet.
+pid_t gDriverPid = 0;
 
 // Saves the input that crashed or hung as ./crash-<pid> so it can become a regression file.
 void dumpCurrentInput() {
+    if (::getpid() != gDriverPid) return; // a forked child's death is its parent's business, not a finding
     if (gCurrent == nullptr) {
         static const char msg[] = "replay: the failure came after the inputs ran (e.g. a leak found at exit)\n";
         (void)!::write(2, msg, sizeof(msg) - 1);
@@ -181,6 +185,7 @@ int main(int argc, char** argv) {
         else
             paths.emplace_back(a);
     }
+    gDriverPid = ::getpid();
     std::signal(SIGALRM, onFatalSignal);
     std::signal(SIGSEGV, onFatalSignal);
     std::signal(SIGBUS, onFatalSignal);

@@ -212,6 +212,17 @@ def vcz_and_vdb_seeds(volcl):
             subprocess.run([volcl, "-q", "encode", src, "-o", out, *flags], check=True)
             with open(out, "rb") as f:
                 put("fuzz_vcz", name, f.read())
+        # A motion-compensated series (I, B, I, P frames with their motion blocks): P/B decoding paths.
+        for f in range(4):
+            frame = bytes(((x + f) * 7 + y * 3 + z * 5) % 200 if (x + f) % 8 < 5 else 20
+                          for z in range(8) for y in range(8) for x in range(8))
+            with open(os.path.join(tmp, "s%d_8x8x8_uint8.raw" % f), "wb") as fh:
+                fh.write(frame)
+        out = os.path.join(tmp, "motion.vcz")
+        subprocess.run([volcl, "-q", "encode", os.path.join(tmp, "s*_8x8x8_uint8.raw"), "-o", out, "--lossless",
+                        "--gop", "4", "--b-frames", "1", "--brick", "8", "--levels", "1"], check=True)
+        with open(out, "rb") as f:
+            put("fuzz_vcz", "motion_lossless_gop4_b1.vcz", f.read())
         out = os.path.join(tmp, "v.vdb")
         subprocess.run([volcl, "-q", "convert", f32, "-o", out], check=True)
         with open(out, "rb") as f:

@@ -32,13 +32,14 @@ LSAN_OPTIONS=suppressions=$PWD/tests/lsan.supp \
 
 # ==== hardening: a short fuzz run (a separate block; see docs/reliability.md) ====
 # The sanitizer build gains the fuzz targets (GCC: fuzz/ReplayDriver.cpp): every seed and kept regression
-# input replays as a ctest test, then each target runs a fixed number of mutated inputs from a fixed seed.
+# input replays as a ctest test (with the replay driver's own fork test), then each target runs a fixed number
+# of mutated inputs from a fixed seed.
 echo "== fuzz corpora and short fuzz run (AddressSanitizer + UndefinedBehaviorSanitizer)"
 cmake -S . -B build-asan -DVOLCL_FUZZ=ON >/dev/null
 cmake --build build-asan -j"$jobs" -- --no-print-directory >/dev/null || cmake --build build-asan -j1
 ASAN_OPTIONS=detect_leaks=1:intercept_tls_get_addr=0:abort_on_error=0:halt_on_error=1 \
 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-  ctest --test-dir build-asan --output-on-failure -j"$jobs" --timeout 600 -R '^fuzz_corpus_'
+  ctest --test-dir build-asan --output-on-failure -j"$jobs" --timeout 600 -R '^fuzz_'
 ASAN_OPTIONS=detect_leaks=1:intercept_tls_get_addr=0:abort_on_error=0:halt_on_error=1 \
 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
   bash scripts/fuzz.sh --build build-asan --short

@@ -899,6 +899,43 @@ TEST(VdbReader, DensifiesActiveBoxWithBackgroundAndTiles) {
     }
 }
 
+// Found by fuzz_read_vdb: libopenvdb allocates and zero-fills a metadata string at its stated length before
+// reading it, so an 11 KB file whose grid metadata claimed 1.8 GB grew the reader past 2 GB. The layout walk
+// now refuses every metadata length that runs past its grid, before OpenVDB sees the file.
+// Found by fuzz_read_vdb: sizes inside the grid's data are libopenvdb's to trust, and a forged one made the
+// reader's child allocate and touch 5 GB from an 11 KB file (67 s). The child's address space is capped at
+// twice the memory budget, so the read ends as a corrupt file.
+TEST(VdbReader, ForgedGridDataSizeStaysWithinTheMemoryBudget) {
+    const fs::path finding = fs::path(VOLCL_SOURCE_DIR) / "fuzz/regressions/fuzz_read_vdb/forged-buffer-size.vdb";
+    ASSERT_TRUE(fs::exists(finding));
+    ReadOptions small;
+    small.memoryBudget = std::size_t{64} << 20;
+    expectIoError(finding, small);
+}
+
+TEST(VdbReader, ForgedGridMetadataLengthIsRefusedBeforeOpenVdbAllocates) {
+    const fs::path dir = test::tempDir("io-vdb-forged-meta");
+    Volume v(Dims{4, 4, 4}, ScalarType::UInt8);
+    v.values<std::uint8_t>()[5] = 7;
+    writeVolumeFile(v, dir / "ok.vdb");
+    ASSERT_NO_THROW((void)readVolume(dir / "ok.vdb"));
+    std::string bytes = test::readFile(dir / "ok.vdb");
+    // The grid metadata entry "volcl:type": u32 name length, name, u32 type length, "string", u32 value size.
+    const std::size_t name = bytes.find("volcl:type");
+    ASSERT_NE(name, std::string::npos);
+    const std::size_t size = name + 10 + 4 + 6;
+    ASSERT_EQ(bytes.substr(name + 14, 6), "string");
+    const std::uint32_t forged = 0x7fffff00u; // 2 GB: the file holds a few hundred bytes
+    std::memcpy(bytes.data() + size, &forged, 4);
+    writeFile(dir / "forged.vdb", bytes);
+    expectIoError(dir / "forged.vdb");
+    try {
+        (void)readVolumeFile(dir / "forged.vdb");
+    } catch (const IoError& e) {
+        EXPECT_NE(std::string(e.what()).find("grid 0 metadata"), std::string::npos) << e.what();
+    }
+}
+
 // ---- corrupted input: truncation, trailing garbage, random bytes, lying headers ------------------------
 
 /// One valid file per self-contained format (the header and payload are in the same file).

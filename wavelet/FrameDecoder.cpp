@@ -15,6 +15,26 @@
 
 namespace volcl::codec {
 
+std::vector<Correction> entropyDecodeBrick(std::span<const std::byte> file, const VczHeader& h, std::size_t frame,
+                                           std::size_t b, int level, std::int32_t* dst, std::size_t pitch,
+                                           const std::string& name) {
+    const int levels = h.transform == TransformKind::RawBits ? 0 : h.levels;
+    const int stop = h.transform == TransformKind::RawBits ? 0 : level;
+    const Dequantiser dq{h.steps, h.reconstructionBias};
+    const std::string what = name + ": brick " + std::to_string(b);
+    const auto payload = vczBrickPayload(file, h, frame, b, name);
+    const Dims d = h.brickDims(b), storage{pitch, d.y, d.z};
+    const auto layout = sectionLayout(d, levels);
+    const ParsedPayload p = parsePayload(payload, layout.size(), what);
+    const std::span<std::int32_t> c(dst, storage.count());
+    // Sections finer than the level are not decoded; the inverse never reads them, but keep them defined.
+    if (stop > 0) std::fill(c.begin(), c.end(), 0);
+    decodeSections(std::span(p.sections).first(layout.size() - std::size_t(stop)), c, storage, layout, h.entropy,
+                   what.c_str(), h.transform == TransformKind::FloatLifting ? &dq : nullptr);
+    if (p.corrections.empty() || level != 0) return {};
+    return decodeCorrections(p.corrections, h.type, d.count(), what);
+}
+
 namespace {
 
 // Brick b at level k: its first sample index per axis, and the part of it inside [a, e) as [lo, hi) per
@@ -106,26 +126,12 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
                       const std::string& name, CodecProfile* prof, Dims a, Dims e, std::span<V> out,
                       Dims outDims, bool placeOnDevice, std::vector<std::vector<Correction>>* deferred) {
     const std::size_t n = h.brickCount();
-    const int levels = h.transform == TransformKind::RawBits ? 0 : h.levels;
-    const int stop = h.transform == TransformKind::RawBits ? 0 : level;
     std::vector<std::vector<std::int32_t>> ints(n);
     std::vector<std::vector<Correction>> corrections(n);
-    const Dequantiser dq{h.steps, h.reconstructionBias};
     // Entropy decodes brick b into rows of `pitch` elements (a batch slot, or a dense array); lossy bricks
     // come out dequantised (float bit patterns).
     auto entropyDecode = [&](std::size_t b, std::int32_t* dst, std::size_t pitch) {
-        const std::string what = name + ": brick " + std::to_string(b);
-        const auto payload = vczBrickPayload(file, h, frame, b, name);
-        const Dims d = h.brickDims(b), storage{pitch, d.y, d.z};
-        const auto layout = sectionLayout(d, levels);
-        const ParsedPayload p = parsePayload(payload, layout.size(), what);
-        const std::span<std::int32_t> c(dst, storage.count());
-        // Sections finer than the level are not decoded; the inverse never reads them, but keep them defined.
-        if (stop > 0) std::fill(c.begin(), c.end(), 0);
-        decodeSections(std::span(p.sections).first(layout.size() - std::size_t(stop)), c, storage, layout,
-                       h.entropy, what.c_str(), h.transform == TransformKind::FloatLifting ? &dq : nullptr);
-        if (!p.corrections.empty() && level == 0)
-            corrections[b] = decodeCorrections(p.corrections, h.type, d.count(), what);
+        corrections[b] = entropyDecodeBrick(file, h, frame, b, level, dst, pitch, name);
     };
     const std::vector<Correction> none;
     auto place = [&](std::size_t b, const auto* src, std::size_t pitch) {

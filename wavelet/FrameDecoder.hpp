@@ -16,6 +16,14 @@
 
 namespace volcl::codec {
 
+/// The host stage of decoding brick `b` of frame `frame`: its checksum, payload framing and entropy decoding
+/// of the sections down to `level` into `dst` (rows of `pitch` >= brick x elements; float lifting comes out
+/// dequantised, as float bit patterns). Returns the brick's exactly stored voxels at level 0 (else none).
+/// IoError naming `name` and the brick for corrupted payloads. The frame and brick must exist.
+std::vector<Correction> entropyDecodeBrick(std::span<const std::byte> file, const VczHeader& h, std::size_t frame,
+                                           std::size_t b, int level, std::int32_t* dst, std::size_t pitch,
+                                           const std::string& name);
+
 /// Decodes the listed bricks of frame `frame` at `level` into `out` (zeroed, of `outDims`), which holds the
 /// level-`level` samples [a, e); `placeOnDevice` lets the inverse kernel write whole bricks' voxels itself.
 /// The frame must exist. IoError naming `name` and the brick for corrupted payloads. With

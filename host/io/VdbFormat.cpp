@@ -1,5 +1,6 @@
 // OpenVDB (.vdb): the file layout checked here, then the grid read through the OpenVDB module (VdbModule) in a
 // forked child, so corrupt node data cannot crash or hang the caller; writing goes through the module too.
+#include "host/MemoryBudget.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/VdbModule.hpp"
@@ -9,10 +10,12 @@
 
 #include <cerrno>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 
 #include <poll.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -30,14 +33,21 @@ const VdbModule& vdbModule() {
     return *module;
 }
 
-// Walks the file header and the chain of grid descriptors (each names where its grid ends) before
-// libopenvdb sees the file: libopenvdb trusts these offsets and sizes, so a truncated or padded file
-// would otherwise be read past its end or accepted with missing data.
+// Walks the file header, the chain of grid descriptors (each names where its grid ends) and each grid's
+// metadata before libopenvdb sees the file: libopenvdb trusts these offsets and sizes, so a truncated or
+// padded file would otherwise be read past its end or accepted with missing data, and a forged metadata
+// length made it allocate and zero-fill that many bytes (gigabytes from an 11 KB file) before reading.
 void checkVdbLayout(const fs::path& path) {
     const std::vector<std::byte> bytes = readFileBytes(path);
     std::size_t pos = 0;
+    // Fields are read up to `limit`: the end of the file, or of the grid whose metadata is walked.
+    std::size_t limit = bytes.size();
+    std::string inGrid;
     auto need = [&](std::size_t n, const char* what) {
-        if (bytes.size() - pos < n) fail(path, std::string("truncated: ") + what + " is cut off");
+        if (limit - pos < n) {
+            if (inGrid.empty()) fail(path, std::string("truncated: ") + what + " is cut off");
+            fail(path, "corrupt " + inGrid + ": " + what + " runs past the grid's end");
+        }
     };
     auto u32 = [&](const char* what) {
         need(4, what);
@@ -93,6 +103,19 @@ void checkVdbLayout(const fs::path& path) {
         if (static_cast<std::uint64_t>(endPos) > bytes.size())
             fail(path, "truncated: grid " + std::to_string(g) + " ends at byte " + std::to_string(endPos) +
                            " of " + std::to_string(bytes.size()));
+        // The grid starts with its compression flags and its metadata: names, types and sized values.
+        pos = static_cast<std::size_t>(gridPos);
+        limit = static_cast<std::size_t>(endPos);
+        inGrid = "grid " + std::to_string(g) + " metadata";
+        if (version >= openvdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) u32("the compression flags");
+        const std::uint32_t gridMetaCount = u32("the metadata count");
+        for (std::uint32_t m = 0; m < gridMetaCount; ++m) {
+            skipString("a metadata name");
+            skipString("a metadata type");
+            skipString("a metadata value");
+        }
+        inGrid.clear();
+        limit = bytes.size();
         pos = static_cast<std::size_t>(endPos);
     }
     if (pos != bytes.size())
@@ -118,7 +141,28 @@ bool writeAll(int fd, const void* data, std::size_t n) {
     return true;
 }
 
+// Caps the child's address space at what it maps now plus twice the memory budget (the dense box and the
+// grid it comes from). Sizes inside the grid's data (buffers, node tables) are libopenvdb's to trust, and a
+// forged one made the child allocate and touch 5 GB from an 11 KB file; past the cap an allocation fails
+// and the read ends as a corrupt file instead of growing without bound.
+void capChildMemory(const ReadOptions& options) {
+    const std::size_t budget = options.memoryBudget ? options.memoryBudget : defaultMemoryBudget();
+    std::FILE* statm = std::fopen("/proc/self/statm", "r");
+    unsigned long long pages = 0;
+    const bool known = statm && std::fscanf(statm, "%llu", &pages) == 1;
+    if (statm) std::fclose(statm);
+    if (!known) return;
+    const unsigned long long mapped = pages * static_cast<unsigned long long>(::sysconf(_SC_PAGESIZE));
+    rlimit limit{};
+    if (::getrlimit(RLIMIT_AS, &limit) != 0) return;
+    const unsigned long long cap = mapped + 2ull * budget;
+    if (limit.rlim_max != RLIM_INFINITY && cap > limit.rlim_max) return;
+    limit.rlim_cur = static_cast<rlim_t>(cap);
+    (void)::setrlimit(RLIMIT_AS, &limit);
+}
+
 [[noreturn]] void childMain(const VdbModule& vdb, int fd, const fs::path& path, const ReadOptions& options) {
+    capChildMemory(options);
     ChildStatus status = ChildStatus::Ok;
     std::string message;
     Volume v;

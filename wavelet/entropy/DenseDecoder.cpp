@@ -70,8 +70,9 @@ struct DecodeSide {
         const std::array<const DecoderTable*, kActivityContexts> tab = tables;
         const auto step = [&](std::size_t i, std::size_t x) {
             const RowJob& j = jobs[i];
+            // The west symbol as (syms - 1)[x]: syms[x - 1] wraps the unsigned offset at x = 0 (undefined).
             const DecoderTable& t = *tab[static_cast<std::size_t>(
-                activityContext(j.activity[x] + kSymbolInfo.west[j.syms[x - 1]]))];
+                activityContext(j.activity[x] + kSymbolInfo.west[(j.syms - 1)[x]]))];
             const std::uint32_t s = st[i];
             const unsigned sym = t.lookup[s & (kTableScale - 1)];
             st[i] = in.advance(s, kTableScaleBits, t.start[sym], t.freq[sym]);
@@ -100,7 +101,7 @@ struct DecodeSide {
             interleaveSigns(jobs, nj, [&](std::size_t i, std::size_t n) {
                 const RowJob& j = jobs[i];
                 const std::size_t x = j.nonZero[n];
-                const unsigned negative = in.bit(st[i], model.signs[j.signBase[x] + j.sgn[x - 1]]);
+                const unsigned negative = in.bit(st[i], model.signs[j.signBase[x] + (j.sgn - 1)[x]]);
                 j.sgn[x] = static_cast<std::uint8_t>(1 + negative);
             });
         }

@@ -240,8 +240,12 @@ struct SectionWalker {
                     const std::uint32_t* u = b.prev.data() + (r + 1) * pitch + 1;
                     const std::uint32_t* un = u - pitch;
                     std::uint32_t* activity = b.activity.data();
+                    // The west neighbours through pointers to x - 1: `n[x - 1]` with an unsigned x wraps the
+                    // offset at x = 0 (undefined, reported by clang's UBSan) though the address is the border.
+                    const std::uint32_t* nw = n - 1;
+                    const std::uint32_t* uw = u - 1;
                     for (std::size_t x = 0; x < nx; ++x)
-                        activity[x] = 4 * (n[x] + u[x]) + n[x - 1] + n[x + 1] + u[x - 1] + u[x + 1] + un[x] +
+                        activity[x] = 4 * (n[x] + u[x]) + nw[x] + n[x + 1] + uw[x] + u[x + 1] + un[x] +
                                       parentRow[x];
                     const std::uint8_t* ns = sg - pitch;
                     const std::uint8_t* us = b.prevSign.data() + (r + 1) * pitch + 1;
