@@ -145,24 +145,33 @@ bool writeAll(int fd, const void* data, std::size_t n) {
 // grid it comes from). Sizes inside the grid's data (buffers, node tables) are libopenvdb's to trust, and a
 // forged one made the child allocate and touch 5 GB from an 11 KB file; past the cap an allocation fails
 // and the read ends as a corrupt file instead of growing without bound.
-void capChildMemory(const ReadOptions& options) {
+// Measured in the parent, before the fork, so the child only calls setrlimit: a forked child of a
+// multithreaded process should not take locks (stdio, the allocator) another thread may have held at the fork.
+rlim_t childMemoryCap(const ReadOptions& options) {
     const std::size_t budget = options.memoryBudget ? options.memoryBudget : defaultMemoryBudget();
     std::FILE* statm = std::fopen("/proc/self/statm", "r");
     unsigned long long pages = 0;
     const bool known = statm && std::fscanf(statm, "%llu", &pages) == 1;
     if (statm) std::fclose(statm);
-    if (!known) return;
+    if (!known) return RLIM_INFINITY;
     const unsigned long long mapped = pages * static_cast<unsigned long long>(::sysconf(_SC_PAGESIZE));
     rlimit limit{};
-    if (::getrlimit(RLIMIT_AS, &limit) != 0) return;
+    if (::getrlimit(RLIMIT_AS, &limit) != 0) return RLIM_INFINITY;
     const unsigned long long cap = mapped + 2ull * budget;
-    if (limit.rlim_max != RLIM_INFINITY && cap > limit.rlim_max) return;
-    limit.rlim_cur = static_cast<rlim_t>(cap);
+    if (limit.rlim_max != RLIM_INFINITY && cap > limit.rlim_max) return RLIM_INFINITY;
+    return static_cast<rlim_t>(cap);
+}
+
+void capChildMemory(rlim_t cap) {
+    rlimit limit{};
+    if (cap == RLIM_INFINITY || ::getrlimit(RLIMIT_AS, &limit) != 0) return;
+    limit.rlim_cur = cap;
     (void)::setrlimit(RLIMIT_AS, &limit);
 }
 
-[[noreturn]] void childMain(const VdbModule& vdb, int fd, const fs::path& path, const ReadOptions& options) {
-    capChildMemory(options);
+[[noreturn]] void childMain(const VdbModule& vdb, int fd, const fs::path& path, const ReadOptions& options,
+                            rlim_t memoryCap) {
+    capChildMemory(memoryCap);
     ChildStatus status = ChildStatus::Ok;
     std::string message;
     Volume v;
@@ -203,6 +212,7 @@ TimeSeries readVdb(ReadContext& ctx) {
     checkVdbLayout(path);
     // Loaded before the fork: the child then only runs code that is already mapped.
     const VdbModule& vdb = vdbModule();
+    const rlim_t memoryCap = childMemoryCap(options);
     int fds[2];
     if (::pipe(fds) != 0) throw IoError(path.string() + ": cannot create a pipe: " + std::strerror(errno));
     const pid_t child = ::fork();
@@ -213,7 +223,7 @@ TimeSeries readVdb(ReadContext& ctx) {
     }
     if (child == 0) {
         ::close(fds[0]);
-        childMain(vdb, fds[1], path, options);
+        childMain(vdb, fds[1], path, options, memoryCap);
     }
     ::close(fds[1]);
     std::vector<std::byte> reply;

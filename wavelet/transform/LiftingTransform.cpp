@@ -349,16 +349,18 @@ template <class T> void LiftingTransform<T>::useBrickSize(std::size_t maxN) {
     brickMaxN_ = maxN;
 }
 
+template <class T> KernelDefines LiftingTransform<T>::brickDefines(bool inverse) const {
+    KernelDefines d;
+    d.set("WAVELET", static_cast<long long>(wavelet_));
+    d.set("LIFT_MAXN", static_cast<long long>(brickMaxN_));
+    if (std::is_same_v<T, float>) d.set("LIFT_FLOAT");
+    if (inverse) d.set("LIFT_INVERSE");
+    return d;
+}
+
 template <class T> cl::Kernel& LiftingTransform<T>::brickKernel(ComputeContext& cc, bool inverse) {
     cl::Kernel& k = inverse ? invBrick_ : fwdBrick_;
-    if (!k()) {
-        KernelDefines d;
-        d.set("WAVELET", static_cast<long long>(wavelet_));
-        d.set("LIFT_MAXN", static_cast<long long>(brickMaxN_));
-        if (std::is_same_v<T, float>) d.set("LIFT_FLOAT");
-        if (inverse) d.set("LIFT_INVERSE");
-        k = cc.kernel("lifting_brick.cl", "lift_bricks", d);
-    }
+    if (!k()) k = cc.kernel("lifting_brick.cl", "lift_bricks", brickDefines(inverse));
     return k;
 }
 
@@ -509,11 +511,7 @@ template <class T>
 cl::Kernel& LiftingTransform<T>::voxelKernel(ComputeContext& cc, ScalarType type, bool inverse) {
     cl::Kernel& k = brickVoxels_[(inverse ? 4 : 0) + static_cast<std::size_t>(type)];
     if (!k()) {
-        KernelDefines d;
-        d.set("WAVELET", static_cast<long long>(wavelet_));
-        d.set("LIFT_MAXN", static_cast<long long>(brickMaxN_));
-        if (std::is_same_v<T, float>) d.set("LIFT_FLOAT");
-        if (inverse) d.set("LIFT_INVERSE");
+        KernelDefines d = brickDefines(inverse);
         // The ray marcher's numbering (cl/common/grid_sample.h).
         static constexpr std::array<int, 4> kVoxelType = {1, 2, 3, 0}; // UInt8, UInt16, Int16, Float32
         d.set("VOXEL_TYPE", kVoxelType[static_cast<std::size_t>(type)]);

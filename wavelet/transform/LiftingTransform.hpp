@@ -187,6 +187,7 @@ private:
     void buildStreaming(ComputeContext& cc);               // the lifting.cl kernels, once
     void useBrickSize(std::size_t maxN); // the lifting_brick.cl kernels from now on are for LIFT_MAXN maxN
     cl::Kernel& brickKernel(ComputeContext& cc, bool inverse); // built on first use
+    KernelDefines brickDefines(bool inverse) const;            // lifting_brick.cl's -D for this transform
     cl::Kernel& voxelKernel(ComputeContext& cc, ScalarType type,
                             bool inverse); // reading/writing `type` voxels
     Wavelet wavelet_;
