@@ -27,6 +27,7 @@ set(VOLCL_PUBLIC_HEADERS
   host/render/VolumeRenderer.hpp
   host/render/grid/GridRenderer.hpp
   host/runtime/ClRuntime.hpp
+  host/runtime/HostMemoryPool.hpp
   host/runtime/Timing.hpp
   host/tf/BuiltinPresets.hpp
   host/tf/ColorSpaces.hpp
@@ -34,6 +35,7 @@ set(VOLCL_PUBLIC_HEADERS
   preintegration/PreintegrationTable.hpp
   wavelet/Codec.hpp
   wavelet/CodecTypes.hpp
+  wavelet/DecodeAhead.hpp
   wavelet/LiftingTransform.hpp
   wavelet/Metrics.hpp
   wavelet/VczFormat.hpp

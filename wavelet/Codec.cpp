@@ -398,7 +398,7 @@ Volume VczReader::decode(ComputeContext& cc, const DecodeOptions& o) const {
         return o.region ? whole.cropped(r.lo, r.hi) : whole;
     }
     codec::decodeFrameBricks(cc, bytes_, h, o.frame, which, o.level, o.threads, name_, o.profile, a, e, out,
-                             outDims, o.placeOnDevice);
+                             outDims, o.placeOnDevice, nullptr, o.ahead);
     if (o.profile) o.profile->total += total.milliseconds();
     return out;
 }

@@ -4,6 +4,7 @@
 #include "host/Volume.hpp"
 #include "host/runtime/ClRuntime.hpp"
 #include "wavelet/CodecTypes.hpp"
+#include "wavelet/DecodeAhead.hpp"
 #include "wavelet/Metrics.hpp"
 #include "wavelet/container/VczFormat.hpp"
 #include "wavelet/predict/MotionSearch.hpp"
@@ -103,6 +104,9 @@ struct DecodeOptions {
     /// voxels and writes it into the output while the brick is in cache (no read-back). False places the
     /// voxels on host threads from the transform's buffers; both give the same voxels (tests compare them).
     bool placeOnDevice = true;
+    /// Bricks entropy decoded while the caller started the device (see DecodeAhead); unused when it does
+    /// not match this decode.
+    DecodeAhead* ahead = nullptr;
 };
 
 /// Random access to a .vcz held in memory: validates header and index on construction, checks each
@@ -118,6 +122,8 @@ public:
     const VczHeader& header() const noexcept { return header_; }
     const std::string& name() const noexcept { return name_; }
     std::size_t fileSize() const noexcept { return bytes_.size(); }
+    /// The file's bytes, as given.
+    std::span<const std::byte> bytes() const noexcept { return bytes_; }
     /// One brick at level `level` (its voxel origin is header().brickOrigin(brick) / 2^level).
     Volume decodeBrick(ComputeContext& cc, std::size_t frame, std::size_t brick, int level = 0) const;
     /// The whole volume or a region, at full or reduced resolution. Output spacing grows by 2^level and

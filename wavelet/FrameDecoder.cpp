@@ -117,6 +117,21 @@ template <class V> std::optional<V> uniformValue(const VczHeader& h, const VczBr
     return std::nullopt;
 }
 
+} // namespace
+
+std::vector<std::size_t> varyingBricks(const VczHeader& h, std::size_t frame, const std::vector<std::size_t>& which) {
+    std::vector<std::size_t> varying;
+    Volume probe(Dims{1, 1, 1}, h.type);
+    visitTyped(probe, [&](auto span) {
+        using V = std::remove_cv_t<typename decltype(span)::element_type>;
+        for (std::size_t b : which)
+            if (!uniformValue<V>(h, h.bricks[frame][b])) varying.push_back(b);
+    });
+    return varying;
+}
+
+namespace {
+
 // Entropy decodes the listed bricks of one frame on host threads, inverts them on the device down to
 // `level` and places each brick's part of [a, e) into `out` (zero on entry) straight from the mapped batch.
 // Lossy bricks are dequantised while they are entropy decoded (the quantise stage's reconstruction).
@@ -124,7 +139,8 @@ template <class V>
 void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h,
                       std::size_t frame, const std::vector<std::size_t>& which, int level, unsigned threads,
                       const std::string& name, CodecProfile* prof, Dims a, Dims e, std::span<V> out,
-                      Dims outDims, bool placeOnDevice, std::vector<std::vector<Correction>>* deferred) {
+                      Dims outDims, bool placeOnDevice, std::vector<std::vector<Correction>>* deferred,
+                      DecodeAhead* ahead) {
     const std::size_t n = h.brickCount();
     std::vector<std::vector<std::int32_t>> ints(n);
     std::vector<std::vector<Correction>> corrections(n);
@@ -173,6 +189,14 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
                    o.z + d.z <= e.z;
         }))
         toVoxels = VoxelPlacement{cc.wrapHost(out).get(), scalarTypeOf<V>(), outDims, a};
+    // What a DecodeAhead decoded while the device started: the first rounds' batches, some or all filled.
+    codec::AheadHandover pre;
+    if (ahead && level == 0 && !deferred) {
+        pre = ahead->take(file, frame, varying);
+        for (std::size_t b = 0; b < pre.corrections.size() && b < n; ++b)
+            if (!pre.corrections[b].empty()) corrections[b] = std::move(pre.corrections[b]);
+    }
+    std::vector<PrefilledRound>* prefilled = pre.rounds.empty() ? nullptr : &pre.rounds;
     bool placedOnDevice = false;
     if (varying.empty()) {
         // Every brick was uniform.
@@ -181,7 +205,7 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
         LiftingTransform<std::int32_t> t(cc, h.wavelet);
         placedOnDevice =
             inverseBricks(cc, t, h, varying, level, threads, prof, {{&CodecProfile::entropy, entropyDecode}},
-                          &CodecProfile::assemble, place, toVoxels ? &*toVoxels : nullptr);
+                          &CodecProfile::assemble, place, toVoxels ? &*toVoxels : nullptr, prefilled);
     } else if (h.transform == TransformKind::FloatLifting) {
         // Quantisation indices are decoded into the batch slot as int32 and dequantised there in place (the
         // entropy stage includes it): no separate index array.
@@ -191,7 +215,8 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
                                          [&](std::size_t b, float* dst, std::size_t pitch) {
                                              entropyDecode(b, reinterpret_cast<std::int32_t*>(dst), pitch);
                                          }}},
-                                       &CodecProfile::assemble, place, toVoxels ? &*toVoxels : nullptr);
+                                       &CodecProfile::assemble, place, toVoxels ? &*toVoxels : nullptr,
+                                       prefilled);
     } else {
         timeStage(prof, &CodecProfile::entropy, [&] {
             parallelFor(varying.size(), threads, [&](std::size_t k) {
@@ -227,12 +252,13 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
 void decodeFrameBricks(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h,
                        std::size_t frame, const std::vector<std::size_t>& which, int level, unsigned threads,
                        const std::string& name, CodecProfile* prof, Dims a, Dims e, Volume& out, Dims outDims,
-                       bool placeOnDevice, std::vector<std::vector<Correction>>* deferredCorrections) {
+                       bool placeOnDevice, std::vector<std::vector<Correction>>* deferredCorrections,
+                       DecodeAhead* ahead) {
     if (prof) prof->bricks += which.size();
     // Bricks cover disjoint parts of the output, so they are placed in parallel.
     visitTyped(out, [&](auto span) {
         decodeBricksInto(cc, file, h, frame, which, level, threads, name, prof, a, e, span, outDims,
-                         placeOnDevice, deferredCorrections);
+                         placeOnDevice, deferredCorrections, ahead);
     });
 }
 

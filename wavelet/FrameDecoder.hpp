@@ -6,6 +6,7 @@
 #include "host/Volume.hpp"
 #include "host/runtime/ClRuntime.hpp"
 #include "wavelet/CodecTypes.hpp"
+#include "wavelet/DecodeAhead.hpp"
 #include "wavelet/container/VczFormat.hpp"
 #include "wavelet/quantise/Corrections.hpp"
 
@@ -24,15 +25,21 @@ std::vector<Correction> entropyDecodeBrick(std::span<const std::byte> file, cons
                                            std::size_t b, int level, std::int32_t* dst, std::size_t pitch,
                                            const std::string& name);
 
+/// The listed bricks of frame `frame` that must be decoded: all but those of lossless integer data whose index
+/// entry says every voxel holds one value (filled, not decoded).
+std::vector<std::size_t> varyingBricks(const VczHeader& h, std::size_t frame, const std::vector<std::size_t>& which);
+
 /// Decodes the listed bricks of frame `frame` at `level` into `out` (zeroed, of `outDims`), which holds the
 /// level-`level` samples [a, e); `placeOnDevice` lets the inverse kernel write whole bricks' voxels itself.
 /// The frame must exist. IoError naming `name` and the brick for corrupted payloads. With
 /// `deferredCorrections` the exactly stored voxels are handed back per brick instead of applied (a P/B
-/// frame's residual, decoded into Float32, gets them after its prediction is added).
+/// frame's residual, decoded into Float32, gets them after its prediction is added). `ahead` hands over
+/// the bricks it decoded when it matches (see DecodeAhead).
 void decodeFrameBricks(ComputeContext& cc, std::span<const std::byte> file, const VczHeader& h,
                        std::size_t frame, const std::vector<std::size_t>& which, int level, unsigned threads,
                        const std::string& name, CodecProfile* prof, Dims a, Dims e, Volume& out, Dims outDims,
                        bool placeOnDevice,
-                       std::vector<std::vector<Correction>>* deferredCorrections = nullptr);
+                       std::vector<std::vector<Correction>>* deferredCorrections = nullptr,
+                       DecodeAhead* ahead = nullptr);
 
 } // namespace volcl::codec

@@ -272,7 +272,13 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
         o.frame = a->frame;
         o.threads = std::max(1u, a->threads);
         VczReader r(readFileBytes(a->in), a->in);
-        ComputeContext cc(global.device);
+        // A one-shot decode of a whole frame starts entropy decoding on a second thread while this one starts
+        // the OpenCL platform, which would otherwise leave a core idle.
+        auto pool = std::make_shared<HostMemoryPool>();
+        std::optional<DecodeAhead> ahead;
+        if (a->out.find('%') == std::string::npos && !o.region && o.level == 0) ahead.emplace(r, o.frame, pool);
+        o.ahead = ahead ? &*ahead : nullptr;
+        ComputeContext cc(global.device, pool);
         // A NIfTI source's header, kept in the .vcz, goes back into NIfTI outputs.
         WriteOptions wo;
         if (const auto it = r.header().metadata.find(std::string(kVczNiftiMetadataKey)); it != r.header().metadata.end())

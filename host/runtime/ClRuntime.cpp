@@ -2,6 +2,7 @@
 #include "host/runtime/ClRuntime.hpp"
 
 #include "host/ZeroedBytes.hpp"
+#include "host/runtime/HostMemoryPool.hpp"
 #include "host/runtime/KernelSources.hpp"
 #include "host/runtime/ProgramBinaryCache.hpp"
 
@@ -47,70 +48,11 @@ void pinCpuWorkers() {
 
 } // namespace
 
-// Host memory for buffers on CPU devices: 2 MiB aligned blocks advised for transparent huge pages, kept
-// after their buffer is released and handed out again for a request of up to their size. Codec batches are
-// allocated per call and written right away; fresh memory costs a page fault and a zeroed page on first touch
-// (28 MB of page clearing per BrainWeb decode). Idle blocks beyond kKeepBytes are freed.
-class HostMemoryPool {
-public:
-    static constexpr std::size_t kKeepBytes = std::size_t(512) << 20;
-    HostMemoryPool() = default;
-    HostMemoryPool(const HostMemoryPool&) = delete;
-    HostMemoryPool& operator=(const HostMemoryPool&) = delete;
-    ~HostMemoryPool() {
-        for (auto& [bytes, mem] : idle_)
-            unmapPages(mem, bytes);
-    }
-
-    /// A block of at least `bytes` (a multiple of kHugePageBytes) and its size, or {nullptr, 0} when out of
-    /// memory. An idle block up to twice the size is reused rather than fresh pages touched: a short
-    /// process's batches come in a few sizes, and fresh memory is the costliest part of its run.
-    std::pair<void*, std::size_t> take(std::size_t bytes) {
-        {
-            std::lock_guard lock(mutex_);
-            if (auto it = idle_.lower_bound(bytes); it != idle_.end() && it->first <= 2 * bytes) {
-                const std::pair<void*, std::size_t> block{it->second, it->first};
-                idle_.erase(it);
-                idleBytes_ -= block.second;
-                return block;
-            }
-        }
-        void* mem = mapZeroedPages(bytes);
-        return {mem, mem ? bytes : 0};
-    }
-
-    /// Returns a block from take(); runs in OpenCL callbacks, so it never throws.
-    void give(void* mem, std::size_t bytes) noexcept {
-        try {
-            std::lock_guard lock(mutex_);
-            if (idleBytes_ + bytes <= kKeepBytes) {
-                idle_.emplace(bytes, mem);
-                idleBytes_ += bytes;
-                return;
-            }
-        } catch (...) {
-        }
-        unmapPages(mem, bytes);
-    }
-
-private:
-    std::mutex mutex_;
-    std::multimap<std::size_t, void*> idle_;
-    std::size_t idleBytes_ = 0;
-};
-
 namespace {
 
-// What a buffer's destructor callback needs to hand its memory back.
-struct HostLease {
-    std::shared_ptr<HostMemoryPool> pool;
-    void* mem;
-    std::size_t bytes;
-};
-
+// A buffer's destructor callback gives its block back to the pool.
 void CL_CALLBACK returnHostMemory(cl_mem, void* lease) {
-    std::unique_ptr<HostLease> l(static_cast<HostLease*>(lease));
-    l->pool->give(l->mem, l->bytes);
+    std::unique_ptr<HostBlock> block(static_cast<HostBlock*>(lease));
 }
 
 std::string lower(std::string_view s) {
@@ -210,11 +152,15 @@ std::string KernelDefines::toOptions() const {
     return out;
 }
 
-ComputeContext::ComputeContext(std::string_view selector) : ComputeContext(selector, {}) {}
+ComputeContext::ComputeContext(std::string_view selector)
+    : ComputeContext(selector, std::span<const cl_context_properties>{}) {}
 
-ComputeContext::ComputeContext(std::string_view selector,
-                               std::span<const cl_context_properties> extraProperties)
-    : hostMemory_(std::make_shared<HostMemoryPool>()) {
+ComputeContext::ComputeContext(std::string_view selector, std::shared_ptr<HostMemoryPool> hostMemory)
+    : ComputeContext(selector, std::span<const cl_context_properties>{}, std::move(hostMemory)) {}
+
+ComputeContext::ComputeContext(std::string_view selector, std::span<const cl_context_properties> extraProperties,
+                               std::shared_ptr<HostMemoryPool> hostMemory)
+    : hostMemory_(hostMemory ? std::move(hostMemory) : std::make_shared<HostMemoryPool>()) {
     std::string sel(selector);
     if (sel.empty())
         if (const char* env = std::getenv("VOLCL_DEVICE")) sel = env;
@@ -331,23 +277,39 @@ cl::Buffer ComputeContext::createBuffer(cl_mem_flags flags, std::size_t bytes) {
     if (device_.isCpu && (flags & CL_MEM_ALLOC_HOST_PTR) && bytes >= kHugePageBytes) {
         // Host-allocated buffers on CPU devices use pooled memory of our own (see HostMemoryPool), handed
         // back when the runtime releases the buffer.
-        const auto [mem, blockBytes] = hostMemory_->take(roundUp(bytes, kHugePageBytes));
-        if (mem) {
-            auto lease = std::make_unique<HostLease>(HostLease{hostMemory_, mem, blockBytes});
-            cl::Buffer b(context_, (flags & ~cl_mem_flags(CL_MEM_ALLOC_HOST_PTR)) | CL_MEM_USE_HOST_PTR, bytes, mem,
-                         &err);
-            if (err == CL_SUCCESS) err = clSetMemObjectDestructorCallback(b(), returnHostMemory, lease.get());
-            if (err != CL_SUCCESS) {
-                b = cl::Buffer(); // released before its memory goes
-                hostMemory_->give(mem, blockBytes);
-                clCheck(err, "clCreateBuffer");
-            }
-            lease.release(); // owned by the callback now
-            return b;
+        HostBlock block;
+        try {
+            block = HostBlock(hostMemory_, bytes);
+        } catch (const std::bad_alloc&) {
         }
+        if (block.data()) return bufferOver(std::move(block), (flags & ~cl_mem_flags(CL_MEM_ALLOC_HOST_PTR)), bytes);
     }
     cl::Buffer b(context_, flags, bytes, nullptr, &err);
     clCheck(err, "clCreateBuffer");
+    return b;
+}
+
+cl::Buffer ComputeContext::bufferOver(HostBlock block, cl_mem_flags flags, std::size_t bytes) {
+    if (bytes > block.size()) throw Error("internal: buffer larger than its host block");
+    if (bytes > device_.maxAllocBytes)
+        throw DataError("buffer of " + std::to_string(bytes) + " bytes exceeds the device's maximum allocation (" +
+                        std::to_string(device_.maxAllocBytes) + " bytes)");
+    cl_int err = CL_SUCCESS;
+    if (!device_.isCpu) {
+        // Other devices get their own memory with the block's contents; the block goes back now.
+        cl::Buffer b(context_, flags | CL_MEM_COPY_HOST_PTR, bytes, block.data(), &err);
+        clCheck(err, "clCreateBuffer");
+        return b;
+    }
+    cl::Buffer b(context_, flags | CL_MEM_USE_HOST_PTR, bytes, block.data(), &err);
+    clCheck(err, "clCreateBuffer");
+    auto lease = std::make_unique<HostBlock>(std::move(block));
+    err = clSetMemObjectDestructorCallback(b(), returnHostMemory, lease.get());
+    if (err != CL_SUCCESS) {
+        b = cl::Buffer(); // released before its memory goes back (with the lease, below)
+        clCheck(err, "clSetMemObjectDestructorCallback");
+    }
+    lease.release(); // owned by the callback now
     return b;
 }
 

@@ -2,6 +2,7 @@
 #pragma once
 
 #include "host/Error.hpp"
+#include "host/runtime/HostMemoryPool.hpp"
 
 #include <CL/opencl.hpp>
 
@@ -88,8 +89,6 @@ private:
 /// cc.launch1d(k, hostData.size(), 64);
 /// std::vector<float> out = cc.download(b);
 /// ```
-class HostMemoryPool;
-
 class ComputeContext {
 public:
     /// `selector`: empty (use $VOLCL_DEVICE, else the first device), a device index ("1"), or a
@@ -97,7 +96,11 @@ public:
     explicit ComputeContext(std::string_view selector = {});
     /// As above, with extra context properties (key, value pairs, no terminator) after CL_CONTEXT_PLATFORM,
     /// e.g. CL_GL_CONTEXT_KHR and CL_GLX_DISPLAY_KHR for a context that shares objects with OpenGL.
-    ComputeContext(std::string_view selector, std::span<const cl_context_properties> extraProperties);
+    ComputeContext(std::string_view selector, std::span<const cl_context_properties> extraProperties,
+                   std::shared_ptr<HostMemoryPool> hostMemory = {});
+    /// As the first, drawing host buffers from `hostMemory`: memory filled before the context existed
+    /// (see adoptHost) comes from the same pool and goes back to it.
+    ComputeContext(std::string_view selector, std::shared_ptr<HostMemoryPool> hostMemory);
     ~ComputeContext();
     ComputeContext(const ComputeContext&) = delete;
     ComputeContext& operator=(const ComputeContext&) = delete;
@@ -128,6 +131,16 @@ public:
         clCheck(err, "clCreateBuffer(CL_MEM_USE_HOST_PTR)");
         return DeviceBuffer<T>(std::move(b), host.size());
     }
+    /// A buffer of `count` elements over a block of this context's pool, written before the buffer existed:
+    /// on CPU devices kernels work in the block, which goes back to the pool when the buffer is released;
+    /// other devices get a copy and the block goes back at once.
+    template <class T>
+    DeviceBuffer<T> adoptHost(HostBlock block, std::size_t count, cl_mem_flags flags = CL_MEM_READ_WRITE) {
+        return DeviceBuffer<T>(bufferOver(std::move(block), flags, std::max<std::size_t>(count, 1) * sizeof(T)),
+                               count);
+    }
+    /// The pool host buffers are drawn from.
+    const std::shared_ptr<HostMemoryPool>& hostMemory() const noexcept { return hostMemory_; }
     template <class T> DeviceBuffer<T> upload(std::span<const T> host, cl_mem_flags flags = CL_MEM_READ_WRITE) {
         DeviceBuffer<T> b = allocate<T>(host.size(), flags);
         write(b, host);
@@ -169,6 +182,7 @@ public:
 
 private:
     cl::Buffer createBuffer(cl_mem_flags flags, std::size_t bytes);
+    cl::Buffer bufferOver(HostBlock block, cl_mem_flags flags, std::size_t bytes);
 
     DeviceInfo device_;
     cl::Context context_;

@@ -7,6 +7,7 @@
 #include "wavelet/BrickVoxels.hpp"
 #include "wavelet/StageTiming.hpp"
 #include "wavelet/container/VczFormat.hpp"
+#include "wavelet/quantise/Corrections.hpp"
 #include "wavelet/transform/LiftingTransform.hpp"
 
 #include <algorithm>
@@ -44,6 +45,40 @@ inline constexpr std::size_t kTransformRoundBytes = std::size_t(8) << 20;
 std::vector<std::vector<BrickGroup>> transformRounds(const std::vector<BrickGroup>& groups,
                                                      std::size_t (*strideBytes)(Dims), std::size_t budget);
 
+// The rounds transformBricks cuts the listed bricks into, for batches of T: groups of equal shape, at most
+// kTransformRoundBytes of batch memory each. Slot k of a round is the k-th brick counting its groups in order.
+template <class T>
+std::vector<std::vector<BrickGroup>> batchRounds(const VczHeader& h, const std::vector<std::size_t>& which) {
+    const auto strideBytes = [](Dims d) { return BrickBatch<T>::strideFor(d) * sizeof(T); };
+    return transformRounds(groupBricks(h, which), strideBytes, kTransformRoundBytes);
+}
+
+// Zeroes the row padding of a brick written into a batch slot (rows of `pitch` elements, brick `d`). The
+// kernels' full-width vector steps compute on the padding too, and pooled memory may hold old integers there,
+// which read as floats are denormals (an assist per vector instruction on x86). A precaution: no speed
+// difference was measurable under load. (The slack after the last brick is left alone: only the last row's
+// vector reads reach it, and zeroing it cost two fill commands per batch.)
+template <class T> void zeroRowPadding(T* slot, Dims d, std::size_t pitch) {
+    if (pitch > d.x)
+        for (std::size_t r = 0; r < d.y * d.z; ++r)
+            std::fill(slot + r * pitch + d.x, slot + (r + 1) * pitch, T(0));
+}
+
+// Batch memory of one round of batchRounds, written on host threads before transformBricks runs (while the
+// device started, see DecodeAhead): a block of the context's host pool per group, of BrickBatch<T>::bytesFor
+// the group, and which slots already hold their brick (the fill steps write the others).
+struct PrefilledRound {
+    std::vector<HostBlock> blocks;
+    std::vector<char> filled;
+};
+
+// What a DecodeAhead hands the decoder: the first rounds' batch memory (see PrefilledRound) and the exactly
+// stored voxels of each brick it decoded (indexed by brick; empty for the others).
+struct AheadHandover {
+    std::vector<PrefilledRound> rounds;
+    std::vector<std::vector<Correction>> corrections;
+};
+
 // Runs one transform over the listed bricks, batched by brick shape, in rounds of at most
 // kTransformRoundBytes of batch memory. In each round the fill steps write each brick into its batch slot;
 // run(batches, groups) transforms the round (one launch on CPUs) and returns true when it also delivered the
@@ -51,25 +86,32 @@ std::vector<std::vector<BrickGroup>> transformRounds(const std::vector<BrickGrou
 // as `emitStage`), so no dense copy is made. The result is true when every round's run returned true. Filling
 // and emitting are each one parallel loop over all bricks of the round's batches (per-shape loops left a
 // thread idle on shapes with a single brick), and a brick's fill steps run back to back, so later steps find
-// the brick in cache.
+// the brick in cache. `prefilled`, when given, holds the first rounds' memory with some or all of their bricks
+// already written (the fill steps skip those).
 template <class T, class Run, class Emit>
 bool transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<std::size_t>& which,
                      unsigned threads, CodecProfile* prof, const std::vector<FillStep<T>>& fills, Run run,
-                     double CodecProfile::*emitStage, Emit emit) {
+                     double CodecProfile::*emitStage, Emit emit, std::vector<PrefilledRound>* prefilled = nullptr) {
     bool allEmitted = true;
-    const auto strideBytes = [](Dims d) { return BrickBatch<T>::strideFor(d) * sizeof(T); };
-    for (const std::vector<BrickGroup>& groups : transformRounds(groupBricks(h, which), strideBytes,
-                                                                  kTransformRoundBytes)) {
+    const std::vector<std::vector<BrickGroup>> rounds = batchRounds<T>(h, which);
+    for (std::size_t round = 0; round < rounds.size(); ++round) {
+        const std::vector<BrickGroup>& groups = rounds[round];
+        PrefilledRound* pre = prefilled && round < prefilled->size() ? &(*prefilled)[round] : nullptr;
+        if (pre && (pre->blocks.size() != groups.size())) throw Error("internal: prefilled round does not match");
         std::vector<std::unique_ptr<BrickBatch<T>>> batches;
         struct Slot {
             std::size_t brick, group, index;
         };
         std::vector<Slot> slots;
         for (std::size_t g = 0; g < groups.size(); ++g) {
-            batches.push_back(std::make_unique<BrickBatch<T>>(cc, groups[g].dims, groups[g].bricks.size()));
-            for (std::size_t i = 0; i < groups[g].bricks.size(); ++i)
+            const std::size_t n = groups[g].bricks.size();
+            batches.push_back(pre ? std::make_unique<BrickBatch<T>>(cc, groups[g].dims, n, std::move(pre->blocks[g]))
+                                  : std::make_unique<BrickBatch<T>>(cc, groups[g].dims, n));
+            for (std::size_t i = 0; i < n; ++i)
                 slots.push_back({groups[g].bricks[i], g, i});
         }
+        if (pre && pre->filled.size() != slots.size()) throw Error("internal: prefilled round does not match");
+        auto prefilledSlot = [&](std::size_t k) { return pre && pre->filled[k]; };
         std::vector<BatchMapping<T>> maps(groups.size());
         auto forEachSlot = [&](double CodecProfile::*stage, auto fn) {
             timeStage(prof, stage, [&] {
@@ -84,12 +126,13 @@ bool transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<s
         if (!fills.empty()) {
             timeStage(prof, &CodecProfile::upload, [&] {
                 for (std::size_t g = 0; g < groups.size(); ++g)
-                    maps[g] = batches[g]->mapForWrite(cc);
+                    maps[g] = batches[g]->mapForWrite(cc, pre != nullptr);
             });
             // Each fill stage gets the loop's wall time in proportion to its summed per-brick time.
             std::vector<double> stepMs(fills.size() * slots.size(), 0.0);
             Stopwatch wall;
             parallelFor(slots.size(), threads, [&](std::size_t k) {
+                if (prefilledSlot(k)) return;
                 const Slot& s = slots[k];
                 T* dst = maps[s.group].data() + s.index * batches[s.group]->brickStride();
                 for (std::size_t f = 0; f < fills.size(); ++f) {
@@ -97,16 +140,7 @@ bool transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<s
                     fills[f].fn(s.brick, dst, batches[s.group]->pitch());
                     if (prof) stepMs[f * slots.size() + k] = sw.milliseconds();
                 }
-                // The kernels' full-width vector steps compute on row padding too: keep it zero, since pooled
-                // memory may hold old integers there, which read as floats are denormals (an assist per vector
-                // instruction on x86). A precaution: no speed difference was measurable under load. (The
-                // slack after the last brick is left alone: only the last row's vector reads reach it, and
-                // zeroing it cost two fill commands per batch.)
-                const Dims d = groups[s.group].dims;
-                const std::size_t pitch = batches[s.group]->pitch();
-                if (pitch > d.x)
-                    for (std::size_t r = 0; r < d.y * d.z; ++r)
-                        std::fill(dst + r * pitch + d.x, dst + (r + 1) * pitch, T(0));
+                zeroRowPadding(dst, groups[s.group].dims, batches[s.group]->pitch());
             });
             if (prof) {
                 const double ms = wall.milliseconds();
@@ -205,7 +239,7 @@ template <class T, class Emit>
 bool inverseBricks(ComputeContext& cc, LiftingTransform<T>& t, const VczHeader& h,
                    const std::vector<std::size_t>& which, int level, unsigned threads, CodecProfile* prof,
                    const std::vector<FillStep<T>>& fills, double CodecProfile::*emitStage, Emit emit,
-                   const VoxelPlacement* toVoxels = nullptr) {
+                   const VoxelPlacement* toVoxels = nullptr, std::vector<PrefilledRound>* prefilled = nullptr) {
     // Decided for the whole call, not per round: either every round writes voxels or every brick is emitted.
     const std::vector<BrickGroup> shapes = groupBricks(h, which);
     const bool voxels = toVoxels && level == 0 && std::all_of(shapes.begin(), shapes.end(), [&](const BrickGroup& g) {
@@ -223,7 +257,7 @@ bool inverseBricks(ComputeContext& cc, LiftingTransform<T>& t, const VczHeader& 
             t.inverse(cc, b, h.levels, level);
             return false;
         },
-        emitStage, emit);
+        emitStage, emit, prefilled);
 }
 
 } // namespace volcl::codec

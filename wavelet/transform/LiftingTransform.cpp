@@ -272,10 +272,15 @@ template <class T>
 BrickBatch<T>::BrickBatch(ComputeContext& cc, Dims brick, std::size_t count)
     : brick_(brick), count_(count), pitch_(pitchFor(brick.x)) {
     if (brick.count() == 0 || count == 0) throw UsageError("brick batch: empty brick or zero bricks");
-    // kSlack elements past the last brick: the brick kernel's x pass reads and blends whole 16-lane vectors
-    // that may run up to 16 elements past the last row.
-    constexpr std::size_t kSlack = 32;
     a_ = cc.allocate<T>(brickStride() * count_ + kSlack, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
+}
+
+template <class T>
+BrickBatch<T>::BrickBatch(ComputeContext& cc, Dims brick, std::size_t count, HostBlock filled)
+    : brick_(brick), count_(count), pitch_(pitchFor(brick.x)) {
+    if (brick.count() == 0 || count == 0) throw UsageError("brick batch: empty brick or zero bricks");
+    if (filled.size() < bytesFor(brick, count)) throw Error("internal: brick batch block too small");
+    a_ = cc.adoptHost<T>(std::move(filled), brickStride() * count_ + kSlack);
 }
 
 template <class T> DeviceBuffer<T>& BrickBatch<T>::scratch(ComputeContext& cc) {
@@ -284,9 +289,10 @@ template <class T> DeviceBuffer<T>& BrickBatch<T>::scratch(ComputeContext& cc) {
     return b_;
 }
 
-template <class T> BatchMapping<T> BrickBatch<T>::mapForWrite(ComputeContext& cc) {
+template <class T> BatchMapping<T> BrickBatch<T>::mapForWrite(ComputeContext& cc, bool keepContents) {
     current_ = false;
-    return BatchMapping<T>(cc.queue(), a_.get(), brickStride() * count_, CL_MAP_WRITE_INVALIDATE_REGION);
+    return BatchMapping<T>(cc.queue(), a_.get(), brickStride() * count_,
+                           keepContents ? CL_MAP_READ | CL_MAP_WRITE : CL_MAP_WRITE_INVALIDATE_REGION);
 }
 
 template <class T> BatchMapping<T> BrickBatch<T>::mapForRead(ComputeContext& cc) {

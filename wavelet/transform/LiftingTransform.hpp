@@ -63,6 +63,15 @@ private:
 template <class T> class BrickBatch {
 public:
     BrickBatch(ComputeContext& cc, Dims brick, std::size_t count);
+    /// A batch over `filled`, a block of cc's host pool of at least bytesFor(brick, count) bytes that the
+    /// caller already wrote in the padded layout (before cc's device existed, say).
+    BrickBatch(ComputeContext& cc, Dims brick, std::size_t count, HostBlock filled);
+    /// Bytes of a batch's buffer: `count` bricks in the padded layout plus the kernels' read slack.
+    static std::size_t bytesFor(Dims brick, std::size_t count) noexcept {
+        return (strideFor(brick) * count + kSlack) * sizeof(T);
+    }
+    /// pitch() of a batch of bricks `x` elements wide.
+    static std::size_t pitchFor(std::size_t x) noexcept { return roundUp(std::max<std::size_t>(x, 1), 16); }
     Dims brick() const noexcept { return brick_; }
     std::size_t count() const noexcept { return count_; }
     std::size_t pitch() const noexcept { return pitch_; }
@@ -75,7 +84,8 @@ public:
     void upload(ComputeContext& cc, std::span<const T> host);
     void download(ComputeContext& cc, std::span<T> host);
     /// Maps the input buffer for writing bricks in place (no host copy); forward()/inverse() start from it.
-    BatchMapping<T> mapForWrite(ComputeContext& cc);
+    /// `keepContents` keeps what the buffer holds (a batch over prefilled memory), else it is undefined.
+    BatchMapping<T> mapForWrite(ComputeContext& cc, bool keepContents = false);
     /// Maps the current buffer (the transform's result) for reading.
     BatchMapping<T> mapForRead(ComputeContext& cc);
     DeviceBuffer<T>& data() noexcept { return current_ ? b_ : a_; }
@@ -85,7 +95,9 @@ public:
     void swap() noexcept { current_ = !current_; }
 
 private:
-    static std::size_t pitchFor(std::size_t x) noexcept { return roundUp(std::max<std::size_t>(x, 1), 16); }
+    // Elements past the last brick: the brick kernel's x pass reads and blends whole 16-lane vectors that may
+    // run up to 16 elements past the last row.
+    static constexpr std::size_t kSlack = 32;
     Dims brick_;
     std::size_t count_ = 0, pitch_ = 0;
     DeviceBuffer<T> a_, b_;
