@@ -33,11 +33,13 @@
 typedef struct {
     /* 6 per tet, one tet's data in 96 contiguous bytes (the walk is latency bound): 4 face planes (outward
        normal n and w, n.x + w = 0 on the face), the linear field (gradient g and c, s(x) = g.x + c), and the
-       face across each face (tet * 4 + face, NO_FACE on the boundary) as uint bits. */
+       face across each face (tet * 4 + face, NO_FACE on the boundary, VOLCL_MESH_HULL_FACE on the convex hull)
+       as uint bits. */
     __global const float4* cells;
     __global const uchar* empty;      /* per tet: 1 when nothing it holds can show */
     __global const float4* bvhNodes;  /* 2 per node: lo (w: first or right child), hi (w: leaf count) */
-    __global const float4* bvhFaces;  /* 3 per leaf face: vertex a (w: face id), edge b - a, edge c - a */
+    __global const float4* bvhFaces;  /* 3 per leaf face: vertex a (w: face id), edge b - a (w: 1 on the convex
+                                         hull), edge c - a */
     __global const VolclTfKnot* knots;
     __global const float* tauIntegral; /* per knot: integral of tau from knot 0 to it */
     __global const float4* table;
@@ -100,7 +102,12 @@ inline Entry first_entry(const MeshData* M, const VolclMeshParams* P, float3 o, 
     best.face = NO_FACE;
     best.leaf = NO_FACE;
     if (P->bvhNodes == 0) return best;
-    if (seed != NO_FACE) leaf_faces(M, seed, 1, o, d, tMin, recent, &best);
+    if (seed != NO_FACE) {
+        leaf_faces(M, seed, 1, o, d, tMin, recent, &best);
+        /* Entering a hull face, the ray was outside the face's plane, which has the whole mesh on its inner side,
+           all the way before the hit: no face can be nearer. */
+        if (best.face != NO_FACE && M->bvhFaces[3 * seed + 1].w != 0.0f) return best;
+    }
     const float3 inv = (float3)(1.0f) / d;
     uint stack[64];
     int top = 0;
@@ -341,6 +348,24 @@ inline void cell_segment(const MeshData* M, const VolclMeshRenderParams* Pc, con
 #endif
 }
 
+/* Asks for tet's record ahead of its step: the rays of a work-item take turns, so it arrives while the others
+   step (a chain of dependent loads otherwise). OpenCL's prefetch() is a no-op on PoCL; clang's builtin is used
+   where the compiler has it. */
+#if defined(__has_builtin)
+#if __has_builtin(__builtin_prefetch)
+#define CELL_PREFETCH_BUILTIN
+#endif
+#endif
+inline void cell_prefetch(const MeshData* M, uint tet) {
+    __global const float4* c = M->cells + CELL_STRIDE * (size_t)tet;
+#ifdef CELL_PREFETCH_BUILTIN
+    __builtin_prefetch(c);
+    __builtin_prefetch(c + 4);
+#else
+    prefetch(c, CELL_STRIDE);
+#endif
+}
+
 /* One ray's walk: where it is and what it has gathered. */
 typedef struct {
     float3 o, d;
@@ -414,6 +439,7 @@ inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderPara
         w->ri = (w->ri + 1) % RECENT;
         w->tet = hit.face >> 2;
         w->entered = hit.face & 3u;
+        cell_prefetch(M, w->tet);
         w->t = hit.t;
         /* The point-sampling lattice starts half a step into the mesh. */
         if (isnan(w->st.nextSample)) w->st.nextSample = fmax(w->t, w->clip.x) + 0.5f * Pc->march.step * P->invScale;
@@ -461,13 +487,14 @@ inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderPara
         return;
     }
     const uint nb = ((__global const uint*)(cell + 5))[exitFace];
-    if (nb == NO_FACE) {
+    if (nb >= VOLCL_MESH_HULL_FACE) { /* left the mesh: for good through a hull face, else look for a re-entry */
         w->tMin = w->t;
-        w->phase = PHASE_ENTRY;
+        w->phase = nb == VOLCL_MESH_HULL_FACE ? PHASE_DONE : PHASE_ENTRY;
         return;
     }
     w->tet = nb >> 2;
     w->entered = nb & 3u;
+    cell_prefetch(M, w->tet);
 }
 
 /* The pixel's colour from its ray's state. */
@@ -500,8 +527,10 @@ inline float4 ray_result(const RayWalk* w, const MeshData* M, const VolclMeshRen
 /* Each work-item walks the rays of a RAYS_X x RAYS_Y pixel block together, one tet (or one entry search) per
    ray in turn: the walk is a chain of dependent loads, and interleaving independent rays lets the CPU (or a
    GPU's scheduler) overlap their memory latency. */
+#ifndef RAYS_X /* set by the host (MeshRenderer's kRaysX, kRaysY) */
 #define RAYS_X 2
 #define RAYS_Y 2
+#endif
 #define RAYS (RAYS_X * RAYS_Y)
 
 __kernel void mesh_cells(__global const float4* cells, __global const uchar* empty,

@@ -45,6 +45,10 @@ typedef struct VolclEllipsoid {
 #define VOLCL_LIGHT_POINT 1
 #define VOLCL_LIGHT_HEAD 2
 
+/* Mesh cell records: the neighbour of a boundary face on the mesh's convex hull (no re-entry past it); other
+   boundary faces hold 0xFFFFFFFF. Above every face id (tet * 4 + face, tets < 2^30 - 1). */
+#define VOLCL_MESH_HULL_FACE 0xFFFFFFFEu
+
 /* Camera and image: pixel (x, y) -> world ray. */
 typedef struct VolclCameraParams {
     float origin[4];  /* orthographic: eye; perspective: eye */

@@ -8,6 +8,7 @@
 #include "host/render/CameraFraming.hpp"
 #include "host/render/RenderInput.hpp"
 #include "host/render/grid/GridRenderer.hpp"
+#include "host/render/mesh/MeshGeometry.hpp"
 #include "host/render/mesh/MeshReference.hpp"
 
 #include <gtest/gtest.h>
@@ -173,6 +174,27 @@ Scene preintegrated(Scene s) {
 }
 
 } // namespace
+
+TEST(MeshGeometry, HullFacesAreTheOuterFacesOfANonConvexMesh) {
+    // A ray leaving through a hull face is done; the faces around the hole must not say so.
+    const mesh::TetMesh m = boxWithHole(8, 0.5);
+    const mesh_detail::BoundaryBvh bvh = mesh_detail::buildBoundaryBvh(m);
+    const std::vector<std::uint8_t> hull = mesh_detail::hullFaces(m, bvh);
+    ASSERT_EQ(hull.size(), bvh.faces.size());
+    std::size_t outer = 0, inner = 0;
+    for (std::size_t i = 0; i < bvh.faces.size(); ++i) {
+        const auto v = m.faceVertices(bvh.faces[i]);
+        bool onCube = false;
+        for (int a = 0; a < 3; ++a) {
+            const double c = m.points[v[0]][a];
+            onCube |= (c == 0.0 || c == 1.0) && m.points[v[1]][a] == c && m.points[v[2]][a] == c;
+        }
+        EXPECT_EQ(hull[i], onCube ? 1 : 0) << "face " << bvh.faces[i];
+        (onCube ? outer : inner) += 1;
+    }
+    EXPECT_EQ(outer, 6u * 8u * 8u * 2u - 2u * 2u * 2u * 2u); // the cube's faces less the hole's two openings
+    EXPECT_EQ(inner, 4u * 2u * 8u * 2u);                   // four walls of 2 x 8 quads
+}
 
 TEST(MeshCells, LinearFieldMatchesTheReference) {
     auto f = [](double x, double y, double z) { return 10.0 + 40.0 * x + 25.0 * y + 60.0 * z; };

@@ -1,6 +1,8 @@
 // Per-tet linear fields, face planes and the boundary-face BVH with its ray query (double precision).
 #include "host/render/mesh/MeshGeometry.hpp"
 
+#include "host/runtime/ParallelFor.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -100,6 +102,38 @@ BoundaryBvh buildBoundaryBvh(const mesh::TetMesh& m) {
     for (std::size_t i = 0; i < n; ++i)
         bvh.faces[i] = m.boundaryFaces[b.order[i]];
     return bvh;
+}
+
+std::vector<std::uint8_t> hullFaces(const mesh::TetMesh& m, const BoundaryBvh& bvh) {
+    std::vector<std::uint8_t> hull(bvh.faces.size(), 0);
+    if (bvh.nodes.empty()) return hull;
+    const double eps = 1e-9 * 0.5 * norm(sub(m.boundsMax, m.boundsMin));
+    parallelFor(bvh.faces.size(), 0u, [&](std::size_t fi) {
+        const auto v = m.faceVertices(bvh.faces[fi]);
+        const Vec3 a = m.points[v[0]];
+        const Vec3 n = normalized(cross(sub(m.points[v[1]], a), sub(m.points[v[2]], a)));
+        const double w = -dot(n, a);
+        std::vector<std::uint32_t> stack{0};
+        while (!stack.empty()) {
+            const BvhNode& node = bvh.nodes[stack.back()];
+            stack.pop_back();
+            // The box's largest n.x + w: its centre's plus the half extents along |n|.
+            double top = w;
+            for (int k = 0; k < 3; ++k)
+                top += n[k] * 0.5 * (node.lo[k] + node.hi[k]) + std::abs(n[k]) * 0.5 * (node.hi[k] - node.lo[k]);
+            if (top <= eps) continue;
+            if (node.count == 0) {
+                stack.push_back(node.right);
+                stack.push_back(std::uint32_t(&node - bvh.nodes.data()) + 1);
+                continue;
+            }
+            for (std::uint32_t i = node.first; i < node.first + node.count; ++i)
+                for (const std::uint32_t p : m.faceVertices(bvh.faces[i]))
+                    if (dot(n, m.points[p]) + w > eps) return; // a point outside: not a hull face
+        }
+        hull[fi] = 1;
+    });
+    return hull;
 }
 
 std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bvh, const Vec3& o,

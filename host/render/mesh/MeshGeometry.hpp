@@ -41,6 +41,13 @@ struct BoundaryBvh {
 };
 BoundaryBvh buildBoundaryBvh(const mesh::TetMesh& m);
 
+/// Per face of bvh.faces (leaf order): 1 when the face lies on the mesh's convex hull, i.e. every mesh point is
+/// on its inner side (within 1e-9 of the mesh's half diagonal). A ray that leaves the mesh through such a face
+/// moves away from its plane and cannot enter again, so no search for a re-entry is needed. The points tested
+/// are the boundary faces' vertices (a linear function's maximum over the mesh is at one of them), pruned with
+/// the BVH's boxes.
+std::vector<std::uint8_t> hullFaces(const mesh::TetMesh& m, const BoundaryBvh& bvh);
+
 /// Where a ray enters the mesh: an entering boundary face (its outward normal against the ray) and the ray
 /// parameter of the hit.
 struct EntryHit {
