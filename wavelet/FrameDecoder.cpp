@@ -121,12 +121,16 @@ template <class V> std::optional<V> uniformValue(const VczHeader& h, const VczBr
 
 std::vector<std::size_t> varyingBricks(const VczHeader& h, std::size_t frame, const std::vector<std::size_t>& which) {
     std::vector<std::size_t> varying;
-    Volume probe(Dims{1, 1, 1}, h.type);
-    visitTyped(probe, [&](auto span) {
-        using V = std::remove_cv_t<typename decltype(span)::element_type>;
+    auto split = [&]<class V>() {
         for (std::size_t b : which)
             if (!uniformValue<V>(h, h.bricks[frame][b])) varying.push_back(b);
-    });
+    };
+    switch (h.type) {
+    case ScalarType::UInt8: split.template operator()<std::uint8_t>(); break;
+    case ScalarType::UInt16: split.template operator()<std::uint16_t>(); break;
+    case ScalarType::Int16: split.template operator()<std::int16_t>(); break;
+    case ScalarType::Float32: split.template operator()<float>(); break;
+    }
     return varying;
 }
 

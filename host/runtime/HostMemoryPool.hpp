@@ -53,8 +53,6 @@ public:
     const std::shared_ptr<HostMemoryPool>& pool() const noexcept { return pool_; }
     /// Gives the block back now.
     void reset() noexcept;
-    /// Ends the lease without giving the block back: the caller now owns (pool, data, size).
-    void release() noexcept { pool_.reset(), mem_ = nullptr, bytes_ = 0; }
 
 private:
     std::shared_ptr<HostMemoryPool> pool_;
