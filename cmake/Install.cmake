@@ -21,6 +21,8 @@ install(TARGETS volcl volcl-cli EXPORT volclTargets
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 # The OpenImageIO and OpenVDB modules are loaded from libvolcl's directory at run time (not linked, not exported).
 install(TARGETS volcl_oiio volcl_vdb LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+# The OpenVDB reader program is started from there too (host/io/VdbReader.hpp).
+install(TARGETS volcl_vdb_reader RUNTIME DESTINATION ${CMAKE_INSTALL_LIBDIR})
 install(EXPORT volclTargets NAMESPACE volcl:: DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/volcl)
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/volclConfig.cmake.in
   ${PROJECT_BINARY_DIR}/volclConfig.cmake INSTALL_DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/volcl)

@@ -1,17 +1,12 @@
-// Scratch directory of a fuzz target process (created with mkdtemp, removed when the process exits) and
-// the fork handler that keeps the engine's crash reporting out of children of the code under test.
+// Scratch directory of a fuzz target process (created with mkdtemp, removed when the process exits).
 #include "fuzz/FuzzSupport.hpp"
 
-#include <csignal>
 #include <cstdlib>
 #include <fstream>
 #include <stdexcept>
 #include <string>
 
-#include <pthread.h>
 #include <unistd.h>
-
-extern "C" void __sanitizer_set_death_callback(void (*callback)()) __attribute__((weak));
 
 namespace volcl::fuzz {
 
@@ -29,10 +24,8 @@ public:
         std::string pattern = (base / "volcl-fuzz-XXXXXX").string();
         if (!::mkdtemp(pattern.data())) throw std::runtime_error("fuzz: cannot create a scratch directory");
         path_ = pattern;
-        owner_ = ::getpid();
     }
     ~ScratchDirectory() {
-        if (::getpid() != owner_) return; // a forked reader (OpenVDB) must not remove the parent's files
         std::error_code ec;
         std::filesystem::remove_all(path_, ec);
     }
@@ -42,7 +35,6 @@ public:
 
 private:
     std::filesystem::path path_;
-    pid_t owner_ = 0;
 };
 
 } // namespace
@@ -50,20 +42,6 @@ private:
 const std::filesystem::path& scratchDirectory() {
     static const ScratchDirectory directory;
     return directory.path();
-}
-
-void quietForkedChildren() {
-    static const bool once = [] {
-        ::pthread_atfork(nullptr, nullptr, [] {
-            // In the child: the engine's death callback (libFuzzer's writes crash-<sha1>) and its fatal-signal
-            // handlers belong to the parent. The child still prints the sanitizer's report and exits non-zero.
-            if (__sanitizer_set_death_callback) __sanitizer_set_death_callback(nullptr);
-            for (int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL})
-                std::signal(sig, SIG_DFL);
-        });
-        return true;
-    }();
-    (void)once;
 }
 
 std::filesystem::path writeScratchFile(std::string_view name, std::span<const std::uint8_t> bytes) {

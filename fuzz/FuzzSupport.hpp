@@ -14,11 +14,6 @@ namespace volcl::fuzz {
 /// reading an input costs no disk I/O, which was a large share of a reader target's time per input.
 const std::filesystem::path& scratchDirectory();
 
-/// Makes children forked by the code under test (the OpenVDB reader decodes in a child that may die on a
-/// corrupt grid; the parent then reports a corrupt file) die quietly: no sanitizer death callback, so the
-/// fuzzing engine inherited by the child writes no crash file for what is not a finding. Idempotent.
-void quietForkedChildren();
-
 /// Writes `bytes` to scratchDirectory() / name, replacing what was there, and returns the path.
 std::filesystem::path writeScratchFile(std::string_view name, std::span<const std::uint8_t> bytes);
 

@@ -11,12 +11,6 @@
 #define VOLCL_FUZZ_SPLIT 0
 #endif
 
-// The OpenVDB reader decodes in a forked child; a child that dies on a corrupt grid is not a finding.
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-    volcl::fuzz::quietForkedChildren();
-    return 0;
-}
-
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     using namespace volcl;
     std::span<const std::uint8_t> header(data, size), payload;

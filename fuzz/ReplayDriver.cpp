@@ -32,15 +32,12 @@ using Bytes = std::vector<std::uint8_t>;
 // The input being executed, for the crash handlers (plain pointers: they run in signal context).
 const std::uint8_t* gCurrent = nullptr;
 std::size_t gCurrentSize = 0;
-// The driver's own process. A reader may fork (OpenVDB decodes in a child that is allowed to die on a
-// corrupt grid: the parent reports it as a corrupt file); handlers inherited by such a child must stay quiet.
-pid_t gDriverPid = 0;
 
 // Saves the input that crashed or hung as ./crash-<pid> so it can become a regression file.
 void dumpCurrentInput() {
-    if (::getpid() != gDriverPid) return; // a forked child's death is its parent's business, not a finding
     if (gCurrent == nullptr) {
-        static const char msg[] = "replay: the failure came after the inputs ran (e.g. a leak found at exit)\n";
+        static const char msg[] =
+            "replay: the failure came after the inputs ran (e.g. a leak found at exit)\n";
         (void)!::write(2, msg, sizeof(msg) - 1);
         return;
     }
@@ -94,7 +91,8 @@ Bytes readWhole(const std::filesystem::path& p) {
 // duplicated ranges, truncation and splices with another corpus input.
 void mutate(Bytes& b, const std::vector<Bytes>& corpus, std::mt19937_64& rng, std::size_t maxLen) {
     auto pick = [&](std::size_t n) { return n == 0 ? std::size_t{0} : static_cast<std::size_t>(rng() % n); };
-    static const std::uint8_t kInteresting[] = {0, 1, 0x7f, 0x80, 0xff, '0', '9', '-', ' ', '\n', ':', '%', 'e'};
+    static const std::uint8_t kInteresting[] = {0,   1,   0x7f, 0x80, 0xff, '0', '9',
+                                                '-', ' ', '\n', ':',  '%',  'e'};
     switch (rng() % 9) {
     case 0:
         if (!b.empty()) b[pick(b.size())] ^= static_cast<std::uint8_t>(1u << (rng() % 8));
@@ -120,7 +118,8 @@ void mutate(Bytes& b, const std::vector<Bytes>& corpus, std::mt19937_64& rng, st
     case 5: { // duplicate a range
         if (b.empty()) break;
         const std::size_t at = pick(b.size()), n = 1 + pick(std::min<std::size_t>(64, b.size() - at));
-        Bytes piece(b.begin() + static_cast<std::ptrdiff_t>(at), b.begin() + static_cast<std::ptrdiff_t>(at + n));
+        Bytes piece(b.begin() + static_cast<std::ptrdiff_t>(at),
+                    b.begin() + static_cast<std::ptrdiff_t>(at + n));
         b.insert(b.begin() + static_cast<std::ptrdiff_t>(pick(b.size() + 1)), piece.begin(), piece.end());
         break;
     }
@@ -151,7 +150,8 @@ void execute(const Bytes& input, unsigned timeoutSeconds) {
     ::alarm(timeoutSeconds);
     LLVMFuzzerTestOneInput(input.data(), input.size());
     ::alarm(0);
-    // The input is freed after this: a sanitizer death outside a run (LeakSanitizer at exit) must not read it.
+    // The input is freed after this: a sanitizer death outside a run (LeakSanitizer at exit) must not read
+    // it.
     gCurrent = nullptr;
     gCurrentSize = 0;
 }
@@ -165,7 +165,9 @@ int main(int argc, char** argv) {
     std::vector<std::filesystem::path> paths;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
-        auto value = [&](const char* flag) { return std::strtoull(a.c_str() + std::strlen(flag), nullptr, 10); };
+        auto value = [&](const char* flag) {
+            return std::strtoull(a.c_str() + std::strlen(flag), nullptr, 10);
+        };
         if (a.rfind("-runs=", 0) == 0)
             runs = value("-runs=");
         else if (a.rfind("-seed=", 0) == 0)
@@ -185,7 +187,6 @@ int main(int argc, char** argv) {
         else
             paths.emplace_back(a);
     }
-    gDriverPid = ::getpid();
     std::signal(SIGALRM, onFatalSignal);
     std::signal(SIGSEGV, onFatalSignal);
     std::signal(SIGBUS, onFatalSignal);
@@ -233,8 +234,7 @@ int main(int argc, char** argv) {
             mutate(input, corpus, rng, maxLen);
         execute(input, timeout);
     }
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::cerr << "replay: " << corpus.size() << " corpus inputs and " << done << " mutated executions in "
               << seconds << " s, no crash\n";
     return 0;

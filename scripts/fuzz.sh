@@ -43,7 +43,7 @@ for t in $targets; do
   "$exe" -help=1 2>&1 | grep -q "ReplayDriver" && engine=replay
   case "$mode" in
     short)
-      # Targets that run OpenCL kernels (vcz) or fork a reader (vdb) cost milliseconds per input.
+      # Targets that run OpenCL kernels (vcz) or start a reader process (vdb) cost milliseconds per input.
       case "$t" in fuzz_vcz|fuzz_read_vdb) n=100 ;; *) n=500 ;; esac
       flags=(-runs="$n" -seed=1) ;;
     runs) n="$count"; flags=(-runs="$count") ;;
@@ -64,11 +64,6 @@ for t in $targets; do
   fi
   opts="${ASAN_OPTIONS:-}"
   case "$t" in
-    # The OpenVDB reader's forked child may die on a corrupt grid (by design). It must not symbolize through
-    # the parent's symbolizer process (shared pipes: the parent hung reading a garbled reply), and a large
-    # allocation there is OpenVDB's, isolated in the child: libFuzzer's per-malloc limit, inherited by the
-    # child, would report it as the parent's. The parent's RSS stays limited.
-    fuzz_read_vdb) opts="$opts:symbolize=0"; [ "$engine" = libfuzzer ] && flags+=(-malloc_limit_mb=1048576) ;;
     # The fast unwinder stops in uninstrumented OpenImageIO, whose leaked per-thread error strings then miss
     # their suppression, and full unwinding on every malloc makes these targets 1000x slower (timeouts).
     # Long runs fuzz without leak checks and check leaks on the grown corpus afterwards, fully unwound
@@ -97,12 +92,10 @@ for t in $targets; do
   edges=""
   if [ "$engine" = libfuzzer ] && [ "$mode" != short ]; then
     # Edge coverage of the target's own parser files over the grown corpus (scripts/fuzz_coverage.py).
-    # -print_funcs=0: nothing symbolizes before the end, so a forked reader child never shares a symbolizer.
-    malloc=(); [ "$t" = fuzz_read_vdb ] && malloc=(-malloc_limit_mb=1048576)
-    replay="${opts/symbolize=0/symbolize=1}"
+    replay="$opts"
     case "$t" in fuzz_tf_png|fuzz_tf_exr) replay="${replay/detect_leaks=0/detect_leaks=1}:fast_unwind_on_malloc=0" ;; esac
     if ! (cd "$work" && ASAN_OPTIONS="${replay#:}" "$exe" -runs=0 -print_coverage=1 -print_funcs=0 \
-      -timeout=10 -rss_limit_mb=500 "${malloc[@]}" "${corpus[@]}") >"$log.cov" 2>&1; then
+      -timeout=10 -rss_limit_mb=500 "${corpus[@]}") >"$log.cov" 2>&1; then
       # The image targets' leak check happens here; for the others it repeats what the run checked.
       echo "  replay of the grown corpus failed:"; grep -E "ERROR|SUMMARY" "$log.cov" | head -5
       findings=1; status=1

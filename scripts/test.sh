@@ -32,8 +32,7 @@ LSAN_OPTIONS=suppressions=$PWD/tests/lsan.supp \
 
 # ==== hardening: a short fuzz run (a separate block; see docs/reliability.md) ====
 # The sanitizer build gains the fuzz targets (GCC: fuzz/ReplayDriver.cpp): every seed and kept regression
-# input replays as a ctest test (with the replay driver's own fork test), then each target runs a fixed number
-# of mutated inputs from a fixed seed.
+# input replays as a ctest test, then each target runs a fixed number of mutated inputs from a fixed seed.
 echo "== fuzz corpora and short fuzz run (AddressSanitizer + UndefinedBehaviorSanitizer)"
 cmake -S . -B build-asan -DVOLCL_FUZZ=ON >/dev/null
 cmake --build build-asan -j"$jobs" -- --no-print-directory >/dev/null || cmake --build build-asan -j1

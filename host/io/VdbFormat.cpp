@@ -1,9 +1,11 @@
-// OpenVDB (.vdb): the file layout checked here, then the grid read through the OpenVDB module (VdbModule) in a
-// forked child, so corrupt node data cannot crash or hang the caller; writing goes through the module too.
+// OpenVDB (.vdb): the file layout checked here, then the grid read through the OpenVDB module by a separate
+// reader program (VdbReader.hpp), so corrupt node data cannot crash or hang the caller; writing goes through
+// the module in process.
 #include "host/MemoryBudget.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/VdbModule.hpp"
+#include "host/io/VdbReader.hpp"
 #include "host/runtime/RuntimeModule.hpp"
 
 #include <openvdb/version.h> // file-format version numbers only: libopenvdb is linked by the module
@@ -13,11 +15,14 @@
 #include <cstdio>
 #include <cstring>
 
+#include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
-#include <sys/resource.h>
+#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
+
+extern char** environ;
 
 namespace volcl::io {
 
@@ -123,85 +128,84 @@ void checkVdbLayout(const fs::path& path) {
 }
 
 // ---- isolation ------------------------------------------------------------------------------------
-// libopenvdb trusts the node data inside a grid: corrupt topology can make it free memory twice or
-// loop. The grid is therefore decoded in a forked child that sends the dense volume (or the error)
-// back through a pipe; a crash or hang there becomes an IoError here instead of killing the caller.
+// The grid itself is decoded by the reader program (VdbReader.hpp), whose reply is read back here.
 
-enum class ChildStatus : std::uint8_t { Ok, Io, Data, Usage };
-
-bool writeAll(int fd, const void* data, std::size_t n) {
-    const auto* p = static_cast<const char*>(data);
-    while (n > 0) {
-        const ssize_t w = ::write(fd, p, n);
-        if (w < 0 && errno == EINTR) continue;
-        if (w <= 0) return false;
-        p += w;
-        n -= static_cast<std::size_t>(w);
+// Starts the reader on `path` with its reply pipe on kVdbReplyFd and the terminal on /dev/null (libopenvdb
+// and a sanitizer may print; volcl's errors are one line). Returns its pid; `replyFd` is the read end.
+pid_t startReader(const fs::path& path, const ReadOptions& options, int& replyFd) {
+    const fs::path reader = findRuntimeHelper(kVdbReaderFile, "reading OpenVDB files");
+    int fds[2];
+    if (::pipe2(fds, O_CLOEXEC) != 0)
+        throw IoError(path.string() + ": cannot create a pipe: " + std::strerror(errno));
+    // dup2 onto itself would keep close-on-exec set, and the reader would start without its reply pipe.
+    if (fds[1] == kVdbReplyFd) {
+        const int moved = ::fcntl(fds[1], F_DUPFD_CLOEXEC, kVdbReplyFd + 1);
+        ::close(fds[1]);
+        fds[1] = moved;
+        if (moved < 0) {
+            ::close(fds[0]);
+            throw IoError(path.string() + ": cannot create a pipe: " + std::strerror(errno));
+        }
     }
-    return true;
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
+    posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_adddup2(&actions, fds[1], kVdbReplyFd);
+    const std::string caller = std::to_string(::getpid());
+    const std::string budget =
+        std::to_string(options.memoryBudget ? options.memoryBudget : defaultMemoryBudget());
+    std::vector<std::string> args = {reader.string(), caller, path.string(), budget};
+    if (options.vdbGrid) args.push_back(*options.vdbGrid);
+    std::vector<char*> argv;
+    for (std::string& a : args)
+        argv.push_back(a.data());
+    argv.push_back(nullptr);
+    pid_t pid = -1;
+    const int rc = ::posix_spawn(&pid, reader.c_str(), &actions, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    ::close(fds[1]);
+    if (rc != 0) {
+        ::close(fds[0]);
+        throw IoError(path.string() + ": cannot start " + reader.string() + ": " + std::strerror(rc));
+    }
+    replyFd = fds[0];
+    return pid;
 }
 
-// Caps the child's address space at what it maps now plus twice the memory budget (the dense box and the
-// grid it comes from). Sizes inside the grid's data (buffers, node tables) are libopenvdb's to trust, and a
-// forged one made the child allocate and touch 5 GB from an 11 KB file; past the cap an allocation fails
-// and the read ends as a corrupt file instead of growing without bound.
-// Measured in the parent, before the fork, so the child only calls setrlimit: a forked child of a
-// multithreaded process should not take locks (stdio, the allocator) another thread may have held at the fork.
-rlim_t childMemoryCap(const ReadOptions& options) {
-    const std::size_t budget = options.memoryBudget ? options.memoryBudget : defaultMemoryBudget();
-    std::FILE* statm = std::fopen("/proc/self/statm", "r");
-    unsigned long long pages = 0;
-    const bool known = statm && std::fscanf(statm, "%llu", &pages) == 1;
-    if (statm) std::fclose(statm);
-    if (!known) return RLIM_INFINITY;
-    const unsigned long long mapped = pages * static_cast<unsigned long long>(::sysconf(_SC_PAGESIZE));
-    rlimit limit{};
-    if (::getrlimit(RLIMIT_AS, &limit) != 0) return RLIM_INFINITY;
-    const unsigned long long cap = mapped + 2ull * budget;
-    if (limit.rlim_max != RLIM_INFINITY && cap > limit.rlim_max) return RLIM_INFINITY;
-    return static_cast<rlim_t>(cap);
-}
+// Reads the reader's whole reply, or stops at the deadline and kills it; then reaps it.
+struct ReaderOutcome {
+    std::vector<std::byte> reply;
+    bool timedOut = false;
+    int waitStatus = 0;
+};
 
-void capChildMemory(rlim_t cap) {
-    rlimit limit{};
-    if (cap == RLIM_INFINITY || ::getrlimit(RLIMIT_AS, &limit) != 0) return;
-    limit.rlim_cur = cap;
-    (void)::setrlimit(RLIMIT_AS, &limit);
-}
-
-[[noreturn]] void childMain(const VdbModule& vdb, int fd, const fs::path& path, const ReadOptions& options,
-                            rlim_t memoryCap) {
-    capChildMemory(memoryCap);
-    ChildStatus status = ChildStatus::Ok;
-    std::string message;
-    Volume v;
-    try {
-        TimeSeries s = vdb.read(path, options);
-        v = std::move(s.frames.front());
-    } catch (const UsageError& e) {
-        status = ChildStatus::Usage, message = e.what();
-    } catch (const DataError& e) {
-        status = ChildStatus::Data, message = e.what();
-    } catch (const Error& e) {
-        status = ChildStatus::Io, message = e.what();
-    } catch (const std::bad_alloc&) {
-        status = ChildStatus::Io,
-        message = path.string() + ": not enough memory to read the grid (corrupt or too large)";
-    } catch (const std::exception& e) {
-        status = ChildStatus::Io, message = path.string() + ": OpenVDB cannot read it: " + e.what();
+ReaderOutcome collectReply(pid_t reader, int replyFd, std::chrono::steady_clock::duration timeout) {
+    ReaderOutcome out;
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    std::byte buf[1 << 16];
+    while (true) {
+        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+            deadline - std::chrono::steady_clock::now());
+        if (left.count() <= 0) {
+            out.timedOut = true;
+            break;
+        }
+        pollfd pfd{replyFd, POLLIN, 0};
+        const int pr = ::poll(&pfd, 1, static_cast<int>(std::min<long long>(left.count(), 1000)));
+        if (pr < 0 && errno == EINTR) continue;
+        if (pr == 0) continue;
+        const ssize_t r = ::read(replyFd, buf, sizeof(buf));
+        if (r < 0 && errno == EINTR) continue;
+        if (r <= 0) break;
+        out.reply.insert(out.reply.end(), buf, buf + r);
     }
-    bool ok = writeAll(fd, &status, 1);
-    if (status != ChildStatus::Ok) {
-        const std::uint64_t n = message.size();
-        ok = ok && writeAll(fd, &n, 8) && writeAll(fd, message.data(), message.size());
-    } else {
-        const std::uint64_t head[4] = {v.dims().x, v.dims().y, v.dims().z,
-                                       static_cast<std::uint64_t>(v.type())};
-        ok = ok && writeAll(fd, head, sizeof(head)) && writeAll(fd, v.spacing.data(), 24) &&
-             writeAll(fd, v.origin.data(), 24) && writeAll(fd, v.bytes().data(), v.byteSize());
+    ::close(replyFd);
+    if (out.timedOut) ::kill(reader, SIGKILL);
+    while (::waitpid(reader, &out.waitStatus, 0) < 0 && errno == EINTR) {
     }
-    ::close(fd);
-    ::_exit(ok ? 0 : 3); // no atexit handlers or destructors of the parent's state
+    return out;
 }
 
 } // namespace
@@ -210,52 +214,18 @@ TimeSeries readVdb(ReadContext& ctx) {
     const fs::path& path = ctx.file();
     const ReadOptions& options = ctx.options();
     checkVdbLayout(path);
-    // Loaded before the fork: the child then only runs code that is already mapped.
-    const VdbModule& vdb = vdbModule();
-    const rlim_t memoryCap = childMemoryCap(options);
-    int fds[2];
-    if (::pipe(fds) != 0) throw IoError(path.string() + ": cannot create a pipe: " + std::strerror(errno));
-    const pid_t child = ::fork();
-    if (child < 0) {
-        ::close(fds[0]);
-        ::close(fds[1]);
-        throw IoError(path.string() + ": cannot fork the OpenVDB reader: " + std::strerror(errno));
-    }
-    if (child == 0) {
-        ::close(fds[0]);
-        childMain(vdb, fds[1], path, options, memoryCap);
-    }
-    ::close(fds[1]);
-    std::vector<std::byte> reply;
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(5);
-    bool timedOut = false;
-    std::byte buf[1 << 16];
-    while (true) {
-        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
-            deadline - std::chrono::steady_clock::now());
-        if (left.count() <= 0) {
-            timedOut = true;
-            break;
-        }
-        pollfd pfd{fds[0], POLLIN, 0};
-        const int pr = ::poll(&pfd, 1, static_cast<int>(std::min<long long>(left.count(), 1000)));
-        if (pr < 0 && errno == EINTR) continue;
-        if (pr == 0) continue;
-        const ssize_t r = ::read(fds[0], buf, sizeof(buf));
-        if (r < 0 && errno == EINTR) continue;
-        if (r <= 0) break;
-        reply.insert(reply.end(), buf, buf + r);
-    }
-    ::close(fds[0]);
-    if (timedOut) ::kill(child, SIGKILL);
-    int wstatus = 0;
-    while (::waitpid(child, &wstatus, 0) < 0 && errno == EINTR) {
-    }
-    if (timedOut) fail(path, "OpenVDB did not finish reading within 5 minutes (corrupt grid data?)");
+    int replyFd = -1;
+    const pid_t reader = startReader(path, options, replyFd);
+    const ReaderOutcome outcome = collectReply(reader, replyFd, std::chrono::minutes(5));
+    const std::vector<std::byte>& reply = outcome.reply;
+    const int wstatus = outcome.waitStatus;
+    if (outcome.timedOut) fail(path, "OpenVDB did not finish reading within 5 minutes (corrupt grid data?)");
     if (WIFSIGNALED(wstatus))
         fail(path, "corrupt grid data: OpenVDB crashed reading it (signal " +
                        std::to_string(WTERMSIG(wstatus)) + ")");
-    if (reply.empty()) fail(path, "corrupt grid data: the OpenVDB reader stopped without a result");
+    if (reply.empty() || !WIFEXITED(wstatus) || WEXITSTATUS(wstatus) != 0)
+        fail(path, "corrupt grid data: the OpenVDB reader stopped without a result (exit status " +
+                       std::to_string(WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : -1) + ")");
 
     std::size_t pos = 1;
     auto take = [&](void* dst, std::size_t n) {
@@ -263,15 +233,15 @@ TimeSeries readVdb(ReadContext& ctx) {
         std::memcpy(dst, reply.data() + pos, n);
         pos += n;
     };
-    const auto status = static_cast<ChildStatus>(reply[0]);
-    if (status != ChildStatus::Ok) {
+    const auto status = static_cast<VdbReplyStatus>(reply[0]);
+    if (status != VdbReplyStatus::Ok) {
         std::uint64_t n = 0;
         take(&n, 8);
         if (n > reply.size()) fail(path, "corrupt grid data: the OpenVDB reader stopped early");
         std::string message(static_cast<std::size_t>(n), '\0');
         take(message.data(), message.size());
-        if (status == ChildStatus::Usage) throw UsageError(message);
-        if (status == ChildStatus::Data) throw DataError(message);
+        if (status == VdbReplyStatus::Usage) throw UsageError(message);
+        if (status == VdbReplyStatus::Data) throw DataError(message);
         throw IoError(message);
     }
     std::uint64_t head[4];

@@ -1,5 +1,8 @@
-// Optional parts of libvolcl built as modules (OpenImageIO, OpenVDB), loaded when first used.
+// Optional parts of libvolcl built as modules (OpenImageIO, OpenVDB), loaded when first used, and the helper
+// programs installed beside them.
 #pragma once
+
+#include <filesystem>
 
 namespace volcl {
 
@@ -8,5 +11,9 @@ namespace volcl {
 /// exported function `entry` returns: the module's table of functions. Throws IoError naming the file and
 /// `purpose` when it does not load or lacks the entry.
 const void* loadRuntimeModule(const char* file, const char* entry, const char* purpose);
+
+/// Path of the helper executable `file` in libvolcl's own directory (where the build and every install
+/// layout put it). Throws IoError naming the file and `purpose` when it is missing or not executable.
+std::filesystem::path findRuntimeHelper(const char* file, const char* purpose);
 
 } // namespace volcl
