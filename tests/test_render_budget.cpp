@@ -24,6 +24,8 @@ struct Law {
     double A = 2.0, B = 3.0, k = 1.0, C = 0.01, bias = 0.0;
     double ptA = 1.0, ptB = 2.0, sigma = 0.1;
     bool canPathTrace = true;
+    int slowCall = -1;       ///< this render() call (counted from 0) takes slowFactor times its law
+    double slowFactor = 1.0; ///< a frame slowed by the machine's load
 };
 
 float uniformSample(std::uint32_t seed, std::uint32_t pixel, std::uint32_t sample) {
@@ -72,6 +74,7 @@ public:
         }
         ms_ = law_.A + law_.B / std::pow(scene_.step, law_.k) * (plan_.fog ? 1.5 : 1.0) +
               (plan_.shading ? 1.0 : 0.0);
+        if (calls_++ == law_.slowCall) ms_ *= law_.slowFactor;
         for (float& v : img.pixels)
             v = float(0.5 + law_.C * scene_.step * scene_.step + (plan_.scattering ? law_.bias : 0.0));
         return img;
@@ -93,6 +96,7 @@ private:
     Camera camera_;
     EffectPlan plan_;
     double ms_ = 0.0;
+    int calls_ = 0;
 };
 
 Scene baseScene() {
@@ -249,6 +253,28 @@ TEST(Budget, ChoiceIsMonotoneInTheBudget) {
     // the path tracer takes over once 0.1 / sqrt(n) is below the ray marcher's error.
     EXPECT_EQ(chooseKnob(knobs, {step, samples}, 4.0).knob, 0u);
     EXPECT_EQ(chooseKnob(knobs, {step, samples}, 1000.0).knob, 1u);
+}
+
+// Under load one probe frame can be far slower than its law. The fine step's probe three times too slow
+// (24 ms for 8) fitted a fixed cost of -14 ms, and a budget of 1e-9 ms looked reachable: the command
+// rendered and exited 0. A negative fixed cost now falls back to a proportional law.
+TEST(Budget, ASlowProbeFrameNeverMakesATinyBudgetReachable) {
+    Law law;
+    law.slowCall = 1; // the first measured frame (call 0 is its warm-up): the probe at the scene's step
+    law.slowFactor = 3.0;
+    for (const double budget : {1e-9, 1.0}) {
+        LawRenderer r(baseScene(), law);
+        try {
+            fitBudget(r, budget, budgetKnobs(r, r.scene()), 1);
+            ADD_FAILURE() << budget << " was accepted";
+        } catch (const UsageError& e) {
+            EXPECT_NE(std::string(e.what()).find("cannot be met within 20%"), std::string::npos) << e.what();
+        }
+    }
+    // A reachable budget is still met: the measured frames correct the law the slow probe bent.
+    LawRenderer r(baseScene(), law);
+    const BudgetChoice c = fitBudget(r, 30.0, budgetKnobs(r, r.scene()), 1);
+    EXPECT_TRUE(c.met(0.05)) << c.text();
 }
 
 TEST(Budget, ImpossibleAndBadBudgetsAreRefused) {

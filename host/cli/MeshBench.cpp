@@ -70,7 +70,10 @@ void benchMeshRender(ComputeContext& cc, const RenderInput& input, const Transfe
             std::cout << "  " << method << " " << config << ": " << e.what() << '\n';
             return false;
         }
-        Row row{method, config, s};
+        Row row;
+        row.method = method;
+        row.config = config;
+        row.scene = s;
         row.tableMs = r->lastTableMilliseconds();
         timeWall(*r, o.runs, row.wall, row.kernel);
         row.wallMs = median(row.wall);

@@ -58,13 +58,15 @@ struct Probe {
     double v, ms;
 };
 
-/// A + B v^k through two frames of distinct values; a non-increasing cost (noise, a flat law) falls back to
-/// a proportional law through the first.
+/// A + B v^k through two frames of distinct values; a non-increasing cost (noise, a flat law) or a negative
+/// fixed cost falls back to a proportional law through the first. A frame is never cheaper than nothing:
+/// with A < 0 (one frame slowed by the machine's load steepens the line) the law predicts frames of any
+/// small time, and a budget of 1e-9 ms looked reachable.
 void fitTime(const BudgetKnob& k, const Probe& a, const Probe& b, KnobModel& m) {
     const double xa = std::pow(a.v, k.costExponent), xb = std::pow(b.v, k.costExponent);
     m.B = xb != xa ? (b.ms - a.ms) / (xb - xa) : 0.0;
     m.A = a.ms - m.B * xa;
-    if (!(m.B > 0.0)) {
+    if (!(m.B > 0.0) || m.A < 0.0) {
         m.B = a.ms / xa;
         m.A = 0.0;
     }
@@ -73,8 +75,8 @@ void fitTime(const BudgetKnob& k, const Probe& a, const Probe& b, KnobModel& m) 
 /// A + B v^k by weighted least squares over every frame measured on the knob, each weighted by its closeness
 /// to the budget (1 / (1 + (off / 10%)^2)): frames near the budget decide the local law (a law that is only
 /// roughly a power law still converges like the secant method), and several of them average the noise of
-/// the machine's load instead of one lucky frame steering the fit. Fewer than two distinct values: as
-/// fitTime through the nearest.
+/// the machine's load instead of one lucky frame steering the fit. Fewer than two distinct values, a
+/// non-increasing cost or a negative fixed cost: as fitTime through the nearest.
 void fitTimeAll(const BudgetKnob& k, const std::vector<Probe>& frames, double budgetMs, KnobModel& m) {
     double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
     const Probe* closest = &frames.front();
@@ -89,7 +91,26 @@ void fitTimeAll(const BudgetKnob& k, const std::vector<Probe>& frames, double bu
         m.B = (sw * sxy - sx * sy) / det;
         m.A = (sy - m.B * sx) / sw;
     }
-    if (!(det > 1e-12 * sw * sxx) || !(m.B > 0.0)) fitTime(k, *closest, *closest, m);
+    if (!(det > 1e-12 * sw * sxx) || !(m.B > 0.0) || m.A < 0.0) fitTime(k, *closest, *closest, m);
+}
+
+/// The frames of one knob without those the machine's load slowed: with three or more frames, a frame more
+/// than 25% slower than the law the other frames fit (fitTimeAll) is left out. Only slow frames are: load
+/// never makes a frame faster. A slowed probe near the budget otherwise outweighed every later frame, and
+/// the corrections circled (a budget of 30 ms met at 9.5 ms after three tries).
+std::vector<Probe> withoutSlowedFrames(const BudgetKnob& k, const std::vector<Probe>& frames,
+                                       double budgetMs) {
+    if (frames.size() < 3) return frames;
+    std::vector<Probe> kept;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+        std::vector<Probe> others;
+        for (std::size_t j = 0; j < frames.size(); ++j)
+            if (j != i) others.push_back(frames[j]);
+        KnobModel law;
+        fitTimeAll(k, others, budgetMs, law);
+        if (!(frames[i].ms > 1.25 * law.timeMs(k, frames[i].v))) kept.push_back(frames[i]);
+    }
+    return kept.size() >= 2 ? kept : frames;
 }
 
 /// The mean of Monte Carlo images weighted by their sample counts: the estimate of all their samples.
@@ -98,6 +119,26 @@ ImageBuffer pooled(const ImageBuffer& a, double na, const ImageBuffer& b, double
     for (std::size_t i = 0; i < m.pixels.size(); ++i)
         m.pixels[i] = float((na * a.pixels[i] + nb * b.pixels[i]) / (na + nb));
     return m;
+}
+
+/// The laws fitted from the probes can be bent by a slowed frame so far that a budget below every frame
+/// looks reachable. When the kept frame is still too slow, each knob's fastest value is measured; if every
+/// one is more than the tolerance over the budget, the budget is refused like an unreachable one.
+void refuseIfFastestTooSlow(VolumeRenderer& r, const std::vector<Scene>& routes,
+                            const std::vector<BudgetKnob>& knobs, double budgetMs, int runs) {
+    std::ostringstream os;
+    os << "render.budget_ms " << budgetMs << " cannot be met within " << fixed(100 * kBudgetTolerance, 0)
+       << "%: the fastest frames take";
+    for (std::size_t i = 0; i < knobs.size(); ++i) {
+        const BudgetKnob& k = knobs[i];
+        Scene s = routes[i];
+        k.set(s, fastEnd(k));
+        const double ms = timeFrames(r, s, runs);
+        if (ms <= (1.0 + kBudgetTolerance) * budgetMs) return;
+        os << (i ? "," : "") << " " << sci(ms) << " ms at " << k.name << " " << value(k, fastEnd(k)) << " ("
+           << k.route << ")";
+    }
+    throw UsageError(os.str() + " (measured)");
 }
 
 } // namespace
@@ -239,7 +280,8 @@ BudgetChoice fitBudget(VolumeRenderer& r, double budgetMs, const std::vector<Bud
         return std::abs(ms - budgetMs) <= 0.05 * budgetMs;
     };
     auto refit = [&] {
-        fitTimeAll(knobs[pick.knob], measured[pick.knob], budgetMs, models[pick.knob]);
+        const BudgetKnob& k = knobs[pick.knob];
+        fitTimeAll(k, withoutSlowedFrames(k, measured[pick.knob], budgetMs), budgetMs, models[pick.knob]);
         try {
             return chooseKnob(knobs, models, budgetMs);
         } catch (const UsageError&) {
@@ -258,6 +300,8 @@ BudgetChoice fitBudget(VolumeRenderer& r, double budgetMs, const std::vector<Bud
         if (next.knob != pick.knob || next.value != pick.value) measure(pick = next);
     }
     const Try best = tries.back();
+    if (best.ms > (1.0 + kBudgetTolerance) * budgetMs)
+        refuseIfFastestTooSlow(r, routes, knobs, budgetMs, runs);
     const BudgetKnob& k = knobs[best.pick.knob];
     const KnobModel& model = models[best.pick.knob];
     Scene chosen = routes[best.pick.knob];

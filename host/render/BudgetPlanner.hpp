@@ -35,12 +35,15 @@ struct KnobPick {
 /// in time of the two whole neighbours).
 KnobPick fitKnob(const BudgetKnob& knob, const KnobModel& model, double budgetMs);
 
+/// How far off the budget a frame may be and still count as meeting it (a fraction of the budget).
+inline constexpr double kBudgetTolerance = 0.2;
+
 /// Each knob's fitted value; the choice is, among those predicted within `aim` of the budget, the one with
 /// the lowest expected error, else the one nearest the budget. Throws UsageError for a budget that is not a
 /// finite number > 0, for no knobs, and when no knob comes within `tolerance` of the budget (the message
 /// gives the frame times each knob spans).
 KnobPick chooseKnob(const std::vector<BudgetKnob>& knobs, const std::vector<KnobModel>& models,
-                    double budgetMs, double aim = 0.1, double tolerance = 0.2);
+                    double budgetMs, double aim = 0.1, double tolerance = kBudgetTolerance);
 
 /// What the planner chose, the prediction, the measured frame and the expected error with its parts.
 struct BudgetChoice {
@@ -58,14 +61,18 @@ struct BudgetChoice {
     };
     std::vector<Frame> probes;      ///< the calibration frames, knob by knob
     std::vector<std::string> notes; ///< the probes, fits and corrective frames, in order
-    bool met(double tolerance = 0.2) const { return std::abs(measuredMs - budgetMs) <= tolerance * budgetMs; }
+    bool met(double tolerance = kBudgetTolerance) const {
+        return std::abs(measuredMs - budgetMs) <= tolerance * budgetMs;
+    }
     std::string text() const;
 };
 
 /// Calibrates every knob (two probe frames each, medians of `runs`), chooses (chooseKnob), then measures the
 /// choice and, while it is more than 5% off, refits the knob's time law to all its frames by weighted least
-/// squares and chooses again (at most three corrections, then the final fit measured once more); the last
-/// measured choice is kept and the renderer is left on it. Throws as chooseKnob does.
+/// squares and chooses again (at most three corrections, then the final fit measured once more; frames the
+/// machine's load slowed are left out of the refit); the last measured choice is kept and the renderer is
+/// left on it. Throws as chooseKnob does, and when the kept frame is over the tolerance and so is every
+/// knob's fastest frame, measured.
 BudgetChoice fitBudget(VolumeRenderer& renderer, double budgetMs, const std::vector<BudgetKnob>& knobs,
                        int runs = 3);
 
