@@ -1,7 +1,9 @@
 // Helpers shared by the test suites: temp dirs, shared-data lookup, one compute context per process.
 #pragma once
 
+#include "host/Error.hpp"
 #include "host/Volume.hpp"
+#include "host/io/VolumeIo.hpp"
 #include "host/render/Scene.hpp"
 #include "host/runtime/ClRuntime.hpp"
 
@@ -14,8 +16,22 @@
 #include <set>
 #include <string>
 #include <string_view>
+#include <typeinfo>
 
 namespace volcl::test {
+
+/// Reading `p` must fail with an IoError whose message names the file.
+inline void expectIoError(const std::filesystem::path& p, const ReadOptions& o = {}) {
+    try {
+        (void)readVolumeFile(p, o);
+        ADD_FAILURE() << "accepted " << p << " (" << std::filesystem::file_size(p) << " bytes)";
+    } catch (const IoError& e) {
+        EXPECT_NE(std::string(e.what()).find(p.filename().string()), std::string::npos)
+            << "message does not name the file: " << e.what();
+    } catch (const std::exception& e) {
+        ADD_FAILURE() << p << ": expected IoError, got " << typeid(e).name() << ": " << e.what();
+    }
+}
 
 /// Fresh empty directory under the build tree for one test.
 inline std::filesystem::path tempDir(const std::string& name) {

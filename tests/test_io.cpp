@@ -142,17 +142,7 @@ void expectRamp(const Volume& v, Dims d) {
 const Dims kRampDims{5, 4, 3};
 
 /// Runs a reader on a file and requires IoError (not a crash, not another exception type).
-void expectIoError(const fs::path& p, const ReadOptions& o = {}) {
-    try {
-        (void)readVolumeFile(p, o);
-        ADD_FAILURE() << "accepted " << p << " (" << fs::file_size(p) << " bytes)";
-    } catch (const IoError& e) {
-        EXPECT_NE(std::string(e.what()).find(p.filename().string()), std::string::npos)
-            << "message does not name the file: " << e.what();
-    } catch (const std::exception& e) {
-        ADD_FAILURE() << p << ": expected IoError, got " << typeid(e).name() << ": " << e.what();
-    }
-}
+using test::expectIoError;
 
 // ---- file name parsing and detection ---------------------------------------------------------------
 
