@@ -263,30 +263,51 @@ __kernel void motion_compensate(__global const float* restrict r0, __global cons
 #endif
 #if REF_TYPE == 0
 typedef uchar ref_t;
-#define REF_CONVERT8 convert_uchar8
-#define REF_LO 0.0f
-#define REF_HI 255.0f
 #elif REF_TYPE == 1
 typedef ushort ref_t;
-#define REF_CONVERT8 convert_ushort8
-#define REF_LO 0.0f
-#define REF_HI 65535.0f
 #elif REF_TYPE == 2
 typedef short ref_t;
-#define REF_CONVERT8 convert_short8
-#define REF_LO -32768.0f
-#define REF_HI 32767.0f
 #else
 typedef float ref_t;
 #endif
 
-/* toVoxel (wavelet/BrickVoxels.hpp) for 8 values: integer types clamp, then round to nearest even; NaN,
-   which the host's clamp passes on and its integer conversion turns into 0, gives 0. Floats unchanged. */
+/* The reconstruction's output voxels, OUT_TYPE (same numbering), default the references' type. A reference
+   moved by a global sub-voxel translation is float while the frame keeps its integer type. */
+#ifndef OUT_TYPE
+#define OUT_TYPE REF_TYPE
+#endif
+#if OUT_TYPE == 0
+typedef uchar out_t;
+#define OUT_CONVERT8 convert_uchar8
+#define OUT_LO 0.0f
+#define OUT_HI 255.0f
+#elif OUT_TYPE == 1
+typedef ushort out_t;
+#define OUT_CONVERT8 convert_ushort8
+#define OUT_LO 0.0f
+#define OUT_HI 65535.0f
+#elif OUT_TYPE == 2
+typedef short out_t;
+#define OUT_CONVERT8 convert_short8
+#define OUT_LO -32768.0f
+#define OUT_HI 32767.0f
+#else
+typedef float out_t;
+#endif
+/* ROUND_PREDICTION 0: the prediction stays float before the residual is added (the codec's float
+   prediction of lossy integer frames); 1: it is rounded to the output type first. */
+#ifndef ROUND_PREDICTION
+#define ROUND_PREDICTION 1
+#endif
+
+/* toVoxel (wavelet/BrickVoxels.hpp) for 8 values of the output type: integer types clamp, then round to
+   nearest even; NaN, which the host's clamp passes on and its integer conversion turns into 0, gives 0.
+   Floats unchanged. */
 inline float8 to_voxel8(float8 v) {
-#if REF_TYPE == 3
+#if OUT_TYPE == 3
     return v;
 #else
-    return select(rint(clamp(v, REF_LO, REF_HI)), (float8)(0.0f), isnan(v));
+    return select(rint(clamp(v, OUT_LO, OUT_HI)), (float8)(0.0f), isnan(v));
 #endif
 }
 
@@ -419,31 +440,37 @@ __kernel void motion_compensate_rows(__global const ref_t* restrict r0, __global
 }
 
 /* The decoder's reconstruction of a P/B frame in one pass, same work-items as motion_compensate_rows: the
-   prediction converted to the voxel type (the codec's rounded prediction, quantisedPrediction), plus the
-   decoded residual, converted again (predictedVoxel in wavelet/predict/Residual.hpp), written as voxels. */
+   prediction converted to the output type (the codec's rounded prediction, quantisedPrediction; kept float
+   with ROUND_PREDICTION 0), plus the decoded residual, converted again (predictedVoxel in
+   wavelet/predict/Residual.hpp), written as voxels of OUT_TYPE. */
 __kernel void motion_reconstruct_rows(__global const ref_t* restrict r0, __global const ref_t* restrict r1,
                                       int4 dims, int4 blocks, int start, __global const uchar* restrict modes,
                                       __global const int4* restrict fwd, __global const int4* restrict bwd,
                                       __global const float* restrict intra, __global const int* restrict first,
                                       __global const float2* restrict weights,
-                                      __global const float* restrict residual, __global ref_t* restrict out) {
+                                      __global const float* restrict residual, __global out_t* restrict out) {
     const int xs = start + 8 * (int)get_global_id(0), y = (int)get_global_id(1), z = (int)get_global_id(2);
     if (xs >= dims.x || y >= dims.y || z >= dims.z) return;
-    const float8 p = to_voxel8(obmc8(r0, r1, dims, blocks, modes, fwd, bwd, intra, first, weights, xs, y, z));
+    const float8 prediction = obmc8(r0, r1, dims, blocks, modes, fwd, bwd, intra, first, weights, xs, y, z);
+#if ROUND_PREDICTION
+    const float8 p = to_voxel8(prediction);
+#else
+    const float8 p = prediction;
+#endif
     const int row = dims.x * (y + dims.y * z);
     __global const float* r = residual + row;
-    __global ref_t* o = out + row;
+    __global out_t* o = out + row;
     if (xs >= 0 && xs + 8 <= dims.x) {
         const float8 v = to_voxel8(p + vload8(0, r + xs));
-#if REF_TYPE == 3
+#if OUT_TYPE == 3
         vstore8(v, 0, o + xs);
 #else
-        vstore8(REF_CONVERT8(v), 0, o + xs);
+        vstore8(OUT_CONVERT8(v), 0, o + xs);
 #endif
     } else {
         for (int i = max(0, -xs); i < 8 && xs + i < dims.x; ++i) {
             const float v = to_voxel8((float8)(p[i] + r[xs + i])).s0;
-            o[xs + i] = (ref_t)v;
+            o[xs + i] = (out_t)v;
         }
     }
 }

@@ -5,7 +5,11 @@
 #include "wavelet/predict/GlobalShift.hpp"
 #include "wavelet/predict/TranslatedSeries.hpp"
 
+#include <array>
 #include <cmath>
+#include <cstring>
+#include <random>
+#include <vector>
 
 using namespace volcl;
 
@@ -16,6 +20,41 @@ Volume smooth(Dims d) {
         return 100 + 40 * std::sin(0.31 * x) * std::cos(0.23 * y) + 30 * std::exp(-0.02 * (z - 9) * (z - 9)) +
                0.5 * x * y / 10;
     });
+}
+
+// The shift written the plain way: every tap clamped, one axis after another over doubles, each voxel's sum
+// 0 + w0 a0 + w1 a1 + w2 a2 + w3 a3 in that order, then rounded to float. cubicShifted must give the same
+// bits (decoders of existing files rebuild the encoder's prediction from it).
+Volume plainShifted(const Volume& v, std::array<double, 3> shift) {
+    const Dims d = v.dims();
+    const std::vector<float> f = v.toFloat();
+    std::vector<double> a(f.begin(), f.end());
+    const std::size_t n[3] = {d.x, d.y, d.z}, stride[3] = {1, d.x, d.x * d.y};
+    for (int axis = 0; axis < 3; ++axis) {
+        if (shift[std::size_t(axis)] == 0) continue;
+        const double start = -shift[std::size_t(axis)], fl = std::floor(start), t = start - fl;
+        auto keys = [](double u) {
+            u = std::abs(u);
+            if (u < 1) return 1.5 * u * u * u - 2.5 * u * u + 1;
+            if (u < 2) return -0.5 * u * u * u + 2.5 * u * u - 4 * u + 2;
+            return 0.0;
+        };
+        const double w[4] = {keys(1 + t), keys(t), keys(1 - t), keys(2 - t)};
+        const std::vector<double> src = a;
+        for (std::size_t i = 0; i < a.size(); ++i) {
+            const std::size_t pos = (i / stride[axis]) % n[axis], rest = i - pos * stride[axis];
+            double acc = 0;
+            for (int k = 0; k < 4; ++k) {
+                const long p = std::clamp<long>(long(pos) + long(fl) - 1 + k, 0, long(n[axis]) - 1);
+                acc += w[k] * src[rest + std::size_t(p) * stride[axis]];
+            }
+            a[i] = acc;
+        }
+    }
+    Volume out(d, ScalarType::Float32);
+    for (std::size_t i = 0; i < a.size(); ++i)
+        out.values<float>()[i] = static_cast<float>(a[i]);
+    return out;
 }
 
 } // namespace
@@ -81,4 +120,50 @@ TEST(GlobalShift, LargeMotionIsClampedToTheStoredRange) {
     const GlobalShift g = estimateGlobalShift(v, v, {100, -100, 0});
     EXPECT_LE(std::abs(int(g.x)), kGlobalShiftMaxVoxels * kGlobalShiftUnits);
     EXPECT_LE(std::abs(int(g.y)), kGlobalShiftMaxVoxels * kGlobalShiftUnits);
+}
+
+// The fast path (rows read as stored, unclamped interiors, the z pass writing floats) against the plain one:
+// every voxel type, lines shorter than the four taps, zero components, shifts past the edge, 1 and 3 threads.
+TEST(GlobalShift, FastShiftGivesThePlainShiftsBits) {
+    std::mt19937 rng(11);
+    const std::array<Dims, 5> dims = {Dims{1, 1, 1}, Dims{2, 3, 5}, Dims{7, 1, 9}, Dims{33, 17, 9},
+                                      Dims{64, 5, 3}};
+    const std::array<std::array<double, 3>, 6> shifts = {{{0, 0, 0},
+                                                          {0.40625, -0.28125, 0.15625},
+                                                          {2.5, -3.75, 0},
+                                                          {-16, 16, 0.03125},
+                                                          {0, 0.5, -0.96875},
+                                                          {40.25, -40.5, 3.0}}};
+    for (const ScalarType type :
+         {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16, ScalarType::Float32})
+        for (const Dims& d : dims) {
+            Volume v(d, type);
+            for (std::size_t i = 0; i < v.voxelCount(); ++i) {
+                const std::uint32_t r = rng();
+                switch (type) {
+                case ScalarType::UInt8:
+                    v.values<std::uint8_t>()[i] = std::uint8_t(r);
+                    break;
+                case ScalarType::UInt16:
+                    v.values<std::uint16_t>()[i] = std::uint16_t(r);
+                    break;
+                case ScalarType::Int16:
+                    v.values<std::int16_t>()[i] = std::int16_t(r);
+                    break;
+                case ScalarType::Float32:
+                    v.values<float>()[i] = float(std::ldexp(double(r) - 2e9, -int(r % 40)));
+                    break;
+                }
+            }
+            for (const auto& s : shifts) {
+                const Volume want = plainShifted(v, s);
+                for (const unsigned threads : {1u, 3u}) {
+                    const Volume got = cubicShifted(v, s, threads);
+                    ASSERT_EQ(got.type(), ScalarType::Float32);
+                    ASSERT_EQ(std::memcmp(got.bytes().data(), want.bytes().data(), want.byteSize()), 0)
+                        << scalarTypeName(type) << " " << d.x << "x" << d.y << "x" << d.z << " shift " << s[0]
+                        << "," << s[1] << "," << s[2] << " threads " << threads;
+                }
+            }
+        }
 }

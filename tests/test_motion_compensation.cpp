@@ -1,12 +1,12 @@
 // Overlapped block motion compensation and motion-field coding: windows sum to 1, kernels against the
 // double references, shifted volumes predicted without seams, mode decision, vector coding round trips.
+#include "TestUtil.hpp"
 #include "host/Error.hpp"
 #include "wavelet/predict/Compensation.hpp"
 #include "wavelet/predict/MotionSearch.hpp"
 #include "wavelet/predict/MotionVectorCoding.hpp"
 #include "wavelet/predict/Residual.hpp"
 #include "wavelet/predict/TranslatedSeries.hpp"
-#include "TestUtil.hpp"
 
 #include <cmath>
 #include <random>
@@ -17,8 +17,8 @@ namespace {
 
 Volume blobs(Dims d, unsigned seed = 5) {
     std::mt19937 rng(seed);
-    std::uniform_real_distribution<double> px(0, double(d.x)), py(0, double(d.y)), pz(0, double(d.z)), rad(2.5, 5),
-        amp(-50, 80);
+    std::uniform_real_distribution<double> px(0, double(d.x)), py(0, double(d.y)), pz(0, double(d.z)),
+        rad(2.5, 5), amp(-50, 80);
     struct B {
         double x, y, z, r2, a;
     };
@@ -30,7 +30,8 @@ Volume blobs(Dims d, unsigned seed = 5) {
     return test::makeFloatVolume(d, [&](double x, double y, double z) {
         double v = 100 + 0.5 * x;
         for (const B& b : bs)
-            v += b.a * std::exp(-((x - b.x) * (x - b.x) + (y - b.y) * (y - b.y) + (z - b.z) * (z - b.z)) / b.r2);
+            v += b.a *
+                 std::exp(-((x - b.x) * (x - b.x) + (y - b.y) * (y - b.y) + (z - b.z) * (z - b.z)) / b.r2);
         return v;
     });
 }
@@ -68,7 +69,8 @@ Prediction predictP(const Volume& cur, const Volume& ref, MotionSearchOptions o 
                 EXPECT_TRUE(std::isinf(kc[b][m]));
                 continue;
             }
-            EXPECT_NEAR(kc[b][m], rc[b][m], 1e-4 * std::max(rc[b][m], 1e-3 * range(cur) * range(cur))) << "block " << b << " mode " << m;
+            EXPECT_NEAR(kc[b][m], rc[b][m], 1e-4 * std::max(rc[b][m], 1e-3 * range(cur) * range(cur)))
+                << "block " << b << " mode " << m;
         }
         EXPECT_NEAR(p.field.intraValue[b], rf.intraValue[b], 1e-5 * range(cur) + 1e-6);
         // Modes agree unless two costs are within the float tolerance.
@@ -158,7 +160,8 @@ TEST(MotionCompensation, ShiftedSmoothVolumeIsPredictedWithoutSeams) {
         e += std::pow(cur.valueAt(i) - p.kernel.valueAt(i), 2);
         e0 += std::pow(cur.valueAt(i) - ts.frames[0].valueAt(i), 2);
     }
-    const double rmse = std::sqrt(e / double(cur.voxelCount())), rmse0 = std::sqrt(e0 / double(cur.voxelCount()));
+    const double rmse = std::sqrt(e / double(cur.voxelCount())),
+                 rmse0 = std::sqrt(e0 / double(cur.voxelCount()));
     EXPECT_LT(rmse, 0.25 * rmse0) << "motion-compensated RMSE " << rmse << " against no motion " << rmse0;
     EXPECT_LT(rmse, 0.01 * range(cur));
     // No seams: the residual next to block faces is no larger than inside blocks.
@@ -211,10 +214,10 @@ TEST(MotionCompensation, BidirectionalPredictionAveragesBothReferences) {
     ModeChoice all{true, true, true, true, true};
     MotionCompensator comp(cc);
     std::vector<ModeCosts> kc, rc;
-    const MotionField f = comp.decideModes(cc, ts.frames[1], ts.frames[0], &ts.frames[2], fwd.grid, fwd.vectors,
-                                           &bwd.vectors, all, &kc);
-    const MotionField r = decideModesReference(ts.frames[1], ts.frames[0], &ts.frames[2], fwd.grid, fwd.vectors,
-                                               &bwd.vectors, all, &rc);
+    const MotionField f = comp.decideModes(cc, ts.frames[1], ts.frames[0], &ts.frames[2], fwd.grid,
+                                           fwd.vectors, &bwd.vectors, all, &kc);
+    const MotionField r = decideModesReference(ts.frames[1], ts.frames[0], &ts.frames[2], fwd.grid,
+                                               fwd.vectors, &bwd.vectors, all, &rc);
     std::size_t agree = 0, bi = 0;
     for (std::size_t b = 0; b < f.modes.size(); ++b) {
         agree += f.modes[b] == r.modes[b];
@@ -236,14 +239,19 @@ namespace {
 
 // A random field over `d` with blocks of `size`: every mode, half-voxel vectors up to 5 voxels (many
 // pointing outside the volume: clamp-to-edge), intra values across the range.
-MotionField randomField(Dims d, std::size_t size, std::mt19937& rng) {
-    std::uniform_int_distribution<int> mode(0, kBlockModeCount - 1), comp10(-10, 10);
+// Random modes, vectors and intra values; with `bidirectional` false only the modes of a P frame (intra,
+// zero, forward) and no backward vectors.
+MotionField randomField(Dims d, std::size_t size, std::mt19937& rng, bool bidirectional = true) {
+    std::uniform_int_distribution<int> mode(0, bidirectional ? kBlockModeCount - 1 : 2), comp10(-10, 10);
     MotionField f;
     f.grid = {d, size};
     for (std::size_t b = 0; b < f.grid.count(); ++b) {
         f.modes.push_back(static_cast<BlockMode>(mode(rng)));
-        f.forward.push_back({std::int16_t(comp10(rng)), std::int16_t(comp10(rng)), std::int16_t(comp10(rng))});
-        f.backward.push_back({std::int16_t(comp10(rng)), std::int16_t(comp10(rng)), std::int16_t(comp10(rng))});
+        f.forward.push_back(
+            {std::int16_t(comp10(rng)), std::int16_t(comp10(rng)), std::int16_t(comp10(rng))});
+        if (bidirectional)
+            f.backward.push_back(
+                {std::int16_t(comp10(rng)), std::int16_t(comp10(rng)), std::int16_t(comp10(rng))});
         f.intraValue.push_back(float(comp10(rng)) * 7.5f);
     }
     return f;
@@ -299,22 +307,46 @@ TEST(MotionCompensation, FusedReconstructionEqualsRoundedPredictionPlusResidual)
         Volume residual(d, ScalarType::Float32);
         for (float& v : residual.values<float>()) {
             const int s = special(rng);
-            v = s == 0 ? 1e6f : s == 1 ? -1e6f : s == 2 && type != ScalarType::Float32 ? NAN : 0.5f * float(halves(rng));
+            v = s == 0                                  ? 1e6f
+                : s == 1                                ? -1e6f
+                : s == 2 && type != ScalarType::Float32 ? NAN
+                                                        : 0.5f * float(halves(rng));
         }
         for (std::size_t size : {4u, 8u, 16u, 32u}) {
             const MotionField f = randomField(d, size, rng);
-            const Volume expected =
-                codec::addResidual(codec::quantisedPrediction(comp.compensate(cc, f, r0, &r1), type), residual, type);
-            const Volume fused = comp.reconstruct(cc, f, r0, &r1, residual);
+            const Volume expected = codec::addResidual(
+                codec::quantisedPrediction(comp.compensate(cc, f, r0, &r1), type), residual, type);
+            const Volume fused = comp.reconstruct(cc, f, r0, &r1, residual, type);
             EXPECT_EQ(fused.type(), type);
             EXPECT_TRUE(fused == expected) << "block size " << size << ", " << scalarTypeName(type);
+            if (type == ScalarType::Float32) continue;
+            // A float reference (moved by a global shift) with frames of the integer type, and a prediction
+            // kept float (lossy integer frames): the host steps those decoders took before, bit for bit.
+            const Volume moved = asType(blobs(d, 13), ScalarType::Float32);
+            const MotionField forwardOnly = randomField(d, size, rng, false);
+            const Volume movedExpected = codec::addResidual(
+                codec::quantisedPrediction(comp.compensate(cc, forwardOnly, moved, nullptr), type), residual,
+                type);
+            const Volume movedFused = comp.reconstruct(cc, forwardOnly, moved, nullptr, residual, type);
+            EXPECT_EQ(movedFused.type(), type);
+            EXPECT_TRUE(movedFused == movedExpected)
+                << "moved reference, block size " << size << ", " << scalarTypeName(type);
+            const Volume floatExpected = codec::addResidual(
+                codec::quantisedPrediction(comp.compensate(cc, f, r0, &r1), ScalarType::Float32), residual,
+                type);
+            const Volume floatFused = comp.reconstruct(cc, f, r0, &r1, residual, type, false);
+            EXPECT_TRUE(floatFused == floatExpected)
+                << "float prediction, block size " << size << ", " << scalarTypeName(type);
         }
     }
     // The residual must be Float32 on the frame's grid.
     const MotionField f = randomField(d, 8, rng);
     const Volume r0 = asType(blobs(d, 13), ScalarType::UInt8);
-    EXPECT_THROW(comp.reconstruct(cc, f, r0, &r0, Volume(d, ScalarType::UInt8)), DataError);
-    EXPECT_THROW(comp.reconstruct(cc, f, r0, &r0, Volume({45, 27, 18}, ScalarType::Float32)), DataError);
+    EXPECT_THROW(comp.reconstruct(cc, f, r0, &r0, Volume(d, ScalarType::UInt8), ScalarType::UInt8),
+                 DataError);
+    EXPECT_THROW(
+        comp.reconstruct(cc, f, r0, &r0, Volume({45, 27, 18}, ScalarType::Float32), ScalarType::UInt8),
+        DataError);
 }
 
 TEST(MotionCompensation, BadFieldsAreRefused) {
@@ -339,8 +371,8 @@ TEST(MotionCompensation, BadFieldsAreRefused) {
 TEST(MotionVectorCoding, MedianPredictorUsesLeftUpFront) {
     const Dims blocks{3, 3, 3};
     std::vector<MotionVector> v(27);
-    v[13 - 1] = {4, 0, -2}; // left of the centre block
-    v[13 - 3] = {2, 6, -2}; // up
+    v[13 - 1] = {4, 0, -2};  // left of the centre block
+    v[13 - 3] = {2, 6, -2};  // up
     v[13 - 9] = {-8, 2, 10}; // front
     EXPECT_EQ(medianPredictor(v, blocks, 13), (MotionVector{2, 2, -2}));
     EXPECT_EQ(medianPredictor(v, blocks, 0), MotionVector{}); // no neighbours: zero
@@ -359,7 +391,8 @@ TEST(MotionVectorCoding, FieldsRoundTripCompactly) {
             f.modes.push_back(static_cast<BlockMode>(mode(rng)));
             f.forward.push_back({std::int16_t(comp(rng)), std::int16_t(comp(rng)), std::int16_t(comp(rng))});
             if (bidirectional)
-                f.backward.push_back({std::int16_t(comp(rng)), std::int16_t(comp(rng)), std::int16_t(comp(rng))});
+                f.backward.push_back(
+                    {std::int16_t(comp(rng)), std::int16_t(comp(rng)), std::int16_t(comp(rng))});
             f.intraValue.push_back(float(comp(rng)) * 1.37f);
         }
         const std::vector<std::uint8_t> bytes = encodeMotionField(f);

@@ -1,4 +1,5 @@
-// Overlapped block motion compensation: windows, axis weights, mode decision and compensation (reference, OpenCL).
+// Overlapped block motion compensation: windows, axis weights, mode decision and compensation (reference,
+// OpenCL).
 #include "wavelet/predict/Compensation.hpp"
 
 #include "host/Error.hpp"
@@ -15,7 +16,9 @@ namespace volcl {
 
 namespace {
 
-int halfFloor(int h) { return (h - (h & 1)) / 2; }
+int halfFloor(int h) {
+    return (h - (h & 1)) / 2;
+}
 
 // The reference frames as float samples with their dims, for the references' inner loops.
 struct Frame {
@@ -26,9 +29,12 @@ struct Frame {
     // Trilinear sample at voxel p displaced by v half voxels: the mean of the 8 clamped corners.
     double sample(int px, int py, int pz, MotionVector m) const {
         const int hx = 2 * px + m.x, hy = 2 * py + m.y, hz = 2 * pz + m.z;
-        const int xs[2] = {std::clamp(halfFloor(hx), 0, int(d.x) - 1), std::clamp(halfFloor(hx) + (hx & 1), 0, int(d.x) - 1)};
-        const int ys[2] = {std::clamp(halfFloor(hy), 0, int(d.y) - 1), std::clamp(halfFloor(hy) + (hy & 1), 0, int(d.y) - 1)};
-        const int zs[2] = {std::clamp(halfFloor(hz), 0, int(d.z) - 1), std::clamp(halfFloor(hz) + (hz & 1), 0, int(d.z) - 1)};
+        const int xs[2] = {std::clamp(halfFloor(hx), 0, int(d.x) - 1),
+                           std::clamp(halfFloor(hx) + (hx & 1), 0, int(d.x) - 1)};
+        const int ys[2] = {std::clamp(halfFloor(hy), 0, int(d.y) - 1),
+                           std::clamp(halfFloor(hy) + (hy & 1), 0, int(d.y) - 1)};
+        const int zs[2] = {std::clamp(halfFloor(hz), 0, int(d.z) - 1),
+                           std::clamp(halfFloor(hz) + (hz & 1), 0, int(d.z) - 1)};
         double s = 0;
         for (int c = 0; c < 8; ++c)
             s += at(std::size_t(xs[c & 1]), std::size_t(ys[(c >> 1) & 1]), std::size_t(zs[c >> 2]));
@@ -54,7 +60,8 @@ double predictVoxel(BlockMode mode, const Frame& r0, const Frame* r1, int x, int
 }
 
 void checkInputs(const Volume& current, const Volume& r0, const Volume* r1, BlockGrid grid,
-                 const std::vector<MotionVector>& forward, const std::vector<MotionVector>* backward, ModeChoice choice) {
+                 const std::vector<MotionVector>& forward, const std::vector<MotionVector>* backward,
+                 ModeChoice choice) {
     if (current.dims() != r0.dims() || (r1 && r1->dims() != r0.dims()) || grid.volume != r0.dims())
         throw DataError("motion compensation: frames and block grid differ in dims");
     if (forward.size() != grid.count() || (backward && backward->size() != grid.count()))
@@ -72,7 +79,8 @@ void checkField(const MotionField& field, const Volume& r0, const Volume* r1) {
         (field.bidirectional() && field.backward.size() != n))
         throw DataError("motion compensation: the motion field is incomplete");
     for (BlockMode m : field.modes) {
-        if (static_cast<int>(m) >= kBlockModeCount) throw DataError("motion compensation: unknown block mode");
+        if (static_cast<int>(m) >= kBlockModeCount)
+            throw DataError("motion compensation: unknown block mode");
         if ((m == BlockMode::Backward || m == BlockMode::Bidirectional) && (!r1 || !field.bidirectional()))
             throw DataError("motion compensation: a backward mode needs a second reference");
     }
@@ -112,7 +120,9 @@ AxisWeights axisWeights(std::size_t n, std::size_t blockSize) {
     a.first.resize(n);
     a.w0.resize(n);
     a.w1.resize(n);
-    auto window = [&](std::size_t b, std::size_t x) { return overlapWindow(blockSize, o, x + o - b * blockSize); };
+    auto window = [&](std::size_t b, std::size_t x) {
+        return overlapWindow(blockSize, o, x + o - b * blockSize);
+    };
     for (std::size_t x = 0; x < n; ++x) {
         const std::size_t own = x / blockSize, offset = x - own * blockSize;
         std::size_t lo = own;
@@ -169,7 +179,8 @@ MotionField decideModesReference(const Volume& current, const Volume& reference0
         for (std::size_t by = 0; by < nb.y; ++by)
             for (std::size_t bx = 0; bx < nb.x; ++bx, ++b) {
                 const std::size_t x0 = bx * B, y0 = by * B, z0 = bz * B;
-                const std::size_t x1 = std::min(d.x, x0 + B), y1 = std::min(d.y, y0 + B), z1 = std::min(d.z, z0 + B);
+                const std::size_t x1 = std::min(d.x, x0 + B), y1 = std::min(d.y, y0 + B),
+                                  z1 = std::min(d.z, z0 + B);
                 double sum = 0;
                 for (std::size_t z = z0; z < z1; ++z)
                     for (std::size_t y = y0; y < y1; ++y)
@@ -186,9 +197,9 @@ MotionField decideModesReference(const Volume& current, const Volume& reference0
                     for (std::size_t z = z0; z < z1; ++z)
                         for (std::size_t y = y0; y < y1; ++y)
                             for (std::size_t x = x0; x < x1; ++x) {
-                                const double p = predictVoxel(mode, r0, r1.get(), int(x), int(y), int(z), forward[b],
-                                                              backward ? (*backward)[b] : MotionVector{},
-                                                              double(f.intraValue[b]));
+                                const double p = predictVoxel(
+                                    mode, r0, r1.get(), int(x), int(y), int(z), forward[b],
+                                    backward ? (*backward)[b] : MotionVector{}, double(f.intraValue[b]));
                                 const double diff = cur.at(x, y, z) - p;
                                 e += diff * diff;
                             }
@@ -223,7 +234,8 @@ Volume compensateReference(const MotionField& field, const Volume& reference0, c
                     const std::size_t b = std::size_t(ax.first[x] + (c & 1)) +
                                           nb.x * (std::size_t(ay.first[y] + ((c >> 1) & 1)) +
                                                   nb.y * std::size_t(az.first[z] + (c >> 2)));
-                    p += w * predictVoxel(field.modes[b], r0, r1.get(), int(x), int(y), int(z), field.forward[b],
+                    p += w * predictVoxel(field.modes[b], r0, r1.get(), int(x), int(y), int(z),
+                                          field.forward[b],
                                           field.bidirectional() ? field.backward[b] : MotionVector{},
                                           double(field.intraValue[b]));
                 }
@@ -243,7 +255,9 @@ std::vector<cl_int4> packVectors(const std::vector<MotionVector>& v, std::size_t
     return out;
 }
 
-cl_int4 dims4(Dims d) { return {{cl_int(d.x), cl_int(d.y), cl_int(d.z), 0}}; }
+cl_int4 dims4(Dims d) {
+    return {{cl_int(d.x), cl_int(d.y), cl_int(d.z), 0}};
+}
 
 // A read-only device view of a volume's voxels in its host memory (CL_MEM_USE_HOST_PTR: no copy on CPU
 // devices). The kernels only read it, so the const volume is not changed.
@@ -314,19 +328,33 @@ MotionCompensator::MotionCompensator(ComputeContext& cc) {
     compensateKernel_ = cc.kernel("motion.cl", "motion_compensate");
 }
 
-MotionCompensator::RowKernels& MotionCompensator::rowKernels(ComputeContext& cc, ScalarType type) {
-    std::optional<RowKernels>& k = rowKernels_[static_cast<std::size_t>(type)];
+cl::Kernel& MotionCompensator::compensateRows(ComputeContext& cc, ScalarType type) {
+    std::optional<cl::Kernel>& k = compensateRows_[static_cast<std::size_t>(type)];
     if (!k) {
         KernelDefines d;
         d.set("REF_TYPE", static_cast<int>(type)); // the kernel's ref_t follows ScalarType's order
-        k = RowKernels{cc.kernel("motion.cl", "motion_compensate_rows", d),
-                       cc.kernel("motion.cl", "motion_reconstruct_rows", d)};
+        k = cc.kernel("motion.cl", "motion_compensate_rows", d);
     }
     return *k;
 }
 
-MotionField MotionCompensator::decideModes(ComputeContext& cc, const Volume& current, const Volume& reference0,
-                                           const Volume* reference1, BlockGrid grid,
+cl::Kernel& MotionCompensator::reconstructRows(ComputeContext& cc, ScalarType type, ScalarType frameType,
+                                               bool roundPrediction) {
+    const std::size_t key = (static_cast<std::size_t>(type) * 4 + static_cast<std::size_t>(frameType)) * 2 +
+                            (roundPrediction ? 1 : 0);
+    std::optional<cl::Kernel>& k = reconstructRows_[key];
+    if (!k) {
+        KernelDefines d;
+        d.set("REF_TYPE", static_cast<int>(type));
+        d.set("OUT_TYPE", static_cast<int>(frameType));
+        d.set("ROUND_PREDICTION", roundPrediction ? 1 : 0);
+        k = cc.kernel("motion.cl", "motion_reconstruct_rows", d);
+    }
+    return *k;
+}
+
+MotionField MotionCompensator::decideModes(ComputeContext& cc, const Volume& current,
+                                           const Volume& reference0, const Volume* reference1, BlockGrid grid,
                                            const std::vector<MotionVector>& forward,
                                            const std::vector<MotionVector>* backward, ModeChoice choice,
                                            std::vector<ModeCosts>* costs) {
@@ -334,15 +362,17 @@ MotionField MotionCompensator::decideModes(ComputeContext& cc, const Volume& cur
     const std::size_t n = grid.count();
     const std::vector<float> cur = current.toFloat(), r0 = reference0.toFloat();
     const std::vector<float> r1 = reference1 ? reference1->toFloat() : std::vector<float>(1, 0.0f);
-    auto curB = cc.upload(cur, CL_MEM_READ_ONLY), r0B = cc.upload(r0, CL_MEM_READ_ONLY), r1B = cc.upload(r1, CL_MEM_READ_ONLY);
+    auto curB = cc.upload(cur, CL_MEM_READ_ONLY), r0B = cc.upload(r0, CL_MEM_READ_ONLY),
+         r1B = cc.upload(r1, CL_MEM_READ_ONLY);
     auto fwdB = cc.upload(packVectors(forward, n), CL_MEM_READ_ONLY);
-    auto bwdB = cc.upload(packVectors(backward ? *backward : std::vector<MotionVector>{}, n), CL_MEM_READ_ONLY);
+    auto bwdB =
+        cc.upload(packVectors(backward ? *backward : std::vector<MotionVector>{}, n), CL_MEM_READ_ONLY);
     auto costB = cc.allocate<cl_float>(n * kBlockModeCount);
     auto meanB = cc.allocate<cl_float>(n);
     const cl_int modeMask = (choice.intra ? 1 : 0) | (choice.zero ? 2 : 0) | (choice.forward ? 4 : 0) |
                             (choice.backward ? 8 : 0) | (choice.bidirectional ? 16 : 0);
-    setArgs(costsKernel_, curB, r0B, r1B, dims4(grid.volume), cl_int(grid.size), dims4(grid.blocks()), fwdB, bwdB,
-            modeMask, costB, meanB);
+    setArgs(costsKernel_, curB, r0B, r1B, dims4(grid.volume), cl_int(grid.size), dims4(grid.blocks()), fwdB,
+            bwdB, modeMask, costB, meanB);
     kernelMs_ = eventMilliseconds(cc.launch1d(costsKernel_, n, 16));
     const std::vector<float> c = cc.download(costB), means = cc.download(meanB);
     MotionField f;
@@ -355,7 +385,8 @@ MotionField MotionCompensator::decideModes(ComputeContext& cc, const Volume& cur
     for (std::size_t b = 0; b < n; ++b) {
         ModeCosts mc;
         for (int m = 0; m < kBlockModeCount; ++m)
-            mc[m] = (modeMask >> m) & 1 ? double(c[b * kBlockModeCount + m]) : std::numeric_limits<double>::infinity();
+            mc[m] = (modeMask >> m) & 1 ? double(c[b * kBlockModeCount + m])
+                                        : std::numeric_limits<double>::infinity();
         f.modes[b] = cheapestMode(mc);
         if (costs) (*costs)[b] = mc;
     }
@@ -375,16 +406,17 @@ Volume MotionCompensator::compensate(ComputeContext& cc, const MotionField& fiel
         // The references as they are (no float copy), in host memory the device works in.
         const DeviceBuffer<std::byte> r0B = wrapVoxels(cc, reference0),
                                       r1B = reference1 ? wrapVoxels(cc, *reference1) : r0B;
-        cl::Kernel& k = rowKernels(cc, reference0.type()).compensate;
-        setArgs(k, r0B, r1B, dims4(d), dims4(field.grid.blocks()), rowStart(field.grid.size), fb.modes, fb.fwd,
-                fb.bwd, fb.intra, fb.first, fb.weights, outB);
+        cl::Kernel& k = compensateRows(cc, reference0.type());
+        setArgs(k, r0B, r1B, dims4(d), dims4(field.grid.blocks()), rowStart(field.grid.size), fb.modes,
+                fb.fwd, fb.bwd, fb.intra, fb.first, fb.weights, outB);
         kernelMs_ = eventMilliseconds(cc.launch3d(k, rowGroups(d.x, field.grid.size), d.y, d.z, 16, 1, 1));
     } else {
         // Blocks below 8: one work-item per voxel on float copies of the references (8 voxels along x span
         // more than a block and its neighbour there).
         std::vector<float> r0 = reference0.toFloat();
         std::vector<float> r1 = reference1 ? reference1->toFloat() : std::vector<float>(1, 0.0f);
-        auto r0B = cc.wrapHost(std::span(r0), CL_MEM_READ_ONLY), r1B = cc.wrapHost(std::span(r1), CL_MEM_READ_ONLY);
+        auto r0B = cc.wrapHost(std::span(r0), CL_MEM_READ_ONLY),
+             r1B = cc.wrapHost(std::span(r1), CL_MEM_READ_ONLY);
         setArgs(compensateKernel_, r0B, r1B, dims4(d), dims4(field.grid.blocks()), fb.modes, fb.fwd, fb.bwd,
                 fb.intra, fb.first, fb.weights, outB);
         kernelMs_ = eventMilliseconds(cc.launch3d(compensateKernel_, d.x, d.y, d.z, 32, 8, 2));
@@ -395,13 +427,15 @@ Volume MotionCompensator::compensate(ComputeContext& cc, const MotionField& fiel
 }
 
 Volume MotionCompensator::reconstruct(ComputeContext& cc, const MotionField& field, const Volume& reference0,
-                                      const Volume* reference1, const Volume& residual) {
+                                      const Volume* reference1, const Volume& residual, ScalarType frameType,
+                                      bool roundPrediction) {
     checkField(field, reference0, reference1);
     if (residual.dims() != reference0.dims() || residual.type() != ScalarType::Float32)
         throw DataError("motion compensation: the residual must be Float32 on the reference's grid");
-    const ScalarType type = reference0.type();
+    const ScalarType type = frameType;
     if (field.grid.size < 8)
-        return codec::addResidual(codec::quantisedPrediction(compensate(cc, field, reference0, reference1), type),
+        return codec::addResidual(codec::quantisedPrediction(compensate(cc, field, reference0, reference1),
+                                                             roundPrediction ? type : ScalarType::Float32),
                                   residual, type);
     const Dims d = field.grid.volume;
     const FieldBuffers fb(cc, field);
@@ -412,9 +446,9 @@ Volume MotionCompensator::reconstruct(ComputeContext& cc, const MotionField& fie
                                   r1B = reference1 ? wrapVoxels(cc, *reference1) : r0B,
                                   resB = wrapVoxels(cc, residual);
     auto outB = cc.wrapHost(out.bytes());
-    cl::Kernel& k = rowKernels(cc, type).reconstruct;
-    setArgs(k, r0B, r1B, dims4(d), dims4(field.grid.blocks()), rowStart(field.grid.size), fb.modes, fb.fwd, fb.bwd,
-            fb.intra, fb.first, fb.weights, resB, outB);
+    cl::Kernel& k = reconstructRows(cc, reference0.type(), type, roundPrediction);
+    setArgs(k, r0B, r1B, dims4(d), dims4(field.grid.blocks()), rowStart(field.grid.size), fb.modes, fb.fwd,
+            fb.bwd, fb.intra, fb.first, fb.weights, resB, outB);
     kernelMs_ = eventMilliseconds(cc.launch3d(k, rowGroups(d.x, field.grid.size), d.y, d.z, 16, 1, 1));
     // Mapping makes the kernel's writes visible in `out`.
     BatchMapping<std::uint8_t> visible(cc.queue(), outB.get(), out.byteSize(), CL_MAP_READ);

@@ -1,4 +1,5 @@
-// Overlapped block motion compensation (raised-cosine windows), per-block mode decision, C++ reference and OpenCL.
+// Overlapped block motion compensation (raised-cosine windows), per-block mode decision, C++ reference and
+// OpenCL.
 #pragma once
 
 #include "host/Volume.hpp"
@@ -12,7 +13,9 @@
 namespace volcl {
 
 /// Overlap on each side of a block: a quarter of the block (8^3 blocks get 12^3 windows).
-constexpr std::size_t overlapFor(std::size_t blockSize) noexcept { return blockSize / 4; }
+constexpr std::size_t overlapFor(std::size_t blockSize) noexcept {
+    return blockSize / 4;
+}
 
 /// The 1D raised-cosine window of a block of `blockSize` voxels with `overlap` voxels on each side, at
 /// window sample t in [0, blockSize + 2 overlap): 1 in the middle, 0.5 (1 - cos(pi (t + 1/2) / (2 overlap)))
@@ -61,27 +64,32 @@ class MotionCompensator {
 public:
     explicit MotionCompensator(ComputeContext& cc);
     MotionField decideModes(ComputeContext& cc, const Volume& current, const Volume& reference0,
-                            const Volume* reference1, BlockGrid grid, const std::vector<MotionVector>& forward,
+                            const Volume* reference1, BlockGrid grid,
+                            const std::vector<MotionVector>& forward,
                             const std::vector<MotionVector>* backward, ModeChoice choice,
                             std::vector<ModeCosts>* costs = nullptr);
     /// The prediction (Float32). The references are read in their own voxel type.
-    Volume compensate(ComputeContext& cc, const MotionField& field, const Volume& reference0, const Volume* reference1);
-    /// The decoder's frame, of the references' type: the prediction rounded to that type
-    /// (quantisedPrediction) plus `residual` (Float32, the frame's dims), voxel by voxel as predictedVoxel
-    /// (wavelet/predict/Residual.hpp), in one kernel pass for blocks of 8 or more.
+    Volume compensate(ComputeContext& cc, const MotionField& field, const Volume& reference0,
+                      const Volume* reference1);
+    /// The decoder's frame, of type `frameType`: the prediction rounded to that type (quantisedPrediction;
+    /// with roundPrediction false it stays float) plus `residual` (Float32, the frame's dims), voxel by voxel
+    /// as predictedVoxel (wavelet/predict/Residual.hpp), in one kernel pass for blocks of 8 or more. The
+    /// references may be of another type than the frame (a Float32 reference moved by a global shift).
     Volume reconstruct(ComputeContext& cc, const MotionField& field, const Volume& reference0,
-                       const Volume* reference1, const Volume& residual);
+                       const Volume* reference1, const Volume& residual, ScalarType frameType,
+                       bool roundPrediction = true);
     double lastKernelMilliseconds() const noexcept { return kernelMs_; }
 
 private:
-    /// The row kernels for references of `type` (built on first use).
-    struct RowKernels {
-        cl::Kernel compensate, reconstruct;
-    };
-    RowKernels& rowKernels(ComputeContext& cc, ScalarType type);
+    /// The row compensation kernel for references of `type`, and the reconstruction kernel for references
+    /// of `type`, frames of `frameType`, prediction rounded or not (each built on first use).
+    cl::Kernel& compensateRows(ComputeContext& cc, ScalarType type);
+    cl::Kernel& reconstructRows(ComputeContext& cc, ScalarType type, ScalarType frameType,
+                                bool roundPrediction);
 
     cl::Kernel costsKernel_, compensateKernel_;
-    std::array<std::optional<RowKernels>, 4> rowKernels_; // indexed by ScalarType
+    std::array<std::optional<cl::Kernel>, 4> compensateRows_;   // indexed by ScalarType
+    std::array<std::optional<cl::Kernel>, 32> reconstructRows_; // indexed by (type, frame type, rounding)
     double kernelMs_ = 0;
 };
 

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 namespace volcl {
 
@@ -53,76 +54,165 @@ bool solve3(const double a[3][3], const double b[3], double x[3]) {
     return true;
 }
 
+
+// The four Keys taps of a shift: out(i) = sum over t of w[t] in(clamp(i + base - 1 + t)).
+struct KeysTaps {
+    std::array<double, 4> w;
+    long base;
+};
+
+KeysTaps keysTaps(double shift) {
+    const double start = -shift;
+    const double fl = std::floor(start);
+    return {keysWeights(start - fl), static_cast<long>(fl)};
+}
+
+// One line of n samples shifted from `in` to `out` (distinct). Every output is 0 + w0 a0 + w1 a1 + w2 a2 +
+// w3 a3 in that order, on the clamped edges and in the interior alike; the interior (every tap inside the
+// line) needs no clamp and vectorises.
+void shiftLine(const double* in, double* out, std::size_t n, const KeysTaps& k) {
+    const long len = long(n);
+    const long lo = std::clamp<long>(1 - k.base, 0, len), hi = std::clamp<long>(len - 2 - k.base, lo, len);
+    auto clamped = [&](long i) {
+        double acc = 0;
+        for (int t = 0; t < 4; ++t)
+            acc += k.w[std::size_t(t)] * in[std::clamp<long>(i + k.base - 1 + t, 0, len - 1)];
+        out[i] = acc;
+    };
+    for (long i = 0; i < lo; ++i)
+        clamped(i);
+    const double w0 = k.w[0], w1 = k.w[1], w2 = k.w[2], w3 = k.w[3];
+    const long b = k.base - 1;
+    for (long i = lo; i < hi; ++i) {
+        double acc = 0;
+        acc += w0 * in[i + b];
+        acc += w1 * in[i + b + 1];
+        acc += w2 * in[i + b + 2];
+        acc += w3 * in[i + b + 3];
+        out[i] = acc;
+    }
+    for (long i = hi; i < len; ++i)
+        clamped(i);
+}
+
+// Rows of x: out[x] = 0 + w0 src0[x] + w1 src1[x] + w2 src2[x] + w3 src3[x] (the y and z passes).
+template <class Out>
+void blendRows(Out* out, const double* const src[4], const std::array<double, 4>& w, std::size_t n) {
+    const double w0 = w[0], w1 = w[1], w2 = w[2], w3 = w[3];
+    const double *s0 = src[0], *s1 = src[1], *s2 = src[2], *s3 = src[3];
+    for (std::size_t x = 0; x < n; ++x) {
+        double acc = 0;
+        acc += w0 * s0[x];
+        acc += w1 * s1[x];
+        acc += w2 * s2[x];
+        acc += w3 * s3[x];
+        out[x] = static_cast<Out>(acc);
+    }
+}
+
+// Row r (y + z * dims.y) of `v` as doubles: every voxel type converts exactly.
+void rowAsDoubles(const Volume& v, std::size_t r, double* out) {
+    const std::size_t n = v.dims().x, first = r * n;
+    auto convert = [&](auto values) {
+        for (std::size_t i = 0; i < n; ++i)
+            out[i] = static_cast<double>(values[first + i]);
+    };
+    switch (v.type()) {
+    case ScalarType::UInt8:
+        return convert(v.values<std::uint8_t>());
+    case ScalarType::UInt16:
+        return convert(v.values<std::uint16_t>());
+    case ScalarType::Int16:
+        return convert(v.values<std::int16_t>());
+    case ScalarType::Float32:
+        return convert(v.values<float>());
+    }
+}
+
+
+// The y pass in place: each z slice is copied aside (small), then its rows are blended from the copy.
+void shiftRowsAlongY(double* v, Dims d, double shift, unsigned threads) {
+    if (shift == 0) return;
+    const KeysTaps k = keysTaps(shift);
+    const std::size_t rowLen = d.x, plane = d.x * d.y;
+    parallelFor(d.z, threads, [&](std::size_t z) {
+        thread_local std::vector<double> slice;
+        double* p = v + z * plane;
+        slice.assign(p, p + plane);
+        for (std::size_t y = 0; y < d.y; ++y) {
+            const double* src[4];
+            for (int t = 0; t < 4; ++t)
+                src[t] = slice.data() +
+                         std::size_t(std::clamp<long>(long(y) + k.base - 1 + t, 0, long(d.y) - 1)) * rowLen;
+            blendRows(p + y * rowLen, src, k.w, rowLen);
+        }
+    });
+}
+
+// The rows of z slices blended from `src` into `out` (which may be float): out(z) = sum w[t] src(z + taps).
+template <class Out>
+void shiftRowsAlongZ(const double* src, Out* out, Dims d, double shift, unsigned threads) {
+    const KeysTaps k = keysTaps(shift);
+    const std::size_t rowLen = d.x, plane = d.x * d.y;
+    parallelFor(d.z * d.y, threads, [&](std::size_t r) {
+        const std::size_t z = r / d.y, y = r % d.y;
+        const double* taps[4];
+        for (int t = 0; t < 4; ++t)
+            taps[t] = src +
+                      std::size_t(std::clamp<long>(long(z) + k.base - 1 + t, 0, long(d.z) - 1)) * plane +
+                      y * rowLen;
+        blendRows(out + r * rowLen, taps, k.w, rowLen);
+    });
+}
+
 } // namespace
 
 void keysShiftAxis(std::vector<double>& v, Dims d, int axis, double shift, unsigned threads) {
     if (shift == 0) return;
-    const std::size_t n = axis == 0 ? d.x : axis == 1 ? d.y : d.z;
-    const double start = -shift;
-    const double fl = std::floor(start);
-    const std::array<double, 4> w = keysWeights(start - fl);
-    const long base = static_cast<long>(fl);
-    auto tap = [&](std::size_t i, int t) {
-        return std::size_t(std::clamp<long>(long(i) + base - 1 + t, 0, long(n) - 1));
-    };
-    // Every output voxel is 0 + w0 a0 + w1 a1 + w2 a2 + w3 a3 in that order on every path. Along x each row
-    // is a line; along y and z whole rows of the source are weighted and added (contiguous, vectorised).
     if (axis == 0) {
+        const KeysTaps k = keysTaps(shift);
         parallelFor(d.y * d.z, threads, [&](std::size_t r) {
             thread_local std::vector<double> line;
             double* row = v.data() + r * d.x;
             line.assign(row, row + d.x);
-            for (std::size_t i = 0; i < n; ++i) {
-                double acc = 0;
-                for (int t = 0; t < 4; ++t)
-                    acc += w[std::size_t(t)] * line[tap(i, t)];
-                row[i] = acc;
-            }
+            shiftLine(line.data(), row, d.x, k);
         });
-        return;
+    } else if (axis == 1) {
+        shiftRowsAlongY(v.data(), d, shift, threads);
+    } else {
+        const std::vector<double> copy = v;
+        shiftRowsAlongZ(copy.data(), v.data(), d, shift, threads);
     }
-    const std::size_t rowLen = d.x, plane = d.x * d.y;
-    auto blend = [&](double* out, const double* const src[4]) {
-        for (std::size_t x = 0; x < rowLen; ++x)
-            out[x] = 0;
-        for (int t = 0; t < 4; ++t) {
-            const double wt = w[std::size_t(t)];
-            const double* s = src[t];
-            for (std::size_t x = 0; x < rowLen; ++x)
-                out[x] += wt * s[x];
-        }
-    };
-    if (axis == 1) {
-        parallelFor(d.z, threads, [&](std::size_t z) {
-            thread_local std::vector<double> slice;
-            double* p = v.data() + z * plane;
-            slice.assign(p, p + plane);
-            for (std::size_t y = 0; y < d.y; ++y) {
-                const double* src[4];
-                for (int t = 0; t < 4; ++t)
-                    src[t] = slice.data() + tap(y, t) * rowLen;
-                blend(p + y * rowLen, src);
-            }
-        });
-        return;
-    }
-    const std::vector<double> copy = v;
-    parallelFor(d.z * d.y, threads, [&](std::size_t r) {
-        const std::size_t z = r / d.y, y = r % d.y;
-        const double* src[4];
-        for (int t = 0; t < 4; ++t)
-            src[t] = copy.data() + tap(z, t) * plane + y * rowLen;
-        blend(v.data() + z * plane + y * rowLen, src);
-    });
 }
 
+// The same arithmetic as converting to doubles and calling keysShiftAxis for x, y and z, then rounding to
+// float, with two passes fewer: the x pass reads the voxels as they are stored, and the z pass writes the
+// rounded floats, so neither a converted copy nor the z pass's in-place copy is made.
 Volume cubicShifted(const Volume& v, std::array<double, 3> shift, unsigned threads) {
-    std::vector<double> s = asDoubles(v);
-    shiftAll(s, v.dims(), shift, threads);
-    Volume out(v.dims(), ScalarType::Float32);
-    auto o = out.values<float>();
-    for (std::size_t i = 0; i < s.size(); ++i)
-        o[i] = static_cast<float>(s[i]);
+    const Dims d = v.dims();
+    const std::size_t rowLen = d.x;
+    // Every element is written by the x pass: no zero fill.
+    const std::unique_ptr<double[]> buffer(new double[d.count()]);
+    double* const s = buffer.get();
+    const KeysTaps kx = keysTaps(shift[0]);
+    parallelFor(d.y * d.z, threads, [&](std::size_t r) {
+        double* row = s + r * rowLen;
+        if (shift[0] == 0) return rowAsDoubles(v, r, row);
+        thread_local std::vector<double> line;
+        line.resize(rowLen);
+        rowAsDoubles(v, r, line.data());
+        shiftLine(line.data(), row, rowLen, kx);
+    });
+    shiftRowsAlongY(s, d, shift[1], threads);
+    Volume out(d, ScalarType::Float32);
+    float* o = out.values<float>().data();
+    if (shift[2] == 0)
+        parallelFor(d.z * d.y, threads, [&](std::size_t r) {
+            for (std::size_t x = 0; x < rowLen; ++x)
+                o[r * rowLen + x] = static_cast<float>(s[r * rowLen + x]);
+        });
+    else
+        shiftRowsAlongZ(s, o, d, shift[2], threads);
     out.spacing = v.spacing;
     out.origin = v.origin;
     return out;

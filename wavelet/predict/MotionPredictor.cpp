@@ -190,16 +190,10 @@ public:
         const BlockGrid grid{signal.dims(), std::size_t(1) << log2Block};
         const MotionField field = decodeMotionField(side.subspan(shifted ? 7 : 1), grid, "motion data");
         if (!compensator_) compensator_.emplace(cc);
-        // The fused kernel rounds the prediction to the frame's type and reads the references as stored;
-        // a shifted reference or a float prediction takes the host steps (the same bits either way).
-        if (!moved && !floatPrediction) {
-            signal = compensator_->reconstruct(cc, field, r0, r1, signal);
-            return;
-        }
-        const Volume prediction =
-            quantisedPrediction(compensator_->compensate(cc, field, moved ? *moved : r0, r1),
-                                floatPrediction ? ScalarType::Float32 : r0.type());
-        signal = addResidual(prediction, signal, r0.type());
+        // One kernel pass: the references read as stored (a shifted one as Float32), the prediction rounded
+        // to the frame's type unless it is a float prediction, the residual added, voxels written.
+        signal = compensator_->reconstruct(cc, field, moved ? *moved : r0, r1, signal, r0.type(),
+                                           !floatPrediction);
     }
 
     bool usesReferences() const noexcept override { return true; }
