@@ -139,7 +139,8 @@ TimeSeries readDense(const fs::path& path, const ReadOptions& options) {
     openvdb::CoordBBox box;
     const auto dimsMeta = base->getMetadata<openvdb::Vec3IMetadata>("volcl:dims");
     const auto minMeta = base->getMetadata<openvdb::Vec3IMetadata>("volcl:indexMin");
-    // Serial on purpose: this runs in a forked child where TBB's worker pool must not be used.
+    // Serial on purpose: this runs in the reader program, whose address space is capped (VdbReaderMain.cpp),
+    // and TBB's worker threads would each reserve a stack inside the cap.
     openvdb::CoordBBox active;
     auto expand = [&](const auto& grid) {
         for (auto it = grid.cbeginValueOn(); it; ++it)
