@@ -81,7 +81,9 @@ std::vector<TfPreset> transferFunctionPresets(const ValueRange& range, const Wor
                                               const std::optional<TransferFunction>& sceneTf) {
     std::vector<TfPreset> out;
     if (sceneTf) out.push_back({"scene", *sceneTf});
-    const auto [lo, hi] = presetRange(range);
+    // Named doubles, not a structured binding: clang 14 (the fuzz build's compiler) cannot capture those.
+    const std::array<double, 2> span = presetRange(range);
+    const double lo = span[0], hi = span[1];
     const double r = hi - lo;
     const double tauMax = 8.0 / boxDiagonal(box);
     const auto at = [&](double f) { return lo + f * r; };
