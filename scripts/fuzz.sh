@@ -25,7 +25,7 @@ while [ $# -gt 0 ]; do
     --runs) mode="runs"; count="$2"; shift 2 ;;
     --seconds) mode="seconds"; count="$2"; shift 2 ;;
     --only) only="$2"; shift 2 ;;
-    --keep-corpus) keep="$2"; shift 2 ;;
+    --keep-corpus) keep=$(realpath -m "$2"); shift 2 ;; # absolute: the fuzzers run in a scratch directory
     *) echo "usage: scripts/fuzz.sh --build DIR [--short | --runs N | --seconds S] [--only TARGET] [--keep-corpus DIR]" >&2; exit 2 ;;
   esac
 done

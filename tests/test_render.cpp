@@ -498,6 +498,13 @@ TEST(Render, BadInputIsRefused) {
     EXPECT_THROW(Scene::fromJson(R"({"render": {"stepp": 1}})"), UsageError);
     EXPECT_THROW(Scene::fromJson(R"({"camera": {"eye": [0, 0]}})"), UsageError);
     EXPECT_THROW(Scene::fromJson("{oops"), UsageError);
+    // Integer fields past int's range are refused when read, not converted (undefined behaviour; found by
+    // fuzz_scene_json).
+    for (const char* huge : {R"({"render": {"table_lengths": 2.2e56}})",
+                             R"({"render": {"table_size": -1e300}})", R"({"render": {"k": 2147483648}})",
+                             R"({"image": {"width": 1e10}})", R"({"image": {"height": -3e9}})"})
+        EXPECT_THROW(Scene::fromJson(huge), UsageError) << huge;
+    EXPECT_EQ(Scene::fromJson(R"({"render": {"k": 2147483647}})").kBufferDepth, 2147483647);
     Scene s = Scene::fromJson(R"({"render": {"step": -1}})");
     EXPECT_THROW(s.validate(), UsageError);
     s = Scene::fromJson(R"({"image": {"width": 0}})");
