@@ -133,7 +133,7 @@ void checkVdbLayout(const fs::path& path) {
 // Starts the reader on `path` with its reply pipe on kVdbReplyFd and the terminal on /dev/null (libopenvdb
 // and a sanitizer may print; volcl's errors are one line). Returns its pid; `replyFd` is the read end.
 pid_t startReader(const fs::path& path, const ReadOptions& options, int& replyFd) {
-    const fs::path reader = findRuntimeHelper(kVdbReaderFile, "reading OpenVDB files");
+    const fs::path reader = findRuntimeHelper(kVdbReaderFile, (path.string() + ": reading it").c_str());
     int fds[2];
     if (::pipe2(fds, O_CLOEXEC) != 0)
         throw IoError(path.string() + ": cannot create a pipe: " + std::strerror(errno));

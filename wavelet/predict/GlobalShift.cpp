@@ -3,6 +3,7 @@
 
 #include "host/Error.hpp"
 #include "host/runtime/ParallelFor.hpp"
+#include "wavelet/BrickVoxels.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -113,20 +114,10 @@ void blendRows(Out* out, const double* const src[4], const std::array<double, 4>
 // Row r (y + z * dims.y) of `v` as doubles: every voxel type converts exactly.
 void rowAsDoubles(const Volume& v, std::size_t r, double* out) {
     const std::size_t n = v.dims().x, first = r * n;
-    auto convert = [&](auto values) {
+    codec::visitTyped(v, [&](auto values) {
         for (std::size_t i = 0; i < n; ++i)
             out[i] = static_cast<double>(values[first + i]);
-    };
-    switch (v.type()) {
-    case ScalarType::UInt8:
-        return convert(v.values<std::uint8_t>());
-    case ScalarType::UInt16:
-        return convert(v.values<std::uint16_t>());
-    case ScalarType::Int16:
-        return convert(v.values<std::int16_t>());
-    case ScalarType::Float32:
-        return convert(v.values<float>());
-    }
+    });
 }
 
 
