@@ -16,6 +16,15 @@ inline void putVarint(std::vector<std::uint8_t>& out, std::uint64_t v) {
     out.push_back(static_cast<std::uint8_t>(v));
 }
 
+/// Signed values as unsigned ones of about the same magnitude (0, -1, 1, -2, ... -> 0, 1, 2, 3, ...), so small
+/// negative numbers stay small varints.
+inline std::uint64_t zigzagEncode(std::int64_t v) noexcept {
+    return (static_cast<std::uint64_t>(v) << 1) ^ static_cast<std::uint64_t>(v >> 63);
+}
+inline std::int64_t zigzagDecode(std::uint64_t u) noexcept {
+    return static_cast<std::int64_t>(u >> 1) ^ -static_cast<std::int64_t>(u & 1);
+}
+
 enum class VarintStatus { Ok, Truncated, TooLong };
 
 /// Reads a varint of at most `maxBytes` bytes (10 hold any 64-bit value) at `pos`, advancing it.

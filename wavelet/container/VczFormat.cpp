@@ -163,6 +163,9 @@ void putFixedFields(Writer& w, const VczHeader& h) {
 
 bool isSeries(const VczHeader& h) noexcept { return h.frames.size() > 1; }
 
+// Version 5 keeps the low 32 bits of each payload's and motion block's XXH3-64.
+bool shortChecksums(const VczHeader& h) noexcept { return h.version == kVczVersionSeries; }
+
 // Versions 3 and 4: fixed-width frame table and metadata.
 std::vector<std::uint8_t> headerBody(const VczHeader& h) {
     Writer w;
@@ -214,13 +217,6 @@ RangeForm rangeForm(const VczHeader& h) {
     return integer ? RangeForm::Integer : single ? RangeForm::Float32 : RangeForm::Float64;
 }
 
-std::uint64_t zigzag(std::int64_t v) noexcept {
-    return (static_cast<std::uint64_t>(v) << 1) ^ static_cast<std::uint64_t>(v >> 63);
-}
-std::int64_t unzigzag(std::uint64_t u) noexcept {
-    return static_cast<std::int64_t>(u >> 1) ^ -static_cast<std::int64_t>(u & 1);
-}
-
 // Frame times of the form t0 + f dt are stored as t0 and dt. One function computes them for the writer's
 // test and the reader, so both get the same doubles.
 double uniformTime(double t0, double dt, std::size_t f) noexcept { return t0 + double(f) * dt; }
@@ -243,7 +239,7 @@ std::vector<std::uint8_t> compactIndex(const VczHeader& h) {
             w.put<std::uint32_t>(static_cast<std::uint32_t>(e.checksum));
             switch (form) {
             case RangeForm::Integer:
-                w.putVar(zigzag(static_cast<std::int64_t>(e.min)));
+                w.putVar(zigzagEncode(static_cast<std::int64_t>(e.min)));
                 w.putVar(static_cast<std::uint64_t>(static_cast<std::int64_t>(e.max) - static_cast<std::int64_t>(e.min)));
                 break;
             case RangeForm::Float32:
@@ -636,7 +632,7 @@ std::size_t readCompactIndex(std::span<const std::uint8_t> file, std::size_t ind
             switch (static_cast<RangeForm>(form)) {
             case RangeForm::Integer: {
                 const std::uint64_t lo = ir.getVar(), span = ir.getVar();
-                const std::int64_t min = unzigzag(lo);
+                const std::int64_t min = zigzagDecode(lo);
                 if (span > std::uint64_t(2 * kMaxExactInteger) || std::abs(double(min)) > kMaxExactInteger ||
                     std::abs(double(min) + double(span)) > kMaxExactInteger)
                     ir.fail("invalid brick range");
@@ -725,10 +721,9 @@ std::span<const std::uint8_t> vczBrickPayload(std::span<const std::byte> fileByt
     if (e.size > file.size() || e.offset > file.size() - e.size)
         throw IoError(name + ": brick " + std::to_string(brick) + " lies outside the file (truncated?)");
     auto payload = file.subspan(e.offset, e.size);
-    if (!checksumMatches(e.checksum, payload, h.version == kVczVersionSeries)) {
+    if (!checksumMatches(e.checksum, payload, shortChecksums(h))) {
         const Dims o = h.brickOrigin(brick);
-        const std::string framePart = h.frames.size() > 1 ? "frame " + std::to_string(frame) + ", " : "";
-        throw IoError(name + ": " + framePart + "brick " + std::to_string(brick) + " (voxel " +
+        throw IoError(name + ": " + framePart(h, frame) + "brick " + std::to_string(brick) + " (voxel " +
                       std::to_string(o.x) + "," +
                       std::to_string(o.y) + "," + std::to_string(o.z) +
                       ") checksum mismatch (corrupted data)");
@@ -750,7 +745,7 @@ std::span<const std::uint8_t> vczFrameAux(std::span<const std::byte> fileBytes, 
     if (f.auxSize > file.size() || f.auxOffset > file.size() - f.auxSize)
         throw IoError(name + ": frame " + std::to_string(frame) + ": motion data lies outside the file (truncated?)");
     auto aux = file.subspan(f.auxOffset, f.auxSize);
-    if (!checksumMatches(f.auxChecksum, aux, h.version == kVczVersionSeries))
+    if (!checksumMatches(f.auxChecksum, aux, shortChecksums(h)))
         throw IoError(name + ": frame " + std::to_string(frame) + ": motion data checksum mismatch (corrupted data)");
     return aux;
 }

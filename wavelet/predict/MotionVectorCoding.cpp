@@ -26,8 +26,9 @@ bool getSectionLength(std::span<const std::uint8_t> in, std::size_t& pos, std::s
     return true;
 }
 
-std::uint8_t zigzag(int v) { return static_cast<std::uint8_t>(v >= 0 ? 2 * v : -2 * v - 1); }
-int unzigzag(std::uint8_t u) { return (u & 1) ? -int(u + 1) / 2 : int(u) / 2; }
+// One byte per component: the differences lie in [-128, 127].
+std::uint8_t zigzag(int v) { return static_cast<std::uint8_t>(zigzagEncode(v)); }
+int unzigzag(std::uint8_t u) { return static_cast<int>(zigzagDecode(u)); }
 
 bool usesForward(BlockMode m) { return m == BlockMode::Forward || m == BlockMode::Bidirectional; }
 bool usesBackward(BlockMode m) { return m == BlockMode::Backward || m == BlockMode::Bidirectional; }

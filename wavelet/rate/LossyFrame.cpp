@@ -114,7 +114,9 @@ std::size_t LossyFrame::codedBytes(const Trial& tr, BrickPayloads* payloads) {
             p[b] = buildPayload(h, d, q, tr.corrections[b]);
         });
     });
-    std::size_t total = vczPreambleSize(h);
+    // The same for every trial of the frame (a series' serialises and compresses its metadata): once.
+    if (!preambleBytes_) preambleBytes_ = vczPreambleSize(h);
+    std::size_t total = *preambleBytes_;
     for (const auto& x : p)
         total += x.size();
     if (payloads) *payloads = std::move(p);
