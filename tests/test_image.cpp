@@ -175,6 +175,27 @@ TEST(ImageIo, UnreadableFilesAreRefused) {
     EXPECT_THROW(volcl::readImage(dir / "truncated.exr"), volcl::IoError);
 }
 
+// The extension picks the one reader: a file it does not parse is corrupt, even when another format would
+// read it (OpenImageIO's open() tries every format in turn, dozens of opens for one garbage file).
+TEST(ImageIo, TheExtensionChoosesTheReader) {
+    const fs::path dir = tmpDir();
+    volcl::writeImage(pattern(8, 4, {"R", "G", "B", "A"}), dir / "real.exr");
+    fs::copy_file(dir / "real.exr", dir / "exr-named.png", fs::copy_options::overwrite_existing);
+    fs::copy_file(dir / "real.exr", dir / "UPPER.EXR", fs::copy_options::overwrite_existing);
+    fs::copy_file(dir / "real.exr", dir / "no-extension", fs::copy_options::overwrite_existing);
+    EXPECT_EQ(volcl::readImage(dir / "UPPER.EXR").width, 8);
+    for (const char* name : {"exr-named.png", "no-extension"}) {
+        try {
+            (void)volcl::readImage(dir / name);
+            ADD_FAILURE() << name << " was read";
+        } catch (const volcl::IoError& e) {
+            const std::string what = e.what();
+            EXPECT_NE(what.find(name), std::string::npos) << what;
+            EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+        }
+    }
+}
+
 TEST(ImageIo, ImageBufferRefusesEmptyShapes) {
     EXPECT_THROW(ImageBuffer(0, 4, {"R"}), volcl::UsageError);
     EXPECT_THROW(ImageBuffer(4, -1, {"R"}), volcl::UsageError);

@@ -9,6 +9,7 @@
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -111,9 +112,17 @@ ImageBuffer read(const std::filesystem::path& path, std::size_t memoryBudget) {
     // Keep stored values as they are (PNG alpha is straight; OIIO would otherwise premultiply on read).
     OIIO::ImageSpec config;
     config.attribute("oiio:UnassociatedAlpha", 1);
-    auto in = OIIO::ImageInput::open(name, &config);
-    if (!in) throw IoError(name + ": cannot read image (" + OIIO::geterror() + ")");
-    const OIIO::ImageSpec& spec = in->spec();
+    // The reader is the one the extension names. ImageInput::open would, when that reader refuses the file,
+    // try every format OIIO knows in turn (28 opens of a garbage .png, 4.6 ms instead of 0.1 ms) and report
+    // the last one's complaint; a .png that is not a PNG is a corrupt file.
+    std::string extension = path.extension().string();
+    if (!extension.empty()) extension.erase(0, 1);
+    std::transform(extension.begin(), extension.end(), extension.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    auto in = extension.empty() ? nullptr : OIIO::ImageInput::create(extension, false, &config);
+    if (!in) throw IoError(name + ": no image reader for the file's extension (" + OIIO::geterror() + ")");
+    OIIO::ImageSpec spec;
+    if (!in->open(name, spec, config)) throw IoError(name + ": cannot read image (" + in->geterror() + ")");
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
         throw IoError(name + ": image has no pixels");
     if (spec.depth > 1) throw IoError(name + ": volume images are not supported as 2D images");
@@ -152,6 +161,8 @@ const OiioModule kModule{write, read};
 } // namespace
 } // namespace volcl
 
-extern "C" __attribute__((visibility("default"))) const volcl::OiioModule* volcl_oiio_module() {
+// Declared as returning const void*, the type loadRuntimeModule calls it through (a call through another
+// function type is undefined; clang's -fsanitize=function stops on it).
+extern "C" __attribute__((visibility("default"))) const void* volcl_oiio_module() {
     return &volcl::kModule;
 }

@@ -275,6 +275,7 @@ const VdbModule kModule{readDense, write};
 } // namespace
 } // namespace volcl::io
 
-extern "C" __attribute__((visibility("default"))) const volcl::io::VdbModule* volcl_vdb_module() {
+// Returns const void*, the type loadRuntimeModule calls it through (see volcl_oiio_module).
+extern "C" __attribute__((visibility("default"))) const void* volcl_vdb_module() {
     return &volcl::io::kModule;
 }
