@@ -199,6 +199,33 @@ TEST(Series, MalformedPvdFilesAreIoErrors) {
     EXPECT_THROW(readPvd(dir / "parts.pvd"), DataError);
 }
 
+// The memory budget bounds the whole series: a .pvd that names one file many times is refused at the
+// frame that would pass it, naming that frame's file, before its voxels are allocated.
+TEST(Series, TheMemoryBudgetCoversTheWholeSeries) {
+    const fs::path dir = test::tempDir("series_budget");
+    writeFrames(dir, 1, {16, 16, 16}); // 8 KiB of uint16 voxels
+    std::string pvd = "<VTKFile type=\"Collection\"><Collection>";
+    for (int t = 0; t < 10; ++t)
+        pvd += "<DataSet timestep=\"" + std::to_string(t) + "\" file=\"frame_0.nrrd\"/>";
+    writeText(dir / "many.pvd", pvd + "</Collection></VTKFile>");
+    const std::vector<std::string> inputs{(dir / "many.pvd").string()};
+    ReadOptions options;
+    // The NRRD reader may claim twice a frame while it reads one, so the last frame needs 2 x 8 KiB free.
+    options.memoryBudget = 11 * 8192;
+    EXPECT_EQ(readSeriesInputs(inputs, options).series.frames.size(), 10u);
+    for (const std::size_t budget : {std::size_t{10 * 8192}, std::size_t{4 * 8192 + 100}, std::size_t{4 * 8192}}) {
+        options.memoryBudget = budget;
+        try {
+            readSeriesInputs(inputs, options);
+            FAIL() << "10 frames of 8 KiB were read within a budget of " << budget << " bytes";
+        } catch (const IoError& e) {
+            const std::string what = e.what();
+            EXPECT_NE(what.find((dir / "frame_0.nrrd").string()), std::string::npos) << what;
+            EXPECT_NE(what.find("memory budget"), std::string::npos) << what;
+        }
+    }
+}
+
 TEST(Series, FourDimensionalNiftiGivesEveryFrame) {
     fs::path data;
     VOLCL_REQUIRE_SHARED_DATA(data);

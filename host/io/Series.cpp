@@ -2,6 +2,7 @@
 #include "host/io/Series.hpp"
 
 #include "host/Error.hpp"
+#include "host/MemoryBudget.hpp"
 
 #include <glob.h>
 #include <pugixml.hpp>
@@ -195,9 +196,24 @@ SeriesInput readSeriesInputs(std::span<const std::string> inputs, const ReadOpti
     SeriesInput in;
     bool allTimed = true;
     std::vector<double> times;
+    // The memory budget covers the whole series, not each file: a .pvd naming one large file a thousand
+    // times must be refused before the frames exhaust memory. Every frame has frame 0's grid, so a file
+    // that cannot add one more frame is refused before it is read; each file's own claims (a reader may
+    // need more than the frames while it decodes) are checked against what is left.
+    const std::size_t budget = effectiveMemoryBudget(options.memoryBudget);
+    std::size_t used = 0;
     for (const PvdEntry& f : files) {
+        const std::size_t frameBytes = in.series.frames.empty() ? 0 : in.series.frames[0].byteSize();
+        if (frameBytes > 0 && frameBytes > budget - used)
+            throw IoError(f.file.string() + ": frame " + std::to_string(in.series.frames.size()) +
+                          " would bring the series to " + std::to_string(used + frameBytes) +
+                          " bytes of voxels, more than the memory budget of " + std::to_string(budget) + " bytes");
+        ReadOptions fileOptions = options;
+        fileOptions.memoryBudget = budget - used;
         std::vector<fs::path> partFiles;
-        TimeSeries part = readVolumeFile(f.file, options, partFiles);
+        TimeSeries part = readVolumeFile(f.file, fileOptions, partFiles);
+        for (const Volume& v : part.frames)
+            used += v.byteSize();
         if (filesRead) filesRead->insert(filesRead->end(), partFiles.begin(), partFiles.end());
         const bool fileTimed = std::isfinite(f.time) || part.times.size() == part.frames.size();
         allTimed = allTimed && fileTimed;
