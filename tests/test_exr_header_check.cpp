@@ -138,3 +138,31 @@ TEST(ExrHeaderCheck, NegativeAttributeSizeIsRefused) {
 }
 
 } // namespace
+
+// An attribute of a fixed-layout type, or a channel list, whose stated size differs from its value: OpenEXR
+// reads the value's own layout and would go on from another byte than the check (a fuzzed file, kept in
+// fuzz/regressions/fuzz_tf_exr, then made it allocate 846 MB for an attribute the check never saw).
+TEST(ExrHeaderCheck, MisstatedAttributeSizesAreRefused) {
+    const std::string exr = validExr();
+    // Grows the attribute `key`'s stated size by one and inserts a zero byte after its value.
+    auto grown = [&](const std::string& key, std::size_t valueBytes) {
+        std::string out = exr;
+        const std::size_t at = out.find(key);
+        EXPECT_NE(at, std::string::npos) << key;
+        std::int32_t size = 0;
+        std::memcpy(&size, out.data() + at + key.size(), 4);
+        EXPECT_EQ(valueBytes == 0 ? size : std::int32_t(valueBytes), size) << key;
+        ++size;
+        std::memcpy(out.data() + at + key.size(), &size, 4);
+        out.insert(at + key.size() + 4 + std::size_t(size - 1), 1, '\0');
+        return out;
+    };
+    const std::string compression = std::string("compression") + '\0' + "compression" + '\0';
+    const std::string channels = std::string("channels") + '\0' + "chlist" + '\0';
+    EXPECT_NE(refusal(writeBytes("compression2.exr", grown(compression, 1))).find("states 2 bytes, the type has 1"),
+              std::string::npos);
+    EXPECT_NE(refusal(writeBytes("chlist.exr", grown(channels, 0))).find("channel list ends 1 bytes before"),
+              std::string::npos);
+    for (const char* name : {"compression2.exr", "chlist.exr"})
+        EXPECT_THROW(volcl::readImage(tmpDir() / name), volcl::IoError);
+}

@@ -32,6 +32,26 @@ struct PartClaims {
     std::size_t channels = 0;
 };
 
+// OpenEXR's readers of these attribute types read their fixed layout whatever size the file states, so a
+// stated size that differs would put OpenEXR at another place in the header than this walker: it would
+// then read the bytes the walker took for a value as the next attribute, and a size there (a fuzzed file
+// made it allocate 846 MB) would never have been checked. A valid file states each type's own size.
+std::optional<std::int32_t> fixedAttributeSize(const std::string& type) {
+    struct Fixed {
+        const char* type;
+        std::int32_t bytes;
+    };
+    static constexpr Fixed kFixed[] = {
+        {"box2f", 16},  {"box2i", 16}, {"chromaticities", 32}, {"compression", 1}, {"deepImageState", 1},
+        {"double", 8},  {"envmap", 1}, {"float", 4},           {"int", 4},         {"keycode", 28},
+        {"lineOrder", 1}, {"m33d", 72}, {"m33f", 36},          {"m44d", 128},      {"m44f", 64},
+        {"rational", 8}, {"tiledesc", 9}, {"timecode", 8},     {"v2d", 16},        {"v2f", 8},
+        {"v2i", 8},     {"v3d", 24},   {"v3f", 12},            {"v3i", 12}};
+    for (const Fixed& f : kFixed)
+        if (type == f.type) return f.bytes;
+    return std::nullopt;
+}
+
 // Lines of a scan-line chunk per compression method, as OpenEXR defines them.
 int linesPerChunk(int compression) {
     switch (compression) {
@@ -97,23 +117,37 @@ public:
             if (std::uint64_t(bytes) > remaining())
                 corrupt("attribute '" + attr + "' claims " + std::to_string(bytes) + " bytes, the file has " +
                         std::to_string(remaining()) + " left");
-            if (attr == "dataWindow" && type == "box2i" && bytes == 16) {
+            if (const auto fixed = fixedAttributeSize(type); fixed && bytes != *fixed)
+                corrupt("attribute '" + attr + "' of type " + type + " states " + std::to_string(bytes) +
+                        " bytes, the type has " + std::to_string(*fixed));
+            if (attr == "dataWindow" && type == "box2i") {
                 std::array<std::int32_t, 4> box{};
                 read(box.data(), 16);
                 claims.dataWindow = box;
-            } else if (attr == "compression" && type == "compression" && bytes == 1) {
+            } else if (attr == "compression" && type == "compression") {
                 claims.compression = value<std::uint8_t>();
-            } else if (attr == "tiles" && type == "tiledesc" && bytes == 9) {
+            } else if (attr == "tiles" && type == "tiledesc") {
                 claims.tileX = value<std::uint32_t>();
                 claims.tileY = value<std::uint32_t>();
                 value<std::uint8_t>(); // level mode: more levels only add chunks to the level-0 count
                 claims.tiled = true;
-            } else if (attr == "chunkCount" && type == "int" && bytes == 4) {
+            } else if (attr == "chunkCount" && type == "int") {
                 claims.chunkCount = value<std::int32_t>();
                 if (claims.chunkCount < 0) corrupt("negative chunkCount");
-            } else if (attr == "channels" && type == "chlist") {
+            } else if (type == "chlist") {
+                // OpenEXR reads a channel list up to its terminating NUL, whatever size is stated.
                 if (bytes > kMaxChannelListBytes) corrupt("a channel list of " + std::to_string(bytes) + " bytes");
-                claims.channels = countChannels(bytes);
+                const std::size_t channels = countChannels(bytes);
+                if (attr == "channels") claims.channels = channels;
+            } else if (type == "preview") {
+                // Width and height, then 4 bytes per pixel, which OpenEXR allocates from the two numbers.
+                if (bytes < 8)
+                    corrupt("attribute '" + attr + "' is a preview of " + std::to_string(bytes) + " bytes");
+                const std::uint64_t w = value<std::uint32_t>(), h = value<std::uint32_t>();
+                if (double(w) * double(h) * 4 != double(bytes) - 8) // may pass 2^64 in integers; equal only below 2^31
+                    corrupt("preview '" + attr + "' of " + std::to_string(w) + "x" + std::to_string(h) +
+                            " pixels states " + std::to_string(bytes) + " bytes");
+                skip(w * h * 4);
             } else {
                 skip(std::uint64_t(bytes));
             }
@@ -133,6 +167,9 @@ public:
             ++count;
         }
         if (pos >= list.size()) corrupt("unterminated channel list");
+        if (pos + 1 != list.size())
+            corrupt("the channel list ends " + std::to_string(list.size() - pos - 1) +
+                    " bytes before its stated size");
         return count;
     }
 

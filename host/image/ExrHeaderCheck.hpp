@@ -12,6 +12,8 @@ namespace volcl {
 /// the file's claims and throws IoError naming the file when:
 ///  - an attribute name or type is unterminated or longer than OpenEXR allows (255 bytes),
 ///  - an attribute claims more bytes than remain in the file, or the header never ends,
+///  - an attribute of a fixed-layout type (box2i, int, compression, ...), a channel list or a preview
+///    states another size than its value has (OpenEXR would read on from another place than the check),
 ///  - a part has no dataWindow, or the window is empty or inverted,
 ///  - the part's pixels (as RGBA floats) exceed `memoryBudget` (0 = the default budget), or
 ///  - the part's chunk offset table (8 bytes per chunk) cannot fit in the file.
