@@ -162,6 +162,26 @@ TEST(TransformRounds, PackWithinBudgetAndCoverEveryBrickOnce) {
     }
 }
 
+// The header check bounds what decoding holds at once, not only the frame: the frame, one brick's 32-bit
+// coefficients and the largest corrections list the brick may carry (decompressed and decoded), 26 bytes per
+// voxel of a uint8 brick beside its frame. A budget the frame fits in but that working set does not is
+// refused before anything is allocated.
+TEST(CodecLossless, HeaderBudgetCoversTheFrameAndOneBricksDecodingState) {
+    const Volume v = makeVolume({16, 16, 16}, ScalarType::UInt8, 3);
+    const auto bytes =
+        encodeVolume(test::computeContext(), v, lossless(Wavelet::Cdf53, EntropyMode::Fast, {16, 16, 16}, 2));
+    const std::size_t frame = 16 * 16 * 16, workingSet = frame + frame * (4 + 5 + 1 + 16);
+    EXPECT_NO_THROW(readVczHeader(bytes, "mem", workingSet));
+    for (const std::size_t budget : {workingSet - 1, 2 * frame}) {
+        try {
+            (void)readVczHeader(bytes, "mem", budget);
+            ADD_FAILURE() << "budget " << budget << " accepted";
+        } catch (const IoError& e) {
+            EXPECT_NE(std::string(e.what()).find("corrections of a 16x16x16 brick"), std::string::npos) << e.what();
+        }
+    }
+}
+
 // A volume of more bricks of several shapes than two transform rounds hold (a round of 8 MB holds 8 bricks of
 // 64^3 int32) decodes exactly, whole and at a coarser level, and a lossy encode holds its bound on every voxel.
 TEST(CodecLossless, VolumeOfManyRoundsRoundTrips) {

@@ -6,6 +6,7 @@
 #include "host/Error.hpp"
 #include "wavelet/Varint.hpp"
 #include "wavelet/entropy/EntropyCoder.hpp"
+#include "wavelet/quantise/Corrections.hpp"
 
 #include <xxhash.h>
 #include <zstd.h>
@@ -449,13 +450,18 @@ void readFixedFields(Reader& r, VczHeader& h, const std::string& name, std::size
     checkMemoryBudget(h.dims.count() * scalarSize(h.type), memoryBudget, name,
                       "a " + std::to_string(h.dims.x) + "x" + std::to_string(h.dims.y) + "x" +
                           std::to_string(h.dims.z) + " frame");
-    // A decoder holds a brick's coefficients as 32-bit values, 4 times a uint8 frame's voxels when the brick
-    // is the whole volume: a forged brick size must not exhaust memory that the frame's size fits in.
+    // While it decodes a brick into the frame, a decoder holds the brick's coefficients as 32-bit values (4
+    // times a uint8 frame's voxels when the brick is the whole volume) and, for a brick with corrections,
+    // their decompressed list (up to a 5-byte varint and a voxel value per voxel) and the decoded entries:
+    // a forged brick size must not make these exhaust memory that the frame's size fits in.
     const Dims largest{std::min<std::size_t>(h.brick.x, h.dims.x), std::min<std::size_t>(h.brick.y, h.dims.y),
                        std::min<std::size_t>(h.brick.z, h.dims.z)};
-    checkMemoryBudget(largest.count() * sizeof(std::int32_t), memoryBudget, name,
-                      "the coefficients of a " + std::to_string(largest.x) + "x" + std::to_string(largest.y) + "x" +
-                          std::to_string(largest.z) + " brick");
+    // 5 + the voxel size: the bound decodeCorrections puts on the decompressed list.
+    const std::size_t brickBytesPerVoxel = sizeof(std::int32_t) + 5 + scalarSize(h.type) + sizeof(codec::Correction);
+    checkMemoryBudget(h.dims.count() * scalarSize(h.type) + largest.count() * brickBytesPerVoxel, memoryBudget,
+                      name,
+                      "a frame with the coefficients and corrections of a " + std::to_string(largest.x) + "x" +
+                          std::to_string(largest.y) + "x" + std::to_string(largest.z) + " brick");
     const auto nSteps = r.get<std::uint32_t>();
     if (nSteps > r.remaining() / 8) r.fail("truncated");
     h.steps.resize(nSteps);
