@@ -232,6 +232,84 @@ def vcz_and_vdb_seeds(volcl):
             put("fuzz_read_vdb", "float.vdb", f.read())
 
 
+def mesh_seeds():
+    # One tetrahedron (VTK cell type 10) and one hexahedron (12), with a point scalar.
+    put("fuzz_mesh_vtk", "tet_ascii.vtk",
+        "# vtk DataFile Version 2.0\nt\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 float\n"
+        "0 0 0 1 0 0 0 1 0 0 0 1\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\nPOINT_DATA 4\n"
+        "SCALARS s float 1\nLOOKUP_TABLE default\n0 1 2 3\n")
+    cube = [(x, y, z) for z in (0, 1) for y in (0, 1) for x in (0, 1)]
+    hexa = [0, 1, 3, 2, 4, 5, 7, 6]
+    put("fuzz_mesh_vtk", "hex_binary51.vtk",
+        b"# vtk DataFile Version 5.1\nh\nBINARY\nDATASET UNSTRUCTURED_GRID\nPOINTS 8 float\n" +
+        struct.pack(">24f", *[c for p in cube for c in p]) +
+        b"\nCELLS 2 8\nOFFSETS vtktypeint64\n" + struct.pack(">2q", 0, 8) +
+        b"\nCONNECTIVITY vtktypeint64\n" + struct.pack(">8q", *hexa) +
+        b"\nCELL_TYPES 1\n" + struct.pack(">i", 12) +
+        b"\nPOINT_DATA 8\nSCALARS s double 1\nLOOKUP_TABLE default\n" + struct.pack(">8d", *range(8)) + b"\n")
+
+    def vtu(arrays, appended=b""):
+        head = ('<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="1.0" '
+                'byte_order="LittleEndian" header_type="UInt32">\n<UnstructuredGrid>\n'
+                '<Piece NumberOfPoints="%d" NumberOfCells="%d">\n' % arrays["counts"])
+        body = ('<PointData Scalars="s">%s</PointData>\n<Points>%s</Points>\n<Cells>%s</Cells>\n'
+                '</Piece></UnstructuredGrid>\n' % (arrays["s"], arrays["points"], arrays["cells"]))
+        tail = (b'<AppendedData encoding="raw">\n_' + appended + b"\n</AppendedData>\n") if appended else b""
+        return head.encode() + body.encode() + tail + b"</VTKFile>\n"
+
+    put("fuzz_mesh_vtu", "tet_ascii.vtu", vtu({
+        "counts": (4, 1),
+        "s": '<DataArray type="Float32" Name="s" format="ascii">0 1 2 3</DataArray>',
+        "points": '<DataArray type="Float32" NumberOfComponents="3" format="ascii">0 0 0 1 0 0 0 1 0 0 0 1'
+                  '</DataArray>',
+        "cells": '<DataArray type="Int32" Name="connectivity" format="ascii">0 1 2 3</DataArray>'
+                 '<DataArray type="Int32" Name="offsets" format="ascii">4</DataArray>'
+                 '<DataArray type="UInt8" Name="types" format="ascii">10</DataArray>'}))
+    blocks = [struct.pack("<8f", *range(8)), struct.pack("<24f", *[c for p in cube for c in p]),
+              struct.pack("<8q", *hexa), struct.pack("<q", 8), struct.pack("<B", 12)]
+    offsets, data = [], b""
+    for b in blocks:
+        offsets.append(len(data))
+        data += struct.pack("<I", len(b)) + b
+    put("fuzz_mesh_vtu", "hex_appended.vtu", vtu({
+        "counts": (8, 1),
+        "s": '<DataArray type="Float32" Name="s" format="appended" offset="%d"/>' % offsets[0],
+        "points": '<DataArray type="Float32" NumberOfComponents="3" format="appended" offset="%d"/>' % offsets[1],
+        "cells": ('<DataArray type="Int64" Name="connectivity" format="appended" offset="%d"/>'
+                  '<DataArray type="Int64" Name="offsets" format="appended" offset="%d"/>'
+                  '<DataArray type="UInt8" Name="types" format="appended" offset="%d"/>') % tuple(offsets[2:])},
+        data))
+
+    # PLOT3D: a 2x2x2 grid (one hexahedron) and its q file, as "grid length (2 bytes LE), grid, q".
+    def plot3d(endian, real, markers, iblank):
+        def record(payload):
+            return (struct.pack(endian + "i", len(payload)) + payload + struct.pack(endian + "i", len(payload))
+                    if markers else payload)
+        dims = struct.pack(endian + "3i", 2, 2, 2)
+        coords = struct.pack(endian + "24" + real, *[p[a] for a in range(3) for p in cube])
+        grid = record(dims) + record(coords + (struct.pack(endian + "8i", *[1] * 8) if iblank else b""))
+        q = (record(dims) + record(struct.pack(endian + "4" + real, 0.5, 0.0, 1e6, 0.0)) +
+             record(struct.pack(endian + "40" + real, *[1.0 + 0.1 * i for i in range(40)])))
+        return struct.pack("<H", len(grid)) + grid + q
+
+    put("fuzz_mesh_plot3d", "plain_le_f32.xyz", plot3d("<", "f", False, False))
+    put("fuzz_mesh_plot3d", "records_be_f64_iblank.xyz", plot3d(">", "d", True, True))
+
+
+def series_seeds():
+    # A .pvd, a NUL byte, then the "frame.nrrd" its data sets name.
+    frame = (b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 3 2\nencoding: raw\n\n" + ramp(24))
+    put("fuzz_series_pvd", "two_steps.pvd",
+        b'<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n<Collection>\n'
+        b'<DataSet timestep="0.5" group="" part="0" file="frame.nrrd"/>\n'
+        b'<DataSet timestep="0" group="" part="0" file="frame.nrrd"/>\n</Collection>\n</VTKFile>\n\0' + frame)
+    frame4d = (b"NRRD0004\ntype: short\ndimension: 4\nsizes: 2 2 1 3\nendian: little\nencoding: raw\n\n" +
+               struct.pack("<12h", *range(12)))
+    put("fuzz_series_pvd", "one_4d_file.pvd",
+        b'<VTKFile type="Collection"><Collection><DataSet timestep="1" file="./frame.nrrd"/>'
+        b'</Collection></VTKFile>\0' + frame4d)
+
+
 def main():
     if len(sys.argv) != 2:
         sys.exit("usage: make_corpus.py path/to/volcl")
@@ -244,6 +322,8 @@ def main():
     raw_seeds()
     json_seeds()
     strip_seeds()
+    mesh_seeds()
+    series_seeds()
     vcz_and_vdb_seeds(sys.argv[1])
 
 

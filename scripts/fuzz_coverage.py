@@ -39,6 +39,13 @@ PARSER_FILES = {
     "fuzz_tf_png": ["host/tf/TransferFunction.cpp", "host/image/ImageIo.cpp"],
     "fuzz_tf_exr": ["host/image/ExrHeaderCheck.cpp", "host/tf/TransferFunction.cpp", "host/image/ImageIo.cpp"],
     "fuzz_scene_json": ["host/render/Scene.cpp"],
+    "fuzz_mesh_vtk": ["host/mesh/VtkLegacyReader.cpp", "host/mesh/MeshIo.cpp", "host/mesh/CellSplit.cpp",
+                      "host/mesh/TetMesh.cpp"],
+    "fuzz_mesh_vtu": ["host/mesh/VtuReader.cpp", "host/io/VtkXmlArrays.cpp", "host/mesh/MeshIo.cpp",
+                      "host/mesh/CellSplit.cpp", "host/mesh/TetMesh.cpp"],
+    "fuzz_mesh_plot3d": ["host/mesh/Plot3dReader.cpp", "host/mesh/MeshIo.cpp", "host/mesh/CellSplit.cpp",
+                         "host/mesh/TetMesh.cpp"],
+    "fuzz_series_pvd": ["host/io/Series.cpp"] + IO,
 }
 
 LINE = re.compile(r"^(?:UN)?COVERED_FUNC: hits: \d+ edges: (\d+)/(\d+) .* (\S+):\d+$")
@@ -56,8 +63,9 @@ def main():
             continue
         path = m.group(3)
         for f in files:
-            # Paths are as the compiler saw them (build-dir/../host/io/X.cpp): match the repository-relative tail.
-            if path.endswith("/" + f):
+            # Paths are as the compiler saw them (build-dir/../host/io/X.cpp), or the bare file name in a build
+            # without debug information: match the repository-relative tail, or the name (unique in the tree).
+            if path.endswith("/" + f) or path == f.rsplit("/", 1)[-1]:
                 per_file[f][0] += int(m.group(1))
                 per_file[f][1] += int(m.group(2))
     covered = total = 0
