@@ -57,7 +57,7 @@ for t in $targets; do
     [ -z "${keep:-}" ] || grown="$keep/$t"
     mkdir -p "$grown" && cp -r fuzz/corpus/"$t"/. "$grown"/
     corpus=("$grown" "${corpus[@]:1}")
-    # 500 MB: the limit every hostile input must stay under (inputs may claim 256 MiB, kFuzzMemoryBudget).
+    # 500 MB: the limit every hostile input must stay under (inputs may claim 64 MiB, kFuzzMemoryBudget).
     flags+=(-timeout=2 -rss_limit_mb=500 -max_len=65536 -print_final_stats=1)
   else
     flags+=(-timeout=2)
