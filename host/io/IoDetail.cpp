@@ -760,7 +760,8 @@ std::size_t maxDataFiles(const Dims& dims, std::size_t frames) noexcept {
 }
 
 std::vector<std::string> expandFilePattern(std::string_view pattern, long long first, long long last,
-                                           long long step, const fs::path& header, std::size_t maxFiles) {
+                                           long long step, const fs::path& header, std::size_t maxFiles,
+                                           std::size_t evenlyHeldBytes) {
     // Locate the single integer conversion; everything else is literal ("%%" is a literal %).
     std::string prefix, suffix;
     bool found = false, zeroPad = false, leftAlign = false;
@@ -805,6 +806,10 @@ std::vector<std::string> expandFilePattern(std::string_view pattern, long long f
         fail(header, "data file range " + std::to_string(first) + " " + std::to_string(last) + " " +
                          std::to_string(step) + " lists " + std::to_string(count) + " files for " +
                          std::to_string(maxFiles) + " possible (each file holds at least one slice)");
+    // The same refusal readDetachedPayload makes, before hundreds of thousands of names are built and checked.
+    if (evenlyHeldBytes != 0 && evenlyHeldBytes % count != 0)
+        fail(header, std::to_string(count) + " data files cannot evenly hold " + std::to_string(evenlyHeldBytes) +
+                         " bytes");
     std::vector<std::string> names;
     names.reserve(static_cast<std::size_t>(count));
     for (unsigned long long k = 0; k < count; ++k) {

@@ -159,9 +159,11 @@ std::string formatDouble(double v);
 /// Most data files a volume of `dims` x `frames` may be split into: each holds at least one row of x
 /// samples, and no header may list more than 10^6 (checked before a file name is built).
 std::size_t maxDataFiles(const Dims& dims, std::size_t frames) noexcept;
+/// `evenlyHeldBytes` (0: not checked): the payload the files hold in equal parts; a count that does not
+/// divide it is refused before any name is built (each name costs a path check).
 std::vector<std::string> expandFilePattern(std::string_view pattern, long long first, long long last,
                                            long long step, const std::filesystem::path& header,
-                                           std::size_t maxFiles);
+                                           std::size_t maxFiles, std::size_t evenlyHeldBytes = 0);
 /// Reads a data file that a header refers to; a missing file names both the header and the data file.
 std::vector<std::byte> readDataFile(const std::filesystem::path& header, const std::filesystem::path& data);
 

@@ -150,7 +150,7 @@ TimeSeries readMetaImage(ReadContext& ctx) {
                  expandFilePattern(w[0], requireInt(w[1], path, "ElementDataFile min"),
                                    requireInt(w[2], path, "ElementDataFile max"),
                                    requireInt(w[3], path, "ElementDataFile step"), path,
-                                   maxDataFiles(dims, frames)))
+                                   maxDataFiles(dims, frames), payload))
                 files.push_back(ctx.dataFile(n));
         } else {
             files.push_back(ctx.dataFile(dataFile));

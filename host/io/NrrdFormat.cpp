@@ -289,7 +289,8 @@ TimeSeries readNrrd(ReadContext& ctx) {
             const auto names = expandFilePattern(w[0], requireInt(w[1], path, "data file min"),
                                                  requireInt(w[2], path, "data file max"),
                                                  requireInt(w[3], path, "data file step"), path,
-                                                 maxDataFiles(dims, frames));
+                                                 maxDataFiles(dims, frames),
+                                                 encoding == PayloadEncoding::Ascii ? 0 : payload);
             for (const std::string& n : names)
                 files.push_back(ctx.dataFile(n));
             if (w.size() >= 5) {

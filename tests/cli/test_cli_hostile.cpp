@@ -160,6 +160,11 @@ TEST(CliHostile, HugeSizeClaimsAreRefusedBeforeAllocation) {
     writeText(dir / "quarter.nhdr", "NRRD0004\ntype: short\ndimension: 3\nsizes: 256 256 93\nendian: big\n"
                                     "encoding: raw\ndata file: quarter.%d 1 10000000 1\n");
     expectRefused(run("info quarter.nhdr", dir), 1, "quarter.nhdr", "files");
+    // 999,999 data files, under the cap of 10^6, that cannot share the 89 MB evenly: refused before a name
+    // is built. fuzz_read_mha found 600,000 such files to cost 4 s and 400 MB of names and path checks.
+    writeText(dir / "many.mhd", "NDims = 4\nDimSize = 4 4 1000 2775\nElementType = MET_SHORT\n"
+                                "ElementDataFile = d%d.raw 1 999999 1\n");
+    expectRefused(run("info many.mhd", dir), 1, "many.mhd", "999999 data files cannot evenly hold");
     writeVolumeFile(ramp({10, 10, 10}), dir / "d.raw");
     writeText(dir / "huge.mhd", "NDims = 3\nDimSize = 100000 1000 1000\nElementType = MET_UCHAR\n"
                                 "ElementDataFile = d.raw\n");
