@@ -163,14 +163,14 @@ TEST(TransformRounds, PackWithinBudgetAndCoverEveryBrickOnce) {
 }
 
 // The header check bounds what decoding holds at once, not only the frame: the frame, one brick's 32-bit
-// coefficients and the largest corrections list the brick may carry (decompressed and decoded), 26 bytes per
-// voxel of a uint8 brick beside its frame. A budget the frame fits in but that working set does not is
-// refused before anything is allocated.
+// coefficients and the largest corrections list the brick may carry (decompressed and decoded): 26 bytes
+// per voxel of a uint8 brick and the list's 10-byte count beside its frame. A budget the frame fits in but
+// that working set does not is refused before anything is allocated.
 TEST(CodecLossless, HeaderBudgetCoversTheFrameAndOneBricksDecodingState) {
     const Volume v = makeVolume({16, 16, 16}, ScalarType::UInt8, 3);
     const auto bytes =
         encodeVolume(test::computeContext(), v, lossless(Wavelet::Cdf53, EntropyMode::Fast, {16, 16, 16}, 2));
-    const std::size_t frame = 16 * 16 * 16, workingSet = frame + frame * (4 + 5 + 1 + 16);
+    const std::size_t frame = 16 * 16 * 16, workingSet = frame + frame * (4 + 5 + 1 + 16) + 10;
     EXPECT_NO_THROW(readVczHeader(bytes, "mem", workingSet));
     for (const std::size_t budget : {workingSet - 1, 2 * frame}) {
         try {

@@ -456,10 +456,10 @@ void readFixedFields(Reader& r, VczHeader& h, const std::string& name, std::size
     // a forged brick size must not make these exhaust memory that the frame's size fits in.
     const Dims largest{std::min<std::size_t>(h.brick.x, h.dims.x), std::min<std::size_t>(h.brick.y, h.dims.y),
                        std::min<std::size_t>(h.brick.z, h.dims.z)};
-    // 5 + the voxel size: the bound decodeCorrections puts on the decompressed list.
-    const std::size_t brickBytesPerVoxel = sizeof(std::int32_t) + 5 + scalarSize(h.type) + sizeof(codec::Correction);
-    checkMemoryBudget(h.dims.count() * scalarSize(h.type) + largest.count() * brickBytesPerVoxel, memoryBudget,
-                      name,
+    const std::size_t n = largest.count();
+    const std::size_t brickBytes = n * (sizeof(std::int32_t) + sizeof(codec::Correction)) +
+                                   codec::maxCorrectionListBytes(h.type, n);
+    checkMemoryBudget(h.dims.count() * scalarSize(h.type) + brickBytes, memoryBudget, name,
                       "a frame with the coefficients and corrections of a " + std::to_string(largest.x) + "x" +
                           std::to_string(largest.y) + "x" + std::to_string(largest.z) + " brick");
     const auto nSteps = r.get<std::uint32_t>();

@@ -68,7 +68,7 @@ std::vector<std::uint8_t> encodeCorrections(const std::vector<Correction>& corr,
 std::vector<Correction> decodeCorrections(std::span<const std::uint8_t> in, ScalarType type,
                                           std::size_t brickVoxels, const std::string& what) {
     const unsigned long long size = ZSTD_getFrameContentSize(in.data(), in.size());
-    const std::size_t maxSize = 10 + brickVoxels * (5 + scalarSize(type));
+    const std::size_t maxSize = maxCorrectionListBytes(type, brickVoxels);
     if (size == ZSTD_CONTENTSIZE_ERROR || size == ZSTD_CONTENTSIZE_UNKNOWN || size > maxSize)
         throw IoError(what + ": invalid corrections");
     std::vector<std::uint8_t> raw(size);

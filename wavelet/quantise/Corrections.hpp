@@ -21,6 +21,11 @@ struct Correction {
 
 /// The brick's corrections (indices increasing) as a zstd frame.
 std::vector<std::uint8_t> encodeCorrections(const std::vector<Correction>& corr, ScalarType type);
+/// Largest decompressed correction list of a brick of `brickVoxels` voxels that decodeCorrections accepts:
+/// the count and, per voxel, a varint index gap of at most 5 bytes and the voxel's value.
+inline std::size_t maxCorrectionListBytes(ScalarType type, std::size_t brickVoxels) {
+    return 10 + brickVoxels * (5 + scalarSize(type));
+}
 /// Parses a correction payload of a brick of `brickVoxels` voxels; IoError naming `what` when invalid.
 std::vector<Correction> decodeCorrections(std::span<const std::uint8_t> in, ScalarType type,
                                           std::size_t brickVoxels, const std::string& what);
