@@ -10,6 +10,7 @@
 #include <csignal>
 #include <set>
 #include <string>
+#include <vector>
 
 #include <signal.h>
 #include <sys/resource.h>
@@ -153,3 +154,74 @@ TEST(AtomicFile, FailedVolumeWriteLeavesNothing) {
 }
 
 } // namespace
+
+namespace {
+
+// Bytes no two offsets share within a period that is not a power of two, so a block written to the wrong
+// place shows.
+std::vector<std::byte> patternBytes(std::size_t n) {
+    std::vector<std::byte> b(n);
+    for (std::size_t i = 0; i < n; ++i)
+        b[i] = static_cast<std::byte>((i * 2654435761u >> 13) ^ (i / 4093));
+    return b;
+}
+
+} // namespace
+
+TEST(AtomicFile, LargeWritesAtAnyOffsetKeepEveryByte) {
+    // Blocks from kDirectWriteMinBytes up bypass the page cache with aligned requests: a header before them
+    // (an unaligned start), an odd length and text after them must still land byte for byte.
+    const fs::path dir = test::tempDir("io-atomic-direct");
+    const std::vector<std::byte> big = patternBytes(3 * AtomicFile::kDirectWriteMinBytes + 4093);
+    const std::vector<std::byte> aligned = patternBytes(AtomicFile::kDirectWriteMinBytes);
+    for (const std::string_view header : {std::string_view(""), std::string_view("NRRD0004\n"), std::string_view("x")}) {
+        {
+            AtomicFile f(dir / "out.bin");
+            f.write(header);
+            f.write(big);
+            f.write(std::string_view("tail"));
+            f.write(aligned);
+            f.commit();
+        }
+        const std::vector<std::byte> got = readFileBytes(dir / "out.bin");
+        std::vector<std::byte> want(reinterpret_cast<const std::byte*>(header.data()),
+                                    reinterpret_cast<const std::byte*>(header.data() + header.size()));
+        want.insert(want.end(), big.begin(), big.end());
+        for (const char c : std::string_view("tail"))
+            want.push_back(static_cast<std::byte>(c));
+        want.insert(want.end(), aligned.begin(), aligned.end());
+        ASSERT_EQ(got.size(), want.size()) << "header of " << header.size() << " bytes";
+        EXPECT_TRUE(got == want) << "header of " << header.size() << " bytes";
+        EXPECT_EQ(listing(dir), (std::set<std::string>{"out.bin"}));
+    }
+}
+
+TEST(AtomicFile, FileSizeLimitInALargeWriteLeavesNothing) {
+    // The limit falls inside the direct-I/O part of a large block (a short write there), then inside its
+    // first aligned request: both end in IoError with the old target intact and no temporary.
+    const fs::path dir = test::tempDir("io-atomic-direct-limit");
+    writeFile(dir / "keep.bin", "previous");
+    const std::vector<std::byte> big = patternBytes(3 * AtomicFile::kDirectWriteMinBytes);
+    struct rlimit old {};
+    ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
+    const auto oldHandler = std::signal(SIGXFSZ, SIG_IGN);
+    for (const rlim_t limit : {rlim_t(AtomicFile::kDirectWriteMinBytes * 3 / 2 + 7), rlim_t(100)}) {
+        struct rlimit small = old;
+        small.rlim_cur = limit;
+        ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+        bool refused = false;
+        try {
+            AtomicFile f(dir / "keep.bin");
+            f.write(std::string_view("hdr"));
+            f.write(big);
+            f.commit();
+        } catch (const IoError& e) {
+            refused = std::string(e.what()).find("keep.bin") != std::string::npos;
+        }
+        ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &old), 0);
+        EXPECT_TRUE(refused) << "limit " << limit;
+        EXPECT_EQ(readFile(dir / "keep.bin"), "previous");
+        EXPECT_EQ(listing(dir), (std::set<std::string>{"keep.bin"}));
+    }
+    std::signal(SIGXFSZ, oldHandler);
+}

@@ -3,9 +3,12 @@
 
 #include "host/Error.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <random>
 #include <string>
 
@@ -146,8 +149,51 @@ std::ofstream& AtomicFile::stream() {
     return stream_;
 }
 
+// O_DIRECT wants the file offset, the length and the buffer aligned to the device's logical block; 4096
+// covers 512-byte and 4 KiB devices. One MiB per request was the fastest of 1, 4 and 8 MiB.
+constexpr std::size_t kDirectAlignment = 4096;
+constexpr std::size_t kDirectChunkBytes = std::size_t(1) << 20;
+
+std::span<const std::byte> AtomicFile::writeDirect(std::span<const std::byte> bytes) {
+    std::ofstream& s = stream();
+    s.flush();
+    const std::streamoff position = s.tellp();
+    if (!s || position < 0) return bytes; // the stream reports the error on its own write
+    auto offset = static_cast<std::size_t>(position);
+    // The bytes before the next aligned offset go through the stream.
+    const std::size_t head = std::min(bytes.size(), (kDirectAlignment - offset % kDirectAlignment) % kDirectAlignment);
+    if (head > 0) {
+        s.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(head));
+        s.flush();
+        if (!s) throw IoError(target_.string() + ": write failed (disk full or file size limit?)");
+        bytes = bytes.subspan(head);
+        offset += head;
+    }
+    const int fd = ::open(temp_.c_str(), O_WRONLY | O_DIRECT | O_CLOEXEC);
+    if (fd < 0) return bytes; // a file system without direct I/O
+    const std::unique_ptr<void, decltype(&std::free)> bounce(std::aligned_alloc(kDirectAlignment, kDirectChunkBytes),
+                                                             &std::free);
+    std::size_t written = 0;
+    const std::size_t whole = bytes.size() / kDirectAlignment * kDirectAlignment;
+    while (bounce && written < whole) {
+        const std::size_t n = std::min(kDirectChunkBytes, whole - written);
+        std::memcpy(bounce.get(), bytes.data() + written, n);
+        const ssize_t w = ::pwrite(fd, bounce.get(), n, static_cast<off_t>(offset + written));
+        if (w < 0 && errno == EINTR) continue;
+        // A refusal (EINVAL: no direct I/O here) or a short write (the file size limit) leaves the rest to
+        // the stream, which writes what it can and reports the error.
+        if (w <= 0) break;
+        written += static_cast<std::size_t>(w);
+        if (static_cast<std::size_t>(w) < n) break;
+    }
+    ::close(fd);
+    if (written > 0) s.seekp(static_cast<std::streamoff>(offset + written));
+    return bytes.subspan(written);
+}
+
 void AtomicFile::write(std::span<const std::byte> bytes) {
     std::ofstream& s = stream();
+    if (bytes.size() >= kDirectWriteMinBytes) bytes = writeDirect(bytes);
     s.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
     if (!s) throw IoError(target_.string() + ": write failed (disk full or file size limit?)");
 }
