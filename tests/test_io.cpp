@@ -2,6 +2,7 @@
 #include "TestUtil.hpp"
 #include "host/Error.hpp"
 #include "host/io/AtomicFile.hpp"
+#include "host/io/IoDetail.hpp"
 #include "host/io/VolumeIo.hpp"
 
 #include <gtest/gtest.h>
@@ -1087,4 +1088,54 @@ TEST(VolumeIo, MemoryBudgetAndExternalDataAreReadOptions) {
     ReadOptions allow;
     allow.allowExternalData = true;
     EXPECT_EQ(readVolume(dir / "h" / "up.mhd", allow).dims(), (Dims{10, 10, 10}));
+}
+
+// A header's data files are checked one by one as they are named: the first missing one ends the read. A
+// 108-byte MetaImage header naming 177,776 absent files (fuzz_read_mhd) had every name resolved first: 1 s,
+// 24 s under the sanitizers. Relative headers get the same verdict: weakly_canonical had left the absent
+// file's path relative, and it was reported as outside the header's directory.
+TEST(VolumeIo, DataFilesAreCheckedAsTheyAreNamed) {
+    const fs::path dir = test::tempDir("io-data-file-check");
+    writeFile(dir / "present.raw", "x");
+    writeFile(dir / "h.mhd", "");
+    const ReadOptions options;
+    io::ReadContext ctx(dir / "h.mhd", options);
+    EXPECT_EQ(ctx.dataFile("present.raw"), dir / "present.raw");
+    for (const std::string_view absent : {"ta.2=", "sub/none.raw"}) {
+        try {
+            (void)ctx.dataFile(absent);
+            ADD_FAILURE() << absent << " was accepted";
+        } catch (const IoError& e) {
+            EXPECT_NE(std::string(e.what()).find("h.mhd"), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("does not exist"), std::string::npos) << e.what();
+        }
+    }
+    fs::create_directories(dir / "d");
+    try {
+        (void)ctx.dataFile("d");
+        ADD_FAILURE() << "a directory was accepted";
+    } catch (const IoError& e) {
+        EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(ctx.files().size(), 2u) << "the header and the one file accepted";
+    // The same from a relative header path, as the CLI passes it.
+    const fs::path cwd = fs::current_path();
+    fs::current_path(dir);
+    io::ReadContext relative("h.mhd", options);
+    EXPECT_NO_THROW((void)relative.dataFile("present.raw"));
+    try {
+        (void)relative.dataFile("ta.2=");
+        ADD_FAILURE() << "an absent file was accepted";
+    } catch (const IoError& e) {
+        EXPECT_NE(std::string(e.what()).find("does not exist"), std::string::npos) << e.what();
+    }
+    fs::current_path(cwd);
+    writeFile(dir / "many.mhd", "NDims = 4\nDimSize = 2 2 355552 2\nElementType = MET_UCHAR\n"
+                                "ElementDataFile = ta.%d= 2 355552 2\n");
+    try {
+        (void)readVolume(dir / "many.mhd");
+        ADD_FAILURE() << "a header naming absent files was read";
+    } catch (const IoError& e) {
+        EXPECT_NE(std::string(e.what()).find("ta.2="), std::string::npos) << "the first name: " << e.what();
+    }
 }

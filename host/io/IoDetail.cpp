@@ -140,15 +140,25 @@ fs::path ReadContext::dataFile(std::string_view name) {
     const fs::path named{std::string(name)};
     const fs::path resolved = named.is_absolute() ? named : file_.parent_path() / named;
     if (!options_.allowExternalData) {
-        // Compare resolved real paths, so neither `..` nor a symbolic link leads out of the directory.
+        // Compare resolved real paths, so neither `..` nor a symbolic link leads out of the directory. Both
+        // absolute first: weakly_canonical leaves a relative path whose first part does not exist relative.
         std::error_code ec;
-        const fs::path dir = fs::weakly_canonical(file_.parent_path().empty() ? fs::path(".") : file_.parent_path(), ec);
-        const fs::path target = fs::weakly_canonical(resolved, ec);
+        if (headerDirectory_.empty())
+            headerDirectory_ = fs::weakly_canonical(
+                fs::absolute(file_.parent_path().empty() ? fs::path(".") : file_.parent_path(), ec), ec);
+        const fs::path& dir = headerDirectory_;
+        const fs::path target = fs::weakly_canonical(fs::absolute(resolved, ec), ec);
         const auto [d, t] = std::mismatch(dir.begin(), dir.end(), target.begin(), target.end());
-        if (ec || d != dir.end() || t == target.end())
+        if (ec || dir.empty() || d != dir.end() || t == target.end())
             fail(file_, "data file '" + std::string(name) +
                             "' lies outside the header's directory (allow it with --allow-external-data)");
     }
+    // A header may name up to a million files; the first that is missing ends the read here, not after every
+    // name was resolved (a 108-byte MetaImage header naming 177,776 absent files took 1 s, 24 s under the
+    // sanitizers).
+    std::error_code ec;
+    if (!fs::is_regular_file(resolved, ec))
+        fail(file_, "data file '" + resolved.string() + "' does not exist or is not a regular file");
     files_.push_back(resolved);
     return resolved;
 }

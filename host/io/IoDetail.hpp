@@ -53,7 +53,8 @@ public:
     const ReadOptions& options() const noexcept { return options_; }
     const std::filesystem::path& file() const noexcept { return file_; }
     /// Data file `name` from the header, relative to the header's directory. Refuses (IoError naming the
-    /// header) a file outside that directory unless options().allowExternalData.
+    /// header) a file outside that directory unless options().allowExternalData, and a file that does not
+    /// exist or is not a regular file.
     std::filesystem::path dataFile(std::string_view name);
     /// checkedVoxelCount() plus the memory check: `voxels` samples of `st` read and converted to the
     /// model's type must fit the memory budget.
@@ -67,6 +68,7 @@ private:
     std::filesystem::path file_;
     const ReadOptions& options_;
     std::vector<std::filesystem::path> files_;
+    std::filesystem::path headerDirectory_; ///< its real path, resolved by the first dataFile() that needs it
 };
 
 /// Voxel count of `dims` times `frames`, refusing zero sizes and products that overflow or exceed
