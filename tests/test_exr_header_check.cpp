@@ -3,9 +3,11 @@
 #include "host/Error.hpp"
 #include "host/image/ExrHeaderCheck.hpp"
 #include "host/image/ImageIo.hpp"
+#include "host/tf/TransferFunction.hpp"
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -165,4 +167,49 @@ TEST(ExrHeaderCheck, MisstatedAttributeSizesAreRefused) {
               std::string::npos);
     for (const char* name : {"compression2.exr", "chlist.exr"})
         EXPECT_THROW(volcl::readImage(tmpDir() / name), volcl::IoError);
+}
+
+// OpenEXR sizes its decoding buffers by the chunk, not the data window: a 1-pixel-high ZIP image still gets
+// 16 lines per buffer. The fuzzer's 693-byte strip (kept in fuzz/regressions/fuzz_tf_exr) claims 589,825
+// half RGBA pixels per line, 9.4 MB as floats, within the strip budget of 16 MiB; decoding it took 1 GB.
+TEST(ExrHeaderCheck, DecodingBuffersOfWideChunksCountAgainstTheBudget) {
+    const fs::path finding =
+        fs::path(VOLCL_SOURCE_DIR) / "fuzz/regressions/fuzz_tf_exr/oom-wide-zip-strip-line-buffers.exr";
+    ASSERT_TRUE(fs::exists(finding));
+    const std::string why = refusal(finding, 16u << 20);
+    EXPECT_NE(why.find(finding.string()), std::string::npos) << why;
+    EXPECT_NE(why.find("589825x1 (16 lines per chunk)"), std::string::npos) << why;
+    EXPECT_NE(why.find("memory budget"), std::string::npos) << why;
+    EXPECT_THROW(volcl::TransferFunction::fromFile(finding, {0.0, 1.0}), volcl::IoError);
+
+    // A valid 40000x1 RGBA float strip, ZIP-compressed as volcl writes EXR: 1.28 MB of pixels (as stored and
+    // as floats), 10.24 MB per 16-line chunk.
+    volcl::ImageBuffer strip(40000, 1, {"R", "G", "B", "A"});
+    for (std::size_t i = 0; i < strip.pixels.size(); ++i) strip.pixels[i] = float(i % 1000) / 1000.0f;
+    const fs::path wide = tmpDir() / "wide-strip.exr";
+    volcl::writeImage(strip, wide);
+    const std::size_t pixels = 2 * 40000 * 16, chunk = 40000 * 16 * 16;
+    EXPECT_NE(refusal(wide, pixels + chunk).find("16 lines per chunk"), std::string::npos);
+    EXPECT_EQ(refusal(wide, pixels + 4 * chunk), "");
+    const volcl::ImageBuffer back = volcl::readImage(wide, pixels + 4 * chunk);
+    ASSERT_EQ(back.pixels.size(), strip.pixels.size());
+    EXPECT_EQ(back.pixels, strip.pixels);
+}
+
+// Read as stored, then converted: 8-bit PNG values become v / 255 and half EXR values their float value,
+// as OpenImageIO's own conversion gives them.
+TEST(ExrHeaderCheck, StoredTypesAreConvertedToFloat) {
+    volcl::ImageBuffer img(7, 3, {"R", "G", "B", "A"});
+    for (std::size_t i = 0; i < img.pixels.size(); ++i) img.pixels[i] = float(i) / float(img.pixels.size());
+    const fs::path half = tmpDir() / "half.exr", png = tmpDir() / "eight-bit.png";
+    volcl::writeImage(img, half, {.halfFloat = true});
+    volcl::writeImage(img, png);
+    const volcl::ImageBuffer h = volcl::readImage(half), p = volcl::readImage(png);
+    ASSERT_EQ(h.pixels.size(), img.pixels.size());
+    ASSERT_EQ(p.pixels.size(), img.pixels.size());
+    for (std::size_t i = 0; i < img.pixels.size(); ++i) {
+        EXPECT_NEAR(h.pixels[i], img.pixels[i], 1e-3f) << i;
+        EXPECT_FLOAT_EQ(p.pixels[i] * 255.0f, std::round(p.pixels[i] * 255.0f)) << i;
+        EXPECT_NEAR(p.pixels[i], img.pixels[i], 0.5f / 255.0f + 1e-6f) << i;
+    }
 }

@@ -30,6 +30,7 @@ struct PartClaims {
     bool tiled = false;
     std::int64_t chunkCount = -1; // multi-part files state it
     std::size_t channels = 0;
+    std::uint64_t bytesPerPixel = 0; // stored bytes of one pixel over all channels (2 for half, 4 otherwise)
 };
 
 // OpenEXR's readers of these attribute types read their fixed layout whatever size the file states, so a
@@ -137,8 +138,11 @@ public:
             } else if (type == "chlist") {
                 // OpenEXR reads a channel list up to its terminating NUL, whatever size is stated.
                 if (bytes > kMaxChannelListBytes) corrupt("a channel list of " + std::to_string(bytes) + " bytes");
-                const std::size_t channels = countChannels(bytes);
-                if (attr == "channels") claims.channels = channels;
+                const ChannelList list = readChannelList(bytes);
+                if (attr == "channels") {
+                    claims.channels = list.count;
+                    claims.bytesPerPixel = list.bytesPerPixel;
+                }
             } else if (type == "preview") {
                 // Width and height, then 4 bytes per pixel, which OpenEXR allocates from the two numbers.
                 if (bytes < 8)
@@ -155,22 +159,33 @@ public:
         return claims;
     }
 
-    // Each channel: name, NUL, then 16 bytes (type, linear, reserved, x and y sampling); a NUL ends the list.
-    std::size_t countChannels(std::int32_t bytes) {
+    struct ChannelList {
+        std::size_t count = 0;
+        std::uint64_t bytesPerPixel = 0;
+    };
+    // Each channel: name, NUL, then 16 bytes (pixel type, linear, reserved, x and y sampling); a NUL ends the
+    // list. Pixel types: 0 uint and 2 float (4 bytes), 1 half (2 bytes); OpenEXR refuses others.
+    ChannelList readChannelList(std::int32_t bytes) {
         std::vector<char> list(static_cast<std::size_t>(bytes));
         read(list.data(), list.size());
-        std::size_t pos = 0, count = 0;
+        std::size_t pos = 0;
+        ChannelList channels;
         while (pos < list.size() && list[pos] != '\0') {
             const void* end = std::memchr(list.data() + pos, '\0', list.size() - pos);
             if (!end) corrupt("unterminated channel name");
-            pos = std::size_t(static_cast<const char*>(end) - list.data()) + 1 + 16;
-            ++count;
+            pos = std::size_t(static_cast<const char*>(end) - list.data()) + 1;
+            if (list.size() - pos < 16) corrupt("unterminated channel list");
+            std::int32_t type = 0;
+            std::memcpy(&type, list.data() + pos, 4);
+            channels.bytesPerPixel += type == 1 ? 2 : 4;
+            pos += 16;
+            ++channels.count;
         }
         if (pos >= list.size()) corrupt("unterminated channel list");
         if (pos + 1 != list.size())
             corrupt("the channel list ends " + std::to_string(list.size() - pos - 1) +
                     " bytes before its stated size");
-        return count;
+        return channels;
     }
 
 private:
@@ -209,6 +224,24 @@ void checkExrHeaders(const std::filesystem::path& path, std::size_t memoryBudget
         checkMemoryBudget(pixelBytes > 1e18 ? std::size_t(-1) : std::size_t(pixelBytes), memoryBudget, path,
                           "EXR data window " + std::to_string(std::int64_t(w)) + "x" +
                               std::to_string(std::int64_t(h)));
+        // OpenEXR decodes a chunk at a time into buffers it sizes from the header: per line buffer (or tile
+        // buffer) the chunk's stored bytes, the decompressor's output (ZIP: 1 % more than the chunk) and its
+        // scratch space (DWA: several planes), whatever the data window's height (a 1-pixel-high ZIP image
+        // still gets buffers of 16 lines). A 693-byte strip claiming 589,825 pixels per line made it
+        // allocate 1 GB with one line buffer per thread; volcl reads with one (OiioModule), so the working
+        // set is bounded by four chunks beside the image (a 40000x1 ZIP float strip: 3.02 chunks measured).
+        const bool tiledPart = p.tiled || (!multipart && (flags & kTiledFlag));
+        const double chunkPixels = tiledPart ? double(p.tileX) * double(p.tileY) : w * linesPerChunk(p.compression);
+        const double storedPixelBytes = double(std::max<std::uint64_t>(p.bytesPerPixel, 1));
+        const double workingBytes = 4 * chunkPixels * storedPixelBytes;
+        // The image as stored and as floats (OiioModule reads it as stored, then converts), and the buffers.
+        const double readBytes = pixelBytes + w * h * storedPixelBytes + workingBytes;
+        checkMemoryBudget(readBytes > 1e18 ? std::size_t(-1) : std::size_t(readBytes), memoryBudget, path,
+                          "decoding the EXR data window " + std::to_string(std::int64_t(w)) + "x" +
+                              std::to_string(std::int64_t(h)) + " (" +
+                              (tiledPart ? "tiles of " + std::to_string(p.tileX) + "x" + std::to_string(p.tileY)
+                                         : std::to_string(linesPerChunk(p.compression)) + " lines per chunk") +
+                              ")");
         double chunks = 0;
         if (p.chunkCount >= 0) {
             chunks = double(p.chunkCount);

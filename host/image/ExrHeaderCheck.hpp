@@ -15,7 +15,9 @@ namespace volcl {
 ///  - an attribute of a fixed-layout type (box2i, int, compression, ...), a channel list or a preview
 ///    states another size than its value has (OpenEXR would read on from another place than the check),
 ///  - a part has no dataWindow, or the window is empty or inverted,
-///  - the part's pixels (as RGBA floats) exceed `memoryBudget` (0 = the default budget), or
+///  - the part's pixels (as RGBA floats) exceed `memoryBudget` (0 = the default budget), or the image as
+///    stored and as floats plus OpenEXR's decoding buffers (four chunks: a chunk is 1 to 256 lines by
+///    compression, or a tile) do (a 693-byte strip claiming 589,825 pixels per line took 1 GB), or
 ///  - the part's chunk offset table (8 bytes per chunk) cannot fit in the file.
 /// Files that do not start with the EXR magic number are left to the image library.
 void checkExrHeaders(const std::filesystem::path& path, std::size_t memoryBudget);

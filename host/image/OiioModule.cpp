@@ -11,9 +11,11 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <vector>
 
 #include <sys/mman.h>
 #include <unistd.h>
@@ -108,6 +110,10 @@ ImageBuffer read(const std::filesystem::path& path, std::size_t memoryBudget) {
     const std::string name = path.string();
     // OpenEXR allocates from header claims while it opens a file: check them against the file first.
     checkExrHeaders(path, memoryBudget);
+    // OpenEXR keeps two chunk buffers per worker thread (each a chunk's stored bytes, decompressed output and
+    // scratch space); decoding on the calling thread keeps one, so its working set is what the check above
+    // bounds, whatever the machine's core count. volcl's images are tables and strips: small.
+    OIIO::attribute("exr_threads", -1);
     const StderrSilencer quiet;
     // Keep stored values as they are (PNG alpha is straight; OIIO would otherwise premultiply on read).
     OIIO::ImageSpec config;
@@ -126,17 +132,39 @@ ImageBuffer read(const std::filesystem::path& path, std::size_t memoryBudget) {
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
         throw IoError(name + ": image has no pixels");
     if (spec.depth > 1) throw IoError(name + ": volume images are not supported as 2D images");
-    const double pixelBytes = double(spec.width) * double(spec.height) * double(spec.nchannels) * sizeof(float);
-    checkMemoryBudget(pixelBytes > 1e18 ? std::size_t(-1) : static_cast<std::size_t>(pixelBytes), memoryBudget,
+    // The pixels as stored, then as floats.
+    const double pixels = double(spec.width) * double(spec.height);
+    const double readBytes = pixels * (double(spec.pixel_bytes(true)) + double(spec.nchannels) * sizeof(float));
+    checkMemoryBudget(readBytes > 1e18 ? std::size_t(-1) : static_cast<std::size_t>(readBytes), memoryBudget,
                       path, std::to_string(spec.width) + "x" + std::to_string(spec.height) + " image");
 
     std::vector<std::string> names;
     for (int c = 0; c < spec.nchannels; ++c)
         names.push_back(c < int(spec.channelnames.size()) ? spec.channelnames[std::size_t(c)]
                                                           : "channel" + std::to_string(c));
-    ImageBuffer img(spec.width, spec.height, names);
-    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, img.pixels.data()))
+    // Read as stored, then convert: asked for another type, OIIO converts through a buffer of at least 256
+    // scan lines whatever the image's height (156 MB for a 40000x1 float strip), which no budget check sees.
+    std::vector<std::byte> stored(static_cast<std::size_t>(pixels) * spec.pixel_bytes(true));
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UNKNOWN, stored.data()))
         throw IoError(name + ": corrupted or truncated image (" + in->geterror() + ")");
+    ImageBuffer img(spec.width, spec.height, names);
+    if (spec.channelformats.empty()) {
+        if (!OIIO::convert_pixel_values(spec.format, stored.data(), OIIO::TypeDesc::FLOAT, img.pixels.data(),
+                                        static_cast<int>(img.pixels.size())))
+            throw IoError(name + ": cannot convert its pixels to float (" + OIIO::geterror() + ")");
+    } else {
+        // Channels of different types (an EXR with half colour and float depth): channel by channel.
+        std::size_t offset = 0;
+        const std::size_t stride = spec.pixel_bytes(true), channels = std::size_t(spec.nchannels);
+        for (std::size_t c = 0; c < channels; ++c) {
+            const OIIO::TypeDesc type = spec.channelformat(int(c));
+            for (std::size_t i = 0; i < static_cast<std::size_t>(pixels); ++i)
+                if (!OIIO::convert_pixel_values(type, stored.data() + i * stride + offset, OIIO::TypeDesc::FLOAT,
+                                                &img.pixels[i * channels + c], 1))
+                    throw IoError(name + ": cannot convert its pixels to float (" + OIIO::geterror() + ")");
+            offset += type.size();
+        }
+    }
     for (const auto& pv : spec.extra_attribs) {
         const OIIO::TypeDesc t = pv.type();
         const std::string attrName = pv.name().string();
