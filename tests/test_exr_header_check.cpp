@@ -181,6 +181,12 @@ TEST(ExrHeaderCheck, DecodingBuffersOfWideChunksCountAgainstTheBudget) {
     EXPECT_NE(why.find("589825x1 (16 lines per chunk)"), std::string::npos) << why;
     EXPECT_NE(why.find("memory budget"), std::string::npos) << why;
     EXPECT_THROW(volcl::TransferFunction::fromFile(finding, {0.0, 1.0}), volcl::IoError);
+    // Without a compression attribute OpenEXR uses its default, ZIP (16 lines): a 311-byte file claiming a
+    // 132,736-pixel strip passed as uncompressed (1 line) and decoded into a TF whose 256^2 table took 15 s.
+    const fs::path noCompression =
+        fs::path(VOLCL_SOURCE_DIR) / "fuzz/regressions/fuzz_tf_exr/timeout-zip-strip-without-compression-attribute.exr";
+    ASSERT_TRUE(fs::exists(noCompression));
+    EXPECT_NE(refusal(noCompression, 34u << 20).find("132736x1 (16 lines per chunk)"), std::string::npos);
 
     // A valid 40000x1 RGBA float strip, ZIP-compressed as volcl writes EXR: 1.28 MB of pixels (as stored and
     // as floats), 10.24 MB per 16-line chunk.

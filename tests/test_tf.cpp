@@ -319,6 +319,54 @@ TEST(TransferFunction, RgbaStripImport) {
     EXPECT_THROW(TransferFunction::fromFile(tmpDir() / "tall.exr"), volcl::DataError);
 }
 
+// Work downstream grows with the points, so a file may state at most kMaxTransferFunctionPoints per list. The
+// fuzzer's 311-byte ZIP strip claimed 132,736 pixels: an exact 256^2 table from it took 15 s.
+TEST(TransferFunction, PointCountsAboveTheLimitAreRefusedBeforeWork) {
+    const std::size_t limit = volcl::kMaxTransferFunctionPoints;
+    auto refusal = [](auto read) {
+        try {
+            read();
+        } catch (const volcl::DataError& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    auto canonical = [](std::size_t colors, std::size_t extinctions) {
+        std::string j = R"({"domain": [0, 1], "color": [)";
+        for (std::size_t i = 0; i < colors; ++i) j += (i ? "," : "") + std::string("[0.5, 1, 1, 1]");
+        j += R"(], "extinction": [)";
+        for (std::size_t i = 0; i < extinctions; ++i) j += (i ? "," : "") + std::string("[0.5, 1]");
+        return j + "]}";
+    };
+    EXPECT_EQ(refusal([&] { TransferFunction::fromJson(canonical(limit, 2)); }), "");
+    EXPECT_NE(refusal([&] { TransferFunction::fromJson(canonical(limit + 1, 2)); })
+                  .find("'color' has 16385 points, more than the 16384"),
+              std::string::npos);
+    EXPECT_NE(refusal([&] { TransferFunction::fromJson(canonical(2, limit + 1)); }).find("'extinction' has 16385"),
+              std::string::npos);
+    std::string rgb = R"({"RGBPoints": [)";
+    for (std::size_t i = 0; i <= limit; ++i) rgb += (i ? "," : "") + std::to_string(i) + ",1,0,0";
+    EXPECT_NE(refusal([&] { TransferFunction::fromJson(rgb + "]}"); }).find("'RGBPoints' has 16385"),
+              std::string::npos);
+    std::string opacity = R"({"RGBPoints": [0,1,0,0, 1,0,1,0], "Points": [)";
+    for (std::size_t i = 0; i <= limit; ++i) opacity += (i ? "," : "") + std::to_string(i) + ",0.5,0.5,0";
+    EXPECT_NE(refusal([&] { TransferFunction::fromJson(opacity + "]}"); }).find("'Points' has 16385"),
+              std::string::npos);
+
+    for (const std::size_t width : {limit, limit + 1}) {
+        volcl::ImageBuffer strip(int(width), 1, {"R", "G", "B", "A"});
+        const auto path = tmpDir() / ("strip-" + std::to_string(width) + ".png");
+        volcl::writeImage(strip, path);
+        const std::string why = refusal([&] { TransferFunction::fromFile(path, {0.0, 1.0}); });
+        if (width == limit) {
+            EXPECT_EQ(why, "");
+        } else {
+            EXPECT_NE(why.find(path.string()), std::string::npos) << why;
+            EXPECT_NE(why.find("RGBA strip has 16385 points"), std::string::npos) << why;
+        }
+    }
+}
+
 TEST(TransferFunction, InvalidInputIsRefusedWithClearMessages) {
     struct Case {
         const char* json;

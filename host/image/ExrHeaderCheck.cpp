@@ -25,7 +25,7 @@ constexpr std::int32_t kMaxChannelListBytes = 1 << 16;
 // What one part's header says about its size.
 struct PartClaims {
     std::optional<std::array<std::int32_t, 4>> dataWindow;
-    int compression = 0;
+    int compression = 3; // without the attribute OpenEXR uses its header's default, ZIP
     std::uint32_t tileX = 0, tileY = 0;
     bool tiled = false;
     std::int64_t chunkCount = -1; // multi-part files state it

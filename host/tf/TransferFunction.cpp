@@ -53,6 +53,13 @@ double number(const json& v, const std::string& where) {
     return v.get<double>();
 }
 
+// Refuses a list of more than kMaxTransferFunctionPoints before it is read point by point.
+void checkPointCount(std::size_t points, const std::string& what) {
+    if (points > kMaxTransferFunctionPoints)
+        throw DataError(what + " has " + std::to_string(points) + " points, more than the " +
+                        std::to_string(kMaxTransferFunctionPoints) + " a transfer function may have");
+}
+
 json parseJson(std::string_view text) {
     try {
         return json::parse(text.begin(), text.end());
@@ -144,6 +151,8 @@ TransferFunction TransferFunction::fromJson(std::string_view text, double opacit
         if (!j.contains(key) || !j[key].is_array())
             throw DataError(std::string("transfer function: missing array '") + key + "'");
 
+    checkPointCount(j["color"].size(), "transfer function: 'color'");
+    checkPointCount(j["extinction"].size(), "transfer function: 'extinction'");
     std::size_t i = 0;
     for (const auto& p : j["color"]) {
         const std::string where = "transfer function: color[" + std::to_string(i++) + "]";
@@ -195,6 +204,7 @@ TransferFunction TransferFunction::fromParaView(std::string_view text, double op
         const json& p = (*j)["RGBPoints"];
         if (!p.is_array() || p.empty() || p.size() % 4 != 0)
             throw DataError("ParaView colour map: 'RGBPoints' must hold groups of 4 numbers (x, r, g, b)");
+        checkPointCount(p.size() / 4, "ParaView colour map: 'RGBPoints'");
         for (std::size_t i = 0; i < p.size(); i += 4) {
             const std::string where = "ParaView colour map: RGBPoints[" + std::to_string(i) + "]";
             tf.color.push_back({number(p[i], where),
@@ -210,6 +220,7 @@ TransferFunction TransferFunction::fromParaView(std::string_view text, double op
         if (!p.is_array() || p.empty() || p.size() % 4 != 0)
             throw DataError(
                 "ParaView colour map: 'Points' must hold groups of 4 numbers (x, a, midpoint, sharpness)");
+        checkPointCount(p.size() / 4, "ParaView colour map: 'Points'");
         for (std::size_t i = 0; i < p.size(); i += 4) {
             const std::string where = "ParaView colour map: Points[" + std::to_string(i) + "]";
             nodes.push_back({number(p[i], where), number(p[i + 1], where), number(p[i + 2], where),
@@ -317,6 +328,7 @@ TransferFunction TransferFunction::fittedTo(std::array<double, 2> dataRange,
 TransferFunction TransferFunction::fromRgbaStrip(const std::vector<std::array<float, 4>>& pixels,
                                                  std::array<double, 2> domain) {
     if (pixels.empty()) throw DataError("RGBA strip: no pixels");
+    checkPointCount(pixels.size(), "RGBA strip");
     if (!(std::isfinite(domain[0]) && std::isfinite(domain[1]) && domain[0] < domain[1]))
         throw DataError("RGBA strip: domain [" + describe(domain[0]) + ", " + describe(domain[1]) +
                         "] must be finite with lo < hi");
@@ -355,8 +367,10 @@ TransferFunction TransferFunction::fromFile(const std::filesystem::path& path,
             return fromJson(text.str(), opacityUnitDistance);
         }
         if (ext == ".png" || ext == ".exr" || ext == ".tif" || ext == ".tiff") {
-            // A strip of up to 2^20 RGBA pixels; a forged EXR data window is refused before allocation.
-            constexpr std::size_t kMaxStripBytes = std::size_t{16} << 20;
+            // What reading the widest strip takes: its RGBA float pixels as stored and as floats, and
+            // OpenEXR's four chunk buffers of 32 lines (PIZ, B44, DWAA; ZIP has 16): 34 MB. A forged data
+            // window is refused before allocation, a strip wider than kMaxTransferFunctionPoints after it.
+            constexpr std::size_t kMaxStripBytes = kMaxTransferFunctionPoints * (16 + 16 + 4 * 32 * 16);
             ImageBuffer img = readImage(path, kMaxStripBytes);
             if (img.height != 1)
                 throw DataError("RGBA strip must be 1 pixel high, this one is " + std::to_string(img.width) +
@@ -364,6 +378,7 @@ TransferFunction TransferFunction::fromFile(const std::filesystem::path& path,
             if (img.channelCount() < 4)
                 throw DataError("RGBA strip needs 4 channels (R, G, B, A), this one has " +
                                 std::to_string(img.channelCount()));
+            checkPointCount(std::size_t(img.width), "RGBA strip");
             std::vector<std::array<float, 4>> px(static_cast<std::size_t>(img.width));
             for (int x = 0; x < img.width; ++x)
                 for (int c = 0; c < 4; ++c)

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <cstddef>
 #include <string_view>
 #include <vector>
 
@@ -14,6 +15,11 @@ namespace volcl {
 
 /// Extinction used for an imported opacity of exactly 1 (tau = -ln(1 - a) is infinite there).
 inline constexpr double kMaxImportedExtinction = 1000.0;
+/// Most points a transfer function file may state per list (canonical `color` / `extinction`, ParaView
+/// `RGBPoints` / `Points`, a strip's pixels). Work downstream grows with the points (an exact 2D table of
+/// N^2 entries integrates over every piece between s_f and s_b), so a small file claiming a million of
+/// them (a 300-byte compressed strip) is refused before any work; colour maps have hundreds.
+inline constexpr std::size_t kMaxTransferFunctionPoints = 16384;
 /// Opacity per unit distance given to a ParaView colour map that has no opacity `Points`: a linear ramp
 /// from 0 at the bottom of its colour range to this value at the top (translucent, never a solid blob).
 inline constexpr double kColorOnlyTopOpacity = 0.1;

@@ -278,6 +278,15 @@ TEST(CliHostile, TransferFunctionErrorsAreOneLineNamingTheFile) {
     expectRefused(run("preint --tf big.json --size 8 --step 1 -o t.exr", dir), 1, "big.json");
     writeText(dir / "garbage.png", "\x89PNG\r\n\x1a\n this is not a PNG at all, just bytes");
     expectRefused(run("preint --tf garbage.png --size 8 --step 1 -o t.exr", dir), 1, "garbage.png");
+    // Small EXR strips whose decoding claims more than a strip may take (the fuzzer's: a 693-byte file took
+    // 1 GB, a 311-byte one a 15 s table): refused by the header check, before OpenEXR decodes anything.
+    for (const char* finding :
+         {"oom-wide-zip-strip-line-buffers.exr", "timeout-zip-strip-without-compression-attribute.exr"}) {
+        fs::copy_file(fs::path(VOLCL_SOURCE_DIR) / "fuzz/regressions/fuzz_tf_exr" / finding, dir / finding,
+                      fs::copy_options::overwrite_existing);
+        expectRefused(run(std::string("preint --tf ") + finding + " --size 256 --step 1 -o t.exr", dir), 1,
+                      finding, "lines per chunk");
+    }
     EXPECT_FALSE(fs::exists(dir / "t.exr"));
 }
 
