@@ -30,10 +30,10 @@ std::string describe(double v) {
 }
 
 /// tau for an opacity per `unitDistance` of length; a = 1 has no finite answer and maps to
-/// kMaxImportedExtinction (per unit distance).
-double opacityToExtinction(double a, const std::string& where, double unitDistance = 1.0) {
+/// kMaxImportedExtinction (per unit distance). `where()` names the point, for the message only.
+template <class Where> double opacityToExtinction(double a, Where where, double unitDistance = 1.0) {
     if (!std::isfinite(a) || a < 0.0 || a > 1.0)
-        throw DataError(where + ": opacity " + describe(a) + " is outside [0, 1]");
+        throw DataError(where() + ": opacity " + describe(a) + " is outside [0, 1]");
     if (a >= 1.0) return kMaxImportedExtinction / unitDistance;
     return std::min(-std::log1p(-a), kMaxImportedExtinction) / unitDistance;
 }
@@ -242,9 +242,9 @@ TransferFunction TransferFunction::fromParaView(std::string_view text, double op
         if (!(nodes[i].x >= nodes[i - 1].x))
             throw DataError("ParaView colour map: 'Points' are not sorted by x at node " + std::to_string(i));
 
-    const std::string where = "ParaView colour map";
     auto push = [&](double x, double a) {
-        tf.extinction.push_back({x, opacityToExtinction(a, where, opacityUnitDistance)});
+        tf.extinction.push_back(
+            {x, opacityToExtinction(a, [] { return std::string("ParaView colour map"); }, opacityUnitDistance)});
     };
     push(nodes.front().x, nodes.front().a);
     for (std::size_t i = 0; i + 1 < nodes.size(); ++i) {
@@ -338,9 +338,9 @@ TransferFunction TransferFunction::fromRgbaStrip(const std::vector<std::array<fl
     for (std::size_t i = 0; i < n; ++i) {
         const double s = n == 1 ? domain[0] : domain[0] + (domain[1] - domain[0]) * double(i) / double(n - 1);
         const auto& p = pixels[i];
-        const std::string where = "RGBA strip pixel " + std::to_string(i);
+        auto where = [i] { return "RGBA strip pixel " + std::to_string(i); };
         for (float v : p)
-            if (!std::isfinite(v)) throw DataError(where + ": value is not finite");
+            if (!std::isfinite(v)) throw DataError(where() + ": value is not finite");
         tf.color.push_back({s, {p[0], p[1], p[2]}});
         tf.extinction.push_back({s, opacityToExtinction(p[3], where)});
     }
@@ -412,26 +412,27 @@ void TransferFunction::validate() const {
                         "] needs lo < hi");
     if (color.empty()) throw DataError("transfer function: 'color' has no points");
     if (extinction.empty()) throw DataError("transfer function: 'extinction' has no points");
+    // The point's name is built only for a message: per point it cost more than the checks.
     for (std::size_t i = 0; i < color.size(); ++i) {
         const auto& p = color[i];
-        const std::string where = "transfer function: color[" + std::to_string(i) + "]";
-        if (!finiteInFloat(p.s)) throw DataError(where + ": s is not a finite float");
+        auto where = [i] { return "transfer function: color[" + std::to_string(i) + "]"; };
+        if (!finiteInFloat(p.s)) throw DataError(where() + ": s is not a finite float");
         for (double c : p.rgb)
             if (!finiteInFloat(c))
-                throw DataError(where + ": colour " + describe(c) + " is not a finite float");
+                throw DataError(where() + ": colour " + describe(c) + " is not a finite float");
         if (i > 0 && p.s < color[i - 1].s)
-            throw DataError(where + ": s = " + describe(p.s) + " is below the previous point's " +
+            throw DataError(where() + ": s = " + describe(p.s) + " is below the previous point's " +
                             describe(color[i - 1].s) + " (points must be sorted)");
     }
     for (std::size_t i = 0; i < extinction.size(); ++i) {
         const auto& p = extinction[i];
-        const std::string where = "transfer function: extinction[" + std::to_string(i) + "]";
-        if (!finiteInFloat(p.s)) throw DataError(where + ": s is not a finite float");
+        auto where = [i] { return "transfer function: extinction[" + std::to_string(i) + "]"; };
+        if (!finiteInFloat(p.s)) throw DataError(where() + ": s is not a finite float");
         if (!finiteInFloat(p.tau))
-            throw DataError(where + ": tau " + describe(p.tau) + " is not a finite float");
-        if (p.tau < 0.0) throw DataError(where + ": tau " + describe(p.tau) + " is negative");
+            throw DataError(where() + ": tau " + describe(p.tau) + " is not a finite float");
+        if (p.tau < 0.0) throw DataError(where() + ": tau " + describe(p.tau) + " is negative");
         if (i > 0 && p.s < extinction[i - 1].s)
-            throw DataError(where + ": s = " + describe(p.s) + " is below the previous point's " +
+            throw DataError(where() + ": s = " + describe(p.s) + " is below the previous point's " +
                             describe(extinction[i - 1].s) + " (points must be sorted)");
     }
 }
