@@ -74,12 +74,15 @@ public:
         throw IoError(name_ + ": corrupt EXR header: " + why);
     }
 
-    std::uint64_t position() { return static_cast<std::uint64_t>(in_.tellg()); }
-    std::uint64_t remaining() { return size_ - position(); }
+    // The walker counts its own position: the stream's tellg is a system call, and names are read a byte
+    // at a time (a 20 KB header cost 20,000 lseek calls).
+    std::uint64_t position() const { return pos_; }
+    std::uint64_t remaining() const { return size_ - pos_; }
 
     void read(void* out, std::size_t n) {
         if (n > remaining() || !in_.read(static_cast<char*>(out), static_cast<std::streamsize>(n)))
             corrupt("ends inside a header");
+        pos_ += n;
     }
     template <class T> T value() {
         T v{};
@@ -99,12 +102,14 @@ public:
     void skip(std::uint64_t n) {
         if (n > remaining()) corrupt("an attribute claims more bytes than the file holds");
         in_.seekg(static_cast<std::streamoff>(n), std::ios::cur);
+        pos_ += n;
     }
     // Peeks one byte: a NUL ends a header (or, in a multi-part file, the list of headers).
     bool atEnd() {
         if (remaining() == 0) corrupt("the header never ends");
         if (in_.peek() != 0) return false;
         in_.get();
+        ++pos_;
         return true;
     }
 
@@ -191,6 +196,7 @@ public:
 private:
     std::string name_;
     std::uint64_t size_;
+    std::uint64_t pos_ = 0;
     std::ifstream in_;
 };
 
