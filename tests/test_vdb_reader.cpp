@@ -1,5 +1,5 @@
-// .vdb reading: densified grids, forged sizes, and the reader program that isolates libopenvdb (it must
-// work whatever the calling process is doing, leave no process behind, and find its reply pipe).
+// .vdb reading: densified grids, forged sizes, and the reader service that isolates libopenvdb (it must
+// work whatever the calling process is doing, leave no process behind its thread, and find its socket).
 #include "TestUtil.hpp"
 #include "host/Error.hpp"
 #include "host/io/VolumeIo.hpp"
@@ -13,6 +13,7 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <thread>
 #include <vector>
 
@@ -167,21 +168,38 @@ TEST(VdbReader, ReadsWhileOtherThreadsAllocate) {
         t.join();
 }
 
-// Every read, good or corrupt, reaps its reader: the caller is left with no child process.
-TEST(VdbReader, NoReaderOutlivesARead) {
+// The children a thread has started (Linux lists them per thread).
+std::vector<pid_t> childrenOfThisThread() {
+    std::ifstream in("/proc/self/task/" + std::to_string(::gettid()) + "/children");
+    std::vector<pid_t> pids;
+    for (pid_t p; in >> p;)
+        pids.push_back(p);
+    return pids;
+}
+
+// Every read, good or corrupt, reaps its reader: while the thread lives its one child is the reader
+// service, and when the thread ends so does the service, reaped.
+TEST(VdbReader, NoProcessOutlivesTheReadingThread) {
     const fs::path dir = test::tempDir("io-vdb-reaped");
     Volume v(Dims{4, 4, 4}, ScalarType::Float32);
     writeVolumeFile(v, dir / "ok.vdb");
-    (void)readVolume(dir / "ok.vdb");
-    expectForgedBufferSizeRefused();
-    int status = 0;
-    EXPECT_EQ(::waitpid(-1, &status, WNOHANG), -1);
-    EXPECT_EQ(errno, ECHILD);
+    std::vector<pid_t> during;
+    std::thread reading([&] {
+        for (int i = 0; i < 3; ++i) {
+            (void)readVolume(dir / "ok.vdb");
+            expectForgedBufferSizeRefused();
+        }
+        during = childrenOfThisThread();
+    });
+    reading.join();
+    ASSERT_EQ(during.size(), 1u) << "the service and no reader";
+    EXPECT_EQ(::kill(during[0], 0), -1) << "the service outlived its thread";
+    EXPECT_EQ(errno, ESRCH);
 }
 
-// The reply pipe goes to the reader as descriptor 3. When the pipe's write end is itself descriptor 3
-// (0 and 3 were free), it must still reach the reader open.
-TEST(VdbReader, ReplyPipeReachesTheReaderWhenItIsDescriptorThree) {
+// The service's socket goes to it as descriptor 3. When the socket's end is itself descriptor 3 (0 and 3
+// were free when the thread's service started), it must still reach the service open.
+TEST(VdbReader, ServiceSocketReachesTheServiceWhenItIsDescriptorThree) {
     const fs::path dir = test::tempDir("io-vdb-fd3");
     Volume v(Dims{3, 2, 2}, ScalarType::UInt8);
     v.values<std::uint8_t>()[7] = 200;
@@ -191,14 +209,17 @@ TEST(VdbReader, ReplyPipeReachesTheReaderWhenItIsDescriptorThree) {
     ASSERT_GE(savedStdin, 0);
     ::close(0);
     ::close(3);
-    // The read's pipe2 now takes 0 (read end) and 3 (write end).
+    // A new thread starts its own service: its socketpair now takes 0 and 3.
     Volume back;
     std::string error;
-    try {
-        back = readVolume(dir / "v.vdb");
-    } catch (const std::exception& e) {
-        error = e.what();
-    }
+    std::thread reading([&] {
+        try {
+            back = readVolume(dir / "v.vdb");
+        } catch (const std::exception& e) {
+            error = e.what();
+        }
+    });
+    reading.join();
     ::dup2(savedStdin, 0);
     ::close(savedStdin);
     if (savedThree >= 0) {
@@ -208,6 +229,28 @@ TEST(VdbReader, ReplyPipeReachesTheReaderWhenItIsDescriptorThree) {
     ASSERT_EQ(error, "");
     ASSERT_EQ(back.dims(), v.dims());
     EXPECT_EQ(back.values<std::uint8_t>()[7], 200);
+}
+
+// Reads on several threads at once each go through their thread's own service.
+TEST(VdbReader, ThreadsReadInParallelThroughTheirOwnServices) {
+    const fs::path dir = test::tempDir("io-vdb-parallel");
+    Volume v(Dims{6, 5, 4}, ScalarType::UInt16);
+    for (std::size_t i = 0; i < v.voxelCount(); ++i)
+        v.values<std::uint16_t>()[i] = static_cast<std::uint16_t>(i * 311);
+    writeVolumeFile(v, dir / "v.vdb");
+    std::atomic<int> good{0};
+    std::vector<std::thread> readers;
+    for (int t = 0; t < 4; ++t)
+        readers.emplace_back([&] {
+            for (int i = 0; i < 5; ++i) {
+                const Volume back = readVolume(dir / "v.vdb");
+                if (back.dims() == v.dims() && std::memcmp(back.bytes().data(), v.bytes().data(), v.byteSize()) == 0)
+                    ++good;
+            }
+        });
+    for (std::thread& t : readers)
+        t.join();
+    EXPECT_EQ(good.load(), 20);
 }
 
 } // namespace

@@ -1,6 +1,6 @@
-// OpenVDB (.vdb): the file layout checked here, then the grid read through the OpenVDB module by a separate
-// reader program (VdbReader.hpp), so corrupt node data cannot crash or hang the caller; writing goes through
-// the module in process.
+// OpenVDB (.vdb): the file layout checked here, then the grid read through the OpenVDB module by a reader
+// process of the reader service (VdbReader.hpp), so corrupt node data cannot crash or hang the caller;
+// writing goes through the module in process.
 #include "host/MemoryBudget.hpp"
 #include "host/io/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
@@ -19,6 +19,7 @@
 #include <poll.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -128,84 +129,186 @@ void checkVdbLayout(const fs::path& path) {
 }
 
 // ---- isolation ------------------------------------------------------------------------------------
-// The grid itself is decoded by the reader program (VdbReader.hpp), whose reply is read back here.
+// The grid itself is decoded by a reader that the reader service forks (VdbReader.hpp); its reply is read
+// back here.
 
-// Starts the reader on `path` with its reply pipe on kVdbReplyFd and the terminal on /dev/null (libopenvdb
-// and a sanitizer may print; volcl's errors are one line). Returns its pid; `replyFd` is the read end.
-pid_t startReader(const fs::path& path, const ReadOptions& options, int& replyFd) {
-    const fs::path reader = findRuntimeHelper(kVdbReaderFile, (path.string() + ": reading it").c_str());
-    int fds[2];
-    if (::pipe2(fds, O_CLOEXEC) != 0)
-        throw IoError(path.string() + ": cannot create a pipe: " + std::strerror(errno));
-    // dup2 onto itself would keep close-on-exec set, and the reader would start without its reply pipe.
-    if (fds[1] == kVdbReplyFd) {
-        const int moved = ::fcntl(fds[1], F_DUPFD_CLOEXEC, kVdbReplyFd + 1);
-        ::close(fds[1]);
-        fds[1] = moved;
-        if (moved < 0) {
-            ::close(fds[0]);
-            throw IoError(path.string() + ": cannot create a pipe: " + std::strerror(errno));
-        }
-    }
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
-    posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
-    posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
-    posix_spawn_file_actions_adddup2(&actions, fds[1], kVdbReplyFd);
-    const std::string caller = std::to_string(::getpid());
-    const std::string budget =
-        std::to_string(options.memoryBudget ? options.memoryBudget : defaultMemoryBudget());
-    std::vector<std::string> args = {reader.string(), caller, path.string(), budget};
-    if (options.vdbGrid) args.push_back(*options.vdbGrid);
-    std::vector<char*> argv;
-    for (std::string& a : args)
-        argv.push_back(a.data());
-    argv.push_back(nullptr);
-    pid_t pid = -1;
-    const int rc = ::posix_spawn(&pid, reader.c_str(), &actions, nullptr, argv.data(), environ);
-    posix_spawn_file_actions_destroy(&actions);
-    ::close(fds[1]);
-    if (rc != 0) {
-        ::close(fds[0]);
-        throw IoError(path.string() + ": cannot start " + reader.string() + ": " + std::strerror(rc));
-    }
-    replyFd = fds[0];
-    return pid;
-}
-
-// Reads the reader's whole reply, or stops at the deadline and kills it; then reaps it.
 struct ReaderOutcome {
     std::vector<std::byte> reply;
     bool timedOut = false;
     int waitStatus = 0;
 };
 
-ReaderOutcome collectReply(pid_t reader, int replyFd, std::chrono::steady_clock::duration timeout) {
-    ReaderOutcome out;
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    std::byte buf[1 << 16];
+// Waits until `fd` is readable or `deadline` passes; false at the deadline.
+bool waitReadable(int fd, std::chrono::steady_clock::time_point deadline) {
     while (true) {
-        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
-            deadline - std::chrono::steady_clock::now());
-        if (left.count() <= 0) {
-            out.timedOut = true;
-            break;
-        }
-        pollfd pfd{replyFd, POLLIN, 0};
+        const auto left =
+            std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+        if (left.count() <= 0) return false;
+        pollfd pfd{fd, POLLIN, 0};
         const int pr = ::poll(&pfd, 1, static_cast<int>(std::min<long long>(left.count(), 1000)));
-        if (pr < 0 && errno == EINTR) continue;
-        if (pr == 0) continue;
-        const ssize_t r = ::read(replyFd, buf, sizeof(buf));
-        if (r < 0 && errno == EINTR) continue;
-        if (r <= 0) break;
-        out.reply.insert(out.reply.end(), buf, buf + r);
+        if (pr > 0) return true;
+        if (pr < 0 && errno != EINTR) return true; // let the read report it
     }
-    ::close(replyFd);
-    if (out.timedOut) ::kill(reader, SIGKILL);
-    while (::waitpid(reader, &out.waitStatus, 0) < 0 && errno == EINTR) {
+}
+
+// The reader service of one calling thread: started on the thread's first read, ended with the thread
+// (the service's parent-death signal follows the thread that spawned it). Reads on other threads use
+// their own services, so they run in parallel as before.
+class ReaderService {
+public:
+    ReaderService() = default;
+    ReaderService(const ReaderService&) = delete;
+    ReaderService& operator=(const ReaderService&) = delete;
+    ~ReaderService() { stop(); }
+
+    ReaderOutcome read(const fs::path& path, const ReadOptions& options, std::chrono::steady_clock::duration timeout) {
+        // A forked copy of the caller shares the socket with its parent's service: it starts its own.
+        if (pid_ > 0 && owner_ != ::getpid()) {
+            ::close(socket_);
+            socket_ = -1;
+            pid_ = -1;
+        }
+        int fds[2];
+        if (::pipe2(fds, O_CLOEXEC) != 0)
+            throw IoError(path.string() + ": cannot create a pipe: " + std::strerror(errno));
+        // A service that has ended (its thread's parent-death signal, a kill) is started once more.
+        bool sent = false;
+        for (int attempt = 0; attempt < 2 && !sent; ++attempt) {
+            if (pid_ < 0) start(path);
+            sent = send(path, options, fds[1]);
+            if (!sent) stop();
+        }
+        ::close(fds[1]);
+        if (!sent) {
+            ::close(fds[0]);
+            throw IoError(path.string() + ": the OpenVDB reader service does not answer");
+        }
+        const auto deadline = std::chrono::steady_clock::now() + timeout;
+        std::int32_t reader = -1;
+        if (!receive(reader, deadline) || reader < 0) {
+            ::close(fds[0]);
+            stop();
+            throw IoError(path.string() + ": the OpenVDB reader service could not start a reader");
+        }
+        ReaderOutcome out;
+        std::byte buf[1 << 16];
+        while (true) {
+            if (!waitReadable(fds[0], deadline)) {
+                out.timedOut = true;
+                ::kill(reader, SIGKILL);
+                break;
+            }
+            const ssize_t r = ::read(fds[0], buf, sizeof(buf));
+            if (r < 0 && errno == EINTR) continue;
+            if (r <= 0) break;
+            out.reply.insert(out.reply.end(), buf, buf + r);
+        }
+        ::close(fds[0]);
+        // The service reaps the reader and sends its wait status; a killed reader ends at once.
+        std::int32_t status = 0;
+        if (!receive(status, std::max(deadline, std::chrono::steady_clock::now()) + std::chrono::seconds(10))) {
+            stop();
+            throw IoError(path.string() + ": the OpenVDB reader service stopped during the read");
+        }
+        out.waitStatus = status;
+        return out;
     }
-    return out;
+
+private:
+    void start(const fs::path& path) {
+        const fs::path program = findRuntimeHelper(kVdbReaderFile, (path.string() + ": reading it").c_str());
+        int fds[2];
+        if (::socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, fds) != 0)
+            throw IoError(path.string() + ": cannot create a socket: " + std::strerror(errno));
+        // dup2 onto itself would keep close-on-exec set, and the service would start without its socket.
+        if (fds[1] == kVdbServiceFd) {
+            const int moved = ::fcntl(fds[1], F_DUPFD_CLOEXEC, kVdbServiceFd + 1);
+            ::close(fds[1]);
+            fds[1] = moved;
+            if (moved < 0) {
+                ::close(fds[0]);
+                throw IoError(path.string() + ": cannot create a socket: " + std::strerror(errno));
+            }
+        }
+        posix_spawn_file_actions_t actions;
+        posix_spawn_file_actions_init(&actions);
+        posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
+        posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
+        posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+        posix_spawn_file_actions_adddup2(&actions, fds[1], kVdbServiceFd);
+        std::string caller = std::to_string(::getpid()), name = program.string();
+        char* argv[] = {name.data(), caller.data(), nullptr};
+        pid_t pid = -1;
+        const int rc = ::posix_spawn(&pid, program.c_str(), &actions, nullptr, argv, environ);
+        posix_spawn_file_actions_destroy(&actions);
+        ::close(fds[1]);
+        if (rc != 0) {
+            ::close(fds[0]);
+            throw IoError(path.string() + ": cannot start " + program.string() + ": " + std::strerror(rc));
+        }
+        pid_ = pid;
+        owner_ = ::getpid();
+        socket_ = fds[0];
+    }
+
+    // Closing the socket ends the service; it is reaped here so no process outlives the thread.
+    void stop() noexcept {
+        if (socket_ >= 0) ::close(socket_);
+        socket_ = -1;
+        if (pid_ > 0 && owner_ == ::getpid()) {
+            int status = 0;
+            while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
+            }
+        }
+        pid_ = -1;
+    }
+
+    bool send(const fs::path& path, const ReadOptions& options, int replyFd) {
+        const std::string file = path.string();
+        const std::uint64_t text = file.size() + (options.vdbGrid ? options.vdbGrid->size() : 0);
+        if (text > kMaxVdbRequestText) throw UsageError(file + ": path and grid name are too long");
+        VdbRequest head{options.memoryBudget ? options.memoryBudget : defaultMemoryBudget(),
+                        static_cast<std::uint32_t>(file.size()),
+                        options.vdbGrid ? static_cast<std::uint32_t>(options.vdbGrid->size()) : kNoGrid};
+        std::string message(reinterpret_cast<const char*>(&head), sizeof(head));
+        message += file;
+        if (options.vdbGrid) message += *options.vdbGrid;
+        iovec iov{message.data(), message.size()};
+        alignas(cmsghdr) char control[CMSG_SPACE(sizeof(int))] = {};
+        msghdr msg{};
+        msg.msg_iov = &iov;
+        msg.msg_iovlen = 1;
+        msg.msg_control = control;
+        msg.msg_controllen = sizeof(control);
+        cmsghdr* c = CMSG_FIRSTHDR(&msg);
+        c->cmsg_level = SOL_SOCKET;
+        c->cmsg_type = SCM_RIGHTS;
+        c->cmsg_len = CMSG_LEN(sizeof(int));
+        std::memcpy(CMSG_DATA(c), &replyFd, sizeof(int));
+        while (true) {
+            const ssize_t w = ::sendmsg(socket_, &msg, MSG_NOSIGNAL);
+            if (w < 0 && errno == EINTR) continue;
+            return w == static_cast<ssize_t>(message.size());
+        }
+    }
+
+    bool receive(std::int32_t& value, std::chrono::steady_clock::time_point deadline) {
+        if (!waitReadable(socket_, deadline)) return false;
+        while (true) {
+            const ssize_t r = ::recv(socket_, &value, sizeof(value), 0);
+            if (r < 0 && errno == EINTR) continue;
+            return r == sizeof(value);
+        }
+    }
+
+    pid_t pid_ = -1;
+    pid_t owner_ = -1; // the process that started the service
+    int socket_ = -1;
+};
+
+ReaderService& readerService() {
+    thread_local ReaderService service;
+    return service;
 }
 
 } // namespace
@@ -214,9 +317,7 @@ TimeSeries readVdb(ReadContext& ctx) {
     const fs::path& path = ctx.file();
     const ReadOptions& options = ctx.options();
     checkVdbLayout(path);
-    int replyFd = -1;
-    const pid_t reader = startReader(path, options, replyFd);
-    const ReaderOutcome outcome = collectReply(reader, replyFd, std::chrono::minutes(5));
+    const ReaderOutcome outcome = readerService().read(path, options, std::chrono::minutes(5));
     const std::vector<std::byte>& reply = outcome.reply;
     const int wstatus = outcome.waitStatus;
     if (outcome.timedOut) fail(path, "OpenVDB did not finish reading within 5 minutes (corrupt grid data?)");

@@ -1,4 +1,4 @@
-// volcl-vdb-reader: decodes one .vdb grid in a process of its own and sends the dense volume to libvolcl.
+// volcl-vdb-reader: the OpenVDB reader service; each .vdb grid is decoded in a forked reader of its own.
 #include "host/Error.hpp"
 #include "host/io/VdbModule.hpp"
 #include "host/io/VdbReader.hpp"
@@ -7,12 +7,16 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <new>
 #include <string>
+#include <vector>
 
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 namespace {
@@ -65,15 +69,16 @@ bool sendVolume(const volcl::Volume& v) {
            writeAll(fd, v.bytes().data(), v.byteSize());
 }
 
-bool readAndSend(const char* file, unsigned long long budget, const char* grid) {
+// In a reader (a fork of the service): reads the file with the module the service loaded and replies.
+bool readAndSend(const volcl::io::VdbModule* vdb, const std::string& loadError, const char* file,
+                 unsigned long long budget, const char* grid) {
     try {
-        const auto& vdb = *static_cast<const volcl::io::VdbModule*>(volcl::loadRuntimeModule(
-            volcl::io::kVdbModuleFile, volcl::io::kVdbModuleEntry, "OpenVDB file I/O"));
+        if (!vdb) throw volcl::IoError(loadError);
         capAddressSpace(budget);
         volcl::ReadOptions options;
         options.memoryBudget = static_cast<std::size_t>(budget);
         if (grid) options.vdbGrid = grid;
-        volcl::TimeSeries series = vdb.read(file, options);
+        volcl::TimeSeries series = vdb->read(file, options);
         return sendVolume(series.frames.front());
     } catch (const volcl::UsageError& e) {
         return sendFailure(VdbReplyStatus::Usage, e.what());
@@ -89,20 +94,95 @@ bool readAndSend(const char* file, unsigned long long budget, const char* grid) 
     }
 }
 
+// One request from the socket: its text and the reply pipe. False when the caller has closed the socket.
+struct Request {
+    volcl::io::VdbRequest head{};
+    std::string path, grid;
+    bool hasGrid = false;
+    int replyFd = -1;
+};
+
+bool receive(Request& r) {
+    using namespace volcl::io;
+    std::vector<char> buf(sizeof(VdbRequest) + kMaxVdbRequestText);
+    alignas(cmsghdr) char control[CMSG_SPACE(sizeof(int))];
+    for (;;) {
+        iovec iov{buf.data(), buf.size()};
+        msghdr msg{};
+        msg.msg_iov = &iov;
+        msg.msg_iovlen = 1;
+        msg.msg_control = control;
+        msg.msg_controllen = sizeof(control);
+        const ssize_t n = ::recvmsg(kVdbServiceFd, &msg, MSG_CMSG_CLOEXEC);
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) return false;
+        r = Request{};
+        for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c; c = CMSG_NXTHDR(&msg, c))
+            if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_RIGHTS)
+                std::memcpy(&r.replyFd, CMSG_DATA(c), sizeof(int));
+        if (r.replyFd < 0 || std::size_t(n) < sizeof(VdbRequest)) {
+            if (r.replyFd >= 0) ::close(r.replyFd);
+            continue; // not a request libvolcl sends: no pipe to answer on
+        }
+        std::memcpy(&r.head, buf.data(), sizeof(VdbRequest));
+        r.hasGrid = r.head.gridBytes != kNoGrid;
+        const std::uint64_t text = std::uint64_t(r.head.pathBytes) + (r.hasGrid ? r.head.gridBytes : 0);
+        if (text != std::uint64_t(n) - sizeof(VdbRequest)) {
+            ::close(r.replyFd);
+            continue;
+        }
+        r.path.assign(buf.data() + sizeof(VdbRequest), r.head.pathBytes);
+        if (r.hasGrid) r.grid.assign(buf.data() + sizeof(VdbRequest) + r.head.pathBytes, r.head.gridBytes);
+        return true;
+    }
+}
+
+bool answer(std::int32_t value) {
+    while (true) {
+        const ssize_t w = ::send(volcl::io::kVdbServiceFd, &value, sizeof(value), MSG_NOSIGNAL);
+        if (w < 0 && errno == EINTR) continue;
+        return w == sizeof(value);
+    }
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
-    // The reader never outlives the program that started it (it may be killed at its deadline).
+    // The service never outlives the thread that started it (nor a reader its service).
     (void)::prctl(PR_SET_PDEATHSIG, SIGKILL);
-    if (argc != 4 && argc != 5) {
-        std::fprintf(stderr, "usage: %s <caller pid> <file> <memory budget> [<grid>] (started by libvolcl)\n",
+    if (argc != 2) {
+        std::fprintf(stderr, "usage: %s <caller pid> (started by libvolcl, request socket on descriptor 3)\n",
                      argv[0]);
         return 2;
     }
     if (std::strtoll(argv[1], nullptr, 10) != static_cast<long long>(::getppid())) return 2; // caller gone
-    const unsigned long long budget = std::strtoull(argv[3], nullptr, 10);
-    const bool sent = readAndSend(argv[2], budget, argc == 5 ? argv[4] : nullptr);
-    // No destructors or exit handlers: the reply is complete, and libopenvdb's teardown of a grid that was
-    // corrupt is not worth the risk.
-    ::_exit(sent ? 0 : 3);
+    const volcl::io::VdbModule* vdb = nullptr;
+    std::string loadError;
+    try {
+        vdb = static_cast<const volcl::io::VdbModule*>(volcl::loadRuntimeModule(
+            volcl::io::kVdbModuleFile, volcl::io::kVdbModuleEntry, "OpenVDB file I/O"));
+    } catch (const std::exception& e) {
+        loadError = e.what(); // every request is answered with it
+    }
+    Request r;
+    while (receive(r)) {
+        const pid_t reader = ::fork();
+        if (reader == 0) {
+            (void)::prctl(PR_SET_PDEATHSIG, SIGKILL);
+            if (::dup2(r.replyFd, volcl::io::kVdbReplyFd) < 0) ::_exit(3); // over the socket: closes it
+            const bool sent = readAndSend(vdb, loadError, r.path.c_str(), r.head.memoryBudget,
+                                          r.hasGrid ? r.grid.c_str() : nullptr);
+            // No destructors or exit handlers: the reply is complete, and libopenvdb's teardown of a grid
+            // that was corrupt is not worth the risk.
+            ::_exit(sent ? 0 : 3);
+        }
+        ::close(r.replyFd);
+        if (!answer(reader < 0 ? -1 : reader)) break;
+        if (reader < 0) continue;
+        int status = 0;
+        while (::waitpid(reader, &status, 0) < 0 && errno == EINTR) {
+        }
+        if (!answer(status)) break;
+    }
+    ::_exit(0);
 }
