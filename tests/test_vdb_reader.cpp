@@ -177,22 +177,33 @@ std::vector<pid_t> childrenOfThisThread() {
     return pids;
 }
 
+int threadCount(pid_t pid) {
+    int n = 0;
+    for (const auto& e : fs::directory_iterator("/proc/" + std::to_string(pid) + "/task"))
+        n += e.is_directory() ? 1 : 0;
+    return n;
+}
+
 // Every read, good or corrupt, reaps its reader: while the thread lives its one child is the reader
-// service, and when the thread ends so does the service, reaped.
+// service (single-threaded: libopenvdb's logging pool is stopped before it forks), and when the thread ends
+// so does the service, reaped.
 TEST(VdbReader, NoProcessOutlivesTheReadingThread) {
     const fs::path dir = test::tempDir("io-vdb-reaped");
     Volume v(Dims{4, 4, 4}, ScalarType::Float32);
     writeVolumeFile(v, dir / "ok.vdb");
     std::vector<pid_t> during;
+    int serviceThreads = 0;
     std::thread reading([&] {
         for (int i = 0; i < 3; ++i) {
             (void)readVolume(dir / "ok.vdb");
             expectForgedBufferSizeRefused();
         }
         during = childrenOfThisThread();
+        if (during.size() == 1) serviceThreads = threadCount(during[0]);
     });
     reading.join();
     ASSERT_EQ(during.size(), 1u) << "the service and no reader";
+    EXPECT_EQ(serviceThreads, 1) << "the service must be single-threaded when it forks readers";
     EXPECT_EQ(::kill(during[0], 0), -1) << "the service outlived its thread";
     EXPECT_EQ(errno, ESRCH);
 }

@@ -12,8 +12,9 @@ namespace volcl::io {
 // The program is a reader service: `volcl-vdb-reader <caller pid>`, started fresh with posix_spawn (a
 // forked copy of a multithreaded caller could inherit locks held by its other threads and hang), with a
 // SOCK_SEQPACKET socket as descriptor kVdbServiceFd. It loads the OpenVDB module once (about 50 ms of
-// symbol binding) and stays single-threaded; for each request it forks a reader, which is safe in a
-// single-threaded process and costs about a millisecond. libvolcl keeps one service per thread that reads
+// symbol binding), stops the thread pool that libopenvdb's logging library starts, and so is
+// single-threaded; for each request it forks a reader, which is safe in a single-threaded process and
+// costs about a millisecond. libvolcl keeps one service per thread that reads
 // .vdb files and ends it with that thread.
 //
 // Request: one message, VdbRequest followed by the path and the grid name, with the write end of a reply

@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include <dlfcn.h>
+#include <link.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
@@ -94,6 +96,29 @@ bool readAndSend(const volcl::io::VdbModule* vdb, const std::string& loadError, 
     }
 }
 
+// libopenvdb's logging library, log4cplus, starts a pool of worker threads when it is loaded; they serve
+// asynchronous appenders, which volcl never configures (OpenVDB logs synchronously). The pool is stopped
+// so that the service is single-threaded when it forks a reader: a fork copies only the calling thread,
+// and a lock another thread held at that moment would stay held in the reader for ever.
+void stopLoggingThreads() {
+    std::string library;
+    ::dl_iterate_phdr(
+        [](dl_phdr_info* info, std::size_t, void* out) {
+            const std::string name = info->dlpi_name ? info->dlpi_name : "";
+            if (name.find("liblog4cplus") == std::string::npos) return 0;
+            *static_cast<std::string*>(out) = name;
+            return 1;
+        },
+        &library);
+    if (library.empty()) return;
+    void* handle = ::dlopen(library.c_str(), RTLD_LAZY | RTLD_NOLOAD);
+    if (!handle) return;
+    using Shutdown = void (*)();
+    if (auto shutdown = reinterpret_cast<Shutdown>(::dlsym(handle, "_ZN9log4cplus18shutdownThreadPoolEv")))
+        shutdown();
+    ::dlclose(handle);
+}
+
 // One request from the socket: its text and the reply pipe. False when the caller has closed the socket.
 struct Request {
     volcl::io::VdbRequest head{};
@@ -164,6 +189,7 @@ int main(int argc, char** argv) {
     } catch (const std::exception& e) {
         loadError = e.what(); // every request is answered with it
     }
+    stopLoggingThreads();
     Request r;
     while (receive(r)) {
         const pid_t reader = ::fork();
