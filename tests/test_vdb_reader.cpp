@@ -11,9 +11,11 @@
 
 #include <atomic>
 #include <cerrno>
+#include <csignal>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <stdexcept>
 #include <thread>
 #include <vector>
 
@@ -240,6 +242,30 @@ TEST(VdbReader, ServiceSocketReachesTheServiceWhenItIsDescriptorThree) {
     ASSERT_EQ(error, "");
     ASSERT_EQ(back.dims(), v.dims());
     EXPECT_EQ(back.values<std::uint8_t>()[7], 200);
+}
+
+// A service that has died (killed, or its thread's parent-death signal) is started again by the next read.
+TEST(VdbReader, AKilledServiceIsStartedAgain) {
+    const fs::path dir = test::tempDir("io-vdb-restart");
+    Volume v(Dims{5, 3, 2}, ScalarType::UInt8);
+    v.values<std::uint8_t>()[11] = 99;
+    writeVolumeFile(v, dir / "v.vdb");
+    std::string error;
+    std::thread reading([&] {
+        try {
+            (void)readVolume(dir / "v.vdb");
+            const std::vector<pid_t> services = childrenOfThisThread();
+            if (services.size() != 1) throw std::runtime_error("expected one service");
+            ::kill(services[0], SIGKILL);
+            for (int i = 0; i < 3; ++i)
+                if (readVolume(dir / "v.vdb").values<std::uint8_t>()[11] != 99)
+                    throw std::runtime_error("wrong voxels after the restart");
+        } catch (const std::exception& e) {
+            error = e.what();
+        }
+    });
+    reading.join();
+    EXPECT_EQ(error, "");
 }
 
 // Reads on several threads at once each go through their thread's own service.

@@ -151,6 +151,15 @@ bool waitReadable(int fd, std::chrono::steady_clock::time_point deadline) {
     }
 }
 
+// Closes a pipe end when it goes out of scope.
+struct PipeEnd {
+    explicit PipeEnd(int end) : fd(end) {}
+    PipeEnd(const PipeEnd&) = delete;
+    PipeEnd& operator=(const PipeEnd&) = delete;
+    ~PipeEnd() { ::close(fd); }
+    const int fd;
+};
+
 // The reader service of one calling thread: started on the thread's first read, ended with the thread
 // (the service's parent-death signal follows the thread that spawned it). Reads on other threads use
 // their own services, so they run in parallel as before.
@@ -168,53 +177,66 @@ public:
             socket_ = -1;
             pid_ = -1;
         }
+        const std::string request = requestMessage(path, options);
+        if (pid_ < 0) start(path);
         int fds[2];
         if (::pipe2(fds, O_CLOEXEC) != 0)
             throw IoError(path.string() + ": cannot create a pipe: " + std::strerror(errno));
-        // A service that has ended (its thread's parent-death signal, a kill) is started once more.
-        bool sent = false;
-        for (int attempt = 0; attempt < 2 && !sent; ++attempt) {
-            if (pid_ < 0) start(path);
-            sent = send(path, options, fds[1]);
-            if (!sent) stop();
-        }
-        ::close(fds[1]);
-        if (!sent) {
-            ::close(fds[0]);
-            throw IoError(path.string() + ": the OpenVDB reader service does not answer");
-        }
+        const PipeEnd replyEnd{fds[0]};
         const auto deadline = std::chrono::steady_clock::now() + timeout;
         std::int32_t reader = -1;
-        if (!receive(reader, deadline) || reader < 0) {
-            ::close(fds[0]);
+        {
+            const PipeEnd writeEnd{fds[1]}; // the service forwards it; this copy closes after the request
+            // A service that has ended (killed, or its thread's parent-death signal) fails the send or, when it
+            // ends while the request is under way, answers nothing: it is started once more.
+            for (int attempt = 0; attempt < 2 && reader < 0; ++attempt) {
+                if (attempt > 0) {
+                    stop();
+                    start(path);
+                }
+                if (send(request, writeEnd.fd) && !receive(reader, deadline)) reader = -1;
+            }
+        }
+        if (reader < 0) {
             stop();
             throw IoError(path.string() + ": the OpenVDB reader service could not start a reader");
         }
+        // The service now owes the reader's wait status; a read that ends early leaves it unread, so it ends
+        // the service too (the next read starts a fresh one).
+        try {
+            return collect(path, reader, replyEnd.fd, deadline);
+        } catch (...) {
+            stop();
+            throw;
+        }
+    }
+
+private:
+    // Reads the reader's reply until the pipe closes or the deadline passes (then kills it), and its wait
+    // status.
+    ReaderOutcome collect(const fs::path& path, pid_t reader, int replyFd,
+                          std::chrono::steady_clock::time_point deadline) {
         ReaderOutcome out;
         std::byte buf[1 << 16];
         while (true) {
-            if (!waitReadable(fds[0], deadline)) {
+            if (!waitReadable(replyFd, deadline)) {
                 out.timedOut = true;
                 ::kill(reader, SIGKILL);
                 break;
             }
-            const ssize_t r = ::read(fds[0], buf, sizeof(buf));
+            const ssize_t r = ::read(replyFd, buf, sizeof(buf));
             if (r < 0 && errno == EINTR) continue;
             if (r <= 0) break;
             out.reply.insert(out.reply.end(), buf, buf + r);
         }
-        ::close(fds[0]);
         // The service reaps the reader and sends its wait status; a killed reader ends at once.
         std::int32_t status = 0;
-        if (!receive(status, std::max(deadline, std::chrono::steady_clock::now()) + std::chrono::seconds(10))) {
-            stop();
+        if (!receive(status, std::max(deadline, std::chrono::steady_clock::now()) + std::chrono::seconds(10)))
             throw IoError(path.string() + ": the OpenVDB reader service stopped during the read");
-        }
         out.waitStatus = status;
         return out;
     }
 
-private:
     void start(const fs::path& path) {
         const fs::path program = findRuntimeHelper(kVdbReaderFile, (path.string() + ": reading it").c_str());
         int fds[2];
@@ -263,16 +285,22 @@ private:
         pid_ = -1;
     }
 
-    bool send(const fs::path& path, const ReadOptions& options, int replyFd) {
+    // The request: VdbRequest, the path, the grid name.
+    static std::string requestMessage(const fs::path& path, const ReadOptions& options) {
         const std::string file = path.string();
         const std::uint64_t text = file.size() + (options.vdbGrid ? options.vdbGrid->size() : 0);
         if (text > kMaxVdbRequestText) throw UsageError(file + ": path and grid name are too long");
-        VdbRequest head{options.memoryBudget ? options.memoryBudget : defaultMemoryBudget(),
-                        static_cast<std::uint32_t>(file.size()),
-                        options.vdbGrid ? static_cast<std::uint32_t>(options.vdbGrid->size()) : kNoGrid};
+        const VdbRequest head{options.memoryBudget ? options.memoryBudget : defaultMemoryBudget(),
+                              static_cast<std::uint32_t>(file.size()),
+                              options.vdbGrid ? static_cast<std::uint32_t>(options.vdbGrid->size()) : kNoGrid};
         std::string message(reinterpret_cast<const char*>(&head), sizeof(head));
         message += file;
         if (options.vdbGrid) message += *options.vdbGrid;
+        return message;
+    }
+
+    // Sends the request with the reply pipe's write end attached.
+    bool send(std::string message, int replyFd) {
         iovec iov{message.data(), message.size()};
         alignas(cmsghdr) char control[CMSG_SPACE(sizeof(int))] = {};
         msghdr msg{};
