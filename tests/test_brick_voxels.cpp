@@ -1,6 +1,6 @@
-// The reconstruction-to-voxel conversion: round to nearest even, clamp to the type, and NaN or infinities
-// (a forged quantisation step) to the type's bounds as the kernels' OpenCL clamp gives them, never through an
-// undefined float-to-int conversion (fuzz_vcz found NaN reaching it).
+// The reconstruction-to-voxel conversion: round to nearest even, clamp to the type, infinities to its bounds
+// and NaN (a forged quantisation step) to 0 as the motion kernels give it, never through an undefined
+// float-to-int conversion (fuzz_vcz found NaN reaching it).
 #include "wavelet/BrickVoxels.hpp"
 
 #include <gtest/gtest.h>
@@ -12,10 +12,10 @@ using volcl::codec::toVoxel;
 
 namespace {
 
-template <class T> void expectBoundsForNonFinite() {
+template <class T> void expectNonFiniteValues() {
     constexpr float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
-    EXPECT_EQ(toVoxel<T>(nan), std::numeric_limits<T>::min());
-    EXPECT_EQ(toVoxel<T>(-nan), std::numeric_limits<T>::min());
+    EXPECT_EQ(toVoxel<T>(nan), T(0));
+    EXPECT_EQ(toVoxel<T>(-nan), T(0));
     EXPECT_EQ(toVoxel<T>(inf), std::numeric_limits<T>::max());
     EXPECT_EQ(toVoxel<T>(-inf), std::numeric_limits<T>::min());
     EXPECT_EQ(toVoxel<T>(3e38f), std::numeric_limits<T>::max());
@@ -36,8 +36,8 @@ TEST(ToVoxel, RoundsToNearestEvenAndClampsIntegers) {
     EXPECT_EQ(toVoxel<float>(1.25f), 1.25f);
 }
 
-TEST(ToVoxel, NanAndInfinitiesBecomeTheTypesBounds) {
-    expectBoundsForNonFinite<std::uint8_t>();
-    expectBoundsForNonFinite<std::uint16_t>();
-    expectBoundsForNonFinite<std::int16_t>();
+TEST(ToVoxel, NanBecomesZeroAndInfinitiesTheTypesBounds) {
+    expectNonFiniteValues<std::uint8_t>();
+    expectNonFiniteValues<std::uint16_t>();
+    expectNonFiniteValues<std::int16_t>();
 }

@@ -36,14 +36,15 @@ template <class V, class Fn> decltype(auto) visitTyped(V& v, Fn fn) { // V: Volu
 // Without a libm call: clamping first is equivalent (the bounds are integers) and keeps |v| < 2^22, where
 // adding and subtracting 1.5 * 2^23 rounds exactly like std::nearbyint. The encoder's error check and the
 // decoder's output both use this, so the bound is checked on what the decoder writes. NaN (a forged
-// quantisation step) becomes the type's minimum, as OpenCL's clamp gives it in the kernels; std::clamp
-// would pass it on to a conversion that is undefined for NaN.
+// quantisation step) becomes 0, as the kernels' to_voxel8 (cl/motion.cl) gives it; std::clamp would pass it
+// on to a float-to-int conversion, which is undefined for NaN.
 template <class T> T toVoxel(float v) {
     if constexpr (std::is_same_v<T, float>) {
         return v;
     } else {
-        const float c = std::min(std::max(float(std::numeric_limits<T>::min()), v),
-                                 float(std::numeric_limits<T>::max()));
+        const float c = v == v ? std::min(std::max(float(std::numeric_limits<T>::min()), v),
+                                          float(std::numeric_limits<T>::max()))
+                               : 0.0f;
         return static_cast<T>(static_cast<std::int32_t>((c + 12582912.0f) - 12582912.0f));
     }
 }
