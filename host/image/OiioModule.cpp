@@ -144,11 +144,16 @@ ImageBuffer read(const std::filesystem::path& path, std::size_t memoryBudget) {
                                                           : "channel" + std::to_string(c));
     // Read as stored, then convert: asked for another type, OIIO converts through a buffer of at least 256
     // scan lines whatever the image's height (156 MB for a 40000x1 float strip), which no budget check sees.
-    std::vector<std::byte> stored(static_cast<std::size_t>(pixels) * spec.pixel_bytes(true));
-    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UNKNOWN, stored.data()))
-        throw IoError(name + ": corrupted or truncated image (" + in->geterror() + ")");
+    // Float images (volcl's own tables) are stored as the buffer wants them: read straight into it.
     ImageBuffer img(spec.width, spec.height, names);
-    if (spec.channelformats.empty()) {
+    const bool storedAsFloat = spec.channelformats.empty() && spec.format == OIIO::TypeDesc::FLOAT;
+    std::vector<std::byte> stored(storedAsFloat ? 0 : static_cast<std::size_t>(pixels) * spec.pixel_bytes(true));
+    void* target = storedAsFloat ? static_cast<void*>(img.pixels.data()) : static_cast<void*>(stored.data());
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UNKNOWN, target))
+        throw IoError(name + ": corrupted or truncated image (" + in->geterror() + ")");
+    if (storedAsFloat) {
+        // Nothing to convert.
+    } else if (spec.channelformats.empty()) {
         if (!OIIO::convert_pixel_values(spec.format, stored.data(), OIIO::TypeDesc::FLOAT, img.pixels.data(),
                                         static_cast<int>(img.pixels.size())))
             throw IoError(name + ": cannot convert its pixels to float (" + OIIO::geterror() + ")");
