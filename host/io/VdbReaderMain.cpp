@@ -119,17 +119,23 @@ void stopLoggingThreads() {
     ::dlclose(handle);
 }
 
-// One request from the socket: its text and the reply pipe. False when the caller has closed the socket.
+// One request from the socket: its text and the reply pipe. One Request and its receive buffer serve every
+// request: the service allocates nothing per read, so its heap, which every reader's fork copies and every
+// reader's exit unmaps, stays the size it had after loading libopenvdb. (A 64 KiB buffer per request had
+// grown a sanitizer build's service to 100 MB of freed memory in quarantine; each fork then copied its
+// page tables.)
 struct Request {
     volcl::io::VdbRequest head{};
     std::string path, grid;
     bool hasGrid = false;
     int replyFd = -1;
+    std::vector<char> buf = std::vector<char>(sizeof(volcl::io::VdbRequest) + volcl::io::kMaxVdbRequestText);
 };
 
+// Fills `r` with the next request; false when the caller has closed the socket.
 bool receive(Request& r) {
     using namespace volcl::io;
-    std::vector<char> buf(sizeof(VdbRequest) + kMaxVdbRequestText);
+    std::vector<char>& buf = r.buf;
     alignas(cmsghdr) char control[CMSG_SPACE(sizeof(int))];
     for (;;) {
         iovec iov{buf.data(), buf.size()};
@@ -141,7 +147,9 @@ bool receive(Request& r) {
         const ssize_t n = ::recvmsg(kVdbServiceFd, &msg, MSG_CMSG_CLOEXEC);
         if (n < 0 && errno == EINTR) continue;
         if (n <= 0) return false;
-        r = Request{};
+        r.head = VdbRequest{};
+        r.hasGrid = false;
+        r.replyFd = -1;
         for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c; c = CMSG_NXTHDR(&msg, c))
             if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_RIGHTS)
                 std::memcpy(&r.replyFd, CMSG_DATA(c), sizeof(int));
