@@ -228,6 +228,27 @@ TEST(CliHostile, VczTrailingBytesAndImpossibleCombinationsAreCorruptFiles) {
     EXPECT_FALSE(fs::exists(dir / "out.raw"));
 }
 
+// Found by fuzz_vcz (an out-of-memory stop at 593 MB): an 805-byte file whose wavelet, brick size and voxel
+// type ask for a kernel variant no earlier input had built. Its first build ran PoCL's compiler inside the
+// sanitizer-instrumented fuzzer. Here it runs in the release CLI with PoCL's kernel cache off, so every
+// kernel the decode needs is built anew: the file decodes, and the builds stay within the memory bound.
+// (In the sanitizer build the sanitizer's quarantine of freed memory is turned off for this run: it would
+// hold on to 256 MB of the compiler's freed memory, which is the sanitizer's, not volcl's.)
+TEST(CliHostile, BuildingEveryKernelOfADecodeStaysWithinTheMemoryBound) {
+    const fs::path dir = test::tempDir("hostile_first_build");
+    const std::string finding = "oom-first-build-of-a-kernel-variant-under-asan.vcz";
+    fs::copy_file(fs::path(VOLCL_SOURCE_DIR) / "fuzz/regressions/fuzz_vcz" / finding, dir / finding,
+                  fs::copy_options::overwrite_existing);
+    const RunResult r = run("-q decode " + finding + " -o out.raw", dir,
+                            "POCL_KERNEL_CACHE=0 ASAN_OPTIONS=\"${ASAN_OPTIONS:-}:quarantine_size_mb=0\"");
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_EQ(r.err, "");
+    EXPECT_LT(r.maxRssKb, 500 * 1024) << "peak memory " << r.maxRssKb << " kB";
+    // 12 x 10 x 8 uint16 voxels.
+    ASSERT_TRUE(fs::exists(dir / "out.raw"));
+    EXPECT_EQ(fs::file_size(dir / "out.raw"), 12u * 10u * 8u * 2u);
+}
+
 // ---- hangs: cost bounded by the output before any work -------------------------------------------------
 
 TEST(CliHostile, PreintegrationWithHugeLengthsFinishes) {
