@@ -41,13 +41,6 @@ void decodeEveryWay(volcl::ComputeContext& cc, const volcl::VczReader& reader) {
         (void)reader.decodeBrick(cc, h.frames.size() - 1, bricks - 1 - b, 0);
 }
 
-// Builds, before fuzzing, every kernel variant a decode of an encoder's file can ask for: voxel type x
-// wavelet x lossless/lossy x line-buffer size (bricks up to 64, 128 and 256 voxels), I frames and P/B series.
-// Each variant's first build on a machine runs PoCL's compiler (1-3 s and some 260 MB in this instrumented
-// process), which a mutated input reaching a new variant would otherwise pay inside its 2 s and 500 MB.
-// Builds are cached on disk: the first time takes about 9 minutes, later ones 12 s. scripts/fuzz.sh runs it
-// before a long run, in a process of its own (VOLCL_FUZZ_BUILD_ALL_KERNELS=1, -runs=0), since the encodes
-// leave an instrumented process near 1 GB; the short run in CI and the corpus replays do not.
 // A small voxel pattern, shifted from frame to frame so that a series has motion to code.
 volcl::Volume pattern(volcl::Dims dims, volcl::ScalarType type, int frame) {
     volcl::Volume v(dims, type);
@@ -66,6 +59,13 @@ volcl::Volume pattern(volcl::Dims dims, volcl::ScalarType type, int frame) {
     return v;
 }
 
+// Builds, before fuzzing, every kernel variant a decode of an encoder's file can ask for: voxel type x
+// wavelet x lossless/lossy x line-buffer size (bricks up to 64, 128 and 256 voxels), I frames and P/B series.
+// Each variant's first build on a machine runs PoCL's compiler (1-3 s and some 260 MB in this instrumented
+// process), which a mutated input reaching a new variant would otherwise pay inside its 2 s and 500 MB.
+// Builds are cached on disk: the first time takes about 9 minutes, later ones 12 s. scripts/fuzz.sh runs it
+// before a long run, in a process of its own (VOLCL_FUZZ_BUILD_ALL_KERNELS=1, -runs=0), since the encodes
+// leave an instrumented process near 1 GB; the short run in CI and the corpus replays do not.
 void buildEveryDecodeKernel(volcl::ComputeContext& cc) {
     using namespace volcl;
     struct Shape {
@@ -89,9 +89,8 @@ void buildEveryDecodeKernel(volcl::ComputeContext& cc) {
                         if (series && shape.brick.x > 16) continue; // the motion kernels do not depend on it
                         options.brick = shape.brick;
                         TimeSeries frames;
-                        for (int f = 0; f < (series ? 3 : 1); ++f) {
+                        for (int f = 0; f < (series ? 3 : 1); ++f)
                             frames.frames.push_back(pattern(shape.dims, type, f));
-                        }
                         std::vector<std::byte> bytes = series ? encodeSeries(cc, frames, options)
                                                               : encodeVolume(cc, frames.frames.front(), options);
                         decodeEveryWay(cc, VczReader(std::move(bytes), "warm-up.vcz"));
