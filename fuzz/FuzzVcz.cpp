@@ -3,6 +3,7 @@
 #include "fuzz/FuzzSupport.hpp"
 #include "host/Error.hpp"
 #include "host/runtime/ClRuntime.hpp"
+#include "wavelet/BrickVoxels.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/VczFormat.hpp"
 
@@ -44,18 +45,11 @@ void decodeEveryWay(volcl::ComputeContext& cc, const volcl::VczReader& reader) {
 // A small voxel pattern, shifted from frame to frame so that a series has motion to code.
 volcl::Volume pattern(volcl::Dims dims, volcl::ScalarType type, int frame) {
     volcl::Volume v(dims, type);
-    auto fill = [&](auto tag) {
-        using T = decltype(tag);
-        auto values = v.values<T>();
+    volcl::codec::visitTyped(v, [&](auto values) {
+        using T = typename decltype(values)::value_type;
         for (std::size_t i = 0; i < values.size(); ++i)
             values[i] = static_cast<T>((i * 7 + static_cast<std::size_t>(frame) * 3) % 97);
-    };
-    switch (type) {
-    case volcl::ScalarType::UInt8: fill(std::uint8_t{}); break;
-    case volcl::ScalarType::UInt16: fill(std::uint16_t{}); break;
-    case volcl::ScalarType::Int16: fill(std::int16_t{}); break;
-    case volcl::ScalarType::Float32: fill(float{}); break;
-    }
+    });
     return v;
 }
 
