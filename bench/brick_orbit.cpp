@@ -3,11 +3,11 @@
 // frame time and the process's peak RSS, as CSV on stdout.
 // Usage: volcl-bench-brick-orbit FILE.vcz TF.json [--frames 36] [--size 512] [--cache-mb 64]
 //        [--lod full|auto] [--lod-error 0.01] [--elevation 20] [--turns 1]
-#include "host/io/AtomicFile.hpp"
-#include "host/render/CameraFraming.hpp"
-#include "host/render/bricks/BrickRenderer.hpp"
-#include "host/runtime/PeakMemory.hpp"
-#include "host/runtime/Timing.hpp"
+#include "core/AtomicFile.hpp"
+#include "render/CameraFraming.hpp"
+#include "render/bricks/BrickRenderer.hpp"
+#include "core/runtime/PeakMemory.hpp"
+#include "core/runtime/Timing.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "wavelet/Codec.hpp"
 

@@ -6,7 +6,7 @@
 // encoders must write the same bytes; VOLCL_DENSE_SCALAR=1 measures the scalar ones alone,
 // VOLCL_BENCH_SIMD_ONLY=1 the SIMD ones alone, e.g. for a profile; VOLCL_BENCH_ENCODE_ONLY=1 skips the timed
 // decodes, for profiles and counters of the encoder).
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "wavelet/EntropyCoder.hpp"
 #include "wavelet/VczFormat.hpp"
 

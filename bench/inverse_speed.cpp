@@ -3,9 +3,9 @@
 // as the decoder does, then the inverse of all batches (one launch on CPUs) is timed `runs` times, the input
 // restored before each run. The spread the codec shows is between processes, so run this in many fresh
 // processes (bench/inverse_spread.sh); timings live here, not in tests.
-#include "host/Error.hpp"
-#include "host/runtime/ClRuntime.hpp"
-#include "host/runtime/Timing.hpp"
+#include "core/Error.hpp"
+#include "core/runtime/ClRuntime.hpp"
+#include "core/runtime/Timing.hpp"
 #include "wavelet/EntropyCoder.hpp"
 #include "wavelet/LiftingTransform.hpp"
 #include "wavelet/VczFormat.hpp"

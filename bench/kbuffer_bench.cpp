@@ -7,14 +7,14 @@
 // 32, 256 (toward exact order); --misorder-all: count out-of-order pops also on meshes above 300 k tets.
 #include "host/mesh/MeshGenerator.hpp"
 #include "host/mesh/MeshIo.hpp"
-#include "host/render/CameraFraming.hpp"
-#include "host/render/Reference.hpp"
-#include "host/render/mesh/MeshReference.hpp"
-#include "host/render/mesh/KBufferReference.hpp"
-#include "host/render/mesh/KBufferRenderer.hpp"
-#include "host/runtime/Timing.hpp"
+#include "render/CameraFraming.hpp"
+#include "render/Reference.hpp"
+#include "render/mesh/MeshReference.hpp"
+#include "render/mesh/KBufferReference.hpp"
+#include "render/mesh/KBufferRenderer.hpp"
+#include "core/runtime/Timing.hpp"
 #include "host/tf/TransferFunction.hpp"
-#include "host/viewer/AdaptiveQuality.hpp"
+#include "apps/viewer/AdaptiveQuality.hpp"
 
 #include <cmath>
 #include <ctime>

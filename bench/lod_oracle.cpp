@@ -9,10 +9,10 @@
 // Usage: volcl-bench-lod-oracle FILE.vcz SCENE.json TF.json [--zoom Z] [--size PX] [--probe-size PX, 0: none]
 //        [--supersample N] [--lod-errors a,b,c] [--targets a,b,c] [--bricks-csv OUT.csv]
 // Output: `key: value` lines on stdout (docs/results/multires-oracle-*.log).
-#include "host/io/AtomicFile.hpp"
-#include "host/render/VecMath.hpp"
-#include "host/render/bricks/BrickRenderer.hpp"
-#include "host/runtime/Timing.hpp"
+#include "core/AtomicFile.hpp"
+#include "render/VecMath.hpp"
+#include "render/bricks/BrickRenderer.hpp"
+#include "core/runtime/Timing.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/container/LodStatistics.hpp"

@@ -10,25 +10,25 @@ set(VOLCL_KERNEL_FILES
   common/grid_sample.h
   common/fog.h
   common/counter_rng.h
-  phantoms.cl
-  copy.cl
-  tf_sample.cl
-  raymarch_iso.h
-  raymarch_iso_sampled.h
-  raymarch.cl
-  raymarch_plain.cl
-  pathtrace.cl
+  phantoms/phantoms.cl
+  common/copy.cl
+  render/tf_sample.cl
+  render/raymarch_iso.h
+  render/raymarch_iso_sampled.h
+  render/raymarch.cl
+  render/raymarch_plain.cl
+  render/pathtrace.cl
   common/brick_sample.h
-  raymarch_bricks.cl
-  lifting_common.h
-  lifting.cl
-  lifting_brick.cl
-  preint.cl
-  mesh_cells.cl
-  motion.cl
-  radix_sort.cl
-  mesh_kbuffer_shared.h
-  mesh_kbuffer.cl
+  render/raymarch_bricks.cl
+  codec/lifting_common.h
+  codec/lifting.cl
+  codec/lifting_brick.cl
+  preint/preint.cl
+  mesh/mesh_cells.cl
+  codec/motion.cl
+  mesh/radix_sort.cl
+  mesh/mesh_kbuffer_shared.h
+  mesh/mesh_kbuffer.cl
 )
 list(TRANSFORM VOLCL_KERNEL_FILES PREPEND ${PROJECT_SOURCE_DIR}/cl/ OUTPUT_VARIABLE _kernel_paths)
 list(JOIN _kernel_paths "|" _kernel_paths_joined)

@@ -129,7 +129,7 @@ typedef struct VolclGridRenderParams {
     VolclFogParams fog;
 } VolclGridRenderParams;
 
-/* The path tracer's per-launch parameters (cl/pathtrace.cl): samples firstSample .. firstSample +
+/* The path tracer's per-launch parameters (cl/render/pathtrace.cl): samples firstSample .. firstSample +
    sampleCount - 1 of every pixel are added to the accumulation buffer, whose mean (times invTotal) is the
    output. environment: rgb radiance of the uniform sky the paths see (w unused). emission: 1 adds the TF's
    emission c * tau, 0 leaves the medium purely scattering. maxBounces: scattering events per path. */

@@ -2,13 +2,13 @@
 # Every header not listed here is internal and is not installed; tests/consumer fails when the installed tree
 # holds any other header, or when a listed header does not compile on its own from the installed tree.
 set(VOLCL_PUBLIC_HEADERS
-  host/Error.hpp
-  host/MemoryBudget.hpp
-  host/Version.hpp
-  host/Volume.hpp
-  host/ZeroedBytes.hpp
+  core/Error.hpp
+  core/MemoryBudget.hpp
+  core/Version.hpp
+  core/Volume.hpp
+  core/ZeroedBytes.hpp
   host/image/ImageIo.hpp
-  host/io/AtomicFile.hpp
+  core/AtomicFile.hpp
   host/io/NiftiMetadata.hpp
   host/io/Series.hpp
   host/io/VolumeIo.hpp
@@ -16,19 +16,19 @@ set(VOLCL_PUBLIC_HEADERS
   host/mesh/MeshIo.hpp
   host/mesh/TetMesh.hpp
   host/phantoms/Phantoms.hpp
-  host/render/Bounds.hpp
-  host/render/CameraFraming.hpp
-  host/render/EffectPlan.hpp
-  host/render/Reference.hpp
-  host/render/RenderInput.hpp
-  host/render/Renderer.hpp
-  host/render/Scene.hpp
-  host/render/VecMath.hpp
-  host/render/VolumeRenderer.hpp
-  host/render/grid/GridRenderer.hpp
-  host/runtime/ClRuntime.hpp
-  host/runtime/HostMemoryPool.hpp
-  host/runtime/Timing.hpp
+  render/Bounds.hpp
+  render/CameraFraming.hpp
+  render/EffectPlan.hpp
+  render/Reference.hpp
+  render/RenderInput.hpp
+  render/Renderer.hpp
+  render/Scene.hpp
+  render/VecMath.hpp
+  render/VolumeRenderer.hpp
+  render/grid/GridRenderer.hpp
+  core/runtime/ClRuntime.hpp
+  core/runtime/HostMemoryPool.hpp
+  core/runtime/Timing.hpp
   host/tf/BuiltinPresets.hpp
   host/tf/ColorSpaces.hpp
   host/tf/TransferFunction.hpp
@@ -45,25 +45,28 @@ set(VOLCL_PUBLIC_HEADERS
   wavelet/transform/LiftingTransform.hpp
   cl/volcl_shared.h)
 
-# Inside the project headers include each other as "host/Volume.hpp"; installed, they sit under
-# include/volcl/ and include each other as <volcl/host/Volume.hpp>, so a consumer's include path gains only
-# the volcl/ prefix. The staged copies are regenerated when a source header changes.
+# Inside the project headers include each other as "core/Volume.hpp" or "host/io/VolumeIo.hpp"; installed,
+# they sit under include/volcl/ and include each other as <volcl/core/Volume.hpp> or <volcl/io/VolumeIo.hpp>
+# (host/ only groups the data domains in the source tree), so a consumer's include path gains only the volcl/
+# prefix. The staged copies are regenerated when a source header changes.
 set(_volcl_staged)
+set(_volcl_installed_headers)
 foreach(_header IN LISTS VOLCL_PUBLIC_HEADERS)
-  set(_out ${PROJECT_BINARY_DIR}/public-include/volcl/${_header})
+  string(REGEX REPLACE "^host/" "" _installed ${_header})
+  list(APPEND _volcl_installed_headers ${_installed})
+  set(_out ${PROJECT_BINARY_DIR}/public-include/volcl/${_installed})
   add_custom_command(OUTPUT ${_out}
     COMMAND ${CMAKE_COMMAND} -DIN=${PROJECT_SOURCE_DIR}/${_header} -DOUT=${_out}
             -P ${PROJECT_SOURCE_DIR}/cmake/StagePublicHeader.cmake
     DEPENDS ${PROJECT_SOURCE_DIR}/${_header} ${PROJECT_SOURCE_DIR}/cmake/StagePublicHeader.cmake
     COMMENT "Staging public header volcl/${_header}" VERBATIM)
   list(APPEND _volcl_staged ${_out})
-  get_filename_component(_dir ${_header} DIRECTORY)
+  get_filename_component(_dir ${_installed} DIRECTORY)
   install(FILES ${_out} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/volcl/${_dir})
 endforeach()
 add_custom_target(volcl_public_headers ALL DEPENDS ${_volcl_staged})
 add_dependencies(volcl volcl_public_headers) # building the library is enough for `cmake --install`
 # The list for tests/consumer, which compares it with what `cmake --install` put under include/.
-set(_volcl_installed_headers ${VOLCL_PUBLIC_HEADERS})
 if(TARGET H5Zvolcl)
   list(APPEND _volcl_installed_headers plugins/hdf5/H5Zvolcl.h) # the HDF5 filter's C API (plugins/hdf5)
 endif()

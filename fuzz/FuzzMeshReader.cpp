@@ -3,7 +3,7 @@
 // endian, clamped to the input), then the grid, then the q solution file; binary grids are full of zero
 // bytes, so a separator byte would not do.
 #include "fuzz/FuzzSupport.hpp"
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/mesh/MeshIo.hpp"
 
 #include <algorithm>

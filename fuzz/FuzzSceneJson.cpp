@@ -1,7 +1,7 @@
 // Fuzz target for scene JSON: parse, validate, and the step checks against a unit volume's diagonal.
 #include "fuzz/FuzzSupport.hpp"
-#include "host/Error.hpp"
-#include "host/render/Scene.hpp"
+#include "core/Error.hpp"
+#include "render/Scene.hpp"
 
 #include <cstddef>
 #include <cstdint>

@@ -1,7 +1,7 @@
 // Fuzz target for ParaView collections (.pvd) read as a time series: the input is the .pvd, a NUL byte, then
 // the bytes of "frame.nrrd" beside it, which the seeds' data sets name (one file may be named many times).
 #include "fuzz/FuzzSupport.hpp"
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/io/Series.hpp"
 
 #include <algorithm>

@@ -1,5 +1,5 @@
 // Fuzz target for transfer-function JSON (canonical and ParaView): parse, validate, pack, round-trip.
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/tf/TransferFunction.hpp"
 
 #include <cstddef>

@@ -1,8 +1,8 @@
 // Fuzz target for .vcz files through the public reader: header and index parsing, then decoding whole,
 // a region, a coarser level and single bricks (both entropy coders, every transform, per the seeds).
 #include "fuzz/FuzzSupport.hpp"
-#include "host/Error.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/Error.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "wavelet/BrickVoxels.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/VczFormat.hpp"

@@ -3,7 +3,7 @@
 // resolution and at the coarsest level. About 13 times the executions per CPU second of fuzz_vcz, which runs
 // the same stages and then the inverse-transform kernels.
 #include "fuzz/FuzzSupport.hpp"
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "wavelet/FrameDecoder.hpp"
 #include "wavelet/VczFormat.hpp"
 

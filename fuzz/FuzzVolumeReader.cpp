@@ -2,7 +2,7 @@
 // Formats whose header names a separate data file (VOLCL_FUZZ_SPLIT) take the input as header, a NUL byte,
 // then the bytes of "data.raw" beside it; the seeds' headers name that file.
 #include "fuzz/FuzzSupport.hpp"
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/io/VolumeIo.hpp"
 
 #include <algorithm>

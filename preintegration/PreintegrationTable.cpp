@@ -1,10 +1,10 @@
 // Pre-integration table model, EXR layout, and the generator that dispatches to the reference or a kernel.
 #include "preintegration/PreintegrationTable.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/image/ImageIo.hpp"
-#include "host/runtime/ClRuntime.hpp"
-#include "host/runtime/ParallelFor.hpp"
+#include "core/runtime/ClRuntime.hpp"
+#include "core/runtime/ParallelFor.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "preintegration/Reference.hpp"
 
@@ -86,7 +86,7 @@ double runExact(ComputeContext& cc, const TransferFunction& tf, int n, const std
         // One length: vectorise across 16 back nodes instead of across lengths.
         KernelDefines defs = realDefines(o, cc);
         defs.set("LANES", 16LL).set("BLOCKS", 1LL);
-        cl::Kernel k = cc.kernel("preint.cl", "preint_exact_row", defs);
+        cl::Kernel k = cc.kernel("preint/preint.cl", "preint_exact_row", defs);
         clCheck(k.setArg(0, knotBuf.get()), "clSetKernelArg");
         clCheck(k.setArg(1, static_cast<cl_uint>(knots.size())), "clSetKernelArg");
         clCheck(k.setArg(2, static_cast<cl_uint>(n)), "clSetKernelArg");
@@ -113,7 +113,7 @@ double runExact(ComputeContext& cc, const TransferFunction& tf, int n, const std
 
     KernelDefines defs = realDefines(o, cc);
     defs.set("LANES", static_cast<long long>(lanes)).set("BLOCKS", static_cast<long long>(blocks));
-    cl::Kernel k = cc.kernel("preint.cl", "preint_exact", defs);
+    cl::Kernel k = cc.kernel("preint/preint.cl", "preint_exact", defs);
     cl::Buffer lenBuf = real.upload(cc, padded);
     clCheck(k.setArg(0, knotBuf.get()), "clSetKernelArg");
     clCheck(k.setArg(1, static_cast<cl_uint>(knots.size())), "clSetKernelArg");
@@ -189,7 +189,7 @@ std::vector<double> nodeDiagonal(const TransferFunction& tf, int n) {
 double runIntegralFunction(ComputeContext& cc, const TransferFunction& tf, int n,
                            const std::vector<double>& lengths, const GeneratorOptions& o, cl::Buffer& out) {
     RealArgs real{o.precision == Precision::Double};
-    cl::Kernel k = cc.kernel("preint.cl", "preint_integral_function", realDefines(o, cc));
+    cl::Kernel k = cc.kernel("preint/preint.cl", "preint_integral_function", realDefines(o, cc));
     cl::Buffer integrals = real.upload(cc, nodeIntegrals(tf, n));
     cl::Buffer diag = real.upload(cc, nodeDiagonal(tf, n));
     cl::Buffer lenBuf = real.upload(cc, lengths);
@@ -267,7 +267,7 @@ double runPolynomial(ComputeContext& cc, const TransferFunction& tf, int n,
     auto coeffBuf = cc.upload<cl_float4>(coeffs, CL_MEM_READ_ONLY);
     std::vector<float> lf(lengths.begin(), lengths.end());
     auto lenBuf = cc.upload<float>(lf, CL_MEM_READ_ONLY);
-    cl::Kernel k = cc.kernel("preint.cl", "preint_polynomial");
+    cl::Kernel k = cc.kernel("preint/preint.cl", "preint_polynomial");
     setArgs(k, coeffBuf, static_cast<cl_uint>(n), static_cast<cl_uint>(deg), static_cast<float>(lMax),
             static_cast<float>(std::max(tf.maxColor(), 0.0)), lenBuf, static_cast<cl_uint>(lengths.size()));
     clCheck(k.setArg(7, out), "clSetKernelArg");
@@ -560,7 +560,7 @@ void PreintegrationGenerator::generate(const TransferFunction& tf, const TableSp
         if (spec.axis == LengthAxis::Exponential)
             throw UsageError("method incremental needs a linear length axis (l_k = (k + 1) l_0)");
         ms = runExact(*cc, tf, n, {t.lengthValues.front()}, 0.0, o, out.get());
-        cl::Kernel k = cc->kernel("preint.cl", "preint_incremental_slice");
+        cl::Kernel k = cc->kernel("preint/preint.cl", "preint_incremental_slice");
         std::vector<cl::Event> events;
         for (std::size_t s = 1; s < slices; ++s) {
             setArgs(k, static_cast<cl_uint>(n), static_cast<cl_uint>(s));
@@ -584,7 +584,7 @@ void PreintegrationGenerator::generate(const TransferFunction& tf, const TableSp
         ms = runExact(*cc, tf, n, {lBar}, 0.0, o, base.get());
         std::vector<float> lf(t.lengthValues.begin(), t.lengthValues.end());
         auto lenBuf = cc->upload<float>(lf, CL_MEM_READ_ONLY);
-        cl::Kernel k = cc->kernel("preint.cl", "preint_roettger_linear");
+        cl::Kernel k = cc->kernel("preint/preint.cl", "preint_roettger_linear");
         setArgs(k, base, static_cast<cl_uint>(n), static_cast<float>(lBar), lenBuf,
                 static_cast<cl_uint>(slices), out);
         ms += eventMilliseconds(cc->launch3d(k, static_cast<std::size_t>(n), static_cast<std::size_t>(n),

@@ -38,7 +38,7 @@ PARSER_FILES = {
     "fuzz_tf_json": ["host/tf/TransferFunction.cpp", "host/tf/ColorSpaces.cpp"],
     "fuzz_tf_png": ["host/tf/TransferFunction.cpp", "host/image/ImageIo.cpp"],
     "fuzz_tf_exr": ["host/image/ExrHeaderCheck.cpp", "host/tf/TransferFunction.cpp", "host/image/ImageIo.cpp"],
-    "fuzz_scene_json": ["host/render/Scene.cpp"],
+    "fuzz_scene_json": ["render/Scene.cpp"],
     "fuzz_mesh_vtk": ["host/mesh/VtkLegacyReader.cpp", "host/mesh/MeshIo.cpp", "host/mesh/CellSplit.cpp",
                       "host/mesh/TetMesh.cpp"],
     "fuzz_mesh_vtu": ["host/mesh/VtuReader.cpp", "host/io/VtkXmlArrays.cpp", "host/mesh/MeshIo.cpp",

@@ -1,11 +1,11 @@
 // Helpers shared by the test suites: temp dirs, shared-data lookup, one compute context per process.
 #pragma once
 
-#include "host/Error.hpp"
-#include "host/Volume.hpp"
+#include "core/Error.hpp"
+#include "core/Volume.hpp"
 #include "host/io/VolumeIo.hpp"
-#include "host/render/Scene.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "render/Scene.hpp"
+#include "core/runtime/ClRuntime.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // Atomic output: no partial target and no temporary after a failed, killed or size-limited write.
 #include "TestUtil.hpp"
-#include "host/Error.hpp"
-#include "host/io/AtomicFile.hpp"
+#include "core/Error.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
 
 #include <gtest/gtest.h>

@@ -3,12 +3,12 @@
 // level of detail on the MRI scene, TF culling, budgets and hard cases.
 #include "TestUtil.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/io/VolumeIo.hpp"
-#include "host/render/bricks/BrickField.hpp"
-#include "host/render/bricks/BrickPool.hpp"
-#include "host/render/bricks/BrickRenderer.hpp"
-#include "host/render/grid/GridRenderer.hpp"
+#include "render/bricks/BrickField.hpp"
+#include "render/bricks/BrickPool.hpp"
+#include "render/bricks/BrickRenderer.hpp"
+#include "render/grid/GridRenderer.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/container/LodStatistics.hpp"
 

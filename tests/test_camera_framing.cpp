@@ -1,7 +1,7 @@
 // Camera framing: named views, orbits, ParaView-style reset camera, fitted orthographic height.
-#include "host/Error.hpp"
-#include "host/render/CameraFraming.hpp"
-#include "host/render/VecMath.hpp"
+#include "core/Error.hpp"
+#include "render/CameraFraming.hpp"
+#include "render/VecMath.hpp"
 
 #include <gtest/gtest.h>
 

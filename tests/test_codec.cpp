@@ -1,6 +1,6 @@
 // Wavelet codec: lossless exactness, --max-error on every voxel, PSNR / bpv targets, region and level
 // decoding against full decodes, hard inputs, and corruption detection (byte flips and truncations).
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "tests/TestUtil.hpp"
 #include "wavelet/Codec.hpp"

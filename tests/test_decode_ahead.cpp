@@ -1,7 +1,7 @@
 // Decoding ahead (DecodeAhead): bricks entropy decoded on a thread before the decode give the same voxels as
 // a decode without it, whatever part of the rounds it filled; a decode it does not match ignores it; a
 // corrupt brick is still reported by the decoder.
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "tests/TestUtil.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/DecodeAhead.hpp"

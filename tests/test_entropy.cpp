@@ -4,7 +4,7 @@
 // runs both the scalar and the SIMD decoder (where the CPU has it), which must agree, and every dense
 // encode (encodeAll) both encoders, which must write the same bytes. The entropy-only
 // speed benchmark is bench/entropy_speed.cpp.
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "wavelet/EntropyCoder.hpp"
 #include "wavelet/entropy/DenseKernels.hpp"
 

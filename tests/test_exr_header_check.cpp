@@ -1,6 +1,6 @@
 // EXR header check: claims a file cannot back (attribute sizes, data windows, offset tables) are refused
 // before OpenEXR allocates from them; valid files pass.
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/image/ExrHeaderCheck.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/tf/TransferFunction.hpp"

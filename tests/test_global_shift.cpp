@@ -1,7 +1,7 @@
 // Global sub-voxel translation: the Keys-cubic shift (exact for whole voxels, independent of the thread
 // count, the synthetic series' resampler) and the Lucas-Kanade estimate of a known translation.
 #include "TestUtil.hpp"
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "wavelet/predict/GlobalShift.hpp"
 #include "wavelet/predict/TranslatedSeries.hpp"
 

@@ -1,6 +1,6 @@
 // Image I/O tests: EXR channels and attributes, half option, 8-bit PNG, atomic failures, sRGB display
 // encoding.
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/image/ImageIo.hpp"
 
 #include <gtest/gtest.h>

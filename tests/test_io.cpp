@@ -1,7 +1,7 @@
 // Volume I/O tests: writer round trips, every reader on hand-made files, corrupted/lying/truncated input.
 #include "TestUtil.hpp"
-#include "host/Error.hpp"
-#include "host/io/AtomicFile.hpp"
+#include "core/Error.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/VolumeIo.hpp"
 

@@ -1,7 +1,7 @@
 // NIfTI-1 and VTK XML ImageData writers: round trips through the readers, kept header fields, re-anchored
 // orientation after crops and coarser levels, scaled integers, refused outputs.
 #include "TestUtil.hpp"
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/io/NiftiMetadata.hpp"
 #include "host/io/VolumeIo.hpp"
 

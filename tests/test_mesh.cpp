@@ -2,7 +2,7 @@
 // refusals.
 #include "TestUtil.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/mesh/CellSplit.hpp"
 #include "host/mesh/MeshGenerator.hpp"
 #include "host/mesh/MeshIo.hpp"

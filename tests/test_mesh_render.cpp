@@ -2,14 +2,14 @@
 // the OpenCL cell ray caster against the reference, and the hard cases (edges, vertices, holes, scales).
 #include "TestUtil.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/mesh/MeshGenerator.hpp"
 #include "host/mesh/MeshIo.hpp"
-#include "host/render/CameraFraming.hpp"
-#include "host/render/RenderInput.hpp"
-#include "host/render/grid/GridRenderer.hpp"
-#include "host/render/mesh/MeshGeometry.hpp"
-#include "host/render/mesh/MeshReference.hpp"
+#include "render/CameraFraming.hpp"
+#include "render/RenderInput.hpp"
+#include "render/grid/GridRenderer.hpp"
+#include "render/mesh/MeshGeometry.hpp"
+#include "render/mesh/MeshReference.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Motion estimation: the OpenCL block search against the C++ reference (exact), known shifts found,
 // hard cases (partial blocks, motion beyond the radius, constant frames, noise), real series.
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "wavelet/predict/MotionSearch.hpp"
 #include "wavelet/predict/TranslatedSeries.hpp"

@@ -1,7 +1,7 @@
 // Motion-compensated series coding: P/B frames exact when lossless and within the bound when lossy on every
 // frame, closed loop, intra fallback, random access, container versions and corruption, hard cases.
 #include "TestUtil.hpp"
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/io/Series.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/predict/GopPlan.hpp"

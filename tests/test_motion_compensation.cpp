@@ -1,7 +1,7 @@
 // Overlapped block motion compensation and motion-field coding: windows sum to 1, kernels against the
 // double references, shifted volumes predicted without seams, mode decision, vector coding round trips.
 #include "TestUtil.hpp"
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "wavelet/predict/Compensation.hpp"
 #include "wavelet/predict/MotionSearch.hpp"
 #include "wavelet/predict/MotionVectorCoding.hpp"

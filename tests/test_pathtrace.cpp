@@ -2,14 +2,14 @@
 // furnace, emission-absorption, single scattering), Monte Carlo convergence, seeds, hard cases; clouds.
 #include "TestUtil.hpp"
 
-#include "host/Error.hpp"
-#include "host/Volume.hpp"
+#include "core/Error.hpp"
+#include "core/Volume.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "host/phantoms/Cloud.hpp"
-#include "host/render/EffectPlan.hpp"
-#include "host/render/Renderer.hpp"
-#include "host/render/Scene.hpp"
-#include "host/render/grid/PathTracer.hpp"
+#include "render/EffectPlan.hpp"
+#include "render/Renderer.hpp"
+#include "render/Scene.hpp"
+#include "render/grid/PathTracer.hpp"
 #include "host/tf/TransferFunction.hpp"
 
 #include <gtest/gtest.h>

@@ -1,9 +1,9 @@
 // Pre-integration tables: reference against closed forms and brute force, kernels against the reference, hard
 // cases.
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/image/ImageIo.hpp"
-#include "host/io/AtomicFile.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/AtomicFile.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "preintegration/PreintegrationTable.hpp"
 

@@ -2,11 +2,11 @@
 // data.
 #include "TestUtil.hpp"
 
-#include "host/Error.hpp"
-#include "host/Volume.hpp"
+#include "core/Error.hpp"
+#include "core/Volume.hpp"
 #include "host/io/VolumeIo.hpp"
-#include "host/render/Renderer.hpp"
-#include "host/render/Scene.hpp"
+#include "render/Renderer.hpp"
+#include "render/Scene.hpp"
 #include "host/tf/TransferFunction.hpp"
 
 #include <gtest/gtest.h>

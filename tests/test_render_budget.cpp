@@ -1,10 +1,10 @@
 // The frame-time budget planner and the measured effect costs, on a renderer with a known time law and
 // known errors (no timing of real frames here: the budget's measured accuracy is in docs/media.md).
-#include "host/Error.hpp"
-#include "host/render/BudgetPlanner.hpp"
-#include "host/render/EffectCosts.hpp"
-#include "host/render/EffectPlan.hpp"
-#include "host/render/VecMath.hpp"
+#include "core/Error.hpp"
+#include "render/BudgetPlanner.hpp"
+#include "render/EffectCosts.hpp"
+#include "render/EffectPlan.hpp"
+#include "render/VecMath.hpp"
 
 #include <gtest/gtest.h>
 

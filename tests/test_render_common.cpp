@@ -2,11 +2,11 @@
 // built from cl/common/ camera rays, shading and TF lookup without grid sampling, against the host.
 #include "TestUtil.hpp"
 
-#include "host/render/FrameParams.hpp"
-#include "host/render/Reference.hpp"
-#include "host/render/Scene.hpp"
-#include "host/runtime/ClRuntime.hpp"
-#include "host/runtime/KernelSources.hpp"
+#include "render/FrameParams.hpp"
+#include "render/Reference.hpp"
+#include "render/Scene.hpp"
+#include "core/runtime/ClRuntime.hpp"
+#include "core/runtime/KernelSources.hpp"
 #include "host/tf/TransferFunction.hpp"
 
 #include <gtest/gtest.h>
@@ -76,9 +76,9 @@ TEST(KernelIncludes, ResolveBesideTheIncluderThenFromTheRoot) {
 }
 
 TEST(KernelIncludes, EmbeddedGridKernelIncludesEachCommonHeaderOnce) {
-    const std::string src = KernelSourceLibrary().resolve("raymarch.cl");
+    const std::string src = KernelSourceLibrary().resolve("render/raymarch.cl");
     for (const char* h : {"volcl_shared.h", "common/camera_rays.h", "common/shading.h", "common/tf_lookup.h",
-                          "common/grid_sample.h", "raymarch_iso.h"})
+                          "common/grid_sample.h", "render/raymarch_iso.h"})
         EXPECT_EQ(count(src, std::string("#line 1 \"") + h + "\""), 1u) << h;
 }
 

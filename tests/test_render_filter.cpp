@@ -2,13 +2,13 @@
 // the kernels against the double reference, normals on a quantised sphere, the 8-bit MRI.
 #include "TestUtil.hpp"
 
-#include "host/Error.hpp"
-#include "host/Volume.hpp"
+#include "core/Error.hpp"
+#include "core/Volume.hpp"
 #include "host/io/VolumeIo.hpp"
-#include "host/render/Renderer.hpp"
-#include "host/render/Scene.hpp"
-#include "host/render/grid/BsplineField.hpp"
-#include "host/render/grid/FilterAccuracy.hpp"
+#include "render/Renderer.hpp"
+#include "render/Scene.hpp"
+#include "render/grid/BsplineField.hpp"
+#include "render/grid/FilterAccuracy.hpp"
 #include "host/tf/TransferFunction.hpp"
 
 #include <gtest/gtest.h>

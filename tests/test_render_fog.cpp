@@ -2,12 +2,12 @@
 // empty box and with a volume inside, rays at several angles including parallel ones), and the hard cases.
 #include "TestUtil.hpp"
 
-#include "host/Error.hpp"
-#include "host/Volume.hpp"
+#include "core/Error.hpp"
+#include "core/Volume.hpp"
 #include "host/image/ImageIo.hpp"
-#include "host/render/Renderer.hpp"
-#include "host/render/Scene.hpp"
-#include "host/render/VecMath.hpp"
+#include "render/Renderer.hpp"
+#include "render/Scene.hpp"
+#include "render/VecMath.hpp"
 #include "host/tf/TransferFunction.hpp"
 
 #include <gtest/gtest.h>

@@ -2,11 +2,11 @@
 // sphere, crossings inside one step, hard rays, and iso mixed with dvr.
 #include "TestUtil.hpp"
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 #include "host/io/VolumeIo.hpp"
-#include "host/render/Renderer.hpp"
-#include "host/render/Scene.hpp"
-#include "host/render/VecMath.hpp"
+#include "render/Renderer.hpp"
+#include "render/Scene.hpp"
+#include "render/VecMath.hpp"
 #include "host/tf/TransferFunction.hpp"
 
 #include <gtest/gtest.h>

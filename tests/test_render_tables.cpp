@@ -2,10 +2,10 @@
 // iso-surface table, against the per-sample paths and the double reference.
 #include "TestUtil.hpp"
 
-#include "host/Volume.hpp"
-#include "host/render/Renderer.hpp"
-#include "host/render/Scene.hpp"
-#include "host/render/VecMath.hpp"
+#include "core/Volume.hpp"
+#include "render/Renderer.hpp"
+#include "render/Scene.hpp"
+#include "render/VecMath.hpp"
 #include "host/tf/TransferFunction.hpp"
 
 #include <gtest/gtest.h>

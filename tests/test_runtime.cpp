@@ -1,9 +1,9 @@
 // OpenCL runtime: discovery, selection, program cache, defines, build-log errors, buffers, launches.
 #include "TestUtil.hpp"
-#include "host/runtime/ClRuntime.hpp"
-#include "host/runtime/KernelSources.hpp"
-#include "host/runtime/ProgramBinaryCache.hpp"
-#include "host/runtime/Timing.hpp"
+#include "core/runtime/ClRuntime.hpp"
+#include "core/runtime/KernelSources.hpp"
+#include "core/runtime/ProgramBinaryCache.hpp"
+#include "core/runtime/Timing.hpp"
 
 #include <cmath>
 #include <cstdlib>
@@ -65,7 +65,7 @@ TEST(Runtime, CopyKernelRoundTripsDataWithOddSizes) {
         std::iota(host.begin(), host.end(), -3.5f);
         auto src = cc.upload(host);
         auto dst = cc.allocate<float>(n);
-        cl::Kernel k = cc.kernel("copy.cl", "copy_float");
+        cl::Kernel k = cc.kernel("common/copy.cl", "copy_float");
         setArgs(k, src, dst, cl_uint(n));
         cc.launch1d(k, n, 64);
         EXPECT_EQ(cc.download(dst), host) << "n = " << n;
@@ -74,12 +74,12 @@ TEST(Runtime, CopyKernelRoundTripsDataWithOddSizes) {
 
 TEST(Runtime, ProgramCacheKeysOnSourceAndOptions) {
     ComputeContext cc;
-    cc.kernel("copy.cl", "copy_float");
-    cc.kernel("copy.cl", "copy_float16");
+    cc.kernel("common/copy.cl", "copy_float");
+    cc.kernel("common/copy.cl", "copy_float16");
     EXPECT_EQ(cc.cachedProgramCount(), 1u) << "same file, same options: one program";
-    cc.kernel("copy.cl", "copy_float", KernelDefines().set("UNUSED_FLAG", 1));
+    cc.kernel("common/copy.cl", "copy_float", KernelDefines().set("UNUSED_FLAG", 1));
     EXPECT_EQ(cc.cachedProgramCount(), 2u) << "different defines: a second program";
-    cc.kernel("copy.cl", "copy_float", KernelDefines().set("UNUSED_FLAG", 1));
+    cc.kernel("common/copy.cl", "copy_float", KernelDefines().set("UNUSED_FLAG", 1));
     EXPECT_EQ(cc.cachedProgramCount(), 2u);
 }
 
@@ -111,7 +111,7 @@ std::size_t copyThroughFreshContext() {
     std::iota(host.begin(), host.end(), 0.25f);
     auto src = cc.upload(host);
     auto dst = cc.allocate<float>(host.size());
-    cl::Kernel k = cc.kernel("copy.cl", "copy_float");
+    cl::Kernel k = cc.kernel("common/copy.cl", "copy_float");
     setArgs(k, src, dst, cl_uint(host.size()));
     cc.launch1d(k, host.size(), 64);
     EXPECT_EQ(cc.download(dst), host);
@@ -125,14 +125,14 @@ TEST(Runtime, ProgramBinariesAreCachedOnDiskAndDamagedEntriesRebuilt) {
     ScopedEnv env("VOLCL_CACHE_DIR", dir.string());
     EXPECT_EQ(copyThroughFreshContext(), 0u) << "first build: from source";
     const ComputeContext probe;
-    const ProgramBinaryCache entry(probe.device(), "", probe.sources().resolve("copy.cl"));
+    const ProgramBinaryCache entry(probe.device(), "", probe.sources().resolve("common/copy.cl"));
     ASSERT_TRUE(entry.file());
     ASSERT_TRUE(std::filesystem::exists(*entry.file())) << entry.file()->string();
     ASSERT_TRUE(entry.load());
     EXPECT_EQ(copyThroughFreshContext(), 1u) << "second context: from the disk cache";
     // Other options or source are other entries.
-    EXPECT_FALSE(ProgramBinaryCache(probe.device(), "-DX=1", probe.sources().resolve("copy.cl")).load());
-    EXPECT_FALSE(ProgramBinaryCache(probe.device(), "", probe.sources().resolve("copy.cl") + " ").load());
+    EXPECT_FALSE(ProgramBinaryCache(probe.device(), "-DX=1", probe.sources().resolve("common/copy.cl")).load());
+    EXPECT_FALSE(ProgramBinaryCache(probe.device(), "", probe.sources().resolve("common/copy.cl") + " ").load());
 
     // A flipped byte anywhere (key, checksum or binary) or a truncation makes the entry unusable: the
     // program is rebuilt from source and the entry replaced.
@@ -207,7 +207,7 @@ TEST(Runtime, MissingKernelFileAndNameAreClearErrors) {
     ComputeContext& cc = test::computeContext();
     EXPECT_THROW(cc.kernel("no_such_file.cl", "x"), Error);
     try {
-        cc.kernel("copy.cl", "no_such_kernel");
+        cc.kernel("common/copy.cl", "no_such_kernel");
         FAIL();
     } catch (const ClError& e) {
         EXPECT_NE(std::string(e.what()).find("no_such_kernel"), std::string::npos);
@@ -216,7 +216,7 @@ TEST(Runtime, MissingKernelFileAndNameAreClearErrors) {
 
 TEST(Runtime, IncludesExpandOnceWithLineMarkers) {
     KernelSourceLibrary lib;
-    std::string src = lib.resolve("phantoms.cl");
+    std::string src = lib.resolve("phantoms/phantoms.cl");
     EXPECT_NE(src.find("typedef struct VolclEllipsoid"), std::string::npos);
     EXPECT_EQ(src.find("#include \""), std::string::npos) << "quoted includes are expanded";
     EXPECT_NE(src.find("#line 1 \"volcl_shared.h\""), std::string::npos);
@@ -252,7 +252,7 @@ TEST(Runtime, PooledHostBuffersAreReusedAndOutliveTheirContext) {
             auto src = cc.allocate<float>(n, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
             auto dst = cc.allocate<float>(n, CL_MEM_READ_WRITE | CL_MEM_ALLOC_HOST_PTR);
             cc.write(src, std::span<const float>(host));
-            cl::Kernel k = cc.kernel("copy.cl", "copy_float");
+            cl::Kernel k = cc.kernel("common/copy.cl", "copy_float");
             setArgs(k, src, dst, cl_uint(n));
             cc.launch1d(k, n, 64);
             ASSERT_EQ(cc.download(dst), host) << "n = " << n << ", round " << round;

@@ -1,5 +1,5 @@
 // Time-series input: natural order, globs, .pvd collections, 4D files, grid mismatches and bad paths.
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/io/Series.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "TestUtil.hpp"

@@ -1,7 +1,7 @@
 // Every volume file in ../shared/data: dims, type, geometry and value range as documented in its README.
 // Sums marked "VTK" were computed with VTK 9.1's own readers (python3-vtk9) as an independent reference.
 #include "TestUtil.hpp"
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/io/VolumeIo.hpp"
 
 #include <gtest/gtest.h>

@@ -3,7 +3,7 @@
 // equals the whole cloud; options the stream cannot code are refused.
 #include "TestUtil.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/phantoms/Cloud.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/container/LodStatistics.hpp"

@@ -1,7 +1,7 @@
 // Transfer function tests: JSON and ParaView import, strips, steps, validation, packed and kernel sampling.
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/image/ImageIo.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "host/tf/TransferFunction.hpp"
 
 #include <gtest/gtest.h>
@@ -216,7 +216,7 @@ TEST(TransferFunction, HostAndKernelSamplingAreBitIdentical) {
         auto dKnots = cc.upload(knots);
         auto dS = cc.upload(xs);
         auto dOut = cc.allocate<cl_float4>(xs.size());
-        auto k = cc.kernel("tf_sample.cl", "tf_sample_points");
+        auto k = cc.kernel("render/tf_sample.cl", "tf_sample_points");
         volcl::setArgs(k, dKnots, cl_uint(knots.size()), dS, dOut, cl_uint(xs.size()));
         cc.launch1d(k, xs.size(), 64);
         const auto out = cc.download(dOut);

@@ -1,6 +1,6 @@
 // ParaView colour maps against VTK: colour spaces, normalised presets fitted to the data, opacity unit
 // distance, built-in presets, colour-only defaults.
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/tf/BuiltinPresets.hpp"
 #include "host/tf/ColorSpaces.hpp"
 #include "host/tf/TransferFunction.hpp"

@@ -1,7 +1,7 @@
 // .vdb reading: densified grids, forged sizes, and the reader service that isolates libopenvdb (it must
 // work whatever the calling process is doing, leave no process behind its thread, and find its socket).
 #include "TestUtil.hpp"
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/io/VolumeIo.hpp"
 
 #include <gtest/gtest.h>

@@ -2,20 +2,20 @@
 // headless EGL path: frames read back from OpenGL against the renderer's PNG encoding within 1/255.
 #include "TestUtil.hpp"
 
-#include "host/Error.hpp"
-#include "host/Volume.hpp"
+#include "core/Error.hpp"
+#include "core/Volume.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
-#include "host/render/Renderer.hpp"
-#include "host/render/VecMath.hpp"
-#include "host/viewer/AdaptiveQuality.hpp"
-#include "host/viewer/ClGlSharing.hpp"
-#include "host/viewer/GlPresenter.hpp"
-#include "host/viewer/HeadlessGl.hpp"
-#include "host/viewer/Overlay.hpp"
-#include "host/viewer/ViewerApp.hpp"
-#include "host/viewer/ViewerCamera.hpp"
-#include "host/viewer/ViewerSession.hpp"
+#include "render/Renderer.hpp"
+#include "render/VecMath.hpp"
+#include "apps/viewer/AdaptiveQuality.hpp"
+#include "apps/viewer/ClGlSharing.hpp"
+#include "apps/viewer/GlPresenter.hpp"
+#include "apps/viewer/HeadlessGl.hpp"
+#include "apps/viewer/Overlay.hpp"
+#include "apps/viewer/ViewerApp.hpp"
+#include "apps/viewer/ViewerCamera.hpp"
+#include "apps/viewer/ViewerSession.hpp"
 
 #include <epoxy/gl.h>
 #include <gtest/gtest.h>

@@ -2,7 +2,7 @@
 // 1/255, per-frame statistics, and clear refusals (exit codes, one line, no output left behind).
 #include "TestUtil.hpp"
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
 

@@ -1,7 +1,7 @@
 // Volume model: layout, types, conversion, cropping, statistics, series validation.
-#include "host/Error.hpp"
-#include "host/Volume.hpp"
-#include "host/ZeroedBytes.hpp"
+#include "core/Error.hpp"
+#include "core/Volume.hpp"
+#include "core/ZeroedBytes.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Lifting transforms: references are perfect-reconstruction, kernels match the references (bit-exact for
 // the integer forms), on odd, prime, tiny and extreme inputs.
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 #include "tests/TestUtil.hpp"
 #include "wavelet/LiftingTransform.hpp"
 

@@ -2,8 +2,8 @@
 // copies between a volume's bricks and brick arrays or batch slots.
 #pragma once
 
-#include "host/Error.hpp"
-#include "host/Volume.hpp"
+#include "core/Error.hpp"
+#include "core/Volume.hpp"
 #include "wavelet/container/VczFormat.hpp"
 
 #include <algorithm>
@@ -36,7 +36,7 @@ template <class V, class Fn> decltype(auto) visitTyped(V& v, Fn fn) { // V: Volu
 // Without a libm call: clamping first is equivalent (the bounds are integers) and keeps |v| < 2^22, where
 // adding and subtracting 1.5 * 2^23 rounds exactly like std::nearbyint. The encoder's error check and the
 // decoder's output both use this, so the bound is checked on what the decoder writes. NaN (a forged
-// quantisation step) becomes 0, as the kernels' to_voxel8 (cl/motion.cl) gives it; std::clamp would pass it
+// quantisation step) becomes 0, as the kernels' to_voxel8 (cl/codec/motion.cl) gives it; std::clamp would pass it
 // on to a float-to-int conversion, which is undefined for NaN.
 template <class T> T toVoxel(float v) {
     if constexpr (std::is_same_v<T, float>) {

@@ -3,8 +3,8 @@
 // request and runs the frame decoder's stages, then the predictor's reconstruction.
 #include "wavelet/Codec.hpp"
 
-#include "host/Error.hpp"
-#include "host/runtime/Timing.hpp"
+#include "core/Error.hpp"
+#include "core/runtime/Timing.hpp"
 #include "wavelet/BrickVoxels.hpp"
 #include "wavelet/FrameDecoder.hpp"
 #include "wavelet/RangeScan.hpp"

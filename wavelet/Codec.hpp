@@ -1,8 +1,8 @@
 // Wavelet volume codec: encode/decode in memory, region and level decoding, brick access for renderers.
 #pragma once
 
-#include "host/Volume.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/Volume.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "wavelet/CodecTypes.hpp"
 #include "wavelet/DecodeAhead.hpp"
 #include "wavelet/Metrics.hpp"

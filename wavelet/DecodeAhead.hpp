@@ -1,7 +1,7 @@
 // Entropy decoding of an intra frame's first transform rounds on a thread of its own, before the device exists.
 #pragma once
 
-#include "host/runtime/HostMemoryPool.hpp"
+#include "core/runtime/HostMemoryPool.hpp"
 
 #include <cstddef>
 #include <memory>

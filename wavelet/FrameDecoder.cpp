@@ -1,8 +1,8 @@
 // Decoding one frame's bricks into a region of the output.
 #include "wavelet/FrameDecoder.hpp"
 
-#include "host/Error.hpp"
-#include "host/runtime/ParallelFor.hpp"
+#include "core/Error.hpp"
+#include "core/runtime/ParallelFor.hpp"
 #include "wavelet/BrickVoxels.hpp"
 #include "wavelet/entropy/EntropyCoder.hpp"
 #include "wavelet/payload/BrickPayload.hpp"

@@ -3,8 +3,8 @@
 // corrections applied.
 #pragma once
 
-#include "host/Volume.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/Volume.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "wavelet/CodecTypes.hpp"
 #include "wavelet/DecodeAhead.hpp"
 #include "wavelet/container/VczFormat.hpp"

@@ -1,7 +1,7 @@
 // Error metrics between two volumes.
 #include "wavelet/Metrics.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 
 #include <algorithm>
 #include <cmath>

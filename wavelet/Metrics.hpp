@@ -1,7 +1,7 @@
 // Error metrics between two volumes of the same grid (PSNR, RMSE, largest absolute difference).
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 
 namespace volcl {
 

@@ -1,7 +1,7 @@
 // Value-range scans of the codec on host threads.
 #include "wavelet/RangeScan.hpp"
 
-#include "host/runtime/ParallelFor.hpp"
+#include "core/runtime/ParallelFor.hpp"
 #include "wavelet/BrickVoxels.hpp"
 
 #include <algorithm>

@@ -1,7 +1,7 @@
 // Value-range scans of the codec: a volume's min/max and non-finite check, and per-brick ranges.
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 #include "wavelet/container/VczFormat.hpp"
 
 #include <utility>

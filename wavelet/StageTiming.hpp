@@ -1,7 +1,7 @@
 // Wall time of codec stages added to a CodecProfile.
 #pragma once
 
-#include "host/runtime/Timing.hpp"
+#include "core/runtime/Timing.hpp"
 #include "wavelet/CodecTypes.hpp"
 
 namespace volcl::codec {

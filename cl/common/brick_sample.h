@@ -1,4 +1,4 @@
-/* Sampling from the brick pool for the brick ray marcher (cl/raymarch_bricks.cl): the grid sampler's rays
+/* Sampling from the brick pool for the brick ray marcher (cl/render/raymarch_bricks.cl): the grid sampler's rays
    and box (common/grid_sample.h), with every voxel read going through the page table of decoded bricks.
 
    The pool buffer (float) holds, in order: a header of 16 words (brick size x, y, z, brick grid x, y, z, as

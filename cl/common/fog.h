@@ -1,5 +1,5 @@
 /* Fog for the ray marchers: closed-form optical depth of the height fog along a ray, and its exact
-   compositing with a volume segment of constant extinction (host/render/FogModel.hpp states the model). */
+   compositing with a volume segment of constant extinction (render/FogModel.hpp states the model). */
 #ifndef VOLCL_FOG_H
 #define VOLCL_FOG_H
 

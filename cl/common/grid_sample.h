@@ -44,7 +44,7 @@ inline float3 grid_hi(const VolclGridParams* G) {
 }
 
 #ifdef FILTER_BSPLINE
-/* Cubic B-spline reconstruction (host/render/grid/BsplineField.hpp): vol holds float coefficients with a
+/* Cubic B-spline reconstruction (render/grid/BsplineField.hpp): vol holds float coefficients with a
    margin of one below and two above each axis, so the 4x4x4 neighbourhood of any point in the box is in
    bounds without clamps. Sigg and Hadwiger's eight trilinear fetches pay off with hardware filtering; with
    buffers the 64 reads are the same, so the separable sum is taken directly, value and gradient together. */

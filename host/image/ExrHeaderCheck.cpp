@@ -1,8 +1,8 @@
 // Walks OpenEXR headers with bounded reads and refuses claims the file cannot back (see the header).
 #include "host/image/ExrHeaderCheck.hpp"
 
-#include "host/Error.hpp"
-#include "host/MemoryBudget.hpp"
+#include "core/Error.hpp"
+#include "core/MemoryBudget.hpp"
 
 #include <algorithm>
 #include <array>

@@ -1,9 +1,9 @@
 // Image files (EXR float/half with attributes, 8-bit PNG; OpenImageIO in a module) and sRGB display encoding.
 #include "host/image/ImageIo.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/image/OiioModule.hpp"
-#include "host/runtime/RuntimeModule.hpp"
+#include "core/runtime/RuntimeModule.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,10 +1,10 @@
 // OpenImageIO module: EXR (float/half, attributes) and 8-bit PNG writing, reading of any format OIIO knows.
 #include "host/image/OiioModule.hpp"
 
-#include "host/Error.hpp"
-#include "host/MemoryBudget.hpp"
+#include "core/Error.hpp"
+#include "core/MemoryBudget.hpp"
 #include "host/image/ExrHeaderCheck.hpp"
-#include "host/io/AtomicFile.hpp"
+#include "core/AtomicFile.hpp"
 
 #include <OpenImageIO/imageio.h>
 

@@ -1,8 +1,8 @@
 // Shared reader/writer helpers: sample conversion to the volume model, zlib with exact sizes, text parsing.
 #include "host/io/IoDetail.hpp"
 
-#include "host/MemoryBudget.hpp"
-#include "host/io/AtomicFile.hpp"
+#include "core/MemoryBudget.hpp"
+#include "core/AtomicFile.hpp"
 
 #include <zlib.h>
 

@@ -1,5 +1,5 @@
 // MetaImage (.mhd header + data file, .mha with LOCAL data): raw or zlib, byte order, spacing, offset.
-#include "host/io/AtomicFile.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 
 #include <cmath>

@@ -1,5 +1,5 @@
 // NIfTI-1 single files (.nii, .nii.gz): 3D and 4D, either byte order, scl_slope/inter, pixdim spacing.
-#include "host/io/AtomicFile.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/NiftiMetadata.hpp"
 

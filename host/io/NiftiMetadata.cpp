@@ -1,7 +1,7 @@
 // NIfTI-1 metadata: voxel-to-world transforms, re-anchoring on a cropped or downsampled grid, text form.
 #include "host/io/NiftiMetadata.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 
 #include <nlohmann/json.hpp>
 

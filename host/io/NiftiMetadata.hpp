@@ -1,7 +1,7 @@
 // NIfTI-1 header fields a volume keeps through conversion and compression: orientation, units, intent, scaling.
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 
 #include <array>
 #include <cstdint>

@@ -1,5 +1,5 @@
 // NRRD (.nrrd attached / .nhdr detached): raw, gzip and ascii encodings, data file patterns; writer.
-#include "host/io/AtomicFile.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 
 #include <algorithm>

@@ -1,5 +1,5 @@
 // Headerless raw volumes (optionally gzipped): dims/type from the file name or ReadOptions.
-#include "host/io/AtomicFile.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 
 namespace volcl::io {

@@ -1,8 +1,8 @@
 // Time-series input: file lists, glob expansion with natural sort, ParaView .pvd parsing, grid checks.
 #include "host/io/Series.hpp"
 
-#include "host/Error.hpp"
-#include "host/MemoryBudget.hpp"
+#include "core/Error.hpp"
+#include "core/MemoryBudget.hpp"
 
 #include <glob.h>
 #include <pugixml.hpp>

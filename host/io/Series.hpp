@@ -1,7 +1,7 @@
 // Time-series input: a list of volume files, quoted glob patterns, ParaView .pvd collections, 4D files.
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 #include "host/io/VolumeIo.hpp"
 
 #include <filesystem>

@@ -1,5 +1,5 @@
 // Text/XML headers that describe a separate raw file: Inviwo/Roettger .dat and Voreen .vvd.
-#include "host/io/AtomicFile.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/XmlScan.hpp"
 

@@ -1,5 +1,5 @@
 // VolVis SLC (.slc): ASCII header, RGB icon, then 8-bit slices stored raw or run-length encoded.
-#include "host/io/AtomicFile.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 
 #include <cctype>

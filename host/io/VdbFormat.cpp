@@ -1,12 +1,12 @@
 // OpenVDB (.vdb): the file layout checked here, then the grid read through the OpenVDB module by a reader
 // process of the reader service (VdbReader.hpp), so corrupt node data cannot crash or hang the caller;
 // writing goes through the module in process.
-#include "host/MemoryBudget.hpp"
-#include "host/io/AtomicFile.hpp"
+#include "core/MemoryBudget.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/VdbModule.hpp"
 #include "host/io/VdbReader.hpp"
-#include "host/runtime/RuntimeModule.hpp"
+#include "core/runtime/RuntimeModule.hpp"
 
 #include <openvdb/version.h> // file-format version numbers only: libopenvdb is linked by the module
 

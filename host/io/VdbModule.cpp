@@ -1,7 +1,7 @@
 // The OpenVDB half of .vdb I/O, a module libvolcl loads when a .vdb file is first read or written: float/double
 // grids densified over their box, and the exact FloatGrid writer.
-#include "host/MemoryBudget.hpp"
-#include "host/io/AtomicFile.hpp"
+#include "core/MemoryBudget.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/VdbModule.hpp"
 

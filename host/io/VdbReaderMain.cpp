@@ -1,8 +1,8 @@
 // volcl-vdb-reader: the OpenVDB reader service; each .vdb grid is decoded in a forked reader of its own.
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/io/VdbModule.hpp"
 #include "host/io/VdbReader.hpp"
-#include "host/runtime/RuntimeModule.hpp"
+#include "core/runtime/RuntimeModule.hpp"
 
 #include <cerrno>
 #include <cstdio>

@@ -1,7 +1,7 @@
 // Volume file dispatch: format detection from extension and magic bytes, raw file-name parsing.
 #include "host/io/VolumeIo.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/io/IoDetail.hpp"
 
 #include <algorithm>

@@ -1,7 +1,7 @@
 // Reading and writing volume files: format detection, per-format readers and writers, raw options.
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 #include "host/io/NiftiMetadata.hpp"
 
 #include <filesystem>

@@ -1,5 +1,5 @@
 // Legacy VTK STRUCTURED_POINTS (.vtk): ASCII or BINARY (big-endian) SCALARS point data.
-#include "host/io/AtomicFile.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 
 #include <cctype>

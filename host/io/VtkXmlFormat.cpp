@@ -1,5 +1,5 @@
 // VTK XML ImageData (.vti): inline ascii/base64 and appended raw/base64 arrays, zlib blocks, TimeStep.
-#include "host/io/AtomicFile.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/VtkXmlArrays.hpp"
 #include "host/io/XmlScan.hpp"

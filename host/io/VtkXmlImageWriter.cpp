@@ -1,5 +1,5 @@
 // VTK XML ImageData (.vti) writer: one point array, appended raw data in zlib blocks, NIfTI orientation as Direction.
-#include "host/io/AtomicFile.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/NiftiMetadata.hpp"
 #include "host/io/VtkXmlArrays.hpp"

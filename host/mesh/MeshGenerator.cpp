@@ -1,7 +1,7 @@
 // Generated meshes: hex grids over a box split into conforming tets, Marschner-Lobb on [-1,1]^3.
 #include "host/mesh/MeshGenerator.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/mesh/CellSplit.hpp"
 #include "host/phantoms/Phantoms.hpp"
 

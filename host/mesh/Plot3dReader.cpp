@@ -1,5 +1,5 @@
 // PLOT3D single-block 3D grid (x, y, z [, iblank]) + q solution reader; hexahedra split into tetrahedra.
-#include "host/io/AtomicFile.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/mesh/CellSplit.hpp"
 #include "host/mesh/MeshDetail.hpp"
 

@@ -1,7 +1,7 @@
 // Building a tetrahedral mesh: point merging, degenerate and inverted tets, unused points, face adjacency.
 #include "host/mesh/TetMesh.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,5 +1,5 @@
 // Legacy VTK UNSTRUCTURED_GRID (.vtk) reader: ASCII or big-endian BINARY, file versions 2 to 5.1.
-#include "host/io/AtomicFile.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/mesh/MeshDetail.hpp"
 
 #include <cctype>

@@ -1,5 +1,5 @@
 // VTK XML UnstructuredGrid (.vtu) reader: points, cells and one scalar array, any VTK XML encoding.
-#include "host/io/AtomicFile.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/VtkXmlArrays.hpp"
 #include "host/mesh/MeshDetail.hpp"
 

@@ -1,5 +1,5 @@
 // VTK XML UnstructuredGrid (.vtu) writer: tetra cells and the point scalar, appended raw or base64, zlib.
-#include "host/io/AtomicFile.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/VtkXmlArrays.hpp"
 #include "host/mesh/MeshIo.hpp"

@@ -1,8 +1,8 @@
 // Cloud density from seeded noise: improved Perlin noise, Worley F1 noise, their fBm, and the volume loop.
 #include "host/phantoms/Cloud.hpp"
 
-#include "host/Error.hpp"
-#include "host/runtime/ParallelFor.hpp"
+#include "core/Error.hpp"
+#include "core/runtime/ParallelFor.hpp"
 
 #include <algorithm>
 #include <array>

@@ -2,7 +2,7 @@
 // under a vertical profile (z up), the model of Roettger's cloud layers.
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 
 #include <cstdint>
 

@@ -2,7 +2,7 @@
 #include "host/phantoms/Phantoms.hpp"
 
 #include "cl/volcl_shared.h"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/runtime/ClRuntime.hpp"
 
 #include <algorithm>
 #include <array>
@@ -87,7 +87,7 @@ Volume generateMarschnerLobb(ComputeContext& cc, Dims dims, MarschnerLobbParams 
     Volume v(dims, ScalarType::Float32);
     checkKernelDims(dims);
     auto out = cc.allocate<float>(v.voxelCount(), CL_MEM_WRITE_ONLY);
-    cl::Kernel k = cc.kernel("phantoms.cl", "marschner_lobb");
+    cl::Kernel k = cc.kernel("phantoms/phantoms.cl", "marschner_lobb");
     setArgs(k, out, cl_uint(dims.x), cl_uint(dims.y), cl_uint(dims.z), float(p.fM), float(p.alpha));
     cc.launch3d(k, dims.x, dims.y, dims.z, 16, 1, 1);
     cc.read(out, v.values<float>());
@@ -128,7 +128,7 @@ Volume generateSheppLogan(ComputeContext& cc, Dims dims) {
     }
     auto ellipsoids = cc.upload(table, CL_MEM_READ_ONLY);
     auto out = cc.allocate<float>(v.voxelCount(), CL_MEM_WRITE_ONLY);
-    cl::Kernel k = cc.kernel("phantoms.cl", "shepp_logan");
+    cl::Kernel k = cc.kernel("phantoms/phantoms.cl", "shepp_logan");
     setArgs(k, out, cl_uint(dims.x), cl_uint(dims.y), cl_uint(dims.z), ellipsoids, cl_uint(table.size()));
     cc.launch3d(k, dims.x, dims.y, dims.z, 16, 1, 1);
     cc.read(out, v.values<float>());

@@ -1,7 +1,7 @@
 // Analytic test volumes (Marschner-Lobb, 3D Shepp-Logan): OpenCL generators and double-precision references.
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 
 namespace volcl {
 

@@ -2,7 +2,7 @@
 // piecewise-linear approximation for the kernels' RGB knots.
 #include "host/tf/ColorSpaces.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/tf/TransferFunction.hpp"
 
 #include <algorithm>

@@ -1,7 +1,7 @@
 // Transfer functions: canonical/ParaView JSON and strip import, validation, exact sampling and kernel knots.
 #include "host/tf/TransferFunction.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/tf/BuiltinPresets.hpp"
 #include "host/tf/ColorSpaces.hpp"

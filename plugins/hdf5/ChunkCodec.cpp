@@ -1,7 +1,7 @@
 // HDF5 chunks <-> volcl-compressed bytes: parameter words, the stored chunk header, codec calls.
 #include "plugins/hdf5/ChunkCodec.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <algorithm>

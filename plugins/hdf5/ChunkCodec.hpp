@@ -1,8 +1,8 @@
 // HDF5 chunks <-> volcl-compressed bytes: the filter's parameters (cd_values) and the stored chunk format.
 #pragma once
 
-#include "host/Volume.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/Volume.hpp"
+#include "core/runtime/ClRuntime.hpp"
 
 #include <array>
 #include <cstddef>

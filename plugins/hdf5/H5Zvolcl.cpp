@@ -3,8 +3,8 @@
 #include "plugins/hdf5/H5Zvolcl.h"
 #include "plugins/hdf5/Hdf5Runtime.hpp"
 
-#include "host/Error.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/Error.hpp"
+#include "core/runtime/ClRuntime.hpp"
 
 #include <H5PLextern.h>
 

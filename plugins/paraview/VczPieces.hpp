@@ -1,7 +1,7 @@
 // Splitting a .vcz across parallel ranks: a rank's extent at a level, and the bricks that extent decodes.
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/VczFormat.hpp"
 

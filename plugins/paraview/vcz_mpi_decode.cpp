@@ -3,9 +3,9 @@
 // gathered volume against a 1-rank decode.
 #include "plugins/paraview/VczPieces.hpp"
 
-#include "host/Error.hpp"
-#include "host/io/AtomicFile.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/Error.hpp"
+#include "core/AtomicFile.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "wavelet/Codec.hpp"
 
 // OpenMPI's C++ bindings (deprecated, and not linked here) stay out; the C API is used.

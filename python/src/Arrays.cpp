@@ -1,7 +1,7 @@
 // Conversions between volcl volumes/images and numpy arrays: outputs hand the C++ buffer to numpy.
 #include "python/src/Bindings.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 
 #include <cstring>
 #include <memory>

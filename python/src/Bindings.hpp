@@ -1,9 +1,9 @@
 // Shared pieces of the Python module: the device context handle, array conversions and each file's binder.
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 #include "host/image/ImageIo.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/runtime/ClRuntime.hpp"
 
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>

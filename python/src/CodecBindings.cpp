@@ -2,8 +2,8 @@
 // levels, frames, single bricks).
 #include "python/src/Bindings.hpp"
 
-#include "host/Error.hpp"
-#include "host/io/AtomicFile.hpp"
+#include "core/Error.hpp"
+#include "core/AtomicFile.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <nanobind/stl/array.h>

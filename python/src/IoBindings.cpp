@@ -1,8 +1,8 @@
 // Volume files for Python: read (every reader the command line has, .vcz included) and write.
 #include "python/src/Bindings.hpp"
 
-#include "host/Error.hpp"
-#include "host/io/AtomicFile.hpp"
+#include "core/Error.hpp"
+#include "core/AtomicFile.hpp"
 #include "host/io/Series.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "wavelet/Codec.hpp"

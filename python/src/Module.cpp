@@ -1,9 +1,9 @@
 // The volcl._volcl extension module: exception mapping, devices, contexts, version; other files bind the rest.
 #include "python/src/Bindings.hpp"
 
-#include "host/Error.hpp"
-#include "host/PrintableMessage.hpp"
-#include "host/Version.hpp"
+#include "core/Error.hpp"
+#include "core/PrintableMessage.hpp"
+#include "core/Version.hpp"
 
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/vector.h>

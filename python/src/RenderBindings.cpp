@@ -2,11 +2,11 @@
 // pre-integration tables as arrays.
 #include "python/src/Bindings.hpp"
 
-#include "host/Error.hpp"
-#include "host/render/CameraFraming.hpp"
-#include "host/render/RenderInput.hpp"
-#include "host/render/Scene.hpp"
-#include "host/render/VecMath.hpp"
+#include "core/Error.hpp"
+#include "render/CameraFraming.hpp"
+#include "render/RenderInput.hpp"
+#include "render/Scene.hpp"
+#include "render/VecMath.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "preintegration/PreintegrationTable.hpp"
 

@@ -3,7 +3,7 @@
 // window, smooth reconstruction filters.
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
-#include "host/render/grid/FilterAccuracy.hpp"
+#include "render/grid/FilterAccuracy.hpp"
 #include "../TestUtil.hpp"
 
 #include <sys/wait.h>

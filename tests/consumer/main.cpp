@@ -1,11 +1,11 @@
 // Uses the installed volcl through <volcl/...>: a phantom on the default device against its reference, a PNG
 // composite over a scene's background colour, and the library version.
-#include <volcl/host/Version.hpp>
-#include <volcl/host/Volume.hpp>
-#include <volcl/host/image/ImageIo.hpp>
-#include <volcl/host/phantoms/Phantoms.hpp>
-#include <volcl/host/render/Scene.hpp>
-#include <volcl/host/runtime/ClRuntime.hpp>
+#include <volcl/core/Version.hpp>
+#include <volcl/core/Volume.hpp>
+#include <volcl/image/ImageIo.hpp>
+#include <volcl/phantoms/Phantoms.hpp>
+#include <volcl/render/Scene.hpp>
+#include <volcl/core/runtime/ClRuntime.hpp>
 
 #include <cmath>
 #include <cstdio>

@@ -2,7 +2,7 @@
 #include "plugins/hdf5/ChunkCodec.hpp"
 #include "plugins/hdf5/H5Zvolcl.h"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "tests/TestUtil.hpp"
 #include "wavelet/Codec.hpp"
 

@@ -1,8 +1,8 @@
 // Level-of-detail statistics: measured after encoding, serialised into the .vcz header's metadata.
 #include "wavelet/container/LodStatistics.hpp"
 
-#include "host/Error.hpp"
-#include "host/runtime/ParallelFor.hpp"
+#include "core/Error.hpp"
+#include "core/runtime/ParallelFor.hpp"
 #include "wavelet/BrickVoxels.hpp"
 #include "wavelet/Codec.hpp"
 

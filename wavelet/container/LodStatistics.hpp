@@ -2,8 +2,8 @@
 // approximation and its largest deviation from the full-resolution input, kept in the .vcz header.
 #pragma once
 
-#include "host/Volume.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/Volume.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "wavelet/container/VczFormat.hpp"
 
 #include <algorithm>
@@ -23,7 +23,7 @@ inline constexpr std::string_view kVczLodKey = "volcl:lod";
 /// One brick at one level: the range of its samples and the largest |approximation - input| over the
 /// brick's full-resolution voxels, where the approximation at voxel x is the trilinear interpolation of the
 /// level's samples at (x - origin) / 2^level, clamped to the brick's last sample (the brick renderer's rule,
-/// host/render/bricks/BrickField.hpp). Level 0 of a lossy file holds the coding error itself. `faceMin` and
+/// render/bricks/BrickField.hpp). Level 0 of a lossy file holds the coding error itself. `faceMin` and
 /// `faceMax` are the range of the samples on the brick's three low faces (x, y or z index 0): the only ones a
 /// neighbour's trilinear cells read.
 /// `rms` is the root mean square of the same deviation.

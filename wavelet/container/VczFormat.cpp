@@ -1,9 +1,9 @@
 // .vcz serialisation and validated parsing (layout in docs/codec.md).
 #include "wavelet/container/VczFormat.hpp"
 
-#include "host/MemoryBudget.hpp"
+#include "core/MemoryBudget.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "wavelet/Varint.hpp"
 #include "wavelet/entropy/EntropyCoder.hpp"
 #include "wavelet/quantise/Corrections.hpp"

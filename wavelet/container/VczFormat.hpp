@@ -1,7 +1,7 @@
 // The .vcz container: header, frame table (I/P/B), brick index with per-brick checksums and statistics.
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 #include "wavelet/CodecTypes.hpp"
 
 #include <array>

@@ -2,7 +2,7 @@
 // readers).
 #pragma once
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 
 #include <algorithm>
 #include <cstddef>

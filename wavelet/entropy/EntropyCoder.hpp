@@ -3,7 +3,7 @@
 // codec.
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 #include "wavelet/CodecTypes.hpp"
 
 #include <cstddef>

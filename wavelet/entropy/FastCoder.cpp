@@ -1,7 +1,7 @@
 // The fast entropy coder (libzstd over byte planes of sign-folded coefficients, zero blocks skipped).
 #include "wavelet/entropy/FastCoder.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 
 #include <zstd.h>
 #ifdef __SSE2__

@@ -1,7 +1,7 @@
 // Framing of brick payloads: section sizes, sections, corrections.
 #include "wavelet/payload/BrickPayload.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "wavelet/entropy/EntropyCoder.hpp"
 
 #include <cstring>

@@ -2,7 +2,7 @@
 // OpenCL).
 #include "wavelet/predict/Compensation.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "wavelet/predict/Residual.hpp"
 #include "wavelet/transform/LiftingTransform.hpp"
 
@@ -311,7 +311,7 @@ struct FieldBuffers {
 };
 
 // The row kernels' groups of 8 voxels along x start `overlap` mod 8 below a multiple of 8, so that every
-// group's voxels share their first covering block (see obmc8 in cl/motion.cl): the first group's start,
+// group's voxels share their first covering block (see obmc8 in cl/codec/motion.cl): the first group's start,
 // and the number of groups over a row of n voxels.
 cl_int rowStart(std::size_t blockSize) {
     const int o = int(overlapFor(blockSize) % 8);
@@ -324,8 +324,8 @@ std::size_t rowGroups(std::size_t n, std::size_t blockSize) {
 } // namespace
 
 MotionCompensator::MotionCompensator(ComputeContext& cc) {
-    costsKernel_ = cc.kernel("motion.cl", "motion_mode_costs");
-    compensateKernel_ = cc.kernel("motion.cl", "motion_compensate");
+    costsKernel_ = cc.kernel("codec/motion.cl", "motion_mode_costs");
+    compensateKernel_ = cc.kernel("codec/motion.cl", "motion_compensate");
 }
 
 cl::Kernel& MotionCompensator::compensateRows(ComputeContext& cc, ScalarType type) {
@@ -333,7 +333,7 @@ cl::Kernel& MotionCompensator::compensateRows(ComputeContext& cc, ScalarType typ
     if (!k) {
         KernelDefines d;
         d.set("REF_TYPE", static_cast<int>(type)); // the kernel's ref_t follows ScalarType's order
-        k = cc.kernel("motion.cl", "motion_compensate_rows", d);
+        k = cc.kernel("codec/motion.cl", "motion_compensate_rows", d);
     }
     return *k;
 }
@@ -348,7 +348,7 @@ cl::Kernel& MotionCompensator::reconstructRows(ComputeContext& cc, ScalarType ty
         d.set("REF_TYPE", static_cast<int>(type));
         d.set("OUT_TYPE", static_cast<int>(frameType));
         d.set("ROUND_PREDICTION", roundPrediction ? 1 : 0);
-        k = cc.kernel("motion.cl", "motion_reconstruct_rows", d);
+        k = cc.kernel("codec/motion.cl", "motion_reconstruct_rows", d);
     }
     return *k;
 }

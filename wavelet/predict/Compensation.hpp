@@ -2,8 +2,8 @@
 // OpenCL.
 #pragma once
 
-#include "host/Volume.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/Volume.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "wavelet/predict/MotionField.hpp"
 
 #include <array>
@@ -57,7 +57,7 @@ BlockMode cheapestMode(const ModeCosts& c) noexcept;
 /// mode and vectors (half-voxel vectors: trilinear, clamp-to-edge). Returns Float32.
 Volume compensateReference(const MotionField& field, const Volume& reference0, const Volume* reference1);
 
-/// Mode decision and compensation in OpenCL (cl/motion.cl), the same rules as the references above.
+/// Mode decision and compensation in OpenCL (cl/codec/motion.cl), the same rules as the references above.
 /// The kernels work in float: costs agree with the reference to a relative 1e-4, predictions to 1e-5 of
 /// the reference frames' value range.
 class MotionCompensator {

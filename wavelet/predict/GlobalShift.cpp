@@ -1,8 +1,8 @@
 // Keys-cubic translation of volumes and Lucas-Kanade estimation of a global sub-voxel translation.
 #include "wavelet/predict/GlobalShift.hpp"
 
-#include "host/Error.hpp"
-#include "host/runtime/ParallelFor.hpp"
+#include "core/Error.hpp"
+#include "core/runtime/ParallelFor.hpp"
 #include "wavelet/BrickVoxels.hpp"
 
 #include <algorithm>

@@ -2,7 +2,7 @@
 // codec's global-shift prediction and the synthetic translated series) and its estimation between two frames.
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 
 #include <array>
 #include <cstdint>

@@ -1,7 +1,7 @@
 // Group-of-frames planning: I/P/B types, references and coding order.
 #include "wavelet/predict/GopPlan.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 
 #include <algorithm>
 

@@ -1,7 +1,7 @@
 // Block motion fields: vectors in half-voxel units, per-block prediction modes, and the block grid.
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 
 #include <cstdint>
 #include <cstdlib>

@@ -1,7 +1,7 @@
 // Motion-compensated prediction of P and B frames from reconstructed references, and its reconstruction.
 #include "wavelet/predict/MotionPredictor.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "wavelet/predict/Compensation.hpp"
 #include "wavelet/predict/GlobalShift.hpp"
 #include "wavelet/predict/MotionVectorCoding.hpp"

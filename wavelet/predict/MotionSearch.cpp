@@ -1,7 +1,7 @@
 // Block-matching motion estimation: search samples and pyramid, search stages, C++ reference, OpenCL driver.
 #include "wavelet/predict/MotionSearch.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 
 #include <algorithm>
 #include <bit>
@@ -200,9 +200,9 @@ MotionEstimator::MotionEstimator(ComputeContext& cc, const MotionSearchOptions& 
     KernelDefines whole, half;
     whole.set("HALF_STEP", 0).set("COST_SSD", options_.cost == MotionCost::Ssd ? 1 : 0);
     half.set("HALF_STEP", 1).set("COST_SSD", options_.cost == MotionCost::Ssd ? 1 : 0);
-    searchKernel_ = cc.kernel("motion.cl", "motion_search", whole);
-    halfKernel_ = cc.kernel("motion.cl", "motion_search", half);
-    reduceKernel_ = cc.kernel("motion.cl", "motion_search_reduce", whole);
+    searchKernel_ = cc.kernel("codec/motion.cl", "motion_search", whole);
+    halfKernel_ = cc.kernel("codec/motion.cl", "motion_search", half);
+    reduceKernel_ = cc.kernel("codec/motion.cl", "motion_search_reduce", whole);
 }
 
 MotionSearchResult MotionEstimator::search(ComputeContext& cc, const Volume& current, const Volume& reference) {

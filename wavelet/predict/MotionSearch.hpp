@@ -1,8 +1,8 @@
 // Block-matching motion estimation: options, integer search samples, the C++ reference and the OpenCL search.
 #pragma once
 
-#include "host/Volume.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/Volume.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "wavelet/predict/MotionField.hpp"
 
 #include <cstdint>
@@ -60,7 +60,7 @@ struct MotionSearchResult {
 ///   frame, or any block whose costs are all equal, gets the zero vector.
 MotionSearchResult searchMotionReference(const MotionSearchSamples& s, const MotionSearchOptions& o);
 
-/// Block matching in OpenCL (cl/motion.cl), the same rules and results as the reference, bit for bit.
+/// Block matching in OpenCL (cl/codec/motion.cl), the same rules and results as the reference, bit for bit.
 /// Example:
 /// ```
 /// volcl::MotionEstimator est(cc, {.blockSize = 8, .radius = 4});

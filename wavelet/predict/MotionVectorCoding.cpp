@@ -1,7 +1,7 @@
 // Motion-field coding: median prediction of vectors, byte planes of differences, one zstd frame.
 #include "wavelet/predict/MotionVectorCoding.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "wavelet/Varint.hpp"
 
 #include <zstd.h>

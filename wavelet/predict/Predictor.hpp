@@ -17,8 +17,8 @@
 //   for a lossy one the error bound of the residual's rate mode holds on the frame's voxels.
 #pragma once
 
-#include "host/Volume.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/Volume.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "wavelet/container/VczFormat.hpp"
 
 #include <cstddef>

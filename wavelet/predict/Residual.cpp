@@ -1,7 +1,7 @@
 // Prediction rounding, residuals and reconstruction of predicted frames.
 #include "wavelet/predict/Residual.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 
 namespace volcl::codec {
 

@@ -2,7 +2,7 @@
 // and reconstruction voxel by voxel, so both sides compute the same bits.
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 #include "wavelet/BrickVoxels.hpp"
 
 namespace volcl::codec {

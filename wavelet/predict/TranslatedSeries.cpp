@@ -1,7 +1,7 @@
 // Synthetic motion: separable Keys-cubic translation of a volume, one shift per frame.
 #include "wavelet/predict/TranslatedSeries.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "wavelet/predict/GlobalShift.hpp"
 
 #include <cmath>

@@ -1,7 +1,7 @@
 // Synthetic motion: a time series made by translating one volume by a constant sub-voxel step per frame.
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 
 #include <array>
 

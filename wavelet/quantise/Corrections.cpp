@@ -1,7 +1,7 @@
 // Encoding and parsing of the correction payload.
 #include "wavelet/quantise/Corrections.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "wavelet/Varint.hpp"
 
 #include <zstd.h>

@@ -2,7 +2,7 @@
 // (zstd over varint index gaps and raw values), and their application on decode.
 #pragma once
 
-#include "host/Volume.hpp"
+#include "core/Volume.hpp"
 #include "wavelet/container/VczFormat.hpp"
 
 #include <cstddef>

@@ -1,7 +1,7 @@
 // The dead-zone quantiser and its subband steps.
 #include "wavelet/quantise/Quantiser.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "wavelet/transform/LiftingTransform.hpp"
 
 #include <algorithm>

@@ -4,7 +4,7 @@
 #include "wavelet/rate/StepSearch.hpp"
 #include "wavelet/rate/Strategies.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 
 #include <algorithm>
 #include <cmath>

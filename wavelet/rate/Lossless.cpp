@@ -2,7 +2,7 @@
 // bit patterns of float voxels (byte planes + zstd, NaN and Inf kept).
 #include "wavelet/rate/Strategies.hpp"
 
-#include "host/runtime/ParallelFor.hpp"
+#include "core/runtime/ParallelFor.hpp"
 #include "wavelet/BrickVoxels.hpp"
 #include "wavelet/payload/BrickPayload.hpp"
 #include "wavelet/transform/BrickTransform.hpp"

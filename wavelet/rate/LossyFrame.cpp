@@ -1,8 +1,8 @@
 // The lossy rate strategies' shared stages and their common driver.
 #include "wavelet/rate/LossyFrame.hpp"
 
-#include "host/Error.hpp"
-#include "host/runtime/ParallelFor.hpp"
+#include "core/Error.hpp"
+#include "core/runtime/ParallelFor.hpp"
 #include "wavelet/BrickVoxels.hpp"
 #include "wavelet/payload/BrickPayload.hpp"
 #include "wavelet/predict/Residual.hpp"

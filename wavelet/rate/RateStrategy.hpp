@@ -2,7 +2,7 @@
 // frame, one strategy per mode (lossless, max-error, psnr, bpv).
 #pragma once
 
-#include "host/runtime/ClRuntime.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/RangeScan.hpp"
 #include "wavelet/container/FrameAssembly.hpp"

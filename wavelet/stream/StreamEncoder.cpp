@@ -3,7 +3,7 @@
 // index entries and statistics kept; the header and index go in front at the end.
 #include "wavelet/stream/StreamEncoder.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "wavelet/container/LodStatistics.hpp"
 #include "wavelet/container/VczFormat.hpp"
 

@@ -2,8 +2,8 @@
 // holding more than one row of bricks, so the memory used does not grow with the volume.
 #pragma once
 
-#include "host/Volume.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/Volume.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <array>

@@ -3,7 +3,7 @@
 // batch (or the inverse kernel writing voxels itself).
 #pragma once
 
-#include "host/runtime/ParallelFor.hpp"
+#include "core/runtime/ParallelFor.hpp"
 #include "wavelet/BrickVoxels.hpp"
 #include "wavelet/StageTiming.hpp"
 #include "wavelet/container/VczFormat.hpp"

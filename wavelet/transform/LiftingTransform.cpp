@@ -1,7 +1,7 @@
 // Lifting transforms: C++ references (textbook in-place lifting) and the OpenCL pass driver.
 #include "wavelet/transform/LiftingTransform.hpp"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 
 #include <algorithm>
 #include <cstdlib>
@@ -340,11 +340,11 @@ template <class T> void LiftingTransform<T>::buildStreaming(ComputeContext& cc) 
     if (std::is_same_v<T, float>) fwd.set("LIFT_FLOAT");
     KernelDefines inv = fwd;
     inv.set("LIFT_INVERSE");
-    fwdX_ = cc.kernel("lifting.cl", "lift_x", fwd);
-    fwdYz_ = cc.kernel("lifting.cl", "lift_yz", fwd);
-    invX_ = cc.kernel("lifting.cl", "lift_x", inv);
-    invYz_ = cc.kernel("lifting.cl", "lift_yz", inv);
-    copy_ = cc.kernel("lifting.cl", "copy_corner", fwd);
+    fwdX_ = cc.kernel("codec/lifting.cl", "lift_x", fwd);
+    fwdYz_ = cc.kernel("codec/lifting.cl", "lift_yz", fwd);
+    invX_ = cc.kernel("codec/lifting.cl", "lift_x", inv);
+    invYz_ = cc.kernel("codec/lifting.cl", "lift_yz", inv);
+    copy_ = cc.kernel("codec/lifting.cl", "copy_corner", fwd);
     streamingBuilt_ = true;
 }
 
@@ -366,7 +366,7 @@ template <class T> KernelDefines LiftingTransform<T>::brickDefines(bool inverse)
 
 template <class T> cl::Kernel& LiftingTransform<T>::brickKernel(ComputeContext& cc, bool inverse) {
     cl::Kernel& k = inverse ? invBrick_ : fwdBrick_;
-    if (!k()) k = cc.kernel("lifting_brick.cl", "lift_bricks", brickDefines(inverse));
+    if (!k()) k = cc.kernel("codec/lifting_brick.cl", "lift_bricks", brickDefines(inverse));
     return k;
 }
 
@@ -521,7 +521,7 @@ cl::Kernel& LiftingTransform<T>::voxelKernel(ComputeContext& cc, ScalarType type
         // The ray marcher's numbering (cl/common/grid_sample.h).
         static constexpr std::array<int, 4> kVoxelType = {1, 2, 3, 0}; // UInt8, UInt16, Int16, Float32
         d.set("VOXEL_TYPE", kVoxelType[static_cast<std::size_t>(type)]);
-        k = cc.kernel("lifting_brick.cl", "lift_bricks", d);
+        k = cc.kernel("codec/lifting_brick.cl", "lift_bricks", d);
     }
     return k;
 }

@@ -1,8 +1,8 @@
 // 3D separable lifting wavelet transforms: OpenCL passes over batches of bricks and plain C++ references.
 #pragma once
 
-#include "host/Volume.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/Volume.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "wavelet/CodecTypes.hpp"
 
 #include <algorithm>

@@ -3,9 +3,9 @@
 #include "plugins/hdf5/ChunkCodec.hpp"
 #include "plugins/hdf5/H5Zvolcl.h"
 
-#include "host/Error.hpp"
+#include "core/Error.hpp"
 #include "host/io/VolumeIo.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <hdf5.h>

@@ -1,0 +1,281 @@
+// `volcl info`, `volcl devices` and `volcl convert`.
+#include "core/Error.hpp"
+#include "apps/cli/CliParsing.hpp"
+#include "apps/cli/Commands.hpp"
+#include "apps/cli/MeshInfo.hpp"
+#include "apps/cli/Progress.hpp"
+#include "apps/cli/VczInfo.hpp"
+#include "core/AtomicFile.hpp"
+#include "host/io/VolumeIo.hpp"
+#include "core/runtime/ClRuntime.hpp"
+#include "wavelet/Codec.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <optional>
+#include <memory>
+#include <sstream>
+
+namespace volcl::cli {
+
+namespace {
+
+constexpr std::size_t kHistogramBins = 16;
+
+// Statistics over every frame of a series, so a 4D file reports its whole range.
+VolumeStats seriesStats(const TimeSeries& ts, bool quiet) {
+    if (ts.frames.size() == 1) return ts.frames[0].stats(kHistogramBins);
+    // Two passes over every frame (range, then histogram): long for big series, so show progress.
+    Progress progress("statistics", 2 * ts.frames.size(), quiet);
+    VolumeStats all;
+    double lo = INFINITY, hi = -INFINITY, sum = 0, sum2 = 0;
+    std::size_t n = 0;
+    for (const Volume& v : ts.frames) {
+        VolumeStats s = v.stats(1);
+        progress.advance();
+        all.nanCount += s.nanCount;
+        all.infCount += s.infCount;
+        std::size_t finite = v.voxelCount() - s.nanCount - s.infCount;
+        if (finite == 0) continue;
+        lo = std::min(lo, s.min);
+        hi = std::max(hi, s.max);
+        sum += s.mean * double(finite);
+        sum2 += (s.stddev * s.stddev + s.mean * s.mean) * double(finite);
+        n += finite;
+    }
+    if (n == 0) return all;
+    all.min = lo;
+    all.max = hi;
+    all.mean = sum / double(n);
+    all.stddev = std::sqrt(std::max(0.0, sum2 / double(n) - all.mean * all.mean));
+    all.histogram.assign(kHistogramBins, 0);
+    double width = hi > lo ? (hi - lo) / double(kHistogramBins) : 1.0;
+    for (const Volume& v : ts.frames) {
+        for (std::size_t i = 0; i < v.voxelCount(); ++i) {
+            double x = v.valueAt(i);
+            if (std::isfinite(x))
+                ++all.histogram[std::min<std::size_t>(std::size_t((x - lo) / width), kHistogramBins - 1)];
+        }
+        progress.advance();
+    }
+    return all;
+}
+
+nlohmann::json infoJson(const std::string& path, VolumeFormat format, const TimeSeries& ts, const VolumeStats& st) {
+    const Volume& v = ts.frames.front();
+    nlohmann::json j;
+    j["file"] = path;
+    j["format"] = std::string(volumeFormatName(format));
+    j["dims"] = {v.dims().x, v.dims().y, v.dims().z};
+    j["type"] = std::string(scalarTypeName(v.type()));
+    j["spacing"] = v.spacing;
+    j["origin"] = v.origin;
+    j["frames"] = ts.frames.size();
+    if (!ts.times.empty()) j["times"] = ts.times;
+    j["range"] = {st.min, st.max};
+    j["mean"] = st.mean;
+    j["stddev"] = st.stddev;
+    j["nan_count"] = st.nanCount;
+    j["inf_count"] = st.infCount;
+    j["histogram"] = st.histogram;
+    return j;
+}
+
+void printInfoText(std::ostream& out, const nlohmann::json& j) {
+    out << j["file"].get<std::string>() << '\n';
+    out << "  format   " << j["format"].get<std::string>() << '\n';
+    out << "  dims     " << j["dims"][0] << " x " << j["dims"][1] << " x " << j["dims"][2];
+    if (j["frames"].get<std::size_t>() > 1) out << "  (" << j["frames"] << " frames)";
+    out << '\n';
+    out << "  type     " << j["type"].get<std::string>() << '\n';
+    out << std::setprecision(6);
+    out << "  spacing  " << j["spacing"][0].get<double>() << ' ' << j["spacing"][1].get<double>() << ' '
+        << j["spacing"][2].get<double>() << '\n';
+    out << "  origin   " << j["origin"][0].get<double>() << ' ' << j["origin"][1].get<double>() << ' '
+        << j["origin"][2].get<double>() << '\n';
+    out << "  range    " << j["range"][0].get<double>() << " .. " << j["range"][1].get<double>() << '\n';
+    out << "  mean     " << j["mean"].get<double>() << "  (stddev " << j["stddev"].get<double>() << ")\n";
+    if (j["nan_count"].get<std::size_t>() || j["inf_count"].get<std::size_t>())
+        out << "  non-finite  " << j["nan_count"] << " NaN, " << j["inf_count"] << " Inf\n";
+    // Histogram summary: per-bin share as a bar of eighths, easy to eyeball in a terminal.
+    const auto& h = j["histogram"];
+    std::uint64_t total = 0;
+    for (const auto& b : h) total += b.get<std::uint64_t>();
+    out << "  histogram ";
+    static const char* kBars[] = {" ", "\u2581", "\u2582", "\u2583", "\u2584", "\u2585", "\u2586", "\u2587", "\u2588"};
+    std::uint64_t peak = 1;
+    for (const auto& b : h) peak = std::max(peak, b.get<std::uint64_t>());
+    for (const auto& b : h) {
+        double f = std::sqrt(double(b.get<std::uint64_t>()) / double(peak)); // sqrt: small bins stay visible
+        out << kBars[std::min(8, int(std::ceil(f * 8)))];
+    }
+    out << "  (" << h.size() << " bins over the range, " << total << " finite voxels)\n";
+}
+
+} // namespace
+
+void printVolumeInfo(std::ostream& out, const std::string& path, const TimeSeries& ts, bool json, bool quiet) {
+    ts.validate();
+    nlohmann::json j = infoJson(path, detectVolumeFormat(path), ts, seriesStats(ts, quiet));
+    if (json) out << j.dump(2) << '\n';
+    else printInfoText(out, j);
+}
+
+void addInfoCommands(CLI::App& app, GlobalOptions& global) {
+    // info
+    {
+        auto* cmd = app.add_subcommand(
+            "info", "Print dims, type, spacing, value range, mean and histogram (of a .vcz: its frame table)");
+        auto file = std::make_shared<std::string>();
+        auto json = std::make_shared<bool>(false);
+        auto raw = std::make_shared<RawReadFlags>();
+        auto meshFlags = std::make_shared<MeshReadFlags>();
+        cmd->add_option("file", *file, "Volume or mesh file")->required();
+        cmd->add_flag("--json", *json, "Print JSON instead of text");
+        raw->add(*cmd);
+        meshFlags->add(*cmd);
+        cmd->callback([file, json, raw, meshFlags, &global] {
+            if (mesh::detectMeshFormat(*file)) {
+                printMeshInfo(std::cout, *file, mesh::readMesh(*file, meshFlags->toReadOptions()), *json);
+                return;
+            }
+            if (std::filesystem::path(*file).extension() == ".vcz") {
+                printVczInfo(std::cout, *file, *json);
+                return;
+            }
+            TimeSeries ts = readVolumeFile(*file, raw->toReadOptions());
+            printVolumeInfo(std::cout, *file, ts, *json, global.quiet);
+        });
+    }
+    // devices
+    {
+        auto* cmd = app.add_subcommand("devices", "List OpenCL devices (index, platform, name, memory, features)");
+        auto json = std::make_shared<bool>(false);
+        cmd->add_flag("--json", *json, "Print JSON instead of text");
+        cmd->callback([json, &global] {
+            auto devices = listDevices();
+            nlohmann::json list = nlohmann::json::array();
+            for (const DeviceInfo& d : devices)
+                list.push_back({{"index", d.index},
+                                {"platform", d.platform},
+                                {"name", d.name},
+                                {"version", d.version},
+                                {"driver", d.driver},
+                                {"type", d.isGpu ? "gpu" : d.isCpu ? "cpu" : "other"},
+                                {"compute_units", d.computeUnits},
+                                {"global_mem_bytes", d.globalMemBytes},
+                                {"max_alloc_bytes", d.maxAllocBytes},
+                                {"fp64", d.fp64},
+                                {"gl_sharing", d.hasExtension("cl_khr_gl_sharing")}});
+            if (*json) {
+                std::cout << list.dump(2) << '\n';
+                return;
+            }
+            if (devices.empty()) throw Error("no OpenCL device found (is an ICD such as pocl-opencl-icd installed?)");
+            std::string selected;
+            try {
+                selected = ComputeContext(global.device).device().name;
+            } catch (const Error&) {
+                // The list is still useful when the selection is invalid; say so instead of failing.
+                selected.clear();
+            }
+            for (const DeviceInfo& d : devices) {
+                std::cout << (d.name == selected ? "* " : "  ") << d.index << ": " << d.name << " (" << d.platform
+                          << ", " << d.version << ")\n      " << (d.isGpu ? "GPU" : d.isCpu ? "CPU" : "other")
+                          << ", " << d.computeUnits << " compute units, " << (d.globalMemBytes >> 20)
+                          << " MiB global, max alloc " << (d.maxAllocBytes >> 20) << " MiB, fp64 "
+                          << (d.fp64 ? "yes" : "no") << ", cl_khr_gl_sharing "
+                          << (d.hasExtension("cl_khr_gl_sharing") ? "yes" : "no") << '\n';
+            }
+        });
+    }
+    // convert
+    {
+        auto* cmd = app.add_subcommand("convert", "Convert between volume formats (raw, NRRD, NIfTI, VTI, VDB out)");
+        struct Args {
+            std::string in, out, type, crop;
+            std::size_t frame = 0;
+            bool bigEndianOut = false;
+            std::optional<double> replaceNan;
+            RawReadFlags raw;
+            MeshReadFlags mesh;
+            VtuWriteFlags vtu;
+        };
+        auto a = std::make_shared<Args>();
+        cmd->add_option("input", a->in, "Input volume (any supported format)")->required();
+        cmd->add_option("-o,--output", a->out, "Output file: .raw, .nrrd, .nhdr, .nii, .nii.gz, .vti or .vdb")
+            ->required();
+        cmd->add_option("--to-type", a->type, "Convert voxels to uint8, uint16, int16 or float32 (clamped)");
+        cmd->add_option("--crop", a->crop, "Keep the voxel box x0,y0,z0:x1,y1,z1 (half-open)");
+        cmd->add_option("--frame", a->frame, "Frame of a time series to convert (default 0)");
+        cmd->add_option("--replace-nan", a->replaceNan,
+                        "Replace NaN voxels (float32) by this value, e.g. 0, so the volume can be rendered");
+        cmd->add_flag("--big-endian", a->bigEndianOut, "Write raw/NRRD output big-endian");
+        a->raw.add(*cmd);
+        a->mesh.add(*cmd);
+        a->vtu.add(*cmd);
+        cmd->callback([a, &global] {
+            checkNotSameFile(a->in, a->out);
+            if (mesh::detectMeshFormat(a->in)) { // a mesh converts to .vtu only
+                if (!a->out.ends_with(".vtu")) throw UsageError("-o " + a->out + ": a mesh converts to .vtu");
+                const mesh::VtuWriteOptions wo = a->vtu.toWriteOptions();
+                const mesh::TetMesh m = mesh::readMesh(a->in, a->mesh.toReadOptions());
+                mesh::writeVtu(m, a->out, wo);
+                if (!global.quiet)
+                    std::cerr << "volcl: wrote " << a->out << " (" << m.pointCount() << " points, " << m.tetCount()
+                              << " tets)\n";
+                return;
+            }
+            std::vector<std::filesystem::path> inputs;
+            Volume v;
+            if (std::filesystem::path(a->in).extension() == ".vcz") { // frame K decoded whole
+                const VczReader r(readFileBytes(a->in), a->in);
+                checkNotSameFile({std::filesystem::path(a->in)}, volumeFilesWritten(a->out));
+                if (a->frame >= r.header().frames.size())
+                    throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in + " has " +
+                                     std::to_string(r.header().frames.size()) + " frame(s)");
+                ComputeContext cc(global.device);
+                v = r.decodeFrame(cc, a->frame);
+            } else {
+                TimeSeries ts = readVolumeFile(a->in, a->raw.toReadOptions(), inputs);
+                // A header's data files are inputs too: converting x.nhdr to its own x.raw would destroy it.
+                checkNotSameFile(inputs, volumeFilesWritten(a->out));
+                if (a->frame >= ts.frames.size())
+                    throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in + " has " +
+                                     std::to_string(ts.frames.size()) + " frame(s)");
+                v = std::move(ts.frames[a->frame]);
+            }
+            if (a->replaceNan) {
+                if (!std::isfinite(*a->replaceNan)) throw UsageError("--replace-nan: the value must be finite");
+                std::size_t replaced = 0;
+                if (v.type() == ScalarType::Float32)
+                    for (float& x : v.values<float>())
+                        if (std::isnan(x)) {
+                            x = static_cast<float>(*a->replaceNan);
+                            ++replaced;
+                        }
+                if (!global.quiet)
+                    std::cerr << "volcl: replaced " << replaced << " NaN voxel(s) by " << *a->replaceNan << '\n';
+            }
+            if (!a->crop.empty()) {
+                auto [lo, hi] = parseBox(a->crop, "--crop");
+                v = v.cropped(lo, hi);
+            }
+            if (!a->type.empty()) v = v.convertedTo(parseScalarType(a->type));
+            WriteOptions wo;
+            wo.endian = a->bigEndianOut ? Endian::Big : Endian::Little;
+            // A NIfTI source's header is kept by NIfTI and VTI outputs (a .vcz carries its own: volcl decode).
+            if (std::filesystem::path(a->in).extension() != ".vcz") wo.nifti = readNiftiMetadataIfNifti(a->in);
+            writeVolumeFile(v, a->out, wo);
+            if (!global.quiet)
+                std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x" << v.dims().z
+                          << " " << scalarTypeName(v.type()) << ")\n";
+        });
+    }
+}
+
+} // namespace volcl::cli

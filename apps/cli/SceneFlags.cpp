@@ -1,0 +1,442 @@
+// Command-line flags that build or override a Scene (see SceneFlags.hpp).
+#include "apps/cli/SceneFlags.hpp"
+
+#include "core/AtomicFile.hpp"
+#include "core/runtime/ClRuntime.hpp"
+#include "wavelet/Codec.hpp"
+
+#include "core/Error.hpp"
+#include "core/Volume.hpp"
+#include "render/CameraFraming.hpp"
+#include "render/VecMath.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+
+#include <sstream>
+#include <stdexcept>
+
+namespace volcl::cli {
+
+std::vector<double> parseNumbers(const std::string& text, std::size_t count, const std::string& what) {
+    std::vector<double> out;
+    std::stringstream ss(text);
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+        try {
+            std::size_t used = 0;
+            out.push_back(std::stod(item, &used));
+            if (used != item.size()) throw std::invalid_argument(item);
+        } catch (const std::exception&) {
+            throw UsageError(what + ": '" + item + "' is not a number");
+        }
+    }
+    if (count && out.size() != count)
+        throw UsageError(what + ": expected " + std::to_string(count) + " comma-separated numbers, got '" +
+                         text + "'");
+    return out;
+}
+
+Vec3 parseVec3(const std::string& text, const std::string& what) {
+    const auto v = parseNumbers(text, 3, what);
+    return {v[0], v[1], v[2]};
+}
+
+void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
+    const Scene d; // the defaults a scene without the field gets, shown in --help
+    auto num = [](double v) {
+        std::ostringstream os;
+        os << v;
+        return os.str();
+    };
+    cmd->add_option("--scene", scene, "Scene JSON (see docs/rendering.md); flags below override its fields");
+    cmd->add_option("--volume", volume, "Volume file (overrides the scene's)");
+    std::string presets;
+    for (const auto& n : TransferFunction::builtinPresetNames())
+        presets += (presets.empty() ? "" : ", ") + n;
+    cmd->add_option("--tf", tf,
+                    "Transfer function: canonical/ParaView JSON, an RGBA strip image, or preset:NAME (" + presets +
+                        ")");
+    cmd->add_option("--tf-range", tfRange,
+                    "Data range LO,HI the transfer function is spread over (default: a normalised [0,1] map "
+                    "takes the data range, others stay as authored)");
+    cmd->add_option("--tf-unit-distance", tfUnitDistance,
+                    "ParaView opacity unit distance in world units, or 'auto' (ParaView's default: box "
+                    "diagonal / cube root of the cell count)")
+        ->capture_default_str();
+    cmd->add_option("--frame", frame, "Frame K (0-based) of a time series input")->default_str("0");
+    cmd->add_option("--mode", mode, "dvr, mip, iso or xray")->default_str(std::string(renderModeName(d.mode)));
+    cmd->add_option("--step", step, "Sampling distance in world units")->default_str(num(d.step));
+    cmd->add_option("--preintegration", preint, "none, 2d or 3d (dvr only)")
+        ->default_str(std::string(preintegrationName(d.preintegration)));
+    cmd->add_option("--filter", filter,
+                    "Reconstruction of samples and gradients: linear (trilinear, finite differences), cubic "
+                    "(interpolating cubic B-spline), bspline (approximating cubic B-spline); --smoothing 1 removes the "
+                    "terraces of 8-bit iso-surfaces with any of them")
+        ->default_str(std::string(filterName(d.filter)));
+    cmd->add_option("--smoothing", smoothing,
+                    "Gaussian sigma in voxels applied to the data before the filter reads it (0-8; 1 removes the "
+                    "terraces of 8-bit iso-surfaces)")
+        ->default_str(num(d.smoothing));
+    cmd->add_option("--window", window,
+                    "MIP window centre,width in data values (default: the data range)");
+    cmd->add_option("--mip-color", mipColor,
+                    "MIP colour: grey (windowed grey), tf (transfer-function colour, windowed brightness), "
+                    "tf-opacity (the transfer function's colour and opacity)")
+        ->default_str(std::string(mipColorName(d.mipColor)));
+    cmd->add_option("--width", width, "Image width in pixels")->default_str(num(d.width));
+    cmd->add_option("--height", height, "Image height in pixels")->default_str(num(d.height));
+    cmd->add_option("--view", view,
+                    "Named view of the volume's box in the data's axes (+z up, +y toward the viewer in "
+                    "front): front, back, left, right, top, bottom, iso (default: front for NIfTI/NRRD, "
+                    "else looking along +z)");
+    cmd->add_option(orbitFlag, orbit,
+                    "Azimuth,elevation in degrees from the front view (azimuth toward +x, elevation toward "
+                    "+z); the box is framed as by --view");
+    cmd->add_option("--projection", projection, "orthographic or perspective")->default_str("orthographic");
+    cmd->add_option("--eye", eye, "Camera position x,y,z (default: framed from --view)");
+    cmd->add_option("--target", target, "Camera target x,y,z (default: the centre of the volume's box)");
+    cmd->add_option("--up", up, "Camera up vector x,y,z (default: from the view)");
+    cmd->add_option("--view-height", viewHeight,
+                    "Orthographic view height in world units (default: fitted to show the whole box)");
+    cmd->add_option("--fov", fov, "Perspective vertical field of view in degrees")
+        ->default_str(num(Camera{}.fovYDeg));
+    cmd->add_option("--background", background, "PNG background r,g,b,a (straight, linear)")->default_str("0,0,0,1");
+    cmd->add_option("--lod", lod,
+                    "Compressed (.vcz) inputs: full (level 0 everywhere) or auto (a level per brick from its "
+                    "estimated screen-space error)")
+        ->default_str(std::string(lodModeName(d.lod)));
+    cmd->add_option("--lod-error", lodError, "Compressed inputs, --lod auto: largest estimated error per brick")
+        ->default_str(num(d.lodError));
+    cmd->add_option("--cache-mb", cacheMb, "Compressed inputs: budget of the decoded-brick cache in MB")
+        ->default_str(num(d.cacheMb));
+    cmd->add_option("--early-termination", earlyTermination, "Stop rays at this opacity (1 = never)")
+        ->default_str(num(d.earlyTermination));
+    cmd->add_flag("--no-skipping", noSkipping, "Disable empty-space skipping");
+    cmd->add_option("--table-size", tableSize, "Pre-integration table nodes")->default_str(num(d.tableSize));
+    cmd->add_option("--table-lengths", tableLengths, "3D pre-integration: number of lengths")
+        ->default_str(num(d.tableLengths));
+    cmd->add_option("--iso", isos, "Iso-surface value[:r,g,b,a] (repeatable)");
+    cmd->add_option("--light", lights,
+                    "Light: head | dir:x,y,z | point:x,y,z, optionally @intensity (repeatable; default: a head "
+                    "light when shading needs one)");
+    cmd->add_option("--shading", shading, "Blinn-Phong ambient,diffuse,specular,shininess (iso mode: on by default)")
+        ->default_str(num(d.effects.ambient) + "," + num(d.effects.diffuse) + "," + num(d.effects.specular) + "," +
+                      num(d.effects.shininess));
+    cmd->add_flag("--no-shading", noShading, "Do not shade (iso mode shades by default)");
+    cmd->add_flag("--sobel", sobel, "Sobel gradients instead of central differences");
+    cmd->add_flag("--shadows", shadows, "Shadows by secondary marching toward each light");
+    cmd->add_option("--shadow-step", shadowStep, "Shadow ray step in world units (0 = the render step)")
+        ->default_str(num(d.effects.shadowStep));
+    cmd->add_option("--scattering", scattering, "Scattering albedo,g (Henyey-Greenstein)");
+    cmd->add_option("--scattering-order", scatteringOrder, "single (ray marcher) or multiple (path tracer)")
+        ->check(CLI::IsMember({"single", "multiple"}));
+    cmd->add_option("--samples", samples, "Path-tracer samples per pixel (multiple scattering)");
+    cmd->add_option("--clip", clips,
+                    "Clipping plane nx,ny,nz,offset keeping n.x + offset >= 0 (repeatable)");
+    cmd->add_option("--method", method, "Meshes: cells (exact cell traversal) or kbuffer (sorted faces, k-buffer)")
+        ->default_str(std::string(meshMethodName(d.meshMethod)));
+    cmd->add_option("--k", k, "Meshes, method kbuffer: k-buffer entries per pixel (2..8)")->default_str(num(d.kBufferDepth));
+    raw.add(*cmd);
+    mesh.add(*cmd);
+}
+
+Scene SceneFlags::build(bool requireTf) const {
+    Scene s = scene.empty() ? Scene{} : Scene::fromFile(scene);
+    if (!volume.empty()) s.volume = volume;
+    if (!tf.empty()) s.tf = tf;
+    if (!mode.empty()) s.mode = parseRenderMode(mode);
+    if (step) s.step = *step;
+    if (!preint.empty()) s.preintegration = parsePreintegration(preint);
+    if (width) s.width = *width;
+    if (height) s.height = *height;
+    if (!filter.empty()) s.filter = parseFilter(filter);
+    if (smoothing) s.smoothing = *smoothing;
+    if (!window.empty()) {
+        const auto w = parseNumbers(window, 2, "--window");
+        s.window = std::array<double, 2>{w[0], w[1]};
+    }
+    if (!mipColor.empty()) s.mipColor = parseMipColor(mipColor);
+    if (!method.empty()) s.meshMethod = parseMeshMethod(method);
+    if (k) s.kBufferDepth = *k;
+    if (earlyTermination) s.earlyTermination = *earlyTermination;
+    if (!lod.empty()) s.lod = parseLodMode(lod);
+    if (lodError) s.lodError = *lodError;
+    if (cacheMb) s.cacheMb = *cacheMb;
+    if (noSkipping) s.skipping = false;
+    if (tableSize) s.tableSize = *tableSize;
+    if (tableLengths) s.tableLengths = *tableLengths;
+    if (!background.empty()) {
+        const auto b = parseNumbers(background, 4, "--background");
+        s.background = {b[0], b[1], b[2], b[3]};
+    }
+    if (!projection.empty() && projection != "orthographic" && projection != "perspective")
+        throw UsageError("--projection '" + projection + "' is unknown (orthographic, perspective)");
+    if ((!view.empty() || !orbit.empty()) && (!eye.empty() || !target.empty()))
+        throw UsageError("--view/--orbit frame the box themselves: give them without --eye/--target");
+    if (!view.empty() && !orbit.empty()) throw UsageError("give --view or --orbit, not both");
+    if (!view.empty()) parseNamedView(view);
+    if (!orbit.empty()) parseNumbers(orbit, 2, "--orbit");
+    if (!up.empty()) parseVec3(up, "--up");
+    if (!eye.empty()) parseVec3(eye, "--eye");
+    if (!target.empty()) parseVec3(target, "--target");
+    if (!tfRange.empty()) parseNumbers(tfRange, 2, "--tf-range");
+    if (noShading && !shading.empty()) throw UsageError("give --shading or --no-shading, not both");
+    for (const auto& text : isos) {
+        IsoLayer iso;
+        const auto colon = text.find(':');
+        iso.value = parseNumbers(text.substr(0, colon), 1, "--iso")[0];
+        if (colon != std::string::npos) {
+            const auto c = parseNumbers(text.substr(colon + 1), 4, "--iso colour");
+            iso.rgba = {c[0], c[1], c[2], c[3]};
+        }
+        s.effects.isosurfaces.push_back(iso);
+    }
+    for (const auto& text : lights) {
+        Light l;
+        std::string spec = text;
+        const auto at = spec.find('@');
+        if (at != std::string::npos) {
+            l.intensity = parseNumbers(spec.substr(at + 1), 1, "--light intensity")[0];
+            spec = spec.substr(0, at);
+        }
+        if (spec == "head")
+            l.kind = LightKind::Head;
+        else if (spec.rfind("dir:", 0) == 0) {
+            l.kind = LightKind::Directional;
+            l.vector = parseVec3(spec.substr(4), "--light dir");
+        } else if (spec.rfind("point:", 0) == 0) {
+            l.kind = LightKind::Point;
+            l.vector = parseVec3(spec.substr(6), "--light point");
+        } else {
+            throw UsageError("--light '" + text + "' is not head, dir:x,y,z or point:x,y,z");
+        }
+        s.lights.push_back(l);
+    }
+    if (noShading) {
+        s.effects.shading = false;
+        s.effects.shadingGiven = true;
+    }
+    if (!shading.empty()) {
+        const auto v = parseNumbers(shading, 4, "--shading");
+        s.effects.shading = true;
+        s.effects.shadingGiven = true;
+        s.effects.ambient = v[0];
+        s.effects.diffuse = v[1];
+        s.effects.specular = v[2];
+        s.effects.shininess = v[3];
+    }
+    if (sobel) s.effects.gradient = GradientKind::Sobel;
+    if (shadows) s.effects.shadows = true;
+    if (shadowStep) s.effects.shadowStep = *shadowStep;
+    if (!scattering.empty()) {
+        const auto v = parseNumbers(scattering, 2, "--scattering");
+        s.effects.scattering = true;
+        s.effects.albedo = v[0];
+        s.effects.phaseG = v[1];
+    }
+    if (!scatteringOrder.empty()) {
+        if (!s.effects.scattering) throw UsageError("--scattering-order needs scattering (--scattering or the scene's)");
+        s.effects.scatteringOrder =
+            scatteringOrder == "multiple" ? ScatteringOrder::Multiple : ScatteringOrder::Single;
+    }
+    if (samples) s.effects.samples = *samples;
+    for (const auto& text : clips) {
+        const auto v = parseNumbers(text, 4, "--clip");
+        s.effects.clipPlanes.push_back({{v[0], v[1], v[2]}, v[3]});
+    }
+    if (s.volume.empty()) throw UsageError("no volume: give --volume or a scene with \"volume\"");
+    if (requireTf && s.tf.empty()) throw UsageError("no transfer function: give --tf or a scene with \"tf\"");
+    s.validate();
+    return s;
+}
+
+namespace {
+
+/// NIfTI and NRRD carry an anatomical frame; their default view is the front (anterior, superior up).
+bool isAnatomicalFormat(const std::filesystem::path& p) {
+    std::string name = p.filename().string();
+    for (auto& c : name)
+        c = char(std::tolower(static_cast<unsigned char>(c)));
+    auto ends = [&](std::string_view tail) {
+        return name.size() >= tail.size() && name.compare(name.size() - tail.size(), tail.size(), tail) == 0;
+    };
+    return ends(".nii") || ends(".nii.gz") || ends(".nrrd") || ends(".nhdr");
+}
+
+} // namespace
+
+std::vector<std::string> SceneFlags::finish(Scene& s, const Volume& v) const {
+    return finish(s, RenderInput::borrow(v));
+}
+
+std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) const {
+    std::vector<std::string> notes;
+    const WorldBox box = in.bounds();
+    // Refuse impossible steps before any default is applied or reported: the error is the only line.
+    s.validateSteps(norm(box.extent));
+    const double aspect = double(s.width) / double(s.height);
+    const bool anyCameraFlag = !projection.empty() || !eye.empty() || !target.empty() || !up.empty() ||
+                               viewHeight || fov || !view.empty() || !orbit.empty();
+    const bool anatomical = isAnatomicalFormat(s.volume);
+    // What the scene file's camera gave: a partial one is completed below exactly as flags would be.
+    const CameraFieldsGiven given = s.camera ? s.cameraGiven : CameraFieldsGiven{false, false, false, false};
+    const bool partialScene = s.camera && !given.complete(s.camera->projection);
+    if (anyCameraFlag || (!s.camera && anatomical) || partialScene) {
+        const Camera base = s.camera ? *s.camera : Camera{};
+        Projection proj = base.projection;
+        if (!projection.empty())
+            proj = projection == "perspective" ? Projection::Perspective : Projection::Orthographic;
+        else if (fov)
+            proj = Projection::Perspective;
+        const double fovY = fov ? *fov : base.fovYDeg;
+        const bool haveEye = !eye.empty() || given.eye, haveTarget = !target.empty() || given.target;
+        const bool haveUp = !up.empty() || given.up;
+        const ViewDirection defaultDir = namedViewDirection(anatomical ? NamedView::Front : NamedView::Bottom);
+        Camera c = base;
+        const bool framed = !view.empty() || !orbit.empty() || (!haveEye && !haveTarget);
+        if (framed) {
+            ViewDirection dir = defaultDir;
+            if (!orbit.empty()) {
+                const auto ae = parseNumbers(orbit, 2, "--orbit");
+                dir = orbitDirection(ae[0], ae[1]);
+            } else if (!view.empty()) {
+                dir = namedViewDirection(parseNamedView(view));
+            }
+            if (!up.empty()) dir.up = parseVec3(up, "--up");
+            else if (given.up && view.empty() && orbit.empty()) dir.up = base.up;
+            c = frameBox(box, dir, proj, fovY, aspect);
+            // A height the scene gave is kept when only the camera's position was left to framing.
+            if (given.height && view.empty() && orbit.empty()) c.height = base.height;
+            if (!s.camera && view.empty() && orbit.empty() && anatomical)
+                notes.push_back("camera: front view of the box (+z up; --view/--orbit choose others)");
+            else if (partialScene && view.empty() && orbit.empty())
+                notes.push_back("camera: the scene gives no eye or target: the box is framed from the " +
+                                std::string(anatomical ? "front" : "bottom") + " view");
+        } else {
+            c.projection = proj;
+            c.fovYDeg = fovY;
+            if (!target.empty()) c.target = parseVec3(target, "--target");
+            else if (!given.target) c.target = boxCentre(box);
+            if (!eye.empty()) {
+                c.eye = parseVec3(eye, "--eye");
+            } else if (!given.eye) {
+                // Seen from the default view at the distance framing would choose (perspective: the box fills
+                // the view; orthographic: outside the box).
+                const Camera fitted = frameBox(box, defaultDir, proj, fovY, aspect);
+                c.eye = volcl::add(c.target, sub(fitted.eye, fitted.target));
+                if (!haveUp) c.up = defaultDir.up;
+            }
+            if (!up.empty()) c.up = parseVec3(up, "--up");
+            // No up given and the default one runs along the view: take the next axis instead.
+            if (!haveUp && norm(cross(sub(c.target, c.eye), c.up)) <= 1e-9 * norm(sub(c.target, c.eye)))
+                c.up = Vec3{0, 0, 1};
+            // No height for this camera: neither --view-height nor the scene camera gave one.
+            if (!given.height && !viewHeight && c.projection == Projection::Orthographic) {
+                c.height = fittedOrthographicHeight(c, box, aspect);
+                std::ostringstream os;
+                os << "camera: orthographic height " << c.height << " fitted to the box (--view-height sets it)";
+                notes.push_back(os.str());
+            }
+        }
+        if (viewHeight) c.height = *viewHeight;
+        if (norm(sub(c.target, c.eye)) == 0.0)
+            throw UsageError("camera: the eye and the target coincide");
+        if (norm(cross(sub(c.target, c.eye), c.up)) == 0.0)
+            throw UsageError("camera: the up vector is parallel to the view direction (give --up)");
+        s.camera = c;
+        s.cameraGiven = {};
+    }
+    for (auto& n : applyLightingDefaults(s))
+        notes.push_back(std::move(n));
+    s.validate();
+    return notes;
+}
+
+Volume SceneFlags::readSceneVolume(const Scene& s, std::vector<std::string>& notes,
+                                   std::vector<std::filesystem::path>* filesRead) const {
+    if (s.volume.extension() == ".vcz") { // decoded whole (`volcl render` draws .vcz from its bricks instead)
+        const VczReader r(readFileBytes(s.volume), s.volume.string());
+        const std::size_t k = frame.value_or(0);
+        if (k >= r.header().frames.size())
+            throw UsageError("--frame " + std::to_string(k) + " out of range: " + s.volume.string() + " has " +
+                             std::to_string(r.header().frames.size()) + " frame(s)");
+        if (!frame && r.header().frames.size() > 1)
+            notes.push_back("rendering frame 0 of " + std::to_string(r.header().frames.size()) +
+                            " (--frame K picks another)");
+        if (filesRead) *filesRead = {s.volume};
+        ComputeContext cc(device);
+        return r.decodeFrame(cc, k);
+    }
+    std::vector<std::filesystem::path> files;
+    TimeSeries ts = readVolumeFile(s.volume, raw.toReadOptions(), files);
+    if (filesRead) *filesRead = std::move(files);
+    const std::size_t k = frame.value_or(0);
+    if (k >= ts.frames.size())
+        throw UsageError("--frame " + std::to_string(k) + " out of range: " + s.volume.string() + " has " +
+                         std::to_string(ts.frames.size()) + " frame(s)");
+    if (!frame && ts.frames.size() > 1)
+        notes.push_back("rendering frame 0 of " + std::to_string(ts.frames.size()) + " (--frame K picks another)");
+    return std::move(ts.frames[k]);
+}
+
+double paraViewUnitDistance(const Volume& v) {
+    const WorldBox box = volumeBox(v);
+    const Dims& d = v.dims();
+    const double cells = double(std::max<std::int64_t>(d.x - 1, 1)) * double(std::max<std::int64_t>(d.y - 1, 1)) *
+                         double(std::max<std::int64_t>(d.z - 1, 1));
+    const double diagonal = norm(box.extent);
+    return diagonal > 0.0 ? diagonal / std::cbrt(cells) : 1.0;
+}
+
+RenderInput SceneFlags::readSceneInput(const Scene& s, std::vector<std::string>& notes,
+                                       std::vector<std::filesystem::path>* filesRead) const {
+    if (mesh::detectMeshFormat(s.volume)) {
+        if (filesRead) *filesRead = {s.volume};
+        return RenderInput::fromMesh(mesh::readMesh(s.volume, mesh.toReadOptions()));
+    }
+    return RenderInput::fromVolume(readSceneVolume(s, notes, filesRead));
+}
+
+TransferFunction SceneFlags::loadTf(const Scene& s, const Volume& v) const {
+    return loadTf(s, RenderInput::borrow(v));
+}
+
+TransferFunction SceneFlags::loadTf(const Scene& s, const Volume& v, std::array<double, 2> dataRange) const {
+    return loadTf(s, RenderInput::borrow(v), dataRange);
+}
+
+TransferFunction SceneFlags::loadTf(const Scene& s, const RenderInput& in) const {
+    if (const Volume* v = in.grid()) {
+        const VolumeStats vs = v->stats(1);
+        return loadTf(s, in, {vs.min, vs.max});
+    }
+    const ValueRange r = in.valueRange();
+    return loadTf(s, in, {r.min, r.max});
+}
+
+TransferFunction SceneFlags::loadTf(const Scene& s, const RenderInput& in, std::array<double, 2> dataRange) const {
+    double unit = 1.0;
+    if (tfUnitDistance == "auto") {
+        if (const Volume* v = in.grid())
+            unit = paraViewUnitDistance(*v);
+        else if (const mesh::TetMesh* m = in.mesh()) // ParaView's rule on cells: box diagonal / cbrt(cell count)
+            unit = norm(in.bounds().extent) / std::cbrt(double(std::max<std::size_t>(m->tetCount(), 1)));
+        else
+            throw UsageError("--tf-unit-distance auto needs a grid or a mesh");
+    } else
+        unit = parseNumbers(tfUnitDistance, 1, "--tf-unit-distance")[0];
+    if (!(std::isfinite(unit) && unit > 0.0))
+        throw UsageError("--tf-unit-distance must be > 0 or 'auto'");
+    std::optional<std::array<double, 2>> range;
+    if (!tfRange.empty()) {
+        const auto r = parseNumbers(tfRange, 2, "--tf-range");
+        if (!(r[0] < r[1])) throw UsageError("--tf-range: LO must be below HI");
+        range = std::array<double, 2>{r[0], r[1]};
+    }
+    const std::array<double, 2> stripDomain{dataRange[0], dataRange[1] > dataRange[0] ? dataRange[1] : dataRange[0] + 1.0};
+    return TransferFunction::fromFile(s.tf, stripDomain, unit).fittedTo(dataRange, range);
+}
+
+} // namespace volcl::cli

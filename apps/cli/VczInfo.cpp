@@ -1,0 +1,153 @@
+// The .vcz header and frame table as `volcl info` prints them.
+#include "apps/cli/VczInfo.hpp"
+
+#include "core/AtomicFile.hpp"
+#include "wavelet/Codec.hpp"
+#include "wavelet/container/LodStatistics.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <iomanip>
+#include <optional>
+#include <sstream>
+
+namespace volcl::cli {
+
+namespace {
+
+const char* frameTypeName(FrameType t) {
+    switch (t) {
+    case FrameType::I:
+        return "I";
+    case FrameType::P:
+        return "P";
+    case FrameType::B:
+        return "B";
+    }
+    return "?";
+}
+
+const char* rateName(RateMode r) {
+    switch (r) {
+    case RateMode::Lossless:
+        return "lossless";
+    case RateMode::MaxError:
+        return "max-error";
+    case RateMode::Psnr:
+        return "psnr";
+    case RateMode::Bpv:
+        return "bpv";
+    }
+    return "?";
+}
+
+} // namespace
+
+void printVczInfo(std::ostream& out, const std::string& path, bool json) {
+    const std::vector<std::byte> bytes = readFileBytes(path);
+    const VczHeader h = readVczHeader(bytes, path);
+    const double voxels = double(h.dims.count());
+    const std::optional<LodStatistics> lod = LodStatistics::fromHeader(h, path);
+    nlohmann::json frames = nlohmann::json::array();
+    for (std::size_t f = 0; f < h.frames.size(); ++f) {
+        const VczFrame& e = h.frames[f];
+        std::uint64_t size = e.auxSize;
+        for (const VczBrickEntry& b : h.bricks[f])
+            size += b.size;
+        nlohmann::json refs = nlohmann::json::array();
+        for (std::int32_t r : {e.reference0, e.reference1})
+            if (r >= 0) refs.push_back(r);
+        nlohmann::json bricks = nlohmann::json::array();
+        for (std::size_t b = 0; b < h.brickCount(); ++b) {
+            const Dims o = h.brickOrigin(b), d = h.brickDims(b);
+            nlohmann::json e{{"brick", b},
+                             {"origin", {o.x, o.y, o.z}},
+                             {"dims", {d.x, d.y, d.z}},
+                             {"bytes", h.bricks[f][b].size},
+                             {"range", {h.bricks[f][b].min, h.bricks[f][b].max}}};
+            if (lod && lod->has(f)) {
+                nlohmann::json levels = nlohmann::json::array();
+                for (int l = 0; l <= h.levels; ++l) {
+                    const BrickLevelStats& st = lod->at(f, b, l);
+                    levels.push_back({{"level", l}, {"range", {st.min, st.max}}, {"max_error", st.error}});
+                }
+                e["levels"] = levels;
+            }
+            bricks.push_back(e);
+        }
+        frames.push_back({{"frame", f},
+                          {"bricks", bricks},
+                          {"type", frameTypeName(e.type)},
+                          {"references", refs},
+                          {"bytes", size},
+                          {"motion_bytes", e.auxSize},
+                          {"bits_per_voxel", double(size) * 8 / voxels},
+                          {"time", e.time}});
+    }
+    nlohmann::json j{{"file", path},
+                     {"format", "vcz"},
+                     {"dims", {h.dims.x, h.dims.y, h.dims.z}},
+                     {"type", std::string(scalarTypeName(h.type))},
+                     {"spacing", h.spacing},
+                     {"origin", h.origin},
+                     {"range", {h.valueMin, h.valueMax}},
+                     {"wavelet", std::string(waveletName(h.wavelet))},
+                     {"levels", h.levels},
+                     {"brick", {h.brick.x, h.brick.y, h.brick.z}},
+                     {"brick_grid", {h.brickGrid().x, h.brickGrid().y, h.brickGrid().z}},
+                     {"lod_statistics", lod.has_value()},
+                     {"rate", rateName(h.rate)},
+                     {"rate_target", h.rateTarget},
+                     {"bytes", bytes.size()},
+                     {"bits_per_voxel", double(bytes.size()) * 8 / (voxels * double(h.frames.size()))},
+                     {"frames", frames}};
+    if (json) {
+        out << j.dump(2) << '\n';
+        return;
+    }
+    out << path << '\n'
+        << "  format   vcz (" << rateName(h.rate) << ", " << waveletName(h.wavelet) << ", " << h.levels
+        << " levels, bricks " << h.brick.x << "x" << h.brick.y << "x" << h.brick.z << ")\n"
+        << "  dims     " << h.dims.x << " x " << h.dims.y << " x " << h.dims.z << "  (" << h.frames.size()
+        << " frames)\n"
+        << "  type     " << scalarTypeName(h.type) << '\n'
+        << std::setprecision(6) << "  range    " << h.valueMin << " .. " << h.valueMax << '\n'
+        << "  size     " << bytes.size() << " bytes, " << std::fixed << std::setprecision(4)
+        << j["bits_per_voxel"].get<double>() << " bits/voxel\n"
+        << "  frame  type  refs       bytes  motion  bits/voxel\n";
+    for (const auto& f : frames) {
+        std::string refs;
+        for (const auto& r : f["references"])
+            refs += (refs.empty() ? "" : ",") + std::to_string(r.get<int>());
+        out << "  " << std::setw(5) << f["frame"].get<std::size_t>() << "  " << std::setw(4)
+            << f["type"].get<std::string>() << "  " << std::setw(5) << (refs.empty() ? "-" : refs) << "  "
+            << std::setw(10) << f["bytes"].get<std::uint64_t>() << "  " << std::setw(6)
+            << f["motion_bytes"].get<std::uint64_t>() << "  " << std::setw(10) << std::setprecision(4)
+            << f["bits_per_voxel"].get<double>() << '\n';
+    }
+    const Dims g = h.brickGrid();
+    out << "  bricks   " << h.brickCount() << " (" << g.x << " x " << g.y << " x " << g.z
+        << "), level-of-detail statistics " << (lod ? "stored" : "absent") << '\n';
+    for (std::size_t f = 0; f < h.frames.size(); ++f) {
+        out << "  frame " << f << ": brick  origin          dims         bytes        min        max";
+        if (lod && lod->has(f)) out << "  max error per level 0.." << h.levels;
+        out << '\n';
+        for (std::size_t b = 0; b < h.brickCount(); ++b) {
+            const Dims o = h.brickOrigin(b), d = h.brickDims(b);
+            const VczBrickEntry& e = h.bricks[f][b];
+            std::ostringstream pos, dim;
+            pos << o.x << "," << o.y << "," << o.z;
+            dim << d.x << "x" << d.y << "x" << d.z;
+            out << "  " << std::setw(13) << b << "  " << std::left << std::setw(14) << pos.str() << "  "
+                << std::setw(11) << dim.str() << std::right << "  " << std::setw(10) << e.size << "  "
+                << std::defaultfloat << std::setprecision(6) << std::setw(9) << e.min << "  " << std::setw(9)
+                << e.max;
+            if (lod && lod->has(f))
+                for (int l = 0; l <= h.levels; ++l)
+                    out << "  " << lod->at(f, b, l).error;
+            out << '\n';
+        }
+    }
+}
+
+} // namespace volcl::cli

@@ -1,0 +1,343 @@
+// Viewer state: key actions, effect toggles, TF presets, and frames rendered at the adaptive level.
+#include "apps/viewer/ViewerSession.hpp"
+
+#include "core/Error.hpp"
+#include "core/Volume.hpp"
+#include "render/VecMath.hpp"
+#include "render/grid/GridRenderer.hpp"
+#include "core/runtime/Timing.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+namespace volcl::viewer {
+namespace {
+
+struct KeyBinding {
+    char key;
+    ViewerAction action;
+    const char* help;
+};
+
+constexpr KeyBinding kBindings[] = {
+    {'m', ViewerAction::CycleMode, "switch mode: dvr, mip, iso, xray"},
+    {'1', ViewerAction::ToggleShading, "toggle shading (adds a light if the scene has none)"},
+    {'2', ViewerAction::ToggleShadows, "toggle shadows"},
+    {'3', ViewerAction::ToggleScattering, "toggle single scattering"},
+    {'4', ViewerAction::ToggleClipping, "toggle clip planes (the scene's, else one through the centre)"},
+    {'5', ViewerAction::ToggleIsosurfaces, "toggle isosurfaces (the scene's, else one at mid-range)"},
+    {'t', ViewerAction::CycleTfPreset, "next transfer-function preset"},
+    {'r', ViewerAction::ReloadTf, "reload the transfer-function file"},
+    {'a', ViewerAction::ToggleAdaptive, "toggle adaptive quality"},
+    {'c', ViewerAction::ResetCamera, "reset the camera"},
+    {'s', ViewerAction::Screenshot, "save a screenshot (PNG of the window)"},
+    {'o', ViewerAction::ToggleOverlay, "toggle the text overlay (frame time, level, effects, transport)"},
+    {'q', ViewerAction::Quit, "quit (also Escape)"},
+};
+
+std::string fmt(double v, int digits = 3) {
+    std::ostringstream os;
+    os.precision(digits);
+    os << v;
+    return os.str();
+}
+
+/// The data range the presets span; a constant field gets a unit-wide range.
+std::array<double, 2> presetRange(const ValueRange& r) {
+    double lo = r.min, hi = r.max;
+    if (!(hi > lo)) hi = lo + 1.0;
+    return {lo, hi};
+}
+
+double boxDiagonal(const WorldBox& box) {
+    return std::max(norm(box.extent), 1.0);
+}
+
+} // namespace
+
+std::optional<ViewerAction> actionForKey(char key) {
+    const char k = static_cast<char>(std::tolower(static_cast<unsigned char>(key)));
+    for (const auto& b : kBindings)
+        if (b.key == k) return b.action;
+    return std::nullopt;
+}
+
+std::string keyBindingsHelp() {
+    std::string s = "  left drag: orbit   right/middle drag or shift+left: pan   wheel: zoom\n";
+    for (const auto& b : kBindings)
+        s += std::string("  ") + b.key + ": " + b.help + '\n';
+    return s;
+}
+
+std::vector<TfPreset> transferFunctionPresets(const Volume& volume,
+                                              const std::optional<TransferFunction>& sceneTf) {
+    return transferFunctionPresets(RenderInput::borrow(volume).valueRange(), gridBounds(volume), sceneTf);
+}
+
+std::vector<TfPreset> transferFunctionPresets(const ValueRange& range, const WorldBox& box,
+                                              const std::optional<TransferFunction>& sceneTf) {
+    std::vector<TfPreset> out;
+    if (sceneTf) out.push_back({"scene", *sceneTf});
+    // Named doubles, not a structured binding: clang 14 (the fuzz build's compiler) cannot capture those.
+    const std::array<double, 2> span = presetRange(range);
+    const double lo = span[0], hi = span[1];
+    const double r = hi - lo;
+    const double tauMax = 8.0 / boxDiagonal(box);
+    const auto at = [&](double f) { return lo + f * r; };
+
+    TransferFunction grey;
+    grey.domain = {lo, hi};
+    grey.color = {{lo, {0, 0, 0}}, {hi, {1, 1, 1}}};
+    grey.extinction = {{lo, 0.0}, {hi, tauMax}};
+    out.push_back({"grey ramp", grey});
+
+    TransferFunction hot;
+    hot.domain = {lo, hi};
+    hot.color = {
+        {lo, {0, 0, 0}}, {at(0.3), {0.5, 0.0, 0.0}}, {at(0.6), {1.0, 0.5, 0.0}}, {hi, {1.0, 1.0, 0.8}}};
+    hot.extinction = {{lo, 0.0}, {at(0.3), 0.0}, {hi, tauMax}};
+    out.push_back({"hot above 30%", hot});
+
+    // Narrow opaque bands pick out three value ranges, like translucent isosurfaces.
+    TransferFunction bands;
+    bands.domain = {lo, hi};
+    bands.color = {{lo, {0.2, 0.4, 1.0}},
+                   {at(0.375), {0.2, 0.4, 1.0}},
+                   {at(0.5), {0.3, 1.0, 0.4}},
+                   {at(0.625), {1.0, 0.6, 0.2}},
+                   {hi, {1.0, 0.6, 0.2}}};
+    const double w = 0.03;
+    for (double c : {0.25, 0.5, 0.75}) {
+        bands.extinction.push_back({at(c - w), 0.0});
+        bands.extinction.push_back({at(c), 6.0 * tauMax});
+        bands.extinction.push_back({at(c + w), 0.0});
+    }
+    out.push_back({"three bands", bands});
+    for (auto& p : out)
+        p.tf.validate();
+    return out;
+}
+
+ViewerSession::ViewerSession(ComputeContext& cc, RenderInput input, const Scene& scene,
+                             const std::optional<TransferFunction>& tf, std::filesystem::path tfPath,
+                             const AdaptiveQualityOptions& adaptive)
+    : cc_(cc), input_(std::move(input)), range_(input_.valueRange()), base_(scene), original_(scene),
+      tfPath_(std::move(tfPath)), presets_(transferFunctionPresets(range_, input_.bounds(), tf)),
+      camera_(scene.camera ? *scene.camera : defaultCamera(input_.bounds())), adaptive_(adaptive) {
+    base_.validate();
+    original_.camera = camera_.camera();
+    Scene first = base_;
+    first.camera = camera_.camera();
+    renderer_ = input_.makeRenderer(cc_, presets_[0].tf, first);
+}
+
+ViewerSession::ViewerSession(ComputeContext& cc, const Volume& volume, const Scene& scene,
+                             const std::optional<TransferFunction>& tf, std::filesystem::path tfPath,
+                             const AdaptiveQualityOptions& adaptive)
+    : ViewerSession(cc, RenderInput::borrow(volume), scene, tf, std::move(tfPath), adaptive) {}
+
+ViewerSession::~ViewerSession() = default;
+
+Scene ViewerSession::currentScene() const {
+    Scene s = base_;
+    s.camera = camera_.camera();
+    return s;
+}
+
+std::string ViewerSession::apply(ViewerAction action) {
+    SceneEffects& fx = base_.effects;
+    // Effects that need light get one from the viewer's upper left when the scene brings none.
+    const auto ensureLight = [&]() -> std::string {
+        if (!base_.lights.empty()) return "";
+        const Camera& c = camera_.camera();
+        const Vec3 f = normalized(sub(c.target, c.eye));
+        const Vec3 r = normalized(cross(f, c.up));
+        Light l;
+        l.kind = LightKind::Directional;
+        l.vector = normalized(add(scale(f, -1.0), add(c.up, scale(r, -0.5))));
+        base_.lights.push_back(l);
+        return " (added a directional light from the upper left)";
+    };
+    std::string what;
+    bool structural = true; // the next frame re-plans the renderer's effects
+    switch (action) {
+    case ViewerAction::CycleMode: {
+        static constexpr RenderMode order[] = {RenderMode::Dvr, RenderMode::Mip, RenderMode::Iso,
+                                               RenderMode::Xray};
+        std::size_t i = 0;
+        while (order[i] != base_.mode)
+            ++i;
+        base_.mode = order[(i + 1) % 4];
+        what = "mode " + std::string(renderModeName(base_.mode));
+        if (base_.mode == RenderMode::Iso && fx.isosurfaces.empty())
+            what += "; " + apply(ViewerAction::ToggleIsosurfaces);
+        break;
+    }
+    case ViewerAction::ToggleShading:
+        fx.shading = !fx.shading;
+        what = std::string("shading ") + (fx.shading ? "on" : "off") + (fx.shading ? ensureLight() : "");
+        break;
+    case ViewerAction::ToggleShadows:
+        fx.shadows = !fx.shadows;
+        what = std::string("shadows ") + (fx.shadows ? "on" : "off") + (fx.shadows ? ensureLight() : "");
+        break;
+    case ViewerAction::ToggleScattering:
+        fx.scattering = !fx.scattering;
+        if (fx.scattering && fx.albedo <= 0.0) {
+            fx.albedo = 0.8;
+            fx.phaseG = 0.3;
+        }
+        what = std::string("scattering ") + (fx.scattering ? "on (albedo " + fmt(fx.albedo) + ")" : "off") +
+               (fx.scattering ? ensureLight() : "");
+        break;
+    case ViewerAction::ToggleClipping:
+        if (!fx.clipPlanes.empty()) {
+            fx.clipPlanes.clear();
+            what = "clipping off";
+        } else if (!original_.effects.clipPlanes.empty()) {
+            fx.clipPlanes = original_.effects.clipPlanes;
+            what = "clipping on (the scene's planes)";
+        } else {
+            const Vec3 centre = camera_.camera().target;
+            fx.clipPlanes.push_back({{1, 0, 0}, -centre[0]});
+            what = "clipping on (keeps x >= " + fmt(centre[0]) + ")";
+        }
+        break;
+    case ViewerAction::ToggleIsosurfaces:
+        if (!fx.isosurfaces.empty()) {
+            fx.isosurfaces.clear();
+            what = "isosurfaces off";
+        } else if (!original_.effects.isosurfaces.empty()) {
+            fx.isosurfaces = original_.effects.isosurfaces;
+            what = "isosurfaces on (the scene's)";
+        } else {
+            const auto [lo, hi] = presetRange(range_);
+            fx.isosurfaces.push_back({0.5 * (lo + hi), {0.9, 0.85, 0.75, 1.0}});
+            what = "isosurfaces on (value " + fmt(0.5 * (lo + hi)) + ")";
+        }
+        break;
+    case ViewerAction::CycleTfPreset:
+        presetIndex_ = (presetIndex_ + 1) % presets_.size();
+        renderer_->setTransferFunction(presets_[presetIndex_].tf);
+        what = "transfer function: " + presets_[presetIndex_].name;
+        break;
+    case ViewerAction::ReloadTf: {
+        if (tfPath_.empty()) {
+            return "no transfer-function file to reload";
+        }
+        try {
+            TransferFunction tf = TransferFunction::fromFile(tfPath_);
+            if (presets_.front().name == "scene")
+                presets_.front().tf = tf;
+            else
+                presets_.insert(presets_.begin(), {"scene", tf});
+            presetIndex_ = 0;
+            renderer_->setTransferFunction(tf);
+            what = "reloaded " + tfPath_.string();
+        } catch (const Error& e) {
+            // A file half-way through an edit must not end the session: keep the TF in use.
+            return std::string("reload failed, keeping the current transfer function: ") + e.what();
+        }
+        break;
+    }
+    case ViewerAction::ToggleAdaptive:
+        adaptive_.setEnabled(!adaptive_.options().enabled);
+        structural = false;
+        what = std::string("adaptive quality ") + (adaptive_.options().enabled ? "on" : "off");
+        break;
+    case ViewerAction::ResetCamera:
+        camera_ = CameraController(*original_.camera);
+        structural = false;
+        what = "camera reset";
+        break;
+    case ViewerAction::Screenshot:
+    case ViewerAction::ToggleOverlay:
+    case ViewerAction::Quit:
+        return {};
+    }
+    structureChanged_ = structureChanged_ || structural;
+    return what;
+}
+
+ViewerFrame ViewerSession::renderFrame(int width, int height, bool interactive) {
+    if (width <= 0 || height <= 0) throw UsageError("viewer: viewport size must be positive");
+    ViewerFrame f;
+    f.interactive = interactive;
+    const QualityLevel want = interactive ? adaptive_.next() : QualityLevel{};
+    Scene s = currentScene();
+    // Never below 16 pixels a side (or the viewport, if smaller): tiny frames are all overhead.
+    const auto edge = [&](int full) {
+        return std::min(full, std::max(std::min(full, 16), int(std::lround(full * want.resolutionScale))));
+    };
+    s.width = edge(width);
+    s.height = edge(height);
+    s.step = base_.step * want.stepScale;
+    f.level.stepScale = want.stepScale;
+    f.level.resolutionScale = std::sqrt(double(s.width) * s.height / (double(width) * height));
+
+    const KernelDefines before = renderer_->plan().defines;
+    Stopwatch sw;
+    // Camera, size and step alone take the renderer's cheap path; effect or mode changes re-plan.
+    if (structureChanged_)
+        renderer_->setScene(s);
+    else
+        renderer_->setView(*s.camera, s.width, s.height, s.step);
+    f.setupMs = sw.milliseconds();
+    // A table rebuilt for a new step is a one-off cost: the frame still tells the controller what the
+    // level costs once tableMs is taken out (with pre-integration every step change rebuilds one).
+    f.tableMs = renderer_->lastTableMilliseconds();
+    f.structureChanged = structureChanged_ || !(renderer_->plan().defines == before);
+    structureChanged_ = false;
+    sw.restart();
+    // Multiple scattering converges over frames: one sample per pixel while the view moves, four more per
+    // frame while it stands still.
+    f.image = renderer_->plan().pathTracing ? renderer_->renderProgressive(interactive ? 1 : 4) : renderer_->render();
+    f.renderMs = sw.milliseconds();
+    f.kernelMs = renderer_->lastKernelMilliseconds();
+    return f;
+}
+
+void ViewerSession::frameDone(const ViewerFrame& frame, double frameMs) {
+    if (frame.structureChanged) return;
+    const double levelMs = frameMs - frame.tableMs;
+    if (frame.interactive)
+        adaptive_.report(frame.level, levelMs);
+    else
+        adaptive_.seed(levelMs);
+}
+
+std::string ViewerSession::compiledSummary() const {
+    const EffectPlan& p = renderer_->plan();
+    std::vector<std::string> parts;
+    if (p.shading) parts.push_back(p.sobel ? "shading (sobel)" : "shading");
+    if (p.shadows) parts.push_back("shadows");
+    if (p.scattering) parts.push_back("scattering");
+    if (p.clipping) parts.push_back("clipping");
+    if (!p.isosurfaces.empty()) parts.push_back("isosurfaces " + std::to_string(p.isosurfaces.size()));
+    if (base_.mode == RenderMode::Dvr && base_.preintegration != Preintegration::None)
+        parts.push_back("preint " + std::string(preintegrationName(base_.preintegration)));
+    if (p.skipping) parts.push_back("skipping");
+    if (p.earlyTermination) parts.push_back("early termination");
+    std::string s;
+    for (const auto& x : parts)
+        s += (s.empty() ? "" : ", ") + x;
+    return s.empty() ? "no effects" : s;
+}
+
+std::string ViewerSession::title(const ViewerFrame& last, double frameMs) const {
+    std::ostringstream os;
+    os << "volcl view | " << renderModeName(base_.mode) << " | " << compiledSummary() << " | TF "
+       << tfPresetName() << " | " << last.image.width << 'x' << last.image.height << " step "
+       << fmt(base_.step * last.level.stepScale) << " | ";
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.0f ms (%.1f fps)", frameMs, frameMs > 0 ? 1000.0 / frameMs : 0.0);
+    os << buf;
+    if (adaptive_.options().enabled) os << " | adaptive " << fmt(adaptive_.options().targetMs) << " ms";
+    if (!last.level.full()) os << " [interactive]";
+    return os.str();
+}
+
+} // namespace volcl::viewer

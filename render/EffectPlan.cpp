@@ -1,0 +1,335 @@
+// Effect planning shared by every renderer: the scene's requests against the data's box and value range.
+#include "render/EffectPlan.hpp"
+
+#include "render/VecMath.hpp"
+
+#include <algorithm>
+#include <limits>
+#include <sstream>
+
+namespace volcl {
+namespace {
+
+std::string fmt(double v) {
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+/// Fog: compiled when it can change the image (non-zero density, a box the rays can cross, a mode with a ray
+/// integral).
+void planFog(const Scene& scene, const WorldBox& bounds, EffectPlan& p) {
+    const FogEffect& f = scene.effects.fog;
+    const WorldBox box = f.box ? *f.box : bounds;
+    bool flat = false;
+    for (int a = 0; a < 3; ++a)
+        flat = flat || !(box.extent[a] > 0.0);
+    if (scene.mode == RenderMode::Mip)
+        p.dropped.push_back("fog: mode mip takes a maximum, not a ray integral");
+    else if (f.density <= 0.0)
+        p.dropped.push_back("fog: density 0");
+    else if (flat)
+        p.dropped.push_back("fog: its box has no volume");
+    else if (f.falloff == 0.0 && f.heightMap.empty() && [&] {
+                 // Nothing below the base inside the box: no fog at all.
+                 const Vec3 up = normalized(f.up), lo = box.origin, hi = box.hi();
+                 double hmin = std::numeric_limits<double>::infinity();
+                 for (int c = 0; c < 8; ++c)
+                     hmin = std::min(hmin, dot(up, Vec3{c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1],
+                                                       c & 4 ? hi[2] : lo[2]}));
+                 return hmin >= f.base;
+             }())
+        p.dropped.push_back("fog: falloff 0 and the box lies above the base");
+    else {
+        p.fog = true;
+        p.defines.set("FOG");
+        std::string what = "fog: density " + fmt(f.density) +
+                           (f.heightMap.empty() ? ", base " + fmt(f.base) : ", base from the height map " +
+                                                                               f.heightMap.filename().string()) +
+                           (f.falloff == 0.0 ? ", none above the base" : ", falloff " + fmt(f.falloff)) +
+                           (f.box ? ", in its own box" : ", in the volume's box") +
+                           "; closed-form optical depth per step, composited exactly with each volume segment";
+        if (!f.heightMap.empty()) {
+            p.fogMap = true;
+            p.defines.set("FOG_MAP");
+        }
+        if (scene.mode == RenderMode::Xray) what += " (x-ray: its optical depth only)";
+        p.compiled.push_back(what);
+    }
+}
+
+} // namespace
+
+std::string EffectPlan::explain() const {
+    std::ostringstream os;
+    os << "compiled: " << defines.toOptions() << '\n';
+    for (const auto& c : compiled)
+        os << "  + " << c << '\n';
+    for (const auto& d : dropped)
+        os << "  - dropped " << d << '\n';
+    return os.str();
+}
+
+EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRange& range,
+                       std::string_view skippingHow, bool canPathTrace) {
+    EffectPlan p;
+    const SceneEffects& fx = scene.effects;
+    const RenderMode mode = scene.mode;
+    const bool marching = mode == RenderMode::Dvr || mode == RenderMode::Iso;
+    const std::string modeName(renderModeName(mode));
+    p.defines.set("MODE", static_cast<long long>(mode == RenderMode::Dvr   ? 0
+                                                 : mode == RenderMode::Mip ? 1
+                                                 : mode == RenderMode::Iso ? 2
+                                                                           : 3));
+    p.compiled.push_back("mode " + modeName);
+    if (mode == RenderMode::Mip) {
+        p.defines.set("MIP_COLOR", static_cast<long long>(scene.mipColor == MipColor::Grey ? 0
+                                                          : scene.mipColor == MipColor::Tf ? 1
+                                                                                           : 2));
+        const std::string window = scene.window ? "window centre " + fmt((*scene.window)[0]) + ", width " +
+                                                      fmt((*scene.window)[1])
+                                                : "window over the data range " + fmt(range.min) + ".." +
+                                                      fmt(range.max);
+        if (scene.mipColor == MipColor::Grey)
+            p.compiled.push_back("MIP colour grey: " + window);
+        else if (scene.mipColor == MipColor::Tf)
+            p.compiled.push_back("MIP colour tf: transfer-function colour, brightness and coverage from the " +
+                                 window);
+        else {
+            p.compiled.push_back("MIP colour tf-opacity: the transfer function's colour and opacity");
+            if (scene.window) p.dropped.push_back("window: MIP colour tf-opacity takes opacity from the TF");
+        }
+    } else if (scene.window) {
+        p.dropped.push_back("window: mode " + modeName + " is not mip");
+    }
+    if (scene.filter != ReconstructionFilter::Linear) {
+        p.defines.set("FILTER_BSPLINE");
+        p.compiled.push_back(
+            (scene.filter == ReconstructionFilter::Cubic
+                 ? std::string("filter cubic: interpolating cubic B-spline (prefiltered), analytic gradient")
+                 : std::string("filter bspline: approximating cubic B-spline of the voxels, analytic gradient")) +
+            (scene.smoothing > 0.0 ? ", data smoothed by a Gaussian of sigma " + fmt(scene.smoothing) + " voxel" : ""));
+    } else if (scene.smoothing > 0.0) {
+        p.compiled.push_back("filter linear on the data smoothed by a Gaussian of sigma " + fmt(scene.smoothing) +
+                             " voxel (float voxels)");
+    }
+
+    // Iso-surfaces: crossed only when min < value <= max (the kernel's sign test), visible only if opaque at
+    // all.
+    if (!fx.isosurfaces.empty()) {
+        if (!marching) {
+            p.dropped.push_back("isosurfaces: mode " + modeName + " draws no surfaces");
+        } else {
+            for (const auto& iso : fx.isosurfaces) {
+                const std::string name = "isosurface " + fmt(iso.value);
+                if (iso.rgba[3] <= 0.0)
+                    p.dropped.push_back(name + ": opacity 0");
+                else if (!(iso.value > range.min && iso.value <= range.max))
+                    p.dropped.push_back(name + ": outside the data range (" + fmt(range.min) + ", " +
+                                        fmt(range.max) + "], never crossed");
+                else
+                    p.isosurfaces.push_back(iso);
+            }
+        }
+    }
+    if (!p.isosurfaces.empty()) {
+        p.defines.set("ISO_COUNT", static_cast<long long>(p.isosurfaces.size()));
+        p.compiled.push_back("isosurfaces: " + std::to_string(p.isosurfaces.size()) +
+                             (scene.filter == ReconstructionFilter::Linear
+                                  ? " (exact roots of the trilinear field per cell, composited in ray order)"
+                                  : " (sign changes between samples refined on the spline, composited in ray "
+                                    "order)"));
+    }
+
+    std::size_t litLights = 0;
+    for (const auto& l : scene.lights)
+        if (l.intensity > 0.0 && (l.color[0] > 0.0 || l.color[1] > 0.0 || l.color[2] > 0.0)) ++litLights;
+    const bool canLight = marching && litLights > 0;
+    const std::string noLight =
+        marching ? "no light with non-zero intensity" : "mode " + modeName + " is unlit";
+
+    if (fx.shading) {
+        if (!canLight)
+            p.dropped.push_back("shading: " + noLight + " (rendered unshaded)");
+        else if (fx.diffuse == 0.0 && fx.specular == 0.0) {
+            p.colorScale = fx.ambient;
+            p.dropped.push_back("shading: diffuse and specular are 0, so no gradients; ambient " +
+                                fmt(fx.ambient) + " folded into the colours");
+        } else {
+            p.shading = true;
+            p.defines.set("SHADING");
+            p.compiled.push_back("shading: Blinn-Phong, " + std::to_string(litLights) +
+                                 " light(s), ambient " + fmt(fx.ambient) + ", diffuse " + fmt(fx.diffuse) +
+                                 ", specular " + fmt(fx.specular) + ", shininess " + fmt(fx.shininess));
+        }
+    }
+    if (fx.gradient == GradientKind::Sobel) {
+        if (scene.filter != ReconstructionFilter::Linear) {
+            p.dropped.push_back("gradient sobel: filter " + std::string(filterName(scene.filter)) +
+                                " takes the spline's analytic gradient");
+        } else if (p.shading) {
+            p.sobel = true;
+            p.defines.set("GRADIENT_SOBEL");
+            p.compiled.push_back("gradient: Sobel");
+        } else {
+            p.dropped.push_back("gradient sobel: nothing uses gradients");
+        }
+    }
+    const bool wantsMultiple = fx.scattering && fx.scatteringOrder == ScatteringOrder::Multiple;
+    if (wantsMultiple && !canPathTrace)
+        p.dropped.push_back("scattering order multiple: this renderer has no path tracer (single scattering instead)");
+    const bool multiple = wantsMultiple && canPathTrace;
+    const bool skyLit = fx.environment[0] > 0.0 || fx.environment[1] > 0.0 || fx.environment[2] > 0.0;
+    if (multiple) {
+        if (fx.albedo <= 0.0 && !fx.emission)
+            p.dropped.push_back("scattering: albedo 0 and no emission");
+        else if (mode != RenderMode::Dvr)
+            p.dropped.push_back("scattering multiple: mode " + modeName + " is not dvr");
+        else if (fx.albedo > 0.0 && !canLight && !skyLit)
+            p.dropped.push_back("scattering: " + noLight + " and no environment");
+        else {
+            // The path tracer is its own kernel: nothing the ray marcher compiled so far applies.
+            EffectPlan q;
+            q.dropped = p.dropped;
+            p = std::move(q);
+            p.defines.set("MODE", 0LL);
+            p.compiled.push_back("mode dvr");
+            p.pathTracing = true;
+            p.scattering = true;
+            p.skipping = true;
+            p.defines.set("PATH_TRACE");
+            p.compiled.push_back(
+                "scattering: multiple, Monte Carlo path tracer (delta tracking on the macrocell majorants, "
+                "next-event estimation), " + std::to_string(fx.samples) + " samples/pixel, up to " +
+                std::to_string(fx.maxBounces) + " bounces, Henyey-Greenstein g " + fmt(fx.phaseG) + ", albedo " +
+                fmt(fx.albedo) + ", seed " + std::to_string(fx.seed) + (fx.emission ? "" : ", no emission") +
+                (skyLit ? ", environment " + fmt(fx.environment[0]) + "," + fmt(fx.environment[1]) + "," +
+                              fmt(fx.environment[2])
+                        : ""));
+            if (fx.shading) p.dropped.push_back("shading: the path tracer lights the medium itself");
+            if (scene.filter != ReconstructionFilter::Linear || scene.smoothing > 0.0)
+                p.dropped.push_back("filter: the path tracer reads the voxels trilinearly");
+            if (scene.earlyTermination < 1.0)
+                p.dropped.push_back("early termination: paths end by leaving the volume or Russian roulette");
+            if (fx.shadows) p.dropped.push_back("shadows: the path tracer traces its own shadow rays");
+            if (!fx.clipPlanes.empty()) p.dropped.push_back("clip planes: the path tracer does not clip");
+            if (!fx.isosurfaces.empty()) p.dropped.push_back("isosurfaces: the path tracer draws no surfaces");
+            if (scene.preintegration != Preintegration::None)
+                p.dropped.push_back("pre-integration: the path tracer samples free paths, not segments");
+            if (fx.fog.enabled) p.dropped.push_back("fog: the path tracer does not trace through the fog");
+            return p;
+        }
+    }
+    if (fx.scattering && !multiple) {
+        if (fx.albedo <= 0.0)
+            p.dropped.push_back("scattering: albedo 0");
+        else if (!canLight)
+            p.dropped.push_back("scattering: " + noLight);
+        else {
+            p.scattering = true;
+            p.defines.set("SCATTERING");
+            p.compiled.push_back("scattering: single, Henyey-Greenstein g " + fmt(fx.phaseG) + ", albedo " +
+                                 fmt(fx.albedo));
+            if (fx.octaves > 0) {
+                p.defines.set("MS_OCTAVES", static_cast<long long>(fx.octaves));
+                p.compiled.push_back("multiple scattering approximated by " + std::to_string(fx.octaves) +
+                                     " octaves (light a^k through depth b^k, phase c^k g; a = b = c = 1/2)");
+            }
+            if (!fx.emission) {
+                if (p.shading)
+                    p.dropped.push_back("emission false: shading lights the TF colour as a surface colour");
+                else {
+                    p.defines.set("NO_EMISSION");
+                    p.compiled.push_back("no emission: the medium only scatters");
+                }
+            }
+        }
+    }
+    if (fx.shadows) {
+        if (!p.shading && !p.scattering)
+            p.dropped.push_back("shadows: nothing is lit");
+        else {
+            p.shadows = true;
+            p.defines.set("SHADOWS");
+            p.compiled.push_back("shadows: secondary marching toward each light");
+        }
+    }
+    if (!fx.clipPlanes.empty()) {
+        const Vec3 lo = bounds.origin, hi = bounds.hi();
+        for (std::size_t i = 0; i < fx.clipPlanes.size(); ++i) {
+            const ClipPlane& pl = fx.clipPlanes[i];
+            bool allKept = true;
+            for (int c = 0; c < 8; ++c) {
+                const Vec3 corner{c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1], c & 4 ? hi[2] : lo[2]};
+                if (dot(pl.normal, corner) + pl.offset < 0.0) allKept = false;
+            }
+            if (allKept)
+                p.dropped.push_back("clip plane " + std::to_string(i) + ": keeps the whole volume");
+            else
+                p.clipPlanes.push_back(pl);
+        }
+        if (!p.clipPlanes.empty()) {
+            p.clipping = true;
+            p.defines.set("CLIPPING");
+            p.compiled.push_back("clipping: " + std::to_string(p.clipPlanes.size()) +
+                                 " plane(s) cut the ray interval");
+        }
+    }
+    if (scene.preintegration != Preintegration::None) {
+        if (mode != RenderMode::Dvr)
+            p.dropped.push_back("pre-integration: mode " + modeName + " integrates no segments");
+        else {
+            p.defines.set("PREINT", scene.preintegration == Preintegration::Table2d ? 2LL : 3LL);
+            p.compiled.push_back(scene.preintegration == Preintegration::Table2d
+                                     ? "pre-integration: 2D table at the render step"
+                                     : "pre-integration: 3D table over segment lengths");
+        }
+    }
+    if (fx.fog.enabled) planFog(scene, bounds, p);
+    if (fx.shadingPreintegrated) {
+        if (!p.shading)
+            p.dropped.push_back("pre-integrated lighting: nothing is shaded");
+        else if (scene.preintegration != Preintegration::Table2d || mode != RenderMode::Dvr)
+            p.dropped.push_back("pre-integrated lighting: needs dvr with render.preintegration 2d (the table is "
+                                "built for one segment length)");
+        else if (p.scattering)
+            p.dropped.push_back("pre-integrated lighting: scattering is evaluated per sample");
+        else {
+            p.preintLighting = true;
+            p.defines.set("PREINT_LIGHTING");
+            p.compiled.push_back("pre-integrated lighting: gradients at both segment ends, diffuse through the "
+                                 "table's front/back terms, specular at its emission centroid");
+        }
+    }
+    if (fx.isoTable && !p.isosurfaces.empty()) {
+        if (mode != RenderMode::Iso)
+            p.dropped.push_back("iso-surface table: only in mode iso (dvr mixes surfaces by their exact roots)");
+        else {
+            p.isoTable = true;
+            p.defines.set("ISO_TABLE");
+            p.compiled.push_back("iso-surface table: surfaces crossed between a segment's end values, one lookup "
+                                 "per step (the nearest table node of each end)");
+        }
+    }
+    if (scene.skipping) {
+        if (!marching)
+            p.dropped.push_back("empty-space skipping: mode " + modeName + " visits every sample");
+        else {
+            p.skipping = true;
+            p.defines.set("SKIPPING");
+            p.compiled.push_back("empty-space skipping: " + std::string(skippingHow));
+        }
+    }
+    if (scene.earlyTermination < 1.0) {
+        if (!marching)
+            p.dropped.push_back("early termination: mode " + modeName + " has no opacity to saturate");
+        else {
+            p.earlyTermination = true;
+            p.defines.set("EARLY_TERMINATION");
+            p.compiled.push_back("early termination at opacity " + fmt(scene.earlyTermination));
+        }
+    }
+    return p;
+}
+
+} // namespace volcl

@@ -1,0 +1,40 @@
+// Effect planning for every renderer: which kernel features a scene needs, and why the others were dropped.
+#pragma once
+
+#include "render/Bounds.hpp"
+#include "render/Scene.hpp"
+#include "core/runtime/ClRuntime.hpp"
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace volcl {
+
+/// The kernel features a scene needs, with the reason each requested feature was kept or dropped.
+struct EffectPlan {
+    KernelDefines defines;
+    std::vector<std::string> compiled; ///< "shading: 2 lights, ambient 0.2 ..."
+    std::vector<std::string> dropped;  ///< "shadows: no light in the scene"
+    bool shading = false, shadows = false, scattering = false, clipping = false, skipping = false;
+    bool earlyTermination = false, sobel = false;
+    bool fog = false, fogMap = false; ///< FOG (and FOG_MAP): the scene's fog is composited
+    bool preintLighting = false;      ///< PREINT_LIGHTING: shading through the pre-integrated lighting table
+    bool isoTable = false;            ///< ISO_TABLE: iso-surfaces from the iso-surface table
+    bool pathTracing = false;          ///< multiple scattering: the path tracer renders the frame
+    double colorScale = 1.0;           ///< ambient-only shading folded into the TF colours
+    std::vector<IsoLayer> isosurfaces; ///< the ones that can appear
+    std::vector<ClipPlane> clipPlanes; ///< the ones that cut the data's box
+    std::string explain() const;       ///< multi-line report for `volcl render --explain`
+};
+
+/// Decides the compiled features from the scene and what every renderer's data has: its world box (clip
+/// planes that keep all of it are dropped) and value range (iso-values outside it are never crossed).
+/// `skippingHow` names the renderer's empty-space skipping in the report ("8^3-voxel macrocells"). The
+/// result holds the effect defines (MODE, PREINT, ISO_COUNT, SHADING, ...); a renderer adds the defines of
+/// its data layout (a grid's VOXEL_TYPE) itself. `canPathTrace`: the renderer has a path tracer for
+/// `"order": "multiple"` (others render single scattering and say so).
+EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRange& range,
+                       std::string_view skippingHow, bool canPathTrace = false);
+
+} // namespace volcl

@@ -1,0 +1,123 @@
+// Opens a scene's data (a grid, a frame of a compressed-brick .vcz, or a tetrahedral mesh) and makes its renderer.
+#include "render/RenderInput.hpp"
+
+#include "core/Volume.hpp"
+#include "render/grid/GridDetail.hpp"
+#include "render/grid/GridRenderer.hpp"
+#include "render/bricks/BrickRenderer.hpp"
+#include "render/mesh/KBufferRenderer.hpp"
+#include "render/mesh/MeshReference.hpp"
+#include "render/mesh/MeshRenderer.hpp"
+#include "core/AtomicFile.hpp"
+#include "wavelet/Codec.hpp"
+
+#include "core/Error.hpp"
+
+#include <algorithm>
+#include <limits>
+
+namespace volcl {
+
+RenderInput::RenderInput(std::shared_ptr<const Volume> volume) : volume_(std::move(volume)) {}
+
+RenderInput::RenderInput(std::shared_ptr<const mesh::TetMesh> mesh) : mesh_(std::move(mesh)) {}
+
+RenderInput RenderInput::open(const std::filesystem::path& path, const ReadOptions& options,
+                              const mesh::MeshReadOptions& meshOptions) {
+    if (path.extension() == ".vcz") return openVcz(path, 0);
+    if (mesh::detectMeshFormat(path)) return fromMesh(mesh::readMesh(path, meshOptions));
+    return fromVolume(readVolume(path, options));
+}
+
+RenderInput RenderInput::fromMesh(mesh::TetMesh mesh) {
+    return RenderInput(std::make_shared<const mesh::TetMesh>(std::move(mesh)));
+}
+
+RenderInput RenderInput::borrowMesh(const mesh::TetMesh& mesh) {
+    return RenderInput(std::shared_ptr<const mesh::TetMesh>(&mesh, [](const mesh::TetMesh*) {}));
+}
+
+RenderInput RenderInput::openVcz(const std::filesystem::path& path, std::size_t frame) {
+    RenderInput in(std::shared_ptr<const Volume>{});
+    in.vcz_ = std::make_shared<const VczReader>(readFileBytes(path), path.string());
+    if (frame >= in.vcz_->header().frames.size())
+        throw UsageError("--frame " + std::to_string(frame) + " out of range: " + path.string() + " has " +
+                         std::to_string(in.vcz_->header().frames.size()) + " frame(s)");
+    in.frame_ = frame;
+    return in;
+}
+
+RenderInput RenderInput::fromVolume(Volume volume) {
+    return RenderInput(std::make_shared<const Volume>(std::move(volume)));
+}
+
+RenderInput RenderInput::borrow(const Volume& volume) {
+    return RenderInput(std::shared_ptr<const Volume>(&volume, [](const Volume*) {}));
+}
+
+WorldBox RenderInput::bounds() const {
+    if (vcz_) {
+        const VczHeader& h = vcz_->header();
+        return {h.origin, {double(h.dims.x - 1) * h.spacing[0], double(h.dims.y - 1) * h.spacing[1],
+                           double(h.dims.z - 1) * h.spacing[2]}};
+    }
+    if (mesh_) return meshBounds(*mesh_);
+    return gridBounds(*volume_);
+}
+
+ValueRange RenderInput::valueRange() const {
+    if (vcz_) {
+        ValueRange r{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+        for (const VczBrickEntry& e : vcz_->header().bricks[frame_]) {
+            r.min = std::min(r.min, e.min);
+            r.max = std::max(r.max, e.max);
+        }
+        return r;
+    }
+    if (mesh_) return meshValueRange(*mesh_);
+    return grid_detail::valueRange(*volume_);
+}
+
+std::string RenderInput::summary() const {
+    if (vcz_) {
+        const VczHeader& h = vcz_->header();
+        return std::to_string(h.dims.x) + "x" + std::to_string(h.dims.y) + "x" + std::to_string(h.dims.z) + " " +
+               std::string(scalarTypeName(h.type)) + ", " + std::to_string(h.brickCount()) + " compressed bricks";
+    }
+    if (mesh_) return std::to_string(mesh_->tetCount()) + " tets, " + std::to_string(mesh_->pointCount()) + " points";
+    const Dims& d = volume_->dims();
+    return std::to_string(d.x) + "x" + std::to_string(d.y) + "x" + std::to_string(d.z) + " " +
+           std::string(scalarTypeName(volume_->type()));
+}
+
+EffectPlan RenderInput::planEffects(const Scene& scene, const TransferFunction& tf) const {
+    if (vcz_) {
+        EffectPlan p = volcl::planEffects(scene, bounds(), valueRange(), "macrocells over the brick index");
+        p.defines.set("VOXEL_TYPE", 0LL);
+        return p;
+    }
+    if (mesh_ && scene.meshMethod == MeshMethod::KBuffer) // no device here: the plan as on a CPU device
+        return planKBuffer(scene, *mesh_, scene.kBufferDepth, true);
+    if (mesh_) return planMeshEffects(scene, *mesh_);
+    return volcl::planEffects(scene, *volume_, tf);
+}
+
+ImageBuffer RenderInput::renderReference(const TransferFunction& tf, const Scene& scene,
+                                         const ReferenceOptions& options) const {
+    if (vcz_)
+        throw UsageError(vcz_->name() + ": the double reference renders grids: decode the file first (volcl decode)");
+    if (mesh_) return meshReferenceRender(*mesh_, tf, scene, options);
+    return referenceRender(*volume_, tf, scene, options);
+}
+
+std::unique_ptr<VolumeRenderer> RenderInput::makeRenderer(ComputeContext& cc, const TransferFunction& tf,
+                                                          const Scene& scene) const {
+    if (vcz_) return std::make_unique<BrickRenderer>(cc, vcz_, frame_, tf, scene);
+    if (mesh_) {
+        if (scene.meshMethod == MeshMethod::KBuffer) return makeKBufferRenderer(cc, *mesh_, tf, scene);
+        return std::make_unique<MeshRenderer>(cc, *mesh_, tf, scene);
+    }
+    return std::make_unique<GridRenderer>(cc, *volume_, tf, scene);
+}
+
+} // namespace volcl

@@ -1,0 +1,708 @@
+// Scene JSON parsing and validation, lighting defaults, default camera, and the double-precision camera
+// rays (docs/contract.md, "Scenes and images").
+#include "render/Scene.hpp"
+
+#include "core/Error.hpp"
+#include "render/VecMath.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace volcl {
+namespace {
+
+using nlohmann::json;
+
+json parse(std::string_view text) {
+    try {
+        return json::parse(text.begin(), text.end());
+    } catch (const json::exception& e) { // parse errors, and numbers beyond double's range (1e400)
+        throw UsageError(std::string("scene: invalid JSON (") + e.what() + ")");
+    }
+}
+
+void checkKeys(const json& j, const std::string& where, std::initializer_list<const char*> allowed) {
+    if (!j.is_object()) throw UsageError("scene: '" + where + "' must be an object");
+    std::set<std::string> ok(allowed.begin(), allowed.end());
+    for (const auto& [key, value] : j.items()) {
+        (void)value;
+        if (!ok.count(key)) {
+            std::string list;
+            for (const auto& k : ok)
+                list += (list.empty() ? "" : ", ") + k;
+            throw UsageError("scene: unknown key '" + key + "' in " + where + " (expected " + list + ")");
+        }
+    }
+}
+
+double num(const json& j, const std::string& where) {
+    if (!j.is_number()) throw UsageError("scene: '" + where + "' must be a number");
+    const double v = j.get<double>();
+    if (!std::isfinite(v)) throw UsageError("scene: '" + where + "' is not finite");
+    return v;
+}
+
+// A number for an int field. Past int's range the conversion is undefined behaviour (found by
+// fuzz_scene_json: "table_lengths": 2.2e56), so such values are refused here; each field's own range is
+// checked by validate().
+int intField(const json& j, const std::string& where) {
+    const double v = num(j, where);
+    if (!(v >= -2147483648.0 && v < 2147483648.0)) {
+        char shown[32];
+        std::snprintf(shown, sizeof(shown), "%g", v);
+        throw UsageError("scene: '" + where + "' is out of range (" + shown + ")");
+    }
+    return static_cast<int>(v);
+}
+
+template <std::size_t N> std::array<double, N> vec(const json& j, const std::string& where) {
+    if (!j.is_array() || j.size() != N)
+        throw UsageError("scene: '" + where + "' must be an array of " + std::to_string(N) + " numbers");
+    std::array<double, N> out{};
+    for (std::size_t i = 0; i < N; ++i)
+        out[i] = num(j[i], where);
+    return out;
+}
+
+bool flag(const json& j, const std::string& where) {
+    if (!j.is_boolean()) throw UsageError("scene: '" + where + "' must be true or false");
+    return j.get<bool>();
+}
+
+std::string str(const json& j, const std::string& where) {
+    if (!j.is_string()) throw UsageError("scene: '" + where + "' must be a string");
+    return j.get<std::string>();
+}
+
+} // namespace
+
+std::string_view renderModeName(RenderMode m) {
+    switch (m) {
+    case RenderMode::Dvr:
+        return "dvr";
+    case RenderMode::Mip:
+        return "mip";
+    case RenderMode::Iso:
+        return "iso";
+    case RenderMode::Xray:
+        return "xray";
+    }
+    return "dvr";
+}
+
+RenderMode parseRenderMode(std::string_view s) {
+    if (s == "dvr") return RenderMode::Dvr;
+    if (s == "mip") return RenderMode::Mip;
+    if (s == "iso") return RenderMode::Iso;
+    if (s == "xray") return RenderMode::Xray;
+    throw UsageError("render mode '" + std::string(s) + "' is unknown (expected dvr, mip, iso, xray)");
+}
+
+std::string_view preintegrationName(Preintegration p) {
+    switch (p) {
+    case Preintegration::None:
+        return "none";
+    case Preintegration::Table2d:
+        return "2d";
+    case Preintegration::Table3d:
+        return "3d";
+    }
+    return "none";
+}
+
+Preintegration parsePreintegration(std::string_view s) {
+    if (s == "none" || s == "off") return Preintegration::None;
+    if (s == "2d") return Preintegration::Table2d;
+    if (s == "3d") return Preintegration::Table3d;
+    throw UsageError("pre-integration '" + std::string(s) + "' is unknown (expected none, 2d, 3d)");
+}
+
+std::string_view filterName(ReconstructionFilter f) {
+    switch (f) {
+    case ReconstructionFilter::Linear:
+        return "linear";
+    case ReconstructionFilter::Cubic:
+        return "cubic";
+    case ReconstructionFilter::Bspline:
+        return "bspline";
+    }
+    return "linear";
+}
+
+ReconstructionFilter parseFilter(std::string_view s) {
+    if (s == "linear") return ReconstructionFilter::Linear;
+    if (s == "cubic") return ReconstructionFilter::Cubic;
+    if (s == "bspline") return ReconstructionFilter::Bspline;
+    throw UsageError("filter '" + std::string(s) + "' is unknown (expected linear, cubic, bspline)");
+}
+
+std::string_view mipColorName(MipColor c) {
+    switch (c) {
+    case MipColor::Grey:
+        return "grey";
+    case MipColor::Tf:
+        return "tf";
+    case MipColor::TfOpacity:
+        return "tf-opacity";
+    }
+    return "grey";
+}
+
+MipColor parseMipColor(std::string_view s) {
+    if (s == "grey" || s == "gray") return MipColor::Grey;
+    if (s == "tf") return MipColor::Tf;
+    if (s == "tf-opacity") return MipColor::TfOpacity;
+    throw UsageError("MIP colour '" + std::string(s) + "' is unknown (expected grey, tf, tf-opacity)");
+}
+
+namespace {
+
+void validateFog(const FogEffect& f);
+
+FogEffect parseFog(const json& f, const std::filesystem::path& baseDir) {
+    checkKeys(f, "effects.fog", {"density", "base", "falloff", "color", "up", "box", "height_map", "height_range"});
+    FogEffect fog;
+    fog.enabled = true;
+    if (f.contains("density")) fog.density = num(f["density"], "effects.fog.density");
+    if (f.contains("base")) fog.base = num(f["base"], "effects.fog.base");
+    if (f.contains("falloff")) fog.falloff = num(f["falloff"], "effects.fog.falloff");
+    if (f.contains("color")) fog.color = vec<3>(f["color"], "effects.fog.color");
+    if (f.contains("up")) fog.up = vec<3>(f["up"], "effects.fog.up");
+    if (f.contains("box")) {
+        const json& b = f["box"];
+        if (!b.is_array() || b.size() != 2)
+            throw UsageError("scene: 'effects.fog.box' must be [[x0, y0, z0], [x1, y1, z1]]");
+        const Vec3 lo = vec<3>(b[0], "effects.fog.box[0]"), hi = vec<3>(b[1], "effects.fog.box[1]");
+        fog.box = WorldBox{lo, {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]}};
+    }
+    if (f.contains("height_map")) {
+        std::filesystem::path p(str(f["height_map"], "effects.fog.height_map"));
+        fog.heightMap = p.is_relative() && !baseDir.empty() ? baseDir / p : p;
+    }
+    if (f.contains("height_range")) fog.heightRange = vec<2>(f["height_range"], "effects.fog.height_range");
+    validateFog(fog);
+    return fog;
+}
+
+} // namespace
+
+std::string_view lodModeName(LodMode m) {
+    return m == LodMode::Auto ? "auto" : "full";
+}
+
+LodMode parseLodMode(std::string_view s) {
+    if (s == "full") return LodMode::Full;
+    if (s == "auto") return LodMode::Auto;
+    throw UsageError("level of detail '" + std::string(s) + "' is unknown (expected full, auto)");
+}
+
+std::string_view meshMethodName(MeshMethod m) {
+    return m == MeshMethod::KBuffer ? "kbuffer" : "cells";
+}
+
+MeshMethod parseMeshMethod(std::string_view s) {
+    if (s == "cells") return MeshMethod::Cells;
+    if (s == "kbuffer") return MeshMethod::KBuffer;
+    throw UsageError("render.method '" + std::string(s) + "' is unknown (expected cells, kbuffer)");
+}
+
+Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDir) {
+    const json j = parse(text);
+    checkKeys(j, "the scene", {"volume", "tf", "camera", "image", "render", "lights", "effects"});
+    Scene s;
+    auto path = [&](const json& v, const char* where) {
+        std::filesystem::path p(str(v, where));
+        return p.is_relative() && !baseDir.empty() ? baseDir / p : p;
+    };
+    if (j.contains("volume")) s.volume = path(j["volume"], "volume");
+    if (j.contains("tf")) s.tf = path(j["tf"], "tf");
+    if (j.contains("camera")) {
+        const json& c = j["camera"];
+        checkKeys(c, "camera", {"projection", "eye", "target", "up", "height", "fov_y_deg"});
+        Camera cam;
+        if (c.contains("projection")) {
+            const std::string p = str(c["projection"], "camera.projection");
+            if (p == "orthographic")
+                cam.projection = Projection::Orthographic;
+            else if (p == "perspective")
+                cam.projection = Projection::Perspective;
+            else
+                throw UsageError("scene: camera.projection '" + p +
+                                 "' is unknown (orthographic, perspective)");
+        } else if (c.contains("fov_y_deg")) {
+            cam.projection = Projection::Perspective;
+        }
+        if (c.contains("eye")) cam.eye = vec<3>(c["eye"], "camera.eye");
+        if (c.contains("target")) cam.target = vec<3>(c["target"], "camera.target");
+        if (c.contains("up")) cam.up = vec<3>(c["up"], "camera.up");
+        if (c.contains("height")) cam.height = num(c["height"], "camera.height");
+        if (c.contains("fov_y_deg")) cam.fovYDeg = num(c["fov_y_deg"], "camera.fov_y_deg");
+        s.camera = cam;
+        s.cameraGiven = {c.contains("eye"), c.contains("target"), c.contains("up"), c.contains("height")};
+    }
+    if (j.contains("image")) {
+        const json& im = j["image"];
+        checkKeys(im, "image", {"width", "height", "background"});
+        if (im.contains("width")) s.width = intField(im["width"], "image.width");
+        if (im.contains("height")) s.height = intField(im["height"], "image.height");
+        if (im.contains("background")) s.background = vec<4>(im["background"], "image.background");
+    }
+    if (j.contains("render")) {
+        const json& r = j["render"];
+        checkKeys(r, "render",
+                  {"mode", "step", "preintegration", "early_termination", "skipping", "table_size",
+                   "table_lengths", "filter", "smoothing", "window", "mip_color", "budget_ms", "lod", "lod_error",
+                   "cache_mb", "method", "k"});
+        if (r.contains("mode")) s.mode = parseRenderMode(str(r["mode"], "render.mode"));
+        if (r.contains("step")) s.step = num(r["step"], "render.step");
+        if (r.contains("preintegration")) {
+            const json& p = r["preintegration"];
+            s.preintegration = p.is_boolean()
+                                   ? (p.get<bool>() ? Preintegration::Table2d : Preintegration::None)
+                                   : parsePreintegration(str(p, "render.preintegration"));
+        }
+        if (r.contains("early_termination"))
+            s.earlyTermination = num(r["early_termination"], "render.early_termination");
+        if (r.contains("skipping")) s.skipping = flag(r["skipping"], "render.skipping");
+        if (r.contains("table_size"))
+            s.tableSize = intField(r["table_size"], "render.table_size");
+        if (r.contains("table_lengths"))
+            s.tableLengths = intField(r["table_lengths"], "render.table_lengths");
+        if (r.contains("filter")) s.filter = parseFilter(str(r["filter"], "render.filter"));
+        if (r.contains("smoothing")) s.smoothing = num(r["smoothing"], "render.smoothing");
+        if (r.contains("window")) s.window = vec<2>(r["window"], "render.window");
+        if (r.contains("mip_color")) s.mipColor = parseMipColor(str(r["mip_color"], "render.mip_color"));
+        if (r.contains("budget_ms")) s.budgetMs = num(r["budget_ms"], "render.budget_ms");
+        if (r.contains("lod")) s.lod = parseLodMode(str(r["lod"], "render.lod"));
+        if (r.contains("lod_error")) s.lodError = num(r["lod_error"], "render.lod_error");
+        if (r.contains("cache_mb")) s.cacheMb = num(r["cache_mb"], "render.cache_mb");
+        if (r.contains("method")) s.meshMethod = parseMeshMethod(str(r["method"], "render.method"));
+        if (r.contains("k")) s.kBufferDepth = intField(r["k"], "render.k");
+    }
+    if (j.contains("lights")) {
+        if (!j["lights"].is_array()) throw UsageError("scene: 'lights' must be an array");
+        int i = 0;
+        for (const json& l : j["lights"]) {
+            const std::string where = "lights[" + std::to_string(i++) + "]";
+            checkKeys(l, where, {"type", "direction", "position", "color", "intensity"});
+            Light light;
+            const std::string type = l.contains("type") ? str(l["type"], where + ".type") : "directional";
+            if (type == "directional") {
+                light.kind = LightKind::Directional;
+                if (!l.contains("direction")) throw UsageError("scene: " + where + " needs 'direction'");
+                light.vector = vec<3>(l["direction"], where + ".direction");
+            } else if (type == "point") {
+                light.kind = LightKind::Point;
+                if (!l.contains("position")) throw UsageError("scene: " + where + " needs 'position'");
+                light.vector = vec<3>(l["position"], where + ".position");
+            } else if (type == "head") {
+                light.kind = LightKind::Head;
+            } else {
+                throw UsageError("scene: " + where + ".type '" + type +
+                                 "' is unknown (directional, point, head)");
+            }
+            if (l.contains("color")) light.color = vec<3>(l["color"], where + ".color");
+            if (l.contains("intensity")) light.intensity = num(l["intensity"], where + ".intensity");
+            s.lights.push_back(light);
+        }
+    }
+    if (j.contains("effects")) {
+        const json& e = j["effects"];
+        checkKeys(
+            e, "effects",
+            {"shading", "gradient", "shadows", "shadow_step", "scattering", "clip_planes", "isosurfaces", "fog",
+             "isosurface_method"});
+        SceneEffects& fx = s.effects;
+        if (e.contains("shading")) {
+            fx.shadingGiven = true;
+            const json& sh = e["shading"];
+            if (sh.is_boolean()) {
+                fx.shading = sh.get<bool>();
+            } else {
+                checkKeys(sh, "effects.shading", {"ambient", "diffuse", "specular", "shininess", "preintegrated"});
+                if (sh.contains("preintegrated"))
+                    fx.shadingPreintegrated = flag(sh["preintegrated"], "effects.shading.preintegrated");
+                fx.shading = true;
+                if (sh.contains("ambient")) fx.ambient = num(sh["ambient"], "effects.shading.ambient");
+                if (sh.contains("diffuse")) fx.diffuse = num(sh["diffuse"], "effects.shading.diffuse");
+                if (sh.contains("specular")) fx.specular = num(sh["specular"], "effects.shading.specular");
+                if (sh.contains("shininess"))
+                    fx.shininess = num(sh["shininess"], "effects.shading.shininess");
+            }
+        }
+        if (e.contains("gradient")) {
+            const std::string g = str(e["gradient"], "effects.gradient");
+            if (g == "central")
+                fx.gradient = GradientKind::Central;
+            else if (g == "sobel")
+                fx.gradient = GradientKind::Sobel;
+            else
+                throw UsageError("scene: effects.gradient '" + g + "' is unknown (central, sobel)");
+        }
+        if (e.contains("shadows")) fx.shadows = flag(e["shadows"], "effects.shadows");
+        if (e.contains("shadow_step")) fx.shadowStep = num(e["shadow_step"], "effects.shadow_step");
+        if (e.contains("scattering")) {
+            const json& sc = e["scattering"];
+            checkKeys(sc, "effects.scattering",
+                      {"albedo", "g", "order", "samples", "bounces", "seed", "environment", "emission", "octaves"});
+            fx.scattering = true;
+            if (sc.contains("albedo")) fx.albedo = num(sc["albedo"], "effects.scattering.albedo");
+            if (sc.contains("g")) fx.phaseG = num(sc["g"], "effects.scattering.g");
+            if (sc.contains("order")) {
+                const std::string o = str(sc["order"], "effects.scattering.order");
+                if (o == "single")
+                    fx.scatteringOrder = ScatteringOrder::Single;
+                else if (o == "multiple")
+                    fx.scatteringOrder = ScatteringOrder::Multiple;
+                else
+                    throw UsageError("scene: effects.scattering.order '" + o + "' is unknown (single, multiple)");
+            }
+            auto count = [&](const char* key, double lo, double hi) {
+                const double v = num(sc[key], std::string("effects.scattering.") + key);
+                if (!(v >= lo && v <= hi) || v != std::floor(v))
+                    throw UsageError(std::string("scene: effects.scattering.") + key + " must be an integer in [" +
+                                     std::to_string(long(lo)) + ", " + std::to_string(long(hi)) + "]");
+                return v;
+            };
+            if (sc.contains("samples")) fx.samples = int(count("samples", 1, 1 << 20));
+            if (sc.contains("bounces")) fx.maxBounces = int(count("bounces", 1, 4096));
+            if (sc.contains("seed")) fx.seed = std::uint32_t(count("seed", 0, 4294967295.0));
+            if (sc.contains("environment"))
+                fx.environment = vec<3>(sc["environment"], "effects.scattering.environment");
+            if (sc.contains("emission")) fx.emission = flag(sc["emission"], "effects.scattering.emission");
+            if (sc.contains("octaves")) fx.octaves = int(count("octaves", 0, 8));
+        }
+        if (e.contains("clip_planes")) {
+            if (!e["clip_planes"].is_array())
+                throw UsageError("scene: 'effects.clip_planes' must be an array");
+            int i = 0;
+            for (const json& p : e["clip_planes"]) {
+                const std::string where = "effects.clip_planes[" + std::to_string(i++) + "]";
+                checkKeys(p, where, {"normal", "offset", "point"});
+                ClipPlane plane;
+                if (!p.contains("normal")) throw UsageError("scene: " + where + " needs 'normal'");
+                plane.normal = vec<3>(p["normal"], where + ".normal");
+                if (p.contains("point")) {
+                    const Vec3 q = vec<3>(p["point"], where + ".point");
+                    plane.offset = -dot(plane.normal, q);
+                } else if (p.contains("offset")) {
+                    plane.offset = num(p["offset"], where + ".offset");
+                }
+                fx.clipPlanes.push_back(plane);
+            }
+        }
+        if (e.contains("isosurfaces")) {
+            if (!e["isosurfaces"].is_array())
+                throw UsageError("scene: 'effects.isosurfaces' must be an array");
+            int i = 0;
+            for (const json& p : e["isosurfaces"]) {
+                const std::string where = "effects.isosurfaces[" + std::to_string(i++) + "]";
+                checkKeys(p, where, {"value", "color"});
+                IsoLayer iso;
+                if (!p.contains("value")) throw UsageError("scene: " + where + " needs 'value'");
+                iso.value = num(p["value"], where + ".value");
+                if (p.contains("color")) iso.rgba = vec<4>(p["color"], where + ".color");
+                fx.isosurfaces.push_back(iso);
+            }
+        }
+        if (e.contains("fog")) fx.fog = parseFog(e["fog"], baseDir);
+        if (e.contains("isosurface_method")) {
+            const std::string m = str(e["isosurface_method"], "effects.isosurface_method");
+            if (m != "table" && m != "roots")
+                throw UsageError("scene: effects.isosurface_method '" + m + "' is unknown (roots, table)");
+            fx.isoTable = m == "table";
+        }
+    }
+    return s;
+}
+
+Scene Scene::fromFile(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw IoError(path.string() + ": cannot open scene file");
+    std::ostringstream text;
+    text << in.rdbuf();
+    try {
+        return fromJson(text.str(), path.parent_path());
+    } catch (const UsageError& e) {
+        throw UsageError(path.string() + ": " + e.what());
+    }
+}
+
+std::string Scene::toJson() const {
+    json j;
+    if (!volume.empty()) j["volume"] = volume.string();
+    if (!tf.empty()) j["tf"] = tf.string();
+    if (camera) {
+        json c;
+        c["projection"] = camera->projection == Projection::Perspective ? "perspective" : "orthographic";
+        c["eye"] = camera->eye;
+        c["target"] = camera->target;
+        c["up"] = camera->up;
+        if (camera->projection == Projection::Perspective)
+            c["fov_y_deg"] = camera->fovYDeg;
+        else
+            c["height"] = camera->height;
+        j["camera"] = c;
+    }
+    j["image"] = {{"width", width}, {"height", height}, {"background", background}};
+    j["render"] = {{"mode", std::string(renderModeName(mode))},
+                   {"step", step},
+                   {"preintegration", std::string(preintegrationName(preintegration))},
+                   {"early_termination", earlyTermination},
+                   {"skipping", skipping},
+                   {"table_size", tableSize},
+                   {"table_lengths", tableLengths},
+                   {"filter", std::string(filterName(filter))},
+                   {"smoothing", smoothing},
+                   {"mip_color", std::string(mipColorName(mipColor))},
+                   {"lod", std::string(lodModeName(lod))},
+                   {"lod_error", lodError},
+                   {"cache_mb", cacheMb}};
+    // Mesh fields only when set (grid scenes' JSON stays as it was).
+    if (meshMethod != MeshMethod::Cells) j["render"]["method"] = std::string(meshMethodName(meshMethod));
+    if (kBufferDepth != 6) j["render"]["k"] = kBufferDepth;
+    if (window) j["render"]["window"] = *window;
+    if (budgetMs > 0.0) j["render"]["budget_ms"] = budgetMs;
+    j["lights"] = json::array();
+    for (const auto& l : lights) {
+        json o;
+        o["type"] = l.kind == LightKind::Directional ? "directional"
+                    : l.kind == LightKind::Point     ? "point"
+                                                     : "head";
+        if (l.kind == LightKind::Directional) o["direction"] = l.vector;
+        if (l.kind == LightKind::Point) o["position"] = l.vector;
+        o["color"] = l.color;
+        o["intensity"] = l.intensity;
+        j["lights"].push_back(o);
+    }
+    json e = json::object();
+    if (effects.shading) {
+        e["shading"] = {{"ambient", effects.ambient},
+                        {"diffuse", effects.diffuse},
+                        {"specular", effects.specular},
+                        {"shininess", effects.shininess}};
+        if (effects.shadingPreintegrated) e["shading"]["preintegrated"] = true;
+    }
+    if (effects.isoTable) e["isosurface_method"] = "table";
+    e["gradient"] = effects.gradient == GradientKind::Sobel ? "sobel" : "central";
+    if (effects.shadows) e["shadows"] = true;
+    e["shadow_step"] = effects.shadowStep;
+    if (effects.scattering) {
+        e["scattering"] = {{"albedo", effects.albedo}, {"g", effects.phaseG}};
+        if (!effects.emission) e["scattering"]["emission"] = false;
+        if (effects.octaves > 0) e["scattering"]["octaves"] = effects.octaves;
+        if (effects.scatteringOrder == ScatteringOrder::Multiple) {
+            json& sc = e["scattering"];
+            sc["order"] = "multiple";
+            sc["samples"] = effects.samples;
+            sc["bounces"] = effects.maxBounces;
+            sc["seed"] = effects.seed;
+            sc["environment"] = effects.environment;
+            sc["emission"] = effects.emission;
+        }
+    }
+    if (!effects.clipPlanes.empty()) {
+        e["clip_planes"] = json::array();
+        for (const auto& p : effects.clipPlanes)
+            e["clip_planes"].push_back({{"normal", p.normal}, {"offset", p.offset}});
+    }
+    if (!effects.isosurfaces.empty()) {
+        e["isosurfaces"] = json::array();
+        for (const auto& i : effects.isosurfaces)
+            e["isosurfaces"].push_back({{"value", i.value}, {"color", i.rgba}});
+    }
+    if (effects.fog.enabled) {
+        const FogEffect& f = effects.fog;
+        json fj = {{"density", f.density}, {"base", f.base}, {"falloff", f.falloff}, {"color", f.color}, {"up", f.up}};
+        if (f.box) fj["box"] = {f.box->origin, f.box->hi()};
+        if (!f.heightMap.empty()) fj["height_map"] = f.heightMap.string();
+        if (f.heightRange) fj["height_range"] = *f.heightRange;
+        e["fog"] = fj;
+    }
+    j["effects"] = e;
+    return j.dump(2);
+}
+
+namespace {
+std::string shortNumber(double v);
+
+/// The fog's own ranges (also checked while a scene file is read, so the error names the file).
+void validateFog(const FogEffect& f) {
+    auto need = [](bool ok, const std::string& msg) {
+        if (!ok) throw UsageError("scene: " + msg);
+    };
+    // NaN fails every comparison, so each test below also refuses it.
+    need(f.density >= 0.0 && f.density <= 1e30, "effects.fog.density must be in [0, 1e30] (got " +
+                                                     shortNumber(f.density) + ")");
+    need(f.falloff >= 0.0 && f.falloff <= 1e30,
+         "effects.fog.falloff must be in [0, 1e30] (0: no fog above the base; got " + shortNumber(f.falloff) + ")");
+    need(std::isfinite(f.base) && std::abs(f.base) <= 1e30, "effects.fog.base must be finite");
+    for (double c : f.color)
+        need(c >= 0.0 && c <= 1e30, "effects.fog.color values must be >= 0 (and finite)");
+    need(std::isfinite(norm(f.up)) && norm(f.up) > 0.0, "effects.fog.up must be non-zero");
+    if (f.box)
+        for (int a = 0; a < 3; ++a)
+            need(std::isfinite(f.box->origin[a]) && f.box->extent[a] >= 0.0 && std::isfinite(f.box->extent[a]),
+                 "effects.fog.box must be [[x0, y0, z0], [x1, y1, z1]] with x0 <= x1, y0 <= y1, z0 <= z1");
+    if (f.heightRange)
+        need(std::isfinite((*f.heightRange)[0]) && std::isfinite((*f.heightRange)[1]),
+             "effects.fog.height_range must be finite");
+    if (!f.heightMap.empty()) {
+        int axes = 0;
+        for (double c : f.up)
+            axes += c != 0.0 ? 1 : 0;
+        need(axes == 1, "effects.fog.height_map needs effects.fog.up along a coordinate axis");
+    }
+}
+} // namespace
+
+void Scene::validate() const {
+    auto need = [](bool ok, const std::string& msg) {
+        if (!ok) throw UsageError("scene: " + msg);
+    };
+    need(width >= 1 && height >= 1 && width <= 16384 && height <= 16384,
+         "image size " + std::to_string(width) + "x" + std::to_string(height) + " must be 1..16384 per side");
+    // Lengths reach the kernels as float: 1e30 leaves headroom below float's 3.4e38.
+    need(std::isfinite(step) && step > 0.0 && step <= 1e30, "render.step must be in (0, 1e30]");
+    need(earlyTermination > 0.0 && earlyTermination <= 1.0, "render.early_termination must be in (0, 1]");
+    need(tableSize >= 2 && tableSize <= 4096, "render.table_size must be 2..4096");
+    need(tableLengths >= 1 && tableLengths <= 1024, "render.table_lengths must be 1..1024");
+    need(kBufferDepth >= 2 && kBufferDepth <= 8, "render.k must be 2..8");
+    // 8 voxels: the smoothing's 3-sigma kernel stays at 49 taps (render/grid/BsplineField.hpp).
+    need(smoothing >= 0.0 && smoothing <= 8.0, "render.smoothing must be in [0, 8] voxels");
+    need(budgetMs >= 0.0 && budgetMs <= 1e9, "render.budget_ms must be in [0, 1e9] (0: no budget)");
+    need(std::isfinite(lodError) && lodError >= 0.0, "render.lod_error must be finite and >= 0");
+    need(std::isfinite(cacheMb) && cacheMb > 0.0 && cacheMb <= 1e7, "render.cache_mb must be in (0, 1e7]");
+    if (window)
+        need(std::isfinite((*window)[0]) && std::isfinite((*window)[1]) && (*window)[1] > 0.0 &&
+                 (*window)[1] <= 1e30 && std::abs((*window)[0]) <= 1e30,
+             "render.window must be [centre, width] with width > 0 (finite, at most 1e30)");
+    for (double b : background)
+        need(b >= 0.0 && b <= 1.0, "image.background values must be in [0, 1]");
+    // A partial camera's given fields are checked here; the rest once it is completed against the box.
+    if (camera) {
+        const Vec3 f = sub(camera->target, camera->eye);
+        if (cameraGiven.eye && cameraGiven.target) {
+            need(norm(f) > 0.0, "camera.eye and camera.target coincide");
+            if (cameraGiven.up)
+                need(norm(cross(f, camera->up)) > 1e-12 * norm(f) * norm(camera->up),
+                     "camera.up is parallel to the view");
+        }
+        if (camera->projection == Projection::Orthographic && cameraGiven.height)
+            need(camera->height > 0.0, "camera.height must be > 0");
+        else
+            need(camera->fovYDeg > 0.0 && camera->fovYDeg < 180.0, "camera.fov_y_deg must be in (0, 180)");
+    }
+    need(lights.size() <= 4, "at most 4 lights");
+    for (const auto& l : lights) {
+        need(l.intensity >= 0.0, "light intensity must be >= 0");
+        if (l.kind == LightKind::Directional) need(norm(l.vector) > 0.0, "light direction must be non-zero");
+        for (double c : l.color)
+            need(c >= 0.0, "light colour must be >= 0");
+    }
+    const SceneEffects& e = effects;
+    need(e.ambient >= 0 && e.diffuse >= 0 && e.specular >= 0 && e.shininess >= 0,
+         "shading coefficients must be >= 0");
+    need(std::isfinite(e.shadowStep) && e.shadowStep >= 0.0 && e.shadowStep <= 1e30,
+         "effects.shadow_step must be 0 (the render step) or in (0, 1e30]");
+    need(e.albedo >= 0.0 && e.albedo <= 1.0, "effects.scattering.albedo must be in [0, 1]");
+    need(e.phaseG > -1.0 && e.phaseG < 1.0, "effects.scattering.g must be in (-1, 1)");
+    need(e.samples >= 1 && e.samples <= (1 << 20), "effects.scattering.samples must be in [1, 1048576]");
+    need(e.maxBounces >= 1 && e.maxBounces <= 4096, "effects.scattering.bounces must be in [1, 4096]");
+    need(e.octaves >= 0 && e.octaves <= 8, "effects.scattering.octaves must be in [0, 8]");
+    for (double c : e.environment)
+        need(std::isfinite(c) && c >= 0.0, "effects.scattering.environment must be finite and >= 0");
+    need(e.clipPlanes.size() <= 4, "at most 4 clipping planes");
+    for (const auto& p : e.clipPlanes)
+        need(norm(p.normal) > 0.0, "clipping plane normal must be non-zero");
+    need(e.isosurfaces.size() <= 4, "at most 4 iso-surfaces");
+    for (const auto& i : e.isosurfaces)
+        for (double c : i.rgba)
+            need(c >= 0.0 && c <= 1.0, "iso-surface colour values must be in [0, 1]");
+    if (mode == RenderMode::Iso) need(!e.isosurfaces.empty(), "mode iso needs effects.isosurfaces");
+    if (e.fog.enabled) validateFog(e.fog);
+}
+
+std::vector<std::string> applyLightingDefaults(Scene& scene) {
+    std::vector<std::string> notes;
+    SceneEffects& fx = scene.effects;
+    if (scene.mode == RenderMode::Iso && !fx.shadingGiven && !fx.shading) {
+        fx.shading = true;
+        notes.push_back("iso mode: shading on (Blinn-Phong ambient " + std::to_string(fx.ambient).substr(0, 4) +
+                        ", diffuse " + std::to_string(fx.diffuse).substr(0, 4) + "); --no-shading turns it off");
+    }
+    const bool marching = scene.mode == RenderMode::Dvr || scene.mode == RenderMode::Iso;
+    const bool wantsLight = fx.shading || fx.shadows || (fx.scattering && fx.albedo > 0.0);
+    bool lit = false;
+    for (const auto& l : scene.lights)
+        lit = lit || (l.intensity > 0.0 && (l.color[0] > 0.0 || l.color[1] > 0.0 || l.color[2] > 0.0));
+    if (marching && wantsLight && !lit && scene.lights.empty()) {
+        Light head;
+        head.kind = LightKind::Head;
+        scene.lights.push_back(head);
+        notes.push_back("no light given: using a head light (at the eye, intensity 1); --light sets others");
+    }
+    return notes;
+}
+
+namespace {
+std::string shortNumber(double v) {
+    std::ostringstream s;
+    s << v;
+    return s.str();
+}
+} // namespace
+
+void Scene::validateSteps(double worldDiagonal) const {
+    // Guard against steps so small that one ray would take longer than any frame should.
+    constexpr double kMaxSamplesPerRay = 5e7;
+    auto check = [&](double value, const char* field) {
+        if (worldDiagonal / value > kMaxSamplesPerRay)
+            throw UsageError(std::string(field) + " " + shortNumber(value) + " needs " +
+                             shortNumber(std::ceil(worldDiagonal / value)) +
+                             " samples per ray; use a step of at least " +
+                             shortNumber(worldDiagonal / kMaxSamplesPerRay));
+    };
+    check(step, "render.step");
+    if (effects.shadowStep > 0.0) check(effects.shadowStep, "effects.shadow_step");
+}
+
+Camera defaultCamera(const WorldBox& box) {
+    const Vec3 lo = box.origin, ext = box.extent;
+    const Vec3 centre = add(lo, scale(ext, 0.5));
+    const double diag = std::max(norm(ext), 1.0);
+    Camera c;
+    c.projection = Projection::Orthographic;
+    c.target = centre;
+    c.eye = sub(centre, Vec3{0, 0, 2.0 * diag});
+    c.up = {0, 1, 0};
+    c.height = std::max({ext[0], ext[1], 1.0}) * 1.05;
+    return c;
+}
+
+CameraRay cameraRay(const Camera& cam, int width, int height, double x, double y) {
+    const Vec3 f = normalized(sub(cam.target, cam.eye));
+    const Vec3 r = normalized(cross(f, cam.up));
+    const Vec3 u = cross(r, f);
+    const double ndcX = 2.0 * (x + 0.5) / width - 1.0;
+    const double ndcY = 1.0 - 2.0 * (y + 0.5) / height;
+    const double aspect = double(width) / double(height);
+    CameraRay ray;
+    if (cam.projection == Projection::Orthographic) {
+        const double h = cam.height / 2.0;
+        ray.origin = add(cam.eye, add(scale(r, ndcX * h * aspect), scale(u, ndcY * h)));
+        ray.direction = f;
+    } else {
+        const double t = std::tan(cam.fovYDeg * 3.14159265358979323846 / 360.0);
+        ray.origin = cam.eye;
+        ray.direction = normalized(add(f, add(scale(r, ndcX * t * aspect), scale(u, ndcY * t))));
+    }
+    return ray;
+}
+
+} // namespace volcl

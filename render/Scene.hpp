@@ -1,0 +1,198 @@
+// Render scenes (docs/contract.md): camera, image, mode, lights and effects, read from JSON.
+#pragma once
+
+#include "render/Bounds.hpp"
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace volcl {
+
+enum class RenderMode { Dvr, Mip, Iso, Xray };
+enum class Preintegration { None, Table2d, Table3d };
+enum class Projection { Orthographic, Perspective };
+enum class LightKind { Directional, Point, Head };
+enum class GradientKind { Central, Sobel };
+/// How samples and gradients are reconstructed from the grid: trilinear with finite-difference gradients;
+/// an interpolating cubic B-spline (prefiltered coefficients, C2, passes through the voxels); or the
+/// smoothing cubic B-spline of the voxels themselves (no prefilter: removes quantisation terraces). Both
+/// cubic filters take the gradient as the analytic derivative of the field.
+enum class ReconstructionFilter { Linear, Cubic, Bspline };
+/// What a MIP pixel shows: the windowed maximum as grey, the TF colour at the maximum brightened by the
+/// window, or the TF's own colour and opacity at the maximum.
+enum class MipColor { Grey, Tf, TfOpacity };
+/// Scattering order: single scattering inside the ray marcher, or multiple scattering by the Monte Carlo path
+/// tracer (cl/render/pathtrace.cl).
+enum class ScatteringOrder { Single, Multiple };
+/// Level of detail of compressed-brick inputs (.vcz): level 0 everywhere, or a level per brick from its
+/// estimated screen-space error (render/bricks/BrickLod.hpp).
+enum class LodMode { Full, Auto };
+/// How a tetrahedral mesh is rendered: exact cell-by-cell traversal, or faces sorted by centroid into a
+/// per-pixel k-buffer of depth render.k (grids ignore it).
+enum class MeshMethod { Cells, KBuffer };
+
+std::string_view renderModeName(RenderMode m);
+RenderMode parseRenderMode(std::string_view s); ///< throws UsageError
+std::string_view preintegrationName(Preintegration p);
+Preintegration parsePreintegration(std::string_view s); ///< "none", "2d", "3d"; throws UsageError
+std::string_view filterName(ReconstructionFilter f);
+ReconstructionFilter parseFilter(std::string_view s); ///< "linear", "cubic", "bspline"; throws UsageError
+std::string_view mipColorName(MipColor c);
+MipColor parseMipColor(std::string_view s); ///< "grey" (or "gray"), "tf", "tf-opacity"; throws UsageError
+std::string_view lodModeName(LodMode m);
+LodMode parseLodMode(std::string_view s); ///< "full", "auto"; throws UsageError
+std::string_view meshMethodName(MeshMethod m);
+MeshMethod parseMeshMethod(std::string_view s); ///< "cells", "kbuffer"; throws UsageError
+
+/// GLM lookAt camera. `height` is the orthographic view height in world units; `fovYDeg` the perspective one.
+struct Camera {
+    Projection projection = Projection::Orthographic;
+    Vec3 eye{0, 0, -1}, target{0, 0, 0}, up{0, 1, 0};
+    double height = 1.0;
+    double fovYDeg = 30.0;
+};
+
+/// Which camera fields a scene file gave. A camera missing its eye, target, up or (orthographic) height is
+/// completed from the volume's box the way the command line completes one (the CLI's SceneFlags::finish):
+/// a missing target is the box centre, a missing eye looks at it from the default view at a fitted
+/// distance, a missing height shows the whole box, a missing up is the view's own.
+struct CameraFieldsGiven {
+    bool eye = true, target = true, up = true, height = true;
+    /// Everything a renderer needs is there (perspective cameras need no height).
+    bool complete(Projection p) const noexcept {
+        return eye && target && up && (height || p == Projection::Perspective);
+    }
+};
+
+/// A light: direction toward the light (directional), position (point), or at the eye (head).
+struct Light {
+    LightKind kind = LightKind::Directional;
+    Vec3 vector{0, 0, -1};
+    Vec3 color{1, 1, 1};
+    double intensity = 1.0;
+};
+
+/// A transparent or opaque iso-surface: straight colour and opacity.
+struct IsoLayer {
+    double value = 0.0;
+    std::array<double, 4> rgba{1, 1, 1, 1};
+};
+
+/// Keeps the half-space dot(normal, x) + offset >= 0.
+struct ClipPlane {
+    Vec3 normal{1, 0, 0};
+    double offset = 0.0;
+};
+
+/// Fog (docs/media.md): with h = dot(p, normalize(up)), extinction `density` where h <= base and
+/// density * exp(-(h - base) / falloff) above (falloff 0: none above), emission color * extinction, only
+/// inside `box` (absent: the volume's box). A height map replaces `base` per texel of the ground plane.
+struct FogEffect {
+    bool enabled = false; ///< the scene has an "effects.fog" object
+    double density = 0.0, base = 0.0, falloff = 0.0;
+    Vec3 color{1, 1, 1};
+    Vec3 up{0, 1, 0};
+    std::optional<WorldBox> box;
+    /// Image (grey or R channel) giving the fog top (the base) over the ground plane; empty: none. The
+    /// map spans the box's two axes other than `up` (which must then be a coordinate axis): image x along
+    /// the lower-numbered axis, image row 0 at the low end of the other. Value v maps to
+    /// heightRange[0] + v * (heightRange[1] - heightRange[0]); absent range: the box's extent along up.
+    std::filesystem::path heightMap;
+    std::optional<std::array<double, 2>> heightRange;
+};
+
+/// What a scene asks for; Effects planning decides what is compiled (see planEffects()).
+struct SceneEffects {
+    bool shading = false; ///< Blinn-Phong requested ("shading" object present)
+    bool shadingGiven = false; ///< the scene or a flag said whether to shade (iso mode shades unless told)
+    double ambient = 0.2, diffuse = 0.7, specular = 0.3, shininess = 32.0;
+    /// Shade through the pre-integrated lighting table (2D pre-integration): gradients at both segment ends,
+    /// diffuse weighted by the table's front/back terms, specular at the table's emission centroid.
+    bool shadingPreintegrated = false;
+    /// Iso-surfaces from the iso-surface table of the segment's end values (iso mode) instead of the exact
+    /// per-cell roots ("isosurface_method": "table" | "roots").
+    bool isoTable = false;
+    GradientKind gradient = GradientKind::Central;
+    bool shadows = false;
+    double shadowStep = 1.0;           ///< world units; 0 = the render step
+    double albedo = 0.0, phaseG = 0.0; ///< single scattering when albedo > 0 ("scattering" object)
+    bool scattering = false;
+    ScatteringOrder scatteringOrder = ScatteringOrder::Single;
+    int samples = 64;        ///< path tracer: samples per pixel
+    int maxBounces = 64;     ///< path tracer: scattering events per path
+    std::uint32_t seed = 1;  ///< path tracer: same seed, same image
+    Vec3 environment{0, 0, 0}; ///< path tracer: radiance of a uniform sky around the volume
+    bool emission = true;    ///< the TF's emission c * tau adds to the scattered light
+    int octaves = 0;         ///< single scattering: > 0 approximates multiple scattering by that many octaves
+    std::vector<ClipPlane> clipPlanes;
+    std::vector<IsoLayer> isosurfaces;
+    FogEffect fog;
+};
+
+/// A complete scene. Paths are resolved against the scene file's folder. Example:
+/// ```
+/// volcl::Scene s = volcl::Scene::fromFile("head.json");
+/// s.width = 256;                       // flags override fields
+/// s.validate();
+/// ```
+struct Scene {
+    std::filesystem::path volume, tf; ///< volume: the data file; RenderInput::open picks its renderer
+    std::optional<Camera> camera;     ///< absent: defaultCamera() looks down +z at the data's whole box
+    CameraFieldsGiven cameraGiven;    ///< from a scene file: the fields it gave (the rest are fitted)
+    int width = 512, height = 512;
+    std::array<double, 4> background{0, 0, 0, 1};
+    RenderMode mode = RenderMode::Dvr;
+    double step = 0.5;
+    Preintegration preintegration = Preintegration::None;
+    double earlyTermination = 0.995; ///< 1 disables early termination
+    bool skipping = true;
+    int tableSize = 256;   ///< pre-integration table nodes
+    int tableLengths = 16; ///< 3D table: lengths between step / L and step
+    ReconstructionFilter filter = ReconstructionFilter::Linear;
+    /// Gaussian smoothing (sigma in voxels) of the data before any filter reads it; 0: none.
+    double smoothing = 0.0;
+    /// MIP window (centre, width) in data values; absent: the data's value range.
+    std::optional<std::array<double, 2>> window;
+    MipColor mipColor = MipColor::Grey;
+    /// Frame-time budget (kernel milliseconds): the planner picks scattering order, samples and step; 0: none.
+    double budgetMs = 0.0;
+    /// Compressed-brick inputs only: level of detail, its error threshold and the decoded-brick budget.
+    LodMode lod = LodMode::Full;
+    double lodError = 0.01;
+    double cacheMb = 512.0;
+    MeshMethod meshMethod = MeshMethod::Cells; ///< render.method (meshes only)
+    int kBufferDepth = 6;                     ///< render.k: k-buffer entries per pixel, 2..8
+    std::vector<Light> lights;
+    SceneEffects effects;
+
+    static Scene fromJson(std::string_view json, const std::filesystem::path& baseDir = {});
+    static Scene fromFile(const std::filesystem::path& path);
+    std::string toJson() const;
+    /// Throws UsageError naming the field for out-of-range values.
+    void validate() const;
+    /// Refuses (UsageError) steps that would make one ray too long for a volume whose world-space diagonal
+    /// is `worldDiagonal`: render.step and effects.shadow_step each at most 5e7 samples across it.
+    void validateSteps(double worldDiagonal) const;
+};
+
+/// Fills in what a scene leaves to defaults, before planning: iso mode shades when nothing says otherwise,
+/// and shading (or scattering, or shadows) with no lit light gets a head light. Returns one line per change
+/// (for a stderr note and `--explain`).
+std::vector<std::string> applyLightingDefaults(Scene& scene);
+
+/// Orthographic camera along +z through the centre of a world box, sized to show all of it (every
+/// renderer's default: the box is VolumeRenderer::bounds()).
+Camera defaultCamera(const WorldBox& box);
+
+/// World-space ray of pixel (x, y) (y = 0 at the top), double precision (lookAt convention).
+struct CameraRay {
+    Vec3 origin, direction;
+};
+CameraRay cameraRay(const Camera& camera, int width, int height, double x, double y);
+
+} // namespace volcl

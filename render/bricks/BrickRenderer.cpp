@@ -1,0 +1,540 @@
+// The compressed-brick renderer: per-frame working set, budget fitting, pool uploads, page table, launch.
+#include "render/bricks/BrickRenderer.hpp"
+
+#include "cl/volcl_shared.h"
+#include "core/Error.hpp"
+#include "core/Volume.hpp"
+#include "render/FogDevice.hpp"
+#include "render/FrameParams.hpp"
+#include "render/VecMath.hpp"
+#include "render/bricks/BrickPool.hpp"
+#include "core/runtime/Timing.hpp"
+#include "preintegration/PreintegrationTable.hpp"
+#include "wavelet/Codec.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <iomanip>
+#include <numeric>
+#include <optional>
+#include <set>
+#include <sstream>
+
+namespace volcl {
+
+namespace {
+
+constexpr std::uint32_t kHeaderWords = 16;     // VOLCL_BRICK_HEADER in cl/common/brick_sample.h
+constexpr std::uint32_t kAbsent = 0xffffffffu; // VOLCL_BRICK_ABSENT
+constexpr std::size_t kMaxPoolFloats = std::size_t(1) << 32;
+
+float uintBits(std::uint32_t v) {
+    float f;
+    std::memcpy(&f, &v, 4);
+    return f;
+}
+
+ValueRange frameRange(const VczHeader& h, std::size_t frame) {
+    ValueRange r{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+    for (const VczBrickEntry& e : h.bricks[frame]) {
+        r.min = std::min(r.min, e.min);
+        r.max = std::max(r.max, e.max);
+    }
+    return r;
+}
+
+WorldBox vczBounds(const VczHeader& h) {
+    return {h.origin,
+            {double(h.dims.x - 1) * h.spacing[0], double(h.dims.y - 1) * h.spacing[1],
+             double(h.dims.z - 1) * h.spacing[2]}};
+}
+
+} // namespace
+
+void BrickStats::add(const BrickStats& f) {
+    frames += f.frames;
+    visited += f.visited;
+    reachable += f.reachable;
+    hidden += f.hidden;
+    decoded += f.decoded;
+    hits += f.hits;
+    bytesDecoded += f.bytesDecoded;
+    voxelsDecoded += f.voxelsDecoded;
+    coarsened += f.coarsened;
+    evictions += f.evictions;
+    repacks += f.repacks;
+    moved += f.moved;
+    peakPoolBytes = std::max(peakPoolBytes, f.peakPoolBytes);
+    decodeMs += f.decodeMs;
+}
+
+std::string BrickStats::summary() const {
+    std::ostringstream os;
+    os << "bricks visited " << visited << " (reachable " << reachable << ", hidden by the TF " << hidden
+       << "), decoded " << decoded << ", cache hits " << hits << ", misses " << decoded << ", bytes decoded "
+       << bytesDecoded << " (" << voxelsDecoded << " voxels), peak cache " << std::fixed
+       << std::setprecision(2) << double(peakPoolBytes) / (1024.0 * 1024.0) << " MB, evictions " << evictions;
+    if (coarsened) os << ", coarsened to fit the budget " << coarsened;
+    if (repacks) os << ", pool repacked " << repacks << " (" << moved << " bricks moved, not decoded)";
+    os << ", decode " << std::setprecision(1) << decodeMs << " ms";
+    return os.str();
+}
+
+struct BrickRenderer::Impl {
+    const VczHeader* h = nullptr;
+    std::optional<LodStatistics> stats;
+    int maxLevel = 0;
+    ValueRange range;
+    std::optional<Volume> whole; ///< P/B frames: decoded once (they decode whole, at level 0 only)
+    std::optional<BrickCache> cache;
+    double poolMb = -1;
+    DeviceBuffer<float> pool;
+    DeviceBuffer<VolclTfKnot> knots;
+    DeviceBuffer<cl_float4> table;
+    DeviceBuffer<cl_uchar> empty;
+    DeviceBuffer<cl_float4> out;
+    DeviceBuffer<float> depth;
+    FogDevice fog; ///< FOG: parameters and the height-map buffer
+    std::size_t knotCount = 0;
+    std::string tableKey;
+    int tableLengths = 1;
+    cl::Kernel kernel;
+    bool packet = false;
+    VolclGridRenderParams params{};
+    std::size_t pageFloats() const { return kHeaderWords + 4 * h->brickCount(); }
+};
+
+BrickRenderer::BrickRenderer(ComputeContext& cc, std::shared_ptr<const VczReader> reader, std::size_t frame,
+                             const TransferFunction& tf, const Scene& scene)
+    : cc_(cc), reader_(std::move(reader)), frame_(frame), tf_(tf), scene_(scene),
+      impl_(std::make_unique<Impl>()) {
+    scene_.validate();
+    tf_.validate();
+    Impl& m = *impl_;
+    m.h = &reader_->header();
+    const VczHeader& h = *m.h;
+    if (frame_ >= h.frames.size())
+        throw UsageError("--frame " + std::to_string(frame_) + " out of range: " + reader_->name() + " has " +
+                         std::to_string(h.frames.size()) + " frame(s)");
+    if (h.dims.count() >= (std::size_t(1) << 32))
+        throw DataError(reader_->name() + ": the brick renderer indexes at most 2^32 - 1 voxels");
+    m.stats = LodStatistics::fromHeader(h, reader_->name());
+    m.range = frameRange(h, frame_);
+    if (!std::isfinite(m.range.min) || !std::isfinite(m.range.max))
+        throw DataError(reader_->name() + ": frame " + std::to_string(frame_) +
+                        " holds NaN/Inf voxels; the ray marcher needs finite data");
+    const bool intra = h.frames[frame_].type == FrameType::I;
+    m.maxLevel = intra && h.transform != TransformKind::RawBits ? h.levels : 0;
+    if (!intra) m.whole = reader_->decodeFrame(cc_, frame_);
+    m.out = cc_.allocate<cl_float4>(1);
+    m.depth = cc_.allocate<float>(1);
+    rebuild(true);
+}
+
+BrickRenderer::~BrickRenderer() = default;
+
+WorldBox BrickRenderer::bounds() const {
+    return vczBounds(*impl_->h);
+}
+
+ValueRange BrickRenderer::valueRange() const {
+    return impl_->range;
+}
+
+EffectPlan BrickRenderer::planEffects(const Scene& scene) const {
+    // The two table paths need tables built from a whole volume's renderer state; bricks shade per sample.
+    Scene s = scene;
+    std::vector<std::string> notes;
+    if (s.effects.shadingPreintegrated) {
+        s.effects.shadingPreintegrated = false;
+        notes.push_back("pre-integrated lighting: compressed bricks are lit per sample (decode the file for the table)");
+    }
+    if (s.effects.isoTable) {
+        s.effects.isoTable = false;
+        notes.push_back("iso-surface table: compressed bricks find iso-surfaces by exact roots");
+    }
+    EffectPlan p = volcl::planEffects(
+        s, bounds(), impl_->range,
+        std::to_string(std::min({impl_->h->brick.x, impl_->h->brick.y, impl_->h->brick.z})) +
+            "^3-voxel macrocells over the brick index");
+    p.defines.set("VOXEL_TYPE", 0LL);
+    for (std::string& n : notes)
+        p.dropped.push_back(std::move(n));
+    return p;
+}
+
+void BrickRenderer::setScene(const Scene& scene) {
+    scene.validate();
+    scene_ = scene;
+    rebuild(false);
+}
+
+void BrickRenderer::setTransferFunction(const TransferFunction& tf) {
+    tf.validate();
+    tf_ = tf;
+    rebuild(true);
+}
+
+void BrickRenderer::setView(const Camera& camera, int width, int height, double step) {
+    Scene s = withView(scene_, camera, width, height, step);
+    if (step != scene_.step) {
+        setScene(s);
+        return;
+    }
+    s.validate();
+    scene_ = s;
+    camera_ = camera;
+    impl_->params.camera = cameraParams(camera_, scene_.width, scene_.height);
+}
+
+void BrickRenderer::makePool() {
+    Impl& m = *impl_;
+    const VczHeader& h = *m.h;
+    // Granule: a brick's samples at the coarsest level; the top block holds a whole level-0 brick.
+    const Dims coarse = brickSamples(h, 0, m.maxLevel);
+    const std::size_t granule = std::max<std::size_t>(1, coarse.count());
+    const BuddyAllocator probe(granule, 0, 1);
+    int top = 0;
+    while (probe.blockFloats(top) < h.brick.count())
+        ++top;
+    const BuddyAllocator full(granule, top, 1);
+    // No more than the whole frame at level 0 needs.
+    std::size_t wanted = 0;
+    for (std::size_t b = 0; b < h.brickCount(); ++b)
+        wanted += full.blockFloats(full.orderFor(brickSamples(h, b, 0).count()));
+    const double budgetFloats = scene_.cacheMb * 1024.0 * 1024.0 / sizeof(float);
+    std::size_t capacity = std::size_t(std::min<double>(budgetFloats, double(wanted)));
+    while (top > 0 && full.blockFloats(top) > capacity)
+        --top;
+    const BuddyAllocator sized(granule, top, 1);
+    // Top blocks: as many as the budget holds, but no more than the whole frame needs (edge bricks take
+    // smaller blocks, so that is the rounded-up share of `wanted`).
+    const std::size_t topFloats = sized.blockFloats(top);
+    const std::size_t count = std::min<std::size_t>(std::size_t(budgetFloats / double(topFloats)),
+                                                    (wanted + topFloats - 1) / topFloats);
+    if (count == 0)
+        throw UsageError("render.cache_mb " + std::to_string(scene_.cacheMb) +
+                         " is below one brick at the coarsest level (" +
+                         std::to_string(double(granule * sizeof(float)) / (1024.0 * 1024.0)) + " MB)");
+    if (m.pageFloats() + count * sized.blockFloats(top) > kMaxPoolFloats)
+        throw UsageError("render.cache_mb " + std::to_string(scene_.cacheMb) +
+                         " exceeds the 16 GiB the page table addresses");
+    m.cache.emplace(BuddyAllocator(granule, top, count));
+    m.pool = cc_.allocate<float>(m.pageFloats() + m.cache->allocator().capacity(), CL_MEM_READ_ONLY);
+    m.poolMb = scene_.cacheMb;
+}
+
+void BrickRenderer::rebuild(bool tfChanged) {
+    Impl& m = *impl_;
+    if (scene_.filter != ReconstructionFilter::Linear || scene_.smoothing > 0.0)
+        throw UsageError(reader_->name() +
+                         ": compressed bricks render with the linear filter and no smoothing "
+                         "(decode the file for cubic filters)");
+    camera_ = scene_.camera ? *scene_.camera : defaultCamera(bounds());
+    const EffectPlan previous = plan_;
+    plan_ = planEffects(scene_);
+    scene_.validateSteps(norm(bounds().extent));
+    if (m.poolMb != scene_.cacheMb) makePool();
+
+    TransferFunction shaded = tf_;
+    if (plan_.colorScale != 1.0)
+        for (auto& c : shaded.color)
+            for (double& v : c.rgb)
+                v *= plan_.colorScale;
+    if (tfChanged || previous.colorScale != plan_.colorScale || m.knotCount == 0) {
+        const auto knots = shaded.packKnots();
+        m.knots = cc_.upload(knots, CL_MEM_READ_ONLY);
+        m.knotCount = knots.size();
+    }
+    const Preintegration pre = scene_.mode == RenderMode::Dvr ? scene_.preintegration : Preintegration::None;
+    tableMs_ = 0.0;
+    if (pre != Preintegration::None) {
+        TableSpec spec;
+        spec.size = scene_.tableSize;
+        if (pre == Preintegration::Table2d) {
+            spec.axis = LengthAxis::Fixed;
+            spec.step = scene_.step;
+        } else {
+            spec.axis = LengthAxis::Linear;
+            spec.lengths = scene_.tableLengths;
+            spec.maxLength = scene_.step;
+        }
+        std::ostringstream key;
+        key << shaded.toJson() << '|' << int(pre) << '|' << spec.size << '|' << scene_.step << '|'
+            << spec.lengths;
+        if (key.str() != m.tableKey) {
+            Stopwatch sw;
+            const PreintegrationTable t = generatePreintegrationTable(shaded, spec, {}, &cc_);
+            tableMs_ = sw.milliseconds();
+            std::vector<cl_float4> rgba(t.rgba.size() / 4);
+            std::memcpy(rgba.data(), t.rgba.data(), rgba.size() * sizeof(cl_float4));
+            m.table = cc_.upload(rgba, CL_MEM_READ_ONLY);
+            m.tableLengths = int(t.sliceCount());
+            m.tableKey = key.str();
+        }
+    } else if (m.table.size() == 0) {
+        m.table = cc_.allocate<cl_float4>(1, CL_MEM_READ_ONLY);
+    }
+    m.packet =
+        scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
+    m.kernel = cc_.kernel("render/raymarch_bricks.cl", m.packet ? "raymarch_packet" : "raymarch", plan_.defines);
+
+    const VczHeader& h = *m.h;
+    VolclGridRenderParams& p = m.params;
+    p = VolclGridRenderParams{};
+    p.camera = cameraParams(camera_, scene_.width, scene_.height);
+    p.clip = clipParams(plan_.clipPlanes);
+    p.march = marchParams(scene_, m.range);
+    p.tf = tfParams(scene_, tf_, m.knotCount, m.tableLengths);
+    const double maxSpacing = std::max({h.spacing[0], h.spacing[1], h.spacing[2]});
+    p.lighting = lightingParams(scene_, 1e-6 * std::max(m.range.max - m.range.min, 1e-30) / maxSpacing);
+    p.iso = isoParams(plan_);
+    for (int i = 0; i < 3; ++i) {
+        p.grid.origin[i] = float(h.origin[std::size_t(i)]);
+        p.grid.spacing[i] = float(h.spacing[std::size_t(i)]);
+        p.grid.invSpacing[i] = float(1.0 / h.spacing[std::size_t(i)]);
+    }
+    p.grid.dims[0] = volcl_uint(h.dims.x);
+    p.grid.dims[1] = volcl_uint(h.dims.y);
+    p.grid.dims[2] = volcl_uint(h.dims.z);
+    if (plan_.fog) p.fog = m.fog.update(cc_, scene_.effects.fog, bounds(), plan_.fogMap);
+}
+
+BrickSelection BrickRenderer::fitBudget(BrickSelection s, const BrickView& view, const TransferFunction& tf) {
+    Impl& m = *impl_;
+    const VczHeader& h = *m.h;
+    const BuddyAllocator& a = m.cache->allocator();
+    const LodStatistics* stats = m.stats ? &*m.stats : nullptr;
+    std::size_t coarsened = 0;
+    for (;;) {
+        std::size_t need = 0;
+        bool oversized = false;
+        for (std::size_t b = 0; b < s.level.size(); ++b) {
+            if (s.level[b] < 0) continue;
+            const int order = a.orderFor(brickSamples(h, b, s.level[b]).count());
+            if (order < 0)
+                oversized = true;
+            else
+                need += a.blockFloats(order);
+        }
+        if (!oversized && need <= a.capacity()) break;
+        // Coarsen the bricks whose next level costs the least error, a batch at a time.
+        std::vector<std::pair<double, std::size_t>> cand;
+        for (std::size_t b = 0; b < s.level.size(); ++b)
+            if (s.level[b] >= 0 && s.level[b] < m.maxLevel)
+                cand.push_back({brickError(h, stats, frame_, b, s.level[b] + 1, tf, view), b});
+        if (cand.empty())
+            throw UsageError(reader_->name() + ": render.cache_mb " + std::to_string(scene_.cacheMb) +
+                             " holds less than this view's working set at its coarsest levels (" +
+                             std::to_string(double(need) * sizeof(float) / (1024.0 * 1024.0)) + " MB)");
+        std::sort(cand.begin(), cand.end());
+        const std::size_t batch = std::max<std::size_t>(1, cand.size() / 16);
+        std::vector<int> forced = s.level;
+        for (std::size_t b = 0; b < s.level.size(); ++b)
+            if (forced[b] < 0) forced[b] = 0; // re-selected below: reachability and emptiness decide again
+        for (std::size_t i = 0; i < batch; ++i)
+            ++forced[cand[i].second];
+        coarsened += batch;
+        // Keep the coarsening of earlier rounds: forced levels for every brick.
+        for (std::size_t b = 0; b < s.level.size(); ++b)
+            if (s.level[b] < 0) forced[b] = std::max(forced[b], 0);
+        s = selectBricks(h, stats, frame_, m.maxLevel, tf, view, forced);
+    }
+    last_.coarsened = coarsened;
+    return s;
+}
+
+void BrickRenderer::loadBricks(const BrickSelection& s) {
+    Impl& m = *impl_;
+    const VczHeader& h = *m.h;
+    std::vector<std::size_t> work;
+    std::set<BrickCache::Key> pinned;
+    for (std::size_t b = 0; b < s.level.size(); ++b)
+        if (s.level[b] >= 0) {
+            work.push_back(b);
+            pinned.insert({frame_, b, s.level[b]});
+        }
+    // Largest first, so that a pool rebuilt from empty packs without fragments.
+    std::stable_sort(work.begin(), work.end(), [&](std::size_t x, std::size_t y) {
+        return brickSamples(h, x, s.level[x]).count() > brickSamples(h, y, s.level[y]).count();
+    });
+    std::vector<float> page(m.pageFloats(), 0.0f);
+    const Dims g = h.brickGrid();
+    const std::uint32_t head[6] = {std::uint32_t(h.brick.x), std::uint32_t(h.brick.y),
+                                   std::uint32_t(h.brick.z), std::uint32_t(g.x),
+                                   std::uint32_t(g.y),       std::uint32_t(g.z)};
+    for (int i = 0; i < 6; ++i)
+        page[std::size_t(i)] = uintBits(head[i]);
+    for (std::size_t b = 0; b < s.level.size(); ++b) {
+        page[kHeaderWords + 4 * b + 0] = uintBits(0);
+        page[kHeaderWords + 4 * b + 1] = uintBits(kAbsent);
+        page[kHeaderWords + 4 * b + 2] = s.standIn[b];
+    }
+    last_.visited = work.size();
+    // Slots first (hits from the pool, room for the misses), then the data: a pool fragmented by bricks kept
+    // from earlier frames is repacked without decoding again what it already holds.
+    std::vector<CachedBrick> slot(s.level.size());
+    std::vector<char> decode(s.level.size(), 0);
+    bool placed = true;
+    for (std::size_t b : work) {
+        const BrickCache::Key key{frame_, b, s.level[b]};
+        if (const CachedBrick* hit = m.cache->touch(key)) {
+            slot[b] = *hit;
+            continue;
+        }
+        const std::optional<CachedBrick> room =
+            m.cache->insert(key, brickSamples(h, b, s.level[b]).count(), pinned);
+        if (!room) {
+            placed = false;
+            break;
+        }
+        slot[b] = *room;
+        decode[b] = 1;
+    }
+    if (!placed) {
+        std::vector<std::pair<BrickCache::Key, std::size_t>> ws;
+        for (std::size_t b : work)
+            ws.push_back({{frame_, b, s.level[b]}, brickSamples(h, b, s.level[b]).count()});
+        const auto placements = m.cache->repack(std::move(ws));
+        if (!placements) throw Error("internal: the brick pool cannot hold a working set that fits its budget");
+        // Read every moving brick before writing any: old and new places may overlap.
+        std::vector<std::pair<const BrickCache::Placement*, std::vector<float>>> moving;
+        for (const BrickCache::Placement& p : *placements) {
+            const std::size_t b = std::get<1>(p.key);
+            const bool filled = p.resident && !decode[b]; // slots taken this frame hold nothing yet
+            slot[b] = p.slot;
+            decode[b] = filled ? 0 : 1;
+            if (filled && p.from != p.slot.offset) {
+                std::vector<float> samples(p.slot.floats);
+                cc_.read(m.pool, std::span<float>(samples), m.pageFloats() + p.from);
+                moving.push_back({&p, std::move(samples)});
+            }
+        }
+        for (const auto& [p, samples] : moving)
+            cc_.write(m.pool, std::span<const float>(samples), m.pageFloats() + p->slot.offset);
+        ++last_.repacks;
+        last_.moved += moving.size();
+    }
+    for (std::size_t b : work) {
+        const int level = s.level[b];
+        if (decode[b]) {
+            Stopwatch sw;
+            Volume v;
+            try {
+                if (m.whole) {
+                    const Dims o = h.brickOrigin(b), d = h.brickDims(b);
+                    v = m.whole->cropped(o, {o.x + d.x, o.y + d.y, o.z + d.z});
+                } else {
+                    v = reader_->decodeBrick(cc_, frame_, b, level);
+                }
+            } catch (...) {
+                m.cache->clear(); // slots of this frame hold no samples: none may be found as a hit later
+                throw;
+            }
+            const std::vector<float> samples = v.toFloat();
+            if (samples.size() != slot[b].floats) throw Error("internal: decoded brick has an unexpected size");
+            cc_.write(m.pool, std::span<const float>(samples), m.pageFloats() + slot[b].offset);
+            last_.decodeMs += sw.milliseconds();
+            ++last_.decoded;
+            last_.bytesDecoded += h.bricks[frame_][b].size;
+            last_.voxelsDecoded += samples.size();
+        } else {
+            ++last_.hits;
+        }
+        page[kHeaderWords + 4 * b + 0] = uintBits(std::uint32_t(m.pageFloats() + slot[b].offset));
+        page[kHeaderWords + 4 * b + 1] = uintBits(std::uint32_t(level));
+    }
+    last_.peakPoolBytes = m.cache->allocator().usedFloats() * sizeof(float);
+    cc_.write(m.pool, std::span<const float>(page), 0);
+}
+
+ImageBuffer BrickRenderer::render() {
+    Impl& m = *impl_;
+    const VczHeader& h = *m.h;
+    last_ = BrickStats{};
+    last_.frames = 1;
+    const std::size_t evictionsBefore = m.cache->evictions();
+    BrickView view;
+    view.camera = camera_;
+    view.width = scene_.width;
+    view.height = scene_.height;
+    view.lod = scene_.lod;
+    view.lodError = scene_.lodError;
+    for (const auto& iso : plan_.isosurfaces)
+        view.isoValues.push_back(iso.value);
+    view.isoOnly = scene_.mode == RenderMode::Iso;
+    view.clipPlanes = plan_.clipPlanes;
+    const Preintegration pre = scene_.mode == RenderMode::Dvr ? scene_.preintegration : Preintegration::None;
+    view.tableNodes = pre != Preintegration::None ? scene_.tableSize : 0;
+    // MIP and x-ray see every value: nothing is hidden by the TF there.
+    const bool tfHides = scene_.mode == RenderMode::Dvr || scene_.mode == RenderMode::Iso;
+    TransferFunction culling = tf_;
+    if (!tfHides) culling.extinction = {{tf_.domain[0], 1.0}};
+    std::vector<int> forced = forced_;
+    if (!forced.empty()) {
+        if (forced.size() != h.brickCount()) throw UsageError("forced levels: one per brick");
+        for (int& l : forced)
+            l = std::clamp(l, 0, m.maxLevel);
+    }
+    BrickSelection s =
+        selectBricks(h, m.stats ? &*m.stats : nullptr, frame_, m.maxLevel, culling, view, forced);
+    s = fitBudget(std::move(s), view, culling);
+    last_.reachable = s.reachable;
+    last_.hidden = s.hidden;
+    loadBricks(s);
+    last_.evictions = m.cache->evictions() - evictionsBefore;
+    std::vector<unsigned char> empty = s.empty;
+    if (!tfHides) std::fill(empty.begin(), empty.end(), 0);
+    m.empty = cc_.upload(empty, CL_MEM_READ_ONLY);
+    m.params.grid.macroDims[0] = s.macro.nx;
+    m.params.grid.macroDims[1] = s.macro.ny;
+    m.params.grid.macroDims[2] = s.macro.nz;
+    m.params.grid.macroDims[3] = s.macro.edge;
+    selection_ = std::move(s);
+    total_.add(last_);
+
+    const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
+    if (m.out.size() != pixels) {
+        m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
+        m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
+    }
+    setArgs(m.kernel, m.pool, m.knots, m.table, m.empty, m.params, m.out, m.depth, m.fog.buffer(cc_));
+    const std::size_t w = std::size_t(scene_.width), hgt = std::size_t(scene_.height);
+    cl::Event ev = m.packet ? cc_.launch2d(m.kernel, (w + 3) / 4, (hgt + 1) / 2, 4, 4)
+                            : cc_.launch2d(m.kernel, w, hgt, 8, 8);
+    lastMs_ = eventMilliseconds(ev);
+    const bool withDepth = !plan_.isosurfaces.empty();
+    const auto rgba = cc_.download(m.out);
+    std::vector<std::string> channels{"R", "G", "B", "A"};
+    if (withDepth) channels.push_back("Z");
+    ImageBuffer img(scene_.width, scene_.height, channels);
+    std::vector<float> depth;
+    if (withDepth) depth = cc_.download(m.depth);
+    const int nc = img.channelCount();
+    for (std::size_t i = 0; i < pixels; ++i) {
+        for (int c = 0; c < 4; ++c)
+            img.pixels[i * std::size_t(nc) + std::size_t(c)] = rgba[i].s[c];
+        if (withDepth) img.pixels[i * std::size_t(nc) + 4] = depth[i];
+    }
+    img.attributes.push_back({"volcl:mode", std::string(renderModeName(scene_.mode))});
+    img.attributes.push_back({"volcl:step", static_cast<float>(scene_.step)});
+    img.attributes.push_back(
+        {"volcl:preintegration", std::string(preintegrationName(scene_.preintegration))});
+    img.attributes.push_back({"volcl:effects", plan_.defines.toOptions()});
+    img.attributes.push_back({"volcl:lod", std::string(lodModeName(scene_.lod))});
+    return img;
+}
+
+const cl::Buffer& BrickRenderer::outputBuffer() const noexcept {
+    return impl_->out.get();
+}
+
+std::string BrickRenderer::statistics() const {
+    std::ostringstream os;
+    os << "last frame: " << last_.summary();
+    if (total_.frames > 1) os << "\nall " << total_.frames << " frames: " << total_.summary();
+    return os.str();
+}
+
+} // namespace volcl

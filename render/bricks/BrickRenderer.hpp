@@ -1,0 +1,103 @@
+// The compressed-brick renderer: ray marching straight from a .vcz, decoding only the bricks a frame needs
+// at the level it needs, into a device brick pool with an LRU budget.
+#pragma once
+
+#include "render/VolumeRenderer.hpp"
+#include "render/bricks/BrickLod.hpp"
+
+#include <cstddef>
+#include <memory>
+#include <string>
+
+namespace volcl {
+
+class VczReader;
+
+/// Counters of the brick cache (`volcl render --stats`).
+struct BrickStats {
+    std::size_t frames = 0;
+    std::size_t visited = 0;       ///< bricks in the working set (decoded or found in the pool)
+    std::size_t reachable = 0;     ///< bricks some ray can reach
+    std::size_t hidden = 0;        ///< reachable bricks the transfer function hides (never decoded)
+    std::size_t decoded = 0;       ///< cache misses: bricks decoded
+    std::size_t hits = 0;          ///< bricks found in the pool at the wanted level
+    std::size_t bytesDecoded = 0;  ///< compressed payload bytes read by the decodes
+    std::size_t voxelsDecoded = 0; ///< samples the decodes produced
+    std::size_t coarsened = 0; ///< bricks drawn coarser than chosen so that the working set fits the budget
+    std::size_t evictions = 0;
+    std::size_t repacks = 0; ///< frames whose pool, fragmented by earlier frames' bricks, was placed afresh
+    std::size_t moved = 0;   ///< bricks those repacks moved inside the pool instead of decoding them again
+    std::size_t peakPoolBytes = 0; ///< most pool bytes in use
+    double decodeMs = 0;
+    void add(const BrickStats& f);
+    /// "bricks visited 12, decoded 12, ..." on one line.
+    std::string summary() const;
+};
+
+/// Renders scenes of one frame of a .vcz (cl/render/raymarch_bricks.cl: the grid ray marcher's modes and effects,
+/// samples read through a page table). Each render() computes the frame's working set and levels
+/// (selectBricks), decodes what the pool lacks on the host, uploads it and marches. The reader must outlive
+/// the renderer. Cubic filters and smoothing are refused (they need the whole grid). Example:
+/// ```
+/// auto reader = std::make_shared<const volcl::VczReader>(volcl::readFileBytes("head.vcz"), "head.vcz");
+/// volcl::BrickRenderer r(cc, reader, 0, tf, scene);
+/// volcl::ImageBuffer img = r.render();
+/// std::cerr << r.lastStats().summary() << '\n';
+/// ```
+class BrickRenderer final : public VolumeRenderer {
+public:
+    /// Throws UsageError for a scene the brick renderer cannot draw or a budget too small for one brick at
+    /// its coarsest level, IoError for a corrupted brick met while rendering (naming the brick).
+    BrickRenderer(ComputeContext& cc, std::shared_ptr<const VczReader> reader, std::size_t frame,
+                  const TransferFunction& tf, const Scene& scene);
+    ~BrickRenderer() override;
+    BrickRenderer(const BrickRenderer&) = delete;
+    BrickRenderer& operator=(const BrickRenderer&) = delete;
+
+    WorldBox bounds() const override;
+    ValueRange valueRange() const override;
+    EffectPlan planEffects(const Scene& scene) const override;
+    void setScene(const Scene& scene) override;
+    void setTransferFunction(const TransferFunction& tf) override;
+    void setView(const Camera& camera, int width, int height, double step) override;
+    ImageBuffer render() override;
+
+    const cl::Buffer& outputBuffer() const noexcept override;
+    const EffectPlan& plan() const noexcept override { return plan_; }
+    const Scene& scene() const noexcept override { return scene_; }
+    const Camera& camera() const noexcept override { return camera_; }
+    double lastKernelMilliseconds() const noexcept override { return lastMs_; }
+    double lastTableMilliseconds() const noexcept override { return tableMs_; }
+    /// The cache counters of the last frame and of all frames so far.
+    std::string statistics() const override;
+
+    const BrickStats& lastStats() const noexcept { return last_; }
+    const BrickStats& totalStats() const noexcept { return total_; }
+    const BrickSelection& lastSelection() const noexcept { return selection_; }
+    /// Draws brick b at `levels[b]` (capped at the file's levels) instead of choosing levels (tests,
+    /// benchmarks); an empty vector returns to render.lod. Reachability and the TF still decide what is
+    /// decoded.
+    void setForcedLevels(std::vector<int> levels) { forced_ = std::move(levels); }
+
+private:
+    struct Impl;
+    void rebuild(bool tfChanged);
+    void makePool();
+    /// Levels that fit the pool: coarsens the cheapest bricks until the working set fits.
+    BrickSelection fitBudget(BrickSelection s, const BrickView& view, const TransferFunction& tf);
+    void loadBricks(const BrickSelection& s);
+    ComputeContext& cc_;
+    std::shared_ptr<const VczReader> reader_;
+    std::size_t frame_;
+    TransferFunction tf_;
+    Scene scene_;
+    Camera camera_;
+    EffectPlan plan_;
+    std::unique_ptr<Impl> impl_;
+    BrickSelection selection_;
+    std::vector<int> forced_;
+    BrickStats last_, total_;
+    double lastMs_ = 0.0, tableMs_ = 0.0;
+};
+
+} // namespace volcl

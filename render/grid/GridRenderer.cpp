@@ -1,0 +1,494 @@
+// The grid renderer: voxel upload, macrocell emptiness, tables, kernel parameters and launches.
+#include "render/grid/GridRenderer.hpp"
+
+#include "cl/volcl_shared.h"
+#include "core/Error.hpp"
+#include "core/Volume.hpp"
+#include "render/FogDevice.hpp"
+#include "render/FrameParams.hpp"
+#include "render/VecMath.hpp"
+#include "core/MemoryBudget.hpp"
+#include "render/grid/BsplineField.hpp"
+#include "render/grid/GridDetail.hpp"
+#include "render/grid/PathTracer.hpp"
+#include "core/runtime/Timing.hpp"
+#include "preintegration/PreintegrationTable.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+namespace volcl {
+namespace {
+
+constexpr unsigned kMacrocellEdge = 8; // voxels per macrocell edge: 8^3 cells keep the grid small and tight
+
+std::string fmt(double v) {
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+/// VOXEL_TYPE: voxels keep their stored type on the device; the kernel converts on load (exact for all
+/// four types). 0 float, 1 uint8, 2 uint16, 3 int16.
+int voxelTypeCode(const Volume& volume) {
+    return volume.type() == ScalarType::UInt8    ? 1
+           : volume.type() == ScalarType::UInt16 ? 2
+           : volume.type() == ScalarType::Int16  ? 3
+                                                 : 0;
+}
+
+/// The iso-surface table's value range: the data's (widened when the data is constant).
+std::array<double, 2> isoTableDomain(const ValueRange& r) {
+    return {r.min, r.max > r.min ? r.max : r.min + 1.0};
+}
+
+/// The pre-integrated lighting table as three N x N slices of float4: (ambient rgb, alpha), (front diffuse
+/// rgb, emission centroid), (back diffuse rgb, 0), built on the host in double.
+std::vector<cl_float4> lightingTableSlices(const TransferFunction& tf, int size, double step) {
+    const ImageBuffer img = lightingTableImage(tf, size, step);
+    const std::size_t n = std::size_t(size) * std::size_t(size);
+    std::vector<cl_float4> out(3 * n);
+    const int nc = img.channelCount();
+    for (std::size_t i = 0; i < n; ++i) {
+        const float* px = img.pixels.data() + i * std::size_t(nc);
+        out[i] = {{px[0], px[1], px[2], px[3]}};
+        out[n + i] = {{px[4], px[5], px[6], px[10]}};
+        out[2 * n + i] = {{px[7], px[8], px[9], 0.0f}};
+    }
+    return out;
+}
+
+std::string skippingHow() {
+    return std::to_string(kMacrocellEdge) + "^3-voxel macrocells";
+}
+
+/// The shared planner on the grid's box and (already scanned) value range, plus the voxel type: the
+/// renderer scans the volume once, not on every scene change (a 7M-voxel scan per adaptive-quality step
+/// change cost more than the coarse frame).
+EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& range) {
+    EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow(), true);
+    // The cubic filters read float spline coefficients instead of the voxels; smoothing, float voxels.
+    p.defines.set("VOXEL_TYPE", scene.filter == ReconstructionFilter::Linear && scene.smoothing == 0.0
+                                    ? static_cast<long long>(voxelTypeCode(volume))
+                                    : 0LL);
+    return p;
+}
+
+} // namespace
+
+WorldBox gridBounds(const Volume& volume) {
+    const Dims& d = volume.dims();
+    return {volume.origin,
+            {double(d.x - 1) * volume.spacing[0], double(d.y - 1) * volume.spacing[1],
+             double(d.z - 1) * volume.spacing[2]}};
+}
+
+EffectPlan planEffects(const Scene& scene, const Volume& volume, const TransferFunction& tf) {
+    (void)tf;
+    return planGrid(scene, volume, grid_detail::valueRange(volume));
+}
+
+Camera defaultCamera(const Volume& volume) {
+    return defaultCamera(gridBounds(volume));
+}
+
+struct GridRenderer::Impl {
+    ValueRange range;               ///< of the volume, scanned once at construction
+    DeviceBuffer<cl_uchar> volume;  ///< voxels in their stored type, plus one spare voxel (grid_sample.h)
+    DeviceBuffer<cl_uchar> corners; ///< uint8 volumes: 8 corner values per cell for the packet kernels
+    bool useCorners = false;        ///< packet kernels read `corners` (-DCORNER_VOXELS)
+    /// Cubic filters: the spline's coefficients (float, padded) and macrocells bounding the spline, for
+    /// `splineFilter` (Linear: none built yet).
+    ReconstructionFilter splineFilter = ReconstructionFilter::Linear;
+    double splineSmoothing = 0.0;
+    DeviceBuffer<float> spline;
+    grid_detail::MacrocellGrid splineMacro;
+    /// Linear filter with smoothing: the smoothed voxels (float, one spare) and their macrocells, for
+    /// `smoothedSigma` (0: none built yet).
+    double smoothedSigma = 0.0;
+    DeviceBuffer<float> smoothed;
+    grid_detail::MacrocellGrid smoothedMacro;
+    DeviceBuffer<VolclTfKnot> knots;
+    DeviceBuffer<cl_float4> table;
+    DeviceBuffer<cl_uchar> empty;
+    DeviceBuffer<cl_float4> out;
+    DeviceBuffer<float> depth;
+    FogDevice fog; ///< FOG: parameters and the height-map buffer
+    std::size_t knotCount = 0;
+    grid_detail::MacrocellGrid macro;
+    std::vector<unsigned char> emptyHost;
+    cl::Kernel kernel;
+    bool packet = false; ///< kernel is raymarch_packet: one work-item per 4x2 block of pixels
+    std::string tableKey;
+    int tableLengths = 1;
+    /// Recently used tables, most recent last: an interactive viewer alternates between a few steps, and a
+    /// 2D table per step costs 10-100 ms to rebuild (far more than a coarse frame).
+    struct CachedTable {
+        std::string key;
+        DeviceBuffer<cl_float4> table;
+        int lengths = 1;
+    };
+    std::vector<CachedTable> tableCache;
+    static constexpr std::size_t kTableCacheSize = 8;
+    VolclGridRenderParams params{};
+    /// Multiple scattering: the path tracer's majorants and accumulation (built on the first such scene).
+    std::unique_ptr<GridPathTracer> pathTracer;
+    std::string majorantKey;
+};
+
+GridRenderer::GridRenderer(ComputeContext& cc, const Volume& volume, const TransferFunction& tf,
+                           const Scene& scene)
+    : cc_(cc), volume_(volume), tf_(tf), scene_(scene), impl_(std::make_unique<Impl>()) {
+    scene_.validate();
+    tf_.validate();
+    if (volume.empty()) throw DataError("volume is empty");
+    if (volume.voxelCount() >= (std::size_t(1) << 32))
+        throw DataError("volume has " + std::to_string(volume.voxelCount()) +
+                        " voxels; the ray marcher indexes at most 2^32 - 1");
+    if (volume.type() == ScalarType::Float32) {
+        std::size_t bad = 0;
+        for (float v : volume.values<float>())
+            bad += std::isfinite(v) ? 0 : 1;
+        if (bad)
+            throw DataError("volume has " + std::to_string(bad) +
+                            " NaN/Inf voxels; the ray marcher needs finite data (replace them first)");
+    }
+    std::vector<cl_uchar> bytes(volume.byteSize() + scalarSize(volume.type()), 0);
+    std::memcpy(bytes.data(), volume.bytes().data(), volume.byteSize());
+    impl_->volume = cc_.upload(bytes, CL_MEM_READ_ONLY);
+    impl_->macro = grid_detail::buildMacrocells(volume, kMacrocellEdge);
+    impl_->range = grid_detail::valueRange(volume);
+    impl_->useCorners =
+        volume.type() == ScalarType::UInt8 && volume.voxelCount() <= grid_detail::kMaxCornerVoxels;
+    impl_->out = cc_.allocate<cl_float4>(1);
+    impl_->depth = cc_.allocate<float>(1);
+    rebuild(true);
+}
+
+GridRenderer::~GridRenderer() = default;
+
+std::size_t GridRenderer::macrocellCount() const noexcept {
+    return impl_->macro.min.size();
+}
+
+void GridRenderer::setScene(const Scene& scene) {
+    scene.validate();
+    scene_ = scene;
+    rebuild(false);
+}
+
+void GridRenderer::setView(const Camera& camera, int width, int height, double step) {
+    Scene s = withView(scene_, camera, width, height, step);
+    if (step != scene_.step) {
+        setScene(s);
+        return;
+    }
+    s.validate();
+    const bool same = camera.projection == camera_.projection && camera.eye == camera_.eye &&
+                      camera.target == camera_.target && camera.up == camera_.up && camera.height == camera_.height &&
+                      camera.fovYDeg == camera_.fovYDeg && width == scene_.width && height == scene_.height;
+    scene_ = s;
+    camera_ = camera;
+    impl_->params.camera = cameraParams(camera_, scene_.width, scene_.height);
+    if (impl_->pathTracer && !same) impl_->pathTracer->reset(); // the same view keeps accumulating
+}
+
+void GridRenderer::setTransferFunction(const TransferFunction& tf) {
+    tf.validate();
+    tf_ = tf;
+    rebuild(true);
+}
+
+void GridRenderer::rebuild(bool tfChanged) {
+    camera_ = scene_.camera ? *scene_.camera : defaultCamera(bounds());
+    const EffectPlan previous = plan_;
+    plan_ = planGrid(scene_, volume_, impl_->range);
+    Impl& m = *impl_;
+
+    scene_.validateSteps(norm(bounds().extent));
+
+    TransferFunction shaded = tf_;
+    if (plan_.colorScale != 1.0)
+        for (auto& c : shaded.color)
+            for (double& v : c.rgb)
+                v *= plan_.colorScale;
+    if (tfChanged || previous.colorScale != plan_.colorScale) {
+        const auto knots = shaded.packKnots();
+        m.knots = cc_.upload(knots, CL_MEM_READ_ONLY);
+        m.knotCount = knots.size();
+    }
+
+    // Pre-integration table: rebuilt when the TF, the step, the size or the kind changes.
+    const Preintegration pre = scene_.mode == RenderMode::Dvr ? scene_.preintegration : Preintegration::None;
+    tableMs_ = 0.0;
+    if (pre != Preintegration::None) {
+        TableSpec spec;
+        spec.size = scene_.tableSize;
+        if (pre == Preintegration::Table2d) {
+            spec.axis = LengthAxis::Fixed;
+            spec.step = scene_.step;
+        } else {
+            spec.axis = LengthAxis::Linear;
+            spec.lengths = scene_.tableLengths;
+            spec.maxLength = scene_.step;
+        }
+        const std::string key = shaded.toJson() + "|" + std::to_string(int(pre)) + "|" +
+                                std::to_string(spec.size) + "|" + fmt(scene_.step) + "|" +
+                                std::to_string(spec.lengths) + (plan_.preintLighting ? "|lighting" : "");
+        if (key != m.tableKey) {
+            auto hit = std::find_if(m.tableCache.begin(), m.tableCache.end(),
+                                    [&](const Impl::CachedTable& c) { return c.key == key; });
+            Impl::CachedTable entry;
+            if (hit != m.tableCache.end()) {
+                entry = std::move(*hit);
+                m.tableCache.erase(hit);
+            } else {
+                Stopwatch sw;
+                if (plan_.preintLighting) {
+                    entry = {key, cc_.upload(lightingTableSlices(shaded, spec.size, scene_.step), CL_MEM_READ_ONLY), 1};
+                    tableMs_ = sw.milliseconds();
+                } else {
+                    const PreintegrationTable t = generatePreintegrationTable(shaded, spec, {}, &cc_);
+                    tableMs_ = sw.milliseconds();
+                    std::vector<cl_float4> rgba(t.rgba.size() / 4);
+                    std::memcpy(rgba.data(), t.rgba.data(), rgba.size() * sizeof(cl_float4));
+                    entry = {key, cc_.upload(rgba, CL_MEM_READ_ONLY), int(t.sliceCount())};
+                }
+            }
+            m.table = entry.table;
+            m.tableKey = key;
+            m.tableLengths = entry.lengths;
+            m.tableCache.push_back(std::move(entry));
+            if (m.tableCache.size() > Impl::kTableCacheSize) m.tableCache.erase(m.tableCache.begin());
+        }
+    } else if (plan_.isoTable) {
+        // The iso-surface table over the data's value range (colours associated, scaled as the TF's).
+        std::vector<IsoSurface> surfaces;
+        for (const auto& iso : plan_.isosurfaces) {
+            const double a = iso.rgba[3], cs = plan_.colorScale;
+            surfaces.push_back({iso.value, {iso.rgba[0] * cs * a, iso.rgba[1] * cs * a, iso.rgba[2] * cs * a, a}});
+        }
+        const std::array<double, 2> domain = isoTableDomain(m.range);
+        std::ostringstream key;
+        key << "iso|" << scene_.tableSize << "|" << domain[0] << "|" << domain[1];
+        for (const auto& su : surfaces)
+            key << "|" << su.value << "," << su.rgba[0] << "," << su.rgba[1] << "," << su.rgba[2] << "," << su.rgba[3];
+        if (key.str() != m.tableKey) {
+            Stopwatch sw;
+            const ImageBuffer img = isoSurfaceTableImage(surfaces, domain, scene_.tableSize);
+            std::vector<cl_float4> rgba(std::size_t(img.width) * std::size_t(img.height));
+            std::memcpy(rgba.data(), img.pixels.data(), rgba.size() * sizeof(cl_float4));
+            m.table = cc_.upload(rgba, CL_MEM_READ_ONLY);
+            m.tableKey = key.str();
+            m.tableLengths = 1;
+            tableMs_ = sw.milliseconds();
+        }
+    } else if (m.table.size() == 0) {
+        m.table = cc_.allocate<cl_float4>(1, CL_MEM_READ_ONLY);
+    }
+
+    // Cubic filters: the spline's coefficients, built once per filter (prefiltering a 35 MB volume takes
+    // about a second; camera and TF changes keep them).
+    const bool spline = scene_.filter != ReconstructionFilter::Linear;
+    if (spline && (m.splineFilter != scene_.filter || m.splineSmoothing != scene_.smoothing)) {
+        checkMemoryBudget(bsplineCoefficientBytes(volume_, sizeof(float)), 0, "the volume",
+                          "the cubic filter's coefficients");
+        const BsplineCoefficients<float> c = bsplineCoefficients<float>(volume_, scene_.filter, scene_.smoothing);
+        // The interpolating prefilter amplifies alternating data up to 27x: values near float's limit overflow.
+        if (!std::all_of(c.c.begin(), c.c.end(), [](float v) { return std::isfinite(v); }))
+            throw DataError("volume values up to " + fmt(m.range.max) + " overflow the " +
+                            std::string(filterName(scene_.filter)) +
+                            " filter's float coefficients (use --filter linear)");
+        m.splineMacro = bsplineMacrocells(c, kMacrocellEdge);
+        m.spline = cc_.upload(c.c, CL_MEM_READ_ONLY);
+        m.splineFilter = scene_.filter;
+        m.splineSmoothing = scene_.smoothing;
+    }
+    // Linear filter on smoothed data: the smoothed voxels as floats, built once per sigma.
+    const bool smoothedLinear = !spline && scene_.smoothing > 0.0;
+    if (smoothedLinear && m.smoothedSigma != scene_.smoothing) {
+        checkMemoryBudget(volume_.voxelCount() * sizeof(float), 0, "the volume", "the smoothed voxels");
+        const Volume sm = smoothedVolume(volume_, scene_.smoothing);
+        m.smoothedMacro = grid_detail::buildMacrocells(sm, kMacrocellEdge);
+        std::vector<float> voxels(sm.voxelCount() + 1, 0.0f); // + the spare voxel grid_sample.h reads
+        std::memcpy(voxels.data(), sm.bytes().data(), sm.byteSize());
+        m.smoothed = cc_.upload(voxels, CL_MEM_READ_ONLY);
+        m.smoothedSigma = scene_.smoothing;
+    }
+    const grid_detail::MacrocellGrid& macro = spline ? m.splineMacro : smoothedLinear ? m.smoothedMacro : m.macro;
+
+    // Macrocell emptiness from the TF (and the iso-values), for the sampling the kernel will use.
+    std::vector<double> isoValues;
+    for (const auto& iso : plan_.isosurfaces)
+        isoValues.push_back(iso.value);
+    const int tableNodes = pre != Preintegration::None ? scene_.tableSize : 0;
+    m.emptyHost =
+        grid_detail::emptyMacrocells(macro, shaded, isoValues, scene_.mode == RenderMode::Iso, tableNodes);
+    std::size_t emptyCount = 0;
+    for (unsigned char e : m.emptyHost)
+        emptyCount += e;
+    emptyFraction_ = m.emptyHost.empty() ? 0.0 : double(emptyCount) / double(m.emptyHost.size());
+    m.empty = cc_.upload(m.emptyHost, CL_MEM_READ_ONLY);
+
+    // Multiple scattering: the path tracer reads the stored voxels trilinearly, with majorants from their
+    // macrocells.
+    if (plan_.pathTracing) {
+        if (!m.pathTracer) m.pathTracer = std::make_unique<GridPathTracer>(cc_);
+        const std::string key = shaded.toJson();
+        if (key != m.majorantKey) {
+            m.pathTracer->setMajorants(majorantGrid(m.macro, shaded));
+            m.majorantKey = key;
+        }
+        m.pathTracer->reset();
+        KernelDefines d = plan_.defines;
+        d.set("VOXEL_TYPE", static_cast<long long>(voxelTypeCode(volume_)));
+        m.packet = false;
+        m.kernel = cc_.kernel("render/pathtrace.cl", "pathtrace", d);
+        m.params = grid_detail::makeParams(scene_, camera_, volume_, m.range, tf_, plan_, m.macro, m.knotCount,
+                                           m.tableLengths);
+        return;
+    }
+    // Unlit DVR without iso-surfaces (the common, time-critical case) runs as explicit 8-ray packets.
+    m.packet = scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
+    m.kernel = cc_.kernel("render/raymarch.cl", m.packet ? "raymarch_packet" : "raymarch",
+                          m.packet ? packetDefines(plan_.defines, spline || smoothedLinear) : plan_.defines);
+    m.params =
+        grid_detail::makeParams(scene_, camera_, volume_, m.range, tf_, plan_, macro, m.knotCount, m.tableLengths);
+    if (plan_.isoTable) {
+        const std::array<double, 2> domain = isoTableDomain(m.range);
+        m.params.tf.domainLo = float(domain[0]);
+        m.params.tf.domainHi = float(domain[1]);
+        m.params.tf.tableSize = volcl_uint(scene_.tableSize);
+    }
+    if (plan_.fog) m.params.fog = m.fog.update(cc_, scene_.effects.fog, bounds(), plan_.fogMap);
+}
+
+KernelDefines GridRenderer::packetDefines(KernelDefines d, bool floatCopy) {
+    Impl& m = *impl_;
+    if (m.useCorners && !floatCopy) {
+        // A memory layout, not an effect: kept out of plan_.defines (what --explain and the EXR report).
+        d.set("CORNER_VOXELS");
+        if (m.corners.size() == 0)
+            m.corners = cc_.upload(grid_detail::cellCorners(volume_), CL_MEM_READ_ONLY);
+    }
+    return d;
+}
+
+ImageBuffer GridRenderer::launch(cl::Kernel& kernel, const cl::Buffer& voxels, bool withDepth, bool packet) {
+    Impl& m = *impl_;
+    const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
+    if (m.out.size() != pixels) {
+        m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
+        m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
+    }
+    if (plan_.pathTracing) {
+        m.pathTracer->reset();
+        lastMs_ = m.pathTracer->accumulate(kernel, voxels, m.knots, m.params, scene_.effects, scene_.effects.samples,
+                                           m.out);
+        return readImage(false);
+    }
+        setArgs(kernel, voxels, m.knots, m.table, m.empty, m.params, m.out, m.depth, m.fog.buffer(cc_));
+    // Tiles of nearby rays share cache lines in y as well as x: 8x8 rays, or 4x4 packets of 4x2 rays.
+    const std::size_t w = std::size_t(scene_.width), h = std::size_t(scene_.height);
+    cl::Event ev =
+        packet ? cc_.launch2d(kernel, (w + 3) / 4, (h + 1) / 2, 4, 4) : cc_.launch2d(kernel, w, h, 8, 8);
+    lastMs_ = eventMilliseconds(ev);
+    return readImage(withDepth);
+}
+
+ImageBuffer GridRenderer::readImage(bool withDepth) {
+    Impl& m = *impl_;
+    const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
+    const auto rgba = cc_.download(m.out);
+    std::vector<std::string> channels{"R", "G", "B", "A"};
+    if (withDepth) channels.push_back("Z");
+    ImageBuffer img(scene_.width, scene_.height, channels);
+    std::vector<float> depth;
+    if (withDepth) depth = cc_.download(m.depth);
+    const int nc = img.channelCount();
+    for (std::size_t i = 0; i < pixels; ++i) {
+        for (int c = 0; c < 4; ++c)
+            img.pixels[i * nc + c] = rgba[i].s[c];
+        if (withDepth) img.pixels[i * nc + 4] = depth[i];
+    }
+    img.attributes.push_back({"volcl:mode", std::string(renderModeName(scene_.mode))});
+    img.attributes.push_back({"volcl:step", static_cast<float>(scene_.step)});
+    img.attributes.push_back(
+        {"volcl:preintegration", std::string(preintegrationName(scene_.preintegration))});
+    img.attributes.push_back({"volcl:effects", plan_.defines.toOptions()});
+    if (scene_.filter != ReconstructionFilter::Linear) // absent: linear, as in images from before the filters
+        img.attributes.push_back({"volcl:filter", std::string(filterName(scene_.filter))});
+    return img;
+}
+
+const cl::Buffer& GridRenderer::outputBuffer() const noexcept {
+    return impl_->out.get();
+}
+
+ImageBuffer GridRenderer::render() {
+    Impl& m = *impl_;
+    const cl::Buffer& voxels = scene_.filter != ReconstructionFilter::Linear ? m.spline.get()
+                               : scene_.smoothing > 0.0                    ? m.smoothed.get()
+                               : m.packet && m.useCorners                  ? m.corners.get()
+                                                                           : m.volume.get();
+    if (plan_.pathTracing) return launch(m.kernel, m.volume.get(), false, false);
+    return launch(m.kernel, voxels, !plan_.isosurfaces.empty(), m.packet);
+}
+
+int GridRenderer::accumulateSamples(int samples) {
+    Impl& m = *impl_;
+    if (!plan_.pathTracing) throw UsageError("progressive accumulation needs effects.scattering.order multiple");
+    const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
+    if (m.out.size() != pixels) {
+        m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
+        m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
+        m.pathTracer->reset();
+    }
+    lastMs_ = m.pathTracer->accumulate(m.kernel, m.volume.get(), m.knots, m.params, scene_.effects, samples, m.out);
+    return m.pathTracer->samplesDone();
+}
+
+ImageBuffer GridRenderer::renderProgressive(int samples) {
+    if (!plan_.pathTracing) return render();
+    accumulateSamples(samples);
+    return accumulatedImage();
+}
+
+ImageBuffer GridRenderer::accumulatedImage() {
+    if (!plan_.pathTracing) throw UsageError("progressive accumulation needs effects.scattering.order multiple");
+    return readImage(false);
+}
+
+ImageBuffer GridRenderer::renderPlainBaseline() {
+    if (scene_.mode != RenderMode::Dvr || scene_.preintegration != Preintegration::None)
+        throw UsageError("the plain baseline kernel renders point-sampled dvr only");
+    KernelDefines d;
+    d.set("VOXEL_TYPE", static_cast<long long>(voxelTypeCode(volume_)));
+    cl::Kernel k = cc_.kernel("render/raymarch_plain.cl", "raymarch_plain", packetDefines(d, false));
+    return launch(k, impl_->useCorners ? impl_->corners.get() : impl_->volume.get(), false, true);
+}
+
+WorldBox GridRenderer::bounds() const {
+    return gridBounds(volume_);
+}
+
+ValueRange GridRenderer::valueRange() const {
+    return impl_->range;
+}
+
+EffectPlan GridRenderer::planEffects(const Scene& scene) const {
+    return planGrid(scene, volume_, impl_->range);
+}
+
+std::string GridRenderer::statistics() const {
+    std::ostringstream os;
+    os << "macrocells: " << macrocellCount() << ", " << std::setprecision(1) << std::fixed
+       << 100.0 * emptyFraction_ << "% empty";
+    return os.str();
+}
+
+} // namespace volcl

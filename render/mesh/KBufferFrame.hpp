@@ -1,0 +1,48 @@
+// What one k-buffer frame is computed from, shared by the OpenCL renderer and its C++ mirror: normalized mesh
+// points, the frame's kernel parameters and the pre-integration table's shape.
+#pragma once
+
+#include "cl/mesh/mesh_kbuffer_shared.h"
+#include "host/mesh/TetMesh.hpp"
+#include "render/mesh/MeshFaces.hpp"
+#include "render/Scene.hpp"
+#include "core/runtime/ClRuntime.hpp"
+#include "preintegration/PreintegrationTable.hpp"
+
+#include <cstddef>
+#include <vector>
+
+namespace volcl {
+
+inline constexpr int kKBufferMinK = 2, kKBufferMaxK = 8, kKBufferDefaultK = 6;
+inline constexpr int kKBufferTile = 16; ///< tile edge in pixels (one work-group per tile)
+
+/// The mesh in normalized coordinates, (p - centre) / scale, as float: huge and tiny meshes rasterise with the
+/// same float precision. `scale` is half the box diagonal (1 for a single point).
+struct KBufferGeometry {
+    Vec3 centre{0, 0, 0};
+    double scale = 1.0;
+    std::vector<cl_float4> points; ///< the mesh's points, then the faces' extra points
+    std::vector<float> scalars;    ///< one per point
+};
+KBufferGeometry kbufferGeometry(const mesh::TetMesh& mesh, const MeshFaces& faces);
+
+/// Kernel parameters of a frame: camera in normalized coordinates, image and tile counts, the faces drawn,
+/// early termination (values >= 1 disable it) and the table geometry `tf`.
+VolclKBufferParams kbufferParams(const KBufferGeometry& g, const Camera& camera, int width, int height,
+                                 double earlyTermination, std::size_t faceCount, const VolclTfParams& tf);
+
+/// The 3D pre-integration table of a k-buffer frame: scene.tableSize nodes, scene.tableLengths linear
+/// lengths up to `maxLength` (the longest edge at full quality: no segment inside a tet is longer; the box
+/// diagonal while the level of detail drops faces).
+TableSpec kbufferTableSpec(const Scene& scene, double maxLength);
+/// Edge of the front x back node blocks of the device table (KB_TBLOCK in cl/mesh/mesh_kbuffer.cl).
+inline constexpr unsigned kKBufferTableBlock = 4;
+/// The table as kb_raster reads it: kKBufferTableBlock^2 node blocks (front-major), inside a block front-major
+/// nodes, each node's length slices contiguous; blocks past the last node are zero. The eight values of a
+/// lookup share one block (one page, not four) and its two lengths one cache line. Same values as `table`.
+std::vector<cl_float4> kbufferBlockedTable(const PreintegrationTable& table);
+/// Table geometry as the kernels read it.
+VolclTfParams kbufferTfParams(const PreintegrationTable& table, std::size_t knotCount);
+
+} // namespace volcl

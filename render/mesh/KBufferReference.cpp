@@ -1,0 +1,297 @@
+// C++ mirror of cl/mesh/mesh_kbuffer.cl, operation for operation in float.
+#include "render/mesh/KBufferReference.hpp"
+
+#include "core/Error.hpp"
+#include "render/mesh/RadixSort.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace volcl {
+namespace {
+
+constexpr float kNear = 1e-4f;
+
+struct Proj {
+    float x, y, z, w;
+};
+
+Proj project(const cl_float4& p, const VolclKBufferParams& P) {
+    const float rx = p.s[0] - P.eye[0], ry = p.s[1] - P.eye[1], rz = p.s[2] - P.eye[2];
+    const float z = rx * P.forward[0] + ry * P.forward[1] + rz * P.forward[2];
+    const float xr = rx * P.right[0] + ry * P.right[1] + rz * P.right[2];
+    const float yu = rx * P.up[0] + ry * P.up[1] + rz * P.up[2];
+    float nx, ny, w = 1.0f;
+    if (P.perspective) {
+        if (z > kNear) {
+            w = 1.0f / z;
+            nx = xr / (z * P.halfX);
+            ny = yu / (z * P.halfY);
+        } else {
+            w = 0.0f;
+            nx = 0.0f;
+            ny = 0.0f;
+        }
+    } else {
+        nx = xr / P.halfX;
+        ny = yu / P.halfY;
+    }
+    const float sx = (nx + 1.0f) * (0.5f * float(P.width)) - 0.5f;
+    const float sy = (1.0f - ny) * (0.5f * float(P.height)) - 0.5f;
+    return {sx, sy, z, w};
+}
+
+std::array<float, 4> bilinear(const std::vector<float>& table, unsigned n, unsigned k, float u, float v) {
+    const float hi = float(n - 1);
+    u = std::clamp(u, 0.0f, hi);
+    v = std::clamp(v, 0.0f, hi);
+    const unsigned i0 = std::min(unsigned(u), n - 2), j0 = std::min(unsigned(v), n - 2);
+    const float fu = u - float(i0), fv = v - float(j0);
+    const float* row0 = table.data() + ((std::size_t(k) * n + i0) * n) * 4;
+    const float* row1 = row0 + std::size_t(n) * 4;
+    std::array<float, 4> out{};
+    for (int c = 0; c < 4; ++c) {
+        const float a = row0[j0 * 4 + c] + fv * (row0[(j0 + 1) * 4 + c] - row0[j0 * 4 + c]);
+        const float b = row1[j0 * 4 + c] + fv * (row1[(j0 + 1) * 4 + c] - row1[j0 * 4 + c]);
+        out[c] = a + fu * (b - a);
+    }
+    return out;
+}
+
+/// mesh_kbuffer.cl's kb_preint (tf_lookup.h's preint_segment for PREINT 3 with precomputed factors).
+std::array<float, 4> preintSegment(const std::vector<float>& table, const VolclKBufferParams& P, float sf, float sb,
+                                   float len) {
+    const VolclTfParams& T = P.tf;
+    const float u = (sf - T.domainLo) * P.tableScale, v = (sb - T.domainLo) * P.tableScale;
+    const float kf = len * P.lengthScale - 1.0f;
+    std::array<float, 4> e;
+    float tableLen = len;
+    if (kf <= 0.0f) {
+        e = bilinear(table, T.tableSize, 0, u, v);
+        const float w = std::fmax(kf + 1.0f, 0.0f);
+        for (float& x : e)
+            x = x * w;
+    } else if (kf >= float(T.tableLengths - 1)) {
+        e = bilinear(table, T.tableSize, T.tableLengths - 1, u, v);
+        tableLen = T.tableMaxLength;
+    } else {
+        const unsigned k0 = unsigned(kf);
+        const float fk = kf - float(k0);
+        const auto a = bilinear(table, T.tableSize, k0, u, v);
+        const auto b = bilinear(table, T.tableSize, k0 + 1, u, v);
+        for (int c = 0; c < 4; ++c)
+            e[c] = a[c] + fk * (b[c] - a[c]);
+    }
+    if (len != tableLen) {
+        const float a = std::clamp(e[3], 0.0f, 1.0f);
+        const float an = a < 1.0f ? 1.0f - std::pow(1.0f - a, len / tableLen) : 1.0f;
+        for (int c = 0; c < 3; ++c)
+            e[c] = a > 0.0f ? e[c] * (an / a) : e[c] * (len / tableLen);
+        e[3] = an;
+    }
+    return e;
+}
+
+struct Frag {
+    float t, s;
+    unsigned f;
+};
+
+struct Pixel {
+    std::array<float, 4> acc{0, 0, 0, 0};
+    bool done = false;
+    int count = 0;
+    float lastPop = -std::numeric_limits<float>::infinity();
+};
+
+class Mirror {
+public:
+    Mirror(const KBufferMirrorInput& in, KBufferMirrorStats* stats)
+        : in_(in), P_(in.params), k_(in.k), stats_(stats),
+          pixels_(std::size_t(P_.width) * P_.height), frags_(pixels_.size() * std::size_t(k_)) {}
+
+    void segment(Pixel& px, const Frag& a, const Frag& b) {
+        if (stats_) {
+            if (a.t < px.lastPop) ++stats_->misorderedPops;
+            px.lastPop = a.t;
+        }
+        if ((a.f & KB_FRAG_EXIT) || (b.f & KB_FRAG_ENTER)) return;
+        const float len = (b.t - a.t) * P_.worldScale;
+        if (!(len > 0.0f)) return;
+        const auto c = preintSegment(*in_.table, P_, a.s, b.s, len);
+        const float keep = 1.0f - px.acc[3];
+        for (int i = 0; i < 4; ++i)
+            px.acc[i] = px.acc[i] + keep * c[i];
+    }
+
+    /// Stores `in` among the first n (sorted) entries of kb: after every entry not farther (the kernel's ring).
+    static void place(Frag* kb, int n, const Frag& in) {
+        int j = n;
+        while (j > 0 && kb[j - 1].t > in.t) {
+            kb[j] = kb[j - 1];
+            --j;
+        }
+        kb[j] = in;
+    }
+
+    void insert(std::size_t pi, const Frag& in) {
+        Pixel& px = pixels_[pi];
+        Frag* kb = &frags_[pi * std::size_t(k_)]; // sorted by distance, equal distances in arrival order
+        if (stats_) ++stats_->fragments;
+        if (px.count < k_) {
+            place(kb, px.count++, in);
+            return;
+        }
+        if (stats_) ++stats_->overflowPops;
+        if (in.t < kb[0].t) {
+            segment(px, in, kb[0]);
+        } else {
+            segment(px, kb[0], in.t < kb[1].t ? in : kb[1]);
+            std::copy(kb + 1, kb + k_, kb);
+            place(kb, k_ - 1, in);
+        }
+        if (px.acc[3] >= P_.earlyTermination) px.done = true;
+    }
+
+    void flush(std::size_t pi) {
+        Pixel& px = pixels_[pi];
+        const Frag* kb = &frags_[pi * std::size_t(k_)];
+        for (int i = 1; i < px.count && px.acc[3] < P_.earlyTermination; ++i)
+            segment(px, kb[i - 1], kb[i]);
+    }
+
+    ImageBuffer run() {
+        const auto& g = *in_.geometry;
+        std::vector<Proj> proj(g.points.size());
+        for (std::size_t i = 0; i < proj.size(); ++i)
+            proj[i] = project(g.points[i], P_);
+        const std::vector<std::uint32_t> order = kbufferMirrorOrder(in_);
+        const auto& faces = in_.faces->faces;
+        const auto& sc = *in_.scalars;
+        const int W = int(P_.width), H = int(P_.height);
+        for (std::uint32_t fi : order) {
+            const MeshFace& face = faces[fi];
+            const std::uint32_t ia = face.v[0], ib = face.v[1], ic = face.v[2];
+            const Proj a = proj[ia], b = proj[ib], c = proj[ic];
+            const float orient = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+            if (!(orient != 0.0f && a.w != 0.0f && b.w != 0.0f && c.w != 0.0f)) continue;
+            const float sg = orient > 0.0f ? 1.0f : -1.0f;
+            const unsigned fl = face.boundary ? (orient < 0.0f ? KB_FRAG_ENTER : KB_FRAG_EXIT) : 0u;
+            const Edge ea = makeEdge(b, ib, c, ic, sg), eb = makeEdge(c, ic, a, ia, sg), ec = makeEdge(a, ia, b, ib, sg);
+            const float sa = sc[ia], sb = sc[ib], scc = sc[ic];
+            const int x0 = int(std::ceil(std::fmax(std::fmin(std::fmin(a.x, b.x), c.x), 0.0f)));
+            const int x1 = int(std::floor(std::fmin(std::fmax(std::fmax(a.x, b.x), c.x), float(W - 1))));
+            const int y0 = int(std::ceil(std::fmax(std::fmin(std::fmin(a.y, b.y), c.y), 0.0f)));
+            const int y1 = int(std::floor(std::fmin(std::fmax(std::fmax(a.y, b.y), c.y), float(H - 1))));
+            for (int y = y0; y <= y1; ++y) {
+                const float fy = float(y);
+                for (int x = x0; x <= x1; ++x) {
+                    const std::size_t pi = std::size_t(y) * W + x;
+                    if (pixels_[pi].done) continue;
+                    if (stats_) ++stats_->pixelTests;
+                    const float fx = float(x);
+                    const float wa = ea.sigma * edge(ea, fx, fy);
+                    const float wb = eb.sigma * edge(eb, fx, fy);
+                    const float wc = ec.sigma * edge(ec, fx, fy);
+                    if (!(wa > 0.0f || (wa == 0.0f && ea.tie))) continue;
+                    if (!(wb > 0.0f || (wb == 0.0f && eb.tie))) continue;
+                    if (!(wc > 0.0f || (wc == 0.0f && ec.tie))) continue;
+                    const float sum = wa + wb + wc;
+                    const float la = wa / sum, lb = wb / sum, lc = wc / sum;
+                    float t, s;
+                    if (P_.perspective) {
+                        const float q = la * a.w + lb * b.w + lc * c.w;
+                        const float z = 1.0f / q;
+                        s = (la * (sa * a.w) + lb * (sb * b.w) + lc * (scc * c.w)) * z;
+                        const float ndcX = 2.0f * (fx + 0.5f) / float(P_.width) - 1.0f;
+                        const float ndcY = 1.0f - 2.0f * (fy + 0.5f) / float(P_.height);
+                        const float dx = ndcX * P_.halfX, dy = ndcY * P_.halfY;
+                        t = z * std::sqrt(1.0f + dx * dx + dy * dy);
+                    } else {
+                        t = la * a.z + lb * b.z + lc * c.z;
+                        s = la * sa + lb * sb + lc * scc;
+                    }
+                    insert(pi, {t, s, fl});
+                }
+            }
+        }
+        ImageBuffer img(W, H, {"R", "G", "B", "A"});
+        for (std::size_t pi = 0; pi < pixels_.size(); ++pi) {
+            if (!pixels_[pi].done) flush(pi);
+            for (int c = 0; c < 4; ++c)
+                img.pixels[pi * 4 + c] = pixels_[pi].acc[c];
+        }
+        return img;
+    }
+
+private:
+    struct Edge {
+        float px, py, qx, qy, sigma;
+        bool tie;
+    };
+    static float edge(const Edge& e, float x, float y) {
+        return (e.qx - e.px) * (y - e.py) - (e.qy - e.py) * (x - e.px);
+    }
+    static Edge makeEdge(const Proj& u, std::uint32_t iu, const Proj& v, std::uint32_t iv, float orientSign) {
+        Edge e;
+        float s;
+        if (iu < iv) {
+            e = {u.x, u.y, v.x, v.y, 0.0f, false};
+            s = 1.0f;
+        } else {
+            e = {v.x, v.y, u.x, u.y, 0.0f, false};
+            s = -1.0f;
+        }
+        e.sigma = orientSign * s;
+        const float dx = e.qx - e.px, dy = e.qy - e.py;
+        const float side = (dy > 0.0f || (dy == 0.0f && dx < 0.0f)) ? 1.0f : -1.0f;
+        e.tie = e.sigma * side > 0.0f;
+        return e;
+    }
+
+    const KBufferMirrorInput& in_;
+    VolclKBufferParams P_;
+    int k_;
+    KBufferMirrorStats* stats_;
+    std::vector<Pixel> pixels_;
+    std::vector<Frag> frags_;
+};
+
+} // namespace
+
+std::vector<std::uint32_t> kbufferMirrorOrder(const KBufferMirrorInput& in) {
+    const VolclKBufferParams& P = in.params;
+    const auto& pts = in.geometry->points;
+    const auto& faces = in.faces->faces;
+    std::vector<std::uint32_t> keys(P.faceCount), vals(P.faceCount);
+    for (std::uint32_t i = 0; i < P.faceCount; ++i) {
+        const auto& p0 = pts[faces[i].v[0]];
+        const auto& p1 = pts[faces[i].v[1]];
+        const auto& p2 = pts[faces[i].v[2]];
+        float depth;
+        if (P.perspective) {
+            const float cx = (p0.s[0] + p1.s[0] + p2.s[0]) / 3.0f - P.eye[0];
+            const float cy = (p0.s[1] + p1.s[1] + p2.s[1]) / 3.0f - P.eye[1];
+            const float cz = (p0.s[2] + p1.s[2] + p2.s[2]) / 3.0f - P.eye[2];
+            depth = std::sqrt(cx * cx + cy * cy + cz * cz);
+        } else {
+            depth = (project(p0, P).z + project(p1, P).z + project(p2, P).z) / 3.0f;
+        }
+        keys[i] = floatSortKey(depth);
+        vals[i] = i;
+    }
+    radixSortReference(keys, vals);
+    return vals;
+}
+
+ImageBuffer kbufferMirrorRender(const KBufferMirrorInput& in, KBufferMirrorStats* stats) {
+    if (!in.geometry || !in.scalars || !in.faces || !in.table) throw Error("internal: incomplete k-buffer mirror input");
+    if (in.k < kKBufferMinK || in.k > kKBufferMirrorMaxK)
+        throw UsageError("k-buffer mirror: k must be 2.." + std::to_string(kKBufferMirrorMaxK));
+    if (stats) *stats = {};
+    Mirror m(in, stats);
+    return m.run();
+}
+
+} // namespace volcl

@@ -1,0 +1,319 @@
+// The k-buffer renderer: device buffers, tables, the per-frame launches (project, keys, sort, bin, raster).
+#include "render/mesh/KBufferRenderer.hpp"
+
+#include "core/Error.hpp"
+#include "render/VecMath.hpp"
+#include "render/mesh/RadixSort.hpp"
+#include "core/runtime/Timing.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace volcl {
+namespace {
+
+constexpr unsigned kBinChunks = 64;
+constexpr unsigned kGpuTileThreads = 16; // one work-item per tile row on GPUs; CPUs run one per tile
+
+std::string fmt(double v) {
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+int tileThreads(bool cpu) {
+    return cpu ? 1 : int(kGpuTileThreads);
+}
+
+} // namespace
+
+EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, bool cpuDevice) {
+    if (k < kKBufferMinK || k > kKBufferMaxK)
+        throw UsageError("render.k must be " + std::to_string(kKBufferMinK) + ".." + std::to_string(kKBufferMaxK) +
+                         " (got " + std::to_string(k) + ")");
+    if (scene.mode != RenderMode::Dvr)
+        throw UsageError("render.method \"kbuffer\" draws mode dvr only (mode " +
+                         std::string(renderModeName(scene.mode)) + ": use render.method \"cells\")");
+    EffectPlan p;
+    p.defines.set("KB_K", k)
+        .set("KB_TILE", kKBufferTile)
+        .set("KB_TILE_THREADS", tileThreads(cpuDevice))
+        .set("BIN_CHUNKS", int(kBinChunks));
+    p.compiled.push_back("mode dvr by k-buffer (HAVS): k = " + std::to_string(k) + ", " +
+                         std::to_string(kKBufferTile) + "x" + std::to_string(kKBufferTile) +
+                         "-pixel tiles, faces sorted by centroid every frame (device radix sort)");
+    p.compiled.push_back("pre-integration: 3D table " + std::to_string(scene.tableSize) + "x" +
+                         std::to_string(scene.tableSize) + "x" + std::to_string(scene.tableLengths) +
+                         ", lengths up to the longest edge " + fmt(mesh.maxEdgeLength));
+    if (scene.preintegration != Preintegration::Table3d)
+        p.dropped.push_back("preintegration \"" + std::string(preintegrationName(scene.preintegration)) +
+                            "\": the k-buffer integrates every segment through the 3D table");
+    p.earlyTermination = scene.earlyTermination < 1.0;
+    if (p.earlyTermination) p.compiled.push_back("early termination at alpha >= " + fmt(scene.earlyTermination));
+    const SceneEffects& fx = scene.effects;
+    const std::string why = ": not drawn by render.method \"kbuffer\" (use \"cells\")";
+    if (fx.shading) p.dropped.push_back("shading" + why);
+    if (fx.shadows) p.dropped.push_back("shadows" + why);
+    if (fx.scattering) p.dropped.push_back("scattering" + why);
+    if (!fx.clipPlanes.empty()) p.dropped.push_back("clip planes" + why);
+    if (!fx.isosurfaces.empty()) p.dropped.push_back("iso-surfaces" + why);
+    if (scene.window) p.dropped.push_back("window: mode dvr is not mip");
+    return p;
+}
+
+struct KBufferRenderer::Impl {
+    explicit Impl(ComputeContext& cc) : sorter(cc) {}
+    DeviceRadixSort sorter;
+    DeviceBuffer<cl_float4> points, proj, out;
+    DeviceBuffer<float> scalars;
+    DeviceBuffer<cl_uint4> faces, sortedFaces, list;
+    DeviceBuffer<cl_uint> keys, vals, counts, total;
+    DeviceBuffer<cl_uint2> rects, sortedRects;
+    cl::Kernel project, faceKeys, gather, binCount, scan, binScatter, raster, toHalf, fromHalf;
+    KernelDefines defines;
+    std::size_t lastEntries = 0;
+    /// Tables: full quality (longest edge) and level of detail (box diagonal), built on first use.
+    struct Table {
+        std::string key;
+        PreintegrationTable host; ///< its values rounded to half precision, as the device holds them
+        DeviceBuffer<cl_half> device; ///< blocked (kbufferBlockedTable), half precision
+    };
+    Table full, lod;
+    std::size_t knotCount = 0;
+};
+
+KBufferRenderer::KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf,
+                                 const Scene& scene, int k, const FaceSplitOptions& split)
+    : cc_(cc), mesh_(mesh), tf_(tf), scene_(scene), k_(k), impl_(std::make_unique<Impl>(cc)) {
+    scene_.validate();
+    tf_.validate();
+    if (mesh.tets.empty()) throw DataError("mesh has no tetrahedra");
+    if (mesh.points.size() > 0xFFFFFFFFu) throw DataError("mesh has too many points for the k-buffer (2^32 - 1)");
+    faces_ = buildMeshFaces(mesh);
+    if (split.ratio > 0.0) splitLongFaces(faces_, mesh, split.ratio, split.budget);
+    geometry_ = kbufferGeometry(mesh, faces_);
+    if (geometry_.points.size() > 0xFFFFFFFFu) throw DataError("mesh has too many points for the k-buffer (2^32 - 1)");
+    Impl& m = *impl_;
+    m.points = cc_.upload(geometry_.points, CL_MEM_READ_ONLY);
+    m.scalars = cc_.upload(geometry_.scalars, CL_MEM_READ_ONLY);
+    std::vector<cl_uint4> faceRecords(faces_.faces.size());
+    for (std::size_t i = 0; i < faceRecords.size(); ++i) {
+        const MeshFace& f = faces_.faces[i];
+        faceRecords[i] = {{f.v[0], f.v[1], f.v[2], f.boundary ? KB_FACE_BOUNDARY : 0u}};
+    }
+    m.faces = cc_.upload(faceRecords, CL_MEM_READ_ONLY);
+    m.proj = cc_.allocate<cl_float4>(geometry_.points.size());
+    m.keys = cc_.allocate<cl_uint>(faceRecords.size());
+    m.vals = cc_.allocate<cl_uint>(faceRecords.size());
+    m.rects = cc_.allocate<cl_uint2>(faceRecords.size());
+    m.sortedFaces = cc_.allocate<cl_uint4>(faceRecords.size());
+    m.sortedRects = cc_.allocate<cl_uint2>(faceRecords.size());
+    m.total = cc_.allocate<cl_uint>(1);
+    m.list = cc_.allocate<cl_uint4>(std::max<std::size_t>(faceRecords.size(), 1));
+    m.out = cc_.allocate<cl_float4>(1);
+    rebuild(true);
+}
+
+KBufferRenderer::~KBufferRenderer() = default;
+
+WorldBox KBufferRenderer::bounds() const {
+    WorldBox b;
+    for (int i = 0; i < 3; ++i) {
+        b.origin[i] = mesh_.boundsMin[i];
+        b.extent[i] = mesh_.boundsMax[i] - mesh_.boundsMin[i];
+    }
+    return b;
+}
+
+ValueRange KBufferRenderer::valueRange() const {
+    return {mesh_.valueMin, mesh_.valueMax};
+}
+
+EffectPlan KBufferRenderer::planEffects(const Scene& scene) const {
+    return planKBuffer(scene, mesh_, k_, cc_.device().isCpu);
+}
+
+void KBufferRenderer::setScene(const Scene& scene) {
+    scene.validate();
+    // A new render.k is taken; an unchanged one keeps the k this renderer was made or set with.
+    const int k = scene.kBufferDepth != scene_.kBufferDepth ? scene.kBufferDepth : k_;
+    planKBuffer(scene, mesh_, k, cc_.device().isCpu); // refuses before anything changes
+    k_ = k;
+    scene_ = scene;
+    rebuild(false);
+}
+
+void KBufferRenderer::setTransferFunction(const TransferFunction& tf) {
+    tf.validate();
+    tf_ = tf;
+    rebuild(true);
+}
+
+void KBufferRenderer::setView(const Camera& camera, int width, int height, double step) {
+    Scene s = withView(scene_, camera, width, height, step);
+    s.validate();
+    scene_ = s;
+    camera_ = camera;
+}
+
+void KBufferRenderer::setK(int k) {
+    planKBuffer(scene_, mesh_, k, cc_.device().isCpu);
+    k_ = k;
+    rebuild(false);
+}
+
+void KBufferRenderer::setLodFraction(double q) {
+    if (!(q >= 0.0 && q <= 1.0)) throw UsageError("level of detail must be a fraction in [0, 1]");
+    lod_ = q;
+    ensureTable();
+}
+
+std::size_t KBufferRenderer::facesDrawn() const noexcept {
+    return faces_.prefixForFraction(lod_);
+}
+
+void KBufferRenderer::rebuild(bool tfChanged) {
+    Impl& m = *impl_;
+    camera_ = scene_.camera ? *scene_.camera : defaultCamera(bounds());
+    plan_ = planKBuffer(scene_, mesh_, k_, cc_.device().isCpu);
+    if (tfChanged) {
+        m.full.key.clear();
+        m.lod.key.clear();
+        m.knotCount = tf_.packKnots().size();
+    }
+    if (!(m.defines == plan_.defines) || m.raster.get() == nullptr) {
+        m.defines = plan_.defines;
+        m.project = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_project", m.defines);
+        m.faceKeys = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_face_keys", m.defines);
+        m.gather = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_gather", m.defines);
+        m.binCount = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_bin_count", m.defines);
+        m.binScatter = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_bin_scatter", m.defines);
+        m.raster = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_raster", m.defines);
+        m.toHalf = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_table_to_half", m.defines);
+        m.fromHalf = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_table_from_half", m.defines);
+        m.scan = cc_.kernel("mesh/radix_sort.cl", "exclusive_scan");
+    }
+    ensureTable();
+}
+
+void KBufferRenderer::ensureTable() {
+    Impl& m = *impl_;
+    const bool lod = lod_ < 1.0;
+    const WorldBox b = bounds();
+    const double maxLength = lod ? std::max(norm(b.extent), mesh_.maxEdgeLength) : mesh_.maxEdgeLength;
+    const TableSpec spec = kbufferTableSpec(scene_, maxLength > 0.0 ? maxLength : 1.0);
+    const std::string key = std::to_string(spec.size) + "|" + std::to_string(spec.lengths) + "|" + fmt(spec.maxLength);
+    Impl::Table& t = lod ? m.lod : m.full;
+    tableMs_ = 0.0;
+    if (t.key == key) return;
+    Stopwatch sw;
+    t.host = generatePreintegrationTable(tf_, spec, {}, &cc_);
+    tableMs_ = sw.milliseconds();
+    // Round on the device (vstore_half_rte) and read the rounded values back into the host table, so the C++
+    // mirror sees what the kernels see; then block the rounded values (exact in half) for kb_raster.
+    const std::size_t entries = t.host.rgba.size() / 4;
+    auto toHalf = [&](const std::vector<cl_float4>& values) {
+        const DeviceBuffer<cl_float4> f = cc_.upload(values, CL_MEM_READ_ONLY);
+        DeviceBuffer<cl_half> h = cc_.allocate<cl_half>(4 * values.size());
+        setArgs(m.toHalf, f, cl_uint(values.size()), h);
+        cc_.launch1d(m.toHalf, values.size(), 64);
+        return h;
+    };
+    std::vector<cl_float4> plain(entries);
+    for (std::size_t i = 0; i < entries; ++i)
+        plain[i] = {{t.host.rgba[4 * i], t.host.rgba[4 * i + 1], t.host.rgba[4 * i + 2], t.host.rgba[4 * i + 3]}};
+    const DeviceBuffer<cl_half> rounded = toHalf(plain);
+    DeviceBuffer<cl_float4> back = cc_.allocate<cl_float4>(entries);
+    setArgs(m.fromHalf, rounded, cl_uint(entries), back);
+    cc_.launch1d(m.fromHalf, entries, 64);
+    const std::vector<cl_float4> values = cc_.download(back);
+    for (std::size_t i = 0; i < entries; ++i)
+        for (int c = 0; c < 4; ++c)
+            t.host.rgba[4 * i + std::size_t(c)] = values[i].s[c];
+    t.device = toHalf(kbufferBlockedTable(t.host));
+    t.key = key;
+}
+
+const std::vector<float>& KBufferRenderer::tableValues() const {
+    return (lod_ < 1.0 ? impl_->lod : impl_->full).host.rgba;
+}
+
+VolclKBufferParams KBufferRenderer::frameParams() const {
+    const Impl& m = *impl_;
+    const Impl::Table& t = lod_ < 1.0 ? m.lod : m.full;
+    return kbufferParams(geometry_, camera_, scene_.width, scene_.height, scene_.earlyTermination, facesDrawn(),
+                         kbufferTfParams(t.host, m.knotCount));
+}
+
+ImageBuffer KBufferRenderer::render() {
+    Impl& m = *impl_;
+    const VolclKBufferParams P = frameParams();
+    const Impl::Table& table = lod_ < 1.0 ? m.lod : m.full;
+    const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
+    if (m.out.size() != pixels) m.out = cc_.allocate<cl_float4>(pixels);
+    const std::size_t tiles = std::size_t(P.tilesX) * P.tilesY;
+    if (m.counts.size() != tiles * kBinChunks) m.counts = cc_.allocate<cl_uint>(tiles * kBinChunks);
+    const cl_uint n = P.faceCount;
+    times_ = {};
+
+    setArgs(m.project, m.points, P, m.proj);
+    times_.project = eventMilliseconds(cc_.launch1d(m.project, geometry_.points.size(), 64));
+    setArgs(m.faceKeys, m.points, m.proj, m.faces, P, m.keys, m.vals, m.rects);
+    times_.keys = eventMilliseconds(cc_.launch1d(m.faceKeys, std::max<std::size_t>(n, 1), 64));
+    m.sorter.sort(m.keys, m.vals, n);
+    times_.sort = m.sorter.lastMilliseconds();
+
+    setArgs(m.gather, m.vals, m.faces, m.rects, n, m.sortedFaces, m.sortedRects);
+    times_.bin = eventMilliseconds(cc_.launch1d(m.gather, std::max<std::size_t>(n, 1), 64));
+    cc_.fill(m.counts, cl_uint(0));
+    setArgs(m.binCount, m.sortedRects, n, P.tilesX, m.counts);
+    times_.bin += eventMilliseconds(cc_.launch1d(m.binCount, kBinChunks, 1));
+    setArgs(m.scan, m.counts, cl_uint(tiles * kBinChunks), m.total);
+    times_.bin += eventMilliseconds(cc_.launch1d(m.scan, 1, 1));
+    cl_uint entries = 0;
+    cc_.read(m.total, std::span<cl_uint>(&entries, 1));
+    if (m.list.size() < entries) m.list = cc_.allocate<cl_uint4>(std::size_t(entries) + entries / 4);
+    m.lastEntries = entries;
+    setArgs(m.binScatter, m.sortedFaces, m.sortedRects, n, P.tilesX, m.counts, m.list);
+    times_.bin += eventMilliseconds(cc_.launch1d(m.binScatter, kBinChunks, 1));
+
+    const std::size_t threads = std::size_t(tileThreads(cc_.device().isCpu));
+    setArgs(m.raster, m.proj, m.scalars, m.counts, m.list, P, table.device, m.out);
+    times_.raster = eventMilliseconds(cc_.launch(m.raster, cl::NDRange(tiles * threads), cl::NDRange(threads)));
+
+    const auto rgba = cc_.download(m.out);
+    ImageBuffer img(scene_.width, scene_.height, {"R", "G", "B", "A"});
+    for (std::size_t i = 0; i < pixels; ++i)
+        for (int c = 0; c < 4; ++c)
+            img.pixels[i * 4 + c] = rgba[i].s[c];
+    img.attributes.push_back({"volcl:mode", std::string(renderModeName(scene_.mode))});
+    img.attributes.push_back({"volcl:method", std::string("kbuffer")});
+    img.attributes.push_back({"volcl:k", k_});
+    img.attributes.push_back({"volcl:effects", plan_.defines.toOptions()});
+    return img;
+}
+
+std::unique_ptr<VolumeRenderer> makeKBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh,
+                                                    const TransferFunction& tf, const Scene& scene) {
+    return std::make_unique<KBufferRenderer>(cc, mesh, tf, scene, scene.kBufferDepth);
+}
+
+std::vector<cl_uint> KBufferRenderer::lastOrder() {
+    std::vector<cl_uint> all = cc_.download(impl_->vals);
+    all.resize(facesDrawn());
+    return all;
+}
+
+const cl::Buffer& KBufferRenderer::outputBuffer() const noexcept {
+    return impl_->out.get();
+}
+
+std::string KBufferRenderer::statistics() const {
+    std::ostringstream os;
+    os << "faces: " << faces_.boundaryCount << " boundary + " << faces_.internalCount() << " internal, drawn "
+       << facesDrawn() << ", k " << k_ << ", tile entries " << impl_->lastEntries;
+    return os.str();
+}
+
+} // namespace volcl

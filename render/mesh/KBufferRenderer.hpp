@@ -1,0 +1,122 @@
+// The k-buffer mesh renderer (HAVS, Callahan 2005): unique faces sorted by centroid on the device every frame,
+// rasterised in that order into per-pixel k-buffers that composite segments through a 3D pre-integration table.
+#pragma once
+
+#include "host/mesh/TetMesh.hpp"
+#include "render/VolumeRenderer.hpp"
+#include "render/mesh/KBufferFrame.hpp"
+#include "render/mesh/MeshFaces.hpp"
+
+#include <memory>
+#include <string>
+
+namespace volcl {
+
+/// Kernel times of the last frame's stages (profiling events), milliseconds.
+struct KBufferStageTimes {
+    double project = 0, keys = 0, sort = 0, bin = 0, raster = 0;
+    double total() const noexcept { return project + keys + sort + bin + raster; }
+};
+
+/// Which long faces are cut before rendering (splitLongFaces): faces longer than `ratio` times the median
+/// face, adding at most `budget` times the face count; ratio 0 cuts none. The default leaves a uniform mesh
+/// (the generated grids) untouched and brings the O-grid of the LOx post to RMSE 0.01 at k = 6 (0.035 uncut),
+/// at about twice the frame time there; docs/meshes.md has the sweep.
+struct FaceSplitOptions {
+    double ratio = 1.5;
+    double budget = 3.0;
+};
+
+/// Renders a tetrahedral mesh with the k-buffer (render.method "kbuffer"): per frame the drawn faces get a
+/// centroid key (view depth, or distance to the eye in perspective), a device radix sort orders them, a
+/// stable binning puts each into the 16x16-pixel screen tiles it touches (keeping the order) and one
+/// work-group per tile rasterises its faces into k-entry per-pixel buffers in local memory. A full buffer
+/// pops its nearest fragment and composites the segment to the second nearest (linear scalar between the
+/// two fragments' values, their distance as length) through the 3D table; boundary faces mark where rays
+/// enter and leave, so gaps of non-convex meshes stay empty. Fragments more than k places out of order are
+/// composited out of order: the error a too small k costs, measured in docs/meshes.md.
+///
+/// Level of detail: setLodFraction(q) draws the boundary faces and the first q of the importance-ordered
+/// internal faces (MeshFaces), with a table over the box diagonal since segments then span several tets;
+/// q = 1 is full quality. DVR only: other modes and effects are refused or dropped by planEffects().
+/// The mesh must outlive the renderer. Example:
+/// ```
+/// volcl::KBufferRenderer r(cc, mesh, tf, scene, 6);
+/// volcl::ImageBuffer img = r.render();
+/// r.setLodFraction(0.1);              // interactive frame: boundary + 10 % of the internal faces
+/// ```
+class KBufferRenderer final : public VolumeRenderer {
+public:
+    /// Throws UsageError for k outside 2..8 or a scene the method cannot draw (mode other than dvr).
+    KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf, const Scene& scene,
+                    int k = kKBufferDefaultK, const FaceSplitOptions& split = {});
+    ~KBufferRenderer() override;
+    KBufferRenderer(const KBufferRenderer&) = delete;
+    KBufferRenderer& operator=(const KBufferRenderer&) = delete;
+
+    WorldBox bounds() const override;
+    ValueRange valueRange() const override;
+    EffectPlan planEffects(const Scene& scene) const override;
+
+    void setScene(const Scene& scene) override;
+    void setTransferFunction(const TransferFunction& tf) override;
+    void setView(const Camera& camera, int width, int height, double step) override;
+    ImageBuffer render() override;
+
+    const cl::Buffer& outputBuffer() const noexcept override;
+    const EffectPlan& plan() const noexcept override { return plan_; }
+    const Scene& scene() const noexcept override { return scene_; }
+    const Camera& camera() const noexcept override { return camera_; }
+    double lastKernelMilliseconds() const noexcept override { return times_.total(); }
+    double lastTableMilliseconds() const noexcept override { return tableMs_; }
+    /// "faces: 2 boundary + 3 internal, drawn 5, k 6, tile entries 9".
+    std::string statistics() const override;
+
+    int k() const noexcept { return k_; }
+    void setK(int k);
+    /// Fraction of the internal faces drawn, [0, 1] (1: full quality, the default).
+    void setLodFraction(double q);
+    double lodFraction() const noexcept { return lod_; }
+    std::size_t facesDrawn() const noexcept;
+    const MeshFaces& faces() const noexcept { return faces_; }
+    const KBufferStageTimes& lastStageTimes() const noexcept { return times_; }
+
+    /// What the C++ mirror (kbufferMirrorRender) needs to reproduce the next frame exactly.
+    const KBufferGeometry& geometry() const noexcept { return geometry_; }
+    VolclKBufferParams frameParams() const;
+    /// The table the next frame reads (float RGBA, PreintegrationTable layout), its values rounded to half
+    /// precision as the device holds them.
+    const std::vector<float>& tableValues() const;
+    /// The device's face order of the last frame (downloaded; for tests).
+    std::vector<cl_uint> lastOrder();
+
+private:
+    struct Impl;
+    void rebuild(bool tfChanged);
+    void ensureTable();
+    ComputeContext& cc_;
+    const mesh::TetMesh& mesh_;
+    TransferFunction tf_;
+    Scene scene_;
+    Camera camera_;
+    EffectPlan plan_;
+    MeshFaces faces_;
+    KBufferGeometry geometry_;
+    int k_;
+    double lod_ = 1.0;
+    std::unique_ptr<Impl> impl_;
+    KBufferStageTimes times_;
+    double tableMs_ = 0.0;
+};
+
+/// The renderer for render.method "kbuffer" (RenderInput::makeRenderer calls it): a KBufferRenderer of depth
+/// scene.kBufferDepth. `mesh` must outlive it.
+std::unique_ptr<VolumeRenderer> makeKBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh,
+                                                    const TransferFunction& tf, const Scene& scene);
+
+/// The plan of the k-buffer method for a scene (no device): the defines its kernels compile with and what
+/// it drops (shading, clipping, iso-surfaces: not drawn by this method). Throws UsageError for modes other
+/// than dvr.
+EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, bool cpuDevice);
+
+} // namespace volcl

@@ -1,0 +1,204 @@
+// Per-tet linear fields, face planes and the boundary-face BVH with its ray query (double precision).
+#include "render/mesh/MeshGeometry.hpp"
+
+#include "core/runtime/ParallelFor.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+namespace volcl::mesh_detail {
+
+TetField tetField(const mesh::TetMesh& m, std::size_t tet) {
+    const auto& v = m.tets[tet];
+    const Vec3 p0 = m.points[v[0]];
+    const Vec3 e1 = sub(m.points[v[1]], p0), e2 = sub(m.points[v[2]], p0), e3 = sub(m.points[v[3]], p0);
+    const double s0 = m.scalars[v[0]];
+    const double d1 = double(m.scalars[v[1]]) - s0, d2 = double(m.scalars[v[2]]) - s0,
+                 d3 = double(m.scalars[v[3]]) - s0;
+    // Solve [e1; e2; e3] g = (d1, d2, d3) by Cramer's rule: g = (d1 (e2 x e3) + d2 (e3 x e1) + d3 (e1 x e2))
+    // / det.
+    const double det = dot(e1, cross(e2, e3));
+    TetField f;
+    f.p0 = p0;
+    f.value = s0;
+    if (det != 0.0)
+        f.gradient =
+            scale(add(add(scale(cross(e2, e3), d1), scale(cross(e3, e1), d2)), scale(cross(e1, e2), d3)),
+                  1.0 / det);
+    return f;
+}
+
+FacePlane facePlane(const mesh::TetMesh& m, mesh::FaceId f) {
+    const auto v = m.faceVertices(f);
+    const Vec3 a = m.points[v[0]], b = m.points[v[1]], c = m.points[v[2]];
+    return {cross(sub(b, a), sub(c, a)), a};
+}
+
+namespace {
+
+struct BvhBuilder {
+    std::vector<Vec3> lo, hi, centre;
+    std::vector<std::uint32_t> order;
+    BoundaryBvh& bvh;
+
+    /// Builds the subtree over order[begin, end) at node index `at` (depth-first: its left child is next).
+    void build(std::uint32_t at, std::uint32_t begin, std::uint32_t end) {
+        BvhNode node;
+        const double inf = std::numeric_limits<double>::infinity();
+        node.lo = {inf, inf, inf};
+        node.hi = {-inf, -inf, -inf};
+        Vec3 clo = node.lo, chi = node.hi;
+        for (std::uint32_t i = begin; i < end; ++i)
+            for (int a = 0; a < 3; ++a) {
+                node.lo[a] = std::min(node.lo[a], lo[order[i]][a]);
+                node.hi[a] = std::max(node.hi[a], hi[order[i]][a]);
+                clo[a] = std::min(clo[a], centre[order[i]][a]);
+                chi[a] = std::max(chi[a], centre[order[i]][a]);
+            }
+        const std::uint32_t count = end - begin;
+        if (count <= 4) {
+            node.first = begin;
+            node.count = count;
+            bvh.nodes[at] = node;
+            return;
+        }
+        const double ex = chi[0] - clo[0], ey = chi[1] - clo[1], ez = chi[2] - clo[2];
+        const int axis = ex >= ey && ex >= ez ? 0 : ey >= ez ? 1 : 2;
+        const std::uint32_t mid = begin + count / 2;
+        std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
+                         [&](std::uint32_t x, std::uint32_t y) { return centre[x][axis] < centre[y][axis]; });
+        bvh.nodes.push_back({});
+        build(at + 1, begin, mid);
+        node.right = std::uint32_t(bvh.nodes.size());
+        bvh.nodes.push_back({});
+        build(node.right, mid, end);
+        bvh.nodes[at] = node;
+    }
+};
+
+} // namespace
+
+BoundaryBvh buildBoundaryBvh(const mesh::TetMesh& m) {
+    BoundaryBvh bvh;
+    const std::size_t n = m.boundaryFaces.size();
+    BvhBuilder b{std::vector<Vec3>(n), std::vector<Vec3>(n), std::vector<Vec3>(n),
+                 std::vector<std::uint32_t>(n), bvh};
+    for (std::size_t i = 0; i < n; ++i) {
+        const auto v = m.faceVertices(m.boundaryFaces[i]);
+        for (int a = 0; a < 3; ++a) {
+            b.lo[i][a] = std::min({m.points[v[0]][a], m.points[v[1]][a], m.points[v[2]][a]});
+            b.hi[i][a] = std::max({m.points[v[0]][a], m.points[v[1]][a], m.points[v[2]][a]});
+            b.centre[i][a] = 0.5 * b.lo[i][a] + 0.5 * b.hi[i][a];
+        }
+    }
+    std::iota(b.order.begin(), b.order.end(), 0u);
+    if (n == 0) return bvh;
+    bvh.nodes.reserve(n);
+    bvh.nodes.push_back({});
+    b.build(0, 0, std::uint32_t(n));
+    bvh.faces.resize(n);
+    for (std::size_t i = 0; i < n; ++i)
+        bvh.faces[i] = m.boundaryFaces[b.order[i]];
+    return bvh;
+}
+
+std::vector<std::uint8_t> hullFaces(const mesh::TetMesh& m, const BoundaryBvh& bvh) {
+    std::vector<std::uint8_t> hull(bvh.faces.size(), 0);
+    if (bvh.nodes.empty()) return hull;
+    const double eps = 1e-9 * 0.5 * norm(sub(m.boundsMax, m.boundsMin));
+    parallelFor(bvh.faces.size(), 0u, [&](std::size_t fi) {
+        const auto v = m.faceVertices(bvh.faces[fi]);
+        const Vec3 a = m.points[v[0]];
+        const Vec3 n = normalized(cross(sub(m.points[v[1]], a), sub(m.points[v[2]], a)));
+        const double w = -dot(n, a);
+        std::vector<std::uint32_t> stack{0};
+        while (!stack.empty()) {
+            const BvhNode& node = bvh.nodes[stack.back()];
+            stack.pop_back();
+            // The box's largest n.x + w: its centre's plus the half extents along |n|.
+            double top = w;
+            for (int k = 0; k < 3; ++k)
+                top += n[k] * 0.5 * (node.lo[k] + node.hi[k]) + std::abs(n[k]) * 0.5 * (node.hi[k] - node.lo[k]);
+            if (top <= eps) continue;
+            if (node.count == 0) {
+                stack.push_back(node.right);
+                stack.push_back(std::uint32_t(&node - bvh.nodes.data()) + 1);
+                continue;
+            }
+            for (std::uint32_t i = node.first; i < node.first + node.count; ++i)
+                for (const std::uint32_t p : m.faceVertices(bvh.faces[i]))
+                    if (dot(n, m.points[p]) + w > eps) return; // a point outside: not a hull face
+        }
+        hull[fi] = 1;
+    });
+    return hull;
+}
+
+std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bvh, const Vec3& o,
+                                   const Vec3& d, double tMin, const std::vector<mesh::FaceId>& exclude,
+                                   double tolerance) {
+    if (bvh.nodes.empty()) return std::nullopt;
+    const Vec3 inv{1.0 / d[0], 1.0 / d[1], 1.0 / d[2]};
+    double best = std::numeric_limits<double>::infinity();
+    mesh::FaceId bestFace = mesh::kNoFace;
+    std::uint32_t stack[128];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+        const BvhNode& node = bvh.nodes[stack[--top]];
+        // Slab test; a zero direction component gives +-inf and NaN-free comparisons via min/max order.
+        double t0 = tMin, t1 = best;
+        bool miss = false;
+        for (int a = 0; a < 3 && !miss; ++a) {
+            if (d[a] == 0.0) {
+                miss = o[a] < node.lo[a] || o[a] > node.hi[a];
+                continue;
+            }
+            double u = (node.lo[a] - o[a]) * inv[a], v = (node.hi[a] - o[a]) * inv[a];
+            if (u > v) std::swap(u, v);
+            // Widened by a relative margin so faces lying in a slab plane are not lost to rounding.
+            const double pad = 1e-12 * (std::abs(u) + std::abs(v)) + 1e-300;
+            t0 = std::max(t0, u - pad);
+            t1 = std::min(t1, v + pad);
+            miss = t0 > t1;
+        }
+        if (miss) continue;
+        if (node.count == 0) {
+            stack[top++] = node.right;
+            stack[top++] = std::uint32_t(&node - bvh.nodes.data()) + 1;
+            continue;
+        }
+        for (std::uint32_t i = node.first; i < node.first + node.count; ++i) {
+            const mesh::FaceId f = bvh.faces[i];
+            if (std::find(exclude.begin(), exclude.end(), f) != exclude.end()) continue;
+            const auto v = m.faceVertices(f);
+            const Vec3 a = m.points[v[0]];
+            const Vec3 e1 = sub(m.points[v[1]], a), e2 = sub(m.points[v[2]], a);
+            const Vec3 n = cross(e1, e2);
+            const double nd = dot(n, d);
+            if (!(nd < 0.0)) continue; // leaving or parallel: not an entry
+            // Moller-Trumbore with barycentric tolerance.
+            const Vec3 p = cross(d, e2);
+            const double det = dot(e1, p);
+            if (det == 0.0) continue;
+            const double invDet = 1.0 / det;
+            const Vec3 s = sub(o, a);
+            const double u = dot(s, p) * invDet;
+            if (u < -tolerance || u > 1.0 + tolerance) continue;
+            const Vec3 q = cross(s, e1);
+            const double w = dot(d, q) * invDet;
+            if (w < -tolerance || u + w > 1.0 + tolerance) continue;
+            const double t = dot(e2, q) * invDet;
+            if (t >= tMin && t < best) {
+                best = t;
+                bestFace = f;
+            }
+        }
+    }
+    if (bestFace == mesh::kNoFace) return std::nullopt;
+    return EntryHit{bestFace, best};
+}
+
+} // namespace volcl::mesh_detail

@@ -1,0 +1,64 @@
+// What every ray traversal of a tetrahedral mesh shares: the linear field per tet, the face planes that give
+// exit distances, and a bounding-volume hierarchy of the boundary faces that finds where a ray (re-)enters.
+#pragma once
+
+#include "host/mesh/TetMesh.hpp"
+#include "render/VecMath.hpp"
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+namespace volcl::mesh_detail {
+
+/// The tet's scalar as s(x) = value + dot(gradient, x - p0) with p0 its vertex 0 (exact barycentric
+/// interpolation of its four vertex values; the gradient is constant in the tet).
+struct TetField {
+    Vec3 p0{0, 0, 0}, gradient{0, 0, 0};
+    double value = 0.0;
+    double at(const Vec3& x) const { return value + dot(gradient, sub(x, p0)); }
+};
+TetField tetField(const mesh::TetMesh& m, std::size_t tet);
+
+/// Outward normal (not unit: twice the face area) and one vertex of face f of tet t: the ray o + t d leaves
+/// through the face's plane at t = dot(n, a - o) / dot(n, d) when dot(n, d) > 0.
+struct FacePlane {
+    Vec3 normal{0, 0, 0}, vertex{0, 0, 0};
+};
+FacePlane facePlane(const mesh::TetMesh& m, mesh::FaceId f);
+
+/// A BVH over the boundary faces (median split on the longest axis of the centroids, at most 4 faces per
+/// leaf). Nodes are in depth-first order: a node's left child follows it, `right` names the right child;
+/// a leaf has count > 0 and holds faces[first, first + count).
+struct BvhNode {
+    Vec3 lo{0, 0, 0}, hi{0, 0, 0};
+    std::uint32_t first = 0, count = 0; ///< leaf: face range; inner: count 0
+    std::uint32_t right = 0;            ///< inner: index of the right child
+};
+struct BoundaryBvh {
+    std::vector<BvhNode> nodes;
+    std::vector<mesh::FaceId> faces; ///< the boundary faces in leaf order
+};
+BoundaryBvh buildBoundaryBvh(const mesh::TetMesh& m);
+
+/// Per face of bvh.faces (leaf order): 1 when the face lies on the mesh's convex hull, i.e. every mesh point is
+/// on its inner side (within 1e-9 of the mesh's half diagonal). A ray that leaves the mesh through such a face
+/// moves away from its plane and cannot enter again, so no search for a re-entry is needed. The points tested
+/// are the boundary faces' vertices (a linear function's maximum over the mesh is at one of them), pruned with
+/// the BVH's boxes.
+std::vector<std::uint8_t> hullFaces(const mesh::TetMesh& m, const BoundaryBvh& bvh);
+
+/// Where a ray enters the mesh: an entering boundary face (its outward normal against the ray) and the ray
+/// parameter of the hit.
+struct EntryHit {
+    mesh::FaceId face = mesh::kNoFace;
+    double t = 0.0;
+};
+/// The nearest entering boundary face hit at t >= tMin, skipping the faces in `exclude` (the recent entries
+/// of this ray, so a ray through a boundary edge enters each side once). Hits count up to `tolerance` in
+/// barycentric coordinates outside a triangle, so a ray through a shared edge or vertex hits at least one.
+std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bvh, const Vec3& o,
+                                   const Vec3& d, double tMin, const std::vector<mesh::FaceId>& exclude,
+                                   double tolerance = 1e-12);
+
+} // namespace volcl::mesh_detail

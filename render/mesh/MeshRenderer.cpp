@@ -1,0 +1,377 @@
+// The cell ray caster's host side: the normalised mesh on the device, per-tet emptiness, TF and 3D table,
+// kernel parameters and launches.
+#include "render/mesh/MeshRenderer.hpp"
+
+#include "cl/volcl_shared.h"
+#include "core/Error.hpp"
+#include "render/FrameParams.hpp"
+#include "render/VecMath.hpp"
+#include "render/grid/GridDetail.hpp"
+#include "render/mesh/MeshGeometry.hpp"
+#include "render/mesh/MeshReference.hpp"
+#include "core/runtime/ParallelFor.hpp"
+#include "core/runtime/Timing.hpp"
+#include "preintegration/PreintegrationTable.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <iomanip>
+#include <sstream>
+
+namespace volcl {
+namespace {
+
+constexpr int kEmptyBins = 4096; ///< TF emptiness is looked up per bin of the domain
+/// Pixels a work-item walks together (RAYS_X x RAYS_Y of cl/mesh/mesh_cells.cl; 4 x 2, 4 x 4 and 8 x 2 measured the
+/// same as 2 x 2 on the blunt fin), and work-items per group.
+constexpr int kRaysX = 2, kRaysY = 2, kGroupX = 8, kGroupY = 8;
+
+cl_float4 f4(const Vec3& v, float w) {
+    cl_float4 r;
+    r.s[0] = float(v[0]);
+    r.s[1] = float(v[1]);
+    r.s[2] = float(v[2]);
+    r.s[3] = w;
+    return r;
+}
+
+float bitsAsFloat(std::uint32_t u) {
+    float f;
+    std::memcpy(&f, &u, sizeof f);
+    return f;
+}
+
+/// Rounds a normalised bound outward by a few float ulps so the float box still contains the faces.
+float outward(double v, bool up) {
+    const float f = float(v);
+    const float pad = 4e-7f * std::max(std::abs(f), 1.0f);
+    return up ? f + pad : f - pad;
+}
+
+std::string fmt(double v) {
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+} // namespace
+
+struct MeshRenderer::Impl {
+    Vec3 centre{0, 0, 0};
+    double scale = 1.0;
+    std::vector<float> tetMin, tetMax;
+    DeviceBuffer<cl_float4> cells, bvhNodes, bvhFaces; ///< cells: 6 per tet (planes, field, neighbours)
+    DeviceBuffer<cl_uchar> empty;
+    DeviceBuffer<VolclTfKnot> knots;
+    DeviceBuffer<float> tauIntegral;
+    DeviceBuffer<cl_float4> table, out;
+    DeviceBuffer<float> depth;
+    std::size_t knotCount = 0, bvhNodeCount = 0;
+    std::string tableKey;
+    int tableLengths = 1;
+    double maxSegment = 1.0;
+    cl::Kernel kernel;
+    VolclMeshRenderParams params{};
+};
+
+MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf,
+                           const Scene& scene)
+    : cc_(cc), mesh_(mesh), tf_(tf), scene_(scene), impl_(std::make_unique<Impl>()) {
+    scene_.validate();
+    tf_.validate();
+    if (mesh.tets.empty()) throw DataError("mesh has no tetrahedra");
+    Impl& m = *impl_;
+    const std::size_t nt = mesh.tets.size();
+    m.centre = scale(add(mesh.boundsMin, mesh.boundsMax), 0.5);
+    m.scale = std::max(0.5 * norm(sub(mesh.boundsMax, mesh.boundsMin)), 1e-300);
+    const double inv = 1.0 / m.scale;
+    auto normalise = [&](const Vec3& p) { return scale(sub(p, m.centre), inv); };
+
+    // Per tet, contiguous: face planes (unit normals in the normalised frame), field, neighbours. Each shared
+    // face's plane is computed from the lower-numbered side and negated on the other, so both tets agree
+    // exactly on where a ray crosses it.
+    constexpr std::size_t kStride = 6; // CELL_STRIDE of cl/mesh/mesh_cells.cl
+    std::vector<cl_float4> cells(kStride * nt);
+    m.tetMin.resize(nt);
+    m.tetMax.resize(nt);
+    parallelFor(nt, 0u, [&](std::size_t t) {
+        for (unsigned f = 0; f < 4; ++f) {
+            const mesh::FaceId id = mesh::faceId(t, f), nb = mesh.neighbors[id];
+            const mesh::FaceId canon = nb != mesh::kNoFace && nb < id ? nb : id;
+            const auto v = mesh.faceVertices(canon);
+            const Vec3 a = normalise(mesh.points[v[0]]), b = normalise(mesh.points[v[1]]),
+                       c = normalise(mesh.points[v[2]]);
+            Vec3 n = normalized(cross(sub(b, a), sub(c, a)));
+            double w = -dot(n, a);
+            if (canon != id) {
+                n = scale(n, -1.0);
+                w = -w;
+            }
+            cells[kStride * t + f] = f4(n, float(w));
+            cells[kStride * t + 5].s[f] = bitsAsFloat(nb);
+        }
+        const mesh_detail::TetField fd = mesh_detail::tetField(mesh, t);
+        // s(x') = value + g . (centre + scale x' - p0) = (value + g . (centre - p0)) + (scale g) . x'
+        cells[kStride * t + 4] =
+            f4(scale(fd.gradient, m.scale), float(fd.value + dot(fd.gradient, sub(m.centre, fd.p0))));
+        float lo = mesh.scalars[mesh.tets[t][0]], hi = lo;
+        for (int k = 1; k < 4; ++k) {
+            lo = std::min(lo, mesh.scalars[mesh.tets[t][k]]);
+            hi = std::max(hi, mesh.scalars[mesh.tets[t][k]]);
+        }
+        m.tetMin[t] = lo;
+        m.tetMax[t] = hi;
+    });
+    const mesh_detail::BoundaryBvh bvh = mesh_detail::buildBoundaryBvh(mesh);
+    // A boundary face on the convex hull says so in its neighbour slot: a ray leaving there is done.
+    const std::vector<std::uint8_t> hull = mesh_detail::hullFaces(mesh, bvh);
+    for (std::size_t i = 0; i < bvh.faces.size(); ++i)
+        if (hull[i])
+            cells[kStride * mesh::faceTet(bvh.faces[i]) + 5].s[mesh::faceLocal(bvh.faces[i])] =
+                bitsAsFloat(VOLCL_MESH_HULL_FACE);
+    m.cells = cc_.upload(cells, CL_MEM_READ_ONLY);
+    std::vector<cl_float4> nodes(2 * std::max<std::size_t>(bvh.nodes.size(), 1));
+    for (std::size_t i = 0; i < bvh.nodes.size(); ++i) {
+        const auto& n = bvh.nodes[i];
+        const Vec3 lo = normalise(n.lo), hi = normalise(n.hi);
+        nodes[2 * i] = {{outward(lo[0], false), outward(lo[1], false), outward(lo[2], false),
+                         bitsAsFloat(n.count ? n.first : n.right)}};
+        nodes[2 * i + 1] = {
+            {outward(hi[0], true), outward(hi[1], true), outward(hi[2], true), bitsAsFloat(n.count)}};
+    }
+    std::vector<cl_float4> faces(3 * std::max<std::size_t>(bvh.faces.size(), 1));
+    for (std::size_t i = 0; i < bvh.faces.size(); ++i) {
+        const auto v = mesh.faceVertices(bvh.faces[i]);
+        const Vec3 a = normalise(mesh.points[v[0]]), b = normalise(mesh.points[v[1]]),
+                   c = normalise(mesh.points[v[2]]);
+        faces[3 * i] = f4(a, bitsAsFloat(bvh.faces[i]));
+        faces[3 * i + 1] = f4(sub(b, a), hull[i] ? 1.0f : 0.0f);
+        faces[3 * i + 2] = f4(sub(c, a), 0.0f);
+    }
+    m.bvhNodes = cc_.upload(nodes, CL_MEM_READ_ONLY);
+    m.bvhFaces = cc_.upload(faces, CL_MEM_READ_ONLY);
+    m.bvhNodeCount = bvh.nodes.size();
+    m.maxSegment = mesh.maxEdgeLength > 0.0 ? mesh.maxEdgeLength : m.scale;
+    m.out = cc_.allocate<cl_float4>(1);
+    m.depth = cc_.allocate<float>(1);
+    m.table = cc_.allocate<cl_float4>(1, CL_MEM_READ_ONLY);
+    rebuild(true);
+}
+
+MeshRenderer::~MeshRenderer() = default;
+
+WorldBox MeshRenderer::bounds() const {
+    return meshBounds(mesh_);
+}
+
+ValueRange MeshRenderer::valueRange() const {
+    return meshValueRange(mesh_);
+}
+
+EffectPlan MeshRenderer::planEffects(const Scene& scene) const {
+    return planMeshEffects(scene, mesh_);
+}
+
+void MeshRenderer::setScene(const Scene& scene) {
+    scene.validate();
+    scene_ = scene;
+    rebuild(false);
+}
+
+void MeshRenderer::setTransferFunction(const TransferFunction& tf) {
+    tf.validate();
+    tf_ = tf;
+    rebuild(true);
+}
+
+void MeshRenderer::setView(const Camera& camera, int width, int height, double step) {
+    Scene s = withView(scene_, camera, width, height, step);
+    if (step != scene_.step) {
+        setScene(s);
+        return;
+    }
+    s.validate();
+    scene_ = s;
+    camera_ = camera;
+    updateViewParams();
+}
+
+void MeshRenderer::updateViewParams() {
+    Impl& m = *impl_;
+    m.params.camera = cameraParams(camera_, scene_.width, scene_.height);
+}
+
+void MeshRenderer::rebuild(bool tfChanged) {
+    Impl& m = *impl_;
+    camera_ = scene_.camera ? *scene_.camera : defaultCamera(bounds());
+    const EffectPlan previous = plan_;
+    plan_ = planMeshEffects(scene_, mesh_);
+    const bool preint = plan_.defines.toOptions().find("-DPREINT=3") != std::string::npos;
+
+    TransferFunction shaded = tf_;
+    if (plan_.colorScale != 1.0)
+        for (auto& c : shaded.color)
+            for (double& v : c.rgb)
+                v *= plan_.colorScale;
+    if (tfChanged || previous.colorScale != plan_.colorScale || m.knotCount == 0) {
+        const auto knots = shaded.packKnots();
+        m.knots = cc_.upload(knots, CL_MEM_READ_ONLY);
+        m.knotCount = knots.size();
+        // Integral of tau from knot 0 to each knot (exact for the piecewise-linear tau), for xray.
+        std::vector<float> cum(knots.size(), 0.0f);
+        double acc = 0.0;
+        for (std::size_t k = 0; k + 1 < knots.size(); ++k) {
+            const double d = double(knots[k + 1].s) - double(knots[k].s);
+            acc += d * double(knots[k].value[3]) + 0.5 * d * d * double(knots[k].slope[3]);
+            cum[k + 1] = float(acc);
+        }
+        m.tauIntegral = cc_.upload(cum, CL_MEM_READ_ONLY);
+    }
+
+    tableMs_ = 0.0;
+    if (preint) {
+        TableSpec spec;
+        spec.size = scene_.tableSize;
+        spec.axis = LengthAxis::Linear;
+        spec.lengths = scene_.tableLengths;
+        spec.maxLength = m.maxSegment;
+        const std::string key = shaded.toJson() + "|" + std::to_string(spec.size) + "|" +
+                                std::to_string(spec.lengths) + "|" + fmt(spec.maxLength);
+        if (key != m.tableKey) {
+            Stopwatch sw;
+            const PreintegrationTable t = generatePreintegrationTable(shaded, spec, {}, &cc_);
+            tableMs_ = sw.milliseconds();
+            std::vector<cl_float4> rgba(t.rgba.size() / 4);
+            std::memcpy(rgba.data(), t.rgba.data(), rgba.size() * sizeof(cl_float4));
+            m.table = cc_.upload(rgba, CL_MEM_READ_ONLY);
+            m.tableKey = key;
+            m.tableLengths = t.sliceCount();
+        }
+    }
+
+    // Per-tet emptiness: a tet is skipped when no iso-value lies in its range and (dvr) the TF's
+    // extinction is zero over it, widened to the table nodes a lookup blends.
+    const std::size_t nt = mesh_.tets.size();
+    std::vector<cl_uchar> empty(nt, 0);
+    std::size_t emptyCount = 0;
+    if (plan_.skipping) {
+        const double lo = shaded.domain[0], hi = shaded.domain[1], bw = (hi - lo) / kEmptyBins;
+        std::vector<int> visibleBefore(kEmptyBins + 1, 0);
+        const bool dvr = scene_.mode == RenderMode::Dvr;
+        for (int b = 0; b < kEmptyBins; ++b) {
+            const bool vis =
+                dvr && grid_detail::maxExtinctionOver(shaded, lo + b * bw, lo + (b + 1) * bw) > 0.0;
+            visibleBefore[b + 1] = visibleBefore[b] + (vis ? 1 : 0);
+        }
+        const double pad = preint ? (hi - lo) / double(std::max(scene_.tableSize - 1, 1)) : 0.0;
+        auto bin = [&](double s) { return std::clamp(int(std::floor((s - lo) / bw)), 0, kEmptyBins - 1); };
+        for (std::size_t t = 0; t < nt; ++t) {
+            const double a = m.tetMin[t], b = m.tetMax[t];
+            bool vis = false;
+            for (const auto& iso : plan_.isosurfaces)
+                vis |= iso.value > a && iso.value <= b;
+            if (!vis) {
+                const int b0 = bin(a - pad), b1 = bin(b + pad);
+                vis = visibleBefore[b1 + 1] - visibleBefore[b0] > 0;
+            }
+            empty[t] = vis ? 0 : 1;
+            emptyCount += empty[t];
+        }
+    }
+    emptyFraction_ = double(emptyCount) / double(nt);
+    m.empty = cc_.upload(empty, CL_MEM_READ_ONLY);
+
+    KernelDefines defines = plan_.defines;
+    defines.set("RAYS_X", kRaysX).set("RAYS_Y", kRaysY);
+    m.kernel = cc_.kernel("mesh/mesh_cells.cl", "mesh_cells", defines);
+
+    VolclMeshRenderParams& p = m.params;
+    p = {};
+    p.camera = cameraParams(camera_, scene_.width, scene_.height);
+    p.clip = clipParams(plan_.clipPlanes);
+    const double inv = 1.0 / m.scale;
+    for (unsigned i = 0; i < p.clip.count; ++i) {
+        const Vec3 n{p.clip.plane[i][0], p.clip.plane[i][1], p.clip.plane[i][2]};
+        const double nn = norm(plan_.clipPlanes[i].normal);
+        p.clip.plane[i][3] = float(
+            (dot(scale(plan_.clipPlanes[i].normal, 1.0 / nn), m.centre) + plan_.clipPlanes[i].offset / nn) *
+            inv);
+        (void)n;
+    }
+    p.march = marchParams(scene_, meshValueRange(mesh_));
+    p.tf = tfParams(scene_, shaded, m.knotCount, m.tableLengths);
+    p.tf.tableMaxLength = float(m.maxSegment);
+    const double gradMin = 1e-6 * std::max(double(mesh_.valueMax) - double(mesh_.valueMin), 1e-30) /
+                           std::max(mesh_.maxEdgeLength, 1e-300);
+    p.lighting = lightingParams(scene_, gradMin * m.scale);
+    for (unsigned i = 0; i < p.lighting.lightCount; ++i)
+        if (p.lighting.lightPos[i][3] == float(VOLCL_LIGHT_POINT))
+            for (int a = 0; a < 3; ++a)
+                p.lighting.lightPos[i][a] = float((double(p.lighting.lightPos[i][a]) - m.centre[a]) * inv);
+    p.iso = isoParams(plan_);
+    VolclMeshParams& mp = p.mesh;
+    const Vec3 lo = scale(sub(mesh_.boundsMin, m.centre), inv),
+               hi = scale(sub(mesh_.boundsMax, m.centre), inv);
+    for (int a = 0; a < 3; ++a) {
+        mp.centre[a] = float(m.centre[a]);
+        mp.boxLo[a] = outward(lo[a], false);
+        mp.boxHi[a] = outward(hi[a], true);
+    }
+    mp.scale = float(m.scale);
+    mp.invScale = float(inv);
+    mp.epsilon = 1e-5f;
+    mp.maxSegment = float(m.maxSegment);
+    mp.tetCount = volcl_uint(nt);
+    mp.boundaryFaces = volcl_uint(mesh_.boundaryFaces.size());
+    mp.bvhNodes = volcl_uint(m.bvhNodeCount);
+}
+
+ImageBuffer MeshRenderer::render() {
+    Impl& m = *impl_;
+    const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
+    if (m.out.size() != pixels) {
+        m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
+        m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
+    }
+    setArgs(m.kernel, m.cells, m.empty, m.bvhNodes, m.bvhFaces, m.knots, m.tauIntegral, m.table, m.params,
+            m.out, m.depth);
+    // One work-item per kRaysX x kRaysY pixel block, kGroupX x kGroupY work-items per group.
+    cl::Event ev = cc_.launch2d(m.kernel, (std::size_t(scene_.width) + kRaysX - 1) / kRaysX,
+                                (std::size_t(scene_.height) + kRaysY - 1) / kRaysY, kGroupX, kGroupY);
+    lastMs_ = eventMilliseconds(ev);
+    const bool withDepth = !plan_.isosurfaces.empty();
+    const auto rgba = cc_.download(m.out);
+    std::vector<std::string> channels{"R", "G", "B", "A"};
+    if (withDepth) channels.push_back("Z");
+    ImageBuffer img(scene_.width, scene_.height, channels);
+    std::vector<float> depth;
+    if (withDepth) depth = cc_.download(m.depth);
+    const int nc = img.channelCount();
+    for (std::size_t i = 0; i < pixels; ++i) {
+        for (int c = 0; c < 4; ++c)
+            img.pixels[i * nc + c] = rgba[i].s[c];
+        if (withDepth) img.pixels[i * nc + 4] = depth[i];
+    }
+    img.attributes.push_back({"volcl:mode", std::string(renderModeName(scene_.mode))});
+    img.attributes.push_back({"volcl:method", std::string("cells")});
+    img.attributes.push_back({"volcl:step", static_cast<float>(scene_.step)});
+    img.attributes.push_back(
+        {"volcl:preintegration", std::string(preintegrationName(scene_.preintegration))});
+    img.attributes.push_back({"volcl:effects", plan_.defines.toOptions()});
+    return img;
+}
+
+const cl::Buffer& MeshRenderer::outputBuffer() const noexcept {
+    return impl_->out.get();
+}
+
+std::string MeshRenderer::statistics() const {
+    std::ostringstream os;
+    os << "tets: " << mesh_.tets.size() << ", boundary faces: " << mesh_.boundaryFaces.size() << " (BVH of "
+       << impl_->bvhNodeCount << " nodes), " << std::setprecision(1) << std::fixed << 100.0 * emptyFraction_
+       << "% of tets empty under the TF";
+    return os.str();
+}
+
+} // namespace volcl
