@@ -1,6 +1,7 @@
 // Effect planning shared by every renderer: the scene's requests against the data's box and value range.
 #include "render/EffectPlan.hpp"
 
+#include "core/Format.hpp"
 #include "render/VecMath.hpp"
 
 #include <algorithm>
@@ -10,11 +11,6 @@
 namespace volcl {
 namespace {
 
-std::string fmt(double v) {
-    std::ostringstream os;
-    os << v;
-    return os.str();
-}
 
 /// Fog: compiled when it can change the image (non-zero density, a box the rays can cross, a mode with a ray
 /// integral).
@@ -43,10 +39,10 @@ void planFog(const Scene& scene, const WorldBox& bounds, EffectPlan& p) {
     else {
         p.fog = true;
         p.defines.set("FOG");
-        std::string what = "fog: density " + fmt(f.density) +
-                           (f.heightMap.empty() ? ", base " + fmt(f.base) : ", base from the height map " +
+        std::string what = "fog: density " + formatNumber(f.density) +
+                           (f.heightMap.empty() ? ", base " + formatNumber(f.base) : ", base from the height map " +
                                                                                f.heightMap.filename().string()) +
-                           (f.falloff == 0.0 ? ", none above the base" : ", falloff " + fmt(f.falloff)) +
+                           (f.falloff == 0.0 ? ", none above the base" : ", falloff " + formatNumber(f.falloff)) +
                            (f.box ? ", in its own box" : ", in the volume's box") +
                            "; closed-form optical depth per step, composited exactly with each volume segment";
         if (!f.heightMap.empty()) {
@@ -86,10 +82,10 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
         p.defines.set("MIP_COLOR", static_cast<long long>(scene.mipColor == MipColor::Grey ? 0
                                                           : scene.mipColor == MipColor::Tf ? 1
                                                                                            : 2));
-        const std::string window = scene.window ? "window centre " + fmt((*scene.window)[0]) + ", width " +
-                                                      fmt((*scene.window)[1])
-                                                : "window over the data range " + fmt(range.min) + ".." +
-                                                      fmt(range.max);
+        const std::string window = scene.window ? "window centre " + formatNumber((*scene.window)[0]) + ", width " +
+                                                      formatNumber((*scene.window)[1])
+                                                : "window over the data range " + formatNumber(range.min) + ".." +
+                                                      formatNumber(range.max);
         if (scene.mipColor == MipColor::Grey)
             p.compiled.push_back("MIP colour grey: " + window);
         else if (scene.mipColor == MipColor::Tf)
@@ -108,9 +104,9 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
             (scene.filter == ReconstructionFilter::Cubic
                  ? std::string("filter cubic: interpolating cubic B-spline (prefiltered), analytic gradient")
                  : std::string("filter bspline: approximating cubic B-spline of the voxels, analytic gradient")) +
-            (scene.smoothing > 0.0 ? ", data smoothed by a Gaussian of sigma " + fmt(scene.smoothing) + " voxel" : ""));
+            (scene.smoothing > 0.0 ? ", data smoothed by a Gaussian of sigma " + formatNumber(scene.smoothing) + " voxel" : ""));
     } else if (scene.smoothing > 0.0) {
-        p.compiled.push_back("filter linear on the data smoothed by a Gaussian of sigma " + fmt(scene.smoothing) +
+        p.compiled.push_back("filter linear on the data smoothed by a Gaussian of sigma " + formatNumber(scene.smoothing) +
                              " voxel (float voxels)");
     }
 
@@ -121,12 +117,12 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
             p.dropped.push_back("isosurfaces: mode " + modeName + " draws no surfaces");
         } else {
             for (const auto& iso : fx.isosurfaces) {
-                const std::string name = "isosurface " + fmt(iso.value);
+                const std::string name = "isosurface " + formatNumber(iso.value);
                 if (iso.rgba[3] <= 0.0)
                     p.dropped.push_back(name + ": opacity 0");
                 else if (!(iso.value > range.min && iso.value <= range.max))
-                    p.dropped.push_back(name + ": outside the data range (" + fmt(range.min) + ", " +
-                                        fmt(range.max) + "], never crossed");
+                    p.dropped.push_back(name + ": outside the data range (" + formatNumber(range.min) + ", " +
+                                        formatNumber(range.max) + "], never crossed");
                 else
                     p.isosurfaces.push_back(iso);
             }
@@ -154,13 +150,13 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
         else if (fx.diffuse == 0.0 && fx.specular == 0.0) {
             p.colorScale = fx.ambient;
             p.dropped.push_back("shading: diffuse and specular are 0, so no gradients; ambient " +
-                                fmt(fx.ambient) + " folded into the colours");
+                                formatNumber(fx.ambient) + " folded into the colours");
         } else {
             p.shading = true;
             p.defines.set("SHADING");
             p.compiled.push_back("shading: Blinn-Phong, " + std::to_string(litLights) +
-                                 " light(s), ambient " + fmt(fx.ambient) + ", diffuse " + fmt(fx.diffuse) +
-                                 ", specular " + fmt(fx.specular) + ", shininess " + fmt(fx.shininess));
+                                 " light(s), ambient " + formatNumber(fx.ambient) + ", diffuse " + formatNumber(fx.diffuse) +
+                                 ", specular " + formatNumber(fx.specular) + ", shininess " + formatNumber(fx.shininess));
         }
     }
     if (fx.gradient == GradientKind::Sobel) {
@@ -201,10 +197,10 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
             p.compiled.push_back(
                 "scattering: multiple, Monte Carlo path tracer (delta tracking on the macrocell majorants, "
                 "next-event estimation), " + std::to_string(fx.samples) + " samples/pixel, up to " +
-                std::to_string(fx.maxBounces) + " bounces, Henyey-Greenstein g " + fmt(fx.phaseG) + ", albedo " +
-                fmt(fx.albedo) + ", seed " + std::to_string(fx.seed) + (fx.emission ? "" : ", no emission") +
-                (skyLit ? ", environment " + fmt(fx.environment[0]) + "," + fmt(fx.environment[1]) + "," +
-                              fmt(fx.environment[2])
+                std::to_string(fx.maxBounces) + " bounces, Henyey-Greenstein g " + formatNumber(fx.phaseG) + ", albedo " +
+                formatNumber(fx.albedo) + ", seed " + std::to_string(fx.seed) + (fx.emission ? "" : ", no emission") +
+                (skyLit ? ", environment " + formatNumber(fx.environment[0]) + "," + formatNumber(fx.environment[1]) + "," +
+                              formatNumber(fx.environment[2])
                         : ""));
             if (fx.shading) p.dropped.push_back("shading: the path tracer lights the medium itself");
             if (scene.filter != ReconstructionFilter::Linear || scene.smoothing > 0.0)
@@ -228,8 +224,8 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
         else {
             p.scattering = true;
             p.defines.set("SCATTERING");
-            p.compiled.push_back("scattering: single, Henyey-Greenstein g " + fmt(fx.phaseG) + ", albedo " +
-                                 fmt(fx.albedo));
+            p.compiled.push_back("scattering: single, Henyey-Greenstein g " + formatNumber(fx.phaseG) + ", albedo " +
+                                 formatNumber(fx.albedo));
             if (fx.octaves > 0) {
                 p.defines.set("MS_OCTAVES", static_cast<long long>(fx.octaves));
                 p.compiled.push_back("multiple scattering approximated by " + std::to_string(fx.octaves) +
@@ -326,7 +322,7 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
         else {
             p.earlyTermination = true;
             p.defines.set("EARLY_TERMINATION");
-            p.compiled.push_back("early termination at opacity " + fmt(scene.earlyTermination));
+            p.compiled.push_back("early termination at opacity " + formatNumber(scene.earlyTermination));
         }
     }
     return p;

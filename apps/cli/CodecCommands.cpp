@@ -3,6 +3,7 @@
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/Commands.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/Format.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/Series.hpp"
 #include "host/io/VolumeIo.hpp"
@@ -44,24 +45,17 @@ bool isVcz(const fs::path& p) {
 }
 
 // A volume file or a .vcz (decoded whole).
-std::string fmt(double v, int digits = 2) {
-    if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-    if (std::isnan(v)) return "nan";
-    std::ostringstream s;
-    s << std::fixed << std::setprecision(digits) << v;
-    return s.str();
-}
 
 // Stage times of one encode or decode, so speed claims can name their bottleneck.
 void printProfile(const char* what, const CodecProfile& p, std::size_t searchTrials) {
     const double staged =
         p.gather + p.upload + p.transform + p.download + p.entropy + p.reconstruct + p.assemble + p.predict;
-    std::cerr << "    " << what << " ms: total " << fmt(p.total, 1) << " = gather " << fmt(p.gather, 1)
-              << " upload " << fmt(p.upload, 1) << " transform " << fmt(p.transform, 1) << " download "
-              << fmt(p.download, 1) << " entropy " << fmt(p.entropy, 1)
-              << " reconstruct " << fmt(p.reconstruct, 1) << " assemble " << fmt(p.assemble, 1) << " predict "
-              << fmt(p.predict, 1) << " other "
-              << fmt(p.total - staged, 1);
+    std::cerr << "    " << what << " ms: total " << formatFixed(p.total, 1) << " = gather " << formatFixed(p.gather, 1)
+              << " upload " << formatFixed(p.upload, 1) << " transform " << formatFixed(p.transform, 1) << " download "
+              << formatFixed(p.download, 1) << " entropy " << formatFixed(p.entropy, 1)
+              << " reconstruct " << formatFixed(p.reconstruct, 1) << " assemble " << formatFixed(p.assemble, 1) << " predict "
+              << formatFixed(p.predict, 1) << " other "
+              << formatFixed(p.total - staged, 1);
     if (p.trials > 0) std::cerr << " (" << p.trials << " quantisation rounds)";
     if (searchTrials > 0) std::cerr << " [target search: " << searchTrials << " rounds, not timed]";
     std::cerr << '\n';
@@ -210,15 +204,15 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                 voxels += v.voxelCount();
             }
             std::cerr << "volcl: wrote " << a->out << ": " << bytes.size() << " bytes, ratio "
-                      << fmt(double(raw) / double(bytes.size())) << ":1, "
-                      << fmt(double(bytes.size()) * 8 / double(voxels), 3) << " bits/voxel";
+                      << formatFixed(double(raw) / double(bytes.size()), 2) << ":1, "
+                      << formatFixed(double(bytes.size()) * 8 / double(voxels), 3) << " bits/voxel";
             if (ts.frames.size() == 1 && o.rate != RateMode::Lossless) {
-                std::cerr << ", PSNR " << fmt(rep.psnr) << " dB, max error " << rep.maxError;
+                std::cerr << ", PSNR " << formatFixed(rep.psnr, 2) << " dB, max error " << rep.maxError;
                 // Only --max-error stores voxels exactly (to hold its bound); elsewhere the count is 0.
                 if (o.rate == RateMode::MaxError) std::cerr << " (" << rep.corrections << " voxels stored exactly)";
             }
-            std::cerr << ", " << fmt(double(raw) / 1e3 / ms, 1) << " MB/s";
-            if (a->lodStats) std::cerr << " (+ " << fmt(lodMs, 0) << " ms of level-of-detail statistics)";
+            std::cerr << ", " << formatFixed(double(raw) / 1e3 / ms, 1) << " MB/s";
+            if (a->lodStats) std::cerr << " (+ " << formatFixed(lodMs, 0) << " ms of level-of-detail statistics)";
             std::cerr << '\n';
             if (!frames.empty()) {
                 std::size_t count[3] = {0, 0, 0}, fallbacks = 0;
@@ -232,7 +226,7 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                 std::cerr << "volcl: " << frames.size() << " frames: " << count[0] << " I, " << count[1] << " P, "
                           << count[2] << " B (" << fallbacks << " planned P/B coded as I)";
                 if (o.rate != RateMode::Lossless)
-                    std::cerr << ", lowest frame PSNR " << fmt(worst) << " dB, max error " << maxErr;
+                    std::cerr << ", lowest frame PSNR " << formatFixed(worst, 2) << " dB, max error " << maxErr;
                 std::cerr << '\n';
             }
             if (a->profile && ts.frames.size() == 1) printProfile("encode", rep.profile, 0);
@@ -420,8 +414,8 @@ void addCompare(CLI::App& app, GlobalOptions& global) {
             }
             std::cout << j.dump(2) << '\n';
         } else {
-            std::cout << "psnr_db " << fmt(p, 3) << "\nrmse " << r << "\nmax_abs_error " << m << '\n';
-            if (vczBytes) std::cout << "bits_per_voxel " << fmt(bpv, 4) << '\n';
+            std::cout << "psnr_db " << formatFixed(p, 3) << "\nrmse " << r << "\nmax_abs_error " << m << '\n';
+            if (vczBytes) std::cout << "bits_per_voxel " << formatFixed(bpv, 4) << '\n';
         }
     });
 }
@@ -793,17 +787,17 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
             if (o.rate == RateMode::Lossless && !(out == v))
                 throw Error(ds.name + ": lossless round trip is not exact");
             rows.push_back(r);
-            std::cerr << "  " << r.codec << " " << mode << ": ratio " << fmt(r.ratio) << " bpv "
-                      << fmt(r.bpv, 3) << " PSNR " << fmt(r.psnr) << " maxerr " << r.maxError << " enc "
-                      << fmt(r.encodeMBs, 1) << " MB/s dec " << fmt(r.decodeMBs, 1) << " MB/s\n";
+            std::cerr << "  " << r.codec << " " << mode << ": ratio " << formatFixed(r.ratio, 2) << " bpv "
+                      << formatFixed(r.bpv, 3) << " PSNR " << formatFixed(r.psnr, 2) << " maxerr " << r.maxError << " enc "
+                      << formatFixed(r.encodeMBs, 1) << " MB/s dec " << formatFixed(r.decodeMBs, 1) << " MB/s\n";
             if (encColdMs > 0)
                 std::cerr << "    cold (a fresh volcl process per run, file read and write included): encode "
-                          << fmt(encColdMs, 1) << " ms = " << fmt(r.encodeColdMBs, 1) << " MB/s against warm "
-                          << fmt(encMs + statsMs, 1) << " ms = encode " << fmt(encMs, 1)
-                          << " + level-of-detail statistics " << fmt(statsMs, 1) << " (cold/warm "
-                          << fmt(encColdMs / (encMs + statsMs)) << "), decode "
-                          << fmt(decColdMs, 1) << " ms = " << fmt(r.decodeColdMBs, 1) << " MB/s against warm "
-                          << fmt(decMs, 1) << " ms (cold/warm " << fmt(decColdMs / decMs) << ")\n";
+                          << formatFixed(encColdMs, 1) << " ms = " << formatFixed(r.encodeColdMBs, 1) << " MB/s against warm "
+                          << formatFixed(encMs + statsMs, 1) << " ms = encode " << formatFixed(encMs, 1)
+                          << " + level-of-detail statistics " << formatFixed(statsMs, 1) << " (cold/warm "
+                          << formatFixed(encColdMs / (encMs + statsMs), 2) << "), decode "
+                          << formatFixed(decColdMs, 1) << " ms = " << formatFixed(r.decodeColdMBs, 1) << " MB/s against warm "
+                          << formatFixed(decMs, 1) << " ms (cold/warm " << formatFixed(decColdMs / decMs, 2) << ")\n";
             printProfile("enc", rep.profile, searchTrials);
             printProfile("dec", dec, 0);
         };
@@ -825,8 +819,8 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
             r.encodeMBs = mb / (z.encodeMs / 1e3);
             r.decodeMBs = mb / (z.decodeMs / 1e3);
             rows.push_back(r);
-            std::cerr << "  zfp reversible: ratio " << fmt(r.ratio) << " enc " << fmt(r.encodeMBs, 1)
-                      << " dec " << fmt(r.decodeMBs, 1) << '\n';
+            std::cerr << "  zfp reversible: ratio " << formatFixed(r.ratio, 2) << " enc " << formatFixed(r.encodeMBs, 1)
+                      << " dec " << formatFixed(r.decodeMBs, 1) << '\n';
         }
         for (int level : {3, 19}) {
             if (!lossless) break;
@@ -850,18 +844,18 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
                 r.psnr = INFINITY;
                 r.encodeMBs = mb / (ms / 1e3);
                 rows.push_back(r);
-                std::cerr << "  xz -9: ratio " << fmt(r.ratio) << '\n';
+                std::cerr << "  xz -9: ratio " << formatFixed(r.ratio, 2) << '\n';
             }
         }
         // Rate-distortion at equal PSNR: ours (target PSNR) against zfp tuned to the same PSNR.
         for (double p : a.psnrs) {
-            if (!a.wants("psnr" + fmt(p, 0))) continue;
+            if (!a.wants("psnr" + formatFixed(p, 0))) continue;
             CodecOptions lo;
             lo.rate = RateMode::Psnr;
             lo.target = p;
-            ours("psnr" + fmt(p, 0), lo);
+            ours("psnr" + formatFixed(p, 0), lo);
             ZfpResult z = zfpAtPsnr(v, p, a.runs);
-            BenchRow r{ds.name, "zfp", "psnr" + fmt(p, 0)};
+            BenchRow r{ds.name, "zfp", "psnr" + formatFixed(p, 0)};
             const Volume zd = integer ? z.decoded.convertedTo(v.type()) : z.decoded;
             r.ratio = double(v.byteSize()) / double(z.bytes);
             r.bpv = double(z.bytes) * 8 / n;
@@ -870,7 +864,7 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
             r.encodeMBs = mb / (z.encodeMs / 1e3);
             r.decodeMBs = mb / (z.decodeMs / 1e3);
             rows.push_back(r);
-            std::cerr << "  zfp psnr" << p << ": bpv " << fmt(r.bpv, 3) << " PSNR " << fmt(r.psnr) << '\n';
+            std::cerr << "  zfp psnr" << p << ": bpv " << formatFixed(r.bpv, 3) << " PSNR " << formatFixed(r.psnr, 2) << '\n';
         }
         // The speed goal at 1-2 bits/voxel, with both entropy coders.
         for (EntropyMode m : {EntropyMode::Dense, EntropyMode::Fast})
@@ -879,7 +873,7 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
                 lo.rate = RateMode::Bpv;
                 lo.target = bpv;
                 lo.entropy = m;
-                ours("bpv" + fmt(bpv, 0), lo);
+                ours("bpv" + formatFixed(bpv, 0), lo);
             }
         {
             const VolumeStats st = v.stats(1);
@@ -924,10 +918,10 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
                                       {"gb_per_s", gbs},
                                       {"copy_gb_per_s", copy},
                                       {"fraction_of_copy", gbs / copy}});
-                std::cerr << "  transform cdf53 1 level, " << kernel << ": " << fmt(voxels / (med * 1e6), 3)
-                          << " Gvoxel/s, " << fmt(gbs, 1)
-                          << " GB/s of pass traffic = " << fmt(100 * gbs / copy, 0)
-                          << "% of the copy kernel (" << fmt(copy, 1) << " GB/s)\n";
+                std::cerr << "  transform cdf53 1 level, " << kernel << ": " << formatFixed(voxels / (med * 1e6), 3)
+                          << " Gvoxel/s, " << formatFixed(gbs, 1)
+                          << " GB/s of pass traffic = " << formatFixed(100 * gbs / copy, 0)
+                          << "% of the copy kernel (" << formatFixed(copy, 1) << " GB/s)\n";
             }
         }
     }
@@ -941,7 +935,7 @@ void benchCodec(const BenchArgs& a, GlobalOptions& global) {
     j["rows"] = nlohmann::json::array();
     for (const BenchRow& r : rows) {
         csv << r.dataset << ',' << r.codec << ',' << r.mode << ',' << r.ratio << ',' << r.bpv << ','
-            << fmt(r.psnr, 4) << ',' << r.maxError << ',' << r.encodeMBs << ',' << r.decodeMBs << ','
+            << formatFixed(r.psnr, 4) << ',' << r.maxError << ',' << r.encodeMBs << ',' << r.decodeMBs << ','
             << r.encodeColdMBs << ',' << r.decodeColdMBs << '\n';
         j["rows"].push_back({{"dataset", r.dataset},
                              {"codec", r.codec},

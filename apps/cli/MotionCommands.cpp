@@ -3,6 +3,7 @@
 #include "apps/cli/Commands.hpp"
 #include "apps/cli/GzipVolume.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/Format.hpp"
 #include "host/io/Series.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "core/runtime/ClRuntime.hpp"
@@ -42,11 +43,6 @@ struct MotionPair {
     Volume current, reference;
 };
 
-std::string fmt(double v, int digits) {
-    std::ostringstream s;
-    s << std::fixed << std::setprecision(digits) << v;
-    return s.str();
-}
 
 std::vector<MotionPair> loadPairs(const MotionBenchArgs& a) {
     std::vector<MotionPair> out;
@@ -110,7 +106,7 @@ void benchMotion(const MotionBenchArgs& a, GlobalOptions& global) {
         double zeroRmse = 0;
         const double zeroPsnr = psnrOver(p.current, p.reference, zeroRmse);
         std::cerr << "== " << p.name << " " << d.x << "x" << d.y << "x" << d.z << ": no motion PSNR "
-                  << fmt(zeroPsnr, 2) << " dB\n";
+                  << formatFixed(zeroPsnr, 2) << " dB\n";
         for (std::size_t B : a.blocks)
             for (int R : a.radii)
                 for (MotionSearchMethod m : {MotionSearchMethod::Full, MotionSearchMethod::Hierarchical}) {
@@ -150,8 +146,8 @@ void benchMotion(const MotionBenchArgs& a, GlobalOptions& global) {
                                     {"inter_blocks", inter},
                                     {"blocks", f.modes.size()},
                                     {"motion_bytes", bytes}});
-                    std::cerr << "  B " << B << " R " << R << " " << method << ": search " << fmt(searchMs, 1)
-                              << " ms, prediction PSNR " << fmt(ps, 2) << " dB (RMSE " << fmt(rm, 4) << "), inter "
+                    std::cerr << "  B " << B << " R " << R << " " << method << ": search " << formatFixed(searchMs, 1)
+                              << " ms, prediction PSNR " << formatFixed(ps, 2) << " dB (RMSE " << formatFixed(rm, 4) << "), inter "
                               << inter << "/" << f.modes.size() << ", vectors " << bytes << " B\n";
                 }
         // Kernel against the C++ reference in the same run, interleaved (kernel, reference, kernel, ...).
@@ -178,8 +174,8 @@ void benchMotion(const MotionBenchArgs& a, GlobalOptions& global) {
             const double km = median(kernelMs), wm = median(wallMs), rm = median(refMs);
             speed.push_back({{"dataset", p.name}, {"what", std::string("search B8 R") + std::to_string(o.radius) + " " + method},
                              {"kernel_ms", km}, {"kernel_wall_ms", wm}, {"reference_ms", rm}, {"identical", same}});
-            std::cerr << "  search B 8 R " << o.radius << " " << method << ": kernel " << fmt(km, 1) << " ms (wall "
-                      << fmt(wm, 1) << ") against C++ reference " << fmt(rm, 1) << " ms = " << fmt(rm / wm, 1)
+            std::cerr << "  search B 8 R " << o.radius << " " << method << ": kernel " << formatFixed(km, 1) << " ms (wall "
+                      << formatFixed(wm, 1) << ") against C++ reference " << formatFixed(rm, 1) << " ms = " << formatFixed(rm / wm, 1)
                       << "x faster wall-clock, results " << (same ? "identical" : "DIFFERENT") << '\n';
         }
         {
@@ -200,8 +196,8 @@ void benchMotion(const MotionBenchArgs& a, GlobalOptions& global) {
             const double km = median(kernelMs), wm = median(wallMs), rm = median(refMs);
             speed.push_back({{"dataset", p.name}, {"what", "OBMC B8"}, {"kernel_ms", km}, {"kernel_wall_ms", wm},
                              {"reference_ms", rm}, {"identical", nullptr}});
-            std::cerr << "  OBMC B 8: kernel " << fmt(km, 1) << " ms (wall " << fmt(wm, 1) << ") against C++ reference "
-                      << fmt(rm, 1) << " ms = " << fmt(rm / wm, 1) << "x faster wall-clock\n";
+            std::cerr << "  OBMC B 8: kernel " << formatFixed(km, 1) << " ms (wall " << formatFixed(wm, 1) << ") against C++ reference "
+                      << formatFixed(rm, 1) << " ms = " << formatFixed(rm / wm, 1) << "x faster wall-clock\n";
         }
     }
     nlohmann::json j{{"device", cc.device().name}, {"runs", a.runs}, {"rows", rows}, {"kernel_vs_reference", speed}};

@@ -5,6 +5,7 @@
 #include "apps/cli/Commands.hpp"
 #include "apps/cli/GzipVolume.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/Format.hpp"
 #include "host/io/Series.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "core/runtime/Timing.hpp"
@@ -40,12 +41,6 @@ struct NamedSeries {
     TimeSeries series;
 };
 
-std::string fmt(double v, int digits) {
-    if (std::isinf(v)) return "inf";
-    std::ostringstream s;
-    s << std::fixed << std::setprecision(digits) << v;
-    return s.str();
-}
 
 nlohmann::json jnum(double v) {
     return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json("inf");
@@ -288,18 +283,18 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
                 }
                 return c.meanMse > 0 ? 10 * std::log10((hi - lo) * (hi - lo) / c.meanMse) : INFINITY;
             };
-            std::cerr << "  " << std::setw(9) << rate << ": intra " << fmt(in.bpv, 4) << " bpv (min PSNR "
-                      << fmt(in.minPsnr, 2) << "), MC " << fmt(mc.bpv, 4) << " bpv (min PSNR "
-                      << fmt(mc.minPsnr, 2) << ", " << mc.p << " P " << mc.b
-                      << " B) = " << fmt(mc.bpv / in.bpv, 3) << "x; encode " << fmt(mb / in.encodeMs * 1e3, 1)
-                      << " / " << fmt(mb / mc.encodeMs * 1e3, 1) << " MB/s; frame " << fmt(in.frameMs, 1)
-                      << " / " << fmt(mc.frameMs, 1) << " ms (P/I " << fmt(mc.frameMs / in.frameMs, 2)
-                      << "x); playback " << fmt(1e3 * double(s.series.frames.size()) / in.playbackMs, 1)
-                      << " / " << fmt(1e3 * double(s.series.frames.size()) / mc.playbackMs, 1)
-                      << " fps; CPU per frame " << fmt(in.frameCpuMs, 1) << " / " << fmt(mc.frameCpuMs, 1)
-                      << " ms (P/I " << fmt(mc.frameCpuMs / in.frameCpuMs, 2) << "x), playing "
-                      << fmt(in.playbackCpuMs / double(s.series.frames.size()), 1) << " / "
-                      << fmt(mc.playbackCpuMs / double(s.series.frames.size()), 1) << " ms; load " << fmt(loadBefore, 1) << " -> " << fmt(loadAfter, 1) << "\n";
+            std::cerr << "  " << std::setw(9) << rate << ": intra " << formatFixed(in.bpv, 4) << " bpv (min PSNR "
+                      << formatFixed(in.minPsnr, 2) << "), MC " << formatFixed(mc.bpv, 4) << " bpv (min PSNR "
+                      << formatFixed(mc.minPsnr, 2) << ", " << mc.p << " P " << mc.b
+                      << " B) = " << formatFixed(mc.bpv / in.bpv, 3) << "x; encode " << formatFixed(mb / in.encodeMs * 1e3, 1)
+                      << " / " << formatFixed(mb / mc.encodeMs * 1e3, 1) << " MB/s; frame " << formatFixed(in.frameMs, 1)
+                      << " / " << formatFixed(mc.frameMs, 1) << " ms (P/I " << formatFixed(mc.frameMs / in.frameMs, 2)
+                      << "x); playback " << formatFixed(1e3 * double(s.series.frames.size()) / in.playbackMs, 1)
+                      << " / " << formatFixed(1e3 * double(s.series.frames.size()) / mc.playbackMs, 1)
+                      << " fps; CPU per frame " << formatFixed(in.frameCpuMs, 1) << " / " << formatFixed(mc.frameCpuMs, 1)
+                      << " ms (P/I " << formatFixed(mc.frameCpuMs / in.frameCpuMs, 2) << "x), playing "
+                      << formatFixed(in.playbackCpuMs / double(s.series.frames.size()), 1) << " / "
+                      << formatFixed(mc.playbackCpuMs / double(s.series.frames.size()), 1) << " ms; load " << formatFixed(loadBefore, 1) << " -> " << formatFixed(loadAfter, 1) << "\n";
             for (const auto& [mode, c] : {std::pair<const char*, const Coding&>{"intra", in}, {"mc", mc}})
                 rows.push_back({{"series", s.name},
                                 {"frames", s.series.frames.size()},

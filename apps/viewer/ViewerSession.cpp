@@ -2,6 +2,7 @@
 #include "apps/viewer/ViewerSession.hpp"
 
 #include "core/Error.hpp"
+#include "core/Format.hpp"
 #include "core/Volume.hpp"
 #include "render/VecMath.hpp"
 #include "render/grid/GridRenderer.hpp"
@@ -38,12 +39,6 @@ constexpr KeyBinding kBindings[] = {
     {'q', ViewerAction::Quit, "quit (also Escape)"},
 };
 
-std::string fmt(double v, int digits = 3) {
-    std::ostringstream os;
-    os.precision(digits);
-    os << v;
-    return os.str();
-}
 
 /// The data range the presets span; a constant field gets a unit-wide range.
 std::array<double, 2> presetRange(const ValueRange& r) {
@@ -190,7 +185,7 @@ std::string ViewerSession::apply(ViewerAction action) {
             fx.albedo = 0.8;
             fx.phaseG = 0.3;
         }
-        what = std::string("scattering ") + (fx.scattering ? "on (albedo " + fmt(fx.albedo) + ")" : "off") +
+        what = std::string("scattering ") + (fx.scattering ? "on (albedo " + formatNumber(fx.albedo, 3) + ")" : "off") +
                (fx.scattering ? ensureLight() : "");
         break;
     case ViewerAction::ToggleClipping:
@@ -203,7 +198,7 @@ std::string ViewerSession::apply(ViewerAction action) {
         } else {
             const Vec3 centre = camera_.camera().target;
             fx.clipPlanes.push_back({{1, 0, 0}, -centre[0]});
-            what = "clipping on (keeps x >= " + fmt(centre[0]) + ")";
+            what = "clipping on (keeps x >= " + formatNumber(centre[0], 3) + ")";
         }
         break;
     case ViewerAction::ToggleIsosurfaces:
@@ -216,7 +211,7 @@ std::string ViewerSession::apply(ViewerAction action) {
         } else {
             const auto [lo, hi] = presetRange(range_);
             fx.isosurfaces.push_back({0.5 * (lo + hi), {0.9, 0.85, 0.75, 1.0}});
-            what = "isosurfaces on (value " + fmt(0.5 * (lo + hi)) + ")";
+            what = "isosurfaces on (value " + formatNumber(0.5 * (lo + hi), 3) + ")";
         }
         break;
     case ViewerAction::CycleTfPreset:
@@ -331,11 +326,11 @@ std::string ViewerSession::title(const ViewerFrame& last, double frameMs) const 
     std::ostringstream os;
     os << "volcl view | " << renderModeName(base_.mode) << " | " << compiledSummary() << " | TF "
        << tfPresetName() << " | " << last.image.width << 'x' << last.image.height << " step "
-       << fmt(base_.step * last.level.stepScale) << " | ";
+       << formatNumber(base_.step * last.level.stepScale, 3) << " | ";
     char buf[64];
     std::snprintf(buf, sizeof buf, "%.0f ms (%.1f fps)", frameMs, frameMs > 0 ? 1000.0 / frameMs : 0.0);
     os << buf;
-    if (adaptive_.options().enabled) os << " | adaptive " << fmt(adaptive_.options().targetMs) << " ms";
+    if (adaptive_.options().enabled) os << " | adaptive " << formatNumber(adaptive_.options().targetMs, 3) << " ms";
     if (!last.level.full()) os << " [interactive]";
     return os.str();
 }

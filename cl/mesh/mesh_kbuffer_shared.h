@@ -2,7 +2,7 @@
 #ifndef VOLCL_MESH_KBUFFER_SHARED_H
 #define VOLCL_MESH_KBUFFER_SHARED_H
 
-#include "volcl_shared.h"
+#include "../volcl_shared.h"
 
 /* Face flag bits (uint4::w of a face record). */
 #define KB_FACE_BOUNDARY 1u

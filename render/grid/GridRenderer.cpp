@@ -3,6 +3,7 @@
 
 #include "cl/volcl_shared.h"
 #include "core/Error.hpp"
+#include "core/Format.hpp"
 #include "core/Volume.hpp"
 #include "render/FogDevice.hpp"
 #include "render/FrameParams.hpp"
@@ -26,11 +27,6 @@ namespace {
 
 constexpr unsigned kMacrocellEdge = 8; // voxels per macrocell edge: 8^3 cells keep the grid small and tight
 
-std::string fmt(double v) {
-    std::ostringstream os;
-    os << v;
-    return os.str();
-}
 
 /// VOXEL_TYPE: voxels keep their stored type on the device; the kernel converts on load (exact for all
 /// four types). 0 float, 1 uint8, 2 uint16, 3 int16.
@@ -237,7 +233,7 @@ void GridRenderer::rebuild(bool tfChanged) {
             spec.maxLength = scene_.step;
         }
         const std::string key = shaded.toJson() + "|" + std::to_string(int(pre)) + "|" +
-                                std::to_string(spec.size) + "|" + fmt(scene_.step) + "|" +
+                                std::to_string(spec.size) + "|" + formatNumber(scene_.step) + "|" +
                                 std::to_string(spec.lengths) + (plan_.preintLighting ? "|lighting" : "");
         if (key != m.tableKey) {
             auto hit = std::find_if(m.tableCache.begin(), m.tableCache.end(),
@@ -300,7 +296,7 @@ void GridRenderer::rebuild(bool tfChanged) {
         const BsplineCoefficients<float> c = bsplineCoefficients<float>(volume_, scene_.filter, scene_.smoothing);
         // The interpolating prefilter amplifies alternating data up to 27x: values near float's limit overflow.
         if (!std::all_of(c.c.begin(), c.c.end(), [](float v) { return std::isfinite(v); }))
-            throw DataError("volume values up to " + fmt(m.range.max) + " overflow the " +
+            throw DataError("volume values up to " + formatNumber(m.range.max) + " overflow the " +
                             std::string(filterName(scene_.filter)) +
                             " filter's float coefficients (use --filter linear)");
         m.splineMacro = bsplineMacrocells(c, kMacrocellEdge);

@@ -2,6 +2,7 @@
 #include "render/mesh/KBufferRenderer.hpp"
 
 #include "core/Error.hpp"
+#include "core/Format.hpp"
 #include "render/VecMath.hpp"
 #include "render/mesh/RadixSort.hpp"
 #include "core/runtime/Timing.hpp"
@@ -16,11 +17,6 @@ namespace {
 constexpr unsigned kBinChunks = 64;
 constexpr unsigned kGpuTileThreads = 16; // one work-item per tile row on GPUs; CPUs run one per tile
 
-std::string fmt(double v) {
-    std::ostringstream os;
-    os << v;
-    return os.str();
-}
 
 int tileThreads(bool cpu) {
     return cpu ? 1 : int(kGpuTileThreads);
@@ -45,12 +41,12 @@ EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, boo
                          "-pixel tiles, faces sorted by centroid every frame (device radix sort)");
     p.compiled.push_back("pre-integration: 3D table " + std::to_string(scene.tableSize) + "x" +
                          std::to_string(scene.tableSize) + "x" + std::to_string(scene.tableLengths) +
-                         ", lengths up to the longest edge " + fmt(mesh.maxEdgeLength));
+                         ", lengths up to the longest edge " + formatNumber(mesh.maxEdgeLength));
     if (scene.preintegration != Preintegration::Table3d)
         p.dropped.push_back("preintegration \"" + std::string(preintegrationName(scene.preintegration)) +
                             "\": the k-buffer integrates every segment through the 3D table");
     p.earlyTermination = scene.earlyTermination < 1.0;
-    if (p.earlyTermination) p.compiled.push_back("early termination at alpha >= " + fmt(scene.earlyTermination));
+    if (p.earlyTermination) p.compiled.push_back("early termination at alpha >= " + formatNumber(scene.earlyTermination));
     const SceneEffects& fx = scene.effects;
     const std::string why = ": not drawn by render.method \"kbuffer\" (use \"cells\")";
     if (fx.shading) p.dropped.push_back("shading" + why);
@@ -203,7 +199,7 @@ void KBufferRenderer::ensureTable() {
     const WorldBox b = bounds();
     const double maxLength = lod ? std::max(norm(b.extent), mesh_.maxEdgeLength) : mesh_.maxEdgeLength;
     const TableSpec spec = kbufferTableSpec(scene_, maxLength > 0.0 ? maxLength : 1.0);
-    const std::string key = std::to_string(spec.size) + "|" + std::to_string(spec.lengths) + "|" + fmt(spec.maxLength);
+    const std::string key = std::to_string(spec.size) + "|" + std::to_string(spec.lengths) + "|" + formatNumber(spec.maxLength);
     Impl::Table& t = lod ? m.lod : m.full;
     tableMs_ = 0.0;
     if (t.key == key) return;

@@ -4,6 +4,7 @@
 
 #include "cl/volcl_shared.h"
 #include "core/Error.hpp"
+#include "core/Format.hpp"
 #include "render/FrameParams.hpp"
 #include "render/VecMath.hpp"
 #include "render/grid/GridDetail.hpp"
@@ -49,11 +50,6 @@ float outward(double v, bool up) {
     return up ? f + pad : f - pad;
 }
 
-std::string fmt(double v) {
-    std::ostringstream os;
-    os << v;
-    return os.str();
-}
 
 } // namespace
 
@@ -237,7 +233,7 @@ void MeshRenderer::rebuild(bool tfChanged) {
         spec.lengths = scene_.tableLengths;
         spec.maxLength = m.maxSegment;
         const std::string key = shaded.toJson() + "|" + std::to_string(spec.size) + "|" +
-                                std::to_string(spec.lengths) + "|" + fmt(spec.maxLength);
+                                std::to_string(spec.lengths) + "|" + formatNumber(spec.maxLength);
         if (key != m.tableKey) {
             Stopwatch sw;
             const PreintegrationTable t = generatePreintegrationTable(shaded, spec, {}, &cc_);
