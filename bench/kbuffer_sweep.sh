@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # The k-buffer measurements of docs/meshes.md: k against error and time on every shared mesh and the generated
 # 1.57 M tet mesh at 512x512 (RMSE against the exact double reference), the face-split knob on the meshes it
-# changes, and the dynamic level of detail under the frame-time controller. Writes docs/results/kbuffer-*.csv.
+# changes, and the dynamic level of detail under the frame-time controller. Writes bench/results/meshes/kbuffer-*.csv.
 # Usage: bench/kbuffer_sweep.sh [build-dir] [shared-data-dir]
 set -euo pipefail
 build=${1:-build}
 data=${2:-../shared/data}/unstructured
-out=docs/results
+out=bench/results/meshes
 bench=$build/bench/volcl-bench-kbuffer
 mkdir -p "$out"
 uptime | tee "$out/kbuffer-load.txt"

@@ -8,7 +8,7 @@
 // asked, and the estimate `lod auto` makes at each lod_error, so estimate and oracle meet on one curve.
 // Usage: volcl-bench-lod-oracle FILE.vcz SCENE.json TF.json [--zoom Z] [--size PX] [--probe-size PX, 0: none]
 //        [--supersample N] [--lod-errors a,b,c] [--targets a,b,c] [--bricks-csv OUT.csv]
-// Output: `key: value` lines on stdout (docs/results/multires-oracle-*.log).
+// Output: `key: value` lines on stdout (bench/results/multires/multires-oracle-*.log).
 #include "core/AtomicFile.hpp"
 #include "render/VecMath.hpp"
 #include "render/bricks/BrickRenderer.hpp"

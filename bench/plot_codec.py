@@ -2,7 +2,7 @@
 """Plots `volcl bench codec --json` output: rate-distortion curves (PSNR vs bits/voxel, ours vs zfp),
 lossless ratios against zstd/xz, and throughput bars; prints the markdown tables for docs/codec.md.
 
-Usage: /usr/bin/python3 bench/plot_codec.py bench-codec.json docs/
+Usage: /usr/bin/python3 bench/plot_codec.py bench-codec.json docs/images/
        (a saved stderr log of the bench, *.log, works too: it lacks the zstd rows)
 """
 import json

@@ -1,7 +1,7 @@
 #!/usr/bin/python3
-"""Plots for `volcl bench render --filters --no-sweep --csv docs/rendering-filters.csv` (python3-matplotlib).
+"""Plots for `volcl bench render --filters --no-sweep --csv bench/results/rendering/rendering-filters.csv` (python3-matplotlib).
 
-Usage: /usr/bin/python3 bench/plot_filters.py docs/rendering-filters.csv docs/rendering-filters.png
+Usage: /usr/bin/python3 bench/plot_filters.py bench/results/rendering/rendering-filters.csv docs/images/rendering-filters.png
 Panel (a): mean normal error on the 8-bit sphere against kernel time per frame, one point per filter.
 Panel (b): shading roughness (the terrace measure) on the scene against kernel time per frame.
 """

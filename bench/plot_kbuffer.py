@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Plots of the k-buffer measurements (bench/kbuffer_sweep.sh) for docs/meshes.md: RMSE and frame time
-against k per mesh, and the level-of-detail controller's trace. Usage: plot_kbuffer.py [results-dir] [docs-dir]"""
+against k per mesh, and the level-of-detail controller's trace. Usage: plot_kbuffer.py [results-dir, default bench/results/meshes] [image-dir, default docs/images]"""
 import csv
 import sys
 from collections import defaultdict
@@ -11,8 +11,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-res = Path(sys.argv[1] if len(sys.argv) > 1 else "docs/results")
-docs = Path(sys.argv[2] if len(sys.argv) > 2 else "docs")
+res = Path(sys.argv[1] if len(sys.argv) > 1 else "bench/results/meshes")
+docs = Path(sys.argv[2] if len(sys.argv) > 2 else "docs/images")
 
 
 def rows(name):

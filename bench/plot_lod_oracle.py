@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Plots docs/multires-oracle.png: RMSE against the lod full render versus voxels decoded (top) and versus frame
+"""Plots docs/images/multires-oracle.png: RMSE against the lod full render versus voxels decoded (top) and versus frame
 time (bottom), for lod auto's estimate and the measured oracle, one column per view.
 Usage: plot_lod_oracle.py OUT.png BENCH.csv[,BENCH.csv...] LABEL=LOG[,LOG...] [LABEL=LOG[,LOG...] ...]
 Each LABEL's logs come from volcl-bench-lod-oracle on one scene and view; where several give an estimate

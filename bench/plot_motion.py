@@ -2,7 +2,7 @@
 """Plots `volcl bench motion --json` output: prediction PSNR against search time per data set (one
 marker per block size, full vs hierarchical), and prints the markdown tables for docs/motion.md.
 
-Usage: /usr/bin/python3 bench/plot_motion.py bench-motion.json docs/
+Usage: /usr/bin/python3 bench/plot_motion.py bench-motion.json docs/images/
 """
 import json
 import math

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Plots docs/multires.png from bench/bricks_bench.sh's CSV and the accuracy log of tests/test_bricks.cpp
+"""Plots docs/images/multires.png from bench/bricks_bench.sh's CSV and the accuracy log of tests/test_bricks.cpp
 (RMSE against the lod full render). Usage: plot_multires.py BENCH.csv ACCURACY.log OUT.png"""
 import csv, re, statistics, sys
 import matplotlib

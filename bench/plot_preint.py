@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Error-versus-time plot for `volcl bench preint --json results.json` (Debian python3-matplotlib).
 
-Usage: /usr/bin/python3 bench/plot_preint.py results.json docs/preintegration_error_vs_time.png
+Usage: /usr/bin/python3 bench/plot_preint.py results.json docs/images/preintegration_error_vs_time.png
 Panels: (a) 2D 256x256 tables, (b) 3D 128x128x256 tables (VTK's default shape) with VTK's builders from the
 same run, (c) build time versus table size N for every method (2D, float). Errors are the largest absolute
 difference from volcl's double-precision reference over every entry (a) and (b) or over a sample (c).

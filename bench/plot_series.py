@@ -3,8 +3,8 @@
 4D, from bench/sz3_series.py's JSON when given) per series and rate target (log scale), and the MC/intra
 ratio, into one PNG.
 
-Usage: /usr/bin/python3 bench/plot_series.py docs/results/series-bench.json docs/motion-series-bpv.png \
-           [docs/results/series-sz3.json]
+Usage: /usr/bin/python3 bench/plot_series.py bench/results/motion/series-bench.json docs/images/motion-series-bpv.png \
+           [bench/results/motion/series-sz3.json]
 """
 import json
 import sys

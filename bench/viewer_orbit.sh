@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Adaptive-quality measurement (`volcl bench view`): orbits the BrainWeb MRI (180x216x180) at 512x512 in a
 # headless viewer run (one full-quality frame, 60 interactive frames of 3 degrees, one full-quality frame,
-# then 3 more still frames), writes per-frame times to docs/viewer-orbit-mri.csv, the summary to
-# docs/viewer-orbit-mri.json and the plot to docs/viewer-orbit-mri.png. Usage:
+# then 3 more still frames), writes per-frame times to bench/results/viewer/viewer-orbit-mri.csv, the summary to
+# bench/results/viewer/viewer-orbit-mri.json and the plot to docs/images/viewer-orbit-mri.png. Usage:
 #   bench/viewer_orbit.sh [VOLCL_BINARY] [TARGET_MS]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -13,6 +13,6 @@ mri=${VOLCL_SHARED_DATA_DIR:-../shared/data}/regular/t1_icbm_normal_1mm_pn0_rf0_
 echo "load before: $(uptime)"
 env -u DISPLAY "$volcl" bench view "$mri" --tf bench/viewer/mri_tf.json --width 512 --height 512 \
   --frames 62 --orbit 3 --stills 3 --target-ms "$target" \
-  --csv docs/viewer-orbit-mri.csv --json docs/viewer-orbit-mri.json
+  --csv bench/results/viewer/viewer-orbit-mri.csv --json bench/results/viewer/viewer-orbit-mri.json
 echo "load after: $(uptime)"
-/usr/bin/python3 bench/plot_viewer_orbit.py docs/viewer-orbit-mri.csv "$target" docs/viewer-orbit-mri.png
+/usr/bin/python3 bench/plot_viewer_orbit.py bench/results/viewer/viewer-orbit-mri.csv "$target" docs/images/viewer-orbit-mri.png

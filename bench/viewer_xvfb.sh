@@ -3,11 +3,11 @@
 # zoom, the shading key, overlay off and on, the screenshot key), checks from the viewer's log that each input took effect,
 # and saves a screenshot of the X screen. Usage:
 #   bench/viewer_xvfb.sh [VOLCL_BINARY] [SCREENSHOT.png]
-# Defaults: build/volcl and docs/viewer-screenshot.png. Needs xvfb, xdotool, imagemagick (scripts/apt-packages.txt).
+# Defaults: build/volcl and docs/images/viewer-screenshot.png. Needs xvfb, xdotool, imagemagick (scripts/apt-packages.txt).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 volcl=$(realpath "${1:-build/volcl}")
-shot=${2:-docs/viewer-screenshot.png}
+shot=${2:-docs/images/viewer-screenshot.png}
 mri=${VOLCL_SHARED_DATA_DIR:-../shared/data}/regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz
 [[ -x "$volcl" ]] || { echo "viewer_xvfb: $volcl is not an executable" >&2; exit 1; }
 [[ -f "$mri" ]] || { echo "viewer_xvfb: $mri is absent" >&2; exit 1; }

@@ -7,7 +7,7 @@
 #   --keep-corpus DIR                            libFuzzer's grown corpus persists in DIR/<target> across
 #                                                runs (default: a temporary copy of the seeds, removed at exit)
 # DIR is a build with -DVOLCL_FUZZ=ON: libFuzzer targets with clang (coverage-guided, reports cov/ft),
-# replay-driver targets with GCC. Results go to stdout and, for long runs, to docs/fuzz-runs.csv
+# replay-driver targets with GCC. Results go to stdout and, for long runs, to bench/results/reliability/fuzz-runs.csv
 # (target, engine, executions, wall seconds, coverage, features, findings, CPU seconds, covered/total edges of
 # the target's main parser file, the first that scripts/fuzz_coverage.py lists). A failing input is saved as
 # crash-* in the working directory; keep it under fuzz/regressions/<target>/ once fixed.
@@ -31,7 +31,8 @@ while [ $# -gt 0 ]; do
 done
 targets=$(cd "$build/fuzz" && ls fuzz_* 2>/dev/null | grep -v '\.' || true)
 [ -n "$targets" ] || { echo "no fuzz targets in $build/fuzz (configure with -DVOLCL_FUZZ=ON)" >&2; exit 2; }
-csv=docs/fuzz-runs.csv
+csv=bench/results/reliability/fuzz-runs.csv
+[ "$mode" = short ] || mkdir -p "$(dirname "$csv")"
 [ "$mode" = short ] || [ -f "$csv" ] || echo "date,target,engine,executions,seconds,coverage,features,findings,cpu_seconds,parser_edges" >"$csv"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Status of every libFuzzer target from docs/fuzz-runs.csv, as the table in docs/reliability.md.
+"""Status of every libFuzzer target from bench/results/reliability/fuzz-runs.csv, as the table in docs/reliability.md.
 
   scripts/fuzz_status.py            print the table
   scripts/fuzz_status.py --write    replace the table between the fuzz-status markers in docs/reliability.md
@@ -15,7 +15,7 @@ import pathlib
 import sys
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-CSV = ROOT / "docs" / "fuzz-runs.csv"
+CSV = ROOT / "bench" / "results" / "reliability" / "fuzz-runs.csv"
 DOC = ROOT / "docs" / "reliability.md"
 BEGIN = "<!-- fuzz-status:begin (scripts/fuzz_status.py --write) -->"
 END = "<!-- fuzz-status:end -->"

@@ -1,8 +1,8 @@
 #!/usr/bin/python3
 """Plots for docs/media.md (Debian python3-matplotlib).
 
-Usage: /usr/bin/python3 bench/render/plot_media.py docs/results/fog-bench-mri.csv \
-           docs/results/tables-bench-mri.csv docs/media-fog-cost.png docs/media-tables.png
+Usage: /usr/bin/python3 bench/render/plot_media.py bench/results/media/fog-bench-mri.csv \
+           bench/results/media/tables-bench-mri.csv docs/images/media-fog-cost.png docs/images/media-tables.png
 (a) fog: ms per frame of each variant relative to the plain frame (`volcl bench render --fog --csv`);
 (b) tables: RMSE against the double reference versus ms per frame, one point per step, for the shaded
     per-sample path, 2D pre-integration lit at the midpoint and through the pre-integrated lighting table,
