@@ -27,6 +27,7 @@ set(VOLCL_PUBLIC_HEADERS
   render/VolumeRenderer.hpp
   render/grid/GridRenderer.hpp
   core/runtime/ClRuntime.hpp
+  core/runtime/DeviceProfile.hpp
   core/runtime/HostMemoryPool.hpp
   core/runtime/Timing.hpp
   host/tf/BuiltinPresets.hpp

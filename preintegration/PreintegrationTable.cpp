@@ -26,10 +26,10 @@ std::string fmt(double v) {
     return ss.str();
 }
 
-// Work-group width along the back index: PoCL pays a fixed cost per work-group, so groups are made wide,
-// but never wider than the table row (rounded up to a multiple of 16).
-std::size_t localX(int n) {
-    return std::min<std::size_t>(64, roundUp(static_cast<std::size_t>(n), 16));
+// Work-group width along the back index of a table row of n nodes (see DeviceProfile::Preintegration).
+std::size_t localX(const ComputeContext& cc, int n) {
+    const DeviceProfile::Preintegration& p = cc.profile().preintegration;
+    return std::min<std::size_t>(p.rowMax, roundUp(static_cast<std::size_t>(n), p.rowMultiple));
 }
 
 // One REAL-typed kernel argument: float or double depending on the precision the kernel was built with.
@@ -97,8 +97,8 @@ double runExact(ComputeContext& cc, const TransferFunction& tf, int n, const std
         real.set(k, 7, o.maxSubstepDepth);
         clCheck(k.setArg(8, out), "clSetKernelArg");
         std::size_t groups = (static_cast<std::size_t>(n) + 15) / 16;
-        return eventMilliseconds(
-            cc.launch2d(k, groups, static_cast<std::size_t>(n), std::min<std::size_t>(16, groups), 1));
+        return eventMilliseconds(cc.launch2d(k, groups, static_cast<std::size_t>(n),
+                                             std::min(cc.profile().preintegration.exactRow, groups), 1));
     }
     int lanes = 1;
     while (lanes < 16 && static_cast<std::size_t>(lanes) < count)
@@ -126,8 +126,8 @@ double runExact(ComputeContext& cc, const TransferFunction& tf, int n, const std
     real.set(k, 8, std::max(tf.maxColor(), 0.0));
     real.set(k, 9, o.maxSubstepDepth);
     clCheck(k.setArg(10, out), "clSetKernelArg");
-    return eventMilliseconds(
-        cc.launch3d(k, static_cast<std::size_t>(n), static_cast<std::size_t>(n), chunks, localX(n), 1, 1));
+    return eventMilliseconds(cc.launch3d(k, static_cast<std::size_t>(n), static_cast<std::size_t>(n), chunks,
+                                         localX(cc, n), 1, 1));
 }
 
 // Exact cumulative integrals at every node from the domain start: (K_r, K_g, K_b, Phi) with K = int c tau ds
@@ -203,7 +203,7 @@ double runIntegralFunction(ComputeContext& cc, const TransferFunction& tf, int n
     real.set(k, 7, std::max(tf.maxColor(), 0.0));
     clCheck(k.setArg(8, out), "clSetKernelArg");
     return eventMilliseconds(cc.launch3d(k, static_cast<std::size_t>(n), static_cast<std::size_t>(n),
-                                         lengths.size(), localX(n), 1, 1));
+                                         lengths.size(), localX(cc, n), 1, 1));
 }
 
 // Chromaticity polynomial (Roettger 9.1): fit through the l -> 0 limit and `degree` exact constant-length
@@ -272,7 +272,7 @@ double runPolynomial(ComputeContext& cc, const TransferFunction& tf, int n,
             static_cast<float>(std::max(tf.maxColor(), 0.0)), lenBuf, static_cast<cl_uint>(lengths.size()));
     clCheck(k.setArg(7, out), "clSetKernelArg");
     return ms + eventMilliseconds(cc.launch3d(k, static_cast<std::size_t>(n), static_cast<std::size_t>(n),
-                                              lengths.size(), localX(n), 1, 1));
+                                              lengths.size(), localX(cc, n), 1, 1));
 }
 
 void referenceTable(const TransferFunction& tf, PreintegrationTable& t, int threads) {
@@ -566,7 +566,7 @@ void PreintegrationGenerator::generate(const TransferFunction& tf, const TableSp
             setArgs(k, static_cast<cl_uint>(n), static_cast<cl_uint>(s));
             clCheck(k.setArg(2, out.get()), "clSetKernelArg");
             events.push_back(
-                cc->launch2d(k, static_cast<std::size_t>(n), static_cast<std::size_t>(n), localX(n), 1));
+                cc->launch2d(k, static_cast<std::size_t>(n), static_cast<std::size_t>(n), localX(*cc, n), 1));
         }
         for (const auto& e : events)
             ms += eventMilliseconds(e);
@@ -588,7 +588,7 @@ void PreintegrationGenerator::generate(const TransferFunction& tf, const TableSp
         setArgs(k, base, static_cast<cl_uint>(n), static_cast<float>(lBar), lenBuf,
                 static_cast<cl_uint>(slices), out);
         ms += eventMilliseconds(cc->launch3d(k, static_cast<std::size_t>(n), static_cast<std::size_t>(n),
-                                             slices, localX(n), 1, 1));
+                                             slices, localX(*cc, n), 1, 1));
         break;
     }
     case PreintMethod::Polynomial:

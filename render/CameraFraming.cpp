@@ -7,15 +7,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <string>
 
 namespace volcl {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 double radians(double deg) {
-    return deg * kPi / 180.0;
+    return deg * std::numbers::pi / 180.0;
 }
 
 struct ViewName {

@@ -96,8 +96,11 @@ EffectPlan RenderInput::planEffects(const Scene& scene, const TransferFunction& 
         p.defines.set("VOXEL_TYPE", 0LL);
         return p;
     }
-    if (mesh_ && scene.meshMethod == MeshMethod::KBuffer) // no device here: the plan as on a CPU device
-        return planKBuffer(scene, *mesh_, scene.kBufferDepth, true);
+    if (mesh_ && scene.meshMethod == MeshMethod::KBuffer) { // no device here: the plan as on a CPU device
+        DeviceInfo cpu;
+        cpu.isCpu = true;
+        return planKBuffer(scene, *mesh_, scene.kBufferDepth, deviceProfileFor(cpu));
+    }
     if (mesh_) return planMeshEffects(scene, *mesh_);
     return volcl::planEffects(scene, *volume_, tf);
 }

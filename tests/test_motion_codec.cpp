@@ -196,7 +196,7 @@ TEST(MotionCodec, PsnrHoldsOnEveryFrameAndBeatsIntra) {
         const auto intra = encodeSeries(cc, ts, io);
         const auto out = decodeAll(bytes);
         for (std::size_t f = 0; f < ts.frames.size(); ++f)
-            EXPECT_GE(psnr(ts.frames[f], out[f]), p - 0.5) << "frame " << f;
+            EXPECT_GE(psnr(ts.frames[f], out[f]), p - kPsnrToleranceDb) << "frame " << f;
         EXPECT_LT(bytes.size(), intra.size()) << p << " dB";
     }
 }
@@ -257,7 +257,7 @@ TEST(MotionCodec, LossyIntegerFramesPredictInFloatAndHoldPsnr) {
         EXPECT_GT(framesFlagged(bytes, 0x40), 0u) << p << " dB";
         const auto out = decodeAll(bytes);
         for (std::size_t f = 0; f < ts.frames.size(); ++f)
-            EXPECT_GE(psnr(ts.frames[f], out[f]), p - 0.5) << p << " dB, frame " << f;
+            EXPECT_GE(psnr(ts.frames[f], out[f]), p - kPsnrToleranceDb) << p << " dB, frame " << f;
     }
 }
 

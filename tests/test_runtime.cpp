@@ -270,6 +270,25 @@ TEST(Runtime, OversizedBufferIsRefused) {
     EXPECT_THROW(cc.allocate<float>(cc.device().maxAllocBytes), DataError);
 }
 
+TEST(Runtime, DeviceProfileIsChosenByDeviceKind) {
+    // The CPU entry and the generic one differ only in the CPU/GPU choices; the context keeps its device's.
+    DeviceInfo cpu, gpu;
+    cpu.isCpu = true;
+    gpu.isGpu = true;
+    const DeviceProfile &onCpu = deviceProfileFor(cpu), &onGpu = deviceProfileFor(gpu);
+    EXPECT_EQ(onCpu.entry, "cpu");
+    EXPECT_EQ(onGpu.entry, "any");
+    EXPECT_EQ(&onGpu, &genericDeviceProfile());
+    EXPECT_TRUE(onCpu.hostBuffersInPlace && onCpu.lifting.brickResident);
+    EXPECT_FALSE(onGpu.hostBuffersInPlace || onGpu.lifting.brickResident);
+    EXPECT_EQ(onCpu.mesh.tileThreads, 1u);
+    EXPECT_EQ(onGpu.mesh.tileThreads, 16u);
+    EXPECT_EQ(onCpu.launch.local1d, onGpu.launch.local1d);
+    EXPECT_EQ(onCpu.rayMarch.macrocellEdge, onGpu.rayMarch.macrocellEdge);
+    ComputeContext& cc = test::computeContext();
+    EXPECT_EQ(&cc.profile(), &deviceProfileFor(cc.device()));
+}
+
 TEST(Timing, MedianOfOddAndEvenCounts) {
     EXPECT_EQ(median({3, 1, 2}), 2.0);
     EXPECT_EQ(median({4, 1, 3, 2}), 2.5);

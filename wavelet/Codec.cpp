@@ -312,18 +312,18 @@ std::vector<std::byte> encodeSeries(ComputeContext& cc, const TimeSeries& series
     std::vector<FrameReport> rep;
     double step = 0;
     std::vector<std::byte> bytes = encodeSeriesOnce(cc, series, options, &rep, step);
-    // --psnr holds on every frame within 0.5 dB, but the steps the first frame chose serve every frame: when
-    // a later frame falls short the series is coded again at a step finer by the shortfall (about 6 dB per
-    // halving of the step).
+    // --psnr holds on every frame within kPsnrToleranceDb, but the steps the first frame chose serve every
+    // frame: when a later frame falls short the series is coded again at a step finer by the shortfall (about
+    // 6 dB per halving of the step).
     if (options.rate == RateMode::Psnr && !options.step && options.measureError)
         for (int attempt = 0; attempt < 4; ++attempt) {
             double worst = std::numeric_limits<double>::infinity();
             for (const FrameReport& f : rep)
                 if (!std::isnan(f.psnr)) worst = std::min(worst, f.psnr);
-            const double floor = options.target - 0.5;
+            const double floor = options.target - kPsnrToleranceDb;
             if (!(worst < floor) || !(step > 0)) break;
             CodecOptions finer = options;
-            finer.step = step * std::pow(10.0, -(floor - worst + 0.1) / 20);
+            finer.step = step * std::pow(10.0, -(floor - worst + kPsnrRecoveryMarginDb) / 20);
             bytes = encodeSeriesOnce(cc, series, finer, &rep, step);
         }
     if (reports) *reports = std::move(rep);

@@ -32,6 +32,11 @@ EntropyMode parseEntropy(std::string_view name);
 /// Rate control of an encoding. Stored in .vcz files: never renumber.
 enum class RateMode : std::uint8_t { Lossless = 0, MaxError = 1, Psnr = 2, Bpv = 3 };
 
+/// RateMode::Psnr with target P holds every frame of a series at P - kPsnrToleranceDb or better.
+inline constexpr double kPsnrToleranceDb = 0.5;
+/// A frame brought back up to that floor is aimed this far above it, so it does not fall short again.
+inline constexpr double kPsnrRecoveryMarginDb = 0.1;
+
 /// How a series' frames are predicted: `Block` codes P/B frames by block motion compensation, `None`
 /// codes every frame as an I frame.
 enum class MotionMode : std::uint8_t { None, Block };

@@ -142,7 +142,9 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
     cmd->add_option("-o,--output", a->out, "Output .vcz file")->required();
     cmd->add_flag("--lossless", a->lossless, "Bit-exact (default)");
     cmd->add_option("--max-error", a->maxError, "Lossy: every voxel within E of the input (guaranteed)");
-    cmd->add_option("--psnr", a->psnr, "Lossy: PSNR in dB over the input's value range (met within 0.5 dB)");
+    cmd->add_option("--psnr", a->psnr,
+                    "Lossy: PSNR in dB over the input's value range (met within " +
+                        formatNumber(kPsnrToleranceDb) + " dB)");
     cmd->add_option("--bpv", a->bpv, "Lossy: at most R bits per voxel, file overhead included");
     cmd->add_option("--step", a->step, "Lossy: fixed base quantiser step instead of a search for the target");
     cmd->add_option("--wavelet", a->wavelet,

@@ -19,11 +19,10 @@
 #include <cstdio>
 #include <deque>
 #include <memory>
+#include <numbers>
 
 namespace volcl::viewer {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // What presents frames: the presenter, the shared buffer on the cl_khr_gl_sharing path, the overlay.
 struct FrameSink {
@@ -157,7 +156,7 @@ HeadlessResult runHeadless(ViewerSession& session, const HeadlessOptions& o, Hea
     for (int i = 0; i < o.frames + o.stillFrames; ++i) {
         // Like a user: the viewer opens on a full-quality frame, the orbit follows, the view settles.
         const bool interactive = i > 0 && i + 1 < o.frames && o.orbitDegrees != 0.0;
-        if (interactive) session.camera().orbit(o.orbitDegrees * kPi / 180.0, 0.0);
+        if (interactive) session.camera().orbit(o.orbitDegrees * std::numbers::pi / 180.0, 0.0);
         Stopwatch sw;
         ViewerFrame f = session.renderFrame(o.width, o.height, interactive);
         target.bind();
@@ -225,8 +224,8 @@ void onCursor(GLFWwindow* w, double x, double y) {
     glfwGetWindowSize(w, &ww, &wh);
     const double h = std::max(wh, 1);
     if (in.button == GLFW_MOUSE_BUTTON_LEFT && !in.shift) {
-        in.orbitX += dx / h * kPi; // a drag across the window height turns half a revolution
-        in.orbitY += dy / h * kPi;
+        in.orbitX += dx / h * std::numbers::pi; // a drag across the window height turns half a revolution
+        in.orbitY += dy / h * std::numbers::pi;
     } else {
         in.panX += dx / h;
         in.panY -= dy / h;

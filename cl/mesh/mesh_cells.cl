@@ -527,7 +527,7 @@ inline float4 ray_result(const RayWalk* w, const MeshData* M, const VolclMeshRen
 /* Each work-item walks the rays of a RAYS_X x RAYS_Y pixel block together, one tet (or one entry search) per
    ray in turn: the walk is a chain of dependent loads, and interleaving independent rays lets the CPU (or a
    GPU's scheduler) overlap their memory latency. */
-#ifndef RAYS_X /* set by the host (MeshRenderer's kRaysX, kRaysY) */
+#ifndef RAYS_X /* set by the host (DeviceProfile::Mesh::cellRaysX, cellRaysY) */
 #define RAYS_X 2
 #define RAYS_Y 2
 #endif

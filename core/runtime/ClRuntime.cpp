@@ -190,6 +190,7 @@ ComputeContext::ComputeContext(std::string_view selector, std::span<const cl_con
         }
     }
     device_ = *chosen;
+    profile_ = &deviceProfileFor(device_);
     cl_int err = CL_SUCCESS;
     std::vector<cl_context_properties> props;
     if (!extraProperties.empty()) {
@@ -274,7 +275,7 @@ cl::Buffer ComputeContext::createBuffer(cl_mem_flags flags, std::size_t bytes) {
         throw DataError("buffer of " + std::to_string(bytes) + " bytes exceeds the device's maximum allocation (" +
                         std::to_string(device_.maxAllocBytes) + " bytes)");
     cl_int err = CL_SUCCESS;
-    if (device_.isCpu && (flags & CL_MEM_ALLOC_HOST_PTR) && bytes >= kHugePageBytes) {
+    if (profile_->hostBuffersInPlace && (flags & CL_MEM_ALLOC_HOST_PTR) && bytes >= kHugePageBytes) {
         // Host-allocated buffers on CPU devices use pooled memory of our own (see HostMemoryPool), handed
         // back when the runtime releases the buffer.
         HostBlock block;
@@ -295,7 +296,7 @@ cl::Buffer ComputeContext::bufferOver(HostBlock block, cl_mem_flags flags, std::
         throw DataError("buffer of " + std::to_string(bytes) + " bytes exceeds the device's maximum allocation (" +
                         std::to_string(device_.maxAllocBytes) + " bytes)");
     cl_int err = CL_SUCCESS;
-    if (!device_.isCpu) {
+    if (!profile_->hostBuffersInPlace) {
         // Other devices get their own memory with the block's contents; the block goes back now.
         cl::Buffer b(context_, flags | CL_MEM_COPY_HOST_PTR, bytes, block.data(), &err);
         clCheck(err, "clCreateBuffer");

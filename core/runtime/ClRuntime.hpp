@@ -2,6 +2,7 @@
 #pragma once
 
 #include "core/Error.hpp"
+#include "core/runtime/DeviceProfile.hpp"
 #include "core/runtime/HostMemoryPool.hpp"
 
 #include <CL/opencl.hpp>
@@ -106,6 +107,8 @@ public:
     ComputeContext& operator=(const ComputeContext&) = delete;
 
     const DeviceInfo& device() const noexcept { return device_; }
+    /// This device's tuning (work-group sizes, CPU/GPU choices), chosen when the context was made.
+    const DeviceProfile& profile() const noexcept { return *profile_; }
     cl::Context& context() noexcept { return context_; }
     cl::CommandQueue& queue() noexcept { return queue_; }
     const KernelSourceLibrary& sources() const noexcept { return *sources_; }
@@ -174,10 +177,24 @@ public:
     /// Launches with an explicit local size; the global size is rounded up to a multiple of it, so kernels
     /// must bounds-check against the true size they receive as an argument. Returns the profiling event.
     cl::Event launch(cl::Kernel& k, cl::NDRange global, cl::NDRange local);
-    cl::Event launch1d(cl::Kernel& k, std::size_t n, std::size_t local = 64);
-    cl::Event launch2d(cl::Kernel& k, std::size_t nx, std::size_t ny, std::size_t lx = 16, std::size_t ly = 1);
-    cl::Event launch3d(cl::Kernel& k, std::size_t nx, std::size_t ny, std::size_t nz, std::size_t lx = 16,
-                       std::size_t ly = 1, std::size_t lz = 1);
+    /// Without a local size they take the profile's launch defaults.
+    cl::Event launch1d(cl::Kernel& k, std::size_t n) { return launch1d(k, n, profile_->launch.local1d); }
+    cl::Event launch1d(cl::Kernel& k, std::size_t n, std::size_t local);
+    cl::Event launch2d(cl::Kernel& k, std::size_t nx, std::size_t ny) {
+        return launch2d(k, nx, ny, profile_->launch.local2d);
+    }
+    cl::Event launch2d(cl::Kernel& k, std::size_t nx, std::size_t ny, std::size_t lx, std::size_t ly);
+    cl::Event launch2d(cl::Kernel& k, std::size_t nx, std::size_t ny, LocalSize local) {
+        return launch2d(k, nx, ny, local.x, local.y);
+    }
+    cl::Event launch3d(cl::Kernel& k, std::size_t nx, std::size_t ny, std::size_t nz) {
+        return launch3d(k, nx, ny, nz, profile_->launch.local3d);
+    }
+    cl::Event launch3d(cl::Kernel& k, std::size_t nx, std::size_t ny, std::size_t nz, std::size_t lx,
+                       std::size_t ly, std::size_t lz);
+    cl::Event launch3d(cl::Kernel& k, std::size_t nx, std::size_t ny, std::size_t nz, LocalSize local) {
+        return launch3d(k, nx, ny, nz, local.x, local.y, local.z);
+    }
     void finish();
 
 private:
@@ -185,6 +202,7 @@ private:
     cl::Buffer bufferOver(HostBlock block, cl_mem_flags flags, std::size_t bytes);
 
     DeviceInfo device_;
+    const DeviceProfile* profile_ = nullptr; // an entry of the static profile table
     cl::Context context_;
     cl::CommandQueue queue_;
     std::unique_ptr<KernelSourceLibrary> sources_;

@@ -39,9 +39,10 @@ double copyKernelBandwidthGBs(ComputeContext& cc, std::size_t bytes, int runs) {
     cc.fill(src, cl_float16{});
     cl::Kernel k = cc.kernel("common/copy.cl", "copy_float16");
     setArgs(k, src, dst, static_cast<cl_uint>(n16));
-    cc.launch1d(k, n16, 16).wait();
+    cc.launch1d(k, n16, cc.profile().copyLocal).wait();
     std::vector<double> ms;
-    for (int i = 0; i < std::max(runs, 1); ++i) ms.push_back(eventMilliseconds(cc.launch1d(k, n16, 16)));
+    for (int i = 0; i < std::max(runs, 1); ++i)
+        ms.push_back(eventMilliseconds(cc.launch1d(k, n16, cc.profile().copyLocal)));
     double t = median(ms);
     return t > 0 ? 2.0 * static_cast<double>(n16 * 64) / (t * 1e6) : 0.0;
 }

@@ -449,6 +449,8 @@ namespace {
 // Deflate cannot expand data more than ~1032:1; a header promising more than that from the bytes
 // at hand is lying, and is refused before the output buffer is allocated.
 constexpr std::size_t kMaxDeflateRatio = 1040;
+// Bytes handed to zlib per call: zlib counts in 32-bit uInt.
+constexpr std::size_t kZlibChunk = std::size_t{1} << 30;
 
 bool isGzipMagic(std::span<const std::byte> b) noexcept {
     return b.size() >= 2 && b[0] == std::byte{0x1f} && b[1] == std::byte{0x8b};
@@ -495,10 +497,9 @@ std::vector<std::byte> inflateExact(std::span<const std::byte> in, std::size_t e
     if (!inf.ok()) throw IoError("zlib initialisation failed");
     z_stream& s = inf.s();
     std::size_t inPos = 0, outPos = 0;
-    constexpr std::size_t kChunk = std::size_t{1} << 30; // zlib counts in 32-bit uInt
     unsigned char probe = 0;
     while (true) {
-        const std::size_t inAvail = std::min(in.size() - inPos, kChunk);
+        const std::size_t inAvail = std::min(in.size() - inPos, kZlibChunk);
         s.next_in = reinterpret_cast<Bytef*>(const_cast<std::byte*>(in.data() + inPos));
         s.avail_in = static_cast<uInt>(inAvail);
         const bool outFull = outPos == out.size();
@@ -508,7 +509,7 @@ std::vector<std::byte> inflateExact(std::span<const std::byte> in, std::size_t e
             s.avail_out = 1;
         } else {
             s.next_out = reinterpret_cast<Bytef*>(out.data() + outPos);
-            s.avail_out = static_cast<uInt>(std::min(out.size() - outPos, kChunk));
+            s.avail_out = static_cast<uInt>(std::min(out.size() - outPos, kZlibChunk));
         }
         const uInt outBefore = s.avail_out;
         const int rc = inflate(&s, Z_NO_FLUSH);
@@ -575,17 +576,16 @@ std::vector<std::byte> deflateBytes(std::span<const std::byte> data, Wrapper wra
         Z_OK)
         throw IoError("zlib initialisation failed");
     std::vector<std::byte> out;
-    out.resize(deflateBound(&s, static_cast<uLong>(std::min<std::size_t>(data.size(), 1u << 30))) + 64);
+    out.resize(deflateBound(&s, static_cast<uLong>(std::min<std::size_t>(data.size(), kZlibChunk))) + 64);
     std::size_t inPos = 0, outPos = 0;
-    constexpr std::size_t kChunk = std::size_t{1} << 30;
     int rc = Z_OK;
     while (rc != Z_STREAM_END) {
-        const std::size_t inAvail = std::min(data.size() - inPos, kChunk);
+        const std::size_t inAvail = std::min(data.size() - inPos, kZlibChunk);
         s.next_in = reinterpret_cast<Bytef*>(const_cast<std::byte*>(data.data() + inPos));
         s.avail_in = static_cast<uInt>(inAvail);
         if (out.size() - outPos < (1u << 16)) out.resize(out.size() * 2 + (1u << 16));
         s.next_out = reinterpret_cast<Bytef*>(out.data() + outPos);
-        s.avail_out = static_cast<uInt>(std::min(out.size() - outPos, kChunk));
+        s.avail_out = static_cast<uInt>(std::min(out.size() - outPos, kZlibChunk));
         const uInt outBefore = s.avail_out;
         const bool last = inPos + inAvail == data.size();
         rc = deflate(&s, last ? Z_FINISH : Z_NO_FLUSH);

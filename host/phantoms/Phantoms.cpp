@@ -89,7 +89,7 @@ Volume generateMarschnerLobb(ComputeContext& cc, Dims dims, MarschnerLobbParams 
     auto out = cc.allocate<float>(v.voxelCount(), CL_MEM_WRITE_ONLY);
     cl::Kernel k = cc.kernel("phantoms/phantoms.cl", "marschner_lobb");
     setArgs(k, out, cl_uint(dims.x), cl_uint(dims.y), cl_uint(dims.z), float(p.fM), float(p.alpha));
-    cc.launch3d(k, dims.x, dims.y, dims.z, 16, 1, 1);
+    cc.launch3d(k, dims.x, dims.y, dims.z, cc.profile().phantom);
     cc.read(out, v.values<float>());
     return v;
 }
@@ -130,7 +130,7 @@ Volume generateSheppLogan(ComputeContext& cc, Dims dims) {
     auto out = cc.allocate<float>(v.voxelCount(), CL_MEM_WRITE_ONLY);
     cl::Kernel k = cc.kernel("phantoms/phantoms.cl", "shepp_logan");
     setArgs(k, out, cl_uint(dims.x), cl_uint(dims.y), cl_uint(dims.z), ellipsoids, cl_uint(table.size()));
-    cc.launch3d(k, dims.x, dims.y, dims.z, 16, 1, 1);
+    cc.launch3d(k, dims.x, dims.y, dims.z, cc.profile().phantom);
     cc.read(out, v.values<float>());
     return v;
 }

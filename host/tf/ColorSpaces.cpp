@@ -8,12 +8,11 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <numbers>
 #include <string>
 
 namespace volcl {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 // D65 reference white and the sRGB primaries, to the four decimals ParaView's colour maps are built with.
 constexpr double kWhiteX = 0.9505, kWhiteY = 1.0, kWhiteZ = 1.089;
@@ -47,8 +46,8 @@ std::array<double, 3> mshToLab(const std::array<double, 3>& msh) {
 
 /// Angle between two hues, in [0, pi].
 double hueDistance(double a, double b) {
-    const double d = std::fmod(std::abs(a - b), 2.0 * kPi);
-    return d > kPi ? 2.0 * kPi - d : d;
+    const double d = std::fmod(std::abs(a - b), 2.0 * std::numbers::pi);
+    return d > std::numbers::pi ? 2.0 * std::numbers::pi - d : d;
 }
 
 /// A hue for an unsaturated end point that keeps the perceived change along the path even (Moreland 2009).
@@ -56,14 +55,14 @@ double hueTowardUnsaturated(const std::array<double, 3>& saturated, double unsat
     if (saturated[0] >= unsaturatedM - 0.1) return saturated[2];
     const double spin = saturated[1] * std::sqrt(unsaturatedM * unsaturatedM - saturated[0] * saturated[0]) /
                         (saturated[0] * std::sin(saturated[1]));
-    return saturated[2] > -0.3 * kPi ? saturated[2] + spin : saturated[2] - spin;
+    return saturated[2] > -0.3 * std::numbers::pi ? saturated[2] + spin : saturated[2] - spin;
 }
 
 Rgb interpolateDiverging(const Rgb& a, const Rgb& b, double t) {
     auto m1 = labToMsh(rgbToLab(a));
     auto m2 = labToMsh(rgbToLab(b));
     // Two distinct saturated ends: go through a neutral white half way, each half its own path.
-    if (m1[1] > 0.05 && m2[1] > 0.05 && hueDistance(m1[2], m2[2]) > 0.33 * kPi) {
+    if (m1[1] > 0.05 && m2[1] > 0.05 && hueDistance(m1[2], m2[2]) > 0.33 * std::numbers::pi) {
         const double white = std::max({m1[0], m2[0], 88.0});
         if (t < 0.5) {
             m2 = {white, 0.0, 0.0};

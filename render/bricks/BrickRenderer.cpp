@@ -501,8 +501,9 @@ ImageBuffer BrickRenderer::render() {
     }
     setArgs(m.kernel, m.pool, m.knots, m.table, m.empty, m.params, m.out, m.depth, m.fog.buffer(cc_));
     const std::size_t w = std::size_t(scene_.width), hgt = std::size_t(scene_.height);
-    cl::Event ev = m.packet ? cc_.launch2d(m.kernel, (w + 3) / 4, (hgt + 1) / 2, 4, 4)
-                            : cc_.launch2d(m.kernel, w, hgt, 8, 8);
+    cl::Event ev = m.packet
+                       ? cc_.launch2d(m.kernel, (w + 3) / 4, (hgt + 1) / 2, cc_.profile().rayMarch.packet)
+                       : cc_.launch2d(m.kernel, w, hgt, cc_.profile().rayMarch.tile);
     lastMs_ = eventMilliseconds(ev);
     const bool withDepth = !plan_.isosurfaces.empty();
     const auto rgba = cc_.download(m.out);

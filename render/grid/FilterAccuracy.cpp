@@ -6,11 +6,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <numbers>
 
 namespace volcl {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kMinCosView = 0.3; // 72.5 degrees
 
 /// Calls fn(ray, hit distance, true normal) for every measured pixel.
@@ -70,7 +70,7 @@ double meanNormalErrorDeg(const ImageBuffer& img, const Scene& s, const Vec3& ce
     forMeasuredPixels(img, s, centre, [&](int x, int y, const CameraRay& ray, double, const Vec3& nTrue) {
         const double cosTrue = std::abs(dot(nTrue, ray.direction));
         const double cosShaded = std::clamp(double(img.at(x, y, 0)), 0.0, 1.0);
-        sum += std::abs(std::acos(cosShaded) - std::acos(cosTrue)) * 180.0 / kPi;
+        sum += std::abs(std::acos(cosShaded) - std::acos(cosTrue)) * 180.0 / std::numbers::pi;
         ++count;
     });
     return count ? sum / double(count) : 180.0;

@@ -25,9 +25,6 @@
 namespace volcl {
 namespace {
 
-constexpr unsigned kMacrocellEdge = 8; // voxels per macrocell edge: 8^3 cells keep the grid small and tight
-
-
 /// VOXEL_TYPE: voxels keep their stored type on the device; the kernel converts on load (exact for all
 /// four types). 0 float, 1 uint8, 2 uint16, 3 int16.
 int voxelTypeCode(const Volume& volume) {
@@ -58,15 +55,16 @@ std::vector<cl_float4> lightingTableSlices(const TransferFunction& tf, int size,
     return out;
 }
 
-std::string skippingHow() {
-    return std::to_string(kMacrocellEdge) + "^3-voxel macrocells";
+std::string skippingHow(unsigned macrocellEdge) {
+    return std::to_string(macrocellEdge) + "^3-voxel macrocells";
 }
 
 /// The shared planner on the grid's box and (already scanned) value range, plus the voxel type: the
 /// renderer scans the volume once, not on every scene change (a 7M-voxel scan per adaptive-quality step
 /// change cost more than the coarse frame).
-EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& range) {
-    EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow(), true);
+EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& range,
+                    unsigned macrocellEdge) {
+    EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow(macrocellEdge), true);
     // The cubic filters read float spline coefficients instead of the voxels; smoothing, float voxels.
     p.defines.set("VOXEL_TYPE", scene.filter == ReconstructionFilter::Linear && scene.smoothing == 0.0
                                     ? static_cast<long long>(voxelTypeCode(volume))
@@ -85,7 +83,8 @@ WorldBox gridBounds(const Volume& volume) {
 
 EffectPlan planEffects(const Scene& scene, const Volume& volume, const TransferFunction& tf) {
     (void)tf;
-    return planGrid(scene, volume, grid_detail::valueRange(volume));
+    return planGrid(scene, volume, grid_detail::valueRange(volume),
+                    genericDeviceProfile().rayMarch.macrocellEdge);
 }
 
 Camera defaultCamera(const Volume& volume) {
@@ -156,7 +155,7 @@ GridRenderer::GridRenderer(ComputeContext& cc, const Volume& volume, const Trans
     std::vector<cl_uchar> bytes(volume.byteSize() + scalarSize(volume.type()), 0);
     std::memcpy(bytes.data(), volume.bytes().data(), volume.byteSize());
     impl_->volume = cc_.upload(bytes, CL_MEM_READ_ONLY);
-    impl_->macro = grid_detail::buildMacrocells(volume, kMacrocellEdge);
+    impl_->macro = grid_detail::buildMacrocells(volume, cc_.profile().rayMarch.macrocellEdge);
     impl_->range = grid_detail::valueRange(volume);
     impl_->useCorners =
         volume.type() == ScalarType::UInt8 && volume.voxelCount() <= grid_detail::kMaxCornerVoxels;
@@ -202,7 +201,7 @@ void GridRenderer::setTransferFunction(const TransferFunction& tf) {
 void GridRenderer::rebuild(bool tfChanged) {
     camera_ = scene_.camera ? *scene_.camera : defaultCamera(bounds());
     const EffectPlan previous = plan_;
-    plan_ = planGrid(scene_, volume_, impl_->range);
+    plan_ = planGrid(scene_, volume_, impl_->range, cc_.profile().rayMarch.macrocellEdge);
     Impl& m = *impl_;
 
     scene_.validateSteps(norm(bounds().extent));
@@ -299,7 +298,7 @@ void GridRenderer::rebuild(bool tfChanged) {
             throw DataError("volume values up to " + formatNumber(m.range.max) + " overflow the " +
                             std::string(filterName(scene_.filter)) +
                             " filter's float coefficients (use --filter linear)");
-        m.splineMacro = bsplineMacrocells(c, kMacrocellEdge);
+        m.splineMacro = bsplineMacrocells(c, cc_.profile().rayMarch.macrocellEdge);
         m.spline = cc_.upload(c.c, CL_MEM_READ_ONLY);
         m.splineFilter = scene_.filter;
         m.splineSmoothing = scene_.smoothing;
@@ -309,7 +308,7 @@ void GridRenderer::rebuild(bool tfChanged) {
     if (smoothedLinear && m.smoothedSigma != scene_.smoothing) {
         checkMemoryBudget(volume_.voxelCount() * sizeof(float), 0, "the volume", "the smoothed voxels");
         const Volume sm = smoothedVolume(volume_, scene_.smoothing);
-        m.smoothedMacro = grid_detail::buildMacrocells(sm, kMacrocellEdge);
+        m.smoothedMacro = grid_detail::buildMacrocells(sm, cc_.profile().rayMarch.macrocellEdge);
         std::vector<float> voxels(sm.voxelCount() + 1, 0.0f); // + the spare voxel grid_sample.h reads
         std::memcpy(voxels.data(), sm.bytes().data(), sm.byteSize());
         m.smoothed = cc_.upload(voxels, CL_MEM_READ_ONLY);
@@ -388,10 +387,11 @@ ImageBuffer GridRenderer::launch(cl::Kernel& kernel, const cl::Buffer& voxels, b
         return readImage(false);
     }
         setArgs(kernel, voxels, m.knots, m.table, m.empty, m.params, m.out, m.depth, m.fog.buffer(cc_));
-    // Tiles of nearby rays share cache lines in y as well as x: 8x8 rays, or 4x4 packets of 4x2 rays.
+    // One ray per work-item, or one packet of 4x2 rays (see DeviceProfile::RayMarch for the tiles).
     const std::size_t w = std::size_t(scene_.width), h = std::size_t(scene_.height);
-    cl::Event ev =
-        packet ? cc_.launch2d(kernel, (w + 3) / 4, (h + 1) / 2, 4, 4) : cc_.launch2d(kernel, w, h, 8, 8);
+    const DeviceProfile::RayMarch& tuning = cc_.profile().rayMarch;
+    cl::Event ev = packet ? cc_.launch2d(kernel, (w + 3) / 4, (h + 1) / 2, tuning.packet)
+                          : cc_.launch2d(kernel, w, h, tuning.tile);
     lastMs_ = eventMilliseconds(ev);
     return readImage(withDepth);
 }
@@ -477,7 +477,7 @@ ValueRange GridRenderer::valueRange() const {
 }
 
 EffectPlan GridRenderer::planEffects(const Scene& scene) const {
-    return planGrid(scene, volume_, impl_->range);
+    return planGrid(scene, volume_, impl_->range, cc_.profile().rayMarch.macrocellEdge);
 }
 
 std::string GridRenderer::statistics() const {

@@ -3,11 +3,12 @@
 #include "cl/common/counter_rng.h"
 #include "core/Error.hpp"
 #include "core/Volume.hpp"
+#include "core/runtime/DeviceProfile.hpp"
+#include "core/runtime/ParallelFor.hpp"
 #include "render/Reference.hpp"
 #include "render/VecMath.hpp"
 #include "render/grid/GridRenderer.hpp"
 #include "render/grid/PathTracer.hpp"
-#include "core/runtime/ParallelFor.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -18,7 +19,6 @@ namespace volcl {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr unsigned kMacrocellEdge = 8; // as GridRenderer's macrocells
 
 double uniform(VolclRng& r) {
     return double(volcl_rng_next24(&r)) * (1.0 / 16777216.0);
@@ -49,8 +49,9 @@ Vec3 samplePhase(const Vec3& dir, double g, double u1, double u2) {
 class PathReference {
 public:
     PathReference(const Volume& v, const TransferFunction& tf, const Scene& s)
-        : vol_(v), tf_(tf), fx_(s.effects), values_(v.toFloat()), cam_(s.camera ? *s.camera : defaultCamera(v)),
-          lighting_(s, cam_), macro_(grid_detail::buildMacrocells(v, kMacrocellEdge)),
+        : vol_(v), tf_(tf), fx_(s.effects), values_(v.toFloat()),
+          cam_(s.camera ? *s.camera : defaultCamera(v)), lighting_(s, cam_),
+          macro_(grid_detail::buildMacrocells(v, genericDeviceProfile().rayMarch.macrocellEdge)),
           majorant_(majorantGrid(macro_, tf)) {
         const Dims& d = v.dims();
         n_ = {d.x, d.y, d.z};

@@ -57,7 +57,7 @@ double GridPathTracer::accumulate(cl::Kernel& kernel, const cl::Buffer& voxels,
         clCheck(kernel.setArg(4, p), "clSetKernelArg");
         clCheck(kernel.setArg(5, accum_.get()), "clSetKernelArg");
         clCheck(kernel.setArg(6, out.get()), "clSetKernelArg");
-        ms += eventMilliseconds(cc_.launch2d(kernel, w, h, 8, 8));
+        ms += eventMilliseconds(cc_.launch2d(kernel, w, h, cc_.profile().rayMarch.pathTrace));
         done_ += n;
         samples -= n;
     }

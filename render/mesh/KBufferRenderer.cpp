@@ -12,19 +12,8 @@
 #include <sstream>
 
 namespace volcl {
-namespace {
 
-constexpr unsigned kBinChunks = 64;
-constexpr unsigned kGpuTileThreads = 16; // one work-item per tile row on GPUs; CPUs run one per tile
-
-
-int tileThreads(bool cpu) {
-    return cpu ? 1 : int(kGpuTileThreads);
-}
-
-} // namespace
-
-EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, bool cpuDevice) {
+EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, const DeviceProfile& device) {
     if (k < kKBufferMinK || k > kKBufferMaxK)
         throw UsageError("render.k must be " + std::to_string(kKBufferMinK) + ".." + std::to_string(kKBufferMaxK) +
                          " (got " + std::to_string(k) + ")");
@@ -34,8 +23,8 @@ EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, boo
     EffectPlan p;
     p.defines.set("KB_K", k)
         .set("KB_TILE", kKBufferTile)
-        .set("KB_TILE_THREADS", tileThreads(cpuDevice))
-        .set("BIN_CHUNKS", int(kBinChunks));
+        .set("KB_TILE_THREADS", device.mesh.tileThreads)
+        .set("BIN_CHUNKS", device.mesh.binChunks);
     p.compiled.push_back("mode dvr by k-buffer (HAVS): k = " + std::to_string(k) + ", " +
                          std::to_string(kKBufferTile) + "x" + std::to_string(kKBufferTile) +
                          "-pixel tiles, faces sorted by centroid every frame (device radix sort)");
@@ -127,14 +116,14 @@ ValueRange KBufferRenderer::valueRange() const {
 }
 
 EffectPlan KBufferRenderer::planEffects(const Scene& scene) const {
-    return planKBuffer(scene, mesh_, k_, cc_.device().isCpu);
+    return planKBuffer(scene, mesh_, k_, cc_.profile());
 }
 
 void KBufferRenderer::setScene(const Scene& scene) {
     scene.validate();
     // A new render.k is taken; an unchanged one keeps the k this renderer was made or set with.
     const int k = scene.kBufferDepth != scene_.kBufferDepth ? scene.kBufferDepth : k_;
-    planKBuffer(scene, mesh_, k, cc_.device().isCpu); // refuses before anything changes
+    planKBuffer(scene, mesh_, k, cc_.profile()); // refuses before anything changes
     k_ = k;
     scene_ = scene;
     rebuild(false);
@@ -154,7 +143,7 @@ void KBufferRenderer::setView(const Camera& camera, int width, int height, doubl
 }
 
 void KBufferRenderer::setK(int k) {
-    planKBuffer(scene_, mesh_, k, cc_.device().isCpu);
+    planKBuffer(scene_, mesh_, k, cc_.profile());
     k_ = k;
     rebuild(false);
 }
@@ -172,7 +161,7 @@ std::size_t KBufferRenderer::facesDrawn() const noexcept {
 void KBufferRenderer::rebuild(bool tfChanged) {
     Impl& m = *impl_;
     camera_ = scene_.camera ? *scene_.camera : defaultCamera(bounds());
-    plan_ = planKBuffer(scene_, mesh_, k_, cc_.device().isCpu);
+    plan_ = planKBuffer(scene_, mesh_, k_, cc_.profile());
     if (tfChanged) {
         m.full.key.clear();
         m.lod.key.clear();
@@ -213,7 +202,7 @@ void KBufferRenderer::ensureTable() {
         const DeviceBuffer<cl_float4> f = cc_.upload(values, CL_MEM_READ_ONLY);
         DeviceBuffer<cl_half> h = cc_.allocate<cl_half>(4 * values.size());
         setArgs(m.toHalf, f, cl_uint(values.size()), h);
-        cc_.launch1d(m.toHalf, values.size(), 64);
+        cc_.launch1d(m.toHalf, values.size(), cc_.profile().mesh.kbuffer);
         return h;
     };
     std::vector<cl_float4> plain(entries);
@@ -222,7 +211,7 @@ void KBufferRenderer::ensureTable() {
     const DeviceBuffer<cl_half> rounded = toHalf(plain);
     DeviceBuffer<cl_float4> back = cc_.allocate<cl_float4>(entries);
     setArgs(m.fromHalf, rounded, cl_uint(entries), back);
-    cc_.launch1d(m.fromHalf, entries, 64);
+    cc_.launch1d(m.fromHalf, entries, cc_.profile().mesh.kbuffer);
     const std::vector<cl_float4> values = cc_.download(back);
     for (std::size_t i = 0; i < entries; ++i)
         for (int c = 0; c < 4; ++c)
@@ -249,32 +238,34 @@ ImageBuffer KBufferRenderer::render() {
     const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
     if (m.out.size() != pixels) m.out = cc_.allocate<cl_float4>(pixels);
     const std::size_t tiles = std::size_t(P.tilesX) * P.tilesY;
-    if (m.counts.size() != tiles * kBinChunks) m.counts = cc_.allocate<cl_uint>(tiles * kBinChunks);
+    const DeviceProfile::Mesh& tuning = cc_.profile().mesh;
+    const std::size_t binChunks = tuning.binChunks;
+    if (m.counts.size() != tiles * binChunks) m.counts = cc_.allocate<cl_uint>(tiles * binChunks);
     const cl_uint n = P.faceCount;
     times_ = {};
 
     setArgs(m.project, m.points, P, m.proj);
-    times_.project = eventMilliseconds(cc_.launch1d(m.project, geometry_.points.size(), 64));
+    times_.project = eventMilliseconds(cc_.launch1d(m.project, geometry_.points.size(), tuning.kbuffer));
     setArgs(m.faceKeys, m.points, m.proj, m.faces, P, m.keys, m.vals, m.rects);
-    times_.keys = eventMilliseconds(cc_.launch1d(m.faceKeys, std::max<std::size_t>(n, 1), 64));
+    times_.keys = eventMilliseconds(cc_.launch1d(m.faceKeys, std::max<std::size_t>(n, 1), tuning.kbuffer));
     m.sorter.sort(m.keys, m.vals, n);
     times_.sort = m.sorter.lastMilliseconds();
 
     setArgs(m.gather, m.vals, m.faces, m.rects, n, m.sortedFaces, m.sortedRects);
-    times_.bin = eventMilliseconds(cc_.launch1d(m.gather, std::max<std::size_t>(n, 1), 64));
+    times_.bin = eventMilliseconds(cc_.launch1d(m.gather, std::max<std::size_t>(n, 1), tuning.kbuffer));
     cc_.fill(m.counts, cl_uint(0));
     setArgs(m.binCount, m.sortedRects, n, P.tilesX, m.counts);
-    times_.bin += eventMilliseconds(cc_.launch1d(m.binCount, kBinChunks, 1));
-    setArgs(m.scan, m.counts, cl_uint(tiles * kBinChunks), m.total);
+    times_.bin += eventMilliseconds(cc_.launch1d(m.binCount, binChunks, tuning.binLocal));
+    setArgs(m.scan, m.counts, cl_uint(tiles * binChunks), m.total);
     times_.bin += eventMilliseconds(cc_.launch1d(m.scan, 1, 1));
     cl_uint entries = 0;
     cc_.read(m.total, std::span<cl_uint>(&entries, 1));
     if (m.list.size() < entries) m.list = cc_.allocate<cl_uint4>(std::size_t(entries) + entries / 4);
     m.lastEntries = entries;
     setArgs(m.binScatter, m.sortedFaces, m.sortedRects, n, P.tilesX, m.counts, m.list);
-    times_.bin += eventMilliseconds(cc_.launch1d(m.binScatter, kBinChunks, 1));
+    times_.bin += eventMilliseconds(cc_.launch1d(m.binScatter, binChunks, tuning.binLocal));
 
-    const std::size_t threads = std::size_t(tileThreads(cc_.device().isCpu));
+    const std::size_t threads = tuning.tileThreads;
     setArgs(m.raster, m.proj, m.scalars, m.counts, m.list, P, table.device, m.out);
     times_.raster = eventMilliseconds(cc_.launch(m.raster, cl::NDRange(tiles * threads), cl::NDRange(threads)));
 

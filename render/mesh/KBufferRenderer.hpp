@@ -114,9 +114,9 @@ private:
 std::unique_ptr<VolumeRenderer> makeKBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh,
                                                     const TransferFunction& tf, const Scene& scene);
 
-/// The plan of the k-buffer method for a scene (no device): the defines its kernels compile with and what
-/// it drops (shading, clipping, iso-surfaces: not drawn by this method). Throws UsageError for modes other
-/// than dvr.
-EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, bool cpuDevice);
+/// The plan of the k-buffer method for a scene on a device of this profile: the defines its kernels compile
+/// with and what it drops (shading, clipping, iso-surfaces: not drawn by this method). Throws UsageError for
+/// modes other than dvr.
+EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, const DeviceProfile& device);
 
 } // namespace volcl

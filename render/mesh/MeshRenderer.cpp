@@ -24,9 +24,6 @@ namespace volcl {
 namespace {
 
 constexpr int kEmptyBins = 4096; ///< TF emptiness is looked up per bin of the domain
-/// Pixels a work-item walks together (RAYS_X x RAYS_Y of cl/mesh/mesh_cells.cl; 4 x 2, 4 x 4 and 8 x 2 measured the
-/// same as 2 x 2 on the blunt fin), and work-items per group.
-constexpr int kRaysX = 2, kRaysY = 2, kGroupX = 8, kGroupY = 8;
 
 cl_float4 f4(const Vec3& v, float w) {
     cl_float4 r;
@@ -279,7 +276,7 @@ void MeshRenderer::rebuild(bool tfChanged) {
     m.empty = cc_.upload(empty, CL_MEM_READ_ONLY);
 
     KernelDefines defines = plan_.defines;
-    defines.set("RAYS_X", kRaysX).set("RAYS_Y", kRaysY);
+    defines.set("RAYS_X", cc_.profile().mesh.cellRaysX).set("RAYS_Y", cc_.profile().mesh.cellRaysY);
     m.kernel = cc_.kernel("mesh/mesh_cells.cl", "mesh_cells", defines);
 
     VolclMeshRenderParams& p = m.params;
@@ -332,9 +329,11 @@ ImageBuffer MeshRenderer::render() {
     }
     setArgs(m.kernel, m.cells, m.empty, m.bvhNodes, m.bvhFaces, m.knots, m.tauIntegral, m.table, m.params,
             m.out, m.depth);
-    // One work-item per kRaysX x kRaysY pixel block, kGroupX x kGroupY work-items per group.
-    cl::Event ev = cc_.launch2d(m.kernel, (std::size_t(scene_.width) + kRaysX - 1) / kRaysX,
-                                (std::size_t(scene_.height) + kRaysY - 1) / kRaysY, kGroupX, kGroupY);
+    // One work-item per RAYS_X x RAYS_Y pixel block.
+    const DeviceProfile::Mesh& tuning = cc_.profile().mesh;
+    cl::Event ev =
+        cc_.launch2d(m.kernel, (std::size_t(scene_.width) + tuning.cellRaysX - 1) / tuning.cellRaysX,
+                     (std::size_t(scene_.height) + tuning.cellRaysY - 1) / tuning.cellRaysY, tuning.cells);
     lastMs_ = eventMilliseconds(ev);
     const bool withDepth = !plan_.isosurfaces.empty();
     const auto rgba = cc_.download(m.out);

@@ -28,12 +28,13 @@ void radixSortReference(std::vector<std::uint32_t>& keys, std::vector<std::uint3
 }
 
 DeviceRadixSort::DeviceRadixSort(ComputeContext& cc) : cc_(cc) {
+    const std::size_t blocks = cc_.profile().mesh.radixBlocks;
     KernelDefines d;
-    d.set("RADIX_BLOCKS", static_cast<int>(kBlocks));
+    d.set("RADIX_BLOCKS", blocks);
     histogram_ = cc_.kernel("mesh/radix_sort.cl", "radix_histogram", d);
     scan_ = cc_.kernel("mesh/radix_sort.cl", "exclusive_scan", d);
     scatter_ = cc_.kernel("mesh/radix_sort.cl", "radix_scatter", d);
-    hist_ = cc_.allocate<cl_uint>(256 * kBlocks);
+    hist_ = cc_.allocate<cl_uint>(256 * blocks);
     total_ = cc_.allocate<cl_uint>(1);
 }
 
@@ -48,13 +49,14 @@ void DeviceRadixSort::sort(DeviceBuffer<cl_uint>& keys, DeviceBuffer<cl_uint>& v
     }
     DeviceBuffer<cl_uint>*kIn = &keys, *vIn = &values, *kOut = &keysAux_, *vOut = &valuesAux_;
     const cl_uint count = static_cast<cl_uint>(n);
+    const std::size_t blocks = cc_.profile().mesh.radixBlocks, local = cc_.profile().mesh.radixLocal;
     for (cl_uint shift = 0; shift < 32; shift += 8) {
         setArgs(histogram_, *kIn, count, shift, hist_);
-        lastMs_ += eventMilliseconds(cc_.launch1d(histogram_, kBlocks, 1));
-        setArgs(scan_, hist_, cl_uint(256 * kBlocks), total_);
+        lastMs_ += eventMilliseconds(cc_.launch1d(histogram_, blocks, local));
+        setArgs(scan_, hist_, cl_uint(256 * blocks), total_);
         lastMs_ += eventMilliseconds(cc_.launch1d(scan_, 1, 1));
         setArgs(scatter_, *kIn, *vIn, *kOut, *vOut, count, shift, hist_);
-        lastMs_ += eventMilliseconds(cc_.launch1d(scatter_, kBlocks, 1));
+        lastMs_ += eventMilliseconds(cc_.launch1d(scatter_, blocks, local));
         std::swap(kIn, kOut);
         std::swap(vIn, vOut);
     }

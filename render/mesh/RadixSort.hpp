@@ -36,7 +36,6 @@ public:
     void sort(DeviceBuffer<cl_uint>& keys, DeviceBuffer<cl_uint>& values, std::size_t n);
     /// Kernel time of the last sort (profiling events), milliseconds.
     double lastMilliseconds() const noexcept { return lastMs_; }
-    static constexpr unsigned kBlocks = 128; ///< work-items of the histogram and scatter passes
 
 private:
     ComputeContext& cc_;

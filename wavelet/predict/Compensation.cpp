@@ -373,7 +373,7 @@ MotionField MotionCompensator::decideModes(ComputeContext& cc, const Volume& cur
                             (choice.backward ? 8 : 0) | (choice.bidirectional ? 16 : 0);
     setArgs(costsKernel_, curB, r0B, r1B, dims4(grid.volume), cl_int(grid.size), dims4(grid.blocks()), fwdB,
             bwdB, modeMask, costB, meanB);
-    kernelMs_ = eventMilliseconds(cc.launch1d(costsKernel_, n, 16));
+    kernelMs_ = eventMilliseconds(cc.launch1d(costsKernel_, n, cc.profile().motion.costs));
     const std::vector<float> c = cc.download(costB), means = cc.download(meanB);
     MotionField f;
     f.grid = grid;
@@ -409,7 +409,8 @@ Volume MotionCompensator::compensate(ComputeContext& cc, const MotionField& fiel
         cl::Kernel& k = compensateRows(cc, reference0.type());
         setArgs(k, r0B, r1B, dims4(d), dims4(field.grid.blocks()), rowStart(field.grid.size), fb.modes,
                 fb.fwd, fb.bwd, fb.intra, fb.first, fb.weights, outB);
-        kernelMs_ = eventMilliseconds(cc.launch3d(k, rowGroups(d.x, field.grid.size), d.y, d.z, 16, 1, 1));
+        kernelMs_ = eventMilliseconds(
+            cc.launch3d(k, rowGroups(d.x, field.grid.size), d.y, d.z, cc.profile().motion.rows));
     } else {
         // Blocks below 8: one work-item per voxel on float copies of the references (8 voxels along x span
         // more than a block and its neighbour there).
@@ -419,7 +420,8 @@ Volume MotionCompensator::compensate(ComputeContext& cc, const MotionField& fiel
              r1B = cc.wrapHost(std::span(r1), CL_MEM_READ_ONLY);
         setArgs(compensateKernel_, r0B, r1B, dims4(d), dims4(field.grid.blocks()), fb.modes, fb.fwd, fb.bwd,
                 fb.intra, fb.first, fb.weights, outB);
-        kernelMs_ = eventMilliseconds(cc.launch3d(compensateKernel_, d.x, d.y, d.z, 32, 8, 2));
+        kernelMs_ =
+            eventMilliseconds(cc.launch3d(compensateKernel_, d.x, d.y, d.z, cc.profile().motion.voxels));
     }
     // Mapping makes the kernel's writes visible in `out`.
     BatchMapping<float> visible(cc.queue(), outB.get(), d.count(), CL_MAP_READ);
@@ -449,7 +451,8 @@ Volume MotionCompensator::reconstruct(ComputeContext& cc, const MotionField& fie
     cl::Kernel& k = reconstructRows(cc, reference0.type(), type, roundPrediction);
     setArgs(k, r0B, r1B, dims4(d), dims4(field.grid.blocks()), rowStart(field.grid.size), fb.modes, fb.fwd,
             fb.bwd, fb.intra, fb.first, fb.weights, resB, outB);
-    kernelMs_ = eventMilliseconds(cc.launch3d(k, rowGroups(d.x, field.grid.size), d.y, d.z, 16, 1, 1));
+    kernelMs_ = eventMilliseconds(
+        cc.launch3d(k, rowGroups(d.x, field.grid.size), d.y, d.z, cc.profile().motion.rows));
     // Mapping makes the kernel's writes visible in `out`.
     BatchMapping<std::uint8_t> visible(cc.queue(), outB.get(), out.byteSize(), CL_MAP_READ);
     return out;

@@ -251,9 +251,10 @@ MotionSearchResult MotionEstimator::search(ComputeContext& cc, const MotionSearc
         setArgs(k, cur[st.level], ref[st.level], dims, cl_int(options_.blockSize >> st.level),
                 cl_int(matchExtent(options_.blockSize, st.level)), blocks, centres,
                 cl_int(st.radius), cl_int(st.step), cl_int(st.limit), pairCost, pairVector);
-        kernelMs_ += eventMilliseconds(cc.launch1d(k, nblocks * std::size_t(pairs), 64));
+        kernelMs_ +=
+            eventMilliseconds(cc.launch1d(k, nblocks * std::size_t(pairs), cc.profile().motion.search));
         setArgs(reduceKernel_, pairCost, pairVector, cl_int(pairs), cl_int(nblocks), bestCost, bestVector);
-        kernelMs_ += eventMilliseconds(cc.launch1d(reduceKernel_, nblocks, 64));
+        kernelMs_ += eventMilliseconds(cc.launch1d(reduceKernel_, nblocks, cc.profile().motion.reduce));
         cc.read(bestVector, std::span<cl_int4>(hostBest));
         for (std::size_t b = 0; b < nblocks; ++b)
             r.vectors[b] = {std::int16_t(hostBest[b].s[0]), std::int16_t(hostBest[b].s[1]), std::int16_t(hostBest[b].s[2])};

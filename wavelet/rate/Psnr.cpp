@@ -43,15 +43,15 @@ protected:
     // series' frames are held to. A prediction that leaves little to code ends above the target: a wider
     // dead zone drops the coefficients that buy the least until the frame just meets the target, as the
     // first frame's step search does. A residual of many coefficients near one step can end below the floor
-    // (target - 0.5 dB), which would make the whole series be coded again finer: a narrower dead zone keeps
-    // them until the frame is back at the floor + 0.1 dB. In between, the plain edge is kept (an I frame at
-    // the series' steps gets no more). The decoder is unaffected.
+    // (target - kPsnrToleranceDb), which would make the whole series be coded again finer: a narrower dead
+    // zone keeps them until the frame is back at the floor + kPsnrRecoveryMarginDb. In between, the plain
+    // edge is kept (an I frame at the series' steps gets no more). The decoder is unaffected.
     void refine(LossyFrame& f, StepChoice& c, const ResidualTarget* residual) override {
         if (!residual || f.range() == 0) return;
-        const double plain = f.psnrOf(c.best), floor = options().target - 0.5;
+        const double plain = f.psnrOf(c.best), floor = options().target - kPsnrToleranceDb;
         if (plain >= floor && plain < options().target) return;
         const bool widen = plain >= options().target;
-        const double want = widen ? options().target : floor + 0.1;
+        const double want = widen ? options().target : floor + kPsnrRecoveryMarginDb;
         auto psnrAt = [&](double edge, Trial& tr) {
             f.setZeroBelow(edge);
             tr = f.trial(std::nullopt);

@@ -312,7 +312,7 @@ template <class T> void BrickBatch<T>::download(ComputeContext& cc, std::span<T>
 
 template <class T>
 LiftingTransform<T>::LiftingTransform(ComputeContext& cc, Wavelet w)
-    : wavelet_(w), cpuDevice_(cc.device().isCpu) {
+    : wavelet_(w), brickResidentDevice_(cc.profile().lifting.brickResident) {
     constexpr bool isFloat = std::is_same_v<T, float>;
     if (!isFloat && !hasIntegerForm(w)) throw UsageError("wavelet cdf97 has no reversible integer form");
     // VOLCL_LIFTING_PATH=streaming|brick forces a path for the whole process, so the codec's end-to-end
@@ -330,7 +330,8 @@ LiftingTransform<T>::LiftingTransform(ComputeContext& cc, Wavelet w)
     // milliseconds, which belong to setup, not to the transform). The brick kernels are built on first use,
     // each variant alone: a one-shot decode runs only the inverse that writes voxels, and each program it
     // does not need costs a cached build in a process that runs once.
-    if (path_ == LiftingPath::Streaming || (!cpuDevice_ && path_ == LiftingPath::Auto)) buildStreaming(cc);
+    if (path_ == LiftingPath::Streaming || (!brickResidentDevice_ && path_ == LiftingPath::Auto))
+        buildStreaming(cc);
 }
 
 template <class T> void LiftingTransform<T>::buildStreaming(ComputeContext& cc) {
@@ -370,9 +371,6 @@ template <class T> cl::Kernel& LiftingTransform<T>::brickKernel(ComputeContext& 
     return k;
 }
 
-// One fixed local size: PoCL specialises a kernel per local size, so varying it costs a build each time.
-constexpr std::size_t kLocalY = 8, kLocalYz = 16;
-
 template <class T>
 double LiftingTransform<T>::pass(ComputeContext& cc, cl::Kernel& k, BrickBatch<T>& batch, Dims a, int axis) {
     const Dims b = batch.brick();
@@ -382,7 +380,7 @@ double LiftingTransform<T>::pass(ComputeContext& cc, cl::Kernel& k, BrickBatch<T
         setArgs(k, batch.data(), batch.scratch(cc), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z),
                 cl_uint(a.x), cl_uint(a.y), cl_uint(a.z), count);
         const std::size_t chunks = ((a.x + 1) / 2 + 15) / 16;
-        ev = cc.launch3d(k, chunks, a.y, a.z * count, 1, kLocalY, 1);
+        ev = cc.launch3d(k, chunks, a.y, a.z * count, cc.profile().lifting.x);
     } else {
         setArgs(k, batch.data(), batch.scratch(cc), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z),
                 cl_uint(a.x), cl_uint(a.y), cl_uint(a.z), count, cl_uint(axis));
@@ -390,9 +388,9 @@ double LiftingTransform<T>::pass(ComputeContext& cc, cl::Kernel& k, BrickBatch<T
         // work-group streams neighbouring rows of one plane (the z pass was 3-4x slower with pairs there).
         const std::size_t chunks = (a.x + 15) / 16;
         if (axis == 1)
-            ev = cc.launch3d(k, chunks * ((a.y + 1) / 2), a.z, count, kLocalYz, 1, 1);
+            ev = cc.launch3d(k, chunks * ((a.y + 1) / 2), a.z, count, cc.profile().lifting.yz);
         else
-            ev = cc.launch3d(k, chunks * a.y, (a.z + 1) / 2, count, kLocalYz, 1, 1);
+            ev = cc.launch3d(k, chunks * a.y, (a.z + 1) / 2, count, cc.profile().lifting.yz);
     }
     batch.swap();
     return eventMilliseconds(ev);
@@ -402,17 +400,17 @@ template <class T> double LiftingTransform<T>::copyBack(ComputeContext& cc, Bric
     const Dims b = batch.brick();
     setArgs(copy_, batch.data(), batch.scratch(cc), cl_uint(batch.pitch()), cl_uint(b.y), cl_uint(b.z),
             cl_uint(a.x), cl_uint(a.y), cl_uint(a.z), cl_uint(batch.count()));
-    cl::Event ev = cc.launch3d(copy_, a.x, a.y, a.z * batch.count(), 16, 1, 1);
+    cl::Event ev = cc.launch3d(copy_, a.x, a.y, a.z * batch.count(), cc.profile().lifting.copy);
     batch.swap();
     return eventMilliseconds(ev);
 }
 
 template <class T> LiftingPath LiftingTransform<T>::pathFor(Dims b) const noexcept {
     if (path_ != LiftingPath::Auto) return path_;
-    // One work-item per brick keeps the brick in one core's cache; on GPUs that is far too little
-    // parallelism, and past kBrickResidentMaxDim the private line buffers grow too large.
+    // The device profile says whether one work-item per brick suits the device; past kBrickResidentMaxDim
+    // the private line buffers grow too large.
     const bool fits = std::max({b.x, b.y, b.z}) <= kBrickResidentMaxDim;
-    return cpuDevice_ && fits ? LiftingPath::BrickResident : LiftingPath::Streaming;
+    return brickResidentDevice_ && fits ? LiftingPath::BrickResident : LiftingPath::Streaming;
 }
 
 template <class T>
@@ -478,9 +476,10 @@ double LiftingTransform<T>::brickResident(ComputeContext& cc, std::span<BrickBat
             detail::setArg(k, 20, rangeBuffer);
         }
     }
-    // A few work-items per core, each pulling bricks from the counter (see lift_bricks).
-    const std::size_t items = std::min<std::size_t>(total, 4 * std::max(1u, cc.device().computeUnits));
-    cl::Event ev = cc.launch1d(k, items, 1);
+    const DeviceProfile::Lifting& tuning = cc.profile().lifting;
+    const std::size_t items = std::min<std::size_t>(total, tuning.brickItemsPerComputeUnit *
+                                                               std::max(1u, cc.device().computeUnits));
+    cl::Event ev = cc.launch1d(k, items, tuning.brickLocal);
     const double ms = eventMilliseconds(ev);
     if (ranges && rangeBuffer.size() > 0) {
         std::vector<T> r(2 * total);

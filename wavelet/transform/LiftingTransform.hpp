@@ -204,7 +204,7 @@ private:
                             bool inverse); // reading/writing `type` voxels
     Wavelet wavelet_;
     LiftingPath path_ = LiftingPath::Auto;
-    bool cpuDevice_ = false;
+    bool brickResidentDevice_ = false; // the device profile allows LiftingPath::BrickResident
     bool streamingBuilt_ = false;
     cl::Kernel fwdX_, fwdYz_, invX_, invYz_, copy_;
     std::size_t brickMaxN_ = 0; // LIFT_MAXN of the brick kernels below (0: none chosen yet)
