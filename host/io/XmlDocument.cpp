@@ -115,11 +115,11 @@ void checkDocument(const pugi::xml_document& doc, const fs::path& file) {
     if (elements > kMaxElements) fail(file, "too many XML elements");
 }
 
-// Where the first <AppendedData> start tag ends (just past its '>'), or npos. `selfClosing` tells whether
-// it is written <AppendedData .../>.
-std::size_t appendedTagEnd(std::string_view text, bool& selfClosing) {
+// Where the next <AppendedData start tag from `from` on ends (just past its '>'), or npos. `selfClosing`
+// tells whether it is written <AppendedData .../>.
+std::size_t appendedTagEnd(std::string_view text, std::size_t from, bool& selfClosing) {
     constexpr std::string_view kTag = "<AppendedData";
-    for (std::size_t at = text.find(kTag); at != std::string_view::npos; at = text.find(kTag, at + 1)) {
+    for (std::size_t at = text.find(kTag, from); at != std::string_view::npos; at = text.find(kTag, at + 1)) {
         std::size_t p = at + kTag.size();
         if (p < text.size() && !std::isspace(static_cast<unsigned char>(text[p])) && text[p] != '>' &&
             text[p] != '/')
@@ -154,27 +154,32 @@ void parseXml(pugi::xml_document& doc, std::string_view markup, const fs::path& 
 
 void parseVtkXml(VtkXmlDocument& doc, std::string_view text, const fs::path& file) {
     bool selfClosing = false;
-    const std::size_t tagEnd = appendedTagEnd(text, selfClosing);
-    if (tagEnd == std::string_view::npos) {
-        parseXml(doc.xml, text, file);
+    for (std::size_t tagEnd = appendedTagEnd(text, 0, selfClosing); tagEnd != std::string_view::npos;
+         tagEnd = appendedTagEnd(text, tagEnd, selfClosing)) {
+        // The markup before the section leaves AppendedData and its ancestors open: parsed alone it stops
+        // at its end with them in the tree, which names the end tags that close it.
+        const std::string_view head = text.substr(0, tagEnd);
+        const pugi::xml_parse_result open = loadMarkup(doc.xml, head);
+        pugi::xml_node appended;
+        walkElements(doc.xml, [&](pugi::xml_node n) {
+            if (std::strcmp(n.name(), "AppendedData") == 0) appended = n;
+            return !appended;
+        });
+        if (!appended) {
+            // A parse that ends cleanly or runs out at the tag's end found the text inside a comment, a
+            // processing instruction or an attribute value: the section starts at a later one, if any.
+            if (open || static_cast<std::size_t>(open.offset) + 1 >= head.size()) continue;
+            failParse(open, head.size(), file);
+        }
+        std::string markup(head);
+        if (!selfClosing) markup += "</AppendedData>";
+        for (pugi::xml_node n = appended.parent(); n.type() == pugi::node_element; n = n.parent())
+            markup += std::string("</") + n.name() + ">";
+        parseXml(doc.xml, markup, file);
+        doc.appendedStart = tagEnd;
         return;
     }
-    // The markup before the section leaves AppendedData and its ancestors open: parsed alone it stops at
-    // its end with them in the tree, which names the end tags that close it.
-    const std::string_view head = text.substr(0, tagEnd);
-    const pugi::xml_parse_result open = loadMarkup(doc.xml, head);
-    pugi::xml_node appended;
-    walkElements(doc.xml, [&](pugi::xml_node n) {
-        if (std::strcmp(n.name(), "AppendedData") == 0) appended = n;
-        return !appended;
-    });
-    if (!appended) failParse(open, head.size(), file);
-    std::string markup(head);
-    if (!selfClosing) markup += "</AppendedData>";
-    for (pugi::xml_node n = appended.parent(); n.type() == pugi::node_element; n = n.parent())
-        markup += std::string("</") + n.name() + ">";
-    parseXml(doc.xml, markup, file);
-    doc.appendedStart = tagEnd;
+    parseXml(doc.xml, text, file);
 }
 
 std::optional<std::string> attr(pugi::xml_node element, const char* key) {
