@@ -7,8 +7,9 @@
 // VOLCL_BENCH_SIMD_ONLY=1 the SIMD ones alone, e.g. for a profile; VOLCL_BENCH_ENCODE_ONLY=1 skips the timed
 // decodes, for profiles and counters of the encoder).
 #include "core/Error.hpp"
-#include "wavelet/EntropyCoder.hpp"
-#include "wavelet/VczFormat.hpp"
+#include "wavelet/container/VczFormat.hpp"
+#include "wavelet/entropy/EntropyCoder.hpp"
+#include "wavelet/entropy/TestSwitches.hpp"
 
 #include <algorithm>
 #include <cstdint>

@@ -6,9 +6,9 @@
 #include "core/Error.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "core/runtime/Timing.hpp"
-#include "wavelet/EntropyCoder.hpp"
-#include "wavelet/LiftingTransform.hpp"
-#include "wavelet/VczFormat.hpp"
+#include "wavelet/container/VczFormat.hpp"
+#include "wavelet/entropy/EntropyCoder.hpp"
+#include "wavelet/transform/LiftingTransform.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -37,9 +37,7 @@ set(VOLCL_PUBLIC_HEADERS
   wavelet/Codec.hpp
   wavelet/CodecTypes.hpp
   wavelet/DecodeAhead.hpp
-  wavelet/LiftingTransform.hpp
   wavelet/Metrics.hpp
-  wavelet/VczFormat.hpp
   wavelet/container/VczFormat.hpp
   wavelet/predict/MotionField.hpp
   wavelet/predict/MotionSearch.hpp

@@ -5,7 +5,7 @@
 #include "core/runtime/ClRuntime.hpp"
 #include "wavelet/BrickVoxels.hpp"
 #include "wavelet/Codec.hpp"
-#include "wavelet/VczFormat.hpp"
+#include "wavelet/container/VczFormat.hpp"
 
 #include <algorithm>
 #include <cstdlib>

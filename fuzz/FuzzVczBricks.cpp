@@ -5,7 +5,7 @@
 #include "fuzz/FuzzSupport.hpp"
 #include "core/Error.hpp"
 #include "wavelet/FrameDecoder.hpp"
-#include "wavelet/VczFormat.hpp"
+#include "wavelet/container/VczFormat.hpp"
 
 #include <cstddef>
 #include <cstdint>

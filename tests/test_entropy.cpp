@@ -5,8 +5,9 @@
 // encode (encodeAll) both encoders, which must write the same bytes. The entropy-only
 // speed benchmark is bench/entropy_speed.cpp.
 #include "core/Error.hpp"
-#include "wavelet/EntropyCoder.hpp"
 #include "wavelet/entropy/DenseKernels.hpp"
+#include "wavelet/entropy/EntropyCoder.hpp"
+#include "wavelet/entropy/TestSwitches.hpp"
 
 #include <gtest/gtest.h>
 

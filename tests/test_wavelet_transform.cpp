@@ -2,7 +2,7 @@
 // the integer forms), on odd, prime, tiny and extreme inputs.
 #include "core/Volume.hpp"
 #include "tests/TestUtil.hpp"
-#include "wavelet/LiftingTransform.hpp"
+#include "wavelet/transform/LiftingTransform.hpp"
 
 #include <gtest/gtest.h>
 

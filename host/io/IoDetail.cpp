@@ -839,13 +839,6 @@ std::vector<std::string> expandFilePattern(std::string_view pattern, long long f
     return names;
 }
 
-std::vector<std::byte> readDataFile(const fs::path& header, const fs::path& data) {
-    std::error_code ec;
-    if (!fs::is_regular_file(data, ec))
-        fail(header, "data file '" + data.string() + "' does not exist or is not a regular file");
-    return readFileBytes(data);
-}
-
 std::vector<std::byte> readDetachedPayload(const fs::path& header, const std::vector<fs::path>& files,
                                            std::size_t totalBytes, PayloadEncoding encoding,
                                            long long byteSkip, std::size_t lineSkip) {

@@ -166,8 +166,6 @@ std::size_t maxDataFiles(const Dims& dims, std::size_t frames) noexcept;
 std::vector<std::string> expandFilePattern(std::string_view pattern, long long first, long long last,
                                            long long step, const std::filesystem::path& header,
                                            std::size_t maxFiles, std::size_t evenlyHeldBytes = 0);
-/// Reads a data file that a header refers to; a missing file names both the header and the data file.
-std::vector<std::byte> readDataFile(const std::filesystem::path& header, const std::filesystem::path& data);
 
 enum class PayloadEncoding : std::uint8_t { Raw, Compressed, Ascii };
 /// Payload of `totalBytes` spread evenly over detached data files (one file, a LIST or a pattern).

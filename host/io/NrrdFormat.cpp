@@ -133,12 +133,27 @@ const char* const kNonScalarKinds[] = {"vector",
                                        "3d-matrix",
                                        "3d-masked-matrix"};
 
-} // namespace
+// The header's fields (keys lower-case, "datafile" stored as "data file"), the names listed after
+// "data file: LIST", and where the attached data starts.
+struct NrrdHeader {
+    std::map<std::string, std::string> fields;
+    std::vector<std::string> listFiles;
+    bool blankLineSeen = false;
+    std::size_t dataStart = 0;
 
-TimeSeries readNrrd(ReadContext& ctx) {
-    const fs::path& path = ctx.file();
-    const std::vector<std::byte> bytes = readFileBytes(path);
-    const std::string_view text = asText(bytes);
+    std::optional<std::string> field(const std::string& key) const {
+        auto it = fields.find(key);
+        if (it == fields.end()) return std::nullopt;
+        return it->second;
+    }
+    std::string require(const std::string& key, const fs::path& path) const {
+        auto v = field(key);
+        if (!v) fail(path, "header has no '" + key + "' field (truncated or not a volume)");
+        return *v;
+    }
+};
+
+NrrdHeader parseNrrdHeader(std::string_view text, const fs::path& path) {
     std::size_t pos = 0;
     auto magic = nextLine(text, pos);
     if (!magic || !magic->starts_with("NRRD000") || magic->size() != 8)
@@ -147,18 +162,17 @@ TimeSeries readNrrd(ReadContext& ctx) {
     if ((*magic)[7] < '1' || (*magic)[7] > '5')
         fail(path, "unsupported NRRD version '" + std::string(*magic) + "' (NRRD0001 to NRRD0005 are read)");
 
-    std::map<std::string, std::string> fields;
-    std::vector<std::string> listFiles;
-    bool blankLineSeen = false, listMode = false;
+    NrrdHeader h;
+    bool listMode = false;
     while (auto line = nextLine(text, pos)) {
         if (listMode) {
             const std::string_view name = trim(*line);
             if (name.empty()) break;
-            listFiles.emplace_back(name);
+            h.listFiles.emplace_back(name);
             continue;
         }
         if (line->empty()) {
-            blankLineSeen = true;
+            h.blankLineSeen = true;
             break;
         }
         if (line->front() == '#') continue;
@@ -169,34 +183,182 @@ TimeSeries readNrrd(ReadContext& ctx) {
         const std::string key = lower(trim(line->substr(0, colon)));
         const std::string value(trim(line->substr(colon + 2)));
         if (key.size() > 64 || value.size() > 100000) fail(path, "header line too long");
-        fields[key == "datafile" ? "data file" : key] = value;
+        h.fields[key == "datafile" ? "data file" : key] = value;
         if (key == "data file" || key == "datafile") {
             const auto w = splitWords(value);
             listMode = !w.empty() && w[0] == "LIST";
         }
     }
     // Structure before content: a cut header must read as truncated, not as an odd field value.
-    if (!fields.contains("data file") && !blankLineSeen)
+    if (!h.fields.contains("data file") && !h.blankLineSeen)
         fail(path, "truncated: header does not end with a blank line and names no data file");
-    auto field = [&](const std::string& key) -> std::optional<std::string> {
-        auto it = fields.find(key);
-        if (it == fields.end()) return std::nullopt;
-        return it->second;
-    };
-    auto require = [&](const std::string& key) -> std::string {
-        auto v = field(key);
-        if (!v) fail(path, "header has no '" + key + "' field (truncated or not a volume)");
-        return *v;
-    };
+    h.dataStart = pos;
+    return h;
+}
 
-    const long long dimension = requireInt(require("dimension"), path, "dimension");
+PayloadEncoding nrrdEncoding(const NrrdHeader& h, const fs::path& path) {
+    const std::string encodingName = lower(h.require("encoding", path));
+    if (encodingName == "raw") return PayloadEncoding::Raw;
+    if (encodingName == "gzip" || encodingName == "gz") return PayloadEncoding::Compressed;
+    if (encodingName == "ascii" || encodingName == "text" || encodingName == "txt")
+        return PayloadEncoding::Ascii;
+    unsupported(path, "encoding '" + encodingName + "' is not supported (raw, gzip, ascii)");
+}
+
+struct Geometry {
+    std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
+};
+
+// Spacings or space directions (their lengths), space origin or axis mins.
+Geometry nrrdGeometry(const NrrdHeader& h, long long dimension, const std::array<std::size_t, 4>& sizes,
+                      const fs::path& path) {
+    Geometry g;
+    if (auto sp = h.field("spacings")) {
+        const auto w = splitWords(*sp);
+        for (std::size_t i = 0; i < w.size() && i < 3; ++i) {
+            const double v = requireDouble(w[i], path, "spacings");
+            if (!std::isfinite(v) || v == 0)
+                fail(path, "spacings: value " + std::string(w[i]) + " is not a non-zero finite number");
+            g.spacing[i] = std::abs(v);
+        }
+    }
+    if (auto dirs = h.field("space directions")) {
+        const auto vecs = splitVectors(*dirs);
+        if (vecs.size() != static_cast<std::size_t>(dimension))
+            fail(path, "'space directions' has " + std::to_string(vecs.size()) + " entries for dimension " +
+                           std::to_string(dimension));
+        for (std::size_t i = 0; i < 3 && i < vecs.size(); ++i) {
+            if (auto v = parseVector(vecs[i], path, "space directions")) {
+                const double len = std::sqrt((*v)[0] * (*v)[0] + (*v)[1] * (*v)[1] + (*v)[2] * (*v)[2]);
+                if (len > 0) g.spacing[i] = len;
+            } else if (sizes[i] > 1) {
+                unsupported(path,
+                            "axis " + std::to_string(i) +
+                                " is not spatial ('none' direction): only scalar volumes are supported");
+            }
+        }
+    }
+    if (auto o = h.field("space origin")) {
+        if (auto v = parseVector(*o, path, "space origin")) g.origin = *v;
+    } else if (auto mins = h.field("axis mins")) {
+        const auto w = splitWords(*mins);
+        for (std::size_t i = 0; i < w.size() && i < 3; ++i) {
+            const double v = requireDouble(w[i], path, "axis mins");
+            if (!std::isfinite(v)) fail(path, "axis mins: value " + std::string(w[i]) + " is not finite");
+            g.origin[i] = v;
+        }
+    }
+    return g;
+}
+
+// The files named by "data file": one name, LIST (the names after the header) or a printf pattern with
+// min, max, step and an optional subdim that must match the file count.
+std::vector<fs::path> nrrdDataFiles(ReadContext& ctx, const NrrdHeader& h, std::string_view dataFile,
+                                    long long dimension, const std::array<std::size_t, 4>& sizes,
+                                    std::size_t evenlyHeldBytes) {
+    const fs::path& path = ctx.file();
+    const auto w = splitWords(dataFile);
+    std::vector<fs::path> files;
+    if (w.empty()) fail(path, "empty 'data file' field");
+    if (w[0] == "LIST") {
+        for (const std::string& f : h.listFiles)
+            files.push_back(ctx.dataFile(f));
+        return files;
+    }
+    if (w.size() < 4) {
+        files.push_back(ctx.dataFile(dataFile));
+        return files;
+    }
+    const Dims dims{sizes[0], sizes[1], sizes[2]};
+    const auto names = expandFilePattern(
+        w[0], requireInt(w[1], path, "data file min"), requireInt(w[2], path, "data file max"),
+        requireInt(w[3], path, "data file step"), path, maxDataFiles(dims, sizes[3]), evenlyHeldBytes);
+    for (const std::string& n : names)
+        files.push_back(ctx.dataFile(n));
+    if (w.size() >= 5) {
+        const long long subdim = requireInt(w[4], path, "data file subdim");
+        std::size_t expectFiles = 1;
+        for (long long a = subdim; a < dimension && a >= 0; ++a)
+            expectFiles *= sizes[a];
+        if (subdim < 1 || subdim > dimension || expectFiles != files.size())
+            fail(path, "data file subdim " + std::to_string(subdim) + " does not match " +
+                           std::to_string(files.size()) + " files");
+    }
+    return files;
+}
+
+// The data after the header of an attached .nrrd: `lineSkip` lines, then `byteSkip` bytes (-1: the data
+// sits at the end of the file) before `payload` raw bytes, gzip data or ascii text.
+std::vector<std::byte> attachedPayload(std::span<const std::byte> bytes, const NrrdHeader& h,
+                                       std::size_t payload, PayloadEncoding encoding, long long byteSkip,
+                                       std::size_t lineSkip, const fs::path& path) {
+    if (!h.blankLineSeen)
+        fail(path, "truncated: header does not end with a blank line and names no data file");
+    const std::string_view text = asText(bytes);
+    std::size_t pos = h.dataStart;
+    for (std::size_t l = 0; l < lineSkip; ++l)
+        if (!nextLine(text, pos)) fail(path, "truncated: fewer lines than 'line skip'");
+    std::span<const std::byte> rest = bytes.subspan(pos);
+    if (encoding == PayloadEncoding::Compressed) {
+        std::vector<std::byte> data =
+            inflateExact(rest, payload + static_cast<std::size_t>(byteSkip), path, "gzip data");
+        data.erase(data.begin(), data.begin() + byteSkip);
+        return data;
+    }
+    if (encoding == PayloadEncoding::Raw) {
+        if (byteSkip == -1) {
+            if (rest.size() < payload)
+                fail(path, "truncated: " + std::to_string(rest.size()) + " data bytes, expected " +
+                               std::to_string(payload));
+            rest = rest.subspan(rest.size() - payload);
+        } else {
+            const std::size_t need = payload + static_cast<std::size_t>(byteSkip);
+            if (rest.size() < need)
+                fail(path, "truncated: " + std::to_string(rest.size()) + " data bytes, expected " +
+                               std::to_string(need));
+            if (rest.size() > need)
+                fail(path, "oversized: " + std::to_string(rest.size() - need) + " bytes after the data");
+            rest = rest.subspan(static_cast<std::size_t>(byteSkip));
+        }
+    }
+    return {rest.begin(), rest.end()};
+}
+
+// Ascii samples of every frame, parsed once through a flat volume holding all frames.
+TimeSeries asciiFrames(std::string_view asciiText, SampleType st, const Dims& dims, std::size_t frames,
+                       std::size_t voxels, const Geometry& g, const fs::path& path) {
+    TimeSeries series;
+    requireAsciiCapacity(asciiText, voxels, path);
+    const std::size_t frameVoxels = dims.count();
+    Volume all(Dims{dims.x, dims.y, dims.z * frames}, volumeTypeFor(st));
+    decodeAsciiSamples(asciiText, st, all, 0, voxels, path);
+    for (std::size_t f = 0; f < frames; ++f) {
+        Volume v(dims, all.type());
+        const std::size_t b = frameVoxels * scalarSize(all.type());
+        std::copy_n(all.bytes().begin() + static_cast<std::ptrdiff_t>(f * b), b, v.bytes().begin());
+        v.spacing = g.spacing;
+        v.origin = g.origin;
+        series.frames.push_back(std::move(v));
+    }
+    return series;
+}
+
+} // namespace
+
+TimeSeries readNrrd(ReadContext& ctx) {
+    const fs::path& path = ctx.file();
+    const std::vector<std::byte> bytes = readFileBytes(path);
+    const NrrdHeader h = parseNrrdHeader(asText(bytes), path);
+
+    const long long dimension = requireInt(h.require("dimension", path), path, "dimension");
     if (dimension < 1 || dimension > 4)
         unsupported(path, "dimension " + std::to_string(dimension) + " (1 to 4 supported)");
-    const std::string typeName = require("type");
+    const std::string typeName = h.require("type", path);
     const auto st = nrrdType(typeName);
     if (!st) unsupported(path, "type '" + typeName + "' is not supported");
-    const auto sizes = requireSizes(require("sizes"), static_cast<std::size_t>(dimension), path, "sizes");
-    if (auto kinds = field("kinds")) {
+    const auto sizes =
+        requireSizes(h.require("sizes", path), static_cast<std::size_t>(dimension), path, "sizes");
+    if (auto kinds = h.field("kinds")) {
         const auto k = splitWords(*kinds);
         for (std::size_t i = 0; i < k.size() && i < 3; ++i)
             for (const char* bad : kNonScalarKinds)
@@ -210,65 +372,19 @@ TimeSeries readNrrd(ReadContext& ctx) {
     const std::size_t payload = checkedByteCount(voxels, sampleSize(*st), path);
 
     Endian endian = Endian::Little;
-    if (auto e = field("endian")) {
+    if (auto e = h.field("endian")) {
         if (iequals(*e, "big"))
             endian = Endian::Big;
         else if (!iequals(*e, "little"))
             fail(path, "endian '" + *e + "' is neither little nor big");
     }
-    const std::string encodingName = lower(require("encoding"));
-    PayloadEncoding encoding = PayloadEncoding::Raw;
-    if (encodingName == "raw")
-        encoding = PayloadEncoding::Raw;
-    else if (encodingName == "gzip" || encodingName == "gz")
-        encoding = PayloadEncoding::Compressed;
-    else if (encodingName == "ascii" || encodingName == "text" || encodingName == "txt")
-        encoding = PayloadEncoding::Ascii;
-    else
-        unsupported(path, "encoding '" + encodingName + "' is not supported (raw, gzip, ascii)");
-
-    // Geometry: spacings or space directions (their lengths), space origin or axis mins.
-    std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
-    if (auto sp = field("spacings")) {
-        const auto w = splitWords(*sp);
-        for (std::size_t i = 0; i < w.size() && i < 3; ++i) {
-            const double v = requireDouble(w[i], path, "spacings");
-            if (!std::isfinite(v) || v == 0)
-                fail(path, "spacings: value " + std::string(w[i]) + " is not a non-zero finite number");
-            spacing[i] = std::abs(v);
-        }
-    }
-    if (auto dirs = field("space directions")) {
-        const auto vecs = splitVectors(*dirs);
-        if (vecs.size() != static_cast<std::size_t>(dimension))
-            fail(path, "'space directions' has " + std::to_string(vecs.size()) + " entries for dimension " +
-                           std::to_string(dimension));
-        for (std::size_t i = 0; i < 3 && i < vecs.size(); ++i) {
-            if (auto v = parseVector(vecs[i], path, "space directions")) {
-                const double len = std::sqrt((*v)[0] * (*v)[0] + (*v)[1] * (*v)[1] + (*v)[2] * (*v)[2]);
-                if (len > 0) spacing[i] = len;
-            } else if (sizes[i] > 1) {
-                unsupported(path,
-                            "axis " + std::to_string(i) +
-                                " is not spatial ('none' direction): only scalar volumes are supported");
-            }
-        }
-    }
-    if (auto o = field("space origin")) {
-        if (auto v = parseVector(*o, path, "space origin")) origin = *v;
-    } else if (auto mins = field("axis mins")) {
-        const auto w = splitWords(*mins);
-        for (std::size_t i = 0; i < w.size() && i < 3; ++i) {
-            const double v = requireDouble(w[i], path, "axis mins");
-            if (!std::isfinite(v)) fail(path, "axis mins: value " + std::string(w[i]) + " is not finite");
-            origin[i] = v;
-        }
-    }
+    const PayloadEncoding encoding = nrrdEncoding(h, path);
+    const Geometry g = nrrdGeometry(h, dimension, sizes, path);
 
     long long byteSkip = 0;
     std::size_t lineSkip = 0;
-    if (auto b = field("byte skip")) byteSkip = requireInt(*b, path, "byte skip");
-    if (auto l = field("line skip")) {
+    if (auto b = h.field("byte skip")) byteSkip = requireInt(*b, path, "byte skip");
+    if (auto l = h.field("line skip")) {
         const long long v = requireInt(*l, path, "line skip");
         if (v < 0) fail(path, "line skip must not be negative");
         lineSkip = static_cast<std::size_t>(v);
@@ -278,84 +394,17 @@ TimeSeries readNrrd(ReadContext& ctx) {
         fail(path, "byte skip -1 is only valid for raw encoding");
 
     std::vector<std::byte> data;
-    if (auto df = field("data file")) {
-        const auto w = splitWords(*df);
-        std::vector<fs::path> files;
-        if (w.empty()) fail(path, "empty 'data file' field");
-        if (w[0] == "LIST") {
-            for (const std::string& f : listFiles)
-                files.push_back(ctx.dataFile(f));
-        } else if (w.size() >= 4) {
-            const auto names = expandFilePattern(w[0], requireInt(w[1], path, "data file min"),
-                                                 requireInt(w[2], path, "data file max"),
-                                                 requireInt(w[3], path, "data file step"), path,
-                                                 maxDataFiles(dims, frames),
-                                                 encoding == PayloadEncoding::Ascii ? 0 : payload);
-            for (const std::string& n : names)
-                files.push_back(ctx.dataFile(n));
-            if (w.size() >= 5) {
-                const long long subdim = requireInt(w[4], path, "data file subdim");
-                std::size_t expectFiles = 1;
-                for (long long a = subdim; a < dimension && a >= 0; ++a)
-                    expectFiles *= sizes[a];
-                if (subdim < 1 || subdim > dimension || expectFiles != files.size())
-                    fail(path, "data file subdim " + std::to_string(subdim) + " does not match " +
-                                   std::to_string(files.size()) + " files");
-            }
-        } else {
-            files.push_back(ctx.dataFile(*df));
-        }
+    if (auto df = h.field("data file")) {
+        const std::vector<fs::path> files =
+            nrrdDataFiles(ctx, h, *df, dimension, sizes, encoding == PayloadEncoding::Ascii ? 0 : payload);
         if (files.size() > voxels) fail(path, "more data files than voxels");
         data = readDetachedPayload(path, files, payload, encoding, byteSkip, lineSkip);
     } else {
-        if (!blankLineSeen)
-            fail(path, "truncated: header does not end with a blank line and names no data file");
-        for (std::size_t l = 0; l < lineSkip; ++l)
-            if (!nextLine(text, pos)) fail(path, "truncated: fewer lines than 'line skip'");
-        std::span<const std::byte> rest(bytes.data() + pos, bytes.size() - pos);
-        if (encoding == PayloadEncoding::Compressed) {
-            data = inflateExact(rest, payload + static_cast<std::size_t>(byteSkip), path, "gzip data");
-            data.erase(data.begin(), data.begin() + byteSkip);
-        } else if (encoding == PayloadEncoding::Raw) {
-            if (byteSkip == -1) {
-                if (rest.size() < payload)
-                    fail(path, "truncated: " + std::to_string(rest.size()) + " data bytes, expected " +
-                                   std::to_string(payload));
-                rest = rest.subspan(rest.size() - payload);
-            } else {
-                const std::size_t need = payload + static_cast<std::size_t>(byteSkip);
-                if (rest.size() < need)
-                    fail(path, "truncated: " + std::to_string(rest.size()) + " data bytes, expected " +
-                                   std::to_string(need));
-                if (rest.size() > need)
-                    fail(path, "oversized: " + std::to_string(rest.size() - need) + " bytes after the data");
-                rest = rest.subspan(static_cast<std::size_t>(byteSkip));
-            }
-            data.assign(rest.begin(), rest.end());
-        } else {
-            data.assign(rest.begin(), rest.end());
-        }
+        data = attachedPayload(bytes, h, payload, encoding, byteSkip, lineSkip, path);
     }
-
-    if (encoding == PayloadEncoding::Ascii) {
-        TimeSeries series;
-        const std::string_view asciiText = asText(data);
-        requireAsciiCapacity(asciiText, voxels, path);
-        const std::size_t frameVoxels = dims.count();
-        // Parse all values once, frame by frame, through a flat volume holding every frame.
-        Volume all(Dims{dims.x, dims.y, dims.z * frames}, volumeTypeFor(*st));
-        decodeAsciiSamples(asciiText, *st, all, 0, voxels, path);
-        for (std::size_t f = 0; f < frames; ++f) {
-            Volume v(dims, all.type());
-            const std::size_t b = frameVoxels * scalarSize(all.type());
-            std::copy_n(all.bytes().begin() + static_cast<std::ptrdiff_t>(f * b), b, v.bytes().begin());
-            v.spacing = spacing;
-            v.origin = origin;
-            series.frames.push_back(std::move(v));
-        }
-        return series;
-    }
-    return decodeFrames(data, *st, endian, dims, frames, spacing, origin);
+    if (encoding == PayloadEncoding::Ascii)
+        return asciiFrames(asText(data), *st, dims, frames, voxels, g, path);
+    return decodeFrames(data, *st, endian, dims, frames, g.spacing, g.origin);
 }
 
 void writeNrrd(const Volume& volume, const fs::path& path, const WriteOptions& options) {

@@ -1,7 +1,7 @@
 // Text/XML headers that describe a separate raw file: Inviwo/Roettger .dat and Voreen .vvd.
 #include "core/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
-#include "host/io/XmlScan.hpp"
+#include "host/io/XmlDocument.hpp"
 
 #include <cmath>
 #include <map>
@@ -133,36 +133,35 @@ TimeSeries readInviwoDat(ReadContext& ctx) {
 TimeSeries readVoreenVvd(ReadContext& ctx) {
     const fs::path& path = ctx.file();
     const std::vector<std::byte> bytes = readFileBytes(path);
-    const XmlDocument doc = scanXml(asText(bytes), path);
-    if (doc.elements[0].name != "VoreenData")
-        fail(path, "not a Voreen .vvd file (root is <" + doc.elements[0].name + ">)");
+    pugi::xml_document doc;
+    parseXml(doc, asText(bytes), path);
+    const pugi::xml_node root = doc.document_element();
+    if (root.name() != std::string_view("VoreenData"))
+        fail(path, "not a Voreen .vvd file (root is <" + std::string(root.name()) + ">)");
     TimeSeries series;
-    for (std::size_t i = 0; i < doc.elements.size(); ++i) {
-        if (doc.elements[i].name != "Volume") continue;
-        const auto raws = doc.childrenNamed(static_cast<int>(i), "RawData");
+    for (pugi::xml_node volume : elementsNamed(root, "Volume")) {
+        const auto raws = childrenNamed(volume, "RawData");
         if (raws.size() != 1) fail(path, "a <Volume> needs exactly one <RawData>");
-        const XmlElement& raw = doc.elements[static_cast<std::size_t>(raws[0])];
-        const auto file = raw.attr("filename");
-        const auto format = raw.attr("format");
+        const pugi::xml_node raw = raws[0];
+        const auto file = attr(raw, "filename");
+        const auto format = attr(raw, "format");
         if (!file || !format) fail(path, "<RawData> needs filename and format");
         const auto st = voreenType(*format);
         if (!st) unsupported(path, "RawData format '" + *format + "' is not supported (only scalar formats)");
         std::vector<std::string_view> sizeWords;
-        const std::string x = raw.attr("x").value_or(""), y = raw.attr("y").value_or(""),
-                          z = raw.attr("z").value_or("");
+        const std::string x = attr(raw, "x").value_or(""), y = attr(raw, "y").value_or(""),
+                          z = attr(raw, "z").value_or("");
         sizeWords = {x, y, z};
         const Dims dims = requireDims(sizeWords, 0, 3, path, "RawData x/y/z");
         std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
-        for (int meta : doc.childrenNamed(static_cast<int>(i), "MetaData")) {
-            for (int item : doc.childrenNamed(meta, "MetaItem")) {
-                const XmlElement& mi = doc.elements[static_cast<std::size_t>(item)];
-                const std::string name = mi.attr("name").value_or("");
+        for (pugi::xml_node meta : childrenNamed(volume, "MetaData")) {
+            for (pugi::xml_node item : childrenNamed(meta, "MetaItem")) {
+                const std::string name = attr(item, "name").value_or("");
                 if (name != "Spacing" && name != "Offset") continue;
-                const auto values = doc.childrenNamed(item, "value");
-                if (values.empty()) fail(path, "MetaItem " + name + " has no <value>");
-                const XmlElement& val = doc.elements[static_cast<std::size_t>(values[0])];
-                const std::string vx = val.attr("x").value_or(""), vy = val.attr("y").value_or(""),
-                                  vz = val.attr("z").value_or("");
+                const pugi::xml_node val = item.child("value");
+                if (!val) fail(path, "MetaItem " + name + " has no <value>");
+                const std::string vx = attr(val, "x").value_or(""), vy = attr(val, "y").value_or(""),
+                                  vz = attr(val, "z").value_or("");
                 const auto t = requireTriple({vx, vy, vz}, 0, path, name, name == "Spacing");
                 (name == "Spacing" ? spacing : origin) = t;
             }

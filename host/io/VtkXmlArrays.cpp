@@ -219,19 +219,19 @@ std::string base64Encode(std::span<const std::byte> bytes) {
     return out;
 }
 
-VtkXmlLayout vtkXmlLayout(const XmlElement& root, const fs::path& path) {
+VtkXmlLayout vtkXmlLayout(pugi::xml_node root, const fs::path& path) {
     VtkXmlLayout L;
     L.file = path;
-    const std::string order = root.attr("byte_order").value_or("LittleEndian");
+    const std::string order = attr(root, "byte_order").value_or("LittleEndian");
     if (order != "LittleEndian" && order != "BigEndian") fail(path, "byte_order '" + order + "' is unknown");
     L.endian = order == "BigEndian" ? Endian::Big : Endian::Little;
     L.swap = L.endian != hostEndian();
-    const std::string headerType = root.attr("header_type").value_or("UInt32");
+    const std::string headerType = attr(root, "header_type").value_or("UInt32");
     if (headerType == "UInt64")
         L.headerWord = 8;
     else if (headerType != "UInt32")
         fail(path, "header_type '" + headerType + "' is unknown");
-    if (auto comp = root.attr("compressor")) {
+    if (auto comp = attr(root, "compressor")) {
         if (*comp == "vtkZLibDataCompressor")
             L.compressed = true;
         else if (!comp->empty())
@@ -240,18 +240,18 @@ VtkXmlLayout vtkXmlLayout(const XmlElement& root, const fs::path& path) {
     return L;
 }
 
-VtkXmlPayload::VtkXmlPayload(const XmlDocument& doc, std::span<const std::byte> bytes, VtkXmlLayout layout)
+VtkXmlPayload::VtkXmlPayload(const VtkXmlDocument& doc, std::span<const std::byte> bytes, VtkXmlLayout layout)
     : layout_(std::move(layout)), text_(asText(bytes)) {
     const fs::path& path = layout_.file;
     const std::string_view text = text_;
     // Appended section: "_" then raw bytes or base64 text up to the closing tags at the end of the file.
-    const int appIndex = doc.find("AppendedData");
-    if (appIndex < 0) return;
+    const std::vector<pugi::xml_node> sections = elementsNamed(doc.xml, "AppendedData");
+    if (sections.empty()) return;
     hasAppended_ = true;
-    const std::string enc = doc.elements[static_cast<std::size_t>(appIndex)].attr("encoding").value_or("raw");
+    const std::string enc = attr(sections.front(), "encoding").value_or("raw");
     if (enc != "raw" && enc != "base64") fail(path, "AppendedData encoding '" + enc + "' is unknown");
     appendedBase64_ = enc == "base64";
-    std::size_t p = doc.stopOffset;
+    std::size_t p = doc.appendedStart;
     while (p < text.size() && std::isspace(static_cast<unsigned char>(text[p])))
         ++p;
     if (p >= text.size() || text[p] != '_') fail(path, "truncated: AppendedData has no '_' marker");
@@ -266,16 +266,16 @@ VtkXmlPayload::VtkXmlPayload(const XmlDocument& doc, std::span<const std::byte> 
     // Raw appended data must be fully accounted for: every array's stored span ends inside it and
     // nothing but whitespace follows the last one.
     std::size_t appendedEnd = 0;
-    for (const XmlElement& e : doc.elements) {
-        if (e.name != "DataArray" || e.attr("format").value_or("") != "appended") continue;
-        const long long off = requireInt(e.attr("offset").value_or(""), path, "DataArray offset");
+    for (pugi::xml_node e : elementsNamed(doc.xml, "DataArray")) {
+        if (attr(e, "format").value_or("") != "appended") continue;
+        const long long off = requireInt(attr(e, "offset").value_or(""), path, "DataArray offset");
         if (off < 0 || static_cast<std::size_t>(off) > appended_.size())
             fail(path, "truncated: array offset " + std::to_string(off) + " is outside the appended data");
         const BlockHeader h = parseBlockHeader(appended_.subspan(static_cast<std::size_t>(off)), layout_,
-                                               e.attr("Name").value_or("?"));
+                                               attr(e, "Name").value_or("?"));
         const std::size_t end = static_cast<std::size_t>(off) + h.headerBytes + h.storedBytes;
         if (end > appended_.size())
-            fail(path, "truncated: array '" + e.attr("Name").value_or("?") +
+            fail(path, "truncated: array '" + attr(e, "Name").value_or("?") +
                            "' runs past the end of the appended data");
         appendedEnd = std::max(appendedEnd, end);
     }
@@ -284,17 +284,17 @@ VtkXmlPayload::VtkXmlPayload(const XmlDocument& doc, std::span<const std::byte> 
                        " unexpected bytes after the appended arrays");
 }
 
-std::vector<std::byte> VtkXmlPayload::decode(const XmlElement& da, std::size_t expectedBytes) const {
+std::vector<std::byte> VtkXmlPayload::decode(pugi::xml_node da, std::size_t expectedBytes) const {
     const fs::path& path = layout_.file;
-    const std::string name = da.attr("Name").value_or("?");
-    const std::string format = da.attr("format").value_or("ascii");
+    const std::string name = attr(da, "Name").value_or("?");
+    const std::string format = attr(da, "format").value_or("ascii");
     if (format == "binary") {
         std::size_t used = 0;
-        return decodeBase64Array(stripSpaces(da.content), layout_, name, expectedBytes, &used);
+        return decodeBase64Array(stripSpaces(elementText(da)), layout_, name, expectedBytes, &used);
     }
     if (format != "appended") fail(path, "array '" + name + "': format '" + format + "' is unknown");
     if (!hasAppended_) fail(path, "array '" + name + "' is appended but the file has no AppendedData");
-    const long long off = requireInt(da.attr("offset").value_or(""), path, "DataArray offset");
+    const long long off = requireInt(attr(da, "offset").value_or(""), path, "DataArray offset");
     if (off < 0 || static_cast<std::size_t>(off) > appended_.size())
         fail(path, "truncated: array '" + name + "' offset " + std::to_string(off) +
                        " is outside the appended data");

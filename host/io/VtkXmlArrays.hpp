@@ -3,7 +3,7 @@
 #pragma once
 
 #include "host/io/IoDetail.hpp"
-#include "host/io/XmlScan.hpp"
+#include "host/io/XmlDocument.hpp"
 
 #include <algorithm>
 #include <cstddef>
@@ -30,17 +30,17 @@ struct VtkXmlLayout {
 };
 
 /// Reads `byte_order`, `header_type` and `compressor` of the <VTKFile> root element.
-VtkXmlLayout vtkXmlLayout(const XmlElement& root, const std::filesystem::path& file);
+VtkXmlLayout vtkXmlLayout(pugi::xml_node root, const std::filesystem::path& file);
 
 /// The binary payloads of one VTK XML file: inline base64 arrays and the AppendedData section (raw or
 /// base64). The constructor locates the appended section and checks that every appended array ends
 /// inside it and that nothing but whitespace follows the last one.
 class VtkXmlPayload {
 public:
-    /// `doc` must be scanned from `bytes` with stopAt = "AppendedData".
-    VtkXmlPayload(const XmlDocument& doc, std::span<const std::byte> bytes, VtkXmlLayout layout);
+    /// `doc` must be parsed from `bytes` by parseVtkXml.
+    VtkXmlPayload(const VtkXmlDocument& doc, std::span<const std::byte> bytes, VtkXmlLayout layout);
     /// Decoded bytes of a `binary` or `appended` DataArray; they must be exactly `expectedBytes` long.
-    std::vector<std::byte> decode(const XmlElement& dataArray, std::size_t expectedBytes) const;
+    std::vector<std::byte> decode(pugi::xml_node dataArray, std::size_t expectedBytes) const;
     const VtkXmlLayout& layout() const noexcept { return layout_; }
 
 private:

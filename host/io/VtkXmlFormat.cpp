@@ -2,7 +2,7 @@
 #include "core/AtomicFile.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/VtkXmlArrays.hpp"
-#include "host/io/XmlScan.hpp"
+#include "host/io/XmlDocument.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -55,19 +55,20 @@ double firstValue(std::span<const std::byte> b, SampleType t, bool swap) {
 TimeSeries readVtkXmlImage(ReadContext& ctx) {
     const fs::path& path = ctx.file();
     const std::vector<std::byte> bytes = readFileBytes(path);
-    const std::string_view text = asText(bytes);
-    const XmlDocument doc = scanXml(text, path, "AppendedData");
-    const XmlElement& root = doc.elements[0];
-    if (root.name != "VTKFile") fail(path, "not a VTK XML file (root element is <" + root.name + ">)");
-    const std::string fileType = root.attr("type").value_or("");
+    VtkXmlDocument doc;
+    parseVtkXml(doc, asText(bytes), path);
+    const pugi::xml_node root = doc.root();
+    if (root.name() != std::string_view("VTKFile"))
+        fail(path, "not a VTK XML file (root element is <" + std::string(root.name()) + ">)");
+    const std::string fileType = attr(root, "type").value_or("");
     if (fileType != "ImageData") unsupported(path, "VTK XML type '" + fileType + "' is not ImageData");
 
     const VtkXmlLayout L = vtkXmlLayout(root, path);
 
-    const auto images = doc.childrenNamed(0, "ImageData");
+    const auto images = childrenNamed(root, "ImageData");
     if (images.size() != 1) fail(path, "expected one <ImageData> element");
-    const XmlElement& image = doc.elements[static_cast<std::size_t>(images[0])];
-    const std::string extentText = image.attr("WholeExtent").value_or("");
+    const pugi::xml_node image = images[0];
+    const std::string extentText = attr(image, "WholeExtent").value_or("");
     const auto extentWords = splitWords(extentText);
     if (extentWords.size() != 6) fail(path, "ImageData WholeExtent needs 6 values");
     long long ext[6];
@@ -82,60 +83,59 @@ TimeSeries readVtkXmlImage(ReadContext& ctx) {
     // The sample type is only known per array; the largest (8 bytes, converted to float32) bounds it.
     const std::size_t voxels = ctx.voxelCount(dims, 1, SampleType::Float64);
     std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
-    if (auto sp = image.attr("Spacing")) spacing = requireTriple(splitWords(*sp), 0, path, "Spacing", true);
-    if (auto o = image.attr("Origin")) origin = requireTriple(splitWords(*o), 0, path, "Origin", false);
+    if (auto sp = attr(image, "Spacing")) spacing = requireTriple(splitWords(*sp), 0, path, "Spacing", true);
+    if (auto o = attr(image, "Origin")) origin = requireTriple(splitWords(*o), 0, path, "Origin", false);
     for (int a = 0; a < 3; ++a)
         origin[a] += static_cast<double>(ext[2 * a]) * spacing[a]; // extent may not start at 0
 
-    const auto pieces = doc.childrenNamed(images[0], "Piece");
+    const auto pieces = childrenNamed(image, "Piece");
     if (pieces.size() != 1)
         unsupported(path, std::to_string(pieces.size()) + " pieces: only single-piece files are supported");
-    const XmlElement& piece = doc.elements[static_cast<std::size_t>(pieces[0])];
-    if (const auto pe = piece.attr("Extent"); pe && splitWords(*pe) != extentWords)
+    const pugi::xml_node piece = pieces[0];
+    if (const auto pe = attr(piece, "Extent"); pe && splitWords(*pe) != extentWords)
         unsupported(path, "Piece Extent differs from WholeExtent");
 
     const VtkXmlPayload payload(doc, bytes, L);
-    auto decodeArray = [&](const XmlElement& da, std::size_t expectedBytes) {
+    auto decodeArray = [&](pugi::xml_node da, std::size_t expectedBytes) {
         return payload.decode(da, expectedBytes);
     };
-    auto arrayValues = [&](const XmlElement& da) -> std::size_t {
+    auto arrayValues = [&](pugi::xml_node da) -> std::size_t {
         const std::size_t comps = static_cast<std::size_t>(std::max<long long>(
-            1, requireInt(da.attr("NumberOfComponents").value_or("1"), path, "NumberOfComponents")));
+            1, requireInt(attr(da, "NumberOfComponents").value_or("1"), path, "NumberOfComponents")));
         return comps;
     };
 
     // The scalar array: PointData's active Scalars, else its first one-component array.
-    const auto pointData = doc.childrenNamed(pieces[0], "PointData");
+    const auto pointData = childrenNamed(piece, "PointData");
     if (pointData.empty()) unsupported(path, "no point data (cell data is not supported)");
-    const XmlElement& pd = doc.elements[static_cast<std::size_t>(pointData[0])];
-    const std::string active = pd.attr("Scalars").value_or("");
-    const XmlElement* chosen = nullptr;
-    for (int c : doc.childrenNamed(pointData[0], "DataArray")) {
-        const XmlElement& da = doc.elements[static_cast<std::size_t>(c)];
-        if (!active.empty() ? da.attr("Name").value_or("") == active : arrayValues(da) == 1) {
-            chosen = &da;
+    const std::string active = attr(pointData[0], "Scalars").value_or("");
+    pugi::xml_node chosen;
+    for (pugi::xml_node da : childrenNamed(pointData[0], "DataArray")) {
+        if (!active.empty() ? attr(da, "Name").value_or("") == active : arrayValues(da) == 1) {
+            chosen = da;
             break;
         }
     }
     if (!chosen)
         unsupported(path, "no scalar point-data array" +
                               (active.empty() ? std::string() : " named '" + active + "'"));
-    if (arrayValues(*chosen) != 1)
-        unsupported(path, "array '" + active + "' has " + chosen->attr("NumberOfComponents").value_or("?") +
+    if (arrayValues(chosen) != 1)
+        unsupported(path, "array '" + active + "' has " + attr(chosen, "NumberOfComponents").value_or("?") +
                               " components: only scalars are supported");
-    const std::string typeName = chosen->attr("type").value_or("");
+    const std::string typeName = attr(chosen, "type").value_or("");
     const auto st = vtkXmlType(typeName);
     if (!st) unsupported(path, "array type '" + typeName + "' is not supported");
 
     // The payload is validated against the extent before the volume is allocated.
     Volume v;
-    if (chosen->attr("format").value_or("ascii") == "ascii") {
-        requireAsciiCapacity(chosen->content, voxels, path);
+    if (attr(chosen, "format").value_or("ascii") == "ascii") {
+        const std::string samples = elementText(chosen);
+        requireAsciiCapacity(samples, voxels, path);
         v = Volume(dims, volumeTypeFor(*st));
-        decodeAsciiSamples(chosen->content, *st, v, 0, voxels, path);
+        decodeAsciiSamples(samples, *st, v, 0, voxels, path);
     } else {
         const std::vector<std::byte> data =
-            decodeArray(*chosen, checkedByteCount(voxels, sampleSize(*st), path));
+            decodeArray(chosen, checkedByteCount(voxels, sampleSize(*st), path));
         v = Volume(dims, volumeTypeFor(*st));
         decodeSamples(data, *st, L.endian, v);
     }
@@ -145,19 +145,19 @@ TimeSeries readVtkXmlImage(ReadContext& ctx) {
     TimeSeries series;
     series.frames.push_back(std::move(v));
     // FieldData TimeStep (ParaView/TTK convention) gives the frame's time.
-    for (int fd : doc.childrenNamed(images[0], "FieldData")) {
-        for (int c : doc.childrenNamed(fd, "DataArray")) {
-            const XmlElement& da = doc.elements[static_cast<std::size_t>(c)];
-            if (da.attr("Name").value_or("") != "TimeStep") continue;
-            const auto tt = vtkXmlType(da.attr("type").value_or(""));
+    for (pugi::xml_node fd : childrenNamed(image, "FieldData")) {
+        for (pugi::xml_node da : childrenNamed(fd, "DataArray")) {
+            if (attr(da, "Name").value_or("") != "TimeStep") continue;
+            const auto tt = vtkXmlType(attr(da, "type").value_or(""));
             if (!tt) fail(path, "TimeStep array has an unknown type");
-            if (da.attr("format").value_or("ascii") == "ascii") {
-                const auto words = splitWords(da.content);
+            if (attr(da, "format").value_or("ascii") == "ascii") {
+                const std::string text = elementText(da);
+                const auto words = splitWords(text);
                 if (words.empty()) fail(path, "TimeStep array is empty");
                 series.times.push_back(requireDouble(words[0], path, "TimeStep"));
             } else {
                 const long long tuples =
-                    requireInt(da.attr("NumberOfTuples").value_or("1"), path, "NumberOfTuples");
+                    requireInt(attr(da, "NumberOfTuples").value_or("1"), path, "NumberOfTuples");
                 if (tuples < 1 || tuples > 1'000'000) fail(path, "TimeStep NumberOfTuples is invalid");
                 const std::vector<std::byte> data =
                     decodeArray(da, static_cast<std::size_t>(tuples) * sampleSize(*tt));

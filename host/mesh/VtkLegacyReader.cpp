@@ -35,6 +35,13 @@ public:
     }
     std::size_t position() const noexcept { return pos_; }
     void seek(std::size_t pos) noexcept { pos_ = pos; }
+    /// Skips a METADATA block, which ends with an empty line.
+    void skipMetadata() {
+        while (pos_ < text_.size()) {
+            const auto l = io::nextLine(text_, pos_);
+            if (io::trim(*l).empty()) break;
+        }
+    }
 
     /// Skips (or with `out`, decodes) `count` values of type `st` starting at the cursor.
     void values(std::size_t count, SampleType st, const std::string& what, std::vector<double>* out) {
@@ -101,16 +108,20 @@ struct ArrayPlace {
     SampleType type;
 };
 
-} // namespace
+// The three lines before the data: version, title, ASCII or BINARY.
+struct LegacyPreamble {
+    double version = 2.0;
+    bool binary = false;
+    std::size_t end = 0; ///< where the keyword lines start
+};
 
-CellSoup readLegacyCells(const fs::path& path, const MeshReadOptions& options) {
-    const std::vector<std::byte> bytes = readFileBytes(path);
-    const std::string_view text = io::asText(bytes);
+LegacyPreamble readPreamble(std::string_view text, const fs::path& path) {
+    LegacyPreamble p;
     std::size_t pos = 0;
     const auto line1 = io::nextLine(text, pos);
     if (!line1 || !line1->starts_with("# vtk DataFile Version"))
         fail(path, "not a legacy VTK file (bad first line)");
-    const double version = io::parseNumber<double>(io::trim(line1->substr(22))).value_or(2.0);
+    p.version = io::parseNumber<double>(io::trim(line1->substr(22))).value_or(2.0);
     if (!io::nextLine(text, pos)) fail(path, "truncated: no title line");
     auto modeLine = io::nextLine(text, pos);
     while (modeLine && io::trim(*modeLine).empty())
@@ -120,8 +131,68 @@ CellSoup readLegacyCells(const fs::path& path, const MeshReadOptions& options) {
     if (mode != "ascii" && mode != "binary")
         fail(path, "third line must be ASCII or BINARY, not '" +
                        std::string(io::trim(*modeLine).substr(0, 30)) + "'");
-    LegacyCursor cur(text, mode == "binary", path);
-    cur.seek(pos);
+    p.binary = mode == "binary";
+    p.end = pos;
+    return p;
+}
+
+// File version 5: CELLS <offsets> <connectivity>, then OFFSETS <type> and CONNECTIVITY <type> blocks.
+// Returns the cell count.
+std::size_t readOffsetCells(LegacyCursor& cur, const std::vector<std::string_view>& w, const fs::path& path,
+                            CellSoup& soup) {
+    const std::size_t nOffsets = requireCount(w, 1, path, "CELLS");
+    const std::size_t nConn = requireCount(w, 2, path, "CELLS");
+    if (nOffsets == 0) fail(path, "CELLS needs at least one offset");
+    const std::size_t nCells = nOffsets - 1;
+    const auto wo = cur.keywordLine();
+    if (wo.empty() || !io::iequals(wo[0], "offsets")) fail(path, "CELLS: OFFSETS block missing");
+    cur.values(nOffsets, requireType(wo, 1, path, "OFFSETS"), "OFFSETS", &soup.offsets);
+    const auto wc = cur.keywordLine();
+    if (wc.empty() || !io::iequals(wc[0], "connectivity")) fail(path, "CELLS: CONNECTIVITY block missing");
+    cur.values(nConn, requireType(wc, 1, path, "CONNECTIVITY"), "CONNECTIVITY", &soup.connectivity);
+    for (std::size_t c = 0; c < nCells; ++c)
+        if (!(soup.offsets[c + 1] >= soup.offsets[c]))
+            fail(path, "cell " + std::to_string(c) + ": OFFSETS decrease");
+    return nCells;
+}
+
+// Versions before 5: CELLS <cells> <size>, per cell its point count, then the ids. Returns the cell count.
+std::size_t readCountedCells(LegacyCursor& cur, const std::vector<std::string_view>& w, const fs::path& path,
+                             CellSoup& soup) {
+    const std::size_t nCells = requireCount(w, 1, path, "CELLS");
+    const std::size_t size = requireCount(w, 2, path, "CELLS");
+    std::vector<double> data;
+    cur.values(size, SampleType::Int32, "CELLS", &data);
+    soup.offsets.assign(1, 0);
+    soup.offsets.reserve(nCells + 1);
+    soup.connectivity.reserve(size >= nCells ? size - nCells : 0);
+    std::size_t p = 0;
+    for (std::size_t c = 0; c < nCells; ++c) {
+        if (p >= size)
+            fail(path, "cell " + std::to_string(c) + ": CELLS data ends (size " + std::to_string(size) + ")");
+        const double k = data[p++];
+        if (!(k >= 0) || k > static_cast<double>(size - p))
+            fail(path, "cell " + std::to_string(c) + ": point count " + io::formatDouble(k) +
+                           " runs past the CELLS data");
+        for (std::size_t i = 0; i < static_cast<std::size_t>(k); ++i)
+            soup.connectivity.push_back(data[p++]);
+        soup.offsets.push_back(static_cast<double>(soup.connectivity.size()));
+    }
+    if (p != size)
+        fail(path, "CELLS size " + std::to_string(size) + " disagrees with its " + std::to_string(nCells) +
+                       " cells (" + std::to_string(p) + " values used)");
+    return nCells;
+}
+
+} // namespace
+
+CellSoup readLegacyCells(const fs::path& path, const MeshReadOptions& options) {
+    const std::vector<std::byte> bytes = readFileBytes(path);
+    const std::string_view text = io::asText(bytes);
+    const LegacyPreamble preamble = readPreamble(text, path);
+    const bool binary = preamble.binary;
+    LegacyCursor cur(text, binary, path);
+    cur.seek(preamble.end);
 
     CellSoup soup;
     bool dataset = false, havePoints = false, haveCells = false, haveTypes = false;
@@ -157,48 +228,9 @@ CellSoup readLegacyCells(const fs::path& path, const MeshReadOptions& options) {
             for (std::size_t i = 0; i < nPoints; ++i)
                 soup.points[i] = {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
             havePoints = true;
-        } else if (key == "cells" && version >= 5.0) {
-            // CELLS <offsets> <connectivity>, then OFFSETS <type> and CONNECTIVITY <type> blocks.
-            const std::size_t nOffsets = requireCount(w, 1, path, "CELLS");
-            const std::size_t nConn = requireCount(w, 2, path, "CELLS");
-            if (nOffsets == 0) fail(path, "CELLS needs at least one offset");
-            nCells = nOffsets - 1;
-            const auto wo = cur.keywordLine();
-            if (wo.empty() || !io::iequals(wo[0], "offsets")) fail(path, "CELLS: OFFSETS block missing");
-            cur.values(nOffsets, requireType(wo, 1, path, "OFFSETS"), "OFFSETS", &soup.offsets);
-            const auto wc = cur.keywordLine();
-            if (wc.empty() || !io::iequals(wc[0], "connectivity"))
-                fail(path, "CELLS: CONNECTIVITY block missing");
-            cur.values(nConn, requireType(wc, 1, path, "CONNECTIVITY"), "CONNECTIVITY", &soup.connectivity);
-            for (std::size_t c = 0; c < nCells; ++c)
-                if (!(soup.offsets[c + 1] >= soup.offsets[c]))
-                    fail(path, "cell " + std::to_string(c) + ": OFFSETS decrease");
-            haveCells = true;
         } else if (key == "cells") {
-            // CELLS <cells> <size>: per cell its point count, then the ids.
-            nCells = requireCount(w, 1, path, "CELLS");
-            const std::size_t size = requireCount(w, 2, path, "CELLS");
-            std::vector<double> data;
-            cur.values(size, SampleType::Int32, "CELLS", &data);
-            soup.offsets.assign(1, 0);
-            soup.offsets.reserve(nCells + 1);
-            soup.connectivity.reserve(size >= nCells ? size - nCells : 0);
-            std::size_t p = 0;
-            for (std::size_t c = 0; c < nCells; ++c) {
-                if (p >= size)
-                    fail(path, "cell " + std::to_string(c) + ": CELLS data ends (size " +
-                                   std::to_string(size) + ")");
-                const double k = data[p++];
-                if (!(k >= 0) || k > static_cast<double>(size - p))
-                    fail(path, "cell " + std::to_string(c) + ": point count " + io::formatDouble(k) +
-                                   " runs past the CELLS data");
-                for (std::size_t i = 0; i < static_cast<std::size_t>(k); ++i)
-                    soup.connectivity.push_back(data[p++]);
-                soup.offsets.push_back(static_cast<double>(soup.connectivity.size()));
-            }
-            if (p != size)
-                fail(path, "CELLS size " + std::to_string(size) + " disagrees with its " +
-                               std::to_string(nCells) + " cells (" + std::to_string(p) + " values used)");
+            nCells = preamble.version >= 5.0 ? readOffsetCells(cur, w, path, soup)
+                                             : readCountedCells(cur, w, path, soup);
             haveCells = true;
         } else if (key == "cell_types") {
             const std::size_t n = requireCount(w, 1, path, "CELL_TYPES");
@@ -238,12 +270,12 @@ CellSoup readLegacyCells(const fs::path& path, const MeshReadOptions& options) {
         } else if (key == "color_scalars") {
             const std::size_t n = requireCount(w, 2, path, "COLOR_SCALARS");
             if (n < 1 || n > 4) fail(path, "COLOR_SCALARS needs 1 to 4 values");
-            attribute(std::string(w[1]), n, sectionCount,
-                      mode == "binary" ? SampleType::UInt8 : SampleType::Float32, "color");
+            attribute(std::string(w[1]), n, sectionCount, binary ? SampleType::UInt8 : SampleType::Float32,
+                      "color");
         } else if (key == "lookup_table") {
             const std::size_t n = requireCount(w, 2, path, "LOOKUP_TABLE");
-            cur.values(io::checkedByteCount(n, 4, path),
-                       mode == "binary" ? SampleType::UInt8 : SampleType::Float32, "LOOKUP_TABLE", nullptr);
+            cur.values(io::checkedByteCount(n, 4, path), binary ? SampleType::UInt8 : SampleType::Float32,
+                       "LOOKUP_TABLE", nullptr);
         } else if (key == "field") {
             const std::size_t n = requireCount(w, 2, path, "FIELD");
             for (std::size_t a = 0; a < n; ++a) {
@@ -260,13 +292,7 @@ CellSoup readLegacyCells(const fs::path& path, const MeshReadOptions& options) {
                 }
             }
         } else if (key == "metadata") {
-            // Metadata blocks end with an empty line.
-            std::size_t p = cur.position();
-            while (p < text.size()) {
-                const auto l = io::nextLine(text, p);
-                if (io::trim(*l).empty()) break;
-            }
-            cur.seek(p);
+            cur.skipMetadata();
         } else {
             fail(path, "unexpected line '" + std::string(w[0].substr(0, 40)) + "'");
         }

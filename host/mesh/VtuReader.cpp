@@ -17,18 +17,17 @@ namespace {
 constexpr std::size_t kMaxInflateRatio = 1040;
 
 struct VtuArrays {
-    const io::XmlDocument& doc;
     const io::VtkXmlPayload& payload;
     std::size_t fileBytes;
 
     // Reads `count` values of `da` (ascii, inline binary or appended), checking sizes before allocating.
-    std::vector<double> read(const io::XmlElement& da, std::size_t count, const std::string& what) const {
+    std::vector<double> read(pugi::xml_node da, std::size_t count, const std::string& what) const {
         const fs::path& path = payload.layout().file;
-        const std::string typeName = da.attr("type").value_or("");
+        const std::string typeName = io::attr(da, "type").value_or("");
         const auto st = io::vtkXmlType(typeName);
         if (!st) unsupported(path, what + ": type '" + typeName + "' is not supported");
-        const std::string format = da.attr("format").value_or("ascii");
-        if (format == "ascii") return parseAsciiNumbers(da.content, count, path, what);
+        const std::string format = io::attr(da, "format").value_or("ascii");
+        if (format == "ascii") return parseAsciiNumbers(io::elementText(da), count, path, what);
         const std::size_t bytes = io::checkedByteCount(count, io::sampleSize(*st), path);
         const std::size_t limit = payload.layout().compressed ? fileBytes * kMaxInflateRatio : fileBytes;
         if (bytes > limit)
@@ -38,17 +37,17 @@ struct VtuArrays {
     }
 };
 
-std::size_t countAttr(const io::XmlElement& e, std::string_view key, const fs::path& path) {
-    const auto text = e.attr(std::string(key));
-    if (!text) fail(path, "<" + e.name + "> has no " + std::string(key));
+std::size_t countAttr(pugi::xml_node e, const char* key, const fs::path& path) {
+    const auto text = io::attr(e, key);
+    if (!text) fail(path, "<" + std::string(e.name()) + "> has no " + std::string(key));
     const long long n = io::requireInt(*text, path, key);
     if (n < 0) fail(path, std::string(key) + " " + std::to_string(n) + " is negative");
     return static_cast<std::size_t>(n);
 }
 
-int components(const io::XmlElement& da, const fs::path& path) {
+int components(pugi::xml_node da, const fs::path& path) {
     const long long n =
-        io::requireInt(da.attr("NumberOfComponents").value_or("1"), path, "NumberOfComponents");
+        io::requireInt(io::attr(da, "NumberOfComponents").value_or("1"), path, "NumberOfComponents");
     if (n < 1 || n > 1024) fail(path, "NumberOfComponents " + std::to_string(n) + " is invalid");
     return static_cast<int>(n);
 }
@@ -57,22 +56,23 @@ int components(const io::XmlElement& da, const fs::path& path) {
 
 CellSoup readVtuCells(const fs::path& path, const MeshReadOptions& options) {
     const std::vector<std::byte> bytes = readFileBytes(path);
-    const std::string_view text = io::asText(bytes);
-    const io::XmlDocument doc = io::scanXml(text, path, "AppendedData");
-    const io::XmlElement& root = doc.elements[0];
-    if (root.name != "VTKFile") fail(path, "not a VTK XML file (root element is <" + root.name + ">)");
-    const std::string fileType = root.attr("type").value_or("");
+    io::VtkXmlDocument doc;
+    io::parseVtkXml(doc, io::asText(bytes), path);
+    const pugi::xml_node root = doc.root();
+    if (root.name() != std::string_view("VTKFile"))
+        fail(path, "not a VTK XML file (root element is <" + std::string(root.name()) + ">)");
+    const std::string fileType = io::attr(root, "type").value_or("");
     if (fileType != "UnstructuredGrid")
         unsupported(path, "VTK XML type '" + fileType + "' is not UnstructuredGrid");
     const io::VtkXmlPayload payload(doc, bytes, io::vtkXmlLayout(root, path));
-    const VtuArrays arrays{doc, payload, bytes.size()};
+    const VtuArrays arrays{payload, bytes.size()};
 
-    const auto grids = doc.childrenNamed(0, "UnstructuredGrid");
+    const auto grids = io::childrenNamed(root, "UnstructuredGrid");
     if (grids.size() != 1) fail(path, "expected one <UnstructuredGrid> element");
-    const auto pieces = doc.childrenNamed(grids[0], "Piece");
+    const auto pieces = io::childrenNamed(grids[0], "Piece");
     if (pieces.size() != 1)
         unsupported(path, std::to_string(pieces.size()) + " pieces: only single-piece files are supported");
-    const io::XmlElement& piece = doc.elements[static_cast<std::size_t>(pieces[0])];
+    const pugi::xml_node piece = pieces[0];
     const std::size_t nPoints = countAttr(piece, "NumberOfPoints", path);
     const std::size_t nCells = countAttr(piece, "NumberOfCells", path);
     // Every point and cell needs at least a byte somewhere (more when compressed is impossible to say).
@@ -81,24 +81,19 @@ CellSoup readVtuCells(const fs::path& path, const MeshReadOptions& options) {
         fail(path, "truncated: " + std::to_string(nPoints) + " points and " + std::to_string(nCells) +
                        " cells cannot fit in " + std::to_string(bytes.size()) + " bytes");
 
-    auto child = [&](int parent, std::string_view name) -> int {
-        const auto c = doc.childrenNamed(parent, name);
-        return c.empty() ? -1 : c[0];
-    };
-    auto namedArray = [&](int parent, std::string_view name) -> const io::XmlElement& {
-        for (int c : doc.childrenNamed(parent, "DataArray"))
-            if (doc.elements[static_cast<std::size_t>(c)].attr("Name").value_or("") == name)
-                return doc.elements[static_cast<std::size_t>(c)];
+    auto namedArray = [&](pugi::xml_node parent, std::string_view name) -> pugi::xml_node {
+        for (pugi::xml_node c : parent.children("DataArray"))
+            if (io::attr(c, "Name").value_or("") == name) return c;
         fail(path, "<Cells> has no '" + std::string(name) + "' array");
     };
 
     CellSoup soup;
     // Points.
-    const int pointsEl = child(pieces[0], "Points");
-    if (pointsEl < 0) fail(path, "no <Points> element");
-    const auto pointArrays = doc.childrenNamed(pointsEl, "DataArray");
+    const pugi::xml_node pointsEl = piece.child("Points");
+    if (!pointsEl) fail(path, "no <Points> element");
+    const auto pointArrays = io::childrenNamed(pointsEl, "DataArray");
     if (pointArrays.size() != 1) fail(path, "<Points> must hold one DataArray");
-    const io::XmlElement& pda = doc.elements[static_cast<std::size_t>(pointArrays[0])];
+    const pugi::xml_node pda = pointArrays[0];
     if (components(pda, path) != 3) fail(path, "Points need 3 components");
     {
         const std::vector<double> xyz = arrays.read(pda, io::checkedByteCount(nPoints, 3, path), "Points");
@@ -107,10 +102,10 @@ CellSoup readVtuCells(const fs::path& path, const MeshReadOptions& options) {
             soup.points[i] = {xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]};
     }
     // Cells.
-    const int cellsEl = child(pieces[0], "Cells");
-    if (cellsEl < 0) fail(path, "no <Cells> element");
-    for (int c : doc.childrenNamed(cellsEl, "DataArray")) {
-        const std::string n = doc.elements[static_cast<std::size_t>(c)].attr("Name").value_or("");
+    const pugi::xml_node cellsEl = piece.child("Cells");
+    if (!cellsEl) fail(path, "no <Cells> element");
+    for (pugi::xml_node c : cellsEl.children("DataArray")) {
+        const std::string n = io::attr(c, "Name").value_or("");
         if (n == "faces" || n == "faceoffsets")
             unsupported(path, "polyhedron cells (faces arrays) are not supported");
     }
@@ -130,22 +125,21 @@ CellSoup readVtuCells(const fs::path& path, const MeshReadOptions& options) {
 
     // Arrays, then the chosen scalar.
     struct Found {
-        const io::XmlElement* element;
+        pugi::xml_node element;
         bool pointData;
     };
     std::vector<Found> found;
     for (auto [section, onPoints] : {std::pair{"PointData", true}, std::pair{"CellData", false}})
-        for (int s : doc.childrenNamed(pieces[0], section))
-            for (int c : doc.childrenNamed(s, "DataArray")) {
-                const io::XmlElement& da = doc.elements[static_cast<std::size_t>(c)];
-                soup.arrays.push_back({da.attr("Name").value_or(""), onPoints, components(da, path),
-                                       da.attr("type").value_or("?")});
-                found.push_back({&da, onPoints});
+        for (pugi::xml_node s : piece.children(section))
+            for (pugi::xml_node da : s.children("DataArray")) {
+                soup.arrays.push_back({io::attr(da, "Name").value_or(""), onPoints, components(da, path),
+                                       io::attr(da, "type").value_or("?")});
+                found.push_back({da, onPoints});
             }
     const std::size_t k = chooseScalarArray(soup.arrays, options.array, path);
     soup.valuesName = soup.arrays[k].name;
     soup.valuesOnPoints = found[k].pointData;
-    soup.values = arrays.read(*found[k].element, soup.valuesOnPoints ? nPoints : nCells,
+    soup.values = arrays.read(found[k].element, soup.valuesOnPoints ? nPoints : nCells,
                               "array '" + soup.valuesName + "'");
     return soup;
 }

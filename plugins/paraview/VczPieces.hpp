@@ -3,7 +3,7 @@
 
 #include "core/Volume.hpp"
 #include "wavelet/Codec.hpp"
-#include "wavelet/VczFormat.hpp"
+#include "wavelet/container/VczFormat.hpp"
 
 #include <cstddef>
 #include <vector>

@@ -1,7 +1,7 @@
 // Hostile inputs through the volcl binary: each ends in exit 1 (2 for usage) with one line naming the file,
 // within a memory bound, and leaves every input untouched (the reproducers of the hardening work).
 #include "host/io/VolumeIo.hpp"
-#include "wavelet/VczFormat.hpp"
+#include "wavelet/container/VczFormat.hpp"
 #include "../TestUtil.hpp"
 
 #include <sys/resource.h>

@@ -18,7 +18,7 @@ endfunction()
 
 step(${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${PREFIX})
 
-# The installed headers are exactly the public list: an internal header (IoDetail.hpp, XmlScan.hpp, the
+# The installed headers are exactly the public list: an internal header (IoDetail.hpp, XmlDocument.hpp, the
 # entropy coders, the viewer's, the CLI's) installed, or a listed one missing, fails here.
 file(STRINGS ${BUILD_DIR}/volcl-public-headers.txt _expected)
 file(GLOB_RECURSE _installed RELATIVE ${PREFIX}/include/volcl ${PREFIX}/include/*)
