@@ -1,7 +1,8 @@
 // `volcl bench motion`: block-search time against block size, radius and method, with the prediction error.
 #include "core/Error.hpp"
-#include "apps/cli/Commands.hpp"
-#include "apps/cli/GzipVolume.hpp"
+#include "apps/bench/BenchCommand.hpp"
+#include "apps/bench/BenchPaths.hpp"
+#include "apps/bench/GzipVolume.hpp"
 #include "core/AtomicFile.hpp"
 #include "core/Format.hpp"
 #include "host/io/Series.hpp"
@@ -29,7 +30,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct MotionBenchArgs {
-    std::string data = std::string(VOLCL_SOURCE_DIR) + "/../shared/data", filter, csv, json;
+    std::string data = defaultSharedDataDir(), filter, csv, json;
     std::vector<std::size_t> blocks{4, 8, 16};
     std::vector<int> radii{1, 2, 4, 8};
     int runs = 3;
@@ -217,7 +218,7 @@ void benchMotion(const MotionBenchArgs& a, GlobalOptions& global) {
 
 } // namespace
 
-void addMotionCommands(CLI::App& bench, GlobalOptions& global) {
+void addMotionBench(CLI::App& bench, GlobalOptions& global) {
     auto* b = bench.add_subcommand("motion", "Motion search: time against block size, radius and method, with the "
                                              "prediction error, and the kernels against their C++ references");
     auto a = std::make_shared<MotionBenchArgs>();

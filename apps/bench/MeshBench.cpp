@@ -1,5 +1,5 @@
 // Mesh rendering benchmark: the methods against the exact reference, and VTK's unstructured-grid mappers.
-#include "apps/cli/MeshBench.hpp"
+#include "apps/bench/MeshBench.hpp"
 
 #include "core/Error.hpp"
 #include "apps/cli/CliParsing.hpp"
