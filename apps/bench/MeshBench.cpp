@@ -1,6 +1,8 @@
 // Mesh rendering benchmark: the methods against the exact reference, and VTK's unstructured-grid mappers.
 #include "apps/bench/MeshBench.hpp"
 
+#include "apps/bench/VtkPeer.hpp"
+
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/SceneFlags.hpp"
 #include "core/AtomicFile.hpp"
@@ -11,9 +13,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include <cmath>
-#include <cstdlib>
-#include <cstring>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -142,20 +141,8 @@ void writeVtkJob(const std::filesystem::path& dir, const MeshRun& run, const Sce
     job["points"] = (dir / "points.f64").string();
     job["tets"] = (dir / "tets.i64").string();
     job["scalars"] = (dir / "scalars.f32").string();
-    nlohmann::json samples = nlohmann::json::array();
-    const int n = 1024;
-    for (int i = 0; i < n; ++i) {
-        const double x = tf.domain[0] + (tf.domain[1] - tf.domain[0]) * i / (n - 1);
-        const auto c = tf.colorAt(x);
-        samples.push_back({x, c[0], c[1], c[2], 1.0 - std::exp(-tf.extinctionAt(x))});
-    }
-    job["tf"] = samples;
-    job["camera"] = {{"eye", cam.eye},
-                     {"target", cam.target},
-                     {"up", cam.up},
-                     {"height", cam.height},
-                     {"fov_y_deg", cam.fovYDeg},
-                     {"perspective", cam.projection == Projection::Perspective}};
+    job["tf"] = vtkTransferFunction(tf);
+    job["camera"] = vtkCamera(cam);
     job["width"] = scene.width;
     job["height"] = scene.height;
     job["runs"] = o.runs;
@@ -200,10 +187,7 @@ void benchVtkPeers(MeshRun& run, const Scene& scene, const MeshBenchOptions& o, 
         std::filesystem::temp_directory_path() / ("volcl-vtk-mesh-" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
     writeVtkJob(dir, run, scene, o);
-    const std::string cmd = "xvfb-run -a /usr/bin/python3 " + shellQuote(o.vtkScript) + " " +
-                            shellQuote((dir / "job.json").string());
-    if (std::system(cmd.c_str()) != 0)
-        throw Error("VTK peer failed (" + cmd + "); is python3-vtk9 installed (scripts/apt-packages.txt)?");
+    runVtkScript(o.vtkScript, dir / "job.json");
     const nlohmann::json res = nlohmann::json::parse(std::ifstream(dir / "result.json"));
     std::cout << "VTK " << res.at("vtk_version").get<std::string>()
               << " peers, same mesh/TF/camera/image, RMSE of RGB (over black) against the reference\n";
@@ -214,11 +198,7 @@ void benchVtkPeers(MeshRun& run, const Scene& scene, const MeshBenchOptions& o, 
     const double tets = run.tets;
     double bunykMs = 0, bunykErr = 0;
     for (const auto& [name, r] : res.at("mappers").items()) {
-        const auto bytes = readFileBytes(r.at("image").get<std::string>());
-        ImageBuffer img(scene.width, scene.height, {"R", "G", "B", "A"});
-        if (bytes.size() != img.pixels.size() * sizeof(float))
-            throw IoError("VTK peer image has the wrong size");
-        std::memcpy(img.pixels.data(), bytes.data(), bytes.size());
+        const ImageBuffer img = readVtkImage(r.at("image").get<std::string>(), scene.width, scene.height);
         const double ms = r.at("median_ms").get<double>(), err = rmseRgb(img, run.ref);
         if (name == "bunyk") {
             bunykMs = ms;

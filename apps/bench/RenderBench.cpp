@@ -9,6 +9,7 @@
 #include "apps/bench/MediaBench.hpp"
 #include "apps/bench/MeshBench.hpp"
 #include "apps/bench/ScatterBench.hpp"
+#include "apps/bench/VtkPeer.hpp"
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/SceneFlags.hpp"
 #include "core/AtomicFile.hpp"
@@ -25,8 +26,6 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
-#include <cstdlib>
-#include <cstring>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -198,21 +197,8 @@ std::pair<double, ImageBuffer> runVtk(const BenchArgs& a, const Volume& v, const
     job["dims"] = {v.dims().x, v.dims().y, v.dims().z};
     job["spacing"] = v.spacing;
     job["origin"] = v.origin;
-    // The TF densely sampled: VTK interpolates opacity linearly, ours is linear in tau.
-    nlohmann::json samples = nlohmann::json::array();
-    const int n = 1024;
-    for (int i = 0; i < n; ++i) {
-        const double x = tf.domain[0] + (tf.domain[1] - tf.domain[0]) * i / (n - 1);
-        const auto c = tf.colorAt(x);
-        samples.push_back({x, c[0], c[1], c[2], 1.0 - std::exp(-tf.extinctionAt(x))});
-    }
-    job["tf"] = samples;
-    job["camera"] = {{"eye", cam.eye},
-                     {"target", cam.target},
-                     {"up", cam.up},
-                     {"height", cam.height},
-                     {"perspective", cam.projection == Projection::Perspective},
-                     {"fov_y_deg", cam.fovYDeg}};
+    job["tf"] = vtkTransferFunction(tf);
+    job["camera"] = vtkCamera(cam);
     job["width"] = s.width;
     job["height"] = s.height;
     job["step"] = s.step;
@@ -221,17 +207,10 @@ std::pair<double, ImageBuffer> runVtk(const BenchArgs& a, const Volume& v, const
     job["result"] = (dir / "vtk-result.json").string();
     const auto jobPath = dir / "vtk-job.json";
     std::ofstream(jobPath) << job.dump(2);
-    const std::string cmd =
-        "xvfb-run -a /usr/bin/python3 " + shellQuote(a.vtkScript) + " " + shellQuote(jobPath.string());
-    if (std::system(cmd.c_str()) != 0)
-        throw Error("VTK peer failed (" + cmd + "); is python3-vtk9 installed (scripts/apt-packages.txt)?");
+    runVtkScript(a.vtkScript, jobPath);
     std::ifstream res(dir / "vtk-result.json");
     const nlohmann::json r = nlohmann::json::parse(res);
-    const auto bytes = readFileBytes(dir / "vtk-image.f32");
-    ImageBuffer img(s.width, s.height, {"R", "G", "B", "A"});
-    if (bytes.size() != img.pixels.size() * sizeof(float)) throw IoError("VTK peer image has the wrong size");
-    std::memcpy(img.pixels.data(), bytes.data(), bytes.size());
-    return {r.at("median_ms").get<double>(), img};
+    return {r.at("median_ms").get<double>(), readVtkImage(dir / "vtk-image.f32", s.width, s.height)};
 }
 
 /// `bench render` on a tetrahedral mesh: MeshBench.cpp.
