@@ -2,11 +2,11 @@
 // `volcl decode` per run) against zfp, zstd and xz on real volumes.
 #include "apps/bench/BenchCommand.hpp"
 
+#include "apps/bench/BenchOutput.hpp"
 #include "apps/bench/BenchPaths.hpp"
 #include "apps/bench/CodecPeers.hpp"
 #include "apps/bench/GzipVolume.hpp"
 #include "apps/cli/CodecReport.hpp"
-#include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
 #include "core/Format.hpp"
 #include "core/runtime/ClRuntime.hpp"
@@ -486,18 +486,8 @@ void writeCodecTables(const BenchArgs& a, const ComputeContext& cc, const std::v
                              {"decode_cold_MBps", r.decodeColdMBs}});
     }
     j["transforms"] = transforms;
-    if (!a.csv.empty()) {
-        AtomicFile f(a.csv);
-        f.write(csv.str());
-        f.commit();
-    } else {
-        std::cout << csv.str();
-    }
-    if (!a.json.empty()) {
-        AtomicFile f(a.json);
-        f.write(j.dump(1));
-        f.commit();
-    }
+    writeOutput(a.csv, csv.str());
+    if (!a.json.empty()) writeOutput(a.json, j.dump(1));
 }
 
 void benchCodec(const BenchArgs& a, GlobalOptions& global) {

@@ -1,9 +1,9 @@
 // `volcl bench motion`: block-search time against block size, radius and method, with the prediction error.
 #include "core/Error.hpp"
 #include "apps/bench/BenchCommand.hpp"
+#include "apps/bench/BenchOutput.hpp"
 #include "apps/bench/BenchPaths.hpp"
 #include "apps/bench/GzipVolume.hpp"
-#include "core/AtomicFile.hpp"
 #include "core/Format.hpp"
 #include "host/io/Series.hpp"
 #include "host/io/VolumeIo.hpp"
@@ -202,18 +202,8 @@ void benchMotion(const MotionBenchArgs& a, GlobalOptions& global) {
         }
     }
     nlohmann::json j{{"device", cc.device().name}, {"runs", a.runs}, {"rows", rows}, {"kernel_vs_reference", speed}};
-    if (!a.csv.empty()) {
-        AtomicFile f(a.csv);
-        f.write(csv.str());
-        f.commit();
-    } else {
-        std::cout << csv.str();
-    }
-    if (!a.json.empty()) {
-        AtomicFile f(a.json);
-        f.write(j.dump(1));
-        f.commit();
-    }
+    writeOutput(a.csv, csv.str());
+    if (!a.json.empty()) writeOutput(a.json, j.dump(1));
 }
 
 } // namespace
