@@ -247,6 +247,7 @@ TEST(ViewerCli, HeadlessOverlayChangesOnlyTheTopLeftCorner) {
     EXPECT_EQ(maxDifference255(a, readImage(dir / "keys.png")), 0.0);
 }
 
+#if defined(VOLCL_WITH_BENCH) // the `volcl bench` module is built (VOLCL_BUILD_BENCH)
 TEST(ViewerCli, BenchViewReportsFrameTimesAgainstTheTarget) {
     const auto dir = test::tempDir("viewer_cli_bench");
     writeScene(dir, "");
@@ -278,3 +279,4 @@ TEST(ViewerCli, BenchViewReportsFrameTimesAgainstTheTarget) {
     EXPECT_EQ(bad.code, 2) << bad.err;
     EXPECT_FALSE(std::filesystem::exists(dir / "bad.csv"));
 }
+#endif

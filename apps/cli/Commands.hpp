@@ -18,17 +18,15 @@ struct GlobalOptions {
     bool quiet = false; ///< --quiet: no progress bar
 };
 
-/// Each add* function adds its subcommands to `app` (or to the `bench` subcommand for benchmarks).
+/// Each add* function adds its subcommands to `app`; `volcl bench` is a module of its own (apps/bench).
 /// Callbacks throw volcl::Error subclasses; main() turns them into exit codes and one-line messages.
 void addInfoCommands(CLI::App& app, GlobalOptions& global);    // info, devices, convert
 void addDemoCommand(CLI::App& app, GlobalOptions& global);     // demo
 void addGenerateCommand(CLI::App& app, GlobalOptions& global); // generate cloud
-void addPreintCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global); // preint, bench preint
-void addCodecCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global);  // encode, decode, compare, bench codec
-void addViewCommand(CLI::App& app, CLI::App& bench, GlobalOptions& global); // view, bench view
-void addRenderCommands(CLI::App& app, CLI::App& bench, GlobalOptions& global); // render, bench render
-void addMotionCommands(CLI::App& bench, GlobalOptions& global);                // bench motion
-void addSeriesBenchCommand(CLI::App& bench, GlobalOptions& global);            // bench series
+void addPreintCommands(CLI::App& app, GlobalOptions& global);  // preint
+void addCodecCommands(CLI::App& app, GlobalOptions& global);   // encode, decode, compare
+void addViewCommand(CLI::App& app, GlobalOptions& global);     // view
+void addRenderCommands(CLI::App& app, GlobalOptions& global);  // render
 
 /// Puts a worked example at the foot of every subcommand's --help (after all subcommands are added).
 void addHelpExamples(CLI::App& app);

@@ -125,157 +125,167 @@ void printVolumeInfo(std::ostream& out, const std::string& path, const TimeSerie
     else printInfoText(out, j);
 }
 
-void addInfoCommands(CLI::App& app, GlobalOptions& global) {
-    // info
-    {
-        auto* cmd = app.add_subcommand(
-            "info", "Print dims, type, spacing, value range, mean and histogram (of a .vcz: its frame table)");
-        auto file = std::make_shared<std::string>();
-        auto json = std::make_shared<bool>(false);
-        auto raw = std::make_shared<RawReadFlags>();
-        auto meshFlags = std::make_shared<MeshReadFlags>();
-        cmd->add_option("file", *file, "Volume or mesh file")->required();
-        cmd->add_flag("--json", *json, "Print JSON instead of text");
-        raw->add(*cmd);
-        meshFlags->add(*cmd);
-        cmd->callback([file, json, raw, meshFlags, &global] {
-            if (mesh::detectMeshFormat(*file)) {
-                printMeshInfo(std::cout, *file, mesh::readMesh(*file, meshFlags->toReadOptions()), *json);
-                return;
-            }
-            if (std::filesystem::path(*file).extension() == ".vcz") {
-                printVczInfo(std::cout, *file, *json);
-                return;
-            }
-            TimeSeries ts = readVolumeFile(*file, raw->toReadOptions());
-            printVolumeInfo(std::cout, *file, ts, *json, global.quiet);
-        });
-    }
-    // devices
-    {
-        auto* cmd = app.add_subcommand("devices", "List OpenCL devices (index, platform, name, memory, features)");
-        auto json = std::make_shared<bool>(false);
-        cmd->add_flag("--json", *json, "Print JSON instead of text");
-        cmd->callback([json, &global] {
-            auto devices = listDevices();
-            nlohmann::json list = nlohmann::json::array();
-            for (const DeviceInfo& d : devices)
-                list.push_back({{"index", d.index},
-                                {"platform", d.platform},
-                                {"name", d.name},
-                                {"version", d.version},
-                                {"driver", d.driver},
-                                {"type", d.isGpu ? "gpu" : d.isCpu ? "cpu" : "other"},
-                                {"compute_units", d.computeUnits},
-                                {"global_mem_bytes", d.globalMemBytes},
-                                {"max_alloc_bytes", d.maxAllocBytes},
-                                {"fp64", d.fp64},
-                                {"gl_sharing", d.hasExtension("cl_khr_gl_sharing")}});
-            if (*json) {
-                std::cout << list.dump(2) << '\n';
-                return;
-            }
-            if (devices.empty()) throw Error("no OpenCL device found (is an ICD such as pocl-opencl-icd installed?)");
-            std::string selected;
-            try {
-                selected = ComputeContext(global.device).device().name;
-            } catch (const Error&) {
-                // The list is still useful when the selection is invalid; say so instead of failing.
-                selected.clear();
-            }
-            for (const DeviceInfo& d : devices) {
-                std::cout << (d.name == selected ? "* " : "  ") << d.index << ": " << d.name << " (" << d.platform
-                          << ", " << d.version << ")\n      " << (d.isGpu ? "GPU" : d.isCpu ? "CPU" : "other")
-                          << ", " << d.computeUnits << " compute units, " << (d.globalMemBytes >> 20)
-                          << " MiB global, max alloc " << (d.maxAllocBytes >> 20) << " MiB, fp64 "
-                          << (d.fp64 ? "yes" : "no") << ", cl_khr_gl_sharing "
-                          << (d.hasExtension("cl_khr_gl_sharing") ? "yes" : "no") << '\n';
-            }
-        });
-    }
-    // convert
-    {
-        auto* cmd = app.add_subcommand("convert", "Convert between volume formats (raw, NRRD, NIfTI, VTI, VDB out)");
-        struct Args {
-            std::string in, out, type, crop;
-            std::size_t frame = 0;
-            bool bigEndianOut = false;
-            std::optional<double> replaceNan;
-            RawReadFlags raw;
-            MeshReadFlags mesh;
-            VtuWriteFlags vtu;
-        };
-        auto a = std::make_shared<Args>();
-        cmd->add_option("input", a->in, "Input volume (any supported format)")->required();
-        cmd->add_option("-o,--output", a->out, "Output file: .raw, .nrrd, .nhdr, .nii, .nii.gz, .vti or .vdb")
-            ->required();
-        cmd->add_option("--to-type", a->type, "Convert voxels to uint8, uint16, int16 or float32 (clamped)");
-        cmd->add_option("--crop", a->crop, "Keep the voxel box x0,y0,z0:x1,y1,z1 (half-open)");
-        cmd->add_option("--frame", a->frame, "Frame of a time series to convert (default 0)");
-        cmd->add_option("--replace-nan", a->replaceNan,
-                        "Replace NaN voxels (float32) by this value, e.g. 0, so the volume can be rendered");
-        cmd->add_flag("--big-endian", a->bigEndianOut, "Write raw/NRRD output big-endian");
-        a->raw.add(*cmd);
-        a->mesh.add(*cmd);
-        a->vtu.add(*cmd);
-        cmd->callback([a, &global] {
-            checkNotSameFile(a->in, a->out);
-            if (mesh::detectMeshFormat(a->in)) { // a mesh converts to .vtu only
-                if (!a->out.ends_with(".vtu")) throw UsageError("-o " + a->out + ": a mesh converts to .vtu");
-                const mesh::VtuWriteOptions wo = a->vtu.toWriteOptions();
-                const mesh::TetMesh m = mesh::readMesh(a->in, a->mesh.toReadOptions());
-                mesh::writeVtu(m, a->out, wo);
-                if (!global.quiet)
-                    std::cerr << "volcl: wrote " << a->out << " (" << m.pointCount() << " points, " << m.tetCount()
-                              << " tets)\n";
-                return;
-            }
-            std::vector<std::filesystem::path> inputs;
-            Volume v;
-            if (std::filesystem::path(a->in).extension() == ".vcz") { // frame K decoded whole
-                const VczReader r(readFileBytes(a->in), a->in);
-                checkNotSameFile({std::filesystem::path(a->in)}, volumeFilesWritten(a->out));
-                if (a->frame >= r.header().frames.size())
-                    throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in + " has " +
-                                     std::to_string(r.header().frames.size()) + " frame(s)");
-                ComputeContext cc(global.device);
-                v = r.decodeFrame(cc, a->frame);
-            } else {
-                TimeSeries ts = readVolumeFile(a->in, a->raw.toReadOptions(), inputs);
-                // A header's data files are inputs too: converting x.nhdr to its own x.raw would destroy it.
-                checkNotSameFile(inputs, volumeFilesWritten(a->out));
-                if (a->frame >= ts.frames.size())
-                    throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in + " has " +
-                                     std::to_string(ts.frames.size()) + " frame(s)");
-                v = std::move(ts.frames[a->frame]);
-            }
-            if (a->replaceNan) {
-                if (!std::isfinite(*a->replaceNan)) throw UsageError("--replace-nan: the value must be finite");
-                std::size_t replaced = 0;
-                if (v.type() == ScalarType::Float32)
-                    for (float& x : v.values<float>())
-                        if (std::isnan(x)) {
-                            x = static_cast<float>(*a->replaceNan);
-                            ++replaced;
-                        }
-                if (!global.quiet)
-                    std::cerr << "volcl: replaced " << replaced << " NaN voxel(s) by " << *a->replaceNan << '\n';
-            }
-            if (!a->crop.empty()) {
-                auto [lo, hi] = parseBox(a->crop, "--crop");
-                v = v.cropped(lo, hi);
-            }
-            if (!a->type.empty()) v = v.convertedTo(parseScalarType(a->type));
-            WriteOptions wo;
-            wo.endian = a->bigEndianOut ? Endian::Big : Endian::Little;
-            // A NIfTI source's header is kept by NIfTI and VTI outputs (a .vcz carries its own: volcl decode).
-            if (std::filesystem::path(a->in).extension() != ".vcz") wo.nifti = readNiftiMetadataIfNifti(a->in);
-            writeVolumeFile(v, a->out, wo);
+namespace {
+
+// `volcl info`: a volume's dims, type, spacing and statistics; a mesh's or a .vcz's summary.
+void addInfo(CLI::App& app, GlobalOptions& global) {
+    auto* cmd = app.add_subcommand(
+        "info", "Print dims, type, spacing, value range, mean and histogram (of a .vcz: its frame table)");
+    auto file = std::make_shared<std::string>();
+    auto json = std::make_shared<bool>(false);
+    auto raw = std::make_shared<RawReadFlags>();
+    auto meshFlags = std::make_shared<MeshReadFlags>();
+    cmd->add_option("file", *file, "Volume or mesh file")->required();
+    cmd->add_flag("--json", *json, "Print JSON instead of text");
+    raw->add(*cmd);
+    meshFlags->add(*cmd);
+    cmd->callback([file, json, raw, meshFlags, &global] {
+        if (mesh::detectMeshFormat(*file)) {
+            printMeshInfo(std::cout, *file, mesh::readMesh(*file, meshFlags->toReadOptions()), *json);
+            return;
+        }
+        if (std::filesystem::path(*file).extension() == ".vcz") {
+            printVczInfo(std::cout, *file, *json);
+            return;
+        }
+        TimeSeries ts = readVolumeFile(*file, raw->toReadOptions());
+        printVolumeInfo(std::cout, *file, ts, *json, global.quiet);
+    });
+}
+
+// `volcl devices`: the OpenCL devices, the selected one marked.
+void addDevices(CLI::App& app, GlobalOptions& global) {
+    auto* cmd = app.add_subcommand("devices", "List OpenCL devices (index, platform, name, memory, features)");
+    auto json = std::make_shared<bool>(false);
+    cmd->add_flag("--json", *json, "Print JSON instead of text");
+    cmd->callback([json, &global] {
+        auto devices = listDevices();
+        nlohmann::json list = nlohmann::json::array();
+        for (const DeviceInfo& d : devices)
+            list.push_back({{"index", d.index},
+                            {"platform", d.platform},
+                            {"name", d.name},
+                            {"version", d.version},
+                            {"driver", d.driver},
+                            {"type", d.isGpu ? "gpu" : d.isCpu ? "cpu" : "other"},
+                            {"compute_units", d.computeUnits},
+                            {"global_mem_bytes", d.globalMemBytes},
+                            {"max_alloc_bytes", d.maxAllocBytes},
+                            {"fp64", d.fp64},
+                            {"gl_sharing", d.hasExtension("cl_khr_gl_sharing")}});
+        if (*json) {
+            std::cout << list.dump(2) << '\n';
+            return;
+        }
+        if (devices.empty()) throw Error("no OpenCL device found (is an ICD such as pocl-opencl-icd installed?)");
+        std::string selected;
+        try {
+            selected = ComputeContext(global.device).device().name;
+        } catch (const Error&) {
+            // The list is still useful when the selection is invalid; say so instead of failing.
+            selected.clear();
+        }
+        for (const DeviceInfo& d : devices) {
+            std::cout << (d.name == selected ? "* " : "  ") << d.index << ": " << d.name << " (" << d.platform
+                      << ", " << d.version << ")\n      " << (d.isGpu ? "GPU" : d.isCpu ? "CPU" : "other")
+                      << ", " << d.computeUnits << " compute units, " << (d.globalMemBytes >> 20)
+                      << " MiB global, max alloc " << (d.maxAllocBytes >> 20) << " MiB, fp64 "
+                      << (d.fp64 ? "yes" : "no") << ", cl_khr_gl_sharing "
+                      << (d.hasExtension("cl_khr_gl_sharing") ? "yes" : "no") << '\n';
+        }
+    });
+}
+
+// `volcl convert`: a volume to another format (or type, crop, frame), a mesh to .vtu.
+void addConvert(CLI::App& app, GlobalOptions& global) {
+    auto* cmd = app.add_subcommand("convert", "Convert between volume formats (raw, NRRD, NIfTI, VTI, VDB out)");
+    struct Args {
+        std::string in, out, type, crop;
+        std::size_t frame = 0;
+        bool bigEndianOut = false;
+        std::optional<double> replaceNan;
+        RawReadFlags raw;
+        MeshReadFlags mesh;
+        VtuWriteFlags vtu;
+    };
+    auto a = std::make_shared<Args>();
+    cmd->add_option("input", a->in, "Input volume (any supported format)")->required();
+    cmd->add_option("-o,--output", a->out, "Output file: .raw, .nrrd, .nhdr, .nii, .nii.gz, .vti or .vdb")
+        ->required();
+    cmd->add_option("--to-type", a->type, "Convert voxels to uint8, uint16, int16 or float32 (clamped)");
+    cmd->add_option("--crop", a->crop, "Keep the voxel box x0,y0,z0:x1,y1,z1 (half-open)");
+    cmd->add_option("--frame", a->frame, "Frame of a time series to convert (default 0)");
+    cmd->add_option("--replace-nan", a->replaceNan,
+                    "Replace NaN voxels (float32) by this value, e.g. 0, so the volume can be rendered");
+    cmd->add_flag("--big-endian", a->bigEndianOut, "Write raw/NRRD output big-endian");
+    a->raw.add(*cmd);
+    a->mesh.add(*cmd);
+    a->vtu.add(*cmd);
+    cmd->callback([a, &global] {
+        checkNotSameFile(a->in, a->out);
+        if (mesh::detectMeshFormat(a->in)) { // a mesh converts to .vtu only
+            if (!a->out.ends_with(".vtu")) throw UsageError("-o " + a->out + ": a mesh converts to .vtu");
+            const mesh::VtuWriteOptions wo = a->vtu.toWriteOptions();
+            const mesh::TetMesh m = mesh::readMesh(a->in, a->mesh.toReadOptions());
+            mesh::writeVtu(m, a->out, wo);
             if (!global.quiet)
-                std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x" << v.dims().z
-                          << " " << scalarTypeName(v.type()) << ")\n";
-        });
-    }
+                std::cerr << "volcl: wrote " << a->out << " (" << m.pointCount() << " points, " << m.tetCount()
+                          << " tets)\n";
+            return;
+        }
+        std::vector<std::filesystem::path> inputs;
+        Volume v;
+        if (std::filesystem::path(a->in).extension() == ".vcz") { // frame K decoded whole
+            const VczReader r(readFileBytes(a->in), a->in);
+            checkNotSameFile({std::filesystem::path(a->in)}, volumeFilesWritten(a->out));
+            if (a->frame >= r.header().frames.size())
+                throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in + " has " +
+                                 std::to_string(r.header().frames.size()) + " frame(s)");
+            ComputeContext cc(global.device);
+            v = r.decodeFrame(cc, a->frame);
+        } else {
+            TimeSeries ts = readVolumeFile(a->in, a->raw.toReadOptions(), inputs);
+            // A header's data files are inputs too: converting x.nhdr to its own x.raw would destroy it.
+            checkNotSameFile(inputs, volumeFilesWritten(a->out));
+            if (a->frame >= ts.frames.size())
+                throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in + " has " +
+                                 std::to_string(ts.frames.size()) + " frame(s)");
+            v = std::move(ts.frames[a->frame]);
+        }
+        if (a->replaceNan) {
+            if (!std::isfinite(*a->replaceNan)) throw UsageError("--replace-nan: the value must be finite");
+            std::size_t replaced = 0;
+            if (v.type() == ScalarType::Float32)
+                for (float& x : v.values<float>())
+                    if (std::isnan(x)) {
+                        x = static_cast<float>(*a->replaceNan);
+                        ++replaced;
+                    }
+            if (!global.quiet)
+                std::cerr << "volcl: replaced " << replaced << " NaN voxel(s) by " << *a->replaceNan << '\n';
+        }
+        if (!a->crop.empty()) {
+            auto [lo, hi] = parseBox(a->crop, "--crop");
+            v = v.cropped(lo, hi);
+        }
+        if (!a->type.empty()) v = v.convertedTo(parseScalarType(a->type));
+        WriteOptions wo;
+        wo.endian = a->bigEndianOut ? Endian::Big : Endian::Little;
+        // A NIfTI source's header is kept by NIfTI and VTI outputs (a .vcz carries its own: volcl decode).
+        if (std::filesystem::path(a->in).extension() != ".vcz") wo.nifti = readNiftiMetadataIfNifti(a->in);
+        writeVolumeFile(v, a->out, wo);
+        if (!global.quiet)
+            std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x" << v.dims().z
+                      << " " << scalarTypeName(v.type()) << ")\n";
+    });
+}
+
+} // namespace
+
+void addInfoCommands(CLI::App& app, GlobalOptions& global) {
+    addInfo(app, global);
+    addDevices(app, global);
+    addConvert(app, global);
 }
 
 } // namespace volcl::cli

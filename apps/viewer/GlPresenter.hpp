@@ -61,8 +61,6 @@ public:
     /// Draws the frame texture over a viewport of `width` x `height` pixels of the bound framebuffer.
     /// A frame of the viewport's size is sampled texel for texel; a smaller one is magnified bilinearly.
     void draw(int width, int height, std::array<double, 4> background);
-    int frameWidth() const noexcept { return texWidth_; }
-    int frameHeight() const noexcept { return texHeight_; }
 
 private:
     void ensureTexture(int width, int height);

@@ -192,6 +192,7 @@ TEST(Cli, DemoImageIsSmoothAndKernelWarningsStayQuiet) {
     EXPECT_LT(roughness, 0.06) << "phantom.png ripples (moire)";
 }
 
+#if defined(VOLCL_WITH_BENCH) // the `volcl bench` module is built (VOLCL_BUILD_BENCH)
 // `volcl bench codec` reports what a user running the CLI once per file sees (a fresh process per run)
 // beside the warm in-process figure; before, it reported the warm figure only. Speeds are not checked.
 TEST(Cli, BenchCodecReportsColdAndWarmFigures) {
@@ -220,6 +221,7 @@ TEST(Cli, BenchCodecReportsColdAndWarmFigures) {
     }
     EXPECT_TRUE(sawOurs);
 }
+#endif
 
 // OpenImageIO is a module loaded on first image access; without it, image commands fail with one line.
 TEST(Cli, MissingImageModuleIsAOneLineError) {

@@ -1,5 +1,5 @@
 // `volcl bench render --budgets`: planner choices per budget, their interleaved frame times and error.
-#include "apps/cli/BudgetBench.hpp"
+#include "apps/bench/BudgetBench.hpp"
 
 #include "core/Error.hpp"
 #include "render/BudgetPlanner.hpp"

@@ -1,5 +1,5 @@
-// Gzipped raw uint8 volumes for the benchmarks.
-#include "apps/cli/GzipVolume.hpp"
+// Gzipped raw uint8 volumes for the benchmarks (the BrainWeb T1 of bench codec, motion and series).
+#include "apps/bench/GzipVolume.hpp"
 
 #include "core/Error.hpp"
 
@@ -12,8 +12,11 @@ Volume readGzipUInt8(const std::filesystem::path& p, Dims d) {
     gzFile f = gzopen(p.string().c_str(), "rb");
     if (!f) throw IoError(p.string() + ": cannot open");
     const int n = gzread(f, v.bytes().data(), static_cast<unsigned>(v.byteSize()));
+    char extra;
+    const int more = gzread(f, &extra, 1);
     gzclose(f);
-    if (n != static_cast<int>(v.byteSize())) throw IoError(p.string() + ": unexpected size after gunzip");
+    if (n != static_cast<int>(v.byteSize()) || more != 0)
+        throw IoError(p.string() + ": unexpected size after gunzip");
     return v;
 }
 

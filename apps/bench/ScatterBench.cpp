@@ -1,6 +1,6 @@
 // `volcl bench render --scatter-sweep`: plain, single-scattering and path-traced frames against a converged
 // path-traced reference (time, cost ratio, RMSE against samples).
-#include "apps/cli/ScatterBench.hpp"
+#include "apps/bench/ScatterBench.hpp"
 
 #include "core/Error.hpp"
 #include "host/image/ImageIo.hpp"

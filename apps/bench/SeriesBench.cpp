@@ -2,8 +2,9 @@
 // per-frame PSNR, encode speed, single-frame decode time against an intra frame and playback rate (decode
 // timings interleaved between the two codings, load average stated).
 #include "core/Error.hpp"
-#include "apps/cli/Commands.hpp"
-#include "apps/cli/GzipVolume.hpp"
+#include "apps/bench/BenchCommand.hpp"
+#include "apps/bench/BenchPaths.hpp"
+#include "apps/bench/GzipVolume.hpp"
 #include "core/AtomicFile.hpp"
 #include "core/Format.hpp"
 #include "host/io/Series.hpp"
@@ -29,7 +30,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct SeriesBenchArgs {
-    std::string data = std::string(VOLCL_SOURCE_DIR) + "/../shared/data", filter, json, exportDir;
+    std::string data = defaultSharedDataDir(), filter, json, exportDir;
     std::vector<std::string> rates{"lossless", "psnr40", "psnr50", "psnr60", "maxerr1%"};
     std::size_t gop = 10, bFrames = 0, mriFrames = 10, mriCrop = 128;
     int runs = 3;
@@ -341,7 +342,7 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
 
 } // namespace
 
-void addSeriesBenchCommand(CLI::App& bench, GlobalOptions& global) {
+void addSeriesBench(CLI::App& bench, GlobalOptions& global) {
     auto* b =
         bench.add_subcommand("series", "Time series: motion-compensated against intra-only coding per rate "
                                        "target (bits/voxel, PSNR, encode speed, frame decode, playback)");

@@ -1,5 +1,5 @@
 // `volcl bench render --filters`: reconstruction filters' time against accuracy, interleaved medians.
-#include "apps/cli/FilterBench.hpp"
+#include "apps/bench/FilterBench.hpp"
 
 #include "core/AtomicFile.hpp"
 #include "render/VolumeRenderer.hpp"

@@ -1,5 +1,5 @@
 // `volcl bench render --tables` / `--fog`: table paths vs per-sample paths, fog vs the plain frame.
-#include "apps/cli/MediaBench.hpp"
+#include "apps/bench/MediaBench.hpp"
 
 #include "core/Error.hpp"
 #include "core/AtomicFile.hpp"

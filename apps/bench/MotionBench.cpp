@@ -1,8 +1,9 @@
 // `volcl bench motion`: block-search time against block size, radius and method, with the prediction error.
 #include "core/Error.hpp"
-#include "apps/cli/Commands.hpp"
-#include "apps/cli/GzipVolume.hpp"
-#include "core/AtomicFile.hpp"
+#include "apps/bench/BenchCommand.hpp"
+#include "apps/bench/BenchOutput.hpp"
+#include "apps/bench/BenchPaths.hpp"
+#include "apps/bench/GzipVolume.hpp"
 #include "core/Format.hpp"
 #include "host/io/Series.hpp"
 #include "host/io/VolumeIo.hpp"
@@ -29,7 +30,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct MotionBenchArgs {
-    std::string data = std::string(VOLCL_SOURCE_DIR) + "/../shared/data", filter, csv, json;
+    std::string data = defaultSharedDataDir(), filter, csv, json;
     std::vector<std::size_t> blocks{4, 8, 16};
     std::vector<int> radii{1, 2, 4, 8};
     int runs = 3;
@@ -201,23 +202,13 @@ void benchMotion(const MotionBenchArgs& a, GlobalOptions& global) {
         }
     }
     nlohmann::json j{{"device", cc.device().name}, {"runs", a.runs}, {"rows", rows}, {"kernel_vs_reference", speed}};
-    if (!a.csv.empty()) {
-        AtomicFile f(a.csv);
-        f.write(csv.str());
-        f.commit();
-    } else {
-        std::cout << csv.str();
-    }
-    if (!a.json.empty()) {
-        AtomicFile f(a.json);
-        f.write(j.dump(1));
-        f.commit();
-    }
+    writeOutput(a.csv, csv.str());
+    if (!a.json.empty()) writeOutput(a.json, j.dump(1));
 }
 
 } // namespace
 
-void addMotionCommands(CLI::App& bench, GlobalOptions& global) {
+void addMotionBench(CLI::App& bench, GlobalOptions& global) {
     auto* b = bench.add_subcommand("motion", "Motion search: time against block size, radius and method, with the "
                                              "prediction error, and the kernels against their C++ references");
     auto a = std::make_shared<MotionBenchArgs>();
