@@ -3,8 +3,8 @@
 
 #include "plugins/paraview/VczPieces.hpp"
 
-#include "host/io/AtomicFile.hpp"
-#include "host/runtime/ClRuntime.hpp"
+#include "core/AtomicFile.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "wavelet/Codec.hpp"
 
 #include "vtkDataArray.h"
