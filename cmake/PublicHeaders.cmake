@@ -21,6 +21,7 @@ set(VOLCL_PUBLIC_HEADERS
   render/EffectPlan.hpp
   render/Reference.hpp
   render/RenderInput.hpp
+  render/RendererBase.hpp
   render/Renderer.hpp
   render/Scene.hpp
   render/VecMath.hpp
