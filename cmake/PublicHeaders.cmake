@@ -22,7 +22,6 @@ set(VOLCL_PUBLIC_HEADERS
   render/Reference.hpp
   render/RenderInput.hpp
   render/RendererBase.hpp
-  render/Renderer.hpp
   render/Scene.hpp
   render/VecMath.hpp
   render/VolumeRenderer.hpp

@@ -60,7 +60,6 @@ public:
     std::string statistics() const override;
 
     const BrickStats& lastStats() const noexcept { return last_; }
-    const BrickStats& totalStats() const noexcept { return total_; }
     const BrickSelection& lastSelection() const noexcept { return selection_; }
     /// Draws brick b at `levels[b]` (capped at the file's levels) instead of choosing levels (tests,
     /// benchmarks); an empty vector returns to render.lod. Reachability and the TF still decide what is

@@ -64,7 +64,6 @@ public:
     void setK(int k);
     /// Fraction of the internal faces drawn, [0, 1] (1: full quality, the default).
     void setLodFraction(double q);
-    double lodFraction() const noexcept { return lod_; }
     std::size_t facesDrawn() const noexcept;
     const MeshFaces& faces() const noexcept { return faces_; }
     const KBufferStageTimes& lastStageTimes() const noexcept { return times_; }
