@@ -16,13 +16,17 @@ class Volume;
 
 namespace volcl::grid_detail {
 
+/// Voxels per macrocell edge of the grid renderer and its path-tracing reference: 8^3 cells keep the grid
+/// small and tight.
+constexpr unsigned kMacrocellEdge = 8;
+
 /// Smallest and largest finite voxel value.
 ValueRange valueRange(const Volume& volume);
 
 /// Min/max per macrocell; cell c covers voxels [c*edge, (c+1)*edge] (shared faces, so every trilinear cell
 /// inside it is covered).
 struct MacrocellGrid {
-    unsigned edge = 8;
+    unsigned edge = kMacrocellEdge;
     unsigned nx = 1, ny = 1, nz = 1;
     std::vector<float> min, max;
 };

@@ -25,8 +25,6 @@
 namespace volcl {
 namespace {
 
-constexpr unsigned kMacrocellEdge = 8; // voxels per macrocell edge: 8^3 cells keep the grid small and tight
-
 /// VOXEL_TYPE: voxels keep their stored type on the device; the kernel converts on load (exact for all
 /// four types). 0 float, 1 uint8, 2 uint16, 3 int16.
 int voxelTypeCode(const Volume& volume) {
@@ -58,7 +56,7 @@ std::vector<cl_float4> lightingTableSlices(const TransferFunction& tf, int size,
 }
 
 std::string skippingHow() {
-    return std::to_string(kMacrocellEdge) + "^3-voxel macrocells";
+    return std::to_string(grid_detail::kMacrocellEdge) + "^3-voxel macrocells";
 }
 
 /// The shared planner on the grid's box and (already scanned) value range, plus the voxel type: the
@@ -137,7 +135,7 @@ GridRenderer::GridRenderer(ComputeContext& cc, const Volume& volume, const Trans
     std::vector<cl_uchar> bytes(volume.byteSize() + scalarSize(volume.type()), 0);
     std::memcpy(bytes.data(), volume.bytes().data(), volume.byteSize());
     impl_->volume = cc_.upload(bytes, CL_MEM_READ_ONLY);
-    impl_->macro = grid_detail::buildMacrocells(volume, kMacrocellEdge);
+    impl_->macro = grid_detail::buildMacrocells(volume, grid_detail::kMacrocellEdge);
     impl_->range = grid_detail::valueRange(volume);
     impl_->useCorners =
         volume.type() == ScalarType::UInt8 && volume.voxelCount() <= grid_detail::kMaxCornerVoxels;
@@ -233,7 +231,7 @@ const grid_detail::MacrocellGrid& GridRenderer::prepareSampledField() {
             throw DataError("volume values up to " + formatNumber(m.range.max) + " overflow the " +
                             std::string(filterName(scene_.filter)) +
                             " filter's float coefficients (use --filter linear)");
-        m.splineMacro = bsplineMacrocells(c, kMacrocellEdge);
+        m.splineMacro = bsplineMacrocells(c, grid_detail::kMacrocellEdge);
         m.spline = cc_.upload(c.c, CL_MEM_READ_ONLY);
         m.splineFilter = scene_.filter;
         m.splineSmoothing = scene_.smoothing;
@@ -243,7 +241,7 @@ const grid_detail::MacrocellGrid& GridRenderer::prepareSampledField() {
     if (smoothedLinear && m.smoothedSigma != scene_.smoothing) {
         checkMemoryBudget(volume_.voxelCount() * sizeof(float), 0, "the volume", "the smoothed voxels");
         const Volume sm = smoothedVolume(volume_, scene_.smoothing);
-        m.smoothedMacro = grid_detail::buildMacrocells(sm, kMacrocellEdge);
+        m.smoothedMacro = grid_detail::buildMacrocells(sm, grid_detail::kMacrocellEdge);
         std::vector<float> voxels(sm.voxelCount() + 1, 0.0f); // + the spare voxel grid_sample.h reads
         std::memcpy(voxels.data(), sm.bytes().data(), sm.byteSize());
         m.smoothed = cc_.upload(voxels, CL_MEM_READ_ONLY);

@@ -18,7 +18,6 @@ namespace volcl {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr unsigned kMacrocellEdge = 8; // as GridRenderer's macrocells
 
 double uniform(VolclRng& r) {
     return double(volcl_rng_next24(&r)) * (1.0 / 16777216.0);
@@ -50,7 +49,7 @@ class PathReference {
 public:
     PathReference(const Volume& v, const TransferFunction& tf, const Scene& s)
         : vol_(v), tf_(tf), fx_(s.effects), values_(v.toFloat()), cam_(s.camera ? *s.camera : defaultCamera(v)),
-          lighting_(s, cam_), macro_(grid_detail::buildMacrocells(v, kMacrocellEdge)),
+          lighting_(s, cam_), macro_(grid_detail::buildMacrocells(v, grid_detail::kMacrocellEdge)),
           majorant_(majorantGrid(macro_, tf)) {
         const Dims& d = v.dims();
         n_ = {d.x, d.y, d.z};
