@@ -79,6 +79,16 @@ std::string str(const json& j, const std::string& where) {
     return j.get<std::string>();
 }
 
+/// A string field naming one of two values; `expected` lists the names for the error.
+template <class T>
+T choice(const json& j, const std::string& where, const char* nameA, T a, const char* nameB, T b,
+         const char* expected) {
+    const std::string v = str(j, where);
+    if (v == nameA) return a;
+    if (v == nameB) return b;
+    throw UsageError("scene: " + where + " '" + v + "' is unknown (" + expected + ")");
+}
+
 } // namespace
 
 std::string_view renderModeName(RenderMode m) {
@@ -218,13 +228,9 @@ void parseCamera(const json& c, Scene& s) {
     checkKeys(c, "camera", {"projection", "eye", "target", "up", "height", "fov_y_deg"});
     Camera cam;
     if (c.contains("projection")) {
-        const std::string p = str(c["projection"], "camera.projection");
-        if (p == "orthographic")
-            cam.projection = Projection::Orthographic;
-        else if (p == "perspective")
-            cam.projection = Projection::Perspective;
-        else
-            throw UsageError("scene: camera.projection '" + p + "' is unknown (orthographic, perspective)");
+        cam.projection =
+            choice(c["projection"], "camera.projection", "orthographic", Projection::Orthographic,
+                   "perspective", Projection::Perspective, "orthographic, perspective");
     } else if (c.contains("fov_y_deg")) {
         cam.projection = Projection::Perspective;
     }
@@ -328,15 +334,10 @@ void parseScattering(const json& sc, SceneEffects& fx) {
     fx.scattering = true;
     if (sc.contains("albedo")) fx.albedo = num(sc["albedo"], "effects.scattering.albedo");
     if (sc.contains("g")) fx.phaseG = num(sc["g"], "effects.scattering.g");
-    if (sc.contains("order")) {
-        const std::string o = str(sc["order"], "effects.scattering.order");
-        if (o == "single")
-            fx.scatteringOrder = ScatteringOrder::Single;
-        else if (o == "multiple")
-            fx.scatteringOrder = ScatteringOrder::Multiple;
-        else
-            throw UsageError("scene: effects.scattering.order '" + o + "' is unknown (single, multiple)");
-    }
+    if (sc.contains("order"))
+        fx.scatteringOrder =
+            choice(sc["order"], "effects.scattering.order", "single", ScatteringOrder::Single, "multiple",
+                   ScatteringOrder::Multiple, "single, multiple");
     auto count = [&](const char* key, double lo, double hi) {
         const double v = num(sc[key], std::string("effects.scattering.") + key);
         if (!(v >= lo && v <= hi) || v != std::floor(v))
@@ -394,27 +395,18 @@ void parseEffects(const json& e, const std::filesystem::path& baseDir, SceneEffe
               {"shading", "gradient", "shadows", "shadow_step", "scattering", "clip_planes", "isosurfaces",
                "fog", "isosurface_method"});
     if (e.contains("shading")) parseShading(e["shading"], fx);
-    if (e.contains("gradient")) {
-        const std::string g = str(e["gradient"], "effects.gradient");
-        if (g == "central")
-            fx.gradient = GradientKind::Central;
-        else if (g == "sobel")
-            fx.gradient = GradientKind::Sobel;
-        else
-            throw UsageError("scene: effects.gradient '" + g + "' is unknown (central, sobel)");
-    }
+    if (e.contains("gradient"))
+        fx.gradient = choice(e["gradient"], "effects.gradient", "central", GradientKind::Central, "sobel",
+                             GradientKind::Sobel, "central, sobel");
     if (e.contains("shadows")) fx.shadows = flag(e["shadows"], "effects.shadows");
     if (e.contains("shadow_step")) fx.shadowStep = num(e["shadow_step"], "effects.shadow_step");
     if (e.contains("scattering")) parseScattering(e["scattering"], fx);
     if (e.contains("clip_planes")) parseClipPlanes(e["clip_planes"], fx);
     if (e.contains("isosurfaces")) parseIsosurfaces(e["isosurfaces"], fx);
     if (e.contains("fog")) fx.fog = parseFog(e["fog"], baseDir);
-    if (e.contains("isosurface_method")) {
-        const std::string m = str(e["isosurface_method"], "effects.isosurface_method");
-        if (m != "table" && m != "roots")
-            throw UsageError("scene: effects.isosurface_method '" + m + "' is unknown (roots, table)");
-        fx.isoTable = m == "table";
-    }
+    if (e.contains("isosurface_method"))
+        fx.isoTable = choice(e["isosurface_method"], "effects.isosurface_method", "table", true, "roots",
+                             false, "roots, table");
 }
 
 } // namespace
