@@ -21,7 +21,7 @@ set(VOLCL_PUBLIC_HEADERS
   render/EffectPlan.hpp
   render/Reference.hpp
   render/RenderInput.hpp
-  render/Renderer.hpp
+  render/RendererBase.hpp
   render/Scene.hpp
   render/VecMath.hpp
   render/VolumeRenderer.hpp

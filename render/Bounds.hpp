@@ -1,12 +1,9 @@
 // What every renderer's data has: a world-space box and a value range (the renderer interface reports both).
 #pragma once
 
-#include <array>
-#include <cmath>
+#include "render/VecMath.hpp"
 
 namespace volcl {
-
-using Vec3 = std::array<double, 3>;
 
 /// Axis-aligned world box: the corner nearest -infinity and the extent per axis (>= 0). Kept as origin and
 /// extent, not two corners, because framing and planning use the extent (a grid's is (n - 1) * spacing

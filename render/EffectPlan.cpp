@@ -54,38 +54,43 @@ void planFog(const Scene& scene, const WorldBox& bounds, EffectPlan& p) {
     }
 }
 
-} // namespace
+/// What the planning steps share: the scene, the data, and facts about the mode and the lights.
+struct PlanInput {
+    PlanInput(const Scene& s, const WorldBox& b, const ValueRange& r)
+        : scene(s), bounds(b), range(r), marching(s.mode == RenderMode::Dvr || s.mode == RenderMode::Iso),
+          modeName(renderModeName(s.mode)) {
+        for (const auto& l : s.lights)
+            if (l.intensity > 0.0 && (l.color[0] > 0.0 || l.color[1] > 0.0 || l.color[2] > 0.0)) ++litLights;
+        canLight = marching && litLights > 0;
+        noLight = marching ? "no light with non-zero intensity" : "mode " + modeName + " is unlit";
+    }
+    const Scene& scene;
+    const WorldBox& bounds;
+    const ValueRange& range;
+    bool marching; ///< dvr or iso: a ray integral with opacity and surfaces
+    std::string modeName;
+    std::size_t litLights = 0;
+    bool canLight = false;
+    std::string noLight; ///< why nothing is lit, for the dropped lines
+};
 
-std::string EffectPlan::explain() const {
-    std::ostringstream os;
-    os << "compiled: " << defines.toOptions() << '\n';
-    for (const auto& c : compiled)
-        os << "  + " << c << '\n';
-    for (const auto& d : dropped)
-        os << "  - dropped " << d << '\n';
-    return os.str();
-}
-
-EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRange& range,
-                       std::string_view skippingHow, bool canPathTrace) {
-    EffectPlan p;
-    const SceneEffects& fx = scene.effects;
+/// The mode, MIP's colouring and its window.
+void planMode(const PlanInput& in, EffectPlan& p) {
+    const Scene& scene = in.scene;
     const RenderMode mode = scene.mode;
-    const bool marching = mode == RenderMode::Dvr || mode == RenderMode::Iso;
-    const std::string modeName(renderModeName(mode));
     p.defines.set("MODE", static_cast<long long>(mode == RenderMode::Dvr   ? 0
                                                  : mode == RenderMode::Mip ? 1
                                                  : mode == RenderMode::Iso ? 2
                                                                            : 3));
-    p.compiled.push_back("mode " + modeName);
+    p.compiled.push_back("mode " + in.modeName);
     if (mode == RenderMode::Mip) {
         p.defines.set("MIP_COLOR", static_cast<long long>(scene.mipColor == MipColor::Grey ? 0
                                                           : scene.mipColor == MipColor::Tf ? 1
                                                                                            : 2));
-        const std::string window = scene.window ? "window centre " + formatNumber((*scene.window)[0]) + ", width " +
-                                                      formatNumber((*scene.window)[1])
-                                                : "window over the data range " + formatNumber(range.min) + ".." +
-                                                      formatNumber(range.max);
+        const std::string window = scene.window ? "window centre " + formatNumber((*scene.window)[0]) +
+                                                      ", width " + formatNumber((*scene.window)[1])
+                                                : "window over the data range " + formatNumber(in.range.min) +
+                                                      ".." + formatNumber(in.range.max);
         if (scene.mipColor == MipColor::Grey)
             p.compiled.push_back("MIP colour grey: " + window);
         else if (scene.mipColor == MipColor::Tf)
@@ -96,27 +101,38 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
             if (scene.window) p.dropped.push_back("window: MIP colour tf-opacity takes opacity from the TF");
         }
     } else if (scene.window) {
-        p.dropped.push_back("window: mode " + modeName + " is not mip");
+        p.dropped.push_back("window: mode " + in.modeName + " is not mip");
     }
+}
+
+/// The reconstruction filter and smoothing.
+void planFilter(const Scene& scene, EffectPlan& p) {
     if (scene.filter != ReconstructionFilter::Linear) {
         p.defines.set("FILTER_BSPLINE");
         p.compiled.push_back(
             (scene.filter == ReconstructionFilter::Cubic
                  ? std::string("filter cubic: interpolating cubic B-spline (prefiltered), analytic gradient")
-                 : std::string("filter bspline: approximating cubic B-spline of the voxels, analytic gradient")) +
-            (scene.smoothing > 0.0 ? ", data smoothed by a Gaussian of sigma " + formatNumber(scene.smoothing) + " voxel" : ""));
+                 : std::string(
+                       "filter bspline: approximating cubic B-spline of the voxels, analytic gradient")) +
+            (scene.smoothing > 0.0
+                 ? ", data smoothed by a Gaussian of sigma " + formatNumber(scene.smoothing) + " voxel"
+                 : ""));
     } else if (scene.smoothing > 0.0) {
-        p.compiled.push_back("filter linear on the data smoothed by a Gaussian of sigma " + formatNumber(scene.smoothing) +
-                             " voxel (float voxels)");
+        p.compiled.push_back("filter linear on the data smoothed by a Gaussian of sigma " +
+                             formatNumber(scene.smoothing) + " voxel (float voxels)");
     }
+}
 
-    // Iso-surfaces: crossed only when min < value <= max (the kernel's sign test), visible only if opaque at
-    // all.
-    if (!fx.isosurfaces.empty()) {
-        if (!marching) {
-            p.dropped.push_back("isosurfaces: mode " + modeName + " draws no surfaces");
+/// Iso-surfaces: crossed only when min < value <= max (the kernel's sign test), visible only if opaque at
+/// all.
+void planIsosurfaces(const PlanInput& in, EffectPlan& p) {
+    const Scene& scene = in.scene;
+    const ValueRange& range = in.range;
+    if (!scene.effects.isosurfaces.empty()) {
+        if (!in.marching) {
+            p.dropped.push_back("isosurfaces: mode " + in.modeName + " draws no surfaces");
         } else {
-            for (const auto& iso : fx.isosurfaces) {
+            for (const auto& iso : scene.effects.isosurfaces) {
                 const std::string name = "isosurface " + formatNumber(iso.value);
                 if (iso.rgba[3] <= 0.0)
                     p.dropped.push_back(name + ": opacity 0");
@@ -136,17 +152,15 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
                                   : " (sign changes between samples refined on the spline, composited in ray "
                                     "order)"));
     }
+}
 
-    std::size_t litLights = 0;
-    for (const auto& l : scene.lights)
-        if (l.intensity > 0.0 && (l.color[0] > 0.0 || l.color[1] > 0.0 || l.color[2] > 0.0)) ++litLights;
-    const bool canLight = marching && litLights > 0;
-    const std::string noLight =
-        marching ? "no light with non-zero intensity" : "mode " + modeName + " is unlit";
-
+/// Blinn-Phong shading (or only its ambient term, folded into the colours) and the Sobel gradient.
+void planShading(const PlanInput& in, EffectPlan& p) {
+    const Scene& scene = in.scene;
+    const SceneEffects& fx = scene.effects;
     if (fx.shading) {
-        if (!canLight)
-            p.dropped.push_back("shading: " + noLight + " (rendered unshaded)");
+        if (!in.canLight)
+            p.dropped.push_back("shading: " + in.noLight + " (rendered unshaded)");
         else if (fx.diffuse == 0.0 && fx.specular == 0.0) {
             p.colorScale = fx.ambient;
             p.dropped.push_back("shading: diffuse and specular are 0, so no gradients; ambient " +
@@ -154,9 +168,10 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
         } else {
             p.shading = true;
             p.defines.set("SHADING");
-            p.compiled.push_back("shading: Blinn-Phong, " + std::to_string(litLights) +
-                                 " light(s), ambient " + formatNumber(fx.ambient) + ", diffuse " + formatNumber(fx.diffuse) +
-                                 ", specular " + formatNumber(fx.specular) + ", shininess " + formatNumber(fx.shininess));
+            p.compiled.push_back("shading: Blinn-Phong, " + std::to_string(in.litLights) +
+                                 " light(s), ambient " + formatNumber(fx.ambient) + ", diffuse " +
+                                 formatNumber(fx.diffuse) + ", specular " + formatNumber(fx.specular) +
+                                 ", shininess " + formatNumber(fx.shininess));
         }
     }
     if (fx.gradient == GradientKind::Sobel) {
@@ -171,118 +186,128 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
             p.dropped.push_back("gradient sobel: nothing uses gradients");
         }
     }
-    const bool wantsMultiple = fx.scattering && fx.scatteringOrder == ScatteringOrder::Multiple;
-    if (wantsMultiple && !canPathTrace)
-        p.dropped.push_back("scattering order multiple: this renderer has no path tracer (single scattering instead)");
-    const bool multiple = wantsMultiple && canPathTrace;
+}
+
+/// Multiple scattering by the path tracer, which is its own kernel: when it applies, `p` becomes its plan
+/// (keeping what was dropped so far) and true is returned.
+bool planPathTracer(const PlanInput& in, EffectPlan& p) {
+    const Scene& scene = in.scene;
+    const SceneEffects& fx = scene.effects;
     const bool skyLit = fx.environment[0] > 0.0 || fx.environment[1] > 0.0 || fx.environment[2] > 0.0;
-    if (multiple) {
-        if (fx.albedo <= 0.0 && !fx.emission)
-            p.dropped.push_back("scattering: albedo 0 and no emission");
-        else if (mode != RenderMode::Dvr)
-            p.dropped.push_back("scattering multiple: mode " + modeName + " is not dvr");
-        else if (fx.albedo > 0.0 && !canLight && !skyLit)
-            p.dropped.push_back("scattering: " + noLight + " and no environment");
-        else {
-            // The path tracer is its own kernel: nothing the ray marcher compiled so far applies.
-            EffectPlan q;
-            q.dropped = p.dropped;
-            p = std::move(q);
-            p.defines.set("MODE", 0LL);
-            p.compiled.push_back("mode dvr");
-            p.pathTracing = true;
-            p.scattering = true;
-            p.skipping = true;
-            p.defines.set("PATH_TRACE");
-            p.compiled.push_back(
-                "scattering: multiple, Monte Carlo path tracer (delta tracking on the macrocell majorants, "
-                "next-event estimation), " + std::to_string(fx.samples) + " samples/pixel, up to " +
-                std::to_string(fx.maxBounces) + " bounces, Henyey-Greenstein g " + formatNumber(fx.phaseG) + ", albedo " +
-                formatNumber(fx.albedo) + ", seed " + std::to_string(fx.seed) + (fx.emission ? "" : ", no emission") +
-                (skyLit ? ", environment " + formatNumber(fx.environment[0]) + "," + formatNumber(fx.environment[1]) + "," +
-                              formatNumber(fx.environment[2])
-                        : ""));
-            if (fx.shading) p.dropped.push_back("shading: the path tracer lights the medium itself");
-            if (scene.filter != ReconstructionFilter::Linear || scene.smoothing > 0.0)
-                p.dropped.push_back("filter: the path tracer reads the voxels trilinearly");
-            if (scene.earlyTermination < 1.0)
-                p.dropped.push_back("early termination: paths end by leaving the volume or Russian roulette");
-            if (fx.shadows) p.dropped.push_back("shadows: the path tracer traces its own shadow rays");
-            if (!fx.clipPlanes.empty()) p.dropped.push_back("clip planes: the path tracer does not clip");
-            if (!fx.isosurfaces.empty()) p.dropped.push_back("isosurfaces: the path tracer draws no surfaces");
-            if (scene.preintegration != Preintegration::None)
-                p.dropped.push_back("pre-integration: the path tracer samples free paths, not segments");
-            if (fx.fog.enabled) p.dropped.push_back("fog: the path tracer does not trace through the fog");
-            return p;
-        }
+    if (fx.albedo <= 0.0 && !fx.emission) {
+        p.dropped.push_back("scattering: albedo 0 and no emission");
+        return false;
     }
-    if (fx.scattering && !multiple) {
-        if (fx.albedo <= 0.0)
-            p.dropped.push_back("scattering: albedo 0");
-        else if (!canLight)
-            p.dropped.push_back("scattering: " + noLight);
-        else {
-            p.scattering = true;
-            p.defines.set("SCATTERING");
-            p.compiled.push_back("scattering: single, Henyey-Greenstein g " + formatNumber(fx.phaseG) + ", albedo " +
-                                 formatNumber(fx.albedo));
-            if (fx.octaves > 0) {
-                p.defines.set("MS_OCTAVES", static_cast<long long>(fx.octaves));
-                p.compiled.push_back("multiple scattering approximated by " + std::to_string(fx.octaves) +
-                                     " octaves (light a^k through depth b^k, phase c^k g; a = b = c = 1/2)");
+    if (scene.mode != RenderMode::Dvr) {
+        p.dropped.push_back("scattering multiple: mode " + in.modeName + " is not dvr");
+        return false;
+    }
+    if (fx.albedo > 0.0 && !in.canLight && !skyLit) {
+        p.dropped.push_back("scattering: " + in.noLight + " and no environment");
+        return false;
+    }
+    // Nothing the ray marcher compiled so far applies.
+    EffectPlan q;
+    q.dropped = p.dropped;
+    p = std::move(q);
+    p.defines.set("MODE", 0LL);
+    p.compiled.push_back("mode dvr");
+    p.pathTracing = true;
+    p.scattering = true;
+    p.skipping = true;
+    p.defines.set("PATH_TRACE");
+    p.compiled.push_back(
+        "scattering: multiple, Monte Carlo path tracer (delta tracking on the macrocell majorants, "
+        "next-event estimation), " +
+        std::to_string(fx.samples) + " samples/pixel, up to " + std::to_string(fx.maxBounces) +
+        " bounces, Henyey-Greenstein g " + formatNumber(fx.phaseG) + ", albedo " + formatNumber(fx.albedo) +
+        ", seed " + std::to_string(fx.seed) + (fx.emission ? "" : ", no emission") +
+        (skyLit ? ", environment " + formatNumber(fx.environment[0]) + "," + formatNumber(fx.environment[1]) +
+                      "," + formatNumber(fx.environment[2])
+                : ""));
+    if (fx.shading) p.dropped.push_back("shading: the path tracer lights the medium itself");
+    if (scene.filter != ReconstructionFilter::Linear || scene.smoothing > 0.0)
+        p.dropped.push_back("filter: the path tracer reads the voxels trilinearly");
+    if (scene.earlyTermination < 1.0)
+        p.dropped.push_back("early termination: paths end by leaving the volume or Russian roulette");
+    if (fx.shadows) p.dropped.push_back("shadows: the path tracer traces its own shadow rays");
+    if (!fx.clipPlanes.empty()) p.dropped.push_back("clip planes: the path tracer does not clip");
+    if (!fx.isosurfaces.empty()) p.dropped.push_back("isosurfaces: the path tracer draws no surfaces");
+    if (scene.preintegration != Preintegration::None)
+        p.dropped.push_back("pre-integration: the path tracer samples free paths, not segments");
+    if (fx.fog.enabled) p.dropped.push_back("fog: the path tracer does not trace through the fog");
+    return true;
+}
+
+/// Single scattering toward the lights (with its octave approximation of multiple scattering).
+void planSingleScattering(const PlanInput& in, EffectPlan& p) {
+    const SceneEffects& fx = in.scene.effects;
+    if (fx.albedo <= 0.0)
+        p.dropped.push_back("scattering: albedo 0");
+    else if (!in.canLight)
+        p.dropped.push_back("scattering: " + in.noLight);
+    else {
+        p.scattering = true;
+        p.defines.set("SCATTERING");
+        p.compiled.push_back("scattering: single, Henyey-Greenstein g " + formatNumber(fx.phaseG) +
+                             ", albedo " + formatNumber(fx.albedo));
+        if (fx.octaves > 0) {
+            p.defines.set("MS_OCTAVES", static_cast<long long>(fx.octaves));
+            p.compiled.push_back("multiple scattering approximated by " + std::to_string(fx.octaves) +
+                                 " octaves (light a^k through depth b^k, phase c^k g; a = b = c = 1/2)");
+        }
+        if (!fx.emission) {
+            if (p.shading)
+                p.dropped.push_back("emission false: shading lights the TF colour as a surface colour");
+            else {
+                p.defines.set("NO_EMISSION");
+                p.compiled.push_back("no emission: the medium only scatters");
             }
-            if (!fx.emission) {
-                if (p.shading)
-                    p.dropped.push_back("emission false: shading lights the TF colour as a surface colour");
-                else {
-                    p.defines.set("NO_EMISSION");
-                    p.compiled.push_back("no emission: the medium only scatters");
-                }
-            }
         }
     }
-    if (fx.shadows) {
-        if (!p.shading && !p.scattering)
-            p.dropped.push_back("shadows: nothing is lit");
-        else {
-            p.shadows = true;
-            p.defines.set("SHADOWS");
-            p.compiled.push_back("shadows: secondary marching toward each light");
+}
+
+/// Clip planes: those that keep the whole box are dropped.
+void planClipping(const Scene& scene, const WorldBox& bounds, EffectPlan& p) {
+    const std::vector<ClipPlane>& planes = scene.effects.clipPlanes;
+    const Vec3 lo = bounds.origin, hi = bounds.hi();
+    for (std::size_t i = 0; i < planes.size(); ++i) {
+        const ClipPlane& pl = planes[i];
+        bool allKept = true;
+        for (int c = 0; c < 8; ++c) {
+            const Vec3 corner{c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1], c & 4 ? hi[2] : lo[2]};
+            if (dot(pl.normal, corner) + pl.offset < 0.0) allKept = false;
         }
+        if (allKept)
+            p.dropped.push_back("clip plane " + std::to_string(i) + ": keeps the whole volume");
+        else
+            p.clipPlanes.push_back(pl);
     }
-    if (!fx.clipPlanes.empty()) {
-        const Vec3 lo = bounds.origin, hi = bounds.hi();
-        for (std::size_t i = 0; i < fx.clipPlanes.size(); ++i) {
-            const ClipPlane& pl = fx.clipPlanes[i];
-            bool allKept = true;
-            for (int c = 0; c < 8; ++c) {
-                const Vec3 corner{c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1], c & 4 ? hi[2] : lo[2]};
-                if (dot(pl.normal, corner) + pl.offset < 0.0) allKept = false;
-            }
-            if (allKept)
-                p.dropped.push_back("clip plane " + std::to_string(i) + ": keeps the whole volume");
-            else
-                p.clipPlanes.push_back(pl);
-        }
-        if (!p.clipPlanes.empty()) {
-            p.clipping = true;
-            p.defines.set("CLIPPING");
-            p.compiled.push_back("clipping: " + std::to_string(p.clipPlanes.size()) +
-                                 " plane(s) cut the ray interval");
-        }
+    if (!p.clipPlanes.empty()) {
+        p.clipping = true;
+        p.defines.set("CLIPPING");
+        p.compiled.push_back("clipping: " + std::to_string(p.clipPlanes.size()) +
+                             " plane(s) cut the ray interval");
     }
-    if (scene.preintegration != Preintegration::None) {
-        if (mode != RenderMode::Dvr)
-            p.dropped.push_back("pre-integration: mode " + modeName + " integrates no segments");
-        else {
-            p.defines.set("PREINT", scene.preintegration == Preintegration::Table2d ? 2LL : 3LL);
-            p.compiled.push_back(scene.preintegration == Preintegration::Table2d
-                                     ? "pre-integration: 2D table at the render step"
-                                     : "pre-integration: 3D table over segment lengths");
-        }
+}
+
+/// Pre-integrated segments: dvr only.
+void planPreintegration(const PlanInput& in, EffectPlan& p) {
+    const Scene& scene = in.scene;
+    if (scene.mode != RenderMode::Dvr)
+        p.dropped.push_back("pre-integration: mode " + in.modeName + " integrates no segments");
+    else {
+        p.defines.set("PREINT", scene.preintegration == Preintegration::Table2d ? 2LL : 3LL);
+        p.compiled.push_back(scene.preintegration == Preintegration::Table2d
+                                 ? "pre-integration: 2D table at the render step"
+                                 : "pre-integration: 3D table over segment lengths");
     }
-    if (fx.fog.enabled) planFog(scene, bounds, p);
-    if (fx.shadingPreintegrated) {
+}
+
+/// The table-based shading effects: pre-integrated lighting and the iso-surface table.
+void planTableEffects(const Scene& scene, EffectPlan& p) {
+    const RenderMode mode = scene.mode;
+    if (scene.effects.shadingPreintegrated) {
         if (!p.shading)
             p.dropped.push_back("pre-integrated lighting: nothing is shaded");
         else if (scene.preintegration != Preintegration::Table2d || mode != RenderMode::Dvr)
@@ -297,7 +322,7 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
                                  "table's front/back terms, specular at its emission centroid");
         }
     }
-    if (fx.isoTable && !p.isosurfaces.empty()) {
+    if (scene.effects.isoTable && !p.isosurfaces.empty()) {
         if (mode != RenderMode::Iso)
             p.dropped.push_back("iso-surface table: only in mode iso (dvr mixes surfaces by their exact roots)");
         else {
@@ -307,9 +332,14 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
                                  "per step (the nearest table node of each end)");
         }
     }
+}
+
+/// The ray accelerations: empty-space skipping and early termination.
+void planAccelerations(const PlanInput& in, std::string_view skippingHow, EffectPlan& p) {
+    const Scene& scene = in.scene;
     if (scene.skipping) {
-        if (!marching)
-            p.dropped.push_back("empty-space skipping: mode " + modeName + " visits every sample");
+        if (!in.marching)
+            p.dropped.push_back("empty-space skipping: mode " + in.modeName + " visits every sample");
         else {
             p.skipping = true;
             p.defines.set("SKIPPING");
@@ -317,14 +347,58 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
         }
     }
     if (scene.earlyTermination < 1.0) {
-        if (!marching)
-            p.dropped.push_back("early termination: mode " + modeName + " has no opacity to saturate");
+        if (!in.marching)
+            p.dropped.push_back("early termination: mode " + in.modeName + " has no opacity to saturate");
         else {
             p.earlyTermination = true;
             p.defines.set("EARLY_TERMINATION");
             p.compiled.push_back("early termination at opacity " + formatNumber(scene.earlyTermination));
         }
     }
+}
+
+} // namespace
+
+std::string EffectPlan::explain() const {
+    std::ostringstream os;
+    os << "compiled: " << defines.toOptions() << '\n';
+    for (const auto& c : compiled)
+        os << "  + " << c << '\n';
+    for (const auto& d : dropped)
+        os << "  - dropped " << d << '\n';
+    return os.str();
+}
+
+EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRange& range,
+                       std::string_view skippingHow, bool canPathTrace) {
+    const PlanInput in(scene, bounds, range);
+    const SceneEffects& fx = scene.effects;
+    EffectPlan p;
+    planMode(in, p);
+    planFilter(scene, p);
+    planIsosurfaces(in, p);
+    planShading(in, p);
+    const bool wantsMultiple = fx.scattering && fx.scatteringOrder == ScatteringOrder::Multiple;
+    if (wantsMultiple && !canPathTrace)
+        p.dropped.push_back(
+            "scattering order multiple: this renderer has no path tracer (single scattering instead)");
+    const bool multiple = wantsMultiple && canPathTrace;
+    if (multiple && planPathTracer(in, p)) return p;
+    if (fx.scattering && !multiple) planSingleScattering(in, p);
+    if (fx.shadows) {
+        if (!p.shading && !p.scattering)
+            p.dropped.push_back("shadows: nothing is lit");
+        else {
+            p.shadows = true;
+            p.defines.set("SHADOWS");
+            p.compiled.push_back("shadows: secondary marching toward each light");
+        }
+    }
+    if (!fx.clipPlanes.empty()) planClipping(scene, bounds, p);
+    if (scene.preintegration != Preintegration::None) planPreintegration(in, p);
+    if (fx.fog.enabled) planFog(scene, bounds, p);
+    planTableEffects(scene, p);
+    planAccelerations(in, skippingHow, p);
     return p;
 }
 

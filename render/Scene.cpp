@@ -79,6 +79,16 @@ std::string str(const json& j, const std::string& where) {
     return j.get<std::string>();
 }
 
+/// A string field naming one of two values; `expected` lists the names for the error.
+template <class T>
+T choice(const json& j, const std::string& where, const char* nameA, T a, const char* nameB, T b,
+         const char* expected) {
+    const std::string v = str(j, where);
+    if (v == nameA) return a;
+    if (v == nameB) return b;
+    throw UsageError("scene: " + where + " '" + v + "' is unknown (" + expected + ")");
+}
+
 } // namespace
 
 std::string_view renderModeName(RenderMode m) {
@@ -211,6 +221,196 @@ MeshMethod parseMeshMethod(std::string_view s) {
     throw UsageError("render.method '" + std::string(s) + "' is unknown (expected cells, kbuffer)");
 }
 
+namespace {
+
+/// "camera": every field optional; which of eye, target, up and height were given goes to cameraGiven.
+void parseCamera(const json& c, Scene& s) {
+    checkKeys(c, "camera", {"projection", "eye", "target", "up", "height", "fov_y_deg"});
+    Camera cam;
+    if (c.contains("projection")) {
+        cam.projection =
+            choice(c["projection"], "camera.projection", "orthographic", Projection::Orthographic,
+                   "perspective", Projection::Perspective, "orthographic, perspective");
+    } else if (c.contains("fov_y_deg")) {
+        cam.projection = Projection::Perspective;
+    }
+    if (c.contains("eye")) cam.eye = vec<3>(c["eye"], "camera.eye");
+    if (c.contains("target")) cam.target = vec<3>(c["target"], "camera.target");
+    if (c.contains("up")) cam.up = vec<3>(c["up"], "camera.up");
+    if (c.contains("height")) cam.height = num(c["height"], "camera.height");
+    if (c.contains("fov_y_deg")) cam.fovYDeg = num(c["fov_y_deg"], "camera.fov_y_deg");
+    s.camera = cam;
+    s.cameraGiven = {c.contains("eye"), c.contains("target"), c.contains("up"), c.contains("height")};
+}
+
+/// "image": size and background.
+void parseImage(const json& im, Scene& s) {
+    checkKeys(im, "image", {"width", "height", "background"});
+    if (im.contains("width")) s.width = intField(im["width"], "image.width");
+    if (im.contains("height")) s.height = intField(im["height"], "image.height");
+    if (im.contains("background")) s.background = vec<4>(im["background"], "image.background");
+}
+
+/// "render": mode, step, tables, filter, level of detail, mesh method.
+void parseRenderSettings(const json& r, Scene& s) {
+    checkKeys(r, "render",
+              {"mode", "step", "preintegration", "early_termination", "skipping", "table_size",
+               "table_lengths", "filter", "smoothing", "window", "mip_color", "budget_ms", "lod", "lod_error",
+               "cache_mb", "method", "k"});
+    if (r.contains("mode")) s.mode = parseRenderMode(str(r["mode"], "render.mode"));
+    if (r.contains("step")) s.step = num(r["step"], "render.step");
+    if (r.contains("preintegration")) {
+        const json& p = r["preintegration"];
+        s.preintegration = p.is_boolean() ? (p.get<bool>() ? Preintegration::Table2d : Preintegration::None)
+                                          : parsePreintegration(str(p, "render.preintegration"));
+    }
+    if (r.contains("early_termination"))
+        s.earlyTermination = num(r["early_termination"], "render.early_termination");
+    if (r.contains("skipping")) s.skipping = flag(r["skipping"], "render.skipping");
+    if (r.contains("table_size")) s.tableSize = intField(r["table_size"], "render.table_size");
+    if (r.contains("table_lengths")) s.tableLengths = intField(r["table_lengths"], "render.table_lengths");
+    if (r.contains("filter")) s.filter = parseFilter(str(r["filter"], "render.filter"));
+    if (r.contains("smoothing")) s.smoothing = num(r["smoothing"], "render.smoothing");
+    if (r.contains("window")) s.window = vec<2>(r["window"], "render.window");
+    if (r.contains("mip_color")) s.mipColor = parseMipColor(str(r["mip_color"], "render.mip_color"));
+    if (r.contains("budget_ms")) s.budgetMs = num(r["budget_ms"], "render.budget_ms");
+    if (r.contains("lod")) s.lod = parseLodMode(str(r["lod"], "render.lod"));
+    if (r.contains("lod_error")) s.lodError = num(r["lod_error"], "render.lod_error");
+    if (r.contains("cache_mb")) s.cacheMb = num(r["cache_mb"], "render.cache_mb");
+    if (r.contains("method")) s.meshMethod = parseMeshMethod(str(r["method"], "render.method"));
+    if (r.contains("k")) s.kBufferDepth = intField(r["k"], "render.k");
+}
+
+/// "lights": an array of directional, point and head lights.
+void parseLights(const json& lights, Scene& s) {
+    if (!lights.is_array()) throw UsageError("scene: 'lights' must be an array");
+    int i = 0;
+    for (const json& l : lights) {
+        const std::string where = "lights[" + std::to_string(i++) + "]";
+        checkKeys(l, where, {"type", "direction", "position", "color", "intensity"});
+        Light light;
+        const std::string type = l.contains("type") ? str(l["type"], where + ".type") : "directional";
+        if (type == "directional") {
+            light.kind = LightKind::Directional;
+            if (!l.contains("direction")) throw UsageError("scene: " + where + " needs 'direction'");
+            light.vector = vec<3>(l["direction"], where + ".direction");
+        } else if (type == "point") {
+            light.kind = LightKind::Point;
+            if (!l.contains("position")) throw UsageError("scene: " + where + " needs 'position'");
+            light.vector = vec<3>(l["position"], where + ".position");
+        } else if (type == "head") {
+            light.kind = LightKind::Head;
+        } else {
+            throw UsageError("scene: " + where + ".type '" + type +
+                             "' is unknown (directional, point, head)");
+        }
+        if (l.contains("color")) light.color = vec<3>(l["color"], where + ".color");
+        if (l.contains("intensity")) light.intensity = num(l["intensity"], where + ".intensity");
+        s.lights.push_back(light);
+    }
+}
+
+/// "effects.shading": true/false, or an object of Blinn-Phong terms (shading on).
+void parseShading(const json& sh, SceneEffects& fx) {
+    fx.shadingGiven = true;
+    if (sh.is_boolean()) {
+        fx.shading = sh.get<bool>();
+    } else {
+        checkKeys(sh, "effects.shading", {"ambient", "diffuse", "specular", "shininess", "preintegrated"});
+        if (sh.contains("preintegrated"))
+            fx.shadingPreintegrated = flag(sh["preintegrated"], "effects.shading.preintegrated");
+        fx.shading = true;
+        if (sh.contains("ambient")) fx.ambient = num(sh["ambient"], "effects.shading.ambient");
+        if (sh.contains("diffuse")) fx.diffuse = num(sh["diffuse"], "effects.shading.diffuse");
+        if (sh.contains("specular")) fx.specular = num(sh["specular"], "effects.shading.specular");
+        if (sh.contains("shininess")) fx.shininess = num(sh["shininess"], "effects.shading.shininess");
+    }
+}
+
+/// "effects.scattering": single or multiple scattering and the path tracer's settings.
+void parseScattering(const json& sc, SceneEffects& fx) {
+    checkKeys(sc, "effects.scattering",
+              {"albedo", "g", "order", "samples", "bounces", "seed", "environment", "emission", "octaves"});
+    fx.scattering = true;
+    if (sc.contains("albedo")) fx.albedo = num(sc["albedo"], "effects.scattering.albedo");
+    if (sc.contains("g")) fx.phaseG = num(sc["g"], "effects.scattering.g");
+    if (sc.contains("order"))
+        fx.scatteringOrder =
+            choice(sc["order"], "effects.scattering.order", "single", ScatteringOrder::Single, "multiple",
+                   ScatteringOrder::Multiple, "single, multiple");
+    auto count = [&](const char* key, double lo, double hi) {
+        const double v = num(sc[key], std::string("effects.scattering.") + key);
+        if (!(v >= lo && v <= hi) || v != std::floor(v))
+            throw UsageError(std::string("scene: effects.scattering.") + key + " must be an integer in [" +
+                             std::to_string(long(lo)) + ", " + std::to_string(long(hi)) + "]");
+        return v;
+    };
+    if (sc.contains("samples")) fx.samples = int(count("samples", 1, 1 << 20));
+    if (sc.contains("bounces")) fx.maxBounces = int(count("bounces", 1, 4096));
+    if (sc.contains("seed")) fx.seed = std::uint32_t(count("seed", 0, 4294967295.0));
+    if (sc.contains("environment"))
+        fx.environment = vec<3>(sc["environment"], "effects.scattering.environment");
+    if (sc.contains("emission")) fx.emission = flag(sc["emission"], "effects.scattering.emission");
+    if (sc.contains("octaves")) fx.octaves = int(count("octaves", 0, 8));
+}
+
+/// "effects.clip_planes": normal with an offset or a point on the plane.
+void parseClipPlanes(const json& planes, SceneEffects& fx) {
+    if (!planes.is_array()) throw UsageError("scene: 'effects.clip_planes' must be an array");
+    int i = 0;
+    for (const json& p : planes) {
+        const std::string where = "effects.clip_planes[" + std::to_string(i++) + "]";
+        checkKeys(p, where, {"normal", "offset", "point"});
+        ClipPlane plane;
+        if (!p.contains("normal")) throw UsageError("scene: " + where + " needs 'normal'");
+        plane.normal = vec<3>(p["normal"], where + ".normal");
+        if (p.contains("point")) {
+            const Vec3 q = vec<3>(p["point"], where + ".point");
+            plane.offset = -dot(plane.normal, q);
+        } else if (p.contains("offset")) {
+            plane.offset = num(p["offset"], where + ".offset");
+        }
+        fx.clipPlanes.push_back(plane);
+    }
+}
+
+/// "effects.isosurfaces": value and colour per surface.
+void parseIsosurfaces(const json& surfaces, SceneEffects& fx) {
+    if (!surfaces.is_array()) throw UsageError("scene: 'effects.isosurfaces' must be an array");
+    int i = 0;
+    for (const json& p : surfaces) {
+        const std::string where = "effects.isosurfaces[" + std::to_string(i++) + "]";
+        checkKeys(p, where, {"value", "color"});
+        IsoLayer iso;
+        if (!p.contains("value")) throw UsageError("scene: " + where + " needs 'value'");
+        iso.value = num(p["value"], where + ".value");
+        if (p.contains("color")) iso.rgba = vec<4>(p["color"], where + ".color");
+        fx.isosurfaces.push_back(iso);
+    }
+}
+
+/// "effects".
+void parseEffects(const json& e, const std::filesystem::path& baseDir, SceneEffects& fx) {
+    checkKeys(e, "effects",
+              {"shading", "gradient", "shadows", "shadow_step", "scattering", "clip_planes", "isosurfaces",
+               "fog", "isosurface_method"});
+    if (e.contains("shading")) parseShading(e["shading"], fx);
+    if (e.contains("gradient"))
+        fx.gradient = choice(e["gradient"], "effects.gradient", "central", GradientKind::Central, "sobel",
+                             GradientKind::Sobel, "central, sobel");
+    if (e.contains("shadows")) fx.shadows = flag(e["shadows"], "effects.shadows");
+    if (e.contains("shadow_step")) fx.shadowStep = num(e["shadow_step"], "effects.shadow_step");
+    if (e.contains("scattering")) parseScattering(e["scattering"], fx);
+    if (e.contains("clip_planes")) parseClipPlanes(e["clip_planes"], fx);
+    if (e.contains("isosurfaces")) parseIsosurfaces(e["isosurfaces"], fx);
+    if (e.contains("fog")) fx.fog = parseFog(e["fog"], baseDir);
+    if (e.contains("isosurface_method"))
+        fx.isoTable = choice(e["isosurface_method"], "effects.isosurface_method", "table", true, "roots",
+                             false, "roots, table");
+}
+
+} // namespace
+
 Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDir) {
     const json j = parse(text);
     checkKeys(j, "the scene", {"volume", "tf", "camera", "image", "render", "lights", "effects"});
@@ -221,203 +421,11 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
     };
     if (j.contains("volume")) s.volume = path(j["volume"], "volume");
     if (j.contains("tf")) s.tf = path(j["tf"], "tf");
-    if (j.contains("camera")) {
-        const json& c = j["camera"];
-        checkKeys(c, "camera", {"projection", "eye", "target", "up", "height", "fov_y_deg"});
-        Camera cam;
-        if (c.contains("projection")) {
-            const std::string p = str(c["projection"], "camera.projection");
-            if (p == "orthographic")
-                cam.projection = Projection::Orthographic;
-            else if (p == "perspective")
-                cam.projection = Projection::Perspective;
-            else
-                throw UsageError("scene: camera.projection '" + p +
-                                 "' is unknown (orthographic, perspective)");
-        } else if (c.contains("fov_y_deg")) {
-            cam.projection = Projection::Perspective;
-        }
-        if (c.contains("eye")) cam.eye = vec<3>(c["eye"], "camera.eye");
-        if (c.contains("target")) cam.target = vec<3>(c["target"], "camera.target");
-        if (c.contains("up")) cam.up = vec<3>(c["up"], "camera.up");
-        if (c.contains("height")) cam.height = num(c["height"], "camera.height");
-        if (c.contains("fov_y_deg")) cam.fovYDeg = num(c["fov_y_deg"], "camera.fov_y_deg");
-        s.camera = cam;
-        s.cameraGiven = {c.contains("eye"), c.contains("target"), c.contains("up"), c.contains("height")};
-    }
-    if (j.contains("image")) {
-        const json& im = j["image"];
-        checkKeys(im, "image", {"width", "height", "background"});
-        if (im.contains("width")) s.width = intField(im["width"], "image.width");
-        if (im.contains("height")) s.height = intField(im["height"], "image.height");
-        if (im.contains("background")) s.background = vec<4>(im["background"], "image.background");
-    }
-    if (j.contains("render")) {
-        const json& r = j["render"];
-        checkKeys(r, "render",
-                  {"mode", "step", "preintegration", "early_termination", "skipping", "table_size",
-                   "table_lengths", "filter", "smoothing", "window", "mip_color", "budget_ms", "lod", "lod_error",
-                   "cache_mb", "method", "k"});
-        if (r.contains("mode")) s.mode = parseRenderMode(str(r["mode"], "render.mode"));
-        if (r.contains("step")) s.step = num(r["step"], "render.step");
-        if (r.contains("preintegration")) {
-            const json& p = r["preintegration"];
-            s.preintegration = p.is_boolean()
-                                   ? (p.get<bool>() ? Preintegration::Table2d : Preintegration::None)
-                                   : parsePreintegration(str(p, "render.preintegration"));
-        }
-        if (r.contains("early_termination"))
-            s.earlyTermination = num(r["early_termination"], "render.early_termination");
-        if (r.contains("skipping")) s.skipping = flag(r["skipping"], "render.skipping");
-        if (r.contains("table_size"))
-            s.tableSize = intField(r["table_size"], "render.table_size");
-        if (r.contains("table_lengths"))
-            s.tableLengths = intField(r["table_lengths"], "render.table_lengths");
-        if (r.contains("filter")) s.filter = parseFilter(str(r["filter"], "render.filter"));
-        if (r.contains("smoothing")) s.smoothing = num(r["smoothing"], "render.smoothing");
-        if (r.contains("window")) s.window = vec<2>(r["window"], "render.window");
-        if (r.contains("mip_color")) s.mipColor = parseMipColor(str(r["mip_color"], "render.mip_color"));
-        if (r.contains("budget_ms")) s.budgetMs = num(r["budget_ms"], "render.budget_ms");
-        if (r.contains("lod")) s.lod = parseLodMode(str(r["lod"], "render.lod"));
-        if (r.contains("lod_error")) s.lodError = num(r["lod_error"], "render.lod_error");
-        if (r.contains("cache_mb")) s.cacheMb = num(r["cache_mb"], "render.cache_mb");
-        if (r.contains("method")) s.meshMethod = parseMeshMethod(str(r["method"], "render.method"));
-        if (r.contains("k")) s.kBufferDepth = intField(r["k"], "render.k");
-    }
-    if (j.contains("lights")) {
-        if (!j["lights"].is_array()) throw UsageError("scene: 'lights' must be an array");
-        int i = 0;
-        for (const json& l : j["lights"]) {
-            const std::string where = "lights[" + std::to_string(i++) + "]";
-            checkKeys(l, where, {"type", "direction", "position", "color", "intensity"});
-            Light light;
-            const std::string type = l.contains("type") ? str(l["type"], where + ".type") : "directional";
-            if (type == "directional") {
-                light.kind = LightKind::Directional;
-                if (!l.contains("direction")) throw UsageError("scene: " + where + " needs 'direction'");
-                light.vector = vec<3>(l["direction"], where + ".direction");
-            } else if (type == "point") {
-                light.kind = LightKind::Point;
-                if (!l.contains("position")) throw UsageError("scene: " + where + " needs 'position'");
-                light.vector = vec<3>(l["position"], where + ".position");
-            } else if (type == "head") {
-                light.kind = LightKind::Head;
-            } else {
-                throw UsageError("scene: " + where + ".type '" + type +
-                                 "' is unknown (directional, point, head)");
-            }
-            if (l.contains("color")) light.color = vec<3>(l["color"], where + ".color");
-            if (l.contains("intensity")) light.intensity = num(l["intensity"], where + ".intensity");
-            s.lights.push_back(light);
-        }
-    }
-    if (j.contains("effects")) {
-        const json& e = j["effects"];
-        checkKeys(
-            e, "effects",
-            {"shading", "gradient", "shadows", "shadow_step", "scattering", "clip_planes", "isosurfaces", "fog",
-             "isosurface_method"});
-        SceneEffects& fx = s.effects;
-        if (e.contains("shading")) {
-            fx.shadingGiven = true;
-            const json& sh = e["shading"];
-            if (sh.is_boolean()) {
-                fx.shading = sh.get<bool>();
-            } else {
-                checkKeys(sh, "effects.shading", {"ambient", "diffuse", "specular", "shininess", "preintegrated"});
-                if (sh.contains("preintegrated"))
-                    fx.shadingPreintegrated = flag(sh["preintegrated"], "effects.shading.preintegrated");
-                fx.shading = true;
-                if (sh.contains("ambient")) fx.ambient = num(sh["ambient"], "effects.shading.ambient");
-                if (sh.contains("diffuse")) fx.diffuse = num(sh["diffuse"], "effects.shading.diffuse");
-                if (sh.contains("specular")) fx.specular = num(sh["specular"], "effects.shading.specular");
-                if (sh.contains("shininess"))
-                    fx.shininess = num(sh["shininess"], "effects.shading.shininess");
-            }
-        }
-        if (e.contains("gradient")) {
-            const std::string g = str(e["gradient"], "effects.gradient");
-            if (g == "central")
-                fx.gradient = GradientKind::Central;
-            else if (g == "sobel")
-                fx.gradient = GradientKind::Sobel;
-            else
-                throw UsageError("scene: effects.gradient '" + g + "' is unknown (central, sobel)");
-        }
-        if (e.contains("shadows")) fx.shadows = flag(e["shadows"], "effects.shadows");
-        if (e.contains("shadow_step")) fx.shadowStep = num(e["shadow_step"], "effects.shadow_step");
-        if (e.contains("scattering")) {
-            const json& sc = e["scattering"];
-            checkKeys(sc, "effects.scattering",
-                      {"albedo", "g", "order", "samples", "bounces", "seed", "environment", "emission", "octaves"});
-            fx.scattering = true;
-            if (sc.contains("albedo")) fx.albedo = num(sc["albedo"], "effects.scattering.albedo");
-            if (sc.contains("g")) fx.phaseG = num(sc["g"], "effects.scattering.g");
-            if (sc.contains("order")) {
-                const std::string o = str(sc["order"], "effects.scattering.order");
-                if (o == "single")
-                    fx.scatteringOrder = ScatteringOrder::Single;
-                else if (o == "multiple")
-                    fx.scatteringOrder = ScatteringOrder::Multiple;
-                else
-                    throw UsageError("scene: effects.scattering.order '" + o + "' is unknown (single, multiple)");
-            }
-            auto count = [&](const char* key, double lo, double hi) {
-                const double v = num(sc[key], std::string("effects.scattering.") + key);
-                if (!(v >= lo && v <= hi) || v != std::floor(v))
-                    throw UsageError(std::string("scene: effects.scattering.") + key + " must be an integer in [" +
-                                     std::to_string(long(lo)) + ", " + std::to_string(long(hi)) + "]");
-                return v;
-            };
-            if (sc.contains("samples")) fx.samples = int(count("samples", 1, 1 << 20));
-            if (sc.contains("bounces")) fx.maxBounces = int(count("bounces", 1, 4096));
-            if (sc.contains("seed")) fx.seed = std::uint32_t(count("seed", 0, 4294967295.0));
-            if (sc.contains("environment"))
-                fx.environment = vec<3>(sc["environment"], "effects.scattering.environment");
-            if (sc.contains("emission")) fx.emission = flag(sc["emission"], "effects.scattering.emission");
-            if (sc.contains("octaves")) fx.octaves = int(count("octaves", 0, 8));
-        }
-        if (e.contains("clip_planes")) {
-            if (!e["clip_planes"].is_array())
-                throw UsageError("scene: 'effects.clip_planes' must be an array");
-            int i = 0;
-            for (const json& p : e["clip_planes"]) {
-                const std::string where = "effects.clip_planes[" + std::to_string(i++) + "]";
-                checkKeys(p, where, {"normal", "offset", "point"});
-                ClipPlane plane;
-                if (!p.contains("normal")) throw UsageError("scene: " + where + " needs 'normal'");
-                plane.normal = vec<3>(p["normal"], where + ".normal");
-                if (p.contains("point")) {
-                    const Vec3 q = vec<3>(p["point"], where + ".point");
-                    plane.offset = -dot(plane.normal, q);
-                } else if (p.contains("offset")) {
-                    plane.offset = num(p["offset"], where + ".offset");
-                }
-                fx.clipPlanes.push_back(plane);
-            }
-        }
-        if (e.contains("isosurfaces")) {
-            if (!e["isosurfaces"].is_array())
-                throw UsageError("scene: 'effects.isosurfaces' must be an array");
-            int i = 0;
-            for (const json& p : e["isosurfaces"]) {
-                const std::string where = "effects.isosurfaces[" + std::to_string(i++) + "]";
-                checkKeys(p, where, {"value", "color"});
-                IsoLayer iso;
-                if (!p.contains("value")) throw UsageError("scene: " + where + " needs 'value'");
-                iso.value = num(p["value"], where + ".value");
-                if (p.contains("color")) iso.rgba = vec<4>(p["color"], where + ".color");
-                fx.isosurfaces.push_back(iso);
-            }
-        }
-        if (e.contains("fog")) fx.fog = parseFog(e["fog"], baseDir);
-        if (e.contains("isosurface_method")) {
-            const std::string m = str(e["isosurface_method"], "effects.isosurface_method");
-            if (m != "table" && m != "roots")
-                throw UsageError("scene: effects.isosurface_method '" + m + "' is unknown (roots, table)");
-            fx.isoTable = m == "table";
-        }
-    }
+    if (j.contains("camera")) parseCamera(j["camera"], s);
+    if (j.contains("image")) parseImage(j["image"], s);
+    if (j.contains("render")) parseRenderSettings(j["render"], s);
+    if (j.contains("lights")) parseLights(j["lights"], s);
+    if (j.contains("effects")) parseEffects(j["effects"], baseDir, s.effects);
     return s;
 }
 

@@ -6,6 +6,7 @@
 
 namespace volcl {
 
+/// The one 3-vector of the renderers' host code (world points, directions, extents).
 using Vec3 = std::array<double, 3>;
 
 inline Vec3 add(const Vec3& a, const Vec3& b) {

@@ -6,11 +6,11 @@
 #include "core/Volume.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "host/phantoms/Cloud.hpp"
-#include "render/EffectPlan.hpp"
-#include "render/Renderer.hpp"
-#include "render/Scene.hpp"
-#include "render/grid/PathTracer.hpp"
 #include "host/tf/TransferFunction.hpp"
+#include "render/EffectPlan.hpp"
+#include "render/Scene.hpp"
+#include "render/grid/GridRenderer.hpp"
+#include "render/grid/PathTracer.hpp"
 
 #include <gtest/gtest.h>
 
@@ -88,7 +88,7 @@ TEST(PathTrace, WhiteFurnaceConservesEnergyForEveryPhase) {
         s.effects.phaseG = g;
         s.effects.emission = false;
         s.effects.environment = {1, 1, 1};
-        Renderer r(computeContext(), v, tf, s);
+        GridRenderer r(computeContext(), v, tf, s);
         ASSERT_TRUE(r.plan().pathTracing) << r.plan().explain();
         const ImageBuffer img = r.render();
         expectFinite(img);
@@ -113,7 +113,7 @@ TEST(PathTrace, AlbedoZeroIsEmissionAbsorption) {
     const TransferFunction tf = rampTf(0.6, {1.0, 0.5, 0.25});
     Scene s = multipleScene(n, 128);
     s.effects.albedo = 0.0;
-    Renderer r(computeContext(), v, tf, s);
+    GridRenderer r(computeContext(), v, tf, s);
     ASSERT_TRUE(r.plan().pathTracing);
     const ImageBuffer img = r.render();
     Scene dvr = s;
@@ -129,7 +129,7 @@ TEST(PathTrace, AlbedoZeroIsEmissionAbsorption) {
     s.effects.emission = false;
     s.effects.albedo = 0.0;
     s.lights = {Light{LightKind::Directional, {0, 0, -1}, {1, 1, 1}, 1.0}};
-    EXPECT_FALSE(Renderer(computeContext(), v, tf, s).plan().pathTracing); // dropped: nothing to show
+    EXPECT_FALSE(GridRenderer(computeContext(), v, tf, s).plan().pathTracing); // dropped: nothing to show
 }
 
 // Restricted to one bounce, the path tracer computes single scattering: the ray marcher's lit integral
@@ -147,13 +147,13 @@ TEST(PathTrace, OneBounceEqualsSingleScattering) {
     single.effects.shadows = true;
     single.effects.shadowStep = 0.02;
     const ImageBuffer ref = referenceRender(v, tf, single, {.step = 0.02});
-    Renderer marcher(computeContext(), v, tf, single);
+    GridRenderer marcher(computeContext(), v, tf, single);
     EXPECT_LT(imageRmse(marcher.render(), ref), 3e-3);
     Scene pt = single;
     pt.effects.scatteringOrder = ScatteringOrder::Multiple;
     pt.effects.maxBounces = 1;
     pt.effects.samples = 256;
-    Renderer r(computeContext(), v, tf, pt);
+    GridRenderer r(computeContext(), v, tf, pt);
     const ImageBuffer img = r.render();
     for (int c = 0; c < 4; ++c) {
         const MeanDiff d = meanDiff(img, c, ref, c);
@@ -183,17 +183,17 @@ TEST(PathTrace, OctaveApproximationMatchesReferenceAndBeatsSingle) {
     s.effects.emission = false;
     s.effects.shadows = true;
     s.effects.shadowStep = 0.05;
-    const ImageBuffer single = Renderer(computeContext(), v, tf, s).render();
+    const ImageBuffer single = GridRenderer(computeContext(), v, tf, s).render();
     Scene oct = s;
     oct.effects.octaves = 4;
-    Renderer r(computeContext(), v, tf, oct);
+    GridRenderer r(computeContext(), v, tf, oct);
     EXPECT_NE(r.plan().defines.toOptions().find("-DMS_OCTAVES=4"), std::string::npos);
     const ImageBuffer approx = r.render();
     EXPECT_LT(imageRmse(approx, referenceRender(v, tf, oct, {.step = 0.05})), 3e-3);
     Scene pt = s;
     pt.effects.scatteringOrder = ScatteringOrder::Multiple;
     pt.effects.samples = 512;
-    const ImageBuffer multiple = Renderer(computeContext(), v, tf, pt).render();
+    const ImageBuffer multiple = GridRenderer(computeContext(), v, tf, pt).render();
     std::cout << "against the path tracer: octaves(4) RMSE " << imageRmse(approx, multiple) << ", single "
               << imageRmse(single, multiple) << '\n';
     EXPECT_LT(imageRmse(approx, multiple), imageRmse(single, multiple))
@@ -212,7 +212,7 @@ TEST(PathTrace, KernelMatchesDoubleReference) {
     s.effects.environment = {0.2, 0.3, 0.5};
     s.lights = {Light{LightKind::Directional, {0.3, 0.8, -0.5}, {1, 1, 1}, 1.5},
                 Light{LightKind::Head, {0, 0, -1}, {1, 1, 1}, 0.5}};
-    Renderer r(computeContext(), v, tf, s);
+    GridRenderer r(computeContext(), v, tf, s);
     const ImageBuffer img = r.render();
     const ImageBuffer ref = pathTraceReference(v, tf, s);
     expectFinite(img);
@@ -239,7 +239,7 @@ TEST(PathTrace, RmseFallsAsInverseSquareRootOfSamples) {
     s.effects.albedo = 0.95;
     s.lights = {Light{LightKind::Directional, {0.5, 0.5, -0.7}, {1, 1, 1}, 1.0}};
     s.effects.seed = 99;
-    Renderer r(computeContext(), v, tf, s);
+    GridRenderer r(computeContext(), v, tf, s);
     const ImageBuffer converged = r.render();
     std::vector<double> logN, logE;
     for (int spp : {4, 16, 64}) {
@@ -263,9 +263,9 @@ TEST(PathTrace, SameSeedSameImageAndProgressiveEqualsOneShot) {
     Scene s = multipleScene(n, 8);
     s.effects.albedo = 0.9;
     s.lights = {Light{LightKind::Directional, {0, 1, -1}, {1, 1, 1}, 1.0}};
-    Renderer r(computeContext(), v, tf, s);
+    GridRenderer r(computeContext(), v, tf, s);
     const ImageBuffer a = r.render();
-    const ImageBuffer b = Renderer(computeContext(), v, tf, s).render();
+    const ImageBuffer b = GridRenderer(computeContext(), v, tf, s).render();
     EXPECT_EQ(a.pixels, b.pixels);
     r.setScene(s); // starts the accumulation over
     EXPECT_EQ(r.accumulateSamples(4), 4);
@@ -299,7 +299,7 @@ TEST(PathTrace, MajorantZeroInPlacesAndEmptyVolume) {
         EXPECT_EQ(m.back(), 0.0f);
         EXPECT_GT(m.front(), 0.0f);
     }
-    Renderer r(computeContext(), v, tf, s);
+    GridRenderer r(computeContext(), v, tf, s);
     const ImageBuffer img = r.render();
     const ImageBuffer ref = pathTraceReference(v, tf, s);
     expectFinite(img);
@@ -312,7 +312,7 @@ TEST(PathTrace, MajorantZeroInPlacesAndEmptyVolume) {
     EXPECT_EQ(img.at(0, 4, 0), 0.0f);
     EXPECT_GT(img.at(15, 4, 3), 0.9f);
     const Volume empty = makeFloatVolume(n, [](double, double, double) { return 0.0; });
-    for (float p : Renderer(computeContext(), empty, tf, s).render().pixels)
+    for (float p : GridRenderer(computeContext(), empty, tf, s).render().pixels)
         ASSERT_EQ(p, 0.0f);
 }
 
@@ -326,7 +326,7 @@ TEST(PathTrace, ExtremePhaseAndAlbedoStayFinite) {
             s.effects.albedo = albedo;
             s.effects.phaseG = g;
             s.lights = {Light{LightKind::Directional, {0, 0, -1}, {1, 1, 1}, 1.0}};
-            const ImageBuffer img = Renderer(computeContext(), v, tf, s).render();
+            const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
             expectFinite(img);
         }
 }
@@ -337,7 +337,7 @@ TEST(PathTrace, RefusesBadInput) {
     v.values<float>()[5] = std::numeric_limits<float>::quiet_NaN();
     Scene s = multipleScene(n, 4);
     s.effects.environment = {1, 1, 1};
-    EXPECT_THROW(Renderer(computeContext(), v, rampTf(1.0), s), DataError);
+    EXPECT_THROW(GridRenderer(computeContext(), v, rampTf(1.0), s), DataError);
     TransferFunction negative = rampTf(1.0);
     negative.extinction = {{0.0, -0.5}, {1.0, 1.0}};
     EXPECT_THROW(negative.validate(), Error);
@@ -423,7 +423,7 @@ TEST(PathTrace, SmokeVdbRenders) {
     s.effects.emission = false;
     s.effects.environment = {0.2, 0.2, 0.3};
     s.lights = {Light{LightKind::Directional, {0.3, 0.8, -0.5}, {1, 1, 1}, 2.0}};
-    Renderer r(computeContext(), v, tf, s);
+    GridRenderer r(computeContext(), v, tf, s);
     const ImageBuffer img = r.render();
     expectFinite(img);
     const ImageBuffer ref = pathTraceReference(v, tf, s);
@@ -454,7 +454,7 @@ TEST(Cloud, GeneratedCloudRendersWithMultipleScattering) {
     s.effects.emission = false;
     s.effects.environment = {0.2, 0.25, 0.35};
     s.lights = {Light{LightKind::Directional, {0.2, -0.3, 0.9}, {1, 1, 1}, 2.0}};
-    const ImageBuffer img = Renderer(computeContext(), v, tf, s).render();
+    const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
     expectFinite(img);
     double rgb = 0.0;
     for (float x : img.pixels)

@@ -5,9 +5,9 @@
 #include "core/Error.hpp"
 #include "core/Volume.hpp"
 #include "host/io/VolumeIo.hpp"
-#include "render/Renderer.hpp"
-#include "render/Scene.hpp"
 #include "host/tf/TransferFunction.hpp"
+#include "render/Scene.hpp"
+#include "render/grid/GridRenderer.hpp"
 
 #include <gtest/gtest.h>
 
@@ -61,7 +61,7 @@ TEST(Render, ConstantBoxMatchesBeerLambert) {
             Scene s = orthoScene(n, 8.0);
             s.preintegration = pre;
             s.step = step;
-            Renderer r(computeContext(), v, tf, s);
+            GridRenderer r(computeContext(), v, tf, s);
             const ImageBuffer img = r.render();
             for (int y = 0; y < 8; ++y)
                 for (int x = 0; x < 8; ++x) {
@@ -101,7 +101,7 @@ TEST(Render, LinearRampOpticalDepth) {
     for (Preintegration pre : {Preintegration::None, Preintegration::Table2d, Preintegration::Table3d}) {
         s.preintegration = pre;
         s.step = 0.5;
-        const ImageBuffer img = Renderer(computeContext(), v, tf, s).render();
+        const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
         EXPECT_NEAR(img.at(1, 1, 3), alpha, 1e-4) << preintegrationName(pre);
         EXPECT_NEAR(img.at(1, 1, 0), red, 2e-3) << preintegrationName(pre);
     }
@@ -122,7 +122,7 @@ TEST(Render, ReferenceConvergesWithStep) {
     EXPECT_LT(imageRmse(a, b), 5e-5);
     s.step = 0.25;
     s.preintegration = Preintegration::Table2d;
-    const ImageBuffer k = Renderer(computeContext(), v, tf, s).render();
+    const ImageBuffer k = GridRenderer(computeContext(), v, tf, s).render();
     EXPECT_LT(imageRmse(k, b), 2e-3);
 }
 
@@ -144,7 +144,7 @@ TEST(Render, SphereIsoHitsAnalyticSurface) {
     s.mode = RenderMode::Iso;
     s.step = 0.5;
     s.effects.isosurfaces = {{R * R, {1, 1, 1, 1}}};
-    Renderer r(computeContext(), v, tf, s);
+    GridRenderer r(computeContext(), v, tf, s);
     const ImageBuffer img = r.render();
     ASSERT_EQ(img.channelCount(), 5);
     const ImageBuffer ref = referenceRender(v, tf, s, {.step = 0.05});
@@ -190,7 +190,7 @@ TEST(Render, TransparentIsoSurfacesCompositeInOrder) {
     Scene s = orthoScene(n, 6.0, 6, 6);
     s.mode = RenderMode::Iso;
     s.effects.isosurfaces = {{12.0, {1, 0, 0, 0.5}}, {6.0, {0, 0, 1, 1.0}}};
-    const ImageBuffer img = Renderer(computeContext(), v, tf, s).render();
+    const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
     // Central ray: outer red shell first (half), then the inner opaque blue shell, then red again behind it.
     EXPECT_NEAR(img.at(3, 3, 0), 0.5, 1e-6);
     EXPECT_NEAR(img.at(3, 3, 2), 0.5, 1e-6);
@@ -219,7 +219,7 @@ TEST(Render, SkippingChangesNothingBeyondFloatNoise) {
             s.preintegration = pre;
             s.step = 0.7;
             s.effects.isosurfaces = {{70.0, {0.2, 0.9, 0.2, 0.6}}};
-            Renderer r(computeContext(), v, tf, s);
+            GridRenderer r(computeContext(), v, tf, s);
             const ImageBuffer on = r.render();
             EXPECT_GT(r.emptyMacrocellFraction(), 0.2);
             s.skipping = false;
@@ -240,7 +240,7 @@ TEST(Render, PlainKernelMatchesBaseline) {
     Scene s = orthoScene(n, 22.0, 16, 16);
     s.skipping = false;
     s.earlyTermination = 0.99;
-    Renderer r(computeContext(), v, tf, s);
+    GridRenderer r(computeContext(), v, tf, s);
     EXPECT_EQ(r.plan().defines.toOptions(), "-DEARLY_TERMINATION -DMODE=0 -DVOXEL_TYPE=0");
     EXPECT_LT(maxAbsDiff(r.render(), r.renderPlainBaseline()), 1e-7);
 }
@@ -281,7 +281,7 @@ TEST(Render, EffectsCompiledOnlyWhenTheyMatter) {
     p = planEffects(s, v, tf);
     EXPECT_FALSE(p.shading);
     EXPECT_EQ(p.colorScale, 0.4);
-    Renderer r(computeContext(), v, tf, s);
+    GridRenderer r(computeContext(), v, tf, s);
     EXPECT_LT(maxAbsDiff(r.render(), referenceRender(v, tf, s)), 1e-4);
 
     // A light and diffuse shading: shading, Sobel and shadows compiled.
@@ -313,7 +313,7 @@ TEST(Render, ShadingShadowsScatteringAndClippingMatchReference) {
     s.effects.albedo = 0.6;
     s.effects.phaseG = 0.4;
     s.effects.clipPlanes = {{{0, -1, 0}, 17.0}};
-    Renderer r(computeContext(), v, tf, s);
+    GridRenderer r(computeContext(), v, tf, s);
     EXPECT_TRUE(r.plan().shading && r.plan().shadows && r.plan().scattering && r.plan().clipping);
     const ImageBuffer img = r.render();
     expectFiniteBounded(img);
@@ -336,7 +336,7 @@ TEST(Render, MipAndXrayMatchReference) {
         Scene s = orthoScene(n, 32.0, 24, 20);
         s.mode = mode;
         s.step = 0.25;
-        const ImageBuffer img = Renderer(computeContext(), v, tf, s).render();
+        const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
         const ImageBuffer ref = referenceRender(v, tf, s);
         EXPECT_LT(imageRmse(img, ref), 2e-3) << renderModeName(mode);
         expectFiniteBounded(img);
@@ -391,7 +391,7 @@ TEST(Render, HardGeometry) {
         s.height = c.h;
         s.step = 0.1;
         s.earlyTermination = 1.0;
-        const ImageBuffer img = Renderer(computeContext(), v, tf, s).render();
+        const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
         expectFiniteBounded(img);
         const ImageBuffer ref = referenceRender(v, tf, s, {.step = 0.02});
         EXPECT_LT(maxAbsDiff(img, ref), 2e-3) << c.name;
@@ -421,8 +421,8 @@ TEST(Render, Uint8CornerLayoutMatchesLinearLayout) {
             s.camera = cam;
             s.step = 0.3;
             s.preintegration = pre;
-            const ImageBuffer a = Renderer(computeContext(), u8, tf, s).render();
-            const ImageBuffer b = Renderer(computeContext(), f32, tf, s).render();
+            const ImageBuffer a = GridRenderer(computeContext(), u8, tf, s).render();
+            const ImageBuffer b = GridRenderer(computeContext(), f32, tf, s).render();
             EXPECT_GT(maxAbsDiff(b, ImageBuffer(b.width, b.height, {"R", "G", "B", "A"})), 0.01)
                 << "the scene must show something";
             EXPECT_LT(maxAbsDiff(a, b), 1e-6) << n.x << "x" << n.y << "x" << n.z << " "
@@ -435,17 +435,17 @@ TEST(Render, DegenerateVolumesAndSteps) {
     // One voxel thick: the box has no depth, so nothing is integrated (the box is [o, o+(n-1)s]).
     const Volume slab = makeFloatVolume({8, 8, 1}, [](double, double, double) { return 1.0f; });
     Scene s = orthoScene({8, 8, 1}, 8.0);
-    ImageBuffer img = Renderer(computeContext(), slab, constantTf(5.0), s).render();
+    ImageBuffer img = GridRenderer(computeContext(), slab, constantTf(5.0), s).render();
     for (float p : img.pixels)
         EXPECT_EQ(p, 0.0f);
     // Two voxels thick: one voxel of depth.
     const Volume thin = makeFloatVolume({8, 8, 2}, [](double, double, double) { return 1.0f; });
     s = orthoScene({8, 8, 2}, 6.0);
-    img = Renderer(computeContext(), thin, constantTf(0.5), s).render();
+    img = GridRenderer(computeContext(), thin, constantTf(0.5), s).render();
     EXPECT_NEAR(img.at(4, 4, 3), 1.0 - std::exp(-0.5), 1e-6);
     // A single voxel.
     const Volume one = makeFloatVolume({1, 1, 1}, [](double, double, double) { return 1.0f; });
-    img = Renderer(computeContext(), one, constantTf(5.0), orthoScene({1, 1, 1}, 1.0, 1, 1)).render();
+    img = GridRenderer(computeContext(), one, constantTf(5.0), orthoScene({1, 1, 1}, 1.0, 1, 1)).render();
     EXPECT_EQ(img.at(0, 0, 3), 0.0f);
 
     const Dims n{12, 12, 12};
@@ -454,18 +454,18 @@ TEST(Render, DegenerateVolumesAndSteps) {
     for (double step : {1e-3, 1e6}) {
         Scene t = orthoScene(n, 6.0, 2, 2);
         t.step = step;
-        img = Renderer(computeContext(), box, constantTf(0.1), t).render();
+        img = GridRenderer(computeContext(), box, constantTf(0.1), t).render();
         EXPECT_NEAR(img.at(1, 1, 3), 1.0 - std::exp(-1.1), 5e-4) << step;
     }
     Scene tooSmall = orthoScene(n, 6.0, 2, 2);
     tooSmall.step = 1e-7;
-    EXPECT_THROW(Renderer(computeContext(), box, constantTf(0.1), tooSmall), UsageError);
+    EXPECT_THROW(GridRenderer(computeContext(), box, constantTf(0.1), tooSmall), UsageError);
     // Extinction so high that one sample is opaque; zero extinction gives an empty image.
-    img = Renderer(computeContext(), box, constantTf(1e30), orthoScene(n, 6.0)).render();
+    img = GridRenderer(computeContext(), box, constantTf(1e30), orthoScene(n, 6.0)).render();
     expectFiniteBounded(img);
     EXPECT_EQ(img.at(3, 3, 3), 1.0f);
     EXPECT_NEAR(img.at(3, 3, 0), 1.0f, 1e-6);
-    img = Renderer(computeContext(), box, constantTf(0.0), orthoScene(n, 6.0)).render();
+    img = GridRenderer(computeContext(), box, constantTf(0.0), orthoScene(n, 6.0)).render();
     for (float p : img.pixels)
         EXPECT_EQ(p, 0.0f);
 }
@@ -478,12 +478,12 @@ TEST(Render, IsoValuesOnVoxelsAndOutsideTheRange) {
     s.effects.isosurfaces = {{4.0, {1, 1, 1, 1}}}; // exactly the values of the slice z = 4
     TransferFunction tf = constantTf(0.0);
     tf.domain = {0, 9};
-    ImageBuffer img = Renderer(computeContext(), v, tf, s).render();
+    ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
     // Eye at z = -50: depth = 54 at the slice.
     EXPECT_NEAR(img.at(1, 1, 4), 54.0, 1e-4);
     EXPECT_EQ(img.at(1, 1, 3), 1.0f);
     s.effects.isosurfaces = {{9.5, {1, 1, 1, 1}}};
-    Renderer r(computeContext(), v, tf, s);
+    GridRenderer r(computeContext(), v, tf, s);
     EXPECT_TRUE(r.plan().isosurfaces.empty());
     img = r.render();
     for (int i = 0; i < 9; ++i)
@@ -493,7 +493,7 @@ TEST(Render, IsoValuesOnVoxelsAndOutsideTheRange) {
 TEST(Render, BadInputIsRefused) {
     Volume v = makeFloatVolume({4, 4, 4}, [](double, double, double) { return 1.0f; });
     v.values<float>()[5] = std::numeric_limits<float>::quiet_NaN();
-    EXPECT_THROW(Renderer(computeContext(), v, constantTf(1.0), orthoScene({4, 4, 4}, 4.0)), DataError);
+    EXPECT_THROW(GridRenderer(computeContext(), v, constantTf(1.0), orthoScene({4, 4, 4}, 4.0)), DataError);
     EXPECT_THROW(Scene::fromJson(R"({"render": {"mode": "volume"}})"), UsageError);
     EXPECT_THROW(Scene::fromJson(R"({"render": {"stepp": 1}})"), UsageError);
     EXPECT_THROW(Scene::fromJson(R"({"camera": {"eye": [0, 0]}})"), UsageError);
@@ -584,7 +584,7 @@ TEST(Render, RealVolumesPreintegratedMatchReference) {
         s.height = 64;
         s.preintegration = Preintegration::Table2d;
         s.step = 0.25 * minSpacing;
-        const ImageBuffer img = Renderer(computeContext(), v, tf, s).render();
+        const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
         const ImageBuffer ref = referenceRender(v, tf, s, {.step = 0.05 * minSpacing});
         const double rmse = imageRmse(img, ref);
         EXPECT_LE(rmse, 0.005) << rc.path;

@@ -5,11 +5,11 @@
 #include "core/Error.hpp"
 #include "core/Volume.hpp"
 #include "host/io/VolumeIo.hpp"
-#include "render/Renderer.hpp"
+#include "host/tf/TransferFunction.hpp"
 #include "render/Scene.hpp"
 #include "render/grid/BsplineField.hpp"
 #include "render/grid/FilterAccuracy.hpp"
-#include "host/tf/TransferFunction.hpp"
+#include "render/grid/GridRenderer.hpp"
 
 #include <gtest/gtest.h>
 
@@ -163,7 +163,7 @@ TEST(Filter, KernelsMatchTheReferenceOnASmoothField) {
             s.step = 0.25;
             s.filter = f;
             cs.apply(s);
-            Renderer r(computeContext(), v, tf, s);
+            GridRenderer r(computeContext(), v, tf, s);
             const ImageBuffer img = r.render();
             const ImageBuffer ref = referenceRender(v, tf, s, {.step = 0.04});
             const double rmse = imageRmse(img, ref);
@@ -171,7 +171,7 @@ TEST(Filter, KernelsMatchTheReferenceOnASmoothField) {
             // scene (the step's discretisation error, which the filter does not change).
             Scene lin = s;
             lin.filter = ReconstructionFilter::Linear;
-            const double linear = imageRmse(Renderer(computeContext(), v, tf, lin).render(),
+            const double linear = imageRmse(GridRenderer(computeContext(), v, tf, lin).render(),
                                             referenceRender(v, tf, lin, {.step = 0.04}));
             EXPECT_LT(rmse, std::max(cs.tol, 1.5 * linear))
                 << filterName(f) << " " << cs.name << " (linear " << linear << ")";
@@ -179,7 +179,7 @@ TEST(Filter, KernelsMatchTheReferenceOnASmoothField) {
             // Skipping and the packet kernel change nothing beyond float noise.
             Scene noSkip = s;
             noSkip.skipping = false;
-            EXPECT_LT(imageRmse(Renderer(computeContext(), v, tf, noSkip).render(), img), 1e-4)
+            EXPECT_LT(imageRmse(GridRenderer(computeContext(), v, tf, noSkip).render(), img), 1e-4)
                 << filterName(f) << " " << cs.name;
         }
     }
@@ -201,7 +201,7 @@ TEST(Filter, LinearFilterOnSmoothedDataMatchesReference) {
         s.lights = {light};
         s.effects.shading = mode != RenderMode::Mip;
         if (mode == RenderMode::Iso) s.effects.isosurfaces = {{95.5, {1, 1, 1, 1}}};
-        Renderer r(computeContext(), v, tf, s);
+        GridRenderer r(computeContext(), v, tf, s);
         EXPECT_EQ(r.plan().defines.toOptions().find("FILTER_BSPLINE"), std::string::npos);
         EXPECT_NE(r.plan().defines.toOptions().find("-DVOXEL_TYPE=0"), std::string::npos);
         const ImageBuffer img = r.render();
@@ -209,7 +209,7 @@ TEST(Filter, LinearFilterOnSmoothedDataMatchesReference) {
         EXPECT_LT(rmse, 3e-3) << renderModeName(mode);
         Scene raw = s;
         raw.smoothing = 0.0;
-        EXPECT_GT(imageRmse(Renderer(computeContext(), v, tf, raw).render(), img), 10.0 * rmse)
+        EXPECT_GT(imageRmse(GridRenderer(computeContext(), v, tf, raw).render(), img), 10.0 * rmse)
             << "smoothing changes the image";
     }
 }
@@ -227,7 +227,7 @@ TEST(Filter, SmoothingSplineRemovesQuantisationTerracesOnASphere) {
         t.filter = f;
         t.effects.gradient = g;
         t.smoothing = smoothing;
-        const ImageBuffer img = Renderer(computeContext(), v, tf, t).render();
+        const ImageBuffer img = GridRenderer(computeContext(), v, tf, t).render();
         // The level 128.5 lies at radius R - 0.5 / slope; every filter keeps the surface near it.
         EXPECT_LT(meanDepthError(img, t, c, R - 0.5 / slope), depthBound) << filterName(f);
         return std::pair{meanNormalErrorDeg(img, t, c), shadingRoughness(img)};
@@ -265,7 +265,7 @@ TEST(Filter, MipWindowGreyTfAndTfOpacity) {
     s.window = std::array<double, 2>{50.0, 40.0}; // 30..70
     for (MipColor mc : {MipColor::Grey, MipColor::Tf, MipColor::TfOpacity}) {
         s.mipColor = mc;
-        Renderer r(computeContext(), v, tf, s);
+        GridRenderer r(computeContext(), v, tf, s);
         const ImageBuffer img = r.render();
         const ImageBuffer ref = referenceRender(v, tf, s);
         EXPECT_LT(imageRmse(img, ref), 1e-4) << mipColorName(mc);
@@ -291,7 +291,7 @@ TEST(Filter, MipWindowGreyTfAndTfOpacity) {
     // No window: the data range. A pixel over the column holding the maximum value is white.
     s.window.reset();
     s.mipColor = MipColor::Grey;
-    const ImageBuffer full = Renderer(computeContext(), v, tf, s).render();
+    const ImageBuffer full = GridRenderer(computeContext(), v, tf, s).render();
     EXPECT_LT(imageRmse(full, referenceRender(v, tf, s)), 1e-4);
     Scene bad = s;
     bad.window = std::array<double, 2>{50.0, 0.0};
@@ -313,7 +313,7 @@ TEST(Filter, DegenerateGridsAndExtremeValues) {
                 s.smoothing = 0.5;
                 s.mode = mode;
                 if (mode == RenderMode::Iso) s.effects.isosurfaces = {{0.45, {1, 1, 1, 1}}};
-                const ImageBuffer img = Renderer(computeContext(), v, tf, s).render();
+                const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
                 const ImageBuffer ref = referenceRender(v, tf, s);
                 for (float p : img.pixels)
                     if (!std::isinf(p)) ASSERT_TRUE(std::isfinite(p));
@@ -329,11 +329,11 @@ TEST(Filter, DegenerateGridsAndExtremeValues) {
     TransferFunction wide = rampTf(-3e38, 3e38, 1.0);
     Scene s = obliqueScene(n, 8.0, 8, 8);
     s.filter = ReconstructionFilter::Bspline;
-    const ImageBuffer img = Renderer(computeContext(), huge, wide, s).render();
+    const ImageBuffer img = GridRenderer(computeContext(), huge, wide, s).render();
     for (float p : img.pixels)
         ASSERT_TRUE(std::isfinite(p));
     s.filter = ReconstructionFilter::Cubic;
-    EXPECT_THROW(Renderer(computeContext(), huge, wide, s), DataError);
+    EXPECT_THROW(GridRenderer(computeContext(), huge, wide, s), DataError);
     s.smoothing = 9.0;
     EXPECT_THROW(s.validate(), UsageError);
 }
@@ -380,7 +380,7 @@ TEST(Filter, RealEightBitMriMatchesReference) {
             s.lights = {Light{LightKind::Head, {0, 0, 0}, {1, 1, 1}, 1.0}};
             s.effects.shading = true;
             if (mode == RenderMode::Iso) s.effects.isosurfaces = {{iso, {1, 0.9, 0.8, 1}}};
-            const ImageBuffer img = Renderer(computeContext(), v, tf, s).render();
+            const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
             const ImageBuffer ref = referenceRender(v, tf, s, {.step = 0.05 * v.spacing[0]});
             const double rmse = imageRmse(img, ref);
             std::cerr << "[ mri ] " << filterName(f) << " " << renderModeName(mode) << " RMSE " << rmse

@@ -5,10 +5,10 @@
 #include "core/Error.hpp"
 #include "core/Volume.hpp"
 #include "host/image/ImageIo.hpp"
-#include "render/Renderer.hpp"
+#include "host/tf/TransferFunction.hpp"
 #include "render/Scene.hpp"
 #include "render/VecMath.hpp"
-#include "host/tf/TransferFunction.hpp"
+#include "render/grid/GridRenderer.hpp"
 
 #include <gtest/gtest.h>
 

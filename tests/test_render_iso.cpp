@@ -4,10 +4,10 @@
 
 #include "core/Volume.hpp"
 #include "host/io/VolumeIo.hpp"
-#include "render/Renderer.hpp"
+#include "host/tf/TransferFunction.hpp"
 #include "render/Scene.hpp"
 #include "render/VecMath.hpp"
-#include "host/tf/TransferFunction.hpp"
+#include "render/grid/GridRenderer.hpp"
 
 #include <gtest/gtest.h>
 
@@ -146,7 +146,7 @@ TEST(RenderIso, KernelRootsMatchExactTrilinearRoots) {
     for (double step : {0.25, 1.0, 4.0}) {
         const Scene s =
             isoScene(ortho({c, c, -30}, {c, c, c}, 36.0), 40, 40, {{15.0 * 15.0, {1, 1, 1, 1}}}, step);
-        const ImageBuffer img = Renderer(computeContext(), sphere, clearTf(0, 2000), s).render();
+        const ImageBuffer img = GridRenderer(computeContext(), sphere, clearTf(0, 2000), s).render();
         const ImageBuffer ref = referenceRender(sphere, clearTf(0, 2000), s, {.step = 1.0});
         const DepthComparison d = compareDepth(img, ref, sphere, *s.camera);
         EXPECT_LT(d.worst, 1e-4) << "sphere, step " << step;
@@ -185,7 +185,7 @@ TEST(RenderIso, KernelRootsMatchExactTrilinearRoots) {
             for (double step : {0.5, 3.0}) {
                 const Scene s =
                     isoScene(cam, 36, 32, {{1.2, {1, 0.2, 0.2, 0.6}}, {0.75, {0.2, 0.2, 1, 0.5}}}, step);
-                const ImageBuffer img = Renderer(computeContext(), v, clearTf(0, 2), s).render();
+                const ImageBuffer img = GridRenderer(computeContext(), v, clearTf(0, 2), s).render();
                 const ImageBuffer ref = referenceRender(v, clearTf(0, 2), s, {.step = 1.0});
                 const DepthComparison d = compareDepth(img, ref, v, cam);
                 EXPECT_LT(d.worst, 1e-4) << "field " << field << " step " << step;
@@ -226,7 +226,7 @@ TEST(RenderIso, KernelRootsMatchExactRootsOnRealAndAnisotropicVolumes) {
     for (double step : {0.5, 2.0}) {
         const Scene s =
             isoScene(persp, 48, 48, {{40.0, {1, 0.8, 0.2, 0.4}}, {120.0, {0.3, 0.5, 1, 1}}}, step);
-        const ImageBuffer img = Renderer(computeContext(), iron, clearTf(0, 255), s).render();
+        const ImageBuffer img = GridRenderer(computeContext(), iron, clearTf(0, 255), s).render();
         const ImageBuffer ref = referenceRender(iron, clearTf(0, 255), s, {.step = 1.0});
         const DepthComparison d = compareDepth(img, ref, iron, persp);
         EXPECT_LT(d.worst, 1e-4) << "ironProt step " << step;
@@ -244,7 +244,7 @@ TEST(RenderIso, KernelRootsMatchExactRootsOnRealAndAnisotropicVolumes) {
     aniso.origin = {-3.0, 2.0, 1.0};
     const Camera cam = ortho({-20, -10, -15}, {2.75, 7.8, 8.6}, 16.0);
     const Scene s = isoScene(cam, 40, 40, {{0.3, {1, 1, 1, 0.5}}, {-0.4, {1, 0, 0, 1}}}, 0.3);
-    const ImageBuffer img = Renderer(computeContext(), aniso, clearTf(-2, 2), s).render();
+    const ImageBuffer img = GridRenderer(computeContext(), aniso, clearTf(-2, 2), s).render();
     const ImageBuffer ref = referenceRender(aniso, clearTf(-2, 2), s, {.step = 1.0});
     const DepthComparison d = compareDepth(img, ref, aniso, cam);
     EXPECT_LT(d.worst, 1e-4 * 0.4) << "anisotropic"; // 1e-4 of the smallest spacing
@@ -280,7 +280,7 @@ TEST(RenderIso, HitsWithin1e3VoxelOfAnalyticSphere) {
         for (double step : {0.5, 2.0}) {
             const int w = 40, h = 40;
             const Scene s = isoScene(cam, w, h, {{0.0, {1, 1, 1, 1}}}, step);
-            const ImageBuffer img = Renderer(computeContext(), v, clearTf(-10, 60), s).render();
+            const ImageBuffer img = GridRenderer(computeContext(), v, clearTf(-10, 60), s).render();
             const ImageBuffer ref = referenceRender(v, clearTf(-10, 60), s, {.step = 1.0});
             for (int y = 0; y < h; ++y)
                 for (int x = 0; x < w; ++x) {
@@ -326,7 +326,7 @@ TEST(RenderIso, ShellThinnerThanTheStepIsHit) {
                 << "a sample inside the shell would defeat the test";
         const Camera cam = ortho({5.5, 5.5, -50}, {5.5, 5.5, 10}, 8.0);
         const Scene s = isoScene(cam, 6, 6, {{0.5, {1, 0, 0, 0.5}}}, step);
-        const ImageBuffer img = Renderer(computeContext(), v, clearTf(0, 1), s).render();
+        const ImageBuffer img = GridRenderer(computeContext(), v, clearTf(0, 1), s).render();
         for (int y = 0; y < 6; ++y)
             for (int x = 0; x < 6; ++x) {
                 EXPECT_NEAR(img.at(x, y, 4), 59.5, 1e-4) << step; // front face z = 9.5
@@ -336,7 +336,7 @@ TEST(RenderIso, ShellThinnerThanTheStepIsHit) {
         // Oblique rays through the slab: the trilinear field is linear in z, so the faces are exact planes.
         const Camera tilt = ortho({-20, -10, -40}, {5.5, 5.5, 10}, 5.0);
         const Scene t = isoScene(tilt, 5, 5, {{0.5, {1, 0, 0, 0.5}}}, step);
-        const ImageBuffer ti = Renderer(computeContext(), v, clearTf(0, 1), t).render();
+        const ImageBuffer ti = GridRenderer(computeContext(), v, clearTf(0, 1), t).render();
         for (int y = 0; y < 5; ++y)
             for (int x = 0; x < 5; ++x) {
                 const CameraRay ray = cameraRay(tilt, 5, 5, x, y);
@@ -357,7 +357,7 @@ TEST(RenderIso, HardRaysOnAnExactPlane) {
     double worst = 0.0, worstRef = 0.0;
     auto check = [&](const Camera& cam, int w, int h, double iso, double step, const char* what) {
         const Scene s = isoScene(cam, w, h, {{iso, {1, 1, 1, 1}}}, step);
-        const ImageBuffer img = Renderer(computeContext(), v, tf, s).render();
+        const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
         const ImageBuffer ref = referenceRender(v, tf, s, {.step = 1.0});
         int checked = 0;
         for (int y = 0; y < h; ++y)
@@ -444,7 +444,7 @@ TEST(RenderIso, MixedWithDvrAndShadedMatchReference) {
                 s.effects.diffuse = 0.7;
                 s.effects.specular = 0.2;
             }
-            const ImageBuffer img = Renderer(computeContext(), v, tf, s).render();
+            const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
             if (ref.pixels.empty())
                 ref = referenceRender(v, tf, s, {.step = 0.05}); // skipping changes nothing
             const DepthComparison d = compareDepth(img, ref, v, cam);

@@ -3,10 +3,10 @@
 #include "TestUtil.hpp"
 
 #include "core/Volume.hpp"
-#include "render/Renderer.hpp"
+#include "host/tf/TransferFunction.hpp"
 #include "render/Scene.hpp"
 #include "render/VecMath.hpp"
-#include "host/tf/TransferFunction.hpp"
+#include "render/grid/GridRenderer.hpp"
 
 #include <gtest/gtest.h>
 

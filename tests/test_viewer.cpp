@@ -2,12 +2,6 @@
 // headless EGL path: frames read back from OpenGL against the renderer's PNG encoding within 1/255.
 #include "TestUtil.hpp"
 
-#include "core/Error.hpp"
-#include "core/Volume.hpp"
-#include "host/image/ImageIo.hpp"
-#include "host/io/VolumeIo.hpp"
-#include "render/Renderer.hpp"
-#include "render/VecMath.hpp"
 #include "apps/viewer/AdaptiveQuality.hpp"
 #include "apps/viewer/ClGlSharing.hpp"
 #include "apps/viewer/GlPresenter.hpp"
@@ -16,6 +10,12 @@
 #include "apps/viewer/ViewerApp.hpp"
 #include "apps/viewer/ViewerCamera.hpp"
 #include "apps/viewer/ViewerSession.hpp"
+#include "core/Error.hpp"
+#include "core/Volume.hpp"
+#include "host/image/ImageIo.hpp"
+#include "host/io/VolumeIo.hpp"
+#include "render/VecMath.hpp"
+#include "render/grid/GridRenderer.hpp"
 
 #include <epoxy/gl.h>
 #include <gtest/gtest.h>
@@ -646,7 +646,7 @@ TEST(ViewerOverlay, DrawsOnlyInsideItsPanelWithWhiteText) {
 namespace {
 
 // Presents the session's full-quality frame at width x height and compares the read-back with a fresh
-// Renderer on the same scene (what `volcl render` does), encoded as its PNG.
+// GridRenderer on the same scene (what `volcl render` does), encoded as its PNG.
 void expectMatchesRender(ViewerSession& s, FramePresenter& p, const Volume& v, const TransferFunction& tf,
                          int w, int h, const std::string& what) {
     const ViewerFrame f = s.renderFrame(w, h, false);
@@ -660,7 +660,7 @@ void expectMatchesRender(ViewerSession& s, FramePresenter& p, const Volume& v, c
     Scene scene = s.currentScene();
     scene.width = w;
     scene.height = h;
-    Renderer fresh(test::computeContext(), v, tf, scene);
+    GridRenderer fresh(test::computeContext(), v, tf, scene);
     const ImageBuffer ref = pngEncoding(fresh.render(), scene.background);
     EXPECT_LE(maxDifference255(back, ref), 1.0) << what << " (" << s.compiledSummary() << ")";
     // The frame is not trivially empty: some pixel differs from the background.
@@ -842,7 +842,7 @@ TEST(ViewerEndToEnd, HeadlessRunOnTheMriMatchesRender) {
     EXPECT_TRUE(r.frames[1].interactive);
     EXPECT_FALSE(r.frames.back().interactive);
     Scene now = s.currentScene();
-    Renderer fresh(test::computeContext(), v, tf, now);
+    GridRenderer fresh(test::computeContext(), v, tf, now);
     EXPECT_LE(maxDifference255(r.readback, pngEncoding(fresh.render(), now.background)), 1.0);
 }
 
@@ -866,10 +866,10 @@ TEST(ViewerSession, PathTracingAccumulatesWhileTheViewStandsStill) {
     EXPECT_NE(a.image.pixels, b.image.pixels);
     Scene now = s.currentScene();
     now.effects.samples = 8;
-    EXPECT_EQ(b.image.pixels, Renderer(test::computeContext(), v, tf, now).render().pixels);
+    EXPECT_EQ(b.image.pixels, GridRenderer(test::computeContext(), v, tf, now).render().pixels);
     s.camera().orbit(0.3, 0.0);
     const ViewerFrame c = s.renderFrame(16, 16, false); // a new view: 4 samples again
     now = s.currentScene();
     now.effects.samples = 4;
-    EXPECT_EQ(c.image.pixels, Renderer(test::computeContext(), v, tf, now).render().pixels);
+    EXPECT_EQ(c.image.pixels, GridRenderer(test::computeContext(), v, tf, now).render().pixels);
 }

@@ -178,6 +178,135 @@ inline void iso_table_segment(__global const float4* table, __global const voxel
 }
 #endif
 
+#ifdef FOG
+/* The fog's arguments of the per-ray helpers below, present only when the kernel has fog. */
+#define FOG_PARAMS , __global const float* fogMap, const FogRay* fr
+#define FOG_ARGS , fogMap, &fr
+#else
+#define FOG_PARAMS
+#define FOG_ARGS
+#endif
+
+#if MODE == 1
+/* Maximum intensity projection: the largest sample on the ray, windowed to grey or coloured by the TF. */
+inline float4 mip_ray(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclGridRenderParams* P,
+                      const Ray* r, float tEnter, float tExit, float step, int nseg) {
+    float smax = -INFINITY;
+    for (int k = 0; k <= nseg; ++k) {
+        const float t = k == nseg ? tExit : tEnter + (float)k * step;
+        smax = fmax(smax, sample_volume(vol, &P->grid, ray_at(r, t)));
+    }
+#if MIP_COLOR == 2
+    const float4 e = tf_sample(knots, P->tf.knotCount, smax);
+    const float a = 1.0f - exp(-e.w);
+    return (float4)(e.xyz * a, a);
+#else
+    /* The window maps [centre - width/2, centre + width/2] to [0, 1]; the level is also the coverage, so
+       over a black background the pixel is the window's grey and values below the window are transparent. */
+    const float g = clamp((smax - P->march.windowLo) * P->march.windowInvWidth, 0.0f, 1.0f);
+#if MIP_COLOR == 1
+    return (float4)(tf_sample(knots, P->tf.knotCount, smax).xyz * g, g);
+#else
+    return (float4)(g, g, g, g);
+#endif
+#endif
+}
+#endif
+
+#if MODE == 3
+/* X-ray: the optical depth of the ray's segments (midpoint samples) and of the fog, as grey opacity. */
+inline float4 xray_ray(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclGridRenderParams* P,
+                       const Ray* r, float tEnter, float tExit, float step, int nseg FOG_PARAMS) {
+    float opticalDepth = 0.0f;
+    for (int k = 0; k < nseg; ++k) {
+        const float t0 = tEnter + (float)k * step, t1 = fmin(t0 + step, tExit);
+        const float len = t1 - t0;
+        opticalDepth += tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, ray_at(r, t0 + 0.5f * len))).w * len;
+    }
+#ifdef FOG
+    if (fr->span.y > fr->span.x) {
+        float fd, fj;
+        fog_interval(&P->fog, fogMap, fr, r->oWorld, r->dWorld, fr->span.x, fr->span.y, 0.0f, &fd, &fj);
+        opticalDepth += fd;
+    }
+#endif
+    const float a = 1.0f - exp(-opticalDepth);
+    return (float4)(a, a, a, a);
+}
+#endif
+
+#if MODE == 0 && PREINT == 0
+/* A dvr segment [t0, t1] of length len sampled at its midpoint (lit when the scene has lights) and
+   composited into (rgb, T), with the fog over it. */
+inline void dvr_point_segment(__global const voxel_t* vol, __global const VolclTfKnot* knots,
+                              const VolclGridRenderParams* P, const Ray* r, float t0, float t1, float len, float3* rgb,
+                              float* T FOG_PARAMS) {
+    const float tm = t0 + 0.5f * len;
+    const float3 pm = ray_at(r, tm);
+    const float4 e = tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, pm));
+    const float a = 1.0f - exp(-e.w * len);
+    float3 c = e.xyz;
+#ifdef NEEDS_LIGHTS
+    if (a > 0.0f) c = light_sample(vol, knots, P, r, r->oWorld + tm * r->dWorld, pm, c);
+#endif
+#ifdef FOG
+    fog_with_segment(&P->fog, fogMap, fr, r->oWorld, r->dWorld, t0, t1, e.w, c, rgb, T);
+#else
+    *rgb += *T * a * c;
+    *T *= 1.0f - a;
+#endif
+}
+#endif
+
+#if MODE == 0 && PREINT != 0
+/* A dvr segment [t0, t1] of length len between the samples sPrev and sNext through the pre-integration table (lit
+   when the scene has lights: pre-integrated lighting carries the back gradient to the next segment in gPrev)
+   and composited into (rgb, T), with the fog over it. */
+inline void dvr_preint_segment(__global const voxel_t* vol, __global const VolclTfKnot* knots,
+                               __global const float4* table, const VolclGridRenderParams* P, const Ray* r, float t0,
+                               float t1, float len, float sPrev, float sNext, float3* gPrev, int* gPrevValid,
+                               float3* rgb, float* T FOG_PARAMS) {
+    const float4 e = preint_segment(table, &P->tf, sPrev, sNext, len);
+    float3 c = e.xyz;
+#if defined(PREINT_LIGHTING) && PREINT == 2 && defined(SHADING)
+    if (e.w > 0.0f) {
+        const float sc = (float)(P->tf.tableSize - 1) / (P->tf.domainHi - P->tf.domainLo);
+        const float u = (sPrev - P->tf.domainLo) * sc, v = (sNext - P->tf.domainLo) * sc;
+        const float4 e0 = table_bilinear(table, P->tf.tableSize, 0, u, v);
+        const float4 lf = table_bilinear(table, P->tf.tableSize, 1, u, v);
+        const float4 lb = table_bilinear(table, P->tf.tableSize, 2, u, v);
+        const float ratio = e0.w > 0.0f ? e.w / e0.w : len / P->tf.tableMaxLength;
+        const float3 gF = *gPrevValid ? *gPrev : gradient(vol, &P->grid, ray_at(r, t0));
+        const float3 gB = gradient(vol, &P->grid, ray_at(r, t1));
+        *gPrev = gB;
+        *gPrevValid = 1;
+        c = preint_light(vol, knots, P, r, r->oWorld + (t0 + 0.5f * len) * r->dWorld, gF, gB, e, lf.xyz, lb.xyz,
+                         clamp(lf.w, 0.0f, 1.0f), ratio);
+    } else {
+        *gPrevValid = 0;
+    }
+#elif defined(NEEDS_LIGHTS)
+    /* The segment lit at its midpoint as a sample of straight colour rgb / alpha, weighted by alpha as
+       the point-sampled path weights its sample (the specular term is not a colour to scale: lighting
+       the associated colour added it once per segment whatever the segment's opacity). */
+    if (e.w > 0.0f) {
+        const float tm = t0 + 0.5f * len;
+        c = light_sample(vol, knots, P, r, r->oWorld + tm * r->dWorld, ray_at(r, tm), c / e.w) * e.w;
+    }
+#endif
+#ifdef FOG
+    /* The segment as a medium of constant extinction with its optical depth and straight colour, mixed
+       with the fog over it exactly for that medium (exact whenever either is absent). */
+    const float av = clamp(e.w, 0.0f, 1.0f - 1e-7f);
+    const float tauV = av > 0.0f ? -log1p(-av) / len : 0.0f;
+    fog_with_segment(&P->fog, fogMap, fr, r->oWorld, r->dWorld, t0, t1, tauV, av > 0.0f ? c / e.w : (float3)(0.0f), rgb, T);
+#else
+    *rgb += *T * c;
+    *T *= 1.0f - e.w;
+#endif
+}
+#endif
+
 __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* knots, __global const float4* table,
                        __global const uchar* macroEmpty, const VolclGridRenderParams params, __global float4* out,
                        __global float* depthOut, __global const float* fogMap) {
@@ -232,42 +361,10 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
     float4 result;
 
 #if MODE == 1 /* ---------------- maximum intensity projection ---------------- */
-    float smax = -INFINITY;
-    for (int k = 0; k <= nseg; ++k) {
-        const float t = k == nseg ? tExit : tEnter + (float)k * step;
-        smax = fmax(smax, sample_volume(vol, &P->grid, ray_at(&r, t)));
-    }
-#if MIP_COLOR == 2
-    const float4 e = tf_sample(knots, P->tf.knotCount, smax);
-    const float a = 1.0f - exp(-e.w);
-    result = (float4)(e.xyz * a, a);
-#else
-    /* The window maps [centre - width/2, centre + width/2] to [0, 1]; the level is also the coverage, so
-       over a black background the pixel is the window's grey and values below the window are transparent. */
-    const float g = clamp((smax - P->march.windowLo) * P->march.windowInvWidth, 0.0f, 1.0f);
-#if MIP_COLOR == 1
-    result = (float4)(tf_sample(knots, P->tf.knotCount, smax).xyz * g, g);
-#else
-    result = (float4)(g, g, g, g);
-#endif
-#endif
+    result = mip_ray(vol, knots, P, &r, tEnter, tExit, step, nseg);
 
 #elif MODE == 3 /* ---------------- x-ray: absorption only ---------------- */
-    float opticalDepth = 0.0f;
-    for (int k = 0; k < nseg; ++k) {
-        const float t0 = tEnter + (float)k * step, t1 = fmin(t0 + step, tExit);
-        const float len = t1 - t0;
-        opticalDepth += tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, ray_at(&r, t0 + 0.5f * len))).w * len;
-    }
-#ifdef FOG
-    if (fr.span.y > fr.span.x) {
-        float fd, fj;
-        fog_interval(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, fr.span.x, fr.span.y, 0.0f, &fd, &fj);
-        opticalDepth += fd;
-    }
-#endif
-    const float a = 1.0f - exp(-opticalDepth);
-    result = (float4)(a, a, a, a);
+    result = xray_ray(vol, knots, P, &r, tEnter, tExit, step, nseg FOG_ARGS);
 
 #else /* ---------------- dvr and iso: front-to-back compositing ---------------- */
 #if PREINT != 0 || ISO_COUNT > 0
@@ -276,9 +373,9 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 #ifdef SKIPPING
     float cellExit = -INFINITY;
 #endif
-#if defined(PREINT_LIGHTING) && PREINT == 2 && defined(SHADING)
+#if MODE == 0 && PREINT != 0
     float3 gPrev = (float3)(0.0f);
-    int gPrevValid = 0; /* the last segment's back gradient is this one's front gradient */
+    int gPrevValid = 0; /* pre-integrated lighting: the last segment's back gradient is this one's front gradient */
 #endif
 #if ISO_COUNT > 0 && !defined(FILTER_BSPLINE) && !defined(ISO_TABLE)
     IsoState iso; /* the iso-surfaces' cell walk carries over from segment to segment */
@@ -327,62 +424,10 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
         /* A surface inside this step is composited in front of the step's fog. */
         fog_only(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, t0, t1, &rgb, &T);
 #endif
-#if MODE == 0
-#if PREINT == 0
-        const float tm = t0 + 0.5f * len;
-        const float3 pm = ray_at(&r, tm);
-        const float4 e = tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, pm));
-        const float a = 1.0f - exp(-e.w * len);
-        float3 c = e.xyz;
-#ifdef NEEDS_LIGHTS
-        if (a > 0.0f) c = light_sample(vol, knots, P, &r, r.oWorld + tm * r.dWorld, pm, c);
-#endif
-#ifdef FOG
-        fog_with_segment(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, t0, t1, e.w, c, &rgb, &T);
-#else
-        rgb += T * a * c;
-        T *= 1.0f - a;
-#endif
-#else
-        const float4 e = preint_segment(table, &P->tf, sPrev, sNext, len);
-        float3 c = e.xyz;
-#if defined(PREINT_LIGHTING) && PREINT == 2 && defined(SHADING)
-        if (e.w > 0.0f) {
-            const float sc = (float)(P->tf.tableSize - 1) / (P->tf.domainHi - P->tf.domainLo);
-            const float u = (sPrev - P->tf.domainLo) * sc, v = (sNext - P->tf.domainLo) * sc;
-            const float4 e0 = table_bilinear(table, P->tf.tableSize, 0, u, v);
-            const float4 lf = table_bilinear(table, P->tf.tableSize, 1, u, v);
-            const float4 lb = table_bilinear(table, P->tf.tableSize, 2, u, v);
-            const float ratio = e0.w > 0.0f ? e.w / e0.w : len / P->tf.tableMaxLength;
-            const float3 gF = gPrevValid ? gPrev : gradient(vol, &P->grid, ray_at(&r, t0));
-            const float3 gB = gradient(vol, &P->grid, ray_at(&r, t1));
-            gPrev = gB;
-            gPrevValid = 1;
-            c = preint_light(vol, knots, P, &r, r.oWorld + (t0 + 0.5f * len) * r.dWorld, gF, gB, e, lf.xyz, lb.xyz,
-                             clamp(lf.w, 0.0f, 1.0f), ratio);
-        } else {
-            gPrevValid = 0;
-        }
-#elif defined(NEEDS_LIGHTS)
-        /* The segment lit at its midpoint as a sample of straight colour rgb / alpha, weighted by alpha as
-           the point-sampled path weights its sample (the specular term is not a colour to scale: lighting
-           the associated colour added it once per segment whatever the segment's opacity). */
-        if (e.w > 0.0f) {
-            const float tm = t0 + 0.5f * len;
-            c = light_sample(vol, knots, P, &r, r.oWorld + tm * r.dWorld, ray_at(&r, tm), c / e.w) * e.w;
-        }
-#endif
-#ifdef FOG
-        /* The segment as a medium of constant extinction with its optical depth and straight colour, mixed
-           with the fog over it exactly for that medium (exact whenever either is absent). */
-        const float av = clamp(e.w, 0.0f, 1.0f - 1e-7f);
-        const float tauV = av > 0.0f ? -log1p(-av) / len : 0.0f;
-        fog_with_segment(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, t0, t1, tauV, av > 0.0f ? c / e.w : (float3)(0.0f), &rgb, &T);
-#else
-        rgb += T * c;
-        T *= 1.0f - e.w;
-#endif
-#endif
+#if MODE == 0 && PREINT == 0
+        dvr_point_segment(vol, knots, P, &r, t0, t1, len, &rgb, &T FOG_ARGS);
+#elif MODE == 0
+        dvr_preint_segment(vol, knots, table, P, &r, t0, t1, len, sPrev, sNext, &gPrev, &gPrevValid, &rgb, &T FOG_ARGS);
 #endif
 #if PREINT != 0 || ISO_COUNT > 0
         sPrev = sNext;
@@ -429,6 +474,76 @@ PACKET_INLINE uint8 macro_cell8(const VolclGridRenderParams* P, const RayPacket*
     *exitT = t + fmax(e, 0.0f);
     return (convert_uint8(cz) * P->grid.macroDims[1] + convert_uint8(cy)) * P->grid.macroDims[0] + convert_uint8(cx);
 }
+
+#ifdef FOG
+/* Fog of a packet, lane by lane: each lane's fog ray fr[l] (world origin fo[l], direction fd[l]) composited
+   into the packet's colour (cr, cg, cb) and transmittance T. */
+
+/* Over the empty cells the lanes in `jump` skip: from t0 to the start of their segment j. */
+PACKET_INLINE void fog_skip_packet(const VolclGridRenderParams* P, __global const float* fogMap, const FogRay* fr,
+                                   const float3* fo, const float3* fd, const LaneF* enter, const LaneI* nsegL,
+                                   int8 jump, int8 j, float8 t0, float8 tExit, float step, float8* cr, float8* cg,
+                                   float8* cb, float8* T) {
+    LaneI jl, jj;
+    LaneF t0l, tx, R, G, Bq, TT;
+    jl.v = jump; jj.v = j; t0l.v = t0; tx.v = tExit;
+    R.v = *cr; G.v = *cg; Bq.v = *cb; TT.v = *T;
+    _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
+        if (!jl.a[l]) continue;
+        const float tj = jj.a[l] >= nsegL->a[l] ? tx.a[l] : fmin(enter->a[l] + (float)jj.a[l] * step, tx.a[l]);
+        float3 c3 = (float3)(R.a[l], G.a[l], Bq.a[l]);
+        fog_only(&P->fog, fogMap, &fr[l], fo[l], fd[l], t0l.a[l], tj, &c3, &TT.a[l]);
+        R.a[l] = c3.x; G.a[l] = c3.y; Bq.a[l] = c3.z;
+    }
+    *cr = R.v; *cg = G.v; *cb = Bq.v; *T = TT.v;
+}
+
+/* Over each active lane's step [t0, t1], composited with the segment (er, eg, eb, ea: point sampled
+   extinction and colour, or the pre-integrated associated colour and opacity) as fog.h mixes them. */
+PACKET_INLINE void fog_segment_packet(const VolclGridRenderParams* P, __global const float* fogMap,
+                                      const FogRay* fr, const float3* fo, const float3* fd, int8 active, float8 t0,
+                                      float8 t1, const LaneF* er, const LaneF* eg, const LaneF* eb, const LaneF* ea,
+                                      float8* cr, float8* cg, float8* cb, float8* T) {
+    LaneI al;
+    LaneF t0l, t1l, R, G, Bq, TT;
+    al.v = active; t0l.v = t0; t1l.v = t1;
+    R.v = *cr; G.v = *cg; Bq.v = *cb; TT.v = *T;
+    _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
+        if (!al.a[l]) continue;
+        float3 c3 = (float3)(R.a[l], G.a[l], Bq.a[l]);
+#if PREINT == 0
+        const float tauV = ea->a[l];
+        const float3 cv = (float3)(er->a[l], eg->a[l], eb->a[l]);
+#else
+        const float av = clamp(ea->a[l], 0.0f, 1.0f - 1e-7f);
+        const float tauV = av > 0.0f ? -log1p(-av) / (t1l.a[l] - t0l.a[l]) : 0.0f;
+        const float3 cv = av > 0.0f ? (float3)(er->a[l], eg->a[l], eb->a[l]) / ea->a[l] : (float3)(0.0f);
+#endif
+        fog_with_segment(&P->fog, fogMap, &fr[l], fo[l], fd[l], t0l.a[l], t1l.a[l], tauV, cv, &c3, &TT.a[l]);
+        R.a[l] = c3.x; G.a[l] = c3.y; Bq.a[l] = c3.z;
+    }
+    *cr = R.v; *cg = G.v; *cb = Bq.v; *T = TT.v;
+}
+
+/* Behind the volume: from each lane's exit tExit to the end of its fog (lanes that missed the volume had all
+   their fog up front). */
+PACKET_INLINE void fog_tail_packet(const VolclGridRenderParams* P, __global const float* fogMap, const FogRay* fr,
+                                   const float3* fo, const float3* fd, const LaneI* nsegL, float8 tExit, float8* cr,
+                                   float8* cg, float8* cb, float8* T) {
+    LaneF R, G, Bq, TT, tx;
+    R.v = *cr; G.v = *cg; Bq.v = *cb; TT.v = *T; tx.v = tExit;
+    _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
+        if (nsegL->a[l] == 0 || !(fr[l].span.y > fr[l].span.x)) continue; /* missed volume: all done up front */
+#ifdef EARLY_TERMINATION
+        if (1.0f - TT.a[l] >= P->march.earlyTermination) continue;
+#endif
+        float3 c3 = (float3)(R.a[l], G.a[l], Bq.a[l]);
+        fog_only(&P->fog, fogMap, &fr[l], fo[l], fd[l], fmax(fr[l].span.x, tx.a[l]), fr[l].span.y, &c3, &TT.a[l]);
+        R.a[l] = c3.x; G.a[l] = c3.y; Bq.a[l] = c3.z;
+    }
+    *cr = R.v; *cg = G.v; *cb = Bq.v; *T = TT.v;
+}
+#endif
 
 /* DVR (point sampled or pre-integrated, skipping, early termination, clipping) for a 4x2 block of pixels
    per work-item; the host launches it instead of `raymarch` when the scene has no lights and no
@@ -511,20 +626,7 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
             const int8 jump = need & empty.v & (j > k);
             if (any(jump)) {
 #ifdef FOG
-                {
-                    LaneI jl, jj, kk;
-                    LaneF t0l, tx, R, G, Bq, TT;
-                    jl.v = jump; jj.v = j; kk.v = k; t0l.v = t0; tx.v = tExit;
-                    R.v = cr; G.v = cg; Bq.v = cb; TT.v = T;
-                    _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
-                        if (!jl.a[l]) continue;
-                        const float tj = jj.a[l] >= nsegL.a[l] ? tx.a[l] : fmin(enter.a[l] + (float)jj.a[l] * step, tx.a[l]);
-                        float3 c3 = (float3)(R.a[l], G.a[l], Bq.a[l]);
-                        fog_only(&P->fog, fogMap, &fr[l], fo[l], fd[l], t0l.a[l], tj, &c3, &TT.a[l]);
-                        R.a[l] = c3.x; G.a[l] = c3.y; Bq.a[l] = c3.z;
-                    }
-                    cr = R.v; cg = G.v; cb = Bq.v; T = TT.v;
-                }
+                fog_skip_packet(P, fogMap, fr, fo, fd, &enter, &nsegL, jump, j, t0, tExit, step, &cr, &cg, &cb, &T);
 #endif
                 k = select(k, j, jump);
                 active &= k < nseg;
@@ -556,29 +658,8 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
         sPrev = sNext;
 #endif
 #ifdef FOG
-        {
-            /* The fog over each lane's step, composited with the segment (fog.h), lane by lane. */
-            LaneI al;
-            LaneF t0l, t1l, R, G, Bq, TT;
-            al.v = active; t0l.v = t0; t1l.v = t1;
-            R.v = cr; G.v = cg; Bq.v = cb; TT.v = T;
-            _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
-                if (!al.a[l]) continue;
-                float3 c3 = (float3)(R.a[l], G.a[l], Bq.a[l]);
-#if PREINT == 0
-                const float tauV = ea.a[l];
-                const float3 cv = (float3)(er.a[l], eg.a[l], eb.a[l]);
-#else
-                const float av = clamp(ea.a[l], 0.0f, 1.0f - 1e-7f);
-                const float tauV = av > 0.0f ? -log1p(-av) / (t1l.a[l] - t0l.a[l]) : 0.0f;
-                const float3 cv = av > 0.0f ? (float3)(er.a[l], eg.a[l], eb.a[l]) / ea.a[l] : (float3)(0.0f);
-#endif
-                fog_with_segment(&P->fog, fogMap, &fr[l], fo[l], fd[l], t0l.a[l], t1l.a[l], tauV, cv, &c3, &TT.a[l]);
-                R.a[l] = c3.x; G.a[l] = c3.y; Bq.a[l] = c3.z;
-            }
-            cr = R.v; cg = G.v; cb = Bq.v; T = TT.v;
-            (void)wr; (void)wg; (void)wb; (void)a;
-        }
+        fog_segment_packet(P, fogMap, fr, fo, fd, active, t0, t1, &er, &eg, &eb, &ea, &cr, &cg, &cb, &T);
+        (void)wr; (void)wg; (void)wb; (void)a;
 #else
         cr = select(cr, cr + wr, active);
         cg = select(cg, cg + wg, active);
@@ -592,20 +673,7 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
 #endif
     }
 #ifdef FOG
-    {
-        LaneF R, G, Bq, TT, tx;
-        R.v = cr; G.v = cg; Bq.v = cb; TT.v = T; tx.v = tExit;
-        _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
-            if (nsegL.a[l] == 0 || !(fr[l].span.y > fr[l].span.x)) continue; /* missed volume: all done up front */
-#ifdef EARLY_TERMINATION
-            if (1.0f - TT.a[l] >= P->march.earlyTermination) continue;
-#endif
-            float3 c3 = (float3)(R.a[l], G.a[l], Bq.a[l]);
-            fog_only(&P->fog, fogMap, &fr[l], fo[l], fd[l], fmax(fr[l].span.x, tx.a[l]), fr[l].span.y, &c3, &TT.a[l]);
-            R.a[l] = c3.x; G.a[l] = c3.y; Bq.a[l] = c3.z;
-        }
-        cr = R.v; cg = G.v; cb = Bq.v; T = TT.v;
-    }
+    fog_tail_packet(P, fogMap, fr, fo, fd, &nsegL, tExit, &cr, &cg, &cb, &T);
 #endif
     LaneF R, G, Bc, A;
     R.v = cr; G.v = cg; Bc.v = cb; A.v = 1.0f - T;

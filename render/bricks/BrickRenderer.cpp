@@ -90,15 +90,8 @@ struct BrickRenderer::Impl {
     std::optional<BrickCache> cache;
     double poolMb = -1;
     DeviceBuffer<float> pool;
-    DeviceBuffer<VolclTfKnot> knots;
-    DeviceBuffer<cl_float4> table;
     DeviceBuffer<cl_uchar> empty;
-    DeviceBuffer<cl_float4> out;
-    DeviceBuffer<float> depth;
     FogDevice fog; ///< FOG: parameters and the height-map buffer
-    std::size_t knotCount = 0;
-    std::string tableKey;
-    int tableLengths = 1;
     cl::Kernel kernel;
     bool packet = false;
     VolclGridRenderParams params{};
@@ -107,10 +100,8 @@ struct BrickRenderer::Impl {
 
 BrickRenderer::BrickRenderer(ComputeContext& cc, std::shared_ptr<const VczReader> reader, std::size_t frame,
                              const TransferFunction& tf, const Scene& scene)
-    : cc_(cc), reader_(std::move(reader)), frame_(frame), tf_(tf), scene_(scene),
+    : RendererBase(cc, tf, scene), reader_(std::move(reader)), frame_(frame),
       impl_(std::make_unique<Impl>()) {
-    scene_.validate();
-    tf_.validate();
     Impl& m = *impl_;
     m.h = &reader_->header();
     const VczHeader& h = *m.h;
@@ -127,9 +118,7 @@ BrickRenderer::BrickRenderer(ComputeContext& cc, std::shared_ptr<const VczReader
     const bool intra = h.frames[frame_].type == FrameType::I;
     m.maxLevel = intra && h.transform != TransformKind::RawBits ? h.levels : 0;
     if (!intra) m.whole = reader_->decodeFrame(cc_, frame_);
-    m.out = cc_.allocate<cl_float4>(1);
-    m.depth = cc_.allocate<float>(1);
-    rebuild(true);
+    start();
 }
 
 BrickRenderer::~BrickRenderer() = default;
@@ -164,27 +153,16 @@ EffectPlan BrickRenderer::planEffects(const Scene& scene) const {
     return p;
 }
 
-void BrickRenderer::setScene(const Scene& scene) {
-    scene.validate();
-    scene_ = scene;
-    rebuild(false);
+void BrickRenderer::admitScene(const Scene& next) {
+    if (next.filter != ReconstructionFilter::Linear || next.smoothing > 0.0)
+        throw UsageError(reader_->name() +
+                         ": compressed bricks render with the linear filter and no smoothing "
+                         "(decode the file for cubic filters)");
+    next.validateSteps(norm(bounds().extent));
 }
 
-void BrickRenderer::setTransferFunction(const TransferFunction& tf) {
-    tf.validate();
-    tf_ = tf;
-    rebuild(true);
-}
-
-void BrickRenderer::setView(const Camera& camera, int width, int height, double step) {
-    Scene s = withView(scene_, camera, width, height, step);
-    if (step != scene_.step) {
-        setScene(s);
-        return;
-    }
-    s.validate();
-    scene_ = s;
-    camera_ = camera;
+void BrickRenderer::viewChanged(bool sameView) {
+    (void)sameView;
     impl_->params.camera = cameraParams(camera_, scene_.width, scene_.height);
 }
 
@@ -225,57 +203,11 @@ void BrickRenderer::makePool() {
     m.poolMb = scene_.cacheMb;
 }
 
-void BrickRenderer::rebuild(bool tfChanged) {
+void BrickRenderer::rebuild(const Rebuild& change) {
     Impl& m = *impl_;
-    if (scene_.filter != ReconstructionFilter::Linear || scene_.smoothing > 0.0)
-        throw UsageError(reader_->name() +
-                         ": compressed bricks render with the linear filter and no smoothing "
-                         "(decode the file for cubic filters)");
-    camera_ = scene_.camera ? *scene_.camera : defaultCamera(bounds());
-    const EffectPlan previous = plan_;
-    plan_ = planEffects(scene_);
-    scene_.validateSteps(norm(bounds().extent));
     if (m.poolMb != scene_.cacheMb) makePool();
-
-    TransferFunction shaded = tf_;
-    if (plan_.colorScale != 1.0)
-        for (auto& c : shaded.color)
-            for (double& v : c.rgb)
-                v *= plan_.colorScale;
-    if (tfChanged || previous.colorScale != plan_.colorScale || m.knotCount == 0) {
-        const auto knots = shaded.packKnots();
-        m.knots = cc_.upload(knots, CL_MEM_READ_ONLY);
-        m.knotCount = knots.size();
-    }
-    const Preintegration pre = scene_.mode == RenderMode::Dvr ? scene_.preintegration : Preintegration::None;
-    tableMs_ = 0.0;
-    if (pre != Preintegration::None) {
-        TableSpec spec;
-        spec.size = scene_.tableSize;
-        if (pre == Preintegration::Table2d) {
-            spec.axis = LengthAxis::Fixed;
-            spec.step = scene_.step;
-        } else {
-            spec.axis = LengthAxis::Linear;
-            spec.lengths = scene_.tableLengths;
-            spec.maxLength = scene_.step;
-        }
-        std::ostringstream key;
-        key << shaded.toJson() << '|' << int(pre) << '|' << spec.size << '|' << scene_.step << '|'
-            << spec.lengths;
-        if (key.str() != m.tableKey) {
-            Stopwatch sw;
-            const PreintegrationTable t = generatePreintegrationTable(shaded, spec, {}, &cc_);
-            tableMs_ = sw.milliseconds();
-            std::vector<cl_float4> rgba(t.rgba.size() / 4);
-            std::memcpy(rgba.data(), t.rgba.data(), rgba.size() * sizeof(cl_float4));
-            m.table = cc_.upload(rgba, CL_MEM_READ_ONLY);
-            m.tableLengths = int(t.sliceCount());
-            m.tableKey = key.str();
-        }
-    } else if (m.table.size() == 0) {
-        m.table = cc_.allocate<cl_float4>(1, CL_MEM_READ_ONLY);
-    }
+    if (const std::optional<TableSpec> spec = marchTableSpec())
+        selectPreintegrationTable(change.shaded, *spec);
     m.packet =
         scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
     m.kernel = cc_.kernel("render/raymarch_bricks.cl", m.packet ? "raymarch_packet" : "raymarch", plan_.defines);
@@ -286,7 +218,7 @@ void BrickRenderer::rebuild(bool tfChanged) {
     p.camera = cameraParams(camera_, scene_.width, scene_.height);
     p.clip = clipParams(plan_.clipPlanes);
     p.march = marchParams(scene_, m.range);
-    p.tf = tfParams(scene_, tf_, m.knotCount, m.tableLengths);
+    p.tf = tfParams(scene_, tf_, knotCount(), tableLengths());
     const double maxSpacing = std::max({h.spacing[0], h.spacing[1], h.spacing[2]});
     p.lighting = lightingParams(scene_, 1e-6 * std::max(m.range.max - m.range.min, 1e-30) / maxSpacing);
     p.iso = isoParams(plan_);
@@ -494,41 +426,17 @@ ImageBuffer BrickRenderer::render() {
     selection_ = std::move(s);
     total_.add(last_);
 
-    const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
-    if (m.out.size() != pixels) {
-        m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
-        m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
-    }
-    setArgs(m.kernel, m.pool, m.knots, m.table, m.empty, m.params, m.out, m.depth, m.fog.buffer(cc_));
+    ensureFrameBuffers();
+    setArgs(m.kernel, m.pool, knots(), table(), m.empty, m.params, out_, depth_, m.fog.buffer(cc_));
     const std::size_t w = std::size_t(scene_.width), hgt = std::size_t(scene_.height);
     cl::Event ev = m.packet
                        ? cc_.launch2d(m.kernel, (w + 3) / 4, (hgt + 1) / 2, cc_.profile().rayMarch.packet)
                        : cc_.launch2d(m.kernel, w, hgt, cc_.profile().rayMarch.tile);
     lastMs_ = eventMilliseconds(ev);
-    const bool withDepth = !plan_.isosurfaces.empty();
-    const auto rgba = cc_.download(m.out);
-    std::vector<std::string> channels{"R", "G", "B", "A"};
-    if (withDepth) channels.push_back("Z");
-    ImageBuffer img(scene_.width, scene_.height, channels);
-    std::vector<float> depth;
-    if (withDepth) depth = cc_.download(m.depth);
-    const int nc = img.channelCount();
-    for (std::size_t i = 0; i < pixels; ++i) {
-        for (int c = 0; c < 4; ++c)
-            img.pixels[i * std::size_t(nc) + std::size_t(c)] = rgba[i].s[c];
-        if (withDepth) img.pixels[i * std::size_t(nc) + 4] = depth[i];
-    }
-    img.attributes.push_back({"volcl:mode", std::string(renderModeName(scene_.mode))});
-    img.attributes.push_back({"volcl:step", static_cast<float>(scene_.step)});
-    img.attributes.push_back(
-        {"volcl:preintegration", std::string(preintegrationName(scene_.preintegration))});
-    img.attributes.push_back({"volcl:effects", plan_.defines.toOptions()});
+    ImageBuffer img = downloadFrame(!plan_.isosurfaces.empty());
+    addFrameAttributes(img);
     img.attributes.push_back({"volcl:lod", std::string(lodModeName(scene_.lod))});
     return img;
-}
-
-const cl::Buffer& BrickRenderer::outputBuffer() const noexcept {
-    return impl_->out.get();
 }
 
 std::string BrickRenderer::statistics() const {

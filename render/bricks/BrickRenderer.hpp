@@ -2,7 +2,7 @@
 // at the level it needs, into a device brick pool with an LRU budget.
 #pragma once
 
-#include "render/VolumeRenderer.hpp"
+#include "render/RendererBase.hpp"
 #include "render/bricks/BrickLod.hpp"
 
 #include <cstddef>
@@ -44,35 +44,22 @@ struct BrickStats {
 /// volcl::ImageBuffer img = r.render();
 /// std::cerr << r.lastStats().summary() << '\n';
 /// ```
-class BrickRenderer final : public VolumeRenderer {
+class BrickRenderer final : public RendererBase {
 public:
     /// Throws UsageError for a scene the brick renderer cannot draw or a budget too small for one brick at
     /// its coarsest level, IoError for a corrupted brick met while rendering (naming the brick).
     BrickRenderer(ComputeContext& cc, std::shared_ptr<const VczReader> reader, std::size_t frame,
                   const TransferFunction& tf, const Scene& scene);
     ~BrickRenderer() override;
-    BrickRenderer(const BrickRenderer&) = delete;
-    BrickRenderer& operator=(const BrickRenderer&) = delete;
 
     WorldBox bounds() const override;
     ValueRange valueRange() const override;
     EffectPlan planEffects(const Scene& scene) const override;
-    void setScene(const Scene& scene) override;
-    void setTransferFunction(const TransferFunction& tf) override;
-    void setView(const Camera& camera, int width, int height, double step) override;
     ImageBuffer render() override;
-
-    const cl::Buffer& outputBuffer() const noexcept override;
-    const EffectPlan& plan() const noexcept override { return plan_; }
-    const Scene& scene() const noexcept override { return scene_; }
-    const Camera& camera() const noexcept override { return camera_; }
-    double lastKernelMilliseconds() const noexcept override { return lastMs_; }
-    double lastTableMilliseconds() const noexcept override { return tableMs_; }
     /// The cache counters of the last frame and of all frames so far.
     std::string statistics() const override;
 
     const BrickStats& lastStats() const noexcept { return last_; }
-    const BrickStats& totalStats() const noexcept { return total_; }
     const BrickSelection& lastSelection() const noexcept { return selection_; }
     /// Draws brick b at `levels[b]` (capped at the file's levels) instead of choosing levels (tests,
     /// benchmarks); an empty vector returns to render.lod. Reachability and the TF still decide what is
@@ -81,23 +68,20 @@ public:
 
 private:
     struct Impl;
-    void rebuild(bool tfChanged);
+    /// Refuses cubic filters and smoothing (they need the whole grid) and steps too small for the box.
+    void admitScene(const Scene& next) override;
+    void rebuild(const Rebuild& change) override;
+    void viewChanged(bool sameView) override;
     void makePool();
     /// Levels that fit the pool: coarsens the cheapest bricks until the working set fits.
     BrickSelection fitBudget(BrickSelection s, const BrickView& view, const TransferFunction& tf);
     void loadBricks(const BrickSelection& s);
-    ComputeContext& cc_;
     std::shared_ptr<const VczReader> reader_;
     std::size_t frame_;
-    TransferFunction tf_;
-    Scene scene_;
-    Camera camera_;
-    EffectPlan plan_;
     std::unique_ptr<Impl> impl_;
     BrickSelection selection_;
     std::vector<int> forced_;
     BrickStats last_, total_;
-    double lastMs_ = 0.0, tableMs_ = 0.0;
 };
 
 } // namespace volcl

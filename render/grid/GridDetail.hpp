@@ -22,7 +22,7 @@ ValueRange valueRange(const Volume& volume);
 /// Min/max per macrocell; cell c covers voxels [c*edge, (c+1)*edge] (shared faces, so every trilinear cell
 /// inside it is covered).
 struct MacrocellGrid {
-    unsigned edge = 8;
+    unsigned edge = 8; ///< set by buildMacrocells from the device profile's rayMarch.macrocellEdge
     unsigned nx = 1, ny = 1, nz = 1;
     std::vector<float> min, max;
 };

@@ -12,6 +12,7 @@
 #include "render/grid/BsplineField.hpp"
 #include "render/grid/GridDetail.hpp"
 #include "render/grid/PathTracer.hpp"
+#include "core/runtime/DeviceProfile.hpp"
 #include "core/runtime/Timing.hpp"
 #include "preintegration/PreintegrationTable.hpp"
 
@@ -107,28 +108,12 @@ struct GridRenderer::Impl {
     double smoothedSigma = 0.0;
     DeviceBuffer<float> smoothed;
     grid_detail::MacrocellGrid smoothedMacro;
-    DeviceBuffer<VolclTfKnot> knots;
-    DeviceBuffer<cl_float4> table;
     DeviceBuffer<cl_uchar> empty;
-    DeviceBuffer<cl_float4> out;
-    DeviceBuffer<float> depth;
     FogDevice fog; ///< FOG: parameters and the height-map buffer
-    std::size_t knotCount = 0;
     grid_detail::MacrocellGrid macro;
     std::vector<unsigned char> emptyHost;
     cl::Kernel kernel;
     bool packet = false; ///< kernel is raymarch_packet: one work-item per 4x2 block of pixels
-    std::string tableKey;
-    int tableLengths = 1;
-    /// Recently used tables, most recent last: an interactive viewer alternates between a few steps, and a
-    /// 2D table per step costs 10-100 ms to rebuild (far more than a coarse frame).
-    struct CachedTable {
-        std::string key;
-        DeviceBuffer<cl_float4> table;
-        int lengths = 1;
-    };
-    std::vector<CachedTable> tableCache;
-    static constexpr std::size_t kTableCacheSize = 8;
     VolclGridRenderParams params{};
     /// Multiple scattering: the path tracer's majorants and accumulation (built on the first such scene).
     std::unique_ptr<GridPathTracer> pathTracer;
@@ -137,9 +122,7 @@ struct GridRenderer::Impl {
 
 GridRenderer::GridRenderer(ComputeContext& cc, const Volume& volume, const TransferFunction& tf,
                            const Scene& scene)
-    : cc_(cc), volume_(volume), tf_(tf), scene_(scene), impl_(std::make_unique<Impl>()) {
-    scene_.validate();
-    tf_.validate();
+    : RendererBase(cc, tf, scene), volume_(volume), impl_(std::make_unique<Impl>()) {
     if (volume.empty()) throw DataError("volume is empty");
     if (volume.voxelCount() >= (std::size_t(1) << 32))
         throw DataError("volume has " + std::to_string(volume.voxelCount()) +
@@ -159,9 +142,7 @@ GridRenderer::GridRenderer(ComputeContext& cc, const Volume& volume, const Trans
     impl_->range = grid_detail::valueRange(volume);
     impl_->useCorners =
         volume.type() == ScalarType::UInt8 && volume.voxelCount() <= grid_detail::kMaxCornerVoxels;
-    impl_->out = cc_.allocate<cl_float4>(1);
-    impl_->depth = cc_.allocate<float>(1);
-    rebuild(true);
+    start();
 }
 
 GridRenderer::~GridRenderer() = default;
@@ -170,96 +151,51 @@ std::size_t GridRenderer::macrocellCount() const noexcept {
     return impl_->macro.min.size();
 }
 
-void GridRenderer::setScene(const Scene& scene) {
-    scene.validate();
-    scene_ = scene;
-    rebuild(false);
+void GridRenderer::admitScene(const Scene& next) {
+    next.validateSteps(norm(bounds().extent));
 }
 
-void GridRenderer::setView(const Camera& camera, int width, int height, double step) {
-    Scene s = withView(scene_, camera, width, height, step);
-    if (step != scene_.step) {
-        setScene(s);
+void GridRenderer::viewChanged(bool sameView) {
+    impl_->params.camera = cameraParams(camera_, scene_.width, scene_.height);
+    if (impl_->pathTracer && !sameView) impl_->pathTracer->reset(); // the same view keeps accumulating
+}
+
+void GridRenderer::rebuild(const Rebuild& change) {
+    Impl& m = *impl_;
+    selectTables(change.shaded);
+    const grid_detail::MacrocellGrid& macro = prepareSampledField();
+    updateEmptiness(macro, change.shaded);
+    if (plan_.pathTracing) {
+        preparePathTracer(change.shaded);
         return;
     }
-    s.validate();
-    const bool same = camera.projection == camera_.projection && camera.eye == camera_.eye &&
-                      camera.target == camera_.target && camera.up == camera_.up && camera.height == camera_.height &&
-                      camera.fovYDeg == camera_.fovYDeg && width == scene_.width && height == scene_.height;
-    scene_ = s;
-    camera_ = camera;
-    impl_->params.camera = cameraParams(camera_, scene_.width, scene_.height);
-    if (impl_->pathTracer && !same) impl_->pathTracer->reset(); // the same view keeps accumulating
-}
-
-void GridRenderer::setTransferFunction(const TransferFunction& tf) {
-    tf.validate();
-    tf_ = tf;
-    rebuild(true);
-}
-
-void GridRenderer::rebuild(bool tfChanged) {
-    camera_ = scene_.camera ? *scene_.camera : defaultCamera(bounds());
-    const EffectPlan previous = plan_;
-    plan_ = planGrid(scene_, volume_, impl_->range, cc_.profile().rayMarch.macrocellEdge);
-    Impl& m = *impl_;
-
-    scene_.validateSteps(norm(bounds().extent));
-
-    TransferFunction shaded = tf_;
-    if (plan_.colorScale != 1.0)
-        for (auto& c : shaded.color)
-            for (double& v : c.rgb)
-                v *= plan_.colorScale;
-    if (tfChanged || previous.colorScale != plan_.colorScale) {
-        const auto knots = shaded.packKnots();
-        m.knots = cc_.upload(knots, CL_MEM_READ_ONLY);
-        m.knotCount = knots.size();
+    // Unlit DVR without iso-surfaces (the common, time-critical case) runs as explicit 8-ray packets.
+    const bool floatCopy = scene_.filter != ReconstructionFilter::Linear || scene_.smoothing > 0.0;
+    m.packet =
+        scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
+    m.kernel = cc_.kernel("render/raymarch.cl", m.packet ? "raymarch_packet" : "raymarch",
+                          m.packet ? packetDefines(plan_.defines, floatCopy) : plan_.defines);
+    m.params = grid_detail::makeParams(scene_, camera_, volume_, m.range, tf_, plan_, macro, knotCount(),
+                                       tableLengths());
+    if (plan_.isoTable) {
+        const std::array<double, 2> domain = isoTableDomain(m.range);
+        m.params.tf.domainLo = float(domain[0]);
+        m.params.tf.domainHi = float(domain[1]);
+        m.params.tf.tableSize = volcl_uint(scene_.tableSize);
     }
+    if (plan_.fog) m.params.fog = m.fog.update(cc_, scene_.effects.fog, bounds(), plan_.fogMap);
+}
 
-    // Pre-integration table: rebuilt when the TF, the step, the size or the kind changes.
-    const Preintegration pre = scene_.mode == RenderMode::Dvr ? scene_.preintegration : Preintegration::None;
-    tableMs_ = 0.0;
-    if (pre != Preintegration::None) {
-        TableSpec spec;
-        spec.size = scene_.tableSize;
-        if (pre == Preintegration::Table2d) {
-            spec.axis = LengthAxis::Fixed;
-            spec.step = scene_.step;
-        } else {
-            spec.axis = LengthAxis::Linear;
-            spec.lengths = scene_.tableLengths;
-            spec.maxLength = scene_.step;
+void GridRenderer::selectTables(const TransferFunction& shaded) {
+    if (const std::optional<TableSpec> spec = marchTableSpec()) {
+        if (!plan_.preintLighting) {
+            selectPreintegrationTable(shaded, *spec);
+            return;
         }
-        const std::string key = shaded.toJson() + "|" + std::to_string(int(pre)) + "|" +
-                                std::to_string(spec.size) + "|" + formatNumber(scene_.step) + "|" +
-                                std::to_string(spec.lengths) + (plan_.preintLighting ? "|lighting" : "");
-        if (key != m.tableKey) {
-            auto hit = std::find_if(m.tableCache.begin(), m.tableCache.end(),
-                                    [&](const Impl::CachedTable& c) { return c.key == key; });
-            Impl::CachedTable entry;
-            if (hit != m.tableCache.end()) {
-                entry = std::move(*hit);
-                m.tableCache.erase(hit);
-            } else {
-                Stopwatch sw;
-                if (plan_.preintLighting) {
-                    entry = {key, cc_.upload(lightingTableSlices(shaded, spec.size, scene_.step), CL_MEM_READ_ONLY), 1};
-                    tableMs_ = sw.milliseconds();
-                } else {
-                    const PreintegrationTable t = generatePreintegrationTable(shaded, spec, {}, &cc_);
-                    tableMs_ = sw.milliseconds();
-                    std::vector<cl_float4> rgba(t.rgba.size() / 4);
-                    std::memcpy(rgba.data(), t.rgba.data(), rgba.size() * sizeof(cl_float4));
-                    entry = {key, cc_.upload(rgba, CL_MEM_READ_ONLY), int(t.sliceCount())};
-                }
-            }
-            m.table = entry.table;
-            m.tableKey = key;
-            m.tableLengths = entry.lengths;
-            m.tableCache.push_back(std::move(entry));
-            if (m.tableCache.size() > Impl::kTableCacheSize) m.tableCache.erase(m.tableCache.begin());
-        }
+        selectTable(tableKey(shaded.toJson(), *spec, "lighting"), [&] {
+            return DeviceTable{
+                cc_.upload(lightingTableSlices(shaded, spec->size, scene_.step), CL_MEM_READ_ONLY), 1};
+        });
     } else if (plan_.isoTable) {
         // The iso-surface table over the data's value range (colours associated, scaled as the TF's).
         std::vector<IsoSurface> surfaces;
@@ -267,25 +203,25 @@ void GridRenderer::rebuild(bool tfChanged) {
             const double a = iso.rgba[3], cs = plan_.colorScale;
             surfaces.push_back({iso.value, {iso.rgba[0] * cs * a, iso.rgba[1] * cs * a, iso.rgba[2] * cs * a, a}});
         }
-        const std::array<double, 2> domain = isoTableDomain(m.range);
-        std::ostringstream key;
-        key << "iso|" << scene_.tableSize << "|" << domain[0] << "|" << domain[1];
+        const std::array<double, 2> domain = isoTableDomain(impl_->range);
+        std::ostringstream source;
+        source << std::setprecision(17) << "iso " << domain[0] << " " << domain[1];
         for (const auto& su : surfaces)
-            key << "|" << su.value << "," << su.rgba[0] << "," << su.rgba[1] << "," << su.rgba[2] << "," << su.rgba[3];
-        if (key.str() != m.tableKey) {
-            Stopwatch sw;
+            source << "|" << su.value << "," << su.rgba[0] << "," << su.rgba[1] << "," << su.rgba[2] << ","
+                   << su.rgba[3];
+        TableSpec spec;
+        spec.size = scene_.tableSize;
+        selectTable(tableKey(source.str(), spec, "iso"), [&] {
             const ImageBuffer img = isoSurfaceTableImage(surfaces, domain, scene_.tableSize);
             std::vector<cl_float4> rgba(std::size_t(img.width) * std::size_t(img.height));
             std::memcpy(rgba.data(), img.pixels.data(), rgba.size() * sizeof(cl_float4));
-            m.table = cc_.upload(rgba, CL_MEM_READ_ONLY);
-            m.tableKey = key.str();
-            m.tableLengths = 1;
-            tableMs_ = sw.milliseconds();
-        }
-    } else if (m.table.size() == 0) {
-        m.table = cc_.allocate<cl_float4>(1, CL_MEM_READ_ONLY);
+            return DeviceTable{cc_.upload(rgba, CL_MEM_READ_ONLY), 1};
+        });
     }
+}
 
+const grid_detail::MacrocellGrid& GridRenderer::prepareSampledField() {
+    Impl& m = *impl_;
     // Cubic filters: the spline's coefficients, built once per filter (prefiltering a 35 MB volume takes
     // about a second; camera and TF changes keep them).
     const bool spline = scene_.filter != ReconstructionFilter::Linear;
@@ -314,9 +250,12 @@ void GridRenderer::rebuild(bool tfChanged) {
         m.smoothed = cc_.upload(voxels, CL_MEM_READ_ONLY);
         m.smoothedSigma = scene_.smoothing;
     }
-    const grid_detail::MacrocellGrid& macro = spline ? m.splineMacro : smoothedLinear ? m.smoothedMacro : m.macro;
+    return spline ? m.splineMacro : smoothedLinear ? m.smoothedMacro : m.macro;
+}
 
-    // Macrocell emptiness from the TF (and the iso-values), for the sampling the kernel will use.
+void GridRenderer::updateEmptiness(const grid_detail::MacrocellGrid& macro, const TransferFunction& shaded) {
+    Impl& m = *impl_;
+    const Preintegration pre = scene_.mode == RenderMode::Dvr ? scene_.preintegration : Preintegration::None;
     std::vector<double> isoValues;
     for (const auto& iso : plan_.isosurfaces)
         isoValues.push_back(iso.value);
@@ -328,38 +267,25 @@ void GridRenderer::rebuild(bool tfChanged) {
         emptyCount += e;
     emptyFraction_ = m.emptyHost.empty() ? 0.0 : double(emptyCount) / double(m.emptyHost.size());
     m.empty = cc_.upload(m.emptyHost, CL_MEM_READ_ONLY);
+}
 
+void GridRenderer::preparePathTracer(const TransferFunction& shaded) {
+    Impl& m = *impl_;
     // Multiple scattering: the path tracer reads the stored voxels trilinearly, with majorants from their
     // macrocells.
-    if (plan_.pathTracing) {
-        if (!m.pathTracer) m.pathTracer = std::make_unique<GridPathTracer>(cc_);
-        const std::string key = shaded.toJson();
-        if (key != m.majorantKey) {
-            m.pathTracer->setMajorants(majorantGrid(m.macro, shaded));
-            m.majorantKey = key;
-        }
-        m.pathTracer->reset();
-        KernelDefines d = plan_.defines;
-        d.set("VOXEL_TYPE", static_cast<long long>(voxelTypeCode(volume_)));
-        m.packet = false;
-        m.kernel = cc_.kernel("render/pathtrace.cl", "pathtrace", d);
-        m.params = grid_detail::makeParams(scene_, camera_, volume_, m.range, tf_, plan_, m.macro, m.knotCount,
-                                           m.tableLengths);
-        return;
+    if (!m.pathTracer) m.pathTracer = std::make_unique<GridPathTracer>(cc_);
+    const std::string key = shaded.toJson();
+    if (key != m.majorantKey) {
+        m.pathTracer->setMajorants(majorantGrid(m.macro, shaded));
+        m.majorantKey = key;
     }
-    // Unlit DVR without iso-surfaces (the common, time-critical case) runs as explicit 8-ray packets.
-    m.packet = scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
-    m.kernel = cc_.kernel("render/raymarch.cl", m.packet ? "raymarch_packet" : "raymarch",
-                          m.packet ? packetDefines(plan_.defines, spline || smoothedLinear) : plan_.defines);
-    m.params =
-        grid_detail::makeParams(scene_, camera_, volume_, m.range, tf_, plan_, macro, m.knotCount, m.tableLengths);
-    if (plan_.isoTable) {
-        const std::array<double, 2> domain = isoTableDomain(m.range);
-        m.params.tf.domainLo = float(domain[0]);
-        m.params.tf.domainHi = float(domain[1]);
-        m.params.tf.tableSize = volcl_uint(scene_.tableSize);
-    }
-    if (plan_.fog) m.params.fog = m.fog.update(cc_, scene_.effects.fog, bounds(), plan_.fogMap);
+    m.pathTracer->reset();
+    KernelDefines d = plan_.defines;
+    d.set("VOXEL_TYPE", static_cast<long long>(voxelTypeCode(volume_)));
+    m.packet = false;
+    m.kernel = cc_.kernel("render/pathtrace.cl", "pathtrace", d);
+    m.params = grid_detail::makeParams(scene_, camera_, volume_, m.range, tf_, plan_, m.macro, knotCount(),
+                                       tableLengths());
 }
 
 KernelDefines GridRenderer::packetDefines(KernelDefines d, bool floatCopy) {
@@ -375,18 +301,14 @@ KernelDefines GridRenderer::packetDefines(KernelDefines d, bool floatCopy) {
 
 ImageBuffer GridRenderer::launch(cl::Kernel& kernel, const cl::Buffer& voxels, bool withDepth, bool packet) {
     Impl& m = *impl_;
-    const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
-    if (m.out.size() != pixels) {
-        m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
-        m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
-    }
+    ensureFrameBuffers();
     if (plan_.pathTracing) {
         m.pathTracer->reset();
-        lastMs_ = m.pathTracer->accumulate(kernel, voxels, m.knots, m.params, scene_.effects, scene_.effects.samples,
-                                           m.out);
+        lastMs_ = m.pathTracer->accumulate(kernel, voxels, knots(), m.params, scene_.effects,
+                                           scene_.effects.samples, out_);
         return readImage(false);
     }
-        setArgs(kernel, voxels, m.knots, m.table, m.empty, m.params, m.out, m.depth, m.fog.buffer(cc_));
+    setArgs(kernel, voxels, knots(), table(), m.empty, m.params, out_, depth_, m.fog.buffer(cc_));
     // One ray per work-item, or one packet of 4x2 rays (see DeviceProfile::RayMarch for the tiles).
     const std::size_t w = std::size_t(scene_.width), h = std::size_t(scene_.height);
     const DeviceProfile::RayMarch& tuning = cc_.profile().rayMarch;
@@ -397,32 +319,11 @@ ImageBuffer GridRenderer::launch(cl::Kernel& kernel, const cl::Buffer& voxels, b
 }
 
 ImageBuffer GridRenderer::readImage(bool withDepth) {
-    Impl& m = *impl_;
-    const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
-    const auto rgba = cc_.download(m.out);
-    std::vector<std::string> channels{"R", "G", "B", "A"};
-    if (withDepth) channels.push_back("Z");
-    ImageBuffer img(scene_.width, scene_.height, channels);
-    std::vector<float> depth;
-    if (withDepth) depth = cc_.download(m.depth);
-    const int nc = img.channelCount();
-    for (std::size_t i = 0; i < pixels; ++i) {
-        for (int c = 0; c < 4; ++c)
-            img.pixels[i * nc + c] = rgba[i].s[c];
-        if (withDepth) img.pixels[i * nc + 4] = depth[i];
-    }
-    img.attributes.push_back({"volcl:mode", std::string(renderModeName(scene_.mode))});
-    img.attributes.push_back({"volcl:step", static_cast<float>(scene_.step)});
-    img.attributes.push_back(
-        {"volcl:preintegration", std::string(preintegrationName(scene_.preintegration))});
-    img.attributes.push_back({"volcl:effects", plan_.defines.toOptions()});
+    ImageBuffer img = downloadFrame(withDepth);
+    addFrameAttributes(img);
     if (scene_.filter != ReconstructionFilter::Linear) // absent: linear, as in images from before the filters
         img.attributes.push_back({"volcl:filter", std::string(filterName(scene_.filter))});
     return img;
-}
-
-const cl::Buffer& GridRenderer::outputBuffer() const noexcept {
-    return impl_->out.get();
 }
 
 ImageBuffer GridRenderer::render() {
@@ -438,13 +339,9 @@ ImageBuffer GridRenderer::render() {
 int GridRenderer::accumulateSamples(int samples) {
     Impl& m = *impl_;
     if (!plan_.pathTracing) throw UsageError("progressive accumulation needs effects.scattering.order multiple");
-    const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
-    if (m.out.size() != pixels) {
-        m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
-        m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
-        m.pathTracer->reset();
-    }
-    lastMs_ = m.pathTracer->accumulate(m.kernel, m.volume.get(), m.knots, m.params, scene_.effects, samples, m.out);
+    if (ensureFrameBuffers()) m.pathTracer->reset();
+    lastMs_ =
+        m.pathTracer->accumulate(m.kernel, m.volume.get(), knots(), m.params, scene_.effects, samples, out_);
     return m.pathTracer->samplesDone();
 }
 

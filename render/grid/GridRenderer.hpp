@@ -2,7 +2,7 @@
 #pragma once
 
 #include "render/Reference.hpp"
-#include "render/VolumeRenderer.hpp"
+#include "render/RendererBase.hpp"
 
 #include <memory>
 #include <string>
@@ -10,6 +10,9 @@
 namespace volcl {
 
 class Volume;
+namespace grid_detail {
+struct MacrocellGrid;
+}
 
 /// World box of the node-centred grid: origin and (n - 1) * spacing per axis.
 WorldBox gridBounds(const Volume& volume);
@@ -30,35 +33,21 @@ Camera defaultCamera(const Volume& volume);
 /// volcl::ImageBuffer img = r.render();         // R, G, B, A (+ Z in iso mode), linear associated
 /// std::cerr << r.plan().explain();
 /// ```
-class GridRenderer final : public VolumeRenderer {
+class GridRenderer final : public RendererBase {
 public:
     /// Throws DataError for a volume with NaN/Inf voxels, UsageError for an invalid scene.
     GridRenderer(ComputeContext& cc, const Volume& volume, const TransferFunction& tf, const Scene& scene);
     ~GridRenderer() override;
-    GridRenderer(const GridRenderer&) = delete;
-    GridRenderer& operator=(const GridRenderer&) = delete;
 
     WorldBox bounds() const override;
     ValueRange valueRange() const override;
     EffectPlan planEffects(const Scene& scene) const override;
-
-    void setScene(const Scene& scene) override;
-    void setTransferFunction(const TransferFunction& tf) override;
-    /// Moves the camera and resizes the image without re-planning effects or re-scanning the volume, for
-    /// interactive viewers (setScene re-plans: tens of milliseconds on large volumes). A new step goes
-    /// through setScene, since tables and guards depend on it.
-    void setView(const Camera& camera, int width, int height, double step) override;
+    /// setView() moves the camera and resizes the image without re-planning effects or re-scanning the
+    /// volume, for interactive viewers (setScene re-plans: tens of milliseconds on large volumes).
     ImageBuffer render() override;
     ImageBuffer renderProgressive(int samples) override;
     /// Renders with the effect-free baseline kernel (raymarch_plain.cl); DVR, point sampling only.
     ImageBuffer renderPlainBaseline() override;
-
-    const cl::Buffer& outputBuffer() const noexcept override;
-    const EffectPlan& plan() const noexcept override { return plan_; }
-    const Scene& scene() const noexcept override { return scene_; }
-    const Camera& camera() const noexcept override { return camera_; }
-    double lastKernelMilliseconds() const noexcept override { return lastMs_; }
-    double lastTableMilliseconds() const noexcept override { return tableMs_; }
     /// "macrocells: N, x% empty".
     std::string statistics() const override;
 
@@ -75,20 +64,26 @@ public:
 
 private:
     struct Impl;
-    void rebuild(bool tfChanged);
+    void admitScene(const Scene& next) override;
+    void rebuild(const Rebuild& change) override;
+    void viewChanged(bool sameView) override;
+    /// The pre-integration (or lighting, or iso-surface) table the plan reads.
+    void selectTables(const TransferFunction& shaded);
+    /// The cubic filter's coefficients or the smoothed voxels when the scene asks for them, built once per
+    /// filter (or sigma); returns the macrocells of what the kernel samples.
+    const grid_detail::MacrocellGrid& prepareSampledField();
+    /// Macrocell emptiness from the shaded TF and the iso-values, for the sampling the kernel will use.
+    void updateEmptiness(const grid_detail::MacrocellGrid& macro, const TransferFunction& shaded);
+    /// The path tracer's kernel, majorants and parameters (plans with multiple scattering).
+    void preparePathTracer(const TransferFunction& shaded);
     ImageBuffer launch(cl::Kernel& kernel, const cl::Buffer& voxels, bool depth, bool packet);
     ImageBuffer readImage(bool withDepth); ///< the output buffer (and depth) as an image with attributes
     /// d plus the volume layout the packet kernels read (uploads the corner copy on first use);
     /// `floatCopy`: they read a float copy instead (the cubic filter's coefficients, or smoothed voxels).
     KernelDefines packetDefines(KernelDefines d, bool floatCopy);
-    ComputeContext& cc_;
     const Volume& volume_;
-    TransferFunction tf_;
-    Scene scene_;
-    Camera camera_;
-    EffectPlan plan_;
     std::unique_ptr<Impl> impl_;
-    double lastMs_ = 0.0, tableMs_ = 0.0, emptyFraction_ = 0.0;
+    double emptyFraction_ = 0.0;
 };
 
 /// The grid's ray integral in double precision with fine steps and the exact TF, for every mode and effect

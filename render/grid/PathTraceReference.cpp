@@ -3,12 +3,12 @@
 #include "cl/common/counter_rng.h"
 #include "core/Error.hpp"
 #include "core/Volume.hpp"
-#include "core/runtime/DeviceProfile.hpp"
-#include "core/runtime/ParallelFor.hpp"
 #include "render/Reference.hpp"
 #include "render/VecMath.hpp"
 #include "render/grid/GridRenderer.hpp"
 #include "render/grid/PathTracer.hpp"
+#include "core/runtime/DeviceProfile.hpp"
+#include "core/runtime/ParallelFor.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -49,9 +49,8 @@ Vec3 samplePhase(const Vec3& dir, double g, double u1, double u2) {
 class PathReference {
 public:
     PathReference(const Volume& v, const TransferFunction& tf, const Scene& s)
-        : vol_(v), tf_(tf), fx_(s.effects), values_(v.toFloat()),
-          cam_(s.camera ? *s.camera : defaultCamera(v)), lighting_(s, cam_),
-          macro_(grid_detail::buildMacrocells(v, genericDeviceProfile().rayMarch.macrocellEdge)),
+        : vol_(v), tf_(tf), fx_(s.effects), values_(v.toFloat()), cam_(s.camera ? *s.camera : defaultCamera(v)),
+          lighting_(s, cam_), macro_(grid_detail::buildMacrocells(v, genericDeviceProfile().rayMarch.macrocellEdge)),
           majorant_(majorantGrid(macro_, tf)) {
         const Dims& d = v.dims();
         n_ = {d.x, d.y, d.z};

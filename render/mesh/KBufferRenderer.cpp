@@ -5,6 +5,7 @@
 #include "core/Format.hpp"
 #include "render/VecMath.hpp"
 #include "render/mesh/RadixSort.hpp"
+#include "core/runtime/DeviceProfile.hpp"
 #include "core/runtime/Timing.hpp"
 
 #include <algorithm>
@@ -47,10 +48,17 @@ EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, con
     return p;
 }
 
+/// A table in both forms: the host values rounded to half precision as the device holds them (for the C++
+/// mirror), and the device's blocked half-precision copy (kbufferBlockedTable) for kb_raster.
+struct KBufferRenderer::Table {
+    PreintegrationTable host;
+    DeviceBuffer<cl_half> device;
+};
+
 struct KBufferRenderer::Impl {
     explicit Impl(ComputeContext& cc) : sorter(cc) {}
     DeviceRadixSort sorter;
-    DeviceBuffer<cl_float4> points, proj, out;
+    DeviceBuffer<cl_float4> points, proj;
     DeviceBuffer<float> scalars;
     DeviceBuffer<cl_uint4> faces, sortedFaces, list;
     DeviceBuffer<cl_uint> keys, vals, counts, total;
@@ -58,21 +66,15 @@ struct KBufferRenderer::Impl {
     cl::Kernel project, faceKeys, gather, binCount, scan, binScatter, raster, toHalf, fromHalf;
     KernelDefines defines;
     std::size_t lastEntries = 0;
-    /// Tables: full quality (longest edge) and level of detail (box diagonal), built on first use.
-    struct Table {
-        std::string key;
-        PreintegrationTable host; ///< its values rounded to half precision, as the device holds them
-        DeviceBuffer<cl_half> device; ///< blocked (kbufferBlockedTable), half precision
-    };
-    Table full, lod;
-    std::size_t knotCount = 0;
+    /// Tables of full quality (lengths up to the longest edge) and of level of detail (up to the box
+    /// diagonal): a viewer alternates between the two.
+    TableCache<Table> tables{2};
+    const Table* table = nullptr; ///< the one the next frame reads
 };
 
 KBufferRenderer::KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf,
                                  const Scene& scene, int k, const FaceSplitOptions& split)
-    : cc_(cc), mesh_(mesh), tf_(tf), scene_(scene), k_(k), impl_(std::make_unique<Impl>(cc)) {
-    scene_.validate();
-    tf_.validate();
+    : RendererBase(cc, tf, scene), mesh_(mesh), k_(k), impl_(std::make_unique<Impl>(cc)) {
     if (mesh.tets.empty()) throw DataError("mesh has no tetrahedra");
     if (mesh.points.size() > 0xFFFFFFFFu) throw DataError("mesh has too many points for the k-buffer (2^32 - 1)");
     faces_ = buildMeshFaces(mesh);
@@ -96,8 +98,7 @@ KBufferRenderer::KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, 
     m.sortedRects = cc_.allocate<cl_uint2>(faceRecords.size());
     m.total = cc_.allocate<cl_uint>(1);
     m.list = cc_.allocate<cl_uint4>(std::max<std::size_t>(faceRecords.size(), 1));
-    m.out = cc_.allocate<cl_float4>(1);
-    rebuild(true);
+    start();
 }
 
 KBufferRenderer::~KBufferRenderer() = default;
@@ -119,33 +120,16 @@ EffectPlan KBufferRenderer::planEffects(const Scene& scene) const {
     return planKBuffer(scene, mesh_, k_, cc_.profile());
 }
 
-void KBufferRenderer::setScene(const Scene& scene) {
-    scene.validate();
-    // A new render.k is taken; an unchanged one keeps the k this renderer was made or set with.
-    const int k = scene.kBufferDepth != scene_.kBufferDepth ? scene.kBufferDepth : k_;
-    planKBuffer(scene, mesh_, k, cc_.profile()); // refuses before anything changes
+void KBufferRenderer::admitScene(const Scene& next) {
+    const int k = next.kBufferDepth != scene_.kBufferDepth ? next.kBufferDepth : k_;
+    planKBuffer(next, mesh_, k, cc_.profile()); // refuses before anything changes
     k_ = k;
-    scene_ = scene;
-    rebuild(false);
-}
-
-void KBufferRenderer::setTransferFunction(const TransferFunction& tf) {
-    tf.validate();
-    tf_ = tf;
-    rebuild(true);
-}
-
-void KBufferRenderer::setView(const Camera& camera, int width, int height, double step) {
-    Scene s = withView(scene_, camera, width, height, step);
-    s.validate();
-    scene_ = s;
-    camera_ = camera;
 }
 
 void KBufferRenderer::setK(int k) {
     planKBuffer(scene_, mesh_, k, cc_.profile());
     k_ = k;
-    rebuild(false);
+    replan(false);
 }
 
 void KBufferRenderer::setLodFraction(double q) {
@@ -158,15 +142,9 @@ std::size_t KBufferRenderer::facesDrawn() const noexcept {
     return faces_.prefixForFraction(lod_);
 }
 
-void KBufferRenderer::rebuild(bool tfChanged) {
+void KBufferRenderer::rebuild(const Rebuild& change) {
+    (void)change; // the table's key holds the TF
     Impl& m = *impl_;
-    camera_ = scene_.camera ? *scene_.camera : defaultCamera(bounds());
-    plan_ = planKBuffer(scene_, mesh_, k_, cc_.profile());
-    if (tfChanged) {
-        m.full.key.clear();
-        m.lod.key.clear();
-        m.knotCount = tf_.packKnots().size();
-    }
     if (!(m.defines == plan_.defines) || m.raster.get() == nullptr) {
         m.defines = plan_.defines;
         m.project = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_project", m.defines);
@@ -183,18 +161,18 @@ void KBufferRenderer::rebuild(bool tfChanged) {
 }
 
 void KBufferRenderer::ensureTable() {
-    Impl& m = *impl_;
-    const bool lod = lod_ < 1.0;
     const WorldBox b = bounds();
-    const double maxLength = lod ? std::max(norm(b.extent), mesh_.maxEdgeLength) : mesh_.maxEdgeLength;
+    const double maxLength = lod_ < 1.0 ? std::max(norm(b.extent), mesh_.maxEdgeLength) : mesh_.maxEdgeLength;
     const TableSpec spec = kbufferTableSpec(scene_, maxLength > 0.0 ? maxLength : 1.0);
-    const std::string key = std::to_string(spec.size) + "|" + std::to_string(spec.lengths) + "|" + formatNumber(spec.maxLength);
-    Impl::Table& t = lod ? m.lod : m.full;
     tableMs_ = 0.0;
-    if (t.key == key) return;
-    Stopwatch sw;
+    impl_->table =
+        &cachedTable(impl_->tables, tableKey(tf_.toJson(), spec), [&] { return buildTable(spec); });
+}
+
+KBufferRenderer::Table KBufferRenderer::buildTable(const TableSpec& spec) {
+    Impl& m = *impl_;
+    Table t;
     t.host = generatePreintegrationTable(tf_, spec, {}, &cc_);
-    tableMs_ = sw.milliseconds();
     // Round on the device (vstore_half_rte) and read the rounded values back into the host table, so the C++
     // mirror sees what the kernels see; then block the rounded values (exact in half) for kb_raster.
     const std::size_t entries = t.host.rgba.size() / 4;
@@ -217,26 +195,23 @@ void KBufferRenderer::ensureTable() {
         for (int c = 0; c < 4; ++c)
             t.host.rgba[4 * i + std::size_t(c)] = values[i].s[c];
     t.device = toHalf(kbufferBlockedTable(t.host));
-    t.key = key;
+    return t;
 }
 
 const std::vector<float>& KBufferRenderer::tableValues() const {
-    return (lod_ < 1.0 ? impl_->lod : impl_->full).host.rgba;
+    return impl_->table->host.rgba;
 }
 
 VolclKBufferParams KBufferRenderer::frameParams() const {
-    const Impl& m = *impl_;
-    const Impl::Table& t = lod_ < 1.0 ? m.lod : m.full;
-    return kbufferParams(geometry_, camera_, scene_.width, scene_.height, scene_.earlyTermination, facesDrawn(),
-                         kbufferTfParams(t.host, m.knotCount));
+    return kbufferParams(geometry_, camera_, scene_.width, scene_.height, scene_.earlyTermination,
+                         facesDrawn(), kbufferTfParams(impl_->table->host, knotCount()));
 }
 
 ImageBuffer KBufferRenderer::render() {
     Impl& m = *impl_;
     const VolclKBufferParams P = frameParams();
-    const Impl::Table& table = lod_ < 1.0 ? m.lod : m.full;
-    const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
-    if (m.out.size() != pixels) m.out = cc_.allocate<cl_float4>(pixels);
+    const Table& table = *m.table;
+    ensureFrameBuffers();
     const std::size_t tiles = std::size_t(P.tilesX) * P.tilesY;
     const DeviceProfile::Mesh& tuning = cc_.profile().mesh;
     const std::size_t binChunks = tuning.binChunks;
@@ -266,14 +241,11 @@ ImageBuffer KBufferRenderer::render() {
     times_.bin += eventMilliseconds(cc_.launch1d(m.binScatter, binChunks, tuning.binLocal));
 
     const std::size_t threads = tuning.tileThreads;
-    setArgs(m.raster, m.proj, m.scalars, m.counts, m.list, P, table.device, m.out);
+    setArgs(m.raster, m.proj, m.scalars, m.counts, m.list, P, table.device, out_);
     times_.raster = eventMilliseconds(cc_.launch(m.raster, cl::NDRange(tiles * threads), cl::NDRange(threads)));
 
-    const auto rgba = cc_.download(m.out);
-    ImageBuffer img(scene_.width, scene_.height, {"R", "G", "B", "A"});
-    for (std::size_t i = 0; i < pixels; ++i)
-        for (int c = 0; c < 4; ++c)
-            img.pixels[i * 4 + c] = rgba[i].s[c];
+    lastMs_ = times_.total();
+    ImageBuffer img = downloadFrame(false);
     img.attributes.push_back({"volcl:mode", std::string(renderModeName(scene_.mode))});
     img.attributes.push_back({"volcl:method", std::string("kbuffer")});
     img.attributes.push_back({"volcl:k", k_});
@@ -290,10 +262,6 @@ std::vector<cl_uint> KBufferRenderer::lastOrder() {
     std::vector<cl_uint> all = cc_.download(impl_->vals);
     all.resize(facesDrawn());
     return all;
-}
-
-const cl::Buffer& KBufferRenderer::outputBuffer() const noexcept {
-    return impl_->out.get();
 }
 
 std::string KBufferRenderer::statistics() const {

@@ -3,7 +3,7 @@
 #pragma once
 
 #include "host/mesh/TetMesh.hpp"
-#include "render/VolumeRenderer.hpp"
+#include "render/RendererBase.hpp"
 #include "render/mesh/KBufferFrame.hpp"
 #include "render/mesh/MeshFaces.hpp"
 
@@ -45,30 +45,18 @@ struct FaceSplitOptions {
 /// volcl::ImageBuffer img = r.render();
 /// r.setLodFraction(0.1);              // interactive frame: boundary + 10 % of the internal faces
 /// ```
-class KBufferRenderer final : public VolumeRenderer {
+class KBufferRenderer final : public RendererBase {
 public:
     /// Throws UsageError for k outside 2..8 or a scene the method cannot draw (mode other than dvr).
     KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf, const Scene& scene,
                     int k = kKBufferDefaultK, const FaceSplitOptions& split = {});
     ~KBufferRenderer() override;
-    KBufferRenderer(const KBufferRenderer&) = delete;
-    KBufferRenderer& operator=(const KBufferRenderer&) = delete;
 
     WorldBox bounds() const override;
     ValueRange valueRange() const override;
     EffectPlan planEffects(const Scene& scene) const override;
-
-    void setScene(const Scene& scene) override;
-    void setTransferFunction(const TransferFunction& tf) override;
-    void setView(const Camera& camera, int width, int height, double step) override;
+    /// lastKernelMilliseconds(): the total of lastStageTimes().
     ImageBuffer render() override;
-
-    const cl::Buffer& outputBuffer() const noexcept override;
-    const EffectPlan& plan() const noexcept override { return plan_; }
-    const Scene& scene() const noexcept override { return scene_; }
-    const Camera& camera() const noexcept override { return camera_; }
-    double lastKernelMilliseconds() const noexcept override { return times_.total(); }
-    double lastTableMilliseconds() const noexcept override { return tableMs_; }
     /// "faces: 2 boundary + 3 internal, drawn 5, k 6, tile entries 9".
     std::string statistics() const override;
 
@@ -76,7 +64,6 @@ public:
     void setK(int k);
     /// Fraction of the internal faces drawn, [0, 1] (1: full quality, the default).
     void setLodFraction(double q);
-    double lodFraction() const noexcept { return lod_; }
     std::size_t facesDrawn() const noexcept;
     const MeshFaces& faces() const noexcept { return faces_; }
     const KBufferStageTimes& lastStageTimes() const noexcept { return times_; }
@@ -92,21 +79,23 @@ public:
 
 private:
     struct Impl;
-    void rebuild(bool tfChanged);
+    struct Table;
+    /// Takes a new render.k (an unchanged one keeps the k this renderer was made or set with) and refuses
+    /// what the method cannot draw.
+    void admitScene(const Scene& next) override;
+    void rebuild(const Rebuild& change) override;
+    /// Frames do not depend on render.step: every segment goes through the 3D table.
+    bool stepNeedsRebuild() const override { return false; }
+    /// Makes the table of the current level of detail current, from the cache or built.
     void ensureTable();
-    ComputeContext& cc_;
+    Table buildTable(const TableSpec& spec);
     const mesh::TetMesh& mesh_;
-    TransferFunction tf_;
-    Scene scene_;
-    Camera camera_;
-    EffectPlan plan_;
     MeshFaces faces_;
     KBufferGeometry geometry_;
     int k_;
     double lod_ = 1.0;
     std::unique_ptr<Impl> impl_;
     KBufferStageTimes times_;
-    double tableMs_ = 0.0;
 };
 
 /// The renderer for render.method "kbuffer" (RenderInput::makeRenderer calls it): a KBufferRenderer of depth

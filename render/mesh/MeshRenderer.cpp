@@ -10,6 +10,7 @@
 #include "render/grid/GridDetail.hpp"
 #include "render/mesh/MeshGeometry.hpp"
 #include "render/mesh/MeshReference.hpp"
+#include "core/runtime/DeviceProfile.hpp"
 #include "core/runtime/ParallelFor.hpp"
 #include "core/runtime/Timing.hpp"
 #include "preintegration/PreintegrationTable.hpp"
@@ -56,13 +57,8 @@ struct MeshRenderer::Impl {
     std::vector<float> tetMin, tetMax;
     DeviceBuffer<cl_float4> cells, bvhNodes, bvhFaces; ///< cells: 6 per tet (planes, field, neighbours)
     DeviceBuffer<cl_uchar> empty;
-    DeviceBuffer<VolclTfKnot> knots;
     DeviceBuffer<float> tauIntegral;
-    DeviceBuffer<cl_float4> table, out;
-    DeviceBuffer<float> depth;
-    std::size_t knotCount = 0, bvhNodeCount = 0;
-    std::string tableKey;
-    int tableLengths = 1;
+    std::size_t bvhNodeCount = 0;
     double maxSegment = 1.0;
     cl::Kernel kernel;
     VolclMeshRenderParams params{};
@@ -70,9 +66,7 @@ struct MeshRenderer::Impl {
 
 MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf,
                            const Scene& scene)
-    : cc_(cc), mesh_(mesh), tf_(tf), scene_(scene), impl_(std::make_unique<Impl>()) {
-    scene_.validate();
-    tf_.validate();
+    : RendererBase(cc, tf, scene), mesh_(mesh), impl_(std::make_unique<Impl>()) {
     if (mesh.tets.empty()) throw DataError("mesh has no tetrahedra");
     Impl& m = *impl_;
     const std::size_t nt = mesh.tets.size();
@@ -146,10 +140,7 @@ MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const 
     m.bvhFaces = cc_.upload(faces, CL_MEM_READ_ONLY);
     m.bvhNodeCount = bvh.nodes.size();
     m.maxSegment = mesh.maxEdgeLength > 0.0 ? mesh.maxEdgeLength : m.scale;
-    m.out = cc_.allocate<cl_float4>(1);
-    m.depth = cc_.allocate<float>(1);
-    m.table = cc_.allocate<cl_float4>(1, CL_MEM_READ_ONLY);
-    rebuild(true);
+    start();
 }
 
 MeshRenderer::~MeshRenderer() = default;
@@ -166,83 +157,44 @@ EffectPlan MeshRenderer::planEffects(const Scene& scene) const {
     return planMeshEffects(scene, mesh_);
 }
 
-void MeshRenderer::setScene(const Scene& scene) {
-    scene.validate();
-    scene_ = scene;
-    rebuild(false);
+void MeshRenderer::viewChanged(bool sameView) {
+    (void)sameView;
+    impl_->params.camera = cameraParams(camera_, scene_.width, scene_.height);
 }
 
-void MeshRenderer::setTransferFunction(const TransferFunction& tf) {
-    tf.validate();
-    tf_ = tf;
-    rebuild(true);
-}
-
-void MeshRenderer::setView(const Camera& camera, int width, int height, double step) {
-    Scene s = withView(scene_, camera, width, height, step);
-    if (step != scene_.step) {
-        setScene(s);
-        return;
-    }
-    s.validate();
-    scene_ = s;
-    camera_ = camera;
-    updateViewParams();
-}
-
-void MeshRenderer::updateViewParams() {
-    Impl& m = *impl_;
-    m.params.camera = cameraParams(camera_, scene_.width, scene_.height);
-}
-
-void MeshRenderer::rebuild(bool tfChanged) {
-    Impl& m = *impl_;
-    camera_ = scene_.camera ? *scene_.camera : defaultCamera(bounds());
-    const EffectPlan previous = plan_;
-    plan_ = planMeshEffects(scene_, mesh_);
+void MeshRenderer::rebuild(const Rebuild& change) {
     const bool preint = plan_.defines.toOptions().find("-DPREINT=3") != std::string::npos;
-
-    TransferFunction shaded = tf_;
-    if (plan_.colorScale != 1.0)
-        for (auto& c : shaded.color)
-            for (double& v : c.rgb)
-                v *= plan_.colorScale;
-    if (tfChanged || previous.colorScale != plan_.colorScale || m.knotCount == 0) {
-        const auto knots = shaded.packKnots();
-        m.knots = cc_.upload(knots, CL_MEM_READ_ONLY);
-        m.knotCount = knots.size();
-        // Integral of tau from knot 0 to each knot (exact for the piecewise-linear tau), for xray.
-        std::vector<float> cum(knots.size(), 0.0f);
-        double acc = 0.0;
-        for (std::size_t k = 0; k + 1 < knots.size(); ++k) {
-            const double d = double(knots[k + 1].s) - double(knots[k].s);
-            acc += d * double(knots[k].value[3]) + 0.5 * d * d * double(knots[k].slope[3]);
-            cum[k + 1] = float(acc);
-        }
-        m.tauIntegral = cc_.upload(cum, CL_MEM_READ_ONLY);
-    }
-
-    tableMs_ = 0.0;
+    if (change.knotsChanged) uploadTauIntegral();
     if (preint) {
         TableSpec spec;
         spec.size = scene_.tableSize;
         spec.axis = LengthAxis::Linear;
         spec.lengths = scene_.tableLengths;
-        spec.maxLength = m.maxSegment;
-        const std::string key = shaded.toJson() + "|" + std::to_string(spec.size) + "|" +
-                                std::to_string(spec.lengths) + "|" + formatNumber(spec.maxLength);
-        if (key != m.tableKey) {
-            Stopwatch sw;
-            const PreintegrationTable t = generatePreintegrationTable(shaded, spec, {}, &cc_);
-            tableMs_ = sw.milliseconds();
-            std::vector<cl_float4> rgba(t.rgba.size() / 4);
-            std::memcpy(rgba.data(), t.rgba.data(), rgba.size() * sizeof(cl_float4));
-            m.table = cc_.upload(rgba, CL_MEM_READ_ONLY);
-            m.tableKey = key;
-            m.tableLengths = t.sliceCount();
-        }
+        spec.maxLength = impl_->maxSegment;
+        selectPreintegrationTable(change.shaded, spec);
     }
+    updateEmptiness(change.shaded, preint);
+    KernelDefines defines = plan_.defines;
+    defines.set("RAYS_X", cc_.profile().mesh.cellRaysX).set("RAYS_Y", cc_.profile().mesh.cellRaysY);
+    impl_->kernel = cc_.kernel("mesh/mesh_cells.cl", "mesh_cells", defines);
+    updateParams(change.shaded);
+}
 
+void MeshRenderer::uploadTauIntegral() {
+    // Exact for the piecewise-linear tau.
+    const std::vector<VolclTfKnot>& knots = hostKnots();
+    std::vector<float> cum(knots.size(), 0.0f);
+    double acc = 0.0;
+    for (std::size_t k = 0; k + 1 < knots.size(); ++k) {
+        const double d = double(knots[k + 1].s) - double(knots[k].s);
+        acc += d * double(knots[k].value[3]) + 0.5 * d * d * double(knots[k].slope[3]);
+        cum[k + 1] = float(acc);
+    }
+    impl_->tauIntegral = cc_.upload(cum, CL_MEM_READ_ONLY);
+}
+
+void MeshRenderer::updateEmptiness(const TransferFunction& shaded, bool preint) {
+    Impl& m = *impl_;
     // Per-tet emptiness: a tet is skipped when no iso-value lies in its range and (dvr) the TF's
     // extinction is zero over it, widened to the table nodes a lookup blends.
     const std::size_t nt = mesh_.tets.size();
@@ -274,11 +226,11 @@ void MeshRenderer::rebuild(bool tfChanged) {
     }
     emptyFraction_ = double(emptyCount) / double(nt);
     m.empty = cc_.upload(empty, CL_MEM_READ_ONLY);
+}
 
-    KernelDefines defines = plan_.defines;
-    defines.set("RAYS_X", cc_.profile().mesh.cellRaysX).set("RAYS_Y", cc_.profile().mesh.cellRaysY);
-    m.kernel = cc_.kernel("mesh/mesh_cells.cl", "mesh_cells", defines);
-
+void MeshRenderer::updateParams(const TransferFunction& shaded) {
+    Impl& m = *impl_;
+    const std::size_t nt = mesh_.tets.size();
     VolclMeshRenderParams& p = m.params;
     p = {};
     p.camera = cameraParams(camera_, scene_.width, scene_.height);
@@ -293,7 +245,7 @@ void MeshRenderer::rebuild(bool tfChanged) {
         (void)n;
     }
     p.march = marchParams(scene_, meshValueRange(mesh_));
-    p.tf = tfParams(scene_, shaded, m.knotCount, m.tableLengths);
+    p.tf = tfParams(scene_, shaded, knotCount(), tableLengths());
     p.tf.tableMaxLength = float(m.maxSegment);
     const double gradMin = 1e-6 * std::max(double(mesh_.valueMax) - double(mesh_.valueMin), 1e-30) /
                            std::max(mesh_.maxEdgeLength, 1e-300);
@@ -322,43 +274,18 @@ void MeshRenderer::rebuild(bool tfChanged) {
 
 ImageBuffer MeshRenderer::render() {
     Impl& m = *impl_;
-    const std::size_t pixels = std::size_t(scene_.width) * std::size_t(scene_.height);
-    if (m.out.size() != pixels) {
-        m.out = cc_.allocate<cl_float4>(pixels, CL_MEM_WRITE_ONLY);
-        m.depth = cc_.allocate<float>(pixels, CL_MEM_WRITE_ONLY);
-    }
-    setArgs(m.kernel, m.cells, m.empty, m.bvhNodes, m.bvhFaces, m.knots, m.tauIntegral, m.table, m.params,
-            m.out, m.depth);
+    ensureFrameBuffers();
+    setArgs(m.kernel, m.cells, m.empty, m.bvhNodes, m.bvhFaces, knots(), m.tauIntegral, table(), m.params,
+            out_, depth_);
     // One work-item per RAYS_X x RAYS_Y pixel block.
     const DeviceProfile::Mesh& tuning = cc_.profile().mesh;
     cl::Event ev =
         cc_.launch2d(m.kernel, (std::size_t(scene_.width) + tuning.cellRaysX - 1) / tuning.cellRaysX,
                      (std::size_t(scene_.height) + tuning.cellRaysY - 1) / tuning.cellRaysY, tuning.cells);
     lastMs_ = eventMilliseconds(ev);
-    const bool withDepth = !plan_.isosurfaces.empty();
-    const auto rgba = cc_.download(m.out);
-    std::vector<std::string> channels{"R", "G", "B", "A"};
-    if (withDepth) channels.push_back("Z");
-    ImageBuffer img(scene_.width, scene_.height, channels);
-    std::vector<float> depth;
-    if (withDepth) depth = cc_.download(m.depth);
-    const int nc = img.channelCount();
-    for (std::size_t i = 0; i < pixels; ++i) {
-        for (int c = 0; c < 4; ++c)
-            img.pixels[i * nc + c] = rgba[i].s[c];
-        if (withDepth) img.pixels[i * nc + 4] = depth[i];
-    }
-    img.attributes.push_back({"volcl:mode", std::string(renderModeName(scene_.mode))});
-    img.attributes.push_back({"volcl:method", std::string("cells")});
-    img.attributes.push_back({"volcl:step", static_cast<float>(scene_.step)});
-    img.attributes.push_back(
-        {"volcl:preintegration", std::string(preintegrationName(scene_.preintegration))});
-    img.attributes.push_back({"volcl:effects", plan_.defines.toOptions()});
+    ImageBuffer img = downloadFrame(!plan_.isosurfaces.empty());
+    addFrameAttributes(img, "cells");
     return img;
-}
-
-const cl::Buffer& MeshRenderer::outputBuffer() const noexcept {
-    return impl_->out.get();
 }
 
 std::string MeshRenderer::statistics() const {

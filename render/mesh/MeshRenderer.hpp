@@ -2,7 +2,7 @@
 #pragma once
 
 #include "host/mesh/TetMesh.hpp"
-#include "render/VolumeRenderer.hpp"
+#include "render/RendererBase.hpp"
 
 #include <memory>
 
@@ -18,45 +18,33 @@ namespace volcl {
 /// volcl::MeshRenderer r(cc, m, tf, scene);
 /// volcl::ImageBuffer img = r.render();
 /// ```
-class MeshRenderer final : public VolumeRenderer {
+class MeshRenderer final : public RendererBase {
 public:
     /// Throws UsageError for an invalid scene, DataError for an invalid TF or an empty mesh.
     MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf,
                  const Scene& scene);
     ~MeshRenderer() override;
-    MeshRenderer(const MeshRenderer&) = delete;
-    MeshRenderer& operator=(const MeshRenderer&) = delete;
 
     WorldBox bounds() const override;
     ValueRange valueRange() const override;
     EffectPlan planEffects(const Scene& scene) const override;
-
-    void setScene(const Scene& scene) override;
-    void setTransferFunction(const TransferFunction& tf) override;
-    void setView(const Camera& camera, int width, int height, double step) override;
     ImageBuffer render() override;
-
-    const cl::Buffer& outputBuffer() const noexcept override;
-    const EffectPlan& plan() const noexcept override { return plan_; }
-    const Scene& scene() const noexcept override { return scene_; }
-    const Camera& camera() const noexcept override { return camera_; }
-    double lastKernelMilliseconds() const noexcept override { return lastMs_; }
-    double lastTableMilliseconds() const noexcept override { return tableMs_; }
     /// "tets: N, boundary faces: B (BVH of K nodes), x% of tets empty under the TF".
     std::string statistics() const override;
 
 private:
     struct Impl;
-    void rebuild(bool tfChanged);
-    void updateViewParams();
-    ComputeContext& cc_;
+    void rebuild(const Rebuild& change) override;
+    void viewChanged(bool sameView) override;
+    /// Integral of tau from knot 0 to each knot, for xray (after the knots changed).
+    void uploadTauIntegral();
+    /// Per-tet emptiness under the shaded TF and the iso-values.
+    void updateEmptiness(const TransferFunction& shaded, bool preint);
+    /// The kernel's parameter block in the normalised frame.
+    void updateParams(const TransferFunction& shaded);
     const mesh::TetMesh& mesh_;
-    TransferFunction tf_;
-    Scene scene_;
-    Camera camera_;
-    EffectPlan plan_;
     std::unique_ptr<Impl> impl_;
-    double lastMs_ = 0.0, tableMs_ = 0.0, emptyFraction_ = 0.0;
+    double emptyFraction_ = 0.0;
 };
 
 } // namespace volcl
