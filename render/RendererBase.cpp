@@ -33,7 +33,9 @@ RendererBase::RendererBase(ComputeContext& cc, const TransferFunction& tf, const
     table_ = cc_.allocate<cl_float4>(1, CL_MEM_READ_ONLY);
 }
 
-void RendererBase::start() {
+void RendererBase::start(const WorldBox& box, const ValueRange& range) {
+    box_ = box;
+    range_ = range;
     admitScene(scene_);
     replan(true);
 }

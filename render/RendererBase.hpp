@@ -57,6 +57,9 @@ public:
     /// A new step re-plans as setScene (unless stepNeedsRebuild() says the renderer ignores the step).
     void setView(const Camera& camera, int width, int height, double step) override;
 
+    /// The data's world box and value range, fixed when the renderer starts.
+    WorldBox bounds() const final { return box_; }
+    ValueRange valueRange() const final { return range_; }
     const cl::Buffer& outputBuffer() const noexcept override { return out_.get(); }
     const EffectPlan& plan() const noexcept override { return plan_; }
     const Scene& scene() const noexcept override { return scene_; }
@@ -79,8 +82,9 @@ protected:
 
     /// Validates the scene and the TF (UsageError, DataError). Derived constructors finish with start().
     RendererBase(ComputeContext& cc, const TransferFunction& tf, const Scene& scene);
-    /// Admits the constructor's scene and builds everything for it (rebuild with the TF changed).
-    void start();
+    /// Takes the data's world box and value range, admits the constructor's scene and builds everything
+    /// for it (rebuild with the TF changed).
+    void start(const WorldBox& box, const ValueRange& range);
 
     /// Refuses (UsageError) a validated scene this renderer cannot draw, before anything changes, and takes
     /// what it keeps from it. Called on every committed scene (a view of the same step is not one).
@@ -130,6 +134,8 @@ protected:
     /// effects.
     void addFrameAttributes(ImageBuffer& img, std::string_view method = {}) const;
 
+    WorldBox box_;
+    ValueRange range_;
     ComputeContext& cc_;
     TransferFunction tf_;
     Scene scene_;

@@ -118,18 +118,10 @@ BrickRenderer::BrickRenderer(ComputeContext& cc, std::shared_ptr<const VczReader
     const bool intra = h.frames[frame_].type == FrameType::I;
     m.maxLevel = intra && h.transform != TransformKind::RawBits ? h.levels : 0;
     if (!intra) m.whole = reader_->decodeFrame(cc_, frame_);
-    start();
+    start(vczBounds(*impl_->h), impl_->range);
 }
 
 BrickRenderer::~BrickRenderer() = default;
-
-WorldBox BrickRenderer::bounds() const {
-    return vczBounds(*impl_->h);
-}
-
-ValueRange BrickRenderer::valueRange() const {
-    return impl_->range;
-}
 
 EffectPlan BrickRenderer::planEffects(const Scene& scene) const {
     // The two table paths need tables built from a whole volume's renderer state; bricks shade per sample.

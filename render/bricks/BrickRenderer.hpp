@@ -52,8 +52,6 @@ public:
                   const TransferFunction& tf, const Scene& scene);
     ~BrickRenderer() override;
 
-    WorldBox bounds() const override;
-    ValueRange valueRange() const override;
     EffectPlan planEffects(const Scene& scene) const override;
     ImageBuffer render() override;
     /// The cache counters of the last frame and of all frames so far.

@@ -142,7 +142,7 @@ GridRenderer::GridRenderer(ComputeContext& cc, const Volume& volume, const Trans
     impl_->range = grid_detail::valueRange(volume);
     impl_->useCorners =
         volume.type() == ScalarType::UInt8 && volume.voxelCount() <= grid_detail::kMaxCornerVoxels;
-    start();
+    start(gridBounds(volume_), impl_->range);
 }
 
 GridRenderer::~GridRenderer() = default;
@@ -363,14 +363,6 @@ ImageBuffer GridRenderer::renderPlainBaseline() {
     d.set("VOXEL_TYPE", static_cast<long long>(voxelTypeCode(volume_)));
     cl::Kernel k = cc_.kernel("render/raymarch_plain.cl", "raymarch_plain", packetDefines(d, false));
     return launch(k, impl_->useCorners ? impl_->corners.get() : impl_->volume.get(), false, true);
-}
-
-WorldBox GridRenderer::bounds() const {
-    return gridBounds(volume_);
-}
-
-ValueRange GridRenderer::valueRange() const {
-    return impl_->range;
 }
 
 EffectPlan GridRenderer::planEffects(const Scene& scene) const {

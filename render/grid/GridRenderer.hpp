@@ -39,8 +39,6 @@ public:
     GridRenderer(ComputeContext& cc, const Volume& volume, const TransferFunction& tf, const Scene& scene);
     ~GridRenderer() override;
 
-    WorldBox bounds() const override;
-    ValueRange valueRange() const override;
     EffectPlan planEffects(const Scene& scene) const override;
     /// setView() moves the camera and resizes the image without re-planning effects or re-scanning the
     /// volume, for interactive viewers (setScene re-plans: tens of milliseconds on large volumes).

@@ -4,6 +4,7 @@
 #include "core/Error.hpp"
 #include "core/Format.hpp"
 #include "render/VecMath.hpp"
+#include "render/mesh/MeshReference.hpp"
 #include "render/mesh/RadixSort.hpp"
 #include "core/runtime/DeviceProfile.hpp"
 #include "core/runtime/Timing.hpp"
@@ -98,23 +99,10 @@ KBufferRenderer::KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, 
     m.sortedRects = cc_.allocate<cl_uint2>(faceRecords.size());
     m.total = cc_.allocate<cl_uint>(1);
     m.list = cc_.allocate<cl_uint4>(std::max<std::size_t>(faceRecords.size(), 1));
-    start();
+    start(meshBounds(mesh_), meshValueRange(mesh_));
 }
 
 KBufferRenderer::~KBufferRenderer() = default;
-
-WorldBox KBufferRenderer::bounds() const {
-    WorldBox b;
-    for (int i = 0; i < 3; ++i) {
-        b.origin[i] = mesh_.boundsMin[i];
-        b.extent[i] = mesh_.boundsMax[i] - mesh_.boundsMin[i];
-    }
-    return b;
-}
-
-ValueRange KBufferRenderer::valueRange() const {
-    return {mesh_.valueMin, mesh_.valueMax};
-}
 
 EffectPlan KBufferRenderer::planEffects(const Scene& scene) const {
     return planKBuffer(scene, mesh_, k_, cc_.profile());

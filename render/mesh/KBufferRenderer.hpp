@@ -52,8 +52,6 @@ public:
                     int k = kKBufferDefaultK, const FaceSplitOptions& split = {});
     ~KBufferRenderer() override;
 
-    WorldBox bounds() const override;
-    ValueRange valueRange() const override;
     EffectPlan planEffects(const Scene& scene) const override;
     /// lastKernelMilliseconds(): the total of lastStageTimes().
     ImageBuffer render() override;

@@ -140,18 +140,10 @@ MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const 
     m.bvhFaces = cc_.upload(faces, CL_MEM_READ_ONLY);
     m.bvhNodeCount = bvh.nodes.size();
     m.maxSegment = mesh.maxEdgeLength > 0.0 ? mesh.maxEdgeLength : m.scale;
-    start();
+    start(meshBounds(mesh_), meshValueRange(mesh_));
 }
 
 MeshRenderer::~MeshRenderer() = default;
-
-WorldBox MeshRenderer::bounds() const {
-    return meshBounds(mesh_);
-}
-
-ValueRange MeshRenderer::valueRange() const {
-    return meshValueRange(mesh_);
-}
 
 EffectPlan MeshRenderer::planEffects(const Scene& scene) const {
     return planMeshEffects(scene, mesh_);

@@ -25,8 +25,6 @@ public:
                  const Scene& scene);
     ~MeshRenderer() override;
 
-    WorldBox bounds() const override;
-    ValueRange valueRange() const override;
     EffectPlan planEffects(const Scene& scene) const override;
     ImageBuffer render() override;
     /// "tets: N, boundary faces: B (BVH of K nodes), x% of tets empty under the TF".
