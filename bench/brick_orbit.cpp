@@ -4,11 +4,11 @@
 // Usage: volcl-bench-brick-orbit FILE.vcz TF.json [--frames 36] [--size 512] [--cache-mb 64]
 //        [--lod full|auto] [--lod-error 0.01] [--elevation 20] [--turns 1]
 #include "core/AtomicFile.hpp"
-#include "render/CameraFraming.hpp"
-#include "render/bricks/BrickRenderer.hpp"
 #include "core/runtime/PeakMemory.hpp"
 #include "core/runtime/Timing.hpp"
 #include "host/tf/TransferFunction.hpp"
+#include "render/CameraFraming.hpp"
+#include "render/bricks/BrickRenderer.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <cstdio>

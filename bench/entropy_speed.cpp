@@ -171,14 +171,14 @@ int main(int argc, char** argv) try {
         if (encodeOnly)
             std::printf("%s: %zu coefficients, %zu bytes (ratio %.4f), %s encode %.1f Mcoef/s (best %.1f), "
                         "decoding skipped\n",
-                        path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes), fast ? "fast" : "dense",
-                        double(n) / enc[2] / 1e6, double(n) / enc[0] / 1e6);
+                        path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes),
+                        fast ? "fast" : "dense", double(n) / enc[2] / 1e6, double(n) / enc[0] / 1e6);
         else
             std::printf("%s: %zu coefficients, %zu bytes (ratio %.4f), %s encode %.1f / decode %.1f Mcoef/s "
                         "(best %.1f / %.1f)\n",
-                        path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes), fast ? "fast" : "dense",
-                        double(n) / enc[2] / 1e6, double(n) / dec[2] / 1e6, double(n) / enc[0] / 1e6,
-                        double(n) / dec[0] / 1e6);
+                        path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes),
+                        fast ? "fast" : "dense", double(n) / enc[2] / 1e6, double(n) / dec[2] / 1e6,
+                        double(n) / enc[0] / 1e6, double(n) / dec[0] / 1e6);
         if (compare) {
             std::sort(encScalar.begin(), encScalar.end());
             std::sort(encRatio.begin(), encRatio.end());

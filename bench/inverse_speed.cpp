@@ -123,12 +123,14 @@ template <class T> int run(const std::string& path, int runs, bool zero) {
     std::vector<std::vector<T>> inputs;
     std::size_t subnormal = 0, nonfinite = 0, count = 0;
     for (std::size_t g = 0; g < shapes.size(); ++g) {
-        auto& batch = *batches.emplace_back(std::make_unique<BrickBatch<T>>(cc, shapes[g], members[g].size()));
+        auto& batch =
+            *batches.emplace_back(std::make_unique<BrickBatch<T>>(cc, shapes[g], members[g].size()));
         std::vector<T> in(batch.brickStride() * batch.count(), T(0)); // row padding stays zero
         if (!zero)
             for (std::size_t i = 0; i < members[g].size(); ++i)
-                decodeBrick(file, h, members[g][i], reinterpret_cast<std::int32_t*>(in.data()) +
-                            i * batch.brickStride(), batch.pitch(), path);
+                decodeBrick(file, h, members[g][i],
+                            reinterpret_cast<std::int32_t*>(in.data()) + i * batch.brickStride(),
+                            batch.pitch(), path);
         if constexpr (std::is_same_v<T, float>)
             for (float v : in) {
                 subnormal += std::fpclassify(v) == FP_SUBNORMAL;
@@ -165,11 +167,14 @@ template <class T> int run(const std::string& path, int runs, bool zero) {
     }
     std::vector<double> sorted = wall;
     std::sort(sorted.begin(), sorted.end());
-    std::printf("%s: %s %s, %d levels, %zu bricks in %zu shapes, %zu values (%zu subnormal, %zu non-finite)%s, AnonHugePages %ld kB\n",
+    std::printf("%s: %s %s, %d levels, %zu bricks in %zu shapes, %zu values (%zu subnormal, %zu "
+                "non-finite)%s, AnonHugePages %ld kB\n",
                 path.c_str(), waveletName(h.wavelet).data(), std::is_same_v<T, float> ? "float" : "int32",
-                h.levels, h.brickCount(), shapes.size(), count, subnormal, nonfinite, zero ? " zeroed" : "", anonHugeKb());
-    std::printf("inverse wall ms: median %.2f min %.2f max %.2f; kernel median %.2f; process CPU median %.2f; runs:",
-                median(wall), sorted.front(), sorted.back(), median(kernel), median(cpu));
+                h.levels, h.brickCount(), shapes.size(), count, subnormal, nonfinite, zero ? " zeroed" : "",
+                anonHugeKb());
+    std::printf(
+        "inverse wall ms: median %.2f min %.2f max %.2f; kernel median %.2f; process CPU median %.2f; runs:",
+        median(wall), sorted.front(), sorted.back(), median(kernel), median(cpu));
     for (double w : wall)
         std::printf(" %.2f", w);
     std::printf("\nthread run ms over the timed runs (tid: ms):");
@@ -187,8 +192,10 @@ template <class T> int run(const std::string& path, int runs, bool zero) {
 
 int main(int argc, char** argv) try {
     if (argc < 2) {
-        std::fprintf(stderr, "usage: %s FILE.vcz [RUNS] [--zero]  (inverse of every brick, median wall time; "
-                             "--zero: all coefficients zero)\n", argv[0]);
+        std::fprintf(stderr,
+                     "usage: %s FILE.vcz [RUNS] [--zero]  (inverse of every brick, median wall time; "
+                     "--zero: all coefficients zero)\n",
+                     argv[0]);
         return 2;
     }
     const int runs = argc > 2 ? std::max(1, std::atoi(argv[2])) : 7;

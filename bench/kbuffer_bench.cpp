@@ -5,20 +5,20 @@
 // --rmse: RGBA RMSE of every k against the exact double reference (meshReferenceRender) of the same scene;
 // --dump: EXR images of the reference and every k into DIR; --deep-mirror: with --rmse, the C++ mirror at k = 8,
 // 32, 256 (toward exact order); --misorder-all: count out-of-order pops also on meshes above 300 k tets.
+#include "apps/viewer/AdaptiveQuality.hpp"
+#include "core/runtime/Timing.hpp"
 #include "host/mesh/MeshGenerator.hpp"
 #include "host/mesh/MeshIo.hpp"
+#include "host/tf/TransferFunction.hpp"
 #include "render/CameraFraming.hpp"
 #include "render/Reference.hpp"
-#include "render/mesh/MeshReference.hpp"
 #include "render/mesh/KBufferReference.hpp"
 #include "render/mesh/KBufferRenderer.hpp"
-#include "core/runtime/Timing.hpp"
-#include "host/tf/TransferFunction.hpp"
-#include "apps/viewer/AdaptiveQuality.hpp"
+#include "render/mesh/MeshReference.hpp"
 
 #include <cmath>
-#include <ctime>
 #include <cstdio>
+#include <ctime>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -36,8 +36,8 @@ TransferFunction benchTf(const mesh::TetMesh& m) {
     const double peak = 4.0 / std::sqrt(d2);
     std::ostringstream js;
     js << R"({"domain": [0, 1], "color": [[0, 0.1, 0.2, 0.9], [0.5, 1.0, 0.6, 0.2], [1, 1.0, 1.0, 1.0]],)"
-       << R"("extinction": [[0, )" << 0.05 * peak << "], [0.5, " << 0.6 * peak << "], [0.8, " << peak << "], [1, "
-       << 0.3 * peak << "]]}";
+       << R"("extinction": [[0, )" << 0.05 * peak << "], [0.5, " << 0.6 * peak << "], [0.8, " << peak
+       << "], [1, " << 0.3 * peak << "]]}";
     const double lo = m.valueMin, hi = m.valueMax > m.valueMin ? m.valueMax : m.valueMin + 1.0;
     return TransferFunction::fromJson(js.str()).rescaled({lo, hi});
 }
@@ -96,24 +96,37 @@ int main(int argc, char** argv) try {
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         auto next = [&] { return std::string(argv[++i]); };
-        if (a == "--size" && i + 1 < argc) size = std::stoi(next());
-        else if (a == "--runs" && i + 1 < argc) runs = std::stoi(next());
-        else if (a == "--k" && i + 1 < argc) ks = parseList(next());
-        else if (a == "--ml" && i + 1 < argc) ml = std::stoul(next());
-        else if (a == "--lod-target" && i + 1 < argc) lodTarget = std::stod(next());
-        else if (a == "--frames" && i + 1 < argc) frames = std::stoi(next());
-        else if (a == "--rmse") rmse = true;
-        else if (a == "--deep-mirror") deepMirror = true;
-        else if (a == "--misorder-all") misorderAll = true;
+        if (a == "--size" && i + 1 < argc)
+            size = std::stoi(next());
+        else if (a == "--runs" && i + 1 < argc)
+            runs = std::stoi(next());
+        else if (a == "--k" && i + 1 < argc)
+            ks = parseList(next());
+        else if (a == "--ml" && i + 1 < argc)
+            ml = std::stoul(next());
+        else if (a == "--lod-target" && i + 1 < argc)
+            lodTarget = std::stod(next());
+        else if (a == "--frames" && i + 1 < argc)
+            frames = std::stoi(next());
+        else if (a == "--rmse")
+            rmse = true;
+        else if (a == "--deep-mirror")
+            deepMirror = true;
+        else if (a == "--misorder-all")
+            misorderAll = true;
         else if (a == "--split" && i + 2 < argc) {
             split.ratio = std::stod(next());
             split.budget = std::stod(next());
-        }
-        else if (a == "--dump" && i + 1 < argc) dumpDir = next();
-        else if (a == "--table" && i + 1 < argc) gTableSize = std::stoi(next());
-        else if (a == "--lengths" && i + 1 < argc) gTableLengths = std::stoi(next());
-        else if (a == "--q-var" && i + 1 < argc) qVar = std::stoi(next());
-        else files.push_back(a);
+        } else if (a == "--dump" && i + 1 < argc)
+            dumpDir = next();
+        else if (a == "--table" && i + 1 < argc)
+            gTableSize = std::stoi(next());
+        else if (a == "--lengths" && i + 1 < argc)
+            gTableLengths = std::stoi(next());
+        else if (a == "--q-var" && i + 1 < argc)
+            qVar = std::stoi(next());
+        else
+            files.push_back(a);
     }
     ComputeContext cc;
     std::fprintf(stderr, "device: %s\n", cc.device().name.c_str());
@@ -129,8 +142,9 @@ int main(int argc, char** argv) try {
     }
     if (ml > 0) inputs.push_back({"marschner_lobb_" + std::to_string(ml), mesh::marschnerLobbMesh(ml)});
 
-    std::printf("mesh,tets,faces,k,size,median_ms,cpu_ms,kernel_ms,project_ms,keys_ms,sort_ms,bin_ms,raster_ms,"
-                "tets_per_s,misordered_pops_per_pixel,rmse,reference_ms\n");
+    std::printf(
+        "mesh,tets,faces,k,size,median_ms,cpu_ms,kernel_ms,project_ms,keys_ms,sort_ms,bin_ms,raster_ms,"
+        "tets_per_s,misordered_pops_per_pixel,rmse,reference_ms\n");
     for (const Input& in : inputs) {
         const TransferFunction tf = benchTf(in.mesh);
         const Scene scene = benchScene(boxOf(in.mesh), size);
@@ -150,18 +164,19 @@ int main(int argc, char** argv) try {
         std::vector<double> errors(ks.size(), -1.0);
         if (rmse && deepMirror) { // the C++ mirror with deeper buffers: toward the A-buffer (exact order)
             for (int deep : {8, 32, 256}) {
-                KBufferMirrorInput mi{&rs[0]->geometry(), &rs[0]->geometry().scalars, &rs[0]->faces(),
-                                      rs[0]->frameParams(), &rs[0]->tableValues(), deep};
+                KBufferMirrorInput mi{&rs[0]->geometry(),   &rs[0]->geometry().scalars, &rs[0]->faces(),
+                                      rs[0]->frameParams(), &rs[0]->tableValues(),      deep};
                 KBufferMirrorStats st;
                 const ImageBuffer img = kbufferMirrorRender(mi, &st);
-                std::fprintf(stderr, "mirror k %d: RMSE %.4g, misordered pops per pixel %.4g\n", deep, imageRmse(img, ref),
-                             double(st.misorderedPops) / double(img.width * img.height));
+                std::fprintf(stderr, "mirror k %d: RMSE %.4g, misordered pops per pixel %.4g\n", deep,
+                             imageRmse(img, ref), double(st.misorderedPops) / double(img.width * img.height));
             }
         }
         for (std::size_t i = 0; i < ks.size() && rmse; ++i) {
             const ImageBuffer img = rs[i]->render();
             errors[i] = imageRmse(img, ref);
-            if (!dumpDir.empty()) writeImage(img, dumpDir + "/" + in.name + "_k" + std::to_string(ks[i]) + ".exr");
+            if (!dumpDir.empty())
+                writeImage(img, dumpDir + "/" + in.name + "_k" + std::to_string(ks[i]) + ".exr");
         }
         std::vector<std::vector<double>> wall(ks.size()), kern(ks.size()), cpu(ks.size());
         std::vector<KBufferStageTimes> stages(ks.size());
@@ -182,8 +197,8 @@ int main(int argc, char** argv) try {
                 Scene small = scene;
                 small.width = small.height = 128;
                 KBufferRenderer probe(cc, in.mesh, tf, small, ks[i], split);
-                KBufferMirrorInput mi{&probe.geometry(), &probe.geometry().scalars, &probe.faces(), probe.frameParams(),
-                                      &probe.tableValues(), ks[i]};
+                KBufferMirrorInput mi{&probe.geometry(),   &probe.geometry().scalars, &probe.faces(),
+                                      probe.frameParams(), &probe.tableValues(),      ks[i]};
                 KBufferMirrorStats st;
                 kbufferMirrorRender(mi, &st);
                 misordered = double(st.misorderedPops) / (128.0 * 128.0);
@@ -194,9 +209,10 @@ int main(int argc, char** argv) try {
             std::fprintf(stderr, "%s: %s\n", in.name.c_str(), rs[i]->statistics().c_str());
             const double ms = median(wall[i]);
             const KBufferStageTimes& t = stages[i];
-            std::printf("%s,%zu,%zu,%d,%d,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.3g,%.4g,%.3g,%.0f\n", in.name.c_str(),
-                        in.mesh.tetCount(), rs[i]->faces().faces.size(), ks[i], size, ms, median(cpu[i]), median(kern[i]), t.project,
-                        t.keys, t.sort, t.bin, t.raster, double(in.mesh.tetCount()) / ms * 1e3, misordered, errors[i], refMs);
+            std::printf("%s,%zu,%zu,%d,%d,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.3g,%.4g,%.3g,%.0f\n",
+                        in.name.c_str(), in.mesh.tetCount(), rs[i]->faces().faces.size(), ks[i], size, ms,
+                        median(cpu[i]), median(kern[i]), t.project, t.keys, t.sort, t.bin, t.raster,
+                        double(in.mesh.tetCount()) / ms * 1e3, misordered, errors[i], refMs);
             std::fflush(stdout);
         }
         if (lodTarget > 0) {
@@ -218,8 +234,8 @@ int main(int argc, char** argv) try {
                 r.render();
                 const double ms = sw.milliseconds();
                 aq.report(level, ms);
-                std::printf("lod,%s,%d,%d,%.4f,%zu,%.1f,%.1f\n", in.name.c_str(), f, r.k(), level.work(), r.facesDrawn(),
-                            ms, lodTarget);
+                std::printf("lod,%s,%d,%d,%.4f,%zu,%.1f,%.1f\n", in.name.c_str(), f, r.k(), level.work(),
+                            r.facesDrawn(), ms, lodTarget);
                 std::fflush(stdout);
             }
             r.setLodFraction(1.0);

@@ -10,10 +10,10 @@
 //        [--supersample N] [--lod-errors a,b,c] [--targets a,b,c] [--bricks-csv OUT.csv]
 // Output: `key: value` lines on stdout (bench/results/multires/multires-oracle-*.log).
 #include "core/AtomicFile.hpp"
-#include "render/VecMath.hpp"
-#include "render/bricks/BrickRenderer.hpp"
 #include "core/runtime/Timing.hpp"
 #include "host/tf/TransferFunction.hpp"
+#include "render/VecMath.hpp"
+#include "render/bricks/BrickRenderer.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/container/LodStatistics.hpp"
 
@@ -62,11 +62,12 @@ ImageBuffer downsample(const ImageBuffer& big, int n) {
                 double s = 0;
                 for (int j = 0; j < n; ++j)
                     for (int i = 0; i < n; ++i)
-                        s += big.pixels[(std::size_t(y * n + j) * std::size_t(big.width) + std::size_t(x * n + i)) *
+                        s += big.pixels[(std::size_t(y * n + j) * std::size_t(big.width) +
+                                         std::size_t(x * n + i)) *
                                             std::size_t(nc) +
                                         std::size_t(c)];
-                out.pixels[(std::size_t(y) * std::size_t(w) + std::size_t(x)) * std::size_t(nc) + std::size_t(c)] =
-                    float(s / double(n * n));
+                out.pixels[(std::size_t(y) * std::size_t(w) + std::size_t(x)) * std::size_t(nc) +
+                           std::size_t(c)] = float(s / double(n * n));
             }
     return out;
 }
@@ -174,11 +175,12 @@ void printLodAutoEstimates(const OracleView& v, const ImageBuffer& ref, std::siz
         Stopwatch sw;
         const ImageBuffer img = r.render();
         const double ms = sw.milliseconds();
-        std::printf("estimate lod_error %g: RMSE %.3e, voxels %zu (%.2fx fewer), frame %.0f ms, kernel %.0f ms, "
-                    "decode %.0f ms\n",
-                    e, rmse(img, ref), r.lastStats().voxelsDecoded,
-                    double(voxels0) / double(r.lastStats().voxelsDecoded), ms, r.lastKernelMilliseconds(),
-                    r.lastStats().decodeMs);
+        std::printf(
+            "estimate lod_error %g: RMSE %.3e, voxels %zu (%.2fx fewer), frame %.0f ms, kernel %.0f ms, "
+            "decode %.0f ms\n",
+            e, rmse(img, ref), r.lastStats().voxelsDecoded,
+            double(voxels0) / double(r.lastStats().voxelsDecoded), ms, r.lastKernelMilliseconds(),
+            r.lastStats().decodeMs);
     }
 }
 
@@ -188,7 +190,8 @@ struct Estimate {
     BrickView view;
     std::optional<LodStatistics> stats;
 
-    Estimate(const OracleView& v, const std::string& file) : h(v.h), stats(LodStatistics::fromHeader(v.h, file)) {
+    Estimate(const OracleView& v, const std::string& file)
+        : h(v.h), stats(LodStatistics::fromHeader(v.h, file)) {
         view.camera = *v.s.camera;
         view.width = view.height = v.size;
         view.lod = LodMode::Auto;
@@ -254,11 +257,13 @@ Probes measureProbes(const OracleView& v, const Estimate& est, const Options& o,
             r.err[b][std::size_t(l)] = sse(pr.render(), pref) * scale;
             ++probes;
             if (csv)
-                csv << b << ',' << l << ',' << r.vox[b][std::size_t(l)] << ',' << r.err[b][std::size_t(l)] << ','
-                    << std::sqrt(r.err[b][std::size_t(l)] / samples) << ',' << est.columns(b, l, v.tf) << '\n';
+                csv << b << ',' << l << ',' << r.vox[b][std::size_t(l)] << ',' << r.err[b][std::size_t(l)]
+                    << ',' << std::sqrt(r.err[b][std::size_t(l)] / samples) << ',' << est.columns(b, l, v.tf)
+                    << '\n';
         }
     }
-    std::printf("probes: %zu renders at %d^2 in %.0f s\n", probes, o.probe, probeClock.milliseconds() / 1000.0);
+    std::printf("probes: %zu renders at %d^2 in %.0f s\n", probes, o.probe,
+                probeClock.milliseconds() / 1000.0);
     return r;
 }
 
@@ -367,8 +372,9 @@ int run(const Options& o) {
 int main(int argc, char** argv) {
     try {
         if (argc < 4) {
-            std::fprintf(stderr, "usage: %s FILE.vcz SCENE.json TF.json [--zoom Z] [--size PX] [--probe-size PX] "
-                                 "[--supersample N] [--lod-errors a,b] [--targets a,b] [--bricks-csv F]\n",
+            std::fprintf(stderr,
+                         "usage: %s FILE.vcz SCENE.json TF.json [--zoom Z] [--size PX] [--probe-size PX] "
+                         "[--supersample N] [--lod-errors a,b] [--targets a,b] [--bricks-csv F]\n",
                          argv[0]);
             return 1;
         }

@@ -83,8 +83,8 @@ typedef struct VolclLightingParams {
     volcl_uint lightCount, pad0, pad1, pad2;
     float ambient, diffuse, specular, shininess;
     float albedo, phaseG;
-    float gradientMin; /* gradient magnitude below which a sample has no normal */
-    float shadowStep;  /* world units */
+    float gradientMin;                     /* gradient magnitude below which a sample has no normal */
+    float shadowStep;                      /* world units */
     float lightPos[VOLCL_MAX_LIGHTS][4];   /* xyz: direction toward the light or position; w: kind */
     float lightColor[VOLCL_MAX_LIGHTS][4]; /* rgb * intensity */
 } VolclLightingParams;
@@ -141,13 +141,13 @@ typedef struct VolclPathParams {
 /* A tetrahedral mesh in the renderer's normalised frame x' = (x - centre) / scale (so huge and tiny
    coordinates keep float precision); ray parameters t' = t / scale. */
 typedef struct VolclMeshParams {
-    float centre[4];   /* world centre of the mesh box */
-    float boxLo[4];    /* normalised mesh box */
+    float centre[4]; /* world centre of the mesh box */
+    float boxLo[4];  /* normalised mesh box */
     float boxHi[4];
-    float scale;       /* world length of one normalised unit */
+    float scale; /* world length of one normalised unit */
     float invScale;
-    float epsilon;     /* normalised distance within which a re-entry counts as at the exit */
-    float maxSegment;  /* world length above which a segment is split for the 3D table (its last slice) */
+    float epsilon;    /* normalised distance within which a re-entry counts as at the exit */
+    float maxSegment; /* world length above which a segment is split for the 3D table (its last slice) */
     volcl_uint tetCount, boundaryFaces, bvhNodes, pad0;
 } VolclMeshParams;
 

@@ -161,7 +161,8 @@ std::span<const std::byte> AtomicFile::writeDirect(std::span<const std::byte> by
     if (!s || position < 0) return bytes; // the stream reports the error on its own write
     auto offset = static_cast<std::size_t>(position);
     // The bytes before the next aligned offset go through the stream.
-    const std::size_t head = std::min(bytes.size(), (kDirectAlignment - offset % kDirectAlignment) % kDirectAlignment);
+    const std::size_t head =
+        std::min(bytes.size(), (kDirectAlignment - offset % kDirectAlignment) % kDirectAlignment);
     if (head > 0) {
         s.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(head));
         s.flush();
@@ -171,8 +172,8 @@ std::span<const std::byte> AtomicFile::writeDirect(std::span<const std::byte> by
     }
     const int fd = ::open(temp_.c_str(), O_WRONLY | O_DIRECT | O_CLOEXEC);
     if (fd < 0) return bytes; // a file system without direct I/O
-    const std::unique_ptr<void, decltype(&std::free)> bounce(std::aligned_alloc(kDirectAlignment, kDirectChunkBytes),
-                                                             &std::free);
+    const std::unique_ptr<void, decltype(&std::free)> bounce(
+        std::aligned_alloc(kDirectAlignment, kDirectChunkBytes), &std::free);
     std::size_t written = 0;
     const std::size_t whole = bytes.size() / kDirectAlignment * kDirectAlignment;
     while (bounce && written < whole) {
@@ -208,7 +209,8 @@ void AtomicFile::commit() {
         stream_.flush();
         const bool good = static_cast<bool>(stream_);
         stream_.close();
-        if (!good || stream_.fail()) throw IoError(target_.string() + ": write failed (disk full or file size limit?)");
+        if (!good || stream_.fail())
+            throw IoError(target_.string() + ": write failed (disk full or file size limit?)");
     }
     // Data must be on disk before the rename makes it visible, or a crash could expose an empty file.
     const int fd = fd_ >= 0 ? fd_ : ::open(temp_.c_str(), O_RDONLY | O_CLOEXEC);

@@ -13,20 +13,27 @@ namespace volcl {
 
 std::size_t scalarSize(ScalarType t) noexcept {
     switch (t) {
-    case ScalarType::UInt8: return 1;
+    case ScalarType::UInt8:
+        return 1;
     case ScalarType::UInt16:
-    case ScalarType::Int16: return 2;
-    case ScalarType::Float32: return 4;
+    case ScalarType::Int16:
+        return 2;
+    case ScalarType::Float32:
+        return 4;
     }
     return 1;
 }
 
 std::string_view scalarTypeName(ScalarType t) noexcept {
     switch (t) {
-    case ScalarType::UInt8: return "uint8";
-    case ScalarType::UInt16: return "uint16";
-    case ScalarType::Int16: return "int16";
-    case ScalarType::Float32: return "float32";
+    case ScalarType::UInt8:
+        return "uint8";
+    case ScalarType::UInt16:
+        return "uint16";
+    case ScalarType::Int16:
+        return "int16";
+    case ScalarType::Float32:
+        return "float32";
     }
     return "?";
 }
@@ -61,10 +68,14 @@ void Volume::checkType(ScalarType t) const {
 namespace {
 template <class F> decltype(auto) visitType(ScalarType t, F&& f) {
     switch (t) {
-    case ScalarType::UInt8: return f(std::uint8_t{});
-    case ScalarType::UInt16: return f(std::uint16_t{});
-    case ScalarType::Int16: return f(std::int16_t{});
-    case ScalarType::Float32: break;
+    case ScalarType::UInt8:
+        return f(std::uint8_t{});
+    case ScalarType::UInt16:
+        return f(std::uint16_t{});
+    case ScalarType::Int16:
+        return f(std::int16_t{});
+    case ScalarType::Float32:
+        break;
     }
     return f(float{});
 }
@@ -116,18 +127,20 @@ Volume Volume::convertedTo(ScalarType target) const {
 
 Volume Volume::cropped(Dims lo, Dims hi) const {
     if (!(lo.x < hi.x && lo.y < hi.y && lo.z < hi.z && hi.x <= dims_.x && hi.y <= dims_.y && hi.z <= dims_.z))
-        throw UsageError("crop box " + std::to_string(lo.x) + "," + std::to_string(lo.y) + "," + std::to_string(lo.z) +
-                         ":" + std::to_string(hi.x) + "," + std::to_string(hi.y) + "," + std::to_string(hi.z) +
-                         " is empty or outside the volume " + std::to_string(dims_.x) + "x" +
-                         std::to_string(dims_.y) + "x" + std::to_string(dims_.z));
+        throw UsageError("crop box " + std::to_string(lo.x) + "," + std::to_string(lo.y) + "," +
+                         std::to_string(lo.z) + ":" + std::to_string(hi.x) + "," + std::to_string(hi.y) +
+                         "," + std::to_string(hi.z) + " is empty or outside the volume " +
+                         std::to_string(dims_.x) + "x" + std::to_string(dims_.y) + "x" +
+                         std::to_string(dims_.z));
     Volume out({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z}, type_);
     out.spacing = spacing;
-    for (int a = 0; a < 3; ++a) out.origin[a] = origin[a] + double((&lo.x)[a]) * spacing[a];
+    for (int a = 0; a < 3; ++a)
+        out.origin[a] = origin[a] + double((&lo.x)[a]) * spacing[a];
     std::size_t s = scalarSize(type_), row = out.dims_.x * s;
     for (std::size_t k = 0; k < out.dims_.z; ++k)
         for (std::size_t j = 0; j < out.dims_.y; ++j)
-            std::memcpy(out.bytes_.data() + out.index(0, j, k) * s, bytes_.data() + index(lo.x, lo.y + j, lo.z + k) * s,
-                        row);
+            std::memcpy(out.bytes_.data() + out.index(0, j, k) * s,
+                        bytes_.data() + index(lo.x, lo.y + j, lo.z + k) * s, row);
     return out;
 }
 
@@ -175,7 +188,8 @@ void TimeSeries::validate() const {
     if (frames.empty()) throw DataError("time series has no frames");
     for (std::size_t i = 1; i < frames.size(); ++i)
         if (!frames[i].sameGrid(frames[0]))
-            throw DataError("time series frame " + std::to_string(i) + " is on a different grid than frame 0");
+            throw DataError("time series frame " + std::to_string(i) +
+                            " is on a different grid than frame 0");
     if (!times.empty() && times.size() != frames.size())
         throw DataError("time series has " + std::to_string(times.size()) + " time values for " +
                         std::to_string(frames.size()) + " frames");

@@ -23,10 +23,18 @@ std::string_view scalarTypeName(ScalarType t) noexcept; ///< "uint8", "uint16", 
 ScalarType parseScalarType(std::string_view name);
 
 template <class T> constexpr ScalarType scalarTypeOf();
-template <> constexpr ScalarType scalarTypeOf<std::uint8_t>() { return ScalarType::UInt8; }
-template <> constexpr ScalarType scalarTypeOf<std::uint16_t>() { return ScalarType::UInt16; }
-template <> constexpr ScalarType scalarTypeOf<std::int16_t>() { return ScalarType::Int16; }
-template <> constexpr ScalarType scalarTypeOf<float>() { return ScalarType::Float32; }
+template <> constexpr ScalarType scalarTypeOf<std::uint8_t>() {
+    return ScalarType::UInt8;
+}
+template <> constexpr ScalarType scalarTypeOf<std::uint16_t>() {
+    return ScalarType::UInt16;
+}
+template <> constexpr ScalarType scalarTypeOf<std::int16_t>() {
+    return ScalarType::Int16;
+}
+template <> constexpr ScalarType scalarTypeOf<float>() {
+    return ScalarType::Float32;
+}
 
 struct Dims {
     std::size_t x = 0, y = 0, z = 0;

@@ -2,8 +2,8 @@
 // ".xyz"). PLOT3D (VOLCL_FUZZ_SPLIT) takes two files: the first two bytes give the grid's length (little
 // endian, clamped to the input), then the grid, then the q solution file; binary grids are full of zero
 // bytes, so a separator byte would not do.
-#include "fuzz/FuzzSupport.hpp"
 #include "core/Error.hpp"
+#include "fuzz/FuzzSupport.hpp"
 #include "host/mesh/MeshIo.hpp"
 
 #include <algorithm>

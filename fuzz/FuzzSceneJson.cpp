@@ -1,6 +1,6 @@
 // Fuzz target for scene JSON: parse, validate, and the step checks against a unit volume's diagonal.
-#include "fuzz/FuzzSupport.hpp"
 #include "core/Error.hpp"
+#include "fuzz/FuzzSupport.hpp"
 #include "render/Scene.hpp"
 
 #include <cstddef>
@@ -10,8 +10,8 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     using namespace volcl;
     try {
-        const Scene scene =
-            Scene::fromJson(std::string_view(reinterpret_cast<const char*>(data), size), fuzz::scratchDirectory());
+        const Scene scene = Scene::fromJson(std::string_view(reinterpret_cast<const char*>(data), size),
+                                            fuzz::scratchDirectory());
         scene.validate();
         scene.validateSteps(100.0);
         (void)Scene::fromJson(scene.toJson(), fuzz::scratchDirectory());

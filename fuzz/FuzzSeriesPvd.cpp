@@ -1,7 +1,7 @@
 // Fuzz target for ParaView collections (.pvd) read as a time series: the input is the .pvd, a NUL byte, then
 // the bytes of "frame.nrrd" beside it, which the seeds' data sets name (one file may be named many times).
-#include "fuzz/FuzzSupport.hpp"
 #include "core/Error.hpp"
+#include "fuzz/FuzzSupport.hpp"
 #include "host/io/Series.hpp"
 
 #include <algorithm>
@@ -14,8 +14,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     std::span<const std::uint8_t> frame;
     if (nul != data + size) frame = std::span<const std::uint8_t>(nul + 1, data + size);
     fuzz::writeScratchFile("frame.nrrd", frame);
-    const auto path =
-        fuzz::writeScratchFile("input.pvd", {data, static_cast<std::size_t>(nul - data)});
+    const auto path = fuzz::writeScratchFile("input.pvd", {data, static_cast<std::size_t>(nul - data)});
     ReadOptions options;
     options.memoryBudget = fuzz::kFuzzMemoryBudget;
     try {

@@ -1,6 +1,6 @@
 // Fuzz target for RGBA-strip transfer functions read from an image (PNG or EXR, per VOLCL_FUZZ_EXTENSION).
-#include "fuzz/FuzzSupport.hpp"
 #include "core/Error.hpp"
+#include "fuzz/FuzzSupport.hpp"
 #include "host/tf/TransferFunction.hpp"
 
 #include <string>

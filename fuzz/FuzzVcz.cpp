@@ -1,8 +1,8 @@
 // Fuzz target for .vcz files through the public reader: header and index parsing, then decoding whole,
 // a region, a coarser level and single bricks (both entropy coders, every transform, per the seeds).
-#include "fuzz/FuzzSupport.hpp"
 #include "core/Error.hpp"
 #include "core/runtime/ClRuntime.hpp"
+#include "fuzz/FuzzSupport.hpp"
 #include "wavelet/BrickVoxels.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/container/VczFormat.hpp"
@@ -65,8 +65,10 @@ void buildEveryDecodeKernel(volcl::ComputeContext& cc) {
     struct Shape {
         Dims dims, brick;
     };
-    const Shape shapes[] = {{{16, 16, 16}, {16, 16, 16}}, {{100, 8, 8}, {128, 8, 8}}, {{200, 8, 8}, {256, 8, 8}}};
-    for (const ScalarType type : {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16, ScalarType::Float32})
+    const Shape shapes[] = {
+        {{16, 16, 16}, {16, 16, 16}}, {{100, 8, 8}, {128, 8, 8}}, {{200, 8, 8}, {256, 8, 8}}};
+    for (const ScalarType type :
+         {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16, ScalarType::Float32})
         for (const Wavelet wavelet : {Wavelet::Cdf53, Wavelet::Cdf97, Wavelet::Haar, Wavelet::Cdf26})
             for (const bool lossless : {true, false})
                 for (const bool series : {false, true}) {
@@ -85,8 +87,9 @@ void buildEveryDecodeKernel(volcl::ComputeContext& cc) {
                         TimeSeries frames;
                         for (int f = 0; f < (series ? 3 : 1); ++f)
                             frames.frames.push_back(pattern(shape.dims, type, f));
-                        std::vector<std::byte> bytes = series ? encodeSeries(cc, frames, options)
-                                                              : encodeVolume(cc, frames.frames.front(), options);
+                        std::vector<std::byte> bytes = series
+                                                           ? encodeSeries(cc, frames, options)
+                                                           : encodeVolume(cc, frames.frames.front(), options);
                         decodeEveryWay(cc, VczReader(std::move(bytes), "warm-up.vcz"));
                     }
                 }

@@ -2,8 +2,8 @@
 // motion block, and every brick's payload framing, entropy decoding (both coders) and corrections, at full
 // resolution and at the coarsest level. About 13 times the executions per CPU second of fuzz_vcz, which runs
 // the same stages and then the inverse-transform kernels.
-#include "fuzz/FuzzSupport.hpp"
 #include "core/Error.hpp"
+#include "fuzz/FuzzSupport.hpp"
 #include "wavelet/FrameDecoder.hpp"
 #include "wavelet/container/VczFormat.hpp"
 
@@ -25,7 +25,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                 coefficients.assign(d.count(), 0);
                 (void)codec::entropyDecodeBrick(file, h, f, b, 0, coefficients.data(), d.x, "fuzz.vcz");
                 if (h.levels > 0)
-                    (void)codec::entropyDecodeBrick(file, h, f, b, h.levels, coefficients.data(), d.x, "fuzz.vcz");
+                    (void)codec::entropyDecodeBrick(file, h, f, b, h.levels, coefficients.data(), d.x,
+                                                    "fuzz.vcz");
             }
         }
     } catch (const Error&) {

@@ -1,8 +1,8 @@
 // Fuzz target for one volume reader, chosen at build time by VOLCL_FUZZ_EXTENSION (".nrrd", ".mhd", ...).
 // Formats whose header names a separate data file (VOLCL_FUZZ_SPLIT) take the input as header, a NUL byte,
 // then the bytes of "data.raw" beside it; the seeds' headers name that file.
-#include "fuzz/FuzzSupport.hpp"
 #include "core/Error.hpp"
+#include "fuzz/FuzzSupport.hpp"
 #include "host/io/VolumeIo.hpp"
 
 #include <algorithm>

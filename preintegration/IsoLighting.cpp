@@ -1,7 +1,7 @@
 // Iso-surface tables (Roettger 8.13) and pre-integrated lighting tables (Guthe 1.3.4), both on the host.
 #include "core/Error.hpp"
-#include "host/image/ImageIo.hpp"
 #include "core/runtime/ParallelFor.hpp"
+#include "host/image/ImageIo.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "preintegration/PreintegrationTable.hpp"
 #include "preintegration/Reference.hpp"

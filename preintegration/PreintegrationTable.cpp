@@ -2,9 +2,9 @@
 #include "preintegration/PreintegrationTable.hpp"
 
 #include "core/Error.hpp"
-#include "host/image/ImageIo.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "core/runtime/ParallelFor.hpp"
+#include "host/image/ImageIo.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "preintegration/Reference.hpp"
 
@@ -311,7 +311,8 @@ void TableSpec::validate() const {
     } else {
         if (lengths < 1) throw UsageError("--lengths must be at least 1 (got " + fmt(lengths) + ")");
         if (!(maxLength > 0.0) || !(maxLength <= kMaxLength))
-            throw UsageError("--max-length must be a positive length up to 1e30 (got " + fmt(maxLength) + ")");
+            throw UsageError("--max-length must be a positive length up to 1e30 (got " + fmt(maxLength) +
+                             ")");
     }
     std::size_t slices = axis == LengthAxis::Fixed ? 1 : static_cast<std::size_t>(lengths);
     if (static_cast<std::size_t>(size) * size * slices > kMaxEntries)
@@ -516,7 +517,8 @@ void PreintegrationGenerator::generate(const TransferFunction& tf, const TableSp
     t.deviceMilliseconds = 0.0;
     // The exact kernels take up to 48 / depth sub-pieces per TF piece: the bound keeps that finite.
     if (!(o.maxSubstepDepth >= 1e-3) || !std::isfinite(o.maxSubstepDepth))
-        throw UsageError("substep depth must be a finite number >= 0.001 (got " + fmt(o.maxSubstepDepth) + ")");
+        throw UsageError("substep depth must be a finite number >= 0.001 (got " + fmt(o.maxSubstepDepth) +
+                         ")");
     if (o.polynomialDegree < 1 || o.polynomialDegree > 6)
         throw UsageError("polynomial degree must be between 1 and 6 (got " + fmt(o.polynomialDegree) + ")");
     const int n = spec.size;

@@ -46,7 +46,8 @@ WorldBox volumeBox(const Volume& volume) {
 NamedView parseNamedView(std::string_view name) {
     for (const auto& v : kViewNames)
         if (v.name == name) return v.view;
-    throw UsageError("--view '" + std::string(name) + "' is unknown (front, back, left, right, top, bottom, iso)");
+    throw UsageError("--view '" + std::string(name) +
+                     "' is unknown (front, back, left, right, top, bottom, iso)");
 }
 
 std::string_view namedViewName(NamedView view) {
@@ -89,7 +90,8 @@ ViewDirection orbitDirection(double azimuthDeg, double elevationDeg) {
 
 Camera frameBox(const WorldBox& box, const ViewDirection& view, Projection projection, double fovYDeg,
                 double aspect) {
-    if (!(aspect > 0.0 && std::isfinite(aspect))) throw UsageError("camera framing: image aspect must be > 0");
+    if (!(aspect > 0.0 && std::isfinite(aspect)))
+        throw UsageError("camera framing: image aspect must be > 0");
     const double r = boxRadius(box);
     Camera c;
     c.projection = projection;

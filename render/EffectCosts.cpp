@@ -36,8 +36,8 @@ std::string CostReport::text() const {
     os << "cost (measured, " << width << "x" << height << ", median of " << runs << " frames, kernel ms):\n";
     os << "  plain frame (no effects, no tables, no skipping): " << fixed(plainMs, 2) << " ms\n";
     for (const auto& e : effects) {
-        os << "  " << e.effect << ": " << (e.addedMs >= 0 ? "+" : "") << fixed(e.addedMs, 2) << " ms = "
-           << (e.addedMs >= 0 ? "+" : "") << fixed(plainMs > 0 ? e.addedMs / plainMs : 0.0, 2)
+        os << "  " << e.effect << ": " << (e.addedMs >= 0 ? "+" : "") << fixed(e.addedMs, 2)
+           << " ms = " << (e.addedMs >= 0 ? "+" : "") << fixed(plainMs > 0 ? e.addedMs / plainMs : 0.0, 2)
            << " plain frames\n";
     }
     os << "  this frame: " << fixed(frameMs, 2) << " ms = " << fixed(plainMs > 0 ? frameMs / plainMs : 0.0, 2)

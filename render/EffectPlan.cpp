@@ -11,7 +11,6 @@
 namespace volcl {
 namespace {
 
-
 /// Fog: compiled when it can change the image (non-zero density, a box the rays can cross, a mode with a ray
 /// integral).
 void planFog(const Scene& scene, const WorldBox& bounds, EffectPlan& p) {
@@ -32,19 +31,20 @@ void planFog(const Scene& scene, const WorldBox& bounds, EffectPlan& p) {
                  double hmin = std::numeric_limits<double>::infinity();
                  for (int c = 0; c < 8; ++c)
                      hmin = std::min(hmin, dot(up, Vec3{c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1],
-                                                       c & 4 ? hi[2] : lo[2]}));
+                                                        c & 4 ? hi[2] : lo[2]}));
                  return hmin >= f.base;
              }())
         p.dropped.push_back("fog: falloff 0 and the box lies above the base");
     else {
         p.fog = true;
         p.defines.set("FOG");
-        std::string what = "fog: density " + formatNumber(f.density) +
-                           (f.heightMap.empty() ? ", base " + formatNumber(f.base) : ", base from the height map " +
-                                                                               f.heightMap.filename().string()) +
-                           (f.falloff == 0.0 ? ", none above the base" : ", falloff " + formatNumber(f.falloff)) +
-                           (f.box ? ", in its own box" : ", in the volume's box") +
-                           "; closed-form optical depth per step, composited exactly with each volume segment";
+        std::string what =
+            "fog: density " + formatNumber(f.density) +
+            (f.heightMap.empty() ? ", base " + formatNumber(f.base)
+                                 : ", base from the height map " + f.heightMap.filename().string()) +
+            (f.falloff == 0.0 ? ", none above the base" : ", falloff " + formatNumber(f.falloff)) +
+            (f.box ? ", in its own box" : ", in the volume's box") +
+            "; closed-form optical depth per step, composited exactly with each volume segment";
         if (!f.heightMap.empty()) {
             p.fogMap = true;
             p.defines.set("FOG_MAP");
@@ -94,8 +94,8 @@ void planMode(const PlanInput& in, EffectPlan& p) {
         if (scene.mipColor == MipColor::Grey)
             p.compiled.push_back("MIP colour grey: " + window);
         else if (scene.mipColor == MipColor::Tf)
-            p.compiled.push_back("MIP colour tf: transfer-function colour, brightness and coverage from the " +
-                                 window);
+            p.compiled.push_back(
+                "MIP colour tf: transfer-function colour, brightness and coverage from the " + window);
         else {
             p.compiled.push_back("MIP colour tf-opacity: the transfer function's colour and opacity");
             if (scene.window) p.dropped.push_back("window: MIP colour tf-opacity takes opacity from the TF");
@@ -311,25 +311,29 @@ void planTableEffects(const Scene& scene, EffectPlan& p) {
         if (!p.shading)
             p.dropped.push_back("pre-integrated lighting: nothing is shaded");
         else if (scene.preintegration != Preintegration::Table2d || mode != RenderMode::Dvr)
-            p.dropped.push_back("pre-integrated lighting: needs dvr with render.preintegration 2d (the table is "
-                                "built for one segment length)");
+            p.dropped.push_back(
+                "pre-integrated lighting: needs dvr with render.preintegration 2d (the table is "
+                "built for one segment length)");
         else if (p.scattering)
             p.dropped.push_back("pre-integrated lighting: scattering is evaluated per sample");
         else {
             p.preintLighting = true;
             p.defines.set("PREINT_LIGHTING");
-            p.compiled.push_back("pre-integrated lighting: gradients at both segment ends, diffuse through the "
-                                 "table's front/back terms, specular at its emission centroid");
+            p.compiled.push_back(
+                "pre-integrated lighting: gradients at both segment ends, diffuse through the "
+                "table's front/back terms, specular at its emission centroid");
         }
     }
     if (scene.effects.isoTable && !p.isosurfaces.empty()) {
         if (mode != RenderMode::Iso)
-            p.dropped.push_back("iso-surface table: only in mode iso (dvr mixes surfaces by their exact roots)");
+            p.dropped.push_back(
+                "iso-surface table: only in mode iso (dvr mixes surfaces by their exact roots)");
         else {
             p.isoTable = true;
             p.defines.set("ISO_TABLE");
-            p.compiled.push_back("iso-surface table: surfaces crossed between a segment's end values, one lookup "
-                                 "per step (the nearest table node of each end)");
+            p.compiled.push_back(
+                "iso-surface table: surfaces crossed between a segment's end values, one lookup "
+                "per step (the nearest table node of each end)");
         }
     }
 }

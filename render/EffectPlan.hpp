@@ -1,9 +1,9 @@
 // Effect planning for every renderer: which kernel features a scene needs, and why the others were dropped.
 #pragma once
 
+#include "core/runtime/ClRuntime.hpp"
 #include "render/Bounds.hpp"
 #include "render/Scene.hpp"
-#include "core/runtime/ClRuntime.hpp"
 
 #include <string>
 #include <string_view>
@@ -18,9 +18,9 @@ struct EffectPlan {
     std::vector<std::string> dropped;  ///< "shadows: no light in the scene"
     bool shading = false, shadows = false, scattering = false, clipping = false, skipping = false;
     bool earlyTermination = false, sobel = false;
-    bool fog = false, fogMap = false; ///< FOG (and FOG_MAP): the scene's fog is composited
-    bool preintLighting = false;      ///< PREINT_LIGHTING: shading through the pre-integrated lighting table
-    bool isoTable = false;            ///< ISO_TABLE: iso-surfaces from the iso-surface table
+    bool fog = false, fogMap = false;  ///< FOG (and FOG_MAP): the scene's fog is composited
+    bool preintLighting = false;       ///< PREINT_LIGHTING: shading through the pre-integrated lighting table
+    bool isoTable = false;             ///< ISO_TABLE: iso-surfaces from the iso-surface table
     bool pathTracing = false;          ///< multiple scattering: the path tracer renders the frame
     double colorScale = 1.0;           ///< ambient-only shading folded into the TF colours
     std::vector<IsoLayer> isosurfaces; ///< the ones that can appear

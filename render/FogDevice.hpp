@@ -3,9 +3,9 @@
 #pragma once
 
 #include "cl/volcl_shared.h"
+#include "core/runtime/ClRuntime.hpp"
 #include "render/Bounds.hpp"
 #include "render/Scene.hpp"
-#include "core/runtime/ClRuntime.hpp"
 
 #include <string>
 

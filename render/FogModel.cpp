@@ -24,8 +24,8 @@ FogField::FogField(const FogEffect& fog, const WorldBox& volumeBox)
         throw DataError(fog.heightMap.string() + ": fog height map is empty");
     // Heights along up: the box's extent (up may point down an axis).
     const double lo = dot(box_.origin, up_), hi = dot(box_.hi(), up_);
-    const std::array<double, 2> range = fog.heightRange ? *fog.heightRange
-                                                        : std::array<double, 2>{std::min(lo, hi), std::max(lo, hi)};
+    const std::array<double, 2> range =
+        fog.heightRange ? *fog.heightRange : std::array<double, 2>{std::min(lo, hi), std::max(lo, hi)};
     mapW_ = img.width;
     mapH_ = img.height;
     map_.resize(std::size_t(mapW_) * std::size_t(mapH_));
@@ -34,8 +34,8 @@ FogField::FogField(const FogEffect& fog, const WorldBox& volumeBox)
         const float v = img.pixels[i * std::size_t(nc)];
         if (!std::isfinite(v))
             throw DataError(fog.heightMap.string() + ": fog height map has a NaN/Inf texel at (" +
-                            std::to_string(i % std::size_t(mapW_)) + ", " + std::to_string(i / std::size_t(mapW_)) +
-                            ")");
+                            std::to_string(i % std::size_t(mapW_)) + ", " +
+                            std::to_string(i / std::size_t(mapW_)) + ")");
         map_[i] = static_cast<float>(range[0] + double(v) * (range[1] - range[0]));
     }
 }

@@ -2,9 +2,9 @@
 #pragma once
 
 #include "cl/volcl_shared.h"
+#include "host/tf/TransferFunction.hpp"
 #include "render/EffectPlan.hpp"
 #include "render/Scene.hpp"
-#include "host/tf/TransferFunction.hpp"
 
 #include <array>
 #include <cstddef>

@@ -1,14 +1,14 @@
 // Opens a scene's data (a grid, a frame of a compressed-brick .vcz, or a tetrahedral mesh) and makes its renderer.
 #include "render/RenderInput.hpp"
 
+#include "core/AtomicFile.hpp"
 #include "core/Volume.hpp"
+#include "render/bricks/BrickRenderer.hpp"
 #include "render/grid/GridDetail.hpp"
 #include "render/grid/GridRenderer.hpp"
-#include "render/bricks/BrickRenderer.hpp"
 #include "render/mesh/KBufferRenderer.hpp"
 #include "render/mesh/MeshReference.hpp"
 #include "render/mesh/MeshRenderer.hpp"
-#include "core/AtomicFile.hpp"
 #include "wavelet/Codec.hpp"
 
 #include "core/Error.hpp"
@@ -58,8 +58,9 @@ RenderInput RenderInput::borrow(const Volume& volume) {
 WorldBox RenderInput::bounds() const {
     if (vcz_) {
         const VczHeader& h = vcz_->header();
-        return {h.origin, {double(h.dims.x - 1) * h.spacing[0], double(h.dims.y - 1) * h.spacing[1],
-                           double(h.dims.z - 1) * h.spacing[2]}};
+        return {h.origin,
+                {double(h.dims.x - 1) * h.spacing[0], double(h.dims.y - 1) * h.spacing[1],
+                 double(h.dims.z - 1) * h.spacing[2]}};
     }
     if (mesh_) return meshBounds(*mesh_);
     return gridBounds(*volume_);
@@ -81,10 +82,13 @@ ValueRange RenderInput::valueRange() const {
 std::string RenderInput::summary() const {
     if (vcz_) {
         const VczHeader& h = vcz_->header();
-        return std::to_string(h.dims.x) + "x" + std::to_string(h.dims.y) + "x" + std::to_string(h.dims.z) + " " +
-               std::string(scalarTypeName(h.type)) + ", " + std::to_string(h.brickCount()) + " compressed bricks";
+        return std::to_string(h.dims.x) + "x" + std::to_string(h.dims.y) + "x" + std::to_string(h.dims.z) +
+               " " + std::string(scalarTypeName(h.type)) + ", " + std::to_string(h.brickCount()) +
+               " compressed bricks";
     }
-    if (mesh_) return std::to_string(mesh_->tetCount()) + " tets, " + std::to_string(mesh_->pointCount()) + " points";
+    if (mesh_)
+        return std::to_string(mesh_->tetCount()) + " tets, " + std::to_string(mesh_->pointCount()) +
+               " points";
     const Dims& d = volume_->dims();
     return std::to_string(d.x) + "x" + std::to_string(d.y) + "x" + std::to_string(d.z) + " " +
            std::string(scalarTypeName(volume_->type()));
@@ -108,7 +112,8 @@ EffectPlan RenderInput::planEffects(const Scene& scene, const TransferFunction& 
 ImageBuffer RenderInput::renderReference(const TransferFunction& tf, const Scene& scene,
                                          const ReferenceOptions& options) const {
     if (vcz_)
-        throw UsageError(vcz_->name() + ": the double reference renders grids: decode the file first (volcl decode)");
+        throw UsageError(vcz_->name() +
+                         ": the double reference renders grids: decode the file first (volcl decode)");
     if (mesh_) return meshReferenceRender(*mesh_, tf, scene, options);
     return referenceRender(*volume_, tf, scene, options);
 }

@@ -175,7 +175,8 @@ namespace {
 void validateFog(const FogEffect& f);
 
 FogEffect parseFog(const json& f, const std::filesystem::path& baseDir) {
-    checkKeys(f, "effects.fog", {"density", "base", "falloff", "color", "up", "box", "height_map", "height_range"});
+    checkKeys(f, "effects.fog",
+              {"density", "base", "falloff", "color", "up", "box", "height_map", "height_range"});
     FogEffect fog;
     fog.enabled = true;
     if (f.contains("density")) fog.density = num(f["density"], "effects.fog.density");
@@ -526,7 +527,11 @@ std::string Scene::toJson() const {
     }
     if (effects.fog.enabled) {
         const FogEffect& f = effects.fog;
-        json fj = {{"density", f.density}, {"base", f.base}, {"falloff", f.falloff}, {"color", f.color}, {"up", f.up}};
+        json fj = {{"density", f.density},
+                   {"base", f.base},
+                   {"falloff", f.falloff},
+                   {"color", f.color},
+                   {"up", f.up}};
         if (f.box) fj["box"] = {f.box->origin, f.box->hi()};
         if (!f.heightMap.empty()) fj["height_map"] = f.heightMap.string();
         if (f.heightRange) fj["height_range"] = *f.heightRange;
@@ -545,17 +550,19 @@ void validateFog(const FogEffect& f) {
         if (!ok) throw UsageError("scene: " + msg);
     };
     // NaN fails every comparison, so each test below also refuses it.
-    need(f.density >= 0.0 && f.density <= 1e30, "effects.fog.density must be in [0, 1e30] (got " +
-                                                     shortNumber(f.density) + ")");
+    need(f.density >= 0.0 && f.density <= 1e30,
+         "effects.fog.density must be in [0, 1e30] (got " + shortNumber(f.density) + ")");
     need(f.falloff >= 0.0 && f.falloff <= 1e30,
-         "effects.fog.falloff must be in [0, 1e30] (0: no fog above the base; got " + shortNumber(f.falloff) + ")");
+         "effects.fog.falloff must be in [0, 1e30] (0: no fog above the base; got " + shortNumber(f.falloff) +
+             ")");
     need(std::isfinite(f.base) && std::abs(f.base) <= 1e30, "effects.fog.base must be finite");
     for (double c : f.color)
         need(c >= 0.0 && c <= 1e30, "effects.fog.color values must be >= 0 (and finite)");
     need(std::isfinite(norm(f.up)) && norm(f.up) > 0.0, "effects.fog.up must be non-zero");
     if (f.box)
         for (int a = 0; a < 3; ++a)
-            need(std::isfinite(f.box->origin[a]) && f.box->extent[a] >= 0.0 && std::isfinite(f.box->extent[a]),
+            need(std::isfinite(f.box->origin[a]) && f.box->extent[a] >= 0.0 &&
+                     std::isfinite(f.box->extent[a]),
                  "effects.fog.box must be [[x0, y0, z0], [x1, y1, z1]] with x0 <= x1, y0 <= y1, z0 <= z1");
     if (f.heightRange)
         need(std::isfinite((*f.heightRange)[0]) && std::isfinite((*f.heightRange)[1]),
@@ -641,8 +648,9 @@ std::vector<std::string> applyLightingDefaults(Scene& scene) {
     SceneEffects& fx = scene.effects;
     if (scene.mode == RenderMode::Iso && !fx.shadingGiven && !fx.shading) {
         fx.shading = true;
-        notes.push_back("iso mode: shading on (Blinn-Phong ambient " + std::to_string(fx.ambient).substr(0, 4) +
-                        ", diffuse " + std::to_string(fx.diffuse).substr(0, 4) + "); --no-shading turns it off");
+        notes.push_back("iso mode: shading on (Blinn-Phong ambient " +
+                        std::to_string(fx.ambient).substr(0, 4) + ", diffuse " +
+                        std::to_string(fx.diffuse).substr(0, 4) + "); --no-shading turns it off");
     }
     const bool marching = scene.mode == RenderMode::Dvr || scene.mode == RenderMode::Iso;
     const bool wantsLight = fx.shading || fx.shadows || (fx.scattering && fx.albedo > 0.0);

@@ -108,7 +108,7 @@ struct FogEffect {
 
 /// What a scene asks for; Effects planning decides what is compiled (see planEffects()).
 struct SceneEffects {
-    bool shading = false; ///< Blinn-Phong requested ("shading" object present)
+    bool shading = false;      ///< Blinn-Phong requested ("shading" object present)
     bool shadingGiven = false; ///< the scene or a flag said whether to shade (iso mode shades unless told)
     double ambient = 0.2, diffuse = 0.7, specular = 0.3, shininess = 32.0;
     /// Shade through the pre-integrated lighting table (2D pre-integration): gradients at both segment ends,
@@ -123,12 +123,12 @@ struct SceneEffects {
     double albedo = 0.0, phaseG = 0.0; ///< single scattering when albedo > 0 ("scattering" object)
     bool scattering = false;
     ScatteringOrder scatteringOrder = ScatteringOrder::Single;
-    int samples = 64;        ///< path tracer: samples per pixel
-    int maxBounces = 64;     ///< path tracer: scattering events per path
-    std::uint32_t seed = 1;  ///< path tracer: same seed, same image
+    int samples = 64;          ///< path tracer: samples per pixel
+    int maxBounces = 64;       ///< path tracer: scattering events per path
+    std::uint32_t seed = 1;    ///< path tracer: same seed, same image
     Vec3 environment{0, 0, 0}; ///< path tracer: radiance of a uniform sky around the volume
-    bool emission = true;    ///< the TF's emission c * tau adds to the scattered light
-    int octaves = 0;         ///< single scattering: > 0 approximates multiple scattering by that many octaves
+    bool emission = true;      ///< the TF's emission c * tau adds to the scattered light
+    int octaves = 0; ///< single scattering: > 0 approximates multiple scattering by that many octaves
     std::vector<ClipPlane> clipPlanes;
     std::vector<IsoLayer> isosurfaces;
     FogEffect fog;
@@ -166,7 +166,7 @@ struct Scene {
     double lodError = 0.01;
     double cacheMb = 512.0;
     MeshMethod meshMethod = MeshMethod::Cells; ///< render.method (meshes only)
-    int kBufferDepth = 6;                     ///< render.k: k-buffer entries per pixel, 2..8
+    int kBufferDepth = 6;                      ///< render.k: k-buffer entries per pixel, 2..8
     std::vector<Light> lights;
     SceneEffects effects;
 

@@ -2,12 +2,12 @@
 // plug in as peers): what its data spans, what a scene would compile, and frames into an image.
 #pragma once
 
+#include "core/runtime/ClRuntime.hpp"
 #include "host/image/ImageIo.hpp"
+#include "host/tf/TransferFunction.hpp"
 #include "render/Bounds.hpp"
 #include "render/EffectPlan.hpp"
 #include "render/Scene.hpp"
-#include "core/runtime/ClRuntime.hpp"
-#include "host/tf/TransferFunction.hpp"
 
 #include <string>
 

@@ -3,9 +3,9 @@
 
 #include "core/Error.hpp"
 #include "core/Volume.hpp"
+#include "core/runtime/ClRuntime.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "render/Scene.hpp"
-#include "core/runtime/ClRuntime.hpp"
 
 #include <gtest/gtest.h>
 
@@ -68,11 +68,11 @@ inline std::filesystem::path sharedData() {
     return std::filesystem::is_directory(p) ? p : std::filesystem::path();
 }
 
-#define VOLCL_REQUIRE_SHARED_DATA(path)                                                                        \
-    do {                                                                                                       \
-        if (::volcl::test::sharedData().empty())                                                               \
-            GTEST_SKIP() << "../shared/data is absent: skipping tests on real volumes";                        \
-        path = ::volcl::test::sharedData();                                                                    \
+#define VOLCL_REQUIRE_SHARED_DATA(path)                                                                      \
+    do {                                                                                                     \
+        if (::volcl::test::sharedData().empty())                                                             \
+            GTEST_SKIP() << "../shared/data is absent: skipping tests on real volumes";                      \
+        path = ::volcl::test::sharedData();                                                                  \
     } while (0)
 
 /// Float32 volume with voxel (i, j, k) = f(i, j, k): analytic fields for renderer tests.

@@ -1,7 +1,7 @@
 // Atomic output: no partial target and no temporary after a failed, killed or size-limited write.
 #include "TestUtil.hpp"
-#include "core/Error.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/Error.hpp"
 #include "host/io/VolumeIo.hpp"
 
 #include <gtest/gtest.h>
@@ -101,7 +101,7 @@ TEST(AtomicFile, StaleTemporariesOfDeadWritersAreRemoved) {
     ::waitpid(dead, nullptr, 0);
     const std::string stale = ".out.bin.tmp-" + std::to_string(dead) + "-0-123";
     const std::string live = ".out.bin.tmp-" + std::to_string(::getppid()) + "-0-456"; // a live process
-    const std::string other = ".other.bin.tmp-" + std::to_string(dead) + "-0-789";  // another target's
+    const std::string other = ".other.bin.tmp-" + std::to_string(dead) + "-0-789";     // another target's
     for (const std::string& n : {stale, live, other})
         writeFile(dir / n, "left over");
     {
@@ -133,8 +133,8 @@ TEST(AtomicFile, FailedVolumeWriteLeavesNothing) {
     // kilobyte. The old target must survive untouched and no temporary may remain.
     const fs::path dir = test::tempDir("io-atomic3");
     writeFile(dir / "keep.nrrd", "previous");
-    const Volume v =
-        test::makeFloatVolume({64, 64, 16}, [](double i, double j, double k) { return std::sin(i) + 0.5 * j - k; });
+    const Volume v = test::makeFloatVolume(
+        {64, 64, 16}, [](double i, double j, double k) { return std::sin(i) + 0.5 * j - k; });
     struct rlimit old {};
     ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
     const auto oldHandler = std::signal(SIGXFSZ, SIG_IGN);
@@ -174,7 +174,8 @@ TEST(AtomicFile, LargeWritesAtAnyOffsetKeepEveryByte) {
     const fs::path dir = test::tempDir("io-atomic-direct");
     const std::vector<std::byte> big = patternBytes(3 * AtomicFile::kDirectWriteMinBytes + 4093);
     const std::vector<std::byte> aligned = patternBytes(AtomicFile::kDirectWriteMinBytes);
-    for (const std::string_view header : {std::string_view(""), std::string_view("NRRD0004\n"), std::string_view("x")}) {
+    for (const std::string_view header :
+         {std::string_view(""), std::string_view("NRRD0004\n"), std::string_view("x")}) {
         {
             AtomicFile f(dir / "out.bin");
             f.write(header);

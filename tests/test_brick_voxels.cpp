@@ -13,7 +13,8 @@ using volcl::codec::toVoxel;
 namespace {
 
 template <class T> void expectNonFiniteValues() {
-    constexpr float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+    constexpr float nan = std::numeric_limits<float>::quiet_NaN(),
+                    inf = std::numeric_limits<float>::infinity();
     EXPECT_EQ(toVoxel<T>(nan), T(0));
     EXPECT_EQ(toVoxel<T>(-nan), T(0));
     EXPECT_EQ(toVoxel<T>(inf), std::numeric_limits<T>::max());

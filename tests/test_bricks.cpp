@@ -191,19 +191,22 @@ TEST(LodStatistics, SeparableLevelValuesEqualTheTrilinearFormula) {
     const struct {
         Dims full;
         int level;
-    } cases[] = {{{16, 16, 16}, 0}, {{16, 16, 16}, 2}, {{13, 7, 5}, 1}, {{9, 1, 4}, 3}, {{3, 2, 1}, 4}, {{1, 1, 1}, 1}};
+    } cases[] = {{{16, 16, 16}, 0}, {{16, 16, 16}, 2}, {{13, 7, 5}, 1},
+                 {{9, 1, 4}, 3},    {{3, 2, 1}, 4},    {{1, 1, 1}, 1}};
     for (const auto& t : cases) {
         const std::size_t s = std::size_t(1) << t.level;
         const Dims m{(t.full.x + s - 1) / s, (t.full.y + s - 1) / s, (t.full.z + s - 1) / s};
         std::vector<float> c(m.count());
-        for (std::size_t i = 0; i < c.size(); ++i) c[i] = float(std::sin(double(i) * 1.7) * 1e3 + double(i % 7));
+        for (std::size_t i = 0; i < c.size(); ++i)
+            c[i] = float(std::sin(double(i) * 1.7) * 1e3 + double(i % 7));
         std::size_t seen = 0;
-        forEachLevelValue(c, m, t.full, t.level, [&](std::size_t y, std::size_t z, std::span<const double> row) {
-            ASSERT_EQ(row.size(), t.full.x);
-            EXPECT_EQ(z * t.full.y + y, seen / t.full.x) << "rows in order, y fastest";
-            for (std::size_t x = 0; x < row.size(); ++x, ++seen)
-                ASSERT_EQ(row[x], directLevelValue(c, m, t.level, x, y, z)) << x << "," << y << "," << z;
-        });
+        forEachLevelValue(
+            c, m, t.full, t.level, [&](std::size_t y, std::size_t z, std::span<const double> row) {
+                ASSERT_EQ(row.size(), t.full.x);
+                EXPECT_EQ(z * t.full.y + y, seen / t.full.x) << "rows in order, y fastest";
+                for (std::size_t x = 0; x < row.size(); ++x, ++seen)
+                    ASSERT_EQ(row[x], directLevelValue(c, m, t.level, x, y, z)) << x << "," << y << "," << z;
+            });
         EXPECT_EQ(seen, t.full.count());
     }
 }
@@ -315,7 +318,8 @@ TEST(BrickRender, FogMatchesTheGridRenderer) {
                 s.effects.fog.falloff = falloff;
                 s.effects.fog.color = {0.6, 0.65, 0.7};
                 if (largerBox) s.effects.fog.box = WorldBox{{-6, -6, -6}, {51, 47, 43}};
-                expectFullMatchesGrid("fog falloff " + std::to_string(falloff) + (largerBox ? " larger box" : "") +
+                expectFullMatchesGrid("fog falloff " + std::to_string(falloff) +
+                                          (largerBox ? " larger box" : "") +
                                           (pre == Preintegration::None ? "" : " (2d)"),
                                       v, lossless(16, 2), tf, s);
             }
@@ -327,7 +331,8 @@ TEST(BrickRender, FogMatchesTheGridRenderer) {
         f.effects.fog.base = 14;
         Scene plain = obliqueScene(v, 32);
         const auto reader = encode(v, lossless(16, 2));
-        BrickRenderer withFog(computeContext(), reader, 0, tf, f), without(computeContext(), reader, 0, tf, plain);
+        BrickRenderer withFog(computeContext(), reader, 0, tf, f),
+            without(computeContext(), reader, 0, tf, plain);
         EXPECT_TRUE(withFog.plan().fog) << withFog.plan().explain();
         EXPECT_GT(maxAbsDiff(withFog.render(), without.render()), 0.05);
     }
@@ -569,8 +574,9 @@ TEST(BrickRender, FragmentedPoolIsRepackedWithoutDecodingAgain) {
 // nodes widen the hull, and so does a neighbour whose values the cells across the face interpolate with.
 TEST(BrickLod, ErrorIsDeviationTimesTfSlopeOverTheNeighbourhoodTimesCellPixels) {
     // One 32^3 brick alternating 10 / 60: its level-1 field is flat near 35, 25 data units off every voxel.
-    const Volume v = toU8(test::makeFloatVolume(
-        {32, 32, 32}, [](double x, double y, double z) { return std::fmod(x + y + z, 2.0) < 0.5 ? 10 : 60; }));
+    const Volume v = toU8(test::makeFloatVolume({32, 32, 32}, [](double x, double y, double z) {
+        return std::fmod(x + y + z, 2.0) < 0.5 ? 10 : 60;
+    }));
     const auto reader = encode(v, lossless(32, 1));
     const VczHeader& h = reader->header();
     const auto stats = LodStatistics::fromHeader(h, "test.vcz");

@@ -14,7 +14,8 @@ using namespace volcl;
 const WorldBox kBox{{10, -5, 0}, {40, 40, 20}}; // 40 x 40 x 20, centre (30, 15, 10)
 
 void expectNear(const Vec3& a, const Vec3& b, double tol = 1e-12) {
-    for (int i = 0; i < 3; ++i) EXPECT_NEAR(a[std::size_t(i)], b[std::size_t(i)], tol) << i;
+    for (int i = 0; i < 3; ++i)
+        EXPECT_NEAR(a[std::size_t(i)], b[std::size_t(i)], tol) << i;
 }
 
 TEST(CameraFraming, ResetCameraFitsTheBoundingSphere) {

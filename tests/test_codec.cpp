@@ -132,11 +132,13 @@ TEST(CodecLossless, BitExactOnAwkwardSizesTypesAndWavelets) {
 // Transform rounds bound the batch memory of one launch: every brick lands in exactly one round, with its
 // group's dims; a round stays within the budget unless it is one brick larger than the budget.
 TEST(TransformRounds, PackWithinBudgetAndCoverEveryBrickOnce) {
-    const std::vector<codec::BrickGroup> groups = {
-        {{64, 64, 64}, {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10}}, {{45, 64, 64}, {11, 12, 13}}, {{200, 200, 200}, {14}},
-        {{8, 8, 8}, {15, 16}}};
+    const std::vector<codec::BrickGroup> groups = {{{64, 64, 64}, {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10}},
+                                                   {{45, 64, 64}, {11, 12, 13}},
+                                                   {{200, 200, 200}, {14}},
+                                                   {{8, 8, 8}, {15, 16}}};
     auto bytes = [](Dims d) { return BrickBatch<std::int32_t>::strideFor(d) * sizeof(std::int32_t); };
-    for (std::size_t budget : {std::size_t(1), std::size_t(3) << 20, std::size_t(5) << 20, std::size_t(1) << 30}) {
+    for (std::size_t budget :
+         {std::size_t(1), std::size_t(3) << 20, std::size_t(5) << 20, std::size_t(1) << 30}) {
         const auto rounds = codec::transformRounds(groups, bytes, budget);
         std::vector<int> seen(17, 0);
         for (const auto& round : rounds) {
@@ -146,8 +148,10 @@ TEST(TransformRounds, PackWithinBudgetAndCoverEveryBrickOnce) {
                 ASSERT_FALSE(g.bricks.empty());
                 for (std::size_t b : g.bricks) {
                     ++seen[b];
-                    const Dims want = b < 11 ? Dims{64, 64, 64} : b < 14 ? Dims{45, 64, 64}
-                                                 : b == 14 ? Dims{200, 200, 200} : Dims{8, 8, 8};
+                    const Dims want = b < 11    ? Dims{64, 64, 64}
+                                      : b < 14  ? Dims{45, 64, 64}
+                                      : b == 14 ? Dims{200, 200, 200}
+                                                : Dims{8, 8, 8};
                     EXPECT_EQ(g.dims, want) << "brick " << b;
                 }
                 used += g.bricks.size() * bytes(g.dims);
@@ -177,7 +181,8 @@ TEST(CodecLossless, HeaderBudgetCoversTheFrameAndOneBricksDecodingState) {
             (void)readVczHeader(bytes, "mem", budget);
             ADD_FAILURE() << "budget " << budget << " accepted";
         } catch (const IoError& e) {
-            EXPECT_NE(std::string(e.what()).find("corrections of a 16x16x16 brick"), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("corrections of a 16x16x16 brick"), std::string::npos)
+                << e.what();
         }
     }
 }
@@ -188,7 +193,8 @@ TEST(CodecLossless, VolumeOfManyRoundsRoundTrips) {
     const Volume v = makeVolume({300, 200, 140}, ScalarType::UInt16, 7);
     ComputeContext& cc = test::computeContext();
     const auto bytes = encodeVolume(cc, v, lossless(Wavelet::Cdf53, EntropyMode::Dense, {64, 64, 64}, 4));
-    ASSERT_GT(readVczHeader(bytes, "mem").brickCount(), 2 * codec::kTransformRoundBytes / (std::size_t(1) << 20));
+    ASSERT_GT(readVczHeader(bytes, "mem").brickCount(),
+              2 * codec::kTransformRoundBytes / (std::size_t(1) << 20));
     EXPECT_TRUE(decodeVolume(cc, bytes) == v);
     const VczReader reader(bytes, "mem");
     DecodeOptions o;

@@ -26,7 +26,8 @@ Volume makeVolume(Dims d, ScalarType type, unsigned seed) {
     for (std::size_t z = 0; z < d.z; ++z)
         for (std::size_t y = 0; y < d.y; ++y)
             for (std::size_t x = 0; x < d.x; ++x) {
-                float s = 120.f + 80.f * std::sin(0.11f * float(x)) * std::cos(0.07f * float(y + z)) + noise(rng);
+                float s =
+                    120.f + 80.f * std::sin(0.11f * float(x)) * std::cos(0.07f * float(y + z)) + noise(rng);
                 if (z < 64) s = 0.f;
                 if (x >= d.x - 5) s = 1e5f;
                 v[f.index(x, y, z)] = s;
@@ -74,15 +75,17 @@ TEST(DecodeAhead, SameVoxelsWhateverPartWasDecodedAhead) {
         VczReader reader(bytes, "ahead.vcz");
         const Volume expected = reader.decode(cc);
         if (c.o.rate == RateMode::Lossless) ASSERT_TRUE(expected == v) << scalarTypeName(c.type);
-        const std::size_t varying = codec::varyingBricks(reader.header(), 0, codec::allBricks(reader.header())).size();
+        const std::size_t varying =
+            codec::varyingBricks(reader.header(), 0, codec::allBricks(reader.header())).size();
         if (c.o.rate == RateMode::Lossless)
             ASSERT_LT(varying, reader.header().brickCount()) << "the zero slab gives uniform bricks";
         const std::size_t rounds =
-            codec::batchRounds<std::int32_t>(reader.header(),
-                                             codec::varyingBricks(reader.header(), 0, codec::allBricks(reader.header())))
+            codec::batchRounds<std::int32_t>(
+                reader.header(), codec::varyingBricks(reader.header(), 0, codec::allBricks(reader.header())))
                 .size();
         ASSERT_GE(rounds, 2u) << scalarTypeName(c.type);
-        for (const std::size_t maxBytes : {std::size_t(0), roundBytes(reader.header()), DecodeAhead::kMaxBytes * 4}) {
+        for (const std::size_t maxBytes :
+             {std::size_t(0), roundBytes(reader.header()), DecodeAhead::kMaxBytes * 4}) {
             for (const bool waitFirst : {true, false}) {
                 DecodeAhead ahead(reader, 0, cc.hostMemory(), maxBytes);
                 if (waitFirst) ahead.wait();
@@ -150,7 +153,8 @@ TEST(DecodeAhead, CorruptBrickIsReportedByTheDecoder) {
     const Volume v = makeVolume({96, 64, 64}, ScalarType::UInt8, 9);
     auto bytes = encodeVolume(cc, v, options(RateMode::Lossless, 0, {32, 32, 32}));
     VczReader good(bytes, "good.vcz");
-    const std::vector<std::size_t> varying = codec::varyingBricks(good.header(), 0, codec::allBricks(good.header()));
+    const std::vector<std::size_t> varying =
+        codec::varyingBricks(good.header(), 0, codec::allBricks(good.header()));
     ASSERT_GE(varying.size(), 4u);
     const std::size_t victim = varying[varying.size() / 2];
     const VczBrickEntry& e = good.header().bricks[0][victim];

@@ -95,8 +95,8 @@ void expectRoundTrip(const std::vector<std::int32_t>& c, Dims d, int levels, Ent
     std::size_t mismatches = 0;
     for (std::size_t i = 0; i < c.size(); ++i)
         mismatches += decoded[i] != c[i];
-    EXPECT_EQ(mismatches, 0u) << "dims " << d.x << "x" << d.y << "x" << d.z << ", " << levels << " levels, mode "
-                              << int(mode);
+    EXPECT_EQ(mismatches, 0u) << "dims " << d.x << "x" << d.y << "x" << d.z << ", " << levels
+                              << " levels, mode " << int(mode);
 }
 
 // Wavelet-like coefficients: Laplacian magnitudes whose scale varies smoothly in space, plus zero regions.
@@ -107,7 +107,8 @@ std::vector<std::int32_t> waveletLike(Dims d, std::uint32_t seed, double scale) 
     for (std::size_t z = 0; z < d.z; ++z)
         for (std::size_t y = 0; y < d.y; ++y)
             for (std::size_t x = 0; x < d.x; ++x) {
-                const double local = scale * (1.0 + 0.9 * std::sin(0.3 * double(x) + 0.2 * double(y) + 0.1 * double(z)));
+                const double local =
+                    scale * (1.0 + 0.9 * std::sin(0.3 * double(x) + 0.2 * double(y) + 0.1 * double(z)));
                 const bool empty = (x + 2 * y + 3 * z) % 11 < 3; // zero patches for the row flags
                 const double m = empty ? 0.0 : expo(rng) * local;
                 const auto v = static_cast<std::int32_t>(std::min(m, double(kMaxMagnitude)));
@@ -118,7 +119,8 @@ std::vector<std::int32_t> waveletLike(Dims d, std::uint32_t seed, double scale) 
 
 const EntropyMode kModes[] = {EntropyMode::Dense, EntropyMode::Fast};
 
-const Dims kShapes[] = {{1, 1, 1}, {1, 7, 1}, {2, 3, 5}, {5, 1, 3}, {16, 16, 16}, {17, 9, 33}, {31, 2, 1}, {64, 40, 24}};
+const Dims kShapes[] = {{1, 1, 1},    {1, 7, 1},   {2, 3, 5},  {5, 1, 3},
+                        {16, 16, 16}, {17, 9, 33}, {31, 2, 1}, {64, 40, 24}};
 
 } // namespace
 
@@ -161,7 +163,8 @@ TEST(Entropy, RoundTripExtremeMagnitudes) {
             // Every bit length 0..30 mixed at random.
             for (auto& v : c) {
                 const int n = static_cast<int>(rng() % 31);
-                const auto m = n == 0 ? 0 : static_cast<std::int32_t>((1u << (n - 1)) | (rng() & ((1u << (n - 1)) - 1)));
+                const auto m =
+                    n == 0 ? 0 : static_cast<std::int32_t>((1u << (n - 1)) | (rng() & ((1u << (n - 1)) - 1)));
                 v = (rng() & 1) ? -m : m;
             }
             expectRoundTrip(c, d, 3, mode);
@@ -250,8 +253,8 @@ namespace {
 
 // Decodes one damaged section: IoError is the only acceptable failure. Returns true when it was detected.
 // Both dense decoders must reach the same verdict and, when they accept the data, the same coefficients.
-bool decodeDamaged(const std::vector<std::uint8_t>& bytes, Dims d, int levels, std::size_t s, EntropyMode mode,
-                   const std::vector<std::int32_t>& earlier) {
+bool decodeDamaged(const std::vector<std::uint8_t>& bytes, Dims d, int levels, std::size_t s,
+                   EntropyMode mode, const std::vector<std::int32_t>& earlier) {
     const auto layout = sectionLayout(d, levels);
     std::vector<std::int32_t> out[2] = {earlier, earlier}; // earlier sections give the parent contexts
     bool detected[2] = {false, false};
@@ -283,8 +286,10 @@ TEST(Entropy, DamagedSectionsAreRejectedWithoutCrashing) {
             ASSERT_FALSE(good.empty());
             // Every truncation is detected: each stream's length is implied by its content.
             for (std::size_t len = 0; len < good.size(); ++len) {
-                const std::vector<std::uint8_t> cut(good.begin(), good.begin() + static_cast<std::ptrdiff_t>(len));
-                EXPECT_TRUE(decodeDamaged(cut, d, levels, s, mode, c)) << "section " << s << " cut to " << len;
+                const std::vector<std::uint8_t> cut(good.begin(),
+                                                    good.begin() + static_cast<std::ptrdiff_t>(len));
+                EXPECT_TRUE(decodeDamaged(cut, d, levels, s, mode, c))
+                    << "section " << s << " cut to " << len;
             }
             // An extra byte is detected.
             auto longer = good;

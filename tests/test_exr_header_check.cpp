@@ -38,7 +38,8 @@ fs::path writeBytes(const std::string& name, const std::string& bytes) {
 // A valid 16x8 RGBA float EXR written by volcl itself (zip compression: 16 lines per chunk).
 std::string validExr() {
     volcl::ImageBuffer img(16, 8, {"R", "G", "B", "A"});
-    for (std::size_t i = 0; i < img.pixels.size(); ++i) img.pixels[i] = float(i) * 0.25f;
+    for (std::size_t i = 0; i < img.pixels.size(); ++i)
+        img.pixels[i] = float(i) * 0.25f;
     const fs::path p = tmpDir() / "valid.exr";
     volcl::writeImage(img, p);
     return fileBytes(p);
@@ -52,7 +53,8 @@ std::size_t dataWindowValue(const std::string& exr) {
     return at + key.size() + 4;
 }
 
-std::string withDataWindow(std::string exr, std::int32_t x0, std::int32_t y0, std::int32_t x1, std::int32_t y1) {
+std::string withDataWindow(std::string exr, std::int32_t x0, std::int32_t y0, std::int32_t x1,
+                           std::int32_t y1) {
     const std::int32_t box[4] = {x0, y0, x1, y1};
     std::memcpy(exr.data() + dataWindowValue(exr), box, 16);
     return exr;
@@ -83,7 +85,8 @@ TEST(ExrHeaderCheck, NonExrFilesAreLeftToTheImageLibrary) {
 
 // The fuzzer's finding: an 812-byte file whose string attribute claims 1.5 GB made OpenEXR allocate 1.6 GB.
 TEST(ExrHeaderCheck, AttributeLargerThanTheFileIsRefused) {
-    const fs::path finding = fs::path(VOLCL_SOURCE_DIR) / "fuzz/regressions/fuzz_tf_exr/huge-string-attribute.exr";
+    const fs::path finding =
+        fs::path(VOLCL_SOURCE_DIR) / "fuzz/regressions/fuzz_tf_exr/huge-string-attribute.exr";
     ASSERT_TRUE(fs::exists(finding));
     const std::string why = refusal(finding);
     EXPECT_NE(why.find(finding.string()), std::string::npos) << why;
@@ -117,8 +120,8 @@ TEST(ExrHeaderCheck, EmptyOrInvertedWindowsAreRefused) {
     EXPECT_NE(refusal(writeBytes("inverted.exr", withDataWindow(exr, 10, 0, 0, 7))).find("empty or inverted"),
               std::string::npos);
     // The extreme corners: the width is computed in double, so INT_MIN..INT_MAX does not overflow.
-    const std::string why = refusal(writeBytes("extreme.exr", withDataWindow(exr, INT32_MIN, INT32_MIN,
-                                                                             INT32_MAX, INT32_MAX)));
+    const std::string why =
+        refusal(writeBytes("extreme.exr", withDataWindow(exr, INT32_MIN, INT32_MIN, INT32_MAX, INT32_MAX)));
     EXPECT_NE(why.find("memory budget"), std::string::npos) << why;
 }
 
@@ -161,8 +164,9 @@ TEST(ExrHeaderCheck, MisstatedAttributeSizesAreRefused) {
     };
     const std::string compression = std::string("compression") + '\0' + "compression" + '\0';
     const std::string channels = std::string("channels") + '\0' + "chlist" + '\0';
-    EXPECT_NE(refusal(writeBytes("compression2.exr", grown(compression, 1))).find("states 2 bytes, the type has 1"),
-              std::string::npos);
+    EXPECT_NE(
+        refusal(writeBytes("compression2.exr", grown(compression, 1))).find("states 2 bytes, the type has 1"),
+        std::string::npos);
     EXPECT_NE(refusal(writeBytes("chlist.exr", grown(channels, 0))).find("channel list ends 1 bytes before"),
               std::string::npos);
     for (const char* name : {"compression2.exr", "chlist.exr"})
@@ -184,14 +188,16 @@ TEST(ExrHeaderCheck, DecodingBuffersOfWideChunksCountAgainstTheBudget) {
     // Without a compression attribute OpenEXR uses its default, ZIP (16 lines): a 311-byte file claiming a
     // 132,736-pixel strip passed as uncompressed (1 line) and decoded into a TF whose 256^2 table took 15 s.
     const fs::path noCompression =
-        fs::path(VOLCL_SOURCE_DIR) / "fuzz/regressions/fuzz_tf_exr/timeout-zip-strip-without-compression-attribute.exr";
+        fs::path(VOLCL_SOURCE_DIR) /
+        "fuzz/regressions/fuzz_tf_exr/timeout-zip-strip-without-compression-attribute.exr";
     ASSERT_TRUE(fs::exists(noCompression));
     EXPECT_NE(refusal(noCompression, 34u << 20).find("132736x1 (16 lines per chunk)"), std::string::npos);
 
     // A valid 40000x1 RGBA float strip, ZIP-compressed as volcl writes EXR: 1.28 MB of pixels (as stored and
     // as floats), 10.24 MB per 16-line chunk.
     volcl::ImageBuffer strip(40000, 1, {"R", "G", "B", "A"});
-    for (std::size_t i = 0; i < strip.pixels.size(); ++i) strip.pixels[i] = float(i % 1000) / 1000.0f;
+    for (std::size_t i = 0; i < strip.pixels.size(); ++i)
+        strip.pixels[i] = float(i % 1000) / 1000.0f;
     const fs::path wide = tmpDir() / "wide-strip.exr";
     volcl::writeImage(strip, wide);
     const std::size_t pixels = 2 * 40000 * 16, chunk = 40000 * 16 * 16;
@@ -206,7 +212,8 @@ TEST(ExrHeaderCheck, DecodingBuffersOfWideChunksCountAgainstTheBudget) {
 // as OpenImageIO's own conversion gives them.
 TEST(ExrHeaderCheck, StoredTypesAreConvertedToFloat) {
     volcl::ImageBuffer img(7, 3, {"R", "G", "B", "A"});
-    for (std::size_t i = 0; i < img.pixels.size(); ++i) img.pixels[i] = float(i) / float(img.pixels.size());
+    for (std::size_t i = 0; i < img.pixels.size(); ++i)
+        img.pixels[i] = float(i) / float(img.pixels.size());
     const fs::path half = tmpDir() / "half.exr", png = tmpDir() / "eight-bit.png";
     volcl::writeImage(img, half, {.halfFloat = true});
     volcl::writeImage(img, png);

@@ -1,14 +1,14 @@
 // Volume I/O tests: writer round trips, every reader on hand-made files, corrupted/lying/truncated input.
 #include "TestUtil.hpp"
-#include "core/Error.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/Error.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/VolumeIo.hpp"
 
 #include <gtest/gtest.h>
 #include <signal.h>
-#include <unistd.h>
 #include <sys/wait.h>
+#include <unistd.h>
 #include <zlib.h>
 
 #include <bit>

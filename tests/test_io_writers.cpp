@@ -62,7 +62,8 @@ NiftiMetadata obliqueMeta(const Volume& v) {
 }
 
 std::array<double, 3> world(const std::array<std::array<double, 4>, 3>& a, double i, double j, double k) {
-    return {a[0][0] * i + a[0][1] * j + a[0][2] * k + a[0][3], a[1][0] * i + a[1][1] * j + a[1][2] * k + a[1][3],
+    return {a[0][0] * i + a[0][1] * j + a[0][2] * k + a[0][3],
+            a[1][0] * i + a[1][1] * j + a[1][2] * k + a[1][3],
             a[2][0] * i + a[2][1] * j + a[2][2] * k + a[2][3]};
 }
 
@@ -181,7 +182,8 @@ TEST(NiftiWriter, MetadataTextRoundTripsAndRefusesGarbage) {
         niftiMetadataFromText(text, "x.vcz");
         ADD_FAILURE() << "an out-of-range code was accepted";
     } catch (const IoError& e) {
-        EXPECT_NE(std::string(e.what()).find("x.vcz: NIfTI metadata: qform_code"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("x.vcz: NIfTI metadata: qform_code"), std::string::npos)
+            << e.what();
     }
 }
 
@@ -219,7 +221,8 @@ TEST(VtiWriter, NiftiOrientationBecomesOriginSpacingAndDirection) {
     writeVolumeFile(v, dir / "las.vti", o);
     std::ifstream in(dir / "las.vti", std::ios::binary);
     std::string text((std::istreambuf_iterator<char>(in)), {});
-    EXPECT_NE(text.find("Origin=\"90 -126 -72\" Spacing=\"2 2 2\" Direction=\"-1 0 0 0 1 0 0 0 1\""), std::string::npos)
+    EXPECT_NE(text.find("Origin=\"90 -126 -72\" Spacing=\"2 2 2\" Direction=\"-1 0 0 0 1 0 0 0 1\""),
+              std::string::npos)
         << text.substr(0, 400);
     EXPECT_EQ(readVolume(dir / "las.vti").values<std::uint8_t>()[5], v.values<std::uint8_t>()[5]);
 }

@@ -5,19 +5,19 @@
 #include "core/Error.hpp"
 #include "host/mesh/MeshGenerator.hpp"
 #include "host/mesh/MeshIo.hpp"
+#include "host/tf/TransferFunction.hpp"
+#include "preintegration/PreintegrationTable.hpp"
 #include "render/CameraFraming.hpp"
 #include "render/RenderInput.hpp"
-#include "render/mesh/MeshReference.hpp"
 #include "render/VecMath.hpp"
 #include "render/mesh/KBufferReference.hpp"
 #include "render/mesh/KBufferRenderer.hpp"
+#include "render/mesh/MeshReference.hpp"
 #include "render/mesh/RadixSort.hpp"
-#include "host/tf/TransferFunction.hpp"
-#include "preintegration/PreintegrationTable.hpp"
 
 #include <algorithm>
-#include <iostream>
 #include <cmath>
+#include <iostream>
 #include <limits>
 #include <numeric>
 #include <random>
@@ -35,8 +35,8 @@ ComputeContext& context() {
 TransferFunction rampTf(double extinctionScale = 2.0) {
     return TransferFunction::fromJson(R"({"domain": [0, 1],
       "color": [[0, 0.1, 0.2, 0.9], [0.5, 1.0, 0.6, 0.2], [1, 1.0, 1.0, 1.0]],
-      "extinction": [[0, )" + std::to_string(0.2 * extinctionScale) + R"(], [0.6, )" +
-                                      std::to_string(1.0 * extinctionScale) + R"(], [1, )" +
+      "extinction": [[0, )" + std::to_string(0.2 * extinctionScale) +
+                                      R"(], [0.6, )" + std::to_string(1.0 * extinctionScale) + R"(], [1, )" +
                                       std::to_string(0.4 * extinctionScale) + "]]}");
 }
 
@@ -91,8 +91,10 @@ ImageBuffer mirrorOf(KBufferRenderer& r, const mesh::TetMesh& m, KBufferMirrorSt
 
 /// Two boxes [0,1]^2 x [0,1] and [0,1]^2 x [2,3] in one mesh: rays along z leave and re-enter.
 mesh::TetMesh twoBoxes(float value) {
-    auto a = mesh::generateHexGridMesh({3, 3, 3}, {0, 0, 0}, {1, 1, 1}, [&](double, double, double) { return value; });
-    auto b = mesh::generateHexGridMesh({3, 3, 3}, {0, 0, 2}, {1, 1, 3}, [&](double, double, double) { return value; });
+    auto a = mesh::generateHexGridMesh({3, 3, 3}, {0, 0, 0}, {1, 1, 1},
+                                       [&](double, double, double) { return value; });
+    auto b = mesh::generateHexGridMesh({3, 3, 3}, {0, 0, 2}, {1, 1, 3},
+                                       [&](double, double, double) { return value; });
     mesh::TetSoup soup;
     soup.points = a.points;
     soup.scalars = a.scalars;
@@ -108,7 +110,8 @@ mesh::TetMesh twoBoxes(float value) {
 /// A grid graded along every axis (cells from 0.005 to 0.42 of the edge): faces of very different sizes,
 /// which splitLongFaces cuts. The scalar is linear, 0.1 x + y - z.
 mesh::TetMesh gradedGrid() {
-    auto m = mesh::generateHexGridMesh({6, 6, 6}, {0, 0, 0}, {1, 1, 1}, [](double, double, double) { return 0.0; });
+    auto m = mesh::generateHexGridMesh({6, 6, 6}, {0, 0, 0}, {1, 1, 1},
+                                       [](double, double, double) { return 0.0; });
     for (std::size_t i = 0; i < m.points.size(); ++i) {
         auto& p = m.points[i];
         for (double& c : p)
@@ -142,7 +145,8 @@ TEST(RadixSort, ReferenceIsAStableSort) {
     std::iota(vals.begin(), vals.end(), 0u);
     std::vector<std::size_t> expect(keys.size());
     std::iota(expect.begin(), expect.end(), 0u);
-    std::stable_sort(expect.begin(), expect.end(), [&](std::size_t a, std::size_t b) { return keys[a] < keys[b]; });
+    std::stable_sort(expect.begin(), expect.end(),
+                     [&](std::size_t a, std::size_t b) { return keys[a] < keys[b]; });
     auto k2 = keys;
     radixSortReference(k2, vals);
     for (std::size_t i = 0; i < expect.size(); ++i) {
@@ -170,7 +174,8 @@ TEST(RadixSort, DeviceMatchesReference) {
 }
 
 TEST(MeshFaces, InternalFacesOnceBoundaryFirst) {
-    const auto m = mesh::generateHexGridMesh({3, 2, 2}, {0, 0, 0}, {3, 2, 2}, [](double x, double, double) { return x; });
+    const auto m = mesh::generateHexGridMesh({3, 2, 2}, {0, 0, 0}, {3, 2, 2},
+                                             [](double x, double, double) { return x; });
     const MeshFaces f = buildMeshFaces(m);
     EXPECT_EQ(f.boundaryCount, m.boundaryFaces.size());
     EXPECT_EQ(f.internalCount(), m.internalFaceCount());
@@ -185,7 +190,8 @@ TEST(MeshFaces, InternalFacesOnceBoundaryFirst) {
     EXPECT_EQ(f.prefixForFraction(0.0), f.boundaryCount);
     EXPECT_EQ(f.prefixForFraction(1.0), f.faces.size());
     EXPECT_EQ(f.prefixForFraction(0.5), f.boundaryCount + (f.internalCount() + 1) / 2);
-    const auto single = mesh::generateHexGridMesh({1, 1, 1}, {0, 0, 0}, {1, 1, 1}, [](double, double, double) { return 0; });
+    const auto single =
+        mesh::generateHexGridMesh({1, 1, 1}, {0, 0, 0}, {1, 1, 1}, [](double, double, double) { return 0; });
     EXPECT_EQ(buildMeshFaces(single).boundaryCount, 12u);
 }
 
@@ -199,8 +205,12 @@ TEST(MeshFaces, SplitLongFacesCoversTheFaceWithItsWinding) {
     EXPECT_EQ(cut.faces.size(), plain.faces.size() + added);
     EXPECT_LE(double(added), 3.0 * double(plain.faces.size()));
     EXPECT_GT(cut.boundaryCount, plain.boundaryCount);
-    auto P = [&](std::uint32_t i) { return i < m.points.size() ? m.points[i] : cut.extraPoints[i - m.points.size()]; };
-    auto S = [&](std::uint32_t i) { return i < m.points.size() ? m.scalars[i] : cut.extraScalars[i - m.points.size()]; };
+    auto P = [&](std::uint32_t i) {
+        return i < m.points.size() ? m.points[i] : cut.extraPoints[i - m.points.size()];
+    };
+    auto S = [&](std::uint32_t i) {
+        return i < m.points.size() ? m.scalars[i] : cut.extraScalars[i - m.points.size()];
+    };
     auto areaVector = [&](const MeshFace& f) {
         return scale(cross(sub(P(f.v[1]), P(f.v[0])), sub(P(f.v[2]), P(f.v[0]))), 0.5);
     };
@@ -226,8 +236,10 @@ TEST(MeshFaces, SplitLongFacesCoversTheFaceWithItsWinding) {
 TEST(KBuffer, KernelMatchesMirror) {
     ComputeContext& cc = context();
     const auto ml = mesh::marschnerLobbMesh(6);
-    const auto grid = mesh::generateHexGridMesh({5, 4, 3}, {-1, 0, 2}, {2, 1.5, 3},
-                                                [](double x, double y, double z) { return (x + 1) / 3 * 0.7 + 0.1 * y * z; });
+    const auto grid =
+        mesh::generateHexGridMesh({5, 4, 3}, {-1, 0, 2}, {2, 1.5, 3}, [](double x, double y, double z) {
+            return (x + 1) / 3 * 0.7 + 0.1 * y * z;
+        });
     const TransferFunction tf = rampTf(2.0);
     int cases = 0;
     const auto graded = gradedGrid(); // its long faces are cut: the mirror draws the same pieces
@@ -244,13 +256,15 @@ TEST(KBuffer, KernelMatchesMirror) {
                     const ImageBuffer dev = r.render();
                     KBufferMirrorStats st;
                     const ImageBuffer ref = mirrorOf(r, *m, &st);
-                    EXPECT_LE(maxAbsDiff(dev, ref), 2e-5) << "persp " << persp << " k " << k << " lod " << lod;
+                    EXPECT_LE(maxAbsDiff(dev, ref), 2e-5)
+                        << "persp " << persp << " k " << k << " lod " << lod;
                     double alpha = 0;
                     for (std::size_t i = 3; i < dev.pixels.size(); i += 4)
                         alpha += dev.pixels[i];
                     EXPECT_GT(alpha, 1.0) << "the image must not be empty";
                     EXPECT_GT(st.fragments, 100u);
-                    KBufferMirrorInput in{&r.geometry(), &r.geometry().scalars, &r.faces(), r.frameParams(), &r.tableValues(), k};
+                    KBufferMirrorInput in{&r.geometry(),   &r.geometry().scalars, &r.faces(),
+                                          r.frameParams(), &r.tableValues(),      k};
                     EXPECT_EQ(r.lastOrder(), kbufferMirrorOrder(in));
                     ++cases;
                 }
@@ -263,7 +277,8 @@ TEST(KBuffer, KernelMatchesMirror) {
 TEST(KBuffer, ConstantScalarGivesTheChordIntegral) {
     // One value everywhere: every pixel is the segment integral over its chord through the box.
     ComputeContext& cc = context();
-    const auto m = mesh::generateHexGridMesh({4, 4, 4}, {0, 0, 0}, {1, 1, 1}, [](double, double, double) { return 0.55; });
+    const auto m = mesh::generateHexGridMesh({4, 4, 4}, {0, 0, 0}, {1, 1, 1},
+                                             [](double, double, double) { return 0.55; });
     const TransferFunction tf = rampTf(1.5);
     Scene s = orthoScene(m, 32, 32, {0, 0, 1});
     s.camera->height = 2.0;
@@ -286,7 +301,8 @@ TEST(KBuffer, ConstantScalarGivesTheChordIntegral) {
                 }
                 ++inside;
                 for (int c = 0; c < 4; ++c)
-                    EXPECT_NEAR(img.at(x, y, c), exact[c], 2e-3) << "k " << k << " pixel " << x << "," << y << " c " << c;
+                    EXPECT_NEAR(img.at(x, y, c), exact[c], 2e-3)
+                        << "k " << k << " pixel " << x << "," << y << " c " << c;
             }
         EXPECT_GT(inside, 200);
     }
@@ -315,7 +331,8 @@ TEST(KBuffer, GapBetweenBoxesStaysEmpty) {
 
 TEST(KBuffer, EarlyTerminationStopsAtTheThreshold) {
     ComputeContext& cc = context();
-    const auto m = mesh::generateHexGridMesh({4, 4, 4}, {0, 0, 0}, {1, 1, 1}, [](double x, double, double) { return x; });
+    const auto m = mesh::generateHexGridMesh({4, 4, 4}, {0, 0, 0}, {1, 1, 1},
+                                             [](double x, double, double) { return x; });
     const TransferFunction tf = rampTf(20.0);
     Scene s = orthoScene(m, 32, 32);
     KBufferRenderer full(cc, m, tf, s, 6);
@@ -389,7 +406,9 @@ TransferFunction meshTf(const mesh::TetMesh& m, double depth) {
     TransferFunction tf;
     tf.domain = {lo, hi};
     tf.color = {{lo, {0.1, 0.2, 1.0}}, {0.5 * (lo + hi), {1.0, 0.6, 0.2}}, {hi, {1.0, 1.0, 0.9}}};
-    tf.extinction = {{lo, 0.0}, {lo + 0.2 * (hi - lo), 0.1 * depth / diag}, {lo + 0.8 * (hi - lo), depth / diag},
+    tf.extinction = {{lo, 0.0},
+                     {lo + 0.2 * (hi - lo), 0.1 * depth / diag},
+                     {lo + 0.8 * (hi - lo), depth / diag},
                      {hi, 0.3 * depth / diag}};
     return tf;
 }
@@ -450,8 +469,8 @@ TEST(KBufferAccuracy, SharedMeshesAtK6MatchTheReference) {
         const mesh::TetMesh m = mesh::readMesh(dir / c.file, o);
         ImageBuffer ref;
         const double e = kbufferVsReference(m, meshTf(m, 4.0), quarterView(m, 64, 64), 6, &ref);
-        std::cout << c.file << " q" << c.qVar << ": " << m.tetCount() << " tets, k 6 RMSE " << e << ", mean alpha "
-                  << meanAlpha(ref) << '\n';
+        std::cout << c.file << " q" << c.qVar << ": " << m.tetCount() << " tets, k 6 RMSE " << e
+                  << ", mean alpha " << meanAlpha(ref) << '\n';
         EXPECT_LE(e, 0.01) << c.file;
         EXPECT_GT(meanAlpha(ref), 0.003) << c.file;
         ++done;
@@ -487,8 +506,9 @@ TEST(KBufferAccuracy, NonConvexMeshAndPerspective) {
 
 TEST(KBufferAccuracy, ErrorFallsWithK) {
     // Slivers: a grid stretched 20:1 puts many fragments out of centroid order; a larger k repairs them.
-    const auto m = mesh::generateHexGridMesh({6, 6, 6}, {0, 0, 0}, {20, 1, 1},
-                                             [](double x, double y, double z) { return std::sin(x * 0.4) + y * z; });
+    const auto m =
+        mesh::generateHexGridMesh({6, 6, 6}, {0, 0, 0}, {20, 1, 1},
+                                  [](double x, double y, double z) { return std::sin(x * 0.4) + y * z; });
     const TransferFunction tf = meshTf(m, 3.0);
     Scene s = quarterView(m, 64, 64);
     const double e2 = kbufferVsReference(m, tf, s, 2), e8 = kbufferVsReference(m, tf, s, 8);

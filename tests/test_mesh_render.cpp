@@ -193,7 +193,7 @@ TEST(MeshGeometry, HullFacesAreTheOuterFacesOfANonConvexMesh) {
         (onCube ? outer : inner) += 1;
     }
     EXPECT_EQ(outer, 6u * 8u * 8u * 2u - 2u * 2u * 2u * 2u); // the cube's faces less the hole's two openings
-    EXPECT_EQ(inner, 4u * 2u * 8u * 2u);                   // four walls of 2 x 8 quads
+    EXPECT_EQ(inner, 4u * 2u * 8u * 2u);                     // four walls of 2 x 8 quads
 }
 
 TEST(MeshCells, LinearFieldMatchesTheReference) {

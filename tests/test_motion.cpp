@@ -1,10 +1,10 @@
 // Motion estimation: the OpenCL block search against the C++ reference (exact), known shifts found,
 // hard cases (partial blocks, motion beyond the radius, constant frames, noise), real series.
+#include "TestUtil.hpp"
 #include "core/Error.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "wavelet/predict/MotionSearch.hpp"
 #include "wavelet/predict/TranslatedSeries.hpp"
-#include "TestUtil.hpp"
 
 #include <zlib.h>
 
@@ -45,8 +45,8 @@ Volume evenVolume(Dims d, std::array<double, 3> s) {
     for (std::size_t z = 0; z < d.z; ++z)
         for (std::size_t y = 0; y < d.y; ++y)
             for (std::size_t x = 0; x < d.x; ++x)
-                vals[v.index(x, y, z)] =
-                    static_cast<std::uint16_t>(2 * std::lround(smoothField(double(x) - s[0], double(y) - s[1], double(z) - s[2])));
+                vals[v.index(x, y, z)] = static_cast<std::uint16_t>(
+                    2 * std::lround(smoothField(double(x) - s[0], double(y) - s[1], double(z) - s[2])));
     return v;
 }
 
@@ -60,7 +60,8 @@ Volume movedBy(const Volume& ref, int vx, int vy, int vz) {
     for (std::size_t z = 0; z < d.z; ++z)
         for (std::size_t y = 0; y < d.y; ++y)
             for (std::size_t x = 0; x < d.x; ++x)
-                o[out.index(x, y, z)] = in[ref.index(c(long(x) + vx, d.x), c(long(y) + vy, d.y), c(long(z) + vz, d.z))];
+                o[out.index(x, y, z)] =
+                    in[ref.index(c(long(x) + vx, d.x), c(long(y) + vy, d.y), c(long(z) + vz, d.z))];
     return out;
 }
 
@@ -74,7 +75,8 @@ Volume noiseVolume(Dims d, unsigned seed, int range = 4096) {
 }
 
 // The kernel and the reference agree on every block's vector and cost.
-MotionSearchResult expectKernelMatchesReference(const Volume& cur, const Volume& ref, const MotionSearchOptions& o) {
+MotionSearchResult expectKernelMatchesReference(const Volume& cur, const Volume& ref,
+                                                const MotionSearchOptions& o) {
     ComputeContext& cc = test::computeContext();
     MotionEstimator est(cc, o);
     const int levels = o.method == MotionSearchMethod::Hierarchical ? hierarchyLevels(o) : 0;
@@ -117,7 +119,8 @@ void expectFound(const MotionSearchOptions& o, std::size_t found, std::size_t in
     if (o.method == MotionSearchMethod::Full)
         EXPECT_EQ(found, interior) << "full search, cost " << int(o.cost);
     else
-        EXPECT_GE(found * 2, interior) << found << " of " << interior << ", hierarchical, cost " << int(o.cost);
+        EXPECT_GE(found * 2, interior)
+            << found << " of " << interior << ", hierarchical, cost " << int(o.cost);
 }
 
 Volume readGzipRaw(const fs::path& p, Dims d) {
@@ -172,7 +175,8 @@ TEST(MotionSearch, KnownHalfVoxelShiftIsFoundExactly) {
             for (std::size_t y = 0; y < d.y; ++y)
                 for (std::size_t x = 0; x < d.x; ++x) {
                     const std::size_t y1 = std::min(y + 1, d.y - 1), x1 = std::min(x + 1, d.x - 1);
-                    o[cur.index(x, y, z)] = static_cast<std::uint16_t>((in[ref.index(x, y1, z)] + in[ref.index(x1, y1, z)]) / 2);
+                    o[cur.index(x, y, z)] =
+                        static_cast<std::uint16_t>((in[ref.index(x, y1, z)] + in[ref.index(x1, y1, z)]) / 2);
                 }
     }
     // The half-voxel step refines the best whole-voxel vector by +-1/2: wherever that vector is next to
@@ -195,7 +199,8 @@ TEST(MotionSearch, KnownHalfVoxelShiftIsFoundExactly) {
         EXPECT_GE(adjacent * 2, interior) << adjacent << " of " << interior << ", method " << int(o.method);
     }
     // Without half-voxel refinement the vector stays on whole voxels.
-    const MotionSearchResult whole = expectKernelMatchesReference(cur, ref, {8, 2, MotionSearchMethod::Full, MotionCost::Ssd, false});
+    const MotionSearchResult whole =
+        expectKernelMatchesReference(cur, ref, {8, 2, MotionSearchMethod::Full, MotionCost::Ssd, false});
     for (const MotionVector& v : whole.vectors)
         EXPECT_TRUE(v.x % 2 == 0 && v.y % 2 == 0 && v.z % 2 == 0);
 }
@@ -207,7 +212,8 @@ TEST(MotionSearch, MotionBeyondTheRadiusGivesTheBestVectorInRange) {
     for (const MotionSearchOptions& o : optionGrid(8, 2)) {
         const MotionSearchResult r = expectKernelMatchesReference(cur, ref, o);
         const MotionSearchSamples s = prepareSearchSamples(cur, ref, 0);
-        const MotionSearchResult zero = searchMotionReference(s, {8, 0, MotionSearchMethod::Full, o.cost, false});
+        const MotionSearchResult zero =
+            searchMotionReference(s, {8, 0, MotionSearchMethod::Full, o.cost, false});
         for (std::size_t b = 0; b < r.vectors.size(); ++b) {
             const MotionVector v = r.vectors[b];
             EXPECT_TRUE(std::abs(v.x) <= 4 && std::abs(v.y) <= 4 && std::abs(v.z) <= 4) << "block " << b;
@@ -258,11 +264,13 @@ TEST(MotionSearch, NoiseAndExtremeValuesAgreeExactly) {
     expectKernelMatchesReference(s16, s16b, {4, 2, MotionSearchMethod::Hierarchical, MotionCost::Sad, true});
     // Block sizes 2..32 and a radius of zero.
     for (std::size_t bs : {2u, 4u, 16u, 32u})
-        expectKernelMatchesReference(noiseVolume(d, 3), noiseVolume(d, 4), {bs, 2, MotionSearchMethod::Hierarchical, MotionCost::Ssd, true});
+        expectKernelMatchesReference(noiseVolume(d, 3), noiseVolume(d, 4),
+                                     {bs, 2, MotionSearchMethod::Hierarchical, MotionCost::Ssd, true});
     expectKernelMatchesReference(noiseVolume(d, 3), noiseVolume(d, 4), {8, 0});
     // Degenerate volumes: one voxel, one line.
     expectKernelMatchesReference(noiseVolume({1, 1, 1}, 5), noiseVolume({1, 1, 1}, 6), {8, 3});
-    expectKernelMatchesReference(noiseVolume({50, 1, 1}, 5), noiseVolume({50, 1, 1}, 6), {8, 3, MotionSearchMethod::Hierarchical});
+    expectKernelMatchesReference(noiseVolume({50, 1, 1}, 5), noiseVolume({50, 1, 1}, 6),
+                                 {8, 3, MotionSearchMethod::Hierarchical});
 }
 
 TEST(MotionSearch, NanFramesAndMismatchedFramesAreRefused) {
@@ -275,7 +283,8 @@ TEST(MotionSearch, NanFramesAndMismatchedFramesAreRefused) {
 TEST(MotionSearch, ShiftedRealMriFindsTheNearestHalfVoxelVector) {
     fs::path data;
     VOLCL_REQUIRE_SHARED_DATA(data);
-    const Volume mri = readGzipRaw(data / "regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz", {180, 216, 180});
+    const Volume mri = readGzipRaw(data / "regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz",
+                                   {180, 216, 180});
     const Volume crop = mri.cropped({58, 76, 58}, {122, 140, 122}); // a 64^3 block of brain
     // Content moves by s per frame, so frame 1 at p matches frame 0 at p - s: the vector is -s.
     const TimeSeries ts = translatedSeries(crop, 2, {1.5, -1.0, 0.5});
@@ -291,8 +300,10 @@ TEST(MotionSearch, ShiftedRealMriFindsTheNearestHalfVoxelVector) {
             exact += v == MotionVector{-3, 2, -1};
             near += std::abs(v.x + 3) <= 1 && std::abs(v.y - 2) <= 1 && std::abs(v.z + 1) <= 1;
         }
-        EXPECT_GE(exact * 2, interior) << exact << " of " << interior << " interior blocks, method " << int(o.method);
-        EXPECT_GE(near * 4, interior * 3) << near << " of " << interior << " interior blocks, method " << int(o.method);
+        EXPECT_GE(exact * 2, interior)
+            << exact << " of " << interior << " interior blocks, method " << int(o.method);
+        EXPECT_GE(near * 4, interior * 3)
+            << near << " of " << interior << " interior blocks, method " << int(o.method);
     }
 }
 
@@ -300,7 +311,8 @@ TEST(MotionSearch, RealSeriesAgreeExactly) {
     fs::path data;
     VOLCL_REQUIRE_SHARED_DATA(data);
     const fs::path vf = data / "timevarying/viscousfingers";
-    const Volume a = readVolume(vf / "005_density_005_064_2.0.vti"), b = readVolume(vf / "006_density_006_064_2.0.vti");
+    const Volume a = readVolume(vf / "005_density_005_064_2.0.vti"),
+                 b = readVolume(vf / "006_density_006_064_2.0.vti");
     expectKernelMatchesReference(b, a, {8, 2, MotionSearchMethod::Full, MotionCost::Ssd, true});
     expectKernelMatchesReference(b, a, {8, 4, MotionSearchMethod::Hierarchical, MotionCost::Sad, true});
     const fs::path is = data / "timevarying/isabel";

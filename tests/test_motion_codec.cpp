@@ -475,8 +475,8 @@ Volume seedFrame(int f) {
     for (std::size_t z = 0; z < 8; ++z)
         for (std::size_t y = 0; y < 8; ++y)
             for (std::size_t x = 0; x < 8; ++x)
-                v.values<std::uint8_t>()[v.index(x, y, z)] =
-                    std::uint8_t((int(x) + f) % 8 < 5 ? ((int(x) + f) * 7 + int(y) * 3 + int(z) * 5) % 200 : 20);
+                v.values<std::uint8_t>()[v.index(x, y, z)] = std::uint8_t(
+                    (int(x) + f) % 8 < 5 ? ((int(x) + f) * 7 + int(y) * 3 + int(z) * 5) % 200 : 20);
     return v;
 }
 
@@ -504,7 +504,8 @@ void layOut(SyntheticSeries& s) {
     }
 }
 
-SyntheticSeries syntheticSeries(ScalarType type, const std::function<std::pair<double, double>(std::size_t)>& range,
+SyntheticSeries syntheticSeries(ScalarType type,
+                                const std::function<std::pair<double, double>(std::size_t)>& range,
                                 std::vector<double> times) {
     SyntheticSeries s;
     VczHeader& h = s.h;
@@ -557,7 +558,8 @@ void expectSameHeader(const VczHeader& a, const VczHeader& b) {
         EXPECT_EQ(a.frames[f].type, b.frames[f].type) << "frame " << f;
         EXPECT_EQ(a.frames[f].reference0, b.frames[f].reference0) << "frame " << f;
         EXPECT_EQ(a.frames[f].reference1, b.frames[f].reference1) << "frame " << f;
-        EXPECT_EQ(std::bit_cast<std::uint64_t>(a.frames[f].time), std::bit_cast<std::uint64_t>(b.frames[f].time));
+        EXPECT_EQ(std::bit_cast<std::uint64_t>(a.frames[f].time),
+                  std::bit_cast<std::uint64_t>(b.frames[f].time));
         EXPECT_EQ(a.frames[f].auxOffset, b.frames[f].auxOffset) << "frame " << f;
         EXPECT_EQ(a.frames[f].auxSize, b.frames[f].auxSize) << "frame " << f;
         for (std::size_t k = 0; k < a.brickCount(); ++k) {
@@ -565,8 +567,10 @@ void expectSameHeader(const VczHeader& a, const VczHeader& b) {
             EXPECT_EQ(x.offset, y.offset);
             EXPECT_EQ(x.size, y.size);
             EXPECT_EQ(x.checksum & 0xFFFFFFFFu, y.checksum & 0xFFFFFFFFu);
-            EXPECT_EQ(std::bit_cast<std::uint64_t>(x.min), std::bit_cast<std::uint64_t>(y.min)) << f << "/" << k;
-            EXPECT_EQ(std::bit_cast<std::uint64_t>(x.max), std::bit_cast<std::uint64_t>(y.max)) << f << "/" << k;
+            EXPECT_EQ(std::bit_cast<std::uint64_t>(x.min), std::bit_cast<std::uint64_t>(y.min))
+                << f << "/" << k;
+            EXPECT_EQ(std::bit_cast<std::uint64_t>(x.max), std::bit_cast<std::uint64_t>(y.max))
+                << f << "/" << k;
         }
     }
     EXPECT_EQ(a.metadata, b.metadata);
@@ -576,7 +580,8 @@ void expectSameHeader(const VczHeader& a, const VczHeader& b) {
 } // namespace
 
 TEST(SeriesContainer, Version4FilesStillDecode) {
-    const std::string path = std::string(VOLCL_SOURCE_DIR) + "/fuzz/corpus/fuzz_vcz/motion_v4_lossless_gop4_b1.vcz";
+    const std::string path =
+        std::string(VOLCL_SOURCE_DIR) + "/fuzz/corpus/fuzz_vcz/motion_v4_lossless_gop4_b1.vcz";
     const std::string raw = test::readFile(path);
     const auto* first = reinterpret_cast<const std::byte*>(raw.data());
     const std::vector<std::byte> v4(first, first + raw.size());
@@ -611,7 +616,8 @@ TEST(SeriesContainer, EveryFieldRoundTrips) {
     // Integer ranges, negative ones included; frame times of no regular spacing; a compressible and an
     // incompressible metadata value.
     SyntheticSeries s = syntheticSeries(
-        ScalarType::Int16, [](std::size_t i) { return std::pair<double, double>(-300.0 + double(i), 32000.0 - double(i)); },
+        ScalarType::Int16,
+        [](std::size_t i) { return std::pair<double, double>(-300.0 + double(i), 32000.0 - double(i)); },
         {0.0, 0.5, 3.0});
     std::string random(1000, ' ');
     std::mt19937 rng(3);
@@ -641,12 +647,15 @@ TEST(SeriesContainer, EveryFieldRoundTrips) {
 TEST(SeriesContainer, FloatRangesKeepEveryBit) {
     // float32-exact values take the float32 form; a value float cannot hold, infinities and NaN the float64
     // form; each comes back bit for bit.
-    const auto f32 = [](std::size_t i) { return std::pair<double, double>(double(float(0.1 * double(i))), double(1e30f)); };
+    const auto f32 = [](std::size_t i) {
+        return std::pair<double, double>(double(float(0.1 * double(i))), double(1e30f));
+    };
     SyntheticSeries a = syntheticSeries(ScalarType::Float32, f32, {0, 1, 2});
     expectSameHeader(a.h, readVczHeader(writeVcz(a.h, a.payloads), "a.vcz"));
     const auto f64 = [](std::size_t i) {
-        const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
-        return i == 0 ? std::pair<double, double>(nan, nan)
+        const double nan = std::numeric_limits<double>::quiet_NaN(),
+                     inf = std::numeric_limits<double>::infinity();
+        return i == 0   ? std::pair<double, double>(nan, nan)
                : i == 1 ? std::pair<double, double>(-inf, inf)
                         : std::pair<double, double>(0.1 * double(i), 1e300);
     };
@@ -659,11 +668,13 @@ TEST(SeriesContainer, IndexCostsFewBytesPerBrick) {
     // The 20-frame fMRI series has one brick per frame: its frame table and index took 81 bytes per frame in
     // version 4 (41 + 40). A frame of small integer ranges and payload sizes now costs about 10 bytes a brick.
     SyntheticSeries s = syntheticSeries(
-        ScalarType::UInt16, [](std::size_t i) { return std::pair<double, double>(double(i % 50), 900.0 + double(i)); },
+        ScalarType::UInt16,
+        [](std::size_t i) { return std::pair<double, double>(double(i % 50), 900.0 + double(i)); },
         {0, 1, 2});
     VczHeader two = s.h;
     two.frames.resize(2);
     two.bricks.resize(2);
     const std::size_t frameCost = vczPreambleSize(s.h) - vczPreambleSize(two);
-    EXPECT_LE(frameCost, 10 * s.h.brickCount() + 8) << frameCost << " B for a frame of " << s.h.brickCount() << " bricks";
+    EXPECT_LE(frameCost, 10 * s.h.brickCount() + 8)
+        << frameCost << " B for a frame of " << s.h.brickCount() << " bricks";
 }

@@ -95,7 +95,8 @@ TEST(PathTrace, WhiteFurnaceConservesEnergyForEveryPhase) {
         for (int c = 0; c < 3; ++c) {
             const MeanDiff d = meanDiff(img, c, img, 3);
             EXPECT_LT(std::abs(d.mean), 4.0 * d.se + 2e-3) << "g " << g << " channel " << c << " se " << d.se;
-            if (c == 0) std::cout << "furnace g " << g << ": mean(rgb - a) " << d.mean << ", SE " << d.se << '\n';
+            if (c == 0)
+                std::cout << "furnace g " << g << ": mean(rgb - a) " << d.mean << ", SE " << d.se << '\n';
         }
         EXPECT_GT(img.at(4, 4, 3), 0.95f); // the medium is thick: the furnace test is not trivial
         // Albedo 0.5 absorbs: clearly less comes out than goes in.
@@ -250,8 +251,8 @@ TEST(PathTrace, RmseFallsAsInverseSquareRootOfSamples) {
         logE.push_back(std::log(imageRmse(r.render(), converged)));
     }
     const double slope = (logE[2] - logE[0]) / (logN[2] - logN[0]);
-    std::cout << "convergence: RMSE " << std::exp(logE[0]) << ", " << std::exp(logE[1]) << ", " << std::exp(logE[2])
-              << " at 4, 16, 64 spp; slope " << slope << '\n';
+    std::cout << "convergence: RMSE " << std::exp(logE[0]) << ", " << std::exp(logE[1]) << ", "
+              << std::exp(logE[2]) << " at 4, 16, 64 spp; slope " << slope << '\n';
     EXPECT_NEAR(slope, -0.5, 0.12) << "rmse " << std::exp(logE[0]) << " " << std::exp(logE[1]) << " "
                                    << std::exp(logE[2]);
 }
@@ -342,7 +343,8 @@ TEST(PathTrace, RefusesBadInput) {
     negative.extinction = {{0.0, -0.5}, {1.0, 1.0}};
     EXPECT_THROW(negative.validate(), Error);
     EXPECT_THROW(Scene::fromJson(R"({"effects": {"scattering": {"order": "triple"}}})"), UsageError);
-    EXPECT_THROW(Scene::fromJson(R"({"effects": {"scattering": {"order": "multiple", "samples": 0}}})"), UsageError);
+    EXPECT_THROW(Scene::fromJson(R"({"effects": {"scattering": {"order": "multiple", "samples": 0}}})"),
+                 UsageError);
     EXPECT_THROW(Scene::fromJson(R"({"effects": {"scattering": {"samples": 2.5}}})"), UsageError);
     EXPECT_THROW(Scene::fromJson(R"({"effects": {"scattering": {"environment": [1, -1, 0]}}})").validate(),
                  UsageError);
@@ -378,7 +380,8 @@ TEST(Cloud, SeededReproducibleAnySize) {
     const Volume a = generateCloud(p, 1), b = generateCloud(p, 3);
     EXPECT_EQ(a.type(), ScalarType::UInt8);
     ASSERT_EQ(a.byteSize(), b.byteSize());
-    EXPECT_TRUE(std::equal(a.bytes().begin(), a.bytes().end(), b.bytes().begin())); // thread count is irrelevant
+    EXPECT_TRUE(
+        std::equal(a.bytes().begin(), a.bytes().end(), b.bytes().begin())); // thread count is irrelevant
     p.seed = 2;
     const Volume c = generateCloud(p);
     EXPECT_FALSE(std::equal(a.bytes().begin(), a.bytes().end(), c.bytes().begin()));

@@ -1,6 +1,6 @@
 // Phantom kernels against their double-precision references, including degenerate sizes.
-#include "host/phantoms/Phantoms.hpp"
 #include "TestUtil.hpp"
+#include "host/phantoms/Phantoms.hpp"
 
 #include <cmath>
 
@@ -68,7 +68,8 @@ TEST_P(SheppLoganSizes, KernelMatchesReferenceOffSurfaces) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Phantoms, SheppLoganSizes,
-                         ::testing::Values(Dims{1, 1, 1}, Dims{64, 64, 64}, Dims{31, 47, 13}, Dims{128, 1, 1}));
+                         ::testing::Values(Dims{1, 1, 1}, Dims{64, 64, 64}, Dims{31, 47, 13},
+                                           Dims{128, 1, 1}));
 
 TEST(SheppLogan, KnownRegions) {
     Volume ref = sheppLoganReference({65, 65, 65});

@@ -1,9 +1,9 @@
 // Pre-integration tables: reference against closed forms and brute force, kernels against the reference, hard
 // cases.
-#include "core/Error.hpp"
-#include "host/image/ImageIo.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/Error.hpp"
 #include "core/runtime/ClRuntime.hpp"
+#include "host/image/ImageIo.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "preintegration/PreintegrationTable.hpp"
 
@@ -264,8 +264,8 @@ TEST(PreintHardCases, HugeLengthsSaturateAndMatchTheReference) {
             for (Precision p : {Precision::Float, Precision::Double}) {
                 GeneratorOptions o;
                 o.precision = p;
-                for (const TableSpec& spec : {spec3d(16, 2, len), spec3d(16, 3, len, LengthAxis::Exponential),
-                                              spec2d(64, len)}) {
+                for (const TableSpec& spec :
+                     {spec3d(16, 2, len), spec3d(16, 3, len, LengthAxis::Exponential), spec2d(64, len)}) {
                     const auto t = generatePreintegrationTable(tf, spec, o, &context());
                     expectBounded(t, tf.maxColor());
                     EXPECT_LE(compareWithReference(t, tf, 4000).maxAbs, 1e-4)

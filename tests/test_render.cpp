@@ -30,7 +30,6 @@ TransferFunction constantTf(double tau, std::array<double, 3> rgb = {1.0, 0.5, 0
     return tf;
 }
 
-
 double maxAbsDiff(const ImageBuffer& a, const ImageBuffer& b, int channels = 4) {
     double m = 0.0;
     for (int y = 0; y < a.height; ++y)
@@ -345,7 +344,8 @@ TEST(Render, MipAndXrayMatchReference) {
 
 TEST(Render, HardGeometry) {
     const Dims n{16, 16, 16};
-    const Volume v = makeFloatVolume(n, [](double x, double y, double z) { return float((x + y + z) / 45.0); });
+    const Volume v =
+        makeFloatVolume(n, [](double x, double y, double z) { return float((x + y + z) / 45.0); });
     TransferFunction tf;
     tf.domain = {0, 1};
     tf.color = {{0, {1, 0, 0}}, {1, {0, 0, 1}}};
@@ -425,8 +425,8 @@ TEST(Render, Uint8CornerLayoutMatchesLinearLayout) {
             const ImageBuffer b = GridRenderer(computeContext(), f32, tf, s).render();
             EXPECT_GT(maxAbsDiff(b, ImageBuffer(b.width, b.height, {"R", "G", "B", "A"})), 0.01)
                 << "the scene must show something";
-            EXPECT_LT(maxAbsDiff(a, b), 1e-6) << n.x << "x" << n.y << "x" << n.z << " "
-                                               << preintegrationName(pre);
+            EXPECT_LT(maxAbsDiff(a, b), 1e-6)
+                << n.x << "x" << n.y << "x" << n.z << " " << preintegrationName(pre);
         }
     }
 }

@@ -2,12 +2,12 @@
 // built from cl/common/ camera rays, shading and TF lookup without grid sampling, against the host.
 #include "TestUtil.hpp"
 
-#include "render/FrameParams.hpp"
-#include "render/Reference.hpp"
-#include "render/Scene.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "core/runtime/KernelSources.hpp"
 #include "host/tf/TransferFunction.hpp"
+#include "render/FrameParams.hpp"
+#include "render/Reference.hpp"
+#include "render/Scene.hpp"
 
 #include <gtest/gtest.h>
 

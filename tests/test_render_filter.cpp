@@ -240,8 +240,8 @@ TEST(Filter, SmoothingSplineRemovesQuantisationTerracesOnASphere) {
     std::cerr << "[ normals ] mean angular error (deg) / roughness: linear " << linear.first << " / "
               << linear.second << ", sobel " << sobel.first << " / " << sobel.second << ", cubic "
               << cubic.first << " / " << cubic.second << ", bspline smoothing 1 " << smooth.first << " / "
-              << smooth.second << ", linear smoothing 1 " << smoothLinear.first << " / " << smoothLinear.second
-              << '\n';
+              << smooth.second << ", linear smoothing 1 " << smoothLinear.first << " / "
+              << smoothLinear.second << '\n';
     RecordProperty("normal_error_deg_linear", std::to_string(linear.first));
     RecordProperty("normal_error_deg_bspline_smoothing_1", std::to_string(smooth.first));
     EXPECT_GT(linear.first, 3.0);         // the terraces the trilinear field shows

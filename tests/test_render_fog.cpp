@@ -33,11 +33,11 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 struct Oracle {
     double rho = 0.0, base = 0.0, H = 0.0;
     Vec3 up{0, 1, 0};
-    Vec3 flo{0, 0, 0}, fhi{32, 32, 32};  ///< fog box
-    Vec3 vlo{0, 0, 0}, vhi{32, 32, 32};  ///< volume box
-    double tau = 0.0;                    ///< volume extinction (constant)
-    Vec3 cv{0, 0, 0}, cf{1, 1, 1};       ///< volume and fog colours
-    std::vector<double> mapCutsX;        ///< height map: x of texel edges (bases mapBase[i] between them)
+    Vec3 flo{0, 0, 0}, fhi{32, 32, 32}; ///< fog box
+    Vec3 vlo{0, 0, 0}, vhi{32, 32, 32}; ///< volume box
+    double tau = 0.0;                   ///< volume extinction (constant)
+    Vec3 cv{0, 0, 0}, cf{1, 1, 1};      ///< volume and fog colours
+    std::vector<double> mapCutsX;       ///< height map: x of texel edges (bases mapBase[i] between them)
     std::vector<double> mapBase;
 
     static bool clip(const Vec3& lo, const Vec3& hi, const Vec3& o, const Vec3& d, double& t0, double& t1) {
@@ -335,7 +335,8 @@ TEST(Fog, OpaqueInOneStep) {
             SCOPED_TRACE(v.name);
             for (double H : {0.0, 3.0})
                 for (bool larger : {false, true}) {
-                    SCOPED_TRACE(std::string(larger ? "fog box larger" : "same box") + ", H " + std::to_string(H));
+                    SCOPED_TRACE(std::string(larger ? "fog box larger" : "same box") + ", H " +
+                                 std::to_string(H));
                     Scene s = view(v.dir, v.camUp, 2.0);
                     Oracle o;
                     o.rho = 1e6;
@@ -350,7 +351,8 @@ TEST(Fog, OpaqueInOneStep) {
                     for (int y = 0; y < s.height; ++y)
                         for (int x = 0; x < s.width; ++x) {
                             const CameraRay ray = cameraRay(*s.camera, s.width, s.height, x, y);
-                            for (int c = 0; c < 4; ++c) ASSERT_TRUE(std::isfinite(img.at(x, y, c)));
+                            for (int c = 0; c < 4; ++c)
+                                ASSERT_TRUE(std::isfinite(img.at(x, y, c)));
                             double t0, t1;
                             if (!Oracle::clip(o.flo, o.fhi, ray.origin, ray.direction, t0, t1)) continue;
                             const Vec3 p = add(ray.origin, scale(ray.direction, t0));
@@ -377,7 +379,8 @@ TEST(Fog, OpaqueInOneStep) {
 
 TEST(Fog, SkippingAndEarlyTerminationKeepTheFog) {
     // Half the volume is empty (macrocells skipped): the fog over skipped cells must still be there.
-    const Volume vol = makeFloatVolume({33, 33, 33}, [](double, double, double z) { return z < 16 ? 0.0 : 1.0; });
+    const Volume vol =
+        makeFloatVolume({33, 33, 33}, [](double, double, double z) { return z < 16 ? 0.0 : 1.0; });
     TransferFunction tf;
     tf.domain = {0.0, 1.0};
     tf.color = {{0.0, {0.2, 0.5, 1.0}}};

@@ -66,7 +66,8 @@ TEST(PreintegratedLighting, PlannedOnlyWhereTheTableApplies) {
 TEST(PreintegratedLighting, ConstantNormalEqualsMidpointLighting) {
     // A linear field has one gradient everywhere: front and back diffuse terms sum to the segment colour, so
     // without specular the table's lighting equals lighting the segment at its midpoint.
-    const Volume v = makeFloatVolume({41, 41, 41}, [](double x, double y, double) { return 0.6 * x + 0.3 * y; });
+    const Volume v =
+        makeFloatVolume({41, 41, 41}, [](double x, double y, double) { return 0.6 * x + 0.3 * y; });
     const TransferFunction tf = rampTf();
     Scene s = litScene(v.dims(), 0.5);
     s.effects.specular = 0.0;
@@ -155,7 +156,8 @@ TEST(IsoTable, FindsTheSurfacesTheRootsFind) {
             if (std::abs(aa - ab) > 0.05) ++differ;
             // Depth away from the silhouette (rays meeting the outer sphere at cos > 0.6): at grazing angles the
             // half-node rounding of the end values moves the crossing far along the ray.
-            const double px = 44.0 / s.width, rx = (x + 0.5 - 0.5 * s.width) * px, ry = (y + 0.5 - 0.5 * s.height) * px;
+            const double px = 44.0 / s.width, rx = (x + 0.5 - 0.5 * s.width) * px,
+                         ry = (y + 0.5 - 0.5 * s.height) * px;
             if (aa > 0 && ab > 0) {
                 ++both;
                 if (std::hypot(rx, ry) < 0.8 * 16.0)

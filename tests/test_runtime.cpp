@@ -131,8 +131,10 @@ TEST(Runtime, ProgramBinariesAreCachedOnDiskAndDamagedEntriesRebuilt) {
     ASSERT_TRUE(entry.load());
     EXPECT_EQ(copyThroughFreshContext(), 1u) << "second context: from the disk cache";
     // Other options or source are other entries.
-    EXPECT_FALSE(ProgramBinaryCache(probe.device(), "-DX=1", probe.sources().resolve("common/copy.cl")).load());
-    EXPECT_FALSE(ProgramBinaryCache(probe.device(), "", probe.sources().resolve("common/copy.cl") + " ").load());
+    EXPECT_FALSE(
+        ProgramBinaryCache(probe.device(), "-DX=1", probe.sources().resolve("common/copy.cl")).load());
+    EXPECT_FALSE(
+        ProgramBinaryCache(probe.device(), "", probe.sources().resolve("common/copy.cl") + " ").load());
 
     // A flipped byte anywhere (key, checksum or binary) or a truncation makes the entry unusable: the
     // program is rebuilt from source and the entry replaced.
@@ -189,7 +191,8 @@ TEST(Runtime, DefinesSpecialiseKernels) {
 
 TEST(Runtime, BrokenKernelReportsBuildLog) {
     auto dir = test::tempDir("runtime_broken");
-    std::ofstream(dir / "broken.cl") << "__kernel void broken(__global float* a) { a[0] = undefined_symbol_xyz; }\n";
+    std::ofstream(dir / "broken.cl")
+        << "__kernel void broken(__global float* a) { a[0] = undefined_symbol_xyz; }\n";
     setenv("VOLCL_KERNEL_DIR", dir.c_str(), 1);
     ComputeContext cc;
     unsetenv("VOLCL_KERNEL_DIR");

@@ -1,8 +1,8 @@
 // Time-series input: natural order, globs, .pvd collections, 4D files, grid mismatches and bad paths.
+#include "TestUtil.hpp"
 #include "core/Error.hpp"
 #include "host/io/Series.hpp"
 #include "host/io/VolumeIo.hpp"
-#include "TestUtil.hpp"
 
 #include <fstream>
 
@@ -33,7 +33,9 @@ void writeText(const fs::path& p, const std::string& text) {
     std::ofstream(p, std::ios::binary) << text;
 }
 
-std::uint16_t firstValue(const Volume& v) { return v.values<std::uint16_t>()[0]; }
+std::uint16_t firstValue(const Volume& v) {
+    return v.values<std::uint16_t>()[0];
+}
 
 } // namespace
 
@@ -169,7 +171,8 @@ TEST(Series, PvdWithABadPathNamesTheMissingFile) {
         readSeriesInputs(std::vector<std::string>{(dir / "run.pvd").string()});
         FAIL() << "a .pvd naming a missing file was accepted";
     } catch (const IoError& e) {
-        EXPECT_NE(std::string(e.what()).find((dir / "gone/frame_1.nrrd").string()), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find((dir / "gone/frame_1.nrrd").string()), std::string::npos)
+            << e.what();
     }
 }
 
@@ -178,13 +181,14 @@ TEST(Series, MalformedPvdFilesAreIoErrors) {
     struct Case {
         std::string text, what;
     };
-    for (const Case& c : {Case{"<VTKFile type=\"Collection\"><Collection><DataSet file=\"a", "not a valid .pvd"},
-                          Case{"<VTKFile type=\"ImageData\"></VTKFile>", "not a ParaView collection"},
-                          Case{"<VTKFile type=\"Collection\"><Collection/></VTKFile>", "no DataSet"},
-                          Case{"<VTKFile type=\"Collection\"><Collection><DataSet timestep=\"0\"/>"
-                               "</Collection></VTKFile>",
-                               "no file attribute"},
-                          Case{"", "not a valid .pvd"}}) {
+    for (const Case& c :
+         {Case{"<VTKFile type=\"Collection\"><Collection><DataSet file=\"a", "not a valid .pvd"},
+          Case{"<VTKFile type=\"ImageData\"></VTKFile>", "not a ParaView collection"},
+          Case{"<VTKFile type=\"Collection\"><Collection/></VTKFile>", "no DataSet"},
+          Case{"<VTKFile type=\"Collection\"><Collection><DataSet timestep=\"0\"/>"
+               "</Collection></VTKFile>",
+               "no file attribute"},
+          Case{"", "not a valid .pvd"}}) {
         writeText(dir / "x.pvd", c.text);
         try {
             readPvd(dir / "x.pvd");
@@ -213,7 +217,8 @@ TEST(Series, TheMemoryBudgetCoversTheWholeSeries) {
     // The NRRD reader may claim twice a frame while it reads one, so the last frame needs 2 x 8 KiB free.
     options.memoryBudget = 11 * 8192;
     EXPECT_EQ(readSeriesInputs(inputs, options).series.frames.size(), 10u);
-    for (const std::size_t budget : {std::size_t{10 * 8192}, std::size_t{4 * 8192 + 100}, std::size_t{4 * 8192}}) {
+    for (const std::size_t budget :
+         {std::size_t{10 * 8192}, std::size_t{4 * 8192 + 100}, std::size_t{4 * 8192}}) {
         options.memoryBudget = budget;
         try {
             readSeriesInputs(inputs, options);
@@ -242,7 +247,8 @@ TEST(Series, FourDimensionalNiftiGivesEveryFrame) {
         readSeriesInputs(std::vector<std::string>{files[0].string(), nii.string()});
         FAIL();
     } catch (const DataError& e) {
-        EXPECT_NE(std::string(e.what()).find("frame 1 (" + nii.string() + ")"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("frame 1 (" + nii.string() + ")"), std::string::npos)
+            << e.what();
     }
 }
 

@@ -1,7 +1,7 @@
 // Transfer function tests: JSON and ParaView import, strips, steps, validation, packed and kernel sampling.
 #include "core/Error.hpp"
-#include "host/image/ImageIo.hpp"
 #include "core/runtime/ClRuntime.hpp"
+#include "host/image/ImageIo.hpp"
 #include "host/tf/TransferFunction.hpp"
 
 #include <gtest/gtest.h>
@@ -333,23 +333,29 @@ TEST(TransferFunction, PointCountsAboveTheLimitAreRefusedBeforeWork) {
     };
     auto canonical = [](std::size_t colors, std::size_t extinctions) {
         std::string j = R"({"domain": [0, 1], "color": [)";
-        for (std::size_t i = 0; i < colors; ++i) j += (i ? "," : "") + std::string("[0.5, 1, 1, 1]");
+        for (std::size_t i = 0; i < colors; ++i)
+            j += (i ? "," : "") + std::string("[0.5, 1, 1, 1]");
         j += R"(], "extinction": [)";
-        for (std::size_t i = 0; i < extinctions; ++i) j += (i ? "," : "") + std::string("[0.5, 1]");
+        for (std::size_t i = 0; i < extinctions; ++i)
+            j += (i ? "," : "") + std::string("[0.5, 1]");
         return j + "]}";
     };
     EXPECT_EQ(refusal([&] { TransferFunction::fromJson(canonical(limit, 2)); }), "");
-    EXPECT_NE(refusal([&] { TransferFunction::fromJson(canonical(limit + 1, 2)); })
-                  .find("'color' has 16385 points, more than the 16384"),
+    EXPECT_NE(refusal([&] {
+                  TransferFunction::fromJson(canonical(limit + 1, 2));
+              }).find("'color' has 16385 points, more than the 16384"),
               std::string::npos);
-    EXPECT_NE(refusal([&] { TransferFunction::fromJson(canonical(2, limit + 1)); }).find("'extinction' has 16385"),
-              std::string::npos);
+    EXPECT_NE(
+        refusal([&] { TransferFunction::fromJson(canonical(2, limit + 1)); }).find("'extinction' has 16385"),
+        std::string::npos);
     std::string rgb = R"({"RGBPoints": [)";
-    for (std::size_t i = 0; i <= limit; ++i) rgb += (i ? "," : "") + std::to_string(i) + ",1,0,0";
+    for (std::size_t i = 0; i <= limit; ++i)
+        rgb += (i ? "," : "") + std::to_string(i) + ",1,0,0";
     EXPECT_NE(refusal([&] { TransferFunction::fromJson(rgb + "]}"); }).find("'RGBPoints' has 16385"),
               std::string::npos);
     std::string opacity = R"({"RGBPoints": [0,1,0,0, 1,0,1,0], "Points": [)";
-    for (std::size_t i = 0; i <= limit; ++i) opacity += (i ? "," : "") + std::to_string(i) + ",0.5,0.5,0";
+    for (std::size_t i = 0; i <= limit; ++i)
+        opacity += (i ? "," : "") + std::to_string(i) + ",0.5,0.5,0";
     EXPECT_NE(refusal([&] { TransferFunction::fromJson(opacity + "]}"); }).find("'Points' has 16385"),
               std::string::npos);
 

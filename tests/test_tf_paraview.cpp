@@ -35,8 +35,8 @@ VtkSamples vtkColors(const std::string& name, std::string_view json, double lo, 
     const auto file = tmpDir() / (name + ".json");
     std::ofstream(file) << json;
     std::ostringstream cmd;
-    cmd << "/usr/bin/python3 " << VOLCL_SOURCE_DIR << "/tests/vtk_ctf_reference.py " << file << ' ' << lo << ' '
-        << hi << ' ' << n << " 2>&1";
+    cmd << "/usr/bin/python3 " << VOLCL_SOURCE_DIR << "/tests/vtk_ctf_reference.py " << file << ' ' << lo
+        << ' ' << hi << ' ' << n << " 2>&1";
     FILE* p = ::popen(cmd.str().c_str(), "r");
     VtkSamples out;
     if (!p) return out;
@@ -46,7 +46,8 @@ VtkSamples vtkColors(const std::string& name, std::string_view json, double lo, 
         text.append(buf, got);
     const int status = ::pclose(p);
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-        if (!(WIFEXITED(status) && WEXITSTATUS(status) == 77)) ADD_FAILURE() << "VTK reference failed: " << text;
+        if (!(WIFEXITED(status) && WEXITSTATUS(status) == 77))
+            ADD_FAILURE() << "VTK reference failed: " << text;
         return out;
     }
     std::istringstream in(text);
@@ -148,8 +149,8 @@ TEST(ParaViewImport, NormalisedPresetIsFittedToTheDataRange) {
     const std::array<double, 2> explicitRange{10.0, 20.0};
     EXPECT_EQ(tf.fittedTo({0.0, 200.0}, explicitRange).domain, explicitRange);
     // A map authored in data units is left alone.
-    const TransferFunction own =
-        TransferFunction::fromJson(R"({"RGBPoints": [0, 0, 0, 1, 100, 1, 0, 0], "Points": [0, 0, 0.5, 0, 100, 1, 0.5, 0]})");
+    const TransferFunction own = TransferFunction::fromJson(
+        R"({"RGBPoints": [0, 0, 0, 1, 100, 1, 0, 0], "Points": [0, 0, 0.5, 0, 100, 1, 0.5, 0]})");
     EXPECT_FALSE(own.normalized);
     EXPECT_EQ(own.fittedTo({0.0, 255.0}).domain, (std::array<double, 2>{0.0, 100.0}));
     // Constant data and bad ranges.
@@ -159,7 +160,8 @@ TEST(ParaViewImport, NormalisedPresetIsFittedToTheDataRange) {
 }
 
 TEST(ParaViewImport, OpacityUnitDistance) {
-    const char* pv = R"({"RGBPoints": [0, 1, 1, 1, 100, 1, 1, 1], "Points": [0, 0.5, 0.5, 0, 100, 0.5, 0.5, 0]})";
+    const char* pv =
+        R"({"RGBPoints": [0, 1, 1, 1, 100, 1, 1, 1], "Points": [0, 0.5, 0.5, 0, 100, 0.5, 0.5, 0]})";
     // Opacity a over a unit distance d: tau = -ln(1 - a) / d, so a ray of length d keeps 1 - a.
     EXPECT_NEAR(TransferFunction::fromJson(pv).extinctionAt(50.0), std::log(2.0), 1e-12);
     EXPECT_NEAR(TransferFunction::fromJson(pv, 4.0).extinctionAt(50.0), std::log(2.0) / 4.0, 1e-12);

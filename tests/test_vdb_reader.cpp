@@ -281,7 +281,8 @@ TEST(VdbReader, ThreadsReadInParallelThroughTheirOwnServices) {
         readers.emplace_back([&] {
             for (int i = 0; i < 5; ++i) {
                 const Volume back = readVolume(dir / "v.vdb");
-                if (back.dims() == v.dims() && std::memcmp(back.bytes().data(), v.bytes().data(), v.byteSize()) == 0)
+                if (back.dims() == v.dims() &&
+                    std::memcmp(back.bytes().data(), v.bytes().data(), v.byteSize()) == 0)
                     ++good;
             }
         });

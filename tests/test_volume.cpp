@@ -94,14 +94,16 @@ TEST(Volume, ConversionClampsAndRounds) {
 TEST(Volume, IntegerToFloatAndBackIsExact) {
     Volume a({7, 3, 2}, ScalarType::Int16);
     auto v = a.values<std::int16_t>();
-    for (std::size_t i = 0; i < v.size(); ++i) v[i] = std::int16_t(int(i * 797) % 65536 - 32768);
+    for (std::size_t i = 0; i < v.size(); ++i)
+        v[i] = std::int16_t(int(i * 797) % 65536 - 32768);
     EXPECT_EQ(a.convertedTo(ScalarType::Float32).convertedTo(ScalarType::Int16), a);
 }
 
 TEST(Volume, CropMovesOriginAndCopiesRows) {
     Volume a({4, 3, 2}, ScalarType::UInt8);
     auto v = a.values<std::uint8_t>();
-    for (std::size_t i = 0; i < v.size(); ++i) v[i] = std::uint8_t(i);
+    for (std::size_t i = 0; i < v.size(); ++i)
+        v[i] = std::uint8_t(i);
     a.spacing = {0.5, 2, 3};
     Volume c = a.cropped({1, 1, 1}, {3, 3, 2});
     EXPECT_EQ(c.dims(), (Dims{2, 2, 1}));

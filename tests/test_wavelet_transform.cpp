@@ -184,13 +184,13 @@ TEST(WaveletKernels, ConcurrentBricksNeverTouchTheirNeighbours) {
             std::vector<std::int32_t> out = batch.makeHost();
             batch.download(cc, out);
             for (std::size_t c = 0; c < count; ++c)
-                ASSERT_EQ(unpackBrick(batch, out, c), refs[c]) << d.x << "x" << d.y << "x" << d.z << " brick " << c
-                                                               << " forward, repetition " << rep;
+                ASSERT_EQ(unpackBrick(batch, out, c), refs[c])
+                    << d.x << "x" << d.y << "x" << d.z << " brick " << c << " forward, repetition " << rep;
             t.inverse(cc, batch, 2);
             batch.download(cc, out);
             for (std::size_t c = 0; c < count; ++c)
-                ASSERT_EQ(unpackBrick(batch, out, c), bricks[c]) << d.x << "x" << d.y << "x" << d.z << " brick "
-                                                                 << c << " inverse, repetition " << rep;
+                ASSERT_EQ(unpackBrick(batch, out, c), bricks[c])
+                    << d.x << "x" << d.y << "x" << d.z << " brick " << c << " inverse, repetition " << rep;
         }
     }
 }

@@ -14,8 +14,8 @@
 #include "wavelet/predict/MotionPredictor.hpp"
 #include "wavelet/predict/Predictor.hpp"
 #include "wavelet/quantise/Corrections.hpp"
-#include "wavelet/transform/BrickTransform.hpp"
 #include "wavelet/rate/RateStrategy.hpp"
+#include "wavelet/transform/BrickTransform.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -127,12 +127,13 @@ void applyFrameCorrections(const VczHeader& h, Volume& frame,
 // from the reconstructed references, then the exactly stored voxels are applied. Motion-data errors name
 // the frame.
 Volume finishPredicted(ComputeContext& cc, const VczHeader& h, Volume residual, const VczFrame& entry,
-                       std::size_t frame, std::span<const std::uint8_t> aux, const codec::ReferenceFrames& refs,
-                       const std::vector<std::vector<codec::Correction>>& corrections, const std::string& name,
-                       CodecProfile* profile = nullptr) {
+                       std::size_t frame, std::span<const std::uint8_t> aux,
+                       const codec::ReferenceFrames& refs,
+                       const std::vector<std::vector<codec::Correction>>& corrections,
+                       const std::string& name, CodecProfile* profile = nullptr) {
     try {
         codec::timeStage(profile, &CodecProfile::predict,
-                  [&] { codec::predictorFor(entry)->reconstruct(cc, residual, entry, aux, refs); });
+                         [&] { codec::predictorFor(entry)->reconstruct(cc, residual, entry, aux, refs); });
     } catch (const IoError& e) {
         throw IoError(name + ": frame " + std::to_string(frame) + ": " + e.what());
     }
@@ -205,8 +206,9 @@ std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, co
 namespace {
 
 // One pass of the series encoder; `step` receives the base quantiser step the first frame chose.
-std::vector<std::byte> encodeSeriesOnce(ComputeContext& cc, const TimeSeries& series, const CodecOptions& options,
-                                        std::vector<FrameReport>* reports, double& chosenStep) {
+std::vector<std::byte> encodeSeriesOnce(ComputeContext& cc, const TimeSeries& series,
+                                        const CodecOptions& options, std::vector<FrameReport>* reports,
+                                        double& chosenStep) {
     series.validate();
     if (series.frames.empty()) throw UsageError("cannot encode an empty time series");
     const std::size_t n = series.frames.size();
@@ -217,7 +219,8 @@ std::vector<std::byte> encodeSeriesOnce(ComputeContext& cc, const TimeSeries& se
         if (h.transform == TransformKind::FloatLifting) {
             const VolumeStats st = series.frames[f].stats(1);
             if (st.nanCount || st.infCount)
-                throw DataError("frame " + std::to_string(f) + " holds NaN/Inf voxels: lossy encoding needs finite "
+                throw DataError("frame " + std::to_string(f) +
+                                " holds NaN/Inf voxels: lossy encoding needs finite "
                                 "voxels (use --lossless to keep them exactly)");
         }
     }
@@ -275,10 +278,11 @@ std::vector<std::byte> encodeSeriesOnce(ComputeContext& cc, const TimeSeries& se
         rep[f].bytes = codedSize(r.coded);
         rep[f].psnr = r.report.psnr;
         rep[f].maxError = r.report.maxError;
-        const bool referenced = motion && pf.type != FrameType::B &&
-                                std::any_of(plan.begin() + std::ptrdiff_t(k) + 1, plan.end(), [&](const auto& q) {
-                                    return q.reference0 == std::int32_t(f) || q.reference1 == std::int32_t(f);
-                                });
+        const bool referenced =
+            motion && pf.type != FrameType::B &&
+            std::any_of(plan.begin() + std::ptrdiff_t(k) + 1, plan.end(), [&](const auto& q) {
+                return q.reference0 == std::int32_t(f) || q.reference1 == std::int32_t(f);
+            });
         if (referenced || (reports && !lossless && options.measureError)) {
             const codec::ReferenceFrames refs{reconPtr, entry.reference0, entry.reference1};
             Volume rec = lossless ? frame : reconstructCoded(cc, h, r.coded, entry, f, refs, options.threads);
@@ -290,7 +294,8 @@ std::vector<std::byte> encodeSeriesOnce(ComputeContext& cc, const TimeSeries& se
         }
         // Anchors older than the previous anchor are referenced no more.
         for (std::size_t g = 0; g < f; ++g)
-            if (recon[g] && std::none_of(plan.begin() + std::ptrdiff_t(k) + 1, plan.end(), [&](const auto& q) {
+            if (recon[g] &&
+                std::none_of(plan.begin() + std::ptrdiff_t(k) + 1, plan.end(), [&](const auto& q) {
                     return q.reference0 == std::int32_t(g) || q.reference1 == std::int32_t(g);
                 })) {
                 recon[g].reset();
@@ -403,7 +408,8 @@ Volume VczReader::decode(ComputeContext& cc, const DecodeOptions& o) const {
     return out;
 }
 
-std::vector<std::size_t> VczReader::framesNeeded(std::size_t frame, std::span<const Volume* const> decoded) const {
+std::vector<std::size_t> VczReader::framesNeeded(std::size_t frame,
+                                                 std::span<const Volume* const> decoded) const {
     const VczHeader& h = header_;
     if (frame >= h.frames.size()) throw UsageError(name_ + ": no frame " + std::to_string(frame));
     auto known = [&](std::size_t f) { return f < decoded.size() && decoded[f]; };
@@ -450,13 +456,13 @@ Volume VczReader::decodeFrame(ComputeContext& cc, std::size_t frame, std::span<c
             residual.spacing = h.spacing;
             residual.origin = h.origin;
             std::vector<std::vector<codec::Correction>> corrections;
-            codec::decodeFrameBricks(cc, bytes_, h, f, codec::allBricks(h), 0, threads, name_, profile, {0, 0, 0},
-                                     h.dims, residual, h.dims, h.transform == TransformKind::FloatLifting,
-                                     &corrections);
+            codec::decodeFrameBricks(cc, bytes_, h, f, codec::allBricks(h), 0, threads, name_, profile,
+                                     {0, 0, 0}, h.dims, residual, h.dims,
+                                     h.transform == TransformKind::FloatLifting, &corrections);
             const auto aux = vczFrameAux(bytes_, h, f, name_);
             v = finishPredicted(cc, h, std::move(residual), entry, f, aux,
-                                codec::ReferenceFrames{ptr, entry.reference0, entry.reference1}, corrections, name_,
-                                profile);
+                                codec::ReferenceFrames{ptr, entry.reference0, entry.reference1}, corrections,
+                                name_, profile);
             if (profile) profile->total += total.milliseconds();
         }
         if (k + 1 == order.size()) return v;
@@ -464,8 +470,10 @@ Volume VczReader::decodeFrame(ComputeContext& cc, std::size_t frame, std::span<c
         ptr[f] = &*own[f];
         // Frames no later frame of the order references are released.
         for (std::size_t g = 0; g < f; ++g)
-            if (own[g] && std::none_of(order.begin() + std::ptrdiff_t(k) + 1, order.end(), [&](std::size_t q) {
-                    return h.frames[q].reference0 == std::int32_t(g) || h.frames[q].reference1 == std::int32_t(g);
+            if (own[g] &&
+                std::none_of(order.begin() + std::ptrdiff_t(k) + 1, order.end(), [&](std::size_t q) {
+                    return h.frames[q].reference0 == std::int32_t(g) ||
+                           h.frames[q].reference1 == std::int32_t(g);
                 })) {
                 own[g].reset();
                 ptr[g] = nullptr;

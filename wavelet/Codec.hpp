@@ -73,9 +73,9 @@ std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, co
 struct FrameReport {
     FrameType type = FrameType::I;
     std::int32_t reference0 = -1, reference1 = -1;
-    std::size_t bytes = 0;   ///< brick payloads and motion data of the frame
-    double psnr = 0;         ///< of the reconstruction against the frame's own value range (NaN: not measured)
-    double maxError = 0;     ///< over the frame's voxels (NaN: not measured)
+    std::size_t bytes = 0; ///< brick payloads and motion data of the frame
+    double psnr = 0;       ///< of the reconstruction against the frame's own value range (NaN: not measured)
+    double maxError = 0;   ///< over the frame's voxels (NaN: not measured)
     bool intraFallback = false; ///< planned as P/B, coded as I because that was smaller
 };
 
@@ -84,8 +84,8 @@ struct FrameReport {
 /// predicted from the reconstructions the decoder will make (closed loop) and coded as a residual; a
 /// planned P/B frame whose coding is larger than coding it alone becomes an I frame. `frames`, when set,
 /// receives one report per frame (display order).
-std::vector<std::byte> encodeSeries(ComputeContext& cc, const TimeSeries& series,
-                                    const CodecOptions& options, std::vector<FrameReport>* frames = nullptr);
+std::vector<std::byte> encodeSeries(ComputeContext& cc, const TimeSeries& series, const CodecOptions& options,
+                                    std::vector<FrameReport>* frames = nullptr);
 
 /// Region [lo, hi) in full-resolution voxel indices.
 struct Region {
@@ -136,7 +136,8 @@ public:
     Volume decodeFrame(ComputeContext& cc, std::size_t frame, std::span<const Volume* const> decoded = {},
                        unsigned threads = 2, CodecProfile* profile = nullptr) const;
     /// The frames decodeFrame(frame) decodes when given nothing, in decoding order (`frame` last).
-    std::vector<std::size_t> framesNeeded(std::size_t frame, std::span<const Volume* const> decoded = {}) const;
+    std::vector<std::size_t> framesNeeded(std::size_t frame,
+                                          std::span<const Volume* const> decoded = {}) const;
 
 private:
     std::vector<std::byte> bytes_;

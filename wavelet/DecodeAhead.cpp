@@ -29,7 +29,8 @@ struct DecodeAhead::State {
             const VczHeader& h = reader->header();
             using Batch = BrickBatch<std::int32_t>; // float batches have the same layout (4-byte elements)
             std::size_t used = 0;
-            for (const std::vector<codec::BrickGroup>& groups : codec::batchRounds<std::int32_t>(h, varying)) {
+            for (const std::vector<codec::BrickGroup>& groups :
+                 codec::batchRounds<std::int32_t>(h, varying)) {
                 std::size_t bytes = 0;
                 for (const codec::BrickGroup& g : groups)
                     bytes += Batch::bytesFor(g.dims, g.bricks.size());
@@ -53,8 +54,8 @@ struct DecodeAhead::State {
                         if (stop) return;
                         const std::size_t b = g.bricks[i];
                         std::int32_t* slot = base + i * Batch::strideFor(g.dims);
-                        out.corrections[b] =
-                            codec::entropyDecodeBrick(reader->bytes(), h, frame, b, 0, slot, pitch, reader->name());
+                        out.corrections[b] = codec::entropyDecodeBrick(reader->bytes(), h, frame, b, 0, slot,
+                                                                       pitch, reader->name());
                         codec::zeroRowPadding(slot, g.dims, pitch);
                         r.filled[k] = 1;
                         ++bricks;
@@ -94,7 +95,8 @@ codec::AheadHandover DecodeAhead::take(std::span<const std::byte> file, std::siz
     State& s = *state_;
     s.stop = true;
     if (s.thread.joinable()) s.thread.join();
-    if (s.taken || file.data() != s.reader->bytes().data() || frame != s.frame || varying != s.varying) return {};
+    if (s.taken || file.data() != s.reader->bytes().data() || frame != s.frame || varying != s.varying)
+        return {};
     s.taken = true;
     // A round the thread opened but did not reach is still a valid round with no slot filled.
     return std::move(s.out);
@@ -104,6 +106,8 @@ void DecodeAhead::wait() {
     if (state_->thread.joinable()) state_->thread.join();
 }
 
-std::size_t DecodeAhead::bricksDecoded() const noexcept { return state_->bricks; }
+std::size_t DecodeAhead::bricksDecoded() const noexcept {
+    return state_->bricks;
+}
 
 } // namespace volcl

@@ -15,9 +15,9 @@
 
 namespace volcl::codec {
 
-std::vector<Correction> entropyDecodeBrick(std::span<const std::byte> file, const VczHeader& h, std::size_t frame,
-                                           std::size_t b, int level, std::int32_t* dst, std::size_t pitch,
-                                           const std::string& name) {
+std::vector<Correction> entropyDecodeBrick(std::span<const std::byte> file, const VczHeader& h,
+                                           std::size_t frame, std::size_t b, int level, std::int32_t* dst,
+                                           std::size_t pitch, const std::string& name) {
     const int levels = h.transform == TransformKind::RawBits ? 0 : h.levels;
     const int stop = h.transform == TransformKind::RawBits ? 0 : level;
     const Dequantiser dq{h.steps, h.reconstructionBias};
@@ -29,8 +29,8 @@ std::vector<Correction> entropyDecodeBrick(std::span<const std::byte> file, cons
     const std::span<std::int32_t> c(dst, storage.count());
     // Sections finer than the level are not decoded; the inverse never reads them, but keep them defined.
     if (stop > 0) std::fill(c.begin(), c.end(), 0);
-    decodeSections(std::span(p.sections).first(layout.size() - std::size_t(stop)), c, storage, layout, h.entropy,
-                   what.c_str(), h.transform == TransformKind::FloatLifting ? &dq : nullptr);
+    decodeSections(std::span(p.sections).first(layout.size() - std::size_t(stop)), c, storage, layout,
+                   h.entropy, what.c_str(), h.transform == TransformKind::FloatLifting ? &dq : nullptr);
     if (p.corrections.empty() || level != 0) return {};
     return decodeCorrections(p.corrections, h.type, d.count(), what);
 }
@@ -119,17 +119,26 @@ template <class V> std::optional<V> uniformValue(const VczHeader& h, const VczBr
 
 } // namespace
 
-std::vector<std::size_t> varyingBricks(const VczHeader& h, std::size_t frame, const std::vector<std::size_t>& which) {
+std::vector<std::size_t> varyingBricks(const VczHeader& h, std::size_t frame,
+                                       const std::vector<std::size_t>& which) {
     std::vector<std::size_t> varying;
     auto split = [&]<class V>() {
         for (std::size_t b : which)
             if (!uniformValue<V>(h, h.bricks[frame][b])) varying.push_back(b);
     };
     switch (h.type) {
-    case ScalarType::UInt8: split.template operator()<std::uint8_t>(); break;
-    case ScalarType::UInt16: split.template operator()<std::uint16_t>(); break;
-    case ScalarType::Int16: split.template operator()<std::int16_t>(); break;
-    case ScalarType::Float32: split.template operator()<float>(); break;
+    case ScalarType::UInt8:
+        split.template operator()<std::uint8_t>();
+        break;
+    case ScalarType::UInt16:
+        split.template operator()<std::uint16_t>();
+        break;
+    case ScalarType::Int16:
+        split.template operator()<std::int16_t>();
+        break;
+    case ScalarType::Float32:
+        split.template operator()<float>();
+        break;
     }
     return varying;
 }
@@ -214,13 +223,13 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
         // Quantisation indices are decoded into the batch slot as int32 and dequantised there in place (the
         // entropy stage includes it): no separate index array.
         LiftingTransform<float> t(cc, h.wavelet);
-        placedOnDevice = inverseBricks(cc, t, h, varying, level, threads, prof,
-                                       {{&CodecProfile::entropy,
-                                         [&](std::size_t b, float* dst, std::size_t pitch) {
-                                             entropyDecode(b, reinterpret_cast<std::int32_t*>(dst), pitch);
-                                         }}},
-                                       &CodecProfile::assemble, place, toVoxels ? &*toVoxels : nullptr,
-                                       prefilled);
+        placedOnDevice =
+            inverseBricks(cc, t, h, varying, level, threads, prof,
+                          {{&CodecProfile::entropy,
+                            [&](std::size_t b, float* dst, std::size_t pitch) {
+                                entropyDecode(b, reinterpret_cast<std::int32_t*>(dst), pitch);
+                            }}},
+                          &CodecProfile::assemble, place, toVoxels ? &*toVoxels : nullptr, prefilled);
     } else {
         timeStage(prof, &CodecProfile::entropy, [&] {
             parallelFor(varying.size(), threads, [&](std::size_t k) {

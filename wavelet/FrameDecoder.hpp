@@ -21,13 +21,14 @@ namespace volcl::codec {
 /// of the sections down to `level` into `dst` (rows of `pitch` >= brick x elements; float lifting comes out
 /// dequantised, as float bit patterns). Returns the brick's exactly stored voxels at level 0 (else none).
 /// IoError naming `name` and the brick for corrupted payloads. The frame and brick must exist.
-std::vector<Correction> entropyDecodeBrick(std::span<const std::byte> file, const VczHeader& h, std::size_t frame,
-                                           std::size_t b, int level, std::int32_t* dst, std::size_t pitch,
-                                           const std::string& name);
+std::vector<Correction> entropyDecodeBrick(std::span<const std::byte> file, const VczHeader& h,
+                                           std::size_t frame, std::size_t b, int level, std::int32_t* dst,
+                                           std::size_t pitch, const std::string& name);
 
 /// The listed bricks of frame `frame` that must be decoded: all but those of lossless integer data whose index
 /// entry says every voxel holds one value (filled, not decoded).
-std::vector<std::size_t> varyingBricks(const VczHeader& h, std::size_t frame, const std::vector<std::size_t>& which);
+std::vector<std::size_t> varyingBricks(const VczHeader& h, std::size_t frame,
+                                       const std::vector<std::size_t>& which);
 
 /// Decodes the listed bricks of frame `frame` at `level` into `out` (zeroed, of `outDims`), which holds the
 /// level-`level` samples [a, e); `placeOnDevice` lets the inverse kernel write whole bricks' voxels itself.

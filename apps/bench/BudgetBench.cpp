@@ -2,10 +2,10 @@
 #include "apps/bench/BudgetBench.hpp"
 
 #include "core/Error.hpp"
+#include "core/runtime/Timing.hpp"
 #include "render/BudgetPlanner.hpp"
 #include "render/Reference.hpp"
 #include "render/VolumeRenderer.hpp"
-#include "core/runtime/Timing.hpp"
 
 #include <cstdlib>
 #include <fstream>

@@ -2,10 +2,10 @@
 // in interleaved rounds and compared with a converged reference.
 #pragma once
 
-#include "render/RenderInput.hpp"
-#include "render/Scene.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "host/tf/TransferFunction.hpp"
+#include "render/RenderInput.hpp"
+#include "render/Scene.hpp"
 
 #include <filesystem>
 #include <vector>

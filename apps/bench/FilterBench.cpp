@@ -2,9 +2,9 @@
 #include "apps/bench/FilterBench.hpp"
 
 #include "core/AtomicFile.hpp"
+#include "core/runtime/Timing.hpp"
 #include "render/VolumeRenderer.hpp"
 #include "render/grid/FilterAccuracy.hpp"
-#include "core/runtime/Timing.hpp"
 
 #include <iomanip>
 #include <iostream>

@@ -1,10 +1,10 @@
 // `volcl bench render --filters`: what each reconstruction filter costs in time and buys in accuracy.
 #pragma once
 
-#include "render/RenderInput.hpp"
-#include "render/Scene.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "host/tf/TransferFunction.hpp"
+#include "render/RenderInput.hpp"
+#include "render/Scene.hpp"
 
 #include <filesystem>
 

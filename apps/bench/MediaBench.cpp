@@ -1,10 +1,10 @@
 // `volcl bench render --tables` / `--fog`: table paths vs per-sample paths, fog vs the plain frame.
 #include "apps/bench/MediaBench.hpp"
 
-#include "core/Error.hpp"
 #include "core/AtomicFile.hpp"
-#include "render/Reference.hpp"
+#include "core/Error.hpp"
 #include "core/runtime/Timing.hpp"
+#include "render/Reference.hpp"
 
 #include <algorithm>
 #include <iomanip>
@@ -58,9 +58,11 @@ void benchTables(ComputeContext& cc, const RenderInput& input, const TransferFun
     lit.effects.isosurfaces.clear();
     std::ostringstream rows;
     rows << "kind,step,variant,ms_per_frame,table_ms,rmse_rgba\n";
-    std::cout << "tables vs per-sample paths, median of " << runs << " interleaved frames, RMSE vs the double "
+    std::cout << "tables vs per-sample paths, median of " << runs
+              << " interleaved frames, RMSE vs the double "
               << "reference (step " << referenceStep << ")\n";
-    std::cout << "  kind     step  variant                                   ms/frame   table ms   RMSE rgba\n";
+    std::cout
+        << "  kind     step  variant                                   ms/frame   table ms   RMSE rgba\n";
     const ImageBuffer litRef = input.renderReference(tf, lit, {.step = referenceStep});
     for (double step : steps) {
         std::vector<Variant> vs;
@@ -84,9 +86,9 @@ void benchTables(ComputeContext& cc, const RenderInput& input, const TransferFun
         for (auto& v : vs) {
             v.rmse = imageRmse(v.renderer->render(), litRef);
             std::cout << "  shaded  " << std::setw(5) << std::setprecision(3) << std::fixed << step << "  "
-                      << std::left << std::setw(42) << v.name << std::right << std::setw(9) << std::setprecision(2)
-                      << median(v.ms) << "  " << std::setw(9) << v.tableMs << "  " << std::scientific
-                      << std::setprecision(3) << v.rmse << std::fixed << '\n';
+                      << std::left << std::setw(42) << v.name << std::right << std::setw(9)
+                      << std::setprecision(2) << median(v.ms) << "  " << std::setw(9) << v.tableMs << "  "
+                      << std::scientific << std::setprecision(3) << v.rmse << std::fixed << '\n';
             rows << "shaded," << step << ",\"" << v.name << "\"," << median(v.ms) << ',' << v.tableMs << ','
                  << v.rmse << '\n';
         }
@@ -122,17 +124,18 @@ void benchTables(ComputeContext& cc, const RenderInput& input, const TransferFun
             ImageBuffer a(img.width, img.height, {"R", "G", "B", "A"}), b = a;
             for (std::size_t i = 0; i < std::size_t(img.width) * std::size_t(img.height); ++i)
                 for (int c = 0; c < 4; ++c) {
-                    a.pixels[i * 4 + std::size_t(c)] = img.pixels[i * std::size_t(img.channelCount()) + std::size_t(c)];
+                    a.pixels[i * 4 + std::size_t(c)] =
+                        img.pixels[i * std::size_t(img.channelCount()) + std::size_t(c)];
                     b.pixels[i * 4 + std::size_t(c)] =
                         isoRef.pixels[i * std::size_t(isoRef.channelCount()) + std::size_t(c)];
                 }
             v.rmse = imageRmse(a, b);
             std::cout << "  iso     " << std::setw(5) << std::setprecision(3) << std::fixed << step << "  "
-                      << std::left << std::setw(42) << v.name << std::right << std::setw(9) << std::setprecision(2)
-                      << median(v.ms) << "  " << std::setw(9) << v.tableMs << "  " << std::scientific
-                      << std::setprecision(3) << v.rmse << std::fixed << '\n';
-            rows << "iso," << step << ",\"" << v.name << "\"," << median(v.ms) << ',' << v.tableMs << ',' << v.rmse
-                 << '\n';
+                      << std::left << std::setw(42) << v.name << std::right << std::setw(9)
+                      << std::setprecision(2) << median(v.ms) << "  " << std::setw(9) << v.tableMs << "  "
+                      << std::scientific << std::setprecision(3) << v.rmse << std::fixed << '\n';
+            rows << "iso," << step << ",\"" << v.name << "\"," << median(v.ms) << ',' << v.tableMs << ','
+                 << v.rmse << '\n';
         }
     }
     writeCsv(csv, rows.str());
@@ -183,17 +186,18 @@ void benchFog(ComputeContext& cc, const RenderInput& input, const TransferFuncti
     const double plainMs = median(vs[0].ms);
     std::ostringstream rows;
     rows << "variant,ms_per_frame,ratio_to_plain,rmse_rgba,defines\n";
-    std::cout << "fog cost, " << scene.width << "x" << scene.height << ", step " << scene.step << ", median of "
-              << runs << " interleaved frames; RMSE vs the double reference with the same fog (step "
-              << referenceStep << ")\n";
+    std::cout << "fog cost, " << scene.width << "x" << scene.height << ", step " << scene.step
+              << ", median of " << runs
+              << " interleaved frames; RMSE vs the double reference with the same fog (step " << referenceStep
+              << ")\n";
     for (auto& v : vs) {
         const ImageBuffer ref = input.renderReference(tf, v.scene, {.step = referenceStep});
         v.rmse = imageRmse(v.renderer->render(), ref);
         const double ms = median(v.ms);
         std::cout << "  " << std::left << std::setw(42) << v.name << std::right << std::fixed << std::setw(9)
                   << std::setprecision(2) << ms << "  " << std::setprecision(3) << ms / plainMs << "  "
-                  << std::scientific << v.rmse << std::fixed << "  [" << v.renderer->plan().defines.toOptions()
-                  << "]\n";
+                  << std::scientific << v.rmse << std::fixed << "  ["
+                  << v.renderer->plan().defines.toOptions() << "]\n";
         rows << '"' << v.name << "\"," << ms << ',' << ms / plainMs << ',' << v.rmse << ",\""
              << v.renderer->plan().defines.toOptions() << "\"\n";
     }

@@ -2,10 +2,10 @@
 // cost against the plain frame, in accuracy and time.
 #pragma once
 
-#include "render/RenderInput.hpp"
-#include "render/Scene.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "host/tf/TransferFunction.hpp"
+#include "render/RenderInput.hpp"
+#include "render/Scene.hpp"
 
 #include <filesystem>
 #include <string>
@@ -19,7 +19,8 @@ namespace volcl::cli {
 /// Each against the double reference at `referenceStep` (RMSE over RGBA), median of `runs` frames, frames
 /// interleaved. Prints a table and writes CSV rows when `csv` is not empty.
 void benchTables(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, const Scene& scene,
-                 const std::vector<double>& steps, double referenceStep, int runs, const std::filesystem::path& csv);
+                 const std::vector<double>& steps, double referenceStep, int runs,
+                 const std::filesystem::path& csv);
 
 /// The plain frame, and the scene with a constant and an exponential fog layer over the data's lower half
 /// (point sampled and 2D pre-integrated), interleaved, median of `runs` frames; the fog's RMSE against the

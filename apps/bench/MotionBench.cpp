@@ -1,14 +1,14 @@
 // `volcl bench motion`: block-search time against block size, radius and method, with the prediction error.
-#include "core/Error.hpp"
 #include "apps/bench/BenchCommand.hpp"
 #include "apps/bench/BenchOutput.hpp"
 #include "apps/bench/BenchPaths.hpp"
 #include "apps/bench/GzipVolume.hpp"
+#include "core/Error.hpp"
 #include "core/Format.hpp"
-#include "host/io/Series.hpp"
-#include "host/io/VolumeIo.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "core/runtime/Timing.hpp"
+#include "host/io/Series.hpp"
+#include "host/io/VolumeIo.hpp"
 #include "wavelet/predict/Compensation.hpp"
 #include "wavelet/predict/MotionSearch.hpp"
 #include "wavelet/predict/MotionVectorCoding.hpp"
@@ -44,10 +44,11 @@ struct MotionPair {
     Volume current, reference;
 };
 
-
 std::vector<MotionPair> loadPairs(const MotionBenchArgs& a) {
     std::vector<MotionPair> out;
-    auto want = [&](const std::string& n) { return a.filter.empty() || n.find(a.filter) != std::string::npos; };
+    auto want = [&](const std::string& n) {
+        return a.filter.empty() || n.find(a.filter) != std::string::npos;
+    };
     const fs::path t = fs::path(a.data) / "timevarying";
     auto addSeries = [&](const std::string& name, const std::string& glob, std::size_t from) {
         if (!want(name)) return;
@@ -64,7 +65,8 @@ std::vector<MotionPair> loadPairs(const MotionBenchArgs& a) {
     if (want("mri-shift")) {
         try {
             const Volume mri = readGzipUInt8(
-                fs::path(a.data) / "regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz", {180, 216, 180});
+                fs::path(a.data) / "regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz",
+                {180, 216, 180});
             const std::size_t c = std::min<std::size_t>(a.mriCrop, 180);
             const Dims lo{(180 - c) / 2, (216 - c) / 2, (180 - c) / 2};
             const Volume crop = mri.cropped(lo, {lo.x + c, lo.y + c, lo.z + c});
@@ -89,7 +91,9 @@ double psnrOver(const Volume& truth, const Volume& pred, double& rmse) {
     return rmse > 0 ? 20 * std::log10((st.max - st.min) / rmse) : INFINITY;
 }
 
-nlohmann::json jnum(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json("inf"); }
+nlohmann::json jnum(double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json("inf");
+}
 
 void benchMotion(const MotionBenchArgs& a, GlobalOptions& global) {
     ComputeContext cc(global.device);
@@ -123,8 +127,8 @@ void benchMotion(const MotionBenchArgs& a, GlobalOptions& global) {
                         ms.push_back(est.lastKernelMilliseconds());
                     }
                     const double searchMs = median(ms);
-                    const MotionField f = comp.decideModes(cc, p.current, p.reference, nullptr, r.grid, r.vectors,
-                                                           nullptr, {});
+                    const MotionField f =
+                        comp.decideModes(cc, p.current, p.reference, nullptr, r.grid, r.vectors, nullptr, {});
                     const Volume pred = comp.compensate(cc, f, p.reference, nullptr);
                     double rm = 0;
                     const double ps = psnrOver(p.current, pred, rm);
@@ -133,8 +137,8 @@ void benchMotion(const MotionBenchArgs& a, GlobalOptions& global) {
                         inter += bm == BlockMode::Forward;
                     const std::size_t bytes = encodeMotionField(f).size();
                     const char* method = m == MotionSearchMethod::Full ? "full" : "hierarchical";
-                    csv << p.name << ',' << B << ',' << R << ',' << method << ',' << searchMs << ',' << ps << ',' << rm
-                        << ',' << zeroPsnr << ',' << inter << ',' << bytes << ','
+                    csv << p.name << ',' << B << ',' << R << ',' << method << ',' << searchMs << ',' << ps
+                        << ',' << rm << ',' << zeroPsnr << ',' << inter << ',' << bytes << ','
                         << double(bytes) * 8 / double(d.count()) << '\n';
                     rows.push_back({{"dataset", p.name},
                                     {"block", B},
@@ -147,14 +151,16 @@ void benchMotion(const MotionBenchArgs& a, GlobalOptions& global) {
                                     {"inter_blocks", inter},
                                     {"blocks", f.modes.size()},
                                     {"motion_bytes", bytes}});
-                    std::cerr << "  B " << B << " R " << R << " " << method << ": search " << formatFixed(searchMs, 1)
-                              << " ms, prediction PSNR " << formatFixed(ps, 2) << " dB (RMSE " << formatFixed(rm, 4) << "), inter "
-                              << inter << "/" << f.modes.size() << ", vectors " << bytes << " B\n";
+                    std::cerr << "  B " << B << " R " << R << " " << method << ": search "
+                              << formatFixed(searchMs, 1) << " ms, prediction PSNR " << formatFixed(ps, 2)
+                              << " dB (RMSE " << formatFixed(rm, 4) << "), inter " << inter << "/"
+                              << f.modes.size() << ", vectors " << bytes << " B\n";
                 }
         // Kernel against the C++ reference in the same run, interleaved (kernel, reference, kernel, ...).
         if (!a.reference) continue;
-        for (const MotionSearchOptions& o : {MotionSearchOptions{8, 2, MotionSearchMethod::Full, MotionCost::Ssd, true},
-                                             MotionSearchOptions{8, 4, MotionSearchMethod::Hierarchical, MotionCost::Ssd, true}}) {
+        for (const MotionSearchOptions& o :
+             {MotionSearchOptions{8, 2, MotionSearchMethod::Full, MotionCost::Ssd, true},
+              MotionSearchOptions{8, 4, MotionSearchMethod::Hierarchical, MotionCost::Ssd, true}}) {
             MotionEstimator est(cc, o);
             const int levels = o.method == MotionSearchMethod::Hierarchical ? hierarchyLevels(o) : 0;
             const MotionSearchSamples s = prepareSearchSamples(p.current, p.reference, levels);
@@ -173,16 +179,22 @@ void benchMotion(const MotionBenchArgs& a, GlobalOptions& global) {
             }
             const char* method = o.method == MotionSearchMethod::Full ? "full" : "hierarchical";
             const double km = median(kernelMs), wm = median(wallMs), rm = median(refMs);
-            speed.push_back({{"dataset", p.name}, {"what", std::string("search B8 R") + std::to_string(o.radius) + " " + method},
-                             {"kernel_ms", km}, {"kernel_wall_ms", wm}, {"reference_ms", rm}, {"identical", same}});
-            std::cerr << "  search B 8 R " << o.radius << " " << method << ": kernel " << formatFixed(km, 1) << " ms (wall "
-                      << formatFixed(wm, 1) << ") against C++ reference " << formatFixed(rm, 1) << " ms = " << formatFixed(rm / wm, 1)
+            speed.push_back({{"dataset", p.name},
+                             {"what", std::string("search B8 R") + std::to_string(o.radius) + " " + method},
+                             {"kernel_ms", km},
+                             {"kernel_wall_ms", wm},
+                             {"reference_ms", rm},
+                             {"identical", same}});
+            std::cerr << "  search B 8 R " << o.radius << " " << method << ": kernel " << formatFixed(km, 1)
+                      << " ms (wall " << formatFixed(wm, 1) << ") against C++ reference "
+                      << formatFixed(rm, 1) << " ms = " << formatFixed(rm / wm, 1)
                       << "x faster wall-clock, results " << (same ? "identical" : "DIFFERENT") << '\n';
         }
         {
             MotionEstimator est(cc, {8, 2});
             const MotionSearchResult r = est.search(cc, p.current, p.reference);
-            const MotionField f = comp.decideModes(cc, p.current, p.reference, nullptr, r.grid, r.vectors, nullptr, {});
+            const MotionField f =
+                comp.decideModes(cc, p.current, p.reference, nullptr, r.grid, r.vectors, nullptr, {});
             comp.compensate(cc, f, p.reference, nullptr);
             std::vector<double> kernelMs, wallMs, refMs;
             for (int i = 0; i < std::max(1, a.runs); ++i) {
@@ -195,13 +207,19 @@ void benchMotion(const MotionBenchArgs& a, GlobalOptions& global) {
                 refMs.push_back(rw.milliseconds());
             }
             const double km = median(kernelMs), wm = median(wallMs), rm = median(refMs);
-            speed.push_back({{"dataset", p.name}, {"what", "OBMC B8"}, {"kernel_ms", km}, {"kernel_wall_ms", wm},
-                             {"reference_ms", rm}, {"identical", nullptr}});
-            std::cerr << "  OBMC B 8: kernel " << formatFixed(km, 1) << " ms (wall " << formatFixed(wm, 1) << ") against C++ reference "
-                      << formatFixed(rm, 1) << " ms = " << formatFixed(rm / wm, 1) << "x faster wall-clock\n";
+            speed.push_back({{"dataset", p.name},
+                             {"what", "OBMC B8"},
+                             {"kernel_ms", km},
+                             {"kernel_wall_ms", wm},
+                             {"reference_ms", rm},
+                             {"identical", nullptr}});
+            std::cerr << "  OBMC B 8: kernel " << formatFixed(km, 1) << " ms (wall " << formatFixed(wm, 1)
+                      << ") against C++ reference " << formatFixed(rm, 1)
+                      << " ms = " << formatFixed(rm / wm, 1) << "x faster wall-clock\n";
         }
     }
-    nlohmann::json j{{"device", cc.device().name}, {"runs", a.runs}, {"rows", rows}, {"kernel_vs_reference", speed}};
+    nlohmann::json j{
+        {"device", cc.device().name}, {"runs", a.runs}, {"rows", rows}, {"kernel_vs_reference", speed}};
     writeOutput(a.csv, csv.str());
     if (!a.json.empty()) writeOutput(a.json, j.dump(1));
 }
@@ -209,11 +227,13 @@ void benchMotion(const MotionBenchArgs& a, GlobalOptions& global) {
 } // namespace
 
 void addMotionBench(CLI::App& bench, GlobalOptions& global) {
-    auto* b = bench.add_subcommand("motion", "Motion search: time against block size, radius and method, with the "
-                                             "prediction error, and the kernels against their C++ references");
+    auto* b =
+        bench.add_subcommand("motion", "Motion search: time against block size, radius and method, with the "
+                                       "prediction error, and the kernels against their C++ references");
     auto a = std::make_shared<MotionBenchArgs>();
     b->add_option("--data", a->data, "Shared data directory")->capture_default_str();
-    b->add_option("--dataset", a->filter, "Only data sets whose name contains this text (viscous, isabel, mri)");
+    b->add_option("--dataset", a->filter,
+                  "Only data sets whose name contains this text (viscous, isabel, mri)");
     b->add_option("--block", a->blocks, "Block sizes (default 4 8 16)");
     b->add_option("--radius", a->radii, "Search radii (default 1 2 4 8)");
     b->add_option("--runs", a->runs, "Timed runs per measurement (median)")->capture_default_str();

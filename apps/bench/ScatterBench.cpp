@@ -3,10 +3,10 @@
 #include "apps/bench/ScatterBench.hpp"
 
 #include "core/Error.hpp"
+#include "core/runtime/Timing.hpp"
 #include "host/image/ImageIo.hpp"
 #include "render/Reference.hpp"
 #include "render/VolumeRenderer.hpp"
-#include "core/runtime/Timing.hpp"
 
 #include <cmath>
 #include <fstream>
@@ -53,9 +53,10 @@ Scene scatteringScene(const Scene& scene) {
 
 } // namespace
 
-void benchScattering(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, const Scene& scene,
-                     const ScatterBenchOptions& o) {
-    if (o.referenceSamples < 1 || o.maxSamples < 1) throw UsageError("bench render: sample counts must be >= 1");
+void benchScattering(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
+                     const Scene& scene, const ScatterBenchOptions& o) {
+    if (o.referenceSamples < 1 || o.maxSamples < 1)
+        throw UsageError("bench render: sample counts must be >= 1");
     const Scene medium = scatteringScene(scene);
     Scene plain = medium;
     plain.effects = {};
@@ -69,7 +70,8 @@ void benchScattering(ComputeContext& cc, const RenderInput& input, const Transfe
     ref.effects.samples = o.referenceSamples;
     ref.effects.seed = 0x5eedU;
     r->setScene(ref);
-    if (!r->plan().pathTracing) throw UsageError("bench render: the scene's scattering was dropped:\n" + r->plan().explain());
+    if (!r->plan().pathTracing)
+        throw UsageError("bench render: the scene's scattering was dropped:\n" + r->plan().explain());
     const ImageBuffer reference = r->render();
     const double refMs = r->lastKernelMilliseconds();
 
@@ -97,7 +99,8 @@ void benchScattering(ComputeContext& cc, const RenderInput& input, const Transfe
         r->setScene(oct);
         ImageBuffer img;
         const double ms = medianFrameMs(*r, o.runs, &img);
-        rows.push_back({"single + " + std::to_string(octaves) + " octaves (approx.)", 0, ms, imageRmse(img, reference)});
+        rows.push_back(
+            {"single + " + std::to_string(octaves) + " octaves (approx.)", 0, ms, imageRmse(img, reference)});
         if (octaves == 4) octaveImg = img;
     }
 
@@ -113,23 +116,24 @@ void benchScattering(ComputeContext& cc, const RenderInput& input, const Transfe
         if (n == 1 || n == 16 || n == o.maxSamples || 2 * n > o.maxSamples) images.emplace_back(n, img);
     }
 
-    std::cout << "scattering, " << scene.width << "x" << scene.height << ", step " << scene.step << ", albedo "
-              << medium.effects.albedo << ", g " << medium.effects.phaseG << (medium.effects.emission ? "" : ", no emission")
-              << "; reference: path tracer, " << o.referenceSamples << " samples/pixel (" << std::fixed
-              << std::setprecision(0) << refMs << " ms); error = RMSE of RGBA against it\n";
-    std::cout << "  " << std::left << std::setw(34) << "variant" << std::right << std::setw(8) << "spp" << std::setw(12)
-              << "ms/frame" << std::setw(10) << "x plain" << std::setw(12) << "rmse" << '\n';
+    std::cout << "scattering, " << scene.width << "x" << scene.height << ", step " << scene.step
+              << ", albedo " << medium.effects.albedo << ", g " << medium.effects.phaseG
+              << (medium.effects.emission ? "" : ", no emission") << "; reference: path tracer, "
+              << o.referenceSamples << " samples/pixel (" << std::fixed << std::setprecision(0) << refMs
+              << " ms); error = RMSE of RGBA against it\n";
+    std::cout << "  " << std::left << std::setw(34) << "variant" << std::right << std::setw(8) << "spp"
+              << std::setw(12) << "ms/frame" << std::setw(10) << "x plain" << std::setw(12) << "rmse" << '\n';
     for (const Row& row : rows)
         std::cout << "  " << std::left << std::setw(34) << row.variant << std::right << std::setw(8)
-                  << (row.samples ? std::to_string(row.samples) : "-") << std::setw(12) << std::setprecision(2)
-                  << row.ms << std::setw(10) << std::setprecision(1) << row.ms / plainMs << std::setw(12)
-                  << std::setprecision(5) << row.rmse << '\n';
+                  << (row.samples ? std::to_string(row.samples) : "-") << std::setw(12)
+                  << std::setprecision(2) << row.ms << std::setw(10) << std::setprecision(1)
+                  << row.ms / plainMs << std::setw(12) << std::setprecision(5) << row.rmse << '\n';
     if (!o.csv.empty()) {
         std::ofstream csv(o.csv);
         csv << "variant,samples,ms,cost,rmse,reference_samples\n";
         for (const Row& row : rows)
-            csv << '"' << row.variant << "\"," << row.samples << ',' << row.ms << ',' << row.ms / plainMs << ','
-                << row.rmse << ',' << o.referenceSamples << '\n';
+            csv << '"' << row.variant << "\"," << row.samples << ',' << row.ms << ',' << row.ms / plainMs
+                << ',' << row.rmse << ',' << o.referenceSamples << '\n';
         if (!csv) throw IoError(o.csv.string() + ": cannot write the scattering CSV");
     }
     if (!o.imageDir.empty()) {

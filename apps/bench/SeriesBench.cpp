@@ -1,15 +1,15 @@
 // `volcl bench series`: motion-compensated against intra-only coding of time series per rate target, with
 // per-frame PSNR, encode speed, single-frame decode time against an intra frame and playback rate (decode
 // timings interleaved between the two codings, load average stated).
-#include "core/Error.hpp"
 #include "apps/bench/BenchCommand.hpp"
 #include "apps/bench/BenchPaths.hpp"
 #include "apps/bench/GzipVolume.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/Error.hpp"
 #include "core/Format.hpp"
-#include "host/io/Series.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "core/runtime/Timing.hpp"
+#include "host/io/Series.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/predict/TranslatedSeries.hpp"
 
@@ -41,7 +41,6 @@ struct NamedSeries {
     std::string name;
     TimeSeries series;
 };
-
 
 nlohmann::json jnum(double v) {
     return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json("inf");
@@ -284,49 +283,54 @@ void benchSeries(const SeriesBenchArgs& a, GlobalOptions& global) {
                 }
                 return c.meanMse > 0 ? 10 * std::log10((hi - lo) * (hi - lo) / c.meanMse) : INFINITY;
             };
-            std::cerr << "  " << std::setw(9) << rate << ": intra " << formatFixed(in.bpv, 4) << " bpv (min PSNR "
-                      << formatFixed(in.minPsnr, 2) << "), MC " << formatFixed(mc.bpv, 4) << " bpv (min PSNR "
-                      << formatFixed(mc.minPsnr, 2) << ", " << mc.p << " P " << mc.b
-                      << " B) = " << formatFixed(mc.bpv / in.bpv, 3) << "x; encode " << formatFixed(mb / in.encodeMs * 1e3, 1)
-                      << " / " << formatFixed(mb / mc.encodeMs * 1e3, 1) << " MB/s; frame " << formatFixed(in.frameMs, 1)
-                      << " / " << formatFixed(mc.frameMs, 1) << " ms (P/I " << formatFixed(mc.frameMs / in.frameMs, 2)
-                      << "x); playback " << formatFixed(1e3 * double(s.series.frames.size()) / in.playbackMs, 1)
-                      << " / " << formatFixed(1e3 * double(s.series.frames.size()) / mc.playbackMs, 1)
-                      << " fps; CPU per frame " << formatFixed(in.frameCpuMs, 1) << " / " << formatFixed(mc.frameCpuMs, 1)
-                      << " ms (P/I " << formatFixed(mc.frameCpuMs / in.frameCpuMs, 2) << "x), playing "
+            std::cerr << "  " << std::setw(9) << rate << ": intra " << formatFixed(in.bpv, 4)
+                      << " bpv (min PSNR " << formatFixed(in.minPsnr, 2) << "), MC " << formatFixed(mc.bpv, 4)
+                      << " bpv (min PSNR " << formatFixed(mc.minPsnr, 2) << ", " << mc.p << " P " << mc.b
+                      << " B) = " << formatFixed(mc.bpv / in.bpv, 3) << "x; encode "
+                      << formatFixed(mb / in.encodeMs * 1e3, 1) << " / "
+                      << formatFixed(mb / mc.encodeMs * 1e3, 1) << " MB/s; frame "
+                      << formatFixed(in.frameMs, 1) << " / " << formatFixed(mc.frameMs, 1) << " ms (P/I "
+                      << formatFixed(mc.frameMs / in.frameMs, 2) << "x); playback "
+                      << formatFixed(1e3 * double(s.series.frames.size()) / in.playbackMs, 1) << " / "
+                      << formatFixed(1e3 * double(s.series.frames.size()) / mc.playbackMs, 1)
+                      << " fps; CPU per frame " << formatFixed(in.frameCpuMs, 1) << " / "
+                      << formatFixed(mc.frameCpuMs, 1) << " ms (P/I "
+                      << formatFixed(mc.frameCpuMs / in.frameCpuMs, 2) << "x), playing "
                       << formatFixed(in.playbackCpuMs / double(s.series.frames.size()), 1) << " / "
-                      << formatFixed(mc.playbackCpuMs / double(s.series.frames.size()), 1) << " ms; load " << formatFixed(loadBefore, 1) << " -> " << formatFixed(loadAfter, 1) << "\n";
+                      << formatFixed(mc.playbackCpuMs / double(s.series.frames.size()), 1) << " ms; load "
+                      << formatFixed(loadBefore, 1) << " -> " << formatFixed(loadAfter, 1) << "\n";
             for (const auto& [mode, c] : {std::pair<const char*, const Coding&>{"intra", in}, {"mc", mc}})
-                rows.push_back({{"series", s.name},
-                                {"frames", s.series.frames.size()},
-                                {"dims", {d.x, d.y, d.z}},
-                                {"rate", rate},
-                                {"mode", mode},
-                                {"bytes", c.bytes},
-                                {"bits_per_voxel", c.bpv},
-                                {"min_frame_psnr_db", jnum(c.minPsnr)},
-                                {"series_psnr_db", jnum(psnrOfMean(c))},
-                                {"max_error", c.maxErr},
-                                {"exact", c.exact},
-                                {"p_frames", c.p},
-                                {"b_frames", c.b},
-                                {"encode_ms", c.encodeMs},
-                                {"encode_mb_s", mb / c.encodeMs * 1e3},
-                                {"frame_decode_ms", c.frameMs},
-                                {"frame_decode_over_intra", c.frameMs / in.frameMs},
-                                {"playback_ms_runs", c.playback},
-                                {"playback_cpu_ms_runs", c.playbackCpu},
-                                {"frame_decode_cpu_ms_runs", c.frameCpu},
-                                {"frame_decode_cpu_ms", c.frameCpuMs},
-                                {"frame_decode_cpu_over_intra", c.frameCpuMs / in.frameCpuMs},
-                                {"playback_cpu_ms_per_frame", c.playbackCpuMs / double(s.series.frames.size())},
-                                {"frame_decode_ms_runs", c.frame},
-                                {"load_before", jnum(loadBefore)},
-                                {"load_after", jnum(loadAfter)},
-                                {"frame_psnr_db", framePsnrs(c)},
-                                {"frame_bytes", frameBytes(c)},
-                                {"frame_types", frameTypes(c)},
-                                {"playback_fps", 1e3 * double(s.series.frames.size()) / c.playbackMs}});
+                rows.push_back(
+                    {{"series", s.name},
+                     {"frames", s.series.frames.size()},
+                     {"dims", {d.x, d.y, d.z}},
+                     {"rate", rate},
+                     {"mode", mode},
+                     {"bytes", c.bytes},
+                     {"bits_per_voxel", c.bpv},
+                     {"min_frame_psnr_db", jnum(c.minPsnr)},
+                     {"series_psnr_db", jnum(psnrOfMean(c))},
+                     {"max_error", c.maxErr},
+                     {"exact", c.exact},
+                     {"p_frames", c.p},
+                     {"b_frames", c.b},
+                     {"encode_ms", c.encodeMs},
+                     {"encode_mb_s", mb / c.encodeMs * 1e3},
+                     {"frame_decode_ms", c.frameMs},
+                     {"frame_decode_over_intra", c.frameMs / in.frameMs},
+                     {"playback_ms_runs", c.playback},
+                     {"playback_cpu_ms_runs", c.playbackCpu},
+                     {"frame_decode_cpu_ms_runs", c.frameCpu},
+                     {"frame_decode_cpu_ms", c.frameCpuMs},
+                     {"frame_decode_cpu_over_intra", c.frameCpuMs / in.frameCpuMs},
+                     {"playback_cpu_ms_per_frame", c.playbackCpuMs / double(s.series.frames.size())},
+                     {"frame_decode_ms_runs", c.frame},
+                     {"load_before", jnum(loadBefore)},
+                     {"load_after", jnum(loadAfter)},
+                     {"frame_psnr_db", framePsnrs(c)},
+                     {"frame_bytes", frameBytes(c)},
+                     {"frame_types", frameTypes(c)},
+                     {"playback_fps", 1e3 * double(s.series.frames.size()) / c.playbackMs}});
         }
     }
     const nlohmann::json j{{"device", cc.device().name}, {"gop", a.gop},   {"global_shift", a.globalShift},

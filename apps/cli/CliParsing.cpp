@@ -19,11 +19,14 @@ std::vector<std::size_t> parseNumbers(const std::string& text, const std::string
         if (ec != std::errc()) break;
         out.push_back(v);
         p = next;
-        if (p < end && (*p == ',' || *p == 'x' || *p == 'X')) ++p;
-        else break;
+        if (p < end && (*p == ',' || *p == 'x' || *p == 'X'))
+            ++p;
+        else
+            break;
     }
     if (out.size() != count || p != end)
-        throw UsageError(what + " '" + text + "' must be " + std::to_string(count) + " non-negative integers");
+        throw UsageError(what + " '" + text + "' must be " + std::to_string(count) +
+                         " non-negative integers");
     return out;
 }
 } // namespace
@@ -36,7 +39,8 @@ Dims parseDims(const std::string& text, const std::string& what) {
 
 std::pair<Dims, Dims> parseBox(const std::string& text, const std::string& what) {
     auto colon = text.find(':');
-    if (colon == std::string::npos) throw UsageError(what + " '" + text + "' must look like x0,y0,z0:x1,y1,z1");
+    if (colon == std::string::npos)
+        throw UsageError(what + " '" + text + "' must look like x0,y0,z0:x1,y1,z1");
     auto lo = parseNumbers(text.substr(0, colon), what, 3);
     auto hi = parseNumbers(text.substr(colon + 1), what, 3);
     return {{lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}};

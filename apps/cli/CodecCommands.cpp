@@ -1,15 +1,15 @@
 // `volcl encode`, `volcl decode` and `volcl compare`.
-#include "core/Error.hpp"
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/CodecReport.hpp"
 #include "apps/cli/Commands.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/Error.hpp"
 #include "core/Format.hpp"
+#include "core/runtime/ClRuntime.hpp"
+#include "core/runtime/Timing.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/Series.hpp"
 #include "host/io/VolumeIo.hpp"
-#include "core/runtime/ClRuntime.hpp"
-#include "core/runtime/Timing.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/container/LodStatistics.hpp"
 
@@ -115,15 +115,17 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                     "cdf53 | cdf97 | haar | cdf26 (default cdf53 lossless, cdf97 lossy)");
     cmd->add_option("--levels", a->levels, "Transform levels (default 4)");
     cmd->add_option("--brick", a->brick, "Brick size B or X,Y,Z, multiples of 2^levels (default 64)");
-    cmd->add_option("--entropy", a->entropy, "fast (zstd over byte planes) or dense (context-modelled rANS, default)");
+    cmd->add_option("--entropy", a->entropy,
+                    "fast (zstd over byte planes) or dense (context-modelled rANS, default)");
     cmd->add_option("--threads", a->threads, "Host threads for entropy coding (default 2)");
     cmd->add_flag("--profile", a->profile, "Print the time of each pipeline stage");
     cmd->add_flag("!--no-lod-stats", a->lodStats,
                   "Leave out the per-brick, per-level error statistics renderers use for --lod auto");
     cmd->add_option("--gop", a->gop, "Series: frames per group, each starting with an I frame (default 10)");
     cmd->add_option("--b-frames", a->bFrames, "Series: B frames between two I/P frames (default 0)");
-    cmd->add_option("--motion", a->motion,
-                    "Series: block (motion-compensated P/B frames, default) or none (every frame an I frame)");
+    cmd->add_option(
+        "--motion", a->motion,
+        "Series: block (motion-compensated P/B frames, default) or none (every frame an I frame)");
     cmd->add_flag("!--no-global-shift", a->globalShift,
                   "Series: P frames use block motion alone, never a global sub-voxel translation of the "
                   "reference (files that decoders before it read)");
@@ -152,9 +154,8 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         EncodeReport rep;
         Stopwatch sw;
         std::vector<FrameReport> frames;
-        std::vector<std::byte> bytes =
-            ts.frames.size() == 1 ? encodeVolume(cc, ts.frames[0], withMeta, &rep)
-                                  : encodeSeries(cc, ts, withMeta, &frames);
+        std::vector<std::byte> bytes = ts.frames.size() == 1 ? encodeVolume(cc, ts.frames[0], withMeta, &rep)
+                                                             : encodeSeries(cc, ts, withMeta, &frames);
         const double ms = sw.milliseconds();
         // Per brick and level: range and deviation from the input, for renderers' level of detail.
         Stopwatch lodSw;
@@ -175,10 +176,12 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
             if (ts.frames.size() == 1 && o.rate != RateMode::Lossless) {
                 std::cerr << ", PSNR " << formatFixed(rep.psnr, 2) << " dB, max error " << rep.maxError;
                 // Only --max-error stores voxels exactly (to hold its bound); elsewhere the count is 0.
-                if (o.rate == RateMode::MaxError) std::cerr << " (" << rep.corrections << " voxels stored exactly)";
+                if (o.rate == RateMode::MaxError)
+                    std::cerr << " (" << rep.corrections << " voxels stored exactly)";
             }
             std::cerr << ", " << formatFixed(double(raw) / 1e3 / ms, 1) << " MB/s";
-            if (a->lodStats) std::cerr << " (+ " << formatFixed(lodMs, 0) << " ms of level-of-detail statistics)";
+            if (a->lodStats)
+                std::cerr << " (+ " << formatFixed(lodMs, 0) << " ms of level-of-detail statistics)";
             std::cerr << '\n';
             if (!frames.empty()) {
                 std::size_t count[3] = {0, 0, 0}, fallbacks = 0;
@@ -189,10 +192,11 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                     if (!std::isnan(f.psnr)) worst = std::min(worst, f.psnr);
                     if (!std::isnan(f.maxError)) maxErr = std::max(maxErr, f.maxError);
                 }
-                std::cerr << "volcl: " << frames.size() << " frames: " << count[0] << " I, " << count[1] << " P, "
-                          << count[2] << " B (" << fallbacks << " planned P/B coded as I)";
+                std::cerr << "volcl: " << frames.size() << " frames: " << count[0] << " I, " << count[1]
+                          << " P, " << count[2] << " B (" << fallbacks << " planned P/B coded as I)";
                 if (o.rate != RateMode::Lossless)
-                    std::cerr << ", lowest frame PSNR " << formatFixed(worst, 2) << " dB, max error " << maxErr;
+                    std::cerr << ", lowest frame PSNR " << formatFixed(worst, 2) << " dB, max error "
+                              << maxErr;
                 std::cerr << '\n';
             }
             if (a->profile && ts.frames.size() == 1) printProfile("encode", rep.profile, 0);
@@ -212,14 +216,16 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
     auto a = std::make_shared<Args>();
     cmd->add_option("input", a->in, "Input .vcz file")->required();
     cmd->add_option("-o,--output", a->out,
-                    "Output volume: .raw, .nrrd, .nhdr, .nii, .nii.gz (a NIfTI source's header restored), .vti or .vdb")
+                    "Output volume: .raw, .nrrd, .nhdr, .nii, .nii.gz (a NIfTI source's header restored), "
+                    ".vti or .vdb")
         ->required();
     cmd->add_option("--region", a->region,
                     "Voxel box x0,y0,z0:x1,y1,z1 (half-open, full-resolution indices)");
     cmd->add_option("--level", a->level, "2^k-downsampled approximation without decoding finer detail");
-    cmd->add_option("--frame", a->frame,
-                    "Frame of a time series (default 0); an output name with a printf pattern (frames_%03d.nrrd) "
-                    "writes every frame");
+    cmd->add_option(
+        "--frame", a->frame,
+        "Frame of a time series (default 0); an output name with a printf pattern (frames_%03d.nrrd) "
+        "writes every frame");
     cmd->add_option("--threads", a->threads, "Host threads for entropy decoding (default 2)");
     cmd->add_flag("--profile", a->profile, "Print the time of each pipeline stage");
     cmd->callback([a, &global] {
@@ -236,18 +242,20 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
         // the OpenCL platform, which would otherwise leave a core idle.
         auto pool = std::make_shared<HostMemoryPool>();
         std::optional<DecodeAhead> ahead;
-        if (a->out.find('%') == std::string::npos && !o.region && o.level == 0) ahead.emplace(r, o.frame, pool);
+        if (a->out.find('%') == std::string::npos && !o.region && o.level == 0)
+            ahead.emplace(r, o.frame, pool);
         o.ahead = ahead ? &*ahead : nullptr;
         ComputeContext cc(global.device, pool);
         // A NIfTI source's header, kept in the .vcz, goes back into NIfTI outputs.
         WriteOptions wo;
-        if (const auto it = r.header().metadata.find(std::string(kVczNiftiMetadataKey)); it != r.header().metadata.end())
+        if (const auto it = r.header().metadata.find(std::string(kVczNiftiMetadataKey));
+            it != r.header().metadata.end())
             wo.nifti = niftiMetadataFromText(it->second, a->in);
         if (a->out.find('%') != std::string::npos) {
             // A printf pattern: every frame, each decoded once (P/B frames from the frames already decoded).
             const std::size_t n = r.header().frames.size();
-            const std::vector<std::string> names = io::expandFilePattern(a->out, 0, static_cast<long long>(n) - 1, 1,
-                                                                     a->out, n);
+            const std::vector<std::string> names =
+                io::expandFilePattern(a->out, 0, static_cast<long long>(n) - 1, 1, a->out, n);
             for (const std::string& name : names)
                 checkNotSameFile({std::filesystem::path(a->in)}, volumeFilesWritten(name));
             // A frame is kept until the last frame that references it is decoded.
@@ -320,7 +328,8 @@ void addCompare(CLI::App& app, GlobalOptions& global) {
                     "Compare 2^k-downsampled approximations: a .vcz side decodes at level k, a plain volume "
                     "takes the same wavelet low band")
         ->capture_default_str();
-    cmd->add_option("--region", a->region, "Compare only the voxel box x0,y0,z0:x1,y1,z1 (half-open, full resolution)");
+    cmd->add_option("--region", a->region,
+                    "Compare only the voxel box x0,y0,z0:x1,y1,z1 (half-open, full resolution)");
     cmd->add_option("--frame", a->frame, "Frame of a time series .vcz")->capture_default_str();
     cmd->add_flag("--json", a->json, "JSON output");
     cmd->callback([a, &global] {
@@ -356,7 +365,8 @@ void addCompare(CLI::App& app, GlobalOptions& global) {
             if (coarsen) return levelView(*cc, v, like, d);
             if (a->level > 0) return v;
             if (d.region) {
-                if (!(d.region->hi.x <= v.dims().x && d.region->hi.y <= v.dims().y && d.region->hi.z <= v.dims().z))
+                if (!(d.region->hi.x <= v.dims().x && d.region->hi.y <= v.dims().y &&
+                      d.region->hi.z <= v.dims().z))
                     throw UsageError("--region " + a->region + " lies outside " + path);
                 return v.cropped(d.region->lo, d.region->hi);
             }
@@ -365,10 +375,11 @@ void addCompare(CLI::App& app, GlobalOptions& global) {
         const Volume va = load(a->a, ra, plainA, coarsenA);
         const Volume vb = load(a->b, rb, plainB, coarsenB);
         if (va.dims() != vb.dims())
-            throw UsageError(a->a + " and " + a->b + " differ in dimensions (" + std::to_string(va.dims().x) + "x" +
-                             std::to_string(va.dims().y) + "x" + std::to_string(va.dims().z) + " against " +
-                             std::to_string(vb.dims().x) + "x" + std::to_string(vb.dims().y) + "x" +
-                             std::to_string(vb.dims().z) + "): give --level K to compare a level decode with its source");
+            throw UsageError(a->a + " and " + a->b + " differ in dimensions (" + std::to_string(va.dims().x) +
+                             "x" + std::to_string(va.dims().y) + "x" + std::to_string(va.dims().z) +
+                             " against " + std::to_string(vb.dims().x) + "x" + std::to_string(vb.dims().y) +
+                             "x" + std::to_string(vb.dims().z) +
+                             "): give --level K to compare a level decode with its source");
         const double p = psnr(va, vb), r = rmse(va, vb), m = maxAbsError(va, vb);
         const double bpv = vczBytes ? double(vczBytes) * 8 / double(va.voxelCount()) : NAN;
         if (a->json) {

@@ -1,16 +1,16 @@
 // `volcl demo`: the main job on embedded defaults (generated phantoms, checked against references).
-#include "core/Error.hpp"
 #include "apps/cli/Commands.hpp"
-#include "host/image/ImageIo.hpp"
 #include "core/AtomicFile.hpp"
-#include "host/io/VolumeIo.hpp"
-#include "host/phantoms/Phantoms.hpp"
-#include "render/CameraFraming.hpp"
-#include "render/RenderInput.hpp"
+#include "core/Error.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "core/runtime/Timing.hpp"
+#include "host/image/ImageIo.hpp"
+#include "host/io/VolumeIo.hpp"
+#include "host/phantoms/Phantoms.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "preintegration/PreintegrationTable.hpp"
+#include "render/CameraFraming.hpp"
+#include "render/RenderInput.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <cmath>
@@ -26,7 +26,8 @@ double maxAbsDifference(const Volume& a, const Volume& b) {
     auto x = a.values<float>();
     auto y = b.values<float>();
     double m = 0;
-    for (std::size_t i = 0; i < x.size(); ++i) m = std::max(m, std::abs(double(x[i]) - double(y[i])));
+    for (std::size_t i = 0; i < x.size(); ++i)
+        m = std::max(m, std::abs(double(x[i]) - double(y[i])));
     return m;
 }
 
@@ -100,7 +101,8 @@ double sampledTableError(const PreintegrationTable& table, const TransferFunctio
         int i = next(table.size()), j = next(table.size());
         auto ref = referenceSegment(tf, table.node(i), table.node(j), table.lengthValues[0]);
         auto got = table.entry(0, i, j);
-        for (int c = 0; c < 4; ++c) worst = std::max(worst, std::abs(double(got[c]) - ref[c]));
+        for (int c = 0; c < 4; ++c)
+            worst = std::max(worst, std::abs(double(got[c]) - ref[c]));
     }
     return worst;
 }
@@ -114,17 +116,21 @@ void writeBytes(const std::filesystem::path& path, const std::vector<std::byte>&
 } // namespace
 
 void addDemoCommand(CLI::App& app, GlobalOptions& global) {
-    auto* cmd = app.add_subcommand("demo", "Run the pipeline on generated data (Marschner-Lobb, Shepp-Logan)");
+    auto* cmd =
+        app.add_subcommand("demo", "Run the pipeline on generated data (Marschner-Lobb, Shepp-Logan)");
     struct Args {
         std::string outDir = "volcl-demo";
         std::size_t mlSize = 41, phantomSize = 128;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("-o,--output-dir", a->outDir, "Directory for the demo's output files")->capture_default_str();
-    cmd->add_option("--ml-size", a->mlSize, "Marschner-Lobb samples per axis")->capture_default_str()->check(
-        CLI::Range(std::size_t(2), std::size_t(1024)));
-    cmd->add_option("--phantom-size", a->phantomSize, "Shepp-Logan samples per axis")->capture_default_str()->check(
-        CLI::Range(std::size_t(2), std::size_t(1024)));
+    cmd->add_option("-o,--output-dir", a->outDir, "Directory for the demo's output files")
+        ->capture_default_str();
+    cmd->add_option("--ml-size", a->mlSize, "Marschner-Lobb samples per axis")
+        ->capture_default_str()
+        ->check(CLI::Range(std::size_t(2), std::size_t(1024)));
+    cmd->add_option("--phantom-size", a->phantomSize, "Shepp-Logan samples per axis")
+        ->capture_default_str()
+        ->check(CLI::Range(std::size_t(2), std::size_t(1024)));
     cmd->callback([a, &global] {
         ComputeContext cc(global.device);
         std::cerr << "volcl demo: device " << cc.device().name << " (" << cc.device().platform << ")\n";
@@ -136,8 +142,10 @@ void addDemoCommand(CLI::App& app, GlobalOptions& global) {
         double mlErr = maxAbsDifference(ml, marschnerLobbReference(ml.dims()));
         // float sin/cos of arguments up to 6*2*pi: a few ulp of 40 in the argument, so 1e-5 absolute.
         if (!(mlErr <= 1e-5))
-            throw Error("Marschner-Lobb kernel differs from the double reference by " + std::to_string(mlErr));
-        std::cerr << "  marschner_lobb " << a->mlSize << "^3 in " << mlMs << " ms (incl. first build), max |kernel - "
+            throw Error("Marschner-Lobb kernel differs from the double reference by " +
+                        std::to_string(mlErr));
+        std::cerr << "  marschner_lobb " << a->mlSize << "^3 in " << mlMs
+                  << " ms (incl. first build), max |kernel - "
                   << "reference| = " << mlErr << '\n';
 
         sw.restart();
@@ -145,7 +153,8 @@ void addDemoCommand(CLI::App& app, GlobalOptions& global) {
         double slMs = sw.milliseconds();
         std::size_t bad = sheppLoganMismatches(sl, sheppLoganReference(sl.dims()));
         if (bad != 0)
-            throw Error("Shepp-Logan kernel differs from the reference at " + std::to_string(bad) + " interior voxels");
+            throw Error("Shepp-Logan kernel differs from the reference at " + std::to_string(bad) +
+                        " interior voxels");
         std::cerr << "  shepp_logan " << a->phantomSize << "^3 in " << slMs
                   << " ms (incl. first build), matches the reference off the ellipsoid surfaces\n";
 
@@ -172,9 +181,10 @@ void addDemoCommand(CLI::App& app, GlobalOptions& global) {
         if (!(tableErr <= 1e-4))
             throw Error("pre-integration table differs from the reference by " + std::to_string(tableErr));
         table.writeExr(dir / "phantom_preint.exr");
-        std::cout << "pre-integration table " << spec.size << "x" << spec.size << " (step " << spec.step << ", exact) in "
-                  << table.deviceMilliseconds << " ms kernel time, max error on 2000 sampled entries " << tableErr
-                  << "\n  -> " << (dir / "phantom_preint.exr").string() << '\n';
+        std::cout << "pre-integration table " << spec.size << "x" << spec.size << " (step " << spec.step
+                  << ", exact) in " << table.deviceMilliseconds
+                  << " ms kernel time, max error on 2000 sampled entries " << tableErr << "\n  -> "
+                  << (dir / "phantom_preint.exr").string() << '\n';
 
         // Shaded direct volume rendering of the band-limited phantom with 2D pre-integration: seen from the
         // front, 35 degrees to the right and 25 up, the front third cut away to show the inside.
@@ -190,20 +200,23 @@ void addDemoCommand(CLI::App& app, GlobalOptions& global) {
         scene.effects.shading = scene.effects.shadingGiven = true;
         scene.effects.ambient = 0.3;
         scene.effects.diffuse = 0.6;
-        scene.effects.specular = 0.0; // a head light's highlight sits where every layer faces the eye: it saturates
+        scene.effects.specular =
+            0.0; // a head light's highlight sits where every layer faces the eye: it saturates
         scene.effects.shininess = 24;
         scene.lights.push_back({LightKind::Head, {0, 0, -1}, {1, 1, 1}, 1.0});
         const double cutY = box.origin[1] + 0.62 * box.extent[1];
         scene.effects.clipPlanes.push_back({{0, -1, 0}, cutY}); // keeps y <= cutY
         scene.validate();
-        const std::unique_ptr<VolumeRenderer> renderer = RenderInput::borrow(smooth).makeRenderer(cc, tf, scene);
+        const std::unique_ptr<VolumeRenderer> renderer =
+            RenderInput::borrow(smooth).makeRenderer(cc, tf, scene);
         ImageBuffer image = renderer->render();
         writeImage(compositeOverSrgb(image, {0.0, 0.0, 0.0, 1.0}), dir / "phantom.png");
-        std::cout << "rendered " << scene.width << "x" << scene.height
-                  << " DVR of the band-limited phantom (shaded, head light, front cut away, 2D pre-integration, "
-                     "step "
-                  << scene.step << ") in " << renderer->lastKernelMilliseconds() << " ms kernel time\n  -> "
-                  << (dir / "phantom.png").string() << '\n';
+        std::cout
+            << "rendered " << scene.width << "x" << scene.height
+            << " DVR of the band-limited phantom (shaded, head light, front cut away, 2D pre-integration, "
+               "step "
+            << scene.step << ") in " << renderer->lastKernelMilliseconds() << " ms kernel time\n  -> "
+            << (dir / "phantom.png").string() << '\n';
 
         // Wavelet codec: lossless and --max-error round trips of the Marschner-Lobb volume.
         for (bool lossless : {true, false}) {

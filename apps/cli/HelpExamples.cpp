@@ -9,7 +9,8 @@ namespace {
 
 const std::map<std::string, std::string>& examples() {
     static const std::map<std::string, std::string> table{
-        {"volcl", "  volcl demo\n  volcl render --volume head.nii.gz --tf preset:cool-to-warm --view front -o head.png"},
+        {"volcl", "  volcl demo\n  volcl render --volume head.nii.gz --tf preset:cool-to-warm --view front "
+                  "-o head.png"},
         {"info", "  volcl info head.nii.gz\n  volcl info series.vcz --json"},
         {"devices", "  volcl devices"},
         {"convert", "  volcl convert grid0.vdb --replace-nan 0 -o grid0.nrrd\n"
@@ -17,14 +18,17 @@ const std::map<std::string, std::string>& examples() {
                     "  volcl convert head.nii.gz -o head.vti"},
         {"demo", "  volcl demo -o volcl-demo"},
         {"generate", "  volcl generate cloud -o cloud.nrrd --size 256,256,64 --seed 7"},
-        {"generate cloud", "  volcl generate cloud -o cloud.nrrd --seed 7\n  volcl generate cloud --preset roettger -o layer.nrrd"},
+        {"generate cloud", "  volcl generate cloud -o cloud.nrrd --seed 7\n  volcl generate cloud --preset "
+                           "roettger -o layer.nrrd"},
         {"preint", "  volcl preint --tf tf.json --step 0.5 -o table.exr"},
-        {"encode", "  volcl encode head.nii.gz -o head.vcz --lossless\n  volcl encode head.nii.gz -o head.vcz --psnr 50"},
+        {"encode", "  volcl encode head.nii.gz -o head.vcz --lossless\n  volcl encode head.nii.gz -o "
+                   "head.vcz --psnr 50"},
         {"decode", "  volcl decode head.vcz -o head.nrrd\n  volcl decode head.vcz --level 1 -o half.nrrd\n"
                    "  volcl decode head.vcz -o head.nii.gz"},
         {"compare", "  volcl compare head.nii.gz head.vcz\n  volcl compare head.nii.gz head.vcz --level 1"},
         {"render", "  volcl render --volume head.nii.gz --tf preset:viridis -o head.png\n"
-                   "  volcl render --volume head.nii.gz --tf pv.json --orbit 30,20 --shading 0.2,0.7,0.3,32 -o lit.png\n"
+                   "  volcl render --volume head.nii.gz --tf pv.json --orbit 30,20 --shading 0.2,0.7,0.3,32 "
+                   "-o lit.png\n"
                    "  volcl render --volume head.nii.gz --mode iso --iso 80 --view iso -o surface.png\n"
                    "  volcl render --volume head.nii.gz --mode iso --iso 80 --smoothing 1 -o smooth.png\n"
                    "  volcl render --volume head.nii.gz --mode mip --window 110,40 -o mip.png"},
@@ -33,9 +37,10 @@ const std::map<std::string, std::string>& examples() {
         {"bench", "  volcl bench codec\n  volcl bench view bench/render/mri_scene.json --frames 8"},
         {"bench codec", "  volcl bench codec --quick"},
         {"bench preint", "  volcl bench preint --tf tf.json"},
-        {"bench render", "  volcl bench render --scene bench/render/mri_scene.json --steps 0.5,1\n"
-                         "  volcl bench render --volume head.nii.gz --tf preset:grayscale --mode iso --iso 60.5 "
-                         "--filters --no-sweep"},
+        {"bench render",
+         "  volcl bench render --scene bench/render/mri_scene.json --steps 0.5,1\n"
+         "  volcl bench render --volume head.nii.gz --tf preset:grayscale --mode iso --iso 60.5 "
+         "--filters --no-sweep"},
         {"bench view", "  volcl bench view bench/render/mri_scene.json --frames 8"},
     };
     return table;

@@ -1,13 +1,13 @@
 // `volcl info`, `volcl devices` and `volcl convert`.
-#include "core/Error.hpp"
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/Commands.hpp"
 #include "apps/cli/MeshInfo.hpp"
 #include "apps/cli/Progress.hpp"
 #include "apps/cli/VczInfo.hpp"
 #include "core/AtomicFile.hpp"
-#include "host/io/VolumeIo.hpp"
+#include "core/Error.hpp"
 #include "core/runtime/ClRuntime.hpp"
+#include "host/io/VolumeIo.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <nlohmann/json.hpp>
@@ -16,8 +16,8 @@
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
-#include <optional>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 namespace volcl::cli {
@@ -65,7 +65,8 @@ VolumeStats seriesStats(const TimeSeries& ts, bool quiet) {
     return all;
 }
 
-nlohmann::json infoJson(const std::string& path, VolumeFormat format, const TimeSeries& ts, const VolumeStats& st) {
+nlohmann::json infoJson(const std::string& path, VolumeFormat format, const TimeSeries& ts,
+                        const VolumeStats& st) {
     const Volume& v = ts.frames.front();
     nlohmann::json j;
     j["file"] = path;
@@ -104,11 +105,14 @@ void printInfoText(std::ostream& out, const nlohmann::json& j) {
     // Histogram summary: per-bin share as a bar of eighths, easy to eyeball in a terminal.
     const auto& h = j["histogram"];
     std::uint64_t total = 0;
-    for (const auto& b : h) total += b.get<std::uint64_t>();
+    for (const auto& b : h)
+        total += b.get<std::uint64_t>();
     out << "  histogram ";
-    static const char* kBars[] = {" ", "\u2581", "\u2582", "\u2583", "\u2584", "\u2585", "\u2586", "\u2587", "\u2588"};
+    static const char* kBars[] = {" ",      "\u2581", "\u2582", "\u2583", "\u2584",
+                                  "\u2585", "\u2586", "\u2587", "\u2588"};
     std::uint64_t peak = 1;
-    for (const auto& b : h) peak = std::max(peak, b.get<std::uint64_t>());
+    for (const auto& b : h)
+        peak = std::max(peak, b.get<std::uint64_t>());
     for (const auto& b : h) {
         double f = std::sqrt(double(b.get<std::uint64_t>()) / double(peak)); // sqrt: small bins stay visible
         out << kBars[std::min(8, int(std::ceil(f * 8)))];
@@ -118,11 +122,14 @@ void printInfoText(std::ostream& out, const nlohmann::json& j) {
 
 } // namespace
 
-void printVolumeInfo(std::ostream& out, const std::string& path, const TimeSeries& ts, bool json, bool quiet) {
+void printVolumeInfo(std::ostream& out, const std::string& path, const TimeSeries& ts, bool json,
+                     bool quiet) {
     ts.validate();
     nlohmann::json j = infoJson(path, detectVolumeFormat(path), ts, seriesStats(ts, quiet));
-    if (json) out << j.dump(2) << '\n';
-    else printInfoText(out, j);
+    if (json)
+        out << j.dump(2) << '\n';
+    else
+        printInfoText(out, j);
 }
 
 namespace {
@@ -155,7 +162,8 @@ void addInfo(CLI::App& app, GlobalOptions& global) {
 
 // `volcl devices`: the OpenCL devices, the selected one marked.
 void addDevices(CLI::App& app, GlobalOptions& global) {
-    auto* cmd = app.add_subcommand("devices", "List OpenCL devices (index, platform, name, memory, features)");
+    auto* cmd =
+        app.add_subcommand("devices", "List OpenCL devices (index, platform, name, memory, features)");
     auto json = std::make_shared<bool>(false);
     cmd->add_flag("--json", *json, "Print JSON instead of text");
     cmd->callback([json, &global] {
@@ -167,7 +175,9 @@ void addDevices(CLI::App& app, GlobalOptions& global) {
                             {"name", d.name},
                             {"version", d.version},
                             {"driver", d.driver},
-                            {"type", d.isGpu ? "gpu" : d.isCpu ? "cpu" : "other"},
+                            {"type", d.isGpu   ? "gpu"
+                                     : d.isCpu ? "cpu"
+                                               : "other"},
                             {"compute_units", d.computeUnits},
                             {"global_mem_bytes", d.globalMemBytes},
                             {"max_alloc_bytes", d.maxAllocBytes},
@@ -177,7 +187,8 @@ void addDevices(CLI::App& app, GlobalOptions& global) {
             std::cout << list.dump(2) << '\n';
             return;
         }
-        if (devices.empty()) throw Error("no OpenCL device found (is an ICD such as pocl-opencl-icd installed?)");
+        if (devices.empty())
+            throw Error("no OpenCL device found (is an ICD such as pocl-opencl-icd installed?)");
         std::string selected;
         try {
             selected = ComputeContext(global.device).device().name;
@@ -187,7 +198,10 @@ void addDevices(CLI::App& app, GlobalOptions& global) {
         }
         for (const DeviceInfo& d : devices) {
             std::cout << (d.name == selected ? "* " : "  ") << d.index << ": " << d.name << " (" << d.platform
-                      << ", " << d.version << ")\n      " << (d.isGpu ? "GPU" : d.isCpu ? "CPU" : "other")
+                      << ", " << d.version << ")\n      "
+                      << (d.isGpu   ? "GPU"
+                          : d.isCpu ? "CPU"
+                                    : "other")
                       << ", " << d.computeUnits << " compute units, " << (d.globalMemBytes >> 20)
                       << " MiB global, max alloc " << (d.maxAllocBytes >> 20) << " MiB, fp64 "
                       << (d.fp64 ? "yes" : "no") << ", cl_khr_gl_sharing "
@@ -198,7 +212,8 @@ void addDevices(CLI::App& app, GlobalOptions& global) {
 
 // `volcl convert`: a volume to another format (or type, crop, frame), a mesh to .vtu.
 void addConvert(CLI::App& app, GlobalOptions& global) {
-    auto* cmd = app.add_subcommand("convert", "Convert between volume formats (raw, NRRD, NIfTI, VTI, VDB out)");
+    auto* cmd =
+        app.add_subcommand("convert", "Convert between volume formats (raw, NRRD, NIfTI, VTI, VDB out)");
     struct Args {
         std::string in, out, type, crop;
         std::size_t frame = 0;
@@ -229,8 +244,8 @@ void addConvert(CLI::App& app, GlobalOptions& global) {
             const mesh::TetMesh m = mesh::readMesh(a->in, a->mesh.toReadOptions());
             mesh::writeVtu(m, a->out, wo);
             if (!global.quiet)
-                std::cerr << "volcl: wrote " << a->out << " (" << m.pointCount() << " points, " << m.tetCount()
-                          << " tets)\n";
+                std::cerr << "volcl: wrote " << a->out << " (" << m.pointCount() << " points, "
+                          << m.tetCount() << " tets)\n";
             return;
         }
         std::vector<std::filesystem::path> inputs;
@@ -275,8 +290,8 @@ void addConvert(CLI::App& app, GlobalOptions& global) {
         if (std::filesystem::path(a->in).extension() != ".vcz") wo.nifti = readNiftiMetadataIfNifti(a->in);
         writeVolumeFile(v, a->out, wo);
         if (!global.quiet)
-            std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x" << v.dims().z
-                      << " " << scalarTypeName(v.type()) << ")\n";
+            std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x"
+                      << v.dims().z << " " << scalarTypeName(v.type()) << ")\n";
     });
 }
 

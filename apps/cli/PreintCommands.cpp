@@ -1,11 +1,11 @@
 // `volcl preint`: build, check, iso and lighting tables.
-#include "core/Error.hpp"
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/Commands.hpp"
-#include "host/image/ImageIo.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/Error.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "core/runtime/Timing.hpp"
+#include "host/image/ImageIo.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "preintegration/PreintegrationTable.hpp"
 

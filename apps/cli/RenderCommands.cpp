@@ -1,19 +1,19 @@
 // `volcl render`: a scene and flag overrides to EXR/PNG, or --explain.
-#include "core/Error.hpp"
 #include "apps/cli/CliParsing.hpp"
-#include "apps/cli/SceneFlags.hpp"
 #include "apps/cli/Commands.hpp"
-#include "host/image/ImageIo.hpp"
+#include "apps/cli/SceneFlags.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/Error.hpp"
+#include "core/runtime/ClRuntime.hpp"
+#include "core/runtime/Timing.hpp"
+#include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
+#include "host/tf/TransferFunction.hpp"
 #include "render/BudgetPlanner.hpp"
 #include "render/EffectCosts.hpp"
 #include "render/RenderInput.hpp"
 #include "render/Scene.hpp"
 #include "render/VolumeRenderer.hpp"
-#include "core/runtime/ClRuntime.hpp"
-#include "core/runtime/Timing.hpp"
-#include "host/tf/TransferFunction.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <array>
@@ -48,7 +48,8 @@ void writeRendered(const ImageBuffer& img, const std::filesystem::path& out, con
 } // namespace
 
 void addRenderCommands(CLI::App& app, GlobalOptions& global) {
-    auto* cmd = app.add_subcommand("render", "Ray-march a volume or ray-cast a tetrahedral mesh: dvr, mip, iso or xray, to EXR or PNG");
+    auto* cmd = app.add_subcommand(
+        "render", "Ray-march a volume or ray-cast a tetrahedral mesh: dvr, mip, iso or xray, to EXR or PNG");
     struct Args {
         SceneFlags scene;
         std::string out;
@@ -57,17 +58,19 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
     };
     auto a = std::make_shared<Args>();
     a->scene.add(cmd);
-    cmd->add_flag("--stats", a->stats,
-                  "Print the renderer's statistics to stderr (compressed inputs: bricks visited, decoded, cache "
-                  "hits and misses, bytes decoded, peak cache size)");
+    cmd->add_flag(
+        "--stats", a->stats,
+        "Print the renderer's statistics to stderr (compressed inputs: bricks visited, decoded, cache "
+        "hits and misses, bytes decoded, peak cache size)");
     cmd->add_option("-o,--output", a->out,
                     ".exr (linear associated RGBA, + Z with iso-surfaces) or .png (sRGB)");
     cmd->add_flag("--explain", a->explain,
                   "Print the effects compiled into the kernel and why others were dropped");
     cmd->add_flag("--half", a->half, "EXR: store half floats");
-    cmd->add_option("--budget-ms", a->budgetMs,
-                    "Frame-time budget (kernel ms): the scattering order, samples per pixel or step are chosen to fit "
-                    "it (render.budget_ms)");
+    cmd->add_option(
+        "--budget-ms", a->budgetMs,
+        "Frame-time budget (kernel ms): the scattering order, samples per pixel or step are chosen to fit "
+        "it (render.budget_ms)");
     cmd->callback([a, &global] {
         if (a->out.empty() && !a->explain) throw UsageError("render: give -o/--output (or --explain)");
         Scene scene = a->scene.build();
@@ -101,7 +104,8 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
         if (!a->out.empty()) checkNotSameFile(inputs, {std::filesystem::path(a->out)});
         for (auto& note : bricks ? a->scene.finish(scene, v) : a->scene.finish(scene, *opened))
             notes.push_back(std::move(note));
-        const TransferFunction tf = bricks ? a->scene.loadTf(scene, v, dataRange) : a->scene.loadTf(scene, *opened);
+        const TransferFunction tf =
+            bricks ? a->scene.loadTf(scene, v, dataRange) : a->scene.loadTf(scene, *opened);
         if (!global.quiet)
             for (const auto& note : notes)
                 std::cerr << "volcl render: " << note << '\n';

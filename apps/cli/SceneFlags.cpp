@@ -56,8 +56,8 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
     for (const auto& n : TransferFunction::builtinPresetNames())
         presets += (presets.empty() ? "" : ", ") + n;
     cmd->add_option("--tf", tf,
-                    "Transfer function: canonical/ParaView JSON, an RGBA strip image, or preset:NAME (" + presets +
-                        ")");
+                    "Transfer function: canonical/ParaView JSON, an RGBA strip image, or preset:NAME (" +
+                        presets + ")");
     cmd->add_option("--tf-range", tfRange,
                     "Data range LO,HI the transfer function is spread over (default: a normalised [0,1] map "
                     "takes the data range, others stay as authored)");
@@ -66,21 +66,23 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
                     "diagonal / cube root of the cell count)")
         ->capture_default_str();
     cmd->add_option("--frame", frame, "Frame K (0-based) of a time series input")->default_str("0");
-    cmd->add_option("--mode", mode, "dvr, mip, iso or xray")->default_str(std::string(renderModeName(d.mode)));
+    cmd->add_option("--mode", mode, "dvr, mip, iso or xray")
+        ->default_str(std::string(renderModeName(d.mode)));
     cmd->add_option("--step", step, "Sampling distance in world units")->default_str(num(d.step));
     cmd->add_option("--preintegration", preint, "none, 2d or 3d (dvr only)")
         ->default_str(std::string(preintegrationName(d.preintegration)));
     cmd->add_option("--filter", filter,
                     "Reconstruction of samples and gradients: linear (trilinear, finite differences), cubic "
-                    "(interpolating cubic B-spline), bspline (approximating cubic B-spline); --smoothing 1 removes the "
+                    "(interpolating cubic B-spline), bspline (approximating cubic B-spline); --smoothing 1 "
+                    "removes the "
                     "terraces of 8-bit iso-surfaces with any of them")
         ->default_str(std::string(filterName(d.filter)));
-    cmd->add_option("--smoothing", smoothing,
-                    "Gaussian sigma in voxels applied to the data before the filter reads it (0-8; 1 removes the "
-                    "terraces of 8-bit iso-surfaces)")
+    cmd->add_option(
+           "--smoothing", smoothing,
+           "Gaussian sigma in voxels applied to the data before the filter reads it (0-8; 1 removes the "
+           "terraces of 8-bit iso-surfaces)")
         ->default_str(num(d.smoothing));
-    cmd->add_option("--window", window,
-                    "MIP window centre,width in data values (default: the data range)");
+    cmd->add_option("--window", window, "MIP window centre,width in data values (default: the data range)");
     cmd->add_option("--mip-color", mipColor,
                     "MIP colour: grey (windowed grey), tf (transfer-function colour, windowed brightness), "
                     "tf-opacity (the transfer function's colour and opacity)")
@@ -102,12 +104,14 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
                     "Orthographic view height in world units (default: fitted to show the whole box)");
     cmd->add_option("--fov", fov, "Perspective vertical field of view in degrees")
         ->default_str(num(Camera{}.fovYDeg));
-    cmd->add_option("--background", background, "PNG background r,g,b,a (straight, linear)")->default_str("0,0,0,1");
+    cmd->add_option("--background", background, "PNG background r,g,b,a (straight, linear)")
+        ->default_str("0,0,0,1");
     cmd->add_option("--lod", lod,
                     "Compressed (.vcz) inputs: full (level 0 everywhere) or auto (a level per brick from its "
                     "estimated screen-space error)")
         ->default_str(std::string(lodModeName(d.lod)));
-    cmd->add_option("--lod-error", lodError, "Compressed inputs, --lod auto: largest estimated error per brick")
+    cmd->add_option("--lod-error", lodError,
+                    "Compressed inputs, --lod auto: largest estimated error per brick")
         ->default_str(num(d.lodError));
     cmd->add_option("--cache-mb", cacheMb, "Compressed inputs: budget of the decoded-brick cache in MB")
         ->default_str(num(d.cacheMb));
@@ -118,12 +122,14 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
     cmd->add_option("--table-lengths", tableLengths, "3D pre-integration: number of lengths")
         ->default_str(num(d.tableLengths));
     cmd->add_option("--iso", isos, "Iso-surface value[:r,g,b,a] (repeatable)");
-    cmd->add_option("--light", lights,
-                    "Light: head | dir:x,y,z | point:x,y,z, optionally @intensity (repeatable; default: a head "
-                    "light when shading needs one)");
-    cmd->add_option("--shading", shading, "Blinn-Phong ambient,diffuse,specular,shininess (iso mode: on by default)")
-        ->default_str(num(d.effects.ambient) + "," + num(d.effects.diffuse) + "," + num(d.effects.specular) + "," +
-                      num(d.effects.shininess));
+    cmd->add_option(
+        "--light", lights,
+        "Light: head | dir:x,y,z | point:x,y,z, optionally @intensity (repeatable; default: a head "
+        "light when shading needs one)");
+    cmd->add_option("--shading", shading,
+                    "Blinn-Phong ambient,diffuse,specular,shininess (iso mode: on by default)")
+        ->default_str(num(d.effects.ambient) + "," + num(d.effects.diffuse) + "," + num(d.effects.specular) +
+                      "," + num(d.effects.shininess));
     cmd->add_flag("--no-shading", noShading, "Do not shade (iso mode shades by default)");
     cmd->add_flag("--sobel", sobel, "Sobel gradients instead of central differences");
     cmd->add_flag("--shadows", shadows, "Shadows by secondary marching toward each light");
@@ -133,11 +139,12 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
     cmd->add_option("--scattering-order", scatteringOrder, "single (ray marcher) or multiple (path tracer)")
         ->check(CLI::IsMember({"single", "multiple"}));
     cmd->add_option("--samples", samples, "Path-tracer samples per pixel (multiple scattering)");
-    cmd->add_option("--clip", clips,
-                    "Clipping plane nx,ny,nz,offset keeping n.x + offset >= 0 (repeatable)");
-    cmd->add_option("--method", method, "Meshes: cells (exact cell traversal) or kbuffer (sorted faces, k-buffer)")
+    cmd->add_option("--clip", clips, "Clipping plane nx,ny,nz,offset keeping n.x + offset >= 0 (repeatable)");
+    cmd->add_option("--method", method,
+                    "Meshes: cells (exact cell traversal) or kbuffer (sorted faces, k-buffer)")
         ->default_str(std::string(meshMethodName(d.meshMethod)));
-    cmd->add_option("--k", k, "Meshes, method kbuffer: k-buffer entries per pixel (2..8)")->default_str(num(d.kBufferDepth));
+    cmd->add_option("--k", k, "Meshes, method kbuffer: k-buffer entries per pixel (2..8)")
+        ->default_str(num(d.kBufferDepth));
     raw.add(*cmd);
     mesh.add(*cmd);
 }
@@ -237,7 +244,8 @@ Scene SceneFlags::build(bool requireTf) const {
         s.effects.phaseG = v[1];
     }
     if (!scatteringOrder.empty()) {
-        if (!s.effects.scattering) throw UsageError("--scattering-order needs scattering (--scattering or the scene's)");
+        if (!s.effects.scattering)
+            throw UsageError("--scattering-order needs scattering (--scattering or the scene's)");
         s.effects.scatteringOrder =
             scatteringOrder == "multiple" ? ScatteringOrder::Multiple : ScatteringOrder::Single;
     }
@@ -293,7 +301,8 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) con
         const double fovY = fov ? *fov : base.fovYDeg;
         const bool haveEye = !eye.empty() || given.eye, haveTarget = !target.empty() || given.target;
         const bool haveUp = !up.empty() || given.up;
-        const ViewDirection defaultDir = namedViewDirection(anatomical ? NamedView::Front : NamedView::Bottom);
+        const ViewDirection defaultDir =
+            namedViewDirection(anatomical ? NamedView::Front : NamedView::Bottom);
         Camera c = base;
         const bool framed = !view.empty() || !orbit.empty() || (!haveEye && !haveTarget);
         if (framed) {
@@ -304,8 +313,10 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) con
             } else if (!view.empty()) {
                 dir = namedViewDirection(parseNamedView(view));
             }
-            if (!up.empty()) dir.up = parseVec3(up, "--up");
-            else if (given.up && view.empty() && orbit.empty()) dir.up = base.up;
+            if (!up.empty())
+                dir.up = parseVec3(up, "--up");
+            else if (given.up && view.empty() && orbit.empty())
+                dir.up = base.up;
             c = frameBox(box, dir, proj, fovY, aspect);
             // A height the scene gave is kept when only the camera's position was left to framing.
             if (given.height && view.empty() && orbit.empty()) c.height = base.height;
@@ -317,8 +328,10 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) con
         } else {
             c.projection = proj;
             c.fovYDeg = fovY;
-            if (!target.empty()) c.target = parseVec3(target, "--target");
-            else if (!given.target) c.target = boxCentre(box);
+            if (!target.empty())
+                c.target = parseVec3(target, "--target");
+            else if (!given.target)
+                c.target = boxCentre(box);
             if (!eye.empty()) {
                 c.eye = parseVec3(eye, "--eye");
             } else if (!given.eye) {
@@ -336,13 +349,13 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) con
             if (!given.height && !viewHeight && c.projection == Projection::Orthographic) {
                 c.height = fittedOrthographicHeight(c, box, aspect);
                 std::ostringstream os;
-                os << "camera: orthographic height " << c.height << " fitted to the box (--view-height sets it)";
+                os << "camera: orthographic height " << c.height
+                   << " fitted to the box (--view-height sets it)";
                 notes.push_back(os.str());
             }
         }
         if (viewHeight) c.height = *viewHeight;
-        if (norm(sub(c.target, c.eye)) == 0.0)
-            throw UsageError("camera: the eye and the target coincide");
+        if (norm(sub(c.target, c.eye)) == 0.0) throw UsageError("camera: the eye and the target coincide");
         if (norm(cross(sub(c.target, c.eye), c.up)) == 0.0)
             throw UsageError("camera: the up vector is parallel to the view direction (give --up)");
         s.camera = c;
@@ -360,8 +373,8 @@ Volume SceneFlags::readSceneVolume(const Scene& s, std::vector<std::string>& not
         const VczReader r(readFileBytes(s.volume), s.volume.string());
         const std::size_t k = frame.value_or(0);
         if (k >= r.header().frames.size())
-            throw UsageError("--frame " + std::to_string(k) + " out of range: " + s.volume.string() + " has " +
-                             std::to_string(r.header().frames.size()) + " frame(s)");
+            throw UsageError("--frame " + std::to_string(k) + " out of range: " + s.volume.string() +
+                             " has " + std::to_string(r.header().frames.size()) + " frame(s)");
         if (!frame && r.header().frames.size() > 1)
             notes.push_back("rendering frame 0 of " + std::to_string(r.header().frames.size()) +
                             " (--frame K picks another)");
@@ -377,14 +390,16 @@ Volume SceneFlags::readSceneVolume(const Scene& s, std::vector<std::string>& not
         throw UsageError("--frame " + std::to_string(k) + " out of range: " + s.volume.string() + " has " +
                          std::to_string(ts.frames.size()) + " frame(s)");
     if (!frame && ts.frames.size() > 1)
-        notes.push_back("rendering frame 0 of " + std::to_string(ts.frames.size()) + " (--frame K picks another)");
+        notes.push_back("rendering frame 0 of " + std::to_string(ts.frames.size()) +
+                        " (--frame K picks another)");
     return std::move(ts.frames[k]);
 }
 
 double paraViewUnitDistance(const Volume& v) {
     const WorldBox box = volumeBox(v);
     const Dims& d = v.dims();
-    const double cells = double(std::max<std::int64_t>(d.x - 1, 1)) * double(std::max<std::int64_t>(d.y - 1, 1)) *
+    const double cells = double(std::max<std::int64_t>(d.x - 1, 1)) *
+                         double(std::max<std::int64_t>(d.y - 1, 1)) *
                          double(std::max<std::int64_t>(d.z - 1, 1));
     const double diagonal = norm(box.extent);
     return diagonal > 0.0 ? diagonal / std::cbrt(cells) : 1.0;
@@ -416,26 +431,28 @@ TransferFunction SceneFlags::loadTf(const Scene& s, const RenderInput& in) const
     return loadTf(s, in, {r.min, r.max});
 }
 
-TransferFunction SceneFlags::loadTf(const Scene& s, const RenderInput& in, std::array<double, 2> dataRange) const {
+TransferFunction SceneFlags::loadTf(const Scene& s, const RenderInput& in,
+                                    std::array<double, 2> dataRange) const {
     double unit = 1.0;
     if (tfUnitDistance == "auto") {
         if (const Volume* v = in.grid())
             unit = paraViewUnitDistance(*v);
-        else if (const mesh::TetMesh* m = in.mesh()) // ParaView's rule on cells: box diagonal / cbrt(cell count)
+        else if (const mesh::TetMesh* m =
+                     in.mesh()) // ParaView's rule on cells: box diagonal / cbrt(cell count)
             unit = norm(in.bounds().extent) / std::cbrt(double(std::max<std::size_t>(m->tetCount(), 1)));
         else
             throw UsageError("--tf-unit-distance auto needs a grid or a mesh");
     } else
         unit = parseNumbers(tfUnitDistance, 1, "--tf-unit-distance")[0];
-    if (!(std::isfinite(unit) && unit > 0.0))
-        throw UsageError("--tf-unit-distance must be > 0 or 'auto'");
+    if (!(std::isfinite(unit) && unit > 0.0)) throw UsageError("--tf-unit-distance must be > 0 or 'auto'");
     std::optional<std::array<double, 2>> range;
     if (!tfRange.empty()) {
         const auto r = parseNumbers(tfRange, 2, "--tf-range");
         if (!(r[0] < r[1])) throw UsageError("--tf-range: LO must be below HI");
         range = std::array<double, 2>{r[0], r[1]};
     }
-    const std::array<double, 2> stripDomain{dataRange[0], dataRange[1] > dataRange[0] ? dataRange[1] : dataRange[0] + 1.0};
+    const std::array<double, 2> stripDomain{dataRange[0],
+                                            dataRange[1] > dataRange[0] ? dataRange[1] : dataRange[0] + 1.0};
     return TransferFunction::fromFile(s.tf, stripDomain, unit).fittedTo(dataRange, range);
 }
 

@@ -3,9 +3,9 @@
 
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/MeshInfo.hpp"
+#include "host/tf/TransferFunction.hpp"
 #include "render/RenderInput.hpp"
 #include "render/Scene.hpp"
-#include "host/tf/TransferFunction.hpp"
 
 #include <CLI/CLI.hpp>
 

@@ -1,8 +1,8 @@
 // Entry point of the volcl executable: parses the command line and turns exceptions into exit codes.
+#include "apps/cli/Commands.hpp"
 #include "core/Error.hpp"
 #include "core/PrintableMessage.hpp"
 #include "core/Version.hpp"
-#include "apps/cli/Commands.hpp"
 #if defined(VOLCL_WITH_BENCH)
 #include "apps/bench/BenchCommand.hpp"
 #endif
@@ -37,8 +37,8 @@ void checkSubcommandNames(const CLI::App& app, int argc, char** argv) {
             for (const CLI::App* s : level->get_subcommands({}))
                 names += (names.empty() ? "" : ", ") + s->get_name();
             const std::string where = level == &app ? "" : " of '" + level->get_name() + "'";
-            throw volcl::UsageError("unknown subcommand '" + std::string(arg) + "'" + where + " (expected one of: " +
-                                    names + ")");
+            throw volcl::UsageError("unknown subcommand '" + std::string(arg) + "'" + where +
+                                    " (expected one of: " + names + ")");
         }
         if (sub->get_subcommands({}).empty()) return; // its own arguments follow
         level = sub;
@@ -62,7 +62,8 @@ int main(int argc, char** argv) {
     CLI::App app{"volcl: OpenCL volume processing (codec, pre-integration, ray marching)", "volcl"};
     app.require_subcommand(1);
     volcl::cli::GlobalOptions global;
-    app.add_option("--device", global.device, "OpenCL device: index or name substring (default $VOLCL_DEVICE)");
+    app.add_option("--device", global.device,
+                   "OpenCL device: index or name substring (default $VOLCL_DEVICE)");
     app.add_flag("-q,--quiet", global.quiet, "No progress output");
     app.set_version_flag("--version", std::string(volcl::version()), "Print the version and exit");
 #if defined(VOLCL_WITH_BENCH)

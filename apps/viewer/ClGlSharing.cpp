@@ -1,9 +1,9 @@
 // cl_khr_gl_sharing: context properties from the current EGL/GLX context and a GL buffer OpenCL writes.
 #include "apps/viewer/ClGlSharing.hpp"
 
+#include "apps/viewer/GlPresenter.hpp"
 #include "core/Error.hpp"
 #include "core/runtime/ClRuntime.hpp"
-#include "apps/viewer/GlPresenter.hpp"
 
 #include <CL/cl_gl.h>
 #include <epoxy/egl.h>

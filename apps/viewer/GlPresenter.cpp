@@ -49,7 +49,6 @@ void main() {
 }
 )";
 
-
 } // namespace
 
 unsigned compileShader(unsigned kind, const char* source, std::string_view what) {

@@ -114,7 +114,8 @@ void pinGlDrivers() {
             return 0;
         },
         &drivers);
-    for (const std::string& driver : drivers) dlopen(driver.c_str(), RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+    for (const std::string& driver : drivers)
+        dlopen(driver.c_str(), RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
 }
 
 const char* platformName(EglPlatform p) {

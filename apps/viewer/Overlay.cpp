@@ -1,8 +1,8 @@
 // Text overlay: host rasterisation with the embedded 6x13 font, GL texture and a blended quad.
 #include "apps/viewer/Overlay.hpp"
 
-#include "core/Error.hpp"
 #include "apps/viewer/GlPresenter.hpp"
+#include "core/Error.hpp"
 
 #include <epoxy/gl.h>
 

@@ -1,12 +1,12 @@
 // Window (GLFW) and headless (EGL) front ends of the viewer: input, frame loop, presentation, screenshots.
 #include "apps/viewer/ViewerApp.hpp"
 
-#include "core/Error.hpp"
-#include "core/runtime/Timing.hpp"
 #include "apps/viewer/ClGlSharing.hpp"
 #include "apps/viewer/GlPresenter.hpp"
 #include "apps/viewer/HeadlessGl.hpp"
 #include "apps/viewer/Overlay.hpp"
+#include "core/Error.hpp"
+#include "core/runtime/Timing.hpp"
 
 #include <epoxy/gl.h>
 // GLFW after epoxy: epoxy provides the GL declarations, GLFW must not pull in its own.

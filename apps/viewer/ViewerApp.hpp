@@ -2,9 +2,9 @@
 // ViewerSession frames through the same FramePresenter.
 #pragma once
 
-#include "host/image/ImageIo.hpp"
 #include "apps/viewer/GlPresenter.hpp"
 #include "apps/viewer/ViewerSession.hpp"
+#include "host/image/ImageIo.hpp"
 
 #include <filesystem>
 #include <ostream>

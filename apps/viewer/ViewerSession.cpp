@@ -4,9 +4,9 @@
 #include "core/Error.hpp"
 #include "core/Format.hpp"
 #include "core/Volume.hpp"
+#include "core/runtime/Timing.hpp"
 #include "render/VecMath.hpp"
 #include "render/grid/GridRenderer.hpp"
-#include "core/runtime/Timing.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -38,7 +38,6 @@ constexpr KeyBinding kBindings[] = {
     {'o', ViewerAction::ToggleOverlay, "toggle the text overlay (frame time, level, effects, transport)"},
     {'q', ViewerAction::Quit, "quit (also Escape)"},
 };
-
 
 /// The data range the presets span; a constant field gets a unit-wide range.
 std::array<double, 2> presetRange(const ValueRange& r) {
@@ -185,7 +184,8 @@ std::string ViewerSession::apply(ViewerAction action) {
             fx.albedo = 0.8;
             fx.phaseG = 0.3;
         }
-        what = std::string("scattering ") + (fx.scattering ? "on (albedo " + formatNumber(fx.albedo, 3) + ")" : "off") +
+        what = std::string("scattering ") +
+               (fx.scattering ? "on (albedo " + formatNumber(fx.albedo, 3) + ")" : "off") +
                (fx.scattering ? ensureLight() : "");
         break;
     case ViewerAction::ToggleClipping:
@@ -289,7 +289,8 @@ ViewerFrame ViewerSession::renderFrame(int width, int height, bool interactive) 
     sw.restart();
     // Multiple scattering converges over frames: one sample per pixel while the view moves, four more per
     // frame while it stands still.
-    f.image = renderer_->plan().pathTracing ? renderer_->renderProgressive(interactive ? 1 : 4) : renderer_->render();
+    f.image = renderer_->plan().pathTracing ? renderer_->renderProgressive(interactive ? 1 : 4)
+                                            : renderer_->render();
     f.renderMs = sw.milliseconds();
     f.kernelMs = renderer_->lastKernelMilliseconds();
     return f;
@@ -330,7 +331,8 @@ std::string ViewerSession::title(const ViewerFrame& last, double frameMs) const 
     char buf[64];
     std::snprintf(buf, sizeof buf, "%.0f ms (%.1f fps)", frameMs, frameMs > 0 ? 1000.0 / frameMs : 0.0);
     os << buf;
-    if (adaptive_.options().enabled) os << " | adaptive " << formatNumber(adaptive_.options().targetMs, 3) << " ms";
+    if (adaptive_.options().enabled)
+        os << " | adaptive " << formatNumber(adaptive_.options().targetMs, 3) << " ms";
     if (!last.level.full()) os << " [interactive]";
     return os.str();
 }

@@ -3,12 +3,12 @@
 // drive it.
 #pragma once
 
-#include "host/image/ImageIo.hpp"
-#include "render/RenderInput.hpp"
-#include "render/VolumeRenderer.hpp"
-#include "host/tf/TransferFunction.hpp"
 #include "apps/viewer/AdaptiveQuality.hpp"
 #include "apps/viewer/ViewerCamera.hpp"
+#include "host/image/ImageIo.hpp"
+#include "host/tf/TransferFunction.hpp"
+#include "render/RenderInput.hpp"
+#include "render/VolumeRenderer.hpp"
 
 #include <filesystem>
 #include <optional>
@@ -117,7 +117,7 @@ private:
     ComputeContext& cc_;
     RenderInput input_;
     ValueRange range_; ///< of the data, for presets and the default iso-value
-    Scene base_; ///< the scene with the viewer's toggles applied, full quality; camera kept in camera_
+    Scene base_;       ///< the scene with the viewer's toggles applied, full quality; camera kept in camera_
     Scene original_;
     std::filesystem::path tfPath_;
     std::vector<TfPreset> presets_;

@@ -18,19 +18,19 @@
    Inverse inputs: s_k, d_k = low/high coefficients of pair n+k. Outputs e_out, o_out.
    `lone`: pair n has no odd sample (last pair of an odd-length line). */
 #if WAVELET == 0
-#define FWD_BODY(TY)                                                                                       \
-    {                                                                                                      \
-        TY dm1 = o_m1 - HALF(e_m1 + e_0);                                                                  \
-        TY d0 = o_0 - HALF(e_0 + e_p1);                                                                    \
-        s_out = e_0 + QUARTER_R(dm1 + d0);                                                                 \
-        d_out = d0;                                                                                        \
+#define FWD_BODY(TY)                                                                                         \
+    {                                                                                                        \
+        TY dm1 = o_m1 - HALF(e_m1 + e_0);                                                                    \
+        TY d0 = o_0 - HALF(e_0 + e_p1);                                                                      \
+        s_out = e_0 + QUARTER_R(dm1 + d0);                                                                   \
+        d_out = d0;                                                                                          \
     }
-#define INV_BODY(TY)                                                                                       \
-    {                                                                                                      \
-        TY e0 = s_0 - QUARTER_R(d_m1 + d_0);                                                               \
-        TY e1 = s_p1 - QUARTER_R(d_0 + d_p1);                                                              \
-        e_out = e0;                                                                                        \
-        o_out = d_0 + HALF(e0 + e1);                                                                       \
+#define INV_BODY(TY)                                                                                         \
+    {                                                                                                        \
+        TY e0 = s_0 - QUARTER_R(d_m1 + d_0);                                                                 \
+        TY e1 = s_p1 - QUARTER_R(d_0 + d_p1);                                                                \
+        e_out = e0;                                                                                          \
+        o_out = d_0 + HALF(e0 + e1);                                                                         \
     }
 #define WIN_FWD_E_LO (-1)
 #define WIN_FWD_E_HI 1
@@ -41,36 +41,36 @@
 #define WIN_INV_D_LO (-1)
 #define WIN_INV_D_HI 1
 #elif WAVELET == 1
-#define FWD_BODY(TY)                                                                                       \
-    {                                                                                                      \
-        TY d1_m2 = o_m2 + L97_A * (e_m2 + e_m1);                                                           \
-        TY d1_m1 = o_m1 + L97_A * (e_m1 + e_0);                                                            \
-        TY d1_0 = o_0 + L97_A * (e_0 + e_p1);                                                              \
-        TY d1_p1 = o_p1 + L97_A * (e_p1 + e_p2);                                                           \
-        TY s1_m1 = e_m1 + L97_B * (d1_m2 + d1_m1);                                                         \
-        TY s1_0 = e_0 + L97_B * (d1_m1 + d1_0);                                                            \
-        TY s1_p1 = e_p1 + L97_B * (d1_0 + d1_p1);                                                          \
-        TY d2_m1 = d1_m1 + L97_G * (s1_m1 + s1_0);                                                         \
-        TY d2_0 = d1_0 + L97_G * (s1_0 + s1_p1);                                                           \
-        s_out = (s1_0 + L97_D * (d2_m1 + d2_0)) * (1.0f / L97_K);                                          \
-        d_out = d2_0 * (0.5f * L97_K);                                                                     \
+#define FWD_BODY(TY)                                                                                         \
+    {                                                                                                        \
+        TY d1_m2 = o_m2 + L97_A * (e_m2 + e_m1);                                                             \
+        TY d1_m1 = o_m1 + L97_A * (e_m1 + e_0);                                                              \
+        TY d1_0 = o_0 + L97_A * (e_0 + e_p1);                                                                \
+        TY d1_p1 = o_p1 + L97_A * (e_p1 + e_p2);                                                             \
+        TY s1_m1 = e_m1 + L97_B * (d1_m2 + d1_m1);                                                           \
+        TY s1_0 = e_0 + L97_B * (d1_m1 + d1_0);                                                              \
+        TY s1_p1 = e_p1 + L97_B * (d1_0 + d1_p1);                                                            \
+        TY d2_m1 = d1_m1 + L97_G * (s1_m1 + s1_0);                                                           \
+        TY d2_0 = d1_0 + L97_G * (s1_0 + s1_p1);                                                             \
+        s_out = (s1_0 + L97_D * (d2_m1 + d2_0)) * (1.0f / L97_K);                                            \
+        d_out = d2_0 * (0.5f * L97_K);                                                                       \
     }
-#define INV_BODY(TY)                                                                                       \
-    {                                                                                                      \
-        TY s2_m1 = s_m1 * L97_K, s2_0 = s_0 * L97_K, s2_p1 = s_p1 * L97_K, s2_p2 = s_p2 * L97_K;           \
-        TY d2_m2 = d_m2 * (2.0f / L97_K), d2_m1 = d_m1 * (2.0f / L97_K), d2_0 = d_0 * (2.0f / L97_K);      \
-        TY d2_p1 = d_p1 * (2.0f / L97_K), d2_p2 = d_p2 * (2.0f / L97_K);                                   \
-        TY s1_m1 = s2_m1 - L97_D * (d2_m2 + d2_m1);                                                        \
-        TY s1_0 = s2_0 - L97_D * (d2_m1 + d2_0);                                                           \
-        TY s1_p1 = s2_p1 - L97_D * (d2_0 + d2_p1);                                                         \
-        TY s1_p2 = s2_p2 - L97_D * (d2_p1 + d2_p2);                                                        \
-        TY d1_m1 = d2_m1 - L97_G * (s1_m1 + s1_0);                                                         \
-        TY d1_0 = d2_0 - L97_G * (s1_0 + s1_p1);                                                           \
-        TY d1_p1 = d2_p1 - L97_G * (s1_p1 + s1_p2);                                                        \
-        TY e0 = s1_0 - L97_B * (d1_m1 + d1_0);                                                             \
-        TY e1 = s1_p1 - L97_B * (d1_0 + d1_p1);                                                            \
-        e_out = e0;                                                                                        \
-        o_out = d1_0 - L97_A * (e0 + e1);                                                                  \
+#define INV_BODY(TY)                                                                                         \
+    {                                                                                                        \
+        TY s2_m1 = s_m1 * L97_K, s2_0 = s_0 * L97_K, s2_p1 = s_p1 * L97_K, s2_p2 = s_p2 * L97_K;             \
+        TY d2_m2 = d_m2 * (2.0f / L97_K), d2_m1 = d_m1 * (2.0f / L97_K), d2_0 = d_0 * (2.0f / L97_K);        \
+        TY d2_p1 = d_p1 * (2.0f / L97_K), d2_p2 = d_p2 * (2.0f / L97_K);                                     \
+        TY s1_m1 = s2_m1 - L97_D * (d2_m2 + d2_m1);                                                          \
+        TY s1_0 = s2_0 - L97_D * (d2_m1 + d2_0);                                                             \
+        TY s1_p1 = s2_p1 - L97_D * (d2_0 + d2_p1);                                                           \
+        TY s1_p2 = s2_p2 - L97_D * (d2_p1 + d2_p2);                                                          \
+        TY d1_m1 = d2_m1 - L97_G * (s1_m1 + s1_0);                                                           \
+        TY d1_0 = d2_0 - L97_G * (s1_0 + s1_p1);                                                             \
+        TY d1_p1 = d2_p1 - L97_G * (s1_p1 + s1_p2);                                                          \
+        TY e0 = s1_0 - L97_B * (d1_m1 + d1_0);                                                               \
+        TY e1 = s1_p1 - L97_B * (d1_0 + d1_p1);                                                              \
+        e_out = e0;                                                                                          \
+        o_out = d1_0 - L97_A * (e0 + e1);                                                                    \
     }
 #define WIN_FWD_E_LO (-2)
 #define WIN_FWD_E_HI 2
@@ -81,17 +81,17 @@
 #define WIN_INV_D_LO (-2)
 #define WIN_INV_D_HI 2
 #elif WAVELET == 2
-#define FWD_BODY(TY)                                                                                       \
-    {                                                                                                      \
-        TY d0 = o_0 - e_0;                                                                                 \
-        s_out = e_0 + HALF(d0);                                                                            \
-        d_out = d0;                                                                                        \
+#define FWD_BODY(TY)                                                                                         \
+    {                                                                                                        \
+        TY d0 = o_0 - e_0;                                                                                   \
+        s_out = e_0 + HALF(d0);                                                                              \
+        d_out = d0;                                                                                          \
     }
-#define INV_BODY(TY)                                                                                       \
-    {                                                                                                      \
-        TY e0 = s_0 - HALF(d_0);                                                                           \
-        e_out = e0;                                                                                        \
-        o_out = d_0 + e0;                                                                                  \
+#define INV_BODY(TY)                                                                                         \
+    {                                                                                                        \
+        TY e0 = s_0 - HALF(d_0);                                                                             \
+        e_out = e0;                                                                                          \
+        o_out = d_0 + e0;                                                                                    \
     }
 #define WIN_FWD_E_LO 0
 #define WIN_FWD_E_HI 0
@@ -103,20 +103,20 @@
 #define WIN_INV_D_HI 0
 #else
 /* 2/6: S-transform (Haar) pairs, then the high band is predicted from the slope of the low band. */
-#define FWD_BODY(TY)                                                                                       \
-    {                                                                                                      \
-        TY d1_m1 = o_m1 - e_m1, d1_0 = o_0 - e_0, d1_p1 = o_p1 - e_p1;                                     \
-        TY s_m1 = e_m1 + HALF(d1_m1);                                                                      \
-        TY s_p1 = e_p1 + HALF(d1_p1);                                                                      \
-        s_out = e_0 + HALF(d1_0);                                                                          \
-        d_out = d1_0 + QUARTER_R(s_m1 - s_p1);                                                             \
+#define FWD_BODY(TY)                                                                                         \
+    {                                                                                                        \
+        TY d1_m1 = o_m1 - e_m1, d1_0 = o_0 - e_0, d1_p1 = o_p1 - e_p1;                                       \
+        TY s_m1 = e_m1 + HALF(d1_m1);                                                                        \
+        TY s_p1 = e_p1 + HALF(d1_p1);                                                                        \
+        s_out = e_0 + HALF(d1_0);                                                                            \
+        d_out = d1_0 + QUARTER_R(s_m1 - s_p1);                                                               \
     }
-#define INV_BODY(TY)                                                                                       \
-    {                                                                                                      \
-        TY d1 = d_0 - QUARTER_R(s_m1 - s_p1);                                                              \
-        TY e0 = s_0 - HALF(d1);                                                                            \
-        e_out = e0;                                                                                        \
-        o_out = d1 + e0;                                                                                   \
+#define INV_BODY(TY)                                                                                         \
+    {                                                                                                        \
+        TY d1 = d_0 - QUARTER_R(s_m1 - s_p1);                                                                \
+        TY e0 = s_0 - HALF(d1);                                                                              \
+        e_out = e0;                                                                                          \
+        o_out = d1 + e0;                                                                                     \
     }
 #define WIN_FWD_E_LO (-1)
 #define WIN_FWD_E_HI 1
@@ -136,7 +136,7 @@
 #if SYMMETRIC_EXTENSION
 #define LONE_FIX(e_out, s_0)
 #else
-#define LONE_FIX(e_out, s_0) e_out = (s_0) - 0
+#define LONE_FIX(e_out, s_0) e_out = (s_0)-0
 #endif
 
 /* Shifted copies of a 16-lane vector: lanes move by one and `edge` fills the freed lane. The x passes
@@ -150,14 +150,14 @@ inline V shift_down(V x, T prev) {
 
 /* y/z passes: work-item (gid0, gid1, brick) with gid0 = x chunk + chunks * a. For y, a = pair and gid1 = z;
    for z, a = y and gid1 = pair, so neighbouring work-items touch neighbouring 64-byte rows of one plane. */
-#define YZ_COORDS()                                                                                        \
-    const int chunks = ((int)nx + 15) >> 4;                                                                \
-    const int g0 = get_global_id(0);                                                                       \
-    const int chunk = g0 % chunks;                                                                         \
-    const int ga = g0 / chunks;                                                                            \
-    const int gb = get_global_id(1);                                                                       \
-    const int c = get_global_id(2);                                                                        \
-    const int pair = axis == 1 ? ga : gb;                                                                  \
+#define YZ_COORDS()                                                                                          \
+    const int chunks = ((int)nx + 15) >> 4;                                                                  \
+    const int g0 = get_global_id(0);                                                                         \
+    const int chunk = g0 % chunks;                                                                           \
+    const int ga = g0 / chunks;                                                                              \
+    const int gb = get_global_id(1);                                                                         \
+    const int c = get_global_id(2);                                                                          \
+    const int pair = axis == 1 ? ga : gb;                                                                    \
     const int o = axis == 1 ? gb : ga;
 
 #ifndef LIFT_INVERSE
@@ -208,12 +208,12 @@ kernel void lift_x(global const T* src, global T* dst, uint px, uint by, uint bz
         buf[j] = in[(j & 1) ? odd_pos(m, N) : even_pos(m, N)];
     }
     V e_m2 = 0, e_m1 = 0, e_0, e_p1 = 0, e_p2 = 0, o_m2 = 0, o_m1 = 0, o_0, o_p1 = 0, unused;
-#define LD_STAGED(k, E, O)                                                                                 \
-    {                                                                                                      \
-        V a = vload16(0, buf + 2 * ((k) + 2));                                                             \
-        V b = vload16(0, buf + 2 * ((k) + 2) + 16);                                                        \
-        E = (V)(a.even, b.even);                                                                           \
-        O = (V)(a.odd, b.odd);                                                                             \
+#define LD_STAGED(k, E, O)                                                                                   \
+    {                                                                                                        \
+        V a = vload16(0, buf + 2 * ((k) + 2));                                                               \
+        V b = vload16(0, buf + 2 * ((k) + 2) + 16);                                                          \
+        E = (V)(a.even, b.even);                                                                             \
+        O = (V)(a.odd, b.odd);                                                                               \
     }
     if (IN_WIN(-2, WIN_FWD_E_LO, WIN_FWD_E_HI)) LD_STAGED(-2, e_m2, o_m2);
     if (IN_WIN(-1, WIN_FWD_E_LO, WIN_FWD_E_HI)) LD_STAGED(-1, e_m1, o_m1);
@@ -249,7 +249,8 @@ kernel void lift_yz(global const T* src, global T* dst, uint px, uint by, uint b
         if (full) {
             vstore16(vload16(0, in), 0, out);
         } else {
-            for (int i = chunk * 16; i < (int)nx; ++i) out[i - chunk * 16] = in[i - chunk * 16];
+            for (int i = chunk * 16; i < (int)nx; ++i)
+                out[i - chunk * 16] = in[i - chunk * 16];
         }
         return;
     }
@@ -318,8 +319,9 @@ kernel void lift_x(global const T* src, global T* dst, uint px, uint by, uint bz
         INV_BODY(V)
         vstore16(shuffle2(e_out, o_out, (uint16)(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23)), 0,
                  out + 2 * n0);
-        vstore16(shuffle2(e_out, o_out, (uint16)(8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31)),
-                 0, out + 2 * n0 + 16);
+        vstore16(
+            shuffle2(e_out, o_out, (uint16)(8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31)), 0,
+            out + 2 * n0 + 16);
         return;
     }
     /* Line ends: stage coefficients of pairs n0-2 .. n0+17 (extension applied), then the vector code. */
@@ -329,8 +331,10 @@ kernel void lift_x(global const T* src, global T* dst, uint px, uint by, uint bz
         sbuf[j] = in[low_pos(m, N)];
         dbuf[j] = (SYMMETRIC_EXTENSION || (m >= 0 && 2 * m + 1 < N)) ? in[ms + high_pos(m, N)] : 0;
     }
-    V s_m1 = vload16(0, sbuf + 1), s_0 = vload16(0, sbuf + 2), s_p1 = vload16(0, sbuf + 3), s_p2 = vload16(0, sbuf + 4);
-    V d_m2 = vload16(0, dbuf), d_m1 = vload16(0, dbuf + 1), d_0 = vload16(0, dbuf + 2), d_p1 = vload16(0, dbuf + 3);
+    V s_m1 = vload16(0, sbuf + 1), s_0 = vload16(0, sbuf + 2), s_p1 = vload16(0, sbuf + 3),
+      s_p2 = vload16(0, sbuf + 4);
+    V d_m2 = vload16(0, dbuf), d_m1 = vload16(0, dbuf + 1), d_0 = vload16(0, dbuf + 2),
+      d_p1 = vload16(0, dbuf + 3);
     V d_p2 = vload16(0, dbuf + 4);
     V e_out, o_out;
     INV_BODY(V)
@@ -365,7 +369,8 @@ kernel void lift_yz(global const T* src, global T* dst, uint px, uint by, uint b
         if (full) {
             vstore16(vload16(0, in), 0, out);
         } else {
-            for (int i = chunk * 16; i < (int)nx; ++i) out[i - chunk * 16] = in[i - chunk * 16];
+            for (int i = chunk * 16; i < (int)nx; ++i)
+                out[i - chunk * 16] = in[i - chunk * 16];
         }
         return;
     }

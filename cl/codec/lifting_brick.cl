@@ -69,10 +69,10 @@ ALWAYS_INLINE void refresh_high(T* d, int md, int n, const int W) {
    S[m] += F(a, b) with a = D[m - 1], b = D[m] (STEP_LOW), or D[m] += F(a, b) with a = S[m - 1], b = S[m + 1]
    (STEP_HIGH_OUTER, the 2/6 prediction); then the updated half's margins are refreshed. Vector v of the
    half belongs to pair v / W, so the neighbour pair is W vectors away. */
-#define STEP(dst, src, lo, hi, F, pairs)                                                                   \
-    for (int v = 0; v < (pairs) * W; ++v) {                                                                \
-        const V a = LD((src) + 16 * (v + (lo) * W)), b = LD((src) + 16 * (v + (hi) * W));                  \
-        ST((dst) + 16 * v, LD((dst) + 16 * v) + (F));                                                      \
+#define STEP(dst, src, lo, hi, F, pairs)                                                                     \
+    for (int v = 0; v < (pairs)*W; ++v) {                                                                    \
+        const V a = LD((src) + 16 * (v + (lo)*W)), b = LD((src) + 16 * (v + (hi)*W));                        \
+        ST((dst) + 16 * v, LD((dst) + 16 * v) + (F));                                                        \
     }
 #define STEP_HIGH(F) STEP(D, S, 0, 1, F, md) refresh_high(D, md, n, W);
 #define STEP_LOW(F) STEP(S, D, -1, 0, F, ms) refresh_low(S, ms, n, W);
@@ -95,40 +95,40 @@ ALWAYS_INLINE void refresh_high(T* d, int md, int n, const int W) {
    being staged). */
 #define LDQ(q, p) (*(q const VU*)(p))
 #define STQ(q, p, v) (*(q VU*)(p) = (v))
-#define DEFINE_SWEEP_FORWARD(name, PRED, UPD, OUT_S, OUT_D, IS, ID, OS, OD)                                \
-    ALWAYS_INLINE void name(IS T* s, size_t ps, ID T* d, size_t pd, OS T* os, size_t qs, OD T* od,         \
-                            size_t qd, int n) {                                                            \
-        const int ms = (n + 1) >> 1, md = n >> 1;                                                          \
-        V em = LDQ(IS, s);                                                                                 \
-        V ep = ms > 1 ? LDQ(IS, s + ps) : em;                                                              \
-        V dm = LDQ(ID, d) + PRED(em + ep), dm1 = dm;                                                       \
-        for (int m = 0; m < ms; ++m) {                                                                     \
-            /* em = e[m], ep = e[m + 1], dm = d[m], dm1 = d[m - 1] */                                      \
-            STQ(OS, os + m * qs, OUT_S(em + UPD(dm1 + dm)));                                               \
-            if (m < md) STQ(OD, od + m * qd, OUT_D(dm));                                                   \
-            dm1 = dm;                                                                                      \
-            em = ep;                                                                                       \
-            if (m + 1 < md) {                                                                              \
-                ep = m + 2 < ms ? LDQ(IS, s + (m + 2) * ps) : em;                                          \
-                dm = LDQ(ID, d + (m + 1) * pd) + PRED(em + ep);                                            \
-            }                                                                                              \
-        }                                                                                                  \
+#define DEFINE_SWEEP_FORWARD(name, PRED, UPD, OUT_S, OUT_D, IS, ID, OS, OD)                                  \
+    ALWAYS_INLINE void name(IS T* s, size_t ps, ID T* d, size_t pd, OS T* os, size_t qs, OD T* od,           \
+                            size_t qd, int n) {                                                              \
+        const int ms = (n + 1) >> 1, md = n >> 1;                                                            \
+        V em = LDQ(IS, s);                                                                                   \
+        V ep = ms > 1 ? LDQ(IS, s + ps) : em;                                                                \
+        V dm = LDQ(ID, d) + PRED(em + ep), dm1 = dm;                                                         \
+        for (int m = 0; m < ms; ++m) {                                                                       \
+            /* em = e[m], ep = e[m + 1], dm = d[m], dm1 = d[m - 1] */                                        \
+            STQ(OS, os + m * qs, OUT_S(em + UPD(dm1 + dm)));                                                 \
+            if (m < md) STQ(OD, od + m * qd, OUT_D(dm));                                                     \
+            dm1 = dm;                                                                                        \
+            em = ep;                                                                                         \
+            if (m + 1 < md) {                                                                                \
+                ep = m + 2 < ms ? LDQ(IS, s + (m + 2) * ps) : em;                                            \
+                dm = LDQ(ID, d + (m + 1) * pd) + PRED(em + ep);                                              \
+            }                                                                                                \
+        }                                                                                                    \
     }
-#define DEFINE_SWEEP_INVERSE(name, PRED, UPD, IN_S, IN_D, IS, ID, OS, OD)                                  \
-    ALWAYS_INLINE void name(IS T* s, size_t ps, ID T* d, size_t pd, OS T* os, size_t qs, OD T* od,         \
-                            size_t qd, int n) {                                                            \
-        const int ms = (n + 1) >> 1, md = n >> 1;                                                          \
-        V dm = IN_D(LDQ(ID, d));                                                                           \
-        V em = IN_S(LDQ(IS, s)) - UPD(dm + dm);                                                            \
-        for (int m = 0; m < ms; ++m) {                                                                     \
-            /* em = e[m], dm = d[m]; dn = d[m + 1], en = e[m + 1] */                                       \
-            const V dn = m + 1 < md ? IN_D(LDQ(ID, d + (m + 1) * pd)) : dm;                                \
-            const V en = m + 1 < ms ? IN_S(LDQ(IS, s + (m + 1) * ps)) - UPD(dm + dn) : em;                 \
-            STQ(OS, os + m * qs, em);                                                                      \
-            if (m < md) STQ(OD, od + m * qd, dm - PRED(em + en));                                          \
-            em = en;                                                                                       \
-            dm = dn;                                                                                       \
-        }                                                                                                  \
+#define DEFINE_SWEEP_INVERSE(name, PRED, UPD, IN_S, IN_D, IS, ID, OS, OD)                                    \
+    ALWAYS_INLINE void name(IS T* s, size_t ps, ID T* d, size_t pd, OS T* os, size_t qs, OD T* od,           \
+                            size_t qd, int n) {                                                              \
+        const int ms = (n + 1) >> 1, md = n >> 1;                                                            \
+        V dm = IN_D(LDQ(ID, d));                                                                             \
+        V em = IN_S(LDQ(IS, s)) - UPD(dm + dm);                                                              \
+        for (int m = 0; m < ms; ++m) {                                                                       \
+            /* em = e[m], dm = d[m]; dn = d[m + 1], en = e[m + 1] */                                         \
+            const V dn = m + 1 < md ? IN_D(LDQ(ID, d + (m + 1) * pd)) : dm;                                  \
+            const V en = m + 1 < ms ? IN_S(LDQ(IS, s + (m + 1) * ps)) - UPD(dm + dn) : em;                   \
+            STQ(OS, os + m * qs, em);                                                                        \
+            if (m < md) STQ(OD, od + m * qd, dm - PRED(em + en));                                            \
+            em = en;                                                                                         \
+            dm = dn;                                                                                         \
+        }                                                                                                    \
     }
 /* Each sweep in four forms: on the staging (suffix _p), brick to staging (_bp), staging to brick (_pb),
    and brick to brick with one half staged (_bb, the 5/3's: forward writes d to the staging, inverse reads
@@ -141,10 +141,10 @@ ALWAYS_INLINE void refresh_high(T* d, int md, int n, const int W) {
 #define BB_SPACES private, global, global, global
 #endif
 #define DEFINE_SWEEP_(...) DEFINE_SWEEP(__VA_ARGS__)
-#define DEFINE_SWEEPS(name, PRED, UPD, OUT_S, OUT_D)                                                       \
-    DEFINE_SWEEP(name##_p, PRED, UPD, OUT_S, OUT_D, private, private, private, private)                    \
-    DEFINE_SWEEP(name##_bp, PRED, UPD, OUT_S, OUT_D, global, global, private, private)                     \
-    DEFINE_SWEEP(name##_pb, PRED, UPD, OUT_S, OUT_D, private, private, global, global)                     \
+#define DEFINE_SWEEPS(name, PRED, UPD, OUT_S, OUT_D)                                                         \
+    DEFINE_SWEEP(name##_p, PRED, UPD, OUT_S, OUT_D, private, private, private, private)                      \
+    DEFINE_SWEEP(name##_bp, PRED, UPD, OUT_S, OUT_D, global, global, private, private)                       \
+    DEFINE_SWEEP(name##_pb, PRED, UPD, OUT_S, OUT_D, private, private, global, global)                       \
     DEFINE_SWEEP_(name##_bb, PRED, UPD, OUT_S, OUT_D, BB_SPACES)
 #define AS_IS(v) (v)
 #if WAVELET == 0
@@ -158,7 +158,7 @@ DEFINE_SWEEPS(sweep53, PRED53, UPD53, AS_IS, AS_IS)
 #define UPD97D(v) (L97_D * (v))
 #define SCALE_LOW(v) ((v) * (1.0f / L97_K))
 #define SCALE_HIGH(v) ((v) * (0.5f * L97_K))
-#define UNSCALE_LOW(v) ((v) * L97_K)
+#define UNSCALE_LOW(v) ((v)*L97_K)
 #define UNSCALE_HIGH(v) ((v) * (2.0f / L97_K))
 #ifndef LIFT_INVERSE
 DEFINE_SWEEPS(sweep97ab, PRED97A, UPD97B, AS_IS, AS_IS)
@@ -223,9 +223,10 @@ ALWAYS_INLINE void transpose16(V* m) {
         V t[16];
 #pragma unroll
         for (int i = 0; i < 8; ++i) {
-            t[2 * i] = shuffle2(m[i], m[i + 8], (uint16)(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23));
-            t[2 * i + 1] =
-                shuffle2(m[i], m[i + 8], (uint16)(8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31));
+            t[2 * i] =
+                shuffle2(m[i], m[i + 8], (uint16)(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23));
+            t[2 * i + 1] = shuffle2(m[i], m[i + 8],
+                                    (uint16)(8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31));
         }
 #pragma unroll
         for (int i = 0; i < 16; ++i)
@@ -317,32 +318,32 @@ ALWAYS_INLINE void store_part(global T* p, V v, int count, int room) {
 }
 /* x[m + 1] of a half (lo = x[0..16), hi = x[16..32)) of length len: x[m] itself at m = len - 1, which is
    where the whole-sample symmetric extension sends e[ms] for even n (other lanes past len: don't care). */
-#define NEXT(lo, hi, len, nlo, nhi)                                                                        \
+#define NEXT(lo, hi, len, nlo, nhi)                                                                          \
     nlo = select(lo, shuffle2(lo, hi, (uint16)(1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16)),      \
-                 LANE + 1 < (len));                                                                       \
-    nhi = select(hi, shuffle(hi, (uint16)(1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 15)),          \
+                 LANE + 1 < (len));                                                                          \
+    nhi = select(hi, shuffle(hi, (uint16)(1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 15)),           \
                  LANE + 17 < (len));
 /* x[m - 1] (the extension gives d[-1] = d[0]) and x[m] clamped to len - 1 (d[md] = d[md - 1] for odd n). */
-#define PREV_CUR(lo, hi, len, plo, phi, clo, chi)                                                          \
-    plo = shuffle(lo, (uint16)(0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14));                      \
-    phi = shuffle2(lo, hi, (uint16)(15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30));      \
-    clo = select(plo, lo, LANE < (len));                                                                  \
+#define PREV_CUR(lo, hi, len, plo, phi, clo, chi)                                                            \
+    plo = shuffle(lo, (uint16)(0, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14));                        \
+    phi = shuffle2(lo, hi, (uint16)(15, 16, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30));        \
+    clo = select(plo, lo, LANE < (len));                                                                     \
     chi = select(phi, hi, LANE + 16 < (len));
 /* O += PRED(E + E[m + 1]) and E += UPD(O[m - 1] + O[m]), forward (sign +) or undone (sign -), with the
    same formulas per sample as the reference (bit-exact for the integer 5/3). */
-#define PREDICT(sign, PRED)                                                                                \
-    {                                                                                                      \
-        V n0, n1;                                                                                          \
-        NEXT(e0, e1, ms, n0, n1)                                                                           \
-        o0 = o0 sign PRED(e0 + n0);                                                                        \
-        o1 = o1 sign PRED(e1 + n1);                                                                        \
+#define PREDICT(sign, PRED)                                                                                  \
+    {                                                                                                        \
+        V n0, n1;                                                                                            \
+        NEXT(e0, e1, ms, n0, n1)                                                                             \
+        o0 = o0 sign PRED(e0 + n0);                                                                          \
+        o1 = o1 sign PRED(e1 + n1);                                                                          \
     }
-#define UPDATE(sign, UPD)                                                                                  \
-    {                                                                                                      \
-        V p0, p1, c0, c1;                                                                                  \
-        PREV_CUR(o0, o1, md, p0, p1, c0, c1)                                                               \
-        e0 = e0 sign UPD(p0 + c0);                                                                         \
-        e1 = e1 sign UPD(p1 + c1);                                                                         \
+#define UPDATE(sign, UPD)                                                                                    \
+    {                                                                                                        \
+        V p0, p1, c0, c1;                                                                                    \
+        PREV_CUR(o0, o1, md, p0, p1, c0, c1)                                                                 \
+        e0 = e0 sign UPD(p0 + c0);                                                                           \
+        e1 = e1 sign UPD(p1 + c1);                                                                           \
     }
 #define EVENS (uint16)(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30)
 #define ODDS (uint16)(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31)
@@ -652,13 +653,16 @@ inline void store_voxels(global const T* brick, int px, int by, int nx, int ny, 
 kernel __attribute__((reqd_work_group_size(1, 1, 1))) void lift_bricks(
     global T* d0, global T* d1, global T* d2, global T* d3, global T* d4, global T* d5, global T* d6,
     global T* d7, volatile global int* next, uint8 px8, uint8 bx8, uint8 by8, uint8 bz8, uint8 end8,
-    uint levels, uint stop
+    uint levels,
+    uint stop
 #ifdef VOXEL_TYPE
     /* Inverse: brick c goes to vox + vox_offset[c] (stop is 0). Forward: brick c comes from there, and its
        voxel range goes to range[2c], range[2c + 1]. */
-    , global voxel_t* vox, global const ulong* vox_offset, ulong vox_row, ulong vox_plane
+    ,
+    global voxel_t* vox, global const ulong* vox_offset, ulong vox_row, ulong vox_plane
 #ifndef LIFT_INVERSE
-    , global T* range
+    ,
+    global T* range
 #endif
 #endif
 ) {

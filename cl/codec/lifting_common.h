@@ -13,8 +13,8 @@
 #ifdef LIFT_FLOAT
 typedef float T;
 typedef float16 V;
-#define HALF(a) ((a) * 0.5f)
-#define QUARTER_R(a) ((a) * 0.25f)
+#define HALF(a) ((a)*0.5f)
+#define QUARTER_R(a) ((a)*0.25f)
 #else
 typedef int T;
 typedef int16 V;
@@ -81,4 +81,3 @@ inline int high_pos(int m, int n) {
     return clamp(m, 0, (n >> 1) - 1);
 #endif
 }
-

@@ -14,7 +14,9 @@
 #endif
 
 /* floor(h / 2) for any sign. */
-inline int half_floor(int h) { return (h - (h & 1)) / 2; }
+inline int half_floor(int h) {
+    return (h - (h & 1)) / 2;
+}
 
 /* Tie-break shared with the reference: lower cost, then smaller |v|_1, then smaller (z, y, x). */
 inline bool motion_better(ulong ca, int4 va, ulong cb, int4 vb) {
@@ -96,8 +98,8 @@ inline ulong block_cost(__global const int* cur, __global const int* ref, int4 d
    voxels. A candidate is centre + step * (dx, dy, dz) - r; candidates with a component beyond `limit`
    are skipped (the centre itself never is). Writes the pair's best cost and vector. */
 __kernel void motion_search(__global const int* restrict cur, __global const int* restrict ref, int4 dims,
-                            int pitch, int extent, int4 blocks, __global const int4* restrict centres, int radius,
-                            int step, int limit, __global ulong* restrict pairCost,
+                            int pitch, int extent, int4 blocks, __global const int4* restrict centres,
+                            int radius, int step, int limit, __global ulong* restrict pairCost,
                             __global int4* restrict pairVector) {
     const int side = 2 * radius + 1, pairs = side * side;
     const int gid = (int)get_global_id(0);
@@ -129,9 +131,9 @@ __kernel void motion_search(__global const int* restrict cur, __global const int
 }
 
 /* One work-item per block: the best of its pairs (ULONG_MAX marks a pair without a valid candidate). */
-__kernel void motion_search_reduce(__global const ulong* restrict pairCost, __global const int4* restrict pairVector,
-                                   int pairs, int nblocks, __global ulong* restrict bestCost,
-                                   __global int4* restrict bestVector) {
+__kernel void motion_search_reduce(__global const ulong* restrict pairCost,
+                                   __global const int4* restrict pairVector, int pairs, int nblocks,
+                                   __global ulong* restrict bestCost, __global int4* restrict bestVector) {
     const int block = (int)get_global_id(0);
     if (block >= nblocks) return;
     ulong best = ULONG_MAX;
@@ -154,7 +156,8 @@ __kernel void motion_search_reduce(__global const ulong* restrict pairCost, __gl
 /* ------------------------------------------------------------------ compensation (float samples) */
 
 /* Trilinear sample at voxel p displaced by v half voxels: the mean of the 8 clamped corners. */
-inline __attribute__((always_inline)) float sample_half(__global const float* ref, int4 dims, int px, int py, int pz, int4 v) {
+inline __attribute__((always_inline)) float sample_half(__global const float* ref, int4 dims, int px, int py,
+                                                        int pz, int4 v) {
     const int hx = 2 * px + v.x, hy = 2 * py + v.y, hz = 2 * pz + v.z;
     const int x0 = half_floor(hx), y0 = half_floor(hy), z0 = half_floor(hz);
     const int ax = clamp(x0, 0, dims.x - 1), bx = clamp(x0 + (hx & 1), 0, dims.x - 1);
@@ -169,14 +172,20 @@ inline __attribute__((always_inline)) float sample_half(__global const float* re
 
 /* Block modes (BlockMode in MotionField.hpp): 0 intra (block mean), 1 zero motion from reference 0,
    2 forward, 3 backward, 4 bidirectional (mean of forward and backward). */
-inline __attribute__((always_inline)) float predict_voxel(int mode, __global const float* r0, __global const float* r1, int4 dims, int x, int y,
-                           int z, int4 f, int4 b, float intra) {
+inline __attribute__((always_inline)) float predict_voxel(int mode, __global const float* r0,
+                                                          __global const float* r1, int4 dims, int x, int y,
+                                                          int z, int4 f, int4 b, float intra) {
     switch (mode) {
-    case 0: return intra;
-    case 1: return r0[x + dims.x * (y + dims.y * z)];
-    case 2: return sample_half(r0, dims, x, y, z, f);
-    case 3: return sample_half(r1, dims, x, y, z, b);
-    default: return 0.5f * (sample_half(r0, dims, x, y, z, f) + sample_half(r1, dims, x, y, z, b));
+    case 0:
+        return intra;
+    case 1:
+        return r0[x + dims.x * (y + dims.y * z)];
+    case 2:
+        return sample_half(r0, dims, x, y, z, f);
+    case 3:
+        return sample_half(r1, dims, x, y, z, b);
+    default:
+        return 0.5f * (sample_half(r0, dims, x, y, z, f) + sample_half(r1, dims, x, y, z, b));
     }
 }
 
@@ -184,20 +193,23 @@ inline __attribute__((always_inline)) float predict_voxel(int mode, __global con
    over its own voxels; costs[5 block + m], modes outside the mask get 0 and are ignored by the host. */
 __kernel void motion_mode_costs(__global const float* restrict cur, __global const float* restrict r0,
                                 __global const float* restrict r1, int4 dims, int blockSize, int4 blocks,
-                                __global const int4* restrict fwd, __global const int4* restrict bwd, int modeMask,
-                                __global float* restrict costs, __global float* restrict means) {
+                                __global const int4* restrict fwd, __global const int4* restrict bwd,
+                                int modeMask, __global float* restrict costs,
+                                __global float* restrict means) {
     const int block = (int)get_global_id(0);
     const int nblocks = blocks.x * blocks.y * blocks.z;
     if (block >= nblocks) return;
     const int bx = block % blocks.x, by = (block / blocks.x) % blocks.y, bz = block / (blocks.x * blocks.y);
     const int x0 = bx * blockSize, y0 = by * blockSize, z0 = bz * blockSize;
-    const int x1 = min(dims.x, x0 + blockSize), y1 = min(dims.y, y0 + blockSize), z1 = min(dims.z, z0 + blockSize);
+    const int x1 = min(dims.x, x0 + blockSize), y1 = min(dims.y, y0 + blockSize),
+              z1 = min(dims.z, z0 + blockSize);
     const int sx = dims.x, sxy = dims.x * dims.y;
     float sum = 0;
     for (int z = z0; z < z1; ++z)
         for (int y = y0; y < y1; ++y) {
             float line = 0;
-            for (int x = x0; x < x1; ++x) line += cur[x + sx * y + sxy * z];
+            for (int x = x0; x < x1; ++x)
+                line += cur[x + sx * y + sxy * z];
             sum += line;
         }
     const float mean = sum / (float)((x1 - x0) * (y1 - y0) * (z1 - z0));
@@ -210,7 +222,8 @@ __kernel void motion_mode_costs(__global const float* restrict cur, __global con
                 for (int y = y0; y < y1; ++y) {
                     float line = 0;
                     for (int x = x0; x < x1; ++x) {
-                        const float d = cur[x + sx * y + sxy * z] - predict_voxel(m, r0, r1, dims, x, y, z, f, b, mean);
+                        const float d =
+                            cur[x + sx * y + sxy * z] - predict_voxel(m, r0, r1, dims, x, y, z, f, b, mean);
                         line += d * d;
                     }
                     e += line;
@@ -242,14 +255,15 @@ inline float compensate_voxel(__global const float* r0, __global const float* r1
 
 /* Overlapped block motion compensation, one work-item per voxel (x = get_global_id(0)): block sizes below 8,
    where 8 voxels along x span more than a block and its two neighbours. */
-__kernel void motion_compensate(__global const float* restrict r0, __global const float* restrict r1, int4 dims,
-                                int4 blocks, __global const uchar* restrict modes, __global const int4* restrict fwd,
-                                __global const int4* restrict bwd, __global const float* restrict intra,
-                                __global const int* restrict first, __global const float2* restrict weights,
-                                __global float* restrict out) {
+__kernel void motion_compensate(__global const float* restrict r0, __global const float* restrict r1,
+                                int4 dims, int4 blocks, __global const uchar* restrict modes,
+                                __global const int4* restrict fwd, __global const int4* restrict bwd,
+                                __global const float* restrict intra, __global const int* restrict first,
+                                __global const float2* restrict weights, __global float* restrict out) {
     const int x = (int)get_global_id(0), y = (int)get_global_id(1), z = (int)get_global_id(2);
     if (x >= dims.x || y >= dims.y || z >= dims.z) return;
-    out[x + dims.x * (y + dims.y * z)] = compensate_voxel(r0, r1, dims, blocks, modes, fwd, bwd, intra, first, weights, x, y, z);
+    out[x + dims.x * (y + dims.y * z)] =
+        compensate_voxel(r0, r1, dims, blocks, modes, fwd, bwd, intra, first, weights, x, y, z);
 }
 
 /* ------------------------------------------------------------------ compensation of rows (typed samples)
@@ -316,8 +330,9 @@ inline float8 to_voxel8(float8 v) {
 inline __attribute__((always_inline)) float8 row8(__global const ref_t* row, int x, int n) {
     if (x >= 0 && x + 8 <= n) return convert_float8(vload8(0, row + x));
     const int m = n - 1; /* no private array: PoCL would keep one per work-item of the group */
-    return (float8)((float)row[clamp(x, 0, m)], (float)row[clamp(x + 1, 0, m)], (float)row[clamp(x + 2, 0, m)],
-                    (float)row[clamp(x + 3, 0, m)], (float)row[clamp(x + 4, 0, m)], (float)row[clamp(x + 5, 0, m)],
+    return (float8)((float)row[clamp(x, 0, m)], (float)row[clamp(x + 1, 0, m)],
+                    (float)row[clamp(x + 2, 0, m)], (float)row[clamp(x + 3, 0, m)],
+                    (float)row[clamp(x + 4, 0, m)], (float)row[clamp(x + 5, 0, m)],
                     (float)row[clamp(x + 6, 0, m)], (float)row[clamp(x + 7, 0, m)]);
 }
 
@@ -362,14 +377,20 @@ inline __attribute__((always_inline)) float8 sample_half8(__global const ref_t* 
 
 /* predict_voxel for the 8 voxels (x0 .. x0 + 7, y, z), one block's mode and vectors; lanes outside the
    volume read clamped samples. */
-inline __attribute__((always_inline)) float8 predict8(int mode, __global const ref_t* r0, __global const ref_t* r1, int4 dims, int x0, int y,
-                       int z, int4 f, int4 b, float intra) {
+inline __attribute__((always_inline)) float8 predict8(int mode, __global const ref_t* r0,
+                                                      __global const ref_t* r1, int4 dims, int x0, int y,
+                                                      int z, int4 f, int4 b, float intra) {
     switch (mode) {
-    case 0: return (float8)(intra);
-    case 1: return row8(r0 + dims.x * (y + dims.y * z), x0, dims.x);
-    case 2: return sample_half8(r0, dims, x0, y, z, f);
-    case 3: return sample_half8(r1, dims, x0, y, z, b);
-    default: return 0.5f * (sample_half8(r0, dims, x0, y, z, f) + sample_half8(r1, dims, x0, y, z, b));
+    case 0:
+        return (float8)(intra);
+    case 1:
+        return row8(r0 + dims.x * (y + dims.y * z), x0, dims.x);
+    case 2:
+        return sample_half8(r0, dims, x0, y, z, f);
+    case 3:
+        return sample_half8(r1, dims, x0, y, z, b);
+    default:
+        return 0.5f * (sample_half8(r0, dims, x0, y, z, f) + sample_half8(r1, dims, x0, y, z, b));
     }
 }
 
@@ -380,10 +401,11 @@ inline __attribute__((always_inline)) float8 predict8(int mode, __global const r
    The terms are added in compensate_voxel's order, and a zero weight adds exactly nothing (a second block
    with zero weight on every lane is not predicted at all), so the prediction has compensate_voxel's bits.
    Lanes outside the volume carry clamped tables and samples; the caller does not store them. */
-inline __attribute__((always_inline)) float8 obmc8(__global const ref_t* r0, __global const ref_t* r1, int4 dims, int4 blocks,
-                    __global const uchar* modes, __global const int4* fwd, __global const int4* bwd,
-                    __global const float* intra, __global const int* first, __global const float2* weights,
-                    int xs, int y, int z) {
+inline __attribute__((always_inline)) float8 obmc8(__global const ref_t* r0, __global const ref_t* r1,
+                                                   int4 dims, int4 blocks, __global const uchar* modes,
+                                                   __global const int4* fwd, __global const int4* bwd,
+                                                   __global const float* intra, __global const int* first,
+                                                   __global const float2* weights, int xs, int y, int z) {
     float8 wx0, wx1;
     if (xs >= 0 && xs + 8 <= dims.x) {
         const float16 wxx = vload16(0, (__global const float*)(weights + xs));
@@ -446,7 +468,8 @@ __kernel void motion_compensate_rows(__global const ref_t* restrict r0, __global
 __kernel void motion_reconstruct_rows(__global const ref_t* restrict r0, __global const ref_t* restrict r1,
                                       int4 dims, int4 blocks, int start, __global const uchar* restrict modes,
                                       __global const int4* restrict fwd, __global const int4* restrict bwd,
-                                      __global const float* restrict intra, __global const int* restrict first,
+                                      __global const float* restrict intra,
+                                      __global const int* restrict first,
                                       __global const float2* restrict weights,
                                       __global const float* restrict residual, __global out_t* restrict out) {
     const int xs = start + 8 * (int)get_global_id(0), y = (int)get_global_id(1), z = (int)get_global_id(2);

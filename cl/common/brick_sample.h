@@ -53,8 +53,10 @@ inline float brick_coarse(__global const float* pool, uint off, uint3 m, float3 
     const uint nx = m.x, nxy = m.x * m.y;
     __global const float* v = pool + off;
     const uint z0 = (uint)i0.z * nxy, z1 = (uint)i1.z * nxy, y0 = (uint)i0.y * nx, y1 = (uint)i1.y * nx;
-    const float a00 = v[z0 + y0 + i0.x], e00 = v[z0 + y0 + i1.x], a10 = v[z0 + y1 + i0.x], e10 = v[z0 + y1 + i1.x];
-    const float a01 = v[z1 + y0 + i0.x], e01 = v[z1 + y0 + i1.x], a11 = v[z1 + y1 + i0.x], e11 = v[z1 + y1 + i1.x];
+    const float a00 = v[z0 + y0 + i0.x], e00 = v[z0 + y0 + i1.x], a10 = v[z0 + y1 + i0.x],
+                e10 = v[z0 + y1 + i1.x];
+    const float a01 = v[z1 + y0 + i0.x], e01 = v[z1 + y0 + i1.x], a11 = v[z1 + y1 + i0.x],
+                e11 = v[z1 + y1 + i1.x];
     const float c00 = a00 + f.x * (e00 - a00), c10 = a10 + f.x * (e10 - a10);
     const float c01 = a01 + f.x * (e01 - a01), c11 = a11 + f.x * (e11 - a11);
     const float c0 = c00 + f.y * (c10 - c00), c1 = c01 + f.y * (c11 - c01);
@@ -95,19 +97,28 @@ inline float sample_volume(__global const float* pool, const VolclGridParams* G,
         const uint off = as_uint(e[0]);
         const uint3 o = b * bsize;
         const uint3 m = brick_samples(G, bsize, o, level);
-        if (level != 0u) return brick_coarse(pool, off, m, (p - convert_float3(o)) * (1.0f / (float)(1u << level)));
+        if (level != 0u)
+            return brick_coarse(pool, off, m, (p - convert_float3(o)) * (1.0f / (float)(1u << level)));
         const uint3 l0 = u0 - o, l1 = u1 - o;
         __global const float* v = pool + off;
         const uint z0 = l0.z * m.x * m.y, z1 = l1.z * m.x * m.y, y0 = l0.y * m.x, y1 = l1.y * m.x;
-        a00 = v[z0 + y0 + l0.x]; e00 = v[z0 + y0 + l1.x];
-        a10 = v[z0 + y1 + l0.x]; e10 = v[z0 + y1 + l1.x];
-        a01 = v[z1 + y0 + l0.x]; e01 = v[z1 + y0 + l1.x];
-        a11 = v[z1 + y1 + l0.x]; e11 = v[z1 + y1 + l1.x];
+        a00 = v[z0 + y0 + l0.x];
+        e00 = v[z0 + y0 + l1.x];
+        a10 = v[z0 + y1 + l0.x];
+        e10 = v[z0 + y1 + l1.x];
+        a01 = v[z1 + y0 + l0.x];
+        e01 = v[z1 + y0 + l1.x];
+        a11 = v[z1 + y1 + l0.x];
+        e11 = v[z1 + y1 + l1.x];
     } else {
-        a00 = brick_node(pool, G, (uint3)(u0.x, u0.y, u0.z)); e00 = brick_node(pool, G, (uint3)(u1.x, u0.y, u0.z));
-        a10 = brick_node(pool, G, (uint3)(u0.x, u1.y, u0.z)); e10 = brick_node(pool, G, (uint3)(u1.x, u1.y, u0.z));
-        a01 = brick_node(pool, G, (uint3)(u0.x, u0.y, u1.z)); e01 = brick_node(pool, G, (uint3)(u1.x, u0.y, u1.z));
-        a11 = brick_node(pool, G, (uint3)(u0.x, u1.y, u1.z)); e11 = brick_node(pool, G, (uint3)(u1.x, u1.y, u1.z));
+        a00 = brick_node(pool, G, (uint3)(u0.x, u0.y, u0.z));
+        e00 = brick_node(pool, G, (uint3)(u1.x, u0.y, u0.z));
+        a10 = brick_node(pool, G, (uint3)(u0.x, u1.y, u0.z));
+        e10 = brick_node(pool, G, (uint3)(u1.x, u1.y, u0.z));
+        a01 = brick_node(pool, G, (uint3)(u0.x, u0.y, u1.z));
+        e01 = brick_node(pool, G, (uint3)(u1.x, u0.y, u1.z));
+        a11 = brick_node(pool, G, (uint3)(u0.x, u1.y, u1.z));
+        e11 = brick_node(pool, G, (uint3)(u1.x, u1.y, u1.z));
     }
     const float c00 = a00 + f.x * (e00 - a00), c10 = a10 + f.x * (e10 - a10);
     const float c01 = a01 + f.x * (e01 - a01), c11 = a11 + f.x * (e11 - a11);
@@ -123,15 +134,21 @@ inline float3 gradient(__global const float* vol, const VolclGridParams* G, floa
     for (int a = -1; a <= 1; ++a)
         for (int b = -1; b <= 1; ++b) {
             const float w = (a == 0 ? 2.0f : 1.0f) * (b == 0 ? 2.0f : 1.0f);
-            g.x += w * (sample_volume(vol, G, p + (float3)(1, a, b)) - sample_volume(vol, G, p + (float3)(-1, a, b)));
-            g.y += w * (sample_volume(vol, G, p + (float3)(a, 1, b)) - sample_volume(vol, G, p + (float3)(a, -1, b)));
-            g.z += w * (sample_volume(vol, G, p + (float3)(a, b, 1)) - sample_volume(vol, G, p + (float3)(a, b, -1)));
+            g.x += w * (sample_volume(vol, G, p + (float3)(1, a, b)) -
+                        sample_volume(vol, G, p + (float3)(-1, a, b)));
+            g.y += w * (sample_volume(vol, G, p + (float3)(a, 1, b)) -
+                        sample_volume(vol, G, p + (float3)(a, -1, b)));
+            g.z += w * (sample_volume(vol, G, p + (float3)(a, b, 1)) -
+                        sample_volume(vol, G, p + (float3)(a, b, -1)));
         }
     return g * (1.0f / 32.0f) * inv;
 #else
-    const float gx = sample_volume(vol, G, p + (float3)(1, 0, 0)) - sample_volume(vol, G, p - (float3)(1, 0, 0));
-    const float gy = sample_volume(vol, G, p + (float3)(0, 1, 0)) - sample_volume(vol, G, p - (float3)(0, 1, 0));
-    const float gz = sample_volume(vol, G, p + (float3)(0, 0, 1)) - sample_volume(vol, G, p - (float3)(0, 0, 1));
+    const float gx =
+        sample_volume(vol, G, p + (float3)(1, 0, 0)) - sample_volume(vol, G, p - (float3)(1, 0, 0));
+    const float gy =
+        sample_volume(vol, G, p + (float3)(0, 1, 0)) - sample_volume(vol, G, p - (float3)(0, 1, 0));
+    const float gz =
+        sample_volume(vol, G, p + (float3)(0, 0, 1)) - sample_volume(vol, G, p - (float3)(0, 0, 1));
     return (float3)(gx, gy, gz) * 0.5f * inv;
 #endif
 }
@@ -143,7 +160,8 @@ PACKET_INLINE float8 sample_volume8(__global const float* vol, const VolclGridPa
     x.v = px;
     y.v = py;
     z.v = pz;
-    for (int l = 0; l < RAY_LANES; ++l) out.a[l] = sample_volume(vol, G, (float3)(x.a[l], y.a[l], z.a[l]));
+    for (int l = 0; l < RAY_LANES; ++l)
+        out.a[l] = sample_volume(vol, G, (float3)(x.a[l], y.a[l], z.a[l]));
     return out.v;
 }
 

@@ -6,7 +6,9 @@
 
 #pragma OPENCL FP_CONTRACT OFF
 
-inline float3 v3(const float a[4]) { return (float3)(a[0], a[1], a[2]); }
+inline float3 v3(const float a[4]) {
+    return (float3)(a[0], a[1], a[2]);
+}
 
 /* A ray in world space: origin and unit direction. */
 typedef struct {
@@ -36,9 +38,12 @@ inline void clip_planes(const VolclClipParams* K, float3 o, float3 d, float2* sp
     for (uint i = 0; i < K->count; ++i) {
         const float3 n = v3(K->plane[i]);
         const float a = dot(n, o) + K->plane[i][3], b = dot(n, d);
-        if (b > 0.0f) span->x = fmax(span->x, -a / b);
-        else if (b < 0.0f) span->y = fmin(span->y, -a / b);
-        else if (a < 0.0f) span->y = -INFINITY;
+        if (b > 0.0f)
+            span->x = fmax(span->x, -a / b);
+        else if (b < 0.0f)
+            span->y = fmin(span->y, -a / b);
+        else if (a < 0.0f)
+            span->y = -INFINITY;
     }
 }
 
@@ -54,9 +59,18 @@ inline void clip_planes(const VolclClipParams* K, float3 o, float3 d, float2* sp
 #define PACKET_W 4
 #define PACKET_H 2
 
-typedef union { float8 v; float a[8]; } LaneF;
-typedef union { int8 v; int a[8]; } LaneI;
-typedef union { uint8 v; uint a[8]; } LaneU;
+typedef union {
+    float8 v;
+    float a[8];
+} LaneF;
+typedef union {
+    int8 v;
+    int a[8];
+} LaneI;
+typedef union {
+    uint8 v;
+    uint a[8];
+} LaneU;
 
 /* A packet of rays: origin o, direction d (per unit of the ray parameter). */
 typedef struct {

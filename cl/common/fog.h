@@ -49,7 +49,8 @@ inline float fog_sigma(const VolclFogParams* F, const FogRay* f, float base, flo
 /* Optical depth of the fog over [u, v] on one side of the base (the whole piece below or above it):
    below, density * length; above, the exponential's exact integral taken from the piece's lower end, so
    every exponent is <= 0 (rays parallel to the layers, falloff -> 0 and -> infinity stay finite). */
-inline float fog_depth_piece(const VolclFogParams* F, const FogRay* f, float base, float u, float v, bool above) {
+inline float fog_depth_piece(const VolclFogParams* F, const FogRay* f, float base, float u, float v,
+                             bool above) {
     const float len = v - u;
     if (!(len > 0.0f)) return 0.0f;
     const float rho = F->color[3];
@@ -160,28 +161,34 @@ inline void fog_interval(const VolclFogParams* F, __global const float* fogMap, 
     /* Walk the map's texels (nearest texel: constant base per texel) along [u, v]. */
     const uint A0 = F->mapAxis[0], A1 = F->mapAxis[1];
     const float oa[3] = {o.x, o.y, o.z}, da[3] = {d.x, d.y, d.z};
-    const float c0 = (F->hi[A0] - F->lo[A0]) / (float)F->mapSize[0], c1 = (F->hi[A1] - F->lo[A1]) / (float)F->mapSize[1];
+    const float c0 = (F->hi[A0] - F->lo[A0]) / (float)F->mapSize[0],
+                c1 = (F->hi[A1] - F->lo[A1]) / (float)F->mapSize[1];
     float t = u;
     int guard = 0;
     while (t < v && guard++ < 65536) {
         const float tm = t; /* texel at t, nudged along the ray by choosing the side the ray moves to */
-        const float p0 = (oa[A0] + da[A0] * tm - F->lo[A0]) / c0, p1 = (oa[A1] + da[A1] * tm - F->lo[A1]) / c1;
+        const float p0 = (oa[A0] + da[A0] * tm - F->lo[A0]) / c0,
+                    p1 = (oa[A1] + da[A1] * tm - F->lo[A1]) / c1;
         int i = (int)floor(p0), j = (int)floor(p1);
         if (da[A0] < 0.0f && p0 == floor(p0)) --i;
         if (da[A1] < 0.0f && p1 == floor(p1)) --j;
         i = clamp(i, 0, (int)F->mapSize[0] - 1);
         j = clamp(j, 0, (int)F->mapSize[1] - 1);
         float tn = v;
-        if (da[A0] > 0.0f && i < (int)F->mapSize[0] - 1) tn = fmin(tn, (F->lo[A0] + (float)(i + 1) * c0 - oa[A0]) / da[A0]);
+        if (da[A0] > 0.0f && i < (int)F->mapSize[0] - 1)
+            tn = fmin(tn, (F->lo[A0] + (float)(i + 1) * c0 - oa[A0]) / da[A0]);
         if (da[A0] < 0.0f && i > 0) tn = fmin(tn, (F->lo[A0] + (float)i * c0 - oa[A0]) / da[A0]);
-        if (da[A1] > 0.0f && j < (int)F->mapSize[1] - 1) tn = fmin(tn, (F->lo[A1] + (float)(j + 1) * c1 - oa[A1]) / da[A1]);
+        if (da[A1] > 0.0f && j < (int)F->mapSize[1] - 1)
+            tn = fmin(tn, (F->lo[A1] + (float)(j + 1) * c1 - oa[A1]) / da[A1]);
         if (da[A1] < 0.0f && j > 0) tn = fmin(tn, (F->lo[A1] + (float)j * c1 - oa[A1]) / da[A1]);
         if (!(tn > t)) tn = fmin(nextafter(t, INFINITY), v);
         fog_stretch(F, f, fogMap[(size_t)j * F->mapSize[0] + (size_t)i], t, tn, a, &dep, &J);
         t = tn;
     }
 #else
-    (void)fogMap; (void)o; (void)d;
+    (void)fogMap;
+    (void)o;
+    (void)d;
     fog_stretch(F, f, F->up[3], u, v, a, &dep, &J);
 #endif
     *depth = dep;
@@ -189,8 +196,8 @@ inline void fog_interval(const VolclFogParams* F, __global const float* fogMap, 
 }
 
 /* Composites the fog alone over [u, v] onto (rgb, T). */
-inline void fog_only(const VolclFogParams* F, __global const float* fogMap, const FogRay* f, float3 o, float3 d,
-                     float u, float v, float3* rgb, float* T) {
+inline void fog_only(const VolclFogParams* F, __global const float* fogMap, const FogRay* f, float3 o,
+                     float3 d, float u, float v, float3* rgb, float* T) {
     if (!(v > u)) return;
     float depth, aJ;
     fog_interval(F, fogMap, f, o, d, u, v, 0.0f, &depth, &aJ);

@@ -19,9 +19,9 @@ typedef float voxel_t; /* VOXEL_TYPE 0 or undefined */
 #endif
 
 typedef struct {
-    float3 o;       /* origin in voxel coordinates */
-    float3 d;       /* direction in voxel coordinates per world unit */
-    float3 dWorld;  /* unit direction in world */
+    float3 o;      /* origin in voxel coordinates */
+    float3 d;      /* direction in voxel coordinates per world unit */
+    float3 dWorld; /* unit direction in world */
     float3 oWorld;
 } Ray;
 
@@ -36,7 +36,9 @@ inline Ray grid_ray(const VolclGridParams* G, WorldRay w) {
     return r;
 }
 
-inline float3 ray_at(const Ray* r, float t) { return r->o + t * r->d; }
+inline float3 ray_at(const Ray* r, float t) {
+    return r->o + t * r->d;
+}
 
 /* Upper corner of the grid's box in voxel coordinates: (nx - 1, ny - 1, nz - 1). */
 inline float3 grid_hi(const VolclGridParams* G) {
@@ -51,7 +53,8 @@ inline float3 grid_hi(const VolclGridParams* G) {
 inline void bspline_weights(float f, float4* w, float4* dw) {
     const float g = 1.0f - f, f2 = f * f;
     *w = (float4)(g * g * g, 3.0f * f2 * f - 6.0f * f2 + 4.0f, -3.0f * f2 * f + 3.0f * f2 + 3.0f * f + 1.0f,
-                  f2 * f) * (1.0f / 6.0f);
+                  f2 * f) *
+         (1.0f / 6.0f);
     *dw = (float4)(-0.5f * g * g, 1.5f * f2 - 2.0f * f, -1.5f * f2 + f + 0.5f, 0.5f * f2);
 }
 
@@ -147,15 +150,21 @@ inline float3 gradient(__global const voxel_t* vol, const VolclGridParams* G, fl
     for (int a = -1; a <= 1; ++a)
         for (int b = -1; b <= 1; ++b) {
             const float w = (a == 0 ? 2.0f : 1.0f) * (b == 0 ? 2.0f : 1.0f);
-            g.x += w * (sample_volume(vol, G, p + (float3)(1, a, b)) - sample_volume(vol, G, p + (float3)(-1, a, b)));
-            g.y += w * (sample_volume(vol, G, p + (float3)(a, 1, b)) - sample_volume(vol, G, p + (float3)(a, -1, b)));
-            g.z += w * (sample_volume(vol, G, p + (float3)(a, b, 1)) - sample_volume(vol, G, p + (float3)(a, b, -1)));
+            g.x += w * (sample_volume(vol, G, p + (float3)(1, a, b)) -
+                        sample_volume(vol, G, p + (float3)(-1, a, b)));
+            g.y += w * (sample_volume(vol, G, p + (float3)(a, 1, b)) -
+                        sample_volume(vol, G, p + (float3)(a, -1, b)));
+            g.z += w * (sample_volume(vol, G, p + (float3)(a, b, 1)) -
+                        sample_volume(vol, G, p + (float3)(a, b, -1)));
         }
     return g * (1.0f / 32.0f) * inv;
 #else
-    const float gx = sample_volume(vol, G, p + (float3)(1, 0, 0)) - sample_volume(vol, G, p - (float3)(1, 0, 0));
-    const float gy = sample_volume(vol, G, p + (float3)(0, 1, 0)) - sample_volume(vol, G, p - (float3)(0, 1, 0));
-    const float gz = sample_volume(vol, G, p + (float3)(0, 0, 1)) - sample_volume(vol, G, p - (float3)(0, 0, 1));
+    const float gx =
+        sample_volume(vol, G, p + (float3)(1, 0, 0)) - sample_volume(vol, G, p - (float3)(1, 0, 0));
+    const float gy =
+        sample_volume(vol, G, p + (float3)(0, 1, 0)) - sample_volume(vol, G, p - (float3)(0, 1, 0));
+    const float gz =
+        sample_volume(vol, G, p + (float3)(0, 0, 1)) - sample_volume(vol, G, p - (float3)(0, 0, 1));
     return (float3)(gx, gy, gz) * 0.5f * inv;
 #endif
 }
@@ -168,7 +177,8 @@ PACKET_INLINE float8 sample_volume8(__global const voxel_t* vol, const VolclGrid
     x.v = px;
     y.v = py;
     z.v = pz;
-    for (int l = 0; l < RAY_LANES; ++l) out.a[l] = bspline_eval(vol, G, (float3)(x.a[l], y.a[l], z.a[l]), 0);
+    for (int l = 0; l < RAY_LANES; ++l)
+        out.a[l] = bspline_eval(vol, G, (float3)(x.a[l], y.a[l], z.a[l]), 0);
     return out.v;
 }
 #else
@@ -194,13 +204,18 @@ PACKET_INLINE float8 sample_volume8(__global const voxel_t* vol, const VolclGrid
     const uint nbx = (nx + 3u) >> 2, nby = (G->dims[1] + 3u) >> 2;
     const uint8 uy = convert_uint8(iy), uz = convert_uint8(iz);
     LaneU b;
-    b.v = ((((uz >> 2) * nby + (uy >> 2)) * nbx + (xi >> 2)) << 6) | ((uz & 3u) << 4) | ((uy & 3u) << 2) | (xi & 3u);
+    b.v = ((((uz >> 2) * nby + (uy >> 2)) * nbx + (xi >> 2)) << 6) | ((uz & 3u) << 4) | ((uy & 3u) << 2) |
+          (xi & 3u);
     _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
         const float8 c = convert_float8(vload8(0, (__global const uchar*)vol + (size_t)b.a[l] * 8));
-        a00.a[l] = c.s0; e00.a[l] = c.s1;
-        a10.a[l] = c.s2; e10.a[l] = c.s3;
-        a01.a[l] = c.s4; e01.a[l] = c.s5;
-        a11.a[l] = c.s6; e11.a[l] = c.s7;
+        a00.a[l] = c.s0;
+        e00.a[l] = c.s1;
+        a10.a[l] = c.s2;
+        e10.a[l] = c.s3;
+        a01.a[l] = c.s4;
+        e01.a[l] = c.s5;
+        a11.a[l] = c.s6;
+        e11.a[l] = c.s7;
     }
 #else
     const uint nxy = nx * G->dims[1];
@@ -216,10 +231,14 @@ PACKET_INLINE float8 sample_volume8(__global const voxel_t* vol, const VolclGrid
         const float2 v10 = convert_float2(vload2(0, vol + b10.a[l]));
         const float2 v01 = convert_float2(vload2(0, vol + b01.a[l]));
         const float2 v11 = convert_float2(vload2(0, vol + b11.a[l]));
-        a00.a[l] = v00.x; e00.a[l] = v00.y;
-        a10.a[l] = v10.x; e10.a[l] = v10.y;
-        a01.a[l] = v01.x; e01.a[l] = v01.y;
-        a11.a[l] = v11.x; e11.a[l] = v11.y;
+        a00.a[l] = v00.x;
+        e00.a[l] = v00.y;
+        a10.a[l] = v10.x;
+        e10.a[l] = v10.y;
+        a01.a[l] = v01.x;
+        e01.a[l] = v01.y;
+        a11.a[l] = v11.x;
+        e11.a[l] = v11.y;
     }
 #endif
     const float8 c00 = a00.v + fx * (e00.v - a00.v), c10 = a10.v + fx * (e10.v - a10.v);

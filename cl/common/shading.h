@@ -71,7 +71,8 @@ inline void light_add(LightSum* s, const VolclLightingParams* Lp, int i, float3 
         s->diffuse += lc * vis * fmax(dot(s->N, L), 0.0f);
         s->specular += lc * vis * pow(fmax(dot(s->N, H), 0.0f), Lp->shininess);
     } else {
-        s->diffuse += lc * vis; /* no defined normal (flat region): lit as if facing the light, no highlight */
+        s->diffuse +=
+            lc * vis; /* no defined normal (flat region): lit as if facing the light, no highlight */
     }
 #endif
 #ifdef SCATTERING

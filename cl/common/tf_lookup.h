@@ -12,7 +12,10 @@ inline uint tf_find_interval(__global const VolclTfKnot* knots, uint count, floa
     uint lo = 0, hi = count; /* invariant: answer in [lo, hi) */
     while (hi - lo > 1) {
         uint mid = (lo + hi) / 2;
-        if (knots[mid].s < s) lo = mid; else hi = mid;
+        if (knots[mid].s < s)
+            lo = mid;
+        else
+            hi = mid;
     }
     return lo;
 }
@@ -47,7 +50,8 @@ inline float4 table_bilinear(__global const float4* table, uint n, uint k, float
 }
 
 /* Associated (rgb, alpha) of a segment with linear scalar from sf to sb and length len. */
-inline float4 preint_segment(__global const float4* table, const VolclTfParams* T, float sf, float sb, float len) {
+inline float4 preint_segment(__global const float4* table, const VolclTfParams* T, float sf, float sb,
+                             float len) {
     const float scale = (float)(T->tableSize - 1) / (T->domainHi - T->domainLo);
     const float u = (sf - T->domainLo) * scale, v = (sb - T->domainLo) * scale;
 #if PREINT == 2
@@ -82,7 +86,8 @@ inline float4 preint_segment(__global const float4* table, const VolclTfParams* 
 
 /* Bilinear table value of slice k at node cell (i0, j0) with fractions (fu, fv): table_bilinear's arithmetic
    after its index computation. */
-PACKET_INLINE float4 table_cell(__global const float4* table, uint n, uint k, uint i0, uint j0, float fu, float fv) {
+PACKET_INLINE float4 table_cell(__global const float4* table, uint n, uint k, uint i0, uint j0, float fu,
+                                float fv) {
     __global const float4* row0 = table + ((size_t)k * n + i0) * n;
     __global const float4* row1 = row0 + n;
     const float4 a = row0[j0] + fv * (row0[j0 + 1] - row0[j0]);
@@ -97,7 +102,8 @@ PACKET_INLINE void preint_packet(__global const float4* table, const VolclTfPara
     const uint n = T->tableSize;
     const float scale = (float)(n - 1) / (T->domainHi - T->domainLo);
     const float hi = (float)(n - 1);
-    const float8 u = clamp((sf - T->domainLo) * scale, 0.0f, hi), v = clamp((sb - T->domainLo) * scale, 0.0f, hi);
+    const float8 u = clamp((sf - T->domainLo) * scale, 0.0f, hi),
+                 v = clamp((sb - T->domainLo) * scale, 0.0f, hi);
     LaneU i0, j0;
     i0.v = min(convert_uint8(u), n - 2);
     j0.v = min(convert_uint8(v), n - 2);
@@ -108,7 +114,10 @@ PACKET_INLINE void preint_packet(__global const float4* table, const VolclTfPara
 #if PREINT == 2
     _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
         const float4 e = table_cell(table, n, 0, i0.a[l], j0.a[l], fu.a[l], fv.a[l]);
-        er.a[l] = e.x; eg.a[l] = e.y; eb.a[l] = e.z; ea.a[l] = e.w;
+        er.a[l] = e.x;
+        eg.a[l] = e.y;
+        eb.a[l] = e.z;
+        ea.a[l] = e.w;
     }
     const float8 tableLen = (float8)(T->tableMaxLength);
 #else
@@ -129,9 +138,13 @@ PACKET_INLINE void preint_packet(__global const float4* table, const VolclTfPara
             const float4 a = table_cell(table, n, k0, i0.a[l], j0.a[l], fu.a[l], fv.a[l]);
             e = a + fk * (table_cell(table, n, k0 + 1, i0.a[l], j0.a[l], fu.a[l], fv.a[l]) - a);
         }
-        er.a[l] = e.x; eg.a[l] = e.y; eb.a[l] = e.z; ea.a[l] = e.w;
+        er.a[l] = e.x;
+        eg.a[l] = e.y;
+        eb.a[l] = e.z;
+        ea.a[l] = e.w;
     }
-    const float8 tableLen = select(len, (float8)(T->tableMaxLength), (kf.v > 0.0f) & (kf.v >= (float)(L - 1)));
+    const float8 tableLen =
+        select(len, (float8)(T->tableMaxLength), (kf.v > 0.0f) & (kf.v >= (float)(L - 1)));
 #endif
     const int8 other = len != tableLen;
     if (any(other)) {

@@ -36,9 +36,9 @@ typedef struct {
        face across each face (tet * 4 + face, NO_FACE on the boundary, VOLCL_MESH_HULL_FACE on the convex hull)
        as uint bits. */
     __global const float4* cells;
-    __global const uchar* empty;      /* per tet: 1 when nothing it holds can show */
-    __global const float4* bvhNodes;  /* 2 per node: lo (w: first or right child), hi (w: leaf count) */
-    __global const float4* bvhFaces;  /* 3 per leaf face: vertex a (w: face id), edge b - a (w: 1 on the convex
+    __global const uchar* empty;     /* per tet: 1 when nothing it holds can show */
+    __global const float4* bvhNodes; /* 2 per node: lo (w: first or right child), hi (w: leaf count) */
+    __global const float4* bvhFaces; /* 3 per leaf face: vertex a (w: face id), edge b - a (w: 1 on the convex
                                          hull), edge c - a */
     __global const VolclTfKnot* knots;
     __global const float* tauIntegral; /* per knot: integral of tau from knot 0 to it */
@@ -58,38 +58,40 @@ inline float2 slab(const MeshData* M, uint ni, float3 o, float3 inv, float tMin,
     const float3 u = (lo.xyz - o) * inv, v = (hi.xyz - o) * inv;
     const float3 mn = fmin(u, v), mx = fmax(u, v);
     const float pad = 1e-6f;
-    return (float2)(fmax(fmax(fmax(mn.x, mn.y), mn.z) - pad, tMin), fmin(fmin(fmin(mx.x, mx.y), mx.z) + pad, tMax));
+    return (float2)(fmax(fmax(fmax(mn.x, mn.y), mn.z) - pad, tMin),
+                    fmin(fmin(fmin(mx.x, mx.y), mx.z) + pad, tMax));
 }
 
 /* The leaf's faces first..first+count-1: keeps the nearest entering hit at t >= tMin in *best. */
-inline void leaf_faces(const MeshData* M, uint first, uint count, float3 o, float3 d, float tMin, const uint* recent,
-                       Entry* best) {
-        for (uint i = first; i < first + count; ++i) {
-            const float4 a = M->bvhFaces[3 * i], e1 = M->bvhFaces[3 * i + 1], e2 = M->bvhFaces[3 * i + 2];
-            const uint face = as_uint(a.w);
-            bool skip = false;
-            for (int r = 0; r < RECENT; ++r) skip |= recent[r] == face;
-            if (skip) continue;
-            const float3 n = cross(e1.xyz, e2.xyz);
-            if (!(dot(n, d) < 0.0f)) continue;
-            const float3 p = cross(d, e2.xyz);
-            const float det = dot(e1.xyz, p);
-            if (det == 0.0f) continue;
-            const float invDet = 1.0f / det;
-            const float3 s = o - a.xyz;
-            const float bu = dot(s, p) * invDet;
-            const float tol = 1e-5f;
-            if (bu < -tol || bu > 1.0f + tol) continue;
-            const float3 q = cross(s, e1.xyz);
-            const float bv = dot(d, q) * invDet;
-            if (bv < -tol || bu + bv > 1.0f + tol) continue;
-            const float t = dot(e2.xyz, q) * invDet;
-            if (t >= tMin && t < best->t) {
-                best->t = t;
-                best->face = face;
-                best->leaf = i;
-            }
+inline void leaf_faces(const MeshData* M, uint first, uint count, float3 o, float3 d, float tMin,
+                       const uint* recent, Entry* best) {
+    for (uint i = first; i < first + count; ++i) {
+        const float4 a = M->bvhFaces[3 * i], e1 = M->bvhFaces[3 * i + 1], e2 = M->bvhFaces[3 * i + 2];
+        const uint face = as_uint(a.w);
+        bool skip = false;
+        for (int r = 0; r < RECENT; ++r)
+            skip |= recent[r] == face;
+        if (skip) continue;
+        const float3 n = cross(e1.xyz, e2.xyz);
+        if (!(dot(n, d) < 0.0f)) continue;
+        const float3 p = cross(d, e2.xyz);
+        const float det = dot(e1.xyz, p);
+        if (det == 0.0f) continue;
+        const float invDet = 1.0f / det;
+        const float3 s = o - a.xyz;
+        const float bu = dot(s, p) * invDet;
+        const float tol = 1e-5f;
+        if (bu < -tol || bu > 1.0f + tol) continue;
+        const float3 q = cross(s, e1.xyz);
+        const float bv = dot(d, q) * invDet;
+        if (bv < -tol || bu + bv > 1.0f + tol) continue;
+        const float t = dot(e2.xyz, q) * invDet;
+        if (t >= tMin && t < best->t) {
+            best->t = t;
+            best->face = face;
+            best->leaf = i;
         }
+    }
 }
 
 /* The nearest entering boundary face (outward normal against d) hit at t >= tMin, skipping `recent`.
@@ -146,14 +148,13 @@ inline Entry first_entry(const MeshData* M, const VolclMeshParams* P, float3 o, 
     return best;
 }
 
-
 /* Per-ray compositing state. */
 typedef struct {
     float3 rgb;
     float alpha;
-    float depth;  /* world distance to the first iso-surface */
+    float depth; /* world distance to the first iso-surface */
     float mip;
-    float xray;   /* optical depth */
+    float xray; /* optical depth */
     int inside;
     float nextSample; /* point sampling: normalised t of the next sample */
     /* MERGE_SEGMENTS: the pending run of segments, s from pendA to pendB over world length pendLen (0: none),
@@ -214,8 +215,8 @@ inline void flush_pending(const MeshData* M, const VolclTfParams* T, RayState* s
 
 /* DVR over the normalised ray interval [ta, tb] of one tet with s from sa to sb. */
 inline void dvr_piece(const MeshData* M, const VolclMeshRenderParams* Pc, const VolclTfParams* T,
-                      const VolclLightingParams* Lp, const VolclCameraParams* C, float3 eye, float3 o, float3 d,
-                      float ta, float tb, float sa, float sb, float3 g, RayState* st) {
+                      const VolclLightingParams* Lp, const VolclCameraParams* C, float3 eye, float3 o,
+                      float3 d, float ta, float tb, float sa, float sb, float3 g, RayState* st) {
     if (!(tb > ta)) return;
     const float scale = Pc->mesh.scale;
 #if PREINT == 3
@@ -289,8 +290,8 @@ inline void dvr_piece(const MeshData* M, const VolclMeshRenderParams* Pc, const 
 
 /* The part [ta, tb] (normalised) of the ray inside tet `tet`. */
 inline void cell_segment(const MeshData* M, const VolclMeshRenderParams* Pc, const VolclTfParams* T,
-                         const VolclLightingParams* Lp, const VolclCameraParams* C, float3 eye, float3 o, float3 d,
-                         float tOffset, uint tet, float ta, float tb, float2 clip, RayState* st) {
+                         const VolclLightingParams* Lp, const VolclCameraParams* C, float3 eye, float3 o,
+                         float3 d, float tOffset, uint tet, float ta, float tb, float2 clip, RayState* st) {
     const float a = fmax(ta, clip.x), b = fmin(tb, clip.y);
     if (!(b >= a)) return;
 #if defined(SKIPPING) && (MODE == 0 || MODE == 2)
@@ -401,7 +402,8 @@ inline void ray_begin(RayWalk* w, const VolclMeshRenderParams* Pc, uint x, uint 
     w->entries = 0;
     w->ri = 0;
     w->tMin = 0.0f;
-    for (int r = 0; r < RECENT; ++r) w->recent[r] = NO_FACE;
+    for (int r = 0; r < RECENT; ++r)
+        w->recent[r] = NO_FACE;
     if (x >= C->width || y >= C->height) return;
     const WorldRay wr = camera_ray_world(C, x, y);
     float3 o = (wr.o - v3(P->centre)) * P->invScale;
@@ -425,8 +427,8 @@ inline void ray_begin(RayWalk* w, const VolclMeshRenderParams* Pc, uint x, uint 
 }
 
 /* One unit of work of a ray: find its next entry into the mesh, or cross one tet. */
-inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderParams* Pc, const VolclTfParams* T,
-                        const VolclLightingParams* Lp, float3 eye, uint* seed) {
+inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderParams* Pc,
+                        const VolclTfParams* T, const VolclLightingParams* Lp, float3 eye, uint* seed) {
     const VolclMeshParams* P = &Pc->mesh;
     if (w->phase == PHASE_ENTRY) {
         const Entry hit = first_entry(M, P, w->o, w->d, w->tMin - P->epsilon, w->recent, *seed);
@@ -442,7 +444,8 @@ inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderPara
         cell_prefetch(M, w->tet);
         w->t = hit.t;
         /* The point-sampling lattice starts half a step into the mesh. */
-        if (isnan(w->st.nextSample)) w->st.nextSample = fmax(w->t, w->clip.x) + 0.5f * Pc->march.step * P->invScale;
+        if (isnan(w->st.nextSample))
+            w->st.nextSample = fmax(w->t, w->clip.x) + 0.5f * Pc->march.step * P->invScale;
         w->phase = PHASE_WALK;
         return;
     }
@@ -487,7 +490,8 @@ inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderPara
         return;
     }
     const uint nb = ((__global const uint*)(cell + 5))[exitFace];
-    if (nb >= VOLCL_MESH_HULL_FACE) { /* left the mesh: for good through a hull face, else look for a re-entry */
+    if (nb >=
+        VOLCL_MESH_HULL_FACE) { /* left the mesh: for good through a hull face, else look for a re-entry */
         w->tMin = w->t;
         w->phase = nb == VOLCL_MESH_HULL_FACE ? PHASE_DONE : PHASE_ENTRY;
         return;
@@ -548,7 +552,8 @@ __kernel void mesh_cells(__global const float4* cells, __global const uchar* emp
     const float3 eye = (v3(C.origin) - v3(Pc->mesh.centre)) * Pc->mesh.invScale;
     RayWalk w[RAYS];
     uint seed = NO_FACE; /* the face the block's last entry search found */
-    for (int r = 0; r < RAYS; ++r) ray_begin(&w[r], Pc, x0 + r % RAYS_X, y0 + r / RAYS_X);
+    for (int r = 0; r < RAYS; ++r)
+        ray_begin(&w[r], Pc, x0 + r % RAYS_X, y0 + r / RAYS_X);
     for (;;) {
         bool active = false;
         for (int r = 0; r < RAYS; ++r) {

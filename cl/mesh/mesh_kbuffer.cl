@@ -66,9 +66,9 @@ inline uint kb_float_key(float f) {
 /* Sort key (centroid view depth, orthographic; centroid distance to the eye, perspective) and the rectangle
    of screen tiles of face i: rects[i] = (x0 | y0 << 16, x1 | y1 << 16), empty (x0 > x1) when the face covers
    no pixel centre, is seen edge-on or crosses the near distance. */
-__kernel void kb_face_keys(__global const float4* points, __global const float4* proj, __global const uint4* faces,
-                           const VolclKBufferParams P, __global uint* keys, __global uint* vals,
-                           __global uint2* rects) {
+__kernel void kb_face_keys(__global const float4* points, __global const float4* proj,
+                           __global const uint4* faces, const VolclKBufferParams P, __global uint* keys,
+                           __global uint* vals, __global uint2* rects) {
     const uint i = get_global_id(0);
     if (i >= P.faceCount) return;
     const uint4 f = faces[i];
@@ -115,7 +115,8 @@ __kernel void kb_gather(__global const uint* order, __global const uint4* faces,
 }
 
 /* counts[tile * BIN_CHUNKS + c] = entries chunk c (a contiguous run of sorted positions) adds to each tile. */
-__kernel void kb_bin_count(__global const uint2* sortedRects, const uint n, const uint tilesX, __global uint* counts) {
+__kernel void kb_bin_count(__global const uint2* sortedRects, const uint n, const uint tilesX,
+                           __global uint* counts) {
     const uint c = get_global_id(0);
     if (c >= BIN_CHUNKS) return;
     const uint per = (n + BIN_CHUNKS - 1) / BIN_CHUNKS;
@@ -125,14 +126,15 @@ __kernel void kb_bin_count(__global const uint2* sortedRects, const uint n, cons
         const uint x0 = r.x & 0xFFFFu, y0 = r.x >> 16, x1 = r.y & 0xFFFFu, y1 = r.y >> 16;
         if (x0 > x1) continue;
         for (uint ty = y0; ty <= y1; ++ty)
-            for (uint tx = x0; tx <= x1; ++tx) counts[(ty * tilesX + tx) * BIN_CHUNKS + c]++;
+            for (uint tx = x0; tx <= x1; ++tx)
+                counts[(ty * tilesX + tx) * BIN_CHUNKS + c]++;
     }
 }
 
 /* After the exclusive scan of the counts: appends each chunk's face records to every tile list they touch, in
    sorted order. Afterwards offsets[tile * BIN_CHUNKS + BIN_CHUNKS - 1] is the end of the tile's list. */
-__kernel void kb_bin_scatter(__global const uint4* sortedFaces, __global const uint2* sortedRects, const uint n,
-                             const uint tilesX, __global uint* offsets, __global uint4* list) {
+__kernel void kb_bin_scatter(__global const uint4* sortedFaces, __global const uint2* sortedRects,
+                             const uint n, const uint tilesX, __global uint* offsets, __global uint4* list) {
     const uint c = get_global_id(0);
     if (c >= BIN_CHUNKS) return;
     const uint per = (n + BIN_CHUNKS - 1) / BIN_CHUNKS;
@@ -143,7 +145,8 @@ __kernel void kb_bin_scatter(__global const uint4* sortedFaces, __global const u
         if (x0 > x1) continue;
         const uint4 face = sortedFaces[pos];
         for (uint ty = y0; ty <= y1; ++ty)
-            for (uint tx = x0; tx <= x1; ++tx) list[offsets[(ty * tilesX + tx) * BIN_CHUNKS + c]++] = face;
+            for (uint tx = x0; tx <= x1; ++tx)
+                list[offsets[(ty * tilesX + tx) * BIN_CHUNKS + c]++] = face;
     }
 }
 
@@ -187,22 +190,26 @@ typedef struct {
    rows of n nodes) put them on four pages 4 KiB and 1 MiB apart, and the lookups were half the raster. */
 #define KB_TBLOCK 4
 KB_INLINE size_t kb_table_index(uint i, uint j, uint k, uint nb, uint lengths) {
-    return (((size_t)(i / KB_TBLOCK) * nb + j / KB_TBLOCK) * (KB_TBLOCK * KB_TBLOCK) + (i % KB_TBLOCK) * KB_TBLOCK +
-            j % KB_TBLOCK) * lengths + k;
+    return (((size_t)(i / KB_TBLOCK) * nb + j / KB_TBLOCK) * (KB_TBLOCK * KB_TBLOCK) +
+            (i % KB_TBLOCK) * KB_TBLOCK + j % KB_TBLOCK) *
+               lengths +
+           k;
 }
 
 /* Table value at fractional node coordinates (front u, back v) of length slices k0 and k1: bilinear in each
    (tf_lookup.h's table_bilinear, inlined into the fragment loop); a and b receive the two slices. */
-KB_INLINE void kb_bilinear2(__global const half* table, uint n, uint lengths, uint k0, uint k1, float u, float v,
-                            float4* ea, float4* eb) {
+KB_INLINE void kb_bilinear2(__global const half* table, uint n, uint lengths, uint k0, uint k1, float u,
+                            float v, float4* ea, float4* eb) {
     const float hi = (float)(n - 1);
     u = clamp(u, 0.0f, hi);
     v = clamp(v, 0.0f, hi);
     const uint i0 = min((uint)u, n - 2), j0 = min((uint)v, n - 2);
     const float fu = u - (float)i0, fv = v - (float)j0;
     const uint nb = (n + KB_TBLOCK - 1) / KB_TBLOCK;
-    const size_t p00 = kb_table_index(i0, j0, 0, nb, lengths), p01 = kb_table_index(i0, j0 + 1, 0, nb, lengths);
-    const size_t p10 = kb_table_index(i0 + 1, j0, 0, nb, lengths), p11 = kb_table_index(i0 + 1, j0 + 1, 0, nb, lengths);
+    const size_t p00 = kb_table_index(i0, j0, 0, nb, lengths),
+                 p01 = kb_table_index(i0, j0 + 1, 0, nb, lengths);
+    const size_t p10 = kb_table_index(i0 + 1, j0, 0, nb, lengths),
+                 p11 = kb_table_index(i0 + 1, j0 + 1, 0, nb, lengths);
     {
         const float4 t00 = vload_half4(p00 + k0, table), t01 = vload_half4(p01 + k0, table);
         const float4 t10 = vload_half4(p10 + k0, table), t11 = vload_half4(p11 + k0, table);
@@ -221,7 +228,8 @@ KB_INLINE void kb_bilinear2(__global const half* table, uint n, uint lengths, ui
 
 /* tf_lookup.h's preint_segment for the 3D table with the frame's factors precomputed (the lookup was a third
    of the frame as a call with two divisions): associated (rgb, alpha) of the segment sf -> sb of length len. */
-KB_INLINE float4 kb_preint(__global const half* table, const VolclKBufferParams* P, float sf, float sb, float len) {
+KB_INLINE float4 kb_preint(__global const half* table, const VolclKBufferParams* P, float sf, float sb,
+                           float len) {
     const VolclTfParams* T = &P->tf;
     const float u = (sf - T->domainLo) * P->tableScale, v = (sb - T->domainLo) * P->tableScale;
     const float kf = len * P->lengthScale - 1.0f;
@@ -289,8 +297,8 @@ KB_INLINE void kb_place(KBuffer kb, uint base, uint h, uint n, float t, float s,
 /* Inserts a fragment into pixel li's k-buffer; when it is full, pops the nearest of the k + 1 fragments, whose
    segment to the second nearest (a stored entry nearer than or as near as the incoming fragment goes first) is
    returned: its length (0: nothing to composite) and its scalars in *s0, *s1. */
-KB_INLINE float kb_insert(KBuffer kb, uint li, float t, float s, uint fl, const VolclKBufferParams* P, float* s0,
-                          float* s1) {
+KB_INLINE float kb_insert(KBuffer kb, uint li, float t, float s, uint fl, const VolclKBufferParams* P,
+                          float* s0, float* s1) {
     const uint base = li * KB_RING;
     const uint n = kb.count[li];
     const uint h = kb.head[li];
@@ -359,8 +367,19 @@ typedef struct {
 inline KbEdge kb_make_edge(float4 u, uint iu, float4 v, uint iv, float orientSign) {
     KbEdge e;
     float s;
-    if (iu < iv) { e.px = u.x; e.py = u.y; e.qx = v.x; e.qy = v.y; s = 1.0f; }
-    else { e.px = v.x; e.py = v.y; e.qx = u.x; e.qy = u.y; s = -1.0f; }
+    if (iu < iv) {
+        e.px = u.x;
+        e.py = u.y;
+        e.qx = v.x;
+        e.qy = v.y;
+        s = 1.0f;
+    } else {
+        e.px = v.x;
+        e.py = v.y;
+        e.qx = u.x;
+        e.qy = u.y;
+        s = -1.0f;
+    }
     e.sigma = orientSign * s;
     e.tie = e.sigma * (float)kb_tie_side(e.px, e.py, e.qx, e.qy) > 0.0f;
     return e;
@@ -382,14 +401,16 @@ inline void kb_row_span(const KbEdge* e, float2 f, float fy, float* xl, float* x
     const float ta = ex * (fy - e->py), tb = ey * e->px;
     const float xc = -(e->sigma * (ta + tb)) * f.y;
     const float m = 1.0f + 1e-5f * ((fabs(ta) + fabs(tb)) * fabs(f.y) + fabs(xc));
-    if (f.x > 0.0f) *xl = fmax(*xl, xc - m);
-    else *xr = fmin(*xr, xc + m);
+    if (f.x > 0.0f)
+        *xl = fmax(*xl, xc - m);
+    else
+        *xr = fmin(*xr, xc + m);
 }
 
 /* Rasterises one tile (work-group): its faces in sorted order into per-pixel k-buffers in local memory, then
    flushes them and writes the composited pixels (linear, associated RGBA). */
-__kernel void kb_raster(__global const float4* proj, __global const float* scalars, __global const uint* binEnds,
-                        __global const uint4* list, const VolclKBufferParams P,
+__kernel void kb_raster(__global const float4* proj, __global const float* scalars,
+                        __global const uint* binEnds, __global const uint4* list, const VolclKBufferParams P,
                         __global const half* table, __global float4* out) {
     __local float lt[KB_PIXELS * KB_RING];
     __local float ls[KB_PIXELS * KB_RING];

@@ -17,8 +17,9 @@ typedef struct VolclKBufferParams {
     float forward[4]; /* unit view direction f */
     float right[4];   /* unit r */
     float up[4];      /* unit u */
-    float halfX, halfY; /* orthographic: half width and height of the view; perspective: tan of the half angles */
-    float worldScale;   /* world length of one normalized unit */
+    float halfX,
+        halfY; /* orthographic: half width and height of the view; perspective: tan of the half angles */
+    float worldScale; /* world length of one normalized unit */
     float earlyTermination;
     volcl_uint width, height, perspective, faceCount; /* faceCount: faces drawn this frame (the LOD prefix) */
     volcl_uint tilesX, tilesY, pointCount, pad0;
@@ -29,7 +30,8 @@ typedef struct VolclKBufferParams {
 } VolclKBufferParams;
 
 #ifndef __OPENCL_VERSION__
-static_assert(sizeof(VolclKBufferParams) == 64 + 16 + 16 + 16 + 16 + 32, "VolclKBufferParams layout must match OpenCL C");
+static_assert(sizeof(VolclKBufferParams) == 64 + 16 + 16 + 16 + 16 + 32,
+              "VolclKBufferParams layout must match OpenCL C");
 #endif
 
 #endif

@@ -8,18 +8,24 @@
 #endif
 
 /* Keys of block b: [b * per, min(n, (b + 1) * per)). */
-inline uint radix_per(uint n) { return (n + RADIX_BLOCKS - 1) / RADIX_BLOCKS; }
+inline uint radix_per(uint n) {
+    return (n + RADIX_BLOCKS - 1) / RADIX_BLOCKS;
+}
 
 /* hist[d * RADIX_BLOCKS + b] = number of keys of block b whose digit at `shift` is d. */
-__kernel void radix_histogram(__global const uint* keys, const uint n, const uint shift, __global uint* hist) {
+__kernel void radix_histogram(__global const uint* keys, const uint n, const uint shift,
+                              __global uint* hist) {
     const uint b = get_global_id(0);
     if (b >= RADIX_BLOCKS) return;
     uint count[256];
-    for (uint d = 0; d < 256; ++d) count[d] = 0;
+    for (uint d = 0; d < 256; ++d)
+        count[d] = 0;
     const uint per = radix_per(n);
     const uint lo = min(n, b * per), hi = min(n, lo + per);
-    for (uint i = lo; i < hi; ++i) count[(keys[i] >> shift) & 255u]++;
-    for (uint d = 0; d < 256; ++d) hist[d * RADIX_BLOCKS + b] = count[d];
+    for (uint i = lo; i < hi; ++i)
+        count[(keys[i] >> shift) & 255u]++;
+    for (uint d = 0; d < 256; ++d)
+        hist[d * RADIX_BLOCKS + b] = count[d];
 }
 
 /* In-place exclusive prefix sum of `count` entries (one work-item; a few ten thousand entries). */
@@ -37,11 +43,13 @@ __kernel void exclusive_scan(__global uint* data, const uint count, __global uin
 /* Writes every key of block b (and its value) to its place: the scanned offset of (digit, block) plus the
    number of earlier keys of the block with that digit. */
 __kernel void radix_scatter(__global const uint* keysIn, __global const uint* valsIn, __global uint* keysOut,
-                            __global uint* valsOut, const uint n, const uint shift, __global const uint* offsets) {
+                            __global uint* valsOut, const uint n, const uint shift,
+                            __global const uint* offsets) {
     const uint b = get_global_id(0);
     if (b >= RADIX_BLOCKS) return;
     uint next[256];
-    for (uint d = 0; d < 256; ++d) next[d] = offsets[d * RADIX_BLOCKS + b];
+    for (uint d = 0; d < 256; ++d)
+        next[d] = offsets[d * RADIX_BLOCKS + b];
     const uint per = radix_per(n);
     const uint lo = min(n, b * per), hi = min(n, lo + per);
     for (uint i = lo; i < hi; ++i) {

@@ -2,7 +2,9 @@
 #include "volcl_shared.h"
 
 /* Node-centred coordinate of sample i of n on [-1, 1] (the single sample of n = 1 sits at 0). */
-inline float unit_coord(uint i, uint n) { return n > 1 ? -1.0f + 2.0f * (float)i / (float)(n - 1) : 0.0f; }
+inline float unit_coord(uint i, uint n) {
+    return n > 1 ? -1.0f + 2.0f * (float)i / (float)(n - 1) : 0.0f;
+}
 
 /* Marschner & Lobb (1994): rho = (1 - sin(pi z / 2) + alpha (1 + cos(2 pi fM cos(pi r / 2)))) / (2 (1 + alpha)). */
 __kernel void marschner_lobb(__global float* out, uint nx, uint ny, uint nz, float fM, float alpha) {
@@ -11,7 +13,8 @@ __kernel void marschner_lobb(__global float* out, uint nx, uint ny, uint nz, flo
     float x = unit_coord(i, nx), y = unit_coord(j, ny), z = unit_coord(k, nz);
     float r = sqrt(x * x + y * y);
     float rr = cos(2.0f * M_PI_F * fM * cos(M_PI_F * r * 0.5f));
-    out[i + nx * (j + (size_t)ny * k)] = (1.0f - sin(M_PI_F * z * 0.5f) + alpha * (1.0f + rr)) / (2.0f * (1.0f + alpha));
+    out[i + nx * (j + (size_t)ny * k)] =
+        (1.0f - sin(M_PI_F * z * 0.5f) + alpha * (1.0f + rr)) / (2.0f * (1.0f + alpha));
 }
 
 /* Sum of the values of all ellipsoids containing the sample point. */

@@ -225,12 +225,12 @@ __kernel void preint_exact(__global const VolclTfKnot* knots, uint knotCount, ui
                     ee = exp(-len[0] * xe);
                 REAL f0 = 0, f1 = 0, f2 = 0, fe = 0;
                 if (BLOCKS > 1) /* compile-time constant: kept out of the && so the compiler does not warn */
-                if (uniformStep > REAL_C(0.0)) {
-                    f0 = exp(-blockShift * x0);
-                    f1 = exp(-blockShift * x1);
-                    f2 = exp(-blockShift * x2);
-                    fe = exp(-blockShift * xe);
-                }
+                    if (uniformStep > REAL_C(0.0)) {
+                        f0 = exp(-blockShift * x0);
+                        f1 = exp(-blockShift * x1);
+                        f2 = exp(-blockShift * x2);
+                        fe = exp(-blockShift * xe);
+                    }
                 for (int b = 0; b < BLOCKS; ++b) {
                     if (b > 0) {
                         if (uniformStep > REAL_C(0.0)) {

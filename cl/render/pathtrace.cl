@@ -13,7 +13,9 @@
 /* The medium: extinction sigma_t = tau(s) of the TF at the trilinear field, per-channel scattering albedo
    albedo * c(s), emission c(s) * tau(s) when P->emission is 1. */
 
-inline float pt_uniform(VolclRng* r) { return (float)volcl_rng_next24(r) * (1.0f / 16777216.0f); }
+inline float pt_uniform(VolclRng* r) {
+    return (float)volcl_rng_next24(r) * (1.0f / 16777216.0f);
+}
 
 /* Macrocell holding voxel point o + tq * d, and the ray parameter where the ray leaves it (>= tq). */
 inline uint pt_cell(const VolclGridParams* G, float3 o, float3 d, float tq, float* exitT) {
@@ -27,21 +29,25 @@ inline uint pt_cell(const VolclGridParams* G, float3 o, float3 d, float tq, floa
     const float la[3] = {lo.x, lo.y, lo.z}, ha[3] = {hi.x, hi.y, hi.z};
     float e = INFINITY;
     for (int a = 0; a < 3; ++a) {
-        if (da[a] > 0.0f) e = fmin(e, (ha[a] - pa[a]) / da[a]);
-        else if (da[a] < 0.0f) e = fmin(e, (la[a] - pa[a]) / da[a]);
+        if (da[a] > 0.0f)
+            e = fmin(e, (ha[a] - pa[a]) / da[a]);
+        else if (da[a] < 0.0f)
+            e = fmin(e, (la[a] - pa[a]) / da[a]);
     }
     *exitT = tq + fmax(e, 0.0f);
     return ((uint)c.z * G->macroDims[1] + (uint)c.y) * G->macroDims[0] + (uint)c.x;
 }
 
 /* A parameter step that moves the ray 1e-4 voxel: the cell of a point just past t is the one [t, exit] lies in. */
-inline float pt_eps(float3 d) { return 1e-4f / fmax(fmax(fabs(d.x), fabs(d.y)), fabs(d.z)); }
+inline float pt_eps(float3 d) {
+    return 1e-4f / fmax(fmax(fabs(d.x), fabs(d.y)), fabs(d.z));
+}
 
 /* Delta tracking on [t, tEnd]: the first real collision (its TF value in *e), or INFINITY when the ray
    leaves. Cells with majorant 0 are crossed without a sample. */
 inline float pt_delta_track(__global const voxel_t* vol, __global const VolclTfKnot* knots,
-                            __global const float* majorant, const VolclGridRenderParams* P, float3 o, float3 d,
-                            float t, float tEnd, VolclRng* rng, float4* e) {
+                            __global const float* majorant, const VolclGridRenderParams* P, float3 o,
+                            float3 d, float t, float tEnd, VolclRng* rng, float4* e) {
     const float eps = pt_eps(d);
     while (t < tEnd) {
         float cellExit;
@@ -63,8 +69,8 @@ inline float pt_delta_track(__global const voxel_t* vol, __global const VolclTfK
 
 /* Ratio tracking on [t, tEnd]: an unbiased estimate of the transmittance (Russian roulette below 0.1). */
 inline float pt_transmittance(__global const voxel_t* vol, __global const VolclTfKnot* knots,
-                              __global const float* majorant, const VolclGridRenderParams* P, float3 o, float3 d,
-                              float t, float tEnd, VolclRng* rng) {
+                              __global const float* majorant, const VolclGridRenderParams* P, float3 o,
+                              float3 d, float t, float tEnd, VolclRng* rng) {
     const float eps = pt_eps(d);
     float T = 1.0f;
     while (t < tEnd) {
@@ -76,7 +82,8 @@ inline float pt_transmittance(__global const voxel_t* vol, __global const VolclT
             for (;;) {
                 t -= log(1.0f - pt_uniform(rng)) / mu;
                 if (t >= segEnd) break;
-                const float sigma = tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, o + t * d)).w;
+                const float sigma =
+                    tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, o + t * d)).w;
                 T *= fmax(1.0f - sigma / mu, 0.0f);
                 if (T < 0.1f) {
                     if (pt_uniform(rng) >= 0.5f) return 0.0f;
@@ -114,9 +121,9 @@ inline float3 pt_sample_phase(float3 dir, float g, float u1, float u2) {
 }
 
 /* One path from the eye through pixel (x, y): (rgb radiance, 1 - transmittance of the primary ray). */
-inline float4 pt_sample(__global const voxel_t* vol, __global const VolclTfKnot* knots, __global const float* majorant,
-                        const VolclGridRenderParams* P, const VolclPathParams* Q, const Ray* r, float2 span,
-                        VolclRng* rng) {
+inline float4 pt_sample(__global const voxel_t* vol, __global const VolclTfKnot* knots,
+                        __global const float* majorant, const VolclGridRenderParams* P,
+                        const VolclPathParams* Q, const Ray* r, float2 span, VolclRng* rng) {
     const float3 hi = grid_hi(&P->grid), inv = v3(P->grid.invSpacing), org = v3(P->grid.origin),
                  spc = v3(P->grid.spacing);
     const float3 env = v3(Q->environment);
@@ -138,17 +145,20 @@ inline float4 pt_sample(__global const voxel_t* vol, __global const VolclTfKnot*
         /* Next-event estimation: each light, then the sky along a phase-sampled direction (weight 1). */
         for (uint i = 0; i < P->lighting.lightCount; ++i) {
             float dist;
-            const float3 Ld = light_dir(&P->lighting, P->camera.perspective, r->oWorld, r->dWorld, (int)i, xw, &dist);
+            const float3 Ld =
+                light_dir(&P->lighting, P->camera.perspective, r->oWorld, r->dWorld, (int)i, xw, &dist);
             const float3 dv = Ld * inv;
             const float2 s2 = clip_box(pv, dv, hi, 0.0f, dist);
-            const float Tr = s2.y > s2.x ? pt_transmittance(vol, knots, majorant, P, pv, dv, s2.x, s2.y, rng) : 1.0f;
+            const float Tr =
+                s2.y > s2.x ? pt_transmittance(vol, knots, majorant, P, pv, dv, s2.x, s2.y, rng) : 1.0f;
             L += beta * a * v3(P->lighting.lightColor[i]) * (pt_phase(g, dot(Ld, dW)) * Tr);
         }
         if (sky) {
             const float u1 = pt_uniform(rng), u2 = pt_uniform(rng);
             const float3 wv = pt_sample_phase(dW, g, u1, u2) * inv;
             const float2 s2 = clip_box(pv, wv, hi, 0.0f, INFINITY);
-            const float Tr = s2.y > s2.x ? pt_transmittance(vol, knots, majorant, P, pv, wv, s2.x, s2.y, rng) : 1.0f;
+            const float Tr =
+                s2.y > s2.x ? pt_transmittance(vol, knots, majorant, P, pv, wv, s2.x, s2.y, rng) : 1.0f;
             L += beta * a * env * Tr;
         }
         if (k >= Q->maxBounces) break;
@@ -171,9 +181,9 @@ inline float4 pt_sample(__global const voxel_t* vol, __global const VolclTfKnot*
 
 /* Adds samples firstSample .. firstSample + sampleCount - 1 of every pixel to accum and writes the mean so
    far (accum * invTotal) to out. */
-__kernel void pathtrace(__global const voxel_t* vol, __global const VolclTfKnot* knots, __global const float* majorant,
-                        const VolclGridRenderParams params, const VolclPathParams path, __global float4* accum,
-                        __global float4* out) {
+__kernel void pathtrace(__global const voxel_t* vol, __global const VolclTfKnot* knots,
+                        __global const float* majorant, const VolclGridRenderParams params,
+                        const VolclPathParams path, __global float4* accum, __global float4* out) {
     const uint x = get_global_id(0), y = get_global_id(1);
     if (x >= params.camera.width || y >= params.camera.height) return;
     const VolclGridRenderParams* P = &params;

@@ -79,7 +79,8 @@ inline float3 light_sample(__global const voxel_t* vol, __global const VolclTfKn
     LightSum sum = light_begin(&P->lighting, g, r->dWorld);
     for (uint i = 0; i < P->lighting.lightCount; ++i) {
         float dist;
-        const float3 L = light_dir(&P->lighting, P->camera.perspective, r->oWorld, r->dWorld, (int)i, x, &dist);
+        const float3 L =
+            light_dir(&P->lighting, P->camera.perspective, r->oWorld, r->dWorld, (int)i, x, &dist);
 #ifdef SHADOWS
         const float vis = shadow_transmittance(vol, knots, P, x, L, dist);
 #else
@@ -96,7 +97,8 @@ inline float3 light_sample(__global const voxel_t* vol, __global const VolclTfKn
 inline uint macro_cell(const VolclGridRenderParams* P, const Ray* r, float t, float* exitT) {
     const float3 p = ray_at(r, t);
     const float B = (float)P->grid.macroDims[3];
-    const int3 m = (int3)((int)P->grid.macroDims[0] - 1, (int)P->grid.macroDims[1] - 1, (int)P->grid.macroDims[2] - 1);
+    const int3 m =
+        (int3)((int)P->grid.macroDims[0] - 1, (int)P->grid.macroDims[1] - 1, (int)P->grid.macroDims[2] - 1);
     const int3 c = clamp(convert_int3(floor(p / B)), (int3)(0), m);
     const float3 lo = convert_float3(c) * B;
     const float3 hiBox = grid_hi(&P->grid);
@@ -105,8 +107,10 @@ inline uint macro_cell(const VolclGridRenderParams* P, const Ray* r, float t, fl
     const float la[3] = {lo.x, lo.y, lo.z}, ha[3] = {hi.x, hi.y, hi.z};
     float e = INFINITY;
     for (int a = 0; a < 3; ++a) {
-        if (da[a] > 0.0f) e = fmin(e, (ha[a] - pa[a]) / da[a]);
-        else if (da[a] < 0.0f) e = fmin(e, (la[a] - pa[a]) / da[a]);
+        if (da[a] > 0.0f)
+            e = fmin(e, (ha[a] - pa[a]) / da[a]);
+        else if (da[a] < 0.0f)
+            e = fmin(e, (la[a] - pa[a]) / da[a]);
     }
     *exitT = t + fmax(e, 0.0f);
     return ((uint)c.z * P->grid.macroDims[1] + (uint)c.y) * P->grid.macroDims[0] + (uint)c.x;
@@ -123,8 +127,8 @@ inline uint macro_cell(const VolclGridRenderParams* P, const Ray* r, float t, fl
    e: the segment's associated (rgb, alpha); df, db: the table's raw front/back diffuse terms, scaled by
    `ratio` to the segment's length; x: the segment's world midpoint (shadow rays start there). */
 inline float3 preint_light(__global const voxel_t* vol, __global const VolclTfKnot* knots,
-                           const VolclGridRenderParams* P, const Ray* r, float3 x, float3 gF, float3 gB, float4 e,
-                           float3 df, float3 db, float omega, float ratio) {
+                           const VolclGridRenderParams* P, const Ray* r, float3 x, float3 gF, float3 gB,
+                           float4 e, float3 df, float3 db, float omega, float ratio) {
     const VolclLightingParams* Lp = &P->lighting;
     const float3 V = -r->dWorld;
     const float lf = length(gF), lb = length(gB);
@@ -180,7 +184,7 @@ inline void iso_table_segment(__global const float4* table, __global const voxel
 
 #ifdef FOG
 /* The fog's arguments of the per-ray helpers below, present only when the kernel has fog. */
-#define FOG_PARAMS , __global const float* fogMap, const FogRay* fr
+#define FOG_PARAMS , __global const float *fogMap, const FogRay *fr
 #define FOG_ARGS , fogMap, &fr
 #else
 #define FOG_PARAMS
@@ -189,8 +193,9 @@ inline void iso_table_segment(__global const float4* table, __global const voxel
 
 #if MODE == 1
 /* Maximum intensity projection: the largest sample on the ray, windowed to grey or coloured by the TF. */
-inline float4 mip_ray(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclGridRenderParams* P,
-                      const Ray* r, float tEnter, float tExit, float step, int nseg) {
+inline float4 mip_ray(__global const voxel_t* vol, __global const VolclTfKnot* knots,
+                      const VolclGridRenderParams* P, const Ray* r, float tEnter, float tExit, float step,
+                      int nseg) {
     float smax = -INFINITY;
     for (int k = 0; k <= nseg; ++k) {
         const float t = k == nseg ? tExit : tEnter + (float)k * step;
@@ -215,13 +220,16 @@ inline float4 mip_ray(__global const voxel_t* vol, __global const VolclTfKnot* k
 
 #if MODE == 3
 /* X-ray: the optical depth of the ray's segments (midpoint samples) and of the fog, as grey opacity. */
-inline float4 xray_ray(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclGridRenderParams* P,
-                       const Ray* r, float tEnter, float tExit, float step, int nseg FOG_PARAMS) {
+inline float4 xray_ray(__global const voxel_t* vol, __global const VolclTfKnot* knots,
+                       const VolclGridRenderParams* P, const Ray* r, float tEnter, float tExit, float step,
+                       int nseg FOG_PARAMS) {
     float opticalDepth = 0.0f;
     for (int k = 0; k < nseg; ++k) {
         const float t0 = tEnter + (float)k * step, t1 = fmin(t0 + step, tExit);
         const float len = t1 - t0;
-        opticalDepth += tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, ray_at(r, t0 + 0.5f * len))).w * len;
+        opticalDepth +=
+            tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, ray_at(r, t0 + 0.5f * len))).w *
+            len;
     }
 #ifdef FOG
     if (fr->span.y > fr->span.x) {
@@ -239,8 +247,8 @@ inline float4 xray_ray(__global const voxel_t* vol, __global const VolclTfKnot* 
 /* A dvr segment [t0, t1] of length len sampled at its midpoint (lit when the scene has lights) and
    composited into (rgb, T), with the fog over it. */
 inline void dvr_point_segment(__global const voxel_t* vol, __global const VolclTfKnot* knots,
-                              const VolclGridRenderParams* P, const Ray* r, float t0, float t1, float len, float3* rgb,
-                              float* T FOG_PARAMS) {
+                              const VolclGridRenderParams* P, const Ray* r, float t0, float t1, float len,
+                              float3* rgb, float* T FOG_PARAMS) {
     const float tm = t0 + 0.5f * len;
     const float3 pm = ray_at(r, tm);
     const float4 e = tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, pm));
@@ -263,9 +271,9 @@ inline void dvr_point_segment(__global const voxel_t* vol, __global const VolclT
    when the scene has lights: pre-integrated lighting carries the back gradient to the next segment in gPrev)
    and composited into (rgb, T), with the fog over it. */
 inline void dvr_preint_segment(__global const voxel_t* vol, __global const VolclTfKnot* knots,
-                               __global const float4* table, const VolclGridRenderParams* P, const Ray* r, float t0,
-                               float t1, float len, float sPrev, float sNext, float3* gPrev, int* gPrevValid,
-                               float3* rgb, float* T FOG_PARAMS) {
+                               __global const float4* table, const VolclGridRenderParams* P, const Ray* r,
+                               float t0, float t1, float len, float sPrev, float sNext, float3* gPrev,
+                               int* gPrevValid, float3* rgb, float* T FOG_PARAMS) {
     const float4 e = preint_segment(table, &P->tf, sPrev, sNext, len);
     float3 c = e.xyz;
 #if defined(PREINT_LIGHTING) && PREINT == 2 && defined(SHADING)
@@ -280,8 +288,8 @@ inline void dvr_preint_segment(__global const voxel_t* vol, __global const Volcl
         const float3 gB = gradient(vol, &P->grid, ray_at(r, t1));
         *gPrev = gB;
         *gPrevValid = 1;
-        c = preint_light(vol, knots, P, r, r->oWorld + (t0 + 0.5f * len) * r->dWorld, gF, gB, e, lf.xyz, lb.xyz,
-                         clamp(lf.w, 0.0f, 1.0f), ratio);
+        c = preint_light(vol, knots, P, r, r->oWorld + (t0 + 0.5f * len) * r->dWorld, gF, gB, e, lf.xyz,
+                         lb.xyz, clamp(lf.w, 0.0f, 1.0f), ratio);
     } else {
         *gPrevValid = 0;
     }
@@ -299,7 +307,8 @@ inline void dvr_preint_segment(__global const voxel_t* vol, __global const Volcl
        with the fog over it exactly for that medium (exact whenever either is absent). */
     const float av = clamp(e.w, 0.0f, 1.0f - 1e-7f);
     const float tauV = av > 0.0f ? -log1p(-av) / len : 0.0f;
-    fog_with_segment(&P->fog, fogMap, fr, r->oWorld, r->dWorld, t0, t1, tauV, av > 0.0f ? c / e.w : (float3)(0.0f), rgb, T);
+    fog_with_segment(&P->fog, fogMap, fr, r->oWorld, r->dWorld, t0, t1, tauV,
+                     av > 0.0f ? c / e.w : (float3)(0.0f), rgb, T);
 #else
     *rgb += *T * c;
     *T *= 1.0f - e.w;
@@ -307,9 +316,10 @@ inline void dvr_preint_segment(__global const voxel_t* vol, __global const Volcl
 }
 #endif
 
-__kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* knots, __global const float4* table,
-                       __global const uchar* macroEmpty, const VolclGridRenderParams params, __global float4* out,
-                       __global float* depthOut, __global const float* fogMap) {
+__kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* knots,
+                       __global const float4* table, __global const uchar* macroEmpty,
+                       const VolclGridRenderParams params, __global float4* out, __global float* depthOut,
+                       __global const float* fogMap) {
     const uint x = get_global_id(0), y = get_global_id(1);
     if (x >= params.camera.width || y >= params.camera.height) return;
     const VolclGridRenderParams* P = &params;
@@ -333,7 +343,8 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
         const float fa = fr.span.y > fr.span.x ? -expm1(-fd) : 0.0f;
         out[pix] = (float4)(fa, fa, fa, fa);
 #else
-        if (fr.span.y > fr.span.x) fog_only(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, fr.span.x, fr.span.y, &rgb, &T);
+        if (fr.span.y > fr.span.x)
+            fog_only(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, fr.span.x, fr.span.y, &rgb, &T);
         out[pix] = (float4)(rgb, 1.0f - T);
 #endif
 #if ISO_COUNT > 0
@@ -375,7 +386,8 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 #endif
 #if MODE == 0 && PREINT != 0
     float3 gPrev = (float3)(0.0f);
-    int gPrevValid = 0; /* pre-integrated lighting: the last segment's back gradient is this one's front gradient */
+    int gPrevValid =
+        0;        /* pre-integrated lighting: the last segment's back gradient is this one's front gradient */
 #endif
 #if ISO_COUNT > 0 && !defined(FILTER_BSPLINE) && !defined(ISO_TABLE)
     IsoState iso; /* the iso-surfaces' cell walk carries over from segment to segment */
@@ -394,7 +406,8 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
                 const int j = min((int)floor((exitT - tEnter) / step), nseg);
                 if (j > k) {
 #ifdef FOG
-                    fog_only(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, t0, j == nseg ? tExit : fmin(tEnter + (float)j * step, tExit), &rgb, &T);
+                    fog_only(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, t0,
+                             j == nseg ? tExit : fmin(tEnter + (float)j * step, tExit), &rgb, &T);
 #endif
 #if defined(PREINT_LIGHTING) && PREINT == 2 && defined(SHADING)
                     gPrevValid = 0;
@@ -427,7 +440,8 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 #if MODE == 0 && PREINT == 0
         dvr_point_segment(vol, knots, P, &r, t0, t1, len, &rgb, &T FOG_ARGS);
 #elif MODE == 0
-        dvr_preint_segment(vol, knots, table, P, &r, t0, t1, len, sPrev, sNext, &gPrev, &gPrevValid, &rgb, &T FOG_ARGS);
+        dvr_preint_segment(vol, knots, table, P, &r, t0, t1, len, sPrev, sNext, &gPrev, &gPrevValid, &rgb,
+                           &T FOG_ARGS);
 #endif
 #if PREINT != 0 || ISO_COUNT > 0
         sPrev = sNext;
@@ -441,8 +455,8 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 #ifdef EARLY_TERMINATION
     if (!(1.0f - T >= P->march.earlyTermination))
 #endif
-    if (fr.span.y > fr.span.x)
-        fog_only(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, fmax(fr.span.x, tExit), fr.span.y, &rgb, &T);
+        if (fr.span.y > fr.span.x)
+            fog_only(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, fmax(fr.span.x, tExit), fr.span.y, &rgb, &T);
 #endif
     result = (float4)(rgb, 1.0f - T);
 #endif
@@ -462,7 +476,8 @@ PACKET_INLINE uint8 macro_cell8(const VolclGridRenderParams* P, const RayPacket*
     const int8 cy = clamp(convert_int8(floor(py / B)), 0, (int)P->grid.macroDims[1] - 1);
     const int8 cz = clamp(convert_int8(floor(pz / B)), 0, (int)P->grid.macroDims[2] - 1);
     const float8 lx = convert_float8(cx) * B, ly = convert_float8(cy) * B, lz = convert_float8(cz) * B;
-    const float8 hx = fmin(lx + B, (float)(P->grid.dims[0] - 1)), hy = fmin(ly + B, (float)(P->grid.dims[1] - 1)),
+    const float8 hx = fmin(lx + B, (float)(P->grid.dims[0] - 1)),
+                 hy = fmin(ly + B, (float)(P->grid.dims[1] - 1)),
                  hz = fmin(lz + B, (float)(P->grid.dims[2] - 1));
     float8 e = (float8)(INFINITY);
     e = select(e, fmin(e, (hx - px) / r->dx), r->dx > 0.0f);
@@ -472,7 +487,8 @@ PACKET_INLINE uint8 macro_cell8(const VolclGridRenderParams* P, const RayPacket*
     e = select(e, fmin(e, (hz - pz) / r->dz), r->dz > 0.0f);
     e = select(e, fmin(e, (lz - pz) / r->dz), r->dz < 0.0f);
     *exitT = t + fmax(e, 0.0f);
-    return (convert_uint8(cz) * P->grid.macroDims[1] + convert_uint8(cy)) * P->grid.macroDims[0] + convert_uint8(cx);
+    return (convert_uint8(cz) * P->grid.macroDims[1] + convert_uint8(cy)) * P->grid.macroDims[0] +
+           convert_uint8(cx);
 }
 
 #ifdef FOG
@@ -480,34 +496,51 @@ PACKET_INLINE uint8 macro_cell8(const VolclGridRenderParams* P, const RayPacket*
    into the packet's colour (cr, cg, cb) and transmittance T. */
 
 /* Over the empty cells the lanes in `jump` skip: from t0 to the start of their segment j. */
-PACKET_INLINE void fog_skip_packet(const VolclGridRenderParams* P, __global const float* fogMap, const FogRay* fr,
-                                   const float3* fo, const float3* fd, const LaneF* enter, const LaneI* nsegL,
-                                   int8 jump, int8 j, float8 t0, float8 tExit, float step, float8* cr, float8* cg,
-                                   float8* cb, float8* T) {
+PACKET_INLINE void fog_skip_packet(const VolclGridRenderParams* P, __global const float* fogMap,
+                                   const FogRay* fr, const float3* fo, const float3* fd, const LaneF* enter,
+                                   const LaneI* nsegL, int8 jump, int8 j, float8 t0, float8 tExit, float step,
+                                   float8* cr, float8* cg, float8* cb, float8* T) {
     LaneI jl, jj;
     LaneF t0l, tx, R, G, Bq, TT;
-    jl.v = jump; jj.v = j; t0l.v = t0; tx.v = tExit;
-    R.v = *cr; G.v = *cg; Bq.v = *cb; TT.v = *T;
+    jl.v = jump;
+    jj.v = j;
+    t0l.v = t0;
+    tx.v = tExit;
+    R.v = *cr;
+    G.v = *cg;
+    Bq.v = *cb;
+    TT.v = *T;
     _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
         if (!jl.a[l]) continue;
-        const float tj = jj.a[l] >= nsegL->a[l] ? tx.a[l] : fmin(enter->a[l] + (float)jj.a[l] * step, tx.a[l]);
+        const float tj =
+            jj.a[l] >= nsegL->a[l] ? tx.a[l] : fmin(enter->a[l] + (float)jj.a[l] * step, tx.a[l]);
         float3 c3 = (float3)(R.a[l], G.a[l], Bq.a[l]);
         fog_only(&P->fog, fogMap, &fr[l], fo[l], fd[l], t0l.a[l], tj, &c3, &TT.a[l]);
-        R.a[l] = c3.x; G.a[l] = c3.y; Bq.a[l] = c3.z;
+        R.a[l] = c3.x;
+        G.a[l] = c3.y;
+        Bq.a[l] = c3.z;
     }
-    *cr = R.v; *cg = G.v; *cb = Bq.v; *T = TT.v;
+    *cr = R.v;
+    *cg = G.v;
+    *cb = Bq.v;
+    *T = TT.v;
 }
 
 /* Over each active lane's step [t0, t1], composited with the segment (er, eg, eb, ea: point sampled
    extinction and colour, or the pre-integrated associated colour and opacity) as fog.h mixes them. */
 PACKET_INLINE void fog_segment_packet(const VolclGridRenderParams* P, __global const float* fogMap,
-                                      const FogRay* fr, const float3* fo, const float3* fd, int8 active, float8 t0,
-                                      float8 t1, const LaneF* er, const LaneF* eg, const LaneF* eb, const LaneF* ea,
-                                      float8* cr, float8* cg, float8* cb, float8* T) {
+                                      const FogRay* fr, const float3* fo, const float3* fd, int8 active,
+                                      float8 t0, float8 t1, const LaneF* er, const LaneF* eg, const LaneF* eb,
+                                      const LaneF* ea, float8* cr, float8* cg, float8* cb, float8* T) {
     LaneI al;
     LaneF t0l, t1l, R, G, Bq, TT;
-    al.v = active; t0l.v = t0; t1l.v = t1;
-    R.v = *cr; G.v = *cg; Bq.v = *cb; TT.v = *T;
+    al.v = active;
+    t0l.v = t0;
+    t1l.v = t1;
+    R.v = *cr;
+    G.v = *cg;
+    Bq.v = *cb;
+    TT.v = *T;
     _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
         if (!al.a[l]) continue;
         float3 c3 = (float3)(R.a[l], G.a[l], Bq.a[l]);
@@ -520,28 +553,44 @@ PACKET_INLINE void fog_segment_packet(const VolclGridRenderParams* P, __global c
         const float3 cv = av > 0.0f ? (float3)(er->a[l], eg->a[l], eb->a[l]) / ea->a[l] : (float3)(0.0f);
 #endif
         fog_with_segment(&P->fog, fogMap, &fr[l], fo[l], fd[l], t0l.a[l], t1l.a[l], tauV, cv, &c3, &TT.a[l]);
-        R.a[l] = c3.x; G.a[l] = c3.y; Bq.a[l] = c3.z;
+        R.a[l] = c3.x;
+        G.a[l] = c3.y;
+        Bq.a[l] = c3.z;
     }
-    *cr = R.v; *cg = G.v; *cb = Bq.v; *T = TT.v;
+    *cr = R.v;
+    *cg = G.v;
+    *cb = Bq.v;
+    *T = TT.v;
 }
 
 /* Behind the volume: from each lane's exit tExit to the end of its fog (lanes that missed the volume had all
    their fog up front). */
-PACKET_INLINE void fog_tail_packet(const VolclGridRenderParams* P, __global const float* fogMap, const FogRay* fr,
-                                   const float3* fo, const float3* fd, const LaneI* nsegL, float8 tExit, float8* cr,
-                                   float8* cg, float8* cb, float8* T) {
+PACKET_INLINE void fog_tail_packet(const VolclGridRenderParams* P, __global const float* fogMap,
+                                   const FogRay* fr, const float3* fo, const float3* fd, const LaneI* nsegL,
+                                   float8 tExit, float8* cr, float8* cg, float8* cb, float8* T) {
     LaneF R, G, Bq, TT, tx;
-    R.v = *cr; G.v = *cg; Bq.v = *cb; TT.v = *T; tx.v = tExit;
+    R.v = *cr;
+    G.v = *cg;
+    Bq.v = *cb;
+    TT.v = *T;
+    tx.v = tExit;
     _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
-        if (nsegL->a[l] == 0 || !(fr[l].span.y > fr[l].span.x)) continue; /* missed volume: all done up front */
+        if (nsegL->a[l] == 0 || !(fr[l].span.y > fr[l].span.x))
+            continue; /* missed volume: all done up front */
 #ifdef EARLY_TERMINATION
         if (1.0f - TT.a[l] >= P->march.earlyTermination) continue;
 #endif
         float3 c3 = (float3)(R.a[l], G.a[l], Bq.a[l]);
-        fog_only(&P->fog, fogMap, &fr[l], fo[l], fd[l], fmax(fr[l].span.x, tx.a[l]), fr[l].span.y, &c3, &TT.a[l]);
-        R.a[l] = c3.x; G.a[l] = c3.y; Bq.a[l] = c3.z;
+        fog_only(&P->fog, fogMap, &fr[l], fo[l], fd[l], fmax(fr[l].span.x, tx.a[l]), fr[l].span.y, &c3,
+                 &TT.a[l]);
+        R.a[l] = c3.x;
+        G.a[l] = c3.y;
+        Bq.a[l] = c3.z;
     }
-    *cr = R.v; *cg = G.v; *cb = Bq.v; *T = TT.v;
+    *cr = R.v;
+    *cg = G.v;
+    *cb = Bq.v;
+    *T = TT.v;
 }
 #endif
 
@@ -550,8 +599,8 @@ PACKET_INLINE void fog_tail_packet(const VolclGridRenderParams* P, __global cons
    iso-surfaces. Same image as `raymarch`. */
 __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                               __global const float4* table, __global const uchar* macroEmpty,
-                              const VolclGridRenderParams params, __global float4* out, __global float* depthOut,
-                              __global const float* fogMap) {
+                              const VolclGridRenderParams params, __global float4* out,
+                              __global float* depthOut, __global const float* fogMap) {
     const VolclGridRenderParams* P = &params;
     const uint x0 = get_global_id(0) * PACKET_W, y0 = get_global_id(1) * PACKET_H;
     if (x0 >= params.camera.width || y0 >= params.camera.height) return;
@@ -568,14 +617,19 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
 #endif
     _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
         const uint x = x0 + (uint)(l % PACKET_W), y = y0 + (uint)(l / PACKET_W);
-        const Ray r = grid_ray(&P->grid, camera_ray_world(&P->camera, min(x, params.camera.width - 1), min(y, params.camera.height - 1)));
+        const Ray r = grid_ray(&P->grid, camera_ray_world(&P->camera, min(x, params.camera.width - 1),
+                                                          min(y, params.camera.height - 1)));
         float2 span = clip_box(r.o, r.d, hi, 0.0f, INFINITY);
 #ifdef CLIPPING
         clip_planes(&P->clip, r.oWorld, r.dWorld, &span);
 #endif
         const bool on = x < params.camera.width && y < params.camera.height && span.y > span.x;
-        ox.a[l] = r.o.x; oy.a[l] = r.o.y; oz.a[l] = r.o.z;
-        dx.a[l] = r.d.x; dy.a[l] = r.d.y; dz.a[l] = r.d.z;
+        ox.a[l] = r.o.x;
+        oy.a[l] = r.o.y;
+        oz.a[l] = r.o.z;
+        dx.a[l] = r.d.x;
+        dy.a[l] = r.d.y;
+        dz.a[l] = r.d.z;
         enter.a[l] = on ? span.x : 0.0f;
         exit.a[l] = on ? span.y : 0.0f;
         nsegL.a[l] = on ? max((int)ceil((span.y - span.x) / P->march.step), 1) : 0;
@@ -590,10 +644,18 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
         if (x < params.camera.width && y < params.camera.height && fr[l].span.y > fr[l].span.x)
             fog_only(&P->fog, fogMap, &fr[l], r.oWorld, r.dWorld, fr[l].span.x,
                      on ? fmin(fr[l].span.y, span.x) : fr[l].span.y, &frgb, &fT);
-        fR.a[l] = frgb.x; fG.a[l] = frgb.y; fB.a[l] = frgb.z; fTT.a[l] = fT;
+        fR.a[l] = frgb.x;
+        fG.a[l] = frgb.y;
+        fB.a[l] = frgb.z;
+        fTT.a[l] = fT;
 #endif
     }
-    rp.ox = ox.v; rp.oy = oy.v; rp.oz = oz.v; rp.dx = dx.v; rp.dy = dy.v; rp.dz = dz.v;
+    rp.ox = ox.v;
+    rp.oy = oy.v;
+    rp.oz = oz.v;
+    rp.dx = dx.v;
+    rp.dy = dy.v;
+    rp.dz = dz.v;
     const float8 tEnter = enter.v, tExit = exit.v;
     const int8 nseg = nsegL.v;
     const float step = P->march.step;
@@ -626,7 +688,8 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
             const int8 jump = need & empty.v & (j > k);
             if (any(jump)) {
 #ifdef FOG
-                fog_skip_packet(P, fogMap, fr, fo, fd, &enter, &nsegL, jump, j, t0, tExit, step, &cr, &cg, &cb, &T);
+                fog_skip_packet(P, fogMap, fr, fo, fd, &enter, &nsegL, jump, j, t0, tExit, step, &cr, &cg,
+                                &cb, &T);
 #endif
                 k = select(k, j, jump);
                 active &= k < nseg;
@@ -646,7 +709,10 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
         s.v = sample_packet(vol, &P->grid, &rp, t0 + 0.5f * len);
         _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
             const float4 e = tf_sample(knots, P->tf.knotCount, s.a[l]);
-            er.a[l] = e.x; eg.a[l] = e.y; eb.a[l] = e.z; ea.a[l] = e.w;
+            er.a[l] = e.x;
+            eg.a[l] = e.y;
+            eb.a[l] = e.z;
+            ea.a[l] = e.w;
         }
         const float8 a = 1.0f - exp(-ea.v * len);
         const float8 wr = T * a * er.v, wg = T * a * eg.v, wb = T * a * eb.v;
@@ -659,7 +725,10 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
 #endif
 #ifdef FOG
         fog_segment_packet(P, fogMap, fr, fo, fd, active, t0, t1, &er, &eg, &eb, &ea, &cr, &cg, &cb, &T);
-        (void)wr; (void)wg; (void)wb; (void)a;
+        (void)wr;
+        (void)wg;
+        (void)wb;
+        (void)a;
 #else
         cr = select(cr, cr + wr, active);
         cg = select(cg, cg + wg, active);
@@ -676,7 +745,10 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
     fog_tail_packet(P, fogMap, fr, fo, fd, &nsegL, tExit, &cr, &cg, &cb, &T);
 #endif
     LaneF R, G, Bc, A;
-    R.v = cr; G.v = cg; Bc.v = cb; A.v = 1.0f - T;
+    R.v = cr;
+    G.v = cg;
+    Bc.v = cb;
+    A.v = 1.0f - T;
     _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
         const uint x = x0 + (uint)(l % PACKET_W), y = y0 + (uint)(l / PACKET_W);
         if (x < params.camera.width && y < params.camera.height)

@@ -15,18 +15,18 @@
 #define ISO_MAX_ITER 24
 
 typedef struct {
-    int3 cell;      /* current cell (lower corner), in the DDA's own index space (may pass the grid by one) */
-    float3 tNext;   /* ray parameter where the ray leaves the cell through each axis' face */
-    float3 tDelta;  /* ray parameter per cell along each axis */
-    int3 dir;       /* -1, 0, +1 per axis */
-    float tOut;     /* min(tNext): where the ray leaves the current cell */
-    float8 v;       /* corner values v000 v100 v010 v110 v001 v101 v011 v111 (x fastest) */
-    float3 base;    /* lower corner of the cell the values belong to (the DDA cell clamped to the grid) */
-    uint cubic;     /* bit i: iso_i in (min, max] of the corners (the field lies between them): may cross */
-    uint side0;     /* bit i: iso_i <= min, the side of the whole cell for isos not in cubic */
-    float3 invD;    /* 1 / direction */
-    uint inside;    /* bit i: s >= iso_i where the last piece ended */
-    int started;    /* 0 until the first piece sets the sides */
+    int3 cell;     /* current cell (lower corner), in the DDA's own index space (may pass the grid by one) */
+    float3 tNext;  /* ray parameter where the ray leaves the cell through each axis' face */
+    float3 tDelta; /* ray parameter per cell along each axis */
+    int3 dir;      /* -1, 0, +1 per axis */
+    float tOut;    /* min(tNext): where the ray leaves the current cell */
+    float8 v;      /* corner values v000 v100 v010 v110 v001 v101 v011 v111 (x fastest) */
+    float3 base;   /* lower corner of the cell the values belong to (the DDA cell clamped to the grid) */
+    uint cubic;    /* bit i: iso_i in (min, max] of the corners (the field lies between them): may cross */
+    uint side0;    /* bit i: iso_i <= min, the side of the whole cell for isos not in cubic */
+    float3 invD;   /* 1 / direction */
+    uint inside;   /* bit i: s >= iso_i where the last piece ended */
+    int started;   /* 0 until the first piece sets the sides */
 } IsoState;
 
 inline void iso_begin(IsoState* st, const Ray* r) {
@@ -76,7 +76,9 @@ inline int iso_piece_needed(const IsoState* st) {
     return st->cubic != 0u || !st->started || ((st->side0 ^ st->inside) & ((1u << ISO_COUNT) - 1u)) != 0u;
 }
 
-inline float iso_tout(float3 tn) { return fmin(tn.x, fmin(tn.y, tn.z)); }
+inline float iso_tout(float3 tn) {
+    return fmin(tn.x, fmin(tn.y, tn.z));
+}
 
 /* Moves the DDA across the nearest cell face (ties: x, then y, then z). */
 inline void iso_cross_face(IsoState* st) {
@@ -95,7 +97,8 @@ inline void iso_cross_face(IsoState* st) {
 
 /* Puts the DDA in the cell the ray occupies just after t (a ray leaving a face downward belongs to the lower
    cell), then steps past cells that float rounding says it has already left. */
-inline void iso_locate(__global const voxel_t* vol, const VolclGridRenderParams* P, const Ray* r, float t, IsoState* st) {
+inline void iso_locate(__global const voxel_t* vol, const VolclGridRenderParams* P, const Ray* r, float t,
+                       IsoState* st) {
     const float3 p = ray_at(r, t);
     const int3 hiI = (int3)((int)P->grid.dims[0] - 1, (int)P->grid.dims[1] - 1, (int)P->grid.dims[2] - 1);
     int3 c = select(convert_int3(floor(p)), convert_int3(ceil(p)) - 1, r->d < 0.0f);
@@ -118,7 +121,9 @@ inline void iso_step(__global const voxel_t* vol, const VolclGridRenderParams* P
     iso_load_cell(vol, P, st);
 }
 
-inline float iso_cubic(float4 c, float u) { return ((c.x * u + c.y) * u + c.z) * u + c.w; }
+inline float iso_cubic(float4 c, float u) {
+    return ((c.x * u + c.y) * u + c.z) * u + c.w;
+}
 
 /* The one crossing of a monotone piece [ua, ub] of cubic c, where side(ua) = sa != side(ub): safeguarded
    Newton (Numerical Recipes' rtsafe) keeping a bracket; a Newton step leaving the bracket or not halving
@@ -134,8 +139,10 @@ inline float iso_refine(float4 c, float iso, float ua, float ub, int sa, float t
     for (int it = 0; it < ISO_MAX_ITER; ++it) {
         const float f = iso_cubic(c, x) - iso;
         const float df = (dc.x * x + dc.y) * x + dc.z;
-        if ((f >= 0.0f) == (sa != 0)) lo = x;
-        else hi = x;
+        if ((f >= 0.0f) == (sa != 0))
+            lo = x;
+        else
+            hi = x;
         const float xn = x - f / df;
         if (!(xn > fmin(lo, hi) && xn < fmax(lo, hi)) || fabs(2.0f * f) > fabs(dxOld * df)) {
             dxOld = dx;
@@ -152,12 +159,17 @@ inline float iso_refine(float4 c, float iso, float ua, float ub, int sa, float t
 }
 
 /* Composites n hits (ray parameters th, iso indices order) in the given order. */
-inline void iso_composite(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclGridRenderParams* P,
-                          const Ray* r, float* th, int* order, int n, float3* rgb, float* T, float* depth) {
+inline void iso_composite(__global const voxel_t* vol, __global const VolclTfKnot* knots,
+                          const VolclGridRenderParams* P, const Ray* r, float* th, int* order, int n,
+                          float3* rgb, float* T, float* depth) {
     for (int a = 1; a < n; ++a) /* insertion sort by hit distance */
         for (int b = a; b > 0 && th[b] < th[b - 1]; --b) {
-            const float tt = th[b]; th[b] = th[b - 1]; th[b - 1] = tt;
-            const int oo = order[b]; order[b] = order[b - 1]; order[b - 1] = oo;
+            const float tt = th[b];
+            th[b] = th[b - 1];
+            th[b - 1] = tt;
+            const int oo = order[b];
+            order[b] = order[b - 1];
+            order[b - 1] = oo;
         }
     for (int a = 0; a < n; ++a) {
         const int i = order[a];
@@ -173,8 +185,9 @@ inline void iso_composite(__global const voxel_t* vol, __global const VolclTfKno
 }
 
 /* Hits of every iso-value on the piece [ta, tb] of the ray inside the current cell, composited in order. */
-inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclGridRenderParams* P,
-                      const Ray* r, IsoState* st, float ta, float tb, float3* rgb, float* T, float* depth) {
+inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* knots,
+                      const VolclGridRenderParams* P, const Ray* r, IsoState* st, float ta, float tb,
+                      float3* rgb, float* T, float* depth) {
     float th[ISO_COUNT];
     int order[ISO_COUNT];
     int n = 0;
@@ -204,7 +217,8 @@ inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* k
         c.x = k[7] * d.x * d.y * d.z;
         c.y = fxy * d.x * d.y + fxz * d.x * d.z + fyz * d.y * d.z;
         c.z = ex * d.x + ey * d.y + ez * d.z;
-        c.w = k[0] + k[1] * a.x + (k[2] + k[4] * a.x) * a.y + (k[3] + k[5] * a.x + (k[6] + k[7] * a.x) * a.y) * a.z;
+        c.w = k[0] + k[1] * a.x + (k[2] + k[4] * a.x) * a.y +
+              (k[3] + k[5] * a.x + (k[6] + k[7] * a.x) * a.y) * a.z;
         /* Roots of the derivative 3 c.x u^2 + 2 c.y u + c.z, the stable way; NaN and out-of-range roots fall
            on the piece ends (fmax/fmin return the number when the other operand is NaN). */
         const float disc = c.y * c.y - 3.0f * c.x * c.z;
@@ -212,7 +226,8 @@ inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* k
         const float r1 = disc >= 0.0f ? q / (3.0f * c.x) : -1.0f, r2 = disc >= 0.0f ? c.z / q : -1.0f;
         u[1] = fmin(fmax(fmin(r1, r2), 0.0f), u[3]);
         u[2] = fmin(fmax(fmax(r1, r2), u[1]), u[3]);
-        for (int j = 0; j < 4; ++j) g[j] = iso_cubic(c, u[j]);
+        for (int j = 0; j < 4; ++j)
+            g[j] = iso_cubic(c, u[j]);
     }
     const uint mask = (1u << ISO_COUNT) - 1u;
     /* Sides where the piece starts; a change against the carried sides is a crossing on the cell face. */
@@ -234,7 +249,7 @@ inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* k
     uint side = sideStart;
     if (cubic) {
         const float tol = ISO_TOL_VOXELS / length(r->d); /* in ray parameter units */
-        for (int j = 1; j < 4; ++j) { /* monotone pieces [u[j-1], u[j]] in ray order */
+        for (int j = 1; j < 4; ++j) {                    /* monotone pieces [u[j-1], u[j]] in ray order */
             n = 0;
             uint sideEnd = side;
             for (int i = 0; i < ISO_COUNT; ++i) {
@@ -259,8 +274,9 @@ inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* k
 /* Composites the iso-surfaces crossed between (t0, s0) and (t1, s1) in ray order. The sides where the
    segment starts and ends come from the march's own samples s0 and s1, so consecutive segments agree on
    them and a crossing on a segment end is counted once. */
-inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclGridRenderParams* P,
-                        const Ray* r, float t0, float s0, float t1, float s1, float3* rgb, float* T, float* depth) {
+inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot* knots,
+                        const VolclGridRenderParams* P, const Ray* r, float t0, float s0, float t1, float s1,
+                        float3* rgb, float* T, float* depth) {
     if (!(*T > 0.0f)) return; /* behind an opaque surface nothing more shows */
     IsoState st;
     iso_begin(&st, r);
@@ -300,8 +316,9 @@ inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot*
    corners of the current cell carry over from one segment to the next, and so do the sides, so the march
    needs no samples of its own. Composites the crossings in [t0, t1] in ray order (t0 of each call is t1 of
    the last, or further on after empty space was skipped). */
-inline void iso_march(__global const voxel_t* vol, __global const VolclTfKnot* knots, const VolclGridRenderParams* P,
-                      const Ray* r, IsoState* st, float t0, float t1, float3* rgb, float* T, float* depth) {
+inline void iso_march(__global const voxel_t* vol, __global const VolclTfKnot* knots,
+                      const VolclGridRenderParams* P, const Ray* r, IsoState* st, float t0, float t1,
+                      float3* rgb, float* T, float* depth) {
     if (!(*T > 0.0f)) return; /* behind an opaque surface nothing more shows */
     float ta = t0;
     if (ta >= st->tOut) {
@@ -309,7 +326,8 @@ inline void iso_march(__global const voxel_t* vol, __global const VolclTfKnot* k
         if (!st->started || ta > st->tOut + fmin(st->tDelta.x, fmin(st->tDelta.y, st->tDelta.z)))
             iso_locate(vol, P, r, ta, st);
         else
-            for (int s = 0; s < 6 && st->tOut <= ta; ++s) iso_step(vol, P, st);
+            for (int s = 0; s < 6 && st->tOut <= ta; ++s)
+                iso_step(vol, P, st);
     }
     /* A segment crosses at most dims[0] + dims[1] + dims[2] faces; the cap only matters when a voxel is
        below float resolution of t (cell steps would then not advance t). */

@@ -9,8 +9,8 @@
 #define ISO_SAMPLED_TOL_VOXELS 1e-4f
 #define ISO_SAMPLED_MAX_ITER 30
 
-inline float iso_sampled_root(__global const voxel_t* vol, const VolclGridRenderParams* P, const Ray* r, float iso,
-                              float ta, float fa, float tb, float fb, float tol) {
+inline float iso_sampled_root(__global const voxel_t* vol, const VolclGridRenderParams* P, const Ray* r,
+                              float iso, float ta, float fa, float tb, float fb, float tol) {
     int lastSide = 0; /* which end moved last: -1 a, +1 b */
     for (int it = 0; it < ISO_SAMPLED_MAX_ITER && tb - ta > tol; ++it) {
         float t = fb != fa ? ta - fa * (tb - ta) / (fb - fa) : 0.5f * (ta + tb);
@@ -33,8 +33,8 @@ inline float iso_sampled_root(__global const voxel_t* vol, const VolclGridRender
 
 /* Composites the iso-surfaces whose side differs between the samples s0 at t0 and s1 at t1, in ray order. */
 inline void iso_sampled_segment(__global const voxel_t* vol, __global const VolclTfKnot* knots,
-                                const VolclGridRenderParams* P, const Ray* r, float t0, float s0, float t1, float s1,
-                                float3* rgb, float* T, float* depth) {
+                                const VolclGridRenderParams* P, const Ray* r, float t0, float s0, float t1,
+                                float s1, float3* rgb, float* T, float* depth) {
     if (!(*T > 0.0f)) return; /* behind an opaque surface nothing more shows */
     float th[ISO_COUNT];
     int order[ISO_COUNT];

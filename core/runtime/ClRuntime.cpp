@@ -57,7 +57,8 @@ void CL_CALLBACK returnHostMemory(cl_mem, void* lease) {
 
 std::string lower(std::string_view s) {
     std::string out(s);
-    std::transform(out.begin(), out.end(), out.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    std::transform(out.begin(), out.end(), out.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
     return out;
 }
 
@@ -68,7 +69,8 @@ template <class T> T deviceInfo(const cl::Device& d, cl_device_info what) {
 }
 
 std::string trimmed(std::string s) {
-    while (!s.empty() && (s.back() == '\0' || std::isspace(static_cast<unsigned char>(s.back())))) s.pop_back();
+    while (!s.empty() && (s.back() == '\0' || std::isspace(static_cast<unsigned char>(s.back()))))
+        s.pop_back();
     return s;
 }
 
@@ -158,15 +160,15 @@ ComputeContext::ComputeContext(std::string_view selector)
 ComputeContext::ComputeContext(std::string_view selector, std::shared_ptr<HostMemoryPool> hostMemory)
     : ComputeContext(selector, std::span<const cl_context_properties>{}, std::move(hostMemory)) {}
 
-ComputeContext::ComputeContext(std::string_view selector, std::span<const cl_context_properties> extraProperties,
+ComputeContext::ComputeContext(std::string_view selector,
+                               std::span<const cl_context_properties> extraProperties,
                                std::shared_ptr<HostMemoryPool> hostMemory)
     : hostMemory_(hostMemory ? std::move(hostMemory) : std::make_shared<HostMemoryPool>()) {
     std::string sel(selector);
     if (sel.empty())
         if (const char* env = std::getenv("VOLCL_DEVICE")) sel = env;
     std::vector<DeviceInfo> devices = listDevices();
-    if (devices.empty())
-        throw Error("no OpenCL device found (is an ICD such as pocl-opencl-icd installed?)");
+    if (devices.empty()) throw Error("no OpenCL device found (is an ICD such as pocl-opencl-icd installed?)");
     const DeviceInfo* chosen = nullptr;
     if (sel.empty()) {
         chosen = &devices.front();
@@ -195,7 +197,8 @@ ComputeContext::ComputeContext(std::string_view selector, std::span<const cl_con
     std::vector<cl_context_properties> props;
     if (!extraProperties.empty()) {
         props.push_back(CL_CONTEXT_PLATFORM);
-        props.push_back(reinterpret_cast<cl_context_properties>(device_.device.getInfo<CL_DEVICE_PLATFORM>()));
+        props.push_back(
+            reinterpret_cast<cl_context_properties>(device_.device.getInfo<CL_DEVICE_PLATFORM>()));
         props.insert(props.end(), extraProperties.begin(), extraProperties.end());
         props.push_back(0);
     }
@@ -215,7 +218,8 @@ cl::Program ComputeContext::program(std::string_view file, const KernelDefines& 
                                     std::string_view extraOptions) {
     std::string source = sources_->resolve(file);
     std::string options = defines.toOptions();
-    if (!extraOptions.empty()) options.append(" ").append(extraOptions); // (" " + string) trips GCC 12's -Wrestrict
+    if (!extraOptions.empty())
+        options.append(" ").append(extraOptions); // (" " + string) trips GCC 12's -Wrestrict
     auto key = std::make_tuple(fnv1a64(source), options);
     if (auto it = programs_.find(key); it != programs_.end()) return it->second;
 
@@ -253,8 +257,8 @@ cl::Program ComputeContext::program(std::string_view file, const KernelDefines& 
     if (err != CL_SUCCESS) {
         std::string log;
         prog.getBuildInfo(device_.device, CL_PROGRAM_BUILD_LOG, &log);
-        throw ClError("clBuildProgram(" + std::string(file) + (options.empty() ? "" : " " + options) + ")", err,
-                      trimmed(log));
+        throw ClError("clBuildProgram(" + std::string(file) + (options.empty() ? "" : " " + options) + ")",
+                      err, trimmed(log));
     }
     disk.store(prog);
     programs_.emplace(key, prog);
@@ -266,13 +270,15 @@ cl::Kernel ComputeContext::kernel(std::string_view file, std::string_view name, 
     cl::Program prog = program(file, defines, extraOptions);
     cl_int err = CL_SUCCESS;
     cl::Kernel k(prog, std::string(name).c_str(), &err);
-    if (err != CL_SUCCESS) throw ClError("clCreateKernel(" + std::string(name) + " in " + std::string(file) + ")", err);
+    if (err != CL_SUCCESS)
+        throw ClError("clCreateKernel(" + std::string(name) + " in " + std::string(file) + ")", err);
     return k;
 }
 
 cl::Buffer ComputeContext::createBuffer(cl_mem_flags flags, std::size_t bytes) {
     if (bytes > device_.maxAllocBytes)
-        throw DataError("buffer of " + std::to_string(bytes) + " bytes exceeds the device's maximum allocation (" +
+        throw DataError("buffer of " + std::to_string(bytes) +
+                        " bytes exceeds the device's maximum allocation (" +
                         std::to_string(device_.maxAllocBytes) + " bytes)");
     cl_int err = CL_SUCCESS;
     if (profile_->hostBuffersInPlace && (flags & CL_MEM_ALLOC_HOST_PTR) && bytes >= kHugePageBytes) {
@@ -283,7 +289,8 @@ cl::Buffer ComputeContext::createBuffer(cl_mem_flags flags, std::size_t bytes) {
             block = HostBlock(hostMemory_, bytes);
         } catch (const std::bad_alloc&) {
         }
-        if (block.data()) return bufferOver(std::move(block), (flags & ~cl_mem_flags(CL_MEM_ALLOC_HOST_PTR)), bytes);
+        if (block.data())
+            return bufferOver(std::move(block), (flags & ~cl_mem_flags(CL_MEM_ALLOC_HOST_PTR)), bytes);
     }
     cl::Buffer b(context_, flags, bytes, nullptr, &err);
     clCheck(err, "clCreateBuffer");
@@ -293,7 +300,8 @@ cl::Buffer ComputeContext::createBuffer(cl_mem_flags flags, std::size_t bytes) {
 cl::Buffer ComputeContext::bufferOver(HostBlock block, cl_mem_flags flags, std::size_t bytes) {
     if (bytes > block.size()) throw Error("internal: buffer larger than its host block");
     if (bytes > device_.maxAllocBytes)
-        throw DataError("buffer of " + std::to_string(bytes) + " bytes exceeds the device's maximum allocation (" +
+        throw DataError("buffer of " + std::to_string(bytes) +
+                        " bytes exceeds the device's maximum allocation (" +
                         std::to_string(device_.maxAllocBytes) + " bytes)");
     cl_int err = CL_SUCCESS;
     if (!profile_->hostBuffersInPlace) {
@@ -316,7 +324,8 @@ cl::Buffer ComputeContext::bufferOver(HostBlock block, cl_mem_flags flags, std::
 
 cl::Event ComputeContext::launch(cl::Kernel& k, cl::NDRange global, cl::NDRange local) {
     cl::Event ev;
-    clCheck(queue_.enqueueNDRangeKernel(k, cl::NullRange, global, local, nullptr, &ev), "clEnqueueNDRangeKernel");
+    clCheck(queue_.enqueueNDRangeKernel(k, cl::NullRange, global, local, nullptr, &ev),
+            "clEnqueueNDRangeKernel");
     return ev;
 }
 
@@ -324,20 +333,25 @@ cl::Event ComputeContext::launch1d(cl::Kernel& k, std::size_t n, std::size_t loc
     return launch(k, cl::NDRange(roundUp(std::max<std::size_t>(n, 1), local)), cl::NDRange(local));
 }
 
-cl::Event ComputeContext::launch2d(cl::Kernel& k, std::size_t nx, std::size_t ny, std::size_t lx, std::size_t ly) {
-    return launch(k, cl::NDRange(roundUp(std::max<std::size_t>(nx, 1), lx), roundUp(std::max<std::size_t>(ny, 1), ly)),
-                  cl::NDRange(lx, ly));
+cl::Event ComputeContext::launch2d(cl::Kernel& k, std::size_t nx, std::size_t ny, std::size_t lx,
+                                   std::size_t ly) {
+    return launch(
+        k, cl::NDRange(roundUp(std::max<std::size_t>(nx, 1), lx), roundUp(std::max<std::size_t>(ny, 1), ly)),
+        cl::NDRange(lx, ly));
 }
 
-cl::Event ComputeContext::launch3d(cl::Kernel& k, std::size_t nx, std::size_t ny, std::size_t nz, std::size_t lx,
-                                   std::size_t ly, std::size_t lz) {
+cl::Event ComputeContext::launch3d(cl::Kernel& k, std::size_t nx, std::size_t ny, std::size_t nz,
+                                   std::size_t lx, std::size_t ly, std::size_t lz) {
     return launch(k,
-                  cl::NDRange(roundUp(std::max<std::size_t>(nx, 1), lx), roundUp(std::max<std::size_t>(ny, 1), ly),
+                  cl::NDRange(roundUp(std::max<std::size_t>(nx, 1), lx),
+                              roundUp(std::max<std::size_t>(ny, 1), ly),
                               roundUp(std::max<std::size_t>(nz, 1), lz)),
                   cl::NDRange(lx, ly, lz));
 }
 
-void ComputeContext::finish() { clCheck(queue_.finish(), "clFinish"); }
+void ComputeContext::finish() {
+    clCheck(queue_.finish(), "clFinish");
+}
 
 double eventMilliseconds(const cl::Event& e) {
     clCheck(e.wait(), "clWaitForEvents");

@@ -49,13 +49,12 @@ std::vector<DeviceInfo> listDevices();
 class KernelDefines {
 public:
     template <class T>
-        requires std::is_integral_v<T>
-    KernelDefines& set(std::string name, T value) {
+    requires std::is_integral_v<T> KernelDefines& set(std::string name, T value) {
         return setText(std::move(name), std::to_string(value));
     }
     KernelDefines& set(std::string name, double value); ///< emitted as a float literal; must be finite
-    KernelDefines& set(std::string name); ///< defined, no value
-    std::string toOptions() const;        ///< "-DA=1 -DB=2"
+    KernelDefines& set(std::string name);               ///< defined, no value
+    std::string toOptions() const;                      ///< "-DA=1 -DB=2"
     bool operator==(const KernelDefines&) const = default;
 
 private:
@@ -115,7 +114,8 @@ public:
 
     /// Builds (or fetches from the cache) the program of one kernel file with defines and extra options.
     /// Build failures throw ClError whose buildLog() holds the compiler output.
-    cl::Program program(std::string_view file, const KernelDefines& defines = {}, std::string_view extraOptions = {});
+    cl::Program program(std::string_view file, const KernelDefines& defines = {},
+                        std::string_view extraOptions = {});
     cl::Kernel kernel(std::string_view file, std::string_view name, const KernelDefines& defines = {},
                       std::string_view extraOptions = {});
     std::size_t cachedProgramCount() const noexcept { return programs_.size(); }
@@ -139,30 +139,34 @@ public:
     /// other devices get a copy and the block goes back at once.
     template <class T>
     DeviceBuffer<T> adoptHost(HostBlock block, std::size_t count, cl_mem_flags flags = CL_MEM_READ_WRITE) {
-        return DeviceBuffer<T>(bufferOver(std::move(block), flags, std::max<std::size_t>(count, 1) * sizeof(T)),
-                               count);
+        return DeviceBuffer<T>(
+            bufferOver(std::move(block), flags, std::max<std::size_t>(count, 1) * sizeof(T)), count);
     }
     /// The pool host buffers are drawn from.
     const std::shared_ptr<HostMemoryPool>& hostMemory() const noexcept { return hostMemory_; }
-    template <class T> DeviceBuffer<T> upload(std::span<const T> host, cl_mem_flags flags = CL_MEM_READ_WRITE) {
+    template <class T>
+    DeviceBuffer<T> upload(std::span<const T> host, cl_mem_flags flags = CL_MEM_READ_WRITE) {
         DeviceBuffer<T> b = allocate<T>(host.size(), flags);
         write(b, host);
         return b;
     }
-    template <class T> DeviceBuffer<T> upload(const std::vector<T>& host, cl_mem_flags flags = CL_MEM_READ_WRITE) {
+    template <class T>
+    DeviceBuffer<T> upload(const std::vector<T>& host, cl_mem_flags flags = CL_MEM_READ_WRITE) {
         return upload(std::span<const T>(host), flags);
     }
     template <class T> void write(DeviceBuffer<T>& b, std::span<const T> host, std::size_t offset = 0) {
         if (host.empty()) return;
         if (offset + host.size() > b.size()) throw Error("internal: buffer write out of range");
-        clCheck(queue_.enqueueWriteBuffer(b.get(), CL_TRUE, offset * sizeof(T), host.size_bytes(), host.data()),
-                "clEnqueueWriteBuffer");
+        clCheck(
+            queue_.enqueueWriteBuffer(b.get(), CL_TRUE, offset * sizeof(T), host.size_bytes(), host.data()),
+            "clEnqueueWriteBuffer");
     }
     template <class T> void read(const DeviceBuffer<T>& b, std::span<T> host, std::size_t offset = 0) {
         if (host.empty()) return;
         if (offset + host.size() > b.size()) throw Error("internal: buffer read out of range");
-        clCheck(queue_.enqueueReadBuffer(b.get(), CL_TRUE, offset * sizeof(T), host.size_bytes(), host.data()),
-                "clEnqueueReadBuffer");
+        clCheck(
+            queue_.enqueueReadBuffer(b.get(), CL_TRUE, offset * sizeof(T), host.size_bytes(), host.data()),
+            "clEnqueueReadBuffer");
     }
     template <class T> std::vector<T> download(const DeviceBuffer<T>& b) {
         std::vector<T> out(b.size());
@@ -215,7 +219,9 @@ private:
 double eventMilliseconds(const cl::Event& e);
 
 /// Rounds n up to a multiple of m (m > 0).
-constexpr std::size_t roundUp(std::size_t n, std::size_t m) { return (n + m - 1) / m * m; }
+constexpr std::size_t roundUp(std::size_t n, std::size_t m) {
+    return (n + m - 1) / m * m;
+}
 
 namespace detail {
 template <class T> void setArg(cl::Kernel& k, cl_uint i, const DeviceBuffer<T>& b) {
@@ -224,7 +230,9 @@ template <class T> void setArg(cl::Kernel& k, cl_uint i, const DeviceBuffer<T>& 
 template <class T> void setArg(cl::Kernel& k, cl_uint i, DeviceBuffer<T>& b) {
     clCheck(k.setArg(i, b.get()), "clSetKernelArg");
 }
-template <class T> void setArg(cl::Kernel& k, cl_uint i, const T& v) { clCheck(k.setArg(i, v), "clSetKernelArg"); }
+template <class T> void setArg(cl::Kernel& k, cl_uint i, const T& v) {
+    clCheck(k.setArg(i, v), "clSetKernelArg");
+}
 } // namespace detail
 
 /// Sets all kernel arguments in order; DeviceBuffer and plain values (cl_uint, float, structs) are accepted.

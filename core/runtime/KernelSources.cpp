@@ -4,8 +4,8 @@
 #include "core/Error.hpp"
 
 #include <cstdlib>
-#include <functional>
 #include <fstream>
+#include <functional>
 #include <set>
 #include <sstream>
 
@@ -63,8 +63,9 @@ std::string includeName(const KernelSourceLibrary& lib, std::string_view include
 }
 
 // Expands `#include "name"` lines; each file is included once, like a header guard would do.
-void expand(const KernelSourceLibrary& lib, std::string_view file, const std::function<std::string(std::string_view)>& raw,
-            std::set<std::string>& seen, std::string& out) {
+void expand(const KernelSourceLibrary& lib, std::string_view file,
+            const std::function<std::string(std::string_view)>& raw, std::set<std::string>& seen,
+            std::string& out) {
     if (!seen.insert(std::string(file)).second) return;
     std::istringstream in(raw(file));
     std::string line;
@@ -91,7 +92,8 @@ void expand(const KernelSourceLibrary& lib, std::string_view file, const std::fu
 std::string KernelSourceLibrary::resolve(std::string_view file) const {
     std::set<std::string> seen;
     std::string out;
-    expand(*this, file, [this](std::string_view f) { return raw(f); }, seen, out);
+    expand(
+        *this, file, [this](std::string_view f) { return raw(f); }, seen, out);
     return out;
 }
 

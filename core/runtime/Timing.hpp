@@ -14,7 +14,9 @@ class Stopwatch {
 public:
     Stopwatch() : start_(Clock::now()) {}
     void restart() { start_ = Clock::now(); }
-    double milliseconds() const { return std::chrono::duration<double, std::milli>(Clock::now() - start_).count(); }
+    double milliseconds() const {
+        return std::chrono::duration<double, std::milli>(Clock::now() - start_).count();
+    }
 
 private:
     using Clock = std::chrono::steady_clock;

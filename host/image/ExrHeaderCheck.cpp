@@ -42,12 +42,30 @@ std::optional<std::int32_t> fixedAttributeSize(const std::string& type) {
         const char* type;
         std::int32_t bytes;
     };
-    static constexpr Fixed kFixed[] = {
-        {"box2f", 16},  {"box2i", 16}, {"chromaticities", 32}, {"compression", 1}, {"deepImageState", 1},
-        {"double", 8},  {"envmap", 1}, {"float", 4},           {"int", 4},         {"keycode", 28},
-        {"lineOrder", 1}, {"m33d", 72}, {"m33f", 36},          {"m44d", 128},      {"m44f", 64},
-        {"rational", 8}, {"tiledesc", 9}, {"timecode", 8},     {"v2d", 16},        {"v2f", 8},
-        {"v2i", 8},     {"v3d", 24},   {"v3f", 12},            {"v3i", 12}};
+    static constexpr Fixed kFixed[] = {{"box2f", 16},
+                                       {"box2i", 16},
+                                       {"chromaticities", 32},
+                                       {"compression", 1},
+                                       {"deepImageState", 1},
+                                       {"double", 8},
+                                       {"envmap", 1},
+                                       {"float", 4},
+                                       {"int", 4},
+                                       {"keycode", 28},
+                                       {"lineOrder", 1},
+                                       {"m33d", 72},
+                                       {"m33f", 36},
+                                       {"m44d", 128},
+                                       {"m44f", 64},
+                                       {"rational", 8},
+                                       {"tiledesc", 9},
+                                       {"timecode", 8},
+                                       {"v2d", 16},
+                                       {"v2f", 8},
+                                       {"v2i", 8},
+                                       {"v3d", 24},
+                                       {"v3f", 12},
+                                       {"v3i", 12}};
     for (const Fixed& f : kFixed)
         if (type == f.type) return f.bytes;
     return std::nullopt;
@@ -56,10 +74,18 @@ std::optional<std::int32_t> fixedAttributeSize(const std::string& type) {
 // Lines of a scan-line chunk per compression method, as OpenEXR defines them.
 int linesPerChunk(int compression) {
     switch (compression) {
-    case 3: case 5: return 16;           // ZIP, PXR24
-    case 4: case 6: case 7: case 8: return 32; // PIZ, B44, B44A, DWAA
-    case 9: return 256;                  // DWAB
-    default: return 1;                   // none, RLE, ZIPS and unknown (the largest table)
+    case 3:
+    case 5:
+        return 16; // ZIP, PXR24
+    case 4:
+    case 6:
+    case 7:
+    case 8:
+        return 32; // PIZ, B44, B44A, DWAA
+    case 9:
+        return 256; // DWAB
+    default:
+        return 1; // none, RLE, ZIPS and unknown (the largest table)
     }
 }
 
@@ -95,7 +121,8 @@ public:
         for (;;) {
             const char c = value<char>();
             if (c == '\0') return s;
-            if (s.size() == maxLength) corrupt(std::string(what) + " longer than " + std::to_string(maxLength));
+            if (s.size() == maxLength)
+                corrupt(std::string(what) + " longer than " + std::to_string(maxLength));
             s.push_back(c);
         }
     }
@@ -142,7 +169,8 @@ public:
                 if (claims.chunkCount < 0) corrupt("negative chunkCount");
             } else if (type == "chlist") {
                 // OpenEXR reads a channel list up to its terminating NUL, whatever size is stated.
-                if (bytes > kMaxChannelListBytes) corrupt("a channel list of " + std::to_string(bytes) + " bytes");
+                if (bytes > kMaxChannelListBytes)
+                    corrupt("a channel list of " + std::to_string(bytes) + " bytes");
                 const ChannelList list = readChannelList(bytes);
                 if (attr == "channels") {
                     claims.channels = list.count;
@@ -153,7 +181,8 @@ public:
                 if (bytes < 8)
                     corrupt("attribute '" + attr + "' is a preview of " + std::to_string(bytes) + " bytes");
                 const std::uint64_t w = value<std::uint32_t>(), h = value<std::uint32_t>();
-                if (double(w) * double(h) * 4 != double(bytes) - 8) // may pass 2^64 in integers; equal only below 2^31
+                if (double(w) * double(h) * 4 !=
+                    double(bytes) - 8) // may pass 2^64 in integers; equal only below 2^31
                     corrupt("preview '" + attr + "' of " + std::to_string(w) + "x" + std::to_string(h) +
                             " pixels states " + std::to_string(bytes) + " bytes");
                 skip(w * h * 4);
@@ -237,7 +266,8 @@ void checkExrHeaders(const std::filesystem::path& path, std::size_t memoryBudget
         // allocate 1 GB with one line buffer per thread; volcl reads with one (OiioModule), so the working
         // set is bounded by four chunks beside the image (a 40000x1 ZIP float strip: 3.02 chunks measured).
         const bool tiledPart = p.tiled || (!multipart && (flags & kTiledFlag));
-        const double chunkPixels = tiledPart ? double(p.tileX) * double(p.tileY) : w * linesPerChunk(p.compression);
+        const double chunkPixels =
+            tiledPart ? double(p.tileX) * double(p.tileY) : w * linesPerChunk(p.compression);
         const double storedPixelBytes = double(std::max<std::uint64_t>(p.bytesPerPixel, 1));
         const double workingBytes = 4 * chunkPixels * storedPixelBytes;
         // The image as stored and as floats (OiioModule reads it as stored, then converts), and the buffers.
@@ -245,8 +275,9 @@ void checkExrHeaders(const std::filesystem::path& path, std::size_t memoryBudget
         checkMemoryBudget(readBytes > 1e18 ? std::size_t(-1) : std::size_t(readBytes), memoryBudget, path,
                           "decoding the EXR data window " + std::to_string(std::int64_t(w)) + "x" +
                               std::to_string(std::int64_t(h)) + " (" +
-                              (tiledPart ? "tiles of " + std::to_string(p.tileX) + "x" + std::to_string(p.tileY)
-                                         : std::to_string(linesPerChunk(p.compression)) + " lines per chunk") +
+                              (tiledPart
+                                   ? "tiles of " + std::to_string(p.tileX) + "x" + std::to_string(p.tileY)
+                                   : std::to_string(linesPerChunk(p.compression)) + " lines per chunk") +
                               ")");
         double chunks = 0;
         if (p.chunkCount >= 0) {

@@ -2,13 +2,12 @@
 #include "host/image/ImageIo.hpp"
 
 #include "core/Error.hpp"
-#include "host/image/OiioModule.hpp"
 #include "core/runtime/RuntimeModule.hpp"
+#include "host/image/OiioModule.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-
 
 namespace volcl {
 namespace {

@@ -29,7 +29,9 @@ struct ImageBuffer {
     std::vector<float> pixels;
     std::vector<ImageAttribute> attributes;
     int channelCount() const noexcept { return static_cast<int>(channels.size()); }
-    float& at(int x, int y, int c) { return pixels[(static_cast<std::size_t>(y) * width + x) * channels.size() + c]; }
+    float& at(int x, int y, int c) {
+        return pixels[(static_cast<std::size_t>(y) * width + x) * channels.size() + c];
+    }
     float at(int x, int y, int c) const {
         return pixels[(static_cast<std::size_t>(y) * width + x) * channels.size() + c];
     }
@@ -42,7 +44,8 @@ struct ImageWriteOptions {
 
 /// Writes EXR (float or half, all channels and attributes) or PNG (8-bit, values clamped to [0,1], no
 /// transform: encode first). Atomic: temporary file + rename. Throws IoError naming the file.
-void writeImage(const ImageBuffer& image, const std::filesystem::path& path, const ImageWriteOptions& options = {});
+void writeImage(const ImageBuffer& image, const std::filesystem::path& path,
+                const ImageWriteOptions& options = {});
 /// Reads any image OpenImageIO can read as float, with its attributes. Throws IoError naming the file.
 /// `memoryBudget`: largest pixel buffer (float bytes) the file may claim, 0 = defaultMemoryBudget();
 /// a larger claim (a forged EXR data window) is an IoError naming the file, before allocation.
@@ -52,7 +55,8 @@ ImageBuffer readImage(const std::filesystem::path& path, std::size_t memoryBudge
 /// encode. Result has channels R,G,B,A with A = 1 - (1 - a)(1 - background alpha). `background` is the
 /// colour type of the whole API (Scene::background, light colours): straight RGBA in doubles; the
 /// compositing runs in float, as the viewer's shader does.
-ImageBuffer compositeOverSrgb(const ImageBuffer& linearAssociatedRgba, const std::array<double, 4>& background);
+ImageBuffer compositeOverSrgb(const ImageBuffer& linearAssociatedRgba,
+                              const std::array<double, 4>& background);
 float linearToSrgb(float linear) noexcept;
 
 } // namespace volcl

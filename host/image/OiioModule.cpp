@@ -1,10 +1,10 @@
 // OpenImageIO module: EXR (float/half, attributes) and 8-bit PNG writing, reading of any format OIIO knows.
 #include "host/image/OiioModule.hpp"
 
+#include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
 #include "core/MemoryBudget.hpp"
 #include "host/image/ExrHeaderCheck.hpp"
-#include "core/AtomicFile.hpp"
 
 #include <OpenImageIO/imageio.h>
 
@@ -134,7 +134,8 @@ ImageBuffer read(const std::filesystem::path& path, std::size_t memoryBudget) {
     if (spec.depth > 1) throw IoError(name + ": volume images are not supported as 2D images");
     // The pixels as stored, then as floats.
     const double pixels = double(spec.width) * double(spec.height);
-    const double readBytes = pixels * (double(spec.pixel_bytes(true)) + double(spec.nchannels) * sizeof(float));
+    const double readBytes =
+        pixels * (double(spec.pixel_bytes(true)) + double(spec.nchannels) * sizeof(float));
     checkMemoryBudget(readBytes > 1e18 ? std::size_t(-1) : static_cast<std::size_t>(readBytes), memoryBudget,
                       path, std::to_string(spec.width) + "x" + std::to_string(spec.height) + " image");
 
@@ -147,7 +148,8 @@ ImageBuffer read(const std::filesystem::path& path, std::size_t memoryBudget) {
     // Float images (volcl's own tables) are stored as the buffer wants them: read straight into it.
     ImageBuffer img(spec.width, spec.height, names);
     const bool storedAsFloat = spec.channelformats.empty() && spec.format == OIIO::TypeDesc::FLOAT;
-    std::vector<std::byte> stored(storedAsFloat ? 0 : static_cast<std::size_t>(pixels) * spec.pixel_bytes(true));
+    std::vector<std::byte> stored(storedAsFloat ? 0
+                                                : static_cast<std::size_t>(pixels) * spec.pixel_bytes(true));
     void* target = storedAsFloat ? static_cast<void*>(img.pixels.data()) : static_cast<void*>(stored.data());
     if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::UNKNOWN, target))
         throw IoError(name + ": corrupted or truncated image (" + in->geterror() + ")");
@@ -164,8 +166,8 @@ ImageBuffer read(const std::filesystem::path& path, std::size_t memoryBudget) {
         for (std::size_t c = 0; c < channels; ++c) {
             const OIIO::TypeDesc type = spec.channelformat(int(c));
             for (std::size_t i = 0; i < static_cast<std::size_t>(pixels); ++i)
-                if (!OIIO::convert_pixel_values(type, stored.data() + i * stride + offset, OIIO::TypeDesc::FLOAT,
-                                                &img.pixels[i * channels + c], 1))
+                if (!OIIO::convert_pixel_values(type, stored.data() + i * stride + offset,
+                                                OIIO::TypeDesc::FLOAT, &img.pixels[i * channels + c], 1))
                     throw IoError(name + ": cannot convert its pixels to float (" + OIIO::geterror() + ")");
             offset += type.size();
         }

@@ -1,8 +1,8 @@
 // Shared reader/writer helpers: sample conversion to the volume model, zlib with exact sizes, text parsing.
 #include "host/io/IoDetail.hpp"
 
-#include "core/MemoryBudget.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/MemoryBudget.hpp"
 
 #include <zlib.h>
 
@@ -807,10 +807,11 @@ std::vector<std::string> expandFilePattern(std::string_view pattern, long long f
         fail(header, "data file range " + std::to_string(first) + " " + std::to_string(last) + " " +
                          std::to_string(step) + " is empty or endless");
     // Computed in unsigned arithmetic: first - last of two huge values would overflow a long long.
-    const unsigned long long span = step > 0 ? static_cast<unsigned long long>(last) - static_cast<unsigned long long>(first)
-                                             : static_cast<unsigned long long>(first) - static_cast<unsigned long long>(last);
-    const unsigned long long stride = step > 0 ? static_cast<unsigned long long>(step)
-                                               : 0ULL - static_cast<unsigned long long>(step);
+    const unsigned long long span =
+        step > 0 ? static_cast<unsigned long long>(last) - static_cast<unsigned long long>(first)
+                 : static_cast<unsigned long long>(first) - static_cast<unsigned long long>(last);
+    const unsigned long long stride =
+        step > 0 ? static_cast<unsigned long long>(step) : 0ULL - static_cast<unsigned long long>(step);
     const unsigned long long count = span / stride + 1;
     if (count > maxFiles)
         fail(header, "data file range " + std::to_string(first) + " " + std::to_string(last) + " " +
@@ -818,8 +819,8 @@ std::vector<std::string> expandFilePattern(std::string_view pattern, long long f
                          std::to_string(maxFiles) + " possible (each file holds at least one slice)");
     // The same refusal readDetachedPayload makes, before hundreds of thousands of names are built and checked.
     if (evenlyHeldBytes != 0 && evenlyHeldBytes % count != 0)
-        fail(header, std::to_string(count) + " data files cannot evenly hold " + std::to_string(evenlyHeldBytes) +
-                         " bytes");
+        fail(header, std::to_string(count) + " data files cannot evenly hold " +
+                         std::to_string(evenlyHeldBytes) + " bytes");
     std::vector<std::string> names;
     names.reserve(static_cast<std::size_t>(count));
     for (unsigned long long k = 0; k < count; ++k) {

@@ -1,9 +1,9 @@
 // Internal helpers shared by the format readers and writers: sample decoding, size checks, zlib, text.
 #pragma once
 
+#include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
 #include "core/Volume.hpp"
-#include "core/AtomicFile.hpp"
 #include "host/io/VolumeIo.hpp"
 
 #include <charconv>

@@ -118,8 +118,7 @@ TimeSeries readMetaImage(ReadContext& ctx) {
 
     const Dims dims{sizes[0], sizes[1], sizes[2]};
     const std::size_t frames = sizes[3];
-    const std::size_t payload =
-        checkedByteCount(ctx.voxelCount(dims, frames, *st), sampleSize(*st), path);
+    const std::size_t payload = checkedByteCount(ctx.voxelCount(dims, frames, *st), sampleSize(*st), path);
     long long headerSize = 0;
     if (auto hs = field("headersize")) headerSize = requireInt(*hs, path, "HeaderSize");
     if (headerSize < -1) fail(path, "HeaderSize must be -1 or more");
@@ -146,11 +145,10 @@ TimeSeries readMetaImage(ReadContext& ctx) {
             for (const std::string& f : listFiles)
                 files.push_back(ctx.dataFile(f));
         } else if (w.size() >= 4 && dataFile.find('%') != std::string::npos) {
-            for (const std::string& n :
-                 expandFilePattern(w[0], requireInt(w[1], path, "ElementDataFile min"),
-                                   requireInt(w[2], path, "ElementDataFile max"),
-                                   requireInt(w[3], path, "ElementDataFile step"), path,
-                                   maxDataFiles(dims, frames), payload))
+            for (const std::string& n : expandFilePattern(w[0], requireInt(w[1], path, "ElementDataFile min"),
+                                                          requireInt(w[2], path, "ElementDataFile max"),
+                                                          requireInt(w[3], path, "ElementDataFile step"),
+                                                          path, maxDataFiles(dims, frames), payload))
                 files.push_back(ctx.dataFile(n));
         } else {
             files.push_back(ctx.dataFile(dataFile));

@@ -105,8 +105,8 @@ ParsedHeader parseHeader(std::span<const std::byte> head, const fs::path& path) 
     }
     for (int i = 4; i < 7; ++i)
         if (p.sizes[i] != 1)
-            unsupported(path, "dimension " + std::to_string(i + 1) + " has size " + std::to_string(p.sizes[i]) +
-                                  ": only 3D and 4D volumes are supported");
+            unsupported(path, "dimension " + std::to_string(i + 1) + " has size " +
+                                  std::to_string(p.sizes[i]) + ": only 3D and 4D volumes are supported");
     const int datatype = h.get<std::int16_t>(70);
     const auto st = niftiType(datatype);
     if (!st)
@@ -145,7 +145,8 @@ ParsedHeader parseHeader(std::span<const std::byte> head, const fs::path& path) 
             m.origin[i] = m.qoffset[i];
     }
     for (double o : m.origin)
-        if (!std::isfinite(o)) fail(path, (m.sformCode > 0 ? "srow" : "qoffset") + std::string(" origin is not finite"));
+        if (!std::isfinite(o))
+            fail(path, (m.sformCode > 0 ? "srow" : "qoffset") + std::string(" origin is not finite"));
     m.xyztUnits = static_cast<std::uint8_t>(std::to_integer<unsigned>(head[123]));
     m.timeStep = h.get<float>(92);
     m.toffset = h.get<float>(136);
@@ -178,7 +179,7 @@ TimeSeries readNifti(ReadContext& ctx) {
     const std::vector<std::byte> head = headerBytes(file, gz, path);
     const ParsedHeader p = parseHeader(head, path);
     const HeaderView h(head, p.endian != hostEndian());
-    const std::size_t (&sizes)[7] = p.sizes;
+    const std::size_t(&sizes)[7] = p.sizes;
     const SampleType* st = &p.sampleType;
     const Endian endian = p.endian;
     const std::array<double, 3>& spacing = p.meta.spacing;
@@ -194,8 +195,7 @@ TimeSeries readNifti(ReadContext& ctx) {
 
     const Dims dims{sizes[0], sizes[1], sizes[2]};
     const std::size_t frames = sizes[3];
-    const std::size_t payload =
-        checkedByteCount(ctx.voxelCount(dims, frames, *st), sampleSize(*st), path);
+    const std::size_t payload = checkedByteCount(ctx.voxelCount(dims, frames, *st), sampleSize(*st), path);
     const std::size_t total = voxOffset + payload;
     std::vector<std::byte> inflated;
     std::span<const std::byte> all(file);

@@ -59,8 +59,8 @@ float requireFloat(const nlohmann::json& j, const char* key, const std::string& 
     return static_cast<float>(v);
 }
 
-template <std::size_t N> std::array<float, N> requireFloats(const nlohmann::json& j, const char* key,
-                                                            const std::string& name) {
+template <std::size_t N>
+std::array<float, N> requireFloats(const nlohmann::json& j, const char* key, const std::string& name) {
     const nlohmann::json& a = j.at(key);
     if (!a.is_array() || a.size() != N)
         throw IoError(name + ": NIfTI metadata: " + key + " must hold " + std::to_string(N) + " numbers");
@@ -79,7 +79,8 @@ template <class Int> Int requireInt(const nlohmann::json& j, const char* key, co
     return static_cast<Int>(v);
 }
 
-std::string requireText(const nlohmann::json& j, const char* key, std::size_t maxSize, const std::string& name) {
+std::string requireText(const nlohmann::json& j, const char* key, std::size_t maxSize,
+                        const std::string& name) {
     std::string s = j.at(key).get<std::string>();
     if (s.size() > maxSize || s.find('\0') != std::string::npos)
         throw IoError(name + ": NIfTI metadata: " + key + " is longer than " + std::to_string(maxSize) +
@@ -190,7 +191,8 @@ NiftiMetadata niftiMetadataFromText(std::string_view text, const std::string& na
         m.qoffset = requireFloats<3>(j, "qoffset", name);
         m.pixdim = requireFloats<3>(j, "pixdim", name);
         const nlohmann::json& srow = j.at("srow");
-        if (!srow.is_array() || srow.size() != 3) throw IoError(name + ": NIfTI metadata: srow must hold 3 rows");
+        if (!srow.is_array() || srow.size() != 3)
+            throw IoError(name + ": NIfTI metadata: srow must hold 3 rows");
         for (int row = 0; row < 3; ++row) {
             const nlohmann::json one{{"row", srow[row]}};
             m.srow[row] = requireFloats<4>(one, "row", name);

@@ -28,16 +28,16 @@ struct NiftiMetadata {
     float quaternB = 0, quaternC = 0, quaternD = 0;
     float qfac = 1; ///< pixdim[0]: -1 flips the third axis of the qform
     std::array<float, 3> qoffset{0, 0, 0};
-    std::array<float, 3> pixdim{1, 1, 1};                ///< pixdim[1..3] as stored
-    std::array<std::array<float, 4>, 3> srow{};          ///< srow_x, srow_y, srow_z
-    std::uint8_t xyztUnits = 0;                          ///< spatial units | temporal units (NIFTI_UNITS_*)
-    float timeStep = 0, toffset = 0;                     ///< pixdim[4] and toffset
+    std::array<float, 3> pixdim{1, 1, 1};       ///< pixdim[1..3] as stored
+    std::array<std::array<float, 4>, 3> srow{}; ///< srow_x, srow_y, srow_z
+    std::uint8_t xyztUnits = 0;                 ///< spatial units | temporal units (NIFTI_UNITS_*)
+    float timeStep = 0, toffset = 0;            ///< pixdim[4] and toffset
     std::int16_t intentCode = 0;
     std::array<float, 3> intentP{0, 0, 0};
-    std::string intentName;                              ///< up to 15 characters
-    float sclSlope = 0, sclInter = 0;                    ///< slope 0 means "no scaling", as in the file
-    float calMin = 0, calMax = 0;                        ///< display range
-    std::string descrip;                                 ///< up to 79 characters
+    std::string intentName;           ///< up to 15 characters
+    float sclSlope = 0, sclInter = 0; ///< slope 0 means "no scaling", as in the file
+    float calMin = 0, calMax = 0;     ///< display range
+    std::string descrip;              ///< up to 79 characters
 
     /// True when scl_slope/scl_inter change values (slope not 0 and not the identity 1/0).
     bool scales() const noexcept { return sclSlope != 0 && (sclSlope != 1 || sclInter != 0); }

@@ -53,7 +53,8 @@ template <class T> std::optional<Volume> unscaled(const Volume& v, double slope,
     auto dst = out.values<T>();
     for (std::size_t i = 0; i < in.size(); ++i) {
         const double raw = std::nearbyint((static_cast<double>(in[i]) - inter) / slope);
-        if (!(raw >= std::numeric_limits<T>::min() && raw <= std::numeric_limits<T>::max())) return std::nullopt;
+        if (!(raw >= std::numeric_limits<T>::min() && raw <= std::numeric_limits<T>::max()))
+            return std::nullopt;
         if (static_cast<float>(raw * slope + inter) != in[i]) return std::nullopt;
         dst[i] = static_cast<T>(raw);
     }
@@ -79,7 +80,8 @@ std::optional<Volume> unscaled(const Volume& v, ScalarType stored, double slope,
 void writeNifti(const Volume& volume, const fs::path& path, const WriteOptions& options) {
     for (std::size_t d : {volume.dims().x, volume.dims().y, volume.dims().z})
         if (d > static_cast<std::size_t>(std::numeric_limits<std::int16_t>::max()))
-            throw UsageError(path.string() + ": NIfTI-1 holds at most 32767 voxels per axis, the volume has " +
+            throw UsageError(path.string() +
+                             ": NIfTI-1 holds at most 32767 voxels per axis, the volume has " +
                              std::to_string(d));
     const NiftiMetadata m =
         options.nifti ? niftiMetadataOnGrid(*options.nifti, volume) : niftiMetadataForVolume(volume);
@@ -100,9 +102,14 @@ void writeNifti(const Volume& volume, const fs::path& path, const WriteOptions& 
     std::vector<std::byte> file(kDataOffset, std::byte{0});
     put<std::int32_t>(file, 0, static_cast<std::int32_t>(kHeaderSize));
     file[38] = std::byte{'r'};
-    const std::int16_t dim[8] = {3, static_cast<std::int16_t>(volume.dims().x),
+    const std::int16_t dim[8] = {3,
+                                 static_cast<std::int16_t>(volume.dims().x),
                                  static_cast<std::int16_t>(volume.dims().y),
-                                 static_cast<std::int16_t>(volume.dims().z), 1, 1, 1, 1};
+                                 static_cast<std::int16_t>(volume.dims().z),
+                                 1,
+                                 1,
+                                 1,
+                                 1};
     for (int i = 0; i < 8; ++i)
         put(file, 40 + 2 * i, dim[i]);
     for (int i = 0; i < 3; ++i)

@@ -18,7 +18,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-bool isDigit(char c) noexcept { return std::isdigit(static_cast<unsigned char>(c)) != 0; }
+bool isDigit(char c) noexcept {
+    return std::isdigit(static_cast<unsigned char>(c)) != 0;
+}
 
 bool isPvd(const fs::path& p) {
     std::string ext = p.extension().string();
@@ -28,9 +30,9 @@ bool isPvd(const fs::path& p) {
 
 std::string gridText(const Volume& v) {
     std::ostringstream s;
-    s << v.dims().x << "x" << v.dims().y << "x" << v.dims().z << " " << scalarTypeName(v.type()) << ", spacing "
-      << v.spacing[0] << "," << v.spacing[1] << "," << v.spacing[2] << ", origin " << v.origin[0] << ","
-      << v.origin[1] << "," << v.origin[2];
+    s << v.dims().x << "x" << v.dims().y << "x" << v.dims().z << " " << scalarTypeName(v.type())
+      << ", spacing " << v.spacing[0] << "," << v.spacing[1] << "," << v.spacing[2] << ", origin "
+      << v.origin[0] << "," << v.origin[1] << "," << v.origin[2];
     return s.str();
 }
 
@@ -46,8 +48,8 @@ std::string gridDifference(const Volume& v, const Volume& first) {
         s << "spacing " << v.spacing[0] << "," << v.spacing[1] << "," << v.spacing[2] << " against "
           << first.spacing[0] << "," << first.spacing[1] << "," << first.spacing[2];
     else
-        s << "origin " << v.origin[0] << "," << v.origin[1] << "," << v.origin[2] << " against " << first.origin[0]
-          << "," << first.origin[1] << "," << first.origin[2];
+        s << "origin " << v.origin[0] << "," << v.origin[1] << "," << v.origin[2] << " against "
+          << first.origin[0] << "," << first.origin[1] << "," << first.origin[2];
     return s.str();
 }
 
@@ -110,7 +112,9 @@ bool naturalLess(std::string_view a, std::string_view b) noexcept {
     return zerosTieBreak < 0;
 }
 
-bool hasGlobPattern(std::string_view text) noexcept { return text.find_first_of("*?[") != std::string_view::npos; }
+bool hasGlobPattern(std::string_view text) noexcept {
+    return text.find_first_of("*?[") != std::string_view::npos;
+}
 
 std::vector<fs::path> expandGlob(std::string_view pattern) {
     const std::string pat(pattern);
@@ -155,11 +159,13 @@ std::vector<PvdEntry> readPvd(const fs::path& path) {
     for (const pugi::xml_node ds : collection.children("DataSet")) {
         const pugi::xml_attribute file = ds.attribute("file");
         if (!file || std::string_view(file.as_string()).empty())
-            throw IoError(path.string() + ": DataSet " + std::to_string(items.size()) + " has no file attribute");
+            throw IoError(path.string() + ": DataSet " + std::to_string(items.size()) +
+                          " has no file attribute");
         const fs::path f(file.as_string());
         const double t = ds.attribute("timestep").as_double(double(items.size()));
         if (!std::isfinite(t))
-            throw IoError(path.string() + ": DataSet " + std::to_string(items.size()) + " has a non-finite timestep");
+            throw IoError(path.string() + ": DataSet " + std::to_string(items.size()) +
+                          " has a non-finite timestep");
         items.push_back({{f.is_absolute() ? f : folder / f, t}, ds.attribute("part").as_string("0")});
     }
     if (items.empty()) throw IoError(path.string() + ": the collection lists no DataSet");
@@ -168,8 +174,8 @@ std::vector<PvdEntry> readPvd(const fs::path& path) {
     for (std::size_t i = 1; i < items.size(); ++i)
         if (items[i].entry.time == items[i - 1].entry.time)
             throw DataError(path.string() + ": time " + std::to_string(items[i].entry.time) +
-                            " has several data sets (parts '" + items[i - 1].part + "' and '" + items[i].part +
-                            "'): multi-part collections are not one volume per time step");
+                            " has several data sets (parts '" + items[i - 1].part + "' and '" +
+                            items[i].part + "'): multi-part collections are not one volume per time step");
     std::vector<PvdEntry> out;
     out.reserve(items.size());
     for (Item& it : items)
@@ -207,7 +213,8 @@ SeriesInput readSeriesInputs(std::span<const std::string> inputs, const ReadOpti
         if (frameBytes > 0 && frameBytes > budget - used)
             throw IoError(f.file.string() + ": frame " + std::to_string(in.series.frames.size()) +
                           " would bring the series to " + std::to_string(used + frameBytes) +
-                          " bytes of voxels, more than the memory budget of " + std::to_string(budget) + " bytes");
+                          " bytes of voxels, more than the memory budget of " + std::to_string(budget) +
+                          " bytes");
         ReadOptions fileOptions = options;
         fileOptions.memoryBudget = budget - used;
         std::vector<fs::path> partFiles;
@@ -221,8 +228,9 @@ SeriesInput readSeriesInputs(std::span<const std::string> inputs, const ReadOpti
             const std::size_t frame = in.series.frames.size();
             SeriesFrameSource src{f.file, k};
             if (frame > 0 && !part.frames[k].sameGrid(in.series.frames[0]))
-                throw DataError(src.describe(frame) + ": " + gridDifference(part.frames[k], in.series.frames[0]) +
-                                " of " + in.sources[0].describe(0) + "; every frame needs frame 0's grid (" +
+                throw DataError(src.describe(frame) + ": " +
+                                gridDifference(part.frames[k], in.series.frames[0]) + " of " +
+                                in.sources[0].describe(0) + "; every frame needs frame 0's grid (" +
                                 gridText(in.series.frames[0]) + ")");
             if (allTimed) times.push_back(std::isfinite(f.time) ? f.time : part.times[k]);
             in.series.frames.push_back(std::move(part.frames[k]));

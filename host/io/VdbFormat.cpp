@@ -1,12 +1,12 @@
 // OpenVDB (.vdb): the file layout checked here, then the grid read through the OpenVDB module by a reader
 // process of the reader service (VdbReader.hpp), so corrupt node data cannot crash or hang the caller;
 // writing goes through the module in process.
-#include "core/MemoryBudget.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/MemoryBudget.hpp"
+#include "core/runtime/RuntimeModule.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/VdbModule.hpp"
 #include "host/io/VdbReader.hpp"
-#include "core/runtime/RuntimeModule.hpp"
 
 #include <openvdb/version.h> // file-format version numbers only: libopenvdb is linked by the module
 
@@ -141,8 +141,8 @@ struct ReaderOutcome {
 // Waits until `fd` is readable or `deadline` passes; false at the deadline.
 bool waitReadable(int fd, std::chrono::steady_clock::time_point deadline) {
     while (true) {
-        const auto left =
-            std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+        const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+            deadline - std::chrono::steady_clock::now());
         if (left.count() <= 0) return false;
         pollfd pfd{fd, POLLIN, 0};
         const int pr = ::poll(&pfd, 1, static_cast<int>(std::min<long long>(left.count(), 1000)));
@@ -170,7 +170,8 @@ public:
     ReaderService& operator=(const ReaderService&) = delete;
     ~ReaderService() { stop(); }
 
-    ReaderOutcome read(const fs::path& path, const ReadOptions& options, std::chrono::steady_clock::duration timeout) {
+    ReaderOutcome read(const fs::path& path, const ReadOptions& options,
+                       std::chrono::steady_clock::duration timeout) {
         // A forked copy of the caller shares the socket with its parent's service: it starts its own.
         if (pid_ > 0 && owner_ != ::getpid()) {
             ::close(socket_);
@@ -292,7 +293,8 @@ private:
         if (text > kMaxVdbRequestText) throw UsageError(file + ": path and grid name are too long");
         const VdbRequest head{options.memoryBudget ? options.memoryBudget : defaultMemoryBudget(),
                               static_cast<std::uint32_t>(file.size()),
-                              options.vdbGrid ? static_cast<std::uint32_t>(options.vdbGrid->size()) : kNoGrid};
+                              options.vdbGrid ? static_cast<std::uint32_t>(options.vdbGrid->size())
+                                              : kNoGrid};
         std::string message(reinterpret_cast<const char*>(&head), sizeof(head));
         message += file;
         if (options.vdbGrid) message += *options.vdbGrid;

@@ -1,9 +1,9 @@
 // The OpenVDB half of .vdb I/O, a module libvolcl loads when a .vdb file is first read or written: float/double
 // grids densified over their box, and the exact FloatGrid writer.
-#include "core/MemoryBudget.hpp"
-#include "core/AtomicFile.hpp"
-#include "host/io/IoDetail.hpp"
 #include "host/io/VdbModule.hpp"
+#include "core/AtomicFile.hpp"
+#include "core/MemoryBudget.hpp"
+#include "host/io/IoDetail.hpp"
 
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
@@ -18,7 +18,6 @@ namespace volcl::io {
 namespace fs = std::filesystem;
 
 namespace {
-
 
 void initOpenVdb() {
     static const bool once = [] {

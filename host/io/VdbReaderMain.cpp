@@ -1,8 +1,8 @@
 // volcl-vdb-reader: the OpenVDB reader service; each .vdb grid is decoded in a forked reader of its own.
 #include "core/Error.hpp"
+#include "core/runtime/RuntimeModule.hpp"
 #include "host/io/VdbModule.hpp"
 #include "host/io/VdbReader.hpp"
-#include "core/runtime/RuntimeModule.hpp"
 
 #include <cerrno>
 #include <cstdio>

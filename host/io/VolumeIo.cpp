@@ -153,7 +153,8 @@ TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options,
     for (const Volume& v : series.frames)
         for (int a = 0; a < 3; ++a) {
             if (!std::isfinite(v.spacing[a]) || !(v.spacing[a] > 0))
-                io::fail(path, "voxel spacing " + io::formatDouble(v.spacing[a]) + " is not a positive finite number");
+                io::fail(path, "voxel spacing " + io::formatDouble(v.spacing[a]) +
+                                   " is not a positive finite number");
             if (!std::isfinite(v.origin[a]))
                 io::fail(path, "origin " + io::formatDouble(v.origin[a]) + " is not finite");
         }

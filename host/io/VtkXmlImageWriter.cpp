@@ -62,10 +62,12 @@ std::string joined(std::span<const double> values) {
 } // namespace
 
 void writeVtkXmlImage(const Volume& volume, const fs::path& path, const WriteOptions& options) {
-    const VtkXmlEncodedArray encoded = encodeVtkXmlArray(bytesInOrder(volume, Endian::Little), options.compress);
+    const VtkXmlEncodedArray encoded =
+        encodeVtkXmlArray(bytesInOrder(volume, Endian::Little), options.compress);
     const ImageGeometry g = geometry(volume, options);
     const std::string extent = "0 " + std::to_string(volume.dims().x - 1) + " 0 " +
-                               std::to_string(volume.dims().y - 1) + " 0 " + std::to_string(volume.dims().z - 1);
+                               std::to_string(volume.dims().y - 1) + " 0 " +
+                               std::to_string(volume.dims().z - 1);
     std::ostringstream x;
     x << "<?xml version=\"1.0\"?>\n<VTKFile type=\"ImageData\" version=\"1.0\" byte_order=\"LittleEndian\" "
          "header_type=\"UInt64\""
@@ -74,7 +76,8 @@ void writeVtkXmlImage(const Volume& volume, const fs::path& path, const WriteOpt
       << joined(g.spacing) << "\" Direction=\"" << joined(g.direction) << "\">\n"
       << "    <Piece Extent=\"" << extent << "\">\n"
       << "      <PointData Scalars=\"scalars\">\n"
-      << "        <DataArray type=\"" << vtkTypeName(volume.type()) << "\" Name=\"scalars\" format=\"appended\" offset=\"0\"/>\n"
+      << "        <DataArray type=\"" << vtkTypeName(volume.type())
+      << "\" Name=\"scalars\" format=\"appended\" offset=\"0\"/>\n"
       << "      </PointData>\n      <CellData>\n      </CellData>\n    </Piece>\n  </ImageData>\n"
       << "  <AppendedData encoding=\"raw\">\n   _";
     AtomicFile out(path);

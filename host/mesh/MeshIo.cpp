@@ -1,8 +1,8 @@
 // Mesh file dispatch (extension + content), array choice, and cells -> tets for the VTK readers.
 #include "host/mesh/MeshIo.hpp"
 
-#include "core/Error.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/Error.hpp"
 #include "host/mesh/CellSplit.hpp"
 #include "host/mesh/MeshDetail.hpp"
 

@@ -33,7 +33,8 @@ void writeVtu(const TetMesh& mesh, const fs::path& path, const VtuWriteOptions& 
     pointBytes.reserve(mesh.points.size() * 3 * (floatPoints ? 4 : 8));
     for (const Point3& p : mesh.points)
         for (double c : p)
-            floatPoints ? io::appendLittle(pointBytes, static_cast<float>(c)) : io::appendLittle(pointBytes, c);
+            floatPoints ? io::appendLittle(pointBytes, static_cast<float>(c))
+                        : io::appendLittle(pointBytes, c);
     std::vector<std::int64_t> connectivity, offsets;
     connectivity.reserve(4 * mesh.tets.size());
     offsets.reserve(mesh.tets.size());
@@ -56,10 +57,12 @@ void writeVtu(const TetMesh& mesh, const fs::path& path, const VtuWriteOptions& 
     arrays.push_back({std::string("type=\"") + (floatPoints ? "Float32" : "Float64") +
                           "\" Name=\"Points\" NumberOfComponents=\"3\"",
                       io::encodeVtkXmlArray(pointBytes, options.zlib)});
+    arrays.push_back({"type=\"Int64\" Name=\"connectivity\"",
+                      io::encodeVtkXmlArray(littleBytes(connectivity), options.zlib)});
     arrays.push_back(
-        {"type=\"Int64\" Name=\"connectivity\"", io::encodeVtkXmlArray(littleBytes(connectivity), options.zlib)});
-    arrays.push_back({"type=\"Int64\" Name=\"offsets\"", io::encodeVtkXmlArray(littleBytes(offsets), options.zlib)});
-    arrays.push_back({"type=\"UInt8\" Name=\"types\"", io::encodeVtkXmlArray(littleBytes(types), options.zlib)});
+        {"type=\"Int64\" Name=\"offsets\"", io::encodeVtkXmlArray(littleBytes(offsets), options.zlib)});
+    arrays.push_back(
+        {"type=\"UInt8\" Name=\"types\"", io::encodeVtkXmlArray(littleBytes(types), options.zlib)});
 
     const bool appended = options.encoding == VtuEncoding::Appended;
     std::size_t offset = 0;

@@ -26,8 +26,12 @@ std::uint32_t hash3(std::uint32_t seed, int x, int y, int z) {
     return std::uint32_t(splitmix(s) >> 32);
 }
 
-double fade(double t) { return t * t * t * (t * (t * 6 - 15) + 10); }
-double lerp(double a, double b, double t) { return a + t * (b - a); }
+double fade(double t) {
+    return t * t * t * (t * (t * 6 - 15) + 10);
+}
+double lerp(double a, double b, double t) {
+    return a + t * (b - a);
+}
 
 /// Ken Perlin's improved noise (2002) with a permutation shuffled from the seed; about [-1, 1].
 class Perlin {
@@ -98,8 +102,10 @@ void validate(const CloudParams& p) {
     check(p.octaves >= 1 && p.octaves <= 12, "cloud: octaves must be in [1, 12]");
     check(std::isfinite(p.frequency) && p.frequency > 0.0 && p.frequency <= 1e4,
           "cloud: frequency must be in (0, 1e4]");
-    check(std::isfinite(p.coverage) && p.coverage > 0.0 && p.coverage <= 1.0, "cloud: coverage must be in (0, 1]");
-    check(std::isfinite(p.erosion) && p.erosion >= 0.0 && p.erosion <= 1.0, "cloud: erosion must be in [0, 1]");
+    check(std::isfinite(p.coverage) && p.coverage > 0.0 && p.coverage <= 1.0,
+          "cloud: coverage must be in (0, 1]");
+    check(std::isfinite(p.erosion) && p.erosion >= 0.0 && p.erosion <= 1.0,
+          "cloud: erosion must be in [0, 1]");
 }
 
 /// The density from noise evaluators (shared by cloudDensity and the volume loop).
@@ -122,8 +128,8 @@ double density(const CloudParams& p, const Perlin& perlin, double x, double y, d
     // Flat-ish bottoms and rounded tops: the profile thins the cloud near both ends of the layer.
     const double profile = smoothstep(0.0, 0.15, h) * (1.0 - smoothstep(0.55, 1.0, h));
     const double threshold = 1.0 - p.coverage;
-    return std::clamp((base * profile - threshold * (1.0 - p.erosion * 0.5)) / std::max(p.coverage, 1e-9), 0.0,
-                      1.0);
+    return std::clamp((base * profile - threshold * (1.0 - p.erosion * 0.5)) / std::max(p.coverage, 1e-9),
+                      0.0, 1.0);
 }
 
 } // namespace
@@ -143,7 +149,8 @@ double cloudDensity(const CloudParams& p, double x, double y, double z, double h
 void generateCloudRegion(const CloudParams& p, Dims lo, Volume& out, unsigned threads) {
     validate(p);
     const Dims d = out.dims();
-    if (out.type() != ScalarType::UInt8 || lo.x + d.x > p.dims.x || lo.y + d.y > p.dims.y || lo.z + d.z > p.dims.z)
+    if (out.type() != ScalarType::UInt8 || lo.x + d.x > p.dims.x || lo.y + d.y > p.dims.y ||
+        lo.z + d.z > p.dims.z)
         throw Error("internal: cloud region outside the cloud or not uint8");
     const Perlin perlin(p.seed);
     auto values = out.values<std::uint8_t>();

@@ -13,10 +13,10 @@ namespace volcl {
 struct CloudParams {
     Dims dims{128, 128, 32};
     std::uint32_t seed = 1;
-    int octaves = 5;          ///< Perlin fBm octaves (each doubles the frequency, halves the amplitude)
-    double frequency = 4.0;   ///< base Perlin cells across the largest axis
-    double coverage = 0.45;   ///< fraction of the noise range that becomes cloud, in (0, 1]
-    double erosion = 0.35;    ///< weight of the Worley fBm that carves billows into the Perlin shape, [0, 1]
+    int octaves = 5;        ///< Perlin fBm octaves (each doubles the frequency, halves the amplitude)
+    double frequency = 4.0; ///< base Perlin cells across the largest axis
+    double coverage = 0.45; ///< fraction of the noise range that becomes cloud, in (0, 1]
+    double erosion = 0.35;  ///< weight of the Worley fBm that carves billows into the Perlin shape, [0, 1]
 };
 
 /// Roettger's cloud layer: 513 x 513 x 65 voxels of 8-bit density.

@@ -37,9 +37,15 @@ std::array<double, 9> rotation(const EllipsoidParams& e) {
     double cphi = std::cos(e.phiDeg * d), sphi = std::sin(e.phiDeg * d);
     double cth = std::cos(e.thetaDeg * d), sth = std::sin(e.thetaDeg * d);
     double cpsi = std::cos(e.psiDeg * d), spsi = std::sin(e.psiDeg * d);
-    return {cpsi * cphi - cth * sphi * spsi,  cpsi * sphi + cth * cphi * spsi,  spsi * sth,
-            -spsi * cphi - cth * sphi * cpsi, -spsi * sphi + cth * cphi * cpsi, cpsi * sth,
-            sth * sphi,                       -sth * cphi,                      cth};
+    return {cpsi * cphi - cth * sphi * spsi,
+            cpsi * sphi + cth * cphi * spsi,
+            spsi * sth,
+            -spsi * cphi - cth * sphi * cpsi,
+            -spsi * sphi + cth * cphi * cpsi,
+            cpsi * sth,
+            sth * sphi,
+            -sth * cphi,
+            cth};
 }
 
 double quadraticForm(const EllipsoidParams& e, double x, double y, double z) {
@@ -56,8 +62,9 @@ template <class F> Volume sampleReference(Dims dims, F&& f) {
     for (std::size_t k = 0; k < dims.z; ++k)
         for (std::size_t j = 0; j < dims.y; ++j)
             for (std::size_t i = 0; i < dims.x; ++i)
-                out[v.index(i, j, k)] = static_cast<float>(
-                    f(phantomCoordinate(i, dims.x), phantomCoordinate(j, dims.y), phantomCoordinate(k, dims.z)));
+                out[v.index(i, j, k)] =
+                    static_cast<float>(f(phantomCoordinate(i, dims.x), phantomCoordinate(j, dims.y),
+                                         phantomCoordinate(k, dims.z)));
     return v;
 }
 
@@ -80,7 +87,8 @@ double marschnerLobbValue(double x, double y, double z, MarschnerLobbParams p) {
 }
 
 Volume marschnerLobbReference(Dims dims, MarschnerLobbParams p) {
-    return sampleReference(dims, [&](double x, double y, double z) { return marschnerLobbValue(x, y, z, p); });
+    return sampleReference(dims,
+                           [&](double x, double y, double z) { return marschnerLobbValue(x, y, z, p); });
 }
 
 Volume generateMarschnerLobb(ComputeContext& cc, Dims dims, MarschnerLobbParams p) {
@@ -96,7 +104,8 @@ Volume generateMarschnerLobb(ComputeContext& cc, Dims dims, MarschnerLobbParams 
 
 double sheppLoganBoundaryMargin(double x, double y, double z) {
     double m = INFINITY;
-    for (const auto& e : kEllipsoids) m = std::min(m, std::abs(quadraticForm(e, x, y, z) - 1.0));
+    for (const auto& e : kEllipsoids)
+        m = std::min(m, std::abs(quadraticForm(e, x, y, z) - 1.0));
     return m;
 }
 
@@ -116,7 +125,8 @@ Volume generateSheppLogan(ComputeContext& cc, Dims dims) {
     for (const auto& e : kEllipsoids) {
         VolclEllipsoid el{};
         auto r = rotation(e);
-        for (int n = 0; n < 9; ++n) el.rot[n] = float(r[n]);
+        for (int n = 0; n < 9; ++n)
+            el.rot[n] = float(r[n]);
         el.centre[0] = float(e.x0);
         el.centre[1] = float(e.y0);
         el.centre[2] = float(e.z0);

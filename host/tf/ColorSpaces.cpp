@@ -221,7 +221,8 @@ Rgb interpolateColor(ColorSpace space, const Rgb& a, const Rgb& b, double t) {
         return interpolateHsv(a, b, t);
     case ColorSpace::Lab: {
         const auto la = rgbToLab(a), lb = rgbToLab(b);
-        return labToRgb({(1 - t) * la[0] + t * lb[0], (1 - t) * la[1] + t * lb[1], (1 - t) * la[2] + t * lb[2]});
+        return labToRgb(
+            {(1 - t) * la[0] + t * lb[0], (1 - t) * la[1] + t * lb[1], (1 - t) * la[2] + t * lb[2]});
     }
     case ColorSpace::Diverging:
         return interpolateDiverging(a, b, t);

@@ -193,7 +193,8 @@ TransferFunction TransferFunction::fromParaView(std::string_view text, double op
     TransferFunction tf;
     ColorSpace space = ColorSpace::Rgb; // ParaView's default when the key is absent
     if (j->contains("ColorSpace")) {
-        if (!(*j)["ColorSpace"].is_string()) throw DataError("ParaView colour map: 'ColorSpace' must be a string");
+        if (!(*j)["ColorSpace"].is_string())
+            throw DataError("ParaView colour map: 'ColorSpace' must be a string");
         try {
             space = parseColorSpace((*j)["ColorSpace"].get<std::string>());
         } catch (const DataError& e) {
@@ -232,7 +233,8 @@ TransferFunction TransferFunction::fromParaView(std::string_view text, double op
     if (tf.color.empty()) throw DataError("ParaView colour map: no 'RGBPoints'");
     for (std::size_t i = 1; i < tf.color.size(); ++i)
         if (!(tf.color[i].s >= tf.color[i - 1].s))
-            throw DataError("ParaView colour map: 'RGBPoints' are not sorted by x at point " + std::to_string(i));
+            throw DataError("ParaView colour map: 'RGBPoints' are not sorted by x at point " +
+                            std::to_string(i));
     if (nodes.empty()) {
         // A colour-only preset: a gentle linear ramp, so low values stay clear and the top is translucent.
         nodes.push_back({tf.color.front().s, 0.0, 0.5, 0.0});
@@ -244,7 +246,8 @@ TransferFunction TransferFunction::fromParaView(std::string_view text, double op
 
     auto push = [&](double x, double a) {
         tf.extinction.push_back(
-            {x, opacityToExtinction(a, [] { return std::string("ParaView colour map"); }, opacityUnitDistance)});
+            {x, opacityToExtinction(
+                    a, [] { return std::string("ParaView colour map"); }, opacityUnitDistance)});
     };
     push(nodes.front().x, nodes.front().a);
     for (std::size_t i = 0; i + 1 < nodes.size(); ++i) {

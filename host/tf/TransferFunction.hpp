@@ -4,10 +4,10 @@
 #include "cl/volcl_shared.h"
 
 #include <array>
+#include <cstddef>
 #include <filesystem>
 #include <optional>
 #include <string>
-#include <cstddef>
 #include <string_view>
 #include <vector>
 

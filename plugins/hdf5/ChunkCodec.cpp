@@ -20,7 +20,9 @@ constexpr std::uint8_t kChunkVersion = 1;
 constexpr std::size_t kChunkHeaderSize = 4 + 4 + 4 * 8; // magic, version/rank/type/rate, 4 dims
 
 // Codes of the element types in cd_values and in the chunk header.
-unsigned typeCode(ScalarType t) { return unsigned(t); }
+unsigned typeCode(ScalarType t) {
+    return unsigned(t);
+}
 ScalarType typeFromCode(unsigned code) {
     if (code > unsigned(ScalarType::Float32))
         throw DataError("volcl HDF5 filter: unknown element type code " + std::to_string(code));
@@ -37,7 +39,8 @@ CodecOptions codecOptions(const FilterParameters& p) {
     // As many levels as the smallest axis has halvings, at least one (the codec's transforms need one; a
     // 1-voxel axis passes through them unchanged), at most kMaxLevels.
     int levels = 1;
-    while (levels < kMaxLevels && (std::size_t(2) << levels) <= smallest) ++levels;
+    while (levels < kMaxLevels && (std::size_t(2) << levels) <= smallest)
+        ++levels;
     const std::size_t unit = std::size_t(1) << levels;
     auto brickAxis = [&](std::size_t n) { return (std::min(n, kMaxBrickAxis) + unit - 1) / unit * unit; };
     CodecOptions o;
@@ -46,19 +49,30 @@ CodecOptions codecOptions(const FilterParameters& p) {
     // One host thread: HDF5 hands the filter one chunk at a time, and under MPI every rank runs its own.
     o.threads = 1;
     switch (p.rate) {
-    case ChunkRate::Lossless: o.rate = RateMode::Lossless; break;
-    case ChunkRate::MaxError: o.rate = RateMode::MaxError; o.target = p.bound; break;
-    case ChunkRate::Psnr: o.rate = RateMode::Psnr; o.target = p.bound; o.measureError = false; break;
+    case ChunkRate::Lossless:
+        o.rate = RateMode::Lossless;
+        break;
+    case ChunkRate::MaxError:
+        o.rate = RateMode::MaxError;
+        o.target = p.bound;
+        break;
+    case ChunkRate::Psnr:
+        o.rate = RateMode::Psnr;
+        o.target = p.bound;
+        o.measureError = false;
+        break;
     }
     return o;
 }
 
 void putU64(std::byte* dst, std::uint64_t v) {
-    for (int i = 0; i < 8; ++i) dst[i] = std::byte(v >> (8 * i));
+    for (int i = 0; i < 8; ++i)
+        dst[i] = std::byte(v >> (8 * i));
 }
 std::uint64_t getU64(const std::byte* src) {
     std::uint64_t v = 0;
-    for (int i = 0; i < 8; ++i) v |= std::uint64_t(src[i]) << (8 * i);
+    for (int i = 0; i < 8; ++i)
+        v |= std::uint64_t(src[i]) << (8 * i);
     return v;
 }
 
@@ -68,7 +82,9 @@ Dims FilterParameters::frameDims() const noexcept {
     const std::size_t* d = chunk.data() + (rank == 4 ? 1 : 0);
     return {d[2], d[1], d[0]};
 }
-std::size_t FilterParameters::frameCount() const noexcept { return rank == 4 ? chunk[0] : 1; }
+std::size_t FilterParameters::frameCount() const noexcept {
+    return rank == 4 ? chunk[0] : 1;
+}
 std::size_t FilterParameters::chunkBytes() const noexcept {
     return frameDims().count() * frameCount() * scalarSize(type);
 }
@@ -83,7 +99,8 @@ void parseUserValues(std::span<const unsigned> values, ChunkRate& rate, double& 
     rate = ChunkRate(values[0]);
     if (rate == ChunkRate::Lossless) return;
     if (values.size() < 3)
-        throw UsageError("volcl HDF5 filter: max-error and PSNR need the bound as a double in cd_values[1..2]");
+        throw UsageError(
+            "volcl HDF5 filter: max-error and PSNR need the bound as a double in cd_values[1..2]");
     bound = std::bit_cast<double>(std::uint64_t(values[1]) | std::uint64_t(values[2]) << 32);
     if (!std::isfinite(bound) || !(bound > 0))
         throw UsageError("volcl HDF5 filter: the bound in cd_values[1..2] must be a finite number > 0, got " +
@@ -98,13 +115,15 @@ std::array<unsigned, 3> userValues(ChunkRate rate, double bound) {
 std::vector<unsigned> packParameters(const FilterParameters& p) {
     const auto user = userValues(p.rate, p.bound);
     std::vector<unsigned> v{user[0], user[1], user[2], kFilterParameterVersion, typeCode(p.type), p.rank};
-    for (unsigned i = 0; i < p.rank; ++i) v.push_back(unsigned(p.chunk[i]));
+    for (unsigned i = 0; i < p.rank; ++i)
+        v.push_back(unsigned(p.chunk[i]));
     return v;
 }
 
 FilterParameters unpackParameters(std::span<const unsigned> values) {
     if (values.size() < 6 || values[3] != kFilterParameterVersion)
-        throw DataError("volcl HDF5 filter: the dataset's filter parameters are missing or of another version");
+        throw DataError(
+            "volcl HDF5 filter: the dataset's filter parameters are missing or of another version");
     FilterParameters p;
     try {
         parseUserValues(values.first(3), p.rate, p.bound);
@@ -116,7 +135,8 @@ FilterParameters unpackParameters(std::span<const unsigned> values) {
     if ((p.rank != 3 && p.rank != 4) || values.size() != 6 + p.rank)
         throw DataError("volcl HDF5 filter: the filter parameters name a chunk rank other than 3 or 4");
     for (unsigned i = 0; i < p.rank; ++i) {
-        if (values[6 + i] == 0) throw DataError("volcl HDF5 filter: a chunk dimension in the parameters is 0");
+        if (values[6 + i] == 0)
+            throw DataError("volcl HDF5 filter: a chunk dimension in the parameters is 0");
         p.chunk[i] = values[6 + i];
     }
     // HDF5 chunks hold less than 4 GiB; a larger product means the parameters are damaged.
@@ -125,7 +145,8 @@ FilterParameters unpackParameters(std::span<const unsigned> values) {
     return p;
 }
 
-std::vector<std::byte> encodeChunk(ComputeContext& cc, const FilterParameters& p, std::span<const std::byte> chunk) {
+std::vector<std::byte> encodeChunk(ComputeContext& cc, const FilterParameters& p,
+                                   std::span<const std::byte> chunk) {
     if (chunk.size() != p.chunkBytes())
         throw DataError("volcl HDF5 filter: chunk of " + std::to_string(chunk.size()) + " bytes, expected " +
                         std::to_string(p.chunkBytes()));
@@ -152,7 +173,8 @@ std::vector<std::byte> encodeChunk(ComputeContext& cc, const FilterParameters& p
     out[5] = std::byte(p.rank);
     out[6] = std::byte(typeCode(p.type));
     out[7] = std::byte(unsigned(p.rate));
-    for (unsigned i = 0; i < 4; ++i) putU64(out.data() + 8 + 8 * i, i < p.rank ? p.chunk[i] : 0);
+    for (unsigned i = 0; i < 4; ++i)
+        putU64(out.data() + 8 + 8 * i, i < p.rank ? p.chunk[i] : 0);
     std::memcpy(out.data() + kChunkHeaderSize, vcz.data(), vcz.size());
     return out;
 }
@@ -162,14 +184,18 @@ void decodeChunk(ComputeContext& cc, const FilterParameters& p, std::span<const 
     if (stored.size() < kChunkHeaderSize || std::memcmp(stored.data(), kChunkMagic.data(), 4) != 0)
         throw IoError("volcl HDF5 filter: stored chunk is not volcl data (bad magic or truncated)");
     if (unsigned(stored[4]) != kChunkVersion)
-        throw IoError("volcl HDF5 filter: stored chunk has format version " + std::to_string(unsigned(stored[4])));
+        throw IoError("volcl HDF5 filter: stored chunk has format version " +
+                      std::to_string(unsigned(stored[4])));
     bool same = unsigned(stored[5]) == p.rank && unsigned(stored[6]) == typeCode(p.type) &&
                 unsigned(stored[7]) == unsigned(p.rate);
-    for (unsigned i = 0; i < 4; ++i) same = same && getU64(stored.data() + 8 + 8 * i) == (i < p.rank ? p.chunk[i] : 0);
-    if (!same) throw DataError("volcl HDF5 filter: stored chunk describes another chunk shape, element type or rate");
+    for (unsigned i = 0; i < 4; ++i)
+        same = same && getU64(stored.data() + 8 + 8 * i) == (i < p.rank ? p.chunk[i] : 0);
+    if (!same)
+        throw DataError(
+            "volcl HDF5 filter: stored chunk describes another chunk shape, element type or rate");
     if (chunk.size() != p.chunkBytes())
-        throw DataError("volcl HDF5 filter: output buffer of " + std::to_string(chunk.size()) + " bytes, expected " +
-                        std::to_string(p.chunkBytes()));
+        throw DataError("volcl HDF5 filter: output buffer of " + std::to_string(chunk.size()) +
+                        " bytes, expected " + std::to_string(p.chunkBytes()));
 
     const auto vcz = stored.subspan(kChunkHeaderSize);
     VczReader reader(std::vector<std::byte>(vcz.begin(), vcz.end()), "HDF5 chunk");

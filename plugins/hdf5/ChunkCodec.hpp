@@ -21,8 +21,8 @@ struct FilterParameters {
     ChunkRate rate = ChunkRate::Lossless;
     double bound = 0; ///< MaxError: largest absolute error in data units; Psnr: dB
     ScalarType type = ScalarType::UInt8;
-    unsigned rank = 3;                      ///< 3 (z, y, x) or 4 (t, z, y, x)
-    std::array<std::size_t, 4> chunk{};     ///< chunk dims, slowest first as HDF5 lists them (rank used)
+    unsigned rank = 3;                  ///< 3 (z, y, x) or 4 (t, z, y, x)
+    std::array<std::size_t, 4> chunk{}; ///< chunk dims, slowest first as HDF5 lists them (rank used)
 
     /// Voxels of one 3D frame of the chunk: Dims{x, y, z} with x the fastest (last HDF5) dimension.
     Dims frameDims() const noexcept;
@@ -50,7 +50,8 @@ FilterParameters unpackParameters(std::span<const unsigned> values);
 
 /// Compresses one chunk of p.chunkBytes() bytes (little-endian voxels of p.type). Throws UsageError /
 /// DataError from the codec (NaN in a lossy float chunk, for example).
-std::vector<std::byte> encodeChunk(ComputeContext& cc, const FilterParameters& p, std::span<const std::byte> chunk);
+std::vector<std::byte> encodeChunk(ComputeContext& cc, const FilterParameters& p,
+                                   std::span<const std::byte> chunk);
 /// Decompresses stored bytes into `chunk` (p.chunkBytes() bytes). Throws IoError/DataError when the stored
 /// bytes are truncated, corrupted (checksums) or describe another chunk shape or type; `chunk` is then
 /// left in an unspecified state.

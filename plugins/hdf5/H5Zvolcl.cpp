@@ -1,6 +1,6 @@
 // The HDF5 filter plugin H5Zvolcl (id 420): can_apply, set_local and the filter over ChunkCodec.
-#include "plugins/hdf5/ChunkCodec.hpp"
 #include "plugins/hdf5/H5Zvolcl.h"
+#include "plugins/hdf5/ChunkCodec.hpp"
 #include "plugins/hdf5/Hdf5Runtime.hpp"
 
 #include "core/Error.hpp"
@@ -111,7 +111,8 @@ herr_t setLocal(hid_t dcpl, hid_t type, hid_t /*space*/) {
         parseUserValues(userParameters(*h5, dcpl), p.rate, p.bound);
         p.type = *element;
         p.rank = rank;
-        for (unsigned i = 0; i < rank; ++i) p.chunk[i] = dims[i];
+        for (unsigned i = 0; i < rank; ++i)
+            p.chunk[i] = dims[i];
         const std::vector<unsigned> values = packParameters(p);
         if (h5->modifyFilter(dcpl, H5Z_FILTER_VOLCL, H5Z_FLAG_MANDATORY, values.size(), values.data()) < 0)
             throw UsageError("volcl filter: could not store its parameters on the dataset");
@@ -123,8 +124,8 @@ herr_t setLocal(hid_t dcpl, hid_t type, hid_t /*space*/) {
 }
 
 // Encodes (or with H5Z_FLAG_REVERSE decodes) one chunk; returns the new size, 0 on failure (HDF5 error).
-size_t filterChunk(unsigned flags, size_t cdCount, const unsigned cdValues[], size_t nbytes,
-                   size_t* bufSize, void** buf) {
+size_t filterChunk(unsigned flags, size_t cdCount, const unsigned cdValues[], size_t nbytes, size_t* bufSize,
+                   void** buf) {
     const Hdf5Runtime* h5 = Hdf5Runtime::of(__builtin_return_address(0));
     if (!h5) return 0;
     const bool decode = (flags & H5Z_FLAG_REVERSE) != 0;
@@ -169,11 +170,16 @@ size_t filterChunk(unsigned flags, size_t cdCount, const unsigned cdValues[], si
 }
 
 const H5Z_class2_t kFilterClass = {
-    H5Z_CLASS_T_VERS, H5Z_filter_t(H5Z_FILTER_VOLCL), 1, 1, "volcl wavelet codec", canApply, setLocal, filterChunk,
+    H5Z_CLASS_T_VERS, H5Z_filter_t(H5Z_FILTER_VOLCL), 1, 1, "volcl wavelet codec", canApply, setLocal,
+    filterChunk,
 };
 
 } // namespace
 } // namespace volcl::hdf5
 
-extern "C" H5PLUGIN_DLL H5PL_type_t H5PLget_plugin_type(void) { return H5PL_TYPE_FILTER; }
-extern "C" H5PLUGIN_DLL const void* H5PLget_plugin_info(void) { return &volcl::hdf5::kFilterClass; }
+extern "C" H5PLUGIN_DLL H5PL_type_t H5PLget_plugin_type(void) {
+    return H5PL_TYPE_FILTER;
+}
+extern "C" H5PLUGIN_DLL const void* H5PLget_plugin_info(void) {
+    return &volcl::hdf5::kFilterClass;
+}

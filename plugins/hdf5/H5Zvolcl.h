@@ -27,7 +27,9 @@ static inline herr_t H5Pset_volcl(hid_t dcpl, unsigned rate, double bound) {
     return H5Pset_filter(dcpl, H5Z_FILTER_VOLCL, H5Z_FLAG_MANDATORY, rate == H5Z_VOLCL_LOSSLESS ? 1 : 3, cd);
 }
 /* Exact: every voxel (float bit patterns included) comes back as written. */
-static inline herr_t H5Pset_volcl_lossless(hid_t dcpl) { return H5Pset_volcl(dcpl, H5Z_VOLCL_LOSSLESS, 0.0); }
+static inline herr_t H5Pset_volcl_lossless(hid_t dcpl) {
+    return H5Pset_volcl(dcpl, H5Z_VOLCL_LOSSLESS, 0.0);
+}
 /* Every voxel within max_error (data units, > 0) of the input. */
 static inline herr_t H5Pset_volcl_max_error(hid_t dcpl, double max_error) {
     return H5Pset_volcl(dcpl, H5Z_VOLCL_MAX_ERROR, max_error);

@@ -12,7 +12,8 @@ namespace volcl::hdf5 {
 /// uses that library's functions, so property lists and error stacks are the caller's own.
 struct Hdf5Runtime {
     int (*getChunk)(hid_t, int, hsize_t*) = nullptr;
-    herr_t (*getFilterById)(hid_t, H5Z_filter_t, unsigned*, size_t*, unsigned*, size_t, char*, unsigned*) = nullptr;
+    herr_t (*getFilterById)(hid_t, H5Z_filter_t, unsigned*, size_t*, unsigned*, size_t, char*,
+                            unsigned*) = nullptr;
     herr_t (*modifyFilter)(hid_t, H5Z_filter_t, unsigned, size_t, const unsigned*) = nullptr;
     H5T_class_t (*typeClass)(hid_t) = nullptr;
     size_t (*typeSize)(hid_t) = nullptr;
@@ -20,8 +21,9 @@ struct Hdf5Runtime {
     H5T_order_t (*typeOrder)(hid_t) = nullptr;
     void* (*allocate)(size_t, hbool_t) = nullptr;
     herr_t (*release)(void*) = nullptr;
-    herr_t (*push)(hid_t, const char*, const char*, unsigned, hid_t, hid_t, hid_t, const char*, ...) = nullptr;
-    const hid_t* errorClass = nullptr; ///< H5E_ERR_CLS_g
+    herr_t (*push)(hid_t, const char*, const char*, unsigned, hid_t, hid_t, hid_t, const char*,
+                   ...) = nullptr;
+    const hid_t* errorClass = nullptr;    ///< H5E_ERR_CLS_g
     const hid_t* pipelineMajor = nullptr; ///< H5E_PLINE_g
     const hid_t* filterMinor = nullptr;   ///< H5E_CANTFILTER_g
 

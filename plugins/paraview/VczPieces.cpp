@@ -28,7 +28,8 @@ Extent pieceExtent(const VczHeader& h, int level, int piece, int pieces) {
 Region regionOf(const VczHeader& h, int level, const Extent& e) {
     const std::size_t f = std::size_t(1) << level;
     auto hi = [f](std::size_t end, std::size_t full) { return std::min(full, (end - 1) * f + 1); };
-    return {{e.lo.x * f, e.lo.y * f, e.lo.z * f}, {hi(e.hi.x, h.dims.x), hi(e.hi.y, h.dims.y), hi(e.hi.z, h.dims.z)}};
+    return {{e.lo.x * f, e.lo.y * f, e.lo.z * f},
+            {hi(e.hi.x, h.dims.x), hi(e.hi.y, h.dims.y), hi(e.hi.z, h.dims.z)}};
 }
 
 std::vector<std::size_t> bricksOf(const VczHeader& h, const Region& r) {

@@ -3,8 +3,8 @@
 // gathered volume against a 1-rank decode.
 #include "plugins/paraview/VczPieces.hpp"
 
-#include "core/Error.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/Error.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "wavelet/Codec.hpp"
 
@@ -77,13 +77,17 @@ int run(int argc, char** argv, int rank, int size) {
     bool check = false;
     for (int i = 2; i < argc; ++i) {
         const std::string a = argv[i];
-        if (a == "--check") check = true;
-        else if (a == "--level" && i + 1 < argc) level = std::stoi(argv[++i]);
-        else if (a == "--frame" && i + 1 < argc) frame = std::stoul(argv[++i]);
-        else throw UsageError(usage);
+        if (a == "--check")
+            check = true;
+        else if (a == "--level" && i + 1 < argc)
+            level = std::stoi(argv[++i]);
+        else if (a == "--frame" && i + 1 < argc)
+            frame = std::stoul(argv[++i]);
+        else
+            throw UsageError(usage);
     }
     ComputeContext cc;
-    {   // kernels built outside the timings: decode one brick of a tiny generated volume
+    { // kernels built outside the timings: decode one brick of a tiny generated volume
         CodecOptions o;
         o.brick = {16, 16, 16};
         o.levels = 2;
@@ -117,18 +121,19 @@ int run(int argc, char** argv, int rank, int size) {
     MPI_Reduce(&decode, &slowestDecode, 1, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
     for (int r = 0; r < size; ++r) {
         if (r == rank)
-            std::printf("rank %d extent z [%zu, %zu) bricks %zu of %zu read_ms %.1f decode_ms %.1f\n", rank, e.lo.z,
-                        e.hi.z, bricks, reader.header().brickCount(), 1e3 * io, 1e3 * decode);
+            std::printf("rank %d extent z [%zu, %zu) bricks %zu of %zu read_ms %.1f decode_ms %.1f\n", rank,
+                        e.lo.z, e.hi.z, bricks, reader.header().brickCount(), 1e3 * io, 1e3 * decode);
         std::fflush(stdout);
         MPI_Barrier(MPI_COMM_WORLD);
     }
     const Dims ld = pieces::levelDims(reader.header(), level);
     const double mb = double(ld.count() * scalarSize(reader.header().type)) / 1e6;
     if (rank == 0)
-        std::printf("decode ranks=%d level=%d dims=%zux%zux%zu out_MB=%.2f file_MB=%.2f bricks=%llu seconds=%.3f "
-                    "read_s=%.4f decode_s=%.3f MB/s=%.1f ms/brick=%.2f\n",
-                    size, level, ld.x, ld.y, ld.z, mb, double(reader.fileSize()) / 1e6, allBricks, slowest, slowestIo,
-                    slowestDecode, mb / slowest, allBricks ? 1e3 * slowestDecode * size / double(allBricks) : 0.0);
+        std::printf(
+            "decode ranks=%d level=%d dims=%zux%zux%zu out_MB=%.2f file_MB=%.2f bricks=%llu seconds=%.3f "
+            "read_s=%.4f decode_s=%.3f MB/s=%.1f ms/brick=%.2f\n",
+            size, level, ld.x, ld.y, ld.z, mb, double(reader.fileSize()) / 1e6, allBricks, slowest, slowestIo,
+            slowestDecode, mb / slowest, allBricks ? 1e3 * slowestDecode * size / double(allBricks) : 0.0);
 
     int ok = 1;
     if (check) { // gather the slabs on rank 0 (z slabs are contiguous in x-fastest order) and compare
@@ -137,17 +142,18 @@ int run(int argc, char** argv, int rank, int size) {
         const int bytes = int(mine.byteSize());
         std::vector<int> counts(size), offsets(size);
         MPI_Gather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
-        for (int r = 1; r < size; ++r) offsets[r] = offsets[r - 1] + counts[r - 1];
+        for (int r = 1; r < size; ++r)
+            offsets[r] = offsets[r - 1] + counts[r - 1];
         std::vector<std::byte> whole(rank == 0 ? ld.count() * scalarSize(reader.header().type) : 0);
-        MPI_Gatherv(mine.bytes().data(), bytes, MPI_BYTE, whole.data(), counts.data(), offsets.data(), MPI_BYTE, 0,
-                    MPI_COMM_WORLD);
+        MPI_Gatherv(mine.bytes().data(), bytes, MPI_BYTE, whole.data(), counts.data(), offsets.data(),
+                    MPI_BYTE, 0, MPI_COMM_WORLD);
         if (rank == 0) {
             const Volume reference = reader.decode(cc, {.level = level, .frame = frame});
             ok = reference.byteSize() == whole.size() &&
-                 std::memcmp(reference.bytes().data(), whole.data(), whole.size()) == 0 && allBricks ==
-                 pieces::bricksOf(reader.header(), {{0, 0, 0}, reader.header().dims}).size();
-            std::printf("check: %d-rank slabs %s the 1-rank decode; bricks decoded %llu (each once: %s)\n", size,
-                        ok ? "equal" : "DIFFER from", allBricks, ok ? "yes" : "no");
+                 std::memcmp(reference.bytes().data(), whole.data(), whole.size()) == 0 &&
+                 allBricks == pieces::bricksOf(reader.header(), {{0, 0, 0}, reader.header().dims}).size();
+            std::printf("check: %d-rank slabs %s the 1-rank decode; bricks decoded %llu (each once: %s)\n",
+                        size, ok ? "equal" : "DIFFER from", allBricks, ok ? "yes" : "no");
         }
         MPI_Bcast(&ok, 1, MPI_INT, 0, MPI_COMM_WORLD);
     }

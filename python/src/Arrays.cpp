@@ -12,10 +12,14 @@ namespace {
 
 nb::dlpack::dtype dtypeOf(ScalarType type) {
     switch (type) {
-    case ScalarType::UInt8: return nb::dtype<std::uint8_t>();
-    case ScalarType::UInt16: return nb::dtype<std::uint16_t>();
-    case ScalarType::Int16: return nb::dtype<std::int16_t>();
-    case ScalarType::Float32: return nb::dtype<float>();
+    case ScalarType::UInt8:
+        return nb::dtype<std::uint8_t>();
+    case ScalarType::UInt16:
+        return nb::dtype<std::uint16_t>();
+    case ScalarType::Int16:
+        return nb::dtype<std::int16_t>();
+    case ScalarType::Float32:
+        return nb::dtype<float>();
     }
     return nb::dtype<std::uint8_t>();
 }
@@ -29,8 +33,9 @@ std::string dtypeName(nb::dlpack::dtype d) {
     return kind + std::to_string(d.bits);
 }
 
-template <class T> nb::object owningArray(std::unique_ptr<T> owner, void* data, std::vector<std::size_t> shape,
-                                          nb::dlpack::dtype dtype) {
+template <class T>
+nb::object owningArray(std::unique_ptr<T> owner, void* data, std::vector<std::size_t> shape,
+                       nb::dlpack::dtype dtype) {
     T* raw = owner.get();
     nb::capsule capsule(raw, [](void* p) noexcept { delete static_cast<T*>(p); });
     owner.release(); // the capsule owns it now
@@ -41,10 +46,14 @@ template <class T> nb::object owningArray(std::unique_ptr<T> owner, void* data, 
 
 const char* numpyTypeName(ScalarType type) noexcept {
     switch (type) {
-    case ScalarType::UInt8: return "uint8";
-    case ScalarType::UInt16: return "uint16";
-    case ScalarType::Int16: return "int16";
-    case ScalarType::Float32: return "float32";
+    case ScalarType::UInt8:
+        return "uint8";
+    case ScalarType::UInt16:
+        return "uint16";
+    case ScalarType::Int16:
+        return "int16";
+    case ScalarType::Float32:
+        return "float32";
     }
     return "uint8";
 }

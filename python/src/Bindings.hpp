@@ -2,8 +2,8 @@
 #pragma once
 
 #include "core/Volume.hpp"
-#include "host/image/ImageIo.hpp"
 #include "core/runtime/ClRuntime.hpp"
+#include "host/image/ImageIo.hpp"
 
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>

@@ -2,8 +2,8 @@
 // levels, frames, single bricks).
 #include "python/src/Bindings.hpp"
 
-#include "core/Error.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/Error.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <nanobind/stl/array.h>
@@ -42,8 +42,9 @@ nb::dict reportDict(const EncodeReport& r) {
 
 // .vcz bytes and what the encoder measured (single volumes only: a series reports its size alone).
 std::tuple<nb::bytes, nb::dict> encode(Context& context, const std::vector<InputArray>& frames,
-                                       const std::array<double, 3>& spacing, const std::array<double, 3>& origin,
-                                       const std::string& rate, double target, std::optional<double> step,
+                                       const std::array<double, 3>& spacing,
+                                       const std::array<double, 3>& origin, const std::string& rate,
+                                       double target, std::optional<double> step,
                                        std::optional<std::string> wavelet, int levels,
                                        const std::array<std::size_t, 3>& brick, const std::string& entropy,
                                        unsigned threads, const std::map<std::string, std::string>& metadata) {
@@ -52,7 +53,8 @@ std::tuple<nb::bytes, nb::dict> encode(Context& context, const std::vector<Input
     o.rate = parseRate(rate);
     o.target = target;
     if (step) {
-        if (o.rate == RateMode::Lossless) throw UsageError("--step needs a lossy mode (--max-error, --psnr or --bpv)");
+        if (o.rate == RateMode::Lossless)
+            throw UsageError("--step needs a lossy mode (--max-error, --psnr or --bpv)");
         o.step = step;
     }
     if (wavelet) o.wavelet = parseWavelet(*wavelet);
@@ -136,7 +138,8 @@ public:
     std::size_t fileSize() const { return reader_.fileSize(); }
 
     Decoded decode(Context& context, std::optional<std::array<std::size_t, 3>> lo,
-                   std::optional<std::array<std::size_t, 3>> hi, int level, std::size_t frame, unsigned threads) const {
+                   std::optional<std::array<std::size_t, 3>> hi, int level, std::size_t frame,
+                   unsigned threads) const {
         DecodeOptions o;
         if (lo || hi) {
             if (!lo || !hi) throw UsageError("region needs both corners (lo and hi)");
@@ -182,8 +185,8 @@ private:
 
 void bindCodec(nb::module_& m) {
     m.def("encode", &encode, nb::arg("context"), nb::arg("frames"), nb::arg("spacing"), nb::arg("origin"),
-          nb::arg("rate"), nb::arg("target"), nb::arg("step").none(), nb::arg("wavelet").none(), nb::arg("levels"),
-          nb::arg("brick"), nb::arg("entropy"), nb::arg("threads"), nb::arg("metadata"),
+          nb::arg("rate"), nb::arg("target"), nb::arg("step").none(), nb::arg("wavelet").none(),
+          nb::arg("levels"), nb::arg("brick"), nb::arg("entropy"), nb::arg("threads"), nb::arg("metadata"),
           "Encodes one volume or a series (I frames) into .vcz bytes; returns (bytes, report).");
     nb::class_<Vcz>(m, "Vcz", "A .vcz in memory: header parsed and checked, bricks decoded on demand.")
         .def(nb::init<const ByteArray&, const std::string&>(), nb::arg("data"), nb::arg("name"))

@@ -1,8 +1,8 @@
 // Volume files for Python: read (every reader the command line has, .vcz included) and write.
 #include "python/src/Bindings.hpp"
 
-#include "core/Error.hpp"
 #include "core/AtomicFile.hpp"
+#include "core/Error.hpp"
 #include "host/io/Series.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "wavelet/Codec.hpp"
@@ -20,7 +20,8 @@ namespace {
 
 bool hasVczExtension(const std::string& path) {
     std::string ext = std::filesystem::path(path).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
     return ext == ".vcz";
 }
 
@@ -87,7 +88,8 @@ void bindIo(nb::module_& m) {
           "Every frame of a volume file (any reader of the command line; .vcz needs a context).");
     m.def("write", &writeFile, nb::arg("path"), nb::arg("array"), nb::arg("spacing"), nb::arg("origin"),
           nb::arg("compress") = true, "Writes one volume; the format follows the extension. Atomic.");
-    m.def("read_image", &readImageFile, nb::arg("path"), "An image (EXR, PNG, ...) as float32 pixels + channel names.");
+    m.def("read_image", &readImageFile, nb::arg("path"),
+          "An image (EXR, PNG, ...) as float32 pixels + channel names.");
 }
 
 } // namespace volcl::python

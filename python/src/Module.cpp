@@ -86,12 +86,14 @@ NB_MODULE(_volcl, m) {
                                 "Invalid argument or option combination (the command line's exit code 2).");
     types->io = newException(m, "IoError", types->error,
                              "A file could not be read or written, or is malformed, truncated or corrupted.");
-    types->data = newException(m, "DataError", types->error,
-                               "Well-formed but unsupported or numerically invalid data (NaN in lossy input...).");
+    types->data =
+        newException(m, "DataError", types->error,
+                     "Well-formed but unsupported or numerically invalid data (NaN in lossy input...).");
     types->cl = newException(m, "ClError", types->error, "An OpenCL call failed.");
     nb::register_exception_translator(translate, types);
 
-    m.def("version", [] { return std::string(volcl::version()); }, "The library version, MAJOR.MINOR.PATCH.");
+    m.def(
+        "version", [] { return std::string(volcl::version()); }, "The library version, MAJOR.MINOR.PATCH.");
     m.def("devices", &devices, "Every OpenCL device on every platform, as dicts (volcl devices).");
 
     nb::class_<Context>(m, "Context", "An OpenCL device context (one per device, shared by the calls).")

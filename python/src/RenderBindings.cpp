@@ -3,12 +3,12 @@
 #include "python/src/Bindings.hpp"
 
 #include "core/Error.hpp"
+#include "host/tf/TransferFunction.hpp"
+#include "preintegration/PreintegrationTable.hpp"
 #include "render/CameraFraming.hpp"
 #include "render/RenderInput.hpp"
 #include "render/Scene.hpp"
 #include "render/VecMath.hpp"
-#include "host/tf/TransferFunction.hpp"
-#include "preintegration/PreintegrationTable.hpp"
 
 #include <nanobind/stl/array.h>
 #include <nanobind/stl/optional.h>
@@ -21,11 +21,10 @@ namespace {
 
 // The image `volcl render` writes to EXR for the same volume, TF and scene: linear associated RGBA (+ Z
 // with iso-surfaces), no background; returns (pixels [height, width, channels], channel names).
-std::tuple<nb::object, std::vector<std::string>> render(Context& context, const InputArray& array,
-                                                        const std::array<double, 3>& spacing,
-                                                        const std::array<double, 3>& origin,
-                                                        const TransferFunction& tf, const std::string& sceneJson,
-                                                        std::optional<std::string> view) {
+std::tuple<nb::object, std::vector<std::string>>
+render(Context& context, const InputArray& array, const std::array<double, 3>& spacing,
+       const std::array<double, 3>& origin, const TransferFunction& tf, const std::string& sceneJson,
+       std::optional<std::string> view) {
     Volume v = arrayToVolume(array, spacing, origin);
     ImageBuffer image;
     {
@@ -35,8 +34,8 @@ std::tuple<nb::object, std::vector<std::string>> render(Context& context, const 
         scene.validateSteps(norm(box.extent));
         if (view) {
             if (scene.camera) throw UsageError("render: give either camera or view, not both");
-            scene.camera = frameBox(box, namedViewDirection(parseNamedView(*view)), Projection::Orthographic, 30.0,
-                                    double(scene.width) / double(scene.height));
+            scene.camera = frameBox(box, namedViewDirection(parseNamedView(*view)), Projection::Orthographic,
+                                    30.0, double(scene.width) / double(scene.height));
         }
         applyLightingDefaults(scene);
         const RenderInput input = RenderInput::fromVolume(std::move(v));
@@ -51,12 +50,10 @@ std::tuple<nb::object, std::vector<std::string>> render(Context& context, const 
 }
 
 // RGBA table [N, N, 4] (2D: y = front, x = back) or [L, N, N, 4] (3D), with the segment lengths.
-std::tuple<nb::object, std::vector<double>> preintegrationTable(Context* context, const TransferFunction& tf,
-                                                                int size, std::optional<double> step,
-                                                                std::optional<int> lengths,
-                                                                std::optional<double> maxLength,
-                                                                const std::string& axis, const std::string& method,
-                                                                const std::string& precision) {
+std::tuple<nb::object, std::vector<double>>
+preintegrationTable(Context* context, const TransferFunction& tf, int size, std::optional<double> step,
+                    std::optional<int> lengths, std::optional<double> maxLength, const std::string& axis,
+                    const std::string& method, const std::string& precision) {
     TableSpec spec;
     spec.size = size;
     if (step.has_value() == (lengths.has_value() || maxLength.has_value()))
@@ -89,13 +86,15 @@ std::tuple<nb::object, std::vector<double>> preintegrationTable(Context* context
         }
     }
     const std::size_t n = std::size_t(table.size()), slices = std::size_t(table.sliceCount());
-    std::vector<std::size_t> shape = step ? std::vector<std::size_t>{n, n, 4} : std::vector<std::size_t>{slices, n, n, 4};
+    std::vector<std::size_t> shape =
+        step ? std::vector<std::size_t>{n, n, 4} : std::vector<std::size_t>{slices, n, n, 4};
     return {floatsToArray(std::move(table.rgba), std::move(shape)), table.lengthValues};
 }
 
 // The PNG `volcl render` writes, before 8-bit quantisation: RGBA [height, width, 4+] over `background`, sRGB.
-nb::object compositeOverBackground(const nb::ndarray<const float, nb::ndim<3>, nb::c_contig, nb::device::cpu>& rgba,
-                                   const std::array<double, 4>& background) {
+nb::object
+compositeOverBackground(const nb::ndarray<const float, nb::ndim<3>, nb::c_contig, nb::device::cpu>& rgba,
+                        const std::array<double, 4>& background) {
     if (rgba.shape(2) < 4) throw UsageError("composite: the image needs 4 channels (R, G, B, A)");
     const int width = int(rgba.shape(1)), height = int(rgba.shape(0));
     const std::size_t channels = rgba.shape(2);
@@ -112,9 +111,9 @@ void bindRender(nb::module_& m) {
     m.def("render", &render, nb::arg("context"), nb::arg("array"), nb::arg("spacing"), nb::arg("origin"),
           nb::arg("tf"), nb::arg("scene_json"), nb::arg("view").none());
     m.def("composite", &compositeOverBackground, nb::arg("rgba"), nb::arg("background"));
-    m.def("preintegration_table", &preintegrationTable, nb::arg("context").none(), nb::arg("tf"), nb::arg("size"),
-          nb::arg("step").none(), nb::arg("lengths").none(), nb::arg("max_length").none(), nb::arg("axis"),
-          nb::arg("method"), nb::arg("precision"));
+    m.def("preintegration_table", &preintegrationTable, nb::arg("context").none(), nb::arg("tf"),
+          nb::arg("size"), nb::arg("step").none(), nb::arg("lengths").none(), nb::arg("max_length").none(),
+          nb::arg("axis"), nb::arg("method"), nb::arg("precision"));
 }
 
 } // namespace volcl::python

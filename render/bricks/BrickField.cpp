@@ -30,9 +30,11 @@ Volume brickNodeValues(ComputeContext& cc, const VczReader& reader, std::size_t 
         const int l = levels[b];
         const Volume brick = reader.decodeBrick(cc, frame, b, l);
         const std::vector<float> s = brick.toFloat();
-        forEachLevelValue(s, brick.dims(), d, l, [&](std::size_t j, std::size_t k, std::span<const double> row) {
-            for (std::size_t i = 0; i < row.size(); ++i) v[out.index(o.x + i, o.y + j, o.z + k)] = float(row[i]);
-        });
+        forEachLevelValue(s, brick.dims(), d, l,
+                          [&](std::size_t j, std::size_t k, std::span<const double> row) {
+                              for (std::size_t i = 0; i < row.size(); ++i)
+                                  v[out.index(o.x + i, o.y + j, o.z + k)] = float(row[i]);
+                          });
     }
     return out;
 }

@@ -64,7 +64,8 @@ ValueRange faceRange(const VczHeader& h, const LodStatistics* stats, std::size_t
 }
 
 /// Hull of the value ranges of brick b and its 26 neighbours, over every level (the input's range too).
-ValueRange neighbourhoodRange(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b) {
+ValueRange neighbourhoodRange(const VczHeader& h, const LodStatistics* stats, std::size_t frame,
+                              std::size_t b) {
     const Dims g = h.brickGrid();
     const std::size_t bx = b % g.x, by = b / g.x % g.y, bz = b / (g.x * g.y);
     const int levels = stats && stats->has(frame) ? stats->levels : 0;

@@ -2,9 +2,9 @@
 // hides, and the level each remaining brick is drawn at (render.lod), from the .vcz index alone.
 #pragma once
 
+#include "host/tf/TransferFunction.hpp"
 #include "render/Scene.hpp"
 #include "render/grid/GridDetail.hpp"
-#include "host/tf/TransferFunction.hpp"
 #include "wavelet/container/LodStatistics.hpp"
 #include "wavelet/container/VczFormat.hpp"
 

@@ -121,7 +121,8 @@ BrickCache::repack(std::vector<std::pair<Key, std::size_t>> workingSet) {
     std::size_t residents = 0;
     releaseAll();
     for (Placement& p : out) {
-        const std::optional<std::size_t> off = p.slot.order < 0 ? std::nullopt : alloc_.allocate(p.slot.order);
+        const std::optional<std::size_t> off =
+            p.slot.order < 0 ? std::nullopt : alloc_.allocate(p.slot.order);
         if (!off) {
             releaseAll();
             evictions_ += before;

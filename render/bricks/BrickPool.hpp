@@ -54,8 +54,8 @@ public:
     struct Placement {
         Key key;
         CachedBrick slot;
-        bool resident = false;      ///< it was in the pool: its samples move from `from` to slot.offset
-        std::size_t from = 0;       ///< its float offset before the repack (resident bricks only)
+        bool resident = false; ///< it was in the pool: its samples move from `from` to slot.offset
+        std::size_t from = 0;  ///< its float offset before the repack (resident bricks only)
     };
     explicit BrickCache(BuddyAllocator allocator) : alloc_(std::move(allocator)) {}
 

@@ -4,12 +4,12 @@
 #include "cl/volcl_shared.h"
 #include "core/Error.hpp"
 #include "core/Volume.hpp"
+#include "core/runtime/Timing.hpp"
+#include "preintegration/PreintegrationTable.hpp"
 #include "render/FogDevice.hpp"
 #include "render/FrameParams.hpp"
 #include "render/VecMath.hpp"
 #include "render/bricks/BrickPool.hpp"
-#include "core/runtime/Timing.hpp"
-#include "preintegration/PreintegrationTable.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <algorithm>
@@ -129,7 +129,8 @@ EffectPlan BrickRenderer::planEffects(const Scene& scene) const {
     std::vector<std::string> notes;
     if (s.effects.shadingPreintegrated) {
         s.effects.shadingPreintegrated = false;
-        notes.push_back("pre-integrated lighting: compressed bricks are lit per sample (decode the file for the table)");
+        notes.push_back(
+            "pre-integrated lighting: compressed bricks are lit per sample (decode the file for the table)");
     }
     if (s.effects.isoTable) {
         s.effects.isoTable = false;
@@ -202,7 +203,8 @@ void BrickRenderer::rebuild(const Rebuild& change) {
         selectPreintegrationTable(change.shaded, *spec);
     m.packet =
         scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
-    m.kernel = cc_.kernel("render/raymarch_bricks.cl", m.packet ? "raymarch_packet" : "raymarch", plan_.defines);
+    m.kernel =
+        cc_.kernel("render/raymarch_bricks.cl", m.packet ? "raymarch_packet" : "raymarch", plan_.defines);
 
     const VczHeader& h = *m.h;
     VolclGridRenderParams& p = m.params;
@@ -321,7 +323,8 @@ void BrickRenderer::loadBricks(const BrickSelection& s) {
         for (std::size_t b : work)
             ws.push_back({{frame_, b, s.level[b]}, brickSamples(h, b, s.level[b]).count()});
         const auto placements = m.cache->repack(std::move(ws));
-        if (!placements) throw Error("internal: the brick pool cannot hold a working set that fits its budget");
+        if (!placements)
+            throw Error("internal: the brick pool cannot hold a working set that fits its budget");
         // Read every moving brick before writing any: old and new places may overlap.
         std::vector<std::pair<const BrickCache::Placement*, std::vector<float>>> moving;
         for (const BrickCache::Placement& p : *placements) {
@@ -357,7 +360,8 @@ void BrickRenderer::loadBricks(const BrickSelection& s) {
                 throw;
             }
             const std::vector<float> samples = v.toFloat();
-            if (samples.size() != slot[b].floats) throw Error("internal: decoded brick has an unexpected size");
+            if (samples.size() != slot[b].floats)
+                throw Error("internal: decoded brick has an unexpected size");
             cc_.write(m.pool, std::span<const float>(samples), m.pageFloats() + slot[b].offset);
             last_.decodeMs += sw.milliseconds();
             ++last_.decoded;

@@ -160,7 +160,8 @@ template BsplineCoefficients<float> bsplineCoefficients<float>(const Volume&, Re
 template BsplineCoefficients<double> bsplineCoefficients<double>(const Volume&, ReconstructionFilter, double);
 
 Volume smoothedVolume(const Volume& volume, double smoothing) {
-    const BsplineCoefficients<float> c = bsplineCoefficients<float>(volume, ReconstructionFilter::Bspline, smoothing);
+    const BsplineCoefficients<float> c =
+        bsplineCoefficients<float>(volume, ReconstructionFilter::Bspline, smoothing);
     Volume out(volume.dims(), ScalarType::Float32);
     out.origin = volume.origin;
     out.spacing = volume.spacing;

@@ -2,10 +2,10 @@
 #pragma once
 
 #include "cl/volcl_shared.h"
+#include "host/tf/TransferFunction.hpp"
 #include "render/Bounds.hpp"
 #include "render/EffectPlan.hpp"
 #include "render/Scene.hpp"
-#include "host/tf/TransferFunction.hpp"
 
 #include <cstddef>
 #include <vector>

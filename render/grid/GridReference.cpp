@@ -112,14 +112,16 @@ private:
     /// midpoint rule never straddles a jump).
     ReferencePixel traceWithFog(const CameraRay& ray, const Vec3& o, const Vec3& d) const {
         double t0 = 0.0, t1 = inf();
-        const bool vol = clipBox(o, d, t0, t1) && clipToPlanes(scene_.effects.clipPlanes, ray, t0, t1) && t1 > t0;
+        const bool vol =
+            clipBox(o, d, t0, t1) && clipToPlanes(scene_.effects.clipPlanes, ray, t0, t1) && t1 > t0;
         double f0 = 0.0, f1 = inf();
         const bool fog = fog_->clip(ray.origin, ray.direction, f0, f1);
         if (!vol && !fog) return emptyReferencePixel();
         std::vector<double> cuts;
         if (vol) cuts.insert(cuts.end(), {t0, t1});
         if (fog) cuts.insert(cuts.end(), {f0, f1});
-        const double lo = *std::min_element(cuts.begin(), cuts.end()), hi = *std::max_element(cuts.begin(), cuts.end());
+        const double lo = *std::min_element(cuts.begin(), cuts.end()),
+                     hi = *std::max_element(cuts.begin(), cuts.end());
         const double b = dot(ray.direction, fog_->up());
         if (!fog_->hasMap() && b != 0.0) {
             const double tc = (fog_->effect().base - dot(ray.origin, fog_->up())) / b;
@@ -130,7 +132,8 @@ private:
         auto at = [&](double t) { return add(o, scale(d, t)); };
         Vec3 rgb{0, 0, 0};
         double T = 1.0, depth = inf(), optical = 0.0;
-        const auto hits = isos_.empty() || !vol ? std::vector<std::pair<double, std::size_t>>{} : isoHits(o, d, t0, t1);
+        const auto hits =
+            isos_.empty() || !vol ? std::vector<std::pair<double, std::size_t>>{} : isoHits(o, d, t0, t1);
         std::size_t nextHit = 0;
         for (std::size_t c = 0; c + 1 < cuts.size(); ++c) {
             const double a0 = cuts[c], a1 = cuts[c + 1];
@@ -447,8 +450,8 @@ private:
     double gradMin_ = 0.0, shadowStep_ = 1.0;
     std::vector<IsoLayer> isos_;
     std::optional<BsplineCoefficients<double>> spline_; ///< the cubic filters' coefficients
-    std::array<double, 2> window_{0.0, 1.0};              ///< MIP window: lower end, width
-    std::optional<FogField> fog_;                         ///< the scene's fog (not in mip mode)
+    std::array<double, 2> window_{0.0, 1.0};            ///< MIP window: lower end, width
+    std::optional<FogField> fog_;                       ///< the scene's fog (not in mip mode)
 };
 
 } // namespace

@@ -4,17 +4,17 @@
 #include "cl/volcl_shared.h"
 #include "core/Error.hpp"
 #include "core/Format.hpp"
-#include "core/Volume.hpp"
-#include "render/FogDevice.hpp"
-#include "render/FrameParams.hpp"
-#include "render/VecMath.hpp"
 #include "core/MemoryBudget.hpp"
-#include "render/grid/BsplineField.hpp"
-#include "render/grid/GridDetail.hpp"
-#include "render/grid/PathTracer.hpp"
+#include "core/Volume.hpp"
 #include "core/runtime/DeviceProfile.hpp"
 #include "core/runtime/Timing.hpp"
 #include "preintegration/PreintegrationTable.hpp"
+#include "render/FogDevice.hpp"
+#include "render/FrameParams.hpp"
+#include "render/VecMath.hpp"
+#include "render/grid/BsplineField.hpp"
+#include "render/grid/GridDetail.hpp"
+#include "render/grid/PathTracer.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -201,7 +201,8 @@ void GridRenderer::selectTables(const TransferFunction& shaded) {
         std::vector<IsoSurface> surfaces;
         for (const auto& iso : plan_.isosurfaces) {
             const double a = iso.rgba[3], cs = plan_.colorScale;
-            surfaces.push_back({iso.value, {iso.rgba[0] * cs * a, iso.rgba[1] * cs * a, iso.rgba[2] * cs * a, a}});
+            surfaces.push_back(
+                {iso.value, {iso.rgba[0] * cs * a, iso.rgba[1] * cs * a, iso.rgba[2] * cs * a, a}});
         }
         const std::array<double, 2> domain = isoTableDomain(impl_->range);
         std::ostringstream source;
@@ -228,7 +229,8 @@ const grid_detail::MacrocellGrid& GridRenderer::prepareSampledField() {
     if (spline && (m.splineFilter != scene_.filter || m.splineSmoothing != scene_.smoothing)) {
         checkMemoryBudget(bsplineCoefficientBytes(volume_, sizeof(float)), 0, "the volume",
                           "the cubic filter's coefficients");
-        const BsplineCoefficients<float> c = bsplineCoefficients<float>(volume_, scene_.filter, scene_.smoothing);
+        const BsplineCoefficients<float> c =
+            bsplineCoefficients<float>(volume_, scene_.filter, scene_.smoothing);
         // The interpolating prefilter amplifies alternating data up to 27x: values near float's limit overflow.
         if (!std::all_of(c.c.begin(), c.c.end(), [](float v) { return std::isfinite(v); }))
             throw DataError("volume values up to " + formatNumber(m.range.max) + " overflow the " +
@@ -329,16 +331,17 @@ ImageBuffer GridRenderer::readImage(bool withDepth) {
 ImageBuffer GridRenderer::render() {
     Impl& m = *impl_;
     const cl::Buffer& voxels = scene_.filter != ReconstructionFilter::Linear ? m.spline.get()
-                               : scene_.smoothing > 0.0                    ? m.smoothed.get()
-                               : m.packet && m.useCorners                  ? m.corners.get()
-                                                                           : m.volume.get();
+                               : scene_.smoothing > 0.0                      ? m.smoothed.get()
+                               : m.packet && m.useCorners                    ? m.corners.get()
+                                                                             : m.volume.get();
     if (plan_.pathTracing) return launch(m.kernel, m.volume.get(), false, false);
     return launch(m.kernel, voxels, !plan_.isosurfaces.empty(), m.packet);
 }
 
 int GridRenderer::accumulateSamples(int samples) {
     Impl& m = *impl_;
-    if (!plan_.pathTracing) throw UsageError("progressive accumulation needs effects.scattering.order multiple");
+    if (!plan_.pathTracing)
+        throw UsageError("progressive accumulation needs effects.scattering.order multiple");
     if (ensureFrameBuffers()) m.pathTracer->reset();
     lastMs_ =
         m.pathTracer->accumulate(m.kernel, m.volume.get(), knots(), m.params, scene_.effects, samples, out_);
@@ -352,7 +355,8 @@ ImageBuffer GridRenderer::renderProgressive(int samples) {
 }
 
 ImageBuffer GridRenderer::accumulatedImage() {
-    if (!plan_.pathTracing) throw UsageError("progressive accumulation needs effects.scattering.order multiple");
+    if (!plan_.pathTracing)
+        throw UsageError("progressive accumulation needs effects.scattering.order multiple");
     return readImage(false);
 }
 

@@ -3,12 +3,12 @@
 #include "cl/common/counter_rng.h"
 #include "core/Error.hpp"
 #include "core/Volume.hpp"
+#include "core/runtime/DeviceProfile.hpp"
+#include "core/runtime/ParallelFor.hpp"
 #include "render/Reference.hpp"
 #include "render/VecMath.hpp"
 #include "render/grid/GridRenderer.hpp"
 #include "render/grid/PathTracer.hpp"
-#include "core/runtime/DeviceProfile.hpp"
-#include "core/runtime/ParallelFor.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -49,8 +49,9 @@ Vec3 samplePhase(const Vec3& dir, double g, double u1, double u2) {
 class PathReference {
 public:
     PathReference(const Volume& v, const TransferFunction& tf, const Scene& s)
-        : vol_(v), tf_(tf), fx_(s.effects), values_(v.toFloat()), cam_(s.camera ? *s.camera : defaultCamera(v)),
-          lighting_(s, cam_), macro_(grid_detail::buildMacrocells(v, genericDeviceProfile().rayMarch.macrocellEdge)),
+        : vol_(v), tf_(tf), fx_(s.effects), values_(v.toFloat()),
+          cam_(s.camera ? *s.camera : defaultCamera(v)), lighting_(s, cam_),
+          macro_(grid_detail::buildMacrocells(v, genericDeviceProfile().rayMarch.macrocellEdge)),
           majorant_(majorantGrid(macro_, tf)) {
         const Dims& d = v.dims();
         n_ = {d.x, d.y, d.z};
@@ -86,7 +87,8 @@ public:
                 const Vec3 dv = divide(Ld);
                 double s0 = 0.0, s1 = dist;
                 const double Tr = clipBox(pv, dv, s0, s1) ? transmittance(pv, dv, s0, s1, rng) : 1.0;
-                L = add(L, scale(mul(mul(beta, a), scale(l.color, l.intensity)), phaseHG(g, dot(Ld, dW)) * Tr));
+                L = add(L,
+                        scale(mul(mul(beta, a), scale(l.color, l.intensity)), phaseHG(g, dot(Ld, dW)) * Tr));
             }
             if (sky) {
                 const double u1 = uniform(rng), u2 = uniform(rng);
@@ -169,8 +171,10 @@ private:
             const double ci = std::clamp(std::floor(p[a] / B), 0.0, double(dims[a] - 1));
             c[a] = std::size_t(ci);
             const double lo = ci * B, hi = std::min(lo + B, double(n_[a] - 1));
-            if (d[a] > 0.0) e = std::min(e, (hi - p[a]) / d[a]);
-            else if (d[a] < 0.0) e = std::min(e, (lo - p[a]) / d[a]);
+            if (d[a] > 0.0)
+                e = std::min(e, (hi - p[a]) / d[a]);
+            else if (d[a] < 0.0)
+                e = std::min(e, (lo - p[a]) / d[a]);
         }
         exitT = tq + std::max(e, 0.0);
         return (c[2] * macro_.ny + c[1]) * macro_.nx + c[0];
@@ -255,7 +259,8 @@ ImageBuffer pathTraceReference(const Volume& volume, const TransferFunction& tf,
         const int y = int(row);
         for (int x = 0; x < scene.width; ++x) {
             const CameraRay ray = cameraRay(cam, scene.width, scene.height, x, y);
-            const volcl_rng_u32 pix = volcl_rng_u32(std::size_t(y) * std::size_t(scene.width) + std::size_t(x));
+            const volcl_rng_u32 pix =
+                volcl_rng_u32(std::size_t(y) * std::size_t(scene.width) + std::size_t(x));
             std::array<double, 4> sum{0, 0, 0, 0};
             for (int s = 0; s < samples; ++s) {
                 VolclRng rng = volcl_rng_start(scene.effects.seed, pix, volcl_rng_u32(s));

@@ -36,7 +36,8 @@ void GridPathTracer::setMajorants(const std::vector<float>& majorants) {
 
 double GridPathTracer::accumulate(cl::Kernel& kernel, const cl::Buffer& voxels,
                                   const DeviceBuffer<VolclTfKnot>& knots, const VolclGridRenderParams& params,
-                                  const SceneEffects& fx, int samples, DeviceBuffer<cl_float4>& out, int perLaunch) {
+                                  const SceneEffects& fx, int samples, DeviceBuffer<cl_float4>& out,
+                                  int perLaunch) {
     if (majorant_.size() == 0) throw Error("internal: path tracer has no majorant grid");
     const std::size_t w = params.camera.width, h = params.camera.height, pixels = w * h;
     if (accum_.size() != pixels) {

@@ -3,11 +3,11 @@
 #pragma once
 
 #include "cl/volcl_shared.h"
+#include "core/runtime/ClRuntime.hpp"
 #include "host/image/ImageIo.hpp"
+#include "host/tf/TransferFunction.hpp"
 #include "render/Scene.hpp"
 #include "render/grid/GridDetail.hpp"
-#include "core/runtime/ClRuntime.hpp"
-#include "host/tf/TransferFunction.hpp"
 
 #include <vector>
 
@@ -51,8 +51,8 @@ private:
 
 /// Options of the reference path tracer.
 struct PathReferenceOptions {
-    int samples = 0;  ///< 0: the scene's effects.scattering.samples
-    int threads = 0;  ///< 0: hardware concurrency
+    int samples = 0; ///< 0: the scene's effects.scattering.samples
+    int threads = 0; ///< 0: hardware concurrency
 };
 
 /// The path tracer in double precision with the exact TF and the same random stream (seed, pixel, sample)

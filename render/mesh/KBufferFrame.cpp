@@ -76,7 +76,8 @@ TableSpec kbufferTableSpec(const Scene& scene, double maxLength) {
 }
 
 std::vector<cl_float4> kbufferBlockedTable(const PreintegrationTable& table) {
-    const std::size_t n = std::size_t(table.size()), lengths = std::size_t(table.sliceCount()), B = kKBufferTableBlock;
+    const std::size_t n = std::size_t(table.size()), lengths = std::size_t(table.sliceCount()),
+                      B = kKBufferTableBlock;
     const std::size_t nb = (n + B - 1) / B;
     std::vector<cl_float4> out(nb * nb * B * B * lengths, cl_float4{{0, 0, 0, 0}});
     for (std::size_t k = 0; k < lengths; ++k)

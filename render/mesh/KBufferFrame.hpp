@@ -3,11 +3,11 @@
 #pragma once
 
 #include "cl/mesh/mesh_kbuffer_shared.h"
-#include "host/mesh/TetMesh.hpp"
-#include "render/mesh/MeshFaces.hpp"
-#include "render/Scene.hpp"
 #include "core/runtime/ClRuntime.hpp"
+#include "host/mesh/TetMesh.hpp"
 #include "preintegration/PreintegrationTable.hpp"
+#include "render/Scene.hpp"
+#include "render/mesh/MeshFaces.hpp"
 
 #include <cstddef>
 #include <vector>

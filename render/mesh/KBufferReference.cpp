@@ -60,8 +60,8 @@ std::array<float, 4> bilinear(const std::vector<float>& table, unsigned n, unsig
 }
 
 /// mesh_kbuffer.cl's kb_preint (tf_lookup.h's preint_segment for PREINT 3 with precomputed factors).
-std::array<float, 4> preintSegment(const std::vector<float>& table, const VolclKBufferParams& P, float sf, float sb,
-                                   float len) {
+std::array<float, 4> preintSegment(const std::vector<float>& table, const VolclKBufferParams& P, float sf,
+                                   float sb, float len) {
     const VolclTfParams& T = P.tf;
     const float u = (sf - T.domainLo) * P.tableScale, v = (sb - T.domainLo) * P.tableScale;
     const float kf = len * P.lengthScale - 1.0f;
@@ -108,8 +108,8 @@ struct Pixel {
 class Mirror {
 public:
     Mirror(const KBufferMirrorInput& in, KBufferMirrorStats* stats)
-        : in_(in), P_(in.params), k_(in.k), stats_(stats),
-          pixels_(std::size_t(P_.width) * P_.height), frags_(pixels_.size() * std::size_t(k_)) {}
+        : in_(in), P_(in.params), k_(in.k), stats_(stats), pixels_(std::size_t(P_.width) * P_.height),
+          frags_(pixels_.size() * std::size_t(k_)) {}
 
     void segment(Pixel& px, const Frag& a, const Frag& b) {
         if (stats_) {
@@ -178,7 +178,8 @@ public:
             if (!(orient != 0.0f && a.w != 0.0f && b.w != 0.0f && c.w != 0.0f)) continue;
             const float sg = orient > 0.0f ? 1.0f : -1.0f;
             const unsigned fl = face.boundary ? (orient < 0.0f ? KB_FRAG_ENTER : KB_FRAG_EXIT) : 0u;
-            const Edge ea = makeEdge(b, ib, c, ic, sg), eb = makeEdge(c, ic, a, ia, sg), ec = makeEdge(a, ia, b, ib, sg);
+            const Edge ea = makeEdge(b, ib, c, ic, sg), eb = makeEdge(c, ic, a, ia, sg),
+                       ec = makeEdge(a, ia, b, ib, sg);
             const float sa = sc[ia], sb = sc[ib], scc = sc[ic];
             const int x0 = int(std::ceil(std::fmax(std::fmin(std::fmin(a.x, b.x), c.x), 0.0f)));
             const int x1 = int(std::floor(std::fmin(std::fmax(std::fmax(a.x, b.x), c.x), float(W - 1))));
@@ -286,7 +287,8 @@ std::vector<std::uint32_t> kbufferMirrorOrder(const KBufferMirrorInput& in) {
 }
 
 ImageBuffer kbufferMirrorRender(const KBufferMirrorInput& in, KBufferMirrorStats* stats) {
-    if (!in.geometry || !in.scalars || !in.faces || !in.table) throw Error("internal: incomplete k-buffer mirror input");
+    if (!in.geometry || !in.scalars || !in.faces || !in.table)
+        throw Error("internal: incomplete k-buffer mirror input");
     if (in.k < kKBufferMinK || in.k > kKBufferMirrorMaxK)
         throw UsageError("k-buffer mirror: k must be 2.." + std::to_string(kKBufferMirrorMaxK));
     if (stats) *stats = {};

@@ -30,9 +30,9 @@ struct KBufferMirrorInput {
 
 /// What the mirror counted besides the image.
 struct KBufferMirrorStats {
-    std::size_t fragments = 0;   ///< pixel-face intersections inserted
-    std::size_t pixelTests = 0;  ///< pixels of face rectangles tested against a face's edges
-    std::size_t overflowPops = 0; ///< pops made while inserting (a full k-buffer)
+    std::size_t fragments = 0;      ///< pixel-face intersections inserted
+    std::size_t pixelTests = 0;     ///< pixels of face rectangles tested against a face's edges
+    std::size_t overflowPops = 0;   ///< pops made while inserting (a full k-buffer)
     std::size_t misorderedPops = 0; ///< pops nearer than the pixel's previous pop: k was too small there
 };
 

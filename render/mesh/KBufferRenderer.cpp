@@ -3,11 +3,11 @@
 
 #include "core/Error.hpp"
 #include "core/Format.hpp"
+#include "core/runtime/DeviceProfile.hpp"
+#include "core/runtime/Timing.hpp"
 #include "render/VecMath.hpp"
 #include "render/mesh/MeshReference.hpp"
 #include "render/mesh/RadixSort.hpp"
-#include "core/runtime/DeviceProfile.hpp"
-#include "core/runtime/Timing.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -17,8 +17,8 @@ namespace volcl {
 
 EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, const DeviceProfile& device) {
     if (k < kKBufferMinK || k > kKBufferMaxK)
-        throw UsageError("render.k must be " + std::to_string(kKBufferMinK) + ".." + std::to_string(kKBufferMaxK) +
-                         " (got " + std::to_string(k) + ")");
+        throw UsageError("render.k must be " + std::to_string(kKBufferMinK) + ".." +
+                         std::to_string(kKBufferMaxK) + " (got " + std::to_string(k) + ")");
     if (scene.mode != RenderMode::Dvr)
         throw UsageError("render.method \"kbuffer\" draws mode dvr only (mode " +
                          std::string(renderModeName(scene.mode)) + ": use render.method \"cells\")");
@@ -37,7 +37,8 @@ EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, con
         p.dropped.push_back("preintegration \"" + std::string(preintegrationName(scene.preintegration)) +
                             "\": the k-buffer integrates every segment through the 3D table");
     p.earlyTermination = scene.earlyTermination < 1.0;
-    if (p.earlyTermination) p.compiled.push_back("early termination at alpha >= " + formatNumber(scene.earlyTermination));
+    if (p.earlyTermination)
+        p.compiled.push_back("early termination at alpha >= " + formatNumber(scene.earlyTermination));
     const SceneEffects& fx = scene.effects;
     const std::string why = ": not drawn by render.method \"kbuffer\" (use \"cells\")";
     if (fx.shading) p.dropped.push_back("shading" + why);
@@ -77,11 +78,13 @@ KBufferRenderer::KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, 
                                  const Scene& scene, int k, const FaceSplitOptions& split)
     : RendererBase(cc, tf, scene), mesh_(mesh), k_(k), impl_(std::make_unique<Impl>(cc)) {
     if (mesh.tets.empty()) throw DataError("mesh has no tetrahedra");
-    if (mesh.points.size() > 0xFFFFFFFFu) throw DataError("mesh has too many points for the k-buffer (2^32 - 1)");
+    if (mesh.points.size() > 0xFFFFFFFFu)
+        throw DataError("mesh has too many points for the k-buffer (2^32 - 1)");
     faces_ = buildMeshFaces(mesh);
     if (split.ratio > 0.0) splitLongFaces(faces_, mesh, split.ratio, split.budget);
     geometry_ = kbufferGeometry(mesh, faces_);
-    if (geometry_.points.size() > 0xFFFFFFFFu) throw DataError("mesh has too many points for the k-buffer (2^32 - 1)");
+    if (geometry_.points.size() > 0xFFFFFFFFu)
+        throw DataError("mesh has too many points for the k-buffer (2^32 - 1)");
     Impl& m = *impl_;
     m.points = cc_.upload(geometry_.points, CL_MEM_READ_ONLY);
     m.scalars = cc_.upload(geometry_.scalars, CL_MEM_READ_ONLY);
@@ -173,7 +176,8 @@ KBufferRenderer::Table KBufferRenderer::buildTable(const TableSpec& spec) {
     };
     std::vector<cl_float4> plain(entries);
     for (std::size_t i = 0; i < entries; ++i)
-        plain[i] = {{t.host.rgba[4 * i], t.host.rgba[4 * i + 1], t.host.rgba[4 * i + 2], t.host.rgba[4 * i + 3]}};
+        plain[i] = {
+            {t.host.rgba[4 * i], t.host.rgba[4 * i + 1], t.host.rgba[4 * i + 2], t.host.rgba[4 * i + 3]}};
     const DeviceBuffer<cl_half> rounded = toHalf(plain);
     DeviceBuffer<cl_float4> back = cc_.allocate<cl_float4>(entries);
     setArgs(m.fromHalf, rounded, cl_uint(entries), back);
@@ -230,7 +234,8 @@ ImageBuffer KBufferRenderer::render() {
 
     const std::size_t threads = tuning.tileThreads;
     setArgs(m.raster, m.proj, m.scalars, m.counts, m.list, P, table.device, out_);
-    times_.raster = eventMilliseconds(cc_.launch(m.raster, cl::NDRange(tiles * threads), cl::NDRange(threads)));
+    times_.raster =
+        eventMilliseconds(cc_.launch(m.raster, cl::NDRange(tiles * threads), cl::NDRange(threads)));
 
     lastMs_ = times_.total();
     ImageBuffer img = downloadFrame(false);

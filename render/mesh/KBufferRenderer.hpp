@@ -48,8 +48,8 @@ struct FaceSplitOptions {
 class KBufferRenderer final : public RendererBase {
 public:
     /// Throws UsageError for k outside 2..8 or a scene the method cannot draw (mode other than dvr).
-    KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf, const Scene& scene,
-                    int k = kKBufferDefaultK, const FaceSplitOptions& split = {});
+    KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf,
+                    const Scene& scene, int k = kKBufferDefaultK, const FaceSplitOptions& split = {});
     ~KBufferRenderer() override;
 
     EffectPlan planEffects(const Scene& scene) const override;

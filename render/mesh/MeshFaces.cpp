@@ -43,7 +43,8 @@ MeshFaces buildMeshFaces(const mesh::TetMesh& mesh, std::uint64_t seed) {
         const auto& c = mesh.points[v[2]];
         const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
         const double w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-        const double cx = u[1] * w[2] - u[2] * w[1], cy = u[2] * w[0] - u[0] * w[2], cz = u[0] * w[1] - u[1] * w[0];
+        const double cx = u[1] * w[2] - u[2] * w[1], cy = u[2] * w[0] - u[0] * w[2],
+                     cz = u[0] * w[1] - u[1] * w[0];
         const double area = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
         internal.push_back({area * xi(rng), {v, false}});
     }
@@ -54,15 +55,17 @@ MeshFaces buildMeshFaces(const mesh::TetMesh& mesh, std::uint64_t seed) {
     std::vector<std::size_t> rank(internal.size());
     for (std::size_t i = 0; i < rank.size(); ++i)
         rank[i] = i;
-    std::stable_sort(rank.begin(), rank.end(),
-                     [&](std::size_t x, std::size_t y) { return internal[x].priority > internal[y].priority; });
+    std::stable_sort(rank.begin(), rank.end(), [&](std::size_t x, std::size_t y) {
+        return internal[x].priority > internal[y].priority;
+    });
     std::vector<std::uint32_t> level(internal.size());
     for (std::size_t r = 0; r < rank.size(); ++r)
         level[rank[r]] = static_cast<std::uint32_t>(r * kLodLevels / rank.size());
     std::vector<std::size_t> byLevel(internal.size());
     for (std::size_t i = 0; i < byLevel.size(); ++i)
         byLevel[i] = i;
-    std::stable_sort(byLevel.begin(), byLevel.end(), [&](std::size_t x, std::size_t y) { return level[x] < level[y]; });
+    std::stable_sort(byLevel.begin(), byLevel.end(),
+                     [&](std::size_t x, std::size_t y) { return level[x] < level[y]; });
     for (std::size_t i : byLevel)
         out.faces.push_back(internal[i].face);
     return out;
@@ -76,7 +79,8 @@ std::size_t splitLongFaces(MeshFaces& out, const mesh::TetMesh& mesh, double rat
     auto scalar = [&](std::uint32_t i) { return i < base ? mesh.scalars[i] : out.extraScalars[i - base]; };
     auto dist = [&](std::uint32_t i, std::uint32_t j) {
         const auto &a = point(i), &b = point(j);
-        return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+        return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                         (a[2] - b[2]) * (a[2] - b[2]));
     };
     const std::size_t n = out.faces.size();
     if (n == 0) return 0;
@@ -91,7 +95,8 @@ std::size_t splitLongFaces(MeshFaces& out, const mesh::TetMesh& mesh, double rat
     std::vector<std::size_t> byLength(n);
     for (std::size_t i = 0; i < n; ++i)
         byLength[i] = i;
-    std::sort(byLength.begin(), byLength.end(), [&](std::size_t a, std::size_t b) { return longest[a] > longest[b]; });
+    std::sort(byLength.begin(), byLength.end(),
+              [&](std::size_t a, std::size_t b) { return longest[a] > longest[b]; });
     // Levels are handed out breadth first: every face over the threshold is cut once (longest first) before
     // any is cut twice, so the budget spreads over the many long faces rather than a few extreme ones.
     std::vector<int> levels(n, 0);
@@ -128,7 +133,8 @@ std::size_t splitLongFaces(MeshFaces& out, const mesh::TetMesh& mesh, double rat
     std::vector<MeshFace> faces;
     faces.reserve(n + std::size_t(added));
     std::size_t boundary = 0;
-    auto split = [&](auto&& self, std::uint32_t a, std::uint32_t b, std::uint32_t c, bool onBoundary, int l) -> void {
+    auto split = [&](auto&& self, std::uint32_t a, std::uint32_t b, std::uint32_t c, bool onBoundary,
+                     int l) -> void {
         if (l == 0) {
             faces.push_back({{a, b, c}, onBoundary});
             boundary += onBoundary ? 1 : 0;

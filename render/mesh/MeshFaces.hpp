@@ -49,6 +49,7 @@ MeshFaces buildMeshFaces(const mesh::TetMesh& mesh, std::uint64_t seed = 0x5eed5
 /// before any twice, longest first, adding at most `budget` times the face count. The
 /// pieces cover the face exactly (same plane, the linear scalar at the midpoints), keep its winding and its
 /// place in the order; a midpoint is shared by every face split along that edge. Returns the faces added.
-std::size_t splitLongFaces(MeshFaces& faces, const mesh::TetMesh& mesh, double ratio = 4.0, double budget = 1.0);
+std::size_t splitLongFaces(MeshFaces& faces, const mesh::TetMesh& mesh, double ratio = 4.0,
+                           double budget = 1.0);
 
 } // namespace volcl

@@ -120,7 +120,8 @@ std::vector<std::uint8_t> hullFaces(const mesh::TetMesh& m, const BoundaryBvh& b
             // The box's largest n.x + w: its centre's plus the half extents along |n|.
             double top = w;
             for (int k = 0; k < 3; ++k)
-                top += n[k] * 0.5 * (node.lo[k] + node.hi[k]) + std::abs(n[k]) * 0.5 * (node.hi[k] - node.lo[k]);
+                top +=
+                    n[k] * 0.5 * (node.lo[k] + node.hi[k]) + std::abs(n[k]) * 0.5 * (node.hi[k] - node.lo[k]);
             if (top <= eps) continue;
             if (node.count == 0) {
                 stack.push_back(node.right);

@@ -2,9 +2,9 @@
 #include "render/mesh/MeshReference.hpp"
 
 #include "core/Error.hpp"
+#include "preintegration/Reference.hpp"
 #include "render/FrameParams.hpp"
 #include "render/mesh/MeshGeometry.hpp"
-#include "preintegration/Reference.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -4,10 +4,10 @@
 
 #include "host/image/ImageIo.hpp"
 #include "host/mesh/TetMesh.hpp"
+#include "host/tf/TransferFunction.hpp"
 #include "render/EffectPlan.hpp"
 #include "render/Reference.hpp"
 #include "render/Scene.hpp"
-#include "host/tf/TransferFunction.hpp"
 
 namespace volcl {
 

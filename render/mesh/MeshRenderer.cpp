@@ -5,15 +5,15 @@
 #include "cl/volcl_shared.h"
 #include "core/Error.hpp"
 #include "core/Format.hpp"
+#include "core/runtime/DeviceProfile.hpp"
+#include "core/runtime/ParallelFor.hpp"
+#include "core/runtime/Timing.hpp"
+#include "preintegration/PreintegrationTable.hpp"
 #include "render/FrameParams.hpp"
 #include "render/VecMath.hpp"
 #include "render/grid/GridDetail.hpp"
 #include "render/mesh/MeshGeometry.hpp"
 #include "render/mesh/MeshReference.hpp"
-#include "core/runtime/DeviceProfile.hpp"
-#include "core/runtime/ParallelFor.hpp"
-#include "core/runtime/Timing.hpp"
-#include "preintegration/PreintegrationTable.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -47,7 +47,6 @@ float outward(double v, bool up) {
     const float pad = 4e-7f * std::max(std::abs(f), 1.0f);
     return up ? f + pad : f - pad;
 }
-
 
 } // namespace
 

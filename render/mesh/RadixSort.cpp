@@ -41,7 +41,8 @@ DeviceRadixSort::DeviceRadixSort(ComputeContext& cc) : cc_(cc) {
 void DeviceRadixSort::sort(DeviceBuffer<cl_uint>& keys, DeviceBuffer<cl_uint>& values, std::size_t n) {
     lastMs_ = 0.0;
     if (n <= 1) return;
-    if (n > keys.size() || n > values.size()) throw Error("internal: radix sort of more entries than the buffers hold");
+    if (n > keys.size() || n > values.size())
+        throw Error("internal: radix sort of more entries than the buffers hold");
     if (n > 0xFFFFFFFFu) throw DataError("radix sort: at most 2^32 - 1 keys");
     if (keysAux_.size() < n) {
         keysAux_ = cc_.allocate<cl_uint>(n);

@@ -1,7 +1,7 @@
 // The volcl executable: exit codes (0/1/2), one-line errors on stderr, atomic outputs, demo end to end.
+#include "../TestUtil.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
-#include "../TestUtil.hpp"
 
 #include <sys/wait.h>
 
@@ -36,7 +36,9 @@ RunResult run(const std::string& args, const std::filesystem::path& dir, const s
     return {code, slurp(out), slurp(err)};
 }
 
-std::size_t lineCount(const std::string& s) { return std::count(s.begin(), s.end(), '\n'); }
+std::size_t lineCount(const std::string& s) {
+    return std::count(s.begin(), s.end(), '\n');
+}
 
 } // namespace
 
@@ -94,7 +96,8 @@ TEST(Cli, FailedConvertLeavesNoOutput) {
     EXPECT_NE(r.exitCode, 0);
     EXPECT_FALSE(std::filesystem::exists(dir / "out.nrrd"));
     for (const auto& e : std::filesystem::directory_iterator(dir))
-        EXPECT_EQ(e.path().filename().string().find("out.nrrd"), std::string::npos) << "leftover " << e.path();
+        EXPECT_EQ(e.path().filename().string().find("out.nrrd"), std::string::npos)
+            << "leftover " << e.path();
 }
 
 TEST(Cli, ConvertRoundTripsRawNrrdVdbBitExactly) {
@@ -112,10 +115,13 @@ TEST(Cli, ConvertRoundTripsRawNrrdVdbBitExactly) {
         std::string name(scalarTypeName(t));
         auto raw = dir / ("v_13x7x5_" + name + ".raw");
         writeVolumeFile(v, raw);
-        ASSERT_EQ(run("convert " + raw.string() + " -o " + (dir / (name + ".nrrd")).string(), dir).exitCode, 0);
-        ASSERT_EQ(run("convert " + (dir / (name + ".nrrd")).string() + " -o " + (dir / (name + ".vdb")).string(), dir)
-                      .exitCode,
+        ASSERT_EQ(run("convert " + raw.string() + " -o " + (dir / (name + ".nrrd")).string(), dir).exitCode,
                   0);
+        ASSERT_EQ(
+            run("convert " + (dir / (name + ".nrrd")).string() + " -o " + (dir / (name + ".vdb")).string(),
+                dir)
+                .exitCode,
+            0);
         RunResult back = run("convert " + (dir / (name + ".vdb")).string() + " -o " +
                                  (dir / ("back_13x7x5_" + name + ".raw")).string(),
                              dir);
@@ -165,7 +171,8 @@ double relativeRoughness(const ImageBuffer& im) {
     double rough = 0, sum = 0;
     for (int y = 1; y + 1 < im.height; ++y)
         for (int x = 1; x + 1 < im.width; ++x) {
-            const double c = lum(x, y), n = lum(x, y - 1), s = lum(x, y + 1), w = lum(x - 1, y), e = lum(x + 1, y);
+            const double c = lum(x, y), n = lum(x, y - 1), s = lum(x, y + 1), w = lum(x - 1, y),
+                         e = lum(x + 1, y);
             if (std::min({c, n, s, w, e}) <= 0.05) continue;
             rough += std::abs(4 * c - n - s - w - e);
             sum += c;
@@ -200,10 +207,10 @@ TEST(Cli, BenchCodecReportsColdAndWarmFigures) {
     VOLCL_REQUIRE_SHARED_DATA(data);
     auto dir = test::tempDir("cli_bench_cold");
     const auto csv = dir / "codec.csv";
-    RunResult r = run("bench codec --data " + data.string() +
-                          " --dataset hydrogenatom --mode lossless --coder fast --no-xz --runs 1 --csv " +
-                          csv.string(),
-                      dir);
+    RunResult r =
+        run("bench codec --data " + data.string() +
+                " --dataset hydrogenatom --mode lossless --coder fast --no-xz --runs 1 --csv " + csv.string(),
+            dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.err.find("cold (a fresh volcl process per run"), std::string::npos) << r.err;
     std::ifstream in(csv);
@@ -262,10 +269,11 @@ TEST(Cli, InfoRefusesPointsVdbAndCorruptedCopiesWithOneLine) {
         const char* file;
         const char* payload; // detached payload beside the header, or nullptr
     };
-    for (Case c : {Case{"regular/nucleon.nrrd", "nucleon.raw"}, Case{"regular/HeadMRVolume.mhd", "HeadMRVolume.raw"},
-                   Case{"regular/neghip.slc", nullptr}, Case{"regular/ironProt.vtk", nullptr},
-                   Case{"vdb/grid0.vdb", nullptr}, Case{"timevarying/functional.nii.gz", nullptr},
-                   Case{"timevarying/viscousfingers/001_density_001_064_2.0.vti", nullptr}}) {
+    for (Case c :
+         {Case{"regular/nucleon.nrrd", "nucleon.raw"}, Case{"regular/HeadMRVolume.mhd", "HeadMRVolume.raw"},
+          Case{"regular/neghip.slc", nullptr}, Case{"regular/ironProt.vtk", nullptr},
+          Case{"vdb/grid0.vdb", nullptr}, Case{"timevarying/functional.nii.gz", nullptr},
+          Case{"timevarying/viscousfingers/001_density_001_064_2.0.vti", nullptr}}) {
         std::filesystem::path src = data / c.file;
         std::string bytes = slurp(src);
         if (c.payload) {

@@ -150,7 +150,8 @@ TEST(CliBricks, SeriesFrameAndCorruptedBrick) {
 TEST(CliBricks, StreamedCloudRendersAsACroppedRegion) {
     const fs::path dir = test::tempDir("cli_bricks_stream");
     test::writeFile(dir / "tf.json", kTf);
-    RunResult r = run("generate cloud --size 96,80,48 --seed 3 --frequency 3 -o " + q(dir / "cloud.vcz"), dir);
+    RunResult r =
+        run("generate cloud --size 96,80,48 --seed 3 --frequency 3 -o " + q(dir / "cloud.vcz"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.err.find("peak RSS"), std::string::npos) << r.err;
     r = run("generate cloud --size 96,80,48 --seed 3 --frequency 3 -o " + q(dir / "cloud.nrrd"), dir);

@@ -1,12 +1,12 @@
 // Hostile inputs through the volcl binary: each ends in exit 1 (2 for usage) with one line naming the file,
 // within a memory bound, and leaves every input untouched (the reproducers of the hardening work).
+#include "../TestUtil.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "wavelet/container/VczFormat.hpp"
-#include "../TestUtil.hpp"
 
+#include <spawn.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
-#include <spawn.h>
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -40,8 +40,9 @@ std::string slurp(const fs::path& p) {
 // 60 s guard so a regression to a hang fails instead of blocking the suite.
 RunResult run(const std::string& args, const fs::path& dir, const std::string& prefix = "") {
     const fs::path err = dir / "stderr.txt";
-    const std::string cmd = "cd '" + dir.string() + "' && " + prefix + " exec timeout -s KILL 60 " VOLCL_EXE " " +
-                            args + " >/dev/null 2>'" + err.string() + "' </dev/null";
+    const std::string cmd = "cd '" + dir.string() + "' && " + prefix +
+                            " exec timeout -s KILL 60 " VOLCL_EXE " " + args + " >/dev/null 2>'" +
+                            err.string() + "' </dev/null";
     const char* argv[] = {"/bin/sh", "-c", cmd.c_str(), nullptr};
     pid_t pid = 0;
     RunResult r;
@@ -170,10 +171,12 @@ TEST(CliHostile, HugeSizeClaimsAreRefusedBeforeAllocation) {
                                 "ElementDataFile = d.raw\n");
     expectRefused(run("info huge.mhd", dir), 1, "huge.mhd");
     writeText(dir / "huge.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 48 4294967296 42\n"
-                                 "encoding: gzip\n\n" + std::string(64, 'x'));
+                                 "encoding: gzip\n\n" +
+                                     std::string(64, 'x'));
     expectRefused(run("info huge.nrrd", dir), 1, "huge.nrrd");
     writeText(dir / "huge_raw.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 48 4294967296 42\n"
-                                     "encoding: raw\n\n" + std::string(64, 'x'));
+                                     "encoding: raw\n\n" +
+                                         std::string(64, 'x'));
     expectRefused(run("info huge_raw.nrrd", dir), 1, "huge_raw.nrrd");
     writeText(dir / "huge.vtk", "# vtk DataFile Version 3.0\nx\nBINARY\nDATASET STRUCTURED_POINTS\n"
                                 "DIMENSIONS 100000 100000 100000\nPOINT_DATA 1000000000000000\n"
@@ -239,12 +242,14 @@ TEST(CliHostile, BuildingEveryKernelOfADecodeStaysWithinTheMemoryBound) {
     // 12 x 10 x 8 voxels, haar, lossy, 8^3 bricks: uint16 and uint8.
     for (const auto& [finding, voxelBytes] :
          {std::pair<std::string, std::uintmax_t>{"oom-first-build-of-a-kernel-variant-under-asan.vcz", 2},
-          std::pair<std::string, std::uintmax_t>{"timeout-first-build-of-a-kernel-variant-under-asan.vcz", 1}}) {
+          std::pair<std::string, std::uintmax_t>{"timeout-first-build-of-a-kernel-variant-under-asan.vcz",
+                                                 1}}) {
         fs::copy_file(fs::path(VOLCL_SOURCE_DIR) / "fuzz/regressions/fuzz_vcz" / finding, dir / finding,
                       fs::copy_options::overwrite_existing);
         fs::remove(dir / "out.raw");
-        const RunResult r = run("-q decode " + finding + " -o out.raw", dir,
-                                "POCL_KERNEL_CACHE=0 ASAN_OPTIONS=\"${ASAN_OPTIONS:-}:quarantine_size_mb=0\"");
+        const RunResult r =
+            run("-q decode " + finding + " -o out.raw", dir,
+                "POCL_KERNEL_CACHE=0 ASAN_OPTIONS=\"${ASAN_OPTIONS:-}:quarantine_size_mb=0\"");
         EXPECT_EQ(r.exitCode, 0) << finding << ": " << r.err;
         // No message (LeakSanitizer's statistics of the suppressions used may follow in the sanitizer build).
         EXPECT_EQ(r.err.find("volcl:"), std::string::npos) << r.err;
@@ -260,9 +265,8 @@ TEST(CliHostile, PreintegrationWithHugeLengthsFinishes) {
     const fs::path dir = test::tempDir("hostile_preint");
     writeText(dir / "tf.json", kTf);
     for (const char* len : {"1e12", "1e20", "1e30"}) {
-        const RunResult r = run(std::string("preint --tf tf.json --size 8 --lengths 2 --max-length ") + len +
-                                    " -o t.exr",
-                                dir);
+        const RunResult r = run(
+            std::string("preint --tf tf.json --size 8 --lengths 2 --max-length ") + len + " -o t.exr", dir);
         EXPECT_EQ(r.exitCode, 0) << len << ": " << r.err;
         // The table's entries against the double reference: a saturated segment is opaque, its colour
         // that of its first absorbing point.
@@ -284,7 +288,8 @@ TEST(CliHostile, SceneStepsAreValidatedLikeRenderStep) {
     writeText(dir / "tf.json", kTf);
     auto scene = [&](const std::string& name, const std::string& render, const std::string& effects) {
         writeText(dir / name, R"({"volume": "v_16x16x16_uint8.raw", "tf": "tf.json",
-            "image": {"width": 16, "height": 16}, "render": )" + render + R"(, "effects": )" + effects + "}");
+            "image": {"width": 16, "height": 16}, "render": )" +
+                                  render + R"(, "effects": )" + effects + "}");
     };
     scene("huge_step.json", R"({"mode": "dvr", "step": 1e308, "preintegration": "2d"})", "{}");
     expectRefused(run("render --scene huge_step.json -o out.png", dir), 2, "render.step");
@@ -334,11 +339,15 @@ TEST(CliHostile, NonFiniteGeometryIsRefusedNamingTheFile) {
     const fs::path dir = test::tempDir("hostile_geometry");
     const std::string data(8, '\x01');
     writeText(dir / "nan_spacing.nrrd",
-              "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nspacings: nan 1 1\nencoding: raw\n\n" + data);
-    writeText(dir / "inf_origin.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nspace dimension: 3\n"
-                                       "space origin: (inf,0,0)\nencoding: raw\n\n" + data);
+              "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nspacings: nan 1 1\nencoding: raw\n\n" +
+                  data);
+    writeText(dir / "inf_origin.nrrd",
+              "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nspace dimension: 3\n"
+              "space origin: (inf,0,0)\nencoding: raw\n\n" +
+                  data);
     writeText(dir / "nan.mhd", "NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nOffset = nan 0 0\n"
-                               "ElementDataFile = LOCAL\n" + data);
+                               "ElementDataFile = LOCAL\n" +
+                                   data);
     writeText(dir / "nan.vtk", "# vtk DataFile Version 3.0\nx\nASCII\nDATASET STRUCTURED_POINTS\n"
                                "DIMENSIONS 2 2 2\nSPACING 1 nan 1\nORIGIN 0 0 0\nPOINT_DATA 8\n"
                                "SCALARS s unsigned_char\nLOOKUP_TABLE default\n1 1 1 1 1 1 1 1\n");
@@ -369,7 +378,8 @@ TEST(CliHostile, NonFiniteGeometryIsRefusedNamingTheFile) {
 
 TEST(CliHostile, UnknownNrrdVersionsAreRefused) {
     const fs::path dir = test::tempDir("hostile_nrrd_version");
-    const std::string body = "type: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n" + std::string(8, '\1');
+    const std::string body =
+        "type: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n" + std::string(8, '\1');
     writeText(dir / "v9.nrrd", "NRRD0009\n" + body);
     writeText(dir / "v5.nrrd", "NRRD0005\n" + body);
     expectRefused(run("info v9.nrrd", dir), 1, "v9.nrrd", "version");
@@ -394,8 +404,8 @@ TEST(CliHostile, SigkillDuringAWriteLeavesNoTemporary) {
     fs::create_directories(out);
     writeVolumeFile(ramp({256, 256, 256}), dir / "v_256x256x256_uint8.raw");
     for (int attempt = 0; attempt < 5; ++attempt) {
-        const std::string cmd = VOLCL_EXE " -q convert " + (dir / "v_256x256x256_uint8.raw").string() + " -o " +
-                                (out / "big.nrrd").string();
+        const std::string cmd = VOLCL_EXE " -q convert " + (dir / "v_256x256x256_uint8.raw").string() +
+                                " -o " + (out / "big.nrrd").string();
         const char* argv[] = {"/bin/sh", "-c", nullptr, nullptr};
         const std::string full = "exec " + cmd;
         argv[2] = full.c_str();

@@ -20,12 +20,15 @@ struct RunResult {
 
 RunResult run(const std::string& args, const std::filesystem::path& dir) {
     const auto err = dir / "stderr.txt";
-    const std::string cmd = std::string(VOLCL_EXE) + " " + args + " >/dev/null 2>" + err.string() + " </dev/null";
+    const std::string cmd =
+        std::string(VOLCL_EXE) + " " + args + " >/dev/null 2>" + err.string() + " </dev/null";
     const int status = std::system(cmd.c_str());
     return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), volcl::test::readFile(err)};
 }
 
-std::size_t lines(const std::string& s) { return std::size_t(std::count(s.begin(), s.end(), '\n')); }
+std::size_t lines(const std::string& s) {
+    return std::size_t(std::count(s.begin(), s.end(), '\n'));
+}
 
 TEST(CliMedia, GenerateCloudIsReproducibleInAnyFormat) {
     const auto dir = volcl::test::tempDir("cli_media_generate");
@@ -36,15 +39,17 @@ TEST(CliMedia, GenerateCloudIsReproducibleInAnyFormat) {
     ASSERT_EQ(run("-q generate cloud --size 24,20,8 --seed 10 -o " + b, dir).exitCode, 0);
     EXPECT_NE(volcl::test::readFile(a), volcl::test::readFile(b));
     for (const char* ext : {".vti", ".nii.gz", ".vdb", ".raw"})
-        EXPECT_EQ(run("-q generate cloud --size 8,8,4 -o " + (dir / (std::string("c") + ext)).string(), dir).exitCode, 0)
+        EXPECT_EQ(run("-q generate cloud --size 8,8,4 -o " + (dir / (std::string("c") + ext)).string(), dir)
+                      .exitCode,
+                  0)
             << ext;
 }
 
 TEST(CliMedia, GenerateCloudRefusesBadArgumentsWithoutOutput) {
     const auto dir = volcl::test::tempDir("cli_media_refuse");
     const std::string out = (dir / "c.nrrd").string();
-    for (const std::string bad : {"--coverage 0", "--coverage 1.5", "--erosion -1", "--octaves 40", "--size 0,4,4",
-                                  "--preset nobody", "--frequency nan"}) {
+    for (const std::string bad : {"--coverage 0", "--coverage 1.5", "--erosion -1", "--octaves 40",
+                                  "--size 0,4,4", "--preset nobody", "--frequency nan"}) {
         const RunResult r = run("generate cloud --size 8,8,8 " + bad + " -o " + out, dir);
         EXPECT_EQ(r.exitCode, 2) << bad;
         EXPECT_EQ(lines(r.err), 1u) << bad << ": " << r.err;
@@ -63,7 +68,8 @@ TEST(CliMedia, GenerateCloudRefusesBadArgumentsWithoutOutput) {
 std::string renderSmallCloud(const std::filesystem::path& dir) {
     const std::string vol = (dir / "c.nrrd").string(), tf = (dir / "tf.json").string();
     if (run("-q generate cloud --size 24,24,8 -o " + vol, dir).exitCode != 0) return {};
-    volcl::test::writeFile(tf, R"({"domain": [0, 255], "color": [[0, 1, 1, 1]], "extinction": [[0, 0], [255, 0.5]]})");
+    volcl::test::writeFile(
+        tf, R"({"domain": [0, 255], "color": [[0, 1, 1, 1]], "extinction": [[0, 0], [255, 0.5]]})");
     return "-q render --volume " + vol + " --tf " + tf + " --width 16 --height 16 ";
 }
 
@@ -72,8 +78,10 @@ TEST(CliMedia, RenderMultipleScatteringAndRefusals) {
     const std::string base = renderSmallCloud(dir);
     ASSERT_FALSE(base.empty());
     const std::string a = (dir / "a.png").string(), b = (dir / "b.png").string(); // PNG: no timestamp
-    ASSERT_EQ(run(base + "--scattering 0.9,0.5 --scattering-order multiple --samples 4 -o " + a, dir).exitCode, 0);
-    ASSERT_EQ(run(base + "--scattering 0.9,0.5 --scattering-order multiple --samples 4 -o " + b, dir).exitCode, 0);
+    ASSERT_EQ(
+        run(base + "--scattering 0.9,0.5 --scattering-order multiple --samples 4 -o " + a, dir).exitCode, 0);
+    ASSERT_EQ(
+        run(base + "--scattering 0.9,0.5 --scattering-order multiple --samples 4 -o " + b, dir).exitCode, 0);
     EXPECT_EQ(volcl::test::readFile(a), volcl::test::readFile(b)); // same seed, same image
     const RunResult noScatter = run(base + "--scattering-order multiple -o " + a, dir);
     EXPECT_EQ(noScatter.exitCode, 2);

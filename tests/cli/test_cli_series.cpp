@@ -1,7 +1,7 @@
 // `volcl encode` on series given as several files, a quoted glob, a .pvd or a 4D file; refusals; real
 // series decoded frame by frame with `volcl decode --frame K` and compared bit for bit.
-#include "host/io/VolumeIo.hpp"
 #include "../TestUtil.hpp"
+#include "host/io/VolumeIo.hpp"
 
 #include <sys/wait.h>
 
@@ -28,14 +28,19 @@ std::string slurp(const fs::path& p) {
 
 RunResult run(const std::string& args, const fs::path& dir) {
     const fs::path err = dir / "stderr.txt";
-    const std::string cmd = std::string(VOLCL_EXE) + " " + args + " >/dev/null 2>" + err.string() + " </dev/null";
+    const std::string cmd =
+        std::string(VOLCL_EXE) + " " + args + " >/dev/null 2>" + err.string() + " </dev/null";
     const int status = std::system(cmd.c_str());
     return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), slurp(err)};
 }
 
-std::size_t lineCount(const std::string& s) { return std::count(s.begin(), s.end(), '\n'); }
+std::size_t lineCount(const std::string& s) {
+    return std::count(s.begin(), s.end(), '\n');
+}
 
-std::string quoted(const fs::path& p) { return "'" + p.string() + "'"; }
+std::string quoted(const fs::path& p) {
+    return "'" + p.string() + "'";
+}
 
 bool sameVoxels(const Volume& a, const Volume& b) {
     return a.dims() == b.dims() && a.type() == b.type() &&
@@ -50,9 +55,11 @@ void expectFramesDecodeExactly(const fs::path& vcz, const std::vector<fs::path>&
             only.push_back(k);
     for (std::size_t k : only) {
         const fs::path out = dir / ("frame_" + std::to_string(k) + ".nrrd");
-        const RunResult d = run("decode " + quoted(vcz) + " --frame " + std::to_string(k) + " -o " + quoted(out), dir);
+        const RunResult d =
+            run("decode " + quoted(vcz) + " --frame " + std::to_string(k) + " -o " + quoted(out), dir);
         ASSERT_EQ(d.exitCode, 0) << d.err;
-        EXPECT_TRUE(sameVoxels(readVolume(out), readVolume(frames[k]))) << "frame " << k << " of " << frames[k];
+        EXPECT_TRUE(sameVoxels(readVolume(out), readVolume(frames[k])))
+            << "frame " << k << " of " << frames[k];
     }
 }
 
@@ -83,12 +90,14 @@ TEST(CliSeries, EncodeTakesSeveralFilesAGlobAndAPvd) {
 
     r = run("encode " + quoted(dir / "step_*.nrrd") + " -o " + quoted(dir / "glob.vcz"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    EXPECT_EQ(slurp(dir / "glob.vcz"), slurp(dir / "list.vcz")) << "the glob must give the list's frame order";
+    EXPECT_EQ(slurp(dir / "glob.vcz"), slurp(dir / "list.vcz"))
+        << "the glob must give the list's frame order";
 
     std::ofstream pvd(dir / "run.pvd");
     pvd << "<VTKFile type=\"Collection\" version=\"0.1\"><Collection>\n";
     for (std::size_t k = 0; k < frames.size(); ++k)
-        pvd << "<DataSet timestep=\"" << k << "\" part=\"0\" file=\"" << frames[k].filename().string() << "\"/>\n";
+        pvd << "<DataSet timestep=\"" << k << "\" part=\"0\" file=\"" << frames[k].filename().string()
+            << "\"/>\n";
     pvd << "</Collection></VTKFile>\n";
     pvd.close();
     r = run("encode " + quoted(dir / "run.pvd") + " -o " + quoted(dir / "pvd.vcz"), dir);
@@ -110,10 +119,11 @@ TEST(CliSeries, RefusalsExitOneWithOneLineAndNoOutput) {
     struct Case {
         std::string inputs, mustName;
     };
-    for (const Case& c : {Case{quoted(frames[0]) + " " + quoted(frames[1]) + " " + quoted(odd), "frame 2 (" + odd.string()},
-                          Case{quoted(frames[0]) + " " + quoted(dir / "missing.nrrd"), "missing.nrrd"},
-                          Case{quoted(dir / "none_*.vti"), "none_*.vti"},
-                          Case{quoted(dir / "bad.pvd"), (dir / "nowhere.vti").string()}}) {
+    for (const Case& c :
+         {Case{quoted(frames[0]) + " " + quoted(frames[1]) + " " + quoted(odd), "frame 2 (" + odd.string()},
+          Case{quoted(frames[0]) + " " + quoted(dir / "missing.nrrd"), "missing.nrrd"},
+          Case{quoted(dir / "none_*.vti"), "none_*.vti"},
+          Case{quoted(dir / "bad.pvd"), (dir / "nowhere.vti").string()}}) {
         const RunResult r = run("encode " + c.inputs + " -o " + quoted(dir / "out.vcz"), dir);
         EXPECT_EQ(r.exitCode, 1) << c.inputs << ": " << r.err;
         EXPECT_EQ(lineCount(r.err), 1u) << r.err;
@@ -122,7 +132,8 @@ TEST(CliSeries, RefusalsExitOneWithOneLineAndNoOutput) {
     }
     // The output among the inputs is a usage error, and the input stays untouched.
     const std::string before = slurp(frames[1]);
-    const RunResult r = run("encode " + quoted(frames[0]) + " " + quoted(frames[1]) + " -o " + quoted(frames[1]), dir);
+    const RunResult r =
+        run("encode " + quoted(frames[0]) + " " + quoted(frames[1]) + " -o " + quoted(frames[1]), dir);
     EXPECT_NE(r.exitCode, 0);
     EXPECT_EQ(slurp(frames[1]), before);
 }
@@ -138,7 +149,8 @@ TEST(CliSeries, ViscousFingeringRoundTripsLosslessly) {
         std::snprintf(name, sizeof name, "%03d_density_%03d_064_2.0.vti", k, k);
         frames.push_back(src / name);
     }
-    const RunResult r = run("encode " + quoted(src / "*_density_*.vti") + " --lossless -o " + quoted(dir / "vf.vcz"), dir);
+    const RunResult r =
+        run("encode " + quoted(src / "*_density_*.vti") + " --lossless -o " + quoted(dir / "vf.vcz"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     expectFramesDecodeExactly(dir / "vf.vcz", frames, dir);
 }
@@ -158,7 +170,8 @@ TEST(CliSeries, IsabelGroupRoundTripsLosslessly) {
     ASSERT_EQ(r.exitCode, 0) << r.err;
     expectFramesDecodeExactly(dir / "isabel.vcz", frames, dir);
     // The glob form gives the same file.
-    const RunResult g = run("encode " + quoted(src / "isabel_0*.vti") + " -o " + quoted(dir / "glob.vcz"), dir);
+    const RunResult g =
+        run("encode " + quoted(src / "isabel_0*.vti") + " -o " + quoted(dir / "glob.vcz"), dir);
     ASSERT_EQ(g.exitCode, 0) << g.err;
     EXPECT_EQ(slurp(dir / "glob.vcz"), slurp(dir / "isabel.vcz"));
 }
@@ -173,7 +186,8 @@ TEST(CliSeries, FourDimensionalNiftiEncodesEveryFrame) {
     const TimeSeries ts = readVolumeFile(nii);
     for (std::size_t k : {std::size_t(0), std::size_t(19)}) {
         const fs::path out = dir / "k.nrrd";
-        const RunResult d = run("decode " + quoted(dir / "f.vcz") + " --frame " + std::to_string(k) + " -o " + quoted(out), dir);
+        const RunResult d = run(
+            "decode " + quoted(dir / "f.vcz") + " --frame " + std::to_string(k) + " -o " + quoted(out), dir);
         ASSERT_EQ(d.exitCode, 0) << d.err;
         EXPECT_TRUE(sameVoxels(readVolume(out), ts.frames[k])) << "frame " << k;
     }
@@ -189,19 +203,21 @@ TEST(CliSeries, MotionFramesInfoAndEveryFrameByPattern) {
         for (std::size_t z = 0; z < 12; ++z)
             for (std::size_t y = 0; y < 20; ++y)
                 for (std::size_t x = 0; x < 24; ++x)
-                    vals[v.index(x, y, z)] = static_cast<std::uint16_t>(2000 + 40 * (x + k) + 25 * y + 3 * z * z);
+                    vals[v.index(x, y, z)] =
+                        static_cast<std::uint16_t>(2000 + 40 * (x + k) + 25 * y + 3 * z * z);
         frames.push_back(dir / ("m_" + std::to_string(k) + ".nrrd"));
         writeVolumeFile(v, frames.back());
     }
-    RunResult r =
-        run("encode " + quoted(dir / "m_*.nrrd") + " -o " + quoted(dir / "m.vcz") + " --gop 4 --b-frames 1", dir);
+    RunResult r = run(
+        "encode " + quoted(dir / "m_*.nrrd") + " -o " + quoted(dir / "m.vcz") + " --gop 4 --b-frames 1", dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.err.find(" P, "), std::string::npos) << r.err;
     expectFramesDecodeExactly(dir / "m.vcz", frames, dir, {1, 3, 5});
     r = run("decode " + quoted(dir / "m.vcz") + " -o " + quoted(dir / "out_%02d.nrrd"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     for (std::size_t k = 0; k < frames.size(); ++k)
-        EXPECT_TRUE(sameVoxels(readVolume(dir / ("out_0" + std::to_string(k) + ".nrrd")), readVolume(frames[k])))
+        EXPECT_TRUE(
+            sameVoxels(readVolume(dir / ("out_0" + std::to_string(k) + ".nrrd")), readVolume(frames[k])))
             << "frame " << k;
     const std::string info =
         std::string(VOLCL_EXE) + " info " + quoted(dir / "m.vcz") + " > " + (dir / "info.txt").string();

@@ -1,10 +1,10 @@
 // The volcl executable for a first-time user: framed cameras, named views, default lights, presets,
 // --version, named unknown subcommands, help examples, --frame, compare --level, --replace-nan, MIP
 // window, smooth reconstruction filters.
+#include "../TestUtil.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "render/grid/FilterAccuracy.hpp"
-#include "../TestUtil.hpp"
 
 #include <sys/wait.h>
 
@@ -30,7 +30,8 @@ std::string slurp(const std::filesystem::path& p) {
 
 RunResult run(const std::string& args, const std::filesystem::path& dir) {
     auto out = dir / "stdout.txt", err = dir / "stderr.txt";
-    std::string cmd = std::string(VOLCL_EXE) + " " + args + " >" + out.string() + " 2>" + err.string() + " </dev/null";
+    std::string cmd =
+        std::string(VOLCL_EXE) + " " + args + " >" + out.string() + " 2>" + err.string() + " </dev/null";
     int status = std::system(cmd.c_str());
     int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     return {code, slurp(out), slurp(err)};
@@ -51,7 +52,8 @@ std::filesystem::path writeBlob(const std::filesystem::path& dir) {
     return p;
 }
 
-const char* kTf = R"({"domain": [0, 200], "color": [[0, 1, 1, 1], [200, 1, 1, 1]], "extinction": [[0, 0], [200, 0.5]]})";
+const char* kTf =
+    R"({"domain": [0, 200], "color": [[0, 1, 1, 1], [200, 1, 1, 1]], "extinction": [[0, 0], [200, 0.5]]})";
 
 double alphaCoverage(const ImageBuffer& img) {
     std::size_t covered = 0;
@@ -68,10 +70,11 @@ TEST(CliUsability, EyeAndTargetWithoutHeightFrameTheBox) {
     auto dir = test::tempDir("cli_use_frame");
     const auto vol = writeBlob(dir);
     std::ofstream(dir / "tf.json") << kTf;
-    RunResult r = run("render --volume " + vol.string() + " --tf " + (dir / "tf.json").string() +
-                          " --eye 400,19.5,19.5 --target 19.5,19.5,19.5 --up 0,0,1 --width 64 --height 64 -o " +
-                          (dir / "a.exr").string(),
-                      dir);
+    RunResult r =
+        run("render --volume " + vol.string() + " --tf " + (dir / "tf.json").string() +
+                " --eye 400,19.5,19.5 --target 19.5,19.5,19.5 --up 0,0,1 --width 64 --height 64 -o " +
+                (dir / "a.exr").string(),
+            dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_TRUE(has(r.err, "fitted to the box")) << r.err;
     const ImageBuffer img = readImage(dir / "a.exr");
@@ -86,7 +89,8 @@ TEST(CliUsability, EyeAndTargetWithoutHeightFrameTheBox) {
         }
     EXPECT_GT(hi - lo, 0.5f); // structure, not one uniform close-up
     // The image edge is empty: the whole box is in view.
-    for (int x = 0; x < img.width; ++x) EXPECT_LT(img.at(x, 0, 3), 0.02f);
+    for (int x = 0; x < img.width; ++x)
+        EXPECT_LT(img.at(x, 0, 3), 0.02f);
 }
 
 TEST(CliUsability, PartialSceneCamerasAreFramedAsFlagsAre) {
@@ -134,8 +138,8 @@ TEST(CliUsability, FrontAndBackViewsAreMirrorImages) {
     const auto vol = writeBlob(dir);
     std::ofstream(dir / "tf.json") << kTf;
     auto render = [&](const std::string& view, const std::string& out) {
-        RunResult r = run("render --volume " + vol.string() + " --tf " + (dir / "tf.json").string() + " --view " +
-                              view + " --width 48 --height 48 -o " + (dir / out).string(),
+        RunResult r = run("render --volume " + vol.string() + " --tf " + (dir / "tf.json").string() +
+                              " --view " + view + " --width 48 --height 48 -o " + (dir / out).string(),
                           dir);
         EXPECT_EQ(r.exitCode, 0) << r.err;
         return readImage(dir / out);
@@ -154,7 +158,8 @@ TEST(CliUsability, FrontAndBackViewsAreMirrorImages) {
     // +z is up in the front view: the blob (above the centre in z) sits in the upper half.
     double upper = 0.0, lower = 0.0;
     for (int y = 0; y < 48; ++y)
-        for (int x = 0; x < 48; ++x) (y < 24 ? upper : lower) += front.at(x, y, 3);
+        for (int x = 0; x < 48; ++x)
+            (y < 24 ? upper : lower) += front.at(x, y, 3);
     EXPECT_GT(upper, lower);
     EXPECT_EQ(run("render --volume " + vol.string() + " --tf " + (dir / "tf.json").string() +
                       " --view sideways -o " + (dir / "x.exr").string(),
@@ -207,13 +212,15 @@ TEST(CliUsability, PresetsAndNormalisedParaViewMaps) {
     // The built-in preset, and --tf-range pushing the whole map above the data: nothing visible.
     RunResult p = run(base + "--tf preset:cool-to-warm -o " + (dir / "preset.exr").string(), dir);
     ASSERT_EQ(p.exitCode, 0) << p.err;
-    RunResult high = run(base + "--tf preset:cool-to-warm --tf-range 1000,2000 -o " + (dir / "high.exr").string(), dir);
+    RunResult high =
+        run(base + "--tf preset:cool-to-warm --tf-range 1000,2000 -o " + (dir / "high.exr").string(), dir);
     ASSERT_EQ(high.exitCode, 0) << high.err;
     EXPECT_LT(readImage(dir / "high.exr").at(16, 16, 3), 1e-6f);
     RunResult bad = run(base + "--tf preset:nope -o " + (dir / "bad.exr").string(), dir);
     EXPECT_EQ(bad.exitCode, 2);
     EXPECT_TRUE(has(bad.err, "viridis")) << bad.err;
-    EXPECT_EQ(run(base + "--tf preset:viridis --tf-range 5,5 -o " + (dir / "bad.exr").string(), dir).exitCode, 2);
+    EXPECT_EQ(run(base + "--tf preset:viridis --tf-range 5,5 -o " + (dir / "bad.exr").string(), dir).exitCode,
+              2);
     EXPECT_FALSE(std::filesystem::exists(dir / "bad.exr"));
 }
 
@@ -255,7 +262,8 @@ TEST(CliUsability, RenderFrameOfASeries) {
     VOLCL_REQUIRE_SHARED_DATA(data);
     auto dir = test::tempDir("cli_use_frame_k");
     const auto series = data / "timevarying" / "functional.nii.gz";
-    const std::string base = "render --volume " + series.string() + " --tf preset:grayscale --width 16 --height 16 ";
+    const std::string base =
+        "render --volume " + series.string() + " --tf preset:grayscale --width 16 --height 16 ";
     RunResult r0 = run(base + "-o " + (dir / "f0.exr").string(), dir);
     ASSERT_EQ(r0.exitCode, 0) << r0.err;
     EXPECT_TRUE(has(r0.err, "frame 0 of 20")) << r0.err;
@@ -273,21 +281,27 @@ TEST(CliUsability, CompareAtALevelAndOverARegion) {
     auto dir = test::tempDir("cli_use_compare");
     Volume v({64, 64, 64}, ScalarType::UInt8);
     auto vals = v.values<std::uint8_t>();
-    for (std::size_t i = 0; i < vals.size(); ++i) vals[i] = std::uint8_t((i * 7919u) % 251u);
+    for (std::size_t i = 0; i < vals.size(); ++i)
+        vals[i] = std::uint8_t((i * 7919u) % 251u);
     writeVolumeFile(v, dir / "v.nrrd");
-    ASSERT_EQ(run("encode " + (dir / "v.nrrd").string() + " --lossless -o " + (dir / "l.vcz").string(), dir).exitCode, 0);
-    RunResult lossy = run("encode " + (dir / "v.nrrd").string() + " --psnr 30 -o " + (dir / "p.vcz").string(), dir);
+    ASSERT_EQ(run("encode " + (dir / "v.nrrd").string() + " --lossless -o " + (dir / "l.vcz").string(), dir)
+                  .exitCode,
+              0);
+    RunResult lossy =
+        run("encode " + (dir / "v.nrrd").string() + " --psnr 30 -o " + (dir / "p.vcz").string(), dir);
     ASSERT_EQ(lossy.exitCode, 0) << lossy.err;
     EXPECT_FALSE(has(lossy.err, "stored exactly")) << lossy.err; // only --max-error stores voxels exactly
-    RunResult maxe = run("encode " + (dir / "v.nrrd").string() + " --max-error 2 -o " + (dir / "m.vcz").string(), dir);
+    RunResult maxe =
+        run("encode " + (dir / "v.nrrd").string() + " --max-error 2 -o " + (dir / "m.vcz").string(), dir);
     ASSERT_EQ(maxe.exitCode, 0) << maxe.err;
     EXPECT_TRUE(has(maxe.err, "stored exactly")) << maxe.err;
 
-    RunResult level = run("compare " + (dir / "v.nrrd").string() + " " + (dir / "l.vcz").string() + " --level 1 --json", dir);
+    RunResult level = run(
+        "compare " + (dir / "v.nrrd").string() + " " + (dir / "l.vcz").string() + " --level 1 --json", dir);
     ASSERT_EQ(level.exitCode, 0) << level.err;
     EXPECT_TRUE(has(level.out, "\"max_abs_error\": 0.0")) << level.out;
-    RunResult lossyLevel =
-        run("compare " + (dir / "v.nrrd").string() + " " + (dir / "p.vcz").string() + " --level 1 --json", dir);
+    RunResult lossyLevel = run(
+        "compare " + (dir / "v.nrrd").string() + " " + (dir / "p.vcz").string() + " --level 1 --json", dir);
     ASSERT_EQ(lossyLevel.exitCode, 0) << lossyLevel.err;
     EXPECT_TRUE(has(lossyLevel.out, "psnr_db")) << lossyLevel.out;
     RunResult region = run("compare " + (dir / "v.nrrd").string() + " " + (dir / "l.vcz").string() +
@@ -296,14 +310,17 @@ TEST(CliUsability, CompareAtALevelAndOverARegion) {
     ASSERT_EQ(region.exitCode, 0) << region.err;
     EXPECT_TRUE(has(region.out, "\"max_abs_error\": 0.0")) << region.out;
     // Without --level, different dims are refused with a hint.
-    ASSERT_EQ(run("decode " + (dir / "l.vcz").string() + " --level 1 -o " + (dir / "half.nrrd").string(), dir).exitCode, 0);
+    ASSERT_EQ(run("decode " + (dir / "l.vcz").string() + " --level 1 -o " + (dir / "half.nrrd").string(), dir)
+                  .exitCode,
+              0);
     RunResult dims = run("compare " + (dir / "v.nrrd").string() + " " + (dir / "half.nrrd").string(), dir);
     EXPECT_EQ(dims.exitCode, 2);
     EXPECT_TRUE(has(dims.err, "--level")) << dims.err;
     // Following the hint compares the level decode with its source's low band (before: both sides were
     // coarsened, and the sizes differed again).
     RunResult hinted =
-        run("compare " + (dir / "v.nrrd").string() + " " + (dir / "half.nrrd").string() + " --level 1 --json", dir);
+        run("compare " + (dir / "v.nrrd").string() + " " + (dir / "half.nrrd").string() + " --level 1 --json",
+            dir);
     ASSERT_EQ(hinted.exitCode, 0) << hinted.err;
     EXPECT_TRUE(has(hinted.out, "\"max_abs_error\": 0.0")) << hinted.out;
 }
@@ -313,15 +330,18 @@ TEST(CliUsability, ConvertReplacesNans) {
     Volume v = test::makeFloatVolume({8, 8, 8}, [](double x, double, double) { return x; });
     v.values<float>()[v.index(3, 3, 3)] = NAN;
     writeVolumeFile(v, dir / "nan.nrrd");
-    RunResult r = run("convert " + (dir / "nan.nrrd").string() + " --replace-nan -1 -o " + (dir / "ok.nrrd").string(), dir);
+    RunResult r = run(
+        "convert " + (dir / "nan.nrrd").string() + " --replace-nan -1 -o " + (dir / "ok.nrrd").string(), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_TRUE(has(r.err, "replaced 1 NaN")) << r.err;
     const Volume out = readVolume(dir / "ok.nrrd");
     EXPECT_EQ(out.values<float>()[out.index(3, 3, 3)], -1.0f);
     EXPECT_EQ(out.stats().nanCount, 0u);
-    EXPECT_EQ(run("convert " + (dir / "nan.nrrd").string() + " --replace-nan nan -o " + (dir / "x.nrrd").string(), dir)
-                  .exitCode,
-              2);
+    EXPECT_EQ(
+        run("convert " + (dir / "nan.nrrd").string() + " --replace-nan nan -o " + (dir / "x.nrrd").string(),
+            dir)
+            .exitCode,
+        2);
 }
 
 TEST(CliUsability, MipWindowGivesGreyscale) {
@@ -360,7 +380,8 @@ TEST(CliUsability, SmoothFilterOnEightBitIsoSurfaces) {
     auto dir = test::tempDir("cli_use_filter");
     const Vec3 c{19.3, 20.2, 19.6};
     writeVolumeFile(quantisedSphere({40, 40, 40}, c, 13.0, 1.0), dir / "sphere.nrrd");
-    std::ofstream(dir / "tf.json") << R"({"domain": [0, 255], "color": [[0, 1, 1, 1]], "extinction": [[0, 0]]})";
+    std::ofstream(dir / "tf.json")
+        << R"({"domain": [0, 255], "color": [[0, 1, 1, 1]], "extinction": [[0, 0]]})";
     const std::string base = "render --volume " + (dir / "sphere.nrrd").string() + " --tf " +
                              (dir / "tf.json").string() + " --width 96 --height 96 --mode iso --iso 128.5 ";
     auto roughness = [&](const std::string& flags, const std::string& name) {

@@ -2,10 +2,10 @@
 // composite over a scene's background colour, and the library version.
 #include <volcl/core/Version.hpp>
 #include <volcl/core/Volume.hpp>
+#include <volcl/core/runtime/ClRuntime.hpp>
 #include <volcl/image/ImageIo.hpp>
 #include <volcl/phantoms/Phantoms.hpp>
 #include <volcl/render/Scene.hpp>
-#include <volcl/core/runtime/ClRuntime.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -16,7 +16,8 @@ int main() {
     volcl::Volume v = volcl::generateMarschnerLobb(cc, {9, 9, 9});
     volcl::Volume r = volcl::marschnerLobbReference({9, 9, 9});
     double err = 0;
-    for (std::size_t i = 0; i < v.voxelCount(); ++i) err = std::fmax(err, std::fabs(v.valueAt(i) - r.valueAt(i)));
+    for (std::size_t i = 0; i < v.voxelCount(); ++i)
+        err = std::fmax(err, std::fabs(v.valueAt(i) - r.valueAt(i)));
 
     // Colours are one type across the API: a scene's background goes straight into the PNG composite.
     volcl::Scene scene;
@@ -27,7 +28,7 @@ int main() {
 
     const bool versionOk = volcl::version() == std::string_view(VOLCL_EXPECTED_VERSION);
     std::printf("consumer: volcl %.*s on %s, phantom max error %.3g, background composite %s\n",
-                static_cast<int>(volcl::version().size()), volcl::version().data(), cc.device().name.c_str(), err,
-                blue ? "blue" : "wrong");
+                static_cast<int>(volcl::version().size()), volcl::version().data(), cc.device().name.c_str(),
+                err, blue ? "blue" : "wrong");
     return err <= 1e-5 && blue && versionOk ? 0 : 1;
 }

@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
     free(raw);
     if (d >= 0) H5Dclose(d);
     if (f >= 0 && H5Fclose(f) < 0) ok = 0;
-    if (!ok) fprintf(stderr, "h5z-volcl-corrupt: %s: could not corrupt the first chunk of %s\n", argv[1], argv[2]);
+    if (!ok)
+        fprintf(stderr, "h5z-volcl-corrupt: %s: could not corrupt the first chunk of %s\n", argv[1], argv[2]);
     return ok ? 0 : 1;
 }

@@ -27,7 +27,8 @@ FilterParameters params(ScalarType type, std::vector<std::size_t> chunk, ChunkRa
     FilterParameters p;
     p.type = type;
     p.rank = unsigned(chunk.size());
-    for (std::size_t i = 0; i < chunk.size(); ++i) p.chunk[i] = chunk[i];
+    for (std::size_t i = 0; i < chunk.size(); ++i)
+        p.chunk[i] = chunk[i];
     p.rate = rate;
     p.bound = bound;
     return p;
@@ -43,20 +44,34 @@ std::vector<std::byte> makeChunk(const FilterParameters& p, bool specials, unsig
     for (std::size_t i = 0; i < n; ++i) {
         const double v = 0.5 + 0.4 * std::sin(0.07 * double(i)) + 0.05 * noise(rng); // in [0.05, 0.95]
         switch (p.type) {
-        case ScalarType::UInt8: reinterpret_cast<std::uint8_t*>(bytes.data())[i] = std::uint8_t(v * 255); break;
-        case ScalarType::UInt16: reinterpret_cast<std::uint16_t*>(bytes.data())[i] = std::uint16_t(v * 65535); break;
+        case ScalarType::UInt8:
+            reinterpret_cast<std::uint8_t*>(bytes.data())[i] = std::uint8_t(v * 255);
+            break;
+        case ScalarType::UInt16:
+            reinterpret_cast<std::uint16_t*>(bytes.data())[i] = std::uint16_t(v * 65535);
+            break;
         case ScalarType::Int16:
             reinterpret_cast<std::int16_t*>(bytes.data())[i] = std::int16_t(v * 65535 - 32768);
             break;
-        case ScalarType::Float32: reinterpret_cast<float*>(bytes.data())[i] = float(v * 1000 - 500); break;
+        case ScalarType::Float32:
+            reinterpret_cast<float*>(bytes.data())[i] = float(v * 1000 - 500);
+            break;
         }
     }
     if (n >= 8) {
-        auto put = [&](std::size_t i, auto value) { std::memcpy(bytes.data() + i * sizeof(value), &value, sizeof(value)); };
+        auto put = [&](std::size_t i, auto value) {
+            std::memcpy(bytes.data() + i * sizeof(value), &value, sizeof(value));
+        };
         switch (p.type) {
-        case ScalarType::UInt8: put(0, std::uint8_t(0)), put(n - 1, std::uint8_t(255)); break;
-        case ScalarType::UInt16: put(0, std::uint16_t(0)), put(n - 1, std::uint16_t(65535)); break;
-        case ScalarType::Int16: put(0, std::int16_t(-32768)), put(n - 1, std::int16_t(32767)); break;
+        case ScalarType::UInt8:
+            put(0, std::uint8_t(0)), put(n - 1, std::uint8_t(255));
+            break;
+        case ScalarType::UInt16:
+            put(0, std::uint16_t(0)), put(n - 1, std::uint16_t(65535));
+            break;
+        case ScalarType::Int16:
+            put(0, std::int16_t(-32768)), put(n - 1, std::int16_t(32767));
+            break;
         case ScalarType::Float32:
             if (specials) {
                 put(0, std::numeric_limits<float>::quiet_NaN());
@@ -75,15 +90,20 @@ std::vector<std::byte> makeChunk(const FilterParameters& p, bool specials, unsig
 
 double valueAt(const FilterParameters& p, std::span<const std::byte> b, std::size_t i) {
     switch (p.type) {
-    case ScalarType::UInt8: return double(reinterpret_cast<const std::uint8_t*>(b.data())[i]);
-    case ScalarType::UInt16: return double(reinterpret_cast<const std::uint16_t*>(b.data())[i]);
-    case ScalarType::Int16: return double(reinterpret_cast<const std::int16_t*>(b.data())[i]);
-    case ScalarType::Float32: return double(reinterpret_cast<const float*>(b.data())[i]);
+    case ScalarType::UInt8:
+        return double(reinterpret_cast<const std::uint8_t*>(b.data())[i]);
+    case ScalarType::UInt16:
+        return double(reinterpret_cast<const std::uint16_t*>(b.data())[i]);
+    case ScalarType::Int16:
+        return double(reinterpret_cast<const std::int16_t*>(b.data())[i]);
+    case ScalarType::Float32:
+        return double(reinterpret_cast<const float*>(b.data())[i]);
     }
     return 0;
 }
 
-double maxAbsDifference(const FilterParameters& p, std::span<const std::byte> a, std::span<const std::byte> b) {
+double maxAbsDifference(const FilterParameters& p, std::span<const std::byte> a,
+                        std::span<const std::byte> b) {
     double worst = 0;
     for (std::size_t i = 0; i < p.chunkBytes() / scalarSize(p.type); ++i)
         worst = std::max(worst, std::abs(valueAt(p, a, i) - valueAt(p, b, i)));
@@ -127,7 +147,8 @@ TEST(Hdf5FilterParameters, BadUserValuesAreRefused) {
     const unsigned missingBound[] = {1};
     EXPECT_THROW(hdf5::parseUserValues(unknownRate, rate, bound), UsageError);
     EXPECT_THROW(hdf5::parseUserValues(missingBound, rate, bound), UsageError);
-    for (double b : {0.0, -1.0, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    for (double b :
+         {0.0, -1.0, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
         const auto bits = std::bit_cast<std::uint64_t>(b);
         const unsigned words[] = {2, unsigned(bits & 0xffffffffu), unsigned(bits >> 32)};
         EXPECT_THROW(hdf5::parseUserValues(words, rate, bound), UsageError) << b;
@@ -152,11 +173,11 @@ TEST(Hdf5FilterParameters, PackedParametersRoundTripAndDamageIsRefused) {
         return w;
     };
     EXPECT_THROW(hdf5::unpackParameters(std::span(words).first(5)), DataError); // user values only
-    EXPECT_THROW(hdf5::unpackParameters(damaged(3, 99)), DataError);           // other version
-    EXPECT_THROW(hdf5::unpackParameters(damaged(4, 9)), DataError);            // unknown type
-    EXPECT_THROW(hdf5::unpackParameters(damaged(5, 2)), DataError);            // rank 2
-    EXPECT_THROW(hdf5::unpackParameters(damaged(7, 0)), DataError);            // zero dim
-    EXPECT_THROW(hdf5::unpackParameters(damaged(7, 0xffffffffu)), DataError);  // >= 4 GiB chunk
+    EXPECT_THROW(hdf5::unpackParameters(damaged(3, 99)), DataError);            // other version
+    EXPECT_THROW(hdf5::unpackParameters(damaged(4, 9)), DataError);             // unknown type
+    EXPECT_THROW(hdf5::unpackParameters(damaged(5, 2)), DataError);             // rank 2
+    EXPECT_THROW(hdf5::unpackParameters(damaged(7, 0)), DataError);             // zero dim
+    EXPECT_THROW(hdf5::unpackParameters(damaged(7, 0xffffffffu)), DataError);   // >= 4 GiB chunk
 }
 
 // --- chunk codec -------------------------------------------------------------------------------------------
@@ -181,8 +202,13 @@ TEST(Hdf5ChunkCodec, FourDimensionalChunkIsASeriesOfFrames) {
 }
 
 TEST(Hdf5ChunkCodec, DegenerateChunkShapesRoundTrip) {
-    for (std::vector<std::size_t> d : {std::vector<std::size_t>{1, 1, 1}, {1, 64, 64}, {64, 1, 1}, {2, 3, 100},
-                                       {5, 7, 9}, {65, 3, 2}, {1, 1, 200}}) {
+    for (std::vector<std::size_t> d : {std::vector<std::size_t>{1, 1, 1},
+                                       {1, 64, 64},
+                                       {64, 1, 1},
+                                       {2, 3, 100},
+                                       {5, 7, 9},
+                                       {65, 3, 2},
+                                       {1, 1, 200}}) {
         const auto p = params(ScalarType::UInt8, d);
         const auto chunk = makeChunk(p, false, unsigned(d[2]));
         EXPECT_EQ(roundTrip(p, chunk), chunk) << d[0] << "x" << d[1] << "x" << d[2];
@@ -194,13 +220,15 @@ TEST(Hdf5ChunkCodec, MaxErrorHoldsItsBound) {
         ScalarType type;
         double bound;
     };
-    for (Case c : {Case{ScalarType::Float32, 0.01}, Case{ScalarType::Float32, 5.0}, Case{ScalarType::UInt16, 3.0},
-                   Case{ScalarType::Int16, 40.0}, Case{ScalarType::UInt8, 1.0}}) {
+    for (Case c :
+         {Case{ScalarType::Float32, 0.01}, Case{ScalarType::Float32, 5.0}, Case{ScalarType::UInt16, 3.0},
+          Case{ScalarType::Int16, 40.0}, Case{ScalarType::UInt8, 1.0}}) {
         const auto p = params(c.type, {20, 32, 33}, ChunkRate::MaxError, c.bound);
         const auto chunk = makeChunk(p, false);
         std::size_t stored = 0;
         const auto back = roundTrip(p, chunk, &stored);
-        EXPECT_LE(maxAbsDifference(p, chunk, back), c.bound) << scalarTypeName(c.type) << " bound " << c.bound;
+        EXPECT_LE(maxAbsDifference(p, chunk, back), c.bound)
+            << scalarTypeName(c.type) << " bound " << c.bound;
         EXPECT_LT(stored, p.chunkBytes()) << scalarTypeName(c.type);
     }
 }
@@ -241,7 +269,8 @@ TEST(Hdf5ChunkCodec, WrongSizesAndOtherShapesAreRefused) {
     const auto stored = hdf5::encodeChunk(cc, p, chunk);
     std::vector<std::byte> out(p.chunkBytes());
     for (auto other : {params(ScalarType::UInt16, {8, 8, 16}), params(ScalarType::Int16, {8, 8, 8}),
-                       params(ScalarType::UInt16, {1, 8, 8, 8}), params(ScalarType::UInt16, {8, 8, 8}, ChunkRate::Psnr, 40)}) {
+                       params(ScalarType::UInt16, {1, 8, 8, 8}),
+                       params(ScalarType::UInt16, {8, 8, 8}, ChunkRate::Psnr, 40)}) {
         std::vector<std::byte> o(other.chunkBytes());
         EXPECT_THROW(hdf5::decodeChunk(cc, other, stored, o), Error);
     }
@@ -257,8 +286,10 @@ TEST(Hdf5ChunkCodec, CorruptedOrTruncatedChunksThrowNeverCrash) {
     std::vector<std::byte> out(p.chunkBytes());
     // Every byte of the preamble (chunk header, .vcz header and index), then a spread over the payload.
     std::vector<std::size_t> positions;
-    for (std::size_t i = 0; i < std::min<std::size_t>(stored.size(), 400); ++i) positions.push_back(i);
-    for (std::size_t i = 400; i < stored.size(); i += std::max<std::size_t>(1, stored.size() / 97)) positions.push_back(i);
+    for (std::size_t i = 0; i < std::min<std::size_t>(stored.size(), 400); ++i)
+        positions.push_back(i);
+    for (std::size_t i = 400; i < stored.size(); i += std::max<std::size_t>(1, stored.size() / 97))
+        positions.push_back(i);
     positions.push_back(stored.size() - 1);
     std::size_t undetected = 0;
     for (std::size_t i : positions) {
@@ -275,7 +306,8 @@ TEST(Hdf5ChunkCodec, CorruptedOrTruncatedChunksThrowNeverCrash) {
     EXPECT_EQ(undetected, 0u) << "flips that decoded without an error";
     for (std::size_t n : {std::size_t(0), std::size_t(3), std::size_t(39), std::size_t(40), std::size_t(41),
                           stored.size() / 2, stored.size() - 1})
-        EXPECT_THROW(hdf5::decodeChunk(cc, p, std::span(stored).first(n), out), Error) << "truncated to " << n;
+        EXPECT_THROW(hdf5::decodeChunk(cc, p, std::span(stored).first(n), out), Error)
+            << "truncated to " << n;
     auto longer = stored;
     longer.resize(stored.size() + 16, std::byte(0x77));
     try {
@@ -289,9 +321,7 @@ TEST(Hdf5ChunkCodec, CorruptedOrTruncatedChunksThrowNeverCrash) {
 
 // Makes HDF5 search the plugin's build folder first and keeps expected failures off stderr.
 struct Hdf5Session {
-    Hdf5Session() {
-        H5PLprepend(VOLCL_HDF5_PLUGIN_DIR);
-    }
+    Hdf5Session() { H5PLprepend(VOLCL_HDF5_PLUGIN_DIR); }
 };
 
 // Descriptions on the current HDF5 error stack, joined (then cleared).
@@ -320,10 +350,14 @@ struct QuietErrors {
 
 hid_t fileTypeOf(ScalarType t) {
     switch (t) {
-    case ScalarType::UInt8: return H5T_STD_U8LE;
-    case ScalarType::UInt16: return H5T_STD_U16LE;
-    case ScalarType::Int16: return H5T_STD_I16LE;
-    case ScalarType::Float32: return H5T_IEEE_F32LE;
+    case ScalarType::UInt8:
+        return H5T_STD_U8LE;
+    case ScalarType::UInt16:
+        return H5T_STD_U16LE;
+    case ScalarType::Int16:
+        return H5T_STD_I16LE;
+    case ScalarType::Float32:
+        return H5T_IEEE_F32LE;
     }
     return -1;
 }
@@ -359,15 +393,16 @@ TEST(Hdf5Filter, DatasetsOfEveryTypeReadBackExactWithPartialEdgeChunks) {
     const std::string path = (dir / "types.h5").string();
     const std::vector<hsize_t> dims{21, 40, 37}, chunk{8, 16, 16}; // partial chunks on every axis
     std::vector<std::vector<std::byte>> written;
-    const ScalarType types[] = {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16, ScalarType::Float32};
+    const ScalarType types[] = {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16,
+                                ScalarType::Float32};
     {
         const hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
         ASSERT_GE(f, 0);
         for (ScalarType t : types) {
             const auto whole = params(t, {21, 40, 37});
             written.push_back(makeChunk(whole, true, unsigned(t) + 3));
-            const hid_t d = createDataset(f, std::string(scalarTypeName(t)).c_str(), fileTypeOf(t), dims, chunk,
-                                          [](hid_t dcpl) { return H5Pset_volcl_lossless(dcpl); });
+            const hid_t d = createDataset(f, std::string(scalarTypeName(t)).c_str(), fileTypeOf(t), dims,
+                                          chunk, [](hid_t dcpl) { return H5Pset_volcl_lossless(dcpl); });
             ASSERT_GE(d, 0) << scalarTypeName(t);
             ASSERT_GE(H5Dwrite(d, fileTypeOf(t), H5S_ALL, H5S_ALL, H5P_DEFAULT, written.back().data()), 0);
             H5Dclose(d);
@@ -385,7 +420,8 @@ TEST(Hdf5Filter, DatasetsOfEveryTypeReadBackExactWithPartialEdgeChunks) {
         const hid_t dcpl = H5Dget_create_plist(d);
         unsigned flags = 0, values[16];
         size_t count = 16;
-        ASSERT_GE(H5Pget_filter_by_id2(dcpl, H5Z_FILTER_VOLCL, &flags, &count, values, 0, nullptr, nullptr), 0);
+        ASSERT_GE(H5Pget_filter_by_id2(dcpl, H5Z_FILTER_VOLCL, &flags, &count, values, 0, nullptr, nullptr),
+                  0);
         EXPECT_EQ(count, 9u);
         EXPECT_EQ(values[0], 0u);
         EXPECT_EQ(values[5], 3u);
@@ -408,11 +444,11 @@ TEST(Hdf5Filter, MaxErrorAndPsnrDatasetsAndFourDimensionalSeries) {
     hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
     ASSERT_GE(f, 0);
     hid_t me = createDataset(f, "max_error", H5T_IEEE_F32LE, {24, 48, 40}, {16, 16, 16},
-                                   [](hid_t dcpl) { return H5Pset_volcl_max_error(dcpl, 0.05); });
+                             [](hid_t dcpl) { return H5Pset_volcl_max_error(dcpl, 0.05); });
     hid_t ps = createDataset(f, "psnr", H5T_IEEE_F32LE, {24, 48, 40}, {24, 24, 24},
-                                   [](hid_t dcpl) { return H5Pset_volcl_psnr(dcpl, 40.0); });
+                             [](hid_t dcpl) { return H5Pset_volcl_psnr(dcpl, 40.0); });
     hid_t t4 = createDataset(f, "series", H5T_STD_U16LE, {5, 10, 12, 14}, {2, 10, 8, 8},
-                                   [](hid_t dcpl) { return H5Pset_volcl_lossless(dcpl); });
+                             [](hid_t dcpl) { return H5Pset_volcl_lossless(dcpl); });
     ASSERT_GE(me, 0);
     ASSERT_GE(ps, 0);
     ASSERT_GE(t4, 0);

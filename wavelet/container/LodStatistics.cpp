@@ -101,23 +101,25 @@ BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::spa
     // Four partial maxima and sums (x mod 4) in named locals: independent chains in registers that the
     // compiler can put in vector lanes (one running sum was latency-bound, an indexed array went to memory).
     double e0 = 0, e1 = 0, e2 = 0, e3 = 0, q0 = 0, q1 = 0, q2 = 0, q3 = 0;
-    forEachLevelValue(samples, m, full, level, [&](std::size_t y, std::size_t z, std::span<const double> row) {
-        const float* in = input.data() + (z * full.y + y) * full.x;
-        const std::size_t n = row.size();
-        auto lane = [&](std::size_t x, double& e, double& q) {
-            const double d = std::abs(row[x] - double(in[x]));
-            e = d > e ? d : e;
-            q += d * d;
-        };
-        std::size_t x = 0;
-        for (; x + 4 <= n; x += 4) {
-            lane(x, e0, q0);
-            lane(x + 1, e1, q1);
-            lane(x + 2, e2, q2);
-            lane(x + 3, e3, q3);
-        }
-        for (; x < n; ++x) lane(x, e0, q0);
-    });
+    forEachLevelValue(samples, m, full, level,
+                      [&](std::size_t y, std::size_t z, std::span<const double> row) {
+                          const float* in = input.data() + (z * full.y + y) * full.x;
+                          const std::size_t n = row.size();
+                          auto lane = [&](std::size_t x, double& e, double& q) {
+                              const double d = std::abs(row[x] - double(in[x]));
+                              e = d > e ? d : e;
+                              q += d * d;
+                          };
+                          std::size_t x = 0;
+                          for (; x + 4 <= n; x += 4) {
+                              lane(x, e0, q0);
+                              lane(x + 1, e1, q1);
+                              lane(x + 2, e2, q2);
+                              lane(x + 3, e3, q3);
+                          }
+                          for (; x < n; ++x)
+                              lane(x, e0, q0);
+                      });
     const double err = std::max(std::max(e0, e1), std::max(e2, e3));
     const double sq = (q0 + q1) + (q2 + q3);
     // Rounded up so the stored bound is never below the measured deviation.
@@ -128,7 +130,7 @@ BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::spa
 }
 
 LodStatistics measureLodStatistics(ComputeContext& cc, const std::vector<std::byte>& vcz,
-                                  std::span<const Volume> inputs, const std::string& name) {
+                                   std::span<const Volume> inputs, const std::string& name) {
     const VczReader reader(vcz, name);
     const VczHeader& h = reader.header();
     if (inputs.size() != h.frames.size()) throw Error("internal: LOD statistics need every input frame");

@@ -88,7 +88,8 @@ void forEachLevelValue(std::span<const float> coarse, Dims m, Dims full, int lev
             const double* b = rowX.data() + (k * m.y + ty[y].i1) * full.x;
             const double f = ty[y].f;
             double* out = planeXY.data() + (k * full.y + y) * full.x;
-            for (std::size_t x = 0; x < full.x; ++x) out[x] = a[x] + f * (b[x] - a[x]);
+            for (std::size_t x = 0; x < full.x; ++x)
+                out[x] = a[x] + f * (b[x] - a[x]);
         }
     const std::size_t plane = full.y * full.x;
     std::vector<double> row(full.x);
@@ -97,7 +98,8 @@ void forEachLevelValue(std::span<const float> coarse, Dims m, Dims full, int lev
         for (std::size_t y = 0; y < full.y; ++y) {
             const double* a = planeXY.data() + tz[z].i0 * plane + y * full.x;
             const double* b = planeXY.data() + tz[z].i1 * plane + y * full.x;
-            for (std::size_t x = 0; x < full.x; ++x) row[x] = a[x] + f * (b[x] - a[x]);
+            for (std::size_t x = 0; x < full.x; ++x)
+                row[x] = a[x] + f * (b[x] - a[x]);
             fn(y, z, std::span<const double>(row));
         }
     }

@@ -51,7 +51,8 @@ namespace {
 // file only, never with the tests or in a product build): a mutated input would otherwise almost never get
 // past the checksums to the parser and decoder behind them (the approach of zstd's and libpng's fuzzers).
 // `bits32`: version 5 payload checksums, the low 32 bits of the XXH3-64.
-bool checksumMatches(std::uint64_t stored, std::span<const std::uint8_t> bytes, bool bits32 = false) noexcept {
+bool checksumMatches(std::uint64_t stored, std::span<const std::uint8_t> bytes,
+                     bool bits32 = false) noexcept {
     const std::uint64_t actual = vczChecksum(bytes) & (bits32 ? 0xFFFFFFFFu : ~std::uint64_t(0));
 #ifdef VOLCL_FUZZ_ACCEPT_ANY_CHECKSUM
     (void)stored;
@@ -162,10 +163,14 @@ void putFixedFields(Writer& w, const VczHeader& h) {
         w.put(s);
 }
 
-bool isSeries(const VczHeader& h) noexcept { return h.frames.size() > 1; }
+bool isSeries(const VczHeader& h) noexcept {
+    return h.frames.size() > 1;
+}
 
 // Version 5 keeps the low 32 bits of each payload's and motion block's XXH3-64.
-bool shortChecksums(const VczHeader& h) noexcept { return h.version == kVczVersionSeries; }
+bool shortChecksums(const VczHeader& h) noexcept {
+    return h.version == kVczVersionSeries;
+}
 
 // Versions 3 and 4: fixed-width frame table and metadata.
 std::vector<std::uint8_t> headerBody(const VczHeader& h) {
@@ -220,12 +225,15 @@ RangeForm rangeForm(const VczHeader& h) {
 
 // Frame times of the form t0 + f dt are stored as t0 and dt. One function computes them for the writer's
 // test and the reader, so both get the same doubles.
-double uniformTime(double t0, double dt, std::size_t f) noexcept { return t0 + double(f) * dt; }
+double uniformTime(double t0, double dt, std::size_t f) noexcept {
+    return t0 + double(f) * dt;
+}
 
 bool uniformTimes(const VczHeader& h) noexcept {
     const double t0 = h.frames[0].time, dt = h.frames[1].time - t0;
     for (std::size_t f = 0; f < h.frames.size(); ++f)
-        if (std::bit_cast<std::uint64_t>(uniformTime(t0, dt, f)) != std::bit_cast<std::uint64_t>(h.frames[f].time))
+        if (std::bit_cast<std::uint64_t>(uniformTime(t0, dt, f)) !=
+            std::bit_cast<std::uint64_t>(h.frames[f].time))
             return false;
     return true;
 }
@@ -241,7 +249,8 @@ std::vector<std::uint8_t> compactIndex(const VczHeader& h) {
             switch (form) {
             case RangeForm::Integer:
                 w.putVar(zigzagEncode(static_cast<std::int64_t>(e.min)));
-                w.putVar(static_cast<std::uint64_t>(static_cast<std::int64_t>(e.max) - static_cast<std::int64_t>(e.min)));
+                w.putVar(static_cast<std::uint64_t>(static_cast<std::int64_t>(e.max) -
+                                                    static_cast<std::int64_t>(e.min)));
                 break;
             case RangeForm::Float32:
                 w.put(float(e.min));
@@ -319,9 +328,12 @@ void checkFrameReferences(const VczHeader& h, std::uint32_t version, const Reade
     const auto n = static_cast<std::int64_t>(h.frames.size());
     // Encoders write version 4 only for files that hold P/B frames.
     if (version == kVczVersionPredicted &&
-        std::all_of(h.frames.begin(), h.frames.end(), [](const VczFrame& f) { return f.type == FrameType::I; }))
+        std::all_of(h.frames.begin(), h.frames.end(),
+                    [](const VczFrame& f) { return f.type == FrameType::I; }))
         r.fail("unsupported .vcz version 4 for a file of I frames only (corrupt header)");
-    auto anchor = [&](std::int32_t k) { return k >= 0 && k < n && h.frames[std::size_t(k)].type != FrameType::B; };
+    auto anchor = [&](std::int32_t k) {
+        return k >= 0 && k < n && h.frames[std::size_t(k)].type != FrameType::B;
+    };
     for (std::int64_t f = 0; f < n; ++f) {
         const VczFrame& e = h.frames[std::size_t(f)];
         const std::string which = "frame " + std::to_string(f);
@@ -329,10 +341,11 @@ void checkFrameReferences(const VczHeader& h, std::uint32_t version, const Reade
             r.fail(which + ": P/B frame in a version " + std::to_string(version) + " file");
         if (e.type != FrameType::I && h.transform == TransformKind::RawBits)
             r.fail(which + ": P/B frame of raw float bit planes");
-        const bool ok = e.type == FrameType::I   ? e.reference0 == -1 && e.reference1 == -1 && e.auxSize == 0
-                        : e.type == FrameType::P ? anchor(e.reference0) && e.reference0 < f && e.reference1 == -1
-                                                 : anchor(e.reference0) && e.reference0 < f &&
-                                                       anchor(e.reference1) && e.reference1 > f;
+        const bool ok =
+            e.type == FrameType::I ? e.reference0 == -1 && e.reference1 == -1 && e.auxSize == 0
+            : e.type == FrameType::P
+                ? anchor(e.reference0) && e.reference0 < f && e.reference1 == -1
+                : anchor(e.reference0) && e.reference0 < f && anchor(e.reference1) && e.reference1 > f;
         if (!ok) r.fail(which + ": invalid references");
     }
 }
@@ -385,7 +398,8 @@ std::vector<std::byte> writeVcz(const VczHeader& h, std::span<const std::vector<
                 at += e.size;
             }
             if (h.frames[f].auxSize) {
-                if (h.frames[f].auxOffset != at) throw Error("internal: .vcz series motion block out of place");
+                if (h.frames[f].auxOffset != at)
+                    throw Error("internal: .vcz series motion block out of place");
                 at += h.frames[f].auxSize;
             }
         }
@@ -457,11 +471,11 @@ void readFixedFields(Reader& r, VczHeader& h, const std::string& name, std::size
     const Dims largest{std::min<std::size_t>(h.brick.x, h.dims.x), std::min<std::size_t>(h.brick.y, h.dims.y),
                        std::min<std::size_t>(h.brick.z, h.dims.z)};
     const std::size_t n = largest.count();
-    const std::size_t brickBytes = n * (sizeof(std::int32_t) + sizeof(codec::Correction)) +
-                                   codec::maxCorrectionListBytes(h.type, n);
+    const std::size_t brickBytes =
+        n * (sizeof(std::int32_t) + sizeof(codec::Correction)) + codec::maxCorrectionListBytes(h.type, n);
     checkMemoryBudget(h.dims.count() * scalarSize(h.type) + brickBytes, memoryBudget, name,
-                      "a frame with the coefficients and corrections of a " + std::to_string(largest.x) + "x" +
-                          std::to_string(largest.y) + "x" + std::to_string(largest.z) + " brick");
+                      "a frame with the coefficients and corrections of a " + std::to_string(largest.x) +
+                          "x" + std::to_string(largest.y) + "x" + std::to_string(largest.z) + " brick");
     const auto nSteps = r.get<std::uint32_t>();
     if (nSteps > r.remaining() / 8) r.fail("truncated");
     h.steps.resize(nSteps);
@@ -532,7 +546,8 @@ std::uint64_t readCompactTail(Reader& r, VczHeader& h, std::size_t fileSize) {
         }
         if (f.type == FrameType::B) {
             const std::uint64_t ahead = r.getVar();
-            if (ahead == 0 || ahead >= nFrames - i) r.fail("frame " + std::to_string(i) + ": invalid references");
+            if (ahead == 0 || ahead >= nFrames - i)
+                r.fail("frame " + std::to_string(i) + ": invalid references");
             f.reference1 = static_cast<std::int32_t>(i + ahead);
         }
         f.auxSize = r.getVar();
@@ -614,15 +629,16 @@ std::size_t readIndex(std::span<const std::uint8_t> file, std::size_t indexStart
 
 // Version 5: per brick a varint size, a 32-bit checksum and the range in the index's form; payload offsets
 // follow from the sizes (each frame's bricks, then its auxiliary block).
-std::size_t readCompactIndex(std::span<const std::uint8_t> file, std::size_t indexStart, std::uint64_t indexSize,
-                             VczHeader& h, const std::string& name) {
+std::size_t readCompactIndex(std::span<const std::uint8_t> file, std::size_t indexStart,
+                             std::uint64_t indexSize, VczHeader& h, const std::string& name) {
     const std::size_t nFrames = h.frames.size(), bricks = h.brickCount();
     if (indexSize > file.size() - indexStart || file.size() - indexStart - indexSize < 8)
         throw IoError(name + ": brick index: truncated");
     std::uint64_t stored;
     std::memcpy(&stored, file.data() + indexStart + indexSize, 8);
     const auto index = file.subspan(indexStart, std::size_t(indexSize));
-    if (!checksumMatches(stored, index)) throw IoError(name + ": brick index checksum mismatch (corrupted index)");
+    if (!checksumMatches(stored, index))
+        throw IoError(name + ": brick index checksum mismatch (corrupted index)");
     Reader ir(index, name, "brick index");
     const auto form = ir.get<std::uint8_t>();
     if (form > 2) ir.fail("invalid range form");
@@ -682,7 +698,8 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
         throw IoError(name + ": not a .vcz file (bad magic)");
     Reader pre(file.subspan(kVczMagic.size()), name, "header");
     const auto version = pre.get<std::uint32_t>();
-    if (version != kVczVersionSeries && version != kVczVersionPredicted && version != kVczVersion && version != 2)
+    if (version != kVczVersionSeries && version != kVczVersionPredicted && version != kVczVersion &&
+        version != 2)
         throw IoError(name + ": unsupported .vcz version " + std::to_string(version));
     const auto bodySize = pre.get<std::uint32_t>();
     const std::size_t bodyStart = kVczMagic.size() + 8;
@@ -730,8 +747,7 @@ std::span<const std::uint8_t> vczBrickPayload(std::span<const std::byte> fileByt
     if (!checksumMatches(e.checksum, payload, shortChecksums(h))) {
         const Dims o = h.brickOrigin(brick);
         throw IoError(name + ": " + framePart(h, frame) + "brick " + std::to_string(brick) + " (voxel " +
-                      std::to_string(o.x) + "," +
-                      std::to_string(o.y) + "," + std::to_string(o.z) +
+                      std::to_string(o.x) + "," + std::to_string(o.y) + "," + std::to_string(o.z) +
                       ") checksum mismatch (corrupted data)");
     }
     return payload;
@@ -749,10 +765,12 @@ std::span<const std::uint8_t> vczFrameAux(std::span<const std::byte> fileBytes, 
     const VczFrame& f = h.frames[frame];
     if (f.auxSize == 0) return {}; // I frames (the reader checked that they carry none)
     if (f.auxSize > file.size() || f.auxOffset > file.size() - f.auxSize)
-        throw IoError(name + ": frame " + std::to_string(frame) + ": motion data lies outside the file (truncated?)");
+        throw IoError(name + ": frame " + std::to_string(frame) +
+                      ": motion data lies outside the file (truncated?)");
     auto aux = file.subspan(f.auxOffset, f.auxSize);
     if (!checksumMatches(f.auxChecksum, aux, shortChecksums(h)))
-        throw IoError(name + ": frame " + std::to_string(frame) + ": motion data checksum mismatch (corrupted data)");
+        throw IoError(name + ": frame " + std::to_string(frame) +
+                      ": motion data checksum mismatch (corrupted data)");
     return aux;
 }
 

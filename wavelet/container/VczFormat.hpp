@@ -44,7 +44,7 @@ struct VczFrame {
 struct VczBrickEntry {
     /// Payload position in the file and its XXH3-64 (version 5 files keep its low 32 bits).
     std::uint64_t offset = 0, size = 0, checksum = 0;
-    double min = 0, max = 0;                          ///< voxel range of the brick (TF-independent stats)
+    double min = 0, max = 0; ///< voxel range of the brick (TF-independent stats)
 };
 
 /// Everything before the brick payloads.

@@ -245,8 +245,8 @@ struct SectionWalker {
                     const std::uint32_t* nw = n - 1;
                     const std::uint32_t* uw = u - 1;
                     for (std::size_t x = 0; x < nx; ++x)
-                        activity[x] = 4 * (n[x] + u[x]) + nw[x] + n[x + 1] + uw[x] + u[x + 1] + un[x] +
-                                      parentRow[x];
+                        activity[x] =
+                            4 * (n[x] + u[x]) + nw[x] + n[x + 1] + uw[x] + u[x + 1] + un[x] + parentRow[x];
                     const std::uint8_t* ns = sg - pitch;
                     const std::uint8_t* us = b.prevSign.data() + (r + 1) * pitch + 1;
                     const auto sctx0 = static_cast<std::uint16_t>(orient * 27);

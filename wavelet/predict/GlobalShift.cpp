@@ -55,7 +55,6 @@ bool solve3(const double a[3][3], const double b[3], double x[3]) {
     return true;
 }
 
-
 // The four Keys taps of a shift: out(i) = sum over t of w[t] in(clamp(i + base - 1 + t)).
 struct KeysTaps {
     std::array<double, 4> w;
@@ -119,7 +118,6 @@ void rowAsDoubles(const Volume& v, std::size_t r, double* out) {
             out[i] = static_cast<double>(values[first + i]);
     });
 }
-
 
 // The y pass in place: each z slice is copied aside (small), then its rows are blended from the copy.
 void shiftRowsAlongY(double* v, Dims d, double shift, unsigned threads) {

@@ -19,11 +19,15 @@ struct SearchStage {
     int level, radius, step, limit;
 };
 
-int ceilDiv(int a, int b) { return (a + b - 1) / b; }
+int ceilDiv(int a, int b) {
+    return (a + b - 1) / b;
+}
 
 // Blocks on a coarse level keep their pitch (block size >> level) but match over at least 4^3 voxels:
 // a 2^3 block is too small to tell vectors apart.
-std::size_t matchExtent(std::size_t blockSize, int level) { return std::max<std::size_t>(blockSize >> level, std::min<std::size_t>(blockSize, 4)); }
+std::size_t matchExtent(std::size_t blockSize, int level) {
+    return std::max<std::size_t>(blockSize >> level, std::min<std::size_t>(blockSize, 4));
+}
 
 std::vector<SearchStage> searchStages(const MotionSearchOptions& o) {
     std::vector<SearchStage> stages;
@@ -51,22 +55,28 @@ bool better(std::uint64_t ca, MotionVector a, std::uint64_t cb, MotionVector b) 
     return a.x < b.x;
 }
 
-int halfFloor(int h) { return (h - (h & 1)) / 2; }
+int halfFloor(int h) {
+    return (h - (h & 1)) / 2;
+}
 
 // 8 x the trilinear sample of `ref` at voxel p displaced by v half voxels, clamp-to-edge.
 std::int64_t sample8(const std::vector<std::int32_t>& ref, Dims d, int px, int py, int pz, MotionVector v) {
     const int hx = 2 * px + v.x, hy = 2 * py + v.y, hz = 2 * pz + v.z;
-    const int xs[2] = {std::clamp(halfFloor(hx), 0, int(d.x) - 1), std::clamp(halfFloor(hx) + (hx & 1), 0, int(d.x) - 1)};
-    const int ys[2] = {std::clamp(halfFloor(hy), 0, int(d.y) - 1), std::clamp(halfFloor(hy) + (hy & 1), 0, int(d.y) - 1)};
-    const int zs[2] = {std::clamp(halfFloor(hz), 0, int(d.z) - 1), std::clamp(halfFloor(hz) + (hz & 1), 0, int(d.z) - 1)};
+    const int xs[2] = {std::clamp(halfFloor(hx), 0, int(d.x) - 1),
+                       std::clamp(halfFloor(hx) + (hx & 1), 0, int(d.x) - 1)};
+    const int ys[2] = {std::clamp(halfFloor(hy), 0, int(d.y) - 1),
+                       std::clamp(halfFloor(hy) + (hy & 1), 0, int(d.y) - 1)};
+    const int zs[2] = {std::clamp(halfFloor(hz), 0, int(d.z) - 1),
+                       std::clamp(halfFloor(hz) + (hz & 1), 0, int(d.z) - 1)};
     std::int64_t s = 0;
     for (int c = 0; c < 8; ++c)
-        s += ref[std::size_t(xs[c & 1]) + d.x * (std::size_t(ys[(c >> 1) & 1]) + d.y * std::size_t(zs[c >> 2]))];
+        s += ref[std::size_t(xs[c & 1]) +
+                 d.x * (std::size_t(ys[(c >> 1) & 1]) + d.y * std::size_t(zs[c >> 2]))];
     return s;
 }
 
-std::uint64_t blockCost(const MotionSearchSamples& s, int level, std::size_t pitch, std::size_t extent, std::size_t bx,
-                        std::size_t by, std::size_t bz, MotionVector v, MotionCost cost) {
+std::uint64_t blockCost(const MotionSearchSamples& s, int level, std::size_t pitch, std::size_t extent,
+                        std::size_t bx, std::size_t by, std::size_t bz, MotionVector v, MotionCost cost) {
     const Dims d = s.dims[level];
     const auto& cur = s.current[level];
     const auto& ref = s.reference[level];
@@ -89,7 +99,8 @@ std::vector<std::int32_t> downsample(const std::vector<std::int32_t>& in, Dims d
             for (std::size_t x = 0; x < out.x; ++x) {
                 std::int64_t sum = 0;
                 for (int c = 0; c < 8; ++c) {
-                    const std::size_t xi = std::min(2 * x + (c & 1), d.x - 1), yi = std::min(2 * y + ((c >> 1) & 1), d.y - 1),
+                    const std::size_t xi = std::min(2 * x + (c & 1), d.x - 1),
+                                      yi = std::min(2 * y + ((c >> 1) & 1), d.y - 1),
                                       zi = std::min(2 * z + (c >> 2), d.z - 1);
                     sum += in[xi + d.x * (yi + d.y * zi)];
                 }
@@ -115,7 +126,8 @@ std::vector<std::int32_t> integerSamples(const Volume& v, double lo, double scal
 
 void validate(const MotionSearchOptions& o) {
     if (o.blockSize < 2 || o.blockSize > 32 || !std::has_single_bit(o.blockSize))
-        throw UsageError("motion block size " + std::to_string(o.blockSize) + " must be a power of two in 2..32");
+        throw UsageError("motion block size " + std::to_string(o.blockSize) +
+                         " must be a power of two in 2..32");
     if (o.radius < 0 || o.radius > 15)
         throw UsageError("motion search radius " + std::to_string(o.radius) + " must be in 0..15");
 }
@@ -158,7 +170,8 @@ MotionSearchSamples prepareSearchSamples(const Volume& current, const Volume& re
 MotionSearchResult searchMotionReference(const MotionSearchSamples& s, const MotionSearchOptions& o) {
     validate(o);
     const std::vector<SearchStage> stages = searchStages(o);
-    if (s.dims.size() <= std::size_t(stages.front().level)) throw Error("internal: motion samples lack levels");
+    if (s.dims.size() <= std::size_t(stages.front().level))
+        throw Error("internal: motion samples lack levels");
     MotionSearchResult r;
     r.grid = {s.dims[0], o.blockSize};
     const Dims nb = r.grid.blocks();
@@ -170,18 +183,22 @@ MotionSearchResult searchMotionReference(const MotionSearchSamples& s, const Mot
         for (std::size_t bz = 0, b = 0; bz < nb.z; ++bz)
             for (std::size_t by = 0; by < nb.y; ++by)
                 for (std::size_t bx = 0; bx < nb.x; ++bx, ++b) {
-                    const MotionVector c = si == 0 ? MotionVector{} : nextCentre(r.vectors[b], stages[si - 1], st);
+                    const MotionVector c =
+                        si == 0 ? MotionVector{} : nextCentre(r.vectors[b], stages[si - 1], st);
                     bool any = false;
                     std::uint64_t best = 0;
                     MotionVector bestV = c;
                     for (int dz = -st.radius; dz <= st.radius; ++dz)
                         for (int dy = -st.radius; dy <= st.radius; ++dy)
                             for (int dx = -st.radius; dx <= st.radius; ++dx) {
-                                const MotionVector v{std::int16_t(c.x + st.step * dx), std::int16_t(c.y + st.step * dy),
+                                const MotionVector v{std::int16_t(c.x + st.step * dx),
+                                                     std::int16_t(c.y + st.step * dy),
                                                      std::int16_t(c.z + st.step * dz)};
-                                if (std::abs(v.x) > st.limit || std::abs(v.y) > st.limit || std::abs(v.z) > st.limit)
+                                if (std::abs(v.x) > st.limit || std::abs(v.y) > st.limit ||
+                                    std::abs(v.z) > st.limit)
                                     continue;
-                                const std::uint64_t cost = blockCost(s, st.level, pitch, extent, bx, by, bz, v, o.cost);
+                                const std::uint64_t cost =
+                                    blockCost(s, st.level, pitch, extent, bx, by, bz, v, o.cost);
                                 if (!any || better(cost, v, best, bestV)) {
                                     best = cost;
                                     bestV = v;
@@ -205,14 +222,16 @@ MotionEstimator::MotionEstimator(ComputeContext& cc, const MotionSearchOptions& 
     reduceKernel_ = cc.kernel("codec/motion.cl", "motion_search_reduce", whole);
 }
 
-MotionSearchResult MotionEstimator::search(ComputeContext& cc, const Volume& current, const Volume& reference) {
+MotionSearchResult MotionEstimator::search(ComputeContext& cc, const Volume& current,
+                                           const Volume& reference) {
     const int levels = options_.method == MotionSearchMethod::Hierarchical ? hierarchyLevels(options_) : 0;
     return search(cc, prepareSearchSamples(current, reference, levels));
 }
 
 MotionSearchResult MotionEstimator::search(ComputeContext& cc, const MotionSearchSamples& s) {
     const std::vector<SearchStage> stages = searchStages(options_);
-    if (s.dims.size() <= std::size_t(stages.front().level)) throw Error("internal: motion samples lack levels");
+    if (s.dims.size() <= std::size_t(stages.front().level))
+        throw Error("internal: motion samples lack levels");
     MotionSearchResult r;
     r.grid = {s.dims[0], options_.blockSize};
     const Dims nb = r.grid.blocks();
@@ -249,15 +268,16 @@ MotionSearchResult MotionEstimator::search(ComputeContext& cc, const MotionSearc
         const int pairs = (2 * st.radius + 1) * (2 * st.radius + 1);
         cl::Kernel& k = st.step == 1 ? halfKernel_ : searchKernel_;
         setArgs(k, cur[st.level], ref[st.level], dims, cl_int(options_.blockSize >> st.level),
-                cl_int(matchExtent(options_.blockSize, st.level)), blocks, centres,
-                cl_int(st.radius), cl_int(st.step), cl_int(st.limit), pairCost, pairVector);
+                cl_int(matchExtent(options_.blockSize, st.level)), blocks, centres, cl_int(st.radius),
+                cl_int(st.step), cl_int(st.limit), pairCost, pairVector);
         kernelMs_ +=
             eventMilliseconds(cc.launch1d(k, nblocks * std::size_t(pairs), cc.profile().motion.search));
         setArgs(reduceKernel_, pairCost, pairVector, cl_int(pairs), cl_int(nblocks), bestCost, bestVector);
         kernelMs_ += eventMilliseconds(cc.launch1d(reduceKernel_, nblocks, cc.profile().motion.reduce));
         cc.read(bestVector, std::span<cl_int4>(hostBest));
         for (std::size_t b = 0; b < nblocks; ++b)
-            r.vectors[b] = {std::int16_t(hostBest[b].s[0]), std::int16_t(hostBest[b].s[1]), std::int16_t(hostBest[b].s[2])};
+            r.vectors[b] = {std::int16_t(hostBest[b].s[0]), std::int16_t(hostBest[b].s[1]),
+                            std::int16_t(hostBest[b].s[2])};
     }
     const std::vector<cl_ulong> costs = cc.download(bestCost);
     std::copy(costs.begin(), costs.end(), r.costs.begin());

@@ -23,7 +23,8 @@ struct MotionSearchOptions {
     int radius = 4;            ///< search radius R in voxels, 0..15
     MotionSearchMethod method = MotionSearchMethod::Full;
     MotionCost cost = MotionCost::Ssd;
-    bool halfVoxel = true; ///< refine the best integer vector by +-1/2 voxel (trilinear samples of the reference)
+    bool halfVoxel =
+        true; ///< refine the best integer vector by +-1/2 voxel (trilinear samples of the reference)
 };
 
 /// Throws UsageError for a block size that is not a power of two in 2..32 or a radius outside 0..15.

@@ -27,13 +27,23 @@ bool getSectionLength(std::span<const std::uint8_t> in, std::size_t& pos, std::s
 }
 
 // One byte per component: the differences lie in [-128, 127].
-std::uint8_t zigzag(int v) { return static_cast<std::uint8_t>(zigzagEncode(v)); }
-int unzigzag(std::uint8_t u) { return static_cast<int>(zigzagDecode(u)); }
+std::uint8_t zigzag(int v) {
+    return static_cast<std::uint8_t>(zigzagEncode(v));
+}
+int unzigzag(std::uint8_t u) {
+    return static_cast<int>(zigzagDecode(u));
+}
 
-bool usesForward(BlockMode m) { return m == BlockMode::Forward || m == BlockMode::Bidirectional; }
-bool usesBackward(BlockMode m) { return m == BlockMode::Backward || m == BlockMode::Bidirectional; }
+bool usesForward(BlockMode m) {
+    return m == BlockMode::Forward || m == BlockMode::Bidirectional;
+}
+bool usesBackward(BlockMode m) {
+    return m == BlockMode::Backward || m == BlockMode::Bidirectional;
+}
 
-int median3(int a, int b, int c) { return std::max(std::min(a, b), std::min(std::max(a, b), c)); }
+int median3(int a, int b, int c) {
+    return std::max(std::min(a, b), std::min(std::max(a, b), c));
+}
 
 // Appends the zigzagged differences of the used vectors as three planes (x, y, z).
 void putVectors(std::vector<std::uint8_t>& body, const std::vector<MotionVector>& v, Dims blocks,
@@ -123,7 +133,8 @@ MotionField decodeMotionField(std::span<const std::uint8_t> bytes, BlockGrid gri
     const std::uint8_t layout = bytes[0];
     if (layout != kLayoutForward && layout != kLayoutBidirectional) corrupt(what, "has an unknown layout");
     std::size_t pos = 1, z = 0;
-    if (!getSectionLength(bytes, pos, z) || bytes.size() - pos != z) corrupt(what, "is truncated or has trailing bytes");
+    if (!getSectionLength(bytes, pos, z) || bytes.size() - pos != z)
+        corrupt(what, "is truncated or has trailing bytes");
     const std::size_t n = grid.count();
     // Bounded before decompressing: modes, two vector planes of 3 bytes, 4 bytes of intra value per block.
     const unsigned long long declared = ZSTD_getFrameContentSize(bytes.data() + pos, z);
@@ -143,7 +154,8 @@ MotionField decodeMotionField(std::span<const std::uint8_t> bytes, BlockGrid gri
     for (std::size_t b = 0; b < n; ++b) {
         if (body[b] >= kBlockModeCount) corrupt(what, "has an unknown block mode");
         f.modes[b] = static_cast<BlockMode>(body[b]);
-        if (layout == kLayoutForward && usesBackward(f.modes[b])) corrupt(what, "uses a missing backward field");
+        if (layout == kLayoutForward && usesBackward(f.modes[b]))
+            corrupt(what, "uses a missing backward field");
         fwd += usesForward(f.modes[b]);
         bwd += usesBackward(f.modes[b]);
         intra += f.modes[b] == BlockMode::Intra;
@@ -157,8 +169,10 @@ MotionField decodeMotionField(std::span<const std::uint8_t> bytes, BlockGrid gri
         for (std::size_t b = 0; b < n; ++b) {
             if (!uses(f.modes[b])) continue;
             const MotionVector p = medianPredictor(v, blocks, b);
-            const int x = p.x + unzigzag(body[px + k]), y = p.y + unzigzag(body[py + k]), zc = p.z + unzigzag(body[pz + k]);
-            if (std::abs(x) > 63 || std::abs(y) > 63 || std::abs(zc) > 63) corrupt(what, "has a vector out of range");
+            const int x = p.x + unzigzag(body[px + k]), y = p.y + unzigzag(body[py + k]),
+                      zc = p.z + unzigzag(body[pz + k]);
+            if (std::abs(x) > 63 || std::abs(y) > 63 || std::abs(zc) > 63)
+                corrupt(what, "has a vector out of range");
             v[b] = {std::int16_t(x), std::int16_t(y), std::int16_t(zc)};
             ++k;
         }

@@ -87,7 +87,8 @@ class LossyStrategy : public RateStrategy {
 public:
     LossyStrategy(ComputeContext& cc, const CodecOptions& o, ValueRangeCache& ranges)
         : cc_(cc), o_(o), ranges_(ranges) {}
-    FrameResult encodeFrame(const Volume& v, VczHeader& h, bool chooseStep, const ResidualTarget* target) final;
+    FrameResult encodeFrame(const Volume& v, VczHeader& h, bool chooseStep,
+                            const ResidualTarget* target) final;
 
 protected:
     /// The mode's search for the steps that meet its target on `f`.

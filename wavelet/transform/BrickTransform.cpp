@@ -32,8 +32,9 @@ std::vector<std::vector<BrickGroup>> transformRounds(const std::vector<BrickGrou
             // As many of the group's bricks as fit the open round; at least one (a brick over the budget).
             const std::size_t fit = std::max<std::size_t>((budget - std::min(used, budget)) / bytes, 1);
             const std::size_t take = std::min(fit, g.bricks.size() - i);
-            rounds.back().push_back({g.dims, {g.bricks.begin() + std::ptrdiff_t(i),
-                                              g.bricks.begin() + std::ptrdiff_t(i + take)}});
+            rounds.back().push_back(
+                {g.dims,
+                 {g.bricks.begin() + std::ptrdiff_t(i), g.bricks.begin() + std::ptrdiff_t(i + take)}});
             used += take * bytes;
             i += take;
         }

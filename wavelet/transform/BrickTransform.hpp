@@ -91,13 +91,15 @@ struct AheadHandover {
 template <class T, class Run, class Emit>
 bool transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<std::size_t>& which,
                      unsigned threads, CodecProfile* prof, const std::vector<FillStep<T>>& fills, Run run,
-                     double CodecProfile::*emitStage, Emit emit, std::vector<PrefilledRound>* prefilled = nullptr) {
+                     double CodecProfile::*emitStage, Emit emit,
+                     std::vector<PrefilledRound>* prefilled = nullptr) {
     bool allEmitted = true;
     const std::vector<std::vector<BrickGroup>> rounds = batchRounds<T>(h, which);
     for (std::size_t round = 0; round < rounds.size(); ++round) {
         const std::vector<BrickGroup>& groups = rounds[round];
         PrefilledRound* pre = prefilled && round < prefilled->size() ? &(*prefilled)[round] : nullptr;
-        if (pre && (pre->blocks.size() != groups.size())) throw Error("internal: prefilled round does not match");
+        if (pre && (pre->blocks.size() != groups.size()))
+            throw Error("internal: prefilled round does not match");
         std::vector<std::unique_ptr<BrickBatch<T>>> batches;
         struct Slot {
             std::size_t brick, group, index;
@@ -105,12 +107,14 @@ bool transformBricks(ComputeContext& cc, const VczHeader& h, const std::vector<s
         std::vector<Slot> slots;
         for (std::size_t g = 0; g < groups.size(); ++g) {
             const std::size_t n = groups[g].bricks.size();
-            batches.push_back(pre ? std::make_unique<BrickBatch<T>>(cc, groups[g].dims, n, std::move(pre->blocks[g]))
-                                  : std::make_unique<BrickBatch<T>>(cc, groups[g].dims, n));
+            batches.push_back(
+                pre ? std::make_unique<BrickBatch<T>>(cc, groups[g].dims, n, std::move(pre->blocks[g]))
+                    : std::make_unique<BrickBatch<T>>(cc, groups[g].dims, n));
             for (std::size_t i = 0; i < n; ++i)
                 slots.push_back({groups[g].bricks[i], g, i});
         }
-        if (pre && pre->filled.size() != slots.size()) throw Error("internal: prefilled round does not match");
+        if (pre && pre->filled.size() != slots.size())
+            throw Error("internal: prefilled round does not match");
         auto prefilledSlot = [&](std::size_t k) { return pre && pre->filled[k]; };
         std::vector<BatchMapping<T>> maps(groups.size());
         auto forEachSlot = [&](double CodecProfile::*stage, auto fn) {
@@ -239,12 +243,14 @@ template <class T, class Emit>
 bool inverseBricks(ComputeContext& cc, LiftingTransform<T>& t, const VczHeader& h,
                    const std::vector<std::size_t>& which, int level, unsigned threads, CodecProfile* prof,
                    const std::vector<FillStep<T>>& fills, double CodecProfile::*emitStage, Emit emit,
-                   const VoxelPlacement* toVoxels = nullptr, std::vector<PrefilledRound>* prefilled = nullptr) {
+                   const VoxelPlacement* toVoxels = nullptr,
+                   std::vector<PrefilledRound>* prefilled = nullptr) {
     // Decided for the whole call, not per round: either every round writes voxels or every brick is emitted.
     const std::vector<BrickGroup> shapes = groupBricks(h, which);
-    const bool voxels = toVoxels && level == 0 && std::all_of(shapes.begin(), shapes.end(), [&](const BrickGroup& g) {
-                            return t.pathFor(g.dims) == LiftingPath::BrickResident;
-                        });
+    const bool voxels =
+        toVoxels && level == 0 && std::all_of(shapes.begin(), shapes.end(), [&](const BrickGroup& g) {
+            return t.pathFor(g.dims) == LiftingPath::BrickResident;
+        });
     return transformBricks<T>(
         cc, h, which, threads, prof, fills,
         [&](std::span<BrickBatch<T>* const> b, const std::vector<BrickGroup>& groups) {

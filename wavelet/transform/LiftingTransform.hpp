@@ -196,7 +196,7 @@ private:
                       const VoxelVolume& v, std::vector<std::vector<std::pair<double, double>>>* ranges);
     double transformAll(ComputeContext& cc, std::span<BrickBatch<T>* const> batches, bool inverse, int levels,
                         int stopLevel);
-    void buildStreaming(ComputeContext& cc);               // the lifting.cl kernels, once
+    void buildStreaming(ComputeContext& cc); // the lifting.cl kernels, once
     void useBrickSize(std::size_t maxN); // the lifting_brick.cl kernels from now on are for LIFT_MAXN maxN
     cl::Kernel& brickKernel(ComputeContext& cc, bool inverse); // built on first use
     KernelDefines brickDefines(bool inverse) const;            // lifting_brick.cl's -D for this transform
@@ -210,7 +210,7 @@ private:
     std::size_t brickMaxN_ = 0; // LIFT_MAXN of the brick kernels below (0: none chosen yet)
     cl::Kernel fwdBrick_, invBrick_;
     std::array<cl::Kernel, 8> brickVoxels_; // [inverse * 4 + ScalarType], built on first use for brickMaxN_
-    DeviceBuffer<cl_int> brickNext_; // the brick kernel's work counter
+    DeviceBuffer<cl_int> brickNext_;        // the brick kernel's work counter
 };
 
 } // namespace volcl

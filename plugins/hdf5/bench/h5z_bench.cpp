@@ -4,8 +4,8 @@
 #include "plugins/hdf5/H5Zvolcl.h"
 
 #include "core/Error.hpp"
-#include "host/io/VolumeIo.hpp"
 #include "core/runtime/ClRuntime.hpp"
+#include "host/io/VolumeIo.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <hdf5.h>
@@ -25,7 +25,9 @@ namespace {
 using namespace volcl;
 using Clock = std::chrono::steady_clock;
 
-double seconds(Clock::time_point a) { return std::chrono::duration<double>(Clock::now() - a).count(); }
+double seconds(Clock::time_point a) {
+    return std::chrono::duration<double>(Clock::now() - a).count();
+}
 double median(std::vector<double> v) {
     std::sort(v.begin(), v.end());
     return v[v.size() / 2];
@@ -42,8 +44,8 @@ std::vector<std::vector<std::byte>> cutChunks(const Volume& v, std::size_t c) {
                 std::vector<std::byte> b(c * c * c * es);
                 for (std::size_t k = 0; k < c; ++k)
                     for (std::size_t j = 0; j < c; ++j)
-                        std::memcpy(b.data() + ((k * c + j) * c) * es, v.bytes().data() + v.index(x, y + j, z + k) * es,
-                                    c * es);
+                        std::memcpy(b.data() + ((k * c + j) * c) * es,
+                                    v.bytes().data() + v.index(x, y + j, z + k) * es, c * es);
                 chunks.push_back(std::move(b));
             }
     return chunks;
@@ -51,10 +53,14 @@ std::vector<std::vector<std::byte>> cutChunks(const Volume& v, std::size_t c) {
 
 hid_t fileType(ScalarType t) {
     switch (t) {
-    case ScalarType::UInt8: return H5T_STD_U8LE;
-    case ScalarType::UInt16: return H5T_STD_U16LE;
-    case ScalarType::Int16: return H5T_STD_I16LE;
-    case ScalarType::Float32: return H5T_IEEE_F32LE;
+    case ScalarType::UInt8:
+        return H5T_STD_U8LE;
+    case ScalarType::UInt16:
+        return H5T_STD_U16LE;
+    case ScalarType::Int16:
+        return H5T_STD_I16LE;
+    case ScalarType::Float32:
+        return H5T_IEEE_F32LE;
     }
     return -1;
 }
@@ -63,7 +69,8 @@ hid_t fileType(ScalarType t) {
 std::array<double, 3> hdf5RoundTrip(const Volume& v, const std::string& path, std::size_t c,
                                     const std::function<herr_t(hid_t)>& filter) {
     const Dims d = v.dims();
-    const hsize_t dims[3] = {d.z, d.y, d.x}, chunk[3] = {std::min(c, d.z), std::min(c, d.y), std::min(c, d.x)};
+    const hsize_t dims[3] = {d.z, d.y, d.x},
+                  chunk[3] = {std::min(c, d.z), std::min(c, d.y), std::min(c, d.x)};
     auto t0 = Clock::now();
     hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
     hid_t s = H5Screate_simple(3, dims, nullptr);
@@ -88,7 +95,8 @@ std::array<double, 3> hdf5RoundTrip(const Volume& v, const std::string& path, st
     H5Dclose(ds);
     H5Fclose(f);
     const double read = seconds(t0);
-    if (filter && !std::equal(back.begin(), back.end(), v.bytes().begin()) && path.find("lossless") != std::string::npos)
+    if (filter && !std::equal(back.begin(), back.end(), v.bytes().begin()) &&
+        path.find("lossless") != std::string::npos)
         throw DataError(path + ": lossless round trip differs");
     return {write, read, stored};
 }
@@ -107,11 +115,13 @@ int main(int argc, char** argv) try {
     H5PLprepend(VOLCL_HDF5_PLUGIN_DIR);
     ComputeContext cc;
     const double mb = double(v.byteSize()) / 1e6;
-    std::printf("# volume %s %zux%zux%zu %s (%.2f MB), device %s, %d interleaved reps, medians\n", argv[1], v.dims().x,
-                v.dims().y, v.dims().z, std::string(scalarTypeName(v.type())).c_str(), mb, cc.device().name.c_str(), reps);
+    std::printf("# volume %s %zux%zux%zu %s (%.2f MB), device %s, %d interleaved reps, medians\n", argv[1],
+                v.dims().x, v.dims().y, v.dims().z, std::string(scalarTypeName(v.type())).c_str(), mb,
+                cc.device().name.c_str(), reps);
 
     // Per-chunk cost of the filter's work (no HDF5): encode and decode every whole chunk of edge c.
-    std::printf("part,chunk_edge,chunks,encode_ms_per_chunk,decode_ms_per_chunk,encode_MBps,decode_MBps,ratio\n");
+    std::printf(
+        "part,chunk_edge,chunks,encode_ms_per_chunk,decode_ms_per_chunk,encode_MBps,decode_MBps,ratio\n");
     for (std::size_t c : {8, 16, 32, 64}) {
         const auto chunks = cutChunks(v, c);
         if (chunks.empty()) continue;
@@ -125,16 +135,19 @@ int main(int argc, char** argv) try {
         double bytesIn = 0, bytesOut = 0;
         for (int r = 0; r < reps; ++r) {
             auto t0 = Clock::now();
-            for (std::size_t i = 0; i < chunks.size(); ++i) stored[i] = hdf5::encodeChunk(cc, p, chunks[i]);
+            for (std::size_t i = 0; i < chunks.size(); ++i)
+                stored[i] = hdf5::encodeChunk(cc, p, chunks[i]);
             enc.push_back(seconds(t0));
             t0 = Clock::now();
-            for (std::size_t i = 0; i < chunks.size(); ++i) hdf5::decodeChunk(cc, p, stored[i], out);
+            for (std::size_t i = 0; i < chunks.size(); ++i)
+                hdf5::decodeChunk(cc, p, stored[i], out);
             dec.push_back(seconds(t0));
         }
-        for (std::size_t i = 0; i < chunks.size(); ++i) bytesIn += double(chunks[i].size()), bytesOut += double(stored[i].size());
-        std::printf("chunk,%zu,%zu,%.3f,%.3f,%.1f,%.1f,%.2f\n", c, chunks.size(), 1e3 * median(enc) / double(chunks.size()),
-                    1e3 * median(dec) / double(chunks.size()), bytesIn / 1e6 / median(enc), bytesIn / 1e6 / median(dec),
-                    bytesIn / bytesOut);
+        for (std::size_t i = 0; i < chunks.size(); ++i)
+            bytesIn += double(chunks[i].size()), bytesOut += double(stored[i].size());
+        std::printf("chunk,%zu,%zu,%.3f,%.3f,%.1f,%.1f,%.2f\n", c, chunks.size(),
+                    1e3 * median(enc) / double(chunks.size()), 1e3 * median(dec) / double(chunks.size()),
+                    bytesIn / 1e6 / median(enc), bytesIn / 1e6 / median(dec), bytesIn / bytesOut);
     }
     // Peer in the same run: the codec on the whole volume in one call (64^3 bricks).
     {
@@ -152,8 +165,8 @@ int main(int argc, char** argv) try {
             const Volume back = decodeVolume(cc, vcz, d);
             dec.push_back(seconds(t0));
         }
-        std::printf("whole,volume,1,%.3f,%.3f,%.1f,%.1f,%.2f\n", 1e3 * median(enc), 1e3 * median(dec), mb / median(enc),
-                    mb / median(dec), double(v.byteSize()) / double(vcz.size()));
+        std::printf("whole,volume,1,%.3f,%.3f,%.1f,%.1f,%.2f\n", 1e3 * median(enc), 1e3 * median(dec),
+                    mb / median(enc), mb / median(dec), double(v.byteSize()) / double(vcz.size()));
     }
 
     // HDF5 datasets, interleaved per rep: none, deflate 1, deflate 6, volcl lossless, volcl max-error.
@@ -184,8 +197,8 @@ int main(int argc, char** argv) try {
                 stored[m] = t[2];
             }
         for (std::size_t m = 0; m < methods.size(); ++m)
-            std::printf("hdf5,%zu,%s,%.1f,%.1f,%.2f\n", c, methods[m].name, mb / median(w[m]), mb / median(rd[m]),
-                        double(v.byteSize()) / stored[m]);
+            std::printf("hdf5,%zu,%s,%.1f,%.1f,%.2f\n", c, methods[m].name, mb / median(w[m]),
+                        mb / median(rd[m]), double(v.byteSize()) / stored[m]);
     }
     std::printf("# volcl-maxerr bound %.3g (0.5%% of the value range, at least 1)\n", maxError);
     return 0;

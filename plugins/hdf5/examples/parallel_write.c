@@ -30,14 +30,17 @@ struct options {
 /* Writes and reads one small chunk through the filter in an in-memory file of this rank alone, so the
    timed part excludes loading the plugin, creating the OpenCL context and building kernels. */
 static int warm_filter(void) {
-    hid_t fapl = H5Pcreate(H5P_FILE_ACCESS), dcpl = H5Pcreate(H5P_DATASET_CREATE), dapl = H5Pcreate(H5P_DATASET_ACCESS);
+    hid_t fapl = H5Pcreate(H5P_FILE_ACCESS), dcpl = H5Pcreate(H5P_DATASET_CREATE),
+          dapl = H5Pcreate(H5P_DATASET_ACCESS);
     hsize_t dims[3] = {16, 16, 16};
     float data[16 * 16 * 16];
-    for (int i = 0; i < 16 * 16 * 16; ++i) data[i] = (float)(i % 37);
+    for (int i = 0; i < 16 * 16 * 16; ++i)
+        data[i] = (float)(i % 37);
     H5Pset_fapl_core(fapl, 1 << 20, 0);
     H5Pset_chunk(dcpl, 3, dims);
     H5Pset_volcl_lossless(dcpl);
-    H5Pset_chunk_cache(dapl, H5D_CHUNK_CACHE_NSLOTS_DEFAULT, 0, 1.0); /* no chunk cache: the write encodes, the read decodes */
+    H5Pset_chunk_cache(dapl, H5D_CHUNK_CACHE_NSLOTS_DEFAULT, 0,
+                       1.0); /* no chunk cache: the write encodes, the read decodes */
     hid_t f = H5Fcreate("volcl-warm", H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
     hid_t s = H5Screate_simple(3, dims, NULL);
     hid_t d = H5Dcreate2(f, "w", H5T_IEEE_F32LE, s, H5P_DEFAULT, dcpl, dapl);
@@ -55,7 +58,8 @@ static int warm_filter(void) {
 /* This rank's slab of whole chunk layers along z: [*z0, *z1). */
 static void slab(const struct options* o, int rank, int size, hsize_t* z0, hsize_t* z1) {
     hsize_t layers = (o->nz + o->chunk - 1) / o->chunk;
-    hsize_t first = layers * (hsize_t)rank / (hsize_t)size, last = layers * (hsize_t)(rank + 1) / (hsize_t)size;
+    hsize_t first = layers * (hsize_t)rank / (hsize_t)size,
+            last = layers * (hsize_t)(rank + 1) / (hsize_t)size;
     *z0 = first * o->chunk < o->nz ? first * o->chunk : o->nz;
     *z1 = last * o->chunk < o->nz ? last * o->chunk : o->nz;
 }
@@ -63,7 +67,8 @@ static void slab(const struct options* o, int rank, int size, hsize_t* z0, hsize
 static hid_t open_file(const char* path, int create) {
     hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
     H5Pset_fapl_mpio(fapl, MPI_COMM_WORLD, MPI_INFO_NULL);
-    hid_t f = create ? H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, fapl) : H5Fopen(path, H5F_ACC_RDONLY, fapl);
+    hid_t f =
+        create ? H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, fapl) : H5Fopen(path, H5F_ACC_RDONLY, fapl);
     H5Pclose(fapl);
     return f;
 }
@@ -92,7 +97,8 @@ static int run(const char* mode, const char* path, const struct options* o, int 
     if (writing)
         for (hsize_t z = z0; z < z1; ++z)
             for (hsize_t y = 0; y < o->ny; ++y)
-                for (hsize_t x = 0; x < o->nx; ++x) data[((z - z0) * o->ny + y) * o->nx + x] = field(z, y, x);
+                for (hsize_t x = 0; x < o->nx; ++x)
+                    data[((z - z0) * o->ny + y) * o->nx + x] = field(z, y, x);
 
     if (o->warm && !warm_filter()) {
         fprintf(stderr, "h5z-volcl-parallel: rank %d: the volcl filter failed on a test chunk\n", rank);
@@ -113,7 +119,8 @@ static int run(const char* mode, const char* path, const struct options* o, int 
         /* No fill values: every chunk is written, and none need compressing at creation. */
         H5Pset_fill_time(dcpl, H5D_FILL_TIME_NEVER);
         if (!o->raw)
-            ok = (o->max_error > 0 ? H5Pset_volcl_max_error(dcpl, o->max_error) : H5Pset_volcl_lossless(dcpl)) >= 0;
+            ok = (o->max_error > 0 ? H5Pset_volcl_max_error(dcpl, o->max_error)
+                                   : H5Pset_volcl_lossless(dcpl)) >= 0;
         fspace = H5Screate_simple(3, dims, NULL);
         dset = ok ? H5Dcreate2(file, "field", H5T_IEEE_F32LE, fspace, H5P_DEFAULT, dcpl, H5P_DEFAULT) : -1;
         H5Pclose(dcpl);
@@ -121,8 +128,10 @@ static int run(const char* mode, const char* path, const struct options* o, int 
         dset = H5Dopen2(file, "field", H5P_DEFAULT);
         fspace = dset >= 0 ? H5Dget_space(dset) : -1;
         hsize_t dims[3] = {0, 0, 0};
-        if (fspace < 0 || H5Sget_simple_extent_ndims(fspace) != 3) ok = 0;
-        else H5Sget_simple_extent_dims(fspace, dims, NULL);
+        if (fspace < 0 || H5Sget_simple_extent_ndims(fspace) != 3)
+            ok = 0;
+        else
+            H5Sget_simple_extent_dims(fspace, dims, NULL);
         if (dims[0] != o->nz || dims[1] != o->ny || dims[2] != o->nx) ok = 0;
     }
     ok = ok && dset >= 0;
@@ -151,7 +160,8 @@ static int run(const char* mode, const char* path, const struct options* o, int 
                     float want = field(z, y, x), got = data[((z - z0) * o->ny + y) * o->nx + x];
                     double err = got > want ? (double)got - want : (double)want - got;
                     if (err > worst) worst = err;
-                    if (o->max_error > 0 ? !(err <= o->max_error) : memcmp(&want, &got, sizeof want) != 0) ++bad;
+                    if (o->max_error > 0 ? !(err <= o->max_error) : memcmp(&want, &got, sizeof want) != 0)
+                        ++bad;
                 }
     free(data);
 
@@ -164,13 +174,15 @@ static int run(const char* mode, const char* path, const struct options* o, int 
     MPI_Allreduce(&worst, &all_worst, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
     if (rank == 0) {
         const double mb = (double)o->nz * o->ny * o->nx * sizeof(float) / 1e6;
-        if (!all_ok) fprintf(stderr, "h5z-volcl-parallel: %s %s failed (HDF5 error above)\n", mode, path);
+        if (!all_ok)
+            fprintf(stderr, "h5z-volcl-parallel: %s %s failed (HDF5 error above)\n", mode, path);
         else
-            printf("%s%s ranks=%d dims=%llux%llux%llu chunk=%llu raw_MB=%.1f stored_MB=%.2f ratio=%.2f seconds=%.3f "
+            printf("%s%s ranks=%d dims=%llux%llux%llu chunk=%llu raw_MB=%.1f stored_MB=%.2f ratio=%.2f "
+                   "seconds=%.3f "
                    "MB/s=%.1f mismatches=%lld max_error=%.3g\n",
-                   mode, o->raw ? "-raw" : "", size, (unsigned long long)o->nz, (unsigned long long)o->ny, (unsigned long long)o->nx,
-                   (unsigned long long)o->chunk, mb, (double)stored / 1e6, stored ? mb * 1e6 / (double)stored : 0.0,
-                   slowest, mb / slowest, all_bad, all_worst);
+                   mode, o->raw ? "-raw" : "", size, (unsigned long long)o->nz, (unsigned long long)o->ny,
+                   (unsigned long long)o->nx, (unsigned long long)o->chunk, mb, (double)stored / 1e6,
+                   stored ? mb * 1e6 / (double)stored : 0.0, slowest, mb / slowest, all_bad, all_worst);
     }
     return all_ok && all_bad == 0 ? 0 : 1;
 }
@@ -188,18 +200,27 @@ int main(int argc, char** argv) {
     for (; !usage && i + 1 < argc; i += 2) {
         char* end = NULL;
         double v = strtod(argv[i + 1], &end);
-        if (*end != '\0' || v <= 0) usage = 1;
-        else if (strcmp(argv[i], "--nz") == 0) o.nz = (hsize_t)v;
-        else if (strcmp(argv[i], "--ny") == 0) o.ny = (hsize_t)v;
-        else if (strcmp(argv[i], "--nx") == 0) o.nx = (hsize_t)v;
-        else if (strcmp(argv[i], "--chunk") == 0) o.chunk = (hsize_t)v;
-        else if (strcmp(argv[i], "--max-error") == 0) o.max_error = v;
-        else usage = 1;
+        if (*end != '\0' || v <= 0)
+            usage = 1;
+        else if (strcmp(argv[i], "--nz") == 0)
+            o.nz = (hsize_t)v;
+        else if (strcmp(argv[i], "--ny") == 0)
+            o.ny = (hsize_t)v;
+        else if (strcmp(argv[i], "--nx") == 0)
+            o.nx = (hsize_t)v;
+        else if (strcmp(argv[i], "--chunk") == 0)
+            o.chunk = (hsize_t)v;
+        else if (strcmp(argv[i], "--max-error") == 0)
+            o.max_error = v;
+        else
+            usage = 1;
     }
-    if (usage || (argc - 3 - o.raw - o.warm) % 2 != 0 || o.nz == 0 || o.ny == 0 || o.nx == 0 || o.chunk == 0) {
+    if (usage || (argc - 3 - o.raw - o.warm) % 2 != 0 || o.nz == 0 || o.ny == 0 || o.nx == 0 ||
+        o.chunk == 0) {
         if (rank == 0)
-            fprintf(stderr, "usage: mpiexec -n N h5z-volcl-parallel write|read FILE.h5 [--raw] [--warm] [--nz N "
-                            "--ny N --nx N --chunk N --max-error E]\n");
+            fprintf(stderr,
+                    "usage: mpiexec -n N h5z-volcl-parallel write|read FILE.h5 [--raw] [--warm] [--nz N "
+                    "--ny N --nx N --chunk N --max-error E]\n");
         MPI_Finalize();
         return 2;
     }

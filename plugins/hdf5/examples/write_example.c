@@ -24,7 +24,8 @@ static int write_dataset(hid_t file, const char* name, hid_t type, int rank, con
     if (ok && chunk) {
         hsize_t raw = H5Sget_simple_extent_npoints(space) * H5Tget_size(type);
         printf("%-16s %10llu bytes -> %9llu stored (ratio %.2f)\n", name, (unsigned long long)raw,
-               (unsigned long long)H5Dget_storage_size(dset), (double)raw / (double)H5Dget_storage_size(dset));
+               (unsigned long long)H5Dget_storage_size(dset),
+               (double)raw / (double)H5Dget_storage_size(dset));
     }
     if (dset >= 0) H5Dclose(dset);
     H5Pclose(dcpl);
@@ -35,7 +36,8 @@ static int write_dataset(hid_t file, const char* name, hid_t type, int rank, con
 
 int main(int argc, char** argv) {
     if (argc != 2) {
-        fprintf(stderr, "usage: h5z-volcl-example OUT.h5   (needs HDF5_PLUGIN_PATH naming the plugin's folder)\n");
+        fprintf(stderr,
+                "usage: h5z-volcl-example OUT.h5   (needs HDF5_PLUGIN_PATH naming the plugin's folder)\n");
         return 2;
     }
     /* A smooth field with a sharp edge: dims (z, y, x) = 40 x 64 x 96, chunks 16 x 32 x 32 (edge chunks are partial). */
@@ -51,8 +53,10 @@ int main(int argc, char** argv) {
             for (int y = 0; y < NY; ++y)
                 for (int x = 0; x < NX; ++x) {
                     size_t i = ((size_t)z * NY + y) * NX + x;
-                    double r = sqrt((x - 48.0) * (x - 48.0) + (y - 32.0) * (y - 32.0) + (z - 20.0) * (z - 20.0));
-                    double v = 0.5 + 0.5 * sin(0.21 * x + 0.13 * y * (1 + 0.1 * t)) * cos(0.17 * z) + (r < 12 ? 0.8 : 0.0);
+                    double r =
+                        sqrt((x - 48.0) * (x - 48.0) + (y - 32.0) * (y - 32.0) + (z - 20.0) * (z - 20.0));
+                    double v = 0.5 + 0.5 * sin(0.21 * x + 0.13 * y * (1 + 0.1 * t)) * cos(0.17 * z) +
+                               (r < 12 ? 0.8 : 0.0);
                     if (t == 0) {
                         u16[i] = (uint16_t)(v * 20000.0);
                         f32[i] = (float)(v * 3.0 - 1.0);
@@ -64,11 +68,14 @@ int main(int argc, char** argv) {
     ok = ok && write_dataset(file, "raw_u16", H5T_STD_U16LE, 3, dims, NULL, 0, 0, u16);
     ok = ok && write_dataset(file, "lossless_u16", H5T_STD_U16LE, 3, dims, chunk, H5Z_VOLCL_LOSSLESS, 0, u16);
     ok = ok && write_dataset(file, "raw_f32", H5T_IEEE_F32LE, 3, dims, NULL, 0, 0, f32);
-    ok = ok && write_dataset(file, "lossless_f32", H5T_IEEE_F32LE, 3, dims, chunk, H5Z_VOLCL_LOSSLESS, 0, f32);
-    ok = ok && write_dataset(file, "max_error_f32", H5T_IEEE_F32LE, 3, dims, chunk, H5Z_VOLCL_MAX_ERROR, 0.01, f32);
+    ok =
+        ok && write_dataset(file, "lossless_f32", H5T_IEEE_F32LE, 3, dims, chunk, H5Z_VOLCL_LOSSLESS, 0, f32);
+    ok = ok &&
+         write_dataset(file, "max_error_f32", H5T_IEEE_F32LE, 3, dims, chunk, H5Z_VOLCL_MAX_ERROR, 0.01, f32);
     ok = ok && write_dataset(file, "psnr_f32", H5T_IEEE_F32LE, 3, dims, chunk, H5Z_VOLCL_PSNR, 50.0, f32);
     ok = ok && write_dataset(file, "raw_series_u8", H5T_STD_U8LE, 4, dims4, NULL, 0, 0, u8);
-    ok = ok && write_dataset(file, "lossless_series_u8", H5T_STD_U8LE, 4, dims4, chunk4, H5Z_VOLCL_LOSSLESS, 0, u8);
+    ok = ok &&
+         write_dataset(file, "lossless_series_u8", H5T_STD_U8LE, 4, dims4, chunk4, H5Z_VOLCL_LOSSLESS, 0, u8);
     if (file >= 0 && H5Fclose(file) < 0) ok = 0;
     free(u16);
     free(f32);
