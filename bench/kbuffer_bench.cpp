@@ -82,9 +82,8 @@ std::vector<int> parseList(const std::string& s) {
     return v;
 }
 
-} // namespace
-
-int main(int argc, char** argv) try {
+/// The command line: meshes, image size, runs, k values and the optional studies.
+struct Options {
     int size = 512, runs = 5, frames = 40, qVar = -1;
     std::vector<int> ks{2, 4, 6, 8};
     std::size_t ml = 0;
@@ -93,41 +92,54 @@ int main(int argc, char** argv) try {
     FaceSplitOptions split;
     std::string dumpDir;
     std::vector<std::string> files;
+};
+
+Options parseOptions(int argc, char** argv) {
+    Options o;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         auto next = [&] { return std::string(argv[++i]); };
         if (a == "--size" && i + 1 < argc)
-            size = std::stoi(next());
+            o.size = std::stoi(next());
         else if (a == "--runs" && i + 1 < argc)
-            runs = std::stoi(next());
+            o.runs = std::stoi(next());
         else if (a == "--k" && i + 1 < argc)
-            ks = parseList(next());
+            o.ks = parseList(next());
         else if (a == "--ml" && i + 1 < argc)
-            ml = std::stoul(next());
+            o.ml = std::stoul(next());
         else if (a == "--lod-target" && i + 1 < argc)
-            lodTarget = std::stod(next());
+            o.lodTarget = std::stod(next());
         else if (a == "--frames" && i + 1 < argc)
-            frames = std::stoi(next());
+            o.frames = std::stoi(next());
         else if (a == "--rmse")
-            rmse = true;
+            o.rmse = true;
         else if (a == "--deep-mirror")
-            deepMirror = true;
+            o.deepMirror = true;
         else if (a == "--misorder-all")
-            misorderAll = true;
+            o.misorderAll = true;
         else if (a == "--split" && i + 2 < argc) {
-            split.ratio = std::stod(next());
-            split.budget = std::stod(next());
+            o.split.ratio = std::stod(next());
+            o.split.budget = std::stod(next());
         } else if (a == "--dump" && i + 1 < argc)
-            dumpDir = next();
+            o.dumpDir = next();
         else if (a == "--table" && i + 1 < argc)
             gTableSize = std::stoi(next());
         else if (a == "--lengths" && i + 1 < argc)
             gTableLengths = std::stoi(next());
         else if (a == "--q-var" && i + 1 < argc)
-            qVar = std::stoi(next());
+            o.qVar = std::stoi(next());
         else
-            files.push_back(a);
+            o.files.push_back(a);
     }
+    return o;
+}
+
+} // namespace
+
+int main(int argc, char** argv) try {
+    const Options opt = parseOptions(argc, argv);
+    const auto& [size, runs, frames, qVar, ks, ml, lodTarget, rmse, deepMirror, misorderAll, split, dumpDir,
+                 files] = opt;
     ComputeContext cc;
     std::fprintf(stderr, "device: %s\n", cc.device().name.c_str());
     struct Input {

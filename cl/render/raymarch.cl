@@ -597,6 +597,35 @@ PACKET_INLINE void fog_tail_packet(const VolclGridRenderParams* P, __global cons
 /* DVR (point sampled or pre-integrated, skipping, early termination, clipping) for a 4x2 block of pixels
    per work-item; the host launches it instead of `raymarch` when the scene has no lights and no
    iso-surfaces. Same image as `raymarch`. */
+/* The TF's emission (rgb) and extinction (a) at each lane's sample s. */
+inline void tf_packet(__global const VolclTfKnot* knots, const VolclGridRenderParams* P, float8 s, LaneF* er,
+                      LaneF* eg, LaneF* eb, LaneF* ea) {
+    LaneF sl;
+    sl.v = s;
+    _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
+        const float4 e = tf_sample(knots, P->tf.knotCount, sl.a[l]);
+        er->a[l] = e.x;
+        eg->a[l] = e.y;
+        eb->a[l] = e.z;
+        ea->a[l] = e.w;
+    }
+}
+
+/* Writes the packet's premultiplied colours and opacity 1 - T to the lanes' pixels inside the image. */
+inline void store_packet(__global float4* out, const VolclGridRenderParams* P, uint x0, uint y0, float8 cr,
+                         float8 cg, float8 cb, float8 T) {
+    LaneF R, G, Bc, A;
+    R.v = cr;
+    G.v = cg;
+    Bc.v = cb;
+    A.v = 1.0f - T;
+    _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
+        const uint x = x0 + (uint)(l % PACKET_W), y = y0 + (uint)(l / PACKET_W);
+        if (x < P->camera.width && y < P->camera.height)
+            out[(size_t)y * P->camera.width + x] = (float4)(R.a[l], G.a[l], Bc.a[l], A.a[l]);
+    }
+}
+
 __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                               __global const float4* table, __global const uchar* macroEmpty,
                               const VolclGridRenderParams params, __global float4* out,
@@ -705,15 +734,7 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
         const float8 len = t1 - t0;
         LaneF er, eg, eb, ea;
 #if PREINT == 0
-        LaneF s;
-        s.v = sample_packet(vol, &P->grid, &rp, t0 + 0.5f * len);
-        _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
-            const float4 e = tf_sample(knots, P->tf.knotCount, s.a[l]);
-            er.a[l] = e.x;
-            eg.a[l] = e.y;
-            eb.a[l] = e.z;
-            ea.a[l] = e.w;
-        }
+        tf_packet(knots, P, sample_packet(vol, &P->grid, &rp, t0 + 0.5f * len), &er, &eg, &eb, &ea);
         const float8 a = 1.0f - exp(-ea.v * len);
         const float8 wr = T * a * er.v, wg = T * a * eg.v, wb = T * a * eb.v;
 #else
@@ -744,15 +765,6 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
 #ifdef FOG
     fog_tail_packet(P, fogMap, fr, fo, fd, &nsegL, tExit, &cr, &cg, &cb, &T);
 #endif
-    LaneF R, G, Bc, A;
-    R.v = cr;
-    G.v = cg;
-    Bc.v = cb;
-    A.v = 1.0f - T;
-    _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
-        const uint x = x0 + (uint)(l % PACKET_W), y = y0 + (uint)(l / PACKET_W);
-        if (x < params.camera.width && y < params.camera.height)
-            out[(size_t)y * params.camera.width + x] = (float4)(R.a[l], G.a[l], Bc.a[l], A.a[l]);
-    }
+    store_packet(out, P, x0, y0, cr, cg, cb, T);
 }
 #endif
