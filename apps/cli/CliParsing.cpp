@@ -8,6 +8,10 @@
 
 namespace volcl::cli {
 
+void setExamples(CLI::App& app, const std::string& examples) {
+    app.footer("\nExamples:\n" + examples + "\n");
+}
+
 namespace {
 std::vector<std::size_t> parseNumbers(const std::string& text, const std::string& what, std::size_t count) {
     std::vector<std::size_t> out;

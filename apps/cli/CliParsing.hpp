@@ -9,6 +9,9 @@
 
 namespace volcl::cli {
 
+/// Shows `examples` (indented command lines) at the foot of the subcommand's --help.
+void setExamples(CLI::App& app, const std::string& examples);
+
 /// "X,Y,Z" or "XxYxZ" -> Dims; throws UsageError naming `what`.
 Dims parseDims(const std::string& text, const std::string& what);
 /// "x0,y0,z0:x1,y1,z1" (half-open voxel box) -> (lo, hi); throws UsageError.

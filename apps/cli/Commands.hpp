@@ -30,8 +30,6 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global);  // render
 
 /// Puts a worked example at the foot of every subcommand's --help (after all subcommands are added).
 void addHelpExamples(CLI::App& app);
-/// False (and the name in `missing`) when a subcommand has no example.
-bool everySubcommandHasAnExample(const CLI::App& app, std::string* missing);
 
 /// Prints `volcl info` for a series (text, or JSON when `json`); used by info and demo.
 void printVolumeInfo(std::ostream& out, const std::string& path, const TimeSeries& ts, bool json, bool quiet);

@@ -1,4 +1,5 @@
-// One worked example per subcommand, shown at the foot of its --help.
+// One worked example per product subcommand, shown at the foot of its --help (`volcl bench` sets its own).
+#include "apps/cli/CliParsing.hpp"
 #include "apps/cli/Commands.hpp"
 
 #include <map>
@@ -34,21 +35,13 @@ const std::map<std::string, std::string>& examples() {
                    "  volcl render --volume head.nii.gz --mode mip --window 110,40 -o mip.png"},
         {"view", "  volcl view head.nii.gz --tf preset:cool-to-warm\n"
                  "  volcl view scene.json --headless --frames 8 --stats frames.csv"},
-        {"bench", "  volcl bench codec\n  volcl bench view bench/render/mri_scene.json --frames 8"},
-        {"bench codec", "  volcl bench codec --quick"},
-        {"bench preint", "  volcl bench preint --tf tf.json"},
-        {"bench render",
-         "  volcl bench render --scene bench/render/mri_scene.json --steps 0.5,1\n"
-         "  volcl bench render --volume head.nii.gz --tf preset:grayscale --mode iso --iso 60.5 "
-         "--filters --no-sweep"},
-        {"bench view", "  volcl bench view bench/render/mri_scene.json --frames 8"},
     };
     return table;
 }
 
 void addFooter(CLI::App& app, const std::string& key) {
     const auto it = examples().find(key);
-    if (it != examples().end()) app.footer("\nExamples:\n" + it->second + "\n");
+    if (it != examples().end()) setExamples(app, it->second);
 }
 
 } // namespace
@@ -60,21 +53,6 @@ void addHelpExamples(CLI::App& app) {
         for (CLI::App* inner : sub->get_subcommands({}))
             addFooter(*inner, sub->get_name() + " " + inner->get_name());
     }
-}
-
-bool everySubcommandHasAnExample(const CLI::App& app, std::string* missing) {
-    for (const CLI::App* sub : app.get_subcommands({})) {
-        if (!examples().count(sub->get_name())) {
-            if (missing) *missing = sub->get_name();
-            return false;
-        }
-        for (const CLI::App* inner : sub->get_subcommands({}))
-            if (!examples().count(sub->get_name() + " " + inner->get_name())) {
-                if (missing) *missing = sub->get_name() + " " + inner->get_name();
-                return false;
-            }
-    }
-    return true;
 }
 
 } // namespace volcl::cli
