@@ -112,7 +112,8 @@ protected:
     std::optional<TableSpec> marchTableSpec() const;
     /// selectTable() of the pre-integration table of `shaded` for `spec`.
     void selectPreintegrationTable(const TransferFunction& shaded, const TableSpec& spec);
-    /// The current table (one placeholder texel until one is selected) and its slice count.
+    /// The current table and its slice count; before the first selection a one-texel buffer, since a kernel
+    /// argument must always be bound.
     const DeviceBuffer<cl_float4>& table() const noexcept { return table_; }
     int tableLengths() const noexcept { return tableLengths_; }
     /// `cache.get(key, make)`, with a build's time in lastTableMilliseconds().
