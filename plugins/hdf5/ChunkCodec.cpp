@@ -59,7 +59,10 @@ CodecOptions codecOptions(const FilterParameters& p) {
     case ChunkRate::Psnr:
         o.rate = RateMode::Psnr;
         o.target = p.bound;
-        o.measureError = false;
+        // A single frame meets the target without the final measurement (it only fills the report). A series'
+        // frames share the first frame's steps, and only the measured PSNR of each frame tells the encoder to
+        // code again at a finer step when a later frame falls short.
+        o.measureError = p.frameCount() > 1;
         break;
     }
     return o;
