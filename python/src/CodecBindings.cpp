@@ -5,6 +5,7 @@
 #include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
 #include "wavelet/Codec.hpp"
+#include "wavelet/container/LodStatistics.hpp"
 
 #include <nanobind/stl/array.h>
 #include <nanobind/stl/map.h>
@@ -41,13 +42,13 @@ nb::dict reportDict(const EncodeReport& r) {
 }
 
 // .vcz bytes and what the encoder measured (single volumes only: a series reports its size alone).
-std::tuple<nb::bytes, nb::dict> encode(Context& context, const std::vector<InputArray>& frames,
-                                       const std::array<double, 3>& spacing,
-                                       const std::array<double, 3>& origin, const std::string& rate,
-                                       double target, std::optional<double> step,
-                                       std::optional<std::string> wavelet, int levels,
-                                       const std::array<std::size_t, 3>& brick, const std::string& entropy,
-                                       unsigned threads, const std::map<std::string, std::string>& metadata) {
+std::tuple<nb::bytes, nb::dict>
+encode(Context& context, const std::vector<InputArray>& frames, const std::array<double, 3>& spacing,
+       const std::array<double, 3>& origin, const std::string& rate, double target,
+       std::optional<double> step, std::optional<std::string> wavelet, int levels,
+       const std::array<std::size_t, 3>& brick, const std::string& entropy, unsigned threads,
+       const std::map<std::string, std::string>& metadata, const std::string& motion, std::size_t gop,
+       std::size_t bFrames, bool globalShift, bool lodStats) {
     if (frames.empty()) throw UsageError("encode: no frames given");
     CodecOptions o;
     o.rate = parseRate(rate);
@@ -63,6 +64,16 @@ std::tuple<nb::bytes, nb::dict> encode(Context& context, const std::vector<Input
     o.entropy = parseEntropy(entropy);
     o.threads = std::max(1u, threads);
     o.metadata = metadata;
+    if (motion == "block")
+        o.motion = MotionMode::Block;
+    else if (motion == "none")
+        o.motion = MotionMode::None;
+    else
+        throw UsageError("motion '" + motion + "' must be block or none");
+    if (gop == 0) throw UsageError("gop must be at least 1");
+    o.gop = gop;
+    o.bFrames = bFrames;
+    o.globalShift = globalShift;
     TimeSeries series;
     for (const InputArray& a : frames)
         series.frames.push_back(arrayToVolume(a, spacing, origin));
@@ -76,9 +87,27 @@ std::tuple<nb::bytes, nb::dict> encode(Context& context, const std::vector<Input
             bytes = encodeVolume(context.cc, series.frames[0], o, &report);
         else
             bytes = encodeSeries(context.cc, series, o);
+        // What `volcl encode` adds by default; with it the bytes equal the command line's for the same input.
+        if (lodStats) bytes = addLodStatistics(context.cc, std::move(bytes), series.frames, "<array>");
         report.bytes = bytes.size();
     }
     return {nb::bytes(bytes.data(), bytes.size()), reportDict(report)};
+}
+
+// A metadata value as Python sees it: text stays str; a value that is not UTF-8 (the codec's own binary
+// entries, such as the level-of-detail statistics `volcl encode` stores) comes back as bytes, unchanged.
+nb::object metadataValue(const std::string& value) {
+    PyObject* text = PyUnicode_DecodeUTF8(value.data(), static_cast<Py_ssize_t>(value.size()), "strict");
+    if (text != nullptr) return nb::steal(text);
+    PyErr_Clear();
+    return nb::bytes(value.data(), value.size());
+}
+
+nb::dict metadataDict(const std::map<std::string, std::string>& metadata) {
+    nb::dict d;
+    for (const auto& [key, value] : metadata)
+        d[metadataValue(key)] = metadataValue(value);
+    return d;
 }
 
 nb::dict headerDict(const VczHeader& h) {
@@ -104,7 +133,7 @@ nb::dict headerDict(const VczHeader& h) {
     }
     d["times"] = times;
     d["frame_types"] = types;
-    d["metadata"] = h.metadata;
+    d["metadata"] = metadataDict(h.metadata);
     return d;
 }
 
@@ -187,7 +216,9 @@ void bindCodec(nb::module_& m) {
     m.def("encode", &encode, nb::arg("context"), nb::arg("frames"), nb::arg("spacing"), nb::arg("origin"),
           nb::arg("rate"), nb::arg("target"), nb::arg("step").none(), nb::arg("wavelet").none(),
           nb::arg("levels"), nb::arg("brick"), nb::arg("entropy"), nb::arg("threads"), nb::arg("metadata"),
-          "Encodes one volume or a series (I frames) into .vcz bytes; returns (bytes, report).");
+          nb::arg("motion"), nb::arg("gop"), nb::arg("b_frames"), nb::arg("global_shift"),
+          nb::arg("lod_stats"),
+          "Encodes one volume or a series into .vcz bytes, as `volcl encode` does; returns (bytes, report).");
     nb::class_<Vcz>(m, "Vcz", "A .vcz in memory: header parsed and checked, bricks decoded on demand.")
         .def(nb::init<const ByteArray&, const std::string&>(), nb::arg("data"), nb::arg("name"))
         .def_static("open", &Vcz::open, nb::arg("path"))

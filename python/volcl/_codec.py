@@ -33,10 +33,11 @@ def encode(data: Union[np.ndarray, Volume, Sequence[np.ndarray]], *, lossless: O
            step: Optional[float] = None, wavelet: Optional[str] = None, levels: int = 4,
            brick: Union[int, Sequence[int]] = 64, entropy: str = "dense", threads: int = 2,
            spacing: Optional[Sequence[float]] = None, origin: Optional[Sequence[float]] = None,
-           metadata: Optional[Dict[str, str]] = None, device: Optional[str] = None,
+           metadata: Optional[Dict[str, str]] = None, gop: int = 10, b_frames: int = 0, motion: str = "block",
+           global_shift: bool = True, lod_stats: bool = False, device: Optional[str] = None,
            report: Optional[Dict[str, Any]] = None) -> bytes:
-    """Compresses a volume (3D ``a[z, y, x]``), a series (4D ``a[t, z, y, x]`` or a list of 3D arrays, coded
-    as I frames) or a :class:`Volume` into .vcz bytes, as ``volcl encode`` does.
+    """Compresses a volume (3D ``a[z, y, x]``), a series (4D ``a[t, z, y, x]`` or a list of 3D arrays) or a
+    :class:`Volume` into .vcz bytes, as ``volcl encode`` does.
 
     Rate (at most one; default lossless):
         lossless: every voxel bit-exact (float NaN/Inf bit patterns included).
@@ -46,6 +47,12 @@ def encode(data: Union[np.ndarray, Volume, Sequence[np.ndarray]], *, lossless: O
     Other knobs are those of ``volcl encode``: ``step`` (lossy: fixed base quantiser step), ``wavelet``
     (cdf53 | cdf97 | haar | cdf26), ``levels``, ``brick`` (B or (x, y, z), multiples of 2^levels),
     ``entropy`` (dense | fast), ``threads``. ``metadata`` (str -> str) is stored in the file.
+    Series, as ``volcl encode``: ``gop`` (frames per group, each starting with an I frame), ``b_frames``
+    (B frames between two I/P frames), ``motion`` (block: motion-compensated P/B frames; none: I frames only),
+    ``global_shift`` (False: P frames use block motion alone).
+    ``lod_stats``: add the per-brick, per-level error statistics renderers use for ``--lod auto``, which
+    ``volcl encode`` adds unless given ``--no-lod-stats``; with the same options and statistics the bytes
+    equal the command line's.
     ``report``, when a dict is given, receives what the encoder measured (bytes, bits_per_voxel, psnr,
     max_error, corrections, step, milliseconds) for a single volume.
 
@@ -77,7 +84,8 @@ def encode(data: Union[np.ndarray, Volume, Sequence[np.ndarray]], *, lossless: O
                                   _arrays.triple(origin, 0.0, "origin"), rate, target,
                                   None if step is None else float(step), wavelet, int(levels),
                                   _arrays.triple(brick, 64, "brick", int),
-                                  entropy, int(threads), {str(k): str(v) for k, v in (metadata or {}).items()})
+                                  entropy, int(threads), {str(k): str(v) for k, v in (metadata or {}).items()},
+                                  str(motion), int(gop), int(b_frames), bool(global_shift), bool(lod_stats))
     if report is not None:
         report.update(measured)
     return out
@@ -193,8 +201,9 @@ class VczFile:
         return z * y * x
 
     @property
-    def metadata(self) -> Dict[str, str]:
-        """The key/value metadata stored at encoding."""
+    def metadata(self) -> Dict[str, Union[str, bytes]]:
+        """The key/value metadata stored at encoding: text values as str; a value that is not UTF-8 as bytes
+        (``volcl:lod``, the level-of-detail statistics ``volcl encode`` stores, is binary)."""
         return dict(self.header["metadata"])
 
     @property

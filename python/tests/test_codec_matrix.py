@@ -1,0 +1,303 @@
+"""Every codec mode x every writer and reader (CLI, Python, HDF5 filter, ParaView reader): same bytes or values.
+
+Writers: `volcl encode` and `volcl.encode` must write the same bytes for the same input and options (the
+level-of-detail statistics included); the HDF5 filter's chunk is the same .vcz `volcl.encode` writes for the
+chunk's options, after the filter's 40-byte chunk header. Readers: `volcl decode`, `volcl.decode`,
+`volcl.VczFile`, `volcl.read`, h5py through the filter and the ParaView reader plugin in pvbatch must give the
+same voxels, grid and frames. The HDF5 and ParaView columns run where their programs are installed and built.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import volcl
+from conftest import run_cli
+
+ROOT = Path(__file__).resolve().parents[2]
+BUILD = ROOT / "build"
+SHAPE = (22, 19, 27)  # z, y, x: no axis a multiple of the 16-voxel bricks used below
+SPACING = (0.5, 0.75, 1.25)
+ORIGIN = (-3.0, 2.0, 7.5)
+FRAMES = 5
+
+# Rate modes: the command line's flags and volcl.encode's keywords for the same target.
+MODES = {
+    "lossless": ([], {}),
+    "max_error": (["--max-error", "0.02"], {"max_error": 0.02}),
+    "psnr": (["--psnr", "42"], {"psnr": 42.0}),
+    "bpv": (["--bpv", "1.5"], {"bpv": 1.5}),
+}
+# Series frame structures: I frames only, and motion-compensated P and B frames.
+STRUCTURES = {
+    "I": (["--motion", "none"], {"motion": "none"}),
+    "PB": (["--gop", "4", "--b-frames", "1"], {"gop": 4, "b_frames": 1}),
+}
+# Options every case shares: several bricks per axis, so brick borders are crossed.
+COMMON = (["--brick", "16", "--levels", "3"], {"brick": 16, "levels": 3})
+
+
+def field(dtype, t: float = 0.0) -> np.ndarray:
+    """A non-symmetric analytic field with a sharp-edged ball that moves with t, a[z, y, x]."""
+    z, y, x = np.meshgrid(*(np.linspace(-1, 1, n) for n in SHAPE), indexing="ij")
+    v = np.sin(5 * x + 0.4 * t) * np.cos(3 * y) + 2.0 * ((x - 0.15 * t) ** 2 + y * y + z * z < 0.3) + 0.3 * z
+    if dtype == np.uint16:
+        return np.round((v + 2.5) / 6.0 * 60000).astype(np.uint16)
+    return v.astype(np.float32)
+
+
+def series(dtype) -> np.ndarray:
+    return np.stack([field(dtype, t) for t in range(FRAMES)])
+
+
+def write_inputs(folder: Path, frames: np.ndarray) -> list:
+    """Each frame as an NRRD file with the grid (the command line's input)."""
+    paths = []
+    for k, a in enumerate(frames):
+        p = folder / f"in_{k}.nrrd"
+        volcl.write(p, volcl.Volume(a, SPACING, ORIGIN))
+        paths.append(str(p))
+    return paths
+
+
+def cli_decode(vcz: Path, frame: int, work: Path) -> volcl.Volume:
+    out = work / f"cli_{vcz.stem}_{frame}.nrrd"
+    run_cli("decode", str(vcz), "--frame", str(frame), "-o", str(out))
+    return volcl.read(out)
+
+
+def assert_same_grid(v: volcl.Volume, what: str):
+    assert v.spacing == pytest.approx(SPACING, rel=1e-12), what
+    assert v.origin == pytest.approx(ORIGIN, rel=1e-12), what
+
+
+def check_against_input(out: np.ndarray, a: np.ndarray, mode: str, bound: float, what: str):
+    """The rate mode's promise, measured on the decoded voxels (PSNR over the input's value range)."""
+    d = out.astype(np.float64) - a.astype(np.float64)
+    if mode == "lossless":
+        assert out.tobytes() == a.tobytes(), what
+    elif mode == "max_error":
+        assert np.abs(d).max() <= bound, what
+    elif mode == "psnr":
+        span = float(a.max()) - float(a.min())
+        assert 10 * np.log10(span * span / np.mean(d * d)) >= 42.0 - 0.5, what
+
+
+def encode_cases():
+    for dtype in (np.float32, np.uint16):
+        for mode in MODES:
+            yield pytest.param(dtype, mode, None, id=f"{np.dtype(dtype).name}-{mode}-volume")
+            for structure in STRUCTURES:
+                if dtype == np.uint16 and mode in ("psnr", "bpv"):
+                    continue  # the series structures are covered by float32; uint16 keeps the volume cases
+                yield pytest.param(dtype, mode, structure, id=f"{np.dtype(dtype).name}-{mode}-{structure}")
+
+
+@pytest.mark.parametrize("dtype, mode, structure", list(encode_cases()))
+def test_cli_and_python_write_the_same_file_and_every_reader_agrees(tmp_path, dtype, mode, structure):
+    frames = series(dtype) if structure else field(dtype)[None]
+    inputs = write_inputs(tmp_path, frames)
+    cli_flags, py_kwargs = MODES[mode]
+    bound = 3.0 if dtype == np.uint16 else 0.02
+    if mode == "max_error":
+        cli_flags, py_kwargs = ["--max-error", str(bound)], {"max_error": bound}
+    cli_flags = cli_flags + COMMON[0] + (STRUCTURES[structure][0] if structure else [])
+    py_kwargs = {**py_kwargs, **COMMON[1], **(STRUCTURES[structure][1] if structure else {})}
+
+    # Writers: the command line (which adds the level-of-detail statistics) and Python with the same options.
+    cli_vcz = tmp_path / "cli.vcz"
+    run_cli("encode", *inputs, "-o", str(cli_vcz), *cli_flags)
+    volume = volcl.Volume(frames if structure else frames[0], SPACING, ORIGIN)
+    py_bytes = volcl.encode(volume, lod_stats=True, **py_kwargs)
+    assert py_bytes == cli_vcz.read_bytes()
+    plain = tmp_path / "plain.vcz"
+    run_cli("encode", *inputs, "-o", str(plain), "--no-lod-stats", *cli_flags)
+    assert volcl.encode(volume, **py_kwargs) == plain.read_bytes()
+
+    # Readers: every one gives the command line's voxels and grid, frame by frame.
+    f = volcl.VczFile(cli_vcz)  # the header, metadata included, as Python sees a command-line file
+    assert f.shape == SHAPE and len(f) == len(frames) and f.dtype == frames.dtype
+    assert f.spacing == pytest.approx(SPACING) and f.origin == pytest.approx(ORIGIN)
+    assert f.header["rate"] == mode
+    assert isinstance(f.metadata["volcl:lod"], bytes)
+    types = f.header["frame_types"]
+    if structure == "PB":
+        # A planned P/B frame falls back to an I frame when that is smaller, and lossless float32 series
+        # (raw bit patterns) are I frames; the float32 lossy series here do predict.
+        assert types[0] == "I" and set(types) <= {"I", "P", "B"}, types
+        if dtype == np.float32 and mode != "lossless":
+            assert set(types) == {"I", "P", "B"}, types
+    else:
+        assert set(types) == {"I"}, types
+    whole = volcl.read(cli_vcz)
+    assert_same_grid(whole, "volcl.read")
+    for k in range(len(frames)):
+        reference = cli_decode(cli_vcz, k, tmp_path)
+        assert_same_grid(reference, f"volcl decode frame {k}")
+        ref = reference.array
+        assert ref.dtype == frames.dtype and ref.shape == SHAPE
+        for name, got in (("volcl.decode", volcl.decode(cli_vcz.read_bytes(), frame=k)),
+                          ("volcl.decode(python bytes)", volcl.decode(py_bytes, frame=k)),
+                          ("VczFile[k]", f[k] if len(frames) > 1 else f[:, :, :]),
+                          ("VczFile.read", f.read(frame=k).array),
+                          ("volcl.read", whole.frame(k))):
+            assert got.dtype == ref.dtype and got.tobytes() == ref.tobytes(), (name, k)
+        check_against_input(ref, frames[k], mode, bound, f"frame {k}")
+    if mode == "bpv":  # the whole file counts, overhead included (statistics left out: the rate search's file)
+        assert 8 * plain.stat().st_size <= 1.5 * frames.size
+
+
+def test_nifti_metadata_of_a_cli_file_reads_in_python(tmp_path):
+    """The command line stores a NIfTI source's header fields as text: Python shows them as JSON text."""
+    src = tmp_path / "in.nrrd"
+    volcl.write(src, volcl.Volume(field(np.uint16), SPACING, ORIGIN))
+    nii = tmp_path / "in.nii"
+    run_cli("convert", str(src), "-o", str(nii))
+    vcz = tmp_path / "n.vcz"
+    run_cli("encode", str(nii), "-o", str(vcz))
+    f = volcl.VczFile(vcz)
+    assert isinstance(json.loads(f.metadata["volcl:nifti"]), dict)
+    assert isinstance(f.metadata["volcl:lod"], bytes)
+    out = tmp_path / "out.raw"
+    run_cli("decode", str(vcz), "-o", str(out))
+    assert np.fromfile(out, dtype=np.uint16).tobytes() == volcl.decode(vcz.read_bytes()).tobytes()
+
+
+# ---- HDF5 filter column: h5py (Debian's python3) writes and reads through the plugin -------------------------
+
+HDF5_PLUGIN_DIR = BUILD / "hdf5-plugins"
+SYSTEM_PYTHON = Path("/usr/bin/python3")
+HDF5_SCRIPT = r"""
+import sys, h5py, numpy as np
+sys.path.insert(0, sys.argv[1])
+import volcl_hdf5
+path, src, rank = sys.argv[2], sys.argv[3], int(sys.argv[4])
+a = np.load(src)
+cases = {"lossless": {"compression": 420}, "max_error": volcl_hdf5.filter(max_error=float(sys.argv[5])),
+         "psnr": volcl_hdf5.filter(psnr=42.0)}
+with h5py.File(path, "w") as h:
+    for name, kw in cases.items():
+        h.create_dataset(name, data=a, chunks=a.shape, **kw)
+with h5py.File(path, "r") as h:
+    for name in cases:
+        d = h[name]
+        np.save(path + "." + name + ".values.npy", d[...])
+        _, chunk = d.id.read_direct_chunk((0,) * rank)
+        open(path + "." + name + ".chunk", "wb").write(chunk)
+"""
+
+
+def hdf5_plugin_dir() -> Path:
+    if (HDF5_PLUGIN_DIR / "libH5Zvolcl.so").exists():
+        return HDF5_PLUGIN_DIR
+    pytest.skip(f"the HDF5 filter plugin is not built under {BUILD} (libhdf5-dev absent)")
+
+
+def chunk_options(shape3):
+    """The options the filter chooses for a chunk of this (z, y, x) shape (docs/scaleout.md)."""
+    smallest, levels = min(shape3), 1
+    while levels < 6 and (2 << levels) <= smallest:
+        levels += 1
+    unit = 1 << levels
+    brick = tuple((min(n, 256) + unit - 1) // unit * unit for n in reversed(shape3))
+    return {"levels": levels, "brick": brick, "threads": 1}
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.uint16])
+@pytest.mark.parametrize("frames", [1, 3])
+def test_hdf5_filter_chunks_are_the_python_codec_files(tmp_path, dtype, frames):
+    if not SYSTEM_PYTHON.exists():
+        pytest.skip("/usr/bin/python3 (Debian's, with h5py) is absent")
+    plugin = hdf5_plugin_dir()
+    a = series(dtype)[:frames] if frames > 1 else field(dtype)
+    np.save(tmp_path / "a.npy", a)
+    bound = 0.02 if dtype == np.float32 else 3.0
+    env = {**os.environ, "HDF5_PLUGIN_PATH": str(plugin)}
+    h5 = tmp_path / "m.h5"
+    proc = subprocess.run([str(SYSTEM_PYTHON), "-c", HDF5_SCRIPT, str(ROOT / "plugins" / "hdf5" / "python"),
+                           str(h5), str(tmp_path / "a.npy"), str(a.ndim), str(bound)],
+                          capture_output=True, text=True, env=env)
+    if proc.returncode != 0 and "No module named 'h5py'" in proc.stderr:
+        pytest.skip("h5py is not installed for /usr/bin/python3 (python3-h5py)")
+    assert proc.returncode == 0, proc.stderr
+    options = chunk_options(SHAPE)
+    for name, kwargs in (("lossless", {}), ("max_error", {"max_error": bound}), ("psnr", {"psnr": 42.0})):
+        stored = (tmp_path / f"m.h5.{name}.chunk").read_bytes()
+        values = np.load(tmp_path / f"m.h5.{name}.values.npy")
+        assert stored[:4] == b"VCZH"
+        vcz = stored[40:]
+        expected = volcl.encode(a, **options, **kwargs)  # a 4D chunk is a series with the default GOP
+
+        def voxels(b):
+            return np.stack([volcl.decode(b, frame=k) for k in range(frames)]) if frames > 1 else volcl.decode(b)
+
+        assert vcz == expected, name
+        decoded, inputs = (voxels(vcz), a) if frames > 1 else (voxels(vcz)[None], a[None])
+        for k in range(frames):  # each frame keeps the promise (PSNR over the frame's value range)
+            check_against_input(decoded[k], inputs[k], name, bound, f"hdf5 {name} frame {k}")
+        assert values.dtype == a.dtype and values.tobytes() == voxels(vcz).tobytes(), name
+
+
+# ---- ParaView column: the reader plugin in pvbatch -----------------------------------------------------------
+
+PARAVIEW_SCRIPT = r"""
+import json, sys
+import numpy as np
+from paraview import servermanager
+from paraview.simple import LoadPlugin
+from vtkmodules.util.numpy_support import vtk_to_numpy
+plugin, vcz, out = sys.argv[1:4]
+LoadPlugin(plugin, ns=globals())
+reader = VolclVczReader(FileName=vcz)
+reader.UpdatePipelineInformation()
+times = list(reader.TimestepValues) if len(reader.TimestepValues or []) else [None]
+arrays, grids = [], []
+for t in times:
+    reader.UpdatePipeline() if t is None else reader.UpdatePipeline(t)
+    img = servermanager.Fetch(reader)
+    pd = img.GetPointData()
+    arr = vtk_to_numpy(pd.GetArray(0))
+    nx, ny, nz = img.GetDimensions()
+    arrays.append(arr.reshape(nz, ny, nx))
+    grids.append({"spacing": list(img.GetSpacing()), "origin": list(img.GetOrigin()), "times": times})
+np.save(out, np.stack(arrays))
+json.dump(grids, open(out + ".json", "w"))
+"""
+
+
+def paraview_paths():
+    plugin = next(iter(BUILD.glob("lib/volcl/paraview/VolclReader/VolclReader.so")), None)
+    pvpython = BUILD / "paraview-python" / "usr" / "lib" / "python3" / "dist-packages"
+    if plugin is None or not (pvpython / "paraview" / "simple.py").exists():
+        pytest.skip(f"the ParaView reader plugin is not built under {BUILD} (paraview-dev absent)")
+    return plugin, pvpython
+
+
+@pytest.mark.parametrize("mode", list(MODES))
+def test_paraview_reader_gives_the_cli_voxels(tmp_path, mode):
+    plugin, pvpython = paraview_paths()
+    frames = series(np.float32)[:3]
+    inputs = write_inputs(tmp_path, frames)
+    vcz = tmp_path / "pv.vcz"
+    run_cli("encode", *inputs, "-o", str(vcz), *MODES[mode][0], *COMMON[0], *STRUCTURES["PB"][0])
+    out = tmp_path / "pv.npy"
+    env = {**os.environ, "PYTHONPATH": str(pvpython), "OMPI_ALLOW_RUN_AS_ROOT": "1",
+           "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
+    script = tmp_path / "read_vcz.py"
+    script.write_text(PARAVIEW_SCRIPT)
+    proc = subprocess.run(["pvbatch", str(script), str(plugin), str(vcz), str(out)], capture_output=True,
+                          text=True, env=env, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    got = np.load(out)
+    grids = json.loads(Path(str(out) + ".json").read_text())
+    assert got.shape == (3, *SHAPE)
+    for k in range(3):
+        ref = cli_decode(vcz, k, tmp_path)
+        assert got[k].dtype == ref.array.dtype and got[k].tobytes() == ref.array.tobytes(), k
+        assert grids[k]["spacing"] == pytest.approx(SPACING) and grids[k]["origin"] == pytest.approx(ORIGIN)
