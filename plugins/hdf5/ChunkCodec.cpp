@@ -2,6 +2,7 @@
 #include "plugins/hdf5/ChunkCodec.hpp"
 
 #include "core/Error.hpp"
+#include "core/Format.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <algorithm>
@@ -64,6 +65,16 @@ CodecOptions codecOptions(const FilterParameters& p) {
         // code again at a finer step when a later frame falls short.
         o.measureError = p.frameCount() > 1;
         break;
+    case ChunkRate::Bpv:
+        // The bound holds for the stored chunk: the chunk header's bits come out of the budget.
+        o.rate = RateMode::Bpv;
+        o.target = p.bound - double(kChunkHeaderSize * 8) / double(d.count() * p.frameCount());
+        if (!(o.target > 0))
+            throw UsageError("volcl HDF5 filter: " + formatNumber(p.bound) +
+                             " bits per voxel leave nothing for the voxels of a chunk of " +
+                             std::to_string(d.count() * p.frameCount()) + " voxels after its " +
+                             std::to_string(kChunkHeaderSize) + "-byte header");
+        break;
     }
     return o;
 }
@@ -96,14 +107,14 @@ void parseUserValues(std::span<const unsigned> values, ChunkRate& rate, double& 
     rate = ChunkRate::Lossless;
     bound = 0;
     if (values.empty()) return;
-    if (values[0] > unsigned(ChunkRate::Psnr))
+    if (values[0] > unsigned(ChunkRate::Bpv))
         throw UsageError("volcl HDF5 filter: cd_values[0] = " + std::to_string(values[0]) +
-                         " is not a rate (0 lossless, 1 max-error, 2 PSNR)");
+                         " is not a rate (0 lossless, 1 max-error, 2 PSNR, 3 bits per voxel)");
     rate = ChunkRate(values[0]);
     if (rate == ChunkRate::Lossless) return;
     if (values.size() < 3)
-        throw UsageError(
-            "volcl HDF5 filter: max-error and PSNR need the bound as a double in cd_values[1..2]");
+        throw UsageError("volcl HDF5 filter: max-error, PSNR and bits per voxel need the bound as a double "
+                         "in cd_values[1..2]");
     bound = std::bit_cast<double>(std::uint64_t(values[1]) | std::uint64_t(values[2]) << 32);
     if (!std::isfinite(bound) || !(bound > 0))
         throw UsageError("volcl HDF5 filter: the bound in cd_values[1..2] must be a finite number > 0, got " +

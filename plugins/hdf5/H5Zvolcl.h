@@ -13,6 +13,7 @@
 #define H5Z_VOLCL_LOSSLESS 0u
 #define H5Z_VOLCL_MAX_ERROR 1u
 #define H5Z_VOLCL_PSNR 2u
+#define H5Z_VOLCL_BPV 3u
 
 /* Adds the filter with cd_values {rate, low word, high word of the bound as an IEEE double}. The dataset
    must be chunked with 3 (z, y, x) or 4 (t, z, y, x) chunk dimensions and hold little-endian uint8, uint16,
@@ -37,6 +38,10 @@ static inline herr_t H5Pset_volcl_max_error(hid_t dcpl, double max_error) {
 /* Each chunk at about psnr_db dB over the chunk's value range. */
 static inline herr_t H5Pset_volcl_psnr(hid_t dcpl, double psnr_db) {
     return H5Pset_volcl(dcpl, H5Z_VOLCL_PSNR, psnr_db);
+}
+/* Each stored chunk at most bits_per_voxel bits per voxel (> 0), its header included. */
+static inline herr_t H5Pset_volcl_bpv(hid_t dcpl, double bits_per_voxel) {
+    return H5Pset_volcl(dcpl, H5Z_VOLCL_BPV, bits_per_voxel);
 }
 
 #endif

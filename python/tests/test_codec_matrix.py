@@ -180,7 +180,7 @@ import volcl_hdf5
 path, src, rank = sys.argv[2], sys.argv[3], int(sys.argv[4])
 a = np.load(src)
 cases = {"lossless": {"compression": 420}, "max_error": volcl_hdf5.filter(max_error=float(sys.argv[5])),
-         "psnr": volcl_hdf5.filter(psnr=42.0)}
+         "psnr": volcl_hdf5.filter(psnr=42.0), "bpv": volcl_hdf5.filter(bpv=1.5)}
 with h5py.File(path, "w") as h:
     for name, kw in cases.items():
         h.create_dataset(name, data=a, chunks=a.shape, **kw)
@@ -227,7 +227,10 @@ def test_hdf5_filter_chunks_are_the_python_codec_files(tmp_path, dtype, frames):
         pytest.skip("h5py is not installed for /usr/bin/python3 (python3-h5py)")
     assert proc.returncode == 0, proc.stderr
     options = chunk_options(SHAPE)
-    for name, kwargs in (("lossless", {}), ("max_error", {"max_error": bound}), ("psnr", {"psnr": 42.0})):
+    # bpv bounds the stored chunk: the filter's 40-byte chunk header comes out of the codec's budget.
+    header_bits = 40 * 8 / float(a.size)
+    for name, kwargs in (("lossless", {}), ("max_error", {"max_error": bound}), ("psnr", {"psnr": 42.0}),
+                         ("bpv", {"bpv": 1.5 - header_bits})):
         stored = (tmp_path / f"m.h5.{name}.chunk").read_bytes()
         values = np.load(tmp_path / f"m.h5.{name}.values.npy")
         assert stored[:4] == b"VCZH"
@@ -238,6 +241,8 @@ def test_hdf5_filter_chunks_are_the_python_codec_files(tmp_path, dtype, frames):
             return np.stack([volcl.decode(b, frame=k) for k in range(frames)]) if frames > 1 else volcl.decode(b)
 
         assert vcz == expected, name
+        if name == "bpv":
+            assert len(stored) * 8 <= 1.5 * a.size
         decoded, inputs = (voxels(vcz), a) if frames > 1 else (voxels(vcz)[None], a[None])
         for k in range(frames):  # each frame keeps the promise (PSNR over the frame's value range)
             check_against_input(decoded[k], inputs[k], name, bound, f"hdf5 {name} frame {k}")

@@ -253,6 +253,33 @@ TEST(Hdf5ChunkCodec, PsnrReachesItsTarget) {
     }
 }
 
+TEST(Hdf5ChunkCodec, BitsPerVoxelBoundTheStoredChunkHeaderIncluded) {
+    struct Case {
+        ScalarType type;
+        std::vector<std::size_t> chunk;
+        double bpv;
+    };
+    for (const Case& c :
+         {Case{ScalarType::Float32, {24, 24, 24}, 2.0}, Case{ScalarType::UInt16, {17, 9, 33}, 2.0},
+          Case{ScalarType::Int16, {3, 16, 20, 24}, 1.0}}) {
+        const auto p = params(c.type, c.chunk, ChunkRate::Bpv, c.bpv);
+        const auto chunk = makeChunk(p, false);
+        std::size_t stored = 0;
+        roundTrip(p, chunk, &stored);
+        const double voxels = double(p.frameDims().count() * p.frameCount());
+        EXPECT_LE(double(stored) * 8, c.bpv * voxels) << scalarTypeName(c.type);
+        EXPECT_GT(double(stored) * 8, 0.5 * c.bpv * voxels) << scalarTypeName(c.type); // the budget is used
+    }
+    // A budget smaller than the chunk header is refused, naming the reason.
+    const auto tiny = params(ScalarType::UInt8, {4, 4, 4}, ChunkRate::Bpv, 1.0);
+    try {
+        hdf5::encodeChunk(test::computeContext(), tiny, makeChunk(tiny, false));
+        ADD_FAILURE() << "a 64-bit budget for a 320-bit header was accepted";
+    } catch (const UsageError& e) {
+        EXPECT_NE(std::string(e.what()).find("40-byte header"), std::string::npos) << e.what();
+    }
+}
+
 TEST(Hdf5ChunkCodec, LossyNanIsRefusedLosslessKeepsIt) {
     const auto lossy = params(ScalarType::Float32, {8, 8, 8}, ChunkRate::MaxError, 0.1);
     const auto chunk = makeChunk(lossy, true);

@@ -8,22 +8,24 @@
 import struct
 
 FILTER_ID = 420
-LOSSLESS, MAX_ERROR, PSNR = 0, 1, 2
+LOSSLESS, MAX_ERROR, PSNR, BPV = 0, 1, 2, 3
 
 
-def cd_values(max_error=None, psnr=None):
+def cd_values(max_error=None, psnr=None, bpv=None):
     """The filter's cd_values: (0,) lossless, else (rate, low word, high word) of the bound as a double."""
-    if max_error is not None and psnr is not None:
-        raise ValueError("give max_error or psnr, not both")
-    if max_error is None and psnr is None:
+    given = [(rate, bound) for rate, bound in ((MAX_ERROR, max_error), (PSNR, psnr), (BPV, bpv))
+             if bound is not None]
+    if len(given) > 1:
+        raise ValueError("give one of max_error, psnr and bpv")
+    if not given:
         return (LOSSLESS,)
-    rate, bound = (MAX_ERROR, max_error) if max_error is not None else (PSNR, psnr)
+    rate, bound = given[0]
     if not (bound > 0 and bound != float("inf")):
         raise ValueError("the bound must be a finite number > 0")
     low, high = struct.unpack("<II", struct.pack("<d", float(bound)))
     return (rate, low, high)
 
 
-def filter(max_error=None, psnr=None):
+def filter(max_error=None, psnr=None, bpv=None):
     """Keyword arguments for h5py's create_dataset: compression and compression_opts."""
-    return {"compression": FILTER_ID, "compression_opts": cd_values(max_error, psnr)}
+    return {"compression": FILTER_ID, "compression_opts": cd_values(max_error, psnr, bpv)}
