@@ -370,11 +370,15 @@ TEST(BrickRender, MixedLevelsMatchNodeValueReferenceWithoutCracks) {
         levels[b] = int((x + y + z) % 2 == 0 ? 0 : 1 + (x + 2 * y + z) % 3);
     }
     const TransferFunction tf = rampTf(30, 230, 1.0);
-    for (RenderMode mode : {RenderMode::Dvr, RenderMode::Mip}) {
+    for (RenderMode mode : {RenderMode::Dvr, RenderMode::Mip, RenderMode::Iso}) {
         Scene s = obliqueScene(v, 80);
         s.mode = mode;
         s.earlyTermination = 1.0;
         s.window = std::array<double, 2>{130.0, 200.0}; // MIP: the same window for both (not the data ranges)
+        if (mode == RenderMode::Iso) { // the cell walk's corners across bricks of different levels
+            s.effects.shadingGiven = true;
+            s.effects.isosurfaces = {{150.0, {0.9, 0.6, 0.3, 0.5}}, {190.0, {1, 1, 1, 1}}};
+        }
         BrickRenderer r(cc, reader, 0, tf, s);
         r.setForcedLevels(levels);
         const ImageBuffer img = r.render();
