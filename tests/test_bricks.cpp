@@ -370,11 +370,15 @@ TEST(BrickRender, MixedLevelsMatchNodeValueReferenceWithoutCracks) {
         levels[b] = int((x + y + z) % 2 == 0 ? 0 : 1 + (x + 2 * y + z) % 3);
     }
     const TransferFunction tf = rampTf(30, 230, 1.0);
-    for (RenderMode mode : {RenderMode::Dvr, RenderMode::Mip}) {
+    for (RenderMode mode : {RenderMode::Dvr, RenderMode::Mip, RenderMode::Iso}) {
         Scene s = obliqueScene(v, 80);
         s.mode = mode;
         s.earlyTermination = 1.0;
         s.window = std::array<double, 2>{130.0, 200.0}; // MIP: the same window for both (not the data ranges)
+        if (mode == RenderMode::Iso) { // the cell walk's corners across bricks of different levels
+            s.effects.shadingGiven = true;
+            s.effects.isosurfaces = {{150.0, {0.9, 0.6, 0.3, 0.5}}, {190.0, {1, 1, 1, 1}}};
+        }
         BrickRenderer r(cc, reader, 0, tf, s);
         r.setForcedLevels(levels);
         const ImageBuffer img = r.render();
@@ -711,6 +715,57 @@ TEST(BrickRender, LossyFileCarriesItsBoundIntoTheLodError) {
     r.render();
     for (int l : r.lastSelection().level)
         EXPECT_LE(l, 0);
+}
+
+// Iso-surfaces (iso mode, and iso layers in dvr) walk the cells of the field with exact roots: from a lossless
+// .vcz the brick marcher must find them on the same node values as the grid marcher on the decoded volume.
+// The cell walk once read the brick pool as if it were the grid (half-discs, bands, NaN pixels). Dims that
+// are no multiple of the brick, anisotropic spacing and an off-centre origin, shaded and unshaded.
+TEST(BrickRender, IsoSurfacesFromLosslessBricksEqualTheGridOnTheDecodedVolume) {
+    ComputeContext& cc = computeContext();
+    Volume v = toU8(test::makeFloatVolume({45, 38, 29}, [](double x, double y, double z) {
+        const double dx = x - 19, dy = y - 15, dz = z - 12;
+        return 200 * std::exp(-(dx * dx / 180 + dy * dy / 110 + dz * dz / 70)) + 0.8 * x +
+               12 * std::sin(0.45 * y + 0.2 * z);
+    }));
+    v.spacing = {0.9, 1.2, 1.6};
+    v.origin = {-7.5, 3.0, 11.0};
+    const TransferFunction tf = rampTf(0, 230, 1.0);
+    for (std::size_t brick : {16, 32, 64}) {
+        const auto reader = encode(v, lossless(brick, 2));
+        const Volume decoded = reader->decode(cc);
+        ASSERT_EQ(decoded.toFloat(), v.toFloat()) << "brick " << brick << ": lossless";
+        for (RenderMode mode : {RenderMode::Iso, RenderMode::Dvr})
+            for (bool shading : {false, true}) {
+                Scene s = obliqueScene(v, 48);
+                s.height = 40;
+                s.mode = mode;
+                s.step = 0.6;
+                s.effects.shading = shading;
+                s.effects.shadingGiven = true;
+                s.effects.isosurfaces = {{100.0, {0.9, 0.6, 0.3, 0.6}}, {150.0, {0.3, 0.8, 0.9, 1.0}}};
+                applyLightingDefaults(s);
+                GridRenderer grid(cc, decoded, tf, s);
+                BrickRenderer bricks(cc, reader, 0, tf, s);
+                const ImageBuffer a = grid.render(), b = bricks.render();
+                const std::string what = "brick " + std::to_string(brick) + " " +
+                                         std::string(renderModeName(mode)) + (shading ? " shaded" : "");
+                EXPECT_GT(maxValue(a), 0.05) << what << ": the surfaces show";
+                ASSERT_EQ(a.channels, b.channels) << what;
+                // Per channel (R, G, B, A, and Z: the first hit's distance, infinite where none): equal
+                // values (infinities included) differ by 0, a NaN on either side by infinity.
+                std::vector<double> worst(a.channels.size(), 0.0);
+                for (std::size_t i = 0; i < a.pixels.size(); ++i) {
+                    const float x = a.pixels[i], y = b.pixels[i];
+                    const double d = x == y                           ? 0.0
+                                     : std::isnan(x) || std::isnan(y) ? INFINITY
+                                                                      : std::abs(x - y);
+                    worst[i % worst.size()] = std::max(worst[i % worst.size()], double(d));
+                }
+                for (std::size_t c = 0; c < worst.size(); ++c)
+                    EXPECT_LE(worst[c], 1e-6) << what << ", channel " << a.channels[c];
+            }
+    }
 }
 
 } // namespace

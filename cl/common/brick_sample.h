@@ -63,6 +63,14 @@ inline float brick_coarse(__global const float* pool, uint off, uint3 m, float3 
     return c0 + f.z * (c1 - c0);
 }
 
+/* The 8 corners (x fastest: v000 v100 v010 v110 v001 v101 v011 v111) of the cell from local node l0 to l1
+   of one level-0 brick whose samples start at v, m samples per axis. */
+inline float8 brick_corners_level0(__global const float* v, uint3 m, uint3 l0, uint3 l1) {
+    const uint z0 = l0.z * m.x * m.y, z1 = l1.z * m.x * m.y, y0 = l0.y * m.x, y1 = l1.y * m.x;
+    return (float8)(v[z0 + y0 + l0.x], v[z0 + y0 + l1.x], v[z0 + y1 + l0.x], v[z0 + y1 + l1.x],
+                    v[z1 + y0 + l0.x], v[z1 + y0 + l1.x], v[z1 + y1 + l0.x], v[z1 + y1 + l1.x]);
+}
+
 /* The value of full-resolution node n (inside the grid). */
 inline float brick_node(__global const float* pool, const VolclGridParams* G, uint3 n) {
     const uint3 bsize = (uint3)(as_uint(pool[0]), as_uint(pool[1]), as_uint(pool[2]));
@@ -99,17 +107,15 @@ inline float sample_volume(__global const float* pool, const VolclGridParams* G,
         const uint3 m = brick_samples(G, bsize, o, level);
         if (level != 0u)
             return brick_coarse(pool, off, m, (p - convert_float3(o)) * (1.0f / (float)(1u << level)));
-        const uint3 l0 = u0 - o, l1 = u1 - o;
-        __global const float* v = pool + off;
-        const uint z0 = l0.z * m.x * m.y, z1 = l1.z * m.x * m.y, y0 = l0.y * m.x, y1 = l1.y * m.x;
-        a00 = v[z0 + y0 + l0.x];
-        e00 = v[z0 + y0 + l1.x];
-        a10 = v[z0 + y1 + l0.x];
-        e10 = v[z0 + y1 + l1.x];
-        a01 = v[z1 + y0 + l0.x];
-        e01 = v[z1 + y0 + l1.x];
-        a11 = v[z1 + y1 + l0.x];
-        e11 = v[z1 + y1 + l1.x];
+        const float8 c = brick_corners_level0(pool + off, m, u0 - o, u1 - o);
+        a00 = c.s0;
+        e00 = c.s1;
+        a10 = c.s2;
+        e10 = c.s3;
+        a01 = c.s4;
+        e01 = c.s5;
+        a11 = c.s6;
+        e11 = c.s7;
     } else {
         a00 = brick_node(pool, G, (uint3)(u0.x, u0.y, u0.z));
         e00 = brick_node(pool, G, (uint3)(u1.x, u0.y, u0.z));
@@ -124,6 +130,33 @@ inline float sample_volume(__global const float* pool, const VolclGridParams* G,
     const float c01 = a01 + f.x * (e01 - a01), c11 = a11 + f.x * (e11 - a11);
     const float c0 = c00 + f.y * (c10 - c00), c1 = c01 + f.y * (c11 - c01);
     return c0 + f.z * (c1 - c0);
+}
+
+/* The node values at the 8 corners of the cell from node c0 to c1 (c1 = c0 + 1 inside the grid, c0 on a
+   one-node axis), in the order above: the values sample_volume interpolates in that cell. The iso-surface
+   cell walk (render/raymarch_iso.h) solves its cubic on them, so its roots lie on this field (it must not
+   index the pool as a grid). */
+inline float8 cell_corners(__global const float* pool, const VolclGridParams* G, int3 c0, int3 c1) {
+    const uint3 u0 = convert_uint3(c0), u1 = convert_uint3(c1);
+    const uint3 bsize = (uint3)(as_uint(pool[0]), as_uint(pool[1]), as_uint(pool[2]));
+    const uint3 b = u0 / bsize;
+    if (all(u1 / bsize == b)) {
+        __global const float* e = pool + VOLCL_BRICK_HEADER + 4u * brick_index(pool, b);
+        const uint level = as_uint(e[1]);
+        if (level == VOLCL_BRICK_ABSENT) return (float8)(e[2]);
+        if (level == 0u) {
+            const uint3 o = b * bsize;
+            return brick_corners_level0(pool + as_uint(e[0]), brick_samples(G, bsize, o, 0u), u0 - o, u1 - o);
+        }
+    }
+    return (float8)(brick_node(pool, G, (uint3)(u0.x, u0.y, u0.z)),
+                    brick_node(pool, G, (uint3)(u1.x, u0.y, u0.z)),
+                    brick_node(pool, G, (uint3)(u0.x, u1.y, u0.z)),
+                    brick_node(pool, G, (uint3)(u1.x, u1.y, u0.z)),
+                    brick_node(pool, G, (uint3)(u0.x, u0.y, u1.z)),
+                    brick_node(pool, G, (uint3)(u1.x, u0.y, u1.z)),
+                    brick_node(pool, G, (uint3)(u0.x, u1.y, u1.z)),
+                    brick_node(pool, G, (uint3)(u1.x, u1.y, u1.z)));
 }
 
 /* World-space gradient at voxel coordinates p (central differences, or Sobel-weighted). */

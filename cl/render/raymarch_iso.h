@@ -25,6 +25,7 @@ typedef struct {
     uint cubic;    /* bit i: iso_i in (min, max] of the corners (the field lies between them): may cross */
     uint side0;    /* bit i: iso_i <= min, the side of the whole cell for isos not in cubic */
     float3 invD;   /* 1 / direction */
+    float3 o;      /* ray origin (voxel coordinates) */
     uint inside;   /* bit i: s >= iso_i where the last piece ended */
     int started;   /* 0 until the first piece sets the sides */
 } IsoState;
@@ -35,16 +36,16 @@ inline void iso_begin(IsoState* st, const Ray* r) {
     st->started = 0;
     st->dir = select(select((int3)(0), (int3)(1), r->d > 0.0f), (int3)(-1), r->d < 0.0f);
     st->invD = 1.0f / r->d;
+    st->o = r->o;
     st->tDelta = select(fabs(st->invD), (float3)(INFINITY), r->d == 0.0f);
 }
 
-/* Loads the corners of the DDA's cell (clamped to the grid) and classifies the iso-values against them. */
-inline void iso_load_cell(__global const voxel_t* vol, const VolclGridRenderParams* P, IsoState* st) {
-    const int3 hiI = (int3)((int)P->grid.dims[0] - 1, (int)P->grid.dims[1] - 1, (int)P->grid.dims[2] - 1);
-    const int3 c0 = clamp(st->cell, (int3)(0), max(hiI - 1, (int3)(0)));
-    const int3 c1 = min(c0 + 1, hiI);
-    st->base = convert_float3(c0);
-    const uint nx = P->grid.dims[0], nxy = P->grid.dims[0] * P->grid.dims[1];
+#ifndef VOLCL_BRICK_SAMPLE_H
+/* The grid's values at the corners of the cell from node c0 to c1 (v000 v100 v010 v110 v001 v101 v011
+   v111, x fastest). The brick marcher's sampler (common/brick_sample.h) provides its own: there `vol` is
+   the brick pool, not a grid. */
+inline float8 cell_corners(__global const voxel_t* vol, const VolclGridParams* G, int3 c0, int3 c1) {
+    const uint nx = G->dims[0], nxy = G->dims[0] * G->dims[1];
     const uint z0 = (uint)c0.z * nxy, z1 = (uint)c1.z * nxy, y0 = (uint)c0.y * nx, y1 = (uint)c1.y * nx;
     float2 a00 = convert_float2(vload2(0, vol + z0 + y0 + c0.x));
     float2 a10 = convert_float2(vload2(0, vol + z0 + y1 + c0.x));
@@ -56,7 +57,17 @@ inline void iso_load_cell(__global const voxel_t* vol, const VolclGridRenderPara
         a01.y = a01.x;
         a11.y = a11.x;
     }
-    st->v = (float8)(a00, a10, a01, a11);
+    return (float8)(a00, a10, a01, a11);
+}
+#endif
+
+/* Loads the corners of the DDA's cell (clamped to the grid) and classifies the iso-values against them. */
+inline void iso_load_cell(__global const voxel_t* vol, const VolclGridRenderParams* P, IsoState* st) {
+    const int3 hiI = (int3)((int)P->grid.dims[0] - 1, (int)P->grid.dims[1] - 1, (int)P->grid.dims[2] - 1);
+    const int3 c0 = clamp(st->cell, (int3)(0), max(hiI - 1, (int3)(0)));
+    const int3 c1 = min(c0 + 1, hiI);
+    st->base = convert_float3(c0);
+    st->v = cell_corners(vol, &P->grid, c0, c1);
     const float4 mn4 = fmin(st->v.lo, st->v.hi), mx4 = fmax(st->v.lo, st->v.hi);
     const float2 mn2 = fmin(mn4.lo, mn4.hi), mx2 = fmax(mx4.lo, mx4.hi);
     const float lo = fmin(mn2.x, mn2.y), hi = fmax(mx2.x, mx2.y);
@@ -80,18 +91,21 @@ inline float iso_tout(float3 tn) {
     return fmin(tn.x, fmin(tn.y, tn.z));
 }
 
-/* Moves the DDA across the nearest cell face (ties: x, then y, then z). */
+/* Moves the DDA across the nearest cell face (ties: x, then y, then z). The new face's ray parameter is
+   computed from the cell, as iso_locate computes it, not accumulated: a cell's pieces, and so its roots, are
+   then the same bits whether the walk stepped into the cell or was relocated there after skipped space (the
+   grid and brick marchers skip different macrocells and must still find the same hits). */
 inline void iso_cross_face(IsoState* st) {
     const float3 tn = st->tNext;
     if (tn.x <= tn.y && tn.x <= tn.z) {
         st->cell.x += st->dir.x;
-        st->tNext.x += st->tDelta.x;
+        st->tNext.x = ((float)(st->cell.x + (st->dir.x > 0 ? 1 : 0)) - st->o.x) * st->invD.x;
     } else if (tn.y <= tn.z) {
         st->cell.y += st->dir.y;
-        st->tNext.y += st->tDelta.y;
+        st->tNext.y = ((float)(st->cell.y + (st->dir.y > 0 ? 1 : 0)) - st->o.y) * st->invD.y;
     } else {
         st->cell.z += st->dir.z;
-        st->tNext.z += st->tDelta.z;
+        st->tNext.z = ((float)(st->cell.z + (st->dir.z > 0 ? 1 : 0)) - st->o.z) * st->invD.z;
     }
 }
 

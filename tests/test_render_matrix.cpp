@@ -1,0 +1,403 @@
+// Cross-feature render matrix: every render input kind, opened as `volcl render` opens it, x every mode, shading
+// and pre-integration, against the plain grid renderer on the same decoded data (docs/reliability.md).
+#include "TestUtil.hpp"
+
+#include "apps/cli/SceneFlags.hpp"
+#include "host/phantoms/Phantoms.hpp"
+#include "render/RenderInput.hpp"
+#include "render/grid/GridRenderer.hpp"
+#include "wavelet/Codec.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace volcl {
+namespace {
+
+using test::computeContext;
+
+constexpr Dims kDims{40, 34, 28}; // no axis a multiple of 16: every brick size leaves partial bricks
+constexpr std::array<double, 3> kSpacing{0.8, 1.1, 1.5};
+constexpr std::array<double, 3> kOrigin{-12.5, 4.0, 30.0};
+constexpr std::size_t kFrames = 3, kFrame = 1; // series inputs render their middle frame
+
+/// Frame f of the series: the Marschner-Lobb signal tilted by ramps in x and y (no mirror symmetry, so a
+/// flipped or transposed axis shows), drifting with f, as uint8 in [20, 255] (no zero voxel: VDB keeps
+/// every voxel active).
+Volume phantomFrame(std::size_t f) {
+    const Volume ml = marschnerLobbReference(kDims);
+    Volume v(kDims, ScalarType::UInt8);
+    const std::span<const float> m = ml.values<float>();
+    std::span<std::uint8_t> out = v.values<std::uint8_t>();
+    for (std::size_t k = 0; k < kDims.z; ++k)
+        for (std::size_t j = 0; j < kDims.y; ++j)
+            for (std::size_t i = 0; i < kDims.x; ++i) {
+                const std::size_t n = v.index(i, j, k);
+                const double x = double(i) / double(kDims.x - 1), y = double(j) / double(kDims.y - 1);
+                const double s =
+                    20 + 170 * m[n] + 45 * x + 20 * y * y + 8.0 * double(f) * std::sin(6 * x + 2 * y);
+                out[n] = std::uint8_t(std::clamp(std::round(s), 20.0, 255.0));
+            }
+    v.spacing = kSpacing;
+    v.origin = kOrigin;
+    return v;
+}
+
+/// A 4D NIfTI-1 file (.nii, uint8, sform = spacing and origin) written field by field from the standard,
+/// independently of volcl's writer (which writes 3D volumes only).
+void writeNifti4d(const std::filesystem::path& p, const std::vector<Volume>& frames) {
+    std::vector<char> h(352, 0);
+    auto put = [&](std::size_t at, auto value) { std::memcpy(h.data() + at, &value, sizeof(value)); };
+    put(0, std::int32_t(348));
+    const std::int16_t dim[8] = {4,
+                                 std::int16_t(kDims.x),
+                                 std::int16_t(kDims.y),
+                                 std::int16_t(kDims.z),
+                                 std::int16_t(frames.size()),
+                                 1,
+                                 1,
+                                 1};
+    std::memcpy(h.data() + 40, dim, sizeof(dim));
+    put(70, std::int16_t(2)); // DT_UNSIGNED_CHAR
+    put(72, std::int16_t(8));
+    const float pixdim[8] = {1.0f, float(kSpacing[0]), float(kSpacing[1]), float(kSpacing[2]), 1.0f, 1, 1, 1};
+    std::memcpy(h.data() + 76, pixdim, sizeof(pixdim));
+    put(108, 352.0f);             // vox_offset
+    put(112, 1.0f);               // scl_slope
+    h[123] = 2 | 8;               // mm, s
+    put(254, std::int16_t(1));    // sform_code: scanner
+    for (int r = 0; r < 3; ++r) { // srow_x, srow_y, srow_z: diagonal spacing, origin
+        float row[4] = {0, 0, 0, float(kOrigin[std::size_t(r)])};
+        row[r] = float(kSpacing[std::size_t(r)]);
+        std::memcpy(h.data() + 280 + 16 * r, row, sizeof(row));
+    }
+    std::memcpy(h.data() + 344, "n+1\0", 4);
+    std::ofstream out(p, std::ios::binary | std::ios::trunc);
+    out.write(h.data(), std::streamsize(h.size()));
+    for (const Volume& v : frames)
+        out.write(reinterpret_cast<const char*>(v.values<std::uint8_t>().data()),
+                  std::streamsize(v.voxelCount()));
+    ASSERT_TRUE(out.good()) << p;
+}
+
+/// A semi-transparent colour TF over the phantom's values, extinction per world unit.
+TransferFunction matrixTf() {
+    TransferFunction tf;
+    tf.domain = {0, 255};
+    tf.color = {{0, {0.1, 0.2, 0.9}}, {110, {0.9, 0.5, 0.2}}, {255, {1.0, 1.0, 0.9}}};
+    tf.extinction = {{0, 0.0}, {60, 0.0}, {110, 0.05}, {170, 0.3}, {255, 0.7}};
+    return tf;
+}
+
+enum class Input {
+    Raw,            ///< .raw named <name>_<X>x<Y>x<Z>_uint8.raw (no geometry: unit spacing, zero origin)
+    Nrrd,           ///< .nrrd, gzip
+    Nifti,          ///< .nii.gz written by volcl
+    Nifti4dFrame,   ///< frame 1 of a 4D .nii (--frame 1)
+    Vdb,            ///< OpenVDB float grid
+    Vcz16,          ///< lossless .vcz, 16^3 bricks, drawn from the bricks
+    Vcz32,          ///< ... 32^3 bricks
+    Vcz64,          ///< ... 64^3 bricks (one partial brick)
+    VczSeriesFrame, ///< frame 1 of a lossless 3-frame .vcz with motion (a P frame: decoded whole)
+    VczLossyLodFull ///< lossy .vcz (max error 2), render.lod full
+};
+
+std::string inputName(Input in) {
+    switch (in) {
+    case Input::Raw:
+        return "raw";
+    case Input::Nrrd:
+        return "nrrd";
+    case Input::Nifti:
+        return "nifti";
+    case Input::Nifti4dFrame:
+        return "nifti4d_frame";
+    case Input::Vdb:
+        return "vdb";
+    case Input::Vcz16:
+        return "vcz_lossless_b16";
+    case Input::Vcz32:
+        return "vcz_lossless_b32";
+    case Input::Vcz64:
+        return "vcz_lossless_b64";
+    case Input::VczSeriesFrame:
+        return "vcz_series_frame";
+    case Input::VczLossyLodFull:
+        return "vcz_lossy_lod_full";
+    }
+    return "?";
+}
+
+void writeVcz(const std::filesystem::path& p, const std::vector<std::byte>& bytes) {
+    test::writeFile(p, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+}
+
+/// Writes the input file of kind `in` under `dir`; returns its path and, in `decoded`, the data it holds
+/// as a decoder gives it back (the oracle's grid): the phantom itself for lossless kinds (checked against
+/// the decoder), the decoder's output for the lossy file, unit geometry for raw.
+std::filesystem::path writeInput(Input in, const std::filesystem::path& dir, Volume& decoded) {
+    ComputeContext& cc = computeContext();
+    const Volume v = phantomFrame(0);
+    decoded = v;
+    CodecOptions o;
+    o.levels = 2;
+    switch (in) {
+    case Input::Raw: {
+        const auto p = dir / "phantom_40x34x28_uint8.raw";
+        decoded.spacing = {1, 1, 1};
+        decoded.origin = {0, 0, 0};
+        writeVolumeFile(decoded, p);
+        return p;
+    }
+    case Input::Nrrd:
+        writeVolumeFile(v, dir / "phantom.nrrd");
+        return dir / "phantom.nrrd";
+    case Input::Nifti:
+        writeVolumeFile(v, dir / "phantom.nii.gz");
+        return dir / "phantom.nii.gz";
+    case Input::Vdb:
+        writeVolumeFile(v, dir / "phantom.vdb");
+        return dir / "phantom.vdb";
+    case Input::Nifti4dFrame: {
+        std::vector<Volume> frames;
+        for (std::size_t f = 0; f < kFrames; ++f)
+            frames.push_back(phantomFrame(f));
+        writeNifti4d(dir / "series.nii", frames);
+        decoded = frames[kFrame];
+        return dir / "series.nii";
+    }
+    case Input::Vcz16:
+    case Input::Vcz32:
+    case Input::Vcz64: {
+        const std::size_t b = in == Input::Vcz16 ? 16 : in == Input::Vcz32 ? 32 : 64;
+        o.brick = {b, b, b};
+        const auto p = dir / ("phantom_b" + std::to_string(b) + ".vcz");
+        writeVcz(p, encodeVolume(cc, v, o));
+        return p;
+    }
+    case Input::VczSeriesFrame: {
+        TimeSeries ts;
+        for (std::size_t f = 0; f < kFrames; ++f)
+            ts.frames.push_back(phantomFrame(f));
+        o.brick = {32, 32, 32};
+        o.motion = MotionMode::Block;
+        std::vector<FrameReport> reports;
+        writeVcz(dir / "series.vcz", encodeSeries(cc, ts, o, &reports));
+        EXPECT_NE(reports.at(kFrame).type, FrameType::I) << "the series frame should be predicted";
+        decoded = ts.frames[kFrame];
+        return dir / "series.vcz";
+    }
+    case Input::VczLossyLodFull: {
+        o.rate = RateMode::MaxError;
+        o.target = 2.0;
+        o.brick = {16, 16, 16};
+        const auto p = dir / "phantom_lossy.vcz";
+        const std::vector<std::byte> bytes = encodeVolume(cc, v, o);
+        writeVcz(p, bytes);
+        decoded = decodeVolume(cc, bytes);
+        return p;
+    }
+    }
+    return {};
+}
+
+/// The input as `volcl render --volume PATH [--frame K]` opens it: a .vcz from its bricks (RenderInput::openVcz,
+/// as apps/cli/RenderCommands.cpp does), anything else through the CLI's own reader (SceneFlags::readSceneInput).
+RenderInput openLikeCli(const std::filesystem::path& path, std::optional<std::size_t> frame) {
+    if (path.extension() == ".vcz") return RenderInput::openVcz(path, frame.value_or(0));
+    cli::SceneFlags flags;
+    flags.frame = frame;
+    Scene s;
+    s.volume = path;
+    std::vector<std::string> notes;
+    return flags.readSceneInput(s, notes);
+}
+
+struct Combo {
+    std::string name;
+    Scene scene;
+};
+
+/// Every mode x shading x pre-integration the mode uses. MIP and x-ray neither shade nor pre-integrate,
+/// iso mode composites surfaces only (no pre-integration): those axes are not varied there.
+std::vector<Combo> combos(const WorldBox& box) {
+    Scene base;
+    Camera c = defaultCamera(box);
+    const double dz = c.target[2] - c.eye[2];
+    c.eye = {c.eye[0] + 0.6 * dz, c.eye[1] - 0.3 * dz, c.eye[2]}; // oblique: all three axes show
+    c.height *= 1.3;
+    base.camera = c;
+    base.width = 48;
+    base.height = 40;
+    base.step = 0.6;
+    base.tableSize = 64;
+    base.tableLengths = 4;
+    base.lod = LodMode::Full;
+    const std::vector<IsoLayer> layers = {{90.0, {0.9, 0.6, 0.3, 0.5}}, {160.0, {0.3, 0.8, 0.9, 1.0}}};
+    std::vector<Combo> out;
+    auto add = [&](std::string name, RenderMode mode, bool shading, Preintegration pre, bool isoLayers) {
+        Scene s = base;
+        s.mode = mode;
+        s.preintegration = pre;
+        s.effects.shading = shading;
+        s.effects.shadingGiven = true;
+        if (isoLayers) s.effects.isosurfaces = layers;
+        applyLightingDefaults(s);
+        out.push_back({std::move(name), std::move(s)});
+    };
+    for (bool shading : {false, true}) {
+        const std::string sh = shading ? " shaded" : "";
+        for (Preintegration pre : {Preintegration::None, Preintegration::Table2d, Preintegration::Table3d}) {
+            const std::string pn = " preint " + std::string(preintegrationName(pre));
+            add("dvr" + sh + pn, RenderMode::Dvr, shading, pre, false);
+            add("dvr+iso" + sh + pn, RenderMode::Dvr, shading, pre, true);
+        }
+        add("iso" + sh, RenderMode::Iso, shading, Preintegration::None, true);
+    }
+    // The MIP window is given: its default is the data's value range, which a lossy .vcz takes from its
+    // index, i.e. from the data before coding (up to the error bound away from the decoded range).
+    add("mip", RenderMode::Mip, false, Preintegration::None, false);
+    out.back().scene.window = std::array<double, 2>{150.0, 140.0};
+    add("xray", RenderMode::Xray, false, Preintegration::None, false);
+    return out;
+}
+
+/// Largest difference per channel: equal values (infinite depths included) differ by 0, NaN by infinity.
+std::vector<double> channelDiff(const ImageBuffer& a, const ImageBuffer& b) {
+    std::vector<double> worst(a.channels.size(), 0.0);
+    for (std::size_t i = 0; i < a.pixels.size() && i < b.pixels.size(); ++i) {
+        const float x = a.pixels[i], y = b.pixels[i];
+        const double d = x == y ? 0.0 : std::isnan(x) || std::isnan(y) ? INFINITY : double(std::abs(x - y));
+        worst[i % worst.size()] = std::max(worst[i % worst.size()], d);
+    }
+    return worst;
+}
+
+double colourMax(const ImageBuffer& a) {
+    double m = 0;
+    for (std::size_t i = 0; i < a.pixels.size(); ++i)
+        if (a.channels[i % a.channels.size()] != "Z") m = std::max(m, double(a.pixels[i]));
+    return m;
+}
+
+class RenderMatrix : public ::testing::TestWithParam<Input> {};
+
+// Float noise: every input renders the same float data through the same kernel source, so images agree to
+// the last bit or close; 1e-6 in every channel (RGBA and the iso depth Z) is the bound.
+TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
+    const Input in = GetParam();
+    ComputeContext& cc = computeContext();
+    const auto dir = test::tempDir("render_matrix_" + inputName(in));
+    Volume decoded;
+    const std::filesystem::path path = writeInput(in, dir, decoded);
+    const bool series = in == Input::Nifti4dFrame || in == Input::VczSeriesFrame;
+    const RenderInput input = openLikeCli(path, series ? std::optional<std::size_t>(kFrame) : std::nullopt);
+    EXPECT_EQ(input.kind(), path.extension() == ".vcz" ? RenderInput::Kind::Bricks : RenderInput::Kind::Grid);
+    // The opened data is the decoded data: same grid, voxels and geometry. The geometry is compared to
+    // 1e-6 and then taken from the file: NIfTI stores spacing and origin as float32, and the oracle draws
+    // the grid the file describes.
+    std::array<double, 3> spacing{}, origin{};
+    if (const Volume* g = input.grid()) {
+        EXPECT_EQ(g->dims(), decoded.dims());
+        EXPECT_EQ(g->toFloat(), decoded.toFloat()) << "voxels";
+        spacing = g->spacing;
+        origin = g->origin;
+    } else {
+        const Volume whole = input.bricks()->decodeFrame(cc, input.frame());
+        EXPECT_EQ(whole.dims(), decoded.dims());
+        EXPECT_EQ(whole.toFloat(), decoded.toFloat()) << "the decoder's voxels";
+        spacing = input.bricks()->header().spacing;
+        origin = input.bricks()->header().origin;
+    }
+    for (std::size_t a = 0; a < 3; ++a) {
+        EXPECT_NEAR(spacing[a], decoded.spacing[a], 1e-6) << "spacing, axis " << a;
+        EXPECT_NEAR(origin[a], decoded.origin[a], 1e-6) << "origin, axis " << a;
+    }
+    decoded.spacing = spacing;
+    decoded.origin = origin;
+    const WorldBox box = input.bounds();
+    const TransferFunction tf = matrixTf();
+    for (const Combo& c : combos(box)) {
+        SCOPED_TRACE(inputName(in) + ", " + c.name);
+        GridRenderer grid(cc, decoded, tf, c.scene);
+        const ImageBuffer want = grid.render();
+        const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, c.scene);
+        const ImageBuffer got = r->render();
+        EXPECT_GT(colourMax(want), 0.05) << "the scene shows something";
+        ASSERT_EQ(got.channels, want.channels);
+        const std::vector<double> d = channelDiff(want, got);
+        for (std::size_t ch = 0; ch < d.size(); ++ch)
+            EXPECT_LE(d[ch], 1e-6) << "channel " << want.channels[ch];
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Inputs, RenderMatrix,
+                         ::testing::Values(Input::Raw, Input::Nrrd, Input::Nifti, Input::Nifti4dFrame,
+                                           Input::Vdb, Input::Vcz16, Input::Vcz32, Input::Vcz64,
+                                           Input::VczSeriesFrame, Input::VczLossyLodFull),
+                         [](const ::testing::TestParamInfo<Input>& i) { return inputName(i.param); });
+
+// What the compressed-brick renderer does not draw, by design: cubic filters and smoothing need the whole
+// grid and are refused with a one-line message naming the file; the two table paths built from a whole
+// volume (pre-integrated lighting, the iso-surface table) are dropped with a note, the image then being the
+// per-sample one.
+TEST(RenderMatrixRefusals, CompressedBricksRefuseWholeGridFiltersAndDropWholeVolumeTables) {
+    ComputeContext& cc = computeContext();
+    const auto dir = test::tempDir("render_matrix_refusals");
+    Volume decoded;
+    const std::filesystem::path path = writeInput(Input::Vcz32, dir, decoded);
+    const RenderInput input = openLikeCli(path, std::nullopt);
+    const TransferFunction tf = matrixTf();
+    const Scene base = combos(input.bounds()).front().scene;
+    for (ReconstructionFilter f : {ReconstructionFilter::Cubic, ReconstructionFilter::Bspline}) {
+        Scene s = base;
+        s.filter = f;
+        try {
+            (void)input.makeRenderer(cc, tf, s);
+            ADD_FAILURE() << filterName(f) << " filter accepted";
+        } catch (const UsageError& e) {
+            EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos) << e.what();
+            EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+        }
+    }
+    Scene smooth = base;
+    smooth.smoothing = 1.0;
+    EXPECT_THROW((void)input.makeRenderer(cc, tf, smooth), UsageError);
+
+    Scene lit = base;
+    lit.preintegration = Preintegration::Table2d;
+    lit.effects.shading = lit.effects.shadingGiven = lit.effects.shadingPreintegrated = true;
+    applyLightingDefaults(lit);
+    Scene table = base;
+    table.mode = RenderMode::Iso;
+    table.effects.isosurfaces = {{120.0, {1, 1, 1, 1}}};
+    table.effects.isoTable = true;
+    for (const Scene& s : {lit, table}) {
+        const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, s);
+        EXPECT_FALSE(r->plan().preintLighting);
+        EXPECT_FALSE(r->plan().isoTable);
+        const std::vector<std::string>& dropped = r->plan().dropped;
+        EXPECT_TRUE(std::any_of(dropped.begin(), dropped.end(), [](const std::string& d) {
+            return d.find("compressed bricks") != std::string::npos;
+        })) << "no note says why the table path was dropped";
+        // The image is the per-sample path's: the grid renderer with the table option off.
+        Scene plain = s;
+        plain.effects.shadingPreintegrated = plain.effects.isoTable = false;
+        GridRenderer grid(cc, decoded, tf, plain);
+        const std::vector<double> d = channelDiff(grid.render(), r->render());
+        for (double x : d)
+            EXPECT_LE(x, 1e-6);
+    }
+}
+
+} // namespace
+} // namespace volcl
