@@ -194,6 +194,10 @@ void writeRaw(const Volume& volume, const std::filesystem::path& path, const Wri
 void writeNrrd(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
 void writeVdb(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
 void writeNifti(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
+/// A 4D NIfTI of every frame (same dims and type); `times` (empty or one per frame, seconds) gives
+/// pixdim[4] when the source metadata has no time step and the times are evenly spaced.
+void writeNiftiSeries(std::span<const Volume> frames, const std::vector<double>& times,
+                      const std::filesystem::path& path, const WriteOptions& options);
 void writeVtkXmlImage(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
 
 } // namespace volcl::io
