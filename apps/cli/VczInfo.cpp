@@ -103,6 +103,10 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json) {
                      {"bytes", bytes.size()},
                      {"bits_per_voxel", double(bytes.size()) * 8 / (voxels * double(h.frames.size()))},
                      {"frames", frames}};
+    // Stored integers of a scaled NIfTI source: the range above is in stored units; say how to get data units.
+    const WriteOptions wo = vczWriteOptions(h, path);
+    if (wo.niftiStoredValues)
+        j["nifti_scale"] = {{"scl_slope", wo.nifti->sclSlope}, {"scl_inter", wo.nifti->sclInter}};
     if (json) {
         out << j.dump(2) << '\n';
         return;
@@ -113,8 +117,16 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json) {
         << "  dims     " << h.dims.x << " x " << h.dims.y << " x " << h.dims.z << "  (" << h.frames.size()
         << " frames)\n"
         << "  type     " << scalarTypeName(h.type) << '\n'
-        << std::setprecision(6) << "  range    " << h.valueMin << " .. " << h.valueMax << '\n'
-        << "  size     " << bytes.size() << " bytes, " << std::fixed << std::setprecision(4)
+        << std::setprecision(6) << "  range    " << h.valueMin << " .. " << h.valueMax << '\n';
+    const double lo = h.valueMin * wo.nifti.value_or(NiftiMetadata{}).sclSlope +
+                      wo.nifti.value_or(NiftiMetadata{}).sclInter;
+    const double hi = h.valueMax * wo.nifti.value_or(NiftiMetadata{}).sclSlope +
+                      wo.nifti.value_or(NiftiMetadata{}).sclInter;
+    if (wo.niftiStoredValues)
+        out << "  scale    stored NIfTI integers: value = stored * " << wo.nifti->sclSlope << " + "
+            << wo.nifti->sclInter << " (data units " << std::min(lo, hi) << " .. " << std::max(lo, hi)
+            << ")\n";
+    out << "  size     " << bytes.size() << " bytes, " << std::fixed << std::setprecision(4)
         << j["bits_per_voxel"].get<double>() << " bits/voxel\n"
         << "  frame  type  refs       bytes  motion  bits/voxel\n";
     for (const auto& f : frames) {

@@ -7,6 +7,7 @@ when SHARED_DATA_DIR holds it, else skipped with a message.
 import os
 import subprocess
 import sys
+import zlib
 
 import numpy as np
 
@@ -119,6 +120,58 @@ def series_case(tag, dtype, slope=None, inter=None):
         check(np.allclose(fk.affine, src.affine, atol=1e-6), f"{tag}: pattern frame {k} affine")
 
 
+def png_pixels(name):
+    """RGB(A) 8-bit pixels of a non-interlaced PNG (zlib and the five row filters; no imaging library)."""
+    data = open(name, "rb").read()
+    pos, idat, width, height, channels = 8, b"", 0, 0, 0
+    while pos < len(data):
+        n = int.from_bytes(data[pos:pos + 4], "big")
+        kind, body = data[pos + 4:pos + 8], data[pos + 8:pos + 8 + n]
+        if kind == b"IHDR":
+            width, height = int.from_bytes(body[0:4], "big"), int.from_bytes(body[4:8], "big")
+            assert body[8] == 8 and body[12] == 0, "8-bit non-interlaced PNG expected"
+            channels = {2: 3, 6: 4, 0: 1, 4: 2}[body[9]]
+        elif kind == b"IDAT":
+            idat += body
+        pos += 12 + n
+    raw = zlib.decompress(idat)
+    stride = width * channels
+    out = np.zeros((height, stride), dtype=np.int32)
+    for y in range(height):
+        f, row = raw[y * (stride + 1)], np.frombuffer(raw, np.uint8, stride, y * (stride + 1) + 1).astype(np.int32)
+        up = out[y - 1] if y > 0 else np.zeros(stride, np.int32)
+        cur = np.zeros(stride, np.int32)
+        for x in range(stride):
+            a = cur[x - channels] if x >= channels else 0
+            c = up[x - channels] if x >= channels else 0
+            b = up[x]
+            if f == 0:
+                pred = 0
+            elif f == 1:
+                pred = a
+            elif f == 2:
+                pred = b
+            elif f == 3:
+                pred = (a + b) // 2
+            else:
+                p = a + b - c
+                pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
+                pred = a if pa <= pb and pa <= pc else (b if pb <= pc else c)
+            cur[x] = (row[x] + pred) & 0xFF
+        out[y] = cur
+    return out
+
+
+def render_in_data_units(tag):
+    """A .vcz of stored integers renders as its .nii (data units): same --tf-range, same image."""
+    args = ["--frame", "0", "--view", "front", "--width", "24", "--height", "20", "--tf", "preset:viridis", "--tf-range", "-40,60"]
+    volcl("render", "--volume", path(f"{tag}.nii"), *args, "-o", path(f"{tag}_nii.png"))
+    volcl("render", "--volume", path(f"{tag}.vcz"), *args, "-o", path(f"{tag}_vcz.png"))
+    a, b = png_pixels(path(f"{tag}_nii.png")), png_pixels(path(f"{tag}_vcz.png"))
+    diff = np.abs(a - b).max() if a.shape == b.shape else 255
+    check(a.shape == b.shape and diff <= 1 and a.std() > 0, f"{tag}: render of .vcz equals render of .nii (max diff {diff})")
+
+
 def functional_series():
     real = os.path.join(SHARED, "timevarying", "functional.nii.gz") if SHARED else ""
     if not os.path.exists(real):
@@ -138,6 +191,7 @@ def functional_series():
 
 os.makedirs(WORK, exist_ok=True)
 series_case("int16_scaled", np.int16, 0.5, 3.0)
+render_in_data_units("int16_scaled")
 series_case("float32", np.float32)
 functional_series()
 if failures:
