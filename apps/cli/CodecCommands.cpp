@@ -366,9 +366,10 @@ void addCompare(CLI::App& app, GlobalOptions& global) {
         ->capture_default_str();
     cmd->add_option("--region", a->region,
                     "Compare only the voxel box x0,y0,z0:x1,y1,z1 (half-open, full resolution)");
-    cmd->add_option("--frame", a->frame, "Frame of a time series .vcz")->capture_default_str();
+    cmd->add_option("--frame", a->frame, "Frame of a time series (.vcz or a 4D file; a 3D file is its frame)")
+        ->capture_default_str();
     cmd->add_flag("--json", a->json, "JSON output");
-    cmd->callback([a, &global] {
+    cmd->callback([a, cmd, &global] {
         std::unique_ptr<ComputeContext> cc;
         if (isVcz(a->a) || isVcz(a->b) || a->level > 0) cc = std::make_unique<ComputeContext>(global.device);
         if (a->level < 0) throw UsageError("--level must be >= 0");
@@ -387,8 +388,20 @@ void addCompare(CLI::App& app, GlobalOptions& global) {
         // Two plain volumes of different sizes under --level: the smaller is already a level decode (what the
         // dimension error's hint suggests comparing), so only the larger is taken to the level.
         std::optional<Volume> plainA, plainB;
-        if (!ra) plainA = readVolume(a->a);
-        if (!rb) plainB = readVolume(a->b);
+        // A 4D file gives frame --frame (a 3D file is that frame), and says so when --frame is not given.
+        auto readPlain = [&](const std::string& path) {
+            TimeSeries ts = readVolumeFile(path);
+            if (ts.frames.size() == 1) return std::move(ts.frames.front());
+            if (a->frame >= ts.frames.size())
+                throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + path + " has " +
+                                 std::to_string(ts.frames.size()) + " frame(s)");
+            if (cmd->count("--frame") == 0 && !global.quiet)
+                std::cerr << "volcl compare: frame 0 of the " << ts.frames.size() << " frames of " << path
+                          << " (--frame K picks another)\n";
+            return std::move(ts.frames[a->frame]);
+        };
+        if (!ra) plainA = readPlain(a->a);
+        if (!rb) plainB = readPlain(a->b);
         bool coarsenA = a->level > 0, coarsenB = a->level > 0;
         if (a->level > 0 && plainA && plainB && plainA->dims() != plainB->dims()) {
             coarsenA = plainA->voxelCount() > plainB->voxelCount();
@@ -396,7 +409,11 @@ void addCompare(CLI::App& app, GlobalOptions& global) {
         }
         auto load = [&](const std::string& path, std::optional<VczReader>& r, std::optional<Volume>& plain,
                         bool coarsen) {
-            if (r) return r->decode(*cc, d);
+            if (r) { // a scaled NIfTI's stored integers are compared in data units, as the .nii reads
+                const WriteOptions wo = vczWriteOptions(r->header(), path);
+                Volume v = r->decode(*cc, d);
+                return wo.niftiStoredValues ? niftiDataUnits(v, *wo.nifti) : v;
+            }
             Volume v = std::move(*plain);
             if (coarsen) return levelView(*cc, v, like, d);
             if (a->level > 0) return v;

@@ -4,6 +4,7 @@ Usage: nifti4d_roundtrip.py VOLCL_EXE WORK_DIR [SHARED_DATA_DIR]
 Exits 77 (skipped) when nibabel is missing. The real series (timevarying/functional.nii.gz) is checked
 when SHARED_DATA_DIR holds it, else skipped with a message.
 """
+import json
 import os
 import subprocess
 import sys
@@ -95,6 +96,12 @@ def series_case(tag, dtype, slope=None, inter=None):
     stored_type = "int16" if dtype == np.int16 else "float32"
     check(f"type     {stored_type}" in info, f"{tag}: the .vcz holds {stored_type} voxels")
     check("(6 frames)" in volcl("info", path(f"{tag}.nii")), f"{tag}: info of the 4D NIfTI reports 6 frames")
+    if scaled:
+        check(f"value = stored * {slope:g} + {inter:g}" in info, f"{tag}: info of the .vcz prints the scale")
+    # compare reads both sides in data units and the same frame of the 4D file and of the .vcz.
+    for k in (0, 4):
+        cmp = json.loads(volcl("compare", path(f"{tag}.nii"), vcz, "--frame", str(k), "--json"))
+        check(cmp["max_abs_error"] == 0, f"{tag}: compare .nii .vcz --frame {k}: max error {cmp['max_abs_error']}")
     volcl("decode", vcz, "-o", path(f"{tag}_dec.nii.gz"))
     same_4d(f"{tag}_dec.nii.gz", src, f"{tag}: encode/decode", scaled)
     volcl("convert", path(f"{tag}.nii"), "-o", path(f"{tag}_conv.nii"))
