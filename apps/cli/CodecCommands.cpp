@@ -134,7 +134,8 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         ->required();
     cmd->add_option("-o,--output", a->out, "Output .vcz file")->required();
     cmd->add_flag("--lossless", a->lossless, "Bit-exact (default)");
-    cmd->add_option("--max-error", a->maxError, "Lossy: every voxel within E of the input (guaranteed)");
+    cmd->add_option("--max-error", a->maxError,
+                    "Lossy: every voxel within E of the input (guaranteed; data units of a scaled NIfTI)");
     cmd->add_option("--psnr", a->psnr,
                     "Lossy: PSNR in dB over the input's value range (met within " +
                         formatNumber(kPsnrToleranceDb) + " dB)");
@@ -184,6 +185,9 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         if (nifti.meta)
             withMeta.metadata[std::string(kVczNiftiMetadataKey)] = niftiMetadataToText(*nifti.meta);
         if (nifti.stored) withMeta.metadata[std::string(kVczNiftiValuesKey)] = "stored";
+        // --max-error is in data units; stored integers are 1/|scl_slope| of them apart.
+        const double unit = nifti.stored ? std::abs(static_cast<double>(nifti.meta->sclSlope)) : 1.0;
+        if (withMeta.rate == RateMode::MaxError) withMeta.target /= unit;
         EncodeReport rep;
         Stopwatch sw;
         std::vector<FrameReport> frames;
@@ -207,7 +211,8 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                       << formatFixed(double(raw) / double(bytes.size()), 2) << ":1, "
                       << formatFixed(double(bytes.size()) * 8 / double(voxels), 3) << " bits/voxel";
             if (ts.frames.size() == 1 && o.rate != RateMode::Lossless) {
-                std::cerr << ", PSNR " << formatFixed(rep.psnr, 2) << " dB, max error " << rep.maxError;
+                std::cerr << ", PSNR " << formatFixed(rep.psnr, 2) << " dB, max error "
+                          << rep.maxError * unit;
                 // Only --max-error stores voxels exactly (to hold its bound); elsewhere the count is 0.
                 if (o.rate == RateMode::MaxError)
                     std::cerr << " (" << rep.corrections << " voxels stored exactly)";
@@ -229,7 +234,7 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                           << " P, " << count[2] << " B (" << fallbacks << " planned P/B coded as I)";
                 if (o.rate != RateMode::Lossless)
                     std::cerr << ", lowest frame PSNR " << formatFixed(worst, 2) << " dB, max error "
-                              << maxErr;
+                              << maxErr * unit;
                 std::cerr << '\n';
             }
             if (a->profile && ts.frames.size() == 1) printProfile("encode", rep.profile, 0);

@@ -127,6 +127,15 @@ def series_case(tag, dtype, slope=None, inter=None):
         check(np.allclose(fk.affine, src.affine, atol=1e-6), f"{tag}: pattern frame {k} affine")
 
 
+def lossy_bound_in_data_units():
+    """--max-error is in data units: with scl_slope 2 a bound of 1 allows no error in the stored integers."""
+    src = make_series("slope2.nii", np.int16, 2.0, -5.0)
+    volcl("encode", path("slope2.nii"), "--max-error", "1", "-o", path("slope2.vcz"))
+    volcl("decode", path("slope2.vcz"), "-o", path("slope2_back.nii"))
+    err = np.abs(nib.load(path("slope2_back.nii")).get_fdata() - src.get_fdata()).max()
+    check(err <= 1, f"scl_slope 2, --max-error 1: data-unit error {err} <= 1")
+
+
 def png_pixels(name):
     """RGB(A) 8-bit pixels of a non-interlaced PNG (zlib and the five row filters; no imaging library)."""
     data = open(name, "rb").read()
@@ -199,6 +208,7 @@ def functional_series():
 os.makedirs(WORK, exist_ok=True)
 series_case("int16_scaled", np.int16, 0.5, 3.0)
 render_in_data_units("int16_scaled")
+lossy_bound_in_data_units()
 series_case("float32", np.float32)
 functional_series()
 if failures:
