@@ -272,9 +272,19 @@ TEST(NiftiWriter, SeriesIsOne4DFileWithEveryFrameAndTheTimeStep) {
     for (std::size_t f = 0; f < 4; ++f)
         EXPECT_EQ(back.frames[f], ts.frames[f]) << "frame " << f;
     EXPECT_EQ(back.times, ts.times);
-    // A format that holds one volume refuses the series and leaves no file.
-    EXPECT_THROW(writeSeriesFile(ts, dir / "s.nrrd"), UsageError);
-    EXPECT_FALSE(fs::exists(dir / "s.nrrd"));
+    // A NRRD holds the frames along a fourth axis (no times); a format that holds one volume refuses the
+    // series and leaves no file.
+    writeSeriesFile(ts, dir / "s.nhdr");
+    const std::string nhdr = test::readFile(dir / "s.nhdr");
+    EXPECT_NE(nhdr.find("dimension: 4\n"), std::string::npos) << nhdr;
+    EXPECT_NE(nhdr.find("sizes: 5 4 3 4\n"), std::string::npos) << nhdr;
+    EXPECT_EQ(test::readFile(dir / "s.raw").size(), 4 * 5 * 4 * 3 * sizeof(float));
+    const TimeSeries nrrd = readVolumeFile(dir / "s.nhdr");
+    ASSERT_EQ(nrrd.frames.size(), 4u);
+    for (std::size_t f = 0; f < 4; ++f)
+        EXPECT_EQ(nrrd.frames[f], ts.frames[f]) << "NRRD frame " << f;
+    EXPECT_THROW(writeSeriesFile(ts, dir / "s.vti"), UsageError);
+    EXPECT_FALSE(fs::exists(dir / "s.vti"));
 }
 
 TEST(NiftiWriter, StoredIntegersKeepTheirScaleAndOtherFormatsGetDataUnits) {

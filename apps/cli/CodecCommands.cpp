@@ -282,9 +282,10 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
         // A series without --frame goes whole into a format that holds frames; never silently frame 0.
         const bool allFrames = !pattern && n > 1 && cmd->count("--frame") == 0;
         if (allFrames && !formatHoldsSeries(a->out))
-            throw UsageError(a->out + ": " + a->in + " holds " + std::to_string(n) +
-                             " frames and this format one volume: write a .nii/.nii.gz (all frames), give "
-                             "--frame K, or a printf pattern (frames_%03d.nrrd)");
+            throw UsageError(
+                a->out + ": " + a->in + " holds " + std::to_string(n) +
+                " frames and this format one volume: write .nii, .nii.gz, .nrrd or .nhdr (all frames), give "
+                "--frame K, or a printf pattern (frames_%03d.vti)");
         // A one-shot decode of a whole frame starts entropy decoding on a second thread while this one starts
         // the OpenCL platform, which would otherwise leave a core idle.
         auto pool = std::make_shared<HostMemoryPool>();

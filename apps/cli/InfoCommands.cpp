@@ -264,10 +264,10 @@ void addConvert(CLI::App& app, GlobalOptions& global) {
                     throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in +
                                      " has " + std::to_string(frames) + " frame(s)");
             } else if (frames > 1 && !pattern && !formatHoldsSeries(a->out)) {
-                throw UsageError(
-                    a->out + ": " + a->in + " holds " + std::to_string(frames) +
-                    " frames and this format one volume: write a .nii/.nii.gz (all frames), give "
-                    "--frame K, or a printf pattern (frames_%03d.nrrd)");
+                throw UsageError(a->out + ": " + a->in + " holds " + std::to_string(frames) +
+                                 " frames and this format one volume: write .nii, .nii.gz, .nrrd or .nhdr "
+                                 "(all frames), give "
+                                 "--frame K, or a printf pattern (frames_%03d.vti)");
             }
         };
         if (std::filesystem::path(a->in).extension() == ".vcz") { // frames decoded whole

@@ -179,6 +179,10 @@ bool isNiftiName(const std::string& name) {
     return io::endsWithI(name, ".nii") || io::endsWithI(name, ".nii.gz");
 }
 
+bool isNrrdName(const std::string& name) {
+    return io::endsWithI(name, ".nrrd") || io::endsWithI(name, ".nhdr");
+}
+
 } // namespace
 
 void writeVolumeFile(const Volume& volume, const fs::path& path, const WriteOptions& options) {
@@ -208,7 +212,8 @@ void writeVolumeFile(const Volume& volume, const fs::path& path, const WriteOpti
 }
 
 bool formatHoldsSeries(const fs::path& path) {
-    return isNiftiName(path.filename().string());
+    const std::string name = path.filename().string();
+    return isNiftiName(name) || isNrrdName(name);
 }
 
 void writeSeriesFile(const TimeSeries& series, const fs::path& path, const WriteOptions& options) {
@@ -218,12 +223,23 @@ void writeSeriesFile(const TimeSeries& series, const fs::path& path, const Write
         return;
     }
     if (!formatHoldsSeries(path))
-        throw UsageError(path.string() + ": this format holds one volume and the series has " +
-                         std::to_string(series.frames.size()) +
-                         " frames (a .nii/.nii.gz holds them all, or write one file per frame)");
+        throw UsageError(
+            path.string() + ": this format holds one volume and the series has " +
+            std::to_string(series.frames.size()) +
+            " frames (.nii, .nii.gz, .nrrd and .nhdr hold them all, or write one file per frame)");
     for (const Volume& v : series.frames)
         if (v.empty()) throw UsageError(path.string() + ": cannot write an empty volume");
-    io::writeNiftiSeries(series.frames, series.times, path, options);
+    if (isNiftiName(path.filename().string())) {
+        io::writeNiftiSeries(series.frames, series.times, path, options);
+    } else if (options.niftiStoredValues && options.nifti && options.nifti->scales()) {
+        // As writeVolumeFile: only a NIfTI output keeps a scaled source's stored integers.
+        std::vector<Volume> units;
+        for (const Volume& v : series.frames)
+            units.push_back(niftiDataUnits(v, *options.nifti));
+        io::writeNrrdSeries(units, path, options);
+    } else {
+        io::writeNrrdSeries(series.frames, path, options);
+    }
 }
 
 std::vector<fs::path> volumeFilesWritten(const fs::path& path) {

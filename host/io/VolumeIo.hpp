@@ -78,12 +78,12 @@ struct WriteOptions {
 void writeVolumeFile(const Volume& volume, const std::filesystem::path& path,
                      const WriteOptions& options = {});
 
-/// True when the output format of `path` holds several frames in one file (NIfTI: .nii, .nii.gz).
+/// True when the output format of `path` holds several frames in one file (.nii, .nii.gz, .nrrd, .nhdr).
 bool formatHoldsSeries(const std::filesystem::path& path);
 
 /// Writes every frame of `series` into one file: a NIfTI output becomes 4D (dim[4] = frames, pixdim[4]
-/// the source's time step, else the series' even time step in seconds); a one-frame series goes to any
-/// writer as writeVolumeFile does. Frames must share dims and type. Throws UsageError naming `path` when
+/// the source's time step, else the series' even time step in seconds), a NRRD output 4D (a fourth axis
+/// of kind `list`; NRRD keeps no times); a one-frame series goes to any writer as writeVolumeFile does. Frames must share dims and type. Throws UsageError naming `path` when
 /// the format holds one volume and the series has more.
 void writeSeriesFile(const TimeSeries& series, const std::filesystem::path& path,
                      const WriteOptions& options = {});

@@ -26,13 +26,13 @@ SHAPE = (7, 5, 4)
 AFFINE = np.array([[0.5, 0, 0, 3.0], [0, 1.25, 0, -4.0], [0, 0, 2.0, 5.5], [0, 0, 0, 1]])
 
 # Output format: (file name template, keeps spacing and origin, holds several frames). A raw file keeps
-# values, dims (in its name) and type only; every other format keeps the grid too; only NIfTI and .vcz
+# values, dims (in its name) and type only; every other format keeps the grid too; NIfTI, NRRD and .vcz
 # hold a series.
 FORMATS = {
     "raw": ("{n}_7x5x4_{t}.raw", False, False),
     "raw.gz": ("{n}_7x5x4_{t}.raw.gz", False, False),
-    "nrrd": ("{n}.nrrd", True, False),
-    "nhdr": ("{n}.nhdr", True, False),
+    "nrrd": ("{n}.nrrd", True, True),
+    "nhdr": ("{n}.nhdr", True, True),
     "nii": ("{n}.nii", True, True),
     "nii.gz": ("{n}.nii.gz", True, True),
     "vti": ("{n}.vti", True, False),
@@ -120,7 +120,7 @@ def volume_case(kind, fmt):
 
 
 def series_case(fmt):
-    """A 4D scaled int16 source: kept whole by NIfTI and .vcz, refused by formats that hold one volume."""
+    """A 4D scaled int16 source: kept whole by NIfTI, NRRD and .vcz, refused by formats that hold one volume."""
     src_path, src = make_source("int16_scaled", frames=3)
     template, _, holds_series = FORMATS[fmt]
     stem = f"s4_{fmt.replace('.', '_')}"
@@ -145,9 +145,13 @@ def series_case(fmt):
     back = back_to_nifti(name, fmt, out)
     check(back.returncode == 0, f"{what} -> nii: {back.stderr.strip()}")
     b = nib.load(out)
-    check(b.shape == src.shape and np.array_equal(b.dataobj.get_unscaled(), src.dataobj.get_unscaled())
-          and (b.dataobj.slope, b.dataobj.inter) == (0.5, 3.0) and np.allclose(b.affine, AFFINE, atol=1e-6),
-          f"{what}: frames, stored values, scale and grid kept ({b.shape})")
+    same = b.shape == src.shape and np.allclose(b.affine, AFFINE, atol=1e-6)
+    if fmt in ("nii", "nii.gz", "vcz"):
+        check(same and np.array_equal(b.dataobj.get_unscaled(), src.dataobj.get_unscaled())
+              and (b.dataobj.slope, b.dataobj.inter) == (0.5, 3.0), f"{what}: frames, stored values, scale and grid kept ({b.shape})")
+    else:  # NRRD has no scale: data units as float32
+        check(same and b.get_data_dtype() == np.float32 and np.array_equal(b.get_fdata(), src.get_fdata()),
+              f"{what}: frames, data units and grid kept ({b.shape}, {b.get_data_dtype()})")
 
 
 os.makedirs(WORK, exist_ok=True)

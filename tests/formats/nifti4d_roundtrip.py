@@ -108,6 +108,12 @@ def series_case(tag, dtype, slope=None, inter=None):
     same_4d(f"{tag}_conv.nii", src, f"{tag}: convert .nii -> .nii", scaled)
     volcl("convert", vcz, "-o", path(f"{tag}_vcz_conv.nii.gz"))
     same_4d(f"{tag}_vcz_conv.nii.gz", src, f"{tag}: convert .vcz -> .nii.gz", scaled)
+    # A 4D NRRD holds every frame as data units (NRRD has no scale), back to a 4D NIfTI.
+    volcl("decode", vcz, "-o", path(f"{tag}_4d.nrrd"))
+    volcl("convert", path(f"{tag}_4d.nrrd"), "-o", path(f"{tag}_4d_back.nii"))
+    n4 = nib.load(path(f"{tag}_4d_back.nii"))
+    check(n4.shape == src.shape and np.array_equal(n4.get_fdata(), src.get_fdata().astype(np.float32))
+          and np.allclose(n4.affine, src.affine, atol=1e-6), f"{tag}: decode to a 4D .nrrd keeps frames and grid")
     # One frame on request: a 3D NIfTI of frame 4.
     volcl("decode", vcz, "--frame", "4", "-o", path(f"{tag}_f4.nii"))
     f4 = nib.load(path(f"{tag}_f4.nii"))
@@ -115,7 +121,7 @@ def series_case(tag, dtype, slope=None, inter=None):
           f"{tag}: decode --frame 4 is frame 4 (3D)")
     # Formats that hold one volume: refused without --frame, one file per frame with a pattern, where
     # the values are data units (stored * slope + inter, nibabel's get_fdata) as float32.
-    refused(["decode", vcz, "-o", path(f"{tag}_one.nrrd")], path(f"{tag}_one.nrrd"), f"{tag}: decode series to .nrrd")
+    refused(["decode", vcz, "-o", path(f"{tag}_one.vdb")], path(f"{tag}_one.vdb"), f"{tag}: decode series to .vdb")
     refused(["convert", path(f"{tag}.nii"), "-o", path(f"{tag}_one.vti")], path(f"{tag}_one.vti"),
             f"{tag}: convert series to .vti")
     volcl("decode", vcz, "-o", path(f"{tag}_p%d.nrrd"))
