@@ -300,6 +300,9 @@ void addConvert(CLI::App& app, GlobalOptions& global) {
                 v = niftiDataUnits(v, *wo.nifti);
             wo.niftiStoredValues = false;
         }
+        // --to-type is the type written: the NIfTI writer must not turn data units back into the source's
+        // scaled integers.
+        if (!a->type.empty() && wo.nifti) wo.nifti->sclSlope = wo.nifti->sclInter = 0;
         if (a->replaceNan) {
             if (!std::isfinite(*a->replaceNan)) throw UsageError("--replace-nan: the value must be finite");
             std::size_t replaced = 0;

@@ -108,6 +108,12 @@ def series_case(tag, dtype, slope=None, inter=None):
     same_4d(f"{tag}_conv.nii", src, f"{tag}: convert .nii -> .nii", scaled)
     volcl("convert", vcz, "-o", path(f"{tag}_vcz_conv.nii.gz"))
     same_4d(f"{tag}_vcz_conv.nii.gz", src, f"{tag}: convert .vcz -> .nii.gz", scaled)
+    # --to-type float32 writes float32 data units, every frame, no scale.
+    volcl("convert", path(f"{tag}.nii"), "--to-type", "float32", "-o", path(f"{tag}_f32.nii"))
+    f32 = nib.load(path(f"{tag}_f32.nii"))
+    check(f32.shape == src.shape and f32.get_data_dtype() == np.float32
+          and np.array_equal(f32.get_fdata(), src.get_fdata().astype(np.float32)),
+          f"{tag}: convert --to-type float32 gives float32 data units ({f32.get_data_dtype()})")
     # A 4D NRRD holds every frame as data units (NRRD has no scale), back to a 4D NIfTI.
     volcl("decode", vcz, "-o", path(f"{tag}_4d.nrrd"))
     volcl("convert", path(f"{tag}_4d.nrrd"), "-o", path(f"{tag}_4d_back.nii"))
