@@ -191,13 +191,19 @@ def png_pixels(name):
 
 
 def render_in_data_units(tag):
-    """A .vcz of stored integers renders as its .nii (data units): same --tf-range, same image."""
+    """A .vcz of stored integers renders and views as its .nii (data units): same --tf-range, same image."""
     args = ["--frame", "0", "--view", "front", "--width", "24", "--height", "20", "--tf", "preset:viridis", "--tf-range", "-40,60"]
     volcl("render", "--volume", path(f"{tag}.nii"), *args, "-o", path(f"{tag}_nii.png"))
     volcl("render", "--volume", path(f"{tag}.vcz"), *args, "-o", path(f"{tag}_vcz.png"))
     a, b = png_pixels(path(f"{tag}_nii.png")), png_pixels(path(f"{tag}_vcz.png"))
     diff = np.abs(a - b).max() if a.shape == b.shape else 255
     check(a.shape == b.shape and diff <= 1 and a.std() > 0, f"{tag}: render of .vcz equals render of .nii (max diff {diff})")
+    # view decodes the .vcz whole (not from bricks): data units there too.
+    volcl("view", "--volume", path(f"{tag}.nii"), *args, "--headless", "--frames", "2", "-o", path(f"{tag}_nii_view.png"))
+    volcl("view", "--volume", path(f"{tag}.vcz"), *args, "--headless", "--frames", "2", "-o", path(f"{tag}_vcz_view.png"))
+    a, b = png_pixels(path(f"{tag}_nii_view.png")), png_pixels(path(f"{tag}_vcz_view.png"))
+    diff = np.abs(a - b).max() if a.shape == b.shape else 255
+    check(a.shape == b.shape and diff <= 1 and a.std() > 0, f"{tag}: view of .vcz equals view of .nii (max diff {diff})")
 
 
 def functional_series():
