@@ -1,5 +1,5 @@
 // NIfTI-1 and VTK XML ImageData writers: round trips through the readers, kept header fields, re-anchored
-// orientation after crops and coarser levels, scaled integers, refused outputs.
+// orientation after crops and coarser levels, scaled integers (as data units or stored), 4D series, refused outputs.
 #include "TestUtil.hpp"
 #include "core/Error.hpp"
 #include "host/io/NiftiMetadata.hpp"
@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
 
 namespace {
@@ -228,3 +229,92 @@ TEST(VtiWriter, NiftiOrientationBecomesOriginSpacingAndDirection) {
 }
 
 } // namespace
+
+namespace {
+
+// Frame f of a test series: the ramp plus 3f, so every frame differs from the others.
+TimeSeries rampSeries(ScalarType t, std::size_t frames) {
+    TimeSeries ts;
+    for (std::size_t f = 0; f < frames; ++f) {
+        Volume v = ramp({5, 4, 3}, t);
+        for (std::size_t n = 0; n < v.voxelCount(); ++n)
+            if (t == ScalarType::Int16)
+                v.values<std::int16_t>()[n] = static_cast<std::int16_t>(v.values<std::int16_t>()[n] + 3 * f);
+            else
+                v.values<float>()[n] += static_cast<float>(3 * f);
+        ts.frames.push_back(std::move(v));
+        ts.times.push_back(1.5 * static_cast<double>(f));
+    }
+    return ts;
+}
+
+template <class T> T headerField(const std::string& bytes, std::size_t offset) {
+    T v;
+    std::memcpy(&v, bytes.data() + offset, sizeof(T));
+    return v;
+}
+
+} // namespace
+
+TEST(NiftiWriter, SeriesIsOne4DFileWithEveryFrameAndTheTimeStep) {
+    const fs::path dir = test::tempDir("nifti_writer_4d");
+    const TimeSeries ts = rampSeries(ScalarType::Float32, 4);
+    writeSeriesFile(ts, dir / "s.nii");
+    // The header as nifti1.h lays it out, read here byte by byte.
+    const std::string bytes = test::readFile(dir / "s.nii");
+    ASSERT_EQ(bytes.size(), 352 + 4 * 5 * 4 * 3 * sizeof(float));
+    EXPECT_EQ(headerField<std::int16_t>(bytes, 40), 4);          // dim[0]
+    EXPECT_EQ(headerField<std::int16_t>(bytes, 48), 4);          // dim[4]: frames
+    EXPECT_EQ(headerField<float>(bytes, 92), 1.5f);              // pixdim[4]: the time step
+    EXPECT_EQ(static_cast<unsigned char>(bytes[123]) & 0x38, 8); // time in seconds
+    const TimeSeries back = readVolumeFile(dir / "s.nii");
+    ASSERT_EQ(back.frames.size(), 4u);
+    for (std::size_t f = 0; f < 4; ++f)
+        EXPECT_EQ(back.frames[f], ts.frames[f]) << "frame " << f;
+    EXPECT_EQ(back.times, ts.times);
+    // A NRRD holds the frames along a fourth axis (no times); a format that holds one volume refuses the
+    // series and leaves no file.
+    writeSeriesFile(ts, dir / "s.nhdr");
+    const std::string nhdr = test::readFile(dir / "s.nhdr");
+    EXPECT_NE(nhdr.find("dimension: 4\n"), std::string::npos) << nhdr;
+    EXPECT_NE(nhdr.find("sizes: 5 4 3 4\n"), std::string::npos) << nhdr;
+    EXPECT_EQ(test::readFile(dir / "s.raw").size(), 4 * 5 * 4 * 3 * sizeof(float));
+    const TimeSeries nrrd = readVolumeFile(dir / "s.nhdr");
+    ASSERT_EQ(nrrd.frames.size(), 4u);
+    for (std::size_t f = 0; f < 4; ++f)
+        EXPECT_EQ(nrrd.frames[f], ts.frames[f]) << "NRRD frame " << f;
+    EXPECT_THROW(writeSeriesFile(ts, dir / "s.vti"), UsageError);
+    EXPECT_FALSE(fs::exists(dir / "s.vti"));
+}
+
+TEST(NiftiWriter, StoredIntegersKeepTheirScaleAndOtherFormatsGetDataUnits) {
+    const fs::path dir = test::tempDir("nifti_writer_stored");
+    const TimeSeries stored = rampSeries(ScalarType::Int16, 3);
+    WriteOptions o;
+    o.nifti = niftiMetadataForVolume(stored.frames[0]);
+    o.nifti->datatype = 4;
+    o.nifti->sclSlope = 0.5f;
+    o.nifti->sclInter = 10.0f;
+    o.niftiStoredValues = true;
+    writeSeriesFile(stored, dir / "s.nii", o);
+    const NiftiMetadata meta = readNiftiMetadata(dir / "s.nii");
+    EXPECT_EQ(meta.datatype, 4);
+    EXPECT_EQ(meta.sclSlope, 0.5f);
+    EXPECT_EQ(meta.sclInter, 10.0f);
+    ReadOptions raw;
+    raw.niftiStoredValues = true;
+    const TimeSeries asStored = readVolumeFile(dir / "s.nii", raw), asUnits = readVolumeFile(dir / "s.nii");
+    ASSERT_EQ(asStored.frames.size(), 3u);
+    ASSERT_EQ(asUnits.frames.size(), 3u);
+    writeVolumeFile(stored.frames[2], dir / "f2.nrrd", o);
+    const Volume nrrd = readVolume(dir / "f2.nrrd");
+    for (std::size_t f = 0; f < 3; ++f) {
+        EXPECT_EQ(asStored.frames[f], stored.frames[f]) << "frame " << f;
+        ASSERT_EQ(asUnits.frames[f].type(), ScalarType::Float32);
+        for (std::size_t n = 0; n < stored.frames[f].voxelCount(); ++n) {
+            const float units = static_cast<float>(stored.frames[f].values<std::int16_t>()[n] * 0.5 + 10.0);
+            ASSERT_EQ(asUnits.frames[f].values<float>()[n], units) << "frame " << f << " voxel " << n;
+            if (f == 2) ASSERT_EQ(nrrd.values<float>()[n], units) << "NRRD voxel " << n;
+        }
+    }
+}

@@ -2,6 +2,7 @@
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/CodecReport.hpp"
 #include "apps/cli/Commands.hpp"
+#include "apps/cli/VczInfo.hpp"
 #include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
 #include "core/Format.hpp"
@@ -96,6 +97,34 @@ CodecOptions toOptions(const EncodeArgs& a, const CLI::App& cmd) {
     return o;
 }
 
+/// The NIfTI header of a series' first input, and whether the frames are read as stored integers: every
+/// input file a NIfTI with the same scaled integer datatype the model holds (niftiStoredValuesExact), so
+/// one scale describes them all. Inputs that cannot be listed or read here fail when they are read.
+struct NiftiSource {
+    std::optional<NiftiMetadata> meta;
+    bool stored = false;
+};
+
+NiftiSource niftiSourceOf(const std::vector<std::string>& in) {
+    NiftiSource s;
+    try {
+        const std::vector<fs::path> files = expandSeriesInputs(in);
+        if (files.empty()) return s;
+        s.meta = readNiftiMetadataIfNifti(files.front());
+        if (!s.meta || !niftiStoredValuesExact(*s.meta)) return s;
+        for (const fs::path& f : files) {
+            const auto m = f == files.front() ? s.meta : readNiftiMetadataIfNifti(f);
+            if (!m || m->datatype != s.meta->datatype || m->sclSlope != s.meta->sclSlope ||
+                m->sclInter != s.meta->sclInter)
+                return s;
+        }
+        s.stored = true;
+    } catch (const Error&) {
+        s = {};
+    }
+    return s;
+}
+
 void addEncode(CLI::App& app, GlobalOptions& global) {
     auto* cmd = app.add_subcommand("encode", "Compress a volume into a .vcz file (wavelet lifting codec)");
     auto a = std::make_shared<EncodeArgs>();
@@ -105,7 +134,8 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         ->required();
     cmd->add_option("-o,--output", a->out, "Output .vcz file")->required();
     cmd->add_flag("--lossless", a->lossless, "Bit-exact (default)");
-    cmd->add_option("--max-error", a->maxError, "Lossy: every voxel within E of the input (guaranteed)");
+    cmd->add_option("--max-error", a->maxError,
+                    "Lossy: every voxel within E of the input (guaranteed; data units of a scaled NIfTI)");
     cmd->add_option("--psnr", a->psnr,
                     "Lossy: PSNR in dB over the input's value range (met within " +
                         formatNumber(kPsnrToleranceDb) + " dB)");
@@ -139,18 +169,25 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         // alternate signal stack on the thread that loads it, and AddressSanitizer aborts when such a
         // thread exits.
         std::vector<std::filesystem::path> inputs;
-        std::future<SeriesInput> reading = std::async(std::launch::async, [a, &inputs] {
-            return readSeriesInputs(a->in, a->raw.toReadOptions(), &inputs);
-        });
+        const NiftiSource nifti = niftiSourceOf(a->in);
+        ReadOptions ro = a->raw.toReadOptions();
+        ro.niftiStoredValues = nifti.stored;
+        std::future<SeriesInput> reading =
+            std::async(std::launch::async, [a, ro, &inputs] { return readSeriesInputs(a->in, ro, &inputs); });
         ComputeContext cc(global.device);
         SeriesInput input = reading.get();
         TimeSeries& ts = input.series;
         // Every file the inputs consist of (headers and the data files they name) must survive the write.
         checkNotSameFile(inputs, {std::filesystem::path(a->out)});
-        // A NIfTI source's orientation, units, intent and scaling travel in the .vcz for NIfTI outputs.
+        // A NIfTI source's orientation, units, intent and scaling travel in the .vcz for NIfTI outputs;
+        // a scaled integer source's frames are its stored integers, the scale beside them.
         CodecOptions withMeta = o;
-        if (const auto nifti = readNiftiMetadataIfNifti(input.sources.front().file))
-            withMeta.metadata[std::string(kVczNiftiMetadataKey)] = niftiMetadataToText(*nifti);
+        if (nifti.meta)
+            withMeta.metadata[std::string(kVczNiftiMetadataKey)] = niftiMetadataToText(*nifti.meta);
+        if (nifti.stored) withMeta.metadata[std::string(kVczNiftiValuesKey)] = "stored";
+        // --max-error is in data units; stored integers are 1/|scl_slope| of them apart.
+        const double unit = nifti.stored ? std::abs(static_cast<double>(nifti.meta->sclSlope)) : 1.0;
+        if (withMeta.rate == RateMode::MaxError) withMeta.target /= unit;
         EncodeReport rep;
         Stopwatch sw;
         std::vector<FrameReport> frames;
@@ -174,7 +211,8 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                       << formatFixed(double(raw) / double(bytes.size()), 2) << ":1, "
                       << formatFixed(double(bytes.size()) * 8 / double(voxels), 3) << " bits/voxel";
             if (ts.frames.size() == 1 && o.rate != RateMode::Lossless) {
-                std::cerr << ", PSNR " << formatFixed(rep.psnr, 2) << " dB, max error " << rep.maxError;
+                std::cerr << ", PSNR " << formatFixed(rep.psnr, 2) << " dB, max error "
+                          << rep.maxError * unit;
                 // Only --max-error stores voxels exactly (to hold its bound); elsewhere the count is 0.
                 if (o.rate == RateMode::MaxError)
                     std::cerr << " (" << rep.corrections << " voxels stored exactly)";
@@ -196,7 +234,7 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                           << " P, " << count[2] << " B (" << fallbacks << " planned P/B coded as I)";
                 if (o.rate != RateMode::Lossless)
                     std::cerr << ", lowest frame PSNR " << formatFixed(worst, 2) << " dB, max error "
-                              << maxErr;
+                              << maxErr * unit;
                 std::cerr << '\n';
             }
             if (a->profile && ts.frames.size() == 1) printProfile("encode", rep.profile, 0);
@@ -215,20 +253,21 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
     };
     auto a = std::make_shared<Args>();
     cmd->add_option("input", a->in, "Input .vcz file")->required();
-    cmd->add_option("-o,--output", a->out,
-                    "Output volume: .raw, .nrrd, .nhdr, .nii, .nii.gz (a NIfTI source's header restored), "
-                    ".vti or .vdb")
+    cmd->add_option(
+           "-o,--output", a->out,
+           "Output volume: .raw, .nrrd, .nhdr, .nii, .nii.gz (3D or 4D; a NIfTI source's header restored), "
+           ".vti or .vdb")
         ->required();
     cmd->add_option("--region", a->region,
                     "Voxel box x0,y0,z0:x1,y1,z1 (half-open, full-resolution indices)");
     cmd->add_option("--level", a->level, "2^k-downsampled approximation without decoding finer detail");
     cmd->add_option(
         "--frame", a->frame,
-        "Frame of a time series (default 0); an output name with a printf pattern (frames_%03d.nrrd) "
-        "writes every frame");
+        "Frame K of a time series (default: every frame, into a 4D .nii/.nii.gz or a printf pattern "
+        "such as frames_%03d.nrrd; other formats need --frame)");
     cmd->add_option("--threads", a->threads, "Host threads for entropy decoding (default 2)");
     cmd->add_flag("--profile", a->profile, "Print the time of each pipeline stage");
-    cmd->callback([a, &global] {
+    cmd->callback([a, cmd, &global] {
         checkNotSameFile({std::filesystem::path(a->in)}, volumeFilesWritten(a->out));
         DecodeOptions o;
         CodecProfile prof;
@@ -238,54 +277,57 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
         o.frame = a->frame;
         o.threads = std::max(1u, a->threads);
         VczReader r(readFileBytes(a->in), a->in);
+        const std::size_t n = r.header().frames.size();
+        const bool pattern = a->out.find('%') != std::string::npos;
+        // A series without --frame goes whole into a format that holds frames; never silently frame 0.
+        const bool allFrames = !pattern && n > 1 && cmd->count("--frame") == 0;
+        if (allFrames && !formatHoldsSeries(a->out))
+            throw UsageError(
+                a->out + ": " + a->in + " holds " + std::to_string(n) +
+                " frames and this format one volume: write .nii, .nii.gz, .nrrd or .nhdr (all frames), give "
+                "--frame K, or a printf pattern (frames_%03d.vti)");
         // A one-shot decode of a whole frame starts entropy decoding on a second thread while this one starts
         // the OpenCL platform, which would otherwise leave a core idle.
         auto pool = std::make_shared<HostMemoryPool>();
         std::optional<DecodeAhead> ahead;
-        if (a->out.find('%') == std::string::npos && !o.region && o.level == 0)
-            ahead.emplace(r, o.frame, pool);
+        if (!pattern && !allFrames && !o.region && o.level == 0) ahead.emplace(r, o.frame, pool);
         o.ahead = ahead ? &*ahead : nullptr;
         ComputeContext cc(global.device, pool);
-        // A NIfTI source's header, kept in the .vcz, goes back into NIfTI outputs.
-        WriteOptions wo;
-        if (const auto it = r.header().metadata.find(std::string(kVczNiftiMetadataKey));
-            it != r.header().metadata.end())
-            wo.nifti = niftiMetadataFromText(it->second, a->in);
-        if (a->out.find('%') != std::string::npos) {
+        // A NIfTI source's header (and its stored integers' scale), kept in the .vcz, goes back into
+        // NIfTI outputs; other outputs get data units.
+        const WriteOptions wo = vczWriteOptions(r.header(), a->in);
+        if (pattern) {
             // A printf pattern: every frame, each decoded once (P/B frames from the frames already decoded).
-            const std::size_t n = r.header().frames.size();
             const std::vector<std::string> names =
                 io::expandFilePattern(a->out, 0, static_cast<long long>(n) - 1, 1, a->out, n);
             for (const std::string& name : names)
                 checkNotSameFile({std::filesystem::path(a->in)}, volumeFilesWritten(name));
-            // A frame is kept until the last frame that references it is decoded.
-            std::vector<std::size_t> lastUse(n);
-            for (std::size_t f = 0; f < n; ++f) {
-                lastUse[f] = f;
-                for (std::int32_t ref : {r.header().frames[f].reference0, r.header().frames[f].reference1})
-                    if (ref >= 0) lastUse[std::size_t(ref)] = std::max(lastUse[std::size_t(ref)], f);
-            }
-            std::vector<std::optional<Volume>> frames(n);
-            std::vector<const Volume*> known(n, nullptr);
-            for (std::size_t f = 0; f < n; ++f) {
-                frames[f] = r.decodeFrame(cc, f, known, o.threads, o.profile);
-                known[f] = &*frames[f];
-                writeVolumeFile(*frames[f], names[f], wo);
-                for (std::size_t g = 0; g <= f; ++g)
-                    if (frames[g] && lastUse[g] <= f) {
-                        frames[g].reset();
-                        known[g] = nullptr;
-                    }
-            }
+            decodeEachFrame(r, cc, o.threads, o.profile,
+                            [&](std::size_t f, Volume&& v) { writeVolumeFile(v, names[f], wo); });
             if (!global.quiet) std::cerr << "volcl: wrote " << n << " frames to " << a->out << "\n";
             if (a->profile && !global.quiet) printProfile("decode", prof, 0);
             return;
         }
-        const Volume v = r.decode(cc, o);
-        writeVolumeFile(v, a->out, wo);
+        TimeSeries ts;
+        if (allFrames && !o.region && o.level == 0) {
+            ts = decodeAllFrames(r, cc, o.threads, o.profile);
+        } else if (allFrames) { // a region or a level of every frame
+            for (std::size_t f = 0; f < n; ++f) {
+                DecodeOptions one = o;
+                one.frame = f;
+                ts.frames.push_back(r.decode(cc, one));
+            }
+            ts.times = vczFrameTimes(r.header());
+        } else {
+            ts.frames.push_back(r.decode(cc, o));
+        }
+        writeSeriesFile(ts, a->out, wo);
+        const Volume& v = ts.frames.front();
         if (!global.quiet)
             std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x"
-                      << v.dims().z << " " << scalarTypeName(v.type()) << ")\n";
+                      << v.dims().z << " " << scalarTypeName(v.type())
+                      << (ts.frames.size() > 1 ? ", " + std::to_string(ts.frames.size()) + " frames" : "")
+                      << ")\n";
         if (a->profile && !global.quiet) printProfile("decode", prof, 0);
     });
 }
@@ -330,9 +372,10 @@ void addCompare(CLI::App& app, GlobalOptions& global) {
         ->capture_default_str();
     cmd->add_option("--region", a->region,
                     "Compare only the voxel box x0,y0,z0:x1,y1,z1 (half-open, full resolution)");
-    cmd->add_option("--frame", a->frame, "Frame of a time series .vcz")->capture_default_str();
+    cmd->add_option("--frame", a->frame, "Frame of a time series (.vcz or a 4D file; a 3D file is its frame)")
+        ->capture_default_str();
     cmd->add_flag("--json", a->json, "JSON output");
-    cmd->callback([a, &global] {
+    cmd->callback([a, cmd, &global] {
         std::unique_ptr<ComputeContext> cc;
         if (isVcz(a->a) || isVcz(a->b) || a->level > 0) cc = std::make_unique<ComputeContext>(global.device);
         if (a->level < 0) throw UsageError("--level must be >= 0");
@@ -351,8 +394,20 @@ void addCompare(CLI::App& app, GlobalOptions& global) {
         // Two plain volumes of different sizes under --level: the smaller is already a level decode (what the
         // dimension error's hint suggests comparing), so only the larger is taken to the level.
         std::optional<Volume> plainA, plainB;
-        if (!ra) plainA = readVolume(a->a);
-        if (!rb) plainB = readVolume(a->b);
+        // A 4D file gives frame --frame (a 3D file is that frame), and says so when --frame is not given.
+        auto readPlain = [&](const std::string& path) {
+            TimeSeries ts = readVolumeFile(path);
+            if (ts.frames.size() == 1) return std::move(ts.frames.front());
+            if (a->frame >= ts.frames.size())
+                throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + path + " has " +
+                                 std::to_string(ts.frames.size()) + " frame(s)");
+            if (cmd->count("--frame") == 0 && !global.quiet)
+                std::cerr << "volcl compare: frame 0 of the " << ts.frames.size() << " frames of " << path
+                          << " (--frame K picks another)\n";
+            return std::move(ts.frames[a->frame]);
+        };
+        if (!ra) plainA = readPlain(a->a);
+        if (!rb) plainB = readPlain(a->b);
         bool coarsenA = a->level > 0, coarsenB = a->level > 0;
         if (a->level > 0 && plainA && plainB && plainA->dims() != plainB->dims()) {
             coarsenA = plainA->voxelCount() > plainB->voxelCount();
@@ -360,7 +415,11 @@ void addCompare(CLI::App& app, GlobalOptions& global) {
         }
         auto load = [&](const std::string& path, std::optional<VczReader>& r, std::optional<Volume>& plain,
                         bool coarsen) {
-            if (r) return r->decode(*cc, d);
+            if (r) { // a scaled NIfTI's stored integers are compared in data units, as the .nii reads
+                const WriteOptions wo = vczWriteOptions(r->header(), path);
+                Volume v = r->decode(*cc, d);
+                return wo.niftiStoredValues ? niftiDataUnits(v, *wo.nifti) : v;
+            }
             Volume v = std::move(*plain);
             if (coarsen) return levelView(*cc, v, like, d);
             if (a->level > 0) return v;

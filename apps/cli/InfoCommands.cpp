@@ -7,6 +7,7 @@
 #include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
 #include "core/runtime/ClRuntime.hpp"
+#include "host/io/IoDetail.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "wavelet/Codec.hpp"
 
@@ -225,18 +226,21 @@ void addConvert(CLI::App& app, GlobalOptions& global) {
     };
     auto a = std::make_shared<Args>();
     cmd->add_option("input", a->in, "Input volume (any supported format)")->required();
-    cmd->add_option("-o,--output", a->out, "Output file: .raw, .nrrd, .nhdr, .nii, .nii.gz, .vti or .vdb")
+    cmd->add_option("-o,--output", a->out,
+                    "Output file: .raw, .nrrd, .nhdr, .nii, .nii.gz (3D or 4D), .vti or .vdb")
         ->required();
     cmd->add_option("--to-type", a->type, "Convert voxels to uint8, uint16, int16 or float32 (clamped)");
     cmd->add_option("--crop", a->crop, "Keep the voxel box x0,y0,z0:x1,y1,z1 (half-open)");
-    cmd->add_option("--frame", a->frame, "Frame of a time series to convert (default 0)");
+    cmd->add_option("--frame", a->frame,
+                    "Frame K of a time series (default: every frame, into a 4D .nii/.nii.gz or a printf "
+                    "pattern such as frames_%03d.nrrd)");
     cmd->add_option("--replace-nan", a->replaceNan,
                     "Replace NaN voxels (float32) by this value, e.g. 0, so the volume can be rendered");
     cmd->add_flag("--big-endian", a->bigEndianOut, "Write raw/NRRD output big-endian");
     a->raw.add(*cmd);
     a->mesh.add(*cmd);
     a->vtu.add(*cmd);
-    cmd->callback([a, &global] {
+    cmd->callback([a, cmd, &global] {
         checkNotSameFile(a->in, a->out);
         if (mesh::detectMeshFormat(a->in)) { // a mesh converts to .vtu only
             if (!a->out.ends_with(".vtu")) throw UsageError("-o " + a->out + ": a mesh converts to .vtu");
@@ -249,49 +253,94 @@ void addConvert(CLI::App& app, GlobalOptions& global) {
             return;
         }
         std::vector<std::filesystem::path> inputs;
-        Volume v;
-        if (std::filesystem::path(a->in).extension() == ".vcz") { // frame K decoded whole
+        TimeSeries ts;
+        WriteOptions wo;
+        const bool frameGiven = cmd->count("--frame") > 0, pattern = a->out.find('%') != std::string::npos;
+        // Every frame of a series goes out (a 4D NIfTI or one file per frame of a printf pattern) unless
+        // --frame picks one; a format that holds one volume refuses a series instead of keeping frame 0.
+        auto checkSeriesTarget = [&](std::size_t frames) {
+            if (frameGiven) {
+                if (a->frame >= frames)
+                    throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in +
+                                     " has " + std::to_string(frames) + " frame(s)");
+            } else if (frames > 1 && !pattern && !formatHoldsSeries(a->out)) {
+                throw UsageError(a->out + ": " + a->in + " holds " + std::to_string(frames) +
+                                 " frames and this format one volume: write .nii, .nii.gz, .nrrd or .nhdr "
+                                 "(all frames), give "
+                                 "--frame K, or a printf pattern (frames_%03d.vti)");
+            }
+        };
+        if (std::filesystem::path(a->in).extension() == ".vcz") { // frames decoded whole
             const VczReader r(readFileBytes(a->in), a->in);
             checkNotSameFile({std::filesystem::path(a->in)}, volumeFilesWritten(a->out));
-            if (a->frame >= r.header().frames.size())
-                throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in + " has " +
-                                 std::to_string(r.header().frames.size()) + " frame(s)");
+            checkSeriesTarget(r.header().frames.size());
+            // The .vcz's NIfTI header (and its stored integers' scale) goes into the output as decode does.
+            wo = vczWriteOptions(r.header(), a->in);
             ComputeContext cc(global.device);
-            v = r.decodeFrame(cc, a->frame);
+            if (frameGiven || r.header().frames.size() == 1)
+                ts.frames.push_back(r.decodeFrame(cc, a->frame));
+            else
+                ts = decodeAllFrames(r, cc);
         } else {
-            TimeSeries ts = readVolumeFile(a->in, a->raw.toReadOptions(), inputs);
+            ts = readVolumeFile(a->in, a->raw.toReadOptions(), inputs);
             // A header's data files are inputs too: converting x.nhdr to its own x.raw would destroy it.
             checkNotSameFile(inputs, volumeFilesWritten(a->out));
-            if (a->frame >= ts.frames.size())
-                throw UsageError("--frame " + std::to_string(a->frame) + " out of range: " + a->in + " has " +
-                                 std::to_string(ts.frames.size()) + " frame(s)");
-            v = std::move(ts.frames[a->frame]);
+            checkSeriesTarget(ts.frames.size());
+            if (frameGiven) {
+                ts.frames = {std::move(ts.frames[a->frame])};
+                ts.times.clear();
+            }
+            // A NIfTI source's header is kept by NIfTI and VTI outputs.
+            wo.nifti = readNiftiMetadataIfNifti(a->in);
         }
+        wo.endian = a->bigEndianOut ? Endian::Big : Endian::Little;
+        // A new type or replaced values are data units, not a scaled source's stored integers.
+        if (wo.niftiStoredValues && (!a->type.empty() || a->replaceNan)) {
+            for (Volume& v : ts.frames)
+                v = niftiDataUnits(v, *wo.nifti);
+            wo.niftiStoredValues = false;
+        }
+        // --to-type is the type written: the NIfTI writer must not turn data units back into the source's
+        // scaled integers.
+        if (!a->type.empty() && wo.nifti) wo.nifti->sclSlope = wo.nifti->sclInter = 0;
         if (a->replaceNan) {
             if (!std::isfinite(*a->replaceNan)) throw UsageError("--replace-nan: the value must be finite");
             std::size_t replaced = 0;
-            if (v.type() == ScalarType::Float32)
-                for (float& x : v.values<float>())
-                    if (std::isnan(x)) {
-                        x = static_cast<float>(*a->replaceNan);
-                        ++replaced;
-                    }
+            for (Volume& v : ts.frames)
+                if (v.type() == ScalarType::Float32)
+                    for (float& x : v.values<float>())
+                        if (std::isnan(x)) {
+                            x = static_cast<float>(*a->replaceNan);
+                            ++replaced;
+                        }
             if (!global.quiet)
                 std::cerr << "volcl: replaced " << replaced << " NaN voxel(s) by " << *a->replaceNan << '\n';
         }
-        if (!a->crop.empty()) {
-            auto [lo, hi] = parseBox(a->crop, "--crop");
-            v = v.cropped(lo, hi);
+        for (Volume& v : ts.frames) {
+            if (!a->crop.empty()) {
+                auto [lo, hi] = parseBox(a->crop, "--crop");
+                v = v.cropped(lo, hi);
+            }
+            if (!a->type.empty()) v = v.convertedTo(parseScalarType(a->type));
         }
-        if (!a->type.empty()) v = v.convertedTo(parseScalarType(a->type));
-        WriteOptions wo;
-        wo.endian = a->bigEndianOut ? Endian::Big : Endian::Little;
-        // A NIfTI source's header is kept by NIfTI and VTI outputs (a .vcz carries its own: volcl decode).
-        if (std::filesystem::path(a->in).extension() != ".vcz") wo.nifti = readNiftiMetadataIfNifti(a->in);
-        writeVolumeFile(v, a->out, wo);
+        const Volume& v = ts.frames.front();
+        if (pattern && ts.frames.size() > 1) {
+            const std::size_t n = ts.frames.size();
+            const std::vector<std::string> names =
+                io::expandFilePattern(a->out, 0, static_cast<long long>(n) - 1, 1, a->out, n);
+            for (const std::string& name : names)
+                checkNotSameFile(inputs.empty() ? std::vector<std::filesystem::path>{a->in} : inputs,
+                                 volumeFilesWritten(name));
+            for (std::size_t f = 0; f < n; ++f)
+                writeVolumeFile(ts.frames[f], names[f], wo);
+        } else {
+            writeSeriesFile(ts, a->out, wo);
+        }
         if (!global.quiet)
             std::cerr << "volcl: wrote " << a->out << " (" << v.dims().x << "x" << v.dims().y << "x"
-                      << v.dims().z << " " << scalarTypeName(v.type()) << ")\n";
+                      << v.dims().z << " " << scalarTypeName(v.type())
+                      << (ts.frames.size() > 1 ? ", " + std::to_string(ts.frames.size()) + " frames" : "")
+                      << ")\n";
     });
 }
 

@@ -2,8 +2,10 @@
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/Commands.hpp"
 #include "apps/cli/SceneFlags.hpp"
+#include "apps/cli/VczInfo.hpp"
 #include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
+#include "core/Format.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "core/runtime/Timing.hpp"
 #include "host/image/ImageIo.hpp"
@@ -86,6 +88,12 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
         std::optional<RenderInput> bricks;
         Volume v; // a .vcz: its geometry only (finish() and loadTf() read the box and spacing)
         std::array<double, 2> dataRange{0, 0};
+        struct LinearScale {
+            double slope, inter;
+            double toData(double stored) const { return stored * slope + inter; }
+            double toStored(double data) const { return (data - inter) / slope; }
+        };
+        std::optional<LinearScale> storedScale;
         if (scene.volume.extension() == ".vcz") {
             bricks = RenderInput::openVcz(scene.volume, a->scene.frame.value_or(0));
             const VczHeader& h = bricks->bricks()->header();
@@ -98,14 +106,31 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
             v.origin = h.origin;
             const ValueRange r = bricks->valueRange();
             dataRange = {r.min, r.max};
+            // The stored integers of a scaled NIfTI render in data units, as the .nii itself does: the
+            // transfer function, --window and --iso are data units, mapped here onto the stored values.
+            const WriteOptions wo = vczWriteOptions(h, scene.volume.string());
+            if (wo.niftiStoredValues) {
+                storedScale = {wo.nifti->sclSlope, wo.nifti->sclInter};
+                if (!(storedScale->slope > 0))
+                    throw UsageError(scene.volume.string() + ": scl_slope " +
+                                     formatNumber(storedScale->slope) +
+                                     " is negative: decode it (volcl decode -o x.nii) to render it");
+                dataRange = {storedScale->toData(r.min), storedScale->toData(r.max)};
+                if (scene.window)
+                    scene.window = std::array<double, 2>{storedScale->toStored((*scene.window)[0]),
+                                                         (*scene.window)[1] / storedScale->slope};
+                for (IsoLayer& iso : scene.effects.isosurfaces)
+                    iso.value = storedScale->toStored(iso.value);
+            }
         }
         std::optional<RenderInput> opened; // every other input: a grid or a mesh
         if (!bricks) opened = a->scene.readSceneInput(scene, notes, &inputs);
         if (!a->out.empty()) checkNotSameFile(inputs, {std::filesystem::path(a->out)});
         for (auto& note : bricks ? a->scene.finish(scene, v) : a->scene.finish(scene, *opened))
             notes.push_back(std::move(note));
-        const TransferFunction tf =
-            bricks ? a->scene.loadTf(scene, v, dataRange) : a->scene.loadTf(scene, *opened);
+        TransferFunction tf = bricks ? a->scene.loadTf(scene, v, dataRange) : a->scene.loadTf(scene, *opened);
+        if (storedScale)
+            tf = tf.rescaled({storedScale->toStored(tf.domain[0]), storedScale->toStored(tf.domain[1])});
         if (!global.quiet)
             for (const auto& note : notes)
                 std::cerr << "volcl render: " << note << '\n';

@@ -3,6 +3,7 @@
 
 #include "core/AtomicFile.hpp"
 #include "core/runtime/ClRuntime.hpp"
+#include "host/io/NiftiMetadata.hpp"
 #include "wavelet/Codec.hpp"
 
 #include "core/Error.hpp"
@@ -380,7 +381,14 @@ Volume SceneFlags::readSceneVolume(const Scene& s, std::vector<std::string>& not
                             " (--frame K picks another)");
         if (filesRead) *filesRead = {s.volume};
         ComputeContext cc(device);
-        return r.decodeFrame(cc, k);
+        Volume v = r.decodeFrame(cc, k);
+        // The stored integers of a scaled NIfTI are shown in data units, as the .nii itself is.
+        const auto& md = r.header().metadata;
+        const auto values = md.find(std::string(kVczNiftiValuesKey));
+        const auto meta = md.find(std::string(kVczNiftiMetadataKey));
+        if (values != md.end() && values->second == "stored" && meta != md.end())
+            return niftiDataUnits(v, niftiMetadataFromText(meta->second, s.volume.string()));
+        return v;
     }
     std::vector<std::filesystem::path> files;
     TimeSeries ts = readVolumeFile(s.volume, raw.toReadOptions(), files);

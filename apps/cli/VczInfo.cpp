@@ -2,11 +2,13 @@
 #include "apps/cli/VczInfo.hpp"
 
 #include "core/AtomicFile.hpp"
+#include "host/io/NiftiMetadata.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/container/LodStatistics.hpp"
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <iomanip>
 #include <optional>
 #include <sstream>
@@ -101,6 +103,10 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json) {
                      {"bytes", bytes.size()},
                      {"bits_per_voxel", double(bytes.size()) * 8 / (voxels * double(h.frames.size()))},
                      {"frames", frames}};
+    // Stored integers of a scaled NIfTI source: the range above is in stored units; say how to get data units.
+    const WriteOptions wo = vczWriteOptions(h, path);
+    if (wo.niftiStoredValues)
+        j["nifti_scale"] = {{"scl_slope", wo.nifti->sclSlope}, {"scl_inter", wo.nifti->sclInter}};
     if (json) {
         out << j.dump(2) << '\n';
         return;
@@ -111,8 +117,16 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json) {
         << "  dims     " << h.dims.x << " x " << h.dims.y << " x " << h.dims.z << "  (" << h.frames.size()
         << " frames)\n"
         << "  type     " << scalarTypeName(h.type) << '\n'
-        << std::setprecision(6) << "  range    " << h.valueMin << " .. " << h.valueMax << '\n'
-        << "  size     " << bytes.size() << " bytes, " << std::fixed << std::setprecision(4)
+        << std::setprecision(6) << "  range    " << h.valueMin << " .. " << h.valueMax << '\n';
+    const double lo = h.valueMin * wo.nifti.value_or(NiftiMetadata{}).sclSlope +
+                      wo.nifti.value_or(NiftiMetadata{}).sclInter;
+    const double hi = h.valueMax * wo.nifti.value_or(NiftiMetadata{}).sclSlope +
+                      wo.nifti.value_or(NiftiMetadata{}).sclInter;
+    if (wo.niftiStoredValues)
+        out << "  scale    stored NIfTI integers: value = stored * " << wo.nifti->sclSlope << " + "
+            << wo.nifti->sclInter << " (data units " << std::min(lo, hi) << " .. " << std::max(lo, hi)
+            << ")\n";
+    out << "  size     " << bytes.size() << " bytes, " << std::fixed << std::setprecision(4)
         << j["bits_per_voxel"].get<double>() << " bits/voxel\n"
         << "  frame  type  refs       bytes  motion  bits/voxel\n";
     for (const auto& f : frames) {
@@ -148,6 +162,63 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json) {
             out << '\n';
         }
     }
+}
+
+WriteOptions vczWriteOptions(const VczHeader& h, const std::string& name) {
+    WriteOptions wo;
+    if (const auto it = h.metadata.find(std::string(kVczNiftiMetadataKey)); it != h.metadata.end())
+        wo.nifti = niftiMetadataFromText(it->second, name);
+    if (const auto it = h.metadata.find(std::string(kVczNiftiValuesKey)); it != h.metadata.end()) {
+        if (it->second != "stored" || !wo.nifti)
+            throw IoError(name + ": metadata " + std::string(kVczNiftiValuesKey) + " '" + it->second +
+                          "' is not 'stored' with a NIfTI header");
+        wo.niftiStoredValues = wo.nifti->scales();
+    }
+    return wo;
+}
+
+void decodeEachFrame(const VczReader& r, ComputeContext& cc, unsigned threads, CodecProfile* profile,
+                     const std::function<void(std::size_t, Volume&&)>& use) {
+    const std::size_t n = r.header().frames.size();
+    // A frame is kept until the last frame that references it is decoded.
+    std::vector<std::size_t> lastUse(n);
+    for (std::size_t f = 0; f < n; ++f) {
+        lastUse[f] = f;
+        for (std::int32_t ref : {r.header().frames[f].reference0, r.header().frames[f].reference1})
+            if (ref >= 0) lastUse[std::size_t(ref)] = std::max(lastUse[std::size_t(ref)], f);
+    }
+    std::vector<std::optional<Volume>> frames(n);
+    std::vector<const Volume*> known(n, nullptr);
+    for (std::size_t f = 0; f < n; ++f) {
+        Volume v = r.decodeFrame(cc, f, known, threads, profile);
+        if (lastUse[f] > f) {
+            frames[f] = v; // a later frame predicts from it
+            known[f] = &*frames[f];
+        }
+        use(f, std::move(v));
+        for (std::size_t g = 0; g <= f; ++g)
+            if (frames[g] && lastUse[g] <= f) {
+                frames[g].reset();
+                known[g] = nullptr;
+            }
+    }
+}
+
+std::vector<double> vczFrameTimes(const VczHeader& h) {
+    // A series encoded without times stores zeros.
+    std::vector<double> times;
+    for (const VczFrame& f : h.frames)
+        times.push_back(f.time);
+    if (std::all_of(times.begin(), times.end(), [](double t) { return t == 0; })) times.clear();
+    return times;
+}
+
+TimeSeries decodeAllFrames(const VczReader& r, ComputeContext& cc, unsigned threads, CodecProfile* profile) {
+    TimeSeries ts;
+    decodeEachFrame(r, cc, threads, profile,
+                    [&](std::size_t, Volume&& v) { ts.frames.push_back(std::move(v)); });
+    ts.times = vczFrameTimes(r.header());
+    return ts;
 }
 
 } // namespace volcl::cli

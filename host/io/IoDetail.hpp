@@ -192,8 +192,15 @@ TimeSeries readVoreenVvd(ReadContext& ctx);
 
 void writeRaw(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
 void writeNrrd(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
+/// A 4D NRRD of every frame (same dims and type): a fourth axis of kind `list` after the three spatial ones.
+void writeNrrdSeries(std::span<const Volume> frames, const std::filesystem::path& path,
+                     const WriteOptions& options);
 void writeVdb(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
 void writeNifti(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
+/// A 4D NIfTI of every frame (same dims and type); `times` (empty or one per frame, seconds) gives
+/// pixdim[4] when the source metadata has no time step and the times are evenly spaced.
+void writeNiftiSeries(std::span<const Volume> frames, const std::vector<double>& times,
+                      const std::filesystem::path& path, const WriteOptions& options);
 void writeVtkXmlImage(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
 
 } // namespace volcl::io

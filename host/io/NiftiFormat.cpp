@@ -209,19 +209,11 @@ TimeSeries readNifti(ReadContext& ctx) {
     TimeSeries series =
         decodeFrames(all.subspan(voxOffset, payload), *st, endian, dims, frames, spacing, origin);
 
-    // scl_slope = 0 means "no scaling" by the standard; 1/0 is the identity.
-    const double slope = p.meta.sclSlope, inter = p.meta.sclInter;
-    if (p.meta.scales()) {
-        for (Volume& v : series.frames) {
-            Volume f(v.dims(), ScalarType::Float32);
-            f.spacing = v.spacing;
-            f.origin = v.origin;
-            auto out = f.values<float>();
-            for (std::size_t i = 0; i < out.size(); ++i)
-                out[i] = static_cast<float>(v.valueAt(i) * slope + inter);
-            v = std::move(f);
-        }
-    }
+    // scl_slope = 0 means "no scaling" by the standard; 1/0 is the identity. A caller asking for the
+    // stored integers gets them when the model holds them exactly (the scale stays in the metadata).
+    if (p.meta.scales() && !(ctx.options().niftiStoredValues && niftiStoredValuesExact(p.meta)))
+        for (Volume& v : series.frames)
+            v = niftiDataUnits(v, p.meta);
     // pixdim[4] is the time step; xyzt_units says whether it is in s, ms or us. Times are in seconds.
     const double dt = p.meta.timeStep;
     if (frames > 1 && std::isfinite(dt) && dt > 0) {

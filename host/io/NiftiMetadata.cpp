@@ -90,6 +90,23 @@ std::string requireText(const nlohmann::json& j, const char* key, std::size_t ma
 
 } // namespace
 
+bool niftiStoredValuesExact(const NiftiMetadata& m) noexcept {
+    // NIfTI codes 2 (uint8), 4 (int16) and 512 (uint16): the model's integer types.
+    return m.scales() && (m.datatype == 2 || m.datatype == 4 || m.datatype == 512);
+}
+
+Volume niftiDataUnits(const Volume& stored, const NiftiMetadata& m) {
+    if (!m.scales()) return stored;
+    const double slope = m.sclSlope, inter = m.sclInter;
+    Volume f(stored.dims(), ScalarType::Float32);
+    f.spacing = stored.spacing;
+    f.origin = stored.origin;
+    auto out = f.values<float>();
+    for (std::size_t i = 0; i < out.size(); ++i)
+        out[i] = static_cast<float>(stored.valueAt(i) * slope + inter);
+    return f;
+}
+
 Affine niftiVoxelToWorld(const NiftiMetadata& m) {
     if (m.sformCode > 0) return sformAffine(m);
     if (m.qformCode > 0) return qformAffine(m);

@@ -44,6 +44,15 @@ struct NiftiMetadata {
     bool operator==(const NiftiMetadata&) const = default;
 };
 
+/// True when scl_slope/scl_inter change values and the datatype is an integer type the volume model
+/// holds exactly (uint8, int16, uint16): a volume can then carry the file's stored integers, the scale
+/// kept beside them, instead of float32 data units (ReadOptions/WriteOptions::niftiStoredValues).
+bool niftiStoredValuesExact(const NiftiMetadata& meta) noexcept;
+
+/// Data units of a volume of stored values: float32(stored * scl_slope + scl_inter), the values the NIfTI
+/// reader gives (and nibabel's get_fdata). A volume of a metadata that does not scale is returned as is.
+Volume niftiDataUnits(const Volume& stored, const NiftiMetadata& meta);
+
 /// Voxel-to-world transform (3 rows of [R | t]) the metadata describes: the sform when its code is set,
 /// else the qform, else spacing and origin along the axes.
 std::array<std::array<double, 4>, 3> niftiVoxelToWorld(const NiftiMetadata& meta);

@@ -75,38 +75,73 @@ std::optional<Volume> unscaled(const Volume& v, ScalarType stored, double slope,
     return std::nullopt;
 }
 
+// pixdim[4] and xyzt_units of the output: the source's time step as stored, else the series' even
+// time step in seconds (NIFTI_UNITS_SEC), else none.
+std::pair<float, std::uint8_t> timeStepOf(const NiftiMetadata& m, const std::vector<double>& times,
+                                          std::size_t frames) {
+    if (m.timeStep > 0 || frames < 2 || times.size() != frames) return {m.timeStep, m.xyztUnits};
+    const double dt = times[1] - times[0];
+    if (!(dt > 0) || !std::isfinite(dt)) return {m.timeStep, m.xyztUnits};
+    for (std::size_t f = 2; f < frames; ++f)
+        if (std::abs((times[f] - times[f - 1]) - dt) > 1e-9 * std::max(1.0, std::abs(dt)))
+            return {m.timeStep, m.xyztUnits};
+    constexpr std::uint8_t kSeconds = 8;
+    return {static_cast<float>(dt), static_cast<std::uint8_t>((m.xyztUnits & 0x07) | kSeconds)};
+}
+
 } // namespace
 
-void writeNifti(const Volume& volume, const fs::path& path, const WriteOptions& options) {
-    for (std::size_t d : {volume.dims().x, volume.dims().y, volume.dims().z})
+void writeNiftiSeries(std::span<const Volume> frames, const std::vector<double>& times, const fs::path& path,
+                      const WriteOptions& options) {
+    const Volume& first = frames.front();
+    for (std::size_t d : {first.dims().x, first.dims().y, first.dims().z, frames.size()})
         if (d > static_cast<std::size_t>(std::numeric_limits<std::int16_t>::max()))
             throw UsageError(path.string() +
-                             ": NIfTI-1 holds at most 32767 voxels per axis, the volume has " +
-                             std::to_string(d));
+                             ": NIfTI-1 holds at most 32767 voxels per axis and frames, the " +
+                             "volume has " + std::to_string(d));
+    for (const Volume& v : frames)
+        if (v.dims() != first.dims() || v.type() != first.type())
+            throw UsageError(path.string() + ": the frames of a 4D NIfTI must share dims and voxel type");
     const NiftiMetadata m =
-        options.nifti ? niftiMetadataOnGrid(*options.nifti, volume) : niftiMetadataForVolume(volume);
+        options.nifti ? niftiMetadataOnGrid(*options.nifti, first) : niftiMetadataForVolume(first);
 
-    // Values are data units. A float volume from a scaled integer file goes back to its stored integers
-    // with the same scl_slope/scl_inter when that is exact; otherwise the floats are written unscaled.
-    const Volume* data = &volume;
-    std::optional<Volume> stored;
+    // Values are data units, unless the caller holds the stored integers of a scaled source. A float
+    // volume from a scaled integer file goes back to its stored integers with the same scl_slope/scl_inter
+    // when that is exact for every frame; otherwise the floats are written unscaled.
+    std::span<const Volume> data = frames;
+    std::vector<Volume> stored;
     float slope = m.scales() ? 1.0f : m.sclSlope, inter = m.scales() ? 0.0f : m.sclInter;
-    if (m.scales() && volume.type() == ScalarType::Float32)
-        if (const auto t = integerTypeOfCode(m.datatype))
-            if ((stored = unscaled(volume, *t, m.sclSlope, m.sclInter))) {
-                data = &*stored;
-                slope = m.sclSlope;
-                inter = m.sclInter;
-            }
+    const auto intType = integerTypeOfCode(m.datatype);
+    if (m.scales() && options.niftiStoredValues && intType && first.type() == *intType) {
+        slope = m.sclSlope;
+        inter = m.sclInter;
+    } else if (m.scales() && first.type() == ScalarType::Float32 && intType) {
+        for (const Volume& v : frames) {
+            std::optional<Volume> u = unscaled(v, *intType, m.sclSlope, m.sclInter);
+            if (!u) break;
+            stored.push_back(std::move(*u));
+        }
+        if (stored.size() == frames.size()) {
+            data = stored;
+            slope = m.sclSlope;
+            inter = m.sclInter;
+        }
+    } else if (options.niftiStoredValues && m.scales()) {
+        throw UsageError(path.string() + ": stored " + std::string(scalarTypeName(first.type())) +
+                         " values do not match the NIfTI datatype " + std::to_string(m.datatype));
+    }
+    const ScalarType type = data.front().type();
+    const auto [timeStep, xyztUnits] = timeStepOf(m, times, frames.size());
 
     std::vector<std::byte> file(kDataOffset, std::byte{0});
     put<std::int32_t>(file, 0, static_cast<std::int32_t>(kHeaderSize));
     file[38] = std::byte{'r'};
-    const std::int16_t dim[8] = {3,
-                                 static_cast<std::int16_t>(volume.dims().x),
-                                 static_cast<std::int16_t>(volume.dims().y),
-                                 static_cast<std::int16_t>(volume.dims().z),
-                                 1,
+    const bool series = frames.size() > 1;
+    const std::int16_t dim[8] = {static_cast<std::int16_t>(series ? 4 : 3),
+                                 static_cast<std::int16_t>(first.dims().x),
+                                 static_cast<std::int16_t>(first.dims().y),
+                                 static_cast<std::int16_t>(first.dims().z),
+                                 static_cast<std::int16_t>(frames.size()),
                                  1,
                                  1,
                                  1};
@@ -115,15 +150,15 @@ void writeNifti(const Volume& volume, const fs::path& path, const WriteOptions& 
     for (int i = 0; i < 3; ++i)
         put(file, 56 + 4 * i, m.intentP[i]);
     put(file, 68, m.intentCode);
-    put(file, 70, niftiCode(data->type()));
-    put<std::int16_t>(file, 72, static_cast<std::int16_t>(8 * scalarSize(data->type())));
-    const float pixdim[8] = {m.qfac, m.pixdim[0], m.pixdim[1], m.pixdim[2], m.timeStep, 0, 0, 0};
+    put(file, 70, niftiCode(type));
+    put<std::int16_t>(file, 72, static_cast<std::int16_t>(8 * scalarSize(type)));
+    const float pixdim[8] = {m.qfac, m.pixdim[0], m.pixdim[1], m.pixdim[2], timeStep, 0, 0, 0};
     for (int i = 0; i < 8; ++i)
         put(file, 76 + 4 * i, pixdim[i]);
     put(file, 108, static_cast<float>(kDataOffset));
     put(file, 112, slope);
     put(file, 116, inter);
-    file[123] = std::byte{m.xyztUnits};
+    file[123] = std::byte{xyztUnits};
     put(file, 124, m.calMax);
     put(file, 128, m.calMin);
     put(file, 136, m.toffset);
@@ -141,15 +176,22 @@ void writeNifti(const Volume& volume, const fs::path& path, const WriteOptions& 
     putText(file, 328, 16, m.intentName);
     std::memcpy(file.data() + 344, "n+1\0", 4);
     if (endsWithI(path.filename().string(), ".gz")) {
-        const std::vector<std::byte> voxels = bytesInOrder(*data, Endian::Little);
-        file.insert(file.end(), voxels.begin(), voxels.end());
+        for (const Volume& v : data) {
+            const std::vector<std::byte> voxels = bytesInOrder(v, Endian::Little);
+            file.insert(file.end(), voxels.begin(), voxels.end());
+        }
         writeFileAtomically(path, file);
         return;
     }
     AtomicFile out(path);
     out.write(file);
-    writeVoxelsInOrder(out, *data, Endian::Little);
+    for (const Volume& v : data)
+        writeVoxelsInOrder(out, v, Endian::Little);
     out.commit();
+}
+
+void writeNifti(const Volume& volume, const fs::path& path, const WriteOptions& options) {
+    writeNiftiSeries(std::span<const Volume>(&volume, 1), {}, path, options);
 }
 
 } // namespace volcl::io

@@ -407,7 +407,11 @@ TimeSeries readNrrd(ReadContext& ctx) {
     return decodeFrames(data, *st, endian, dims, frames, g.spacing, g.origin);
 }
 
-void writeNrrd(const Volume& volume, const fs::path& path, const WriteOptions& options) {
+void writeNrrdSeries(std::span<const Volume> frames, const fs::path& path, const WriteOptions& options) {
+    const Volume& volume = frames.front();
+    for (const Volume& v : frames)
+        if (v.dims() != volume.dims() || v.type() != volume.type())
+            throw UsageError(path.string() + ": the frames of a 4D NRRD must share dims and voxel type");
     const bool detached = endsWithI(path.filename().string(), ".nhdr");
     const char* type = "uchar";
     switch (volume.type()) {
@@ -428,15 +432,19 @@ void writeNrrd(const Volume& volume, const fs::path& path, const WriteOptions& o
     const auto& s = volume.spacing;
     const auto& o = volume.origin;
     const bool gzip = options.compress && !detached;
+    // A series is a fourth, non-spatial axis of kind "list" (direction none), frames one after another.
+    const bool series = frames.size() > 1;
     std::string header =
         "NRRD0004\n# written by volcl; format: http://teem.sourceforge.net/nrrd/format.html\n";
-    header += "type: " + std::string(type) + "\ndimension: 3\nspace dimension: 3\n";
-    header += "sizes: " + std::to_string(d.x) + " " + std::to_string(d.y) + " " + std::to_string(d.z) + "\n";
+    header +=
+        "type: " + std::string(type) + "\ndimension: " + (series ? "4" : "3") + "\nspace dimension: 3\n";
+    header += "sizes: " + std::to_string(d.x) + " " + std::to_string(d.y) + " " + std::to_string(d.z) +
+              (series ? " " + std::to_string(frames.size()) : "") + "\n";
     header += "space directions: (" + formatDouble(s[0]) + ",0,0) (0," + formatDouble(s[1]) + ",0) (0,0," +
-              formatDouble(s[2]) + ")\n";
+              formatDouble(s[2]) + ")" + (series ? " none" : "") + "\n";
     header +=
         "space origin: (" + formatDouble(o[0]) + "," + formatDouble(o[1]) + "," + formatDouble(o[2]) + ")\n";
-    header += "kinds: domain domain domain\n";
+    header += std::string("kinds: domain domain domain") + (series ? " list" : "") + "\n";
     if (scalarSize(volume.type()) > 1)
         header += std::string("endian: ") + (options.endian == Endian::Little ? "little" : "big") + "\n";
     header += std::string("encoding: ") + (gzip ? "gzip" : "raw") + "\n";
@@ -445,7 +453,8 @@ void writeNrrd(const Volume& volume, const fs::path& path, const WriteOptions& o
         dataPath.replace_extension(".raw");
         header += "data file: " + dataPath.filename().string() + "\n";
         AtomicFile dataOut(dataPath);
-        writeVoxelsInOrder(dataOut, volume, options.endian);
+        for (const Volume& v : frames)
+            writeVoxelsInOrder(dataOut, v, options.endian);
         AtomicFile headerOut(path);
         headerOut.write(header);
         dataOut.commit(); // data first: a visible header always has its data beside it
@@ -455,11 +464,22 @@ void writeNrrd(const Volume& volume, const fs::path& path, const WriteOptions& o
     header += "\n";
     AtomicFile out(path);
     out.write(header);
-    if (gzip)
-        out.write(deflateBytes(bytesInOrder(volume, options.endian), Wrapper::Gzip));
-    else
-        writeVoxelsInOrder(out, volume, options.endian);
+    if (gzip) {
+        std::vector<std::byte> all;
+        for (const Volume& v : frames) {
+            const std::vector<std::byte> b = bytesInOrder(v, options.endian);
+            all.insert(all.end(), b.begin(), b.end());
+        }
+        out.write(deflateBytes(all, Wrapper::Gzip));
+    } else {
+        for (const Volume& v : frames)
+            writeVoxelsInOrder(out, v, options.endian);
+    }
     out.commit();
+}
+
+void writeNrrd(const Volume& volume, const fs::path& path, const WriteOptions& options) {
+    writeNrrdSeries(std::span<const Volume>(&volume, 1), path, options);
 }
 
 } // namespace volcl::io

@@ -173,9 +173,29 @@ Volume readVolume(const fs::path& path, const ReadOptions& options) {
     return std::move(series.frames.front());
 }
 
+namespace {
+
+bool isNiftiName(const std::string& name) {
+    return io::endsWithI(name, ".nii") || io::endsWithI(name, ".nii.gz");
+}
+
+bool isNrrdName(const std::string& name) {
+    return io::endsWithI(name, ".nrrd") || io::endsWithI(name, ".nhdr");
+}
+
+} // namespace
+
 void writeVolumeFile(const Volume& volume, const fs::path& path, const WriteOptions& options) {
     if (volume.empty()) throw UsageError(path.string() + ": cannot write an empty volume");
     const std::string name = path.filename().string();
+    // Stored integers of a scaled NIfTI source: only a NIfTI output keeps the scale beside them, every
+    // other format gets the data units a reader of the source sees.
+    if (options.niftiStoredValues && options.nifti && options.nifti->scales() && !isNiftiName(name)) {
+        WriteOptions plain = options;
+        plain.niftiStoredValues = false;
+        writeVolumeFile(niftiDataUnits(volume, *options.nifti), path, plain);
+        return;
+    }
     if (endsWithI(name, ".raw") || endsWithI(name, ".raw.gz") || endsWithI(name, ".bin"))
         io::writeRaw(volume, path, options);
     else if (endsWithI(name, ".nrrd") || endsWithI(name, ".nhdr"))
@@ -189,6 +209,37 @@ void writeVolumeFile(const Volume& volume, const fs::path& path, const WriteOpti
     else
         throw UsageError(path.string() + ": cannot write this format (writers: .raw, .raw.gz, .nrrd, .nhdr, "
                                          ".nii, .nii.gz, .vti, .vdb)");
+}
+
+bool formatHoldsSeries(const fs::path& path) {
+    const std::string name = path.filename().string();
+    return isNiftiName(name) || isNrrdName(name);
+}
+
+void writeSeriesFile(const TimeSeries& series, const fs::path& path, const WriteOptions& options) {
+    if (series.frames.empty()) throw UsageError(path.string() + ": cannot write a series without frames");
+    if (series.frames.size() == 1) {
+        writeVolumeFile(series.frames.front(), path, options);
+        return;
+    }
+    if (!formatHoldsSeries(path))
+        throw UsageError(
+            path.string() + ": this format holds one volume and the series has " +
+            std::to_string(series.frames.size()) +
+            " frames (.nii, .nii.gz, .nrrd and .nhdr hold them all, or write one file per frame)");
+    for (const Volume& v : series.frames)
+        if (v.empty()) throw UsageError(path.string() + ": cannot write an empty volume");
+    if (isNiftiName(path.filename().string())) {
+        io::writeNiftiSeries(series.frames, series.times, path, options);
+    } else if (options.niftiStoredValues && options.nifti && options.nifti->scales()) {
+        // As writeVolumeFile: only a NIfTI output keeps a scaled source's stored integers.
+        std::vector<Volume> units;
+        for (const Volume& v : series.frames)
+            units.push_back(niftiDataUnits(v, *options.nifti));
+        io::writeNrrdSeries(units, path, options);
+    } else {
+        io::writeNrrdSeries(series.frames, path, options);
+    }
 }
 
 std::vector<fs::path> volumeFilesWritten(const fs::path& path) {

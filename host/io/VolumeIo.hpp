@@ -43,6 +43,10 @@ struct ReadOptions {
     /// Largest memory one input may claim, in bytes (0 = defaultMemoryBudget(): half the physical
     /// memory). Size claims above it are refused before allocation; raise it to read larger inputs.
     std::size_t memoryBudget = 0;
+    /// NIfTI only: a file whose scl_slope/scl_inter scale an integer datatype the model holds
+    /// (niftiStoredValuesExact) gives its stored integers unscaled; without it (and for other datatypes)
+    /// every reader gives data units, float32(stored * slope + inter).
+    bool niftiStoredValues = false;
 };
 
 /// Reads every frame of a volume file (a 3D file gives one frame). Validates header against payload:
@@ -62,12 +66,26 @@ struct WriteOptions {
     /// .nii.gz output keeps its qform/sform, units, intent and scaling, a .vti its orientation. Without
     /// it a NIfTI output describes the volume's own spacing and origin.
     std::optional<NiftiMetadata> nifti;
+    /// The volume holds the stored integers of a scaled NIfTI source (`nifti` set and scaling): a NIfTI
+    /// output writes them unchanged with its scl_slope/scl_inter; every other output gets data units
+    /// (niftiDataUnits, float32).
+    bool niftiStoredValues = false;
 };
 
 /// Writers: Raw (.raw, .raw.gz), Nrrd (.nrrd attached, .nhdr detached + .raw), NIfTI-1 (.nii, .nii.gz),
 /// VTK XML ImageData (.vti, appended data in zlib blocks) and Vdb (.vdb). The format comes from the
 /// extension. Writes atomically (temporary + rename). Throws UsageError for an unsupported format.
 void writeVolumeFile(const Volume& volume, const std::filesystem::path& path,
+                     const WriteOptions& options = {});
+
+/// True when the output format of `path` holds several frames in one file (.nii, .nii.gz, .nrrd, .nhdr).
+bool formatHoldsSeries(const std::filesystem::path& path);
+
+/// Writes every frame of `series` into one file: a NIfTI output becomes 4D (dim[4] = frames, pixdim[4]
+/// the source's time step, else the series' even time step in seconds), a NRRD output 4D (a fourth axis
+/// of kind `list`; NRRD keeps no times); a one-frame series goes to any writer as writeVolumeFile does. Frames must share dims and type. Throws UsageError naming `path` when
+/// the format holds one volume and the series has more.
+void writeSeriesFile(const TimeSeries& series, const std::filesystem::path& path,
                      const WriteOptions& options = {});
 
 /// Every file writeVolumeFile(volume, path) creates: the path itself and, for a detached .nhdr, its .raw.
