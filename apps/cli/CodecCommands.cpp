@@ -9,6 +9,7 @@
 #include "core/runtime/ClRuntime.hpp"
 #include "core/runtime/Timing.hpp"
 #include "host/io/IoDetail.hpp"
+#include "host/io/NiftiMetadata.hpp"
 #include "host/io/Series.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "wavelet/Codec.hpp"

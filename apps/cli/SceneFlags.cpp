@@ -383,11 +383,8 @@ Volume SceneFlags::readSceneVolume(const Scene& s, std::vector<std::string>& not
         ComputeContext cc(device);
         Volume v = r.decodeFrame(cc, k);
         // The stored integers of a scaled NIfTI are shown in data units, as the .nii itself is.
-        const auto& md = r.header().metadata;
-        const auto values = md.find(std::string(kVczNiftiValuesKey));
-        const auto meta = md.find(std::string(kVczNiftiMetadataKey));
-        if (values != md.end() && values->second == "stored" && meta != md.end())
-            return niftiDataUnits(v, niftiMetadataFromText(meta->second, s.volume.string()));
+        if (const auto n = niftiFromVczMetadata(r.header().metadata, s.volume.string()); n && n->storedValues)
+            return niftiDataUnits(v, n->meta);
         return v;
     }
     std::vector<std::filesystem::path> files;

@@ -166,13 +166,9 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json) {
 
 WriteOptions vczWriteOptions(const VczHeader& h, const std::string& name) {
     WriteOptions wo;
-    if (const auto it = h.metadata.find(std::string(kVczNiftiMetadataKey)); it != h.metadata.end())
-        wo.nifti = niftiMetadataFromText(it->second, name);
-    if (const auto it = h.metadata.find(std::string(kVczNiftiValuesKey)); it != h.metadata.end()) {
-        if (it->second != "stored" || !wo.nifti)
-            throw IoError(name + ": metadata " + std::string(kVczNiftiValuesKey) + " '" + it->second +
-                          "' is not 'stored' with a NIfTI header");
-        wo.niftiStoredValues = wo.nifti->scales();
+    if (auto n = niftiFromVczMetadata(h.metadata, name)) {
+        wo.nifti = std::move(n->meta);
+        wo.niftiStoredValues = n->storedValues;
     }
     return wo;
 }

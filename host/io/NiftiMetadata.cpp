@@ -231,4 +231,17 @@ NiftiMetadata niftiMetadataFromText(std::string_view text, const std::string& na
     return m;
 }
 
+std::optional<VczNifti> niftiFromVczMetadata(const std::map<std::string, std::string>& metadata,
+                                             const std::string& name) {
+    const auto fields = metadata.find(std::string(kVczNiftiMetadataKey));
+    const auto values = metadata.find(std::string(kVczNiftiValuesKey));
+    if (values != metadata.end() && (values->second != "stored" || fields == metadata.end()))
+        throw IoError(name + ": metadata " + std::string(kVczNiftiValuesKey) + " '" + values->second +
+                      "' is not 'stored' with a NIfTI header");
+    if (fields == metadata.end()) return std::nullopt;
+    VczNifti n{niftiMetadataFromText(fields->second, name), false};
+    n.storedValues = values != metadata.end() && n.meta.scales();
+    return n;
+}
+
 } // namespace volcl

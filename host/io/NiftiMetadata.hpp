@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -43,6 +44,25 @@ struct NiftiMetadata {
     bool scales() const noexcept { return sclSlope != 0 && (sclSlope != 1 || sclInter != 0); }
     bool operator==(const NiftiMetadata&) const = default;
 };
+
+/// Metadata key under which `volcl encode` stores a NIfTI source's header fields (niftiMetadataToText), so a NIfTI output of `volcl decode` keeps the source's orientation. Files
+/// without it decode as before; readers that do not know it ignore it.
+inline constexpr std::string_view kVczNiftiMetadataKey = "volcl:nifti";
+/// Metadata key whose value "stored" says the voxels are the NIfTI source's stored integers and its
+/// scl_slope/scl_inter (under kVczNiftiMetadataKey) turn them into data units: value = stored * slope +
+/// inter. Without it the voxels are data units.
+inline constexpr std::string_view kVczNiftiValuesKey = "volcl:nifti-values";
+
+/// A .vcz's NIfTI fields, read from its key/value metadata by niftiFromVczMetadata.
+struct VczNifti {
+    NiftiMetadata meta;
+    /// The voxels are the source's stored integers and meta's scale turns them into data units.
+    bool storedValues = false;
+};
+/// The NIfTI fields a .vcz's metadata carries, or nullopt. Throws IoError naming `name` when the text is
+/// damaged or kVczNiftiValuesKey is other than "stored" or comes without the header fields.
+std::optional<VczNifti> niftiFromVczMetadata(const std::map<std::string, std::string>& metadata,
+                                             const std::string& name);
 
 /// True when scl_slope/scl_inter change values and the datatype is an integer type the volume model
 /// holds exactly (uint8, int16, uint16): a volume can then carry the file's stored integers, the scale

@@ -4,6 +4,7 @@
 
 #include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
+#include "host/io/NiftiMetadata.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/container/LodStatistics.hpp"
 
@@ -149,10 +150,13 @@ Decoded decoded(Volume v) {
 class Vcz {
 public:
     Vcz(const ByteArray& data, const std::string& name)
-        : reader_(std::vector<std::byte>(reinterpret_cast<const std::byte*>(data.data()),
-                                         reinterpret_cast<const std::byte*>(data.data()) + data.size()),
-                  name) {}
-    Vcz(std::vector<std::byte> bytes, const std::string& name) : reader_(std::move(bytes), name) {}
+        : Vcz(std::vector<std::byte>(reinterpret_cast<const std::byte*>(data.data()),
+                                     reinterpret_cast<const std::byte*>(data.data()) + data.size()),
+              name) {}
+    Vcz(std::vector<std::byte> bytes, const std::string& name) : reader_(std::move(bytes), name) {
+        if (auto n = niftiFromVczMetadata(reader_.header().metadata, name); n && n->storedValues)
+            storedScale_ = std::move(n->meta);
+    }
     /// Reads the file with the library's reader (the command line's messages for a missing file).
     static Vcz open(const std::string& path) {
         std::vector<std::byte> bytes;
@@ -164,11 +168,16 @@ public:
     }
 
     nb::dict header() const { return headerDict(reader_.header()); }
+    /// (scl_slope, scl_inter) when the voxels are a NIfTI source's stored integers, else None.
+    std::optional<std::array<double, 2>> storedScale() const {
+        if (!storedScale_) return std::nullopt;
+        return std::array<double, 2>{storedScale_->sclSlope, storedScale_->sclInter};
+    }
     std::size_t fileSize() const { return reader_.fileSize(); }
 
     Decoded decode(Context& context, std::optional<std::array<std::size_t, 3>> lo,
                    std::optional<std::array<std::size_t, 3>> hi, int level, std::size_t frame,
-                   unsigned threads) const {
+                   unsigned threads, bool stored) const {
         DecodeOptions o;
         if (lo || hi) {
             if (!lo || !hi) throw UsageError("region needs both corners (lo and hi)");
@@ -183,17 +192,18 @@ public:
             std::lock_guard lock(context.mutex);
             v = reader_.decode(context.cc, o);
         }
-        return decoded(std::move(v));
+        return decoded(inUnits(std::move(v), stored));
     }
 
-    Decoded decodeBrick(Context& context, std::size_t frame, std::size_t brick, int level) const {
+    Decoded decodeBrick(Context& context, std::size_t frame, std::size_t brick, int level,
+                        bool stored) const {
         Volume v;
         {
             nb::gil_scoped_release released;
             std::lock_guard lock(context.mutex);
             v = reader_.decodeBrick(context.cc, frame, brick, level);
         }
-        return decoded(std::move(v));
+        return decoded(inUnits(std::move(v), stored));
     }
 
     // Voxel index box of brick `i` at full resolution, as (z, y, x) corners [lo, hi).
@@ -207,7 +217,14 @@ public:
     }
 
 private:
+    // Data units, as the command line's outputs other than NIfTI and volcl.read of the .nii give them, unless
+    // the stored integers are asked for.
+    Volume inUnits(Volume v, bool stored) const {
+        return storedScale_ && !stored ? niftiDataUnits(v, *storedScale_) : v;
+    }
+
     VczReader reader_;
+    std::optional<NiftiMetadata> storedScale_;
 };
 
 } // namespace
@@ -225,9 +242,10 @@ void bindCodec(nb::module_& m) {
         .def_prop_ro("header", &Vcz::header)
         .def_prop_ro("file_size", &Vcz::fileSize)
         .def("decode", &Vcz::decode, nb::arg("context"), nb::arg("lo").none(), nb::arg("hi").none(),
-             nb::arg("level"), nb::arg("frame"), nb::arg("threads"))
+             nb::arg("level"), nb::arg("frame"), nb::arg("threads"), nb::arg("stored"))
+        .def_prop_ro("stored_scale", &Vcz::storedScale)
         .def("decode_brick", &Vcz::decodeBrick, nb::arg("context"), nb::arg("frame"), nb::arg("brick"),
-             nb::arg("level"))
+             nb::arg("level"), nb::arg("stored"))
         .def("brick_box", &Vcz::brickBox, nb::arg("brick"));
 }
 

@@ -3,6 +3,7 @@
 
 #include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
+#include "host/io/NiftiMetadata.hpp"
 #include "host/io/Series.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "wavelet/Codec.hpp"
@@ -34,11 +35,15 @@ nb::dict readFile(const std::string& path, Context* context) {
         if (hasVczExtension(path)) {
             if (!context) throw UsageError(path + ": reading a .vcz needs a device context");
             const VczReader reader(readFileBytes(path), path);
+            // A scaled NIfTI's stored integers come back in data units, as volcl.read of the .nii gives them.
+            const auto nifti = niftiFromVczMetadata(reader.header().metadata, path);
             std::lock_guard lock(context->mutex);
             for (std::size_t f = 0; f < reader.header().frames.size(); ++f) {
                 DecodeOptions o;
                 o.frame = f;
-                series.frames.push_back(reader.decode(context->cc, o));
+                Volume v = reader.decode(context->cc, o);
+                series.frames.push_back(nifti && nifti->storedValues ? niftiDataUnits(v, nifti->meta)
+                                                                     : std::move(v));
                 series.times.push_back(reader.header().frames[f].time);
             }
             format = "vcz";

@@ -306,3 +306,52 @@ def test_paraview_reader_gives_the_cli_voxels(tmp_path, mode):
         ref = cli_decode(vcz, k, tmp_path)
         assert got[k].dtype == ref.array.dtype and got[k].tobytes() == ref.array.tobytes(), k
         assert grids[k]["spacing"] == pytest.approx(SPACING) and grids[k]["origin"] == pytest.approx(ORIGIN)
+
+
+# ---- A scaled int16 NIfTI series: the command line keeps its integers, Python reads data units ---------------
+
+NIFTI_SCRIPT = r"""
+import sys, nibabel as nib, numpy as np
+out, npy = sys.argv[1:3]
+rng = np.random.default_rng(3)
+k, j, i, t = np.meshgrid(np.arange(5), np.arange(7), np.arange(9), np.arange(6), indexing="ij")
+stored = (200 * np.sin(0.7 * i + 0.3 * t) * np.cos(0.5 * j) + 40 * k + rng.integers(-9, 10, i.shape))
+stored = stored.astype(np.int16).transpose(2, 1, 0, 3)  # nibabel's axes: x, y, z, t
+img = nib.Nifti1Image(stored, np.diag([0.8, 1.1, 2.5, 1.0]))
+img.header.set_slope_inter(0.5, 3.0)
+img.header.set_xyzt_units("mm", "sec")
+img.header["pixdim"][4] = 2.5
+nib.save(img, out)
+np.save(npy, np.ascontiguousarray(stored.transpose(3, 2, 1, 0)))  # a[t, z, y, x]
+"""
+
+
+def test_scaled_nifti_series_reads_in_python_as_on_the_command_line(tmp_path):
+    if not SYSTEM_PYTHON.exists():
+        pytest.skip("/usr/bin/python3 (Debian's, with nibabel) is absent")
+    nii, npy = tmp_path / "f.nii.gz", tmp_path / "stored.npy"
+    proc = subprocess.run([str(SYSTEM_PYTHON), "-c", NIFTI_SCRIPT, str(nii), str(npy)], capture_output=True,
+                          text=True)
+    if proc.returncode != 0 and "No module named 'nibabel'" in proc.stderr:
+        pytest.skip("nibabel is not installed for /usr/bin/python3 (python3-nibabel)")
+    assert proc.returncode == 0, proc.stderr
+    stored = np.load(npy)
+    units = (stored.astype(np.float64) * 0.5 + 3.0).astype(np.float32)
+    vcz = tmp_path / "f.vcz"
+    run_cli("encode", str(nii), "-o", str(vcz))
+    f = volcl.VczFile(vcz)
+    assert len(f) == 6 and f.shape == stored.shape[1:]
+    assert f.stored_scale == (0.5, 3.0) and f.dtype == np.float32 and f.header["dtype"] == "int16"
+    exact = volcl.VczFile(vcz, stored_values=True)
+    assert exact.dtype == np.int16
+    from_nii = volcl.read(nii).array
+    from_vcz = volcl.read(vcz).array
+    assert from_vcz.dtype == from_nii.dtype and from_vcz.tobytes() == from_nii.tobytes() == units.tobytes()
+    for k in range(6):
+        out = tmp_path / f"frame{k}.raw"
+        run_cli("decode", str(vcz), "--frame", str(k), "-o", str(out))  # raw: float32 data units
+        cli = np.fromfile(out, dtype=np.float32).reshape(stored.shape[1:])
+        assert volcl.decode(vcz.read_bytes(), frame=k).tobytes() == cli.tobytes() == units[k].tobytes()
+        assert f[k].tobytes() == cli.tobytes()
+        assert exact[k].dtype == np.int16 and exact[k].tobytes() == stored[k].tobytes()
+        assert volcl.decode(vcz.read_bytes(), frame=k, stored_values=True).tobytes() == stored[k].tobytes()

@@ -146,12 +146,13 @@ class VczFile:
     """
 
     def __init__(self, source: Union[str, "os.PathLike[str]", bytes, bytearray, memoryview, np.ndarray], *,
-                 device: Optional[str] = None) -> None:
+                 device: Optional[str] = None, stored_values: bool = False) -> None:
         if isinstance(source, (bytes, bytearray, memoryview, np.ndarray)):
             self._vcz = _volcl.Vcz(_bytes_view(source), "input")
         else:
             self._vcz = _volcl.Vcz.open(os.fspath(source))
         self._device = device
+        self._stored = bool(stored_values)
         self.header: Dict[str, Any] = self._vcz.header
 
     @property
@@ -161,8 +162,20 @@ class VczFile:
 
     @property
     def dtype(self) -> np.dtype:
-        """numpy dtype of the voxels."""
+        """numpy dtype of the voxels reads give: float32 data units for a scaled NIfTI's stored integers
+        (unless opened with ``stored_values=True``), else the stored type."""
+        if self.stored_scale is not None and not self._stored:
+            return np.dtype(np.float32)
         return np.dtype(self.header["dtype"])
+
+    @property
+    def stored_scale(self) -> Optional[Tuple[float, float]]:
+        """(scl_slope, scl_inter) when the file holds a scaled NIfTI's stored integers (``volcl encode`` of
+        such a NIfTI keeps them exactly), else None. Reads give data units ``stored * slope + inter`` as
+        float32, as ``volcl.read`` of the .nii and ``volcl decode`` to formats other than NIfTI do; open the
+        file with ``stored_values=True`` for the integers."""
+        scale = self._vcz.stored_scale
+        return None if scale is None else (float(scale[0]), float(scale[1]))
 
     @property
     def spacing(self) -> Tuple[float, float, float]:
@@ -221,7 +234,7 @@ class VczFile:
         kept sample). The same voxels as ``volcl decode --frame K --level L --region ...``."""
         lo, hi = _region_corners(region, self.shape)
         array, spacing, origin = self._vcz.decode(_arrays.context(self._device), lo, hi, int(level), int(frame),
-                                                  int(threads))
+                                                  int(threads), self._stored)
         return Volume(array, tuple(spacing), tuple(origin), {"format": "vcz", **self.metadata})
 
     def __getitem__(self, key: Any) -> np.ndarray:
@@ -241,7 +254,8 @@ class VczFile:
 
     def brick(self, index: int, *, frame: int = 0, level: int = 0) -> np.ndarray:
         """Brick ``index`` of ``frame`` at ``level``, decoded alone (its checksum is checked first)."""
-        array, _, _ = self._vcz.decode_brick(_arrays.context(self._device), int(frame), int(index), int(level))
+        array, _, _ = self._vcz.decode_brick(_arrays.context(self._device), int(frame), int(index), int(level),
+                                             self._stored)
         return array
 
     def brick_box(self, index: int) -> Tuple[slice, slice, slice]:
@@ -256,10 +270,12 @@ class VczFile:
 
 
 def decode(data: Any, *, region: Optional[Region] = None, level: int = 0, frame: int = 0, threads: int = 2,
-           device: Optional[str] = None) -> np.ndarray:
+           device: Optional[str] = None, stored_values: bool = False) -> np.ndarray:
     """Decodes .vcz bytes (any bytes-like object) into an array ``a[z, y, x]``, as ``volcl decode`` does:
     the whole frame, a ``region`` ("x0,y0,z0:x1,y1,z1" or slices (z, y, x)), a coarser ``level``
     (2^level-downsampled, no finer detail decoded), a ``frame`` of a series. The array owns the decoder's
     output (no copy); the GIL is released while the decoder runs. Use :class:`VczFile` for the grid and
-    repeated access."""
-    return VczFile(data, device=device).read(frame=frame, level=level, region=region, threads=threads).array
+    repeated access. A scaled NIfTI's stored integers come back in float32 data units unless
+    ``stored_values`` (see :attr:`VczFile.stored_scale`)."""
+    return VczFile(data, device=device, stored_values=stored_values).read(frame=frame, level=level, region=region,
+                                                                          threads=threads).array

@@ -15,14 +15,8 @@
 
 namespace volcl {
 
-/// Metadata key under which `volcl encode` stores a NIfTI source's header fields (niftiMetadataToText in
-/// host/io/NiftiMetadata.hpp), so a NIfTI output of `volcl decode` keeps the source's orientation. Files
-/// without it decode as before; readers that do not know it ignore it.
-inline constexpr std::string_view kVczNiftiMetadataKey = "volcl:nifti";
-/// Metadata key whose value "stored" says the voxels are the NIfTI source's stored integers and its
-/// scl_slope/scl_inter (under kVczNiftiMetadataKey) turn them into data units: value = stored * slope +
-/// inter. Without it the voxels are data units.
-inline constexpr std::string_view kVczNiftiValuesKey = "volcl:nifti-values";
+// The NIfTI metadata keys of a .vcz (kVczNiftiMetadataKey, kVczNiftiValuesKey) are in
+// host/io/NiftiMetadata.hpp with the code that reads them.
 
 /// What the bricks hold. Stored in .vcz files: never renumber.
 enum class TransformKind : std::uint8_t {
