@@ -25,19 +25,19 @@ int main(int argc, char** argv) {
     cl_program program = clCreateProgramWithSource(context, 1, &source, NULL, NULL);
     if (clBuildProgram(program, 1, &device, "", NULL, NULL) != CL_SUCCESS) return 2;
     cl_kernel kernel = clCreateKernel(program, "k", NULL);
-    static unsigned char host[64] = {4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4,
-                                     4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4,
-                                     4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4,
-                                     4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4};
+    static unsigned char host[64] = {4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4,
+                                     4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4,
+                                     4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4, 4};
     cl_mem in = NULL;
     if (strcmp(mode, "use") == 0 || strcmp(mode, "copy") == 0) {
         const cl_mem_flags flags = mode[0] == 'u' ? CL_MEM_USE_HOST_PTR : CL_MEM_COPY_HOST_PTR;
         in = clCreateBuffer(context, CL_MEM_READ_ONLY | flags, sizeof host, host, NULL);
     } else {
         in = clCreateBuffer(context, CL_MEM_READ_ONLY, sizeof host, NULL, NULL);
-        const cl_int err = strcmp(mode, "fill") == 0
-                               ? clEnqueueFillBuffer(queue, in, host, 16, 0, sizeof host, 0, NULL, NULL)
-                               : clEnqueueWriteBuffer(queue, in, CL_TRUE, 0, sizeof host, host, 0, NULL, NULL);
+        const cl_int err =
+            strcmp(mode, "fill") == 0
+                ? clEnqueueFillBuffer(queue, in, host, 16, 0, sizeof host, 0, NULL, NULL)
+                : clEnqueueWriteBuffer(queue, in, CL_TRUE, 0, sizeof host, host, 0, NULL, NULL);
         if (err != CL_SUCCESS) return 2;
     }
     cl_mem out = clCreateBuffer(context, CL_MEM_WRITE_ONLY, sizeof(int), NULL, NULL);
