@@ -199,9 +199,9 @@ same_image bricks_iso.exr 1e-4
 echo "== tetrahedral meshes: cell ray caster and k-buffer (radix sort)"
 M=("$volcl" -q render --volume "$work/in/cubes.vtk" --tf "$tf" --width 12 --height 10 --view iso --table-size 16
   --table-lengths 4)
-# Optimised, Oclgrind 21.10 leaves 16 of the 120 pixels of this cell-caster image empty (PoCL and the
-# unoptimised build on Oclgrind agree, with no report either way): see docs/reliability.md.
-OCLGRIND_BUILD_OPTIONS=-cl-opt-disable both cells cells.exr "${M[@]}" --method cells
+# At Oclgrind's default optimisation (-Oz) 16 of the 120 pixels of this cell-caster image stay empty; at
+# -O0 to -O3 and -Os it matches PoCL, with no report either way: see docs/reliability.md, Open.
+OCLGRIND_BUILD_OPTIONS=-O2 both cells cells.exr "${M[@]}" --method cells
 both kbuffer kbuffer.exr "${M[@]}" --method kbuffer --k 4
 same_image cells.exr 1e-4
 same_image kbuffer.exr 1e-4
