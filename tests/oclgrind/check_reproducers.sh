@@ -17,6 +17,12 @@ out=$(oclgrind-kernel int_clamp_scalar.sim 2>&1)
 [[ $(dumped "$out" vectorBounds) == "2 2 2 3 4 4 4 4 " ]] || fail "int_clamp_scalar: vector bounds: $(dumped "$out" vectorBounds)"
 [[ $(dumped "$out" scalarBounds) != "2 2 2 3 4 4 4 4 " ]] || fail "int_clamp_scalar: the scalar-bound defect is gone"
 
+# One lane of a vector compare as a bool: 255 at Oclgrind's default -Oz, 1 at -O2.
+out=$(oclgrind-kernel vector_compare_lane.sim 2>&1)
+[[ $(dumped "$out" out) == "255 255 255 255 " ]] || fail "vector_compare_lane -Oz: the defect is gone: $(dumped "$out" out)"
+out=$(oclgrind-kernel --build-options -O2 vector_compare_lane.sim 2>&1)
+[[ $(dumped "$out" out) == "1 1 1 1 " ]] || fail "vector_compare_lane -O2: $(dumped "$out" out)"
+
 # fmax of float16 halves: a false uninitialised report, optimised or not; the scalar tree has none.
 for opt in "" -cl-opt-disable; do
   out=$(oclgrind-kernel --uninitialized ${opt:+--build-options $opt} fmax_half_vectors.sim 2>&1)
