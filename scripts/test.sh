@@ -6,7 +6,13 @@ bash scripts/setup.sh
 jobs=$(nproc 2>/dev/null || echo 2)
 
 echo "== tests (Release build)"
-ctest --test-dir build --output-on-failure -j"$jobs" --timeout 900
+ctest --test-dir build --output-on-failure -j"$jobs" --timeout 900 -LE oclgrind
+
+# ==== kernels on Oclgrind (a separate block; see docs/reliability.md) ====
+# A tiny case of every kernel family on Oclgrind, a second OpenCL implementation that checks every memory
+# access and data race: any report, or any difference from PoCL beyond the stated tolerance, fails.
+echo "== kernels on Oclgrind"
+ctest --test-dir build --output-on-failure -L oclgrind --timeout 900
 
 # ==== Python package (a separate block; see docs/python.md) ====
 # pip install . into build/venv (reusing build/: only the module compiles), then the pytest suite, which

@@ -86,10 +86,12 @@ inline Volume makeFloatVolume(Dims d, const std::function<double(double, double,
     return v;
 }
 
-/// One ComputeContext per test process: building contexts and kernels repeatedly only costs time.
+/// One ComputeContext per test process: building contexts and kernels repeatedly only costs time. Never
+/// destroyed: released by an exit handler, Oclgrind's context frees into LLVM state its library has already
+/// torn down, and the process aborts after passing tests (tests/oclgrind/run_kernels.sh runs tests there).
 inline ComputeContext& computeContext() {
-    static ComputeContext cc;
-    return cc;
+    static ComputeContext* cc = new ComputeContext;
+    return *cc;
 }
 
 /// Orthographic camera looking along +z at the centre of a box of `n` voxels, view height `h`, w x ht

@@ -291,6 +291,21 @@ TEST(MotionCompensation, RandomFieldsMatchTheReferenceOnEveryPath) {
     }
 }
 
+TEST(MotionCompensation, TinyVolumeMatchesTheReferenceOnBothKernels) {
+    // The per-voxel kernel (blocks of 4) and the row kernel (blocks of 8) on a 13 x 9 x 6 volume: small
+    // enough for tests/oclgrind/run_kernels.sh to run both on Oclgrind.
+    ComputeContext& cc = test::computeContext();
+    MotionCompensator comp(cc);
+    const Dims d{13, 9, 6};
+    std::mt19937 rng(3);
+    const Volume r0 = asType(blobs(d, 5), ScalarType::UInt8), r1 = asType(blobs(d, 6), ScalarType::UInt8);
+    for (std::size_t size : {4u, 8u}) {
+        const MotionField f = randomField(d, size, rng);
+        const Volume k = comp.compensate(cc, f, r0, &r1), ref = compensateReference(f, r0, &r1);
+        EXPECT_LE(maxAbsDiff(k, ref), 1e-5 * range(r0)) << "block size " << size;
+    }
+}
+
 TEST(MotionCompensation, FusedReconstructionEqualsRoundedPredictionPlusResidual) {
     // The decoder's one-pass reconstruction against the host's steps on the compensation kernel's output
     // (quantisedPrediction, then addResidual), bit for bit: every voxel type, every row-kernel block size and

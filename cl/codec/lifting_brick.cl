@@ -316,6 +316,17 @@ ALWAYS_INLINE void store_part(global T* p, V v, int count, int room) {
             p[i] = t[i];
     }
 }
+/* 16 elements from p, or the first `room` (>= 1) of them and zeros when fewer are left in the brick: the
+   inverse's unaligned loads may reach 16 elements past the row (lanes nothing reads), and past the pitch of
+   a brick's last row lies the next brick, which another work-item may be writing: reading it there is a
+   data race (Oclgrind reports it), whatever the lanes are used for. */
+ALWAYS_INLINE V load_part(global const T* p, size_t room) {
+    if (room >= 16) return LDG(p);
+    T t[16];
+    for (int i = 0; i < 16; ++i)
+        t[i] = i < (int)room ? p[i] : (T)0;
+    return LD(t);
+}
 /* x[m + 1] of a half (lo = x[0..16), hi = x[16..32)) of length len: x[m] itself at m = len - 1, which is
    where the whole-sample symmetric extension sends e[ms] for even n (other lanes past len: don't care). */
 #define NEXT(lo, hi, len, nlo, nhi)                                                                          \
@@ -350,8 +361,8 @@ ALWAYS_INLINE void store_part(global T* p, V v, int count, int room) {
 #define ZIP_LO (uint16)(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23)
 #define ZIP_HI (uint16)(8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31)
 
-/* One row of 2 <= n <= 64 samples, in place. */
-ALWAYS_INLINE void lift_row64(global T* row, int n, int px) {
+/* One row of 2 <= n <= 64 samples, in place; `room` elements from row to the end of the brick. */
+ALWAYS_INLINE void lift_row64(global T* row, int n, int px, size_t room) {
     const int ms = (n + 1) >> 1, md = n >> 1;
     V e0, e1, o0, o1;
 #ifndef LIFT_INVERSE
@@ -384,8 +395,8 @@ ALWAYS_INLINE void lift_row64(global T* row, int n, int px) {
 #else
     e0 = LDG(row);
     e1 = ms > 16 ? LDG(row + 16) : e0;
-    o0 = LDG(row + ms);
-    o1 = md > 16 ? LDG(row + ms + 16) : o0;
+    o0 = load_part(row + ms, room - (size_t)ms);
+    o1 = md > 16 ? load_part(row + ms + 16, room - (size_t)ms - 16) : o0;
 #if WAVELET == 0
     UPDATE(-, UPD53)
     PREDICT(-, PRED53)
@@ -501,7 +512,8 @@ inline void lift_level(global T* brick, int px, int by, int nx, int ny, int nz) 
             } else if (nx <= 64) {
                 for (int z = 0; z < nz; ++z)
                     for (int y = 0; y < ny; ++y)
-                        lift_row64(brick + z * plane + (size_t)y * px, nx, px);
+                        lift_row64(brick + z * plane + (size_t)y * px, nx, px,
+                                   ((size_t)(nz - z) * by - (size_t)y) * px); /* at least what is left */
 #endif
             } else {
                 for (int z = 0; z < nz; ++z)

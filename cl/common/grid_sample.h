@@ -189,9 +189,11 @@ PACKET_INLINE float8 sample_volume8(__global const voxel_t* vol, const VolclGrid
     px = clamp(px, 0.0f, (float)hx);
     py = clamp(py, 0.0f, (float)hy);
     pz = clamp(pz, 0.0f, (float)hz);
-    const int8 ix = min(convert_int8(floor(px)), max(hx - 1, 0));
-    const int8 iy = min(convert_int8(floor(py)), max(hy - 1, 0));
-    const int8 iz = min(convert_int8(floor(pz)), max(hz - 1, 0));
+    /* Integer min/max/clamp of a vector get vector bounds throughout the packet code: Oclgrind 21.10 computes
+       the (vector, scalar) overloads wrongly in every lane but the first (tests/oclgrind/int_clamp_scalar.cl). */
+    const int8 ix = min(convert_int8(floor(px)), (int8)(max(hx - 1, 0)));
+    const int8 iy = min(convert_int8(floor(py)), (int8)(max(hy - 1, 0)));
+    const int8 iz = min(convert_int8(floor(pz)), (int8)(max(hz - 1, 0)));
     const float8 fx = px - convert_float8(ix), fy = py - convert_float8(iy), fz = pz - convert_float8(iz);
     const uint nx = G->dims[0];
     const uint8 xi = convert_uint8(ix);
@@ -220,7 +222,8 @@ PACKET_INLINE float8 sample_volume8(__global const voxel_t* vol, const VolclGrid
 #else
     const uint nxy = nx * G->dims[1];
     const uint8 z0 = convert_uint8(iz) * nxy, y0 = convert_uint8(iy) * nx;
-    const uint8 z1 = convert_uint8(min(iz + 1, hz)) * nxy, y1 = convert_uint8(min(iy + 1, hy)) * nx;
+    const uint8 z1 = convert_uint8(min(iz + 1, (int8)(hz))) * nxy,
+                y1 = convert_uint8(min(iy + 1, (int8)(hy))) * nx;
     LaneU b00, b10, b01, b11;
     b00.v = z0 + y0 + xi;
     b10.v = z0 + y1 + xi;

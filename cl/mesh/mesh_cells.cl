@@ -350,20 +350,23 @@ inline void cell_segment(const MeshData* M, const VolclMeshRenderParams* Pc, con
 }
 
 /* Asks for tet's record ahead of its step: the rays of a work-item take turns, so it arrives while the others
-   step (a chain of dependent loads otherwise). OpenCL's prefetch() is a no-op on PoCL; clang's builtin is used
-   where the compiler has it. */
-#if defined(__has_builtin)
+   step (a chain of dependent loads otherwise). clang's builtin is used where the compiler targets a machine
+   (PoCL: x86-64); elsewhere nothing is asked (a prefetch is only a hint). Not for SPIR targets: Oclgrind, which
+   interprets SPIR, has neither llvm.prefetch (the builtin's lowering) nor OpenCL's prefetch(), and a program
+   calling either has no kernels there (clCreateKernel: CL_INVALID_KERNEL_NAME). */
+#if defined(__has_builtin) && !defined(__SPIR__)
 #if __has_builtin(__builtin_prefetch)
 #define CELL_PREFETCH_BUILTIN
 #endif
 #endif
 inline void cell_prefetch(const MeshData* M, uint tet) {
-    __global const float4* c = M->cells + CELL_STRIDE * (size_t)tet;
 #ifdef CELL_PREFETCH_BUILTIN
+    __global const float4* c = M->cells + CELL_STRIDE * (size_t)tet;
     __builtin_prefetch(c);
     __builtin_prefetch(c + 4);
 #else
-    prefetch(c, CELL_STRIDE);
+    (void)M;
+    (void)tet;
 #endif
 }
 

@@ -280,11 +280,12 @@ __kernel void preint_exact(__global const VolclTfKnot* knots, uint knotCount, ui
 }
 
 #if LANES == 16
+/* The largest lane, as a tree of scalar fmax (the same value in any order). Not fmax(v.lo, v.hi): Oclgrind
+   reports a part of a 16-lane vector passed to a builtin as uninitialised (tests/oclgrind/fmax_half_vectors.cl),
+   more than a thousand false reports per table. */
 inline REAL preint_hmax(VEC v) {
-    CAT(REAL, 8) a = fmax(v.lo, v.hi);
-    CAT(REAL, 4) b = fmax(a.lo, a.hi);
-    CAT(REAL, 2) c = fmax(b.lo, b.hi);
-    return fmax(c.x, c.y);
+    return fmax(fmax(fmax(fmax(v.s0, v.s1), fmax(v.s2, v.s3)), fmax(fmax(v.s4, v.s5), fmax(v.s6, v.s7))),
+                fmax(fmax(fmax(v.s8, v.s9), fmax(v.sa, v.sb)), fmax(fmax(v.sc, v.sd), fmax(v.se, v.sf))));
 }
 
 /* One direction of the 2D walk for 16 segments that share s_f (lanes = 16 consecutive back nodes). `dir` = +1

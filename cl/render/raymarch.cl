@@ -472,9 +472,10 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 PACKET_INLINE uint8 macro_cell8(const VolclGridRenderParams* P, const RayPacket* r, float8 t, float8* exitT) {
     const float8 px = r->ox + t * r->dx, py = r->oy + t * r->dy, pz = r->oz + t * r->dz;
     const float B = (float)P->grid.macroDims[3];
-    const int8 cx = clamp(convert_int8(floor(px / B)), 0, (int)P->grid.macroDims[0] - 1);
-    const int8 cy = clamp(convert_int8(floor(py / B)), 0, (int)P->grid.macroDims[1] - 1);
-    const int8 cz = clamp(convert_int8(floor(pz / B)), 0, (int)P->grid.macroDims[2] - 1);
+    /* vector bounds: see sample_volume8 */
+    const int8 cx = clamp(convert_int8(floor(px / B)), (int8)(0), (int8)((int)P->grid.macroDims[0] - 1));
+    const int8 cy = clamp(convert_int8(floor(py / B)), (int8)(0), (int8)((int)P->grid.macroDims[1] - 1));
+    const int8 cz = clamp(convert_int8(floor(pz / B)), (int8)(0), (int8)((int)P->grid.macroDims[2] - 1));
     const float8 lx = convert_float8(cx) * B, ly = convert_float8(cy) * B, lz = convert_float8(cz) * B;
     const float8 hx = fmin(lx + B, (float)(P->grid.dims[0] - 1)),
                  hy = fmin(ly + B, (float)(P->grid.dims[1] - 1)),

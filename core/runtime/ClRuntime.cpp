@@ -106,8 +106,10 @@ std::vector<DeviceInfo> listDevices() {
             info.version = trimmed(deviceInfo<std::string>(d, CL_DEVICE_VERSION));
             info.driver = trimmed(deviceInfo<std::string>(d, CL_DRIVER_VERSION));
             auto type = deviceInfo<cl_device_type>(d, CL_DEVICE_TYPE);
-            info.isCpu = (type & CL_DEVICE_TYPE_CPU) != 0;
+            // A device that reports several types (Oclgrind reports CPU, GPU and accelerator) is taken as a
+            // GPU: it gets the device profile's generic entry and its own buffers, not the CPU's in-place ones.
             info.isGpu = (type & CL_DEVICE_TYPE_GPU) != 0;
+            info.isCpu = (type & CL_DEVICE_TYPE_CPU) != 0 && !info.isGpu;
             info.computeUnits = deviceInfo<cl_uint>(d, CL_DEVICE_MAX_COMPUTE_UNITS);
             info.globalMemBytes = deviceInfo<cl_ulong>(d, CL_DEVICE_GLOBAL_MEM_SIZE);
             info.maxAllocBytes = deviceInfo<cl_ulong>(d, CL_DEVICE_MAX_MEM_ALLOC_SIZE);
