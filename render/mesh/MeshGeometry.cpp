@@ -138,19 +138,21 @@ std::vector<std::uint8_t> hullFaces(const mesh::TetMesh& m, const BoundaryBvh& b
 }
 
 std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bvh, const Vec3& o,
-                                   const Vec3& d, double tMin, const std::vector<mesh::FaceId>& exclude,
-                                   double tolerance) {
+                                   const Vec3& d, double tMin, double tExitMin,
+                                   const std::vector<mesh::FaceId>& exclude, double tolerance) {
     if (bvh.nodes.empty()) return std::nullopt;
     const Vec3 inv{1.0 / d[0], 1.0 / d[1], 1.0 / d[2]};
     double best = std::numeric_limits<double>::infinity();
     mesh::FaceId bestFace = mesh::kNoFace;
+    bool bestEntering = true;
+    const double tLow = std::min(tMin, tExitMin);
     std::uint32_t stack[128];
     int top = 0;
     stack[top++] = 0;
     while (top > 0) {
         const BvhNode& node = bvh.nodes[stack[--top]];
         // Slab test; a zero direction component gives +-inf and NaN-free comparisons via min/max order.
-        double t0 = tMin, t1 = best;
+        double t0 = tLow, t1 = best;
         bool miss = false;
         for (int a = 0; a < 3 && !miss; ++a) {
             if (d[a] == 0.0) {
@@ -179,7 +181,7 @@ std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bv
             const Vec3 e1 = sub(m.points[v[1]], a), e2 = sub(m.points[v[2]], a);
             const Vec3 n = cross(e1, e2);
             const double nd = dot(n, d);
-            if (!(nd < 0.0)) continue; // leaving or parallel: not an entry
+            if (nd == 0.0) continue; // parallel
             // Moller-Trumbore with barycentric tolerance.
             const Vec3 p = cross(d, e2);
             const double det = dot(e1, p);
@@ -192,14 +194,46 @@ std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bv
             const double w = dot(d, q) * invDet;
             if (w < -tolerance || u + w > 1.0 + tolerance) continue;
             const double t = dot(e2, q) * invDet;
-            if (t >= tMin && t < best) {
+            const bool entering = nd < 0.0;
+            if ((entering ? t >= tMin : t > tExitMin) && t < best) {
                 best = t;
                 bestFace = f;
+                bestEntering = entering;
             }
         }
     }
     if (bestFace == mesh::kNoFace) return std::nullopt;
-    return EntryHit{bestFace, best};
+    return EntryHit{bestFace, best, bestEntering};
+}
+
+WalkStart locateBack(const mesh::TetMesh& m, const Vec3& o, const Vec3& d, mesh::FaceId exitFace,
+                     double tExit, double tMin, std::size_t stepLimit) {
+    WalkStart at{mesh::faceTet(exitFace), 4, tMin};
+    unsigned came = mesh::faceLocal(exitFace);
+    double t = tExit;
+    for (std::size_t step = 0; step < stepLimit; ++step) {
+        // Against d the ray leaves the tet through the face plane with the largest t behind it (dot(n, d) < 0).
+        double back = -std::numeric_limits<double>::infinity();
+        int face = -1;
+        for (unsigned f = 0; f < 4; ++f) {
+            if (f == came) continue;
+            const FacePlane pl = facePlane(m, mesh::faceId(at.tet, f));
+            const double nd = dot(pl.normal, d);
+            if (!(nd < 0.0)) continue;
+            const double tf = std::min(dot(pl.normal, sub(pl.vertex, o)) / nd, t);
+            if (tf > back) {
+                back = tf;
+                face = int(f);
+            }
+        }
+        if (face < 0 || back <= tMin) return at; // the point at tMin is in this tet
+        const mesh::FaceId nb = m.neighbors[mesh::faceId(at.tet, unsigned(face))];
+        if (nb == mesh::kNoFace) return {at.tet, unsigned(face), back}; // outside before `back`: enter here
+        at.tet = mesh::faceTet(nb);
+        came = mesh::faceLocal(nb);
+        t = back;
+    }
+    return at;
 }
 
 } // namespace volcl::mesh_detail

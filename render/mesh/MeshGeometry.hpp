@@ -48,17 +48,32 @@ BoundaryBvh buildBoundaryBvh(const mesh::TetMesh& m);
 /// the BVH's boxes.
 std::vector<std::uint8_t> hullFaces(const mesh::TetMesh& m, const BoundaryBvh& bvh);
 
-/// Where a ray enters the mesh: an entering boundary face (its outward normal against the ray) and the ray
-/// parameter of the hit.
+/// Where a ray meets the boundary: the face, the ray parameter of the hit, and whether the ray enters the
+/// mesh there (the face's outward normal against the ray) or leaves it.
 struct EntryHit {
     mesh::FaceId face = mesh::kNoFace;
     double t = 0.0;
+    bool entering = true;
 };
-/// The nearest entering boundary face hit at t >= tMin, skipping the faces in `exclude` (the recent entries
-/// of this ray, so a ray through a boundary edge enters each side once). Hits count up to `tolerance` in
-/// barycentric coordinates outside a triangle, so a ray through a shared edge or vertex hits at least one.
+/// The nearest boundary face hit by the ray: an entering face at t >= tMin or a leaving face at t > tExitMin,
+/// skipping the faces in `exclude` (the recent entries of this ray, so a ray through a boundary edge enters
+/// each side once). Hits count up to `tolerance` in barycentric coordinates outside a triangle, so a ray
+/// through a shared edge or vertex hits at least one. A leaving face found first means the ray is already
+/// inside the mesh before it (a camera inside the mesh, or tets overlapping past a boundary face).
 std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bvh, const Vec3& o,
-                                   const Vec3& d, double tMin, const std::vector<mesh::FaceId>& exclude,
-                                   double tolerance = 1e-12);
+                                   const Vec3& d, double tMin, double tExitMin,
+                                   const std::vector<mesh::FaceId>& exclude, double tolerance = 1e-12);
+
+/// Where a ray that is inside the mesh at tMin stands: walking back (against d) from the leaving boundary face
+/// `exitFace`, hit at tExit, through face-adjacent tets. Returns the tet holding the point at tMin with
+/// `entered` 4 (none) and t = tMin, or, when the walk back leaves the mesh at t > tMin (the ray was outside
+/// there after all), the tet and face it enters by at that t. At most `stepLimit` tets are crossed.
+struct WalkStart {
+    std::size_t tet = 0;
+    unsigned entered = 4;
+    double t = 0.0;
+};
+WalkStart locateBack(const mesh::TetMesh& m, const Vec3& o, const Vec3& d, mesh::FaceId exitFace,
+                     double tExit, double tMin, std::size_t stepLimit);
 
 } // namespace volcl::mesh_detail

@@ -105,13 +105,24 @@ public:
         const std::size_t stepLimit = 8 * m_.tets.size() + 1024;
         std::size_t steps = 0;
         while (steps < stepLimit) {
-            const auto hit = mesh_detail::firstEntry(m_, bvh_, o, d, tMin - eps_, recent);
+            // Past the last exit the ray may enter again, or (a camera inside the mesh, overlapping tets) be
+            // inside already: the nearest boundary hit of either kind says which.
+            const auto hit = mesh_detail::firstEntry(m_, bvh_, o, d, tMin - eps_, tMin + eps_, recent);
             if (!hit || hit->t > px.c1) break;
-            if (recent.size() == 4) recent.erase(recent.begin());
-            recent.push_back(hit->face);
+            ++steps; // every search moves on: a leaving hit lies past tMin, an entering face is not met twice
             std::size_t tet = mesh::faceTet(hit->face);
             unsigned entered = mesh::faceLocal(hit->face);
             double t = hit->t;
+            if (hit->entering) {
+                if (recent.size() == 4) recent.erase(recent.begin());
+                recent.push_back(hit->face);
+            } else {
+                const mesh_detail::WalkStart at =
+                    mesh_detail::locateBack(m_, o, d, hit->face, hit->t, tMin, stepLimit - steps);
+                tet = at.tet;
+                entered = at.entered;
+                t = at.t;
+            }
             for (; steps < stepLimit; ++steps) {
                 double best = std::numeric_limits<double>::infinity(), bestNd = -1.0;
                 int exitFace = -1, steepest = -1;

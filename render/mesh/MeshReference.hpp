@@ -23,7 +23,10 @@ EffectPlan planMeshEffects(const Scene& scene, const mesh::TetMesh& mesh);
 /// Renders the scene of a mesh exactly, in double, on the host (ReferenceOptions::threads threads; the step
 /// is unused: nothing is sampled). Rays start at t = 0 (the eye), enter at boundary faces (a BVH of them),
 /// walk face-adjacent tets leaving each through the nearest face plane ahead, and re-enter after a
-/// boundary exit (non-convex meshes, holes); only the parts inside the mesh and the clip planes count.
+/// boundary exit (non-convex meshes, holes, any number of times); only the parts inside the mesh and the clip
+/// planes count. When the nearest boundary face ahead is one the ray leaves by (an eye inside the mesh, or tets
+/// folded over one another past a boundary face) the walk starts in the tet holding the ray's point, found by
+/// walking back from that face, so every part of the ray inside some tet counts once.
 /// Per mode:
 /// - dvr: each segment [t_a, t_b] of a tet has s linear from s_a to s_b; its colour and opacity are the
 ///   exact emission-absorption integral of the TF (the pre-integration reference), composited front to
