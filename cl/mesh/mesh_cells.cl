@@ -6,7 +6,8 @@
    iso crossings are exact; mip takes the segment ends; xray integrates tau exactly. Everything runs in the
    mesh's normalised frame (VolclMeshParams).
    Defines: MODE (0 dvr, 1 mip, 2 iso, 3 xray), MIP_COLOR, PREINT, ISO_COUNT, SHADING, CLIPPING, SKIPPING,
-   EARLY_TERMINATION. */
+   EARLY_TERMINATION, MESH_OVERLAPS (the mesh has overlapping or non-manifold face pairs: tets that
+   overlap). */
 #include "common/camera_rays.h"
 #include "common/shading.h"
 #include "common/tf_lookup.h"
@@ -76,14 +77,19 @@ inline void leaf_faces(const MeshData* M, uint first, uint count, float3 o, floa
         for (int r = 0; r < RECENT; ++r)
             skip |= recent[r] == face;
         if (skip) continue;
-        const float nd = dot(cross(e1.xyz, e2.xyz), d);
+        const float3 n = cross(e1.xyz, e2.xyz);
+        const float nd = dot(n, d);
         const int entering = nd < 0.0f;
         if (!entering && !(nd > 0.0f && tExitMin < INFINITY)) continue;
+        const float3 s = o - a.xyz;
+        /* The plane's t first (a little slack for rounding): most faces of a visited leaf lie behind the best hit
+           or before the search's start, and need no triangle test. */
+        const float tPlane = -dot(n, s) / nd;
+        if (!(tPlane <= best->t + 1e-5f && tPlane >= (entering ? tMin : tExitMin) - 1e-5f)) continue;
         const float3 p = cross(d, e2.xyz);
         const float det = dot(e1.xyz, p);
         if (det == 0.0f) continue;
         const float invDet = 1.0f / det;
-        const float3 s = o - a.xyz;
         const float bu = dot(s, p) * invDet;
         const float tol = 1e-5f;
         if (bu < -tol || bu > 1.0f + tol) continue;
@@ -547,8 +553,11 @@ inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderPara
     if (nb >=
         VOLCL_MESH_HULL_FACE) { /* left the mesh: for good through a hull face, else look for a re-entry */
         w->tMin = w->t;
-        /* Past a boundary face not on the hull the ray may still be inside tets folded over it. */
+#ifdef MESH_OVERLAPS
+        /* Past a boundary face not on the hull the ray may still be inside tets folded over it. In a mesh
+           without overlaps it is outside, and the next boundary face it meets is an entering one. */
         w->mayBeInside = 1;
+#endif
         w->phase = nb == VOLCL_MESH_HULL_FACE ? PHASE_DONE : PHASE_ENTRY;
         return;
     }

@@ -167,6 +167,9 @@ void MeshRenderer::rebuild(const Rebuild& change) {
     updateEmptiness(change.shaded, preint);
     KernelDefines defines = plan_.defines;
     defines.set("RAYS_X", cc_.profile().mesh.cellRaysX).set("RAYS_Y", cc_.profile().mesh.cellRaysY);
+    // Only where tets overlap (a fold leaves a face pair on one side) can a ray still be inside the mesh after
+    // leaving through a boundary face; re-oriented tets alone (a file's winding convention) do not overlap.
+    if (mesh_.repairs.overlappingFaces + mesh_.repairs.nonManifoldFaces > 0) defines.set("MESH_OVERLAPS", 1);
     impl_->kernel = cc_.kernel("mesh/mesh_cells.cl", "mesh_cells", defines);
     updateParams(change.shaded);
 }
