@@ -1,13 +1,14 @@
 /* Exact cell ray casting of a tetrahedral mesh: rays enter at boundary faces (a BVH of them), walk
    face-adjacent tets leaving each through the nearest face plane ahead, and re-enter after leaving a
-   non-convex mesh; a ray already inside (camera in the mesh, overlapping tets past a boundary face) starts in
-   the tet found by walking back from the boundary face it leaves by. Each cell segment has a linear scalar: dvr
+   non-convex mesh; a ray already inside (camera in the mesh) starts in the tet found by walking back from the
+   boundary face it leaves by. Where tets may overlap (MESH_OVERLAPS) a ray walks from every entry along its line
+   and counts the union of the walks' intervals. Each cell segment has a linear scalar: dvr
    looks it up in the 3D pre-integration table (PREINT 3) or point-samples it every render.step (no PREINT);
    iso crossings are exact; mip takes the segment ends; xray integrates tau exactly. Everything runs in the
    mesh's normalised frame (VolclMeshParams).
    Defines: MODE (0 dvr, 1 mip, 2 iso, 3 xray), MIP_COLOR, PREINT, ISO_COUNT, SHADING, CLIPPING, SKIPPING,
-   EARLY_TERMINATION, MESH_OVERLAPS (the mesh has overlapping or non-manifold face pairs: tets that
-   overlap). */
+   EARLY_TERMINATION, MESH_OVERLAPS (tets may overlap: folded tets, interpenetrating components; see
+   ray_advance). */
 #include "common/camera_rays.h"
 #include "common/shading.h"
 #include "common/tf_lookup.h"
@@ -387,6 +388,7 @@ typedef struct {
     float3 o, d;
     float2 clip;
     float tOffset, t, tMin;
+    float covered; /* MESH_OVERLAPS: the end of the part of the ray integrated so far */
     uint tet, entered, steps;
     int mayBeInside; /* the next search may start inside the mesh: it also looks for faces the ray leaves by */
     uint recent[RECENT];
@@ -427,7 +429,8 @@ inline void ray_begin(RayWalk* w, const VolclMeshRenderParams* Pc, uint x, uint 
     const float3 inv = (float3)(1.0f) / d;
     const float3 u = (v3(P->boxLo) - o) * inv, v = (v3(P->boxHi) - o) * inv;
     const float3 mn = fmin(u, v), mx = fmax(u, v);
-    const float tBox0 = fmax(fmax(fmax(mn.x, mn.y), mn.z), 0.0f);
+    const float tBoxLine = fmax(fmax(mn.x, mn.y), mn.z);
+    const float tBox0 = fmax(tBoxLine, 0.0f);
     const float tBox1 = fmin(fmin(mx.x, mx.y), mx.z);
     if (!(tBox1 >= tBox0)) return;
     /* Relative parameters near the mesh keep float precision for far cameras. */
@@ -440,6 +443,13 @@ inline void ray_begin(RayWalk* w, const VolclMeshRenderParams* Pc, uint x, uint 
     w->clip = (float2)(-INFINITY, INFINITY);
 #ifdef CLIPPING
     clip_planes(&Pc->clip, o, d, &w->clip);
+#endif
+#ifdef MESH_OVERLAPS
+    /* Entries are taken along the whole line through the mesh box, behind the eye too (a walk from there covers
+       an eye inside the mesh); only t >= 0 counts. */
+    w->tMin = fmin(tBoxLine - w->tOffset - 1e-3f, 0.0f);
+    w->covered = 0.0f;
+    w->clip.x = fmax(w->clip.x, 0.0f);
 #endif
     if (w->clip.y > w->clip.x) w->phase = PHASE_ENTRY;
 }
@@ -482,13 +492,22 @@ inline void locate_back(const MeshData* M, RayWalk* w, uint face, float tExit) {
     w->t = w->tMin;
 }
 
-/* One unit of work of a ray: find its next entry into the mesh, or cross one tet. */
+/* One unit of work of a ray: find its next entry into the mesh, or cross one tet.
+   MESH_OVERLAPS: the part of the ray inside the mesh is the union of its intervals in the tets, and a walk from
+   an entering boundary face through face-adjacent tets up to the boundary face it leaves by is one interval of
+   the union. The ray takes every entering face along the line in the order of t (tMin is the last one), walks
+   from each, and integrates only past `covered`, the end of what earlier walks integrated: intervals taken in
+   the order of their start add up to their union, however many layers of folded tets or components overlap. */
 inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderParams* Pc,
                         const VolclTfParams* T, const VolclLightingParams* Lp, float3 eye, uint* seed) {
     const VolclMeshParams* P = &Pc->mesh;
     if (w->phase == PHASE_ENTRY) {
+#ifdef MESH_OVERLAPS
+        const Entry hit = first_entry(M, P, w->o, w->d, w->tMin - P->epsilon, INFINITY, w->recent, *seed);
+#else
         const Entry hit = first_entry(M, P, w->o, w->d, w->tMin - P->epsilon,
                                       w->mayBeInside ? w->tMin + P->epsilon : INFINITY, w->recent, *seed);
+#endif
         if (hit.face == NO_FACE || hit.t > w->clip.y || ++w->entries > MAX_ENTRIES) {
             w->phase = PHASE_DONE;
             return;
@@ -500,6 +519,9 @@ inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderPara
             w->tet = hit.face >> 2;
             w->entered = hit.face & 3u;
             w->t = hit.t;
+#ifdef MESH_OVERLAPS
+            w->tMin = hit.t;
+#endif
         } else {
             locate_back(M, w, hit.face, hit.t);
         }
@@ -537,7 +559,15 @@ inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderPara
         best = w->t;
     }
     const float tExit = fmax(best, w->t);
+#ifdef MESH_OVERLAPS
+    const float tFrom = fmax(w->t, w->covered);
+    if (tExit >= tFrom)
+        cell_segment(M, Pc, T, Lp, &Pc->camera, eye, w->o, w->d, w->tOffset, tet, tFrom, tExit, w->clip,
+                     &w->st);
+    w->covered = fmax(w->covered, tExit);
+#else
     cell_segment(M, Pc, T, Lp, &Pc->camera, eye, w->o, w->d, w->tOffset, tet, w->t, tExit, w->clip, &w->st);
+#endif
     w->t = tExit;
 #if defined(EARLY_TERMINATION) && (MODE == 0 || MODE == 2)
     if (w->st.alpha >= Pc->march.earlyTermination) {
@@ -552,11 +582,8 @@ inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderPara
     const uint nb = ((__global const uint*)(cell + 5))[exitFace];
     if (nb >=
         VOLCL_MESH_HULL_FACE) { /* left the mesh: for good through a hull face, else look for a re-entry */
-        w->tMin = w->t;
-#ifdef MESH_OVERLAPS
-        /* Past a boundary face not on the hull the ray may still be inside tets folded over it. In a mesh
-           without overlaps it is outside, and the next boundary face it meets is an entering one. */
-        w->mayBeInside = 1;
+#ifndef MESH_OVERLAPS
+        w->tMin = w->t; /* without overlaps the ray is outside here: the next entry lies ahead */
 #endif
         w->phase = nb == VOLCL_MESH_HULL_FACE ? PHASE_DONE : PHASE_ENTRY;
         return;

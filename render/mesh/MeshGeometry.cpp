@@ -138,21 +138,19 @@ std::vector<std::uint8_t> hullFaces(const mesh::TetMesh& m, const BoundaryBvh& b
 }
 
 std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bvh, const Vec3& o,
-                                   const Vec3& d, double tMin, double tExitMin,
-                                   const std::vector<mesh::FaceId>& exclude, double tolerance) {
+                                   const Vec3& d, double tMin, const std::vector<mesh::FaceId>& exclude,
+                                   double tolerance) {
     if (bvh.nodes.empty()) return std::nullopt;
     const Vec3 inv{1.0 / d[0], 1.0 / d[1], 1.0 / d[2]};
     double best = std::numeric_limits<double>::infinity();
     mesh::FaceId bestFace = mesh::kNoFace;
-    bool bestEntering = true;
-    const double tLow = std::min(tMin, tExitMin);
     std::uint32_t stack[128];
     int top = 0;
     stack[top++] = 0;
     while (top > 0) {
         const BvhNode& node = bvh.nodes[stack[--top]];
         // Slab test; a zero direction component gives +-inf and NaN-free comparisons via min/max order.
-        double t0 = tLow, t1 = best;
+        double t0 = tMin, t1 = best;
         bool miss = false;
         for (int a = 0; a < 3 && !miss; ++a) {
             if (d[a] == 0.0) {
@@ -181,7 +179,7 @@ std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bv
             const Vec3 e1 = sub(m.points[v[1]], a), e2 = sub(m.points[v[2]], a);
             const Vec3 n = cross(e1, e2);
             const double nd = dot(n, d);
-            if (nd == 0.0) continue; // parallel
+            if (!(nd < 0.0)) continue; // leaving or parallel: not an entry
             // Moller-Trumbore with barycentric tolerance.
             const Vec3 p = cross(d, e2);
             const double det = dot(e1, p);
@@ -194,46 +192,61 @@ std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bv
             const double w = dot(d, q) * invDet;
             if (w < -tolerance || u + w > 1.0 + tolerance) continue;
             const double t = dot(e2, q) * invDet;
-            const bool entering = nd < 0.0;
-            if ((entering ? t >= tMin : t > tExitMin) && t < best) {
+            if (t >= tMin && t < best) {
                 best = t;
                 bestFace = f;
-                bestEntering = entering;
             }
         }
     }
     if (bestFace == mesh::kNoFace) return std::nullopt;
-    return EntryHit{bestFace, best, bestEntering};
+    return EntryHit{bestFace, best};
 }
 
-WalkStart locateBack(const mesh::TetMesh& m, const Vec3& o, const Vec3& d, mesh::FaceId exitFace,
-                     double tExit, double tMin, std::size_t stepLimit) {
-    WalkStart at{mesh::faceTet(exitFace), 4, tMin};
-    unsigned came = mesh::faceLocal(exitFace);
-    double t = tExit;
-    for (std::size_t step = 0; step < stepLimit; ++step) {
-        // Against d the ray leaves the tet through the face plane with the largest t behind it (dot(n, d) < 0).
-        double back = -std::numeric_limits<double>::infinity();
-        int face = -1;
+bool mayOverlap(const mesh::TetMesh& m) {
+    if (m.repairs.overlappingFaces + m.repairs.nonManifoldFaces > 0) return true;
+    // Face-connected components (union-find over the tets' neighbours) and their bounding boxes.
+    std::vector<std::size_t> parent(m.tets.size());
+    std::iota(parent.begin(), parent.end(), std::size_t(0));
+    const auto root = [&parent](std::size_t t) {
+        while (parent[t] != t)
+            t = parent[t] = parent[parent[t]];
+        return t;
+    };
+    for (std::size_t t = 0; t < m.tets.size(); ++t)
         for (unsigned f = 0; f < 4; ++f) {
-            if (f == came) continue;
-            const FacePlane pl = facePlane(m, mesh::faceId(at.tet, f));
-            const double nd = dot(pl.normal, d);
-            if (!(nd < 0.0)) continue;
-            const double tf = std::min(dot(pl.normal, sub(pl.vertex, o)) / nd, t);
-            if (tf > back) {
-                back = tf;
-                face = int(f);
-            }
+            const mesh::FaceId nb = m.neighbors[mesh::faceId(t, f)];
+            if (nb != mesh::kNoFace) parent[root(t)] = root(mesh::faceTet(nb));
         }
-        if (face < 0 || back <= tMin) return at; // the point at tMin is in this tet
-        const mesh::FaceId nb = m.neighbors[mesh::faceId(at.tet, unsigned(face))];
-        if (nb == mesh::kNoFace) return {at.tet, unsigned(face), back}; // outside before `back`: enter here
-        at.tet = mesh::faceTet(nb);
-        came = mesh::faceLocal(nb);
-        t = back;
+    struct Box {
+        Vec3 lo, hi;
+    };
+    const double inf = std::numeric_limits<double>::infinity();
+    std::vector<std::size_t> slot(m.tets.size(), std::size_t(-1));
+    std::vector<Box> boxes;
+    for (std::size_t t = 0; t < m.tets.size(); ++t) {
+        std::size_t& k = slot[root(t)];
+        if (k == std::size_t(-1)) {
+            k = boxes.size();
+            boxes.push_back({{inf, inf, inf}, {-inf, -inf, -inf}});
+        }
+        for (const auto v : m.tets[t])
+            for (int a = 0; a < 3; ++a) {
+                boxes[k].lo[a] = std::min(boxes[k].lo[a], double(m.points[v][a]));
+                boxes[k].hi[a] = std::max(boxes[k].hi[a], double(m.points[v][a]));
+            }
     }
-    return at;
+    // Boxes that only touch (components meeting in a plane) do not count: the overlap must exceed rounding.
+    const double slack = 1e-9 * norm(sub(m.boundsMax, m.boundsMin));
+    std::sort(boxes.begin(), boxes.end(), [](const Box& a, const Box& b) { return a.lo[0] < b.lo[0]; });
+    for (std::size_t i = 0; i < boxes.size(); ++i)
+        for (std::size_t j = i + 1; j < boxes.size() && boxes[j].lo[0] < boxes[i].hi[0] - slack; ++j) {
+            bool overlap = true;
+            for (int a = 1; a < 3; ++a)
+                overlap = overlap && boxes[j].lo[a] < boxes[i].hi[a] - slack &&
+                          boxes[i].lo[a] < boxes[j].hi[a] - slack;
+            if (overlap) return true;
+        }
+    return false;
 }
 
 } // namespace volcl::mesh_detail

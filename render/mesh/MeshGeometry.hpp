@@ -48,32 +48,24 @@ BoundaryBvh buildBoundaryBvh(const mesh::TetMesh& m);
 /// the BVH's boxes.
 std::vector<std::uint8_t> hullFaces(const mesh::TetMesh& m, const BoundaryBvh& bvh);
 
-/// Where a ray meets the boundary: the face, the ray parameter of the hit, and whether the ray enters the
-/// mesh there (the face's outward normal against the ray) or leaves it.
+/// Where a ray enters the mesh: an entering boundary face (its outward normal against the ray) and the ray
+/// parameter of the hit.
 struct EntryHit {
     mesh::FaceId face = mesh::kNoFace;
     double t = 0.0;
-    bool entering = true;
 };
-/// The nearest boundary face hit by the ray: an entering face at t >= tMin or a leaving face at t > tExitMin,
-/// skipping the faces in `exclude` (the recent entries of this ray, so a ray through a boundary edge enters
-/// each side once). Hits count up to `tolerance` in barycentric coordinates outside a triangle, so a ray
-/// through a shared edge or vertex hits at least one. A leaving face found first means the ray is already
-/// inside the mesh before it (a camera inside the mesh, or tets overlapping past a boundary face).
+/// The nearest entering boundary face hit at t >= tMin, skipping the faces in `exclude` (the recent entries
+/// of this ray, so a ray through a boundary edge enters each side once). Hits count up to `tolerance` in
+/// barycentric coordinates outside a triangle, so a ray through a shared edge or vertex hits at least one.
 std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bvh, const Vec3& o,
-                                   const Vec3& d, double tMin, double tExitMin,
-                                   const std::vector<mesh::FaceId>& exclude, double tolerance = 1e-12);
+                                   const Vec3& d, double tMin, const std::vector<mesh::FaceId>& exclude,
+                                   double tolerance = 1e-12);
 
-/// Where a ray that is inside the mesh at tMin stands: walking back (against d) from the leaving boundary face
-/// `exitFace`, hit at tExit, through face-adjacent tets. Returns the tet holding the point at tMin with
-/// `entered` 4 (none) and t = tMin, or, when the walk back leaves the mesh at t > tMin (the ray was outside
-/// there after all), the tet and face it enters by at that t. At most `stepLimit` tets are crossed.
-struct WalkStart {
-    std::size_t tet = 0;
-    unsigned entered = 4;
-    double t = 0.0;
-};
-WalkStart locateBack(const mesh::TetMesh& m, const Vec3& o, const Vec3& d, mesh::FaceId exitFace,
-                     double tExit, double tMin, std::size_t stepLimit);
+/// Whether tets of the mesh may overlap, so that a ray can be inside two of them at once: the builder found
+/// overlapping or non-manifold face pairs (folded tets), or two face-connected components have bounding boxes
+/// that overlap (pieces that interpenetrate or nest without sharing a face). False promises that every point is
+/// in at most one tet, up to a single connected component that passes through itself without a shared face,
+/// which no cheap test sees.
+bool mayOverlap(const mesh::TetMesh& m);
 
 } // namespace volcl::mesh_detail

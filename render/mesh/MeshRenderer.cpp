@@ -59,6 +59,7 @@ struct MeshRenderer::Impl {
     DeviceBuffer<float> tauIntegral;
     std::size_t bvhNodeCount = 0;
     double maxSegment = 1.0;
+    bool mayOverlap = false; ///< tets may overlap: rays integrate the union of their tet intervals
     cl::Kernel kernel;
     VolclMeshRenderParams params{};
 };
@@ -110,6 +111,7 @@ MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const 
         m.tetMax[t] = hi;
     });
     const mesh_detail::BoundaryBvh bvh = mesh_detail::buildBoundaryBvh(mesh);
+    m.mayOverlap = mesh_detail::mayOverlap(mesh);
     // A boundary face on the convex hull says so in its neighbour slot: a ray leaving there is done.
     const std::vector<std::uint8_t> hull = mesh_detail::hullFaces(mesh, bvh);
     for (std::size_t i = 0; i < bvh.faces.size(); ++i)
@@ -167,9 +169,9 @@ void MeshRenderer::rebuild(const Rebuild& change) {
     updateEmptiness(change.shaded, preint);
     KernelDefines defines = plan_.defines;
     defines.set("RAYS_X", cc_.profile().mesh.cellRaysX).set("RAYS_Y", cc_.profile().mesh.cellRaysY);
-    // Only where tets overlap (a fold leaves a face pair on one side) can a ray still be inside the mesh after
-    // leaving through a boundary face; re-oriented tets alone (a file's winding convention) do not overlap.
-    if (mesh_.repairs.overlappingFaces + mesh_.repairs.nonManifoldFaces > 0) defines.set("MESH_OVERLAPS", 1);
+    // Where tets may overlap (folds, interpenetrating components) rays take every entry and count the union;
+    // elsewhere a ray is outside after a boundary exit and the next entry ahead is all there is.
+    if (impl_->mayOverlap) defines.set("MESH_OVERLAPS", 1);
     impl_->kernel = cc_.kernel("mesh/mesh_cells.cl", "mesh_cells", defines);
     updateParams(change.shaded);
 }
@@ -286,7 +288,8 @@ std::string MeshRenderer::statistics() const {
     std::ostringstream os;
     os << "tets: " << mesh_.tets.size() << ", boundary faces: " << mesh_.boundaryFaces.size() << " (BVH of "
        << impl_->bvhNodeCount << " nodes), " << std::setprecision(1) << std::fixed << 100.0 * emptyFraction_
-       << "% of tets empty under the TF";
+       << "% of tets empty under the TF"
+       << (impl_->mayOverlap ? "; tets may overlap: rays take the union of the tets' intervals" : "");
     return os.str();
 }
 
