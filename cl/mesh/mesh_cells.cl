@@ -68,9 +68,11 @@ inline float2 slab(const MeshData* M, uint ni, float3 o, float3 inv, float tMin,
 }
 
 /* The leaf's faces first..first+count-1: keeps the nearest entering hit at t >= tMin or leaving hit at
-   t > tExitMin in *best (tExitMin INFINITY: entering faces only, the others culled before the hit test). */
+   t > tExitMin in *best (tExitMin INFINITY: entering faces only, the others culled before the hit test).
+   MESH_OVERLAPS: entering faces of tets that overlap others (marked in the third record's w) count from
+   tOverlap on. */
 inline void leaf_faces(const MeshData* M, uint first, uint count, float3 o, float3 d, float tMin,
-                       float tExitMin, const uint* recent, Entry* best) {
+                       float tExitMin, float tOverlap, const uint* recent, Entry* best) {
     for (uint i = first; i < first + count; ++i) {
         const float4 a = M->bvhFaces[3 * i], e1 = M->bvhFaces[3 * i + 1], e2 = M->bvhFaces[3 * i + 2];
         const uint face = as_uint(a.w);
@@ -82,11 +84,16 @@ inline void leaf_faces(const MeshData* M, uint first, uint count, float3 o, floa
         const float nd = dot(n, d);
         const int entering = nd < 0.0f;
         if (!entering && !(nd > 0.0f && tExitMin < INFINITY)) continue;
+#ifdef MESH_OVERLAPS
+        const float tEnter = e2.w != 0.0f ? tOverlap : tMin;
+#else
+        const float tEnter = tMin;
+#endif
         const float3 s = o - a.xyz;
         /* The plane's t first (a little slack for rounding): most faces of a visited leaf lie behind the best hit
            or before the search's start, and need no triangle test. */
         const float tPlane = -dot(n, s) / nd;
-        if (!(tPlane <= best->t + 1e-5f && tPlane >= (entering ? tMin : tExitMin) - 1e-5f)) continue;
+        if (!(tPlane <= best->t + 1e-5f && tPlane >= (entering ? tEnter : tExitMin) - 1e-5f)) continue;
         const float3 p = cross(d, e2.xyz);
         const float det = dot(e1.xyz, p);
         if (det == 0.0f) continue;
@@ -98,7 +105,7 @@ inline void leaf_faces(const MeshData* M, uint first, uint count, float3 o, floa
         const float bv = dot(d, q) * invDet;
         if (bv < -tol || bu + bv > 1.0f + tol) continue;
         const float t = dot(e2.xyz, q) * invDet;
-        if ((entering ? t >= tMin : t > tExitMin) && t < best->t) {
+        if ((entering ? t >= tEnter : t > tExitMin) && t < best->t) {
             best->t = t;
             best->face = face;
             best->leaf = i;
@@ -108,11 +115,12 @@ inline void leaf_faces(const MeshData* M, uint first, uint count, float3 o, floa
 }
 
 /* The nearest boundary face hit: entering (outward normal against d) at t >= tMin or leaving at t > tExitMin,
-   skipping `recent`. A leaving face first means the ray is inside the mesh before it.
+   skipping `recent` (MESH_OVERLAPS: entering faces of overlapping tets at t >= tOverlap). A leaving face first
+   means the ray is inside the mesh before it.
    `seed` (a bvhFaces index or NO_FACE) is the face a neighbouring ray entered by: neighbouring rays usually
    enter by the same or a nearby face, and a hit there bounds the search to the nodes in front of it. */
 inline Entry first_entry(const MeshData* M, const VolclMeshParams* P, float3 o, float3 d, float tMin,
-                         float tExitMin, const uint* recent, uint seed) {
+                         float tExitMin, float tOverlap, const uint* recent, uint seed) {
     Entry best;
     best.t = INFINITY;
     best.face = NO_FACE;
@@ -120,12 +128,21 @@ inline Entry first_entry(const MeshData* M, const VolclMeshParams* P, float3 o, 
     best.entering = 1;
     if (P->bvhNodes == 0) return best;
     if (seed != NO_FACE) {
-        leaf_faces(M, seed, 1, o, d, tMin, tExitMin, recent, &best);
+        leaf_faces(M, seed, 1, o, d, tMin, tExitMin, tOverlap, recent, &best);
         /* Entering a hull face, the ray was outside the face's plane, which has the whole mesh on its inner side,
            all the way before the hit: no face can be nearer. */
         if (best.face != NO_FACE && best.entering && M->bvhFaces[3 * seed + 1].w != 0.0f) return best;
     }
     const float tLow = fmin(tMin, tExitMin); /* the boxes' lower bound */
+#ifdef MESH_OVERLAPS
+    /* Boxes holding faces of overlapping tets from tOverlap on. */
+    const float tLowOverlap = fmin(tLow, tOverlap);
+#define NODE_LOW(n) ((as_uint(M->bvhNodes[2 * (n) + 1].w) & VOLCL_MESH_BVH_OVERLAP) ? tLowOverlap : tLow)
+#define NODE_COUNT(w) (as_uint(w) & ~VOLCL_MESH_BVH_OVERLAP)
+#else
+#define NODE_LOW(n) tLow
+#define NODE_COUNT(w) as_uint(w)
+#endif
     const float3 inv = (float3)(1.0f) / d;
     uint stack[64];
     int top = 0;
@@ -134,10 +151,11 @@ inline Entry first_entry(const MeshData* M, const VolclMeshParams* P, float3 o, 
     uint ni = 0;
     for (;;) {
         const float4 lo = M->bvhNodes[2 * ni], hi = M->bvhNodes[2 * ni + 1];
-        const uint count = as_uint(hi.w);
+        const uint count = NODE_COUNT(hi.w);
         if (count == 0) {
             const uint c0 = ni + 1, c1 = as_uint(lo.w);
-            const float2 s0 = slab(M, c0, o, inv, tLow, best.t), s1 = slab(M, c1, o, inv, tLow, best.t);
+            const float2 s0 = slab(M, c0, o, inv, NODE_LOW(c0), best.t),
+                         s1 = slab(M, c1, o, inv, NODE_LOW(c1), best.t);
             const bool h0 = s0.x <= s0.y, h1 = s1.x <= s1.y;
             if (h0 && h1) {
                 const bool near0 = s0.x <= s1.x;
@@ -150,17 +168,19 @@ inline Entry first_entry(const MeshData* M, const VolclMeshParams* P, float3 o, 
                 continue;
             }
         } else {
-            leaf_faces(M, as_uint(lo.w), count, o, d, tMin, tExitMin, recent, &best);
+            leaf_faces(M, as_uint(lo.w), count, o, d, tMin, tExitMin, tOverlap, recent, &best);
         }
         /* Next pending node still in front of the best hit. */
         bool found = false;
         while (top > 0 && !found) {
             ni = stack[--top];
-            const float2 sn = slab(M, ni, o, inv, tLow, best.t);
+            const float2 sn = slab(M, ni, o, inv, NODE_LOW(ni), best.t);
             found = sn.x <= sn.y;
         }
         if (!found) break;
     }
+#undef NODE_LOW
+#undef NODE_COUNT
     return best;
 }
 
@@ -448,7 +468,7 @@ inline void ray_begin(RayWalk* w, const VolclMeshRenderParams* Pc, uint x, uint 
     /* Entries are taken along the whole line through the mesh box, behind the eye too (a walk from there covers
        an eye inside the mesh); only t >= 0 counts. */
     w->tMin = fmin(tBoxLine - w->tOffset - 1e-3f, 0.0f);
-    w->covered = 0.0f;
+    w->covered = w->tMin;
     w->clip.x = fmax(w->clip.x, 0.0f);
 #endif
     if (w->clip.y > w->clip.x) w->phase = PHASE_ENTRY;
@@ -496,17 +516,21 @@ inline void locate_back(const MeshData* M, RayWalk* w, uint face, float tExit) {
    MESH_OVERLAPS: the part of the ray inside the mesh is the union of its intervals in the tets, and a walk from
    an entering boundary face through face-adjacent tets up to the boundary face it leaves by is one interval of
    the union. The ray takes every entering face along the line in the order of t (tMin is the last one), walks
-   from each, and integrates only past `covered`, the end of what earlier walks integrated: intervals taken in
-   the order of their start add up to their union, however many layers of folded tets or components overlap. */
+   from each, and integrates only past `covered`, the end of what earlier walks covered: intervals taken in
+   the order of their start add up to their union, however many layers of folded tets or components overlap.
+   [tMin, covered] is covered by the walks so far, so an entering face there belongs to a tet that overlaps
+   another: only the faces of such tets (marked on the host) are searched before `covered`. */
 inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderParams* Pc,
                         const VolclTfParams* T, const VolclLightingParams* Lp, float3 eye, uint* seed) {
     const VolclMeshParams* P = &Pc->mesh;
     if (w->phase == PHASE_ENTRY) {
 #ifdef MESH_OVERLAPS
-        const Entry hit = first_entry(M, P, w->o, w->d, w->tMin - P->epsilon, INFINITY, w->recent, *seed);
+        const Entry hit = first_entry(M, P, w->o, w->d, w->covered - P->epsilon, INFINITY,
+                                      w->tMin - P->epsilon, w->recent, *seed);
 #else
-        const Entry hit = first_entry(M, P, w->o, w->d, w->tMin - P->epsilon,
-                                      w->mayBeInside ? w->tMin + P->epsilon : INFINITY, w->recent, *seed);
+        const Entry hit =
+            first_entry(M, P, w->o, w->d, w->tMin - P->epsilon,
+                        w->mayBeInside ? w->tMin + P->epsilon : INFINITY, w->tMin, w->recent, *seed);
 #endif
         if (hit.face == NO_FACE || hit.t > w->clip.y || ++w->entries > MAX_ENTRIES) {
             w->phase = PHASE_DONE;

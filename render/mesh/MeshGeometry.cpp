@@ -4,6 +4,7 @@
 #include "core/runtime/ParallelFor.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -247,6 +248,75 @@ bool mayOverlap(const mesh::TetMesh& m) {
             if (overlap) return true;
         }
     return false;
+}
+
+namespace {
+
+/// Whether the interiors of two tets overlap by more than `tol` (times the axis length) on every separating
+/// axis candidate: the 8 face normals and the 36 cross products of an edge of each. Convex solids whose interiors
+/// are disjoint have a separating plane among these, touching ones (shared faces, edges, vertices) included.
+bool tetsOverlap(const std::array<Vec3, 4>& a, const std::array<Vec3, 4>& b, double tol) {
+    const auto separates = [&](const Vec3& n) {
+        const double len = norm(n);
+        if (!(len > 0.0)) return false;
+        double a0 = dot(n, a[0]), a1 = a0, b0 = dot(n, b[0]), b1 = b0;
+        for (int i = 1; i < 4; ++i) {
+            a0 = std::min(a0, dot(n, a[i]));
+            a1 = std::max(a1, dot(n, a[i]));
+            b0 = std::min(b0, dot(n, b[i]));
+            b1 = std::max(b1, dot(n, b[i]));
+        }
+        return a1 <= b0 + tol * len || b1 <= a0 + tol * len;
+    };
+    static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+    for (const auto* t : {&a, &b})
+        for (int f = 0; f < 4; ++f) {
+            const Vec3& p = (*t)[(f + 1) % 4];
+            if (separates(cross(sub((*t)[(f + 2) % 4], p), sub((*t)[(f + 3) % 4], p)))) return false;
+        }
+    for (const auto& ea : kEdges)
+        for (const auto& eb : kEdges)
+            if (separates(cross(sub(a[ea[1]], a[ea[0]]), sub(b[eb[1]], b[eb[0]])))) return false;
+    return true;
+}
+
+} // namespace
+
+std::vector<std::uint8_t> overlappingTets(const mesh::TetMesh& m) {
+    const std::size_t n = m.tets.size();
+    std::vector<std::array<Vec3, 4>> corners(n);
+    std::vector<Vec3> lo(n), hi(n);
+    for (std::size_t t = 0; t < n; ++t) {
+        for (int i = 0; i < 4; ++i)
+            corners[t][i] = m.points[m.tets[t][i]];
+        for (int a = 0; a < 3; ++a) {
+            lo[t][a] = std::min({corners[t][0][a], corners[t][1][a], corners[t][2][a], corners[t][3][a]});
+            hi[t][a] = std::max({corners[t][0][a], corners[t][1][a], corners[t][2][a], corners[t][3][a]});
+        }
+    }
+    const double tol = 1e-9 * norm(sub(m.boundsMax, m.boundsMin));
+    // Sweep along x: each tet is tested against the tets after it in the order of their boxes' low x.
+    std::vector<std::size_t> order(n);
+    std::iota(order.begin(), order.end(), std::size_t(0));
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return lo[a][0] < lo[b][0]; });
+    std::vector<std::uint8_t> overlaps(n, 0);
+    std::vector<std::vector<std::size_t>> found(n); // per sweep position: partners after it that overlap
+    parallelFor(n, 0u, [&](std::size_t i) {
+        const std::size_t t = order[i];
+        for (std::size_t j = i + 1; j < n && lo[order[j]][0] < hi[t][0] - tol; ++j) {
+            const std::size_t u = order[j];
+            if (!(lo[u][1] < hi[t][1] - tol && lo[t][1] < hi[u][1] - tol && lo[u][2] < hi[t][2] - tol &&
+                  lo[t][2] < hi[u][2] - tol))
+                continue;
+            if (tetsOverlap(corners[t], corners[u], tol)) found[i].push_back(u);
+        }
+    });
+    for (std::size_t i = 0; i < n; ++i)
+        for (const std::size_t u : found[i]) {
+            overlaps[order[i]] = 1;
+            overlaps[u] = 1;
+        }
+    return overlaps;
 }
 
 } // namespace volcl::mesh_detail

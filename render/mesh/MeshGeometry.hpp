@@ -68,4 +68,9 @@ std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bv
 /// which no cheap test sees.
 bool mayOverlap(const mesh::TetMesh& m);
 
+/// Per tet: 1 when its interior overlaps another tet's (a separating-axis test on every pair of tets with
+/// overlapping boxes; overlaps thinner than 1e-9 of the mesh's diagonal do not count). Only these tets' boundary
+/// faces can be entered inside a part of a ray that other tets cover.
+std::vector<std::uint8_t> overlappingTets(const mesh::TetMesh& m);
+
 } // namespace volcl::mesh_detail
