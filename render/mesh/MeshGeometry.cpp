@@ -257,8 +257,8 @@ namespace {
 /// are disjoint have a separating plane among these, touching ones (shared faces, edges, vertices) included.
 bool tetsOverlap(const std::array<Vec3, 4>& a, const std::array<Vec3, 4>& b, double tol) {
     const auto separates = [&](const Vec3& n) {
-        const double len = norm(n);
-        if (!(len > 0.0)) return false;
+        const double len2 = dot(n, n);
+        if (!(len2 > 0.0)) return false;
         double a0 = dot(n, a[0]), a1 = a0, b0 = dot(n, b[0]), b1 = b0;
         for (int i = 1; i < 4; ++i) {
             a0 = std::min(a0, dot(n, a[i]));
@@ -266,7 +266,9 @@ bool tetsOverlap(const std::array<Vec3, 4>& a, const std::array<Vec3, 4>& b, dou
             b0 = std::min(b0, dot(n, b[i]));
             b1 = std::max(b1, dot(n, b[i]));
         }
-        return a1 <= b0 + tol * len || b1 <= a0 + tol * len;
+        // Overlap of the projections at most tol in length units (n is not normalised).
+        const double gap = std::min(a1 - b0, b1 - a0);
+        return gap <= 0.0 || gap * gap <= tol * tol * len2;
     };
     static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
     for (const auto* t : {&a, &b})
@@ -295,25 +297,79 @@ std::vector<std::uint8_t> overlappingTets(const mesh::TetMesh& m) {
         }
     }
     const double tol = 1e-9 * norm(sub(m.boundsMax, m.boundsMin));
-    // Sweep along x: each tet is tested against the tets after it in the order of their boxes' low x.
+    // Candidate pairs from a box tree over the tets (median split on the longest axis of the box centres, at
+    // most 4 tets a leaf; it adapts to graded meshes where a uniform grid would crowd thin cells): each tet asks
+    // it for the tets after it whose boxes overlap its own.
+    struct Node {
+        Vec3 lo, hi;
+        std::size_t first, count, right; ///< leaf: order[first, first + count); inner: count 0, right child
+    };
+    std::vector<Node> nodes;
     std::vector<std::size_t> order(n);
     std::iota(order.begin(), order.end(), std::size_t(0));
-    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return lo[a][0] < lo[b][0]; });
-    std::vector<std::uint8_t> overlaps(n, 0);
-    std::vector<std::vector<std::size_t>> found(n); // per sweep position: partners after it that overlap
-    parallelFor(n, 0u, [&](std::size_t i) {
-        const std::size_t t = order[i];
-        for (std::size_t j = i + 1; j < n && lo[order[j]][0] < hi[t][0] - tol; ++j) {
-            const std::size_t u = order[j];
-            if (!(lo[u][1] < hi[t][1] - tol && lo[t][1] < hi[u][1] - tol && lo[u][2] < hi[t][2] - tol &&
-                  lo[t][2] < hi[u][2] - tol))
+    const auto build = [&](auto&& self, std::size_t first, std::size_t count) -> std::size_t {
+        const std::size_t index = nodes.size();
+        nodes.push_back({lo[order[first]], hi[order[first]], first, count, 0});
+        Vec3 clo = nodes[index].lo, chi = nodes[index].hi;
+        for (std::size_t i = first; i < first + count; ++i)
+            for (int a = 0; a < 3; ++a) {
+                nodes[index].lo[a] = std::min(nodes[index].lo[a], lo[order[i]][a]);
+                nodes[index].hi[a] = std::max(nodes[index].hi[a], hi[order[i]][a]);
+                const double c = lo[order[i]][a] + hi[order[i]][a];
+                clo[a] = std::min(clo[a], c);
+                chi[a] = std::max(chi[a], c);
+            }
+        if (count <= 4) return index;
+        int axis = 0;
+        for (int a = 1; a < 3; ++a)
+            if (chi[a] - clo[a] > chi[axis] - clo[axis]) axis = a;
+        const std::size_t half = count / 2;
+        std::nth_element(order.begin() + std::ptrdiff_t(first), order.begin() + std::ptrdiff_t(first + half),
+                         order.begin() + std::ptrdiff_t(first + count), [&](std::size_t x, std::size_t y) {
+                             return lo[x][axis] + hi[x][axis] < lo[y][axis] + hi[y][axis];
+                         });
+        nodes[index].count = 0;
+        self(self, first, half);
+        const std::size_t right = self(self, first + half, count - half);
+        nodes[index].right = right;
+        return index;
+    };
+    if (n > 0) build(build, 0, n);
+    const auto boxesOverlap = [tol](const Vec3& alo, const Vec3& ahi, const Vec3& blo, const Vec3& bhi) {
+        for (int a = 0; a < 3; ++a)
+            if (!(blo[a] < ahi[a] - tol && alo[a] < bhi[a] - tol)) return false;
+        return true;
+    };
+    std::vector<std::vector<std::size_t>> found(n); // per tet: the tets after it that overlap it
+    parallelFor(n, 0u, [&](std::size_t t) {
+        std::vector<std::size_t> stack{0};
+        while (!stack.empty()) {
+            const Node& node = nodes[stack.back()];
+            const std::size_t ni = stack.back();
+            stack.pop_back();
+            if (!boxesOverlap(node.lo, node.hi, lo[t], hi[t])) continue;
+            if (node.count == 0) {
+                stack.push_back(ni + 1);
+                stack.push_back(node.right);
                 continue;
-            if (tetsOverlap(corners[t], corners[u], tol)) found[i].push_back(u);
+            }
+            for (std::size_t i = node.first; i < node.first + node.count; ++i) {
+                const std::size_t u = order[i];
+                if (u <= t || !boxesOverlap(lo[u], hi[u], lo[t], hi[t])) continue;
+                // Face neighbours lie on opposite sides of their shared face.
+                bool neighbours = false;
+                for (unsigned f = 0; f < 4; ++f) {
+                    const mesh::FaceId nb = m.neighbors[mesh::faceId(t, f)];
+                    neighbours = neighbours || (nb != mesh::kNoFace && mesh::faceTet(nb) == u);
+                }
+                if (!neighbours && tetsOverlap(corners[t], corners[u], tol)) found[t].push_back(u);
+            }
         }
     });
-    for (std::size_t i = 0; i < n; ++i)
-        for (const std::size_t u : found[i]) {
-            overlaps[order[i]] = 1;
+    std::vector<std::uint8_t> overlaps(n, 0);
+    for (std::size_t t = 0; t < n; ++t)
+        for (const std::size_t u : found[t]) {
+            overlaps[t] = 1;
             overlaps[u] = 1;
         }
     return overlaps;
