@@ -48,6 +48,8 @@ typedef struct VolclEllipsoid {
 /* Mesh cell records: the neighbour of a boundary face on the mesh's convex hull (no re-entry past it); other
    boundary faces hold 0xFFFFFFFF. Above every face id (tet * 4 + face, tets < 2^30 - 1). */
 #define VOLCL_MESH_HULL_FACE 0xFFFFFFFEu
+/* Mesh BVH nodes (leaf count word): set when a face below belongs to a tet that overlaps another tet. */
+#define VOLCL_MESH_BVH_OVERLAP 0x80000000u
 
 /* Camera and image: pixel (x, y) -> world ray. */
 typedef struct VolclCameraParams {

@@ -1,10 +1,14 @@
 /* Exact cell ray casting of a tetrahedral mesh: rays enter at boundary faces (a BVH of them), walk
    face-adjacent tets leaving each through the nearest face plane ahead, and re-enter after leaving a
-   non-convex mesh. Each cell segment has a linear scalar: dvr looks it up in the 3D pre-integration table
-   (PREINT 3) or point-samples it every render.step (no PREINT); iso crossings are exact; mip takes the
-   segment ends; xray integrates tau exactly. Everything runs in the mesh's normalised frame (VolclMeshParams).
+   non-convex mesh; a ray already inside (camera in the mesh) starts in the tet found by walking back from the
+   boundary face it leaves by. Where tets may overlap (MESH_OVERLAPS) a ray walks from every entry along its line
+   and counts the union of the walks' intervals. Each cell segment has a linear scalar: dvr
+   looks it up in the 3D pre-integration table (PREINT 3) or point-samples it every render.step (no PREINT);
+   iso crossings are exact; mip takes the segment ends; xray integrates tau exactly. Everything runs in the
+   mesh's normalised frame (VolclMeshParams).
    Defines: MODE (0 dvr, 1 mip, 2 iso, 3 xray), MIP_COLOR, PREINT, ISO_COUNT, SHADING, CLIPPING, SKIPPING,
-   EARLY_TERMINATION. */
+   EARLY_TERMINATION, MESH_OVERLAPS (tets may overlap: folded tets, interpenetrating components; see
+   ray_advance). */
 #include "common/camera_rays.h"
 #include "common/shading.h"
 #include "common/tf_lookup.h"
@@ -48,7 +52,8 @@ typedef struct {
 typedef struct {
     float t;
     uint face;
-    uint leaf; /* the face's index in bvhFaces */
+    uint leaf;    /* the face's index in bvhFaces */
+    int entering; /* 0: the ray leaves the mesh by the face (it was inside before it) */
 } Entry;
 
 /* Ray parameter interval [x, y] of node ni's box within [tMin, tMax] (empty when x > y), padded so faces lying
@@ -62,9 +67,12 @@ inline float2 slab(const MeshData* M, uint ni, float3 o, float3 inv, float tMin,
                     fmin(fmin(fmin(mx.x, mx.y), mx.z) + pad, tMax));
 }
 
-/* The leaf's faces first..first+count-1: keeps the nearest entering hit at t >= tMin in *best. */
+/* The leaf's faces first..first+count-1: keeps the nearest entering hit at t >= tMin or leaving hit at
+   t > tExitMin in *best (tExitMin INFINITY: entering faces only, the others culled before the hit test).
+   MESH_OVERLAPS: entering faces of tets that overlap others (marked in the third record's w) count from
+   tOverlap on. */
 inline void leaf_faces(const MeshData* M, uint first, uint count, float3 o, float3 d, float tMin,
-                       const uint* recent, Entry* best) {
+                       float tExitMin, float tOverlap, const uint* recent, Entry* best) {
     for (uint i = first; i < first + count; ++i) {
         const float4 a = M->bvhFaces[3 * i], e1 = M->bvhFaces[3 * i + 1], e2 = M->bvhFaces[3 * i + 2];
         const uint face = as_uint(a.w);
@@ -73,12 +81,23 @@ inline void leaf_faces(const MeshData* M, uint first, uint count, float3 o, floa
             skip |= recent[r] == face;
         if (skip) continue;
         const float3 n = cross(e1.xyz, e2.xyz);
-        if (!(dot(n, d) < 0.0f)) continue;
+        const float nd = dot(n, d);
+        const int entering = nd < 0.0f;
+        if (!entering && !(nd > 0.0f && tExitMin < INFINITY)) continue;
+#ifdef MESH_OVERLAPS
+        const float tEnter = e2.w != 0.0f ? tOverlap : tMin;
+#else
+        const float tEnter = tMin;
+#endif
+        const float3 s = o - a.xyz;
+        /* The plane's t first (a little slack for rounding): most faces of a visited leaf lie behind the best hit
+           or before the search's start, and need no triangle test. */
+        const float tPlane = -dot(n, s) / nd;
+        if (!(tPlane <= best->t + 1e-5f && tPlane >= (entering ? tEnter : tExitMin) - 1e-5f)) continue;
         const float3 p = cross(d, e2.xyz);
         const float det = dot(e1.xyz, p);
         if (det == 0.0f) continue;
         const float invDet = 1.0f / det;
-        const float3 s = o - a.xyz;
         const float bu = dot(s, p) * invDet;
         const float tol = 1e-5f;
         if (bu < -tol || bu > 1.0f + tol) continue;
@@ -86,30 +105,44 @@ inline void leaf_faces(const MeshData* M, uint first, uint count, float3 o, floa
         const float bv = dot(d, q) * invDet;
         if (bv < -tol || bu + bv > 1.0f + tol) continue;
         const float t = dot(e2.xyz, q) * invDet;
-        if (t >= tMin && t < best->t) {
+        if ((entering ? t >= tEnter : t > tExitMin) && t < best->t) {
             best->t = t;
             best->face = face;
             best->leaf = i;
+            best->entering = entering;
         }
     }
 }
 
-/* The nearest entering boundary face (outward normal against d) hit at t >= tMin, skipping `recent`.
+/* The nearest boundary face hit: entering (outward normal against d) at t >= tMin or leaving at t > tExitMin,
+   skipping `recent` (MESH_OVERLAPS: entering faces of overlapping tets at t >= tOverlap). A leaving face first
+   means the ray is inside the mesh before it.
    `seed` (a bvhFaces index or NO_FACE) is the face a neighbouring ray entered by: neighbouring rays usually
    enter by the same or a nearby face, and a hit there bounds the search to the nodes in front of it. */
 inline Entry first_entry(const MeshData* M, const VolclMeshParams* P, float3 o, float3 d, float tMin,
-                         const uint* recent, uint seed) {
+                         float tExitMin, float tOverlap, const uint* recent, uint seed) {
     Entry best;
     best.t = INFINITY;
     best.face = NO_FACE;
     best.leaf = NO_FACE;
+    best.entering = 1;
     if (P->bvhNodes == 0) return best;
     if (seed != NO_FACE) {
-        leaf_faces(M, seed, 1, o, d, tMin, recent, &best);
+        leaf_faces(M, seed, 1, o, d, tMin, tExitMin, tOverlap, recent, &best);
         /* Entering a hull face, the ray was outside the face's plane, which has the whole mesh on its inner side,
            all the way before the hit: no face can be nearer. */
-        if (best.face != NO_FACE && M->bvhFaces[3 * seed + 1].w != 0.0f) return best;
+        if (best.face != NO_FACE && best.entering && M->bvhFaces[3 * seed + 1].w != 0.0f) return best;
     }
+    const float tLow = fmin(tMin, tExitMin); /* the boxes' lower bound */
+#ifdef MESH_OVERLAPS
+    /* Boxes holding faces of overlapping tets from tOverlap on. */
+    const float tLowOverlap = fmin(tLow, tOverlap);
+#define NODE_LOW(n) ((as_uint(M->bvhNodes[2 * (n) + 1].w) & VOLCL_MESH_BVH_OVERLAP) ? tLowOverlap : tLow)
+#define NODE_COUNT(w) (as_uint(w) & ~VOLCL_MESH_BVH_OVERLAP)
+#else
+#define NODE_LOW(n) tLow
+#define NODE_COUNT(w) as_uint(w)
+#endif
     const float3 inv = (float3)(1.0f) / d;
     uint stack[64];
     int top = 0;
@@ -118,10 +151,11 @@ inline Entry first_entry(const MeshData* M, const VolclMeshParams* P, float3 o, 
     uint ni = 0;
     for (;;) {
         const float4 lo = M->bvhNodes[2 * ni], hi = M->bvhNodes[2 * ni + 1];
-        const uint count = as_uint(hi.w);
+        const uint count = NODE_COUNT(hi.w);
         if (count == 0) {
             const uint c0 = ni + 1, c1 = as_uint(lo.w);
-            const float2 s0 = slab(M, c0, o, inv, tMin, best.t), s1 = slab(M, c1, o, inv, tMin, best.t);
+            const float2 s0 = slab(M, c0, o, inv, NODE_LOW(c0), best.t),
+                         s1 = slab(M, c1, o, inv, NODE_LOW(c1), best.t);
             const bool h0 = s0.x <= s0.y, h1 = s1.x <= s1.y;
             if (h0 && h1) {
                 const bool near0 = s0.x <= s1.x;
@@ -134,17 +168,19 @@ inline Entry first_entry(const MeshData* M, const VolclMeshParams* P, float3 o, 
                 continue;
             }
         } else {
-            leaf_faces(M, as_uint(lo.w), count, o, d, tMin, recent, &best);
+            leaf_faces(M, as_uint(lo.w), count, o, d, tMin, tExitMin, tOverlap, recent, &best);
         }
         /* Next pending node still in front of the best hit. */
         bool found = false;
         while (top > 0 && !found) {
             ni = stack[--top];
-            const float2 sn = slab(M, ni, o, inv, tMin, best.t);
+            const float2 sn = slab(M, ni, o, inv, NODE_LOW(ni), best.t);
             found = sn.x <= sn.y;
         }
         if (!found) break;
     }
+#undef NODE_LOW
+#undef NODE_COUNT
     return best;
 }
 
@@ -375,7 +411,9 @@ typedef struct {
     float3 o, d;
     float2 clip;
     float tOffset, t, tMin;
+    float covered; /* MESH_OVERLAPS: the end of the part of the ray integrated so far */
     uint tet, entered, steps;
+    int mayBeInside; /* the next search may start inside the mesh: it also looks for faces the ray leaves by */
     uint recent[RECENT];
     int ri, entries, phase; /* phase: 0 find the next entry, 1 walk, 2 done */
     RayState st;
@@ -414,7 +452,8 @@ inline void ray_begin(RayWalk* w, const VolclMeshRenderParams* Pc, uint x, uint 
     const float3 inv = (float3)(1.0f) / d;
     const float3 u = (v3(P->boxLo) - o) * inv, v = (v3(P->boxHi) - o) * inv;
     const float3 mn = fmin(u, v), mx = fmax(u, v);
-    const float tBox0 = fmax(fmax(fmax(mn.x, mn.y), mn.z), 0.0f);
+    const float tBoxLine = fmax(fmax(mn.x, mn.y), mn.z);
+    const float tBox0 = fmax(tBoxLine, 0.0f);
     const float tBox1 = fmin(fmin(mx.x, mx.y), mx.z);
     if (!(tBox1 >= tBox0)) return;
     /* Relative parameters near the mesh keep float precision for far cameras. */
@@ -422,30 +461,97 @@ inline void ray_begin(RayWalk* w, const VolclMeshRenderParams* Pc, uint x, uint 
     o += w->tOffset * d;
     w->o = o;
     w->d = d;
+    /* From outside the mesh's box the first boundary face met is an entering one. */
+    w->mayBeInside = w->tOffset == 0.0f;
     w->clip = (float2)(-INFINITY, INFINITY);
 #ifdef CLIPPING
     clip_planes(&Pc->clip, o, d, &w->clip);
 #endif
+#ifdef MESH_OVERLAPS
+    /* Entries are taken along the whole line through the mesh box, behind the eye too (a walk from there covers
+       an eye inside the mesh); only t >= 0 counts. */
+    w->tMin = fmin(tBoxLine - w->tOffset - 1e-3f, 0.0f);
+    w->covered = w->tMin;
+    w->clip.x = fmax(w->clip.x, 0.0f);
+#endif
     if (w->clip.y > w->clip.x) w->phase = PHASE_ENTRY;
 }
 
-/* One unit of work of a ray: find its next entry into the mesh, or cross one tet. */
+/* A ray inside the mesh at tMin (hit.face, which it leaves by at tExit, is the first boundary face ahead): walks
+   back against d through face-adjacent tets to the tet holding the point at tMin and starts there with no
+   entry face (entered 4); if the walk back leaves the mesh after tMin, the ray enters there instead. */
+inline void locate_back(const MeshData* M, RayWalk* w, uint face, float tExit) {
+    uint tet = face >> 2, came = face & 3u;
+    float t = tExit;
+    for (; w->steps < MAX_STEPS; ++w->steps) {
+        __global const float4* cell = M->cells + CELL_STRIDE * (size_t)tet;
+        float back = -INFINITY;
+        uint backFace = 4;
+        for (uint fi = 0; fi < 4; ++fi) {
+            if (fi == came) continue;
+            const float4 pl = cell[fi];
+            const float nd = dot(pl.xyz, w->d);
+            if (!(nd < 0.0f)) continue;
+            const float tf = fmin(-(dot(pl.xyz, w->o) + pl.w) / nd, t);
+            if (tf > back) {
+                back = tf;
+                backFace = fi;
+            }
+        }
+        if (backFace == 4 || back <= w->tMin) break;
+        const uint nb = ((__global const uint*)(cell + 5))[backFace];
+        if (nb >= VOLCL_MESH_HULL_FACE) {
+            w->tet = tet;
+            w->entered = backFace;
+            w->t = back;
+            return;
+        }
+        tet = nb >> 2;
+        came = nb & 3u;
+        t = back;
+    }
+    w->tet = tet;
+    w->entered = 4;
+    w->t = w->tMin;
+}
+
+/* One unit of work of a ray: find its next entry into the mesh, or cross one tet.
+   MESH_OVERLAPS: the part of the ray inside the mesh is the union of its intervals in the tets, and a walk from
+   an entering boundary face through face-adjacent tets up to the boundary face it leaves by is one interval of
+   the union. The ray takes every entering face along the line in the order of t (tMin is the last one), walks
+   from each, and integrates only past `covered`, the end of what earlier walks covered: intervals taken in
+   the order of their start add up to their union, however many layers of folded tets or components overlap.
+   [tMin, covered] is covered by the walks so far, so an entering face there belongs to a tet that overlaps
+   another: only the faces of such tets (marked on the host) are searched before `covered`. */
 inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderParams* Pc,
                         const VolclTfParams* T, const VolclLightingParams* Lp, float3 eye, uint* seed) {
     const VolclMeshParams* P = &Pc->mesh;
     if (w->phase == PHASE_ENTRY) {
-        const Entry hit = first_entry(M, P, w->o, w->d, w->tMin - P->epsilon, w->recent, *seed);
+#ifdef MESH_OVERLAPS
+        const Entry hit = first_entry(M, P, w->o, w->d, w->covered - P->epsilon, INFINITY,
+                                      w->tMin - P->epsilon, w->recent, *seed);
+#else
+        const Entry hit =
+            first_entry(M, P, w->o, w->d, w->tMin - P->epsilon,
+                        w->mayBeInside ? w->tMin + P->epsilon : INFINITY, w->tMin, w->recent, *seed);
+#endif
         if (hit.face == NO_FACE || hit.t > w->clip.y || ++w->entries > MAX_ENTRIES) {
             w->phase = PHASE_DONE;
             return;
         }
         *seed = hit.leaf;
-        w->recent[w->ri] = hit.face;
-        w->ri = (w->ri + 1) % RECENT;
-        w->tet = hit.face >> 2;
-        w->entered = hit.face & 3u;
-        cell_prefetch(M, w->tet);
-        w->t = hit.t;
+        if (hit.entering) {
+            w->recent[w->ri] = hit.face;
+            w->ri = (w->ri + 1) % RECENT;
+            w->tet = hit.face >> 2;
+            w->entered = hit.face & 3u;
+            w->t = hit.t;
+#ifdef MESH_OVERLAPS
+            w->tMin = hit.t;
+#endif
+        } else {
+            locate_back(M, w, hit.face, hit.t);
+        }
         /* The point-sampling lattice starts half a step into the mesh. */
         if (isnan(w->st.nextSample))
             w->st.nextSample = fmax(w->t, w->clip.x) + 0.5f * Pc->march.step * P->invScale;
@@ -480,7 +586,15 @@ inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderPara
         best = w->t;
     }
     const float tExit = fmax(best, w->t);
+#ifdef MESH_OVERLAPS
+    const float tFrom = fmax(w->t, w->covered);
+    if (tExit >= tFrom)
+        cell_segment(M, Pc, T, Lp, &Pc->camera, eye, w->o, w->d, w->tOffset, tet, tFrom, tExit, w->clip,
+                     &w->st);
+    w->covered = fmax(w->covered, tExit);
+#else
     cell_segment(M, Pc, T, Lp, &Pc->camera, eye, w->o, w->d, w->tOffset, tet, w->t, tExit, w->clip, &w->st);
+#endif
     w->t = tExit;
 #if defined(EARLY_TERMINATION) && (MODE == 0 || MODE == 2)
     if (w->st.alpha >= Pc->march.earlyTermination) {
@@ -495,7 +609,9 @@ inline void ray_advance(RayWalk* w, const MeshData* M, const VolclMeshRenderPara
     const uint nb = ((__global const uint*)(cell + 5))[exitFace];
     if (nb >=
         VOLCL_MESH_HULL_FACE) { /* left the mesh: for good through a hull face, else look for a re-entry */
-        w->tMin = w->t;
+#ifndef MESH_OVERLAPS
+        w->tMin = w->t; /* without overlaps the ray is outside here: the next entry lies ahead */
+#endif
         w->phase = nb == VOLCL_MESH_HULL_FACE ? PHASE_DONE : PHASE_ENTRY;
         return;
     }

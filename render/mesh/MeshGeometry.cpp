@@ -4,6 +4,7 @@
 #include "core/runtime/ParallelFor.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -200,6 +201,178 @@ std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bv
     }
     if (bestFace == mesh::kNoFace) return std::nullopt;
     return EntryHit{bestFace, best};
+}
+
+bool mayOverlap(const mesh::TetMesh& m) {
+    if (m.repairs.overlappingFaces + m.repairs.nonManifoldFaces > 0) return true;
+    // Face-connected components (union-find over the tets' neighbours) and their bounding boxes.
+    std::vector<std::size_t> parent(m.tets.size());
+    std::iota(parent.begin(), parent.end(), std::size_t(0));
+    const auto root = [&parent](std::size_t t) {
+        while (parent[t] != t)
+            t = parent[t] = parent[parent[t]];
+        return t;
+    };
+    for (std::size_t t = 0; t < m.tets.size(); ++t)
+        for (unsigned f = 0; f < 4; ++f) {
+            const mesh::FaceId nb = m.neighbors[mesh::faceId(t, f)];
+            if (nb != mesh::kNoFace) parent[root(t)] = root(mesh::faceTet(nb));
+        }
+    struct Box {
+        Vec3 lo, hi;
+    };
+    const double inf = std::numeric_limits<double>::infinity();
+    std::vector<std::size_t> slot(m.tets.size(), std::size_t(-1));
+    std::vector<Box> boxes;
+    for (std::size_t t = 0; t < m.tets.size(); ++t) {
+        std::size_t& k = slot[root(t)];
+        if (k == std::size_t(-1)) {
+            k = boxes.size();
+            boxes.push_back({{inf, inf, inf}, {-inf, -inf, -inf}});
+        }
+        for (const auto v : m.tets[t])
+            for (int a = 0; a < 3; ++a) {
+                boxes[k].lo[a] = std::min(boxes[k].lo[a], double(m.points[v][a]));
+                boxes[k].hi[a] = std::max(boxes[k].hi[a], double(m.points[v][a]));
+            }
+    }
+    // Boxes that only touch (components meeting in a plane) do not count: the overlap must exceed rounding.
+    const double slack = 1e-9 * norm(sub(m.boundsMax, m.boundsMin));
+    std::sort(boxes.begin(), boxes.end(), [](const Box& a, const Box& b) { return a.lo[0] < b.lo[0]; });
+    for (std::size_t i = 0; i < boxes.size(); ++i)
+        for (std::size_t j = i + 1; j < boxes.size() && boxes[j].lo[0] < boxes[i].hi[0] - slack; ++j) {
+            bool overlap = true;
+            for (int a = 1; a < 3; ++a)
+                overlap = overlap && boxes[j].lo[a] < boxes[i].hi[a] - slack &&
+                          boxes[i].lo[a] < boxes[j].hi[a] - slack;
+            if (overlap) return true;
+        }
+    return false;
+}
+
+namespace {
+
+/// Whether the interiors of two tets overlap by more than `tol` (times the axis length) on every separating
+/// axis candidate: the 8 face normals and the 36 cross products of an edge of each. Convex solids whose interiors
+/// are disjoint have a separating plane among these, touching ones (shared faces, edges, vertices) included.
+bool tetsOverlap(const std::array<Vec3, 4>& a, const std::array<Vec3, 4>& b, double tol) {
+    const auto separates = [&](const Vec3& n) {
+        const double len2 = dot(n, n);
+        if (!(len2 > 0.0)) return false;
+        double a0 = dot(n, a[0]), a1 = a0, b0 = dot(n, b[0]), b1 = b0;
+        for (int i = 1; i < 4; ++i) {
+            a0 = std::min(a0, dot(n, a[i]));
+            a1 = std::max(a1, dot(n, a[i]));
+            b0 = std::min(b0, dot(n, b[i]));
+            b1 = std::max(b1, dot(n, b[i]));
+        }
+        // Overlap of the projections at most tol in length units (n is not normalised).
+        const double gap = std::min(a1 - b0, b1 - a0);
+        return gap <= 0.0 || gap * gap <= tol * tol * len2;
+    };
+    static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+    for (const auto* t : {&a, &b})
+        for (int f = 0; f < 4; ++f) {
+            const Vec3& p = (*t)[(f + 1) % 4];
+            if (separates(cross(sub((*t)[(f + 2) % 4], p), sub((*t)[(f + 3) % 4], p)))) return false;
+        }
+    for (const auto& ea : kEdges)
+        for (const auto& eb : kEdges)
+            if (separates(cross(sub(a[ea[1]], a[ea[0]]), sub(b[eb[1]], b[eb[0]])))) return false;
+    return true;
+}
+
+} // namespace
+
+std::vector<std::uint8_t> overlappingTets(const mesh::TetMesh& m) {
+    const std::size_t n = m.tets.size();
+    std::vector<std::array<Vec3, 4>> corners(n);
+    std::vector<Vec3> lo(n), hi(n);
+    for (std::size_t t = 0; t < n; ++t) {
+        for (int i = 0; i < 4; ++i)
+            corners[t][i] = m.points[m.tets[t][i]];
+        for (int a = 0; a < 3; ++a) {
+            lo[t][a] = std::min({corners[t][0][a], corners[t][1][a], corners[t][2][a], corners[t][3][a]});
+            hi[t][a] = std::max({corners[t][0][a], corners[t][1][a], corners[t][2][a], corners[t][3][a]});
+        }
+    }
+    const double tol = 1e-9 * norm(sub(m.boundsMax, m.boundsMin));
+    // Candidate pairs from a box tree over the tets (median split on the longest axis of the box centres, at
+    // most 4 tets a leaf; it adapts to graded meshes where a uniform grid would crowd thin cells): each tet asks
+    // it for the tets after it whose boxes overlap its own.
+    struct Node {
+        Vec3 lo, hi;
+        std::size_t first, count, right; ///< leaf: order[first, first + count); inner: count 0, right child
+    };
+    std::vector<Node> nodes;
+    std::vector<std::size_t> order(n);
+    std::iota(order.begin(), order.end(), std::size_t(0));
+    const auto build = [&](auto&& self, std::size_t first, std::size_t count) -> std::size_t {
+        const std::size_t index = nodes.size();
+        nodes.push_back({lo[order[first]], hi[order[first]], first, count, 0});
+        Vec3 clo = nodes[index].lo, chi = nodes[index].hi;
+        for (std::size_t i = first; i < first + count; ++i)
+            for (int a = 0; a < 3; ++a) {
+                nodes[index].lo[a] = std::min(nodes[index].lo[a], lo[order[i]][a]);
+                nodes[index].hi[a] = std::max(nodes[index].hi[a], hi[order[i]][a]);
+                const double c = lo[order[i]][a] + hi[order[i]][a];
+                clo[a] = std::min(clo[a], c);
+                chi[a] = std::max(chi[a], c);
+            }
+        if (count <= 4) return index;
+        int axis = 0;
+        for (int a = 1; a < 3; ++a)
+            if (chi[a] - clo[a] > chi[axis] - clo[axis]) axis = a;
+        const std::size_t half = count / 2;
+        std::nth_element(order.begin() + std::ptrdiff_t(first), order.begin() + std::ptrdiff_t(first + half),
+                         order.begin() + std::ptrdiff_t(first + count), [&](std::size_t x, std::size_t y) {
+                             return lo[x][axis] + hi[x][axis] < lo[y][axis] + hi[y][axis];
+                         });
+        nodes[index].count = 0;
+        self(self, first, half);
+        const std::size_t right = self(self, first + half, count - half);
+        nodes[index].right = right;
+        return index;
+    };
+    if (n > 0) build(build, 0, n);
+    const auto boxesOverlap = [tol](const Vec3& alo, const Vec3& ahi, const Vec3& blo, const Vec3& bhi) {
+        for (int a = 0; a < 3; ++a)
+            if (!(blo[a] < ahi[a] - tol && alo[a] < bhi[a] - tol)) return false;
+        return true;
+    };
+    std::vector<std::vector<std::size_t>> found(n); // per tet: the tets after it that overlap it
+    parallelFor(n, 0u, [&](std::size_t t) {
+        std::vector<std::size_t> stack{0};
+        while (!stack.empty()) {
+            const Node& node = nodes[stack.back()];
+            const std::size_t ni = stack.back();
+            stack.pop_back();
+            if (!boxesOverlap(node.lo, node.hi, lo[t], hi[t])) continue;
+            if (node.count == 0) {
+                stack.push_back(ni + 1);
+                stack.push_back(node.right);
+                continue;
+            }
+            for (std::size_t i = node.first; i < node.first + node.count; ++i) {
+                const std::size_t u = order[i];
+                if (u <= t || !boxesOverlap(lo[u], hi[u], lo[t], hi[t])) continue;
+                // Face neighbours lie on opposite sides of their shared face.
+                bool neighbours = false;
+                for (unsigned f = 0; f < 4; ++f) {
+                    const mesh::FaceId nb = m.neighbors[mesh::faceId(t, f)];
+                    neighbours = neighbours || (nb != mesh::kNoFace && mesh::faceTet(nb) == u);
+                }
+                if (!neighbours && tetsOverlap(corners[t], corners[u], tol)) found[t].push_back(u);
+            }
+        }
+    });
+    std::vector<std::uint8_t> overlaps(n, 0);
+    for (std::size_t t = 0; t < n; ++t)
+        for (const std::size_t u : found[t]) {
+            overlaps[t] = 1;
+            overlaps[u] = 1;
+        }
+    return overlaps;
 }
 
 } // namespace volcl::mesh_detail

@@ -61,4 +61,16 @@ std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bv
                                    const Vec3& d, double tMin, const std::vector<mesh::FaceId>& exclude,
                                    double tolerance = 1e-12);
 
+/// Whether tets of the mesh may overlap, so that a ray can be inside two of them at once: the builder found
+/// overlapping or non-manifold face pairs (folded tets), or two face-connected components have bounding boxes
+/// that overlap (pieces that interpenetrate or nest without sharing a face). False promises that every point is
+/// in at most one tet, up to a single connected component that passes through itself without a shared face,
+/// which no cheap test sees.
+bool mayOverlap(const mesh::TetMesh& m);
+
+/// Per tet: 1 when its interior overlaps another tet's (a separating-axis test on every pair of tets with
+/// overlapping boxes; overlaps thinner than 1e-9 of the mesh's diagonal do not count). Only these tets' boundary
+/// faces can be entered inside a part of a ray that other tets cover.
+std::vector<std::uint8_t> overlappingTets(const mesh::TetMesh& m);
+
 } // namespace volcl::mesh_detail

@@ -101,14 +101,23 @@ public:
         const Vec3& o = ray.origin;
         const Vec3& d = ray.direction;
         std::vector<FaceId> recent;
-        double tMin = 0.0;
+        // The part of the ray inside the mesh is the union of its intervals in the tets. Every walk from an
+        // entering boundary face crosses face-adjacent tets up to a boundary face it leaves by: one interval of
+        // the union. Walks start at every entering face along the whole line (behind the eye too: a walk that
+        // starts there covers an eye inside the mesh), taken in the order of their t, and only the part past
+        // `covered`, the end of what earlier walks integrated, counts. Sorted by start, the intervals add up to
+        // their union even where tets overlap (folded tets, overlapping components).
+        double tEntry = -std::numeric_limits<double>::infinity();
+        double covered = px.c0;
         const std::size_t stepLimit = 8 * m_.tets.size() + 1024;
         std::size_t steps = 0;
         while (steps < stepLimit) {
-            const auto hit = mesh_detail::firstEntry(m_, bvh_, o, d, tMin - eps_, recent);
+            const auto hit = mesh_detail::firstEntry(m_, bvh_, o, d, tEntry - eps_, recent);
             if (!hit || hit->t > px.c1) break;
+            ++steps; // each search finds a face not in `recent`: a bound even if many faces share one t
             if (recent.size() == 4) recent.erase(recent.begin());
             recent.push_back(hit->face);
+            tEntry = hit->t;
             std::size_t tet = mesh::faceTet(hit->face);
             unsigned entered = mesh::faceLocal(hit->face);
             double t = hit->t;
@@ -135,7 +144,10 @@ public:
                     best = t;
                 }
                 const double tExit = std::max(best, t);
-                segment(ray, tet, t, tExit, px);
+                if (tExit > covered) {
+                    segment(ray, tet, std::max(t, covered), tExit, px);
+                    covered = tExit;
+                }
                 t = tExit;
                 if (px.T < 1e-12 || t > px.c1) return px.result(*this);
                 const FaceId nb = m_.neighbors[mesh::faceId(tet, unsigned(exitFace))];
@@ -143,7 +155,6 @@ public:
                 tet = mesh::faceTet(nb);
                 entered = mesh::faceLocal(nb);
             }
-            tMin = t;
         }
         return px.result(*this);
     }

@@ -21,9 +21,12 @@ ValueRange meshValueRange(const mesh::TetMesh& mesh);
 EffectPlan planMeshEffects(const Scene& scene, const mesh::TetMesh& mesh);
 
 /// Renders the scene of a mesh exactly, in double, on the host (ReferenceOptions::threads threads; the step
-/// is unused: nothing is sampled). Rays start at t = 0 (the eye), enter at boundary faces (a BVH of them),
-/// walk face-adjacent tets leaving each through the nearest face plane ahead, and re-enter after a
-/// boundary exit (non-convex meshes, holes); only the parts inside the mesh and the clip planes count.
+/// is unused: nothing is sampled). Rays walk from every entering boundary face along their line (a BVH of
+/// them), behind the eye too, in the order of t, through face-adjacent tets leaving each through the nearest
+/// face plane ahead, up to a boundary face they leave by; each walk counts only past the end of what earlier
+/// walks covered, from t = 0 (the eye) on. So every part of the ray inside some tet counts once: non-convex
+/// meshes, holes, any number of exits and re-entries, an eye inside the mesh, tets folded over one another and
+/// overlapping components. Only the parts inside the mesh and the clip planes count.
 /// Per mode:
 /// - dvr: each segment [t_a, t_b] of a tet has s linear from s_a to s_b; its colour and opacity are the
 ///   exact emission-absorption integral of the TF (the pre-integration reference), composited front to

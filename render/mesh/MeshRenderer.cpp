@@ -59,6 +59,7 @@ struct MeshRenderer::Impl {
     DeviceBuffer<float> tauIntegral;
     std::size_t bvhNodeCount = 0;
     double maxSegment = 1.0;
+    bool mayOverlap = false; ///< tets may overlap: rays integrate the union of their tet intervals
     cl::Kernel kernel;
     VolclMeshRenderParams params{};
 };
@@ -110,6 +111,7 @@ MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const 
         m.tetMax[t] = hi;
     });
     const mesh_detail::BoundaryBvh bvh = mesh_detail::buildBoundaryBvh(mesh);
+    m.mayOverlap = mesh_detail::mayOverlap(mesh);
     // A boundary face on the convex hull says so in its neighbour slot: a ray leaving there is done.
     const std::vector<std::uint8_t> hull = mesh_detail::hullFaces(mesh, bvh);
     for (std::size_t i = 0; i < bvh.faces.size(); ++i)
@@ -117,14 +119,30 @@ MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const 
             cells[kStride * mesh::faceTet(bvh.faces[i]) + 5].s[mesh::faceLocal(bvh.faces[i])] =
                 bitsAsFloat(VOLCL_MESH_HULL_FACE);
     m.cells = cc_.upload(cells, CL_MEM_READ_ONLY);
+    // Where tets may overlap, the faces of tets that do overlap others (and the nodes above them) are marked: only
+    // they can be entered inside a part of the ray that earlier walks covered (see mesh_cells.cl, ray_advance).
+    std::vector<std::uint8_t> faceOverlaps(bvh.faces.size(), 0), nodeOverlaps(bvh.nodes.size(), 0);
+    if (m.mayOverlap) {
+        const std::vector<std::uint8_t> tets = mesh_detail::overlappingTets(mesh);
+        for (std::size_t i = 0; i < bvh.faces.size(); ++i)
+            faceOverlaps[i] = tets[mesh::faceTet(bvh.faces[i])];
+        for (std::size_t i = bvh.nodes.size(); i-- > 0;) { // children follow their parent
+            const auto& n = bvh.nodes[i];
+            if (n.count)
+                for (std::uint32_t k = n.first; k < n.first + n.count; ++k)
+                    nodeOverlaps[i] |= faceOverlaps[k];
+            else
+                nodeOverlaps[i] = nodeOverlaps[i + 1] | nodeOverlaps[n.right];
+        }
+    }
     std::vector<cl_float4> nodes(2 * std::max<std::size_t>(bvh.nodes.size(), 1));
     for (std::size_t i = 0; i < bvh.nodes.size(); ++i) {
         const auto& n = bvh.nodes[i];
         const Vec3 lo = normalise(n.lo), hi = normalise(n.hi);
         nodes[2 * i] = {{outward(lo[0], false), outward(lo[1], false), outward(lo[2], false),
                          bitsAsFloat(n.count ? n.first : n.right)}};
-        nodes[2 * i + 1] = {
-            {outward(hi[0], true), outward(hi[1], true), outward(hi[2], true), bitsAsFloat(n.count)}};
+        nodes[2 * i + 1] = {{outward(hi[0], true), outward(hi[1], true), outward(hi[2], true),
+                             bitsAsFloat(n.count | (nodeOverlaps[i] ? VOLCL_MESH_BVH_OVERLAP : 0u))}};
     }
     std::vector<cl_float4> faces(3 * std::max<std::size_t>(bvh.faces.size(), 1));
     for (std::size_t i = 0; i < bvh.faces.size(); ++i) {
@@ -133,7 +151,7 @@ MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const 
                    c = normalise(mesh.points[v[2]]);
         faces[3 * i] = f4(a, bitsAsFloat(bvh.faces[i]));
         faces[3 * i + 1] = f4(sub(b, a), hull[i] ? 1.0f : 0.0f);
-        faces[3 * i + 2] = f4(sub(c, a), 0.0f);
+        faces[3 * i + 2] = f4(sub(c, a), faceOverlaps[i] ? 1.0f : 0.0f);
     }
     m.bvhNodes = cc_.upload(nodes, CL_MEM_READ_ONLY);
     m.bvhFaces = cc_.upload(faces, CL_MEM_READ_ONLY);
@@ -167,6 +185,9 @@ void MeshRenderer::rebuild(const Rebuild& change) {
     updateEmptiness(change.shaded, preint);
     KernelDefines defines = plan_.defines;
     defines.set("RAYS_X", cc_.profile().mesh.cellRaysX).set("RAYS_Y", cc_.profile().mesh.cellRaysY);
+    // Where tets may overlap (folds, interpenetrating components) rays take every entry and count the union;
+    // elsewhere a ray is outside after a boundary exit and the next entry ahead is all there is.
+    if (impl_->mayOverlap) defines.set("MESH_OVERLAPS", 1);
     impl_->kernel = cc_.kernel("mesh/mesh_cells.cl", "mesh_cells", defines);
     updateParams(change.shaded);
 }
@@ -283,7 +304,8 @@ std::string MeshRenderer::statistics() const {
     std::ostringstream os;
     os << "tets: " << mesh_.tets.size() << ", boundary faces: " << mesh_.boundaryFaces.size() << " (BVH of "
        << impl_->bvhNodeCount << " nodes), " << std::setprecision(1) << std::fixed << 100.0 * emptyFraction_
-       << "% of tets empty under the TF";
+       << "% of tets empty under the TF"
+       << (impl_->mayOverlap ? "; tets may overlap: rays take the union of the tets' intervals" : "");
     return os.str();
 }
 

@@ -1,0 +1,486 @@
+// Mesh renderers on non-convex jittered tet meshes against a brute-force float64 oracle that never walks the mesh.
+#include "TestUtil.hpp"
+
+#include "host/mesh/MeshGenerator.hpp"
+#include "render/CameraFraming.hpp"
+#include "render/Reference.hpp"
+#include "render/RenderInput.hpp"
+#include "render/mesh/MeshReference.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <iostream>
+
+using namespace volcl;
+
+namespace {
+
+/// Position within [-1, 1) from an integer: a fixed jitter that needs no random engine state.
+double hashUnit(std::uint64_t i, std::uint64_t salt) {
+    std::uint64_t x = i * 0x9E3779B97F4A7C15ull + salt * 0xBF58476D1CE4E5B9ull;
+    x ^= x >> 31;
+    x *= 0x94D049BB133111EBull;
+    x ^= x >> 29;
+    return double(x >> 11) / double(1ull << 52) - 1.0;
+}
+
+/// The tets of an nx x ny x nz hex grid on the box [lo, hi] whose cells' centres `removed` does not name, every
+/// point moved by up to `jitter` cell widths per axis (points on the box's faces stay in them unless
+/// `jitterSurface`), so the walls the removed cells leave are bumpy and concave; `seed` picks the jitter. From
+/// about 0.3 cell widths some tets fold over (the mesh builder turns them and leaves their overlapping faces as
+/// boundary faces), from 0.4 tens of them. The points' scalars sample sin(3x + 1) cos(2y) + z, or with
+/// `linearField` a linear field that every tet interpolates exactly, so that where tets overlap all of them
+/// hold the same value and the oracle's choice of tet does not matter.
+mesh::TetSoup jitteredSoup(std::array<std::size_t, 3> n, Vec3 lo, Vec3 hi, double jitter, bool jitterSurface,
+                           const std::function<bool(double, double, double)>& removed, std::uint64_t seed = 0,
+                           bool linearField = false) {
+    auto field = [linearField](double x, double y, double z) {
+        return linearField ? 0.8 * x - 0.5 * y + z : std::sin(3.0 * x + 1.0) * std::cos(2.0 * y) + z;
+    };
+    const mesh::TetMesh full =
+        mesh::generateHexGridMesh(n, {lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}, field);
+    double h[3];
+    for (int a = 0; a < 3; ++a)
+        h[a] = (hi[a] - lo[a]) / double(n[a]);
+    mesh::TetSoup soup;
+    for (const auto& t : full.tets) {
+        // The tet's hex cell: the cell containing its centroid (the centroid is strictly inside the cell).
+        double c[3] = {0, 0, 0};
+        for (auto v : t)
+            for (int a = 0; a < 3; ++a)
+                c[a] += 0.25 * full.points[v][a];
+        double cell[3];
+        for (int a = 0; a < 3; ++a)
+            cell[a] = lo[a] + (std::floor((c[a] - lo[a]) / h[a]) + 0.5) * h[a];
+        if (!removed(cell[0], cell[1], cell[2])) soup.tets.push_back(t);
+    }
+    soup.points = full.points;
+    for (std::size_t i = 0; i < soup.points.size(); ++i)
+        for (int a = 0; a < 3; ++a) {
+            double& p = soup.points[i][a];
+            if ((p > lo[a] && p < hi[a]) || jitterSurface)
+                p += jitter * h[a] * hashUnit(i, std::uint64_t(a) + 1 + 16 * seed);
+        }
+    for (const auto& p : soup.points)
+        soup.scalars.push_back(float(field(p[0], p[1], p[2])));
+    return soup;
+}
+
+/// n^3 cells of jitteredSoup on the unit cube, built into a mesh.
+mesh::TetMesh jitteredMesh(std::size_t n, double jitter, bool jitterSurface,
+                           const std::function<bool(double, double, double)>& removed,
+                           bool linearField = false) {
+    return mesh::buildTetMesh(
+        jitteredSoup({n, n, n}, {0, 0, 0}, {1, 1, 1}, jitter, jitterSurface, removed, 0, linearField),
+        "jittered", "f");
+}
+
+/// The ray interval [t0, t1] inside tet `t` (closed half-spaces of its four face planes, each oriented toward
+/// the opposite vertex), empty when t1 <= t0; independent of the mesh's adjacency and face planes.
+bool tetInterval(const mesh::TetMesh& m, std::size_t t, const Vec3& o, const Vec3& d, double& t0,
+                 double& t1) {
+    t0 = -std::numeric_limits<double>::infinity();
+    t1 = std::numeric_limits<double>::infinity();
+    const auto& v = m.tets[t];
+    for (int i = 0; i < 4; ++i) {
+        const Vec3 a = m.points[v[(i + 1) % 4]], b = m.points[v[(i + 2) % 4]], c = m.points[v[(i + 3) % 4]];
+        Vec3 n = cross(sub(b, a), sub(c, a));
+        if (dot(n, sub(m.points[v[i]], a)) < 0.0) n = scale(n, -1.0); // toward the opposite vertex
+        // Inside: dot(n, o + t d - a) >= 0.
+        const double g0 = dot(n, sub(o, a)), g1 = dot(n, d);
+        if (g1 == 0.0) {
+            if (g0 < 0.0) return false;
+            continue;
+        }
+        const double tc = -g0 / g1;
+        if (g1 > 0.0)
+            t0 = std::max(t0, tc);
+        else
+            t1 = std::min(t1, tc);
+    }
+    return t1 > t0;
+}
+
+/// The scalar at x by barycentric interpolation (sub-tet volumes) of tet t's vertex values.
+double barycentricScalar(const mesh::TetMesh& m, std::size_t t, const Vec3& x) {
+    const auto& v = m.tets[t];
+    auto vol = [](const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3) {
+        return dot(sub(p1, p0), cross(sub(p2, p0), sub(p3, p0)));
+    };
+    Vec3 p[4];
+    for (int i = 0; i < 4; ++i)
+        p[i] = m.points[v[i]];
+    const double total = vol(p[0], p[1], p[2], p[3]);
+    double s = 0.0;
+    for (int i = 0; i < 4; ++i) {
+        Vec3 q[4] = {p[0], p[1], p[2], p[3]};
+        q[i] = x;
+        s += vol(q[0], q[1], q[2], q[3]) / total * double(m.scalars[v[i]]);
+    }
+    return s;
+}
+
+/// Brute force: every tet is intersected with the ray; the union of the intervals is cut at every interval end;
+/// each piece takes its scalar from a tet covering its midpoint (a ray lying in a shared face counts once) and
+/// is integrated front to back by the midpoint rule on steps of at most `step` (emission tau * colour); with
+/// `xray` the pixel is instead 1 - exp(-optical depth) in every channel.
+ReferencePixel oraclePixel(const mesh::TetMesh& m, const TransferFunction& tf, const CameraRay& ray,
+                           double step, bool xray = false) {
+    struct Span {
+        double t0, t1;
+        std::size_t tet;
+    };
+    std::vector<Span> spans;
+    std::vector<double> cuts;
+    for (std::size_t t = 0; t < m.tets.size(); ++t) {
+        double t0, t1;
+        if (!tetInterval(m, t, ray.origin, ray.direction, t0, t1)) continue;
+        t0 = std::max(t0, 0.0);
+        if (!(t1 > t0)) continue;
+        spans.push_back({t0, t1, t});
+        cuts.push_back(t0);
+        cuts.push_back(t1);
+    }
+    std::sort(cuts.begin(), cuts.end());
+    Vec3 rgb{0, 0, 0};
+    double T = 1.0, depth = 0.0;
+    for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
+        const double a = cuts[k], b = cuts[k + 1];
+        if (!(b > a)) continue;
+        const double mid = 0.5 * (a + b);
+        const Span* cover = nullptr;
+        for (const Span& sp : spans)
+            if (sp.t0 <= mid && mid <= sp.t1) {
+                cover = &sp;
+                break;
+            }
+        if (!cover) continue; // a gap between two parts of the mesh
+        // The field is linear inside a tet, so the piece's scalar is linear between its ends.
+        const double sa = barycentricScalar(m, cover->tet, add(ray.origin, scale(ray.direction, a)));
+        const double sb = barycentricScalar(m, cover->tet, add(ray.origin, scale(ray.direction, b)));
+        const int n = std::max(1, int(std::ceil((b - a) / step)));
+        const double h = (b - a) / n;
+        for (int i = 0; i < n; ++i) {
+            const double s = sa + (sb - sa) * (i + 0.5) / n;
+            depth += tf.extinctionAt(s) * h;
+            const double alpha = 1.0 - std::exp(-tf.extinctionAt(s) * h);
+            const auto c = tf.colorAt(s);
+            rgb = add(rgb, scale(Vec3{c[0], c[1], c[2]}, T * alpha));
+            T *= 1.0 - alpha;
+        }
+    }
+    const double inf = std::numeric_limits<double>::infinity();
+    if (xray) {
+        const double a = -std::expm1(-depth);
+        return {a, a, a, a, inf};
+    }
+    return {rgb[0], rgb[1], rgb[2], 1.0 - T, inf};
+}
+
+ImageBuffer oracleRender(const mesh::TetMesh& m, const TransferFunction& tf, const Scene& s) {
+    return traceReferenceImage(s, *s.camera, false, 0, [&](const CameraRay& ray) {
+        return oraclePixel(m, tf, ray, 1e-3, s.mode == RenderMode::Xray);
+    });
+}
+
+/// Ramp TF over the mesh's values, about `depth` optical lengths across the unit cube.
+TransferFunction rampOver(const mesh::TetMesh& m, double depth) {
+    const double lo = m.valueMin, hi = m.valueMax;
+    TransferFunction tf;
+    tf.domain = {lo, hi};
+    tf.color = {{lo, {0.1, 0.2, 1.0}}, {0.5 * (lo + hi), {1.0, 0.6, 0.2}}, {hi, {1.0, 1.0, 0.9}}};
+    tf.extinction = {{lo, 0.3 * depth}, {lo + 0.4 * (hi - lo), depth}, {hi, 0.5 * depth}};
+    return tf;
+}
+
+double maxAbsDiff(const ImageBuffer& a, const ImageBuffer& b) {
+    double e = 0.0;
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x)
+            for (int ch = 0; ch < 4; ++ch)
+                e = std::max(e, std::abs(double(a.at(x, y, ch)) - double(b.at(x, y, ch))));
+    return e;
+}
+
+double meanAlpha(const ImageBuffer& img) {
+    double sum = 0;
+    for (int y = 0; y < img.height; ++y)
+        for (int x = 0; x < img.width; ++x)
+            sum += img.at(x, y, 3);
+    return sum / double(img.width * img.height);
+}
+
+struct View {
+    std::string name;
+    Camera camera;
+    /// The k-buffer starts at the faces in front of the camera: from inside the mesh it misses the first part.
+    bool eyeInside = false;
+};
+
+/// Orthographic and perspective views framing `box` (the unit cube), plus the views a test adds.
+std::vector<View> views(std::vector<View> extra, const WorldBox& box = WorldBox{{0, 0, 0}, {1, 1, 1}}) {
+    std::vector<View> v{
+        {"ortho oblique", frameBox(box, orbitDirection(35.0, 25.0), Projection::Orthographic, 30.0, 1.0)},
+        {"persp oblique", frameBox(box, orbitDirection(-50.0, -20.0), Projection::Perspective, 40.0, 1.0)}};
+    v.insert(v.end(), extra.begin(), extra.end());
+    return v;
+}
+
+struct Errors {
+    double rmse = 0.0, maxAbs = 0.0;
+};
+
+/// Renders every view with the cell caster, the double reference and the k-buffer and checks them against the
+/// oracle: the cell caster (float, pre-integration table) within 0.002 RMSE and 0.005 per channel, the exact
+/// reference within 1e-4 RMSE and 1e-3, the k-buffer (its face-sorting approximation) within 0.005 RMSE. With
+/// `layered` (tets overlapping in many places) the k-buffer is not rendered: it composites every layer's faces
+/// and counts overlapping parts more than once, which it does not promise otherwise.
+void checkAgainstOracle(const std::string& name, const mesh::TetMesh& m, const std::vector<View>& vs,
+                        bool layered = false) {
+    const TransferFunction tf = rampOver(m, 3.0);
+    const RenderInput in = RenderInput::borrowMesh(m);
+    Scene s;
+    s.width = s.height = 32;
+    s.camera = vs.front().camera;
+    s.earlyTermination = 1.0;
+    s.preintegration = Preintegration::Table3d;
+    s.tableLengths = 32;
+    Scene ks = s;
+    ks.meshMethod = MeshMethod::KBuffer;
+    // One renderer of each kind for all views: a view change keeps the mesh and the table on the device.
+    const auto cellsRenderer = in.makeRenderer(test::computeContext(), tf, s);
+    const auto kbufferRenderer = layered ? nullptr : in.makeRenderer(test::computeContext(), tf, ks);
+    for (const View& v : vs) {
+        s.camera = v.camera;
+        const ImageBuffer oracle = oracleRender(m, tf, s);
+        ASSERT_GT(meanAlpha(oracle), 0.05) << name << " " << v.name;
+        cellsRenderer->setView(v.camera, s.width, s.height, s.step);
+        const ImageBuffer cells = cellsRenderer->render();
+        const ImageBuffer ref = meshReferenceRender(m, tf, s);
+        const Errors ec{imageRmse(cells, oracle), maxAbsDiff(cells, oracle)};
+        const Errors er{imageRmse(ref, oracle), maxAbsDiff(ref, oracle)};
+        std::cout << name << ", " << v.name << ": cells RMSE " << ec.rmse << " max " << ec.maxAbs
+                  << "; reference RMSE " << er.rmse << " max " << er.maxAbs;
+        Errors ek;
+        if (kbufferRenderer) {
+            kbufferRenderer->setView(v.camera, s.width, s.height, s.step);
+            const ImageBuffer kbuf = kbufferRenderer->render();
+            ek = {imageRmse(kbuf, oracle), maxAbsDiff(kbuf, oracle)};
+            std::cout << "; kbuffer RMSE " << ek.rmse << " max " << ek.maxAbs;
+        }
+        std::cout << '\n';
+        EXPECT_LE(ec.rmse, 0.002) << name << ", " << v.name << ": cells";
+        EXPECT_LE(ec.maxAbs, 0.005) << name << ", " << v.name << ": cells";
+        EXPECT_LE(er.rmse, 1e-4) << name << ", " << v.name << ": reference";
+        EXPECT_LE(er.maxAbs, 1e-3) << name << ", " << v.name << ": reference";
+        if (kbufferRenderer && !v.eyeInside)
+            EXPECT_LE(ek.rmse, 0.005) << name << ", " << v.name << ": kbuffer";
+    }
+}
+
+/// X-ray (1 - exp(-optical depth)) of the cell caster and the reference against the oracle: every covered part
+/// of the ray once, whatever order its walks take. Tolerances as for dvr.
+void checkXrayAgainstOracle(const std::string& name, const mesh::TetMesh& m, const std::vector<View>& vs) {
+    const TransferFunction tf = rampOver(m, 3.0);
+    Scene s;
+    s.width = s.height = 32;
+    s.camera = vs.front().camera;
+    s.mode = RenderMode::Xray;
+    const auto cellsRenderer = RenderInput::borrowMesh(m).makeRenderer(test::computeContext(), tf, s);
+    for (const View& v : vs) {
+        s.camera = v.camera;
+        const ImageBuffer oracle = oracleRender(m, tf, s);
+        ASSERT_GT(meanAlpha(oracle), 0.05) << name << " " << v.name;
+        cellsRenderer->setView(v.camera, s.width, s.height, s.step);
+        const ImageBuffer cells = cellsRenderer->render();
+        const ImageBuffer ref = meshReferenceRender(m, tf, s);
+        const Errors ec{imageRmse(cells, oracle), maxAbsDiff(cells, oracle)};
+        const Errors er{imageRmse(ref, oracle), maxAbsDiff(ref, oracle)};
+        std::cout << name << " xray, " << v.name << ": cells RMSE " << ec.rmse << " max " << ec.maxAbs
+                  << "; reference RMSE " << er.rmse << " max " << er.maxAbs << '\n';
+        EXPECT_LE(ec.rmse, 0.002) << name << ", " << v.name << ": cells xray";
+        EXPECT_LE(ec.maxAbs, 0.005) << name << ", " << v.name << ": cells xray";
+        EXPECT_LE(er.rmse, 1e-4) << name << ", " << v.name << ": reference xray";
+        EXPECT_LE(er.maxAbs, 1e-3) << name << ", " << v.name << ": reference xray";
+    }
+}
+
+Camera lookAt(Vec3 eye, Vec3 target, Vec3 up, Projection p, double heightOrFov) {
+    Camera c;
+    c.eye = eye;
+    c.target = target;
+    c.up = up;
+    c.projection = p;
+    if (p == Projection::Orthographic)
+        c.height = heightOrFov;
+    else
+        c.fovYDeg = heightOrFov;
+    return c;
+}
+
+} // namespace
+
+bool tunnelOrNotch(double x, double y, double z) {
+    const bool tunnel = std::abs(x - 0.5) < 0.15 && std::abs(y - 0.5) < 0.15; // along z, 2 x 2 cells of 8
+    const bool notch = x > 0.7 && y > 0.6 && z > 0.3 && z < 0.8;
+    return tunnel || notch;
+}
+
+TEST(MeshOracle, TunnelAndNotch) {
+    const mesh::TetMesh m = jitteredMesh(8, 0.2, false, tunnelOrNotch);
+    // A conforming mesh: every point of the cube minus the cut-outs is in exactly one tet.
+    ASSERT_EQ(m.repairs.invertedTets, 0u);
+    checkAgainstOracle(
+        "tunnel+notch", m,
+        views({{"ortho across the tunnel",
+                lookAt({-3.0, 0.47, 0.52}, {0.5, 0.5, 0.5}, {0, 0, 1}, Projection::Orthographic, 1.2)},
+               {"grazing along the tunnel",
+                lookAt({0.52, 0.46, -4.0}, {0.5, 0.5, 0.5}, {0, 1, 0}, Projection::Orthographic, 0.45)},
+               {"in the plane of the cube's faces and the tunnel's rim",
+                lookAt({0.375, 0.5, -4.0}, {0.375, 0.5, 0.5}, {0, 1, 0}, Projection::Orthographic, 1.1)},
+               {"persp into the tunnel",
+                lookAt({0.62, 0.4, -0.8}, {0.5, 0.5, 0.5}, {0, 1, 0}, Projection::Perspective, 35.0)},
+               {"persp eye in the tunnel",
+                lookAt({0.5, 0.5, 0.5}, {0.7, 0.6, 1.5}, {0, 1, 0}, Projection::Perspective, 60.0)},
+               {"persp eye in the mesh",
+                lookAt({0.2, 0.2, 0.3}, {0.5, 0.5, 1.5}, {0, 1, 0}, Projection::Perspective, 60.0), true}}));
+}
+
+TEST(MeshOracle, EnclosedCavity) {
+    // A cavity of cells around the centre, closed on every side: rays leave into it and enter again.
+    const mesh::TetMesh m = jitteredMesh(8, 0.2, false, [](double x, double y, double z) {
+        return (x - 0.5) * (x - 0.5) + (y - 0.45) * (y - 0.45) + (z - 0.55) * (z - 0.55) < 0.09;
+    });
+    ASSERT_EQ(m.repairs.invertedTets, 0u);
+    checkAgainstOracle(
+        "cavity", m,
+        views(
+            {{"persp from near a corner",
+              lookAt({1.6, 1.4, -0.9}, {0.5, 0.5, 0.5}, {0, 1, 0}, Projection::Perspective, 30.0)},
+             {"persp eye in the cavity",
+              lookAt({0.5, 0.45, 0.55}, {0.2, 0.3, 1.5}, {0, 1, 0}, Projection::Perspective, 70.0), true}}));
+}
+
+TEST(MeshOracle, CombExitsAndReentersManyTimes) {
+    // A U-shape with a second slot (a comb of three prongs): rays along x leave and re-enter twice, rays
+    // along z graze the prongs' walls.
+    const mesh::TetMesh m = jitteredMesh(10, 0.25, false, [](double x, double y, double) {
+        return y > 0.3 && ((x > 0.2 && x < 0.4) || (x > 0.6 && x < 0.8));
+    });
+    ASSERT_EQ(m.repairs.invertedTets, 0u);
+    checkAgainstOracle("comb", m,
+                       views({{"ortho through the prongs", lookAt({-3.0, 0.65, 0.5}, {0.5, 0.65, 0.5},
+                                                                  {0, 1, 0}, Projection::Orthographic, 0.7)},
+                              {"grazing along the walls", lookAt({0.41, 0.6, -4.0}, {0.39, 0.6, 0.5},
+                                                                 {0, 1, 0}, Projection::Orthographic, 0.8)},
+                              {"persp through the slots", lookAt({-1.5, 0.9, 0.2}, {0.5, 0.6, 0.5}, {0, 1, 0},
+                                                                 Projection::Perspective, 35.0)}}));
+}
+
+TEST(MeshOracle, FoldedTetsAndBumpySurfaceFromManyDirections) {
+    // Every point jittered by 0.3 cells, the cube's faces too: the outer surface is concave in places and a few
+    // tets fold over, leaving overlapping faces as boundary faces inside the mesh. Rays leave through them
+    // while still inside other tets; the renderers must count the covered part of the ray once, as the
+    // oracle does. Eight directions spread over the sphere, orthographic and perspective in turn.
+    const mesh::TetMesh m = jitteredMesh(8, 0.3, true, [](double x, double y, double z) {
+        const bool comb = y < 0.25 && ((x > 0.1 && x < 0.3) || (x > 0.6 && x < 0.8));
+        return tunnelOrNotch(x, y, z) || comb;
+    });
+    ASSERT_GT(m.repairs.overlappingFaces, 0u); // the case this test is about
+    std::vector<View> vs;
+    for (int i = 0; i < 8; ++i) {
+        const double az = 360.0 * (0.5 + 0.5 * hashUnit(i, 7)), el = 80.0 * hashUnit(i, 8);
+        vs.push_back({"direction " + std::to_string(i),
+                      frameBox(WorldBox{{0, 0, 0}, {1, 1, 1}}, orbitDirection(az, el),
+                               i % 2 ? Projection::Perspective : Projection::Orthographic, 40.0, 1.0)});
+    }
+    checkAgainstOracle("folded", m, vs);
+}
+
+/// Where the heavily folded meshes have cells removed: the tunnel and notch, a cavity around (0.3, 0.3, 0.6).
+bool tunnelNotchOrCavity(double x, double y, double z) {
+    const bool cavity = (x - 0.3) * (x - 0.3) + (y - 0.3) * (y - 0.3) + (z - 0.6) * (z - 0.6) < 0.02;
+    return tunnelOrNotch(x, y, z) || cavity;
+}
+
+TEST(MeshOracle, HeavilyFoldedMeshes) {
+    // Every point, the surface's too, jittered by 0.35 to 0.5 cell widths: tens of tets fold over, in layers
+    // that overlap one another and the tunnel's, notch's and cavity's walls. A ray leaves one layer while inside
+    // others and meets entries of further layers inside covered parts; the oracle counts the union once. 0.5 is
+    // the largest jitter at which neighbouring points cannot pass one another along an axis. The field is linear,
+    // so overlapping tets agree on it and the check is one of coverage alone.
+    for (const double jitter : {0.35, 0.4, 0.45, 0.5}) {
+        const mesh::TetMesh m = jitteredMesh(8, jitter, true, tunnelNotchOrCavity, true);
+        std::cout << "jitter " << jitter << ": " << m.tets.size() << " tets, " << m.repairs.invertedTets
+                  << " inverted, " << m.repairs.overlappingFaces << " overlapping faces\n";
+        ASSERT_GE(m.repairs.invertedTets, jitter < 0.4 ? 5u : 20u); // the case this test is about
+        checkAgainstOracle(
+            "folded " + std::to_string(jitter), m,
+            views({{"grazing along the tunnel",
+                    lookAt({0.52, 0.46, -4.0}, {0.5, 0.5, 0.5}, {0, 1, 0}, Projection::Orthographic, 0.5)}}),
+            true);
+    }
+}
+
+TEST(MeshOracle, InterpenetratingComponents) {
+    // Two blocks in one mesh file that share no face but overlap in a slab (and a third block wholly inside the
+    // first): the mesh builder's repairs see nothing, every tet is valid, yet rays cross two components at
+    // once. The caster renders the union, as the oracle does (a linear field: the blocks agree where they overlap).
+    const auto keep = [](double, double, double) { return false; };
+    mesh::TetSoup soup = jitteredSoup({5, 5, 8}, {0, 0, 0}, {0.62, 0.62, 1}, 0.2, false, keep, 1, true);
+    const auto append = [&soup](const mesh::TetSoup& part) {
+        const auto base = std::uint32_t(soup.points.size());
+        soup.points.insert(soup.points.end(), part.points.begin(), part.points.end());
+        soup.scalars.insert(soup.scalars.end(), part.scalars.begin(), part.scalars.end());
+        for (auto t : part.tets) {
+            for (auto& v : t)
+                v += base;
+            soup.tets.push_back(t);
+        }
+    };
+    append(jitteredSoup({5, 5, 6}, {0.41, 0.38, 0.1}, {1, 1, 0.9}, 0.2, false, keep, 2, true));
+    append(jitteredSoup({2, 2, 2}, {0.1, 0.1, 0.2}, {0.3, 0.3, 0.4}, 0.1, false, keep, 3, true));
+    const mesh::TetMesh m = mesh::buildTetMesh(std::move(soup), "interpenetrating", "f");
+    ASSERT_EQ(m.repairs.invertedTets + m.repairs.overlappingFaces + m.repairs.nonManifoldFaces, 0u);
+    checkAgainstOracle(
+        "interpenetrating", m,
+        views({{"ortho through the overlap",
+                lookAt({0.5, -3.0, 0.5}, {0.5, 0.5, 0.5}, {0, 0, 1}, Projection::Orthographic, 1.2)},
+               {"persp eye in both blocks",
+                lookAt({0.5, 0.5, 0.5}, {0.2, 0.3, 1.5}, {0, 1, 0}, Projection::Perspective, 60.0), true}}),
+        true);
+    checkXrayAgainstOracle("interpenetrating", m,
+                           {{"persp eye in both blocks", lookAt({0.5, 0.5, 0.5}, {0.2, 0.3, 1.5}, {0, 1, 0},
+                                                                Projection::Perspective, 60.0)},
+                            {"ortho through the overlap", lookAt({0.5, -3.0, 0.5}, {0.5, 0.5, 0.5}, {0, 0, 1},
+                                                                 Projection::Orthographic, 1.2)}});
+}
+
+TEST(MeshOracle, AnisotropicBoxWithTunnelAlongX) {
+    // A mesh none of the above resembles: 7 x 9 x 6 cells on a 1.3 x 0.8 x 0.6 box (cells of three shapes), its
+    // own jitter seed, folded (0.42 cell widths), a tunnel along x, a slot from the top and a pocket in a side.
+    // The field is not linear: where tets overlap the oracle and the renderers may take different tets' values.
+    const auto removed = [](double x, double y, double z) {
+        const bool tunnel = std::abs(y - 0.4) < 0.14 && std::abs(z - 0.3) < 0.12;
+        const bool slot = x > 0.55 && x < 0.8 && y > 0.5;
+        const bool pocket = x > 1.0 && z < 0.2 && y < 0.5;
+        return tunnel || slot || pocket;
+    };
+    const Vec3 hi{1.3, 0.8, 0.6};
+    const mesh::TetMesh m = mesh::buildTetMesh(jitteredSoup({7, 9, 6}, {0, 0, 0}, hi, 0.42, true, removed, 5),
+                                               "anisotropic", "f");
+    ASSERT_GT(m.repairs.invertedTets, 5u);
+    const WorldBox box{{0, 0, 0}, hi};
+    checkAgainstOracle("anisotropic", m,
+                       views({{"grazing along the tunnel", lookAt({-4.0, 0.41, 0.31}, {0.65, 0.4, 0.3},
+                                                                  {0, 0, 1}, Projection::Orthographic, 0.5)},
+                              {"persp into the slot", lookAt({0.7, 1.8, 0.9}, {0.65, 0.4, 0.3}, {0, 0, 1},
+                                                             Projection::Perspective, 40.0)}},
+                             box),
+                       true);
+}
