@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Runs the whole test suite through ctest: the normal build, then the host code under ASan + UBSan.
+# Runs the whole test suite: the normal build (ctest), every kernel family on Oclgrind, the Python package (pytest),
+# then the host code under ASan + UBSan and a short fuzz run.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
