@@ -57,5 +57,21 @@ else
   fail "host_buffers.c does not build"
 fi
 
+# A buffer's uninitialised-value record is sized by its last host write, or kept from a released buffer of the same
+# number: the work-items whose loads lie past it report (a host program; in any order, Oclgrind runs work-groups
+# on several threads).
+if cc -std=c11 -o "$exe.shadow" buffer_shadow_size.c -lOpenCL; then
+  for expect in "split:8 9 10 11 12 13 14 15 " "whole:" "reuse:2 3 4 5 6 7 8 9 10 11 12 13 14 15 " "fresh:"; do
+    mode=${expect%%:*}
+    out=$(OCL_ICD_VENDORS=$1 OCLGRIND_UNINITIALIZED=1 "$exe.shadow" "$mode" 2>&1)
+    [[ $(tail -1 <<<"$out") == equal ]] || fail "buffer_shadow_size $mode: result $(tail -1 <<<"$out")"
+    items=$(grep -A2 "^Uninitialized value" <<<"$out" | grep -o "Global([0-9]*" | cut -d"(" -f2 | sort -n | tr "\\n" " ")
+    [[ $(grep -c "^[A-Z]" <<<"$out") == $(wc -w <<<"${expect#*:}") && $items == "${expect#*:}" ]] ||
+      fail "buffer_shadow_size $mode: expected reports from work-items [${expect#*:}], got [$items]"
+  done
+else
+  fail "buffer_shadow_size.c does not build"
+fi
+
 ((failures == 0)) || exit 1
 echo "the Oclgrind defects are as documented"

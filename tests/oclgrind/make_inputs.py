@@ -36,16 +36,31 @@ for z in range(n - 1):
             c = [index[(x + (i & 1), y + (i >> 1 & 1), z + (i >> 2))] for i in range(8)]
             for a, b in ((1, 3), (3, 2), (2, 6), (6, 4), (4, 5), (5, 1)):
                 tets.append((c[0], c[a], c[b], c[7]))
-lines = ["# vtk DataFile Version 2.0", "cubes", "ASCII", "DATASET UNSTRUCTURED_GRID",
-         f"POINTS {len(points)} float"]
-lines += [f"{x} {y} {z}" for x, y, z in points]
-lines.append(f"CELLS {len(tets)} {5 * len(tets)}")
-lines += ["4 " + " ".join(map(str, t)) for t in tets]
-lines.append(f"CELL_TYPES {len(tets)}")
-lines += ["10"] * len(tets)
-lines += [f"POINT_DATA {len(points)}", "SCALARS s float 1", "LOOKUP_TABLE default"]
-lines += [f"{(x + y + z) / 6.0}" for x, y, z in points]
-(out / "cubes.vtk").write_text("\n".join(lines) + "\n")
+
+
+def write_vtk(path, points, tets, scalar):
+    """An ASCII legacy VTK unstructured grid of tetrahedra with one point scalar."""
+    lines = ["# vtk DataFile Version 2.0", path.stem, "ASCII", "DATASET UNSTRUCTURED_GRID",
+             f"POINTS {len(points)} float"]
+    lines += [f"{x} {y} {z}" for x, y, z in points]
+    lines.append(f"CELLS {len(tets)} {5 * len(tets)}")
+    lines += ["4 " + " ".join(map(str, t)) for t in tets]
+    lines.append(f"CELL_TYPES {len(tets)}")
+    lines += ["10"] * len(tets)
+    lines += [f"POINT_DATA {len(points)}", "SCALARS s float 1", "LOOKUP_TABLE default"]
+    lines += [f"{scalar(x, y, z)}" for x, y, z in points]
+    path.write_text("\n".join(lines) + "\n")
+
+
+write_vtk(out / "cubes.vtk", points, tets, lambda x, y, z: (x + y + z) / 6.0)
+
+# Two of those blocks in one file, the second shifted by (1.1, 0.7, 0.4) cell widths: they share no point or
+# face, and their boxes overlap, so the cell caster takes its path for meshes whose tets may overlap
+# (MESH_OVERLAPS: the union of the tets' intervals). Scalar x + y + z on both, so they agree where they overlap.
+shift = (1.1, 0.7, 0.4)
+both_points = points + [(x + shift[0], y + shift[1], z + shift[2]) for x, y, z in points]
+both_tets = tets + [tuple(v + len(points) for v in t) for t in tets]
+write_vtk(out / "overlapping_blocks.vtk", both_points, both_tets, lambda x, y, z: (x + y + z) / 8.5)
 
 # Height fog over the Marschner-Lobb volume (9^3 voxels): a base below the box, falling off upwards.
 scene = {"effects": {"fog": {"density": 0.2, "base": -2, "falloff": 3, "color": [0.75, 0.8, 0.9],

@@ -37,10 +37,12 @@ fail() {
 # OCLGRIND_INST_COUNTS prints each kernel's name as it finishes: the coverage check at the end reads them.
 # VOLCL_OCLGRIND_UNINITIALIZED=1 adds the uninitialised-value checks, on unoptimised builds: on optimised code
 # Oclgrind 21.10 stops at LLVM's freeze instruction ("Unsupported instruction: freeze") and reports the
-# undef its own store splitting writes first (tests/oclgrind/vector_store_split.cl).
+# undef its own store splitting writes first (tests/oclgrind/vector_store_split.cl). Oclgrind stops logging
+# after 1000 reports, which would hide the later kernels of a command: the sweep lifts that limit, and at the end
+# lists each case's reports by kernel and source line (each case's full log: WORK/ocl/CASE.oclgrind.log).
 uninit=()
 if [[ ${VOLCL_OCLGRIND_UNINITIALIZED:-0} == 1 ]]; then
-  uninit=(OCLGRIND_UNINITIALIZED=1 OCLGRIND_BUILD_OPTIONS=-cl-opt-disable)
+  uninit=(OCLGRIND_UNINITIALIZED=1 OCLGRIND_BUILD_OPTIONS=-cl-opt-disable OCLGRIND_MAX_ERRORS=10000000)
 fi
 on_oclgrind() {
   env OCL_ICD_VENDORS="$work/icd" VOLCL_DEVICE=Oclgrind VOLCL_CACHE_DIR=off OCLGRIND_LOG="$log" \
@@ -61,8 +63,9 @@ run() {
     tail -5 "$work/ocl/$name.out" >&2
   fi
   if [[ -s $log ]]; then
-    fail "$name: Oclgrind reported $(grep -c '^[A-Z]' "$log") problems; the first:"
+    fail "$name: Oclgrind reported $(grep -c '^[A-Z]' "$log") problems (all in ocl/$name.oclgrind.log); the first:"
     head -12 "$log" >&2
+    cp "$log" "$work/ocl/$name.oclgrind.log"
   fi
   echo "  $name: $((SECONDS - start)) s"
 }
@@ -117,8 +120,9 @@ gtest() {
     tail -20 "$work/ocl/$1.out" >&2
   fi
   if [[ -s $log ]]; then
-    fail "$1: Oclgrind reported"
+    fail "$1: Oclgrind reported $(grep -c '^[A-Z]' "$log") problems (all in ocl/$1.oclgrind.log); the first:"
     head -12 "$log" >&2
+    cp "$log" "$work/ocl/$1.oclgrind.log"
   fi
 }
 
@@ -207,6 +211,15 @@ both kbuffer kbuffer.exr "${M[@]}" --method kbuffer --k 4
 same_image cells.exr 1e-4
 same_image kbuffer.exr 1e-4
 
+echo "== tetrahedral meshes whose tets may overlap: the cell caster's union walk (MESH_OVERLAPS)"
+# Two blocks whose boxes overlap and that share no face (make_inputs.py): --stats says whether the renderer took
+# the mesh as possibly overlapping, which compiles mesh_cells with MESH_OVERLAPS.
+OCLGRIND_BUILD_OPTIONS=-O2 both cells_overlap cells_overlap.exr "$volcl" -q render --volume \
+  "$work/in/overlapping_blocks.vtk" --tf "$tf" --width 12 --height 10 --view iso --method cells --stats
+grep -q "tets may overlap" "$work/ocl/cells_overlap.out" ||
+  fail "cells_overlap: the mesh was not taken as possibly overlapping (no MESH_OVERLAPS)"
+same_image cells_overlap.exr 1e-4
+
 echo "== coverage: every kernel in cl/ ran on Oclgrind"
 ran=$(cat "$work"/ocl/*.out | grep -o "Instructions executed for kernel '[A-Za-z0-9_]*'" | cut -d"'" -f2 | sort -u)
 for k in $(grep -rhoE 'kernel( __attribute__\(\(.*\)\))? void [A-Za-z0-9_]+' "$here/../../cl" | awk '{print $NF}' |
@@ -216,6 +229,19 @@ done
 
 echo "== the Oclgrind defects the kernels work around (tests/oclgrind/*.cl)"
 bash "$here/check_reproducers.sh" "$work/icd" || fail "check_reproducers.sh"
+
+if ((${#uninit[@]} > 0)); then
+  echo "== the sweep's reports: case, count, kind, kernel, source line"
+  for f in "$work"/ocl/*.oclgrind.log; do
+    [[ -e $f ]] || continue
+    # A report is a line starting with a capital, then its Kernel: and At line ... of FILE lines.
+    awk -v c="$(basename "$f" .oclgrind.log)" '
+      /^[A-Z]/ { kind = $0; sub(/ address 0x[0-9a-f]*$/, "", kind); k = ""; next }
+      /^\tKernel: / { k = $2 }
+      /^\tAt line / && k != "" { src = $NF; sub(/:$/, "", src); n[kind "\t" k "\t" src ":" $3]++; k = "" }
+      END { for (r in n) printf "  %s\t%d\t%s\n", c, n[r], r }' "$f" | sort
+  done
+fi
 
 if ((failures > 0)); then
   echo "$failures failure(s); outputs in $work" >&2
