@@ -105,7 +105,7 @@ PACKET_INLINE void preint_packet(__global const float4* table, const VolclTfPara
     const float8 u = clamp((sf - T->domainLo) * scale, 0.0f, hi),
                  v = clamp((sb - T->domainLo) * scale, 0.0f, hi);
     LaneU i0, j0;
-    i0.v = min(convert_uint8(u), (uint8)(n - 2)); /* vector bounds: see sample_volume8 */
+    i0.v = min(convert_uint8(u), (uint8)(n - 2)); /* vector bounds, as in grid_sample.h */
     j0.v = min(convert_uint8(v), (uint8)(n - 2));
     LaneF fu, fv;
     fu.v = u - convert_float8(i0.v);
