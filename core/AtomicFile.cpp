@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <memory>
@@ -26,9 +27,26 @@ std::string systemError(int err) {
     return std::strerror(err);
 }
 
+// Longest part of the target's name a temporary repeats: with ".", ".tmp-" and the suffix of tempCandidate
+// (at most 10 + 1 + 10 + 1 + 8 digits and dashes) a temporary name stays within NAME_MAX (255 bytes).
+constexpr std::size_t kMaxNameInTemp = 200;
+
+// ".NAME.tmp-": a NAME longer than kMaxNameInTemp is cut, and a hash of the whole name (FNV-1a) keeps the
+// prefixes of two long names with a common beginning apart (removeStaleTemporaries matches by prefix).
 std::string tempPrefix(const fs::path& target) {
+    std::string name = target.filename().string();
+    if (name.size() > kMaxNameInTemp) {
+        std::uint64_t hash = 14695981039346656037ULL;
+        for (const char c : name)
+            hash = (hash ^ static_cast<unsigned char>(c)) * 1099511628211ULL;
+        static constexpr char kHex[] = "0123456789abcdef";
+        name.resize(kMaxNameInTemp - 17);
+        name += '~';
+        for (int shift = 60; shift >= 0; shift -= 4)
+            name += kHex[(hash >> shift) & 15];
+    }
     std::string prefix(1, '.'); // not "." + name: GCC 12 misreports that as an overlapping copy
-    prefix.append(target.filename().string()).append(".tmp-");
+    prefix.append(name).append(".tmp-");
     return prefix;
 }
 

@@ -417,7 +417,10 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
     checkKeys(j, "the scene", {"volume", "tf", "camera", "image", "render", "lights", "effects"});
     Scene s;
     auto path = [&](const json& v, const char* where) {
-        std::filesystem::path p(str(v, where));
+        const std::string text = str(v, where);
+        std::filesystem::path p(text);
+        // A built-in "preset:NAME" is a name, not a file beside the scene.
+        if (text.starts_with("preset:")) return p;
         return p.is_relative() && !baseDir.empty() ? baseDir / p : p;
     };
     if (j.contains("volume")) s.volume = path(j["volume"], "volume");

@@ -128,6 +128,25 @@ TEST(AtomicFile, TemporariesAreUniqueAndErrorsAreClear) {
     EXPECT_EQ(bytes[2], std::byte{'c'});
 }
 
+// The temporary once repeated the whole target name: a target of 234-255 bytes failed at the commit (its
+// hidden temporary name went over NAME_MAX). Two long names that differ only at the end both commit.
+TEST(AtomicFile, TargetNamesOf255BytesCommit) {
+    const fs::path dir = test::tempDir("io-atomic-long");
+    const std::string first = std::string(251, 'n') + ".one", second = std::string(251, 'n') + ".two";
+    ASSERT_EQ(first.size(), 255u);
+    {
+        AtomicFile a(dir / first), b(dir / second);
+        EXPECT_NE(a.tempPath(), b.tempPath());
+        a.write(std::string_view("first"));
+        b.write(std::string_view("second"));
+        a.commit();
+        b.commit();
+    }
+    EXPECT_EQ(readFile(dir / first), "first");
+    EXPECT_EQ(readFile(dir / second), "second");
+    EXPECT_EQ(listing(dir), (std::set<std::string>{first, second}));
+}
+
 TEST(AtomicFile, FailedVolumeWriteLeavesNothing) {
     // A real mid-write failure: the file-size limit makes the write fail with EFBIG after the first
     // kilobyte. The old target must survive untouched and no temporary may remain.

@@ -31,7 +31,8 @@ namespace {
 // The header of an encoding of volumes like `v` with options `o_`: refuses invalid options.
 VczHeader planHeader(const Volume& v, const CodecOptions& o_) {
     if (v.empty()) throw UsageError("cannot encode an empty volume");
-    if (o_.levels < 0 || o_.levels > 8) throw UsageError("--levels must be between 0 and 8");
+    // Level 0 would be a brick with no transform, which the decoders do not take: refused, not written.
+    if (o_.levels < 1 || o_.levels > 8) throw UsageError("--levels must be between 1 and 8");
     const std::size_t m = std::size_t(1) << o_.levels;
     for (std::size_t b : {o_.brick.x, o_.brick.y, o_.brick.z})
         if (b == 0 || b % m != 0 || b > 1024)

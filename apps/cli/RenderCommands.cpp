@@ -131,9 +131,12 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
         TransferFunction tf = bricks ? a->scene.loadTf(scene, v, dataRange) : a->scene.loadTf(scene, *opened);
         if (storedScale)
             tf = tf.rescaled({storedScale->toStored(tf.domain[0]), storedScale->toStored(tf.domain[1])});
-        if (!global.quiet)
-            for (const auto& note : notes)
-                std::cerr << "volcl render: " << note << '\n';
+        // Notes go to stderr only once the command succeeded: an error stays the one line on stderr.
+        auto printNotes = [&] {
+            if (!global.quiet)
+                for (const auto& note : notes)
+                    std::cerr << "volcl render: " << note << '\n';
+        };
         if (a->explain)
             for (const auto& note : notes)
                 std::cout << "default: " << note << '\n';
@@ -142,16 +145,25 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
         const std::unique_ptr<VolumeRenderer> renderer = input.makeRenderer(cc, tf, scene);
         VolumeRenderer& r = *renderer;
         if (a->explain) std::cout << r.plan().explain() << r.statistics() << '\n';
+        std::string budgetText; // the budget's choice, printed with the notes after success
         if (scene.budgetMs > 0.0) {
             const BudgetChoice choice = fitBudget(r, scene.budgetMs, budgetKnobs(r, scene));
             scene = r.scene();
-            (a->explain ? std::cout : std::cerr) << choice.text();
+            if (a->explain)
+                std::cout << choice.text();
+            else
+                budgetText = choice.text();
         }
         if (a->explain) std::cout << measureEffectCosts(r).text();
-        if (a->out.empty()) return;
+        if (a->out.empty()) {
+            printNotes();
+            return;
+        }
         const ImageBuffer img = r.render();
-        if (a->stats) std::cerr << "volcl render: " << r.statistics() << '\n';
         writeRendered(img, a->out, scene, a->half);
+        printNotes();
+        std::cerr << budgetText;
+        if (a->stats) std::cerr << "volcl render: " << r.statistics() << '\n';
         if (!global.quiet)
             std::cerr << "volcl render: " << scene.width << "x" << scene.height << " "
                       << renderModeName(scene.mode) << ", step " << scene.step << ": " << std::fixed

@@ -3,6 +3,7 @@
 
 #include "core/AtomicFile.hpp"
 #include "core/MemoryBudget.hpp"
+#include "core/PrintableMessage.hpp"
 
 #include <zlib.h>
 
@@ -120,11 +121,13 @@ std::optional<SampleType> vtkLegacyType(std::string_view name) {
     return std::nullopt;
 }
 
+// Header values quoted in `problem` may hold NUL or control bytes: escaped here, since what() is a C string
+// that a NUL would cut short.
 void fail(const fs::path& file, const std::string& problem) {
-    throw IoError(file.string() + ": " + problem);
+    throw IoError(file.string() + ": " + printableMessage(problem));
 }
 void unsupported(const fs::path& file, const std::string& problem) {
-    throw DataError(file.string() + ": " + problem);
+    throw DataError(file.string() + ": " + printableMessage(problem));
 }
 
 namespace {
@@ -812,11 +815,14 @@ std::vector<std::string> expandFilePattern(std::string_view pattern, long long f
                  : static_cast<unsigned long long>(first) - static_cast<unsigned long long>(last);
     const unsigned long long stride =
         step > 0 ? static_cast<unsigned long long>(step) : 0ULL - static_cast<unsigned long long>(step);
-    const unsigned long long count = span / stride + 1;
-    if (count > maxFiles)
+    // span / stride + 1 wraps to 0 for the full long long range: compare before adding the 1.
+    const unsigned long long gaps = span / stride;
+    if (gaps >= maxFiles)
         fail(header, "data file range " + std::to_string(first) + " " + std::to_string(last) + " " +
-                         std::to_string(step) + " lists " + std::to_string(count) + " files for " +
+                         std::to_string(step) + " lists " +
+                         (gaps == ~0ULL ? std::string("2^64") : std::to_string(gaps + 1)) + " files for " +
                          std::to_string(maxFiles) + " possible (each file holds at least one slice)");
+    const unsigned long long count = gaps + 1;
     // The same refusal readDetachedPayload makes, before hundreds of thousands of names are built and checked.
     if (evenlyHeldBytes != 0 && evenlyHeldBytes % count != 0)
         fail(header, std::to_string(count) + " data files cannot evenly hold " +
@@ -824,8 +830,11 @@ std::vector<std::string> expandFilePattern(std::string_view pattern, long long f
     std::vector<std::string> names;
     names.reserve(static_cast<std::size_t>(count));
     for (unsigned long long k = 0; k < count; ++k) {
-        const long long v = first + static_cast<long long>(k) * step;
-        std::string digits = std::to_string(v < 0 ? -v : v);
+        // Unsigned: first + k * step stays in [first, last] but k * step alone may not fit a long long.
+        const auto v = static_cast<long long>(static_cast<unsigned long long>(first) +
+                                              k * static_cast<unsigned long long>(step));
+        std::string digits = std::to_string(v < 0 ? 0ULL - static_cast<unsigned long long>(v)
+                                                  : static_cast<unsigned long long>(v));
         std::string number = (v < 0 ? "-" : "");
         const int len = static_cast<int>(digits.size() + number.size());
         if (zeroPad && !leftAlign && len < width)

@@ -56,6 +56,10 @@ def test_bad_arguments_are_usage_errors():
         volcl.VczFile(volcl.encode(a)).brick(99)
     with pytest.raises(volcl.UsageError):
         volcl.decode(volcl.encode(a), level=9)
+    # No transform level: the library refuses it as the command line does (no unreadable file).
+    for rate in ({}, {"max_error": 0.5}):
+        with pytest.raises(volcl.UsageError, match="levels"):
+            volcl.encode(a, levels=0, **rate)
 
 
 def test_write_refuses_unknown_format_and_leaves_nothing(tmp_path):

@@ -333,6 +333,118 @@ TEST(CliHostile, ControlCharactersFromHeadersAreEscaped) {
     EXPECT_NE(r.err.find("\\x1b"), std::string::npos) << r.err;
 }
 
+// what() is a C string: a NUL in a header value used to end the message there.
+TEST(CliHostile, NulBytesInHeaderValuesAreEscapedNotCut) {
+    const fs::path dir = test::tempDir("hostile_nul");
+    using namespace std::string_literals; // "..."s keeps the NUL bytes
+    writeText(dir / "nul.nrrd",
+              "NRRD0004\ntype: evil\0name\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n12345678"s);
+    writeText(dir / "nul.vtk", "# vtk DataFile Version 3.0\nx\nBINARY\nDATASET STRUCTURED_POINTS\n"
+                               "DIMENSIONS 2 2 2\nPOINT_DATA 8\nSCALARS s fl\0oat\nLOOKUP_TABLE default\n"s);
+    writeText(dir / "nul.mhd",
+              "NDims = 3\nDimSize = 2 2 2\nElementType = MET_U\0CHAR\nElementDataFile = d.raw\n"s);
+    for (const auto& [file, tail] : {std::pair<std::string, std::string>{"nul.nrrd", "\\x00name"},
+                                     {"nul.vtk", "\\x00oat"},
+                                     {"nul.mhd", "\\x00CHAR"}}) {
+        ASSERT_NE(slurp(dir / file).find('\0'), std::string::npos) << file;
+        const RunResult r = run("info " + file, dir);
+        expectRefused(r, 1, file, tail);
+        EXPECT_EQ(r.err.find('\0'), std::string::npos) << file;
+    }
+}
+
+// The count of first..last was computed as span / step + 1, which wraps to 0 over the whole range: a
+// division by zero (SIGFPE) followed.
+TEST(CliHostile, DataFilePatternsOverTheWholeIntegerRangeAreRefused) {
+    const fs::path dir = test::tempDir("hostile_pattern");
+    const std::string head =
+        "NRRD0001\ntype: uchar\ndimension: 3\nsizes: 41 41 41\nencoding: raw\ndata file: ";
+    writeText(dir / "all.nhdr", head + "nucleon.%d -9223372036854775808 9223372036854775807 1\n\n");
+    writeText(dir / "down.nhdr", head + "nucleon.%d 9223372036854775807 -9223372036854775808 -1\n\n");
+    writeText(dir / "wide.nhdr", head + "nucleon.%d -9223372036854775808 9223372036854775807 "
+                                        "9223372036854775807\n\n");
+    writeText(dir / "zero.nhdr", head + "nucleon.%d 1 5 0\n\n");
+    for (const char* f : {"all.nhdr", "down.nhdr"}) {
+        expectRefused(run(std::string("info ") + f, dir), 1, f, "2^64 files");
+        expectRefused(run(std::string("convert ") + f + " -o out.nii", dir), 1, f, "2^64 files");
+    }
+    // Three names (min, -1, max): computed without overflow, then refused as 3 files for 41^3 bytes.
+    expectRefused(run("info wide.nhdr", dir), 1, "wide.nhdr", "3 data files cannot evenly hold");
+    expectRefused(run("info zero.nhdr", dir), 1, "zero.nhdr", "endless");
+    EXPECT_FALSE(fs::exists(dir / "out.nii"));
+}
+
+// --levels 0 wrote files no decoder reads (lossless) or failed with an internal error (lossy).
+TEST(CliHostile, LevelsZeroIsRefusedAtEncodeAndInOldFiles) {
+    const fs::path dir = test::tempDir("hostile_levels0");
+    writeVolumeFile(ramp({16, 16, 16}), dir / "v_16x16x16_uint8.raw");
+    for (const char* mode : {"--lossless", "--psnr 40", "--max-error 2"}) {
+        const RunResult r = run(std::string("encode v_16x16x16_uint8.raw -o l0.vcz --levels 0 ") + mode, dir);
+        expectRefused(r, 2, "--levels", "between 1 and 8");
+        EXPECT_FALSE(fs::exists(dir / "l0.vcz")) << mode;
+    }
+    // A file such an encoder wrote: a one-level lossless file relabelled 0 levels, checksums recomputed.
+    ASSERT_EQ(run("encode v_16x16x16_uint8.raw -o l1.vcz --lossless --levels 1", dir).exitCode, 0);
+    const std::string bytes = slurp(dir / "l1.vcz");
+    const auto* raw = reinterpret_cast<const std::byte*>(bytes.data());
+    VczHeader h = readVczHeader(std::span<const std::byte>(raw, bytes.size()), "l1.vcz");
+    std::vector<std::vector<std::uint8_t>> payloads;
+    for (const VczBrickEntry& e : h.bricks[0]) {
+        const auto* p = reinterpret_cast<const std::uint8_t*>(bytes.data()) + e.offset;
+        payloads.emplace_back(p, p + e.size);
+    }
+    h.levels = 0;
+    const std::vector<std::byte> forged = writeVcz(h, payloads);
+    std::ofstream(dir / "l0.vcz", std::ios::binary)
+        .write(reinterpret_cast<const char*>(forged.data()), static_cast<std::streamsize>(forged.size()));
+    expectRefused(run("decode l0.vcz -o out.raw", dir), 1, "l0.vcz", "0 levels");
+    writeText(dir / "tf.json", kTf);
+    expectRefused(run("render --volume l0.vcz --tf tf.json --width 16 --height 16 -o out.png", dir), 1,
+                  "l0.vcz", "0 levels");
+    EXPECT_FALSE(fs::exists(dir / "out.raw"));
+    EXPECT_FALSE(fs::exists(dir / "out.png"));
+}
+
+// "preset:NAME" was joined to the scene's directory like a file name: sub/preset:viridis.
+TEST(CliHostile, ScenePresetIsNotAPathBesideTheScene) {
+    const fs::path dir = test::tempDir("hostile_scene_preset");
+    fs::create_directories(dir / "sub");
+    writeVolumeFile(ramp({16, 16, 16}), dir / "sub" / "v.nrrd");
+    writeText(dir / "sub" / "scene.json", R"({"volume": "v.nrrd", "tf": "preset:viridis"})");
+    const RunResult r = run("render --scene sub/scene.json --width 16 --height 16 -o s.png", dir);
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(fs::exists(dir / "s.png"));
+}
+
+// The hidden temporary repeated the whole output name: names of 234-255 bytes went over NAME_MAX.
+TEST(CliHostile, OutputNamesOf255BytesAreWritten) {
+    const fs::path dir = test::tempDir("hostile_long_name");
+    writeVolumeFile(ramp({16, 16, 16}), dir / "v.nrrd");
+    writeText(dir / "tf.json", kTf);
+    const std::string nii = std::string(251, 'a') + ".nii", png = std::string(251, 'b') + ".png";
+    ASSERT_EQ(nii.size(), 255u);
+    const RunResult c = run("convert v.nrrd -o " + nii, dir);
+    EXPECT_EQ(c.exitCode, 0) << c.err;
+    EXPECT_EQ(readVolume(dir / nii).dims(), (Dims{16, 16, 16}));
+    const RunResult r = run("render --volume v.nrrd --tf tf.json --width 16 --height 16 -o " + png, dir);
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_GT(fs::file_size(dir / png), 0u);
+    EXPECT_EQ(test::listing(dir), (std::set<std::string>{"v.nrrd", "tf.json", "stderr.txt", nii, png}));
+}
+
+// Notes (defaults the command chose) used to come before a failure: two lines on stderr for exit 1.
+TEST(CliHostile, RenderNotesDoNotPrecedeAnError) {
+    const fs::path dir = test::tempDir("hostile_render_notes");
+    writeVolumeFile(ramp({16, 16, 16}), dir / "v.nrrd");
+    writeText(dir / "tf.json", kTf);
+    expectRefused(run("render --volume v.nrrd --tf tf.json --width 16 --height 16 -o nodir/x.png", dir), 1,
+                  "nodir/x.png");
+    // On success they are still printed.
+    const RunResult ok = run("render --volume v.nrrd --tf tf.json --width 16 --height 16 -o x.png", dir);
+    EXPECT_EQ(ok.exitCode, 0) << ok.err;
+    EXPECT_NE(ok.err.find("camera:"), std::string::npos) << ok.err;
+}
+
 // ---- geometry and versions ----------------------------------------------------------------------------
 
 TEST(CliHostile, NonFiniteGeometryIsRefusedNamingTheFile) {

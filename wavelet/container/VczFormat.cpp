@@ -476,6 +476,10 @@ void readFixedFields(Reader& r, VczHeader& h, const std::string& name, std::size
     checkMemoryBudget(h.dims.count() * scalarSize(h.type) + brickBytes, memoryBudget, name,
                       "a frame with the coefficients and corrections of a " + std::to_string(largest.x) +
                           "x" + std::to_string(largest.y) + "x" + std::to_string(largest.z) + " brick");
+    // Older encoders accepted --levels 0 for a wavelet transform and wrote files no decoder can read.
+    if (h.transform != TransformKind::RawBits && h.levels == 0)
+        r.fail("wavelet transform with 0 levels (written by an encoder that accepted --levels 0; re-encode "
+               "with --levels 1 or more)");
     const auto nSteps = r.get<std::uint32_t>();
     if (nSteps > r.remaining() / 8) r.fail("truncated");
     h.steps.resize(nSteps);
