@@ -172,7 +172,7 @@ TEST(CliHostile, HeaderDataFilesOutsideTheHeadersDirectoryAreRefusedUnlessAllowe
 // regression to a hang into a failure.
 TEST(CliHostile, NonRegularFilesAreRefusedAsInputsAndAsDataFiles) {
     const fs::path dir = test::tempDir("hostile_nonregular");
-    for (const char* f : {"fifo.nrrd", "fifo.vcz", "fifo.raw", "fifo.vti"})
+    for (const char* f : {"fifo.nrrd", "fifo.vcz", "fifo.raw", "fifo.vti", "fifo.json"})
         ASSERT_EQ(::mkfifo((dir / f).c_str(), 0600), 0) << f;
     fs::create_directories(dir / "dir.nrrd");
     fs::create_directories(dir / "dir.raw");
@@ -185,6 +185,8 @@ TEST(CliHostile, NonRegularFilesAreRefusedAsInputsAndAsDataFiles) {
     refused("decode fifo.vcz -o d.raw", "fifo.vcz");
     refused("info dir.nrrd", "dir.nrrd");
     refused("info /dev/zero", "/dev/zero");
+    refused("info fifo.vtu", "fifo.vtu");                      // a mesh
+    refused("render --scene fifo.json -o s.png", "fifo.json"); // a scene
     for (const char* data : {"fifo.raw", "dir.raw", "/dev/zero"}) {
         const std::string d(data);
         writeText(dir / "h.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n"
