@@ -15,6 +15,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace volcl {
@@ -48,6 +49,17 @@ std::string tempPrefix(const fs::path& target) {
     std::string prefix(1, '.'); // not "." + name: GCC 12 misreports that as an overlapping copy
     prefix.append(name).append(".tmp-");
     return prefix;
+}
+
+// "a FIFO", "a directory", ... for a file type that is not a regular file; empty for a regular file.
+std::string kindOf(mode_t mode) {
+    if (S_ISREG(mode)) return {};
+    if (S_ISDIR(mode)) return "a directory";
+    if (S_ISFIFO(mode)) return "a FIFO";
+    if (S_ISCHR(mode)) return "a character device";
+    if (S_ISBLK(mode)) return "a block device";
+    if (S_ISSOCK(mode)) return "a socket";
+    return "not a regular file";
 }
 
 fs::path directoryOf(const fs::path& target) {
@@ -129,7 +141,11 @@ AtomicFile::AtomicFile(fs::path target) : target_(std::move(target)) {
     std::error_code ec;
     if (!fs::is_directory(dir, ec))
         throw IoError(target_.string() + ": output directory " + dir.string() + " does not exist");
-    if (fs::is_directory(target_, ec)) throw IoError(target_.string() + ": is a directory, not a file");
+    // The commit's rename would replace a FIFO or a device node by a regular file (and a directory
+    // cannot be replaced): an existing target must be a regular file. /dev/null is refused too.
+    const std::string kind = nonRegularKind(target_);
+    if (!kind.empty())
+        throw IoError(target_.string() + ": output exists and is " + kind + ", not a regular file");
     removeStaleTemporaries(target_);
     fd_ = openUnnamedTemp(target_);
     if (fd_ >= 0) {
@@ -267,19 +283,49 @@ void AtomicFile::commit() {
     committed_ = true;
 }
 
+std::string nonRegularKind(const fs::path& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0) return {};
+    return kindOf(st.st_mode);
+}
+
+void requireRegularFile(const fs::path& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0) {
+        if (errno == ENOENT) throw IoError(path.string() + ": file does not exist");
+        throw IoError(path.string() + ": cannot read: " + systemError(errno));
+    }
+    const std::string kind = kindOf(st.st_mode);
+    if (!kind.empty()) throw IoError(path.string() + ": is " + kind + ", not a regular file");
+}
+
 std::vector<std::byte> readFileBytes(const fs::path& path) {
-    std::error_code ec;
-    if (!fs::exists(path, ec)) throw IoError(path.string() + ": file does not exist");
-    if (fs::is_directory(path, ec)) throw IoError(path.string() + ": is a directory, not a file");
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw IoError(path.string() + ": cannot open for reading: " + systemError(errno));
-    in.seekg(0, std::ios::end);
-    const std::streamoff size = in.tellg();
-    if (size < 0) throw IoError(path.string() + ": cannot determine the file size");
-    in.seekg(0, std::ios::beg);
-    std::vector<std::byte> bytes(static_cast<std::size_t>(size));
-    in.read(reinterpret_cast<char*>(bytes.data()), size);
-    if (in.gcount() != size) throw IoError(path.string() + ": read error (file changed while reading?)");
+    // O_NONBLOCK: opening a FIFO must not wait for a writer; fstat then refuses it (and devices,
+    // directories) before the first read, which would block or never end.
+    const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) {
+        if (errno == ENOENT) throw IoError(path.string() + ": file does not exist");
+        if (errno == EISDIR) throw IoError(path.string() + ": is a directory, not a regular file");
+        throw IoError(path.string() + ": cannot open for reading: " + systemError(errno));
+    }
+    struct Closer {
+        int fd;
+        ~Closer() { ::close(fd); }
+    } closer{fd};
+    struct stat st {};
+    if (::fstat(fd, &st) != 0) throw IoError(path.string() + ": cannot read: " + systemError(errno));
+    const std::string kind = kindOf(st.st_mode);
+    if (!kind.empty()) throw IoError(path.string() + ": is " + kind + ", not a regular file");
+    const auto size = static_cast<std::size_t>(st.st_size);
+    std::vector<std::byte> bytes(size);
+    std::size_t done = 0;
+    while (done < size) {
+        const ssize_t n = ::read(fd, bytes.data() + done, size - done);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) throw IoError(path.string() + ": read error: " + systemError(errno));
+        if (n == 0) throw IoError(path.string() + ": read error (file changed while reading?)");
+        done += static_cast<std::size_t>(n);
+    }
     return bytes;
 }
 

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <span>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -59,8 +60,14 @@ private:
     bool committed_ = false;
 };
 
-/// Whole file as bytes; throws IoError naming the file when it cannot be read.
+/// Whole file as bytes; throws IoError naming the file when it cannot be read or is not a regular file
+/// (a FIFO, device or directory is refused before any read, without blocking).
 std::vector<std::byte> readFileBytes(const std::filesystem::path& path);
+/// Throws IoError naming the file when it does not exist or is not a regular file (FIFO, device,
+/// directory, socket). Uses stat, so a FIFO never blocks. Every reader's input passes this check.
+void requireRegularFile(const std::filesystem::path& path);
+/// "a FIFO", "a directory", ... when `path` exists and is not a regular file; empty otherwise.
+std::string nonRegularKind(const std::filesystem::path& path);
 /// Refuses to write output over one of the inputs (compares canonical paths). Throws UsageError.
 void checkNotSameFile(const std::filesystem::path& input, const std::filesystem::path& output);
 /// Same for every file of an input (a header and its data files) against every file of an output.

@@ -2,6 +2,7 @@
 // rays (docs/contract.md, "Scenes and images").
 #include "render/Scene.hpp"
 
+#include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
 #include "render/VecMath.hpp"
 
@@ -434,6 +435,7 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
 }
 
 Scene Scene::fromFile(const std::filesystem::path& path) {
+    requireRegularFile(path); // a FIFO would block the read, a device never end
     std::ifstream in(path, std::ios::binary);
     if (!in) throw IoError(path.string() + ": cannot open scene file");
     std::ostringstream text;

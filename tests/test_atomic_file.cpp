@@ -5,6 +5,7 @@
 #include "host/io/VolumeIo.hpp"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cmath>
 #include <csignal>
@@ -118,6 +119,13 @@ TEST(AtomicFile, TemporariesAreUniqueAndErrorsAreClear) {
     EXPECT_NE(a.tempPath(), b.tempPath());
     EXPECT_THROW(AtomicFile{dir / "missing" / "x"}, IoError);
     EXPECT_THROW(AtomicFile{dir}, IoError); // a directory is not a file target
+    // Nor a FIFO or a device: the commit's rename replaced them by a regular file.
+    ASSERT_EQ(::mkfifo((dir / "fifo").c_str(), 0600), 0);
+    EXPECT_THROW(AtomicFile{dir / "fifo"}, IoError);
+    EXPECT_THROW(AtomicFile{"/dev/null"}, IoError);
+    EXPECT_TRUE(fs::is_fifo(dir / "fifo"));
+    EXPECT_THROW(requireRegularFile(dir / "fifo"), IoError);
+    EXPECT_THROW(requireRegularFile("/dev/zero"), IoError);
     EXPECT_THROW(readFileBytes(dir / "nothing"), IoError);
     EXPECT_THROW(readFileBytes(dir), IoError);
     writeFile(dir / "in.raw", "abc");

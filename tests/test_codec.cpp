@@ -569,6 +569,37 @@ TEST(CodecCompatibility, VersionTwoFilesAreReadOthersRefused) {
     }
 }
 
+// A forged geometry with a valid header checksum: spacing NaN, 0, -1 or inf and a non-finite origin are
+// refused when the header is read (spacing 0 was decoded as 1, the others into files volcl refuses).
+TEST(CodecCorruption, ForgedGeometryIsRefused) {
+    ComputeContext& cc = test::computeContext();
+    const auto good = encodeVolume(cc, makeVolume({8, 8, 8}, ScalarType::UInt8), lossless());
+    // Body layout: dims (3 x u64), six u8 fields, spacing (3 x f64), origin (3 x f64).
+    const std::size_t bodyStart = kVczMagic.size() + 8, spacingAt = bodyStart + 30, originAt = spacingAt + 24;
+    auto forged = [&](std::size_t at, double value) {
+        std::vector<std::byte> f = good;
+        std::memcpy(f.data() + at, &value, 8);
+        std::uint32_t body;
+        std::memcpy(&body, f.data() + kVczMagic.size() + 4, 4);
+        const std::size_t end = bodyStart + body;
+        const std::uint64_t sum =
+            vczChecksum(std::span(reinterpret_cast<const std::uint8_t*>(f.data()), end));
+        std::memcpy(f.data() + end, &sum, 8);
+        return f;
+    };
+    double one = 0;
+    std::memcpy(&one, good.data() + spacingAt, 8);
+    ASSERT_EQ(one, 1.0) << "the layout above no longer matches the format";
+    EXPECT_NO_THROW(readVczHeader(forged(spacingAt + 8, 2.5), "f.vcz")); // the forging itself is sound
+    const double inf = std::numeric_limits<double>::infinity();
+    for (double bad : {std::nan(""), 0.0, -1.0, inf, -0.0})
+        for (int axis = 0; axis < 3; ++axis)
+            EXPECT_THROW(readVczHeader(forged(spacingAt + 8 * axis, bad), "f.vcz"), IoError)
+                << "spacing " << bad << " on axis " << axis;
+    for (double bad : {std::nan(""), inf, -inf})
+        EXPECT_THROW(readVczHeader(forged(originAt + 8, bad), "f.vcz"), IoError) << "origin " << bad;
+}
+
 TEST(CodecCorruption, ErrorNamesTheBrick) {
     ComputeContext& cc = test::computeContext();
     const Volume v = makeVolume({32, 16, 16}, ScalarType::UInt8);

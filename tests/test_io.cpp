@@ -760,6 +760,43 @@ std::string slcFile(Dims d, const std::vector<std::uint8_t>& v, bool rle) {
     return s;
 }
 
+// Spacing is read as written or refused: a zero pixdim, SLC voxel size or `space directions` length was
+// read as 1, and the squared length of (1e-200,0,0) underflowed to 0 (then 1). Writers refuse a spacing
+// their format cannot hold, so what volcl writes volcl reads back.
+TEST(GeometryValidation, ZeroSpacingIsRefusedAndTinyOrHugeSpacingKeptOrRefusedAtWrite) {
+    const fs::path dir = test::tempDir("io-geometry");
+    std::string nii = niftiHeader({3, 2, 2, 2, 1, 1, 1, 1}, 2, 8, 1, 0, 352) + std::string(8, '\x05');
+    const float zero = 0;
+    std::memcpy(nii.data() + 80, &zero, 4); // pixdim[1]
+    writeFile(dir / "zero.nii", nii);
+    EXPECT_THROW(readVolume(dir / "zero.nii"), Error);
+    std::string slc = slcFile({2, 2, 2}, std::vector<std::uint8_t>(8, 3), false);
+    slc.replace(slc.find("0.5 1.0 2.0"), 11, "0.5 0.0 2.0");
+    writeFile(dir / "zero.slc", slc);
+    EXPECT_THROW(readVolume(dir / "zero.slc"), Error);
+    auto nrrd = [&](const std::string& name, const std::string& first) {
+        writeFile(dir / name, "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nspace dimension: 3\n"
+                              "space directions: " +
+                                  first + " (0,1,0) (0,0,1)\nencoding: raw\n\n" + std::string(8, '\x05'));
+        return dir / name;
+    };
+    EXPECT_THROW(readVolume(nrrd("zero.nrrd", "(0,0,0)")), Error);
+    EXPECT_EQ(readVolume(nrrd("tiny.nrrd", "(1e-200,0,0)")).spacing[0], 1e-200);
+    EXPECT_DOUBLE_EQ(readVolume(nrrd("diag.nrrd", "(3e200,4e200,0)")).spacing[0], 5e200); // no overflow
+    Volume v({2, 2, 2}, ScalarType::UInt8);
+    v.spacing = {1e-300, 1, 1e300};
+    writeVolumeFile(v, dir / "small.nrrd");
+    EXPECT_EQ(readVolume(dir / "small.nrrd").spacing, v.spacing);
+    for (double s : {1e39, 1e-50}) {
+        v.spacing = {1, s, 1};
+        EXPECT_THROW(writeVolumeFile(v, dir / "big.nii"), UsageError) << s;
+        EXPECT_FALSE(fs::exists(dir / "big.nii"));
+    }
+    v.spacing = {1, 1, 1};
+    v.origin = {0, 0, -1e39};
+    EXPECT_THROW(writeVolumeFile(v, dir / "far.nii"), UsageError);
+}
+
 TEST(SlcReader, RawAndRunLengthSlices) {
     const fs::path dir = test::tempDir("io-slc");
     const Dims d{9, 7, 4};

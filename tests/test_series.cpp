@@ -197,6 +197,9 @@ TEST(Series, MalformedPvdFilesAreIoErrors) {
             EXPECT_NE(std::string(e.what()).find(c.what), std::string::npos) << e.what();
         }
     }
+    // The DataSet files exist: readPvd checks each like a header's data file before the parts.
+    writeText(dir / "a.vti", "");
+    writeText(dir / "b.vti", "");
     writeText(dir / "parts.pvd", R"(<VTKFile type="Collection"><Collection>
     <DataSet timestep="0" part="0" file="a.vti"/><DataSet timestep="0" part="1" file="b.vti"/>
     </Collection></VTKFile>)");

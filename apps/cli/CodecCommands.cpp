@@ -106,10 +106,10 @@ struct NiftiSource {
     bool stored = false;
 };
 
-NiftiSource niftiSourceOf(const std::vector<std::string>& in) {
+NiftiSource niftiSourceOf(const std::vector<std::string>& in, const ReadOptions& options) {
     NiftiSource s;
     try {
-        const std::vector<fs::path> files = expandSeriesInputs(in);
+        const std::vector<fs::path> files = expandSeriesInputs(in, options);
         if (files.empty()) return s;
         s.meta = readNiftiMetadataIfNifti(files.front());
         if (!s.meta || !niftiStoredValuesExact(*s.meta)) return s;
@@ -170,8 +170,8 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         // alternate signal stack on the thread that loads it, and AddressSanitizer aborts when such a
         // thread exits.
         std::vector<std::filesystem::path> inputs;
-        const NiftiSource nifti = niftiSourceOf(a->in);
         ReadOptions ro = a->raw.toReadOptions();
+        const NiftiSource nifti = niftiSourceOf(a->in, ro);
         ro.niftiStoredValues = nifti.stored;
         std::future<SeriesInput> reading =
             std::async(std::launch::async, [a, ro, &inputs] { return readSeriesInputs(a->in, ro, &inputs); });

@@ -123,8 +123,11 @@ ParsedHeader parseHeader(std::span<const std::byte> head, const fs::path& path) 
     for (int i = 0; i < 3; ++i) {
         m.pixdim[i] = h.get<float>(80 + 4 * i);
         const double a = std::abs(static_cast<double>(m.pixdim[i]));
-        if (!std::isfinite(a)) fail(path, "pixdim[" + std::to_string(i + 1) + "] is not finite");
-        if (a > 0) m.spacing[i] = a;
+        // Zero is no spacing: reading it as 1 would silently change the geometry.
+        if (!std::isfinite(a) || !(a > 0))
+            fail(path, "pixdim[" + std::to_string(i + 1) + "] " + formatDouble(m.pixdim[i]) +
+                           " is not a positive finite spacing");
+        m.spacing[i] = a;
     }
     m.qformCode = h.get<std::int16_t>(252);
     m.sformCode = h.get<std::int16_t>(254);

@@ -104,6 +104,20 @@ void writeNiftiSeries(std::span<const Volume> frames, const std::vector<double>&
             throw UsageError(path.string() + ": the frames of a 4D NIfTI must share dims and voxel type");
     const NiftiMetadata m =
         options.nifti ? niftiMetadataOnGrid(*options.nifti, first) : niftiMetadataForVolume(first);
+    // NIfTI-1 stores geometry as float32: a spacing that rounds to 0 or overflows to inf, or an origin
+    // that overflows, would give a file that no reader (volcl included) accepts.
+    for (int a = 0; a < 3; ++a)
+        if (!std::isfinite(m.pixdim[a]) || !(m.pixdim[a] > 0))
+            throw UsageError(path.string() + ": spacing " + io::formatDouble(first.spacing[a]) +
+                             " is not representable in NIfTI-1 (a positive finite float32)");
+    for (int row = 0; row < 3; ++row) {
+        bool finite = std::isfinite(m.qoffset[row]);
+        for (int col = 0; col < 4; ++col)
+            finite = finite && std::isfinite(m.srow[row][col]);
+        if (!finite)
+            throw UsageError(path.string() + ": origin " + io::formatDouble(first.origin[row]) +
+                             " or spacing is not representable in NIfTI-1 (float32)");
+    }
 
     // Values are data units, unless the caller holds the stored integers of a scaled source. A float
     // volume from a scaled integer file goes back to its stored integers with the same scl_slope/scl_inter

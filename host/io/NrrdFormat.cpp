@@ -229,8 +229,12 @@ Geometry nrrdGeometry(const NrrdHeader& h, long long dimension, const std::array
                            std::to_string(dimension));
         for (std::size_t i = 0; i < 3 && i < vecs.size(); ++i) {
             if (auto v = parseVector(vecs[i], path, "space directions")) {
-                const double len = std::sqrt((*v)[0] * (*v)[0] + (*v)[1] * (*v)[1] + (*v)[2] * (*v)[2]);
-                if (len > 0) g.spacing[i] = len;
+                // hypot: squaring underflowed 1e-200 to a length of 0 (then read as spacing 1).
+                const double len = std::hypot((*v)[0], (*v)[1], (*v)[2]);
+                if (!std::isfinite(len) || !(len > 0))
+                    fail(path, "space directions: axis " + std::to_string(i) + " has length " +
+                                   formatDouble(len) + ", not a positive finite spacing");
+                g.spacing[i] = len;
             } else if (sizes[i] > 1) {
                 unsupported(path,
                             "axis " + std::to_string(i) +

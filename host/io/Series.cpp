@@ -1,8 +1,10 @@
 // Time-series input: file lists, glob expansion with natural sort, ParaView .pvd parsing, grid checks.
 #include "host/io/Series.hpp"
 
+#include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
 #include "core/MemoryBudget.hpp"
+#include "host/io/IoDetail.hpp"
 
 #include <glob.h>
 #include <pugixml.hpp>
@@ -54,7 +56,7 @@ std::string gridDifference(const Volume& v, const Volume& first) {
 }
 
 // One input argument as (file, time or NaN) pairs.
-void expandOne(const std::string& input, std::vector<PvdEntry>& out) {
+void expandOne(const std::string& input, const ReadOptions& options, std::vector<PvdEntry>& out) {
     std::error_code ec;
     const fs::path p(input);
     if (!fs::exists(p, ec) && hasGlobPattern(input)) {
@@ -63,18 +65,18 @@ void expandOne(const std::string& input, std::vector<PvdEntry>& out) {
         return;
     }
     if (isPvd(p)) {
-        for (PvdEntry& e : readPvd(p))
+        for (PvdEntry& e : readPvd(p, options))
             out.push_back(std::move(e));
         return;
     }
     out.push_back({p, NAN});
 }
 
-std::vector<PvdEntry> expandAll(std::span<const std::string> inputs) {
+std::vector<PvdEntry> expandAll(std::span<const std::string> inputs, const ReadOptions& options) {
     if (inputs.empty()) throw UsageError("no input volume given");
     std::vector<PvdEntry> files;
     for (const std::string& in : inputs)
-        expandOne(in, files);
+        expandOne(in, options, files);
     return files;
 }
 
@@ -137,9 +139,11 @@ std::vector<fs::path> expandGlob(std::string_view pattern) {
     return files;
 }
 
-std::vector<PvdEntry> readPvd(const fs::path& path) {
-    std::error_code ec;
-    if (!fs::exists(path, ec)) throw IoError(path.string() + ": file does not exist");
+std::vector<PvdEntry> readPvd(const fs::path& path, const ReadOptions& options) {
+    requireRegularFile(path); // pugixml would block on a FIFO
+    // A DataSet is a data file the .pvd names: the same containment rule and regular-file check as the
+    // data files of other headers.
+    io::ReadContext members(path, options);
     pugi::xml_document doc;
     const pugi::xml_parse_result parsed = doc.load_file(path.c_str());
     if (!parsed)
@@ -155,7 +159,6 @@ std::vector<PvdEntry> readPvd(const fs::path& path) {
         std::string part;
     };
     std::vector<Item> items;
-    const fs::path folder = path.parent_path();
     for (const pugi::xml_node ds : collection.children("DataSet")) {
         const pugi::xml_attribute file = ds.attribute("file");
         if (!file || std::string_view(file.as_string()).empty())
@@ -166,7 +169,7 @@ std::vector<PvdEntry> readPvd(const fs::path& path) {
         if (!std::isfinite(t))
             throw IoError(path.string() + ": DataSet " + std::to_string(items.size()) +
                           " has a non-finite timestep");
-        items.push_back({{f.is_absolute() ? f : folder / f, t}, ds.attribute("part").as_string("0")});
+        items.push_back({{members.dataFile(file.as_string()), t}, ds.attribute("part").as_string("0")});
     }
     if (items.empty()) throw IoError(path.string() + ": the collection lists no DataSet");
     std::stable_sort(items.begin(), items.end(),
@@ -189,16 +192,16 @@ std::string SeriesFrameSource::describe(std::size_t frame) const {
     return s + ")";
 }
 
-std::vector<fs::path> expandSeriesInputs(std::span<const std::string> inputs) {
+std::vector<fs::path> expandSeriesInputs(std::span<const std::string> inputs, const ReadOptions& options) {
     std::vector<fs::path> out;
-    for (PvdEntry& e : expandAll(inputs))
+    for (PvdEntry& e : expandAll(inputs, options))
         out.push_back(std::move(e.file));
     return out;
 }
 
 SeriesInput readSeriesInputs(std::span<const std::string> inputs, const ReadOptions& options,
                              std::vector<fs::path>* filesRead) {
-    const std::vector<PvdEntry> files = expandAll(inputs);
+    const std::vector<PvdEntry> files = expandAll(inputs, options);
     SeriesInput in;
     bool allTimed = true;
     std::vector<double> times;

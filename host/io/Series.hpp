@@ -31,8 +31,9 @@ struct PvdEntry {
 
 /// The data sets of a .pvd in time order (stable for equal times). Throws IoError for a malformed file,
 /// a DataSet without `file`, or no DataSet at all; DataError for a multi-part collection (several parts
-/// at one time step), which is not one volume per time.
-std::vector<PvdEntry> readPvd(const std::filesystem::path& path);
+/// at one time step), which is not one volume per time. A DataSet file follows the data-file rule of
+/// other headers: in or below the .pvd's directory unless options.allowExternalData, and a regular file.
+std::vector<PvdEntry> readPvd(const std::filesystem::path& path, const ReadOptions& options = {});
 
 /// Where each frame of a series came from, for messages: the file and the frame's index within it.
 struct SeriesFrameSource {
@@ -58,6 +59,7 @@ SeriesInput readSeriesInputs(std::span<const std::string> inputs, const ReadOpti
                              std::vector<std::filesystem::path>* filesRead = nullptr);
 
 /// The file list the inputs name, in frame order, without reading any volume (the .pvd files are parsed).
-std::vector<std::filesystem::path> expandSeriesInputs(std::span<const std::string> inputs);
+std::vector<std::filesystem::path> expandSeriesInputs(std::span<const std::string> inputs,
+                                                      const ReadOptions& options = {});
 
 } // namespace volcl

@@ -95,8 +95,8 @@ TimeSeries readSlc(ReadContext& ctx) {
     std::array<double, 3> spacing{};
     for (double& u : spacing) {
         u = s.real("voxel size");
-        if (!std::isfinite(u)) fail(path, "voxel size " + formatDouble(u) + " is not finite");
-        if (!(u > 0)) u = 1.0;
+        if (!std::isfinite(u) || !(u > 0))
+            fail(path, "voxel size " + formatDouble(u) + " is not a positive finite number");
     }
     s.integer("unit type");
     s.integer("data source");

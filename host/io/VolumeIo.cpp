@@ -1,6 +1,7 @@
 // Volume file dispatch: format detection from extension and magic bytes, raw file-name parsing.
 #include "host/io/VolumeIo.hpp"
 
+#include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
 #include "host/io/IoDetail.hpp"
 
@@ -111,9 +112,8 @@ VolumeFormat detectVolumeFormat(const fs::path& path) {
 
 TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options,
                           std::vector<fs::path>& filesRead) {
-    std::error_code ec;
-    if (!fs::exists(path, ec)) throw IoError(path.string() + ": file does not exist");
-    if (fs::is_directory(path, ec)) throw IoError(path.string() + ": is a directory, not a volume file");
+    // Before any format probe opens it: a FIFO would block the first read, a device never end.
+    requireRegularFile(path);
     io::ReadContext ctx(path, options);
     TimeSeries series;
     switch (detectVolumeFormat(path)) {

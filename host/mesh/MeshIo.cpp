@@ -33,6 +33,9 @@ std::string_view meshFormatName(MeshFormat f) noexcept {
 namespace {
 
 std::string fileHead(const fs::path& path, std::size_t n) {
+    // A FIFO would block the read below, a device never end.
+    if (const std::string kind = nonRegularKind(path); !kind.empty())
+        throw IoError(path.string() + ": is " + kind + ", not a regular file");
     std::ifstream in(path, std::ios::binary);
     std::string head(n, '\0');
     in.read(head.data(), static_cast<std::streamsize>(n));

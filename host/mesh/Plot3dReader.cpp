@@ -86,6 +86,9 @@ std::optional<Plot3dLayout> gridLayout(std::span<const std::byte> head, std::uin
 }
 
 std::vector<std::byte> fileHead(const fs::path& path, std::size_t n) {
+    // A FIFO would block the read below, a device never end.
+    if (const std::string kind = nonRegularKind(path); !kind.empty())
+        throw IoError(path.string() + ": is " + kind + ", not a regular file");
     std::ifstream in(path, std::ios::binary);
     std::vector<std::byte> head(n);
     in.read(reinterpret_cast<char*>(head.data()), static_cast<std::streamsize>(n));

@@ -3,6 +3,7 @@
 
 #include "core/Error.hpp"
 
+#include <cmath>
 #include <cstring>
 #include <memory>
 
@@ -71,6 +72,16 @@ Volume arrayToVolume(const InputArray& array, const std::array<double, 3>& spaci
     if (array.ndim() != 3)
         throw UsageError("a volume is a 3D array a[z, y, x]; this one has " + std::to_string(array.ndim()) +
                          " dimensions");
+    // The same geometry every file reader requires: a NaN, zero or negative spacing made files that volcl
+    // then refused to read.
+    for (int a = 0; a < 3; ++a) {
+        if (!std::isfinite(spacing[a]) || !(spacing[a] > 0))
+            throw UsageError("spacing[" + std::to_string(a) + "] = " + std::to_string(spacing[a]) +
+                             " is not a positive finite number");
+        if (!std::isfinite(origin[a]))
+            throw UsageError("origin[" + std::to_string(a) + "] = " + std::to_string(origin[a]) +
+                             " is not finite");
+    }
     const Dims dims{array.shape(2), array.shape(1), array.shape(0)};
     const nb::dlpack::dtype d = array.dtype();
     const bool isFloat64 = d == nb::dtype<double>();

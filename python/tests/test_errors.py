@@ -1,6 +1,7 @@
 """Errors from Python: the command line's one-line messages, as volcl exception classes."""
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
@@ -95,3 +96,29 @@ def test_degenerate_sizes_and_refused_inputs():
         volcl.render(np.full((4, 4, 4), np.nan, np.float32), tf, width=4, height=4)
     with pytest.raises(volcl.UsageError, match="table size"):
         volcl.preintegration_table(tf, size=1, step=1.0)
+
+
+def test_non_regular_inputs_and_bad_geometry_are_refused(tmp_path):
+    # A FIFO blocked read() and VczFile forever; the subprocess guard turns a regression into a failure.
+    fifo = tmp_path / "fifo.nrrd"
+    os.mkfifo(fifo)
+    code = ("import sys, volcl\n"
+            "for call in (volcl.read, volcl.VczFile):\n"
+            "    try:\n"
+            "        call(sys.argv[1])\n"
+            "    except volcl.IoError as e:\n"
+            "        assert sys.argv[1] in str(e) and '\\n' not in str(e), str(e)\n"
+            "    else:\n"
+            "        raise SystemExit('accepted')\n")
+    done = subprocess.run([sys.executable, "-c", code, str(fifo)], timeout=20, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    # Spacing and origin as every reader requires them: positive finite spacing, finite origin.
+    a = np.zeros((4, 4, 4), np.uint8)
+    for spacing in [(float("nan"), 1, 1), (0, 1, 1), (1, -1, 1), (1, 1, float("inf"))]:
+        with pytest.raises(volcl.UsageError, match="spacing"):
+            volcl.write(tmp_path / "v.nrrd", a, spacing=spacing)
+        with pytest.raises(volcl.UsageError, match="spacing"):
+            volcl.encode(a, spacing=spacing)
+    with pytest.raises(volcl.UsageError, match="origin"):
+        volcl.encode(a, origin=(0, float("nan"), 0))
+    assert not (tmp_path / "v.nrrd").exists()

@@ -6,6 +6,7 @@
 
 #include <spawn.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 
 #include <fcntl.h>
@@ -38,10 +39,11 @@ std::string slurp(const fs::path& p) {
 
 // Runs `volcl <args>` in `dir` through /bin/sh (exec, so the resource usage is volcl's own), with a
 // 60 s guard so a regression to a hang fails instead of blocking the suite.
-RunResult run(const std::string& args, const fs::path& dir, const std::string& prefix = "") {
+RunResult run(const std::string& args, const fs::path& dir, const std::string& prefix = "",
+              int seconds = 60) {
     const fs::path err = dir / "stderr.txt";
-    const std::string cmd = "cd '" + dir.string() + "' && " + prefix +
-                            " exec timeout -s KILL 60 " VOLCL_EXE " " + args + " >/dev/null 2>'" +
+    const std::string cmd = "cd '" + dir.string() + "' && " + prefix + " exec timeout -s KILL " +
+                            std::to_string(seconds) + " " VOLCL_EXE " " + args + " >/dev/null 2>'" +
                             err.string() + "' </dev/null";
     const char* argv[] = {"/bin/sh", "-c", cmd.c_str(), nullptr};
     pid_t pid = 0;
@@ -151,6 +153,82 @@ TEST(CliHostile, HeaderDataFilesOutsideTheHeadersDirectoryAreRefusedUnlessAllowe
     writeText(dir / "sub.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n"
                                 "data file: sub/d.raw\n");
     EXPECT_EQ(run("info sub.nhdr", dir).exitCode, 0);
+    // A .pvd's DataSet files follow the same rule.
+    writeVolumeFile(ramp({4, 4, 4}), root / "outside.vti");
+    for (const std::string& f : {std::string("../outside.vti"), (root / "outside.vti").string()}) {
+        writeText(dir / "p.pvd", "<VTKFile type=\"Collection\"><Collection><DataSet timestep=\"0\" file=\"" +
+                                     f + "\"/></Collection></VTKFile>\n");
+        expectRefused(run("encode p.pvd -o p.vcz", dir), 1, "p.pvd", "--allow-external-data");
+        EXPECT_FALSE(fs::exists(dir / "p.vcz"));
+        EXPECT_EQ(run("encode p.pvd -o p.vcz --allow-external-data", dir).exitCode, 0) << f;
+        fs::remove(dir / "p.vcz");
+    }
+}
+
+// ---- non-regular files are refused before any read ------------------------------------------------------
+
+// A FIFO blocked the first read forever, /dev/zero never ends, a directory is no volume: each is refused
+// (as the input, or as a data file a header names) with one line naming the file. A 10 s guard turns a
+// regression to a hang into a failure.
+TEST(CliHostile, NonRegularFilesAreRefusedAsInputsAndAsDataFiles) {
+    const fs::path dir = test::tempDir("hostile_nonregular");
+    for (const char* f : {"fifo.nrrd", "fifo.vcz", "fifo.raw", "fifo.vti", "fifo.json"})
+        ASSERT_EQ(::mkfifo((dir / f).c_str(), 0600), 0) << f;
+    fs::create_directories(dir / "dir.nrrd");
+    fs::create_directories(dir / "dir.raw");
+    auto refused = [&](const std::string& args, const std::string& file) {
+        SCOPED_TRACE(args);
+        expectRefused(run(args, dir, "", 10), 1, file);
+    };
+    refused("info fifo.nrrd", "fifo.nrrd");
+    refused("info fifo.vcz", "fifo.vcz");
+    refused("decode fifo.vcz -o d.raw", "fifo.vcz");
+    refused("info dir.nrrd", "dir.nrrd");
+    refused("info /dev/zero", "/dev/zero");
+    refused("info fifo.vtu", "fifo.vtu");                      // a mesh
+    refused("render --scene fifo.json -o s.png", "fifo.json"); // a scene
+    for (const char* data : {"fifo.raw", "dir.raw", "/dev/zero"}) {
+        const std::string d(data);
+        writeText(dir / "h.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n"
+                                  "data file: " +
+                                      d + "\n");
+        refused("info h.nhdr --allow-external-data", "h.nhdr");
+        writeText(dir / "h.mhd",
+                  "NDims = 3\nDimSize = 4 4 4\nElementType = MET_UCHAR\nElementDataFile = " + d + "\n");
+        refused("info h.mhd --allow-external-data", "h.mhd");
+        writeText(dir / "h.vvd", "<?xml version=\"1.0\" ?>\n<VoreenData version=\"1\"><Volumes><Volume>"
+                                 "<RawData filename=\"" +
+                                     d +
+                                     "\" format=\"uint8\" x=\"4\" y=\"4\" z=\"4\" />"
+                                     "</Volume></Volumes></VoreenData>\n");
+        refused("info h.vvd --allow-external-data", "h.vvd");
+    }
+    writeVolumeFile(ramp({4, 4, 4}), dir / "good.vti");
+    for (const char* member : {"fifo.vti", "dir.nrrd", "/dev/zero"}) {
+        writeText(dir / "p.pvd", std::string("<VTKFile type=\"Collection\"><Collection>"
+                                             "<DataSet timestep=\"0\" file=\"good.vti\"/>"
+                                             "<DataSet timestep=\"1\" file=\"") +
+                                     member + "\"/></Collection></VTKFile>\n");
+        refused("encode p.pvd -o p.vcz --allow-external-data", "p.pvd");
+        EXPECT_FALSE(fs::exists(dir / "p.vcz"));
+    }
+}
+
+// An output that exists and is not a regular file (a FIFO, a directory, a device) is refused before any
+// work: the commit's rename replaced a FIFO by a regular file.
+TEST(CliHostile, OutputsThatAreNotRegularFilesAreRefused) {
+    const fs::path dir = test::tempDir("hostile_nonregular_out");
+    writeVolumeFile(ramp({4, 4, 4}), dir / "in.nrrd");
+    ASSERT_EQ(::mkfifo((dir / "out.raw").c_str(), 0600), 0);
+    ASSERT_EQ(::mkfifo((dir / "out.vcz").c_str(), 0600), 0);
+    fs::create_directories(dir / "out.nii");
+    for (const char* out : {"out.raw", "out.nii"}) {
+        SCOPED_TRACE(out);
+        expectRefused(run(std::string("convert in.nrrd -o ") + out, dir, "", 10), 1, out);
+    }
+    expectRefused(run("encode in.nrrd -o out.vcz", dir, "", 10), 1, "out.vcz");
+    EXPECT_TRUE(fs::is_fifo(dir / "out.raw"));
+    EXPECT_TRUE(fs::is_fifo(dir / "out.vcz"));
 }
 
 // ---- size claims are checked before allocation ---------------------------------------------------------

@@ -441,6 +441,12 @@ void readFixedFields(Reader& r, VczHeader& h, const std::string& name, std::size
         v = r.get<double>();
     for (double& v : h.origin)
         v = r.get<double>();
+    // A forged or corrupt geometry would decode into a volume every writer refuses (or, spacing 0, into
+    // one silently given spacing 1): refuse it here, as every other format's reader does.
+    for (double v : h.spacing)
+        if (!std::isfinite(v) || !(v > 0)) r.fail("voxel spacing is not a positive finite number");
+    for (double v : h.origin)
+        if (!std::isfinite(v)) r.fail("origin is not finite");
     h.brick.x = r.get<std::uint32_t>();
     h.brick.y = r.get<std::uint32_t>();
     h.brick.z = r.get<std::uint32_t>();
