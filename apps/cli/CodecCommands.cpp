@@ -192,12 +192,17 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         EncodeReport rep;
         Stopwatch sw;
         std::vector<FrameReport> frames;
-        std::vector<std::byte> bytes = ts.frames.size() == 1 ? encodeVolume(cc, ts.frames[0], withMeta, &rep)
-                                                             : encodeSeries(cc, ts, withMeta, &frames);
+        // --bpv bounds the whole file: with the statistics, the frames are coded within what they leave.
+        const bool statisticsInBudget = a->lodStats && o.rate == RateMode::Bpv;
+        std::vector<std::byte> bytes =
+            statisticsInBudget      ? encodeWithLodStatistics(cc, ts, withMeta, a->out, &rep, &frames)
+            : ts.frames.size() == 1 ? encodeVolume(cc, ts.frames[0], withMeta, &rep)
+                                    : encodeSeries(cc, ts, withMeta, &frames);
         const double ms = sw.milliseconds();
         // Per brick and level: range and deviation from the input, for renderers' level of detail.
         Stopwatch lodSw;
-        if (a->lodStats) bytes = addLodStatistics(cc, std::move(bytes), ts.frames, a->out);
+        if (a->lodStats && !statisticsInBudget)
+            bytes = addLodStatistics(cc, std::move(bytes), ts.frames, a->out);
         const double lodMs = lodSw.milliseconds();
         AtomicFile out(a->out);
         out.write(bytes);
@@ -219,7 +224,9 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                     std::cerr << " (" << rep.corrections << " voxels stored exactly)";
             }
             std::cerr << ", " << formatFixed(double(raw) / 1e3 / ms, 1) << " MB/s";
-            if (a->lodStats)
+            if (statisticsInBudget)
+                std::cerr << " (level-of-detail statistics included)";
+            else if (a->lodStats)
                 std::cerr << " (+ " << formatFixed(lodMs, 0) << " ms of level-of-detail statistics)";
             std::cerr << '\n';
             if (!frames.empty()) {

@@ -84,12 +84,15 @@ encode(Context& context, const std::vector<InputArray>& frames, const std::array
         nb::gil_scoped_release released;
         series.validate();
         std::lock_guard lock(context.mutex);
-        if (series.frames.size() == 1)
+        // What `volcl encode` adds by default; with it the bytes equal the command line's for the same input.
+        if (lodStats && o.rate == RateMode::Bpv)
+            bytes = encodeWithLodStatistics(context.cc, series, o, "<array>", &report);
+        else if (series.frames.size() == 1)
             bytes = encodeVolume(context.cc, series.frames[0], o, &report);
         else
             bytes = encodeSeries(context.cc, series, o);
-        // What `volcl encode` adds by default; with it the bytes equal the command line's for the same input.
-        if (lodStats) bytes = addLodStatistics(context.cc, std::move(bytes), series.frames, "<array>");
+        if (lodStats && o.rate != RateMode::Bpv)
+            bytes = addLodStatistics(context.cc, std::move(bytes), series.frames, "<array>");
         report.bytes = bytes.size();
     }
     return {nb::bytes(bytes.data(), bytes.size()), reportDict(report)};

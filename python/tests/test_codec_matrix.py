@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import volcl
-from conftest import run_cli
+from conftest import cli_message, run_cli
 
 ROOT = Path(__file__).resolve().parents[2]
 BUILD = ROOT / "build"
@@ -149,8 +149,8 @@ def test_cli_and_python_write_the_same_file_and_every_reader_agrees(tmp_path, dt
                           ("volcl.read", whole.frame(k))):
             assert got.dtype == ref.dtype and got.tobytes() == ref.tobytes(), (name, k)
         check_against_input(ref, frames[k], mode, bound, f"frame {k}")
-    if mode == "bpv":  # the whole file counts, overhead included (statistics left out: the rate search's file)
-        assert 8 * plain.stat().st_size <= 1.5 * frames.size
+    if mode == "bpv":  # the whole file counts, overhead and level-of-detail statistics included
+        assert 8 * cli_vcz.stat().st_size <= 1.5 * frames.size and 8 * plain.stat().st_size <= 1.5 * frames.size
 
 
 def test_nifti_metadata_of_a_cli_file_reads_in_python(tmp_path):
@@ -355,3 +355,13 @@ def test_scaled_nifti_series_reads_in_python_as_on_the_command_line(tmp_path):
         assert f[k].tobytes() == cli.tobytes()
         assert exact[k].dtype == np.int16 and exact[k].tobytes() == stored[k].tobytes()
         assert volcl.decode(vcz.read_bytes(), frame=k, stored_values=True).tobytes() == stored[k].tobytes()
+
+
+def test_a_bit_budget_the_statistics_fill_is_refused_naming_the_file(tmp_path):
+    inputs = write_inputs(tmp_path, field(np.float32)[None])
+    out = tmp_path / "tiny.vcz"
+    message = cli_message("encode", *inputs, "-o", str(out), "--bpv", "1.0", *COMMON[0])
+    assert message.startswith(str(out)) and "--no-lod-stats" in message, message
+    assert not out.exists()
+    run_cli("encode", *inputs, "-o", str(out), "--bpv", "1.0", "--no-lod-stats", *COMMON[0])
+    assert 8 * out.stat().st_size <= 1.0 * field(np.float32).size

@@ -2,6 +2,7 @@
 #include "wavelet/container/LodStatistics.hpp"
 
 #include "core/Error.hpp"
+#include "core/Format.hpp"
 #include "core/runtime/ParallelFor.hpp"
 #include "wavelet/BrickVoxels.hpp"
 #include "wavelet/Codec.hpp"
@@ -10,6 +11,8 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <tuple>
+#include <utility>
 
 namespace volcl {
 
@@ -201,6 +204,48 @@ std::vector<std::byte> addLodStatistics(ComputeContext& cc, std::vector<std::byt
     std::vector<std::byte> out = writeVcz(nh, payload);
     readVczHeader(out, name); // the rewritten file must parse exactly as written
     return out;
+}
+
+std::vector<std::byte> encodeWithLodStatistics(ComputeContext& cc, const TimeSeries& series,
+                                               const CodecOptions& options, const std::string& name,
+                                               EncodeReport* report, std::vector<FrameReport>* frames) {
+    auto encodeAt = [&](const CodecOptions& o) {
+        std::vector<std::byte> coded = series.frames.size() == 1
+                                           ? encodeVolume(cc, series.frames[0], o, report)
+                                           : encodeSeries(cc, series, o, frames);
+        const std::size_t codedSize = coded.size();
+        return std::pair{addLodStatistics(cc, std::move(coded), series.frames, name), codedSize};
+    };
+    auto [bytes, codedSize] = encodeAt(options);
+    if (options.rate != RateMode::Bpv) return bytes;
+    double voxels = 0;
+    for (const Volume& v : series.frames)
+        voxels += double(v.voxelCount());
+    const double budgetBits = options.target * voxels;
+    // The statistics' size barely depends on the payloads, so one or two passes settle it.
+    CodecOptions tighter = options;
+    for (int attempt = 0; attempt < 4 && double(bytes.size()) * 8 > budgetBits; ++attempt) {
+        const double statisticsBits = double(bytes.size() - codedSize) * 8;
+        tighter.target = attempt == 0 ? options.target - statisticsBits / voxels
+                                      : tighter.target - (double(bytes.size()) * 8 - budgetBits) / voxels;
+        if (!(tighter.target > 0))
+            throw UsageError(name + ": --bpv " + formatNumber(options.target) +
+                             " leaves nothing for the voxels after the level-of-detail statistics (" +
+                             std::to_string(bytes.size() - codedSize) +
+                             " bytes; --no-lod-stats leaves them out)");
+        try {
+            std::tie(bytes, codedSize) = encodeAt(tighter);
+        } catch (const UsageError&) {
+            throw UsageError(name + ": --bpv " + formatNumber(options.target) +
+                             " cannot hold the voxels and the level-of-detail statistics (" +
+                             std::to_string(bytes.size() - codedSize) +
+                             " bytes; --no-lod-stats leaves them out)");
+        }
+    }
+    if (double(bytes.size()) * 8 > budgetBits)
+        throw DataError(name + ": --bpv " + formatNumber(options.target) +
+                        " is not met with the level-of-detail statistics (--no-lod-stats leaves them out)");
+    return bytes;
 }
 
 } // namespace volcl

@@ -118,4 +118,16 @@ LodStatistics measureLodStatistics(ComputeContext& cc, const std::vector<std::by
 std::vector<std::byte> addLodStatistics(ComputeContext& cc, std::vector<std::byte> vcz,
                                         std::span<const Volume> inputs, const std::string& name);
 
+struct CodecOptions;
+struct EncodeReport;
+struct FrameReport;
+
+/// Encodes `series` (encodeVolume for one frame, else encodeSeries) and adds the statistics. A --bpv target is
+/// then a bound on the whole file: when the statistics push it over, the frames are coded again at a budget
+/// smaller by what they took. Throws UsageError naming `name` when the statistics alone exceed the budget.
+std::vector<std::byte> encodeWithLodStatistics(ComputeContext& cc, const TimeSeries& series,
+                                               const CodecOptions& options, const std::string& name,
+                                               EncodeReport* report = nullptr,
+                                               std::vector<FrameReport>* frames = nullptr);
+
 } // namespace volcl
