@@ -11,6 +11,7 @@
 #include "wavelet/transform/LiftingTransform.hpp" // callers use BrickBatch and the references with it
 
 #include <cstddef>
+#include <functional>
 #include <map>
 #include <optional>
 #include <span>
@@ -144,6 +145,18 @@ private:
     std::string name_;
     VczHeader header_;
 };
+
+/// Decodes every frame whole, each once (P/B frames from the frames already decoded; a frame is
+/// released after the last frame that references it), and hands each to `use` in frame order.
+void decodeEachFrame(const VczReader& reader, ComputeContext& cc, unsigned threads, CodecProfile* profile,
+                     const std::function<void(std::size_t frame, Volume&& volume)>& use);
+
+/// The frames' times, empty when the file stores none (every time 0).
+std::vector<double> vczFrameTimes(const VczHeader& header);
+
+/// Every frame of a .vcz with the frames' times (empty when the file stores none).
+TimeSeries decodeAllFrames(const VczReader& reader, ComputeContext& cc, unsigned threads = 2,
+                           CodecProfile* profile = nullptr);
 
 /// Decodes .vcz bytes (whole volume or per `options`).
 Volume decodeVolume(ComputeContext& cc, std::span<const std::byte> vcz, const DecodeOptions& options = {},

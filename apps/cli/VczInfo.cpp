@@ -173,48 +173,4 @@ WriteOptions vczWriteOptions(const VczHeader& h, const std::string& name) {
     return wo;
 }
 
-void decodeEachFrame(const VczReader& r, ComputeContext& cc, unsigned threads, CodecProfile* profile,
-                     const std::function<void(std::size_t, Volume&&)>& use) {
-    const std::size_t n = r.header().frames.size();
-    // A frame is kept until the last frame that references it is decoded.
-    std::vector<std::size_t> lastUse(n);
-    for (std::size_t f = 0; f < n; ++f) {
-        lastUse[f] = f;
-        for (std::int32_t ref : {r.header().frames[f].reference0, r.header().frames[f].reference1})
-            if (ref >= 0) lastUse[std::size_t(ref)] = std::max(lastUse[std::size_t(ref)], f);
-    }
-    std::vector<std::optional<Volume>> frames(n);
-    std::vector<const Volume*> known(n, nullptr);
-    for (std::size_t f = 0; f < n; ++f) {
-        Volume v = r.decodeFrame(cc, f, known, threads, profile);
-        if (lastUse[f] > f) {
-            frames[f] = v; // a later frame predicts from it
-            known[f] = &*frames[f];
-        }
-        use(f, std::move(v));
-        for (std::size_t g = 0; g <= f; ++g)
-            if (frames[g] && lastUse[g] <= f) {
-                frames[g].reset();
-                known[g] = nullptr;
-            }
-    }
-}
-
-std::vector<double> vczFrameTimes(const VczHeader& h) {
-    // A series encoded without times stores zeros.
-    std::vector<double> times;
-    for (const VczFrame& f : h.frames)
-        times.push_back(f.time);
-    if (std::all_of(times.begin(), times.end(), [](double t) { return t == 0; })) times.clear();
-    return times;
-}
-
-TimeSeries decodeAllFrames(const VczReader& r, ComputeContext& cc, unsigned threads, CodecProfile* profile) {
-    TimeSeries ts;
-    decodeEachFrame(r, cc, threads, profile,
-                    [&](std::size_t, Volume&& v) { ts.frames.push_back(std::move(v)); });
-    ts.times = vczFrameTimes(r.header());
-    return ts;
-}
-
 } // namespace volcl::cli

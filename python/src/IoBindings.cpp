@@ -38,14 +38,12 @@ nb::dict readFile(const std::string& path, Context* context) {
             // A scaled NIfTI's stored integers come back in data units, as volcl.read of the .nii gives them.
             const auto nifti = niftiFromVczMetadata(reader.header().metadata, path);
             std::lock_guard lock(context->mutex);
-            for (std::size_t f = 0; f < reader.header().frames.size(); ++f) {
-                DecodeOptions o;
-                o.frame = f;
-                Volume v = reader.decode(context->cc, o);
+            // Each frame decoded once: P/B frames predict from the frames already decoded.
+            decodeEachFrame(reader, context->cc, 2, nullptr, [&](std::size_t f, Volume&& v) {
                 series.frames.push_back(nifti && nifti->storedValues ? niftiDataUnits(v, nifti->meta)
                                                                      : std::move(v));
                 series.times.push_back(reader.header().frames[f].time);
-            }
+            });
             format = "vcz";
         } else {
             const std::string inputs[] = {path};
