@@ -2,13 +2,13 @@
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/Commands.hpp"
 #include "apps/cli/SceneFlags.hpp"
-#include "apps/cli/VczInfo.hpp"
 #include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
 #include "core/Format.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "core/runtime/Timing.hpp"
 #include "host/image/ImageIo.hpp"
+#include "host/io/NiftiMetadata.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "render/BudgetPlanner.hpp"
@@ -108,9 +108,9 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
             dataRange = {r.min, r.max};
             // The stored integers of a scaled NIfTI render in data units, as the .nii itself does: the
             // transfer function, --window and --iso are data units, mapped here onto the stored values.
-            const WriteOptions wo = vczWriteOptions(h, scene.volume.string());
-            if (wo.niftiStoredValues) {
-                storedScale = {wo.nifti->sclSlope, wo.nifti->sclInter};
+            if (const auto nifti = niftiFromVczMetadata(h.metadata, scene.volume.string());
+                nifti && nifti->storedValues) {
+                storedScale = {nifti->meta.sclSlope, nifti->meta.sclInter};
                 if (!(storedScale->slope > 0))
                     throw UsageError(scene.volume.string() + ": scl_slope " +
                                      formatNumber(storedScale->slope) +
