@@ -92,8 +92,11 @@ def test_degenerate_sizes_and_refused_inputs():
         volcl.render(np.zeros((4, 4, 4), np.uint8), tf, width=0, height=4)
     with pytest.raises(volcl.UsageError, match="render.step"):
         volcl.render(np.zeros((4, 4, 4), np.uint8), tf, step=0, width=4, height=4)
-    with pytest.raises(volcl.DataError, match="NaN/Inf"):
-        volcl.render(np.full((4, 4, 4), np.nan, np.float32), tf, width=4, height=4)
+    # NaN voxels are no error: they take the NaN colour, transparent unless nan_color says otherwise.
+    nan = np.full((4, 4, 4), np.nan, np.float32)
+    assert not volcl.render(nan, tf, width=4, height=4)[..., 3].any()
+    red = volcl.render(nan, tf, width=4, height=4, options={"nan_color": [1, 0, 0, 1]})
+    assert red[2, 2, 3] > 0.99 and red[2, 2, 0] > 0.99 and red[2, 2, 1] == 0
     with pytest.raises(volcl.UsageError, match="table size"):
         volcl.preintegration_table(tf, size=1, step=1.0)
 
