@@ -31,8 +31,9 @@ Volume holedVolume() {
     for (std::size_t z = 0; z < kDims.z; ++z)
         for (std::size_t y = 0; y < kDims.y; ++y)
             for (std::size_t x = 0; x < kDims.x; ++x)
-                s[v.index(x, y, z)] = float(500.0 + 300.0 * std::sin(0.21 * double(x)) * std::cos(0.17 * double(y)) +
-                                            150.0 * std::sin(0.13 * double(z)) + 7.0 * std::sin(double(x * y + z)));
+                s[v.index(x, y, z)] =
+                    float(500.0 + 300.0 * std::sin(0.21 * double(x)) * std::cos(0.17 * double(y)) +
+                          150.0 * std::sin(0.13 * double(z)) + 7.0 * std::sin(double(x * y + z)));
     for (std::size_t z = 10; z < 17; ++z)
         for (std::size_t y = 12; y < 19; ++y)
             for (std::size_t x = 14; x < 21; ++x)
@@ -57,7 +58,8 @@ FiniteError checkDecoded(const Volume& in, const Volume& out, const std::string&
     std::size_t n = 0;
     for (std::size_t i = 0; i < a.size(); ++i) {
         if (!std::isfinite(a[i])) {
-            EXPECT_EQ(std::bit_cast<std::uint32_t>(b[i]), std::bit_cast<std::uint32_t>(a[i])) << what << " voxel " << i;
+            EXPECT_EQ(std::bit_cast<std::uint32_t>(b[i]), std::bit_cast<std::uint32_t>(a[i]))
+                << what << " voxel " << i;
             continue;
         }
         EXPECT_TRUE(std::isfinite(b[i])) << what << " voxel " << i;
@@ -121,8 +123,7 @@ TEST(CodecNan, NonFiniteBricksListedAndStatisticsFinite) {
     for (std::size_t z = 0; z < kDims.z; ++z)
         for (std::size_t y = 0; y < kDims.y; ++y)
             for (std::size_t x = 0; x < kDims.x; ++x)
-                if (!std::isfinite(s[v.index(x, y, z)]))
-                    want.insert((z / 16 * g.y + y / 16) * g.x + x / 16);
+                if (!std::isfinite(s[v.index(x, y, z)])) want.insert((z / 16 * g.y + y / 16) * g.x + x / 16);
     const std::vector<std::size_t> listed = vczNonFiniteBricks(h, 0);
     EXPECT_EQ(std::set<std::size_t>(listed.begin(), listed.end()), want);
     EXPECT_TRUE(vczNonFiniteBricks(h, 1).empty());
@@ -135,7 +136,8 @@ TEST(CodecNan, NonFiniteBricksListedAndStatisticsFinite) {
     const std::optional<LodStatistics> st = LodStatistics::fromHeader(h, "holed");
     ASSERT_TRUE(st);
     for (const BrickLevelStats& b : st->frames[0]) {
-        EXPECT_TRUE(std::isfinite(b.error) && std::isfinite(b.rms) && std::isfinite(b.min) && std::isfinite(b.max));
+        EXPECT_TRUE(std::isfinite(b.error) && std::isfinite(b.rms) && std::isfinite(b.min) &&
+                    std::isfinite(b.max));
         EXPECT_LE(b.max, 1000.0f);
     }
     // The finite error at level 0 is the coding error: within the bound.

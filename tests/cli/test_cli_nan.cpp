@@ -108,7 +108,8 @@ TEST(CliNan, LossyVczKeepsNanAndRendersLikeTheGrid) {
     const auto vol = writeHoledBall(dir);
     std::ofstream(dir / "tf.json") << kTf;
     const auto vcz = dir / "nan.vcz";
-    RunResult enc = run("encode " + vol.string() + " --max-error 0.01 --brick 8 --levels 2 -o " + vcz.string(), dir);
+    RunResult enc =
+        run("encode " + vol.string() + " --max-error 0.01 --brick 8 --levels 2 -o " + vcz.string(), dir);
     ASSERT_EQ(enc.exitCode, 0) << enc.err;
     ASSERT_EQ(run("decode " + vcz.string() + " -o " + (dir / "back.nrrd").string(), dir).exitCode, 0);
     const Volume in = readVolume(vol), back = readVolume(dir / "back.nrrd");
@@ -121,8 +122,8 @@ TEST(CliNan, LossyVczKeepsNanAndRendersLikeTheGrid) {
     }
     // The bricks render with the NaN colour too, as the grid does (the coding error alone differs).
     for (const char* colour : {"0,0,0,0", "1,0,0,1"}) {
-        const std::string tail = " --tf " + (dir / "tf.json").string() + " --width 32 --height 32 --nan-color " +
-                                 colour + " -o ";
+        const std::string tail =
+            " --tf " + (dir / "tf.json").string() + " --width 32 --height 32 --nan-color " + colour + " -o ";
         ASSERT_EQ(run("render --volume " + vol.string() + tail + (dir / "g.exr").string(), dir).exitCode, 0);
         RunResult br = run("render --volume " + vcz.string() + tail + (dir / "b.exr").string(), dir);
         ASSERT_EQ(br.exitCode, 0) << br.err;
