@@ -4,7 +4,10 @@
 #include "core/Format.hpp"
 #include "render/VecMath.hpp"
 
+#include "host/tf/TransferFunction.hpp"
+
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <sstream>
 
@@ -404,6 +407,26 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
     planTableEffects(scene, p);
     planAccelerations(in, skippingHow, p);
     return p;
+}
+
+double nanExtinction(const Scene& scene) {
+    const double a = scene.nanColor[3];
+    return a >= 1.0 ? kMaxImportedExtinction : -std::log1p(-a);
+}
+
+void planNanColor(const Scene& scene, bool hasNonFinite, EffectPlan& plan) {
+    if (!hasNonFinite) return;
+    const std::array<double, 4>& c = scene.nanColor;
+    plan.defines.set("NAN_COLOR");
+    plan.defines.set("NAN_R", c[0]);
+    plan.defines.set("NAN_G", c[1]);
+    plan.defines.set("NAN_B", c[2]);
+    plan.defines.set("NAN_TAU", nanExtinction(scene));
+    plan.compiled.push_back(std::string("nan colour: NaN/Inf samples drawn ") +
+                            (c[3] > 0.0 ? "as " + formatNumber(c[0]) + "," + formatNumber(c[1]) + "," +
+                                              formatNumber(c[2]) + "," + formatNumber(c[3])
+                                        : std::string("transparent")) +
+                            " (mip and xray skip them)");
 }
 
 } // namespace volcl

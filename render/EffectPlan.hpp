@@ -37,4 +37,11 @@ struct EffectPlan {
 EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRange& range,
                        std::string_view skippingHow, bool canPathTrace = false);
 
+/// Extinction per unit distance of the scene's NaN colour (opacity a per unit distance: -ln(1 - a)).
+double nanExtinction(const Scene& scene);
+
+/// Data with NaN/Inf voxels: adds NAN_COLOR and the colour's NAN_R/G/B/TAU defines and says so in the
+/// report. Finite data compiles no NaN test at all.
+void planNanColor(const Scene& scene, bool hasNonFinite, EffectPlan& plan);
+
 } // namespace volcl

@@ -98,6 +98,7 @@ EffectPlan RenderInput::planEffects(const Scene& scene, const TransferFunction& 
     if (vcz_) {
         EffectPlan p = volcl::planEffects(scene, bounds(), valueRange(), "macrocells over the brick index");
         p.defines.set("VOXEL_TYPE", 0LL);
+        planNanColor(scene, !vczNonFiniteBricks(vcz_->header(), frame_).empty(), p);
         return p;
     }
     if (mesh_ && scene.meshMethod == MeshMethod::KBuffer) { // no device here: the plan as on a CPU device

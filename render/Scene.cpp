@@ -258,7 +258,7 @@ void parseRenderSettings(const json& r, Scene& s) {
     checkKeys(r, "render",
               {"mode", "step", "preintegration", "early_termination", "skipping", "table_size",
                "table_lengths", "filter", "smoothing", "window", "mip_color", "budget_ms", "lod", "lod_error",
-               "cache_mb", "method", "k"});
+               "cache_mb", "method", "k", "nan_color"});
     if (r.contains("mode")) s.mode = parseRenderMode(str(r["mode"], "render.mode"));
     if (r.contains("step")) s.step = num(r["step"], "render.step");
     if (r.contains("preintegration")) {
@@ -281,6 +281,7 @@ void parseRenderSettings(const json& r, Scene& s) {
     if (r.contains("cache_mb")) s.cacheMb = num(r["cache_mb"], "render.cache_mb");
     if (r.contains("method")) s.meshMethod = parseMeshMethod(str(r["method"], "render.method"));
     if (r.contains("k")) s.kBufferDepth = intField(r["k"], "render.k");
+    if (r.contains("nan_color")) s.nanColor = vec<4>(r["nan_color"], "render.nan_color");
 }
 
 /// "lights": an array of directional, point and head lights.
@@ -482,6 +483,7 @@ std::string Scene::toJson() const {
     if (kBufferDepth != 6) j["render"]["k"] = kBufferDepth;
     if (window) j["render"]["window"] = *window;
     if (budgetMs > 0.0) j["render"]["budget_ms"] = budgetMs;
+    if (nanColor != std::array<double, 4>{0, 0, 0, 0}) j["render"]["nan_color"] = nanColor;
     j["lights"] = json::array();
     for (const auto& l : lights) {
         json o;
@@ -604,6 +606,8 @@ void Scene::validate() const {
              "render.window must be [centre, width] with width > 0 (finite, at most 1e30)");
     for (double b : background)
         need(b >= 0.0 && b <= 1.0, "image.background values must be in [0, 1]");
+    for (double c : nanColor)
+        need(c >= 0.0 && c <= 1.0, "render.nan_color values must be in [0, 1] (r, g, b, opacity)");
     // A partial camera's given fields are checked here; the rest once it is completed against the box.
     if (camera) {
         const Vec3 f = sub(camera->target, camera->eye);

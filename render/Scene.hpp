@@ -146,6 +146,9 @@ struct Scene {
     CameraFieldsGiven cameraGiven;    ///< from a scene file: the fields it gave (the rest are fitted)
     int width = 512, height = 512;
     std::array<double, 4> background{0, 0, 0, 1};
+    /// Colour of samples that are not finite (NaN/Inf voxels): straight r, g, b and opacity per unit
+    /// distance, as a TF's; transparent by default (docs/rendering.md, "NaN and Inf").
+    std::array<double, 4> nanColor{0, 0, 0, 0};
     RenderMode mode = RenderMode::Dvr;
     double step = 0.5;
     Preintegration preintegration = Preintegration::None;

@@ -275,13 +275,7 @@ TEST(CodecLossy, MaxErrorOnHugeDynamicRangeFloats) {
     EXPECT_LE(maxAbsError(v, out), 1e-3);
 }
 
-TEST(CodecLossy, RefusesNanAndInf) {
-    Volume v = makeVolume({8, 8, 8}, ScalarType::Float32);
-    v.values<float>()[17] = std::numeric_limits<float>::quiet_NaN();
-    EXPECT_THROW(encodeVolume(test::computeContext(), v, lossy(RateMode::Psnr, 40)), DataError);
-    v.values<float>()[17] = std::numeric_limits<float>::infinity();
-    EXPECT_THROW(encodeVolume(test::computeContext(), v, lossy(RateMode::MaxError, 1)), DataError);
-}
+// NaN/Inf in lossy modes: test_codec_nan.cpp.
 
 // Finite voxels near the float limit whose wavelet coefficients overflow to Inf: refused, not coded as
 // garbage.

@@ -18,11 +18,13 @@
 #include "wavelet/transform/BrickTransform.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <memory>
 #include <optional>
+#include <string_view>
 
 namespace volcl {
 
@@ -163,6 +165,28 @@ Volume reconstructCoded(ComputeContext& cc, const VczHeader& h, const codec::Cod
     return finishPredicted(cc, h, std::move(out), entry, frame, coded.aux, refs, corrections, "encoder");
 }
 
+// Adds frame f's bricks holding NaN/Inf voxels to the header's kVczNonFiniteKey entry (float frames that
+// hold any: callers check the range scan first, so finite data pays nothing).
+void noteNonFiniteBricks(VczHeader& h, const Volume& v, std::size_t f) {
+    if (v.type() != ScalarType::Float32) return;
+    const std::span<const float> in = v.values<float>();
+    std::string list;
+    for (std::size_t b = 0; b < h.brickCount(); ++b) {
+        const Dims o = h.brickOrigin(b), d = h.brickDims(b);
+        bool found = false;
+        for (std::size_t z = 0; z < d.z && !found; ++z)
+            for (std::size_t y = 0; y < d.y && !found; ++y) {
+                const float* row = in.data() + v.index(o.x, o.y + y, o.z + z);
+                for (std::size_t x = 0; x < d.x && !found; ++x)
+                    found = !std::isfinite(row[x]);
+            }
+        if (found) list += (list.empty() ? "" : ",") + std::to_string(b);
+    }
+    if (list.empty()) return;
+    std::string& entry = h.metadata[std::string(kVczNonFiniteKey)];
+    entry += (entry.empty() ? "" : ";") + std::to_string(f) + ":" + list;
+}
+
 // PSNR over `frame`'s value range and the max error of `rec` against it.
 void measureFrame(const Volume& frame, const Volume& rec, FrameReport& r) {
     r.psnr = psnr(frame, rec);
@@ -176,6 +200,9 @@ std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, co
     Stopwatch total;
     VczHeader h = planHeader(volume, options);
     Pipeline pipeline(cc, options, h);
+    // Before coding: a --bpv budget counts the metadata too.
+    if (volume.type() == ScalarType::Float32 && pipeline.rangeOf(volume).nonFinite)
+        noteNonFiniteBricks(h, volume, 0);
     codec::FrameResult frame = pipeline.encodeFrame(volume, 0, h);
     if (h.transform == TransformKind::IntegerLifting) {
         // The bricks' ranges (measured by the forward pass) give the volume's: no scan of the voxels.
@@ -215,17 +242,16 @@ std::vector<std::byte> encodeSeriesOnce(ComputeContext& cc, const TimeSeries& se
     const std::size_t n = series.frames.size();
     VczHeader h = planHeader(series.frames[0], options);
     h.frames.resize(n);
-    for (std::size_t f = 0; f < n; ++f) {
-        // Lossy coding needs finite voxels: refuse naming the frame before any work.
-        if (h.transform == TransformKind::FloatLifting) {
-            const VolumeStats st = series.frames[f].stats(1);
-            if (st.nanCount || st.infCount)
-                throw DataError("frame " + std::to_string(f) +
-                                " holds NaN/Inf voxels: lossy encoding needs finite "
-                                "voxels (use --lossless to keep them exactly)");
-        }
-    }
     const bool motion = options.motion == MotionMode::Block && h.transform != TransformKind::RawBits;
+    for (std::size_t f = 0; f < n && motion; ++f) {
+        // Intra frames store NaN/Inf voxels exactly; motion prediction needs finite frames: refuse naming
+        // the frame before any work.
+        const VolumeStats st = series.frames[f].stats(1);
+        if (st.nanCount || st.infCount)
+            throw DataError("frame " + std::to_string(f) +
+                            " holds NaN/Inf voxels: motion prediction needs finite voxels (use --motion none "
+                            "to code every frame as an intra frame, or --lossless)");
+    }
     const std::vector<codec::PlannedFrame> plan =
         codec::planGop(n, motion ? options.gop : 1, motion ? options.bFrames : 0);
     Pipeline pipeline(cc, options, h);
@@ -247,6 +273,7 @@ std::vector<std::byte> encodeSeriesOnce(ComputeContext& cc, const TimeSeries& se
         const VolumeStats st = frame.stats(1);
         lo = std::min(lo, st.min);
         hi = std::max(hi, st.max);
+        if (st.nanCount || st.infCount) noteNonFiniteBricks(h, frame, f);
         if (f < series.times.size()) h.frames[f].time = series.times[f];
         VczFrame& entry = h.frames[f];
         codec::FrameResult r = pipeline.rate().encodeFrame(frame, h, k == 0, nullptr);
@@ -525,6 +552,35 @@ void decodeEachFrame(const VczReader& r, ComputeContext& cc, unsigned threads, C
                 known[g] = nullptr;
             }
     }
+}
+
+std::vector<std::size_t> vczNonFiniteBricks(const VczHeader& h, std::size_t frame) {
+    std::vector<std::size_t> out;
+    const auto it = h.metadata.find(std::string(kVczNonFiniteKey));
+    if (it == h.metadata.end()) return out;
+    std::string_view rest = it->second;
+    while (!rest.empty()) {
+        const std::size_t end = std::min(rest.find(';'), rest.size());
+        const std::string_view entry = rest.substr(0, end);
+        rest.remove_prefix(std::min(end + 1, rest.size()));
+        const std::size_t colon = entry.find(':');
+        std::size_t f = 0;
+        if (colon == std::string_view::npos ||
+            std::from_chars(entry.data(), entry.data() + colon, f).ec != std::errc() || f != frame)
+            continue;
+        const char* p = entry.data() + colon + 1;
+        const char* e = entry.data() + entry.size();
+        while (p < e) {
+            std::size_t b = 0;
+            const auto r = std::from_chars(p, e, b);
+            if (r.ec != std::errc()) break;
+            if (b < h.brickCount()) out.push_back(b);
+            p = r.ptr < e && *r.ptr == ',' ? r.ptr + 1 : e;
+        }
+    }
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
 }
 
 std::vector<double> vczFrameTimes(const VczHeader& h) {

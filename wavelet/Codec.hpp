@@ -60,14 +60,15 @@ struct EncodeReport {
     double bitsPerVoxel = 0;
     double psnr = 0;             ///< against the input's value range; +inf when exact
     double maxError = 0;         ///< over every voxel
-    std::size_t corrections = 0; ///< voxels stored exactly to hold --max-error
+    std::size_t corrections = 0; ///< voxels stored exactly: --max-error outliers and NaN/Inf voxels
     double transformMs = 0;      ///< kernel time of the final forward transform
     double step = 0;             ///< base quantiser step chosen (lossy)
     CodecProfile profile;
 };
 
-/// Encodes one volume into .vcz bytes. Throws UsageError for invalid options, DataError for NaN/Inf
-/// in lossy mode (lossless keeps float bit patterns, NaN and Inf included).
+/// Encodes one volume into .vcz bytes. Throws UsageError for invalid options. Lossless keeps float bit
+/// patterns, NaN and Inf included; lossy modes store NaN/Inf voxels exactly as corrections and bound the
+/// finite ones (docs/codec.md, "NaN and Inf").
 std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, const CodecOptions& options,
                                     EncodeReport* report = nullptr);
 /// What the encoder did with one frame of a series.
@@ -153,6 +154,14 @@ void decodeEachFrame(const VczReader& reader, ComputeContext& cc, unsigned threa
 
 /// The frames' times, empty when the file stores none (every time 0).
 std::vector<double> vczFrameTimes(const VczHeader& header);
+
+/// Metadata key listing, per frame, the bricks that hold NaN/Inf voxels ("frame:brick,brick;frame:..."),
+/// written by the encoder when there are any: the brick renderer compiles the NaN colour for those frames
+/// and keeps those bricks when the NaN colour is visible.
+inline constexpr std::string_view kVczNonFiniteKey = "volcl:nonfinite";
+/// Bricks of `frame` listed under kVczNonFiniteKey (ascending; empty when none or the key is absent).
+/// Malformed entries and brick numbers past the grid are ignored.
+std::vector<std::size_t> vczNonFiniteBricks(const VczHeader& header, std::size_t frame);
 
 /// Every frame of a .vcz with the frames' times (empty when the file stores none).
 TimeSeries decodeAllFrames(const VczReader& reader, ComputeContext& cc, unsigned threads = 2,

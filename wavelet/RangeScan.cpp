@@ -67,7 +67,7 @@ std::vector<std::pair<double, double>> brickRanges(const Volume& v, const VczHea
         const auto vox = brickVoxels<double>(v, h, b);
         double lo = std::numeric_limits<double>::infinity(), hi = -lo;
         for (double x : vox)
-            if (!std::isnan(x)) {
+            if (std::isfinite(x)) {
                 lo = std::min(lo, x);
                 hi = std::max(hi, x);
             }

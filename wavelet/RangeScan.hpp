@@ -17,7 +17,7 @@ struct ValueRange {
 };
 ValueRange valueRange(const Volume& v, unsigned threads);
 
-/// Min and max of each brick over its non-NaN voxels (0, 0 for a brick of NaN only).
+/// Min and max of each brick over its finite voxels (0, 0 for a brick of NaN/Inf only).
 std::vector<std::pair<double, double>> brickRanges(const Volume& v, const VczHeader& h, unsigned threads);
 
 /// One volume's range, scanned on first use (the pipeline and the rate control both need it).

@@ -142,7 +142,18 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
                 std::cout << "default: " << note << '\n';
         const RenderInput input = bricks ? std::move(*bricks) : std::move(*opened);
         ComputeContext cc(global.device);
-        const std::unique_ptr<VolumeRenderer> renderer = input.makeRenderer(cc, tf, scene);
+        // The renderer's data errors (a cubic filter on NaN voxels, ...) name the input: one line, exit 1.
+        auto namingInput = [&](auto&& run) -> decltype(run()) {
+            try {
+                return run();
+            } catch (const DataError& e) {
+                const std::string what = e.what(), name = scene.volume.string();
+                if (what.rfind(name, 0) == 0) throw;
+                throw DataError(name + ": " + what);
+            }
+        };
+        const std::unique_ptr<VolumeRenderer> renderer =
+            namingInput([&] { return input.makeRenderer(cc, tf, scene); });
         VolumeRenderer& r = *renderer;
         if (a->explain) std::cout << r.plan().explain() << r.statistics() << '\n';
         std::string budgetText; // the budget's choice, printed with the notes after success
@@ -159,7 +170,7 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
             printNotes();
             return;
         }
-        const ImageBuffer img = r.render();
+        const ImageBuffer img = namingInput([&] { return r.render(); });
         writeRendered(img, a->out, scene, a->half);
         printNotes();
         std::cerr << budgetText;

@@ -107,6 +107,9 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
         ->default_str(num(Camera{}.fovYDeg));
     cmd->add_option("--background", background, "PNG background r,g,b,a (straight, linear)")
         ->default_str("0,0,0,1");
+    cmd->add_option("--nan-color", nanColor,
+                    "Colour of NaN/Inf samples r,g,b,a (straight; a: opacity per unit distance as a TF's)")
+        ->default_str("0,0,0,0");
     cmd->add_option("--lod", lod,
                     "Compressed (.vcz) inputs: full (level 0 everywhere) or auto (a level per brick from its "
                     "estimated screen-space error)")
@@ -178,6 +181,10 @@ Scene SceneFlags::build(bool requireTf) const {
     if (!background.empty()) {
         const auto b = parseNumbers(background, 4, "--background");
         s.background = {b[0], b[1], b[2], b[3]};
+    }
+    if (!nanColor.empty()) {
+        const auto c = parseNumbers(nanColor, 4, "--nan-color");
+        s.nanColor = {c[0], c[1], c[2], c[3]};
     }
     if (!projection.empty() && projection != "orthographic" && projection != "perspective")
         throw UsageError("--projection '" + projection + "' is unknown (orthographic, perspective)");

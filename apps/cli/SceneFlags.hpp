@@ -22,7 +22,7 @@ Vec3 parseVec3(const std::string& text, const std::string& what);
 
 /// Scene fields a command line may override; empty means "keep the scene's value".
 struct SceneFlags {
-    std::string scene, volume, tf, mode, preint, projection, eye, target, up, background;
+    std::string scene, volume, tf, mode, preint, projection, eye, target, up, background, nanColor;
     std::string view, orbit, tfRange, tfUnitDistance = "1";
     std::string filter, window, mipColor, lod, method;
     std::optional<double> lodError, cacheMb;

@@ -20,8 +20,17 @@ inline uint tf_find_interval(__global const VolclTfKnot* knots, uint count, floa
     return lo;
 }
 
-/* (r, g, b, tau) at data value s. */
+#ifdef NAN_COLOR
+/* The NaN colour (straight r, g, b, extinction tau) of a volume that holds NaN/Inf voxels: the host defines
+   NAN_R, NAN_G, NAN_B, NAN_TAU only then, so finite volumes pay nothing (docs/rendering.md, "NaN and Inf"). */
+#define NAN_RGBT ((float4)(NAN_R, NAN_G, NAN_B, NAN_TAU))
+#endif
+
+/* (r, g, b, tau) at data value s; with NAN_COLOR a sample that is not finite takes the NaN colour. */
 inline float4 tf_sample(__global const VolclTfKnot* knots, uint count, float s) {
+#ifdef NAN_COLOR
+    if (!isfinite(s)) return NAN_RGBT;
+#endif
     uint k = tf_find_interval(knots, count, s);
     __global const VolclTfKnot* kn = knots + k;
     /* Clamped so that s = +inf past the last knot (slope 0) gives its value, not inf * 0 = NaN. */

@@ -164,6 +164,9 @@ inline float3 preint_light(__global const voxel_t* vol, __global const VolclTfKn
 inline void iso_table_segment(__global const float4* table, __global const voxel_t* vol,
                               __global const VolclTfKnot* knots, const VolclGridRenderParams* P, const Ray* r,
                               float t0, float s0, float t1, float s1, float3* rgb, float* T, float* depth) {
+#ifdef NAN_COLOR
+    if (!isfinite(s0) || !isfinite(s1)) return; /* a crossing needs finite ends */
+#endif
     const VolclTfParams* Tp = &P->tf;
     const int n = (int)Tp->tableSize;
     const float scale = (float)(n - 1) / (Tp->domainHi - Tp->domainLo);
@@ -199,8 +202,15 @@ inline float4 mip_ray(__global const voxel_t* vol, __global const VolclTfKnot* k
     float smax = -INFINITY;
     for (int k = 0; k <= nseg; ++k) {
         const float t = k == nseg ? tExit : tEnter + (float)k * step;
-        smax = fmax(smax, sample_volume(vol, &P->grid, ray_at(r, t)));
+        const float s = sample_volume(vol, &P->grid, ray_at(r, t));
+#ifdef NAN_COLOR
+        if (!isfinite(s)) continue; /* MIP ignores samples that are not finite */
+#endif
+        smax = fmax(smax, s);
     }
+#ifdef NAN_COLOR
+    if (smax == -INFINITY) return (float4)(0.0f); /* no finite sample on the ray */
+#endif
 #if MIP_COLOR == 2
     const float4 e = tf_sample(knots, P->tf.knotCount, smax);
     const float a = 1.0f - exp(-e.w);
@@ -227,9 +237,11 @@ inline float4 xray_ray(__global const voxel_t* vol, __global const VolclTfKnot* 
     for (int k = 0; k < nseg; ++k) {
         const float t0 = tEnter + (float)k * step, t1 = fmin(t0 + step, tExit);
         const float len = t1 - t0;
-        opticalDepth +=
-            tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, ray_at(r, t0 + 0.5f * len))).w *
-            len;
+        const float s = sample_volume(vol, &P->grid, ray_at(r, t0 + 0.5f * len));
+#ifdef NAN_COLOR
+        if (!isfinite(s)) continue; /* x-ray ignores samples that are not finite */
+#endif
+        opticalDepth += tf_sample(knots, P->tf.knotCount, s).w * len;
     }
 #ifdef FOG
     if (fr->span.y > fr->span.x) {
@@ -274,6 +286,21 @@ inline void dvr_preint_segment(__global const voxel_t* vol, __global const Volcl
                                __global const float4* table, const VolclGridRenderParams* P, const Ray* r,
                                float t0, float t1, float len, float sPrev, float sNext, float3* gPrev,
                                int* gPrevValid, float3* rgb, float* T FOG_PARAMS) {
+#ifdef NAN_COLOR
+    /* A segment with an end that is not finite is a constant segment of the NaN colour, unlit. */
+    if (!isfinite(sPrev) || !isfinite(sNext)) {
+        *gPrevValid = 0;
+#ifdef FOG
+        fog_with_segment(&P->fog, fogMap, fr, r->oWorld, r->dWorld, t0, t1, NAN_TAU,
+                         (float3)(NAN_R, NAN_G, NAN_B), rgb, T);
+#else
+        const float an = 1.0f - exp(-NAN_TAU * len);
+        *rgb += *T * an * (float3)(NAN_R, NAN_G, NAN_B);
+        *T *= 1.0f - an;
+#endif
+        return;
+    }
+#endif
     const float4 e = preint_segment(table, &P->tf, sPrev, sNext, len);
     float3 c = e.xyz;
 #if defined(PREINT_LIGHTING) && PREINT == 2 && defined(SHADING)
@@ -741,6 +768,18 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
 #else
         const float8 sNext = sample_packet(vol, &P->grid, &rp, t1);
         preint_packet(table, &P->tf, sPrev, sNext, len, &er.v, &eg.v, &eb.v, &ea.v);
+#ifdef NAN_COLOR
+        {
+            /* Lanes whose segment has an end that is not finite: a constant segment of the NaN colour (the
+               table lookup above stayed in bounds: its indices are clamped). */
+            const int8 bad = ~(isfinite(sPrev) & isfinite(sNext));
+            const float8 an = 1.0f - exp(-NAN_TAU * len);
+            er.v = select(er.v, NAN_R * an, bad);
+            eg.v = select(eg.v, NAN_G * an, bad);
+            eb.v = select(eb.v, NAN_B * an, bad);
+            ea.v = select(ea.v, an, bad);
+        }
+#endif
         const float8 a = ea.v;
         const float8 wr = T * er.v, wg = T * eg.v, wb = T * eb.v;
         sPrev = sNext;

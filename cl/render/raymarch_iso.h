@@ -28,6 +28,9 @@ typedef struct {
     float3 o;      /* ray origin (voxel coordinates) */
     uint inside;   /* bit i: s >= iso_i where the last piece ended */
     int started;   /* 0 until the first piece sets the sides */
+#ifdef NAN_COLOR
+    int nonFinite; /* the cell has a corner that is not finite: it holds no crossing */
+#endif
 } IsoState;
 
 inline void iso_begin(IsoState* st, const Ray* r) {
@@ -77,6 +80,11 @@ inline void iso_load_cell(__global const voxel_t* vol, const VolclGridRenderPara
         cubic |= (lo < iso && iso <= hi) ? 1u << i : 0u;
         side0 |= iso <= lo ? 1u << i : 0u;
     }
+#ifdef NAN_COLOR
+    /* fmin/fmax skip NaN, so lo/hi alone would classify the cell by its finite corners. */
+    st->nonFinite = !(isfinite(lo) && isfinite(hi)) || any(isnan(st->v.lo)) || any(isnan(st->v.hi));
+    if (st->nonFinite) cubic = side0 = 0u;
+#endif
     st->cubic = cubic;
     st->side0 = side0;
 }
@@ -84,6 +92,9 @@ inline void iso_load_cell(__global const voxel_t* vol, const VolclGridRenderPara
 /* True when the piece can hold a crossing or the sides are not set yet; false for a cell entirely on the
    sides the ray already carries (most cells: no corner loads beyond the cell's own, no cubic). */
 inline int iso_piece_needed(const IsoState* st) {
+#ifdef NAN_COLOR
+    if (st->nonFinite) return 1; /* iso_piece forgets the sides there */
+#endif
     return st->cubic != 0u || !st->started || ((st->side0 ^ st->inside) & ((1u << ISO_COUNT) - 1u)) != 0u;
 }
 
@@ -202,6 +213,14 @@ inline void iso_composite(__global const voxel_t* vol, __global const VolclTfKno
 inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                       const VolclGridRenderParams* P, const Ray* r, IsoState* st, float ta, float tb,
                       float3* rgb, float* T, float* depth) {
+#ifdef NAN_COLOR
+    /* No crossing in a cell with a corner that is not finite, nor on its faces: the sides start afresh in
+       the next finite cell. */
+    if (st->nonFinite) {
+        st->started = 0;
+        return;
+    }
+#endif
     float th[ISO_COUNT];
     int order[ISO_COUNT];
     int n = 0;
@@ -300,6 +319,9 @@ inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot*
         st.inside |= s0 >= P->iso.value[i] ? 1u << i : 0u;
         end |= s1 >= P->iso.value[i] ? 1u << i : 0u;
     }
+#ifdef NAN_COLOR
+    if (!isfinite(s0)) st.started = 0; /* the first finite cell sets the sides */
+#endif
     iso_locate(vol, P, r, t0, &st);
     float ta = t0;
     const int maxSteps = (int)(P->grid.dims[0] + P->grid.dims[1] + P->grid.dims[2]) + 4; /* as in iso_march */
@@ -311,7 +333,10 @@ inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot*
         iso_step(vol, P, &st);
     }
     /* A side the cubic leaves a hair off the sample at t1 is a crossing at t1. */
-    const uint flipped = (end ^ st.inside) & ((1u << ISO_COUNT) - 1u);
+    uint flipped = (end ^ st.inside) & ((1u << ISO_COUNT) - 1u);
+#ifdef NAN_COLOR
+    if (!isfinite(s1) || !st.started) flipped = 0u; /* no crossing at a sample that is not finite */
+#endif
     if (flipped) {
         float th[ISO_COUNT];
         int order[ISO_COUNT];

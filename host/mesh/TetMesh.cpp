@@ -45,7 +45,9 @@ void refuseNonFinite(const TetSoup& s, const std::string& source, const std::str
             throw DataError(source + ": point " + std::to_string(i) + " has a non-finite coordinate");
         if (!std::isfinite(s.scalars[i]))
             throw DataError(source + ": point " + std::to_string(i) + ": scalar '" + scalarName + "' is " +
-                            (std::isnan(s.scalars[i]) ? "NaN" : "infinite"));
+                            (std::isnan(s.scalars[i]) ? "NaN" : "infinite") +
+                            " (meshes need finite point values: replace them, e.g. numpy.nan_to_num, or "
+                            "resample to a grid, where NaN renders with --nan-color)");
     }
 }
 

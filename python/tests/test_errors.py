@@ -51,8 +51,8 @@ def test_bad_arguments_are_usage_errors():
         volcl.encode(np.zeros((8, 8), np.uint8))
     with pytest.raises(volcl.UsageError, match="wavelet"):
         volcl.encode(a, wavelet="nope")
-    with pytest.raises(volcl.DataError):
-        volcl.encode(np.full((8, 8, 8), np.nan, np.float32), max_error=0.1)
+    # NaN is no error for lossy coding either: kept exactly.
+    assert np.isnan(volcl.decode(volcl.encode(np.full((8, 8, 8), np.nan, np.float32), max_error=0.1))).all()
     with pytest.raises(volcl.UsageError, match="no brick 99"):
         volcl.VczFile(volcl.encode(a)).brick(99)
     with pytest.raises(volcl.UsageError):
@@ -92,8 +92,11 @@ def test_degenerate_sizes_and_refused_inputs():
         volcl.render(np.zeros((4, 4, 4), np.uint8), tf, width=0, height=4)
     with pytest.raises(volcl.UsageError, match="render.step"):
         volcl.render(np.zeros((4, 4, 4), np.uint8), tf, step=0, width=4, height=4)
-    with pytest.raises(volcl.DataError, match="NaN/Inf"):
-        volcl.render(np.full((4, 4, 4), np.nan, np.float32), tf, width=4, height=4)
+    # NaN voxels are no error: they take the NaN colour, transparent unless nan_color says otherwise.
+    nan = np.full((4, 4, 4), np.nan, np.float32)
+    assert not volcl.render(nan, tf, width=4, height=4)[..., 3].any()
+    red = volcl.render(nan, tf, width=4, height=4, options={"nan_color": [1, 0, 0, 1]})
+    assert red[2, 2, 3] > 0.99 and red[2, 2, 0] > 0.99 and red[2, 2, 1] == 0
     with pytest.raises(volcl.UsageError, match="table size"):
         volcl.preintegration_table(tf, size=1, step=1.0)
 

@@ -255,6 +255,9 @@ BrickSelection selectBricks(const VczHeader& h, const LodStatistics* stats, std:
         int level = 0;
         if (!forced.empty()) {
             level = forced[b];
+        } else if (b < view.nonFinite.size() && view.nonFinite[b]) {
+            level =
+                0; // coarser levels hold the encoder's fill where NaN/Inf voxels are: only level 0 has them
         } else if (view.lod == LodMode::Auto && reach[b]) {
             for (int l = maxLevel; l > 0; --l)
                 if (brickError(h, stats, frame, b, l, tf, view) <= view.lodError) {
@@ -283,6 +286,7 @@ BrickSelection selectBricks(const VczHeader& h, const LodStatistics* stats, std:
     const std::size_t nc = std::size_t(m.nx) * m.ny * m.nz;
     m.min.assign(nc, std::numeric_limits<float>::infinity());
     m.max.assign(nc, -std::numeric_limits<float>::infinity());
+    m.nonFinite.assign(nc, 0);
     std::vector<ValueRange> face(nb);
     for (std::size_t b = 0; b < nb; ++b)
         face[b] = faceRange(h, stats, frame, b, std::max(s.level[b], 0));
@@ -315,11 +319,13 @@ BrickSelection selectBricks(const VczHeader& h, const LodStatistics* stats, std:
                                 bx * h.brick.x == hx || by * h.brick.y == hy || bz * h.brick.z == hz;
                             const ValueRange r = faceOnly ? face[b] : s.range[b];
                             cellBricks[c].push_back(b);
+                            if (b < view.nonFinite.size() && view.nonFinite[b]) m.nonFinite[c] = 1;
                             m.min[c] = std::min(m.min[c], float(r.min));
                             m.max[c] = std::max(m.max[c], float(r.max));
                         }
             }
-    s.empty = grid_detail::emptyMacrocells(m, tf, view.isoValues, view.isoOnly, view.tableNodes);
+    s.empty =
+        grid_detail::emptyMacrocells(m, tf, view.isoValues, view.isoOnly, view.tableNodes, view.nanVisible);
     // A reached brick is decoded when it takes part in a macrocell with something visible.
     std::vector<char> needed(nb, 0);
     for (std::size_t c = 0; c < nc; ++c)

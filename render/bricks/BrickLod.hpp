@@ -25,6 +25,10 @@ struct BrickView {
     /// Clipping planes of the scene: a brick (grown by the voxel its neighbours' cells reach into) wholly on
     /// the cut side of one is out of the working set, so a clipped region renders with a cache sized for it.
     std::vector<ClipPlane> clipPlanes;
+    /// Per brick: 1 when it holds NaN/Inf voxels (empty: none does); with `nanVisible` (the NaN colour has
+    /// opacity) the macrocells over such bricks are never empty.
+    std::vector<char> nonFinite;
+    bool nanVisible = false;
 };
 
 /// One frame's bricks. `level[b]` is the level brick b is drawn at, -1 when it is not decoded (no ray reaches

@@ -41,7 +41,7 @@ ValueRange frameRange(const VczHeader& h, std::size_t frame) {
         r.min = std::min(r.min, e.min);
         r.max = std::max(r.max, e.max);
     }
-    return r;
+    return r; // an Inf here: a file from before the encoder kept brick ranges finite (refused by the caller)
 }
 
 WorldBox vczBounds(const VczHeader& h) {
@@ -86,6 +86,8 @@ struct BrickRenderer::Impl {
     std::optional<LodStatistics> stats;
     int maxLevel = 0;
     ValueRange range;
+    std::vector<char> nonFinite; ///< per brick: holds NaN/Inf voxels (the file's kVczNonFiniteKey)
+    bool hasNonFinite = false;
     std::optional<Volume> whole; ///< P/B frames: decoded once (they decode whole, at level 0 only)
     std::optional<BrickCache> cache;
     double poolMb = -1;
@@ -112,9 +114,15 @@ BrickRenderer::BrickRenderer(ComputeContext& cc, std::shared_ptr<const VczReader
         throw DataError(reader_->name() + ": the brick renderer indexes at most 2^32 - 1 voxels");
     m.stats = LodStatistics::fromHeader(h, reader_->name());
     m.range = frameRange(h, frame_);
+    m.nonFinite.assign(h.brickCount(), 0);
+    for (std::size_t b : vczNonFiniteBricks(h, frame_))
+        m.nonFinite[b] = 1;
+    m.hasNonFinite = std::find(m.nonFinite.begin(), m.nonFinite.end(), 1) != m.nonFinite.end();
+    // Files written before the encoder listed NaN/Inf bricks: an Inf shows in the index's ranges.
     if (!std::isfinite(m.range.min) || !std::isfinite(m.range.max))
         throw DataError(reader_->name() + ": frame " + std::to_string(frame_) +
-                        " holds NaN/Inf voxels; the ray marcher needs finite data");
+                        " holds Inf voxels but the file does not list its NaN/Inf bricks (written by an "
+                        "older volcl): decode and re-encode it (volcl decode, volcl encode)");
     const bool intra = h.frames[frame_].type == FrameType::I;
     m.maxLevel = intra && h.transform != TransformKind::RawBits ? h.levels : 0;
     if (!intra) m.whole = reader_->decodeFrame(cc_, frame_);
@@ -141,6 +149,7 @@ EffectPlan BrickRenderer::planEffects(const Scene& scene) const {
         std::to_string(std::min({impl_->h->brick.x, impl_->h->brick.y, impl_->h->brick.z})) +
             "^3-voxel macrocells over the brick index");
     p.defines.set("VOXEL_TYPE", 0LL);
+    planNanColor(s, impl_->hasNonFinite, p);
     for (std::string& n : notes)
         p.dropped.push_back(std::move(n));
     return p;
@@ -248,7 +257,7 @@ BrickSelection BrickRenderer::fitBudget(BrickSelection s, const BrickView& view,
         // Coarsen the bricks whose next level costs the least error, a batch at a time.
         std::vector<std::pair<double, std::size_t>> cand;
         for (std::size_t b = 0; b < s.level.size(); ++b)
-            if (s.level[b] >= 0 && s.level[b] < m.maxLevel)
+            if (s.level[b] >= 0 && s.level[b] < m.maxLevel && !m.nonFinite[b])
                 cand.push_back({brickError(h, stats, frame_, b, s.level[b] + 1, tf, view), b});
         if (cand.empty())
             throw UsageError(reader_->name() + ": render.cache_mb " + std::to_string(scene_.cacheMb) +
@@ -393,6 +402,10 @@ ImageBuffer BrickRenderer::render() {
         view.isoValues.push_back(iso.value);
     view.isoOnly = scene_.mode == RenderMode::Iso;
     view.clipPlanes = plan_.clipPlanes;
+    if (m.hasNonFinite) {
+        view.nonFinite = m.nonFinite;
+        view.nanVisible = scene_.nanColor[3] > 0.0;
+    }
     const Preintegration pre = scene_.mode == RenderMode::Dvr ? scene_.preintegration : Preintegration::None;
     view.tableNodes = pre != Preintegration::None ? scene_.tableSize : 0;
     // MIP and x-ray see every value: nothing is hidden by the TF there.

@@ -23,6 +23,14 @@ ValueRange valueRange(const Volume& volume) {
     return r;
 }
 
+std::size_t nonFiniteCount(const Volume& volume) {
+    if (volume.type() != ScalarType::Float32) return 0;
+    std::size_t n = 0;
+    for (float v : volume.values<float>())
+        n += std::isfinite(v) ? 0 : 1;
+    return n;
+}
+
 MacrocellGrid buildMacrocells(const Volume& volume, unsigned edge) {
     const Dims& d = volume.dims();
     MacrocellGrid g;
@@ -36,6 +44,7 @@ MacrocellGrid buildMacrocells(const Volume& volume, unsigned edge) {
     const std::size_t count = std::size_t(g.nx) * g.ny * g.nz;
     g.min.assign(count, std::numeric_limits<float>::infinity());
     g.max.assign(count, -std::numeric_limits<float>::infinity());
+    g.nonFinite.assign(count, 0);
     const std::vector<float> v = volume.toFloat();
     // Each voxel belongs to the cells whose closed range holds it (two along an axis on a shared face).
     auto range = [edge](std::size_t i, unsigned n, unsigned& c0, unsigned& c1) {
@@ -53,10 +62,17 @@ MacrocellGrid buildMacrocells(const Volume& volume, unsigned edge) {
                 unsigned x0, x1;
                 range(i, g.nx, x0, x1);
                 const float s = row[i];
+                // A NaN/Inf voxel marks its cells instead of entering min/max (where NaN would stick or
+                // vanish depending on the order of comparison).
+                const bool finite = std::isfinite(s);
                 for (unsigned cz = z0; cz <= z1; ++cz)
                     for (unsigned cy = y0; cy <= y1; ++cy)
                         for (unsigned cx = x0; cx <= x1; ++cx) {
                             const std::size_t c = (std::size_t(cz) * g.ny + cy) * g.nx + cx;
+                            if (!finite) {
+                                g.nonFinite[c] = 1;
+                                continue;
+                            }
                             g.min[c] = std::min(g.min[c], s);
                             g.max[c] = std::max(g.max[c], s);
                         }
@@ -117,12 +133,17 @@ ValueRange tableNodeSpan(const TransferFunction& tf, double a, double b, int tab
 }
 
 std::vector<unsigned char> emptyMacrocells(const MacrocellGrid& grid, const TransferFunction& tf,
-                                           const std::vector<double>& isoValues, bool isoOnly,
-                                           int tableNodes) {
+                                           const std::vector<double>& isoValues, bool isoOnly, int tableNodes,
+                                           bool nanVisible) {
     std::vector<unsigned char> empty(grid.min.size(), 0);
     for (std::size_t c = 0; c < empty.size(); ++c) {
         const double a = grid.min[c], b = grid.max[c];
-        bool visible = false;
+        const bool nonFinite = c < grid.nonFinite.size() && grid.nonFinite[c];
+        if (a > b) { // no finite voxel: only the NaN colour can show
+            empty[c] = nonFinite && nanVisible && !isoOnly ? 0 : 1;
+            continue;
+        }
+        bool visible = nonFinite && nanVisible && !isoOnly;
         for (double iso : isoValues)
             visible |= iso > a && iso <= b;
         if (!isoOnly && !visible) {

@@ -19,21 +19,26 @@ namespace volcl::grid_detail {
 /// Smallest and largest finite voxel value.
 ValueRange valueRange(const Volume& volume);
 
+/// Voxels that are NaN or +/-Inf (0 for integer volumes).
+std::size_t nonFiniteCount(const Volume& volume);
+
 /// Min/max per macrocell; cell c covers voxels [c*edge, (c+1)*edge] (shared faces, so every trilinear cell
 /// inside it is covered).
 struct MacrocellGrid {
     unsigned edge = 8; ///< set by buildMacrocells from the device profile's rayMarch.macrocellEdge
     unsigned nx = 1, ny = 1, nz = 1;
-    std::vector<float> min, max;
+    std::vector<float> min, max;          ///< of the cell's finite voxels (min > max: none is finite)
+    std::vector<unsigned char> nonFinite; ///< 1 where the cell holds a NaN/Inf voxel
 };
 MacrocellGrid buildMacrocells(const Volume& volume, unsigned edge);
 
 /// 1 for cells where nothing can be seen: tau = 0 over the cell's value range (widened to the table nodes a
 /// pre-integration lookup would touch when tableNodes > 0) and no iso-value crossed. `isoOnly`: only
 /// iso-surfaces are drawn, so tau does not matter.
+/// `nanVisible`: the NaN colour has opacity, so a cell holding a NaN/Inf voxel is never empty.
 std::vector<unsigned char> emptyMacrocells(const MacrocellGrid& grid, const TransferFunction& tf,
-                                           const std::vector<double>& isoValues, bool isoOnly,
-                                           int tableNodes);
+                                           const std::vector<double>& isoValues, bool isoOnly, int tableNodes,
+                                           bool nanVisible = false);
 
 /// Most voxels a uint8 volume may have for the 8-bytes-per-cell copy (cellCorners): 64 Mi voxels, 512 MiB.
 constexpr std::size_t kMaxCornerVoxels = std::size_t(1) << 26;

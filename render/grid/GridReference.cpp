@@ -461,6 +461,11 @@ ImageBuffer referenceRender(const Volume& volume, const TransferFunction& tf, co
     scene.validate();
     tf.validate();
     if (!(options.step > 0.0)) throw UsageError("reference step must be > 0");
+    // The NaN colour's rules live in the kernels only (docs/rendering.md, "NaN and Inf").
+    if (const std::size_t n = grid_detail::nonFiniteCount(volume))
+        throw DataError("volume has " + std::to_string(n) +
+                        " NaN/Inf voxels: the double reference renders finite data only (render without "
+                        "--reference)");
     const ReferenceTracer tracer(volume, tf, scene, options);
     const bool depth = (scene.mode == RenderMode::Iso || scene.mode == RenderMode::Dvr) &&
                        std::any_of(scene.effects.isosurfaces.begin(), scene.effects.isosurfaces.end(),

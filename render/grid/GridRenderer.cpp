@@ -63,9 +63,10 @@ std::string skippingHow(unsigned macrocellEdge) {
 /// The shared planner on the grid's box and (already scanned) value range, plus the voxel type: the
 /// renderer scans the volume once, not on every scene change (a 7M-voxel scan per adaptive-quality step
 /// change cost more than the coarse frame).
-EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& range,
-                    unsigned macrocellEdge) {
+EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& range, unsigned macrocellEdge,
+                    std::size_t nonFinite) {
     EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow(macrocellEdge), true);
+    planNanColor(scene, nonFinite > 0, p);
     // The cubic filters read float spline coefficients instead of the voxels; smoothing, float voxels.
     p.defines.set("VOXEL_TYPE", scene.filter == ReconstructionFilter::Linear && scene.smoothing == 0.0
                                     ? static_cast<long long>(voxelTypeCode(volume))
@@ -85,7 +86,7 @@ WorldBox gridBounds(const Volume& volume) {
 EffectPlan planEffects(const Scene& scene, const Volume& volume, const TransferFunction& tf) {
     (void)tf;
     return planGrid(scene, volume, grid_detail::valueRange(volume),
-                    genericDeviceProfile().rayMarch.macrocellEdge);
+                    genericDeviceProfile().rayMarch.macrocellEdge, grid_detail::nonFiniteCount(volume));
 }
 
 Camera defaultCamera(const Volume& volume) {
@@ -94,6 +95,7 @@ Camera defaultCamera(const Volume& volume) {
 
 struct GridRenderer::Impl {
     ValueRange range;               ///< of the volume, scanned once at construction
+    std::size_t nonFinite = 0;      ///< NaN/Inf voxels (the NaN colour is compiled in only when > 0)
     DeviceBuffer<cl_uchar> volume;  ///< voxels in their stored type, plus one spare voxel (grid_sample.h)
     DeviceBuffer<cl_uchar> corners; ///< uint8 volumes: 8 corner values per cell for the packet kernels
     bool useCorners = false;        ///< packet kernels read `corners` (-DCORNER_VOXELS)
@@ -127,14 +129,7 @@ GridRenderer::GridRenderer(ComputeContext& cc, const Volume& volume, const Trans
     if (volume.voxelCount() >= (std::size_t(1) << 32))
         throw DataError("volume has " + std::to_string(volume.voxelCount()) +
                         " voxels; the ray marcher indexes at most 2^32 - 1");
-    if (volume.type() == ScalarType::Float32) {
-        std::size_t bad = 0;
-        for (float v : volume.values<float>())
-            bad += std::isfinite(v) ? 0 : 1;
-        if (bad)
-            throw DataError("volume has " + std::to_string(bad) +
-                            " NaN/Inf voxels; the ray marcher needs finite data (replace them first)");
-    }
+    impl_->nonFinite = grid_detail::nonFiniteCount(volume);
     std::vector<cl_uchar> bytes(volume.byteSize() + scalarSize(volume.type()), 0);
     std::memcpy(bytes.data(), volume.bytes().data(), volume.byteSize());
     impl_->volume = cc_.upload(bytes, CL_MEM_READ_ONLY);
@@ -226,6 +221,11 @@ const grid_detail::MacrocellGrid& GridRenderer::prepareSampledField() {
     // Cubic filters: the spline's coefficients, built once per filter (prefiltering a 35 MB volume takes
     // about a second; camera and TF changes keep them).
     const bool spline = scene_.filter != ReconstructionFilter::Linear;
+    // The cubic filters' prefilter is global: one NaN would spread over every coefficient.
+    if (spline && m.nonFinite)
+        throw DataError("volume has " + std::to_string(m.nonFinite) + " NaN/Inf voxels, which the " +
+                        std::string(filterName(scene_.filter)) +
+                        " filter's prefilter spreads over the whole volume (use --filter linear)");
     if (spline && (m.splineFilter != scene_.filter || m.splineSmoothing != scene_.smoothing)) {
         checkMemoryBudget(bsplineCoefficientBytes(volume_, sizeof(float)), 0, "the volume",
                           "the cubic filter's coefficients");
@@ -262,8 +262,8 @@ void GridRenderer::updateEmptiness(const grid_detail::MacrocellGrid& macro, cons
     for (const auto& iso : plan_.isosurfaces)
         isoValues.push_back(iso.value);
     const int tableNodes = pre != Preintegration::None ? scene_.tableSize : 0;
-    m.emptyHost =
-        grid_detail::emptyMacrocells(macro, shaded, isoValues, scene_.mode == RenderMode::Iso, tableNodes);
+    m.emptyHost = grid_detail::emptyMacrocells(macro, shaded, isoValues, scene_.mode == RenderMode::Iso,
+                                               tableNodes, m.nonFinite && scene_.nanColor[3] > 0.0);
     std::size_t emptyCount = 0;
     for (unsigned char e : m.emptyHost)
         emptyCount += e;
@@ -276,9 +276,9 @@ void GridRenderer::preparePathTracer(const TransferFunction& shaded) {
     // Multiple scattering: the path tracer reads the stored voxels trilinearly, with majorants from their
     // macrocells.
     if (!m.pathTracer) m.pathTracer = std::make_unique<GridPathTracer>(cc_);
-    const std::string key = shaded.toJson();
+    const std::string key = shaded.toJson() + std::to_string(nanExtinction(scene_));
     if (key != m.majorantKey) {
-        m.pathTracer->setMajorants(majorantGrid(m.macro, shaded));
+        m.pathTracer->setMajorants(majorantGrid(m.macro, shaded, m.nonFinite ? nanExtinction(scene_) : 0.0));
         m.majorantKey = key;
     }
     m.pathTracer->reset();
@@ -370,7 +370,7 @@ ImageBuffer GridRenderer::renderPlainBaseline() {
 }
 
 EffectPlan GridRenderer::planEffects(const Scene& scene) const {
-    return planGrid(scene, volume_, impl_->range, cc_.profile().rayMarch.macrocellEdge);
+    return planGrid(scene, volume_, impl_->range, cc_.profile().rayMarch.macrocellEdge, impl_->nonFinite);
 }
 
 std::string GridRenderer::statistics() const {

@@ -8,12 +8,17 @@
 
 namespace volcl {
 
-std::vector<float> majorantGrid(const grid_detail::MacrocellGrid& grid, const TransferFunction& tf) {
+std::vector<float> majorantGrid(const grid_detail::MacrocellGrid& grid, const TransferFunction& tf,
+                                double nanTau) {
     std::vector<float> m(grid.min.size(), 0.0f);
     for (std::size_t c = 0; c < m.size(); ++c) {
         // Trilinear interpolation stays within the corner values (up to float rounding, which the relative
-        // widening below covers), so a cell of constant zero-tau data keeps majorant 0.
-        const double tau = grid_detail::maxExtinctionOver(tf, grid.min[c], grid.max[c]);
+        // widening below covers), so a cell of constant zero-tau data keeps majorant 0. A cell with a
+        // NaN/Inf voxel can also sample the NaN colour.
+        const bool nonFinite = c < grid.nonFinite.size() && grid.nonFinite[c];
+        double tau =
+            grid.min[c] <= grid.max[c] ? grid_detail::maxExtinctionOver(tf, grid.min[c], grid.max[c]) : 0.0;
+        if (nonFinite) tau = std::max(tau, nanTau);
         m[c] = tau > 0.0 ? float(tau * (1.0 + 1e-4)) : 0.0f;
     }
     return m;

@@ -17,8 +17,9 @@ class Volume;
 
 /// Majorant of the extinction per macrocell: the largest tau over the cell's value range (0 where the TF
 /// makes the whole cell transparent: delta tracking crosses it without a sample), widened by 1e-4 relative
-/// for float rounding.
-std::vector<float> majorantGrid(const grid_detail::MacrocellGrid& grid, const TransferFunction& tf);
+/// for float rounding. `nanTau`: the NaN colour's extinction, the least majorant of a cell with a NaN/Inf voxel.
+std::vector<float> majorantGrid(const grid_detail::MacrocellGrid& grid, const TransferFunction& tf,
+                                double nanTau = 0.0);
 
 /// The path tracer's launch parameters for a scene: seed, bounces, environment, emission.
 VolclPathParams pathParams(const SceneEffects& fx);

@@ -134,6 +134,10 @@ gtest runtime test_runtime 'Runtime.CopyKernelRoundTripsDataWithOddSizes:Runtime
 gtest tf_sample test_tf 'TransferFunction.HostAndKernelSamplingAreBitIdentical'
 gtest motion test_motion_compensation 'MotionCompensation.TinyVolumeMatchesTheReferenceOnBothKernels'
 gtest plain test_render 'Render.PlainKernelMatchesBaseline'
+# NaN voxels (NAN_COLOR): point-sampled and pre-integrated dvr, MIP/x-ray skipping, iso cells with NaN corners
+gtest nan test_render_nan 'RenderNan.DvrDrawsTheNanColourWhereTheRuleSays:'\
+'RenderNan.SkippingKeepsCellsWhereOnlyTheNanColourShows:RenderNan.MipAndXraySkipSamplesThatAreNotFinite:'\
+'RenderNan.IsoSurfacesNeedCellsWithFiniteCorners'
 
 echo "== codec: both lifting paths, lossless and lossy, entropy coding, decode"
 for path in streaming brick; do

@@ -94,6 +94,7 @@ BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::spa
         for (std::size_t j = 0; j < m.y; ++j)
             for (std::size_t i = 0; i < m.x; ++i) {
                 const float v = samples[(k * m.y + j) * m.x + i];
+                if (!std::isfinite(v)) continue; // NaN/Inf voxels (stored exactly) take no part in ranges
                 st.min = std::min(st.min, v);
                 st.max = std::max(st.max, v);
                 if (i == 0 || j == 0 || k == 0) {
@@ -109,7 +110,11 @@ BrickLevelStats brickLevelStats(std::span<const float> samples, Dims m, std::spa
                           const float* in = input.data() + (z * full.y + y) * full.x;
                           const std::size_t n = row.size();
                           auto lane = [&](std::size_t x, double& e, double& q) {
-                              const double d = std::abs(row[x] - double(in[x]));
+                              // NaN/Inf voxels (restored exactly at level 0, where the interpolation
+                              // beside them is NaN too; bricks holding them are drawn at level 0 only)
+                              // take no part: a non-finite difference counts as none.
+                              const double dv = std::abs(row[x] - double(in[x]));
+                              const double d = std::isfinite(dv) ? dv : 0.0;
                               e = d > e ? d : e;
                               q += d * d;
                           };

@@ -6,6 +6,7 @@
 
 #include <zstd.h>
 
+#include <cmath>
 #include <cstring>
 
 namespace volcl::codec {
@@ -62,6 +63,66 @@ std::vector<std::uint8_t> encodeCorrections(const std::vector<Correction>& corr,
     const std::size_t n = ZSTD_compress(out.data(), out.size(), raw.data(), raw.size(), 3);
     if (ZSTD_isError(n)) throw Error(std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
     out.resize(n);
+    return out;
+}
+
+NonFiniteSplit splitNonFinite(const Volume& v, const VczHeader& h) {
+    NonFiniteSplit out;
+    if (v.type() != ScalarType::Float32) return out;
+    const std::span<const float> in = v.values<float>();
+    std::vector<std::size_t> holes;
+    double sum = 0;
+    std::size_t finite = 0;
+    for (std::size_t i = 0; i < in.size(); ++i) {
+        if (std::isfinite(in[i])) {
+            sum += in[i];
+            ++finite;
+        } else {
+            holes.push_back(i);
+        }
+    }
+    if (holes.empty()) return out;
+    out.count = holes.size();
+    out.filled = v;
+    std::span<float> f = out.filled.values<float>();
+    // Start from the finite mean, then relax each hole toward its neighbours' average (Gauss-Seidel): the
+    // fill meets the finite data smoothly and stays inside its range.
+    const float mean = finite ? float(sum / double(finite)) : 0.0f;
+    for (std::size_t i : holes)
+        f[i] = mean;
+    const Dims d = v.dims();
+    const std::size_t sx = 1, sy = d.x, sz = d.x * d.y;
+    for (int pass = 0; pass < 16; ++pass)
+        for (std::size_t i : holes) {
+            const std::size_t x = i % d.x, y = i / d.x % d.y, z = i / sz;
+            double acc = 0;
+            int n = 0;
+            auto take = [&](bool ok, std::size_t j) {
+                if (ok) {
+                    acc += f[j];
+                    ++n;
+                }
+            };
+            take(x > 0, i - sx);
+            take(x + 1 < d.x, i + sx);
+            take(y > 0, i - sy);
+            take(y + 1 < d.y, i + sy);
+            take(z > 0, i - sz);
+            take(z + 1 < d.z, i + sz);
+            if (n) f[i] = float(acc / n);
+        }
+    // Each brick's holes in its dense order (x fastest), as the trial lists its corrections.
+    out.exact.resize(h.brickCount());
+    for (std::size_t b = 0; b < h.brickCount(); ++b) {
+        const Dims o = h.brickOrigin(b), bd = h.brickDims(b);
+        for (std::size_t z = 0; z < bd.z; ++z)
+            for (std::size_t y = 0; y < bd.y; ++y)
+                for (std::size_t x = 0; x < bd.x; ++x) {
+                    const float s = in[v.index(o.x + x, o.y + y, o.z + z)];
+                    if (!std::isfinite(s))
+                        out.exact[b].push_back({std::uint32_t((z * bd.y + y) * bd.x + x), double(s)});
+                }
+    }
     return out;
 }
 

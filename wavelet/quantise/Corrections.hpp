@@ -30,6 +30,17 @@ inline std::size_t maxCorrectionListBytes(ScalarType type, std::size_t brickVoxe
 std::vector<Correction> decodeCorrections(std::span<const std::uint8_t> in, ScalarType type,
                                           std::size_t brickVoxels, const std::string& what);
 
+/// A frame's NaN/Inf voxels split off for lossy coding: `filled` holds a smooth fill in their place (the
+/// finite neighbours' average, relaxed outward, so the wavelet spends few bits there and the finite
+/// voxels' bound is untouched) and `exact[b]` lists brick b's NaN/Inf voxels, stored exactly as corrections.
+struct NonFiniteSplit {
+    Volume filled;
+    std::vector<std::vector<Correction>> exact;
+    std::size_t count = 0; ///< NaN/Inf voxels in the frame
+};
+/// Float frames only (other types hold no NaN); `count` 0 and `filled` empty when every voxel is finite.
+NonFiniteSplit splitNonFinite(const Volume& v, const VczHeader& h);
+
 // Brick b's exactly stored voxels (--max-error outliers) that fall into [a, e), at full resolution.
 template <class V>
 void applyCorrections(const VczHeader& h, std::size_t b, Dims a, Dims e, std::span<V> out, Dims outDims,

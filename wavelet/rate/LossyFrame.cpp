@@ -50,6 +50,7 @@ Trial LossyFrame::trial(std::optional<double> bound, bool reconstruct) {
     ++prof->trials;
     if (!reconstruct) {
         tr.err.sumSq = tr.err.maxErr = std::numeric_limits<double>::quiet_NaN();
+        if (exact_) tr.corrections = *exact_;
         return tr;
     }
     timeStage(prof, &CodecProfile::reconstruct, [&] {
@@ -63,6 +64,8 @@ Trial LossyFrame::trial(std::optional<double> bound, bool reconstruct) {
             &CodecProfile::reconstruct, [&](std::size_t b, const float* rec, std::size_t pitch) {
                 const Dims o = h.brickOrigin(b), d = h.brickDims(b);
                 double sumSq = 0, maxErr = 0;
+                const std::vector<Correction>* exact = exact_ ? &(*exact_)[b] : nullptr;
+                std::size_t nextExact = 0;
                 // A residual is measured on the frame it reconstructs (prediction + decoded residual), and
                 // its stored voxels hold the frame's values.
                 const Volume& truth = target_ ? *target_->frame : v;
@@ -76,12 +79,16 @@ Trial LossyFrame::trial(std::optional<double> bound, bool reconstruct) {
                             const float* p = pred ? pred + at : nullptr;
                             const float* r = rec + (z * d.y + y) * pitch;
                             for (std::size_t x = 0; x < d.x; ++x) {
+                                const auto at = static_cast<std::uint32_t>((z * d.y + y) * d.x + x);
+                                if (exact && nextExact < exact->size() && (*exact)[nextExact].index == at) {
+                                    tr.corrections[b].push_back((*exact)[nextExact++]);
+                                    continue;
+                                }
                                 const double orig = double(in[x]);
                                 const V decoded = p ? predictedVoxel<V>(p[x], r[x]) : toVoxel<V>(r[x]);
                                 const double e = std::abs(double(decoded) - orig);
                                 if (bound && e > *bound) {
-                                    tr.corrections[b].push_back(
-                                        {static_cast<std::uint32_t>((z * d.y + y) * d.x + x), orig});
+                                    tr.corrections[b].push_back({at, orig});
                                     continue;
                                 }
                                 sumSq += e * e;
@@ -132,17 +139,25 @@ FrameResult LossyStrategy::encodeFrame(const Volume& v, VczHeader& h, bool choos
                                        const ResidualTarget* target) {
     // A residual's PSNR is the frame's, over the frame's value range.
     const ValueRange& st = ranges_.of(target ? *target->frame : v);
-    if (st.nonFinite)
-        throw DataError(
-            "lossy encoding needs finite voxels (found NaN/Inf): use --lossless to keep them exactly");
+    // NaN/Inf voxels are stored exactly as corrections and the wavelet codes a smooth fill in their place.
+    NonFiniteSplit split;
+    if (st.nonFinite) {
+        if (target)
+            throw DataError("predicted frames need finite voxels (found NaN/Inf): use --motion none to code "
+                            "every frame as an intra frame, or --lossless");
+        split = splitNonFinite(v, h);
+    }
+    const Volume& coded = split.count ? split.filled : v;
     LiftingTransform<float> t(cc_, h.wavelet);
     if (o_.step && chooseStep && (!(*o_.step > 0) || !std::isfinite(*o_.step)))
         throw UsageError("the quantiser step must be a positive number");
-    if ((!chooseStep || o_.step) && h.rate != RateMode::MaxError && !o_.measureError)
+    // The direct path codes no corrections: frames with NaN/Inf voxels take the trial path.
+    if ((!chooseStep || o_.step) && h.rate != RateMode::MaxError && !o_.measureError && !split.count)
         if (std::optional<FrameResult> r = encodeDirect(v, h, t, chooseStep ? o_.step : std::nullopt))
             return std::move(*r);
     FrameResult r;
-    LossyFrame f(cc_, o_, v, h, t, st, &r.report.profile, r.report.transformMs, r.coded.ranges, target);
+    LossyFrame f(cc_, o_, coded, h, t, st, &r.report.profile, r.report.transformMs, r.coded.ranges, target);
+    if (split.count) f.setExact(&split.exact, split.count);
     if (o_.step && chooseStep) {
         f.setDelta(*o_.step);
         chooseStep = false;

@@ -50,12 +50,20 @@ public:
     Trial trial(std::optional<double> bound, bool reconstruct = true);
     /// File size of the frame coded with the trial's corrections; with `payloads` it keeps them.
     std::size_t codedBytes(const Trial& tr, BrickPayloads* payloads);
-    /// PSNR over the frame's value range of a trial's error.
+    /// PSNR over the frame's value range of a trial's error (over the voxels not stored exactly by
+    /// setExact).
     double psnrOf(const Trial& tr) const;
+    /// Voxels every trial stores exactly, brick by brick in dense order (a frame's NaN/Inf voxels, see
+    /// splitNonFinite): listed in each trial's corrections, so coded sizes count them, and left out of
+    /// its error. `exact` must outlive the frame.
+    void setExact(const std::vector<std::vector<Correction>>* exact, std::size_t count) {
+        exact_ = exact;
+        exactCount_ = count;
+    }
 
     const VczHeader& header() const noexcept { return h_; }
     double range() const noexcept { return range_.max - range_.min; }
-    double voxels() const noexcept { return double(v_.voxelCount()); }
+    double voxels() const noexcept { return double(v_.voxelCount() - exactCount_); }
 
 private:
     ComputeContext& cc_;
@@ -71,6 +79,8 @@ private:
     double lastDelta_ = 0;
     std::optional<std::size_t> preambleBytes_; ///< vczPreambleSize of the header, the same in every trial
     double zeroBelow_ = 1;
+    const std::vector<std::vector<Correction>>* exact_ = nullptr;
+    std::size_t exactCount_ = 0;
 };
 
 /// What a lossy search chose: the trial kept (its steps left in the header), its base step, and the
