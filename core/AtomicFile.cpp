@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <csignal>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -390,6 +391,59 @@ void AtomicFile::commit() {
     retireOld(old, onReplaced_);
 }
 
+namespace {
+
+volatile std::sig_atomic_t deferredSignal = 0;
+
+extern "C" void recordSignal(int sig) {
+    deferredSignal = sig;
+}
+
+// SIGINT, SIGTERM and SIGHUP wait while alive. Blocking them in this thread is not enough: the kernel
+// gives a process-directed signal to any thread that does not block it (OpenCL runtimes keep worker
+// threads), so a handler that only records it replaces the default action meanwhile, and the signal is
+// raised again, with the old action back, at the end. An ignored signal stays ignored.
+class SignalsDeferred {
+public:
+    SignalsDeferred() {
+        deferredSignal = 0;
+        sigemptyset(&block_);
+        for (std::size_t i = 0; i < kCount; ++i)
+            sigaddset(&block_, kSignals[i]);
+        pthread_sigmask(SIG_BLOCK, &block_, &savedMask_);
+        struct sigaction record {};
+        record.sa_handler = recordSignal;
+        sigemptyset(&record.sa_mask);
+        for (std::size_t i = 0; i < kCount; ++i) {
+            struct sigaction current {};
+            replaced_[i] = ::sigaction(kSignals[i], nullptr, &current) == 0 &&
+                           current.sa_handler != SIG_IGN &&
+                           ::sigaction(kSignals[i], &record, &saved_[i]) == 0;
+        }
+    }
+    ~SignalsDeferred() {
+        // A signal pending for this thread is taken before the old actions return, so it is raised once.
+        const timespec now{0, 0};
+        for (int sig; (sig = ::sigtimedwait(&block_, nullptr, &now)) > 0;)
+            deferredSignal = sig;
+        for (std::size_t i = 0; i < kCount; ++i)
+            if (replaced_[i]) ::sigaction(kSignals[i], &saved_[i], nullptr);
+        pthread_sigmask(SIG_SETMASK, &savedMask_, nullptr);
+        if (deferredSignal != 0) ::raise(deferredSignal);
+    }
+    SignalsDeferred(const SignalsDeferred&) = delete;
+    SignalsDeferred& operator=(const SignalsDeferred&) = delete;
+
+private:
+    static constexpr std::size_t kCount = 3;
+    static constexpr int kSignals[kCount] = {SIGINT, SIGTERM, SIGHUP};
+    sigset_t block_{}, savedMask_{};
+    struct sigaction saved_[kCount] {};
+    bool replaced_[kCount] = {};
+};
+
+} // namespace
+
 AtomicCommitGroup::AtomicCommitGroup() : outer_(activeGroup) {
     activeGroup = this;
 }
@@ -409,12 +463,7 @@ void AtomicCommitGroup::commit() {
     if (committed_) throw IoError("output files already committed");
     // A terminal's Ctrl-C or a supervisor's SIGTERM during the moves would leave a mix of new and old
     // targets: they wait until every move is done (or undone).
-    sigset_t block{}, saved{};
-    sigemptyset(&block);
-    sigaddset(&block, SIGINT);
-    sigaddset(&block, SIGTERM);
-    sigaddset(&block, SIGHUP);
-    pthread_sigmask(SIG_BLOCK, &block, &saved);
+    const SignalsDeferred deferred;
     std::vector<fs::path> olds;
     try {
         for (Entry& e : entries_) {
@@ -442,13 +491,11 @@ void AtomicCommitGroup::commit() {
         for (std::size_t i = olds.size(); i < entries_.size(); ++i)
             if (entries_[i].fd < 0) ::unlink(entries_[i].finished.c_str());
         committed_ = true; // nothing left to remove
-        pthread_sigmask(SIG_SETMASK, &saved, nullptr);
         throw;
     }
     committed_ = true;
     for (std::size_t i = 0; i < entries_.size(); ++i)
         retireOld(olds[i], entries_[i].onReplaced);
-    pthread_sigmask(SIG_SETMASK, &saved, nullptr);
 }
 
 std::string nonRegularKind(const fs::path& path) {

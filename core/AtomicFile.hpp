@@ -81,8 +81,9 @@ private:
 /// is alive on a thread, AtomicFile::commit() there finishes its temporary (write checks, fsync) but moves
 /// nothing, and an unnamed temporary stays unnamed (the first kMaxOpenDescriptors of them: later ones get a
 /// hidden `.NAME.tmp-PID-...` name); commit() then names them and moves every file into place in order with
-/// SIGINT, SIGTERM and SIGHUP blocked (they act after the last move). A failed move puts back what the
-/// moves before it replaced (old files are kept under hidden names until the end); a group destroyed
+/// SIGINT, SIGTERM and SIGHUP deferred (recorded whichever thread gets them, raised after the last
+/// move). A failed move puts back what the moves before it replaced (old files are kept under hidden
+/// names until the end); a group destroyed
 /// without commit() removes every finished temporary, so a failure before the moves leaves nothing. Only
 /// SIGKILL (or a crash) during the moves can leave some targets new and others old, plus hidden
 /// temporaries that the next writer of each target removes.

@@ -11,6 +11,7 @@
 #include <csignal>
 #include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <signal.h>
@@ -457,4 +458,32 @@ TEST(AtomicFile, LibraryWritersCutShortByTheFileSizeLimitFail) {
     EXPECT_TRUE(refused) << "the VDB writer did not report the cut";
     EXPECT_EQ(readFile(dir / "keep.vdb"), "previous");
     EXPECT_EQ(listing(dir), (std::set<std::string>{"keep.vdb"}));
+}
+
+// SIGTERM arriving at the first move of a group waits until the last one, also with a second thread in the
+// process (a process-directed signal goes to any thread that does not block it; OpenCL keeps threads).
+TEST(AtomicCommitGroup, TerminationSignalsWaitForTheLastMove) {
+    const fs::path dir = test::tempDir("io-atomic-group-sigterm");
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+        std::thread idle([] { ::pause(); }); // never joined: the process ends by the signal
+        idle.detach();
+        AtomicFile::beforeMoveForTesting = [](const fs::path& target) {
+            if (target.filename() == "a") ::kill(::getpid(), SIGTERM);
+            ::usleep(20000); // time for the signal to reach some thread
+        };
+        AtomicCommitGroup group;
+        for (const char* name : {"a", "b", "c"}) {
+            AtomicFile f(dir / name);
+            f.write(std::string_view(name));
+            f.commit();
+        }
+        group.commit();
+        ::_exit(0); // not reached: the deferred SIGTERM ends the process after the moves
+    }
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGTERM) << "status " << status;
+    EXPECT_EQ(listing(dir), (std::set<std::string>{"a", "b", "c"}));
 }
