@@ -1,4 +1,4 @@
-// Lossy modes on float32 volumes of subnormal, tiny, huge (up to FLT_MAX) and mixed magnitudes: each bound holds.
+// Lossy modes on float32 volumes of subnormal, tiny, huge (to FLT_MAX) and mixed magnitudes: bounds hold.
 #include "core/Error.hpp"
 #include "core/Format.hpp"
 #include "tests/TestUtil.hpp"
@@ -84,8 +84,11 @@ struct Case {
     double scale;
 };
 
-const std::vector<Case> kCases{{"subnormal 1e-40", 1e-40}, {"tiny 1e-30", 1e-30},     {"huge 1e30", 1e30},
-                               {"near FLT_MAX 3e38", 3e38}, {"mixed 1e-40..3e38", 0}};
+const std::vector<Case> kCases{{"subnormal 1e-40", 1e-40},
+                               {"tiny 1e-30", 1e-30},
+                               {"huge 1e30", 1e30},
+                               {"near FLT_MAX 3e38", 3e38},
+                               {"mixed 1e-40..3e38", 0}};
 
 } // namespace
 
@@ -97,7 +100,8 @@ TEST(CodecMagnitudes, MaxErrorHoldsOnEveryVoxelAtEveryMagnitude) {
         // A bound relative to the range, and one far below it (most voxels then stored exactly).
         for (double e : {1e-3 * (range.hi - range.lo), 1e-7 * (range.hi - range.lo)}) {
             if (c.scale == 0 && e < 1e-3) e = 1e-3; // mixed: an absolute bound on values of every magnitude
-            const auto file = encodeOrFail(v, options(RateMode::MaxError, e), c.name + " E=" + formatNumber(e));
+            const auto file =
+                encodeOrFail(v, options(RateMode::MaxError, e), c.name + " E=" + formatNumber(e));
             if (file.empty()) continue;
             const Errors got = errorsOf(v, decodeVolume(cc, file));
             EXPECT_LE(got.maxAbs, e) << c.name << " E=" << e << " (exact: " << got.exact << ")";
@@ -110,11 +114,13 @@ TEST(CodecMagnitudes, PsnrTargetHoldsAtEveryMagnitude) {
     for (const Case& c : kCases) {
         const Volume v = magnitudeVolume(c.scale, 4);
         for (double target : {30.0, 60.0}) {
-            const auto file = encodeOrFail(v, options(RateMode::Psnr, target), c.name + " psnr " + formatNumber(target));
+            const auto file =
+                encodeOrFail(v, options(RateMode::Psnr, target), c.name + " psnr " + formatNumber(target));
             if (file.empty()) continue;
             const Errors got = errorsOf(v, decodeVolume(cc, file));
             const double r = got.hi - got.lo, mse = got.sumSq / double(v.voxelCount());
-            const double psnr = mse == 0 ? std::numeric_limits<double>::infinity() : 10 * std::log10(r * r / mse);
+            const double psnr =
+                mse == 0 ? std::numeric_limits<double>::infinity() : 10 * std::log10(r * r / mse);
             EXPECT_GE(psnr, target) << c.name << " (exact: " << got.exact << ")";
         }
     }
@@ -125,7 +131,8 @@ TEST(CodecMagnitudes, BitsPerVoxelBudgetHoldsAtEveryMagnitude) {
     for (const Case& c : kCases) {
         const Volume v = magnitudeVolume(c.scale, 5);
         for (double bpv : {2.0, 8.0}) {
-            const auto file = encodeOrFail(v, options(RateMode::Bpv, bpv), c.name + " bpv " + formatNumber(bpv));
+            const auto file =
+                encodeOrFail(v, options(RateMode::Bpv, bpv), c.name + " bpv " + formatNumber(bpv));
             if (file.empty()) continue;
             EXPECT_LE(double(file.size()) * 8 / double(v.voxelCount()), bpv) << c.name;
             const Volume out = decodeVolume(cc, file);

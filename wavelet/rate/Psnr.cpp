@@ -30,8 +30,12 @@ protected:
         };
         SearchOutcome o = runStepSearch(f, s);
         if (!o.found) {
-            f.setDelta(std::exp2(s.guess - 40));
-            o.best = f.trial(std::nullopt);
+            // No step meets the target (magnitudes too small for the float quantiser, or beyond the float
+            // transform's range): every voxel within E = range * 10^(-target / 20) of the input, the rest
+            // stored exactly, bounds the MSE by E^2, so the PSNR is at least the target.
+            const double bound = range * std::pow(10.0, -target / 20);
+            f.setDelta(bound);
+            o.best = f.trial(bound);
             o.steps = f.header().steps;
             o.delta = f.lastDelta();
         }
