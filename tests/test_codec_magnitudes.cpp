@@ -141,3 +141,49 @@ TEST(CodecMagnitudes, BitsPerVoxelBudgetHoldsAtEveryMagnitude) {
         }
     }
 }
+
+// A series shares the first frame's steps and predicts later frames from earlier ones (P frames whose
+// prediction can overflow float near FLT_MAX): every frame keeps its bound.
+TEST(CodecMagnitudes, SeriesFramesHoldTheirBoundsAtEveryMagnitude) {
+    ComputeContext& cc = test::computeContext();
+    for (const Case& c : kCases) {
+        TimeSeries series;
+        for (unsigned k = 0; k < 3; ++k) {
+            Volume v = magnitudeVolume(c.scale, 6);
+            for (float& x : v.values<float>())
+                x *= 1.0f - 0.05f * float(k); // a slowly fading copy: P frames pay
+            series.frames.push_back(std::move(v));
+        }
+        const Errors range = errorsOf(series.frames[0], series.frames[0]);
+        const double e = c.scale == 0 ? 1e-3 : 1e-3 * (range.hi - range.lo);
+        for (const auto& [rate, target] : {std::pair{RateMode::MaxError, e}, std::pair{RateMode::Psnr, 40.0},
+                                           std::pair{RateMode::Bpv, 4.0}}) {
+            const std::string what = c.name + " series rate " + std::to_string(int(rate));
+            std::vector<std::byte> file;
+            try {
+                file = encodeSeries(cc, series, options(rate, target));
+            } catch (const std::exception& x) {
+                ADD_FAILURE() << what << ": " << x.what();
+                continue;
+            }
+            const TimeSeries out = decodeAllFrames(VczReader(file, "series"), cc);
+            ASSERT_EQ(out.frames.size(), series.frames.size()) << what;
+            if (rate == RateMode::Bpv) {
+                const double voxels = double(series.frames[0].voxelCount() * series.frames.size());
+                EXPECT_LE(double(file.size()) * 8 / voxels, target) << what;
+            }
+            for (std::size_t k = 0; k < out.frames.size(); ++k) {
+                const Errors got = errorsOf(series.frames[k], out.frames[k]);
+                if (rate == RateMode::MaxError) EXPECT_LE(got.maxAbs, e) << what << " frame " << k;
+                if (rate == RateMode::Psnr) {
+                    const double r = got.hi - got.lo, mse = got.sumSq / double(series.frames[k].voxelCount());
+                    // The series' frames are held to the target within kPsnrToleranceDb (0.5 dB).
+                    EXPECT_GE(mse == 0 ? 1e9 : 10 * std::log10(r * r / mse), target - 0.5)
+                        << what << " frame " << k;
+                }
+                for (float x : out.frames[k].values<float>())
+                    ASSERT_TRUE(std::isfinite(x)) << what << " frame " << k;
+            }
+        }
+    }
+}

@@ -24,6 +24,7 @@ LossyFrame::LossyFrame(ComputeContext& cc, const CodecOptions& o, const Volume& 
       coeffs_(h.brickCount()) {
     const std::size_t nsub = 1 + 7 * std::size_t(h.levels);
     std::vector<std::int32_t> brickMax(h.brickCount() * nsub, 0);
+    std::atomic<bool> overflowed = false;
     forwardBricks<float>(cc_, t, v, h, o_.threads, prof, transformMs, &ranges, &CodecProfile::gather,
                          [&](std::size_t b, const float* c, std::size_t pitch) {
                              coeffs_[b] = denseBrick(h.brickDims(b), c, pitch);
@@ -31,11 +32,15 @@ LossyFrame::LossyFrame(ComputeContext& cc, const CodecOptions& o, const Volume& 
                              // code as 0, and the voxels they leave wrong fail a trial's bound (stored
                              // exactly) or its PSNR.
                              for (float& x : coeffs_[b])
-                                 if (!std::isfinite(x)) x = 0;
+                                 if (!std::isfinite(x)) {
+                                     x = 0;
+                                     overflowed = true;
+                                 }
                              subbandMaxAbs(h, h.brickDims(b), coeffs_[b].data(), h.brickDims(b).x,
                                            &brickMax[b * nsub]);
                          });
     maxAbs_ = mergeMaxima(brickMax, nsub);
+    overflowed_ = overflowed;
 }
 
 void LossyFrame::setDelta(double delta) {
@@ -86,7 +91,10 @@ Trial LossyFrame::trial(std::optional<double> bound, bool reconstruct) {
                             for (std::size_t x = 0; x < d.x; ++x) {
                                 const double orig = double(in[x]);
                                 const V decoded = p ? predictedVoxel<V>(p[x], r[x]) : toVoxel<V>(r[x]);
-                                const double e = std::abs(double(decoded) - orig);
+                                // A prediction or reconstruction beyond float's range (Inf - Inf) is
+                                // as wrong as can be: never NaN, which every bound would let through.
+                                double e = std::abs(double(decoded) - orig);
+                                if (std::isnan(e)) e = std::numeric_limits<double>::infinity();
                                 if (bound && e > *bound) {
                                     tr.corrections[b].push_back(
                                         {static_cast<std::uint32_t>((z * d.y + y) * d.x + x), orig});
