@@ -38,7 +38,9 @@ std::string value(const BudgetKnob& k, double v) {
 
 std::string percent(double ms, double budgetMs) {
     const double p = 100.0 * (ms - budgetMs) / budgetMs;
-    return (p >= 0 ? "+" : "") + fixed(p, 1) + "%";
+    std::string s = p >= 0 ? "+" : "";
+    s += fixed(p, 1);
+    return s + "%";
 }
 
 void checkBudget(double budgetMs) {

@@ -233,6 +233,16 @@ std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, co
 
 namespace {
 
+// False when a reference of `pf` holds a non-finite voxel: lossy frames of float voxels near FLT_MAX can
+// reconstruct beyond float's range, and nothing can be predicted from them.
+bool finiteReferences(const std::vector<const Volume*>& recon, const codec::PlannedFrame& pf) {
+    for (std::int32_t r : {pf.reference0, pf.reference1})
+        if (r >= 0 && recon[std::size_t(r)] && recon[std::size_t(r)]->type() == ScalarType::Float32)
+            for (float x : recon[std::size_t(r)]->values<float>())
+                if (!std::isfinite(x)) return false;
+    return true;
+}
+
 // One pass of the series encoder; `step` receives the base quantiser step the first frame chose.
 std::vector<std::byte> encodeSeriesOnce(ComputeContext& cc, const TimeSeries& series,
                                         const CodecOptions& options, std::vector<FrameReport>* reports,
@@ -280,8 +290,9 @@ std::vector<std::byte> encodeSeriesOnce(ComputeContext& cc, const TimeSeries& se
         if (k == 0) step = r.report.step;
         entry.type = FrameType::I;
         entry.reference0 = entry.reference1 = -1;
-        rep[f].intraFallback = false;
-        if (pf.type != FrameType::I) {
+        // A reference reconstructed beyond float's range (lossy voxels near FLT_MAX) predicts nothing.
+        rep[f].intraFallback = pf.type != FrameType::I && !finiteReferences(reconPtr, pf);
+        if (pf.type != FrameType::I && !rep[f].intraFallback) {
             codec::ReferenceFrames refs{reconPtr, pf.reference0, pf.reference1, lossless ? 1.0 : step,
                                         lossless};
             codec::Prediction p = predictor->predict(cc, frame, f, refs);

@@ -131,8 +131,10 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json) {
         << "  frame  type  refs       bytes  motion  bits/voxel\n";
     for (const auto& f : frames) {
         std::string refs;
-        for (const auto& r : f["references"])
-            refs += (refs.empty() ? "" : ",") + std::to_string(r.get<int>());
+        for (const auto& r : f["references"]) {
+            if (!refs.empty()) refs += ',';
+            refs += std::to_string(r.get<int>());
+        }
         out << "  " << std::setw(5) << f["frame"].get<std::size_t>() << "  " << std::setw(4)
             << f["type"].get<std::string>() << "  " << std::setw(5) << (refs.empty() ? "-" : refs) << "  "
             << std::setw(10) << f["bytes"].get<std::uint64_t>() << "  " << std::setw(6)

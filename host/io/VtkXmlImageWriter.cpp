@@ -54,8 +54,10 @@ ImageGeometry geometry(const Volume& volume, const WriteOptions& options) {
 
 std::string joined(std::span<const double> values) {
     std::string s;
-    for (double v : values)
-        s += (s.empty() ? "" : " ") + formatDouble(v);
+    for (double v : values) {
+        if (!s.empty()) s += ' ';
+        s += formatDouble(v);
+    }
     return s;
 }
 

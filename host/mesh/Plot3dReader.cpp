@@ -152,10 +152,17 @@ TetMesh readPlot3d(const fs::path& path, const MeshReadOptions& options) {
     // Solution: the same header, 4 reals (Mach, alpha, Reynolds number, time), then 5 arrays.
     const fs::path qPath = options.qFile ? *options.qFile : plot3dSolutionFor(path).value_or(fs::path());
     std::error_code ec;
-    if (qPath.empty() || !fs::is_regular_file(qPath, ec))
-        fail(path, "PLOT3D solution file " +
-                       (qPath.empty() ? std::string("not given") : "'" + qPath.string() + "' not found") +
-                       " (name it with --q FILE)");
+    if (qPath.empty() || !fs::is_regular_file(qPath, ec)) {
+        std::string what = "PLOT3D solution file ";
+        if (qPath.empty()) {
+            what += "not given";
+        } else {
+            what += '\'';
+            what += qPath.string();
+            what += "' not found";
+        }
+        fail(path, what + " (name it with --q FILE)");
+    }
     const std::vector<std::byte> q = readFileBytes(qPath);
     {
         Plot3dLayout Q = L;

@@ -48,8 +48,10 @@ std::vector<unsigned> packParameters(const FilterParameters& p);
 /// Reads the full list back. Throws DataError when it is short, of another version, or inconsistent.
 FilterParameters unpackParameters(std::span<const unsigned> values);
 
-/// Compresses one chunk of p.chunkBytes() bytes (little-endian voxels of p.type). Throws UsageError /
-/// DataError from the codec (NaN in a lossy float chunk, for example).
+/// Compresses one chunk of p.chunkBytes() bytes (little-endian voxels of p.type). Lossy modes hold on the
+/// real voxels of a padded edge chunk, whichever they are (PSNR over their own value range): each frame is
+/// coded over the box outside which it repeats its last voxel, restored exactly on decode. Throws
+/// UsageError / DataError from the codec (NaN in a lossy float chunk, for example).
 std::vector<std::byte> encodeChunk(ComputeContext& cc, const FilterParameters& p,
                                    std::span<const std::byte> chunk);
 /// Decompresses stored bytes into `chunk` (p.chunkBytes() bytes). Throws IoError/DataError when the stored

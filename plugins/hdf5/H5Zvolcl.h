@@ -35,7 +35,8 @@ static inline herr_t H5Pset_volcl_lossless(hid_t dcpl) {
 static inline herr_t H5Pset_volcl_max_error(hid_t dcpl, double max_error) {
     return H5Pset_volcl(dcpl, H5Z_VOLCL_MAX_ERROR, max_error);
 }
-/* Each chunk at about psnr_db dB over the chunk's value range. */
+/* Each frame of each chunk at psnr_db dB or more over its value range (an edge chunk: over its real voxels,
+   padding excluded). */
 static inline herr_t H5Pset_volcl_psnr(hid_t dcpl, double psnr_db) {
     return H5Pset_volcl(dcpl, H5Z_VOLCL_PSNR, psnr_db);
 }

@@ -69,8 +69,18 @@ if(NOT EXISTS ${WORK_DIR}/demo/phantom.png)
   message(FATAL_ERROR "the installed `volcl demo` wrote no phantom.png:\n${STEP_OUTPUT}")
 endif()
 
+# README.md's ```cpp block is built with the consumer and run on the demo's volume, so it cannot rot.
+file(READ ${PROJECT_DIR}/README.md _readme)
+string(REGEX MATCH "```cpp\n([^`]*)```" _block "${_readme}")
+set(_snippet "${CMAKE_MATCH_1}") # the next MATCHES resets CMAKE_MATCH_1
+if(NOT _snippet MATCHES "int main")
+  message(FATAL_ERROR "README.md has no ```cpp block holding a whole program (int main)")
+endif()
+file(WRITE ${WORK_DIR}/readme_snippet.cpp "${_snippet}")
+
 # The consumer builds from the prefix alone: no include path into the source or build tree.
-step(${CMAKE_COMMAND} -S ${SOURCE_DIR} -B ${WORK_DIR}/build -DCMAKE_PREFIX_PATH=${PREFIX} -DVOLCL_PREFIX=${PREFIX})
+step(${CMAKE_COMMAND} -S ${SOURCE_DIR} -B ${WORK_DIR}/build -DCMAKE_PREFIX_PATH=${PREFIX} -DVOLCL_PREFIX=${PREFIX}
+     -DREADME_SNIPPET=${WORK_DIR}/readme_snippet.cpp)
 step(${CMAKE_COMMAND} --build ${WORK_DIR}/build -j2)
 # Every include directory of every compile is in the prefix or the consumer's own tree (the scratch
 # prefix sits inside the build tree, so directories are compared whole, not by a substring).
@@ -85,3 +95,8 @@ foreach(_flag IN LISTS _flags)
 endforeach()
 step(${WORK_DIR}/build/consumer)
 message(STATUS "${STEP_OUTPUT}")
+step(${WORK_DIR}/build/readme_snippet ${WORK_DIR}/demo/marschner_lobb.nrrd)
+if(NOT STEP_OUTPUT MATCHES "^41x41x41 voxels in \\[[^]]+\\], [0-9]+ bytes as a \\.vcz")
+  message(FATAL_ERROR "README.md's snippet printed '${STEP_OUTPUT}', expected the demo's 41x41x41 Marschner-Lobb volume")
+endif()
+message(STATUS "README snippet: ${STEP_OUTPUT}")

@@ -14,6 +14,10 @@ namespace volcl::codec {
 
 inline constexpr double kMaxQuantIndex =
     double(1 << 29); // keeps magnitude classes well inside the coder's range
+// Smallest subband step an encoder uses: the quantiser multiplies by 1 / step in float, which must stay
+// finite (data of subnormal magnitudes asked for steps of 1e-42; voxels a larger step leaves outside a
+// bound are stored exactly).
+inline constexpr double kMinStep = 0x1p-120;
 
 // Per-subband steps: a coefficient error e costs about e * gain in the voxel domain, so step = delta / gain.
 std::vector<double> subbandSteps(Wavelet w, int levels, double delta);

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 namespace volcl::codec {
@@ -39,8 +40,32 @@ protected:
                              " is below what this volume can be coded in");
         f.setSteps(std::move(o.steps));
         if (options().measureError) o.best = f.trial(std::nullopt);
-        return {std::move(o.best), o.delta, std::move(o.payloads)};
+        StepChoice c{std::move(o.best), o.delta, std::move(o.payloads)};
+        if (keepFinite(f, c) && double(f.codedBytes(c.best, &c.payloads)) * 8 / f.voxels() > target)
+            throw UsageError("--bpv " + std::to_string(target) +
+                             " is below what this volume can be coded in (its voxels near the float limit "
+                             "reconstruct beyond it unless stored exactly)");
+        return c;
     }
+
+    void refine(LossyFrame& f, StepChoice& c, const ResidualTarget*) override { keepFinite(f, c); }
+
+private:
+    // Voxels near FLT_MAX can reconstruct beyond float's range at a coarse step; those few are stored
+    // exactly, so a decoded volume is never Inf where the input was finite. True when some were.
+    static bool keepFinite(LossyFrame& f, StepChoice& c) {
+        if (!(f.maxMagnitude() > kOverflowRisk)) return false;
+        Trial tr = f.trial(std::numeric_limits<double>::max());
+        for (const auto& brick : tr.corrections)
+            if (!brick.empty()) {
+                c.best = std::move(tr);
+                c.payloads.clear();
+                return true;
+            }
+        return false;
+    }
+    // Magnitudes from which the synthesis sums of a coarse reconstruction can pass FLT_MAX (3.4e38).
+    static constexpr double kOverflowRisk = 1e36;
 };
 
 } // namespace

@@ -9,6 +9,8 @@
 #include "wavelet/quantise/Quantiser.hpp"
 #include "wavelet/transform/BrickTransform.hpp"
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -22,21 +24,32 @@ LossyFrame::LossyFrame(ComputeContext& cc, const CodecOptions& o, const Volume& 
       coeffs_(h.brickCount()) {
     const std::size_t nsub = 1 + 7 * std::size_t(h.levels);
     std::vector<std::int32_t> brickMax(h.brickCount() * nsub, 0);
+    std::atomic<bool> overflowed = false;
     forwardBricks<float>(cc_, t, v, h, o_.threads, prof, transformMs, &ranges, &CodecProfile::gather,
                          [&](std::size_t b, const float* c, std::size_t pitch) {
                              coeffs_[b] = denseBrick(h.brickDims(b), c, pitch);
+                             // Finite voxels near FLT_MAX overflow the float transform: such coefficients
+                             // code as 0, and the voxels they leave wrong fail a trial's bound (stored
+                             // exactly) or its PSNR.
+                             for (float& x : coeffs_[b])
+                                 if (!std::isfinite(x)) {
+                                     x = 0;
+                                     overflowed = true;
+                                 }
                              subbandMaxAbs(h, h.brickDims(b), coeffs_[b].data(), h.brickDims(b).x,
                                            &brickMax[b * nsub]);
                          });
     maxAbs_ = mergeMaxima(brickMax, nsub);
+    overflowed_ = overflowed;
 }
 
 void LossyFrame::setDelta(double delta) {
     lastDelta_ = delta;
     h_.steps = subbandSteps(h_.wavelet, h_.levels, delta);
-    // Keeps quantisation indices inside the coder's range for data of huge dynamic range.
+    // Keeps quantisation indices inside the coder's range for data of huge dynamic range, and the
+    // quantiser's reciprocal step finite for data of tiny magnitudes.
     for (std::size_t i = 0; i < h_.steps.size(); ++i)
-        h_.steps[i] = std::max(h_.steps[i], maxAbs_[i] / (kMaxQuantIndex - 2));
+        h_.steps[i] = std::max({h_.steps[i], maxAbs_[i] / (kMaxQuantIndex - 2), kMinStep});
 }
 
 Trial LossyFrame::trial(std::optional<double> bound, bool reconstruct) {
@@ -86,7 +99,10 @@ Trial LossyFrame::trial(std::optional<double> bound, bool reconstruct) {
                                 }
                                 const double orig = double(in[x]);
                                 const V decoded = p ? predictedVoxel<V>(p[x], r[x]) : toVoxel<V>(r[x]);
-                                const double e = std::abs(double(decoded) - orig);
+                                // A prediction or reconstruction beyond float's range (Inf - Inf) is
+                                // as wrong as can be: never NaN, which every bound would let through.
+                                double e = std::abs(double(decoded) - orig);
+                                if (std::isnan(e)) e = std::numeric_limits<double>::infinity();
                                 if (bound && e > *bound) {
                                     tr.corrections[b].push_back({at, orig});
                                     continue;
@@ -192,19 +208,30 @@ std::optional<FrameResult> LossyStrategy::encodeDirect(const Volume& v, VczHeade
                                                        LiftingTransform<float>& t,
                                                        std::optional<double> delta) {
     if (delta) h.steps = subbandSteps(h.wavelet, h.levels, *delta);
+    if (std::ranges::min(h.steps) < kMinStep) return std::nullopt; // LossyFrame::setDelta raises it
     FrameResult r;
     r.coded.payloads.resize(h.brickCount());
     const std::size_t nsub = 1 + 7 * std::size_t(h.levels);
     std::vector<std::int32_t> brickMax(h.brickCount() * nsub, 0);
-    forwardBricks<float>(cc_, t, v, h, o_.threads, &r.report.profile, r.report.transformMs, &r.coded.ranges,
-                         &CodecProfile::entropy, [&](std::size_t b, const float* c, std::size_t pitch) {
-                             const Dims d = h.brickDims(b);
-                             subbandMaxAbs(h, d, c, pitch, &brickMax[b * nsub]);
-                             thread_local std::vector<std::int32_t> q;
-                             q.resize(d.count());
-                             quantiseInto(h, d, c, pitch, q.data());
-                             r.coded.payloads[b] = buildPayload(h, d, q, {});
-                         });
+    std::atomic<bool> nonFinite = false;
+    forwardBricks<float>(
+        cc_, t, v, h, o_.threads, &r.report.profile, r.report.transformMs, &r.coded.ranges,
+        &CodecProfile::entropy, [&](std::size_t b, const float* c, std::size_t pitch) {
+            const Dims d = h.brickDims(b);
+            std::int32_t* m = &brickMax[b * nsub];
+            subbandMaxAbs(h, d, c, pitch, m);
+            // Inf/NaN coefficients (voxels near FLT_MAX) have no quantisation index:
+            // LossyFrame zeroes them.
+            if (std::any_of(m, m + nsub, [](std::int32_t bits) { return bits >= 0x7f800000; })) {
+                nonFinite = true;
+                return;
+            }
+            thread_local std::vector<std::int32_t> q;
+            q.resize(d.count());
+            quantiseInto(h, d, c, pitch, q.data());
+            r.coded.payloads[b] = buildPayload(h, d, q, {});
+        });
+    if (nonFinite) return std::nullopt;
     const std::vector<double> maxAbs = mergeMaxima(brickMax, nsub);
     for (std::size_t i = 0; i < nsub; ++i)
         if (h.steps[i] < maxAbs[i] / (kMaxQuantIndex - 2)) return std::nullopt;

@@ -6,6 +6,8 @@
 #include "wavelet/rate/RateStrategy.hpp"
 #include "wavelet/transform/LiftingTransform.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -63,6 +65,10 @@ public:
 
     const VczHeader& header() const noexcept { return h_; }
     double range() const noexcept { return range_.max - range_.min; }
+    /// True when the float transform overflowed on some coefficients (voxels near FLT_MAX): they code as 0.
+    bool overflowed() const noexcept { return overflowed_; }
+    /// Largest voxel magnitude of the frame.
+    double maxMagnitude() const noexcept { return std::max(std::abs(range_.min), std::abs(range_.max)); }
     double voxels() const noexcept { return double(v_.voxelCount() - exactCount_); }
 
 private:
@@ -81,6 +87,7 @@ private:
     double zeroBelow_ = 1;
     const std::vector<std::vector<Correction>>* exact_ = nullptr;
     std::size_t exactCount_ = 0;
+    bool overflowed_ = false;
 };
 
 /// What a lossy search chose: the trial kept (its steps left in the header), its base step, and the

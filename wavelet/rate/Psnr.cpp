@@ -1,4 +1,5 @@
 // The psnr strategy: the largest base step whose reconstruction meets the PSNR target (within 0.25 dB above).
+#include "wavelet/quantise/Quantiser.hpp"
 #include "wavelet/rate/StepSearch.hpp"
 #include "wavelet/rate/Strategies.hpp"
 
@@ -30,8 +31,11 @@ protected:
         };
         SearchOutcome o = runStepSearch(f, s);
         if (!o.found) {
-            f.setDelta(std::exp2(s.guess - 40));
-            o.best = f.trial(std::nullopt);
+            // No step meets the target (magnitudes too small for the float quantiser, or beyond the float
+            // transform's range).
+            const double bound = exactBeyond(f);
+            f.setDelta(bound);
+            o.best = f.trial(bound);
             o.steps = f.header().steps;
             o.delta = f.lastDelta();
         }
@@ -39,15 +43,32 @@ protected:
         return {std::move(o.best), o.delta, {}};
     }
 
+    // A frame at the series' steps: a residual's dead-zone edge is tuned (refineDeadZone). A frame still below
+    // the floor (target - kPsnrToleranceDb) makes the series be coded again at a finer step, unless no step
+    // can resolve it (magnitudes near the smallest step, or coefficients beyond the float transform's range):
+    // its voxels beyond exactBeyond are then stored exactly.
+    void refine(LossyFrame& f, StepChoice& c, const ResidualTarget* residual) override {
+        if (f.range() == 0) return;
+        if (residual) refineDeadZone(f, c);
+        const bool unresolvable = f.overflowed() || exactBeyond(f) < kMinStep * 0x1p10;
+        if (unresolvable && f.psnrOf(c.best) < options().target - kPsnrToleranceDb)
+            c.best = f.trial(exactBeyond(f));
+    }
+
+    // Every voxel within E = range * 10^(-target / 20) of the input, the others stored exactly, bounds the MSE
+    // by E^2: the PSNR is then at least the target.
+    double exactBeyond(const LossyFrame& f) const {
+        return f.range() * std::pow(10.0, -options().target / 20);
+    }
+
     // A residual at the series' steps: its dead-zone edge is moved where the plain edge misses the window the
     // series' frames are held to. A prediction that leaves little to code ends above the target: a wider
     // dead zone drops the coefficients that buy the least until the frame just meets the target, as the
-    // first frame's step search does. A residual of many coefficients near one step can end below the floor
-    // (target - kPsnrToleranceDb), which would make the whole series be coded again finer: a narrower dead
-    // zone keeps them until the frame is back at the floor + kPsnrRecoveryMarginDb. In between, the plain
-    // edge is kept (an I frame at the series' steps gets no more). The decoder is unaffected.
-    void refine(LossyFrame& f, StepChoice& c, const ResidualTarget* residual) override {
-        if (!residual || f.range() == 0) return;
+    // first frame's step search does. A residual of many coefficients near one step can end below the floor,
+    // which would make the whole series be coded again finer: a narrower dead zone keeps them until the frame
+    // is back at the floor + kPsnrRecoveryMarginDb. In between, the plain edge is kept (an I frame at the
+    // series' steps gets no more). The decoder is unaffected.
+    void refineDeadZone(LossyFrame& f, StepChoice& c) {
         const double plain = f.psnrOf(c.best), floor = options().target - kPsnrToleranceDb;
         if (plain >= floor && plain < options().target) return;
         const bool widen = plain >= options().target;
