@@ -345,9 +345,10 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) con
             } else if (!given.eye) {
                 // Seen from the default view at the distance framing would choose (perspective: the box fills
                 // the view; orthographic: outside the box).
-                const Camera fitted = frameBox(box, defaultDir, proj, fovY, aspect);
+                const Camera fitted = frameOrientedBox(box, direction, defaultDir, proj, fovY, aspect);
                 c.eye = volcl::add(c.target, sub(fitted.eye, fitted.target));
-                if (!haveUp) c.up = defaultDir.up;
+                c.mirrored = fitted.mirrored;
+                if (!haveUp) c.up = fitted.up;
             }
             if (!up.empty()) c.up = parseVec3(up, "--up");
             // No up given and the default one runs along the view: take the next axis instead.
