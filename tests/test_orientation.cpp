@@ -2,6 +2,7 @@
 // directions (closed-form affines), and `volcl render` framing oriented copies of one anatomy alike.
 #include "TestUtil.hpp"
 #include "host/image/ImageIo.hpp"
+#include "host/io/NiftiMetadata.hpp"
 #include "host/io/VolumeIo.hpp"
 
 #include <sys/wait.h>
@@ -171,6 +172,44 @@ TEST(Orientation, MetaImageTransformMatrixAndAnatomicalOrientation) {
     const Volume none = mha("n.mha", "");
     expectDirection(none, kIdentity);
     EXPECT_FALSE(none.anatomical);
+}
+
+TEST(Orientation, WritersKeepTheDirection) {
+    // An LPS NRRD whose axes are permuted and flipped, written as NRRD, NIfTI and .vti and read back: the
+    // same RAS direction and origin (NRRD and NIfTI stay anatomical; .vti has no patient frame).
+    const fs::path dir = test::tempDir("orient-writers");
+    const std::string data(3 * 4 * 5, '\x07');
+    test::writeFile(dir / "src.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 3 4 5\nencoding: raw\n"
+                                      "space: LPS\nspace directions: (0,-2,0) (0,0,3) (-4,0,0)\n"
+                                      "space origin: (1,2,3)\n\n" +
+                                          data);
+    const Volume src = readVolumeFile(dir / "src.nrrd").frames.at(0);
+    const Matrix expected{{{0, 0, 1}, {1, 0, 0}, {0, 1, 0}}}; // i anterior, j superior, k right
+    expectDirection(src, expected);
+    EXPECT_EQ(src.origin, (std::array<double, 3>{-1, -2, 3}));
+    for (const char* name : {"out.nrrd", "out.nii", "out.vti"}) {
+        SCOPED_TRACE(name);
+        writeVolumeFile(src, dir / name);
+        const Volume back = readVolumeFile(dir / name).frames.at(0);
+        expectDirection(back, expected);
+        for (int a = 0; a < 3; ++a) {
+            EXPECT_NEAR(back.origin[std::size_t(a)], src.origin[std::size_t(a)], 1e-6) << name;
+            EXPECT_NEAR(back.spacing[std::size_t(a)], src.spacing[std::size_t(a)], 1e-6) << name;
+        }
+        EXPECT_EQ(back.anatomical, std::string(name) != "out.vti") << name;
+    }
+    // A mirroring direction survives NIfTI's qform too (qfac -1), not only the sform.
+    test::writeFile(dir / "las.nrrd", "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 3 4 5\nencoding: raw\n"
+                                      "space: RAS\nspace directions: (-1,0,0) (0,1,0) (0,0,1)\n\n" +
+                                          data);
+    writeVolumeFile(readVolumeFile(dir / "las.nrrd").frames.at(0), dir / "las.nii");
+    NiftiMetadata m = readNiftiMetadata(dir / "las.nii");
+    m.sformCode = 0; // the qform alone
+    EXPECT_EQ(m.qfac, -1.0f);
+    const Direction3 q = niftiDirection(m);
+    const Direction3 las{-1, 0, 0, 0, 1, 0, 0, 0, 1};
+    for (std::size_t i = 0; i < 9; ++i)
+        EXPECT_NEAR(q[i], las[i], 1e-6) << i;
 }
 
 namespace {
