@@ -274,6 +274,12 @@ bool isAnatomicalFormat(const std::filesystem::path& p) {
     return ends(".nii") || ends(".nii.gz") || ends(".nrrd") || ends(".nhdr");
 }
 
+/// `v`, a vector of the volume's index frame, in world axes.
+Vec3 indexToWorld(const Direction3& d, const Vec3& v) {
+    return {d[0] * v[0] + d[1] * v[1] + d[2] * v[2], d[3] * v[0] + d[4] * v[1] + d[5] * v[2],
+            d[6] * v[0] + d[7] * v[1] + d[8] * v[2]};
+}
+
 } // namespace
 
 std::vector<std::string> SceneFlags::finish(Scene& s, const Volume& v) const {
@@ -321,7 +327,7 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) con
             if (!up.empty())
                 dir.up = parseVec3(up, "--up");
             else if (given.up && view.empty() && orbit.empty())
-                dir.up = base.up;
+                dir.up = indexToWorld(direction, base.up); // framing turns the scene's up back
             c = frameOrientedBox(box, direction, dir, proj, fovY, aspect);
             // A height the scene gave is kept when only the camera's position was left to framing.
             if (given.height && view.empty() && orbit.empty()) c.height = base.height;
