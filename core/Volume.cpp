@@ -48,6 +48,39 @@ ScalarType parseScalarType(std::string_view name) {
     throw UsageError("unknown scalar type '" + std::string(name) + "' (use uint8, uint16, int16 or float32)");
 }
 
+Direction3 orthonormalDirection(const Direction3& m) {
+    std::array<std::array<double, 3>, 3> c{};
+    for (int col = 0; col < 3; ++col) {
+        for (int row = 0; row < 3; ++row)
+            c[col][row] = m[std::size_t(3 * row + col)];
+        for (int prev = 0; prev < col; ++prev) {
+            double d = 0;
+            for (int row = 0; row < 3; ++row)
+                d += c[col][row] * c[prev][row];
+            for (int row = 0; row < 3; ++row)
+                c[col][row] -= d * c[prev][row];
+        }
+        const double len = std::hypot(c[col][0], c[col][1], c[col][2]);
+        // Relative to the input column: a column that the others nearly span has no direction of its own.
+        const double in = std::hypot(m[std::size_t(col)], m[std::size_t(3 + col)], m[std::size_t(6 + col)]);
+        if (!std::isfinite(len) || !(len > 1e-6 * in))
+            throw DataError("direction matrix: axis " + std::to_string(col) +
+                            " is zero, not finite or dependent on the others");
+        for (int row = 0; row < 3; ++row)
+            c[col][row] /= len;
+    }
+    Direction3 out{};
+    for (int col = 0; col < 3; ++col)
+        for (int row = 0; row < 3; ++row)
+            out[std::size_t(3 * row + col)] = c[col][row];
+    return out;
+}
+
+double determinant(const Direction3& m) noexcept {
+    return m[0] * (m[4] * m[8] - m[5] * m[7]) - m[1] * (m[3] * m[8] - m[5] * m[6]) +
+           m[2] * (m[3] * m[7] - m[4] * m[6]);
+}
+
 Volume::Volume(Dims dims, ScalarType type) : dims_(dims), type_(type) {
     if (dims.x == 0 || dims.y == 0 || dims.z == 0)
         throw DataError("volume dimensions must be positive, got " + std::to_string(dims.x) + "x" +
@@ -104,6 +137,8 @@ Volume Volume::convertedTo(ScalarType target) const {
     Volume out(dims_, target);
     out.spacing = spacing;
     out.origin = origin;
+    out.direction = direction;
+    out.anatomical = anatomical;
     if (target == type_) {
         out.bytes_ = bytes_;
         return out;
@@ -134,6 +169,8 @@ Volume Volume::cropped(Dims lo, Dims hi) const {
                          std::to_string(dims_.z));
     Volume out({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z}, type_);
     out.spacing = spacing;
+    out.direction = direction;
+    out.anatomical = anatomical;
     for (int a = 0; a < 3; ++a)
         out.origin[a] = origin[a] + double((&lo.x)[a]) * spacing[a];
     std::size_t s = scalarSize(type_), row = out.dims_.x * s;
@@ -181,7 +218,8 @@ VolumeStats Volume::stats(std::size_t histogramBins) const {
 }
 
 bool Volume::sameGrid(const Volume& o) const noexcept {
-    return dims_ == o.dims_ && type_ == o.type_ && spacing == o.spacing && origin == o.origin;
+    return dims_ == o.dims_ && type_ == o.type_ && spacing == o.spacing && origin == o.origin &&
+           direction == o.direction;
 }
 
 void TimeSeries::validate() const {

@@ -42,6 +42,17 @@ struct Dims {
     bool operator==(const Dims&) const = default;
 };
 
+/// A 3x3 matrix stored row by row; as a volume's direction its column c is the world direction of index axis c.
+using Direction3 = std::array<double, 9>;
+inline constexpr Direction3 kIdentityDirection{1, 0, 0, 0, 1, 0, 0, 0, 1};
+
+/// The orthonormal matrix nearest `m` by Gram-Schmidt on its columns in order (column 0 kept, column 1
+/// made orthogonal to it, column 2 to both, all unit length; the handedness of `m` is kept). Throws
+/// DataError when a column is zero, not finite or dependent on the others.
+Direction3 orthonormalDirection(const Direction3& m);
+/// Determinant of a 3x3 matrix: -1 for a direction that mirrors (e.g. LAS index axes in RAS).
+double determinant(const Direction3& m) noexcept;
+
 /// Summary statistics over all voxels (NaN voxels are counted, not included in min/max/mean).
 struct VolumeStats {
     double min = 0, max = 0, mean = 0, stddev = 0;
@@ -49,8 +60,9 @@ struct VolumeStats {
     std::vector<std::uint64_t> histogram; ///< equal-width bins over [min, max]
 };
 
-/// A dense 3D grid of scalars. Sample (i,j,k) sits at `origin + (i*sx, j*sy, k*sz)` and is stored at
-/// index `i + nx*(j + ny*k)`. Example:
+/// A dense 3D grid of scalars. Sample (i,j,k) sits at `origin + (i*sx, j*sy, k*sz)` in the volume's own
+/// (index-aligned) frame and is stored at index `i + nx*(j + ny*k)`; `direction` turns that frame about
+/// `origin` into world (patient RAS) axes. Example:
 /// ```
 /// volcl::Volume v({64, 64, 32}, volcl::ScalarType::UInt16);
 /// v.values<std::uint16_t>()[v.index(1, 2, 3)] = 7;
@@ -69,6 +81,14 @@ public:
 
     std::array<double, 3> spacing{1.0, 1.0, 1.0};
     std::array<double, 3> origin{0.0, 0.0, 0.0};
+    /// Orientation of the index axes in world axes, orthonormal: world = origin + direction *
+    /// (diag(spacing) * index). For medical formats world is patient RAS (+x toward the patient's right,
+    /// +y anterior, +z superior); readers of LPS files convert the directions (origin stays as the file
+    /// states it). Identity when the file states none.
+    Direction3 direction = kIdentityDirection;
+    /// The file placed the volume in patient axes (NIfTI, NRRD with an anatomical `space`, MetaImage
+    /// with a direction): named views then mean patient sides (front = anterior) and are the default.
+    bool anatomical = false;
 
     std::size_t index(std::size_t i, std::size_t j, std::size_t k) const noexcept {
         return i + dims_.x * (j + dims_.y * k);
@@ -96,7 +116,7 @@ public:
     Volume cropped(Dims lo, Dims hi) const;
 
     VolumeStats stats(std::size_t histogramBins = 16) const;
-    /// True when grid (dims, type, spacing, origin) matches.
+    /// True when grid (dims, type, spacing, origin, direction) matches.
     bool sameGrid(const Volume& o) const noexcept;
     bool operator==(const Volume& o) const noexcept { return sameGrid(o) && bytes_ == o.bytes_; }
 

@@ -111,6 +111,22 @@ Camera frameBox(const WorldBox& box, const ViewDirection& view, Projection proje
     return c;
 }
 
+ViewDirection viewInVolumeFrame(const ViewDirection& view, const Direction3& d) {
+    auto transposed = [&](const Vec3& v) {
+        return Vec3{d[0] * v[0] + d[3] * v[1] + d[6] * v[2], d[1] * v[0] + d[4] * v[1] + d[7] * v[2],
+                    d[2] * v[0] + d[5] * v[1] + d[8] * v[2]};
+    };
+    return {transposed(view.towardEye), transposed(view.up)};
+}
+
+Camera frameOrientedBox(const WorldBox& box, const Direction3& direction, const ViewDirection& view,
+                        Projection projection, double fovYDeg, double aspect) {
+    // The bounding sphere and its centre are the same in both frames: only the view turns.
+    Camera c = frameBox(box, viewInVolumeFrame(view, direction), projection, fovYDeg, aspect);
+    c.mirrored = determinant(direction) < 0.0;
+    return c;
+}
+
 double fittedOrthographicHeight(const Camera& camera, const WorldBox& box, double aspect) {
     const Vec3 f = normalized(sub(camera.target, camera.eye));
     const Vec3 r = normalized(cross(f, camera.up));

@@ -20,8 +20,9 @@ void put(float* dst, const Vec3& v, float w = 0.0f) {
 VolclCameraParams cameraParams(const Camera& cam, int width, int height) {
     VolclCameraParams p{};
     const Vec3 f = normalized(sub(cam.target, cam.eye));
-    const Vec3 r = normalized(cross(f, cam.up));
-    const Vec3 u = cross(r, f);
+    const Vec3 r0 = normalized(cross(f, cam.up));
+    const Vec3 u = cross(r0, f);
+    const Vec3 r = cam.mirrored ? scale(r0, -1.0) : r0; // see Camera::mirrored
     const double aspect = double(width) / double(height);
     const double half = cam.projection == Projection::Orthographic
                             ? cam.height / 2.0

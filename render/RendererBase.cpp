@@ -12,7 +12,7 @@ namespace {
 
 bool sameCamera(const Camera& a, const Camera& b) {
     return a.projection == b.projection && a.eye == b.eye && a.target == b.target && a.up == b.up &&
-           a.height == b.height && a.fovYDeg == b.fovYDeg;
+           a.height == b.height && a.fovYDeg == b.fovYDeg && a.mirrored == b.mirrored;
 }
 
 } // namespace

@@ -712,8 +712,9 @@ Camera defaultCamera(const WorldBox& box) {
 
 CameraRay cameraRay(const Camera& cam, int width, int height, double x, double y) {
     const Vec3 f = normalized(sub(cam.target, cam.eye));
-    const Vec3 r = normalized(cross(f, cam.up));
-    const Vec3 u = cross(r, f);
+    const Vec3 r0 = normalized(cross(f, cam.up));
+    const Vec3 u = cross(r0, f);
+    const Vec3 r = cam.mirrored ? scale(r0, -1.0) : r0;
     const double ndcX = 2.0 * (x + 0.5) / width - 1.0;
     const double ndcY = 1.0 - 2.0 * (y + 0.5) / height;
     const double aspect = double(width) / double(height);

@@ -55,6 +55,9 @@ struct Camera {
     Vec3 eye{0, 0, -1}, target{0, 0, 0}, up{0, 1, 0};
     double height = 1.0;
     double fovYDeg = 30.0;
+    /// Image x runs along -(forward x up) instead of +: a camera carried into the index frame of a volume
+    /// whose direction mirrors (determinant -1, e.g. LAS) still shows world's left on the image left.
+    bool mirrored = false;
 };
 
 /// Which camera fields a scene file gave. A camera missing its eye, target, up or (orthographic) height is

@@ -106,10 +106,14 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
             v.origin = h.origin;
             const ValueRange r = bricks->valueRange();
             dataRange = {r.min, r.max};
+            const auto nifti = niftiFromVczMetadata(h.metadata, scene.volume.string());
+            if (nifti) { // the source header travels in the file: frame it as the .nii is framed
+                v.direction = niftiDirection(nifti->meta);
+                v.anatomical = true;
+            }
             // The stored integers of a scaled NIfTI render in data units, as the .nii itself does: the
             // transfer function, --window and --iso are data units, mapped here onto the stored values.
-            if (const auto nifti = niftiFromVczMetadata(h.metadata, scene.volume.string());
-                nifti && nifti->storedValues) {
+            if (nifti && nifti->storedValues) {
                 storedScale = {nifti->meta.sclSlope, nifti->meta.sclInter};
                 if (!(storedScale->slope > 0))
                     throw UsageError(scene.volume.string() + ": scl_slope " +

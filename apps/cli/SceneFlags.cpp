@@ -281,6 +281,12 @@ bool isAnatomicalFormat(const std::filesystem::path& p) {
     return ends(".nii") || ends(".nii.gz") || ends(".nrrd") || ends(".nhdr");
 }
 
+/// `v`, a vector of the volume's index frame, in world axes.
+Vec3 indexToWorld(const Direction3& d, const Vec3& v) {
+    return {d[0] * v[0] + d[1] * v[1] + d[2] * v[2], d[3] * v[0] + d[4] * v[1] + d[5] * v[2],
+            d[6] * v[0] + d[7] * v[1] + d[8] * v[2]};
+}
+
 } // namespace
 
 std::vector<std::string> SceneFlags::finish(Scene& s, const Volume& v) const {
@@ -295,7 +301,11 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) con
     const double aspect = double(s.width) / double(s.height);
     const bool anyCameraFlag = !projection.empty() || !eye.empty() || !target.empty() || !up.empty() ||
                                viewHeight || fov || !view.empty() || !orbit.empty();
-    const bool anatomical = isAnatomicalFormat(s.volume);
+    // Named views, orbits and the default view are in world axes (patient RAS for anatomical data); the
+    // camera is carried into the volume's index frame, where the renderers march.
+    const Volume* grid = in.grid();
+    const Direction3 direction = grid ? grid->direction : kIdentityDirection;
+    const bool anatomical = isAnatomicalFormat(s.volume) || (grid && grid->anatomical);
     // What the scene file's camera gave: a partial one is completed below exactly as flags would be.
     const CameraFieldsGiven given = s.camera ? s.cameraGiven : CameraFieldsGiven{false, false, false, false};
     const bool partialScene = s.camera && !given.complete(s.camera->projection);
@@ -324,12 +334,15 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) con
             if (!up.empty())
                 dir.up = parseVec3(up, "--up");
             else if (given.up && view.empty() && orbit.empty())
-                dir.up = base.up;
-            c = frameBox(box, dir, proj, fovY, aspect);
+                dir.up = indexToWorld(direction, base.up); // framing turns the scene's up back
+            c = frameOrientedBox(box, direction, dir, proj, fovY, aspect);
             // A height the scene gave is kept when only the camera's position was left to framing.
             if (given.height && view.empty() && orbit.empty()) c.height = base.height;
             if (!s.camera && view.empty() && orbit.empty() && anatomical)
-                notes.push_back("camera: front view of the box (+z up; --view/--orbit choose others)");
+                notes.push_back(grid && grid->anatomical
+                                    ? "camera: front view (anterior toward the camera, superior up; "
+                                      "--view/--orbit choose others)"
+                                    : "camera: front view of the box (+z up; --view/--orbit choose others)");
             else if (partialScene && view.empty() && orbit.empty())
                 notes.push_back("camera: the scene gives no eye or target: the box is framed from the " +
                                 std::string(anatomical ? "front" : "bottom") + " view");
@@ -345,9 +358,10 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) con
             } else if (!given.eye) {
                 // Seen from the default view at the distance framing would choose (perspective: the box fills
                 // the view; orthographic: outside the box).
-                const Camera fitted = frameBox(box, defaultDir, proj, fovY, aspect);
+                const Camera fitted = frameOrientedBox(box, direction, defaultDir, proj, fovY, aspect);
                 c.eye = volcl::add(c.target, sub(fitted.eye, fitted.target));
-                if (!haveUp) c.up = defaultDir.up;
+                c.mirrored = fitted.mirrored;
+                if (!haveUp) c.up = fitted.up;
             }
             if (!up.empty()) c.up = parseVec3(up, "--up");
             // No up given and the default one runs along the view: take the next axis instead.
@@ -389,10 +403,13 @@ Volume SceneFlags::readSceneVolume(const Scene& s, std::vector<std::string>& not
         if (filesRead) *filesRead = {s.volume};
         ComputeContext cc(device);
         Volume v = r.decodeFrame(cc, k);
+        const auto n = niftiFromVczMetadata(r.header().metadata, s.volume.string());
+        if (!n) return v;
+        // The source header travels in the file: the volume is oriented as the .nii is.
+        v.direction = niftiDirection(n->meta);
+        v.anatomical = true;
         // The stored integers of a scaled NIfTI are shown in data units, as the .nii itself is.
-        if (const auto n = niftiFromVczMetadata(r.header().metadata, s.volume.string()); n && n->storedValues)
-            return niftiDataUnits(v, n->meta);
-        return v;
+        return n->storedValues ? niftiDataUnits(v, n->meta) : v;
     }
     std::vector<std::filesystem::path> files;
     TimeSeries ts = readVolumeFile(s.volume, raw.toReadOptions(), files);

@@ -116,6 +116,64 @@ TimeSeries readMetaImage(ReadContext& ctx) {
         }
     }
 
+    // World is LPS, as ITK writes it: TransformMatrix (alias Rotation, Orientation) lists each index axis's
+    // direction in turn; AnatomicalOrientation (used only without a matrix) names the side each axis
+    // comes from (ITK's RAI is the identity). Both become RAS directions and the Offset a RAS origin;
+    // without either the volume keeps the identity and the Offset as written, and is not anatomical.
+    Direction3 direction = kIdentityDirection;
+    bool anatomical = false;
+    std::optional<std::string> matrix = field("transformmatrix");
+    if (!matrix) matrix = field("rotation");
+    if (!matrix) matrix = field("orientation");
+    const std::array<double, 3> lpsToRas{-1, -1, 1};
+    if (matrix && ndims >= 3) {
+        const auto w = splitWords(*matrix);
+        const std::size_t n = static_cast<std::size_t>(ndims);
+        if (w.size() != n * n)
+            fail(path, "TransformMatrix has " + std::to_string(w.size()) + " values, NDims " +
+                           std::to_string(n) + " needs " + std::to_string(n * n));
+        Direction3 m{};
+        for (std::size_t axis = 0; axis < 3; ++axis)
+            for (std::size_t row = 0; row < 3; ++row) {
+                const double v = requireDouble(w[axis * n + row], path, "TransformMatrix");
+                if (!std::isfinite(v))
+                    fail(path, "TransformMatrix: value " + std::string(w[axis * n + row]) + " is not finite");
+                m[3 * row + axis] = lpsToRas[row] * v;
+            }
+        try {
+            direction = orthonormalDirection(m);
+        } catch (const DataError& e) {
+            fail(path, std::string("TransformMatrix: ") + e.what());
+        }
+        anatomical = true;
+    } else if (auto code = field("anatomicalorientation"); code && ndims >= 3) {
+        const std::string letters = lower(trim(*code));
+        Direction3 m{};
+        bool known = letters.size() >= 3;
+        for (std::size_t axis = 0; known && axis < 3; ++axis) {
+            // RAS row and sign of the direction away from the named side.
+            const char c = letters[axis];
+            const int row = (c == 'r' || c == 'l')   ? 0
+                            : (c == 'a' || c == 'p') ? 1
+                            : (c == 's' || c == 'i') ? 2
+                                                     : -1;
+            if (row < 0) {
+                known = false;
+                break;
+            }
+            m[std::size_t(3 * row) + axis] = (c == 'l' || c == 'p' || c == 'i') ? 1.0 : -1.0;
+        }
+        // A code naming one side twice ("RLI") or unknown letters ("???", written by some tools) is ignored.
+        if (known && std::abs(determinant(m)) > 0.5) {
+            direction = m;
+            anatomical = true;
+        }
+    }
+
+    if (anatomical) // the LPS offset in RAS, like the directions
+        for (std::size_t a = 0; a < 2; ++a)
+            origin[a] = -origin[a];
+
     const Dims dims{sizes[0], sizes[1], sizes[2]};
     const std::size_t frames = sizes[3];
     const std::size_t payload = checkedByteCount(ctx.voxelCount(dims, frames, *st), sampleSize(*st), path);
@@ -158,7 +216,12 @@ TimeSeries readMetaImage(ReadContext& ctx) {
                                    compressed ? PayloadEncoding::Compressed : PayloadEncoding::Raw,
                                    compressed ? 0 : headerSize, 0);
     }
-    return decodeFrames(data, *st, endian, dims, frames, spacing, origin);
+    TimeSeries series = decodeFrames(data, *st, endian, dims, frames, spacing, origin);
+    for (Volume& v : series.frames) {
+        v.direction = direction;
+        v.anatomical = anatomical;
+    }
+    return series;
 }
 
 } // namespace volcl::io

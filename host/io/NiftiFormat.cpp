@@ -212,6 +212,12 @@ TimeSeries readNifti(ReadContext& ctx) {
     TimeSeries series =
         decodeFrames(all.subspan(voxOffset, payload), *st, endian, dims, frames, spacing, origin);
 
+    // The sform (else the qform) orients the grid in RAS; NIfTI is anatomical whatever its codes.
+    const Direction3 direction = niftiDirection(p.meta);
+    for (Volume& v : series.frames) {
+        v.direction = direction;
+        v.anatomical = true;
+    }
     // scl_slope = 0 means "no scaling" by the standard; 1/0 is the identity. A caller asking for the
     // stored integers gets them when the model holds them exactly (the scale stays in the metadata).
     if (p.meta.scales() && !(ctx.options().niftiStoredValues && niftiStoredValuesExact(p.meta)))

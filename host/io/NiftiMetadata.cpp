@@ -101,6 +101,8 @@ Volume niftiDataUnits(const Volume& stored, const NiftiMetadata& m) {
     Volume f(stored.dims(), ScalarType::Float32);
     f.spacing = stored.spacing;
     f.origin = stored.origin;
+    f.direction = stored.direction;
+    f.anatomical = stored.anatomical;
     auto out = f.values<float>();
     for (std::size_t i = 0; i < out.size(); ++i)
         out[i] = static_cast<float>(stored.valueAt(i) * slope + inter);
@@ -116,6 +118,26 @@ Affine niftiVoxelToWorld(const NiftiMetadata& m) {
         a[i][3] = m.origin[i];
     }
     return a;
+}
+
+Direction3 niftiDirection(const NiftiMetadata& m) {
+    auto oriented = [](const Affine& a) {
+        Direction3 d{};
+        for (int row = 0; row < 3; ++row)
+            for (int col = 0; col < 3; ++col)
+                d[std::size_t(3 * row + col)] = a[row][col];
+        return orthonormalDirection(d);
+    };
+    // A singular sform falls back to the qform, as nibabel's get_best_affine does for an unusable one.
+    if (m.sformCode > 0) try {
+            return oriented(sformAffine(m));
+        } catch (const DataError&) {
+        }
+    if (m.qformCode > 0) try {
+            return oriented(qformAffine(m));
+        } catch (const DataError&) {
+        }
+    return kIdentityDirection;
 }
 
 NiftiMetadata niftiMetadataOnGrid(const NiftiMetadata& source, const Volume& volume) {
@@ -151,12 +173,56 @@ NiftiMetadata niftiMetadataForVolume(const Volume& volume) {
     m.origin = volume.origin;
     m.qformCode = 1;
     m.sformCode = 1;
+    const Direction3& d = volume.direction;
     for (int a = 0; a < 3; ++a) {
         m.pixdim[a] = static_cast<float>(volume.spacing[a]);
         m.qoffset[a] = static_cast<float>(volume.origin[a]);
-        m.srow[a][a] = static_cast<float>(volume.spacing[a]);
+        for (int col = 0; col < 3; ++col)
+            m.srow[a][col] = static_cast<float>(d[std::size_t(3 * a + col)] * volume.spacing[col]);
         m.srow[a][3] = static_cast<float>(volume.origin[a]);
     }
+    // The qform's quaternion (nifti1_io's mat44_to_quatern): a mirroring direction is qfac -1 with the
+    // third column negated.
+    double r[3][3];
+    const bool mirrored = determinant(d) < 0;
+    m.qfac = mirrored ? -1.0f : 1.0f;
+    for (int row = 0; row < 3; ++row)
+        for (int col = 0; col < 3; ++col)
+            r[row][col] = d[std::size_t(3 * row + col)] * (col == 2 && mirrored ? -1.0 : 1.0);
+    double qa = r[0][0] + r[1][1] + r[2][2] + 1.0, qb = 0, qc = 0, qd = 0;
+    if (qa > 0.5) {
+        qa = 0.5 * std::sqrt(qa);
+        qb = 0.25 * (r[2][1] - r[1][2]) / qa;
+        qc = 0.25 * (r[0][2] - r[2][0]) / qa;
+        qd = 0.25 * (r[1][0] - r[0][1]) / qa;
+    } else {
+        const double xd = 1.0 + r[0][0] - (r[1][1] + r[2][2]), yd = 1.0 + r[1][1] - (r[0][0] + r[2][2]),
+                     zd = 1.0 + r[2][2] - (r[0][0] + r[1][1]);
+        if (xd > 1.0) {
+            qb = 0.5 * std::sqrt(xd);
+            qc = 0.25 * (r[0][1] + r[1][0]) / qb;
+            qd = 0.25 * (r[0][2] + r[2][0]) / qb;
+            qa = 0.25 * (r[2][1] - r[1][2]) / qb;
+        } else if (yd > 1.0) {
+            qc = 0.5 * std::sqrt(yd);
+            qb = 0.25 * (r[0][1] + r[1][0]) / qc;
+            qd = 0.25 * (r[1][2] + r[2][1]) / qc;
+            qa = 0.25 * (r[0][2] - r[2][0]) / qc;
+        } else {
+            qd = 0.5 * std::sqrt(zd);
+            qb = 0.25 * (r[0][2] + r[2][0]) / qd;
+            qc = 0.25 * (r[1][2] + r[2][1]) / qd;
+            qa = 0.25 * (r[1][0] - r[0][1]) / qd;
+        }
+        if (qa < 0.0) {
+            qb = -qb;
+            qc = -qc;
+            qd = -qd;
+        }
+    }
+    m.quaternB = static_cast<float>(qb);
+    m.quaternC = static_cast<float>(qc);
+    m.quaternD = static_cast<float>(qd);
     return m;
 }
 

@@ -77,6 +77,12 @@ Volume niftiDataUnits(const Volume& stored, const NiftiMetadata& meta);
 /// else the qform, else spacing and origin along the axes.
 std::array<std::array<double, 4>, 3> niftiVoxelToWorld(const NiftiMetadata& meta);
 
+/// Orientation of the index axes in RAS world axes (Volume::direction): the columns of
+/// niftiVoxelToWorld()'s 3x3 part (the sform when sform_code > 0, else the qform when qform_code > 0, as
+/// nibabel and 3D Slicer choose) made orthonormal; a singular sform falls back to the qform, and
+/// identity when neither code is set or both are singular.
+Direction3 niftiDirection(const NiftiMetadata& meta);
+
 /// The metadata moved to `volume`'s grid: a volume cropped or downsampled from the source grid (its
 /// spacing and origin changed in the volume model) gets the qform and sform composed with that index
 /// change and pixdim set to its spacing; a volume on the source grid gets the fields unchanged.

@@ -216,7 +216,27 @@ PayloadEncoding nrrdEncoding(const NrrdHeader& h, const fs::path& path) {
 
 struct Geometry {
     std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
+    Direction3 direction = kIdentityDirection; ///< origin and direction in RAS when the space is anatomical
+    bool anatomical = false;
+
+    void applyTo(TimeSeries& series) const {
+        for (Volume& v : series.frames) {
+            v.direction = direction;
+            v.anatomical = anatomical;
+        }
+    }
 };
+
+// Signs that turn an anatomical `space` into RAS (LPS: x and y flip), or nullopt for a space that is not
+// patient-based (scanner-xyz, 3D-right-handed, ...), whose directions are kept as given.
+std::optional<std::array<double, 3>> rasSigns(std::string_view space) {
+    std::string s = lower(trim(space));
+    if (s.size() > 5 && s.compare(s.size() - 5, 5, "-time") == 0) s.resize(s.size() - 5);
+    if (s == "right-anterior-superior" || s == "ras") return std::array<double, 3>{1, 1, 1};
+    if (s == "left-anterior-superior" || s == "las") return std::array<double, 3>{-1, 1, 1};
+    if (s == "left-posterior-superior" || s == "lps") return std::array<double, 3>{-1, -1, 1};
+    return std::nullopt;
+}
 
 // Spacings or space directions (their lengths), space origin or axis mins.
 Geometry nrrdGeometry(const NrrdHeader& h, long long dimension, const std::array<std::size_t, 4>& sizes,
@@ -231,8 +251,15 @@ Geometry nrrdGeometry(const NrrdHeader& h, long long dimension, const std::array
             g.spacing[i] = std::abs(v);
         }
     }
+    std::optional<std::array<double, 3>> signs;
+    if (auto space = h.field("space")) signs = rasSigns(*space);
+    g.anatomical = signs.has_value();
+    const std::array<double, 3> toRas = signs.value_or(std::array<double, 3>{1, 1, 1});
+    for (int a = 0; a < 3; ++a)
+        g.direction[std::size_t(4 * a)] = toRas[std::size_t(a)];
     if (auto dirs = h.field("space directions")) {
         const auto vecs = splitVectors(*dirs);
+        Direction3 m = g.direction;
         if (vecs.size() != static_cast<std::size_t>(dimension))
             fail(path, "'space directions' has " + std::to_string(vecs.size()) + " entries for dimension " +
                            std::to_string(dimension));
@@ -244,15 +271,24 @@ Geometry nrrdGeometry(const NrrdHeader& h, long long dimension, const std::array
                     fail(path, "space directions: axis " + std::to_string(i) + " has length " +
                                    formatDouble(len) + ", not a positive finite spacing");
                 g.spacing[i] = len;
+                for (std::size_t row = 0; row < 3; ++row)
+                    m[3 * row + i] = toRas[row] * (*v)[row] / len;
             } else if (sizes[i] > 1) {
                 unsupported(path,
                             "axis " + std::to_string(i) +
                                 " is not spatial ('none' direction): only scalar volumes are supported");
             }
         }
+        try {
+            g.direction = orthonormalDirection(m);
+        } catch (const DataError& e) {
+            fail(path, std::string("space directions: ") + e.what());
+        }
     }
     if (auto o = h.field("space origin")) {
-        if (auto v = parseVector(*o, path, "space origin")) g.origin = *v;
+        if (auto v = parseVector(*o, path, "space origin"))
+            for (std::size_t a = 0; a < 3; ++a)
+                g.origin[a] = toRas[a] * (*v)[a]; // an LPS origin in RAS, like the directions
     } else if (auto mins = h.field("axis mins")) {
         const auto w = splitWords(*mins);
         for (std::size_t i = 0; i < w.size() && i < 3; ++i) {
@@ -415,9 +451,11 @@ TimeSeries readNrrd(ReadContext& ctx) {
     } else {
         data = attachedPayload(bytes, h, payload, encoding, byteSkip, lineSkip, path);
     }
-    if (encoding == PayloadEncoding::Ascii)
-        return asciiFrames(asText(data), *st, dims, frames, voxels, g, path);
-    return decodeFrames(data, *st, endian, dims, frames, g.spacing, g.origin);
+    TimeSeries series = encoding == PayloadEncoding::Ascii
+                            ? asciiFrames(asText(data), *st, dims, frames, voxels, g, path)
+                            : decodeFrames(data, *st, endian, dims, frames, g.spacing, g.origin);
+    g.applyTo(series);
+    return series;
 }
 
 namespace {
@@ -535,12 +573,20 @@ void writeNrrdSeries(std::span<const Volume> frames, const fs::path& path, const
     const bool series = frames.size() > 1;
     std::string header =
         "NRRD0004\n# written by volcl; format: http://teem.sourceforge.net/nrrd/format.html\n";
-    header +=
-        "type: " + std::string(type) + "\ndimension: " + (series ? "4" : "3") + "\nspace dimension: 3\n";
+    // An anatomical volume keeps its orientation as RAS space directions (origin and directions are RAS
+    // in the volume model); `space` replaces `space dimension`, as the format requires.
+    header += "type: " + std::string(type) + "\ndimension: " + (series ? "4" : "3") +
+              (volume.anatomical ? "\nspace: right-anterior-superior\n" : "\nspace dimension: 3\n");
     header += "sizes: " + std::to_string(d.x) + " " + std::to_string(d.y) + " " + std::to_string(d.z) +
               (series ? " " + std::to_string(frames.size()) : "") + "\n";
-    header += "space directions: (" + formatDouble(s[0]) + ",0,0) (0," + formatDouble(s[1]) + ",0) (0,0," +
-              formatDouble(s[2]) + ")" + (series ? " none" : "") + "\n";
+    header += "space directions:";
+    for (std::size_t c = 0; c < 3; ++c) {
+        const Direction3& m = volume.direction;
+        // The identity writes (s,0,0) exactly: products with 0 and 1 are exact.
+        header += " (" + formatDouble(m[c] * s[c]) + "," + formatDouble(m[3 + c] * s[c]) + "," +
+                  formatDouble(m[6 + c] * s[c]) + ")";
+    }
+    header += std::string(series ? " none" : "") + "\n";
     header +=
         "space origin: (" + formatDouble(o[0]) + "," + formatDouble(o[1]) + "," + formatDouble(o[2]) + ")\n";
     header += std::string("kinds: domain domain domain") + (series ? " list" : "") + "\n";

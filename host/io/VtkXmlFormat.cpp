@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstring>
 
 namespace volcl::io {
@@ -85,8 +86,25 @@ TimeSeries readVtkXmlImage(ReadContext& ctx) {
     std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
     if (auto sp = attr(image, "Spacing")) spacing = requireTriple(splitWords(*sp), 0, path, "Spacing", true);
     if (auto o = attr(image, "Origin")) origin = requireTriple(splitWords(*o), 0, path, "Origin", false);
-    for (int a = 0; a < 3; ++a)
-        origin[a] += static_cast<double>(ext[2 * a]) * spacing[a]; // extent may not start at 0
+    // VTK 9 Direction (row-major, column c = index axis c): world = Origin + Direction * (ijk * Spacing).
+    Direction3 direction = kIdentityDirection;
+    if (auto d = attr(image, "Direction")) {
+        const auto w = splitWords(*d);
+        if (w.size() != 9) fail(path, "Direction has " + std::to_string(w.size()) + " values, not 9");
+        for (std::size_t i = 0; i < 9; ++i) {
+            direction[i] = requireDouble(w[i], path, "Direction");
+            if (!std::isfinite(direction[i]))
+                fail(path, "Direction: value " + std::string(w[i]) + " is not finite");
+        }
+        try {
+            direction = orthonormalDirection(direction);
+        } catch (const DataError& e) {
+            fail(path, std::string("Direction: ") + e.what());
+        }
+    }
+    for (std::size_t row = 0; row < 3; ++row) // extent may not start at 0
+        for (std::size_t a = 0; a < 3; ++a)
+            origin[row] += direction[3 * row + a] * static_cast<double>(ext[2 * a]) * spacing[a];
 
     const auto pieces = childrenNamed(image, "Piece");
     if (pieces.size() != 1)
@@ -141,6 +159,7 @@ TimeSeries readVtkXmlImage(ReadContext& ctx) {
     }
     v.spacing = spacing;
     v.origin = origin;
+    v.direction = direction;
 
     TimeSeries series;
     series.frames.push_back(std::move(v));

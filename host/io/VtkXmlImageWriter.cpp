@@ -37,6 +37,7 @@ ImageGeometry geometry(const Volume& volume, const WriteOptions& options) {
     ImageGeometry g;
     g.origin = volume.origin;
     g.spacing = volume.spacing;
+    g.direction = volume.direction; // the model's origin and direction are world (RAS when anatomical)
     if (!options.nifti) return g;
     // The NIfTI voxel-to-world transform split into VTK's origin, spacing and direction columns.
     const auto a = niftiVoxelToWorld(niftiMetadataOnGrid(*options.nifti, volume));

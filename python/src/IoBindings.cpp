@@ -40,6 +40,10 @@ nb::dict readFile(const std::string& path, Context* context) {
             std::lock_guard lock(context->mutex);
             // Each frame decoded once: P/B frames predict from the frames already decoded.
             decodeEachFrame(reader, context->cc, 2, nullptr, [&](std::size_t f, Volume&& v) {
+                if (nifti) { // the source header travels in the file: oriented as the .nii is
+                    v.direction = niftiDirection(nifti->meta);
+                    v.anatomical = true;
+                }
                 series.frames.push_back(nifti && nifti->storedValues ? niftiDataUnits(v, nifti->meta)
                                                                      : std::move(v));
                 series.times.push_back(reader.header().frames[f].time);
@@ -55,6 +59,8 @@ nb::dict readFile(const std::string& path, Context* context) {
     nb::dict out;
     out["spacing"] = series.frames.front().spacing;
     out["origin"] = series.frames.front().origin;
+    out["direction"] = series.frames.front().direction;
+    out["anatomical"] = series.frames.front().anatomical;
     out["times"] = series.times;
     out["format"] = format;
     nb::list frames;

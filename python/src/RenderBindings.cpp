@@ -24,8 +24,9 @@ namespace {
 std::tuple<nb::object, std::vector<std::string>>
 render(Context& context, const InputArray& array, const std::array<double, 3>& spacing,
        const std::array<double, 3>& origin, const TransferFunction& tf, const std::string& sceneJson,
-       std::optional<std::string> view) {
+       std::optional<std::string> view, const Direction3& direction) {
     Volume v = arrayToVolume(array, spacing, origin);
+    v.direction = orthonormalDirection(direction);
     ImageBuffer image;
     {
         nb::gil_scoped_release released;
@@ -34,8 +35,10 @@ render(Context& context, const InputArray& array, const std::array<double, 3>& s
         scene.validateSteps(norm(box.extent));
         if (view) {
             if (scene.camera) throw UsageError("render: give either camera or view, not both");
-            scene.camera = frameBox(box, namedViewDirection(parseNamedView(*view)), Projection::Orthographic,
-                                    30.0, double(scene.width) / double(scene.height));
+            // The view is in world axes (patient RAS for anatomical data), as the command line's --view.
+            scene.camera =
+                frameOrientedBox(box, v.direction, namedViewDirection(parseNamedView(*view)),
+                                 Projection::Orthographic, 30.0, double(scene.width) / double(scene.height));
         }
         applyLightingDefaults(scene);
         const RenderInput input = RenderInput::fromVolume(std::move(v));
@@ -109,7 +112,8 @@ compositeOverBackground(const nb::ndarray<const float, nb::ndim<3>, nb::c_contig
 
 void bindRender(nb::module_& m) {
     m.def("render", &render, nb::arg("context"), nb::arg("array"), nb::arg("spacing"), nb::arg("origin"),
-          nb::arg("tf"), nb::arg("scene_json"), nb::arg("view").none());
+          nb::arg("tf"), nb::arg("scene_json"), nb::arg("view").none(),
+          nb::arg("direction") = kIdentityDirection);
     m.def("composite", &compositeOverBackground, nb::arg("rgba"), nb::arg("background"));
     m.def("preintegration_table", &preintegrationTable, nb::arg("context").none(), nb::arg("tf"),
           nb::arg("size"), nb::arg("step").none(), nb::arg("lengths").none(), nb::arg("max_length").none(),

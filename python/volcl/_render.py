@@ -164,8 +164,10 @@ def render(volume: Union[Volume, np.ndarray, str, "os.PathLike[str]"], tf: TfLik
     ``frame`` of a series). ``tf``: a :class:`TransferFunction`, a JSON dict, a file or "preset:NAME".
     The scene fields follow the scene JSON: ``camera`` (``{"projection": "orthographic", "eye": [...],
     "target": [...], "up": [...], "height": h}`` or ``"fov_y_deg"`` for perspective; default: looking
-    down +z at the whole box), or ``view`` (front | back | left | right | top | bottom | iso, framed as
-    ParaView's reset camera); ``mode`` (dvr | mip | iso | xray), ``step`` (world units),
+    down +z at the whole box, or the front view for a file placed in patient axes, as ``volcl render``),
+    or ``view`` (front | back | left | right | top | bottom | iso, framed as ParaView's reset camera, in
+    world axes: patient RAS for NIfTI, NRRD and MetaImage files, so front shows the face whatever the
+    storage order); ``mode`` (dvr | mip | iso | xray), ``step`` (world units),
     ``preintegration`` (none | 2d | 3d), ``early_termination``, ``lights``, ``effects``; ``options``
     adds further keys of the scene's "render" object. The GIL is released while the kernel runs.
 
@@ -174,16 +176,23 @@ def render(volume: Union[Volume, np.ndarray, str, "os.PathLike[str]"], tf: TfLik
         img = volcl.render(vol, "preset:viridis", view="front", width=256, height=256)
         plt.imshow(volcl.composite(img))   # over black, sRGB
     """
+    metadata: Dict[str, Any] = {}
     if isinstance(volume, (str, os.PathLike)):
         v = read(volume, device=device)
         array = v.frame(frame)
-        spacing, origin = v.spacing, v.origin
+        spacing, origin, metadata = v.spacing, v.origin, v.metadata
     elif isinstance(volume, Volume):
         array = volume.frame(frame)
         spacing = volume.spacing if spacing is None else spacing
         origin = volume.origin if origin is None else origin
+        metadata = volume.metadata
     else:
         array = np.asarray(volume)
+    # Oriented data frames as the command line does: views in world (patient RAS) axes, and a volume
+    # placed in patient axes defaults to the front view.
+    direction = tuple((metadata or {}).get("direction", (1, 0, 0, 0, 1, 0, 0, 0, 1)))
+    if view is None and camera is None and (metadata or {}).get("anatomical", False):
+        view = "front"
     a = _arrays.volume_array(array)
     render_section: Dict[str, Any] = {"mode": mode, "step": float(step), "preintegration": preintegration,
                                       "early_termination": float(early_termination)}
@@ -199,7 +208,7 @@ def render(volume: Union[Volume, np.ndarray, str, "os.PathLike[str]"], tf: TfLik
         scene["effects"] = effects
     image, _channels = _volcl.render(_arrays.context(device), a, _arrays.triple(spacing, 1.0, "spacing"),
                                      _arrays.triple(origin, 0.0, "origin"), as_transfer_function(tf)._native,
-                                     json.dumps(scene), view)
+                                     json.dumps(scene), view, direction)
     return image
 
 

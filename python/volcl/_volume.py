@@ -24,7 +24,9 @@ class Volume:
             array's axis order, as in the file formats).
         origin: world position of sample (0, 0, 0), x, y, z.
         metadata: what the reader knows besides the grid: ``format`` (the file format read) and, for a
-            series, ``times``; a .vcz adds its stored key/value metadata.
+            series, ``times``; a .vcz adds its stored key/value metadata. An oriented file adds
+            ``direction`` (its index axes in world axes, a 3x3 matrix row by row; world is patient RAS
+            when ``anatomical``), which :func:`volcl.render` frames views with.
     """
 
     array: np.ndarray
@@ -69,6 +71,9 @@ def read(path: PathLike, *, device: Optional[str] = None) -> Volume:
     metadata: Dict[str, Any] = {"format": r["format"]}
     if r["times"]:
         metadata["times"] = list(r["times"])
+    if r["anatomical"] or tuple(r["direction"]) != (1, 0, 0, 0, 1, 0, 0, 0, 1):
+        metadata["direction"] = tuple(r["direction"])  # index axes in world (RAS) axes, row by row
+        metadata["anatomical"] = bool(r["anatomical"])
     return Volume(array, tuple(r["spacing"]), tuple(r["origin"]), metadata)
 
 
