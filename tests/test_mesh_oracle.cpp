@@ -651,16 +651,18 @@ TEST(MeshNan, CellsKBufferAndReferenceMatchPointSamplingOfTheRule) {
 }
 
 TEST(MeshNan, TransparentNanColourDrawsTheMeshWithoutItsNanCells) {
-    // dvr with the default (transparent) NaN colour, and mip and x-ray with an opaque one (they ignore it): the
+    // dvr with the default (transparent) NaN colour, and mip, x-ray and iso with an opaque one (they ignore it): the
     // images of the mesh with NaN cells are those of the mesh with its NaN cells removed.
     const mesh::TetMesh m = meshWithNanCells(false), without = meshWithNanCells(true);
     ASSERT_LT(without.tets.size(), m.tets.size());
     const TransferFunction tf = rampOver(m, 3.0);
-    for (RenderMode mode : {RenderMode::Dvr, RenderMode::Xray, RenderMode::Mip})
+    for (RenderMode mode : {RenderMode::Dvr, RenderMode::Xray, RenderMode::Mip, RenderMode::Iso})
         for (int method = 0; method < (mode == RenderMode::Dvr ? 3 : 1); ++method) {
             Scene s = nanScene(mode);
             s.camera = views({}).front().camera;
             if (mode != RenderMode::Dvr) s.nanColor = {1, 0, 1, 1};
+            if (mode == RenderMode::Iso)
+                s.effects.isosurfaces = {{0.5 * (m.valueMin + m.valueMax), {1, 0.8, 0.6, 0.7}}};
             if (method == 1) {
                 s.preintegration = Preintegration::None;
                 s.step = 0.004;
