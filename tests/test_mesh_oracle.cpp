@@ -480,3 +480,231 @@ TEST(MeshOracle, AnisotropicBoxWithTunnelAlongX) {
                              box),
                        true);
 }
+
+// ---- NaN cells: a tet with a NaN or +-Inf vertex value takes the NaN colour (docs/rendering.md, "NaN and Inf").
+
+namespace {
+
+/// Whether tet t has a vertex value that is not finite (the oracle's own test, not the renderers').
+bool oracleNanTet(const mesh::TetMesh& m, std::size_t t) {
+    for (auto v : m.tets[t])
+        if (!std::isfinite(m.scalars[v])) return true;
+    return false;
+}
+
+/// Fine-step point sampling of the documented rule: samples at the midpoints of steps of `step` along the ray
+/// from its first tet on; each takes the tet that holds it (every tet intersected with the ray, no walk): in a
+/// NaN tet it is a sample of the NaN colour (rgb, extinction nanTau) in dvr and ignored by mip and x-ray,
+/// elsewhere the barycentric scalar through the TF. mip returns grey max(s) over the window of the mesh's
+/// finite values (MIP_COLOR grey).
+ReferencePixel nanOraclePixel(const mesh::TetMesh& m, const TransferFunction& tf, const Vec3& nanRgb,
+                              double nanTau, RenderMode mode, const CameraRay& ray, double step) {
+    struct Span {
+        double t0, t1;
+        std::size_t tet;
+    };
+    std::vector<Span> spans;
+    for (std::size_t t = 0; t < m.tets.size(); ++t) {
+        double t0, t1;
+        if (tetInterval(m, t, ray.origin, ray.direction, t0, t1) && t1 > std::max(t0, 0.0))
+            spans.push_back({std::max(t0, 0.0), t1, t});
+    }
+    const double inf = std::numeric_limits<double>::infinity();
+    if (spans.empty()) return {0, 0, 0, 0, inf};
+    std::sort(spans.begin(), spans.end(), [](const Span& a, const Span& b) { return a.t0 < b.t0; });
+    double tEnd = 0.0;
+    for (const Span& sp : spans)
+        tEnd = std::max(tEnd, sp.t1);
+    Vec3 rgb{0, 0, 0};
+    double T = 1.0, depth = 0.0, mip = -inf;
+    std::size_t first = 0;
+    for (double t = spans.front().t0 + 0.5 * step; t < tEnd; t += step) {
+        while (first < spans.size() && spans[first].t1 < t)
+            ++first;
+        const Span* cover = nullptr;
+        for (std::size_t k = first; k < spans.size() && spans[k].t0 <= t; ++k)
+            if (spans[k].t1 >= t) {
+                cover = &spans[k];
+                break;
+            }
+        if (!cover) continue;
+        Vec3 c;
+        double tau;
+        if (oracleNanTet(m, cover->tet)) {
+            if (mode != RenderMode::Dvr) continue;
+            c = nanRgb;
+            tau = nanTau;
+        } else {
+            const double s = barycentricScalar(m, cover->tet, add(ray.origin, scale(ray.direction, t)));
+            mip = std::max(mip, s);
+            const auto col = tf.colorAt(s);
+            c = {col[0], col[1], col[2]};
+            tau = tf.extinctionAt(s);
+        }
+        depth += tau * step;
+        const double alpha = 1.0 - std::exp(-tau * step);
+        rgb = add(rgb, scale(c, T * alpha));
+        T *= 1.0 - alpha;
+    }
+    if (mode == RenderMode::Xray) {
+        const double a = -std::expm1(-depth);
+        return {a, a, a, a, inf};
+    }
+    if (mode == RenderMode::Mip) {
+        if (mip == -inf) return {0, 0, 0, 0, inf};
+        const double g = std::clamp((mip - m.valueMin) / (double(m.valueMax) - m.valueMin), 0.0, 1.0);
+        return {g, g, g, g, inf};
+    }
+    return {rgb[0], rgb[1], rgb[2], 1.0 - T, inf};
+}
+
+/// A 6^3-cell jittered cube whose points within 0.22 of (0.55, 0.45, 0.5) are NaN, with one +Inf and one -Inf
+/// point elsewhere, all inside the cube (rays enter through finite tets). `dropNan`: the same mesh without the
+/// tets that touch a non-finite value.
+mesh::TetMesh meshWithNanCells(bool dropNan) {
+    mesh::TetSoup soup = jitteredSoup(
+        {6, 6, 6}, {0, 0, 0}, {1, 1, 1}, 0.2, false, [](double, double, double) { return false; }, 7);
+    auto nearest = [&](const Vec3& q) {
+        std::size_t best = 0;
+        for (std::size_t i = 1; i < soup.points.size(); ++i)
+            if (norm(sub(soup.points[i], q)) < norm(sub(soup.points[best], q))) best = i;
+        return best;
+    };
+    for (std::size_t i = 0; i < soup.points.size(); ++i)
+        if (norm(sub(soup.points[i], Vec3{0.55, 0.45, 0.5})) < 0.22) soup.scalars[i] = NAN;
+    soup.scalars[nearest({0.3, 0.7, 0.7})] = INFINITY;
+    soup.scalars[nearest({0.7, 0.3, 0.3})] = -INFINITY;
+    if (dropNan) {
+        std::vector<mesh::Tet> kept;
+        for (const auto& t : soup.tets)
+            if (std::all_of(t.begin(), t.end(),
+                            [&](std::uint32_t v) { return std::isfinite(soup.scalars[v]); }))
+                kept.push_back(t);
+        soup.tets = std::move(kept);
+    }
+    return mesh::buildTetMesh(std::move(soup), dropNan ? "without NaN cells" : "NaN cells", "f");
+}
+
+Scene nanScene(RenderMode mode) {
+    Scene s;
+    s.width = s.height = 32;
+    s.mode = mode;
+    s.earlyTermination = 1.0;
+    s.preintegration = mode == RenderMode::Dvr ? Preintegration::Table3d : Preintegration::None;
+    s.tableLengths = 32;
+    return s;
+}
+
+} // namespace
+
+TEST(MeshNan, CellsKBufferAndReferenceMatchPointSamplingOfTheRule) {
+    const mesh::TetMesh m = meshWithNanCells(false);
+    std::size_t nanTets = 0;
+    for (std::size_t t = 0; t < m.tets.size(); ++t)
+        nanTets += oracleNanTet(m, t) ? 1 : 0;
+    ASSERT_GT(nanTets, 40u);
+    const TransferFunction tf = rampOver(m, 3.0);
+    const Vec3 nanRgb{1.0, 0.1, 0.9};
+    const double nanAlpha = 0.9, nanTau = -std::log1p(-nanAlpha);
+    const RenderInput in = RenderInput::borrowMesh(m);
+    for (RenderMode mode : {RenderMode::Dvr, RenderMode::Xray}) { // mip: the next test (a closed form)
+        Scene s = nanScene(mode);
+        s.nanColor = {nanRgb[0], nanRgb[1], nanRgb[2], nanAlpha};
+        s.camera = views({}).front().camera;
+        Scene sampled = s; // the cell caster's point sampling
+        sampled.preintegration = Preintegration::None;
+        sampled.step = 0.004;
+        Scene ks = s;
+        ks.meshMethod = MeshMethod::KBuffer;
+        const auto cells = in.makeRenderer(test::computeContext(), tf, s);
+        EXPECT_NE(cells->plan().defines.toOptions().find("-DNAN_COLOR"), std::string::npos);
+        const auto cellsSampled =
+            mode == RenderMode::Dvr ? in.makeRenderer(test::computeContext(), tf, sampled) : nullptr;
+        const auto kbuffer =
+            mode == RenderMode::Dvr ? in.makeRenderer(test::computeContext(), tf, ks) : nullptr;
+        for (const View& v : views({})) {
+            s.camera = v.camera;
+            const std::string what = std::string(renderModeName(mode)) + ", " + v.name;
+            const ImageBuffer oracle = traceReferenceImage(s, *s.camera, false, 0, [&](const CameraRay& ray) {
+                return nanOraclePixel(m, tf, nanRgb, nanTau, mode, ray, 2e-3);
+            });
+            ASSERT_GT(meanAlpha(oracle), 0.05) << what;
+            auto check = [&](const std::string& who, const ImageBuffer& img, double tol) {
+                const double rmse = imageRmse(img, oracle);
+                std::cout << what << ": " << who << " RMSE " << rmse << " max " << maxAbsDiff(img, oracle)
+                          << '\n';
+                EXPECT_LE(rmse, tol) << what << ": " << who;
+            };
+            check("reference", meshReferenceRender(m, tf, s), 2e-3);
+            cells->setView(v.camera, s.width, s.height, s.step);
+            check("cells", cells->render(), 3e-3);
+            if (cellsSampled) {
+                cellsSampled->setView(v.camera, s.width, s.height, sampled.step);
+                check("cells point-sampled", cellsSampled->render(), 3e-3);
+            }
+            if (kbuffer) {
+                kbuffer->setView(v.camera, s.width, s.height, s.step);
+                check("kbuffer", kbuffer->render(), 3e-3);
+            }
+        }
+    }
+}
+
+TEST(MeshNan, TransparentNanColourDrawsTheMeshWithoutItsNanCells) {
+    // dvr with the default (transparent) NaN colour, and mip, x-ray and iso with an opaque one (they ignore it): the
+    // images of the mesh with NaN cells are those of the mesh with its NaN cells removed.
+    const mesh::TetMesh m = meshWithNanCells(false), without = meshWithNanCells(true);
+    ASSERT_LT(without.tets.size(), m.tets.size());
+    const TransferFunction tf = rampOver(m, 3.0);
+    for (RenderMode mode : {RenderMode::Dvr, RenderMode::Xray, RenderMode::Mip, RenderMode::Iso})
+        for (int method = 0; method < (mode == RenderMode::Dvr ? 3 : 1); ++method) {
+            Scene s = nanScene(mode);
+            s.camera = views({}).front().camera;
+            if (mode != RenderMode::Dvr) s.nanColor = {1, 0, 1, 1};
+            if (mode == RenderMode::Iso)
+                s.effects.isosurfaces = {{0.5 * (m.valueMin + m.valueMax), {1, 0.8, 0.6, 0.7}}};
+            if (method == 1) {
+                s.preintegration = Preintegration::None;
+                s.step = 0.004;
+            }
+            if (method == 2) s.meshMethod = MeshMethod::KBuffer;
+            if (mode == RenderMode::Mip) // both meshes' finite value ranges differ: one window for both
+                s.window = std::array<double, 2>{0.5 * (m.valueMin + m.valueMax), m.valueMax - m.valueMin};
+            const auto ra = RenderInput::borrowMesh(m).makeRenderer(test::computeContext(), tf, s);
+            const auto rb = RenderInput::borrowMesh(without).makeRenderer(test::computeContext(), tf, s);
+            for (const View& v : views({})) {
+                s.camera = v.camera;
+                const std::string what =
+                    std::string(renderModeName(mode)) + " method " + std::to_string(method) + ", " + v.name;
+                ra->setView(v.camera, s.width, s.height, s.step);
+                rb->setView(v.camera, s.width, s.height, s.step);
+                const ImageBuffer a = ra->render(), b = rb->render();
+                ASSERT_GT(meanAlpha(b), 0.05) << what;
+                std::cout << what << ": max difference " << maxAbsDiff(a, b) << '\n';
+                EXPECT_LE(maxAbsDiff(a, b), 1e-5) << what;
+                if (method == 0)
+                    EXPECT_LE(maxAbsDiff(meshReferenceRender(m, tf, s), meshReferenceRender(without, tf, s)),
+                              1e-9)
+                        << what << ": reference";
+            }
+        }
+}
+
+TEST(MeshNan, FiniteMeshCompilesNoNanTestAndIgnoresTheNanColour) {
+    const mesh::TetMesh m = jitteredMesh(6, 0.2, false, [](double, double, double) { return false; });
+    const TransferFunction tf = rampOver(m, 3.0);
+    for (int method = 0; method < 3; ++method) {
+        Scene s = nanScene(RenderMode::Dvr);
+        s.camera = views({}).front().camera;
+        if (method == 1) s.preintegration = Preintegration::None;
+        if (method == 2) s.meshMethod = MeshMethod::KBuffer;
+        Scene magenta = s;
+        magenta.nanColor = {1, 0, 1, 1};
+        const auto r = RenderInput::borrowMesh(m).makeRenderer(test::computeContext(), tf, magenta);
+        EXPECT_EQ(r->plan().defines.toOptions().find("NAN"), std::string::npos) << method;
+        const ImageBuffer a = r->render();
+        const ImageBuffer b =
+            RenderInput::borrowMesh(m).makeRenderer(test::computeContext(), tf, s)->render();
+        EXPECT_EQ(maxAbsDiff(a, b), 0.0) << method;
+    }
+}

@@ -8,7 +8,8 @@
    mesh's normalised frame (VolclMeshParams).
    Defines: MODE (0 dvr, 1 mip, 2 iso, 3 xray), MIP_COLOR, PREINT, ISO_COUNT, SHADING, CLIPPING, SKIPPING,
    EARLY_TERMINATION, MESH_OVERLAPS (tets may overlap: folded tets, interpenetrating components; see
-   ray_advance). */
+   ray_advance), NAN_COLOR (the mesh has NaN cells, marked by a NaN field; NAN_R/G/B/TAU: the NaN
+   colour). */
 #include "common/camera_rays.h"
 #include "common/shading.h"
 #include "common/tf_lookup.h"
@@ -324,6 +325,29 @@ inline void dvr_piece(const MeshData* M, const VolclMeshRenderParams* Pc, const 
 #endif
 }
 
+#ifdef NAN_COLOR
+/* DVR over [ta, tb] (normalised) of a NaN cell (a tet with a non-finite vertex value): the NaN colour,
+   unlit, as one exact constant segment (PREINT 3) or a sample of it at each lattice point. */
+inline void nan_piece(const MeshData* M, const VolclMeshRenderParams* Pc, const VolclTfParams* T, float ta,
+                      float tb, RayState* st) {
+    if (!(tb > ta)) return;
+    const float3 c = (float3)(NAN_R, NAN_G, NAN_B);
+#if PREINT == 3
+    flush_pending(M, T, st); /* keeps the order of the segments */
+    const float a = 1.0f - exp(-NAN_TAU * (tb - ta) * Pc->mesh.scale);
+    composite(st, c * a, a);
+#else
+    const float h = Pc->march.step * Pc->mesh.invScale;
+    const float a = 1.0f - exp(-NAN_TAU * Pc->march.step);
+    float ts = st->nextSample;
+    if (ts < ta) ts += ceil((ta - ts) / h) * h;
+    for (; ts < tb; ts += h)
+        if (a > 0.0f) composite(st, c * a, a);
+    st->nextSample = ts;
+#endif
+}
+#endif
+
 /* The part [ta, tb] (normalised) of the ray inside tet `tet`. */
 inline void cell_segment(const MeshData* M, const VolclMeshRenderParams* Pc, const VolclTfParams* T,
                          const VolclLightingParams* Lp, const VolclCameraParams* C, float3 eye, float3 o,
@@ -334,6 +358,14 @@ inline void cell_segment(const MeshData* M, const VolclMeshRenderParams* Pc, con
     if (M->empty[tet]) return; /* point sampling: dvr_piece moves the lattice on to the next tet */
 #endif
     const float4 f = M->cells[CELL_STRIDE * tet + 4];
+#ifdef NAN_COLOR
+    if (isnan(f.w)) { /* a NaN cell: the NaN colour in dvr; mip, xray and iso-surfaces ignore it */
+#if MODE == 0
+        nan_piece(M, Pc, T, a, b, st);
+#endif
+        return;
+    }
+#endif
     const float sa = dot(f.xyz, o + a * d) + f.w, sb = dot(f.xyz, o + b * d) + f.w;
 #if MODE == 1
     st->mip = fmax(st->mip, fmax(sa, sb));

@@ -3,7 +3,8 @@
    k-buffer pops the nearest fragment and composites the segment to the second nearest through the 3D
    pre-integration table. Defines: KB_K (entries per pixel, 2..8), KB_TILE (tile edge in pixels),
    KB_TILE_THREADS (work-items per tile; each owns the tile rows y with (y - y0) % KB_TILE_THREADS == lid),
-   BIN_CHUNKS (work-items of the binning passes), table lookups as PREINT 3 of cl/common/tf_lookup.h. The C++ mirror is render/mesh/KBufferReference.cpp. */
+   BIN_CHUNKS (work-items of the binning passes), table lookups as PREINT 3 of cl/common/tf_lookup.h. The C++ mirror is render/mesh/KBufferReference.cpp.
+   NAN_COLOR: the mesh has NaN cells, drawn with the NaN colour NAN_R/G/B/TAU (see kb_composite). */
 #include "mesh_kbuffer_shared.h"
 
 #pragma OPENCL FP_CONTRACT OFF
@@ -267,9 +268,17 @@ KB_INLINE float kb_segment_length(float t0, uint f0, float t1, uint f1, const Vo
     return len > 0.0f ? len : 0.0f;
 }
 
-/* Composites the segment s0 -> s1 of length len > 0 behind acc. */
+/* Composites the segment s0 -> s1 of length len > 0 behind acc. NAN_COLOR: a segment with a non-finite end
+   lies in a NaN cell (a fragment on a face with a non-finite vertex is non-finite, and both tets of that face
+   hold the vertex): a constant segment of the NaN colour, looked up nowhere. */
 KB_INLINE float4 kb_composite(float4 acc, float s0, float s1, float len, __global const half* table,
                               const VolclKBufferParams* P) {
+#ifdef NAN_COLOR
+    if (!isfinite(s0) || !isfinite(s1)) {
+        const float a = 1.0f - exp(-NAN_TAU * len);
+        return acc + (1.0f - acc.w) * (float4)(NAN_R * a, NAN_G * a, NAN_B * a, a);
+    }
+#endif
     const float4 c = kb_preint(table, P, s0, s1, len);
     return acc + (1.0f - acc.w) * c;
 }

@@ -38,16 +38,12 @@ double longestEdge2(const std::vector<Point3>& p, const Tet& t) noexcept {
     return m;
 }
 
-void refuseNonFinite(const TetSoup& s, const std::string& source, const std::string& scalarName) {
+void refuseNonFiniteCoordinates(const TetSoup& s, const std::string& source) {
+    // Non-finite point values are kept: their tets render with the NaN colour (docs/rendering.md).
     for (std::size_t i = 0; i < s.points.size(); ++i) {
         const Point3& p = s.points[i];
         if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
             throw DataError(source + ": point " + std::to_string(i) + " has a non-finite coordinate");
-        if (!std::isfinite(s.scalars[i]))
-            throw DataError(source + ": point " + std::to_string(i) + ": scalar '" + scalarName + "' is " +
-                            (std::isnan(s.scalars[i]) ? "NaN" : "infinite") +
-                            " (meshes need finite point values: replace them, e.g. numpy.nan_to_num, or "
-                            "resample to a grid, where NaN renders with --nan-color)");
     }
 }
 
@@ -188,7 +184,7 @@ TetMesh buildTetMesh(TetSoup soup, const std::string& source, const std::string&
     if (soup.tets.size() > kMaxTets)
         throw DataError(source + ": " + std::to_string(soup.tets.size()) +
                         " tetrahedra exceed the limit of " + std::to_string(kMaxTets));
-    refuseNonFinite(soup, source, scalarName);
+    refuseNonFiniteCoordinates(soup, source);
     MeshRepairs r = soup.repairs;
     r.candidateTets = soup.tets.size();
 
@@ -260,9 +256,15 @@ TetMesh buildTetMesh(TetSoup soup, const std::string& source, const std::string&
             m.boundsMin[a] = std::min(m.boundsMin[a], p[a]);
             m.boundsMax[a] = std::max(m.boundsMax[a], p[a]);
         }
-    const auto [lo, hi] = std::minmax_element(m.scalars.begin(), m.scalars.end());
-    m.valueMin = *lo;
-    m.valueMax = *hi;
+    // The value range is over finite values (NaN/Inf have no place on a transfer function's axis).
+    float lo = INFINITY, hi = -INFINITY;
+    for (float v : m.scalars)
+        if (std::isfinite(v)) {
+            lo = std::min(lo, v);
+            hi = std::max(hi, v);
+        }
+    m.valueMin = lo <= hi ? lo : 0.0f;
+    m.valueMax = lo <= hi ? hi : 0.0f;
     double e2 = 0;
     for (const Tet& t : m.tets)
         e2 = std::max(e2, longestEdge2(m.points, t));

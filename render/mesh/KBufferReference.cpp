@@ -119,7 +119,13 @@ public:
         if ((a.f & KB_FRAG_EXIT) || (b.f & KB_FRAG_ENTER)) return;
         const float len = (b.t - a.t) * P_.worldScale;
         if (!(len > 0.0f)) return;
-        const auto c = preintSegment(*in_.table, P_, a.s, b.s, len);
+        std::array<float, 4> c;
+        if (!std::isfinite(a.s) || !std::isfinite(b.s)) { // a NaN cell: kb_composite's NAN_COLOR branch
+            const float an = 1.0f - std::exp(-in_.nanColor[3] * len);
+            c = {in_.nanColor[0] * an, in_.nanColor[1] * an, in_.nanColor[2] * an, an};
+        } else {
+            c = preintSegment(*in_.table, P_, a.s, b.s, len);
+        }
         const float keep = 1.0f - px.acc[3];
         for (int i = 0; i < 4; ++i)
             px.acc[i] = px.acc[i] + keep * c[i];

@@ -6,6 +6,7 @@
 #include "render/mesh/KBufferFrame.hpp"
 #include "render/mesh/MeshFaces.hpp"
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -26,6 +27,8 @@ struct KBufferMirrorInput {
     VolclKBufferParams params{};
     const std::vector<float>* table = nullptr;
     int k = kKBufferDefaultK;
+    /// The NaN colour (straight r, g, b and extinction tau) of segments with a non-finite end (NAN_COLOR).
+    std::array<float, 4> nanColor{0, 0, 0, 0};
 };
 
 /// What the mirror counted besides the image.

@@ -47,6 +47,7 @@ EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, con
     if (!fx.clipPlanes.empty()) p.dropped.push_back("clip planes" + why);
     if (!fx.isosurfaces.empty()) p.dropped.push_back("iso-surfaces" + why);
     if (scene.window) p.dropped.push_back("window: mode dvr is not mip");
+    planNanColor(scene, meshHasNonFinite(mesh), p);
     return p;
 }
 

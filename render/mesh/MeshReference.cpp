@@ -20,6 +20,18 @@ ValueRange meshValueRange(const mesh::TetMesh& m) {
     return {double(m.valueMin), double(m.valueMax)};
 }
 
+bool tetHasNonFinite(const mesh::TetMesh& m, std::size_t tet) {
+    for (std::uint32_t v : m.tets[tet])
+        if (!std::isfinite(m.scalars[v])) return true;
+    return false;
+}
+
+bool meshHasNonFinite(const mesh::TetMesh& m) {
+    for (std::size_t t = 0; t < m.tets.size(); ++t)
+        if (tetHasNonFinite(m, t)) return true;
+    return false;
+}
+
 EffectPlan planMeshEffects(const Scene& scene, const mesh::TetMesh& m) {
     Scene s = scene;
     std::vector<std::string> dropped;
@@ -58,6 +70,7 @@ EffectPlan planMeshEffects(const Scene& scene, const mesh::TetMesh& m) {
                 "edge)";
         if (c.rfind("shading:", 0) == 0) c += " (per-tet gradient)";
     }
+    planNanColor(s, meshHasNonFinite(m), p);
     if (s.mode == RenderMode::Dvr && s.preintegration == Preintegration::None)
         p.compiled.push_back("point sampling every render.step along the ray inside the mesh");
     if (!note.empty()) p.compiled.push_back(note);
@@ -87,6 +100,7 @@ public:
         gradMin_ = meshGradientThreshold(m);
         eps_ = 1e-9 * std::max(norm(sub(m.boundsMax, m.boundsMin)), 1e-300);
         window_ = mipWindow(s, meshValueRange(m));
+        nanTau_ = nanExtinction(s);
     }
 
     const Camera& camera() const noexcept { return cam_; }
@@ -197,6 +211,15 @@ private:
     void segment(const CameraRay& ray, std::size_t tet, double ta, double tb, Pixel& px) const {
         const double a = std::max(ta, px.c0), b = std::min(tb, px.c1);
         if (!(b >= a)) return;
+        if (tetHasNonFinite(m_, tet)) {
+            // A NaN cell: a constant segment of the NaN colour in dvr (unlit), nothing in the other modes.
+            if (scene_.mode != RenderMode::Dvr || !(b > a)) return;
+            const double alpha = -std::expm1(-nanTau_ * (b - a));
+            for (int c = 0; c < 3; ++c)
+                px.rgb[c] += px.T * alpha * scene_.nanColor[c];
+            px.T *= 1.0 - alpha;
+            return;
+        }
         const mesh_detail::TetField field = mesh_detail::tetField(m_, tet);
         const Vec3& o = ray.origin;
         const Vec3& d = ray.direction;
@@ -267,7 +290,7 @@ private:
     std::vector<double> breakpoints_;
     mesh_detail::BoundaryBvh bvh_;
     std::vector<IsoLayer> isos_;
-    double gradMin_ = 0.0, eps_ = 0.0;
+    double gradMin_ = 0.0, eps_ = 0.0, nanTau_ = 0.0;
     std::array<double, 2> window_{0.0, 1.0};
 };
 

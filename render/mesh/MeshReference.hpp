@@ -15,6 +15,11 @@ namespace volcl {
 WorldBox meshBounds(const mesh::TetMesh& mesh);
 ValueRange meshValueRange(const mesh::TetMesh& mesh);
 
+/// Whether any point value is NaN or +-Inf; a tet with such a vertex is a NaN cell (docs/rendering.md,
+/// "NaN and Inf").
+bool meshHasNonFinite(const mesh::TetMesh& mesh);
+bool tetHasNonFinite(const mesh::TetMesh& mesh, std::size_t tet);
+
 /// The shared planner on the mesh's box and value range, with what meshes do not do dropped (shadows,
 /// scattering, cubic filters, smoothing, Sobel gradients: a tet's gradient is exact and constant), and
 /// pre-integration "2d" served by the 3D table (cell segments differ in length).
@@ -38,6 +43,8 @@ EffectPlan planMeshEffects(const Scene& scene, const mesh::TetMesh& mesh);
 ///   with the tet's gradient; dvr splits the segment there. Z is the ray distance to the first surface.
 /// - mip: the largest s over the segment ends (exact for a linear field); colour as for grids.
 /// - xray: 1 - exp(-integral of tau), the integral exact per segment.
+/// - NaN cells (a tet with a non-finite vertex value): dvr composites the NaN colour over the segment,
+///   alpha = 1 - exp(-tau_nan len), unlit; mip, xray and iso-surfaces ignore them.
 /// Output as the renderers': R, G, B, A linear associated (+ Z with iso-surfaces). Throws UsageError for an
 /// invalid scene, DataError for an invalid TF.
 ImageBuffer meshReferenceRender(const mesh::TetMesh& mesh, const TransferFunction& tf, const Scene& scene,

@@ -98,6 +98,13 @@ MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const 
             cells[kStride * t + f] = f4(n, float(w));
             cells[kStride * t + 5].s[f] = bitsAsFloat(nb);
         }
+        if (tetHasNonFinite(mesh, t)) {
+            // A NaN cell says so by a NaN field (the kernel's NAN_COLOR test); no range: only the NaN colour
+            // can show there.
+            cells[kStride * t + 4] = f4({NAN, NAN, NAN}, NAN);
+            m.tetMin[t] = m.tetMax[t] = NAN;
+            return;
+        }
         const mesh_detail::TetField fd = mesh_detail::tetField(mesh, t);
         // s(x') = value + g . (centre + scale x' - p0) = (value + g . (centre - p0)) + (scale g) . x'
         cells[kStride * t + 4] =
@@ -223,8 +230,14 @@ void MeshRenderer::updateEmptiness(const TransferFunction& shaded, bool preint) 
         }
         const double pad = preint ? (hi - lo) / double(std::max(scene_.tableSize - 1, 1)) : 0.0;
         auto bin = [&](double s) { return std::clamp(int(std::floor((s - lo) / bw)), 0, kEmptyBins - 1); };
+        const bool nanShows = dvr && scene_.nanColor[3] > 0.0;
         for (std::size_t t = 0; t < nt; ++t) {
             const double a = m.tetMin[t], b = m.tetMax[t];
+            if (std::isnan(a)) { // a NaN cell: only the NaN colour shows there
+                empty[t] = nanShows ? 0 : 1;
+                emptyCount += empty[t];
+                continue;
+            }
             bool vis = false;
             for (const auto& iso : plan_.isosurfaces)
                 vis |= iso.value > a && iso.value <= b;

@@ -1,8 +1,10 @@
-// The volcl executable on volumes with NaN/Inf voxels: render (grid and .vcz bricks), --nan-color, lossy encode,
-// and the errors that remain naming the file and the way out.
+// The volcl executable on volumes and meshes with NaN/Inf values: render (grid, .vcz bricks, mesh cells and
+// k-buffer), --nan-color, lossy encode, and the errors that remain naming the file and the way out.
 #include "../TestUtil.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
+#include "host/mesh/MeshGenerator.hpp"
+#include "host/mesh/MeshIo.hpp"
 
 #include <sys/wait.h>
 
@@ -128,5 +130,36 @@ TEST(CliNan, LossyVczKeepsNanAndRendersLikeTheGrid) {
         RunResult br = run("render --volume " + vcz.string() + tail + (dir / "b.exr").string(), dir);
         ASSERT_EQ(br.exitCode, 0) << br.err;
         EXPECT_LT(maxDiff(readImage(dir / "g.exr"), readImage(dir / "b.exr")), 2e-3) << colour;
+    }
+}
+
+TEST(CliNan, MeshWithNanPointsRendersWithTheNanColour) {
+    auto dir = test::tempDir("cli_nan_mesh");
+    mesh::TetMesh m = mesh::generateHexGridMesh({4, 4, 4}, {0, 0, 0}, {1, 1, 1},
+                                                [](double x, double, double) { return 200.0 * x; });
+    for (std::size_t i = 0; i < m.points.size(); ++i) // the centre point and its six neighbours
+        if (norm(sub(m.points[i], Vec3{0.5, 0.5, 0.5})) < 0.3) m.scalars[i] = NAN;
+    const auto vtu = dir / "nan.vtu";
+    mesh::writeVtu(m, vtu);
+    std::ofstream(dir / "tf.json") << kTf;
+    for (const char* method : {"cells", "kbuffer"}) {
+        const std::string base =
+            "render --volume " + vtu.string() + " --tf " + (dir / "tf.json").string() +
+            " --width 32 --height 32 --preintegration 3d --table-size 64 --table-lengths 8 --method " +
+            method;
+        RunResult plain = run(base + " -o " + (dir / "plain.exr").string(), dir);
+        ASSERT_EQ(plain.exitCode, 0) << method << ": " << plain.err;
+        RunResult red = run(base + " --nan-color 1,0,0,1 -o " + (dir / "red.exr").string(), dir);
+        ASSERT_EQ(red.exitCode, 0) << method << ": " << red.err;
+        const ImageBuffer a = readImage(dir / "plain.exr"), b = readImage(dir / "red.exr");
+        // The centre ray crosses the NaN cells: faint white around a transparent core by default, an opaque
+        // red core with the colour.
+        const float* c0 = &a.pixels[(16 * std::size_t(a.width) + 16) * 4];
+        const float* c1 = &b.pixels[(16 * std::size_t(b.width) + 16) * 4];
+        EXPECT_LT(c0[3], 0.2f) << method;
+        EXPECT_GT(c1[3], 0.99f) << method;
+        EXPECT_GT(c1[0], c1[1] + 0.5f) << method << ": red core";
+        for (float p : a.pixels)
+            ASSERT_TRUE(std::isfinite(p)) << method;
     }
 }
