@@ -3,7 +3,9 @@
 #include "host/io/IoDetail.hpp"
 #include "host/io/XmlDocument.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 
 namespace volcl::io {
@@ -138,7 +140,13 @@ TimeSeries readVoreenVvd(ReadContext& ctx) {
     const pugi::xml_node root = doc.document_element();
     if (root.name() != std::string_view("VoreenData"))
         fail(path, "not a Voreen .vvd file (root is <" + std::string(root.name()) + ">)");
-    TimeSeries series;
+    struct Member {
+        std::string file;
+        SampleType type;
+        Dims dims;
+        std::array<double, 3> spacing, origin;
+    };
+    std::vector<Member> members;
     for (pugi::xml_node volume : elementsNamed(root, "Volume")) {
         const auto raws = childrenNamed(volume, "RawData");
         if (raws.size() != 1) fail(path, "a <Volume> needs exactly one <RawData>");
@@ -166,8 +174,25 @@ TimeSeries readVoreenVvd(ReadContext& ctx) {
                 (name == "Spacing" ? spacing : origin) = t;
             }
         }
-        TimeSeries one =
-            readSidecarRaw(ctx, ctx.dataFile(*file), dims, 1, *st, Endian::Little, 0, spacing, origin);
+        members.push_back({*file, *st, dims, spacing, origin});
+    }
+    // The volumes together against the memory budget before any is read: every frame's voxels stay, one
+    // file's samples at a time are read beside them. (3,001 <Volume>s naming one 2.8 MB file took 58 s
+    // and 12 GB, then failed naming no file.)
+    std::size_t kept = 0, largestRead = 0;
+    for (const Member& m : members) {
+        const std::size_t voxels = checkedVoxelCount(m.dims, 1, path);
+        const std::size_t frameBytes = checkedByteCount(voxels, scalarSize(volumeTypeFor(m.type)), path);
+        if (frameBytes > std::numeric_limits<std::size_t>::max() - kept) fail(path, "payload size overflows");
+        kept += frameBytes;
+        largestRead = std::max(largestRead, checkedByteCount(voxels, sampleSize(m.type), path));
+    }
+    if (largestRead > std::numeric_limits<std::size_t>::max() - kept) fail(path, "payload size overflows");
+    ctx.claimMemory(kept + largestRead, "the " + std::to_string(members.size()) + " volumes it lists");
+    TimeSeries series;
+    for (const Member& m : members) {
+        TimeSeries one = readSidecarRaw(ctx, ctx.dataFile(m.file), m.dims, 1, m.type, Endian::Little, 0,
+                                        m.spacing, m.origin);
         series.frames.push_back(std::move(one.frames.front()));
     }
     if (series.frames.empty()) fail(path, "no <Volume> element");
