@@ -712,7 +712,8 @@ void Scene::validateSteps(double worldDiagonal) const {
     if (samples > kMaxSamplesPerFrame)
         throw UsageError(
             std::string(effects.shadows ? "render.step and effects.shadow_step" : "render.step") + " on a " +
-            std::to_string(width) + "x" + std::to_string(height) + " image need " + shortNumber(samples) +
+            std::to_string(width) + "x" + std::to_string(height) + " image " +
+            (effects.shadows ? "need " : "needs ") + shortNumber(samples) +
             " samples per frame, more than the budget of " + shortNumber(kMaxSamplesPerFrame) +
             "; use a larger step or a smaller image");
 }

@@ -729,6 +729,15 @@ TEST(CliHostile, CollectionMembersAreBudgetedBeforeAnyIsRead) {
     expectRefused(run("convert many.vvd -o out.nrrd", dir, "ulimit -v 4000000;", 20), 1, "many.vvd",
                   "memory budget");
     EXPECT_FALSE(fs::exists(dir / "out.nrrd"));
+    // Within the budget, one file named again is the same volume again: refused before any is read.
+    writeVolumeFile(ramp({16, 16, 16}), dir / "small.raw");
+    std::string twice = "<?xml version=\"1.0\" ?>\n<VoreenData version=\"1\"><Volumes>\n";
+    for (int i = 0; i < 3001; ++i)
+        twice += "<Volume><RawData filename=\"small.raw\" format=\"uint8\" x=\"16\" y=\"16\" z=\"16\" "
+                 "/></Volume>\n";
+    writeText(dir / "twice.vvd", twice + "</Volumes></VoreenData>\n");
+    expectRefused(run("info twice.vvd", dir, "ulimit -v 4000000;", 20), 1, "twice.vvd",
+                  "more than one <Volume>");
 
     writeVolumeFile(ramp({16, 16, 16}), dir / "one.vti");
     std::string pvd = "<VTKFile type=\"Collection\"><Collection>";
