@@ -18,8 +18,6 @@ namespace volcl {
 
 namespace {
 
-constexpr std::size_t kMaxEntries = std::size_t(1) << 28; // 4 GiB of float RGBA
-
 std::string fmt(double v) {
     std::ostringstream ss;
     ss << v;
@@ -315,9 +313,9 @@ void TableSpec::validate() const {
                              ")");
     }
     std::size_t slices = axis == LengthAxis::Fixed ? 1 : static_cast<std::size_t>(lengths);
-    if (static_cast<std::size_t>(size) * size * slices > kMaxEntries)
+    if (static_cast<std::size_t>(size) * size * slices > kMaxTableEntries)
         throw UsageError("table of " + fmt(size) + "x" + fmt(size) + "x" + fmt(double(slices)) +
-                         " entries is larger than the 2^28-entry limit (4 GiB)");
+                         " entries is larger than the budget of 2^24 entries (256 MiB)");
 }
 
 std::vector<double> TableSpec::lengthValues() const {

@@ -35,6 +35,10 @@ enum class LengthAxis {
 
 enum class Precision { Float, Double };
 
+/// Entries (nodes^2 x lengths) a table may have: 2^24, 256 MiB of float RGBA; each entry integrates the TF's
+/// pieces, so this bounds the generator's work as well as its memory (a 4096^2 2D table, 1024^2 x 16 3D).
+inline constexpr std::size_t kMaxTableEntries = std::size_t(1) << 24;
+
 /// Shape of a table. Example: `TableSpec s; s.size = 128; s.axis = LengthAxis::Linear; s.lengths = 256;
 /// s.maxLength = 4.0;`
 struct TableSpec {

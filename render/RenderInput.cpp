@@ -25,8 +25,20 @@ RenderInput::RenderInput(std::shared_ptr<const mesh::TetMesh> mesh) : mesh_(std:
 RenderInput RenderInput::open(const std::filesystem::path& path, const ReadOptions& options,
                               const mesh::MeshReadOptions& meshOptions) {
     if (path.extension() == ".vcz") return openVcz(path, 0);
-    if (mesh::detectMeshFormat(path)) return fromMesh(mesh::readMesh(path, meshOptions));
+    if (mesh::detectMeshFormat(path)) return openMesh(path, meshOptions);
     return fromVolume(readVolume(path, options));
+}
+
+RenderInput RenderInput::openMesh(const std::filesystem::path& path,
+                                  const mesh::MeshReadOptions& meshOptions) {
+    mesh::TetMesh m = mesh::readMesh(path, meshOptions);
+    const std::size_t folded = m.repairs.overlappingFaces + m.repairs.nonManifoldFaces;
+    if (folded > kFoldedFacesAlways && double(folded) > kMaxFoldedFaceShare * double(m.tets.size()))
+        throw DataError(
+            path.string() + ": " + std::to_string(folded) + " faces of its " + std::to_string(m.tets.size()) +
+            " tets are folded (overlapping or non-manifold), more than 10%: not a tetrahedral mesh "
+            "the cell caster can trace in bounded time (are its points out of order?)");
+    return fromMesh(std::move(m));
 }
 
 RenderInput RenderInput::fromMesh(mesh::TetMesh mesh) {

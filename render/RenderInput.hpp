@@ -37,6 +37,14 @@ public:
                             const mesh::MeshReadOptions& meshOptions = {});
     /// Frame `frame` of a .vcz file (header and index validated; nothing decoded). Throws IoError.
     static RenderInput openVcz(const std::filesystem::path& path, std::size_t frame = 0);
+    /// The mesh file `path` read with `meshOptions`, refused (DataError naming the file) when more of its tets
+    /// fold over a neighbour than kMaxFoldedFaceShare of them (at least kFoldedFacesAlways folded faces are
+    /// always accepted): such a file is no tetrahedral mesh (a grid with shuffled points made the cell caster
+    /// search for minutes), and `volcl info` still describes it.
+    static RenderInput openMesh(const std::filesystem::path& path,
+                                const mesh::MeshReadOptions& meshOptions = {});
+    static constexpr double kMaxFoldedFaceShare = 0.1;
+    static constexpr std::size_t kFoldedFacesAlways = 1000;
     /// An input owning `mesh`.
     static RenderInput fromMesh(mesh::TetMesh mesh);
     /// An input borrowing `mesh`, which must outlive it and every renderer made from it.

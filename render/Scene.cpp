@@ -4,10 +4,12 @@
 
 #include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
+#include "preintegration/PreintegrationTable.hpp"
 #include "render/VecMath.hpp"
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -594,6 +596,14 @@ void Scene::validate() const {
     need(earlyTermination > 0.0 && earlyTermination <= 1.0, "render.early_termination must be in (0, 1]");
     need(tableSize >= 2 && tableSize <= 4096, "render.table_size must be 2..4096");
     need(tableLengths >= 1 && tableLengths <= 1024, "render.table_lengths must be 1..1024");
+    // The table's entries are nodes^2 x lengths, each integrated over the TF's pieces: the same budget as
+    // `volcl preint` (kMaxTableEntries), checked before the table is allocated.
+    if (preintegration == Preintegration::Table3d)
+        need(double(tableSize) * tableSize * tableLengths <= double(kMaxTableEntries),
+             "render.table_size " + std::to_string(tableSize) + " x render.table_lengths " +
+                 std::to_string(tableLengths) + " is " +
+                 std::to_string(std::int64_t(tableSize) * tableSize * tableLengths) +
+                 " table entries, more than the budget of 2^24 (" + std::to_string(kMaxTableEntries) + ")");
     need(kBufferDepth >= 2 && kBufferDepth <= 8, "render.k must be 2..8");
     // 8 voxels: the smoothing's 3-sigma kernel stays at 49 taps (render/grid/BsplineField.hpp).
     need(smoothing >= 0.0 && smoothing <= 8.0, "render.smoothing must be in [0, 8] voxels");
@@ -695,6 +705,21 @@ void Scene::validateSteps(double worldDiagonal) const {
     };
     check(step, "render.step");
     if (effects.shadowStep > 0.0) check(effects.shadowStep, "effects.shadow_step");
+    // The frame's worst case: every pixel marches the whole diagonal, and with shadows every sample marches
+    // it again toward each light. Early termination and skipping only lower the real count.
+    const double perRay = std::ceil(worldDiagonal / step);
+    const double shadowStepLength = effects.shadowStep > 0.0 ? effects.shadowStep : step;
+    const double lightCount = double(std::max<std::size_t>(lights.size(), 1));
+    const double perSample =
+        effects.shadows ? 1.0 + lightCount * std::ceil(worldDiagonal / shadowStepLength) : 1.0;
+    const double samples = double(width) * double(height) * perRay * perSample;
+    if (samples > kMaxSamplesPerFrame)
+        throw UsageError(
+            std::string(effects.shadows ? "render.step and effects.shadow_step" : "render.step") + " on a " +
+            std::to_string(width) + "x" + std::to_string(height) + " image " +
+            (effects.shadows ? "need " : "needs ") + shortNumber(samples) +
+            " samples per frame, more than the budget of " + shortNumber(kMaxSamplesPerFrame) +
+            "; use a larger step or a smaller image");
 }
 
 Camera defaultCamera(const WorldBox& box) {

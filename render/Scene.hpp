@@ -182,8 +182,13 @@ struct Scene {
     /// Throws UsageError naming the field for out-of-range values.
     void validate() const;
     /// Refuses (UsageError) steps that would make one ray too long for a volume whose world-space diagonal
-    /// is `worldDiagonal`: render.step and effects.shadow_step each at most 5e7 samples across it.
+    /// is `worldDiagonal`: render.step and effects.shadow_step each at most 5e7 samples across it; and a
+    /// frame whose worst case, pixels x samples per ray x (1 + lights x shadow samples per sample when
+    /// shadows are on), exceeds kMaxSamplesPerFrame.
     void validateSteps(double worldDiagonal) const;
+    /// Samples one frame may take: 2^37, so a 4096^2 image of a 1024^3 volume at a quarter-voxel step
+    /// (4096^2 x 1024 sqrt(3) / 0.25 = 1.19e11) stays allowed.
+    static constexpr double kMaxSamplesPerFrame = 137438953472.0;
 };
 
 /// Fills in what a scene leaves to defaults, before planning: iso mode shades when nothing says otherwise,

@@ -438,7 +438,7 @@ RenderInput SceneFlags::readSceneInput(const Scene& s, std::vector<std::string>&
                                        std::vector<std::filesystem::path>* filesRead) const {
     if (mesh::detectMeshFormat(s.volume)) {
         if (filesRead) *filesRead = {s.volume};
-        return RenderInput::fromMesh(mesh::readMesh(s.volume, mesh.toReadOptions()));
+        return RenderInput::openMesh(s.volume, mesh.toReadOptions());
     }
     return RenderInput::fromVolume(readSceneVolume(s, notes, filesRead));
 }

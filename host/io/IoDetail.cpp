@@ -487,13 +487,23 @@ bool looksCompressed(std::span<const std::byte> b) noexcept {
     return (cmf & 0x0f) == 8 && (cmf >> 4) <= 7 && ((cmf << 8) | flg) % 31 == 0;
 }
 
+void checkInflateRatio(std::size_t compressed, std::size_t expected, const fs::path& file,
+                       std::string_view what) {
+    if (expected / kMaxDeflateRatio > compressed)
+        fail(file, std::string(what) + ": header promises " + std::to_string(expected) + " bytes but only " +
+                       std::to_string(compressed) + " compressed bytes are present (truncated or corrupt)");
+    if (expected > kInflateAnyRatioBytes && expected / kMaxInflateRatio > compressed)
+        fail(file, std::string(what) + ": " + std::to_string(compressed) +
+                       " compressed bytes would inflate to " + std::to_string(expected) +
+                       ", more than the decompression budget of " + std::to_string(kMaxInflateRatio) +
+                       ":1 above " + std::to_string(kInflateAnyRatioBytes >> 20) + " MiB");
+}
+
 std::vector<std::byte> inflateExact(std::span<const std::byte> in, std::size_t expected, const fs::path& file,
                                     std::string_view what) {
     const std::string label = std::string(what);
     if (in.empty()) fail(file, label + ": no compressed data (truncated)");
-    if (expected / kMaxDeflateRatio > in.size())
-        fail(file, label + ": header promises " + std::to_string(expected) + " bytes but only " +
-                       std::to_string(in.size()) + " compressed bytes are present (truncated or corrupt)");
+    checkInflateRatio(in.size(), expected, file, label);
     if (!looksCompressed(in)) fail(file, label + ": not a zlib/gzip stream");
     std::vector<std::byte> out(expected);
     Inflater inf;

@@ -94,10 +94,20 @@ void requireAsciiCapacity(std::string_view text, std::size_t count, const std::f
 void decodeAsciiSamples(std::string_view text, SampleType st, Volume& dst, std::size_t firstVoxel,
                         std::size_t count, const std::filesystem::path& file);
 
+/// Decompression budget: an output above kInflateAnyRatioBytes may come from at most
+/// kMaxInflateRatio times fewer compressed bytes. Deflate's own limit is ~1032:1, reached only by
+/// (nearly) constant data: a 255 KB .nii.gz of 256 MB zeros took 12 s and 521 MB for `info`.
+inline constexpr std::size_t kMaxInflateRatio = 1000;
+inline constexpr std::size_t kInflateAnyRatioBytes = std::size_t{64} << 20;
+/// Refuses (IoError naming `file` and `what`) `expected` decompressed bytes from `compressed` bytes
+/// beyond the decompression budget, before anything is allocated.
+void checkInflateRatio(std::size_t compressed, std::size_t expected, const std::filesystem::path& file,
+                       std::string_view what);
+
 /// Inflates a zlib or gzip stream (detected from its first bytes; concatenated gzip members are
 /// joined) that must decompress to exactly `expected` bytes. Truncated, corrupted (CRC/Adler), short,
 /// long or trailing-garbage streams raise IoError naming `file` and `what`. The size is checked against
-/// the maximum deflate ratio before anything is allocated.
+/// the decompression budget (checkInflateRatio) before anything is allocated.
 std::vector<std::byte> inflateExact(std::span<const std::byte> compressed, std::size_t expected,
                                     const std::filesystem::path& file, std::string_view what);
 /// The first `n` decompressed bytes of a zlib/gzip stream (fewer when the stream is shorter).

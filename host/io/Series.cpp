@@ -169,9 +169,24 @@ std::vector<PvdEntry> readPvd(const fs::path& path, const ReadOptions& options) 
         if (!std::isfinite(t))
             throw IoError(path.string() + ": DataSet " + std::to_string(items.size()) +
                           " has a non-finite timestep");
+        if (items.size() >= kMaxCollectionMembers)
+            throw IoError(path.string() + ": more than " + std::to_string(kMaxCollectionMembers) +
+                          " DataSets (the budget of a collection's members)");
         items.push_back({{members.dataFile(file.as_string()), t}, ds.attribute("part").as_string("0")});
     }
     if (items.empty()) throw IoError(path.string() + ": the collection lists no DataSet");
+    // Before any member is read, each file once: a 90 KB .pvd naming one 846 KB .vti 2,000 times took 68 s
+    // and 6.2 GB, and its encode wrote 1.38 GB, all within the memory budget. (The series' voxels are
+    // checked against the budget frame by frame, before each file is read: readSeriesInputs.)
+    std::vector<const fs::path*> byName;
+    byName.reserve(items.size());
+    for (const Item& it : items)
+        byName.push_back(&it.entry.file);
+    std::sort(byName.begin(), byName.end(), [](const fs::path* a, const fs::path* b) { return *a < *b; });
+    for (std::size_t i = 1; i < byName.size(); ++i)
+        if (*byName[i] == *byName[i - 1])
+            throw IoError(path.string() + ": DataSet file '" + byName[i]->filename().string() +
+                          "' is listed more than once (each time step needs its own file)");
     std::stable_sort(items.begin(), items.end(),
                      [](const Item& a, const Item& b) { return a.entry.time < b.entry.time; });
     for (std::size_t i = 1; i < items.size(); ++i)

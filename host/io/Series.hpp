@@ -29,8 +29,12 @@ struct PvdEntry {
     double time = 0;
 };
 
+/// Most DataSets a .pvd may list (checked while they are listed, before any is read).
+inline constexpr std::size_t kMaxCollectionMembers = 100000;
+
 /// The data sets of a .pvd in time order (stable for equal times). Throws IoError for a malformed file,
-/// a DataSet without `file`, or no DataSet at all; DataError for a multi-part collection (several parts
+/// a DataSet without `file`, more than kMaxCollectionMembers, a file listed twice, or no DataSet at all;
+/// DataError for a multi-part collection (several parts
 /// at one time step), which is not one volume per time. A DataSet file follows the data-file rule of
 /// other headers: in or below the .pvd's directory unless options.allowExternalData, and a regular file.
 std::vector<PvdEntry> readPvd(const std::filesystem::path& path, const ReadOptions& options = {});

@@ -133,6 +133,7 @@ std::vector<std::byte> decodeBlocks(std::span<const std::byte> b, const VtkXmlLa
         const auto d = b.subspan(h.headerBytes, h.storedBytes);
         return {d.begin(), d.end()};
     }
+    checkInflateRatio(h.storedBytes, expected, f, what); // the whole array, before its blocks
     std::vector<std::byte> out(expected);
     const std::uint64_t nb = headerWordAt(b, 0, L), bs = headerWordAt(b, 1, L), last = headerWordAt(b, 2, L);
     std::size_t in = h.headerBytes, o = 0;

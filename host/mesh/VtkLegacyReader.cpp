@@ -161,6 +161,11 @@ std::size_t readCountedCells(LegacyCursor& cur, const std::vector<std::string_vi
                              CellSoup& soup) {
     const std::size_t nCells = requireCount(w, 1, path, "CELLS");
     const std::size_t size = requireCount(w, 2, path, "CELLS");
+    // Each cell states at least its point count: more cells than values is a forged header, refused
+    // before the cell list is reserved (2^40 cells made an "out of memory" that named no file).
+    if (nCells > size)
+        fail(path, "CELLS claims " + std::to_string(nCells) + " cells in " + std::to_string(size) +
+                       " values (each cell needs at least its point count)");
     std::vector<double> data;
     cur.values(size, SampleType::Int32, "CELLS", &data);
     soup.offsets.assign(1, 0);

@@ -1,5 +1,6 @@
 // VTK XML UnstructuredGrid (.vtu) reader: points, cells and one scalar array, any VTK XML encoding.
 #include "core/AtomicFile.hpp"
+#include "core/MemoryBudget.hpp"
 #include "host/io/VtkXmlArrays.hpp"
 #include "host/mesh/MeshDetail.hpp"
 
@@ -80,6 +81,10 @@ CellSoup readVtuCells(const fs::path& path, const MeshReadOptions& options) {
     if (nPoints > cap || nCells > cap)
         fail(path, "truncated: " + std::to_string(nPoints) + " points and " + std::to_string(nCells) +
                        " cells cannot fit in " + std::to_string(bytes.size()) + " bytes");
+    // Each point's coordinates and each cell's type and offset are held as doubles (at least one
+    // connectivity id per cell more): the claim is checked before any array is decoded.
+    checkMemoryBudget((3 * nPoints + 3 * nCells) * sizeof(double), 0, path,
+                      "its " + std::to_string(nPoints) + " points and " + std::to_string(nCells) + " cells");
 
     auto namedArray = [&](pugi::xml_node parent, std::string_view name) -> pugi::xml_node {
         for (pugi::xml_node c : parent.children("DataArray"))

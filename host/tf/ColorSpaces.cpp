@@ -103,9 +103,10 @@ Rgb lerp(const Rgb& a, const Rgb& b, double t) {
 
 /// Appends the interior points of [t0, t1] (f0 = f(t0), f1 = f(t1)) where the chord strays from f by more
 /// than `tol`: bisection, checking the midpoint and both quarter points before accepting a chord.
+/// Throws DataError once `out` would hold more than `maxPoints`: the caller's share of the piece budget.
 template <class F>
 void bisect(const F& f, double t0, const Rgb& f0, double t1, const Rgb& f1, double tol, int depth,
-            std::vector<std::pair<double, Rgb>>& out) {
+            std::vector<std::pair<double, Rgb>>& out, std::size_t maxPoints) {
     const double tm = 0.5 * (t0 + t1);
     const Rgb fm = f(tm);
     constexpr int kMinDepth = 0, kMaxDepth = 12;
@@ -114,9 +115,13 @@ void bisect(const F& f, double t0, const Rgb& f0, double t1, const Rgb& f1, doub
         for (double q : {0.25, 0.75})
             straight = straight && maxChannelGap(f(t0 + q * (t1 - t0)), lerp(f0, f1, q)) <= tol;
     if (straight || depth >= kMaxDepth) return;
-    bisect(f, t0, f0, tm, fm, tol, depth + 1, out);
+    bisect(f, t0, f0, tm, fm, tol, depth + 1, out, maxPoints);
+    if (out.size() >= maxPoints)
+        throw DataError("following the colour space's curves within the tolerance takes more than " +
+                        std::to_string(kMaxLinearizedColorPoints) +
+                        " linear pieces (the budget of a colour list after interpolation)");
     out.emplace_back(tm, fm);
-    bisect(f, tm, fm, t1, f1, tol, depth + 1, out);
+    bisect(f, tm, fm, t1, f1, tol, depth + 1, out, maxPoints);
 }
 
 } // namespace
@@ -251,7 +256,11 @@ std::vector<ColorPoint> linearizeColors(ColorSpace space, const std::vector<Colo
             const Rgb start = f(0.0), end = f(1.0);
             if (maxChannelGap(start, out.back().rgb) > 0.0) out.push_back({p.s, start});
             std::vector<std::pair<double, Rgb>> inner;
-            bisect(f, 0.0, start, 1.0, end, tolerance, 0, inner);
+            // The whole list shares one budget: 16,384 curved intervals of up to 4,095 points each would
+            // otherwise make 67 million (29 s, 2 GB) before any table is built.
+            const std::size_t used = out.size() + 2; // this interval's end and a possible final point
+            bisect(f, 0.0, start, 1.0, end, tolerance, 0, inner,
+                   used < kMaxLinearizedColorPoints ? kMaxLinearizedColorPoints - used : 0);
             for (const auto& [t, c] : inner)
                 out.push_back({p.s + t * width, c});
             out.push_back({q.s, end});

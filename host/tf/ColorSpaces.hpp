@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <string_view>
 #include <vector>
 
@@ -31,12 +32,16 @@ Rgb hsvToRgb(const std::array<double, 3>& hsv);
 /// saturated colours; HSV takes the shorter way round the hue circle; Step holds `b` for t > 0.
 Rgb interpolateColor(ColorSpace space, const Rgb& a, const Rgb& b, double t);
 
+/// Most points linearizeColors() may return: four per point a transfer function file may state.
+inline constexpr std::size_t kMaxLinearizedColorPoints = 65536;
+
 /// Piecewise-linear RGB points that follow `space`'s interpolation between consecutive points of
 /// `points` to within `tolerance` per channel, ParaView's way: at an input point the interval below it
 /// ends with its own curve value (a colour-space round trip can move it slightly off the authored colour;
 /// the diverging hue rule sometimes more), the interval above starts with its own (a step when they
 /// differ), and beyond the ends the authored end colours hold. Two input points at one s stay a step.
-/// RGB returns the input unchanged.
+/// RGB returns the input unchanged. More than kMaxLinearizedColorPoints points is a DataError, raised
+/// while bisecting (the work stays proportional to the budget).
 std::vector<ColorPoint> linearizeColors(ColorSpace space, const std::vector<ColorPoint>& points,
                                         double tolerance = 1e-4);
 

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -341,9 +342,24 @@ std::vector<std::uint8_t> overlappingTets(const mesh::TetMesh& m) {
         return true;
     };
     std::vector<std::vector<std::size_t>> found(n); // per tet: the tets after it that overlap it
+    // Work budget: tree nodes visited plus tet pairs tested. Tets that span much of the mesh (a grid whose
+    // points were shuffled) make every box overlap every other, n^2 / 2 pairs (224,864 tets: 56 s); past the
+    // budget every tet is reported as overlapping, which only costs the caster checks it may not need.
+    const std::size_t budget = std::max<std::size_t>(kOverlapWorkPerTet * n, std::size_t(1) << 20);
+    std::atomic<std::size_t> work{0};
+    std::atomic<bool> overBudget{false};
     parallelFor(n, 0u, [&](std::size_t t) {
+        if (overBudget.load(std::memory_order_relaxed)) return;
+        std::size_t mine = 0;
         std::vector<std::size_t> stack{0};
         while (!stack.empty()) {
+            if (++mine >= 4096) {
+                if (work.fetch_add(mine, std::memory_order_relaxed) + mine > budget) {
+                    overBudget.store(true, std::memory_order_relaxed);
+                    return;
+                }
+                mine = 0;
+            }
             const Node& node = nodes[stack.back()];
             const std::size_t ni = stack.back();
             stack.pop_back();
@@ -353,6 +369,7 @@ std::vector<std::uint8_t> overlappingTets(const mesh::TetMesh& m) {
                 stack.push_back(node.right);
                 continue;
             }
+            mine += node.count;
             for (std::size_t i = node.first; i < node.first + node.count; ++i) {
                 const std::size_t u = order[i];
                 if (u <= t || !boxesOverlap(lo[u], hi[u], lo[t], hi[t])) continue;
@@ -362,10 +379,14 @@ std::vector<std::uint8_t> overlappingTets(const mesh::TetMesh& m) {
                     const mesh::FaceId nb = m.neighbors[mesh::faceId(t, f)];
                     neighbours = neighbours || (nb != mesh::kNoFace && mesh::faceTet(nb) == u);
                 }
-                if (!neighbours && tetsOverlap(corners[t], corners[u], tol)) found[t].push_back(u);
+                if (neighbours) continue;
+                mine += kOverlapTestWork;
+                if (tetsOverlap(corners[t], corners[u], tol)) found[t].push_back(u);
             }
         }
+        work.fetch_add(mine, std::memory_order_relaxed);
     });
+    if (overBudget.load() || work.load() > budget) return std::vector<std::uint8_t>(n, 1);
     std::vector<std::uint8_t> overlaps(n, 0);
     for (std::size_t t = 0; t < n; ++t)
         for (const std::size_t u : found[t]) {

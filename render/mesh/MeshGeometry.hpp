@@ -70,7 +70,11 @@ bool mayOverlap(const mesh::TetMesh& m);
 
 /// Per tet: 1 when its interior overlaps another tet's (a separating-axis test on every pair of tets with
 /// overlapping boxes; overlaps thinner than 1e-9 of the mesh's diagonal do not count). Only these tets' boundary
-/// faces can be entered inside a part of a ray that other tets cover.
+/// faces can be entered inside a part of a ray that other tets cover. The search is bounded: past
+/// kOverlapWorkPerTet units per tet (at least 2^20 in all; a tree node or a tet pair's boxes is one unit, a
+/// separating-axis test kOverlapTestWork), as when tets span much of the mesh, every tet is 1.
 std::vector<std::uint8_t> overlappingTets(const mesh::TetMesh& m);
+inline constexpr std::size_t kOverlapWorkPerTet = 1024;
+inline constexpr std::size_t kOverlapTestWork = 16;
 
 } // namespace volcl::mesh_detail

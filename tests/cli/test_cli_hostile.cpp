@@ -1,6 +1,7 @@
 // Hostile inputs through the volcl binary: each ends in exit 1 (2 for usage) with one line naming the file,
 // within a memory bound, and leaves every input untouched (the reproducers of the hardening work).
 #include "../TestUtil.hpp"
+#include "host/io/IoDetail.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "wavelet/container/VczFormat.hpp"
 
@@ -17,6 +18,8 @@
 #include <cstring>
 #include <fstream>
 #include <set>
+#include <numeric>
+#include <random>
 #include <sstream>
 
 extern char** environ;
@@ -735,4 +738,209 @@ TEST(CliHostile, SeriesPatternOutputIsAllOrNothing) {
     const std::set<std::string> before = names(vcz);
     expectRefused(run("decode s.vcz -o f_%02d.nii.gz", vcz, "ulimit -f 8;"), 1, "f_02.nii.gz");
     EXPECT_EQ(names(vcz), before);
+// ---- budgets (issue #40): every count that multiplies work is checked before any allocation or loop ------
+
+TEST(CliHostile, InfoReportsACorruptBrickPayload) {
+    const fs::path dir = test::tempDir("hostile_vcz_payload");
+    writeVolumeFile(ramp({16, 16, 16}), dir / "v_16x16x16_uint8.raw");
+    ASSERT_EQ(run("encode v_16x16x16_uint8.raw -o v.vcz", dir).exitCode, 0);
+    ASSERT_EQ(run("info v.vcz", dir).exitCode, 0);
+    std::string bytes = slurp(dir / "v.vcz");
+    const auto* raw = reinterpret_cast<const std::byte*>(bytes.data());
+    const VczHeader h = readVczHeader(std::span<const std::byte>(raw, bytes.size()), "v.vcz");
+    const VczBrickEntry& last = h.bricks[0].back();
+    ASSERT_GT(last.size, 0u);
+    bytes[last.offset + last.size / 2] ^= 0x5a; // inside the payload; the index's checksum is left as it was
+    writeText(dir / "flipped.vcz", bytes);
+    expectRefused(run("info flipped.vcz", dir), 1, "flipped.vcz", "checksum");
+    expectRefused(run("info --json flipped.vcz", dir), 1, "flipped.vcz", "checksum");
+}
+
+// A step just above the per-ray bound (5e7 samples across the diagonal) ran for minutes on a 64x64 image:
+// the frame's samples (pixels x samples per ray x shadow samples per sample) are budgeted before any kernel.
+TEST(CliHostile, SamplesPerFrameAreBudgetedBeforeRendering) {
+    const fs::path dir = test::tempDir("hostile_frame_samples");
+    writeVolumeFile(ramp({16, 16, 16}), dir / "v_16x16x16_uint8.raw");
+    writeText(dir / "tf.json", kTf);
+    auto scene = [&](const std::string& name, const std::string& render, const std::string& effects) {
+        writeText(dir / name, R"({"volume": "v_16x16x16_uint8.raw", "tf": "tf.json",
+            "image": {"width": 64, "height": 64}, "render": )" +
+                                  render + R"(, "effects": )" + effects + "}");
+    };
+    // The diagonal is 16 sqrt(3) = 27.7: 6e-7 is 4.6e7 samples per ray, 1.9e11 per 64x64 frame.
+    scene("fine_step.json", R"({"mode": "dvr", "step": 6e-7})", "{}");
+    expectRefused(run("render --scene fine_step.json -o out.png", dir, "", 10), 2, "render.step",
+                  "samples per frame");
+    scene("fine_shadow.json", R"({"mode": "dvr", "step": 0.5})",
+          R"({"shading": true, "shadows": true, "shadow_step": 6e-7})");
+    expectRefused(run("render --scene fine_shadow.json -o out.png", dir, "", 10), 2, "effects.shadow_step",
+                  "samples per frame");
+    expectRefused(run("render --scene fine_shadow.json --shadow-step 1e-6 -o out.png", dir, "", 10), 2,
+                  "effects.shadow_step", "samples per frame");
+    EXPECT_FALSE(fs::exists(dir / "out.png"));
+    // The same frame at ordinary steps renders.
+    scene("ordinary.json", R"({"mode": "dvr", "step": 0.5})", R"({"shading": true, "shadows": true})");
+    EXPECT_EQ(run("-q render --scene ordinary.json -o out.png", dir).exitCode, 0);
+}
+
+// A 4096 x 16 3D table took 48 s and 12.7 GB for a 64x64 render: nodes^2 x lengths is budgeted (2^24
+// entries) before the table is allocated, for a scene's table and for `volcl preint`.
+TEST(CliHostile, PreintegrationTableEntriesAreBudgeted) {
+    const fs::path dir = test::tempDir("hostile_table_entries");
+    writeVolumeFile(ramp({16, 16, 16}), dir / "v_16x16x16_uint8.raw");
+    writeText(dir / "tf.json", kTf);
+    writeText(dir / "big_table.json", R"({"volume": "v_16x16x16_uint8.raw", "tf": "tf.json",
+        "image": {"width": 64, "height": 64}, "render": {"mode": "dvr", "step": 0.5, "preintegration": "3d",
+        "table_size": 4096, "table_lengths": 16}})");
+    expectRefused(run("render --scene big_table.json -o out.png", dir, "", 20), 2, "render.table_size",
+                  "2^24");
+    expectRefused(
+        run("render --volume v_16x16x16_uint8.raw --tf tf.json --width 64 --height 64 --preintegration 3d "
+            "--table-size 2048 --table-lengths 8 -o out.png",
+            dir, "", 20),
+        2, "render.table_size", "2^24");
+    EXPECT_FALSE(fs::exists(dir / "out.png"));
+    expectRefused(run("preint --tf tf.json --size 4096 --lengths 16 --max-length 1 -o t.exr", dir, "", 20), 2,
+                  "4096x4096x16", "2^24");
+    expectRefused(run("preint --tf tf.json --size 8192 --step 1 -o t.exr", dir, "", 20), 2, "8192x8192x1",
+                  "2^24");
+    EXPECT_FALSE(fs::exists(dir / "t.exr"));
+}
+
+// 16,384 points alternating between two saturated colours in the diverging space: each interval bisected
+// to 4,095 points made 67 million (29 s, 1.96 GB in `preint`). The whole list shares a piece budget.
+TEST(CliHostile, ColourSpacePiecesAreBudgeted) {
+    const fs::path dir = test::tempDir("hostile_colour_pieces");
+    std::ostringstream j;
+    j << R"([{"Name": "alternating", "ColorSpace": "Diverging", "RGBPoints": [)";
+    for (int i = 0; i < 16384; ++i)
+        j << (i ? ", " : "") << i << (i % 2 ? ", 0.23, 0.30, 0.75" : ", 0.71, 0.02, 0.15");
+    j << "]}]";
+    writeText(dir / "alternating.json", j.str());
+    expectRefused(run("preint --tf alternating.json --size 8 --step 1 -o t.exr", dir, "", 20), 1,
+                  "alternating.json", "65536 linear pieces");
+    EXPECT_FALSE(fs::exists(dir / "t.exr"));
+}
+
+// `CELLS 1099511627776 800` reserved 2^40 cells and failed with "out of memory", naming no file.
+TEST(CliHostile, LegacyVtkCellCountsBeyondTheirDataAreRefused) {
+    const fs::path dir = test::tempDir("hostile_vtk_cells");
+    const std::string head = "# vtk DataFile Version 2.0\nforged\nASCII\nDATASET UNSTRUCTURED_GRID\n"
+                             "POINTS 4 float\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n";
+    const std::string tail = "CELL_TYPES 1\n10\nPOINT_DATA 4\nSCALARS s float 1\nLOOKUP_TABLE default\n"
+                             "0 1 2 3\n";
+    writeText(dir / "tet.vtk", head + "CELLS 1 5\n4 0 1 2 3\n" + tail);
+    ASSERT_EQ(run("info tet.vtk", dir).exitCode, 0);
+    writeText(dir / "forged.vtk", head + "CELLS 1099511627776 5\n4 0 1 2 3\n" + tail);
+    expectRefused(run("info forged.vtk", dir), 1, "forged.vtk", "CELLS");
+}
+
+// Collections: 3,001 <Volume>s naming one 2.8 MB file took 58 s and 12.3 GB before failing naming no file;
+// a .pvd naming one .vti 2,000 times took 68 s and 6.2 GB. The .vvd's volumes together are claimed against
+// the memory budget before any is read; a .pvd lists each file once. (ulimit keeps the unfixed reader from
+// taking the machine's memory: it fails instead.)
+TEST(CliHostile, CollectionMembersAreBudgetedBeforeAnyIsRead) {
+    const fs::path dir = test::tempDir("hostile_collections");
+    {
+        std::ofstream(dir / "big.raw", std::ios::binary).put('\0');
+        fs::resize_file(dir / "big.raw", 256u * 256u * 512u * 2u); // sparse: 64 MiB of uint16 zeros
+    }
+    std::string vvd = "<?xml version=\"1.0\" ?>\n<VoreenData version=\"1\"><Volumes>\n";
+    for (int i = 0; i < 3001; ++i)
+        vvd += "<Volume><RawData filename=\"big.raw\" format=\"uint16\" x=\"256\" y=\"256\" z=\"512\" "
+               "/></Volume>\n";
+    writeText(dir / "many.vvd", vvd + "</Volumes></VoreenData>\n");
+    expectRefused(run("info many.vvd", dir, "ulimit -v 4000000;", 20), 1, "many.vvd", "memory budget");
+    expectRefused(run("convert many.vvd -o out.nrrd", dir, "ulimit -v 4000000;", 20), 1, "many.vvd",
+                  "memory budget");
+    EXPECT_FALSE(fs::exists(dir / "out.nrrd"));
+    // Within the budget, one file named again is the same volume again: refused before any is read.
+    writeVolumeFile(ramp({16, 16, 16}), dir / "small.raw");
+    std::string twice = "<?xml version=\"1.0\" ?>\n<VoreenData version=\"1\"><Volumes>\n";
+    for (int i = 0; i < 3001; ++i)
+        twice += "<Volume><RawData filename=\"small.raw\" format=\"uint8\" x=\"16\" y=\"16\" z=\"16\" "
+                 "/></Volume>\n";
+    writeText(dir / "twice.vvd", twice + "</Volumes></VoreenData>\n");
+    expectRefused(run("info twice.vvd", dir, "ulimit -v 4000000;", 20), 1, "twice.vvd",
+                  "more than one <Volume>");
+
+    writeVolumeFile(ramp({16, 16, 16}), dir / "one.vti");
+    std::string pvd = "<VTKFile type=\"Collection\"><Collection>";
+    for (int t = 0; t < 2000; ++t)
+        pvd += "<DataSet timestep=\"" + std::to_string(t) + "\" file=\"one.vti\"/>";
+    writeText(dir / "repeated.pvd", pvd + "</Collection></VTKFile>\n");
+    expectRefused(run("encode repeated.pvd -o out.vcz", dir, "ulimit -v 4000000;", 20), 1, "repeated.pvd",
+                  "more than once");
+    EXPECT_FALSE(fs::exists(dir / "out.vcz"));
+}
+
+// A 255 KB .nii.gz of 256 MB of zeros took 12 s and 521 MB for `info`. Above 64 MiB an output may come from
+// at most 1000 times fewer compressed bytes (deflate's own limit is ~1032:1, reached only by constant data):
+// the gzip of a NIfTI and of a raw file, NRRD's gzip encoding and VTK XML's zlib blocks alike.
+TEST(CliHostile, DecompressionRatiosAreBudgeted) {
+    const fs::path dir = test::tempDir("hostile_inflate");
+    const Volume zeros({512, 512, 384}, ScalarType::UInt8); // 96 MiB
+    for (const char* name : {"z.nii.gz", "z_512x512x384_uint8.raw.gz", "z.nrrd"})
+        writeVolumeFile(zeros, dir / name);
+    // volcl writes VTK XML in 32 KiB blocks (about 540:1 at best); VTK may write the array as one block.
+    {
+        const std::vector<std::byte> block = io::deflateBytes(zeros.bytes(), io::Wrapper::Zlib, 9);
+        const std::uint64_t header[4] = {1, zeros.byteSize(), 0, block.size()};
+        std::ofstream out(dir / "z.vti", std::ios::binary);
+        out << R"(<?xml version="1.0"?>
+<VTKFile type="ImageData" version="1.0" byte_order="LittleEndian" header_type="UInt64" compressor="vtkZLibDataCompressor">
+<ImageData WholeExtent="0 511 0 511 0 383" Origin="0 0 0" Spacing="1 1 1"><Piece Extent="0 511 0 511 0 383">
+<PointData Scalars="s"><DataArray type="UInt8" Name="s" format="appended" offset="0"/></PointData>
+</Piece></ImageData>
+<AppendedData encoding="raw">_)";
+        out.write(reinterpret_cast<const char*>(header), sizeof header);
+        out.write(reinterpret_cast<const char*>(block.data()), static_cast<std::streamsize>(block.size()));
+        out << "\n</AppendedData>\n</VTKFile>\n";
+    }
+    for (const char* name : {"z.nii.gz", "z_512x512x384_uint8.raw.gz", "z.nrrd", "z.vti"}) {
+        ASSERT_LT(fs::file_size(dir / name), 96u * 1024u * 1024u / 1000u) << name;
+        expectRefused(run(std::string("info ") + name, dir, "", 30), 1, name, "decompression budget");
+    }
+    // Below 64 MiB any ratio deflate can reach is read.
+    writeVolumeFile(Volume({512, 512, 128}, ScalarType::UInt8), dir / "small.nii.gz");
+    EXPECT_EQ(run("-q info small.nii.gz", dir).exitCode, 0);
+}
+
+// The blunt-fin grid with its points shuffled: every tet spans much of the mesh, so the overlap search of
+// the cell caster tested n^2 / 2 tet pairs and every ray re-entered hundreds of folded tets (128x128: 56 s,
+// the real grid 0.6 s). More than 10% folded faces is no tetrahedral mesh: refused before any search.
+TEST(CliHostile, ShuffledPlot3dGridIsRefusedAsFolded) {
+    fs::path data;
+    VOLCL_REQUIRE_SHARED_DATA(data);
+    const fs::path xyz = data / "unstructured/bluntfinxyz.bin", q = data / "unstructured/bluntfinq.bin";
+    if (!fs::exists(xyz) || !fs::exists(q)) GTEST_SKIP() << "blunt-fin PLOT3D files not in " << data;
+    const fs::path dir = test::tempDir("hostile_shuffled_grid");
+    std::string grid = slurp(xyz);
+    // Big-endian: three int32 dims, then the x, y and z arrays of float32; permute the points jointly.
+    auto dim = [&](int i) {
+        const auto* b = reinterpret_cast<const unsigned char*>(grid.data()) + 4 * i;
+        return std::size_t(b[0]) << 24 | std::size_t(b[1]) << 16 | std::size_t(b[2]) << 8 | std::size_t(b[3]);
+    };
+    const std::size_t n = dim(0) * dim(1) * dim(2);
+    ASSERT_EQ(grid.size(), 12 + 12 * n);
+    std::vector<std::size_t> perm(n);
+    std::iota(perm.begin(), perm.end(), std::size_t(0));
+    std::shuffle(perm.begin(), perm.end(), std::mt19937(1));
+    std::string shuffled = grid;
+    for (std::size_t a = 0; a < 3; ++a)
+        for (std::size_t i = 0; i < n; ++i)
+            std::memcpy(&shuffled[12 + 4 * (a * n + i)], &grid[12 + 4 * (a * n + perm[i])], 4);
+    writeText(dir / "shufxyz.bin", shuffled);
+    fs::copy_file(q, dir / "shufq.bin", fs::copy_options::overwrite_existing);
+    expectRefused(run("render --volume shufxyz.bin --tf preset:viridis --width 128 --height 128 -o out.png",
+                      dir, "", 30),
+                  1, "shufxyz.bin", "folded");
+    EXPECT_FALSE(fs::exists(dir / "out.png"));
+    // The grid as written renders.
+    fs::copy_file(xyz, dir / "bluntfinxyz.bin", fs::copy_options::overwrite_existing);
+    fs::copy_file(q, dir / "bluntfinq.bin", fs::copy_options::overwrite_existing);
+    const RunResult r =
+        run("-q render --volume bluntfinxyz.bin --tf preset:viridis --width 32 --height 32 -o out.png", dir);
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(fs::exists(dir / "out.png"));
 }
