@@ -60,14 +60,19 @@ __attribute__((constructor)) static void failIoInit(void) {
     const char* at = getenv("VOLCL_FAIL_AT");
     g_failAt = at ? atol(at) : 0;
     const char* e = getenv("VOLCL_FAIL_ERRNO");
-    if (e && strcmp(e, "EIO") == 0) g_errno = EIO;
-    else if (e && strcmp(e, "EDQUOT") == 0) g_errno = EDQUOT;
-    else if (e && strcmp(e, "EFBIG") == 0) g_errno = EFBIG;
+    if (e && strcmp(e, "EIO") == 0)
+        g_errno = EIO;
+    else if (e && strcmp(e, "EDQUOT") == 0)
+        g_errno = EDQUOT;
+    else if (e && strcmp(e, "EFBIG") == 0)
+        g_errno = EFBIG;
     const char* sticky = getenv("VOLCL_FAIL_STICKY");
     g_sticky = sticky && strcmp(sticky, "1") == 0;
     const char* sig = getenv("VOLCL_FAIL_SIGNAL");
-    if (sig && strcmp(sig, "KILL") == 0) g_signal = SIGKILL;
-    else if (sig && strcmp(sig, "TERM") == 0) g_signal = SIGTERM;
+    if (sig && strcmp(sig, "KILL") == 0)
+        g_signal = SIGKILL;
+    else if (sig && strcmp(sig, "TERM") == 0)
+        g_signal = SIGTERM;
     g_ready = 1;
     atexit(writeCountAtExit);
 }
@@ -141,8 +146,8 @@ static int shouldFail(const char* name, int under) {
     return g_sticky ? n >= g_failAt : n == g_failAt;
 }
 
-#define REAL(ret, name, ...)                                                                                \
-    static ret (*real_##name)(__VA_ARGS__);                                                                 \
+#define REAL(ret, name, ...)                                                                                 \
+    static ret (*real_##name)(__VA_ARGS__);                                                                  \
     if (!real_##name) real_##name = (ret(*)(__VA_ARGS__))dlsym(RTLD_NEXT, #name)
 
 ssize_t write(int fd, const void* buf, size_t count) {
