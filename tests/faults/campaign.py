@@ -94,6 +94,8 @@ def classify(state, old, new):
         return "old"
     if not state and old:
         return "lost"
+    if not old:
+        return "partial"  # part of a new output set (a series' first frames, a data file without header)
     keys = set(state) | set(old) | set(new)
     parts = {"old" if state.get(k) == old.get(k) else "new" if state.get(k) == new.get(k) else "other"
              for k in keys}
