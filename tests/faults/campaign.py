@@ -272,8 +272,8 @@ def record(ctx, w, mode, detail, kind):
 def judge(ctx, w, mode, detail, d, returncode, stderr, old, new, killed=False):
     state, temps = snapshot(d)
     outcome = classify(state, old, new)
-    if w.per_file and outcome == "mixed":
-        outcome = "new" if returncode == 0 and state == new else "old"
+    if w.per_file and all(state.get(k) in (old.get(k), new.get(k)) for k in set(state) | set(old) | set(new)):
+        outcome = "new" if state == new else "old"  # each output old (or absent) or new on its own
     if temps:
         # Between the link that names a temporary and the rename over the target a kill cannot be cleaned
         # up after (Linux cannot link a file over another); AtomicFile's documented answer is that the
