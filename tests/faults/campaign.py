@@ -32,6 +32,9 @@ from pathlib import Path
 FAMILIES = [("write", "ENOSPC", True), ("fsync", "EIO", False), ("close", "EIO", False),
             ("rename", "EDQUOT", False), ("link", "ENOSPC", False)]
 TEMP_NAME = re.compile(r"^\..*\.tmp-|\.tmp-\d")
+# A detached header's data file under a name unique to one write (NAME.<16 hex>.raw): while no header
+# names it, it is a temporary like the hidden ones.
+UNIQUE_DATA = re.compile(r"\.[0-9a-f]{16}\.[A-Za-z0-9.]+$")
 UUID = re.compile(rb"[0-9a-f]{8}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{4}-[0-9a-f]{12}")
 EXR_DATE = re.compile(rb"capDate\x00string\x00(....)", re.S)
 VARIANTS = 4  # inputs per writer: old, new and (long form) two more for the concurrent rounds
@@ -82,6 +85,9 @@ def snapshot(directory):
         state[n] = head + b"\0" + b"".join(blob[1:])
     for n in names:
         if n in temps or n in state or n in named:
+            continue
+        if UNIQUE_DATA.search(n):
+            temps.append(n)
             continue
         state[n] = normalised(n, (Path(directory) / n).read_bytes())
     return state, temps
