@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <csignal>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -14,7 +15,9 @@
 #include <string>
 
 #include <fcntl.h>
+#include <pthread.h>
 #include <signal.h>
+#include <stdio.h> // renameat2
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -237,50 +240,262 @@ void AtomicFile::write(std::string_view text) {
     write(std::span<const std::byte>(reinterpret_cast<const std::byte*>(text.data()), text.size()));
 }
 
-void AtomicFile::commit() {
+namespace {
+
+thread_local AtomicCommitGroup* activeGroup = nullptr;
+
+// Gives the finished temporary a hidden name nobody else holds (linkat cannot replace a file). A kill
+// after this leaves a .tmp-PID file that the next writer of the target removes.
+fs::path linkUnnamed(const fs::path& procPath, const fs::path& target) {
+    for (int attempt = 0; attempt < 64; ++attempt) {
+        const fs::path named = tempCandidate(target);
+        if (::linkat(AT_FDCWD, procPath.c_str(), AT_FDCWD, named.c_str(), AT_SYMLINK_FOLLOW) == 0)
+            return named;
+        if (errno != EEXIST)
+            throw IoError(target.string() + ": cannot link the finished file into " +
+                          directoryOf(target).string() + ": " + systemError(errno));
+    }
+    throw IoError(target.string() + ": cannot find a free temporary file name");
+}
+
+// Links the unnamed finished file at `procPath` as `target` when no file has that name: true when done,
+// false when the name exists (a move must replace it).
+bool linkIfAbsent(const fs::path& procPath, const fs::path& target) {
+    if (::linkat(AT_FDCWD, procPath.c_str(), AT_FDCWD, target.c_str(), AT_SYMLINK_FOLLOW) == 0) return true;
+    if (errno == EEXIST) return false;
+    throw IoError(target.string() + ": cannot link the finished file into " + directoryOf(target).string() +
+                  ": " + systemError(errno));
+}
+
+// Moves `finished` over `target` and returns a hidden name that still holds the file it replaced (empty
+// when there was none). RENAME_EXCHANGE swaps the two names in one step, so the writer learns exactly which
+// file it replaced even when other writers race for the target; where the file system has no exchange,
+// the old file gets a second name first (link), then rename replaces it.
+fs::path moveKeepingOld(const fs::path& finished, const fs::path& target) {
+    for (int attempt = 0; attempt < 64; ++attempt) {
+        if (::renameat2(AT_FDCWD, finished.c_str(), AT_FDCWD, target.c_str(), RENAME_EXCHANGE) == 0) {
+            struct stat st {};
+            if (::lstat(finished.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISLNK(st.st_mode)) {
+                // Something else (a directory) took the target's name since the AtomicFile was made.
+                ::renameat2(AT_FDCWD, finished.c_str(), AT_FDCWD, target.c_str(), RENAME_EXCHANGE);
+                throw IoError(target.string() + ": output is now " + kindOf(st.st_mode) +
+                              ", not a regular file");
+            }
+            return finished;
+        }
+        if (errno == ENOENT) { // no target yet: appear only if still nobody else made one
+            if (::renameat2(AT_FDCWD, finished.c_str(), AT_FDCWD, target.c_str(), RENAME_NOREPLACE) == 0)
+                return {};
+            if (errno == EEXIST) continue;
+        }
+        if (errno != EINVAL && errno != ENOSYS && errno != ENOTSUP)
+            throw IoError(target.string() +
+                          ": cannot move the finished file into place: " + systemError(errno));
+        // No renameat2 flags here: keep the old file under a second name, then replace it.
+        fs::path old;
+        for (int n = 0; n < 64 && old.empty(); ++n) {
+            const fs::path candidate = tempCandidate(target);
+            if (::linkat(AT_FDCWD, target.c_str(), AT_FDCWD, candidate.c_str(), 0) == 0)
+                old = candidate;
+            else if (errno != EEXIST)
+                break; // ENOENT: nothing to keep
+        }
+        if (::rename(finished.c_str(), target.c_str()) != 0) {
+            const int err = errno;
+            if (!old.empty()) ::unlink(old.c_str());
+            throw IoError(target.string() +
+                          ": cannot move the finished file into place: " + systemError(err));
+        }
+        return old;
+    }
+    throw IoError(target.string() + ": cannot move the finished file into place (the target keeps changing)");
+}
+
+// Hands the replaced file to the writer's handler, then removes it.
+void retireOld(const fs::path& old, const std::function<void(const fs::path&)>& onReplaced) {
+    if (old.empty()) return;
+    struct stat st {};
+    if (onReplaced && ::lstat(old.c_str(), &st) == 0 && S_ISREG(st.st_mode)) {
+        try {
+            onReplaced(old);
+        } catch (...) { // the new file is in place; a leftover old data file is not worth failing for
+        }
+    }
+    ::unlink(old.c_str());
+}
+
+} // namespace
+
+fs::path AtomicFile::finish(bool nameUnnamed) {
     if (committed_) throw IoError(target_.string() + ": already committed");
+    const std::string writeFailed = target_.string() + ": write failed (disk full or file size limit?)";
+    // What the stream put into the file: the temporary must hold exactly that many bytes.
+    std::streamoff expected = -1;
     if (stream_.is_open()) {
         stream_.flush();
+        expected = stream_.tellp();
         const bool good = static_cast<bool>(stream_);
         stream_.close();
-        if (!good || stream_.fail())
-            throw IoError(target_.string() + ": write failed (disk full or file size limit?)");
+        if (!good || stream_.fail() || expected < 0) throw IoError(writeFailed);
     }
     // Data must be on disk before the rename makes it visible, or a crash could expose an empty file.
     const int fd = fd_ >= 0 ? fd_ : ::open(temp_.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd < 0) throw IoError(target_.string() + ": temporary file vanished: " + systemError(errno));
-    const int syncRc = ::fsync(fd);
+    struct stat st {};
+    const int statRc = ::fstat(fd, &st);
+    const int syncRc = statRc == 0 ? ::fsync(fd) : -1;
     const int syncErr = errno;
     if (fd_ < 0) ::close(fd);
     if (syncRc != 0) throw IoError(target_.string() + ": cannot flush to disk: " + systemError(syncErr));
-    fs::path named = temp_;
-    if (fd_ >= 0) {
-        // linkat cannot replace a file: give the unnamed file a hidden name, then rename it over the
-        // target. A kill between the two leaves a .tmp-PID file that the next writer removes.
-        bool linked = false;
-        for (int attempt = 0; attempt < 64 && !linked; ++attempt) {
-            named = tempCandidate(target_);
-            linked = ::linkat(AT_FDCWD, temp_.c_str(), AT_FDCWD, named.c_str(), AT_SYMLINK_FOLLOW) == 0;
-            if (!linked && errno != EEXIST)
-                throw IoError(target_.string() + ": cannot link the finished file into " +
-                              directoryOf(target_).string() + ": " + systemError(errno));
-        }
-        if (!linked) throw IoError(target_.string() + ": cannot find a free temporary file name");
-    }
-    std::error_code ec;
-    fs::rename(named, target_, ec);
-    if (ec) {
-        if (fd_ >= 0) {
-            std::error_code removeEc;
-            fs::remove(named, removeEc);
-        }
-        throw IoError(target_.string() + ": cannot move the finished file into place: " + ec.message());
-    }
+    if (expected >= 0 && st.st_size != expected)
+        throw IoError(target_.string() + ": write failed: " + std::to_string(st.st_size) + " of " +
+                      std::to_string(expected) + " bytes reached the disk (disk full?)");
+    if (fd_ >= 0 && !nameUnnamed) return temp_;
+    fs::path named = fd_ >= 0 ? linkUnnamed(temp_, target_) : temp_;
     if (fd_ >= 0) {
         ::close(fd_);
         fd_ = -1;
+        temp_ = named; // the destructor removes it if the move fails
+    }
+    return named;
+}
+
+void AtomicFile::commit() {
+    if (activeGroup) {
+        // An unnamed temporary stays unnamed (nothing for a kill to leave behind) while the group keeps
+        // few descriptors; past that, finished files get their hidden names now.
+        const bool keepUnnamed = activeGroup->openDescriptors_ < AtomicCommitGroup::kMaxOpenDescriptors;
+        const fs::path finished = finish(!keepUnnamed);
+        activeGroup->entries_.push_back({finished, target_, std::move(onReplaced_), fd_});
+        if (fd_ >= 0) ++activeGroup->openDescriptors_;
+        fd_ = -1; // the group owns the finished file now
+        committed_ = true;
+        return;
+    }
+    finish(false);
+    if (beforeMoveForTesting) beforeMoveForTesting(target_);
+    if (fd_ >= 0) {
+        // A new target appears in one step, with no hidden name in between; an existing one is replaced.
+        if (linkIfAbsent(temp_, target_)) {
+            ::close(fd_);
+            fd_ = -1;
+            committed_ = true;
+            return;
+        }
+        temp_ = linkUnnamed(temp_, target_); // the destructor removes it if the move fails
+        ::close(fd_);
+        fd_ = -1;
+    }
+    const fs::path old = moveKeepingOld(temp_, target_);
+    committed_ = true;
+    retireOld(old, onReplaced_);
+}
+
+namespace {
+
+volatile std::sig_atomic_t deferredSignal = 0;
+
+extern "C" void recordSignal(int sig) {
+    deferredSignal = sig;
+}
+
+// SIGINT, SIGTERM and SIGHUP wait while alive. Blocking them in this thread is not enough: the kernel
+// gives a process-directed signal to any thread that does not block it (OpenCL runtimes keep worker
+// threads), so a handler that only records it replaces the default action meanwhile, and the signal is
+// raised again, with the old action back, at the end. An ignored signal stays ignored.
+class SignalsDeferred {
+public:
+    SignalsDeferred() {
+        deferredSignal = 0;
+        sigemptyset(&block_);
+        for (std::size_t i = 0; i < kCount; ++i)
+            sigaddset(&block_, kSignals[i]);
+        pthread_sigmask(SIG_BLOCK, &block_, &savedMask_);
+        struct sigaction record {};
+        record.sa_handler = recordSignal;
+        sigemptyset(&record.sa_mask);
+        for (std::size_t i = 0; i < kCount; ++i) {
+            struct sigaction current {};
+            replaced_[i] = ::sigaction(kSignals[i], nullptr, &current) == 0 &&
+                           current.sa_handler != SIG_IGN &&
+                           ::sigaction(kSignals[i], &record, &saved_[i]) == 0;
+        }
+    }
+    ~SignalsDeferred() {
+        // A signal pending for this thread is taken before the old actions return, so it is raised once.
+        const timespec now{0, 0};
+        for (int sig; (sig = ::sigtimedwait(&block_, nullptr, &now)) > 0;)
+            deferredSignal = sig;
+        for (std::size_t i = 0; i < kCount; ++i)
+            if (replaced_[i]) ::sigaction(kSignals[i], &saved_[i], nullptr);
+        pthread_sigmask(SIG_SETMASK, &savedMask_, nullptr);
+        if (deferredSignal != 0) ::raise(deferredSignal);
+    }
+    SignalsDeferred(const SignalsDeferred&) = delete;
+    SignalsDeferred& operator=(const SignalsDeferred&) = delete;
+
+private:
+    static constexpr std::size_t kCount = 3;
+    static constexpr int kSignals[kCount] = {SIGINT, SIGTERM, SIGHUP};
+    sigset_t block_{}, savedMask_{};
+    struct sigaction saved_[kCount] {};
+    bool replaced_[kCount] = {};
+};
+
+} // namespace
+
+AtomicCommitGroup::AtomicCommitGroup() : outer_(activeGroup) {
+    activeGroup = this;
+}
+
+AtomicCommitGroup::~AtomicCommitGroup() {
+    if (activeGroup == this) activeGroup = outer_;
+    for (const Entry& e : entries_) {
+        if (e.fd >= 0)
+            ::close(e.fd); // an unnamed file vanishes with its descriptor
+        else if (!committed_)
+            ::unlink(e.finished.c_str());
+    }
+}
+
+void AtomicCommitGroup::commit() {
+    if (activeGroup == this) activeGroup = outer_;
+    if (committed_) throw IoError("output files already committed");
+    // A terminal's Ctrl-C or a supervisor's SIGTERM during the moves would leave a mix of new and old
+    // targets: they wait until every move is done (or undone).
+    const SignalsDeferred deferred;
+    std::vector<fs::path> olds;
+    try {
+        for (Entry& e : entries_) {
+            if (AtomicFile::beforeMoveForTesting) AtomicFile::beforeMoveForTesting(e.target);
+            if (e.fd >= 0) {
+                const bool linked = linkIfAbsent(e.finished, e.target);
+                if (!linked) e.finished = linkUnnamed(e.finished, e.target);
+                ::close(e.fd);
+                e.fd = -1;
+                if (linked) {
+                    olds.emplace_back(); // nothing replaced: undoing removes the target
+                    continue;
+                }
+            }
+            olds.push_back(moveKeepingOld(e.finished, e.target));
+        }
+    } catch (...) {
+        // Undo in reverse: an old file goes back over its target, a target that did not exist goes.
+        for (std::size_t i = olds.size(); i-- > 0;) {
+            if (!olds[i].empty())
+                ::rename(olds[i].c_str(), entries_[i].target.c_str());
+            else
+                ::unlink(entries_[i].target.c_str());
+        }
+        for (std::size_t i = olds.size(); i < entries_.size(); ++i)
+            if (entries_[i].fd < 0) ::unlink(entries_[i].finished.c_str());
+        committed_ = true; // nothing left to remove
+        throw;
     }
     committed_ = true;
+    for (std::size_t i = 0; i < entries_.size(); ++i)
+        retireOld(olds[i], entries_[i].onReplaced);
 }
 
 std::string nonRegularKind(const fs::path& path) {

@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -40,8 +41,16 @@ public:
     /// Appends bytes. Blocks of kDirectWriteMinBytes or more bypass the page cache (below).
     void write(std::span<const std::byte> bytes);
     void write(std::string_view text);
-    /// Flushes, checks for write errors and renames over the target. Throws IoError on failure.
+    /// Flushes, checks for write errors and that the temporary holds every byte the stream put there,
+    /// fsyncs, and moves it over the target. Throws IoError on failure (the target is then unchanged).
+    /// Inside an AtomicCommitGroup of this thread the move waits for the group's commit.
     void commit();
+    /// Called after the commit replaced an existing regular file, with a path that still opens the
+    /// replaced file (removed right after the call). The `.nhdr` writer reads the old header there to
+    /// remove the data file it named. The handler must not throw.
+    void onReplaced(std::function<void(const std::filesystem::path& oldCopy)> handler) {
+        onReplaced_ = std::move(handler);
+    }
 
     /// Writes of at least this many bytes go to the disk with O_DIRECT, through an aligned bounce buffer,
     /// where the file system allows it. A one-shot `volcl decode` writes its whole volume at once; through
@@ -49,14 +58,56 @@ public:
     /// commit's fsync (35 MB: 33-166 ms, typically 100 ms, in the test VM), directly 18-33 ms.
     static constexpr std::size_t kDirectWriteMinBytes = std::size_t(1) << 20;
 
+    /// Test hook, null in production: called with the target right before each finished file moves into
+    /// place, so a kill trial can stop a writer exactly at its commit point.
+    static inline void (*beforeMoveForTesting)(const std::filesystem::path& target) = nullptr;
+
 private:
     /// Writes the part of `bytes` that direct I/O can take at the stream's position; returns the rest
     /// (all of it where O_DIRECT is refused), which the stream writes.
     std::span<const std::byte> writeDirect(std::span<const std::byte> bytes);
+    /// Everything of commit() but the move: checks, fsync, and a hidden name beside the target. Returns it.
+    /// With `nameUnnamed` false an unnamed temporary keeps its /proc path (and its descriptor).
+    std::filesystem::path finish(bool nameUnnamed);
 
     std::filesystem::path target_, temp_;
+    std::function<void(const std::filesystem::path&)> onReplaced_;
     std::ofstream stream_;
     int fd_ = -1; ///< the O_TMPFILE descriptor, -1 for a named temporary
+    bool committed_ = false;
+};
+
+/// Makes the commits of several AtomicFiles one step (a series written as `t_%02d.nii`): while a group
+/// is alive on a thread, AtomicFile::commit() there finishes its temporary (write checks, fsync) but moves
+/// nothing, and an unnamed temporary stays unnamed (the first kMaxOpenDescriptors of them: later ones get a
+/// hidden `.NAME.tmp-PID-...` name); commit() then names them and moves every file into place in order with
+/// SIGINT, SIGTERM and SIGHUP deferred (recorded whichever thread gets them, raised after the last
+/// move). A failed move puts back what the moves before it replaced (old files are kept under hidden
+/// names until the end); a group destroyed
+/// without commit() removes every finished temporary, so a failure before the moves leaves nothing. Only
+/// SIGKILL (or a crash) during the moves can leave some targets new and others old, plus hidden
+/// temporaries that the next writer of each target removes.
+class AtomicCommitGroup {
+public:
+    AtomicCommitGroup();
+    ~AtomicCommitGroup(); // never throws
+    AtomicCommitGroup(const AtomicCommitGroup&) = delete;
+    AtomicCommitGroup& operator=(const AtomicCommitGroup&) = delete;
+    /// Moves every finished file into place, all or none. Throws IoError naming the target that failed.
+    void commit();
+
+private:
+    friend class AtomicFile;
+    struct Entry {
+        std::filesystem::path finished, target;
+        std::function<void(const std::filesystem::path&)> onReplaced;
+        int fd = -1; ///< an unnamed finished file's descriptor (finished is its /proc path)
+    };
+    /// Unnamed finished files kept open at most; later ones get their hidden names at once.
+    static constexpr std::size_t kMaxOpenDescriptors = 256;
+    std::vector<Entry> entries_;
+    std::size_t openDescriptors_ = 0;
+    AtomicCommitGroup* outer_ = nullptr; ///< the group this one hides while alive
     bool committed_ = false;
 };
 

@@ -11,6 +11,7 @@
 #include <csignal>
 #include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <signal.h>
@@ -252,4 +253,237 @@ TEST(AtomicFile, FileSizeLimitInALargeWriteLeavesNothing) {
         EXPECT_EQ(listing(dir), (std::set<std::string>{"keep.bin"}));
     }
     std::signal(SIGXFSZ, oldHandler);
+}
+
+namespace {
+
+// What a reader of a detached header finds, checked without volcl's reader: the header's z size and data
+// file name, and whether the data file holds exactly that volume of writer `z - 10`'s value (z - 9).
+struct NhdrPair {
+    bool consistent = false;
+    std::size_t z = 0;
+    std::string dataFile, why;
+};
+
+NhdrPair readNhdrPair(const fs::path& header) {
+    NhdrPair p;
+    const std::string text = readFile(header);
+    const std::size_t sizes = text.find("sizes: 16 16 "), data = text.find("data file: ");
+    if (sizes == std::string::npos || data == std::string::npos) {
+        p.why = "header without sizes or data file: " + text;
+        return p;
+    }
+    p.z = std::stoul(text.substr(sizes + 13));
+    p.dataFile = text.substr(data + 11, text.find('\n', data) - data - 11);
+    const std::string bytes = readFile(header.parent_path() / p.dataFile);
+    p.consistent = bytes == std::string(256 * p.z, static_cast<char>(p.z - 9));
+    if (!p.consistent)
+        p.why = "header of z " + std::to_string(p.z) + " over " + std::to_string(bytes.size()) +
+                " bytes of " + (bytes.empty() ? std::string("nothing") : std::to_string(int(bytes[0])));
+    return p;
+}
+
+Volume nhdrWriterVolume(int writer) {
+    Volume v({16, 16, std::size_t(10 + writer)}, ScalarType::UInt8);
+    for (auto& x : v.values<std::uint8_t>())
+        x = static_cast<std::uint8_t>(writer + 1);
+    return v;
+}
+
+} // namespace
+
+// Four processes write one .nhdr at once, 60 times: the header and the data file it names always belong to
+// the same writer (before unique data names, the shared t.raw gave a mixed pair in about a third of the
+// rounds), and the old rounds' data files are gone.
+TEST(AtomicFile, ConcurrentNhdrWritersNeverLeaveAMixedPair) {
+    const fs::path dir = test::tempDir("io-atomic-nhdr-race");
+    int mixed = 0;
+    for (int round = 0; round < 60; ++round) {
+        std::vector<pid_t> writers;
+        for (int w = 0; w < 4; ++w) {
+            const pid_t child = ::fork();
+            ASSERT_GE(child, 0);
+            if (child == 0) {
+                try {
+                    writeVolumeFile(nhdrWriterVolume(w), dir / "t.nhdr");
+                } catch (...) {
+                    ::_exit(1);
+                }
+                ::_exit(0);
+            }
+            writers.push_back(child);
+        }
+        for (const pid_t child : writers) {
+            int status = 0;
+            ::waitpid(child, &status, 0);
+            EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "a writer failed";
+        }
+        const NhdrPair p = readNhdrPair(dir / "t.nhdr");
+        if (!p.consistent) {
+            ++mixed;
+            ADD_FAILURE() << "round " << round << ": " << p.why;
+        }
+        EXPECT_EQ(listing(dir), (std::set<std::string>{"t.nhdr", p.dataFile})) << "round " << round;
+    }
+    EXPECT_EQ(mixed, 0);
+}
+
+namespace {
+
+int movesBeforeKill = 0;
+
+void killAtMove(const fs::path&) {
+    if (--movesBeforeKill == 0) ::raise(SIGKILL);
+}
+
+} // namespace
+
+// A writer killed at each move of a .nhdr commit (the data file's, then the header's): the header in place
+// still names complete data of the same writer, and the next write removes what the dead one left.
+TEST(AtomicFile, NhdrWriterKilledAtEitherMoveKeepsTheOldPair) {
+    const fs::path dir = test::tempDir("io-atomic-nhdr-kill");
+    for (int killAt = 1; killAt <= 2; ++killAt) {
+        writeVolumeFile(nhdrWriterVolume(0), dir / "t.nhdr");
+        const pid_t child = ::fork();
+        ASSERT_GE(child, 0);
+        if (child == 0) {
+            movesBeforeKill = killAt;
+            AtomicFile::beforeMoveForTesting = killAtMove;
+            writeVolumeFile(nhdrWriterVolume(1), dir / "t.nhdr");
+            ::_exit(0);
+        }
+        int status = 0;
+        ::waitpid(child, &status, 0);
+        ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) << "kill at move " << killAt;
+        const NhdrPair p = readNhdrPair(dir / "t.nhdr");
+        EXPECT_TRUE(p.consistent) << "kill at move " << killAt << ": " << p.why;
+        EXPECT_EQ(p.z, 10u) << "kill at move " << killAt;
+        // The next writer finds the dead one's data file (and its own old pair) and removes them.
+        writeVolumeFile(nhdrWriterVolume(2), dir / "t.nhdr");
+        const NhdrPair next = readNhdrPair(dir / "t.nhdr");
+        EXPECT_TRUE(next.consistent && next.z == 12) << next.why;
+        EXPECT_EQ(listing(dir), (std::set<std::string>{"t.nhdr", next.dataFile}))
+            << "kill at move " << killAt;
+    }
+}
+
+// A header volcl did not write keeps the data file it names, even one that looks like volcl's.
+TEST(AtomicFile, NhdrRewriteKeepsDataFilesVolclDidNotMake) {
+    const fs::path dir = test::tempDir("io-atomic-nhdr-user");
+    writeFile(dir / "t.0000000100000000.raw", std::string(256 * 10, '\x01'));
+    writeFile(dir / "t.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 16 16 10\nencoding: raw\n"
+                              "data file: t.0000000100000000.raw\n");
+    EXPECT_EQ(volumeFilesWritten(dir / "t.nhdr"), std::vector<fs::path>{dir / "t.nhdr"});
+    writeVolumeFile(nhdrWriterVolume(1), dir / "t.nhdr");
+    EXPECT_TRUE(readNhdrPair(dir / "t.nhdr").consistent);
+    EXPECT_EQ(readFile(dir / "t.0000000100000000.raw"), std::string(256 * 10, '\x01'));
+    // volcl's own pair: the data file is named as replaced by the next write, and removed by it.
+    const std::string ownData = readNhdrPair(dir / "t.nhdr").dataFile;
+    EXPECT_EQ(volumeFilesWritten(dir / "t.nhdr"), (std::vector<fs::path>{dir / "t.nhdr", dir / ownData}));
+    writeVolumeFile(nhdrWriterVolume(2), dir / "t.nhdr");
+    EXPECT_FALSE(fs::exists(dir / ownData));
+}
+
+// A group moves nothing before its commit; dropped, it leaves nothing; a move that fails puts back every
+// target the moves before it replaced.
+TEST(AtomicCommitGroup, AllOrNothing) {
+    const fs::path dir = test::tempDir("io-atomic-group");
+    writeFile(dir / "b", "old b");
+    writeFile(dir / "c", "old c");
+    {
+        AtomicCommitGroup group;
+        for (const char* name : {"a", "b", "c"}) {
+            AtomicFile f(dir / name);
+            f.write(std::string_view("new"));
+            f.commit();
+        }
+        EXPECT_EQ(listing(dir), (std::set<std::string>{"b", "c"})); // finished files are still unnamed
+        EXPECT_EQ(readFile(dir / "b"), "old b");
+    } // dropped without commit
+    EXPECT_EQ(listing(dir), (std::set<std::string>{"b", "c"}));
+    EXPECT_EQ(readFile(dir / "c"), "old c");
+    {
+        AtomicCommitGroup group;
+        for (const char* name : {"a", "b", "c"}) {
+            AtomicFile f(dir / name);
+            f.write(std::string_view("new"));
+            f.commit();
+        }
+        // The last target stops being a file before the moves: they all go back.
+        fs::remove(dir / "c");
+        fs::create_directory(dir / "c");
+        EXPECT_THROW(group.commit(), IoError);
+    }
+    EXPECT_EQ(listing(dir), (std::set<std::string>{"b", "c"}));
+    EXPECT_EQ(readFile(dir / "b"), "old b");
+    EXPECT_TRUE(fs::is_directory(dir / "c"));
+    fs::remove(dir / "c");
+    {
+        AtomicCommitGroup group;
+        for (const char* name : {"a", "b", "c"}) {
+            AtomicFile f(dir / name);
+            f.write(std::string_view(name));
+            f.commit();
+        }
+        group.commit();
+    }
+    EXPECT_EQ(listing(dir), (std::set<std::string>{"a", "b", "c"}));
+    EXPECT_EQ(readFile(dir / "a") + readFile(dir / "b") + readFile(dir / "c"), "abc");
+}
+
+// OpenVDB and OpenImageIO write through their own file code: a write the file size limit cuts short must
+// fail the write, keep the old target and leave no temporary (OpenVDB's unchecked stream gave a truncated
+// file and success).
+TEST(AtomicFile, LibraryWritersCutShortByTheFileSizeLimitFail) {
+    const fs::path dir = test::tempDir("io-atomic-vdb-limit");
+    writeFile(dir / "keep.vdb", "previous");
+    Volume v({64, 64, 64}, ScalarType::Float32);
+    auto vals = v.values<float>();
+    for (std::size_t i = 0; i < vals.size(); ++i)
+        vals[i] = static_cast<float>((i * 2654435761u) % 1000) + 1.0f; // no background: every voxel stored
+    struct rlimit old {};
+    ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
+    const auto oldHandler = std::signal(SIGXFSZ, SIG_IGN);
+    struct rlimit small = old;
+    small.rlim_cur = 16384;
+    ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+    bool refused = false;
+    try {
+        writeVolumeFile(v, dir / "keep.vdb", {Endian::Little, false});
+    } catch (const IoError& e) {
+        refused = std::string(e.what()).find("keep.vdb") != std::string::npos;
+    }
+    ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &old), 0);
+    std::signal(SIGXFSZ, oldHandler);
+    EXPECT_TRUE(refused) << "the VDB writer did not report the cut";
+    EXPECT_EQ(readFile(dir / "keep.vdb"), "previous");
+    EXPECT_EQ(listing(dir), (std::set<std::string>{"keep.vdb"}));
+}
+
+// SIGTERM arriving at the first move of a group waits until the last one, also with a second thread in the
+// process (a process-directed signal goes to any thread that does not block it; OpenCL keeps threads).
+TEST(AtomicCommitGroup, TerminationSignalsWaitForTheLastMove) {
+    const fs::path dir = test::tempDir("io-atomic-group-sigterm");
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+        std::thread idle([] { ::pause(); }); // never joined: the process ends by the signal
+        idle.detach();
+        AtomicFile::beforeMoveForTesting = [](const fs::path& target) {
+            if (target.filename() == "a") ::kill(::getpid(), SIGTERM);
+            ::usleep(20000); // time for the signal to reach some thread
+        };
+        AtomicCommitGroup group;
+        for (const char* name : {"a", "b", "c"}) {
+            AtomicFile f(dir / name);
+            f.write(std::string_view(name));
+            f.commit();
+        }
+        group.commit();
+        ::_exit(0); // not reached: the deferred SIGTERM ends the process after the moves
+    }
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGTERM) << "status " << status;
+    EXPECT_EQ(listing(dir), (std::set<std::string>{"a", "b", "c"}));
 }

@@ -6,9 +6,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <csignal>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+
+#include <sys/resource.h>
 
 namespace {
 
@@ -155,6 +159,44 @@ TEST(ImageIo, FailedWritesLeaveNothingBehind) {
     broken.pixels.pop_back();
     EXPECT_THROW(volcl::writeImage(broken, dir / "broken.exr"), volcl::UsageError);
     EXPECT_EQ(listing(dir), std::vector<std::string>{"taken.exr"});
+}
+
+// OpenImageIO's own file writes do not report a short write: a PNG cut by a full disk or the file size
+// limit became a 0-byte or truncated file and success. Now the cut fails the write, the old file stays
+// and no temporary remains.
+TEST(ImageIo, WritesCutShortByTheFileSizeLimitFail) {
+    const fs::path dir = tmpDir() / "size-limit";
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    ImageBuffer noise(128, 128, {"R", "G", "B", "A"}); // does not compress: about 64 KB as PNG
+    std::uint32_t state = 12345;
+    for (float& v : noise.pixels) {
+        state = state * 1664525u + 1013904223u;
+        v = float(state >> 8) / float(1u << 24);
+    }
+    for (const char* name : {"keep.png", "keep.exr"}) {
+        std::ofstream(dir / name) << "previous";
+        struct rlimit old {};
+        ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
+        const auto oldHandler = std::signal(SIGXFSZ, SIG_IGN);
+        struct rlimit small = old;
+        small.rlim_cur = 16384;
+        ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+        bool refused = false;
+        try {
+            volcl::writeImage(noise, dir / name);
+        } catch (const volcl::IoError& e) {
+            refused = std::string(e.what()).find(name) != std::string::npos;
+        }
+        ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &old), 0);
+        std::signal(SIGXFSZ, oldHandler);
+        EXPECT_TRUE(refused) << name;
+        EXPECT_EQ(fileText(dir / name), "previous") << name;
+    }
+    EXPECT_EQ(listing(dir), (std::vector<std::string>{"keep.exr", "keep.png"}));
+    // Without the limit both are written whole and read back.
+    volcl::writeImage(noise, dir / "keep.png");
+    EXPECT_EQ(volcl::readImage(dir / "keep.png").width, 128);
 }
 
 TEST(ImageIo, UnreadableFilesAreRefused) {

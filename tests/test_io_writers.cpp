@@ -278,7 +278,9 @@ TEST(NiftiWriter, SeriesIsOne4DFileWithEveryFrameAndTheTimeStep) {
     const std::string nhdr = test::readFile(dir / "s.nhdr");
     EXPECT_NE(nhdr.find("dimension: 4\n"), std::string::npos) << nhdr;
     EXPECT_NE(nhdr.find("sizes: 5 4 3 4\n"), std::string::npos) << nhdr;
-    EXPECT_EQ(test::readFile(dir / "s.raw").size(), 4 * 5 * 4 * 3 * sizeof(float));
+    const std::size_t dataAt = nhdr.find("data file: ") + 11;
+    const std::string dataFile = nhdr.substr(dataAt, nhdr.find('\n', dataAt) - dataAt);
+    EXPECT_EQ(test::readFile(dir / dataFile).size(), 4 * 5 * 4 * 3 * sizeof(float));
     const TimeSeries nrrd = readVolumeFile(dir / "s.nhdr");
     ASSERT_EQ(nrrd.frames.size(), 4u);
     for (std::size_t f = 0; f < 4; ++f)

@@ -310,8 +310,10 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
                 io::expandFilePattern(a->out, 0, static_cast<long long>(n) - 1, 1, a->out, n);
             for (const std::string& name : names)
                 checkNotSameFile({std::filesystem::path(a->in)}, volumeFilesWritten(name));
+            AtomicCommitGroup frameFiles; // every frame or none: each waits, finished, for the last
             decodeEachFrame(r, cc, o.threads, o.profile,
                             [&](std::size_t f, Volume&& v) { writeVolumeFile(v, names[f], wo); });
+            frameFiles.commit();
             if (!global.quiet) std::cerr << "volcl: wrote " << n << " frames to " << a->out << "\n";
             if (a->profile && !global.quiet) printProfile("decode", prof, 0);
             return;

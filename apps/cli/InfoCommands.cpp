@@ -331,8 +331,10 @@ void addConvert(CLI::App& app, GlobalOptions& global) {
             for (const std::string& name : names)
                 checkNotSameFile(inputs.empty() ? std::vector<std::filesystem::path>{a->in} : inputs,
                                  volumeFilesWritten(name));
+            AtomicCommitGroup frameFiles; // every frame or none
             for (std::size_t f = 0; f < n; ++f)
                 writeVolumeFile(ts.frames[f], names[f], wo);
+            frameFiles.commit();
         } else {
             writeSeriesFile(ts, a->out, wo);
         }

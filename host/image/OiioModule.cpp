@@ -6,6 +6,7 @@
 #include "core/MemoryBudget.hpp"
 #include "host/image/ExrHeaderCheck.hpp"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
@@ -15,6 +16,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <span>
 #include <vector>
 
 #include <sys/mman.h>
@@ -30,7 +32,6 @@ void write(const ImageBuffer& image, const std::filesystem::path& path, ImageFil
     const std::string name = path.string();
     const bool png = fileFormat == ImageFileFormat::Png, exr = !png;
     AtomicFile out(path);
-    // The temporary has a different name, so choose the writer from the target's extension.
     auto writer = OIIO::ImageOutput::create(name);
     if (!writer) throw IoError(name + ": no image writer available (" + OIIO::geterror() + ")");
 
@@ -55,7 +56,12 @@ void write(const ImageBuffer& image, const std::filesystem::path& path, ImageFil
             spec.attribute(a.name, OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, OIIO::TypeDesc::VEC2), v->data());
     }
 
-    if (!writer->open(out.tempPath().string(), spec))
+    // The encoder writes into memory and volcl writes the bytes: OpenImageIO's own file writes do not
+    // report a full disk (a PNG became a 0-byte file with success), AtomicFile checks every byte.
+    if (!writer->supports("ioproxy"))
+        throw IoError(name + ": this OpenImageIO writer cannot write to memory (no ioproxy support)");
+    OIIO::Filesystem::IOVecOutput encoded;
+    if (!writer->set_ioproxy(&encoded) || !writer->open(name, spec))
         throw IoError(name + ": cannot open for writing (" + writer->geterror() + ")");
     bool ok = false;
     if (png) {
@@ -74,6 +80,9 @@ void write(const ImageBuffer& image, const std::filesystem::path& path, ImageFil
     if (!writer->close() && ok) throw IoError(name + ": cannot finish writing (" + writer->geterror() + ")");
     if (!ok) throw IoError(name + ": cannot write pixels (" + error + ")");
     writer.reset();
+    const std::vector<unsigned char>& bytes = encoded.buffer();
+    if (bytes.empty()) throw IoError(name + ": the image writer produced no bytes");
+    out.write(std::span<const std::byte>(reinterpret_cast<const std::byte*>(bytes.data()), bytes.size()));
     out.commit();
 }
 

@@ -195,6 +195,9 @@ void writeNrrd(const Volume& volume, const std::filesystem::path& path, const Wr
 /// A 4D NRRD of every frame (same dims and type): a fourth axis of kind `list` after the three spatial ones.
 void writeNrrdSeries(std::span<const Volume> frames, const std::filesystem::path& path,
                      const WriteOptions& options);
+/// The data file a detached `.nhdr` writer made for the header now at `header` (`NAME.<16 hex>.raw`, named
+/// by a header that says "written by volcl"), which writing that header again removes; nullopt otherwise.
+std::optional<std::filesystem::path> nhdrOwnedDataFile(const std::filesystem::path& header);
 void writeVdb(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
 void writeNifti(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
 /// A 4D NIfTI of every frame (same dims and type); `times` (empty or one per frame, seconds) gives

@@ -3,8 +3,17 @@
 #include "host/io/IoDetail.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstdint>
+#include <fstream>
 #include <map>
+#include <optional>
+#include <random>
+#include <string_view>
+
+#include <signal.h>
+#include <unistd.h>
 
 namespace volcl::io {
 
@@ -411,6 +420,92 @@ TimeSeries readNrrd(ReadContext& ctx) {
     return decodeFrames(data, *st, endian, dims, frames, g.spacing, g.origin);
 }
 
+namespace {
+
+constexpr std::string_view kWrittenByVolcl = "NRRD0004\n# written by volcl;";
+
+// The part of a detached header's name its data files repeat: the name without `.nhdr`, cut so that
+// `STEM.<16 hex>.raw` stays within NAME_MAX (255 bytes).
+std::string dataStem(const fs::path& header) {
+    std::string stem = header.filename().string();
+    stem.resize(stem.size() - std::min<std::size_t>(stem.size(), 5)); // ".nhdr"
+    if (stem.size() > 234) stem.resize(234);
+    return stem;
+}
+
+// `STEM.<8 hex digits of the writer's PID><8 random hex digits>.raw` beside the header: every run's data
+// file has its own name, and the PID tells whether its writer can still move a header naming it in.
+fs::path uniqueDataPath(const fs::path& header) {
+    static constexpr char kHex[] = "0123456789abcdef";
+    std::random_device rd;
+    const std::uint64_t r = (std::uint64_t(static_cast<std::uint32_t>(::getpid())) << 32) | rd();
+    std::string name = dataStem(header) + ".";
+    for (int shift = 60; shift >= 0; shift -= 4)
+        name += kHex[(r >> shift) & 15];
+    name += ".raw";
+    return header.parent_path() / name;
+}
+
+// The writer's PID in a data file name of the unique form, 0 when `name` does not have that form.
+pid_t dataFileWriter(const fs::path& header, const std::string& name) {
+    const std::string stem = dataStem(header);
+    if (name.size() != stem.size() + 21 || !name.starts_with(stem + ".") || !name.ends_with(".raw")) return 0;
+    std::uint64_t pid = 0;
+    for (std::size_t i = stem.size() + 1; i < stem.size() + 17; ++i) {
+        const char c = name[i];
+        if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return 0;
+        if (i < stem.size() + 9)
+            pid = pid * 16 + static_cast<std::uint64_t>(c <= '9' ? c - '0' : c - 'a' + 10);
+    }
+    return pid > 0 && pid <= 0x7fffffff ? static_cast<pid_t>(pid) : 0;
+}
+
+// The data file the header text at `readFrom` names, when volcl wrote that header for `header`'s name
+// and the data file has the unique-name form: only files volcl made are ever removed.
+std::optional<fs::path> ownedDataFile(const fs::path& header, const fs::path& readFrom) {
+    std::ifstream in(readFrom, std::ios::binary);
+    std::string text(4096, '\0');
+    in.read(text.data(), static_cast<std::streamsize>(text.size()));
+    text.resize(static_cast<std::size_t>(std::max<std::streamsize>(in.gcount(), 0)));
+    if (!text.starts_with(kWrittenByVolcl)) return std::nullopt;
+    const std::size_t at = text.find("\ndata file: ");
+    if (at == std::string::npos) return std::nullopt;
+    const std::size_t begin = at + 12, end = text.find('\n', begin);
+    if (end == std::string::npos) return std::nullopt;
+    const std::string name = text.substr(begin, end - begin);
+    if (dataFileWriter(header, name) == 0) return std::nullopt;
+    return header.parent_path() / name;
+}
+
+// Removes the data files of runs killed between moving their data file and their header into place: files
+// of the unique form whose writer no longer exists and that the present header does not name. The header
+// is read after the PID check: a writer that has exited has moved its header in already, so a data file
+// still named is seen as named.
+void removeOrphanedDataFiles(const fs::path& header) {
+    const fs::path dir = header.parent_path().empty() ? fs::path(".") : header.parent_path();
+    std::vector<fs::path> orphans;
+    std::error_code ec;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+        const std::string name = it->path().filename().string();
+        const pid_t writer = dataFileWriter(header, name);
+        if (writer == 0 || writer == ::getpid()) continue;
+        if (::kill(writer, 0) != 0 && errno == ESRCH) orphans.push_back(header.parent_path() / name);
+    }
+    if (orphans.empty()) return;
+    // A header volcl did not write may name files in its own syntax: then nothing goes.
+    std::error_code existsEc;
+    const std::optional<fs::path> named = ownedDataFile(header, header);
+    if (!named && fs::exists(header, existsEc)) return;
+    for (const fs::path& orphan : orphans)
+        if (!named || named->filename() != orphan.filename()) ::unlink(orphan.c_str());
+}
+
+} // namespace
+
+std::optional<fs::path> nhdrOwnedDataFile(const fs::path& header) {
+    return ownedDataFile(header, header);
+}
+
 void writeNrrdSeries(std::span<const Volume> frames, const fs::path& path, const WriteOptions& options) {
     const Volume& volume = frames.front();
     for (const Volume& v : frames)
@@ -453,16 +548,35 @@ void writeNrrdSeries(std::span<const Volume> frames, const fs::path& path, const
         header += std::string("endian: ") + (options.endian == Endian::Little ? "little" : "big") + "\n";
     header += std::string("encoding: ") + (gzip ? "gzip" : "raw") + "\n";
     if (detached) {
-        fs::path dataPath = path;
-        dataPath.replace_extension(".raw");
+        // The data goes under a name no other run uses, then the header that names it replaces the old
+        // header in one step: a reader sees the old pair or the new pair, never old header over new data
+        // (or the reverse), whatever runs write the same .nhdr at once. The old header's data file goes last.
+        removeOrphanedDataFiles(path);
+        const fs::path dataPath = uniqueDataPath(path);
         header += "data file: " + dataPath.filename().string() + "\n";
         AtomicFile dataOut(dataPath);
-        for (const Volume& v : frames)
-            writeVoxelsInOrder(dataOut, v, options.endian);
+        try {
+            for (const Volume& v : frames)
+                writeVoxelsInOrder(dataOut, v, options.endian);
+        } catch (const IoError& e) { // the user named the header: say which output failed
+            throw IoError(path.string() + ": cannot write its data file: " + e.what());
+        }
         AtomicFile headerOut(path);
         headerOut.write(header);
-        dataOut.commit(); // data first: a visible header always has its data beside it
-        headerOut.commit();
+        headerOut.onReplaced([path](const fs::path& oldHeader) {
+            if (const auto oldData = ownedDataFile(path, oldHeader)) ::unlink(oldData->c_str());
+        });
+        try {
+            dataOut.commit();
+        } catch (const IoError& e) {
+            throw IoError(path.string() + ": cannot write its data file: " + e.what());
+        }
+        try {
+            headerOut.commit();
+        } catch (...) {
+            ::unlink(dataPath.c_str()); // named by no header
+            throw;
+        }
         return;
     }
     header += "\n";

@@ -215,6 +215,14 @@ TimeSeries readDense(const fs::path& path, const ReadOptions& options) {
     return series;
 }
 
+// What io::File::write does (a seekable archive: grid offsets for random access), into a stream volcl owns.
+class CheckedArchive : public openvdb::io::Archive {
+public:
+    void writeTo(std::ostream& os, const openvdb::GridCPtrVec& grids) const {
+        Archive::write(os, grids, /*seekable=*/true);
+    }
+};
+
 void write(const Volume& volume, const fs::path& path, const WriteOptions& options) {
     initOpenVdb();
     const Dims& d = volume.dims();
@@ -254,15 +262,17 @@ void write(const Volume& volume, const fs::path& path, const WriteOptions& optio
 
     AtomicFile out(path);
     try {
-        openvdb::io::File file(out.tempPath().string());
+        // io::File::write writes through its own std::ofstream and never checks it (a full disk gave a
+        // truncated file and success); the same archive goes to AtomicFile's stream, whose every write,
+        // flush and size the commit checks.
+        CheckedArchive archive;
         std::uint32_t compression = openvdb::io::COMPRESS_NONE;
         if (options.compress)
             compression = openvdb::io::COMPRESS_ACTIVE_MASK |
                           (openvdb::io::Archive::hasBloscCompression() ? openvdb::io::COMPRESS_BLOSC
                                                                        : openvdb::io::COMPRESS_ZIP);
-        file.setCompression(compression);
-        file.write(openvdb::GridCPtrVec{grid});
-        file.close();
+        archive.setCompression(compression);
+        archive.writeTo(out.stream(), openvdb::GridCPtrVec{grid});
     } catch (const openvdb::Exception& e) {
         throw IoError(path.string() + ": OpenVDB cannot write it: " + e.what());
     }

@@ -244,11 +244,9 @@ void writeSeriesFile(const TimeSeries& series, const fs::path& path, const Write
 
 std::vector<fs::path> volumeFilesWritten(const fs::path& path) {
     std::vector<fs::path> files{path};
-    if (endsWithI(path.filename().string(), ".nhdr")) {
-        fs::path data = path;
-        data.replace_extension(".raw");
-        files.push_back(data);
-    }
+    // A .nhdr's new data file has a name no file holds yet; the one its present header names goes.
+    if (endsWithI(path.filename().string(), ".nhdr"))
+        if (auto replaced = io::nhdrOwnedDataFile(path)) files.push_back(std::move(*replaced));
     return files;
 }
 

@@ -88,7 +88,9 @@ bool formatHoldsSeries(const std::filesystem::path& path);
 void writeSeriesFile(const TimeSeries& series, const std::filesystem::path& path,
                      const WriteOptions& options = {});
 
-/// Every file writeVolumeFile(volume, path) creates: the path itself and, for a detached .nhdr, its .raw.
+/// Every existing file writeVolumeFile(volume, path) replaces or removes: the path itself and, for a
+/// detached .nhdr, the data file its present header names when volcl made it (`NAME.<16 hex>.raw`). The
+/// new data file of a .nhdr gets a fresh unique name, so it can never be an input.
 std::vector<std::filesystem::path> volumeFilesWritten(const std::filesystem::path& path);
 
 /// Parses `<X>x<Y>x<Z>_<type>` from a raw file name such as `head_256x256x113_uint16.raw`.

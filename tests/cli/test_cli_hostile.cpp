@@ -5,6 +5,7 @@
 #include "wavelet/container/VczFormat.hpp"
 
 #include <spawn.h>
+#include <sys/mount.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -15,6 +16,7 @@
 #include <algorithm>
 #include <cstring>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 extern char** environ;
@@ -100,12 +102,19 @@ TEST(CliHostile, ConvertRefusesToOverwriteTheDataFileOfItsHeader) {
     const std::string before = slurp(dir / "a.raw");
     expectRefused(run("convert a.nrrd -o a.raw --crop 0,0,0:10,10,10", dir), 2, "a.raw", "same file");
     EXPECT_EQ(slurp(dir / "a.raw"), before);
-    // A detached .nhdr output writes a .raw beside it: that must not be the input's data file either.
+    // A detached .nhdr output writes its data under a new unique name, never over the input's data file.
     writeText(dir / "b.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 12 12 12\ndata file: a.raw\n"
                               "encoding: raw\n\n");
-    expectRefused(run("convert b.nrrd -o a.nhdr", dir), 2, "a.raw", "same file");
+    ASSERT_EQ(run("-q convert b.nrrd -o a.nhdr", dir).exitCode, 0) << slurp(dir / "stderr.txt");
     EXPECT_EQ(slurp(dir / "a.raw"), before);
-    EXPECT_FALSE(fs::exists(dir / "a.nhdr"));
+    EXPECT_EQ(readVolume(dir / "a.nhdr"), readVolume(dir / "b.nrrd"));
+    // Writing a.nhdr again would remove the data file its present header names: refused while that file
+    // is an input (here through c.nhdr, a copy of the header).
+    fs::copy_file(dir / "a.nhdr", dir / "c.nhdr");
+    const RunResult again = run("convert c.nhdr -o a.nhdr", dir);
+    EXPECT_EQ(again.exitCode, 2) << again.err;
+    EXPECT_NE(again.err.find("same file"), std::string::npos) << again.err;
+    EXPECT_EQ(readVolume(dir / "c.nhdr"), readVolume(dir / "b.nrrd"));
 }
 
 TEST(CliHostile, ConvertRefusesToOverwriteASliceOfAListOrASidecarsRawFile) {
@@ -608,4 +617,122 @@ TEST(CliHostile, SigkillDuringAWriteLeavesNoTemporary) {
         for (const auto& e : fs::directory_iterator(out))
             EXPECT_EQ(e.path().filename().string(), "big.nrrd") << "leftover temporary " << e.path();
     }
+}
+
+// ---- every output one commit: full disks, size limits, series ------------------------------------------
+
+namespace {
+
+// A 64 KB tmpfs at `dir`; false (the caller skips) where mounting is refused.
+bool mountSmallTmpfs(const fs::path& dir) {
+    fs::create_directories(dir);
+    return ::mount("tmpfs", dir.c_str(), "tmpfs", 0, "size=64k") == 0;
+}
+
+// Fills the file system of `dir` to its last block.
+void fillUp(const fs::path& dir) {
+    std::ofstream fill(dir / "fill", std::ios::binary);
+    const std::string block(4096, 'f');
+    while (fill.write(block.data(), std::streamsize(block.size())) && fill.flush()) {
+    }
+}
+
+struct Unmount {
+    fs::path dir;
+    ~Unmount() { ::umount2(dir.c_str(), MNT_DETACH); }
+};
+
+std::set<std::string> names(const fs::path& dir) {
+    std::set<std::string> out;
+    for (const auto& e : fs::directory_iterator(dir))
+        out.insert(e.path().filename().string());
+    return out;
+}
+
+// Frames a constant, b constant, c noise: as .nii.gz the first two take a few hundred bytes, the third
+// about 32 KB, so a limit between them fails the series at its last frame.
+TimeSeries twoQuietFramesAndANoisyOne() {
+    TimeSeries ts;
+    for (int f = 0; f < 3; ++f) {
+        Volume v({32, 32, 32}, ScalarType::UInt8);
+        std::uint32_t state = 99;
+        for (auto& x : v.values<std::uint8_t>()) {
+            state = state * 1664525u + 1013904223u;
+            x = f < 2 ? static_cast<std::uint8_t>(f + 1) : static_cast<std::uint8_t>(state >> 24);
+        }
+        ts.frames.push_back(std::move(v));
+    }
+    return ts;
+}
+
+} // namespace
+
+// The reproducers: on a full file system `convert -o t.vdb` left a truncated t.vdb and `render -o
+// t.png` a 0-byte t.png, both with exit 0 (OpenVDB's and OpenImageIO's writes went unchecked). Each now
+// fails with one line naming the file, keeps the old target and leaves nothing new; so do .nhdr and series.
+TEST(CliHostile, FullDiskFailsEveryWriterCleanly) {
+    const fs::path dir = test::tempDir("hostile_full_disk");
+    writeVolumeFile(ramp({64, 64, 64}), dir / "v_64x64x64_uint8.raw");
+    writeSeriesFile(twoQuietFramesAndANoisyOne(), dir / "s.nii");
+    writeText(dir / "tf.json", kTf);
+    const fs::path full = dir / "full";
+    if (!mountSmallTmpfs(full))
+        GTEST_SKIP() << "cannot mount a tmpfs here (needs root): " << std::strerror(errno);
+    const Unmount unmount{full};
+    for (const char* old : {"t.vdb", "t.png", "t.nhdr", "f_00.nii.gz"})
+        writeText(full / old, "old");
+    fillUp(full);
+    const std::set<std::string> before = names(full);
+    struct Case {
+        std::string args, target;
+    } cases[] = {
+        {"convert v_64x64x64_uint8.raw -o full/t.vdb", "t.vdb"},
+        {"render --volume v_64x64x64_uint8.raw --tf tf.json --width 96 --height 96 -o full/t.png", "t.png"},
+        {"convert v_64x64x64_uint8.raw -o full/t.nhdr", "t.nhdr"},
+        {"convert s.nii -o full/f_%02d.nii.gz", "f_0"},
+    };
+    for (const Case& c : cases) {
+        expectRefused(run(c.args, dir), 1, c.target);
+        EXPECT_EQ(names(full), before) << c.args;
+    }
+    for (const char* old : {"t.vdb", "t.png", "t.nhdr", "f_00.nii.gz"})
+        EXPECT_EQ(slurp(full / old), "old") << old;
+}
+
+// Unprivileged: the file size limit cuts the OpenVDB writer short (it wrote a truncated file, exit 0).
+TEST(CliHostile, FileSizeLimitInTheVdbWriterFailsCleanly) {
+    const fs::path dir = test::tempDir("hostile_xfsz_vdb");
+    writeVolumeFile(ramp({64, 64, 64}), dir / "v_64x64x64_uint8.raw");
+    writeText(dir / "t.vdb", "old");
+    expectRefused(run("convert v_64x64x64_uint8.raw -o t.vdb", dir, "ulimit -f 16;"), 1, "t.vdb");
+    EXPECT_EQ(slurp(dir / "t.vdb"), "old");
+    EXPECT_EQ(names(dir), (std::set<std::string>{"t.vdb", "v_64x64x64_uint8.raw", "stderr.txt"}));
+}
+
+// A series written as a pattern is all or nothing: the limit stops its last frame, and the first two
+// (which fit) must not stay behind; an old frame file keeps its content. Without the limit all three land.
+TEST(CliHostile, SeriesPatternOutputIsAllOrNothing) {
+    const fs::path dir = test::tempDir("hostile_series_commit");
+    writeSeriesFile(twoQuietFramesAndANoisyOne(), dir / "s.nii");
+    writeText(dir / "f_01.nii.gz", "old");
+    expectRefused(run("convert s.nii -o f_%02d.nii.gz", dir, "ulimit -f 8;"), 1, "f_02.nii.gz");
+    EXPECT_EQ(names(dir), (std::set<std::string>{"s.nii", "f_01.nii.gz", "stderr.txt"}));
+    EXPECT_EQ(slurp(dir / "f_01.nii.gz"), "old");
+    ASSERT_EQ(run("-q convert s.nii -o f_%02d.nii.gz", dir).exitCode, 0) << slurp(dir / "stderr.txt");
+    const TimeSeries source = readVolumeFile(dir / "s.nii");
+    for (int f = 0; f < 3; ++f)
+        EXPECT_EQ(readVolume(dir / ("f_0" + std::to_string(f) + ".nii.gz")), source.frames[std::size_t(f)]);
+    EXPECT_EQ(names(dir).size(), 5u);
+    // The same through `decode` of a .vcz series (frames decoded and written one at a time).
+    const fs::path vcz = test::tempDir("hostile_series_commit_vcz");
+    std::string frames;
+    for (int f = 0; f < 3; ++f) {
+        const std::string name = "fr" + std::to_string(f) + "_32x32x32_uint8.raw";
+        writeVolumeFile(source.frames[std::size_t(f)], vcz / name);
+        frames += name + " ";
+    }
+    ASSERT_EQ(run("-q encode " + frames + "-o s.vcz", vcz).exitCode, 0) << slurp(vcz / "stderr.txt");
+    const std::set<std::string> before = names(vcz);
+    expectRefused(run("decode s.vcz -o f_%02d.nii.gz", vcz, "ulimit -f 8;"), 1, "f_02.nii.gz");
+    EXPECT_EQ(names(vcz), before);
 }
