@@ -22,6 +22,20 @@ echo "== Python package (pip install . into build/venv, pytest)"
 bash scripts/python-setup.sh --quiet
 build/venv/bin/python -m pytest -q python/tests
 
+# ==== fault injection (a separate block; see docs/reliability.md) ====
+# Every writer (CLI commands and output formats, Python volcl.write) under full disks (an LD_PRELOAD shim
+# failing the Nth write/fsync/close/rename/link call; a small tmpfs where a mount namespace can be made),
+# SIGKILL/SIGTERM and four concurrent writers. ctest ran the short form of the CLI writers (faults_campaign);
+# here the Python writers' short form, and with VOLCL_LONG=1 (nightly) the long form of every writer:
+# every failing call, 10 kills per writer (over 200 in all), 5 concurrent rounds.
+echo "== fault injection (Python writers$([[ "${VOLCL_LONG:-0}" == 1 ]] && echo "; long form of every writer"))"
+faults=(python3 tests/faults/campaign.py --volcl build/volcl --shim build/tests/faults/libvolcl_fail_io.so
+  --python build/venv/bin/python)
+"${faults[@]}" --only '^python-' --work build/test-tmp/faults_python
+if [[ "${VOLCL_LONG:-0}" == 1 ]]; then
+  "${faults[@]}" --long --work build/test-tmp/faults_long
+fi
+
 echo "== tests (AddressSanitizer + UndefinedBehaviorSanitizer)"
 # -O1: sanitizer builds compile much faster than at -O3 and still run the suite in minutes.
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=None "-DCMAKE_CXX_FLAGS=-O1 -g1" -DVOLCL_SANITIZE=ON \
