@@ -3,6 +3,7 @@
 
 #include "core/AtomicFile.hpp"
 #include "core/Volume.hpp"
+#include "render/VecMath.hpp"
 #include "render/bricks/BrickRenderer.hpp"
 #include "render/grid/GridDetail.hpp"
 #include "render/grid/GridRenderer.hpp"
@@ -14,6 +15,7 @@
 #include "core/Error.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 namespace volcl {
@@ -64,6 +66,25 @@ WorldBox RenderInput::bounds() const {
     }
     if (mesh_) return meshBounds(*mesh_);
     return gridBounds(*volume_);
+}
+
+double RenderInput::cellLength() const {
+    if (mesh_) return approximateCellLength();
+    const std::array<double, 3> sp = vcz_ ? vcz_->header().spacing : volume_->spacing;
+    return std::min({sp[0], sp[1], sp[2]});
+}
+
+double RenderInput::approximateCellLength() const {
+    double cells = 1.0;
+    if (mesh_) {
+        cells = double(std::max<std::size_t>(mesh_->tetCount(), 1));
+    } else {
+        const Dims d = vcz_ ? vcz_->header().dims : volume_->dims();
+        cells = double(std::max<std::int64_t>(d.x - 1, 1)) * double(std::max<std::int64_t>(d.y - 1, 1)) *
+                double(std::max<std::int64_t>(d.z - 1, 1));
+    }
+    const double diagonal = norm(bounds().extent);
+    return diagonal > 0.0 ? diagonal / std::cbrt(cells) : 1.0;
 }
 
 ValueRange RenderInput::valueRange() const {

@@ -144,8 +144,10 @@ TEST(ParaViewImport, NormalisedPresetIsFittedToTheDataRange) {
     EXPECT_NEAR(fit.colorAt(100.0)[0], 0.5, 1e-12);
     EXPECT_NEAR(fit.extinctionAt(200.0), std::log(2.0), 1e-12);
     EXPECT_NEAR(fit.extinctionAt(100.0), 0.5 * std::log(2.0), 1e-12);
-    // Data already in [0, 1] keeps the map as authored; --tf-range wins over both.
-    EXPECT_EQ(tf.fittedTo({0.0, 0.5}).domain, (std::array<double, 2>{0.0, 1.0}));
+    // Data inside [0, 1] is spread over too (issue #37: data in 1e-6..1e-4 saw only the map's bottom);
+    // --tf-range wins over both.
+    EXPECT_EQ(tf.fittedTo({0.0, 0.5}).domain, (std::array<double, 2>{0.0, 0.5}));
+    EXPECT_EQ(tf.fittedTo({1.9e-6, 1.04e-4}).domain, (std::array<double, 2>{1.9e-6, 1.04e-4}));
     const std::array<double, 2> explicitRange{10.0, 20.0};
     EXPECT_EQ(tf.fittedTo({0.0, 200.0}, explicitRange).domain, explicitRange);
     // A map authored in data units is left alone.
@@ -205,3 +207,20 @@ TEST(ParaViewImport, UnknownColourSpaceNamed) {
 }
 
 } // namespace
+
+TEST(ParaViewImport, DefaultTransferFunctionIsParaViewsGreyAndOpacityRamp) {
+    // Closed form: over [lo, hi], colour grey t and opacity t per unit distance d, t = (s - lo) / (hi - lo),
+    // so tau = -ln(1 - t) / d (ParaView's ramp is linear in opacity, not in extinction).
+    const double lo = 20.0, hi = 220.0, d = 1.7;
+    const TransferFunction tf = TransferFunction::paraViewDefault({lo, hi}, d);
+    EXPECT_EQ(tf.domain, (std::array<double, 2>{lo, hi}));
+    for (double t : {0.0, 0.1, 0.37, 0.5, 0.8, 0.9}) {
+        const double s = lo + t * (hi - lo);
+        for (double c : tf.colorAt(s))
+            EXPECT_NEAR(c, t, 1e-12) << t;
+        EXPECT_NEAR(tf.extinctionAt(s) * d, -std::log1p(-t), 2e-4) << t;
+    }
+    EXPECT_NEAR(tf.extinctionAt(hi) * d, volcl::kMaxImportedExtinction, 1e-9);
+    // Constant data: a unit range centred on the value.
+    EXPECT_EQ(TransferFunction::paraViewDefault({7.0, 7.0}, 1.0).domain, (std::array<double, 2>{6.5, 7.5}));
+}

@@ -319,13 +319,38 @@ TransferFunction TransferFunction::rescaled(std::array<double, 2> range) const {
 TransferFunction TransferFunction::fittedTo(std::array<double, 2> dataRange,
                                             std::optional<std::array<double, 2>> explicitRange) const {
     if (explicitRange) return rescaled(*explicitRange);
-    const bool dataIsUnit = dataRange[0] >= 0.0 && dataRange[1] <= 1.0;
-    if (normalized && !dataIsUnit) {
+    // Whatever the data range, [0, 1] data included: data in 1e-6..1e-4 must not see the map's bottom only.
+    if (normalized) {
         // Constant data still needs a range with lo < hi: centre the colour map's middle on it.
         if (!(dataRange[0] < dataRange[1])) dataRange = {dataRange[0] - 0.5, dataRange[0] + 0.5};
         return rescaled(dataRange);
     }
     return *this;
+}
+
+TransferFunction TransferFunction::paraViewDefault(std::array<double, 2> dataRange,
+                                                   double opacityUnitDistance) {
+    checkUnitDistance(opacityUnitDistance);
+    if (!(std::isfinite(dataRange[0]) && std::isfinite(dataRange[1]) && dataRange[0] <= dataRange[1]))
+        throw UsageError("default transfer function: data range [" + describe(dataRange[0]) + ", " +
+                         describe(dataRange[1]) + "] is not finite");
+    if (!(dataRange[0] < dataRange[1])) dataRange = {dataRange[0] - 0.5, dataRange[0] + 0.5};
+    const auto [lo, hi] = dataRange;
+    TransferFunction tf;
+    tf.domain = dataRange;
+    tf.color = {{lo, {0.0, 0.0, 0.0}}, {hi, {1.0, 1.0, 1.0}}};
+    // ParaView's ramp is linear in opacity, not in extinction: 257 samples keep the piecewise-linear tau
+    // within 2e-4 of -ln(1 - a) for a <= 0.9 (the interpolation error is h^2 / 8 / (1 - a)^2).
+    constexpr int kSamples = 256;
+    for (int k = 0; k <= kSamples; ++k) {
+        const double a = double(k) / kSamples;
+        const double s = k == kSamples ? hi : lo + (hi - lo) * a;
+        tf.extinction.push_back(
+            {s, opacityToExtinction(
+                    a, [] { return std::string("default transfer function"); }, opacityUnitDistance)});
+    }
+    tf.validate();
+    return tf;
 }
 
 TransferFunction TransferFunction::fromRgbaStrip(const std::vector<std::array<float, 4>>& pixels,
