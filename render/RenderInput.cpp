@@ -115,7 +115,8 @@ std::string RenderInput::summary() const {
            std::string(scalarTypeName(volume_->type()));
 }
 
-EffectPlan RenderInput::planEffects(const Scene& scene, const TransferFunction& tf) const {
+EffectPlan RenderInput::planEffects(const Scene& sceneAsGiven, const TransferFunction& tf) const {
+    const Scene scene = resolved(sceneAsGiven);
     if (vcz_) {
         EffectPlan p = volcl::planEffects(scene, bounds(), valueRange(), "macrocells over the brick index");
         p.defines.set("VOXEL_TYPE", 0LL);
@@ -130,8 +131,9 @@ EffectPlan RenderInput::planEffects(const Scene& scene, const TransferFunction& 
     return volcl::planEffects(scene, *volume_, tf);
 }
 
-ImageBuffer RenderInput::renderReference(const TransferFunction& tf, const Scene& scene,
+ImageBuffer RenderInput::renderReference(const TransferFunction& tf, const Scene& sceneAsGiven,
                                          const ReferenceOptions& options) const {
+    const Scene scene = resolved(sceneAsGiven);
     if (vcz_)
         throw UsageError(vcz_->name() +
                          ": the double reference renders grids: decode the file first (volcl decode)");
@@ -139,8 +141,16 @@ ImageBuffer RenderInput::renderReference(const TransferFunction& tf, const Scene
     return referenceRender(*volume_, tf, scene, options);
 }
 
+Scene RenderInput::resolved(const Scene& scene) const {
+    if (!scene.stepVoxels) return scene;
+    Scene s = scene;
+    resolveStep(s, cellLength());
+    return s;
+}
+
 std::unique_ptr<VolumeRenderer> RenderInput::makeRenderer(ComputeContext& cc, const TransferFunction& tf,
-                                                          const Scene& scene) const {
+                                                          const Scene& sceneAsGiven) const {
+    const Scene scene = resolved(sceneAsGiven);
     if (vcz_) return std::make_unique<BrickRenderer>(cc, vcz_, frame_, tf, scene);
     if (mesh_) {
         if (scene.meshMethod == MeshMethod::KBuffer) return makeKBufferRenderer(cc, *mesh_, tf, scene);

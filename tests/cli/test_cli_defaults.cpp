@@ -4,6 +4,8 @@
 #include "../TestUtil.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
+#include "render/RenderInput.hpp"
+#include "render/Scene.hpp"
 
 #include <sys/wait.h>
 
@@ -47,7 +49,8 @@ bool has(const std::string& text, const std::string& what) {
 /// so iso 80 finds the skin and a MIP window of 110,40 (90..130) lights it.
 Volume headLike() {
     Volume v = test::makeFloatVolume({48, 48, 48}, [](double x, double y, double z) {
-        const double r = std::sqrt((x - 23.5) * (x - 23.5) + (y - 23.5) * (y - 23.5) + (z - 23.5) * (z - 23.5));
+        const double r =
+            std::sqrt((x - 23.5) * (x - 23.5) + (y - 23.5) * (y - 23.5) + (z - 23.5) * (z - 23.5));
         return r < 12 ? 160.0 : r < 20 ? 100.0 : 2.0;
     });
     return v;
@@ -124,7 +127,8 @@ TEST(CliDefaults, WithoutFlagsEveryModeRendersSomething) {
     auto dir = test::tempDir("cli_defaults_modes");
     writeVolumeFile(headLike(), dir / "head.nrrd");
     for (const std::string mode : {"dvr", "mip", "xray", "iso --iso 80"}) {
-        const RunResult r = run("render --volume head.nrrd --width 48 --height 48 -o m.exr --mode " + mode, dir);
+        const RunResult r =
+            run("render --volume head.nrrd --width 48 --height 48 -o m.exr --mode " + mode, dir);
         ASSERT_EQ(r.exitCode, 0) << mode << ": " << r.err;
         EXPECT_GT(litFraction(readImage(dir / "m.exr"), 0.02), 0.1) << mode; // the disc: about a fifth
     }
@@ -145,6 +149,7 @@ TEST(CliDefaults, NoFlagRenderOfRealMriAndCfdIsVisible) {
     const auto shared = test::sharedData();
     if (!shared.empty()) {
         inputs.push_back(shared / "regular/HeadMRVolume.mhd");
+        inputs.push_back(shared / "regular/headsq/quarter.nhdr"); // CT
         inputs.push_back(shared / "unstructured/bluntfinxyz.bin");
     }
     if (inputs.empty()) GTEST_SKIP() << "neither mricron-data's ch2.nii.gz nor the shared data is installed";
@@ -161,12 +166,13 @@ TEST(CliDefaults, NoFlagRenderOfRealMriAndCfdIsVisible) {
 
 TEST(CliDefaults, DefaultStepOnFineGridMatchesQuarterVoxelReference) {
     // walnut.vvd has spacing 0.015625: before, the default step was 0.5 world units (32 voxels) and the
-    // image nearly black. The reference samples every quarter voxel, given in world units.
+    // image nearly black (with --tf preset:grayscale: relative RMSE 0.32, 2.5 % of the pixels lit). The
+    // reference samples every quarter voxel, given in world units.
     const auto shared = test::sharedData();
     if (shared.empty()) GTEST_SKIP() << "shared data absent";
     auto dir = test::tempDir("cli_defaults_walnut");
     const std::string walnut = (shared / "regular/walnut.vvd").string();
-    const std::string size = " --width 64 --height 64 --tf preset:grayscale";
+    const std::string size = " --width 64 --height 64"; // every other setting a default
     const RunResult d = run("render --volume " + walnut + size + " -o d.exr", dir);
     ASSERT_EQ(d.exitCode, 0) << d.err;
     const RunResult q = run("render --volume " + walnut + size + " --step 0.00390625 -o q.exr", dir);
@@ -191,7 +197,8 @@ TEST(CliDefaults, PresetsAreSpreadOverSmallDataRanges) {
         return 2e-6 + 1e-4 * std::exp(-r2 / 80.0);
     });
     writeVolumeFile(v, dir / "small.nrrd");
-    const RunResult r = run("render --volume small.nrrd --tf preset:viridis --width 48 --height 48 -o s.exr", dir);
+    const RunResult r =
+        run("render --volume small.nrrd --tf preset:viridis --width 48 --height 48 -o s.exr", dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_GT(litFraction(readImage(dir / "s.exr"), 0.01), 0.1);
     const auto shared = test::sharedData();
@@ -202,8 +209,8 @@ TEST(CliDefaults, PresetsAreSpreadOverSmallDataRanges) {
                                 dir);
         ASSERT_EQ(m.exitCode, 0) << mesh << ": " << m.err;
         const ImageBuffer img = readImage(dir / "m.exr");
-        std::cout << mesh << " with preset:viridis: lit fraction " << litFraction(img, 0.01) << ", mean luminance "
-                  << meanLuminance(img) << '\n';
+        std::cout << mesh << " with preset:viridis: lit fraction " << litFraction(img, 0.01)
+                  << ", mean luminance " << meanLuminance(img) << '\n';
         EXPECT_GT(litFraction(img, 0.01), 0.05) << mesh; // before: 0 and 0.024
     }
 }
@@ -239,10 +246,12 @@ TEST(CliDefaults, IsoValueOutsideTheDataRangeIsNoted) {
     // Before: exit 0, an empty image and nothing said.
     auto dir = test::tempDir("cli_defaults_iso");
     writeVolumeFile(headLike(), dir / "head.nrrd");
-    const RunResult r = run("render --volume head.nrrd --mode iso --iso 5000 --width 32 --height 32 -o i.exr", dir);
+    const RunResult r =
+        run("render --volume head.nrrd --mode iso --iso 5000 --width 32 --height 32 -o i.exr", dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_TRUE(has(r.err, "iso value 5000 is outside the data range [2, 160]")) << r.err;
-    const RunResult in = run("render --volume head.nrrd --mode iso --iso 80 --width 32 --height 32 -o j.exr", dir);
+    const RunResult in =
+        run("render --volume head.nrrd --mode iso --iso 80 --width 32 --height 32 -o j.exr", dir);
     ASSERT_EQ(in.exitCode, 0) << in.err;
     EXPECT_FALSE(has(in.err, "outside the data range")) << in.err;
 }
@@ -280,5 +289,24 @@ TEST(CliDefaults, VczInfoIsASummaryWithSpacingAndOrigin) {
     const RunResult all = run("info head.vcz --bricks", dir);
     ASSERT_EQ(all.exitCode, 0) << all.err;
     EXPECT_TRUE(has(all.out, "frame 0: brick  origin")) << all.out;
-    EXPECT_GT(std::count(all.out.begin(), all.out.end(), '\n'), std::count(r.out.begin(), r.out.end(), '\n') + 20);
+    EXPECT_GT(std::count(all.out.begin(), all.out.end(), '\n'),
+              std::count(r.out.begin(), r.out.end(), '\n') + 20);
+}
+
+TEST(SceneStep, WorldUnitsOrVoxelsAndHalfAVoxelByDefault) {
+    // A number is world units; "Nvox" counts voxels of the finest spacing; a scene without a step takes 0.5vox.
+    EXPECT_FALSE(Scene::fromJson(R"({"render": {"step": 0.02}})").stepVoxels);
+    EXPECT_EQ(Scene::fromJson(R"({"render": {"step": 0.02}})").step, 0.02);
+    EXPECT_EQ(Scene::fromJson(R"({"render": {"step": "0.25vox"}})").stepVoxels, 0.25);
+    EXPECT_EQ(Scene::fromJson(R"({"render": {}})").stepVoxels, kDefaultStepVoxels);
+    for (const char* bad : {R"("0.5vx")", R"("vox")", R"("-1vox")", R"("0.5 vox")", R"("nanvox")"})
+        EXPECT_THROW(Scene::fromJson(std::string(R"({"render": {"step": )") + bad + "}}"), UsageError) << bad;
+    const Scene s = Scene::fromJson(R"({"render": {"step": "0.1vox"}})");
+    EXPECT_EQ(Scene::fromJson(s.toJson()).stepVoxels, s.stepVoxels); // the JSON form round-trips exactly
+    // Resolved against the finest spacing (independent arithmetic: 0.1 of min(0.5, 0.25, 2)).
+    Volume v({4, 4, 4}, ScalarType::Float32);
+    v.spacing = {0.5, 0.25, 2.0};
+    const Scene r = RenderInput::borrow(v).resolved(s);
+    EXPECT_FALSE(r.stepVoxels);
+    EXPECT_DOUBLE_EQ(r.step, 0.025);
 }
