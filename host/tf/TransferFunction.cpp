@@ -29,6 +29,10 @@ std::string describe(double v) {
     return os.str();
 }
 
+/// Pieces of ParaView's default opacity ramp (0 to 1, linear in opacity): tau between the samples is linear,
+/// within 2e-4 of -ln(1 - a) for a <= 0.9 (the interpolation error is h^2 / 8 / (1 - a)^2).
+constexpr int kOpacityRampSamples = 256;
+
 /// tau for an opacity per `unitDistance` of length; a = 1 has no finite answer and maps to
 /// kMaxImportedExtinction (per unit distance). `where()` names the point, for the message only.
 template <class Where> double opacityToExtinction(double a, Where where, double unitDistance = 1.0) {
@@ -236,9 +240,14 @@ TransferFunction TransferFunction::fromParaView(std::string_view text, double op
             throw DataError("ParaView colour map: 'RGBPoints' are not sorted by x at point " +
                             std::to_string(i));
     if (nodes.empty()) {
-        // A colour-only preset: a gentle linear ramp, so low values stay clear and the top is translucent.
-        nodes.push_back({tf.color.front().s, 0.0, 0.5, 0.0});
-        nodes.push_back({tf.color.back().s, kColorOnlyTopOpacity, 0.5, 0.0});
+        // A colour-only map keeps ParaView's default opacity: a ramp over the colour range, linear in opacity
+        // (sampled as paraViewDefault() does, so tau follows -ln(1 - a)).
+        const double lo = tf.color.front().s, hi = tf.color.back().s;
+        for (int k = 0; k <= kOpacityRampSamples; ++k) {
+            const double t = double(k) / kOpacityRampSamples;
+            nodes.push_back(
+                {k == kOpacityRampSamples ? hi : lo + (hi - lo) * t, t * kColorOnlyTopOpacity, 0.5, 0.0});
+        }
     }
     for (std::size_t i = 1; i < nodes.size(); ++i)
         if (!(nodes[i].x >= nodes[i - 1].x))
@@ -339,12 +348,9 @@ TransferFunction TransferFunction::paraViewDefault(std::array<double, 2> dataRan
     TransferFunction tf;
     tf.domain = dataRange;
     tf.color = {{lo, {0.0, 0.0, 0.0}}, {hi, {1.0, 1.0, 1.0}}};
-    // ParaView's ramp is linear in opacity, not in extinction: 257 samples keep the piecewise-linear tau
-    // within 2e-4 of -ln(1 - a) for a <= 0.9 (the interpolation error is h^2 / 8 / (1 - a)^2).
-    constexpr int kSamples = 256;
-    for (int k = 0; k <= kSamples; ++k) {
-        const double a = double(k) / kSamples;
-        const double s = k == kSamples ? hi : lo + (hi - lo) * a;
+    for (int k = 0; k <= kOpacityRampSamples; ++k) {
+        const double a = double(k) / kOpacityRampSamples;
+        const double s = k == kOpacityRampSamples ? hi : lo + (hi - lo) * a;
         tf.extinction.push_back(
             {s, opacityToExtinction(
                     a, [] { return std::string("default transfer function"); }, opacityUnitDistance)});

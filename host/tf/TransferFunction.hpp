@@ -20,9 +20,10 @@ inline constexpr double kMaxImportedExtinction = 1000.0;
 /// N^2 entries integrates over every piece between s_f and s_b), so a small file claiming a million of
 /// them (a 300-byte compressed strip) is refused before any work; colour maps have hundreds.
 inline constexpr std::size_t kMaxTransferFunctionPoints = 16384;
-/// Opacity per unit distance given to a ParaView colour map that has no opacity `Points`: a linear ramp
-/// from 0 at the bottom of its colour range to this value at the top (translucent, never a solid blob).
-inline constexpr double kColorOnlyTopOpacity = 0.1;
+/// Opacity per unit distance given to a ParaView colour map that has no opacity `Points` (the built-in
+/// presets): ParaView's default ramp, linear in opacity from 0 at the bottom of its colour range to this
+/// value at the top, as ParaView keeps its default opacity when a colour preset is applied.
+inline constexpr double kColorOnlyTopOpacity = 1.0;
 
 struct ColorPoint {
     double s;
