@@ -12,7 +12,7 @@ mri=${VOLCL_SHARED_DATA_DIR:-../shared/data}/regular/t1_icbm_normal_1mm_pn0_rf0_
 [[ -f "$mri" ]] || { echo "viewer_orbit: $mri is absent" >&2; exit 1; }
 echo "load before: $(uptime)"
 env -u DISPLAY "$volcl" bench view "$mri" --tf bench/viewer/mri_tf.json --width 512 --height 512 \
-  --frames 62 --orbit 3 --stills 3 --target-ms "$target" \
+  --frames 62 --spin 3 --stills 3 --target-ms "$target" \
   --csv bench/results/viewer/viewer-orbit-mri.csv --json bench/results/viewer/viewer-orbit-mri.json
 echo "load after: $(uptime)"
 /usr/bin/python3 bench/plot_viewer_orbit.py bench/results/viewer/viewer-orbit-mri.csv "$target" docs/images/viewer-orbit-mri.png

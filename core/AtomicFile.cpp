@@ -138,17 +138,23 @@ int openUnnamedTemp(const fs::path& target) {
 
 } // namespace
 
-AtomicFile::AtomicFile(fs::path target) : target_(std::move(target)) {
-    if (target_.empty()) throw IoError("output path is empty");
-    const fs::path dir = directoryOf(target_);
+void checkOutputPath(const fs::path& target) {
+    if (target.empty()) throw IoError("output path is empty");
+    const fs::path dir = directoryOf(target);
     std::error_code ec;
     if (!fs::is_directory(dir, ec))
-        throw IoError(target_.string() + ": output directory " + dir.string() + " does not exist");
+        throw IoError(target.string() + ": output directory " + dir.string() + " does not exist");
+    if (::access(dir.c_str(), W_OK) != 0)
+        throw IoError(target.string() + ": output directory " + dir.string() + " is not writable");
     // The commit's rename would replace a FIFO or a device node by a regular file (and a directory
     // cannot be replaced): an existing target must be a regular file. /dev/null is refused too.
-    const std::string kind = nonRegularKind(target_);
+    const std::string kind = nonRegularKind(target);
     if (!kind.empty())
-        throw IoError(target_.string() + ": output exists and is " + kind + ", not a regular file");
+        throw IoError(target.string() + ": output exists and is " + kind + ", not a regular file");
+}
+
+AtomicFile::AtomicFile(fs::path target) : target_(std::move(target)) {
+    checkOutputPath(target_);
     removeStaleTemporaries(target_);
     fd_ = openUnnamedTemp(target_);
     if (fd_ >= 0) {

@@ -24,7 +24,7 @@ namespace volcl {
 /// ```
 class AtomicFile {
 public:
-    /// Refuses (IoError) when the target's directory does not exist.
+    /// Refuses (IoError) when the target's directory does not exist (checkOutputPath()).
     explicit AtomicFile(std::filesystem::path target);
     ~AtomicFile(); // removes the temporary unless committed; never throws
     AtomicFile(const AtomicFile&) = delete;
@@ -114,6 +114,10 @@ private:
 /// Whole file as bytes; throws IoError naming the file when it cannot be read or is not a regular file
 /// (a FIFO, device or directory is refused before any read, without blocking).
 std::vector<std::byte> readFileBytes(const std::filesystem::path& path);
+/// What AtomicFile(target) refuses, checked without creating anything, so a command can refuse a bad output
+/// before any work: an empty path, a missing or unwritable directory, an existing target that is not a
+/// regular file. Throws IoError naming the path.
+void checkOutputPath(const std::filesystem::path& target);
 /// Throws IoError naming the file when it does not exist or is not a regular file (FIFO, device,
 /// directory, socket). Uses stat, so a FIFO never blocks. Every reader's input passes this check.
 void requireRegularFile(const std::filesystem::path& path);

@@ -3,6 +3,7 @@
 
 #include "core/AtomicFile.hpp"
 #include "core/Volume.hpp"
+#include "render/VecMath.hpp"
 #include "render/bricks/BrickRenderer.hpp"
 #include "render/grid/GridDetail.hpp"
 #include "render/grid/GridRenderer.hpp"
@@ -14,6 +15,7 @@
 #include "core/Error.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 namespace volcl {
@@ -78,6 +80,25 @@ WorldBox RenderInput::bounds() const {
     return gridBounds(*volume_);
 }
 
+double RenderInput::cellLength() const {
+    if (mesh_) return approximateCellLength();
+    const std::array<double, 3> sp = vcz_ ? vcz_->header().spacing : volume_->spacing;
+    return std::min({sp[0], sp[1], sp[2]});
+}
+
+double RenderInput::approximateCellLength() const {
+    double cells = 1.0;
+    if (mesh_) {
+        cells = double(std::max<std::size_t>(mesh_->tetCount(), 1));
+    } else {
+        const Dims d = vcz_ ? vcz_->header().dims : volume_->dims();
+        cells = double(std::max<std::int64_t>(d.x - 1, 1)) * double(std::max<std::int64_t>(d.y - 1, 1)) *
+                double(std::max<std::int64_t>(d.z - 1, 1));
+    }
+    const double diagonal = norm(bounds().extent);
+    return diagonal > 0.0 ? diagonal / std::cbrt(cells) : 1.0;
+}
+
 ValueRange RenderInput::valueRange() const {
     if (vcz_) {
         ValueRange r{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
@@ -106,7 +127,8 @@ std::string RenderInput::summary() const {
            std::string(scalarTypeName(volume_->type()));
 }
 
-EffectPlan RenderInput::planEffects(const Scene& scene, const TransferFunction& tf) const {
+EffectPlan RenderInput::planEffects(const Scene& sceneAsGiven, const TransferFunction& tf) const {
+    const Scene scene = resolved(sceneAsGiven);
     if (vcz_) {
         EffectPlan p = volcl::planEffects(scene, bounds(), valueRange(), "macrocells over the brick index");
         p.defines.set("VOXEL_TYPE", 0LL);
@@ -122,8 +144,9 @@ EffectPlan RenderInput::planEffects(const Scene& scene, const TransferFunction& 
     return volcl::planEffects(scene, *volume_, tf);
 }
 
-ImageBuffer RenderInput::renderReference(const TransferFunction& tf, const Scene& scene,
+ImageBuffer RenderInput::renderReference(const TransferFunction& tf, const Scene& sceneAsGiven,
                                          const ReferenceOptions& options) const {
+    const Scene scene = resolved(sceneAsGiven);
     if (vcz_)
         throw UsageError(vcz_->name() +
                          ": the double reference renders grids: decode the file first (volcl decode)");
@@ -131,8 +154,16 @@ ImageBuffer RenderInput::renderReference(const TransferFunction& tf, const Scene
     return referenceRender(*volume_, tf, scene, options);
 }
 
+Scene RenderInput::resolved(const Scene& scene) const {
+    if (!scene.stepVoxels) return scene;
+    Scene s = scene;
+    resolveStep(s, cellLength());
+    return s;
+}
+
 std::unique_ptr<VolumeRenderer> RenderInput::makeRenderer(ComputeContext& cc, const TransferFunction& tf,
-                                                          const Scene& scene) const {
+                                                          const Scene& sceneAsGiven) const {
+    const Scene scene = resolved(sceneAsGiven);
     if (vcz_) return std::make_unique<BrickRenderer>(cc, vcz_, frame_, tf, scene);
     if (mesh_) {
         if (scene.meshMethod == MeshMethod::KBuffer) return makeKBufferRenderer(cc, *mesh_, tf, scene);

@@ -63,6 +63,14 @@ public:
     /// The mesh; nullptr for other kinds.
     const mesh::TetMesh* mesh() const noexcept { return mesh_.get(); }
     WorldBox bounds() const;
+    /// The length the default step counts in: a grid's finest spacing, a mesh's approximate cell length.
+    double cellLength() const;
+    /// ParaView's automatic scalar opacity unit distance (the bounds domain's approximate cell length):
+    /// the box diagonal over the cube root of the cell count (grid cells or tetrahedra); 1 for an empty box.
+    double approximateCellLength() const;
+    /// `scene` with a step in voxels (Scene::stepVoxels) turned into world units for this input; the renderer,
+    /// reference and plan made here all use it, so a scene file's `"0.5vox"` means the same everywhere.
+    Scene resolved(const Scene& scene) const;
     /// Smallest and largest finite data value.
     ValueRange valueRange() const;
     /// One line for progress messages: "180x216x180 uint8", "51040 tets, 17344 points".

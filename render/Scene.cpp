@@ -5,6 +5,7 @@
 #include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
 #include "preintegration/PreintegrationTable.hpp"
+#include "core/Format.hpp"
 #include "render/VecMath.hpp"
 
 #include <nlohmann/json.hpp>
@@ -262,7 +263,16 @@ void parseRenderSettings(const json& r, Scene& s) {
                "table_lengths", "filter", "smoothing", "window", "mip_color", "budget_ms", "lod", "lod_error",
                "cache_mb", "method", "k", "nan_color"});
     if (r.contains("mode")) s.mode = parseRenderMode(str(r["mode"], "render.mode"));
-    if (r.contains("step")) s.step = num(r["step"], "render.step");
+    if (r.contains("step")) {
+        if (r["step"].is_string()) {
+            const StepSpec st = parseStepSpec(r["step"].get<std::string>(), "render.step");
+            (st.voxels ? s.stepVoxels.emplace() : s.step) = st.value;
+        } else {
+            s.step = num(r["step"], "render.step");
+        }
+    } else {
+        s.stepVoxels = kDefaultStepVoxels;
+    }
     if (r.contains("preintegration")) {
         const json& p = r["preintegration"];
         s.preintegration = p.is_boolean() ? (p.get<bool>() ? Preintegration::Table2d : Preintegration::None)
@@ -468,7 +478,7 @@ std::string Scene::toJson() const {
     }
     j["image"] = {{"width", width}, {"height", height}, {"background", background}};
     j["render"] = {{"mode", std::string(renderModeName(mode))},
-                   {"step", step},
+                   {"step", stepVoxels ? json(formatNumber(*stepVoxels, 17) + "vox") : json(step)},
                    {"preintegration", std::string(preintegrationName(preintegration))},
                    {"early_termination", earlyTermination},
                    {"skipping", skipping},
@@ -593,6 +603,8 @@ void Scene::validate() const {
          "image size " + std::to_string(width) + "x" + std::to_string(height) + " must be 1..16384 per side");
     // Lengths reach the kernels as float: 1e30 leaves headroom below float's 3.4e38.
     need(std::isfinite(step) && step > 0.0 && step <= 1e30, "render.step must be in (0, 1e30]");
+    need(!stepVoxels || (std::isfinite(*stepVoxels) && *stepVoxels > 0.0 && *stepVoxels <= 1e30),
+         "render.step in voxels must be in (0, 1e30]");
     need(earlyTermination > 0.0 && earlyTermination <= 1.0, "render.early_termination must be in (0, 1]");
     need(tableSize >= 2 && tableSize <= 4096, "render.table_size must be 2..4096");
     need(tableLengths >= 1 && tableLengths <= 1024, "render.table_lengths must be 1..1024");
@@ -692,6 +704,38 @@ std::string shortNumber(double v) {
     return s.str();
 }
 } // namespace
+
+StepSpec parseStepSpec(const std::string& text, const std::string& what) {
+    StepSpec out;
+    std::string number = text;
+    if (number.size() > 3 && number.compare(number.size() - 3, 3, "vox") == 0) {
+        out.voxels = true;
+        number.resize(number.size() - 3);
+    }
+    std::size_t used = 0;
+    try {
+        out.value = std::stod(number, &used);
+    } catch (const std::exception&) {
+        used = 0;
+    }
+    if (used == 0 || used != number.size() || !std::isfinite(out.value) || !(out.value > 0.0))
+        throw UsageError(what + " '" + text +
+                         "' is not a step: a number > 0 in world units (0.01) or voxels (0.5vox)");
+    return out;
+}
+
+std::string resolveStep(Scene& scene, double cellLength) {
+    if (!scene.stepVoxels) return {};
+    if (!(std::isfinite(cellLength) && cellLength > 0.0))
+        throw UsageError("render.step " + shortNumber(*scene.stepVoxels) +
+                         "vox: the input has no cell size (give the step in world units)");
+    scene.step = *scene.stepVoxels * cellLength;
+    const std::string note = "step: " + shortNumber(*scene.stepVoxels) + " voxel of the cell size " +
+                             shortNumber(cellLength) + " = " + shortNumber(scene.step) +
+                             " world units (--step D sets world units, --step Nvox voxels)";
+    scene.stepVoxels.reset();
+    return note;
+}
 
 void Scene::validateSteps(double worldDiagonal) const {
     // Guard against steps so small that one ray would take longer than any frame should.

@@ -153,7 +153,11 @@ struct Scene {
     /// distance, as a TF's; transparent by default (docs/rendering.md, "NaN and Inf").
     std::array<double, 4> nanColor{0, 0, 0, 0};
     RenderMode mode = RenderMode::Dvr;
-    double step = 0.5;
+    double step = 0.5; ///< world units: what the renderers sample at
+    /// The step in voxels of the finest grid spacing (a mesh: ParaView's approximate cell length), from
+    /// `"step": "0.5vox"`, `--step 0.5vox`, or a scene file or command line that gives no step
+    /// (kDefaultStepVoxels); resolveStep() turns it into `step` once the input is known.
+    std::optional<double> stepVoxels;
     Preintegration preintegration = Preintegration::None;
     double earlyTermination = 0.995; ///< 1 disables early termination
     bool skipping = true;
@@ -190,6 +194,22 @@ struct Scene {
     /// (4096^2 x 1024 sqrt(3) / 0.25 = 1.19e11) stays allowed.
     static constexpr double kMaxSamplesPerFrame = 137438953472.0;
 };
+
+/// The step of a scene file or command line that gives none: half a voxel of the finest spacing.
+inline constexpr double kDefaultStepVoxels = 0.5;
+
+/// A step as written in a scene (`"step"`) or on a command line (`--step`): a number in world units, or a
+/// number followed by `vox` in voxels of the finest spacing. Throws UsageError naming `what`.
+struct StepSpec {
+    double value = 0.5;
+    bool voxels = false;
+};
+StepSpec parseStepSpec(const std::string& text, const std::string& what);
+
+/// Sets `scene.step` from `scene.stepVoxels` (when set) and `cellLength`, the input's finest grid spacing
+/// or a mesh's approximate cell length, and clears stepVoxels. Returns the note saying so (empty when the
+/// step was already in world units).
+std::string resolveStep(Scene& scene, double cellLength);
 
 /// Fills in what a scene leaves to defaults, before planning: iso mode shades when nothing says otherwise,
 /// and shading (or scattering, or shadows) with no lit light gets a head light. Returns one line per change

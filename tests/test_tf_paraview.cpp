@@ -144,8 +144,10 @@ TEST(ParaViewImport, NormalisedPresetIsFittedToTheDataRange) {
     EXPECT_NEAR(fit.colorAt(100.0)[0], 0.5, 1e-12);
     EXPECT_NEAR(fit.extinctionAt(200.0), std::log(2.0), 1e-12);
     EXPECT_NEAR(fit.extinctionAt(100.0), 0.5 * std::log(2.0), 1e-12);
-    // Data already in [0, 1] keeps the map as authored; --tf-range wins over both.
-    EXPECT_EQ(tf.fittedTo({0.0, 0.5}).domain, (std::array<double, 2>{0.0, 1.0}));
+    // Data inside [0, 1] is spread over too (issue #37: data in 1e-6..1e-4 saw only the map's bottom);
+    // --tf-range wins over both.
+    EXPECT_EQ(tf.fittedTo({0.0, 0.5}).domain, (std::array<double, 2>{0.0, 0.5}));
+    EXPECT_EQ(tf.fittedTo({1.9e-6, 1.04e-4}).domain, (std::array<double, 2>{1.9e-6, 1.04e-4}));
     const std::array<double, 2> explicitRange{10.0, 20.0};
     EXPECT_EQ(tf.fittedTo({0.0, 200.0}, explicitRange).domain, explicitRange);
     // A map authored in data units is left alone.
@@ -169,12 +171,19 @@ TEST(ParaViewImport, OpacityUnitDistance) {
     EXPECT_THROW(TransferFunction::fromJson(pv, -1.0), volcl::UsageError);
 }
 
-TEST(ParaViewImport, ColourOnlyPresetIsTranslucent) {
-    // Before: a colour-only map got opacity 1 (tau 1000) at its top and rendered as a solid blob.
+TEST(ParaViewImport, ColourOnlyPresetHasParaViewsDefaultOpacityRamp) {
+    // Issue #37: a colour-only map (every built-in preset) gets ParaView's default opacity, 0 to 1 linear in
+    // opacity over its colour range. Once (an earlier fix) a ramp linear in tau reached tau 1000 at once
+    // and drew a solid blob; then a 0..0.1 ramp drew presets as a fog. Closed form: tau = -ln(1 - t).
     const TransferFunction tf = TransferFunction::fromJson(R"({"RGBPoints": [0, 0, 0, 0, 1, 1, 1, 1]})");
     EXPECT_EQ(tf.extinctionAt(0.0), 0.0);
-    EXPECT_NEAR(tf.extinctionAt(1.0), -std::log1p(-volcl::kColorOnlyTopOpacity), 1e-12);
-    EXPECT_LT(tf.maxExtinction(), 1.0);
+    for (double t : {0.1, 0.25, 0.5, 0.75, 0.9})
+        EXPECT_NEAR(tf.extinctionAt(t), -std::log1p(-t), 2e-4) << t;
+    EXPECT_NEAR(tf.extinctionAt(1.0), volcl::kMaxImportedExtinction, 1e-9);
+    // The same ramp as the default transfer function's.
+    const TransferFunction ref = TransferFunction::paraViewDefault({0.0, 1.0}, 1.0);
+    for (double t : {0.05, 0.3, 0.6, 0.95})
+        EXPECT_NEAR(tf.extinctionAt(t), ref.extinctionAt(t), 1e-12) << t;
 }
 
 TEST(ParaViewImport, BuiltinPresets) {
@@ -182,7 +191,9 @@ TEST(ParaViewImport, BuiltinPresets) {
         const TransferFunction tf = TransferFunction::fromFile("preset:" + name);
         EXPECT_TRUE(tf.normalized) << name;
         EXPECT_EQ(tf.domain, (std::array<double, 2>{0.0, 1.0})) << name;
-        EXPECT_LT(tf.maxExtinction(), 1.0) << name;
+        // ParaView's default opacity ramp (issue #37): opacity 1 at the top, half at the middle.
+        EXPECT_NEAR(tf.maxExtinction(), volcl::kMaxImportedExtinction, 1e-9) << name;
+        EXPECT_NEAR(tf.extinctionAt(0.5), std::log(2.0), 1e-12) << name;
         EXPECT_NO_THROW(tf.packKnots()) << name;
     }
     EXPECT_GE(TransferFunction::builtinPresetNames().size(), 5u);
@@ -205,3 +216,20 @@ TEST(ParaViewImport, UnknownColourSpaceNamed) {
 }
 
 } // namespace
+
+TEST(ParaViewImport, DefaultTransferFunctionIsParaViewsGreyAndOpacityRamp) {
+    // Closed form: over [lo, hi], colour grey t and opacity t per unit distance d, t = (s - lo) / (hi - lo),
+    // so tau = -ln(1 - t) / d (ParaView's ramp is linear in opacity, not in extinction).
+    const double lo = 20.0, hi = 220.0, d = 1.7;
+    const TransferFunction tf = TransferFunction::paraViewDefault({lo, hi}, d);
+    EXPECT_EQ(tf.domain, (std::array<double, 2>{lo, hi}));
+    for (double t : {0.0, 0.1, 0.37, 0.5, 0.8, 0.9}) {
+        const double s = lo + t * (hi - lo);
+        for (double c : tf.colorAt(s))
+            EXPECT_NEAR(c, t, 1e-12) << t;
+        EXPECT_NEAR(tf.extinctionAt(s) * d, -std::log1p(-t), 2e-4) << t;
+    }
+    EXPECT_NEAR(tf.extinctionAt(hi) * d, volcl::kMaxImportedExtinction, 1e-9);
+    // Constant data: a unit range centred on the value.
+    EXPECT_EQ(TransferFunction::paraViewDefault({7.0, 7.0}, 1.0).domain, (std::array<double, 2>{6.5, 7.5}));
+}

@@ -97,10 +97,9 @@ TEST(ViewerCli, HeadlessPngEqualsRenderPng) {
 TEST(ViewerCli, OrbitWritesPerFrameStatistics) {
     const auto dir = test::tempDir("viewer_cli_stats");
     writeScene(dir, "");
-    const Outcome v =
-        runVolcl("view scene.json --headless --frames 5 --orbit 15 --keys 1m --stats frames.csv "
-                 "--target-ms 50 -o last.png",
-                 dir);
+    const Outcome v = runVolcl("view scene.json --headless --frames 5 --spin 15 --keys 1m --stats frames.csv "
+                               "--target-ms 50 -o last.png",
+                               dir);
     ASSERT_EQ(v.code, 0) << v.err;
     EXPECT_NE(v.err.find("shading on"), std::string::npos) << v.err;
     EXPECT_NE(v.err.find("mode mip"), std::string::npos) << v.err;
@@ -251,10 +250,9 @@ TEST(ViewerCli, HeadlessOverlayChangesOnlyTheTopLeftCorner) {
 TEST(ViewerCli, BenchViewReportsFrameTimesAgainstTheTarget) {
     const auto dir = test::tempDir("viewer_cli_bench");
     writeScene(dir, "");
-    const Outcome o =
-        runVolcl("bench view scene.json --width 64 --height 48 --frames 5 --orbit 12 --stills 2 "
-                 "--target-ms 80 --csv frames.csv --json summary.json",
-                 dir);
+    const Outcome o = runVolcl("bench view scene.json --width 64 --height 48 --frames 5 --spin 12 --stills 2 "
+                               "--target-ms 80 --csv frames.csv --json summary.json",
+                               dir);
     ASSERT_EQ(o.code, 0) << o.err;
     std::ifstream in(dir / "summary.json");
     std::stringstream js;

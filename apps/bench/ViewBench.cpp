@@ -132,13 +132,13 @@ void addViewBench(CLI::App& bench, GlobalOptions& global) {
         "Viewer: adaptive-quality orbit (headless EGL), frame times against the target, transport cost");
     auto ba = std::make_shared<BenchViewArgs>();
     ba->view.frames = 62;
-    ba->view.orbit = 3.0;
+    ba->view.spin = 3.0;
     b->add_option("input", ba->view.input, "Scene JSON, or a volume file (then give --tf)");
     addViewFlags(b, ba->view);
     b->add_option("--frames", ba->view.frames, "Orbit frames: the first and last are full quality")
         ->check(CLI::Range(3, 100000))
         ->capture_default_str();
-    b->add_option("--orbit", ba->view.orbit, "Degrees of yaw before each interactive frame")
+    b->add_option("--spin", ba->view.spin, "Degrees of yaw before each interactive frame")
         ->capture_default_str();
     b->add_option(
          "--stills", ba->stills,

@@ -12,7 +12,8 @@ const std::map<std::string, std::string>& examples() {
     static const std::map<std::string, std::string> table{
         {"volcl", "  volcl demo\n  volcl render --volume head.nii.gz --tf preset:cool-to-warm --view front "
                   "-o head.png"},
-        {"info", "  volcl info head.nii.gz\n  volcl info series.vcz --json"},
+        {"info",
+         "  volcl info head.nii.gz\n  volcl info series.vcz --bricks\n  volcl info series.vcz --json"},
         {"devices", "  volcl devices"},
         {"convert", "  volcl convert grid0.vdb --replace-nan 0 -o grid0.nrrd\n"
                     "  volcl convert in.raw --dims 64,64,64 --type uint8 -o out.nrrd\n"

@@ -141,19 +141,22 @@ void addInfo(CLI::App& app, GlobalOptions& global) {
         "info", "Print dims, type, spacing, value range, mean and histogram (of a .vcz: its frame table)");
     auto file = std::make_shared<std::string>();
     auto json = std::make_shared<bool>(false);
+    auto bricks = std::make_shared<bool>(false);
     auto raw = std::make_shared<RawReadFlags>();
     auto meshFlags = std::make_shared<MeshReadFlags>();
     cmd->add_option("file", *file, "Volume or mesh file")->required();
     cmd->add_flag("--json", *json, "Print JSON instead of text");
+    cmd->add_flag("--bricks", *bricks,
+                  "A .vcz: list every brick (origin, dims, bytes, range) of every frame");
     raw->add(*cmd);
     meshFlags->add(*cmd);
-    cmd->callback([file, json, raw, meshFlags, &global] {
+    cmd->callback([file, json, bricks, raw, meshFlags, &global] {
         if (mesh::detectMeshFormat(*file)) {
             printMeshInfo(std::cout, *file, mesh::readMesh(*file, meshFlags->toReadOptions()), *json);
             return;
         }
         if (std::filesystem::path(*file).extension() == ".vcz") {
-            printVczInfo(std::cout, *file, *json);
+            printVczInfo(std::cout, *file, *json, *bricks);
             return;
         }
         TimeSeries ts = readVolumeFile(*file, raw->toReadOptions());

@@ -78,9 +78,12 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
         Scene scene = a->scene.build();
         if (a->budgetMs != 0.0) scene.budgetMs = a->budgetMs; // checked with the scene by the renderer
         if (!a->out.empty()) {
-            outputExtension(a->out); // refuse a bad output name before any work
+            // Refuse a bad output name or directory before any work: nothing is read or rendered.
+            outputExtension(a->out);
+            checkOutputPath(a->out);
             checkNotSameFile(scene.volume, a->out);
         }
+        const std::vector<IsoLayer> isosAsGiven = scene.effects.isosurfaces; // data units
         std::vector<std::string> notes;
         std::vector<std::filesystem::path> inputs;
         // A .vcz renders from its compressed bricks: only its header and index are read here, and the
@@ -132,7 +135,17 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
         if (!a->out.empty()) checkNotSameFile(inputs, {std::filesystem::path(a->out)});
         for (auto& note : bricks ? a->scene.finish(scene, v) : a->scene.finish(scene, *opened))
             notes.push_back(std::move(note));
-        TransferFunction tf = bricks ? a->scene.loadTf(scene, v, dataRange) : a->scene.loadTf(scene, *opened);
+        if (!isosAsGiven.empty()) {
+            // An iso value no voxel reaches draws nothing: say so instead of writing an empty image silently.
+            const ValueRange r = bricks ? ValueRange{dataRange[0], dataRange[1]} : opened->valueRange();
+            for (const IsoLayer& iso : isosAsGiven)
+                if (iso.value < r.min || iso.value > r.max)
+                    notes.push_back("iso value " + formatNumber(iso.value) + " is outside the data range [" +
+                                    formatNumber(r.min) + ", " + formatNumber(r.max) + "] of " +
+                                    scene.volume.string() + ": that surface is empty");
+        }
+        TransferFunction tf =
+            bricks ? a->scene.loadTf(scene, v, dataRange, &notes) : a->scene.loadTf(scene, *opened, &notes);
         if (storedScale)
             tf = tf.rescaled({storedScale->toStored(tf.domain[0]), storedScale->toStored(tf.domain[1])});
         // Notes go to stderr only once the command succeeded: an error stays the one line on stderr.

@@ -7,6 +7,7 @@
 #include "wavelet/Codec.hpp"
 
 #include "core/Error.hpp"
+#include "core/Format.hpp"
 #include "core/Volume.hpp"
 #include "render/CameraFraming.hpp"
 #include "render/VecMath.hpp"
@@ -44,7 +45,7 @@ Vec3 parseVec3(const std::string& text, const std::string& what) {
     return {v[0], v[1], v[2]};
 }
 
-void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
+void SceneFlags::add(CLI::App* cmd) {
     const Scene d; // the defaults a scene without the field gets, shown in --help
     auto num = [](double v) {
         std::ostringstream os;
@@ -58,10 +59,11 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
         presets += (presets.empty() ? "" : ", ") + n;
     cmd->add_option("--tf", tf,
                     "Transfer function: canonical/ParaView JSON, an RGBA strip image, or preset:NAME (" +
-                        presets + ")");
+                        presets +
+                        "; default: ParaView's, a grey ramp with opacity 0 to 1 over the data range)");
     cmd->add_option("--tf-range", tfRange,
-                    "Data range LO,HI the transfer function is spread over (default: a normalised [0,1] map "
-                    "takes the data range, others stay as authored)");
+                    "Data range LO,HI the transfer function is spread over (default: presets and other maps "
+                    "spanning exactly [0,1] take the data range, maps in data values stay as authored)");
     cmd->add_option("--tf-unit-distance", tfUnitDistance,
                     "ParaView opacity unit distance in world units, or 'auto' (ParaView's default: box "
                     "diagonal / cube root of the cell count)")
@@ -69,7 +71,10 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
     cmd->add_option("--frame", frame, "Frame K (0-based) of a time series input")->default_str("0");
     cmd->add_option("--mode", mode, "dvr, mip, iso or xray")
         ->default_str(std::string(renderModeName(d.mode)));
-    cmd->add_option("--step", step, "Sampling distance in world units")->default_str(num(d.step));
+    cmd->add_option("--step", step,
+                    "Sampling distance: D in world units, or Nvox in voxels of the finest spacing (a mesh: "
+                    "of its approximate cell length)")
+        ->default_str(num(kDefaultStepVoxels) + "vox");
     cmd->add_option("--preintegration", preint, "none, 2d or 3d (dvr only)")
         ->default_str(std::string(preintegrationName(d.preintegration)));
     cmd->add_option("--filter", filter,
@@ -94,7 +99,7 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
                     "Named view of the volume's box in the data's axes (+z up, +y toward the viewer in "
                     "front): front, back, left, right, top, bottom, iso (default: front for NIfTI/NRRD, "
                     "else looking along +z)");
-    cmd->add_option(orbitFlag, orbit,
+    cmd->add_option("--orbit", orbit,
                     "Azimuth,elevation in degrees from the front view (azimuth toward +x, elevation toward "
                     "+z); the box is framed as by --view");
     cmd->add_option("--projection", projection, "orthographic or perspective")->default_str("orthographic");
@@ -130,10 +135,14 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
         "--light", lights,
         "Light: head | dir:x,y,z | point:x,y,z, optionally @intensity (repeatable; default: a head "
         "light when shading needs one)");
-    cmd->add_option("--shading", shading,
-                    "Blinn-Phong ambient,diffuse,specular,shininess (iso mode: on by default)")
-        ->default_str(num(d.effects.ambient) + "," + num(d.effects.diffuse) + "," + num(d.effects.specular) +
-                      "," + num(d.effects.shininess));
+    // A switch: `--shading` alone shades with the default coefficients, `--shading=A,D,S,N` (or
+    // `--shading A,D,S,N`) gives them; a following flag is never taken as its value.
+    shadingOption = cmd->add_option("--shading", shading,
+                                    "Blinn-Phong shading; optional =ambient,diffuse,specular,shininess "
+                                    "(iso mode: on by default)")
+                        ->expected(0, 1)
+                        ->default_str(num(d.effects.ambient) + "," + num(d.effects.diffuse) + "," +
+                                      num(d.effects.specular) + "," + num(d.effects.shininess));
     cmd->add_flag("--no-shading", noShading, "Do not shade (iso mode shades by default)");
     cmd->add_flag("--sobel", sobel, "Sobel gradients instead of central differences");
     cmd->add_flag("--shadows", shadows, "Shadows by secondary marching toward each light");
@@ -153,12 +162,17 @@ void SceneFlags::add(CLI::App* cmd, const std::string& orbitFlag) {
     mesh.add(*cmd);
 }
 
-Scene SceneFlags::build(bool requireTf) const {
+Scene SceneFlags::build() const {
     Scene s = scene.empty() ? Scene{} : Scene::fromFile(scene);
+    if (scene.empty()) s.stepVoxels = kDefaultStepVoxels; // as a scene file without a step
     if (!volume.empty()) s.volume = volume;
     if (!tf.empty()) s.tf = tf;
     if (!mode.empty()) s.mode = parseRenderMode(mode);
-    if (step) s.step = *step;
+    if (!step.empty()) {
+        const StepSpec st = parseStepSpec(step, "--step");
+        s.stepVoxels.reset();
+        (st.voxels ? s.stepVoxels.emplace() : s.step) = st.value;
+    }
     if (!preint.empty()) s.preintegration = parsePreintegration(preint);
     if (width) s.width = *width;
     if (height) s.height = *height;
@@ -197,7 +211,8 @@ Scene SceneFlags::build(bool requireTf) const {
     if (!eye.empty()) parseVec3(eye, "--eye");
     if (!target.empty()) parseVec3(target, "--target");
     if (!tfRange.empty()) parseNumbers(tfRange, 2, "--tf-range");
-    if (noShading && !shading.empty()) throw UsageError("give --shading or --no-shading, not both");
+    const bool shadingGiven = shadingOption && shadingOption->count() > 0;
+    if (noShading && shadingGiven) throw UsageError("give --shading or --no-shading, not both");
     for (const auto& text : isos) {
         IsoLayer iso;
         const auto colon = text.find(':');
@@ -233,10 +248,12 @@ Scene SceneFlags::build(bool requireTf) const {
         s.effects.shading = false;
         s.effects.shadingGiven = true;
     }
-    if (!shading.empty()) {
-        const auto v = parseNumbers(shading, 4, "--shading");
+    if (shadingGiven) {
         s.effects.shading = true;
         s.effects.shadingGiven = true;
+    }
+    if (shadingGiven && !shading.empty()) {
+        const auto v = parseNumbers(shading, 4, "--shading");
         s.effects.ambient = v[0];
         s.effects.diffuse = v[1];
         s.effects.specular = v[2];
@@ -263,7 +280,6 @@ Scene SceneFlags::build(bool requireTf) const {
         s.effects.clipPlanes.push_back({{v[0], v[1], v[2]}, v[3]});
     }
     if (s.volume.empty()) throw UsageError("no volume: give --volume or a scene with \"volume\"");
-    if (requireTf && s.tf.empty()) throw UsageError("no transfer function: give --tf or a scene with \"tf\"");
     s.validate();
     return s;
 }
@@ -296,7 +312,8 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const Volume& v) const {
 std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) const {
     std::vector<std::string> notes;
     const WorldBox box = in.bounds();
-    // Refuse impossible steps before any default is applied or reported: the error is the only line.
+    if (std::string note = resolveStep(s, in.cellLength()); !note.empty()) notes.push_back(std::move(note));
+    // Refuse impossible steps before any other default is applied or reported: the error is the only line.
     s.validateSteps(norm(box.extent));
     const double aspect = double(s.width) / double(s.height);
     const bool anyCameraFlag = !projection.empty() || !eye.empty() || !target.empty() || !up.empty() ||
@@ -425,13 +442,7 @@ Volume SceneFlags::readSceneVolume(const Scene& s, std::vector<std::string>& not
 }
 
 double paraViewUnitDistance(const Volume& v) {
-    const WorldBox box = volumeBox(v);
-    const Dims& d = v.dims();
-    const double cells = double(std::max<std::int64_t>(d.x - 1, 1)) *
-                         double(std::max<std::int64_t>(d.y - 1, 1)) *
-                         double(std::max<std::int64_t>(d.z - 1, 1));
-    const double diagonal = norm(box.extent);
-    return diagonal > 0.0 ? diagonal / std::cbrt(cells) : 1.0;
+    return RenderInput::borrow(v).approximateCellLength();
 }
 
 RenderInput SceneFlags::readSceneInput(const Scene& s, std::vector<std::string>& notes,
@@ -443,42 +454,58 @@ RenderInput SceneFlags::readSceneInput(const Scene& s, std::vector<std::string>&
     return RenderInput::fromVolume(readSceneVolume(s, notes, filesRead));
 }
 
-TransferFunction SceneFlags::loadTf(const Scene& s, const Volume& v) const {
-    return loadTf(s, RenderInput::borrow(v));
+TransferFunction SceneFlags::loadTf(const Scene& s, const Volume& v, std::vector<std::string>* notes) const {
+    return loadTf(s, RenderInput::borrow(v), notes);
 }
 
-TransferFunction SceneFlags::loadTf(const Scene& s, const Volume& v, std::array<double, 2> dataRange) const {
-    return loadTf(s, RenderInput::borrow(v), dataRange);
-}
-
-TransferFunction SceneFlags::loadTf(const Scene& s, const RenderInput& in) const {
-    if (const Volume* v = in.grid()) {
-        const VolumeStats vs = v->stats(1);
-        return loadTf(s, in, {vs.min, vs.max});
-    }
-    const ValueRange r = in.valueRange();
-    return loadTf(s, in, {r.min, r.max});
+TransferFunction SceneFlags::loadTf(const Scene& s, const Volume& v, std::array<double, 2> dataRange,
+                                    std::vector<std::string>* notes) const {
+    return loadTf(s, RenderInput::borrow(v), dataRange, notes);
 }
 
 TransferFunction SceneFlags::loadTf(const Scene& s, const RenderInput& in,
-                                    std::array<double, 2> dataRange) const {
+                                    std::vector<std::string>* notes) const {
+    if (const Volume* v = in.grid()) {
+        const VolumeStats vs = v->stats(1);
+        return loadTf(s, in, {vs.min, vs.max}, notes);
+    }
+    const ValueRange r = in.valueRange();
+    return loadTf(s, in, {r.min, r.max}, notes);
+}
+
+TransferFunction SceneFlags::loadTf(const Scene& s, const RenderInput& in, std::array<double, 2> dataRange,
+                                    std::vector<std::string>* notes) const {
+    auto note = [&](std::string text) {
+        if (notes) notes->push_back(std::move(text));
+    };
+    // The transfer function shows in dvr, in MIP coloured by it, and in shadows or scattering; grey MIP,
+    // x-ray and iso surfaces draw without it, so its defaults go unmentioned there.
+    const bool tfShows =
+        s.mode == RenderMode::Dvr || (s.mode == RenderMode::Mip && s.mipColor != MipColor::Grey);
     double unit = 1.0;
     if (tfUnitDistance == "auto") {
-        if (const Volume* v = in.grid())
-            unit = paraViewUnitDistance(*v);
-        else if (const mesh::TetMesh* m =
-                     in.mesh()) // ParaView's rule on cells: box diagonal / cbrt(cell count)
-            unit = norm(in.bounds().extent) / std::cbrt(double(std::max<std::size_t>(m->tetCount(), 1)));
-        else
-            throw UsageError("--tf-unit-distance auto needs a grid or a mesh");
-    } else
+        unit = in.approximateCellLength();
+        if (tfShows)
+            note("opacity unit distance " + formatNumber(unit) +
+                 " world units: ParaView's automatic one, box diagonal / cube root of the cell count "
+                 "(--tf-unit-distance sets it)");
+    } else {
         unit = parseNumbers(tfUnitDistance, 1, "--tf-unit-distance")[0];
+    }
     if (!(std::isfinite(unit) && unit > 0.0)) throw UsageError("--tf-unit-distance must be > 0 or 'auto'");
     std::optional<std::array<double, 2>> range;
     if (!tfRange.empty()) {
         const auto r = parseNumbers(tfRange, 2, "--tf-range");
         if (!(r[0] < r[1])) throw UsageError("--tf-range: LO must be below HI");
         range = std::array<double, 2>{r[0], r[1]};
+    }
+    if (s.tf.empty()) {
+        const std::array<double, 2> over = range ? *range : dataRange;
+        if (tfShows)
+            note("transfer function: ParaView's default, a grey ramp with opacity 0 to 1 over " +
+                 std::string(range ? "--tf-range " : "the data range ") + "[" + formatNumber(over[0]) + ", " +
+                 formatNumber(over[1]) + "] (--tf sets one)");
+        return TransferFunction::paraViewDefault(over, unit);
     }
     const std::array<double, 2> stripDomain{dataRange[0],
                                             dataRange[1] > dataRange[0] ? dataRange[1] : dataRange[0] + 1.0};

@@ -23,26 +23,27 @@ Vec3 parseVec3(const std::string& text, const std::string& what);
 /// Scene fields a command line may override; empty means "keep the scene's value".
 struct SceneFlags {
     std::string scene, volume, tf, mode, preint, projection, eye, target, up, background, nanColor;
-    std::string view, orbit, tfRange, tfUnitDistance = "1";
+    std::string view, orbit, tfRange, tfUnitDistance = "auto";
     std::string filter, window, mipColor, lod, method;
     std::optional<double> lodError, cacheMb;
-    std::optional<double> smoothing, step, viewHeight, fov, earlyTermination, shadowStep;
+    std::optional<double> smoothing, viewHeight, fov, earlyTermination, shadowStep;
     std::optional<int> width, height, tableSize, tableLengths, k;
     std::optional<std::size_t> frame; ///< --frame K of a time series input
     bool noSkipping = false, sobel = false, shadows = false, noShading = false;
+    std::string step; ///< --step: world units, or voxels with a `vox` suffix (parseStepSpec)
     std::string shading, scattering, scatteringOrder;
+    CLI::Option* shadingOption = nullptr; ///< --shading: given bare (default coefficients) or with a value
     std::optional<int> samples;
     std::vector<std::string> isos, lights, clips;
     RawReadFlags raw;
     std::string device; ///< OpenCL device selector for decoding a .vcz input whole (readSceneVolume)
     MeshReadFlags mesh; ///< --array, --q-var, --q for mesh inputs
 
-    /// Registers every scene flag on `cmd`; the camera orbit flag is named `orbitFlag` (the viewer keeps
-    /// `--orbit` for its per-frame turn).
-    void add(CLI::App* cmd, const std::string& orbitFlag = "--orbit");
-    /// The scene file (if any) with the flags applied, validated. Throws UsageError. `requireTf` false lets
-    /// a scene without a transfer function through (the viewer then starts on a preset).
-    Scene build(bool requireTf = true) const;
+    /// Registers every scene flag on `cmd` (`--orbit AZ,EL` places the camera in render, view and bench).
+    void add(CLI::App* cmd);
+    /// The scene file (if any) with the flags applied, validated. Throws UsageError. A scene without a
+    /// transfer function renders with ParaView's default (loadTf); without a step, half a voxel (finish).
+    Scene build() const;
     /// The scene's volume: frame `--frame K` of a series (frame 0 when not given, with a note in `notes`
     /// when the input has more frames). Throws UsageError when K is out of range.
     /// `filesRead`, when given, receives every file the volume consists of (header and data files).
@@ -54,19 +55,23 @@ struct SceneFlags {
                                std::vector<std::filesystem::path>* filesRead = nullptr) const;
     /// finish() and loadTf() for any input (a mesh's box, value range and tet count).
     std::vector<std::string> finish(Scene& s, const RenderInput& in) const;
-    TransferFunction loadTf(const Scene& s, const RenderInput& in) const;
+    TransferFunction loadTf(const Scene& s, const RenderInput& in,
+                            std::vector<std::string>* notes = nullptr) const;
     /// loadTf() with the data range given (a .vcz's from its index).
-    TransferFunction loadTf(const Scene& s, const RenderInput& in, std::array<double, 2> dataRange) const;
-    /// Once the volume is read: frames the camera the scene and flags leave incomplete (a named view,
+    TransferFunction loadTf(const Scene& s, const RenderInput& in, std::array<double, 2> dataRange,
+                            std::vector<std::string>* notes = nullptr) const;
+    /// Once the volume is read: resolves a step in voxels (the default half voxel), frames the camera the scene and flags leave incomplete (a named view,
     /// an orbit, a missing orthographic height or target, or the default view of anatomical data) and
     /// applies the lighting defaults. Returns one note per default applied (stderr and `--explain`).
     std::vector<std::string> finish(Scene& s, const Volume& v) const;
-    /// The scene's transfer function as the render uses it: normalised presets spread over the data
-    /// range, `--tf-range` applied, ParaView opacity per `--tf-unit-distance`.
-    TransferFunction loadTf(const Scene& s, const Volume& v) const;
+    /// The scene's transfer function as the render uses it: ParaView's default when the scene has none,
+    /// normalised maps spread over the data range, `--tf-range` applied, opacity per
+    /// `--tf-unit-distance` (default auto). The defaults it applies are added to `notes` when given.
+    TransferFunction loadTf(const Scene& s, const Volume& v, std::vector<std::string>* notes = nullptr) const;
     /// As above with the data range given (a .vcz's index range, without scanning voxels); `v` supplies the
     /// grid's geometry only.
-    TransferFunction loadTf(const Scene& s, const Volume& v, std::array<double, 2> dataRange) const;
+    TransferFunction loadTf(const Scene& s, const Volume& v, std::array<double, 2> dataRange,
+                            std::vector<std::string>* notes = nullptr) const;
 };
 
 /// The world length ParaView uses by default as the scalar opacity unit distance of a volume: the box

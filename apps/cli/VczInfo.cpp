@@ -45,7 +45,7 @@ const char* rateName(RateMode r) {
 
 } // namespace
 
-void printVczInfo(std::ostream& out, const std::string& path, bool json) {
+void printVczInfo(std::ostream& out, const std::string& path, bool json, bool listBricks) {
     const std::vector<std::byte> bytes = readFileBytes(path);
     const VczHeader h = readVczHeader(bytes, path);
     // Every payload's checksum (XXH3, cheap next to reading the file): a corrupt brick is exit 1, not a
@@ -124,7 +124,10 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json) {
         << "  dims     " << h.dims.x << " x " << h.dims.y << " x " << h.dims.z << "  (" << h.frames.size()
         << " frames)\n"
         << "  type     " << scalarTypeName(h.type) << '\n'
-        << std::setprecision(6) << "  range    " << h.valueMin << " .. " << h.valueMax << '\n';
+        << std::setprecision(6) << "  spacing  " << h.spacing[0] << " x " << h.spacing[1] << " x "
+        << h.spacing[2] << '\n'
+        << "  origin   " << h.origin[0] << ", " << h.origin[1] << ", " << h.origin[2] << '\n'
+        << "  range    " << h.valueMin << " .. " << h.valueMax << '\n';
     const double lo = h.valueMin * wo.nifti.value_or(NiftiMetadata{}).sclSlope +
                       wo.nifti.value_or(NiftiMetadata{}).sclInter;
     const double hi = h.valueMax * wo.nifti.value_or(NiftiMetadata{}).sclSlope +
@@ -150,8 +153,9 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json) {
     }
     const Dims g = h.brickGrid();
     out << "  bricks   " << h.brickCount() << " (" << g.x << " x " << g.y << " x " << g.z
-        << "), level-of-detail statistics " << (lod ? "stored" : "absent") << '\n';
-    for (std::size_t f = 0; f < h.frames.size(); ++f) {
+        << "), level-of-detail statistics " << (lod ? "stored" : "absent")
+        << (listBricks ? "" : "; --bricks lists them") << '\n';
+    for (std::size_t f = 0; listBricks && f < h.frames.size(); ++f) {
         out << "  frame " << f << ": brick  origin          dims         bytes        min        max";
         if (lod && lod->has(f)) out << "  max error per level 0.." << h.levels;
         out << '\n';

@@ -9,9 +9,10 @@
 
 namespace volcl::cli {
 
-/// Prints the .vcz file's grid, codec settings and one line per frame (JSON with `json`). Reads only
-/// the header and index (validated); no frame is decoded.
-void printVczInfo(std::ostream& out, const std::string& path, bool json);
+/// Prints the .vcz file's grid (dims, type, spacing, origin), codec settings and one line per frame, and
+/// with `listBricks` one line per brick and frame (JSON with `json`: always every brick). Reads only the
+/// header and index (validated); no frame is decoded.
+void printVczInfo(std::ostream& out, const std::string& path, bool json, bool listBricks = false);
 
 /// Write options for a volume decoded from `header`: the NIfTI source's header it keeps (for NIfTI
 /// outputs) and whether its voxels are that source's stored integers (data units for other outputs).

@@ -68,8 +68,9 @@ void addViewCommand(CLI::App& app, GlobalOptions& global) {
     cmd->add_option("--frames", a->frames, "Headless: frames to render; the first and last are full quality")
         ->check(CLI::Range(1, 100000))
         ->capture_default_str();
-    cmd->add_option("--orbit", a->orbit,
-                    "Headless: degrees to orbit before each frame in between (interaction)");
+    cmd->add_option("--spin", a->spin,
+                    "Headless: degrees of yaw the camera turns before each frame in between (interaction); "
+                    "--orbit AZ,EL places the camera as in render");
     cmd->add_option(
         "-o,--output", a->output,
         "Headless: PNG/EXR of the last frame read back from OpenGL; window: screenshot path for 's'");

@@ -34,7 +34,7 @@ Scene viewScene(ViewArgs a) {
             a.scene.volume = a.input;
         }
     }
-    return a.scene.build(/*requireTf=*/false);
+    return a.scene.build();
 }
 
 } // namespace
@@ -59,10 +59,10 @@ ViewerSetup::ViewerSetup(const ViewArgs& a, const GlobalOptions& global, bool he
     if (!a.output.empty() && headless) checkNotSameFile(inputs, {std::filesystem::path(a.output)});
     for (auto& note : a.scene.finish(scene, *input))
         notes.push_back(std::move(note));
+    tf = a.scene.loadTf(scene, *input, &notes); // the scene's, or ParaView's default as `volcl render`'s
     if (!global.quiet)
         for (const auto& note : notes)
             std::cerr << "view: " << note << '\n';
-    if (!scene.tf.empty()) tf = a.scene.loadTf(scene, *input);
     cc = std::make_unique<ComputeContext>(global.device);
     transport = viewer::chooseTransport(request, cc->device());
     if (headless)
@@ -103,7 +103,7 @@ viewer::HeadlessOptions headlessOptions(const ViewArgs& a, const ViewerSetup& s,
     h.width = s.scene.width;
     h.height = s.scene.height;
     h.frames = a.frames;
-    h.orbitDegrees = a.orbit;
+    h.orbitDegrees = a.spin;
     h.keys = a.keys;
     h.output = a.output;
     h.transport = s.transport;
@@ -113,7 +113,7 @@ viewer::HeadlessOptions headlessOptions(const ViewArgs& a, const ViewerSetup& s,
 }
 
 void addViewFlags(CLI::App* cmd, ViewArgs& a) {
-    a.scene.add(cmd, "--start-orbit");
+    a.scene.add(cmd);
     cmd->add_option("--target-ms", a.targetMs, "Adaptive quality: frame time to hold while interacting")
         ->check(CLI::Range(1.0, 10000.0))
         ->capture_default_str();

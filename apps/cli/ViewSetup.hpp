@@ -27,7 +27,7 @@ struct ViewArgs {
     std::string input, output, stats, keys, transport = "auto";
     SceneFlags scene;
     int frames = 1;
-    double orbit = 0.0, targetMs = 100.0;
+    double spin = 0.0, targetMs = 100.0; ///< spin: --spin, degrees of yaw per in-between frame
     bool headless = false, noAdaptive = false, overlay = false, noOverlay = false;
 };
 

@@ -132,7 +132,7 @@ HeadlessResult runHeadless(ViewerSession& session, const HeadlessOptions& o, Hea
                            std::ostream& log) {
     if (o.width <= 0 || o.height <= 0) throw UsageError("view: --width and --height must be positive");
     if (o.frames < 1) throw UsageError("view: --frames must be at least 1");
-    if (!std::isfinite(o.orbitDegrees)) throw UsageError("view: --orbit must be a finite angle");
+    if (!std::isfinite(o.orbitDegrees)) throw UsageError("view: --spin must be a finite angle");
     bool overlay = o.overlay;
     for (char k : o.keys) {
         const auto action = actionForKey(k);

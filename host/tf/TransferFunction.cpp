@@ -29,6 +29,10 @@ std::string describe(double v) {
     return os.str();
 }
 
+/// Pieces of ParaView's default opacity ramp (0 to 1, linear in opacity): tau between the samples is linear,
+/// within 2e-4 of -ln(1 - a) for a <= 0.9 (the interpolation error is h^2 / 8 / (1 - a)^2).
+constexpr int kOpacityRampSamples = 256;
+
 /// tau for an opacity per `unitDistance` of length; a = 1 has no finite answer and maps to
 /// kMaxImportedExtinction (per unit distance). `where()` names the point, for the message only.
 template <class Where> double opacityToExtinction(double a, Where where, double unitDistance = 1.0) {
@@ -236,9 +240,14 @@ TransferFunction TransferFunction::fromParaView(std::string_view text, double op
             throw DataError("ParaView colour map: 'RGBPoints' are not sorted by x at point " +
                             std::to_string(i));
     if (nodes.empty()) {
-        // A colour-only preset: a gentle linear ramp, so low values stay clear and the top is translucent.
-        nodes.push_back({tf.color.front().s, 0.0, 0.5, 0.0});
-        nodes.push_back({tf.color.back().s, kColorOnlyTopOpacity, 0.5, 0.0});
+        // A colour-only map keeps ParaView's default opacity: a ramp over the colour range, linear in opacity
+        // (sampled as paraViewDefault() does, so tau follows -ln(1 - a)).
+        const double lo = tf.color.front().s, hi = tf.color.back().s;
+        for (int k = 0; k <= kOpacityRampSamples; ++k) {
+            const double t = double(k) / kOpacityRampSamples;
+            nodes.push_back(
+                {k == kOpacityRampSamples ? hi : lo + (hi - lo) * t, t * kColorOnlyTopOpacity, 0.5, 0.0});
+        }
     }
     for (std::size_t i = 1; i < nodes.size(); ++i)
         if (!(nodes[i].x >= nodes[i - 1].x))
@@ -319,13 +328,35 @@ TransferFunction TransferFunction::rescaled(std::array<double, 2> range) const {
 TransferFunction TransferFunction::fittedTo(std::array<double, 2> dataRange,
                                             std::optional<std::array<double, 2>> explicitRange) const {
     if (explicitRange) return rescaled(*explicitRange);
-    const bool dataIsUnit = dataRange[0] >= 0.0 && dataRange[1] <= 1.0;
-    if (normalized && !dataIsUnit) {
+    // Whatever the data range, [0, 1] data included: data in 1e-6..1e-4 must not see the map's bottom only.
+    if (normalized) {
         // Constant data still needs a range with lo < hi: centre the colour map's middle on it.
         if (!(dataRange[0] < dataRange[1])) dataRange = {dataRange[0] - 0.5, dataRange[0] + 0.5};
         return rescaled(dataRange);
     }
     return *this;
+}
+
+TransferFunction TransferFunction::paraViewDefault(std::array<double, 2> dataRange,
+                                                   double opacityUnitDistance) {
+    checkUnitDistance(opacityUnitDistance);
+    if (!(std::isfinite(dataRange[0]) && std::isfinite(dataRange[1]) && dataRange[0] <= dataRange[1]))
+        throw UsageError("default transfer function: data range [" + describe(dataRange[0]) + ", " +
+                         describe(dataRange[1]) + "] is not finite");
+    if (!(dataRange[0] < dataRange[1])) dataRange = {dataRange[0] - 0.5, dataRange[0] + 0.5};
+    const auto [lo, hi] = dataRange;
+    TransferFunction tf;
+    tf.domain = dataRange;
+    tf.color = {{lo, {0.0, 0.0, 0.0}}, {hi, {1.0, 1.0, 1.0}}};
+    for (int k = 0; k <= kOpacityRampSamples; ++k) {
+        const double a = double(k) / kOpacityRampSamples;
+        const double s = k == kOpacityRampSamples ? hi : lo + (hi - lo) * a;
+        tf.extinction.push_back(
+            {s, opacityToExtinction(
+                    a, [] { return std::string("default transfer function"); }, opacityUnitDistance)});
+    }
+    tf.validate();
+    return tf;
 }
 
 TransferFunction TransferFunction::fromRgbaStrip(const std::vector<std::array<float, 4>>& pixels,

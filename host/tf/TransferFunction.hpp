@@ -20,9 +20,10 @@ inline constexpr double kMaxImportedExtinction = 1000.0;
 /// N^2 entries integrates over every piece between s_f and s_b), so a small file claiming a million of
 /// them (a 300-byte compressed strip) is refused before any work; colour maps have hundreds.
 inline constexpr std::size_t kMaxTransferFunctionPoints = 16384;
-/// Opacity per unit distance given to a ParaView colour map that has no opacity `Points`: a linear ramp
-/// from 0 at the bottom of its colour range to this value at the top (translucent, never a solid blob).
-inline constexpr double kColorOnlyTopOpacity = 0.1;
+/// Opacity per unit distance given to a ParaView colour map that has no opacity `Points` (the built-in
+/// presets): ParaView's default ramp, linear in opacity from 0 at the bottom of its colour range to this
+/// value at the top, as ParaView keeps its default opacity when a colour preset is applied.
+inline constexpr double kColorOnlyTopOpacity = 1.0;
 
 struct ColorPoint {
     double s;
@@ -65,6 +66,10 @@ public:
     /// the known presets.
     static TransferFunction builtinPreset(std::string_view name, double opacityUnitDistance = 1.0);
     static std::vector<std::string> builtinPresetNames();
+    /// What a scene without a transfer function renders with, as ParaView's default volume rendering:
+    /// colour a grey ramp from black at dataRange[0] to white at dataRange[1], opacity a linear ramp from 0
+    /// to 1 over the same range per `opacityUnitDistance` of length (constant data: a unit range around it).
+    static TransferFunction paraViewDefault(std::array<double, 2> dataRange, double opacityUnitDistance);
     /// Strip of `n` RGBA pixels spanning `domain`; alpha is opacity per unit length.
     static TransferFunction fromRgbaStrip(const std::vector<std::array<float, 4>>& pixels,
                                           std::array<double, 2> domain);
@@ -74,7 +79,7 @@ public:
     /// `range` (lo < hi, finite). Extinction values are unchanged.
     TransferFunction rescaled(std::array<double, 2> range) const;
     /// What a render uses: `explicitRange` when given; else a normalised function spread over
-    /// `dataRange` (unless the data itself lies in [0, 1]); else this function as authored.
+    /// `dataRange` (whatever that range, [0, 1] included); else this function as authored.
     TransferFunction fittedTo(std::array<double, 2> dataRange,
                               std::optional<std::array<double, 2>> explicitRange = std::nullopt) const;
 

@@ -242,7 +242,7 @@ TEST(CliUsability, VersionSubcommandsAndExamples) {
     }
     RunResult rh = run("render --help", dir);
     EXPECT_TRUE(has(rh.out, "--width INT=512")) << rh.out;
-    EXPECT_TRUE(has(rh.out, "--step FLOAT=0.5")) << rh.out;
+    EXPECT_TRUE(has(rh.out, "--step TEXT=0.5vox")) << rh.out; // #37: the default step is in voxels
 }
 
 #if defined(VOLCL_WITH_BENCH) // the `volcl bench` module is built (VOLCL_BUILD_BENCH)
