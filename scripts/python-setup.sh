@@ -26,7 +26,7 @@ mapfile -t requires < <("$venv/bin/python" -c \
 # and options: the library and the executable scripts/setup.sh compiled are reused and only the module
 # compiles. Options pyproject.toml turns off for a plain `pip install .` keep build/'s values (CMake's
 # defaults when build/ is not configured yet), so this install never drops tests or plugins from build/.
-config=(-C build-dir=build "-C" "cmake.args=-GUnix Makefiles")
+config=(--config-settings=build-dir=build "--config-settings=cmake.args=-GUnix Makefiles")
 for option in VOLCL_BUILD_TESTS:ON VOLCL_BUILD_BENCH:ON VOLCL_BUILD_PLUGINS:ON VOLCL_FUZZ:OFF; do
   name=${option%%:*}
   value=${option#*:}
@@ -34,7 +34,7 @@ for option in VOLCL_BUILD_TESTS:ON VOLCL_BUILD_BENCH:ON VOLCL_BUILD_PLUGINS:ON V
     cached=$(sed -n "s/^$name:BOOL=//p" build/CMakeCache.txt)
     value=${cached:-$value}
   fi
-  config+=(-C "cmake.define.$name=$value")
+  config+=("--config-settings=cmake.define.$name=$value")
 done
 # Makefiles build one file at a time unless told: as many jobs as cores.
 export CMAKE_BUILD_PARALLEL_LEVEL=${CMAKE_BUILD_PARALLEL_LEVEL:-$(nproc 2>/dev/null || echo 2)}
