@@ -38,11 +38,10 @@ def test_lossless_round_trip_is_exact_and_the_codec_is_found_by_name(tmp_path):
         z[:] = a
         meta = json.loads((tmp_path / f"{name}.zarr" / "zarr.json").read_text())
         assert [c["name"] for c in meta["codecs"]] == ["bytes", "volcl"]
-    # A new process that never imports volcl opens them: zarr finds the codec through the entry point.
+    # A new process that never imports volcl opens them: zarr loads the codec through the entry point.
     code = ("import sys, numpy as np, zarr\n"
             "for name in sys.argv[2:]:\n"
-            "    np.save(f'{sys.argv[1]}/{name}.npy', zarr.open_array(f'{sys.argv[1]}/{name}.zarr', mode='r')[:])\n"
-            "assert 'volcl' not in sys.modules\n")
+            "    np.save(f'{sys.argv[1]}/{name}.npy', zarr.open_array(f'{sys.argv[1]}/{name}.zarr', mode='r')[:])\n")
     subprocess.run([sys.executable, "-c", code, str(tmp_path), *arrays], check=True)
     for name, a in arrays.items():
         back = np.load(tmp_path / f"{name}.npy")
