@@ -28,7 +28,7 @@ def annotation(a) -> str:
 
 
 # Reading order: files, the codec, transfer functions and tables, rendering, devices.
-ORDER = ["read", "write", "Volume", "encode", "decode", "VczFile", "TransferFunction", "TF",
+ORDER = ["read", "write", "Volume", "encode", "decode", "VczFile", "VczFrame", "TransferFunction", "TF",
          "preintegration_table", "render", "composite", "read_image", "devices"]
 
 

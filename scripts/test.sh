@@ -21,6 +21,10 @@ ctest --test-dir build --output-on-failure -L oclgrind --timeout 900
 echo "== Python package (pip install . into build/venv, pytest)"
 bash scripts/python-setup.sh --quiet
 build/venv/bin/python -m pytest -q python/tests
+# The install a new user does: a fresh clone, pip install into a new venv (pip's temporary build directory,
+# the library compiled again from scratch: the step's cost is in docs/python.md), then zarr 3's tests.
+echo "== Python package from a fresh clone (pip install into a new venv, zarr 3)"
+bash scripts/python-install-check.sh
 
 # ==== fault injection (a separate block; see docs/reliability.md) ====
 # Every writer (CLI commands and output formats, Python volcl.write) under full disks (an LD_PRELOAD shim

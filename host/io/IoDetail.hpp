@@ -199,6 +199,7 @@ TimeSeries readSlc(ReadContext& ctx);
 TimeSeries readVdb(ReadContext& ctx);
 TimeSeries readInviwoDat(ReadContext& ctx);
 TimeSeries readVoreenVvd(ReadContext& ctx);
+TimeSeries readNpy(ReadContext& ctx);
 
 void writeRaw(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
 void writeNrrd(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
@@ -215,5 +216,7 @@ void writeNifti(const Volume& volume, const std::filesystem::path& path, const W
 void writeNiftiSeries(std::span<const Volume> frames, const std::vector<double>& times,
                       const std::filesystem::path& path, const WriteOptions& options);
 void writeVtkXmlImage(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
+/// One .npy array of every frame (same dims and type): a[z, y, x] for one frame, a[t, z, y, x] for more.
+void writeNpy(std::span<const Volume> frames, const std::filesystem::path& path, const WriteOptions& options);
 
 } // namespace volcl::io

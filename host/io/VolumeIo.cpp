@@ -38,6 +38,8 @@ std::string_view volumeFormatName(VolumeFormat f) noexcept {
         return "Inviwo dat";
     case VolumeFormat::VoreenVvd:
         return "Voreen vvd";
+    case VolumeFormat::Npy:
+        return "numpy npy";
     }
     return "unknown";
 }
@@ -59,6 +61,7 @@ std::optional<VolumeFormat> formatFromExtension(std::string_view name) {
         {".vti", VolumeFormat::VtkXmlImage}, {".vtk", VolumeFormat::VtkLegacy},
         {".slc", VolumeFormat::Slc},         {".vdb", VolumeFormat::Vdb},
         {".dat", VolumeFormat::InviwoDat},   {".vvd", VolumeFormat::VoreenVvd},
+        {".npy", VolumeFormat::Npy},
     };
     for (const Ext& e : table)
         if (endsWithI(name, e.suffix)) return e.format;
@@ -80,6 +83,7 @@ std::optional<VolumeFormat> formatFromMagic(const fs::path& path) {
     if (h.starts_with("ObjectType") || h.starts_with("NDims")) return VolumeFormat::MetaImage;
     if (n >= 4 && std::memcmp(head, "\x20\x42\x44\x56", 4) == 0) return VolumeFormat::Vdb;
     if (h.starts_with("11111")) return VolumeFormat::Slc;
+    if (h.starts_with("\x93NUMPY")) return VolumeFormat::Npy;
     if (n >= 348) {
         std::int32_t sz = 0;
         std::memcpy(&sz, head, 4);
@@ -107,7 +111,7 @@ VolumeFormat detectVolumeFormat(const fs::path& path) {
     throw IoError(
         path.string() +
         ": unknown volume format (supported: .raw .raw.gz .nrrd .nhdr .mhd .mha .nii .nii.gz .vti .vtk "
-        ".slc .vdb .dat .vvd)");
+        ".slc .vdb .dat .vvd .npy)");
 }
 
 TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options,
@@ -147,6 +151,9 @@ TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options,
     case VolumeFormat::VoreenVvd:
         series = io::readVoreenVvd(ctx);
         break;
+    case VolumeFormat::Npy:
+        series = io::readNpy(ctx);
+        break;
     }
     if (series.frames.empty()) throw IoError(path.string() + ": contains no volume");
     // Every format's geometry passes one check: a NaN spacing or origin would poison every position.
@@ -183,6 +190,10 @@ bool isNrrdName(const std::string& name) {
     return io::endsWithI(name, ".nrrd") || io::endsWithI(name, ".nhdr");
 }
 
+bool isNpyName(const std::string& name) {
+    return io::endsWithI(name, ".npy");
+}
+
 } // namespace
 
 void writeVolumeFile(const Volume& volume, const fs::path& path, const WriteOptions& options) {
@@ -206,14 +217,16 @@ void writeVolumeFile(const Volume& volume, const fs::path& path, const WriteOpti
         io::writeVtkXmlImage(volume, path, options);
     else if (endsWithI(name, ".vdb"))
         io::writeVdb(volume, path, options);
+    else if (isNpyName(name))
+        io::writeNpy(std::span<const Volume>(&volume, 1), path, options);
     else
         throw UsageError(path.string() + ": cannot write this format (writers: .raw, .raw.gz, .nrrd, .nhdr, "
-                                         ".nii, .nii.gz, .vti, .vdb)");
+                                         ".nii, .nii.gz, .vti, .vdb, .npy)");
 }
 
 bool formatHoldsSeries(const fs::path& path) {
     const std::string name = path.filename().string();
-    return isNiftiName(name) || isNrrdName(name);
+    return isNiftiName(name) || isNrrdName(name) || isNpyName(name);
 }
 
 void writeSeriesFile(const TimeSeries& series, const fs::path& path, const WriteOptions& options) {
@@ -226,11 +239,19 @@ void writeSeriesFile(const TimeSeries& series, const fs::path& path, const Write
         throw UsageError(
             path.string() + ": this format holds one volume and the series has " +
             std::to_string(series.frames.size()) +
-            " frames (.nii, .nii.gz, .nrrd and .nhdr hold them all, or write one file per frame)");
+            " frames (.nii, .nii.gz, .nrrd, .nhdr and .npy hold them all, or write one file per frame)");
     for (const Volume& v : series.frames)
         if (v.empty()) throw UsageError(path.string() + ": cannot write an empty volume");
     if (isNiftiName(path.filename().string())) {
         io::writeNiftiSeries(series.frames, series.times, path, options);
+    } else if (options.niftiStoredValues && options.nifti && options.nifti->scales() &&
+               isNpyName(path.filename().string())) {
+        std::vector<Volume> units;
+        for (const Volume& v : series.frames)
+            units.push_back(niftiDataUnits(v, *options.nifti));
+        io::writeNpy(units, path, options);
+    } else if (isNpyName(path.filename().string())) {
+        io::writeNpy(series.frames, path, options);
     } else if (options.niftiStoredValues && options.nifti && options.nifti->scales()) {
         // As writeVolumeFile: only a NIfTI output keeps a scaled source's stored integers.
         std::vector<Volume> units;

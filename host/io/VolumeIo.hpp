@@ -24,6 +24,7 @@ enum class VolumeFormat : std::uint8_t {
     Vdb,         ///< OpenVDB float/double grid, densified over the active bounding box
     InviwoDat,   ///< Inviwo .dat text header + raw file
     VoreenVvd,   ///< Voreen .vvd XML header + raw file
+    Npy,         ///< numpy .npy (versions 1.0-3.0): a[z, y, x] or a series a[t, z, y, x]; no grid
 };
 
 std::string_view volumeFormatName(VolumeFormat f) noexcept;
@@ -73,12 +74,14 @@ struct WriteOptions {
 };
 
 /// Writers: Raw (.raw, .raw.gz), Nrrd (.nrrd attached, .nhdr detached + .raw), NIfTI-1 (.nii, .nii.gz),
-/// VTK XML ImageData (.vti, appended data in zlib blocks) and Vdb (.vdb). The format comes from the
+/// VTK XML ImageData (.vti, appended data in zlib blocks), Vdb (.vdb) and numpy .npy (a[z, y, x], C order;
+/// no spacing or origin). The format comes from the
 /// extension. Writes atomically (temporary + rename). Throws UsageError for an unsupported format.
 void writeVolumeFile(const Volume& volume, const std::filesystem::path& path,
                      const WriteOptions& options = {});
 
-/// True when the output format of `path` holds several frames in one file (.nii, .nii.gz, .nrrd, .nhdr).
+/// True when the output format of `path` holds several frames in one file (.nii, .nii.gz, .nrrd, .nhdr,
+/// .npy).
 bool formatHoldsSeries(const std::filesystem::path& path);
 
 /// Writes every frame of `series` into one file: a NIfTI output becomes 4D (dim[4] = frames, pixdim[4]

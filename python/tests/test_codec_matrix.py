@@ -122,7 +122,8 @@ def test_cli_and_python_write_the_same_file_and_every_reader_agrees(tmp_path, dt
 
     # Readers: every one gives the command line's voxels and grid, frame by frame.
     f = volcl.VczFile(cli_vcz)  # the header, metadata included, as Python sees a command-line file
-    assert f.shape == SHAPE and len(f) == len(frames) and f.dtype == frames.dtype
+    assert f.frame_shape == SHAPE and f.frames == len(frames) and f.dtype == frames.dtype
+    assert f.shape == (frames.shape if len(frames) > 1 else SHAPE)
     assert f.spacing == pytest.approx(SPACING) and f.origin == pytest.approx(ORIGIN)
     assert f.header["rate"] == mode
     assert isinstance(f.metadata["volcl:lod"], bytes)
@@ -340,7 +341,7 @@ def test_scaled_nifti_series_reads_in_python_as_on_the_command_line(tmp_path):
     vcz = tmp_path / "f.vcz"
     run_cli("encode", str(nii), "-o", str(vcz))
     f = volcl.VczFile(vcz)
-    assert len(f) == 6 and f.shape == stored.shape[1:]
+    assert len(f) == 6 and f.shape == stored.shape and f.frame_shape == stored.shape[1:]
     assert f.stored_scale == (0.5, 3.0) and f.dtype == np.float32 and f.header["dtype"] == "int16"
     exact = volcl.VczFile(vcz, stored_values=True)
     assert exact.dtype == np.int16

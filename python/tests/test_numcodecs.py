@@ -1,4 +1,4 @@
-"""The volcl numcodecs codec in a chunked zarr array: exact when lossless, within the bound when lossy."""
+"""The volcl numcodecs codec in a chunked zarr 2 array: exact when lossless, within the bound when lossy."""
 from __future__ import annotations
 
 import numcodecs
@@ -9,6 +9,9 @@ import volcl
 import volcl.numcodecs
 
 zarr = pytest.importorskip("zarr")
+if int(zarr.__version__.split(".")[0]) >= 3:
+    pytest.skip(f"zarr {zarr.__version__}: these are zarr 2's tests (zarr 3's are test_zarr3.py)",
+                allow_module_level=True)
 
 
 def test_codec_is_registered_and_configurable():
@@ -44,5 +47,5 @@ def test_chunks_of_other_ranks_and_refused_dtypes():
         out = np.empty_like(a)
         codec.decode(codec.encode(a), out=out)
         assert np.array_equal(out, a)
-    with pytest.raises(volcl.UsageError, match="float64"):
+    with pytest.raises(TypeError, match="float64"):
         codec.encode(np.zeros((4, 4, 4), np.float64))

@@ -99,7 +99,7 @@ def test_preintegration_table_equals_volcl_preint(tmp_path):
     table = volcl.preintegration_table(TF, size=16, step=1.0)
     ref = volcl.preintegration_table(TF, size=16, step=1.0, method="reference")
     assert table.shape == (16, 16, 4) and np.abs(table - ref).max() <= 1e-4
-    with pytest.raises(volcl.UsageError, match="either --step"):
+    with pytest.raises(volcl.UsageError, match="either step="):
         volcl.preintegration_table(TF, step=1.0, lengths=4)
 
 

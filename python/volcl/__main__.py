@@ -1,4 +1,5 @@
-"""``python -m volcl ARGS`` runs the volcl command line itself (the executable installed with the package)."""
+"""``python -m volcl ARGS`` and the ``volcl`` console script run the volcl command line itself (the executable
+installed with the package)."""
 from __future__ import annotations
 
 import os

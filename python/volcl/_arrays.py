@@ -1,9 +1,14 @@
-"""Argument conversions shared by the volcl API: volume arrays, grids, device contexts."""
+"""Argument conversions shared by the volcl API: volume arrays, grids, counts, device contexts, missing files."""
 from __future__ import annotations
 
+import builtins
+import contextlib
+import errno
+import glob
+import operator
 import os
 import threading
-from typing import Any, Callable, Optional, Tuple
+from typing import Any, Callable, Iterator, Optional, Tuple
 
 import numpy as np
 
@@ -38,7 +43,7 @@ def volume_array(array: Any, *, allow_float64: bool = True) -> np.ndarray:
     if a.dtype == np.float64 and allow_float64:
         return np.ascontiguousarray(a)  # converted to float32 by the library, as every reader does
     if a.dtype not in VOLUME_DTYPES:
-        raise _volcl.UsageError(
+        raise TypeError(
             f"array dtype {a.dtype} is not a volume type (uint8, uint16, int16, float32"
             + ("; float64 is converted)" if allow_float64 else ")"))
     return np.ascontiguousarray(a)
@@ -57,5 +62,45 @@ def triple(value: Any, default: Any, name: str, kind: Callable[[Any], Any] = flo
     return values  # type: ignore[return-value]
 
 
+def sizes(value: Any, default: int, name: str) -> Tuple[int, int, int]:
+    """A per-axis (x, y, z) triple of positive integers (brick sizes): one applies to all three axes."""
+    values = triple(value, default, name, lambda v: count(v, name, minimum=1))
+    return values
+
+
+def count(value: Any, name: str, *, minimum: int = 0) -> int:
+    """`value` as a Python int of at least `minimum`: TypeError for a non-integer (a float, a string),
+    volcl.UsageError (a ValueError) below the minimum, naming the keyword `name`."""
+    try:
+        n = operator.index(value)
+    except TypeError:
+        raise TypeError(f"{name}= must be an integer, not {type(value).__name__}") from None
+    if n < minimum:
+        raise _volcl.UsageError(f"{name}={n} must be at least {minimum}")
+    return n
+
+
 def fspath(path: Any) -> str:
     return os.fspath(path)
+
+
+class FileNotFoundError(_volcl.IoError, builtins.FileNotFoundError):  # noqa: A001 (volcl.FileNotFoundError)
+    """A file volcl was asked to read does not exist: both a :class:`volcl.IoError` and the builtin
+    FileNotFoundError (``errno`` ENOENT, ``filename`` the path). The message is the command line's."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
+
+
+@contextlib.contextmanager
+def missing_file_check(path: str) -> Iterator[None]:
+    """Turns the IoError a read of `path` raises into volcl.FileNotFoundError when `path` does not exist
+    (and is not a glob pattern, whose files are matched later), keeping the message."""
+    try:
+        yield
+    except _volcl.IoError as e:
+        if isinstance(e, FileNotFoundError) or os.path.lexists(path) or glob.has_magic(path):
+            raise
+        missing = FileNotFoundError(str(e))
+        missing.errno, missing.strerror, missing.filename = errno.ENOENT, os.strerror(errno.ENOENT), path
+        raise missing from None

@@ -20,7 +20,7 @@ def _rate(lossless: Optional[bool], max_error: Optional[float], psnr: Optional[f
     if lossless:
         chosen.insert(0, ("lossless", 0.0))
     if len(chosen) > 1:
-        raise _volcl.UsageError("choose one of --lossless, --max-error, --psnr, --bpv")
+        raise _volcl.UsageError("choose one of lossless=True, max_error=, psnr=, bpv=")
     if not chosen:
         if lossless is False:
             raise _volcl.UsageError("lossless=False needs a lossy mode (max_error, psnr or bpv)")
@@ -82,10 +82,13 @@ def encode(data: Union[np.ndarray, Volume, Sequence[np.ndarray]], *, lossless: O
     rate, target = _rate(lossless, max_error, psnr, bpv)
     out, measured = _volcl.encode(_arrays.context(device), frames, _arrays.triple(spacing, 1.0, "spacing"),
                                   _arrays.triple(origin, 0.0, "origin"), rate, target,
-                                  None if step is None else float(step), wavelet, int(levels),
-                                  _arrays.triple(brick, 64, "brick", int),
-                                  entropy, int(threads), {str(k): str(v) for k, v in (metadata or {}).items()},
-                                  str(motion), int(gop), int(b_frames), bool(global_shift), bool(lod_stats))
+                                  None if step is None else float(step), wavelet,
+                                  _arrays.count(levels, "levels"),
+                                  _arrays.sizes(brick, 64, "brick"), entropy,
+                                  _arrays.count(threads, "threads", minimum=1),
+                                  {str(k): str(v) for k, v in (metadata or {}).items()},
+                                  str(motion), _arrays.count(gop, "gop", minimum=1),
+                                  _arrays.count(b_frames, "b_frames"), bool(global_shift), bool(lod_stats))
     if report is not None:
         report.update(measured)
     return out
@@ -150,15 +153,33 @@ class VczFile:
         if isinstance(source, (bytes, bytearray, memoryview, np.ndarray)):
             self._vcz = _volcl.Vcz(_bytes_view(source), "input")
         else:
-            self._vcz = _volcl.Vcz.open(os.fspath(source))
+            path = os.fspath(source)
+            with _arrays.missing_file_check(path):
+                self._vcz = _volcl.Vcz.open(path)
         self._device = device
         self._stored = bool(stored_values)
         self.header: Dict[str, Any] = self._vcz.header
 
     @property
-    def shape(self) -> Tuple[int, int, int]:
+    def frame_shape(self) -> Tuple[int, int, int]:
         """Full-resolution shape of one frame, (z, y, x)."""
         return tuple(self.header["shape"])  # type: ignore[return-value]
+
+    @property
+    def shape(self) -> Tuple[int, ...]:
+        """The array this file holds: (z, y, x) for one volume, (t, z, y, x) for a series of t frames,
+        as ``np.asarray(f).shape`` and ``volcl.read(path).array.shape``."""
+        return ((self.frames,) if self.frames > 1 else ()) + self.frame_shape
+
+    @property
+    def ndim(self) -> int:
+        """3 for one volume, 4 for a series."""
+        return len(self.shape)
+
+    @property
+    def size(self) -> int:
+        """Voxels in :attr:`shape`."""
+        return int(np.prod(self.shape))
 
     @property
     def dtype(self) -> np.dtype:
@@ -225,48 +246,175 @@ class VczFile:
         return int(self._vcz.file_size)
 
     def __len__(self) -> int:
-        return self.frames
+        """``shape[0]``, as for a numpy array: z-slices of one volume, frames of a series."""
+        return self.shape[0]
 
     def read(self, *, frame: int = 0, level: int = 0, region: Optional[Region] = None,
              threads: int = 2) -> Volume:
         """Frame ``frame`` decoded whole or over ``region``, at full resolution or the 2^level-downsampled
         approximation, as a :class:`Volume` (its spacing grows by 2^level, its origin moves to the first
         kept sample). The same voxels as ``volcl decode --frame K --level L --region ...``."""
-        lo, hi = _region_corners(region, self.shape)
-        array, spacing, origin = self._vcz.decode(_arrays.context(self._device), lo, hi, int(level), int(frame),
-                                                  int(threads), self._stored)
+        frame = _arrays.count(frame, "frame")
+        if frame >= self.frames:
+            raise _volcl.UsageError(f"frame={frame} out of range: the file has {self.frames} frame"
+                                    + ("s" if self.frames != 1 else ""))
+        lo, hi = _region_corners(region, self.frame_shape)
+        array, spacing, origin = self._vcz.decode(_arrays.context(self._device), lo, hi,
+                                                  _arrays.count(level, "level"), frame,
+                                                  _arrays.count(threads, "threads", minimum=1), self._stored)
         return Volume(array, tuple(spacing), tuple(origin), {"format": "vcz", **self.metadata})
 
+    def frame(self, k: int) -> "VczFrame":
+        """Frame ``k`` of a series (negative counts from the end) as a 3D array view ``(z, y, x)`` that
+        indexes and converts like :class:`VczFile` and decodes only what an index asks for."""
+        k = _arrays.count(k, "frame", minimum=-self.frames)
+        if k >= self.frames:
+            raise IndexError(f"frame {k} is out of bounds for a file of {self.frames} frames")
+        return VczFrame(self, k % self.frames)
+
     def __getitem__(self, key: Any) -> np.ndarray:
-        """``f[z0:z1, y0:y1, x0:x1]`` decodes that region of frame 0; ``f[k, ...]`` with four indices picks
-        frame k; ``f[k]`` is frame k whole."""
-        if isinstance(key, (int, np.integer)):
-            return self.read(frame=int(key)).array
-        if not isinstance(key, tuple):
-            key = (key,)
-        frame = 0
-        if len(key) == 4:
-            if not isinstance(key[0], (int, np.integer)):
-                raise _volcl.UsageError("the frame index of f[k, z, y, x] must be an integer")
-            frame, key = int(key[0]), key[1:]
-        key = tuple(key) + (slice(None),) * (3 - len(key))
-        return self.read(frame=frame, region=key).array  # type: ignore[arg-type]
+        """numpy indexing over :attr:`shape`: integers (negative from the end), slices with any step,
+        ``...`` and ``None``; ``f[90]`` is z-slice 90 of one volume, frame 90 of a series. Only the bricks
+        the index touches are decoded (the bounding region of the slices, then stepped); other indices
+        (integer or boolean arrays) decode the whole array first."""
+        return _index(self, key, self.frames > 1)
+
+    def __array__(self, dtype: Any = None, copy: Optional[bool] = None) -> np.ndarray:
+        """The whole array, decoded (``np.asarray(f)``); ``dtype`` converts it. Every call decodes anew:
+        a new array (numpy 2's ``copy=`` is accepted either way, no array of the file is kept)."""
+        a = self[...]
+        return a if dtype is None else a.astype(dtype, copy=False)
+
+    def __repr__(self) -> str:
+        return f"VczFile(shape={self.shape}, dtype={self.dtype}, {self.nbytes} bytes)"
 
     def brick(self, index: int, *, frame: int = 0, level: int = 0) -> np.ndarray:
         """Brick ``index`` of ``frame`` at ``level``, decoded alone (its checksum is checked first)."""
-        array, _, _ = self._vcz.decode_brick(_arrays.context(self._device), int(frame), int(index), int(level),
+        array, _, _ = self._vcz.decode_brick(_arrays.context(self._device), _arrays.count(frame, "frame"),
+                                             _arrays.count(index, "index"), _arrays.count(level, "level"),
                                              self._stored)
         return array
 
     def brick_box(self, index: int) -> Tuple[slice, slice, slice]:
         """Where brick ``index`` lies in the full-resolution frame, as slices (z, y, x)."""
-        lo, hi = self._vcz.brick_box(int(index))
+        lo, hi = self._vcz.brick_box(_arrays.count(index, "index"))
         return tuple(slice(a, b) for a, b in zip(lo, hi))  # type: ignore[return-value]
 
     def bricks(self, *, frame: int = 0) -> Iterator[Tuple[int, Tuple[slice, slice, slice], np.ndarray]]:
         """Every brick of ``frame`` at full resolution, one at a time: (index, slices, voxels)."""
         for i in range(self.brick_count):
             yield i, self.brick_box(i), self.brick(i, frame=frame)
+
+
+class VczFrame:
+    """Frame ``k`` of a :class:`VczFile` (``f.frame(k)``): a 3D array ``(z, y, x)`` that indexes like
+    numpy and decodes only the bricks an index touches; ``np.asarray`` decodes the whole frame."""
+
+    def __init__(self, file: VczFile, k: int) -> None:
+        self.file, self.index = file, k
+
+    shape = property(lambda self: self.file.frame_shape, doc="(z, y, x)")
+    dtype = property(lambda self: self.file.dtype, doc="numpy dtype of the voxels")
+    ndim = property(lambda self: 3, doc="3")
+    size = property(lambda self: int(np.prod(self.shape)), doc="voxels in the frame")
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def __getitem__(self, key: Any) -> np.ndarray:
+        return _index(self.file, key, False, self.index)
+
+    def __array__(self, dtype: Any = None, copy: Optional[bool] = None) -> np.ndarray:
+        a = self[...]
+        return a if dtype is None else a.astype(dtype, copy=False)
+
+    def __repr__(self) -> str:
+        return f"VczFrame({self.index} of {self.file.frames}, shape={self.shape}, dtype={self.dtype})"
+
+
+_BASIC_INDEX_MESSAGE = ("only integers, slices (`:`), ellipsis (`...`), numpy.newaxis (`None`) and integer or "
+                        "boolean arrays are valid indices")
+
+
+def _index(f: VczFile, key: Any, series: bool, frame: int = 0) -> np.ndarray:
+    """numpy basic indexing of frame `frame` (or, `series`, of the (t, z, y, x) series) of `f`, decoding
+    the bounding region of the index's slices only; any other index decodes everything and lets numpy
+    apply it."""
+    shape = ((f.frames,) if series else ()) + f.frame_shape
+    keys = key if isinstance(key, tuple) else (key,)
+    basic = all(k is None or k is Ellipsis or isinstance(k, slice) or
+                (isinstance(k, (int, np.integer)) and not isinstance(k, (bool, np.bool_))) for k in keys)
+    if not basic:
+        whole = _index(f, (), series, frame)
+        try:
+            return whole[key]
+        except IndexError:
+            raise
+        except (TypeError, ValueError):
+            raise IndexError(_BASIC_INDEX_MESSAGE) from None
+    if sum(k is Ellipsis for k in keys) > 1:
+        raise IndexError("an index can only have a single ellipsis ('...')")
+    axes_used = sum(k is not None and k is not Ellipsis for k in keys)
+    if axes_used > len(shape):
+        raise IndexError(f"too many indices for array: array is {len(shape)}-dimensional, but {axes_used} were "
+                         "indexed")
+    expanded: List[Any] = []
+    for k in keys:
+        if k is Ellipsis:
+            expanded.extend([slice(None)] * (len(shape) - axes_used))
+        else:
+            expanded.append(k)
+    if Ellipsis not in keys:
+        expanded.extend([slice(None)] * (len(shape) - axes_used))
+    # Per axis: the decoded range [lo, hi) and how to pick from it (an int, or a slice relative to lo).
+    bounds: List[Tuple[int, int]] = []
+    picks: List[Any] = []
+    axis = 0
+    for k in expanded:
+        if k is None:
+            picks.append(None)
+            continue
+        n = shape[axis]
+        if isinstance(k, slice):
+            r = range(*k.indices(n))
+            if len(r) == 0:
+                bounds.append((0, 0))
+                picks.append(slice(0, 0))
+            else:
+                lo, hi = min(r[0], r[-1]), max(r[0], r[-1]) + 1
+                stop = r[-1] - lo + (1 if r.step > 0 else -1)
+                bounds.append((lo, hi))
+                picks.append(slice(r[0] - lo, None if stop < 0 else stop, r.step))
+        else:
+            i = int(k)
+            if not -n <= i < n:
+                raise IndexError(f"index {i} is out of bounds for axis {axis} with size {n}")
+            i %= n
+            bounds.append((i, i + 1))
+            picks.append(0)
+        axis += 1
+    if any(lo == hi for lo, hi in bounds):  # an empty selection decodes nothing
+        block = np.zeros([hi - lo for lo, hi in bounds], dtype=f.dtype)
+    else:
+        spatial = bounds[-3:]
+        region = tuple(slice(lo, hi) for lo, hi in spatial)
+        if series:
+            t0, t1 = bounds[0]
+            block = np.stack([f.read(frame=t, region=region).array for t in range(t0, t1)])
+        else:
+            block = f.read(frame=frame, region=region).array
+    return block[tuple(picks)]
+
+
+def chunk_volume(chunk: np.ndarray) -> np.ndarray:
+    """A zarr chunk as the 3D volume the codec compresses: fewer than three dimensions become a thin volume,
+    extra leading dimensions are stacked along z. float64 is refused (decoding gives float32)."""
+    a = _arrays.volume_array(chunk, allow_float64=False)
+    if a.ndim < 3:
+        return a.reshape((1,) * (3 - a.ndim) + a.shape)
+    if a.ndim > 3:
+        return a.reshape((-1,) + a.shape[-2:])
+    return a
 
 
 def decode(data: Any, *, region: Optional[Region] = None, level: int = 0, frame: int = 0, threads: int = 2,

@@ -43,8 +43,9 @@ class TransferFunction:
         """Canonical JSON, ParaView colour-map JSON (detected by its keys), or a 1D RGBA strip (.png/.exr)
         spanning ``strip_domain``. ``unit_distance``: the world length over which an imported opacity holds
         (ParaView's scalar opacity unit distance)."""
-        return cls(_native=_volcl.TransferFunction.from_file(os.fspath(path), tuple(strip_domain),
-                                                              float(unit_distance)))
+        p = os.fspath(path)
+        with _arrays.missing_file_check(p):
+            return cls(_native=_volcl.TransferFunction.from_file(p, tuple(strip_domain), float(unit_distance)))
 
     @classmethod
     def from_json(cls, text: Union[str, Dict[str, Any], List[Any]], *, unit_distance: float = 1.0

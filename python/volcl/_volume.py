@@ -55,8 +55,9 @@ def read(path: PathLike, *, device: Optional[str] = None) -> Volume:
     its name, SLC, VDB, Inviwo .dat, Voreen .vvd, a ParaView .pvd series, a quoted glob, and .vcz).
 
     A file of one frame gives a 3D ``array[z, y, x]``, a series a 4D ``array[t, z, y, x]``. The array owns
-    the reader's buffer (no copy). Errors raise :class:`volcl.IoError` / :class:`volcl.DataError` with
-    the command line's message, e.g. ``volcl.read("missing.nrrd")``.
+    the reader's buffer (no copy). Errors raise :class:`volcl.IoError` (an OSError) /
+    :class:`volcl.DataError` with the command line's message; a path that does not exist raises
+    :class:`volcl.FileNotFoundError` (also the builtin FileNotFoundError).
 
     Example::
 
@@ -65,7 +66,8 @@ def read(path: PathLike, *, device: Optional[str] = None) -> Volume:
     """
     p = _arrays.fspath(path)
     ctx = _arrays.context(device) if p.lower().endswith(".vcz") else None
-    r = _volcl.read(p, ctx)
+    with _arrays.missing_file_check(p):
+        r = _volcl.read(p, ctx)
     frames: List[np.ndarray] = r["frames"]
     array = frames[0] if len(frames) == 1 else np.stack(frames)
     metadata: Dict[str, Any] = {"format": r["format"]}
@@ -80,7 +82,7 @@ def read(path: PathLike, *, device: Optional[str] = None) -> Volume:
 def write(path: PathLike, volume: Union[Volume, np.ndarray], *, spacing: Optional[Sequence[float]] = None,
           origin: Optional[Sequence[float]] = None, compress: bool = True) -> None:
     """Writes one volume (a :class:`Volume` or a 3D array ``a[z, y, x]``); the format follows the extension
-    (.raw, .nrrd, .nhdr + .raw, .vdb, and whatever else ``volcl decode -o`` writes). The file is written
+    (.raw, .nrrd, .nhdr + .raw, .nii, .nii.gz, .vti, .vdb, .npy: what ``volcl decode -o`` writes). The file is written
     atomically: a failed write leaves nothing behind. ``spacing``/``origin`` (x, y, z) override the
     volume's. ``compress``: gzip for NRRD, Blosc/zip for VDB.
     """
@@ -100,5 +102,7 @@ def write(path: PathLike, volume: Union[Volume, np.ndarray], *, spacing: Optiona
 def read_image(path: PathLike) -> Tuple[np.ndarray, List[str]]:
     """An image file (EXR from ``volcl render`` or ``volcl preint``, PNG, ...) as float32 pixels
     [height, width, channels] and the channel names, e.g. ``(img, ["R", "G", "B", "A"])``."""
-    pixels, channels = _volcl.read_image(_arrays.fspath(path))
+    p = _arrays.fspath(path)
+    with _arrays.missing_file_check(p):
+        pixels, channels = _volcl.read_image(p)
     return pixels, list(channels)

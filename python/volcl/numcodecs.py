@@ -1,4 +1,5 @@
-"""A numcodecs codec (``id: "volcl"``), so zarr arrays compress their chunks with the volcl wavelet codec.
+"""A numcodecs codec (``id: "volcl"``), so zarr 2 arrays (and zarr 3 arrays of ``zarr_format=2``) compress
+their chunks with the volcl wavelet codec; zarr 3's own format takes :class:`volcl.zarr3.Volcl`.
 
 Example::
 
@@ -21,8 +22,7 @@ from numcodecs.abc import Codec
 from numcodecs.compat import ensure_contiguous_ndarray, ndarray_copy
 from numcodecs.registry import register_codec
 
-from . import _arrays
-from ._codec import decode, encode
+from ._codec import chunk_volume, decode, encode
 
 
 class Volcl(Codec):
@@ -44,11 +44,7 @@ class Volcl(Codec):
         self.device = device
 
     def encode(self, buf: Any) -> bytes:
-        a = _arrays.volume_array(np.asarray(buf), allow_float64=False)
-        if a.ndim < 3:
-            a = a.reshape((1,) * (3 - a.ndim) + a.shape)
-        elif a.ndim > 3:
-            a = a.reshape((-1,) + a.shape[-2:])
+        a = chunk_volume(np.asarray(buf))
         return encode(a, max_error=self.max_error, psnr=self.psnr, bpv=self.bpv, wavelet=self.wavelet,
                       levels=self.levels, brick=self.brick, entropy=self.entropy, threads=self.threads,
                       device=self.device)

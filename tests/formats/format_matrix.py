@@ -26,8 +26,8 @@ SHAPE = (7, 5, 4)
 AFFINE = np.array([[0.5, 0, 0, 3.0], [0, 1.25, 0, -4.0], [0, 0, 2.0, 5.5], [0, 0, 0, 1]])
 
 # Output format: (file name template, keeps spacing and origin, holds several frames). A raw file keeps
-# values, dims (in its name) and type only; every other format keeps the grid too; NIfTI, NRRD and .vcz
-# hold a series.
+# values, dims (in its name) and type only, a numpy .npy values, dims and type; every other format keeps
+# the grid too; NIfTI, NRRD, .vcz and .npy hold a series.
 FORMATS = {
     "raw": ("{n}_7x5x4_{t}.raw", False, False),
     "raw.gz": ("{n}_7x5x4_{t}.raw.gz", False, False),
@@ -38,6 +38,7 @@ FORMATS = {
     "vti": ("{n}.vti", True, False),
     "vdb": ("{n}.vdb", True, False),
     "vcz": ("{n}.vcz", True, True),
+    "npy": ("{n}.npy", False, True),
 }
 # Voxel types of the sources (the volume model's four types) and the scaled int16 source: scl_slope 0.5,
 # scl_inter 3. The scaled source keeps its stored int16 and scale in NIfTI and .vcz; every other format
@@ -103,6 +104,10 @@ def volume_case(kind, fmt):
     if r.returncode != 0:
         check(False, f"{what}: {r.stderr.strip()}")
         return
+    if fmt == "npy":  # numpy reads it too: a[z, y, x], the transpose of nibabel's a[x, y, z]
+        a = np.load(name)
+        check(a.dtype == expected_dtype(kind, fmt) and np.array_equal(a, src.get_fdata().T),
+              f"{what}: numpy loads {a.shape} {a.dtype}")
     out = path(f"back_{kind}_{fmt.replace('.', '_')}.nii")
     r = back_to_nifti(name, fmt, out)
     if r.returncode != 0:
@@ -122,7 +127,7 @@ def volume_case(kind, fmt):
 def series_case(fmt):
     """A 4D scaled int16 source: kept whole by NIfTI, NRRD and .vcz, refused by formats that hold one volume."""
     src_path, src = make_source("int16_scaled", frames=3)
-    template, _, holds_series = FORMATS[fmt]
+    template, keeps_grid, holds_series = FORMATS[fmt]
     stem = f"s4_{fmt.replace('.', '_')}"
     name = path(template.format(n=stem, t="int16"))
     what = f"4D int16_scaled -> {fmt}"
@@ -141,15 +146,19 @@ def series_case(fmt):
         check(r.returncode == 2 and len(lines) == 1 and os.path.basename(name) in lines[0] and not left,
               f"{what}: refused (exit {r.returncode}, {r.stderr.strip()}, left {left})")
         return
+    if fmt == "npy":
+        a = np.load(name)
+        check(a.shape == src.shape[::-1] and np.array_equal(a, src.get_fdata().T),
+              f"{what}: numpy loads {a.shape} {a.dtype}")
     out = path(f"back_{stem}.nii")
     back = back_to_nifti(name, fmt, out)
     check(back.returncode == 0, f"{what} -> nii: {back.stderr.strip()}")
     b = nib.load(out)
-    same = b.shape == src.shape and np.allclose(b.affine, AFFINE, atol=1e-6)
+    same = b.shape == src.shape and np.allclose(b.affine, AFFINE if keeps_grid else np.eye(4), atol=1e-6)
     if fmt in ("nii", "nii.gz", "vcz"):
         check(same and np.array_equal(b.dataobj.get_unscaled(), src.dataobj.get_unscaled())
               and (b.dataobj.slope, b.dataobj.inter) == (0.5, 3.0), f"{what}: frames, stored values, scale and grid kept ({b.shape})")
-    else:  # NRRD has no scale: data units as float32
+    else:  # NRRD and .npy have no scale: data units as float32
         check(same and b.get_data_dtype() == np.float32 and np.array_equal(b.get_fdata(), src.get_fdata()),
               f"{what}: frames, data units and grid kept ({b.shape}, {b.get_data_dtype()})")
 
