@@ -738,6 +738,8 @@ TEST(CliHostile, SeriesPatternOutputIsAllOrNothing) {
     const std::set<std::string> before = names(vcz);
     expectRefused(run("decode s.vcz -o f_%02d.nii.gz", vcz, "ulimit -f 8;"), 1, "f_02.nii.gz");
     EXPECT_EQ(names(vcz), before);
+}
+
 // ---- budgets (issue #40): every count that multiplies work is checked before any allocation or loop ------
 
 TEST(CliHostile, InfoReportsACorruptBrickPayload) {
