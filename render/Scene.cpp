@@ -4,8 +4,8 @@
 
 #include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
-#include "preintegration/PreintegrationTable.hpp"
 #include "core/Format.hpp"
+#include "preintegration/PreintegrationTable.hpp"
 #include "render/VecMath.hpp"
 
 #include <nlohmann/json.hpp>

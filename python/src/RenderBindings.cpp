@@ -20,11 +20,13 @@ namespace volcl::python {
 namespace {
 
 // The image `volcl render` writes to EXR for the same volume, TF and scene: linear associated RGBA (+ Z
-// with iso-surfaces), no background; returns (pixels [height, width, channels], channel names).
+// with iso-surfaces), no background; returns (pixels [height, width, channels], channel names). The
+// transfer function is `tf` as built, else `tfSpec` (a preset or file) read with the command line's
+// automatic opacity unit distance, else ParaView's default over the data range, as `volcl render` does.
 std::tuple<nb::object, std::vector<std::string>>
 render(Context& context, const InputArray& array, const std::array<double, 3>& spacing,
-       const std::array<double, 3>& origin, const TransferFunction& tf, const std::string& sceneJson,
-       std::optional<std::string> view, const Direction3& direction) {
+       const std::array<double, 3>& origin, const TransferFunction* tf, std::optional<std::string> tfSpec,
+       const std::string& sceneJson, std::optional<std::string> view, const Direction3& direction) {
     Volume v = arrayToVolume(array, spacing, origin);
     v.direction = orthonormalDirection(direction);
     ImageBuffer image;
@@ -32,7 +34,6 @@ render(Context& context, const InputArray& array, const std::array<double, 3>& s
         nb::gil_scoped_release released;
         Scene scene = Scene::fromJson(sceneJson);
         const WorldBox box = volumeBox(v);
-        scene.validateSteps(norm(box.extent));
         if (view) {
             if (scene.camera) throw UsageError("render: give either camera or view, not both");
             // The view is in world axes (patient RAS for anatomical data), as the command line's --view.
@@ -43,7 +44,15 @@ render(Context& context, const InputArray& array, const std::array<double, 3>& s
         applyLightingDefaults(scene);
         const RenderInput input = RenderInput::fromVolume(std::move(v));
         const ValueRange range = input.valueRange();
-        const TransferFunction fitted = tf.fittedTo({range.min, range.max});
+        // The renderer validates the steps once the default half-voxel step is resolved.
+        const std::array<double, 2> dataRange{range.min, range.max};
+        const double unit = input.approximateCellLength();
+        const TransferFunction fitted =
+            tf       ? tf->fittedTo(dataRange)
+            : tfSpec ? TransferFunction::fromFile(
+                           *tfSpec, {range.min, range.max > range.min ? range.max : range.min + 1.0}, unit)
+                           .fittedTo(dataRange)
+                     : TransferFunction::paraViewDefault(dataRange, unit);
         std::lock_guard lock(context.mutex);
         const std::unique_ptr<VolumeRenderer> renderer = input.makeRenderer(context.cc, fitted, scene);
         image = renderer->render();
@@ -112,7 +121,7 @@ compositeOverBackground(const nb::ndarray<const float, nb::ndim<3>, nb::c_contig
 
 void bindRender(nb::module_& m) {
     m.def("render", &render, nb::arg("context"), nb::arg("array"), nb::arg("spacing"), nb::arg("origin"),
-          nb::arg("tf"), nb::arg("scene_json"), nb::arg("view").none(),
+          nb::arg("tf").none(), nb::arg("tf_spec").none(), nb::arg("scene_json"), nb::arg("view").none(),
           nb::arg("direction") = kIdentityDirection);
     m.def("composite", &compositeOverBackground, nb::arg("rgba"), nb::arg("background"));
     m.def("preintegration_table", &preintegrationTable, nb::arg("context").none(), nb::arg("tf"),

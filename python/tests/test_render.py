@@ -106,3 +106,19 @@ def test_preintegration_table_equals_volcl_preint(tmp_path):
 def test_devices_lists_the_device_the_calls_use():
     devs = volcl.devices()
     assert devs and {"index", "name", "platform", "type"} <= set(devs[0])
+
+
+@pytest.mark.parametrize("tf", [None, "preset:viridis"])
+@pytest.mark.parametrize("name", ["regular/walnut.vvd", "regular/HeadMRVolume.mhd"])
+def test_render_defaults_equal_the_cli_without_flags(tmp_path, name, tf):
+    # Without a step, a transfer function or a camera, Python renders what `volcl render --volume X` does:
+    # half a voxel, ParaView's default TF (or the preset spread over the data range) with the automatic
+    # opacity unit distance, the same framing. walnut's spacing is 0.0156, so world-unit defaults differ.
+    volume = need(DATA / name)
+    exr = tmp_path / "cli.exr"
+    run_cli("render", "--volume", str(volume), "--width", "48", "--height", "40", "-o", str(exr),
+            *(["--tf", tf] if tf else []))
+    cli, _ = volcl.read_image(exr)
+    mine = volcl.render(volume, tf, width=48, height=40)
+    assert mine[..., 3].max() > 0.05  # visible
+    assert np.abs(mine - cli).max() <= 1e-6

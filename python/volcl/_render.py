@@ -127,6 +127,16 @@ def as_transfer_function(tf: TfLike) -> TransferFunction:
     return TransferFunction.from_file(text)
 
 
+def _render_tf(tf: Optional[TfLike]):
+    """(native TF or None, preset/file spec or None) for _volcl.render: presets and files are read there,
+    with the volume's automatic opacity unit distance."""
+    if tf is None:
+        return None, None
+    if isinstance(tf, (str, os.PathLike)):
+        return None, os.fspath(tf)
+    return as_transfer_function(tf)._native, None
+
+
 def preintegration_table(tf: TfLike, *, size: int = 256, step: Optional[float] = None,
                          lengths: Optional[int] = None, max_length: Optional[float] = None,
                          axis: str = "linear", method: str = "exact", precision: str = "float",
@@ -148,9 +158,9 @@ def preintegration_table(tf: TfLike, *, size: int = 256, step: Optional[float] =
     return table
 
 
-def render(volume: Union[Volume, np.ndarray, str, "os.PathLike[str]"], tf: TfLike, *,
+def render(volume: Union[Volume, np.ndarray, str, "os.PathLike[str]"], tf: Optional[TfLike] = None, *,
            camera: Optional[Dict[str, Any]] = None, view: Optional[str] = None, mode: str = "dvr",
-           width: int = 512, height: int = 512, step: float = 0.5, preintegration: str = "none",
+           width: int = 512, height: int = 512, step: Union[float, str, None] = None, preintegration: str = "none",
            early_termination: float = 0.995, background: Optional[Sequence[float]] = None,
            lights: Optional[List[Dict[str, Any]]] = None, effects: Optional[Dict[str, Any]] = None,
            options: Optional[Dict[str, Any]] = None, spacing: Optional[Sequence[float]] = None,
@@ -162,13 +172,17 @@ def render(volume: Union[Volume, np.ndarray, str, "os.PathLike[str]"], tf: TfLik
     Row 0 is the top of the image.
 
     ``volume``: a :class:`Volume`, a 3D array (with ``spacing``/``origin``), or a file path (frame
-    ``frame`` of a series). ``tf``: a :class:`TransferFunction`, a JSON dict, a file or "preset:NAME".
+    ``frame`` of a series). ``tf``: a :class:`TransferFunction`, a JSON dict, a file or "preset:NAME"; a
+    file or preset is read with ParaView's automatic opacity unit distance (box diagonal / cube root of the
+    cell count) and spread over the data range, and without ``tf`` the image uses ParaView's default (a
+    grey ramp with opacity 0 to 1 over the data range), all as ``volcl render`` does.
     The scene fields follow the scene JSON: ``camera`` (``{"projection": "orthographic", "eye": [...],
     "target": [...], "up": [...], "height": h}`` or ``"fov_y_deg"`` for perspective; default: looking
     down +z at the whole box, or the front view for a file placed in patient axes, as ``volcl render``),
     or ``view`` (front | back | left | right | top | bottom | iso, framed as ParaView's reset camera, in
     world axes: patient RAS for NIfTI, NRRD and MetaImage files, so front shows the face whatever the
-    storage order); ``mode`` (dvr | mip | iso | xray), ``step`` (world units),
+    storage order); ``mode`` (dvr | mip | iso | xray), ``step`` (a number: world units; "Nvox": voxels of the finest
+    spacing; default half a voxel),
     ``preintegration`` (none | 2d | 3d), ``early_termination``, ``lights``, ``effects``; ``options``
     adds further keys of the scene's "render" object. The GIL is released while the kernel runs.
 
@@ -195,8 +209,10 @@ def render(volume: Union[Volume, np.ndarray, str, "os.PathLike[str]"], tf: TfLik
     if view is None and camera is None and (metadata or {}).get("anatomical", False):
         view = "front"
     a = _arrays.volume_array(array)
-    render_section: Dict[str, Any] = {"mode": mode, "step": float(step), "preintegration": preintegration,
+    render_section: Dict[str, Any] = {"mode": mode, "preintegration": preintegration,
                                       "early_termination": float(early_termination)}
+    if step is not None:
+        render_section["step"] = step if isinstance(step, str) else float(step)
     render_section.update(options or {})
     scene: Dict[str, Any] = {"image": {"width": int(width), "height": int(height)}, "render": render_section}
     if background is not None:
@@ -208,7 +224,7 @@ def render(volume: Union[Volume, np.ndarray, str, "os.PathLike[str]"], tf: TfLik
     if effects is not None:
         scene["effects"] = effects
     image, _channels = _volcl.render(_arrays.context(device), a, _arrays.triple(spacing, 1.0, "spacing"),
-                                     _arrays.triple(origin, 0.0, "origin"), as_transfer_function(tf)._native,
+                                     _arrays.triple(origin, 0.0, "origin"), *_render_tf(tf),
                                      json.dumps(scene), view, direction)
     return image
 

@@ -17,9 +17,9 @@
 #include <algorithm>
 #include <cstring>
 #include <fstream>
-#include <set>
 #include <numeric>
 #include <random>
+#include <set>
 #include <sstream>
 
 extern char** environ;
