@@ -531,14 +531,19 @@ bool isJournalName(const std::string& name) {
     return name.size() > kJournalSuffix.size() + 1 && name.front() == '.' && name.ends_with(kJournalSuffix);
 }
 
-void syncDirectory(const fs::path& dir) {
+// Flushes the directory of `file` (its names); an error names `file`.
+void syncDirectoryOf(const fs::path& file) {
+    const fs::path dir = directoryOf(file);
     const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-    if (fd < 0) throw IoError(dir.string() + ": cannot open the directory: " + systemError(errno));
+    if (fd < 0)
+        throw IoError(file.string() + ": cannot open its directory " + dir.string() + ": " +
+                      systemError(errno));
     const int rc = ::fsync(fd);
     const int err = errno;
     ::close(fd);
     if (rc != 0 && err != EINVAL)
-        throw IoError(dir.string() + ": cannot flush the directory: " + systemError(err));
+        throw IoError(file.string() + ": cannot flush its directory " + dir.string() + ": " +
+                      systemError(err));
 }
 
 // An exclusive flock on a directory, released by close (and by the kernel when its holder dies).
@@ -627,11 +632,11 @@ void completeJournal(const fs::path& journal) {
             throw IoError(target.string() + ": cannot complete the interrupted volcl commit " +
                           journal.string() + ": " + systemError(errno));
     }
-    syncDirectory(dir);
+    syncDirectoryOf(journal);
     if (::unlink(journal.c_str()) != 0 && errno != ENOENT)
         throw IoError(journal.string() +
                       ": cannot remove the completed commit journal: " + systemError(errno));
-    syncDirectory(dir);
+    syncDirectoryOf(journal);
 }
 
 // Completes every journal in `dir` (the caller holds its lock, so their writers are gone).
@@ -682,7 +687,7 @@ void writeJournal(const fs::path& journal, const std::vector<JournalEntry>& entr
         ::unlink(temp.c_str());
         throw IoError(journal.string() + ": cannot write the commit journal: " + systemError(err));
     }
-    syncDirectory(directoryOf(journal));
+    syncDirectoryOf(journal);
 }
 
 } // namespace
@@ -753,6 +758,7 @@ void AtomicCommitGroup::commit() {
         lock.emplace(directoryOf(entries_.front().target));
         lock->wait();
         completeJournalsIn(directoryOf(entries_.front().target));
+        removeStaleTemporaries(journalPathFor(entries_.front().target)); // a dead writer's unfinished journal
     }
     // A terminal's Ctrl-C or a supervisor's SIGTERM during the moves would leave a mix of new and old
     // targets: they wait until every move is done (or undone).
@@ -774,7 +780,7 @@ void AtomicCommitGroup::commit() {
                 lines.push_back(
                     {e.finished.filename().string(), e.target.filename().string(), inodeOf(e.finished)});
             }
-            syncDirectory(directoryOf(journal));
+            syncDirectoryOf(entries_.front().target);
             writeJournal(journal, lines);
             journalWritten = true;
         }
@@ -813,7 +819,7 @@ void AtomicCommitGroup::commit() {
         if (journaled) { // ours: the lock keeps other groups out
             ::unlink(journal.c_str());
             try {
-                syncDirectory(directoryOf(journal));
+                syncDirectoryOf(journal);
             } catch (const IoError&) {
             }
         }
@@ -829,9 +835,15 @@ void AtomicCommitGroup::commit() {
         retireOld(olds[i], entries_[i].onReplaced);
     if (journalWritten) {
         // (d) the replaced files are gone before the journal: a kill before this line is still completed.
-        syncDirectory(directoryOf(journal));
-        ::unlink(journal.c_str());
-        syncDirectory(directoryOf(journal));
+        // The moves are done, so the flushes are best effort: a journal that a lost unlink brings back
+        // after a crash names frames already in place, and completing it changes nothing.
+        try {
+            syncDirectoryOf(journal);
+            ::unlink(journal.c_str());
+            syncDirectoryOf(journal);
+        } catch (const IoError&) {
+            ::unlink(journal.c_str());
+        }
     }
 }
 
