@@ -708,7 +708,7 @@ AtomicCommitGroup::~AtomicCommitGroup() {
 
 namespace {
 
-// Completes the journals in `dir` that `names` accepts (any, when null) once their writers are gone:
+// Completes the journals in `dir` once their writers are gone, when one names `name` (any, when null):
 // waits up to kJournalWait for a live one's lock, then throws IoError naming `what`.
 void completeJournalsNaming(const fs::path& dir, const std::string* name, const fs::path& what) {
     std::error_code ec;
@@ -737,7 +737,8 @@ void completeInterruptedCommit(const fs::path& file) {
 }
 
 void completeInterruptedCommitsIn(const fs::path& dir) {
-    completeJournalsNaming(dir.empty() ? fs::path(".") : dir, nullptr, dir.empty() ? fs::path(".") : dir);
+    const fs::path where = dir.empty() ? fs::path(".") : dir;
+    completeJournalsNaming(where, nullptr, where);
 }
 
 void AtomicCommitGroup::commit() {
