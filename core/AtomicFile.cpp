@@ -6,18 +6,23 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <chrono>
 #include <csignal>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <random>
+#include <sstream>
 #include <string>
+#include <thread>
 
 #include <fcntl.h>
 #include <pthread.h>
 #include <signal.h>
 #include <stdio.h> // renameat2
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -138,6 +143,46 @@ int openUnnamedTemp(const fs::path& target) {
 
 } // namespace
 
+// The temporary's stream. A writer that seeks back to patch a header or an index leaves the stream's
+// position short of the file's end, so the furthest position written is kept: before each seek (when
+// something was written since the last one) and for the direct writes that bypass the stream.
+struct AtomicFile::TrackedStream {
+    struct Buffer : std::filebuf {
+        std::streamoff end = 0;
+        bool wrote = false;
+        void noteEnd() {
+            if (!wrote && pptr() == pbase()) return;
+            const pos_type here = std::filebuf::seekoff(0, std::ios::cur, std::ios::out);
+            if (here != pos_type(off_type(-1))) end = std::max<std::streamoff>(end, here);
+            wrote = false;
+        }
+        pos_type seekoff(off_type off, std::ios::seekdir dir, std::ios::openmode which) override {
+            noteEnd();
+            return std::filebuf::seekoff(off, dir, which);
+        }
+        pos_type seekpos(pos_type pos, std::ios::openmode which) override {
+            noteEnd();
+            return std::filebuf::seekpos(pos, which);
+        }
+        int_type overflow(int_type c) override {
+            wrote = true;
+            return std::filebuf::overflow(c);
+        }
+        std::streamsize xsputn(const char* s, std::streamsize n) override {
+            wrote = wrote || n > 0;
+            return std::filebuf::xsputn(s, n);
+        }
+    };
+    Buffer buffer;
+    std::ostream out{&buffer};
+    /// The file's expected size: the furthest position written, -1 after an error.
+    std::streamoff expectedEnd() {
+        out.flush();
+        const std::streamoff here = out.tellp(); // also notes the end of the last writes
+        return out && here >= 0 ? std::max(buffer.end, here) : -1;
+    }
+};
+
 void checkOutputPath(const fs::path& target) {
     if (target.empty()) throw IoError("output path is empty");
     const fs::path dir = directoryOf(target);
@@ -155,6 +200,9 @@ void checkOutputPath(const fs::path& target) {
 
 AtomicFile::AtomicFile(fs::path target) : target_(std::move(target)) {
     checkOutputPath(target_);
+    // A dead writer's journal may name this target: its hidden files are the finished series, which
+    // removeStaleTemporaries would otherwise delete.
+    completeInterruptedCommit(target_);
     removeStaleTemporaries(target_);
     fd_ = openUnnamedTemp(target_);
     if (fd_ >= 0) {
@@ -171,7 +219,7 @@ AtomicFile::AtomicFile(fs::path target) : target_(std::move(target)) {
 AtomicFile::~AtomicFile() {
     if (committed_) return;
     try {
-        if (stream_.is_open()) stream_.close();
+        if (stream_) stream_->buffer.close();
     } catch (...) {
     }
     if (fd_ >= 0) {
@@ -182,14 +230,15 @@ AtomicFile::~AtomicFile() {
     fs::remove(temp_, ec);
 }
 
-std::ofstream& AtomicFile::stream() {
+std::ostream& AtomicFile::stream() {
     if (committed_) throw IoError(target_.string() + ": already committed");
-    if (!stream_.is_open()) {
-        stream_.open(temp_, std::ios::binary | std::ios::trunc);
-        if (!stream_)
+    if (!stream_) {
+        auto opened = std::make_unique<TrackedStream>();
+        if (!opened->buffer.open(temp_, std::ios::out | std::ios::binary | std::ios::trunc))
             throw IoError(target_.string() + ": cannot open temporary " + temp_.string() + " for writing");
+        stream_ = std::move(opened);
     }
-    return stream_;
+    return stream_->out;
 }
 
 // O_DIRECT wants the file offset, the length and the buffer aligned to the device's logical block; 4096
@@ -198,7 +247,7 @@ constexpr std::size_t kDirectAlignment = 4096;
 constexpr std::size_t kDirectChunkBytes = std::size_t(1) << 20;
 
 std::span<const std::byte> AtomicFile::writeDirect(std::span<const std::byte> bytes) {
-    std::ofstream& s = stream();
+    std::ostream& s = stream();
     s.flush();
     const std::streamoff position = s.tellp();
     if (!s || position < 0) return bytes; // the stream reports the error on its own write
@@ -231,12 +280,15 @@ std::span<const std::byte> AtomicFile::writeDirect(std::span<const std::byte> by
         if (static_cast<std::size_t>(w) < n) break;
     }
     ::close(fd);
-    if (written > 0) s.seekp(static_cast<std::streamoff>(offset + written));
+    if (written > 0) {
+        stream_->buffer.end = std::max(stream_->buffer.end, static_cast<std::streamoff>(offset + written));
+        s.seekp(static_cast<std::streamoff>(offset + written));
+    }
     return bytes.subspan(written);
 }
 
 void AtomicFile::write(std::span<const std::byte> bytes) {
-    std::ofstream& s = stream();
+    std::ostream& s = stream();
     if (bytes.size() >= kDirectWriteMinBytes) bytes = writeDirect(bytes);
     s.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
     if (!s) throw IoError(target_.string() + ": write failed (disk full or file size limit?)");
@@ -335,14 +387,13 @@ void retireOld(const fs::path& old, const std::function<void(const fs::path&)>& 
 fs::path AtomicFile::finish(bool nameUnnamed) {
     if (committed_) throw IoError(target_.string() + ": already committed");
     const std::string writeFailed = target_.string() + ": write failed (disk full or file size limit?)";
-    // What the stream put into the file: the temporary must hold exactly that many bytes.
+    // What the stream put into the file: the temporary must end exactly at its furthest write.
     std::streamoff expected = -1;
-    if (stream_.is_open()) {
-        stream_.flush();
-        expected = stream_.tellp();
-        const bool good = static_cast<bool>(stream_);
-        stream_.close();
-        if (!good || stream_.fail() || expected < 0) throw IoError(writeFailed);
+    if (stream_) {
+        expected = stream_->expectedEnd();
+        const bool closed = stream_->buffer.close() != nullptr;
+        stream_.reset();
+        if (!closed || expected < 0) throw IoError(writeFailed);
     }
     // Data must be on disk before the rename makes it visible, or a crash could expose an empty file.
     const int fd = fd_ >= 0 ? fd_ : ::open(temp_.c_str(), O_RDONLY | O_CLOEXEC);
@@ -450,6 +501,197 @@ private:
 
 } // namespace
 
+namespace {
+
+// A series commit journal: several names cannot be replaced in one POSIX step, so a group whose targets
+// share a directory first gives every finished file its hidden name, then records hidden name -> target
+// (with the finished file's inode) in `.FIRST.volcl-commit` beside them, then moves. Once the journal is
+// on disk the commit is decided: whoever finds it with its writer gone (the directory's flock free) rolls
+// it forward. A target whose inode is the journal's is moved; otherwise its hidden file is moved over it.
+// The flock on the directory also serialises the move loops of concurrent groups there.
+
+constexpr std::string_view kJournalSuffix = ".volcl-commit";
+constexpr std::string_view kJournalMagic = "volcl commit journal 1";
+// How long a reader waits for a live writer's moves before refusing.
+constexpr std::chrono::seconds kJournalWait{10};
+
+struct JournalEntry {
+    std::string hidden, target;
+    unsigned long long inode = 0;
+};
+
+fs::path journalPathFor(const fs::path& firstTarget) {
+    std::string name = tempPrefix(firstTarget); // ".NAME.tmp-" -> ".NAME.volcl-commit"
+    name.resize(name.size() - 5);
+    name.append(kJournalSuffix);
+    return directoryOf(firstTarget) / name;
+}
+
+bool isJournalName(const std::string& name) {
+    return name.size() > kJournalSuffix.size() + 1 && name.front() == '.' && name.ends_with(kJournalSuffix);
+}
+
+// Flushes the directory of `file` (its names); an error names `file`.
+void syncDirectoryOf(const fs::path& file) {
+    const fs::path dir = directoryOf(file);
+    const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0)
+        throw IoError(file.string() + ": cannot open its directory " + dir.string() + ": " +
+                      systemError(errno));
+    const int rc = ::fsync(fd);
+    const int err = errno;
+    ::close(fd);
+    if (rc != 0 && err != EINVAL)
+        throw IoError(file.string() + ": cannot flush its directory " + dir.string() + ": " +
+                      systemError(err));
+}
+
+// An exclusive flock on a directory, released by close (and by the kernel when its holder dies).
+class DirectoryLock {
+public:
+    explicit DirectoryLock(const fs::path& dir)
+        : fd_(::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC)) {
+        if (fd_ < 0) throw IoError(dir.string() + ": cannot open the directory: " + systemError(errno));
+    }
+    ~DirectoryLock() { ::close(fd_); }
+    DirectoryLock(const DirectoryLock&) = delete;
+    DirectoryLock& operator=(const DirectoryLock&) = delete;
+    void wait() {
+        while (::flock(fd_, LOCK_EX) != 0)
+            if (errno != EINTR) throw IoError("cannot lock a directory: " + systemError(errno));
+    }
+    bool waitFor(std::chrono::milliseconds limit) {
+        const auto end = std::chrono::steady_clock::now() + limit;
+        for (;;) {
+            if (::flock(fd_, LOCK_EX | LOCK_NB) == 0) return true;
+            if (errno != EWOULDBLOCK && errno != EINTR)
+                throw IoError("cannot lock a directory: " + systemError(errno));
+            if (std::chrono::steady_clock::now() >= end) return false;
+            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        }
+    }
+
+private:
+    int fd_;
+};
+
+// Reads a journal's writer PID and entries; false when it is gone or not a journal.
+bool readJournal(const fs::path& journal, std::vector<JournalEntry>& entries, long& pid) {
+    std::error_code ec;
+    if (!fs::is_regular_file(journal, ec)) return false;
+    std::string text;
+    try {
+        const std::vector<std::byte> bytes = readFileBytes(journal);
+        text.assign(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+    } catch (const IoError&) {
+        return false;
+    }
+    std::istringstream in(text);
+    std::string line;
+    if (!std::getline(in, line) || line != kJournalMagic) return false;
+    if (!std::getline(in, line) || !line.starts_with("pid ")) return false;
+    pid = std::atol(line.c_str() + 4);
+    entries.clear();
+    while (std::getline(in, line)) {
+        const std::size_t a = line.find('\t'), b = line.find('\t', a == std::string::npos ? a : a + 1);
+        if (a == std::string::npos || b == std::string::npos) return false;
+        JournalEntry e;
+        e.inode = std::strtoull(line.c_str(), nullptr, 10);
+        e.hidden = line.substr(a + 1, b - a - 1);
+        e.target = line.substr(b + 1);
+        if (e.hidden.empty() || e.target.empty()) return false;
+        entries.push_back(std::move(e));
+    }
+    return true;
+}
+
+unsigned long long inodeOf(const fs::path& path) {
+    struct stat st {};
+    return ::lstat(path.c_str(), &st) == 0 ? static_cast<unsigned long long>(st.st_ino) : 0;
+}
+
+// Rolls a journal forward (its writer is gone: the caller holds the directory's lock) and removes it.
+void completeJournal(const fs::path& journal) {
+    const fs::path dir = directoryOf(journal);
+    std::vector<JournalEntry> entries;
+    long pid = 0;
+    if (!readJournal(journal, entries, pid)) {
+        std::error_code ec;
+        if (fs::exists(journal, ec))
+            throw IoError(journal.string() + ": not a volcl commit journal; remove it by hand");
+        return;
+    }
+    for (const JournalEntry& e : entries) {
+        const fs::path hidden = dir / e.hidden, target = dir / e.target;
+        if (inodeOf(target) == e.inode) {
+            ::unlink(hidden.c_str()); // moved: a hidden file left is the file it replaced
+            continue;
+        }
+        if (inodeOf(hidden) != e.inode) continue; // neither: something newer owns the name
+        if (::rename(hidden.c_str(), target.c_str()) != 0)
+            throw IoError(target.string() + ": cannot complete the interrupted volcl commit " +
+                          journal.string() + ": " + systemError(errno));
+    }
+    syncDirectoryOf(journal);
+    if (::unlink(journal.c_str()) != 0 && errno != ENOENT)
+        throw IoError(journal.string() +
+                      ": cannot remove the completed commit journal: " + systemError(errno));
+    syncDirectoryOf(journal);
+}
+
+// Completes every journal in `dir` (the caller holds its lock, so their writers are gone).
+void completeJournalsIn(const fs::path& dir) {
+    std::error_code ec;
+    std::vector<fs::path> journals;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec))
+        if (isJournalName(it->path().filename().string())) journals.push_back(it->path());
+    for (const fs::path& j : journals)
+        completeJournal(j);
+}
+
+// Writes the journal atomically (unique temporary, fsync, rename) and flushes the directory.
+void writeJournal(const fs::path& journal, const std::vector<JournalEntry>& entries) {
+    std::string text(kJournalMagic);
+    text.append("\npid ").append(std::to_string(::getpid())).append("\n");
+    for (const JournalEntry& e : entries)
+        text.append(std::to_string(e.inode))
+            .append("\t")
+            .append(e.hidden)
+            .append("\t")
+            .append(e.target)
+            .append("\n");
+    const fs::path temp = createUniqueTemp(journal);
+    const int fd = ::open(temp.c_str(), O_WRONLY | O_CLOEXEC);
+    bool ok = fd >= 0;
+    std::size_t done = 0;
+    while (ok && done < text.size()) {
+        const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+        if (n < 0 && errno == EINTR) continue;
+        ok = n > 0;
+        if (ok) done += static_cast<std::size_t>(n);
+    }
+    int err = errno;
+    if (ok && ::fsync(fd) != 0) {
+        ok = false;
+        err = errno;
+    }
+    if (fd >= 0 && ::close(fd) != 0 && ok) {
+        ok = false;
+        err = errno;
+    }
+    if (ok && ::rename(temp.c_str(), journal.c_str()) != 0) {
+        ok = false;
+        err = errno;
+    }
+    if (!ok) {
+        ::unlink(temp.c_str());
+        throw IoError(journal.string() + ": cannot write the commit journal: " + systemError(err));
+    }
+    syncDirectoryOf(journal);
+}
+
+} // namespace
+
 AtomicCommitGroup::AtomicCommitGroup() : outer_(activeGroup) {
     activeGroup = this;
 }
@@ -464,14 +706,85 @@ AtomicCommitGroup::~AtomicCommitGroup() {
     }
 }
 
+namespace {
+
+// Completes the journals in `dir` once their writers are gone, when one names `name` (any, when null):
+// waits up to kJournalWait for a live one's lock, then throws IoError naming `what`.
+void completeJournalsNaming(const fs::path& dir, const std::string* name, const fs::path& what) {
+    std::error_code ec;
+    long pid = 0;
+    bool found = false;
+    for (fs::directory_iterator it(dir, ec), end; !ec && it != end && !found; it.increment(ec)) {
+        if (!isJournalName(it->path().filename().string())) continue;
+        std::vector<JournalEntry> entries;
+        if (!readJournal(it->path(), entries, pid)) continue;
+        found = !name || std::any_of(entries.begin(), entries.end(),
+                                     [&](const JournalEntry& e) { return e.target == *name; });
+    }
+    if (!found) return;
+    DirectoryLock lock(dir);
+    if (!lock.waitFor(kJournalWait))
+        throw IoError(what.string() + ": volcl process " + std::to_string(pid) +
+                      " is still moving a series into place there; try again when it ends");
+    completeJournalsIn(dir);
+}
+
+} // namespace
+
+void completeInterruptedCommit(const fs::path& file) {
+    const std::string name = file.filename().string();
+    completeJournalsNaming(directoryOf(file), &name, file);
+}
+
+void completeInterruptedCommitsIn(const fs::path& dir) {
+    const fs::path where = dir.empty() ? fs::path(".") : dir;
+    completeJournalsNaming(where, nullptr, where);
+}
+
 void AtomicCommitGroup::commit() {
     if (activeGroup == this) activeGroup = outer_;
     if (committed_) throw IoError("output files already committed");
+    // Several targets in one directory go through a journal (see completeJournal); a single file, targets
+    // in several directories or names a journal line cannot hold are moved in order without one.
+    bool journaled = entries_.size() > 1;
+    for (const Entry& e : entries_) {
+        const std::string n = e.target.filename().string();
+        journaled = journaled && directoryOf(e.target) == directoryOf(entries_.front().target) &&
+                    n.find_first_of("\t\n") == std::string::npos;
+    }
+    std::optional<DirectoryLock> lock;
+    if (journaled) {
+        // Another group's move loop in this directory finishes first (the last commit wins as a whole),
+        // and a journal left by a dead one is completed before this one's.
+        lock.emplace(directoryOf(entries_.front().target));
+        lock->wait();
+        completeJournalsIn(directoryOf(entries_.front().target));
+        removeStaleTemporaries(journalPathFor(entries_.front().target)); // a dead writer's unfinished journal
+    }
     // A terminal's Ctrl-C or a supervisor's SIGTERM during the moves would leave a mix of new and old
     // targets: they wait until every move is done (or undone).
     const SignalsDeferred deferred;
     std::vector<fs::path> olds;
+    const fs::path journal = journaled ? journalPathFor(entries_.front().target) : fs::path();
+    bool journalWritten = false;
     try {
+        if (journaled) {
+            // (a) every finished file gets its hidden name, (b) the journal records them: from here on
+            // a kill is rolled forward by the next volcl command that touches the series.
+            std::vector<JournalEntry> lines;
+            for (Entry& e : entries_) {
+                if (e.fd >= 0) {
+                    e.finished = linkUnnamed(e.finished, e.target);
+                    ::close(e.fd);
+                    e.fd = -1;
+                }
+                lines.push_back(
+                    {e.finished.filename().string(), e.target.filename().string(), inodeOf(e.finished)});
+            }
+            syncDirectoryOf(entries_.front().target);
+            writeJournal(journal, lines);
+            journalWritten = true;
+        }
         for (Entry& e : entries_) {
             if (AtomicFile::beforeMoveForTesting) AtomicFile::beforeMoveForTesting(e.target);
             if (e.fd >= 0) {
@@ -487,21 +800,52 @@ void AtomicCommitGroup::commit() {
             olds.push_back(moveKeepingOld(e.finished, e.target));
         }
     } catch (...) {
-        // Undo in reverse: an old file goes back over its target, a target that did not exist goes.
+        // Undo in reverse: an old file goes back over its target, a target that did not exist goes. With
+        // a journal the new file goes back to its hidden name, so a kill here still rolls forward whole.
         for (std::size_t i = olds.size(); i-- > 0;) {
+            const Entry& e = entries_[i];
+            if (journalWritten) {
+                if (!olds[i].empty() &&
+                    ::renameat2(AT_FDCWD, olds[i].c_str(), AT_FDCWD, e.target.c_str(), RENAME_EXCHANGE) == 0)
+                    continue;
+                if (olds[i].empty() && ::renameat2(AT_FDCWD, e.target.c_str(), AT_FDCWD, e.finished.c_str(),
+                                                   RENAME_NOREPLACE) == 0)
+                    continue;
+            }
             if (!olds[i].empty())
-                ::rename(olds[i].c_str(), entries_[i].target.c_str());
+                ::rename(olds[i].c_str(), e.target.c_str());
             else
-                ::unlink(entries_[i].target.c_str());
+                ::unlink(e.target.c_str());
         }
-        for (std::size_t i = olds.size(); i < entries_.size(); ++i)
-            if (entries_[i].fd < 0) ::unlink(entries_[i].finished.c_str());
+        if (journaled) { // ours: the lock keeps other groups out
+            ::unlink(journal.c_str());
+            try {
+                syncDirectoryOf(journal);
+            } catch (const IoError&) {
+            }
+        }
+        for (const Entry& e : entries_) {
+            if (e.fd >= 0) continue; // the destructor closes it
+            ::unlink(e.finished.c_str());
+        }
         committed_ = true; // nothing left to remove
         throw;
     }
     committed_ = true;
     for (std::size_t i = 0; i < entries_.size(); ++i)
         retireOld(olds[i], entries_[i].onReplaced);
+    if (journalWritten) {
+        // (d) the replaced files are gone before the journal: a kill before this line is still completed.
+        // The moves are done, so the flushes are best effort: a journal that a lost unlink brings back
+        // after a crash names frames already in place, and completing it changes nothing.
+        try {
+            syncDirectoryOf(journal);
+            ::unlink(journal.c_str());
+            syncDirectoryOf(journal);
+        } catch (const IoError&) {
+            ::unlink(journal.c_str());
+        }
+    }
 }
 
 std::string nonRegularKind(const fs::path& path) {

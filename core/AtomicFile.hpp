@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <memory>
+#include <ostream>
 #include <span>
 #include <string>
 #include <string_view>
@@ -36,12 +38,13 @@ public:
     /// True when the temporary has no name in the directory (O_TMPFILE).
     bool unnamedTemporary() const noexcept { return fd_ >= 0; }
     const std::filesystem::path& target() const noexcept { return target_; }
-    /// Binary stream on the temporary file (opened on first use).
-    std::ofstream& stream();
+    /// Binary stream on the temporary file (opened on first use). A writer may seek back to patch what it
+    /// wrote (a header, an index): commit() checks the file against the furthest position written.
+    std::ostream& stream();
     /// Appends bytes. Blocks of kDirectWriteMinBytes or more bypass the page cache (below).
     void write(std::span<const std::byte> bytes);
     void write(std::string_view text);
-    /// Flushes, checks for write errors and that the temporary holds every byte the stream put there,
+    /// Flushes, checks for write errors and that the temporary ends where the stream's furthest write ended,
     /// fsyncs, and moves it over the target. Throws IoError on failure (the target is then unchanged).
     /// Inside an AtomicCommitGroup of this thread the move waits for the group's commit.
     void commit();
@@ -70,9 +73,10 @@ private:
     /// With `nameUnnamed` false an unnamed temporary keeps its /proc path (and its descriptor).
     std::filesystem::path finish(bool nameUnnamed);
 
+    struct TrackedStream; ///< the stream on the temporary and the furthest position written through it
     std::filesystem::path target_, temp_;
     std::function<void(const std::filesystem::path&)> onReplaced_;
-    std::ofstream stream_;
+    std::unique_ptr<TrackedStream> stream_;
     int fd_ = -1; ///< the O_TMPFILE descriptor, -1 for a named temporary
     bool committed_ = false;
 };
@@ -83,10 +87,13 @@ private:
 /// hidden `.NAME.tmp-PID-...` name); commit() then names them and moves every file into place in order with
 /// SIGINT, SIGTERM and SIGHUP deferred (recorded whichever thread gets them, raised after the last
 /// move). A failed move puts back what the moves before it replaced (old files are kept under hidden
-/// names until the end); a group destroyed
-/// without commit() removes every finished temporary, so a failure before the moves leaves nothing. Only
-/// SIGKILL (or a crash) during the moves can leave some targets new and others old, plus hidden
-/// temporaries that the next writer of each target removes.
+/// names until the end); a group destroyed without commit() removes every finished temporary, so a
+/// failure before the moves leaves nothing. Several targets in one directory are committed through a
+/// journal under an flock of the directory (concurrent groups there commit one after the other): every
+/// finished file gets its hidden name, `.FIRST.volcl-commit` records hidden name -> target, then the
+/// moves run. SIGKILL (or a crash) during them leaves the journal, and the next AtomicFile or volume
+/// reader of any of those targets (completeInterruptedCommit) rolls the whole series forward; until then
+/// other programs can see a mix of new and old targets.
 class AtomicCommitGroup {
 public:
     AtomicCommitGroup();
@@ -111,6 +118,14 @@ private:
     bool committed_ = false;
 };
 
+/// Completes a series commit that a killed volcl left half done, when a commit journal in `file`'s
+/// directory names `file` as one of its targets (AtomicCommitGroup: a volcl reader never sees a mixed
+/// series). Waits up to 10 s for a live writer's moves, then throws IoError naming `file`; also throws
+/// when the journal cannot be completed (a read-only directory). Every AtomicFile and every volume reader
+/// calls it first; without a journal in the directory it only lists the directory.
+void completeInterruptedCommit(const std::filesystem::path& file);
+/// Same for every journal in `dir`: a glob over a series there then lists its complete frames.
+void completeInterruptedCommitsIn(const std::filesystem::path& dir);
 /// Whole file as bytes; throws IoError naming the file when it cannot be read or is not a regular file
 /// (a FIFO, device or directory is refused before any read, without blocking).
 std::vector<std::byte> readFileBytes(const std::filesystem::path& path);

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <csignal>
+#include <cstring>
 #include <set>
 #include <string>
 #include <thread>
@@ -486,4 +487,147 @@ TEST(AtomicCommitGroup, TerminationSignalsWaitForTheLastMove) {
     ::waitpid(child, &status, 0);
     EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGTERM) << "status " << status;
     EXPECT_EQ(listing(dir), (std::set<std::string>{"a", "b", "c"}));
+}
+
+// A writer that seeks back to patch its header (the streamed .vcz encoder) leaves the stream's position
+// short of the file's end: the commit compares the file with the furthest byte written, not that position.
+TEST(AtomicFile, SeekingBackToPatchAHeaderCommits) {
+    const fs::path dir = test::tempDir("io-atomic-seek");
+    std::string expected(4280, 'b');
+    {
+        AtomicFile f(dir / "patched.bin");
+        f.stream() << std::string(4280, 'b');
+        f.stream().seekp(0);
+        f.stream() << "HEAD";
+        expected.replace(0, 4, "HEAD");
+        f.commit(); // failed: "4280 of 4 bytes reached the disk"
+    }
+    EXPECT_EQ(readFile(dir / "patched.bin"), expected);
+    {
+        // Patched in the middle, the last operation a seek: still the whole file.
+        AtomicFile f(dir / "patched.bin");
+        f.stream() << std::string(100, 'c');
+        f.stream().seekp(10);
+        f.stream() << "X";
+        f.stream().seekp(5);
+        f.commit();
+    }
+    std::string second(100, 'c');
+    second[10] = 'X';
+    EXPECT_EQ(readFile(dir / "patched.bin"), second);
+    EXPECT_EQ(listing(dir), (std::set<std::string>{"patched.bin"}));
+}
+
+namespace {
+
+// Frame f of writer w of a three-frame series: values no other (w, f) has.
+Volume seriesFrame(int writer, int frame) {
+    Volume v({6, 5, 4}, ScalarType::Float32);
+    auto vals = v.values<float>();
+    for (std::size_t i = 0; i < vals.size(); ++i)
+        vals[i] = static_cast<float>(1000 * writer + 100 * frame) + static_cast<float>(i);
+    return v;
+}
+
+// Which writer's frame `frame` the file holds (by its first value), -1 for neither.
+int seriesWriterOf(const fs::path& file, int frame) {
+    const Volume v = readVolumeFile(file).frames.front();
+    const float first = v.values<float>()[0];
+    for (int w = 0; w < 4; ++w)
+        if (first == static_cast<float>(1000 * w + 100 * frame)) return w;
+    return -1;
+}
+
+std::string frameName(int f) {
+    return "t_0" + std::to_string(f) + ".nii";
+}
+
+void writeSeries(const fs::path& dir, int writer) {
+    AtomicCommitGroup group;
+    for (int f = 0; f < 3; ++f)
+        writeVolumeFile(seriesFrame(writer, f), dir / frameName(f));
+    group.commit();
+}
+
+// The frame file's first voxel, read without volcl (a foreign reader: NIfTI keeps raw voxels at the end).
+int rawWriterOf(const fs::path& file, int frame) {
+    const std::string bytes = readFile(file);
+    float first = 0;
+    std::memcpy(&first, bytes.data() + bytes.size() - 6 * 5 * 4 * sizeof(float), sizeof(float));
+    return first == static_cast<float>(100 * frame)          ? 0
+           : first == static_cast<float>(1000 + 100 * frame) ? 1
+                                                             : -1;
+}
+
+} // namespace
+
+// SIGKILL before each move of a series commit: the directory may hold a mix (another program sees one),
+// but the next volcl reader of any frame, or the next writer of one, rolls the whole series forward.
+TEST(AtomicCommitGroup, KilledSeriesCommitIsRolledForwardByTheNextVolclCommand) {
+    const fs::path dir = test::tempDir("io-atomic-journal");
+    for (int killAt = 1; killAt <= 3; ++killAt) {
+        for (const auto& e : fs::directory_iterator(dir))
+            fs::remove(e.path());
+        writeSeries(dir, 0);
+        const pid_t child = ::fork();
+        ASSERT_GE(child, 0);
+        if (child == 0) {
+            movesBeforeKill = killAt;
+            AtomicFile::beforeMoveForTesting = killAtMove;
+            writeSeries(dir, 1);
+            ::_exit(0);
+        }
+        int status = 0;
+        ::waitpid(child, &status, 0);
+        ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) << "kill at move " << killAt;
+        // What a foreign reader sees now: frames before the kill new, the rest old.
+        for (int f = 0; f < 3; ++f)
+            EXPECT_EQ(rawWriterOf(dir / frameName(f), f), f < killAt - 1 ? 1 : 0) << "kill at " << killAt;
+        if (killAt == 2) {
+            AtomicFile other(dir / frameName(2)); // a writer of one frame: completes it, then drops its own
+        } else {
+            EXPECT_EQ(seriesWriterOf(dir / frameName(killAt == 1 ? 0 : 2), killAt == 1 ? 0 : 2), 1);
+        }
+        for (int f = 0; f < 3; ++f)
+            EXPECT_EQ(rawWriterOf(dir / frameName(f), f), 1) << "frame " << f << ", kill at " << killAt;
+        EXPECT_EQ(listing(dir), (std::set<std::string>{frameName(0), frameName(1), frameName(2)}))
+            << "kill at " << killAt;
+    }
+}
+
+// A reader that comes while a writer is between its moves waits for the last one, and a second writer of
+// the series commits after the first as a whole (before, the second's moves came between the first's).
+TEST(AtomicCommitGroup, SeriesCommitsAndReadersWaitForAMoveLoopInProgress) {
+    const fs::path dir = test::tempDir("io-atomic-journal-live");
+    writeSeries(dir, 0);
+    int paused[2];
+    ASSERT_EQ(::pipe(paused), 0);
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+        ::close(paused[0]);
+        static int writeEnd = paused[1];
+        AtomicFile::beforeMoveForTesting = [](const fs::path& target) {
+            if (target.filename() != "t_01.nii") return;
+            const char c = 'p';
+            if (::write(writeEnd, &c, 1) != 1) ::_exit(3);
+            ::usleep(300000); // the parent's reader and writer come now
+        };
+        writeSeries(dir, 1);
+        ::_exit(0);
+    }
+    ::close(paused[1]);
+    char c = 0;
+    ASSERT_EQ(::read(paused[0], &c, 1), 1);
+    ::close(paused[0]);
+    EXPECT_EQ(seriesWriterOf(dir / "t_02.nii", 2), 1); // waited: frame 2 was still old when it started
+    writeSeries(dir, 2);
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
+    for (int f = 0; f < 3; ++f)
+        EXPECT_EQ(rawWriterOf(dir / frameName(f), f), -1) << "frame " << f; // writer 2's, not 0's or 1's
+    for (int f = 0; f < 3; ++f)
+        EXPECT_EQ(seriesWriterOf(dir / frameName(f), f), 2) << "frame " << f;
+    EXPECT_EQ(listing(dir), (std::set<std::string>{frameName(0), frameName(1), frameName(2)}));
 }

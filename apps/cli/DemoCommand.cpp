@@ -133,7 +133,8 @@ void addDemoCommand(CLI::App& app, GlobalOptions& global) {
         ->check(CLI::Range(std::size_t(2), std::size_t(1024)));
     cmd->callback([a, &global] {
         ComputeContext cc(global.device);
-        std::cerr << "volcl demo: device " << cc.device().name << " (" << cc.device().platform << ")\n";
+        if (!global.quiet)
+            std::cerr << "volcl demo: device " << cc.device().name << " (" << cc.device().platform << ")\n";
         std::filesystem::create_directories(a->outDir);
 
         Stopwatch sw;
@@ -144,9 +145,10 @@ void addDemoCommand(CLI::App& app, GlobalOptions& global) {
         if (!(mlErr <= 1e-5))
             throw Error("Marschner-Lobb kernel differs from the double reference by " +
                         std::to_string(mlErr));
-        std::cerr << "  marschner_lobb " << a->mlSize << "^3 in " << mlMs
-                  << " ms (incl. first build), max |kernel - "
-                  << "reference| = " << mlErr << '\n';
+        if (!global.quiet)
+            std::cerr << "  marschner_lobb " << a->mlSize << "^3 in " << mlMs
+                      << " ms (incl. first build), max |kernel - "
+                      << "reference| = " << mlErr << '\n';
 
         sw.restart();
         Volume sl = generateSheppLogan(cc, {a->phantomSize, a->phantomSize, a->phantomSize});
@@ -155,8 +157,9 @@ void addDemoCommand(CLI::App& app, GlobalOptions& global) {
         if (bad != 0)
             throw Error("Shepp-Logan kernel differs from the reference at " + std::to_string(bad) +
                         " interior voxels");
-        std::cerr << "  shepp_logan " << a->phantomSize << "^3 in " << slMs
-                  << " ms (incl. first build), matches the reference off the ellipsoid surfaces\n";
+        if (!global.quiet)
+            std::cerr << "  shepp_logan " << a->phantomSize << "^3 in " << slMs
+                      << " ms (incl. first build), matches the reference off the ellipsoid surfaces\n";
 
         auto mlPath = std::filesystem::path(a->outDir) / "marschner_lobb.nrrd";
         auto slPath = std::filesystem::path(a->outDir) / "shepp_logan.nrrd";

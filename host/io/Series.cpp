@@ -120,6 +120,9 @@ bool hasGlobPattern(std::string_view text) noexcept {
 
 std::vector<fs::path> expandGlob(std::string_view pattern) {
     const std::string pat(pattern);
+    // A series a killed volcl left half moved is completed before its frames are listed.
+    const fs::path dir = fs::path(pat).parent_path();
+    if (!hasGlobPattern(dir.string())) completeInterruptedCommitsIn(dir);
     glob_t g{};
     const int rc = ::glob(pat.c_str(), GLOB_NOSORT, nullptr, &g);
     std::vector<std::string> names;

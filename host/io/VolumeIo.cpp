@@ -116,6 +116,8 @@ VolumeFormat detectVolumeFormat(const fs::path& path) {
 
 TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options,
                           std::vector<fs::path>& filesRead) {
+    // A series a killed volcl left half moved is completed first: a reader never sees it mixed.
+    completeInterruptedCommit(path);
     // Before any format probe opens it: a FIFO would block the first read, a device never end.
     requireRegularFile(path);
     io::ReadContext ctx(path, options);

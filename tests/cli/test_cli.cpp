@@ -164,6 +164,17 @@ TEST(Cli, DemoRunsAndWritesPhantoms) {
     EXPECT_NE(r.out.find("range"), std::string::npos);
 }
 
+// `-q demo` whose output cannot be written: exit 1 with the error as the only stderr line (the report
+// lines came first, so a failure was four lines; found by the long fault campaign).
+TEST(Cli, QuietDemoFailsWithOneLine) {
+    auto dir = test::tempDir("cli_demo_quiet");
+    std::filesystem::create_directories(dir / "demo" / "marschner_lobb.nrrd"); // a directory: no write
+    RunResult r = run("-q demo -o " + (dir / "demo").string() + " --ml-size 6 --phantom-size 12", dir);
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_NE(r.err.find("marschner_lobb.nrrd"), std::string::npos) << r.err;
+}
+
 // Mean |4-neighbour Laplacian| of the luminance over the object's interior (pixels brighter than 0.05 with
 // all four neighbours so), relative to its mean luminance: pixel-scale ripple such as moire rings.
 double relativeRoughness(const ImageBuffer& im) {
