@@ -171,8 +171,13 @@ Volume Volume::cropped(Dims lo, Dims hi) const {
     out.spacing = spacing;
     out.direction = direction;
     out.anatomical = anatomical;
-    for (int a = 0; a < 3; ++a)
-        out.origin[a] = origin[a] + double((&lo.x)[a]) * spacing[a];
+    // The crop's first voxel in world: origin + D diag(spacing) lo (D turns index axes into world axes).
+    for (int r = 0; r < 3; ++r) {
+        double offset = 0.0;
+        for (int c = 0; c < 3; ++c)
+            offset += direction[std::size_t(r * 3 + c)] * double((&lo.x)[c]) * spacing[std::size_t(c)];
+        out.origin[std::size_t(r)] = origin[std::size_t(r)] + offset;
+    }
     std::size_t s = scalarSize(type_), row = out.dims_.x * s;
     for (std::size_t k = 0; k < out.dims_.z; ++k)
         for (std::size_t j = 0; j < out.dims_.y; ++j)

@@ -689,3 +689,38 @@ TEST(CodecRealData, MriTemplateFromDebianIsLossless) {
     // issue's goal (>= xz) is not met here yet; it is met on the walnut CT and the BrainWeb MRI.
     EXPECT_GT(double(v.byteSize()) / double(bytes.size()), 6.1);
 }
+
+// An oriented volume (a 30-degree turn about z with the first axis mirrored, in patient axes) keeps its
+// direction and placement through the codec, and a region decodes at the world position of its first
+// voxel: origin + D diag(spacing) lo, computed here by hand.
+TEST(CodecOrientation, DirectionAndRegionOriginSurviveEncoding) {
+    ComputeContext& cc = test::computeContext();
+    Volume v({20, 12, 10}, ScalarType::UInt8);
+    for (std::size_t i = 0; i < v.voxelCount(); ++i)
+        v.values<std::uint8_t>()[i] = std::uint8_t((i * 37) % 251);
+    const double c = std::cos(M_PI / 6), s = std::sin(M_PI / 6);
+    v.direction = {-c, -s, 0, -s, c, 0, 0, 0, 1}; // columns: world directions of the index axes
+    v.anatomical = true;
+    v.spacing = {0.5, 1.0, 2.0};
+    v.origin = {3.0, 4.0, 5.0};
+    CodecOptions o;
+    o.rate = RateMode::Lossless;
+    VczReader reader(encodeVolume(cc, v, o), "oriented.vcz");
+    const Volume whole = reader.decode(cc, DecodeOptions{});
+    EXPECT_TRUE(whole == v);
+    EXPECT_EQ(whole.direction, v.direction);
+    EXPECT_TRUE(whole.anatomical);
+    DecodeOptions d;
+    d.region = Region{{4, 2, 6}, {12, 10, 10}};
+    const Volume part = reader.decode(cc, d);
+    const double lo[3] = {4 * 0.5, 2 * 1.0, 6 * 2.0}; // lo x spacing
+    const std::array<double, 3> expected{3.0 + (-c) * lo[0] + (-s) * lo[1], 4.0 + (-s) * lo[0] + c * lo[1],
+                                         5.0 + lo[2]};
+    for (int i = 0; i < 3; ++i) {
+        EXPECT_NEAR(part.origin[std::size_t(i)], expected[std::size_t(i)], 1e-12) << "axis " << i;
+        EXPECT_NEAR(v.cropped({4, 2, 6}, {12, 10, 10}).origin[std::size_t(i)], expected[std::size_t(i)],
+                    1e-12);
+    }
+    EXPECT_EQ(part.direction, v.direction);
+    EXPECT_TRUE(part == v.cropped({4, 2, 6}, {12, 10, 10}));
+}

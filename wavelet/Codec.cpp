@@ -51,6 +51,17 @@ VczHeader planHeader(const Volume& v, const CodecOptions& o_) {
     h.rate = o_.rate;
     h.rateTarget = o_.target;
     h.metadata = o_.metadata;
+    if (v.direction != kIdentityDirection) {
+        std::string text;
+        for (double x : v.direction) {
+            char buf[32];
+            const auto end = std::to_chars(buf, buf + sizeof buf, x).ptr;
+            if (!text.empty()) text += ' ';
+            text.append(buf, end);
+        }
+        h.metadata[std::string(kVczDirectionKey)] = text;
+    }
+    if (v.anatomical) h.metadata[std::string(kVczAnatomicalKey)] = "1";
     const bool integer = v.type() != ScalarType::Float32;
     if (o_.rate == RateMode::Lossless) {
         h.wavelet = o_.wavelet.value_or(Wavelet::Cdf53);
@@ -399,6 +410,28 @@ VczReader::VczReader(std::vector<std::byte> bytes, std::string name)
     header_ = readVczHeader(bytes_, name_);
 }
 
+Direction3 vczDirection(const VczHeader& h) {
+    const auto it = h.metadata.find(std::string(kVczDirectionKey));
+    if (it == h.metadata.end()) return kIdentityDirection;
+    Direction3 d{};
+    const char* p = it->second.data();
+    const char* end = p + it->second.size();
+    for (double& x : d) {
+        while (p < end && *p == ' ')
+            ++p;
+        const auto r = std::from_chars(p, end, x);
+        if (r.ec != std::errc() || !std::isfinite(x))
+            throw DataError(std::string(kVczDirectionKey) + " is not 9 finite numbers");
+        p = r.ptr;
+    }
+    if (p != end) throw DataError(std::string(kVczDirectionKey) + " is not 9 finite numbers");
+    const Direction3 o = orthonormalDirection(d);
+    for (int i = 0; i < 9; ++i)
+        if (std::abs(o[std::size_t(i)] - d[std::size_t(i)]) > 1e-6)
+            throw DataError(std::string(kVczDirectionKey) + " is not orthonormal");
+    return d;
+}
+
 Volume VczReader::decode(ComputeContext& cc, const DecodeOptions& o) const {
     const VczHeader& h = header_;
     const int maxLevel = h.transform == TransformKind::RawBits ? 16 : h.levels;
@@ -428,10 +461,20 @@ Volume VczReader::decode(ComputeContext& cc, const DecodeOptions& o) const {
     }
     Stopwatch total;
     Volume out(outDims, h.type);
+    out.direction = vczDirection(h);
+    out.anatomical = h.metadata.count(std::string(kVczAnatomicalKey)) != 0;
     for (int i = 0; i < 3; ++i) {
-        const std::size_t first = i == 0 ? a.x : i == 1 ? a.y : a.z;
         out.spacing[i] = h.spacing[i] * double(f);
-        out.origin[i] = h.origin[i] + double(first * f) * h.spacing[i];
+        // The region's first voxel in world: origin + D diag(spacing) first.
+        double offset = 0.0;
+        for (int c = 0; c < 3; ++c)
+            offset += out.direction[std::size_t(i * 3 + c)] *
+                      double((c == 0   ? a.x
+                              : c == 1 ? a.y
+                                       : a.z) *
+                             f) *
+                      h.spacing[std::size_t(c)];
+        out.origin[i] = h.origin[i] + offset;
     }
     if (o.frame >= h.frames.size()) throw UsageError(name_ + ": no frame " + std::to_string(o.frame));
     if (h.frames[o.frame].type != FrameType::I) {
@@ -503,6 +546,8 @@ Volume VczReader::decodeFrame(ComputeContext& cc, std::size_t frame, std::span<c
                                 codec::ReferenceFrames{ptr, entry.reference0, entry.reference1}, corrections,
                                 name_, profile);
             if (profile) profile->total += total.milliseconds();
+            v.direction = vczDirection(h);
+            v.anatomical = h.metadata.count(std::string(kVczAnatomicalKey)) != 0;
         }
         if (k + 1 == order.size()) return v;
         own[f] = std::move(v);

@@ -159,6 +159,15 @@ std::vector<double> vczFrameTimes(const VczHeader& header);
 /// written by the encoder when there are any: the brick renderer compiles the NaN colour for those frames
 /// and keeps those bricks when the NaN colour is visible.
 inline constexpr std::string_view kVczNonFiniteKey = "volcl:nonfinite";
+/// Metadata key holding a volume's direction (9 numbers, row by row, shortest round-trip decimals), written
+/// when it is not the identity: a decoded volume has the direction the encoded one had.
+inline constexpr std::string_view kVczDirectionKey = "volcl:direction";
+/// Metadata key present ("1") when the volume is placed in patient axes (Volume::anatomical).
+inline constexpr std::string_view kVczAnatomicalKey = "volcl:anatomical";
+/// The direction stored under kVczDirectionKey, the identity when absent. Throws DataError when it is
+/// malformed or not orthonormal.
+Direction3 vczDirection(const VczHeader& header);
+
 /// Bricks of `frame` listed under kVczNonFiniteKey (ascending; empty when none or the key is absent).
 /// Malformed entries and brick numbers past the grid are ignored.
 std::vector<std::size_t> vczNonFiniteBricks(const VczHeader& header, std::size_t frame);

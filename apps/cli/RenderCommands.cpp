@@ -107,6 +107,8 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
             v = Volume(h.dims, h.type);
             v.spacing = h.spacing;
             v.origin = h.origin;
+            v.direction = vczDirection(h); // as the encoded volume was placed
+            v.anatomical = h.metadata.count(std::string(kVczAnatomicalKey)) != 0;
             const ValueRange r = bricks->valueRange();
             dataRange = {r.min, r.max};
             const auto nifti = niftiFromVczMetadata(h.metadata, scene.volume.string());
@@ -160,6 +162,8 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
         const RenderInput input = bricks ? std::move(*bricks) : std::move(*opened);
         ComputeContext cc(global.device);
         // The renderer's data errors (a cubic filter on NaN voxels, ...) name the input: one line, exit 1.
+        // Its usage errors (a step past the samples-per-frame budget, ...) name the scene file the
+        // values came from, when there is one: exit 2.
         auto namingInput = [&](auto&& run) -> decltype(run()) {
             try {
                 return run();
@@ -167,6 +171,10 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
                 const std::string what = e.what(), name = scene.volume.string();
                 if (what.rfind(name, 0) == 0) throw;
                 throw DataError(name + ": " + what);
+            } catch (const UsageError& e) {
+                const std::string what = e.what(), name = a->scene.scene;
+                if (name.empty() || what.rfind(name, 0) == 0) throw;
+                throw UsageError(name + ": " + what);
             }
         };
         const std::unique_ptr<VolumeRenderer> renderer =

@@ -313,8 +313,15 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) con
     std::vector<std::string> notes;
     const WorldBox box = in.bounds();
     if (std::string note = resolveStep(s, in.cellLength()); !note.empty()) notes.push_back(std::move(note));
-    // Refuse impossible steps before any other default is applied or reported: the error is the only line.
-    s.validateSteps(norm(box.extent));
+    // Refuse impossible steps before any other default is applied or reported: the error is the only line,
+    // naming the scene file the steps came from when there is one.
+    try {
+        s.validateSteps(norm(box.extent));
+    } catch (const UsageError& e) {
+        const std::string what = e.what();
+        if (scene.empty() || what.rfind(scene, 0) == 0) throw;
+        throw UsageError(scene + ": " + what);
+    }
     const double aspect = double(s.width) / double(s.height);
     const bool anyCameraFlag = !projection.empty() || !eye.empty() || !target.empty() || !up.empty() ||
                                viewHeight || fov || !view.empty() || !orbit.empty();

@@ -771,12 +771,12 @@ TEST(CliHostile, SamplesPerFrameAreBudgetedBeforeRendering) {
     };
     // The diagonal is 16 sqrt(3) = 27.7: 6e-7 is 4.6e7 samples per ray, 1.9e11 per 64x64 frame.
     scene("fine_step.json", R"({"mode": "dvr", "step": 6e-7})", "{}");
-    expectRefused(run("render --scene fine_step.json -o out.png", dir, "", 10), 2, "render.step",
-                  "samples per frame");
+    expectRefused(run("render --scene fine_step.json -o out.png", dir, "", 10), 2,
+                  "fine_step.json: render.step", "samples per frame");
     scene("fine_shadow.json", R"({"mode": "dvr", "step": 0.5})",
           R"({"shading": true, "shadows": true, "shadow_step": 6e-7})");
-    expectRefused(run("render --scene fine_shadow.json -o out.png", dir, "", 10), 2, "effects.shadow_step",
-                  "samples per frame");
+    expectRefused(run("render --scene fine_shadow.json -o out.png", dir, "", 10), 2,
+                  "fine_shadow.json: render.step and effects.shadow_step", "samples per frame");
     expectRefused(run("render --scene fine_shadow.json --shadow-step 1e-6 -o out.png", dir, "", 10), 2,
                   "effects.shadow_step", "samples per frame");
     EXPECT_FALSE(fs::exists(dir / "out.png"));
