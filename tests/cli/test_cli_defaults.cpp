@@ -2,6 +2,7 @@
 // data range, the automatic opacity unit distance, and the CLI's smaller items (--shading, early -o checks,
 // iso values outside the data, view --spin/--orbit, info of a .vcz).
 #include "../TestUtil.hpp"
+#include "CliRun.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "render/RenderInput.hpp"
@@ -19,30 +20,12 @@ using namespace volcl;
 
 namespace {
 
-struct RunResult {
-    int exitCode;
-    std::string out, err;
-};
+using test::has;
+using test::RunResult;
+using test::slurp;
 
-std::string slurp(const std::filesystem::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
-/// Runs the volcl binary with `args` in `dir` (examples name files relative to it).
 RunResult run(const std::string& args, const std::filesystem::path& dir) {
-    auto out = dir / "stdout.txt", err = dir / "stderr.txt";
-    std::string cmd = "cd " + dir.string() + " && " + std::string(VOLCL_EXE) + " " + args + " >" +
-                      out.string() + " 2>" + err.string() + " </dev/null";
-    int status = std::system(cmd.c_str());
-    int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    return {code, slurp(out), slurp(err)};
-}
-
-bool has(const std::string& text, const std::string& what) {
-    return text.find(what) != std::string::npos;
+    return test::runVolcl(args, dir, true);
 }
 
 /// A 48^3 "head": a shell of skin (100) around a brighter core (160) on a dark background (2), spacing 1 mm,

@@ -1,6 +1,7 @@
 // The volcl executable on volumes and meshes with NaN/Inf values: render (grid, .vcz bricks, mesh cells and
 // k-buffer), --nan-color, lossy encode, and the errors that remain naming the file and the way out.
 #include "../TestUtil.hpp"
+#include "CliRun.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "host/mesh/MeshGenerator.hpp"
@@ -17,29 +18,12 @@ using namespace volcl;
 
 namespace {
 
-struct RunResult {
-    int exitCode;
-    std::string out, err;
-};
-
-std::string slurp(const std::filesystem::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using test::has;
+using test::RunResult;
+using test::slurp;
 
 RunResult run(const std::string& args, const std::filesystem::path& dir) {
-    auto out = dir / "stdout.txt", err = dir / "stderr.txt";
-    std::string cmd =
-        std::string(VOLCL_EXE) + " " + args + " >" + out.string() + " 2>" + err.string() + " </dev/null";
-    int status = std::system(cmd.c_str());
-    int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    return {code, slurp(out), slurp(err)};
-}
-
-bool has(const std::string& text, const std::string& what) {
-    return text.find(what) != std::string::npos;
+    return test::runVolcl(args, dir);
 }
 
 /// A 24^3 float ball (200 at the centre, falling off) with a 6^3 block of NaN in its middle and a line of

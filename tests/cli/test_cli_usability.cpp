@@ -2,6 +2,7 @@
 // --version, named unknown subcommands, help examples, --frame, compare --level, --replace-nan, MIP
 // window, smooth reconstruction filters.
 #include "../TestUtil.hpp"
+#include "CliRun.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "render/grid/FilterAccuracy.hpp"
@@ -16,29 +17,12 @@ using namespace volcl;
 
 namespace {
 
-struct RunResult {
-    int exitCode;
-    std::string out, err;
-};
-
-std::string slurp(const std::filesystem::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using test::has;
+using test::RunResult;
+using test::slurp;
 
 RunResult run(const std::string& args, const std::filesystem::path& dir) {
-    auto out = dir / "stdout.txt", err = dir / "stderr.txt";
-    std::string cmd =
-        std::string(VOLCL_EXE) + " " + args + " >" + out.string() + " 2>" + err.string() + " </dev/null";
-    int status = std::system(cmd.c_str());
-    int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    return {code, slurp(out), slurp(err)};
-}
-
-bool has(const std::string& text, const std::string& what) {
-    return text.find(what) != std::string::npos;
+    return test::runVolcl(args, dir);
 }
 
 /// A 40^3 float blob off-centre along +x and +z, so views from different sides differ.
