@@ -369,17 +369,70 @@ fs::path moveKeepingOld(const fs::path& finished, const fs::path& target) {
     throw IoError(target.string() + ": cannot move the finished file into place (the target keeps changing)");
 }
 
-// Hands the replaced file to the writer's handler, then removes it.
+volatile std::sig_atomic_t deferredSignal = 0;
+
+extern "C" void recordSignal(int sig) {
+    deferredSignal = sig;
+}
+
+// SIGINT, SIGTERM and SIGHUP wait while alive. Blocking them in this thread is not enough: the kernel
+// gives a process-directed signal to any thread that does not block it (OpenCL runtimes keep worker
+// threads), so a handler that only records it replaces the default action meanwhile, and the signal is
+// raised again, with the old action back, at the end. An ignored signal stays ignored.
+class SignalsDeferred {
+public:
+    SignalsDeferred() {
+        deferredSignal = 0;
+        sigemptyset(&block_);
+        for (std::size_t i = 0; i < kCount; ++i)
+            sigaddset(&block_, kSignals[i]);
+        pthread_sigmask(SIG_BLOCK, &block_, &savedMask_);
+        struct sigaction record {};
+        record.sa_handler = recordSignal;
+        sigemptyset(&record.sa_mask);
+        for (std::size_t i = 0; i < kCount; ++i) {
+            struct sigaction current {};
+            replaced_[i] = ::sigaction(kSignals[i], nullptr, &current) == 0 &&
+                           current.sa_handler != SIG_IGN &&
+                           ::sigaction(kSignals[i], &record, &saved_[i]) == 0;
+        }
+    }
+    ~SignalsDeferred() {
+        // A signal pending for this thread is taken before the old actions return, so it is raised once.
+        const timespec now{0, 0};
+        for (int sig; (sig = ::sigtimedwait(&block_, nullptr, &now)) > 0;)
+            deferredSignal = sig;
+        for (std::size_t i = 0; i < kCount; ++i)
+            if (replaced_[i]) ::sigaction(kSignals[i], &saved_[i], nullptr);
+        pthread_sigmask(SIG_SETMASK, &savedMask_, nullptr);
+        if (deferredSignal != 0) ::raise(deferredSignal);
+    }
+    SignalsDeferred(const SignalsDeferred&) = delete;
+    SignalsDeferred& operator=(const SignalsDeferred&) = delete;
+
+private:
+    static constexpr std::size_t kCount = 3;
+    static constexpr int kSignals[kCount] = {SIGINT, SIGTERM, SIGHUP};
+    sigset_t block_{}, savedMask_{};
+    struct sigaction saved_[kCount] {};
+    bool replaced_[kCount] = {};
+};
+
+// Removes the replaced file's last name at once, so that from here on a kill leaves nothing behind, then
+// hands its content (through the open descriptor) to the writer's handler.
 void retireOld(const fs::path& old, const std::function<void(const fs::path&)>& onReplaced) {
     if (old.empty()) return;
+    const int fd = ::open(old.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
+    ::unlink(old.c_str());
+    if (fd < 0) return;
     struct stat st {};
-    if (onReplaced && ::lstat(old.c_str(), &st) == 0 && S_ISREG(st.st_mode)) {
+    if (onReplaced && ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode)) {
         try {
-            onReplaced(old);
+            onReplaced(fs::path("/proc/self/fd") / std::to_string(fd));
         } catch (...) { // the new file is in place; a leftover old data file is not worth failing for
         }
     }
-    ::unlink(old.c_str());
+    ::close(fd);
 }
 
 } // namespace
@@ -431,6 +484,9 @@ void AtomicFile::commit() {
     }
     finish(false);
     if (beforeMoveForTesting) beforeMoveForTesting(target_);
+    // SIGINT, SIGTERM and SIGHUP wait until the move and the old file's removal are done, so they never
+    // leave a hidden name behind (SIGKILL can, for a few system calls; the next write removes it).
+    const SignalsDeferred deferred;
     if (fd_ >= 0) {
         // A new target appears in one step, with no hidden name in between; an existing one is replaced.
         if (linkIfAbsent(temp_, target_)) {
@@ -447,59 +503,6 @@ void AtomicFile::commit() {
     committed_ = true;
     retireOld(old, onReplaced_);
 }
-
-namespace {
-
-volatile std::sig_atomic_t deferredSignal = 0;
-
-extern "C" void recordSignal(int sig) {
-    deferredSignal = sig;
-}
-
-// SIGINT, SIGTERM and SIGHUP wait while alive. Blocking them in this thread is not enough: the kernel
-// gives a process-directed signal to any thread that does not block it (OpenCL runtimes keep worker
-// threads), so a handler that only records it replaces the default action meanwhile, and the signal is
-// raised again, with the old action back, at the end. An ignored signal stays ignored.
-class SignalsDeferred {
-public:
-    SignalsDeferred() {
-        deferredSignal = 0;
-        sigemptyset(&block_);
-        for (std::size_t i = 0; i < kCount; ++i)
-            sigaddset(&block_, kSignals[i]);
-        pthread_sigmask(SIG_BLOCK, &block_, &savedMask_);
-        struct sigaction record {};
-        record.sa_handler = recordSignal;
-        sigemptyset(&record.sa_mask);
-        for (std::size_t i = 0; i < kCount; ++i) {
-            struct sigaction current {};
-            replaced_[i] = ::sigaction(kSignals[i], nullptr, &current) == 0 &&
-                           current.sa_handler != SIG_IGN &&
-                           ::sigaction(kSignals[i], &record, &saved_[i]) == 0;
-        }
-    }
-    ~SignalsDeferred() {
-        // A signal pending for this thread is taken before the old actions return, so it is raised once.
-        const timespec now{0, 0};
-        for (int sig; (sig = ::sigtimedwait(&block_, nullptr, &now)) > 0;)
-            deferredSignal = sig;
-        for (std::size_t i = 0; i < kCount; ++i)
-            if (replaced_[i]) ::sigaction(kSignals[i], &saved_[i], nullptr);
-        pthread_sigmask(SIG_SETMASK, &savedMask_, nullptr);
-        if (deferredSignal != 0) ::raise(deferredSignal);
-    }
-    SignalsDeferred(const SignalsDeferred&) = delete;
-    SignalsDeferred& operator=(const SignalsDeferred&) = delete;
-
-private:
-    static constexpr std::size_t kCount = 3;
-    static constexpr int kSignals[kCount] = {SIGINT, SIGTERM, SIGHUP};
-    sigset_t block_{}, savedMask_{};
-    struct sigaction saved_[kCount] {};
-    bool replaced_[kCount] = {};
-};
-
-} // namespace
 
 namespace {
 

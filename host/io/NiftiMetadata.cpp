@@ -141,12 +141,17 @@ Direction3 niftiDirection(const NiftiMetadata& m) {
 }
 
 NiftiMetadata niftiMetadataOnGrid(const NiftiMetadata& source, const Volume& volume) {
-    // Source index of the volume's voxel (i, j, k) is first + i*ratio per axis, in the model's terms.
+    // Source index of the volume's voxel (i, j, k) is first + i*ratio per axis, in the model's terms: the
+    // model places voxel 0 of a crop at origin + D diag(spacing) first, so first = D^T (moved origin) /
+    // spacing (D = identity for volumes without a direction).
     std::array<double, 3> ratio{}, first{};
     bool same = true;
     for (int a = 0; a < 3; ++a) {
         ratio[a] = volume.spacing[a] / source.spacing[a];
-        first[a] = (volume.origin[a] - source.origin[a]) / source.spacing[a];
+        double along = 0.0;
+        for (int r = 0; r < 3; ++r)
+            along += volume.direction[std::size_t(r * 3 + a)] * (volume.origin[r] - source.origin[r]);
+        first[a] = along / source.spacing[a];
         same = same && std::abs(ratio[a] - 1) < 1e-9 && std::abs(first[a]) < 1e-6;
     }
     NiftiMetadata m = source;
