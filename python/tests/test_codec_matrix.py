@@ -241,7 +241,22 @@ def test_hdf5_filter_chunks_are_the_python_codec_files(tmp_path, dtype, frames):
         def voxels(b):
             return np.stack([volcl.decode(b, frame=k) for k in range(frames)]) if frames > 1 else volcl.decode(b)
 
-        assert vcz == expected, name
+        if name == "psnr" and vcz != expected:
+            # The filter holds the target itself on every chunk, without the codec's 0.5 dB slack (a chunk
+            # may be an edge chunk's real voxels): it codes again only a chunk whose Python file falls short.
+            def worst_psnr(b):
+                out = voxels(b) if frames > 1 else voxels(b)[None]
+                ins = a if frames > 1 else a[None]
+                worst = np.inf
+                for o, i in zip(out, ins):
+                    span = float(i.max()) - float(i.min())
+                    d = o.astype(np.float64) - i.astype(np.float64)
+                    worst = min(worst, 10 * np.log10(span * span / np.mean(d * d)))
+                return worst
+
+            assert worst_psnr(expected) < 42.0 <= worst_psnr(vcz), name
+        else:
+            assert vcz == expected, name
         if name == "bpv":
             assert len(stored) * 8 <= 1.5 * a.size
         decoded, inputs = (voxels(vcz), a) if frames > 1 else (voxels(vcz)[None], a[None])
