@@ -1,5 +1,6 @@
 // The volcl executable: exit codes (0/1/2), one-line errors on stderr, atomic outputs, demo end to end.
 #include "../TestUtil.hpp"
+#include "CliRun.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
 
@@ -14,37 +15,11 @@
 
 using namespace volcl;
 
-namespace {
-
-struct RunResult {
-    int exitCode;
-    std::string out, err;
-};
-
-std::string slurp(const std::filesystem::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
-RunResult run(const std::string& args, const std::filesystem::path& dir, const std::string& exe = VOLCL_EXE) {
-    auto out = dir / "stdout.txt", err = dir / "stderr.txt";
-    std::string cmd = exe + " " + args + " >" + out.string() + " 2>" + err.string() + " </dev/null";
-    int status = std::system(cmd.c_str());
-    int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    return {code, slurp(out), slurp(err)};
-}
-
-std::size_t lineCount(const std::string& s) {
-    return std::count(s.begin(), s.end(), '\n');
-}
-
-} // namespace
+namespace {} // namespace
 
 TEST(Cli, HelpExitsZero) {
     auto dir = test::tempDir("cli_help");
-    RunResult r = run("--help", dir);
+    test::RunResult r = test::runVolcl("--help", dir);
     EXPECT_EQ(r.exitCode, 0);
     EXPECT_NE(r.out.find("info"), std::string::npos);
     EXPECT_NE(r.out.find("demo"), std::string::npos);
@@ -52,47 +27,48 @@ TEST(Cli, HelpExitsZero) {
 
 TEST(Cli, UsageErrorsExitTwo) {
     auto dir = test::tempDir("cli_usage");
-    EXPECT_EQ(run("", dir).exitCode, 2);
-    EXPECT_EQ(run("no-such-command", dir).exitCode, 2);
-    RunResult r = run("info", dir); // missing required file
+    EXPECT_EQ(test::runVolcl("", dir).exitCode, 2);
+    EXPECT_EQ(test::runVolcl("no-such-command", dir).exitCode, 2);
+    test::RunResult r = test::runVolcl("info", dir); // missing required file
     EXPECT_EQ(r.exitCode, 2);
-    EXPECT_EQ(lineCount(r.err), 1u) << r.err;
-    EXPECT_EQ(run("info x.raw --type double", dir).exitCode, 2);
+    EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
+    EXPECT_EQ(test::runVolcl("info x.raw --type double", dir).exitCode, 2);
 }
 
 TEST(Cli, MissingFileExitsOneWithOneLine) {
     auto dir = test::tempDir("cli_missing");
-    RunResult r = run("info " + (dir / "nope.nrrd").string(), dir);
+    test::RunResult r = test::runVolcl("info " + (dir / "nope.nrrd").string(), dir);
     EXPECT_EQ(r.exitCode, 1);
-    EXPECT_EQ(lineCount(r.err), 1u) << r.err;
+    EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
     EXPECT_NE(r.err.find("nope.nrrd"), std::string::npos) << r.err;
 }
 
 TEST(Cli, GarbageFileExitsOneWithoutCrash) {
     auto dir = test::tempDir("cli_garbage");
     std::ofstream(dir / "bad.nrrd") << "NRRD0004\nsizes: 99999 99999 99999\ntype: float\nencoding: raw\n\nxx";
-    RunResult r = run("info " + (dir / "bad.nrrd").string(), dir);
+    test::RunResult r = test::runVolcl("info " + (dir / "bad.nrrd").string(), dir);
     EXPECT_EQ(r.exitCode, 1);
-    EXPECT_EQ(lineCount(r.err), 1u) << r.err;
+    EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
 }
 
 TEST(Cli, ConvertRefusesToOverwriteItsInput) {
     auto dir = test::tempDir("cli_same");
     Volume v({4, 4, 4}, ScalarType::UInt8);
     writeVolumeFile(v, dir / "a.nrrd");
-    std::string before = slurp(dir / "a.nrrd");
-    RunResult r = run("convert " + (dir / "a.nrrd").string() + " -o " + (dir / "a.nrrd").string(), dir);
+    std::string before = test::readFile(dir / "a.nrrd");
+    test::RunResult r =
+        test::runVolcl("convert " + (dir / "a.nrrd").string() + " -o " + (dir / "a.nrrd").string(), dir);
     EXPECT_NE(r.exitCode, 0);
-    EXPECT_EQ(slurp(dir / "a.nrrd"), before) << "input must stay untouched";
+    EXPECT_EQ(test::readFile(dir / "a.nrrd"), before) << "input must stay untouched";
 }
 
 TEST(Cli, FailedConvertLeavesNoOutput) {
     auto dir = test::tempDir("cli_atomic");
     Volume v({4, 4, 4}, ScalarType::UInt8);
     writeVolumeFile(v, dir / "a.nrrd");
-    RunResult r = run("convert " + (dir / "a.nrrd").string() + " -o " + (dir / "out.nrrd").string() +
-                          " --crop 0,0,0:9,9,9",
-                      dir);
+    test::RunResult r = test::runVolcl("convert " + (dir / "a.nrrd").string() + " -o " +
+                                           (dir / "out.nrrd").string() + " --crop 0,0,0:9,9,9",
+                                       dir);
     EXPECT_NE(r.exitCode, 0);
     EXPECT_FALSE(std::filesystem::exists(dir / "out.nrrd"));
     for (const auto& e : std::filesystem::directory_iterator(dir))
@@ -115,16 +91,17 @@ TEST(Cli, ConvertRoundTripsRawNrrdVdbBitExactly) {
         std::string name(scalarTypeName(t));
         auto raw = dir / ("v_13x7x5_" + name + ".raw");
         writeVolumeFile(v, raw);
-        ASSERT_EQ(run("convert " + raw.string() + " -o " + (dir / (name + ".nrrd")).string(), dir).exitCode,
+        ASSERT_EQ(test::runVolcl("convert " + raw.string() + " -o " + (dir / (name + ".nrrd")).string(), dir)
+                      .exitCode,
                   0);
-        ASSERT_EQ(
-            run("convert " + (dir / (name + ".nrrd")).string() + " -o " + (dir / (name + ".vdb")).string(),
-                dir)
-                .exitCode,
-            0);
-        RunResult back = run("convert " + (dir / (name + ".vdb")).string() + " -o " +
-                                 (dir / ("back_13x7x5_" + name + ".raw")).string(),
-                             dir);
+        ASSERT_EQ(test::runVolcl("convert " + (dir / (name + ".nrrd")).string() + " -o " +
+                                     (dir / (name + ".vdb")).string(),
+                                 dir)
+                      .exitCode,
+                  0);
+        test::RunResult back = test::runVolcl("convert " + (dir / (name + ".vdb")).string() + " -o " +
+                                                  (dir / ("back_13x7x5_" + name + ".raw")).string(),
+                                              dir);
         ASSERT_EQ(back.exitCode, 0) << back.err;
         Volume r = readVolume(dir / ("back_13x7x5_" + name + ".raw"));
         EXPECT_EQ(r.type(), t);
@@ -138,7 +115,7 @@ TEST(Cli, InfoJsonHasContractFields) {
     Volume v({3, 2, 1}, ScalarType::UInt16);
     v.values<std::uint16_t>()[5] = 1000;
     writeVolumeFile(v, dir / "v.nrrd");
-    RunResult r = run("info --json " + (dir / "v.nrrd").string(), dir);
+    test::RunResult r = test::runVolcl("info --json " + (dir / "v.nrrd").string(), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     auto j = nlohmann::json::parse(r.out);
     EXPECT_EQ(j["dims"], nlohmann::json({3, 2, 1}));
@@ -148,14 +125,14 @@ TEST(Cli, InfoJsonHasContractFields) {
 
 TEST(Cli, DevicesListsPocl) {
     auto dir = test::tempDir("cli_devices");
-    RunResult r = run("devices", dir);
+    test::RunResult r = test::runVolcl("devices", dir);
     EXPECT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.out.find("0: "), std::string::npos) << r.out;
 }
 
 TEST(Cli, DemoRunsAndWritesPhantoms) {
     auto dir = test::tempDir("cli_demo");
-    RunResult r = run("demo -o " + (dir / "demo").string() + " --phantom-size 48", dir);
+    test::RunResult r = test::runVolcl("demo -o " + (dir / "demo").string() + " --phantom-size 48", dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     Volume ml = readVolume(dir / "demo" / "marschner_lobb.nrrd");
     EXPECT_EQ(ml.dims(), (Dims{41, 41, 41}));
@@ -169,7 +146,8 @@ TEST(Cli, DemoRunsAndWritesPhantoms) {
 TEST(Cli, QuietDemoFailsWithOneLine) {
     auto dir = test::tempDir("cli_demo_quiet");
     std::filesystem::create_directories(dir / "demo" / "marschner_lobb.nrrd"); // a directory: no write
-    RunResult r = run("-q demo -o " + (dir / "demo").string() + " --ml-size 6 --phantom-size 12", dir);
+    test::RunResult r =
+        test::runVolcl("-q demo -o " + (dir / "demo").string() + " --ml-size 6 --phantom-size 12", dir);
     EXPECT_EQ(r.exitCode, 1) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_NE(r.err.find("marschner_lobb.nrrd"), std::string::npos) << r.err;
@@ -200,7 +178,7 @@ TEST(Cli, DemoImageIsSmoothAndKernelWarningsStayQuiet) {
     // cached binary would hide the compiler's output.
     const std::string fresh = "VOLCL_CACHE_DIR=" + (dir / "volcl-cache").string() +
                               " POCL_CACHE_DIR=" + (dir / "pocl-cache").string() + " " + VOLCL_EXE;
-    RunResult r = run("demo -o " + (dir / "demo").string(), dir, fresh);
+    test::RunResult r = test::runProgram(fresh, "demo -o " + (dir / "demo").string(), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
     EXPECT_EQ(r.out.find("warning"), std::string::npos) << r.out;
@@ -218,10 +196,10 @@ TEST(Cli, BenchCodecReportsColdAndWarmFigures) {
     VOLCL_REQUIRE_SHARED_DATA(data);
     auto dir = test::tempDir("cli_bench_cold");
     const auto csv = dir / "codec.csv";
-    RunResult r =
-        run("bench codec --data " + data.string() +
-                " --dataset hydrogenatom --mode lossless --coder fast --no-xz --runs 1 --csv " + csv.string(),
-            dir);
+    test::RunResult r = test::runVolcl(
+        "bench codec --data " + data.string() +
+            " --dataset hydrogenatom --mode lossless --coder fast --no-xz --runs 1 --csv " + csv.string(),
+        dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.err.find("cold (a fresh volcl process per run"), std::string::npos) << r.err;
     std::ifstream in(csv);
@@ -254,14 +232,15 @@ TEST(Cli, MissingImageModuleIsAOneLineError) {
     std::filesystem::copy_file(lib, bin / soname);
     // LD_LIBRARY_PATH wins over the copy's RUNPATH, so the library (and its module lookup) is the copy's.
     const std::string copy = "LD_LIBRARY_PATH=" + bin.string() + " " + (bin / "volcl").string();
-    EXPECT_EQ(run("--help", dir, copy).exitCode, 0);
-    RunResult r = run("demo -o " + (dir / "demo").string() + " --phantom-size 16", dir, copy);
+    EXPECT_EQ(test::runProgram(copy, "--help", dir).exitCode, 0);
+    test::RunResult r =
+        test::runProgram(copy, "demo -o " + (dir / "demo").string() + " --phantom-size 16", dir);
     EXPECT_EQ(r.exitCode, 1) << r.err;
     // demo reports progress on stderr before it writes its first image; the error is one line after it.
     const std::size_t last = r.err.rfind('\n', r.err.size() - 2);
     const std::string error = r.err.substr(last == std::string::npos ? 0 : last + 1);
     EXPECT_EQ(error.rfind("volcl: ", 0), 0u) << r.err;
-    EXPECT_EQ(lineCount(error), 1u) << r.err;
+    EXPECT_EQ(test::lineCount(error), 1u) << r.err;
     EXPECT_NE(error.find("libvolcl_oiio.so"), std::string::npos) << r.err;
 }
 
@@ -269,9 +248,9 @@ TEST(Cli, InfoRefusesPointsVdbAndCorruptedCopiesWithOneLine) {
     std::filesystem::path data;
     VOLCL_REQUIRE_SHARED_DATA(data);
     auto dir = test::tempDir("cli_corrupt");
-    RunResult points = run("info " + (data / "vdb" / "sphere_points.vdb").string(), dir);
+    test::RunResult points = test::runVolcl("info " + (data / "vdb" / "sphere_points.vdb").string(), dir);
     EXPECT_EQ(points.exitCode, 1);
-    EXPECT_EQ(lineCount(points.err), 1u) << points.err;
+    EXPECT_EQ(test::lineCount(points.err), 1u) << points.err;
     EXPECT_NE(points.err.find("sphere_points.vdb"), std::string::npos) << points.err;
 
     // Truncated copies of real files in several formats. Detached headers keep their header and get
@@ -286,16 +265,16 @@ TEST(Cli, InfoRefusesPointsVdbAndCorruptedCopiesWithOneLine) {
           Case{"vdb/grid0.vdb", nullptr}, Case{"timevarying/functional.nii.gz", nullptr},
           Case{"timevarying/viscousfingers/001_density_001_064_2.0.vti", nullptr}}) {
         std::filesystem::path src = data / c.file;
-        std::string bytes = slurp(src);
+        std::string bytes = test::readFile(src);
         if (c.payload) {
-            std::string payload = slurp(src.parent_path() / c.payload);
+            std::string payload = test::readFile(src.parent_path() / c.payload);
             std::ofstream(dir / c.payload, std::ios::binary) << payload.substr(0, payload.size() / 2);
         } else {
             bytes = bytes.substr(0, bytes.size() * 2 / 3);
         }
         std::ofstream(dir / src.filename(), std::ios::binary) << bytes;
-        RunResult r = run("info " + (dir / src.filename()).string(), dir);
+        test::RunResult r = test::runVolcl("info " + (dir / src.filename()).string(), dir);
         EXPECT_EQ(r.exitCode, 1) << c.file << ": " << r.err;
-        EXPECT_EQ(lineCount(r.err), 1u) << c.file << ": " << r.err;
+        EXPECT_EQ(test::lineCount(r.err), 1u) << c.file << ": " << r.err;
     }
 }

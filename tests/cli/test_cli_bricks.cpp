@@ -3,6 +3,7 @@
 // picks a series frame, and a corrupted brick met while rendering exits 1 naming the brick with no output
 // left.
 #include "../TestUtil.hpp"
+#include "CliRun.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "wavelet/container/VczFormat.hpp"
@@ -19,31 +20,6 @@ using namespace volcl;
 namespace fs = std::filesystem;
 
 namespace {
-
-struct RunResult {
-    int exitCode;
-    std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
-RunResult run(const std::string& args, const fs::path& dir) {
-    auto out = dir / "stdout.txt", err = dir / "stderr.txt";
-    std::string cmd =
-        std::string(VOLCL_EXE) + " " + args + " >" + out.string() + " 2>" + err.string() + " </dev/null";
-    int status = std::system(cmd.c_str());
-    int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    return {code, slurp(out), slurp(err)};
-}
-
-std::string q(const fs::path& p) {
-    return "'" + p.string() + "'";
-}
 
 double maxAbs(const fs::path& a, const fs::path& b) {
     const ImageBuffer x = readImage(a), y = readImage(b);
@@ -73,35 +49,41 @@ TEST(CliBricks, VczIsAVolumeEverywhere) {
     const fs::path dir = test::tempDir("cli_bricks");
     writeBall(dir / "ball.nrrd", 0);
     test::writeFile(dir / "tf.json", kTf);
-    RunResult r =
-        run("encode " + q(dir / "ball.nrrd") + " --brick 16 --levels 2 -o " + q(dir / "ball.vcz"), dir);
+    test::RunResult r = test::runVolcl("encode " + test::quoted(dir / "ball.nrrd") +
+                                           " --brick 16 --levels 2 -o " + test::quoted(dir / "ball.vcz"),
+                                       dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    r = run("info " + q(dir / "ball.vcz"), dir);
+    r = test::runVolcl("info " + test::quoted(dir / "ball.vcz"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.out.find("bricks   18 (3 x 3 x 2), level-of-detail statistics stored"), std::string::npos)
         << r.out;
-    r = run("info --json " + q(dir / "ball.vcz"), dir);
+    r = test::runVolcl("info --json " + test::quoted(dir / "ball.vcz"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.out.find("\"max_error\""), std::string::npos);
-    r = run("convert " + q(dir / "ball.vcz") + " -o " + q(dir / "back.nrrd"), dir);
+    r = test::runVolcl("convert " + test::quoted(dir / "ball.vcz") + " -o " + test::quoted(dir / "back.nrrd"),
+                       dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    r = run("compare " + q(dir / "ball.nrrd") + " " + q(dir / "back.nrrd") + " --json", dir);
+    r = test::runVolcl("compare " + test::quoted(dir / "ball.nrrd") + " " + test::quoted(dir / "back.nrrd") +
+                           " --json",
+                       dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.out.find("\"max_abs_error\": 0.0,"), std::string::npos) << r.out;
-    const std::string cam = " --tf " + q(dir / "tf.json") +
+    const std::string cam = " --tf " + test::quoted(dir / "tf.json") +
                             " --tf-range 0,255 --width 64 --height 64 --eye 60,-30,-40 --target 20,18,15";
-    r = run("render --volume " + q(dir / "back.nrrd") + cam + " -o " + q(dir / "grid.exr"), dir);
+    r = test::runVolcl("render --volume " + test::quoted(dir / "back.nrrd") + cam + " -o " +
+                           test::quoted(dir / "grid.exr"),
+                       dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    r = run("render --volume " + q(dir / "ball.vcz") + cam + " --lod full --stats -o " +
-                q(dir / "bricks.exr"),
-            dir);
+    r = test::runVolcl("render --volume " + test::quoted(dir / "ball.vcz") + cam + " --lod full --stats -o " +
+                           test::quoted(dir / "bricks.exr"),
+                       dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.err.find("bricks visited"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("hidden by the TF"), std::string::npos) << r.err;
     EXPECT_LE(maxAbs(dir / "grid.exr", dir / "bricks.exr"), 1e-6);
-    r = run("render --volume " + q(dir / "ball.vcz") + cam + " --lod auto --lod-error 0.01 --cache-mb 1 -o " +
-                q(dir / "auto.exr"),
-            dir);
+    r = test::runVolcl("render --volume " + test::quoted(dir / "ball.vcz") + cam +
+                           " --lod auto --lod-error 0.01 --cache-mb 1 -o " + test::quoted(dir / "auto.exr"),
+                       dir);
     EXPECT_EQ(r.exitCode, 0) << r.err;
 }
 
@@ -110,30 +92,39 @@ TEST(CliBricks, SeriesFrameAndCorruptedBrick) {
     writeBall(dir / "f0.nrrd", 0);
     writeBall(dir / "f1.nrrd", 4);
     test::writeFile(dir / "tf.json", kTf);
-    RunResult r = run("encode " + q(dir / "f0.nrrd") + " " + q(dir / "f1.nrrd") +
-                          " --brick 16 --levels 2 -o " + q(dir / "s.vcz"),
-                      dir);
+    test::RunResult r =
+        test::runVolcl("encode " + test::quoted(dir / "f0.nrrd") + " " + test::quoted(dir / "f1.nrrd") +
+                           " --brick 16 --levels 2 -o " + test::quoted(dir / "s.vcz"),
+                       dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    r = run("decode " + q(dir / "s.vcz") + " --frame 1 -o " + q(dir / "f1back.nrrd"), dir);
+    r = test::runVolcl(
+        "decode " + test::quoted(dir / "s.vcz") + " --frame 1 -o " + test::quoted(dir / "f1back.nrrd"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    const std::string cam = " --tf " + q(dir / "tf.json") +
+    const std::string cam = " --tf " + test::quoted(dir / "tf.json") +
                             " --tf-range 0,255 --width 48 --height 48 --eye 60,-30,-40 --target 20,18,15";
-    r = run("render --volume " + q(dir / "f1back.nrrd") + cam + " -o " + q(dir / "grid1.exr"), dir);
+    r = test::runVolcl("render --volume " + test::quoted(dir / "f1back.nrrd") + cam + " -o " +
+                           test::quoted(dir / "grid1.exr"),
+                       dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    r = run("render --volume " + q(dir / "s.vcz") + cam + " --frame 1 -o " + q(dir / "bricks1.exr"), dir);
+    r = test::runVolcl("render --volume " + test::quoted(dir / "s.vcz") + cam + " --frame 1 -o " +
+                           test::quoted(dir / "bricks1.exr"),
+                       dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_LE(maxAbs(dir / "grid1.exr", dir / "bricks1.exr"), 1e-6);
-    r = run("render --volume " + q(dir / "s.vcz") + cam + " --frame 2 -o " + q(dir / "none.exr"), dir);
+    r = test::runVolcl("render --volume " + test::quoted(dir / "s.vcz") + cam + " --frame 2 -o " +
+                           test::quoted(dir / "none.exr"),
+                       dir);
     EXPECT_EQ(r.exitCode, 2) << r.err;
     EXPECT_FALSE(fs::exists(dir / "none.exr"));
 
     // Damage one payload byte of a brick the view needs (brick 4 holds the ball's centre).
-    std::string bytes = slurp(dir / "s.vcz");
+    std::string bytes = test::readFile(dir / "s.vcz");
     const VczHeader h = readVczHeader(std::as_bytes(std::span(bytes.data(), bytes.size())), "s.vcz");
     bytes[h.bricks[1][4].offset + 2] ^= 0x20;
     test::writeFile(dir / "bad.vcz", bytes);
-    r = run("--quiet render --volume " + q(dir / "bad.vcz") + cam + " --frame 1 -o " + q(dir / "bad.exr"),
-            dir);
+    r = test::runVolcl("--quiet render --volume " + test::quoted(dir / "bad.vcz") + cam + " --frame 1 -o " +
+                           test::quoted(dir / "bad.exr"),
+                       dir);
     EXPECT_EQ(r.exitCode, 1) << r.err;
     EXPECT_NE(r.err.find("brick 4"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("bad.vcz"), std::string::npos) << r.err;
@@ -150,35 +141,43 @@ TEST(CliBricks, SeriesFrameAndCorruptedBrick) {
 TEST(CliBricks, StreamedCloudRendersAsACroppedRegion) {
     const fs::path dir = test::tempDir("cli_bricks_stream");
     test::writeFile(dir / "tf.json", kTf);
-    RunResult r =
-        run("generate cloud --size 96,80,48 --seed 3 --frequency 3 -o " + q(dir / "cloud.vcz"), dir);
+    test::RunResult r = test::runVolcl(
+        "generate cloud --size 96,80,48 --seed 3 --frequency 3 -o " + test::quoted(dir / "cloud.vcz"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.err.find("peak RSS"), std::string::npos) << r.err;
-    r = run("generate cloud --size 96,80,48 --seed 3 --frequency 3 -o " + q(dir / "cloud.nrrd"), dir);
+    r = test::runVolcl(
+        "generate cloud --size 96,80,48 --seed 3 --frequency 3 -o " + test::quoted(dir / "cloud.nrrd"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    r = run("compare " + q(dir / "cloud.vcz") + " " + q(dir / "cloud.nrrd") + " --json", dir);
+    r = test::runVolcl("compare " + test::quoted(dir / "cloud.vcz") + " " + test::quoted(dir / "cloud.nrrd") +
+                           " --json",
+                       dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.out.find("\"max_abs_error\": 0.0,"), std::string::npos) << r.out;
 
-    r = run("decode " + q(dir / "cloud.vcz") + " --region 66,0,0:96,80,40 -o " + q(dir / "crop.nrrd"), dir);
+    r = test::runVolcl("decode " + test::quoted(dir / "cloud.vcz") + " --region 66,0,0:96,80,40 -o " +
+                           test::quoted(dir / "crop.nrrd"),
+                       dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    const std::string cam = " --tf " + q(dir / "tf.json") + " --tf-range 0,255 --width 64 --height 64" +
+    const std::string cam = " --tf " + test::quoted(dir / "tf.json") +
+                            " --tf-range 0,255 --width 64 --height 64" +
                             " --eye 150,-60,90 --target 81,40,20 --view-height 110";
-    r = run("render --volume " + q(dir / "crop.nrrd") + cam + " -o " + q(dir / "crop.exr"), dir);
+    r = test::runVolcl("render --volume " + test::quoted(dir / "crop.nrrd") + cam + " -o " +
+                           test::quoted(dir / "crop.exr"),
+                       dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     // The region shares four faces with the volume: two planes clip the others. The bricks of x < 64 lie
     // wholly on the cut side (with the voxel their cells reach across): out of the working set.
     const std::string clip = " --clip 1,0,0,-66 --clip 0,0,-1,39";
-    r = run("render --volume " + q(dir / "cloud.vcz") + cam + clip + " --lod full --cache-mb 2 --stats -o " +
-                q(dir / "clipped.exr"),
-            dir);
+    r = test::runVolcl("render --volume " + test::quoted(dir / "cloud.vcz") + cam + clip +
+                           " --lod full --cache-mb 2 --stats -o " + test::quoted(dir / "clipped.exr"),
+                       dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.err.find("bricks visited 2 (reachable 2,"), std::string::npos) << r.err;
     EXPECT_EQ(r.err.find("coarsened"), std::string::npos) << r.err; // the budget holds the region at level 0
     // Float noise: the clipped march enters at the plane, the cropped one at its box (1.7e-6 measured).
     EXPECT_LE(maxAbs(dir / "crop.exr", dir / "clipped.exr"), 1e-5);
 
-    r = run("generate cloud --size 40,40,20 -o " + q(dir / "missing" / "c.vcz"), dir);
+    r = test::runVolcl("generate cloud --size 40,40,20 -o " + test::quoted(dir / "missing" / "c.vcz"), dir);
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("c.vcz"), std::string::npos) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;

@@ -22,7 +22,6 @@ namespace {
 
 using test::has;
 using test::RunResult;
-using test::slurp;
 
 RunResult run(const std::string& args, const std::filesystem::path& dir) {
     return test::runVolcl(args, dir, true);

@@ -1,6 +1,7 @@
 // Hostile inputs through the volcl binary: each ends in exit 1 (2 for usage) with one line naming the file,
 // within a memory bound, and leaves every input untouched (the reproducers of the hardening work).
 #include "../TestUtil.hpp"
+#include "CliRun.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "wavelet/container/VczFormat.hpp"
@@ -35,13 +36,6 @@ struct RunResult {
     long maxRssKb = 0;
 };
 
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
 // Runs `volcl <args>` in `dir` through /bin/sh (exec, so the resource usage is volcl's own), with a
 // 60 s guard so a regression to a hang fails instead of blocking the suite.
 RunResult run(const std::string& args, const fs::path& dir, const std::string& prefix = "",
@@ -58,23 +52,15 @@ RunResult run(const std::string& args, const fs::path& dir, const std::string& p
     rusage usage{};
     if (wait4(pid, &status, 0, &usage) != pid) return r;
     r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    r.err = slurp(err);
+    r.err = test::readFile(err);
     r.maxRssKb = usage.ru_maxrss;
     return r;
-}
-
-std::size_t lineCount(const std::string& s) {
-    return static_cast<std::size_t>(std::count(s.begin(), s.end(), '\n'));
-}
-
-void writeText(const fs::path& p, const std::string& text) {
-    std::ofstream(p, std::ios::binary) << text;
 }
 
 // A refused input: exit code as asked, one line on stderr that names `file`, less than 500 MB.
 void expectRefused(const RunResult& r, int code, const std::string& file, const std::string& why = "") {
     EXPECT_EQ(r.exitCode, code) << r.err;
-    EXPECT_EQ(lineCount(r.err), 1u) << r.err;
+    EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
     EXPECT_NE(r.err.find(file), std::string::npos) << "message does not name " << file << ": " << r.err;
     if (!why.empty()) EXPECT_NE(r.err.find(why), std::string::npos) << r.err;
     EXPECT_LT(r.maxRssKb, 500 * 1024) << "peak memory " << r.maxRssKb << " kB";
@@ -100,16 +86,17 @@ TEST(CliHostile, ConvertRefusesToOverwriteTheDataFileOfItsHeader) {
     const fs::path dir = test::tempDir("hostile_same_data");
     writeVolumeFile(ramp({12, 12, 12}), dir / "a.raw");
     // The shape of nucleon.nrrd: an attached-looking .nrrd whose data sits in ./a.raw.
-    writeText(dir / "a.nrrd", "NRRD0001\ntype: uchar\ndimension: 3\nsizes: 12 12 12\ndatafile: ./a.raw\n"
-                              "encoding: raw\n\n");
-    const std::string before = slurp(dir / "a.raw");
+    test::writeFile(dir / "a.nrrd",
+                    "NRRD0001\ntype: uchar\ndimension: 3\nsizes: 12 12 12\ndatafile: ./a.raw\n"
+                    "encoding: raw\n\n");
+    const std::string before = test::readFile(dir / "a.raw");
     expectRefused(run("convert a.nrrd -o a.raw --crop 0,0,0:10,10,10", dir), 2, "a.raw", "same file");
-    EXPECT_EQ(slurp(dir / "a.raw"), before);
+    EXPECT_EQ(test::readFile(dir / "a.raw"), before);
     // A detached .nhdr output writes its data under a new unique name, never over the input's data file.
-    writeText(dir / "b.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 12 12 12\ndata file: a.raw\n"
-                              "encoding: raw\n\n");
-    ASSERT_EQ(run("-q convert b.nrrd -o a.nhdr", dir).exitCode, 0) << slurp(dir / "stderr.txt");
-    EXPECT_EQ(slurp(dir / "a.raw"), before);
+    test::writeFile(dir / "b.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 12 12 12\ndata file: a.raw\n"
+                                    "encoding: raw\n\n");
+    ASSERT_EQ(run("-q convert b.nrrd -o a.nhdr", dir).exitCode, 0) << test::readFile(dir / "stderr.txt");
+    EXPECT_EQ(test::readFile(dir / "a.raw"), before);
     EXPECT_EQ(readVolume(dir / "a.nhdr"), readVolume(dir / "b.nrrd"));
     // Writing a.nhdr again would remove the data file its present header names: refused while that file
     // is an input (here through c.nhdr, a copy of the header).
@@ -125,14 +112,14 @@ TEST(CliHostile, ConvertRefusesToOverwriteASliceOfAListOrASidecarsRawFile) {
     Volume slice = ramp({8, 8, 1});
     writeVolumeFile(slice, dir / "s0.raw");
     writeVolumeFile(slice, dir / "s1.raw");
-    writeText(dir / "list.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 8 8 2\nencoding: raw\n"
-                                 "data file: LIST\ns0.raw\ns1.raw\n");
-    const std::string before = slurp(dir / "s1.raw");
+    test::writeFile(dir / "list.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 8 8 2\nencoding: raw\n"
+                                       "data file: LIST\ns0.raw\ns1.raw\n");
+    const std::string before = test::readFile(dir / "s1.raw");
     expectRefused(run("convert list.nhdr -o s1.raw", dir), 2, "s1.raw", "same file");
-    EXPECT_EQ(slurp(dir / "s1.raw"), before);
-    writeText(dir / "v.dat", "ObjectFileName: s0.raw\nResolution: 8 8 1\nFormat: UCHAR\n");
+    EXPECT_EQ(test::readFile(dir / "s1.raw"), before);
+    test::writeFile(dir / "v.dat", "ObjectFileName: s0.raw\nResolution: 8 8 1\nFormat: UCHAR\n");
     expectRefused(run("convert v.dat -o s0.raw", dir), 2, "s0.raw", "same file");
-    EXPECT_EQ(slurp(dir / "s0.raw"), before);
+    EXPECT_EQ(test::readFile(dir / "s0.raw"), before);
 }
 
 // ---- data files stay beside their header unless allowed -----------------------------------------------
@@ -142,34 +129,35 @@ TEST(CliHostile, HeaderDataFilesOutsideTheHeadersDirectoryAreRefusedUnlessAllowe
     const fs::path dir = root / "inner";
     fs::create_directories(dir);
     writeVolumeFile(ramp({4, 4, 4}), root / "outside.raw");
-    writeText(dir / "passwd.nhdr", "NRRD0004\ntype: uchar\ndimension: 1\nsizes: 16\nencoding: raw\n"
-                                   "data file: /etc/passwd\nbyte skip: -1\n");
+    test::writeFile(dir / "passwd.nhdr", "NRRD0004\ntype: uchar\ndimension: 1\nsizes: 16\nencoding: raw\n"
+                                         "data file: /etc/passwd\nbyte skip: -1\n");
     expectRefused(run("convert passwd.nhdr -o out.raw", dir), 1, "passwd.nhdr", "outside");
     EXPECT_FALSE(fs::exists(dir / "out.raw"));
-    writeText(dir / "up.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n"
-                               "data file: ../outside.raw\n");
+    test::writeFile(dir / "up.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n"
+                                     "data file: ../outside.raw\n");
     expectRefused(run("info up.nhdr", dir), 1, "up.nhdr", "--allow-external-data");
-    writeText(dir / "up.mhd", "NDims = 3\nDimSize = 4 4 4\nElementType = MET_UCHAR\n"
-                              "ElementDataFile = ../outside.raw\n");
+    test::writeFile(dir / "up.mhd", "NDims = 3\nDimSize = 4 4 4\nElementType = MET_UCHAR\n"
+                                    "ElementDataFile = ../outside.raw\n");
     expectRefused(run("info up.mhd", dir), 1, "up.mhd", "outside");
     // A symbolic link inside the directory that leads out of it is outside too.
     fs::create_symlink(root / "outside.raw", dir / "link.raw");
-    writeText(dir / "link.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n"
-                                 "data file: link.raw\n");
+    test::writeFile(dir / "link.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n"
+                                       "data file: link.raw\n");
     expectRefused(run("info link.nhdr", dir), 1, "link.nhdr", "outside");
     // Allowed on request, and a subdirectory is always inside.
     EXPECT_EQ(run("info up.nhdr --allow-external-data", dir).exitCode, 0);
     EXPECT_EQ(run("convert up.mhd -o copy.raw --allow-external-data", dir).exitCode, 0);
     fs::create_directories(dir / "sub");
     writeVolumeFile(ramp({4, 4, 4}), dir / "sub" / "d.raw");
-    writeText(dir / "sub.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n"
-                                "data file: sub/d.raw\n");
+    test::writeFile(dir / "sub.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n"
+                                      "data file: sub/d.raw\n");
     EXPECT_EQ(run("info sub.nhdr", dir).exitCode, 0);
     // A .pvd's DataSet files follow the same rule.
     writeVolumeFile(ramp({4, 4, 4}), root / "outside.vti");
     for (const std::string& f : {std::string("../outside.vti"), (root / "outside.vti").string()}) {
-        writeText(dir / "p.pvd", "<VTKFile type=\"Collection\"><Collection><DataSet timestep=\"0\" file=\"" +
-                                     f + "\"/></Collection></VTKFile>\n");
+        test::writeFile(dir / "p.pvd",
+                        "<VTKFile type=\"Collection\"><Collection><DataSet timestep=\"0\" file=\"" + f +
+                            "\"/></Collection></VTKFile>\n");
         expectRefused(run("encode p.pvd -o p.vcz", dir), 1, "p.pvd", "--allow-external-data");
         EXPECT_FALSE(fs::exists(dir / "p.vcz"));
         EXPECT_EQ(run("encode p.pvd -o p.vcz --allow-external-data", dir).exitCode, 0) << f;
@@ -201,26 +189,26 @@ TEST(CliHostile, NonRegularFilesAreRefusedAsInputsAndAsDataFiles) {
     refused("render --scene fifo.json -o s.png", "fifo.json"); // a scene
     for (const char* data : {"fifo.raw", "dir.raw", "/dev/zero"}) {
         const std::string d(data);
-        writeText(dir / "h.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n"
-                                  "data file: " +
-                                      d + "\n");
+        test::writeFile(dir / "h.nhdr", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 4 4\nencoding: raw\n"
+                                        "data file: " +
+                                            d + "\n");
         refused("info h.nhdr --allow-external-data", "h.nhdr");
-        writeText(dir / "h.mhd",
-                  "NDims = 3\nDimSize = 4 4 4\nElementType = MET_UCHAR\nElementDataFile = " + d + "\n");
+        test::writeFile(dir / "h.mhd",
+                        "NDims = 3\nDimSize = 4 4 4\nElementType = MET_UCHAR\nElementDataFile = " + d + "\n");
         refused("info h.mhd --allow-external-data", "h.mhd");
-        writeText(dir / "h.vvd", "<?xml version=\"1.0\" ?>\n<VoreenData version=\"1\"><Volumes><Volume>"
-                                 "<RawData filename=\"" +
-                                     d +
-                                     "\" format=\"uint8\" x=\"4\" y=\"4\" z=\"4\" />"
-                                     "</Volume></Volumes></VoreenData>\n");
+        test::writeFile(dir / "h.vvd", "<?xml version=\"1.0\" ?>\n<VoreenData version=\"1\"><Volumes><Volume>"
+                                       "<RawData filename=\"" +
+                                           d +
+                                           "\" format=\"uint8\" x=\"4\" y=\"4\" z=\"4\" />"
+                                           "</Volume></Volumes></VoreenData>\n");
         refused("info h.vvd --allow-external-data", "h.vvd");
     }
     writeVolumeFile(ramp({4, 4, 4}), dir / "good.vti");
     for (const char* member : {"fifo.vti", "dir.nrrd", "/dev/zero"}) {
-        writeText(dir / "p.pvd", std::string("<VTKFile type=\"Collection\"><Collection>"
-                                             "<DataSet timestep=\"0\" file=\"good.vti\"/>"
-                                             "<DataSet timestep=\"1\" file=\"") +
-                                     member + "\"/></Collection></VTKFile>\n");
+        test::writeFile(dir / "p.pvd", std::string("<VTKFile type=\"Collection\"><Collection>"
+                                                   "<DataSet timestep=\"0\" file=\"good.vti\"/>"
+                                                   "<DataSet timestep=\"1\" file=\"") +
+                                           member + "\"/></Collection></VTKFile>\n");
         refused("encode p.pvd -o p.vcz --allow-external-data", "p.pvd");
         EXPECT_FALSE(fs::exists(dir / "p.vcz"));
     }
@@ -248,29 +236,30 @@ TEST(CliHostile, OutputsThatAreNotRegularFilesAreRefused) {
 TEST(CliHostile, HugeSizeClaimsAreRefusedBeforeAllocation) {
     const fs::path dir = test::tempDir("hostile_sizes");
     // Ten million data files for a 256x256x93 volume: refused before a single name is built.
-    writeText(dir / "quarter.nhdr", "NRRD0004\ntype: short\ndimension: 3\nsizes: 256 256 93\nendian: big\n"
-                                    "encoding: raw\ndata file: quarter.%d 1 10000000 1\n");
+    test::writeFile(dir / "quarter.nhdr",
+                    "NRRD0004\ntype: short\ndimension: 3\nsizes: 256 256 93\nendian: big\n"
+                    "encoding: raw\ndata file: quarter.%d 1 10000000 1\n");
     expectRefused(run("info quarter.nhdr", dir), 1, "quarter.nhdr", "files");
     // 999,999 data files, under the cap of 10^6, that cannot share the 89 MB evenly: refused before a name
     // is built. fuzz_read_mha found 600,000 such files to cost 4 s and 400 MB of names and path checks.
-    writeText(dir / "many.mhd", "NDims = 4\nDimSize = 4 4 1000 2775\nElementType = MET_SHORT\n"
-                                "ElementDataFile = d%d.raw 1 999999 1\n");
+    test::writeFile(dir / "many.mhd", "NDims = 4\nDimSize = 4 4 1000 2775\nElementType = MET_SHORT\n"
+                                      "ElementDataFile = d%d.raw 1 999999 1\n");
     expectRefused(run("info many.mhd", dir), 1, "many.mhd", "999999 data files cannot evenly hold");
     writeVolumeFile(ramp({10, 10, 10}), dir / "d.raw");
-    writeText(dir / "huge.mhd", "NDims = 3\nDimSize = 100000 1000 1000\nElementType = MET_UCHAR\n"
-                                "ElementDataFile = d.raw\n");
+    test::writeFile(dir / "huge.mhd", "NDims = 3\nDimSize = 100000 1000 1000\nElementType = MET_UCHAR\n"
+                                      "ElementDataFile = d.raw\n");
     expectRefused(run("info huge.mhd", dir), 1, "huge.mhd");
-    writeText(dir / "huge.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 48 4294967296 42\n"
-                                 "encoding: gzip\n\n" +
-                                     std::string(64, 'x'));
+    test::writeFile(dir / "huge.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 48 4294967296 42\n"
+                                       "encoding: gzip\n\n" +
+                                           std::string(64, 'x'));
     expectRefused(run("info huge.nrrd", dir), 1, "huge.nrrd");
-    writeText(dir / "huge_raw.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 48 4294967296 42\n"
-                                     "encoding: raw\n\n" +
-                                         std::string(64, 'x'));
+    test::writeFile(dir / "huge_raw.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 48 4294967296 42\n"
+                                           "encoding: raw\n\n" +
+                                               std::string(64, 'x'));
     expectRefused(run("info huge_raw.nrrd", dir), 1, "huge_raw.nrrd");
-    writeText(dir / "huge.vtk", "# vtk DataFile Version 3.0\nx\nBINARY\nDATASET STRUCTURED_POINTS\n"
-                                "DIMENSIONS 100000 100000 100000\nPOINT_DATA 1000000000000000\n"
-                                "SCALARS s float\nLOOKUP_TABLE default\n");
+    test::writeFile(dir / "huge.vtk", "# vtk DataFile Version 3.0\nx\nBINARY\nDATASET STRUCTURED_POINTS\n"
+                                      "DIMENSIONS 100000 100000 100000\nPOINT_DATA 1000000000000000\n"
+                                      "SCALARS s float\nLOOKUP_TABLE default\n");
     expectRefused(run("info huge.vtk", dir), 1, "huge.vtk");
 }
 
@@ -301,8 +290,8 @@ TEST(CliHostile, VczTrailingBytesAndImpossibleCombinationsAreCorruptFiles) {
     const fs::path dir = test::tempDir("hostile_vcz");
     writeVolumeFile(ramp({16, 16, 16}), dir / "v_16x16x16_uint8.raw");
     ASSERT_EQ(run("encode v_16x16x16_uint8.raw -o v.vcz", dir).exitCode, 0);
-    std::string bytes = slurp(dir / "v.vcz");
-    writeText(dir / "appended.vcz", bytes + "extra bytes");
+    std::string bytes = test::readFile(dir / "v.vcz");
+    test::writeFile(dir / "appended.vcz", bytes + "extra bytes");
     expectRefused(run("decode appended.vcz -o out.raw", dir), 1, "appended.vcz", "trailing");
     // A lossless file re-labelled cdf97 (no integer form), with every checksum recomputed.
     const auto* raw = reinterpret_cast<const std::byte*>(bytes.data());
@@ -353,7 +342,7 @@ TEST(CliHostile, BuildingEveryKernelOfADecodeStaysWithinTheMemoryBound) {
 
 TEST(CliHostile, PreintegrationWithHugeLengthsFinishes) {
     const fs::path dir = test::tempDir("hostile_preint");
-    writeText(dir / "tf.json", kTf);
+    test::writeFile(dir / "tf.json", kTf);
     for (const char* len : {"1e12", "1e20", "1e30"}) {
         const RunResult r = run(
             std::string("preint --tf tf.json --size 8 --lengths 2 --max-length ") + len + " -o t.exr", dir);
@@ -375,11 +364,11 @@ TEST(CliHostile, PreintegrationWithHugeLengthsFinishes) {
 TEST(CliHostile, SceneStepsAreValidatedLikeRenderStep) {
     const fs::path dir = test::tempDir("hostile_steps");
     writeVolumeFile(ramp({16, 16, 16}), dir / "v_16x16x16_uint8.raw");
-    writeText(dir / "tf.json", kTf);
+    test::writeFile(dir / "tf.json", kTf);
     auto scene = [&](const std::string& name, const std::string& render, const std::string& effects) {
-        writeText(dir / name, R"({"volume": "v_16x16x16_uint8.raw", "tf": "tf.json",
+        test::writeFile(dir / name, R"({"volume": "v_16x16x16_uint8.raw", "tf": "tf.json",
             "image": {"width": 16, "height": 16}, "render": )" +
-                                  render + R"(, "effects": )" + effects + "}");
+                                        render + R"(, "effects": )" + effects + "}");
     };
     scene("huge_step.json", R"({"mode": "dvr", "step": 1e308, "preintegration": "2d"})", "{}");
     expectRefused(run("render --scene huge_step.json -o out.png", dir), 2, "render.step");
@@ -395,9 +384,10 @@ TEST(CliHostile, SceneStepsAreValidatedLikeRenderStep) {
 
 TEST(CliHostile, TransferFunctionErrorsAreOneLineNamingTheFile) {
     const fs::path dir = test::tempDir("hostile_tf");
-    writeText(dir / "big.json", R"({"domain": [0, 1], "color": [[0, 1, 1, 1]], "extinction": [[0, 1e400]]})");
+    test::writeFile(dir / "big.json",
+                    R"({"domain": [0, 1], "color": [[0, 1, 1, 1]], "extinction": [[0, 1e400]]})");
     expectRefused(run("preint --tf big.json --size 8 --step 1 -o t.exr", dir), 1, "big.json");
-    writeText(dir / "garbage.png", "\x89PNG\r\n\x1a\n this is not a PNG at all, just bytes");
+    test::writeFile(dir / "garbage.png", "\x89PNG\r\n\x1a\n this is not a PNG at all, just bytes");
     expectRefused(run("preint --tf garbage.png --size 8 --step 1 -o t.exr", dir), 1, "garbage.png");
     // Small EXR strips whose decoding claims more than a strip may take (the fuzzer's: a 693-byte file took
     // 1 GB, a 311-byte one a 15 s table): refused by the header check, before OpenEXR decodes anything.
@@ -413,8 +403,8 @@ TEST(CliHostile, TransferFunctionErrorsAreOneLineNamingTheFile) {
 
 TEST(CliHostile, ControlCharactersFromHeadersAreEscaped) {
     const fs::path dir = test::tempDir("hostile_ctrl");
-    writeText(dir / "cr.nrrd", "NRRD0004\ntype: evil\rname\x1b[2J\ndimension: 3\nsizes: 2 2 2\n"
-                               "encoding: raw\n\n12345678");
+    test::writeFile(dir / "cr.nrrd", "NRRD0004\ntype: evil\rname\x1b[2J\ndimension: 3\nsizes: 2 2 2\n"
+                                     "encoding: raw\n\n12345678");
     const RunResult r = run("info cr.nrrd", dir);
     expectRefused(r, 1, "cr.nrrd");
     EXPECT_EQ(r.err.find('\r'), std::string::npos) << "raw CR reached the terminal";
@@ -427,16 +417,17 @@ TEST(CliHostile, ControlCharactersFromHeadersAreEscaped) {
 TEST(CliHostile, NulBytesInHeaderValuesAreEscapedNotCut) {
     const fs::path dir = test::tempDir("hostile_nul");
     using namespace std::string_literals; // "..."s keeps the NUL bytes
-    writeText(dir / "nul.nrrd",
-              "NRRD0004\ntype: evil\0name\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n12345678"s);
-    writeText(dir / "nul.vtk", "# vtk DataFile Version 3.0\nx\nBINARY\nDATASET STRUCTURED_POINTS\n"
-                               "DIMENSIONS 2 2 2\nPOINT_DATA 8\nSCALARS s fl\0oat\nLOOKUP_TABLE default\n"s);
-    writeText(dir / "nul.mhd",
-              "NDims = 3\nDimSize = 2 2 2\nElementType = MET_U\0CHAR\nElementDataFile = d.raw\n"s);
+    test::writeFile(dir / "nul.nrrd",
+                    "NRRD0004\ntype: evil\0name\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n12345678"s);
+    test::writeFile(dir / "nul.vtk",
+                    "# vtk DataFile Version 3.0\nx\nBINARY\nDATASET STRUCTURED_POINTS\n"
+                    "DIMENSIONS 2 2 2\nPOINT_DATA 8\nSCALARS s fl\0oat\nLOOKUP_TABLE default\n"s);
+    test::writeFile(dir / "nul.mhd",
+                    "NDims = 3\nDimSize = 2 2 2\nElementType = MET_U\0CHAR\nElementDataFile = d.raw\n"s);
     for (const auto& [file, tail] : {std::pair<std::string, std::string>{"nul.nrrd", "\\x00name"},
                                      {"nul.vtk", "\\x00oat"},
                                      {"nul.mhd", "\\x00CHAR"}}) {
-        ASSERT_NE(slurp(dir / file).find('\0'), std::string::npos) << file;
+        ASSERT_NE(test::readFile(dir / file).find('\0'), std::string::npos) << file;
         const RunResult r = run("info " + file, dir);
         expectRefused(r, 1, file, tail);
         EXPECT_EQ(r.err.find('\0'), std::string::npos) << file;
@@ -449,11 +440,11 @@ TEST(CliHostile, DataFilePatternsOverTheWholeIntegerRangeAreRefused) {
     const fs::path dir = test::tempDir("hostile_pattern");
     const std::string head =
         "NRRD0001\ntype: uchar\ndimension: 3\nsizes: 41 41 41\nencoding: raw\ndata file: ";
-    writeText(dir / "all.nhdr", head + "nucleon.%d -9223372036854775808 9223372036854775807 1\n\n");
-    writeText(dir / "down.nhdr", head + "nucleon.%d 9223372036854775807 -9223372036854775808 -1\n\n");
-    writeText(dir / "wide.nhdr", head + "nucleon.%d -9223372036854775808 9223372036854775807 "
-                                        "9223372036854775807\n\n");
-    writeText(dir / "zero.nhdr", head + "nucleon.%d 1 5 0\n\n");
+    test::writeFile(dir / "all.nhdr", head + "nucleon.%d -9223372036854775808 9223372036854775807 1\n\n");
+    test::writeFile(dir / "down.nhdr", head + "nucleon.%d 9223372036854775807 -9223372036854775808 -1\n\n");
+    test::writeFile(dir / "wide.nhdr", head + "nucleon.%d -9223372036854775808 9223372036854775807 "
+                                              "9223372036854775807\n\n");
+    test::writeFile(dir / "zero.nhdr", head + "nucleon.%d 1 5 0\n\n");
     for (const char* f : {"all.nhdr", "down.nhdr"}) {
         expectRefused(run(std::string("info ") + f, dir), 1, f, "2^64 files");
         expectRefused(run(std::string("convert ") + f + " -o out.nii", dir), 1, f, "2^64 files");
@@ -475,7 +466,7 @@ TEST(CliHostile, LevelsZeroIsRefusedAtEncodeAndInOldFiles) {
     }
     // A file such an encoder wrote: a one-level lossless file relabelled 0 levels, checksums recomputed.
     ASSERT_EQ(run("encode v_16x16x16_uint8.raw -o l1.vcz --lossless --levels 1", dir).exitCode, 0);
-    const std::string bytes = slurp(dir / "l1.vcz");
+    const std::string bytes = test::readFile(dir / "l1.vcz");
     const auto* raw = reinterpret_cast<const std::byte*>(bytes.data());
     VczHeader h = readVczHeader(std::span<const std::byte>(raw, bytes.size()), "l1.vcz");
     std::vector<std::vector<std::uint8_t>> payloads;
@@ -488,7 +479,7 @@ TEST(CliHostile, LevelsZeroIsRefusedAtEncodeAndInOldFiles) {
     std::ofstream(dir / "l0.vcz", std::ios::binary)
         .write(reinterpret_cast<const char*>(forged.data()), static_cast<std::streamsize>(forged.size()));
     expectRefused(run("decode l0.vcz -o out.raw", dir), 1, "l0.vcz", "0 levels");
-    writeText(dir / "tf.json", kTf);
+    test::writeFile(dir / "tf.json", kTf);
     expectRefused(run("render --volume l0.vcz --tf tf.json --width 16 --height 16 -o out.png", dir), 1,
                   "l0.vcz", "0 levels");
     EXPECT_FALSE(fs::exists(dir / "out.raw"));
@@ -500,7 +491,7 @@ TEST(CliHostile, ScenePresetIsNotAPathBesideTheScene) {
     const fs::path dir = test::tempDir("hostile_scene_preset");
     fs::create_directories(dir / "sub");
     writeVolumeFile(ramp({16, 16, 16}), dir / "sub" / "v.nrrd");
-    writeText(dir / "sub" / "scene.json", R"({"volume": "v.nrrd", "tf": "preset:viridis"})");
+    test::writeFile(dir / "sub" / "scene.json", R"({"volume": "v.nrrd", "tf": "preset:viridis"})");
     const RunResult r = run("render --scene sub/scene.json --width 16 --height 16 -o s.png", dir);
     EXPECT_EQ(r.exitCode, 0) << r.err;
     EXPECT_TRUE(fs::exists(dir / "s.png"));
@@ -510,7 +501,7 @@ TEST(CliHostile, ScenePresetIsNotAPathBesideTheScene) {
 TEST(CliHostile, OutputNamesOf255BytesAreWritten) {
     const fs::path dir = test::tempDir("hostile_long_name");
     writeVolumeFile(ramp({16, 16, 16}), dir / "v.nrrd");
-    writeText(dir / "tf.json", kTf);
+    test::writeFile(dir / "tf.json", kTf);
     const std::string nii = std::string(251, 'a') + ".nii", png = std::string(251, 'b') + ".png";
     ASSERT_EQ(nii.size(), 255u);
     const RunResult c = run("convert v.nrrd -o " + nii, dir);
@@ -526,7 +517,7 @@ TEST(CliHostile, OutputNamesOf255BytesAreWritten) {
 TEST(CliHostile, RenderNotesDoNotPrecedeAnError) {
     const fs::path dir = test::tempDir("hostile_render_notes");
     writeVolumeFile(ramp({16, 16, 16}), dir / "v.nrrd");
-    writeText(dir / "tf.json", kTf);
+    test::writeFile(dir / "tf.json", kTf);
     expectRefused(run("render --volume v.nrrd --tf tf.json --width 16 --height 16 -o nodir/x.png", dir), 1,
                   "nodir/x.png");
     // On success they are still printed.
@@ -540,19 +531,19 @@ TEST(CliHostile, RenderNotesDoNotPrecedeAnError) {
 TEST(CliHostile, NonFiniteGeometryIsRefusedNamingTheFile) {
     const fs::path dir = test::tempDir("hostile_geometry");
     const std::string data(8, '\x01');
-    writeText(dir / "nan_spacing.nrrd",
-              "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nspacings: nan 1 1\nencoding: raw\n\n" +
-                  data);
-    writeText(dir / "inf_origin.nrrd",
-              "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nspace dimension: 3\n"
-              "space origin: (inf,0,0)\nencoding: raw\n\n" +
-                  data);
-    writeText(dir / "nan.mhd", "NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nOffset = nan 0 0\n"
-                               "ElementDataFile = LOCAL\n" +
-                                   data);
-    writeText(dir / "nan.vtk", "# vtk DataFile Version 3.0\nx\nASCII\nDATASET STRUCTURED_POINTS\n"
-                               "DIMENSIONS 2 2 2\nSPACING 1 nan 1\nORIGIN 0 0 0\nPOINT_DATA 8\n"
-                               "SCALARS s unsigned_char\nLOOKUP_TABLE default\n1 1 1 1 1 1 1 1\n");
+    test::writeFile(
+        dir / "nan_spacing.nrrd",
+        "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nspacings: nan 1 1\nencoding: raw\n\n" + data);
+    test::writeFile(dir / "inf_origin.nrrd",
+                    "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nspace dimension: 3\n"
+                    "space origin: (inf,0,0)\nencoding: raw\n\n" +
+                        data);
+    test::writeFile(dir / "nan.mhd", "NDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\nOffset = nan 0 0\n"
+                                     "ElementDataFile = LOCAL\n" +
+                                         data);
+    test::writeFile(dir / "nan.vtk", "# vtk DataFile Version 3.0\nx\nASCII\nDATASET STRUCTURED_POINTS\n"
+                                     "DIMENSIONS 2 2 2\nSPACING 1 nan 1\nORIGIN 0 0 0\nPOINT_DATA 8\n"
+                                     "SCALARS s unsigned_char\nLOOKUP_TABLE default\n1 1 1 1 1 1 1 1\n");
     for (const char* f : {"nan_spacing.nrrd", "inf_origin.nrrd", "nan.mhd", "nan.vtk"})
         expectRefused(run(std::string("info ") + f, dir), 1, f);
     // NIfTI: pixdim and scl_slope are float fields of the 348-byte header.
@@ -568,12 +559,12 @@ TEST(CliHostile, NonFiniteGeometryIsRefusedNamingTheFile) {
         putF(108, 352), putF(112, 1);
         std::memcpy(&h[344], "n+1", 4);
         putF(offset, value);
-        writeText(dir / name, h + data);
+        test::writeFile(dir / name, h + data);
     };
     nifti("nan_pixdim.nii", 84, std::numeric_limits<float>::quiet_NaN());
     nifti("inf_slope.nii", 112, std::numeric_limits<float>::infinity());
     nifti("good.nii", 112, 1.0f);
-    EXPECT_EQ(run("info good.nii", dir).exitCode, 0) << slurp(dir / "stderr.txt");
+    EXPECT_EQ(run("info good.nii", dir).exitCode, 0) << test::readFile(dir / "stderr.txt");
     expectRefused(run("info nan_pixdim.nii", dir), 1, "nan_pixdim.nii", "pixdim");
     expectRefused(run("info inf_slope.nii", dir), 1, "inf_slope.nii", "scl_slope");
 }
@@ -582,10 +573,10 @@ TEST(CliHostile, UnknownNrrdVersionsAreRefused) {
     const fs::path dir = test::tempDir("hostile_nrrd_version");
     const std::string body =
         "type: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n" + std::string(8, '\1');
-    writeText(dir / "v9.nrrd", "NRRD0009\n" + body);
-    writeText(dir / "v5.nrrd", "NRRD0005\n" + body);
+    test::writeFile(dir / "v9.nrrd", "NRRD0009\n" + body);
+    test::writeFile(dir / "v5.nrrd", "NRRD0005\n" + body);
     expectRefused(run("info v9.nrrd", dir), 1, "v9.nrrd", "version");
-    EXPECT_EQ(run("info v5.nrrd", dir).exitCode, 0) << slurp(dir / "stderr.txt");
+    EXPECT_EQ(run("info v5.nrrd", dir).exitCode, 0) << test::readFile(dir / "stderr.txt");
 }
 
 // ---- signals and limits during a write -----------------------------------------------------------------
@@ -677,13 +668,13 @@ TEST(CliHostile, FullDiskFailsEveryWriterCleanly) {
     const fs::path dir = test::tempDir("hostile_full_disk");
     writeVolumeFile(ramp({64, 64, 64}), dir / "v_64x64x64_uint8.raw");
     writeSeriesFile(twoQuietFramesAndANoisyOne(), dir / "s.nii");
-    writeText(dir / "tf.json", kTf);
+    test::writeFile(dir / "tf.json", kTf);
     const fs::path full = dir / "full";
     if (!mountSmallTmpfs(full))
         GTEST_SKIP() << "cannot mount a tmpfs here (needs root): " << std::strerror(errno);
     const Unmount unmount{full};
     for (const char* old : {"t.vdb", "t.png", "t.nhdr", "f_00.nii.gz"})
-        writeText(full / old, "old");
+        test::writeFile(full / old, "old");
     fillUp(full);
     const std::set<std::string> before = names(full);
     struct Case {
@@ -699,16 +690,16 @@ TEST(CliHostile, FullDiskFailsEveryWriterCleanly) {
         EXPECT_EQ(names(full), before) << c.args;
     }
     for (const char* old : {"t.vdb", "t.png", "t.nhdr", "f_00.nii.gz"})
-        EXPECT_EQ(slurp(full / old), "old") << old;
+        EXPECT_EQ(test::readFile(full / old), "old") << old;
 }
 
 // Unprivileged: the file size limit cuts the OpenVDB writer short (it wrote a truncated file, exit 0).
 TEST(CliHostile, FileSizeLimitInTheVdbWriterFailsCleanly) {
     const fs::path dir = test::tempDir("hostile_xfsz_vdb");
     writeVolumeFile(ramp({64, 64, 64}), dir / "v_64x64x64_uint8.raw");
-    writeText(dir / "t.vdb", "old");
+    test::writeFile(dir / "t.vdb", "old");
     expectRefused(run("convert v_64x64x64_uint8.raw -o t.vdb", dir, "ulimit -f 16;"), 1, "t.vdb");
-    EXPECT_EQ(slurp(dir / "t.vdb"), "old");
+    EXPECT_EQ(test::readFile(dir / "t.vdb"), "old");
     EXPECT_EQ(names(dir), (std::set<std::string>{"t.vdb", "v_64x64x64_uint8.raw", "stderr.txt"}));
 }
 
@@ -717,11 +708,12 @@ TEST(CliHostile, FileSizeLimitInTheVdbWriterFailsCleanly) {
 TEST(CliHostile, SeriesPatternOutputIsAllOrNothing) {
     const fs::path dir = test::tempDir("hostile_series_commit");
     writeSeriesFile(twoQuietFramesAndANoisyOne(), dir / "s.nii");
-    writeText(dir / "f_01.nii.gz", "old");
+    test::writeFile(dir / "f_01.nii.gz", "old");
     expectRefused(run("convert s.nii -o f_%02d.nii.gz", dir, "ulimit -f 8;"), 1, "f_02.nii.gz");
     EXPECT_EQ(names(dir), (std::set<std::string>{"s.nii", "f_01.nii.gz", "stderr.txt"}));
-    EXPECT_EQ(slurp(dir / "f_01.nii.gz"), "old");
-    ASSERT_EQ(run("-q convert s.nii -o f_%02d.nii.gz", dir).exitCode, 0) << slurp(dir / "stderr.txt");
+    EXPECT_EQ(test::readFile(dir / "f_01.nii.gz"), "old");
+    ASSERT_EQ(run("-q convert s.nii -o f_%02d.nii.gz", dir).exitCode, 0)
+        << test::readFile(dir / "stderr.txt");
     const TimeSeries source = readVolumeFile(dir / "s.nii");
     for (int f = 0; f < 3; ++f)
         EXPECT_EQ(readVolume(dir / ("f_0" + std::to_string(f) + ".nii.gz")), source.frames[std::size_t(f)]);
@@ -734,7 +726,7 @@ TEST(CliHostile, SeriesPatternOutputIsAllOrNothing) {
         writeVolumeFile(source.frames[std::size_t(f)], vcz / name);
         frames += name + " ";
     }
-    ASSERT_EQ(run("-q encode " + frames + "-o s.vcz", vcz).exitCode, 0) << slurp(vcz / "stderr.txt");
+    ASSERT_EQ(run("-q encode " + frames + "-o s.vcz", vcz).exitCode, 0) << test::readFile(vcz / "stderr.txt");
     const std::set<std::string> before = names(vcz);
     expectRefused(run("decode s.vcz -o f_%02d.nii.gz", vcz, "ulimit -f 8;"), 1, "f_02.nii.gz");
     EXPECT_EQ(names(vcz), before);
@@ -747,13 +739,13 @@ TEST(CliHostile, InfoReportsACorruptBrickPayload) {
     writeVolumeFile(ramp({16, 16, 16}), dir / "v_16x16x16_uint8.raw");
     ASSERT_EQ(run("encode v_16x16x16_uint8.raw -o v.vcz", dir).exitCode, 0);
     ASSERT_EQ(run("info v.vcz", dir).exitCode, 0);
-    std::string bytes = slurp(dir / "v.vcz");
+    std::string bytes = test::readFile(dir / "v.vcz");
     const auto* raw = reinterpret_cast<const std::byte*>(bytes.data());
     const VczHeader h = readVczHeader(std::span<const std::byte>(raw, bytes.size()), "v.vcz");
     const VczBrickEntry& last = h.bricks[0].back();
     ASSERT_GT(last.size, 0u);
     bytes[last.offset + last.size / 2] ^= 0x5a; // inside the payload; the index's checksum is left as it was
-    writeText(dir / "flipped.vcz", bytes);
+    test::writeFile(dir / "flipped.vcz", bytes);
     expectRefused(run("info flipped.vcz", dir), 1, "flipped.vcz", "checksum");
     expectRefused(run("info --json flipped.vcz", dir), 1, "flipped.vcz", "checksum");
 }
@@ -763,11 +755,11 @@ TEST(CliHostile, InfoReportsACorruptBrickPayload) {
 TEST(CliHostile, SamplesPerFrameAreBudgetedBeforeRendering) {
     const fs::path dir = test::tempDir("hostile_frame_samples");
     writeVolumeFile(ramp({16, 16, 16}), dir / "v_16x16x16_uint8.raw");
-    writeText(dir / "tf.json", kTf);
+    test::writeFile(dir / "tf.json", kTf);
     auto scene = [&](const std::string& name, const std::string& render, const std::string& effects) {
-        writeText(dir / name, R"({"volume": "v_16x16x16_uint8.raw", "tf": "tf.json",
+        test::writeFile(dir / name, R"({"volume": "v_16x16x16_uint8.raw", "tf": "tf.json",
             "image": {"width": 64, "height": 64}, "render": )" +
-                                  render + R"(, "effects": )" + effects + "}");
+                                        render + R"(, "effects": )" + effects + "}");
     };
     // The diagonal is 16 sqrt(3) = 27.7: 6e-7 is 4.6e7 samples per ray, 1.9e11 per 64x64 frame.
     scene("fine_step.json", R"({"mode": "dvr", "step": 6e-7})", "{}");
@@ -790,8 +782,8 @@ TEST(CliHostile, SamplesPerFrameAreBudgetedBeforeRendering) {
 TEST(CliHostile, PreintegrationTableEntriesAreBudgeted) {
     const fs::path dir = test::tempDir("hostile_table_entries");
     writeVolumeFile(ramp({16, 16, 16}), dir / "v_16x16x16_uint8.raw");
-    writeText(dir / "tf.json", kTf);
-    writeText(dir / "big_table.json", R"({"volume": "v_16x16x16_uint8.raw", "tf": "tf.json",
+    test::writeFile(dir / "tf.json", kTf);
+    test::writeFile(dir / "big_table.json", R"({"volume": "v_16x16x16_uint8.raw", "tf": "tf.json",
         "image": {"width": 64, "height": 64}, "render": {"mode": "dvr", "step": 0.5, "preintegration": "3d",
         "table_size": 4096, "table_lengths": 16}})");
     expectRefused(run("render --scene big_table.json -o out.png", dir, "", 20), 2, "render.table_size",
@@ -818,7 +810,7 @@ TEST(CliHostile, ColourSpacePiecesAreBudgeted) {
     for (int i = 0; i < 16384; ++i)
         j << (i ? ", " : "") << i << (i % 2 ? ", 0.23, 0.30, 0.75" : ", 0.71, 0.02, 0.15");
     j << "]}]";
-    writeText(dir / "alternating.json", j.str());
+    test::writeFile(dir / "alternating.json", j.str());
     expectRefused(run("preint --tf alternating.json --size 8 --step 1 -o t.exr", dir, "", 20), 1,
                   "alternating.json", "65536 linear pieces");
     EXPECT_FALSE(fs::exists(dir / "t.exr"));
@@ -831,9 +823,9 @@ TEST(CliHostile, LegacyVtkCellCountsBeyondTheirDataAreRefused) {
                              "POINTS 4 float\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n";
     const std::string tail = "CELL_TYPES 1\n10\nPOINT_DATA 4\nSCALARS s float 1\nLOOKUP_TABLE default\n"
                              "0 1 2 3\n";
-    writeText(dir / "tet.vtk", head + "CELLS 1 5\n4 0 1 2 3\n" + tail);
+    test::writeFile(dir / "tet.vtk", head + "CELLS 1 5\n4 0 1 2 3\n" + tail);
     ASSERT_EQ(run("info tet.vtk", dir).exitCode, 0);
-    writeText(dir / "forged.vtk", head + "CELLS 1099511627776 5\n4 0 1 2 3\n" + tail);
+    test::writeFile(dir / "forged.vtk", head + "CELLS 1099511627776 5\n4 0 1 2 3\n" + tail);
     expectRefused(run("info forged.vtk", dir), 1, "forged.vtk", "CELLS");
 }
 
@@ -860,7 +852,7 @@ TEST(CliHostile, CollectionMembersAreBudgetedBeforeAnyIsRead) {
     for (int i = 0; i < 3001; ++i)
         vvd += "<Volume><RawData filename=\"big.raw\" format=\"uint16\" x=\"256\" y=\"256\" z=\"512\" "
                "/></Volume>\n";
-    writeText(dir / "many.vvd", vvd + "</Volumes></VoreenData>\n");
+    test::writeFile(dir / "many.vvd", vvd + "</Volumes></VoreenData>\n");
     expectRefused(run("info many.vvd", dir, kAddressSpaceCap, 20), 1, "many.vvd", "memory budget");
     expectRefused(run("convert many.vvd -o out.nrrd", dir, kAddressSpaceCap, 20), 1, "many.vvd",
                   "memory budget");
@@ -871,14 +863,14 @@ TEST(CliHostile, CollectionMembersAreBudgetedBeforeAnyIsRead) {
     for (int i = 0; i < 3001; ++i)
         twice += "<Volume><RawData filename=\"small.raw\" format=\"uint8\" x=\"16\" y=\"16\" z=\"16\" "
                  "/></Volume>\n";
-    writeText(dir / "twice.vvd", twice + "</Volumes></VoreenData>\n");
+    test::writeFile(dir / "twice.vvd", twice + "</Volumes></VoreenData>\n");
     expectRefused(run("info twice.vvd", dir, kAddressSpaceCap, 20), 1, "twice.vvd", "more than one <Volume>");
 
     writeVolumeFile(ramp({16, 16, 16}), dir / "one.vti");
     std::string pvd = "<VTKFile type=\"Collection\"><Collection>";
     for (int t = 0; t < 2000; ++t)
         pvd += "<DataSet timestep=\"" + std::to_string(t) + "\" file=\"one.vti\"/>";
-    writeText(dir / "repeated.pvd", pvd + "</Collection></VTKFile>\n");
+    test::writeFile(dir / "repeated.pvd", pvd + "</Collection></VTKFile>\n");
     expectRefused(run("encode repeated.pvd -o out.vcz", dir, kAddressSpaceCap, 20), 1, "repeated.pvd",
                   "more than once");
     EXPECT_FALSE(fs::exists(dir / "out.vcz"));
@@ -925,7 +917,7 @@ TEST(CliHostile, ShuffledPlot3dGridIsRefusedAsFolded) {
     const fs::path xyz = data / "unstructured/bluntfinxyz.bin", q = data / "unstructured/bluntfinq.bin";
     if (!fs::exists(xyz) || !fs::exists(q)) GTEST_SKIP() << "blunt-fin PLOT3D files not in " << data;
     const fs::path dir = test::tempDir("hostile_shuffled_grid");
-    std::string grid = slurp(xyz);
+    std::string grid = test::readFile(xyz);
     // Big-endian: three int32 dims, then the x, y and z arrays of float32; permute the points jointly.
     auto dim = [&](int i) {
         const auto* b = reinterpret_cast<const unsigned char*>(grid.data()) + 4 * i;
@@ -940,7 +932,7 @@ TEST(CliHostile, ShuffledPlot3dGridIsRefusedAsFolded) {
     for (std::size_t a = 0; a < 3; ++a)
         for (std::size_t i = 0; i < n; ++i)
             std::memcpy(&shuffled[12 + 4 * (a * n + i)], &grid[12 + 4 * (a * n + perm[i])], 4);
-    writeText(dir / "shufxyz.bin", shuffled);
+    test::writeFile(dir / "shufxyz.bin", shuffled);
     fs::copy_file(q, dir / "shufq.bin", fs::copy_options::overwrite_existing);
     expectRefused(run("render --volume shufxyz.bin --tf preset:viridis --width 128 --height 128 -o out.png",
                       dir, "", 30),

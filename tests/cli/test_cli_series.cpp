@@ -1,6 +1,7 @@
 // `volcl encode` on series given as several files, a quoted glob, a .pvd or a 4D file; refusals; real
 // series decoded frame by frame with `volcl decode --frame K` and compared bit for bit.
 #include "../TestUtil.hpp"
+#include "CliRun.hpp"
 #include "host/io/VolumeIo.hpp"
 
 #include <sys/wait.h>
@@ -13,34 +14,6 @@ using namespace volcl;
 namespace fs = std::filesystem;
 
 namespace {
-
-struct RunResult {
-    int exitCode;
-    std::string err;
-};
-
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
-RunResult run(const std::string& args, const fs::path& dir) {
-    const fs::path err = dir / "stderr.txt";
-    const std::string cmd =
-        std::string(VOLCL_EXE) + " " + args + " >/dev/null 2>" + err.string() + " </dev/null";
-    const int status = std::system(cmd.c_str());
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status), slurp(err)};
-}
-
-std::size_t lineCount(const std::string& s) {
-    return std::count(s.begin(), s.end(), '\n');
-}
-
-std::string quoted(const fs::path& p) {
-    return "'" + p.string() + "'";
-}
 
 bool sameVoxels(const Volume& a, const Volume& b) {
     return a.dims() == b.dims() && a.type() == b.type() &&
@@ -55,8 +28,9 @@ void expectFramesDecodeExactly(const fs::path& vcz, const std::vector<fs::path>&
             only.push_back(k);
     for (std::size_t k : only) {
         const fs::path out = dir / ("frame_" + std::to_string(k) + ".nrrd");
-        const RunResult d =
-            run("decode " + quoted(vcz) + " --frame " + std::to_string(k) + " -o " + quoted(out), dir);
+        const test::RunResult d = test::runVolcl("decode " + test::quoted(vcz) + " --frame " +
+                                                     std::to_string(k) + " -o " + test::quoted(out),
+                                                 dir);
         ASSERT_EQ(d.exitCode, 0) << d.err;
         EXPECT_TRUE(sameVoxels(readVolume(out), readVolume(frames[k])))
             << "frame " << k << " of " << frames[k];
@@ -83,14 +57,15 @@ TEST(CliSeries, EncodeTakesSeveralFilesAGlobAndAPvd) {
     const auto frames = writeFrames(dir, 11); // step_10 sorts after step_9 only in natural order
     std::string list;
     for (const fs::path& f : frames)
-        list += quoted(f) + " ";
-    RunResult r = run("encode " + list + "-o " + quoted(dir / "list.vcz"), dir);
+        list += test::quoted(f) + " ";
+    test::RunResult r = test::runVolcl("encode " + list + "-o " + test::quoted(dir / "list.vcz"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     expectFramesDecodeExactly(dir / "list.vcz", frames, dir, {0, 2, 10});
 
-    r = run("encode " + quoted(dir / "step_*.nrrd") + " -o " + quoted(dir / "glob.vcz"), dir);
+    r = test::runVolcl(
+        "encode " + test::quoted(dir / "step_*.nrrd") + " -o " + test::quoted(dir / "glob.vcz"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
-    EXPECT_EQ(slurp(dir / "glob.vcz"), slurp(dir / "list.vcz"))
+    EXPECT_EQ(test::readFile(dir / "glob.vcz"), test::readFile(dir / "list.vcz"))
         << "the glob must give the list's frame order";
 
     std::ofstream pvd(dir / "run.pvd");
@@ -100,7 +75,8 @@ TEST(CliSeries, EncodeTakesSeveralFilesAGlobAndAPvd) {
             << "\"/>\n";
     pvd << "</Collection></VTKFile>\n";
     pvd.close();
-    r = run("encode " + quoted(dir / "run.pvd") + " -o " + quoted(dir / "pvd.vcz"), dir);
+    r = test::runVolcl("encode " + test::quoted(dir / "run.pvd") + " -o " + test::quoted(dir / "pvd.vcz"),
+                       dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     expectFramesDecodeExactly(dir / "pvd.vcz", frames, dir, {1, 9}); // the .pvd's times are stored too
 }
@@ -120,22 +96,25 @@ TEST(CliSeries, RefusalsExitOneWithOneLineAndNoOutput) {
         std::string inputs, mustName;
     };
     for (const Case& c :
-         {Case{quoted(frames[0]) + " " + quoted(frames[1]) + " " + quoted(odd), "frame 2 (" + odd.string()},
-          Case{quoted(frames[0]) + " " + quoted(dir / "missing.nrrd"), "missing.nrrd"},
-          Case{quoted(dir / "none_*.vti"), "none_*.vti"},
-          Case{quoted(dir / "bad.pvd"), (dir / "nowhere.vti").string()}}) {
-        const RunResult r = run("encode " + c.inputs + " -o " + quoted(dir / "out.vcz"), dir);
+         {Case{test::quoted(frames[0]) + " " + test::quoted(frames[1]) + " " + test::quoted(odd),
+               "frame 2 (" + odd.string()},
+          Case{test::quoted(frames[0]) + " " + test::quoted(dir / "missing.nrrd"), "missing.nrrd"},
+          Case{test::quoted(dir / "none_*.vti"), "none_*.vti"},
+          Case{test::quoted(dir / "bad.pvd"), (dir / "nowhere.vti").string()}}) {
+        const test::RunResult r =
+            test::runVolcl("encode " + c.inputs + " -o " + test::quoted(dir / "out.vcz"), dir);
         EXPECT_EQ(r.exitCode, 1) << c.inputs << ": " << r.err;
-        EXPECT_EQ(lineCount(r.err), 1u) << r.err;
+        EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
         EXPECT_NE(r.err.find(c.mustName), std::string::npos) << r.err;
         EXPECT_FALSE(fs::exists(dir / "out.vcz"));
     }
     // The output among the inputs is a usage error, and the input stays untouched.
-    const std::string before = slurp(frames[1]);
-    const RunResult r =
-        run("encode " + quoted(frames[0]) + " " + quoted(frames[1]) + " -o " + quoted(frames[1]), dir);
+    const std::string before = test::readFile(frames[1]);
+    const test::RunResult r = test::runVolcl("encode " + test::quoted(frames[0]) + " " +
+                                                 test::quoted(frames[1]) + " -o " + test::quoted(frames[1]),
+                                             dir);
     EXPECT_NE(r.exitCode, 0);
-    EXPECT_EQ(slurp(frames[1]), before);
+    EXPECT_EQ(test::readFile(frames[1]), before);
 }
 
 TEST(CliSeries, ViscousFingeringRoundTripsLosslessly) {
@@ -149,8 +128,9 @@ TEST(CliSeries, ViscousFingeringRoundTripsLosslessly) {
         std::snprintf(name, sizeof name, "%03d_density_%03d_064_2.0.vti", k, k);
         frames.push_back(src / name);
     }
-    const RunResult r =
-        run("encode " + quoted(src / "*_density_*.vti") + " --lossless -o " + quoted(dir / "vf.vcz"), dir);
+    const test::RunResult r = test::runVolcl("encode " + test::quoted(src / "*_density_*.vti") +
+                                                 " --lossless -o " + test::quoted(dir / "vf.vcz"),
+                                             dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     expectFramesDecodeExactly(dir / "vf.vcz", frames, dir);
 }
@@ -164,16 +144,17 @@ TEST(CliSeries, IsabelGroupRoundTripsLosslessly) {
     std::string list;
     for (int k = 2; k <= 5; ++k) {
         frames.push_back(src / ("isabel_0" + std::to_string(k) + ".vti"));
-        list += quoted(frames.back()) + " ";
+        list += test::quoted(frames.back()) + " ";
     }
-    const RunResult r = run("encode " + list + "-o " + quoted(dir / "isabel.vcz"), dir);
+    const test::RunResult r =
+        test::runVolcl("encode " + list + "-o " + test::quoted(dir / "isabel.vcz"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     expectFramesDecodeExactly(dir / "isabel.vcz", frames, dir);
     // The glob form gives the same file.
-    const RunResult g =
-        run("encode " + quoted(src / "isabel_0*.vti") + " -o " + quoted(dir / "glob.vcz"), dir);
+    const test::RunResult g = test::runVolcl(
+        "encode " + test::quoted(src / "isabel_0*.vti") + " -o " + test::quoted(dir / "glob.vcz"), dir);
     ASSERT_EQ(g.exitCode, 0) << g.err;
-    EXPECT_EQ(slurp(dir / "glob.vcz"), slurp(dir / "isabel.vcz"));
+    EXPECT_EQ(test::readFile(dir / "glob.vcz"), test::readFile(dir / "isabel.vcz"));
 }
 
 TEST(CliSeries, FourDimensionalNiftiEncodesEveryFrame) {
@@ -181,13 +162,15 @@ TEST(CliSeries, FourDimensionalNiftiEncodesEveryFrame) {
     VOLCL_REQUIRE_SHARED_DATA(data);
     const fs::path dir = test::tempDir("cli_series_nifti");
     const fs::path nii = data / "timevarying/functional.nii.gz";
-    const RunResult r = run("encode " + quoted(nii) + " -o " + quoted(dir / "f.vcz"), dir);
+    const test::RunResult r =
+        test::runVolcl("encode " + test::quoted(nii) + " -o " + test::quoted(dir / "f.vcz"), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const TimeSeries ts = readVolumeFile(nii);
     for (std::size_t k : {std::size_t(0), std::size_t(19)}) {
         const fs::path out = dir / "k.nrrd";
-        const RunResult d = run(
-            "decode " + quoted(dir / "f.vcz") + " --frame " + std::to_string(k) + " -o " + quoted(out), dir);
+        const test::RunResult d = test::runVolcl("decode " + test::quoted(dir / "f.vcz") + " --frame " +
+                                                     std::to_string(k) + " -o " + test::quoted(out),
+                                                 dir);
         ASSERT_EQ(d.exitCode, 0) << d.err;
         EXPECT_TRUE(sameVoxels(readVolume(out), ts.frames[k])) << "frame " << k;
     }
@@ -208,28 +191,32 @@ TEST(CliSeries, MotionFramesInfoAndEveryFrameByPattern) {
         frames.push_back(dir / ("m_" + std::to_string(k) + ".nrrd"));
         writeVolumeFile(v, frames.back());
     }
-    RunResult r = run(
-        "encode " + quoted(dir / "m_*.nrrd") + " -o " + quoted(dir / "m.vcz") + " --gop 4 --b-frames 1", dir);
+    test::RunResult r = test::runVolcl("encode " + test::quoted(dir / "m_*.nrrd") + " -o " +
+                                           test::quoted(dir / "m.vcz") + " --gop 4 --b-frames 1",
+                                       dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_NE(r.err.find(" P, "), std::string::npos) << r.err;
     expectFramesDecodeExactly(dir / "m.vcz", frames, dir, {1, 3, 5});
-    r = run("decode " + quoted(dir / "m.vcz") + " -o " + quoted(dir / "out_%02d.nrrd"), dir);
+    r = test::runVolcl("decode " + test::quoted(dir / "m.vcz") + " -o " + test::quoted(dir / "out_%02d.nrrd"),
+                       dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     for (std::size_t k = 0; k < frames.size(); ++k)
         EXPECT_TRUE(
             sameVoxels(readVolume(dir / ("out_0" + std::to_string(k) + ".nrrd")), readVolume(frames[k])))
             << "frame " << k;
     const std::string info =
-        std::string(VOLCL_EXE) + " info " + quoted(dir / "m.vcz") + " > " + (dir / "info.txt").string();
+        std::string(VOLCL_EXE) + " info " + test::quoted(dir / "m.vcz") + " > " + (dir / "info.txt").string();
     ASSERT_EQ(std::system(info.c_str()), 0);
-    const std::string text = slurp(dir / "info.txt");
+    const std::string text = test::readFile(dir / "info.txt");
     EXPECT_NE(text.find("(6 frames)"), std::string::npos) << text;
     EXPECT_NE(text.find(" I "), std::string::npos) << text;
-    EXPECT_GE(lineCount(text), 6u + 7u) << text;
+    EXPECT_GE(test::lineCount(text), 6u + 7u) << text;
     for (const std::string bad : {"--motion sideways", "--gop 0"}) {
-        r = run("encode " + quoted(dir / "m_*.nrrd") + " -o " + quoted(dir / "bad.vcz") + " " + bad, dir);
+        r = test::runVolcl("encode " + test::quoted(dir / "m_*.nrrd") + " -o " +
+                               test::quoted(dir / "bad.vcz") + " " + bad,
+                           dir);
         EXPECT_EQ(r.exitCode, 2) << bad << ": " << r.err; // usage errors
-        EXPECT_EQ(lineCount(r.err), 1u) << r.err;
+        EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
         EXPECT_FALSE(fs::exists(dir / "bad.vcz"));
     }
 }
