@@ -107,15 +107,9 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
             v = Volume(h.dims, h.type);
             v.spacing = h.spacing;
             v.origin = h.origin;
-            v.direction = vczDirection(h); // as the encoded volume was placed
-            v.anatomical = h.metadata.count(std::string(kVczAnatomicalKey)) != 0;
+            const auto nifti = placeAsVczSource(v, h, scene.volume.string());
             const ValueRange r = bricks->valueRange();
             dataRange = {r.min, r.max};
-            const auto nifti = niftiFromVczMetadata(h.metadata, scene.volume.string());
-            if (nifti) { // the source header travels in the file: frame it as the .nii is framed
-                v.direction = niftiDirection(nifti->meta);
-                v.anatomical = true;
-            }
             // The stored integers of a scaled NIfTI render in data units, as the .nii itself does: the
             // transfer function, --window and --iso are data units, mapped here onto the stored values.
             if (nifti && nifti->storedValues) {
@@ -172,9 +166,7 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
                 if (what.rfind(name, 0) == 0) throw;
                 throw DataError(name + ": " + what);
             } catch (const UsageError& e) {
-                const std::string what = e.what(), name = a->scene.scene;
-                if (name.empty() || what.rfind(name, 0) == 0) throw;
-                throw UsageError(name + ": " + what);
+                throw a->scene.namingSceneFile(e);
             }
         };
         const std::unique_ptr<VolumeRenderer> renderer =

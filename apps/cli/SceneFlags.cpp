@@ -305,6 +305,23 @@ Vec3 indexToWorld(const Direction3& d, const Vec3& v) {
 
 } // namespace
 
+std::optional<VczNifti> placeAsVczSource(Volume& v, const VczHeader& h, const std::string& name) {
+    v.direction = vczDirection(h);
+    v.anatomical = h.metadata.count(std::string(kVczAnatomicalKey)) != 0;
+    auto nifti = niftiFromVczMetadata(h.metadata, name);
+    if (nifti) { // the source header travels in the file: frame it as the .nii is framed
+        v.direction = niftiDirection(nifti->meta);
+        v.anatomical = true;
+    }
+    return nifti;
+}
+
+UsageError SceneFlags::namingSceneFile(const UsageError& e) const {
+    const std::string what = e.what();
+    if (scene.empty() || what.rfind(scene, 0) == 0) return e;
+    return UsageError(scene + ": " + what);
+}
+
 std::vector<std::string> SceneFlags::finish(Scene& s, const Volume& v) const {
     return finish(s, RenderInput::borrow(v));
 }
@@ -318,9 +335,7 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) con
     try {
         s.validateSteps(norm(box.extent));
     } catch (const UsageError& e) {
-        const std::string what = e.what();
-        if (scene.empty() || what.rfind(scene, 0) == 0) throw;
-        throw UsageError(scene + ": " + what);
+        throw namingSceneFile(e);
     }
     const double aspect = double(s.width) / double(s.height);
     const bool anyCameraFlag = !projection.empty() || !eye.empty() || !target.empty() || !up.empty() ||
@@ -427,11 +442,8 @@ Volume SceneFlags::readSceneVolume(const Scene& s, std::vector<std::string>& not
         if (filesRead) *filesRead = {s.volume};
         ComputeContext cc(device);
         Volume v = r.decodeFrame(cc, k);
-        const auto n = niftiFromVczMetadata(r.header().metadata, s.volume.string());
+        const auto n = placeAsVczSource(v, r.header(), s.volume.string());
         if (!n) return v;
-        // The source header travels in the file: the volume is oriented as the .nii is.
-        v.direction = niftiDirection(n->meta);
-        v.anatomical = true;
         // The stored integers of a scaled NIfTI are shown in data units, as the .nii itself is.
         return n->storedValues ? niftiDataUnits(v, n->meta) : v;
     }
@@ -506,17 +518,14 @@ TransferFunction SceneFlags::loadTf(const Scene& s, const RenderInput& in, std::
         if (!(r[0] < r[1])) throw UsageError("--tf-range: LO must be below HI");
         range = std::array<double, 2>{r[0], r[1]};
     }
-    if (s.tf.empty()) {
+    if (s.tf.empty() && tfShows) {
         const std::array<double, 2> over = range ? *range : dataRange;
-        if (tfShows)
-            note("transfer function: ParaView's default, a grey ramp with opacity 0 to 1 over " +
-                 std::string(range ? "--tf-range " : "the data range ") + "[" + formatNumber(over[0]) + ", " +
-                 formatNumber(over[1]) + "] (--tf sets one)");
-        return TransferFunction::paraViewDefault(over, unit);
+        note("transfer function: ParaView's default, a grey ramp with opacity 0 to 1 over " +
+             std::string(range ? "--tf-range " : "the data range ") + "[" + formatNumber(over[0]) + ", " +
+             formatNumber(over[1]) + "] (--tf sets one)");
     }
-    const std::array<double, 2> stripDomain{dataRange[0],
-                                            dataRange[1] > dataRange[0] ? dataRange[1] : dataRange[0] + 1.0};
-    return TransferFunction::fromFile(s.tf, stripDomain, unit).fittedTo(dataRange, range);
+    return TransferFunction::forRender(
+        s.tf.empty() ? std::nullopt : std::optional<std::filesystem::path>(s.tf), dataRange, unit, range);
 }
 
 } // namespace volcl::cli

@@ -3,9 +3,11 @@
 
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/MeshInfo.hpp"
+#include "host/io/NiftiMetadata.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "render/RenderInput.hpp"
 #include "render/Scene.hpp"
+#include "wavelet/container/VczFormat.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -14,6 +16,11 @@
 #include <vector>
 
 namespace volcl::cli {
+
+/// Places `v` as the volume a .vcz holds was placed: by the NIfTI header the file carries (files written
+/// before the codec kept directions have only that), else by the codec's direction and patient-axes keys.
+/// Returns the NIfTI fields when the file carries them; throws IoError/DataError naming `name`.
+std::optional<VczNifti> placeAsVczSource(Volume& v, const VczHeader& h, const std::string& name);
 
 /// Comma-separated numbers; `count` 0 accepts any number of them. Throws UsageError naming `what`.
 std::vector<double> parseNumbers(const std::string& text, std::size_t count, const std::string& what);
@@ -64,6 +71,9 @@ struct SceneFlags {
     /// an orbit, a missing orthographic height or target, or the default view of anatomical data) and
     /// applies the lighting defaults. Returns one note per default applied (stderr and `--explain`).
     std::vector<std::string> finish(Scene& s, const Volume& v) const;
+    /// `e` with the scene file's name in front, when there is a scene file and the message does not already
+    /// start with it: a usage error caused by a scene file's values names that file.
+    UsageError namingSceneFile(const UsageError& e) const;
     /// The scene's transfer function as the render uses it: ParaView's default when the scene has none,
     /// normalised maps spread over the data range, `--tf-range` applied, opacity per
     /// `--tf-unit-distance` (default auto). The defaults it applies are added to `notes` when given.

@@ -337,6 +337,15 @@ TransferFunction TransferFunction::fittedTo(std::array<double, 2> dataRange,
     return *this;
 }
 
+TransferFunction TransferFunction::forRender(const std::optional<std::filesystem::path>& spec,
+                                             std::array<double, 2> dataRange, double opacityUnitDistance,
+                                             std::optional<std::array<double, 2>> explicitRange) {
+    if (!spec) return paraViewDefault(explicitRange ? *explicitRange : dataRange, opacityUnitDistance);
+    const std::array<double, 2> stripDomain{dataRange[0],
+                                            dataRange[1] > dataRange[0] ? dataRange[1] : dataRange[0] + 1.0};
+    return fromFile(*spec, stripDomain, opacityUnitDistance).fittedTo(dataRange, explicitRange);
+}
+
 TransferFunction TransferFunction::paraViewDefault(std::array<double, 2> dataRange,
                                                    double opacityUnitDistance) {
     checkUnitDistance(opacityUnitDistance);

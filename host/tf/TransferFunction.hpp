@@ -70,6 +70,13 @@ public:
     /// colour a grey ramp from black at dataRange[0] to white at dataRange[1], opacity a linear ramp from 0
     /// to 1 over the same range per `opacityUnitDistance` of length (constant data: a unit range around it).
     static TransferFunction paraViewDefault(std::array<double, 2> dataRange, double opacityUnitDistance);
+    /// The function a render uses for data over `dataRange`: the file or preset `spec` (read with
+    /// `opacityUnitDistance`; a strip image spans the data range) fitted to the data range or to
+    /// `explicitRange`; without a spec, paraViewDefault() over `explicitRange` or the data range. The one
+    /// place the command line and the Python package take their defaults from.
+    static TransferFunction forRender(const std::optional<std::filesystem::path>& spec,
+                                      std::array<double, 2> dataRange, double opacityUnitDistance,
+                                      std::optional<std::array<double, 2>> explicitRange = std::nullopt);
     /// Strip of `n` RGBA pixels spanning `domain`; alpha is opacity per unit length.
     static TransferFunction fromRgbaStrip(const std::vector<std::array<float, 4>>& pixels,
                                           std::array<double, 2> domain);

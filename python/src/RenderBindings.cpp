@@ -48,11 +48,9 @@ render(Context& context, const InputArray& array, const std::array<double, 3>& s
         const std::array<double, 2> dataRange{range.min, range.max};
         const double unit = input.approximateCellLength();
         const TransferFunction fitted =
-            tf       ? tf->fittedTo(dataRange)
-            : tfSpec ? TransferFunction::fromFile(
-                           *tfSpec, {range.min, range.max > range.min ? range.max : range.min + 1.0}, unit)
-                           .fittedTo(dataRange)
-                     : TransferFunction::paraViewDefault(dataRange, unit);
+            tf ? tf->fittedTo(dataRange)
+               : TransferFunction::forRender(
+                     tfSpec ? std::optional<std::filesystem::path>(*tfSpec) : std::nullopt, dataRange, unit);
         std::lock_guard lock(context.mutex);
         const std::unique_ptr<VolumeRenderer> renderer = input.makeRenderer(context.cc, fitted, scene);
         image = renderer->render();
