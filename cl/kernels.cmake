@@ -18,6 +18,7 @@ set(VOLCL_KERNEL_FILES
   render/raymarch.cl
   render/raymarch_plain.cl
   render/preview_shared.h
+  render/preview_table.h
   render/shearwarp.cl
   render/drc.cl
   render/pathtrace.cl

@@ -21,6 +21,7 @@ namespace {
 
 using test::computeContext;
 using test::makeFloatVolume;
+using test::maxAbsDiff;
 
 /// Extinction rising from 0 at s = 0 to tau at s = 8, colour from blue to orange over the same values.
 TransferFunction rampTf(double tau) {
@@ -41,11 +42,13 @@ Volume sphereVolume(Dims n, double r) {
 
 /// A slab at 45 degrees to x and z: s = 6 - |x - z| / sqrt(2) (positive within 6 voxels of the plane x = z).
 Volume slabVolume(Dims n) {
-    return makeFloatVolume(n, [](double x, double, double z) { return 6.0 - std::abs(x - z) / std::sqrt(2.0); });
+    return makeFloatVolume(n,
+                           [](double x, double, double z) { return 6.0 - std::abs(x - z) / std::sqrt(2.0); });
 }
 
 /// Orthographic (or perspective) camera looking along `dir` at the centre of `v`'s box, showing all of it.
-Scene sceneLooking(const Volume& v, Vec3 dir, int size = 24, Projection projection = Projection::Orthographic) {
+Scene sceneLooking(const Volume& v, Vec3 dir, int size = 24,
+                   Projection projection = Projection::Orthographic) {
     const WorldBox box = gridBounds(v);
     const Vec3 centre{box.origin[0] + box.extent[0] / 2, box.origin[1] + box.extent[1] / 2,
                       box.origin[2] + box.extent[2] / 2};
@@ -57,7 +60,8 @@ Scene sceneLooking(const Volume& v, Vec3 dir, int size = 24, Projection projecti
     c.projection = projection;
     c.target = centre;
     for (int i = 0; i < 3; ++i)
-        c.eye[std::size_t(i)] = centre[std::size_t(i)] - dir[std::size_t(i)] / len * 3.0 * std::max(diagonal, 1.0);
+        c.eye[std::size_t(i)] =
+            centre[std::size_t(i)] - dir[std::size_t(i)] / len * 3.0 * std::max(diagonal, 1.0);
     c.up = std::abs(dir[1]) > 0.9 * len ? Vec3{0, 0, 1} : Vec3{0, 1, 0};
     c.height = 1.05 * std::max(diagonal, 1.0);
     c.fovYDeg = 2.0 * std::atan(0.55 / 3.0) * 180.0 / M_PI + 1.0; // the box from 3 diagonals away
@@ -66,15 +70,6 @@ Scene sceneLooking(const Volume& v, Vec3 dir, int size = 24, Projection projecti
     s.height = size;
     s.earlyTermination = 1.0;
     return s;
-}
-
-double maxAbsDiff(const ImageBuffer& a, const ImageBuffer& b) {
-    double m = 0.0;
-    for (int y = 0; y < a.height; ++y)
-        for (int x = 0; x < a.width; ++x)
-            for (int c = 0; c < 4; ++c)
-                m = std::max(m, std::abs(double(a.at(x, y, c)) - double(b.at(x, y, c))));
-    return m;
 }
 
 void expectFiniteBounded(const ImageBuffer& img, const std::string& what) {
@@ -97,9 +92,9 @@ ImageBuffer cppReference(const Volume& v, const TransferFunction& tf, const Scen
 }
 
 const std::vector<Vec3> kViews = {
-    {0, 0, 1},    {0, 0, -1},   {1, 0, 0},      {0, -1, 0},        // along an axis (no shear)
-    {1, 1, 1},    {-1, 1, -1},  {1, 1, 0},      {0.3, -0.5, 0.8},  // exactly diagonal: principal axes tie
-    {1, 0.999, 1}, {1, 1.001, 1}, {-0.7, 0.2, 0.4},                 // either side of the diagonal, oblique
+    {0, 0, 1},     {0, 0, -1},    {1, 0, 0},        {0, -1, 0},       // along an axis (no shear)
+    {1, 1, 1},     {-1, 1, -1},   {1, 1, 0},        {0.3, -0.5, 0.8}, // exactly diagonal: principal axes tie
+    {1, 0.999, 1}, {1, 1.001, 1}, {-0.7, 0.2, 0.4},                   // either side of the diagonal, oblique
 };
 
 TEST(PreviewTiers, KernelsMatchTheirCppReferences) {
@@ -109,8 +104,8 @@ TEST(PreviewTiers, KernelsMatchTheirCppReferences) {
         for (const Vec3& dir : kViews) {
             Scene s = sceneLooking(sphere, dir);
             s.earlyTermination = 0.95; // early termination (opaque pixel links) must not change the image
-            const std::string what = std::string(gridMethodName(m)) + " view " + std::to_string(dir[0]) + "," +
-                                     std::to_string(dir[1]) + "," + std::to_string(dir[2]);
+            const std::string what = std::string(gridMethodName(m)) + " view " + std::to_string(dir[0]) +
+                                     "," + std::to_string(dir[1]) + "," + std::to_string(dir[2]);
             const ImageBuffer kernel = renderTier(sphere, tf, s, m);
             expectFiniteBounded(kernel, what);
             EXPECT_LE(maxAbsDiff(kernel, cppReference(sphere, tf, s, m)), 2e-3) << what;
@@ -147,8 +142,10 @@ TEST(PreviewTiers, AxisSwitchAtTheDiagonalIsContinuous) {
     // Either side of the diagonal the principal axis differs; the images must not jump.
     const Volume sphere = sphereVolume({23, 23, 23}, 8.0);
     const TransferFunction tf = rampTf(0.3);
-    const ImageBuffer a = renderTier(sphere, tf, sceneLooking(sphere, {1, 1, 0.999}, 32), GridMethod::ShearWarp);
-    const ImageBuffer b = renderTier(sphere, tf, sceneLooking(sphere, {1, 1, 1.001}, 32), GridMethod::ShearWarp);
+    const ImageBuffer a =
+        renderTier(sphere, tf, sceneLooking(sphere, {1, 1, 0.999}, 32), GridMethod::ShearWarp);
+    const ImageBuffer b =
+        renderTier(sphere, tf, sceneLooking(sphere, {1, 1, 1.001}, 32), GridMethod::ShearWarp);
     const ImageBuffer d = renderTier(sphere, tf, sceneLooking(sphere, {1, 1, 1}, 32), GridMethod::ShearWarp);
     EXPECT_LE(imageRmse(a, b), 0.01);
     EXPECT_LE(imageRmse(a, d), 0.01);
@@ -156,9 +153,11 @@ TEST(PreviewTiers, AxisSwitchAtTheDiagonalIsContinuous) {
 
 TEST(PreviewTiers, DegenerateSizesAreFiniteAndMatchTheOracle) {
     const TransferFunction tf = rampTf(0.5);
-    for (const Dims n : {Dims{1, 1, 1}, Dims{1, 6, 5}, Dims{6, 1, 5}, Dims{6, 5, 1}, Dims{2, 2, 2}, Dims{2, 7, 3}})
+    for (const Dims n :
+         {Dims{1, 1, 1}, Dims{1, 6, 5}, Dims{6, 1, 5}, Dims{6, 5, 1}, Dims{2, 2, 2}, Dims{2, 7, 3}})
         for (const Vec3& dir : {Vec3{0, 0, 1}, Vec3{1, 1, 1}, Vec3{1, 0, 0}}) {
-            const Volume v = makeFloatVolume(n, [](double x, double y, double z) { return 4.0 + x - y + 0.5 * z; });
+            const Volume v =
+                makeFloatVolume(n, [](double x, double y, double z) { return 4.0 + x - y + 0.5 * z; });
             const Scene s = sceneLooking(v, dir, 9);
             const ImageBuffer oracle = referenceRender(v, tf, s, {.step = 0.02});
             const bool flat = n.x == 1 || n.y == 1 || n.z == 1;
@@ -203,7 +202,8 @@ TEST(PreviewTiers, AnisotropicSpacingFollowsTheWorldBox) {
         for (GridMethod m : {GridMethod::ShearWarp, GridMethod::Drc}) {
             const ImageBuffer img = renderTier(v, tf, s, m);
             EXPECT_LE(maxAbsDiff(img, cppReference(v, tf, s, m)), 2e-3) << gridMethodName(m);
-            EXPECT_LE(imageRmse(img, oracle), 0.04) << gridMethodName(m) << " view " << dir[0] << "," << dir[1];
+            EXPECT_LE(imageRmse(img, oracle), 0.04)
+                << gridMethodName(m) << " view " << dir[0] << "," << dir[1];
         }
     }
 }
@@ -247,8 +247,12 @@ TEST(PreviewTiers, RefusesWhatTheyCannotDrawWithOneLine) {
     const std::vector<std::function<void(Scene&)>> refused = {
         [](Scene& s) { s.mode = RenderMode::Mip; },
         [](Scene& s) { s.effects.shading = true; },
-        [](Scene& s) { s.effects.isosurfaces = {{1.0, {1, 1, 1, 1}}}; },
-        [](Scene& s) { s.effects.clipPlanes = {{{1, 0, 0}, -4.0}}; },
+        [](Scene& s) {
+            s.effects.isosurfaces = {{1.0, {1, 1, 1, 1}}};
+        },
+        [](Scene& s) {
+            s.effects.clipPlanes = {{{1, 0, 0}, -4.0}};
+        },
         [](Scene& s) { s.preintegration = Preintegration::Table2d; },
         [](Scene& s) { s.filter = ReconstructionFilter::Cubic; },
     };
@@ -313,7 +317,10 @@ TEST(PreviewTiers, MriTiersAreCloseToTheRayMarcher) {
     // The smooth MRI transfer function of the rendering benchmarks (bench/render/mri_tf.json).
     TransferFunction tf;
     tf.domain = {0, 255};
-    tf.color = {{0, {0.2, 0.3, 0.9}}, {70, {0.9, 0.5, 0.3}}, {110, {0.95, 0.8, 0.6}}, {160, {1.0, 0.95, 0.85}},
+    tf.color = {{0, {0.2, 0.3, 0.9}},
+                {70, {0.9, 0.5, 0.3}},
+                {110, {0.95, 0.8, 0.6}},
+                {160, {1.0, 0.95, 0.85}},
                 {255, {1, 1, 1}}};
     tf.extinction = {{0, 0.0}, {40, 0.0}, {70, 0.004}, {110, 0.015}, {160, 0.04}, {255, 0.08}};
     Scene s = sceneLooking(v, {0.3, -0.2, 1}, 96);

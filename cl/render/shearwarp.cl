@@ -2,17 +2,9 @@
    sheared into an intermediate image and composited front to back, then the intermediate image is warped
    into the final image. Host code and the C++ reference: render/grid/ShearWarp.cpp. */
 #include "common/grid_sample.h"
-#include "preview_shared.h"
+#include "preview_table.h"
 
 #pragma OPENCL FP_CONTRACT OFF
-
-/* Associated (r, g, b, alpha) of data value s, linear between the table's nodes. */
-inline float4 preview_lookup(__global const float4* table, const VolclPreviewTable* T, float s) {
-    const float x = clamp((s - T->lo) * T->scale, 0.0f, (float)(T->size - 1));
-    const uint i = min((uint)x, T->size - 2);
-    const float f = x - (float)i;
-    return table[i] + f * (table[i + 1] - table[i]);
-}
 
 /* The first pixel at or after u that is not yet opaque: links[u] == u for such pixels, links[W] == W ends
    the scanline. Path compression keeps later searches short (Lacroute's opaque pixel links). */
@@ -35,7 +27,8 @@ inline uint next_open(__global uint* links, uint u) {
    its n + 1 voxels one after the other in data. links: (W + 1) entries per scanline. */
 __kernel void shearwarp_composite(__global const uint* rowRuns, __global const uint4* runs,
                                   __global const float* data, __global const float4* table,
-                                  const VolclShearWarpParams P, __global float4* inter, __global uint* links) {
+                                  const VolclShearWarpParams P, __global float4* inter,
+                                  __global uint* links) {
     const uint v = get_global_id(0);
     const uint W = P.inter[0], H = P.inter[1];
     if (v >= H) return;

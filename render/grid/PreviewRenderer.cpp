@@ -19,15 +19,15 @@ namespace volcl {
 
 std::string previewRefusal(const Scene& scene, GridMethod method) {
     const auto& fx = scene.effects;
-    const char* what = scene.mode != RenderMode::Dvr                        ? "a mode other than dvr"
-                       : fx.shading                                          ? "shading"
-                       : !fx.isosurfaces.empty()                             ? "iso-surfaces"
-                       : !fx.clipPlanes.empty()                              ? "clip planes"
-                       : scene.preintegration != Preintegration::None        ? "pre-integration"
-                       : fx.fog.enabled                                      ? "fog"
-                       : fx.scattering || fx.shadows                         ? "scattering or shadows"
-                       : scene.filter != ReconstructionFilter::Linear        ? "a cubic filter"
-                       : scene.smoothing > 0.0                               ? "smoothing"
+    const char* what = scene.mode != RenderMode::Dvr                  ? "a mode other than dvr"
+                       : fx.shading                                   ? "shading"
+                       : !fx.isosurfaces.empty()                      ? "iso-surfaces"
+                       : !fx.clipPlanes.empty()                       ? "clip planes"
+                       : scene.preintegration != Preintegration::None ? "pre-integration"
+                       : fx.fog.enabled                               ? "fog"
+                       : fx.scattering || fx.shadows                  ? "scattering or shadows"
+                       : scene.filter != ReconstructionFilter::Linear ? "a cubic filter"
+                       : scene.smoothing > 0.0                        ? "smoothing"
                        : method == GridMethod::ShearWarp && scene.camera &&
                                scene.camera->projection == Projection::Perspective
                            ? "a perspective camera (the perspective factorisation is not implemented)"
@@ -39,7 +39,7 @@ std::string previewRefusal(const Scene& scene, GridMethod method) {
 
 struct GridPreviewRenderer::Impl {
     ValueRange range;
-    std::vector<float> values; ///< the voxels as floats, kept for encodings (shear-warp only)
+    std::vector<float> values;     ///< the voxels as floats, kept for encodings (shear-warp only)
     DeviceBuffer<cl_uchar> voxels; ///< voxels in their stored type plus one spare (drc)
     VolclPreviewTable table{};
     std::vector<cl_float4> straight; ///< (r, g, b, tau) per node
@@ -163,8 +163,8 @@ ImageBuffer GridPreviewRenderer::renderShearWarp() {
     const VolclCameraParams camera = cameraParams(camera_, scene_.width, scene_.height);
     const VolclGridParams grid = grid_detail::gridParams(volume_, grid_detail::MacrocellGrid{});
     setArgs(m.warp, m.inter, p, camera, grid, out_);
-    const cl::Event warp =
-        cc_.launch2d(m.warp, std::size_t(scene_.width), std::size_t(scene_.height), cc_.profile().preview.warp);
+    const cl::Event warp = cc_.launch2d(m.warp, std::size_t(scene_.width), std::size_t(scene_.height),
+                                        cc_.profile().preview.warp);
     lastMs_ = eventMilliseconds(composite) + eventMilliseconds(warp);
     ImageBuffer img = downloadFrame(false);
     addFrameAttributes(img, "shear-warp");
@@ -177,8 +177,8 @@ ImageBuffer GridPreviewRenderer::renderDrc() {
     const VolclCameraParams camera = cameraParams(camera_, scene_.width, scene_.height);
     const VolclGridParams grid = grid_detail::gridParams(volume_, grid_detail::MacrocellGrid{});
     setArgs(m.drc, m.voxels, m.straightDevice, camera, grid, m.table, out_);
-    const cl::Event ev = cc_.launch2d(m.drc, std::size_t(scene_.width), std::size_t(scene_.height),
-                                      cc_.profile().preview.drc);
+    const cl::Event ev =
+        cc_.launch2d(m.drc, std::size_t(scene_.width), std::size_t(scene_.height), cc_.profile().preview.drc);
     lastMs_ = eventMilliseconds(ev);
     ImageBuffer img = downloadFrame(false);
     addFrameAttributes(img, "drc");
@@ -192,9 +192,10 @@ std::string GridPreviewRenderer::statistics() const {
     os << "shear-warp";
     if (m.lastAxis >= 0) {
         const Impl::AxisRuns& a = m.axes[std::size_t(m.lastAxis)];
-        os << ": principal axis " << "xyz"[m.lastAxis] << ", " << a.runCount << " runs, " << std::setprecision(1)
-           << std::fixed << (a.cells ? 100.0 * double(a.visibleCells) / double(a.cells) : 0.0)
-           << "% of cells visible";
+        os << ": principal axis "
+           << "xyz"[m.lastAxis] << ", " << a.runCount << " runs, " << std::setprecision(1) << std::fixed
+           << (a.cells ? 100.0 * double(a.visibleCells) / double(a.cells) : 0.0)
+           << "% of cells visible, last encoding built in " << std::setprecision(0) << encodingMs_ << " ms";
     }
     return os.str();
 }

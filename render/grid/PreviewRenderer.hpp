@@ -25,12 +25,14 @@ class Volume;
 class GridPreviewRenderer final : public RendererBase {
 public:
     /// Throws DataError for a volume with NaN/Inf voxels (the ray marcher draws those), UsageError as above.
-    GridPreviewRenderer(ComputeContext& cc, const Volume& volume, const TransferFunction& tf, const Scene& scene);
+    GridPreviewRenderer(ComputeContext& cc, const Volume& volume, const TransferFunction& tf,
+                        const Scene& scene);
     ~GridPreviewRenderer() override;
 
     EffectPlan planEffects(const Scene& scene) const override;
     ImageBuffer render() override;
-    /// "shear-warp: axis z, 2100 runs, 38.0% of cells visible" or "discrete ray casting".
+    /// "shear-warp: principal axis z, 2100 runs, 38.0% of cells visible, last encoding built in 310 ms" or
+    /// "discrete ray casting: ...".
     std::string statistics() const override;
     /// Milliseconds of the last run-length encoding built (0 before any); lastTableMilliseconds() holds it for
     /// the frame that built it.

@@ -20,8 +20,8 @@ ValueRange tableRange(const ValueRange& r) {
 }
 
 /// Linear interpolation of a node table at data value s (clamped to the nodes), as the kernels do.
-std::array<double, 4> lookup(const std::vector<cl_float4>& table, std::size_t first, const VolclPreviewTable& g,
-                             double s) {
+std::array<double, 4> lookup(const std::vector<cl_float4>& table, std::size_t first,
+                             const VolclPreviewTable& g, double s) {
     const double x = std::clamp((s - double(g.lo)) * double(g.scale), 0.0, double(g.size - 1));
     const std::size_t i = std::min<std::size_t>(std::size_t(x), g.size - 2);
     const double f = x - double(i);
@@ -110,7 +110,8 @@ OpacityBins::OpacityBins(const TransferFunction& tf, const ValueRange& range, in
     prefix_.assign(std::size_t(bins) + 1, 0);
     const double w = (r.max - r.min) / double(bins);
     for (int i = 0; i < bins; ++i) {
-        const bool on = grid_detail::maxExtinctionOver(tf, lo_ + double(i) * w, lo_ + double(i + 1) * w) > 0.0;
+        const bool on =
+            grid_detail::maxExtinctionOver(tf, lo_ + double(i) * w, lo_ + double(i + 1) * w) > 0.0;
         prefix_[std::size_t(i) + 1] = prefix_[std::size_t(i)] + (on ? 1 : 0);
     }
 }
@@ -301,10 +302,11 @@ ImageBuffer discreteRayCastReference(const Volume& volume, const TransferFunctio
         }
         double T = 1.0, t = t0;
         while (t < t1) {
-            const int a = tNext[0] <= tNext[1] ? (tNext[0] <= tNext[2] ? 0 : 2) : (tNext[1] <= tNext[2] ? 1 : 2);
+            const int a =
+                tNext[0] <= tNext[1] ? (tNext[0] <= tNext[2] ? 0 : 2) : (tNext[1] <= tNext[2] ? 1 : 2);
             const double tEnd = std::min(tNext[a], t1);
-            const std::size_t at = std::size_t(idx[2]) * dims.x * dims.y + std::size_t(idx[1]) * dims.x +
-                                   std::size_t(idx[0]);
+            const std::size_t at =
+                std::size_t(idx[2]) * dims.x * dims.y + std::size_t(idx[1]) * dims.x + std::size_t(idx[0]);
             const std::array<double, 4> e = lookup(table, 0, g, volume.valueAt(at));
             const double alpha = 1.0 - std::exp(-e[3] * (tEnd - t));
             for (int ch = 0; ch < 3; ++ch)

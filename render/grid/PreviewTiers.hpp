@@ -3,10 +3,10 @@
 #pragma once
 
 #include "cl/render/preview_shared.h"
+#include "core/Volume.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/tf/TransferFunction.hpp"
-#include "core/Volume.hpp"
 #include "render/Bounds.hpp"
 #include "render/Scene.hpp"
 
