@@ -40,7 +40,8 @@ void benchTiers(ComputeContext& cc, const RenderInput& input, const TransferFunc
     for (GridMethod m : {GridMethod::ShearWarp, GridMethod::Drc}) {
         Scene s = scene;
         s.gridMethod = m;
-        configs.push_back({std::string(gridMethodName(m)), scene.step / voxel, input.makeRenderer(cc, tf, s), {}});
+        configs.push_back(
+            {std::string(gridMethodName(m)), scene.step / voxel, input.makeRenderer(cc, tf, s), {}});
     }
     for (Config& c : configs)
         c.renderer->render(); // builds encodings, tables and kernels before the timed rounds
@@ -55,8 +56,8 @@ void benchTiers(ComputeContext& cc, const RenderInput& input, const TransferFunc
     for (const Config& c : configs)
         if (c.method == "raymarch" && std::abs(c.stepVoxels * voxel - scene.step) < 1e-9 * voxel)
             peerMs = median(c.ms);
-    std::cout << "preview tiers, " << scene.width << "x" << scene.height << ", median kernel ms of " << o.rounds
-              << " interleaved rounds, load average " << loadAverage() << "\n";
+    std::cout << "preview tiers, " << scene.width << "x" << scene.height << ", median kernel ms of "
+              << o.rounds << " interleaved rounds, load average " << loadAverage() << "\n";
     std::cout << "  method       step   ms/frame  ratio to raymarch   RMSE rgba    RMSE rgb\n";
     std::ostringstream csv;
     csv << "method,step,ms_per_frame,ratio,rmse_rgba,rmse_rgb\n";
@@ -65,13 +66,14 @@ void benchTiers(ComputeContext& cc, const RenderInput& input, const TransferFunc
         const double ms = median(c.ms), e4 = imageRmse(img, ref), e3 = rmseRgb(img, ref);
         const double ratio = peerMs > 0.0 ? ms / peerMs : 0.0;
         std::cout << "  " << std::left << std::setw(11) << c.method << std::right << std::fixed
-                  << std::setprecision(2) << std::setw(6) << c.stepVoxels << std::setw(11) << ms << std::setw(19)
-                  << std::setprecision(3) << ratio << "  " << std::scientific << std::setw(10) << e4 << "  "
-                  << std::setw(10) << e3 << std::fixed << '\n';
+                  << std::setprecision(2) << std::setw(6) << c.stepVoxels << std::setw(11) << ms
+                  << std::setw(19) << std::setprecision(3) << ratio << "  " << std::scientific
+                  << std::setw(10) << e4 << "  " << std::setw(10) << e3 << std::fixed << '\n';
         csv << c.method << ',' << c.stepVoxels << ',' << ms << ',' << ratio << ',' << e4 << ',' << e3 << '\n';
     }
     if (peerMs <= 0.0)
-        std::cout << "  (no ratio: --steps does not hold the scene's step, " << scene.step / voxel << " voxels)\n";
+        std::cout << "  (no ratio: --steps does not hold the scene's step, " << scene.step / voxel
+                  << " voxels)\n";
     if (!o.csv.empty()) writeOutput(o.csv, "# load average " + loadAverage() + "\n" + csv.str());
 }
 

@@ -13,8 +13,9 @@
 namespace volcl::cli {
 
 struct TierBenchOptions {
-    std::vector<double> steps; ///< ray-marcher steps in voxels of the finest spacing (the error-vs-time curve)
-    int rounds = 7;            ///< interleaved rounds: every configuration renders once per round
+    std::vector<double>
+        steps;      ///< ray-marcher steps in voxels of the finest spacing (the error-vs-time curve)
+    int rounds = 7; ///< interleaved rounds: every configuration renders once per round
     double referenceStep = 0.05; ///< the double reference's step, in voxels
     std::string csv;             ///< rows for bench/render/plot_tiers.py; empty: none
 };
