@@ -17,6 +17,10 @@ set(VOLCL_KERNEL_FILES
   render/raymarch_iso_sampled.h
   render/raymarch.cl
   render/raymarch_plain.cl
+  render/preview_shared.h
+  render/preview_table.h
+  render/shearwarp.cl
+  render/drc.cl
   render/pathtrace.cl
   common/brick_sample.h
   render/raymarch_bricks.cl

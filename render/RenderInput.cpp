@@ -7,6 +7,8 @@
 #include "render/bricks/BrickRenderer.hpp"
 #include "render/grid/GridDetail.hpp"
 #include "render/grid/GridRenderer.hpp"
+#include "render/grid/PreviewRenderer.hpp"
+#include "render/grid/PreviewTiers.hpp"
 #include "render/mesh/KBufferRenderer.hpp"
 #include "render/mesh/MeshReference.hpp"
 #include "render/mesh/MeshRenderer.hpp"
@@ -164,11 +166,17 @@ Scene RenderInput::resolved(const Scene& scene) const {
 std::unique_ptr<VolumeRenderer> RenderInput::makeRenderer(ComputeContext& cc, const TransferFunction& tf,
                                                           const Scene& sceneAsGiven) const {
     const Scene scene = resolved(sceneAsGiven);
+    if (scene.gridMethod != GridMethod::Raymarch && !volume_)
+        throw UsageError("render.method " + std::string(gridMethodName(scene.gridMethod)) +
+                         " renders grids only (" +
+                         (vcz_ ? "decode the .vcz first" : "meshes take cells or kbuffer") + ")");
     if (vcz_) return std::make_unique<BrickRenderer>(cc, vcz_, frame_, tf, scene);
     if (mesh_) {
         if (scene.meshMethod == MeshMethod::KBuffer) return makeKBufferRenderer(cc, *mesh_, tf, scene);
         return std::make_unique<MeshRenderer>(cc, *mesh_, tf, scene);
     }
+    if (scene.gridMethod != GridMethod::Raymarch)
+        return std::make_unique<GridPreviewRenderer>(cc, *volume_, tf, scene);
     return std::make_unique<GridRenderer>(cc, *volume_, tf, scene);
 }
 

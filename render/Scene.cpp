@@ -220,6 +220,26 @@ std::string_view meshMethodName(MeshMethod m) {
     return m == MeshMethod::KBuffer ? "kbuffer" : "cells";
 }
 
+std::string_view gridMethodName(GridMethod m) {
+    return m == GridMethod::ShearWarp ? "shear-warp" : m == GridMethod::Drc ? "drc" : "raymarch";
+}
+
+void parseRenderMethod(std::string_view s, const std::string& what, Scene& scene) {
+    if (s == "raymarch" || s == "shear-warp" || s == "drc") {
+        scene.gridMethod = s == "shear-warp" ? GridMethod::ShearWarp
+                           : s == "drc"      ? GridMethod::Drc
+                                             : GridMethod::Raymarch;
+        return;
+    }
+    if (s == "cells" || s == "kbuffer") {
+        scene.meshMethod = parseMeshMethod(s);
+        return;
+    }
+    throw UsageError(
+        what + " '" + std::string(s) +
+        "' is unknown (expected raymarch, shear-warp, drc for grids; cells, kbuffer for meshes)");
+}
+
 MeshMethod parseMeshMethod(std::string_view s) {
     if (s == "cells") return MeshMethod::Cells;
     if (s == "kbuffer") return MeshMethod::KBuffer;
@@ -291,7 +311,7 @@ void parseRenderSettings(const json& r, Scene& s) {
     if (r.contains("lod")) s.lod = parseLodMode(str(r["lod"], "render.lod"));
     if (r.contains("lod_error")) s.lodError = num(r["lod_error"], "render.lod_error");
     if (r.contains("cache_mb")) s.cacheMb = num(r["cache_mb"], "render.cache_mb");
-    if (r.contains("method")) s.meshMethod = parseMeshMethod(str(r["method"], "render.method"));
+    if (r.contains("method")) parseRenderMethod(str(r["method"], "render.method"), "render.method", s);
     if (r.contains("k")) s.kBufferDepth = intField(r["k"], "render.k");
     if (r.contains("nan_color")) s.nanColor = vec<4>(r["nan_color"], "render.nan_color");
 }
@@ -492,6 +512,7 @@ std::string Scene::toJson() const {
                    {"cache_mb", cacheMb}};
     // Mesh fields only when set (grid scenes' JSON stays as it was).
     if (meshMethod != MeshMethod::Cells) j["render"]["method"] = std::string(meshMethodName(meshMethod));
+    if (gridMethod != GridMethod::Raymarch) j["render"]["method"] = std::string(gridMethodName(gridMethod));
     if (kBufferDepth != 6) j["render"]["k"] = kBufferDepth;
     if (window) j["render"]["window"] = *window;
     if (budgetMs > 0.0) j["render"]["budget_ms"] = budgetMs;

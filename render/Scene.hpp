@@ -13,6 +13,8 @@
 
 namespace volcl {
 
+struct Scene;
+
 enum class RenderMode { Dvr, Mip, Iso, Xray };
 enum class Preintegration { None, Table2d, Table3d };
 enum class Projection { Orthographic, Perspective };
@@ -35,6 +37,10 @@ enum class LodMode { Full, Auto };
 /// How a tetrahedral mesh is rendered: exact cell-by-cell traversal, or faces sorted by centroid into a
 /// per-pixel k-buffer of depth render.k (grids ignore it).
 enum class MeshMethod { Cells, KBuffer };
+/// How a grid is rendered: the ray marcher (full quality), or a preview tier: shear-warp of a run-length-encoded
+/// classified volume (orthographic views), or discrete ray casting (nearest voxel, 3D DDA). Meshes and
+/// compressed bricks ignore it.
+enum class GridMethod { Raymarch, ShearWarp, Drc };
 
 std::string_view renderModeName(RenderMode m);
 RenderMode parseRenderMode(std::string_view s); ///< throws UsageError
@@ -48,6 +54,10 @@ std::string_view lodModeName(LodMode m);
 LodMode parseLodMode(std::string_view s); ///< "full", "auto"; throws UsageError
 std::string_view meshMethodName(MeshMethod m);
 MeshMethod parseMeshMethod(std::string_view s); ///< "cells", "kbuffer"; throws UsageError
+std::string_view gridMethodName(GridMethod m);
+/// Sets render.method from `s`: a mesh method ("cells", "kbuffer") or a grid method ("raymarch", "shear-warp",
+/// "drc"); throws UsageError naming `what` for anything else.
+void parseRenderMethod(std::string_view s, const std::string& what, Scene& scene);
 
 /// GLM lookAt camera. `height` is the orthographic view height in world units; `fovYDeg` the perspective one.
 struct Camera {
@@ -175,8 +185,9 @@ struct Scene {
     LodMode lod = LodMode::Full;
     double lodError = 0.01;
     double cacheMb = 512.0;
-    MeshMethod meshMethod = MeshMethod::Cells; ///< render.method (meshes only)
-    int kBufferDepth = 6;                      ///< render.k: k-buffer entries per pixel, 2..8
+    MeshMethod meshMethod = MeshMethod::Cells;    ///< render.method (meshes only)
+    GridMethod gridMethod = GridMethod::Raymarch; ///< render.method (grids only)
+    int kBufferDepth = 6;                         ///< render.k: k-buffer entries per pixel, 2..8
     std::vector<Light> lights;
     SceneEffects effects;
 

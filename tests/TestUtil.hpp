@@ -4,11 +4,14 @@
 #include "core/Error.hpp"
 #include "core/Volume.hpp"
 #include "core/runtime/ClRuntime.hpp"
+#include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "render/Scene.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -92,6 +95,16 @@ inline Volume makeFloatVolume(Dims d, const std::function<double(double, double,
 inline ComputeContext& computeContext() {
     static ComputeContext* cc = new ComputeContext;
     return *cc;
+}
+
+/// Largest difference over R, G, B, A of two images of the same size.
+inline double maxAbsDiff(const ImageBuffer& a, const ImageBuffer& b) {
+    double m = 0.0;
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x)
+            for (int c = 0; c < 4; ++c)
+                m = std::max(m, std::abs(double(a.at(x, y, c)) - double(b.at(x, y, c))));
+    return m;
 }
 
 /// Orthographic camera looking along +z at the centre of a box of `n` voxels, view height `h`, w x ht

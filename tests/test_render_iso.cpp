@@ -23,6 +23,7 @@ namespace {
 using namespace volcl;
 using volcl::test::computeContext;
 using volcl::test::makeFloatVolume;
+using volcl::test::maxAbsDiff;
 
 /// A TF that adds nothing: iso scenes only show their surfaces.
 TransferFunction clearTf(double lo, double hi) {
@@ -121,15 +122,6 @@ DepthComparison compareDepth(const ImageBuffer& a, const ImageBuffer& b, const V
             }
         }
     return c;
-}
-
-double maxAbsDiff(const ImageBuffer& a, const ImageBuffer& b) {
-    double m = 0.0;
-    for (int y = 0; y < a.height; ++y)
-        for (int x = 0; x < a.width; ++x)
-            for (int c = 0; c < 4; ++c)
-                m = std::max(m, std::abs(double(a.at(x, y, c)) - double(b.at(x, y, c))));
-    return m;
 }
 
 // (a) Kernel roots against the reference's exact roots of the trilinear cubic: a sphere and random smooth

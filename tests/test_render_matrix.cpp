@@ -1,11 +1,13 @@
 // Cross-feature render matrix: every render input kind, opened as `volcl render` opens it, x every mode, shading
-// and pre-integration, against the plain grid renderer on the same decoded data (docs/reliability.md).
+// and pre-integration (and the grid's preview tiers), against the plain grid renderer on the same decoded data
+// (docs/reliability.md).
 #include "TestUtil.hpp"
 
 #include "apps/cli/SceneFlags.hpp"
 #include "host/phantoms/Phantoms.hpp"
 #include "render/RenderInput.hpp"
 #include "render/grid/GridRenderer.hpp"
+#include "render/grid/PreviewRenderer.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <gtest/gtest.h>
@@ -334,6 +336,23 @@ TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
         const ImageBuffer got = r->render();
         EXPECT_GT(colourMax(want), 0.05) << "the scene shows something";
         ASSERT_EQ(got.channels, want.channels);
+        const std::vector<double> d = channelDiff(want, got);
+        for (std::size_t ch = 0; ch < d.size(); ++ch)
+            EXPECT_LE(d[ch], 1e-6) << "channel " << want.channels[ch];
+    }
+    // The preview tiers (render.method) on every input kind: grids draw as the tier draws the decoded data;
+    // compressed bricks refuse them with one line (decode first).
+    for (GridMethod m : {GridMethod::ShearWarp, GridMethod::Drc}) {
+        SCOPED_TRACE(inputName(in) + ", " + std::string(gridMethodName(m)));
+        Scene s = combos(box).front().scene; // unshaded point-sampled dvr, oblique camera
+        s.gridMethod = m;
+        if (input.kind() != RenderInput::Kind::Grid) {
+            EXPECT_THROW(input.makeRenderer(cc, tf, s), UsageError);
+            continue;
+        }
+        const ImageBuffer want = GridPreviewRenderer(cc, decoded, tf, s).render();
+        const ImageBuffer got = input.makeRenderer(cc, tf, s)->render();
+        EXPECT_GT(colourMax(want), 0.05) << "the scene shows something";
         const std::vector<double> d = channelDiff(want, got);
         for (std::size_t ch = 0; ch < d.size(); ++ch)
             EXPECT_LE(d[ch], 1e-6) << "channel " << want.channels[ch];

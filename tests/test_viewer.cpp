@@ -14,6 +14,7 @@
 #include "core/Volume.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
+#include "render/Reference.hpp"
 #include "render/VecMath.hpp"
 #include "render/grid/GridRenderer.hpp"
 
@@ -872,4 +873,68 @@ TEST(ViewerSession, PathTracingAccumulatesWhileTheViewStandsStill) {
     now = s.currentScene();
     now.effects.samples = 4;
     EXPECT_EQ(c.image.pixels, GridRenderer(test::computeContext(), v, tf, now).render().pixels);
+}
+
+TEST(ViewerSession, PreviewTiersWhileMovingThenRefineToTheRayMarcher) {
+    // Scripted camera: an orbit of interactive frames, then the view stops. Moving frames use the preview tier
+    // (shear-warp for the orthographic camera, discrete ray casting for a perspective one) under their own
+    // controller; still frames blend the ray marcher's frame in and show it alone by the 5th frame.
+    const Volume v = phantom({40, 33, 29});
+    const TransferFunction tf = phantomTf();
+    for (Projection projection : {Projection::Orthographic, Projection::Perspective}) {
+        Scene scene;
+        scene.step = 0.5;
+        Camera cam = defaultCamera(v);
+        cam.projection = projection;
+        scene.camera = cam;
+        AdaptiveQualityOptions ao;
+        ao.previewTiers = true;
+        ao.targetMs = 1.0; // far below any frame: the tier's controller must lower the resolution
+        ViewerSession s(test::computeContext(), v, scene, tf, {}, ao);
+        const GridMethod tier =
+            projection == Projection::Orthographic ? GridMethod::ShearWarp : GridMethod::Drc;
+        EXPECT_EQ(s.previewTier(), tier);
+        s.frameDone(s.renderFrame(64, 64, false), 50.0);
+        ViewerFrame f;
+        for (int i = 0; i < 6; ++i) {
+            s.camera().orbit(0.15, 0.05);
+            f = s.renderFrame(64, 64, true);
+            s.frameDone(f, 1000.0);
+            EXPECT_EQ(f.level.tier, tier) << "frame " << i;
+            EXPECT_EQ(f.level.stepScale, 1.0);
+            EXPECT_EQ(f.refinePass, 0);
+        }
+        EXPECT_LT(f.image.width, 64) << "the tier's controller lowered the resolution";
+        EXPECT_TRUE(s.refining());
+        Scene now = s.currentScene();
+        now.width = 64;
+        now.height = 64;
+        const ImageBuffer marched = GridRenderer(test::computeContext(), v, tf, now).render();
+        double lastError = std::numeric_limits<double>::infinity();
+        int frames = 0;
+        while (s.refining()) {
+            const ViewerFrame still = s.renderFrame(64, 64, false);
+            s.frameDone(still, 500.0);
+            ++frames;
+            ASSERT_LE(frames, 5) << "refinement must end within 5 frames";
+            EXPECT_EQ(still.refinePass, frames);
+            ASSERT_EQ(still.image.width, 64);
+            // Each pass is closer to the ray marcher's frame: no jump back, no jump ahead past it.
+            const double e = imageRmse(still.image, marched);
+            EXPECT_LE(e, lastError + 1e-7) << "pass " << frames;
+            lastError = e;
+        }
+        EXPECT_EQ(frames, ViewerSession::kRefinePasses);
+        EXPECT_LE(lastError, 1e-6) << "the refined frame is the ray marcher's";
+        const ViewerFrame after = s.renderFrame(64, 64, false);
+        EXPECT_TRUE(after.level.full());
+        EXPECT_EQ(after.refinePass, 0);
+        EXPECT_LE(imageRmse(after.image, marched), 1e-6);
+        // Shading is beyond the tiers: a moving view goes back to the coarse ray marcher.
+        s.apply(ViewerAction::ToggleShading);
+        EXPECT_EQ(s.previewTier(), GridMethod::Raymarch);
+        s.camera().orbit(0.1, 0.0);
+        EXPECT_EQ(s.renderFrame(64, 64, true).level.tier, GridMethod::Raymarch);
+        EXPECT_FALSE(s.refining());
+    }
 }

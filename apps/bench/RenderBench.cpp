@@ -9,6 +9,7 @@
 #include "apps/bench/MediaBench.hpp"
 #include "apps/bench/MeshBench.hpp"
 #include "apps/bench/ScatterBench.hpp"
+#include "apps/bench/TierBench.hpp"
 #include "apps/bench/VtkPeer.hpp"
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/SceneFlags.hpp"
@@ -66,7 +67,8 @@ struct BenchArgs {
     double referenceStep = 0.05;
     std::string csv, vtkImage;
     bool effects = false, vtk = false, sweep = true, filters = false, tables = false, fog = false;
-    bool scattering = false;
+    bool scattering = false, tiers = false;
+    TierBenchOptions tier;
     ScatterBenchOptions scatter;
     std::string budgets; ///< --budgets: frame-time budgets in ms
     BudgetBenchOptions budget;
@@ -265,6 +267,12 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
         o.referenceSamples = a.scatter.referenceSamples;
         benchBudgets(cc, input, tf, scene, o);
     }
+    if (a.tiers) {
+        TierBenchOptions o = a.tier;
+        o.steps = parseNumbers(a.steps, 0, "--steps");
+        o.referenceStep = a.referenceStep;
+        benchTiers(cc, input, tf, scene, o);
+    }
     if (a.filters) benchFilters(cc, input, tf, scene, a.runs, a.sweep || a.vtk ? std::string() : a.csv);
     if (a.tables || a.fog) {
         const Volume* g = input.grid();
@@ -397,6 +405,12 @@ void addRenderBench(CLI::App& bench, GlobalOptions& global) {
     b->add_option("--budget-csv", ba->budget.csv, "--budgets: write the rows as CSV");
     b->add_option("--scatter-images", ba->scatter.imageDir,
                   "--scatter-sweep: write every variant's EXR and PNG here");
+    b->add_flag("--tiers", ba->tiers,
+                "Preview tiers: shear-warp and discrete ray casting against the ray marcher at each --steps, "
+                "interleaved, ms and RMSE against the reference");
+    b->add_option("--tier-rounds", ba->tier.rounds, "--tiers: interleaved rounds (medians)")
+        ->capture_default_str();
+    b->add_option("--tier-csv", ba->tier.csv, "--tiers: write the rows as CSV (bench/render/plot_tiers.py)");
     b->add_flag("--vtk", ba->vtk, "Compare with VTK's vtkFixedPointVolumeRayCastMapper (python3-vtk9, xvfb)");
     b->add_flag("!--no-sweep", ba->sweep, "Skip the step x pre-integration x skipping sweep");
     b->add_option(

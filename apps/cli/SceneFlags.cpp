@@ -153,9 +153,11 @@ void SceneFlags::add(CLI::App* cmd) {
         ->check(CLI::IsMember({"single", "multiple"}));
     cmd->add_option("--samples", samples, "Path-tracer samples per pixel (multiple scattering)");
     cmd->add_option("--clip", clips, "Clipping plane nx,ny,nz,offset keeping n.x + offset >= 0 (repeatable)");
-    cmd->add_option("--method", method,
-                    "Meshes: cells (exact cell traversal) or kbuffer (sorted faces, k-buffer)")
-        ->default_str(std::string(meshMethodName(d.meshMethod)));
+    cmd->add_option(
+           "--method", method,
+           "Grids: raymarch, shear-warp (orthographic preview) or drc (discrete ray casting preview); "
+           "meshes: cells (exact cell traversal) or kbuffer (sorted faces, k-buffer)")
+        ->default_str("raymarch (grids), " + std::string(meshMethodName(d.meshMethod)) + " (meshes)");
     cmd->add_option("--k", k, "Meshes, method kbuffer: k-buffer entries per pixel (2..8)")
         ->default_str(num(d.kBufferDepth));
     raw.add(*cmd);
@@ -183,7 +185,7 @@ Scene SceneFlags::build() const {
         s.window = std::array<double, 2>{w[0], w[1]};
     }
     if (!mipColor.empty()) s.mipColor = parseMipColor(mipColor);
-    if (!method.empty()) s.meshMethod = parseMeshMethod(method);
+    if (!method.empty()) parseRenderMethod(method, "--method", s);
     if (k) s.kBufferDepth = *k;
     if (earlyTermination) s.earlyTermination = *earlyTermination;
     if (!lod.empty()) s.lod = parseLodMode(lod);

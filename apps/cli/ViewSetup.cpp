@@ -86,6 +86,7 @@ ViewerSetup::ViewerSetup(const ViewArgs& a, const GlobalOptions& global, bool he
     }
     viewer::AdaptiveQualityOptions adaptive;
     adaptive.enabled = !a.noAdaptive;
+    adaptive.previewTiers = !a.noPreviewTiers;
     adaptive.targetMs = a.targetMs;
     session = std::make_unique<viewer::ViewerSession>(*cc, *input, scene, tf, scene.tf, adaptive);
     if (!global.quiet)
@@ -118,6 +119,9 @@ void addViewFlags(CLI::App* cmd, ViewArgs& a) {
         ->check(CLI::Range(1.0, 10000.0))
         ->capture_default_str();
     cmd->add_flag("--no-adaptive", a.noAdaptive, "Render every frame at full quality");
+    cmd->add_flag("--no-preview-tiers", a.noPreviewTiers,
+                  "While the view moves, coarsen the ray marcher instead of rendering grids with shear-warp "
+                  "(orthographic) or discrete ray casting (perspective)");
     cmd->add_option("--transport", a.transport,
                     "How frames reach OpenGL: auto (sharing when the device lists cl_khr_gl_sharing), pbo, "
                     "share")

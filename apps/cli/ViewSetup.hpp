@@ -29,6 +29,7 @@ struct ViewArgs {
     int frames = 1;
     double spin = 0.0, targetMs = 100.0; ///< spin: --spin, degrees of yaw per in-between frame
     bool headless = false, noAdaptive = false, overlay = false, noOverlay = false;
+    bool noPreviewTiers = false; ///< --no-preview-tiers: moving views use the coarse ray marcher
 };
 
 /// Everything a viewer run needs, made in the order cl_khr_gl_sharing requires: the OpenCL device is

@@ -1,15 +1,22 @@
 // Adaptive quality for interaction: sizes the next frame's work from the last frame's time (Callahan 5.1.1).
 #pragma once
 
+#include "render/Scene.hpp"
+
 namespace volcl::viewer {
 
 /// How much coarser than full quality one frame is rendered.
 struct QualityLevel {
     double resolutionScale = 1.0; ///< image edge relative to the viewport, (0, 1]
     double stepScale = 1.0;       ///< ray step relative to the scene's step, >= 1
+    /// The renderer: the ray marcher, or a grid's preview tier while the view moves (its step is fixed by the
+    /// data: stepScale stays 1 and the work is all resolution).
+    GridMethod tier = GridMethod::Raymarch;
     /// Work relative to full quality: rays times samples per ray.
     double work() const noexcept { return resolutionScale * resolutionScale / stepScale; }
-    bool full() const noexcept { return resolutionScale >= 1.0 && stepScale <= 1.0; }
+    bool full() const noexcept {
+        return resolutionScale >= 1.0 && stepScale <= 1.0 && tier == GridMethod::Raymarch;
+    }
 };
 
 struct AdaptiveQualityOptions {
@@ -28,6 +35,11 @@ struct AdaptiveQualityOptions {
     /// Step scales come from the ladder 2^(k/4): a pre-integration table is rebuilt per distinct step, so
     /// a few levels keep tables cached rather than rebuilt every frame.
     int stepLevelsPerOctave = 4;
+    /// While the view moves, a grid scene the preview tiers can draw (unshaded DVR without effects) renders
+    /// with shear-warp (orthographic cameras) or discrete ray casting (perspective), sized by a controller of
+    /// its own; when the view stops, the ray marcher's frame is blended in over ViewerSession::kRefinePasses
+    /// frames. Off: the ray marcher at a coarser step and resolution, as before.
+    bool previewTiers = false;
 };
 
 /// Frame-rate controller. While interacting, work_next = aim / cost, cost the frame time per unit of work

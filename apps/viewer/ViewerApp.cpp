@@ -106,8 +106,12 @@ std::vector<std::string> overlayLines(const ViewerSession& session, const Viewer
                   frameMs > 0 ? 1000.0 / frameMs : 0.0);
     lines.emplace_back(buf);
     const Scene scene = session.currentScene();
+    const std::string level = frame.level.tier != GridMethod::Raymarch
+                                  ? " (" + std::string(gridMethodName(frame.level.tier)) + ")"
+                              : frame.level.full() ? std::string()
+                                                   : std::string(" (interactive)");
     std::snprintf(buf, sizeof buf, "render %dx%d step %.3g%s", frame.image.width, frame.image.height,
-                  scene.step * frame.level.stepScale, frame.level.full() ? "" : " (interactive)");
+                  scene.step * frame.level.stepScale, level.c_str());
     lines.emplace_back(buf);
     if (session.adaptive().options().enabled)
         std::snprintf(buf, sizeof buf, "adaptive: target %.0f ms", session.adaptive().options().targetMs);
@@ -153,10 +157,7 @@ HeadlessResult runHeadless(ViewerSession& session, const HeadlessOptions& o, Hea
     OffscreenFramebuffer target(o.width, o.height);
     double lastFrameMs = 0.0;
     if (o.stillFrames < 0) throw UsageError("view: still frames must not be negative");
-    for (int i = 0; i < o.frames + o.stillFrames; ++i) {
-        // Like a user: the viewer opens on a full-quality frame, the orbit follows, the view settles.
-        const bool interactive = i > 0 && i + 1 < o.frames && o.orbitDegrees != 0.0;
-        if (interactive) session.camera().orbit(o.orbitDegrees * std::numbers::pi / 180.0, 0.0);
+    const auto frame = [&](int i, bool interactive) {
         Stopwatch sw;
         ViewerFrame f = session.renderFrame(o.width, o.height, interactive);
         target.bind();
@@ -165,7 +166,17 @@ HeadlessResult runHeadless(ViewerSession& session, const HeadlessOptions& o, Hea
         lastFrameMs = frameMs;
         session.frameDone(f, frameMs);
         result.frames.push_back(record(i, f, session.currentScene().step * f.level.stepScale, pt, frameMs));
+    };
+    int i = 0;
+    for (; i < o.frames + o.stillFrames; ++i) {
+        // Like a user: the viewer opens on a full-quality frame, the orbit follows, the view settles.
+        const bool interactive = i > 0 && i + 1 < o.frames && o.orbitDegrees != 0.0;
+        if (interactive) session.camera().orbit(o.orbitDegrees * std::numbers::pi / 180.0, 0.0);
+        frame(i, interactive);
     }
+    // After preview-tier frames the settled view refines to the ray marcher's frame over a few more frames.
+    for (; session.refining(); ++i)
+        frame(i, false);
     result.readback = readFramebuffer(o.width, o.height);
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     if (!o.output.empty()) writeImage(result.readback, o.output);
@@ -407,7 +418,8 @@ void runWindow(ViewerSession& session, const WindowOptions& o, ViewerWindow& win
         glfwSetWindowTitle(w, session.title(f, frameMs).c_str());
         shown = f;
         shown.image.pixels = {};
-        if (!interactiveFrame) needFull = false;
+        // A still frame after preview-tier frames starts a refinement: the next frames finish it.
+        if (!interactiveFrame) needFull = session.refining();
     }
 }
 

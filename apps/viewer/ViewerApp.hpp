@@ -27,7 +27,8 @@ struct FrameRecord {
 
 struct HeadlessOptions {
     int width = 512, height = 512; ///< viewport (framebuffer) size
-    int frames = 1;                ///< the first and the last are still, full-quality frames
+    int frames = 1;                ///< the first and the last are still, full-quality frames (after preview-
+                                   ///< tier frames, still frames follow until the refinement is done)
     int stillFrames = 0;           ///< more full-quality frames after those, the view unchanged (benchmarks)
     double orbitDegrees = 0.0;     ///< yaw before each frame between them; non-zero = interacting
     std::string keys;              ///< key actions applied before the first frame (see keyBindingsHelp())

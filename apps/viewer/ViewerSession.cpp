@@ -6,7 +6,9 @@
 #include "core/Volume.hpp"
 #include "core/runtime/Timing.hpp"
 #include "render/VecMath.hpp"
+#include "render/grid/GridDetail.hpp"
 #include "render/grid/GridRenderer.hpp"
+#include "render/grid/PreviewRenderer.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -15,6 +17,26 @@
 #include <sstream>
 
 namespace volcl::viewer {
+namespace {
+
+/// The preview tiers' controller: the same target, all of the work in resolution (a tier's step is the data's).
+AdaptiveQualityOptions tierOptions(AdaptiveQualityOptions o) {
+    o.maxStepScale = 1.0;
+    return o;
+}
+
+/// (1 - w) a + w b per channel of two frames of the same size.
+ImageBuffer blendFrames(const ImageBuffer& a, const ImageBuffer& b, double w) {
+    if (a.width != b.width || a.height != b.height || a.channels != b.channels)
+        throw Error("viewer: refinement frames differ in size or channels");
+    ImageBuffer out = b;
+    for (std::size_t i = 0; i < out.pixels.size(); ++i)
+        out.pixels[i] = float((1.0 - w) * double(a.pixels[i]) + w * double(b.pixels[i]));
+    return out;
+}
+
+} // namespace
+
 namespace {
 
 struct KeyBinding {
@@ -120,12 +142,14 @@ ViewerSession::ViewerSession(ComputeContext& cc, RenderInput input, const Scene&
                              const AdaptiveQualityOptions& adaptive)
     : cc_(cc), input_(std::move(input)), range_(input_.valueRange()), base_(scene), original_(scene),
       tfPath_(std::move(tfPath)), presets_(transferFunctionPresets(range_, input_.bounds(), tf)),
-      camera_(scene.camera ? *scene.camera : defaultCamera(input_.bounds())), adaptive_(adaptive) {
+      camera_(scene.camera ? *scene.camera : defaultCamera(input_.bounds())), adaptive_(adaptive),
+      tierAdaptive_(tierOptions(adaptive)) {
     base_.validate();
     original_.camera = camera_.camera();
     Scene first = base_;
     first.camera = camera_.camera();
     renderer_ = input_.makeRenderer(cc_, presets_[0].tf, first);
+    finite_ = !input_.grid() || grid_detail::nonFiniteCount(*input_.grid()) == 0;
 }
 
 ViewerSession::ViewerSession(ComputeContext& cc, const Volume& volume, const Scene& scene,
@@ -217,6 +241,7 @@ std::string ViewerSession::apply(ViewerAction action) {
     case ViewerAction::CycleTfPreset:
         presetIndex_ = (presetIndex_ + 1) % presets_.size();
         renderer_->setTransferFunction(presets_[presetIndex_].tf);
+        if (preview_) preview_->setTransferFunction(presets_[presetIndex_].tf);
         what = "transfer function: " + presets_[presetIndex_].name;
         break;
     case ViewerAction::ReloadTf: {
@@ -231,6 +256,7 @@ std::string ViewerSession::apply(ViewerAction action) {
                 presets_.insert(presets_.begin(), {"scene", tf});
             presetIndex_ = 0;
             renderer_->setTransferFunction(tf);
+            if (preview_) preview_->setTransferFunction(tf);
             what = "reloaded " + tfPath_.string();
         } catch (const Error& e) {
             // A file half-way through an edit must not end the session: keep the TF in use.
@@ -240,6 +266,7 @@ std::string ViewerSession::apply(ViewerAction action) {
     }
     case ViewerAction::ToggleAdaptive:
         adaptive_.setEnabled(!adaptive_.options().enabled);
+        tierAdaptive_.setEnabled(adaptive_.options().enabled);
         structural = false;
         what = std::string("adaptive quality ") + (adaptive_.options().enabled ? "on" : "off");
         break;
@@ -254,21 +281,53 @@ std::string ViewerSession::apply(ViewerAction action) {
         return {};
     }
     structureChanged_ = structureChanged_ || structural;
+    previewStale_ = previewStale_ || structural;
+    // The view or scene changed under a refinement: the next still frame is the ray marcher's own.
+    previewShown_ = false;
+    refinePass_ = 0;
     return what;
+}
+
+GridMethod ViewerSession::previewTier() const {
+    if (!adaptive_.options().previewTiers || !adaptive_.options().enabled || !input_.grid())
+        return GridMethod::Raymarch;
+    if (!finite_) return GridMethod::Raymarch;
+    const Scene s = currentScene();
+    const GridMethod m =
+        s.camera->projection == Projection::Orthographic ? GridMethod::ShearWarp : GridMethod::Drc;
+    return previewRefusal(s, m).empty() ? m : GridMethod::Raymarch;
 }
 
 ViewerFrame ViewerSession::renderFrame(int width, int height, bool interactive) {
     if (width <= 0 || height <= 0) throw UsageError("viewer: viewport size must be positive");
+    const GridMethod tier = previewTier();
+    if (tier != GridMethod::Raymarch) {
+        if (interactive)
+            return renderPreview(currentScene(), tier, tierAdaptive_.next().resolutionScale, width, height,
+                                 true);
+        if (previewShown_ || refinePass_ > 0) return refine(currentScene(), tier, width, height);
+    }
+    previewShown_ = false;
+    return renderRaymarch(currentScene(), interactive ? adaptive_.next() : QualityLevel{}, width, height,
+                          interactive);
+}
+
+namespace {
+
+/// The image edge at `scale` of `full`, never below 16 pixels (or the viewport, if smaller): tiny frames are
+/// all overhead.
+int scaledEdge(int full, double scale) {
+    return std::min(full, std::max(std::min(full, 16), int(std::lround(full * scale))));
+}
+
+} // namespace
+
+ViewerFrame ViewerSession::renderRaymarch(Scene s, const QualityLevel& want, int width, int height,
+                                          bool interactive) {
     ViewerFrame f;
     f.interactive = interactive;
-    const QualityLevel want = interactive ? adaptive_.next() : QualityLevel{};
-    Scene s = currentScene();
-    // Never below 16 pixels a side (or the viewport, if smaller): tiny frames are all overhead.
-    const auto edge = [&](int full) {
-        return std::min(full, std::max(std::min(full, 16), int(std::lround(full * want.resolutionScale))));
-    };
-    s.width = edge(width);
-    s.height = edge(height);
+    s.width = scaledEdge(width, want.resolutionScale);
+    s.height = scaledEdge(height, want.resolutionScale);
     s.step = base_.step * want.stepScale;
     f.level.stepScale = want.stepScale;
     f.level.resolutionScale = std::sqrt(double(s.width) * s.height / (double(width) * height));
@@ -296,9 +355,77 @@ ViewerFrame ViewerSession::renderFrame(int width, int height, bool interactive) 
     return f;
 }
 
+ViewerFrame ViewerSession::renderPreview(Scene s, GridMethod tier, double resolutionScale, int width,
+                                         int height, bool interactive) {
+    ViewerFrame f;
+    f.interactive = interactive;
+    s.gridMethod = tier;
+    s.width = scaledEdge(width, resolutionScale);
+    s.height = scaledEdge(height, resolutionScale);
+    f.level.tier = tier;
+    f.level.resolutionScale = std::sqrt(double(s.width) * s.height / (double(width) * height));
+    Stopwatch sw;
+    if (!preview_ || preview_->scene().gridMethod != tier) {
+        preview_ = input_.makeRenderer(cc_, presets_[presetIndex_].tf, s);
+        f.structureChanged = true;
+    } else if (previewStale_) {
+        preview_->setScene(s);
+        f.structureChanged = true;
+    } else {
+        preview_->setView(*s.camera, s.width, s.height, s.step);
+    }
+    previewStale_ = false;
+    f.setupMs = sw.milliseconds();
+    sw.restart();
+    f.image = preview_->render();
+    f.renderMs = sw.milliseconds();
+    // A run-length encoding built for a new principal axis is a one-off cost, as a table.
+    f.tableMs = preview_->lastTableMilliseconds();
+    f.kernelMs = preview_->lastKernelMilliseconds();
+    previewShown_ = interactive;
+    refinePass_ = 0;
+    return f;
+}
+
+ViewerFrame ViewerSession::refine(const Scene& s, GridMethod tier, int width, int height) {
+    ViewerFrame f;
+    if (refinePass_ == 0) {
+        // The first still frame renders both ends of the blend: the ray marcher's frame and the preview at
+        // full resolution (the moving frames were smaller).
+        f = renderRaymarch(s, QualityLevel{}, width, height, false);
+        const ViewerFrame from = renderPreview(s, tier, 1.0, width, height, false);
+        refineTo_ = f.image;
+        refineFrom_ = from.image;
+        f.setupMs += from.setupMs;
+        f.renderMs += from.renderMs;
+        f.kernelMs += from.kernelMs;
+        f.structureChanged = f.structureChanged || from.structureChanged;
+    }
+    previewShown_ = false;
+    ++refinePass_;
+    f.refinePass = refinePass_;
+    f.interactive = false;
+    const double w = double(refinePass_) / double(kRefinePasses);
+    f.image = w >= 1.0 ? refineTo_ : blendFrames(refineFrom_, refineTo_, w);
+    f.level = QualityLevel{};
+    if (refinePass_ < kRefinePasses)
+        f.level.tier = tier;
+    else {
+        refinePass_ = 0;
+        refineFrom_ = {};
+        refineTo_ = {};
+    }
+    return f;
+}
+
 void ViewerSession::frameDone(const ViewerFrame& frame, double frameMs) {
-    if (frame.structureChanged) return;
+    // Refinement frames render two images (or blend): they say nothing about either controller's cost.
+    if (frame.structureChanged || frame.refinePass > 0) return;
     const double levelMs = frameMs - frame.tableMs;
+    if (frame.level.tier != GridMethod::Raymarch) {
+        if (frame.interactive) tierAdaptive_.report(frame.level, levelMs);
+        return;
+    }
     if (frame.interactive)
         adaptive_.report(frame.level, levelMs);
     else
@@ -333,7 +460,14 @@ std::string ViewerSession::title(const ViewerFrame& last, double frameMs) const 
     os << buf;
     if (adaptive_.options().enabled)
         os << " | adaptive " << formatNumber(adaptive_.options().targetMs, 3) << " ms";
-    if (!last.level.full()) os << " [interactive]";
+    if (last.level.tier != GridMethod::Raymarch)
+        os << " [" << gridMethodName(last.level.tier)
+           << (last.refinePass > 0
+                   ? ", refining " + std::to_string(last.refinePass) + "/" + std::to_string(kRefinePasses)
+                   : std::string())
+           << "]";
+    else if (!last.level.full())
+        os << " [interactive]";
     return os.str();
 }
 

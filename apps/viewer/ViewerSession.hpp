@@ -69,6 +69,9 @@ struct ViewerFrame {
     double tableMs = 0.0;          ///< pre-integration table built for this frame's step (part of setupMs)
     double renderMs = 0.0;         ///< VolumeRenderer::render wall time (kernel + read-back)
     double kernelMs = 0.0;         ///< the ray-marching kernel alone (profiling event)
+    /// Refinement after the view stopped: pass 1 .. ViewerSession::kRefinePasses (the last is the ray marcher's
+    /// frame itself); 0 for frames that are not refining.
+    int refinePass = 0;
 };
 
 /// Example:
@@ -97,6 +100,15 @@ public:
     /// Renders for a viewport of width x height: full quality when not interactive, else at the adaptive
     /// controller's level.
     ViewerFrame renderFrame(int width, int height, bool interactive);
+    /// Still frames after a preview-tier frame that blend the ray marcher's frame in: pass p shows
+    /// (1 - p / kRefinePasses) of the preview at full resolution plus p / kRefinePasses of the ray marcher's
+    /// frame, so the image improves without a jump and is the ray marcher's own from pass kRefinePasses.
+    static constexpr int kRefinePasses = 4;
+    /// The view stopped after preview-tier frames and the ray marcher's frame is not fully shown yet.
+    bool refining() const noexcept { return refinePass_ > 0 || previewShown_; }
+    /// The preview tier a moving view of the current scene renders with (Raymarch: none; see
+    /// AdaptiveQualityOptions::previewTiers).
+    GridMethod previewTier() const;
     /// Reports the whole frame's wall time (render + upload + draw) to the controller; a full-quality frame
     /// seeds it. Frames after a structural change (kernel rebuild) are skipped: build time says nothing
     /// about the next frame.
@@ -107,6 +119,8 @@ public:
     const VolumeRenderer& renderer() const noexcept { return *renderer_; }
     ComputeContext& compute() const noexcept { return cc_; }
     const AdaptiveQuality& adaptive() const noexcept { return adaptive_; }
+    /// The controller of preview-tier frames (resolution only).
+    const AdaptiveQuality& tierAdaptive() const noexcept { return tierAdaptive_; }
     const std::string& tfPresetName() const noexcept { return presets_[presetIndex_].name; }
     /// Short names of what the current kernel compiles in, e.g. "shading, shadows, skipping".
     std::string compiledSummary() const;
@@ -126,6 +140,20 @@ private:
     AdaptiveQuality adaptive_;
     std::unique_ptr<VolumeRenderer> renderer_;
     bool structureChanged_ = false; // the constructor planned and built the first kernel
+    AdaptiveQuality tierAdaptive_;
+    bool finite_ = true; ///< the grid has no NaN/Inf voxels (the preview tiers refuse those)
+    std::unique_ptr<VolumeRenderer> preview_; ///< the preview tier's renderer, made on first use
+    bool previewStale_ = false;               ///< its scene needs setScene (effects or mode changed)
+    bool previewShown_ = false;               ///< the last frame was a preview frame: refine when still
+    int refinePass_ = 0;                      ///< the refinement pass the last still frame showed
+    ImageBuffer refineFrom_, refineTo_;       ///< preview at full resolution and the ray marcher's frame
+    /// The ray marcher's frame at `want` (full quality when want.full()).
+    ViewerFrame renderRaymarch(Scene s, const QualityLevel& want, int width, int height, bool interactive);
+    /// A preview-tier frame of `s` at resolution `resolutionScale`.
+    ViewerFrame renderPreview(Scene s, GridMethod tier, double resolutionScale, int width, int height,
+                              bool interactive);
+    /// The next refinement pass after the view stopped.
+    ViewerFrame refine(const Scene& s, GridMethod tier, int width, int height);
 };
 
 } // namespace volcl::viewer

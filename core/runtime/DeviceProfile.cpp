@@ -48,6 +48,13 @@ constexpr DeviceProfile kGeneric{
             .pathTrace = {8, 8},
             .macrocellEdge = 8, // 8^3 cells keep the grid small and tight
         },
+    .preview =
+        {
+            // A scanline's cost varies with what it crosses: small groups let PoCL's threads share the work.
+            .scanlines = 4,
+            .warp = {16, 4},
+            .drc = {8, 8},
+        },
     .mesh =
         {
             // 4 x 2, 4 x 4 and 8 x 2 pixels per work-item measured the same as 2 x 2 on the blunt fin.

@@ -59,6 +59,12 @@ struct DeviceProfile {
         unsigned macrocellEdge = 0; ///< voxels per macrocell edge of the empty-space skipping grid
     } rayMarch;
 
+    /// Preview tiers of grids (render/shearwarp.cl, render/drc.cl).
+    struct Preview {
+        std::size_t scanlines = 0; ///< shearwarp_composite work-items (intermediate scanlines) per group
+        LocalSize warp, drc;       ///< one final pixel per work-item
+    } preview;
+
     /// Tetrahedral meshes: the cell caster (mesh/mesh_cells.cl), the k-buffer (mesh/mesh_kbuffer.cl) and
     /// its radix sort (mesh/radix_sort.cl).
     struct Mesh {

@@ -196,6 +196,15 @@ done
 both pathtrace pathtrace.exr "${R[@]}" --scattering 0.8,0.3 --scattering-order multiple --samples 2
 same_image pathtrace.exr 1e-3
 
+echo "== preview tiers: shear-warp and discrete ray casting"
+both shearwarp shearwarp.exr "${R[@]}" --method shear-warp
+both shearwarp_iso shearwarp_iso.exr "${R[@]}" --method shear-warp --view iso
+both drc drc.exr "${R[@]}" --method drc --view iso
+both drc_persp drc_persp.exr "${R[@]}" --method drc --projection perspective
+for i in shearwarp shearwarp_iso drc drc_persp; do
+  same_image "$i.exr" 1e-4
+done
+
 echo "== compressed-brick renderer"
 both bricks bricks.exr "$volcl" -q render --volume "$work/ocl/ll_marschner_brick.vcz" --tf "$tf" --width 12 \
   --height 10
