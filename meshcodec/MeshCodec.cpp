@@ -56,7 +56,8 @@ std::uint64_t codeResidual(Side& side, GeometryModels& m, int ch, std::uint64_t 
 }
 
 /// Values as integer codes in which a prediction is made and a residual taken: quantisation indices, or
-/// the order-preserving bit patterns of float64 (positions) or float32 (scalars) when lossless.
+/// the order-preserving bit patterns of float64 (positions) or float32 (scalars, and positions that are all
+/// exactly floats) when lossless.
 struct QuantisedDomain {
     std::int64_t maxQ;
     std::uint64_t predict(const std::uint64_t* v, const VertexOrigin& o, std::uint32_t id,
@@ -128,11 +129,11 @@ public:
     void code(std::uint32_t id, const VertexOrigin& o) {
         for (int ch = 0; ch < kChannels; ++ch) {
             std::vector<std::uint64_t>& v = codes[ch];
-            const bool lossless = h_.lossless;
-            const int width = !lossless ? 64 : ch < 3 ? PositionCodes::kWidth : ScalarCodes::kWidth;
-            const std::uint64_t pred = !lossless ? q_.predict(v.data(), o, id, h_.predictor)
-                                       : ch < 3  ? PositionCodes{}.predict(v.data(), o, id, h_.predictor)
-                                                 : ScalarCodes{}.predict(v.data(), o, id, h_.predictor);
+            const bool lossless = h_.lossless, asDouble = lossless && ch < 3 && !h_.floatPositions;
+            const int width = !lossless ? 64 : asDouble ? PositionCodes::kWidth : ScalarCodes::kWidth;
+            const std::uint64_t pred = !lossless  ? q_.predict(v.data(), o, id, h_.predictor)
+                                       : asDouble ? PositionCodes{}.predict(v.data(), o, id, h_.predictor)
+                                                  : ScalarCodes{}.predict(v.data(), o, id, h_.predictor);
             const std::uint64_t r = Side::kDecoding ? 0 : signExtend(v[id] - pred, width);
             const std::uint64_t zig =
                 codeResidual(side_, *models_, ch, zigzagEncode(static_cast<std::int64_t>(r)), source_);
@@ -149,8 +150,9 @@ public:
     mesh::Point3 position(std::uint32_t id) const noexcept {
         mesh::Point3 p;
         for (int a = 0; a < 3; ++a)
-            p[a] = h_.lossless ? PositionCodes::fromCode(codes[a][id])
-                               : h_.boxMin[a] + static_cast<double>(codes[a][id]) * step_[a];
+            p[a] = h_.floatPositions ? double(ScalarCodes::fromCode(static_cast<std::uint32_t>(codes[a][id])))
+                   : h_.lossless     ? PositionCodes::fromCode(codes[a][id])
+                                     : h_.boxMin[a] + static_cast<double>(codes[a][id]) * step_[a];
         return p;
     }
     float scalar(std::uint32_t id) const noexcept {
@@ -346,6 +348,12 @@ EncodedMesh encodeMesh(const TetMesh& mesh, const VcmOptions& options) {
     VcmHeader h;
     h.lossless = options.lossless;
     h.bits = options.lossless ? 0 : options.bits;
+    h.floatPositions =
+        options.lossless && std::all_of(mesh.points.begin(), mesh.points.end(), [](const mesh::Point3& p) {
+            return std::all_of(p.begin(), p.end(), [](double c) {
+                return std::bit_cast<std::uint64_t>(double(float(c))) == std::bit_cast<std::uint64_t>(c);
+            });
+        });
     h.points = mesh.pointCount();
     h.tets = mesh.tetCount();
     h.scalarName = mesh.scalarName.substr(0, kMaxScalarName);
@@ -369,9 +377,10 @@ EncodedMesh encodeMesh(const TetMesh& mesh, const VcmOptions& options) {
         const double step = options.lossless ? 0 : stepOf(lo, hi, h.bits);
         for (std::size_t i = 0; i < mesh.pointCount(); ++i) {
             const double x = ch < 3 ? mesh.points[i][ch] : mesh.scalars[i];
-            pointCodes[ch][i] = !options.lossless ? quantise(x, lo, step, maxQ)
-                                : ch < 3          ? PositionCodes::toCode(x)
-                                                  : ScalarCodes::toCode(mesh.scalars[i]);
+            pointCodes[ch][i] = !options.lossless             ? quantise(x, lo, step, maxQ)
+                                : ch < 3 && !h.floatPositions ? PositionCodes::toCode(x)
+                                : ch < 3                      ? ScalarCodes::toCode(static_cast<float>(x))
+                                                              : ScalarCodes::toCode(mesh.scalars[i]);
         }
     }
     // Both geometry predictors are tried (the connectivity comes out the same); the smaller file is kept.

@@ -84,7 +84,8 @@ std::vector<std::uint8_t>
 assembleVcm(VcmHeader header, const std::array<std::span<const std::uint8_t>, kVcmSections>& sections) {
     std::vector<std::uint8_t> out(kVcmMagic, kVcmMagic + sizeof(kVcmMagic));
     put<std::uint32_t>(out, kVcmVersion);
-    put<std::uint32_t>(out, header.lossless ? 1u : 0u);
+    put<std::uint32_t>(out,
+                       (header.lossless ? 1u : 0u) | (header.lossless && header.floatPositions ? 2u : 0u));
     put<std::uint8_t>(out, static_cast<std::uint8_t>(header.lossless ? 0 : header.bits));
     put<std::uint8_t>(out, static_cast<std::uint8_t>(header.predictor));
     put<std::uint16_t>(out, 0);
@@ -118,8 +119,9 @@ VcmView parseVcm(std::span<const std::uint8_t> file, const std::string& source, 
         throw IoError(source + ": .vcm version " + std::to_string(version) +
                       " is not supported (this volcl reads " + std::to_string(kVcmVersion) + ")");
     const auto flags = r.get<std::uint32_t>("flags");
-    if (flags > 1) throw IoError(source + ": unknown .vcm flags " + std::to_string(flags));
-    h.lossless = flags == 1;
+    if (flags > 3 || flags == 2) throw IoError(source + ": unknown .vcm flags " + std::to_string(flags));
+    h.lossless = (flags & 1) != 0;
+    h.floatPositions = (flags & 2) != 0;
     h.bits = r.get<std::uint8_t>("bits");
     const auto predictor = r.get<std::uint8_t>("predictor");
     if (r.get<std::uint16_t>("reserved") != 0)

@@ -24,8 +24,9 @@ enum VcmSection : std::size_t { ConnectivityRans, ConnectivityRaw, GeometryRans,
 enum class Predictor : std::uint8_t { Reflect = 0, Average = 1 };
 
 struct VcmHeader {
-    bool lossless = false; ///< float64 positions and float32 scalars kept exactly
-    int bits = 16;         ///< quantisation bits (lossy only)
+    bool lossless = false;       ///< float64 positions and float32 scalars kept exactly
+    bool floatPositions = false; ///< lossless, and every coordinate is exactly a float32: coded as one
+    int bits = 16;               ///< quantisation bits (lossy only)
     Predictor predictor = Predictor::Reflect;
     std::uint64_t points = 0, tets = 0;
     std::array<double, 3> boxMin{}, boxMax{}; ///< the quantisation box (the points' bounds)
