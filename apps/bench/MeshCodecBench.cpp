@@ -31,12 +31,6 @@ struct MeshCodecBenchArgs {
     int runs = 5;
 };
 
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    const std::size_t n = v.size();
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 struct Row {
     std::string mesh, config;
     std::size_t tets = 0, points = 0, bytes = 0, connectivityBytes = 0, geometryBytes = 0;
@@ -131,7 +125,8 @@ void benchMeshCodec(const MeshCodecBenchArgs& a, GlobalOptions& global) {
     csv << "# volcl bench mesh-codec, load average " << load << ", medians of " << a.runs
         << " interleaved runs (one thread)\n";
     csv << "mesh,config,tets,points,bytes,connectivity_bits_per_tet,geometry_bits_per_vertex,bits_per_tet,"
-           "max_position_error_rel_diagonal,max_scalar_error,encode_ms,decode_ms,encode_mtets_s,decode_mtets_s,"
+           "max_position_error_rel_diagonal,max_scalar_error,encode_ms,decode_ms,encode_mtets_s,decode_mtets_"
+           "s,"
            "ratio_vs_vtu,ratio_vs_gzip9,ratio_vs_xz9\n";
     nlohmann::json j;
     j["load_average"] = load;
@@ -139,16 +134,19 @@ void benchMeshCodec(const MeshCodecBenchArgs& a, GlobalOptions& global) {
     j["peers"] = peers;
     j["rows"] = nlohmann::json::array();
     for (const Row& r : rows) {
-        const auto peer = std::find_if(peers.begin(), peers.end(), [&](const auto& p) { return p["mesh"] == r.mesh; });
-        const double vtuBytes = (*peer)["vtu_bytes"], gzipBytes = (*peer)["gzip9_bytes"], xzBytes = (*peer)["xz9_bytes"];
+        const auto peer =
+            std::find_if(peers.begin(), peers.end(), [&](const auto& p) { return p["mesh"] == r.mesh; });
+        const double vtuBytes = (*peer)["vtu_bytes"], gzipBytes = (*peer)["gzip9_bytes"],
+                     xzBytes = (*peer)["xz9_bytes"];
         const double cbt = 8.0 * double(r.connectivityBytes) / double(r.tets),
-                     gbv = 8.0 * double(r.geometryBytes) / double(r.points), bt = 8.0 * double(r.bytes) / double(r.tets);
+                     gbv = 8.0 * double(r.geometryBytes) / double(r.points),
+                     bt = 8.0 * double(r.bytes) / double(r.tets);
         const double relErr = r.maxPositionError / r.boxDiagonal;
-        csv << r.mesh << ',' << r.config << ',' << r.tets << ',' << r.points << ',' << r.bytes << ',' << cbt << ','
-            << gbv << ',' << bt << ',' << relErr << ',' << r.maxScalarError << ',' << r.encodeMs << ','
-            << r.decodeMs << ',' << double(r.tets) / r.encodeMs / 1e3 << ',' << double(r.tets) / r.decodeMs / 1e3
-            << ',' << vtuBytes / double(r.bytes) << ',' << gzipBytes / double(r.bytes) << ','
-            << xzBytes / double(r.bytes) << '\n';
+        csv << r.mesh << ',' << r.config << ',' << r.tets << ',' << r.points << ',' << r.bytes << ',' << cbt
+            << ',' << gbv << ',' << bt << ',' << relErr << ',' << r.maxScalarError << ',' << r.encodeMs << ','
+            << r.decodeMs << ',' << double(r.tets) / r.encodeMs / 1e3 << ','
+            << double(r.tets) / r.decodeMs / 1e3 << ',' << vtuBytes / double(r.bytes) << ','
+            << gzipBytes / double(r.bytes) << ',' << xzBytes / double(r.bytes) << '\n';
         j["rows"].push_back({{"mesh", r.mesh},
                              {"config", r.config},
                              {"tets", r.tets},

@@ -3,6 +3,7 @@
 #include "../TestUtil.hpp"
 #include "CliRun.hpp"
 
+#include "host/image/ImageIo.hpp"
 #include "host/mesh/MeshGenerator.hpp"
 #include "host/mesh/MeshIo.hpp"
 
@@ -112,5 +113,34 @@ TEST(CliMeshCodec, CorruptAndTruncatedFilesAreRefused) {
             runVolcl(std::string("render --volume ") + f + " --width 8 --height 8 -o out.exr", dir, true), 1,
             f);
         EXPECT_FALSE(fs::exists(dir / "out.exr"));
+    }
+}
+
+// Where compression meets the mesh renderers: a lossless .vcm renders as its source does (the tets come in
+// another order, so only summation order may differ), a 16-bit one within the quantisation's effect, by the
+// exact cell caster and by the k-buffer.
+TEST(CliMeshCodec, RenderersDrawTheDecodedMeshAsTheSource) {
+    const fs::path dir = meshDir();
+    ASSERT_EQ(runVolcl("encode grid.vtu -o l.vcm --lossless", dir, true).exitCode, 0);
+    ASSERT_EQ(runVolcl("encode grid.vtu -o q.vcm", dir, true).exitCode, 0);
+    for (const char* method : {"cells", "kbuffer"}) {
+        SCOPED_TRACE(method);
+        double worst[2] = {0, 0};
+        const std::string common =
+            std::string(" --tf preset:viridis --width 40 --height 40 --method ") + method;
+        ASSERT_EQ(runVolcl("render --volume grid.vtu -o src.exr" + common, dir, true).exitCode, 0);
+        const ImageBuffer src = readImage(dir / "src.exr");
+        const char* files[2] = {"l.vcm", "q.vcm"};
+        for (int f = 0; f < 2; ++f) {
+            const RunResult r =
+                runVolcl(std::string("render --volume ") + files[f] + " -o out.exr" + common, dir, true);
+            ASSERT_EQ(r.exitCode, 0) << r.err;
+            const ImageBuffer img = readImage(dir / "out.exr");
+            ASSERT_EQ(img.pixels.size(), src.pixels.size());
+            for (std::size_t i = 0; i < img.pixels.size(); ++i)
+                worst[f] = std::max(worst[f], double(std::abs(img.pixels[i] - src.pixels[i])));
+        }
+        EXPECT_LE(worst[0], 1e-4) << "lossless";
+        EXPECT_LE(worst[1], 2e-3) << "16 bits";
     }
 }
