@@ -383,31 +383,37 @@ EncodedMesh encodeMesh(const TetMesh& mesh, const VcmOptions& options) {
                                                               : ScalarCodes::toCode(mesh.scalars[i]);
         }
     }
-    // Both geometry predictors are tried (the connectivity comes out the same); the smaller file is kept.
+    // The traversal with the reflection predictor; the centroid predictor is then tried on the same
+    // vertices (geometry depends only on each vertex's origin and the vertices before it, and the
+    // connectivity's ranking only on decoded positions, which both predictors reproduce exactly). The
+    // smaller geometry is kept.
     std::array<std::vector<std::uint8_t>, kVcmSections> sections;
-    std::vector<std::uint32_t> newIndex;
-    std::size_t bestSize = std::numeric_limits<std::size_t>::max();
-    for (const Predictor p : {Predictor::Reflect, Predictor::Average}) {
-        VcmHeader trial = h;
-        trial.predictor = p;
-        SymbolEncoder connectivity, geometrySide;
-        GeometryCoder<SymbolEncoder> geometry(geometrySide, trial, mesh.pointCount(), "encoder");
-        MeshTruth truth(mesh, pointCodes);
-        CutBorder cb(mesh.pointCount());
-        codeConnectivity(connectivity, geometry, truth, cb, h.tets, h.points, "encoder");
-        std::array<std::vector<std::uint8_t>, kVcmSections> trialSections;
-        connectivity.finish(trialSections[ConnectivityRans], trialSections[ConnectivityRaw]);
-        geometrySide.finish(trialSections[GeometryRans], trialSections[GeometryRaw]);
-        std::size_t size = 0;
-        for (const auto& t : trialSections)
-            size += t.size();
-        if (size < bestSize) {
-            bestSize = size;
-            h.predictor = p;
-            sections = std::move(trialSections);
-            newIndex = std::move(truth.newIndex);
+    h.predictor = Predictor::Reflect;
+    SymbolEncoder connectivity, geometrySide;
+    GeometryCoder<SymbolEncoder> geometry(geometrySide, h, mesh.pointCount(), "encoder");
+    MeshTruth truth(mesh, pointCodes);
+    CutBorder cb(mesh.pointCount());
+    codeConnectivity(connectivity, geometry, truth, cb, h.tets, h.points, "encoder");
+    connectivity.finish(sections[ConnectivityRans], sections[ConnectivityRaw]);
+    geometrySide.finish(sections[GeometryRans], sections[GeometryRaw]);
+    {
+        VcmHeader centroid = h;
+        centroid.predictor = Predictor::Average;
+        SymbolEncoder side;
+        GeometryCoder<SymbolEncoder> other(side, centroid, mesh.pointCount(), "encoder");
+        other.codes = geometry.codes;
+        const std::vector<VertexOrigin>& origins = cb.origins();
+        for (std::uint32_t id = 0; id < origins.size(); ++id)
+            other.code(id, origins[id]);
+        std::vector<std::uint8_t> rans, raw;
+        side.finish(rans, raw);
+        if (rans.size() + raw.size() < sections[GeometryRans].size() + sections[GeometryRaw].size()) {
+            h.predictor = Predictor::Average;
+            sections[GeometryRans] = std::move(rans);
+            sections[GeometryRaw] = std::move(raw);
         }
     }
+    std::vector<std::uint32_t> newIndex = std::move(truth.newIndex);
     EncodedMesh out;
     out.bytes = assembleVcm(h, {sections[0], sections[1], sections[2], sections[3]});
     out.newIndex = std::move(newIndex);
