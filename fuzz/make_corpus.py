@@ -296,6 +296,33 @@ def mesh_seeds():
     put("fuzz_mesh_plot3d", "records_be_f64_iblank.xyz", plot3d(">", "d", True, True))
 
 
+def vcm_seeds(volcl):
+    # .vcm meshes encoded by volcl from the mesh seeds: a tet lossless, split hexahedra at 16 and 3 bits,
+    # and a two-component mesh (a second tet apart from the hexahedron) whose border empties midway.
+    with tempfile.TemporaryDirectory() as tmp:
+        def encode(seed_dir, seed, name, args):
+            src = os.path.join(tmp, seed)
+            with open(os.path.join(HERE, "corpus", seed_dir, seed), "rb") as f, open(src, "wb") as g:
+                g.write(f.read())
+            out = os.path.join(tmp, name)
+            subprocess.run([volcl, "--quiet", "encode", src, "-o", out] + args, check=True)
+            with open(out, "rb") as f:
+                put("fuzz_mesh_vcm", name, f.read())
+        encode("fuzz_mesh_vtu", "tet_ascii.vtu", "tet_lossless.vcm", ["--lossless"])
+        encode("fuzz_mesh_vtu", "hex_appended.vtu", "hex_16bits.vcm", [])
+        encode("fuzz_mesh_vtu", "hex_appended.vtu", "hex_3bits.vcm", ["--bits", "3"])
+        two = os.path.join(tmp, "two.vtk")
+        with open(two, "w") as f:
+            f.write("# vtk DataFile Version 2.0\nt\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 8 float\n"
+                    "0 0 0 1 0 0 0 1 0 0 0 1 5 5 5 6 5 5 5 6 5 5 5 6\nCELLS 2 10\n4 0 1 2 3\n4 4 5 6 7\n"
+                    "CELL_TYPES 2\n10\n10\nPOINT_DATA 8\nSCALARS s float 1\nLOOKUP_TABLE default\n"
+                    "0 1 2 3 4 5 6 7\n")
+        out = os.path.join(tmp, "two_components.vcm")
+        subprocess.run([volcl, "--quiet", "encode", two, "-o", out], check=True)
+        with open(out, "rb") as f:
+            put("fuzz_mesh_vcm", "two_components.vcm", f.read())
+
+
 def series_seeds():
     # A .pvd, a NUL byte, then the "frame.nrrd" its data sets name.
     frame = (b"NRRD0004\ntype: uchar\ndimension: 3\nsizes: 4 3 2\nencoding: raw\n\n" + ramp(24))
@@ -325,6 +352,7 @@ def main():
     mesh_seeds()
     series_seeds()
     vcz_and_vdb_seeds(sys.argv[1])
+    vcm_seeds(sys.argv[1])
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@
 
 #include "core/AtomicFile.hpp"
 #include "core/Volume.hpp"
+#include "meshcodec/MeshCodec.hpp"
 #include "render/VecMath.hpp"
 #include "render/bricks/BrickRenderer.hpp"
 #include "render/grid/GridDetail.hpp"
@@ -29,13 +30,13 @@ RenderInput::RenderInput(std::shared_ptr<const mesh::TetMesh> mesh) : mesh_(std:
 RenderInput RenderInput::open(const std::filesystem::path& path, const ReadOptions& options,
                               const mesh::MeshReadOptions& meshOptions) {
     if (path.extension() == ".vcz") return openVcz(path, 0);
-    if (mesh::detectMeshFormat(path)) return openMesh(path, meshOptions);
+    if (meshcodec::isMeshFile(path)) return openMesh(path, meshOptions);
     return fromVolume(readVolume(path, options));
 }
 
 RenderInput RenderInput::openMesh(const std::filesystem::path& path,
                                   const mesh::MeshReadOptions& meshOptions) {
-    mesh::TetMesh m = mesh::readMesh(path, meshOptions);
+    mesh::TetMesh m = meshcodec::readAnyMesh(path, meshOptions);
     const std::size_t folded = m.repairs.overlappingFaces + m.repairs.nonManifoldFaces;
     if (folded > kFoldedFacesAlways && double(folded) > kMaxFoldedFaceShare * double(m.tets.size()))
         throw DataError(

@@ -30,8 +30,8 @@ public:
     /// tetrahedral mesh.
     enum class Kind { Grid, Bricks, Mesh };
 
-    /// Reads `path` with the matching reader: a .vcz as Bricks (frame 0), a mesh when
-    /// mesh::detectMeshFormat() recognises it (read with `meshOptions`), else a volume. Throws what the
+    /// Reads `path` with the matching reader: a .vcz as Bricks (frame 0), a mesh (a .vcm or any format
+    /// mesh::detectMeshFormat() recognises; read with `meshOptions`), else a volume. Throws what the
     /// readers throw (IoError, DataError).
     static RenderInput open(const std::filesystem::path& path, const ReadOptions& options = {},
                             const mesh::MeshReadOptions& meshOptions = {});

@@ -15,11 +15,13 @@ void addBenchCommand(CLI::App& app, GlobalOptions& global) {
     addCodecBench(*bench, global);
     addMotionBench(*bench, global);
     addSeriesBench(*bench, global);
+    addMeshCodecBench(*bench, global);
 
     setExamples(*bench, "  volcl bench codec\n  volcl bench view bench/render/mri_scene.json --frames 8");
     const std::pair<const char*, const char*> examples[] = {
         {"codec", "  volcl bench codec --quick"},
         {"preint", "  volcl bench preint --tf tf.json"},
+        {"mesh-codec", "  volcl bench mesh-codec --runs 5 --json bench/results/mesh_codec.json"},
         {"render", "  volcl bench render --scene bench/render/mri_scene.json --steps 0.5,1\n"
                    "  volcl bench render --volume head.nii.gz --tf preset:grayscale --mode iso --iso 60.5 "
                    "--filters --no-sweep"},

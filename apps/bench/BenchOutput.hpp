@@ -9,7 +9,8 @@ namespace volcl::cli {
 /// Writes `text` to `path` through an AtomicFile, or to stdout when `path` is empty.
 void writeOutput(const std::string& path, const std::string& text);
 
-/// The machine's 1, 5 and 15 minute load averages ("0.52, 0.61, 0.70"), stated beside every timing.
+/// The 1, 5 and 15 minute load averages as `uptime` prints them ("1.02, 0.87, 0.55"), every benchmark's
+/// statement of the machine's load; "unknown" when the system does not say.
 std::string loadAverage();
 
 } // namespace volcl::cli

@@ -116,8 +116,14 @@ std::size_t xzSize(const Volume& v, const fs::path& tmpDir, double& ms) {
         std::ofstream f(in, std::ios::binary);
         f.write(reinterpret_cast<const char*>(v.bytes().data()), static_cast<std::streamsize>(v.byteSize()));
     }
+    const std::size_t n = compressedFileSize("xz -9 -T1", in, ms);
+    fs::remove(in);
+    return n;
+}
+
+std::size_t compressedFileSize(const std::string& compressor, const fs::path& file, double& ms) {
     Stopwatch sw;
-    const std::string cmd = "xz -9 -T1 -c '" + in.string() + "' | wc -c";
+    const std::string cmd = compressor + " -c '" + file.string() + "' | wc -c";
     FILE* p = popen(cmd.c_str(), "r");
     std::size_t n = 0;
     if (p) {
@@ -125,7 +131,6 @@ std::size_t xzSize(const Volume& v, const fs::path& tmpDir, double& ms) {
         pclose(p);
     }
     ms = sw.milliseconds();
-    fs::remove(in);
     return n;
 }
 

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <optional>
+#include <string>
 
 namespace volcl::cli {
 
@@ -31,5 +32,9 @@ std::size_t zstdSize(const Volume& v, int level, double& ms, double& decMs, int 
 /// xz -9 through the xz binary (the general-purpose reference ratio), one single-threaded run timed into
 /// `ms`; the input goes through a temporary file in `tmpDir`. 0 when xz cannot run.
 std::size_t xzSize(const Volume& v, const std::filesystem::path& tmpDir, double& ms);
+
+/// The size of `file` compressed by a command-line compressor writing to stdout with -c ("gzip -9",
+/// "xz -9 -T1"), one run timed into `ms`; 0 when it cannot run.
+std::size_t compressedFileSize(const std::string& compressor, const std::filesystem::path& file, double& ms);
 
 } // namespace volcl::cli

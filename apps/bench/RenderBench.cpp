@@ -20,6 +20,7 @@
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "host/tf/TransferFunction.hpp"
+#include "meshcodec/MeshCodec.hpp"
 #include "render/RenderInput.hpp"
 #include "render/Scene.hpp"
 #include "render/VolumeRenderer.hpp"
@@ -241,7 +242,7 @@ void benchMeshInput(const BenchArgs& a, GlobalOptions& global, Scene scene) {
 
 void benchRender(const BenchArgs& a, GlobalOptions& global) {
     Scene scene = a.scene.build();
-    if (mesh::detectMeshFormat(scene.volume)) return benchMeshInput(a, global, scene);
+    if (meshcodec::isMeshFile(scene.volume)) return benchMeshInput(a, global, scene);
     std::vector<std::string> notes;
     Volume volume = a.scene.readSceneVolume(scene, notes);
     for (auto& note : a.scene.finish(scene, volume))

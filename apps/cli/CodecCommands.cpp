@@ -2,6 +2,7 @@
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/CodecReport.hpp"
 #include "apps/cli/Commands.hpp"
+#include "apps/cli/MeshCodecCommands.hpp"
 #include "apps/cli/VczInfo.hpp"
 #include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
@@ -43,6 +44,8 @@ struct EncodeArgs {
     int levels = 4;
     unsigned threads = 2;
     RawReadFlags raw;
+    int bits = 16; ///< a .vcm output's quantisation
+    MeshReadFlags mesh;
 };
 
 CodecOptions toOptions(const EncodeArgs& a, const CLI::App& cmd) {
@@ -133,8 +136,15 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                     "Input volume(s): one file (a 4D file keeps its frames), several files in frame order, a "
                     "quoted glob ('run_*.vti', natural order) or a ParaView .pvd")
         ->required();
-    cmd->add_option("-o,--output", a->out, "Output .vcz file")->required();
-    cmd->add_flag("--lossless", a->lossless, "Bit-exact (default)");
+    cmd->add_option("-o,--output", a->out,
+                    "Output .vcz file, or .vcm for a tetrahedral mesh input (cut-border mesh compression)")
+        ->required();
+    cmd->add_flag("--lossless", a->lossless,
+                  "Bit-exact (default; a .vcm: float64 positions, float32 scalars)");
+    cmd->add_option(
+        "--bits", a->bits,
+        "A .vcm: quantisation bits per coordinate and scalar, 1-30 (default 16; error at most half a "
+        "step of the bounding box per axis)");
     cmd->add_option("--max-error", a->maxError,
                     "Lossy: every voxel within E of the input (guaranteed; data units of a scaled NIfTI)");
     cmd->add_option("--psnr", a->psnr,
@@ -161,7 +171,18 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
                   "Series: P frames use block motion alone, never a global sub-voxel translation of the "
                   "reference (files that decoders before it read)");
     a->raw.add(*cmd);
+    a->mesh.add(*cmd);
     cmd->callback([a, cmd, &global] {
+        if (writesVcm(a->out)) {
+            if (a->in.size() != 1) throw UsageError("a .vcm holds one mesh: give one input file");
+            if (a->lossless && cmd->count("--bits")) throw UsageError("choose one of --lossless, --bits");
+            for (const char* flag : {"--max-error", "--psnr", "--bpv", "--step"})
+                if (cmd->count(flag))
+                    throw UsageError(std::string(flag) + " applies to .vcz; a .vcm takes --bits");
+            encodeMeshCommand(a->in[0], a->out, {a->bits, a->lossless}, a->mesh, global.quiet);
+            return;
+        }
+        if (cmd->count("--bits")) throw UsageError("--bits applies to a .vcm output");
         const CodecOptions o = toOptions(*a, *cmd);
         if (!isVcz(a->out)) throw UsageError("output " + a->out + " must end in .vcz");
         // A second thread reads the input while the OpenCL platform starts: in a one-shot run its start
@@ -258,13 +279,14 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
         std::size_t frame = 0;
         unsigned threads = 2;
         bool profile = false;
+        VtuWriteFlags vtu;
     };
     auto a = std::make_shared<Args>();
-    cmd->add_option("input", a->in, "Input .vcz file")->required();
+    cmd->add_option("input", a->in, "Input .vcz file, or a .vcm mesh (decodes to .vtu)")->required();
     cmd->add_option(
            "-o,--output", a->out,
            "Output volume: .raw, .nrrd, .nhdr, .nii, .nii.gz (3D or 4D; a NIfTI source's header restored), "
-           ".vti or .vdb")
+           ".vti or .vdb; .vtu for a .vcm mesh")
         ->required();
     cmd->add_option("--region", a->region,
                     "Voxel box x0,y0,z0:x1,y1,z1 (half-open, full-resolution indices)");
@@ -275,7 +297,12 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
         "such as frames_%03d.nrrd; other formats need --frame)");
     cmd->add_option("--threads", a->threads, "Host threads for entropy decoding (default 2)");
     cmd->add_flag("--profile", a->profile, "Print the time of each pipeline stage");
+    a->vtu.add(*cmd);
     cmd->callback([a, cmd, &global] {
+        if (meshcodec::isVcmFile(a->in)) {
+            decodeMeshCommand(a->in, a->out, a->vtu, global.quiet);
+            return;
+        }
         checkNotSameFile({std::filesystem::path(a->in)}, volumeFilesWritten(a->out));
         DecodeOptions o;
         CodecProfile prof;

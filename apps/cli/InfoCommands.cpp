@@ -1,6 +1,7 @@
 // `volcl info`, `volcl devices` and `volcl convert`.
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/Commands.hpp"
+#include "apps/cli/MeshCodecCommands.hpp"
 #include "apps/cli/MeshInfo.hpp"
 #include "apps/cli/Progress.hpp"
 #include "apps/cli/VczInfo.hpp"
@@ -151,6 +152,10 @@ void addInfo(CLI::App& app, GlobalOptions& global) {
     raw->add(*cmd);
     meshFlags->add(*cmd);
     cmd->callback([file, json, bricks, raw, meshFlags, &global] {
+        if (meshcodec::isVcmFile(*file)) {
+            printVcmInfo(std::cout, *file, *meshFlags, *json);
+            return;
+        }
         if (mesh::detectMeshFormat(*file)) {
             printMeshInfo(std::cout, *file, mesh::readMesh(*file, meshFlags->toReadOptions()), *json);
             return;
@@ -245,10 +250,10 @@ void addConvert(CLI::App& app, GlobalOptions& global) {
     a->vtu.add(*cmd);
     cmd->callback([a, cmd, &global] {
         checkNotSameFile(a->in, a->out);
-        if (mesh::detectMeshFormat(a->in)) { // a mesh converts to .vtu only
+        if (meshcodec::isMeshFile(a->in)) { // a mesh converts to .vtu only
             if (!a->out.ends_with(".vtu")) throw UsageError("-o " + a->out + ": a mesh converts to .vtu");
             const mesh::VtuWriteOptions wo = a->vtu.toWriteOptions();
-            const mesh::TetMesh m = mesh::readMesh(a->in, a->mesh.toReadOptions());
+            const mesh::TetMesh m = meshcodec::readAnyMesh(a->in, a->mesh.toReadOptions());
             mesh::writeVtu(m, a->out, wo);
             if (!global.quiet)
                 std::cerr << "volcl: wrote " << a->out << " (" << m.pointCount() << " points, "

@@ -4,6 +4,7 @@
 #include "core/AtomicFile.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "host/io/NiftiMetadata.hpp"
+#include "meshcodec/MeshCodec.hpp"
 #include "wavelet/Codec.hpp"
 
 #include "core/Error.hpp"
@@ -468,7 +469,7 @@ double paraViewUnitDistance(const Volume& v) {
 
 RenderInput SceneFlags::readSceneInput(const Scene& s, std::vector<std::string>& notes,
                                        std::vector<std::filesystem::path>* filesRead) const {
-    if (mesh::detectMeshFormat(s.volume)) {
+    if (meshcodec::isMeshFile(s.volume)) {
         if (filesRead) *filesRead = {s.volume};
         return RenderInput::openMesh(s.volume, mesh.toReadOptions());
     }

@@ -24,14 +24,6 @@ struct EncodeSide {
     std::uintptr_t previousRow[kMaxLanes] = {}; // per lane, the row of its last row flag
     const DenseEncoderKernels* simd = nullptr;  // vector passes instead of the scalar ones
 
-    /// The event of an adaptive binary decision; updates the model.
-    /// Masks instead of selects (signs are close to random, and GCC makes jumps of the selects).
-    static RansEvent binaryEvent(BitModel& m, unsigned bit, unsigned lane) {
-        const std::uint32_t p0 = m.p0, one = 0u - static_cast<std::uint32_t>(bit);
-        const std::uint32_t up = p0 + ((kBinaryScale - p0) >> 5), down = p0 - (p0 >> 5);
-        m.p0 = up ^ ((up ^ down) & one);
-        return ransEvent(p0 & one, p0 ^ ((p0 ^ (kBinaryScale - p0)) & one), true, lane);
-    }
     void binary(unsigned lane, BitModel& m, unsigned bit) { *next++ = binaryEvent(m, bit, lane); }
     bool rowFlag(unsigned lane, unsigned rctx, const std::int32_t* row, std::size_t nx) {
         // The lane's next row is likely as far on as this one from its previous row: fetch it now (the

@@ -80,6 +80,15 @@ struct BitModel {
     std::uint32_t p0 = kBinaryScale / 2;
 };
 
+/// The event of an adaptive binary decision; updates the model as WordReader::bit() does.
+/// Masks instead of selects (signs are close to random, and GCC makes jumps of the selects).
+inline RansEvent binaryEvent(BitModel& m, unsigned bit, unsigned lane) {
+    const std::uint32_t p0 = m.p0, one = 0u - static_cast<std::uint32_t>(bit);
+    const std::uint32_t up = p0 + ((kBinaryScale - p0) >> 5), down = p0 - (p0 >> 5);
+    m.p0 = up ^ ((up ^ down) & one);
+    return ransEvent(p0 & one, p0 ^ ((p0 ^ (kBinaryScale - p0)) & one), true, lane);
+}
+
 // Read side of the word stream. Decoding is branch-free: data-dependent decisions are turned into masks and
 // arithmetic instead of jumps, because they are close to random and mispredicted jumps cost more than the
 // arithmetic. The stream is read from a copy with zero padding (made by RansDecoder::padded()) at a clamped
