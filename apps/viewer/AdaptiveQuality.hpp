@@ -7,9 +7,11 @@ namespace volcl::viewer {
 struct QualityLevel {
     double resolutionScale = 1.0; ///< image edge relative to the viewport, (0, 1]
     double stepScale = 1.0;       ///< ray step relative to the scene's step, >= 1
-    /// Work relative to full quality: rays times samples per ray.
-    double work() const noexcept { return resolutionScale * resolutionScale / stepScale; }
-    bool full() const noexcept { return resolutionScale >= 1.0 && stepScale <= 1.0; }
+    /// Fraction of a k-buffer mesh's internal faces drawn (KBufferRenderer::setLodFraction), (0, 1].
+    double faceFraction = 1.0;
+    /// Work relative to full quality: rays times samples per ray (times the faces drawn).
+    double work() const noexcept { return resolutionScale * resolutionScale / stepScale * faceFraction; }
+    bool full() const noexcept { return resolutionScale >= 1.0 && stepScale <= 1.0 && faceFraction >= 1.0; }
 };
 
 struct AdaptiveQualityOptions {
@@ -28,12 +30,17 @@ struct AdaptiveQualityOptions {
     /// Step scales come from the ladder 2^(k/4): a pre-integration table is rebuilt per distinct step, so
     /// a few levels keep tables cached rather than rebuilt every frame.
     int stepLevelsPerOctave = 4;
+    /// The renderer draws a subset of a mesh's faces (the k-buffer's level of detail, Callahan 5.1): the work
+    /// goes to the face fraction first (the step is not used), down to minFaceFraction, then to resolution.
+    bool faceLevels = false;
+    double minFaceFraction = 0.01;
 };
 
 /// Frame-rate controller. While interacting, work_next = aim / cost, cost the frame time per unit of work
 /// smoothed over frames (aim = aimFraction * target; after Callahan 2005,
 /// section 5.1.1, which sizes the LOD face count the same way); the work is split between a coarser step
-/// and a lower resolution, equally in log scale until the step reaches its limit, then by resolution alone.
+/// and a lower resolution, equally in log scale until the step reaches its limit, then by resolution alone
+/// (with faceLevels: the face fraction alone until its limit, then resolution).
 /// When the user is still, the viewer renders full quality and leaves the controller's state as it was, so
 /// the next interaction starts from the level that held the target. Example:
 /// ```
@@ -59,7 +66,7 @@ public:
     double work() const noexcept { return work_; }
     /// Splits a work fraction into step and resolution (exposed for tests and the benchmark).
     QualityLevel split(double work) const;
-    /// Smallest work the limits allow (minimum resolution at the largest step).
+    /// Smallest work the limits allow (minimum resolution at the largest step, or the fewest faces).
     double minWork() const noexcept;
 
 private:

@@ -7,6 +7,7 @@
 #include "core/runtime/Timing.hpp"
 #include "render/VecMath.hpp"
 #include "render/grid/GridRenderer.hpp"
+#include "render/mesh/KBufferRenderer.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -16,6 +17,14 @@
 
 namespace volcl::viewer {
 namespace {
+
+/// The controller's options for what the session renders: a mesh drawn by the k-buffer spends the level on
+/// its face subset (Callahan 5.1-5.2) before the resolution.
+AdaptiveQualityOptions adaptiveFor(AdaptiveQualityOptions o, const RenderInput& input, const Scene& scene) {
+    if (input.kind() == RenderInput::Kind::Mesh && scene.meshMethod == MeshMethod::KBuffer)
+        o.faceLevels = true;
+    return o;
+}
 
 struct KeyBinding {
     char key;
@@ -120,7 +129,8 @@ ViewerSession::ViewerSession(ComputeContext& cc, RenderInput input, const Scene&
                              const AdaptiveQualityOptions& adaptive)
     : cc_(cc), input_(std::move(input)), range_(input_.valueRange()), base_(scene), original_(scene),
       tfPath_(std::move(tfPath)), presets_(transferFunctionPresets(range_, input_.bounds(), tf)),
-      camera_(scene.camera ? *scene.camera : defaultCamera(input_.bounds())), adaptive_(adaptive) {
+      camera_(scene.camera ? *scene.camera : defaultCamera(input_.bounds())),
+      adaptive_(adaptiveFor(adaptive, input_, scene)) {
     base_.validate();
     original_.camera = camera_.camera();
     Scene first = base_;
@@ -273,6 +283,11 @@ ViewerFrame ViewerSession::renderFrame(int width, int height, bool interactive) 
     f.level.stepScale = want.stepScale;
     f.level.resolutionScale = std::sqrt(double(s.width) * s.height / (double(width) * height));
 
+    // A k-buffer mesh drops internal faces for the level (the boundary always stays).
+    auto* kbuffer = dynamic_cast<KBufferRenderer*>(renderer_.get());
+    if (kbuffer) kbuffer->setLodFraction(want.faceFraction);
+    f.level.faceFraction = kbuffer ? want.faceFraction : 1.0;
+
     const KernelDefines before = renderer_->plan().defines;
     Stopwatch sw;
     // Camera, size and step alone take the renderer's cheap path; effect or mode changes re-plan.
@@ -333,6 +348,8 @@ std::string ViewerSession::title(const ViewerFrame& last, double frameMs) const 
     os << buf;
     if (adaptive_.options().enabled)
         os << " | adaptive " << formatNumber(adaptive_.options().targetMs, 3) << " ms";
+    if (last.level.faceFraction < 1.0)
+        os << " | faces " << formatNumber(100.0 * last.level.faceFraction, 3) << " %";
     if (!last.level.full()) os << " [interactive]";
     return os.str();
 }
