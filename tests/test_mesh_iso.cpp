@@ -65,7 +65,8 @@ std::vector<IsoLayer> threeLayers(const mesh::TetMesh& m) {
         if (std::isfinite(x)) v.push_back(x);
     std::sort(v.begin(), v.end());
     const auto q = [&](double f) { return double(v[std::size_t(f * double(v.size() - 1))]); };
-    return {{q(0.25), {1.0, 0.7, 0.4, 0.35}}, {q(0.5), {0.4, 0.9, 0.5, 0.3}}, {q(0.75), {0.4, 0.6, 1.0, 0.45}}};
+    return {
+        {q(0.25), {1.0, 0.7, 0.4, 0.35}}, {q(0.5), {0.4, 0.9, 0.5, 0.3}}, {q(0.75), {0.4, 0.6, 1.0, 0.45}}};
 }
 
 TransferFunction anyTf(const mesh::TetMesh& m) {
@@ -76,24 +77,12 @@ TransferFunction anyTf(const mesh::TetMesh& m) {
     return tf;
 }
 
-ImageBuffer renderWith(const mesh::TetMesh& m, const TransferFunction& tf, Scene s, MeshMethod method, int k = 6) {
+ImageBuffer renderWith(const mesh::TetMesh& m, const TransferFunction& tf, Scene s, MeshMethod method,
+                       int k = 6) {
     s.meshMethod = method;
     s.kBufferDepth = k;
     const RenderInput in = RenderInput::borrowMesh(m);
     return in.makeRenderer(test::computeContext(), tf, s)->render();
-}
-
-/// RMSE over R, G, B, A only (the cell caster's iso image also has a depth channel).
-double rgbaRmse(const ImageBuffer& a, const ImageBuffer& b) {
-    const std::size_t ca = a.channels.size(), cb = b.channels.size();
-    double sum = 0;
-    const std::size_t n = std::size_t(a.width) * a.height;
-    for (std::size_t p = 0; p < n; ++p)
-        for (std::size_t c = 0; c < 4; ++c) {
-            const double d = double(a.pixels[p * ca + c]) - double(b.pixels[p * cb + c]);
-            sum += d * d;
-        }
-    return std::sqrt(sum / double(4 * n));
 }
 
 double meanAlpha(const ImageBuffer& img) {
@@ -160,8 +149,8 @@ TEST(VertexNormals, SmoothNormalsAreCloserToTheSphereThanFlat) {
     }
     ASSERT_GT(n, 1000u);
     std::cout << "sphere distance field, " << n << " points: mean angle to the true normal flat "
-              << flatSum / double(n) << " deg, smooth " << smoothSum / double(n) << " deg; max flat " << flatMax
-              << ", smooth " << smoothMax << '\n';
+              << flatSum / double(n) << " deg, smooth " << smoothSum / double(n) << " deg; max flat "
+              << flatMax << ", smooth " << smoothMax << '\n';
     EXPECT_LT(smoothSum, 0.5 * flatSum);
     EXPECT_LT(smoothMax, flatMax);
 }
@@ -169,9 +158,8 @@ TEST(VertexNormals, SmoothNormalsAreCloserToTheSphereThanFlat) {
 TEST(VertexNormals, LinearFieldKeepsItsGradientAndNanTetsAddNothing) {
     // A linear field: every tet's gradient is the same, so every vertex normal and every interpolated normal is
     // that gradient; a NaN vertex's tets are skipped, and their other vertices keep the finite tets' mean.
-    mesh::TetMesh m = mesh::generateHexGridMesh({3, 3, 3}, {0, 0, 0}, {1, 2, 3}, [](double x, double y, double z) {
-        return 2.0 * x - y + 0.5 * z;
-    });
+    mesh::TetMesh m = mesh::generateHexGridMesh(
+        {3, 3, 3}, {0, 0, 0}, {1, 2, 3}, [](double x, double y, double z) { return 2.0 * x - y + 0.5 * z; });
     const Vec3 g{2.0, -1.0, 0.5};
     for (const Vec3& n : vertexNormals(m))
         EXPECT_LT(norm(sub(n, g)), 1e-6); // float scalars
@@ -195,7 +183,7 @@ TEST(MeshIsoSmooth, CellsMatchTheReferenceFlatAndSmooth) {
         Scene s = isoScene(m, 48, 48, {{radius, {1.0, 0.8, 0.5, 1.0}}}, smooth);
         const ImageBuffer cells = renderWith(m, tf, s, MeshMethod::Cells);
         const ImageBuffer ref = RenderInput::borrowMesh(m).renderReference(tf, s);
-        EXPECT_LE(rgbaRmse(cells, ref), 2e-3) << "smooth " << smooth;
+        EXPECT_LE(imageRmse(cells, ref), 2e-3) << "smooth " << smooth;
     }
     // The analytic image: orthographic rays of the same camera, Blinn-Phong with the scene's coefficients.
     Scene s = isoScene(m, 64, 64, {{radius, {1.0, 0.8, 0.5, 1.0}}});
@@ -234,8 +222,9 @@ TEST(MeshIsoSmooth, CellsMatchTheReferenceFlatAndSmooth) {
         }
     ASSERT_GT(hits, 200u);
     const double rmsSmooth = std::sqrt(errSmooth / (3.0 * hits)), rmsFlat = std::sqrt(errFlat / (3.0 * hits));
-    std::cout << "lit sphere r = 0.6 on 10^3 cells, " << hits << " pixels against the analytic image: RMSE smooth "
-              << rmsSmooth << ", flat " << rmsFlat << '\n';
+    std::cout << "lit sphere r = 0.6 on 10^3 cells, " << hits
+              << " pixels against the analytic image: RMSE smooth " << rmsSmooth << ", flat " << rmsFlat
+              << '\n';
     EXPECT_LT(rmsSmooth, 0.6 * rmsFlat);
 }
 
@@ -266,7 +255,8 @@ TEST(KBufferIso, KernelMatchesMirror) {
                     double d = 0;
                     for (std::size_t i = 0; i < dev.pixels.size(); ++i)
                         d = std::max(d, double(std::abs(dev.pixels[i] - ref.pixels[i])));
-                    EXPECT_LE(d, 1e-4) << "persp " << persp << " shaded " << shaded << " k " << k << " lod " << lod;
+                    EXPECT_LE(d, 1e-4)
+                        << "persp " << persp << " shaded " << shaded << " k " << k << " lod " << lod;
                     EXPECT_GT(meanAlpha(dev), 0.05);
                     ++cases;
                 }
@@ -284,8 +274,9 @@ TEST(KBufferIso, MatchesTheCellCasterOnAGeneratedMesh) {
             s.camera = frameBox(meshBounds(m), orbitDirection(35.0, 25.0), proj, 35.0, 1.0);
             const ImageBuffer cells = renderWith(m, tf, s, MeshMethod::Cells);
             const ImageBuffer kb = renderWith(m, tf, s, MeshMethod::KBuffer, 6);
-            const double e = rgbaRmse(kb, cells);
-            std::cout << m.tetCount() << " tets, " << (proj == Projection::Perspective ? "perspective" : "ortho")
+            const double e = imageRmse(kb, cells);
+            std::cout << m.tetCount() << " tets, "
+                      << (proj == Projection::Perspective ? "perspective" : "ortho")
                       << ": k-buffer iso vs cells RMSE " << e << ", mean alpha " << meanAlpha(cells) << '\n';
             EXPECT_LE(e, 0.005);
             EXPECT_GT(meanAlpha(cells), 0.05);
@@ -316,12 +307,13 @@ TEST(KBufferIso, MatchesTheCellCasterOnTheSharedMeshes) {
             const Scene s = isoScene(m, 128, 128, quartiles ? threeLayers(m) : rangeLayers);
             const ImageBuffer cells = renderWith(m, tf, s, MeshMethod::Cells);
             for (int k : {6, 8}) {
-                const double e = rgbaRmse(renderWith(m, tf, s, MeshMethod::KBuffer, k), cells);
+                const double e = imageRmse(renderWith(m, tf, s, MeshMethod::KBuffer, k), cells);
                 std::cout << file << (quartiles ? " quartile" : " range") << " layers: k-buffer iso (k " << k
                           << ") vs cells RMSE " << e << ", mean alpha " << meanAlpha(cells) << '\n';
                 EXPECT_GT(meanAlpha(cells), 0.01) << file;
                 // The goal (0.005) everywhere but the fin's boundary-layer quartiles, which are bounded.
-                EXPECT_LE(e, fin && quartiles ? 0.04 : 0.005) << file << " quartiles " << quartiles << " k " << k;
+                EXPECT_LE(e, fin && quartiles ? 0.04 : 0.005)
+                    << file << " quartiles " << quartiles << " k " << k;
             }
         }
         ++done;

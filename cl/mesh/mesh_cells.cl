@@ -12,6 +12,7 @@
    ray_advance), NAN_COLOR (the mesh has NaN cells, marked by a NaN field; NAN_R/G/B/TAU: the NaN
    colour). */
 #include "common/camera_rays.h"
+#include "common/iso_crossings.h"
 #include "common/shading.h"
 #include "common/tf_lookup.h"
 
@@ -398,21 +399,7 @@ inline void cell_segment(const MeshData* M, const VolclMeshRenderParams* Pc, con
     /* Crossings inside the segment, in ray order. */
     float us[ISO_COUNT];
     int ids[ISO_COUNT];
-    int nc = 0;
-    for (int i = 0; i < (int)Pc->iso.count; ++i) {
-        const float v = Pc->iso.value[i];
-        if ((sa >= v) != (sb >= v)) {
-            float u = clamp((v - sa) / (sb - sa), 0.0f, 1.0f);
-            int j = nc++;
-            while (j > 0 && us[j - 1] > u) {
-                us[j] = us[j - 1];
-                ids[j] = ids[j - 1];
-                --j;
-            }
-            us[j] = u;
-            ids[j] = i;
-        }
-    }
+    const int nc = iso_crossings(&Pc->iso, sa, sb, us, ids);
     for (int c = 0; c < nc; ++c) {
         const float u = us[c];
 #if MODE == 0

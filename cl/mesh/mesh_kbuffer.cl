@@ -10,6 +10,7 @@
    the two fragments' faces and along the segment (kb_iso_segment). */
 #include "mesh_kbuffer_shared.h"
 #ifdef KB_ISO
+#include "common/iso_crossings.h"
 #include "common/shading.h"
 #endif
 
@@ -412,21 +413,7 @@ KB_INLINE float4 kb_iso_segment(float4 acc, KbFrag p, KbFrag q, float fx, float 
     const VolclIsoParams* I = X->iso;
     float us[ISO_COUNT];
     int ids[ISO_COUNT];
-    int nc = 0;
-    for (int i = 0; i < (int)I->count; ++i) {
-        const float v = I->value[i];
-        if ((p.s >= v) != (q.s >= v)) {
-            const float u = clamp((v - p.s) / (q.s - p.s), 0.0f, 1.0f);
-            int j = nc++;
-            while (j > 0 && us[j - 1] > u) {
-                us[j] = us[j - 1];
-                ids[j] = ids[j - 1];
-                --j;
-            }
-            us[j] = u;
-            ids[j] = i;
-        }
-    }
+    const int nc = iso_crossings(I, p.s, q.s, us, ids);
     if (nc == 0) return acc;
 #ifdef SHADING
     const VolclLightingParams* Lp = X->light;
