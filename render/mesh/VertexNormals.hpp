@@ -28,7 +28,8 @@ struct TetNormalField {
     Vec3 p0{0, 0, 0};
     Vec3 at(const Vec3& x) const {
         const Vec3 r = sub(x, p0);
-        return {value[0] + dot(gradient[0], r), value[1] + dot(gradient[1], r), value[2] + dot(gradient[2], r)};
+        return {value[0] + dot(gradient[0], r), value[1] + dot(gradient[1], r),
+                value[2] + dot(gradient[2], r)};
     }
 };
 TetNormalField tetNormalField(const mesh::TetMesh& mesh, const std::vector<Vec3>& normals, std::size_t tet);
