@@ -4,11 +4,12 @@
 ZSweep (vtkUnstructuredGridVolumeZSweepMapper) on the job's mesh, TF, camera and image size.
 
 Reads a JSON job written by volcl: the mesh as raw files (points float64 x 3, tets int64 x 4, point scalars
-float32), TF samples (s, r, g, b, opacity per unit length), camera, image size, runs and the mappers to run.
+float32), TF samples (s, r, g, b, opacity 1 - exp(-tau) of a unit length), camera, image size, runs and the mappers to run.
 Writes, per mapper, the median ms per frame and the last image as float32 RGBA, top row first, colour over a
 black background (associated colour). Run under xvfb-run.
 """
 import json
+import math
 import statistics
 import sys
 import time
@@ -16,6 +17,18 @@ import time
 import numpy as np
 import vtk
 from vtk.util import numpy_support
+
+
+def vtk_scalar_opacity(opacity_per_unit_length):
+    """The value VTK's unstructured-grid mappers need in the scalar opacity function for a job sample.
+
+    The job carries the opacity of a unit length, 1 - exp(-tau) (what the grid mappers read), but
+    vtkUnstructuredGridPartialPreIntegration (Bunyk's default integrator) and vtkProjectedTetrahedraMapper read
+    the scalar opacity function as the attenuation coefficient per unit distance (divided by the unit distance):
+    the partial pre-integration's colours hold opacity / unit_distance as extinction, and the projected
+    tetrahedra's fragment shader takes 1 - exp(-attenuation * thickness). So the extinction tau goes in."""
+    a = min(max(float(opacity_per_unit_length), 0.0), 1.0 - 1e-15)
+    return -math.log1p(-a)
 
 
 def make_grid(job):
@@ -108,11 +121,11 @@ def main(job_path):
     opacity = vtk.vtkPiecewiseFunction()
     for s, r, g, b, a in job["tf"]:
         color.AddRGBPoint(s, r, g, b)
-        opacity.AddPoint(s, a)
+        opacity.AddPoint(s, vtk_scalar_opacity(a))
     prop = vtk.vtkVolumeProperty()
     prop.SetColor(color)
     prop.SetScalarOpacity(opacity)
-    prop.SetScalarOpacityUnitDistance(1.0)  # opacities are per unit world length, as volcl's tau
+    prop.SetScalarOpacityUnitDistance(1.0)  # extinction per unit world length, as volcl's tau
     prop.SetInterpolationTypeToLinear()
     prop.ShadeOff()
     out = {"vtk_version": vtk.vtkVersion.GetVTKVersion(), "mappers": {}}

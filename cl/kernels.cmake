@@ -6,6 +6,7 @@ set(VOLCL_KERNEL_FILES
   volcl_shared.h
   common/camera_rays.h
   common/shading.h
+  common/iso_crossings.h
   common/tf_lookup.h
   common/grid_sample.h
   common/fog.h

@@ -351,7 +351,15 @@ void parseShading(const json& sh, SceneEffects& fx) {
     if (sh.is_boolean()) {
         fx.shading = sh.get<bool>();
     } else {
-        checkKeys(sh, "effects.shading", {"ambient", "diffuse", "specular", "shininess", "preintegrated"});
+        checkKeys(sh, "effects.shading",
+                  {"ambient", "diffuse", "specular", "shininess", "preintegrated", "normals"});
+        if (sh.contains("normals")) {
+            const std::string n = str(sh["normals"], "effects.shading.normals");
+            if (n != "flat" && n != "smooth")
+                throw UsageError("effects.shading.normals must be \"flat\" or \"smooth\" (got \"" + n +
+                                 "\")");
+            fx.smoothNormals = n == "smooth";
+        }
         if (sh.contains("preintegrated"))
             fx.shadingPreintegrated = flag(sh["preintegrated"], "effects.shading.preintegrated");
         fx.shading = true;
@@ -536,6 +544,7 @@ std::string Scene::toJson() const {
                         {"specular", effects.specular},
                         {"shininess", effects.shininess}};
         if (effects.shadingPreintegrated) e["shading"]["preintegrated"] = true;
+        if (!effects.smoothNormals) e["shading"]["normals"] = "flat";
     }
     if (effects.isoTable) e["isosurface_method"] = "table";
     e["gradient"] = effects.gradient == GradientKind::Sobel ? "sobel" : "central";

@@ -127,6 +127,9 @@ struct SceneEffects {
     /// Shade through the pre-integrated lighting table (2D pre-integration): gradients at both segment ends,
     /// diffuse weighted by the table's front/back terms, specular at the table's emission centroid.
     bool shadingPreintegrated = false;
+    /// Meshes: shade with vertex normals interpolated inside each tet (render/mesh/VertexNormals.hpp) instead of
+    /// each tet's constant gradient ("normals": "smooth" | "flat"). Grids take the gradient at the sample.
+    bool smoothNormals = true;
     /// Iso-surfaces from the iso-surface table of the segment's end values (iso mode) instead of the exact
     /// per-cell roots ("isosurface_method": "table" | "roots").
     bool isoTable = false;

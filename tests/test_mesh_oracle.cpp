@@ -269,6 +269,21 @@ void checkAgainstOracle(const std::string& name, const mesh::TetMesh& m, const s
     // One renderer of each kind for all views: a view change keeps the mesh and the table on the device.
     const auto cellsRenderer = in.makeRenderer(test::computeContext(), tf, s);
     const auto kbufferRenderer = layered ? nullptr : in.makeRenderer(test::computeContext(), tf, ks);
+    // Lit iso mode where the features meet these meshes (holes, re-entries, perspective): two transparent layers
+    // by the k-buffer against the cell caster's iso mode, and the cell caster against the reference.
+    Scene is = s;
+    is.mode = RenderMode::Iso;
+    is.effects.shading = true;
+    is.effects.shadingGiven = true;
+    is.lights = {{LightKind::Directional, {0.3, -0.5, -1}, {1, 1, 1}, 1.0}};
+    const double lo = m.valueMin, hi = m.valueMax;
+    is.effects.isosurfaces = {{lo + 0.4 * (hi - lo), {1.0, 0.7, 0.4, 0.4}},
+                              {lo + 0.65 * (hi - lo), {0.4, 0.6, 1.0, 0.5}}};
+    Scene kis = is;
+    kis.meshMethod = MeshMethod::KBuffer;
+    const auto cellsIso = in.makeRenderer(test::computeContext(), tf, is);
+    const auto kbufferIso = layered ? nullptr : in.makeRenderer(test::computeContext(), tf, kis);
+    double isoCoverage = 0.0; // the layers show in the views on average (an eye in a cavity may see none)
     for (const View& v : vs) {
         s.camera = v.camera;
         const ImageBuffer oracle = oracleRender(m, tf, s);
@@ -284,7 +299,21 @@ void checkAgainstOracle(const std::string& name, const mesh::TetMesh& m, const s
                       << '\n';
             if (!v.eyeInside) EXPECT_LE(ek.rmse, 0.005) << name << ", " << v.name << ": kbuffer";
         }
+        is.camera = v.camera;
+        cellsIso->setView(v.camera, s.width, s.height, s.step);
+        const ImageBuffer ci = cellsIso->render();
+        const double eir = imageRmse(ci, meshReferenceRender(m, tf, is));
+        EXPECT_LE(eir, 0.002) << name << ", " << v.name << ": cells iso against the reference";
+        isoCoverage += meanAlpha(ci);
+        if (kbufferIso && !v.eyeInside) {
+            kbufferIso->setView(v.camera, s.width, s.height, s.step);
+            const double eik = imageRmse(kbufferIso->render(), ci);
+            std::cout << name << ", " << v.name << ": iso cells vs reference RMSE " << eir
+                      << ", k-buffer vs cells RMSE " << eik << '\n';
+            EXPECT_LE(eik, 0.005) << name << ", " << v.name << ": k-buffer iso";
+        }
     }
+    EXPECT_GT(isoCoverage / double(vs.size()), 0.02) << name << ": the iso layers must show";
 }
 
 /// X-ray (1 - exp(-optical depth)) of the cell caster and the reference against the oracle: every covered part

@@ -15,8 +15,11 @@
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "render/Reference.hpp"
+#include "host/mesh/MeshGenerator.hpp"
+#include "render/RenderInput.hpp"
 #include "render/VecMath.hpp"
 #include "render/grid/GridRenderer.hpp"
+#include "render/mesh/KBufferRenderer.hpp"
 
 #include <epoxy/gl.h>
 #include <gtest/gtest.h>
@@ -937,4 +940,62 @@ TEST(ViewerSession, PreviewTiersWhileMovingThenRefineToTheRayMarcher) {
         EXPECT_EQ(s.renderFrame(64, 64, true).level.tier, GridMethod::Raymarch);
         EXPECT_FALSE(s.refining());
     }
+}
+
+TEST(AdaptiveQuality, FaceLevelsSpendTheWorkOnFacesFirst) {
+    AdaptiveQuality aq({.faceLevels = true, .minFaceFraction = 0.05});
+    for (double w : {1.0, 0.5, 0.1, 0.05}) {
+        const QualityLevel q = aq.split(w);
+        EXPECT_NEAR(q.faceFraction, w, 1e-12);
+        EXPECT_EQ(q.resolutionScale, 1.0);
+        EXPECT_EQ(q.stepScale, 1.0);
+    }
+    const QualityLevel low = aq.split(0.0125); // below the face limit: the resolution takes the rest
+    EXPECT_NEAR(low.faceFraction, 0.05, 1e-12);
+    EXPECT_NEAR(low.resolutionScale, 0.5, 1e-9);
+    EXPECT_NEAR(low.work(), 0.0125, 1e-9);
+    EXPECT_FALSE(low.full());
+    EXPECT_THROW(AdaptiveQuality({.minFaceFraction = 0.0}), UsageError);
+}
+
+TEST(ViewerSession, KBufferMeshDropsFacesWhileMovingAndRefinesWhenStill) {
+    // A k-buffer mesh in the viewer: interactive frames over the target draw fewer internal faces at the full
+    // viewport size (the boundary always stays), a still frame draws every face and equals a fresh render.
+    const mesh::TetMesh m = mesh::marschnerLobbMesh(12);
+    TransferFunction tf;
+    tf.domain = {m.valueMin, m.valueMax};
+    tf.color = {{m.valueMin, {0.2, 0.4, 1.0}}, {m.valueMax, {1.0, 0.8, 0.3}}};
+    tf.extinction = {{m.valueMin, 0.5}, {m.valueMax, 4.0}};
+    Scene scene;
+    scene.meshMethod = MeshMethod::KBuffer;
+    scene.kBufferDepth = 6;
+    scene.earlyTermination = 1.0;
+    AdaptiveQualityOptions ao;
+    ao.targetMs = 100.0;
+    ViewerSession s(test::computeContext(), RenderInput::borrowMesh(m), scene, tf, {}, ao);
+    EXPECT_TRUE(s.adaptive().options().faceLevels);
+    const ViewerFrame first = s.renderFrame(64, 64, false);
+    EXPECT_TRUE(first.level.full());
+    const auto* kb = dynamic_cast<const KBufferRenderer*>(&s.renderer());
+    ASSERT_NE(kb, nullptr);
+    const std::size_t allFaces = kb->facesDrawn();
+    ViewerFrame f;
+    for (int i = 0; i < 3; ++i) { // each frame "took" 400 ms (four times the target) plus its table build
+        s.camera().orbit(0.05, 0.0);
+        f = s.renderFrame(64, 64, true);
+        s.frameDone(f, 400.0 + f.tableMs);
+    }
+    EXPECT_LT(f.level.faceFraction, 0.3);
+    EXPECT_EQ(f.image.width, 64); // faces go first: the resolution is kept
+    EXPECT_LT(kb->facesDrawn(), allFaces);
+    EXPECT_GE(kb->facesDrawn(), kb->faces().boundaryCount);
+    EXPECT_NE(s.title(f, 400.0).find("faces"), std::string::npos);
+    const ViewerFrame still = s.renderFrame(64, 64, false);
+    EXPECT_TRUE(still.level.full());
+    EXPECT_EQ(kb->facesDrawn(), allFaces);
+    Scene now = s.currentScene();
+    now.width = 64;
+    now.height = 64;
+    KBufferRenderer fresh(test::computeContext(), m, tf, now, 6);
+    EXPECT_EQ(still.image.pixels, fresh.render().pixels);
 }

@@ -19,17 +19,27 @@ AdaptiveQuality::AdaptiveQuality(const AdaptiveQualityOptions& options) : option
         throw UsageError("adaptive quality: maximum step scale must be >= 1");
     if (!(options_.maxGrowth > 1.0))
         throw UsageError("adaptive quality: maximum growth per frame must exceed 1");
+    if (!(options_.minFaceFraction > 0.0 && options_.minFaceFraction <= 1.0))
+        throw UsageError("adaptive quality: minimum face fraction must be in (0, 1]");
     if (options_.stepLevelsPerOctave < 1)
         throw UsageError("adaptive quality: step levels per octave must be >= 1");
 }
 
 double AdaptiveQuality::minWork() const noexcept {
-    return options_.minResolutionScale * options_.minResolutionScale / options_.maxStepScale;
+    const double r2 = options_.minResolutionScale * options_.minResolutionScale;
+    return options_.faceLevels ? r2 * options_.minFaceFraction : r2 / options_.maxStepScale;
 }
 
 QualityLevel AdaptiveQuality::split(double work) const {
     work = std::clamp(work, minWork(), 1.0);
     QualityLevel q;
+    if (options_.faceLevels) {
+        // Faces first: dropping internal faces keeps every pixel (the boundary is always drawn), a lower
+        // resolution loses them all.
+        q.faceFraction = std::clamp(work, options_.minFaceFraction, 1.0);
+        q.resolutionScale = std::clamp(std::sqrt(work / q.faceFraction), options_.minResolutionScale, 1.0);
+        return q;
+    }
     // Equal shares in log scale: r^2 / s = w with s = w^-1/2 gives r = w^1/4.
     const double levels = options_.stepLevelsPerOctave;
     const double wantStep = std::clamp(1.0 / std::sqrt(work), 1.0, options_.maxStepScale);

@@ -12,10 +12,12 @@ struct QualityLevel {
     /// The renderer: the ray marcher, or a grid's preview tier while the view moves (its step is fixed by the
     /// data: stepScale stays 1 and the work is all resolution).
     GridMethod tier = GridMethod::Raymarch;
-    /// Work relative to full quality: rays times samples per ray.
-    double work() const noexcept { return resolutionScale * resolutionScale / stepScale; }
+    /// Fraction of a k-buffer mesh's internal faces drawn (KBufferRenderer::setLodFraction), (0, 1].
+    double faceFraction = 1.0;
+    /// Work relative to full quality: rays times samples per ray (times the faces drawn).
+    double work() const noexcept { return resolutionScale * resolutionScale / stepScale * faceFraction; }
     bool full() const noexcept {
-        return resolutionScale >= 1.0 && stepScale <= 1.0 && tier == GridMethod::Raymarch;
+        return resolutionScale >= 1.0 && stepScale <= 1.0 && faceFraction >= 1.0 && tier == GridMethod::Raymarch;
     }
 };
 
@@ -40,12 +42,17 @@ struct AdaptiveQualityOptions {
     /// its own; when the view stops, the ray marcher's frame is blended in over ViewerSession::kRefinePasses
     /// frames. Off: the ray marcher at a coarser step and resolution, as before.
     bool previewTiers = false;
+    /// The renderer draws a subset of a mesh's faces (the k-buffer's level of detail, Callahan 5.1): the work
+    /// goes to the face fraction first (the step is not used), down to minFaceFraction, then to resolution.
+    bool faceLevels = false;
+    double minFaceFraction = 0.01;
 };
 
 /// Frame-rate controller. While interacting, work_next = aim / cost, cost the frame time per unit of work
 /// smoothed over frames (aim = aimFraction * target; after Callahan 2005,
 /// section 5.1.1, which sizes the LOD face count the same way); the work is split between a coarser step
-/// and a lower resolution, equally in log scale until the step reaches its limit, then by resolution alone.
+/// and a lower resolution, equally in log scale until the step reaches its limit, then by resolution alone
+/// (with faceLevels: the face fraction alone until its limit, then resolution).
 /// When the user is still, the viewer renders full quality and leaves the controller's state as it was, so
 /// the next interaction starts from the level that held the target. Example:
 /// ```
@@ -71,7 +78,7 @@ public:
     double work() const noexcept { return work_; }
     /// Splits a work fraction into step and resolution (exposed for tests and the benchmark).
     QualityLevel split(double work) const;
-    /// Smallest work the limits allow (minimum resolution at the largest step).
+    /// Smallest work the limits allow (minimum resolution at the largest step, or the fewest faces).
     double minWork() const noexcept;
 
 private:

@@ -9,6 +9,7 @@
 #include "render/grid/GridDetail.hpp"
 #include "render/grid/GridRenderer.hpp"
 #include "render/grid/PreviewRenderer.hpp"
+#include "render/mesh/KBufferRenderer.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -35,9 +36,13 @@ ImageBuffer blendFrames(const ImageBuffer& a, const ImageBuffer& b, double w) {
     return out;
 }
 
-} // namespace
-
-namespace {
+/// The controller's options for what the session renders: a mesh drawn by the k-buffer spends the level on
+/// its face subset (Callahan 5.1-5.2) before the resolution.
+AdaptiveQualityOptions adaptiveFor(AdaptiveQualityOptions o, const RenderInput& input, const Scene& scene) {
+    if (input.kind() == RenderInput::Kind::Mesh && scene.meshMethod == MeshMethod::KBuffer)
+        o.faceLevels = true;
+    return o;
+}
 
 struct KeyBinding {
     char key;
@@ -142,8 +147,8 @@ ViewerSession::ViewerSession(ComputeContext& cc, RenderInput input, const Scene&
                              const AdaptiveQualityOptions& adaptive)
     : cc_(cc), input_(std::move(input)), range_(input_.valueRange()), base_(scene), original_(scene),
       tfPath_(std::move(tfPath)), presets_(transferFunctionPresets(range_, input_.bounds(), tf)),
-      camera_(scene.camera ? *scene.camera : defaultCamera(input_.bounds())), adaptive_(adaptive),
-      tierAdaptive_(tierOptions(adaptive)) {
+      camera_(scene.camera ? *scene.camera : defaultCamera(input_.bounds())),
+      adaptive_(adaptiveFor(adaptive, input_, scene)), tierAdaptive_(tierOptions(adaptive)) {
     base_.validate();
     original_.camera = camera_.camera();
     Scene first = base_;
@@ -332,6 +337,11 @@ ViewerFrame ViewerSession::renderRaymarch(Scene s, const QualityLevel& want, int
     f.level.stepScale = want.stepScale;
     f.level.resolutionScale = std::sqrt(double(s.width) * s.height / (double(width) * height));
 
+    // A k-buffer mesh drops internal faces for the level (the boundary always stays).
+    auto* kbuffer = dynamic_cast<KBufferRenderer*>(renderer_.get());
+    if (kbuffer) kbuffer->setLodFraction(want.faceFraction);
+    f.level.faceFraction = kbuffer ? want.faceFraction : 1.0;
+
     const KernelDefines before = renderer_->plan().defines;
     Stopwatch sw;
     // Camera, size and step alone take the renderer's cheap path; effect or mode changes re-plan.
@@ -460,6 +470,8 @@ std::string ViewerSession::title(const ViewerFrame& last, double frameMs) const 
     os << buf;
     if (adaptive_.options().enabled)
         os << " | adaptive " << formatNumber(adaptive_.options().targetMs, 3) << " ms";
+    if (last.level.faceFraction < 1.0)
+        os << " | faces " << formatNumber(100.0 * last.level.faceFraction, 3) << " %";
     if (last.level.tier != GridMethod::Raymarch)
         os << " [" << gridMethodName(last.level.tier)
            << (last.refinePass > 0

@@ -7,10 +7,12 @@
    iso crossings are exact; mip takes the segment ends; xray integrates tau exactly. Everything runs in the
    mesh's normalised frame (VolclMeshParams).
    Defines: MODE (0 dvr, 1 mip, 2 iso, 3 xray), MIP_COLOR, PREINT, ISO_COUNT, SHADING, CLIPPING, SKIPPING,
-   EARLY_TERMINATION, MESH_OVERLAPS (tets may overlap: folded tets, interpenetrating components; see
+   EARLY_TERMINATION, SMOOTH_NORMALS (shading takes the tet's interpolated vertex normals, `normals`, instead of
+   its constant gradient), MESH_OVERLAPS (tets may overlap: folded tets, interpenetrating components; see
    ray_advance), NAN_COLOR (the mesh has NaN cells, marked by a NaN field; NAN_R/G/B/TAU: the NaN
    colour). */
 #include "common/camera_rays.h"
+#include "common/iso_crossings.h"
 #include "common/shading.h"
 #include "common/tf_lookup.h"
 
@@ -48,6 +50,9 @@ typedef struct {
     __global const VolclTfKnot* knots;
     __global const float* tauIntegral; /* per knot: integral of tau from knot 0 to it */
     __global const float4* table;
+    /* SMOOTH_NORMALS: 3 per tet, component c of the interpolated vertex normal at normalised x is
+       dot(n[c].xyz, x) + n[c].w (render/mesh/VertexNormals.hpp); otherwise unused. */
+    __global const float4* normals;
 } MeshData;
 
 typedef struct {
@@ -233,6 +238,20 @@ inline void light_affine(const VolclLightingParams* Lp, const VolclCameraParams*
 #endif
 }
 
+/* The gradient shading takes at normalised x in tet `tet` whose constant gradient is g. */
+inline float3 shade_gradient(const MeshData* M, uint tet, float3 g, float3 x) {
+#ifdef SMOOTH_NORMALS
+    __global const float4* n = M->normals + 3 * (size_t)tet;
+    (void)g;
+    return (float3)(dot(n[0].xyz, x) + n[0].w, dot(n[1].xyz, x) + n[1].w, dot(n[2].xyz, x) + n[2].w);
+#else
+    (void)M;
+    (void)tet;
+    (void)x;
+    return g;
+#endif
+}
+
 inline void composite(RayState* st, float3 rgb, float a) {
     const float w = 1.0f - st->alpha;
     st->rgb += w * rgb;
@@ -253,7 +272,7 @@ inline void flush_pending(const MeshData* M, const VolclTfParams* T, RayState* s
 /* DVR over the normalised ray interval [ta, tb] of one tet with s from sa to sb. */
 inline void dvr_piece(const MeshData* M, const VolclMeshRenderParams* Pc, const VolclTfParams* T,
                       const VolclLightingParams* Lp, const VolclCameraParams* C, float3 eye, float3 o,
-                      float3 d, float ta, float tb, float sa, float sb, float3 g, RayState* st) {
+                      float3 d, float ta, float tb, float sa, float sb, uint tet, float3 g, RayState* st) {
     if (!(tb > ta)) return;
     const float scale = Pc->mesh.scale;
 #if PREINT == 3
@@ -296,7 +315,8 @@ inline void dvr_piece(const MeshData* M, const VolclMeshRenderParams* Pc, const 
     const float sub = len / (float)n;
     float3 K = (float3)(1.0f), S = (float3)(0.0f);
 #ifdef SHADING
-    light_affine(Lp, C, eye, d, o + (0.5f * (ta + tb)) * d, g, &K, &S);
+    const float3 xm = o + (0.5f * (ta + tb)) * d;
+    light_affine(Lp, C, eye, d, xm, shade_gradient(M, tet, g, xm), &K, &S);
 #endif
     for (int i = 0; i < n; ++i) {
         const float u0 = (float)i / (float)n, u1 = (float)(i + 1) / (float)n;
@@ -316,7 +336,7 @@ inline void dvr_piece(const MeshData* M, const VolclMeshRenderParams* Pc, const 
         if (a > 0.0f) {
             float3 K = (float3)(1.0f), S = (float3)(0.0f);
 #ifdef SHADING
-            light_affine(Lp, C, eye, d, o + ts * d, g, &K, &S);
+            light_affine(Lp, C, eye, d, o + ts * d, shade_gradient(M, tet, g, o + ts * d), &K, &S);
 #endif
             composite(st, (K * v.xyz + S) * a, a);
         }
@@ -379,32 +399,18 @@ inline void cell_segment(const MeshData* M, const VolclMeshRenderParams* Pc, con
     /* Crossings inside the segment, in ray order. */
     float us[ISO_COUNT];
     int ids[ISO_COUNT];
-    int nc = 0;
-    for (int i = 0; i < (int)Pc->iso.count; ++i) {
-        const float v = Pc->iso.value[i];
-        if ((sa >= v) != (sb >= v)) {
-            float u = clamp((v - sa) / (sb - sa), 0.0f, 1.0f);
-            int j = nc++;
-            while (j > 0 && us[j - 1] > u) {
-                us[j] = us[j - 1];
-                ids[j] = ids[j - 1];
-                --j;
-            }
-            us[j] = u;
-            ids[j] = i;
-        }
-    }
+    const int nc = iso_crossings(&Pc->iso, sa, sb, us, ids);
     for (int c = 0; c < nc; ++c) {
         const float u = us[c];
 #if MODE == 0
         dvr_piece(M, Pc, T, Lp, C, eye, o, d, a + (b - a) * u0, a + (b - a) * u, sa + (sb - sa) * u0,
-                  sa + (sb - sa) * u, f.xyz, st);
+                  sa + (sb - sa) * u, tet, f.xyz, st);
 #endif
         u0 = u;
         const int i = ids[c];
         const float t = a + (b - a) * u;
         float3 K, S;
-        light_affine(Lp, C, eye, d, o + t * d, f.xyz, &K, &S);
+        light_affine(Lp, C, eye, d, o + t * d, shade_gradient(M, tet, f.xyz, o + t * d), &K, &S);
         const float3 ic = (float3)(Pc->iso.color[i][0], Pc->iso.color[i][1], Pc->iso.color[i][2]);
         const float ia = Pc->iso.color[i][3];
         if (isinf(st->depth)) st->depth = (tOffset + t) * Pc->mesh.scale;
@@ -412,7 +418,7 @@ inline void cell_segment(const MeshData* M, const VolclMeshRenderParams* Pc, con
     }
 #endif
 #if MODE == 0
-    dvr_piece(M, Pc, T, Lp, C, eye, o, d, a + (b - a) * u0, b, sa + (sb - sa) * u0, sb, f.xyz, st);
+    dvr_piece(M, Pc, T, Lp, C, eye, o, d, a + (b - a) * u0, b, sa + (sb - sa) * u0, sb, tet, f.xyz, st);
 #endif
 #endif
 }
@@ -691,13 +697,13 @@ inline float4 ray_result(const RayWalk* w, const MeshData* M, const VolclMeshRen
 __kernel void mesh_cells(__global const float4* cells, __global const uchar* empty,
                          __global const float4* bvhNodes, __global const float4* bvhFaces,
                          __global const VolclTfKnot* knots, __global const float* tauIntegral,
-                         __global const float4* table, const VolclMeshRenderParams params,
-                         __global float4* out, __global float* depthOut) {
+                         __global const float4* table, __global const float4* normals,
+                         const VolclMeshRenderParams params, __global float4* out, __global float* depthOut) {
     const VolclMeshRenderParams* Pc = &params;
     const uint x0 = get_global_id(0) * RAYS_X, y0 = get_global_id(1) * RAYS_Y;
     const VolclCameraParams C = Pc->camera;
     if (x0 >= C.width || y0 >= C.height) return;
-    MeshData M = {cells, empty, bvhNodes, bvhFaces, knots, tauIntegral, table};
+    MeshData M = {cells, empty, bvhNodes, bvhFaces, knots, tauIntegral, table, normals};
     const VolclTfParams T = Pc->tf;
     const VolclLightingParams Lp = Pc->lighting;
     const float3 eye = (v3(C.origin) - v3(Pc->mesh.centre)) * Pc->mesh.invScale;

@@ -4,8 +4,15 @@
    pre-integration table. Defines: KB_K (entries per pixel, 2..8), KB_TILE (tile edge in pixels),
    KB_TILE_THREADS (work-items per tile; each owns the tile rows y with (y - y0) % KB_TILE_THREADS == lid),
    BIN_CHUNKS (work-items of the binning passes), table lookups as PREINT 3 of cl/common/tf_lookup.h. The C++ mirror is render/mesh/KBufferReference.cpp.
-   NAN_COLOR: the mesh has NaN cells, drawn with the NaN colour NAN_R/G/B/TAU (see kb_composite). */
+   NAN_COLOR: the mesh has NaN cells, drawn with the NaN colour NAN_R/G/B/TAU (see kb_composite).
+   KB_ISO (mode iso): instead of the table, each popped segment composites the iso-surfaces ISO_COUNT it crosses
+   (the scalar is linear along it), in ray order; SHADING lights them with the vertex normals interpolated on
+   the two fragments' faces and along the segment (kb_iso_segment). */
 #include "mesh_kbuffer_shared.h"
+#ifdef KB_ISO
+#include "common/iso_crossings.h"
+#include "common/shading.h"
+#endif
 
 #pragma OPENCL FP_CONTRACT OFF
 
@@ -181,7 +188,16 @@ typedef struct {
     __local uchar* count; /* stored entries per pixel */
     __local uchar* head;  /* ring slot of the nearest entry */
     __local float4* acc;  /* composited colour per pixel */
+#ifdef KB_ISO
+    __local uint* e; /* the fragment's face as its tile-list entry (its normal is recomputed at a crossing) */
+#endif
 } KBuffer;
+
+/* One fragment: distance, scalar, flags and (KB_ISO) tile-list entry of its face. */
+typedef struct {
+    float t, s;
+    uint f, e;
+} KbFrag;
 
 #define KB_INLINE __attribute__((always_inline)) inline
 
@@ -283,65 +299,162 @@ KB_INLINE float4 kb_composite(float4 acc, float s0, float s1, float len, __globa
     return acc + (1.0f - acc.w) * c;
 }
 
-/* Stores (t, s, fl) into the sorted ring of n entries starting at slot h of pixel base: after every entry not
-   farther than t (equal distances keep their arrival order). */
-KB_INLINE void kb_place(KBuffer kb, uint base, uint h, uint n, float t, float s, uint fl) {
+/* Stores fragment q into the sorted ring of n entries starting at slot h of pixel base: after every entry not
+   farther than q.t (equal distances keep their arrival order). */
+KB_INLINE void kb_place(KBuffer kb, uint base, uint h, uint n, KbFrag q) {
     uint j = n;
     while (j > 0) {
         const uint src = base + ((h + j - 1) & (KB_RING - 1));
         const float tj = kb.t[src];
-        if (!(tj > t)) break;
+        if (!(tj > q.t)) break;
         const uint dst = base + ((h + j) & (KB_RING - 1));
         kb.t[dst] = tj;
         kb.s[dst] = kb.s[src];
         kb.f[dst] = kb.f[src];
+#ifdef KB_ISO
+        kb.e[dst] = kb.e[src];
+#endif
         --j;
     }
     const uint at = base + ((h + j) & (KB_RING - 1));
-    kb.t[at] = t;
-    kb.s[at] = s;
-    kb.f[at] = (uchar)fl;
+    kb.t[at] = q.t;
+    kb.s[at] = q.s;
+    kb.f[at] = (uchar)q.f;
+#ifdef KB_ISO
+    kb.e[at] = q.e;
+#endif
 }
 
-/* Inserts a fragment into pixel li's k-buffer; when it is full, pops the nearest of the k + 1 fragments, whose
+/* The fragment in ring slot `slot` (an index into the tile's slots). */
+KB_INLINE KbFrag kb_get(KBuffer kb, uint slot) {
+    KbFrag q;
+    q.t = kb.t[slot];
+    q.s = kb.s[slot];
+    q.f = kb.f[slot];
+#ifdef KB_ISO
+    q.e = kb.e[slot];
+#else
+    q.e = 0u;
+#endif
+    return q;
+}
+
+/* Inserts fragment q into pixel li's k-buffer; when it is full, pops the nearest of the k + 1 fragments, whose
    segment to the second nearest (a stored entry nearer than or as near as the incoming fragment goes first) is
-   returned: its length (0: nothing to composite) and its scalars in *s0, *s1. */
-KB_INLINE float kb_insert(KBuffer kb, uint li, float t, float s, uint fl, const VolclKBufferParams* P,
-                          float* s0, float* s1) {
+   returned: its length (0: nothing to composite) and its two fragments in *pa, *pb. */
+KB_INLINE float kb_insert(KBuffer kb, uint li, KbFrag q, const VolclKBufferParams* P, KbFrag* pa,
+                          KbFrag* pb) {
     const uint base = li * KB_RING;
     const uint n = kb.count[li];
     const uint h = kb.head[li];
     if (n < KB_K) {
-        kb_place(kb, base, h, n, t, s, fl);
+        kb_place(kb, base, h, n, q);
         kb.count[li] = (uchar)(n + 1);
         return 0.0f;
     }
     const uint h0 = base + h;
     const float mt = kb.t[h0];
-    if (t < mt) {
-        *s0 = s;
-        *s1 = kb.s[h0];
-        return kb_segment_length(t, fl, mt, kb.f[h0], P);
+    if (q.t < mt) {
+        *pa = q;
+        *pb = kb_get(kb, h0);
+        return kb_segment_length(q.t, q.f, mt, kb.f[h0], P);
     }
     const uint h1 = base + ((h + 1) & (KB_RING - 1));
     const float rt = kb.t[h1];
     float len;
-    *s0 = kb.s[h0];
-    if (t < rt) {
-        *s1 = s;
-        len = kb_segment_length(mt, kb.f[h0], t, fl, P);
+    *pa = kb_get(kb, h0);
+    if (q.t < rt) {
+        *pb = q;
+        len = kb_segment_length(mt, kb.f[h0], q.t, q.f, P);
     } else {
-        *s1 = kb.s[h1];
+        *pb = kb_get(kb, h1);
         len = kb_segment_length(mt, kb.f[h0], rt, kb.f[h1], P);
     }
     const uint nh = (h + 1) & (KB_RING - 1);
     kb.head[li] = (uchar)nh;
-    kb_place(kb, base, nh, KB_K - 1, t, s, fl);
+    kb_place(kb, base, nh, KB_K - 1, q);
     return len;
 }
 
-/* Pops the remaining fragments of pixel li in order (the k - 1 segments still stored). */
+#ifdef KB_ISO
+/* What an iso-surface crossing is lit with: the tile list (faces of the fragments), the projected points and the
+   point normals (smoothed gradients in normalized units, render/mesh/VertexNormals.hpp), iso-surfaces, lights. */
+typedef struct {
+    __global const uint4* list;
+    __global const float4* proj;
+    __global const float4* normals;
+    const VolclIsoParams* iso;
+    const VolclLightingParams* light;
+} KbIso;
+
+/* The normal at pixel (fx, fy) on the face of fragment q: its vertex normals interpolated with the pixel's
+   barycentric weights (perspective-correct), as the fragment's scalar is. */
+KB_INLINE float3 kb_frag_normal(const KbIso* X, KbFrag q, float fx, float fy, uint perspective) {
+    const uint4 fv = X->list[q.e];
+    const float4 a = X->proj[fv.x], b = X->proj[fv.y], c = X->proj[fv.z];
+    float wa = (c.x - b.x) * (fy - b.y) - (c.y - b.y) * (fx - b.x);
+    float wb = (a.x - c.x) * (fy - c.y) - (a.y - c.y) * (fx - c.x);
+    float wc = (b.x - a.x) * (fy - a.y) - (b.y - a.y) * (fx - a.x);
+    if (perspective) {
+        wa *= a.w;
+        wb *= b.w;
+        wc *= c.w;
+    }
+    const float sum = wa + wb + wc;
+    return (wa * X->normals[fv.x].xyz + wb * X->normals[fv.y].xyz + wc * X->normals[fv.z].xyz) / sum;
+}
+
+/* Composites behind acc the iso-surfaces the segment from fragment p to fragment q of pixel (fx, fy) crosses,
+   in ray order: the scalar is linear along the segment (inside one tet at full level of detail), so a crossing
+   lies at u = (v - s_p) / (s_q - s_p), as in the cell caster; lit with the normal linear along the segment
+   between the fragments' normals (the tet's interpolated vertex normals are linear too). */
+KB_INLINE float4 kb_iso_segment(float4 acc, KbFrag p, KbFrag q, float fx, float fy, const KbIso* X,
+                                const VolclKBufferParams* P) {
+    const VolclIsoParams* I = X->iso;
+    float us[ISO_COUNT];
+    int ids[ISO_COUNT];
+    const int nc = iso_crossings(I, p.s, q.s, us, ids);
+    if (nc == 0) return acc;
+#ifdef SHADING
+    const VolclLightingParams* Lp = X->light;
+    const float ndcX = 2.0f * (fx + 0.5f) / (float)P->width - 1.0f;
+    const float ndcY = 1.0f - 2.0f * (fy + 0.5f) / (float)P->height;
+    const float3 eye = v3(P->eye), side = (ndcX * P->halfX) * v3(P->right) + (ndcY * P->halfY) * v3(P->up);
+    /* Perspective: t is the distance from the eye along the pixel's ray; orthographic: the view depth from
+       the pixel's point on the eye plane. */
+    const float3 dir = P->perspective ? normalize(v3(P->forward) + side) : v3(P->forward);
+    const float3 origin = P->perspective ? eye : eye + side;
+    const float3 np = kb_frag_normal(X, p, fx, fy, P->perspective);
+    const float3 nq = kb_frag_normal(X, q, fx, fy, P->perspective);
+#endif
+    for (int c = 0; c < nc; ++c) {
+        const int i = ids[c];
+        const float ia = I->color[i][3];
+        float3 rgb = (float3)(I->color[i][0], I->color[i][1], I->color[i][2]);
+#ifdef SHADING
+        const float u = us[c];
+        const float3 x = origin + (p.t + (q.t - p.t) * u) * dir;
+        LightSum ls = light_begin(Lp, np + (nq - np) * u, dir);
+        for (uint l = 0; l < Lp->lightCount; ++l) {
+            float dist;
+            const float3 L = light_dir(Lp, P->perspective, eye, dir, (int)l, x, &dist);
+            light_add(&ls, Lp, (int)l, L, 1.0f, dir);
+        }
+        rgb = light_finish(&ls, Lp, rgb);
+#endif
+        acc += (1.0f - acc.w) * (float4)(rgb * ia, ia);
+    }
+    return acc;
+}
+#endif
+
+/* Pops the remaining fragments of pixel li, at (fx, fy), in order (the k - 1 segments still stored). */
+#ifdef KB_ISO
+KB_INLINE void kb_flush(KBuffer kb, uint li, float fx, float fy, const KbIso* X,
+                        const VolclKBufferParams* P) {
+#else
 KB_INLINE void kb_flush(KBuffer kb, uint li, __global const half* table, const VolclKBufferParams* P) {
+#endif
     const uint base = li * KB_RING;
     const uint n = kb.count[li];
     uint h = kb.head[li];
@@ -349,7 +462,11 @@ KB_INLINE void kb_flush(KBuffer kb, uint li, __global const half* table, const V
     for (uint i = 1; i < n && acc.w < P->earlyTermination; ++i) {
         const uint a = base + h, b = base + ((h + 1) & (KB_RING - 1));
         const float len = kb_segment_length(kb.t[a], kb.f[a], kb.t[b], kb.f[b], P);
+#ifdef KB_ISO
+        if (len > 0.0f) acc = kb_iso_segment(acc, kb_get(kb, a), kb_get(kb, b), fx, fy, X, P);
+#else
         if (len > 0.0f) acc = kb_composite(acc, kb.s[a], kb.s[b], len, table, P);
+#endif
         h = (h + 1) & (KB_RING - 1);
     }
     kb.acc[li] = acc;
@@ -420,7 +537,8 @@ inline void kb_row_span(const KbEdge* e, float2 f, float fy, float* xl, float* x
    flushes them and writes the composited pixels (linear, associated RGBA). */
 __kernel void kb_raster(__global const float4* proj, __global const float* scalars,
                         __global const uint* binEnds, __global const uint4* list, const VolclKBufferParams P,
-                        __global const half* table, __global float4* out) {
+                        __global const half* table, __global const float4* normals, const VolclIsoParams iso,
+                        const VolclLightingParams light, __global float4* out) {
     __local float lt[KB_PIXELS * KB_RING];
     __local float ls[KB_PIXELS * KB_RING];
     __local uchar lf[KB_PIXELS * KB_RING];
@@ -428,10 +546,24 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
     __local uchar lhead[KB_PIXELS];
     __local uchar ldone[KB_PIXELS];
     __local float4 lacc[KB_PIXELS];
+#ifdef KB_ISO
+    /* Iso-surfaces are composited as they pop (no table lookups to batch), so the fragments' faces take the local
+       memory the pending pops take in dvr. */
+    __local uint le[KB_PIXELS * KB_RING];
+    KBuffer kb = {lt, ls, lf, lcount, lhead, lacc, le};
+    const VolclIsoParams isoP = iso;
+    const VolclLightingParams lightP = light;
+    const KbIso X = {list, proj, normals, &isoP, &lightP};
+    (void)table;
+#else
     KBuffer kb = {lt, ls, lf, lcount, lhead, lacc};
+    (void)normals;
+    (void)iso;
+    (void)light;
     /* Pops of the current face waiting for their table lookups: KB_PIXELS / KB_TILE_THREADS per work-item. */
     __local ushort lpli[KB_PIXELS];
     __local float lps0[KB_PIXELS], lps1[KB_PIXELS], lplen[KB_PIXELS];
+#endif
 
     const uint tile = get_group_id(0);
     const uint lid = get_local_id(0);
@@ -451,11 +583,13 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
     const uint start = tile == 0 ? 0u : binEnds[(tile - 1) * BIN_CHUNKS + BIN_CHUNKS - 1];
     const uint end = binEnds[tile * BIN_CHUNKS + BIN_CHUNKS - 1];
 
+#ifndef KB_ISO
     const uint pendingBase = lid * (KB_PIXELS / KB_TILE_THREADS);
     __local ushort* pli = lpli + pendingBase;
     __local float* ps0 = lps0 + pendingBase;
     __local float* ps1 = lps1 + pendingBase;
     __local float* plen = lplen + pendingBase;
+#endif
     for (uint e = start; e < end && live > 0; ++e) {
         uint np = 0;
         const uint4 fv = list[e];
@@ -517,20 +651,38 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
                     t = la * a.z + lb * b.z + lc * c.z;
                     s = la * sa + lb * sb + lc * sc;
                 }
-                float s0, s1;
-                const float len = kb_insert(kb, li, t, s, fl, &P, &s0, &s1);
+                KbFrag q, pa, pb;
+                q.t = t;
+                q.s = s;
+                q.f = fl;
+                q.e = e;
+                const float len = kb_insert(kb, li, q, &P, &pa, &pb);
+#ifdef KB_ISO
+                if (len > 0.0f) {
+                    const float4 acc = kb_iso_segment(lacc[li], pa, pb, fx, fy, &X, &P);
+                    lacc[li] = acc;
+                    if (acc.w >= P.earlyTermination) {
+                        ldone[li] = 1;
+                        --live;
+                    }
+                }
+#else
                 if (len > 0.0f) {
                     pli[np] = (ushort)li;
-                    ps0[np] = s0;
-                    ps1[np] = s1;
+                    ps0[np] = pa.s;
+                    ps1[np] = pb.s;
                     plen[np] = len;
                     ++np;
                 }
+#endif
             }
         }
         /* The face's pops composited in a pass of their own: a face gives a pixel at most one fragment, so this
            is the order of the inserts, and the table lookups of different pixels, independent of each other,
            overlap their cache misses instead of each stalling the rasterisation. */
+#ifdef KB_ISO
+        (void)np;
+#else
         for (uint p = 0; p < np; ++p) {
             const uint li = pli[p];
             const float4 acc = kb_composite(lacc[li], ps0[p], ps1[p], plen[p], table, &P);
@@ -540,6 +692,7 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
                 --live;
             }
         }
+#endif
     }
 
     for (int ly = (int)lid; ly < KB_TILE; ly += KB_TILE_THREADS)
@@ -547,7 +700,11 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
             const int x = tx0 + lx, y = ty0 + ly;
             if (x >= xEnd || y >= yEnd) continue;
             const uint li = (uint)(ly * KB_TILE + lx);
+#ifdef KB_ISO
+            kb_flush(kb, li, (float)x, (float)y, &X, &P);
+#else
             kb_flush(kb, li, table, &P);
+#endif
             out[(size_t)y * P.width + (size_t)x] = lacc[li];
         }
 }

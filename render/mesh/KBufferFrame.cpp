@@ -2,6 +2,7 @@
 #include "render/mesh/KBufferFrame.hpp"
 
 #include "render/VecMath.hpp"
+#include "render/mesh/VertexNormals.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -27,6 +28,19 @@ KBufferGeometry kbufferGeometry(const mesh::TetMesh& mesh, const MeshFaces& face
                         float((p[2] - g.centre[2]) / g.scale), 0.0f}};
     }
     return g;
+}
+
+std::vector<cl_float4> kbufferPointNormals(const mesh::TetMesh& mesh, const MeshFaces& faces,
+                                           const KBufferGeometry& g) {
+    const std::vector<Vec3> vn = vertexNormals(mesh);
+    std::vector<Vec3> all(vn);
+    all.reserve(vn.size() + faces.extraParents.size());
+    for (const auto& e : faces.extraParents) // parents come before their midpoint
+        all.push_back(scale(add(all[e[0]], all[e[1]]), 0.5));
+    std::vector<cl_float4> out(all.size());
+    for (std::size_t i = 0; i < all.size(); ++i)
+        out[i] = {{float(all[i][0] * g.scale), float(all[i][1] * g.scale), float(all[i][2] * g.scale), 0.0f}};
+    return out;
 }
 
 VolclKBufferParams kbufferParams(const KBufferGeometry& g, const Camera& cam, int width, int height,

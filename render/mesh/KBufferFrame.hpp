@@ -27,6 +27,12 @@ struct KBufferGeometry {
 };
 KBufferGeometry kbufferGeometry(const mesh::TetMesh& mesh, const MeshFaces& faces);
 
+/// Per point of `g` (the mesh's, then the faces' extra points): the smooth vertex normal (vertexNormals: the
+/// one-ring's volume-weighted mean gradient) in normalized units (world gradient times g.scale), an extra point
+/// taking the mean of its edge's two ends (linear along the face, as the scalar). What mode iso lights with.
+std::vector<cl_float4> kbufferPointNormals(const mesh::TetMesh& mesh, const MeshFaces& faces,
+                                           const KBufferGeometry& g);
+
 /// Kernel parameters of a frame: camera in normalized coordinates, image and tile counts, the faces drawn,
 /// early termination (values >= 1 disable it) and the table geometry `tf`.
 VolclKBufferParams kbufferParams(const KBufferGeometry& g, const Camera& camera, int width, int height,

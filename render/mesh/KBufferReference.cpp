@@ -96,7 +96,66 @@ std::array<float, 4> preintSegment(const std::vector<float>& table, const VolclK
 struct Frag {
     float t, s;
     unsigned f;
+    std::uint32_t face; ///< index into the faces (mode iso recomputes the fragment's normal from it)
 };
+
+using F3 = std::array<float, 3>;
+F3 add3(const F3& a, const F3& b) {
+    return {a[0] + b[0], a[1] + b[1], a[2] + b[2]};
+}
+F3 sub3(const F3& a, const F3& b) {
+    return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+F3 mul3(const F3& a, float k) {
+    return {a[0] * k, a[1] * k, a[2] * k};
+}
+float dot3(const F3& a, const F3& b) {
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+float len3(const F3& a) {
+    return std::sqrt(dot3(a, a));
+}
+F3 normalize3(const F3& a) {
+    return mul3(a, 1.0f / len3(a));
+}
+F3 xyz(const float* a) {
+    return {a[0], a[1], a[2]};
+}
+
+/// cl/common/shading.h's Blinn-Phong (SHADING, no scattering) for straight colour c at x with gradient g.
+F3 blinnPhong(const VolclLightingParams& Lp, bool perspective, const F3& eye, const F3& dir, const F3& x,
+              const F3& g, const F3& c) {
+    const float gl = len3(g);
+    F3 N = gl > Lp.gradientMin ? mul3(g, -1.0f / gl) : F3{0, 0, 0};
+    const F3 V = mul3(dir, -1.0f);
+    if (dot3(N, V) < 0.0f) N = mul3(N, -1.0f);
+    F3 diffuse{0, 0, 0}, specular{0, 0, 0};
+    for (unsigned i = 0; i < Lp.lightCount; ++i) {
+        const float kind = Lp.lightPos[i][3];
+        F3 L;
+        if (kind == float(VOLCL_LIGHT_POINT) || (kind == float(VOLCL_LIGHT_HEAD) && perspective)) {
+            const F3 v = sub3(kind == float(VOLCL_LIGHT_POINT) ? xyz(Lp.lightPos[i]) : eye, x);
+            const float d = len3(v);
+            L = d > 0.0f ? mul3(v, 1.0f / d) : mul3(dir, -1.0f);
+        } else if (kind == float(VOLCL_LIGHT_HEAD)) {
+            L = mul3(dir, -1.0f);
+        } else {
+            L = xyz(Lp.lightPos[i]);
+        }
+        const F3 lc = xyz(Lp.lightColor[i]);
+        if (gl > Lp.gradientMin) {
+            const F3 H = normalize3(add3(L, V));
+            diffuse = add3(diffuse, mul3(lc, std::fmax(dot3(N, L), 0.0f)));
+            specular = add3(specular, mul3(lc, std::pow(std::fmax(dot3(N, H), 0.0f), Lp.shininess)));
+        } else {
+            diffuse = add3(diffuse, lc);
+        }
+    }
+    F3 out;
+    for (int k = 0; k < 3; ++k)
+        out[k] = c[k] * (Lp.ambient + Lp.diffuse * diffuse[k]) + Lp.specular * specular[k];
+    return out;
+}
 
 struct Pixel {
     std::array<float, 4> acc{0, 0, 0, 0};
@@ -111,7 +170,8 @@ public:
         : in_(in), P_(in.params), k_(in.k), stats_(stats), pixels_(std::size_t(P_.width) * P_.height),
           frags_(pixels_.size() * std::size_t(k_)) {}
 
-    void segment(Pixel& px, const Frag& a, const Frag& b) {
+    void segment(std::size_t pi, const Frag& a, const Frag& b) {
+        Pixel& px = pixels_[pi];
         if (stats_) {
             if (a.t < px.lastPop) ++stats_->misorderedPops;
             px.lastPop = a.t;
@@ -119,6 +179,10 @@ public:
         if ((a.f & KB_FRAG_EXIT) || (b.f & KB_FRAG_ENTER)) return;
         const float len = (b.t - a.t) * P_.worldScale;
         if (!(len > 0.0f)) return;
+        if (in_.iso) {
+            isoSegment(pi, a, b);
+            return;
+        }
         std::array<float, 4> c;
         if (!std::isfinite(a.s) || !std::isfinite(b.s)) { // a NaN cell: kb_composite's NAN_COLOR branch
             const float an = 1.0f - std::exp(-in_.nanColor[3] * len);
@@ -129,6 +193,71 @@ public:
         const float keep = 1.0f - px.acc[3];
         for (int i = 0; i < 4; ++i)
             px.acc[i] = px.acc[i] + keep * c[i];
+    }
+
+    /// kb_frag_normal: the normal of fragment q's face at pixel (fx, fy).
+    F3 fragNormal(const Frag& q, float fx, float fy) const {
+        const MeshFace& face = in_.faces->faces[q.face];
+        const Proj &a = proj_[face.v[0]], &b = proj_[face.v[1]], &c = proj_[face.v[2]];
+        float wa = (c.x - b.x) * (fy - b.y) - (c.y - b.y) * (fx - b.x);
+        float wb = (a.x - c.x) * (fy - c.y) - (a.y - c.y) * (fx - c.x);
+        float wc = (b.x - a.x) * (fy - a.y) - (b.y - a.y) * (fx - a.x);
+        if (P_.perspective) {
+            wa *= a.w;
+            wb *= b.w;
+            wc *= c.w;
+        }
+        const float sum = wa + wb + wc;
+        const auto& n = *in_.normals;
+        F3 r;
+        for (int k = 0; k < 3; ++k)
+            r[k] = (wa * n[face.v[0]].s[k] + wb * n[face.v[1]].s[k] + wc * n[face.v[2]].s[k]) / sum;
+        return r;
+    }
+
+    /// kb_iso_segment: the iso-surfaces the segment a -> b of pixel pi crosses, in ray order.
+    void isoSegment(std::size_t pi, const Frag& a, const Frag& b) {
+        Pixel& px = pixels_[pi];
+        const VolclIsoParams& I = in_.isoParams;
+        std::vector<std::pair<float, int>> cross;
+        for (int i = 0; i < int(I.count); ++i) {
+            const float v = I.value[i];
+            if ((a.s >= v) != (b.s >= v)) {
+                const float u = std::clamp((v - a.s) / (b.s - a.s), 0.0f, 1.0f);
+                std::size_t j = cross.size();
+                cross.push_back({u, i});
+                while (j > 0 && cross[j - 1].first > u) { // the kernel's insertion: equal u keep their order
+                    std::swap(cross[j], cross[j - 1]);
+                    --j;
+                }
+            }
+        }
+        if (cross.empty()) return;
+        const float fx = float(pi % P_.width), fy = float(pi / P_.width);
+        F3 dir{}, origin{}, np{}, nq{};
+        const F3 eye = xyz(P_.eye);
+        if (in_.shading) {
+            const float ndcX = 2.0f * (fx + 0.5f) / float(P_.width) - 1.0f;
+            const float ndcY = 1.0f - 2.0f * (fy + 0.5f) / float(P_.height);
+            const F3 side = add3(mul3(xyz(P_.right), ndcX * P_.halfX), mul3(xyz(P_.up), ndcY * P_.halfY));
+            dir = P_.perspective ? normalize3(add3(xyz(P_.forward), side)) : xyz(P_.forward);
+            origin = P_.perspective ? eye : add3(eye, side);
+            np = fragNormal(a, fx, fy);
+            nq = fragNormal(b, fx, fy);
+        }
+        for (const auto& [u, i] : cross) {
+            const float ia = I.color[i][3];
+            F3 rgb{I.color[i][0], I.color[i][1], I.color[i][2]};
+            if (in_.shading) {
+                const F3 x = add3(origin, mul3(dir, a.t + (b.t - a.t) * u));
+                rgb = blinnPhong(in_.lighting, P_.perspective != 0, eye, dir, x,
+                                 add3(np, mul3(sub3(nq, np), u)), rgb);
+            }
+            const float keep = 1.0f - px.acc[3];
+            for (int k = 0; k < 3; ++k)
+                px.acc[k] += keep * (rgb[k] * ia);
+            px.acc[3] += keep * ia;
+        }
     }
 
     /// Stores `in` among the first n (sorted) entries of kb: after every entry not farther (the kernel's ring).
@@ -151,9 +280,9 @@ public:
         }
         if (stats_) ++stats_->overflowPops;
         if (in.t < kb[0].t) {
-            segment(px, in, kb[0]);
+            segment(pi, in, kb[0]);
         } else {
-            segment(px, kb[0], in.t < kb[1].t ? in : kb[1]);
+            segment(pi, kb[0], in.t < kb[1].t ? in : kb[1]);
             std::copy(kb + 1, kb + k_, kb);
             place(kb, k_ - 1, in);
         }
@@ -164,12 +293,13 @@ public:
         Pixel& px = pixels_[pi];
         const Frag* kb = &frags_[pi * std::size_t(k_)];
         for (int i = 1; i < px.count && px.acc[3] < P_.earlyTermination; ++i)
-            segment(px, kb[i - 1], kb[i]);
+            segment(pi, kb[i - 1], kb[i]);
     }
 
     ImageBuffer run() {
         const auto& g = *in_.geometry;
-        std::vector<Proj> proj(g.points.size());
+        std::vector<Proj>& proj = proj_;
+        proj.resize(g.points.size());
         for (std::size_t i = 0; i < proj.size(); ++i)
             proj[i] = project(g.points[i], P_);
         const std::vector<std::uint32_t> order = kbufferMirrorOrder(in_);
@@ -219,7 +349,7 @@ public:
                         t = la * a.z + lb * b.z + lc * c.z;
                         s = la * sa + lb * sb + lc * scc;
                     }
-                    insert(pi, {t, s, fl});
+                    insert(pi, {t, s, fl, fi});
                 }
             }
         }
@@ -263,6 +393,7 @@ private:
     KBufferMirrorStats* stats_;
     std::vector<Pixel> pixels_;
     std::vector<Frag> frags_;
+    std::vector<Proj> proj_;
 };
 
 } // namespace
@@ -293,7 +424,7 @@ std::vector<std::uint32_t> kbufferMirrorOrder(const KBufferMirrorInput& in) {
 }
 
 ImageBuffer kbufferMirrorRender(const KBufferMirrorInput& in, KBufferMirrorStats* stats) {
-    if (!in.geometry || !in.scalars || !in.faces || !in.table)
+    if (!in.geometry || !in.scalars || !in.faces || !in.table || (in.iso && in.shading && !in.normals))
         throw Error("internal: incomplete k-buffer mirror input");
     if (in.k < kKBufferMinK || in.k > kKBufferMirrorMaxK)
         throw UsageError("k-buffer mirror: k must be 2.." + std::to_string(kKBufferMirrorMaxK));

@@ -29,6 +29,13 @@ struct KBufferMirrorInput {
     int k = kKBufferDefaultK;
     /// The NaN colour (straight r, g, b and extinction tau) of segments with a non-finite end (NAN_COLOR).
     std::array<float, 4> nanColor{0, 0, 0, 0};
+    /// Mode iso (KB_ISO): segments composite the iso-surfaces they cross instead of the table; with `shading`,
+    /// lit by `lighting` (normalized frame) with the point normals `normals` (kbufferPointNormals).
+    bool iso = false;
+    bool shading = false;
+    VolclIsoParams isoParams{};
+    VolclLightingParams lighting{};
+    const std::vector<cl_float4>* normals = nullptr;
 };
 
 /// What the mirror counted besides the image.
@@ -41,7 +48,8 @@ struct KBufferMirrorStats {
 
 /// The frame on the host: projection, centroid keys, a stable sort (the radix sort's order), every face
 /// rasterised over its pixel rectangle in that order with the kernel's edge and tie rules, k-buffer insert,
-/// pop and flush, table lookups and compositing as the kernel does them. Output channels R, G, B, A.
+/// pop and flush, table lookups (or iso-surface crossings, lit as cl/common/shading.h lights them) and
+/// compositing as the kernel does them. Output channels R, G, B, A.
 ImageBuffer kbufferMirrorRender(const KBufferMirrorInput& in, KBufferMirrorStats* stats = nullptr);
 
 /// The face order of a frame (indices into in.faces, the first params.faceCount faces, by centroid key,

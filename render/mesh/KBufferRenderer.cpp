@@ -5,6 +5,7 @@
 #include "core/Format.hpp"
 #include "core/runtime/DeviceProfile.hpp"
 #include "core/runtime/Timing.hpp"
+#include "render/FrameParams.hpp"
 #include "render/VecMath.hpp"
 #include "render/mesh/MeshReference.hpp"
 #include "render/mesh/RadixSort.hpp"
@@ -19,33 +20,59 @@ EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, con
     if (k < kKBufferMinK || k > kKBufferMaxK)
         throw UsageError("render.k must be " + std::to_string(kKBufferMinK) + ".." +
                          std::to_string(kKBufferMaxK) + " (got " + std::to_string(k) + ")");
-    if (scene.mode != RenderMode::Dvr)
-        throw UsageError("render.method \"kbuffer\" draws mode dvr only (mode " +
+    const bool iso = scene.mode == RenderMode::Iso;
+    if (scene.mode != RenderMode::Dvr && !iso)
+        throw UsageError("render.method \"kbuffer\" draws modes dvr and iso only (mode " +
                          std::string(renderModeName(scene.mode)) + ": use render.method \"cells\")");
     EffectPlan p;
     p.defines.set("KB_K", k)
         .set("KB_TILE", kKBufferTile)
         .set("KB_TILE_THREADS", device.mesh.tileThreads)
         .set("BIN_CHUNKS", device.mesh.binChunks);
-    p.compiled.push_back("mode dvr by k-buffer (HAVS): k = " + std::to_string(k) + ", " +
+    p.compiled.push_back("mode " + std::string(renderModeName(scene.mode)) +
+                         " by k-buffer (HAVS): k = " + std::to_string(k) + ", " +
                          std::to_string(kKBufferTile) + "x" + std::to_string(kKBufferTile) +
                          "-pixel tiles, faces sorted by centroid every frame (device radix sort)");
-    p.compiled.push_back("pre-integration: 3D table " + std::to_string(scene.tableSize) + "x" +
-                         std::to_string(scene.tableSize) + "x" + std::to_string(scene.tableLengths) +
-                         ", lengths up to the longest edge " + formatNumber(mesh.maxEdgeLength));
-    if (scene.preintegration != Preintegration::Table3d)
-        p.dropped.push_back("preintegration \"" + std::string(preintegrationName(scene.preintegration)) +
-                            "\": the k-buffer integrates every segment through the 3D table");
+    const SceneEffects& fx = scene.effects;
+    const std::string why = ": not drawn by render.method \"kbuffer\" (use \"cells\")";
+    if (iso) {
+        // The iso-surfaces, their colours and the shading the cell caster would draw, found by its planner.
+        const EffectPlan cells = planMeshEffects(scene, mesh);
+        p.isosurfaces = cells.isosurfaces;
+        p.colorScale = cells.colorScale;
+        p.shading = cells.shading;
+        p.defines.set("KB_ISO").set("ISO_COUNT", std::max<long long>(1, (long long)p.isosurfaces.size()));
+        if (p.shading) p.defines.set("SHADING");
+        p.compiled.push_back(
+            "isosurfaces: " + std::to_string(p.isosurfaces.size()) +
+            " (crossed where each popped fragment pair's linear scalar crosses them, composited "
+            "in ray order)");
+        for (const std::string& c : cells.compiled)
+            if (c.rfind("shading:", 0) == 0)
+                p.compiled.push_back(c.substr(0, c.find(" (")) +
+                                     " (smooth normals: vertex normals interpolated on the faces and along "
+                                     "each segment)");
+        for (const std::string& d : cells.dropped)
+            if (d.rfind("isosurface", 0) == 0 || d.rfind("shading:", 0) == 0) p.dropped.push_back(d);
+        if (p.shading && !fx.smoothNormals)
+            p.dropped.push_back("normals \"flat\": a fragment pair does not know its tet, so the k-buffer "
+                                "lights with smooth vertex normals (use render.method \"cells\")");
+    } else {
+        p.compiled.push_back("pre-integration: 3D table " + std::to_string(scene.tableSize) + "x" +
+                             std::to_string(scene.tableSize) + "x" + std::to_string(scene.tableLengths) +
+                             ", lengths up to the longest edge " + formatNumber(mesh.maxEdgeLength));
+        if (scene.preintegration != Preintegration::Table3d)
+            p.dropped.push_back("preintegration \"" + std::string(preintegrationName(scene.preintegration)) +
+                                "\": the k-buffer integrates every segment through the 3D table");
+        if (fx.shading) p.dropped.push_back("shading" + why);
+        if (!fx.isosurfaces.empty()) p.dropped.push_back("iso-surfaces" + why);
+    }
     p.earlyTermination = scene.earlyTermination < 1.0;
     if (p.earlyTermination)
         p.compiled.push_back("early termination at alpha >= " + formatNumber(scene.earlyTermination));
-    const SceneEffects& fx = scene.effects;
-    const std::string why = ": not drawn by render.method \"kbuffer\" (use \"cells\")";
-    if (fx.shading) p.dropped.push_back("shading" + why);
     if (fx.shadows) p.dropped.push_back("shadows" + why);
     if (fx.scattering) p.dropped.push_back("scattering" + why);
     if (!fx.clipPlanes.empty()) p.dropped.push_back("clip planes" + why);
-    if (!fx.isosurfaces.empty()) p.dropped.push_back("iso-surfaces" + why);
     if (scene.window) p.dropped.push_back("window: mode dvr is not mip");
     planNanColor(scene, meshHasNonFinite(mesh), p);
     return p;
@@ -63,6 +90,9 @@ struct KBufferRenderer::Impl {
     DeviceRadixSort sorter;
     DeviceBuffer<cl_float4> points, proj;
     DeviceBuffer<float> scalars;
+    /// Mode iso with shading: kbufferPointNormals (built on the first such frame); one unused element otherwise.
+    DeviceBuffer<cl_float4> normals;
+    std::vector<cl_float4> hostNormals;
     DeviceBuffer<cl_uint4> faces, sortedFaces, list;
     DeviceBuffer<cl_uint> keys, vals, counts, total;
     DeviceBuffer<cl_uint2> rects, sortedRects;
@@ -103,6 +133,7 @@ KBufferRenderer::KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, 
     m.sortedRects = cc_.allocate<cl_uint2>(faceRecords.size());
     m.total = cc_.allocate<cl_uint>(1);
     m.list = cc_.allocate<cl_uint4>(std::max<std::size_t>(faceRecords.size(), 1));
+    m.normals = cc_.allocate<cl_float4>(1);
     start(meshBounds(mesh_), meshValueRange(mesh_));
 }
 
@@ -149,6 +180,10 @@ void KBufferRenderer::rebuild(const Rebuild& change) {
         m.fromHalf = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_table_from_half", m.defines);
         m.scan = cc_.kernel("mesh/radix_sort.cl", "exclusive_scan");
     }
+    if (plan_.shading && m.hostNormals.empty()) {
+        m.hostNormals = kbufferPointNormals(mesh_, faces_, geometry_);
+        m.normals = cc_.upload(m.hostNormals, CL_MEM_READ_ONLY);
+    }
     ensureTable();
 }
 
@@ -189,6 +224,18 @@ KBufferRenderer::Table KBufferRenderer::buildTable(const TableSpec& spec) {
             t.host.rgba[4 * i + std::size_t(c)] = values[i].s[c];
     t.device = toHalf(kbufferBlockedTable(t.host));
     return t;
+}
+
+VolclIsoParams KBufferRenderer::isoFrameParams() const {
+    return isoParams(plan_);
+}
+
+VolclLightingParams KBufferRenderer::lightFrameParams() const {
+    return meshLightingParams(scene_, mesh_, geometry_.centre, geometry_.scale);
+}
+
+const std::vector<cl_float4>& KBufferRenderer::pointNormals() const {
+    return impl_->hostNormals;
 }
 
 const std::vector<float>& KBufferRenderer::tableValues() const {
@@ -234,7 +281,8 @@ ImageBuffer KBufferRenderer::render() {
     times_.bin += eventMilliseconds(cc_.launch1d(m.binScatter, binChunks, tuning.binLocal));
 
     const std::size_t threads = tuning.tileThreads;
-    setArgs(m.raster, m.proj, m.scalars, m.counts, m.list, P, table.device, out_);
+    setArgs(m.raster, m.proj, m.scalars, m.counts, m.list, P, table.device, m.normals, isoFrameParams(),
+            lightFrameParams(), out_);
     times_.raster =
         eventMilliseconds(cc_.launch(m.raster, cl::NDRange(tiles * threads), cl::NDRange(threads)));
 

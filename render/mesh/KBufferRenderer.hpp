@@ -38,7 +38,9 @@ struct FaceSplitOptions {
 ///
 /// Level of detail: setLodFraction(q) draws the boundary faces and the first q of the importance-ordered
 /// internal faces (MeshFaces), with a table over the box diagonal since segments then span several tets;
-/// q = 1 is full quality. DVR only: other modes and effects are refused or dropped by planEffects().
+/// q = 1 is full quality. Modes dvr and iso (Callahan's App. B: each popped segment composites the iso-surfaces
+/// its linear scalar crosses, lit with smooth vertex normals); other modes and effects are refused or dropped by
+/// planEffects().
 /// The mesh must outlive the renderer. Example:
 /// ```
 /// volcl::KBufferRenderer r(cc, mesh, tf, scene, 6);
@@ -72,6 +74,11 @@ public:
     /// The table the next frame reads (float RGBA, PreintegrationTable layout), its values rounded to half
     /// precision as the device holds them.
     const std::vector<float>& tableValues() const;
+    /// Mode iso: the planned iso-surfaces and the lights in the normalized frame, and (with shading) the point
+    /// normals the frame lights with (empty without shading).
+    VolclIsoParams isoFrameParams() const;
+    VolclLightingParams lightFrameParams() const;
+    const std::vector<cl_float4>& pointNormals() const;
     /// The device's face order of the last frame (downloaded; for tests).
     std::vector<cl_uint> lastOrder();
 
@@ -102,8 +109,8 @@ std::unique_ptr<VolumeRenderer> makeKBufferRenderer(ComputeContext& cc, const me
                                                     const TransferFunction& tf, const Scene& scene);
 
 /// The plan of the k-buffer method for a scene on a device of this profile: the defines its kernels compile
-/// with and what it drops (shading, clipping, iso-surfaces: not drawn by this method). Throws UsageError for
-/// modes other than dvr.
+/// with and what it drops (dvr: shading, clipping, iso-surfaces; iso: clipping, flat normals). Throws
+/// UsageError for modes other than dvr and iso.
 EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, const DeviceProfile& device);
 
 } // namespace volcl

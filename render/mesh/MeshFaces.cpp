@@ -127,6 +127,7 @@ std::size_t splitLongFaces(MeshFaces& out, const mesh::TetMesh& mesh, double rat
         const auto index = static_cast<std::uint32_t>(base + out.extraPoints.size());
         out.extraPoints.push_back(m);
         out.extraScalars.push_back(s);
+        out.extraParents.push_back({a, b});
         midpoints.emplace(key, index);
         return index;
     };

@@ -34,6 +34,9 @@ struct MeshFaces {
     /// Points added by splitLongFaces (indices from the mesh's point count on) and their scalars.
     std::vector<mesh::Point3> extraPoints;
     std::vector<float> extraScalars;
+    /// The edge each extra point is the midpoint of (point indices; an earlier extra point may be one), so
+    /// per-point attributes linear on the faces (vertex normals) follow the cut: the mean of the two.
+    std::vector<std::array<std::uint32_t, 2>> extraParents;
     std::size_t internalCount() const noexcept { return faces.size() - boundaryCount; }
     /// Faces drawn at internal-face fraction q (clamped to [0, 1]).
     std::size_t prefixForFraction(double q) const noexcept;

@@ -14,11 +14,15 @@ namespace volcl::mesh_detail {
 
 TetField tetField(const mesh::TetMesh& m, std::size_t tet) {
     const auto& v = m.tets[tet];
+    return tetFieldOf(m, tet, {m.scalars[v[0]], m.scalars[v[1]], m.scalars[v[2]], m.scalars[v[3]]});
+}
+
+TetField tetFieldOf(const mesh::TetMesh& m, std::size_t tet, const std::array<double, 4>& values) {
+    const auto& v = m.tets[tet];
     const Vec3 p0 = m.points[v[0]];
     const Vec3 e1 = sub(m.points[v[1]], p0), e2 = sub(m.points[v[2]], p0), e3 = sub(m.points[v[3]], p0);
-    const double s0 = m.scalars[v[0]];
-    const double d1 = double(m.scalars[v[1]]) - s0, d2 = double(m.scalars[v[2]]) - s0,
-                 d3 = double(m.scalars[v[3]]) - s0;
+    const double s0 = values[0];
+    const double d1 = values[1] - s0, d2 = values[2] - s0, d3 = values[3] - s0;
     // Solve [e1; e2; e3] g = (d1, d2, d3) by Cramer's rule: g = (d1 (e2 x e3) + d2 (e3 x e1) + d3 (e1 x e2))
     // / det.
     const double det = dot(e1, cross(e2, e3));

@@ -5,6 +5,7 @@
 #include "host/mesh/TetMesh.hpp"
 #include "render/VecMath.hpp"
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -19,6 +20,9 @@ struct TetField {
     double at(const Vec3& x) const { return value + dot(gradient, sub(x, p0)); }
 };
 TetField tetField(const mesh::TetMesh& m, std::size_t tet);
+/// The same for any values at the tet's four vertices (in the order of m.tets[tet]), e.g. one component of
+/// the vertex normals.
+TetField tetFieldOf(const mesh::TetMesh& m, std::size_t tet, const std::array<double, 4>& values);
 
 /// Outward normal (not unit: twice the face area) and one vertex of face f of tet t: the ray o + t d leaves
 /// through the face's plane at t = dot(n, a - o) / dot(n, d) when dot(n, d) > 0.

@@ -5,10 +5,12 @@
 #include "preintegration/Reference.hpp"
 #include "render/FrameParams.hpp"
 #include "render/mesh/MeshGeometry.hpp"
+#include "render/mesh/VertexNormals.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 namespace volcl {
 
@@ -68,7 +70,9 @@ EffectPlan planMeshEffects(const Scene& scene, const mesh::TetMesh& m) {
         if (c == "pre-integration: 3D table over segment lengths")
             c = "pre-integration: 3D table, each cell segment looked up exactly (lengths up to the longest "
                 "edge)";
-        if (c.rfind("shading:", 0) == 0) c += " (per-tet gradient)";
+        if (c.rfind("shading:", 0) == 0)
+            c += s.effects.smoothNormals ? " (smooth normals: vertex normals interpolated in each tet)"
+                                         : " (flat: per-tet gradient)";
     }
     planNanColor(s, meshHasNonFinite(m), p);
     if (s.mode == RenderMode::Dvr && s.preintegration == Preintegration::None)
@@ -78,15 +82,25 @@ EffectPlan planMeshEffects(const Scene& scene, const mesh::TetMesh& m) {
     return p;
 }
 
-namespace {
-
-using mesh::FaceId;
-using mesh::kNoFace;
-
 double meshGradientThreshold(const mesh::TetMesh& m) {
     return 1e-6 * std::max(double(m.valueMax) - double(m.valueMin), 1e-30) /
            std::max(m.maxEdgeLength, 1e-300);
 }
+
+VolclLightingParams meshLightingParams(const Scene& scene, const mesh::TetMesh& mesh, const Vec3& centre,
+                                       double scale) {
+    VolclLightingParams p = lightingParams(scene, meshGradientThreshold(mesh) * scale);
+    for (unsigned i = 0; i < p.lightCount; ++i)
+        if (p.lightPos[i][3] == float(VOLCL_LIGHT_POINT))
+            for (int a = 0; a < 3; ++a)
+                p.lightPos[i][a] = float((double(p.lightPos[i][a]) - centre[a]) / scale);
+    return p;
+}
+
+namespace {
+
+using mesh::FaceId;
+using mesh::kNoFace;
 
 class MeshTracer {
 public:
@@ -101,6 +115,7 @@ public:
         eps_ = 1e-9 * std::max(norm(sub(m.boundsMax, m.boundsMin)), 1e-300);
         window_ = mipWindow(s, meshValueRange(m));
         nanTau_ = nanExtinction(s);
+        if (lighting_.lit() && s.effects.smoothNormals) normals_ = vertexNormals(m);
     }
 
     const Camera& camera() const noexcept { return cam_; }
@@ -246,6 +261,10 @@ private:
             if ((sa >= v) != (sb >= v)) cross.push_back({std::clamp((v - sa) / (sb - sa), 0.0, 1.0), i});
         }
         std::sort(cross.begin(), cross.end());
+        // The gradient shading takes at x: the tet's own, or its interpolated vertex normals.
+        std::optional<TetNormalField> smooth;
+        if (!normals_.empty()) smooth = tetNormalField(m_, normals_, tet);
+        auto gradientAt = [&](const Vec3& x) { return smooth ? smooth->at(x) : field.gradient; };
         const bool dvr = scene_.mode == RenderMode::Dvr;
         double u0 = 0.0;
         auto piece = [&](double u1) {
@@ -256,8 +275,8 @@ private:
             Vec3 c{r[0], r[1], r[2]};
             if (lighting_.lit()) {
                 const Vec3 x = add(o, scale(d, a + len * 0.5 * (u0 + u1)));
-                const Vec3 S = light(ray, x, {0, 0, 0}, field.gradient);
-                const Vec3 K = sub(light(ray, x, {1, 1, 1}, field.gradient), S);
+                const Vec3 S = light(ray, x, {0, 0, 0}, gradientAt(x));
+                const Vec3 K = sub(light(ray, x, {1, 1, 1}, gradientAt(x)), S);
                 c = add(mul(K, c), scale(S, r[3]));
             }
             px.rgb = add(px.rgb, scale(c, px.T));
@@ -268,8 +287,8 @@ private:
             u0 = u;
             const IsoLayer& iso = isos_[i];
             const double t = a + len * u;
-            const Vec3 c =
-                light(ray, add(o, scale(d, t)), {iso.rgba[0], iso.rgba[1], iso.rgba[2]}, field.gradient);
+            const Vec3 x = add(o, scale(d, t));
+            const Vec3 c = light(ray, x, {iso.rgba[0], iso.rgba[1], iso.rgba[2]}, gradientAt(x));
             if (std::isinf(px.depth)) px.depth = t;
             px.rgb = add(px.rgb, scale(c, px.T * iso.rgba[3]));
             px.T *= 1.0 - iso.rgba[3];
@@ -290,6 +309,7 @@ private:
     std::vector<double> breakpoints_;
     mesh_detail::BoundaryBvh bvh_;
     std::vector<IsoLayer> isos_;
+    std::vector<Vec3> normals_; ///< smooth shading: the vertex normals (empty: flat, per-tet gradients)
     double gradMin_ = 0.0, eps_ = 0.0, nanTau_ = 0.0;
     std::array<double, 2> window_{0.0, 1.0};
 };

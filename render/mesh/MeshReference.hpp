@@ -2,6 +2,7 @@
 // against (cell by cell, each segment's linear scalar integrated through the exact TF).
 #pragma once
 
+#include "cl/volcl_shared.h"
 #include "host/image/ImageIo.hpp"
 #include "host/mesh/TetMesh.hpp"
 #include "host/tf/TransferFunction.hpp"
@@ -25,6 +26,15 @@ bool tetHasNonFinite(const mesh::TetMesh& mesh, std::size_t tet);
 /// pre-integration "2d" served by the 3D table (cell segments differ in length).
 EffectPlan planMeshEffects(const Scene& scene, const mesh::TetMesh& mesh);
 
+/// World gradient magnitude below which a mesh sample has no normal (lit as facing the light): 1e-6 of the
+/// value range over the longest edge.
+double meshGradientThreshold(const mesh::TetMesh& mesh);
+
+/// The scene's lights for a mesh renderer working in the frame (p - centre) / scale: the gradient threshold in
+/// that frame's units and point lights moved into it (directions and head lights need nothing).
+VolclLightingParams meshLightingParams(const Scene& scene, const mesh::TetMesh& mesh, const Vec3& centre,
+                                       double scale);
+
 /// Renders the scene of a mesh exactly, in double, on the host (ReferenceOptions::threads threads; the step
 /// is unused: nothing is sampled). Rays walk from every entering boundary face along their line (a BVH of
 /// them), behind the eye too, in the order of t, through face-adjacent tets leaving each through the nearest
@@ -36,11 +46,12 @@ EffectPlan planMeshEffects(const Scene& scene, const mesh::TetMesh& mesh);
 /// - dvr: each segment [t_a, t_b] of a tet has s linear from s_a to s_b; its colour and opacity are the
 ///   exact emission-absorption integral of the TF (the pre-integration reference), composited front to
 ///   back. render.preintegration and render.step do not change the reference (they are the renderers'
-///   approximations of this integral). Shading: Blinn-Phong with the tet's constant gradient, lights
+///   approximations of this integral). Shading: Blinn-Phong with the tet's constant gradient ("normals":
+///   "flat") or its vertex normals interpolated at the point (the default, "smooth"), lights
 ///   evaluated at the segment's midpoint (exact for directional lights and orthographic head lights),
 ///   applied to the segment as rgb' = K rgb + S alpha (lighting is affine in the colour).
 /// - iso (and dvr with iso-surfaces): crossings of the linear field are exact inside each segment, lit
-///   with the tet's gradient; dvr splits the segment there. Z is the ray distance to the first surface.
+///   with the tet's gradient or smooth normal; dvr splits the segment there. Z is the ray distance to the first surface.
 /// - mip: the largest s over the segment ends (exact for a linear field); colour as for grids.
 /// - xray: 1 - exp(-integral of tau), the integral exact per segment.
 /// - NaN cells (a tet with a non-finite vertex value): dvr composites the NaN colour over the segment,

@@ -14,6 +14,7 @@
 #include "render/grid/GridDetail.hpp"
 #include "render/mesh/MeshGeometry.hpp"
 #include "render/mesh/MeshReference.hpp"
+#include "render/mesh/VertexNormals.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -56,6 +57,10 @@ struct MeshRenderer::Impl {
     std::vector<float> tetMin, tetMax;
     DeviceBuffer<cl_float4> cells, bvhNodes, bvhFaces; ///< cells: 6 per tet (planes, field, neighbours)
     DeviceBuffer<cl_uchar> empty;
+    /// Shading with smooth normals: 3 per tet, the interpolated vertex normals' linear field in the normalised
+    /// frame (SMOOTH_NORMALS); one unused element otherwise. Built on the first frame that needs it.
+    DeviceBuffer<cl_float4> normals;
+    bool normalsBuilt = false;
     DeviceBuffer<float> tauIntegral;
     std::size_t bvhNodeCount = 0;
     double maxSegment = 1.0;
@@ -195,8 +200,36 @@ void MeshRenderer::rebuild(const Rebuild& change) {
     // Where tets may overlap (folds, interpenetrating components) rays take every entry and count the union;
     // elsewhere a ray is outside after a boundary exit and the next entry ahead is all there is.
     if (impl_->mayOverlap) defines.set("MESH_OVERLAPS", 1);
+    if (plan_.shading && scene_.effects.smoothNormals) {
+        defines.set("SMOOTH_NORMALS", 1);
+        uploadNormals();
+    } else if (impl_->normals.size() == 0) {
+        impl_->normals = cc_.allocate<cl_float4>(1);
+    }
     impl_->kernel = cc_.kernel("mesh/mesh_cells.cl", "mesh_cells", defines);
     updateParams(change.shaded);
+}
+
+void MeshRenderer::uploadNormals() {
+    Impl& m = *impl_;
+    if (m.normalsBuilt) return;
+    const std::vector<Vec3> vn = vertexNormals(mesh_);
+    const std::size_t nt = mesh_.tets.size();
+    std::vector<cl_float4> rows(3 * nt);
+    // N_c(x) = value_c + g_c . (x - p0) with x = centre + scale x', scaled by `scale` as the cell's field
+    // gradient is (the gradient threshold is in those units): N'_c(x') = scale (value_c + g_c . (centre - p0))
+    // + scale^2 g_c . x'.
+    parallelFor(nt, 0u, [&](std::size_t t) {
+        const TetNormalField f = tetNormalField(mesh_, vn, t);
+        for (int c = 0; c < 3; ++c) {
+            const Vec3& g = f.gradient[std::size_t(c)];
+            rows[3 * t + std::size_t(c)] =
+                f4(scale(g, m.scale * m.scale),
+                   float(m.scale * (f.value[std::size_t(c)] + dot(g, sub(m.centre, f.p0)))));
+        }
+    });
+    m.normals = cc_.upload(rows, CL_MEM_READ_ONLY);
+    m.normalsBuilt = true;
 }
 
 void MeshRenderer::uploadTauIntegral() {
@@ -272,13 +305,7 @@ void MeshRenderer::updateParams(const TransferFunction& shaded) {
     p.march = marchParams(scene_, meshValueRange(mesh_));
     p.tf = tfParams(scene_, shaded, knotCount(), tableLengths());
     p.tf.tableMaxLength = float(m.maxSegment);
-    const double gradMin = 1e-6 * std::max(double(mesh_.valueMax) - double(mesh_.valueMin), 1e-30) /
-                           std::max(mesh_.maxEdgeLength, 1e-300);
-    p.lighting = lightingParams(scene_, gradMin * m.scale);
-    for (unsigned i = 0; i < p.lighting.lightCount; ++i)
-        if (p.lighting.lightPos[i][3] == float(VOLCL_LIGHT_POINT))
-            for (int a = 0; a < 3; ++a)
-                p.lighting.lightPos[i][a] = float((double(p.lighting.lightPos[i][a]) - m.centre[a]) * inv);
+    p.lighting = meshLightingParams(scene_, mesh_, m.centre, m.scale);
     p.iso = isoParams(plan_);
     VolclMeshParams& mp = p.mesh;
     const Vec3 lo = scale(sub(mesh_.boundsMin, m.centre), inv),
@@ -300,8 +327,8 @@ void MeshRenderer::updateParams(const TransferFunction& shaded) {
 ImageBuffer MeshRenderer::render() {
     Impl& m = *impl_;
     ensureFrameBuffers();
-    setArgs(m.kernel, m.cells, m.empty, m.bvhNodes, m.bvhFaces, knots(), m.tauIntegral, table(), m.params,
-            out_, depth_);
+    setArgs(m.kernel, m.cells, m.empty, m.bvhNodes, m.bvhFaces, knots(), m.tauIntegral, table(), m.normals,
+            m.params, out_, depth_);
     // One work-item per RAYS_X x RAYS_Y pixel block.
     const DeviceProfile::Mesh& tuning = cc_.profile().mesh;
     cl::Event ev =

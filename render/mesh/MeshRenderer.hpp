@@ -36,6 +36,8 @@ private:
     void viewChanged(bool sameView) override;
     /// Integral of tau from knot 0 to each knot, for xray (after the knots changed).
     void uploadTauIntegral();
+    /// The smooth normals' per-tet fields (once per renderer).
+    void uploadNormals();
     /// Per-tet emptiness under the shaded TF and the iso-values.
     void updateEmptiness(const TransferFunction& shaded, bool preint);
     /// The kernel's parameter block in the normalised frame.

@@ -223,6 +223,12 @@ OCLGRIND_BUILD_OPTIONS=-O2 both cells cells.exr "${M[@]}" --method cells
 both kbuffer kbuffer.exr "${M[@]}" --method kbuffer --k 4
 same_image cells.exr 1e-4
 same_image kbuffer.exr 1e-4
+# Mode iso: two transparent layers lit by the head light, the k-buffer's KB_ISO raster (faces per fragment,
+# smooth vertex normals, SHADING). The cell caster's iso mode is not here: at -O2 Oclgrind 21.10 creates no
+# mesh_cells kernel with MODE 2 (CL_INVALID_KERNEL_NAME) and at -Oz it meets the vector-compare defect above.
+ISO=(--mode iso --iso 0.3:1,0.7,0.4,0.5 --iso 0.6:0.4,0.6,1,0.6)
+both kbuffer_iso kbuffer_iso.exr "${M[@]}" --method kbuffer --k 4 "${ISO[@]}"
+same_image kbuffer_iso.exr 1e-4
 
 echo "== tetrahedral meshes whose tets may overlap: the cell caster's union walk (MESH_OVERLAPS)"
 # Two blocks whose boxes overlap and that share no face (make_inputs.py): --stats says whether the renderer took
