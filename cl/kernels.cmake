@@ -29,6 +29,7 @@ set(VOLCL_KERNEL_FILES
   mesh/radix_sort.cl
   mesh/mesh_kbuffer_shared.h
   mesh/mesh_kbuffer.cl
+  mesh/mesh_pt.cl
 )
 list(TRANSFORM VOLCL_KERNEL_FILES PREPEND ${PROJECT_SOURCE_DIR}/cl/ OUTPUT_VARIABLE _kernel_paths)
 list(JOIN _kernel_paths "|" _kernel_paths_joined)

@@ -32,9 +32,12 @@ enum class ScatteringOrder { Single, Multiple };
 /// Level of detail of compressed-brick inputs (.vcz): level 0 everywhere, or a level per brick from its
 /// estimated screen-space error (render/bricks/BrickLod.hpp).
 enum class LodMode { Full, Auto };
-/// How a tetrahedral mesh is rendered: exact cell-by-cell traversal, or faces sorted by centroid into a
-/// per-pixel k-buffer of depth render.k (grids ignore it).
-enum class MeshMethod { Cells, KBuffer };
+/// How a tetrahedral mesh is rendered: exact cell-by-cell traversal, faces sorted by centroid into a
+/// per-pixel k-buffer of depth render.k, or projected tetrahedra composited in a visibility order of the cells
+/// (render.sort) (grids ignore it).
+enum class MeshMethod { Cells, KBuffer, ProjectedTetrahedra };
+/// How render.method "pt" orders cells (render/mesh/VisibilitySort.hpp defines it).
+enum class MeshSort;
 
 std::string_view renderModeName(RenderMode m);
 RenderMode parseRenderMode(std::string_view s); ///< throws UsageError
@@ -47,7 +50,7 @@ MipColor parseMipColor(std::string_view s); ///< "grey" (or "gray"), "tf", "tf-o
 std::string_view lodModeName(LodMode m);
 LodMode parseLodMode(std::string_view s); ///< "full", "auto"; throws UsageError
 std::string_view meshMethodName(MeshMethod m);
-MeshMethod parseMeshMethod(std::string_view s); ///< "cells", "kbuffer"; throws UsageError
+MeshMethod parseMeshMethod(std::string_view s); ///< "cells", "kbuffer", "pt"; throws UsageError
 
 /// GLM lookAt camera. `height` is the orthographic view height in world units; `fovYDeg` the perspective one.
 struct Camera {
@@ -177,6 +180,8 @@ struct Scene {
     double cacheMb = 512.0;
     MeshMethod meshMethod = MeshMethod::Cells; ///< render.method (meshes only)
     int kBufferDepth = 6;                      ///< render.k: k-buffer entries per pixel, 2..8
+    /// render.sort: the visibility order of render.method "pt"; unset: MPVO over the convexified mesh.
+    std::optional<MeshSort> meshSort;
     std::vector<Light> lights;
     SceneEffects effects;
 
