@@ -6,9 +6,9 @@
    per tile, each owning the rows y with (y - y0) % KB_TILE_THREADS == lid), BIN_CHUNKS (as the binning's),
    CLIPPING (clip planes cut the segments), NAN_COLOR (NaN cells drawn with the NaN colour). The C++ mirror is
    render/mesh/PtReference.cpp. */
-#include "mesh_kbuffer_shared.h"
 #include "../common/camera_rays.h"
 #include "../common/tf_lookup.h"
+#include "mesh_kbuffer_shared.h"
 
 #pragma OPENCL FP_CONTRACT OFF
 
@@ -30,9 +30,9 @@
    x1 | y1 << 16), empty when x0 > x1) and the tile-list item (tet, pixel x0 | y0 << 16, pixel x1 | y1 << 16, 0).
    A cell wholly behind the eye plane covers nothing; a perspective cell with a vertex at or behind the near
    distance (proj.w = 0) gets the whole image, the exact per-pixel test deciding. */
-__kernel void pt_tet_rects(__global const uint* order, __global const uint4* tets, __global const float4* proj,
-                           const uint n, const VolclKBufferParams P, __global uint4* items,
-                           __global uint2* rects) {
+__kernel void pt_tet_rects(__global const uint* order, __global const uint4* tets,
+                           __global const float4* proj, const uint n, const VolclKBufferParams P,
+                           __global uint4* items, __global uint2* rects) {
     const uint pos = get_global_id(0);
     if (pos >= n) return;
     const uint t = order[pos];
@@ -74,8 +74,8 @@ inline void pt_segment(__global const float4* pl, float3 o, float3 d, float tMin
             hi = fmin(hi, -a / b);
         else if (b < 0.0f)
             lo = fmax(lo, -a / b);
-        else if (a > 0.0f || (a == 0.0f && (p.x < 0.0f || (p.x == 0.0f && (p.y < 0.0f || (p.y == 0.0f &&
-                                                                                          p.z < 0.0f))))))
+        else if (a > 0.0f ||
+                 (a == 0.0f && (p.x < 0.0f || (p.x == 0.0f && (p.y < 0.0f || (p.y == 0.0f && p.z < 0.0f))))))
             hi = -INFINITY;
     }
     *t0 = lo;
@@ -85,9 +85,9 @@ inline void pt_segment(__global const float4* pl, float3 o, float3 d, float tMin
 /* Composites one tile (work-group): its cells from the nearest to the farthest (the list holds them back to
    front), each over the pixels of its rectangle, into per-pixel colours in local memory; writes them (linear,
    associated RGBA). */
-__kernel void pt_raster(__global const float4* cells, __global const uint* binEnds, __global const uint4* list,
-                        const VolclKBufferParams P, const VolclClipParams K, __global const float4* table,
-                        __global float4* out) {
+__kernel void pt_raster(__global const float4* cells, __global const uint* binEnds,
+                        __global const uint4* list, const VolclKBufferParams P, const VolclClipParams K,
+                        __global const float4* table, __global float4* out) {
     __local float4 lacc[KB_TILE * KB_TILE];
     __local uchar ldone[KB_TILE * KB_TILE];
     const uint tile = get_group_id(0);

@@ -62,7 +62,8 @@ ImageBuffer ptMirrorRender(const PtMirrorInput& in) {
         const mesh_detail::NormalisedTet r = mesh_detail::normalisedTet(mesh, t, g.centre, g.scale);
         Cell& c = cells[t];
         for (int f = 0; f < 4; ++f)
-            c.plane[f] = {float(r.normal[f][0]), float(r.normal[f][1]), float(r.normal[f][2]), float(r.offset[f])};
+            c.plane[f] = {float(r.normal[f][0]), float(r.normal[f][1]), float(r.normal[f][2]),
+                          float(r.offset[f])};
         c.field = {float(r.gradient[0]), float(r.gradient[1]), float(r.gradient[2]), float(r.value)};
         std::array<KBufferProjected, 4> q;
         for (int i = 0; i < 4; ++i)
@@ -129,8 +130,8 @@ ImageBuffer ptMirrorRender(const PtMirrorInput& in) {
                     else if (b < 0.0f)
                         lo = std::fmax(lo, -a / b);
                     else if (a > 0.0f ||
-                             (a == 0.0f &&
-                              (p[0] < 0.0f || (p[0] == 0.0f && (p[1] < 0.0f || (p[1] == 0.0f && p[2] < 0.0f))))))
+                             (a == 0.0f && (p[0] < 0.0f || (p[0] == 0.0f &&
+                                                            (p[1] < 0.0f || (p[1] == 0.0f && p[2] < 0.0f))))))
                         hi = -std::numeric_limits<float>::infinity();
                 }
                 if (!(hi > lo)) continue;

@@ -84,10 +84,11 @@ PtRenderer::PtRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const Tran
     std::vector<cl_float4> cells(kTetStride * nt);
     std::vector<cl_uint4> tets(nt);
     parallelFor(nt, 0u, [&](std::size_t t) {
-        const mesh_detail::NormalisedTet r = mesh_detail::normalisedTet(mesh, t, geometry_.centre, geometry_.scale);
+        const mesh_detail::NormalisedTet r =
+            mesh_detail::normalisedTet(mesh, t, geometry_.centre, geometry_.scale);
         for (unsigned f = 0; f < 4; ++f)
-            cells[kTetStride * t + f] = {{float(r.normal[f][0]), float(r.normal[f][1]), float(r.normal[f][2]),
-                                          float(r.offset[f])}};
+            cells[kTetStride * t + f] = {
+                {float(r.normal[f][0]), float(r.normal[f][1]), float(r.normal[f][2]), float(r.offset[f])}};
         cells[kTetStride * t + 4] = {
             {float(r.gradient[0]), float(r.gradient[1]), float(r.gradient[2]), float(r.value)}};
         tets[t] = {{mesh.tets[t][0], mesh.tets[t][1], mesh.tets[t][2], mesh.tets[t][3]}};

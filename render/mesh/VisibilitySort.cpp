@@ -13,9 +13,12 @@ namespace volcl {
 
 std::string_view meshSortName(MeshSort s) {
     switch (s) {
-    case MeshSort::Centroid: return "centroid";
-    case MeshSort::Mpvo: return "mpvo";
-    case MeshSort::Convexified: return "convexified";
+    case MeshSort::Centroid:
+        return "centroid";
+    case MeshSort::Mpvo:
+        return "mpvo";
+    case MeshSort::Convexified:
+        return "convexified";
     }
     return "centroid";
 }
@@ -24,7 +27,8 @@ MeshSort parseMeshSort(std::string_view s) {
     if (s == "centroid") return MeshSort::Centroid;
     if (s == "mpvo") return MeshSort::Mpvo;
     if (s == "convexified") return MeshSort::Convexified;
-    throw UsageError("render.sort '" + std::string(s) + "' is unknown (expected centroid, mpvo, convexified)");
+    throw UsageError("render.sort '" + std::string(s) +
+                     "' is unknown (expected centroid, mpvo, convexified)");
 }
 
 struct VisibilitySorter::Impl {
@@ -32,7 +36,8 @@ struct VisibilitySorter::Impl {
     std::vector<Vec3> centroids;
 };
 
-VisibilitySorter::VisibilitySorter(const mesh::TetMesh& mesh) : impl_(std::make_unique<Impl>(Impl{mesh, {}})) {
+VisibilitySorter::VisibilitySorter(const mesh::TetMesh& mesh)
+    : impl_(std::make_unique<Impl>(Impl{mesh, {}})) {
     impl_->centroids.resize(mesh.tets.size());
     for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
         Vec3 c{0, 0, 0};
