@@ -204,7 +204,7 @@ both bricks_iso bricks_iso.exr "$volcl" -q render --volume "$work/ocl/ll_marschn
   --width 12 --height 10 --mode iso --iso 0.5
 same_image bricks_iso.exr 1e-4
 
-echo "== tetrahedral meshes: cell ray caster and k-buffer (radix sort)"
+echo "== tetrahedral meshes: cell ray caster, k-buffer (radix sort), projected tetrahedra"
 M=("$volcl" -q render --volume "$work/in/cubes.vtk" --tf "$tf" --width 12 --height 10 --view iso --table-size 16
   --table-lengths 4)
 # At Oclgrind's default -Oz, first_entry's `found = sn.x <= sn.y` becomes a vector compare whose lane Oclgrind
@@ -212,8 +212,11 @@ M=("$volcl" -q render --volume "$work/in/cubes.vtk" --tf "$tf" --width 12 --heig
 # scalar.
 OCLGRIND_BUILD_OPTIONS=-O2 both cells cells.exr "${M[@]}" --method cells
 both kbuffer kbuffer.exr "${M[@]}" --method kbuffer --k 4
+# Projected tetrahedra: the tile rectangles, the k-buffer's binning and the tile compositing, with a clip plane.
+both pt pt.exr "${M[@]}" --method pt --sort centroid --clip 1,0.3,0,-0.4
 same_image cells.exr 1e-4
 same_image kbuffer.exr 1e-4
+same_image pt.exr 1e-4
 
 echo "== tetrahedral meshes whose tets may overlap: the cell caster's union walk (MESH_OVERLAPS)"
 # Two blocks whose boxes overlap and that share no face (make_inputs.py): --stats says whether the renderer took
