@@ -28,6 +28,7 @@ set(VOLCL_KERNEL_FILES
   codec/motion.cl
   mesh/radix_sort.cl
   mesh/mesh_kbuffer_shared.h
+  mesh/mesh_tile.h
   mesh/mesh_kbuffer.cl
   mesh/mesh_pt.cl
 )

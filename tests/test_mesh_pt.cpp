@@ -1,6 +1,7 @@
 // Projected tetrahedra (render.method "pt"): the kernels against their C++ mirror, the mirror with an exact
 // visibility order against the exact cell caster (a ray walk, not a projection), and hard cases: one tet, a
 // sliver, a camera inside the mesh, a mesh straddling the image border, an empty TF, NaN cells, refusals.
+#include "MeshTestUtil.hpp"
 #include "TestUtil.hpp"
 
 #include "core/Error.hpp"
@@ -26,18 +27,12 @@ ComputeContext& context() {
     return test::computeContext();
 }
 
-/// Ramp TF over the mesh's value range, `depth` optical lengths across the box diagonal at its peak.
+using test::maxAbsDiff;
+using test::meanAlpha;
+
+/// The suite's ramp TF: some extinction everywhere (every cell shows).
 TransferFunction meshTf(const mesh::TetMesh& m, double depth) {
-    const double lo = m.valueMin, hi = m.valueMax > m.valueMin ? m.valueMax : m.valueMin + 1.0;
-    const double diag = norm(sub(m.boundsMax, m.boundsMin));
-    TransferFunction tf;
-    tf.domain = {lo, hi};
-    tf.color = {{lo, {0.1, 0.2, 1.0}}, {0.5 * (lo + hi), {1.0, 0.6, 0.2}}, {hi, {1.0, 1.0, 0.9}}};
-    tf.extinction = {{lo, 0.1 * depth / diag},
-                     {lo + 0.2 * (hi - lo), 0.3 * depth / diag},
-                     {lo + 0.8 * (hi - lo), depth / diag},
-                     {hi, 0.3 * depth / diag}};
-    return tf;
+    return test::meshTf(m, depth, 0.1);
 }
 
 /// The box framed from (azimuth, elevation), w x h, 3D table, no early termination.
@@ -118,20 +113,6 @@ ImageBuffer mirrorOf(PtRenderer& r, const mesh::TetMesh& m, const Scene& s,
 ImageBuffer cellsImage(const mesh::TetMesh& m, const TransferFunction& tf, Scene s) {
     s.meshMethod = MeshMethod::Cells;
     return RenderInput::borrowMesh(m).makeRenderer(context(), tf, s)->render();
-}
-
-double maxAbsDiff(const ImageBuffer& a, const ImageBuffer& b) {
-    double d = 0;
-    for (std::size_t i = 0; i < a.pixels.size(); ++i)
-        d = std::max(d, double(std::abs(a.pixels[i] - b.pixels[i])));
-    return d;
-}
-
-double meanAlpha(const ImageBuffer& img) {
-    double sum = 0;
-    for (std::size_t i = 3; i < img.pixels.size(); i += 4)
-        sum += img.pixels[i];
-    return sum / double(img.width * img.height);
 }
 
 bool finiteInUnitRange(const ImageBuffer& img) {

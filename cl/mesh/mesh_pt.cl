@@ -22,6 +22,8 @@
 #define BIN_CHUNKS 64
 #endif
 
+#include "mesh_tile.h"
+
 /* float4s per cell record: the four face planes (unit outward normal, offset), then the field (gradient, value),
    all in the normalised frame (render/mesh/PtRenderer.cpp, mesh_detail::normalisedTet). */
 #define PT_TET_STRIDE 5
@@ -92,8 +94,8 @@ __kernel void pt_raster(__global const float4* cells, __global const uint* binEn
     __local uchar ldone[KB_TILE * KB_TILE];
     const uint tile = get_group_id(0);
     const uint lid = get_local_id(0);
-    const int tx0 = (int)(tile % P.tilesX) * KB_TILE, ty0 = (int)(tile / P.tilesX) * KB_TILE;
-    const int xEnd = min(tx0 + KB_TILE, (int)P.width), yEnd = min(ty0 + KB_TILE, (int)P.height);
+    const int4 bounds = tile_bounds(tile, P.tilesX, P.width, P.height);
+    const int tx0 = bounds.x, ty0 = bounds.y, xEnd = bounds.z, yEnd = bounds.w;
     int live = 0;
     for (int ly = (int)lid; ly < KB_TILE; ly += KB_TILE_THREADS)
         for (int lx = 0; lx < KB_TILE; ++lx) {
@@ -103,8 +105,8 @@ __kernel void pt_raster(__global const float4* cells, __global const uint* binEn
             ldone[li] = (uchar)!in;
             live += in;
         }
-    const uint start = tile == 0 ? 0u : binEnds[(tile - 1) * BIN_CHUNKS + BIN_CHUNKS - 1];
-    const uint end = binEnds[tile * BIN_CHUNKS + BIN_CHUNKS - 1];
+    const uint2 range = tile_list(binEnds, tile);
+    const uint start = range.x, end = range.y;
     const float3 eye = (float3)(P.eye[0], P.eye[1], P.eye[2]);
     const float3 fw = (float3)(P.forward[0], P.forward[1], P.forward[2]);
     const float3 rt = (float3)(P.right[0], P.right[1], P.right[2]);
@@ -153,12 +155,7 @@ __kernel void pt_raster(__global const float4* cells, __global const uint* binEn
                 } else
 #endif
                     c = preint_segment(table, &T, sf, sb, len);
-                const float4 acc = lacc[li] + (1.0f - lacc[li].w) * c;
-                lacc[li] = acc;
-                if (acc.w >= P.earlyTermination) {
-                    ldone[li] = 1;
-                    --live;
-                }
+                tile_store(lacc, ldone, li, lacc[li] + (1.0f - lacc[li].w) * c, P.earlyTermination, &live);
             }
         }
     }

@@ -59,16 +59,16 @@ EffectPlan planPt(const Scene& scene, const mesh::TetMesh& mesh, const DevicePro
 }
 
 struct PtRenderer::Impl {
-    explicit Impl(const mesh::TetMesh& mesh) : sorter(mesh) {}
+    Impl(ComputeContext& cc, const mesh::TetMesh& mesh) : sorter(mesh), binner(cc) {}
     VisibilitySorter sorter;
+    TileBinner binner;
     DeviceBuffer<cl_float4> points, proj, cells;
-    DeviceBuffer<cl_uint4> tets, items, list;
-    DeviceBuffer<cl_uint> order, counts, total;
+    DeviceBuffer<cl_uint4> tets, items;
+    DeviceBuffer<cl_uint> order;
     DeviceBuffer<cl_uint2> rects;
-    cl::Kernel project, tetRects, binCount, scan, binScatter, raster;
+    cl::Kernel project, tetRects, raster;
     KernelDefines defines;
     VolclTfParams tf{};
-    std::size_t lastEntries = 0;
 };
 
 PtRenderer::PtRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf,
@@ -77,7 +77,7 @@ PtRenderer::PtRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const Tran
     if (mesh.tets.empty()) throw DataError("mesh has no tetrahedra");
     if (mesh.points.size() > 0xFFFFFFFFu || mesh.tets.size() > 0xFFFFFFFFu)
         throw DataError("mesh has too many points or tets for projected tetrahedra (2^32 - 1)");
-    impl_ = std::make_unique<Impl>(mesh);
+    impl_ = std::make_unique<Impl>(cc, mesh);
     geometry_ = kbufferGeometry(mesh, MeshFaces{});
     Impl& m = *impl_;
     const std::size_t nt = mesh.tets.size();
@@ -100,8 +100,6 @@ PtRenderer::PtRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const Tran
     m.order = cc_.allocate<cl_uint>(nt);
     m.items = cc_.allocate<cl_uint4>(nt);
     m.rects = cc_.allocate<cl_uint2>(nt);
-    m.total = cc_.allocate<cl_uint>(1);
-    m.list = cc_.allocate<cl_uint4>(nt);
     start(meshBounds(mesh_), meshValueRange(mesh_));
 }
 
@@ -129,12 +127,9 @@ void PtRenderer::rebuild(const Rebuild& change) {
     m.tf.tableMaxLength = float(maxSegment);
     if (!(m.defines == plan_.defines) || m.raster.get() == nullptr) {
         m.defines = plan_.defines;
-        KernelDefines bin;
-        bin.set("KB_TILE", kKBufferTile).set("BIN_CHUNKS", cc_.profile().mesh.binChunks);
-        m.project = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_project", bin);
-        m.binCount = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_bin_count", bin);
-        m.binScatter = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_bin_scatter", bin);
-        m.scan = cc_.kernel("mesh/radix_sort.cl", "exclusive_scan");
+        KernelDefines project;
+        project.set("KB_TILE", kKBufferTile).set("BIN_CHUNKS", cc_.profile().mesh.binChunks);
+        m.project = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_project", project);
         m.tetRects = cc_.kernel("mesh/mesh_pt.cl", "pt_tet_rects", m.defines);
         m.raster = cc_.kernel("mesh/mesh_pt.cl", "pt_raster", m.defines);
     }
@@ -165,8 +160,6 @@ ImageBuffer PtRenderer::render() {
     ensureFrameBuffers();
     const std::size_t tiles = std::size_t(P.tilesX) * P.tilesY;
     const DeviceProfile::Mesh& tuning = cc_.profile().mesh;
-    const std::size_t binChunks = tuning.binChunks;
-    if (m.counts.size() != tiles * binChunks) m.counts = cc_.allocate<cl_uint>(tiles * binChunks);
     const cl_uint n = cl_uint(mesh_.tets.size());
     times_ = {};
 
@@ -178,20 +171,10 @@ ImageBuffer PtRenderer::render() {
     times_.project = eventMilliseconds(cc_.launch1d(m.project, geometry_.points.size(), tuning.kbuffer));
     setArgs(m.tetRects, m.order, m.tets, m.proj, n, P, m.items, m.rects);
     times_.bin = eventMilliseconds(cc_.launch1d(m.tetRects, n, tuning.kbuffer));
-    cc_.fill(m.counts, cl_uint(0));
-    setArgs(m.binCount, m.rects, n, P.tilesX, m.counts);
-    times_.bin += eventMilliseconds(cc_.launch1d(m.binCount, binChunks, tuning.binLocal));
-    setArgs(m.scan, m.counts, cl_uint(tiles * binChunks), m.total);
-    times_.bin += eventMilliseconds(cc_.launch1d(m.scan, 1, 1));
-    cl_uint entries = 0;
-    cc_.read(m.total, std::span<cl_uint>(&entries, 1));
-    if (m.list.size() < entries) m.list = cc_.allocate<cl_uint4>(std::size_t(entries) + entries / 4);
-    m.lastEntries = entries;
-    setArgs(m.binScatter, m.items, m.rects, n, P.tilesX, m.counts, m.list);
-    times_.bin += eventMilliseconds(cc_.launch1d(m.binScatter, binChunks, tuning.binLocal));
+    times_.bin += m.binner.bin(m.items, m.rects, n, P.tilesX, tiles);
 
     const std::size_t threads = tuning.tileThreads;
-    setArgs(m.raster, m.cells, m.counts, m.list, P, K, table(), out_);
+    setArgs(m.raster, m.cells, m.binner.ends(), m.binner.list(), P, K, table(), out_);
     times_.raster =
         eventMilliseconds(cc_.launch(m.raster, cl::NDRange(tiles * threads), cl::NDRange(threads)));
 
@@ -208,7 +191,7 @@ std::string PtRenderer::statistics() const {
     std::ostringstream os;
     os << "tets: " << mesh_.tets.size() << ", sort " << meshSortName(sort_) << " (cycles broken "
        << order_.cyclesBroken << ", " << formatNumber(order_.seconds * 1000.0) << " ms), tile entries "
-       << impl_->lastEntries;
+       << impl_->binner.entries();
     return os.str();
 }
 
