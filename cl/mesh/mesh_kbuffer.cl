@@ -12,16 +12,6 @@
 #ifndef KB_K
 #define KB_K 6
 #endif
-#ifndef KB_TILE
-#define KB_TILE 16
-#endif
-#ifndef KB_TILE_THREADS
-#define KB_TILE_THREADS 1
-#endif
-#ifndef BIN_CHUNKS
-#define BIN_CHUNKS 64
-#endif
-
 #include "mesh_tile.h"
 
 /* Face rectangles at least this many pixels wide (minus one) get their rows narrowed to the edges' span. */

@@ -12,16 +12,6 @@
 
 #pragma OPENCL FP_CONTRACT OFF
 
-#ifndef KB_TILE
-#define KB_TILE 16
-#endif
-#ifndef KB_TILE_THREADS
-#define KB_TILE_THREADS 1
-#endif
-#ifndef BIN_CHUNKS
-#define BIN_CHUNKS 64
-#endif
-
 #include "mesh_tile.h"
 
 /* float4s per cell record: the four face planes (unit outward normal, offset), then the field (gradient, value),

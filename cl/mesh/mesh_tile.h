@@ -3,6 +3,16 @@
 #ifndef VOLCL_MESH_TILE_H
 #define VOLCL_MESH_TILE_H
 
+#ifndef KB_TILE
+#define KB_TILE 16
+#endif
+#ifndef KB_TILE_THREADS
+#define KB_TILE_THREADS 1
+#endif
+#ifndef BIN_CHUNKS
+#define BIN_CHUNKS 64
+#endif
+
 /* Pixels of tile `tile` of a tilesX-wide grid: (x, y) its first pixel, (z, w) one past its last inside the image. */
 inline int4 tile_bounds(uint tile, uint tilesX, uint width, uint height) {
     const int x0 = (int)(tile % tilesX) * KB_TILE, y0 = (int)(tile / tilesX) * KB_TILE;
