@@ -429,16 +429,12 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
     const uint lid = get_local_id(0);
     const int4 bounds = tile_bounds(tile, P.tilesX, P.width, P.height);
     const int tx0 = bounds.x, ty0 = bounds.y, xEnd = bounds.z, yEnd = bounds.w;
-    int live = 0;
+    int live = tile_clear(lacc, ldone, bounds, lid);
     for (int ly = (int)lid; ly < KB_TILE; ly += KB_TILE_THREADS)
         for (int lx = 0; lx < KB_TILE; ++lx) {
             const uint li = (uint)(ly * KB_TILE + lx);
             lcount[li] = 0;
             lhead[li] = 0;
-            lacc[li] = (float4)(0.0f);
-            const int in = ty0 + ly < yEnd && tx0 + lx < xEnd;
-            ldone[li] = (uchar)!in;
-            live += in;
         }
     const uint2 range = tile_list(binEnds, tile);
     const uint start = range.x, end = range.y;

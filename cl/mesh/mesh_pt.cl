@@ -86,15 +86,7 @@ __kernel void pt_raster(__global const float4* cells, __global const uint* binEn
     const uint lid = get_local_id(0);
     const int4 bounds = tile_bounds(tile, P.tilesX, P.width, P.height);
     const int tx0 = bounds.x, ty0 = bounds.y, xEnd = bounds.z, yEnd = bounds.w;
-    int live = 0;
-    for (int ly = (int)lid; ly < KB_TILE; ly += KB_TILE_THREADS)
-        for (int lx = 0; lx < KB_TILE; ++lx) {
-            const uint li = (uint)(ly * KB_TILE + lx);
-            lacc[li] = (float4)(0.0f);
-            const int in = ty0 + ly < yEnd && tx0 + lx < xEnd;
-            ldone[li] = (uchar)!in;
-            live += in;
-        }
+    int live = tile_clear(lacc, ldone, bounds, lid);
     const uint2 range = tile_list(binEnds, tile);
     const uint start = range.x, end = range.y;
     const float3 eye = (float3)(P.eye[0], P.eye[1], P.eye[2]);

@@ -25,6 +25,21 @@ inline uint2 tile_list(__global const uint* binEnds, uint tile) {
                    binEnds[tile * BIN_CHUNKS + BIN_CHUNKS - 1]);
 }
 
+/* Clears the colours of the work-item's rows of the tile (those with (y - y0) % KB_TILE_THREADS == lid) and marks
+   the pixels outside the image done; returns how many of its pixels are live. */
+inline int tile_clear(__local float4* lacc, __local uchar* ldone, int4 bounds, uint lid) {
+    int live = 0;
+    for (int ly = (int)lid; ly < KB_TILE; ly += KB_TILE_THREADS)
+        for (int lx = 0; lx < KB_TILE; ++lx) {
+            const uint li = (uint)(ly * KB_TILE + lx);
+            lacc[li] = (float4)(0.0f);
+            const int in = bounds.y + ly < bounds.w && bounds.x + lx < bounds.z;
+            ldone[li] = (uchar)!in;
+            live += in;
+        }
+    return live;
+}
+
 /* Stores pixel li's new colour and retires the pixel once its opacity reaches earlyTermination (values >= 1
    never do); *live counts the work-item's pixels still taking fragments. */
 inline void tile_store(__local float4* lacc, __local uchar* ldone, uint li, float4 acc,
