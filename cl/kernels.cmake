@@ -33,7 +33,9 @@ set(VOLCL_KERNEL_FILES
   codec/motion.cl
   mesh/radix_sort.cl
   mesh/mesh_kbuffer_shared.h
+  mesh/mesh_tile.h
   mesh/mesh_kbuffer.cl
+  mesh/mesh_pt.cl
 )
 list(TRANSFORM VOLCL_KERNEL_FILES PREPEND ${PROJECT_SOURCE_DIR}/cl/ OUTPUT_VARIABLE _kernel_paths)
 list(JOIN _kernel_paths "|" _kernel_paths_joined)

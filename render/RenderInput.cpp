@@ -13,6 +13,7 @@
 #include "render/mesh/KBufferRenderer.hpp"
 #include "render/mesh/MeshReference.hpp"
 #include "render/mesh/MeshRenderer.hpp"
+#include "render/mesh/PtRenderer.hpp"
 #include "wavelet/Codec.hpp"
 
 #include "core/Error.hpp"
@@ -138,9 +139,11 @@ EffectPlan RenderInput::planEffects(const Scene& sceneAsGiven, const TransferFun
         planNanColor(scene, !vczNonFiniteBricks(vcz_->header(), frame_).empty(), p);
         return p;
     }
-    if (mesh_ && scene.meshMethod == MeshMethod::KBuffer) { // no device here: the plan as on a CPU device
+    if (mesh_ && scene.meshMethod != MeshMethod::Cells) { // no device here: the plan as on a CPU device
         DeviceInfo cpu;
         cpu.isCpu = true;
+        if (scene.meshMethod == MeshMethod::ProjectedTetrahedra)
+            return planPt(scene, *mesh_, deviceProfileFor(cpu));
         return planKBuffer(scene, *mesh_, scene.kBufferDepth, deviceProfileFor(cpu));
     }
     if (mesh_) return planMeshEffects(scene, *mesh_);
@@ -174,6 +177,8 @@ std::unique_ptr<VolumeRenderer> RenderInput::makeRenderer(ComputeContext& cc, co
     if (vcz_) return std::make_unique<BrickRenderer>(cc, vcz_, frame_, tf, scene);
     if (mesh_) {
         if (scene.meshMethod == MeshMethod::KBuffer) return makeKBufferRenderer(cc, *mesh_, tf, scene);
+        if (scene.meshMethod == MeshMethod::ProjectedTetrahedra)
+            return std::make_unique<PtRenderer>(cc, *mesh_, tf, scene);
         return std::make_unique<MeshRenderer>(cc, *mesh_, tf, scene);
     }
     if (scene.gridMethod != GridMethod::Raymarch)

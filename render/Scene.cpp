@@ -7,6 +7,7 @@
 #include "core/Format.hpp"
 #include "preintegration/PreintegrationTable.hpp"
 #include "render/VecMath.hpp"
+#include "render/mesh/VisibilitySort.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -217,7 +218,15 @@ LodMode parseLodMode(std::string_view s) {
 }
 
 std::string_view meshMethodName(MeshMethod m) {
-    return m == MeshMethod::KBuffer ? "kbuffer" : "cells";
+    switch (m) {
+    case MeshMethod::KBuffer:
+        return "kbuffer";
+    case MeshMethod::ProjectedTetrahedra:
+        return "pt";
+    case MeshMethod::Cells:
+        break;
+    }
+    return "cells";
 }
 
 std::string_view gridMethodName(GridMethod m) {
@@ -231,19 +240,20 @@ void parseRenderMethod(std::string_view s, const std::string& what, Scene& scene
                                              : GridMethod::Raymarch;
         return;
     }
-    if (s == "cells" || s == "kbuffer") {
+    if (s == "cells" || s == "kbuffer" || s == "pt") {
         scene.meshMethod = parseMeshMethod(s);
         return;
     }
     throw UsageError(
         what + " '" + std::string(s) +
-        "' is unknown (expected raymarch, shear-warp, drc for grids; cells, kbuffer for meshes)");
+        "' is unknown (expected raymarch, shear-warp, drc for grids; cells, kbuffer, pt for meshes)");
 }
 
 MeshMethod parseMeshMethod(std::string_view s) {
     if (s == "cells") return MeshMethod::Cells;
     if (s == "kbuffer") return MeshMethod::KBuffer;
-    throw UsageError("render.method '" + std::string(s) + "' is unknown (expected cells, kbuffer)");
+    if (s == "pt") return MeshMethod::ProjectedTetrahedra;
+    throw UsageError("render.method '" + std::string(s) + "' is unknown (expected cells, kbuffer, pt)");
 }
 
 namespace {
@@ -276,12 +286,12 @@ void parseImage(const json& im, Scene& s) {
     if (im.contains("background")) s.background = vec<4>(im["background"], "image.background");
 }
 
-/// "render": mode, step, tables, filter, level of detail, mesh method.
+/// "render": mode, step, tables, filter, level of detail, mesh method and sort.
 void parseRenderSettings(const json& r, Scene& s) {
     checkKeys(r, "render",
               {"mode", "step", "preintegration", "early_termination", "skipping", "table_size",
                "table_lengths", "filter", "smoothing", "window", "mip_color", "budget_ms", "lod", "lod_error",
-               "cache_mb", "method", "k", "nan_color"});
+               "cache_mb", "method", "k", "sort", "nan_color"});
     if (r.contains("mode")) s.mode = parseRenderMode(str(r["mode"], "render.mode"));
     if (r.contains("step")) {
         if (r["step"].is_string()) {
@@ -313,6 +323,7 @@ void parseRenderSettings(const json& r, Scene& s) {
     if (r.contains("cache_mb")) s.cacheMb = num(r["cache_mb"], "render.cache_mb");
     if (r.contains("method")) parseRenderMethod(str(r["method"], "render.method"), "render.method", s);
     if (r.contains("k")) s.kBufferDepth = intField(r["k"], "render.k");
+    if (r.contains("sort")) s.meshSort = parseMeshSort(str(r["sort"], "render.sort"));
     if (r.contains("nan_color")) s.nanColor = vec<4>(r["nan_color"], "render.nan_color");
 }
 
@@ -522,6 +533,7 @@ std::string Scene::toJson() const {
     if (meshMethod != MeshMethod::Cells) j["render"]["method"] = std::string(meshMethodName(meshMethod));
     if (gridMethod != GridMethod::Raymarch) j["render"]["method"] = std::string(gridMethodName(gridMethod));
     if (kBufferDepth != 6) j["render"]["k"] = kBufferDepth;
+    if (meshSort) j["render"]["sort"] = std::string(meshSortName(*meshSort));
     if (window) j["render"]["window"] = *window;
     if (budgetMs > 0.0) j["render"]["budget_ms"] = budgetMs;
     if (nanColor != std::array<double, 4>{0, 0, 0, 0}) j["render"]["nan_color"] = nanColor;

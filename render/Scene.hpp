@@ -34,9 +34,12 @@ enum class ScatteringOrder { Single, Multiple };
 /// Level of detail of compressed-brick inputs (.vcz): level 0 everywhere, or a level per brick from its
 /// estimated screen-space error (render/bricks/BrickLod.hpp).
 enum class LodMode { Full, Auto };
-/// How a tetrahedral mesh is rendered: exact cell-by-cell traversal, or faces sorted by centroid into a
-/// per-pixel k-buffer of depth render.k (grids ignore it).
-enum class MeshMethod { Cells, KBuffer };
+/// How a tetrahedral mesh is rendered: exact cell-by-cell traversal, faces sorted by centroid into a
+/// per-pixel k-buffer of depth render.k, or projected tetrahedra composited in a visibility order of the cells
+/// (render.sort) (grids ignore it).
+enum class MeshMethod { Cells, KBuffer, ProjectedTetrahedra };
+/// How render.method "pt" orders cells (render/mesh/VisibilitySort.hpp defines it).
+enum class MeshSort;
 /// How a grid is rendered: the ray marcher (full quality), or a preview tier: shear-warp of a run-length-encoded
 /// classified volume (orthographic views), or discrete ray casting (nearest voxel, 3D DDA). Meshes and
 /// compressed bricks ignore it.
@@ -53,10 +56,10 @@ MipColor parseMipColor(std::string_view s); ///< "grey" (or "gray"), "tf", "tf-o
 std::string_view lodModeName(LodMode m);
 LodMode parseLodMode(std::string_view s); ///< "full", "auto"; throws UsageError
 std::string_view meshMethodName(MeshMethod m);
-MeshMethod parseMeshMethod(std::string_view s); ///< "cells", "kbuffer"; throws UsageError
+MeshMethod parseMeshMethod(std::string_view s); ///< "cells", "kbuffer", "pt"; throws UsageError
 std::string_view gridMethodName(GridMethod m);
-/// Sets render.method from `s`: a mesh method ("cells", "kbuffer") or a grid method ("raymarch", "shear-warp",
-/// "drc"); throws UsageError naming `what` for anything else.
+/// Sets render.method from `s`: a mesh method ("cells", "kbuffer", "pt") or a grid method ("raymarch",
+/// "shear-warp", "drc"); throws UsageError naming `what` for anything else.
 void parseRenderMethod(std::string_view s, const std::string& what, Scene& scene);
 
 /// GLM lookAt camera. `height` is the orthographic view height in world units; `fovYDeg` the perspective one.
@@ -191,6 +194,8 @@ struct Scene {
     MeshMethod meshMethod = MeshMethod::Cells;    ///< render.method (meshes only)
     GridMethod gridMethod = GridMethod::Raymarch; ///< render.method (grids only)
     int kBufferDepth = 6;                         ///< render.k: k-buffer entries per pixel, 2..8
+    /// render.sort: the visibility order of render.method "pt"; unset: MPVO over the convexified mesh.
+    std::optional<MeshSort> meshSort;
     std::vector<Light> lights;
     SceneEffects effects;
 

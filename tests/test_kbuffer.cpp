@@ -1,5 +1,6 @@
 // k-buffer mesh renderer: radix sort against its C++ reference, unique faces, kernels against the C++ mirror
 // fragment for fragment, analytic chords (constant scalar, a gap between two boxes), hard cases.
+#include "MeshTestUtil.hpp"
 #include "TestUtil.hpp"
 
 #include "core/Error.hpp"
@@ -71,12 +72,9 @@ Scene perspectiveScene(const mesh::TetMesh& m, int w, int h) {
     return s;
 }
 
-double maxAbsDiff(const ImageBuffer& a, const ImageBuffer& b) {
-    double d = 0;
-    for (std::size_t i = 0; i < a.pixels.size(); ++i)
-        d = std::max(d, double(std::abs(a.pixels[i] - b.pixels[i])));
-    return d;
-}
+using test::maxAbsDiff;
+using test::meanAlpha;
+using test::meshTf;
 
 ImageBuffer mirrorOf(KBufferRenderer& r, const mesh::TetMesh& m, KBufferMirrorStats* stats = nullptr) {
     KBufferMirrorInput in;
@@ -430,20 +428,6 @@ TEST(KBuffer, SingleTetAndRefusals) {
 
 namespace {
 
-/// Ramp TF over the mesh's value range, `depth` optical lengths across the box diagonal at its peak.
-TransferFunction meshTf(const mesh::TetMesh& m, double depth) {
-    const double lo = m.valueMin, hi = m.valueMax > m.valueMin ? m.valueMax : m.valueMin + 1.0;
-    const double diag = norm(sub(m.boundsMax, m.boundsMin));
-    TransferFunction tf;
-    tf.domain = {lo, hi};
-    tf.color = {{lo, {0.1, 0.2, 1.0}}, {0.5 * (lo + hi), {1.0, 0.6, 0.2}}, {hi, {1.0, 1.0, 0.9}}};
-    tf.extinction = {{lo, 0.0},
-                     {lo + 0.2 * (hi - lo), 0.1 * depth / diag},
-                     {lo + 0.8 * (hi - lo), depth / diag},
-                     {hi, 0.3 * depth / diag}};
-    return tf;
-}
-
 /// The three-quarter orthographic view of the mesh's box at w x h, 3D table, no early termination.
 Scene quarterView(const mesh::TetMesh& m, int w, int h) {
     Scene s;
@@ -454,13 +438,6 @@ Scene quarterView(const mesh::TetMesh& m, int w, int h) {
     s.preintegration = Preintegration::Table3d;
     s.tableLengths = 32;
     return s;
-}
-
-double meanAlpha(const ImageBuffer& img) {
-    double sum = 0;
-    for (std::size_t i = 3; i < img.pixels.size(); i += 4)
-        sum += img.pixels[i];
-    return sum / double(img.width * img.height);
 }
 
 /// k-buffer through RenderInput (render.method "kbuffer", render.k) against the exact reference: RGBA RMSE.

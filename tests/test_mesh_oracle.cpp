@@ -249,11 +249,12 @@ void checkCellsAndReference(const std::string& what, const ImageBuffer& oracle, 
     EXPECT_LE(er.maxAbs, 1e-3) << what << ": reference";
 }
 
-/// Renders every view with the cell caster, the double reference and the k-buffer and checks them against the
-/// oracle: the cell caster (float, pre-integration table) within 0.002 RMSE and 0.005 per channel, the exact
-/// reference within 1e-4 RMSE and 1e-3, the k-buffer (its face-sorting approximation) within 0.005 RMSE. With
-/// `layered` (tets overlapping in many places) the k-buffer is not rendered: it composites every layer's faces
-/// and counts overlapping parts more than once, which it does not promise otherwise.
+/// Renders every view with the cell caster, the double reference, the k-buffer and projected tetrahedra (the
+/// scene's default sort) and checks them against the oracle: the cell caster (float, pre-integration table)
+/// within 0.002 RMSE and 0.005 per channel, the exact reference within 1e-4 RMSE and 1e-3, the k-buffer (its
+/// face-sorting approximation) within 0.005 RMSE, pt within 0.002 RMSE. With `layered` (tets overlapping in many
+/// places) the k-buffer and pt are not rendered: they composite every layer and count overlapping parts more
+/// than once, which they do not promise otherwise.
 void checkAgainstOracle(const std::string& name, const mesh::TetMesh& m, const std::vector<View>& vs,
                         bool layered = false) {
     const TransferFunction tf = rampOver(m, 3.0);
@@ -266,9 +267,12 @@ void checkAgainstOracle(const std::string& name, const mesh::TetMesh& m, const s
     s.tableLengths = 32;
     Scene ks = s;
     ks.meshMethod = MeshMethod::KBuffer;
+    Scene ps = s;
+    ps.meshMethod = MeshMethod::ProjectedTetrahedra;
     // One renderer of each kind for all views: a view change keeps the mesh and the table on the device.
     const auto cellsRenderer = in.makeRenderer(test::computeContext(), tf, s);
     const auto kbufferRenderer = layered ? nullptr : in.makeRenderer(test::computeContext(), tf, ks);
+    const auto ptRenderer = layered ? nullptr : in.makeRenderer(test::computeContext(), tf, ps);
     // Lit iso mode where the features meet these meshes (holes, re-entries, perspective): two transparent layers
     // by the k-buffer against the cell caster's iso mode, and the cell caster against the reference.
     Scene is = s;
@@ -311,6 +315,13 @@ void checkAgainstOracle(const std::string& name, const mesh::TetMesh& m, const s
             std::cout << name << ", " << v.name << ": iso cells vs reference RMSE " << eir
                       << ", k-buffer vs cells RMSE " << eik << '\n';
             EXPECT_LE(eik, 0.005) << name << ", " << v.name << ": k-buffer iso";
+        }
+        if (ptRenderer) {
+            ptRenderer->setView(v.camera, s.width, s.height, s.step);
+            const ImageBuffer pt = ptRenderer->render();
+            const Errors ep{imageRmse(pt, oracle), maxAbsDiff(pt, oracle)};
+            std::cout << name << ", " << v.name << ": pt RMSE " << ep.rmse << " max " << ep.maxAbs << '\n';
+            EXPECT_LE(ep.rmse, 0.002) << name << ", " << v.name << ": pt";
         }
     }
     EXPECT_GT(isoCoverage / double(vs.size()), 0.02) << name << ": the iso layers must show";
@@ -651,6 +662,9 @@ TEST(MeshNan, CellsKBufferAndReferenceMatchPointSamplingOfTheRule) {
             mode == RenderMode::Dvr ? in.makeRenderer(test::computeContext(), tf, sampled) : nullptr;
         const auto kbuffer =
             mode == RenderMode::Dvr ? in.makeRenderer(test::computeContext(), tf, ks) : nullptr;
+        Scene ps = s;
+        ps.meshMethod = MeshMethod::ProjectedTetrahedra;
+        const auto pt = mode == RenderMode::Dvr ? in.makeRenderer(test::computeContext(), tf, ps) : nullptr;
         for (const View& v : views({})) {
             s.camera = v.camera;
             const std::string what = std::string(renderModeName(mode)) + ", " + v.name;
@@ -675,6 +689,10 @@ TEST(MeshNan, CellsKBufferAndReferenceMatchPointSamplingOfTheRule) {
                 kbuffer->setView(v.camera, s.width, s.height, s.step);
                 check("kbuffer", kbuffer->render(), 3e-3);
             }
+            if (pt) {
+                pt->setView(v.camera, s.width, s.height, s.step);
+                check("pt", pt->render(), 3e-3);
+            }
         }
     }
 }
@@ -686,7 +704,7 @@ TEST(MeshNan, TransparentNanColourDrawsTheMeshWithoutItsNanCells) {
     ASSERT_LT(without.tets.size(), m.tets.size());
     const TransferFunction tf = rampOver(m, 3.0);
     for (RenderMode mode : {RenderMode::Dvr, RenderMode::Xray, RenderMode::Mip, RenderMode::Iso})
-        for (int method = 0; method < (mode == RenderMode::Dvr ? 3 : 1); ++method) {
+        for (int method = 0; method < (mode == RenderMode::Dvr ? 4 : 1); ++method) {
             Scene s = nanScene(mode);
             s.camera = views({}).front().camera;
             if (mode != RenderMode::Dvr) s.nanColor = {1, 0, 1, 1};
@@ -697,6 +715,7 @@ TEST(MeshNan, TransparentNanColourDrawsTheMeshWithoutItsNanCells) {
                 s.step = 0.004;
             }
             if (method == 2) s.meshMethod = MeshMethod::KBuffer;
+            if (method == 3) s.meshMethod = MeshMethod::ProjectedTetrahedra;
             if (mode == RenderMode::Mip) // both meshes' finite value ranges differ: one window for both
                 s.window = std::array<double, 2>{0.5 * (m.valueMin + m.valueMax), m.valueMax - m.valueMin};
             const auto ra = RenderInput::borrowMesh(m).makeRenderer(test::computeContext(), tf, s);
@@ -722,11 +741,12 @@ TEST(MeshNan, TransparentNanColourDrawsTheMeshWithoutItsNanCells) {
 TEST(MeshNan, FiniteMeshCompilesNoNanTestAndIgnoresTheNanColour) {
     const mesh::TetMesh m = jitteredMesh(6, 0.2, false, [](double, double, double) { return false; });
     const TransferFunction tf = rampOver(m, 3.0);
-    for (int method = 0; method < 3; ++method) {
+    for (int method = 0; method < 4; ++method) {
         Scene s = nanScene(RenderMode::Dvr);
         s.camera = views({}).front().camera;
         if (method == 1) s.preintegration = Preintegration::None;
         if (method == 2) s.meshMethod = MeshMethod::KBuffer;
+        if (method == 3) s.meshMethod = MeshMethod::ProjectedTetrahedra;
         Scene magenta = s;
         magenta.nanColor = {1, 0, 1, 1};
         const auto r = RenderInput::borrowMesh(m).makeRenderer(test::computeContext(), tf, magenta);

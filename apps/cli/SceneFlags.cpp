@@ -12,6 +12,7 @@
 #include "core/Volume.hpp"
 #include "render/CameraFraming.hpp"
 #include "render/VecMath.hpp"
+#include "render/mesh/VisibilitySort.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -154,13 +155,15 @@ void SceneFlags::add(CLI::App* cmd) {
         ->check(CLI::IsMember({"single", "multiple"}));
     cmd->add_option("--samples", samples, "Path-tracer samples per pixel (multiple scattering)");
     cmd->add_option("--clip", clips, "Clipping plane nx,ny,nz,offset keeping n.x + offset >= 0 (repeatable)");
-    cmd->add_option(
-           "--method", method,
-           "Grids: raymarch, shear-warp (orthographic preview) or drc (discrete ray casting preview); "
-           "meshes: cells (exact cell traversal) or kbuffer (sorted faces, k-buffer)")
+    cmd->add_option("--method", method,
+                    "Grids: raymarch, shear-warp (orthographic preview) or drc (discrete ray casting preview); "
+                    "meshes: cells (exact cell traversal), kbuffer (sorted faces, k-buffer) or pt (projected "
+                    "tetrahedra in visibility order)")
         ->default_str("raymarch (grids), " + std::string(meshMethodName(d.meshMethod)) + " (meshes)");
     cmd->add_option("--k", k, "Meshes, method kbuffer: k-buffer entries per pixel (2..8)")
         ->default_str(num(d.kBufferDepth));
+    cmd->add_option("--sort", sort, "Meshes, method pt: visibility order centroid, mpvo or convexified")
+        ->default_str("convexified");
     raw.add(*cmd);
     mesh.add(*cmd);
 }
@@ -188,6 +191,7 @@ Scene SceneFlags::build() const {
     if (!mipColor.empty()) s.mipColor = parseMipColor(mipColor);
     if (!method.empty()) parseRenderMethod(method, "--method", s);
     if (k) s.kBufferDepth = *k;
+    if (!sort.empty()) s.meshSort = parseMeshSort(sort);
     if (earlyTermination) s.earlyTermination = *earlyTermination;
     if (!lod.empty()) s.lod = parseLodMode(lod);
     if (lodError) s.lodError = *lodError;

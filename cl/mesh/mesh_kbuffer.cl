@@ -19,15 +19,7 @@
 #ifndef KB_K
 #define KB_K 6
 #endif
-#ifndef KB_TILE
-#define KB_TILE 16
-#endif
-#ifndef KB_TILE_THREADS
-#define KB_TILE_THREADS 1
-#endif
-#ifndef BIN_CHUNKS
-#define BIN_CHUNKS 64
-#endif
+#include "mesh_tile.h"
 
 /* Face rectangles at least this many pixels wide (minus one) get their rows narrowed to the edges' span. */
 #define KB_SPAN_MIN 4
@@ -567,21 +559,17 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
 
     const uint tile = get_group_id(0);
     const uint lid = get_local_id(0);
-    const int tx0 = (int)(tile % P.tilesX) * KB_TILE, ty0 = (int)(tile / P.tilesX) * KB_TILE;
-    const int xEnd = min(tx0 + KB_TILE, (int)P.width), yEnd = min(ty0 + KB_TILE, (int)P.height);
-    int live = 0;
+    const int4 bounds = tile_bounds(tile, P.tilesX, P.width, P.height);
+    const int tx0 = bounds.x, ty0 = bounds.y, xEnd = bounds.z, yEnd = bounds.w;
+    int live = tile_clear(lacc, ldone, bounds, lid);
     for (int ly = (int)lid; ly < KB_TILE; ly += KB_TILE_THREADS)
         for (int lx = 0; lx < KB_TILE; ++lx) {
             const uint li = (uint)(ly * KB_TILE + lx);
             lcount[li] = 0;
             lhead[li] = 0;
-            lacc[li] = (float4)(0.0f);
-            const int in = ty0 + ly < yEnd && tx0 + lx < xEnd;
-            ldone[li] = (uchar)!in;
-            live += in;
         }
-    const uint start = tile == 0 ? 0u : binEnds[(tile - 1) * BIN_CHUNKS + BIN_CHUNKS - 1];
-    const uint end = binEnds[tile * BIN_CHUNKS + BIN_CHUNKS - 1];
+    const uint2 range = tile_list(binEnds, tile);
+    const uint start = range.x, end = range.y;
 
 #ifndef KB_ISO
     const uint pendingBase = lid * (KB_PIXELS / KB_TILE_THREADS);
@@ -685,12 +673,8 @@ __kernel void kb_raster(__global const float4* proj, __global const float* scala
 #else
         for (uint p = 0; p < np; ++p) {
             const uint li = pli[p];
-            const float4 acc = kb_composite(lacc[li], ps0[p], ps1[p], plen[p], table, &P);
-            lacc[li] = acc;
-            if (acc.w >= P.earlyTermination) {
-                ldone[li] = 1;
-                --live;
-            }
+            tile_store(lacc, ldone, li, kb_composite(lacc[li], ps0[p], ps1[p], plen[p], table, &P),
+                       P.earlyTermination, &live);
         }
 #endif
     }

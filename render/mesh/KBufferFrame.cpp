@@ -1,6 +1,8 @@
 // Normalized geometry, frame parameters and table shape of the k-buffer renderer and its C++ mirror.
 #include "render/mesh/KBufferFrame.hpp"
 
+#include "core/runtime/DeviceProfile.hpp"
+#include "core/runtime/Timing.hpp"
 #include "render/VecMath.hpp"
 #include "render/mesh/VertexNormals.hpp"
 
@@ -113,6 +115,35 @@ VolclTfParams kbufferTfParams(const PreintegrationTable& table, std::size_t knot
     p.domainHi = float(table.domain[1]);
     p.tableMaxLength = float(table.spec.maxLength);
     return p;
+}
+
+TileBinner::TileBinner(ComputeContext& cc) : cc_(cc) {
+    KernelDefines defines;
+    defines.set("KB_TILE", kKBufferTile).set("BIN_CHUNKS", cc.profile().mesh.binChunks);
+    count_ = cc.kernel("mesh/mesh_kbuffer.cl", "kb_bin_count", defines);
+    scatter_ = cc.kernel("mesh/mesh_kbuffer.cl", "kb_bin_scatter", defines);
+    scan_ = cc.kernel("mesh/radix_sort.cl", "exclusive_scan");
+    total_ = cc.allocate<cl_uint>(1);
+    list_ = cc.allocate<cl_uint4>(1);
+}
+
+double TileBinner::bin(const DeviceBuffer<cl_uint4>& items, const DeviceBuffer<cl_uint2>& rects, cl_uint n,
+                       cl_uint tilesX, std::size_t tiles) {
+    const DeviceProfile::Mesh& tuning = cc_.profile().mesh;
+    const std::size_t chunks = tuning.binChunks;
+    if (counts_.size() != tiles * chunks) counts_ = cc_.allocate<cl_uint>(tiles * chunks);
+    cc_.fill(counts_, cl_uint(0));
+    setArgs(count_, rects, n, tilesX, counts_);
+    double ms = eventMilliseconds(cc_.launch1d(count_, chunks, tuning.binLocal));
+    setArgs(scan_, counts_, cl_uint(tiles * chunks), total_);
+    ms += eventMilliseconds(cc_.launch1d(scan_, 1, 1));
+    cl_uint entries = 0;
+    cc_.read(total_, std::span<cl_uint>(&entries, 1));
+    if (list_.size() < entries) list_ = cc_.allocate<cl_uint4>(std::size_t(entries) + entries / 4);
+    entries_ = entries;
+    setArgs(scatter_, items, rects, n, tilesX, counts_, list_);
+    ms += eventMilliseconds(cc_.launch1d(scatter_, chunks, tuning.binLocal));
+    return ms;
 }
 
 } // namespace volcl

@@ -51,4 +51,27 @@ std::vector<cl_float4> kbufferBlockedTable(const PreintegrationTable& table);
 /// Table geometry as the kernels read it.
 VolclTfParams kbufferTfParams(const PreintegrationTable& table, std::size_t knotCount);
 
+/// The order-keeping tile binning of the k-buffer (kb_bin_count, exclusive_scan, kb_bin_scatter), shared with
+/// projected tetrahedra: n items, each with the rectangle of kKBufferTile-pixel tiles it touches (x0 | y0 << 16,
+/// x1 | y1 << 16; empty when x0 > x1), appended to every tile list they touch in their order. ends() then holds,
+/// at tile * BIN_CHUNKS + BIN_CHUNKS - 1, the end of the tile's list in list() (the previous tile's end its start).
+class TileBinner {
+public:
+    explicit TileBinner(ComputeContext& cc);
+    /// Bins items[0, n) by rects[0, n) over tilesX x (tiles / tilesX) tiles; returns the kernels' milliseconds.
+    double bin(const DeviceBuffer<cl_uint4>& items, const DeviceBuffer<cl_uint2>& rects, cl_uint n,
+               cl_uint tilesX, std::size_t tiles);
+    const DeviceBuffer<cl_uint>& ends() const noexcept { return counts_; }
+    const DeviceBuffer<cl_uint4>& list() const noexcept { return list_; }
+    /// Entries of the last binning (items times the tiles each touches).
+    std::size_t entries() const noexcept { return entries_; }
+
+private:
+    ComputeContext& cc_;
+    cl::Kernel count_, scan_, scatter_;
+    DeviceBuffer<cl_uint> counts_, total_;
+    DeviceBuffer<cl_uint4> list_;
+    std::size_t entries_ = 0;
+};
+
 } // namespace volcl

@@ -10,14 +10,10 @@
 
 namespace volcl {
 namespace {
-
 constexpr float kNear = 1e-4f;
+} // namespace
 
-struct Proj {
-    float x, y, z, w;
-};
-
-Proj project(const cl_float4& p, const VolclKBufferParams& P) {
+KBufferProjected kbufferMirrorProject(const cl_float4& p, const VolclKBufferParams& P) {
     const float rx = p.s[0] - P.eye[0], ry = p.s[1] - P.eye[1], rz = p.s[2] - P.eye[2];
     const float z = rx * P.forward[0] + ry * P.forward[1] + rz * P.forward[2];
     const float xr = rx * P.right[0] + ry * P.right[1] + rz * P.right[2];
@@ -42,6 +38,8 @@ Proj project(const cl_float4& p, const VolclKBufferParams& P) {
     return {sx, sy, z, w};
 }
 
+namespace {
+
 std::array<float, 4> bilinear(const std::vector<float>& table, unsigned n, unsigned k, float u, float v) {
     const float hi = float(n - 1);
     u = std::clamp(u, 0.0f, hi);
@@ -59,9 +57,10 @@ std::array<float, 4> bilinear(const std::vector<float>& table, unsigned n, unsig
     return out;
 }
 
-/// mesh_kbuffer.cl's kb_preint (tf_lookup.h's preint_segment for PREINT 3 with precomputed factors).
-std::array<float, 4> preintSegment(const std::vector<float>& table, const VolclKBufferParams& P, float sf,
-                                   float sb, float len) {
+} // namespace
+
+std::array<float, 4> kbufferMirrorPreint(const std::vector<float>& table, const VolclKBufferParams& P,
+                                         float sf, float sb, float len) {
     const VolclTfParams& T = P.tf;
     const float u = (sf - T.domainLo) * P.tableScale, v = (sb - T.domainLo) * P.tableScale;
     const float kf = len * P.lengthScale - 1.0f;
@@ -92,6 +91,8 @@ std::array<float, 4> preintSegment(const std::vector<float>& table, const VolclK
     }
     return e;
 }
+
+namespace {
 
 struct Frag {
     float t, s;
@@ -188,7 +189,7 @@ public:
             const float an = 1.0f - std::exp(-in_.nanColor[3] * len);
             c = {in_.nanColor[0] * an, in_.nanColor[1] * an, in_.nanColor[2] * an, an};
         } else {
-            c = preintSegment(*in_.table, P_, a.s, b.s, len);
+            c = kbufferMirrorPreint(*in_.table, P_, a.s, b.s, len);
         }
         const float keep = 1.0f - px.acc[3];
         for (int i = 0; i < 4; ++i)
@@ -198,7 +199,7 @@ public:
     /// kb_frag_normal: the normal of fragment q's face at pixel (fx, fy).
     F3 fragNormal(const Frag& q, float fx, float fy) const {
         const MeshFace& face = in_.faces->faces[q.face];
-        const Proj &a = proj_[face.v[0]], &b = proj_[face.v[1]], &c = proj_[face.v[2]];
+        const KBufferProjected &a = proj_[face.v[0]], &b = proj_[face.v[1]], &c = proj_[face.v[2]];
         float wa = (c.x - b.x) * (fy - b.y) - (c.y - b.y) * (fx - b.x);
         float wb = (a.x - c.x) * (fy - c.y) - (a.y - c.y) * (fx - c.x);
         float wc = (b.x - a.x) * (fy - a.y) - (b.y - a.y) * (fx - a.x);
@@ -298,10 +299,10 @@ public:
 
     ImageBuffer run() {
         const auto& g = *in_.geometry;
-        std::vector<Proj>& proj = proj_;
+        std::vector<KBufferProjected>& proj = proj_;
         proj.resize(g.points.size());
         for (std::size_t i = 0; i < proj.size(); ++i)
-            proj[i] = project(g.points[i], P_);
+            proj[i] = kbufferMirrorProject(g.points[i], P_);
         const std::vector<std::uint32_t> order = kbufferMirrorOrder(in_);
         const auto& faces = in_.faces->faces;
         const auto& sc = *in_.scalars;
@@ -309,7 +310,7 @@ public:
         for (std::uint32_t fi : order) {
             const MeshFace& face = faces[fi];
             const std::uint32_t ia = face.v[0], ib = face.v[1], ic = face.v[2];
-            const Proj a = proj[ia], b = proj[ib], c = proj[ic];
+            const KBufferProjected a = proj[ia], b = proj[ib], c = proj[ic];
             const float orient = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
             if (!(orient != 0.0f && a.w != 0.0f && b.w != 0.0f && c.w != 0.0f)) continue;
             const float sg = orient > 0.0f ? 1.0f : -1.0f;
@@ -370,7 +371,8 @@ private:
     static float edge(const Edge& e, float x, float y) {
         return (e.qx - e.px) * (y - e.py) - (e.qy - e.py) * (x - e.px);
     }
-    static Edge makeEdge(const Proj& u, std::uint32_t iu, const Proj& v, std::uint32_t iv, float orientSign) {
+    static Edge makeEdge(const KBufferProjected& u, std::uint32_t iu, const KBufferProjected& v,
+                         std::uint32_t iv, float orientSign) {
         Edge e;
         float s;
         if (iu < iv) {
@@ -393,7 +395,7 @@ private:
     KBufferMirrorStats* stats_;
     std::vector<Pixel> pixels_;
     std::vector<Frag> frags_;
-    std::vector<Proj> proj_;
+    std::vector<KBufferProjected> proj_;
 };
 
 } // namespace
@@ -414,7 +416,9 @@ std::vector<std::uint32_t> kbufferMirrorOrder(const KBufferMirrorInput& in) {
             const float cz = (p0.s[2] + p1.s[2] + p2.s[2]) / 3.0f - P.eye[2];
             depth = std::sqrt(cx * cx + cy * cy + cz * cz);
         } else {
-            depth = (project(p0, P).z + project(p1, P).z + project(p2, P).z) / 3.0f;
+            depth = (kbufferMirrorProject(p0, P).z + kbufferMirrorProject(p1, P).z +
+                     kbufferMirrorProject(p2, P).z) /
+                    3.0f;
         }
         keys[i] = floatSortKey(depth);
         vals[i] = i;

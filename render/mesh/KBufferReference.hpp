@@ -46,6 +46,19 @@ struct KBufferMirrorStats {
     std::size_t misorderedPops = 0; ///< pops nearer than the pixel's previous pop: k was too small there
 };
 
+/// A point as kb_project places it: screen x and y (pixel centres at integers), view depth z and 1 / z (w = 0:
+/// a perspective point at or behind the near distance).
+struct KBufferProjected {
+    float x, y, z, w;
+};
+/// kb_project of the normalized point p, in the same float operations.
+KBufferProjected kbufferMirrorProject(const cl_float4& p, const VolclKBufferParams& P);
+/// The 3D table lookup of the k-buffer kernels (tf_lookup.h's preint_segment for PREINT 3 with the frame's
+/// factors precomputed) on a float table in PreintegrationTable's layout: associated (rgb, alpha) of the segment
+/// sf -> sb of length len.
+std::array<float, 4> kbufferMirrorPreint(const std::vector<float>& table, const VolclKBufferParams& P,
+                                         float sf, float sb, float len);
+
 /// The frame on the host: projection, centroid keys, a stable sort (the radix sort's order), every face
 /// rasterised over its pixel rectangle in that order with the kernel's edge and tie rules, k-buffer insert,
 /// pop and flush, table lookups (or iso-surface crossings, lit as cl/common/shading.h lights them) and

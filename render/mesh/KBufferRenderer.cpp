@@ -86,19 +86,19 @@ struct KBufferRenderer::Table {
 };
 
 struct KBufferRenderer::Impl {
-    explicit Impl(ComputeContext& cc) : sorter(cc) {}
+    explicit Impl(ComputeContext& cc) : sorter(cc), binner(cc) {}
     DeviceRadixSort sorter;
+    TileBinner binner;
     DeviceBuffer<cl_float4> points, proj;
     DeviceBuffer<float> scalars;
     /// Mode iso with shading: kbufferPointNormals (built on the first such frame); one unused element otherwise.
     DeviceBuffer<cl_float4> normals;
     std::vector<cl_float4> hostNormals;
-    DeviceBuffer<cl_uint4> faces, sortedFaces, list;
-    DeviceBuffer<cl_uint> keys, vals, counts, total;
+    DeviceBuffer<cl_uint4> faces, sortedFaces;
+    DeviceBuffer<cl_uint> keys, vals;
     DeviceBuffer<cl_uint2> rects, sortedRects;
-    cl::Kernel project, faceKeys, gather, binCount, scan, binScatter, raster, toHalf, fromHalf;
+    cl::Kernel project, faceKeys, gather, raster, toHalf, fromHalf;
     KernelDefines defines;
-    std::size_t lastEntries = 0;
     /// Tables of full quality (lengths up to the longest edge) and of level of detail (up to the box
     /// diagonal): a viewer alternates between the two.
     TableCache<Table> tables{2};
@@ -131,8 +131,6 @@ KBufferRenderer::KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, 
     m.rects = cc_.allocate<cl_uint2>(faceRecords.size());
     m.sortedFaces = cc_.allocate<cl_uint4>(faceRecords.size());
     m.sortedRects = cc_.allocate<cl_uint2>(faceRecords.size());
-    m.total = cc_.allocate<cl_uint>(1);
-    m.list = cc_.allocate<cl_uint4>(std::max<std::size_t>(faceRecords.size(), 1));
     m.normals = cc_.allocate<cl_float4>(1);
     start(meshBounds(mesh_), meshValueRange(mesh_));
 }
@@ -173,12 +171,9 @@ void KBufferRenderer::rebuild(const Rebuild& change) {
         m.project = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_project", m.defines);
         m.faceKeys = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_face_keys", m.defines);
         m.gather = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_gather", m.defines);
-        m.binCount = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_bin_count", m.defines);
-        m.binScatter = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_bin_scatter", m.defines);
         m.raster = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_raster", m.defines);
         m.toHalf = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_table_to_half", m.defines);
         m.fromHalf = cc_.kernel("mesh/mesh_kbuffer.cl", "kb_table_from_half", m.defines);
-        m.scan = cc_.kernel("mesh/radix_sort.cl", "exclusive_scan");
     }
     if (plan_.shading && m.hostNormals.empty()) {
         m.hostNormals = kbufferPointNormals(mesh_, faces_, geometry_);
@@ -254,8 +249,6 @@ ImageBuffer KBufferRenderer::render() {
     ensureFrameBuffers();
     const std::size_t tiles = std::size_t(P.tilesX) * P.tilesY;
     const DeviceProfile::Mesh& tuning = cc_.profile().mesh;
-    const std::size_t binChunks = tuning.binChunks;
-    if (m.counts.size() != tiles * binChunks) m.counts = cc_.allocate<cl_uint>(tiles * binChunks);
     const cl_uint n = P.faceCount;
     times_ = {};
 
@@ -268,21 +261,11 @@ ImageBuffer KBufferRenderer::render() {
 
     setArgs(m.gather, m.vals, m.faces, m.rects, n, m.sortedFaces, m.sortedRects);
     times_.bin = eventMilliseconds(cc_.launch1d(m.gather, std::max<std::size_t>(n, 1), tuning.kbuffer));
-    cc_.fill(m.counts, cl_uint(0));
-    setArgs(m.binCount, m.sortedRects, n, P.tilesX, m.counts);
-    times_.bin += eventMilliseconds(cc_.launch1d(m.binCount, binChunks, tuning.binLocal));
-    setArgs(m.scan, m.counts, cl_uint(tiles * binChunks), m.total);
-    times_.bin += eventMilliseconds(cc_.launch1d(m.scan, 1, 1));
-    cl_uint entries = 0;
-    cc_.read(m.total, std::span<cl_uint>(&entries, 1));
-    if (m.list.size() < entries) m.list = cc_.allocate<cl_uint4>(std::size_t(entries) + entries / 4);
-    m.lastEntries = entries;
-    setArgs(m.binScatter, m.sortedFaces, m.sortedRects, n, P.tilesX, m.counts, m.list);
-    times_.bin += eventMilliseconds(cc_.launch1d(m.binScatter, binChunks, tuning.binLocal));
+    times_.bin += m.binner.bin(m.sortedFaces, m.sortedRects, n, P.tilesX, tiles);
 
     const std::size_t threads = tuning.tileThreads;
-    setArgs(m.raster, m.proj, m.scalars, m.counts, m.list, P, table.device, m.normals, isoFrameParams(),
-            lightFrameParams(), out_);
+    setArgs(m.raster, m.proj, m.scalars, m.binner.ends(), m.binner.list(), P, table.device, m.normals,
+            isoFrameParams(), lightFrameParams(), out_);
     times_.raster =
         eventMilliseconds(cc_.launch(m.raster, cl::NDRange(tiles * threads), cl::NDRange(threads)));
 
@@ -309,7 +292,7 @@ std::vector<cl_uint> KBufferRenderer::lastOrder() {
 std::string KBufferRenderer::statistics() const {
     std::ostringstream os;
     os << "faces: " << faces_.boundaryCount << " boundary + " << faces_.internalCount() << " internal, drawn "
-       << facesDrawn() << ", k " << k_ << ", tile entries " << impl_->lastEntries;
+       << facesDrawn() << ", k " << k_ << ", tile entries " << impl_->binner.entries();
     return os.str();
 }
 

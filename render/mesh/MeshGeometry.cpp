@@ -42,6 +42,39 @@ FacePlane facePlane(const mesh::TetMesh& m, mesh::FaceId f) {
     return {cross(sub(b, a), sub(c, a)), a};
 }
 
+NormalisedTet normalisedTet(const mesh::TetMesh& m, std::size_t t, const Vec3& centre, double scale_) {
+    NormalisedTet r;
+    const double inv = 1.0 / scale_;
+    auto normalise = [&](const Vec3& p) { return scale(sub(p, centre), inv); };
+    for (unsigned f = 0; f < 4; ++f) {
+        const mesh::FaceId id = mesh::faceId(t, f), nb = m.neighbors[id];
+        const mesh::FaceId canon = nb != mesh::kNoFace && nb < id ? nb : id;
+        const auto v = m.faceVertices(canon);
+        const Vec3 a = normalise(m.points[v[0]]), b = normalise(m.points[v[1]]),
+                   c = normalise(m.points[v[2]]);
+        Vec3 n = normalized(cross(sub(b, a), sub(c, a)));
+        double w = -dot(n, a);
+        if (canon != id) {
+            n = scale(n, -1.0);
+            w = -w;
+        }
+        r.normal[f] = n;
+        r.offset[f] = w;
+    }
+    for (const auto v : m.tets[t])
+        r.finite = r.finite && std::isfinite(m.scalars[v]);
+    if (!r.finite) {
+        r.gradient = {NAN, NAN, NAN};
+        r.value = NAN;
+        return r;
+    }
+    // s(x') = value + g . (centre + scale x' - p0) = (value + g . (centre - p0)) + (scale g) . x'
+    const TetField fd = tetField(m, t);
+    r.gradient = scale(fd.gradient, scale_);
+    r.value = fd.value + dot(fd.gradient, sub(centre, fd.p0));
+    return r;
+}
+
 namespace {
 
 struct BvhBuilder {

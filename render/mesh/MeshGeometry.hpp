@@ -31,6 +31,20 @@ struct FacePlane {
 };
 FacePlane facePlane(const mesh::TetMesh& m, mesh::FaceId f);
 
+/// A tet in the frame x' = (x - centre) / scale: its four face planes (unit outward normal n and offset w, the
+/// plane being n.x' + w = 0, the inside n.x' + w < 0) and its field s(x') = gradient.x' + value. Each shared
+/// face's plane is computed from the side with the lower face id and negated on the other, so both tets agree
+/// exactly on where a ray crosses it. `finite` is false for a NaN cell (a non-finite vertex value), whose field
+/// is then NaN.
+struct NormalisedTet {
+    std::array<Vec3, 4> normal{};
+    std::array<double, 4> offset{};
+    Vec3 gradient{0, 0, 0};
+    double value = 0.0;
+    bool finite = true;
+};
+NormalisedTet normalisedTet(const mesh::TetMesh& m, std::size_t tet, const Vec3& centre, double scale);
+
 /// A BVH over the boundary faces (median split on the longest axis of the centroids, at most 4 faces per
 /// leaf). Nodes are in depth-first order: a node's left child follows it, `right` names the right child;
 /// a leaf has count > 0 and holds faces[first, first + count).

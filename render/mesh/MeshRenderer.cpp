@@ -69,6 +69,16 @@ struct MeshRenderer::Impl {
     VolclMeshRenderParams params{};
 };
 
+VolclClipParams meshClipParams(const std::vector<ClipPlane>& planes, const Vec3& centre, double meshScale) {
+    VolclClipParams p = clipParams(planes);
+    for (unsigned i = 0; i < p.count; ++i) {
+        const double nn = norm(planes[i].normal);
+        p.plane[i][3] = float((dot(scale(planes[i].normal, 1.0 / nn), centre) + planes[i].offset / nn) *
+                              (1.0 / meshScale));
+    }
+    return p;
+}
+
 MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf,
                            const Scene& scene)
     : RendererBase(cc, tf, scene), mesh_(mesh), impl_(std::make_unique<Impl>()) {
@@ -88,32 +98,18 @@ MeshRenderer::MeshRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const 
     m.tetMin.resize(nt);
     m.tetMax.resize(nt);
     parallelFor(nt, 0u, [&](std::size_t t) {
+        const mesh_detail::NormalisedTet nt4 = mesh_detail::normalisedTet(mesh, t, m.centre, m.scale);
         for (unsigned f = 0; f < 4; ++f) {
-            const mesh::FaceId id = mesh::faceId(t, f), nb = mesh.neighbors[id];
-            const mesh::FaceId canon = nb != mesh::kNoFace && nb < id ? nb : id;
-            const auto v = mesh.faceVertices(canon);
-            const Vec3 a = normalise(mesh.points[v[0]]), b = normalise(mesh.points[v[1]]),
-                       c = normalise(mesh.points[v[2]]);
-            Vec3 n = normalized(cross(sub(b, a), sub(c, a)));
-            double w = -dot(n, a);
-            if (canon != id) {
-                n = scale(n, -1.0);
-                w = -w;
-            }
-            cells[kStride * t + f] = f4(n, float(w));
-            cells[kStride * t + 5].s[f] = bitsAsFloat(nb);
+            cells[kStride * t + f] = f4(nt4.normal[f], float(nt4.offset[f]));
+            cells[kStride * t + 5].s[f] = bitsAsFloat(mesh.neighbors[mesh::faceId(t, f)]);
         }
-        if (tetHasNonFinite(mesh, t)) {
-            // A NaN cell says so by a NaN field (the kernel's NAN_COLOR test); no range: only the NaN colour
-            // can show there.
-            cells[kStride * t + 4] = f4({NAN, NAN, NAN}, NAN);
+        // A NaN cell says so by a NaN field (the kernel's NAN_COLOR test); no range: only the NaN colour can
+        // show there.
+        cells[kStride * t + 4] = f4(nt4.gradient, float(nt4.value));
+        if (!nt4.finite) {
             m.tetMin[t] = m.tetMax[t] = NAN;
             return;
         }
-        const mesh_detail::TetField fd = mesh_detail::tetField(mesh, t);
-        // s(x') = value + g . (centre + scale x' - p0) = (value + g . (centre - p0)) + (scale g) . x'
-        cells[kStride * t + 4] =
-            f4(scale(fd.gradient, m.scale), float(fd.value + dot(fd.gradient, sub(m.centre, fd.p0))));
         float lo = mesh.scalars[mesh.tets[t][0]], hi = lo;
         for (int k = 1; k < 4; ++k) {
             lo = std::min(lo, mesh.scalars[mesh.tets[t][k]]);
@@ -292,16 +288,8 @@ void MeshRenderer::updateParams(const TransferFunction& shaded) {
     VolclMeshRenderParams& p = m.params;
     p = {};
     p.camera = cameraParams(camera_, scene_.width, scene_.height);
-    p.clip = clipParams(plan_.clipPlanes);
+    p.clip = meshClipParams(plan_.clipPlanes, m.centre, m.scale);
     const double inv = 1.0 / m.scale;
-    for (unsigned i = 0; i < p.clip.count; ++i) {
-        const Vec3 n{p.clip.plane[i][0], p.clip.plane[i][1], p.clip.plane[i][2]};
-        const double nn = norm(plan_.clipPlanes[i].normal);
-        p.clip.plane[i][3] = float(
-            (dot(scale(plan_.clipPlanes[i].normal, 1.0 / nn), m.centre) + plan_.clipPlanes[i].offset / nn) *
-            inv);
-        (void)n;
-    }
     p.march = marchParams(scene_, meshValueRange(mesh_));
     p.tf = tfParams(scene_, shaded, knotCount(), tableLengths());
     p.tf.tableMaxLength = float(m.maxSegment);

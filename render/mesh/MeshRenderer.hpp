@@ -1,12 +1,18 @@
 // The exact cell ray caster of tetrahedral meshes with OpenCL (render.method "cells"): cl/mesh/mesh_cells.cl.
 #pragma once
 
+#include "cl/volcl_shared.h"
 #include "host/mesh/TetMesh.hpp"
+#include "render/EffectPlan.hpp"
 #include "render/RendererBase.hpp"
 
 #include <memory>
 
 namespace volcl {
+
+/// The planned clip planes in a mesh's normalised frame x' = (x - centre) / scale (unit normals; the kernels
+/// keep n.x' + w >= 0).
+VolclClipParams meshClipParams(const std::vector<ClipPlane>& planes, const Vec3& centre, double scale);
 
 /// Renders scenes of a tetrahedral mesh by walking each pixel's ray through face-adjacent tets. Keeps the
 /// mesh on the device in a normalised frame (centre at 0, bounding radius 1) as per-tet face planes, linear

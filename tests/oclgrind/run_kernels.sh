@@ -213,7 +213,7 @@ both bricks_iso bricks_iso.exr "$volcl" -q render --volume "$work/ocl/ll_marschn
   --width 12 --height 10 --mode iso --iso 0.5
 same_image bricks_iso.exr 1e-4
 
-echo "== tetrahedral meshes: cell ray caster and k-buffer (radix sort)"
+echo "== tetrahedral meshes: cell ray caster, k-buffer (radix sort), projected tetrahedra"
 M=("$volcl" -q render --volume "$work/in/cubes.vtk" --tf "$tf" --width 12 --height 10 --view iso --table-size 16
   --table-lengths 4)
 # At Oclgrind's default -Oz, first_entry's `found = sn.x <= sn.y` becomes a vector compare whose lane Oclgrind
@@ -221,8 +221,11 @@ M=("$volcl" -q render --volume "$work/in/cubes.vtk" --tf "$tf" --width 12 --heig
 # scalar.
 OCLGRIND_BUILD_OPTIONS=-O2 both cells cells.exr "${M[@]}" --method cells
 both kbuffer kbuffer.exr "${M[@]}" --method kbuffer --k 4
+# Projected tetrahedra: the tile rectangles, the k-buffer's binning and the tile compositing, with a clip plane.
+both pt pt.exr "${M[@]}" --method pt --sort centroid --clip 1,0.3,0,-0.4
 same_image cells.exr 1e-4
 same_image kbuffer.exr 1e-4
+same_image pt.exr 1e-4
 # Mode iso: two transparent layers lit by the head light, the k-buffer's KB_ISO raster (faces per fragment,
 # smooth vertex normals, SHADING). The cell caster's iso mode is not here: at -O2 Oclgrind 21.10 creates no
 # mesh_cells kernel with MODE 2 (CL_INVALID_KERNEL_NAME) and at -Oz it meets the vector-compare defect above.

@@ -1,0 +1,45 @@
+// Helpers of the mesh renderer suites: a ramp TF over a mesh's values and image comparisons.
+#pragma once
+
+#include "host/image/ImageIo.hpp"
+#include "host/mesh/TetMesh.hpp"
+#include "host/tf/TransferFunction.hpp"
+#include "render/VecMath.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace volcl::test {
+
+/// Ramp TF over the mesh's value range: blue to orange to white, `depth` optical lengths across the box diagonal
+/// at its peak, `floor` of that at the lowest value.
+inline TransferFunction meshTf(const mesh::TetMesh& m, double depth, double floor = 0.0) {
+    const double lo = m.valueMin, hi = m.valueMax > m.valueMin ? m.valueMax : m.valueMin + 1.0;
+    const double diag = norm(sub(m.boundsMax, m.boundsMin));
+    TransferFunction tf;
+    tf.domain = {lo, hi};
+    tf.color = {{lo, {0.1, 0.2, 1.0}}, {0.5 * (lo + hi), {1.0, 0.6, 0.2}}, {hi, {1.0, 1.0, 0.9}}};
+    tf.extinction = {{lo, floor * depth / diag},
+                     {lo + 0.2 * (hi - lo), std::max(0.1, floor) * depth / diag},
+                     {lo + 0.8 * (hi - lo), depth / diag},
+                     {hi, 0.3 * depth / diag}};
+    return tf;
+}
+
+/// Largest difference of any channel of two images of one size.
+inline double maxAbsDiff(const ImageBuffer& a, const ImageBuffer& b) {
+    double d = 0;
+    for (std::size_t i = 0; i < a.pixels.size(); ++i)
+        d = std::max(d, double(std::abs(a.pixels[i] - b.pixels[i])));
+    return d;
+}
+
+/// Mean of channel A of an RGBA image.
+inline double meanAlpha(const ImageBuffer& img) {
+    double sum = 0;
+    for (std::size_t i = 3; i < img.pixels.size(); i += 4)
+        sum += img.pixels[i];
+    return sum / double(img.width * img.height);
+}
+
+} // namespace volcl::test
