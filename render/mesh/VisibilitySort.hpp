@@ -1,0 +1,55 @@
+// Visibility orders of a tetrahedral mesh's cells for projected tetrahedra: centroid, MPVO and MPVO over the
+// convexified mesh.
+#pragma once
+
+#include "host/mesh/TetMesh.hpp"
+#include "render/VecMath.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string_view>
+#include <vector>
+
+namespace volcl {
+
+/// How render.method "pt" orders cells (scene key render.sort).
+enum class MeshSort {
+    Centroid,   ///< by distance of the centroid along the view: fast, wrong where cells overlap in depth
+    Mpvo,       ///< Williams' MPVO on the face-adjacency graph: exact for convex acyclic meshes only
+    Convexified ///< MPVO over the mesh plus the auxiliary cells filling its concavities (Guthe)
+};
+std::string_view meshSortName(MeshSort s);
+MeshSort parseMeshSort(std::string_view s); ///< "centroid", "mpvo", "convexified"; throws UsageError
+
+/// The viewpoint a visibility order is for: a perspective eye point, or an orthographic view direction.
+struct SortView {
+    Vec3 eye{0, 0, 0};       ///< perspective: the eye in world coordinates
+    Vec3 direction{0, 0, 1}; ///< orthographic: the viewing direction (unit, from the eye into the scene)
+    bool perspective = false;
+};
+
+/// A back-to-front order of the mesh's real tets (auxiliary cells are sorted but not listed).
+struct VisibilityOrder {
+    std::vector<std::uint32_t> tets; ///< every tet of the mesh exactly once, farthest first
+    std::size_t cyclesBroken = 0;    ///< visibility cycles broken while sorting (0: the order is exact)
+    double seconds = 0.0;            ///< time the sort took
+};
+
+/// Sorts the mesh's tets back to front for `view`. Centroid and Mpvo work on any mesh; Convexified uses the
+/// mesh's convexification (built on first use and cached with the sorter).
+class VisibilitySorter {
+public:
+    explicit VisibilitySorter(const mesh::TetMesh& mesh);
+    ~VisibilitySorter();
+    VisibilitySorter(const VisibilitySorter&) = delete;
+    VisibilitySorter& operator=(const VisibilitySorter&) = delete;
+
+    VisibilityOrder sort(const SortView& view, MeshSort method);
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+} // namespace volcl
