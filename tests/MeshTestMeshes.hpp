@@ -31,9 +31,10 @@ inline double hashUnit(std::uint64_t i, std::uint64_t salt) {
 /// boundary faces), from 0.4 tens of them. The points' scalars sample sin(3x + 1) cos(2y) + z, or with
 /// `linearField` a linear field that every tet interpolates exactly, so that where tets overlap all of them
 /// hold the same value and the oracle's choice of tet does not matter.
-inline mesh::TetSoup jitteredSoup(std::array<std::size_t, 3> n, Vec3 lo, Vec3 hi, double jitter, bool jitterSurface,
-                           const std::function<bool(double, double, double)>& removed, std::uint64_t seed = 0,
-                           bool linearField = false) {
+inline mesh::TetSoup jitteredSoup(std::array<std::size_t, 3> n, Vec3 lo, Vec3 hi, double jitter,
+                                  bool jitterSurface,
+                                  const std::function<bool(double, double, double)>& removed,
+                                  std::uint64_t seed = 0, bool linearField = false) {
     auto field = [linearField](double x, double y, double z) {
         return linearField ? 0.8 * x - 0.5 * y + z : std::sin(3.0 * x + 1.0) * std::cos(2.0 * y) + z;
     };
@@ -68,8 +69,8 @@ inline mesh::TetSoup jitteredSoup(std::array<std::size_t, 3> n, Vec3 lo, Vec3 hi
 
 /// n^3 cells of jitteredSoup on the unit cube, built into a mesh.
 inline mesh::TetMesh jitteredMesh(std::size_t n, double jitter, bool jitterSurface,
-                           const std::function<bool(double, double, double)>& removed,
-                           bool linearField = false) {
+                                  const std::function<bool(double, double, double)>& removed,
+                                  bool linearField = false) {
     return mesh::buildTetMesh(
         jitteredSoup({n, n, n}, {0, 0, 0}, {1, 1, 1}, jitter, jitterSurface, removed, 0, linearField),
         "jittered", "f");
@@ -78,7 +79,7 @@ inline mesh::TetMesh jitteredMesh(std::size_t n, double jitter, bool jitterSurfa
 /// The ray interval [t0, t1] inside tet `t` (closed half-spaces of its four face planes, each oriented toward
 /// the opposite vertex), empty when t1 <= t0; independent of the mesh's adjacency and face planes.
 inline bool tetInterval(const mesh::TetMesh& m, std::size_t t, const Vec3& o, const Vec3& d, double& t0,
-                 double& t1) {
+                        double& t1) {
     t0 = -std::numeric_limits<double>::infinity();
     t1 = std::numeric_limits<double>::infinity();
     const auto& v = m.tets[t];

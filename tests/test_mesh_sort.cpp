@@ -66,9 +66,11 @@ OracleCount rayOracle(const mesh::TetMesh& m, const std::vector<std::uint32_t>& 
                 d = {r * std::cos(phi), r * std::sin(phi), z};
             } else {
                 d = normalized(view.direction);
-                const Vec3 u = normalized(std::abs(d[0]) < 0.9 ? cross(d, Vec3{1, 0, 0}) : cross(d, Vec3{0, 1, 0}));
+                const Vec3 u =
+                    normalized(std::abs(d[0]) < 0.9 ? cross(d, Vec3{1, 0, 0}) : cross(d, Vec3{0, 1, 0}));
                 const Vec3 w = cross(d, u);
-                const double a = radius * (2.0 * (i + 0.5) / n - 1.0), b = radius * (2.0 * (j + 0.5) / n - 1.0);
+                const double a = radius * (2.0 * (i + 0.5) / n - 1.0),
+                             b = radius * (2.0 * (j + 0.5) / n - 1.0);
                 o = add(sub(centre, scale(d, 2.0 * radius)), add(scale(u, a), scale(w, b)));
             }
             hits.clear();
@@ -82,7 +84,8 @@ OracleCount rayOracle(const mesh::TetMesh& m, const std::vector<std::uint32_t>& 
             std::sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.t0 < b.t0; });
             for (std::size_t a = 0; a < hits.size(); ++a)
                 for (std::size_t b = a + 1; b < hits.size(); ++b) {
-                    if (hits[a].t1 > hits[b].t0 + tol) continue; // they overlap along the ray: no order needed
+                    if (hits[a].t1 > hits[b].t0 + tol)
+                        continue; // they overlap along the ray: no order needed
                     ++count.pairs;
                     if (position[hits[b].tet] > position[hits[a].tet]) ++count.violations;
                 }
@@ -158,8 +161,8 @@ TEST(MeshSort, ConvexMeshMpvoAndConvexifiedAreExact) {
     const MethodCounts mpvo = sortAndCheck(m, sorter, MeshSort::Mpvo, vs);
     const MethodCounts convex = sortAndCheck(m, sorter, MeshSort::Convexified, vs);
     const MethodCounts centroid = sortAndCheck(m, sorter, MeshSort::Centroid, vs);
-    std::cout << "convex cube: pairs " << mpvo.pairs << ", violations mpvo " << mpvo.violations << ", convexified "
-              << convex.violations << ", centroid " << centroid.violations << '\n';
+    std::cout << "convex cube: pairs " << mpvo.pairs << ", violations mpvo " << mpvo.violations
+              << ", convexified " << convex.violations << ", centroid " << centroid.violations << '\n';
     EXPECT_GT(mpvo.pairs, 10000u);
     EXPECT_EQ(mpvo.violations, 0u);
     EXPECT_EQ(convex.violations, 0u);
@@ -186,4 +189,181 @@ TEST(MeshSort, ConcavityInFrontOfAPartBreaksMpvoNotConvexified) {
     EXPECT_EQ(convex.violations, 0u);
     EXPECT_GT(st.auxiliaryCells, 0u);
     EXPECT_EQ(st.openBoundaryFaces, 0u);
+}
+
+namespace {
+
+/// Three long thin tets over a triangle, each passing over the next where they cross (the classic visibility
+/// cycle seen from above): no order of the three is right for every ray.
+mesh::TetMesh threeSticks() {
+    mesh::TetSoup soup;
+    const double pi = 3.141592653589793;
+    for (int i = 0; i < 3; ++i) {
+        const double a0 = 2.0 * pi * i / 3.0, a1 = 2.0 * pi * (i + 1) / 3.0;
+        const Vec3 v0{std::cos(a0), std::sin(a0), 0}, v1{std::cos(a1), std::sin(a1), 0};
+        const Vec3 e = sub(v1, v0);
+        const Vec3 p = sub(v0, scale(e, 0.3)), q = add(v1, scale(e, 0.3));
+        const Vec3 across = scale(normalized(Vec3{-e[1], e[0], 0}), 0.12);
+        // Low (z = -0.5) at its start, high (z = +0.5) at its end: over the next stick's start.
+        const std::uint32_t base = static_cast<std::uint32_t>(soup.points.size());
+        soup.points.push_back({p[0], p[1], -0.5});
+        soup.points.push_back({p[0] + across[0], p[1] + across[1], -0.5});
+        soup.points.push_back({q[0], q[1], 0.5});
+        soup.points.push_back({q[0], q[1], 0.62});
+        soup.tets.push_back({base, base + 1, base + 2, base + 3});
+    }
+    soup.scalars.assign(soup.points.size(), 1.0f);
+    return mesh::buildTetMesh(soup, "sticks", "f");
+}
+
+} // namespace
+
+TEST(MeshSort, VisibilityCycleIsBrokenAndEveryTetListedOnce) {
+    const mesh::TetMesh m = threeSticks();
+    ASSERT_EQ(m.tetCount(), 3u);
+    VisibilitySorter sorter(m);
+    const SortView top = ortho({0, 0, -1});
+    const VisibilityOrder o = sorter.sort(top, MeshSort::Convexified);
+    EXPECT_TRUE(isPermutation(o.tets, 3));
+    EXPECT_GT(o.cyclesBroken, 0u);
+    // No order is right from above: the oracle finds a violation whatever was chosen.
+    EXPECT_GT(rayOracle(m, o.tets, top, 64).violations, 0u);
+    // Plain MPVO sees three unconnected tets (no shared face): no cycle, still a permutation.
+    const VisibilityOrder mpvo = sorter.sort(top, MeshSort::Mpvo);
+    EXPECT_TRUE(isPermutation(mpvo.tets, 3));
+    EXPECT_EQ(mpvo.cyclesBroken, 0u);
+    std::cout << "three sticks: " << sorter.convexification().auxiliaryCells << " auxiliary cells, "
+              << o.cyclesBroken << " cycles broken\n";
+}
+
+TEST(MeshSort, OneTet) {
+    mesh::TetSoup soup;
+    soup.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    soup.scalars = {0, 1, 2, 3};
+    soup.tets = {{0, 1, 2, 3}};
+    const mesh::TetMesh m = mesh::buildTetMesh(soup, "one", "f");
+    EXPECT_TRUE(meshIsConvex(m));
+    VisibilitySorter sorter(m);
+    for (const MeshSort s : {MeshSort::Centroid, MeshSort::Mpvo, MeshSort::Convexified})
+        for (const SortView& v : {ortho({1, 2, 3}), perspective({0.1, 0.1, 0.1}), perspective({5, 5, 5})}) {
+            const VisibilityOrder o = sorter.sort(v, s);
+            EXPECT_EQ(o.tets, std::vector<std::uint32_t>{0});
+            EXPECT_EQ(o.cyclesBroken, 0u);
+        }
+}
+
+TEST(MeshSort, HolesDisconnectedAndNestedPartsConvexifiedExact) {
+    struct Case {
+        const char* name;
+        std::function<bool(double, double, double)> removed;
+    };
+    const Case cases[] = {
+        // A tunnel through the cube along z, and a closed cavity in its middle.
+        {"tunnel", [](double x, double y, double) { return x > 0.3 && x < 0.7 && y > 0.3 && y < 0.7; }},
+        {"cavity", [](double x, double y,
+                      double z) { return x > 0.3 && x < 0.7 && y > 0.3 && y < 0.7 && z > 0.3 && z < 0.7; }},
+        // Two slabs with a gap between them.
+        {"disconnected", [](double x, double, double) { return x > 0.4 && x < 0.6; }},
+        // A hollow shell with a block floating inside it (a gap all round).
+        {"nested",
+         [](double x, double y, double z) {
+             const double m = std::max({std::abs(x - 0.5), std::abs(y - 0.5), std::abs(z - 0.5)});
+             return m > 0.15 && m < 0.35;
+         }},
+    };
+    for (const Case& c : cases) {
+        const mesh::TetMesh m = test::jitteredMesh(7, 0.2, false, c.removed);
+        EXPECT_FALSE(meshIsConvex(m)) << c.name;
+        VisibilitySorter sorter(m);
+        const MethodCounts convex = sortAndCheck(m, sorter, MeshSort::Convexified, views(), 24);
+        const MethodCounts mpvo = sortAndCheck(m, sorter, MeshSort::Mpvo, views(), 24);
+        const ConvexificationStats& st = sorter.convexification();
+        std::cout << c.name << ": pairs " << convex.pairs << ", violations mpvo " << mpvo.violations
+                  << ", convexified " << convex.violations << " (" << st.auxiliaryCells
+                  << " auxiliary cells, " << st.openBoundaryFaces << " open faces, cycles " << convex.cycles
+                  << ")\n";
+        EXPECT_EQ(convex.violations, 0u) << c.name;
+        EXPECT_LE(st.openBoundaryFaces, 2u) << c.name; // a Delaunay tet crossing a bumpy wall may leave one
+    }
+}
+
+TEST(MeshSort, DuplicateVerticesAndSliversStayExact) {
+    // Two cubes' grids written with separate copies of their shared points (the builder merges them), and a
+    // sliver tet standing on a boundary face of the top, its apex 1e-6 above the face's centroid (it makes the
+    // mesh barely non-convex: the Delaunay tets around it are slivers too).
+    mesh::TetMesh cube = test::jitteredMesh(3, 0.2, false, [](double, double, double) { return false; });
+    mesh::TetSoup soup;
+    for (int copy = 0; copy < 2; ++copy) {
+        const std::uint32_t base = static_cast<std::uint32_t>(soup.points.size());
+        for (const auto& p : cube.points)
+            soup.points.push_back({p[0] + copy, p[1], p[2]});
+        for (const float s : cube.scalars)
+            soup.scalars.push_back(s);
+        for (auto t : cube.tets)
+            soup.tets.push_back({t[0] + base, t[1] + base, t[2] + base, t[3] + base});
+    }
+    mesh::FaceId top = mesh::kNoFace;
+    for (const mesh::FaceId f : cube.boundaryFaces) {
+        const auto v = cube.faceVertices(f);
+        if (cube.points[v[0]][2] == 1.0 && cube.points[v[1]][2] == 1.0 && cube.points[v[2]][2] == 1.0)
+            top = f;
+    }
+    ASSERT_NE(top, mesh::kNoFace);
+    const auto v = cube.faceVertices(top);
+    Vec3 apex{0, 0, 0};
+    for (const std::uint32_t p : v)
+        apex = add(apex, scale(cube.points[p], 1.0 / 3.0));
+    apex[2] += 1e-6;
+    soup.points.push_back(apex);
+    soup.scalars.push_back(0.5f);
+    soup.tets.push_back({v[0], v[1], v[2], static_cast<std::uint32_t>(soup.points.size() - 1)});
+    const mesh::TetMesh m = mesh::buildTetMesh(soup, "duplicates", "f");
+    EXPECT_GT(m.repairs.mergedPoints, 0u);
+    EXPECT_EQ(m.tetCount(), 2 * cube.tetCount() + 1);
+    EXPECT_FALSE(meshIsConvex(m));
+    VisibilitySorter sorter(m);
+    const MethodCounts convex = sortAndCheck(m, sorter, MeshSort::Convexified, views(), 24);
+    std::cout << "duplicates + sliver: pairs " << convex.pairs << ", violations " << convex.violations
+              << ", cycles " << convex.cycles << '\n';
+    EXPECT_EQ(convex.violations, 0u);
+}
+
+TEST(MeshSort, PerspectiveEyeInsideTheMesh) {
+    const mesh::TetMesh m =
+        cubeMesh(6, [](double x, double y, double) { return x > 0.33 && x < 0.67 && y > 0.3; });
+    VisibilitySorter sorter(m);
+    // Inside the U's base, and inside the notch (outside the mesh, inside its hull).
+    for (const Vec3 eye : {Vec3{0.52, 0.13, 0.47}, Vec3{0.5, 0.8, 0.5}}) {
+        const SortView v = perspective(eye);
+        for (const MeshSort s : {MeshSort::Centroid, MeshSort::Mpvo, MeshSort::Convexified}) {
+            const VisibilityOrder o = sorter.sort(v, s);
+            EXPECT_TRUE(isPermutation(o.tets, m.tetCount())) << meshSortName(s);
+            const OracleCount oc = rayOracle(m, o.tets, v, 32);
+            std::cout << "eye (" << eye[0] << ", " << eye[1] << ", " << eye[2] << ") " << meshSortName(s)
+                      << ": pairs " << oc.pairs << ", violations " << oc.violations << ", cycles "
+                      << o.cyclesBroken << '\n';
+            if (s == MeshSort::Convexified) EXPECT_EQ(oc.violations, 0u);
+        }
+    }
+}
+
+TEST(MeshSort, SharedMeshesSortCompletely) {
+    std::filesystem::path data;
+    VOLCL_REQUIRE_SHARED_DATA(data);
+    for (const char* name : {"bluntfinxyz.bin", "combxyz.bin", "xsmall_turb.vtu"}) {
+        const mesh::TetMesh m = mesh::readMesh(data / "unstructured" / name);
+        VisibilitySorter sorter(m);
+        const ConvexificationStats& st = sorter.convexification();
+        std::cout << name << ": " << m.tetCount() << " tets, convex " << meshIsConvex(m) << ", "
+                  << st.delaunayTets << " Delaunay tets, " << st.auxiliaryCells << " auxiliary cells, "
+                  << st.exactLinks << " exact + " << st.geometricLinks << " geometric links, "
+                  << st.openBoundaryFaces << " open boundary faces, built in " << st.seconds << " s\n";
+        for (const SortView& v : {ortho({0.3, -0.8, 0.5}), perspective(add(m.boundsMax, Vec3{1, 2, 3}))})
+            for (const MeshSort s : {MeshSort::Centroid, MeshSort::Mpvo, MeshSort::Convexified}) {
+                const VisibilityOrder o = sorter.sort(v, s);
+                EXPECT_TRUE(isPermutation(o.tets, m.tetCount())) << name << ' ' << meshSortName(s);
+                std::cout << "  " << meshSortName(s) << (v.perspective ? " perspective" : " orthographic")
+                          << ": " << o.seconds * 1e3 << " ms, cycles broken " << o.cyclesBroken << '\n';
+            }
+    }
 }

@@ -50,7 +50,8 @@ std::vector<mesh::Tet> delaunayTets(const std::vector<mesh::Point3>& points) {
     qhT* qh = &qhData;
     qh_zero(qh, err);
     char flags[] = "qhull d Qbb Qz Qt";
-    const int code = qh_new_qhull(qh, 3, static_cast<int>(points.size()), coords.data(), False, flags, nullptr, err);
+    const int code =
+        qh_new_qhull(qh, 3, static_cast<int>(points.size()), coords.data(), False, flags, nullptr, err);
     std::vector<mesh::Tet> tets;
     if (code == 0) {
         facetT* facet;
@@ -62,8 +63,10 @@ std::vector<mesh::Tet> delaunayTets(const std::vector<mesh::Point3>& points) {
             bool ok = true;
             FOREACHvertex_(facet->vertices) {
                 const int id = qh_pointid(qh, vertex->point);
-                if (k >= 4 || id < 0 || std::size_t(id) >= points.size()) ok = false;
-                else t[std::size_t(k++)] = static_cast<std::uint32_t>(id);
+                if (k >= 4 || id < 0 || std::size_t(id) >= points.size())
+                    ok = false;
+                else
+                    t[std::size_t(k++)] = static_cast<std::uint32_t>(id);
             }
             if (ok && k == 4) tets.push_back(t);
         }
@@ -151,7 +154,8 @@ Convexification convexify(const mesh::TetMesh& mesh) {
     std::vector<std::uint8_t> onHull(4 * mesh.tetCount(), 0);
     for (std::size_t i = 0; i < bvh.faces.size(); ++i)
         onHull[bvh.faces[i]] = hullFlags[i];
-    const bool convex = std::all_of(hullFlags.begin(), hullFlags.end(), [](std::uint8_t h) { return h != 0; });
+    const bool convex =
+        std::all_of(hullFlags.begin(), hullFlags.end(), [](std::uint8_t h) { return h != 0; });
 
     // A convex mesh needs nothing; Qhull needs 5 points in general position for a 3D Delaunay.
     if (!convex && mesh.pointCount() >= 5) {
@@ -226,7 +230,8 @@ Convexification convexify(const mesh::TetMesh& mesh) {
                 const auto& lv = mesh::kTetFaceVertices[k];
                 const Triple v{aux[a][lv[0]], aux[a][lv[1]], aux[a][lv[2]]};
                 const std::uint32_t cell = firstAux + static_cast<std::uint32_t>(a);
-                const auto [it, fresh] = byTriple.emplace(sorted(v), static_cast<std::uint32_t>(faces.size()));
+                const auto [it, fresh] =
+                    byTriple.emplace(sorted(v), static_cast<std::uint32_t>(faces.size()));
                 faces.push_back({v, cell});
                 matched.push_back(0);
                 if (fresh) continue;
@@ -277,6 +282,56 @@ Convexification convexify(const mesh::TetMesh& mesh) {
                                  addPlane(g, faceNormal(mesh, faces[i].v), mesh.points[faces[i].v[0]])});
                 linked[i] = linked[j] = 1;
                 ++out.stats.geometricLinks;
+            }
+        }
+        // Contacts: two boundary faces of the mesh in one plane, facing each other and overlapping, without a
+        // common triangle (parts that touch along a plane with different triangulations, a T-junction).
+        std::vector<std::uint32_t> faceIndex(4 * mesh.tetCount(), 0);
+        for (std::size_t i = 0; i < meshFaceCount; ++i)
+            faceIndex[mesh.boundaryFaces[i]] = static_cast<std::uint32_t>(i);
+        const double planeTolerance = 1e-7 * norm(sub(mesh.boundsMax, mesh.boundsMin));
+        std::vector<std::uint32_t> stack;
+        for (std::size_t i = 0; i < meshFaceCount; ++i) {
+            if (matched[i]) continue;
+            const Triple& vi = faces[i].v;
+            const Vec3 ni = normalized(faceNormal(mesh, vi));
+            Vec3 lo = mesh.points[vi[0]], hi = lo;
+            for (const std::uint32_t p : vi)
+                for (int a = 0; a < 3; ++a) {
+                    lo[std::size_t(a)] =
+                        std::min(lo[std::size_t(a)], mesh.points[p][std::size_t(a)] - planeTolerance);
+                    hi[std::size_t(a)] =
+                        std::max(hi[std::size_t(a)], mesh.points[p][std::size_t(a)] + planeTolerance);
+                }
+            stack.assign(1, 0);
+            while (!stack.empty()) {
+                const mesh_detail::BvhNode& node = bvh.nodes[stack.back()];
+                stack.pop_back();
+                bool apart = false;
+                for (int a = 0; a < 3; ++a)
+                    apart = apart || node.hi[std::size_t(a)] < lo[std::size_t(a)] ||
+                            node.lo[std::size_t(a)] > hi[std::size_t(a)];
+                if (apart) continue;
+                if (node.count == 0) {
+                    stack.push_back(node.right);
+                    stack.push_back(static_cast<std::uint32_t>(&node - bvh.nodes.data()) + 1);
+                    continue;
+                }
+                for (std::uint32_t k = node.first; k < node.first + node.count; ++k) {
+                    const std::uint32_t j = faceIndex[bvh.faces[k]];
+                    if (j <= i || matched[j] || faces[j].cell == faces[i].cell) continue;
+                    const Triple& vj = faces[j].v;
+                    if (!(dot(ni, normalized(faceNormal(mesh, vj))) < -0.999)) continue;
+                    bool coplanar = true;
+                    for (const std::uint32_t p : vj)
+                        coplanar = coplanar && std::abs(dot(ni, sub(mesh.points[p], mesh.points[vi[0]]))) <=
+                                                   planeTolerance;
+                    if (!coplanar || !overlapInPlane(mesh, vi, vj, ni, eps)) continue;
+                    links.push_back({faces[i].cell, faces[j].cell,
+                                     addPlane(g, faceNormal(mesh, vi), mesh.points[vi[0]])});
+                    linked[i] = linked[j] = 1;
+                    ++out.stats.contactLinks;
+                }
             }
         }
         for (std::size_t i = 0; i < meshFaceCount; ++i)

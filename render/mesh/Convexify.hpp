@@ -25,6 +25,8 @@ struct Convexification {
 ///    or a flat tet was dropped between two cells) are linked geometrically: two faces of different cells with a
 ///    common point, facing each other (unit normals' dot < -0.9) and overlapping with positive area in the
 ///    plane of the first are linked through that plane.
+/// 4. Contacts: boundary faces of the mesh that lie in one plane (within 1e-7 of the diagonal), face each other
+///    and overlap are linked (parts touching along a plane with different triangulations), found with the BVH.
 /// Where the boundary faces are not Delaunay faces, auxiliary cells may cross the mesh (Delaunay tets whose
 /// centroid is outside while a corner pokes in) or leave a boundary face unmet (counted in openBoundaryFaces):
 /// the order can then be wrong there, and crossings may show as cycles, which sortGraph() breaks.

@@ -87,8 +87,8 @@ GraphOrder sortGraph(const VisibilityGraph& g, const SortView& view) {
     // 0 when they run along it (no order is needed between the two cells then).
     std::vector<std::int8_t> side(planes);
     for (std::size_t p = 0; p < planes; ++p) {
-        const double s = view.perspective ? g.offsets[p] - dot(g.normals[p], view.eye)
-                                          : dot(g.normals[p], view.direction);
+        const double s =
+            view.perspective ? g.offsets[p] - dot(g.normals[p], view.eye) : dot(g.normals[p], view.direction);
         side[p] = static_cast<std::int8_t>((s > 0) - (s < 0));
     }
     // relation(e) > 0: the entry's cell is in front of the other one (the other must go out first).
@@ -141,7 +141,8 @@ GraphOrder sortGraph(const VisibilityGraph& g, const SortView& view) {
                     next = g.other[e];
                     break;
                 }
-            if (next == cur) throw Error("internal: visibility sort found a blocked cell with nothing behind it");
+            if (next == cur)
+                throw Error("internal: visibility sort found a blocked cell with nothing behind it");
             cur = next;
         }
         const auto start = std::find(path.begin(), path.end(), cur);

@@ -31,7 +31,8 @@ MeshSort parseMeshSort(std::string_view s) {
     if (s == "centroid") return MeshSort::Centroid;
     if (s == "mpvo") return MeshSort::Mpvo;
     if (s == "convexified") return MeshSort::Convexified;
-    throw UsageError("render.sort '" + std::string(s) + "' is unknown (expected centroid, mpvo, convexified)");
+    throw UsageError("render.sort '" + std::string(s) +
+                     "' is unknown (expected centroid, mpvo, convexified)");
 }
 
 bool meshIsConvex(const mesh::TetMesh& mesh) {

@@ -30,12 +30,13 @@ MeshSort defaultMeshSort(const mesh::TetMesh& mesh);
 
 /// What the convexification built (render/mesh/Convexify.hpp says how).
 struct ConvexificationStats {
-    std::size_t delaunayTets = 0;     ///< tets of the Delaunay tetrahedralisation of the mesh's points
-    std::size_t auxiliaryCells = 0;   ///< of them kept outside the mesh as auxiliary cells
-    std::size_t exactLinks = 0;       ///< links through a triangle both cells have (same three points)
-    std::size_t geometricLinks = 0;   ///< links through overlapping near-coplanar faces (different diagonals)
+    std::size_t delaunayTets = 0;   ///< tets of the Delaunay tetrahedralisation of the mesh's points
+    std::size_t auxiliaryCells = 0; ///< of them kept outside the mesh as auxiliary cells
+    std::size_t exactLinks = 0;     ///< links through a triangle both cells have (same three points)
+    std::size_t geometricLinks = 0; ///< links through overlapping near-coplanar faces (different diagonals)
+    std::size_t contactLinks = 0;   ///< links between boundary faces of the mesh that touch in one plane
     std::size_t openBoundaryFaces = 0; ///< mesh boundary faces off the hull that no auxiliary cell meets
-    double seconds = 0.0;             ///< time the build took
+    double seconds = 0.0;              ///< time the build took
 };
 
 /// The viewpoint a visibility order is for: a perspective eye point, or an orthographic view direction.
