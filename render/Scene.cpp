@@ -7,6 +7,7 @@
 #include "core/Format.hpp"
 #include "preintegration/PreintegrationTable.hpp"
 #include "render/VecMath.hpp"
+#include "render/mesh/VisibilitySort.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -256,12 +257,12 @@ void parseImage(const json& im, Scene& s) {
     if (im.contains("background")) s.background = vec<4>(im["background"], "image.background");
 }
 
-/// "render": mode, step, tables, filter, level of detail, mesh method.
+/// "render": mode, step, tables, filter, level of detail, mesh method and sort.
 void parseRenderSettings(const json& r, Scene& s) {
     checkKeys(r, "render",
               {"mode", "step", "preintegration", "early_termination", "skipping", "table_size",
                "table_lengths", "filter", "smoothing", "window", "mip_color", "budget_ms", "lod", "lod_error",
-               "cache_mb", "method", "k", "nan_color"});
+               "cache_mb", "method", "k", "sort", "nan_color"});
     if (r.contains("mode")) s.mode = parseRenderMode(str(r["mode"], "render.mode"));
     if (r.contains("step")) {
         if (r["step"].is_string()) {
@@ -293,6 +294,7 @@ void parseRenderSettings(const json& r, Scene& s) {
     if (r.contains("cache_mb")) s.cacheMb = num(r["cache_mb"], "render.cache_mb");
     if (r.contains("method")) s.meshMethod = parseMeshMethod(str(r["method"], "render.method"));
     if (r.contains("k")) s.kBufferDepth = intField(r["k"], "render.k");
+    if (r.contains("sort")) s.meshSort = parseMeshSort(str(r["sort"], "render.sort"));
     if (r.contains("nan_color")) s.nanColor = vec<4>(r["nan_color"], "render.nan_color");
 }
 
@@ -493,6 +495,7 @@ std::string Scene::toJson() const {
     // Mesh fields only when set (grid scenes' JSON stays as it was).
     if (meshMethod != MeshMethod::Cells) j["render"]["method"] = std::string(meshMethodName(meshMethod));
     if (kBufferDepth != 6) j["render"]["k"] = kBufferDepth;
+    if (meshSort) j["render"]["sort"] = std::string(meshSortName(*meshSort));
     if (window) j["render"]["window"] = *window;
     if (budgetMs > 0.0) j["render"]["budget_ms"] = budgetMs;
     if (nanColor != std::array<double, 4>{0, 0, 0, 0}) j["render"]["nan_color"] = nanColor;

@@ -35,6 +35,9 @@ enum class LodMode { Full, Auto };
 /// How a tetrahedral mesh is rendered: exact cell-by-cell traversal, or faces sorted by centroid into a
 /// per-pixel k-buffer of depth render.k (grids ignore it).
 enum class MeshMethod { Cells, KBuffer };
+/// How projected tetrahedra order a mesh's cells (render.sort): defined, named and parsed with the sorter in
+/// render/mesh/VisibilitySort.hpp (centroid, mpvo, convexified).
+enum class MeshSort;
 
 std::string_view renderModeName(RenderMode m);
 RenderMode parseRenderMode(std::string_view s); ///< throws UsageError
@@ -177,6 +180,9 @@ struct Scene {
     double cacheMb = 512.0;
     MeshMethod meshMethod = MeshMethod::Cells; ///< render.method (meshes only)
     int kBufferDepth = 6;                      ///< render.k: k-buffer entries per pixel, 2..8
+    /// render.sort: the cell order of projected tetrahedra; unset: mpvo for a convex mesh, else convexified
+    /// (defaultMeshSort).
+    std::optional<MeshSort> meshSort;
     std::vector<Light> lights;
     SceneEffects effects;
 

@@ -1,5 +1,4 @@
-// Test meshes shared by the mesh suites: jittered hex grids with cells removed (concave walls, folds), and the
-// ray interval of one tet (brute force, independent of the mesh's adjacency).
+// Test meshes shared by the mesh suites: jittered hex grids with cells removed (concave walls, folds).
 #pragma once
 
 #include "host/mesh/MeshGenerator.hpp"
@@ -74,32 +73,6 @@ inline mesh::TetMesh jitteredMesh(std::size_t n, double jitter, bool jitterSurfa
     return mesh::buildTetMesh(
         jitteredSoup({n, n, n}, {0, 0, 0}, {1, 1, 1}, jitter, jitterSurface, removed, 0, linearField),
         "jittered", "f");
-}
-
-/// The ray interval [t0, t1] inside tet `t` (closed half-spaces of its four face planes, each oriented toward
-/// the opposite vertex), empty when t1 <= t0; independent of the mesh's adjacency and face planes.
-inline bool tetInterval(const mesh::TetMesh& m, std::size_t t, const Vec3& o, const Vec3& d, double& t0,
-                        double& t1) {
-    t0 = -std::numeric_limits<double>::infinity();
-    t1 = std::numeric_limits<double>::infinity();
-    const auto& v = m.tets[t];
-    for (int i = 0; i < 4; ++i) {
-        const Vec3 a = m.points[v[(i + 1) % 4]], b = m.points[v[(i + 2) % 4]], c = m.points[v[(i + 3) % 4]];
-        Vec3 n = cross(sub(b, a), sub(c, a));
-        if (dot(n, sub(m.points[v[i]], a)) < 0.0) n = scale(n, -1.0); // toward the opposite vertex
-        // Inside: dot(n, o + t d - a) >= 0.
-        const double g0 = dot(n, sub(o, a)), g1 = dot(n, d);
-        if (g1 == 0.0) {
-            if (g0 < 0.0) return false;
-            continue;
-        }
-        const double tc = -g0 / g1;
-        if (g1 > 0.0)
-            t0 = std::max(t0, tc);
-        else
-            t1 = std::min(t1, tc);
-    }
-    return t1 > t0;
 }
 
 } // namespace volcl::test

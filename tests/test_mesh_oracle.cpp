@@ -7,6 +7,7 @@
 #include "render/Reference.hpp"
 #include "render/RenderInput.hpp"
 #include "render/mesh/MeshReference.hpp"
+#include "render/mesh/VisibilityOracle.hpp"
 
 #include <gtest/gtest.h>
 
@@ -24,7 +25,6 @@ namespace {
 using test::hashUnit;
 using test::jitteredMesh;
 using test::jitteredSoup;
-using test::tetInterval;
 
 /// The scalar at x by barycentric interpolation (sub-tet volumes) of tet t's vertex values.
 double barycentricScalar(const mesh::TetMesh& m, std::size_t t, const Vec3& x) {
@@ -59,7 +59,7 @@ ReferencePixel oraclePixel(const mesh::TetMesh& m, const TransferFunction& tf, c
     std::vector<double> cuts;
     for (std::size_t t = 0; t < m.tets.size(); ++t) {
         double t0, t1;
-        if (!tetInterval(m, t, ray.origin, ray.direction, t0, t1)) continue;
+        if (!tetRayInterval(m, t, ray.origin, ray.direction, t0, t1)) continue;
         t0 = std::max(t0, 0.0);
         if (!(t1 > t0)) continue;
         spans.push_back({t0, t1, t});
@@ -426,7 +426,7 @@ ReferencePixel nanOraclePixel(const mesh::TetMesh& m, const TransferFunction& tf
     std::vector<Span> spans;
     for (std::size_t t = 0; t < m.tets.size(); ++t) {
         double t0, t1;
-        if (tetInterval(m, t, ray.origin, ray.direction, t0, t1) && t1 > std::max(t0, 0.0))
+        if (tetRayInterval(m, t, ray.origin, ray.direction, t0, t1) && t1 > std::max(t0, 0.0))
             spans.push_back({std::max(t0, 0.0), t1, t});
     }
     const double inf = std::numeric_limits<double>::infinity();

@@ -4,6 +4,8 @@
 #include "TestUtil.hpp"
 
 #include "host/mesh/MeshIo.hpp"
+#include "render/Scene.hpp"
+#include "render/mesh/VisibilityOracle.hpp"
 #include "render/mesh/VisibilitySort.hpp"
 
 #include <gtest/gtest.h>
@@ -17,11 +19,7 @@ using namespace volcl;
 
 namespace {
 
-/// What the oracle counted: pairs of tets one ray crosses one after the other, and those the order puts the
-/// wrong way round (the nearer one before the farther one).
-struct OracleCount {
-    std::size_t rays = 0, pairs = 0, violations = 0;
-};
+using OracleCount = OrderCheck;
 
 /// Every tet exactly once.
 bool isPermutation(const std::vector<std::uint32_t>& order, std::size_t n) {
@@ -34,63 +32,9 @@ bool isPermutation(const std::vector<std::uint32_t>& order, std::size_t n) {
     return true;
 }
 
-/// Rays of the view: orthographic, a raysPerAxis^2 grid across the mesh's bounds along the direction; perspective,
-/// raysPerAxis^2 directions spread over the sphere from the eye (only t >= 0 counts). Each ray is clipped with
-/// every tet (tetInterval); of two tets whose intervals follow one another (the first ends where or before the
-/// second starts), the second must come first in the back-to-front order.
 OracleCount rayOracle(const mesh::TetMesh& m, const std::vector<std::uint32_t>& order, const SortView& view,
                       int raysPerAxis = 40) {
-    std::vector<std::size_t> position(m.tetCount());
-    for (std::size_t i = 0; i < order.size(); ++i)
-        position[order[i]] = i;
-    const Vec3 lo = m.boundsMin, hi = m.boundsMax;
-    const Vec3 centre = scale(add(lo, hi), 0.5);
-    const double radius = 0.5 * norm(sub(hi, lo));
-    const double tol = 1e-9 * radius;
-    OracleCount count;
-    struct Hit {
-        double t0, t1;
-        std::uint32_t tet;
-    };
-    std::vector<Hit> hits;
-    const int n = raysPerAxis;
-    for (int i = 0; i < n; ++i)
-        for (int j = 0; j < n; ++j) {
-            Vec3 o, d;
-            if (view.perspective) {
-                // Fibonacci sphere: every direction from the eye.
-                const double k = double(i * n + j) + 0.5, total = double(n * n);
-                const double z = 1.0 - 2.0 * k / total, r = std::sqrt(std::max(0.0, 1.0 - z * z));
-                const double phi = k * 2.399963229728653;
-                o = view.eye;
-                d = {r * std::cos(phi), r * std::sin(phi), z};
-            } else {
-                d = normalized(view.direction);
-                const Vec3 u =
-                    normalized(std::abs(d[0]) < 0.9 ? cross(d, Vec3{1, 0, 0}) : cross(d, Vec3{0, 1, 0}));
-                const Vec3 w = cross(d, u);
-                const double a = radius * (2.0 * (i + 0.5) / n - 1.0),
-                             b = radius * (2.0 * (j + 0.5) / n - 1.0);
-                o = add(sub(centre, scale(d, 2.0 * radius)), add(scale(u, a), scale(w, b)));
-            }
-            hits.clear();
-            for (std::size_t t = 0; t < m.tetCount(); ++t) {
-                double t0 = 0, t1 = 0;
-                if (!test::tetInterval(m, t, o, d, t0, t1)) continue;
-                if (view.perspective) t0 = std::max(t0, 0.0);
-                if (t1 - t0 > tol) hits.push_back({t0, t1, static_cast<std::uint32_t>(t)});
-            }
-            ++count.rays;
-            std::sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.t0 < b.t0; });
-            for (std::size_t a = 0; a < hits.size(); ++a)
-                for (std::size_t b = a + 1; b < hits.size(); ++b) {
-                    if (hits[a].t1 > hits[b].t0 + tol)
-                        continue; // they overlap along the ray: no order needed
-                    ++count.pairs;
-                    if (position[hits[b].tet] > position[hits[a].tet]) ++count.violations;
-                }
-        }
-    return count;
+    return checkOrderAlongRays(m, order, view, raysPerAxis);
 }
 
 SortView ortho(Vec3 d) {
@@ -126,7 +70,7 @@ struct MethodCounts {
 
 /// Sorts with `method` from every view; checks the order is a permutation each time; sums the oracle's counts.
 MethodCounts sortAndCheck(const mesh::TetMesh& m, VisibilitySorter& sorter, MeshSort method,
-                          const std::vector<SortView>& vs, int raysPerAxis = 32) {
+                          const std::vector<SortView>& vs, int raysPerAxis = 24) {
     MethodCounts c;
     for (const SortView& v : vs) {
         const VisibilityOrder o = sorter.sort(v, method);
@@ -362,8 +306,23 @@ TEST(MeshSort, SharedMeshesSortCompletely) {
             for (const MeshSort s : {MeshSort::Centroid, MeshSort::Mpvo, MeshSort::Convexified}) {
                 const VisibilityOrder o = sorter.sort(v, s);
                 EXPECT_TRUE(isPermutation(o.tets, m.tetCount())) << name << ' ' << meshSortName(s);
+                const OracleCount oc = rayOracle(m, o.tets, v, 12);
                 std::cout << "  " << meshSortName(s) << (v.perspective ? " perspective" : " orthographic")
-                          << ": " << o.seconds * 1e3 << " ms, cycles broken " << o.cyclesBroken << '\n';
+                          << ": " << o.seconds * 1e3 << " ms, cycles broken " << o.cyclesBroken
+                          << ", violations " << oc.violations << " of " << oc.pairs << " pairs\n";
             }
     }
+}
+
+TEST(MeshSort, SceneKeyRenderSort) {
+    const Scene unset = Scene::fromJson(R"({"volume": "m.vtu"})");
+    EXPECT_FALSE(unset.meshSort.has_value());
+    const Scene s =
+        Scene::fromJson(R"({"volume": "m.vtu", "render": {"method": "cells", "sort": "centroid"}})");
+    ASSERT_TRUE(s.meshSort.has_value());
+    EXPECT_EQ(*s.meshSort, MeshSort::Centroid);
+    const Scene back = Scene::fromJson(s.toJson());
+    ASSERT_TRUE(back.meshSort.has_value());
+    EXPECT_EQ(*back.meshSort, MeshSort::Centroid);
+    EXPECT_THROW(Scene::fromJson(R"({"volume": "m.vtu", "render": {"sort": "painter"}})"), UsageError);
 }

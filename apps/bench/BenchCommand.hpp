@@ -18,5 +18,6 @@ void addRenderBench(CLI::App& bench, GlobalOptions& global); // bench render (Re
 void addCodecBench(CLI::App& bench, GlobalOptions& global);  // bench codec (CodecBench.cpp, CodecPeers.cpp)
 void addMotionBench(CLI::App& bench, GlobalOptions& global); // bench motion (MotionBench.cpp)
 void addSeriesBench(CLI::App& bench, GlobalOptions& global); // bench series (SeriesBench.cpp)
+void addMeshBench(CLI::App& bench, GlobalOptions& global);   // bench mesh (MeshSortBench.cpp)
 
 } // namespace volcl::cli

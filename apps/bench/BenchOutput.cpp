@@ -3,7 +3,10 @@
 
 #include "core/AtomicFile.hpp"
 
+#include <cstdlib>
+#include <iomanip>
 #include <iostream>
+#include <sstream>
 
 namespace volcl::cli {
 
@@ -15,6 +18,14 @@ void writeOutput(const std::string& path, const std::string& text) {
     AtomicFile f(path);
     f.write(text);
     f.commit();
+}
+
+std::string loadAverageText() {
+    double l[3] = {0, 0, 0};
+    if (getloadavg(l, 3) != 3) return "unknown";
+    std::ostringstream os;
+    os << std::fixed << std::setprecision(2) << l[0] << ", " << l[1] << ", " << l[2];
+    return os.str();
 }
 
 } // namespace volcl::cli

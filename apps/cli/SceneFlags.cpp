@@ -11,6 +11,7 @@
 #include "core/Volume.hpp"
 #include "render/CameraFraming.hpp"
 #include "render/VecMath.hpp"
+#include "render/mesh/VisibilitySort.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -158,6 +159,11 @@ void SceneFlags::add(CLI::App* cmd) {
         ->default_str(std::string(meshMethodName(d.meshMethod)));
     cmd->add_option("--k", k, "Meshes, method kbuffer: k-buffer entries per pixel (2..8)")
         ->default_str(num(d.kBufferDepth));
+    cmd->add_option(
+           "--sort", sort,
+           "Meshes, projected tetrahedra: cell order centroid (fast, approximate), mpvo (exact on convex "
+           "meshes) or convexified (MPVO over the mesh and cells filling its concavities)")
+        ->default_str("mpvo if the mesh is convex, else convexified");
     raw.add(*cmd);
     mesh.add(*cmd);
 }
@@ -185,6 +191,7 @@ Scene SceneFlags::build() const {
     if (!mipColor.empty()) s.mipColor = parseMipColor(mipColor);
     if (!method.empty()) s.meshMethod = parseMeshMethod(method);
     if (k) s.kBufferDepth = *k;
+    if (!sort.empty()) s.meshSort = parseMeshSort(sort);
     if (earlyTermination) s.earlyTermination = *earlyTermination;
     if (!lod.empty()) s.lod = parseLodMode(lod);
     if (lodError) s.lodError = *lodError;
