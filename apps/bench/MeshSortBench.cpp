@@ -40,7 +40,8 @@ std::vector<SortView> orbitViews(const mesh::TetMesh& m, int count) {
     std::vector<SortView> out;
     const double pi = 3.141592653589793, el = pi / 6.0;
     for (int i = 0; i < count; ++i) {
-        const double az = 2.0 * pi * (i / 2) / std::max(1, count / 2) + (i % 2 ? pi / std::max(1, count) : 0.0);
+        const double az =
+            2.0 * pi * (i / 2) / std::max(1, count / 2) + (i % 2 ? pi / std::max(1, count) : 0.0);
         const Vec3 toEye{std::cos(az) * std::cos(el), std::sin(az) * std::cos(el), std::sin(el)};
         SortView v;
         v.perspective = i % 2 == 1;
@@ -54,7 +55,8 @@ std::vector<SortView> orbitViews(const mesh::TetMesh& m, int count) {
 void benchMeshSort(const MeshSortBenchArgs& a) {
     const MeshSort methods[] = {MeshSort::Centroid, MeshSort::Mpvo, MeshSort::Convexified};
     std::ostringstream csv;
-    csv << "mesh,tets,method,median_ms,tets_per_s,ratio_to_centroid,cycles_broken,oracle_pairs,oracle_violations,"
+    csv << "mesh,tets,method,median_ms,tets_per_s,ratio_to_centroid,cycles_broken,oracle_pairs,oracle_"
+           "violations,"
            "convexify_s,aux_cells,load\n";
     std::cout << "visibility sorting: " << a.views << " views (orthographic and perspective), " << a.runs
               << " interleaved runs, one thread; load average " << loadAverageText() << '\n';
@@ -65,8 +67,8 @@ void benchMeshSort(const MeshSortBenchArgs& a) {
         std::cout << path << ": " << m.tetCount() << " tets, " << (meshIsConvex(m) ? "convex" : "not convex")
                   << "; convexification " << formatFixed(cs.seconds, 2) << " s: " << cs.delaunayTets
                   << " Delaunay tets, " << cs.auxiliaryCells << " auxiliary cells, " << cs.exactLinks
-                  << " exact + " << cs.geometricLinks << " geometric + " << cs.contactLinks << " contact links, "
-                  << cs.openBoundaryFaces << " boundary faces left open\n";
+                  << " exact + " << cs.geometricLinks << " geometric + " << cs.contactLinks
+                  << " contact links, " << cs.openBoundaryFaces << " boundary faces left open\n";
         const std::vector<SortView> views = orbitViews(m, a.views);
         struct Column {
             std::vector<double> ms;
@@ -95,13 +97,13 @@ void benchMeshSort(const MeshSortBenchArgs& a) {
             const double rate = double(m.tetCount()) / (ms * 1e-3);
             const double share =
                 col[k].check.pairs ? double(col[k].check.violations) / double(col[k].check.pairs) : 0.0;
-            std::cout << "  " << std::left << std::setw(12) << meshSortName(methods[k]) << std::right << std::setw(9)
-                      << formatFixed(ms, 2) << std::setw(11) << formatFixed(rate * 1e-6, 2) << std::setw(13)
-                      << formatFixed(ms / centroidMs, 2) << std::setw(16) << col[k].cycles << "   "
-                      << col[k].check.violations << " of " << col[k].check.pairs << " pairs ("
+            std::cout << "  " << std::left << std::setw(12) << meshSortName(methods[k]) << std::right
+                      << std::setw(9) << formatFixed(ms, 2) << std::setw(11) << formatFixed(rate * 1e-6, 2)
+                      << std::setw(13) << formatFixed(ms / centroidMs, 2) << std::setw(16) << col[k].cycles
+                      << "   " << col[k].check.violations << " of " << col[k].check.pairs << " pairs ("
                       << formatFixed(100.0 * share, 3) << " %)\n";
-            csv << path << ',' << m.tetCount() << ',' << meshSortName(methods[k]) << ',' << ms << ',' << rate << ','
-                << ms / centroidMs << ',' << col[k].cycles << ',' << col[k].check.pairs << ','
+            csv << path << ',' << m.tetCount() << ',' << meshSortName(methods[k]) << ',' << ms << ',' << rate
+                << ',' << ms / centroidMs << ',' << col[k].cycles << ',' << col[k].check.pairs << ','
                 << col[k].check.violations << ',' << cs.seconds << ',' << cs.auxiliaryCells << ",\""
                 << loadAverageText() << "\"\n";
         }
@@ -114,12 +116,14 @@ void benchMeshSort(const MeshSortBenchArgs& a) {
 
 void addMeshBench(CLI::App& bench, GlobalOptions&) {
     CLI::App* b = bench.add_subcommand(
-        "mesh", "Tetrahedral meshes: visibility sorting per method (centroid, mpvo, convexified), tets/s against "
-                "the centroid sort, cycles broken, convexification time, order errors along rays");
+        "mesh",
+        "Tetrahedral meshes: visibility sorting per method (centroid, mpvo, convexified), tets/s against "
+        "the centroid sort, cycles broken, convexification time, order errors along rays");
     auto a = std::make_shared<MeshSortBenchArgs>();
     b->add_option("meshes", a->meshes, "Mesh files (.vtu, .vtk, PLOT3D)")->required();
     a->read.add(*b);
-    b->add_option("--runs", a->runs, "Interleaved timed runs over every view (median)")->capture_default_str();
+    b->add_option("--runs", a->runs, "Interleaved timed runs over every view (median)")
+        ->capture_default_str();
     b->add_option("--views", a->views, "Views on an orbit, half of them perspective")->capture_default_str();
     b->add_option("--rays", a->rays,
                   "Oracle rays per axis and view (brute force: rays^2 x tets clips per view; 0: no oracle)")

@@ -7,7 +7,8 @@
 
 namespace volcl {
 
-bool tetRayInterval(const mesh::TetMesh& m, std::size_t t, const Vec3& o, const Vec3& d, double& t0, double& t1) {
+bool tetRayInterval(const mesh::TetMesh& m, std::size_t t, const Vec3& o, const Vec3& d, double& t0,
+                    double& t1) {
     t0 = -std::numeric_limits<double>::infinity();
     t1 = std::numeric_limits<double>::infinity();
     const auto& v = m.tets[t];
@@ -61,7 +62,8 @@ OrderCheck checkOrderAlongRays(const mesh::TetMesh& m, const std::vector<std::ui
                 const Vec3 u =
                     normalized(std::abs(d[0]) < 0.9 ? cross(d, Vec3{1, 0, 0}) : cross(d, Vec3{0, 1, 0}));
                 const Vec3 w = cross(d, u);
-                const double a = radius * (2.0 * (i + 0.5) / n - 1.0), b = radius * (2.0 * (j + 0.5) / n - 1.0);
+                const double a = radius * (2.0 * (i + 0.5) / n - 1.0),
+                             b = radius * (2.0 * (j + 0.5) / n - 1.0);
                 o = add(sub(centre, scale(d, 2.0 * radius)), add(scale(u, a), scale(w, b)));
             }
             hits.clear();
@@ -75,7 +77,8 @@ OrderCheck checkOrderAlongRays(const mesh::TetMesh& m, const std::vector<std::ui
             std::sort(hits.begin(), hits.end(), [](const Hit& a, const Hit& b) { return a.t0 < b.t0; });
             for (std::size_t a = 0; a < hits.size(); ++a)
                 for (std::size_t b = a + 1; b < hits.size(); ++b) {
-                    if (hits[a].t1 > hits[b].t0 + tol) continue; // they overlap along the ray: no order needed
+                    if (hits[a].t1 > hits[b].t0 + tol)
+                        continue; // they overlap along the ray: no order needed
                     ++count.pairs;
                     if (position[hits[b].tet] > position[hits[a].tet]) ++count.violations;
                 }

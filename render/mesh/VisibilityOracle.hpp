@@ -14,7 +14,8 @@ namespace volcl {
 
 /// The ray interval [t0, t1] inside tet `t` (closed half-spaces of its four face planes, each oriented toward
 /// the opposite vertex), empty when t1 <= t0; independent of the mesh's adjacency and face planes.
-bool tetRayInterval(const mesh::TetMesh& m, std::size_t t, const Vec3& o, const Vec3& d, double& t0, double& t1);
+bool tetRayInterval(const mesh::TetMesh& m, std::size_t t, const Vec3& o, const Vec3& d, double& t0,
+                    double& t1);
 
 /// What the oracle counted: pairs of tets one ray crosses one after the other (the first interval ends where or
 /// before the second starts, within 1e-9 of the half diagonal), and those the order puts the wrong way round.
