@@ -68,7 +68,8 @@ void benchMeshSort(const MeshSortBenchArgs& a) {
                   << "; convexification " << formatFixed(cs.seconds, 2) << " s: " << cs.delaunayTets
                   << " Delaunay tets, " << cs.auxiliaryCells << " auxiliary cells, " << cs.exactLinks
                   << " exact + " << cs.geometricLinks << " geometric + " << cs.contactLinks
-                  << " contact links, " << cs.openBoundaryFaces << " boundary faces left open\n";
+                  << " contact links, " << cs.openBoundaryFaces << " boundary faces left open"
+                  << (cs.delaunayError.empty() ? "" : "; " + cs.delaunayError) << '\n';
         const std::vector<SortView> views = orbitViews(m, a.views);
         struct Column {
             std::vector<double> ms;

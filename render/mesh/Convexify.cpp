@@ -180,7 +180,13 @@ Convexification convexify(const mesh::TetMesh& mesh) {
             meshTets.emplace(k, static_cast<std::uint32_t>(t));
         }
 
-        const std::vector<mesh::Tet> delaunay = delaunayTets(mesh.points);
+        std::vector<mesh::Tet> delaunay;
+        try {
+            delaunay = delaunayTets(mesh.points);
+        } catch (
+            const DataError& e) { // e.g. points too close to one plane: no auxiliary cells, said in stats
+            out.stats.delaunayError = e.what();
+        }
         out.stats.delaunayTets = delaunay.size();
         std::vector<mesh::Tet> aux;
         for (mesh::Tet t : delaunay) {

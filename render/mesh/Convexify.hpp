@@ -27,6 +27,8 @@ struct Convexification {
 ///    plane of the first are linked through that plane.
 /// 4. Contacts: boundary faces of the mesh that lie in one plane (within 1e-7 of the diagonal), face each other
 ///    and overlap are linked (parts touching along a plane with different triangulations), found with the BVH.
+/// When Qhull fails (points too close to one plane for a 3D Delaunay), there are no auxiliary cells and
+/// stats.delaunayError says why: the convexified order is then plain MPVO with the contact links.
 /// Where the boundary faces are not Delaunay faces, auxiliary cells may cross the mesh (Delaunay tets whose
 /// centroid is outside while a corner pokes in) or leave a boundary face unmet (counted in openBoundaryFaces):
 /// the order can then be wrong there, and crossings may show as cycles, which sortGraph() breaks.

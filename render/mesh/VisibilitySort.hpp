@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -36,6 +37,7 @@ struct ConvexificationStats {
     std::size_t geometricLinks = 0; ///< links through overlapping near-coplanar faces (different diagonals)
     std::size_t contactLinks = 0;   ///< links between boundary faces of the mesh that touch in one plane
     std::size_t openBoundaryFaces = 0; ///< mesh boundary faces off the hull that no auxiliary cell meets
+    std::string delaunayError;         ///< why Qhull failed (then there are no auxiliary cells), else empty
     double seconds = 0.0;              ///< time the build took
 };
 
