@@ -194,7 +194,8 @@ struct Scene {
     MeshMethod meshMethod = MeshMethod::Cells;    ///< render.method (meshes only)
     GridMethod gridMethod = GridMethod::Raymarch; ///< render.method (grids only)
     int kBufferDepth = 6;                         ///< render.k: k-buffer entries per pixel, 2..8
-    /// render.sort: the visibility order of render.method "pt"; unset: MPVO over the convexified mesh.
+    /// render.sort: the cell order of projected tetrahedra; unset: mpvo for a convex mesh, else convexified
+    /// (defaultMeshSort).
     std::optional<MeshSort> meshSort;
     std::vector<Light> lights;
     SceneEffects effects;

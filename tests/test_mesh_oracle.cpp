@@ -1,4 +1,5 @@
 // Mesh renderers on non-convex jittered tet meshes against a brute-force float64 oracle that never walks the mesh.
+#include "MeshTestMeshes.hpp"
 #include "TestUtil.hpp"
 
 #include "host/mesh/MeshGenerator.hpp"
@@ -6,6 +7,7 @@
 #include "render/Reference.hpp"
 #include "render/RenderInput.hpp"
 #include "render/mesh/MeshReference.hpp"
+#include "render/mesh/VisibilityOracle.hpp"
 
 #include <gtest/gtest.h>
 
@@ -20,91 +22,9 @@ using namespace volcl;
 
 namespace {
 
-/// Position within [-1, 1) from an integer: a fixed jitter that needs no random engine state.
-double hashUnit(std::uint64_t i, std::uint64_t salt) {
-    std::uint64_t x = i * 0x9E3779B97F4A7C15ull + salt * 0xBF58476D1CE4E5B9ull;
-    x ^= x >> 31;
-    x *= 0x94D049BB133111EBull;
-    x ^= x >> 29;
-    return double(x >> 11) / double(1ull << 52) - 1.0;
-}
-
-/// The tets of an nx x ny x nz hex grid on the box [lo, hi] whose cells' centres `removed` does not name, every
-/// point moved by up to `jitter` cell widths per axis (points on the box's faces stay in them unless
-/// `jitterSurface`), so the walls the removed cells leave are bumpy and concave; `seed` picks the jitter. From
-/// about 0.3 cell widths some tets fold over (the mesh builder turns them and leaves their overlapping faces as
-/// boundary faces), from 0.4 tens of them. The points' scalars sample sin(3x + 1) cos(2y) + z, or with
-/// `linearField` a linear field that every tet interpolates exactly, so that where tets overlap all of them
-/// hold the same value and the oracle's choice of tet does not matter.
-mesh::TetSoup jitteredSoup(std::array<std::size_t, 3> n, Vec3 lo, Vec3 hi, double jitter, bool jitterSurface,
-                           const std::function<bool(double, double, double)>& removed, std::uint64_t seed = 0,
-                           bool linearField = false) {
-    auto field = [linearField](double x, double y, double z) {
-        return linearField ? 0.8 * x - 0.5 * y + z : std::sin(3.0 * x + 1.0) * std::cos(2.0 * y) + z;
-    };
-    const mesh::TetMesh full =
-        mesh::generateHexGridMesh(n, {lo[0], lo[1], lo[2]}, {hi[0], hi[1], hi[2]}, field);
-    double h[3];
-    for (int a = 0; a < 3; ++a)
-        h[a] = (hi[a] - lo[a]) / double(n[a]);
-    mesh::TetSoup soup;
-    for (const auto& t : full.tets) {
-        // The tet's hex cell: the cell containing its centroid (the centroid is strictly inside the cell).
-        double c[3] = {0, 0, 0};
-        for (auto v : t)
-            for (int a = 0; a < 3; ++a)
-                c[a] += 0.25 * full.points[v][a];
-        double cell[3];
-        for (int a = 0; a < 3; ++a)
-            cell[a] = lo[a] + (std::floor((c[a] - lo[a]) / h[a]) + 0.5) * h[a];
-        if (!removed(cell[0], cell[1], cell[2])) soup.tets.push_back(t);
-    }
-    soup.points = full.points;
-    for (std::size_t i = 0; i < soup.points.size(); ++i)
-        for (int a = 0; a < 3; ++a) {
-            double& p = soup.points[i][a];
-            if ((p > lo[a] && p < hi[a]) || jitterSurface)
-                p += jitter * h[a] * hashUnit(i, std::uint64_t(a) + 1 + 16 * seed);
-        }
-    for (const auto& p : soup.points)
-        soup.scalars.push_back(float(field(p[0], p[1], p[2])));
-    return soup;
-}
-
-/// n^3 cells of jitteredSoup on the unit cube, built into a mesh.
-mesh::TetMesh jitteredMesh(std::size_t n, double jitter, bool jitterSurface,
-                           const std::function<bool(double, double, double)>& removed,
-                           bool linearField = false) {
-    return mesh::buildTetMesh(
-        jitteredSoup({n, n, n}, {0, 0, 0}, {1, 1, 1}, jitter, jitterSurface, removed, 0, linearField),
-        "jittered", "f");
-}
-
-/// The ray interval [t0, t1] inside tet `t` (closed half-spaces of its four face planes, each oriented toward
-/// the opposite vertex), empty when t1 <= t0; independent of the mesh's adjacency and face planes.
-bool tetInterval(const mesh::TetMesh& m, std::size_t t, const Vec3& o, const Vec3& d, double& t0,
-                 double& t1) {
-    t0 = -std::numeric_limits<double>::infinity();
-    t1 = std::numeric_limits<double>::infinity();
-    const auto& v = m.tets[t];
-    for (int i = 0; i < 4; ++i) {
-        const Vec3 a = m.points[v[(i + 1) % 4]], b = m.points[v[(i + 2) % 4]], c = m.points[v[(i + 3) % 4]];
-        Vec3 n = cross(sub(b, a), sub(c, a));
-        if (dot(n, sub(m.points[v[i]], a)) < 0.0) n = scale(n, -1.0); // toward the opposite vertex
-        // Inside: dot(n, o + t d - a) >= 0.
-        const double g0 = dot(n, sub(o, a)), g1 = dot(n, d);
-        if (g1 == 0.0) {
-            if (g0 < 0.0) return false;
-            continue;
-        }
-        const double tc = -g0 / g1;
-        if (g1 > 0.0)
-            t0 = std::max(t0, tc);
-        else
-            t1 = std::min(t1, tc);
-    }
-    return t1 > t0;
-}
+using test::hashUnit;
+using test::jitteredMesh;
+using test::jitteredSoup;
 
 /// The scalar at x by barycentric interpolation (sub-tet volumes) of tet t's vertex values.
 double barycentricScalar(const mesh::TetMesh& m, std::size_t t, const Vec3& x) {
@@ -139,7 +59,7 @@ ReferencePixel oraclePixel(const mesh::TetMesh& m, const TransferFunction& tf, c
     std::vector<double> cuts;
     for (std::size_t t = 0; t < m.tets.size(); ++t) {
         double t0, t1;
-        if (!tetInterval(m, t, ray.origin, ray.direction, t0, t1)) continue;
+        if (!tetRayInterval(m, t, ray.origin, ray.direction, t0, t1)) continue;
         t0 = std::max(t0, 0.0);
         if (!(t1 > t0)) continue;
         spans.push_back({t0, t1, t});
@@ -546,7 +466,7 @@ ReferencePixel nanOraclePixel(const mesh::TetMesh& m, const TransferFunction& tf
     std::vector<Span> spans;
     for (std::size_t t = 0; t < m.tets.size(); ++t) {
         double t0, t1;
-        if (tetInterval(m, t, ray.origin, ray.direction, t0, t1) && t1 > std::max(t0, 0.0))
+        if (tetRayInterval(m, t, ray.origin, ray.direction, t0, t1) && t1 > std::max(t0, 0.0))
             spans.push_back({std::max(t0, 0.0), t1, t});
     }
     const double inf = std::numeric_limits<double>::infinity();

@@ -16,6 +16,7 @@ void addBenchCommand(CLI::App& app, GlobalOptions& global) {
     addMotionBench(*bench, global);
     addSeriesBench(*bench, global);
     addMeshCodecBench(*bench, global);
+    addMeshBench(*bench, global);
 
     setExamples(*bench, "  volcl bench codec\n  volcl bench view bench/render/mri_scene.json --frames 8");
     const std::pair<const char*, const char*> examples[] = {
@@ -26,6 +27,7 @@ void addBenchCommand(CLI::App& app, GlobalOptions& global) {
                    "  volcl bench render --volume head.nii.gz --tf preset:grayscale --mode iso --iso 60.5 "
                    "--filters --no-sweep"},
         {"view", "  volcl bench view bench/render/mri_scene.json --frames 8"},
+        {"mesh", "  volcl bench mesh bluntfinxyz.bin combxyz.bin xsmall_turb.vtu --runs 5"},
     };
     for (const auto& [name, text] : examples)
         setExamples(*bench->get_subcommand(name), text);

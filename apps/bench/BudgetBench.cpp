@@ -1,5 +1,6 @@
 // `volcl bench render --budgets`: planner choices per budget, their interleaved frame times and error.
 #include "apps/bench/BudgetBench.hpp"
+#include "apps/bench/BenchOutput.hpp"
 
 #include "apps/bench/BenchOutput.hpp"
 

@@ -162,8 +162,11 @@ void SceneFlags::add(CLI::App* cmd) {
         ->default_str("raymarch (grids), " + std::string(meshMethodName(d.meshMethod)) + " (meshes)");
     cmd->add_option("--k", k, "Meshes, method kbuffer: k-buffer entries per pixel (2..8)")
         ->default_str(num(d.kBufferDepth));
-    cmd->add_option("--sort", sort, "Meshes, method pt: visibility order centroid, mpvo or convexified")
-        ->default_str("convexified");
+    cmd->add_option(
+           "--sort", sort,
+           "Meshes, projected tetrahedra: cell order centroid (fast, approximate), mpvo (exact on convex "
+           "meshes) or convexified (MPVO over the mesh and cells filling its concavities)")
+        ->default_str("mpvo if the mesh is convex, else convexified");
     raw.add(*cmd);
     mesh.add(*cmd);
 }

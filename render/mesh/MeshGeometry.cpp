@@ -176,9 +176,13 @@ std::vector<std::uint8_t> hullFaces(const mesh::TetMesh& m, const BoundaryBvh& b
     return hull;
 }
 
-std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bvh, const Vec3& o,
-                                   const Vec3& d, double tMin, const std::vector<mesh::FaceId>& exclude,
-                                   double tolerance) {
+namespace {
+
+/// The nearest boundary face hit at t >= tMin among those `accept(face, dot(normal, d))` takes (barycentric
+/// tolerance `tolerance`).
+template <class Accept>
+std::optional<EntryHit> nearestHit(const mesh::TetMesh& m, const BoundaryBvh& bvh, const Vec3& o,
+                                   const Vec3& d, double tMin, double tolerance, Accept&& accept) {
     if (bvh.nodes.empty()) return std::nullopt;
     const Vec3 inv{1.0 / d[0], 1.0 / d[1], 1.0 / d[2]};
     double best = std::numeric_limits<double>::infinity();
@@ -212,13 +216,10 @@ std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bv
         }
         for (std::uint32_t i = node.first; i < node.first + node.count; ++i) {
             const mesh::FaceId f = bvh.faces[i];
-            if (std::find(exclude.begin(), exclude.end(), f) != exclude.end()) continue;
             const auto v = m.faceVertices(f);
             const Vec3 a = m.points[v[0]];
             const Vec3 e1 = sub(m.points[v[1]], a), e2 = sub(m.points[v[2]], a);
-            const Vec3 n = cross(e1, e2);
-            const double nd = dot(n, d);
-            if (!(nd < 0.0)) continue; // leaving or parallel: not an entry
+            if (!accept(f, dot(cross(e1, e2), d))) continue;
             // Moller-Trumbore with barycentric tolerance.
             const Vec3 p = cross(d, e2);
             const double det = dot(e1, p);
@@ -239,6 +240,25 @@ std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bv
     }
     if (bestFace == mesh::kNoFace) return std::nullopt;
     return EntryHit{bestFace, best};
+}
+
+} // namespace
+
+std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bvh, const Vec3& o,
+                                   const Vec3& d, double tMin, const std::vector<mesh::FaceId>& exclude,
+                                   double tolerance) {
+    return nearestHit(m, bvh, o, d, tMin, tolerance, [&](mesh::FaceId f, double nd) {
+        // Leaving or parallel faces are no entries.
+        return nd < 0.0 && std::find(exclude.begin(), exclude.end(), f) == exclude.end();
+    });
+}
+
+bool pointInsideMesh(const mesh::TetMesh& m, const BoundaryBvh& bvh, const Vec3& p) {
+    // A direction no mesh axis or diagonal follows, so the ray rarely runs along a face or through an edge.
+    const Vec3 d = normalized(Vec3{0.5345224838248488, 0.8017837257372732, 0.2672612419124244});
+    const auto hit = nearestHit(m, bvh, p, d, 0.0, 1e-12, [](mesh::FaceId, double nd) { return nd != 0.0; });
+    if (!hit) return false;
+    return dot(facePlane(m, hit->face).normal, d) > 0.0; // the nearest boundary face is left through
 }
 
 bool mayOverlap(const mesh::TetMesh& m) {

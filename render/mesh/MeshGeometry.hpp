@@ -79,6 +79,10 @@ std::optional<EntryHit> firstEntry(const mesh::TetMesh& m, const BoundaryBvh& bv
                                    const Vec3& d, double tMin, const std::vector<mesh::FaceId>& exclude,
                                    double tolerance = 1e-12);
 
+/// Whether p is inside the mesh: the nearest boundary face along a fixed ray from p is left through (points on
+/// the boundary go either way).
+bool pointInsideMesh(const mesh::TetMesh& m, const BoundaryBvh& bvh, const Vec3& p);
+
 /// Whether tets of the mesh may overlap, so that a ray can be inside two of them at once: the builder found
 /// overlapping or non-manifold face pairs (folded tets), or two face-connected components have bounding boxes
 /// that overlap (pieces that interpenetrate or nest without sharing a face). False promises that every point is

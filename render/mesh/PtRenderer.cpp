@@ -22,8 +22,8 @@ namespace {
 constexpr std::size_t kTetStride = 5; ///< PT_TET_STRIDE of cl/mesh/mesh_pt.cl: four planes, the field
 } // namespace
 
-MeshSort sceneMeshSort(const Scene& scene) {
-    return scene.meshSort.value_or(MeshSort::Convexified);
+MeshSort sceneMeshSort(const Scene& scene, const mesh::TetMesh& mesh) {
+    return scene.meshSort ? *scene.meshSort : defaultMeshSort(mesh);
 }
 
 SortView sortViewOf(const Camera& camera) {
@@ -52,7 +52,7 @@ EffectPlan planPt(const Scene& scene, const mesh::TetMesh& mesh, const DevicePro
     p.defines.set("KB_TILE", kKBufferTile)
         .set("KB_TILE_THREADS", device.mesh.tileThreads)
         .set("BIN_CHUNKS", device.mesh.binChunks);
-    p.compiled.push_back("projected tetrahedra: cells in " + std::string(meshSortName(sceneMeshSort(scene))) +
+    p.compiled.push_back("projected tetrahedra: cells in " + std::string(meshSortName(sceneMeshSort(scene, mesh))) +
                          " visibility order, composited front to back per " + std::to_string(kKBufferTile) +
                          "x" + std::to_string(kKBufferTile) + "-pixel tile");
     return p;
@@ -111,7 +111,7 @@ EffectPlan PtRenderer::planEffects(const Scene& scene) const {
 
 void PtRenderer::admitScene(const Scene& next) {
     planPt(next, mesh_, cc_.profile()); // refuses before anything changes
-    sort_ = sceneMeshSort(next);
+    sort_ = sceneMeshSort(next, mesh_);
 }
 
 void PtRenderer::rebuild(const Rebuild& change) {

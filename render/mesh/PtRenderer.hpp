@@ -79,8 +79,8 @@ private:
 /// skipping as dropped.
 EffectPlan planPt(const Scene& scene, const mesh::TetMesh& mesh, const DeviceProfile& device);
 
-/// The sort a scene asks for (render.sort; unset: convexified).
-MeshSort sceneMeshSort(const Scene& scene);
+/// The sort a scene asks for (render.sort; unset: defaultMeshSort, mpvo for a convex mesh, else convexified).
+MeshSort sceneMeshSort(const Scene& scene, const mesh::TetMesh& mesh);
 
 /// The viewpoint of a camera as a visibility sort needs it (world coordinates).
 SortView sortViewOf(const Camera& camera);

@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -21,6 +22,24 @@ enum class MeshSort {
 };
 std::string_view meshSortName(MeshSort s);
 MeshSort parseMeshSort(std::string_view s); ///< "centroid", "mpvo", "convexified"; throws UsageError
+
+/// Whether the mesh is convex: every boundary face lies on the convex hull of the mesh (every point on its
+/// inner side, within 1e-9 of the half diagonal). Holes, cavities, notches and disconnected parts make it false.
+bool meshIsConvex(const mesh::TetMesh& mesh);
+/// The default of render.sort: Mpvo for a convex mesh (exact there), Convexified otherwise.
+MeshSort defaultMeshSort(const mesh::TetMesh& mesh);
+
+/// What the convexification built (render/mesh/Convexify.hpp says how).
+struct ConvexificationStats {
+    std::size_t delaunayTets = 0;   ///< tets of the Delaunay tetrahedralisation of the mesh's points
+    std::size_t auxiliaryCells = 0; ///< of them kept outside the mesh as auxiliary cells
+    std::size_t exactLinks = 0;     ///< links through a triangle both cells have (same three points)
+    std::size_t geometricLinks = 0; ///< links through overlapping near-coplanar faces (different diagonals)
+    std::size_t contactLinks = 0;   ///< links between boundary faces of the mesh that touch in one plane
+    std::size_t openBoundaryFaces = 0; ///< mesh boundary faces off the hull that no auxiliary cell meets
+    std::string delaunayError;         ///< why Qhull failed (then there are no auxiliary cells), else empty
+    double seconds = 0.0;              ///< time the build took
+};
 
 /// The viewpoint a visibility order is for: a perspective eye point, or an orthographic view direction.
 struct SortView {
@@ -46,6 +65,8 @@ public:
     VisibilitySorter& operator=(const VisibilitySorter&) = delete;
 
     VisibilityOrder sort(const SortView& view, MeshSort method);
+    /// The convexification (built now if no Convexified sort has built it yet).
+    const ConvexificationStats& convexification();
 
 private:
     struct Impl;

@@ -5,6 +5,8 @@
 #include "CliRun.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
+#include "host/mesh/MeshGenerator.hpp"
+#include "host/mesh/MeshIo.hpp"
 #include "render/grid/FilterAccuracy.hpp"
 
 #include <sys/wait.h>
@@ -228,10 +230,27 @@ TEST(CliUsability, VersionSubcommandsAndExamples) {
     EXPECT_TRUE(has(rh.out, "--step TEXT=0.5vox")) << rh.out; // #37: the default step is in voxels
 }
 
+TEST(CliUsability, MeshSortFlagIsCheckedBeforeAnyOutput) {
+    auto dir = test::tempDir("cli_use_sort");
+    const mesh::TetMesh m = mesh::generateHexGridMesh({2, 2, 2}, {0, 0, 0}, {1, 1, 1},
+                                                      [](double x, double, double) { return x; });
+    mesh::writeVtu(m, dir / "cube.vtu");
+    RunResult bad =
+        run("render --volume " + (dir / "cube.vtu").string() +
+                " --tf preset:viridis --width 16 --height 16 --sort painter -o " + (dir / "bad.exr").string(),
+            dir);
+    EXPECT_EQ(bad.exitCode, 2);
+    EXPECT_TRUE(has(bad.err, "render.sort 'painter' is unknown")) << bad.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "bad.exr"));
+    RunResult help = run("render --help", dir);
+    EXPECT_TRUE(has(help.out, "--sort")) << help.out;
+}
+
 #if defined(VOLCL_WITH_BENCH) // the `volcl bench` module is built (VOLCL_BUILD_BENCH)
 TEST(CliUsability, BenchSubcommandsHaveExamples) {
     auto dir = test::tempDir("cli_use_bench_help");
-    for (const char* cmd : {"bench", "bench codec", "bench preint", "bench render", "bench view"}) {
+    for (const char* cmd :
+         {"bench", "bench codec", "bench preint", "bench render", "bench view", "bench mesh"}) {
         RunResult h = run(std::string(cmd) + " --help", dir);
         EXPECT_EQ(h.exitCode, 0) << cmd;
         EXPECT_TRUE(has(h.out, "Examples:")) << "volcl " << cmd << " --help has no example";
