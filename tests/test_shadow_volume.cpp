@@ -38,7 +38,8 @@ TransferFunction rampTf(double tau) {
 /// of voxels z in [z0, z1] (a floor the shadow falls on).
 Volume sphereOverSlab(Dims n, Vec3 c, double R, double z0, double z1) {
     return makeFloatVolume(n, [=](double x, double y, double z) {
-        const double r = std::sqrt((x - c[0]) * (x - c[0]) + (y - c[1]) * (y - c[1]) + (z - c[2]) * (z - c[2]));
+        const double r =
+            std::sqrt((x - c[0]) * (x - c[0]) + (y - c[1]) * (y - c[1]) + (z - c[2]) * (z - c[2]));
         const double ball = std::clamp(R - r + 0.5, 0.0, 1.0);
         const double slab = z >= z0 && z <= z1 ? 0.4 : 0.0;
         return std::max(ball, slab);
@@ -46,8 +47,8 @@ Volume sphereOverSlab(Dims n, Vec3 c, double R, double z0, double z1) {
 }
 
 /// The light volumes (optical depth) of `lights` on `v` built by the kernel, downloaded.
-std::vector<float> deviceLightVolume(const Volume& v, const TransferFunction& tf, std::vector<SweptLight> lights,
-                                     int cell, double step) {
+std::vector<float> deviceLightVolume(const Volume& v, const TransferFunction& tf,
+                                     std::vector<SweptLight> lights, int cell, double step) {
     ComputeContext& cc = computeContext();
     std::vector<float> voxels = v.toFloat();
     voxels.push_back(0.0f); // the spare voxel grid_sample.h reads
@@ -69,10 +70,10 @@ std::vector<float> deviceLightVolume(const Volume& v, const TransferFunction& tf
     return cc.download(lv.buffer(cc));
 }
 
-std::vector<double> hostLightVolume(const Volume& v, const TransferFunction& tf, const std::vector<SweptLight>& lights,
-                                    int cell, double step) {
-    return lightVolumeReference(v.toFloat(), grid_detail::gridParams(v, grid_detail::buildMacrocells(v, 8)), tf,
-                                lights, cell, step);
+std::vector<double> hostLightVolume(const Volume& v, const TransferFunction& tf,
+                                    const std::vector<SweptLight>& lights, int cell, double step) {
+    return lightVolumeReference(v.toFloat(), grid_detail::gridParams(v, grid_detail::buildMacrocells(v, 8)),
+                                tf, lights, cell, step);
 }
 
 double maxDiff(const std::vector<float>& a, const std::vector<double>& b) {
@@ -134,9 +135,7 @@ TEST(LightVolume, KernelMatchesItsReference) {
     v.origin = {-3.0, 2.0, 1.0};
     const TransferFunction tf = rampTf(0.4);
     const std::vector<SweptLight> lights = {
-        {false, {0, 0, 1}},
-        {false, normalized({1, 1, 1})},
-        {false, normalized({-0.3, 0.8, -0.5})},
+        {false, {0, 0, 1}},        {false, normalized({1, 1, 1})}, {false, normalized({-0.3, 0.8, -0.5})},
         {true, {5.0, 6.0, 9.0}},   // inside the box
         {true, {30.0, -4.0, 5.0}}, // outside
     };
@@ -199,8 +198,9 @@ TEST(ShadowVolume, BallOverSlabMatchesTheReference) {
     const TransferFunction tf = rampTf(0.6);
     // Measured: 3.0e-3 along the axis and the diagonal (slice lookups land on nodes), 7.8e-3 oblique (the
     // bicubic slice lookups); the ray kernel: 0.3e-3 to 1.7e-3.
-    for (const auto& [dir, tolerance] : {std::pair{Vec3{0, 0, 1}, 4e-3}, std::pair{normalized({1, 1, 1}), 4e-3},
-                                         std::pair{Vec3{0.3, 0.4, 0.87}, 1e-2}}) {
+    for (const auto& [dir, tolerance] :
+         {std::pair{Vec3{0, 0, 1}, 4e-3}, std::pair{normalized({1, 1, 1}), 4e-3},
+          std::pair{Vec3{0.3, 0.4, 0.87}, 1e-2}}) {
         SCOPED_TRACE(std::to_string(dir[0]) + "," + std::to_string(dir[1]) + "," + std::to_string(dir[2]));
         Scene s = shadowScene(n, {{LightKind::Directional, dir, {1, 1, 1}, 1.0}}, ShadowMethod::Volume);
         s.camera->eye = {15.5, -40, 60}; // from above and the side: the slab and the shadow show
@@ -228,25 +228,41 @@ TEST(ShadowVolume, HardCasesMatchTheReference) {
         double tolerance;
     };
     std::vector<Case> cases;
-    cases.push_back({"one-voxel sheet over a slab, light along z",
-                     makeFloatVolume(n, [](double x, double, double z) {
-                         return z == 16.0 && x < 14.0 ? 1.0 : z >= 3.0 && z <= 6.0 ? 0.3 : 0.0;
-                     }),
-                     {{LightKind::Directional, {0, 0, 1}, {1, 1, 1}, 1.0}}, 1, 6e-3});
-    cases.push_back({"one-voxel sheet, diagonal light",
-                     makeFloatVolume(n, [](double x, double, double z) {
-                         return z == 16.0 && x < 14.0 ? 1.0 : z >= 3.0 && z <= 6.0 ? 0.3 : 0.0;
-                     }),
-                     {{LightKind::Directional, normalized({1, 1, 1}), {1, 1, 1}, 1.0}}, 1, 7e-3});
-    cases.push_back({"constant volume (flat: no gradient)", makeFloatVolume(n, [](double, double, double) { return 0.3; }),
-                     {kSun}, 1, 5e-3});
+    cases.push_back(
+        {"one-voxel sheet over a slab, light along z",
+         makeFloatVolume(n,
+                         [](double x, double, double z) {
+                             return z == 16.0 && x < 14.0 ? 1.0 : z >= 3.0 && z <= 6.0 ? 0.3 : 0.0;
+                         }),
+         {{LightKind::Directional, {0, 0, 1}, {1, 1, 1}, 1.0}},
+         1,
+         6e-3});
+    cases.push_back(
+        {"one-voxel sheet, diagonal light",
+         makeFloatVolume(n,
+                         [](double x, double, double z) {
+                             return z == 16.0 && x < 14.0 ? 1.0 : z >= 3.0 && z <= 6.0 ? 0.3 : 0.0;
+                         }),
+         {{LightKind::Directional, normalized({1, 1, 1}), {1, 1, 1}, 1.0}},
+         1,
+         7e-3});
+    cases.push_back({"constant volume (flat: no gradient)",
+                     makeFloatVolume(n, [](double, double, double) { return 0.3; }),
+                     {kSun},
+                     1,
+                     5e-3});
     Volume aniso = sphereOverSlab(n, {11.5, 11.5, 15}, 5.0, 3, 6);
     aniso.spacing = {1.0, 0.6, 1.7};
     cases.push_back({"anisotropic spacing", std::move(aniso), {kSun}, 1, 1.2e-2});
     cases.push_back({"point light inside the volume",
                      sphereOverSlab(n, {8, 12, 14}, 4.0, 3, 6),
-                     {{LightKind::Point, {14, 12, 16}, {1, 1, 1}, 1.0}}, 1, 5e-3});
-    cases.push_back({"coarse light grid (4-voxel cells)", sphereOverSlab(n, {11.5, 11.5, 15}, 5.0, 3, 6), {kSun}, 4,
+                     {{LightKind::Point, {14, 12, 16}, {1, 1, 1}, 1.0}},
+                     1,
+                     5e-3});
+    cases.push_back({"coarse light grid (4-voxel cells)",
+                     sphereOverSlab(n, {11.5, 11.5, 15}, 5.0, 3, 6),
+                     {kSun},
+                     4,
                      5e-2});
     for (Case& c : cases) {
         SCOPED_TRACE(c.name);
@@ -318,14 +334,15 @@ TEST(ShadowVolume, RebuiltOnlyWhenTheLightTfOrFieldChanges) {
 TEST(ShadowVolume, SceneKeysAndPlans) {
     Scene s = Scene::fromJson(R"({"volume": "v.nrrd", "effects": {"shadows": true, "shadow_method": "rays",
         "light_volume_cell": 3, "shadow_head_tolerance": 5}})",
-                                    ".");
+                              ".");
     EXPECT_EQ(s.effects.shadowMethod, ShadowMethod::Rays);
     EXPECT_EQ(s.effects.lightVolumeCell, 3);
     EXPECT_EQ(s.effects.headLightToleranceDeg, 5.0);
     const Scene back = Scene::fromJson(s.toJson(), ".");
     EXPECT_EQ(back.effects.shadowMethod, ShadowMethod::Rays);
     EXPECT_EQ(back.effects.lightVolumeCell, 3);
-    EXPECT_THROW(Scene::fromJson(R"({"volume": "v.nrrd", "effects": {"shadow_method": "maps"}})", "."), UsageError);
+    EXPECT_THROW(Scene::fromJson(R"({"volume": "v.nrrd", "effects": {"shadow_method": "maps"}})", "."),
+                 UsageError);
     s.effects.lightVolumeCell = 0;
     EXPECT_THROW(s.validate(), UsageError);
     s.effects.lightVolumeCell = 65;

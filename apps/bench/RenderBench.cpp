@@ -401,16 +401,16 @@ void addRenderBench(CLI::App& bench, GlobalOptions& global) {
                   "--scatter-sweep: largest samples per pixel of the sweep")
         ->capture_default_str();
     b->add_option("--scatter-csv", ba->scatter.csv, "--scatter-sweep: write the rows as CSV");
-    b->add_flag("--shadows", ba->shadows,
+    b->add_flag("--shadow-sweep", ba->shadows,
                 "Shadows from light volumes against secondary rays (directional and head light): build time, "
                 "interleaved frame times, ratio to the plain frame, RMSE against rays at the first "
                 "--shadow-ray-steps");
-    b->add_option("--light-volume-cells", ba->shadowCells, "--shadows: light-volume cell sizes (voxels)")
+    b->add_option("--light-volume-cells", ba->shadowCells, "--shadow-sweep: light-volume cell sizes (voxels)")
         ->capture_default_str();
     b->add_option("--shadow-ray-steps", ba->shadowRaySteps,
-                  "--shadows: shadow-ray steps in voxel spacings; the first is the reference")
+                  "--shadow-sweep: shadow-ray steps in voxel spacings; the first is the reference")
         ->capture_default_str();
-    b->add_option("--shadow-csv", ba->shadow.csv, "--shadows: write the rows as CSV");
+    b->add_option("--shadow-csv", ba->shadow.csv, "--shadow-sweep: write the rows as CSV");
     b->add_option("--budgets", ba->budgets,
                   "Frame-time budgets in ms (e.g. 400,1000): the planner's choice for each, timed again in "
                   "interleaved rounds, and its RMSE against the reference (--reference-samples)");

@@ -1,4 +1,4 @@
-// `volcl bench render --shadows`: light-volume shadows against secondary rays, interleaved medians per light kind.
+// `volcl bench render --shadow-sweep`: light-volume shadows against secondary rays, interleaved medians per light kind.
 #include "apps/bench/ShadowBench.hpp"
 
 #include "apps/bench/BenchOutput.hpp"
@@ -34,19 +34,21 @@ void shadowedPlainRatio(const std::vector<Variant>& rows, double plainMs) {
         if (v.method == "volume" && &v == &*std::find_if(rows.begin(), rows.end(), [&](const Variant& w) {
                 return w.method == "volume" && w.light == v.light;
             }))
-            std::cout << " " << v.light << " (" << v.knob << ") " << std::setprecision(2) << median(v.ms) / plainMs
-                      << "x, RMSE " << std::scientific << v.rmse << std::fixed << ";";
+            std::cout << " " << v.light << " (" << v.knob << ") " << std::setprecision(2)
+                      << median(v.ms) / plainMs << "x, RMSE " << std::scientific << v.rmse << std::fixed
+                      << ";";
     std::cout << " plain " << std::setprecision(1) << plainMs << " ms\n";
 }
 
 } // namespace
 
-void benchShadows(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, const Scene& scene,
-                  const ShadowBenchOptions& o) {
+void benchShadows(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
+                  const Scene& scene, const ShadowBenchOptions& o) {
     const Volume* grid = input.grid();
-    if (!grid) throw UsageError("bench render: --shadows measures grids (give a volume)");
+    if (!grid) throw UsageError("bench render: --shadow-sweep measures grids (give a volume)");
     if (o.rounds < 1 || o.cells.empty() || o.raySteps.empty())
-        throw UsageError("bench render: --shadows needs rounds >= 1, light-volume cells and shadow-ray steps");
+        throw UsageError(
+            "bench render: --shadow-sweep needs rounds >= 1, light-volume cells and shadow-ray steps");
     const double voxel = std::min({grid->spacing[0], grid->spacing[1], grid->spacing[2]});
     Scene plain = scene;
     plain.effects = {};
@@ -68,7 +70,8 @@ void benchShadows(ComputeContext& cc, const RenderInput& input, const TransferFu
         double rmse;
     };
     std::vector<RayRow> rays;
-    for (const auto& [name, light] : {std::pair{std::string("directional"), sun}, std::pair{std::string("head"), head}}) {
+    for (const auto& [name, light] :
+         {std::pair{std::string("directional"), sun}, std::pair{std::string("head"), head}}) {
         Scene lit = scene;
         lit.lights = {light};
         lit.effects.shading = lit.effects.shadingGiven = true;
@@ -108,17 +111,20 @@ void benchShadows(ComputeContext& cc, const RenderInput& input, const TransferFu
     std::ostringstream csv;
     csv << "light,method,knob,build_ms,ms,ratio_plain,rmse\n";
     std::cout << "shadows, " << scene.width << "x" << scene.height << ", step " << scene.step
-              << ", medians of " << o.rounds << " interleaved rounds (ray frames: one each), RMSE of RGBA against "
-              << "secondary rays at step " << o.raySteps.front() << " voxel, load average " << loadAverage() << '\n';
+              << ", medians of " << o.rounds
+              << " interleaved rounds (ray frames: one each), RMSE of RGBA against "
+              << "secondary rays at step " << o.raySteps.front() << " voxel, load average " << loadAverage()
+              << '\n';
     std::cout << "  light        method               knob       build ms   ms/frame    /plain   RMSE\n";
-    auto line = [&](const std::string& light, const std::string& method, const std::string& knob, double build,
-                    double ms, double rmse) {
+    auto line = [&](const std::string& light, const std::string& method, const std::string& knob,
+                    double build, double ms, double rmse) {
         std::cout << "  " << std::left << std::setw(12) << light << " " << std::setw(20) << method << " "
                   << std::setw(10) << knob << std::right << std::fixed << std::setprecision(1) << std::setw(9)
                   << build << "  " << std::setw(9) << ms << "  " << std::setprecision(2) << std::setw(7)
-                  << ms / plainMs << "   " << std::scientific << std::setprecision(2) << rmse << std::fixed << '\n';
-        csv << light << ',' << method << ',' << knob << ',' << build << ',' << ms << ',' << ms / plainMs << ','
-            << rmse << '\n';
+                  << ms / plainMs << "   " << std::scientific << std::setprecision(2) << rmse << std::fixed
+                  << '\n';
+        csv << light << ',' << method << ',' << knob << ',' << build << ',' << ms << ',' << ms / plainMs
+            << ',' << rmse << '\n';
     };
     for (const Variant& v : rows)
         line(v.light, v.method, v.knob, v.buildMs, median(v.ms), v.rmse);

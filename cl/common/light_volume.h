@@ -15,7 +15,8 @@ inline float lv_lerp(float a, float b, float t) {
 
 /* Transmittance toward light i at voxel coordinates p: exp of the optical depth trilinear in light i's nodes
    (clamped to the box). */
-inline float light_volume_sample(__global const float* lv, const VolclLightVolumeParams* V, uint i, float3 p) {
+inline float light_volume_sample(__global const float* lv, const VolclLightVolumeParams* V, uint i,
+                                 float3 p) {
     const int3 hiI = (int3)((int)V->dims[0] - 1, (int)V->dims[1] - 1, (int)V->dims[2] - 1);
     const float3 q = clamp(p * v3(V->toLight), (float3)(0.0f), convert_float3(hiI));
     const int3 i0 = min(convert_int3(floor(q)), max(hiI - 1, (int3)(0)));

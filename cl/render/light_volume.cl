@@ -52,8 +52,8 @@ __kernel void light_volume_slice(__global const voxel_t* vol, __global const Vol
     na[c] = (float)v;
     const float3 from = v3(S.fromLight), sp = v3(S.grid.spacing), inv = v3(S.grid.invSpacing);
     const float3 p = (float3)(na[0], na[1], na[2]) * from; /* voxel coordinates */
-    float3 d;       /* voxel coordinates per world unit toward the light */
-    float dist;     /* world distance to the light */
+    float3 d;   /* voxel coordinates per world unit toward the light */
+    float dist; /* world distance to the light */
     bool store = true;
     if (S.light[3] == VOLCL_LIGHT_POINT) {
         const float3 q = (v3(S.light) - v3(S.grid.origin)) * inv - p;
@@ -96,7 +96,9 @@ __kernel void light_volume_slice(__global const voxel_t* vol, __global const Vol
         const int n = max((int)ceil(tEnd / S.step), 1);
         const float h = tEnd / (float)n;
         for (int k = 0; k < n; ++k)
-            depth += tf_sample(knots, S.knotCount, sample_volume(vol, &S.grid, p + ((float)k + 0.5f) * h * d)).w * h;
+            depth +=
+                tf_sample(knots, S.knotCount, sample_volume(vol, &S.grid, p + ((float)k + 0.5f) * h * d)).w *
+                h;
     }
     cur[v * mb + u] = depth;
     if (store) {

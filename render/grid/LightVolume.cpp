@@ -25,7 +25,8 @@ double fromLight(const VolclGridParams& grid, const VolclLightVolumeParams& lv, 
 }
 
 /// The light's position in light-grid coordinates (point lights).
-Vec3 lightGridPosition(const SweptLight& light, const VolclGridParams& grid, const VolclLightVolumeParams& lv) {
+Vec3 lightGridPosition(const SweptLight& light, const VolclGridParams& grid,
+                       const VolclLightVolumeParams& lv) {
     Vec3 q{};
     for (int a = 0; a < 3; ++a)
         q[a] = (light.vector[a] - grid.origin[a]) / grid.spacing[a] * lv.toLight[a];
@@ -35,8 +36,8 @@ Vec3 lightGridPosition(const SweptLight& light, const VolclGridParams& grid, con
 /// Catmull-Rom weights at fraction f, in the kernel's float operations.
 std::array<float, 4> catmullRom(float f) {
     const float f2 = f * f, f3 = f2 * f;
-    return {0.5f * (-f3 + 2.0f * f2 - f), 0.5f * (3.0f * f3 - 5.0f * f2 + 2.0f), 0.5f * (-3.0f * f3 + 4.0f * f2 + f),
-            0.5f * (f3 - f2)};
+    return {0.5f * (-f3 + 2.0f * f2 - f), 0.5f * (3.0f * f3 - 5.0f * f2 + 2.0f),
+            0.5f * (-3.0f * f3 + 4.0f * f2 + f), 0.5f * (f3 - f2)};
 }
 
 /// Bicubic (Catmull-Rom) in a w x h slice at (u, v), clamped, at least 0: the kernel's slice_cubic, with
@@ -45,14 +46,16 @@ double sliceCubic(const std::vector<double>& s, unsigned w, unsigned h, double u
     const int wi = int(w) - 1, hi = int(h) - 1;
     u = std::clamp(u, 0.0, double(wi));
     v = std::clamp(v, 0.0, double(hi));
-    const int u0 = std::min(int(std::floor(u)), std::max(wi - 1, 0)), v0 = std::min(int(std::floor(v)), std::max(hi - 1, 0));
+    const int u0 = std::min(int(std::floor(u)), std::max(wi - 1, 0)),
+              v0 = std::min(int(std::floor(v)), std::max(hi - 1, 0));
     const std::array<float, 4> wu = catmullRom(float(u - u0)), wv = catmullRom(float(v - v0));
     double sum = 0.0;
     for (int j = 0; j < 4; ++j) {
         const int y = std::clamp(v0 - 1 + j, 0, hi);
         double row = 0.0;
         for (int i = 0; i < 4; ++i)
-            row += double(wu[std::size_t(i)]) * s[std::size_t(y) * w + std::size_t(std::clamp(u0 - 1 + i, 0, wi))];
+            row += double(wu[std::size_t(i)]) *
+                   s[std::size_t(y) * w + std::size_t(std::clamp(u0 - 1 + i, 0, wi))];
         sum += double(wv[std::size_t(j)]) * row;
     }
     return std::max(sum, 0.0);
@@ -104,7 +107,8 @@ std::vector<SweptLight> sweptLights(const VolclLightingParams& lighting, const C
     return out;
 }
 
-VolclLightVolumeParams lightVolumeGeometry(const std::array<std::size_t, 3>& voxels, int cell, std::size_t lights) {
+VolclLightVolumeParams lightVolumeGeometry(const std::array<std::size_t, 3>& voxels, int cell,
+                                           std::size_t lights) {
     if (cell < 1) throw UsageError("light volume cell must be >= 1 voxel");
     VolclLightVolumeParams p{};
     std::size_t nodes = 1;
@@ -116,7 +120,8 @@ VolclLightVolumeParams lightVolumeGeometry(const std::array<std::size_t, 3>& vox
         nodes *= m;
     }
     if (nodes * std::max<std::size_t>(lights, 1) >= (std::size_t(1) << 32))
-        throw DataError("light volume of " + std::to_string(nodes) + " nodes per light is too large (use a larger "
+        throw DataError("light volume of " + std::to_string(nodes) +
+                        " nodes per light is too large (use a larger "
                         "effects.light_volume_cell)");
     p.dims[3] = volcl_uint(nodes);
     return p;
@@ -245,9 +250,9 @@ std::vector<double> lightVolumeReference(const std::vector<float>& values, const
 }
 
 bool LightVolume::current(const Inputs& in) const {
-    if (!valid_ || in.voxels != built_.voxels || in.knots != built_.knots || in.knotCount != built_.knotCount ||
-        !(in.defines == built_.defines) || in.cell != built_.cell || in.step != built_.step ||
-        in.fieldKey != built_.fieldKey || in.lights.size() != built_.lights.size())
+    if (!valid_ || in.voxels != built_.voxels || in.knots != built_.knots ||
+        in.knotCount != built_.knotCount || !(in.defines == built_.defines) || in.cell != built_.cell ||
+        in.step != built_.step || in.fieldKey != built_.fieldKey || in.lights.size() != built_.lights.size())
         return false;
     for (int a = 0; a < 3; ++a)
         if (in.grid.dims[a] != built_.grid.dims[a] || in.grid.spacing[a] != built_.grid.spacing[a] ||
@@ -320,7 +325,8 @@ void LightVolume::build(ComputeContext& cc, const Inputs& in) {
             S.dir = sweep.dir;
             S.first = volcl_uint(sweep.first);
             S.cone = sweep.cone ? 1u : 0u;
-            const std::size_t mb = params_.dims[(sweep.axis + 1) % 3], mc = params_.dims[(sweep.axis + 2) % 3];
+            const std::size_t mb = params_.dims[(sweep.axis + 1) % 3],
+                              mc = params_.dims[(sweep.axis + 2) % 3];
             const cl::Buffer *prev = &sliceA_.get(), *cur = &sliceB_.get();
             for (int s = sweep.first;; s += sweep.dir) {
                 S.slice = volcl_uint(s);

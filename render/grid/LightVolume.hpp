@@ -31,7 +31,8 @@ std::vector<SweptLight> sweptLights(const VolclLightingParams& lighting, const C
 
 /// The light grid over a volume of `voxels` nodes per axis: ceil((n - 1) / cell) + 1 nodes per axis spanning
 /// the same box, for `lights` lights.
-VolclLightVolumeParams lightVolumeGeometry(const std::array<std::size_t, 3>& voxels, int cell, std::size_t lights);
+VolclLightVolumeParams lightVolumeGeometry(const std::array<std::size_t, 3>& voxels, int cell,
+                                           std::size_t lights);
 
 /// The slice sweeps of one light, in launch order: axis, direction (+1: the light lies toward lower slices),
 /// first and last slice, and whether it is a point light's pyramid.
