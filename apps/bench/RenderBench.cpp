@@ -125,7 +125,15 @@ void benchEffects(ComputeContext& cc, const RenderInput& input, const TransferFu
              s.effects.shading = true;
              s.effects.gradient = GradientKind::Sobel;
          }},
-        {"shading + shadows",
+        {"shading + shadows (shadow rays)",
+         [&](Scene& s) {
+             s.lights = {light};
+             s.effects.shading = true;
+             s.effects.shadows = true;
+             s.effects.shadowStep = 2.0 * s.step;
+             s.effects.shadowMethod = ShadowMethod::Rays;
+         }},
+        {"shading + shadows (light volume)",
          [&](Scene& s) {
              s.lights = {light};
              s.effects.shading = true;
