@@ -11,6 +11,7 @@ set(VOLCL_KERNEL_FILES
   common/grid_sample.h
   common/fog.h
   common/counter_rng.h
+  common/light_volume.h
   phantoms/phantoms.cl
   common/copy.cl
   render/tf_sample.cl
@@ -23,6 +24,7 @@ set(VOLCL_KERNEL_FILES
   render/shearwarp.cl
   render/drc.cl
   render/pathtrace.cl
+  render/light_volume.cl
   common/brick_sample.h
   render/raymarch_bricks.cl
   codec/lifting_common.h

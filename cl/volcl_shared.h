@@ -119,6 +119,35 @@ typedef struct VolclFogParams {
     volcl_uint mapAxis[2], mapSize[2];
 } VolclFogParams;
 
+/* Light-attenuation volumes (cl/common/light_volume.h): optical depth toward each light at the nodes of a
+   node-centred grid spanning the volume's box, dims[0..2] nodes per axis, dims[3] nodes per light (light i's
+   nodes start at i * dims[3], x fastest); toLight: light-grid coordinates per voxel coordinate ((nodes - 1) /
+   (voxels - 1), 0 on a one-voxel axis). */
+typedef struct VolclLightVolumeParams {
+    volcl_uint dims[4];
+    float toLight[4];
+} VolclLightVolumeParams;
+
+/* One slice of a light-volume sweep (cl/render/light_volume.cl): nodes of slice `slice` along `axis`, each
+   stepping back toward the light to slice slice - dir (absent on the sweep's first slice). light: world
+   direction toward a directional light, or a point light's world position (w: VOLCL_LIGHT_DIRECTIONAL or
+   VOLCL_LIGHT_POINT). A point light is swept in up to six pyramids (one per axis and side); `cone` 1 keeps
+   each node of the pyramid (plus `margin` world units) and stores only the nodes whose own pyramid this is. */
+typedef struct VolclLightSweepParams {
+    VolclGridParams grid;
+    VolclLightVolumeParams lv;
+    float light[4];
+    float fromLight[4]; /* voxel coordinates per light-grid coordinate */
+    float step;         /* integration step toward the light, world units */
+    float margin;       /* cone: world distance kept outside the pyramid */
+    volcl_uint knotCount, axis;
+    int dir;                 /* +1: the light lies toward lower slices, -1: toward higher slices */
+    volcl_uint slice, first; /* this slice; the sweep's first slice (no previous slice) */
+    volcl_uint cone;         /* point-light pyramid sweep */
+    volcl_uint lightOffset;  /* first node of this light in the volume */
+    volcl_uint pad0, pad1, pad2;
+} VolclLightSweepParams;
+
 /* Everything a grid ray-marching frame needs besides buffers. */
 typedef struct VolclGridRenderParams {
     VolclCameraParams camera;
@@ -129,6 +158,7 @@ typedef struct VolclGridRenderParams {
     VolclIsoParams iso;
     VolclGridParams grid;
     VolclFogParams fog;
+    VolclLightVolumeParams lightVolume; /* SHADOW_VOLUME */
 } VolclGridRenderParams;
 
 /* The path tracer's per-launch parameters (cl/render/pathtrace.cl): samples firstSample .. firstSample +
@@ -180,7 +210,10 @@ static_assert(sizeof(VolclIsoParams) == 96, "VolclIsoParams layout must match Op
 static_assert(sizeof(VolclPathParams) == 48, "VolclPathParams layout must match OpenCL C");
 static_assert(sizeof(VolclGridParams) == 80, "VolclGridParams layout must match OpenCL C");
 static_assert(sizeof(VolclFogParams) == 80, "VolclFogParams layout must match OpenCL C");
-static_assert(sizeof(VolclGridRenderParams) == 80 + 80 + 16 + 32 + 176 + 96 + 80 + 80,
+static_assert(sizeof(VolclLightVolumeParams) == 32, "VolclLightVolumeParams layout must match OpenCL C");
+static_assert(sizeof(VolclLightSweepParams) == 80 + 32 + 32 + 48,
+              "VolclLightSweepParams layout must match OpenCL C");
+static_assert(sizeof(VolclGridRenderParams) == 80 + 80 + 16 + 32 + 176 + 96 + 80 + 80 + 32,
               "VolclGridRenderParams layout must match OpenCL C");
 #endif
 

@@ -17,6 +17,7 @@ struct EffectPlan {
     std::vector<std::string> compiled; ///< "shading: 2 lights, ambient 0.2 ..."
     std::vector<std::string> dropped;  ///< "shadows: no light in the scene"
     bool shading = false, shadows = false, scattering = false, clipping = false, skipping = false;
+    bool shadowVolume = false; ///< shadows from light-attenuation volumes (SHADOW_VOLUME), not rays
     bool earlyTermination = false, sobel = false;
     bool fog = false, fogMap = false;  ///< FOG (and FOG_MAP): the scene's fog is composited
     bool preintLighting = false;       ///< PREINT_LIGHTING: shading through the pre-integrated lighting table

@@ -446,14 +446,22 @@ void parseIsosurfaces(const json& surfaces, SceneEffects& fx) {
 /// "effects".
 void parseEffects(const json& e, const std::filesystem::path& baseDir, SceneEffects& fx) {
     checkKeys(e, "effects",
-              {"shading", "gradient", "shadows", "shadow_step", "scattering", "clip_planes", "isosurfaces",
-               "fog", "isosurface_method"});
+              {"shading", "gradient", "shadows", "shadow_step", "shadow_method", "light_volume_cell",
+               "shadow_head_tolerance", "scattering", "clip_planes", "isosurfaces", "fog",
+               "isosurface_method"});
     if (e.contains("shading")) parseShading(e["shading"], fx);
     if (e.contains("gradient"))
         fx.gradient = choice(e["gradient"], "effects.gradient", "central", GradientKind::Central, "sobel",
                              GradientKind::Sobel, "central, sobel");
     if (e.contains("shadows")) fx.shadows = flag(e["shadows"], "effects.shadows");
     if (e.contains("shadow_step")) fx.shadowStep = num(e["shadow_step"], "effects.shadow_step");
+    if (e.contains("shadow_method"))
+        fx.shadowMethod = choice(e["shadow_method"], "effects.shadow_method", "volume", ShadowMethod::Volume,
+                                 "rays", ShadowMethod::Rays, "volume, rays");
+    if (e.contains("light_volume_cell"))
+        fx.lightVolumeCell = intField(e["light_volume_cell"], "effects.light_volume_cell");
+    if (e.contains("shadow_head_tolerance"))
+        fx.headLightToleranceDeg = num(e["shadow_head_tolerance"], "effects.shadow_head_tolerance");
     if (e.contains("scattering")) parseScattering(e["scattering"], fx);
     if (e.contains("clip_planes")) parseClipPlanes(e["clip_planes"], fx);
     if (e.contains("isosurfaces")) parseIsosurfaces(e["isosurfaces"], fx);
@@ -562,6 +570,9 @@ std::string Scene::toJson() const {
     e["gradient"] = effects.gradient == GradientKind::Sobel ? "sobel" : "central";
     if (effects.shadows) e["shadows"] = true;
     e["shadow_step"] = effects.shadowStep;
+    e["shadow_method"] = effects.shadowMethod == ShadowMethod::Rays ? "rays" : "volume";
+    e["light_volume_cell"] = effects.lightVolumeCell;
+    e["shadow_head_tolerance"] = effects.headLightToleranceDeg;
     if (effects.scattering) {
         e["scattering"] = {{"albedo", effects.albedo}, {"g", effects.phaseG}};
         if (!effects.emission) e["scattering"]["emission"] = false;
@@ -698,6 +709,9 @@ void Scene::validate() const {
          "shading coefficients must be >= 0");
     need(std::isfinite(e.shadowStep) && e.shadowStep >= 0.0 && e.shadowStep <= 1e30,
          "effects.shadow_step must be 0 (the render step) or in (0, 1e30]");
+    need(e.lightVolumeCell >= 1 && e.lightVolumeCell <= 64, "effects.light_volume_cell must be in [1, 64]");
+    need(e.headLightToleranceDeg >= 0.0 && e.headLightToleranceDeg <= 90.0,
+         "effects.shadow_head_tolerance must be in [0, 90] degrees");
     need(e.albedo >= 0.0 && e.albedo <= 1.0, "effects.scattering.albedo must be in [0, 1]");
     need(e.phaseG > -1.0 && e.phaseG < 1.0, "effects.scattering.g must be in (-1, 1)");
     need(e.samples >= 1 && e.samples <= (1 << 20), "effects.scattering.samples must be in [1, 1048576]");

@@ -20,6 +20,9 @@ enum class Preintegration { None, Table2d, Table3d };
 enum class Projection { Orthographic, Perspective };
 enum class LightKind { Directional, Point, Head };
 enum class GradientKind { Central, Sobel };
+/// How shadows find the transmittance toward a light: one fetch per sample in a light-attenuation volume
+/// built per light (render/grid/LightVolume.hpp), or a secondary ray marched per sample (the exact method).
+enum class ShadowMethod { Volume, Rays };
 /// How samples and gradients are reconstructed from the grid: trilinear with finite-difference gradients;
 /// an interpolating cubic B-spline (prefiltered coefficients, C2, passes through the voxels); or the
 /// smoothing cubic B-spline of the voxels themselves (no prefilter: removes quantisation terraces). Both
@@ -138,7 +141,12 @@ struct SceneEffects {
     bool isoTable = false;
     GradientKind gradient = GradientKind::Central;
     bool shadows = false;
-    double shadowStep = 1.0;           ///< world units; 0 = the render step
+    double shadowStep = 1.0;                          ///< world units; 0 = the render step
+    ShadowMethod shadowMethod = ShadowMethod::Volume; ///< "shadow_method": "volume" | "rays"
+    int lightVolumeCell = 1; ///< "light_volume_cell": voxels per light-volume cell edge (1 = every voxel)
+    /// "shadow_head_tolerance": degrees a head light may turn (as seen from the volume's centre) before its
+    /// light volume is rebuilt; 0 rebuilds on every move.
+    double headLightToleranceDeg = 1.0;
     double albedo = 0.0, phaseG = 0.0; ///< single scattering when albedo > 0 ("scattering" object)
     bool scattering = false;
     ScatteringOrder scatteringOrder = ScatteringOrder::Single;

@@ -265,6 +265,15 @@ std::vector<Combo> combos(const WorldBox& box) {
         }
         add("iso" + sh, RenderMode::Iso, shading, Preintegration::None, true);
     }
+    // Shadows where they meet iso layers and 2D pre-integration: by secondary rays (every input) and from light
+    // volumes (grids; compressed bricks march shadow rays instead, with a note).
+    for (ShadowMethod m : {ShadowMethod::Rays, ShadowMethod::Volume}) {
+        add(std::string("dvr+iso shaded shadows ") + (m == ShadowMethod::Rays ? "rays" : "volume"),
+            RenderMode::Dvr, true, Preintegration::Table2d, true);
+        out.back().scene.effects.shadows = true;
+        out.back().scene.effects.shadowMethod = m;
+        out.back().scene.effects.shadowStep = 0.6;
+    }
     // The MIP window is given: its default is the data's value range, which a lossy .vcz takes from its
     // index, i.e. from the data before coding (up to the error bound away from the decoded range).
     add("mip", RenderMode::Mip, false, Preintegration::None, false);
@@ -330,7 +339,9 @@ TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
     const TransferFunction tf = matrixTf();
     for (const Combo& c : combos(box)) {
         SCOPED_TRACE(inputName(in) + ", " + c.name);
-        GridRenderer grid(cc, decoded, tf, c.scene);
+        Scene gridScene = c.scene;
+        if (input.kind() == RenderInput::Kind::Bricks) gridScene.effects.shadowMethod = ShadowMethod::Rays;
+        GridRenderer grid(cc, decoded, tf, gridScene);
         const ImageBuffer want = grid.render();
         const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, c.scene);
         const ImageBuffer got = r->render();

@@ -10,6 +10,7 @@
 #include "apps/bench/MeshBench.hpp"
 #include "apps/bench/ScatterBench.hpp"
 #include "apps/bench/TierBench.hpp"
+#include "apps/bench/ShadowBench.hpp"
 #include "apps/bench/VtkPeer.hpp"
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/SceneFlags.hpp"
@@ -68,9 +69,11 @@ struct BenchArgs {
     double referenceStep = 0.05;
     std::string csv, vtkImage;
     bool effects = false, vtk = false, sweep = true, filters = false, tables = false, fog = false;
-    bool scattering = false, tiers = false;
+    bool scattering = false, tiers = false, shadows = false;
     TierBenchOptions tier;
     ScatterBenchOptions scatter;
+    ShadowBenchOptions shadow;
+    std::string shadowCells = "1,2,4", shadowRaySteps = "1,2";
     std::string budgets; ///< --budgets: frame-time budgets in ms
     BudgetBenchOptions budget;
     std::string meshLengths = "8,16,32,64";
@@ -125,7 +128,15 @@ void benchEffects(ComputeContext& cc, const RenderInput& input, const TransferFu
              s.effects.shading = true;
              s.effects.gradient = GradientKind::Sobel;
          }},
-        {"shading + shadows",
+        {"shading + shadows (shadow rays)",
+         [&](Scene& s) {
+             s.lights = {light};
+             s.effects.shading = true;
+             s.effects.shadows = true;
+             s.effects.shadowStep = 2.0 * s.step;
+             s.effects.shadowMethod = ShadowMethod::Rays;
+         }},
+        {"shading + shadows (light volume)",
          [&](Scene& s) {
              s.lights = {light};
              s.effects.shading = true;
@@ -260,6 +271,15 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
         ScatterBenchOptions o = a.scatter;
         o.runs = a.runs;
         benchScattering(cc, input, tf, scene, o);
+    }
+    if (a.shadows) {
+        ShadowBenchOptions o = a.shadow;
+        o.rounds = a.runs;
+        o.cells.clear();
+        for (double c : parseNumbers(a.shadowCells, 0, "--light-volume-cells"))
+            o.cells.push_back(int(c));
+        o.raySteps = parseNumbers(a.shadowRaySteps, 0, "--shadow-ray-steps");
+        benchShadows(cc, input, tf, scene, o);
     }
     if (!a.budgets.empty()) {
         BudgetBenchOptions o = a.budget;
@@ -398,6 +418,16 @@ void addRenderBench(CLI::App& bench, GlobalOptions& global) {
                   "--scatter-sweep: largest samples per pixel of the sweep")
         ->capture_default_str();
     b->add_option("--scatter-csv", ba->scatter.csv, "--scatter-sweep: write the rows as CSV");
+    b->add_flag("--shadow-sweep", ba->shadows,
+                "Shadows from light volumes against secondary rays (directional and head light): build time, "
+                "interleaved frame times, ratio to the plain frame, RMSE against rays at the first "
+                "--shadow-ray-steps");
+    b->add_option("--light-volume-cells", ba->shadowCells, "--shadow-sweep: light-volume cell sizes (voxels)")
+        ->capture_default_str();
+    b->add_option("--shadow-ray-steps", ba->shadowRaySteps,
+                  "--shadow-sweep: shadow-ray steps in voxel spacings; the first is the reference")
+        ->capture_default_str();
+    b->add_option("--shadow-csv", ba->shadow.csv, "--shadow-sweep: write the rows as CSV");
     b->add_option("--budgets", ba->budgets,
                   "Frame-time budgets in ms (e.g. 400,1000): the planner's choice for each, timed again in "
                   "interleaved rounds, and its RMSE against the reference (--reference-samples)");

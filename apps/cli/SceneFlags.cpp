@@ -147,9 +147,17 @@ void SceneFlags::add(CLI::App* cmd) {
                                       num(d.effects.specular) + "," + num(d.effects.shininess));
     cmd->add_flag("--no-shading", noShading, "Do not shade (iso mode shades by default)");
     cmd->add_flag("--sobel", sobel, "Sobel gradients instead of central differences");
-    cmd->add_flag("--shadows", shadows, "Shadows by secondary marching toward each light");
-    cmd->add_option("--shadow-step", shadowStep, "Shadow ray step in world units (0 = the render step)")
+    cmd->add_flag("--shadows", shadows, "Shadows toward each light (--shadow-method)");
+    cmd->add_option("--shadow-step", shadowStep,
+                    "Shadow integration step in world units (0 = the render step)")
         ->default_str(num(d.effects.shadowStep));
+    cmd->add_option("--shadow-method", shadowMethod,
+                    "volume (a light-attenuation volume per light, one fetch per sample) or rays (a "
+                    "secondary ray per sample, exact)")
+        ->check(CLI::IsMember({"volume", "rays"}))
+        ->default_str("volume");
+    cmd->add_option("--light-volume-cell", lightVolumeCell, "Voxels per light-volume cell edge (1..64)")
+        ->default_str(num(d.effects.lightVolumeCell));
     cmd->add_option("--scattering", scattering, "Scattering albedo,g (Henyey-Greenstein)");
     cmd->add_option("--scattering-order", scatteringOrder, "single (ray marcher) or multiple (path tracer)")
         ->check(CLI::IsMember({"single", "multiple"}));
@@ -272,6 +280,9 @@ Scene SceneFlags::build() const {
     if (sobel) s.effects.gradient = GradientKind::Sobel;
     if (shadows) s.effects.shadows = true;
     if (shadowStep) s.effects.shadowStep = *shadowStep;
+    if (!shadowMethod.empty())
+        s.effects.shadowMethod = shadowMethod == "rays" ? ShadowMethod::Rays : ShadowMethod::Volume;
+    if (lightVolumeCell) s.effects.lightVolumeCell = *lightVolumeCell;
     if (!scattering.empty()) {
         const auto v = parseNumbers(scattering, 2, "--scattering");
         s.effects.scattering = true;

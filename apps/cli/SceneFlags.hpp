@@ -34,11 +34,11 @@ struct SceneFlags {
     std::string filter, window, mipColor, lod, method, sort;
     std::optional<double> lodError, cacheMb;
     std::optional<double> smoothing, viewHeight, fov, earlyTermination, shadowStep;
-    std::optional<int> width, height, tableSize, tableLengths, k;
+    std::optional<int> width, height, tableSize, tableLengths, k, lightVolumeCell;
     std::optional<std::size_t> frame; ///< --frame K of a time series input
     bool noSkipping = false, sobel = false, shadows = false, noShading = false;
     std::string step; ///< --step: world units, or voxels with a `vox` suffix (parseStepSpec)
-    std::string shading, scattering, scatteringOrder;
+    std::string shading, scattering, scatteringOrder, shadowMethod;
     CLI::Option* shadingOption = nullptr; ///< --shading: given bare (default coefficients) or with a value
     std::optional<int> samples;
     std::vector<std::string> isos, lights, clips;

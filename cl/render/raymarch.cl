@@ -15,7 +15,8 @@
    EARLY_TERMINATION  stop when opacity reaches march.earlyTermination
    ISO_COUNT     iso-surfaces composited in ray order (iso mode, or mixed into dvr)
    SHADING       Blinn-Phong with lighting.lightCount lights (GRADIENT_SOBEL: Sobel instead of central differences)
-   SHADOWS       transmittance to each light by secondary marching
+   SHADOWS       transmittance to each light by secondary marching (SHADOW_VOLUME: one fetch in each light's
+                 attenuation volume, cl/common/light_volume.h, built by cl/render/light_volume.cl)
    SCATTERING    single scattering, Henyey-Greenstein phase (NO_EMISSION: the TF colour only tints the scattered light;
                  MS_OCTAVES=n: multiple scattering approximated by n octaves)
    CLIPPING      clip.count clipping planes
@@ -39,6 +40,16 @@
 #endif
 #if defined(SHADING) || defined(SCATTERING)
 #define NEEDS_LIGHTS 1
+#endif
+
+#ifdef SHADOW_VOLUME
+#include "common/light_volume.h"
+/* The light volumes' argument of the per-sample helpers below, present only when shadows read them. */
+#define SHADOW_PARAMS , __global const float* lightVol
+#define SHADOW_ARGS , lightVol
+#else
+#define SHADOW_PARAMS
+#define SHADOW_ARGS
 #endif
 
 #ifdef NEEDS_LIGHTS
@@ -65,12 +76,25 @@ inline float shadow_transmittance(__global const voxel_t* vol, __global const Vo
     }
     return exp(-depth);
 }
+
+/* Transmittance toward light i from world point x (unit direction L, distance dist). */
+inline float light_visibility(__global const voxel_t* vol, __global const VolclTfKnot* knots,
+                              const VolclGridRenderParams* P, uint i, float3 x, float3 L,
+                              float dist SHADOW_PARAMS) {
+#ifdef SHADOW_VOLUME
+    return light_volume_sample(lightVol, &P->lightVolume, i,
+                               (x - v3(P->grid.origin)) * v3(P->grid.invSpacing));
+#else
+    return shadow_transmittance(vol, knots, P, x, L, dist);
+#endif
+}
 #endif
 
 /* Light reaching the eye from a sample of straight colour c at world point x (voxel point p): the gradient
    and shadow rays from the grid, the lighting sum from common/shading.h. */
 inline float3 light_sample(__global const voxel_t* vol, __global const VolclTfKnot* knots,
-                           const VolclGridRenderParams* P, const Ray* r, float3 x, float3 p, float3 c) {
+                           const VolclGridRenderParams* P, const Ray* r, float3 x, float3 p,
+                           float3 c SHADOW_PARAMS) {
 #ifdef SHADING
     const float3 g = gradient(vol, &P->grid, p);
 #else
@@ -82,7 +106,7 @@ inline float3 light_sample(__global const voxel_t* vol, __global const VolclTfKn
         const float3 L =
             light_dir(&P->lighting, P->camera.perspective, r->oWorld, r->dWorld, (int)i, x, &dist);
 #ifdef SHADOWS
-        const float vis = shadow_transmittance(vol, knots, P, x, L, dist);
+        const float vis = light_visibility(vol, knots, P, i, x, L, dist SHADOW_ARGS);
 #else
         const float vis = 1.0f;
 #endif
@@ -128,7 +152,7 @@ inline uint macro_cell(const VolclGridRenderParams* P, const Ray* r, float t, fl
    `ratio` to the segment's length; x: the segment's world midpoint (shadow rays start there). */
 inline float3 preint_light(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                            const VolclGridRenderParams* P, const Ray* r, float3 x, float3 gF, float3 gB,
-                           float4 e, float3 df, float3 db, float omega, float ratio) {
+                           float4 e, float3 df, float3 db, float omega, float ratio SHADOW_PARAMS) {
     const VolclLightingParams* Lp = &P->lighting;
     const float3 V = -r->dWorld;
     const float lf = length(gF), lb = length(gB);
@@ -145,7 +169,7 @@ inline float3 preint_light(__global const voxel_t* vol, __global const VolclTfKn
         float dist;
         const float3 L = light_dir(Lp, P->camera.perspective, r->oWorld, r->dWorld, (int)i, x, &dist);
 #ifdef SHADOWS
-        const float vis = shadow_transmittance(vol, knots, P, x, L, dist);
+        const float vis = light_visibility(vol, knots, P, i, x, L, dist SHADOW_ARGS);
 #else
         const float vis = 1.0f;
 #endif
@@ -163,7 +187,8 @@ inline float3 preint_light(__global const voxel_t* vol, __global const VolclTfKn
    its nearest node (interpolating would smear every surface into a ramp); shading at the segment's midpoint. */
 inline void iso_table_segment(__global const float4* table, __global const voxel_t* vol,
                               __global const VolclTfKnot* knots, const VolclGridRenderParams* P, const Ray* r,
-                              float t0, float s0, float t1, float s1, float3* rgb, float* T, float* depth) {
+                              float t0, float s0, float t1, float s1, float3* rgb, float* T,
+                              float* depth SHADOW_PARAMS) {
 #ifdef NAN_COLOR
     if (!isfinite(s0) || !isfinite(s1)) return; /* a crossing needs finite ends */
 #endif
@@ -177,7 +202,7 @@ inline void iso_table_segment(__global const float4* table, __global const voxel
     const float tm = 0.5f * (t0 + t1);
     float3 c = e.xyz / e.w;
 #ifdef NEEDS_LIGHTS
-    c = light_sample(vol, knots, P, r, r->oWorld + tm * r->dWorld, ray_at(r, tm), c);
+    c = light_sample(vol, knots, P, r, r->oWorld + tm * r->dWorld, ray_at(r, tm), c SHADOW_ARGS);
 #endif
     if (isinf(*depth)) *depth = tm;
     *rgb += *T * e.w * c;
@@ -260,14 +285,14 @@ inline float4 xray_ray(__global const voxel_t* vol, __global const VolclTfKnot* 
    composited into (rgb, T), with the fog over it. */
 inline void dvr_point_segment(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                               const VolclGridRenderParams* P, const Ray* r, float t0, float t1, float len,
-                              float3* rgb, float* T FOG_PARAMS) {
+                              float3* rgb, float* T FOG_PARAMS SHADOW_PARAMS) {
     const float tm = t0 + 0.5f * len;
     const float3 pm = ray_at(r, tm);
     const float4 e = tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, pm));
     const float a = 1.0f - exp(-e.w * len);
     float3 c = e.xyz;
 #ifdef NEEDS_LIGHTS
-    if (a > 0.0f) c = light_sample(vol, knots, P, r, r->oWorld + tm * r->dWorld, pm, c);
+    if (a > 0.0f) c = light_sample(vol, knots, P, r, r->oWorld + tm * r->dWorld, pm, c SHADOW_ARGS);
 #endif
 #ifdef FOG
     fog_with_segment(&P->fog, fogMap, fr, r->oWorld, r->dWorld, t0, t1, e.w, c, rgb, T);
@@ -285,7 +310,7 @@ inline void dvr_point_segment(__global const voxel_t* vol, __global const VolclT
 inline void dvr_preint_segment(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                                __global const float4* table, const VolclGridRenderParams* P, const Ray* r,
                                float t0, float t1, float len, float sPrev, float sNext, float3* gPrev,
-                               int* gPrevValid, float3* rgb, float* T FOG_PARAMS) {
+                               int* gPrevValid, float3* rgb, float* T FOG_PARAMS SHADOW_PARAMS) {
 #ifdef NAN_COLOR
     /* A segment with an end that is not finite is a constant segment of the NaN colour, unlit. */
     if (!isfinite(sPrev) || !isfinite(sNext)) {
@@ -316,7 +341,7 @@ inline void dvr_preint_segment(__global const voxel_t* vol, __global const Volcl
         *gPrev = gB;
         *gPrevValid = 1;
         c = preint_light(vol, knots, P, r, r->oWorld + (t0 + 0.5f * len) * r->dWorld, gF, gB, e, lf.xyz,
-                         lb.xyz, clamp(lf.w, 0.0f, 1.0f), ratio);
+                         lb.xyz, clamp(lf.w, 0.0f, 1.0f), ratio SHADOW_ARGS);
     } else {
         *gPrevValid = 0;
     }
@@ -326,7 +351,8 @@ inline void dvr_preint_segment(__global const voxel_t* vol, __global const Volcl
        the associated colour added it once per segment whatever the segment's opacity). */
     if (e.w > 0.0f) {
         const float tm = t0 + 0.5f * len;
-        c = light_sample(vol, knots, P, r, r->oWorld + tm * r->dWorld, ray_at(r, tm), c / e.w) * e.w;
+        c = light_sample(vol, knots, P, r, r->oWorld + tm * r->dWorld, ray_at(r, tm), c / e.w SHADOW_ARGS) *
+            e.w;
     }
 #endif
 #ifdef FOG
@@ -346,8 +372,11 @@ inline void dvr_preint_segment(__global const voxel_t* vol, __global const Volcl
 __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                        __global const float4* table, __global const uchar* macroEmpty,
                        const VolclGridRenderParams params, __global float4* out, __global float* depthOut,
-                       __global const float* fogMap) {
+                       __global const float* fogMap, __global const float* lightVol) {
     const uint x = get_global_id(0), y = get_global_id(1);
+#ifndef SHADOW_VOLUME
+    (void)lightVol;
+#endif
     if (x >= params.camera.width || y >= params.camera.height) return;
     const VolclGridRenderParams* P = &params;
     const Ray r = grid_ray(&P->grid, camera_ray_world(&P->camera, x, y));
@@ -454,21 +483,21 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
         const float sNext = sample_volume(vol, &P->grid, ray_at(&r, t1));
 #endif
 #if ISO_COUNT > 0 && defined(ISO_TABLE)
-        iso_table_segment(table, vol, knots, P, &r, t0, sPrev, t1, sNext, &rgb, &T, &depth);
+        iso_table_segment(table, vol, knots, P, &r, t0, sPrev, t1, sNext, &rgb, &T, &depth SHADOW_ARGS);
 #elif ISO_COUNT > 0 && defined(FILTER_BSPLINE)
-        iso_sampled_segment(vol, knots, P, &r, t0, sPrev, t1, sNext, &rgb, &T, &depth);
+        iso_sampled_segment(vol, knots, P, &r, t0, sPrev, t1, sNext, &rgb, &T, &depth SHADOW_ARGS);
 #elif ISO_COUNT > 0
-        iso_march(vol, knots, P, &r, &iso, t0, t1, &rgb, &T, &depth);
+        iso_march(vol, knots, P, &r, &iso, t0, t1, &rgb, &T, &depth SHADOW_ARGS);
 #endif
 #if MODE == 2 && defined(FOG)
         /* A surface inside this step is composited in front of the step's fog. */
         fog_only(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, t0, t1, &rgb, &T);
 #endif
 #if MODE == 0 && PREINT == 0
-        dvr_point_segment(vol, knots, P, &r, t0, t1, len, &rgb, &T FOG_ARGS);
+        dvr_point_segment(vol, knots, P, &r, t0, t1, len, &rgb, &T FOG_ARGS SHADOW_ARGS);
 #elif MODE == 0
         dvr_preint_segment(vol, knots, table, P, &r, t0, t1, len, sPrev, sNext, &gPrev, &gPrevValid, &rgb,
-                           &T FOG_ARGS);
+                           &T FOG_ARGS SHADOW_ARGS);
 #endif
 #if PREINT != 0 || ISO_COUNT > 0
         sPrev = sNext;
@@ -657,7 +686,9 @@ inline void store_packet(__global float4* out, const VolclGridRenderParams* P, u
 __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                               __global const float4* table, __global const uchar* macroEmpty,
                               const VolclGridRenderParams params, __global float4* out,
-                              __global float* depthOut, __global const float* fogMap) {
+                              __global float* depthOut, __global const float* fogMap,
+                              __global const float* lightVol) {
+    (void)lightVol; /* shadows run in the one-ray kernel */
     const VolclGridRenderParams* P = &params;
     const uint x0 = get_global_id(0) * PACKET_W, y0 = get_global_id(1) * PACKET_H;
     if (x0 >= params.camera.width || y0 >= params.camera.height) return;

@@ -186,7 +186,7 @@ inline float iso_refine(float4 c, float iso, float ua, float ub, int sa, float t
 /* Composites n hits (ray parameters th, iso indices order) in the given order. */
 inline void iso_composite(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                           const VolclGridRenderParams* P, const Ray* r, float* th, int* order, int n,
-                          float3* rgb, float* T, float* depth) {
+                          float3* rgb, float* T, float* depth SHADOW_PARAMS) {
     for (int a = 1; a < n; ++a) /* insertion sort by hit distance */
         for (int b = a; b > 0 && th[b] < th[b - 1]; --b) {
             const float tt = th[b];
@@ -201,7 +201,7 @@ inline void iso_composite(__global const voxel_t* vol, __global const VolclTfKno
         const float alpha = P->iso.color[i][3];
         float3 c = v3(P->iso.color[i]);
 #ifdef NEEDS_LIGHTS
-        c = light_sample(vol, knots, P, r, r->oWorld + th[a] * r->dWorld, ray_at(r, th[a]), c);
+        c = light_sample(vol, knots, P, r, r->oWorld + th[a] * r->dWorld, ray_at(r, th[a]), c SHADOW_ARGS);
 #endif
         if (isinf(*depth)) *depth = th[a];
         *rgb += *T * alpha * c;
@@ -212,7 +212,7 @@ inline void iso_composite(__global const voxel_t* vol, __global const VolclTfKno
 /* Hits of every iso-value on the piece [ta, tb] of the ray inside the current cell, composited in order. */
 inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                       const VolclGridRenderParams* P, const Ray* r, IsoState* st, float ta, float tb,
-                      float3* rgb, float* T, float* depth) {
+                      float3* rgb, float* T, float* depth SHADOW_PARAMS) {
 #ifdef NAN_COLOR
     /* No crossing in a cell with a corner that is not finite, nor on its faces: the sides start afresh in
        the next finite cell. */
@@ -278,7 +278,7 @@ inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* k
             order[n] = i;
             ++n;
         }
-    if (n) iso_composite(vol, knots, P, r, th, order, n, rgb, T, depth);
+    if (n) iso_composite(vol, knots, P, r, th, order, n, rgb, T, depth SHADOW_ARGS);
     uint side = sideStart;
     if (cubic) {
         const float tol = ISO_TOL_VOXELS / length(r->d); /* in ray parameter units */
@@ -297,7 +297,7 @@ inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* k
                     ++n;
                 }
             }
-            if (n) iso_composite(vol, knots, P, r, th, order, n, rgb, T, depth);
+            if (n) iso_composite(vol, knots, P, r, th, order, n, rgb, T, depth SHADOW_ARGS);
             side = sideEnd;
         }
     }
@@ -309,7 +309,7 @@ inline void iso_piece(__global const voxel_t* vol, __global const VolclTfKnot* k
    them and a crossing on a segment end is counted once. */
 inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                         const VolclGridRenderParams* P, const Ray* r, float t0, float s0, float t1, float s1,
-                        float3* rgb, float* T, float* depth) {
+                        float3* rgb, float* T, float* depth SHADOW_PARAMS) {
     if (!(*T > 0.0f)) return; /* behind an opaque surface nothing more shows */
     IsoState st;
     iso_begin(&st, r);
@@ -327,7 +327,8 @@ inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot*
     const int maxSteps = (int)(P->grid.dims[0] + P->grid.dims[1] + P->grid.dims[2]) + 4; /* as in iso_march */
     for (int guard = 0; guard < maxSteps; ++guard) {
         const float tb = fmin(t1, st.tOut);
-        if (tb > ta && iso_piece_needed(&st)) iso_piece(vol, knots, P, r, &st, ta, tb, rgb, T, depth);
+        if (tb > ta && iso_piece_needed(&st))
+            iso_piece(vol, knots, P, r, &st, ta, tb, rgb, T, depth SHADOW_ARGS);
         ta = fmax(ta, tb);
         if (ta >= t1) break;
         iso_step(vol, P, &st);
@@ -347,7 +348,7 @@ inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot*
                 order[n] = i;
                 ++n;
             }
-        iso_composite(vol, knots, P, r, th, order, n, rgb, T, depth);
+        iso_composite(vol, knots, P, r, th, order, n, rgb, T, depth SHADOW_ARGS);
     }
 }
 
@@ -357,7 +358,7 @@ inline void iso_segment(__global const voxel_t* vol, __global const VolclTfKnot*
    the last, or further on after empty space was skipped). */
 inline void iso_march(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                       const VolclGridRenderParams* P, const Ray* r, IsoState* st, float t0, float t1,
-                      float3* rgb, float* T, float* depth) {
+                      float3* rgb, float* T, float* depth SHADOW_PARAMS) {
     if (!(*T > 0.0f)) return; /* behind an opaque surface nothing more shows */
     float ta = t0;
     if (ta >= st->tOut) {
@@ -373,7 +374,8 @@ inline void iso_march(__global const voxel_t* vol, __global const VolclTfKnot* k
     const int maxSteps = (int)(P->grid.dims[0] + P->grid.dims[1] + P->grid.dims[2]) + 4;
     for (int guard = 0; guard < maxSteps; ++guard) {
         const float tb = fmin(t1, st->tOut);
-        if (tb > ta && iso_piece_needed(st)) iso_piece(vol, knots, P, r, st, ta, tb, rgb, T, depth);
+        if (tb > ta && iso_piece_needed(st))
+            iso_piece(vol, knots, P, r, st, ta, tb, rgb, T, depth SHADOW_ARGS);
         ta = fmax(ta, tb);
         if (ta >= t1) break;
         iso_step(vol, P, st);

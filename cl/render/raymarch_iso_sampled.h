@@ -34,7 +34,7 @@ inline float iso_sampled_root(__global const voxel_t* vol, const VolclGridRender
 /* Composites the iso-surfaces whose side differs between the samples s0 at t0 and s1 at t1, in ray order. */
 inline void iso_sampled_segment(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                                 const VolclGridRenderParams* P, const Ray* r, float t0, float s0, float t1,
-                                float s1, float3* rgb, float* T, float* depth) {
+                                float s1, float3* rgb, float* T, float* depth SHADOW_PARAMS) {
     if (!(*T > 0.0f)) return; /* behind an opaque surface nothing more shows */
     float th[ISO_COUNT];
     int order[ISO_COUNT];
@@ -47,6 +47,6 @@ inline void iso_sampled_segment(__global const voxel_t* vol, __global const Volc
         order[n] = i;
         ++n;
     }
-    if (n) iso_composite(vol, knots, P, r, th, order, n, rgb, T, depth);
+    if (n) iso_composite(vol, knots, P, r, th, order, n, rgb, T, depth SHADOW_ARGS);
 }
 #endif

@@ -144,6 +144,12 @@ EffectPlan BrickRenderer::planEffects(const Scene& scene) const {
         s.effects.isoTable = false;
         notes.push_back("iso-surface table: compressed bricks find iso-surfaces by exact roots");
     }
+    if (s.effects.shadows && s.effects.shadowMethod == ShadowMethod::Volume) {
+        s.effects.shadowMethod = ShadowMethod::Rays;
+        notes.push_back(
+            "shadow method volume: compressed bricks march shadow rays (a light volume sweeps the "
+            "whole grid; decode the file for it)");
+    }
     EffectPlan p = volcl::planEffects(
         s, bounds(), impl_->range,
         std::to_string(std::min({impl_->h->brick.x, impl_->h->brick.y, impl_->h->brick.z})) +
@@ -436,7 +442,9 @@ ImageBuffer BrickRenderer::render() {
     total_.add(last_);
 
     ensureFrameBuffers();
-    setArgs(m.kernel, m.pool, knots(), table(), m.empty, m.params, out_, depth_, m.fog.buffer(cc_));
+    // The last argument, the light volumes, is read only with SHADOW_VOLUME (never planned here): any float buffer.
+    setArgs(m.kernel, m.pool, knots(), table(), m.empty, m.params, out_, depth_, m.fog.buffer(cc_),
+            m.fog.buffer(cc_));
     const std::size_t w = std::size_t(scene_.width), hgt = std::size_t(scene_.height);
     cl::Event ev = m.packet
                        ? cc_.launch2d(m.kernel, (w + 3) / 4, (hgt + 1) / 2, cc_.profile().rayMarch.packet)

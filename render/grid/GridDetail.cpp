@@ -161,6 +161,29 @@ double gradientThreshold(const Volume& volume) {
     return 1e-6 * std::max(r.max - r.min, 1e-30) / s;
 }
 
+double trilinear(const std::vector<float>& values, const std::array<std::size_t, 3>& n, const Vec3& p) {
+    std::size_t i0[3], i1[3];
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+        const double hi = double(n[a] - 1);
+        const double x = std::clamp(p[a], 0.0, hi);
+        std::size_t i = std::size_t(std::floor(x));
+        i = n[a] >= 2 ? std::min(i, n[a] - 2) : 0;
+        i0[a] = i;
+        i1[a] = std::min(i + 1, n[a] - 1);
+        f[a] = x - double(i);
+    }
+    auto at = [&](std::size_t i, std::size_t j, std::size_t k) -> double {
+        return values[(k * n[1] + j) * n[0] + i];
+    };
+    auto lerp = [](double a, double b, double t) { return a + t * (b - a); };
+    const double c00 = lerp(at(i0[0], i0[1], i0[2]), at(i1[0], i0[1], i0[2]), f[0]);
+    const double c10 = lerp(at(i0[0], i1[1], i0[2]), at(i1[0], i1[1], i0[2]), f[0]);
+    const double c01 = lerp(at(i0[0], i0[1], i1[2]), at(i1[0], i0[1], i1[2]), f[0]);
+    const double c11 = lerp(at(i0[0], i1[1], i1[2]), at(i1[0], i1[1], i1[2]), f[0]);
+    return lerp(lerp(c00, c10, f[1]), lerp(c01, c11, f[1]), f[2]);
+}
+
 VolclGridParams gridParams(const Volume& volume, const MacrocellGrid& grid) {
     VolclGridParams p{};
     auto put = [](float* dst, const Vec3& v) {

@@ -56,6 +56,10 @@ ValueRange tableNodeSpan(const TransferFunction& tf, double a, double b, int tab
 /// Largest tau over [a, b] (exact for the piecewise-linear TF).
 double maxExtinctionOver(const TransferFunction& tf, double a, double b);
 
+/// Trilinear interpolation of node-centred values (x fastest, n nodes per axis) at voxel coordinates p,
+/// clamped to the grid, with the kernels' cell choice and lerp order (cl/common/grid_sample.h).
+double trilinear(const std::vector<float>& values, const std::array<std::size_t, 3>& n, const Vec3& p);
+
 /// Gradient magnitude below which a sample has no defined normal.
 double gradientThreshold(const Volume& volume);
 

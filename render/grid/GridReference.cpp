@@ -202,26 +202,7 @@ private:
     /// The field at voxel coordinates (clamped), as in the kernel: the spline, or trilinear.
     double sample(const Vec3& p) const {
         if (spline_) return bsplineValue(*spline_, p);
-        std::size_t i0[3], i1[3];
-        double f[3];
-        for (int a = 0; a < 3; ++a) {
-            const double hi = double(n_[a] - 1);
-            const double x = std::clamp(p[a], 0.0, hi);
-            std::size_t i = std::size_t(std::floor(x));
-            if (n_[a] >= 2)
-                i = std::min(i, n_[a] - 2);
-            else
-                i = 0;
-            i0[a] = i;
-            i1[a] = std::min(i + 1, n_[a] - 1);
-            f[a] = x - double(i);
-        }
-        auto lerp = [](double a, double b, double t) { return a + t * (b - a); };
-        const double c00 = lerp(voxel(i0[0], i0[1], i0[2]), voxel(i1[0], i0[1], i0[2]), f[0]);
-        const double c10 = lerp(voxel(i0[0], i1[1], i0[2]), voxel(i1[0], i1[1], i0[2]), f[0]);
-        const double c01 = lerp(voxel(i0[0], i0[1], i1[2]), voxel(i1[0], i0[1], i1[2]), f[0]);
-        const double c11 = lerp(voxel(i0[0], i1[1], i1[2]), voxel(i1[0], i1[1], i1[2]), f[0]);
-        return lerp(lerp(c00, c10, f[1]), lerp(c01, c11, f[1]), f[2]);
+        return grid_detail::trilinear(values_, n_, p);
     }
 
     Vec3 gradient(const Vec3& p) const {

@@ -14,6 +14,7 @@
 #include "render/VecMath.hpp"
 #include "render/grid/BsplineField.hpp"
 #include "render/grid/GridDetail.hpp"
+#include "render/grid/LightVolume.hpp"
 #include "render/grid/PathTracer.hpp"
 
 #include <algorithm>
@@ -67,6 +68,14 @@ EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& 
                     std::size_t nonFinite) {
     EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow(macrocellEdge), true);
     planNanColor(scene, nonFinite > 0, p);
+    if (p.shadows && scene.effects.shadowMethod == ShadowMethod::Volume) {
+        p.shadowVolume = true;
+        p.defines.set("SHADOW_VOLUME");
+        for (std::string& line : p.compiled)
+            if (line.starts_with("shadows:"))
+                line = "shadows: a light-attenuation volume per light (" +
+                       std::to_string(scene.effects.lightVolumeCell) + "-voxel cells), one fetch per sample";
+    }
     // The cubic filters read float spline coefficients instead of the voxels; smoothing, float voxels.
     p.defines.set("VOXEL_TYPE", scene.filter == ReconstructionFilter::Linear && scene.smoothing == 0.0
                                     ? static_cast<long long>(voxelTypeCode(volume))
@@ -120,6 +129,7 @@ struct GridRenderer::Impl {
     /// Multiple scattering: the path tracer's majorants and accumulation (built on the first such scene).
     std::unique_ptr<GridPathTracer> pathTracer;
     std::string majorantKey;
+    LightVolume lightVolume; ///< SHADOW_VOLUME: transmittance toward each light, rebuilt when it changes
 };
 
 GridRenderer::GridRenderer(ComputeContext& cc, const Volume& volume, const TransferFunction& tf,
@@ -141,6 +151,10 @@ GridRenderer::GridRenderer(ComputeContext& cc, const Volume& volume, const Trans
 }
 
 GridRenderer::~GridRenderer() = default;
+
+int GridRenderer::lightVolumeBuilds() const noexcept {
+    return impl_->lightVolume.builds();
+}
 
 std::size_t GridRenderer::macrocellCount() const noexcept {
     return impl_->macro.min.size();
@@ -310,7 +324,8 @@ ImageBuffer GridRenderer::launch(cl::Kernel& kernel, const cl::Buffer& voxels, b
                                            scene_.effects.samples, out_);
         return readImage(false);
     }
-    setArgs(kernel, voxels, knots(), table(), m.empty, m.params, out_, depth_, m.fog.buffer(cc_));
+    setArgs(kernel, voxels, knots(), table(), m.empty, m.params, out_, depth_, m.fog.buffer(cc_),
+            m.lightVolume.buffer(cc_));
     // One ray per work-item, or one packet of 4x2 rays (see DeviceProfile::RayMarch for the tiles).
     const std::size_t w = std::size_t(scene_.width), h = std::size_t(scene_.height);
     const DeviceProfile::RayMarch& tuning = cc_.profile().rayMarch;
@@ -335,7 +350,37 @@ ImageBuffer GridRenderer::render() {
                                : m.packet && m.useCorners                    ? m.corners.get()
                                                                              : m.volume.get();
     if (plan_.pathTracing) return launch(m.kernel, m.volume.get(), false, false);
+    if (plan_.shadowVolume) updateLightVolume(voxels);
     return launch(m.kernel, voxels, !plan_.isosurfaces.empty(), m.packet);
+}
+
+void GridRenderer::updateLightVolume(const cl::Buffer& voxels) {
+    Impl& m = *impl_;
+    LightVolume::Inputs in;
+    in.voxels = &voxels;
+    in.knots = &knots().get();
+    in.knotCount = knotCount();
+    // How light_volume.cl reads the field: the ray marcher's voxel type, filter and NaN colour.
+    EffectPlan nan;
+    planNanColor(scene_, m.nonFinite > 0, nan);
+    in.defines = nan.defines;
+    in.defines.set("VOXEL_TYPE", scene_.filter == ReconstructionFilter::Linear && scene_.smoothing == 0.0
+                                     ? static_cast<long long>(voxelTypeCode(volume_))
+                                     : 0LL);
+    if (scene_.filter != ReconstructionFilter::Linear) in.defines.set("FILTER_BSPLINE");
+    in.grid = m.params.grid;
+    in.lights = sweptLights(m.params.lighting, camera_);
+    in.cell = scene_.effects.lightVolumeCell;
+    in.step = m.params.lighting.shadowStep;
+    std::ostringstream key;
+    key << std::setprecision(17) << filterName(scene_.filter) << ' ' << scene_.smoothing << ' '
+        << nanExtinction(scene_) << ' ' << tf_.toJson() << ' ' << plan_.colorScale;
+    in.fieldKey = key.str();
+    in.headToleranceDeg = scene_.effects.headLightToleranceDeg;
+    const WorldBox box = bounds();
+    in.centre = add(box.origin, scale(box.extent, 0.5));
+    if (m.lightVolume.update(cc_, in)) lightVolumeMs_ = m.lightVolume.lastBuildMilliseconds();
+    m.params.lightVolume = m.lightVolume.params();
 }
 
 int GridRenderer::accumulateSamples(int samples) {
@@ -377,6 +422,9 @@ std::string GridRenderer::statistics() const {
     std::ostringstream os;
     os << "macrocells: " << macrocellCount() << ", " << std::setprecision(1) << std::fixed
        << 100.0 * emptyFraction_ << "% empty";
+    if (plan_.shadowVolume)
+        os << "; light volumes: " << impl_->lightVolume.builds() << " built, last in " << std::setprecision(1)
+           << lightVolumeMs_ << " ms";
     return os.str();
 }
 

@@ -56,6 +56,10 @@ public:
     /// The running mean of accumulateSamples() as an image (R, G, B, A).
     ImageBuffer accumulatedImage();
 
+    /// SHADOW_VOLUME: wall time of the last light-volume build (0 before one), and the builds so far; a
+    /// frame rebuilds them only when a light, the TF, the field or a light-volume knob changed.
+    double lastLightVolumeMilliseconds() const noexcept { return lightVolumeMs_; }
+    int lightVolumeBuilds() const noexcept;
     const Volume& volume() const noexcept { return volume_; }
     std::size_t macrocellCount() const noexcept;
     double emptyMacrocellFraction() const noexcept { return emptyFraction_; }
@@ -74,6 +78,8 @@ private:
     void updateEmptiness(const grid_detail::MacrocellGrid& macro, const TransferFunction& shaded);
     /// The path tracer's kernel, majorants and parameters (plans with multiple scattering).
     void preparePathTracer(const TransferFunction& shaded);
+    /// SHADOW_VOLUME: the light volumes for the current lights, TF and field (rebuilt only when they changed).
+    void updateLightVolume(const cl::Buffer& voxels);
     ImageBuffer launch(cl::Kernel& kernel, const cl::Buffer& voxels, bool depth, bool packet);
     ImageBuffer readImage(bool withDepth); ///< the output buffer (and depth) as an image with attributes
     /// d plus the volume layout the packet kernels read (uploads the corner copy on first use);
@@ -82,6 +88,7 @@ private:
     const Volume& volume_;
     std::unique_ptr<Impl> impl_;
     double emptyFraction_ = 0.0;
+    double lightVolumeMs_ = 0.0;
 };
 
 /// The grid's ray integral in double precision with fine steps and the exact TF, for every mode and effect

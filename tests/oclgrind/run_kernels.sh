@@ -126,7 +126,7 @@ gtest() {
   fi
 }
 
-echo "== suite tests (kernels against their C++ references): phantoms, copy, TF sampling, motion, plain march"
+echo "== suite tests (kernels against their C++ references): phantoms, copy, TF sampling, motion, plain march, light volumes"
 gtest phantoms test_phantoms \
   'Phantoms/MarschnerLobbSizes.*/0:Phantoms/MarschnerLobbSizes.*/3:Phantoms/SheppLoganSizes.*/0:Phantoms/SheppLoganSizes.*/3'
 gtest runtime test_runtime 'Runtime.CopyKernelRoundTripsDataWithOddSizes:Runtime.OversizedBufferIsRefused:'\
@@ -134,6 +134,7 @@ gtest runtime test_runtime 'Runtime.CopyKernelRoundTripsDataWithOddSizes:Runtime
 gtest tf_sample test_tf 'TransferFunction.HostAndKernelSamplingAreBitIdentical'
 gtest motion test_motion_compensation 'MotionCompensation.TinyVolumeMatchesTheReferenceOnBothKernels'
 gtest plain test_render 'Render.PlainKernelMatchesBaseline'
+gtest light_volume test_shadow_volume 'LightVolume.KernelMatchesItsReference'
 # NaN voxels (NAN_COLOR): point-sampled and pre-integrated dvr, MIP/x-ray skipping, iso cells with NaN corners
 gtest nan test_render_nan 'RenderNan.DvrDrawsTheNanColourWhereTheRuleSays:'\
 'RenderNan.SkippingKeepsCellsWhereOnlyTheNanColourShows:RenderNan.MipAndXraySkipSamplesThatAreNotFinite:'\
@@ -183,6 +184,10 @@ both xray xray.exr "${R[@]}" --mode xray
 both iso iso.exr "${R[@]}" --mode iso --iso 0.5 --iso 0.8:1,0,0,0.5
 both shading shading.exr "${R[@]}" --shading 0.2,0.7,0.3,32 --sobel
 both shadows shadows.exr "${R[@]}" --shading 0.2,0.7,0.3,32 --shadows
+# Light volumes (light_volume_slice): a diagonal sun on a 3-voxel grid, a point light inside the volume; rays.
+both shadows_dir shadows_dir.exr "${R[@]}" --shading 0.2,0.7,0.3,32 --shadows --light dir:1,1,1 --light-volume-cell 3
+both shadows_point shadows_point.exr "${R[@]}" --shading 0.2,0.7,0.3,32 --shadows --light point:4,3,5
+both shadows_rays shadows_rays.exr "${R[@]}" --shading 0.2,0.7,0.3,32 --shadows --shadow-method rays
 both scatter scatter.exr "${R[@]}" --scattering 0.8,0.3
 both pre2d pre2d.exr "${R[@]}" --preintegration 2d --table-size 32
 both pre3d pre3d.exr "${R[@]}" --preintegration 3d --table-size 16 --table-lengths 4
@@ -190,7 +195,7 @@ both cubic cubic.exr "${R[@]}" --filter cubic --smoothing 1
 both clip clip.exr "${R[@]}" --clip 1,0,0,-4 --projection perspective
 both fog fog.exr "$volcl" -q render --scene "$work/in/fog_scene.json" --volume "$ml" --tf "$tf" --width 12 \
   --height 10
-for i in dvr dvr_noskip mip xray iso shading shadows scatter pre2d pre3d cubic clip fog; do
+for i in dvr dvr_noskip mip xray iso shading shadows shadows_dir shadows_point shadows_rays scatter pre2d pre3d cubic clip fog; do
   same_image "$i.exr" 1e-4
 done
 both pathtrace pathtrace.exr "${R[@]}" --scattering 0.8,0.3 --scattering-order multiple --samples 2
