@@ -35,6 +35,8 @@ enum class LodMode { Full, Auto };
 /// How a tetrahedral mesh is rendered: exact cell-by-cell traversal, or faces sorted by centroid into a
 /// per-pixel k-buffer of depth render.k (grids ignore it).
 enum class MeshMethod { Cells, KBuffer };
+/// Empty-space skipping: chosen per volume and TF by measuring a probe frame (Auto), always, or never.
+enum class SkipMode { Auto, On, Off };
 
 std::string_view renderModeName(RenderMode m);
 RenderMode parseRenderMode(std::string_view s); ///< throws UsageError
@@ -48,6 +50,8 @@ std::string_view lodModeName(LodMode m);
 LodMode parseLodMode(std::string_view s); ///< "full", "auto"; throws UsageError
 std::string_view meshMethodName(MeshMethod m);
 MeshMethod parseMeshMethod(std::string_view s); ///< "cells", "kbuffer"; throws UsageError
+std::string_view skipModeName(SkipMode m);
+SkipMode parseSkipMode(std::string_view s); ///< "auto", "on", "off"; throws UsageError
 
 /// GLM lookAt camera. `height` is the orthographic view height in world units; `fovYDeg` the perspective one.
 struct Camera {
@@ -160,7 +164,9 @@ struct Scene {
     std::optional<double> stepVoxels;
     Preintegration preintegration = Preintegration::None;
     double earlyTermination = 0.995; ///< 1 disables early termination
-    bool skipping = true;
+    /// Auto: grids measure skipping (macrocell edges and off) on a probe frame per TF and volume and keep the
+    /// fastest; bricks and meshes treat Auto as On.
+    SkipMode skipping = SkipMode::Auto;
     int tableSize = 256;   ///< pre-integration table nodes
     int tableLengths = 16; ///< 3D table: lengths between step / L and step
     ReconstructionFilter filter = ReconstructionFilter::Linear;

@@ -9,6 +9,7 @@
 #include "apps/bench/MediaBench.hpp"
 #include "apps/bench/MeshBench.hpp"
 #include "apps/bench/ScatterBench.hpp"
+#include "apps/bench/SkipBench.hpp"
 #include "apps/bench/VtkPeer.hpp"
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/SceneFlags.hpp"
@@ -66,7 +67,8 @@ struct BenchArgs {
     double referenceStep = 0.05;
     std::string csv, vtkImage;
     bool effects = false, vtk = false, sweep = true, filters = false, tables = false, fog = false;
-    bool scattering = false;
+    bool scattering = false, skipSweep = false;
+    std::string skipCsv;
     ScatterBenchOptions scatter;
     std::string budgets; ///< --budgets: frame-time budgets in ms
     BudgetBenchOptions budget;
@@ -78,7 +80,7 @@ struct BenchArgs {
 void benchEffects(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, Scene base,
                   int runs) {
     base.preintegration = Preintegration::None;
-    base.skipping = false;
+    base.skipping = SkipMode::Off;
     base.effects = {};
     base.lights.clear();
     const std::unique_ptr<VolumeRenderer> renderer = input.makeRenderer(cc, tf, base);
@@ -153,7 +155,7 @@ void benchEffects(ComputeContext& cc, const RenderInput& input, const TransferFu
          [&](Scene& s) {
              s.effects.isosurfaces = {{mid, {1, 1, 1, 0.5}}};
          }},
-        {"empty-space skipping", [&](Scene& s) { s.skipping = true; }},
+        {"empty-space skipping", [&](Scene& s) { s.skipping = SkipMode::On; }},
         {"2D pre-integration", [&](Scene& s) { s.preintegration = Preintegration::Table2d; }},
         {"3D pre-integration", [&](Scene& s) { s.preintegration = Preintegration::Table3d; }},
         {"fog, constant layer (falloff 0)",
@@ -265,6 +267,16 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
         o.referenceSamples = a.scatter.referenceSamples;
         benchBudgets(cc, input, tf, scene, o);
     }
+    if (a.skipSweep) {
+        const Volume* g = input.grid();
+        const double sp = g ? std::min({g->spacing[0], g->spacing[1], g->spacing[2]}) : 1.0;
+        SkipBenchOptions o;
+        for (double st : parseNumbers(a.steps, 0, "--steps"))
+            o.steps.push_back(st * sp);
+        o.rounds = a.runs;
+        o.csv = a.skipCsv;
+        benchSkipping(cc, input, tf, scene, o);
+    }
     if (a.filters) benchFilters(cc, input, tf, scene, a.runs, a.sweep || a.vtk ? std::string() : a.csv);
     if (a.tables || a.fog) {
         const Volume* g = input.grid();
@@ -304,7 +316,7 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
                     Scene s = scene;
                     s.step = step * minSpacing;
                     s.preintegration = pre;
-                    s.skipping = skip;
+                    s.skipping = skip ? SkipMode::On : SkipMode::Off;
                     const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, s);
                     const double tableMs = r->lastTableMilliseconds();
                     const double ms = timeFrames(*r, a.runs);
@@ -336,9 +348,9 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
         std::cout << "peer comparison, " << scene.width << "x" << scene.height << ", step " << scene.step
                   << ", same volume/TF/camera, RMSE of RGB (associated, over black) against the reference\n";
         std::cout << std::fixed << std::setprecision(2) << "  volcl "
-                  << preintegrationName(scene.preintegration) << (scene.skipping ? " +skip" : "") << ": "
-                  << ms << " ms/frame, RMSE " << std::scientific << std::setprecision(3) << ours << std::fixed
-                  << '\n';
+                  << preintegrationName(scene.preintegration)
+                  << (scene.skipping != SkipMode::Off ? " +skip" : "") << ": " << ms << " ms/frame, RMSE "
+                  << std::scientific << std::setprecision(3) << ours << std::fixed << '\n';
         std::cout << std::setprecision(2) << "  VTK vtkFixedPointVolumeRayCastMapper: " << vtkMs
                   << " ms/frame, RMSE " << std::scientific << std::setprecision(3) << theirs << std::fixed
                   << '\n';
@@ -389,6 +401,10 @@ void addRenderBench(CLI::App& bench, GlobalOptions& global) {
                   "--scatter-sweep: largest samples per pixel of the sweep")
         ->capture_default_str();
     b->add_option("--scatter-csv", ba->scatter.csv, "--scatter-sweep: write the rows as CSV");
+    b->add_flag("--skip-sweep", ba->skipSweep,
+                "Empty-space skipping auto/on/off per --steps: medians of --runs interleaved rounds, auto's "
+                "choice and auto against the better of on and off");
+    b->add_option("--skip-csv", ba->skipCsv, "--skip-sweep: write the rows as CSV");
     b->add_option("--budgets", ba->budgets,
                   "Frame-time budgets in ms (e.g. 400,1000): the planner's choice for each, timed again in "
                   "interleaved rounds, and its RMSE against the reference (--reference-samples)");

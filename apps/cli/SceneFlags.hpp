@@ -24,7 +24,7 @@ Vec3 parseVec3(const std::string& text, const std::string& what);
 struct SceneFlags {
     std::string scene, volume, tf, mode, preint, projection, eye, target, up, background, nanColor;
     std::string view, orbit, tfRange, tfUnitDistance = "auto";
-    std::string filter, window, mipColor, lod, method;
+    std::string filter, window, mipColor, lod, method, skipping;
     std::optional<double> lodError, cacheMb;
     std::optional<double> smoothing, viewHeight, fov, earlyTermination, shadowStep;
     std::optional<int> width, height, tableSize, tableLengths, k;
