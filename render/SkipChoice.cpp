@@ -33,7 +33,8 @@ std::string SkipDecision::text() const {
     return s + ")";
 }
 
-SkipDecision chooseSkipping(const std::vector<SkipCandidate>& candidates, int rounds, const SkipProbeTimer& time) {
+SkipDecision chooseSkipping(const std::vector<SkipCandidate>& candidates, int rounds,
+                            const SkipProbeTimer& time) {
     SkipDecision d;
     std::vector<SkipCandidate> measured{SkipCandidate{}};
     for (const SkipCandidate& c : candidates)

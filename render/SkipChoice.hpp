@@ -25,11 +25,11 @@ struct SkipTiming {
 
 /// The chosen way and what it was chosen on.
 struct SkipDecision {
-    unsigned edge = 0;           ///< voxels per macrocell edge; 0: skipping off
-    int width = 0, height = 0;   ///< the probe frame (0: nothing was measured)
-    int rounds = 0;              ///< interleaved rounds per candidate
+    unsigned edge = 0;               ///< voxels per macrocell edge; 0: skipping off
+    int width = 0, height = 0;       ///< the probe frame (0: nothing was measured)
+    int rounds = 0;                  ///< interleaved rounds per candidate
     std::vector<SkipTiming> timings; ///< off first, then the candidates measured
-    std::string unmeasured;      ///< why nothing was measured ("auto: no macrocell is empty, ...")
+    std::string unmeasured;          ///< why nothing was measured ("auto: no macrocell is empty, ...")
     /// "16^3-voxel macrocells (auto: 96x96 probe, medians of 5 interleaved rounds, kernel ms: off 4.10,
     /// 8^3 4.52 (35% empty), ...)".
     std::string text() const;
@@ -43,6 +43,7 @@ using SkipProbeTimer = std::function<double(unsigned edge)>;
 /// frame each (kernel builds excluded), then `rounds` interleaved rounds; the lowest median wins, off and then
 /// the smaller edge on ties. No candidate with an empty cell: off, unmeasured. The probe size is the caller's
 /// to fill in.
-SkipDecision chooseSkipping(const std::vector<SkipCandidate>& candidates, int rounds, const SkipProbeTimer& time);
+SkipDecision chooseSkipping(const std::vector<SkipCandidate>& candidates, int rounds,
+                            const SkipProbeTimer& time);
 
 } // namespace volcl

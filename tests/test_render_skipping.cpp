@@ -94,8 +94,9 @@ TEST(SkipChoice, TextStatesTheProbeRoundsAndEveryCandidate) {
     SkipDecision d = chooseSkipping({{8, 0.35}, {16, 0.304}}, 5, p.timer());
     d.width = 96;
     d.height = 96;
-    EXPECT_EQ(d.text(), "16^3-voxel macrocells (auto: 96x96 probe, medians of 5 interleaved rounds, kernel ms: "
-                        "off 4.10, 8^3 4.52 (35% empty), 16^3 3.91 (30% empty))");
+    EXPECT_EQ(d.text(),
+              "16^3-voxel macrocells (auto: 96x96 probe, medians of 5 interleaved rounds, kernel ms: "
+              "off 4.10, 8^3 4.52 (35% empty), 16^3 3.91 (30% empty))");
 }
 
 TEST(MedianInterval, OrderStatisticsWithTheirCoverage) {
@@ -118,7 +119,8 @@ TEST(MedianInterval, OrderStatisticsWithTheirCoverage) {
 
 /// Cheap deterministic noise in [0, 1) per voxel.
 double hashNoise(std::size_t i, std::size_t j, std::size_t k) {
-    std::uint32_t h = std::uint32_t(i * 73856093u) ^ std::uint32_t(j * 19349663u) ^ std::uint32_t(k * 83492791u);
+    std::uint32_t h =
+        std::uint32_t(i * 73856093u) ^ std::uint32_t(j * 19349663u) ^ std::uint32_t(k * 83492791u);
     h ^= h >> 13;
     h *= 0x5bd1e995u;
     h ^= h >> 15;
@@ -145,7 +147,7 @@ Volume mriLike() {
         const double r = std::sqrt(u * u + v * v + w * w);
         const double noise = 12.0 * hashNoise(std::size_t(x), std::size_t(y), std::size_t(z));
         if (r > 1.0) return noise;
-        if (r > 0.88) return 200.0 + noise;                        // skull
+        if (r > 0.88) return 200.0 + noise; // skull
         const double vent = std::hypot((x - 29.5) / 5.0, (y - 38.0) / 9.0, (z - 27.5) / 6.0);
         return (vent < 1.0 ? 40.0 : 110.0 + 30.0 * u * v) + noise; // ventricles, grey/white matter
     });
@@ -224,9 +226,8 @@ void expectEqualImagesAtEveryChoice(const Volume& v, const Scene& scene, const c
             const SkipDecision& d = r.skipDecision();
             // A candidate without an empty cell is never measured, so it cannot be the favoured one.
             const bool measurable =
-                edge == 0 || std::any_of(d.timings.begin(), d.timings.end(), [&](const SkipTiming& x) {
-                    return x.candidate.edge == edge;
-                });
+                edge == 0 || std::any_of(d.timings.begin(), d.timings.end(),
+                                         [&](const SkipTiming& x) { return x.candidate.edge == edge; });
             if (measurable) EXPECT_EQ(d.edge, edge) << what << ", " << t.name;
             EXPECT_EQ(r.plan().skipping, d.edge != 0);
             EXPECT_LE(worstPixelDifference(r.render(), reference), 1e-6f)

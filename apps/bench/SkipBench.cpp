@@ -14,9 +14,10 @@
 
 namespace volcl::cli {
 
-void benchSkipping(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, const Scene& scene,
-                   const SkipBenchOptions& o) {
-    if (o.steps.empty() || o.rounds < 1) throw UsageError("bench render: --skip-sweep needs steps and rounds >= 1");
+void benchSkipping(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
+                   const Scene& scene, const SkipBenchOptions& o) {
+    if (o.steps.empty() || o.rounds < 1)
+        throw UsageError("bench render: --skip-sweep needs steps and rounds >= 1");
     const std::array<SkipMode, 3> modes{SkipMode::Auto, SkipMode::On, SkipMode::Off};
     std::cout << "empty-space skipping, " << scene.width << "x" << scene.height << ", medians of " << o.rounds
               << " interleaved rounds (kernel ms); load " << loadAverageText() << '\n';
@@ -49,12 +50,15 @@ void benchSkipping(ComputeContext& cc, const RenderInput& input, const TransferF
         const std::string stats = r[0]->statistics();
         const std::size_t at = stats.find("skipping: ");
         const std::string choice = at == std::string::npos ? stats : stats.substr(at + 10);
-        std::cout << std::fixed << std::setprecision(2) << std::setw(7) << step << std::setw(10) << med[0].median
-                  << std::setw(10) << med[1].median << std::setw(10) << med[2].median << std::setw(11)
-                  << std::setprecision(3) << med[0].median / med[best].median << "  " << std::setprecision(2)
-                  << std::showpos << std::setw(6) << d.median << " (" << d.lo << " to " << d.hi << ")"
-                  << std::noshowpos << (d.holdsZero() ? " noise" : d.median > 0 ? " SLOWER" : " faster") << "  "
-                  << choice << '\n';
+        std::cout << std::fixed << std::setprecision(2) << std::setw(7) << step << std::setw(10)
+                  << med[0].median << std::setw(10) << med[1].median << std::setw(10) << med[2].median
+                  << std::setw(11) << std::setprecision(3) << med[0].median / med[best].median << "  "
+                  << std::setprecision(2) << std::showpos << std::setw(6) << d.median << " (" << d.lo
+                  << " to " << d.hi << ")" << std::noshowpos
+                  << (d.holdsZero()  ? " noise"
+                      : d.median > 0 ? " SLOWER"
+                                     : " faster")
+                  << "  " << choice << '\n';
         for (std::size_t m = 0; m < modes.size(); ++m)
             csv << step << ',' << skipModeName(modes[m]) << ',' << med[m].median << ',' << med[m].lo << ','
                 << med[m].hi << ",\"" << (m == 0 ? choice : std::string(skipModeName(modes[m]))) << "\"\n";

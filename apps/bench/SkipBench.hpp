@@ -21,7 +21,7 @@ struct SkipBenchOptions {
 /// For each step: one renderer per skipping mode (auto decides while it is built), then `rounds` rounds of
 /// one frame each, interleaved; prints medians, auto's choice, and auto against the better of on and off as
 /// a ratio and as the median paired difference with its 95% interval ("within noise" when it holds 0).
-void benchSkipping(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, const Scene& scene,
-                   const SkipBenchOptions& options);
+void benchSkipping(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
+                   const Scene& scene, const SkipBenchOptions& options);
 
 } // namespace volcl::cli

@@ -205,8 +205,14 @@ const grid_detail::MacrocellGrid& GridRenderer::selectSkipping(const grid_detail
     // Candidates: the profile's edge and merged cells of its coarser multiples.
     const DeviceProfile::RayMarch& tuning = cc_.profile().rayMarch;
     std::vector<grid_detail::MacrocellGrid> grids;
-    for (unsigned f : tuning.skipEdgeFactors)
-        if (f > 1) grids.push_back(grid_detail::coarsenMacrocells(macro, f));
+    for (unsigned f : tuning.skipEdgeFactors) {
+        if (f <= 1) continue;
+        grid_detail::MacrocellGrid g = grid_detail::coarsenMacrocells(macro, f);
+        const grid_detail::MacrocellGrid& prev = grids.empty() ? macro : grids.back();
+        // A volume already covered by as few cells: the same grid again, nothing new to measure.
+        if (g.nx == prev.nx && g.ny == prev.ny && g.nz == prev.nz) break;
+        grids.push_back(std::move(g));
+    }
     std::vector<std::vector<unsigned char>> empties{std::move(fine)};
     for (const auto& g : grids)
         empties.push_back(emptiness(g, shaded));
