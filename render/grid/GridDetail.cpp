@@ -49,7 +49,7 @@ MacrocellGrid coarsenMacrocells(const MacrocellGrid& fine, unsigned factor) {
                 const std::size_t c = (std::size_t(z / factor) * g.ny + y / factor) * g.nx + x / factor;
                 g.min[c] = std::min(g.min[c], fine.min[f]);
                 g.max[c] = std::max(g.max[c], fine.max[f]);
-                g.nonFinite[c] |= fine.nonFinite[f];
+                if (!fine.nonFinite.empty()) g.nonFinite[c] |= fine.nonFinite[f]; // spline grids have none
             }
     return g;
 }
