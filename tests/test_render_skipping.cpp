@@ -253,6 +253,9 @@ TEST(GridSkipping, ImagesEqualWithAndWithoutSkippingOnHydrogenLike) {
     shaded.effects.shading = true;
     shaded.lights = {{LightKind::Directional, {0.3, 0.5, -0.8}, {1, 1, 1}, 1.0}};
     expectEqualImagesAtEveryChoice(v, shaded, "hydrogen-like shaded (per-ray kernel)");
+    Scene cubic = s;
+    cubic.filter = ReconstructionFilter::Cubic; // macrocells bounding the spline, merged for coarser edges
+    expectEqualImagesAtEveryChoice(v, cubic, "hydrogen-like cubic filter");
 }
 
 TEST(GridSkipping, TheChoiceIsInThePlanAndStatistics) {
