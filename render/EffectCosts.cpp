@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <iomanip>
 #include <sstream>
 
@@ -29,23 +30,34 @@ std::string fixed(double v, int digits) {
     return os.str();
 }
 
+std::string signedMs(double v) {
+    return (v >= 0 ? "+" : "") + fixed(v, 2);
+}
+
 } // namespace
 
 std::string CostReport::text() const {
     std::ostringstream os;
-    os << "cost (measured, " << width << "x" << height << ", median of " << runs << " frames, kernel ms):\n";
+    os << "cost (measured, " << width << "x" << height << ", medians of " << rounds
+       << " interleaved rounds, kernel ms; load " << load << "):\n";
     os << "  plain frame (no effects, no tables, no skipping): " << fixed(plainMs, 2) << " ms\n";
     for (const auto& e : effects) {
-        os << "  " << e.effect << ": " << (e.addedMs >= 0 ? "+" : "") << fixed(e.addedMs, 2)
-           << " ms = " << (e.addedMs >= 0 ? "+" : "") << fixed(plainMs > 0 ? e.addedMs / plainMs : 0.0, 2)
-           << " plain frames\n";
+        const std::string interval = std::to_string(int(std::floor(e.added.level * 100.0))) + "% interval " +
+                                     signedMs(e.added.lo) + " to " + signedMs(e.added.hi);
+        if (e.withinNoise()) {
+            os << "  " << e.effect << ": within noise (" << interval << " ms)\n";
+            continue;
+        }
+        os << "  " << e.effect << ": " << signedMs(e.added.median)
+           << " ms = " << signedMs(plainMs > 0 ? e.added.median / plainMs : 0.0) << " plain frames ("
+           << interval << ")\n";
     }
     os << "  this frame: " << fixed(frameMs, 2) << " ms = " << fixed(plainMs > 0 ? frameMs / plainMs : 0.0, 2)
        << " x the plain frame\n";
     return os.str();
 }
 
-CostReport measureEffectCosts(VolumeRenderer& r, int runs, long maxPixels) {
+CostReport measureEffectCosts(VolumeRenderer& r, int rounds, long maxPixels) {
     const Scene original = r.scene();
     Scene base = original;
     base.camera = r.camera();
@@ -55,20 +67,19 @@ CostReport measureEffectCosts(VolumeRenderer& r, int runs, long maxPixels) {
         base.width = std::max(1, int(std::lround(base.width * f)));
         base.height = std::max(1, int(std::lround(base.height * f)));
     }
-    const EffectPlan plan = r.planEffects(base);
+    r.setScene(base);
+    const EffectPlan plan = r.plan(); // as built: skipping auto may have measured itself off
     CostReport rep;
     rep.width = base.width;
     rep.height = base.height;
-    rep.runs = runs;
+    rep.rounds = std::max(rounds, 1);
 
     Scene plain = base;
     plain.effects = {};
     plain.lights.clear();
     plain.preintegration = Preintegration::None;
-    plain.skipping = false;
+    plain.skipping = SkipMode::Off;
     if (plain.mode == RenderMode::Iso) plain.mode = RenderMode::Dvr; // iso mode needs its surfaces
-    rep.plainMs = timeFrames(r, plain, runs);
-    rep.frameMs = timeFrames(r, base, runs);
 
     struct Toggle {
         const char* name;
@@ -85,17 +96,38 @@ CostReport measureEffectCosts(VolumeRenderer& r, int runs, long maxPixels) {
          [](Scene& s) { s.effects.isosurfaces.clear(); }},
         {"pre-integration", base.preintegration != Preintegration::None && base.mode == RenderMode::Dvr,
          [](Scene& s) { s.preintegration = Preintegration::None; }},
-        {"empty-space skipping", plan.skipping, [](Scene& s) { s.skipping = false; }},
+        {"empty-space skipping", plan.skipping, [](Scene& s) { s.skipping = SkipMode::Off; }},
         {"early termination", plan.earlyTermination, [](Scene& s) { s.earlyTermination = 1.0; }},
     };
+    // Variant 0 is the plain frame, 1 the scene's, then one per compiled effect without it.
+    std::vector<Scene> variants{plain, base};
+    std::vector<const char*> names;
     for (const auto& t : toggles) {
         if (!t.on) continue;
         Scene without = base;
         t.remove(without);
+        variants.push_back(without);
+        names.push_back(t.name);
+    }
+    std::vector<std::vector<double>> ms(variants.size());
+    for (int round = -1; round < rep.rounds; ++round) // round -1: warm-up (kernel builds, first touch)
+        for (std::size_t v = 0; v < variants.size(); ++v) {
+            r.setScene(variants[v]);
+            r.render();
+            if (round >= 0) ms[v].push_back(r.lastKernelMilliseconds());
+        }
+    rep.load = loadAverageText();
+    rep.plainMs = median(ms[0]);
+    rep.frameMs = median(ms[1]);
+    for (std::size_t i = 0; i < names.size(); ++i) {
+        const std::vector<double>& without = ms[i + 2];
+        std::vector<double> diff;
+        for (std::size_t k = 0; k < without.size(); ++k)
+            diff.push_back(ms[1][k] - without[k]);
         EffectCost c;
-        c.effect = t.name;
-        c.withoutMs = timeFrames(r, without, runs);
-        c.addedMs = rep.frameMs - c.withoutMs;
+        c.effect = names[i];
+        c.withoutMs = median(without);
+        c.added = medianInterval(diff);
         rep.effects.push_back(c);
     }
     r.setScene(original);

@@ -344,7 +344,7 @@ void planTableEffects(const Scene& scene, EffectPlan& p) {
 /// The ray accelerations: empty-space skipping and early termination.
 void planAccelerations(const PlanInput& in, std::string_view skippingHow, EffectPlan& p) {
     const Scene& scene = in.scene;
-    if (scene.skipping) {
+    if (scene.skipping != SkipMode::Off) {
         if (!in.marching)
             p.dropped.push_back("empty-space skipping: mode " + in.modeName + " visits every sample");
         else {

@@ -137,6 +137,17 @@ Preintegration parsePreintegration(std::string_view s) {
     throw UsageError("pre-integration '" + std::string(s) + "' is unknown (expected none, 2d, 3d)");
 }
 
+std::string_view skipModeName(SkipMode m) {
+    return m == SkipMode::Auto ? "auto" : m == SkipMode::On ? "on" : "off";
+}
+
+SkipMode parseSkipMode(std::string_view s) {
+    if (s == "auto") return SkipMode::Auto;
+    if (s == "on") return SkipMode::On;
+    if (s == "off") return SkipMode::Off;
+    throw UsageError("skipping '" + std::string(s) + "' is unknown (expected auto, on, off)");
+}
+
 std::string_view filterName(ReconstructionFilter f) {
     switch (f) {
     case ReconstructionFilter::Linear:
@@ -310,7 +321,11 @@ void parseRenderSettings(const json& r, Scene& s) {
     }
     if (r.contains("early_termination"))
         s.earlyTermination = num(r["early_termination"], "render.early_termination");
-    if (r.contains("skipping")) s.skipping = flag(r["skipping"], "render.skipping");
+    if (r.contains("skipping")) {
+        const json& k = r["skipping"]; // true/false from before "auto" existed: on/off
+        s.skipping = k.is_boolean() ? (k.get<bool>() ? SkipMode::On : SkipMode::Off)
+                                    : parseSkipMode(str(k, "render.skipping"));
+    }
     if (r.contains("table_size")) s.tableSize = intField(r["table_size"], "render.table_size");
     if (r.contains("table_lengths")) s.tableLengths = intField(r["table_lengths"], "render.table_lengths");
     if (r.contains("filter")) s.filter = parseFilter(str(r["filter"], "render.filter"));
@@ -528,7 +543,7 @@ std::string Scene::toJson() const {
                    {"step", stepVoxels ? json(formatNumber(*stepVoxels, 17) + "vox") : json(step)},
                    {"preintegration", std::string(preintegrationName(preintegration))},
                    {"early_termination", earlyTermination},
-                   {"skipping", skipping},
+                   {"skipping", std::string(skipModeName(skipping))},
                    {"table_size", tableSize},
                    {"table_lengths", tableLengths},
                    {"filter", std::string(filterName(filter))},

@@ -47,6 +47,8 @@ enum class MeshSort;
 /// classified volume (orthographic views), or discrete ray casting (nearest voxel, 3D DDA). Meshes and
 /// compressed bricks ignore it.
 enum class GridMethod { Raymarch, ShearWarp, Drc };
+/// Empty-space skipping: chosen per volume and TF by measuring a probe frame (Auto), always, or never.
+enum class SkipMode { Auto, On, Off };
 
 std::string_view renderModeName(RenderMode m);
 RenderMode parseRenderMode(std::string_view s); ///< throws UsageError
@@ -64,6 +66,8 @@ std::string_view gridMethodName(GridMethod m);
 /// Sets render.method from `s`: a mesh method ("cells", "kbuffer", "pt") or a grid method ("raymarch",
 /// "shear-warp", "drc"); throws UsageError naming `what` for anything else.
 void parseRenderMethod(std::string_view s, const std::string& what, Scene& scene);
+std::string_view skipModeName(SkipMode m);
+SkipMode parseSkipMode(std::string_view s); ///< "auto", "on", "off"; throws UsageError
 
 /// GLM lookAt camera. `height` is the orthographic view height in world units; `fovYDeg` the perspective one.
 struct Camera {
@@ -184,7 +188,9 @@ struct Scene {
     std::optional<double> stepVoxels;
     Preintegration preintegration = Preintegration::None;
     double earlyTermination = 0.995; ///< 1 disables early termination
-    bool skipping = true;
+    /// Auto: grids measure skipping (macrocell edges and off) on a probe frame per TF and volume and keep the
+    /// fastest; bricks and meshes treat Auto as On.
+    SkipMode skipping = SkipMode::Auto;
     int tableSize = 256;   ///< pre-integration table nodes
     int tableLengths = 16; ///< 3D table: lengths between step / L and step
     ReconstructionFilter filter = ReconstructionFilter::Linear;

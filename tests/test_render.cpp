@@ -221,7 +221,7 @@ TEST(Render, SkippingChangesNothingBeyondFloatNoise) {
             GridRenderer r(computeContext(), v, tf, s);
             const ImageBuffer on = r.render();
             EXPECT_GT(r.emptyMacrocellFraction(), 0.2);
-            s.skipping = false;
+            s.skipping = SkipMode::Off;
             r.setScene(s);
             const ImageBuffer off = r.render();
             EXPECT_LT(maxAbsDiff(on, off), 2e-6) << renderModeName(mode) << " " << preintegrationName(pre);
@@ -237,7 +237,7 @@ TEST(Render, PlainKernelMatchesBaseline) {
     tf.color = {{0, {0, 0, 1}}, {35, {1, 0, 0}}};
     tf.extinction = {{0, 0.0}, {35, 0.3}};
     Scene s = orthoScene(n, 22.0, 16, 16);
-    s.skipping = false;
+    s.skipping = SkipMode::Off;
     s.earlyTermination = 0.99;
     GridRenderer r(computeContext(), v, tf, s);
     EXPECT_EQ(r.plan().defines.toOptions(), "-DEARLY_TERMINATION -DMODE=0 -DVOXEL_TYPE=0");

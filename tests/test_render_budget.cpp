@@ -313,7 +313,7 @@ TEST(EffectCosts, OneLinePerCompiledEffectAndTheSceneRestored) {
     s.effects.fog.base = 30.0;
     s.effects.shading = true;
     s.lights = {{LightKind::Directional, {0, 0, -1}, {1, 1, 1}, 1.0}};
-    s.skipping = false;
+    s.skipping = SkipMode::Off;
     s.earlyTermination = 1.0;
     LawRenderer r(s);
     const CostReport rep = measureEffectCosts(r, 1);
@@ -322,12 +322,56 @@ TEST(EffectCosts, OneLinePerCompiledEffectAndTheSceneRestored) {
     EXPECT_DOUBLE_EQ(rep.frameMs, 12.0);
     ASSERT_EQ(rep.effects.size(), 2u);
     EXPECT_EQ(rep.effects[0].effect, "shading");
-    EXPECT_DOUBLE_EQ(rep.effects[0].addedMs, 1.0);
+    EXPECT_DOUBLE_EQ(rep.effects[0].added.median, 1.0);
     EXPECT_EQ(rep.effects[1].effect, "fog");
-    EXPECT_DOUBLE_EQ(rep.effects[1].addedMs, 3.0);
+    EXPECT_DOUBLE_EQ(rep.effects[1].added.median, 3.0);
     EXPECT_TRUE(r.scene().effects.fog.enabled);
     EXPECT_TRUE(r.scene().effects.shading);
     EXPECT_NE(rep.text().find("fog: +3.00 ms = +0.38 plain frames"), std::string::npos) << rep.text();
+}
+
+TEST(EffectCosts, ACostWhoseIntervalHoldsZeroIsWithinNoiseAndTheLoadIsStated) {
+    Scene s = baseScene();
+    s.effects.shading = true;
+    s.lights = {{LightKind::Directional, {0, 0, -1}, {1, 1, 1}, 1.0}};
+    s.skipping = SkipMode::On; // the law charges nothing for skipping: its cost is 0 in every round
+    s.earlyTermination = 1.0;
+    LawRenderer r(s);
+    const CostReport rep = measureEffectCosts(r, 7);
+    ASSERT_EQ(rep.effects.size(), 2u);
+    EXPECT_FALSE(rep.effects[0].withinNoise());
+    EXPECT_TRUE(rep.effects[1].withinNoise());
+    const std::string text = rep.text();
+    EXPECT_NE(text.find("medians of 7 interleaved rounds, kernel ms; load "), std::string::npos) << text;
+    EXPECT_NE(text.find(" (1, 5, 15 min)):\n"), std::string::npos) << text;
+    EXPECT_NE(text.find("  shading: +1.00 ms = +0.12 plain frames (98% interval +1.00 to +1.00)\n"),
+              std::string::npos)
+        << text;
+    EXPECT_NE(text.find("  empty-space skipping: within noise (98% interval +0.00 to +0.00 ms)\n"),
+              std::string::npos)
+        << text;
+}
+
+TEST(EffectCosts, NoisyCostsSignedOnlyWhenTheirIntervalExcludesZero) {
+    CostReport rep;
+    rep.width = 64;
+    rep.height = 48;
+    rep.rounds = 9;
+    rep.load = "3.10 2.50 1.20 (1, 5, 15 min)";
+    rep.plainMs = 10.0;
+    rep.frameMs = 9.0;
+    EffectCost skip{"empty-space skipping", 9.5,
+                    medianInterval({-0.9, 0.4, -0.2, 0.1, -0.6, 0.3, -0.1, 0.2, -0.4})};
+    EffectCost term{"early termination", 12.0,
+                    medianInterval({-3.1, -2.9, -3.0, -2.5, -3.3, -2.8, -3.0, -0.2, -3.6})};
+    rep.effects = {skip, term};
+    EXPECT_EQ(rep.text(),
+              "cost (measured, 64x48, medians of 9 interleaved rounds, kernel ms; load 3.10 2.50 1.20 "
+              "(1, 5, 15 min)):\n"
+              "  plain frame (no effects, no tables, no skipping): 10.00 ms\n"
+              "  empty-space skipping: within noise (96% interval -0.60 to +0.30 ms)\n"
+              "  early termination: -3.00 ms = -0.30 plain frames (96% interval -3.30 to -2.50)\n"
+              "  this frame: 9.00 ms = 0.90 x the plain frame\n");
 }
 
 } // namespace

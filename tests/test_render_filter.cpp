@@ -178,7 +178,7 @@ TEST(Filter, KernelsMatchTheReferenceOnASmoothField) {
             EXPECT_NE(r.plan().defines.toOptions().find("-DFILTER_BSPLINE"), std::string::npos);
             // Skipping and the packet kernel change nothing beyond float noise.
             Scene noSkip = s;
-            noSkip.skipping = false;
+            noSkip.skipping = SkipMode::Off;
             EXPECT_LT(imageRmse(GridRenderer(computeContext(), v, tf, noSkip).render(), img), 1e-4)
                 << filterName(f) << " " << cs.name;
         }

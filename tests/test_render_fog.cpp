@@ -393,10 +393,10 @@ TEST(Fog, SkippingAndEarlyTerminationKeepTheFog) {
         SCOPED_TRACE(v.name);
         Scene s = view(v.dir, v.camUp);
         s.effects.fog = fogOf(o);
-        s.skipping = true;
+        s.skipping = SkipMode::On;
         GridRenderer skip(computeContext(), vol, tf, s);
         Scene ns = s;
-        ns.skipping = false;
+        ns.skipping = SkipMode::Off;
         GridRenderer noSkip(computeContext(), vol, tf, ns);
         const ImageBuffer a = skip.render(), b = noSkip.render();
         double worst = 0.0;

@@ -425,7 +425,7 @@ TEST(RenderIso, MixedWithDvrAndShadedMatchReference) {
             s.height = 36;
             s.step = 0.5;
             s.earlyTermination = 1.0;
-            s.skipping = skipping;
+            s.skipping = skipping ? SkipMode::On : SkipMode::Off;
             s.effects.isosurfaces = {{60.0, {1, 0.3, 0.3, 0.4}}, {80.0, {0.3, 1, 0.3, 0.7}}};
             if (shaded) {
                 Light l;

@@ -116,7 +116,7 @@ TEST(RenderNan, SkippingKeepsCellsWhereOnlyTheNanColourShows) {
     s.step = 0.5;
     s.nanColor = {1.0, 0.0, 0.0, 0.5};
     for (bool skipping : {true, false}) {
-        s.skipping = skipping;
+        s.skipping = skipping ? SkipMode::On : SkipMode::Off;
         const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
         const double a = 1.0 - std::pow(0.5, 4.0); // z in [11, 15): four units at opacity 0.5 per unit
         expectPixel(img, {a, 0.0, 0.0, a}, 1e-5, skipping ? "skipping" : "no skipping");

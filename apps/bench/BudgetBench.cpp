@@ -26,7 +26,7 @@ void benchBudgets(ComputeContext& cc, const RenderInput& input, const TransferFu
         throw UsageError("bench render: --budgets needs budgets, rounds >= 1 and reference samples >= 1");
     const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, scene);
     std::cout << "budget planner, " << scene.width << "x" << scene.height << ", load average "
-              << loadAverage() << '\n';
+              << loadAverageText() << '\n';
     struct Row {
         double budget;
         std::optional<BudgetChoice> choice;
@@ -95,7 +95,7 @@ void benchBudgets(ComputeContext& cc, const RenderInput& input, const TransferFu
     const double drift = planned.empty() ? 1.0 : median(anchorMs) / median(planned);
 
     std::cout << "reference: " << refName << "; achieved = median of " << o.rounds
-              << " interleaved frames; load average now " << loadAverage()
+              << " interleaved frames; load average now " << loadAverageText()
               << "\nthe scene's own frame: " << std::fixed << std::setprecision(1)
               << (planned.empty() ? 0.0 : median(planned)) << " ms while planning, " << median(anchorMs)
               << " ms in the rounds (machine " << std::setprecision(2) << drift

@@ -149,7 +149,7 @@ void benchFog(ComputeContext& cc, const RenderInput& input, const TransferFuncti
     plain.effects = {};
     plain.lights.clear();
     plain.preintegration = Preintegration::None;
-    plain.skipping = false;
+    plain.skipping = SkipMode::Off;
     auto fogged = [&](bool exponential) {
         FogEffect f;
         f.enabled = true;

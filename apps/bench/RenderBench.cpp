@@ -11,6 +11,7 @@
 #include "apps/bench/ScatterBench.hpp"
 #include "apps/bench/TierBench.hpp"
 #include "apps/bench/ShadowBench.hpp"
+#include "apps/bench/SkipBench.hpp"
 #include "apps/bench/VtkPeer.hpp"
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/SceneFlags.hpp"
@@ -71,6 +72,8 @@ struct BenchArgs {
     bool effects = false, vtk = false, sweep = true, filters = false, tables = false, fog = false;
     bool scattering = false, tiers = false, shadows = false;
     TierBenchOptions tier;
+    bool skipSweep = false;
+    std::string skipCsv;
     ScatterBenchOptions scatter;
     ShadowBenchOptions shadow;
     std::string shadowCells = "1,2,4", shadowRaySteps = "1,2";
@@ -84,7 +87,7 @@ struct BenchArgs {
 void benchEffects(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, Scene base,
                   int runs) {
     base.preintegration = Preintegration::None;
-    base.skipping = false;
+    base.skipping = SkipMode::Off;
     base.effects = {};
     base.lights.clear();
     const std::unique_ptr<VolumeRenderer> renderer = input.makeRenderer(cc, tf, base);
@@ -167,7 +170,7 @@ void benchEffects(ComputeContext& cc, const RenderInput& input, const TransferFu
          [&](Scene& s) {
              s.effects.isosurfaces = {{mid, {1, 1, 1, 0.5}}};
          }},
-        {"empty-space skipping", [&](Scene& s) { s.skipping = true; }},
+        {"empty-space skipping", [&](Scene& s) { s.skipping = SkipMode::On; }},
         {"2D pre-integration", [&](Scene& s) { s.preintegration = Preintegration::Table2d; }},
         {"3D pre-integration", [&](Scene& s) { s.preintegration = Preintegration::Table3d; }},
         {"fog, constant layer (falloff 0)",
@@ -294,6 +297,16 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
         o.referenceStep = a.referenceStep;
         benchTiers(cc, input, tf, scene, o);
     }
+    if (a.skipSweep) {
+        const Volume* g = input.grid();
+        const double sp = g ? std::min({g->spacing[0], g->spacing[1], g->spacing[2]}) : 1.0;
+        SkipBenchOptions o;
+        for (double st : parseNumbers(a.steps, 0, "--steps"))
+            o.steps.push_back(st * sp);
+        o.rounds = a.runs;
+        o.csv = a.skipCsv;
+        benchSkipping(cc, input, tf, scene, o);
+    }
     if (a.filters) benchFilters(cc, input, tf, scene, a.runs, a.sweep || a.vtk ? std::string() : a.csv);
     if (a.tables || a.fog) {
         const Volume* g = input.grid();
@@ -333,7 +346,7 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
                     Scene s = scene;
                     s.step = step * minSpacing;
                     s.preintegration = pre;
-                    s.skipping = skip;
+                    s.skipping = skip ? SkipMode::On : SkipMode::Off;
                     const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, s);
                     const double tableMs = r->lastTableMilliseconds();
                     const double ms = timeFrames(*r, a.runs);
@@ -365,9 +378,9 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
         std::cout << "peer comparison, " << scene.width << "x" << scene.height << ", step " << scene.step
                   << ", same volume/TF/camera, RMSE of RGB (associated, over black) against the reference\n";
         std::cout << std::fixed << std::setprecision(2) << "  volcl "
-                  << preintegrationName(scene.preintegration) << (scene.skipping ? " +skip" : "") << ": "
-                  << ms << " ms/frame, RMSE " << std::scientific << std::setprecision(3) << ours << std::fixed
-                  << '\n';
+                  << preintegrationName(scene.preintegration)
+                  << (scene.skipping != SkipMode::Off ? " +skip" : "") << ": " << ms << " ms/frame, RMSE "
+                  << std::scientific << std::setprecision(3) << ours << std::fixed << '\n';
         std::cout << std::setprecision(2) << "  VTK vtkFixedPointVolumeRayCastMapper: " << vtkMs
                   << " ms/frame, RMSE " << std::scientific << std::setprecision(3) << theirs << std::fixed
                   << '\n';
@@ -428,6 +441,10 @@ void addRenderBench(CLI::App& bench, GlobalOptions& global) {
                   "--shadow-sweep: shadow-ray steps in voxel spacings; the first is the reference")
         ->capture_default_str();
     b->add_option("--shadow-csv", ba->shadow.csv, "--shadow-sweep: write the rows as CSV");
+    b->add_flag("--skip-sweep", ba->skipSweep,
+                "Empty-space skipping auto/on/off per --steps: medians of --runs interleaved rounds, auto's "
+                "choice and auto against the better of on and off");
+    b->add_option("--skip-csv", ba->skipCsv, "--skip-sweep: write the rows as CSV");
     b->add_option("--budgets", ba->budgets,
                   "Frame-time budgets in ms (e.g. 400,1000): the planner's choice for each, timed again in "
                   "interleaved rounds, and its RMSE against the reference (--reference-samples)");

@@ -128,7 +128,10 @@ void SceneFlags::add(CLI::App* cmd) {
         ->default_str(num(d.cacheMb));
     cmd->add_option("--early-termination", earlyTermination, "Stop rays at this opacity (1 = never)")
         ->default_str(num(d.earlyTermination));
-    cmd->add_flag("--no-skipping", noSkipping, "Disable empty-space skipping");
+    cmd->add_flag("--no-skipping", noSkipping, "Disable empty-space skipping (as --skipping off)");
+    cmd->add_option("--skipping", skipping,
+                    "Empty-space skipping: auto (measured per volume and TF on a probe frame), on, off")
+        ->default_str(std::string(skipModeName(d.skipping)));
     cmd->add_option("--table-size", tableSize, "Pre-integration table nodes")->default_str(num(d.tableSize));
     cmd->add_option("--table-lengths", tableLengths, "3D pre-integration: number of lengths")
         ->default_str(num(d.tableLengths));
@@ -207,7 +210,8 @@ Scene SceneFlags::build() const {
     if (!lod.empty()) s.lod = parseLodMode(lod);
     if (lodError) s.lodError = *lodError;
     if (cacheMb) s.cacheMb = *cacheMb;
-    if (noSkipping) s.skipping = false;
+    if (!skipping.empty()) s.skipping = parseSkipMode(skipping);
+    if (noSkipping) s.skipping = SkipMode::Off;
     if (tableSize) s.tableSize = *tableSize;
     if (tableLengths) s.tableLengths = *tableLengths;
     if (!background.empty()) {

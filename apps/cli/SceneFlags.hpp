@@ -31,7 +31,7 @@ Vec3 parseVec3(const std::string& text, const std::string& what);
 struct SceneFlags {
     std::string scene, volume, tf, mode, preint, projection, eye, target, up, background, nanColor;
     std::string view, orbit, tfRange, tfUnitDistance = "auto";
-    std::string filter, window, mipColor, lod, method, sort;
+    std::string filter, window, mipColor, lod, method, sort, skipping;
     std::optional<double> lodError, cacheMb;
     std::optional<double> smoothing, viewHeight, fov, earlyTermination, shadowStep;
     std::optional<int> width, height, tableSize, tableLengths, k, lightVolumeCell;

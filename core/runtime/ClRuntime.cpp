@@ -146,6 +146,11 @@ KernelDefines& KernelDefines::set(std::string name) {
     return *this;
 }
 
+KernelDefines& KernelDefines::erase(const std::string& name) {
+    values_.erase(name);
+    return *this;
+}
+
 std::string KernelDefines::toOptions() const {
     std::string out;
     for (const auto& [name, value] : values_) {

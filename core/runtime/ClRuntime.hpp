@@ -54,6 +54,7 @@ public:
     }
     KernelDefines& set(std::string name, double value); ///< emitted as a float literal; must be finite
     KernelDefines& set(std::string name);               ///< defined, no value
+    KernelDefines& erase(const std::string& name);      ///< no longer defined (absent: unchanged)
     std::string toOptions() const;                      ///< "-DA=1 -DB=2"
     bool operator==(const KernelDefines&) const = default;
 

@@ -47,6 +47,11 @@ constexpr DeviceProfile kGeneric{
             .packet = {4, 4},
             .pathTrace = {8, 8},
             .macrocellEdge = 8, // 8^3 cells keep the grid small and tight
+            // A 96x96 probe costs 1/28 of a 512^2 frame; 5 rounds of off + 3 edges keep the choice below two
+            // full frames. Coarser cells cost fewer cell visits per ray and skip less.
+            .skipProbePixels = 96 * 96,
+            .skipProbeRounds = 5,
+            .skipEdgeFactors = {2, 4, 0},
         },
     .preview =
         {

@@ -57,6 +57,11 @@ struct DeviceProfile {
         LocalSize tile, packet; ///< one ray per work-item; one 4x2 packet of rays per work-item
         LocalSize pathTrace;
         unsigned macrocellEdge = 0; ///< voxels per macrocell edge of the empty-space skipping grid
+        /// render.skipping auto: the probe frame's pixels (at most), its interleaved timing rounds, and the
+        /// coarser edges tried besides macrocellEdge, as multiples of it (merged cells; 0 ends the list).
+        std::size_t skipProbePixels = 0;
+        int skipProbeRounds = 0;
+        unsigned skipEdgeFactors[3] = {0, 0, 0};
     } rayMarch;
 
     /// Preview tiers of grids (render/shearwarp.cl, render/drc.cl).

@@ -4,6 +4,9 @@
 #include "core/runtime/ClRuntime.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <ctime>
 
 namespace volcl {
@@ -19,6 +22,37 @@ double median(std::vector<double> samples) {
     std::sort(samples.begin(), samples.end());
     std::size_t n = samples.size();
     return n % 2 ? samples[n / 2] : 0.5 * (samples[n / 2 - 1] + samples[n / 2]);
+}
+
+MedianInterval medianInterval(std::vector<double> samples, double confidence) {
+    MedianInterval r;
+    if (samples.empty()) return r;
+    r.median = median(samples);
+    std::sort(samples.begin(), samples.end());
+    const std::size_t n = samples.size();
+    // P(Bin(n, 1/2) <= j), accumulated: coverage of [x(k), x(n+1-k)] is 1 - 2 P(Bin <= k - 1).
+    std::vector<double> cdf(n + 1);
+    double term = std::pow(0.5, double(n)), sum = 0.0;
+    for (std::size_t j = 0; j <= n; ++j) {
+        sum += term;
+        cdf[j] = sum;
+        term = term * double(n - j) / double(j + 1);
+    }
+    std::size_t k = 1; // 1-based order statistic
+    while (k + 1 <= (n + 1) / 2 && 1.0 - 2.0 * cdf[k] >= confidence)
+        ++k;
+    r.lo = samples[k - 1];
+    r.hi = samples[n - k];
+    r.level = 1.0 - 2.0 * cdf[k - 1];
+    return r;
+}
+
+std::string loadAverageText() {
+    double l[3] = {0, 0, 0};
+    if (getloadavg(l, 3) != 3) return "unknown";
+    char text[96];
+    std::snprintf(text, sizeof text, "%.2f %.2f %.2f (1, 5, 15 min)", l[0], l[1], l[2]);
+    return text;
 }
 
 double medianMilliseconds(int runs, const std::function<void()>& fn) {

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstddef>
 #include <functional>
+#include <string>
 #include <vector>
 
 namespace volcl {
@@ -37,6 +38,21 @@ private:
 
 /// Median of the samples (mean of the middle two for even counts); 0 for an empty list.
 double median(std::vector<double> samples);
+
+/// A median with a distribution-free confidence interval: order statistics lo = x(k), hi = x(n+1-k) for the
+/// largest k whose binomial coverage 1 - 2 P(Bin(n, 1/2) < k) reaches `confidence` (no such k, n < 6 at
+/// 95%: the whole range [min, max], whose coverage `level` then states).
+struct MedianInterval {
+    double median = 0.0, lo = 0.0, hi = 0.0;
+    double level = 0.0; ///< the interval's actual coverage
+    /// The interval holds 0: the sign of the median is not established.
+    bool holdsZero() const noexcept { return lo <= 0.0 && hi >= 0.0; }
+};
+MedianInterval medianInterval(std::vector<double> samples, double confidence = 0.95);
+
+/// The machine's load average as "1.23 0.98 0.75 (1, 5, 15 min)" (from /proc/loadavg), "unknown" when it
+/// cannot be read: every timing printed on a shared machine states it.
+std::string loadAverageText();
 
 /// Runs `fn` once as a warm-up, then `runs` times; returns the median wall time in milliseconds.
 double medianMilliseconds(int runs, const std::function<void()>& fn);

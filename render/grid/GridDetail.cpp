@@ -31,6 +31,29 @@ std::size_t nonFiniteCount(const Volume& volume) {
     return n;
 }
 
+MacrocellGrid coarsenMacrocells(const MacrocellGrid& fine, unsigned factor) {
+    if (factor <= 1) return fine;
+    MacrocellGrid g;
+    g.edge = fine.edge * factor;
+    g.nx = (fine.nx + factor - 1) / factor;
+    g.ny = (fine.ny + factor - 1) / factor;
+    g.nz = (fine.nz + factor - 1) / factor;
+    const std::size_t count = std::size_t(g.nx) * g.ny * g.nz;
+    g.min.assign(count, std::numeric_limits<float>::infinity());
+    g.max.assign(count, -std::numeric_limits<float>::infinity());
+    g.nonFinite.assign(count, 0);
+    for (unsigned z = 0; z < fine.nz; ++z)
+        for (unsigned y = 0; y < fine.ny; ++y)
+            for (unsigned x = 0; x < fine.nx; ++x) {
+                const std::size_t f = (std::size_t(z) * fine.ny + y) * fine.nx + x;
+                const std::size_t c = (std::size_t(z / factor) * g.ny + y / factor) * g.nx + x / factor;
+                g.min[c] = std::min(g.min[c], fine.min[f]);
+                g.max[c] = std::max(g.max[c], fine.max[f]);
+                if (!fine.nonFinite.empty()) g.nonFinite[c] |= fine.nonFinite[f]; // spline grids have none
+            }
+    return g;
+}
+
 MacrocellGrid buildMacrocells(const Volume& volume, unsigned edge) {
     const Dims& d = volume.dims();
     MacrocellGrid g;

@@ -31,6 +31,9 @@ struct MacrocellGrid {
     std::vector<unsigned char> nonFinite; ///< 1 where the cell holds a NaN/Inf voxel
 };
 MacrocellGrid buildMacrocells(const Volume& volume, unsigned edge);
+/// The grid of `factor`^3 merged cells (edge * factor voxels): each coarse cell's bounds are those of the fine
+/// cells it covers, so emptiness stays exact (the coarse cell is empty only where all of them are).
+MacrocellGrid coarsenMacrocells(const MacrocellGrid& fine, unsigned factor);
 
 /// 1 for cells where nothing can be seen: tau = 0 over the cell's value range (widened to the table nodes a
 /// pre-integration lookup would touch when tableNodes > 0) and no iso-value crossed. `isoOnly`: only

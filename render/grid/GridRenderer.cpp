@@ -130,6 +130,11 @@ struct GridRenderer::Impl {
     std::unique_ptr<GridPathTracer> pathTracer;
     std::string majorantKey;
     LightVolume lightVolume; ///< SHADOW_VOLUME: transmittance toward each light, rebuilt when it changes
+    /// render.skipping auto: choices by TF, effects and step octave (a viewer alternates between a few).
+    TableCache<SkipDecision> skipDecisions{16};
+    SkipDecision skip;                    ///< the current scene's (auto), else edge and "render.skipping ..."
+    SkipProbeTimer probeTimer;            ///< injected probe timing (tests); empty: launch the probe
+    grid_detail::MacrocellGrid skipMacro; ///< auto's merged macrocells, when it chose a coarser edge
 };
 
 GridRenderer::GridRenderer(ComputeContext& cc, const Volume& volume, const TransferFunction& tf,
@@ -173,8 +178,9 @@ void GridRenderer::rebuild(const Rebuild& change) {
     Impl& m = *impl_;
     selectTables(change.shaded);
     const grid_detail::MacrocellGrid& macro = prepareSampledField();
-    updateEmptiness(macro, change.shaded);
     if (plan_.pathTracing) {
+        useEmptiness(emptiness(macro, change.shaded));
+        m.skip = {};
         preparePathTracer(change.shaded);
         return;
     }
@@ -182,8 +188,6 @@ void GridRenderer::rebuild(const Rebuild& change) {
     const bool floatCopy = scene_.filter != ReconstructionFilter::Linear || scene_.smoothing > 0.0;
     m.packet =
         scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
-    m.kernel = cc_.kernel("render/raymarch.cl", m.packet ? "raymarch_packet" : "raymarch",
-                          m.packet ? packetDefines(plan_.defines, floatCopy) : plan_.defines);
     m.params = grid_detail::makeParams(scene_, camera_, volume_, m.range, tf_, plan_, macro, knotCount(),
                                        tableLengths());
     if (plan_.isoTable) {
@@ -193,6 +197,128 @@ void GridRenderer::rebuild(const Rebuild& change) {
         m.params.tf.tableSize = volcl_uint(scene_.tableSize);
     }
     if (plan_.fog) m.params.fog = m.fog.update(cc_, scene_.effects.fog, bounds(), plan_.fogMap);
+    m.params.grid =
+        grid_detail::gridParams(volume_, selectSkipping(macro, change.shaded, m.params, floatCopy));
+    m.kernel = cc_.kernel("render/raymarch.cl", m.packet ? "raymarch_packet" : "raymarch",
+                          m.packet ? packetDefines(plan_.defines, floatCopy) : plan_.defines);
+}
+
+const grid_detail::MacrocellGrid& GridRenderer::selectSkipping(const grid_detail::MacrocellGrid& macro,
+                                                               const TransferFunction& shaded,
+                                                               const VolclGridRenderParams& base,
+                                                               bool floatCopy) {
+    Impl& m = *impl_;
+    std::vector<unsigned char> fine = emptiness(macro, shaded);
+    // Shadows from light volumes: the probe frame would run before the light volume it reads is built
+    // (render() builds it), so such scenes skip as "on" does, unmeasured.
+    if (!plan_.skipping || scene_.skipping != SkipMode::Auto || plan_.shadowVolume) {
+        m.skip = {};
+        m.skip.edge = plan_.skipping ? macro.edge : 0;
+        m.skip.unmeasured = plan_.shadowVolume && scene_.skipping == SkipMode::Auto
+                                ? std::string("render.skipping auto as on: light-volume shadows")
+                                : "render.skipping " + std::string(skipModeName(scene_.skipping));
+        useEmptiness(std::move(fine));
+        return macro;
+    }
+    // Candidates: the profile's edge and merged cells of its coarser multiples.
+    const DeviceProfile::RayMarch& tuning = cc_.profile().rayMarch;
+    std::vector<grid_detail::MacrocellGrid> grids;
+    for (unsigned f : tuning.skipEdgeFactors) {
+        if (f <= 1) continue;
+        grid_detail::MacrocellGrid g = grid_detail::coarsenMacrocells(macro, f);
+        const grid_detail::MacrocellGrid& prev = grids.empty() ? macro : grids.back();
+        // A volume already covered by as few cells: the same grid again, nothing new to measure.
+        if (g.nx == prev.nx && g.ny == prev.ny && g.nz == prev.nz) break;
+        grids.push_back(std::move(g));
+    }
+    std::vector<std::vector<unsigned char>> empties{std::move(fine)};
+    for (const auto& g : grids)
+        empties.push_back(emptiness(g, shaded));
+    auto gridOf = [&](std::size_t i) -> const grid_detail::MacrocellGrid& {
+        return i ? grids[i - 1] : macro;
+    };
+    std::vector<SkipCandidate> candidates;
+    for (std::size_t i = 0; i < empties.size(); ++i) {
+        const auto n = std::count(empties[i].begin(), empties[i].end(), 1);
+        candidates.push_back(
+            {gridOf(i).edge, empties[i].empty() ? 0.0 : double(n) / double(empties[i].size())});
+    }
+    // What the choice depends on besides the volume: everything compiled, the TF, what the emptiness reads,
+    // and the step's octave (the cost of a sample against a cell visit).
+    const double minSpacing = std::min({volume_.spacing[0], volume_.spacing[1], volume_.spacing[2]});
+    std::ostringstream key;
+    key << std::setprecision(17) << plan_.defines.toOptions() << '|' << shaded.toJson() << '|'
+        << filterName(scene_.filter) << ' ' << scene_.smoothing << ' ' << scene_.tableSize << ' '
+        << scene_.nanColor[3] << ' ' << std::lround(std::log2(scene_.step / minSpacing)) << ' ' << m.packet;
+    for (const auto& iso : plan_.isosurfaces)
+        key << ' ' << iso.value;
+    m.skip = m.skipDecisions.get(key.str(), [&] {
+        // The probe: the scene's camera on a subsampled image, each candidate's kernel, flags and cells.
+        const double pixels = double(scene_.width) * double(scene_.height);
+        const double f = std::min(1.0, std::sqrt(double(tuning.skipProbePixels) / pixels));
+        const int pw = std::max(1, int(std::lround(scene_.width * f)));
+        const int ph = std::max(1, int(std::lround(scene_.height * f)));
+        KernelDefines offDefines = plan_.defines;
+        offDefines.erase("SKIPPING");
+        const char* name = m.packet ? "raymarch_packet" : "raymarch";
+        cl::Kernel on = cc_.kernel("render/raymarch.cl", name,
+                                   m.packet ? packetDefines(plan_.defines, floatCopy) : plan_.defines);
+        cl::Kernel off = cc_.kernel("render/raymarch.cl", name,
+                                    m.packet ? packetDefines(offDefines, floatCopy) : offDefines);
+        const DeviceBuffer<cl_float4> out = cc_.allocate<cl_float4>(std::size_t(pw) * ph, CL_MEM_WRITE_ONLY);
+        const DeviceBuffer<float> depth = cc_.allocate<float>(std::size_t(pw) * ph, CL_MEM_WRITE_ONLY);
+        std::vector<DeviceBuffer<cl_uchar>> flags;
+        for (const auto& e : empties)
+            flags.push_back(cc_.upload(e, CL_MEM_READ_ONLY));
+        VolclGridRenderParams probe = base;
+        probe.camera = cameraParams(camera_, pw, ph);
+        const SkipProbeTimer launchProbe = [&](unsigned edge) {
+            std::size_t i = 0;
+            while (i + 1 < empties.size() && gridOf(i).edge != edge)
+                ++i;
+            probe.grid = grid_detail::gridParams(volume_, gridOf(i));
+            return eventMilliseconds(enqueueFrame(edge ? on : off, sampledVoxels(), flags[i].get(), probe,
+                                                  out, depth, std::size_t(pw), std::size_t(ph), m.packet));
+        };
+        SkipDecision d =
+            chooseSkipping(candidates, tuning.skipProbeRounds, m.probeTimer ? m.probeTimer : launchProbe);
+        if (!d.timings.empty()) {
+            d.width = pw;
+            d.height = ph;
+        }
+        return d;
+    });
+    const std::string line = "empty-space skipping: " + m.skip.text();
+    auto& compiled = plan_.compiled;
+    const auto at = std::find_if(compiled.begin(), compiled.end(), [](const std::string& c) {
+        return c.rfind("empty-space skipping:", 0) == 0;
+    });
+    if (m.skip.edge == 0) {
+        // Measured slower (or nothing to skip): the frame runs without it.
+        if (at != compiled.end()) compiled.erase(at);
+        plan_.dropped.push_back(line);
+        plan_.skipping = false;
+        plan_.defines.erase("SKIPPING");
+        useEmptiness(std::move(empties[0]));
+        return macro;
+    }
+    if (at != compiled.end()) *at = line;
+    std::size_t chosen = 0;
+    while (chosen + 1 < empties.size() && gridOf(chosen).edge != m.skip.edge)
+        ++chosen;
+    useEmptiness(std::move(empties[chosen]));
+    if (chosen == 0) return macro;
+    m.skipMacro = std::move(grids[chosen - 1]);
+    return m.skipMacro;
+}
+
+const SkipDecision& GridRenderer::skipDecision() const noexcept {
+    return impl_->skip;
+}
+
+void GridRenderer::setSkipProbeTimer(SkipProbeTimer timer) {
+    impl_->probeTimer = std::move(timer);
+    impl_->skipDecisions = TableCache<SkipDecision>(16);
 }
 
 void GridRenderer::selectTables(const TransferFunction& shaded) {
@@ -269,15 +395,21 @@ const grid_detail::MacrocellGrid& GridRenderer::prepareSampledField() {
     return spline ? m.splineMacro : smoothedLinear ? m.smoothedMacro : m.macro;
 }
 
-void GridRenderer::updateEmptiness(const grid_detail::MacrocellGrid& macro, const TransferFunction& shaded) {
-    Impl& m = *impl_;
+std::vector<unsigned char> GridRenderer::emptiness(const grid_detail::MacrocellGrid& macro,
+                                                   const TransferFunction& shaded) const {
+    const Impl& m = *impl_;
     const Preintegration pre = scene_.mode == RenderMode::Dvr ? scene_.preintegration : Preintegration::None;
     std::vector<double> isoValues;
     for (const auto& iso : plan_.isosurfaces)
         isoValues.push_back(iso.value);
     const int tableNodes = pre != Preintegration::None ? scene_.tableSize : 0;
-    m.emptyHost = grid_detail::emptyMacrocells(macro, shaded, isoValues, scene_.mode == RenderMode::Iso,
-                                               tableNodes, m.nonFinite && scene_.nanColor[3] > 0.0);
+    return grid_detail::emptyMacrocells(macro, shaded, isoValues, scene_.mode == RenderMode::Iso, tableNodes,
+                                        m.nonFinite && scene_.nanColor[3] > 0.0);
+}
+
+void GridRenderer::useEmptiness(std::vector<unsigned char> empty) {
+    Impl& m = *impl_;
+    m.emptyHost = std::move(empty);
     std::size_t emptyCount = 0;
     for (unsigned char e : m.emptyHost)
         emptyCount += e;
@@ -315,6 +447,18 @@ KernelDefines GridRenderer::packetDefines(KernelDefines d, bool floatCopy) {
     return d;
 }
 
+cl::Event GridRenderer::enqueueFrame(cl::Kernel& kernel, const cl::Buffer& voxels, const cl::Buffer& empty,
+                                     const VolclGridRenderParams& params, const DeviceBuffer<cl_float4>& out,
+                                     const DeviceBuffer<float>& depth, std::size_t w, std::size_t h,
+                                     bool packet) {
+    setArgs(kernel, voxels, knots(), table(), empty, params, out, depth, impl_->fog.buffer(cc_),
+            impl_->lightVolume.buffer(cc_));
+    // One ray per work-item, or one packet of 4x2 rays (see DeviceProfile::RayMarch for the tiles).
+    const DeviceProfile::RayMarch& tuning = cc_.profile().rayMarch;
+    return packet ? cc_.launch2d(kernel, (w + 3) / 4, (h + 1) / 2, tuning.packet)
+                  : cc_.launch2d(kernel, w, h, tuning.tile);
+}
+
 ImageBuffer GridRenderer::launch(cl::Kernel& kernel, const cl::Buffer& voxels, bool withDepth, bool packet) {
     Impl& m = *impl_;
     ensureFrameBuffers();
@@ -324,13 +468,8 @@ ImageBuffer GridRenderer::launch(cl::Kernel& kernel, const cl::Buffer& voxels, b
                                            scene_.effects.samples, out_);
         return readImage(false);
     }
-    setArgs(kernel, voxels, knots(), table(), m.empty, m.params, out_, depth_, m.fog.buffer(cc_),
-            m.lightVolume.buffer(cc_));
-    // One ray per work-item, or one packet of 4x2 rays (see DeviceProfile::RayMarch for the tiles).
-    const std::size_t w = std::size_t(scene_.width), h = std::size_t(scene_.height);
-    const DeviceProfile::RayMarch& tuning = cc_.profile().rayMarch;
-    cl::Event ev = packet ? cc_.launch2d(kernel, (w + 3) / 4, (h + 1) / 2, tuning.packet)
-                          : cc_.launch2d(kernel, w, h, tuning.tile);
+    const cl::Event ev = enqueueFrame(kernel, voxels, m.empty.get(), m.params, out_, depth_,
+                                      std::size_t(scene_.width), std::size_t(scene_.height), packet);
     lastMs_ = eventMilliseconds(ev);
     return readImage(withDepth);
 }
@@ -343,13 +482,18 @@ ImageBuffer GridRenderer::readImage(bool withDepth) {
     return img;
 }
 
+const cl::Buffer& GridRenderer::sampledVoxels() const {
+    const Impl& m = *impl_;
+    return scene_.filter != ReconstructionFilter::Linear ? m.spline.get()
+           : scene_.smoothing > 0.0                      ? m.smoothed.get()
+           : m.packet && m.useCorners                    ? m.corners.get()
+                                                         : m.volume.get();
+}
+
 ImageBuffer GridRenderer::render() {
     Impl& m = *impl_;
-    const cl::Buffer& voxels = scene_.filter != ReconstructionFilter::Linear ? m.spline.get()
-                               : scene_.smoothing > 0.0                      ? m.smoothed.get()
-                               : m.packet && m.useCorners                    ? m.corners.get()
-                                                                             : m.volume.get();
     if (plan_.pathTracing) return launch(m.kernel, m.volume.get(), false, false);
+    const cl::Buffer& voxels = sampledVoxels();
     if (plan_.shadowVolume) updateLightVolume(voxels);
     return launch(m.kernel, voxels, !plan_.isosurfaces.empty(), m.packet);
 }
@@ -420,8 +564,9 @@ EffectPlan GridRenderer::planEffects(const Scene& scene) const {
 
 std::string GridRenderer::statistics() const {
     std::ostringstream os;
-    os << "macrocells: " << macrocellCount() << ", " << std::setprecision(1) << std::fixed
-       << 100.0 * emptyFraction_ << "% empty";
+    const SkipDecision& skip = impl_->skip;
+    os << "macrocells: " << impl_->emptyHost.size() << ", " << std::setprecision(1) << std::fixed
+       << 100.0 * emptyFraction_ << "% empty; skipping: " << skip.text();
     if (plan_.shadowVolume)
         os << "; light volumes: " << impl_->lightVolume.builds() << " built, last in " << std::setprecision(1)
            << lightVolumeMs_ << " ms";

@@ -3,6 +3,7 @@
 
 #include "render/Reference.hpp"
 #include "render/RendererBase.hpp"
+#include "render/SkipChoice.hpp"
 
 #include <memory>
 #include <string>
@@ -60,6 +61,13 @@ public:
     /// frame rebuilds them only when a light, the TF, the field or a light-volume knob changed.
     double lastLightVolumeMilliseconds() const noexcept { return lightVolumeMs_; }
     int lightVolumeBuilds() const noexcept;
+    /// render.skipping auto: how the current scene skips (or does not) and the measurement it was chosen on
+    /// (unmeasured for on and off; cached per TF, effects and step octave until the TF or scene changes).
+    const SkipDecision& skipDecision() const noexcept;
+    /// Replaces the probe frame's kernel timing for render.skipping auto (empty: launch the probe) and
+    /// forgets the cached choices; the next committed scene or TF decides with it. For tests.
+    void setSkipProbeTimer(SkipProbeTimer timer);
+
     const Volume& volume() const noexcept { return volume_; }
     std::size_t macrocellCount() const noexcept;
     double emptyMacrocellFraction() const noexcept { return emptyFraction_; }
@@ -74,8 +82,23 @@ private:
     /// The cubic filter's coefficients or the smoothed voxels when the scene asks for them, built once per
     /// filter (or sigma); returns the macrocells of what the kernel samples.
     const grid_detail::MacrocellGrid& prepareSampledField();
-    /// Macrocell emptiness from the shaded TF and the iso-values, for the sampling the kernel will use.
-    void updateEmptiness(const grid_detail::MacrocellGrid& macro, const TransferFunction& shaded);
+    /// Macrocell emptiness of `macro` from the shaded TF and the iso-values, for the sampling the kernel will use.
+    std::vector<unsigned char> emptiness(const grid_detail::MacrocellGrid& macro,
+                                         const TransferFunction& shaded) const;
+    /// Makes `empty` the macrocell flags the kernel reads (and emptyMacrocellFraction() theirs).
+    void useEmptiness(std::vector<unsigned char> empty);
+    /// The macrocells the frame skips with: `macro` for skipping on (or off), else (auto) the fastest of off
+    /// and the candidate edges on a probe frame; a choice of off drops SKIPPING from plan_ and says why.
+    /// `base`: the frame's parameters on `macro`; `floatCopy`: as packetDefines.
+    const grid_detail::MacrocellGrid& selectSkipping(const grid_detail::MacrocellGrid& macro,
+                                                     const TransferFunction& shaded,
+                                                     const VolclGridRenderParams& base, bool floatCopy);
+    /// The voxels (or float copy) the kernels sample for the current scene.
+    const cl::Buffer& sampledVoxels() const;
+    /// Launches `kernel` into `out`/`depth` of w x h pixels; returns the kernel's event.
+    cl::Event enqueueFrame(cl::Kernel& kernel, const cl::Buffer& voxels, const cl::Buffer& empty,
+                           const VolclGridRenderParams& params, const DeviceBuffer<cl_float4>& out,
+                           const DeviceBuffer<float>& depth, std::size_t w, std::size_t h, bool packet);
     /// The path tracer's kernel, majorants and parameters (plans with multiple scattering).
     void preparePathTracer(const TransferFunction& shaded);
     /// SHADOW_VOLUME: the light volumes for the current lights, TF and field (rebuilt only when they changed).
