@@ -8,6 +8,7 @@ set(VOLCL_KERNEL_FILES
   common/shading.h
   common/tf_lookup.h
   common/grid_sample.h
+  common/gradient_cache.h
   common/fog.h
   common/counter_rng.h
   phantoms/phantoms.cl
@@ -16,6 +17,7 @@ set(VOLCL_KERNEL_FILES
   render/raymarch_iso.h
   render/raymarch_iso_sampled.h
   render/raymarch.cl
+  render/gradient_cache.cl
   render/raymarch_plain.cl
   render/pathtrace.cl
   common/brick_sample.h

@@ -1,6 +1,7 @@
 // `volcl bench render --budgets`: planner choices per budget, their interleaved frame times and error.
 #include "apps/bench/BudgetBench.hpp"
 
+#include "apps/bench/MeshBench.hpp"
 #include "core/Error.hpp"
 #include "core/runtime/Timing.hpp"
 #include "render/BudgetPlanner.hpp"
@@ -15,17 +16,6 @@
 #include <sstream>
 
 namespace volcl::cli {
-namespace {
-
-std::string loadAverage() {
-    double l[3] = {0, 0, 0};
-    if (getloadavg(l, 3) != 3) return "unknown";
-    std::ostringstream os;
-    os << std::fixed << std::setprecision(2) << l[0] << ", " << l[1] << ", " << l[2];
-    return os.str();
-}
-
-} // namespace
 
 void benchBudgets(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
                   const Scene& scene, const BudgetBenchOptions& o) {
