@@ -18,8 +18,8 @@
 
 namespace volcl::cli {
 
-void benchShading(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, const Scene& scene,
-                  const ShadingBenchOptions& o) {
+void benchShading(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
+                  const Scene& scene, const ShadingBenchOptions& o) {
     if (o.runs < 1) throw UsageError("bench render --shading-sweep: --runs must be at least 1");
     Scene plain = scene;
     plain.effects.shading = false;
@@ -45,7 +45,8 @@ void benchShading(ComputeContext& cc, const RenderInput& input, const TransferFu
     };
     std::vector<Variant> vs;
     vs.push_back({"plain", plain, nullptr, {}, {}});
-    for (GradientKind g : {GradientKind::Cache, GradientKind::CacheNearest, GradientKind::Central, GradientKind::Sobel}) {
+    for (GradientKind g :
+         {GradientKind::Cache, GradientKind::CacheNearest, GradientKind::Central, GradientKind::Sobel}) {
         Scene s = shaded;
         s.effects.gradient = g;
         vs.push_back({"shaded, gradient " + std::string(gradientKindName(g)), s, nullptr, {}, {}});
@@ -55,7 +56,8 @@ void benchShading(ComputeContext& cc, const RenderInput& input, const TransferFu
     for (Variant& v : vs) {
         v.renderer = input.makeRenderer(cc, tf, v.scene);
         v.image = v.renderer->render(); // warm-up: kernel build, tables, the gradient cache
-        if (const auto* g = dynamic_cast<const GridRenderer*>(v.renderer.get()); g && g->gradientCacheBuildMs() >= 0)
+        if (const auto* g = dynamic_cast<const GridRenderer*>(v.renderer.get());
+            g && g->gradientCacheBuildMs() >= 0)
             cacheBuildMs = g->gradientCacheBuildMs();
     }
     for (int round = 0; round < o.runs; ++round)
@@ -74,12 +76,14 @@ void benchShading(ComputeContext& cc, const RenderInput& input, const TransferFu
               << sw.milliseconds() / 1000.0 << " s\n";
     const double plainMs = median(vs[0].ms);
     const ImageBuffer& central = vs[1].image;
-    std::cout << "shading, " << scene.width << "x" << scene.height << ", step " << scene.step << ", median of "
-              << o.runs << " interleaved rounds (kernel ms), load average " << loadAverage() << '\n';
+    std::cout << "shading, " << scene.width << "x" << scene.height << ", step " << scene.step
+              << ", median of " << o.runs << " interleaved rounds (kernel ms), load average " << loadAverage()
+              << '\n';
     if (cacheBuildMs >= 0)
         std::cout << "  gradient cache: built in " << std::fixed << std::setprecision(2) << cacheBuildMs
                   << " ms once per volume, 4 bytes per voxel\n";
-    std::cout << "  variant                              ms/frame   /plain   RMSE ref    RMSE vs central  kernel\n";
+    std::cout
+        << "  variant                              ms/frame   /plain   RMSE ref    RMSE vs central  kernel\n";
     std::ostringstream csv;
     csv << "variant,ms_per_frame,ratio_to_plain,rmse_reference,rmse_vs_central\n";
     for (std::size_t i = 0; i < vs.size(); ++i) {
@@ -88,10 +92,11 @@ void benchShading(ComputeContext& cc, const RenderInput& input, const TransferFu
         const ImageBuffer& ref = i == 0 ? refPlain : lit ? refShaded : refIso;
         const double ms = median(v.ms), e = rmseRgb(v.image, ref);
         const double ec = lit ? rmseRgb(v.image, central) : 0.0;
-        std::cout << "  " << std::left << std::setw(36) << v.name << std::right << std::fixed << std::setprecision(2)
-                  << std::setw(9) << ms << std::setw(9) << std::setprecision(3) << ms / plainMs << "   "
-                  << std::scientific << std::setprecision(3) << e << "   " << (lit ? ec : 0.0) << std::fixed
-                  << "      " << v.renderer->plan().defines.toOptions() << '\n';
+        std::cout << "  " << std::left << std::setw(36) << v.name << std::right << std::fixed
+                  << std::setprecision(2) << std::setw(9) << ms << std::setw(9) << std::setprecision(3)
+                  << ms / plainMs << "   " << std::scientific << std::setprecision(3) << e << "   "
+                  << (lit ? ec : 0.0) << std::fixed << "      " << v.renderer->plan().defines.toOptions()
+                  << '\n';
         csv << v.name << ',' << ms << ',' << ms / plainMs << ',' << e << ',' << ec << '\n';
     }
     if (o.vtk) {
@@ -107,10 +112,10 @@ void benchShading(ComputeContext& cc, const RenderInput& input, const TransferFu
                   << "\n    shaded " << std::setprecision(2) << vtkShadedMs << " ms (" << std::setprecision(3)
                   << vtkShadedMs / vtkPlainMs << "x its plain), RMSE " << std::scientific
                   << rmseRgb(vtkShadedImg, refShaded) << std::fixed << '\n'
-                  << "    volcl " << vs[cached].name << " / VTK shaded: " << std::setprecision(3) << shadedMs / vtkShadedMs
-                  << '\n';
-        csv << "vtk plain," << vtkPlainMs << ',' << vtkPlainMs / plainMs << ',' << rmseRgb(vtkPlainImg, refPlain)
-            << ",0\n";
+                  << "    volcl " << vs[cached].name << " / VTK shaded: " << std::setprecision(3)
+                  << shadedMs / vtkShadedMs << '\n';
+        csv << "vtk plain," << vtkPlainMs << ',' << vtkPlainMs / plainMs << ','
+            << rmseRgb(vtkPlainImg, refPlain) << ",0\n";
         csv << "vtk shaded," << vtkShadedMs << ',' << vtkShadedMs / plainMs << ','
             << rmseRgb(vtkShadedImg, refShaded) << ",0\n";
     }

@@ -20,8 +20,8 @@ struct ShadingBenchOptions {
     double referenceStep = 0.1; ///< world units of the double references (plain and shaded)
     std::filesystem::path csv;  ///< rows: variant, ms, ratio to plain, RMSE vs reference and vs central
     /// The shaded variants; central is always timed (the other kinds' RMSE is also taken against it).
-    std::vector<GradientKind> gradients = {GradientKind::Cache, GradientKind::CacheNearest, GradientKind::Central,
-                                           GradientKind::Sobel};
+    std::vector<GradientKind> gradients = {GradientKind::Cache, GradientKind::CacheNearest,
+                                           GradientKind::Central, GradientKind::Sobel};
     /// Runs the VTK peer on a scene (median ms, image); empty: no peer.
     std::function<std::pair<double, ImageBuffer>(const Scene&)> vtk;
 };
@@ -30,7 +30,7 @@ struct ShadingBenchOptions {
 /// scene's lights and coefficients, or a head light with the default coefficients when it has none), and
 /// with one iso layer mixed in, timed in interleaved rounds (kernel time), each against the double
 /// reference (central differences). Prints a table with the load average on stdout.
-void benchShading(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, const Scene& scene,
-                  const ShadingBenchOptions& options);
+void benchShading(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
+                  const Scene& scene, const ShadingBenchOptions& options);
 
 } // namespace volcl::cli

@@ -49,8 +49,8 @@ PACKET_INLINE void gcache_unpack8(uint8 w, float8* gx, float8* gy, float8* gz) {
 
 #if GRADIENT_CACHE == 2
 /* World gradients of the packet at voxel points (px, py, pz): the nearest voxel's cache word (one fetch). */
-PACKET_INLINE void gcache_gradient8(__global const uint* cache, const VolclGridParams* G, float8 px, float8 py,
-                                    float8 pz, float8* gx, float8* gy, float8* gz) {
+PACKET_INLINE void gcache_gradient8(__global const uint* cache, const VolclGridParams* G, float8 px,
+                                    float8 py, float8 pz, float8* gx, float8* gy, float8* gz) {
     const int hx = (int)G->dims[0] - 1, hy = (int)G->dims[1] - 1, hz = (int)G->dims[2] - 1;
     const int8 ix = clamp(convert_int8(rint(px)), (int8)(0), (int8)(hx));
     const int8 iy = clamp(convert_int8(rint(py)), (int8)(0), (int8)(hy));
@@ -67,8 +67,8 @@ PACKET_INLINE void gcache_gradient8(__global const uint* cache, const VolclGridP
 /* World gradients of the packet at voxel points (px, py, pz): the trilinear blend of the eight voxels' cached
    gradients, which is the central difference of the trilinear field away from the border (the reference's
    gradient) up to the quantisation. Cells and clamps as sample_volume8. */
-PACKET_INLINE void gcache_gradient8(__global const uint* cache, const VolclGridParams* G, float8 px, float8 py,
-                                    float8 pz, float8* gx, float8* gy, float8* gz) {
+PACKET_INLINE void gcache_gradient8(__global const uint* cache, const VolclGridParams* G, float8 px,
+                                    float8 py, float8 pz, float8* gx, float8* gy, float8* gz) {
     const int hx = (int)G->dims[0] - 1, hy = (int)G->dims[1] - 1, hz = (int)G->dims[2] - 1;
     px = clamp(px, 0.0f, (float)hx);
     py = clamp(py, 0.0f, (float)hy);
@@ -80,7 +80,8 @@ PACKET_INLINE void gcache_gradient8(__global const uint* cache, const VolclGridP
     const uint nx = G->dims[0], nxy = nx * G->dims[1];
     const uint8 xi = convert_uint8(ix);
     const uint8 z0 = convert_uint8(iz) * nxy, y0 = convert_uint8(iy) * nx;
-    const uint8 z1 = convert_uint8(min(iz + 1, (int8)(hz))) * nxy, y1 = convert_uint8(min(iy + 1, (int8)(hy))) * nx;
+    const uint8 z1 = convert_uint8(min(iz + 1, (int8)(hz))) * nxy,
+                y1 = convert_uint8(min(iy + 1, (int8)(hy))) * nx;
     LaneU b00, b10, b01, b11, w[8];
     b00.v = z0 + y0 + xi;
     b10.v = z0 + y1 + xi;

@@ -676,34 +676,38 @@ PACKET_INLINE void shade_packet(__global const uint* gradCache, const VolclGridR
     nz *= flip;
     float8 dr = (float8)(0.0f), dg = dr, db = dr, sr = dr, sg = dr, sb = dr;
     for (uint i = 0; i < Lp->lightCount; ++i) {
-        LaneF lx, ly, lz;
         const float kind = Lp->lightPos[i][3];
-        if (kind == VOLCL_LIGHT_DIRECTIONAL || (kind == VOLCL_LIGHT_HEAD && !P->camera.perspective)) {
-            /* the same direction in every lane (light_dir's result without a position) */
-            const float3 L = kind == VOLCL_LIGHT_DIRECTIONAL ? v3(Lp->lightPos[i]) : -wd[0];
-            lx.v = (float8)(L.x);
-            ly.v = (float8)(L.y);
-            lz.v = (float8)(L.z);
+        float8 ndotl, ndoth;
+        if (kind == VOLCL_LIGHT_HEAD && !P->camera.perspective) {
+            /* L = V: the half vector is V itself, so N.h = N.l (no normalisation) */
+            ndotl = nx * vx->v + ny * vy->v + nz * vz->v;
+            ndoth = ndotl;
         } else {
-            LaneF tl;
-            tl.v = t;
-            _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
-                float dist;
-                const float3 L = light_dir(Lp, P->camera.perspective, wo[l], wd[l], (int)i,
-                                           wo[l] + tl.a[l] * wd[l], &dist);
-                lx.a[l] = L.x;
-                ly.a[l] = L.y;
-                lz.a[l] = L.z;
+            LaneF lx, ly, lz;
+            if (kind == VOLCL_LIGHT_DIRECTIONAL) { /* the same direction in every lane */
+                lx.v = (float8)(Lp->lightPos[i][0]);
+                ly.v = (float8)(Lp->lightPos[i][1]);
+                lz.v = (float8)(Lp->lightPos[i][2]);
+            } else {
+                LaneF tl;
+                tl.v = t;
+                _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
+                    float dist;
+                    const float3 L = light_dir(Lp, P->camera.perspective, wo[l], wd[l], (int)i,
+                                               wo[l] + tl.a[l] * wd[l], &dist);
+                    lx.a[l] = L.x;
+                    ly.a[l] = L.y;
+                    lz.a[l] = L.z;
+                }
             }
+            const float8 hx = lx.v + vx->v, hy = ly.v + vy->v, hz = lz.v + vz->v;
+            const float8 hl = sqrt(hx * hx + hy * hy + hz * hz);
+            ndotl = nx * lx.v + ny * ly.v + nz * lz.v;
+            ndoth = select((float8)(0.0f), (nx * hx + ny * hy + nz * hz) / hl, hl > 0.0f);
         }
-        const float8 hx = lx.v + vx->v, hy = ly.v + vy->v, hz = lz.v + vz->v;
-        const float8 hl = sqrt(hx * hx + hy * hy + hz * hz);
-        const float8 hInv = select((float8)(0.0f), 1.0f / hl, hl > 0.0f);
         const float8 diffuse =
-            select((float8)(1.0f), fmax(nx * lx.v + ny * ly.v + nz * lz.v, 0.0f), valid); /* flat: facing */
-        const float8 spec =
-            select((float8)(0.0f),
-                   specular_power8(fmax((nx * hx + ny * hy + nz * hz) * hInv, 0.0f), Lp->shininess), valid);
+            select((float8)(1.0f), fmax(ndotl, 0.0f), valid); /* flat: as facing the light */
+        const float8 spec = select((float8)(0.0f), specular_power8(fmax(ndoth, 0.0f), Lp->shininess), valid);
         const float3 lc = v3(Lp->lightColor[i]);
         dr += lc.x * diffuse;
         dg += lc.y * diffuse;
@@ -712,12 +716,12 @@ PACKET_INLINE void shade_packet(__global const uint* gradCache, const VolclGridR
         sg += lc.y * spec;
         sb += lc.z * spec;
     }
-    const float8 w = assoc ? ea->v : (float8)(1.0f);
-    const float8 cw = select((float8)(1.0f), 1.0f / w, lit); /* lit lanes have w > 0 */
+    /* Associated colours: (c / w lit) * w, with the division cancelled: c (ambient + diffuse) + specular w. */
+    const float8 w = assoc ? Lp->specular * ea->v : (float8)(Lp->specular);
     const float8 a = Lp->ambient;
-    er->v = select(er->v, (er->v * cw * (a + Lp->diffuse * dr) + Lp->specular * sr) * w, lit);
-    eg->v = select(eg->v, (eg->v * cw * (a + Lp->diffuse * dg) + Lp->specular * sg) * w, lit);
-    eb->v = select(eb->v, (eb->v * cw * (a + Lp->diffuse * db) + Lp->specular * sb) * w, lit);
+    er->v = select(er->v, er->v * (a + Lp->diffuse * dr) + w * sr, lit);
+    eg->v = select(eg->v, eg->v * (a + Lp->diffuse * dg) + w * sg, lit);
+    eb->v = select(eb->v, eb->v * (a + Lp->diffuse * db) + w * sb, lit);
 }
 #endif
 

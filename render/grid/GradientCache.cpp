@@ -10,7 +10,7 @@
 namespace volcl {
 namespace {
 
-constexpr float kOctLevels = 4095.0f; // GCACHE_OCT_LEVELS
+constexpr float kOctLevels = 4095.0f;   // GCACHE_OCT_LEVELS
 constexpr std::uint32_t kExpBias = 112; // GCACHE_EXP_BIAS
 
 /// gcache_pack of cl/common/gradient_cache.h, operation for operation.
@@ -53,7 +53,8 @@ GradientCacheBuffer buildGradientCache(ComputeContext& cc, const cl::Buffer& vox
 std::vector<std::uint32_t> gradientCacheReference(const Volume& volume, float gradientMax) {
     const Dims& d = volume.dims();
     const std::vector<float> v = volume.toFloat();
-    const float inv[3] = {static_cast<float>(1.0 / volume.spacing[0]), static_cast<float>(1.0 / volume.spacing[1]),
+    const float inv[3] = {static_cast<float>(1.0 / volume.spacing[0]),
+                          static_cast<float>(1.0 / volume.spacing[1]),
                           static_cast<float>(1.0 / volume.spacing[2])};
     const std::size_t nx = d.x, ny = d.y, nz = d.z, nxy = nx * ny;
     std::vector<std::uint32_t> out(nx * ny * nz);
@@ -62,10 +63,12 @@ std::vector<std::uint32_t> gradientCacheReference(const Volume& volume, float gr
             for (std::size_t x = 0; x < nx; ++x) {
                 const std::size_t c = z * nxy + y * nx + x;
                 const float gx = v[c - x + std::min(x + 1, nx - 1)] - v[c - x + (x > 0 ? x - 1 : 0)];
-                const float gy = v[c - y * nx + std::min(y + 1, ny - 1) * nx] - v[c - y * nx + (y > 0 ? y - 1 : 0) * nx];
-                const float gz =
-                    v[c - z * nxy + std::min(z + 1, nz - 1) * nxy] - v[c - z * nxy + (z > 0 ? z - 1 : 0) * nxy];
-                out[c] = packGradient(gx * 0.5f * inv[0], gy * 0.5f * inv[1], gz * 0.5f * inv[2], gradientMax);
+                const float gy =
+                    v[c - y * nx + std::min(y + 1, ny - 1) * nx] - v[c - y * nx + (y > 0 ? y - 1 : 0) * nx];
+                const float gz = v[c - z * nxy + std::min(z + 1, nz - 1) * nxy] -
+                                 v[c - z * nxy + (z > 0 ? z - 1 : 0) * nxy];
+                out[c] =
+                    packGradient(gx * 0.5f * inv[0], gy * 0.5f * inv[1], gz * 0.5f * inv[2], gradientMax);
             }
     return out;
 }
