@@ -49,7 +49,7 @@ void benchShading(ComputeContext& cc, const RenderInput& input, const TransferFu
          {GradientKind::Cache, GradientKind::CacheNearest, GradientKind::Central, GradientKind::Sobel}) {
         Scene s = shaded;
         s.effects.gradient = g;
-        vs.push_back({"shaded, gradient " + std::string(gradientKindName(g)), s, nullptr, {}, {}});
+        vs.push_back({"shaded (gradient " + std::string(gradientKindName(g)) + ")", s, nullptr, {}, {}});
     }
     vs.push_back({"iso layer mixed into dvr", iso, nullptr, {}, {}});
     double cacheBuildMs = -1.0;
