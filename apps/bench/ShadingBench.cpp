@@ -45,8 +45,10 @@ void benchShading(ComputeContext& cc, const RenderInput& input, const TransferFu
     };
     std::vector<Variant> vs;
     vs.push_back({"plain", plain, nullptr, {}, {}});
-    for (GradientKind g :
-         {GradientKind::Cache, GradientKind::CacheNearest, GradientKind::Central, GradientKind::Sobel}) {
+    std::vector<GradientKind> kinds = {GradientKind::Central};
+    for (GradientKind g : o.gradients)
+        if (g != GradientKind::Central) kinds.push_back(g);
+    for (GradientKind g : kinds) {
         Scene s = shaded;
         s.effects.gradient = g;
         vs.push_back({"shaded (gradient " + std::string(gradientKindName(g)) + ")", s, nullptr, {}, {}});
