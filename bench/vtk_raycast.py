@@ -2,7 +2,8 @@
 """VTK peer for `volcl bench render`: vtkFixedPointVolumeRayCastMapper on the job's volume, TF, camera and step.
 
 Reads a JSON job written by volcl (volume as raw float32, TF samples (s, r, g, b, opacity per unit length),
-camera, image size, sample distance, runs); writes the median ms per frame and the last image as float32
+camera, image size, sample distance, runs, and "shade": Blinn-Phong coefficients under VTK's head light, or
+null); writes the median ms per frame and the last image as float32
 RGBA, top row first, colour over a black background (that is, associated colour). Run under xvfb-run.
 """
 import json
@@ -35,7 +36,15 @@ def main(job_path):
     prop.SetScalarOpacity(opacity)
     prop.SetScalarOpacityUnitDistance(1.0)  # opacities are per unit world length, as volcl's tau
     prop.SetInterpolationTypeToLinear()
-    prop.ShadeOff()
+    shade = job.get("shade")
+    if shade:
+        prop.ShadeOn()
+        prop.SetAmbient(shade["ambient"])
+        prop.SetDiffuse(shade["diffuse"])
+        prop.SetSpecular(shade["specular"])
+        prop.SetSpecularPower(shade["specular_power"])
+    else:
+        prop.ShadeOff()
 
     mapper = vtk.vtkFixedPointVolumeRayCastMapper()
     mapper.SetInputData(image)

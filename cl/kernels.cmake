@@ -9,6 +9,7 @@ set(VOLCL_KERNEL_FILES
   common/iso_crossings.h
   common/tf_lookup.h
   common/grid_sample.h
+  common/gradient_cache.h
   common/fog.h
   common/counter_rng.h
   common/light_volume.h
@@ -18,6 +19,7 @@ set(VOLCL_KERNEL_FILES
   render/raymarch_iso.h
   render/raymarch_iso_sampled.h
   render/raymarch.cl
+  render/gradient_cache.cl
   render/raymarch_plain.cl
   render/preview_shared.h
   render/preview_table.h

@@ -105,6 +105,8 @@ typedef struct VolclGridParams {
     float invSpacing[4];
     volcl_uint dims[4];      /* nx, ny, nz, spare */
     volcl_uint macroDims[4]; /* macrocells per axis, voxels per macrocell edge */
+    float gradientMax;       /* the gradient cache's scale: a bound on the L1 norm of any voxel's gradient */
+    float gradientPad[3];
 } VolclGridParams;
 
 /* Fog (cl/common/fog.h): extinction density where dot(x, up) <= base, density * exp(-(h - base) * invFalloff)
@@ -208,12 +210,12 @@ static_assert(sizeof(VolclTfParams) == 32, "VolclTfParams layout must match Open
 static_assert(sizeof(VolclLightingParams) == 176, "VolclLightingParams layout must match OpenCL C");
 static_assert(sizeof(VolclIsoParams) == 96, "VolclIsoParams layout must match OpenCL C");
 static_assert(sizeof(VolclPathParams) == 48, "VolclPathParams layout must match OpenCL C");
-static_assert(sizeof(VolclGridParams) == 80, "VolclGridParams layout must match OpenCL C");
+static_assert(sizeof(VolclGridParams) == 96, "VolclGridParams layout must match OpenCL C");
 static_assert(sizeof(VolclFogParams) == 80, "VolclFogParams layout must match OpenCL C");
 static_assert(sizeof(VolclLightVolumeParams) == 32, "VolclLightVolumeParams layout must match OpenCL C");
 static_assert(sizeof(VolclLightSweepParams) == 80 + 32 + 32 + 48,
               "VolclLightSweepParams layout must match OpenCL C");
-static_assert(sizeof(VolclGridRenderParams) == 80 + 80 + 16 + 32 + 176 + 96 + 80 + 80 + 32,
+static_assert(sizeof(VolclGridRenderParams) == 80 + 80 + 16 + 32 + 176 + 96 + 96 + 80 + 32,
               "VolclGridRenderParams layout must match OpenCL C");
 #endif
 

@@ -23,6 +23,7 @@ struct EffectPlan {
     bool preintLighting = false;       ///< PREINT_LIGHTING: shading through the pre-integrated lighting table
     bool isoTable = false;             ///< ISO_TABLE: iso-surfaces from the iso-surface table
     bool pathTracing = false;          ///< multiple scattering: the path tracer renders the frame
+    int gradientCache = 0;             ///< GRADIENT_CACHE (grids): 1 trilinear blend, 2 nearest voxel
     double colorScale = 1.0;           ///< ambient-only shading folded into the TF colours
     std::vector<IsoLayer> isosurfaces; ///< the ones that can appear
     std::vector<ClipPlane> clipPlanes; ///< the ones that cut the data's box

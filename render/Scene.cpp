@@ -148,6 +148,27 @@ SkipMode parseSkipMode(std::string_view s) {
     throw UsageError("skipping '" + std::string(s) + "' is unknown (expected auto, on, off)");
 }
 
+std::string_view gradientKindName(GradientKind g) {
+    switch (g) {
+    case GradientKind::Central:
+        return "central";
+    case GradientKind::Sobel:
+        return "sobel";
+    case GradientKind::Cache:
+        return "cache";
+    case GradientKind::CacheNearest:
+        return "cache-nearest";
+    }
+    return "cache";
+}
+
+GradientKind parseGradientKind(std::string_view s) {
+    for (GradientKind g :
+         {GradientKind::Central, GradientKind::Sobel, GradientKind::Cache, GradientKind::CacheNearest})
+        if (s == gradientKindName(g)) return g;
+    throw UsageError("gradient '" + std::string(s) + "' is unknown (central, sobel, cache, cache-nearest)");
+}
+
 std::string_view filterName(ReconstructionFilter f) {
     switch (f) {
     case ReconstructionFilter::Linear:
@@ -465,9 +486,11 @@ void parseEffects(const json& e, const std::filesystem::path& baseDir, SceneEffe
                "shadow_head_tolerance", "scattering", "clip_planes", "isosurfaces", "fog",
                "isosurface_method"});
     if (e.contains("shading")) parseShading(e["shading"], fx);
-    if (e.contains("gradient"))
-        fx.gradient = choice(e["gradient"], "effects.gradient", "central", GradientKind::Central, "sobel",
-                             GradientKind::Sobel, "central, sobel");
+    if (e.contains("gradient")) try {
+            fx.gradient = parseGradientKind(str(e["gradient"], "effects.gradient"));
+        } catch (const UsageError& err) {
+            throw UsageError(std::string("scene: effects.") + err.what());
+        }
     if (e.contains("shadows")) fx.shadows = flag(e["shadows"], "effects.shadows");
     if (e.contains("shadow_step")) fx.shadowStep = num(e["shadow_step"], "effects.shadow_step");
     if (e.contains("shadow_method"))
@@ -582,7 +605,7 @@ std::string Scene::toJson() const {
         if (!effects.smoothNormals) e["shading"]["normals"] = "flat";
     }
     if (effects.isoTable) e["isosurface_method"] = "table";
-    e["gradient"] = effects.gradient == GradientKind::Sobel ? "sobel" : "central";
+    e["gradient"] = std::string(gradientKindName(effects.gradient));
     if (effects.shadows) e["shadows"] = true;
     e["shadow_step"] = effects.shadowStep;
     e["shadow_method"] = effects.shadowMethod == ShadowMethod::Rays ? "rays" : "volume";

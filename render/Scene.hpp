@@ -19,7 +19,9 @@ enum class RenderMode { Dvr, Mip, Iso, Xray };
 enum class Preintegration { None, Table2d, Table3d };
 enum class Projection { Orthographic, Perspective };
 enum class LightKind { Directional, Point, Head };
-enum class GradientKind { Central, Sobel };
+/// Gradients for shading: on the fly by central differences or Sobel, or from the gradient cache built once
+/// per volume (grids only: cl/common/gradient_cache.h), blended trilinearly or taken from the nearest voxel.
+enum class GradientKind { Central, Sobel, Cache, CacheNearest };
 /// How shadows find the transmittance toward a light: one fetch per sample in a light-attenuation volume
 /// built per light (render/grid/LightVolume.hpp), or a secondary ray marched per sample (the exact method).
 enum class ShadowMethod { Volume, Rays };
@@ -60,6 +62,9 @@ std::string_view mipColorName(MipColor c);
 MipColor parseMipColor(std::string_view s); ///< "grey" (or "gray"), "tf", "tf-opacity"; throws UsageError
 std::string_view lodModeName(LodMode m);
 LodMode parseLodMode(std::string_view s); ///< "full", "auto"; throws UsageError
+std::string_view gradientKindName(GradientKind g);
+GradientKind
+parseGradientKind(std::string_view s); ///< "central", "sobel", "cache", "cache-nearest"; throws UsageError
 std::string_view meshMethodName(MeshMethod m);
 MeshMethod parseMeshMethod(std::string_view s); ///< "cells", "kbuffer", "pt"; throws UsageError
 std::string_view gridMethodName(GridMethod m);
@@ -143,7 +148,7 @@ struct SceneEffects {
     /// Iso-surfaces from the iso-surface table of the segment's end values (iso mode) instead of the exact
     /// per-cell roots ("isosurface_method": "table" | "roots").
     bool isoTable = false;
-    GradientKind gradient = GradientKind::Central;
+    GradientKind gradient = GradientKind::Cache;
     bool shadows = false;
     double shadowStep = 1.0;                          ///< world units; 0 = the render step
     ShadowMethod shadowMethod = ShadowMethod::Volume; ///< "shadow_method": "volume" | "rays"

@@ -26,14 +26,6 @@ inline TransferFunction meshTf(const mesh::TetMesh& m, double depth, double floo
     return tf;
 }
 
-/// Largest difference of any channel of two images of one size.
-inline double maxAbsDiff(const ImageBuffer& a, const ImageBuffer& b) {
-    double d = 0;
-    for (std::size_t i = 0; i < a.pixels.size(); ++i)
-        d = std::max(d, double(std::abs(a.pixels[i] - b.pixels[i])));
-    return d;
-}
-
 /// Mean of channel A of an RGBA image.
 inline double meanAlpha(const ImageBuffer& img) {
     double sum = 0;

@@ -192,5 +192,57 @@ __kernel void probe(__global const VolclTfKnot* knots, const ProbeParams P, __gl
         << "float against double: some rounding must show (else nothing was compared)";
 }
 
+// specular_power (common/shading.h) against double pow: integer exponents by repeated squaring, others by
+// exp2(n log2 x). The bound is the one its comment states.
+TEST(RenderCommon, SpecularPowerWithinItsStatedBound) {
+    const auto dir = test::tempDir("render_common_specular");
+    const KernelSourceLibrary embedded;
+    for (const char* h : {"volcl_shared.h", "common/camera_rays.h", "common/shading.h"})
+        write(dir / h, embedded.resolve(h));
+    write(dir / "probe.cl", R"(#include "common/shading.h"
+__kernel void probe(__global const float* x, __global const float* n, uint nx, __global float* out) {
+    const uint i = get_global_id(0), j = get_global_id(1);
+    out[j * nx + i] = specular_power(x[i], n[j]);
+}
+)");
+    std::vector<float> xs,
+        ns = {0, 1, 2, 3, 5, 8, 16, 20, 32, 64, 100, 128, 255, 1000, 0.5f, 7.25f, 40.5f, 2000};
+    for (int i = 0; i <= 4000; ++i)
+        xs.push_back(float(i) / 4000.0f);
+    for (float x = 0.9f; x < 1.0f; x = std::nextafter(x, 2.0f) + 1e-6f)
+        xs.push_back(x); // near 1, where high exponents keep a visible highlight
+    std::vector<float> got;
+    {
+        ScopedKernelDir env(dir);
+        ComputeContext cc;
+        cl::Kernel k = cc.kernel("probe.cl", "probe", KernelDefines().set("SHADING"));
+        auto xb = cc.upload(xs, CL_MEM_READ_ONLY);
+        auto nb = cc.upload(ns, CL_MEM_READ_ONLY);
+        auto out = cc.allocate<float>(xs.size() * ns.size());
+        setArgs(k, xb, nb, cl_uint(xs.size()), out);
+        cc.launch2d(k, xs.size(), ns.size(), 1, 1);
+        got = cc.download(out);
+    }
+    for (std::size_t j = 0; j < ns.size(); ++j) {
+        const bool integer = ns[j] == std::floor(ns[j]) && ns[j] <= 1024.0f;
+        double worst = 0.0;
+        for (std::size_t i = 0; i < xs.size(); ++i) {
+            const double want = std::pow(double(xs[i]), double(ns[j]));
+            const double g = got[j * xs.size() + i];
+            ASSERT_TRUE(std::isfinite(g));
+            if (want < 1e-30) {
+                EXPECT_LT(g, 1e-29);
+                continue;
+            }
+            worst = std::max(worst, std::abs(g - want) / want);
+        }
+        // Repeated squaring: at most 2 log2(n) roundings, each doubled by the squarings after it, so below
+        // (n + log2 n) 2^-24 relative; exp2(n log2 x): log2's error scaled by n.
+        const double bound =
+            integer ? (double(ns[j]) + 11.0) * std::ldexp(1.0, -24) : 4e-6 * std::max(1.0, double(ns[j]) / 8);
+        EXPECT_LE(worst, bound) << "n = " << ns[j];
+    }
+}
+
 } // namespace
 } // namespace volcl

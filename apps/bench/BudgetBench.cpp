@@ -3,8 +3,7 @@
 #include "apps/bench/BenchOutput.hpp"
 
 #include "apps/bench/BenchOutput.hpp"
-
-#include "apps/bench/BenchOutput.hpp"
+#include "apps/bench/MeshBench.hpp"
 #include "core/Error.hpp"
 #include "core/runtime/Timing.hpp"
 #include "render/BudgetPlanner.hpp"

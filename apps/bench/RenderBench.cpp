@@ -12,6 +12,7 @@
 #include "apps/bench/TierBench.hpp"
 #include "apps/bench/ShadowBench.hpp"
 #include "apps/bench/SkipBench.hpp"
+#include "apps/bench/ShadingBench.hpp"
 #include "apps/bench/VtkPeer.hpp"
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/SceneFlags.hpp"
@@ -30,6 +31,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -49,6 +51,14 @@ double rmseRgb(const ImageBuffer& a, const ImageBuffer& b) {
                 sum += d * d;
             }
     return std::sqrt(sum / (3.0 * a.width * a.height));
+}
+
+std::string loadAverage() {
+    double l[3] = {0, 0, 0};
+    if (getloadavg(l, 3) != 3) return "unknown";
+    std::ostringstream os;
+    os << std::fixed << std::setprecision(2) << l[0] << ", " << l[1] << ", " << l[2];
+    return os.str();
 }
 
 double timeFrames(VolumeRenderer& r, int runs) {
@@ -74,6 +84,8 @@ struct BenchArgs {
     TierBenchOptions tier;
     bool skipSweep = false;
     std::string skipCsv;
+    bool shading = false;
+    std::string shadingCsv, shadingGradients = "cache,cache-nearest,central,sobel";
     ScatterBenchOptions scatter;
     ShadowBenchOptions shadow;
     std::string shadowCells = "1,2,4", shadowRaySteps = "1,2";
@@ -120,10 +132,16 @@ void benchEffects(ComputeContext& cc, const RenderInput& input, const TransferFu
     };
     const Light light{LightKind::Directional, {0.4, 0.6, -0.7}, {1, 1, 1}, 1.0};
     const std::vector<Variant> variants = {
-        {"shading (1 light, central diff.)",
+        {"shading (1 light, gradient cache)",
          [&](Scene& s) {
              s.lights = {light};
              s.effects.shading = true;
+         }},
+        {"shading, central differences",
+         [&](Scene& s) {
+             s.lights = {light};
+             s.effects.shading = true;
+             s.effects.gradient = GradientKind::Central;
          }},
         {"shading, Sobel gradients",
          [&](Scene& s) {
@@ -219,6 +237,7 @@ std::pair<double, ImageBuffer> runVtk(const BenchArgs& a, const Volume& v, const
     job["width"] = s.width;
     job["height"] = s.height;
     job["step"] = s.step;
+    job["shade"] = vtkShading(s);
     job["runs"] = a.runs;
     job["image"] = (dir / "vtk-image.f32").string();
     job["result"] = (dir / "vtk-result.json").string();
@@ -270,6 +289,32 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
     std::cerr << "volcl bench render: " << scene.volume.string() << " " << input.summary() << ", "
               << scene.width << "x" << scene.height << ", device " << cc.device().name << '\n';
     if (a.effects) benchEffects(cc, input, tf, scene, a.runs);
+    if (a.shading) {
+        ShadingBenchOptions o;
+        o.runs = a.runs;
+        o.csv = a.shadingCsv;
+        o.gradients.clear();
+        std::stringstream names(a.shadingGradients);
+        for (std::string name; std::getline(names, name, ',');)
+            o.gradients.push_back(parseGradientKind(name));
+        const Volume* g = input.grid();
+        o.referenceStep =
+            a.referenceStep * (g ? std::min({g->spacing[0], g->spacing[1], g->spacing[2]}) : 1.0);
+        if (a.vtk) {
+            if (!g) throw UsageError("bench render: --vtk measures grids (give a volume)");
+            o.vtk = [&](const Scene& s) {
+                const auto dir =
+                    std::filesystem::temp_directory_path() / ("volcl-vtk-" + std::to_string(::getpid()));
+                std::filesystem::create_directories(dir);
+                const Camera cam = input.makeRenderer(cc, tf, s)->camera();
+                auto result = runVtk(a, *g, tf, s, cam, dir);
+                std::filesystem::remove_all(dir);
+                return result;
+            };
+        }
+        benchShading(cc, input, tf, scene, o);
+        if (!a.sweep) return; // --vtk ran inside, shaded and plain
+    }
     if (a.scattering) {
         ScatterBenchOptions o = a.scatter;
         o.runs = a.runs;
@@ -415,6 +460,15 @@ void addRenderBench(CLI::App& bench, GlobalOptions& global) {
     b->add_flag("--fog", ba->fog,
                 "Fog (constant and exponential layer) against the plain frame: time ratio and RMSE vs the "
                 "reference");
+    b->add_flag(
+        "--shading-sweep", ba->shading,
+        "Blinn-Phong per gradient kind (cache, cache-nearest, central, sobel) and an iso layer against "
+        "the plain frame in interleaved rounds, RMSE vs the reference; with --vtk, VTK shaded and plain");
+    b->add_option("--shading-gradients", ba->shadingGradients,
+                  "--shading-sweep: gradient kinds of the shaded frames (central is always timed)")
+        ->capture_default_str();
+    b->add_option("--shading-csv", ba->shadingCsv,
+                  "--shading-sweep: write the rows as CSV (bench/plot_shading.py)");
     b->add_flag("--effects", ba->effects,
                 "Cost of each effect alone, and plain vs effect-free baseline kernel");
     b->add_flag(

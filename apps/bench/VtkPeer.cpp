@@ -32,6 +32,19 @@ nlohmann::json vtkCamera(const Camera& cam) {
             {"fov_y_deg", cam.fovYDeg}};
 }
 
+nlohmann::json vtkShading(const Scene& scene) {
+    if (!scene.effects.shading || scene.lights.empty()) return nullptr;
+    if (scene.lights.size() != 1 || scene.lights[0].kind != LightKind::Head ||
+        scene.lights[0].intensity != 1.0 || scene.lights[0].color != Vec3{1, 1, 1})
+        throw UsageError("bench render --vtk: the VTK peer shades with its white head light only (give one "
+                         "head light of intensity 1)");
+    const SceneEffects& e = scene.effects;
+    return {{"ambient", e.ambient},
+            {"diffuse", e.diffuse},
+            {"specular", e.specular},
+            {"specular_power", e.shininess}};
+}
+
 void runVtkScript(const std::string& script, const std::filesystem::path& job) {
     const std::string cmd =
         "xvfb-run -a /usr/bin/python3 " + shellQuote(script) + " " + shellQuote(job.string());

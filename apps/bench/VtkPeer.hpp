@@ -20,6 +20,11 @@ nlohmann::json vtkTransferFunction(const TransferFunction& tf);
 /// The camera as the scripts read it: eye, target, up, height, perspective, fov_y_deg.
 nlohmann::json vtkCamera(const Camera& cam);
 
+/// Blinn-Phong as bench/vtk_raycast.py applies it (ShadeOn, VTK's head light): ambient, diffuse, specular and
+/// specular_power of a scene that shades with one head light; null for an unshaded scene. Throws UsageError
+/// for other lights (the peer has only its head light).
+nlohmann::json vtkShading(const Scene& scene);
+
 /// Runs `script` on the job file under xvfb-run with the system python3; Error naming the command when it
 /// fails (python3-vtk9 missing, most often).
 void runVtkScript(const std::string& script, const std::filesystem::path& job);

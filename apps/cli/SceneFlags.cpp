@@ -149,7 +149,10 @@ void SceneFlags::add(CLI::App* cmd) {
                         ->default_str(num(d.effects.ambient) + "," + num(d.effects.diffuse) + "," +
                                       num(d.effects.specular) + "," + num(d.effects.shininess));
     cmd->add_flag("--no-shading", noShading, "Do not shade (iso mode shades by default)");
-    cmd->add_flag("--sobel", sobel, "Sobel gradients instead of central differences");
+    cmd->add_flag("--sobel", sobel, "Sobel gradients (same as --gradient sobel)");
+    cmd->add_option("--gradient", gradient,
+                    "Shading gradients: cache (default: precomputed per volume, trilinear), cache-nearest, "
+                    "central, sobel");
     cmd->add_flag("--shadows", shadows, "Shadows toward each light (--shadow-method)");
     cmd->add_option("--shadow-step", shadowStep,
                     "Shadow integration step in world units (0 = the render step)")
@@ -281,6 +284,7 @@ Scene SceneFlags::build() const {
         s.effects.specular = v[2];
         s.effects.shininess = v[3];
     }
+    if (!gradient.empty()) s.effects.gradient = parseGradientKind(gradient);
     if (sobel) s.effects.gradient = GradientKind::Sobel;
     if (shadows) s.effects.shadows = true;
     if (shadowStep) s.effects.shadowStep = *shadowStep;

@@ -39,6 +39,7 @@ struct SceneFlags {
     bool noSkipping = false, sobel = false, shadows = false, noShading = false;
     std::string step; ///< --step: world units, or voxels with a `vox` suffix (parseStepSpec)
     std::string shading, scattering, scatteringOrder, shadowMethod;
+    std::string gradient;                 ///< --gradient central|sobel|cache|cache-nearest
     CLI::Option* shadingOption = nullptr; ///< --shading: given bare (default coefficients) or with a value
     std::optional<int> samples;
     std::vector<std::string> isos, lights, clips;

@@ -25,7 +25,9 @@
    FOG           height fog (fog.h) composited with the volume in ray order; FOG_MAP: base from a height map
    PREINT_LIGHTING  (PREINT 2, SHADING) shading through the pre-integrated lighting table: slices 1 and 2 of
                  the table buffer hold (front diffuse rgb, emission centroid) and (back diffuse rgb, 0)
-   ISO_TABLE     (mode iso) surfaces from the iso-surface table (slice 0 of the table buffer) per segment */
+   ISO_TABLE     (mode iso) surfaces from the iso-surface table (slice 0 of the table buffer) per segment
+   GRADIENT_CACHE  (packet kernel, SHADING) gradients from the gradient cache (common/gradient_cache.h):
+                 1 trilinear blend of the eight voxels' cached gradients, 2 the nearest voxel's */
 #ifndef MODE
 #define MODE 0
 #endif
@@ -40,6 +42,15 @@
 #endif
 #if defined(SHADING) || defined(SCATTERING)
 #define NEEDS_LIGHTS 1
+#endif
+#ifdef GRADIENT_CACHE
+#include "common/gradient_cache.h"
+#endif
+/* The packet kernel serves dvr without iso-surfaces, unlit or Blinn-Phong shaded from the gradient cache. */
+#if MODE == 0 && ISO_COUNT == 0 &&                                                                           \
+    (!defined(NEEDS_LIGHTS) || (defined(GRADIENT_CACHE) && defined(SHADING) && !defined(SCATTERING) &&       \
+                                !defined(SHADOWS) && !defined(PREINT_LIGHTING)))
+#define PACKET_KERNEL 1
 #endif
 
 #ifdef SHADOW_VOLUME
@@ -175,7 +186,7 @@ inline float3 preint_light(__global const voxel_t* vol, __global const VolclTfKn
 #endif
         const float3 lc = v3(Lp->lightColor[i]) * vis;
         diff += lc * ((vf ? fmax(dot(Nf, L), 0.0f) : 1.0f) * df + (vb ? fmax(dot(Nb, L), 0.0f) : 1.0f) * db);
-        if (vs) spec += lc * pow(fmax(dot(Ns, normalize(L + V)), 0.0f), Lp->shininess);
+        if (vs) spec += lc * specular_power(fmax(dot(Ns, normalize(L + V)), 0.0f), Lp->shininess);
     }
     return Lp->ambient * e.xyz + Lp->diffuse * ratio * diff + Lp->specular * e.w * spec;
 }
@@ -372,7 +383,9 @@ inline void dvr_preint_segment(__global const voxel_t* vol, __global const Volcl
 __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                        __global const float4* table, __global const uchar* macroEmpty,
                        const VolclGridRenderParams params, __global float4* out, __global float* depthOut,
-                       __global const float* fogMap, __global const float* lightVol) {
+                       __global const float* fogMap, __global const float* lightVol,
+                       __global const uint* gradCache) {
+    (void)gradCache; /* the packet kernel's */
     const uint x = get_global_id(0), y = get_global_id(1);
 #ifndef SHADOW_VOLUME
     (void)lightVol;
@@ -522,7 +535,7 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 #endif
 }
 
-#if MODE == 0 && !defined(NEEDS_LIGHTS) && ISO_COUNT == 0
+#ifdef PACKET_KERNEL
 /* Macrocells of a packet at ray parameter t: index and the parameter where each ray leaves its cell
    (macro_cell per lane, vectorised). */
 PACKET_INLINE uint8 macro_cell8(const VolclGridRenderParams* P, const RayPacket* r, float8 t, float8* exitT) {
@@ -651,9 +664,100 @@ PACKET_INLINE void fog_tail_packet(const VolclGridRenderParams* P, __global cons
 }
 #endif
 
-/* DVR (point sampled or pre-integrated, skipping, early termination, clipping) for a 4x2 block of pixels
-   per work-item; the host launches it instead of `raymarch` when the scene has no lights and no
-   iso-surfaces. Same image as `raymarch`. */
+#ifdef GRADIENT_CACHE
+/* specular_power (common/shading.h) for eight bases and one exponent: the same squarings in every lane. */
+PACKET_INLINE float8 specular_power8(float8 x, float n) {
+    float8 r;
+    if (n == floor(n) && n <= 1024.0f) {
+        uint e = (uint)n;
+        float8 b = x;
+        r = (float8)(1.0f);
+        while (e) {
+            if (e & 1u) r *= b;
+            b *= b;
+            e >>= 1;
+        }
+    } else {
+        r = exp2(n * log2(x));
+    }
+    return select(select((float8)(0.0f), (float8)(1.0f), (int8)(n == 0.0f ? -1 : 0)), r, x > 0.0f);
+}
+
+/* Blinn-Phong for the lanes in `lit` at ray parameter t, in float8: light_begin / light_add / light_finish of
+   common/shading.h with the same formulas (visibility 1: the packet kernel has no shadows), the gradient from
+   one cached-gradient blend. Lane l's world ray: wo[l] + t wd[l]. (er, eg, eb) hold straight colours;
+   `assoc`: they are associated with opacity ea (pre-integrated segments), lit as straight colours and
+   re-associated, as dvr_preint_segment does. */
+PACKET_INLINE void shade_packet(__global const uint* gradCache, const VolclGridRenderParams* P,
+                                const RayPacket* rp, const float3* wo, const float3* wd, const LaneF* vx,
+                                const LaneF* vy, const LaneF* vz, float8 t, int8 lit, int assoc, LaneF* er,
+                                LaneF* eg, LaneF* eb, const LaneF* ea) {
+    const VolclLightingParams* Lp = &P->lighting;
+    float8 gx, gy, gz;
+    gcache_gradient8(gradCache, &P->grid, rp->ox + t * rp->dx, rp->oy + t * rp->dy, rp->oz + t * rp->dz, &gx,
+                     &gy, &gz);
+    const float8 gl = sqrt(gx * gx + gy * gy + gz * gz);
+    const int8 valid = gl > Lp->gradientMin;
+    const float8 inv = select((float8)(0.0f), -1.0f / gl, valid);
+    float8 nx = gx * inv, ny = gy * inv, nz = gz * inv;
+    const float8 flip = select((float8)(1.0f), (float8)(-1.0f), nx * vx->v + ny * vy->v + nz * vz->v < 0.0f);
+    nx *= flip;
+    ny *= flip;
+    nz *= flip;
+    float8 dr = (float8)(0.0f), dg = dr, db = dr, sr = dr, sg = dr, sb = dr;
+    for (uint i = 0; i < Lp->lightCount; ++i) {
+        const float kind = Lp->lightPos[i][3];
+        float8 ndotl, ndoth;
+        if (kind == VOLCL_LIGHT_HEAD && !P->camera.perspective) {
+            /* L = V: the half vector is V itself, so N.h = N.l (no normalisation) */
+            ndotl = nx * vx->v + ny * vy->v + nz * vz->v;
+            ndoth = ndotl;
+        } else {
+            LaneF lx, ly, lz;
+            if (kind == VOLCL_LIGHT_DIRECTIONAL) { /* the same direction in every lane */
+                lx.v = (float8)(Lp->lightPos[i][0]);
+                ly.v = (float8)(Lp->lightPos[i][1]);
+                lz.v = (float8)(Lp->lightPos[i][2]);
+            } else {
+                LaneF tl;
+                tl.v = t;
+                _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
+                    float dist;
+                    const float3 L = light_dir(Lp, P->camera.perspective, wo[l], wd[l], (int)i,
+                                               wo[l] + tl.a[l] * wd[l], &dist);
+                    lx.a[l] = L.x;
+                    ly.a[l] = L.y;
+                    lz.a[l] = L.z;
+                }
+            }
+            const float8 hx = lx.v + vx->v, hy = ly.v + vy->v, hz = lz.v + vz->v;
+            const float8 hl = sqrt(hx * hx + hy * hy + hz * hz);
+            ndotl = nx * lx.v + ny * ly.v + nz * lz.v;
+            ndoth = select((float8)(0.0f), (nx * hx + ny * hy + nz * hz) / hl, hl > 0.0f);
+        }
+        const float8 diffuse =
+            select((float8)(1.0f), fmax(ndotl, 0.0f), valid); /* flat: as facing the light */
+        const float8 spec = select((float8)(0.0f), specular_power8(fmax(ndoth, 0.0f), Lp->shininess), valid);
+        const float3 lc = v3(Lp->lightColor[i]);
+        dr += lc.x * diffuse;
+        dg += lc.y * diffuse;
+        db += lc.z * diffuse;
+        sr += lc.x * spec;
+        sg += lc.y * spec;
+        sb += lc.z * spec;
+    }
+    /* Associated colours: (c / w lit) * w, with the division cancelled: c (ambient + diffuse) + specular w. */
+    const float8 w = assoc ? Lp->specular * ea->v : (float8)(Lp->specular);
+    const float8 a = Lp->ambient;
+    er->v = select(er->v, er->v * (a + Lp->diffuse * dr) + w * sr, lit);
+    eg->v = select(eg->v, eg->v * (a + Lp->diffuse * dg) + w * sg, lit);
+    eb->v = select(eb->v, eb->v * (a + Lp->diffuse * db) + w * sb, lit);
+}
+#endif
+
+/* DVR (point sampled or pre-integrated, skipping, early termination, clipping, fog, and Blinn-Phong from the
+   gradient cache) for a 4x2 block of pixels per work-item; the host launches it instead of `raymarch` when
+   PACKET_KERNEL holds. Same image as `raymarch` with the same gradients. */
 /* The TF's emission (rgb) and extinction (a) at each lane's sample s. */
 inline void tf_packet(__global const VolclTfKnot* knots, const VolclGridRenderParams* P, float8 s, LaneF* er,
                       LaneF* eg, LaneF* eb, LaneF* ea) {
@@ -687,7 +791,7 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
                               __global const float4* table, __global const uchar* macroEmpty,
                               const VolclGridRenderParams params, __global float4* out,
                               __global float* depthOut, __global const float* fogMap,
-                              __global const float* lightVol) {
+                              __global const float* lightVol, __global const uint* gradCache) {
     (void)lightVol; /* shadows run in the one-ray kernel */
     const VolclGridRenderParams* P = &params;
     const uint x0 = get_global_id(0) * PACKET_W, y0 = get_global_id(1) * PACKET_H;
@@ -702,6 +806,12 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
     LaneF fR, fG, fB, fTT;
 #else
     (void)fogMap;
+#endif
+#ifdef GRADIENT_CACHE
+    float3 wo[RAY_LANES], wd[RAY_LANES]; /* the lanes' world rays, for the lights */
+    LaneF vx, vy, vz;                    /* toward the eye: -wd */
+#else
+    (void)gradCache;
 #endif
     _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
         const uint x = x0 + (uint)(l % PACKET_W), y = y0 + (uint)(l / PACKET_W);
@@ -722,6 +832,13 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
         exit.a[l] = on ? span.y : 0.0f;
         nsegL.a[l] = on ? max((int)ceil((span.y - span.x) / P->march.step), 1) : 0;
         act.a[l] = on ? -1 : 0;
+#ifdef GRADIENT_CACHE
+        wo[l] = r.oWorld;
+        wd[l] = r.dWorld;
+        vx.a[l] = -r.dWorld.x;
+        vy.a[l] = -r.dWorld.y;
+        vz.a[l] = -r.dWorld.z;
+#endif
 #ifdef FOG
         /* Per lane: the fog's ray, and the fog in front of the volume (or all of it when the volume is missed). */
         fo[l] = r.oWorld;
@@ -795,6 +912,11 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
 #if PREINT == 0
         tf_packet(knots, P, sample_packet(vol, &P->grid, &rp, t0 + 0.5f * len), &er, &eg, &eb, &ea);
         const float8 a = 1.0f - exp(-ea.v * len);
+#ifdef GRADIENT_CACHE
+        if (any(active & (a > 0.0f)))
+            shade_packet(gradCache, P, &rp, wo, wd, &vx, &vy, &vz, t0 + 0.5f * len, active & (a > 0.0f), 0,
+                         &er, &eg, &eb, &ea);
+#endif
         const float8 wr = T * a * er.v, wg = T * a * eg.v, wb = T * a * eb.v;
 #else
         const float8 sNext = sample_packet(vol, &P->grid, &rp, t1);
@@ -809,6 +931,18 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
             eg.v = select(eg.v, NAN_G * an, bad);
             eb.v = select(eb.v, NAN_B * an, bad);
             ea.v = select(ea.v, an, bad);
+        }
+#endif
+#ifdef GRADIENT_CACHE
+        {
+#ifdef NAN_COLOR
+            const int8 lit = active & (ea.v > 0.0f) & isfinite(sPrev) & isfinite(sNext);
+#else
+            const int8 lit = active & (ea.v > 0.0f);
+#endif
+            if (any(lit))
+                shade_packet(gradCache, P, &rp, wo, wd, &vx, &vy, &vz, t0 + 0.5f * len, lit, 1, &er, &eg, &eb,
+                             &ea);
         }
 #endif
         const float8 a = ea.v;

@@ -9,8 +9,11 @@
 __kernel void raymarch_plain(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                              __global const float4* table, __global const uchar* macroEmpty,
                              const VolclGridRenderParams params, __global float4* out,
-                             __global float* depthOut, __global const float* fogMap) {
+                             __global float* depthOut, __global const float* fogMap,
+                             __global const float* lightVol, __global const uint* gradCache) {
     (void)fogMap; /* the launcher passes every grid kernel the same arguments */
+    (void)lightVol;
+    (void)gradCache;
     const VolclGridRenderParams* P = &params;
     const uint x0 = get_global_id(0) * PACKET_W, y0 = get_global_id(1) * PACKET_H;
     if (x0 >= params.camera.width || y0 >= params.camera.height) return;

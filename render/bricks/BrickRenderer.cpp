@@ -94,6 +94,8 @@ struct BrickRenderer::Impl {
     DeviceBuffer<float> pool;
     DeviceBuffer<cl_uchar> empty;
     FogDevice fog; ///< FOG: parameters and the height-map buffer
+    /// The grid kernels' gradient-cache argument (raymarch.cl): bricks have no cache, one unused word.
+    DeviceBuffer<cl_uint> noGradientCache;
     cl::Kernel kernel;
     bool packet = false;
     VolclGridRenderParams params{};
@@ -442,9 +444,11 @@ ImageBuffer BrickRenderer::render() {
     total_.add(last_);
 
     ensureFrameBuffers();
-    // The last argument, the light volumes, is read only with SHADOW_VOLUME (never planned here): any float buffer.
+    // The light volumes are read only with SHADOW_VOLUME (never planned here) and the gradient cache only with
+    // GRADIENT_CACHE (bricks shade by central differences): placeholders bound as arguments.
+    if (m.noGradientCache.size() == 0) m.noGradientCache = cc_.allocate<cl_uint>(1);
     setArgs(m.kernel, m.pool, knots(), table(), m.empty, m.params, out_, depth_, m.fog.buffer(cc_),
-            m.fog.buffer(cc_));
+            m.fog.buffer(cc_), m.noGradientCache);
     const std::size_t w = std::size_t(scene_.width), hgt = std::size_t(scene_.height);
     cl::Event ev = m.packet
                        ? cc_.launch2d(m.kernel, (w + 3) / 4, (hgt + 1) / 2, cc_.profile().rayMarch.packet)

@@ -13,6 +13,7 @@
 #include "render/FrameParams.hpp"
 #include "render/VecMath.hpp"
 #include "render/grid/BsplineField.hpp"
+#include "render/grid/GradientCache.hpp"
 #include "render/grid/GridDetail.hpp"
 #include "render/grid/LightVolume.hpp"
 #include "render/grid/PathTracer.hpp"
@@ -22,6 +23,7 @@
 #include <cstring>
 #include <iomanip>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 namespace volcl {
@@ -61,11 +63,54 @@ std::string skippingHow(unsigned macrocellEdge) {
     return std::to_string(macrocellEdge) + "^3-voxel macrocells";
 }
 
+/// The packet kernel (raymarch_packet, PACKET_KERNEL in cl/render/raymarch.cl) takes dvr without iso-surfaces,
+/// unlit or shaded from the gradient cache; the per-ray kernel takes the rest. True when the scene is dvr
+/// without iso-surfaces and its lighting, if any, needs no more than the cache (no shadows, scattering or
+/// pre-integrated lighting).
+bool packetServesLit(const Scene& scene, const EffectPlan& p) {
+    return scene.mode == RenderMode::Dvr && p.isosurfaces.empty() && !p.scattering && !p.pathTracing &&
+           !p.shadows && !p.preintLighting;
+}
+
+/// Shading from the gradient cache (GRADIENT_CACHE 1 trilinear, 2 nearest) when the scene asks for it and the
+/// packet kernel takes the scene, else on-the-fly central differences, with the reason in the report.
+/// `maxAllocBytes`: the device's largest buffer (0: unknown).
+void planGradientCache(const Scene& scene, const Volume& volume, std::uint64_t maxAllocBytes, EffectPlan& p) {
+    const GradientKind g = scene.effects.gradient;
+    if (!p.shading || (g != GradientKind::Cache && g != GradientKind::CacheNearest)) return;
+    const std::string name(gradientKindName(g));
+    const std::size_t bytes = (volume.voxelCount() + 1) * kGradientCacheBytesPerVoxel;
+    if (scene.filter != ReconstructionFilter::Linear) {
+        p.dropped.push_back("gradient " + name + ": filter " + std::string(filterName(scene.filter)) +
+                            " takes the spline's analytic gradient");
+    } else if (scene.smoothing > 0.0) {
+        p.dropped.push_back("gradient " + name + ": smoothing " + formatNumber(scene.smoothing) +
+                            " takes central differences of the smoothed voxels");
+    } else if (!packetServesLit(scene, p)) {
+        p.dropped.push_back(
+            "gradient " + name +
+            ": iso-surfaces, shadows, scattering and pre-integrated lighting take the per-ray "
+            "kernel with central differences");
+    } else if (bytes > effectiveMemoryBudget(0) || (maxAllocBytes && bytes > maxAllocBytes)) {
+        p.dropped.push_back(
+            "gradient " + name + ": its " + std::to_string(bytes) +
+            " bytes exceed the memory budget or the device's largest buffer; central differences");
+    } else {
+        p.gradientCache = g == GradientKind::CacheNearest ? 2 : 1;
+        p.defines.set("GRADIENT_CACHE", static_cast<long long>(p.gradientCache));
+        p.compiled.push_back(
+            "gradient: cache, " + std::to_string(kGradientCacheBytesPerVoxel) +
+            " bytes per voxel (12+12-bit octahedral direction, 8-bit norm), built once per volume; " +
+            (g == GradientKind::CacheNearest ? "nearest voxel's gradient (one fetch)"
+                                             : "trilinear blend of the eight voxels' gradients"));
+    }
+}
+
 /// The shared planner on the grid's box and (already scanned) value range, plus the voxel type: the
 /// renderer scans the volume once, not on every scene change (a 7M-voxel scan per adaptive-quality step
 /// change cost more than the coarse frame).
 EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& range, unsigned macrocellEdge,
-                    std::size_t nonFinite) {
+                    std::size_t nonFinite, std::uint64_t maxAllocBytes) {
     EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow(macrocellEdge), true);
     planNanColor(scene, nonFinite > 0, p);
     if (p.shadows && scene.effects.shadowMethod == ShadowMethod::Volume) {
@@ -76,6 +121,7 @@ EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& 
                 line = "shadows: a light-attenuation volume per light (" +
                        std::to_string(scene.effects.lightVolumeCell) + "-voxel cells), one fetch per sample";
     }
+    planGradientCache(scene, volume, maxAllocBytes, p);
     // The cubic filters read float spline coefficients instead of the voxels; smoothing, float voxels.
     p.defines.set("VOXEL_TYPE", scene.filter == ReconstructionFilter::Linear && scene.smoothing == 0.0
                                     ? static_cast<long long>(voxelTypeCode(volume))
@@ -95,7 +141,7 @@ WorldBox gridBounds(const Volume& volume) {
 EffectPlan planEffects(const Scene& scene, const Volume& volume, const TransferFunction& tf) {
     (void)tf;
     return planGrid(scene, volume, grid_detail::valueRange(volume),
-                    genericDeviceProfile().rayMarch.macrocellEdge, grid_detail::nonFiniteCount(volume));
+                    genericDeviceProfile().rayMarch.macrocellEdge, grid_detail::nonFiniteCount(volume), 0);
 }
 
 Camera defaultCamera(const Volume& volume) {
@@ -121,6 +167,10 @@ struct GridRenderer::Impl {
     grid_detail::MacrocellGrid smoothedMacro;
     DeviceBuffer<cl_uchar> empty;
     FogDevice fog; ///< FOG: parameters and the height-map buffer
+    /// Shading gradients (GRADIENT_CACHE), built on the first scene that uses them; until then `noCache`, one
+    /// word for the kernels' argument.
+    std::optional<GradientCacheBuffer> gradients;
+    DeviceBuffer<cl_uint> noCache;
     grid_detail::MacrocellGrid macro;
     std::vector<unsigned char> emptyHost;
     cl::Kernel kernel;
@@ -152,6 +202,7 @@ GridRenderer::GridRenderer(ComputeContext& cc, const Volume& volume, const Trans
     impl_->range = grid_detail::valueRange(volume);
     impl_->useCorners =
         volume.type() == ScalarType::UInt8 && volume.voxelCount() <= grid_detail::kMaxCornerVoxels;
+    impl_->noCache = cc_.allocate<cl_uint>(1);
     start(gridBounds(volume_), impl_->range);
 }
 
@@ -159,6 +210,10 @@ GridRenderer::~GridRenderer() = default;
 
 int GridRenderer::lightVolumeBuilds() const noexcept {
     return impl_->lightVolume.builds();
+}
+
+double GridRenderer::gradientCacheBuildMs() const noexcept {
+    return impl_->gradients ? impl_->gradients->buildMs : -1.0;
 }
 
 std::size_t GridRenderer::macrocellCount() const noexcept {
@@ -184,10 +239,11 @@ void GridRenderer::rebuild(const Rebuild& change) {
         preparePathTracer(change.shaded);
         return;
     }
-    // Unlit DVR without iso-surfaces (the common, time-critical case) runs as explicit 8-ray packets.
+    // DVR without iso-surfaces, unlit or shaded from the gradient cache (the common, time-critical cases),
+    // runs as explicit 8-ray packets.
     const bool floatCopy = scene_.filter != ReconstructionFilter::Linear || scene_.smoothing > 0.0;
-    m.packet =
-        scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
+    const bool cached = plan_.gradientCache != 0;
+    m.packet = packetServesLit(scene_, plan_) && (!plan_.shading || cached);
     m.params = grid_detail::makeParams(scene_, camera_, volume_, m.range, tf_, plan_, macro, knotCount(),
                                        tableLengths());
     if (plan_.isoTable) {
@@ -197,8 +253,14 @@ void GridRenderer::rebuild(const Rebuild& change) {
         m.params.tf.tableSize = volcl_uint(scene_.tableSize);
     }
     if (plan_.fog) m.params.fog = m.fog.update(cc_, scene_.effects.fog, bounds(), plan_.fogMap);
+    // Before the skipping probe, whose frames read it. The volume never changes: built once, whatever the TF,
+    // camera or lights.
+    if (cached && !m.gradients)
+        m.gradients = buildGradientCache(cc_, m.volume.get(), voxelTypeCode(volume_), m.params.grid);
+    const float gradientMax = m.params.grid.gradientMax; // the cache's scale, from the value range
     m.params.grid =
         grid_detail::gridParams(volume_, selectSkipping(macro, change.shaded, m.params, floatCopy));
+    m.params.grid.gradientMax = gradientMax;
     m.kernel = cc_.kernel("render/raymarch.cl", m.packet ? "raymarch_packet" : "raymarch",
                           m.packet ? packetDefines(plan_.defines, floatCopy) : plan_.defines);
 }
@@ -277,6 +339,7 @@ const grid_detail::MacrocellGrid& GridRenderer::selectSkipping(const grid_detail
             while (i + 1 < empties.size() && gridOf(i).edge != edge)
                 ++i;
             probe.grid = grid_detail::gridParams(volume_, gridOf(i));
+            probe.grid.gradientMax = base.grid.gradientMax;
             return eventMilliseconds(enqueueFrame(edge ? on : off, sampledVoxels(), flags[i].get(), probe,
                                                   out, depth, std::size_t(pw), std::size_t(ph), m.packet));
         };
@@ -452,7 +515,7 @@ cl::Event GridRenderer::enqueueFrame(cl::Kernel& kernel, const cl::Buffer& voxel
                                      const DeviceBuffer<float>& depth, std::size_t w, std::size_t h,
                                      bool packet) {
     setArgs(kernel, voxels, knots(), table(), empty, params, out, depth, impl_->fog.buffer(cc_),
-            impl_->lightVolume.buffer(cc_));
+            impl_->lightVolume.buffer(cc_), impl_->gradients ? impl_->gradients->words : impl_->noCache);
     // One ray per work-item, or one packet of 4x2 rays (see DeviceProfile::RayMarch for the tiles).
     const DeviceProfile::RayMarch& tuning = cc_.profile().rayMarch;
     return packet ? cc_.launch2d(kernel, (w + 3) / 4, (h + 1) / 2, tuning.packet)
@@ -559,7 +622,8 @@ ImageBuffer GridRenderer::renderPlainBaseline() {
 }
 
 EffectPlan GridRenderer::planEffects(const Scene& scene) const {
-    return planGrid(scene, volume_, impl_->range, cc_.profile().rayMarch.macrocellEdge, impl_->nonFinite);
+    return planGrid(scene, volume_, impl_->range, cc_.profile().rayMarch.macrocellEdge, impl_->nonFinite,
+                    cc_.device().maxAllocBytes);
 }
 
 std::string GridRenderer::statistics() const {
@@ -570,6 +634,9 @@ std::string GridRenderer::statistics() const {
     if (plan_.shadowVolume)
         os << "; light volumes: " << impl_->lightVolume.builds() << " built, last in " << std::setprecision(1)
            << lightVolumeMs_ << " ms";
+    if (impl_->gradients)
+        os << "; gradient cache: " << std::setprecision(2) << gradientCacheBuildMs() << " ms to build, "
+           << impl_->gradients->words.size() * sizeof(cl_uint) << " bytes";
     return os.str();
 }
 

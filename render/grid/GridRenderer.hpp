@@ -71,6 +71,9 @@ public:
     const Volume& volume() const noexcept { return volume_; }
     std::size_t macrocellCount() const noexcept;
     double emptyMacrocellFraction() const noexcept { return emptyFraction_; }
+    /// Kernel time of the gradient cache's build (once per volume, on the first scene shaded from it); -1
+    /// while none is built.
+    double gradientCacheBuildMs() const noexcept;
 
 private:
     struct Impl;

@@ -40,7 +40,7 @@ EffectPlan planPt(const Scene& scene, const mesh::TetMesh& mesh, const DevicePro
                          std::string(renderModeName(scene.mode)) + ": use render.method \"cells\")");
     Scene s = scene;
     s.preintegration = Preintegration::Table3d;
-    s.skipping = false;
+    s.skipping = SkipMode::Off;
     EffectPlan p = planMeshEffects(s, mesh);
     const std::string why = " is not drawn by render.method \"pt\" (use \"cells\")";
     if (p.shading) throw UsageError("shading" + why);
@@ -48,7 +48,7 @@ EffectPlan planPt(const Scene& scene, const mesh::TetMesh& mesh, const DevicePro
     if (scene.preintegration != Preintegration::Table3d)
         p.dropped.push_back("preintegration \"" + std::string(preintegrationName(scene.preintegration)) +
                             "\": projected tetrahedra integrate every cell segment through the 3D table");
-    if (scene.skipping) p.dropped.push_back("empty-space skipping: every cell in the order is composited");
+    if (scene.skipping != SkipMode::Off) p.dropped.push_back("empty-space skipping: every cell in the order is composited");
     p.defines.set("KB_TILE", kKBufferTile)
         .set("KB_TILE_THREADS", device.mesh.tileThreads)
         .set("BIN_CHUNKS", device.mesh.binChunks);

@@ -95,7 +95,7 @@ TEST(CliMeshCodec, UsageErrors) {
 TEST(CliMeshCodec, CorruptAndTruncatedFilesAreRefused) {
     const fs::path dir = meshDir();
     ASSERT_EQ(runVolcl("encode grid.vtu -o g.vcm", dir, true).exitCode, 0);
-    const std::string good = slurp(dir / "g.vcm");
+    const std::string good = test::readFile(dir / "g.vcm");
     const auto write = [&](const std::string& name, const std::string& bytes) {
         std::ofstream(dir / name, std::ios::binary) << bytes;
     };

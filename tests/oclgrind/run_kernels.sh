@@ -135,6 +135,7 @@ gtest tf_sample test_tf 'TransferFunction.HostAndKernelSamplingAreBitIdentical'
 gtest motion test_motion_compensation 'MotionCompensation.TinyVolumeMatchesTheReferenceOnBothKernels'
 gtest plain test_render 'Render.PlainKernelMatchesBaseline'
 gtest light_volume test_shadow_volume 'LightVolume.KernelMatchesItsReference'
+gtest gradient_cache test_gradient_cache 'GradientCache.KernelMatchesHostReferenceBitForBit'
 # NaN voxels (NAN_COLOR): point-sampled and pre-integrated dvr, MIP/x-ray skipping, iso cells with NaN corners
 gtest nan test_render_nan 'RenderNan.DvrDrawsTheNanColourWhereTheRuleSays:'\
 'RenderNan.SkippingKeepsCellsWhereOnlyTheNanColourShows:RenderNan.MipAndXraySkipSamplesThatAreNotFinite:'\
@@ -183,6 +184,11 @@ both mip mip.exr "${R[@]}" --mode mip
 both xray xray.exr "${R[@]}" --mode xray
 both iso iso.exr "${R[@]}" --mode iso --iso 0.5 --iso 0.8:1,0,0,0.5
 both shading shading.exr "${R[@]}" --shading 0.2,0.7,0.3,32 --sobel
+# Shaded from the gradient cache on the packet kernel (trilinear blend, nearest voxel, with 2D pre-integration)
+both shading_cache shading_cache.exr "${R[@]}" --shading 0.2,0.7,0.3,32
+both shading_nearest shading_nearest.exr "${R[@]}" --shading 0.2,0.7,0.3,20.5 --gradient cache-nearest
+both shading_cache_pre2d shading_cache_pre2d.exr "${R[@]}" --shading 0.2,0.7,0.3,32 --preintegration 2d \
+  --table-size 32 --clip 1,0,0,-4
 both shadows shadows.exr "${R[@]}" --shading 0.2,0.7,0.3,32 --shadows
 # Light volumes (light_volume_slice): a diagonal sun on a 3-voxel grid, a point light inside the volume; rays.
 both shadows_dir shadows_dir.exr "${R[@]}" --shading 0.2,0.7,0.3,32 --shadows --light dir:1,1,1 --light-volume-cell 3
@@ -195,7 +201,8 @@ both cubic cubic.exr "${R[@]}" --filter cubic --smoothing 1
 both clip clip.exr "${R[@]}" --clip 1,0,0,-4 --projection perspective
 both fog fog.exr "$volcl" -q render --scene "$work/in/fog_scene.json" --volume "$ml" --tf "$tf" --width 12 \
   --height 10
-for i in dvr dvr_noskip mip xray iso shading shadows shadows_dir shadows_point shadows_rays scatter pre2d pre3d cubic clip fog; do
+for i in dvr dvr_noskip mip xray iso shading shading_cache shading_nearest shading_cache_pre2d shadows shadows_dir \
+  shadows_point shadows_rays scatter pre2d pre3d cubic clip fog; do
   same_image "$i.exr" 1e-4
 done
 both pathtrace pathtrace.exr "${R[@]}" --scattering 0.8,0.3 --scattering-order multiple --samples 2

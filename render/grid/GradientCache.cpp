@@ -1,0 +1,86 @@
+// The gradient cache: device build (cl/render/gradient_cache.cl), host reference and decoder.
+#include "render/grid/GradientCache.hpp"
+
+#include "core/Volume.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+
+namespace volcl {
+namespace {
+
+constexpr float kOctLevels = 4095.0f;   // GCACHE_OCT_LEVELS
+constexpr std::uint32_t kExpBias = 112; // GCACHE_EXP_BIAS
+
+/// gcache_pack of cl/common/gradient_cache.h, operation for operation.
+std::uint32_t packGradient(float gx, float gy, float gz, float gMax) {
+    const float l1 = std::fabs(gx) + std::fabs(gy) + std::fabs(gz);
+    if (!(l1 > 0.0f) || !std::isfinite(l1)) return 0u;
+    const float ratio = std::fmin(l1 / gMax, 1.0f);
+    const std::uint32_t bits = std::bit_cast<std::uint32_t>(ratio) + (1u << 18);
+    const int code = int(bits >> 19) - int(kExpBias << 4);
+    if (code < 1) return 0u;
+    float px = gx / l1, py = gy / l1;
+    if (gz < 0.0f) {
+        const float fx = (1.0f - std::fabs(py)) * (px >= 0.0f ? 1.0f : -1.0f);
+        const float fy = (1.0f - std::fabs(px)) * (py >= 0.0f ? 1.0f : -1.0f);
+        px = fx;
+        py = fy;
+    }
+    const auto u = std::uint32_t(std::nearbyint((px * 0.5f + 0.5f) * kOctLevels));
+    const auto v = std::uint32_t(std::nearbyint((py * 0.5f + 0.5f) * kOctLevels));
+    return std::min(u, 4095u) | (std::min(v, 4095u) << 12) | (std::uint32_t(std::min(code, 255)) << 24);
+}
+
+} // namespace
+
+GradientCacheBuffer buildGradientCache(ComputeContext& cc, const cl::Buffer& voxels, int voxelType,
+                                       const VolclGridParams& grid) {
+    KernelDefines d;
+    d.set("VOXEL_TYPE", static_cast<long long>(voxelType));
+    cl::Kernel k = cc.kernel("render/gradient_cache.cl", "gradient_cache_build", d);
+    const std::size_t n = std::size_t(grid.dims[0]) * grid.dims[1] * grid.dims[2];
+    GradientCacheBuffer out;
+    out.words = cc.allocate<cl_uint>(n + 1);
+    const cl_uint zero = 0; // the spare word: read with weight 0 by the blend's pair loads
+    cc.queue().enqueueWriteBuffer(out.words.get(), CL_TRUE, n * sizeof(cl_uint), sizeof(cl_uint), &zero);
+    setArgs(k, voxels, grid, out.words);
+    out.buildMs = eventMilliseconds(cc.launch3d(k, grid.dims[0], grid.dims[1], grid.dims[2]));
+    return out;
+}
+
+std::vector<std::uint32_t> gradientCacheReference(const Volume& volume, float gradientMax) {
+    const Dims& d = volume.dims();
+    const std::vector<float> v = volume.toFloat();
+    const float inv[3] = {static_cast<float>(1.0 / volume.spacing[0]),
+                          static_cast<float>(1.0 / volume.spacing[1]),
+                          static_cast<float>(1.0 / volume.spacing[2])};
+    const std::size_t nx = d.x, ny = d.y, nz = d.z, nxy = nx * ny;
+    std::vector<std::uint32_t> out(nx * ny * nz);
+    for (std::size_t z = 0; z < nz; ++z)
+        for (std::size_t y = 0; y < ny; ++y)
+            for (std::size_t x = 0; x < nx; ++x) {
+                const std::size_t c = z * nxy + y * nx + x;
+                const float gx = v[c - x + std::min(x + 1, nx - 1)] - v[c - x + (x > 0 ? x - 1 : 0)];
+                const float gy =
+                    v[c - y * nx + std::min(y + 1, ny - 1) * nx] - v[c - y * nx + (y > 0 ? y - 1 : 0) * nx];
+                const float gz = v[c - z * nxy + std::min(z + 1, nz - 1) * nxy] -
+                                 v[c - z * nxy + (z > 0 ? z - 1 : 0) * nxy];
+                out[c] =
+                    packGradient(gx * 0.5f * inv[0], gy * 0.5f * inv[1], gz * 0.5f * inv[2], gradientMax);
+            }
+    return out;
+}
+
+Vec3 unpackGradient(std::uint32_t word, float gradientMax) {
+    const std::uint32_t code = word >> 24;
+    if (code == 0) return {0, 0, 0};
+    const double u = double(word & 0xFFFu) * (2.0 / kOctLevels) - 1.0;
+    const double v = double((word >> 12) & 0xFFFu) * (2.0 / kOctLevels) - 1.0;
+    const double m = double(std::bit_cast<float>((code + (kExpBias << 4)) << 19)) * gradientMax;
+    const double z = 1.0 - std::fabs(u) - std::fabs(v), t = std::max(-z, 0.0);
+    return {m * (u - std::copysign(t, u)), m * (v - std::copysign(t, v)), m * z};
+}
+
+} // namespace volcl

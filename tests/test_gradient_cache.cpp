@@ -1,0 +1,314 @@
+// The gradient cache: the build kernel against its C++ reference, decoded normals against analytic ones,
+// and shaded frames from the packet kernel against the double reference (central differences) on hard cases.
+#include "TestUtil.hpp"
+
+#include "core/Volume.hpp"
+#include "host/io/VolumeIo.hpp"
+#include "host/tf/TransferFunction.hpp"
+#include "render/Reference.hpp"
+#include "render/Scene.hpp"
+#include "render/grid/GradientCache.hpp"
+#include "render/grid/GridDetail.hpp"
+#include "render/grid/GridRenderer.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <iostream>
+#include <string>
+
+namespace volcl {
+namespace {
+
+using test::computeContext;
+using test::makeFloatVolume;
+using test::orthoScene;
+
+/// The volume quantised to uint8 (values clamped to [0, 255]).
+Volume toUInt8(const Volume& f) {
+    Volume v(f.dims(), ScalarType::UInt8);
+    auto out = v.values<std::uint8_t>();
+    for (std::size_t i = 0; i < f.voxelCount(); ++i)
+        out[i] = std::uint8_t(std::clamp(std::lround(f.valueAt(i)), 0L, 255L));
+    v.spacing = f.spacing;
+    return v;
+}
+
+/// Sphere distance field: R - |x - c| in voxel units (world units with `spacing`), positive inside.
+Volume sphereField(Dims n, double radius, Vec3 spacing = {1, 1, 1}) {
+    const Vec3 c{double(n.x - 1) / 2 * spacing[0], double(n.y - 1) / 2 * spacing[1],
+                 double(n.z - 1) / 2 * spacing[2]};
+    Volume v = makeFloatVolume(n, [&](double x, double y, double z) {
+        const double dx = x * spacing[0] - c[0], dy = y * spacing[1] - c[1], dz = z * spacing[2] - c[2];
+        return radius - std::sqrt(dx * dx + dy * dy + dz * dz);
+    });
+    v.spacing = spacing;
+    return v;
+}
+
+/// The words the device builds (without the spare one).
+std::vector<std::uint32_t> deviceWords(const Volume& v) {
+    ComputeContext& cc = computeContext();
+    std::vector<cl_uchar> bytes(v.byteSize() + scalarSize(v.type()), 0);
+    std::memcpy(bytes.data(), v.bytes().data(), v.byteSize());
+    auto buf = cc.upload(bytes, CL_MEM_READ_ONLY);
+    VolclGridParams g = grid_detail::gridParams(v, grid_detail::buildMacrocells(v, 8));
+    g.gradientMax = grid_detail::gradientCacheScale(v, grid_detail::valueRange(v));
+    const int type = v.type() == ScalarType::UInt8    ? 1
+                     : v.type() == ScalarType::UInt16 ? 2
+                     : v.type() == ScalarType::Int16  ? 3
+                                                      : 0;
+    GradientCacheBuffer c = buildGradientCache(cc, buf.get(), type, g);
+    EXPECT_GE(c.buildMs, 0.0);
+    std::vector<cl_uint> w = cc.download(c.words);
+    EXPECT_EQ(w.size(), v.voxelCount() + 1);
+    EXPECT_EQ(w.back(), 0u) << "the spare word";
+    return {w.begin(), w.end() - 1};
+}
+
+TEST(GradientCache, KernelMatchesHostReferenceBitForBit) {
+    std::vector<std::pair<std::string, Volume>> cases;
+    cases.push_back({"float sphere", sphereField({19, 17, 15}, 6.0)});
+    cases.push_back({"uint8 staircase", toUInt8(makeFloatVolume({12, 9, 7}, [](double x, double y, double z) {
+                         return 20.0 * std::floor((x + 2 * y + 3 * z) / 6.0);
+                     }))});
+    cases.push_back({"anisotropic", sphereField({11, 13, 9}, 5.0, {0.5, 1.0, 2.5})});
+    cases.push_back({"flat", makeFloatVolume({6, 5, 4}, [](double, double, double) { return 3.0; })});
+    cases.push_back(
+        {"one voxel wide", makeFloatVolume({1, 6, 5}, [](double, double y, double z) { return y * z; })});
+    Volume nan = sphereField({8, 8, 8}, 3.0);
+    nan.values<float>()[nan.index(4, 4, 4)] = std::nanf("");
+    cases.push_back({"NaN voxel", nan});
+    for (const auto& [name, v] : cases) {
+        const float gMax = grid_detail::gradientCacheScale(v, grid_detail::valueRange(v));
+        const std::vector<std::uint32_t> want = gradientCacheReference(v, gMax);
+        const std::vector<std::uint32_t> got = deviceWords(v);
+        ASSERT_EQ(got.size(), want.size()) << name;
+        std::size_t diff = 0;
+        for (std::size_t i = 0; i < got.size(); ++i)
+            diff += got[i] != want[i];
+        EXPECT_EQ(diff, 0u) << name;
+        if (name == std::string("flat"))
+            for (std::uint32_t w : got)
+                EXPECT_EQ(w, 0u) << "a flat region packs as the zero gradient";
+    }
+}
+
+// Decoded normals of a sphere's distance field against the analytic normals, and decoded gradients against
+// the exact central differences they quantise.
+TEST(GradientCache, SphereNormalsCloseToAnalytic) {
+    for (const Vec3 spacing : {Vec3{1, 1, 1}, Vec3{0.7, 1.3, 2.0}}) {
+        const Dims n{33, 31, 29};
+        const Volume v = sphereField(n, 12.0, spacing);
+        const float gMax = grid_detail::gradientCacheScale(v, grid_detail::valueRange(v));
+        const std::vector<std::uint32_t> words = gradientCacheReference(v, gMax);
+        const Vec3 c{16 * spacing[0], 15 * spacing[1], 14 * spacing[2]};
+        double worstAnalytic = 0.0, worstQuant = 0.0, worstMag = 0.0;
+        std::size_t checked = 0;
+        for (std::size_t z = 1; z + 1 < n.z; ++z)
+            for (std::size_t y = 1; y + 1 < n.y; ++y)
+                for (std::size_t x = 1; x + 1 < n.x; ++x) {
+                    const Vec3 p{x * spacing[0] - c[0], y * spacing[1] - c[1], z * spacing[2] - c[2]};
+                    const double r = norm(p);
+                    if (r < 4.0 || r > 11.0) continue; // away from the centre's kink and the border
+                    const Vec3 g = unpackGradient(words[v.index(x, y, z)], gMax);
+                    const Vec3 normal = scale(g, 1.0 / norm(g)), want = scale(p, -1.0 / r);
+                    worstAnalytic = std::max(worstAnalytic, std::acos(std::min(1.0, dot(normal, want))));
+                    auto at = [&](std::size_t i, std::size_t j, std::size_t k) {
+                        return v.valueAt(v.index(i, j, k));
+                    };
+                    const Vec3 cd{(at(x + 1, y, z) - at(x - 1, y, z)) / (2 * spacing[0]),
+                                  (at(x, y + 1, z) - at(x, y - 1, z)) / (2 * spacing[1]),
+                                  (at(x, y, z + 1) - at(x, y, z - 1)) / (2 * spacing[2])};
+                    worstQuant = std::max(worstQuant,
+                                          std::acos(std::min(1.0, dot(normal, scale(cd, 1.0 / norm(cd))))));
+                    const double l1 = std::abs(cd[0]) + std::abs(cd[1]) + std::abs(cd[2]);
+                    const double gl1 = std::abs(g[0]) + std::abs(g[1]) + std::abs(g[2]);
+                    worstMag = std::max(worstMag, std::abs(gl1 - l1) / l1);
+                    ++checked;
+                }
+        ASSERT_GT(checked, 1000u);
+        const double deg = 180.0 / M_PI;
+        EXPECT_LT(worstQuant * deg, 0.06) << "12-bit octahedral directions";
+        EXPECT_LT(worstMag, 1.0 / 32.0 + 1e-6) << "4 mantissa bits, rounded";
+        // The central differences' own error on the sphere (curvature) dominates the quantisation.
+        EXPECT_LT(worstAnalytic * deg, 3.0)
+            << "spacing " << spacing[0] << "," << spacing[1] << "," << spacing[2];
+    }
+}
+
+/// A shaded test scene: head light, default Blinn-Phong, step 0.25.
+Scene shadedScene(Dims n, double h, GradientKind g) {
+    Scene s = orthoScene(n, h, 40, 36);
+    s.camera->eye = {s.camera->target[0] + 30, s.camera->target[1] - 20, -40.0};
+    s.step = 0.25;
+    s.lights = {Light{LightKind::Head, {0, 0, -1}, {1, 1, 1}, 1.0}};
+    s.effects.shading = true;
+    s.effects.shadingGiven = true;
+    s.effects.gradient = g;
+    s.skipping = false;
+    return s;
+}
+
+TransferFunction rampTf(double lo, double hi, double tauMax) {
+    TransferFunction tf;
+    tf.domain = {lo, hi};
+    tf.color = {{lo, {1.0, 0.6, 0.3}}, {hi, {0.4, 0.7, 1.0}}};
+    tf.extinction = {{lo, 0.0}, {lo + 0.3 * (hi - lo), 0.0}, {hi, tauMax}};
+    return tf;
+}
+
+struct ShadedCase {
+    std::string name;
+    Volume volume;
+    TransferFunction tf;
+    double h;
+    double bound;        ///< RMSE of the cache (trilinear) against the reference
+    double boundNearest; ///< the same for the nearest voxel's gradient
+};
+
+/// Hard cases shaded from the cache: each against the reference and against on-the-fly central
+/// differences on the per-ray kernel; the packet kernel must take them.
+TEST(GradientCache, ShadedFramesMatchReferenceOnHardCases) {
+    std::vector<ShadedCase> cases;
+    cases.push_back({"sphere", sphereField({24, 24, 24}, 9.0), rampTf(-2, 9, 1.5), 28, 1e-4, 3e-3});
+    cases.push_back({"anisotropic sphere", sphereField({24, 16, 40}, 9.0, {1.0, 1.5, 0.6}),
+                     rampTf(-2, 9, 1.5), 30, 1e-4, 4e-3});
+    // 8-bit staircase: the sphere quantised to 32 levels of uint8.
+    cases.push_back({"8-bit staircase",
+                     toUInt8(makeFloatVolume({24, 24, 24},
+                                             [](double x, double y, double z) {
+                                                 const double r = std::sqrt((x - 11.5) * (x - 11.5) +
+                                                                            (y - 11.5) * (y - 11.5) +
+                                                                            (z - 11.5) * (z - 11.5));
+                                                 return 8.0 *
+                                                        std::floor(std::max(0.0, 255.0 - 24.0 * r) / 8.0);
+                                             })),
+                     rampTf(0, 255, 0.8), 28, 1.2e-4, 5e-3});
+    // A one-voxel-thick plate at z = 10 and a one-voxel-thick rod along y.
+    cases.push_back({"1-voxel-thick",
+                     makeFloatVolume({20, 20, 20},
+                                     [](double x, double, double z) {
+                                         return (z == 10.0 ? 100.0 : 0.0) +
+                                                (x == 6.0 && z == 5.0 ? 100.0 : 0.0);
+                                     }),
+                     rampTf(0, 100, 4.0), 24, 3e-3, 7e-2});
+    // Flat: constant value, no gradient anywhere: lit as facing the light, no NaN.
+    cases.push_back({"flat", makeFloatVolume({12, 12, 12}, [](double, double, double) { return 50.0; }),
+                     rampTf(0, 60, 0.3), 16, 1e-6, 1e-6});
+    for (const ShadedCase& c : cases) {
+        const Dims n = c.volume.dims();
+        for (GradientKind g : {GradientKind::Cache, GradientKind::CacheNearest}) {
+            const Scene s = shadedScene(n, c.h, g);
+            GridRenderer r(computeContext(), c.volume, c.tf, s);
+            EXPECT_EQ(r.plan().gradientCache, g == GradientKind::Cache ? 1 : 2) << c.name << "\n"
+                                                                                << r.plan().explain();
+            const ImageBuffer img = r.render();
+            for (float px : img.pixels)
+                ASSERT_TRUE(std::isfinite(px)) << c.name;
+            EXPECT_GE(r.gradientCacheBuildMs(), 0.0);
+            const ImageBuffer ref = referenceRender(c.volume, c.tf, s, {.step = 0.05});
+            const double e = imageRmse(img, ref);
+            Scene sc = s;
+            sc.effects.gradient = GradientKind::Central;
+            const double eCentral =
+                imageRmse(GridRenderer(computeContext(), c.volume, c.tf, sc).render(), ref);
+            std::cout << c.name << (g == GradientKind::Cache ? ", cache: RMSE " : ", cache-nearest: RMSE ")
+                      << e << " (central differences " << eCentral << ")\n";
+            if (g == GradientKind::Cache)
+                EXPECT_LT(e, c.bound) << c.name << " (central differences: " << eCentral << ")";
+            else // the nearest voxel's gradient: facets; on a one-voxel plate the plate's own voxels are flat
+                EXPECT_LT(e, c.boundNearest) << c.name << " (central differences: " << eCentral << ")";
+        }
+    }
+}
+
+// The packet kernel with every common effect beside the cache: 2D and 3D pre-integration, clipping, early
+// termination, skipping; NaN voxels stay unlit in their colour.
+TEST(GradientCache, PacketShadingWithPreintegrationClippingAndSkipping) {
+    const Dims n{24, 24, 24};
+    const Volume v = sphereField(n, 9.0);
+    const TransferFunction tf = rampTf(-2, 9, 1.5);
+    for (Preintegration pre : {Preintegration::None, Preintegration::Table2d, Preintegration::Table3d}) {
+        Scene s = shadedScene(n, 28, GradientKind::Cache);
+        s.preintegration = pre;
+        s.skipping = true;
+        s.earlyTermination = 0.99;
+        s.effects.clipPlanes = {{{0.6, 0.0, 0.8}, -14.0}};
+        GridRenderer r(computeContext(), v, tf, s);
+        EXPECT_EQ(r.plan().gradientCache, 1) << r.plan().explain();
+        EXPECT_TRUE(r.plan().clipping);
+        const ImageBuffer img = r.render();
+        Scene exact = s;
+        exact.earlyTermination = 1.0;
+        const ImageBuffer ref = referenceRender(v, tf, exact, {.step = 0.05});
+        EXPECT_LT(imageRmse(img, ref), 6e-3) << preintegrationName(pre);
+    }
+    // Directional and point lights under a perspective camera: per-lane light directions and half vectors.
+    Scene s = shadedScene(n, 28, GradientKind::Cache);
+    s.camera->projection = Projection::Perspective;
+    s.camera->fovYDeg = 40.0;
+    s.lights = {Light{LightKind::Directional, {0.3, 0.5, -0.8}, {1, 0.9, 0.8}, 1.0},
+                Light{LightKind::Point, {40, 12, 0}, {0.5, 0.4, 0.3}, 1.0},
+                Light{LightKind::Head, {0, 0, 0}, {0.3, 0.3, 0.3}, 1.0}};
+    s.effects.shininess = 20.5; // a non-integer exponent: exp2(n log2 x)
+    GridRenderer r(computeContext(), v, tf, s);
+    EXPECT_EQ(r.plan().gradientCache, 1) << r.plan().explain();
+    EXPECT_LT(imageRmse(r.render(), referenceRender(v, tf, s, {.step = 0.05})), 3e-3);
+}
+
+// Scenes the packet kernel does not take keep central differences, and say so.
+TEST(GradientCache, FallsBackToCentralDifferencesWithAReason) {
+    const Dims n{12, 12, 12};
+    const Volume v = sphereField(n, 4.0);
+    const TransferFunction tf = rampTf(-2, 4, 1.0);
+    Scene s = shadedScene(n, 14, GradientKind::Cache);
+    s.effects.isosurfaces = {{1.0, {1, 1, 1, 0.5}}};
+    EffectPlan p = planEffects(s, v, tf);
+    EXPECT_EQ(p.gradientCache, 0);
+    EXPECT_NE(p.explain().find("gradient cache: iso-surfaces"), std::string::npos) << p.explain();
+    s.effects.isosurfaces.clear();
+    s.filter = ReconstructionFilter::Cubic;
+    p = planEffects(s, v, tf);
+    EXPECT_EQ(p.gradientCache, 0);
+    EXPECT_NE(p.explain().find("analytic gradient"), std::string::npos) << p.explain();
+    s.filter = ReconstructionFilter::Linear;
+    s.effects.gradient = GradientKind::Central;
+    EXPECT_EQ(planEffects(s, v, tf).gradientCache, 0);
+    s.effects.gradient = GradientKind::CacheNearest;
+    EXPECT_EQ(planEffects(s, v, tf).gradientCache, 2);
+}
+
+// BrainWeb MRI: the cached-gradient frame against the double reference, next to on-the-fly central
+// differences at the same step.
+TEST(GradientCache, MriShadedCloseToReference) {
+    std::filesystem::path data;
+    VOLCL_REQUIRE_SHARED_DATA(data);
+    ReadOptions ro;
+    ro.dims = Dims{180, 216, 180};
+    ro.type = ScalarType::UInt8;
+    const Volume v = readVolume(data / "regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz", ro);
+    const std::filesystem::path bench = std::filesystem::path(VOLCL_SOURCE_DIR) / "bench/render";
+    Scene s = Scene::fromFile(bench / "mri_scene.json");
+    const TransferFunction tf = TransferFunction::fromFile(bench / "mri_tf.json").fittedTo({0, 255});
+    s.width = 64;
+    s.height = 64;
+    s.earlyTermination = 1.0;
+    s.lights = {Light{LightKind::Head, {0, 0, -1}, {1, 1, 1}, 1.0}};
+    s.effects.shading = true;
+    s.effects.shadingGiven = true;
+    GridRenderer r(computeContext(), v, tf, s);
+    ASSERT_EQ(r.plan().gradientCache, 1) << r.plan().explain();
+    const ImageBuffer img = r.render();
+    const ImageBuffer ref = referenceRender(v, tf, s, {.step = 0.1});
+    Scene sc = s;
+    sc.effects.gradient = GradientKind::Central;
+    const double e = imageRmse(img, ref),
+                 eCentral = imageRmse(GridRenderer(computeContext(), v, tf, sc).render(), ref);
+    std::cout << "MRI 64x64, shaded: RMSE cache " << e << ", central differences " << eCentral << '\n';
+    EXPECT_LT(e, 1.2 * eCentral + 1e-3) << "central differences: " << eCentral;
+}
+
+} // namespace
+} // namespace volcl
