@@ -213,7 +213,7 @@ static_assert(sizeof(VolclPathParams) == 48, "VolclPathParams layout must match 
 static_assert(sizeof(VolclGridParams) == 96, "VolclGridParams layout must match OpenCL C");
 static_assert(sizeof(VolclFogParams) == 80, "VolclFogParams layout must match OpenCL C");
 static_assert(sizeof(VolclLightVolumeParams) == 32, "VolclLightVolumeParams layout must match OpenCL C");
-static_assert(sizeof(VolclLightSweepParams) == 80 + 32 + 32 + 48,
+static_assert(sizeof(VolclLightSweepParams) == 96 + 32 + 32 + 48,
               "VolclLightSweepParams layout must match OpenCL C");
 static_assert(sizeof(VolclGridRenderParams) == 80 + 80 + 16 + 32 + 176 + 96 + 96 + 80 + 32,
               "VolclGridRenderParams layout must match OpenCL C");

@@ -147,7 +147,7 @@ Scene shadedScene(Dims n, double h, GradientKind g) {
     s.effects.shading = true;
     s.effects.shadingGiven = true;
     s.effects.gradient = g;
-    s.skipping = false;
+    s.skipping = SkipMode::Off;
     return s;
 }
 
@@ -233,7 +233,7 @@ TEST(GradientCache, PacketShadingWithPreintegrationClippingAndSkipping) {
     for (Preintegration pre : {Preintegration::None, Preintegration::Table2d, Preintegration::Table3d}) {
         Scene s = shadedScene(n, 28, GradientKind::Cache);
         s.preintegration = pre;
-        s.skipping = true;
+        s.skipping = SkipMode::On;
         s.earlyTermination = 0.99;
         s.effects.clipPlanes = {{{0.6, 0.0, 0.8}, -14.0}};
         GridRenderer r(computeContext(), v, tf, s);

@@ -19,6 +19,6 @@ void addCodecBench(CLI::App& bench, GlobalOptions& global);  // bench codec (Cod
 void addMotionBench(CLI::App& bench, GlobalOptions& global); // bench motion (MotionBench.cpp)
 void addSeriesBench(CLI::App& bench, GlobalOptions& global); // bench series (SeriesBench.cpp)
 void addMeshCodecBench(CLI::App& bench, GlobalOptions& global); // bench mesh-codec (MeshCodecBench.cpp)
-void addMeshBench(CLI::App& bench, GlobalOptions& global);   // bench mesh (MeshSortBench.cpp)
+void addMeshBench(CLI::App& bench, GlobalOptions& global);      // bench mesh (MeshSortBench.cpp)
 
 } // namespace volcl::cli

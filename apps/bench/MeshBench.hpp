@@ -2,6 +2,8 @@
 // reference, and VTK's unstructured-grid mappers on the same mesh, TF, camera and image.
 #pragma once
 
+#include "apps/bench/BenchOutput.hpp"
+
 #include "render/RenderInput.hpp"
 #include "render/VolumeRenderer.hpp"
 
@@ -13,8 +15,6 @@ namespace volcl::cli {
 double rmseRgb(const ImageBuffer& a, const ImageBuffer& b);
 /// Median kernel milliseconds of `runs` frames after one warm-up frame (kernel build excluded).
 double timeFrames(VolumeRenderer& r, int runs);
-/// The 1, 5 and 15 minute load averages ("0.52, 0.61, 0.70"; "unknown" when the system has none).
-std::string loadAverage();
 
 struct MeshBenchOptions {
     int runs = 5;

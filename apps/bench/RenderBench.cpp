@@ -9,10 +9,10 @@
 #include "apps/bench/MediaBench.hpp"
 #include "apps/bench/MeshBench.hpp"
 #include "apps/bench/ScatterBench.hpp"
-#include "apps/bench/TierBench.hpp"
+#include "apps/bench/ShadingBench.hpp"
 #include "apps/bench/ShadowBench.hpp"
 #include "apps/bench/SkipBench.hpp"
-#include "apps/bench/ShadingBench.hpp"
+#include "apps/bench/TierBench.hpp"
 #include "apps/bench/VtkPeer.hpp"
 #include "apps/cli/CliParsing.hpp"
 #include "apps/cli/SceneFlags.hpp"
@@ -51,14 +51,6 @@ double rmseRgb(const ImageBuffer& a, const ImageBuffer& b) {
                 sum += d * d;
             }
     return std::sqrt(sum / (3.0 * a.width * a.height));
-}
-
-std::string loadAverage() {
-    double l[3] = {0, 0, 0};
-    if (getloadavg(l, 3) != 3) return "unknown";
-    std::ostringstream os;
-    os << std::fixed << std::setprecision(2) << l[0] << ", " << l[1] << ", " << l[2];
-    return os.str();
 }
 
 double timeFrames(VolumeRenderer& r, int runs) {

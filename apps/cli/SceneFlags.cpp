@@ -169,10 +169,11 @@ void SceneFlags::add(CLI::App* cmd) {
         ->check(CLI::IsMember({"single", "multiple"}));
     cmd->add_option("--samples", samples, "Path-tracer samples per pixel (multiple scattering)");
     cmd->add_option("--clip", clips, "Clipping plane nx,ny,nz,offset keeping n.x + offset >= 0 (repeatable)");
-    cmd->add_option("--method", method,
-                    "Grids: raymarch, shear-warp (orthographic preview) or drc (discrete ray casting preview); "
-                    "meshes: cells (exact cell traversal), kbuffer (sorted faces, k-buffer) or pt (projected "
-                    "tetrahedra in visibility order)")
+    cmd->add_option(
+           "--method", method,
+           "Grids: raymarch, shear-warp (orthographic preview) or drc (discrete ray casting preview); "
+           "meshes: cells (exact cell traversal), kbuffer (sorted faces, k-buffer) or pt (projected "
+           "tetrahedra in visibility order)")
         ->default_str("raymarch (grids), " + std::string(meshMethodName(d.meshMethod)) + " (meshes)");
     cmd->add_option("--k", k, "Meshes, method kbuffer: k-buffer entries per pixel (2..8)")
         ->default_str(num(d.kBufferDepth));

@@ -17,7 +17,8 @@ struct QualityLevel {
     /// Work relative to full quality: rays times samples per ray (times the faces drawn).
     double work() const noexcept { return resolutionScale * resolutionScale / stepScale * faceFraction; }
     bool full() const noexcept {
-        return resolutionScale >= 1.0 && stepScale <= 1.0 && faceFraction >= 1.0 && tier == GridMethod::Raymarch;
+        return resolutionScale >= 1.0 && stepScale <= 1.0 && faceFraction >= 1.0 &&
+               tier == GridMethod::Raymarch;
     }
 };
 

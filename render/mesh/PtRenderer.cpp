@@ -48,11 +48,13 @@ EffectPlan planPt(const Scene& scene, const mesh::TetMesh& mesh, const DevicePro
     if (scene.preintegration != Preintegration::Table3d)
         p.dropped.push_back("preintegration \"" + std::string(preintegrationName(scene.preintegration)) +
                             "\": projected tetrahedra integrate every cell segment through the 3D table");
-    if (scene.skipping != SkipMode::Off) p.dropped.push_back("empty-space skipping: every cell in the order is composited");
+    if (scene.skipping != SkipMode::Off)
+        p.dropped.push_back("empty-space skipping: every cell in the order is composited");
     p.defines.set("KB_TILE", kKBufferTile)
         .set("KB_TILE_THREADS", device.mesh.tileThreads)
         .set("BIN_CHUNKS", device.mesh.binChunks);
-    p.compiled.push_back("projected tetrahedra: cells in " + std::string(meshSortName(sceneMeshSort(scene, mesh))) +
+    p.compiled.push_back("projected tetrahedra: cells in " +
+                         std::string(meshSortName(sceneMeshSort(scene, mesh))) +
                          " visibility order, composited front to back per " + std::to_string(kKBufferTile) +
                          "x" + std::to_string(kKBufferTile) + "-pixel tile");
     return p;
