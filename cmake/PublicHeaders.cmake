@@ -25,6 +25,7 @@ set(VOLCL_PUBLIC_HEADERS
   render/Scene.hpp
   render/VecMath.hpp
   render/VolumeRenderer.hpp
+  render/SkipChoice.hpp
   render/grid/GridRenderer.hpp
   core/runtime/ClRuntime.hpp
   core/runtime/DeviceProfile.hpp

@@ -452,6 +452,9 @@ DecodedMesh decodeMesh(std::span<const std::uint8_t> file, const std::string& so
 }
 
 bool isVcmFile(const std::filesystem::path& path) {
+    // Only regular files are opened: a FIFO would block the read, /dev/zero never ends.
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) return false;
     std::ifstream in(path, std::ios::binary);
     std::uint8_t magic[sizeof(kVcmMagic)] = {};
     if (!in.read(reinterpret_cast<char*>(magic), sizeof(magic))) return false;

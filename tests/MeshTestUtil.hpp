@@ -5,6 +5,8 @@
 #include "host/mesh/TetMesh.hpp"
 #include "host/tf/TransferFunction.hpp"
 #include "render/VecMath.hpp"
+#include "render/mesh/KBufferReference.hpp"
+#include "render/mesh/KBufferRenderer.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -32,6 +34,18 @@ inline double meanAlpha(const ImageBuffer& img) {
     for (std::size_t i = 3; i < img.pixels.size(); i += 4)
         sum += img.pixels[i];
     return sum / double(img.width * img.height);
+}
+
+/// The k-buffer mirror's input for the frame `r` last set up: its geometry, faces, parameters, table and k.
+inline KBufferMirrorInput kbufferMirrorInputOf(KBufferRenderer& r) {
+    KBufferMirrorInput in;
+    in.geometry = &r.geometry();
+    in.scalars = &r.geometry().scalars;
+    in.faces = &r.faces();
+    in.params = r.frameParams();
+    in.table = &r.tableValues();
+    in.k = r.k();
+    return in;
 }
 
 } // namespace volcl::test

@@ -78,6 +78,14 @@ inline std::filesystem::path sharedData() {
         path = ::volcl::test::sharedData();                                                                  \
     } while (0)
 
+/// The BrainWeb T1 MRI of the shared data (180 x 216 x 180 uint8), read from `data` (sharedData()).
+inline Volume brainWebMri(const std::filesystem::path& data) {
+    ReadOptions ro;
+    ro.dims = Dims{180, 216, 180};
+    ro.type = ScalarType::UInt8;
+    return readVolume(data / "regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz", ro);
+}
+
 /// Float32 volume with voxel (i, j, k) = f(i, j, k): analytic fields for renderer tests.
 inline Volume makeFloatVolume(Dims d, const std::function<double(double, double, double)>& f) {
     Volume v(d, ScalarType::Float32);

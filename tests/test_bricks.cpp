@@ -409,10 +409,7 @@ TEST(BrickRender, AutoLodOnMriStaysCloseWhileDecodingFewerVoxels) {
     std::filesystem::path data;
     VOLCL_REQUIRE_SHARED_DATA(data);
     ComputeContext& cc = computeContext();
-    ReadOptions ro;
-    ro.dims = Dims{180, 216, 180};
-    ro.type = ScalarType::UInt8;
-    const Volume v = readVolume(data / "regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz", ro);
+    const Volume v = test::brainWebMri(data);
     const auto reader = encode(v, lossless(32, 3));
     const std::filesystem::path bench = std::filesystem::path(VOLCL_SOURCE_DIR) / "bench/render";
     for (const char* name : {"mri", "mri_sharp"}) {

@@ -285,10 +285,7 @@ TEST(GradientCache, FallsBackToCentralDifferencesWithAReason) {
 TEST(GradientCache, MriShadedCloseToReference) {
     std::filesystem::path data;
     VOLCL_REQUIRE_SHARED_DATA(data);
-    ReadOptions ro;
-    ro.dims = Dims{180, 216, 180};
-    ro.type = ScalarType::UInt8;
-    const Volume v = readVolume(data / "regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz", ro);
+    const Volume v = test::brainWebMri(data);
     const std::filesystem::path bench = std::filesystem::path(VOLCL_SOURCE_DIR) / "bench/render";
     Scene s = Scene::fromFile(bench / "mri_scene.json");
     const TransferFunction tf = TransferFunction::fromFile(bench / "mri_tf.json").fittedTo({0, 255});

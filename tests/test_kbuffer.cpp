@@ -77,14 +77,7 @@ using test::meanAlpha;
 using test::meshTf;
 
 ImageBuffer mirrorOf(KBufferRenderer& r, const mesh::TetMesh& m, KBufferMirrorStats* stats = nullptr) {
-    KBufferMirrorInput in;
-    in.geometry = &r.geometry();
-    in.scalars = &r.geometry().scalars;
-    in.faces = &r.faces();
-    in.params = r.frameParams();
-    in.table = &r.tableValues();
-    in.k = r.k();
-    return kbufferMirrorRender(in, stats);
+    return kbufferMirrorRender(test::kbufferMirrorInputOf(r), stats);
 }
 
 /// Two boxes [0,1]^2 x [0,1] and [0,1]^2 x [2,3] in one mesh: rays along z leave and re-enter.

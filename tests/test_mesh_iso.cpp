@@ -1,6 +1,7 @@
 // Lit iso-surfaces of tetrahedral meshes: smooth vertex normals against a sphere's analytic normals, the cell
 // caster's smooth shading against the reference, and the k-buffer's iso mode against its C++ mirror and the
 // cell caster's iso mode (generated and shared meshes).
+#include "MeshTestUtil.hpp"
 #include "TestUtil.hpp"
 
 #include "core/Error.hpp"
@@ -94,13 +95,7 @@ double meanAlpha(const ImageBuffer& img) {
 }
 
 ImageBuffer mirrorIso(KBufferRenderer& r) {
-    KBufferMirrorInput in;
-    in.geometry = &r.geometry();
-    in.scalars = &r.geometry().scalars;
-    in.faces = &r.faces();
-    in.params = r.frameParams();
-    in.table = &r.tableValues();
-    in.k = r.k();
+    KBufferMirrorInput in = test::kbufferMirrorInputOf(r);
     in.iso = true;
     in.shading = r.plan().shading;
     in.isoParams = r.isoFrameParams();

@@ -310,10 +310,7 @@ TEST(PreviewTiers, TfChangeRebuildsTheRunsAndViewsReuseThem) {
 TEST(PreviewTiers, MriTiersAreCloseToTheRayMarcher) {
     std::filesystem::path data;
     VOLCL_REQUIRE_SHARED_DATA(data);
-    ReadOptions ro;
-    ro.dims = Dims{180, 216, 180};
-    ro.type = ScalarType::UInt8;
-    const Volume v = readVolume(data / "regular/t1_icbm_normal_1mm_pn0_rf0_180x216x180_uint8_1x1.bin-gz", ro);
+    const Volume v = test::brainWebMri(data);
     // The smooth MRI transfer function of the rendering benchmarks (bench/render/mri_tf.json).
     TransferFunction tf;
     tf.domain = {0, 255};

@@ -49,7 +49,7 @@
 /* The packet kernel serves dvr without iso-surfaces, unlit or Blinn-Phong shaded from the gradient cache. */
 #if MODE == 0 && ISO_COUNT == 0 &&                                                                           \
     (!defined(NEEDS_LIGHTS) || (defined(GRADIENT_CACHE) && defined(SHADING) && !defined(SCATTERING) &&       \
-                                !defined(SHADOWS) && !defined(PREINT_LIGHTING)))
+                                (!defined(SHADOWS) || defined(SHADOW_VOLUME)) && !defined(PREINT_LIGHTING)))
 #define PACKET_KERNEL 1
 #endif
 
@@ -684,14 +684,14 @@ PACKET_INLINE float8 specular_power8(float8 x, float n) {
 }
 
 /* Blinn-Phong for the lanes in `lit` at ray parameter t, in float8: light_begin / light_add / light_finish of
-   common/shading.h with the same formulas (visibility 1: the packet kernel has no shadows), the gradient from
+   common/shading.h with the same formulas (visibility from the light volumes with SHADOW_VOLUME, else 1), the gradient from
    one cached-gradient blend. Lane l's world ray: wo[l] + t wd[l]. (er, eg, eb) hold straight colours;
    `assoc`: they are associated with opacity ea (pre-integrated segments), lit as straight colours and
    re-associated, as dvr_preint_segment does. */
 PACKET_INLINE void shade_packet(__global const uint* gradCache, const VolclGridRenderParams* P,
                                 const RayPacket* rp, const float3* wo, const float3* wd, const LaneF* vx,
                                 const LaneF* vy, const LaneF* vz, float8 t, int8 lit, int assoc, LaneF* er,
-                                LaneF* eg, LaneF* eb, const LaneF* ea) {
+                                LaneF* eg, LaneF* eb, const LaneF* ea SHADOW_PARAMS) {
     const VolclLightingParams* Lp = &P->lighting;
     float8 gx, gy, gz;
     gcache_gradient8(gradCache, &P->grid, rp->ox + t * rp->dx, rp->oy + t * rp->dy, rp->oz + t * rp->dz, &gx,
@@ -735,9 +735,20 @@ PACKET_INLINE void shade_packet(__global const uint* gradCache, const VolclGridR
             ndotl = nx * lx.v + ny * ly.v + nz * lz.v;
             ndoth = select((float8)(0.0f), (nx * hx + ny * hy + nz * hz) / hl, hl > 0.0f);
         }
-        const float8 diffuse =
-            select((float8)(1.0f), fmax(ndotl, 0.0f), valid); /* flat: as facing the light */
-        const float8 spec = select((float8)(0.0f), specular_power8(fmax(ndoth, 0.0f), Lp->shininess), valid);
+        float8 diffuse = select((float8)(1.0f), fmax(ndotl, 0.0f), valid); /* flat: as facing the light */
+        float8 spec = select((float8)(0.0f), specular_power8(fmax(ndoth, 0.0f), Lp->shininess), valid);
+#ifdef SHADOW_VOLUME
+        {
+            /* Transmittance toward the light: one light-volume fetch per lane, as light_visibility does. */
+            LaneF vis, tl;
+            tl.v = t;
+            _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) vis.a[l] =
+                light_volume_sample(lightVol, &P->lightVolume, i,
+                                    (wo[l] + tl.a[l] * wd[l] - v3(P->grid.origin)) * v3(P->grid.invSpacing));
+            diffuse *= vis.v;
+            spec *= vis.v;
+        }
+#endif
         const float3 lc = v3(Lp->lightColor[i]);
         dr += lc.x * diffuse;
         dg += lc.y * diffuse;
@@ -792,7 +803,7 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
                               const VolclGridRenderParams params, __global float4* out,
                               __global float* depthOut, __global const float* fogMap,
                               __global const float* lightVol, __global const uint* gradCache) {
-    (void)lightVol; /* shadows run in the one-ray kernel */
+    (void)lightVol; /* read by shade_packet with SHADOW_VOLUME */
     const VolclGridRenderParams* P = &params;
     const uint x0 = get_global_id(0) * PACKET_W, y0 = get_global_id(1) * PACKET_H;
     if (x0 >= params.camera.width || y0 >= params.camera.height) return;
@@ -915,7 +926,7 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
 #ifdef GRADIENT_CACHE
         if (any(active & (a > 0.0f)))
             shade_packet(gradCache, P, &rp, wo, wd, &vx, &vy, &vz, t0 + 0.5f * len, active & (a > 0.0f), 0,
-                         &er, &eg, &eb, &ea);
+                         &er, &eg, &eb, &ea SHADOW_ARGS);
 #endif
         const float8 wr = T * a * er.v, wg = T * a * eg.v, wb = T * a * eb.v;
 #else
@@ -942,7 +953,7 @@ __kernel void raymarch_packet(__global const voxel_t* vol, __global const VolclT
 #endif
             if (any(lit))
                 shade_packet(gradCache, P, &rp, wo, wd, &vx, &vy, &vz, t0 + 0.5f * len, lit, 1, &er, &eg, &eb,
-                             &ea);
+                             &ea SHADOW_ARGS);
         }
 #endif
         const float8 a = ea.v;

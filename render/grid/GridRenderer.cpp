@@ -69,7 +69,7 @@ std::string skippingHow(unsigned macrocellEdge) {
 /// pre-integrated lighting).
 bool packetServesLit(const Scene& scene, const EffectPlan& p) {
     return scene.mode == RenderMode::Dvr && p.isosurfaces.empty() && !p.scattering && !p.pathTracing &&
-           !p.shadows && !p.preintLighting;
+           (!p.shadows || p.shadowVolume) && !p.preintLighting;
 }
 
 /// Shading from the gradient cache (GRADIENT_CACHE 1 trilinear, 2 nearest) when the scene asks for it and the
@@ -89,7 +89,7 @@ void planGradientCache(const Scene& scene, const Volume& volume, std::uint64_t m
     } else if (!packetServesLit(scene, p)) {
         p.dropped.push_back(
             "gradient " + name +
-            ": iso-surfaces, shadows, scattering and pre-integrated lighting take the per-ray "
+            ": iso-surfaces, shadow rays, scattering and pre-integrated lighting take the per-ray "
             "kernel with central differences");
     } else if (bytes > effectiveMemoryBudget(0) || (maxAllocBytes && bytes > maxAllocBytes)) {
         p.dropped.push_back(
@@ -557,7 +557,8 @@ ImageBuffer GridRenderer::render() {
     Impl& m = *impl_;
     if (plan_.pathTracing) return launch(m.kernel, m.volume.get(), false, false);
     const cl::Buffer& voxels = sampledVoxels();
-    if (plan_.shadowVolume) updateLightVolume(voxels);
+    // The light volumes read the field as the per-ray kernel does (never the packets' corner layout).
+    if (plan_.shadowVolume) updateLightVolume(&voxels == &m.corners.get() ? m.volume.get() : voxels);
     return launch(m.kernel, voxels, !plan_.isosurfaces.empty(), m.packet);
 }
 
