@@ -41,8 +41,9 @@ bool checksumMatches(std::uint64_t stored, std::span<const std::uint8_t> bytes) 
 }
 
 template <class T> void put(std::vector<std::uint8_t>& out, T v) {
-    const auto* p = reinterpret_cast<const std::uint8_t*>(&v);
-    out.insert(out.end(), p, p + sizeof(T));
+    const std::size_t at = out.size();
+    out.resize(at + sizeof(T));
+    std::memcpy(out.data() + at, &v, sizeof(T));
 }
 
 class FieldReader {

@@ -31,7 +31,9 @@ std::string fixed(double v, int digits) {
 }
 
 std::string signedMs(double v) {
-    return (v >= 0 ? "+" : "") + fixed(v, 2);
+    std::string s = fixed(v, 2);
+    if (v >= 0) s.insert(s.begin(), '+');
+    return s;
 }
 
 } // namespace

@@ -29,8 +29,10 @@ void expectRefused(const RunResult& r, int code, const std::string& file) {
     EXPECT_NE(r.err.find(file), std::string::npos) << r.err;
 }
 
+/// A directory of its own per test (ctest runs them in parallel) holding grid.vtu.
 fs::path meshDir() {
-    const fs::path dir = tempDir("cli_mesh_codec");
+    const fs::path dir = tempDir(std::string("cli_mesh_codec_") +
+                                 ::testing::UnitTest::GetInstance()->current_test_info()->name());
     const mesh::TetMesh m = mesh::generateHexGridMesh(
         {5, 4, 3}, {0, 0, 0}, {1, 0.8, 0.6}, [](double x, double y, double z) { return x * x + y - z; });
     mesh::writeVtu(m, dir / "grid.vtu");
