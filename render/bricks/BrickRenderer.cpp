@@ -445,7 +445,7 @@ ImageBuffer BrickRenderer::render() {
 
     ensureFrameBuffers();
     // The light volumes are read only with SHADOW_VOLUME (never planned here) and the gradient cache only with
-    // GRADIENT_CACHE (bricks shade by central differences): placeholders bound as arguments.
+    // GRADIENT_CACHE (bricks shade by central differences): one-element buffers bound as arguments.
     if (m.noGradientCache.size() == 0) m.noGradientCache = cc_.allocate<cl_uint>(1);
     setArgs(m.kernel, m.pool, knots(), table(), m.empty, m.params, out_, depth_, m.fog.buffer(cc_),
             m.fog.buffer(cc_), m.noGradientCache);

@@ -30,7 +30,7 @@ std::string previewRefusal(const Scene& scene, GridMethod method) {
                        : scene.smoothing > 0.0                        ? "smoothing"
                        : method == GridMethod::ShearWarp && scene.camera &&
                                scene.camera->projection == Projection::Perspective
-                           ? "a perspective camera (the perspective factorisation is not implemented)"
+                           ? "a perspective camera (shear-warp factorises parallel projections only)"
                            : nullptr;
     if (!what) return {};
     return "render.method " + std::string(gridMethodName(method)) +

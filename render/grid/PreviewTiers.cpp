@@ -56,8 +56,8 @@ std::size_t dimAlong(const Dims& d, int axis) {
 
 ShearWarpFactors shearWarpFactors(const Volume& volume, const Camera& camera) {
     if (camera.projection != Projection::Orthographic)
-        throw UsageError("render.method shear-warp: orthographic cameras only (the perspective factorisation "
-                         "is not implemented); use drc or raymarch for a perspective view");
+        throw UsageError("render.method shear-warp: orthographic cameras only (volcl factorises parallel "
+                         "projections); use drc or raymarch for a perspective view");
     const Vec3 f = normalized(sub(camera.target, camera.eye));
     Vec3 dI{};
     for (int i = 0; i < 3; ++i)
