@@ -19,12 +19,12 @@ struct EffectPlan {
     bool shading = false, shadows = false, scattering = false, clipping = false, skipping = false;
     bool shadowVolume = false; ///< shadows from light-attenuation volumes (SHADOW_VOLUME), not rays
     bool earlyTermination = false, sobel = false;
-    bool fog = false, fogMap = false;  ///< FOG (and FOG_MAP): the scene's fog is composited
-    bool preintLighting = false;       ///< PREINT_LIGHTING: shading through the pre-integrated lighting table
-    bool isoTable = false;             ///< ISO_TABLE: iso-surfaces from the iso-surface table
-    bool pathTracing = false;          ///< multiple scattering: the path tracer renders the frame
-    int gradientCache = 0;             ///< GRADIENT_CACHE (grids): 1 trilinear blend, 2 nearest voxel
-    double colorScale = 1.0;           ///< ambient-only shading folded into the TF colours
+    bool fog = false, fogMap = false; ///< FOG (and FOG_MAP): the scene's fog is composited
+    bool preintLighting = false;      ///< PREINT_LIGHTING: shading through the pre-integrated lighting table
+    bool isoTable = false;            ///< ISO_TABLE: iso-surfaces from the iso-surface table
+    bool pathTracing = false;         ///< multiple scattering: the path tracer renders the frame
+    int gradientCache = 0;   ///< GRADIENT_CACHE (grids): 1 trilinear blend, 2 nearest voxel, 3 exact blend
+    double colorScale = 1.0; ///< ambient-only shading folded into the TF colours
     std::vector<IsoLayer> isosurfaces; ///< the ones that can appear
     std::vector<ClipPlane> clipPlanes; ///< the ones that cut the data's box
     std::string explain() const;       ///< multi-line report for `volcl render --explain`

@@ -15,6 +15,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <iostream>
 #include <string>
 
@@ -48,7 +49,8 @@ Volume sphereField(Dims n, double radius, Vec3 spacing = {1, 1, 1}) {
 }
 
 /// The words the device builds (without the spare one).
-std::vector<std::uint32_t> deviceWords(const Volume& v) {
+std::vector<std::uint32_t> deviceWords(const Volume& v,
+                                       GradientCacheFormat format = GradientCacheFormat::Octahedral) {
     ComputeContext& cc = computeContext();
     std::vector<cl_uchar> bytes(v.byteSize() + scalarSize(v.type()), 0);
     std::memcpy(bytes.data(), v.bytes().data(), v.byteSize());
@@ -59,7 +61,7 @@ std::vector<std::uint32_t> deviceWords(const Volume& v) {
                      : v.type() == ScalarType::UInt16 ? 2
                      : v.type() == ScalarType::Int16  ? 3
                                                       : 0;
-    GradientCacheBuffer c = buildGradientCache(cc, buf.get(), type, g);
+    GradientCacheBuffer c = buildGradientCache(cc, buf.get(), type, g, format);
     EXPECT_GE(c.buildMs, 0.0);
     std::vector<cl_uint> w = cc.download(c.words);
     EXPECT_EQ(w.size(), v.voxelCount() + 1);
@@ -93,6 +95,70 @@ TEST(GradientCache, KernelMatchesHostReferenceBitForBit) {
             for (std::uint32_t w : got)
                 EXPECT_EQ(w, 0u) << "a flat region packs as the zero gradient";
     }
+}
+
+/// A volume of `type` holding f's values (rounded; the caller keeps them in the type's range).
+Volume integerVolume(Dims n, ScalarType type, const std::function<double(double, double, double)>& f) {
+    const Volume src = makeFloatVolume(n, f);
+    Volume v(n, type);
+    for (std::size_t i = 0; i < v.voxelCount(); ++i) {
+        const long x = std::lround(src.valueAt(i));
+        if (type == ScalarType::UInt8) v.values<std::uint8_t>()[i] = std::uint8_t(x);
+        if (type == ScalarType::UInt16) v.values<std::uint16_t>()[i] = std::uint16_t(x);
+        if (type == ScalarType::Int16) v.values<std::int16_t>()[i] = std::int16_t(x);
+    }
+    return v;
+}
+
+// Integer volumes spanning at most 511 keep their central differences exactly: the device's words equal the
+// reference's, and every decoded gradient equals the central difference computed here in double.
+TEST(GradientCache, ExactFormHoldsTheCentralDifferences) {
+    std::vector<std::pair<std::string, Volume>> cases;
+    cases.push_back(
+        {"uint8 full range", integerVolume({13, 11, 9}, ScalarType::UInt8, [](double x, double y, double z) {
+             return std::fmod(97.0 * x + 31.0 * y * y + 7.0 * z, 256.0);
+         })});
+    cases.push_back({"uint16 spanning 511",
+                     integerVolume({9, 8, 7}, ScalarType::UInt16, [](double x, double y, double z) {
+                         return 40000.0 + ((int(x) + int(y) + int(z)) % 2 ? 511.0 : 0.0);
+                     })});
+    Volume aniso = integerVolume({7, 9, 11}, ScalarType::Int16, [](double x, double y, double z) {
+        return -200.0 + 30.0 * x - 11.0 * y + 17.0 * z;
+    });
+    aniso.spacing = {0.5, 1.25, 3.0};
+    cases.push_back({"int16 anisotropic, negative", aniso});
+    cases.push_back(
+        {"one voxel wide", integerVolume({1, 6, 5}, ScalarType::UInt8,
+                                         [](double, double y, double z) { return 9.0 * y * z; })});
+    for (const auto& [name, v] : cases) {
+        const ValueRange range = grid_detail::valueRange(v);
+        ASSERT_EQ(gradientCacheFormat(v.type(), range.max - range.min), GradientCacheFormat::ExactDifferences)
+            << name;
+        const std::vector<std::uint32_t> want =
+            gradientCacheReference(v, 1.0f, GradientCacheFormat::ExactDifferences);
+        EXPECT_EQ(deviceWords(v, GradientCacheFormat::ExactDifferences), want) << name;
+        const Dims n = v.dims();
+        double worst = 0.0;
+        for (std::size_t z = 0; z < n.z; ++z)
+            for (std::size_t y = 0; y < n.y; ++y)
+                for (std::size_t x = 0; x < n.x; ++x) {
+                    auto at = [&](std::size_t i, std::size_t j, std::size_t k) {
+                        return v.valueAt(v.index(i, j, k));
+                    };
+                    auto lo = [](std::size_t i) { return i > 0 ? i - 1 : 0; };
+                    auto hi = [](std::size_t i, std::size_t m) { return std::min(i + 1, m - 1); };
+                    const Vec3 cd{(at(hi(x, n.x), y, z) - at(lo(x), y, z)) / (2 * v.spacing[0]),
+                                  (at(x, hi(y, n.y), z) - at(x, lo(y), z)) / (2 * v.spacing[1]),
+                                  (at(x, y, hi(z, n.z)) - at(x, y, lo(z))) / (2 * v.spacing[2])};
+                    const Vec3 g = unpackExactGradient(want[v.index(x, y, z)], v.spacing);
+                    for (int a = 0; a < 3; ++a)
+                        worst = std::max(worst, std::abs(g[std::size_t(a)] - cd[std::size_t(a)]));
+                }
+        EXPECT_EQ(worst, 0.0) << name;
+    }
+    // One more than 511, or float voxels: the octahedral form.
+    EXPECT_EQ(gradientCacheFormat(ScalarType::UInt16, 512.0), GradientCacheFormat::Octahedral);
+    EXPECT_EQ(gradientCacheFormat(ScalarType::Float32, 10.0), GradientCacheFormat::Octahedral);
 }
 
 // Decoded normals of a sphere's distance field against the analytic normals, and decoded gradients against
@@ -202,8 +268,12 @@ TEST(GradientCache, ShadedFramesMatchReferenceOnHardCases) {
         for (GradientKind g : {GradientKind::Cache, GradientKind::CacheNearest}) {
             const Scene s = shadedScene(n, c.h, g);
             GridRenderer r(computeContext(), c.volume, c.tf, s);
-            EXPECT_EQ(r.plan().gradientCache, g == GradientKind::Cache ? 1 : 2) << c.name << "\n"
-                                                                                << r.plan().explain();
+            const bool exact = c.volume.type() == ScalarType::UInt8; // spans at most 255: the exact form
+            EXPECT_EQ(r.plan().gradientCache, g == GradientKind::CacheNearest ? 2
+                                              : exact                         ? 3
+                                                                              : 1)
+                << c.name << "\n"
+                << r.plan().explain();
             const ImageBuffer img = r.render();
             for (float px : img.pixels)
                 ASSERT_TRUE(std::isfinite(px)) << c.name;
@@ -285,7 +355,13 @@ TEST(GradientCache, FallsBackToCentralDifferencesWithAReason) {
 TEST(GradientCache, MriShadedCloseToReference) {
     std::filesystem::path data;
     VOLCL_REQUIRE_SHARED_DATA(data);
-    const Volume v = test::brainWebMri(data);
+    const Volume mri = test::brainWebMri(data);
+    // The same voxels as float: the octahedral form (uint8 spanning 255 takes the exact form).
+    Volume asFloat(mri.dims(), ScalarType::Float32);
+    const std::vector<float> values = mri.toFloat();
+    std::copy(values.begin(), values.end(), asFloat.values<float>().begin());
+    asFloat.spacing = mri.spacing;
+    asFloat.origin = mri.origin;
     const std::filesystem::path bench = std::filesystem::path(VOLCL_SOURCE_DIR) / "bench/render";
     Scene s = Scene::fromFile(bench / "mri_scene.json");
     const TransferFunction tf = TransferFunction::fromFile(bench / "mri_tf.json").fittedTo({0, 255});
@@ -295,16 +371,20 @@ TEST(GradientCache, MriShadedCloseToReference) {
     s.lights = {Light{LightKind::Head, {0, 0, -1}, {1, 1, 1}, 1.0}};
     s.effects.shading = true;
     s.effects.shadingGiven = true;
-    GridRenderer r(computeContext(), v, tf, s);
-    ASSERT_EQ(r.plan().gradientCache, 1) << r.plan().explain();
-    const ImageBuffer img = r.render();
-    const ImageBuffer ref = referenceRender(v, tf, s, {.step = 0.1});
+    const ImageBuffer ref = referenceRender(mri, tf, s, {.step = 0.1});
     Scene sc = s;
     sc.effects.gradient = GradientKind::Central;
-    const double e = imageRmse(img, ref),
-                 eCentral = imageRmse(GridRenderer(computeContext(), v, tf, sc).render(), ref);
-    std::cout << "MRI 64x64, shaded: RMSE cache " << e << ", central differences " << eCentral << '\n';
-    EXPECT_LT(e, 1.2 * eCentral + 1e-3) << "central differences: " << eCentral;
+    const double eCentral = imageRmse(GridRenderer(computeContext(), mri, tf, sc).render(), ref);
+    for (const Volume* v : {&mri, static_cast<const Volume*>(&asFloat)}) {
+        GridRenderer r(computeContext(), *v, tf, s);
+        const bool exact = v == &mri;
+        ASSERT_EQ(r.plan().gradientCache, exact ? 3 : 1) << r.plan().explain();
+        const double e = imageRmse(r.render(), ref);
+        std::cout << "MRI 64x64, shaded: RMSE cache (" << (exact ? "exact" : "octahedral") << ") " << e
+                  << ", central differences " << eCentral << '\n';
+        EXPECT_LT(e, (exact ? 1.01 : 1.2) * eCentral + (exact ? 1e-5 : 1e-3))
+            << "central differences: " << eCentral;
+    }
 }
 
 } // namespace

@@ -457,7 +457,8 @@ void addRenderBench(CLI::App& bench, GlobalOptions& global) {
         "Blinn-Phong per gradient kind (cache, cache-nearest, central, sobel) and an iso layer against "
         "the plain frame in interleaved rounds, RMSE vs the reference; with --vtk, VTK shaded and plain");
     b->add_option("--shading-gradients", ba->shadingGradients,
-                  "--shading-sweep: gradient kinds of the shaded frames (central is always timed)")
+                  "--shading-sweep: gradient kinds of the shaded frames timed (central is rendered once "
+                  "anyway, for the RMSE column)")
         ->capture_default_str();
     b->add_option("--shading-csv", ba->shadingCsv,
                   "--shading-sweep: write the rows as CSV (bench/plot_shading.py)");

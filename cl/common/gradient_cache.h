@@ -1,7 +1,10 @@
 /* The gradient cache (render.gradient "cache" / "cache-nearest"): one uint per voxel holding the voxel's
    central-difference world gradient as a 2x12-bit octahedral direction (bits 0-23) and an 8-bit minifloat of
    its L1 norm relative to VolclGridParams::gradientMax (bits 24-31; 0: zero gradient). Built once per volume
-   by gradient_cache.cl; the packet ray marcher reads it instead of six trilinear samples per gradient. */
+   by gradient_cache.cl; the packet ray marcher reads it instead of six trilinear samples per gradient.
+   Integer volumes whose values span at most 511 use the exact form instead (GRADIENT_CACHE 3): the three
+   voxel differences of the central difference, each an integer in [-511, 511], as 10 bits plus 512 (bits
+   0-9 x, 10-19 y, 20-29 z), so the cache loses nothing and its blend decodes with one conversion per axis. */
 #ifndef VOLCL_GRADIENT_CACHE_H
 #define VOLCL_GRADIENT_CACHE_H
 
@@ -34,6 +37,11 @@ inline uint gcache_pack(float3 g, float gMax) {
     return min(u, 4095u) | (min(v, 4095u) << 12) | ((uint)min(code, 255) << 24);
 }
 
+/* The exact form of integer differences dx, dy, dz (each in [-511, 511]). */
+inline uint gcache_pack_exact(int dx, int dy, int dz) {
+    return (uint)(dx + 512) | ((uint)(dy + 512) << 10) | ((uint)(dz + 512) << 20);
+}
+
 /* Unpacks eight cache words into gradients in units of gMax (the L1 norm times the unit-L1 direction). */
 PACKET_INLINE void gcache_unpack8(uint8 w, float8* gx, float8* gy, float8* gz) {
     const float8 u = convert_float8(w & 0xFFFu) * (2.0f / GCACHE_OCT_LEVELS) - 1.0f;
@@ -47,7 +55,56 @@ PACKET_INLINE void gcache_unpack8(uint8 w, float8* gx, float8* gy, float8* gz) {
     *gz = m * z;
 }
 
-#if GRADIENT_CACHE == 2
+#if GRADIENT_CACHE == 3
+/* World gradients of the packet at voxel points (px, py, pz) from the exact form: the trilinear blend of the
+   eight voxels' differences (cells and clamps as sample_volume8), offset and scale applied once after the
+   blend (the weights sum to one), so each corner costs one conversion and one mad per axis. */
+PACKET_INLINE void gcache_gradient8(__global const uint* cache, const VolclGridParams* G, float8 px,
+                                    float8 py, float8 pz, float8* gx, float8* gy, float8* gz) {
+    const int hx = (int)G->dims[0] - 1, hy = (int)G->dims[1] - 1, hz = (int)G->dims[2] - 1;
+    px = clamp(px, 0.0f, (float)hx);
+    py = clamp(py, 0.0f, (float)hy);
+    pz = clamp(pz, 0.0f, (float)hz);
+    const int8 ix = min(convert_int8(floor(px)), (int8)(max(hx - 1, 0)));
+    const int8 iy = min(convert_int8(floor(py)), (int8)(max(hy - 1, 0)));
+    const int8 iz = min(convert_int8(floor(pz)), (int8)(max(hz - 1, 0)));
+    const float8 fx = px - convert_float8(ix), fy = py - convert_float8(iy), fz = pz - convert_float8(iz);
+    const uint nx = G->dims[0], nxy = nx * G->dims[1];
+    const uint8 xi = convert_uint8(ix);
+    const uint8 z0 = convert_uint8(iz) * nxy, y0 = convert_uint8(iy) * nx;
+    const uint8 z1 = convert_uint8(min(iz + 1, (int8)(hz))) * nxy,
+                y1 = convert_uint8(min(iy + 1, (int8)(hy))) * nx;
+    LaneU b00, b10, b01, b11, w[8];
+    b00.v = z0 + y0 + xi;
+    b10.v = z0 + y1 + xi;
+    b01.v = z1 + y0 + xi;
+    b11.v = z1 + y1 + xi;
+    _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
+        const uint2 c00 = vload2(0, cache + b00.a[l]), c10 = vload2(0, cache + b10.a[l]);
+        const uint2 c01 = vload2(0, cache + b01.a[l]), c11 = vload2(0, cache + b11.a[l]);
+        w[0].a[l] = c00.x;
+        w[1].a[l] = c00.y;
+        w[2].a[l] = c10.x;
+        w[3].a[l] = c10.y;
+        w[4].a[l] = c01.x;
+        w[5].a[l] = c01.y;
+        w[6].a[l] = c11.x;
+        w[7].a[l] = c11.y;
+    }
+    const float8 wx0 = 1.0f - fx, wy0 = 1.0f - fy, wz0 = 1.0f - fz;
+    const float8 k[8] = {wx0 * wy0 * wz0, fx * wy0 * wz0, wx0 * fy * wz0, fx * fy * wz0,
+                         wx0 * wy0 * fz,  fx * wy0 * fz,  wx0 * fy * fz,  fx * fy * fz};
+    float8 sx = (float8)(0.0f), sy = (float8)(0.0f), sz = (float8)(0.0f);
+    _Pragma("unroll") for (int c = 0; c < 8; ++c) {
+        sx = mad(k[c], convert_float8(w[c].v & 1023u), sx);
+        sy = mad(k[c], convert_float8((w[c].v >> 10) & 1023u), sy);
+        sz = mad(k[c], convert_float8(w[c].v >> 20), sz);
+    }
+    *gx = (sx - 512.0f) * (0.5f * G->invSpacing[0]);
+    *gy = (sy - 512.0f) * (0.5f * G->invSpacing[1]);
+    *gz = (sz - 512.0f) * (0.5f * G->invSpacing[2]);
+}
+#elif GRADIENT_CACHE == 2
 /* World gradients of the packet at voxel points (px, py, pz): the nearest voxel's cache word (one fetch). */
 PACKET_INLINE void gcache_gradient8(__global const uint* cache, const VolclGridParams* G, float8 px,
                                     float8 py, float8 pz, float8* gx, float8* gy, float8* gz) {

@@ -16,10 +16,30 @@ inline float3 voxel_gradient(__global const voxel_t* vol, const VolclGridParams*
     return (float3)(gx, gy, gz) * 0.5f * v3(G->invSpacing);
 }
 
+#ifdef GCACHE_EXACT
+/* The exact form: the three integer voxel differences of voxel_gradient, unscaled. */
+inline uint voxel_differences(__global const voxel_t* vol, const VolclGridParams* G, uint x, uint y, uint z) {
+    const uint nx = G->dims[0], ny = G->dims[1], nz = G->dims[2], nxy = nx * ny;
+    const size_t c = (size_t)z * nxy + (size_t)y * nx;
+    const int dx = (int)vol[c + min(x + 1u, nx - 1u)] - (int)vol[c + (x > 0u ? x - 1u : 0u)];
+    const size_t r = (size_t)z * nxy + x;
+    const int dy =
+        (int)vol[r + (size_t)min(y + 1u, ny - 1u) * nx] - (int)vol[r + (size_t)(y > 0u ? y - 1u : 0u) * nx];
+    const size_t s = (size_t)y * nx + x;
+    const int dz =
+        (int)vol[s + (size_t)min(z + 1u, nz - 1u) * nxy] - (int)vol[s + (size_t)(z > 0u ? z - 1u : 0u) * nxy];
+    return gcache_pack_exact(dx, dy, dz);
+}
+#endif
+
 __kernel void gradient_cache_build(__global const voxel_t* vol, const VolclGridParams grid,
                                    __global uint* cache) {
     const uint x = get_global_id(0), y = get_global_id(1), z = get_global_id(2);
     if (x >= grid.dims[0] || y >= grid.dims[1] || z >= grid.dims[2]) return;
     const size_t i = ((size_t)z * grid.dims[1] + y) * grid.dims[0] + x;
+#ifdef GCACHE_EXACT
+    cache[i] = voxel_differences(vol, &grid, x, y, z);
+#else
     cache[i] = gcache_pack(voxel_gradient(vol, &grid, x, y, z), grid.gradientMax);
+#endif
 }

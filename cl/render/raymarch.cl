@@ -27,7 +27,8 @@
                  the table buffer hold (front diffuse rgb, emission centroid) and (back diffuse rgb, 0)
    ISO_TABLE     (mode iso) surfaces from the iso-surface table (slice 0 of the table buffer) per segment
    GRADIENT_CACHE  (packet kernel, SHADING) gradients from the gradient cache (common/gradient_cache.h):
-                 1 trilinear blend of the eight voxels' cached gradients, 2 the nearest voxel's */
+                 1 trilinear blend of the eight voxels' cached gradients, 2 the nearest voxel's, 3 the
+                 trilinear blend of the exact form (integer voxels spanning at most 511) */
 #ifndef MODE
 #define MODE 0
 #endif
@@ -683,6 +684,46 @@ PACKET_INLINE float8 specular_power8(float8 x, float n) {
     return select(select((float8)(0.0f), (float8)(1.0f), (int8)(n == 0.0f ? -1 : 0)), r, x > 0.0f);
 }
 
+#ifdef SHADOW_VOLUME
+/* light_volume_sample (common/light_volume.h) for the eight lanes at voxel coordinates (px, py, pz): the same
+   clamps and lerps, gathered lane by lane and blended and exponentiated in float8. */
+PACKET_INLINE float8 light_volume_sample8(__global const float* lv, const VolclLightVolumeParams* V, uint i,
+                                          float8 px, float8 py, float8 pz) {
+    const int hx = (int)V->dims[0] - 1, hy = (int)V->dims[1] - 1, hz = (int)V->dims[2] - 1;
+    const float8 qx = clamp(px * V->toLight[0], 0.0f, (float)hx);
+    const float8 qy = clamp(py * V->toLight[1], 0.0f, (float)hy);
+    const float8 qz = clamp(pz * V->toLight[2], 0.0f, (float)hz);
+    const int8 ix = min(convert_int8(floor(qx)), (int8)(max(hx - 1, 0)));
+    const int8 iy = min(convert_int8(floor(qy)), (int8)(max(hy - 1, 0)));
+    const int8 iz = min(convert_int8(floor(qz)), (int8)(max(hz - 1, 0)));
+    const float8 fx = qx - convert_float8(ix), fy = qy - convert_float8(iy), fz = qz - convert_float8(iz);
+    const uint nx = V->dims[0], nxy = V->dims[0] * V->dims[1];
+    __global const float* base = lv + (size_t)i * V->dims[3];
+    LaneU x0, x1, y0, y1, z0, z1;
+    x0.v = convert_uint8(ix);
+    x1.v = convert_uint8(min(ix + 1, (int8)(hx)));
+    y0.v = convert_uint8(iy) * nx;
+    y1.v = convert_uint8(min(iy + 1, (int8)(hy))) * nx;
+    z0.v = convert_uint8(iz) * nxy;
+    z1.v = convert_uint8(min(iz + 1, (int8)(hz))) * nxy;
+    LaneF a00, e00, a10, e10, a01, e01, a11, e11;
+    _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
+        a00.a[l] = base[z0.a[l] + y0.a[l] + x0.a[l]];
+        e00.a[l] = base[z0.a[l] + y0.a[l] + x1.a[l]];
+        a10.a[l] = base[z0.a[l] + y1.a[l] + x0.a[l]];
+        e10.a[l] = base[z0.a[l] + y1.a[l] + x1.a[l]];
+        a01.a[l] = base[z1.a[l] + y0.a[l] + x0.a[l]];
+        e01.a[l] = base[z1.a[l] + y0.a[l] + x1.a[l]];
+        a11.a[l] = base[z1.a[l] + y1.a[l] + x0.a[l]];
+        e11.a[l] = base[z1.a[l] + y1.a[l] + x1.a[l]];
+    }
+    const float8 c00 = a00.v + fx * (e00.v - a00.v), c10 = a10.v + fx * (e10.v - a10.v);
+    const float8 c01 = a01.v + fx * (e01.v - a01.v), c11 = a11.v + fx * (e11.v - a11.v);
+    const float8 c0 = c00 + fy * (c10 - c00), c1 = c01 + fy * (c11 - c01);
+    return exp(-(c0 + fz * (c1 - c0)));
+}
+#endif
+
 /* Blinn-Phong for the lanes in `lit` at ray parameter t, in float8: light_begin / light_add / light_finish of
    common/shading.h with the same formulas (visibility from the light volumes with SHADOW_VOLUME, else 1), the gradient from
    one cached-gradient blend. Lane l's world ray: wo[l] + t wd[l]. (er, eg, eb) hold straight colours;
@@ -694,24 +735,32 @@ PACKET_INLINE void shade_packet(__global const uint* gradCache, const VolclGridR
                                 LaneF* eg, LaneF* eb, const LaneF* ea SHADOW_PARAMS) {
     const VolclLightingParams* Lp = &P->lighting;
     float8 gx, gy, gz;
-    gcache_gradient8(gradCache, &P->grid, rp->ox + t * rp->dx, rp->oy + t * rp->dy, rp->oz + t * rp->dz, &gx,
-                     &gy, &gz);
-    const float8 gl = sqrt(gx * gx + gy * gy + gz * gz);
-    const int8 valid = gl > Lp->gradientMin;
-    const float8 inv = select((float8)(0.0f), -1.0f / gl, valid);
-    float8 nx = gx * inv, ny = gy * inv, nz = gz * inv;
-    const float8 flip = select((float8)(1.0f), (float8)(-1.0f), nx * vx->v + ny * vy->v + nz * vz->v < 0.0f);
-    nx *= flip;
-    ny *= flip;
-    nz *= flip;
+    const float8 px = rp->ox + t * rp->dx, py = rp->oy + t * rp->dy, pz = rp->oz + t * rp->dz;
+    gcache_gradient8(gradCache, &P->grid, px, py, pz, &gx, &gy, &gz);
+    /* The normal -g / |g| turned toward the eye is sg g / |g| with sg = +1 where g.v > 0, else -1: every dot
+       product below is taken with g and scaled once by sg / |g| (one reciprocal square root, no normalised
+       vector). A zero gradient (|g| <= gradientMin) is lit as facing the light. */
+    const float8 gg = gx * gx + gy * gy + gz * gz;
+    const int8 valid = gg > Lp->gradientMin * Lp->gradientMin;
+    float8 r = native_rsqrt(gg);
+    r = r * (1.5f - 0.5f * gg * r * r); /* one Newton step: about 23 bits */
+    const float8 gv = gx * vx->v + gy * vy->v + gz * vz->v;
+    const float8 k = select((float8)(0.0f), select(-r, r, gv > 0.0f), valid);
     float8 dr = (float8)(0.0f), dg = dr, db = dr, sr = dr, sg = dr, sb = dr;
     for (uint i = 0; i < Lp->lightCount; ++i) {
         const float kind = Lp->lightPos[i][3];
         float8 ndotl, ndoth;
         if (kind == VOLCL_LIGHT_HEAD && !P->camera.perspective) {
-            /* L = V: the half vector is V itself, so N.h = N.l (no normalisation) */
-            ndotl = nx * vx->v + ny * vy->v + nz * vz->v;
+            /* L = V: the half vector is V itself, so N.h = N.l = |g.v| / |g| */
+            ndotl = gv * k;
             ndoth = ndotl;
+        } else if (kind == VOLCL_LIGHT_DIRECTIONAL && !P->camera.perspective) {
+            /* L and V are the same in every lane: the half vector once per packet */
+            const float3 L = v3(Lp->lightPos[i]), V = (float3)(vx->a[0], vy->a[0], vz->a[0]);
+            const float3 H = L + V;
+            const float hl = length(H);
+            ndotl = (gx * L.x + gy * L.y + gz * L.z) * k;
+            ndoth = hl > 0.0f ? (gx * H.x + gy * H.y + gz * H.z) * (k / hl) : (float8)(0.0f);
         } else {
             LaneF lx, ly, lz;
             if (kind == VOLCL_LIGHT_DIRECTIONAL) { /* the same direction in every lane */
@@ -732,21 +781,17 @@ PACKET_INLINE void shade_packet(__global const uint* gradCache, const VolclGridR
             }
             const float8 hx = lx.v + vx->v, hy = ly.v + vy->v, hz = lz.v + vz->v;
             const float8 hl = sqrt(hx * hx + hy * hy + hz * hz);
-            ndotl = nx * lx.v + ny * ly.v + nz * lz.v;
-            ndoth = select((float8)(0.0f), (nx * hx + ny * hy + nz * hz) / hl, hl > 0.0f);
+            ndotl = (gx * lx.v + gy * ly.v + gz * lz.v) * k;
+            ndoth = select((float8)(0.0f), (gx * hx + gy * hy + gz * hz) * k / hl, hl > 0.0f);
         }
         float8 diffuse = select((float8)(1.0f), fmax(ndotl, 0.0f), valid); /* flat: as facing the light */
         float8 spec = select((float8)(0.0f), specular_power8(fmax(ndoth, 0.0f), Lp->shininess), valid);
 #ifdef SHADOW_VOLUME
         {
             /* Transmittance toward the light: one light-volume fetch per lane, as light_visibility does. */
-            LaneF vis, tl;
-            tl.v = t;
-            _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) vis.a[l] =
-                light_volume_sample(lightVol, &P->lightVolume, i,
-                                    (wo[l] + tl.a[l] * wd[l] - v3(P->grid.origin)) * v3(P->grid.invSpacing));
-            diffuse *= vis.v;
-            spec *= vis.v;
+            const float8 vis = light_volume_sample8(lightVol, &P->lightVolume, i, px, py, pz);
+            diffuse *= vis;
+            spec *= vis;
         }
 #endif
         const float3 lc = v3(Lp->lightColor[i]);

@@ -33,15 +33,32 @@ std::uint32_t packGradient(float gx, float gy, float gz, float gMax) {
     return std::min(u, 4095u) | (std::min(v, 4095u) << 12) | (std::uint32_t(std::min(code, 255)) << 24);
 }
 
+/// gcache_pack_exact: integer differences in [-511, 511], 10 bits each plus 512.
+std::uint32_t packExact(long dx, long dy, long dz) {
+    return std::uint32_t(dx + 512) | (std::uint32_t(dy + 512) << 10) | (std::uint32_t(dz + 512) << 20);
+}
+
 } // namespace
 
+GradientCacheFormat gradientCacheFormat(ScalarType type, double valueSpan) {
+    const bool integer = type != ScalarType::Float32;
+    return integer && valueSpan <= 511.0 ? GradientCacheFormat::ExactDifferences
+                                         : GradientCacheFormat::Octahedral;
+}
+
+int gradientCacheDefine(GradientCacheFormat format) {
+    return format == GradientCacheFormat::ExactDifferences ? 3 : 1;
+}
+
 GradientCacheBuffer buildGradientCache(ComputeContext& cc, const cl::Buffer& voxels, int voxelType,
-                                       const VolclGridParams& grid) {
+                                       const VolclGridParams& grid, GradientCacheFormat format) {
     KernelDefines d;
     d.set("VOXEL_TYPE", static_cast<long long>(voxelType));
+    if (format == GradientCacheFormat::ExactDifferences) d.set("GCACHE_EXACT", 1LL);
     cl::Kernel k = cc.kernel("render/gradient_cache.cl", "gradient_cache_build", d);
     const std::size_t n = std::size_t(grid.dims[0]) * grid.dims[1] * grid.dims[2];
     GradientCacheBuffer out;
+    out.format = format;
     out.words = cc.allocate<cl_uint>(n + 1);
     const cl_uint zero = 0; // the spare word: read with weight 0 by the blend's pair loads
     cc.queue().enqueueWriteBuffer(out.words.get(), CL_TRUE, n * sizeof(cl_uint), sizeof(cl_uint), &zero);
@@ -50,7 +67,9 @@ GradientCacheBuffer buildGradientCache(ComputeContext& cc, const cl::Buffer& vox
     return out;
 }
 
-std::vector<std::uint32_t> gradientCacheReference(const Volume& volume, float gradientMax) {
+std::vector<std::uint32_t> gradientCacheReference(const Volume& volume, float gradientMax,
+                                                  GradientCacheFormat format) {
+    const bool exact = format == GradientCacheFormat::ExactDifferences;
     const Dims& d = volume.dims();
     const std::vector<float> v = volume.toFloat();
     const float inv[3] = {static_cast<float>(1.0 / volume.spacing[0]),
@@ -67,8 +86,9 @@ std::vector<std::uint32_t> gradientCacheReference(const Volume& volume, float gr
                     v[c - y * nx + std::min(y + 1, ny - 1) * nx] - v[c - y * nx + (y > 0 ? y - 1 : 0) * nx];
                 const float gz = v[c - z * nxy + std::min(z + 1, nz - 1) * nxy] -
                                  v[c - z * nxy + (z > 0 ? z - 1 : 0) * nxy];
-                out[c] =
-                    packGradient(gx * 0.5f * inv[0], gy * 0.5f * inv[1], gz * 0.5f * inv[2], gradientMax);
+                out[c] = exact ? packExact(std::lround(gx), std::lround(gy), std::lround(gz))
+                               : packGradient(gx * 0.5f * inv[0], gy * 0.5f * inv[1], gz * 0.5f * inv[2],
+                                              gradientMax);
             }
     return out;
 }
@@ -81,6 +101,13 @@ Vec3 unpackGradient(std::uint32_t word, float gradientMax) {
     const double m = double(std::bit_cast<float>((code + (kExpBias << 4)) << 19)) * gradientMax;
     const double z = 1.0 - std::fabs(u) - std::fabs(v), t = std::max(-z, 0.0);
     return {m * (u - std::copysign(t, u)), m * (v - std::copysign(t, v)), m * z};
+}
+
+Vec3 unpackExactGradient(std::uint32_t word, const Vec3& spacing) {
+    const auto axis = [&](int shift, std::size_t a) {
+        return (double((word >> shift) & 1023u) - 512.0) * 0.5 / spacing[a];
+    };
+    return {axis(0, 0), axis(10, 1), axis(20, 2)};
 }
 
 } // namespace volcl

@@ -72,10 +72,11 @@ bool packetServesLit(const Scene& scene, const EffectPlan& p) {
            (!p.shadows || p.shadowVolume) && !p.preintLighting;
 }
 
-/// Shading from the gradient cache (GRADIENT_CACHE 1 trilinear, 2 nearest) when the scene asks for it and the
+/// Shading from the gradient cache (GRADIENT_CACHE 1 trilinear, 2 nearest, 3 exact trilinear) when the scene asks for it and the
 /// packet kernel takes the scene, else on-the-fly central differences, with the reason in the report.
 /// `maxAllocBytes`: the device's largest buffer (0: unknown).
-void planGradientCache(const Scene& scene, const Volume& volume, std::uint64_t maxAllocBytes, EffectPlan& p) {
+void planGradientCache(const Scene& scene, const Volume& volume, const ValueRange& range,
+                       std::uint64_t maxAllocBytes, EffectPlan& p) {
     const GradientKind g = scene.effects.gradient;
     if (!p.shading || (g != GradientKind::Cache && g != GradientKind::CacheNearest)) return;
     const std::string name(gradientKindName(g));
@@ -96,11 +97,15 @@ void planGradientCache(const Scene& scene, const Volume& volume, std::uint64_t m
             "gradient " + name + ": its " + std::to_string(bytes) +
             " bytes exceed the memory budget or the device's largest buffer; central differences");
     } else {
-        p.gradientCache = g == GradientKind::CacheNearest ? 2 : 1;
+        const GradientCacheFormat format = gradientCacheFormat(volume.type(), range.max - range.min);
+        const bool exact = g == GradientKind::Cache && format == GradientCacheFormat::ExactDifferences;
+        p.gradientCache = g == GradientKind::CacheNearest ? 2 : gradientCacheDefine(format);
         p.defines.set("GRADIENT_CACHE", static_cast<long long>(p.gradientCache));
         p.compiled.push_back(
-            "gradient: cache, " + std::to_string(kGradientCacheBytesPerVoxel) +
-            " bytes per voxel (12+12-bit octahedral direction, 8-bit norm), built once per volume; " +
+            "gradient: cache, " + std::to_string(kGradientCacheBytesPerVoxel) + " bytes per voxel (" +
+            (exact ? "the integer voxel differences, exact: the values span at most 511"
+                   : "12+12-bit octahedral direction, 8-bit norm") +
+            "), built once per volume; " +
             (g == GradientKind::CacheNearest ? "nearest voxel's gradient (one fetch)"
                                              : "trilinear blend of the eight voxels' gradients"));
     }
@@ -121,7 +126,7 @@ EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& 
                 line = "shadows: a light-attenuation volume per light (" +
                        std::to_string(scene.effects.lightVolumeCell) + "-voxel cells), one fetch per sample";
     }
-    planGradientCache(scene, volume, maxAllocBytes, p);
+    planGradientCache(scene, volume, range, maxAllocBytes, p);
     // The cubic filters read float spline coefficients instead of the voxels; smoothing, float voxels.
     p.defines.set("VOXEL_TYPE", scene.filter == ReconstructionFilter::Linear && scene.smoothing == 0.0
                                     ? static_cast<long long>(voxelTypeCode(volume))
@@ -255,8 +260,10 @@ void GridRenderer::rebuild(const Rebuild& change) {
     if (plan_.fog) m.params.fog = m.fog.update(cc_, scene_.effects.fog, bounds(), plan_.fogMap);
     // Before the skipping probe, whose frames read it. The volume never changes: built once, whatever the TF,
     // camera or lights.
-    if (cached && !m.gradients)
-        m.gradients = buildGradientCache(cc_, m.volume.get(), voxelTypeCode(volume_), m.params.grid);
+    const GradientCacheFormat format =
+        plan_.gradientCache == 3 ? GradientCacheFormat::ExactDifferences : GradientCacheFormat::Octahedral;
+    if (cached && (!m.gradients || m.gradients->format != format))
+        m.gradients = buildGradientCache(cc_, m.volume.get(), voxelTypeCode(volume_), m.params.grid, format);
     const float gradientMax = m.params.grid.gradientMax; // the cache's scale, from the value range
     m.params.grid =
         grid_detail::gridParams(volume_, selectSkipping(macro, change.shaded, m.params, floatCopy));
