@@ -33,8 +33,9 @@ struct NonConvexCase {
     std::vector<CaseView> views;
 };
 
-constexpr double kPtBound = 0.002;  ///< RMSE of pt (convexified) against the cell caster
-constexpr double kDenseAlpha = 0.3; ///< mean alpha of the cell caster's image: dense enough that order matters
+constexpr double kPtBound = 0.002; ///< RMSE of pt (convexified) against the cell caster
+constexpr double kDenseAlpha =
+    0.3; ///< mean alpha of the cell caster's image: dense enough that order matters
 
 /// A TF dense enough that most rays through the mesh are more than half absorbed: the ramp of the mesh suites
 /// with 16 optical lengths across the box diagonal at its peak and 60 % of that at the lowest value.
@@ -53,8 +54,8 @@ const char* projectionName(Projection p) {
 std::vector<NonConvexCase> cases() {
     const auto bumpy = [](std::size_t n, const std::function<bool(double, double, double)>& removed,
                           std::uint64_t seed) {
-        return mesh::buildTetMesh(test::jitteredSoup({n, n, n}, {0, 0, 0}, {1, 1, 1}, 0.25, true, removed, seed),
-                                  "bumpy", "f");
+        return mesh::buildTetMesh(
+            test::jitteredSoup({n, n, n}, {0, 0, 0}, {1, 1, 1}, 0.25, true, removed, seed), "bumpy", "f");
     };
     const Projection O = Projection::Orthographic, P = Projection::Perspective;
     std::vector<NonConvexCase> out;
@@ -81,7 +82,8 @@ TEST(MeshPtNonConvex, ConvexifiedMatchesTheCellCasterAndMpvoFails) {
         ASSERT_FALSE(meshIsConvex(m)) << c.name;
         EXPECT_EQ(defaultMeshSort(m), MeshSort::Convexified) << c.name;
         const TransferFunction tf = denseTf(m);
-        Scene base = test::framedMeshScene(m, size, size, c.views[0].az, c.views[0].el, c.views[0].projection);
+        Scene base =
+            test::framedMeshScene(m, size, size, c.views[0].az, c.views[0].el, c.views[0].projection);
         base.meshMethod = MeshMethod::ProjectedTetrahedra;
         std::unique_ptr<PtRenderer> pt[3];
         const MeshSort sorts[3] = {MeshSort::Convexified, MeshSort::Mpvo, MeshSort::Centroid};
@@ -121,5 +123,58 @@ TEST(MeshPtNonConvex, ConvexifiedMatchesTheCellCasterAndMpvoFails) {
         // and breaking them keeps the image exact.
         EXPECT_GT(cycles, 0u) << c.name;
         EXPECT_TRUE(mpvoFailedSomewhere) << c.name;
+    }
+}
+
+TEST(MeshPtNonConvex, EyeInsideTheConcavityAndClipPlanes) {
+    // A perspective eye outside the mesh but inside its hull (in the U's notch, in the tunnel) looking at a wall,
+    // and a clip plane across the far prong / the tunnel's side: the convexified order still matches the cell caster.
+    struct EyeCase {
+        const char* name;
+        mesh::TetMesh mesh;
+        Vec3 eye, target;
+        ClipPlane clip;
+    };
+    const EyeCase eyeCases[] = {
+        {"U, eye in the notch",
+         test::cubeMesh(6, test::uNotch),
+         {0.5, 0.8, 0.45},
+         {0.0, 0.4, 0.55},
+         ClipPlane{{0.2, 1, 0.1}, -0.55}},
+        {"tunnel, eye in the tunnel",
+         test::cubeMesh(7, test::tunnelAlongZ),
+         {0.5, 0.45, 0.5},
+         {1.0, 0.6, 0.7},
+         ClipPlane{{0.1, -1, 0.3}, 0.5}},
+    };
+    for (const EyeCase& c : eyeCases) {
+        const TransferFunction tf = denseTf(c.mesh);
+        Scene s = test::framedMeshScene(c.mesh, 48, 48, 0, 0, Projection::Perspective);
+        s.camera->eye = c.eye;
+        s.camera->target = c.target;
+        s.camera->up = {0, 0, 1};
+        s.camera->fovYDeg = 70.0;
+        for (const bool clipped : {false, true}) {
+            s.effects.clipPlanes.clear();
+            if (clipped) s.effects.clipPlanes = {c.clip};
+            const ImageBuffer cells = test::cellCasterImage(c.mesh, tf, s);
+            double err[3];
+            std::size_t cycles = 0;
+            const MeshSort sorts[3] = {MeshSort::Convexified, MeshSort::Mpvo, MeshSort::Centroid};
+            for (int k = 0; k < 3; ++k) {
+                Scene ps = s;
+                ps.meshSort = sorts[k];
+                PtRenderer r(test::computeContext(), c.mesh, tf, ps);
+                const ImageBuffer img = r.render();
+                EXPECT_TRUE(test::finiteInUnitRange(img)) << c.name;
+                err[k] = imageRmse(img, cells);
+                if (k == 0) cycles = r.lastOrder().cyclesBroken;
+            }
+            std::cout << c.name << (clipped ? ", clipped" : "") << ": mean alpha " << test::meanAlpha(cells)
+                      << ", RMSE against cells: convexified " << err[0] << " (" << cycles
+                      << " cycles broken), mpvo " << err[1] << ", centroid " << err[2] << '\n';
+            EXPECT_GE(test::meanAlpha(cells), kDenseAlpha) << c.name;
+            EXPECT_LE(err[0], kPtBound) << c.name << (clipped ? ", clipped" : "");
+        }
     }
 }
