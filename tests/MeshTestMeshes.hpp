@@ -1,4 +1,5 @@
-// Test meshes shared by the mesh suites: jittered hex grids with cells removed (concave walls, folds).
+// Test meshes shared by the mesh suites: jittered hex grids with cells removed (concave walls, folds), and the
+// removed-cell shapes of the non-convex ones (a U, a tunnel, a block nested in a shell).
 #pragma once
 
 #include "host/mesh/MeshGenerator.hpp"
@@ -73,6 +74,28 @@ inline mesh::TetMesh jitteredMesh(std::size_t n, double jitter, bool jitterSurfa
     return mesh::buildTetMesh(
         jitteredSoup({n, n, n}, {0, 0, 0}, {1, 1, 1}, jitter, jitterSurface, removed, 0, linearField),
         "jittered", "f");
+}
+
+/// The unit cube's n^3 grid, points inside jittered by 0.2 cells (its faces stay flat), minus `removed` cells.
+inline mesh::TetMesh cubeMesh(std::size_t n, const std::function<bool(double, double, double)>& removed) {
+    return jitteredMesh(n, 0.2, false, removed);
+}
+
+// Removed cells of the non-convex unit-cube meshes (cell centres in, true: the cell is left out).
+
+/// A U: the notch 0.33 < x < 0.67, y > 0.3 runs through z; views along x look through one prong, the notch, then
+/// the other prong.
+inline bool uNotch(double x, double y, double) {
+    return x > 0.33 && x < 0.67 && y > 0.3;
+}
+/// A square tunnel through the cube along z.
+inline bool tunnelAlongZ(double x, double y, double) {
+    return x > 0.3 && x < 0.7 && y > 0.3 && y < 0.7;
+}
+/// A hollow shell with a block floating inside it (a gap all round).
+inline bool nestedBlockGap(double x, double y, double z) {
+    const double m = std::max({std::abs(x - 0.5), std::abs(y - 0.5), std::abs(z - 0.5)});
+    return m > 0.15 && m < 0.35;
 }
 
 } // namespace volcl::test

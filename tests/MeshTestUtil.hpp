@@ -1,12 +1,18 @@
-// Helpers of the mesh renderer suites: a ramp TF over a mesh's values and image comparisons.
+// Helpers of the mesh renderer suites: a ramp TF over a mesh's values, framed views, the cell caster's image and
+// image checks.
 #pragma once
 
 #include "host/image/ImageIo.hpp"
 #include "host/mesh/TetMesh.hpp"
 #include "host/tf/TransferFunction.hpp"
+#include "render/CameraFraming.hpp"
+#include "render/RenderInput.hpp"
 #include "render/VecMath.hpp"
 #include "render/mesh/KBufferReference.hpp"
 #include "render/mesh/KBufferRenderer.hpp"
+#include "render/mesh/MeshReference.hpp"
+
+#include "TestUtil.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -26,6 +32,30 @@ inline TransferFunction meshTf(const mesh::TetMesh& m, double depth, double floo
                      {lo + 0.8 * (hi - lo), depth / diag},
                      {hi, 0.3 * depth / diag}};
     return tf;
+}
+
+/// The mesh's box framed from (azimuth, elevation), w x h, 3D table with 32 lengths, no early termination.
+inline Scene framedMeshScene(const mesh::TetMesh& m, int w, int h, double az, double el, Projection proj) {
+    Scene s;
+    s.width = w;
+    s.height = h;
+    s.camera = frameBox(meshBounds(m), orbitDirection(az, el), proj, 35.0, 1.0);
+    s.earlyTermination = 1.0;
+    s.preintegration = Preintegration::Table3d;
+    s.tableLengths = 32;
+    return s;
+}
+
+/// The exact cell caster's image of `s` (render.method "cells").
+inline ImageBuffer cellCasterImage(const mesh::TetMesh& m, const TransferFunction& tf, Scene s) {
+    s.meshMethod = MeshMethod::Cells;
+    return RenderInput::borrowMesh(m).makeRenderer(computeContext(), tf, s)->render();
+}
+
+/// Every channel finite and within [0, 1] (a little float slack above).
+inline bool finiteInUnitRange(const ImageBuffer& img) {
+    return std::all_of(img.pixels.begin(), img.pixels.end(),
+                       [](float v) { return std::isfinite(v) && v >= 0.0f && v <= 1.0f + 1e-5f; });
 }
 
 /// Mean of channel A of an RGBA image.

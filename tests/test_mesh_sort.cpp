@@ -83,10 +83,7 @@ MethodCounts sortAndCheck(const mesh::TetMesh& m, VisibilitySorter& sorter, Mesh
     return c;
 }
 
-/// The unit cube's n^3 grid, points inside jittered by 0.2 cells (its faces stay flat), minus `removed` cells.
-mesh::TetMesh cubeMesh(std::size_t n, const std::function<bool(double, double, double)>& removed) {
-    return test::jitteredMesh(n, 0.2, false, removed);
-}
+using test::cubeMesh;
 
 } // namespace
 
@@ -114,10 +111,7 @@ TEST(MeshSort, ConvexMeshMpvoAndConvexifiedAreExact) {
 }
 
 TEST(MeshSort, ConcavityInFrontOfAPartBreaksMpvoNotConvexified) {
-    // A U: the notch 0.33 < x < 0.67, y > 0.3 runs through z; views along x look through one prong, the notch,
-    // then the other prong.
-    const mesh::TetMesh m =
-        cubeMesh(6, [](double x, double y, double) { return x > 0.33 && x < 0.67 && y > 0.3; });
+    const mesh::TetMesh m = cubeMesh(6, test::uNotch); // views along x: a prong, the notch, the other prong
     ASSERT_FALSE(meshIsConvex(m));
     EXPECT_EQ(defaultMeshSort(m), MeshSort::Convexified);
     VisibilitySorter sorter(m);
@@ -203,17 +197,13 @@ TEST(MeshSort, HolesDisconnectedAndNestedPartsConvexifiedExact) {
     };
     const Case cases[] = {
         // A tunnel through the cube along z, and a closed cavity in its middle.
-        {"tunnel", [](double x, double y, double) { return x > 0.3 && x < 0.7 && y > 0.3 && y < 0.7; }},
+        {"tunnel", test::tunnelAlongZ},
         {"cavity", [](double x, double y,
                       double z) { return x > 0.3 && x < 0.7 && y > 0.3 && y < 0.7 && z > 0.3 && z < 0.7; }},
         // Two slabs with a gap between them.
         {"disconnected", [](double x, double, double) { return x > 0.4 && x < 0.6; }},
         // A hollow shell with a block floating inside it (a gap all round).
-        {"nested",
-         [](double x, double y, double z) {
-             const double m = std::max({std::abs(x - 0.5), std::abs(y - 0.5), std::abs(z - 0.5)});
-             return m > 0.15 && m < 0.35;
-         }},
+        {"nested", test::nestedBlockGap},
     };
     for (const Case& c : cases) {
         const mesh::TetMesh m = test::jitteredMesh(7, 0.2, false, c.removed);
@@ -273,8 +263,7 @@ TEST(MeshSort, DuplicateVerticesAndSliversStayExact) {
 }
 
 TEST(MeshSort, PerspectiveEyeInsideTheMesh) {
-    const mesh::TetMesh m =
-        cubeMesh(6, [](double x, double y, double) { return x > 0.33 && x < 0.67 && y > 0.3; });
+    const mesh::TetMesh m = cubeMesh(6, test::uNotch);
     VisibilitySorter sorter(m);
     // Inside the U's base, and inside the notch (outside the mesh, inside its hull).
     for (const Vec3 eye : {Vec3{0.52, 0.13, 0.47}, Vec3{0.5, 0.8, 0.5}}) {
