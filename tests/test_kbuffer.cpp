@@ -1,5 +1,6 @@
 // k-buffer mesh renderer: radix sort against its C++ reference, unique faces, kernels against the C++ mirror
 // fragment for fragment, analytic chords (constant scalar, a gap between two boxes), hard cases.
+#include "MeshTestMeshes.hpp"
 #include "MeshTestUtil.hpp"
 #include "TestUtil.hpp"
 
@@ -323,6 +324,45 @@ TEST(KBufferOrder, ExactCellOrderBringsFragmentsInRayOrder) {
                 EXPECT_GT(sc.misorderedPops, 0u);
             }
         }
+}
+
+TEST(KBufferOrder, SceneSwitchesTheOrderAndItsFacesAndThePlanSaysWhich) {
+    // render.sort on a live renderer: the centroid sort cuts the graded grid's long faces, MPVO draws them uncut,
+    // and each frame equals a fresh renderer's of the same scene; --explain's line names the order.
+    ComputeContext& cc = context();
+    const auto m = gradedGrid();
+    const TransferFunction tf = rampTf(2.0).rescaled({m.valueMin, m.valueMax});
+    Scene s = orthoScene(m, 40, 32);
+    s.meshSort = MeshSort::Centroid;
+    KBufferRenderer r(cc, m, tf, s, 6);
+    const std::size_t uncut = buildMeshFaces(m).faces.size();
+    EXPECT_GT(r.faces().faces.size(), uncut);
+    auto planLine = [&](const KBufferRenderer& kr) {
+        for (const std::string& c : kr.plan().compiled)
+            if (c.find("k-buffer (HAVS)") != std::string::npos) return c;
+        return std::string();
+    };
+    EXPECT_NE(planLine(r).find("sorted by centroid"), std::string::npos) << planLine(r);
+    for (MeshSort sort : {MeshSort::Mpvo, MeshSort::Centroid}) {
+        s.meshSort = sort;
+        r.setScene(s);
+        EXPECT_EQ(r.sortMethod(), sort);
+        EXPECT_EQ(r.faces().faces.size() == uncut, sort == MeshSort::Mpvo);
+        KBufferRenderer fresh(cc, m, tf, s, 6);
+        EXPECT_LE(maxAbsDiff(r.render(), fresh.render()), 0.0) << meshSortName(sort);
+        if (sort == MeshSort::Mpvo)
+            EXPECT_NE(planLine(r).find("mpvo visibility order of the cells"), std::string::npos)
+                << planLine(r);
+    }
+    s.meshSort.reset(); // unset: the mesh is convex and its tets do not overlap
+    r.setScene(s);
+    EXPECT_EQ(r.sortMethod(), MeshSort::Mpvo);
+    EXPECT_EQ(defaultKBufferSort(twoBoxes(0.5f)), MeshSort::Convexified);
+    // Folded tets (jitter 0.45 cells: overlapping face pairs) have no cell order: the centroid sort stays.
+    const mesh::TetMesh folded =
+        test::jitteredMesh(6, 0.45, false, [](double, double, double) { return false; });
+    ASSERT_GT(folded.repairs.overlappingFaces + folded.repairs.nonManifoldFaces, 0u);
+    EXPECT_EQ(defaultKBufferSort(folded), MeshSort::Centroid);
 }
 
 TEST(KBuffer, NanCellsMatchTheMirror) {
