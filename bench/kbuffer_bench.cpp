@@ -1,7 +1,9 @@
-// volcl-bench-kbuffer: k-buffer mesh rendering per mesh and k (ms/frame, stage times, tets/s, out-of-order
-// pops), and the dynamic level of detail held to a frame-time target by the viewer's controller.
-// Usage: volcl-bench-kbuffer [--size 512] [--runs 5] [--k 2,4,6,8] [--ml CELLS] [--lod-target MS]
-//        [--frames N] [--q-var N] [--table N] [--lengths L] [--rmse] [--dump DIR] [--split RATIO BUDGET] MESH...
+// volcl-bench-kbuffer: k-buffer mesh rendering per mesh, face order and k (ms/frame, stage times, tets/s,
+// out-of-order pops), and the dynamic level of detail held to a frame-time target by the viewer's controller.
+// Usage: volcl-bench-kbuffer [--size 512] [--runs 5] [--k 2,4,6,8] [--sort centroid,mpvo,convexified] [--ml CELLS]
+//        [--lod-target MS] [--frames N] [--q-var N] [--table N] [--lengths L] [--rmse] [--dump DIR] [--split RATIO BUDGET] MESH...
+// --sort: the face orders (render.sort) measured, each with every k (default centroid, the sweeps before the
+// visibility order; faces are cut by --split for the centroid sort only);
 // --rmse: RGBA RMSE of every k against the exact double reference (meshReferenceRender) of the same scene;
 // --dump: EXR images of the reference and every k into DIR; --deep-mirror: with --rmse, the C++ mirror at k = 8,
 // 32, 256 (toward exact order); --misorder-all: count out-of-order pops also on meshes above 300 k tets.
@@ -86,6 +88,7 @@ std::vector<int> parseList(const std::string& s) {
 struct Options {
     int size = 512, runs = 5, frames = 40, qVar = -1;
     std::vector<int> ks{2, 4, 6, 8};
+    std::vector<MeshSort> sorts{MeshSort::Centroid}; ///< face orders (render.sort), each with every k
     std::size_t ml = 0;
     double lodTarget = 0;
     bool rmse = false, deepMirror = false, misorderAll = false;
@@ -105,7 +108,13 @@ Options parseOptions(int argc, char** argv) {
             o.runs = std::stoi(next());
         else if (a == "--k" && i + 1 < argc)
             o.ks = parseList(next());
-        else if (a == "--ml" && i + 1 < argc)
+        else if (a == "--sort" && i + 1 < argc) {
+            o.sorts.clear();
+            std::stringstream ss(next());
+            std::string item;
+            while (std::getline(ss, item, ','))
+                o.sorts.push_back(parseMeshSort(item));
+        } else if (a == "--ml" && i + 1 < argc)
             o.ml = std::stoul(next());
         else if (a == "--lod-target" && i + 1 < argc)
             o.lodTarget = std::stod(next());
@@ -138,8 +147,16 @@ Options parseOptions(int argc, char** argv) {
 
 int main(int argc, char** argv) try {
     const Options opt = parseOptions(argc, argv);
-    const auto& [size, runs, frames, qVar, ks, ml, lodTarget, rmse, deepMirror, misorderAll, split, dumpDir,
-                 files] = opt;
+    const auto& [size, runs, frames, qVar, kList, sorts, ml, lodTarget, rmse, deepMirror, misorderAll, split,
+                 dumpDir, files] = opt;
+    // Every (sort, k) pair is one configuration: ks[i] and sortOf[i] name configuration i.
+    std::vector<int> ks;
+    std::vector<MeshSort> sortOf;
+    for (MeshSort so : sorts)
+        for (int k : kList) {
+            ks.push_back(k);
+            sortOf.push_back(so);
+        }
     ComputeContext cc;
     std::fprintf(stderr, "device: %s\n", cc.device().name.c_str());
     struct Input {
@@ -155,14 +172,17 @@ int main(int argc, char** argv) try {
     if (ml > 0) inputs.push_back({"marschner_lobb_" + std::to_string(ml), mesh::marschnerLobbMesh(ml)});
 
     std::printf(
-        "mesh,tets,faces,k,size,median_ms,cpu_ms,kernel_ms,project_ms,keys_ms,sort_ms,bin_ms,raster_ms,"
+        "mesh,tets,faces,sort,k,size,median_ms,cpu_ms,kernel_ms,project_ms,keys_ms,sort_ms,place_ms,bin_ms,"
+        "raster_ms,"
         "tets_per_s,misordered_pops_per_pixel,rmse,reference_ms\n");
     for (const Input& in : inputs) {
         const TransferFunction tf = benchTf(in.mesh);
         const Scene scene = benchScene(boxOf(in.mesh), size);
         std::vector<std::unique_ptr<KBufferRenderer>> rs;
-        for (int k : ks) {
-            rs.push_back(std::make_unique<KBufferRenderer>(cc, in.mesh, tf, scene, k, split));
+        for (std::size_t i = 0; i < ks.size(); ++i) {
+            Scene sorted = scene;
+            sorted.meshSort = sortOf[i];
+            rs.push_back(std::make_unique<KBufferRenderer>(cc, in.mesh, tf, sorted, ks[i], split));
             rs.back()->render(); // warm-up: first launches build and page in
         }
         ImageBuffer ref;
@@ -178,6 +198,7 @@ int main(int argc, char** argv) try {
             for (int deep : {8, 32, 256}) {
                 KBufferMirrorInput mi{&rs[0]->geometry(),   &rs[0]->geometry().scalars, &rs[0]->faces(),
                                       rs[0]->frameParams(), &rs[0]->tableValues(),      deep};
+                mi.order = rs[0]->hostOrder();
                 KBufferMirrorStats st;
                 const ImageBuffer img = kbufferMirrorRender(mi, &st);
                 std::fprintf(stderr, "mirror k %d: RMSE %.4g, misordered pops per pixel %.4g\n", deep,
@@ -188,7 +209,8 @@ int main(int argc, char** argv) try {
             const ImageBuffer img = rs[i]->render();
             errors[i] = imageRmse(img, ref);
             if (!dumpDir.empty())
-                writeImage(img, dumpDir + "/" + in.name + "_k" + std::to_string(ks[i]) + ".exr");
+                writeImage(img, dumpDir + "/" + in.name + "_" + std::string(meshSortName(sortOf[i])) + "_k" +
+                                    std::to_string(ks[i]) + ".exr");
         }
         std::vector<std::vector<double>> wall(ks.size()), kern(ks.size()), cpu(ks.size());
         std::vector<KBufferStageTimes> stages(ks.size());
@@ -208,9 +230,12 @@ int main(int argc, char** argv) try {
             if (in.mesh.tetCount() <= 300000 || misorderAll) {
                 Scene small = scene;
                 small.width = small.height = 128;
+                small.meshSort = sortOf[i];
                 KBufferRenderer probe(cc, in.mesh, tf, small, ks[i], split);
+                probe.render(); // the host's face order of this view, when the sort is exact
                 KBufferMirrorInput mi{&probe.geometry(),   &probe.geometry().scalars, &probe.faces(),
                                       probe.frameParams(), &probe.tableValues(),      ks[i]};
+                mi.order = probe.hostOrder();
                 KBufferMirrorStats st;
                 kbufferMirrorRender(mi, &st);
                 misordered = double(st.misorderedPops) / (128.0 * 128.0);
@@ -221,10 +246,12 @@ int main(int argc, char** argv) try {
             std::fprintf(stderr, "%s: %s\n", in.name.c_str(), rs[i]->statistics().c_str());
             const double ms = median(wall[i]);
             const KBufferStageTimes& t = stages[i];
-            std::printf("%s,%zu,%zu,%d,%d,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.3g,%.4g,%.3g,%.0f\n",
-                        in.name.c_str(), in.mesh.tetCount(), rs[i]->faces().faces.size(), ks[i], size, ms,
-                        median(cpu[i]), median(kern[i]), t.project, t.keys, t.sort, t.bin, t.raster,
-                        double(in.mesh.tetCount()) / ms * 1e3, misordered, errors[i], refMs);
+            std::printf(
+                "%s,%zu,%zu,%s,%d,%d,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.1f,%.3g,%.4g,%.3g,%.0f\n",
+                in.name.c_str(), in.mesh.tetCount(), rs[i]->faces().faces.size(),
+                std::string(meshSortName(sortOf[i])).c_str(), ks[i], size, ms, median(cpu[i]),
+                median(kern[i]), t.project, t.keys, t.sort, t.place, t.bin, t.raster,
+                double(in.mesh.tetCount()) / ms * 1e3, misordered, errors[i], refMs);
             std::fflush(stdout);
         }
         if (lodTarget > 0) {

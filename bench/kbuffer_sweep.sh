@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The k-buffer measurements of docs/meshes.md: k against error and time on every shared mesh and the generated
-# 1.57 M tet mesh at 512x512 (RMSE against the exact double reference), the face-split knob on the meshes it
-# changes, and the dynamic level of detail under the frame-time controller. Writes bench/results/meshes/kbuffer-*.csv.
+# 1.57 M tet mesh at 512x512 (RMSE against the exact double reference; the centroid sort), the face order
+# (render.sort) per mesh, the face-split knob on the meshes it changes, and the dynamic level of detail under the frame-time controller. Writes bench/results/meshes/kbuffer-*.csv.
 # Usage: bench/kbuffer_sweep.sh [build-dir] [shared-data-dir]
 set -euo pipefail
 build=${1:-build}
@@ -15,9 +15,15 @@ for f in tetraMesh.vtk xsmall_turb.vtu kiefer/dataset.vtu bluntfinxyz.bin combxy
   [[ -e $data/$f ]] && meshes+=("$data/$f")
 done
 if ((${#meshes[@]})); then
+  # The face order (render.sort) against error and time, one core: the centroid sort against the cells' orders.
+  taskset -c 0 "$bench" --size 512 --runs 3 --k 2,6 --sort centroid,mpvo,convexified --rmse "${meshes[@]}" \
+    > "$out/kbuffer-order.csv"
+  uptime | tee -a "$out/kbuffer-load.txt"
   "$bench" --size 512 --runs 3 --k 2,4,6,8 --rmse "${meshes[@]}" > "$out/kbuffer-k-sweep.csv"
 fi
 if [[ -e $data/postxyz.bin ]]; then # energy: the density of the post is 1 everywhere
+  taskset -c 0 "$bench" --size 512 --runs 3 --k 2,6 --sort centroid,convexified --rmse --q-var 4 \
+    "$data/postxyz.bin" | tail -n +2 >> "$out/kbuffer-order.csv"
   "$bench" --size 512 --runs 3 --k 2,4,6,8 --rmse --q-var 4 "$data/postxyz.bin" | tail -n +2 >> "$out/kbuffer-k-sweep.csv"
   # the face-split knob: off against the default (error vs time)
   "$bench" --size 512 --runs 3 --k 2,6,8 --rmse --q-var 4 --split 0 0 "$data/postxyz.bin" > "$out/kbuffer-split-off.csv"

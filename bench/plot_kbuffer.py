@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Plots of the k-buffer measurements (bench/kbuffer_sweep.sh) for docs/meshes.md: RMSE and frame time
-against k per mesh, and the level-of-detail controller's trace. Usage: plot_kbuffer.py [results-dir, default bench/results/meshes] [image-dir, default docs/images]"""
+against k per mesh, error against frame work per face order (render.sort), and the level-of-detail
+controller's trace. Usage: plot_kbuffer.py [results-dir, default bench/results/meshes] [image-dir, default docs/images]"""
 import csv
 import sys
 from collections import defaultdict
@@ -45,6 +46,29 @@ b.set_ylabel("CPU ms per frame (both cores, whole frame)")
 b.set_title("what accuracy costs: frame work against k")
 fig.tight_layout()
 fig.savefig(docs / "meshes-kbuffer-k.png", dpi=110)
+
+order = rows("kbuffer-order.csv")
+if order:
+    fig, ax = plt.subplots(figsize=(7.5, 4.6))
+    markers = {"centroid": "o", "mpvo": "^", "convexified": "s"}
+    colours = {}
+    for r in order:
+        mesh = r["mesh"]
+        colours.setdefault(mesh, f"C{len(colours)}")
+        ax.loglog(float(r["cpu_ms"]), max(float(r["rmse"]), 1e-6), markers.get(r["sort"], "x"),
+                  color=colours[mesh], fillstyle="full" if r["sort"] == "centroid" else "none", ms=7)
+        ax.annotate(f"k{r['k']}", (float(r["cpu_ms"]), max(float(r["rmse"]), 1e-6)), fontsize=6,
+                    xytext=(3, 2), textcoords="offset points")
+    for mesh, c in colours.items():
+        ax.plot([], [], "-", color=c, label=mesh)
+    for name, m in markers.items():
+        ax.plot([], [], m, color="grey", fillstyle="full" if name == "centroid" else "none", label=f"sort {name}")
+    ax.set_xlabel("CPU ms per frame (whole process, 512x512)")
+    ax.set_ylabel("RMSE vs exact double reference (linear RGBA)")
+    ax.set_title("k-buffer face order: error against frame work")
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    fig.savefig(docs / "meshes-kbuffer-order.png", dpi=110)
 
 lod = []
 p = res / "kbuffer-lod.csv"

@@ -144,7 +144,8 @@ EffectPlan RenderInput::planEffects(const Scene& sceneAsGiven, const TransferFun
         cpu.isCpu = true;
         if (scene.meshMethod == MeshMethod::ProjectedTetrahedra)
             return planPt(scene, *mesh_, deviceProfileFor(cpu));
-        return planKBuffer(scene, *mesh_, scene.kBufferDepth, deviceProfileFor(cpu));
+        return planKBuffer(scene, *mesh_, scene.kBufferDepth, deviceProfileFor(cpu),
+                           scene.meshSort ? *scene.meshSort : defaultKBufferSort(*mesh_));
     }
     if (mesh_) return planMeshEffects(scene, *mesh_);
     return volcl::planEffects(scene, *volume_, tf);

@@ -66,7 +66,8 @@ inline double meanAlpha(const ImageBuffer& img) {
     return sum / double(img.width * img.height);
 }
 
-/// The k-buffer mirror's input for the frame `r` last set up: its geometry, faces, parameters, table and k.
+/// The k-buffer mirror's input for the frame `r` last set up: its geometry, faces, parameters, table and k, and
+/// the face order of its last frame when the host made it (an exact sort; the centroid order is the mirror's own).
 inline KBufferMirrorInput kbufferMirrorInputOf(KBufferRenderer& r) {
     KBufferMirrorInput in;
     in.geometry = &r.geometry();
@@ -75,6 +76,7 @@ inline KBufferMirrorInput kbufferMirrorInputOf(KBufferRenderer& r) {
     in.params = r.frameParams();
     in.table = &r.tableValues();
     in.k = r.k();
+    in.order = r.hostOrder();
     return in;
 }
 

@@ -170,10 +170,11 @@ void checkCellsAndReference(const std::string& what, const ImageBuffer& oracle, 
     EXPECT_LE(er.maxAbs, 1e-3) << what << ": reference";
 }
 
-/// Renders every view with the cell caster, the double reference, the k-buffer and projected tetrahedra (the
-/// scene's default sort) and checks them against the oracle: the cell caster (float, pre-integration table)
-/// within 0.002 RMSE and 0.005 per channel, the exact reference within 1e-4 RMSE and 1e-3, the k-buffer (its
-/// face-sorting approximation) within 0.005 RMSE, pt within 0.002 RMSE. With `layered` (tets overlapping in many
+/// Renders every view with the cell caster, the double reference, the k-buffer (with the default face order, the
+/// cells' visibility order, and with the centroid sort) and projected tetrahedra (the scene's default sort) and
+/// checks them against the oracle: the cell caster (float, pre-integration table) within 0.002 RMSE and 0.005
+/// per channel, the exact reference within 1e-4 RMSE and 1e-3, the k-buffer (its face-order approximation)
+/// within 0.005 RMSE, pt within 0.002 RMSE. With `layered` (tets overlapping in many
 /// places) the k-buffer and pt are not rendered: they composite every layer and count overlapping parts more
 /// than once, which they do not promise otherwise.
 void checkAgainstOracle(const std::string& name, const mesh::TetMesh& m, const std::vector<View>& vs,
@@ -188,11 +189,14 @@ void checkAgainstOracle(const std::string& name, const mesh::TetMesh& m, const s
     s.tableLengths = 32;
     Scene ks = s;
     ks.meshMethod = MeshMethod::KBuffer;
+    Scene kcs = ks;
+    kcs.meshSort = MeshSort::Centroid;
     Scene ps = s;
     ps.meshMethod = MeshMethod::ProjectedTetrahedra;
     // One renderer of each kind for all views: a view change keeps the mesh and the table on the device.
     const auto cellsRenderer = in.makeRenderer(test::computeContext(), tf, s);
     const auto kbufferRenderer = layered ? nullptr : in.makeRenderer(test::computeContext(), tf, ks);
+    const auto kbufferCentroid = layered ? nullptr : in.makeRenderer(test::computeContext(), tf, kcs);
     const auto ptRenderer = layered ? nullptr : in.makeRenderer(test::computeContext(), tf, ps);
     // Lit iso mode where the features meet these meshes (holes, re-entries, perspective): two transparent layers
     // by the k-buffer against the cell caster's iso mode, and the cell caster against the reference.
@@ -206,8 +210,11 @@ void checkAgainstOracle(const std::string& name, const mesh::TetMesh& m, const s
                               {lo + 0.65 * (hi - lo), {0.4, 0.6, 1.0, 0.5}}};
     Scene kis = is;
     kis.meshMethod = MeshMethod::KBuffer;
+    Scene kcis = kis;
+    kcis.meshSort = MeshSort::Centroid;
     const auto cellsIso = in.makeRenderer(test::computeContext(), tf, is);
     const auto kbufferIso = layered ? nullptr : in.makeRenderer(test::computeContext(), tf, kis);
+    const auto kbufferIsoCentroid = layered ? nullptr : in.makeRenderer(test::computeContext(), tf, kcis);
     double isoCoverage = 0.0; // the layers show in the views on average (an eye in a cavity may see none)
     for (const View& v : vs) {
         s.camera = v.camera;
@@ -216,13 +223,15 @@ void checkAgainstOracle(const std::string& name, const mesh::TetMesh& m, const s
         cellsRenderer->setView(v.camera, s.width, s.height, s.step);
         const ImageBuffer cells = cellsRenderer->render();
         checkCellsAndReference(name + ", " + v.name, oracle, cells, meshReferenceRender(m, tf, s));
-        if (kbufferRenderer) {
-            kbufferRenderer->setView(v.camera, s.width, s.height, s.step);
-            const ImageBuffer kbuf = kbufferRenderer->render();
+        for (VolumeRenderer* kr : {kbufferRenderer.get(), kbufferCentroid.get()}) {
+            if (!kr) continue;
+            const std::string order = kr == kbufferCentroid.get() ? "centroid" : "default order";
+            kr->setView(v.camera, s.width, s.height, s.step);
+            const ImageBuffer kbuf = kr->render();
             const Errors ek{imageRmse(kbuf, oracle), maxAbsDiff(kbuf, oracle)};
-            std::cout << name << ", " << v.name << ": kbuffer RMSE " << ek.rmse << " max " << ek.maxAbs
-                      << '\n';
-            if (!v.eyeInside) EXPECT_LE(ek.rmse, 0.005) << name << ", " << v.name << ": kbuffer";
+            std::cout << name << ", " << v.name << ": kbuffer (" << order << ") RMSE " << ek.rmse << " max "
+                      << ek.maxAbs << '\n';
+            if (!v.eyeInside) EXPECT_LE(ek.rmse, 0.005) << name << ", " << v.name << ": kbuffer " << order;
         }
         is.camera = v.camera;
         cellsIso->setView(v.camera, s.width, s.height, s.step);
@@ -230,12 +239,14 @@ void checkAgainstOracle(const std::string& name, const mesh::TetMesh& m, const s
         const double eir = imageRmse(ci, meshReferenceRender(m, tf, is));
         EXPECT_LE(eir, 0.002) << name << ", " << v.name << ": cells iso against the reference";
         isoCoverage += meanAlpha(ci);
-        if (kbufferIso && !v.eyeInside) {
-            kbufferIso->setView(v.camera, s.width, s.height, s.step);
-            const double eik = imageRmse(kbufferIso->render(), ci);
-            std::cout << name << ", " << v.name << ": iso cells vs reference RMSE " << eir
-                      << ", k-buffer vs cells RMSE " << eik << '\n';
-            EXPECT_LE(eik, 0.005) << name << ", " << v.name << ": k-buffer iso";
+        for (VolumeRenderer* kr : {kbufferIso.get(), kbufferIsoCentroid.get()}) {
+            if (!kr || v.eyeInside) continue;
+            const std::string order = kr == kbufferIsoCentroid.get() ? "centroid" : "default order";
+            kr->setView(v.camera, s.width, s.height, s.step);
+            const double eik = imageRmse(kr->render(), ci);
+            std::cout << name << ", " << v.name << ": iso cells vs reference RMSE " << eir << ", k-buffer ("
+                      << order << ") vs cells RMSE " << eik << '\n';
+            EXPECT_LE(eik, 0.005) << name << ", " << v.name << ": k-buffer iso " << order;
         }
         if (ptRenderer) {
             ptRenderer->setView(v.camera, s.width, s.height, s.step);
@@ -635,9 +646,14 @@ TEST(MeshNan, TransparentNanColourDrawsTheMeshWithoutItsNanCells) {
                 s.preintegration = Preintegration::None;
                 s.step = 0.004;
             }
-            if (method == 2) s.meshMethod = MeshMethod::KBuffer;
-            if (method == 3) { // the same order of the shared cells in both meshes: removing the NaN cells
-                // can make the mesh non-convex, whose default sort (convexified) differs from mpvo's
+            // k-buffer and pt: the same order of the shared cells in both meshes. Removing the NaN cells leaves a
+            // cavity, whose convexified order (auxiliary cells over a bumpy wall) misplaces a few faces in
+            // perspective where the full mesh's order does not (7 out-of-order pops at k = 2).
+            if (method == 2) {
+                s.meshMethod = MeshMethod::KBuffer;
+                s.meshSort = MeshSort::Centroid;
+            }
+            if (method == 3) {
                 s.meshMethod = MeshMethod::ProjectedTetrahedra;
                 s.meshSort = MeshSort::Centroid;
             }

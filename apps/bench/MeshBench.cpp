@@ -10,6 +10,7 @@
 #include "core/runtime/Timing.hpp"
 #include "host/image/ImageIo.hpp"
 #include "render/Reference.hpp"
+#include "render/mesh/KBufferOrder.hpp"
 #include "render/mesh/PtRenderer.hpp"
 
 #include <nlohmann/json.hpp>
@@ -117,7 +118,8 @@ void benchPt(MeshRun& run, const Scene& scene) {
 }
 
 // Our configurations: cells with the 3D table at each length count (scene's table size and 128), cells
-// point-sampled at the scene's step and half of it, and the k-buffer at k = 2..8 while the build has it.
+// point-sampled at the scene's step and half of it, and the k-buffer at k = 2..8 with the scene's face order
+// and with the centroid sort.
 void benchVolclConfigs(MeshRun& run, const Scene& scene, const MeshBenchOptions& o) {
     for (int size : {scene.tableSize, 128})
         for (double L : parseNumbers(o.lengths, 0, "--mesh-lengths")) {
@@ -137,12 +139,17 @@ void benchVolclConfigs(MeshRun& run, const Scene& scene, const MeshBenchOptions&
         c << "points step " << s.step;
         run.measure("cells", c.str(), s);
     }
-    for (int k = 2; k <= 8; ++k) {
-        Scene s = scene;
-        s.meshMethod = MeshMethod::KBuffer;
-        s.kBufferDepth = k;
-        if (!run.measure("kbuffer", "k " + std::to_string(k), s)) break;
-    }
+    // The k-buffer's face order is a knob too: the scene's (unset: defaultKBufferSort) and the centroid sort.
+    for (const bool centroid : {false, true})
+        for (int k = 2; k <= 8; ++k) {
+            Scene s = scene;
+            s.meshMethod = MeshMethod::KBuffer;
+            s.kBufferDepth = k;
+            if (centroid) s.meshSort = MeshSort::Centroid;
+            const MeshSort sort = s.meshSort ? *s.meshSort : defaultKBufferSort(*run.input.mesh());
+            if (!run.measure("kbuffer", "k " + std::to_string(k) + " " + std::string(meshSortName(sort)), s))
+                break;
+        }
     benchPt(run, scene);
 }
 

@@ -179,9 +179,11 @@ void SceneFlags::add(CLI::App* cmd) {
         ->default_str(num(d.kBufferDepth));
     cmd->add_option(
            "--sort", sort,
-           "Meshes, projected tetrahedra: cell order centroid (fast, approximate), mpvo (exact on convex "
-           "meshes) or convexified (MPVO over the mesh and cells filling its concavities)")
-        ->default_str("mpvo if the mesh is convex, else convexified");
+           "Meshes, methods pt and kbuffer: cell order centroid (fast, approximate; kbuffer: faces sorted "
+           "by centroid), mpvo (exact on convex meshes) or convexified (MPVO over the mesh and cells filling "
+           "its concavities); kbuffer places each face by the cell order")
+        ->default_str(
+            "mpvo if the mesh is convex, else convexified; kbuffer: centroid where tets may overlap");
     raw.add(*cmd);
     mesh.add(*cmd);
 }

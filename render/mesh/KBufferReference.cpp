@@ -303,7 +303,7 @@ public:
         proj.resize(g.points.size());
         for (std::size_t i = 0; i < proj.size(); ++i)
             proj[i] = kbufferMirrorProject(g.points[i], P_);
-        const std::vector<std::uint32_t> order = kbufferMirrorOrder(in_);
+        const std::vector<std::uint32_t> order = in_.order ? *in_.order : kbufferMirrorOrder(in_);
         const auto& faces = in_.faces->faces;
         const auto& sc = *in_.scalars;
         const int W = int(P_.width), H = int(P_.height);
@@ -430,6 +430,10 @@ std::vector<std::uint32_t> kbufferMirrorOrder(const KBufferMirrorInput& in) {
 ImageBuffer kbufferMirrorRender(const KBufferMirrorInput& in, KBufferMirrorStats* stats) {
     if (!in.geometry || !in.scalars || !in.faces || !in.table || (in.iso && in.shading && !in.normals))
         throw Error("internal: incomplete k-buffer mirror input");
+    if (in.order && (in.order->size() != in.params.faceCount ||
+                     std::any_of(in.order->begin(), in.order->end(),
+                                 [&](std::uint32_t f) { return f >= in.params.faceCount; })))
+        throw Error("internal: the k-buffer mirror's face order is not one of the faces drawn");
     if (in.k < kKBufferMinK || in.k > kKBufferMirrorMaxK)
         throw UsageError("k-buffer mirror: k must be 2.." + std::to_string(kKBufferMirrorMaxK));
     if (stats) *stats = {};

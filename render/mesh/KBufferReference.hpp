@@ -27,6 +27,9 @@ struct KBufferMirrorInput {
     VolclKBufferParams params{};
     const std::vector<float>* table = nullptr;
     int k = kKBufferDefaultK;
+    /// The frame's face order when the host made it (KBufferRenderer::hostOrder: an exact visibility order,
+    /// indices into faces, params.faceCount of them); null: the centroid order (kbufferMirrorOrder).
+    const std::vector<std::uint32_t>* order = nullptr;
     /// The NaN colour (straight r, g, b and extinction tau) of segments with a non-finite end (NAN_COLOR).
     std::array<float, 4> nanColor{0, 0, 0, 0};
     /// Mode iso (KB_ISO): segments composite the iso-surfaces they cross instead of the table; with `shading`,
@@ -59,7 +62,8 @@ KBufferProjected kbufferMirrorProject(const cl_float4& p, const VolclKBufferPara
 std::array<float, 4> kbufferMirrorPreint(const std::vector<float>& table, const VolclKBufferParams& P,
                                          float sf, float sb, float len);
 
-/// The frame on the host: projection, centroid keys, a stable sort (the radix sort's order), every face
+/// The frame on the host: projection, the face order (in.order, else centroid keys and a stable sort: the
+/// radix sort's order), every face
 /// rasterised over its pixel rectangle in that order with the kernel's edge and tie rules, k-buffer insert,
 /// pop and flush, table lookups (or iso-surface crossings, lit as cl/common/shading.h lights them) and
 /// compositing as the kernel does them. Output channels R, G, B, A.

@@ -1,4 +1,5 @@
-// The k-buffer renderer: device buffers, tables, the per-frame launches (project, keys, sort, bin, raster).
+// The k-buffer renderer: device buffers, tables, the per-frame face order (host visibility order or device
+// radix sort) and launches (project, keys, bin, raster).
 #include "render/mesh/KBufferRenderer.hpp"
 
 #include "core/Error.hpp"
@@ -8,15 +9,18 @@
 #include "render/FrameParams.hpp"
 #include "render/VecMath.hpp"
 #include "render/mesh/MeshReference.hpp"
+#include "render/mesh/PtRenderer.hpp" // sortViewOf
 #include "render/mesh/RadixSort.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <sstream>
 
 namespace volcl {
 
-EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, const DeviceProfile& device) {
+EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, const DeviceProfile& device,
+                       MeshSort sort) {
     if (k < kKBufferMinK || k > kKBufferMaxK)
         throw UsageError("render.k must be " + std::to_string(kKBufferMinK) + ".." +
                          std::to_string(kKBufferMaxK) + " (got " + std::to_string(k) + ")");
@@ -29,10 +33,15 @@ EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, con
         .set("KB_TILE", kKBufferTile)
         .set("KB_TILE_THREADS", device.mesh.tileThreads)
         .set("BIN_CHUNKS", device.mesh.binChunks);
-    p.compiled.push_back("mode " + std::string(renderModeName(scene.mode)) +
-                         " by k-buffer (HAVS): k = " + std::to_string(k) + ", " +
-                         std::to_string(kKBufferTile) + "x" + std::to_string(kKBufferTile) +
-                         "-pixel tiles, faces sorted by centroid every frame (device radix sort)");
+    const std::string order =
+        sort == MeshSort::Centroid
+            ? "faces sorted by centroid every frame (device radix sort; render.sort \"centroid\")"
+            : "faces placed every frame by the " + std::string(meshSortName(sort)) +
+                  " visibility order of the cells (host; render.sort \"" + std::string(meshSortName(sort)) +
+                  "\")";
+    p.compiled.push_back(
+        "mode " + std::string(renderModeName(scene.mode)) + " by k-buffer (HAVS): k = " + std::to_string(k) +
+        ", " + std::to_string(kKBufferTile) + "x" + std::to_string(kKBufferTile) + "-pixel tiles, " + order);
     const SceneEffects& fx = scene.effects;
     const std::string why = ": not drawn by render.method \"kbuffer\" (use \"cells\")";
     if (iso) {
@@ -89,6 +98,15 @@ struct KBufferRenderer::Impl {
     explicit Impl(ComputeContext& cc) : sorter(cc), binner(cc) {}
     DeviceRadixSort sorter;
     TileBinner binner;
+    /// The exact orders' cell sort (its graphs and convexification kept for the renderer's life) and face
+    /// placement (made on the first such frame, again when the faces are rebuilt), and the last order given.
+    std::unique_ptr<VisibilitySorter> cellSorter;
+    std::unique_ptr<KBufferFaceSorter> faceSorter;
+    std::vector<std::uint32_t> hostOrder;
+    bool hostOrdered = false; ///< the last frame's order came from the host
+    DeviceBuffer<cl_uint> order;
+    /// defaultKBufferSort of the mesh, found on the first scene that leaves render.sort unset.
+    std::optional<MeshSort> defaultSort;
     DeviceBuffer<cl_float4> points, proj;
     DeviceBuffer<float> scalars;
     /// Mode iso with shading: kbufferPointNormals (built on the first such frame); one unused element otherwise.
@@ -107,16 +125,30 @@ struct KBufferRenderer::Impl {
 
 KBufferRenderer::KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, const TransferFunction& tf,
                                  const Scene& scene, int k, const FaceSplitOptions& split)
-    : RendererBase(cc, tf, scene), mesh_(mesh), k_(k), impl_(std::make_unique<Impl>(cc)) {
+    : RendererBase(cc, tf, scene), mesh_(mesh), split_(split), k_(k), impl_(std::make_unique<Impl>(cc)) {
     if (mesh.tets.empty()) throw DataError("mesh has no tetrahedra");
     if (mesh.points.size() > 0xFFFFFFFFu)
         throw DataError("mesh has too many points for the k-buffer (2^32 - 1)");
-    faces_ = buildMeshFaces(mesh);
-    if (split.ratio > 0.0) splitLongFaces(faces_, mesh, split.ratio, split.budget);
-    geometry_ = kbufferGeometry(mesh, faces_);
+    start(meshBounds(mesh_), meshValueRange(mesh_)); // admitScene builds the faces for the scene's order
+}
+
+void KBufferRenderer::ensureFaces() {
+    // Cutting long faces only helps the centroid sort (a sliver's centroid far from where rays cross it); an
+    // exact order places every piece of a face together, so they would only cost time.
+    const bool cut = sort_ == MeshSort::Centroid && split_.ratio > 0.0;
+    if (facesBuilt_ && cut == facesCut_) return;
+    faces_ = buildMeshFaces(mesh_);
+    if (cut) splitLongFaces(faces_, mesh_, split_.ratio, split_.budget);
+    facesBuilt_ = true;
+    facesCut_ = cut;
+    geometry_ = kbufferGeometry(mesh_, faces_);
     if (geometry_.points.size() > 0xFFFFFFFFu)
         throw DataError("mesh has too many points for the k-buffer (2^32 - 1)");
     Impl& m = *impl_;
+    m.faceSorter.reset();
+    m.hostOrder.clear();
+    m.hostOrdered = false;
+    m.hostNormals.clear();
     m.points = cc_.upload(geometry_.points, CL_MEM_READ_ONLY);
     m.scalars = cc_.upload(geometry_.scalars, CL_MEM_READ_ONLY);
     std::vector<cl_uint4> faceRecords(faces_.faces.size());
@@ -132,23 +164,32 @@ KBufferRenderer::KBufferRenderer(ComputeContext& cc, const mesh::TetMesh& mesh, 
     m.sortedFaces = cc_.allocate<cl_uint4>(faceRecords.size());
     m.sortedRects = cc_.allocate<cl_uint2>(faceRecords.size());
     m.normals = cc_.allocate<cl_float4>(1);
-    start(meshBounds(mesh_), meshValueRange(mesh_));
+    m.order = cc_.allocate<cl_uint>(faceRecords.size());
+}
+
+MeshSort KBufferRenderer::sortOf(const Scene& scene) const {
+    if (scene.meshSort) return *scene.meshSort;
+    if (!impl_->defaultSort) impl_->defaultSort = defaultKBufferSort(mesh_);
+    return *impl_->defaultSort;
 }
 
 KBufferRenderer::~KBufferRenderer() = default;
 
 EffectPlan KBufferRenderer::planEffects(const Scene& scene) const {
-    return planKBuffer(scene, mesh_, k_, cc_.profile());
+    return planKBuffer(scene, mesh_, k_, cc_.profile(), sortOf(scene));
 }
 
 void KBufferRenderer::admitScene(const Scene& next) {
     const int k = next.kBufferDepth != scene_.kBufferDepth ? next.kBufferDepth : k_;
-    planKBuffer(next, mesh_, k, cc_.profile()); // refuses before anything changes
+    const MeshSort sort = sortOf(next);
+    planKBuffer(next, mesh_, k, cc_.profile(), sort); // refuses before anything changes
     k_ = k;
+    sort_ = sort;
+    ensureFaces();
 }
 
 void KBufferRenderer::setK(int k) {
-    planKBuffer(scene_, mesh_, k, cc_.profile());
+    planKBuffer(scene_, mesh_, k, cc_.profile(), sort_);
     k_ = k;
     replan(false);
 }
@@ -256,10 +297,25 @@ ImageBuffer KBufferRenderer::render() {
     times_.project = eventMilliseconds(cc_.launch1d(m.project, geometry_.points.size(), tuning.kbuffer));
     setArgs(m.faceKeys, m.points, m.proj, m.faces, P, m.keys, m.vals, m.rects);
     times_.keys = eventMilliseconds(cc_.launch1d(m.faceKeys, std::max<std::size_t>(n, 1), tuning.kbuffer));
-    m.sorter.sort(m.keys, m.vals, n);
-    times_.sort = m.sorter.lastMilliseconds();
+    m.hostOrdered = sort_ != MeshSort::Centroid;
+    cyclesBroken_ = 0;
+    if (m.hostOrdered) {
+        if (!m.cellSorter) m.cellSorter = std::make_unique<VisibilitySorter>(mesh_);
+        if (!m.faceSorter) m.faceSorter = std::make_unique<KBufferFaceSorter>(mesh_, faces_, *m.cellSorter);
+        KBufferFaceOrder o = m.faceSorter->order(sortViewOf(camera_), sort_, n);
+        if (o.faces.size() != n) throw Error("internal: the k-buffer face order misses faces");
+        Stopwatch upload;
+        cc_.write(m.order, std::span<const cl_uint>(o.faces));
+        times_.sort = o.cellSortMs;
+        times_.place = o.faceOrderMs + upload.milliseconds();
+        cyclesBroken_ = o.cyclesBroken;
+        m.hostOrder = std::move(o.faces);
+    } else {
+        m.sorter.sort(m.keys, m.vals, n);
+        times_.sort = m.sorter.lastMilliseconds();
+    }
 
-    setArgs(m.gather, m.vals, m.faces, m.rects, n, m.sortedFaces, m.sortedRects);
+    setArgs(m.gather, m.hostOrdered ? m.order : m.vals, m.faces, m.rects, n, m.sortedFaces, m.sortedRects);
     times_.bin = eventMilliseconds(cc_.launch1d(m.gather, std::max<std::size_t>(n, 1), tuning.kbuffer));
     times_.bin += m.binner.bin(m.sortedFaces, m.sortedRects, n, P.tilesX, tiles);
 
@@ -284,15 +340,23 @@ std::unique_ptr<VolumeRenderer> makeKBufferRenderer(ComputeContext& cc, const me
 }
 
 std::vector<cl_uint> KBufferRenderer::lastOrder() {
-    std::vector<cl_uint> all = cc_.download(impl_->vals);
+    std::vector<cl_uint> all = cc_.download(impl_->hostOrdered ? impl_->order : impl_->vals);
     all.resize(facesDrawn());
     return all;
+}
+
+const std::vector<std::uint32_t>* KBufferRenderer::hostOrder() const noexcept {
+    return impl_->hostOrdered ? &impl_->hostOrder : nullptr;
 }
 
 std::string KBufferRenderer::statistics() const {
     std::ostringstream os;
     os << "faces: " << faces_.boundaryCount << " boundary + " << faces_.internalCount() << " internal, drawn "
-       << facesDrawn() << ", k " << k_ << ", tile entries " << impl_->binner.entries();
+       << facesDrawn() << ", k " << k_ << ", sort " << meshSortName(sort_);
+    if (impl_->hostOrdered)
+        os << " (cells " << formatNumber(times_.sort) << " ms, cycles broken " << cyclesBroken_
+           << ", faces placed " << formatNumber(times_.place) << " ms)";
+    os << ", tile entries " << impl_->binner.entries();
     return os.str();
 }
 

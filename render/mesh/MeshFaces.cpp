@@ -23,7 +23,7 @@ MeshFaces buildMeshFaces(const mesh::TetMesh& mesh, std::uint64_t seed) {
     MeshFaces out;
     out.faces.reserve(mesh.boundaryFaces.size() + mesh.internalFaceCount());
     for (mesh::FaceId f : mesh.boundaryFaces)
-        out.faces.push_back({mesh.faceVertices(f), true});
+        out.faces.push_back({mesh.faceVertices(f), true, f});
     out.boundaryCount = out.faces.size();
 
     struct Ranked {
@@ -46,7 +46,7 @@ MeshFaces buildMeshFaces(const mesh::TetMesh& mesh, std::uint64_t seed) {
         const double cx = u[1] * w[2] - u[2] * w[1], cy = u[2] * w[0] - u[0] * w[2],
                      cz = u[0] * w[1] - u[1] * w[0];
         const double area = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
-        internal.push_back({area * xi(rng), {v, false}});
+        internal.push_back({area * xi(rng), {v, false, static_cast<mesh::FaceId>(i)}});
     }
     // Importance levels: the faces ranked by priority are cut into kLodLevels equal parts, and inside a
     // level they keep mesh order. A prefix is then still (to within one level) the most important faces,
@@ -135,22 +135,22 @@ std::size_t splitLongFaces(MeshFaces& out, const mesh::TetMesh& mesh, double rat
     faces.reserve(n + std::size_t(added));
     std::size_t boundary = 0;
     auto split = [&](auto&& self, std::uint32_t a, std::uint32_t b, std::uint32_t c, bool onBoundary,
-                     int l) -> void {
+                     mesh::FaceId source, int l) -> void {
         if (l == 0) {
-            faces.push_back({{a, b, c}, onBoundary});
+            faces.push_back({{a, b, c}, onBoundary, source});
             boundary += onBoundary ? 1 : 0;
             return;
         }
         const std::uint32_t ab = mid(a, b), bc = mid(b, c), ca = mid(c, a);
         // The corner pieces and the middle one all keep the face's winding.
-        self(self, a, ab, ca, onBoundary, l - 1);
-        self(self, ab, b, bc, onBoundary, l - 1);
-        self(self, ca, bc, c, onBoundary, l - 1);
-        self(self, ab, bc, ca, onBoundary, l - 1);
+        self(self, a, ab, ca, onBoundary, source, l - 1);
+        self(self, ab, b, bc, onBoundary, source, l - 1);
+        self(self, ca, bc, c, onBoundary, source, l - 1);
+        self(self, ab, bc, ca, onBoundary, source, l - 1);
     };
     for (std::size_t i = 0; i < n; ++i) {
         const MeshFace& f = out.faces[i];
-        split(split, f.v[0], f.v[1], f.v[2], f.boundary, levels[i]);
+        split(split, f.v[0], f.v[1], f.v[2], f.boundary, f.source, levels[i]);
     }
     const std::size_t grown = faces.size() - n;
     out.faces = std::move(faces);

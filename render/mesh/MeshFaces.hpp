@@ -11,10 +11,13 @@
 
 namespace volcl {
 
-/// One triangle: three point indices (boundary faces in outward winding) and whether it is on the boundary.
+/// One triangle: three point indices (boundary faces in outward winding), whether it is on the boundary, and the
+/// tet face it lies on (for an internal triangle the lower-numbered of its two copies; the pieces of a cut face
+/// keep their face's), which a visibility order of the cells places it by.
 struct MeshFace {
     std::array<std::uint32_t, 3> v;
     bool boundary = false;
+    mesh::FaceId source = mesh::kNoFace;
 };
 
 /// The faces of a mesh as the k-buffer draws them: faces[0, boundaryCount) are the boundary faces (every one

@@ -232,11 +232,15 @@ M=("$volcl" -q render --volume "$work/in/cubes.vtk" --tf "$tf" --width 12 --heig
 # reads as 255, not 1 (tests/oclgrind/vector_compare_lane.cl), and 16 of the 120 pixels stay empty; -O2 keeps it
 # scalar.
 OCLGRIND_BUILD_OPTIONS=-O2 both cells cells.exr "${M[@]}" --method cells
-both kbuffer kbuffer.exr "${M[@]}" --method kbuffer --k 4
+# The k-buffer with the device radix sort (centroid) and with the default face order of this convex mesh (the
+# host's MPVO order through kb_gather).
+both kbuffer kbuffer.exr "${M[@]}" --method kbuffer --k 4 --sort centroid
+both kbuffer_order kbuffer_order.exr "${M[@]}" --method kbuffer --k 2
 # Projected tetrahedra: the tile rectangles, the k-buffer's binning and the tile compositing, with a clip plane.
 both pt pt.exr "${M[@]}" --method pt --sort centroid --clip 1,0.3,0,-0.4
 same_image cells.exr 1e-4
 same_image kbuffer.exr 1e-4
+same_image kbuffer_order.exr 1e-4
 same_image pt.exr 1e-4
 # Mode iso: two transparent layers lit by the head light, the k-buffer's KB_ISO raster (faces per fragment,
 # smooth vertex normals, SHADING). The cell caster's iso mode is not here: at -O2 Oclgrind 21.10 creates no
