@@ -236,7 +236,7 @@ TEST(ShadowVolumeBricks, RebuiltOnlyWhenTheLightTfOrFieldChanges) {
     r.setScene(moved);
     r.render();
     EXPECT_EQ(r.lightVolumeBuilds(), 4) << "a new cell (and level)";
-    EXPECT_NE(r.statistics().find("light volumes: 4 built"), std::string::npos) << r.statistics();
+    EXPECT_NE(r.statistics().find("light volumes: 4 built from the bricks at level 1"), std::string::npos) << r.statistics();
 
     Scene head = s;
     head.lights = {{LightKind::Head, {0, 0, 0}, {1, 1, 1}, 1.0}};

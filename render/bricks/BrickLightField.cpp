@@ -18,7 +18,7 @@ constexpr std::size_t kHeaderWords = 16; // VOLCL_BRICK_HEADER in cl/common/bric
 constexpr std::uint32_t kAbsent = 0xffffffffu; // VOLCL_BRICK_ABSENT
 
 std::string megabytes(std::size_t floats) {
-    return formatFixed(double(floats) * sizeof(float) / (1024.0 * 1024.0), 1) + " MB";
+    return formatNumber(double(floats) * sizeof(float) / (1024.0 * 1024.0), 3) + " MB";
 }
 
 /// Field and volumes of `cell` (level: the coarsest with 2^level <= cell, at most maxLevel).

@@ -500,8 +500,9 @@ std::string BrickRenderer::statistics() const {
     os << "last frame: " << last_.summary();
     if (total_.frames > 1) os << "\nall " << total_.frames << " frames: " << total_.summary();
     if (plan_.shadowVolume)
-        os << "\nlight volumes: " << impl_->lightVolume.builds() << " built, last in " << std::fixed
-           << std::setprecision(1) << impl_->lightVolumeMs << " ms";
+        os << "\nlight volumes: " << impl_->lightVolume.builds() << " built from the bricks at level "
+           << impl_->lightFieldLevel << ", last in " << std::fixed << std::setprecision(1) << impl_->lightVolumeMs
+           << " ms";
     return os.str();
 }
 
