@@ -1,6 +1,7 @@
 // Light-volume shadows of compressed bricks (.vcz): against the brick renderer's shadow rays and the grid
 // renderer's light volume of the decoded data on hard cases, no seams at brick faces, when a volume is rebuilt,
 // and the memory bound.
+#include "ShadowTestUtil.hpp"
 #include "TestUtil.hpp"
 
 #include "core/Error.hpp"
@@ -128,9 +129,10 @@ TEST(ShadowVolumeBricks, HardCasesMatchRaysAndTheGridLightVolume) {
                 const auto reader = encode(volume, brick, lossless);
                 const Volume decoded = reader->decodeFrame(computeContext(), 0);
                 for (const Light& light : {kSun, kInside}) {
-                    const std::string name = std::string(scene) + ", brick " + std::to_string(brick) +
-                                             (lossless ? ", lossless" : ", lossy") +
-                                             (light.kind == LightKind::Point ? ", point light inside" : ", sun");
+                    const std::string name =
+                        std::string(scene) + ", brick " + std::to_string(brick) +
+                        (lossless ? ", lossless" : ", lossy") +
+                        (light.kind == LightKind::Point ? ", point light inside" : ", sun");
                     SCOPED_TRACE(name);
                     const Scene s = shadowScene(n, light, ShadowMethod::Volume);
                     const ImageBuffer vol = brickFrame(reader, tf, s);
@@ -139,8 +141,8 @@ TEST(ShadowVolumeBricks, HardCasesMatchRaysAndTheGridLightVolume) {
                     rays.effects.shadowMethod = ShadowMethod::Rays;
                     const double toRays = imageRmse(vol, brickFrame(reader, tf, rays));
                     const double toGrid = imageRmse(vol, gridFrame(decoded, tf, s));
-                    std::cout << name << ": RMSE against brick rays " << toRays << ", against the grid light volume "
-                              << toGrid << '\n';
+                    std::cout << name << ": RMSE against brick rays " << toRays
+                              << ", against the grid light volume " << toGrid << '\n';
                     EXPECT_LT(toRays, 1e-2);
                     EXPECT_LT(toGrid, 1e-6);
                 }
@@ -192,10 +194,11 @@ TEST(ShadowVolumeBricks, NoSeamAtBrickFaces) {
         Scene rays = s;
         rays.effects.shadowMethod = ShadowMethod::Rays;
         const ImageBuffer rayFrame = brickFrame(reader, tf, rays);
-        std::cout << "cell " << cell << ": RMSE against rays: bricks " << imageRmse(got, rayFrame) << ", grid "
-                  << imageRmse(grid, rayFrame) << '\n';
+        std::cout << "cell " << cell << ": RMSE against rays: bricks " << imageRmse(got, rayFrame)
+                  << ", grid " << imageRmse(grid, rayFrame) << '\n';
         std::cout << "cell " << cell << ": largest step of brick - grid at brick faces " << atFace
-                  << ", elsewhere " << elsewhere << ", RMSE against the grid " << imageRmse(got, grid) << '\n';
+                  << ", elsewhere " << elsewhere << ", RMSE against the grid " << imageRmse(got, grid)
+                  << '\n';
         EXPECT_LE(atFace, std::max(1.5 * elsewhere, 2e-3));
         // The coarse level smooths the sheet as the coarse light grid does: closer to the rays than the grid's
         // light volume of the full-resolution data at the same cell.
@@ -216,17 +219,7 @@ TEST(ShadowVolumeBricks, RebuiltOnlyWhenTheLightTfOrFieldChanges) {
     const auto reader = encode(v, 8, true);
     Scene s = shadowScene(n, kSun, ShadowMethod::Volume);
     BrickRenderer r(computeContext(), reader, 0, rampTf(0.8), s);
-    r.render();
-    EXPECT_EQ(r.lightVolumeBuilds(), 1);
-    EXPECT_GT(r.lastLightVolumeMilliseconds(), 0.0);
-    Camera cam = *s.camera;
-    cam.eye = {30, 7.5, 7.5};
-    r.setView(cam, s.width, s.height, s.step);
-    r.render();
-    EXPECT_EQ(r.lightVolumeBuilds(), 1) << "a camera move";
-    r.setTransferFunction(rampTf(0.5));
-    r.render();
-    EXPECT_EQ(r.lightVolumeBuilds(), 2) << "a new TF";
+    test::expectCameraMoveKeepsAndTfRebuilds(r, s, rampTf(0.5));
     Scene moved = s;
     moved.lights = {{LightKind::Directional, {0, 0, 1}, {1, 1, 1}, 1.0}};
     r.setScene(moved);
@@ -236,28 +229,12 @@ TEST(ShadowVolumeBricks, RebuiltOnlyWhenTheLightTfOrFieldChanges) {
     r.setScene(moved);
     r.render();
     EXPECT_EQ(r.lightVolumeBuilds(), 4) << "a new cell (and level)";
-    EXPECT_NE(r.statistics().find("light volumes: 4 built from the bricks at level 1"), std::string::npos) << r.statistics();
+    EXPECT_NE(r.statistics().find("light volumes: 4 built from the bricks at level 1"), std::string::npos)
+        << r.statistics();
 
-    Scene head = s;
-    head.lights = {{LightKind::Head, {0, 0, 0}, {1, 1, 1}, 1.0}};
-    head.effects.headLightToleranceDeg = 2.0;
-    BrickRenderer h(computeContext(), reader, 0, rampTf(0.8), head);
-    h.render();
-    const Camera c0 = *head.camera;
-    auto turned = [&](double deg) {
-        Camera c = c0;
-        const Vec3 off = sub(c0.eye, c0.target);
-        const double a = deg * 3.14159265358979 / 180.0;
-        c.eye = add(c0.target, {off[0] * std::cos(a) + off[2] * std::sin(a), off[1],
-                                -off[0] * std::sin(a) + off[2] * std::cos(a)});
-        return c;
-    };
-    h.setView(turned(1.0), head.width, head.height, head.step);
-    h.render();
-    EXPECT_EQ(h.lightVolumeBuilds(), 1) << "a head light turned 1 degree (tolerance 2)";
-    h.setView(turned(5.0), head.width, head.height, head.step);
-    h.render();
-    EXPECT_EQ(h.lightVolumeBuilds(), 2) << "a head light turned 5 degrees";
+    test::expectHeadLightTolerance(s, [&](const Scene& head) {
+        return std::make_unique<BrickRenderer>(computeContext(), reader, 0, rampTf(0.8), head);
+    });
 }
 
 // The plan keeps the volume method (no rewrite to rays) and says where the extinction comes from; a cell whose

@@ -122,8 +122,7 @@ void benchShadows(ComputeContext& cc, const RenderInput& input, const TransferFu
     std::ostringstream csv;
     csv << "light,method,knob,build_ms,ms,ratio_plain,rmse\n";
     std::cout << "shadows, " << (grid ? "grid" : "compressed bricks (" + input.bricks()->name() + ")") << ", "
-              << scene.width << "x" << scene.height << ", step " << scene.step
-              << ", medians of " << o.rounds
+              << scene.width << "x" << scene.height << ", step " << scene.step << ", medians of " << o.rounds
               << " interleaved rounds (ray frames: one each), RMSE of RGBA against "
               << "secondary rays at step " << o.raySteps.front() << " voxel, load average " << loadAverage()
               << '\n';

@@ -14,7 +14,7 @@
 namespace volcl {
 namespace {
 
-constexpr std::size_t kHeaderWords = 16; // VOLCL_BRICK_HEADER in cl/common/brick_sample.h
+constexpr std::size_t kHeaderWords = 16;       // VOLCL_BRICK_HEADER in cl/common/brick_sample.h
 constexpr std::uint32_t kAbsent = 0xffffffffu; // VOLCL_BRICK_ABSENT
 
 std::string megabytes(std::size_t floats) {
@@ -46,8 +46,9 @@ std::string BrickLightPlan::how() const {
     return s;
 }
 
-BrickLightPlan planBrickLightVolume(const VczHeader& h, int maxLevel, const std::vector<char>& nonFinite, int cell,
-                                    std::size_t lights, double budgetBytes, const std::string& file) {
+BrickLightPlan planBrickLightVolume(const VczHeader& h, int maxLevel, const std::vector<char>& nonFinite,
+                                    int cell, std::size_t lights, double budgetBytes,
+                                    const std::string& file) {
     lights = std::max<std::size_t>(lights, 1);
     std::string first;
     for (int c = cell;; c *= 2) {
@@ -60,7 +61,8 @@ BrickLightPlan planBrickLightVolume(const VczHeader& h, int maxLevel, const std:
         } catch (const DataError&) { // more than 2^32 nodes: larger than any budget
             floats = std::size_t(-1) / sizeof(float);
         }
-        if (first.empty()) first = floats == std::size_t(-1) / sizeof(float) ? "over 16 GiB" : megabytes(floats);
+        if (first.empty())
+            first = floats == std::size_t(-1) / sizeof(float) ? "over 16 GiB" : megabytes(floats);
         if (double(floats) * sizeof(float) <= budgetBytes) {
             p.askedCell = cell;
             return p;
@@ -82,8 +84,9 @@ float brickPageWord(std::uint32_t v) {
 std::vector<float> brickPageTable(const VczHeader& h, const std::vector<float>& standIn) {
     std::vector<float> page(kHeaderWords + 4 * h.brickCount(), 0.0f);
     const Dims g = h.brickGrid();
-    const std::uint32_t head[6] = {std::uint32_t(h.brick.x), std::uint32_t(h.brick.y), std::uint32_t(h.brick.z),
-                                   std::uint32_t(g.x),       std::uint32_t(g.y),       std::uint32_t(g.z)};
+    const std::uint32_t head[6] = {std::uint32_t(h.brick.x), std::uint32_t(h.brick.y),
+                                   std::uint32_t(h.brick.z), std::uint32_t(g.x),
+                                   std::uint32_t(g.y),       std::uint32_t(g.z)};
     for (std::size_t i = 0; i < 6; ++i)
         page[i] = brickPageWord(head[i]);
     for (std::size_t b = 0; b < h.brickCount(); ++b) {
@@ -117,7 +120,8 @@ DeviceBuffer<float> buildBrickLightField(ComputeContext& cc, const VczReader& re
         pool.insert(pool.end(), samples.begin(), samples.end());
     }
     if (pool.size() >= (std::size_t(1) << 32))
-        throw UsageError(reader.name() + ": the light volumes' field exceeds the 16 GiB a page table addresses");
+        throw UsageError(reader.name() +
+                         ": the light volumes' field exceeds the 16 GiB a page table addresses");
     return cc.upload(pool, CL_MEM_READ_ONLY);
 }
 

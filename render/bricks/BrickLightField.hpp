@@ -32,8 +32,9 @@ struct BrickLightPlan {
 /// The plan for `lights` lights and the scene's `cell` within `budgetBytes` (render.cache_mb): the cell doubles
 /// until field and volumes fit. `maxLevel`: the frame's coarsest decodable level (0 for P/B frames and raw
 /// bits). Throws UsageError naming `file` when even 64-voxel cells do not fit.
-BrickLightPlan planBrickLightVolume(const VczHeader& h, int maxLevel, const std::vector<char>& nonFinite, int cell,
-                                    std::size_t lights, double budgetBytes, const std::string& file);
+BrickLightPlan planBrickLightVolume(const VczHeader& h, int maxLevel, const std::vector<char>& nonFinite,
+                                    int cell, std::size_t lights, double budgetBytes,
+                                    const std::string& file);
 
 /// The pool format's first words (cl/common/brick_sample.h): the header (brick size, brick grid) and one page
 /// entry per brick, each absent with its stand-in value `standIn[b]` until a slot is written into it.

@@ -501,8 +501,8 @@ std::string BrickRenderer::statistics() const {
     if (total_.frames > 1) os << "\nall " << total_.frames << " frames: " << total_.summary();
     if (plan_.shadowVolume)
         os << "\nlight volumes: " << impl_->lightVolume.builds() << " built from the bricks at level "
-           << impl_->lightFieldLevel << ", last in " << std::fixed << std::setprecision(1) << impl_->lightVolumeMs
-           << " ms";
+           << impl_->lightFieldLevel << ", last in " << std::fixed << std::setprecision(1)
+           << impl_->lightVolumeMs << " ms";
     return os.str();
 }
 
