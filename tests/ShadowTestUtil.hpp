@@ -31,8 +31,7 @@ void expectCameraMoveKeepsAndTfRebuilds(R& r, const Scene& s, const TransferFunc
 
 /// `s` lit by a head light of tolerance 2 degrees, drawn by `make(scene)`'s renderer: its camera turned 1 degree
 /// about the target keeps the light volume, turned 5 degrees rebuilds it.
-template <class Make>
-void expectHeadLightTolerance(const Scene& s, Make make) {
+template <class Make> void expectHeadLightTolerance(const Scene& s, Make make) {
     Scene head = s;
     head.lights = {{LightKind::Head, {0, 0, 0}, {1, 1, 1}, 1.0}};
     head.effects.headLightToleranceDeg = 2.0;

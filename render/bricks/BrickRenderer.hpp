@@ -66,6 +66,8 @@ public:
     void setForcedLevels(std::vector<int> levels) { forced_ = std::move(levels); }
     /// Light-volume builds since construction (a camera move alone rebuilds none for directional lights).
     int lightVolumeBuilds() const noexcept;
+    /// The last light-volume build's wall time, with the decode of every brick into its field when that build
+    /// needed it (the first, and after a change of level).
     double lastLightVolumeMilliseconds() const noexcept;
 
 private:
