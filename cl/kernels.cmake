@@ -29,6 +29,7 @@ set(VOLCL_KERNEL_FILES
   render/light_volume.cl
   common/brick_sample.h
   render/raymarch_bricks.cl
+  render/light_volume_bricks.cl
   codec/lifting_common.h
   codec/lifting.cl
   codec/lifting_brick.cl

@@ -414,6 +414,16 @@ double nanExtinction(const Scene& scene) {
     return a >= 1.0 ? kMaxImportedExtinction : -std::log1p(-a);
 }
 
+void planShadowVolume(const Scene& scene, int cell, std::string_view how, EffectPlan& plan) {
+    if (!plan.shadows || scene.effects.shadowMethod != ShadowMethod::Volume) return;
+    plan.shadowVolume = true;
+    plan.defines.set("SHADOW_VOLUME");
+    for (std::string& line : plan.compiled)
+        if (line.starts_with("shadows:"))
+            line = "shadows: a light-attenuation volume per light (" + std::to_string(cell) + "-voxel cells" +
+                   std::string(how) + "), one fetch per sample";
+}
+
 void planNanColor(const Scene& scene, bool hasNonFinite, EffectPlan& plan) {
     if (!hasNonFinite) return;
     const std::array<double, 4>& c = scene.nanColor;

@@ -39,6 +39,11 @@ struct EffectPlan {
 EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRange& range,
                        std::string_view skippingHow, bool canPathTrace = false);
 
+/// Shadows by effects.shadow_method "volume": sets shadowVolume and SHADOW_VOLUME and says so in the report
+/// ("a light-attenuation volume per light (`cell`-voxel cells`how`)"); nothing when the plan has no shadows or the
+/// scene asks for rays. `cell`: the cell the renderer builds (it may be coarser than the scene's).
+void planShadowVolume(const Scene& scene, int cell, std::string_view how, EffectPlan& plan);
+
 /// Extinction per unit distance of the scene's NaN colour (opacity a per unit distance: -ln(1 - a)).
 double nanExtinction(const Scene& scene);
 

@@ -269,8 +269,8 @@ std::vector<Combo> combos(const WorldBox& box) {
         }
         add("iso" + sh, RenderMode::Iso, shading, Preintegration::None, true);
     }
-    // Shadows where they meet iso layers and 2D pre-integration: by secondary rays (every input) and from light
-    // volumes (grids; compressed bricks march shadow rays instead, with a note).
+    // Shadows where they meet iso layers and 2D pre-integration: by secondary rays and from light volumes (every
+    // input; a .vcz's light volume of one-voxel cells reads every brick at level 0, the decoded data).
     for (ShadowMethod m : {ShadowMethod::Rays, ShadowMethod::Volume}) {
         add(std::string("dvr+iso shaded shadows ") + (m == ShadowMethod::Rays ? "rays" : "volume"),
             RenderMode::Dvr, true, Preintegration::Table2d, true);
@@ -351,7 +351,6 @@ TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
         // on), so skipping meets every mode, effect and input here.
         Scene oracle = c.scene;
         oracle.skipping = SkipMode::Off;
-        if (input.kind() == RenderInput::Kind::Bricks) oracle.effects.shadowMethod = ShadowMethod::Rays;
         GridRenderer grid(cc, decoded, tf, oracle);
         const ImageBuffer want = grid.render();
         const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, c.scene);

@@ -1,6 +1,7 @@
 // Shadows from light-attenuation volumes: the sweep kernel against its C++ reference, the volume against a
 // closed-form shadow, rendered shadows against the exact secondary-ray reference on hard cases and the MRI,
 // and when a volume is rebuilt.
+#include "ShadowTestUtil.hpp"
 #include "TestUtil.hpp"
 
 #include "core/Error.hpp"
@@ -17,6 +18,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <memory>
 
 namespace {
 
@@ -289,18 +291,7 @@ TEST(ShadowVolume, RebuiltOnlyWhenTheLightTfOrFieldChanges) {
     const TransferFunction tf = rampTf(0.8);
     Scene s = shadowScene(n, {kSun}, ShadowMethod::Volume);
     GridRenderer r(computeContext(), v, tf, s);
-    r.render();
-    EXPECT_EQ(r.lightVolumeBuilds(), 1);
-    EXPECT_GT(r.lastLightVolumeMilliseconds(), 0.0);
-    Camera cam = *s.camera;
-    cam.eye = {30, 7.5, 7.5};
-    r.setView(cam, s.width, s.height, s.step);
-    r.render();
-    EXPECT_EQ(r.lightVolumeBuilds(), 1) << "a camera move";
-    TransferFunction tf2 = rampTf(0.5);
-    r.setTransferFunction(tf2);
-    r.render();
-    EXPECT_EQ(r.lightVolumeBuilds(), 2) << "a new TF";
+    test::expectCameraMoveKeepsAndTfRebuilds(r, s, rampTf(0.5));
     Scene coarse = s;
     coarse.effects.lightVolumeCell = 2;
     r.setScene(coarse);
@@ -308,29 +299,12 @@ TEST(ShadowVolume, RebuiltOnlyWhenTheLightTfOrFieldChanges) {
     EXPECT_EQ(r.lightVolumeBuilds(), 3) << "a new cell";
     EXPECT_NE(r.statistics().find("light volumes: 3 built"), std::string::npos) << r.statistics();
 
-    Scene head = s;
-    head.lights = {{LightKind::Head, {0, 0, 0}, {1, 1, 1}, 1.0}};
-    head.effects.headLightToleranceDeg = 2.0;
-    GridRenderer h(computeContext(), v, tf, head);
-    h.render();
-    const Camera c0 = *head.camera;
-    auto turned = [&](double deg) {
-        Camera c = c0;
-        const Vec3 off = sub(c0.eye, c0.target);
-        const double a = deg * 3.14159265358979 / 180.0;
-        c.eye = add(c0.target, {off[0] * std::cos(a) + off[2] * std::sin(a), off[1],
-                                -off[0] * std::sin(a) + off[2] * std::cos(a)});
-        return c;
-    };
-    h.setView(turned(1.0), head.width, head.height, head.step);
-    h.render();
-    EXPECT_EQ(h.lightVolumeBuilds(), 1) << "a head light turned 1 degree (tolerance 2)";
-    h.setView(turned(5.0), head.width, head.height, head.step);
-    h.render();
-    EXPECT_EQ(h.lightVolumeBuilds(), 2) << "a head light turned 5 degrees";
+    test::expectHeadLightTolerance(
+        s, [&](const Scene& head) { return std::make_unique<GridRenderer>(computeContext(), v, tf, head); });
 }
 
-// The scene keys, their refusals and what the planners compile: rays and volume on grids, rays on bricks.
+// The scene keys, their refusals and what the grid planner compiles for rays and volume (bricks:
+// ShadowVolumeBricks.PlanStatesLevelAndMemoryBound).
 TEST(ShadowVolume, SceneKeysAndPlans) {
     Scene s = Scene::fromJson(R"({"volume": "v.nrrd", "effects": {"shadows": true, "shadow_method": "rays",
         "light_volume_cell": 3, "shadow_head_tolerance": 5}})",

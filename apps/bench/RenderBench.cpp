@@ -319,7 +319,12 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
         for (double c : parseNumbers(a.shadowCells, 0, "--light-volume-cells"))
             o.cells.push_back(int(c));
         o.raySteps = parseNumbers(a.shadowRaySteps, 0, "--shadow-ray-steps");
-        benchShadows(cc, input, tf, scene, o);
+        // A .vcz is measured as `volcl render` draws it, from its compressed bricks (the other sweeps take the
+        // decoded grid).
+        if (scene.volume.extension() == ".vcz")
+            benchShadows(cc, RenderInput::openVcz(scene.volume, a.scene.frame.value_or(0)), tf, scene, o);
+        else
+            benchShadows(cc, input, tf, scene, o);
     }
     if (!a.budgets.empty()) {
         BudgetBenchOptions o = a.budget;

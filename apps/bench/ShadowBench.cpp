@@ -6,7 +6,9 @@
 #include "core/Volume.hpp"
 #include "core/runtime/Timing.hpp"
 #include "render/Reference.hpp"
+#include "render/bricks/BrickRenderer.hpp"
 #include "render/grid/GridRenderer.hpp"
+#include "wavelet/Codec.hpp"
 
 #include <algorithm>
 #include <iomanip>
@@ -20,7 +22,7 @@ namespace {
 /// One measured configuration: its renderer (kept for the interleaved rounds), times and error.
 struct Variant {
     std::string light, method, knob;
-    std::unique_ptr<GridRenderer> renderer;
+    std::unique_ptr<VolumeRenderer> renderer;
     double buildMs = 0.0;
     std::vector<double> ms;
     ImageBuffer image;
@@ -40,25 +42,34 @@ void shadowedPlainRatio(const std::vector<Variant>& rows, double plainMs) {
     std::cout << " plain " << std::setprecision(1) << plainMs << " ms\n";
 }
 
+/// The last light-volume build of a grid or compressed-brick renderer, 0 when it has none.
+double lightVolumeBuildMs(const VolumeRenderer& r) {
+    if (const auto* g = dynamic_cast<const GridRenderer*>(&r)) return g->lastLightVolumeMilliseconds();
+    if (const auto* b = dynamic_cast<const BrickRenderer*>(&r)) return b->lastLightVolumeMilliseconds();
+    return 0.0;
+}
+
 } // namespace
 
 void benchShadows(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
                   const Scene& scene, const ShadowBenchOptions& o) {
     const Volume* grid = input.grid();
-    if (!grid) throw UsageError("bench render: --shadow-sweep measures grids (give a volume)");
+    if (!grid && !input.bricks())
+        throw UsageError("bench render: --shadow-sweep measures grids and .vcz files (give a volume)");
+    const std::array<double, 3> spacing = grid ? grid->spacing : input.bricks()->header().spacing;
     if (o.rounds < 1 || o.cells.empty() || o.raySteps.empty())
         throw UsageError(
             "bench render: --shadow-sweep needs rounds >= 1, light-volume cells and shadow-ray steps");
-    const double voxel = std::min({grid->spacing[0], grid->spacing[1], grid->spacing[2]});
+    const double voxel = std::min({spacing[0], spacing[1], spacing[2]});
     Scene plain = scene;
     plain.effects = {};
     plain.lights.clear();
     std::vector<Variant> rows;
     auto add = [&](std::string light, std::string method, std::string knob, const Scene& s) {
         Variant v{std::move(light), std::move(method), std::move(knob), nullptr, 0.0, {}, {}, -1.0};
-        v.renderer = std::make_unique<GridRenderer>(cc, *grid, tf, s);
+        v.renderer = input.makeRenderer(cc, tf, s);
         v.image = v.renderer->render(); // builds tables and light volumes
-        v.buildMs = v.renderer->lastLightVolumeMilliseconds();
+        v.buildMs = lightVolumeBuildMs(*v.renderer);
         rows.push_back(std::move(v));
     };
     add("-", "plain", "-", plain);
@@ -85,10 +96,10 @@ void benchShadows(ComputeContext& cc, const RenderInput& input, const TransferFu
             Scene s = lit;
             s.effects.shadowMethod = ShadowMethod::Rays;
             s.effects.shadowStep = step * voxel;
-            GridRenderer r(cc, *grid, tf, s);
-            const ImageBuffer img = r.render();
+            const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, s);
+            const ImageBuffer img = r->render();
             if (reference.pixels.empty()) reference = img;
-            rays.push_back({name, "step " + std::to_string(step).substr(0, 4), r.lastKernelMilliseconds(),
+            rays.push_back({name, "step " + std::to_string(step).substr(0, 4), r->lastKernelMilliseconds(),
                             imageRmse(img, reference)});
         }
         for (int cell : o.cells) {
@@ -110,8 +121,8 @@ void benchShadows(ComputeContext& cc, const RenderInput& input, const TransferFu
     const double plainMs = median(rows[0].ms);
     std::ostringstream csv;
     csv << "light,method,knob,build_ms,ms,ratio_plain,rmse\n";
-    std::cout << "shadows, " << scene.width << "x" << scene.height << ", step " << scene.step
-              << ", medians of " << o.rounds
+    std::cout << "shadows, " << (grid ? "grid" : "compressed bricks (" + input.bricks()->name() + ")") << ", "
+              << scene.width << "x" << scene.height << ", step " << scene.step << ", medians of " << o.rounds
               << " interleaved rounds (ray frames: one each), RMSE of RGBA against "
               << "secondary rays at step " << o.raySteps.front() << " voxel, load average " << loadAverage()
               << '\n';

@@ -9,12 +9,13 @@
 #include "render/FogDevice.hpp"
 #include "render/FrameParams.hpp"
 #include "render/VecMath.hpp"
+#include "render/bricks/BrickLightField.hpp"
 #include "render/bricks/BrickPool.hpp"
+#include "render/grid/LightVolume.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <iomanip>
 #include <numeric>
 #include <optional>
@@ -25,15 +26,8 @@ namespace volcl {
 
 namespace {
 
-constexpr std::uint32_t kHeaderWords = 16;     // VOLCL_BRICK_HEADER in cl/common/brick_sample.h
-constexpr std::uint32_t kAbsent = 0xffffffffu; // VOLCL_BRICK_ABSENT
+constexpr std::uint32_t kHeaderWords = 16; // VOLCL_BRICK_HEADER in cl/common/brick_sample.h
 constexpr std::size_t kMaxPoolFloats = std::size_t(1) << 32;
-
-float uintBits(std::uint32_t v) {
-    float f;
-    std::memcpy(&f, &v, 4);
-    return f;
-}
 
 ValueRange frameRange(const VczHeader& h, std::size_t frame) {
     ValueRange r{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
@@ -96,6 +90,13 @@ struct BrickRenderer::Impl {
     FogDevice fog; ///< FOG: parameters and the height-map buffer
     /// The grid kernels' gradient-cache argument (raymarch.cl): bricks have no cache, one unused word.
     DeviceBuffer<cl_uint> noGradientCache;
+    /// SHADOW_VOLUME: every brick at the light plan's level (built on the first such frame, kept while the
+    /// level stays) and the light volumes swept through it.
+    DeviceBuffer<float> lightField;
+    int lightFieldLevel = -1;
+    LightVolume lightVolume;
+    double lightVolumeMs = 0.0; ///< the last build, with the field's decode when that build decoded it
+    double lightFieldMs = 0.0;  ///< the field's last decode and upload
     cl::Kernel kernel;
     bool packet = false;
     VolclGridRenderParams params{};
@@ -146,21 +147,69 @@ EffectPlan BrickRenderer::planEffects(const Scene& scene) const {
         s.effects.isoTable = false;
         notes.push_back("iso-surface table: compressed bricks find iso-surfaces by exact roots");
     }
-    if (s.effects.shadows && s.effects.shadowMethod == ShadowMethod::Volume) {
-        s.effects.shadowMethod = ShadowMethod::Rays;
-        notes.push_back(
-            "shadow method volume: compressed bricks march shadow rays (a light volume sweeps the "
-            "whole grid; decode the file for it)");
-    }
     EffectPlan p = volcl::planEffects(
         s, bounds(), impl_->range,
         std::to_string(std::min({impl_->h->brick.x, impl_->h->brick.y, impl_->h->brick.z})) +
             "^3-voxel macrocells over the brick index");
     p.defines.set("VOXEL_TYPE", 0LL);
     planNanColor(s, impl_->hasNonFinite, p);
+    if (p.shadows && s.effects.shadowMethod == ShadowMethod::Volume) {
+        const BrickLightPlan lp = lightPlan(s);
+        planShadowVolume(s, lp.cell, lp.how(), p);
+    }
     for (std::string& n : notes)
         p.dropped.push_back(std::move(n));
     return p;
+}
+
+BrickLightPlan BrickRenderer::lightPlan(const Scene& scene) const {
+    const Impl& m = *impl_;
+    return planBrickLightVolume(*m.h, m.maxLevel, m.nonFinite, scene.effects.lightVolumeCell,
+                                std::max<std::size_t>(scene.lights.size(), 1),
+                                scene.cacheMb * 1024.0 * 1024.0, reader_->name());
+}
+
+void BrickRenderer::updateLightVolume() {
+    Impl& m = *impl_;
+    const BrickLightPlan lp = lightPlan(scene_);
+    double fieldMs = 0.0;
+    if (m.lightFieldLevel != lp.level) {
+        const Stopwatch sw;
+        m.lightField =
+            buildBrickLightField(cc_, *reader_, frame_, m.whole ? &*m.whole : nullptr, lp, m.nonFinite);
+        m.lightFieldLevel = lp.level;
+        m.lightFieldMs = fieldMs = sw.milliseconds();
+    }
+    LightVolume::Inputs in;
+    in.voxels = &m.lightField.get();
+    in.knots = &knots().get();
+    in.knotCount = knotCount();
+    EffectPlan nan; // how the sweep reads the field: float samples, the NaN colour
+    planNanColor(scene_, m.hasNonFinite, nan);
+    in.defines = nan.defines;
+    in.defines.set("VOXEL_TYPE", 0LL);
+    in.source = "render/light_volume_bricks.cl";
+    in.grid = m.params.grid;
+    in.lights = sweptLights(m.params.lighting, camera_);
+    in.cell = lp.cell;
+    in.step = m.params.lighting.shadowStep;
+    std::ostringstream key;
+    key << std::setprecision(17) << lp.level << ' ' << nanExtinction(scene_) << ' ' << tf_.toJson() << ' '
+        << plan_.colorScale;
+    in.fieldKey = key.str();
+    in.headToleranceDeg = scene_.effects.headLightToleranceDeg;
+    const WorldBox box = bounds();
+    in.centre = add(box.origin, scale(box.extent, 0.5));
+    if (m.lightVolume.update(cc_, in)) m.lightVolumeMs = fieldMs + m.lightVolume.lastBuildMilliseconds();
+    m.params.lightVolume = m.lightVolume.params();
+}
+
+int BrickRenderer::lightVolumeBuilds() const noexcept {
+    return impl_->lightVolume.builds();
+}
+
+double BrickRenderer::lastLightVolumeMilliseconds() const noexcept {
+    return impl_->lightVolumeMs;
 }
 
 void BrickRenderer::admitScene(const Scene& next) {
@@ -302,18 +351,7 @@ void BrickRenderer::loadBricks(const BrickSelection& s) {
     std::stable_sort(work.begin(), work.end(), [&](std::size_t x, std::size_t y) {
         return brickSamples(h, x, s.level[x]).count() > brickSamples(h, y, s.level[y]).count();
     });
-    std::vector<float> page(m.pageFloats(), 0.0f);
-    const Dims g = h.brickGrid();
-    const std::uint32_t head[6] = {std::uint32_t(h.brick.x), std::uint32_t(h.brick.y),
-                                   std::uint32_t(h.brick.z), std::uint32_t(g.x),
-                                   std::uint32_t(g.y),       std::uint32_t(g.z)};
-    for (int i = 0; i < 6; ++i)
-        page[std::size_t(i)] = uintBits(head[i]);
-    for (std::size_t b = 0; b < s.level.size(); ++b) {
-        page[kHeaderWords + 4 * b + 0] = uintBits(0);
-        page[kHeaderWords + 4 * b + 1] = uintBits(kAbsent);
-        page[kHeaderWords + 4 * b + 2] = s.standIn[b];
-    }
+    std::vector<float> page = brickPageTable(h, s.standIn);
     last_.visited = work.size();
     // Slots first (hits from the pool, room for the misses), then the data: a pool fragmented by bricks kept
     // from earlier frames is repacked without decoding again what it already holds.
@@ -387,8 +425,8 @@ void BrickRenderer::loadBricks(const BrickSelection& s) {
         } else {
             ++last_.hits;
         }
-        page[kHeaderWords + 4 * b + 0] = uintBits(std::uint32_t(m.pageFloats() + slot[b].offset));
-        page[kHeaderWords + 4 * b + 1] = uintBits(std::uint32_t(level));
+        page[kHeaderWords + 4 * b + 0] = brickPageWord(std::uint32_t(m.pageFloats() + slot[b].offset));
+        page[kHeaderWords + 4 * b + 1] = brickPageWord(std::uint32_t(level));
     }
     last_.peakPoolBytes = m.cache->allocator().usedFloats() * sizeof(float);
     cc_.write(m.pool, std::span<const float>(page), 0);
@@ -444,11 +482,12 @@ ImageBuffer BrickRenderer::render() {
     total_.add(last_);
 
     ensureFrameBuffers();
-    // The light volumes are read only with SHADOW_VOLUME (never planned here) and the gradient cache only with
-    // GRADIENT_CACHE (bricks shade by central differences): one-element buffers bound as arguments.
+    // The gradient cache is read only with GRADIENT_CACHE (bricks shade by central differences): a one-element
+    // buffer bound as the argument. The light volumes: one float before the first build.
     if (m.noGradientCache.size() == 0) m.noGradientCache = cc_.allocate<cl_uint>(1);
+    if (plan_.shadowVolume) updateLightVolume();
     setArgs(m.kernel, m.pool, knots(), table(), m.empty, m.params, out_, depth_, m.fog.buffer(cc_),
-            m.fog.buffer(cc_), m.noGradientCache);
+            m.lightVolume.buffer(cc_), m.noGradientCache);
     const std::size_t w = std::size_t(scene_.width), hgt = std::size_t(scene_.height);
     cl::Event ev = m.packet
                        ? cc_.launch2d(m.kernel, (w + 3) / 4, (hgt + 1) / 2, cc_.profile().rayMarch.packet)
@@ -464,6 +503,10 @@ std::string BrickRenderer::statistics() const {
     std::ostringstream os;
     os << "last frame: " << last_.summary();
     if (total_.frames > 1) os << "\nall " << total_.frames << " frames: " << total_.summary();
+    if (plan_.shadowVolume)
+        os << "\nlight volumes: " << impl_->lightVolume.builds() << " built from the bricks at level "
+           << impl_->lightFieldLevel << ", last in " << std::fixed << std::setprecision(1)
+           << impl_->lightVolumeMs << " ms (the field's decode: " << impl_->lightFieldMs << " ms)";
     return os.str();
 }
 

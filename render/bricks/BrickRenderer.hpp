@@ -3,6 +3,7 @@
 #pragma once
 
 #include "render/RendererBase.hpp"
+#include "render/bricks/BrickLightField.hpp"
 #include "render/bricks/BrickLod.hpp"
 
 #include <cstddef>
@@ -63,6 +64,11 @@ public:
     /// benchmarks); an empty vector returns to render.lod. Reachability and the TF still decide what is
     /// decoded.
     void setForcedLevels(std::vector<int> levels) { forced_ = std::move(levels); }
+    /// Light-volume builds since construction (a camera move alone rebuilds none for directional lights).
+    int lightVolumeBuilds() const noexcept;
+    /// The last light-volume build's wall time, with the decode of every brick into its field when that build
+    /// needed it (the first, and after a change of level).
+    double lastLightVolumeMilliseconds() const noexcept;
 
 private:
     struct Impl;
@@ -71,6 +77,10 @@ private:
     void rebuild(const Rebuild& change) override;
     void viewChanged(bool sameView) override;
     void makePool();
+    /// The light volumes' level, cell and memory for `scene` (effects.shadow_method volume).
+    BrickLightPlan lightPlan(const Scene& scene) const;
+    /// SHADOW_VOLUME: the field at the plan's level and the light volumes made current; params.lightVolume set.
+    void updateLightVolume();
     /// Levels that fit the pool: coarsens the cheapest bricks until the working set fits.
     BrickSelection fitBudget(BrickSelection s, const BrickView& view, const TransferFunction& tf);
     void loadBricks(const BrickSelection& s);

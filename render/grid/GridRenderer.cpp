@@ -118,14 +118,7 @@ EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& 
                     std::size_t nonFinite, std::uint64_t maxAllocBytes) {
     EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow(macrocellEdge), true);
     planNanColor(scene, nonFinite > 0, p);
-    if (p.shadows && scene.effects.shadowMethod == ShadowMethod::Volume) {
-        p.shadowVolume = true;
-        p.defines.set("SHADOW_VOLUME");
-        for (std::string& line : p.compiled)
-            if (line.starts_with("shadows:"))
-                line = "shadows: a light-attenuation volume per light (" +
-                       std::to_string(scene.effects.lightVolumeCell) + "-voxel cells), one fetch per sample";
-    }
+    planShadowVolume(scene, scene.effects.lightVolumeCell, "", p);
     planGradientCache(scene, volume, range, maxAllocBytes, p);
     // The cubic filters read float spline coefficients instead of the voxels; smoothing, float voxels.
     p.defines.set("VOXEL_TYPE", scene.filter == ReconstructionFilter::Linear && scene.smoothing == 0.0

@@ -251,8 +251,9 @@ std::vector<double> lightVolumeReference(const std::vector<float>& values, const
 
 bool LightVolume::current(const Inputs& in) const {
     if (!valid_ || in.voxels != built_.voxels || in.knots != built_.knots ||
-        in.knotCount != built_.knotCount || !(in.defines == built_.defines) || in.cell != built_.cell ||
-        in.step != built_.step || in.fieldKey != built_.fieldKey || in.lights.size() != built_.lights.size())
+        in.knotCount != built_.knotCount || !(in.defines == built_.defines) || in.source != built_.source ||
+        in.cell != built_.cell || in.step != built_.step || in.fieldKey != built_.fieldKey ||
+        in.lights.size() != built_.lights.size())
         return false;
     for (int a = 0; a < 3; ++a)
         if (in.grid.dims[a] != built_.grid.dims[a] || in.grid.spacing[a] != built_.grid.spacing[a] ||
@@ -302,7 +303,7 @@ void LightVolume::build(ComputeContext& cc, const Inputs& in) {
         sliceA_ = cc.allocate<float>(slice);
         sliceB_ = cc.allocate<float>(slice);
     }
-    cl::Kernel k = cc.kernel("render/light_volume.cl", "light_volume_slice", in.defines);
+    cl::Kernel k = cc.kernel(in.source, "light_volume_slice", in.defines);
     VolclLightSweepParams S{};
     S.grid = in.grid;
     S.lv = params_;

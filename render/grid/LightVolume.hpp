@@ -68,6 +68,8 @@ public:
         const cl::Buffer* knots = nullptr;
         std::size_t knotCount = 0;
         KernelDefines defines; ///< VOXEL_TYPE, FILTER_BSPLINE, NAN_*: how light_volume.cl reads the field
+        /// The sweep kernel's file: a whole grid, or render/light_volume_bricks.cl for a pool of decoded bricks.
+        std::string source = "render/light_volume.cl";
         VolclGridParams grid{};
         std::vector<SweptLight> lights;
         int cell = 1;

@@ -224,6 +224,16 @@ same_image bricks.exr 1e-4
 both bricks_iso bricks_iso.exr "$volcl" -q render --volume "$work/ocl/ll_marschner_brick.vcz" --tf "$tf" \
   --width 12 --height 10 --mode iso --iso 0.5
 same_image bricks_iso.exr 1e-4
+# Light volumes from every brick (light_volume_slice over common/brick_sample.h, render/light_volume_bricks.cl): a
+# point light inside the volume at level 0, a diagonal sun on 2-voxel cells (the lossy file's bricks at level 1).
+both bricks_shadows bricks_shadows.exr "$volcl" -q render --volume "$work/ocl/ll_marschner_brick.vcz" --tf "$tf" \
+  --width 12 --height 10 --shading 0.2,0.7,0.3,32 --shadows --light point:4,3,5
+both bricks_shadows_l1 bricks_shadows_l1.exr "$volcl" -q render --volume "$work/ocl/ly_brick.vcz" --tf "$tf" \
+  --width 12 --height 10 --shading 0.2,0.7,0.3,32 --shadows --light dir:1,1,1 --light-volume-cell 2 --stats
+grep -q "bricks at level 1" "$work/ocl/bricks_shadows_l1.out" ||
+  fail "bricks_shadows_l1: the light volume did not read level 1"
+same_image bricks_shadows.exr 1e-4
+same_image bricks_shadows_l1.exr 1e-4
 
 echo "== tetrahedral meshes: cell ray caster, k-buffer (radix sort), projected tetrahedra"
 M=("$volcl" -q render --volume "$work/in/cubes.vtk" --tf "$tf" --width 12 --height 10 --view iso --table-size 16
