@@ -54,7 +54,7 @@ std::vector<std::uint32_t> deviceWords(const Volume& v) {
     std::memcpy(bytes.data(), v.bytes().data(), v.byteSize());
     auto buf = cc.upload(bytes, CL_MEM_READ_ONLY);
     VolclGridParams g = grid_detail::gridParams(v, grid_detail::buildMacrocells(v, 8));
-    g.gradientMax = grid_detail::gradientCacheScale(v, grid_detail::valueRange(v));
+    g.gradientMax = gradientCacheScale(v.spacing, grid_detail::valueRange(v));
     const int type = v.type() == ScalarType::UInt8    ? 1
                      : v.type() == ScalarType::UInt16 ? 2
                      : v.type() == ScalarType::Int16  ? 3
@@ -81,7 +81,7 @@ TEST(GradientCache, KernelMatchesHostReferenceBitForBit) {
     nan.values<float>()[nan.index(4, 4, 4)] = std::nanf("");
     cases.push_back({"NaN voxel", nan});
     for (const auto& [name, v] : cases) {
-        const float gMax = grid_detail::gradientCacheScale(v, grid_detail::valueRange(v));
+        const float gMax = gradientCacheScale(v.spacing, grid_detail::valueRange(v));
         const std::vector<std::uint32_t> want = gradientCacheReference(v, gMax);
         const std::vector<std::uint32_t> got = deviceWords(v);
         ASSERT_EQ(got.size(), want.size()) << name;
@@ -101,7 +101,7 @@ TEST(GradientCache, SphereNormalsCloseToAnalytic) {
     for (const Vec3 spacing : {Vec3{1, 1, 1}, Vec3{0.7, 1.3, 2.0}}) {
         const Dims n{33, 31, 29};
         const Volume v = sphereField(n, 12.0, spacing);
-        const float gMax = grid_detail::gradientCacheScale(v, grid_detail::valueRange(v));
+        const float gMax = gradientCacheScale(v.spacing, grid_detail::valueRange(v));
         const std::vector<std::uint32_t> words = gradientCacheReference(v, gMax);
         const Vec3 c{16 * spacing[0], 15 * spacing[1], 14 * spacing[2]};
         double worstAnalytic = 0.0, worstQuant = 0.0, worstMag = 0.0;

@@ -47,6 +47,37 @@ PACKET_INLINE void gcache_unpack8(uint8 w, float8* gx, float8* gy, float8* gz) {
     *gz = m * z;
 }
 
+/* One cache word decoded to its gradient in units of gMax (gcache_unpack8 for a single word). */
+inline float3 gcache_unpack(uint w) {
+    const float u = (float)(w & 0xFFFu) * (2.0f / GCACHE_OCT_LEVELS) - 1.0f;
+    const float v = (float)((w >> 12) & 0xFFFu) * (2.0f / GCACHE_OCT_LEVELS) - 1.0f;
+    const uint code = w >> 24;
+    const float m = code == 0u ? 0.0f : as_float((code + (GCACHE_EXP_BIAS << 4)) << 19);
+    const float z = 1.0f - fabs(u) - fabs(v);
+    const float t = fmax(-z, 0.0f);
+    return (float3)(m * (u - copysign(t, u)), m * (v - copysign(t, v)), m * z);
+}
+
+/* The trilinear blend of eight corner words per lane (corner c: bit 0 x, bit 1 y, bit 2 z) at cell fractions
+   (fx, fy, fz), in world units (times gMax). */
+PACKET_INLINE void gcache_blend8(const LaneU* w, float8 fx, float8 fy, float8 fz, float gMax, float8* gx,
+                                 float8* gy, float8* gz) {
+    float8 cx[8], cy[8], cz[8];
+    _Pragma("unroll") for (int c = 0; c < 8; ++c) gcache_unpack8(w[c].v, &cx[c], &cy[c], &cz[c]);
+    const float8 wx0 = 1.0f - fx, wy0 = 1.0f - fy, wz0 = 1.0f - fz;
+    const float8 k[8] = {wx0 * wy0 * wz0, fx * wy0 * wz0, wx0 * fy * wz0, fx * fy * wz0,
+                         wx0 * wy0 * fz,  fx * wy0 * fz,  wx0 * fy * fz,  fx * fy * fz};
+    float8 sx = (float8)(0.0f), sy = (float8)(0.0f), sz = (float8)(0.0f);
+    _Pragma("unroll") for (int c = 0; c < 8; ++c) {
+        sx += k[c] * cx[c];
+        sy += k[c] * cy[c];
+        sz += k[c] * cz[c];
+    }
+    *gx = sx * gMax;
+    *gy = sy * gMax;
+    *gz = sz * gMax;
+}
+
 #if GRADIENT_CACHE == 2
 /* World gradients of the packet at voxel points (px, py, pz): the nearest voxel's cache word (one fetch). */
 PACKET_INLINE void gcache_gradient8(__global const uint* cache, const VolclGridParams* G, float8 px,
@@ -100,20 +131,7 @@ PACKET_INLINE void gcache_gradient8(__global const uint* cache, const VolclGridP
         w[6].a[l] = c11.x;
         w[7].a[l] = c11.y;
     }
-    float8 cx[8], cy[8], cz[8];
-    _Pragma("unroll") for (int c = 0; c < 8; ++c) gcache_unpack8(w[c].v, &cx[c], &cy[c], &cz[c]);
-    const float8 wx0 = 1.0f - fx, wy0 = 1.0f - fy, wz0 = 1.0f - fz;
-    const float8 k[8] = {wx0 * wy0 * wz0, fx * wy0 * wz0, wx0 * fy * wz0, fx * fy * wz0,
-                         wx0 * wy0 * fz,  fx * wy0 * fz,  wx0 * fy * fz,  fx * fy * fz};
-    float8 sx = (float8)(0.0f), sy = (float8)(0.0f), sz = (float8)(0.0f);
-    _Pragma("unroll") for (int c = 0; c < 8; ++c) {
-        sx += k[c] * cx[c];
-        sy += k[c] * cy[c];
-        sz += k[c] * cz[c];
-    }
-    *gx = sx * G->gradientMax;
-    *gy = sy * G->gradientMax;
-    *gz = sz * G->gradientMax;
+    gcache_blend8(w, fx, fy, fz, G->gradientMax, gx, gy, gz);
 }
 #endif
 

@@ -6,6 +6,7 @@
 #include "render/bricks/BrickLod.hpp"
 
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -29,6 +30,8 @@ struct BrickStats {
     std::size_t moved = 0;   ///< bricks those repacks moved inside the pool instead of decoding them again
     std::size_t peakPoolBytes = 0; ///< most pool bytes in use
     double decodeMs = 0;
+    std::size_t gradientBricks = 0; ///< bricks whose gradient-cache words were (re)built
+    double gradientMs = 0;          ///< kernel time of those builds
     void add(const BrickStats& f);
     /// "bricks visited 12, decoded 12, ..." on one line.
     std::string summary() const;
@@ -63,6 +66,11 @@ public:
     /// benchmarks); an empty vector returns to render.lod. Reachability and the TF still decide what is
     /// decoded.
     void setForcedLevels(std::vector<int> levels) { forced_ = std::move(levels); }
+    /// The gradient-cache words of resident brick b as the device holds them (cl/common/brick_gradient_cache.h),
+    /// one per sample at its drawn level; empty when the brick is absent or the pool has no words.
+    std::vector<std::uint32_t> gradientWords(std::size_t b) const;
+    /// Kernel time of the gradient-cache builds of all frames so far (-1: no frame used the cache).
+    double gradientCacheBuildMs() const noexcept;
 
 private:
     struct Impl;
@@ -70,7 +78,8 @@ private:
     void admitScene(const Scene& next) override;
     void rebuild(const Rebuild& change) override;
     void viewChanged(bool sameView) override;
-    void makePool();
+    /// A pool for the budget, with a gradient word region after the samples when `words`.
+    void makePool(bool words);
     /// Levels that fit the pool: coarsens the cheapest bricks until the working set fits.
     BrickSelection fitBudget(BrickSelection s, const BrickView& view, const TransferFunction& tf);
     void loadBricks(const BrickSelection& s);
