@@ -4,7 +4,8 @@
 # (lossless, 32^3 bricks, 3 levels), bench/render/mri_shaded_scene.json at SIZE^2 (default 512), lod full.
 # One cold process per run on one core (taskset -c 0, normal priority), configurations interleaved; the CSV
 # holds every run (kernel ms, gradient-cache build ms from --stats, load), the summary prints medians, the
-# ratios against central differences and against the plain frame, and the load.
+# ratios against central differences and against the plain frame, the load, and the cached frames' RMSE against
+# the central-difference frame.
 # Usage: bench/bricks_shading_bench.sh BUILD_DIR OUT.csv [REPEATS] [SIZE]
 set -euo pipefail
 build=$1; out=$2; reps=${3:-3}; size=${4:-512}
@@ -45,3 +46,8 @@ for name, ms in med.items():
           + (f", cache built in {build:.1f} ms" if build > 0 else ""))
 print(f"load average during the runs: {min(loads):.1f}-{max(loads):.1f}")
 PY
+# The cached frames' error against the central-difference frame of the same step (last run of each).
+for name in cache cache-nearest; do
+  rms=$(idiff -a "$tmp/central.exr" "$tmp/$name.exr" 2>&1 | grep -m1 'RMS error' | awk '{print $NF}')
+  echo "$name: RMSE against the central-difference frame $rms"
+done

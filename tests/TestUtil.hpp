@@ -130,4 +130,15 @@ inline Scene orthoScene(Dims n, double h, int w = 8, int ht = 8) {
     return s;
 }
 
+/// Shades `s` with Blinn-Phong (the defaults) under one head light, gradients by `g`, at step 0.25, with no
+/// empty-space skipping (the double reference has none).
+inline void shadeWithHeadLight(Scene& s, GradientKind g) {
+    s.step = 0.25;
+    s.lights = {Light{LightKind::Head, {0, 0, -1}, {1, 1, 1}, 1.0}};
+    s.effects.shading = true;
+    s.effects.shadingGiven = true;
+    s.effects.gradient = g;
+    s.skipping = SkipMode::Off;
+}
+
 } // namespace volcl::test

@@ -73,12 +73,7 @@ TransferFunction borderTf() {
 /// head light, no skipping or early termination (the references have neither).
 Scene borderScene(GradientKind g, int size = 80) {
     Scene s = test::orthoScene(kDims, 42, size, size);
-    s.step = 0.25;
-    s.lights = {Light{LightKind::Head, {0, 0, -1}, {1, 1, 1}, 1.0}};
-    s.effects.shading = true;
-    s.effects.shadingGiven = true;
-    s.effects.gradient = g;
-    s.skipping = SkipMode::Off;
+    test::shadeWithHeadLight(s, g);
     s.lod = LodMode::Full;
     return s;
 }
@@ -97,8 +92,8 @@ std::vector<int> mixedLevels(const VczHeader& h) {
 /// Words decoded to gradients agree: exactly, or (node values of coarse bricks computed in double by
 /// brickNodeValues, in float by the kernel) within one code of direction and magnitude; `exact` counts the
 /// equal words.
-void expectWordsMatch(const std::vector<std::uint32_t>& got, const std::vector<std::uint32_t>& want, float gMax,
-                      const std::string& what, std::size_t& exact) {
+void expectWordsMatch(const std::vector<std::uint32_t>& got, const std::vector<std::uint32_t>& want,
+                      float gMax, const std::string& what, std::size_t& exact) {
     ASSERT_EQ(got.size(), want.size()) << what;
     for (std::size_t i = 0; i < got.size(); ++i) {
         if (got[i] == want[i]) {
@@ -130,10 +125,9 @@ TEST(BrickGradientCache, WordsAreTheGlobalLatticeGradientsAtEveryNode) {
         r.render();
         const std::vector<int> used = r.lastSelection().level;
         const Volume decoded = reader->decode(cc);
-        const ValueRange range = {double(*std::min_element(v.values<std::uint8_t>().begin(),
-                                                           v.values<std::uint8_t>().end())),
-                                  double(*std::max_element(v.values<std::uint8_t>().begin(),
-                                                           v.values<std::uint8_t>().end()))};
+        const ValueRange range = {
+            double(*std::min_element(v.values<std::uint8_t>().begin(), v.values<std::uint8_t>().end())),
+            double(*std::max_element(v.values<std::uint8_t>().begin(), v.values<std::uint8_t>().end()))};
         const float scale = gradientCacheScale(h.spacing, range);
         const std::vector<std::uint32_t> grid = gradientCacheReference(decoded, scale);
         std::size_t resident = 0;
@@ -199,7 +193,8 @@ std::vector<double> columnError(const ImageBuffer& a, const ImageBuffer& b) {
     for (int y = 0; y < a.height; ++y)
         for (int x = 0; x < a.width; ++x)
             for (int c = 0; c < 4; ++c)
-                e[std::size_t(x)] += std::abs(double(a.at(x, y, c)) - double(b.at(x, y, c))) / (4.0 * a.height);
+                e[std::size_t(x)] +=
+                    std::abs(double(a.at(x, y, c)) - double(b.at(x, y, c))) / (4.0 * a.height);
     return e;
 }
 
@@ -218,8 +213,8 @@ TEST(BrickGradientCache, ShadedVczMatchesGridCacheAndReferenceWithoutSeams) {
             const auto reader = encode(v, brick, lossy);
             const VczHeader& h = reader->header();
             const Volume decoded = reader->decode(cc);
-            const std::string name = std::string(lossy ? "lossy" : "lossless") + ", bricks of " +
-                                     std::to_string(brick);
+            const std::string name =
+                std::string(lossy ? "lossy" : "lossless") + ", bricks of " + std::to_string(brick);
             for (int lod = 0; lod < 3; ++lod) { // level 0, forced mixed levels, render.lod auto
                 const std::string how = lod == 0 ? ", level 0" : lod == 1 ? ", mixed levels" : ", lod auto";
                 SCOPED_TRACE(name + how);
@@ -270,7 +265,8 @@ TEST(BrickGradientCache, ShadedVczMatchesGridCacheAndReferenceWithoutSeams) {
                     const int c0 = int(std::floor(xPix));
                     double beside = 0;
                     for (int d : {-4, -3, -2, 3, 4, 5})
-                        if (c0 + d >= 0 && c0 + d < s.width) beside = std::max(beside, col[std::size_t(c0 + d)]);
+                        if (c0 + d >= 0 && c0 + d < s.width)
+                            beside = std::max(beside, col[std::size_t(c0 + d)]);
                     for (int c = c0 - 1; c <= c0 + 2; ++c)
                         if (c >= 0 && c < s.width)
                             EXPECT_LE(col[std::size_t(c)], 1.5 * beside + 1e-3)

@@ -142,12 +142,7 @@ TEST(GradientCache, SphereNormalsCloseToAnalytic) {
 Scene shadedScene(Dims n, double h, GradientKind g) {
     Scene s = orthoScene(n, h, 40, 36);
     s.camera->eye = {s.camera->target[0] + 30, s.camera->target[1] - 20, -40.0};
-    s.step = 0.25;
-    s.lights = {Light{LightKind::Head, {0, 0, -1}, {1, 1, 1}, 1.0}};
-    s.effects.shading = true;
-    s.effects.shadingGiven = true;
-    s.effects.gradient = g;
-    s.skipping = SkipMode::Off;
+    test::shadeWithHeadLight(s, g);
     return s;
 }
 

@@ -32,6 +32,11 @@ inline uint brick_words_delta(__global const float* pool) {
     return as_uint(pool[6]);
 }
 
+/* The world gradient of node differences (up - down) over 2s nodes per axis. */
+inline float3 brick_difference_gradient(float3 d, uint s, const VolclGridParams* G) {
+    return d * (0.5f / (float)s) * v3(G->invSpacing);
+}
+
 /* World gradient at full-resolution node n by central differences of the node lattice over s nodes (n +- s),
    one-sided (halved) at the grid's faces: what a node's cache word holds before packing (at s = 1 the grid's
    voxel_gradient on brick_node). */
@@ -39,10 +44,13 @@ inline float3 brick_node_gradient(__global const float* pool, const VolclGridPar
     const uint3 top = (uint3)(G->dims[0], G->dims[1], G->dims[2]) - 1u;
     const uint3 up = min(n + s, top);
     const uint3 dn = select(n - s, (uint3)(0u), n < s);
-    const float gx = brick_node(pool, G, (uint3)(up.x, n.y, n.z)) - brick_node(pool, G, (uint3)(dn.x, n.y, n.z));
-    const float gy = brick_node(pool, G, (uint3)(n.x, up.y, n.z)) - brick_node(pool, G, (uint3)(n.x, dn.y, n.z));
-    const float gz = brick_node(pool, G, (uint3)(n.x, n.y, up.z)) - brick_node(pool, G, (uint3)(n.x, n.y, dn.z));
-    return (float3)(gx, gy, gz) * (0.5f / (float)s) * v3(G->invSpacing);
+    const float gx =
+        brick_node(pool, G, (uint3)(up.x, n.y, n.z)) - brick_node(pool, G, (uint3)(dn.x, n.y, n.z));
+    const float gy =
+        brick_node(pool, G, (uint3)(n.x, up.y, n.z)) - brick_node(pool, G, (uint3)(n.x, dn.y, n.z));
+    const float gz =
+        brick_node(pool, G, (uint3)(n.x, n.y, up.z)) - brick_node(pool, G, (uint3)(n.x, n.y, dn.z));
+    return brick_difference_gradient((float3)(gx, gy, gz), s, G);
 }
 
 /* The trilinear blend of one brick's words at brick sample coordinates u (a level > 0 brick), in units of
@@ -51,10 +59,14 @@ inline float3 brick_words_coarse(__global const float* pool, uint words, uint3 m
     uint3 lo, hi;
     const float3 f = brick_cell(m, u, &lo, &hi);
     const uint8 o = brick_corner_offsets(m, lo, hi);
-    const float3 c0 = gcache_unpack(as_uint(pool[words + o.s0])), c1 = gcache_unpack(as_uint(pool[words + o.s1]));
-    const float3 c2 = gcache_unpack(as_uint(pool[words + o.s2])), c3 = gcache_unpack(as_uint(pool[words + o.s3]));
-    const float3 c4 = gcache_unpack(as_uint(pool[words + o.s4])), c5 = gcache_unpack(as_uint(pool[words + o.s5]));
-    const float3 c6 = gcache_unpack(as_uint(pool[words + o.s6])), c7 = gcache_unpack(as_uint(pool[words + o.s7]));
+    const float3 c0 = gcache_unpack(as_uint(pool[words + o.s0])),
+                 c1 = gcache_unpack(as_uint(pool[words + o.s1]));
+    const float3 c2 = gcache_unpack(as_uint(pool[words + o.s2])),
+                 c3 = gcache_unpack(as_uint(pool[words + o.s3]));
+    const float3 c4 = gcache_unpack(as_uint(pool[words + o.s4])),
+                 c5 = gcache_unpack(as_uint(pool[words + o.s5]));
+    const float3 c6 = gcache_unpack(as_uint(pool[words + o.s6])),
+                 c7 = gcache_unpack(as_uint(pool[words + o.s7]));
     const float3 c00 = c0 + f.x * (c1 - c0), c10 = c2 + f.x * (c3 - c2);
     const float3 c01 = c4 + f.x * (c5 - c4), c11 = c6 + f.x * (c7 - c6);
     const float3 a = c00 + f.y * (c10 - c00), b = c01 + f.y * (c11 - c01);
@@ -140,7 +152,8 @@ PACKET_INLINE void gcache_gradient8(__global const uint* cache, const VolclGridP
         if (all(u1 / bsize == b)) {
             __global const float* e = pool + VOLCL_BRICK_HEADER + 4u * brick_index(pool, b);
             const uint level = as_uint(e[1]);
-            if (level != VOLCL_BRICK_ABSENT) { /* inside an absent brick: the constant stand-in, no gradient */
+            /* Inside an absent brick the value is its constant stand-in: no gradient (words stay 0). */
+            if (level != VOLCL_BRICK_ABSENT) {
                 const uint3 o = b * bsize;
                 const uint3 m = brick_samples(G, bsize, o, level);
                 __global const float* v = pool + as_uint(e[0]) + delta;
@@ -164,14 +177,7 @@ PACKET_INLINE void gcache_gradient8(__global const uint* cache, const VolclGridP
             }
             words = (uint8)(wc[0], wc[1], wc[2], wc[3], wc[4], wc[5], wc[6], wc[7]);
         }
-        w[0].a[l] = words.s0;
-        w[1].a[l] = words.s1;
-        w[2].a[l] = words.s2;
-        w[3].a[l] = words.s3;
-        w[4].a[l] = words.s4;
-        w[5].a[l] = words.s5;
-        w[6].a[l] = words.s6;
-        w[7].a[l] = words.s7;
+        gcache_set_lane(w, l, words);
         fx.a[l] = f.x;
         fy.a[l] = f.y;
         fz.a[l] = f.z;

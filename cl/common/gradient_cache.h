@@ -58,6 +58,18 @@ inline float3 gcache_unpack(uint w) {
     return (float3)(m * (u - copysign(t, u)), m * (v - copysign(t, v)), m * z);
 }
 
+/* Lane l's eight corner words (x fastest) into the corner vectors w[0..7]. */
+PACKET_INLINE void gcache_set_lane(LaneU* w, int l, uint8 words) {
+    w[0].a[l] = words.s0;
+    w[1].a[l] = words.s1;
+    w[2].a[l] = words.s2;
+    w[3].a[l] = words.s3;
+    w[4].a[l] = words.s4;
+    w[5].a[l] = words.s5;
+    w[6].a[l] = words.s6;
+    w[7].a[l] = words.s7;
+}
+
 /* The trilinear blend of eight corner words per lane (corner c: bit 0 x, bit 1 y, bit 2 z) at cell fractions
    (fx, fy, fz), in world units (times gMax). */
 PACKET_INLINE void gcache_blend8(const LaneU* w, float8 fx, float8 fy, float8 fz, float gMax, float8* gx,
@@ -122,14 +134,7 @@ PACKET_INLINE void gcache_gradient8(__global const uint* cache, const VolclGridP
     _Pragma("unroll") for (int l = 0; l < RAY_LANES; ++l) {
         const uint2 c00 = vload2(0, cache + b00.a[l]), c10 = vload2(0, cache + b10.a[l]);
         const uint2 c01 = vload2(0, cache + b01.a[l]), c11 = vload2(0, cache + b11.a[l]);
-        w[0].a[l] = c00.x;
-        w[1].a[l] = c00.y;
-        w[2].a[l] = c10.x;
-        w[3].a[l] = c10.y;
-        w[4].a[l] = c01.x;
-        w[5].a[l] = c01.y;
-        w[6].a[l] = c11.x;
-        w[7].a[l] = c11.y;
+        gcache_set_lane(w, l, (uint8)(c00, c10, c01, c11));
     }
     gcache_blend8(w, fx, fy, fz, G->gradientMax, gx, gy, gz);
 }

@@ -43,7 +43,9 @@ double BrickGradientCache::refresh(ComputeContext& cc, const cl::Buffer& pool, c
     const std::size_t n = h.brickCount();
     const Dims g = h.brickGrid();
     if (signature_.size() != n) signature_.assign(n, 0);
-    auto entry = [&](std::size_t b, int word) { return floatBits(page[kHeaderWords + 4 * b + std::size_t(word)]); };
+    auto entry = [&](std::size_t b, int word) {
+        return floatBits(page[kHeaderWords + 4 * b + std::size_t(word)]);
+    };
     std::vector<cl_uint> stale;
     for (std::size_t b = 0; b < n; ++b) {
         if (entry(b, 1) == 0xffffffffu) continue; // absent: no words

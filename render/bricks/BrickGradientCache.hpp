@@ -30,8 +30,9 @@ public:
     /// Rebuilds the stale words. `page`: the pool's header and page table as uploaded; `fresh[b]`: brick b's
     /// samples were written this frame (decoded or moved). Returns the kernel time in ms (0: nothing stale)
     /// and counts the rebuilt bricks in `rebuilt`.
-    double refresh(ComputeContext& cc, const cl::Buffer& pool, const VczHeader& h, const std::vector<float>& page,
-                   const std::vector<char>& fresh, const VolclGridParams& grid, std::size_t& rebuilt);
+    double refresh(ComputeContext& cc, const cl::Buffer& pool, const VczHeader& h,
+                   const std::vector<float>& page, const std::vector<char>& fresh,
+                   const VolclGridParams& grid, std::size_t& rebuilt);
 
 private:
     std::vector<std::uint64_t> signature_; ///< per brick: what its words were built from (0: not built)
