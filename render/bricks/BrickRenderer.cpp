@@ -521,6 +521,11 @@ std::string BrickRenderer::statistics() const {
     std::ostringstream os;
     os << "last frame: " << last_.summary();
     if (total_.frames > 1) os << "\nall " << total_.frames << " frames: " << total_.summary();
+    // As the grid reports its cache: build time (all frames' builds) and size (the pool's word region).
+    if (impl_->poolWords && total_.gradientBricks)
+        os << "\ngradient cache: " << std::fixed << std::setprecision(2) << total_.gradientMs
+           << " ms to build (" << total_.gradientBricks << " brick builds), "
+           << impl_->cache->allocator().capacity() * kGradientCacheBytesPerVoxel << " bytes";
     return os.str();
 }
 
