@@ -28,8 +28,10 @@ set(VOLCL_KERNEL_FILES
   render/pathtrace.cl
   render/light_volume.cl
   common/brick_sample.h
+  common/brick_gradient_cache.h
   render/raymarch_bricks.cl
   render/light_volume_bricks.cl
+  render/brick_gradient_cache.cl
   codec/lifting_common.h
   codec/lifting.cl
   codec/lifting_brick.cl

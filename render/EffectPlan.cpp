@@ -2,6 +2,7 @@
 #include "render/EffectPlan.hpp"
 
 #include "core/Format.hpp"
+#include "core/MemoryBudget.hpp"
 #include "render/VecMath.hpp"
 
 #include "host/tf/TransferFunction.hpp"
@@ -437,6 +438,41 @@ void planNanColor(const Scene& scene, bool hasNonFinite, EffectPlan& plan) {
                                               formatNumber(c[2]) + "," + formatNumber(c[3])
                                         : std::string("transparent")) +
                             " (mip and xray skip them)");
+}
+
+bool packetServesLit(const Scene& scene, const EffectPlan& p) {
+    return scene.mode == RenderMode::Dvr && p.isosurfaces.empty() && !p.scattering && !p.pathTracing &&
+           (!p.shadows || p.shadowVolume) && !p.preintLighting;
+}
+
+void planGradientCache(const Scene& scene, std::size_t bytes, std::uint64_t maxAllocBytes,
+                       std::string_view how, EffectPlan& p, int trilinearDefine) {
+    const GradientKind g = scene.effects.gradient;
+    if (!p.shading || (g != GradientKind::Cache && g != GradientKind::CacheNearest)) return;
+    const std::string name(gradientKindName(g));
+    if (scene.filter != ReconstructionFilter::Linear) {
+        p.dropped.push_back("gradient " + name + ": filter " + std::string(filterName(scene.filter)) +
+                            " takes the spline's analytic gradient");
+    } else if (scene.smoothing > 0.0) {
+        p.dropped.push_back("gradient " + name + ": smoothing " + formatNumber(scene.smoothing) +
+                            " takes central differences of the smoothed voxels");
+    } else if (!packetServesLit(scene, p)) {
+        p.dropped.push_back(
+            "gradient " + name +
+            ": iso-surfaces, shadow rays, scattering and pre-integrated lighting take the per-ray "
+            "kernel with central differences");
+    } else if (bytes > effectiveMemoryBudget(0) || (maxAllocBytes && bytes > maxAllocBytes)) {
+        p.dropped.push_back(
+            "gradient " + name + ": its " + std::to_string(bytes) +
+            " bytes exceed the memory budget or the device's largest buffer; central differences");
+    } else {
+        p.gradientCache = g == GradientKind::CacheNearest ? 2 : trilinearDefine;
+        p.defines.set("GRADIENT_CACHE", static_cast<long long>(p.gradientCache));
+        p.compiled.push_back("gradient: cache, " + std::string(how) + "; " +
+                             (g == GradientKind::CacheNearest
+                                  ? "nearest node's gradient (one fetch)"
+                                  : "trilinear blend of the eight nodes' gradients"));
+    }
 }
 
 } // namespace volcl

@@ -5,6 +5,8 @@
 #include "render/Bounds.hpp"
 #include "render/Scene.hpp"
 
+#include <cstddef>
+#include <cstdint>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -23,7 +25,7 @@ struct EffectPlan {
     bool preintLighting = false;      ///< PREINT_LIGHTING: shading through the pre-integrated lighting table
     bool isoTable = false;            ///< ISO_TABLE: iso-surfaces from the iso-surface table
     bool pathTracing = false;         ///< multiple scattering: the path tracer renders the frame
-    int gradientCache = 0;   ///< GRADIENT_CACHE (grids): 1 trilinear blend, 2 nearest voxel, 3 exact blend
+    int gradientCache = 0;   ///< GRADIENT_CACHE: 1 trilinear blend, 2 nearest node, 3 exact blend (grids)
     double colorScale = 1.0; ///< ambient-only shading folded into the TF colours
     std::vector<IsoLayer> isosurfaces; ///< the ones that can appear
     std::vector<ClipPlane> clipPlanes; ///< the ones that cut the data's box
@@ -50,5 +52,19 @@ double nanExtinction(const Scene& scene);
 /// Data with NaN/Inf voxels: adds NAN_COLOR and the colour's NAN_R/G/B/TAU defines and says so in the
 /// report. Finite data compiles no NaN test at all.
 void planNanColor(const Scene& scene, bool hasNonFinite, EffectPlan& plan);
+
+/// The packet kernel (raymarch_packet, PACKET_KERNEL in cl/render/raymarch.cl) takes dvr without iso-surfaces,
+/// unlit or shaded from a gradient cache; the per-ray kernel takes the rest. True when the scene is dvr
+/// without iso-surfaces and its lighting, if any, needs no more than the cache (no shadow rays, scattering or
+/// pre-integrated lighting).
+bool packetServesLit(const Scene& scene, const EffectPlan& p);
+
+/// Shading from the renderer's gradient cache (GRADIENT_CACHE 1 or `trilinearDefine` trilinear, 2 nearest)
+/// when the scene asks for it and the packet kernel takes the scene, else on-the-fly central differences, with
+/// the reason in the report. `bytes`: the cache's size; `maxAllocBytes`: the device's largest buffer (0:
+/// unknown); `how`: what the cache holds and when it is built, for the report; `trilinearDefine`: 3 for a
+/// grid's exact form.
+void planGradientCache(const Scene& scene, std::size_t bytes, std::uint64_t maxAllocBytes,
+                       std::string_view how, EffectPlan& p, int trilinearDefine = 1);
 
 } // namespace volcl

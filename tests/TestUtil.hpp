@@ -97,6 +97,18 @@ inline Volume makeFloatVolume(Dims d, const std::function<double(double, double,
     return v;
 }
 
+/// `v`'s voxels as float32, same geometry: what a compressed brick pool holds, and the gradient cache's
+/// octahedral form for any volume (integer volumes spanning at most 511 take the exact form).
+inline Volume asFloat32(const Volume& v) {
+    Volume f(v.dims(), ScalarType::Float32);
+    const std::vector<float> values = v.toFloat();
+    std::copy(values.begin(), values.end(), f.values<float>().begin());
+    f.spacing = v.spacing;
+    f.origin = v.origin;
+    f.direction = v.direction;
+    return f;
+}
+
 /// One ComputeContext per test process: building contexts and kernels repeatedly only costs time. Never
 /// destroyed: released by an exit handler, Oclgrind's context frees into LLVM state its library has already
 /// torn down, and the process aborts after passing tests (tests/oclgrind/run_kernels.sh runs tests there).
@@ -128,6 +140,17 @@ inline Scene orthoScene(Dims n, double h, int w = 8, int ht = 8) {
     s.height = ht;
     s.earlyTermination = 1.0;
     return s;
+}
+
+/// Shades `s` with Blinn-Phong (the defaults) under one head light, gradients by `g`, at step 0.25, with no
+/// empty-space skipping (the double reference has none).
+inline void shadeWithHeadLight(Scene& s, GradientKind g) {
+    s.step = 0.25;
+    s.lights = {Light{LightKind::Head, {0, 0, -1}, {1, 1, 1}, 1.0}};
+    s.effects.shading = true;
+    s.effects.shadingGiven = true;
+    s.effects.gradient = g;
+    s.skipping = SkipMode::Off;
 }
 
 } // namespace volcl::test

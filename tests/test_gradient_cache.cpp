@@ -56,7 +56,7 @@ std::vector<std::uint32_t> deviceWords(const Volume& v,
     std::memcpy(bytes.data(), v.bytes().data(), v.byteSize());
     auto buf = cc.upload(bytes, CL_MEM_READ_ONLY);
     VolclGridParams g = grid_detail::gridParams(v, grid_detail::buildMacrocells(v, 8));
-    g.gradientMax = grid_detail::gradientCacheScale(v, grid_detail::valueRange(v));
+    g.gradientMax = gradientCacheScale(v.spacing, grid_detail::valueRange(v));
     const int type = v.type() == ScalarType::UInt8    ? 1
                      : v.type() == ScalarType::UInt16 ? 2
                      : v.type() == ScalarType::Int16  ? 3
@@ -83,7 +83,7 @@ TEST(GradientCache, KernelMatchesHostReferenceBitForBit) {
     nan.values<float>()[nan.index(4, 4, 4)] = std::nanf("");
     cases.push_back({"NaN voxel", nan});
     for (const auto& [name, v] : cases) {
-        const float gMax = grid_detail::gradientCacheScale(v, grid_detail::valueRange(v));
+        const float gMax = gradientCacheScale(v.spacing, grid_detail::valueRange(v));
         const std::vector<std::uint32_t> want = gradientCacheReference(v, gMax);
         const std::vector<std::uint32_t> got = deviceWords(v);
         ASSERT_EQ(got.size(), want.size()) << name;
@@ -167,7 +167,7 @@ TEST(GradientCache, SphereNormalsCloseToAnalytic) {
     for (const Vec3 spacing : {Vec3{1, 1, 1}, Vec3{0.7, 1.3, 2.0}}) {
         const Dims n{33, 31, 29};
         const Volume v = sphereField(n, 12.0, spacing);
-        const float gMax = grid_detail::gradientCacheScale(v, grid_detail::valueRange(v));
+        const float gMax = gradientCacheScale(v.spacing, grid_detail::valueRange(v));
         const std::vector<std::uint32_t> words = gradientCacheReference(v, gMax);
         const Vec3 c{16 * spacing[0], 15 * spacing[1], 14 * spacing[2]};
         double worstAnalytic = 0.0, worstQuant = 0.0, worstMag = 0.0;
@@ -208,12 +208,7 @@ TEST(GradientCache, SphereNormalsCloseToAnalytic) {
 Scene shadedScene(Dims n, double h, GradientKind g) {
     Scene s = orthoScene(n, h, 40, 36);
     s.camera->eye = {s.camera->target[0] + 30, s.camera->target[1] - 20, -40.0};
-    s.step = 0.25;
-    s.lights = {Light{LightKind::Head, {0, 0, -1}, {1, 1, 1}, 1.0}};
-    s.effects.shading = true;
-    s.effects.shadingGiven = true;
-    s.effects.gradient = g;
-    s.skipping = SkipMode::Off;
+    test::shadeWithHeadLight(s, g);
     return s;
 }
 
@@ -357,11 +352,7 @@ TEST(GradientCache, MriShadedCloseToReference) {
     VOLCL_REQUIRE_SHARED_DATA(data);
     const Volume mri = test::brainWebMri(data);
     // The same voxels as float: the octahedral form (uint8 spanning 255 takes the exact form).
-    Volume asFloat(mri.dims(), ScalarType::Float32);
-    const std::vector<float> values = mri.toFloat();
-    std::copy(values.begin(), values.end(), asFloat.values<float>().begin());
-    asFloat.spacing = mri.spacing;
-    asFloat.origin = mri.origin;
+    const Volume asFloat = test::asFloat32(mri);
     const std::filesystem::path bench = std::filesystem::path(VOLCL_SOURCE_DIR) / "bench/render";
     Scene s = Scene::fromFile(bench / "mri_scene.json");
     const TransferFunction tf = TransferFunction::fromFile(bench / "mri_tf.json").fittedTo({0, 255});

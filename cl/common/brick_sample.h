@@ -1,8 +1,9 @@
 /* Sampling from the brick pool for the brick ray marcher (cl/render/raymarch_bricks.cl): the grid sampler's rays
    and box (common/grid_sample.h), with every voxel read going through the page table of decoded bricks.
 
-   The pool buffer (float) holds, in order: a header of 16 words (brick size x, y, z, brick grid x, y, z, as
-   uint bits), the page table (4 words per brick: float offset of its samples in the pool, its level, a
+   The pool buffer (float) holds, in order: a header of 16 words (brick size x, y, z, brick grid x, y, z, and
+   the distance from a brick's samples to its gradient-cache words (common/brick_gradient_cache.h; 0: the pool
+   has none), as uint bits), the page table (4 words per brick: float offset of its samples in the pool, its level, a
    stand-in value, unused) and the brick samples. A brick at level l holds ceil(n / 2^l) samples per axis
    (x fastest); level VOLCL_BRICK_ABSENT means not decoded: the brick is in no ray's working set, or the
    transfer function hides everything around it, and its stand-in value (its minimum) is returned.
@@ -43,32 +44,40 @@ inline uint3 brick_samples(const VolclGridParams* G, uint3 bsize, uint3 o, uint 
     return (n + s) >> level;
 }
 
-/* Trilinear lookup in one decoded brick at level > 0: u in the brick's sample coordinates. */
-inline float brick_coarse(__global const float* pool, uint off, uint3 m, float3 u) {
+/* The cell of one brick holding brick sample coordinates u (clamped to its m samples per axis, as the grid
+   sampler clamps): its low and high corners, and u's fractions in it. */
+inline float3 brick_cell(uint3 m, float3 u, uint3* lo, uint3* hi) {
     const int3 hiI = convert_int3(m) - 1;
     u = clamp(u, (float3)(0.0f), convert_float3(hiI));
-    int3 i0 = min(convert_int3(floor(u)), max(hiI - 1, (int3)(0)));
-    const int3 i1 = min(i0 + 1, hiI);
-    const float3 f = u - convert_float3(i0);
-    const uint nx = m.x, nxy = m.x * m.y;
-    __global const float* v = pool + off;
-    const uint z0 = (uint)i0.z * nxy, z1 = (uint)i1.z * nxy, y0 = (uint)i0.y * nx, y1 = (uint)i1.y * nx;
-    const float a00 = v[z0 + y0 + i0.x], e00 = v[z0 + y0 + i1.x], a10 = v[z0 + y1 + i0.x],
-                e10 = v[z0 + y1 + i1.x];
-    const float a01 = v[z1 + y0 + i0.x], e01 = v[z1 + y0 + i1.x], a11 = v[z1 + y1 + i0.x],
-                e11 = v[z1 + y1 + i1.x];
-    const float c00 = a00 + f.x * (e00 - a00), c10 = a10 + f.x * (e10 - a10);
-    const float c01 = a01 + f.x * (e01 - a01), c11 = a11 + f.x * (e11 - a11);
-    const float c0 = c00 + f.y * (c10 - c00), c1 = c01 + f.y * (c11 - c01);
-    return c0 + f.z * (c1 - c0);
+    const int3 i0 = min(convert_int3(floor(u)), max(hiI - 1, (int3)(0)));
+    *lo = convert_uint3(i0);
+    *hi = convert_uint3(min(i0 + 1, hiI));
+    return u - convert_float3(i0);
 }
 
-/* The 8 corners (x fastest: v000 v100 v010 v110 v001 v101 v011 v111) of the cell from local node l0 to l1
-   of one level-0 brick whose samples start at v, m samples per axis. */
-inline float8 brick_corners_level0(__global const float* v, uint3 m, uint3 l0, uint3 l1) {
+/* Offsets of the 8 corners (x fastest: v000 v100 v010 v110 v001 v101 v011 v111) of the cell from local node l0
+   to l1 in a brick of m samples per axis. */
+inline uint8 brick_corner_offsets(uint3 m, uint3 l0, uint3 l1) {
     const uint z0 = l0.z * m.x * m.y, z1 = l1.z * m.x * m.y, y0 = l0.y * m.x, y1 = l1.y * m.x;
-    return (float8)(v[z0 + y0 + l0.x], v[z0 + y0 + l1.x], v[z0 + y1 + l0.x], v[z0 + y1 + l1.x],
-                    v[z1 + y0 + l0.x], v[z1 + y0 + l1.x], v[z1 + y1 + l0.x], v[z1 + y1 + l1.x]);
+    return (uint8)(z0 + y0 + l0.x, z0 + y0 + l1.x, z0 + y1 + l0.x, z0 + y1 + l1.x, z1 + y0 + l0.x,
+                   z1 + y0 + l1.x, z1 + y1 + l0.x, z1 + y1 + l1.x);
+}
+
+/* The 8 corners, in that order, of the cell from local node l0 to l1 of one brick whose samples start at v. */
+inline float8 brick_corners_level0(__global const float* v, uint3 m, uint3 l0, uint3 l1) {
+    const uint8 o = brick_corner_offsets(m, l0, l1);
+    return (float8)(v[o.s0], v[o.s1], v[o.s2], v[o.s3], v[o.s4], v[o.s5], v[o.s6], v[o.s7]);
+}
+
+/* Trilinear lookup in one decoded brick at level > 0: u in the brick's sample coordinates. */
+inline float brick_coarse(__global const float* pool, uint off, uint3 m, float3 u) {
+    uint3 lo, hi;
+    const float3 f = brick_cell(m, u, &lo, &hi);
+    const float8 c = brick_corners_level0(pool + off, m, lo, hi);
+    const float c00 = c.s0 + f.x * (c.s1 - c.s0), c10 = c.s2 + f.x * (c.s3 - c.s2);
+    const float c01 = c.s4 + f.x * (c.s5 - c.s4), c11 = c.s6 + f.x * (c.s7 - c.s6);
+    const float c0 = c00 + f.y * (c10 - c00), c1 = c01 + f.y * (c11 - c01);
+    return c0 + f.z * (c1 - c0);
 }
 
 /* The value of full-resolution node n (inside the grid). */

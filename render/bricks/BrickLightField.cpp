@@ -14,8 +14,7 @@
 namespace volcl {
 namespace {
 
-constexpr std::size_t kHeaderWords = 16;       // VOLCL_BRICK_HEADER in cl/common/brick_sample.h
-constexpr std::uint32_t kAbsent = 0xffffffffu; // VOLCL_BRICK_ABSENT
+constexpr std::size_t kHeaderWords = 16; // VOLCL_BRICK_HEADER in cl/common/brick_sample.h
 
 std::string megabytes(std::size_t floats) {
     return formatNumber(double(floats) * sizeof(float) / (1024.0 * 1024.0), 3) + " MB";
@@ -91,7 +90,7 @@ std::vector<float> brickPageTable(const VczHeader& h, const std::vector<float>& 
         page[i] = brickPageWord(head[i]);
     for (std::size_t b = 0; b < h.brickCount(); ++b) {
         page[kHeaderWords + 4 * b + 0] = brickPageWord(0);
-        page[kHeaderWords + 4 * b + 1] = brickPageWord(kAbsent);
+        page[kHeaderWords + 4 * b + 1] = brickPageWord(kBrickAbsent);
         page[kHeaderWords + 4 * b + 2] = standIn[b];
     }
     return page;

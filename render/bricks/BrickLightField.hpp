@@ -39,6 +39,8 @@ BrickLightPlan planBrickLightVolume(const VczHeader& h, int maxLevel, const std:
 /// The pool format's first words (cl/common/brick_sample.h): the header (brick size, brick grid) and one page
 /// entry per brick, each absent with its stand-in value `standIn[b]` until a slot is written into it.
 std::vector<float> brickPageTable(const VczHeader& h, const std::vector<float>& standIn);
+/// A page-table level meaning "not decoded" (VOLCL_BRICK_ABSENT in cl/common/brick_sample.h).
+inline constexpr std::uint32_t kBrickAbsent = 0xffffffffu;
 /// A page-table word: `v`'s bits as a float (the pool is a float buffer).
 float brickPageWord(std::uint32_t v);
 

@@ -9,8 +9,10 @@
 #include "render/FogDevice.hpp"
 #include "render/FrameParams.hpp"
 #include "render/VecMath.hpp"
+#include "render/bricks/BrickGradientCache.hpp"
 #include "render/bricks/BrickLightField.hpp"
 #include "render/bricks/BrickPool.hpp"
+#include "render/grid/GradientCache.hpp"
 #include "render/grid/LightVolume.hpp"
 #include "wavelet/Codec.hpp"
 
@@ -61,6 +63,8 @@ void BrickStats::add(const BrickStats& f) {
     moved += f.moved;
     peakPoolBytes = std::max(peakPoolBytes, f.peakPoolBytes);
     decodeMs += f.decodeMs;
+    gradientBricks += f.gradientBricks;
+    gradientMs += f.gradientMs;
 }
 
 std::string BrickStats::summary() const {
@@ -72,6 +76,9 @@ std::string BrickStats::summary() const {
     if (coarsened) os << ", coarsened to fit the budget " << coarsened;
     if (repacks) os << ", pool repacked " << repacks << " (" << moved << " bricks moved, not decoded)";
     os << ", decode " << std::setprecision(1) << decodeMs << " ms";
+    if (gradientBricks)
+        os << ", gradient cache built for " << gradientBricks << " bricks in " << std::setprecision(2)
+           << gradientMs << " ms";
     return os.str();
 }
 
@@ -86,9 +93,12 @@ struct BrickRenderer::Impl {
     std::optional<BrickCache> cache;
     double poolMb = -1;
     DeviceBuffer<float> pool;
+    bool poolWords = false;       ///< the pool holds a gradient word after its samples (delta: the capacity)
+    BrickGradientCache gradients; ///< which bricks' words are current
     DeviceBuffer<cl_uchar> empty;
     FogDevice fog; ///< FOG: parameters and the height-map buffer
-    /// The grid kernels' gradient-cache argument (raymarch.cl): bricks have no cache, one unused word.
+    /// The kernels' gradient-cache argument (raymarch.cl) when the scene shades without the cache: one unused
+    /// word (with it, the pool is bound: its words sit beside the samples).
     DeviceBuffer<cl_uint> noGradientCache;
     /// SHADOW_VOLUME: every brick at the light plan's level (built on the first such frame, kept while the
     /// level stays) and the light volumes swept through it.
@@ -157,6 +167,15 @@ EffectPlan BrickRenderer::planEffects(const Scene& scene) const {
         const BrickLightPlan lp = lightPlan(s);
         planShadowVolume(s, lp.cell, lp.how(), p);
     }
+    // One word per pool sample, in a second pool region as large as the samples' (render.cache_mb again).
+    const double poolBytes =
+        std::min(s.cacheMb * 1024.0 * 1024.0, double(impl_->h->dims.count() * sizeof(float)));
+    planGradientCache(
+        s, std::size_t(poolBytes), cc_.device().maxAllocBytes,
+        std::to_string(kGradientCacheBytesPerVoxel) +
+            " bytes per pool sample beside it, built when its brick becomes resident (and again "
+            "when a face neighbour changes level or residency)",
+        p);
     for (std::string& n : notes)
         p.dropped.push_back(std::move(n));
     return p;
@@ -225,7 +244,7 @@ void BrickRenderer::viewChanged(bool sameView) {
     impl_->params.camera = cameraParams(camera_, scene_.width, scene_.height);
 }
 
-void BrickRenderer::makePool() {
+void BrickRenderer::makePool(bool words) {
     Impl& m = *impl_;
     const VczHeader& h = *m.h;
     // Granule: a brick's samples at the coarsest level; the top block holds a whole level-0 brick.
@@ -254,21 +273,25 @@ void BrickRenderer::makePool() {
         throw UsageError("render.cache_mb " + std::to_string(scene_.cacheMb) +
                          " is below one brick at the coarsest level (" +
                          std::to_string(double(granule * sizeof(float)) / (1024.0 * 1024.0)) + " MB)");
-    if (m.pageFloats() + count * sized.blockFloats(top) > kMaxPoolFloats)
+    if (m.pageFloats() + (words ? 2 : 1) * count * sized.blockFloats(top) > kMaxPoolFloats)
         throw UsageError("render.cache_mb " + std::to_string(scene_.cacheMb) +
                          " exceeds the 16 GiB the page table addresses");
     m.cache.emplace(BuddyAllocator(granule, top, count));
-    m.pool = cc_.allocate<float>(m.pageFloats() + m.cache->allocator().capacity(), CL_MEM_READ_ONLY);
+    // With words the device writes the pool too (cl/render/brick_gradient_cache.cl); the samples only the host.
+    m.pool = cc_.allocate<float>(m.pageFloats() + (words ? 2 : 1) * m.cache->allocator().capacity(),
+                                 words ? CL_MEM_READ_WRITE : CL_MEM_READ_ONLY);
     m.poolMb = scene_.cacheMb;
+    m.poolWords = words;
+    m.gradients.reset();
 }
 
 void BrickRenderer::rebuild(const Rebuild& change) {
     Impl& m = *impl_;
-    if (m.poolMb != scene_.cacheMb) makePool();
+    const bool cached = plan_.gradientCache != 0;
+    if (m.poolMb != scene_.cacheMb || (cached && !m.poolWords)) makePool(cached || m.poolWords);
     if (const std::optional<TableSpec> spec = marchTableSpec())
         selectPreintegrationTable(change.shaded, *spec);
-    m.packet =
-        scene_.mode == RenderMode::Dvr && !plan_.shading && !plan_.scattering && plan_.isosurfaces.empty();
+    m.packet = packetServesLit(scene_, plan_) && (!plan_.shading || cached);
     m.kernel =
         cc_.kernel("render/raymarch_bricks.cl", m.packet ? "raymarch_packet" : "raymarch", plan_.defines);
 
@@ -290,6 +313,7 @@ void BrickRenderer::rebuild(const Rebuild& change) {
     p.grid.dims[0] = volcl_uint(h.dims.x);
     p.grid.dims[1] = volcl_uint(h.dims.y);
     p.grid.dims[2] = volcl_uint(h.dims.z);
+    p.grid.gradientMax = gradientCacheScale(h.spacing, m.range);
     if (plan_.fog) p.fog = m.fog.update(cc_, scene_.effects.fog, bounds(), plan_.fogMap);
 }
 
@@ -352,6 +376,8 @@ void BrickRenderer::loadBricks(const BrickSelection& s) {
         return brickSamples(h, x, s.level[x]).count() > brickSamples(h, y, s.level[y]).count();
     });
     std::vector<float> page = brickPageTable(h, s.standIn);
+    page[6] =
+        brickPageWord(m.poolWords ? std::uint32_t(m.cache->allocator().capacity()) : 0u); // to the words
     last_.visited = work.size();
     // Slots first (hits from the pool, room for the misses), then the data: a pool fragmented by bricks kept
     // from earlier frames is repacked without decoding again what it already holds.
@@ -430,6 +456,14 @@ void BrickRenderer::loadBricks(const BrickSelection& s) {
     }
     last_.peakPoolBytes = m.cache->allocator().usedFloats() * sizeof(float);
     cc_.write(m.pool, std::span<const float>(page), 0);
+    if (m.poolWords) {
+        // Without the cache this frame, bricks written now are only marked stale for a later cached frame.
+        if (plan_.gradientCache == 0)
+            m.gradients.forget(decode);
+        else
+            last_.gradientMs =
+                m.gradients.refresh(cc_, m.pool.get(), h, page, decode, m.params.grid, last_.gradientBricks);
+    }
 }
 
 ImageBuffer BrickRenderer::render() {
@@ -482,12 +516,16 @@ ImageBuffer BrickRenderer::render() {
     total_.add(last_);
 
     ensureFrameBuffers();
-    // The gradient cache is read only with GRADIENT_CACHE (bricks shade by central differences): a one-element
-    // buffer bound as the argument. The light volumes: one float before the first build.
+    // The gradient cache is the pool's word region (GRADIENT_CACHE), else one unused word; the light volumes:
+    // one float before the first build.
     if (m.noGradientCache.size() == 0) m.noGradientCache = cc_.allocate<cl_uint>(1);
     if (plan_.shadowVolume) updateLightVolume();
-    setArgs(m.kernel, m.pool, knots(), table(), m.empty, m.params, out_, depth_, m.fog.buffer(cc_),
-            m.lightVolume.buffer(cc_), m.noGradientCache);
+    if (plan_.gradientCache != 0)
+        setArgs(m.kernel, m.pool, knots(), table(), m.empty, m.params, out_, depth_, m.fog.buffer(cc_),
+                m.lightVolume.buffer(cc_), m.pool);
+    else
+        setArgs(m.kernel, m.pool, knots(), table(), m.empty, m.params, out_, depth_, m.fog.buffer(cc_),
+                m.lightVolume.buffer(cc_), m.noGradientCache);
     const std::size_t w = std::size_t(scene_.width), hgt = std::size_t(scene_.height);
     cl::Event ev = m.packet
                        ? cc_.launch2d(m.kernel, (w + 3) / 4, (hgt + 1) / 2, cc_.profile().rayMarch.packet)
@@ -499,6 +537,26 @@ ImageBuffer BrickRenderer::render() {
     return img;
 }
 
+std::vector<std::uint32_t> BrickRenderer::gradientWords(std::size_t b) const {
+    const Impl& m = *impl_;
+    if (!m.poolWords || b >= m.h->brickCount()) return {};
+    float e[2];
+    cc_.read(m.pool, std::span<float>(e, 2), kHeaderWords + 4 * b);
+    std::uint32_t off, level;
+    std::memcpy(&off, &e[0], 4);
+    std::memcpy(&level, &e[1], 4);
+    if (level == kBrickAbsent) return {};
+    std::vector<float> w(brickSamples(*m.h, b, int(level)).count());
+    cc_.read(m.pool, std::span<float>(w), off + m.cache->allocator().capacity());
+    std::vector<std::uint32_t> out(w.size());
+    std::memcpy(out.data(), w.data(), w.size() * 4);
+    return out;
+}
+
+double BrickRenderer::gradientCacheBuildMs() const noexcept {
+    return total_.gradientBricks ? total_.gradientMs : -1.0;
+}
+
 std::string BrickRenderer::statistics() const {
     std::ostringstream os;
     os << "last frame: " << last_.summary();
@@ -507,6 +565,11 @@ std::string BrickRenderer::statistics() const {
         os << "\nlight volumes: " << impl_->lightVolume.builds() << " built from the bricks at level "
            << impl_->lightFieldLevel << ", last in " << std::fixed << std::setprecision(1)
            << impl_->lightVolumeMs << " ms (the field's decode: " << impl_->lightFieldMs << " ms)";
+    // As the grid reports its cache: build time (all frames' builds) and size (the pool's word region).
+    if (impl_->poolWords && total_.gradientBricks)
+        os << "\ngradient cache: " << std::fixed << std::setprecision(2) << total_.gradientMs
+           << " ms to build (" << total_.gradientBricks << " brick builds), "
+           << impl_->cache->allocator().capacity() * kGradientCacheBytesPerVoxel << " bytes";
     return os.str();
 }
 

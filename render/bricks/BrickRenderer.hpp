@@ -7,6 +7,7 @@
 #include "render/bricks/BrickLod.hpp"
 
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -30,6 +31,8 @@ struct BrickStats {
     std::size_t moved = 0;   ///< bricks those repacks moved inside the pool instead of decoding them again
     std::size_t peakPoolBytes = 0; ///< most pool bytes in use
     double decodeMs = 0;
+    std::size_t gradientBricks = 0; ///< bricks whose gradient-cache words were (re)built
+    double gradientMs = 0;          ///< kernel time of those builds
     void add(const BrickStats& f);
     /// "bricks visited 12, decoded 12, ..." on one line.
     std::string summary() const;
@@ -69,6 +72,11 @@ public:
     /// The last light-volume build's wall time, with the decode of every brick into its field when that build
     /// needed it (the first, and after a change of level).
     double lastLightVolumeMilliseconds() const noexcept;
+    /// The gradient-cache words of resident brick b as the device holds them (cl/common/brick_gradient_cache.h),
+    /// one per sample at its drawn level; empty when the brick is absent or the pool has no words.
+    std::vector<std::uint32_t> gradientWords(std::size_t b) const;
+    /// Kernel time of the gradient-cache builds of all frames so far (-1: no frame used the cache).
+    double gradientCacheBuildMs() const noexcept;
 
 private:
     struct Impl;
@@ -76,7 +84,8 @@ private:
     void admitScene(const Scene& next) override;
     void rebuild(const Rebuild& change) override;
     void viewChanged(bool sameView) override;
-    void makePool();
+    /// A pool for the budget, with a gradient word region after the samples when `words`.
+    void makePool(bool words);
     /// The light volumes' level, cell and memory for `scene` (effects.shadow_method volume).
     BrickLightPlan lightPlan(const Scene& scene) const;
     /// SHADOW_VOLUME: the field at the plan's level and the light volumes made current; params.lightVolume set.

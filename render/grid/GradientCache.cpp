@@ -13,7 +13,8 @@ namespace {
 constexpr float kOctLevels = 4095.0f;   // GCACHE_OCT_LEVELS
 constexpr std::uint32_t kExpBias = 112; // GCACHE_EXP_BIAS
 
-/// gcache_pack of cl/common/gradient_cache.h, operation for operation.
+} // namespace
+
 std::uint32_t packGradient(float gx, float gy, float gz, float gMax) {
     const float l1 = std::fabs(gx) + std::fabs(gy) + std::fabs(gz);
     if (!(l1 > 0.0f) || !std::isfinite(l1)) return 0u;
@@ -33,12 +34,44 @@ std::uint32_t packGradient(float gx, float gy, float gz, float gMax) {
     return std::min(u, 4095u) | (std::min(v, 4095u) << 12) | (std::uint32_t(std::min(code, 255)) << 24);
 }
 
-/// gcache_pack_exact: integer differences in [-511, 511], 10 bits each plus 512.
-std::uint32_t packExact(long dx, long dy, long dz) {
+namespace {
+
+/// gcache_pack_exact of the integer central differences at voxel (x, y, z) (one-sided at the faces).
+std::uint32_t exactWord(const std::vector<float>& v, const Dims& d, std::size_t x, std::size_t y,
+                        std::size_t z) {
+    const std::size_t nx = d.x, ny = d.y, nz = d.z, nxy = nx * ny;
+    const std::size_t c = z * nxy + y * nx + x;
+    const long dx = std::lround(v[c - x + std::min(x + 1, nx - 1)] - v[c - x + (x > 0 ? x - 1 : 0)]);
+    const long dy =
+        std::lround(v[c - y * nx + std::min(y + 1, ny - 1) * nx] - v[c - y * nx + (y > 0 ? y - 1 : 0) * nx]);
+    const long dz = std::lround(v[c - z * nxy + std::min(z + 1, nz - 1) * nxy] -
+                                v[c - z * nxy + (z > 0 ? z - 1 : 0) * nxy]);
     return std::uint32_t(dx + 512) | (std::uint32_t(dy + 512) << 10) | (std::uint32_t(dz + 512) << 20);
 }
 
 } // namespace
+
+std::uint32_t nodeGradientWord(const std::vector<float>& v, const Dims& d, const std::array<float, 3>& inv,
+                               std::size_t x, std::size_t y, std::size_t z, float gradientMax,
+                               std::size_t step) {
+    const std::size_t nx = d.x, ny = d.y, nz = d.z, nxy = nx * ny, s = step;
+    const std::size_t c = z * nxy + y * nx + x;
+    const float gx = v[c - x + std::min(x + s, nx - 1)] - v[c - x + (x >= s ? x - s : 0)];
+    const float gy = v[c - y * nx + std::min(y + s, ny - 1) * nx] - v[c - y * nx + (y >= s ? y - s : 0) * nx];
+    const float gz =
+        v[c - z * nxy + std::min(z + s, nz - 1) * nxy] - v[c - z * nxy + (z >= s ? z - s : 0) * nxy];
+    const float h = 0.5f / float(s);
+    return packGradient(gx * h * inv[0], gy * h * inv[1], gz * h * inv[2], gradientMax);
+}
+
+float gradientCacheScale(const std::array<double, 3>& spacing, const ValueRange& range) {
+    // Each central difference is at most (max - min) / 2 per voxel step (one-sided ones are halved too).
+    const double span = range.max > range.min ? range.max - range.min : 1.0;
+    double l1 = 0.0;
+    for (std::size_t a = 0; a < 3; ++a)
+        l1 += 0.5 * span / spacing[a];
+    return static_cast<float>(l1 * (1.0 + 1e-6)); // float rounding of the differences stays below it
+}
 
 GradientCacheFormat gradientCacheFormat(ScalarType type, double valueSpan) {
     const bool integer = type != ScalarType::Float32;
@@ -72,24 +105,16 @@ std::vector<std::uint32_t> gradientCacheReference(const Volume& volume, float gr
     const bool exact = format == GradientCacheFormat::ExactDifferences;
     const Dims& d = volume.dims();
     const std::vector<float> v = volume.toFloat();
-    const float inv[3] = {static_cast<float>(1.0 / volume.spacing[0]),
-                          static_cast<float>(1.0 / volume.spacing[1]),
-                          static_cast<float>(1.0 / volume.spacing[2])};
-    const std::size_t nx = d.x, ny = d.y, nz = d.z, nxy = nx * ny;
-    std::vector<std::uint32_t> out(nx * ny * nz);
-    for (std::size_t z = 0; z < nz; ++z)
-        for (std::size_t y = 0; y < ny; ++y)
-            for (std::size_t x = 0; x < nx; ++x) {
-                const std::size_t c = z * nxy + y * nx + x;
-                const float gx = v[c - x + std::min(x + 1, nx - 1)] - v[c - x + (x > 0 ? x - 1 : 0)];
-                const float gy =
-                    v[c - y * nx + std::min(y + 1, ny - 1) * nx] - v[c - y * nx + (y > 0 ? y - 1 : 0) * nx];
-                const float gz = v[c - z * nxy + std::min(z + 1, nz - 1) * nxy] -
-                                 v[c - z * nxy + (z > 0 ? z - 1 : 0) * nxy];
-                out[c] = exact ? packExact(std::lround(gx), std::lround(gy), std::lround(gz))
-                               : packGradient(gx * 0.5f * inv[0], gy * 0.5f * inv[1], gz * 0.5f * inv[2],
-                                              gradientMax);
-            }
+    const std::array<float, 3> inv = {static_cast<float>(1.0 / volume.spacing[0]),
+                                      static_cast<float>(1.0 / volume.spacing[1]),
+                                      static_cast<float>(1.0 / volume.spacing[2])};
+    std::vector<std::uint32_t> out(d.count());
+    std::size_t c = 0;
+    for (std::size_t z = 0; z < d.z; ++z)
+        for (std::size_t y = 0; y < d.y; ++y)
+            for (std::size_t x = 0; x < d.x; ++x)
+                out[c++] =
+                    exact ? exactWord(v, d, x, y, z) : nodeGradientWord(v, d, inv, x, y, z, gradientMax);
     return out;
 }
 

@@ -4,8 +4,10 @@
 #include "cl/volcl_shared.h"
 #include "core/Volume.hpp"
 #include "core/runtime/ClRuntime.hpp"
+#include "render/Bounds.hpp"
 #include "render/VecMath.hpp"
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -46,6 +48,21 @@ GradientCacheBuffer buildGradientCache(ComputeContext& cc, const cl::Buffer& vox
 std::vector<std::uint32_t>
 gradientCacheReference(const Volume& volume, float gradientMax,
                        GradientCacheFormat format = GradientCacheFormat::Octahedral);
+
+/// gcache_pack of cl/common/gradient_cache.h, operation for operation: world gradient g packed against
+/// `gradientMax`.
+std::uint32_t packGradient(float gx, float gy, float gz, float gradientMax);
+
+/// The word of node (x, y, z) of the float lattice `v` (x fastest, dims `d`): its central-difference world
+/// gradient over `step` nodes, one-sided (halved) at the lattice's faces, packed (the kernels' voxel_gradient
+/// and brick_node_gradient). `inv`: 1 / spacing per axis, as float.
+std::uint32_t nodeGradientWord(const std::vector<float>& v, const Dims& d, const std::array<float, 3>& inv,
+                               std::size_t x, std::size_t y, std::size_t z, float gradientMax,
+                               std::size_t step = 1);
+
+/// The cache's scale (VolclGridParams::gradientMax): a bound on the L1 norm of every node's central-difference
+/// world gradient, from the value range and spacing.
+float gradientCacheScale(const std::array<double, 3>& spacing, const ValueRange& range);
 
 /// One word decoded to the world gradient it stands for (zero for the flat code).
 Vec3 unpackGradient(std::uint32_t word, float gradientMax);

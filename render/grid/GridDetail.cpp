@@ -4,6 +4,7 @@
 #include "core/Error.hpp"
 #include "core/Volume.hpp"
 #include "render/FrameParams.hpp"
+#include "render/grid/GradientCache.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -207,15 +208,6 @@ double trilinear(const std::vector<float>& values, const std::array<std::size_t,
     return lerp(lerp(c00, c10, f[1]), lerp(c01, c11, f[1]), f[2]);
 }
 
-float gradientCacheScale(const Volume& volume, const ValueRange& range) {
-    // Each central difference is at most (max - min) / 2 per voxel step (one-sided ones are halved too).
-    const double span = range.max > range.min ? range.max - range.min : 1.0;
-    double l1 = 0.0;
-    for (int a = 0; a < 3; ++a)
-        l1 += 0.5 * span / volume.spacing[std::size_t(a)];
-    return static_cast<float>(l1 * (1.0 + 1e-6)); // float rounding of the differences stays below it
-}
-
 VolclGridParams gridParams(const Volume& volume, const MacrocellGrid& grid) {
     VolclGridParams p{};
     auto put = [](float* dst, const Vec3& v) {
@@ -248,7 +240,7 @@ VolclGridRenderParams makeParams(const Scene& scene, const Camera& cam, const Vo
     p.lighting = lightingParams(scene, gradientThreshold(volume));
     p.iso = isoParams(plan);
     p.grid = gridParams(volume, grid);
-    p.grid.gradientMax = gradientCacheScale(volume, range);
+    p.grid.gradientMax = gradientCacheScale(volume.spacing, range);
     return p;
 }
 

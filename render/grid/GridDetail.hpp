@@ -66,10 +66,6 @@ double trilinear(const std::vector<float>& values, const std::array<std::size_t,
 /// Gradient magnitude below which a sample has no defined normal.
 double gradientThreshold(const Volume& volume);
 
-/// The gradient cache's scale (VolclGridParams::gradientMax): a bound on the L1 norm of every voxel's
-/// central-difference world gradient, from the value range and spacing.
-float gradientCacheScale(const Volume& volume, const ValueRange& range);
-
 /// The grid's geometry and macrocell layout.
 VolclGridParams gridParams(const Volume& volume, const MacrocellGrid& grid);
 /// The whole parameter block of the grid kernels (cl/render/raymarch.cl); `range` is the volume's value range.

@@ -63,54 +63,6 @@ std::string skippingHow(unsigned macrocellEdge) {
     return std::to_string(macrocellEdge) + "^3-voxel macrocells";
 }
 
-/// The packet kernel (raymarch_packet, PACKET_KERNEL in cl/render/raymarch.cl) takes dvr without iso-surfaces,
-/// unlit or shaded from the gradient cache; the per-ray kernel takes the rest. True when the scene is dvr
-/// without iso-surfaces and its lighting, if any, needs no more than the cache (no shadows, scattering or
-/// pre-integrated lighting).
-bool packetServesLit(const Scene& scene, const EffectPlan& p) {
-    return scene.mode == RenderMode::Dvr && p.isosurfaces.empty() && !p.scattering && !p.pathTracing &&
-           (!p.shadows || p.shadowVolume) && !p.preintLighting;
-}
-
-/// Shading from the gradient cache (GRADIENT_CACHE 1 trilinear, 2 nearest, 3 exact trilinear) when the scene asks for it and the
-/// packet kernel takes the scene, else on-the-fly central differences, with the reason in the report.
-/// `maxAllocBytes`: the device's largest buffer (0: unknown).
-void planGradientCache(const Scene& scene, const Volume& volume, const ValueRange& range,
-                       std::uint64_t maxAllocBytes, EffectPlan& p) {
-    const GradientKind g = scene.effects.gradient;
-    if (!p.shading || (g != GradientKind::Cache && g != GradientKind::CacheNearest)) return;
-    const std::string name(gradientKindName(g));
-    const std::size_t bytes = (volume.voxelCount() + 1) * kGradientCacheBytesPerVoxel;
-    if (scene.filter != ReconstructionFilter::Linear) {
-        p.dropped.push_back("gradient " + name + ": filter " + std::string(filterName(scene.filter)) +
-                            " takes the spline's analytic gradient");
-    } else if (scene.smoothing > 0.0) {
-        p.dropped.push_back("gradient " + name + ": smoothing " + formatNumber(scene.smoothing) +
-                            " takes central differences of the smoothed voxels");
-    } else if (!packetServesLit(scene, p)) {
-        p.dropped.push_back(
-            "gradient " + name +
-            ": iso-surfaces, shadow rays, scattering and pre-integrated lighting take the per-ray "
-            "kernel with central differences");
-    } else if (bytes > effectiveMemoryBudget(0) || (maxAllocBytes && bytes > maxAllocBytes)) {
-        p.dropped.push_back(
-            "gradient " + name + ": its " + std::to_string(bytes) +
-            " bytes exceed the memory budget or the device's largest buffer; central differences");
-    } else {
-        const GradientCacheFormat format = gradientCacheFormat(volume.type(), range.max - range.min);
-        const bool exact = g == GradientKind::Cache && format == GradientCacheFormat::ExactDifferences;
-        p.gradientCache = g == GradientKind::CacheNearest ? 2 : gradientCacheDefine(format);
-        p.defines.set("GRADIENT_CACHE", static_cast<long long>(p.gradientCache));
-        p.compiled.push_back(
-            "gradient: cache, " + std::to_string(kGradientCacheBytesPerVoxel) + " bytes per voxel (" +
-            (exact ? "the integer voxel differences, exact: the values span at most 511"
-                   : "12+12-bit octahedral direction, 8-bit norm") +
-            "), built once per volume; " +
-            (g == GradientKind::CacheNearest ? "nearest voxel's gradient (one fetch)"
-                                             : "trilinear blend of the eight voxels' gradients"));
-    }
-}
-
 /// The shared planner on the grid's box and (already scanned) value range, plus the voxel type: the
 /// renderer scans the volume once, not on every scene change (a 7M-voxel scan per adaptive-quality step
 /// change cost more than the coarse frame).
@@ -119,7 +71,17 @@ EffectPlan planGrid(const Scene& scene, const Volume& volume, const ValueRange& 
     EffectPlan p = planEffects(scene, gridBounds(volume), range, skippingHow(macrocellEdge), true);
     planNanColor(scene, nonFinite > 0, p);
     planShadowVolume(scene, scene.effects.lightVolumeCell, "", p);
-    planGradientCache(scene, volume, range, maxAllocBytes, p);
+    // Integer voxels spanning at most 511 keep their differences exactly (GRADIENT_CACHE 3); the nearest voxel's
+    // word stays octahedral.
+    const bool exact =
+        gradientCacheFormat(volume.type(), range.max - range.min) == GradientCacheFormat::ExactDifferences &&
+        scene.effects.gradient == GradientKind::Cache;
+    planGradientCache(scene, (volume.voxelCount() + 1) * kGradientCacheBytesPerVoxel, maxAllocBytes,
+                      std::to_string(kGradientCacheBytesPerVoxel) + " bytes per voxel (" +
+                          (exact ? "the integer voxel differences, exact: the values span at most 511"
+                                 : "12+12-bit octahedral direction, 8-bit norm") +
+                          "), built once per volume",
+                      p, exact ? gradientCacheDefine(GradientCacheFormat::ExactDifferences) : 1);
     // The cubic filters read float spline coefficients instead of the voxels; smoothing, float voxels.
     p.defines.set("VOXEL_TYPE", scene.filter == ReconstructionFilter::Linear && scene.smoothing == 0.0
                                     ? static_cast<long long>(voxelTypeCode(volume))

@@ -234,6 +234,17 @@ grep -q "bricks at level 1" "$work/ocl/bricks_shadows_l1.out" ||
   fail "bricks_shadows_l1: the light volume did not read level 1"
 same_image bricks_shadows.exr 1e-4
 same_image bricks_shadows_l1.exr 1e-4
+# Shaded from the bricks' gradient cache (brick_gradient_build, the packet kernel's brick lookup): at level 0, then
+# lod auto on the uint8 blob (integer lifting has levels: its 4 bricks drawn at level 1), trilinear and nearest.
+both bricks_cache bricks_cache.exr "$volcl" -q render --volume "$work/ocl/ll_marschner_brick.vcz" --tf "$tf" \
+  --width 12 --height 10 --shading 0.2,0.7,0.3,32 --gradient cache
+for g in cache cache-nearest; do
+  both "bricks_${g}_auto" "bricks_${g}_auto.exr" "$volcl" -q render --volume "$work/ocl/ll_blob_brick.vcz" \
+    --tf "$tf" --width 12 --height 10 --shading 0.2,0.7,0.3,32 --gradient "$g" --lod auto --lod-error 0.5
+done
+for i in bricks_cache bricks_cache_auto bricks_cache-nearest_auto; do
+  same_image "$i.exr" 1e-4
+done
 
 echo "== tetrahedral meshes: cell ray caster, k-buffer (radix sort), projected tetrahedra"
 M=("$volcl" -q render --volume "$work/in/cubes.vtk" --tf "$tf" --width 12 --height 10 --view iso --table-size 16
