@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Plot of `volcl bench mesh-codec` (bench/results/mesh_codec.json) for docs/meshes.md: per mesh, the --bits
+"""Plot of `volcl bench mesh-codec` (bench/results/mesh_codec.json) for docs/mesh-compression.md: per mesh, the --bits
 knob as position error against size (bits per tet) and against encode/decode time, with gzip -9 and xz -9 of
 the .vtu as lossless references. Usage: plot_mesh_codec.py [results.json] [image.png]"""
 import json
