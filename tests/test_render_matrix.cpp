@@ -346,6 +346,8 @@ TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
     decoded.origin = origin;
     const WorldBox box = input.bounds();
     const TransferFunction tf = matrixTf();
+    // The oracle of cached shading on bricks (below); a renderer borrows its volume, so it lives here.
+    const Volume decodedAsFloat = test::asFloat32(decoded);
     for (const Combo& c : combos(box)) {
         SCOPED_TRACE(inputName(in) + ", " + c.name);
         // The oracle never skips; the inputs skip as the default says (grids: auto, measured per TF; bricks:
@@ -354,8 +356,7 @@ TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
         oracle.skipping = SkipMode::Off;
         // A brick pool holds float samples, whose gradient cache is octahedral: so is the oracle's for bricks
         // (a grid input of integers spanning at most 511 takes the exact form, as its oracle does).
-        GridRenderer grid(cc, c.gradientCache && input.bricks() ? test::asFloat32(decoded) : decoded, tf,
-                          oracle);
+        GridRenderer grid(cc, c.gradientCache && input.bricks() ? decodedAsFloat : decoded, tf, oracle);
         const ImageBuffer want = grid.render();
         const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, c.scene);
         const ImageBuffer got = r->render();
