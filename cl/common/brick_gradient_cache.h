@@ -39,7 +39,7 @@ inline float3 brick_difference_gradient(float3 d, uint s, const VolclGridParams*
 
 /* World gradient at full-resolution node n by central differences of the node lattice over s nodes (n +- s),
    one-sided (halved) at the grid's faces: what a node's cache word holds before packing (at s = 1 the grid's
-   voxel_gradient on brick_node). */
+   cache word on brick_node, gradient_cache.cl). */
 inline float3 brick_node_gradient(__global const float* pool, const VolclGridParams* G, uint3 n, uint s) {
     const uint3 top = (uint3)(G->dims[0], G->dims[1], G->dims[2]) - 1u;
     const uint3 up = min(n + s, top);

@@ -36,17 +36,25 @@ std::uint32_t packGradient(float gx, float gy, float gz, float gMax) {
 
 namespace {
 
+/// The raw differences v[n + step] - v[n - step] along each axis at node (x, y, z) of the lattice `v` (x
+/// fastest, dims `d`), clamped to the lattice at its faces: the shared part of both cache forms' words.
+std::array<float, 3> nodeDifferences(const std::vector<float>& v, const Dims& d, std::size_t x, std::size_t y,
+                                     std::size_t z, std::size_t step) {
+    const std::size_t nx = d.x, ny = d.y, nz = d.z, nxy = nx * ny, s = step;
+    const std::size_t c = z * nxy + y * nx + x;
+    return {v[c - x + std::min(x + s, nx - 1)] - v[c - x + (x >= s ? x - s : 0)],
+            v[c - y * nx + std::min(y + s, ny - 1) * nx] - v[c - y * nx + (y >= s ? y - s : 0) * nx],
+            v[c - z * nxy + std::min(z + s, nz - 1) * nxy] - v[c - z * nxy + (z >= s ? z - s : 0) * nxy]};
+}
+
 /// gcache_pack_exact of the integer central differences at voxel (x, y, z) (one-sided at the faces).
 std::uint32_t exactWord(const std::vector<float>& v, const Dims& d, std::size_t x, std::size_t y,
                         std::size_t z) {
-    const std::size_t nx = d.x, ny = d.y, nz = d.z, nxy = nx * ny;
-    const std::size_t c = z * nxy + y * nx + x;
-    const long dx = std::lround(v[c - x + std::min(x + 1, nx - 1)] - v[c - x + (x > 0 ? x - 1 : 0)]);
-    const long dy =
-        std::lround(v[c - y * nx + std::min(y + 1, ny - 1) * nx] - v[c - y * nx + (y > 0 ? y - 1 : 0) * nx]);
-    const long dz = std::lround(v[c - z * nxy + std::min(z + 1, nz - 1) * nxy] -
-                                v[c - z * nxy + (z > 0 ? z - 1 : 0) * nxy]);
-    return std::uint32_t(dx + 512) | (std::uint32_t(dy + 512) << 10) | (std::uint32_t(dz + 512) << 20);
+    const std::array<float, 3> g = nodeDifferences(v, d, x, y, z, 1);
+    std::uint32_t word = 0;
+    for (std::size_t a = 0; a < 3; ++a)
+        word |= std::uint32_t(std::lround(g[a]) + 512) << (10 * a);
+    return word;
 }
 
 } // namespace
@@ -54,14 +62,9 @@ std::uint32_t exactWord(const std::vector<float>& v, const Dims& d, std::size_t 
 std::uint32_t nodeGradientWord(const std::vector<float>& v, const Dims& d, const std::array<float, 3>& inv,
                                std::size_t x, std::size_t y, std::size_t z, float gradientMax,
                                std::size_t step) {
-    const std::size_t nx = d.x, ny = d.y, nz = d.z, nxy = nx * ny, s = step;
-    const std::size_t c = z * nxy + y * nx + x;
-    const float gx = v[c - x + std::min(x + s, nx - 1)] - v[c - x + (x >= s ? x - s : 0)];
-    const float gy = v[c - y * nx + std::min(y + s, ny - 1) * nx] - v[c - y * nx + (y >= s ? y - s : 0) * nx];
-    const float gz =
-        v[c - z * nxy + std::min(z + s, nz - 1) * nxy] - v[c - z * nxy + (z >= s ? z - s : 0) * nxy];
-    const float h = 0.5f / float(s);
-    return packGradient(gx * h * inv[0], gy * h * inv[1], gz * h * inv[2], gradientMax);
+    const std::array<float, 3> g = nodeDifferences(v, d, x, y, z, step);
+    const float h = 0.5f / float(step);
+    return packGradient(g[0] * h * inv[0], g[1] * h * inv[1], g[2] * h * inv[2], gradientMax);
 }
 
 float gradientCacheScale(const std::array<double, 3>& spacing, const ValueRange& range) {
@@ -74,7 +77,8 @@ float gradientCacheScale(const std::array<double, 3>& spacing, const ValueRange&
 }
 
 GradientCacheFormat gradientCacheFormat(ScalarType type, double valueSpan) {
-    const bool integer = type != ScalarType::Float32;
+    // Integer types of at most 16 bits: their floats, and so the kernel's float differences, are exact.
+    const bool integer = type == ScalarType::UInt8 || type == ScalarType::UInt16 || type == ScalarType::Int16;
     return integer && valueSpan <= 511.0 ? GradientCacheFormat::ExactDifferences
                                          : GradientCacheFormat::Octahedral;
 }

@@ -13,8 +13,7 @@
 
 namespace volcl {
 
-/// Bytes per voxel of the cache: one word, 2x12-bit octahedral direction and an 8-bit minifloat L1 norm
-/// (cl/common/gradient_cache.h).
+/// Bytes per voxel of the cache: one 32-bit word in either form (GradientCacheFormat, cl/common/gradient_cache.h).
 constexpr std::size_t kGradientCacheBytesPerVoxel = 4;
 
 /// How the words hold a gradient (cl/common/gradient_cache.h).
@@ -54,7 +53,7 @@ gradientCacheReference(const Volume& volume, float gradientMax,
 std::uint32_t packGradient(float gx, float gy, float gz, float gradientMax);
 
 /// The word of node (x, y, z) of the float lattice `v` (x fastest, dims `d`): its central-difference world
-/// gradient over `step` nodes, one-sided (halved) at the lattice's faces, packed (the kernels' voxel_gradient
+/// gradient over `step` nodes, one-sided (halved) at the lattice's faces, packed (the kernels' gradient_cache_build
 /// and brick_node_gradient). `inv`: 1 / spacing per axis, as float.
 std::uint32_t nodeGradientWord(const std::vector<float>& v, const Dims& d, const std::array<float, 3>& inv,
                                std::size_t x, std::size_t y, std::size_t z, float gradientMax,
