@@ -212,10 +212,10 @@ def vcz_and_vdb_seeds(volcl):
             subprocess.run([volcl, "-q", "encode", src, "-o", out, *flags], check=True)
             with open(out, "rb") as f:
                 put("fuzz_vcz", name, f.read())
-        # A motion-compensated series (I, B, I, P frames with their motion blocks): P/B decoding paths and the
-        # compact series container (version 5). motion_v4_lossless_gop4_b1.vcz, the same frames in the
-        # version 4 layout, was written by an earlier encoder and is kept as it is (nothing writes version 4
-        # now; tests/test_motion_codec.cpp decodes it).
+        # A motion-compensated series (I, B, I, P frames with their motion blocks): P/B decoding paths in the
+        # version 6 container. Seeds of the older layouts were written by earlier encoders and are kept as
+        # they are (nothing writes them now; tests/test_motion_codec.cpp decodes them): v3_*.vcz, the single
+        # volumes above in version 3; motion_v4_* and motion_v5_*, these frames in versions 4 and 5.
         for f in range(4):
             frame = bytes(((x + f) * 7 + y * 3 + z * 5) % 200 if (x + f) % 8 < 5 else 20
                           for z in range(8) for y in range(8) for x in range(8))

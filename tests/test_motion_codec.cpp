@@ -1,11 +1,13 @@
 // Motion-compensated series coding: P/B frames exact when lossless and within the bound when lossy on every
 // frame, closed loop, intra fallback, random access, container versions and corruption, hard cases.
 #include "TestUtil.hpp"
+#include "VczTestUtil.hpp"
 #include "core/Error.hpp"
 #include "host/io/Series.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/predict/GopPlan.hpp"
 #include "wavelet/predict/TranslatedSeries.hpp"
+#include "wavelet/quantise/Quantiser.hpp"
 
 #include <bit>
 #include <cmath>
@@ -115,7 +117,7 @@ TEST(MotionCodec, Lossless16BitExactOnEveryFrame) {
     ComputeContext& cc = test::computeContext();
     const TimeSeries ts = shifted(smooth({40, 36, 20}), 6, {0.5, 0.25, 0}, ScalarType::UInt16);
     const auto bytes = encodeSeries(cc, ts, lossless(4));
-    EXPECT_EQ(versionOf(bytes), kVczVersionSeries);
+    EXPECT_EQ(versionOf(bytes), kVczVersionCompact);
     EXPECT_GT(countType(bytes, FrameType::P), 0u);
     const auto out = decodeAll(bytes);
     for (std::size_t f = 0; f < ts.frames.size(); ++f)
@@ -125,7 +127,7 @@ TEST(MotionCodec, Lossless16BitExactOnEveryFrame) {
         o.motion = MotionMode::None;
         return o;
     }());
-    EXPECT_EQ(versionOf(intra), kVczVersionSeries); // every series: the compact container
+    EXPECT_EQ(versionOf(intra), kVczVersionCompact); // every file: the compact container
     EXPECT_LE(bytes.size(), intra.size());
 }
 
@@ -579,6 +581,23 @@ void expectSameHeader(const VczHeader& a, const VczHeader& b) {
 
 } // namespace
 
+namespace {
+
+/// The first frame of a synthetic series: a single volume's header and payloads.
+SyntheticSeries singleVolume(ScalarType type, double time) {
+    SyntheticSeries s = syntheticSeries(
+        type, [](std::size_t i) { return std::pair<double, double>(double(i % 5), 40.0 + double(i)); },
+        {time, time + 1, time + 2});
+    const std::size_t bricks = s.h.brickCount();
+    s.h.frames.resize(1);
+    s.h.bricks.resize(1);
+    s.payloads.resize(bricks);
+    layOut(s);
+    return s;
+}
+
+} // namespace
+
 TEST(SeriesContainer, Version4FilesStillDecode) {
     const std::string path =
         std::string(VOLCL_SOURCE_DIR) + "/fuzz/corpus/fuzz_vcz/motion_v4_lossless_gop4_b1.vcz";
@@ -590,24 +609,12 @@ TEST(SeriesContainer, Version4FilesStillDecode) {
     ASSERT_EQ(out.size(), 4u);
     for (int f = 0; f < 4; ++f)
         EXPECT_TRUE(out[std::size_t(f)] == seedFrame(f)) << "frame " << f;
-    // The same frames re-containered as version 5 (payloads unchanged, offsets implied) decode alike and
+    // The same frames re-containered as version 6 (payloads unchanged, offsets implied) decode alike and
     // take less room.
-    const VczHeader h = readVczHeader(v4, path);
-    const std::size_t oldStart = h.bricks[0][0].offset;
-    VczHeader nh = h;
-    const std::size_t newStart = vczPreambleSize(nh);
-    for (auto& frame : nh.bricks)
-        for (VczBrickEntry& e : frame)
-            e.offset = e.offset - oldStart + newStart;
-    for (VczFrame& fr : nh.frames)
-        if (fr.auxSize) fr.auxOffset = fr.auxOffset - oldStart + newStart;
-    std::vector<std::vector<std::uint8_t>> block(1);
-    const auto* p = reinterpret_cast<const std::uint8_t*>(v4.data());
-    block[0].assign(p + oldStart, p + v4.size());
-    const std::vector<std::byte> v5 = writeVcz(nh, block);
-    EXPECT_EQ(versionOf(v5), kVczVersionSeries);
-    EXPECT_LT(v5.size() + 200, v4.size()) << "v5 " << v5.size() << " B, v4 " << v4.size() << " B";
-    const auto again = decodeAll(v5);
+    const std::vector<std::byte> v6 = test::rewrittenVcz(v4, path);
+    EXPECT_EQ(versionOf(v6), kVczVersionCompact);
+    EXPECT_LT(v6.size() + 200, v4.size()) << "v6 " << v6.size() << " B, v4 " << v4.size() << " B";
+    const auto again = decodeAll(v6);
     for (std::size_t f = 0; f < 4; ++f)
         EXPECT_TRUE(again[f] == out[f]) << "frame " << f;
 }
@@ -627,7 +634,7 @@ TEST(SeriesContainer, EveryFieldRoundTrips) {
     s.h.metadata["noise"] = random;
     layOut(s);
     const std::vector<std::byte> file = writeVcz(s.h, s.payloads);
-    EXPECT_EQ(versionOf(file), kVczVersionSeries);
+    EXPECT_EQ(versionOf(file), kVczVersionCompact);
     const VczHeader r = readVczHeader(file, "s.vcz");
     expectSameHeader(s.h, r);
     for (std::size_t f = 0; f < 3; ++f) {
@@ -677,4 +684,114 @@ TEST(SeriesContainer, IndexCostsFewBytesPerBrick) {
     const std::size_t frameCost = vczPreambleSize(s.h) - vczPreambleSize(two);
     EXPECT_LE(frameCost, 10 * s.h.brickCount() + 8)
         << frameCost << " B for a frame of " << s.h.brickCount() << " bricks";
+}
+
+// Single volumes are written as version 6: every field comes back bit for bit, the lossy steps are stored as
+// one delta plus the subbands an encoder raised, and a step list no delta implies is listed whole.
+TEST(SingleVolumeContainer, Version6KeepsEveryField) {
+    for (double time : {0.0, -0.0, 2.5}) {
+        SyntheticSeries s = singleVolume(ScalarType::Float32, time);
+        s.h.levels = 3;
+        s.h.steps = codec::subbandSteps(s.h.wavelet, s.h.levels, 0.37);
+        s.h.steps[9] *= 4.0; // raised, as LossyFrame::setDelta raises a subband whose indices would overflow
+        layOut(s);
+        const std::vector<std::byte> file = writeVcz(s.h, s.payloads);
+        EXPECT_EQ(versionOf(file), kVczVersionCompact);
+        const VczHeader r = readVczHeader(file, "v.vcz");
+        expectSameHeader(s.h, r);
+        EXPECT_EQ(r.dims, s.h.dims);
+        EXPECT_EQ(r.brick, s.h.brick);
+        EXPECT_EQ(r.levels, 3);
+        for (std::size_t i = 0; i < s.h.steps.size(); ++i)
+            EXPECT_EQ(std::bit_cast<std::uint64_t>(r.steps[i]), std::bit_cast<std::uint64_t>(s.h.steps[i]))
+                << "step " << i;
+        // Listed: steps no delta implies (each nudged) cost 8 bytes each; implied ones about 18 in all.
+        SyntheticSeries listed = s;
+        for (std::size_t i = 0; i < listed.h.steps.size(); ++i)
+            listed.h.steps[i] = std::nextafter(listed.h.steps[i] * (1.0 + 1e-9 * double(i + 1)), 1e9);
+        layOut(listed);
+        const VczHeader lr = readVczHeader(writeVcz(listed.h, listed.payloads), "l.vcz");
+        for (std::size_t i = 0; i < listed.h.steps.size(); ++i)
+            EXPECT_EQ(std::bit_cast<std::uint64_t>(lr.steps[i]),
+                      std::bit_cast<std::uint64_t>(listed.h.steps[i]));
+        EXPECT_GE(vczPreambleSize(listed.h), vczPreambleSize(s.h) + 8 * (s.h.steps.size() - 3))
+            << "implied steps: " << vczPreambleSize(s.h) << " B, listed: " << vczPreambleSize(listed.h)
+            << " B";
+    }
+    // Lossless integer volumes have no steps.
+    SyntheticSeries u = singleVolume(ScalarType::UInt16, 0.0);
+    expectSameHeader(u.h, readVczHeader(writeVcz(u.h, u.payloads), "u.vcz"));
+}
+
+// The implied steps form is refused on a header whose transform is not lossy (a forged or corrupt header).
+TEST(SingleVolumeContainer, ImpliedStepsOnALosslessHeaderAreRefused) {
+    SyntheticSeries s = singleVolume(ScalarType::Float32, 0.0);
+    s.h.levels = 2;
+    s.h.steps = codec::subbandSteps(s.h.wavelet, s.h.levels, 0.5);
+    layOut(s);
+    std::vector<std::byte> file = writeVcz(s.h, s.payloads);
+    // magic, version, header length, three one-byte varint dims, the voxel type: then the transform.
+    const std::size_t transformAt = kVczMagic.size() + 8 + 3 + 1;
+    ASSERT_EQ(std::to_integer<int>(file[transformAt]), int(TransformKind::FloatLifting));
+    file[transformAt] = std::byte(TransformKind::RawBits);
+    std::uint32_t bodySize;
+    std::memcpy(&bodySize, file.data() + kVczMagic.size() + 4, 4);
+    const std::size_t bodyEnd = kVczMagic.size() + 8 + bodySize;
+    const std::uint64_t sum =
+        vczChecksum(std::span(reinterpret_cast<const std::uint8_t*>(file.data()), bodyEnd));
+    std::memcpy(file.data() + bodyEnd, &sum, 8);
+    try {
+        readVczHeader(file, "forged.vcz");
+        FAIL() << "implied steps on raw bit planes were accepted";
+    } catch (const IoError& e) {
+        EXPECT_NE(std::string(e.what()).find("forged.vcz: header: implied quantisation steps"),
+                  std::string::npos)
+            << e.what();
+    }
+}
+
+// Files of the older single-volume layout (version 3, the seeds fuzz/corpus/fuzz_vcz/v3_*.vcz) still decode,
+// and written again as version 6 they decode to the same voxels in fewer bytes.
+TEST(SingleVolumeContainer, Version3FilesStillDecode) {
+    for (const char* seed :
+         {"v3_lossless_dense_cdf53.vcz", "v3_lossless_fast_haar.vcz", "v3_lossless_cdf26_levels1.vcz",
+          "v3_lossy_cdf97_dense.vcz", "v3_lossy_cdf53_fast.vcz", "v3_rawbits_float.vcz"}) {
+        const std::string path = std::string(VOLCL_SOURCE_DIR) + "/fuzz/corpus/fuzz_vcz/" + seed;
+        const std::string raw = test::readFile(path);
+        const auto* first = reinterpret_cast<const std::byte*>(raw.data());
+        const std::vector<std::byte> v3(first, first + raw.size());
+        ASSERT_EQ(versionOf(v3), kVczVersion) << seed;
+        const auto out = decodeAll(v3);
+        const std::vector<std::byte> v6 = test::rewrittenVcz(v3, path);
+        EXPECT_EQ(versionOf(v6), kVczVersionCompact) << seed;
+        EXPECT_LT(v6.size() + 40, v3.size())
+            << seed << ": v6 " << v6.size() << " B, v3 " << v3.size() << " B";
+        const auto again = decodeAll(v6);
+        ASSERT_EQ(again.size(), 1u) << seed;
+        EXPECT_TRUE(again[0] == out[0]) << seed;
+    }
+}
+
+// The bound a rate search or the streaming encoder reserves holds whatever the payload sizes, brick ranges
+// and steps turn out to be: here the widest each voxel type allows.
+TEST(SingleVolumeContainer, PreambleBoundHoldsForTheWidestContent) {
+    const std::pair<ScalarType, std::pair<double, double>> cases[] = {
+        {ScalarType::UInt8, {128, 255}},
+        {ScalarType::UInt16, {32768, 65535}},
+        {ScalarType::Int16, {-32768, 32767}},
+        {ScalarType::Float32, {std::nan(""), std::nan("")}}};
+    for (const auto& [type, range] : cases) {
+        SyntheticSeries s = singleVolume(type, 0.0);
+        const std::size_t bound = vczPreambleBound(s.h);
+        VczHeader worst = s.h;
+        std::uint64_t size = (std::uint64_t(1) << 35) - 1;
+        for (VczBrickEntry& e : worst.bricks[0]) {
+            e.size = size--;
+            std::tie(e.min, e.max) = range;
+        }
+        const std::size_t actual = vczPreambleSize(worst);
+        EXPECT_LE(actual, bound) << scalarTypeName(type);
+        EXPECT_LE(actual, vczPreambleBound(worst, true)) << scalarTypeName(type);
+        EXPECT_LE(vczPreambleSize(s.h), vczPreambleBound(s.h, true)) << scalarTypeName(type);
+    }
 }

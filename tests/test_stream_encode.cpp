@@ -1,7 +1,8 @@
 // The streaming encoder against the in-memory one: a volume coded brick row by brick row gives the same
-// .vcz bytes (statistics included) for ragged edges, uint8 and uint16; a cloud generated piece by piece
-// equals the whole cloud; options the stream cannot code are refused.
+// .vcz bytes but for the preamble's padding (statistics included) for ragged edges, uint8 and uint16; a
+// cloud generated piece by piece equals the whole cloud; options the stream cannot code are refused.
 #include "TestUtil.hpp"
+#include "VczTestUtil.hpp"
 
 #include "core/Error.hpp"
 #include "host/phantoms/Cloud.hpp"
@@ -68,7 +69,7 @@ TEST(StreamEncode, CloudRegionsEqualTheWholeCloud) {
     EXPECT_TRUE(crop == part);
 }
 
-TEST(StreamEncode, ByteIdenticalToTheInMemoryEncoder) {
+TEST(StreamEncode, ByteIdenticalToTheInMemoryEncoderButForPadding) {
     Volume cloud = generateCloud(smallCloud());
     cloud.spacing = {0.5, 1.0, 2.0};
     cloud.origin = {-3.0, 4.0, 1.5};
@@ -81,8 +82,9 @@ TEST(StreamEncode, ByteIdenticalToTheInMemoryEncoder) {
     EXPECT_EQ(r.rows, 3u * 3u); // ceil(45/16) x ceil(38/16)
     EXPECT_EQ(r.rowBytes, 70u * 16u * 16u);
     EXPECT_EQ(r.bytes, s.size());
-    EXPECT_TRUE(s == inMemory(cloud, o, true));
-    EXPECT_TRUE(streamed(cloud, o, false) == inMemory(cloud, o, false));
+    // The streamed preamble is padded to the room reserved before coding; without it the files are equal.
+    EXPECT_TRUE(test::rewrittenVcz(s, "s.vcz") == inMemory(cloud, o, true));
+    EXPECT_TRUE(test::rewrittenVcz(streamed(cloud, o, false), "s.vcz") == inMemory(cloud, o, false));
 
     // uint16 with the fast entropy coder and a non-cubic brick: still the same file, and it decodes exactly.
     Volume wide(cloud.dims(), ScalarType::UInt16);
@@ -91,7 +93,7 @@ TEST(StreamEncode, ByteIdenticalToTheInMemoryEncoder) {
     o.entropy = EntropyMode::Fast;
     o.brick = {32, 16, 8};
     const std::vector<std::byte> s16 = streamed(wide, o, true);
-    EXPECT_TRUE(s16 == inMemory(wide, o, true));
+    EXPECT_TRUE(test::rewrittenVcz(s16, "s16.vcz") == inMemory(wide, o, true));
     EXPECT_TRUE(decodeVolume(test::computeContext(), s16) == wide);
 }
 
@@ -99,7 +101,7 @@ TEST(StreamEncode, OneBrickAndRefusals) {
     const Volume v = generateCloud({.dims = {9, 5, 3}});
     CodecOptions o;
     o.brick = {16, 16, 16};
-    EXPECT_TRUE(streamed(v, o, true) == inMemory(v, o, true));
+    EXPECT_TRUE(test::rewrittenVcz(streamed(v, o, true), "one.vcz") == inMemory(v, o, true));
     o.rate = RateMode::MaxError;
     o.target = 2;
     EXPECT_THROW(streamed(v, o, true), UsageError);

@@ -8,6 +8,17 @@
 
 namespace volcl {
 
+/// The longest varint: 10 bytes hold any 64-bit value.
+inline constexpr std::size_t kMaxVarintBytes = 10;
+
+/// Bytes putVarint writes for `v`.
+inline std::size_t varintBytes(std::uint64_t v) noexcept {
+    std::size_t n = 1;
+    for (; v >= 0x80; v >>= 7)
+        ++n;
+    return n;
+}
+
 inline void putVarint(std::vector<std::uint8_t>& out, std::uint64_t v) {
     while (v >= 0x80) {
         out.push_back(static_cast<std::uint8_t>(v | 0x80));

@@ -7,6 +7,7 @@
 #include "wavelet/Varint.hpp"
 #include "wavelet/entropy/EntropyCoder.hpp"
 #include "wavelet/quantise/Corrections.hpp"
+#include "wavelet/quantise/Quantiser.hpp"
 
 #include <xxhash.h>
 #include <zstd.h>
@@ -16,6 +17,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <optional>
 
 namespace volcl {
 
@@ -50,7 +52,7 @@ namespace {
 // Every checksum test of the reader. The libFuzzer build defines VOLCL_FUZZ_ACCEPT_ANY_CHECKSUM (for this
 // file only, never with the tests or in a product build): a mutated input would otherwise almost never get
 // past the checksums to the parser and decoder behind them (the approach of zstd's and libpng's fuzzers).
-// `bits32`: version 5 payload checksums, the low 32 bits of the XXH3-64.
+// `bits32`: version 5 and 6 payload checksums, the low 32 bits of the XXH3-64.
 bool checksumMatches(std::uint64_t stored, std::span<const std::uint8_t> bytes,
                      bool bits32 = false) noexcept {
     const std::uint64_t actual = vczChecksum(bytes) & (bits32 ? 0xFFFFFFFFu : ~std::uint64_t(0));
@@ -136,11 +138,58 @@ private:
     const char* part_;
 };
 
-// The fields every version shares: grid, kinds, geometry, rate and the quantisation steps.
+// Version 6 steps forms. Implied: the steps are subbandSteps(wavelet, levels, delta) but for a few an encoder
+// raised (LossyFrame::setDelta keeps every quantised index in range), listed as overrides.
+enum class StepsForm : std::uint8_t { Listed = 0, Implied = 1 };
+
+// subbandSteps measures its gains on 1024-sample lines: deeper transforms than the encoder's are not implied.
+constexpr int kMaxImpliedLevels = 8;
+
+// The implied form of `steps`: delta and the overrides, or nothing when it does not apply. The encoder's
+// delta is not stored in the header, so it is recovered from the low band's step: the nearest doubles
+// around steps[0] x gain^3 are tried and the one that gives back the most steps bit for bit kept.
+std::optional<std::vector<std::uint8_t>> impliedSteps(const VczHeader& h) {
+    if (h.transform != TransformKind::FloatLifting || h.levels < 1 || h.levels > kMaxImpliedLevels ||
+        h.steps.size() != 1 + 7 * std::size_t(h.levels))
+        return std::nullopt;
+    const std::vector<double> unit = codec::subbandSteps(h.wavelet, h.levels, 1.0);
+    double delta = h.steps[0] / unit[0];
+    for (int k = 0; k < 4; ++k)
+        delta = std::nextafter(delta, 0.0);
+    double best = 0;
+    std::vector<std::size_t> overrides(h.steps.size() + 1);
+    for (int k = 0; k < 9; ++k, delta = std::nextafter(delta, HUGE_VAL)) {
+        if (!(delta > 0) || !std::isfinite(delta)) continue;
+        const std::vector<double> implied = codec::subbandSteps(h.wavelet, h.levels, delta);
+        std::vector<std::size_t> differ;
+        for (std::size_t i = 0; i < implied.size(); ++i)
+            if (std::bit_cast<std::uint64_t>(implied[i]) != std::bit_cast<std::uint64_t>(h.steps[i]))
+                differ.push_back(i);
+        if (differ.size() < overrides.size()) {
+            overrides = std::move(differ);
+            best = delta;
+        }
+    }
+    if (overrides.size() > h.steps.size()) return std::nullopt;
+    Writer w;
+    w.put(best);
+    w.putVar(overrides.size());
+    for (std::size_t i : overrides) {
+        w.putVar(i);
+        w.put(h.steps[i]);
+    }
+    return std::move(w.bytes);
+}
+
+// What compactPreamble writes: the file's preamble, or one at least as long as any the header can have once
+// its payload sizes, ranges and metadata values are final (vczPreambleBound).
+enum class PreambleKind { Exact, Bound };
+
+// The header's fixed fields as version 6 writes them: grid, kinds, geometry, rate and the quantisation steps,
+// sizes as varints and the steps in the shorter of their two forms.
 void putFixedFields(Writer& w, const VczHeader& h) {
-    w.put<std::uint64_t>(h.dims.x);
-    w.put<std::uint64_t>(h.dims.y);
-    w.put<std::uint64_t>(h.dims.z);
+    for (std::size_t v : {h.dims.x, h.dims.y, h.dims.z})
+        w.putVar(v);
     w.put<std::uint8_t>(static_cast<std::uint8_t>(h.type));
     w.put<std::uint8_t>(static_cast<std::uint8_t>(h.transform));
     w.put<std::uint8_t>(static_cast<std::uint8_t>(h.wavelet));
@@ -151,54 +200,39 @@ void putFixedFields(Writer& w, const VczHeader& h) {
         w.put(v);
     for (double v : h.origin)
         w.put(v);
-    w.put<std::uint32_t>(static_cast<std::uint32_t>(h.brick.x));
-    w.put<std::uint32_t>(static_cast<std::uint32_t>(h.brick.y));
-    w.put<std::uint32_t>(static_cast<std::uint32_t>(h.brick.z));
+    for (std::size_t v : {h.brick.x, h.brick.y, h.brick.z})
+        w.putVar(v);
     w.put(h.rateTarget);
     w.put(h.reconstructionBias);
     w.put(h.valueMin);
     w.put(h.valueMax);
-    w.put<std::uint32_t>(static_cast<std::uint32_t>(h.steps.size()));
-    for (double s : h.steps)
-        w.put(s);
+    const std::optional<std::vector<std::uint8_t>> implied = impliedSteps(h);
+    if (implied && implied->size() < 1 + 8 * h.steps.size()) {
+        w.put<std::uint8_t>(static_cast<std::uint8_t>(StepsForm::Implied));
+        w.putBytes(*implied);
+    } else {
+        w.put<std::uint8_t>(static_cast<std::uint8_t>(StepsForm::Listed));
+        w.putVar(h.steps.size());
+        for (double s : h.steps)
+            w.put(s);
+    }
 }
 
-bool isSeries(const VczHeader& h) noexcept {
-    return h.frames.size() > 1;
+// Versions 5 and 6: the compact frame table and index.
+bool compactLayout(std::uint32_t version) noexcept {
+    return version >= kVczVersionSeries;
 }
 
-// Version 5 keeps the low 32 bits of each payload's and motion block's XXH3-64.
+// Versions 5 and 6 keep the low 32 bits of each payload's and motion block's XXH3-64.
 bool shortChecksums(const VczHeader& h) noexcept {
-    return h.version == kVczVersionSeries;
-}
-
-// Versions 3 and 4: fixed-width frame table and metadata.
-std::vector<std::uint8_t> headerBody(const VczHeader& h) {
-    Writer w;
-    putFixedFields(w, h);
-    w.put<std::uint32_t>(static_cast<std::uint32_t>(h.frames.size()));
-    for (const VczFrame& f : h.frames) {
-        w.put<std::uint8_t>(static_cast<std::uint8_t>(f.type));
-        w.put(f.reference0);
-        w.put(f.reference1);
-        w.put(f.time);
-        w.put(f.auxOffset);
-        w.put(f.auxSize);
-        w.put(f.auxChecksum);
-    }
-    w.put<std::uint32_t>(static_cast<std::uint32_t>(h.metadata.size()));
-    for (const auto& [k, v] : h.metadata) {
-        w.putString(k);
-        w.putString(v);
-    }
-    return std::move(w.bytes);
+    return compactLayout(h.version);
 }
 
 constexpr std::size_t kIndexEntryBytes = 5 * 8;
 
-// ---- Version 5 (files of more than one frame) ----
+// ---- Versions 5 and 6: the compact frame table and index ----
 
-// How a version 5 index stores the brick ranges: the narrowest form that gives back every value bit for bit.
+// How a compact index stores the brick ranges: the narrowest form that gives back every value bit for bit.
 enum class RangeForm : std::uint8_t { Integer = 0, Float32 = 1, Float64 = 2 };
 
 constexpr double kMaxExactInteger = 9007199254740992.0; // 2^53: every integer up to it is a double
@@ -229,7 +263,11 @@ double uniformTime(double t0, double dt, std::size_t f) noexcept {
     return t0 + double(f) * dt;
 }
 
+// Frame time forms: 0 start and step, 1 one double per frame, 2 every time 0 (single volumes; version 6).
+enum class TimeForm : std::uint8_t { Uniform = 0, Listed = 1, Zero = 2 };
+
 bool uniformTimes(const VczHeader& h) noexcept {
+    if (h.frames.size() < 2) return false;
     const double t0 = h.frames[0].time, dt = h.frames[1].time - t0;
     for (std::size_t f = 0; f < h.frames.size(); ++f)
         if (std::bit_cast<std::uint64_t>(uniformTime(t0, dt, f)) !=
@@ -265,8 +303,9 @@ std::vector<std::uint8_t> compactIndex(const VczHeader& h) {
     return std::move(w.bytes);
 }
 
-// Metadata as varint-length strings, zstd-compressed when that is smaller.
-void putMetadataBlock(Writer& w, const std::map<std::string, std::string>& metadata) {
+// Metadata as varint-length strings, zstd-compressed when that is smaller. A bound takes the stored form's
+// size plus the longest compressed-size varint: any compressed form (shorter than stored) fits in it.
+void putMetadataBlock(Writer& w, const std::map<std::string, std::string>& metadata, PreambleKind kind) {
     Writer m;
     m.putVar(metadata.size());
     for (const auto& [k, v] : metadata) {
@@ -274,6 +313,12 @@ void putMetadataBlock(Writer& w, const std::map<std::string, std::string>& metad
         m.putVarString(v);
     }
     w.putVar(m.bytes.size());
+    if (kind == PreambleKind::Bound) {
+        w.put<std::uint8_t>(0);
+        w.putBytes(m.bytes);
+        w.bytes.resize(w.bytes.size() + kMaxVarintBytes);
+        return;
+    }
     std::vector<std::uint8_t> packed(ZSTD_compressBound(m.bytes.size()));
     const std::size_t n = ZSTD_compress(packed.data(), packed.size(), m.bytes.data(), m.bytes.size(),
                                         m.bytes.size() < (std::size_t(1) << 20) ? 19 : 3);
@@ -291,18 +336,24 @@ struct CompactPreamble {
     std::vector<std::uint8_t> body, index;
 };
 
-CompactPreamble compactPreamble(const VczHeader& h) {
+// `padding`: zero bytes between the index's checksum and the first payload (version 6), which let a writer
+// that must reserve the preamble before the payloads are known fill the room it reserved.
+CompactPreamble compactPreamble(const VczHeader& h, std::uint64_t padding = 0,
+                                PreambleKind kind = PreambleKind::Exact) {
     CompactPreamble p;
     p.index = compactIndex(h);
     Writer w;
     putFixedFields(w, h);
     w.putVar(h.frames.size());
-    const bool uniform = uniformTimes(h);
-    w.put<std::uint8_t>(uniform ? 0 : 1);
-    if (uniform) {
+    const bool zero = std::all_of(h.frames.begin(), h.frames.end(), [](const VczFrame& f) {
+        return std::bit_cast<std::uint64_t>(f.time) == 0; // +0.0 only: -0.0 is listed
+    });
+    const TimeForm form = zero ? TimeForm::Zero : uniformTimes(h) ? TimeForm::Uniform : TimeForm::Listed;
+    w.put<std::uint8_t>(static_cast<std::uint8_t>(form));
+    if (form == TimeForm::Uniform) {
         w.put(h.frames[0].time);
         w.put(h.frames[1].time - h.frames[0].time);
-    } else {
+    } else if (form == TimeForm::Listed) {
         for (const VczFrame& f : h.frames)
             w.put(f.time);
     }
@@ -315,10 +366,15 @@ CompactPreamble compactPreamble(const VczHeader& h) {
         w.putVar(f.auxSize);
         if (f.auxSize) w.put<std::uint32_t>(static_cast<std::uint32_t>(f.auxChecksum));
     }
-    putMetadataBlock(w, h.metadata);
+    putMetadataBlock(w, h.metadata, kind);
     w.putVar(p.index.size());
+    w.putVar(padding);
     p.body = std::move(w.bytes);
     return p;
+}
+
+std::size_t preambleBytes(const CompactPreamble& p, std::uint64_t padding) {
+    return kVczMagic.size() + 8 + p.body.size() + 8 + p.index.size() + 8 + std::size_t(padding);
 }
 
 // The frame table's references form what the decoder can follow: I frames reference nothing and carry no
@@ -353,55 +409,73 @@ void checkFrameReferences(const VczHeader& h, std::uint32_t version, const Reade
 } // namespace
 
 std::size_t vczPreambleSize(const VczHeader& h) {
-    if (isSeries(h)) {
-        const CompactPreamble p = compactPreamble(h);
-        return kVczMagic.size() + 8 + p.body.size() + 8 + p.index.size() + 8;
-    }
-    const std::size_t entries = h.frames.size() * h.brickCount();
-    return kVczMagic.size() + 8 + headerBody(h).size() + 8 + entries * kIndexEntryBytes + 8;
+    return preambleBytes(compactPreamble(h), 0);
 }
 
-std::vector<std::byte> writeVcz(const VczHeader& h, std::span<const std::vector<std::uint8_t>> payloads) {
+std::size_t vczPreambleBound(const VczHeader& h, bool sizesKnown) {
+    // Ranges in a form at least as wide as the index's can be for the voxel type: integer voxels' ranges take
+    // the integer form, at most 6 bytes a brick for 16-bit types, within the float32 form's 8; float voxels'
+    // may be NaN (the float64 form, the widest).
+    VczBrickEntry widest;
+    const bool integer =
+        h.type == ScalarType::UInt8 || h.type == ScalarType::UInt16 || h.type == ScalarType::Int16;
+    widest.min = widest.max = integer ? 0.5 : std::numeric_limits<double>::quiet_NaN();
+    VczHeader b = h;
+    if (sizesKnown) {
+        for (auto& frame : b.bricks)
+            for (VczBrickEntry& e : frame) {
+                e.min = widest.min;
+                e.max = widest.max;
+            }
+        return preambleBytes(compactPreamble(b), 0);
+    }
+    // Payload and motion block sizes below 32 GB (five-byte varints); the index from the frame count and brick
+    // grid, since rate searches bound it before the entries exist.
+    constexpr std::uint64_t kLargest = (std::uint64_t(1) << 35) - 1;
+    widest.size = kLargest;
+    b.bricks.assign(b.frames.size(), std::vector<VczBrickEntry>(b.brickCount(), widest));
+    for (VczFrame& f : b.frames)
+        if (f.type != FrameType::I) f.auxSize = kLargest;
+    return preambleBytes(compactPreamble(b, 0, PreambleKind::Bound), 0) + kMaxVarintBytes;
+}
+
+std::vector<std::byte> writeVcz(const VczHeader& h, std::span<const std::vector<std::uint8_t>> payloads,
+                                std::size_t preambleSize) {
+    if (h.frames.empty()) throw Error("internal: a .vcz without frames");
+    CompactPreamble compact = compactPreamble(h);
+    std::uint64_t padding = 0;
+    if (preambleSize) {
+        // The padding's own varint grows with it: try each length it can have.
+        const std::size_t unpadded = preambleBytes(compact, 0);
+        bool fits = false;
+        for (std::size_t len = 1; len <= kMaxVarintBytes && !fits && preambleSize + 1 >= unpadded + len;
+             ++len) {
+            padding = preambleSize + 1 - unpadded - len;
+            fits = varintBytes(padding) == len;
+        }
+        if (!fits) throw Error("internal: the reserved .vcz preamble is too small");
+        compact = compactPreamble(h, padding);
+    }
     Writer w;
     w.bytes.assign(kVczMagic.begin(), kVczMagic.end());
-    const bool predicted = std::any_of(h.frames.begin(), h.frames.end(),
-                                       [](const VczFrame& f) { return f.type != FrameType::I; });
-    const bool series = isSeries(h);
-    w.put<std::uint32_t>(series ? kVczVersionSeries : predicted ? kVczVersionPredicted : kVczVersion);
-    CompactPreamble compact;
-    if (series) compact = compactPreamble(h);
-    const std::vector<std::uint8_t> body = series ? std::move(compact.body) : headerBody(h);
-    w.put<std::uint32_t>(static_cast<std::uint32_t>(body.size()));
-    w.bytes.insert(w.bytes.end(), body.begin(), body.end());
+    w.put<std::uint32_t>(kVczVersionCompact);
+    w.put<std::uint32_t>(static_cast<std::uint32_t>(compact.body.size()));
+    w.putBytes(compact.body);
     w.put<std::uint64_t>(vczChecksum(w.bytes));
     const std::size_t indexStart = w.bytes.size();
-    if (series) {
-        w.putBytes(compact.index);
-    } else {
-        for (const auto& frame : h.bricks) {
-            for (const VczBrickEntry& e : frame) {
-                w.put(e.offset);
-                w.put(e.size);
-                w.put(e.checksum);
-                w.put(e.min);
-                w.put(e.max);
-            }
-        }
-    }
+    w.putBytes(compact.index);
     w.put<std::uint64_t>(vczChecksum(std::span(w.bytes).subspan(indexStart)));
-    if (series) {
-        // Version 5 stores no offsets: each frame's bricks, then its auxiliary block, in order.
-        std::uint64_t at = w.bytes.size();
-        for (std::size_t f = 0; f < h.frames.size(); ++f) {
-            for (const VczBrickEntry& e : h.bricks[f]) {
-                if (e.offset != at) throw Error("internal: .vcz series payloads out of order");
-                at += e.size;
-            }
-            if (h.frames[f].auxSize) {
-                if (h.frames[f].auxOffset != at)
-                    throw Error("internal: .vcz series motion block out of place");
-                at += h.frames[f].auxSize;
-            }
+    w.bytes.resize(w.bytes.size() + std::size_t(padding));
+    // No offsets are stored: each frame's bricks, then its auxiliary block, in order.
+    std::uint64_t next = w.bytes.size();
+    for (std::size_t f = 0; f < h.frames.size(); ++f) {
+        for (const VczBrickEntry& e : h.bricks[f]) {
+            if (e.offset != next) throw Error("internal: .vcz payloads out of order");
+            next += e.size;
+        }
+        if (h.frames[f].auxSize) {
+            if (h.frames[f].auxOffset != next) throw Error("internal: .vcz motion block out of place");
+            next += h.frames[f].auxSize;
         }
     }
     // One allocation of the final size: appending the payloads grew a vector through several reallocations
@@ -421,11 +495,41 @@ std::vector<std::byte> writeVcz(const VczHeader& h, std::span<const std::vector<
 
 namespace {
 
-// The fields every version shares, validated.
-void readFixedFields(Reader& r, VczHeader& h, const std::string& name, std::size_t memoryBudget) {
-    h.dims.x = r.get<std::uint64_t>();
-    h.dims.y = r.get<std::uint64_t>();
-    h.dims.z = r.get<std::uint64_t>();
+// The steps of a version 6 header, in either form (the caller validates them).
+void readCompactSteps(Reader& r, VczHeader& h) {
+    const auto form = r.get<std::uint8_t>();
+    if (form == static_cast<std::uint8_t>(StepsForm::Listed)) {
+        const std::uint64_t n = r.getVar();
+        if (n > r.remaining() / 8) r.fail("truncated");
+        h.steps.resize(std::size_t(n));
+        for (double& s : h.steps)
+            s = r.get<double>();
+        return;
+    }
+    if (form != static_cast<std::uint8_t>(StepsForm::Implied)) r.fail("invalid quantisation step form");
+    if (h.transform != TransformKind::FloatLifting || h.levels < 1 || h.levels > kMaxImpliedLevels)
+        r.fail("implied quantisation steps without a lossy transform of 1 to 8 levels (corrupt header)");
+    const auto delta = r.get<double>();
+    if (!(delta > 0) || !std::isfinite(delta)) r.fail("invalid quantisation step");
+    h.steps = codec::subbandSteps(h.wavelet, h.levels, delta);
+    const std::uint64_t n = r.getVar();
+    if (n > h.steps.size()) r.fail("invalid quantisation step overrides");
+    std::uint64_t next = 0;
+    for (std::uint64_t k = 0; k < n; ++k) {
+        const std::uint64_t i = r.getVar();
+        if (i < next || i >= h.steps.size()) r.fail("invalid quantisation step overrides");
+        h.steps[std::size_t(i)] = r.get<double>();
+        next = i + 1;
+    }
+}
+
+// The fields every version shares, validated. `compact`: version 6's varint sizes and steps forms.
+void readFixedFields(Reader& r, VczHeader& h, const std::string& name, std::size_t memoryBudget,
+                     bool compact) {
+    auto size = [&] { return compact ? r.getVar() : r.get<std::uint64_t>(); };
+    h.dims.x = size();
+    h.dims.y = size();
+    h.dims.z = size();
     const auto type = r.get<std::uint8_t>(), transform = r.get<std::uint8_t>(),
                wavelet = r.get<std::uint8_t>();
     const auto levels = r.get<std::uint8_t>(), entropy = r.get<std::uint8_t>(), rate = r.get<std::uint8_t>();
@@ -447,9 +551,11 @@ void readFixedFields(Reader& r, VczHeader& h, const std::string& name, std::size
         if (!std::isfinite(v) || !(v > 0)) r.fail("voxel spacing is not a positive finite number");
     for (double v : h.origin)
         if (!std::isfinite(v)) r.fail("origin is not finite");
-    h.brick.x = r.get<std::uint32_t>();
-    h.brick.y = r.get<std::uint32_t>();
-    h.brick.z = r.get<std::uint32_t>();
+    for (std::size_t* b : {&h.brick.x, &h.brick.y, &h.brick.z}) {
+        const std::uint64_t v = compact ? r.getVar() : r.get<std::uint32_t>();
+        if (v > std::numeric_limits<std::uint32_t>::max()) r.fail("invalid brick size");
+        *b = std::size_t(v);
+    }
     h.rateTarget = r.get<double>();
     h.reconstructionBias = r.get<double>();
     h.valueMin = r.get<double>();
@@ -486,11 +592,15 @@ void readFixedFields(Reader& r, VczHeader& h, const std::string& name, std::size
     if (h.transform != TransformKind::RawBits && h.levels == 0)
         r.fail("wavelet transform with 0 levels (written by an encoder that accepted --levels 0; re-encode "
                "with --levels 1 or more)");
-    const auto nSteps = r.get<std::uint32_t>();
-    if (nSteps > r.remaining() / 8) r.fail("truncated");
-    h.steps.resize(nSteps);
-    for (double& s : h.steps)
-        s = r.get<double>();
+    if (compact) {
+        readCompactSteps(r, h);
+    } else {
+        const auto nSteps = r.get<std::uint32_t>();
+        if (nSteps > r.remaining() / 8) r.fail("truncated");
+        h.steps.resize(nSteps);
+        for (double& s : h.steps)
+            s = r.get<double>();
+    }
     if (h.transform == TransformKind::FloatLifting) {
         if (h.steps.size() != 1 + 7 * static_cast<std::size_t>(h.levels))
             r.fail("wrong number of quantisation steps");
@@ -526,16 +636,26 @@ void readMetadata(Reader& r, VczHeader& h) {
     }
 }
 
-// Version 5: varint frame table (references as distances, auxiliary offsets implied) and a metadata block.
-// Returns the size of the index that follows the header.
-std::uint64_t readCompactTail(Reader& r, VczHeader& h, std::size_t fileSize) {
+// Where a compact index lies: its size and the padding after its checksum.
+struct CompactIndexPlace {
+    std::uint64_t size = 0, padding = 0;
+};
+
+// Versions 5 and 6: varint frame table (references as distances, auxiliary offsets implied) and a metadata
+// block, then the index's size (and in version 6 the padding after it).
+CompactIndexPlace readCompactTail(Reader& r, VczHeader& h, std::size_t fileSize, std::uint32_t version) {
     const std::uint64_t nFrames = r.getVar();
-    // Each frame takes at least 2 bytes (type, motion size); version 5 is written for series only.
-    if (nFrames < 2 || nFrames > r.remaining() / 2) r.fail("invalid frame count");
+    // Each frame takes at least 2 bytes (type, motion size); version 5 was written for series only.
+    const std::uint64_t fewest = version == kVczVersionSeries ? 2 : 1;
+    if (nFrames < fewest || nFrames > r.remaining() / 2) r.fail("invalid frame count");
     h.frames.resize(std::size_t(nFrames));
     const auto timeForm = r.get<std::uint8_t>();
-    if (timeForm > 1) r.fail("invalid frame time form");
-    if (timeForm == 0) {
+    const auto lastForm =
+        static_cast<std::uint8_t>(version == kVczVersionSeries ? TimeForm::Listed : TimeForm::Zero);
+    if (timeForm > lastForm) r.fail("invalid frame time form");
+    if (timeForm == static_cast<std::uint8_t>(TimeForm::Zero)) {
+        // every frame at time 0, as built
+    } else if (timeForm == static_cast<std::uint8_t>(TimeForm::Uniform)) {
         const double t0 = r.get<double>(), dt = r.get<double>();
         for (std::size_t f = 0; f < h.frames.size(); ++f)
             h.frames[f].time = uniformTime(t0, dt, f);
@@ -591,7 +711,10 @@ std::uint64_t readCompactTail(Reader& r, VczHeader& h, std::size_t fileSize) {
         h.metadata[k] = m.getVarString();
     }
     if (m.remaining() != 0) m.fail("unexpected trailing bytes");
-    return r.getVar();
+    CompactIndexPlace place;
+    place.size = r.getVar();
+    if (version == kVczVersionCompact) place.padding = r.getVar();
+    return place;
 }
 
 std::string framePart(const VczHeader& h, std::size_t f) {
@@ -640,9 +763,11 @@ std::size_t readIndex(std::span<const std::uint8_t> file, std::size_t indexStart
 // Version 5: per brick a varint size, a 32-bit checksum and the range in the index's form; payload offsets
 // follow from the sizes (each frame's bricks, then its auxiliary block).
 std::size_t readCompactIndex(std::span<const std::uint8_t> file, std::size_t indexStart,
-                             std::uint64_t indexSize, VczHeader& h, const std::string& name) {
+                             CompactIndexPlace place, VczHeader& h, const std::string& name) {
     const std::size_t nFrames = h.frames.size(), bricks = h.brickCount();
-    if (indexSize > file.size() - indexStart || file.size() - indexStart - indexSize < 8)
+    const std::uint64_t indexSize = place.size;
+    if (indexSize > file.size() - indexStart || file.size() - indexStart - indexSize < 8 ||
+        place.padding > file.size() - indexStart - indexSize - 8)
         throw IoError(name + ": brick index: truncated");
     std::uint64_t stored;
     std::memcpy(&stored, file.data() + indexStart + indexSize, 8);
@@ -655,7 +780,7 @@ std::size_t readCompactIndex(std::span<const std::uint8_t> file, std::size_t ind
     const std::size_t entryMin = 1 + 4 + (form == 0 ? 2 : form == 1 ? 8 : 16);
     if (bricks == 0 || bricks > ir.remaining() / entryMin / nFrames) ir.fail("truncated");
     h.bricks.assign(nFrames, std::vector<VczBrickEntry>(bricks));
-    std::uint64_t at = indexStart + indexSize + 8;
+    std::uint64_t at = indexStart + indexSize + 8 + place.padding;
     for (std::size_t f = 0; f < nFrames; ++f) {
         for (std::size_t i = 0; i < bricks; ++i) {
             VczBrickEntry& e = h.bricks[f][i];
@@ -708,8 +833,8 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
         throw IoError(name + ": not a .vcz file (bad magic)");
     Reader pre(file.subspan(kVczMagic.size()), name, "header");
     const auto version = pre.get<std::uint32_t>();
-    if (version != kVczVersionSeries && version != kVczVersionPredicted && version != kVczVersion &&
-        version != 2)
+    if (version != kVczVersionCompact && version != kVczVersionSeries && version != kVczVersionPredicted &&
+        version != kVczVersion && version != 2)
         throw IoError(name + ": unsupported .vcz version " + std::to_string(version));
     const auto bodySize = pre.get<std::uint32_t>();
     const std::size_t bodyStart = kVczMagic.size() + 8;
@@ -723,21 +848,21 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
     Reader r(file.subspan(bodyStart, bodySize), name, "header");
     VczHeader h;
     h.version = version;
-    readFixedFields(r, h, name, memoryBudget);
-    std::uint64_t compactIndexSize = 0;
-    if (version == kVczVersionSeries) {
-        compactIndexSize = readCompactTail(r, h, file.size());
+    const bool compact = compactLayout(version);
+    readFixedFields(r, h, name, memoryBudget, version == kVczVersionCompact);
+    CompactIndexPlace compactIndex;
+    if (compact) {
+        compactIndex = readCompactTail(r, h, file.size(), version);
     } else {
         readFrameTable(r, h, file.size());
     }
     checkFrameReferences(h, version, r);
-    if (version != kVczVersionSeries) readMetadata(r, h);
+    if (!compact) readMetadata(r, h);
     if (r.remaining() != 0) r.fail("unexpected trailing bytes");
 
     const std::size_t indexStart = bodyStart + bodySize + 8;
-    const std::size_t payloadEnd = version == kVczVersionSeries
-                                       ? readCompactIndex(file, indexStart, compactIndexSize, h, name)
-                                       : readIndex(file, indexStart, h, name);
+    const std::size_t payloadEnd = compact ? readCompactIndex(file, indexStart, compactIndex, h, name)
+                                           : readIndex(file, indexStart, h, name);
     if (payloadEnd != file.size())
         throw IoError(name + ": " + std::to_string(file.size() - payloadEnd) +
                       " bytes of trailing data after the last brick (corrupt or appended to)");

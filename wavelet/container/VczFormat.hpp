@@ -27,7 +27,7 @@ enum class TransformKind : std::uint8_t {
 
 /// Frame types of a time series: I (coded alone), P (motion-compensated from reference0 plus a coded
 /// residual), B (compensated from reference0 and reference1, an earlier and a later I/P frame, plus a
-/// residual). P and B frames are written in version 4 files only.
+/// residual). P and B frames are read from version 4 files and later.
 enum class FrameType : std::uint8_t { I = 0, P = 1, B = 2 };
 
 struct VczFrame {
@@ -40,7 +40,7 @@ struct VczFrame {
 
 /// Index entry of one brick of one frame.
 struct VczBrickEntry {
-    /// Payload position in the file and its XXH3-64 (version 5 files keep its low 32 bits).
+    /// Payload position in the file and its XXH3-64 (versions 5 and 6 keep its low 32 bits).
     std::uint64_t offset = 0, size = 0, checksum = 0;
     double min = 0, max = 0; ///< voxel range of the brick (TF-independent stats)
 };
@@ -63,7 +63,7 @@ struct VczHeader {
     std::vector<VczFrame> frames;
     std::map<std::string, std::string> metadata;
     std::vector<std::vector<VczBrickEntry>> bricks; ///< [frame][brick]
-    /// Format version of the file this header was read from (0: built in memory). Version 5 stores
+    /// Format version of the file this header was read from (0: built in memory). Versions 5 and 6 store
     /// 32-bit payload checksums; the others 64-bit ones.
     std::uint32_t version = 0;
 
@@ -79,24 +79,37 @@ struct VczHeader {
 
 /// Magic bytes at the start of every .vcz file.
 inline constexpr std::array<unsigned char, 8> kVczMagic{0x89, 'V', 'C', 'Z', '\r', '\n', 0x1a, '\n'};
-/// Version written. 3: fast-mode sections may skip zero blocks (flag 0x80 beside the plane count); version 2
-/// files, whose sections never set it, are read too.
+/// Version of single volumes written before version 6. 3: fast-mode sections may skip zero blocks (flag 0x80
+/// beside the plane count); version 2 files, whose sections never set it, are read too.
 inline constexpr std::uint32_t kVczVersion = 3;
-/// Version of files holding P or B frames: the frame table's references and auxiliary blocks (motion data)
-/// are in use. Files of I frames only are still written as version 3, byte for byte as before.
+/// Version of files holding P or B frames written before version 5: the frame table's references and
+/// auxiliary blocks (motion data) in the fixed-width layout of version 3.
 inline constexpr std::uint32_t kVczVersionPredicted = 4;
-/// Version of files holding more than one frame: a compact frame table and brick index (varints, offsets
+/// Version of series written before version 6: a compact frame table and brick index (varints, offsets
 /// implied by the payload order, 32-bit payload checksums, metadata zstd-compressed) whose size grows by a
-/// few bytes per brick instead of 40 (the 20-frame fMRI series at 50 dB: a 1.4 KB preamble instead of
-/// 2.9 KB). Versions 2-4 are still read; single-volume files are still written as version 3.
+/// few bytes per brick instead of 40. Files of one frame were never written as version 5.
 inline constexpr std::uint32_t kVczVersionSeries = 5;
+/// Version written for every file, one frame or many: the layout of version 5 with the header's sizes as
+/// varints and the quantisation steps implied by one delta (docs/codec.md, "Version 6"). A single volume's
+/// header and index are then proportional to what it holds: hydrogen at 40 dB, 8 bricks, 1.3 KB less.
+/// Versions 2-5 are still read.
+inline constexpr std::uint32_t kVczVersionCompact = 6;
 
 /// Serialises the header and index (brick offsets must be final) followed by the payloads, which must
-/// lie in `payloads` in index order starting right after the index. Files of more than one frame
-/// (version 5) must have each frame's auxiliary block right after its bricks (their offsets are implied).
-std::vector<std::byte> writeVcz(const VczHeader& header, std::span<const std::vector<std::uint8_t>> payloads);
+/// lie in `payloads` in index order starting right after the index, each frame's auxiliary block right after
+/// its bricks (offsets are implied by the order).
+/// `preambleSize` (0: as small as it can be) pads the preamble to that size, for a writer that reserved it
+/// with vczPreambleBound before the payloads were known (offsets then start there).
+std::vector<std::byte> writeVcz(const VczHeader& header, std::span<const std::vector<std::uint8_t>> payloads,
+                                std::size_t preambleSize = 0);
 /// Size in bytes of the header + index block for this header (payload offsets start there).
 std::size_t vczPreambleSize(const VczHeader& header);
+/// At least the preamble size of this header, with its quantisation steps, whatever its payload and motion
+/// block sizes (below 32 GB), brick ranges and metadata values of the same sizes turn out to be: what a writer
+/// reserves before coding (rate trials, streaming), then fills with writeVcz(..., preambleSize). `sizesKnown`:
+/// the header's index entries hold their final payload sizes and its metadata is final (a rate trial of a
+/// single volume): only the brick ranges are bounded, by the voxel type's.
+std::size_t vczPreambleBound(const VczHeader& header, bool sizesKnown = false);
 
 /// Parses and validates magic, version, header checksum, index checksum, that every brick lies inside
 /// the file and that nothing follows the last one, and that the header's fields are a combination an

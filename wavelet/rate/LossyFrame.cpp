@@ -137,9 +137,19 @@ std::size_t LossyFrame::codedBytes(const Trial& tr, BrickPayloads* payloads) {
             p[b] = buildPayload(h, d, q, tr.corrections[b]);
         });
     });
-    // The same for every trial of the frame (a series' serialises and compresses its metadata): once.
-    if (!preambleBytes_) preambleBytes_ = vczPreambleSize(h);
-    std::size_t total = *preambleBytes_;
+    // The preamble's varint sizes and steps form change with the trial. A single volume's is this trial's,
+    // its brick ranges bounded by the voxel type's; a series frame's, whose later frames are not coded yet,
+    // the bound for any payload sizes.
+    std::size_t total = 0;
+    if (h.frames.size() == 1) {
+        VczHeader sized = h;
+        sized.bricks.assign(1, std::vector<VczBrickEntry>(p.size()));
+        for (std::size_t b = 0; b < p.size(); ++b)
+            sized.bricks[0][b].size = p[b].size();
+        total = vczPreambleBound(sized, true);
+    } else {
+        total = vczPreambleBound(h);
+    }
     for (const auto& x : p)
         total += x.size();
     if (payloads) *payloads = std::move(p);

@@ -83,7 +83,6 @@ private:
     std::vector<std::vector<float>> coeffs_;
     std::vector<double> maxAbs_;
     double lastDelta_ = 0;
-    std::optional<std::size_t> preambleBytes_; ///< vczPreambleSize of the header, the same in every trial
     double zeroBelow_ = 1;
     const std::vector<std::vector<Correction>>* exact_ = nullptr;
     std::size_t exactCount_ = 0;

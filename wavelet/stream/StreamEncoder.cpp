@@ -45,11 +45,12 @@ StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& sourc
     stats.levels = options.levels;
     if (lodStatistics) {
         // The serialisation's size depends only on the entry count, so zero-valued statistics of the final
-        // count size the preamble exactly.
+        // count bound the preamble's.
         stats.frames.assign(1, std::vector<BrickLevelStats>(nb * std::size_t(options.levels + 1)));
         h.metadata[std::string(kVczLodKey)] = stats.serialise();
     }
-    const std::size_t preamble = vczPreambleSize(h);
+    // Payload sizes and ranges are known only at the end: the room reserved is a bound, padded at the end.
+    const std::size_t preamble = vczPreambleBound(h);
     // Room for the preamble (zeros now, overwritten at the end: any stream that can seek back will do).
     const std::vector<char> room(preamble, 0);
     writeOrThrow(out, room.data(), room.size(), name);
@@ -103,7 +104,7 @@ StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& sourc
     h.valueMin = lo;
     h.valueMax = hi;
     if (lodStatistics) h.metadata[std::string(kVczLodKey)] = stats.serialise();
-    const std::vector<std::byte> head = writeVcz(h, {});
+    const std::vector<std::byte> head = writeVcz(h, {}, preamble);
     if (head.size() != preamble) throw Error("internal: the streamed header changed size");
     out.seekp(0);
     if (!out) throw IoError(name + ": cannot seek back to write the header");
