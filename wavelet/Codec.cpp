@@ -80,6 +80,9 @@ VczHeader planHeader(const Volume& v, const CodecOptions& o_) {
         h.transform = TransformKind::FloatLifting;
         if (!(o_.target > 0) || !std::isfinite(o_.target))
             throw UsageError("the rate target must be a positive number");
+        if (o_.rate == RateMode::PwRelError && !(o_.target < 1))
+            throw UsageError(
+                "the point-wise relative bound must be below 1 (a bound of |x| would not keep signs)");
         if (o_.rate == RateMode::MaxError && integer && o_.target < 1.0) {
             // An integer volume within |error| < 1 is the volume itself.
             h.rate = RateMode::Lossless;
