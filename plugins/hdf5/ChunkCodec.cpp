@@ -252,8 +252,7 @@ void parseUserValues(std::span<const unsigned> values, ChunkRate& rate, double& 
     rate = ChunkRate(values[0]);
     if (rate == ChunkRate::Lossless) return;
     if (values.size() < 3)
-        throw UsageError(
-            "volcl HDF5 filter: every lossy rate needs the bound as a double in cd_values[1..2]");
+        throw UsageError("volcl HDF5 filter: the lossy rates need the bound as a double in cd_values[1..2]");
     bound = std::bit_cast<double>(std::uint64_t(values[1]) | std::uint64_t(values[2]) << 32);
     if (!std::isfinite(bound) || !(bound > 0))
         throw UsageError("volcl HDF5 filter: the bound in cd_values[1..2] must be a finite number > 0, got " +

@@ -138,9 +138,10 @@ def test_cli_and_python_write_the_same_file_and_every_reader_agrees(tmp_path, dt
     types = f.header["frame_types"]
     if structure == "PB":
         # A planned P/B frame falls back to an I frame when that is smaller, and lossless float32 series
-        # (raw bit patterns) are I frames; the float32 lossy series here do predict.
+        # (raw bit patterns) are I frames; the float32 lossy series here do predict (the point-wise bound's
+        # P frames may all fall back: the field's zero crossings need exact voxels wherever they move).
         assert types[0] == "I" and set(types) <= {"I", "P", "B"}, types
-        if dtype == np.float32 and mode != "lossless":
+        if dtype == np.float32 and mode not in ("lossless", "pw_rel_error"):
             assert set(types) == {"I", "P", "B"}, types
     else:
         assert set(types) == {"I"}, types
