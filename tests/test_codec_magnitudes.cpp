@@ -1,6 +1,7 @@
 // Lossy modes on float32 volumes of subnormal, tiny, huge (to FLT_MAX) and mixed magnitudes: bounds hold.
 #include "core/Error.hpp"
 #include "core/Format.hpp"
+#include "tests/CodecTestOptions.hpp"
 #include "tests/TestUtil.hpp"
 #include "wavelet/Codec.hpp"
 
@@ -70,15 +71,6 @@ std::vector<std::byte> encodeOrFail(const Volume& v, const CodecOptions& o, cons
     }
 }
 
-CodecOptions options(RateMode r, double target) {
-    CodecOptions o;
-    o.rate = r;
-    o.target = target;
-    o.brick = {16, 16, 16};
-    o.levels = 3;
-    return o;
-}
-
 struct Case {
     std::string name;
     double scale;
@@ -100,8 +92,8 @@ TEST(CodecMagnitudes, MaxErrorHoldsOnEveryVoxelAtEveryMagnitude) {
         // A bound relative to the range, and one far below it (most voxels then stored exactly).
         for (double e : {1e-3 * (range.hi - range.lo), 1e-7 * (range.hi - range.lo)}) {
             if (c.scale == 0 && e < 1e-3) e = 1e-3; // mixed: an absolute bound on values of every magnitude
-            const auto file =
-                encodeOrFail(v, options(RateMode::MaxError, e), c.name + " E=" + formatNumber(e));
+            const auto file = encodeOrFail(v, test::smallBrickOptions(RateMode::MaxError, e),
+                                           c.name + " E=" + formatNumber(e));
             if (file.empty()) continue;
             const Errors got = errorsOf(v, decodeVolume(cc, file));
             EXPECT_LE(got.maxAbs, e) << c.name << " E=" << e << " (exact: " << got.exact << ")";
@@ -114,8 +106,8 @@ TEST(CodecMagnitudes, PsnrTargetHoldsAtEveryMagnitude) {
     for (const Case& c : kCases) {
         const Volume v = magnitudeVolume(c.scale, 4);
         for (double target : {30.0, 60.0}) {
-            const auto file =
-                encodeOrFail(v, options(RateMode::Psnr, target), c.name + " psnr " + formatNumber(target));
+            const auto file = encodeOrFail(v, test::smallBrickOptions(RateMode::Psnr, target),
+                                           c.name + " psnr " + formatNumber(target));
             if (file.empty()) continue;
             const Errors got = errorsOf(v, decodeVolume(cc, file));
             const double r = got.hi - got.lo, mse = got.sumSq / double(v.voxelCount());
@@ -131,8 +123,8 @@ TEST(CodecMagnitudes, BitsPerVoxelBudgetHoldsAtEveryMagnitude) {
     for (const Case& c : kCases) {
         const Volume v = magnitudeVolume(c.scale, 5);
         for (double bpv : {2.0, 8.0}) {
-            const auto file =
-                encodeOrFail(v, options(RateMode::Bpv, bpv), c.name + " bpv " + formatNumber(bpv));
+            const auto file = encodeOrFail(v, test::smallBrickOptions(RateMode::Bpv, bpv),
+                                           c.name + " bpv " + formatNumber(bpv));
             if (file.empty()) continue;
             EXPECT_LE(double(file.size()) * 8 / double(v.voxelCount()), bpv) << c.name;
             const Volume out = decodeVolume(cc, file);
@@ -161,7 +153,7 @@ TEST(CodecMagnitudes, SeriesFramesHoldTheirBoundsAtEveryMagnitude) {
             const std::string what = c.name + " series rate " + std::to_string(int(rate));
             std::vector<std::byte> file;
             try {
-                file = encodeSeries(cc, series, options(rate, target));
+                file = encodeSeries(cc, series, test::smallBrickOptions(rate, target));
             } catch (const std::exception& x) {
                 ADD_FAILURE() << what << ": " << x.what();
                 continue;

@@ -1,6 +1,7 @@
 // Lossy coding of float volumes with NaN/Inf voxels: kept bit for bit, the finite voxels bounded, checked in
 // double on the decoded volume.
 #include "core/Error.hpp"
+#include "tests/CodecTestOptions.hpp"
 #include "tests/TestUtil.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/container/LodStatistics.hpp"
@@ -74,35 +75,26 @@ FiniteError checkDecoded(const Volume& in, const Volume& out, const std::string&
     return {maxErr, rmse == 0 ? INFINITY : 20.0 * std::log10((hi - lo) / rmse)};
 }
 
-CodecOptions lossyOptions(RateMode r, double target) {
-    CodecOptions o;
-    o.rate = r;
-    o.target = target;
-    o.brick = {16, 16, 16};
-    o.levels = 3;
-    return o;
-}
-
 TEST(CodecNan, EveryLossyModeKeepsNonFiniteVoxelsAndBoundsTheRest) {
     ComputeContext& cc = test::computeContext();
     const Volume v = holedVolume();
     const double voxels = double(v.voxelCount());
     for (double e : {0.25, 2.0}) {
-        const auto bytes = encodeVolume(cc, v, lossyOptions(RateMode::MaxError, e));
+        const auto bytes = encodeVolume(cc, v, test::smallBrickOptions(RateMode::MaxError, e));
         const FiniteError fe = checkDecoded(v, decodeVolume(cc, bytes), "max-error");
         EXPECT_LE(fe.maxErr, e) << "max-error " << e;
     }
     for (double p : {40.0, 60.0}) {
-        const auto bytes = encodeVolume(cc, v, lossyOptions(RateMode::Psnr, p));
+        const auto bytes = encodeVolume(cc, v, test::smallBrickOptions(RateMode::Psnr, p));
         const FiniteError fe = checkDecoded(v, decodeVolume(cc, bytes), "psnr");
         EXPECT_GE(fe.psnr, p) << "psnr " << p;
     }
     for (double r : {1.0, 3.0}) {
-        const auto bytes = encodeVolume(cc, v, lossyOptions(RateMode::Bpv, r));
+        const auto bytes = encodeVolume(cc, v, test::smallBrickOptions(RateMode::Bpv, r));
         checkDecoded(v, decodeVolume(cc, bytes), "bpv");
         EXPECT_LE(double(bytes.size()) * 8.0 / voxels, r) << "bpv " << r;
     }
-    CodecOptions fixed = lossyOptions(RateMode::Psnr, 40);
+    CodecOptions fixed = test::smallBrickOptions(RateMode::Psnr, 40);
     fixed.step = 4.0;
     fixed.measureError = false; // the direct path, which codes no corrections of its own
     checkDecoded(v, decodeVolume(cc, encodeVolume(cc, v, fixed)), "fixed step");
@@ -113,7 +105,8 @@ TEST(CodecNan, NonFiniteBricksListedAndStatisticsFinite) {
     const Volume v = holedVolume();
     TimeSeries one;
     one.frames.push_back(v);
-    const auto bytes = encodeWithLodStatistics(cc, one, lossyOptions(RateMode::MaxError, 1.0), "holed");
+    const auto bytes =
+        encodeWithLodStatistics(cc, one, test::smallBrickOptions(RateMode::MaxError, 1.0), "holed");
     const VczReader reader(bytes, "holed");
     const VczHeader& h = reader.header();
     // The bricks holding a non-finite voxel, found here by brute force over voxel positions.
@@ -149,7 +142,7 @@ TEST(CodecNan, SeriesWithMotionNamesTheFrameAndTheWayOut) {
     ComputeContext& cc = test::computeContext();
     TimeSeries ts;
     ts.frames = {holedVolume(), holedVolume()};
-    CodecOptions o = lossyOptions(RateMode::MaxError, 1.0);
+    CodecOptions o = test::smallBrickOptions(RateMode::MaxError, 1.0);
     try {
         encodeSeries(cc, ts, o);
         ADD_FAILURE() << "motion prediction accepted NaN frames";

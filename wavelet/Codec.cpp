@@ -30,6 +30,16 @@ namespace volcl {
 
 namespace {
 
+// True when the bounded mode of `o` allows every voxel of the integer volume `v` an error below 1: an
+// integer decode is then exact, which lossless coding gives for fewer bytes than stored corrections.
+bool integerBoundBelowOne(const Volume& v, const CodecOptions& o) {
+    if (o.rate == RateMode::MaxError) return o.target < 1.0;
+    if (o.rate != RateMode::RelError && o.rate != RateMode::PwRelError) return false;
+    const VolumeStats st = v.stats(1);
+    const double scale = o.rate == RateMode::RelError ? st.max - st.min : std::max(-st.min, st.max);
+    return o.target * scale < 1.0;
+}
+
 // The header of an encoding of volumes like `v` with options `o_`: refuses invalid options.
 VczHeader planHeader(const Volume& v, const CodecOptions& o_) {
     if (v.empty()) throw UsageError("cannot encode an empty volume");
@@ -80,7 +90,10 @@ VczHeader planHeader(const Volume& v, const CodecOptions& o_) {
         h.transform = TransformKind::FloatLifting;
         if (!(o_.target > 0) || !std::isfinite(o_.target))
             throw UsageError("the rate target must be a positive number");
-        if (o_.rate == RateMode::MaxError && integer && o_.target < 1.0) {
+        if (o_.rate == RateMode::PwRelError && !(o_.target < 1))
+            throw UsageError(
+                "the point-wise relative bound must be below 1 (a bound of |x| would not keep signs)");
+        if (integer && integerBoundBelowOne(v, o_)) {
             // An integer volume within |error| < 1 is the volume itself.
             h.rate = RateMode::Lossless;
             h.wavelet = o_.wavelet && hasIntegerForm(*o_.wavelet) ? *o_.wavelet : Wavelet::Cdf53;

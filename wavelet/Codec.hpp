@@ -29,7 +29,7 @@ namespace volcl {
 /// ```
 struct CodecOptions {
     RateMode rate = RateMode::Lossless;
-    double target = 0; ///< MaxError: E in data units; Psnr: dB; Bpv: bits per voxel
+    double target = 0; ///< MaxError: E in data units; Psnr: dB; Bpv: bits per voxel; RelError, PwRelError: R
     /// Default: cdf53 for lossless, cdf97 for lossy.
     std::optional<Wavelet> wavelet;
     int levels = 4;

@@ -29,8 +29,21 @@ std::string_view entropyName(EntropyMode m) noexcept; ///< "fast", "dense"
 /// Parses an entropy coder name; throws UsageError listing the valid names.
 EntropyMode parseEntropy(std::string_view name);
 
-/// Rate control of an encoding. Stored in .vcz files: never renumber.
-enum class RateMode : std::uint8_t { Lossless = 0, MaxError = 1, Psnr = 2, Bpv = 3 };
+/// Rate control of an encoding. Stored in .vcz files: never renumber. RelError bounds every finite voxel
+/// by R x (max - min) of the frame's finite values, PwRelError by R x |voxel| (zeros exact, signs kept).
+enum class RateMode : std::uint8_t {
+    Lossless = 0,
+    MaxError = 1,
+    Psnr = 2,
+    Bpv = 3,
+    RelError = 4,
+    PwRelError = 5
+};
+
+/// True for the modes that hold a bound on every voxel through exactly stored outliers.
+constexpr bool isBoundedRate(RateMode m) noexcept {
+    return m == RateMode::MaxError || m == RateMode::RelError || m == RateMode::PwRelError;
+}
 
 /// RateMode::Psnr with target P holds every frame of a series at P - kPsnrToleranceDb or better.
 inline constexpr double kPsnrToleranceDb = 0.5;

@@ -40,7 +40,7 @@ struct EncodeArgs {
     std::string out, wavelet, entropy = "dense", brick = "64", motion = "block";
     std::size_t gop = 10, bFrames = 0;
     bool lossless = false, profile = false, lodStats = true, globalShift = true;
-    double maxError = 0, psnr = 0, bpv = 0, step = 0;
+    double maxError = 0, relError = 0, pwRelError = 0, psnr = 0, bpv = 0, step = 0;
     int levels = 4;
     unsigned threads = 2;
     RawReadFlags raw;
@@ -57,6 +57,16 @@ CodecOptions toOptions(const EncodeArgs& a, const CLI::App& cmd) {
         o.rate = RateMode::MaxError;
         o.target = a.maxError;
     }
+    if (cmd.count("--rel-error")) {
+        ++chosen;
+        o.rate = RateMode::RelError;
+        o.target = a.relError;
+    }
+    if (cmd.count("--pw-rel-error")) {
+        ++chosen;
+        o.rate = RateMode::PwRelError;
+        o.target = a.pwRelError;
+    }
     if (cmd.count("--psnr")) {
         ++chosen;
         o.rate = RateMode::Psnr;
@@ -67,10 +77,12 @@ CodecOptions toOptions(const EncodeArgs& a, const CLI::App& cmd) {
         o.rate = RateMode::Bpv;
         o.target = a.bpv;
     }
-    if (chosen > 1) throw UsageError("choose one of --lossless, --max-error, --psnr, --bpv");
+    if (chosen > 1)
+        throw UsageError("choose one of --lossless, --max-error, --rel-error, --pw-rel-error, --psnr, --bpv");
     if (cmd.count("--step")) {
         if (o.rate == RateMode::Lossless)
-            throw UsageError("--step needs a lossy mode (--max-error, --psnr or --bpv)");
+            throw UsageError(
+                "--step needs a lossy mode (--max-error, --rel-error, --pw-rel-error, --psnr or --bpv)");
         o.step = a.step;
     }
     if (!a.wavelet.empty()) o.wavelet = parseWavelet(a.wavelet);
@@ -147,6 +159,10 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         "step of the bounding box per axis)");
     cmd->add_option("--max-error", a->maxError,
                     "Lossy: every voxel within E of the input (guaranteed; data units of a scaled NIfTI)");
+    cmd->add_option("--rel-error", a->relError,
+                    "Lossy: every finite voxel within R x (max - min) of the finite values (guaranteed)");
+    cmd->add_option("--pw-rel-error", a->pwRelError,
+                    "Lossy: every voxel within R x |voxel|, 0 < R < 1 (guaranteed; zeros exact, signs kept)");
     cmd->add_option("--psnr", a->psnr,
                     "Lossy: PSNR in dB over the input's value range (met within " +
                         formatNumber(kPsnrToleranceDb) + " dB)");
@@ -210,6 +226,12 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         // --max-error is in data units; stored integers are 1/|scl_slope| of them apart.
         const double unit = nifti.stored ? std::abs(static_cast<double>(nifti.meta->sclSlope)) : 1.0;
         if (withMeta.rate == RateMode::MaxError) withMeta.target /= unit;
+        // |stored| is proportional to |data| only when nothing is added to the scaled values.
+        if (withMeta.rate == RateMode::PwRelError && nifti.stored && nifti.meta->sclInter != 0)
+            throw UsageError("--pw-rel-error on a NIfTI with scl_inter " +
+                             formatNumber(nifti.meta->sclInter) +
+                             ": the bound would not be relative to the data values (use --rel-error or "
+                             "--max-error)");
         EncodeReport rep;
         Stopwatch sw;
         std::vector<FrameReport> frames;
@@ -240,9 +262,8 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
             if (ts.frames.size() == 1 && o.rate != RateMode::Lossless) {
                 std::cerr << ", PSNR " << formatFixed(rep.psnr, 2) << " dB, max error "
                           << rep.maxError * unit;
-                // Only --max-error stores voxels exactly (to hold its bound); elsewhere the count is 0.
-                if (o.rate == RateMode::MaxError)
-                    std::cerr << " (" << rep.corrections << " voxels stored exactly)";
+                // Only the bounded modes store voxels exactly (to hold their bound); elsewhere the count is 0.
+                if (isBoundedRate(o.rate)) std::cerr << " (" << rep.corrections << " voxels stored exactly)";
             }
             std::cerr << ", " << formatFixed(double(raw) / 1e3 / ms, 1) << " MB/s";
             if (statisticsInBudget)

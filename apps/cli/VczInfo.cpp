@@ -39,6 +39,10 @@ const char* rateName(RateMode r) {
         return "psnr";
     case RateMode::Bpv:
         return "bpv";
+    case RateMode::RelError:
+        return "rel-error";
+    case RateMode::PwRelError:
+        return "pw-rel-error";
     }
     return "?";
 }

@@ -83,6 +83,14 @@ CodecOptions codecOptions(const FilterParameters& p, std::size_t headerBytes) {
         o.rate = RateMode::MaxError;
         o.target = p.bound;
         break;
+    case ChunkRate::RelError:
+        o.rate = RateMode::RelError;
+        o.target = p.bound;
+        break;
+    case ChunkRate::PwRelError:
+        o.rate = RateMode::PwRelError;
+        o.target = p.bound;
+        break;
     case ChunkRate::Psnr:
         o.rate = RateMode::Psnr;
         o.target = p.bound;
@@ -237,14 +245,14 @@ void parseUserValues(std::span<const unsigned> values, ChunkRate& rate, double& 
     rate = ChunkRate::Lossless;
     bound = 0;
     if (values.empty()) return;
-    if (values[0] > unsigned(ChunkRate::Bpv))
+    if (values[0] > unsigned(ChunkRate::PwRelError))
         throw UsageError("volcl HDF5 filter: cd_values[0] = " + std::to_string(values[0]) +
-                         " is not a rate (0 lossless, 1 max-error, 2 PSNR, 3 bits per voxel)");
+                         " is not a rate (0 lossless, 1 max-error, 2 PSNR, 3 bits per voxel, 4 relative "
+                         "error, 5 point-wise relative error)");
     rate = ChunkRate(values[0]);
     if (rate == ChunkRate::Lossless) return;
     if (values.size() < 3)
-        throw UsageError("volcl HDF5 filter: max-error, PSNR and bits per voxel need the bound as a double "
-                         "in cd_values[1..2]");
+        throw UsageError("volcl HDF5 filter: the lossy rates need the bound as a double in cd_values[1..2]");
     bound = std::bit_cast<double>(std::uint64_t(values[1]) | std::uint64_t(values[2]) << 32);
     if (!std::isfinite(bound) || !(bound > 0))
         throw UsageError("volcl HDF5 filter: the bound in cd_values[1..2] must be a finite number > 0, got " +

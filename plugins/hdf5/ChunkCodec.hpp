@@ -13,13 +13,21 @@
 namespace volcl::hdf5 {
 
 /// How a chunk is compressed; the value is cd_values[0].
-enum class ChunkRate : unsigned { Lossless = 0, MaxError = 1, Psnr = 2, Bpv = 3 };
+enum class ChunkRate : unsigned {
+    Lossless = 0,
+    MaxError = 1,
+    Psnr = 2,
+    Bpv = 3,
+    RelError = 4,
+    PwRelError = 5
+};
 
 /// Everything the filter needs to encode or decode one chunk. A user gives only rate and bound
 /// (cd_values[0..2]); the set_local callback adds the element type and the chunk shape.
 struct FilterParameters {
     ChunkRate rate = ChunkRate::Lossless;
-    double bound = 0; ///< MaxError: largest absolute error in data units; Psnr: dB; Bpv: bits per voxel
+    double bound = 0; ///< MaxError: largest absolute error in data units; Psnr: dB; Bpv: bits per voxel;
+                      ///< RelError, PwRelError: R
     ScalarType type = ScalarType::UInt8;
     unsigned rank = 3;                  ///< 3 (z, y, x) or 4 (t, z, y, x)
     std::array<std::size_t, 4> chunk{}; ///< chunk dims, slowest first as HDF5 lists them (rank used)

@@ -14,6 +14,8 @@
 #define H5Z_VOLCL_MAX_ERROR 1u
 #define H5Z_VOLCL_PSNR 2u
 #define H5Z_VOLCL_BPV 3u
+#define H5Z_VOLCL_REL_ERROR 4u
+#define H5Z_VOLCL_PW_REL_ERROR 5u
 
 /* Adds the filter with cd_values {rate, low word, high word of the bound as an IEEE double}. The dataset
    must be chunked with 3 (z, y, x) or 4 (t, z, y, x) chunk dimensions and hold little-endian uint8, uint16,
@@ -43,6 +45,15 @@ static inline herr_t H5Pset_volcl_psnr(hid_t dcpl, double psnr_db) {
 /* Each stored chunk at most bits_per_voxel bits per voxel (> 0), its header included. */
 static inline herr_t H5Pset_volcl_bpv(hid_t dcpl, double bits_per_voxel) {
     return H5Pset_volcl(dcpl, H5Z_VOLCL_BPV, bits_per_voxel);
+}
+/* Every voxel within rel_error (> 0) times the value range (max - min) of the finite values of its chunk's
+   frame (an edge chunk: of its real voxels and the copies padding them). */
+static inline herr_t H5Pset_volcl_rel_error(hid_t dcpl, double rel_error) {
+    return H5Pset_volcl(dcpl, H5Z_VOLCL_REL_ERROR, rel_error);
+}
+/* Every voxel within pw_rel_error (0 < R < 1) times its own magnitude: zeros exact, signs kept. */
+static inline herr_t H5Pset_volcl_pw_rel_error(hid_t dcpl, double pw_rel_error) {
+    return H5Pset_volcl(dcpl, H5Z_VOLCL_PW_REL_ERROR, pw_rel_error);
 }
 
 #endif

@@ -27,7 +27,9 @@ RateMode parseRate(const std::string& rate) {
     if (rate == "max_error") return RateMode::MaxError;
     if (rate == "psnr") return RateMode::Psnr;
     if (rate == "bpv") return RateMode::Bpv;
-    throw UsageError("rate '" + rate + "' must be lossless, max_error, psnr or bpv");
+    if (rate == "rel_error") return RateMode::RelError;
+    if (rate == "pw_rel_error") return RateMode::PwRelError;
+    throw UsageError("rate '" + rate + "' must be lossless, max_error, rel_error, pw_rel_error, psnr or bpv");
 }
 
 nb::dict reportDict(const EncodeReport& r) {
@@ -125,7 +127,7 @@ nb::dict headerDict(const VczHeader& h) {
     d["brick"] = std::array<std::size_t, 3>{h.brick.z, h.brick.y, h.brick.x};
     d["brick_grid"] = std::array<std::size_t, 3>{h.brickGrid().z, h.brickGrid().y, h.brickGrid().x};
     d["entropy"] = std::string(entropyName(h.entropy));
-    const char* rates[] = {"lossless", "max_error", "psnr", "bpv"};
+    const char* rates[] = {"lossless", "max_error", "psnr", "bpv", "rel_error", "pw_rel_error"};
     d["rate"] = rates[static_cast<int>(h.rate)];
     d["rate_target"] = h.rateTarget;
     d["value_range"] = std::array<double, 2>{h.valueMin, h.valueMax};

@@ -33,6 +33,8 @@ MODES = {
     "max_error": (["--max-error", "0.02"], {"max_error": 0.02}),
     "psnr": (["--psnr", "42"], {"psnr": 42.0}),
     "bpv": (["--bpv", "1.5"], {"bpv": 1.5}),
+    "rel_error": (["--rel-error", "0.002"], {"rel_error": 0.002}),
+    "pw_rel_error": (["--pw-rel-error", "0.01"], {"pw_rel_error": 0.01}),
 }
 # Series frame structures: I frames only, and motion-compensated P and B frames.
 STRUCTURES = {
@@ -87,6 +89,12 @@ def check_against_input(out: np.ndarray, a: np.ndarray, mode: str, bound: float,
     elif mode == "psnr":
         span = float(a.max()) - float(a.min())
         assert 10 * np.log10(span * span / np.mean(d * d)) >= 42.0 - 0.5, what
+    elif mode == "rel_error":  # over the frame's finite values
+        finite = a[np.isfinite(a)].astype(np.float64)
+        assert np.abs(d).max() <= 0.002 * (finite.max() - finite.min()), what
+    elif mode == "pw_rel_error":  # zeros exact, signs kept
+        assert np.all(np.abs(d) <= 0.01 * np.abs(a.astype(np.float64))), what
+        assert np.all(np.sign(out) == np.sign(a)), what
 
 
 def encode_cases():
@@ -130,9 +138,10 @@ def test_cli_and_python_write_the_same_file_and_every_reader_agrees(tmp_path, dt
     types = f.header["frame_types"]
     if structure == "PB":
         # A planned P/B frame falls back to an I frame when that is smaller, and lossless float32 series
-        # (raw bit patterns) are I frames; the float32 lossy series here do predict.
+        # (raw bit patterns) are I frames; the float32 lossy series here do predict (the point-wise bound's
+        # P frames may all fall back: the field's zero crossings need exact voxels wherever they move).
         assert types[0] == "I" and set(types) <= {"I", "P", "B"}, types
-        if dtype == np.float32 and mode != "lossless":
+        if dtype == np.float32 and mode not in ("lossless", "pw_rel_error"):
             assert set(types) == {"I", "P", "B"}, types
     else:
         assert set(types) == {"I"}, types
@@ -181,7 +190,8 @@ import volcl_hdf5
 path, src, rank = sys.argv[2], sys.argv[3], int(sys.argv[4])
 a = np.load(src)
 cases = {"lossless": {"compression": 420}, "max_error": volcl_hdf5.filter(max_error=float(sys.argv[5])),
-         "psnr": volcl_hdf5.filter(psnr=42.0), "bpv": volcl_hdf5.filter(bpv=1.5)}
+         "psnr": volcl_hdf5.filter(psnr=42.0), "bpv": volcl_hdf5.filter(bpv=1.5),
+         "rel_error": volcl_hdf5.filter(rel_error=0.002), "pw_rel_error": volcl_hdf5.filter(pw_rel_error=0.01)}
 with h5py.File(path, "w") as h:
     for name, kw in cases.items():
         h.create_dataset(name, data=a, chunks=a.shape, **kw)
@@ -231,7 +241,8 @@ def test_hdf5_filter_chunks_are_the_python_codec_files(tmp_path, dtype, frames):
     # bpv bounds the stored chunk: the filter's 40-byte chunk header comes out of the codec's budget.
     header_bits = 40 * 8 / float(a.size)
     for name, kwargs in (("lossless", {}), ("max_error", {"max_error": bound}), ("psnr", {"psnr": 42.0}),
-                         ("bpv", {"bpv": 1.5 - header_bits})):
+                         ("bpv", {"bpv": 1.5 - header_bits}), ("rel_error", {"rel_error": 0.002}),
+                         ("pw_rel_error", {"pw_rel_error": 0.01})):
         stored = (tmp_path / f"m.h5.{name}.chunk").read_bytes()
         values = np.load(tmp_path / f"m.h5.{name}.values.npy")
         assert stored[:4] == b"VCZH"
@@ -381,3 +392,75 @@ def test_a_bit_budget_the_statistics_fill_is_refused_naming_the_file(tmp_path):
     assert not out.exists()
     run_cli("encode", *inputs, "-o", str(out), "--bpv", "0.6", "--no-lod-stats", *COMMON[0])
     assert 8 * out.stat().st_size <= 0.6 * field(np.float32).size
+
+
+# ---- Relative bounds on adversarial arrays, through every Python writer and reader ----------------------------
+
+def adversarial_arrays():
+    """Arrays a relative bound must survive, a[z, y, x] of the matrix's shape, float32 and integer."""
+    rng = np.random.default_rng(11)
+    smooth = field(np.float32)
+    mags = 10.0 ** rng.uniform(-40, 38.4, SHAPE) * np.where(rng.random(SHAPE) < 0.5, -1, 1)
+    mags[rng.random(SHAPE) < 0.05] = 0
+    nonfinite = (smooth * 100).astype(np.float32)
+    r = rng.random(SHAPE)
+    nonfinite[r < 0.03] = np.inf
+    nonfinite[(r >= 0.03) & (r < 0.06)] = -np.inf
+    nonfinite[(r >= 0.06) & (r < 0.09)] = np.frombuffer(np.uint32(0x7FC01234).tobytes(), np.float32)[0]
+    nonfinite[(r >= 0.09) & (r < 0.12)] = 0
+    half_zero = (smooth + 3).astype(np.float32)
+    half_zero[:, :, :12] = 0
+    return {
+        "zeros": np.zeros(SHAPE, np.float32),
+        "constant": np.full(SHAPE, -3.25, np.float32),
+        "mixed-signs": smooth,
+        "half-zeros": half_zero,
+        "denormals": ((smooth + 2.6) * 1e-40).astype(np.float32),
+        "dynamic-range": mags.astype(np.float32),
+        "nan-inf": nonfinite,
+        "uint16": field(np.uint16),
+        "int16": (field(np.uint16).astype(np.int32) - 30000).astype(np.int16),
+    }
+
+
+def python_writers():
+    """(name, encode(array, **kwargs) -> bytes, decode(bytes) -> array) for each Python writer/reader pair."""
+    yield "volcl", lambda a, **kw: volcl.encode(a, **kw), lambda b: volcl.decode(b)
+    try:
+        import volcl.numcodecs as vnc
+    except ImportError:
+        return
+    yield "numcodecs", lambda a, **kw: vnc.Volcl(**kw).encode(a), lambda b: vnc.Volcl().decode(b)
+
+
+def check_relative(out: np.ndarray, a: np.ndarray, mode: str, r: float, what: str):
+    """Every voxel against the bound, in double; NaN/Inf bit for bit; pw: zeros exact and signs kept."""
+    assert out.dtype == a.dtype and out.shape == a.shape, what
+    finite = np.isfinite(a)
+    if not finite.all():
+        assert out[~finite].tobytes() == a[~finite].tobytes(), what
+    x, y = a[finite].astype(np.float64), out[finite].astype(np.float64)
+    if x.size == 0:
+        return
+    if mode == "rel_error":
+        limit = r * (x.max() - x.min())
+    else:
+        limit = r * np.abs(x)
+        assert np.all((x == 0) == (y == 0)) and np.all(np.signbit(x) == np.signbit(y)), what
+    assert np.all(np.abs(y - x) <= limit), what
+
+
+@pytest.mark.parametrize("mode, r", [("rel_error", 1e-3), ("pw_rel_error", 1e-2), ("pw_rel_error", 1e-5)])
+def test_relative_bounds_hold_on_adversarial_arrays_through_every_python_writer(mode, r):
+    for name, a in adversarial_arrays().items():
+        for writer, enc, dec in python_writers():
+            b = enc(a, **{mode: r}, **COMMON[1]) if writer == "volcl" else enc(a, **{mode: r})
+            check_relative(dec(b), a, mode, r, f"{name} {writer} {mode}={r}")
+
+
+def test_relative_bounds_are_refused_when_invalid():
+    a = field(np.float32)
+    for kwargs in ({"pw_rel_error": 1.0}, {"pw_rel_error": 0.0}, {"rel_error": -1.0},
+                   {"rel_error": 1e-3, "max_error": 0.1}):
+        with pytest.raises(volcl.UsageError):
+            volcl.encode(a, **kwargs)

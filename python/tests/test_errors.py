@@ -29,8 +29,8 @@ def test_two_rate_modes_raise_usage_error_with_the_cli_message_in_keywords(tmp_p
         volcl.encode(np.zeros((4, 4, 4), np.uint8), max_error=1, psnr=40)
     cli = cli_message("encode", str(src), "--dims", "4,4,4", "--type", "uint8", "--max-error", "1", "--psnr", "40",
                       "-o", str(tmp_path / "o.vcz"))
-    assert cli == "choose one of --lossless, --max-error, --psnr, --bpv"
-    assert str(e.value) == "choose one of lossless=True, max_error=, psnr=, bpv="
+    assert cli == "choose one of --lossless, --max-error, --rel-error, --pw-rel-error, --psnr, --bpv"
+    assert str(e.value) == "choose one of lossless=True, max_error=, rel_error=, pw_rel_error=, psnr=, bpv="
 
 
 def test_corrupted_vcz_raises_io_error_and_no_crash(tmp_path):

@@ -14,23 +14,26 @@ Region = Union[str, Tuple[slice, slice, slice]]
 
 
 def _rate(lossless: Optional[bool], max_error: Optional[float], psnr: Optional[float],
-          bpv: Optional[float]) -> Tuple[str, float]:
+          bpv: Optional[float], rel_error: Optional[float] = None,
+          pw_rel_error: Optional[float] = None) -> Tuple[str, float]:
     chosen = [(name, value) for name, value in
-              (("max_error", max_error), ("psnr", psnr), ("bpv", bpv)) if value is not None]
+              (("max_error", max_error), ("rel_error", rel_error), ("pw_rel_error", pw_rel_error),
+               ("psnr", psnr), ("bpv", bpv)) if value is not None]
     if lossless:
         chosen.insert(0, ("lossless", 0.0))
     if len(chosen) > 1:
-        raise _volcl.UsageError("choose one of lossless=True, max_error=, psnr=, bpv=")
+        raise _volcl.UsageError("choose one of lossless=True, max_error=, rel_error=, pw_rel_error=, psnr=, bpv=")
     if not chosen:
         if lossless is False:
-            raise _volcl.UsageError("lossless=False needs a lossy mode (max_error, psnr or bpv)")
+            raise _volcl.UsageError(
+                "lossless=False needs a lossy mode (max_error, rel_error, pw_rel_error, psnr or bpv)")
         return "lossless", 0.0
     return chosen[0][0], float(chosen[0][1])
 
 
 def encode(data: Union[np.ndarray, Volume, Sequence[np.ndarray]], *, lossless: Optional[bool] = None,
            max_error: Optional[float] = None, psnr: Optional[float] = None, bpv: Optional[float] = None,
-           step: Optional[float] = None, wavelet: Optional[str] = None, levels: int = 4,
+           rel_error: Optional[float] = None, pw_rel_error: Optional[float] = None, step: Optional[float] = None, wavelet: Optional[str] = None, levels: int = 4,
            brick: Union[int, Sequence[int]] = 64, entropy: str = "dense", threads: int = 2,
            spacing: Optional[Sequence[float]] = None, origin: Optional[Sequence[float]] = None,
            metadata: Optional[Dict[str, str]] = None, gop: int = 10, b_frames: int = 0, motion: str = "block",
@@ -42,6 +45,8 @@ def encode(data: Union[np.ndarray, Volume, Sequence[np.ndarray]], *, lossless: O
     Rate (at most one; default lossless):
         lossless: every voxel bit-exact (float NaN/Inf bit patterns included).
         max_error: every voxel within E of the input (guaranteed).
+        rel_error: every finite voxel within R x (max - min) of the finite values (guaranteed).
+        pw_rel_error: every voxel within R x |voxel|, 0 < R < 1 (guaranteed; zeros exact, signs kept).
         psnr: PSNR in dB over the input's value range, met within 0.5 dB.
         bpv: at most R bits per voxel, file overhead included.
     Other knobs are those of ``volcl encode``: ``step`` (lossy: fixed base quantiser step), ``wavelet``
@@ -79,7 +84,7 @@ def encode(data: Union[np.ndarray, Volume, Sequence[np.ndarray]], *, lossless: O
                 "dimensions")
     else:
         frames = [_arrays.volume_array(f) for f in data]
-    rate, target = _rate(lossless, max_error, psnr, bpv)
+    rate, target = _rate(lossless, max_error, psnr, bpv, rel_error, pw_rel_error)
     out, measured = _volcl.encode(_arrays.context(device), frames, _arrays.triple(spacing, 1.0, "spacing"),
                                   _arrays.triple(origin, 0.0, "origin"), rate, target,
                                   None if step is None else float(step), wavelet,

@@ -10,7 +10,8 @@ Example::
 
 Each chunk becomes one .vcz (one volume: chunks of fewer than three dimensions are treated as thin
 volumes, extra leading dimensions are stacked along z). Lossless by default; ``max_error`` bounds every
-voxel, ``psnr`` and ``bpv`` set a quality or a size. The dtype must be a volume type (uint8, uint16,
+voxel, ``rel_error`` every voxel by R x the value range of its chunk (the range zarr hands the codec),
+``pw_rel_error`` every voxel by R x its magnitude, ``psnr`` and ``bpv`` set a quality or a size. The dtype must be a volume type (uint8, uint16,
 int16, float32): a float64 chunk is refused, since decoding would not give float64 back.
 """
 from __future__ import annotations
@@ -32,8 +33,11 @@ class Volcl(Codec):
 
     def __init__(self, max_error: Optional[float] = None, psnr: Optional[float] = None,
                  bpv: Optional[float] = None, wavelet: Optional[str] = None, levels: int = 4, brick: int = 64,
-                 entropy: str = "dense", threads: int = 2, device: Optional[str] = None) -> None:
+                 entropy: str = "dense", threads: int = 2, device: Optional[str] = None,
+                 rel_error: Optional[float] = None, pw_rel_error: Optional[float] = None) -> None:
         self.max_error = max_error
+        self.rel_error = rel_error
+        self.pw_rel_error = pw_rel_error
         self.psnr = psnr
         self.bpv = bpv
         self.wavelet = wavelet
@@ -45,7 +49,8 @@ class Volcl(Codec):
 
     def encode(self, buf: Any) -> bytes:
         a = chunk_volume(np.asarray(buf))
-        return encode(a, max_error=self.max_error, psnr=self.psnr, bpv=self.bpv, wavelet=self.wavelet,
+        return encode(a, max_error=self.max_error, rel_error=self.rel_error, pw_rel_error=self.pw_rel_error,
+                      psnr=self.psnr, bpv=self.bpv, wavelet=self.wavelet,
                       levels=self.levels, brick=self.brick, entropy=self.entropy, threads=self.threads,
                       device=self.device)
 
@@ -56,7 +61,8 @@ class Volcl(Codec):
         return a
 
     def __repr__(self) -> str:
-        mode = next((f"{k}={v}" for k, v in (("max_error", self.max_error), ("psnr", self.psnr),
+        mode = next((f"{k}={v}" for k, v in (("max_error", self.max_error), ("rel_error", self.rel_error),
+                                              ("pw_rel_error", self.pw_rel_error), ("psnr", self.psnr),
                                               ("bpv", self.bpv)) if v is not None), "lossless")
         return f"Volcl({mode}, levels={self.levels}, brick={self.brick}, entropy={self.entropy!r})"
 

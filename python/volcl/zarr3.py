@@ -25,7 +25,7 @@ from zarr.registry import register_codec
 
 from ._codec import chunk_volume, decode, encode
 
-_PARAMETERS = ("max_error", "psnr", "bpv", "wavelet", "levels", "brick", "entropy", "threads", "device")
+_PARAMETERS = ("max_error", "rel_error", "pw_rel_error", "psnr", "bpv", "wavelet", "levels", "brick", "entropy", "threads", "device")
 
 
 def _chunk_dtype(spec: Any) -> np.dtype:
@@ -38,11 +38,14 @@ def _chunk_dtype(spec: Any) -> np.dtype:
 @dataclass(frozen=True)
 class Volcl(BytesBytesCodec):
     """volcl's wavelet codec as a zarr 3 compressor. Parameters are those of :func:`volcl.encode`; none of
-    ``max_error``, ``psnr``, ``bpv`` means lossless."""
+    ``max_error``, ``rel_error`` (R x each chunk's value range), ``pw_rel_error``, ``psnr``, ``bpv`` means
+    lossless."""
 
     is_fixed_size = False
 
     max_error: Optional[float] = None
+    rel_error: Optional[float] = None
+    pw_rel_error: Optional[float] = None
     psnr: Optional[float] = None
     bpv: Optional[float] = None
     wavelet: Optional[str] = None
@@ -69,7 +72,8 @@ class Volcl(BytesBytesCodec):
 
     def _encode_sync(self, chunk_bytes: Any, chunk_spec: Any) -> Any:
         a = np.frombuffer(chunk_bytes.to_bytes(), dtype=_chunk_dtype(chunk_spec)).reshape(chunk_spec.shape)
-        vcz = encode(chunk_volume(a), max_error=self.max_error, psnr=self.psnr, bpv=self.bpv,
+        vcz = encode(chunk_volume(a), max_error=self.max_error, rel_error=self.rel_error,
+                     pw_rel_error=self.pw_rel_error, psnr=self.psnr, bpv=self.bpv,
                      wavelet=self.wavelet, levels=self.levels, brick=self.brick, entropy=self.entropy,
                      threads=self.threads, device=self.device)
         return chunk_spec.prototype.buffer.from_bytes(vcz)

@@ -31,9 +31,20 @@ template <class Points, class Value> double maxSlope(const Points& pts, Value va
     return m;
 }
 
-/// Lossy files' guaranteed bound on every voxel (0 for lossless; PSNR and rate targets give none).
+/// Lossy files' guaranteed absolute bound on every voxel (0 for lossless; PSNR, rate and point-wise
+/// relative targets give none that is absolute; a series' relative bound is over each frame's range, at
+/// most the file's).
 double codingBound(const VczHeader& h) {
-    return h.rate == RateMode::MaxError ? h.rateTarget : 0.0;
+    if (h.rate == RateMode::MaxError) return h.rateTarget;
+    if (h.rate == RateMode::RelError) return h.rateTarget * (h.valueMax - h.valueMin);
+    return 0.0;
+}
+
+/// The bound on decoded voxels whose inputs lie in [lo, hi]: the absolute one, or R x the largest magnitude
+/// there for a point-wise relative bound.
+double codingBound(const VczHeader& h, double lo, double hi) {
+    if (h.rate == RateMode::PwRelError) return h.rateTarget * std::max(std::abs(lo), std::abs(hi));
+    return codingBound(h);
 }
 
 bool uniformExact(const VczHeader& h, std::size_t frame, std::size_t b) {
@@ -48,7 +59,7 @@ ValueRange levelRange(const VczHeader& h, const LodStatistics* stats, std::size_
         return {s.min, s.max};
     }
     const VczBrickEntry& e = h.bricks[frame][b];
-    const double w = codingBound(h);
+    const double w = codingBound(h, e.min, e.max);
     return {e.min - w, e.max + w};
 }
 
@@ -87,10 +98,12 @@ ValueRange neighbourhoodRange(const VczHeader& h, const LodStatistics* stats, st
 
 double dataError(const VczHeader& h, const LodStatistics* stats, std::size_t frame, std::size_t b,
                  int level) {
+    const VczBrickEntry& e = h.bricks[frame][b];
+    const double bound = codingBound(h, e.min, e.max);
     if (stats && stats->has(frame))
-        return std::max<double>(stats->at(frame, b, level).rms, level == 0 ? codingBound(h) : 0.0);
+        return std::max<double>(stats->at(frame, b, level).rms, level == 0 ? bound : 0.0);
     if (uniformExact(h, frame, b)) return 0.0; // every filter's low band of a constant is the constant
-    return level == 0 ? codingBound(h) : kInf;
+    return level == 0 ? bound : kInf;
 }
 
 struct ViewFrame {
@@ -167,7 +180,7 @@ double brickError(const VczHeader& h, const LodStatistics* stats, std::size_t fr
     // coarsening it does not change the image.
     const ValueRange hull0 = neighbourhoodRange(h, stats, frame, b);
     const double spacing = std::max({h.spacing[0], h.spacing[1], h.spacing[2]});
-    const double w = codingBound(h);
+    const double w = codingBound(h, hull0.min, hull0.max);
     const ValueRange hull = grid_detail::tableNodeSpan(tf, hull0.min - w, hull0.max + w, view.tableNodes);
     const double lo = hull.min, hi = hull.max;
     double sens = tfSensitivity(tf, lo, hi, spacing);

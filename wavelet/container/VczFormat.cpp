@@ -533,7 +533,7 @@ void readFixedFields(Reader& r, VczHeader& h, const std::string& name, std::size
     const auto type = r.get<std::uint8_t>(), transform = r.get<std::uint8_t>(),
                wavelet = r.get<std::uint8_t>();
     const auto levels = r.get<std::uint8_t>(), entropy = r.get<std::uint8_t>(), rate = r.get<std::uint8_t>();
-    if (type > 3 || transform > 2 || wavelet > 3 || levels > 16 || entropy > 1 || rate > 3)
+    if (type > 3 || transform > 2 || wavelet > 3 || levels > 16 || entropy > 1 || rate > 5)
         r.fail("invalid field value");
     h.type = static_cast<ScalarType>(type);
     h.transform = static_cast<TransformKind>(transform);

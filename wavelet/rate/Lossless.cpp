@@ -82,7 +82,9 @@ std::unique_ptr<RateStrategy> makeRateStrategy(ComputeContext& cc, const CodecOp
     }
     switch (h.rate) {
     case RateMode::MaxError:
-        return makeMaxErrorStrategy(cc, o, ranges);
+    case RateMode::RelError:
+    case RateMode::PwRelError:
+        return makeBoundedStrategy(cc, o, ranges);
     case RateMode::Psnr:
         return makePsnrStrategy(cc, o, ranges);
     case RateMode::Bpv:

@@ -52,7 +52,7 @@ void LossyFrame::setDelta(double delta) {
         h_.steps[i] = std::max({h_.steps[i], maxAbs_[i] / (kMaxQuantIndex - 2), kMinStep});
 }
 
-Trial LossyFrame::trial(std::optional<double> bound, bool reconstruct) {
+Trial LossyFrame::trial(std::optional<VoxelBound> bound, bool reconstruct) {
     const Volume& v = v_;
     const VczHeader& h = h_;
     const std::vector<std::vector<float>>& coeffs = coeffs_;
@@ -103,7 +103,7 @@ Trial LossyFrame::trial(std::optional<double> bound, bool reconstruct) {
                                 // as wrong as can be: never NaN, which every bound would let through.
                                 double e = std::abs(double(decoded) - orig);
                                 if (std::isnan(e)) e = std::numeric_limits<double>::infinity();
-                                if (bound && e > *bound) {
+                                if (bound && e > bound->at(orig)) {
                                     tr.corrections[b].push_back({at, orig});
                                     continue;
                                 }
@@ -178,7 +178,8 @@ FrameResult LossyStrategy::encodeFrame(const Volume& v, VczHeader& h, bool choos
     if (o_.step && chooseStep && (!(*o_.step > 0) || !std::isfinite(*o_.step)))
         throw UsageError("the quantiser step must be a positive number");
     // The direct path codes no corrections: frames with NaN/Inf voxels take the trial path.
-    if ((!chooseStep || o_.step) && h.rate != RateMode::MaxError && !o_.measureError && !split.count)
+    const std::optional<VoxelBound> bound = voxelBound(st);
+    if ((!chooseStep || o_.step) && !bound && !o_.measureError && !split.count)
         if (std::optional<FrameResult> r = encodeDirect(v, h, t, chooseStep ? o_.step : std::nullopt))
             return std::move(*r);
     FrameResult r;
@@ -191,8 +192,7 @@ FrameResult LossyStrategy::encodeFrame(const Volume& v, VczHeader& h, bool choos
     StepChoice c;
     if (!chooseStep) {
         c.delta = f.lastDelta();
-        const bool bounded = h.rate == RateMode::MaxError;
-        c.best = f.trial(bounded ? std::optional(o_.target) : std::nullopt, bounded || o_.measureError);
+        c.best = f.trial(bound, bound.has_value() || o_.measureError);
         refine(f, c, target);
     } else {
         c = search(f);

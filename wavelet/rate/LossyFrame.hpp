@@ -19,6 +19,17 @@ struct ErrorStats {
     double sumSq = 0, maxErr = 0;
 };
 
+/// The error a voxel may keep: `absolute` plus `relative` times its magnitude, computed in double
+/// (--max-error and --rel-error set the first, --pw-rel-error the second, so a zero must come back exactly).
+/// A voxel beyond it is stored exactly. Built from a plain number as an absolute bound.
+struct VoxelBound {
+    double absolute = 0, relative = 0;
+    VoxelBound(double absoluteBound) : absolute(absoluteBound) {} // NOLINT(google-explicit-constructor)
+    VoxelBound(double absoluteBound, double relativeBound)
+        : absolute(absoluteBound), relative(relativeBound) {}
+    double at(double value) const noexcept { return absolute + relative * std::abs(value); }
+};
+
 /// A quantisation at the header's steps: the voxels to store exactly (with a bound) and the error of the
 /// rest.
 struct Trial {
@@ -49,7 +60,7 @@ public:
     /// Quantises with the header's steps, reconstructs like the decoder and measures the error; with
     /// `bound` it also lists the voxels to store exactly. With `reconstruct` false only the quantisation
     /// runs (the error is NaN).
-    Trial trial(std::optional<double> bound, bool reconstruct = true);
+    Trial trial(std::optional<VoxelBound> bound, bool reconstruct = true);
     /// File size of the frame coded with the trial's corrections; with `payloads` it keeps them.
     std::size_t codedBytes(const Trial& tr, BrickPayloads* payloads);
     /// PSNR over the frame's value range of a trial's error (over the voxels not stored exactly by
@@ -64,7 +75,11 @@ public:
     }
 
     const VczHeader& header() const noexcept { return h_; }
+    /// The voxels the trials are measured against (a residual's frame, else the coded volume).
+    const Volume& truth() const noexcept { return target_ ? *target_->frame : v_; }
     double range() const noexcept { return range_.max - range_.min; }
+    /// The frame's finite value range (a residual's: its frame's).
+    const ValueRange& valueRange() const noexcept { return range_; }
     /// True when the float transform overflowed on some coefficients (voxels near FLT_MAX): they code as 0.
     bool overflowed() const noexcept { return overflowed_; }
     /// Largest voxel magnitude of the frame.
@@ -107,6 +122,11 @@ public:
                             const ResidualTarget* target) final;
 
 protected:
+    /// The bound the mode holds on every voxel of a frame whose finite values span `finite` (bounded modes).
+    virtual std::optional<VoxelBound> voxelBound(const ValueRange& finite) const {
+        (void)finite;
+        return std::nullopt;
+    }
     /// The mode's search for the steps that meet its target on `f`.
     virtual StepChoice search(LossyFrame& f) = 0;
     /// A frame coded at the header's steps (a later frame of a series): the mode may still tune what the

@@ -7,8 +7,8 @@ namespace volcl::codec {
 
 std::unique_ptr<RateStrategy> makeLosslessIntegerStrategy(ComputeContext& cc, const CodecOptions& o);
 std::unique_ptr<RateStrategy> makeLosslessRawStrategy(const CodecOptions& o);
-std::unique_ptr<RateStrategy> makeMaxErrorStrategy(ComputeContext& cc, const CodecOptions& o,
-                                                   ValueRangeCache& ranges);
+std::unique_ptr<RateStrategy> makeBoundedStrategy(ComputeContext& cc, const CodecOptions& o,
+                                                  ValueRangeCache& ranges);
 std::unique_ptr<RateStrategy> makePsnrStrategy(ComputeContext& cc, const CodecOptions& o,
                                                ValueRangeCache& ranges);
 std::unique_ptr<RateStrategy> makeBpvStrategy(ComputeContext& cc, const CodecOptions& o,
