@@ -168,6 +168,17 @@ ParsedHeader parseHeader(std::span<const std::byte> head, const fs::path& path) 
     return p;
 }
 
+// Where the voxels start: vox_offset, checked. Single files keep their data at 352 or later; writers that
+// leave vox_offset at 0 mean 352.
+std::size_t dataOffset(const HeaderView& h, const fs::path& path) {
+    const float voxOffsetF = h.get<float>(108);
+    if (!std::isfinite(voxOffsetF) || voxOffsetF < 0 || voxOffsetF > 1e12f ||
+        voxOffsetF != std::floor(voxOffsetF))
+        fail(path, "vox_offset " + formatDouble(voxOffsetF) + " is not a valid byte offset");
+    return voxOffsetF < static_cast<float>(kHeaderSize) ? kHeaderSize + 4
+                                                        : static_cast<std::size_t>(voxOffsetF);
+}
+
 std::vector<std::byte> headerBytes(std::span<const std::byte> file, bool gz, const fs::path& path) {
     return gz ? inflatePrefix(file, kHeaderSize, path)
               : std::vector<std::byte>(file.begin(), file.begin() + std::min(file.size(), kHeaderSize));
@@ -188,13 +199,7 @@ TimeSeries readNifti(ReadContext& ctx) {
     const std::array<double, 3>& spacing = p.meta.spacing;
     const std::array<double, 3>& origin = p.meta.origin;
 
-    const float voxOffsetF = h.get<float>(108);
-    if (!std::isfinite(voxOffsetF) || voxOffsetF < 0 || voxOffsetF > 1e12f ||
-        voxOffsetF != std::floor(voxOffsetF))
-        fail(path, "vox_offset " + formatDouble(voxOffsetF) + " is not a valid byte offset");
-    // Single files keep their data at 352 or later; writers that leave vox_offset at 0 mean 352.
-    const std::size_t voxOffset =
-        voxOffsetF < static_cast<float>(kHeaderSize) ? kHeaderSize + 4 : static_cast<std::size_t>(voxOffsetF);
+    const std::size_t voxOffset = dataOffset(h, path);
 
     const Dims dims{sizes[0], sizes[1], sizes[2]};
     const std::size_t frames = sizes[3];
@@ -245,12 +250,7 @@ std::optional<SlabLayout> niftiSlabLayout(ReadContext& ctx) {
     if (p.meta.scales() && !(ctx.options().niftiStoredValues && niftiStoredValuesExact(p.meta)))
         return std::nullopt;
     const HeaderView h(head, p.endian != hostEndian());
-    const float voxOffsetF = h.get<float>(108);
-    if (!std::isfinite(voxOffsetF) || voxOffsetF < 0 || voxOffsetF > 1e12f ||
-        voxOffsetF != std::floor(voxOffsetF))
-        fail(path, "vox_offset " + formatDouble(voxOffsetF) + " is not a valid byte offset");
-    const std::size_t voxOffset =
-        voxOffsetF < static_cast<float>(kHeaderSize) ? kHeaderSize + 4 : static_cast<std::size_t>(voxOffsetF);
+    const std::size_t voxOffset = dataOffset(h, path);
     SlabLayout l;
     l.dataFile = path;
     l.gzip = gz;
