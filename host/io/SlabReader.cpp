@@ -42,7 +42,8 @@ struct Fd {
 };
 
 /// `n` bytes at `offset`, or fewer at the end of the file.
-std::size_t preadAll(int fd, std::byte* out, std::size_t n, std::uint64_t offset, const std::filesystem::path& path) {
+std::size_t preadAll(int fd, std::byte* out, std::size_t n, std::uint64_t offset,
+                     const std::filesystem::path& path) {
     std::size_t done = 0;
     while (done < n) {
         const ssize_t r = ::pread(fd, out + done, n - done, off_t(offset + done));
@@ -120,7 +121,7 @@ struct VolumeSlabReader::State {
     std::size_t sampleBytes = 1;
     std::optional<io::Fd> raw;
     std::unique_ptr<io::GzStream> gz;
-    std::vector<std::byte> slab;   ///< gzip: the slices [slabZ, slabZ + slabSlices)
+    std::vector<std::byte> slab; ///< gzip: the slices [slabZ, slabZ + slabSlices)
     std::size_t slabZ = 0, slabSlices = 0, nextZ = 0;
     std::vector<std::byte> lines; ///< raw: one slice's lines of a box
 };
@@ -167,13 +168,27 @@ std::optional<VolumeSlabReader> VolumeSlabReader::open(const std::filesystem::pa
     return VolumeSlabReader(std::move(s));
 }
 
-Dims VolumeSlabReader::dims() const noexcept { return s_->layout.dims; }
-ScalarType VolumeSlabReader::type() const noexcept { return s_->type; }
-std::array<double, 3> VolumeSlabReader::spacing() const noexcept { return s_->layout.spacing; }
-std::array<double, 3> VolumeSlabReader::origin() const noexcept { return s_->layout.origin; }
-Direction3 VolumeSlabReader::direction() const noexcept { return s_->layout.direction; }
-bool VolumeSlabReader::anatomical() const noexcept { return s_->layout.anatomical; }
-bool VolumeSlabReader::gzip() const noexcept { return s_->layout.gzip; }
+Dims VolumeSlabReader::dims() const noexcept {
+    return s_->layout.dims;
+}
+ScalarType VolumeSlabReader::type() const noexcept {
+    return s_->type;
+}
+std::array<double, 3> VolumeSlabReader::spacing() const noexcept {
+    return s_->layout.spacing;
+}
+std::array<double, 3> VolumeSlabReader::origin() const noexcept {
+    return s_->layout.origin;
+}
+Direction3 VolumeSlabReader::direction() const noexcept {
+    return s_->layout.direction;
+}
+bool VolumeSlabReader::anatomical() const noexcept {
+    return s_->layout.anatomical;
+}
+bool VolumeSlabReader::gzip() const noexcept {
+    return s_->layout.gzip;
+}
 
 std::vector<std::filesystem::path> VolumeSlabReader::files() const {
     std::vector<std::filesystem::path> f{s_->header};
@@ -193,7 +208,8 @@ void VolumeSlabReader::read(Dims lo, Volume& out) {
         for (std::size_t z = 0; z < n.z; ++z) {
             const std::uint64_t at = s.layout.fileOffset + ((lo.z + z) * d.y + lo.y) * lineBytes;
             if (io::preadAll(s.raw->fd, s.lines.data(), boxLine, at, s.layout.dataFile) != boxLine)
-                io::fail(s.layout.dataFile, "truncated: the data ends before slice " + std::to_string(lo.z + z));
+                io::fail(s.layout.dataFile,
+                         "truncated: the data ends before slice " + std::to_string(lo.z + z));
             io::decodeSamples(s.lines, s.layout.sampleType, s.layout.endian, out, z * n.x * n.y);
         }
         return;
@@ -204,14 +220,16 @@ void VolumeSlabReader::read(Dims lo, Volume& out) {
                              " after " + std::to_string(s.nextZ) + ")");
         s.slab.resize(n.z * sliceBytes);
         if (s.gz->read(s.slab.data(), s.slab.size()) != s.slab.size())
-            io::fail(s.layout.dataFile, "truncated: the gzip data ends before slice " + std::to_string(lo.z + n.z));
+            io::fail(s.layout.dataFile,
+                     "truncated: the gzip data ends before slice " + std::to_string(lo.z + n.z));
         s.slabZ = lo.z;
         s.slabSlices = n.z;
         s.nextZ = lo.z + n.z;
     }
     for (std::size_t z = 0; z < n.z; ++z)
-        io::decodeSamples(std::span<const std::byte>(s.slab).subspan(z * sliceBytes + lo.y * lineBytes, boxLine),
-                          s.layout.sampleType, s.layout.endian, out, z * n.x * n.y);
+        io::decodeSamples(
+            std::span<const std::byte>(s.slab).subspan(z * sliceBytes + lo.y * lineBytes, boxLine),
+            s.layout.sampleType, s.layout.endian, out, z * n.x * n.y);
 }
 
 } // namespace volcl

@@ -25,7 +25,8 @@ public:
     /// nullopt when the file is not one that reads by slabs (another format, ascii, several data files,
     /// 4D, line skips, NIfTI values scaled to data units): read it whole. Throws IoError naming the file
     /// for a broken header or an uncompressed data size that does not match, as readVolumeFile would.
-    static std::optional<VolumeSlabReader> open(const std::filesystem::path& path, const ReadOptions& options);
+    static std::optional<VolumeSlabReader> open(const std::filesystem::path& path,
+                                                const ReadOptions& options);
     ~VolumeSlabReader();
     VolumeSlabReader(VolumeSlabReader&&) noexcept;
     VolumeSlabReader& operator=(VolumeSlabReader&&) noexcept;
