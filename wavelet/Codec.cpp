@@ -401,8 +401,18 @@ VczReader::VczReader(std::vector<std::byte> bytes, std::string name)
 }
 
 VczReader::VczReader(const std::filesystem::path& path)
-    : mapped_(std::in_place, path), bytes_(mapped_->bytes()), name_(path.string()) {
+    : mapped_(std::make_shared<const MappedFile>(path)), bytes_(mapped_->bytes()), name_(path.string()) {
     header_ = readVczHeader(bytes_, name_);
+}
+
+VczReader::VczReader(const VczReader& other)
+    : owned_(other.owned_), mapped_(other.mapped_),
+      bytes_(mapped_ ? mapped_->bytes() : std::span<const std::byte>(owned_)), name_(other.name_),
+      header_(other.header_) {}
+
+VczReader& VczReader::operator=(const VczReader& other) {
+    if (this != &other) *this = VczReader(other);
+    return *this;
 }
 
 void addPlacementMetadata(std::map<std::string, std::string>& metadata, const Direction3& direction,

@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -130,8 +131,8 @@ public:
     explicit VczReader(const std::filesystem::path& path);
     VczReader(VczReader&&) noexcept = default; // the bytes stay where they are: the span stays valid
     VczReader& operator=(VczReader&&) noexcept = default;
-    VczReader(const VczReader&) = delete;
-    VczReader& operator=(const VczReader&) = delete;
+    VczReader(const VczReader& other); ///< shares the mapping, or copies the bytes held
+    VczReader& operator=(const VczReader& other);
     const VczHeader& header() const noexcept { return header_; }
     const std::string& name() const noexcept { return name_; }
     std::size_t fileSize() const noexcept { return bytes_.size(); }
