@@ -154,9 +154,9 @@ public:
                                           std::span<const Volume* const> decoded = {}) const;
 
 private:
-    std::vector<std::byte> owned_;     ///< the bytes given (empty for a mapped file)
-    std::optional<MappedFile> mapped_; ///< the file, when mapped
-    std::span<const std::byte> bytes_; ///< either of the two
+    std::vector<std::byte> owned_;             ///< the bytes given (empty for a mapped file)
+    std::shared_ptr<const MappedFile> mapped_; ///< the file, when mapped
+    std::span<const std::byte> bytes_;         ///< either of the two
     std::string name_;
     VczHeader header_;
 };
