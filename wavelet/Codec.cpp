@@ -3,6 +3,8 @@
 // request and runs the frame decoder's stages, then the predictor's reconstruction.
 #include "wavelet/Codec.hpp"
 
+#include "core/MappedFile.hpp"
+
 #include "core/Error.hpp"
 #include "core/runtime/Timing.hpp"
 #include "wavelet/BrickVoxels.hpp"

@@ -1,7 +1,6 @@
 // Wavelet volume codec: encode/decode in memory, region and level decoding, brick access for renderers.
 #pragma once
 
-#include "core/MappedFile.hpp"
 #include "core/Volume.hpp"
 #include "core/runtime/ClRuntime.hpp"
 #include "wavelet/CodecTypes.hpp"
@@ -22,6 +21,8 @@
 #include <vector>
 
 namespace volcl {
+
+class MappedFile; // core/MappedFile.hpp: internal, held by pointer
 
 /// Encoder settings. Example (lossy, every voxel within 0.5 of the input):
 /// ```
