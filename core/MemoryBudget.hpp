@@ -13,6 +13,11 @@ namespace volcl {
 /// the budget from ReadOptions::memoryBudget (0 = this default); raise it there to read larger inputs.
 std::size_t defaultMemoryBudget() noexcept;
 
+/// `volcl encode` streams an input (reads and codes it one brick row at a time) when its decoded voxels
+/// exceed this many bytes and it can be streamed (lossless, integer, a raw/NRRD/NIfTI file): above it the
+/// whole-volume encoder's copies (input, transform buffers) would be the process's largest allocations.
+inline constexpr std::size_t kStreamEncodeAboveBytes = std::size_t(256) << 20;
+
 /// `budget` itself, or the default when it is 0.
 std::size_t effectiveMemoryBudget(std::size_t budget) noexcept;
 

@@ -57,7 +57,7 @@ RenderInput RenderInput::borrowMesh(const mesh::TetMesh& mesh) {
 
 RenderInput RenderInput::openVcz(const std::filesystem::path& path, std::size_t frame) {
     RenderInput in(std::shared_ptr<const Volume>{});
-    in.vcz_ = std::make_shared<const VczReader>(readFileBytes(path), path.string());
+    in.vcz_ = std::make_shared<const VczReader>(path); // mapped: bricks are read as they are decoded
     if (frame >= in.vcz_->header().frames.size())
         throw UsageError("--frame " + std::to_string(frame) + " out of range: " + path.string() + " has " +
                          std::to_string(in.vcz_->header().frames.size()) + " frame(s)");

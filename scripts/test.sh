@@ -7,7 +7,12 @@ bash scripts/setup.sh
 jobs=$(nproc 2>/dev/null || echo 2)
 
 echo "== tests (Release build)"
-ctest --test-dir build --output-on-failure -j"$jobs" --timeout 900 -LE oclgrind
+ctest --test-dir build --output-on-failure -j"$jobs" --timeout 900 -LE "oclgrind|outofcore"
+
+# ==== a volume larger than the memory it may use (a separate block, one test at a time: it measures each
+# command's peak RSS; see docs/multires.md) ====
+echo "== out of core: encode, info, render and view of a volume 4x what they may hold"
+ctest --test-dir build --output-on-failure -L outofcore --timeout 900
 
 # ==== kernels on Oclgrind (a separate block; see docs/reliability.md) ====
 # A tiny case of every kernel family on Oclgrind, a second OpenCL implementation that checks every memory

@@ -96,6 +96,33 @@ TEST(ViewerCli, HeadlessPngEqualsRenderPng) {
     }
 }
 
+// A .vcz with --lod auto: view draws it from its bricks (mapped, read as decoded) as render does, so the
+// two images agree within 1/255, as for a grid; with a pool of a few bricks both coarsen the same way.
+TEST(ViewerCli, HeadlessLodAutoOfAVczEqualsRender) {
+    const auto dir = test::tempDir("viewer_cli_vcz");
+    writeScene(dir, "");
+    Outcome r = runVolcl("encode blob_30x26x22_uint8.raw --brick 8 --levels 2 -o blob.vcz", dir);
+    ASSERT_EQ(r.code, 0) << r.err;
+    std::string scene;
+    {
+        std::ifstream in(dir / "scene.json");
+        std::ostringstream s;
+        s << in.rdbuf();
+        scene = s.str();
+    }
+    scene.replace(scene.find("blob_30x26x22_uint8.raw"), 23, "blob.vcz");
+    std::ofstream(dir / "scene.json") << scene;
+    for (const std::string cache : {"64", "0.01"}) {
+        const std::string flags = " --lod auto --lod-error 0.02 --cache-mb " + cache;
+        r = runVolcl("render --scene scene.json" + flags + " -o render.png", dir);
+        ASSERT_EQ(r.code, 0) << r.err;
+        const Outcome v = runVolcl("view scene.json --headless --frames 2" + flags + " -o view.png", dir);
+        ASSERT_EQ(v.code, 0) << v.err;
+        EXPECT_LE(maxDifference255(readImage(dir / "render.png"), readImage(dir / "view.png")), 1.0)
+            << "cache " << cache;
+    }
+}
+
 TEST(ViewerCli, OrbitWritesPerFrameStatistics) {
     const auto dir = test::tempDir("viewer_cli_stats");
     writeScene(dir, "");

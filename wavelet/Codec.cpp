@@ -3,6 +3,8 @@
 // request and runs the frame decoder's stages, then the predictor's reconstruction.
 #include "wavelet/Codec.hpp"
 
+#include "core/MappedFile.hpp"
+
 #include "core/Error.hpp"
 #include "core/runtime/Timing.hpp"
 #include "wavelet/BrickVoxels.hpp"
@@ -61,17 +63,7 @@ VczHeader planHeader(const Volume& v, const CodecOptions& o_) {
     h.rate = o_.rate;
     h.rateTarget = o_.target;
     h.metadata = o_.metadata;
-    if (v.direction != kIdentityDirection) {
-        std::string text;
-        for (double x : v.direction) {
-            char buf[32];
-            const auto end = std::to_chars(buf, buf + sizeof buf, x).ptr;
-            if (!text.empty()) text += ' ';
-            text.append(buf, end);
-        }
-        h.metadata[std::string(kVczDirectionKey)] = text;
-    }
-    if (v.anatomical) h.metadata[std::string(kVczAnatomicalKey)] = "1";
+    addPlacementMetadata(h.metadata, v.direction, v.anatomical);
     const bool integer = v.type() != ScalarType::Float32;
     if (o_.rate == RateMode::Lossless) {
         h.wavelet = o_.wavelet.value_or(Wavelet::Cdf53);
@@ -419,8 +411,38 @@ Region parseRegion(std::string_view text) {
 // ------------------------------------------------------------------------------ decoder
 
 VczReader::VczReader(std::vector<std::byte> bytes, std::string name)
-    : bytes_(std::move(bytes)), name_(std::move(name)) {
+    : owned_(std::move(bytes)), bytes_(owned_), name_(std::move(name)) {
     header_ = readVczHeader(bytes_, name_);
+}
+
+VczReader::VczReader(const std::filesystem::path& path)
+    : mapped_(std::make_shared<const MappedFile>(path)), bytes_(mapped_->bytes()), name_(path.string()) {
+    header_ = readVczHeader(bytes_, name_);
+}
+
+VczReader::VczReader(const VczReader& other)
+    : owned_(other.owned_), mapped_(other.mapped_),
+      bytes_(mapped_ ? mapped_->bytes() : std::span<const std::byte>(owned_)), name_(other.name_),
+      header_(other.header_) {}
+
+VczReader& VczReader::operator=(const VczReader& other) {
+    if (this != &other) *this = VczReader(other);
+    return *this;
+}
+
+void addPlacementMetadata(std::map<std::string, std::string>& metadata, const Direction3& direction,
+                          bool anatomical) {
+    if (direction != kIdentityDirection) {
+        std::string text;
+        for (double x : direction) {
+            char buf[32];
+            const auto end = std::to_chars(buf, buf + sizeof buf, x).ptr;
+            if (!text.empty()) text += ' ';
+            text.append(buf, end);
+        }
+        metadata[std::string(kVczDirectionKey)] = text;
+    }
+    if (anatomical) metadata[std::string(kVczAnatomicalKey)] = "1";
 }
 
 Direction3 vczDirection(const VczHeader& h) {
@@ -587,7 +609,13 @@ Volume VczReader::decodeBrick(ComputeContext& cc, std::size_t frame, std::size_t
     opt.level = level;
     opt.frame = frame;
     opt.threads = 1;
-    return decode(cc, opt);
+    Volume v = decode(cc, opt);
+    // A mapped file's payload pages go back once decoded: the resident set holds the pool, not the file.
+    if (mapped_ && header_.frames[frame].type == FrameType::I) {
+        const VczBrickEntry& e = header_.bricks[frame][brick];
+        mapped_->release(e.offset, e.size);
+    }
+    return v;
 }
 
 Volume decodeVolume(ComputeContext& cc, std::span<const std::byte> vcz, const DecodeOptions& options,

@@ -11,14 +11,18 @@
 #include "wavelet/transform/LiftingTransform.hpp" // callers use BrickBatch and the references with it
 
 #include <cstddef>
+#include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
 namespace volcl {
+
+class MappedFile; // core/MappedFile.hpp: internal, held by pointer
 
 /// Encoder settings. Example (lossy, every voxel within 0.5 of the input):
 /// ```
@@ -111,16 +115,25 @@ struct DecodeOptions {
     DecodeAhead* ahead = nullptr;
 };
 
-/// Random access to a .vcz held in memory: validates header and index on construction, checks each
-/// brick's checksum when it is decoded. Example:
+/// Random access to a .vcz held in memory or mapped from its file: validates header and index on
+/// construction, checks each brick's checksum when it is decoded. A mapped reader touches only the header,
+/// the index and the payloads it decodes, and hands a brick's payload pages back after decoding it, so its
+/// resident memory does not grow with the file (volumes larger than memory). Example:
 /// ```
 /// volcl::VczReader r(volcl::readFileBytes("head.vcz"), "head.vcz");
+/// volcl::VczReader big(std::filesystem::path("cloud.vcz"));   // mapped
 /// volcl::Volume coarse = r.decode(cc, {.level = 2});
 /// volcl::Volume brick = r.decodeBrick(cc, 0, 5, 0);   // frame 0, brick 5, full resolution
 /// ```
 class VczReader {
 public:
     VczReader(std::vector<std::byte> bytes, std::string name);
+    /// Maps the file (named by its path in errors); throws IoError naming it as the other form does.
+    explicit VczReader(const std::filesystem::path& path);
+    VczReader(VczReader&&) noexcept = default; // the bytes stay where they are: the span stays valid
+    VczReader& operator=(VczReader&&) noexcept = default;
+    VczReader(const VczReader& other); ///< shares the mapping, or copies the bytes held
+    VczReader& operator=(const VczReader& other);
     const VczHeader& header() const noexcept { return header_; }
     const std::string& name() const noexcept { return name_; }
     std::size_t fileSize() const noexcept { return bytes_.size(); }
@@ -142,7 +155,9 @@ public:
                                           std::span<const Volume* const> decoded = {}) const;
 
 private:
-    std::vector<std::byte> bytes_;
+    std::vector<std::byte> owned_;             ///< the bytes given (empty for a mapped file)
+    std::shared_ptr<const MappedFile> mapped_; ///< the file, when mapped
+    std::span<const std::byte> bytes_;         ///< either of the two
     std::string name_;
     VczHeader header_;
 };
@@ -164,6 +179,10 @@ inline constexpr std::string_view kVczNonFiniteKey = "volcl:nonfinite";
 inline constexpr std::string_view kVczDirectionKey = "volcl:direction";
 /// Metadata key present ("1") when the volume is placed in patient axes (Volume::anatomical).
 inline constexpr std::string_view kVczAnatomicalKey = "volcl:anatomical";
+/// Adds the keys above for a volume's direction (when not the identity) and anatomical flag, as the
+/// encoders write them.
+void addPlacementMetadata(std::map<std::string, std::string>& metadata, const Direction3& direction,
+                          bool anatomical);
 /// The direction stored under kVczDirectionKey, the identity when absent. Throws DataError when it is
 /// malformed or not orthonormal.
 Direction3 vczDirection(const VczHeader& header);

@@ -7,14 +7,18 @@
 #include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
 #include "core/Format.hpp"
+#include "core/MemoryBudget.hpp"
 #include "core/runtime/ClRuntime.hpp"
+#include "core/runtime/PeakMemory.hpp"
 #include "core/runtime/Timing.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/NiftiMetadata.hpp"
 #include "host/io/Series.hpp"
+#include "host/io/SlabReader.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/container/LodStatistics.hpp"
+#include "wavelet/stream/StreamEncoder.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -39,7 +43,7 @@ struct EncodeArgs {
     std::vector<std::string> in; ///< one file, several files, quoted globs or a .pvd: the frames in order
     std::string out, wavelet, entropy = "dense", brick = "64", motion = "block";
     std::size_t gop = 10, bFrames = 0;
-    bool lossless = false, profile = false, lodStats = true, globalShift = true;
+    bool lossless = false, profile = false, lodStats = true, globalShift = true, stream = false;
     double maxError = 0, relError = 0, pwRelError = 0, psnr = 0, bpv = 0, step = 0;
     int levels = 4;
     unsigned threads = 2;
@@ -141,6 +145,68 @@ NiftiSource niftiSourceOf(const std::vector<std::string>& in, const ReadOptions&
     return s;
 }
 
+/// The options with a NIfTI source's header and value mode in the metadata, and --max-error in stored units
+/// (stored integers are 1/|scl_slope| data units apart).
+CodecOptions withSourceMetadata(const CodecOptions& o, const NiftiSource& nifti) {
+    CodecOptions withMeta = o;
+    if (nifti.meta) withMeta.metadata[std::string(kVczNiftiMetadataKey)] = niftiMetadataToText(*nifti.meta);
+    if (nifti.stored) withMeta.metadata[std::string(kVczNiftiValuesKey)] = "stored";
+    const double unit = nifti.stored ? std::abs(static_cast<double>(nifti.meta->sclSlope)) : 1.0;
+    if (withMeta.rate == RateMode::MaxError) withMeta.target /= unit;
+    // |stored| is proportional to |data| only when nothing is added to the scaled values.
+    if (withMeta.rate == RateMode::PwRelError && nifti.stored && nifti.meta->sclInter != 0)
+        throw UsageError("--pw-rel-error on a NIfTI with scl_inter " + formatNumber(nifti.meta->sclInter) +
+                         ": the bound would not be relative to the data values (use --rel-error or "
+                         "--max-error)");
+    return withMeta;
+}
+
+/// Encodes the input one brick row at a time (encodeStreaming over a VolumeSlabReader) when it can and
+/// should be: one lossless integer raw/NRRD/NIfTI file, larger than kStreamEncodeAboveBytes decoded or
+/// with --stream. Memory holds a brick row (and for gzip data one slab of brick-z slices), never the
+/// volume. Returns false when the input is for the whole-volume encoder; with --stream, an input that
+/// cannot stream is a usage error saying why.
+bool streamEncode(const EncodeArgs& a, const CodecOptions& o, const ReadOptions& ro,
+                  const GlobalOptions& global) {
+    const auto refuse = [&](const std::string& why) {
+        if (a.stream) throw UsageError("--stream: " + why);
+        return false;
+    };
+    if (a.in.size() != 1 || hasGlobPattern(a.in[0])) return refuse("give one input file");
+    if (o.rate != RateMode::Lossless) return refuse("streaming encode is lossless only");
+    std::optional<VolumeSlabReader> reader = VolumeSlabReader::open(a.in[0], ro);
+    if (!reader)
+        return refuse(a.in[0] + " is not a 3D raw, NRRD or NIfTI file with raw or gzip data in one file "
+                                "(or its values become float: scaled NIfTI)");
+    if (reader->type() == ScalarType::Float32)
+        return refuse(a.in[0] + " holds float voxels (kept as raw bits over the whole volume)");
+    const std::size_t decoded = reader->dims().count() * scalarSize(reader->type());
+    if (!a.stream && decoded <= kStreamEncodeAboveBytes) return false;
+    checkNotSameFile(reader->files(), {std::filesystem::path(a.out)});
+    VolumeSource src;
+    src.dims = reader->dims();
+    src.type = reader->type();
+    src.spacing = reader->spacing();
+    src.origin = reader->origin();
+    src.direction = reader->direction();
+    src.anatomical = reader->anatomical();
+    src.fill = [&reader](Dims lo, Volume& out) { reader->read(lo, out); };
+    Stopwatch sw;
+    ComputeContext cc(global.device);
+    AtomicFile out(a.out);
+    const StreamEncodeReport r = encodeStreaming(cc, src, o, a.lodStats, out.stream(), a.out);
+    out.commit();
+    if (!global.quiet)
+        std::cerr << "volcl: wrote " << a.out << ": " << r.bytes << " bytes, ratio "
+                  << formatFixed(double(decoded) / double(r.bytes), 2) << ":1, "
+                  << formatFixed(double(r.bytes) * 8 / double(src.dims.count()), 3)
+                  << " bits/voxel, streamed in " << r.rows << " brick rows of at most " << r.rowBytes
+                  << " bytes" << (reader->gzip() ? " (gzip input: one slab of a brick's depth held)" : "")
+                  << ", " << formatFixed(double(decoded) / 1e3 / sw.milliseconds(), 1) << " MB/s, peak RSS "
+                  << peakResidentBytes() / (1024 * 1024) << " MiB\n";
+    return true;
+}
+
 void addEncode(CLI::App& app, GlobalOptions& global) {
     auto* cmd = app.add_subcommand("encode", "Compress a volume into a .vcz file (wavelet lifting codec)");
     auto a = std::make_shared<EncodeArgs>();
@@ -186,6 +252,10 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
     cmd->add_flag("!--no-global-shift", a->globalShift,
                   "Series: P frames use block motion alone, never a global sub-voxel translation of the "
                   "reference (files that decoders before it read)");
+    cmd->add_flag("--stream", a->stream,
+                  "Read and code the input one brick row at a time whatever its size (done anyway above " +
+                      std::to_string(kStreamEncodeAboveBytes >> 20) +
+                      " MiB decoded): lossless integer raw/NRRD/NIfTI files; the same bytes as without it");
     a->raw.add(*cmd);
     a->mesh.add(*cmd);
     cmd->callback([a, cmd, &global] {
@@ -210,6 +280,7 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         ReadOptions ro = a->raw.toReadOptions();
         const NiftiSource nifti = niftiSourceOf(a->in, ro);
         ro.niftiStoredValues = nifti.stored;
+        if (streamEncode(*a, withSourceMetadata(o, nifti), ro, global)) return;
         std::future<SeriesInput> reading =
             std::async(std::launch::async, [a, ro, &inputs] { return readSeriesInputs(a->in, ro, &inputs); });
         ComputeContext cc(global.device);
@@ -219,19 +290,8 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         checkNotSameFile(inputs, {std::filesystem::path(a->out)});
         // A NIfTI source's orientation, units, intent and scaling travel in the .vcz for NIfTI outputs;
         // a scaled integer source's frames are its stored integers, the scale beside them.
-        CodecOptions withMeta = o;
-        if (nifti.meta)
-            withMeta.metadata[std::string(kVczNiftiMetadataKey)] = niftiMetadataToText(*nifti.meta);
-        if (nifti.stored) withMeta.metadata[std::string(kVczNiftiValuesKey)] = "stored";
-        // --max-error is in data units; stored integers are 1/|scl_slope| of them apart.
+        const CodecOptions withMeta = withSourceMetadata(o, nifti);
         const double unit = nifti.stored ? std::abs(static_cast<double>(nifti.meta->sclSlope)) : 1.0;
-        if (withMeta.rate == RateMode::MaxError) withMeta.target /= unit;
-        // |stored| is proportional to |data| only when nothing is added to the scaled values.
-        if (withMeta.rate == RateMode::PwRelError && nifti.stored && nifti.meta->sclInter != 0)
-            throw UsageError("--pw-rel-error on a NIfTI with scl_inter " +
-                             formatNumber(nifti.meta->sclInter) +
-                             ": the bound would not be relative to the data values (use --rel-error or "
-                             "--max-error)");
         EncodeReport rep;
         Stopwatch sw;
         std::vector<FrameReport> frames;

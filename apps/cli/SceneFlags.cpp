@@ -502,6 +502,24 @@ RenderInput SceneFlags::readSceneInput(const Scene& s, std::vector<std::string>&
         if (filesRead) *filesRead = {s.volume};
         return RenderInput::openMesh(s.volume, mesh.toReadOptions());
     }
+    if (s.volume.extension() == ".vcz" && s.lod == LodMode::Auto) {
+        // Drawn from its bricks, read and decoded as the view needs them (volumes larger than memory), as
+        // `volcl render` does; a scaled NIfTI source's stored integers need the data-unit mapping only
+        // `render` makes, so such a file is decoded whole.
+        RenderInput in = RenderInput::openVcz(s.volume, frame.value_or(0));
+        Volume geometry; // header only: placeAsVczSource reads the NIfTI keys, never the voxels
+        const auto nifti = placeAsVczSource(geometry, in.bricks()->header(), s.volume.string());
+        if (!nifti || !nifti->storedValues) {
+            if (!frame && in.bricks()->header().frames.size() > 1)
+                notes.push_back("rendering frame 0 of " +
+                                std::to_string(in.bricks()->header().frames.size()) +
+                                " (--frame K picks another)");
+            if (filesRead) *filesRead = {s.volume};
+            return in;
+        }
+        notes.push_back(
+            "--lod auto: the stored integers of a scaled NIfTI are decoded whole to show data units");
+    }
     return RenderInput::fromVolume(readSceneVolume(s, notes, filesRead));
 }
 

@@ -1,7 +1,7 @@
 // The .vcz header and frame table as `volcl info` prints them.
 #include "apps/cli/VczInfo.hpp"
 
-#include "core/AtomicFile.hpp"
+#include "core/MappedFile.hpp"
 #include "host/io/NiftiMetadata.hpp"
 #include "wavelet/Codec.hpp"
 #include "wavelet/container/LodStatistics.hpp"
@@ -50,14 +50,20 @@ const char* rateName(RateMode r) {
 } // namespace
 
 void printVczInfo(std::ostream& out, const std::string& path, bool json, bool listBricks) {
-    const std::vector<std::byte> bytes = readFileBytes(path);
+    // Mapped, not read: the header and index are parsed from the mapping, and each payload's pages go back
+    // after its checksum, so memory holds the header and index whatever the file's size.
+    const MappedFile file(path);
+    const std::span<const std::byte> bytes = file.bytes();
     const VczHeader h = readVczHeader(bytes, path);
     // Every payload's checksum (XXH3, cheap next to reading the file): a corrupt brick is exit 1, not a
     // listing. Payloads are not decoded; `volcl decode` finds a checksummed payload that does not decode.
     for (std::size_t f = 0; f < h.frames.size(); ++f) {
         vczFrameAux(bytes, h, f, path);
-        for (std::size_t b = 0; b < h.bricks[f].size(); ++b)
+        file.release(h.frames[f].auxOffset, h.frames[f].auxSize);
+        for (std::size_t b = 0; b < h.bricks[f].size(); ++b) {
             vczBrickPayload(bytes, h, f, b, path);
+            file.release(h.bricks[f][b].offset, h.bricks[f][b].size);
+        }
     }
     const double voxels = double(h.dims.count());
     const std::optional<LodStatistics> lod = LodStatistics::fromHeader(h, path);

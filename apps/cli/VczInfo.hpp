@@ -10,8 +10,9 @@
 namespace volcl::cli {
 
 /// Prints the .vcz file's grid (dims, type, spacing, origin), codec settings and one line per frame, and
-/// with `listBricks` one line per brick and frame (JSON with `json`: always every brick). Reads only the
-/// header and index (validated); no frame is decoded.
+/// with `listBricks` one line per brick and frame (JSON with `json`: always every brick). Parses the
+/// header and index (validated) from a mapping of the file and checks every payload's checksum, handing
+/// its pages back after it: memory holds the header and index, not the file. No frame is decoded.
 void printVczInfo(std::ostream& out, const std::string& path, bool json, bool listBricks = false);
 
 /// Write options for a volume decoded from `header`: the NIfTI source's header it keeps (for NIfTI

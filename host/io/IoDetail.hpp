@@ -189,6 +189,30 @@ std::vector<std::byte> readDetachedPayload(const std::filesystem::path& header,
 
 // ---- per-format entry points ---------------------------------------------------------------------
 // Each reads ctx.file(); ctx carries the options, the memory budget and the data-file confinement.
+/// Where a file's voxels lie, for reading them by slabs without loading the file (host/io/SlabReader.hpp):
+/// the samples start `skip` bytes into the data at `fileOffset` of `dataFile`, stored raw, or a gzip
+/// stream starting there whose decompressed bytes hold them after `skip` bytes.
+struct SlabLayout {
+    std::filesystem::path dataFile;
+    std::uint64_t fileOffset = 0, skip = 0;
+    bool gzip = false;
+    SampleType sampleType = SampleType::UInt8;
+    Endian endian = Endian::Little;
+    Dims dims;
+    std::array<double, 3> spacing{1, 1, 1}, origin{0, 0, 0};
+    Direction3 direction = kIdentityDirection;
+    bool anatomical = false;
+};
+/// The layout of a 3D raw, NRRD or NIfTI file whose samples are raw or one gzip stream in one file, with
+/// the same header checks and size checks of uncompressed data as the whole-file readers (IoError naming
+/// the file); nullopt for what only the whole-file readers take (ascii, several data files, 4D, line
+/// skips, NIfTI values scaled to data units). Nothing past the header is read.
+std::optional<SlabLayout> rawSlabLayout(ReadContext& ctx);
+std::optional<SlabLayout> nrrdSlabLayout(ReadContext& ctx);
+std::optional<SlabLayout> niftiSlabLayout(ReadContext& ctx);
+/// The first `n` bytes of a file (fewer when it is shorter), raw, or decompressed when `gzip`.
+std::vector<std::byte> readFilePrefix(const std::filesystem::path& path, std::size_t n, bool gzip);
+
 TimeSeries readRaw(ReadContext& ctx);
 TimeSeries readNrrd(ReadContext& ctx);
 TimeSeries readMetaImage(ReadContext& ctx);

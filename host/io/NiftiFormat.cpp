@@ -168,6 +168,17 @@ ParsedHeader parseHeader(std::span<const std::byte> head, const fs::path& path) 
     return p;
 }
 
+// Where the voxels start: vox_offset, checked. Single files keep their data at 352 or later; writers that
+// leave vox_offset at 0 mean 352.
+std::size_t dataOffset(const HeaderView& h, const fs::path& path) {
+    const float voxOffsetF = h.get<float>(108);
+    if (!std::isfinite(voxOffsetF) || voxOffsetF < 0 || voxOffsetF > 1e12f ||
+        voxOffsetF != std::floor(voxOffsetF))
+        fail(path, "vox_offset " + formatDouble(voxOffsetF) + " is not a valid byte offset");
+    return voxOffsetF < static_cast<float>(kHeaderSize) ? kHeaderSize + 4
+                                                        : static_cast<std::size_t>(voxOffsetF);
+}
+
 std::vector<std::byte> headerBytes(std::span<const std::byte> file, bool gz, const fs::path& path) {
     return gz ? inflatePrefix(file, kHeaderSize, path)
               : std::vector<std::byte>(file.begin(), file.begin() + std::min(file.size(), kHeaderSize));
@@ -188,13 +199,7 @@ TimeSeries readNifti(ReadContext& ctx) {
     const std::array<double, 3>& spacing = p.meta.spacing;
     const std::array<double, 3>& origin = p.meta.origin;
 
-    const float voxOffsetF = h.get<float>(108);
-    if (!std::isfinite(voxOffsetF) || voxOffsetF < 0 || voxOffsetF > 1e12f ||
-        voxOffsetF != std::floor(voxOffsetF))
-        fail(path, "vox_offset " + formatDouble(voxOffsetF) + " is not a valid byte offset");
-    // Single files keep their data at 352 or later; writers that leave vox_offset at 0 mean 352.
-    const std::size_t voxOffset =
-        voxOffsetF < static_cast<float>(kHeaderSize) ? kHeaderSize + 4 : static_cast<std::size_t>(voxOffsetF);
+    const std::size_t voxOffset = dataOffset(h, path);
 
     const Dims dims{sizes[0], sizes[1], sizes[2]};
     const std::size_t frames = sizes[3];
@@ -234,13 +239,53 @@ TimeSeries readNifti(ReadContext& ctx) {
     return series;
 }
 
+std::optional<SlabLayout> niftiSlabLayout(ReadContext& ctx) {
+    const fs::path& path = ctx.file();
+    const std::vector<std::byte> magic = readFilePrefix(path, 2, false);
+    const bool gz = looksCompressed(magic);
+    const std::vector<std::byte> head = readFilePrefix(path, kHeaderSize, gz);
+    const ParsedHeader p = parseHeader(head, path);
+    if (p.sizes[3] != 1) return std::nullopt; // a series: read whole, frame by frame
+    // Values scaled to data units become float32; stored integers stream only when the caller keeps them.
+    if (p.meta.scales() && !(ctx.options().niftiStoredValues && niftiStoredValuesExact(p.meta)))
+        return std::nullopt;
+    const HeaderView h(head, p.endian != hostEndian());
+    const std::size_t voxOffset = dataOffset(h, path);
+    SlabLayout l;
+    l.dataFile = path;
+    l.gzip = gz;
+    l.sampleType = p.sampleType;
+    l.endian = p.endian;
+    l.dims = {p.sizes[0], p.sizes[1], p.sizes[2]};
+    l.spacing = p.meta.spacing;
+    l.origin = p.meta.origin;
+    l.direction = niftiDirection(p.meta);
+    l.anatomical = true;
+    const std::size_t payload =
+        checkedByteCount(checkedVoxelCount(l.dims, 1, path), sampleSize(p.sampleType), path);
+    if (gz) {
+        l.skip = voxOffset;
+        return l;
+    }
+    l.fileOffset = voxOffset;
+    std::error_code ec;
+    const std::uintmax_t size = fs::file_size(path, ec);
+    if (ec) fail(path, "cannot determine the file size: " + ec.message());
+    if (size != voxOffset + payload)
+        fail(path, std::string(size < voxOffset + payload ? "truncated" : "oversized") + ": file has " +
+                       std::to_string(size) + " bytes, the header needs " +
+                       std::to_string(voxOffset + payload));
+    return l;
+}
+
 } // namespace volcl::io
 
 namespace volcl {
 
 NiftiMetadata readNiftiMetadata(const std::filesystem::path& path) {
-    const std::vector<std::byte> file = readFileBytes(path);
-    return io::parseHeader(io::headerBytes(file, io::looksCompressed(file), path), path).meta;
+    // The header alone: the voxels of a volume larger than memory are never read here.
+    const bool gz = io::looksCompressed(io::readFilePrefix(path, 2, false));
+    return io::parseHeader(io::readFilePrefix(path, io::kHeaderSize, gz), path).meta;
 }
 
 std::optional<NiftiMetadata> readNiftiMetadataIfNifti(const std::filesystem::path& path) {

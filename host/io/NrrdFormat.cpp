@@ -458,6 +458,80 @@ TimeSeries readNrrd(ReadContext& ctx) {
     return series;
 }
 
+std::optional<SlabLayout> nrrdSlabLayout(ReadContext& ctx) {
+    const fs::path& path = ctx.file();
+    // The header is text before the data: 1 MiB holds any header a writer makes; a longer one is read whole.
+    constexpr std::size_t kHeaderPrefix = std::size_t(1) << 20;
+    const std::vector<std::byte> prefix = readFilePrefix(path, kHeaderPrefix, false);
+    const NrrdHeader h = parseNrrdHeader(asText(prefix), path);
+    if (!h.fields.contains("data file") && (!h.blankLineSeen || h.dataStart >= prefix.size()) &&
+        prefix.size() == kHeaderPrefix)
+        return std::nullopt;
+    const long long dimension = requireInt(h.require("dimension", path), path, "dimension");
+    if (dimension != 3) return std::nullopt;
+    const auto st = nrrdType(h.require("type", path));
+    if (!st) return std::nullopt;
+    const auto sizes = requireSizes(h.require("sizes", path), 3, path, "sizes");
+    if (auto kinds = h.field("kinds"))
+        for (const auto k : splitWords(*kinds))
+            for (const char* bad : kNonScalarKinds)
+                if (iequals(k, bad)) return std::nullopt;
+    const PayloadEncoding encoding = nrrdEncoding(h, path);
+    if (encoding == PayloadEncoding::Ascii || h.field("line skip")) return std::nullopt;
+    SlabLayout l;
+    l.sampleType = *st;
+    l.dims = {sizes[0], sizes[1], sizes[2]};
+    if (auto e = h.field("endian")) {
+        if (iequals(*e, "big"))
+            l.endian = Endian::Big;
+        else if (!iequals(*e, "little"))
+            fail(path, "endian '" + *e + "' is neither little nor big");
+    }
+    const Geometry g = nrrdGeometry(h, dimension, sizes, path);
+    l.spacing = g.spacing;
+    l.origin = g.origin;
+    l.direction = g.direction;
+    l.anatomical = g.anatomical;
+    long long byteSkip = 0;
+    if (auto b = h.field("byte skip")) byteSkip = requireInt(*b, path, "byte skip");
+    if (byteSkip < -1) fail(path, "byte skip must be -1 or more");
+    if (byteSkip == -1 && encoding != PayloadEncoding::Raw)
+        fail(path, "byte skip -1 is only valid for raw encoding");
+    l.gzip = encoding == PayloadEncoding::Compressed;
+    const std::size_t payload = checkedByteCount(checkedVoxelCount(l.dims, 1, path), sampleSize(*st), path);
+    if (auto df = h.field("data file")) {
+        const auto w = splitWords(*df);
+        if (w.size() != 1 || w[0] == "LIST") return std::nullopt; // several files: read whole
+        l.dataFile = ctx.dataFile(*df);
+    } else {
+        if (!h.blankLineSeen)
+            fail(path, "truncated: header does not end with a blank line and names no data file");
+        l.dataFile = path;
+        l.fileOffset = h.dataStart;
+    }
+    if (l.gzip) {
+        l.skip = std::uint64_t(byteSkip);
+        return l;
+    }
+    std::error_code ec;
+    const std::uintmax_t size = fs::file_size(l.dataFile, ec);
+    if (ec) fail(path, "cannot determine the data size: " + ec.message());
+    const std::uint64_t rest = size - std::min<std::uint64_t>(size, l.fileOffset);
+    if (byteSkip == -1) {
+        if (rest < payload)
+            fail(path,
+                 "truncated: " + std::to_string(rest) + " data bytes, expected " + std::to_string(payload));
+        l.fileOffset = size - payload;
+        return l;
+    }
+    const std::uint64_t need = payload + std::uint64_t(byteSkip);
+    if (rest < need)
+        fail(path, "truncated: " + std::to_string(rest) + " data bytes, expected " + std::to_string(need));
+    if (rest > need) fail(path, "oversized: " + std::to_string(rest - need) + " bytes after the data");
+    l.fileOffset += std::uint64_t(byteSkip);
+    return l;
+}
+
 namespace {
 
 constexpr std::string_view kWrittenByVolcl = "NRRD0004\n# written by volcl;";

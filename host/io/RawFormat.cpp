@@ -47,6 +47,43 @@ TimeSeries readRaw(ReadContext& ctx) {
     return series;
 }
 
+std::optional<SlabLayout> rawSlabLayout(ReadContext& ctx) {
+    const fs::path& path = ctx.file();
+    const ReadOptions& options = ctx.options();
+    const auto fromName = parseRawFileName(path.filename().string());
+    const std::optional<Dims> dims = options.dims ? options.dims
+                                     : fromName   ? std::optional(fromName->first)
+                                                  : std::nullopt;
+    const std::optional<ScalarType> type = options.type ? options.type
+                                           : fromName   ? std::optional(fromName->second)
+                                                        : std::nullopt;
+    if (!dims || !type) return std::nullopt; // readRaw refuses it with its usage message
+    SlabLayout l;
+    l.dataFile = path;
+    l.sampleType = sampleTypeOf(*type);
+    l.endian = options.endian;
+    l.dims = *dims;
+    const std::size_t payload =
+        checkedByteCount(checkedVoxelCount(*dims, 1, path), sampleSize(l.sampleType), path);
+    const std::string name = path.filename().string();
+    l.gzip = endsWithI(name, ".gz") || endsWithI(name, "-gz");
+    if (l.gzip) {
+        l.skip = options.headerBytes;
+        return l;
+    }
+    l.fileOffset = options.headerBytes;
+    std::error_code ec;
+    const std::uintmax_t fileSize = fs::file_size(path, ec);
+    if (ec) fail(path, "cannot determine the file size: " + ec.message());
+    if (fileSize != payload + options.headerBytes)
+        fail(path, std::string(fileSize < payload + options.headerBytes ? "truncated" : "oversized") +
+                       ": file has " + std::to_string(fileSize) + " bytes, " + std::to_string(dims->x) + "x" +
+                       std::to_string(dims->y) + "x" + std::to_string(dims->z) + " " +
+                       std::string(scalarTypeName(*type)) + " needs " +
+                       std::to_string(payload + options.headerBytes));
+    return l;
+}
+
 void writeRaw(const Volume& volume, const fs::path& path, const WriteOptions& options) {
     if (endsWithI(path.filename().string(), ".gz")) {
         writeFileAtomically(path, bytesInOrder(volume, options.endian));

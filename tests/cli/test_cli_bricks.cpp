@@ -183,3 +183,69 @@ TEST(CliBricks, StreamedCloudRendersAsACroppedRegion) {
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_FALSE(fs::exists(dir / "missing"));
 }
+
+namespace {
+
+std::string fileText(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+} // namespace
+
+// `encode --stream` reads raw, NRRD (gzip attached, raw detached) and NIfTI (.nii, .nii.gz, oriented int16)
+// by slabs and writes the bytes the whole-volume encoder writes; truncated inputs are refused with one line
+// naming the file and leave no output; inputs that cannot stream are refused with --stream.
+TEST(CliBricks, StreamedEncodeEqualsTheWholeVolumeEncode) {
+    const fs::path dir = test::tempDir("cli_bricks_stream_encode");
+    writeBall(dir / "ball_40x36x30_uint8.raw", 0);
+    writeBall(dir / "ball.nrrd", 1);
+    writeBall(dir / "ball.nhdr", 2);
+    writeBall(dir / "ball.nii", 3);
+    writeBall(dir / "ball.nii.gz", 4);
+    Volume i16({33, 20, 17}, ScalarType::Int16);
+    for (std::size_t i = 0; i < i16.voxelCount(); ++i)
+        i16.values<std::int16_t>()[i] = std::int16_t(int(i % 977) - 400);
+    i16.spacing = {0.7, 1.1, 2.5};
+    i16.origin = {-12, 3, 40};
+    i16.direction = {0, -1, 0, 1, 0, 0, 0, 0, 1};
+    i16.anatomical = true;
+    writeVolumeFile(i16, dir / "oriented.nii.gz");
+    for (const char* in : {"ball_40x36x30_uint8.raw", "ball.nrrd", "ball.nhdr", "ball.nii", "ball.nii.gz",
+                           "oriented.nii.gz"}) {
+        const std::string opts = " --brick 16 --levels 2 -o ";
+        test::RunResult r =
+            test::runVolcl("encode " + test::quoted(dir / in) + opts + test::quoted(dir / "whole.vcz"), dir);
+        ASSERT_EQ(r.exitCode, 0) << in << r.err;
+        EXPECT_EQ(r.err.find("streamed"), std::string::npos) << r.err; // small: the whole-volume encoder
+        r = test::runVolcl(
+            "encode --stream " + test::quoted(dir / in) + opts + test::quoted(dir / "streamed.vcz"), dir);
+        ASSERT_EQ(r.exitCode, 0) << in << r.err;
+        EXPECT_NE(r.err.find("streamed in"), std::string::npos) << r.err;
+        EXPECT_TRUE(fileText(dir / "whole.vcz") == fileText(dir / "streamed.vcz")) << in;
+    }
+    // Truncated raw data and a cut gzip stream: exit 1, one line naming the file, no output.
+    const std::string raw = fileText(dir / "ball_40x36x30_uint8.raw");
+    test::writeFile(dir / "cut_40x36x30_uint8.raw", raw.substr(0, raw.size() - 5));
+    const std::string gz = fileText(dir / "ball.nii.gz");
+    test::writeFile(dir / "cut.nii.gz", gz.substr(0, gz.size() / 2));
+    for (const char* in : {"cut_40x36x30_uint8.raw", "cut.nii.gz"}) {
+        const test::RunResult r = test::runVolcl(
+            "encode --stream " + test::quoted(dir / in) + " -o " + test::quoted(dir / "cut.vcz"), dir);
+        EXPECT_EQ(r.exitCode, 1) << in << r.err;
+        EXPECT_NE(r.err.find(in), std::string::npos) << r.err;
+        EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+        EXPECT_FALSE(fs::exists(dir / "cut.vcz")) << in;
+    }
+    // What the stream cannot code: named, exit 2.
+    for (const std::string args : {"--max-error 2 " + test::quoted(dir / "ball.nrrd"),
+                                   test::quoted(dir / "ball.nrrd") + " " + test::quoted(dir / "ball.nii")}) {
+        const test::RunResult r =
+            test::runVolcl("encode --stream " + args + " -o " + test::quoted(dir / "no.vcz"), dir);
+        EXPECT_EQ(r.exitCode, 2) << args << r.err;
+        EXPECT_NE(r.err.find("--stream"), std::string::npos) << r.err;
+        EXPECT_FALSE(fs::exists(dir / "no.vcz"));
+    }
+}

@@ -41,6 +41,7 @@ StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& sourc
     h.bricks.assign(1, std::vector<VczBrickEntry>(nb));
     h.frames.resize(1);
     h.metadata = options.metadata;
+    addPlacementMetadata(h.metadata, source.direction, source.anatomical);
     LodStatistics stats;
     stats.levels = options.levels;
     if (lodStatistics) {
@@ -65,6 +66,8 @@ StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& sourc
                    source.type);
         row.spacing = source.spacing;
         row.origin = source.origin;
+        row.direction = source.direction;
+        row.anatomical = source.anatomical;
         source.fill(at, row);
         report.rowBytes = std::max(report.rowBytes, row.byteSize());
         std::vector<std::byte> coded = encodeVolume(cc, row, options);

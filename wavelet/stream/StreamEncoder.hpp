@@ -21,6 +21,8 @@ struct VolumeSource {
     ScalarType type = ScalarType::UInt8;
     std::array<double, 3> spacing{1.0, 1.0, 1.0};
     std::array<double, 3> origin{0.0, 0.0, 0.0};
+    Direction3 direction = kIdentityDirection; ///< stored as encodeVolume stores a volume's
+    bool anatomical = false;
     std::function<void(Dims lo, Volume& out)> fill;
 };
 
