@@ -200,6 +200,12 @@ TimeSeries readVdb(ReadContext& ctx);
 TimeSeries readInviwoDat(ReadContext& ctx);
 TimeSeries readVoreenVvd(ReadContext& ctx);
 TimeSeries readNpy(ReadContext& ctx);
+/// True when `path` is a DICOM Part 10 file ("DICM" after the 128-byte preamble).
+bool isDicomFile(const std::filesystem::path& path);
+/// One DICOM series from a folder, a glob pattern of slice files, or one slice (its folder's files of the
+/// same series); options.dicomSeries picks among several. `filesRead` gets the series' files.
+TimeSeries readDicom(const std::filesystem::path& input, const ReadOptions& options,
+                     std::vector<std::filesystem::path>& filesRead);
 
 void writeRaw(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
 void writeNrrd(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
