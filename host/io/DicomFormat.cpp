@@ -10,7 +10,14 @@
 #include <gdcmTrace.h>
 #include <gdcmTransferSyntax.h>
 
+#include <csignal>
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -74,7 +81,8 @@ double numberOr(const std::string& text, double fallback, const fs::path& file, 
     return v.empty() ? fallback : v.front();
 }
 
-std::size_t countOf(const std::string& text, std::size_t fallback, const fs::path& file, std::string_view what) {
+std::size_t countOf(const std::string& text, std::size_t fallback, const fs::path& file,
+                    std::string_view what) {
     const double v = numberOr(text, static_cast<double>(fallback), file, what);
     if (v < 0 || v != std::floor(v) || v > 1e9) fail(file, std::string(what) + " is not a count");
     return static_cast<std::size_t>(v);
@@ -87,8 +95,31 @@ void silenceGdcm() {
     gdcm::Trace::DebugOff();
 }
 
+// The reading child's reply pipe: each file is named before GDCM opens it, so a file that makes GDCM abort
+// (Debian builds it with assertions) is the one the parent reports.
+struct ReplyPipe {
+    int fd = -1;
+    bool writeAll(const void* data, std::size_t n) const {
+        const auto* p = static_cast<const char*>(data);
+        while (n > 0) {
+            const ssize_t w = ::write(fd, p, n);
+            if (w < 0 && errno == EINTR) continue;
+            if (w <= 0) return false;
+            p += w;
+            n -= static_cast<std::size_t>(w);
+        }
+        return true;
+    }
+    bool record(char kind, std::string_view text) const {
+        const std::uint64_t n = text.size();
+        return writeAll(&kind, 1) && writeAll(&n, 8) && writeAll(text.data(), text.size());
+    }
+    void entering(const fs::path& file) const { record('F', file.string()); }
+};
+
 // A slice's header, or nothing when the file is no DICOM image (no series UID or no Rows).
-std::optional<SliceHeader> readSliceHeader(const fs::path& file) {
+std::optional<SliceHeader> readSliceHeader(const fs::path& file, const ReplyPipe& pipe) {
+    pipe.entering(file);
     gdcm::Reader reader;
     reader.SetFileName(file.c_str());
     bool ok = false;
@@ -130,8 +161,7 @@ std::vector<fs::path> candidateFiles(const fs::path& input, std::optional<fs::pa
     const fs::path folder = fs::is_directory(input, ec) ? input : input.parent_path();
     if (!fs::is_directory(input, ec)) named = input;
     std::vector<fs::path> files;
-    for (const fs::directory_entry& e :
-         fs::directory_iterator(folder.empty() ? fs::path(".") : folder, ec))
+    for (const fs::directory_entry& e : fs::directory_iterator(folder.empty() ? fs::path(".") : folder, ec))
         if (e.is_regular_file(ec)) files.push_back(folder.empty() ? e.path().filename() : e.path());
     if (ec) fail(folder, "cannot list the folder (" + ec.message() + ")");
     std::sort(files.begin(), files.end(),
@@ -140,7 +170,8 @@ std::vector<fs::path> candidateFiles(const fs::path& input, std::optional<fs::pa
 }
 
 // The slices of the series the input and options choose, in file order.
-std::vector<SliceHeader> chooseSeries(const fs::path& input, const ReadOptions& options) {
+std::vector<SliceHeader> chooseSeries(const fs::path& input, const ReadOptions& options,
+                                      const ReplyPipe& pipe) {
     std::optional<fs::path> named;
     std::map<std::string, std::vector<SliceHeader>> bySeries;
     std::string namedUid;
@@ -148,7 +179,7 @@ std::vector<SliceHeader> chooseSeries(const fs::path& input, const ReadOptions& 
         const bool isNamed = named && f == *named;
         // A folder or pattern may hold other files (a DICOMDIR, notes, thumbnails): they are skipped.
         if (!isNamed && !isDicomFile(f)) continue;
-        std::optional<SliceHeader> h = readSliceHeader(f);
+        std::optional<SliceHeader> h = readSliceHeader(f, pipe);
         if (!h) {
             if (isNamed) unsupported(f, "is a DICOM file without an image (no Series Instance UID or Rows)");
             continue;
@@ -196,20 +227,23 @@ SeriesGeometry sortSlices(std::vector<SliceHeader>& slices) {
         if (s.rows != first.rows || s.columns != first.columns)
             unsupported(s.file, "is " + std::to_string(s.columns) + "x" + std::to_string(s.rows) +
                                     " pixels, the series' first file " + first.file.filename().string() +
-                                    " is " + std::to_string(first.columns) + "x" + std::to_string(first.rows));
+                                    " is " + std::to_string(first.columns) + "x" +
+                                    std::to_string(first.rows));
         for (int i = 0; i < 6; ++i)
             if (std::abs(s.orientation[i] - first.orientation[i]) > kGeometryTolerance)
                 unsupported(s.file, "has another Image Orientation (Patient) than " +
                                         first.file.filename().string() + " (mixed orientations)");
         for (int i = 0; i < 2; ++i)
-            if (std::abs(s.pixelSpacing[i] - first.pixelSpacing[i]) > kGeometryTolerance * first.pixelSpacing[i])
+            if (std::abs(s.pixelSpacing[i] - first.pixelSpacing[i]) >
+                kGeometryTolerance * first.pixelSpacing[i])
                 unsupported(s.file, "has another Pixel Spacing than " + first.file.filename().string());
     }
     SeriesGeometry g;
     auto unit = [&](Vec3d v, std::string_view what) {
         const double n = std::sqrt(dotProduct(v, v));
-        if (!(n > 0.5 && n < 2)) fail(first.file, "Image Orientation (Patient): the " + std::string(what) +
-                                                      " cosines are not a unit vector");
+        if (!(n > 0.5 && n < 2))
+            fail(first.file,
+                 "Image Orientation (Patient): the " + std::string(what) + " cosines are not a unit vector");
         return Vec3d{v[0] / n, v[1] / n, v[2] / n};
     };
     g.row = unit({first.orientation[0], first.orientation[1], first.orientation[2]}, "row");
@@ -243,14 +277,15 @@ SeriesGeometry sortSlices(std::vector<SliceHeader>& slices) {
         const double gap = gaps[i - 1];
         if (gap <= tolerance)
             unsupported(slices[i].file, "has the same slice position as " +
-                                            slices[i - 1].file.filename().string() + " (duplicated position " +
-                                            formatDouble(slices[i].along) + " mm along the normal)");
+                                            slices[i - 1].file.filename().string() +
+                                            " (duplicated position " + formatDouble(slices[i].along) +
+                                            " mm along the normal)");
         if (std::abs(gap - median) > tolerance)
-            unsupported(slices[i].file,
-                        "lies " + formatDouble(gap) + " mm from the previous slice " +
-                            slices[i - 1].file.filename().string() + ", the series' other gaps are " +
-                            formatDouble(median) + " mm (gaps or non-uniform spacing; tolerance " +
-                            formatDouble(kGeometryTolerance * 100) + " %)");
+            unsupported(slices[i].file, "lies " + formatDouble(gap) + " mm from the previous slice " +
+                                            slices[i - 1].file.filename().string() +
+                                            ", the series' other gaps are " + formatDouble(median) +
+                                            " mm (gaps or non-uniform spacing; tolerance " +
+                                            formatDouble(kGeometryTolerance * 100) + " %)");
         // The positions must move along the normal: a tilted gantry or a sheared stack is no grid.
         Vec3d d{};
         for (int a = 0; a < 3; ++a)
@@ -298,7 +333,9 @@ std::optional<SampleType> sampleTypeOf(const gdcm::PixelFormat& pf) {
 }
 
 // One slice's stored samples, decoded by GDCM (host byte order).
-std::vector<std::byte> readSlicePixels(const SliceHeader& s, std::optional<SampleType>& type) {
+std::vector<std::byte> readSlicePixels(const SliceHeader& s, std::optional<SampleType>& type,
+                                       const ReplyPipe& pipe) {
+    pipe.entering(s.file);
     gdcm::ImageReader reader;
     reader.SetFileName(s.file.c_str());
     bool ok = false;
@@ -357,17 +394,11 @@ ScalarType rescaledType(SampleType stored, bool integral, double lo, double hi) 
     return ScalarType::Float32;
 }
 
-} // namespace
-
-bool isDicomFile(const fs::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    char head[132] = {};
-    return in.read(head, sizeof(head)) && std::string_view(head + 128, 4) == "DICM";
-}
-
-TimeSeries readDicom(const fs::path& input, const ReadOptions& options, std::vector<fs::path>& filesRead) {
+// The whole read, in the child: the volume and its files, or throws.
+TimeSeries readSeriesHere(const fs::path& input, const ReadOptions& options, std::vector<fs::path>& filesRead,
+                          const ReplyPipe& pipe) {
     silenceGdcm();
-    std::vector<SliceHeader> slices = chooseSeries(input, options);
+    std::vector<SliceHeader> slices = chooseSeries(input, options, pipe);
     const SeriesGeometry g = sortSlices(slices);
     const Dims dims{slices.front().columns, slices.front().rows, slices.size()};
     const std::size_t voxels = checkedVoxelCount(dims, 1, input);
@@ -380,7 +411,7 @@ TimeSeries readDicom(const fs::path& input, const ReadOptions& options, std::vec
     bool integral = true;
     double lo = std::numeric_limits<double>::infinity(), hi = -lo;
     for (const SliceHeader& s : slices) {
-        pixels.push_back(readSlicePixels(s, stored));
+        pixels.push_back(readSlicePixels(s, stored, pipe));
         const bool integerScale = s.slope == std::floor(s.slope) && s.intercept == std::floor(s.intercept);
         const bool integerSamples = *stored != SampleType::Float32 && *stored != SampleType::Float64;
         integral = integral && integerScale && integerSamples;
@@ -432,6 +463,165 @@ TimeSeries readDicom(const fs::path& input, const ReadOptions& options, std::vec
     TimeSeries series;
     series.frames.push_back(std::move(v));
     return series;
+}
+
+// Child side: reads and sends 'O' (the volume) or 'E' (the error kind and message), then ends.
+[[noreturn]] void readInChild(const fs::path& input, const ReadOptions& options, const ReplyPipe& pipe) {
+    try {
+        std::vector<fs::path> files;
+        const TimeSeries s = readSeriesHere(input, options, files, pipe);
+        const Volume& v = s.frames.front();
+        const std::uint64_t head[5] = {v.dims().x, v.dims().y, v.dims().z,
+                                       static_cast<std::uint64_t>(v.type()), files.size()};
+        const std::uint8_t anatomical = v.anatomical ? 1 : 0;
+        bool ok = pipe.writeAll("O", 1) && pipe.writeAll(head, sizeof(head)) &&
+                  pipe.writeAll(v.spacing.data(), 24) && pipe.writeAll(v.origin.data(), 24) &&
+                  pipe.writeAll(v.direction.data(), 72) && pipe.writeAll(&anatomical, 1);
+        for (const fs::path& f : files)
+            ok = ok && pipe.record('F', f.string());
+        ok = ok && pipe.writeAll(v.bytes().data(), v.byteSize());
+        ::_exit(ok ? 0 : 1);
+    } catch (const DataError& e) {
+        pipe.record('D', e.what());
+    } catch (const UsageError& e) {
+        pipe.record('U', e.what());
+    } catch (const std::bad_alloc&) {
+        pipe.record('I', input.string() + ": not enough memory to read the DICOM series");
+    } catch (const std::exception& e) {
+        pipe.record('I', e.what());
+    }
+    ::_exit(0);
+}
+
+// Longest time the child may go without sending anything: GDCM loops forever on some malformed files, and
+// one slice, even a large compressed one, decodes in well under a second.
+constexpr int kDicomStallMilliseconds = 5000;
+
+// Reads exactly n bytes; false at the end of the stream or when the child stalls (it is then killed).
+bool readAll(int fd, void* data, std::size_t n, pid_t child) {
+    auto* p = static_cast<char*>(data);
+    while (n > 0) {
+        pollfd pfd{fd, POLLIN, 0};
+        const int ready = ::poll(&pfd, 1, kDicomStallMilliseconds);
+        if (ready < 0 && errno == EINTR) continue;
+        if (ready == 0) {
+            ::kill(child, SIGKILL);
+            return false;
+        }
+        const ssize_t r = ::read(fd, p, n);
+        if (r < 0 && errno == EINTR) continue;
+        if (r <= 0) return false;
+        p += r;
+        n -= static_cast<std::size_t>(r);
+    }
+    return true;
+}
+
+std::optional<std::string> readRecordText(int fd, pid_t child) {
+    std::uint64_t n = 0;
+    if (!readAll(fd, &n, 8, child) || n > (1u << 20)) return std::nullopt;
+    std::string text(n, '\0');
+    if (!readAll(fd, text.data(), n, child)) return std::nullopt;
+    return text;
+}
+
+} // namespace
+
+bool isDicomFile(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    char head[132] = {};
+    return in.read(head, sizeof(head)) && std::string_view(head + 128, 4) == "DICM";
+}
+
+TimeSeries readDicom(const fs::path& input, const ReadOptions& options, std::vector<fs::path>& filesRead) {
+    // GDCM trusts malformed files to the point of failed assertions (abort) in Debian's build: the series is
+    // read in a forked child, and a child that dies becomes an error naming the file it was reading.
+    int fds[2];
+    if (::pipe2(fds, O_CLOEXEC) != 0) fail(input, "cannot create a pipe for the DICOM reader");
+    const pid_t pid = ::fork();
+    if (pid < 0) {
+        ::close(fds[0]);
+        ::close(fds[1]);
+        fail(input, "cannot start the DICOM reader (fork failed)");
+    }
+    if (pid == 0) {
+        ::close(fds[0]);
+        // GDCM's failed assertions print to stderr; the parent words the error.
+        const int devNull = ::open("/dev/null", O_WRONLY);
+        if (devNull >= 0) ::dup2(devNull, STDERR_FILENO);
+        // A forged element length must fail its allocation, not touch gigabytes (the stored samples and the
+        // volume, 12 bytes a voxel at most, are checked against the budget before they are read).
+        capAddressSpace(effectiveMemoryBudget(options.memoryBudget));
+        readInChild(input, options, ReplyPipe{fds[1]});
+    }
+    ::close(fds[1]);
+    // Closes the read end and reaps the child on every way out (a child still writing gets EPIPE).
+    class ChildEnd {
+    public:
+        ChildEnd(int fd, pid_t pid) : fd_(fd), pid_(pid) {}
+        ChildEnd(const ChildEnd&) = delete;
+        ChildEnd& operator=(const ChildEnd&) = delete;
+        ~ChildEnd() {
+            ::close(fd_);
+            int status = 0;
+            while (::waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
+            }
+        }
+
+    private:
+        int fd_;
+        pid_t pid_;
+    };
+    std::optional<ChildEnd> child;
+    child.emplace(fds[0], pid);
+    fs::path current = input;
+    for (;;) {
+        char kind = 0;
+        if (!readAll(fds[0], &kind, 1, pid)) break;
+        if (kind == 'F') {
+            if (const auto text = readRecordText(fds[0], pid)) current = *text;
+            continue;
+        }
+        if (kind == 'O') {
+            std::uint64_t head[5];
+            Volume v;
+            std::uint8_t anatomical = 0;
+            bool ok = readAll(fds[0], head, sizeof(head), pid) &&
+                      head[3] <= static_cast<std::uint64_t>(ScalarType::Float32);
+            std::array<double, 3> spacing{}, origin{};
+            Direction3 direction{};
+            ok = ok && readAll(fds[0], spacing.data(), 24, pid) && readAll(fds[0], origin.data(), 24, pid) &&
+                 readAll(fds[0], direction.data(), 72, pid) && readAll(fds[0], &anatomical, 1, pid);
+            std::vector<fs::path> files;
+            for (std::uint64_t i = 0; ok && i < head[4]; ++i) {
+                char f = 0;
+                const auto text =
+                    readAll(fds[0], &f, 1, pid) && f == 'F' ? readRecordText(fds[0], pid) : std::nullopt;
+                ok = text.has_value();
+                if (ok) files.emplace_back(*text);
+            }
+            if (ok) {
+                v = Volume(Dims{head[0], head[1], head[2]}, static_cast<ScalarType>(head[3]));
+                ok = readAll(fds[0], v.bytes().data(), v.byteSize(), pid);
+            }
+            if (!ok) fail(input, "the DICOM reader ended before it sent the whole volume");
+            v.spacing = spacing;
+            v.origin = origin;
+            v.direction = direction;
+            v.anatomical = anatomical != 0;
+            filesRead = std::move(files);
+            TimeSeries series;
+            series.frames.push_back(std::move(v));
+            return series;
+        }
+        const auto message = readRecordText(fds[0], pid);
+        if (!message) break;
+        if (kind == 'D') throw DataError(*message);
+        if (kind == 'U') throw UsageError(*message);
+        throw IoError(*message);
+    }
+    child.reset(); // waits for the child
+    fail(current, "not a readable DICOM file (GDCM failed or stalled while reading it)");
 }
 
 } // namespace volcl::io

@@ -318,6 +318,13 @@ def hard_cases():
     ds["PixelData"].is_undefined_length = True
     ds.save_as(files[0], write_like_original=False)
     refused(["info", folder], files[0], ["cannot decode"], "a transfer syntax GDCM cannot decode")
+    # A file GDCM fails an assertion on (the fuzz regression): read in a child process, refused by name.
+    here = os.path.dirname(os.path.abspath(__file__))
+    forged = os.path.join(here, "..", "..", "fuzz", "regressions", "fuzz_read_dicom", "gdcm_assertion_in_meta_header.dcm")
+    os.makedirs(path("forged"), exist_ok=True)
+    shutil.copy(forged, path("forged", "forged.dcm"))
+    refused(["info", path("forged", "forged.dcm")], path("forged", "forged.dcm"), ["not a readable DICOM file"],
+            "a malformed file that makes GDCM abort")
     os.makedirs(path("empty"), exist_ok=True)
     with open(path("empty", "notes.txt"), "w") as f:
         f.write("no images here\n")
