@@ -99,17 +99,7 @@ void silenceGdcm() {
 // (Debian builds it with assertions) is the one the parent reports.
 struct ReplyPipe {
     int fd = -1;
-    bool writeAll(const void* data, std::size_t n) const {
-        const auto* p = static_cast<const char*>(data);
-        while (n > 0) {
-            const ssize_t w = ::write(fd, p, n);
-            if (w < 0 && errno == EINTR) continue;
-            if (w <= 0) return false;
-            p += w;
-            n -= static_cast<std::size_t>(w);
-        }
-        return true;
-    }
+    bool writeAll(const void* data, std::size_t n) const { return io::writeAll(fd, data, n); }
     bool record(char kind, std::string_view text) const {
         const std::uint64_t n = text.size();
         return writeAll(&kind, 1) && writeAll(&n, 8) && writeAll(text.data(), text.size());

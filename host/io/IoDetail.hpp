@@ -120,6 +120,9 @@ std::vector<std::byte> deflateBytes(std::span<const std::byte> data, Wrapper wra
 /// Writes `bytes` to `path` atomically, gzip-compressed when the name ends in `.gz`.
 void writeFileAtomically(const std::filesystem::path& path, std::span<const std::byte> bytes);
 
+/// Writes all `n` bytes to a pipe or socket, retrying after signals; false when the other end is gone.
+bool writeAll(int fd, const void* data, std::size_t n) noexcept;
+
 bool hostIsLittleEndian() noexcept;
 Endian hostEndian() noexcept;
 /// Copy of a volume's bytes in the requested byte order.

@@ -2,6 +2,7 @@
 #include "core/Error.hpp"
 #include "core/MemoryBudget.hpp"
 #include "core/runtime/RuntimeModule.hpp"
+#include "host/io/IoDetail.hpp"
 #include "host/io/VdbModule.hpp"
 #include "host/io/VdbReader.hpp"
 
@@ -25,17 +26,7 @@ namespace {
 
 using volcl::io::VdbReplyStatus;
 
-bool writeAll(int fd, const void* data, std::size_t n) {
-    const auto* p = static_cast<const char*>(data);
-    while (n > 0) {
-        const ssize_t w = ::write(fd, p, n);
-        if (w < 0 && errno == EINTR) continue;
-        if (w <= 0) return false;
-        p += w;
-        n -= static_cast<std::size_t>(w);
-    }
-    return true;
-}
+using volcl::io::writeAll;
 
 bool sendFailure(VdbReplyStatus status, const std::string& message) {
     const std::uint64_t n = message.size();

@@ -11,7 +11,6 @@ with a message when absent.
 import json
 import os
 import shutil
-import subprocess
 import sys
 
 import numpy as np
@@ -27,29 +26,11 @@ except ImportError as e:
     print(f"skipped: {e} (apt-get install python3-pydicom python3-nibabel)")
     sys.exit(77)
 
-VOLCL, WORK = sys.argv[1], sys.argv[2]
-SHARED = sys.argv[3] if len(sys.argv) > 3 else ""
+from cli_checks import SHARED, WORK, check, finish, run, volcl  # noqa: E402
+
 MRI = "/usr/share/mricron/templates/ch2.nii.gz"  # a real T1 MRI, 181x217x181 uint8 (mricron-data)
 AFFINE_TOL = 1e-5
-failures = []
 MR_STORAGE = "1.2.840.10008.5.1.4.1.1.4"
-
-
-def run(*args):
-    return subprocess.run([VOLCL, "--quiet", *args], capture_output=True, text=True)
-
-
-def volcl(*args):
-    r = run(*args)
-    if r.returncode != 0:
-        raise SystemExit(f"volcl {' '.join(args)} failed ({r.returncode}): {r.stderr.strip()}")
-    return r.stdout
-
-
-def check(cond, what):
-    print(("ok   " if cond else "FAIL ") + what)
-    if not cond:
-        failures.append(what)
 
 
 def path(*names):
@@ -338,6 +319,4 @@ rescale_cases()
 two_series()
 hard_cases()
 real_volumes()
-if failures:
-    print(f"{len(failures)} check(s) failed")
-    sys.exit(1)
+finish()
