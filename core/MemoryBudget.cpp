@@ -4,8 +4,10 @@
 #include "core/Error.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <string>
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 namespace volcl {
@@ -29,6 +31,24 @@ void checkMemoryBudget(std::size_t bytes, std::size_t budget, const std::filesys
         throw IoError(file.string() + ": " + std::string(what) + " needs " + std::to_string(bytes) +
                       " bytes, more than the memory budget of " + std::to_string(limit) +
                       " bytes (corrupt or lying header?)");
+}
+
+// Sizes inside a file are the reading library's to trust (libopenvdb's grid data, GDCM's element lengths):
+// a forged one made libopenvdb allocate and touch 5 GB from an 11 KB file; past the cap the allocation
+// fails and the read ends as a corrupt file.
+void capAddressSpace(unsigned long long budget) noexcept {
+    std::FILE* statm = std::fopen("/proc/self/statm", "r");
+    unsigned long long pages = 0;
+    const bool known = statm && std::fscanf(statm, "%llu", &pages) == 1;
+    if (statm) std::fclose(statm);
+    rlimit limit{};
+    if (!known || ::getrlimit(RLIMIT_AS, &limit) != 0) return;
+    const unsigned long long cap =
+        pages * static_cast<unsigned long long>(::sysconf(_SC_PAGESIZE)) + 2ull * budget;
+    if (limit.rlim_max != RLIM_INFINITY && cap > limit.rlim_max) return;
+    if (limit.rlim_cur != RLIM_INFINITY && cap > limit.rlim_cur) return;
+    limit.rlim_cur = static_cast<rlim_t>(cap);
+    (void)::setrlimit(RLIMIT_AS, &limit);
 }
 
 } // namespace volcl

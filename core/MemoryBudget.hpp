@@ -26,4 +26,11 @@ std::size_t effectiveMemoryBudget(std::size_t budget) noexcept;
 void checkMemoryBudget(std::size_t bytes, std::size_t budget, const std::filesystem::path& file,
                        std::string_view what);
 
+/// In a reader process of its own (a forked or spawned reader of a library that trusts sizes inside
+/// its files): caps the address space at what is mapped now (the program, its libraries, and a
+/// sanitizer's shadow where there is one) plus twice `budget` bytes, so a forged size makes the
+/// allocation fail instead of touching gigabytes. Leaves the limit alone when it cannot be read or
+/// is already lower.
+void capAddressSpace(unsigned long long budget) noexcept;
+
 } // namespace volcl

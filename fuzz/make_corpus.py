@@ -337,6 +337,50 @@ def series_seeds():
         b'</Collection></VTKFile>\0' + frame4d)
 
 
+def dicom_element(group, element, vr, value):
+    """One explicit-VR little-endian data element; values padded to even length as DICOM requires."""
+    if isinstance(value, str):
+        value = value.encode()
+    if len(value) % 2:
+        value += b"\0" if vr in (b"UI", b"OB") else b" "
+    if vr in (b"OB", b"OW", b"UN", b"SQ", b"UT"):
+        return struct.pack("<HH2sHI", group, element, vr, 0, len(value)) + value
+    return struct.pack("<HH2sH", group, element, vr, len(value)) + value
+
+
+def dicom_file(rows, columns, pixels, bits, signed, extra=b"", ts="1.2.840.10008.1.2.1"):
+    """A DICOM Part 10 MR slice: preamble, "DICM", the meta group, then the data set in tag order."""
+    meta = (dicom_element(0x0002, 0x0001, b"OB", b"\0\1") +
+            dicom_element(0x0002, 0x0002, b"UI", "1.2.840.10008.5.1.4.1.1.4") +
+            dicom_element(0x0002, 0x0003, b"UI", "1.2.3.4.5.6") + dicom_element(0x0002, 0x0010, b"UI", ts))
+    meta = dicom_element(0x0002, 0x0000, b"UL", struct.pack("<I", len(meta))) + meta
+    body = (dicom_element(0x0008, 0x0016, b"UI", "1.2.840.10008.5.1.4.1.1.4") +
+            dicom_element(0x0008, 0x0018, b"UI", "1.2.3.4.5.6") + dicom_element(0x0008, 0x0060, b"CS", "MR") +
+            dicom_element(0x0018, 0x0050, b"DS", "2.5") +
+            dicom_element(0x0020, 0x000E, b"UI", "1.2.3.4.7") +
+            dicom_element(0x0020, 0x0032, b"DS", "-10\\20.5\\3") +
+            dicom_element(0x0020, 0x0037, b"DS", "1\\0\\0\\0\\0.8\\-0.6") +
+            dicom_element(0x0028, 0x0002, b"US", struct.pack("<H", 1)) +
+            dicom_element(0x0028, 0x0004, b"CS", "MONOCHROME2") +
+            dicom_element(0x0028, 0x0010, b"US", struct.pack("<H", rows)) +
+            dicom_element(0x0028, 0x0011, b"US", struct.pack("<H", columns)) +
+            dicom_element(0x0028, 0x0030, b"DS", "0.5\\0.75") +
+            dicom_element(0x0028, 0x0100, b"US", struct.pack("<H", bits)) +
+            dicom_element(0x0028, 0x0101, b"US", struct.pack("<H", bits)) +
+            dicom_element(0x0028, 0x0102, b"US", struct.pack("<H", bits - 1)) +
+            dicom_element(0x0028, 0x0103, b"US", struct.pack("<H", 1 if signed else 0)) + extra +
+            dicom_element(0x7FE0, 0x0010, b"OW" if bits > 8 else b"OB", pixels))
+    return bytes(128) + b"DICM" + meta + body
+
+
+def dicom_seeds():
+    put("fuzz_read_dicom", "i16.dcm", dicom_file(3, 4, struct.pack("<12h", *range(-6, 6)), 16, True))
+    put("fuzz_read_dicom", "u8.dcm", dicom_file(3, 4, ramp(12), 8, False))
+    rescale = dicom_element(0x0028, 0x1052, b"DS", "-1024") + dicom_element(0x0028, 0x1053, b"DS", "0.5")
+    put("fuzz_read_dicom", "u16_rescaled.dcm", dicom_file(2, 2, struct.pack("<4H", 0, 1, 4000, 65535), 16, False,
+                                                           rescale))
+
+
 def main():
     if len(sys.argv) != 2:
         sys.exit("usage: make_corpus.py path/to/volcl")
@@ -351,6 +395,7 @@ def main():
     strip_seeds()
     mesh_seeds()
     series_seeds()
+    dicom_seeds()
     vcz_and_vdb_seeds(sys.argv[1])
     vcm_seeds(sys.argv[1])
 

@@ -21,6 +21,7 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -108,6 +109,7 @@ enum class Input {
     Nifti,          ///< .nii.gz written by volcl
     Nifti4dFrame,   ///< frame 1 of a 4D .nii (--frame 1)
     Vdb,            ///< OpenVDB float grid
+    DicomFolder,    ///< a folder of DICOM slices (explicit VR little endian, written here byte by byte)
     Vcz16,          ///< lossless .vcz, 16^3 bricks, drawn from the bricks
     Vcz32,          ///< ... 32^3 bricks
     Vcz64,          ///< ... 64^3 bricks (one partial brick)
@@ -127,6 +129,8 @@ std::string inputName(Input in) {
         return "nifti4d_frame";
     case Input::Vdb:
         return "vdb";
+    case Input::DicomFolder:
+        return "dicom_folder";
     case Input::Vcz16:
         return "vcz_lossless_b16";
     case Input::Vcz32:
@@ -143,6 +147,70 @@ std::string inputName(Input in) {
 
 void writeVcz(const std::filesystem::path& p, const std::vector<std::byte>& bytes) {
     test::writeFile(p, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+}
+
+/// One explicit-VR little-endian DICOM data element, its value padded to an even length.
+std::string dicomElement(std::uint16_t group, std::uint16_t element, const char vr[3], std::string value) {
+    if (value.size() % 2) value += std::string_view(vr) == "UI" || std::string_view(vr) == "OB" ? '\0' : ' ';
+    std::string e(4, '\0');
+    std::memcpy(e.data(), &group, 2);
+    std::memcpy(e.data() + 2, &element, 2);
+    e += std::string(vr, 2);
+    const bool longForm = std::string_view(vr) == "OB" || std::string_view(vr) == "OW";
+    if (longForm) {
+        const std::uint32_t n = static_cast<std::uint32_t>(value.size());
+        e += std::string(2, '\0') + std::string(reinterpret_cast<const char*>(&n), 4);
+    } else {
+        const std::uint16_t n = static_cast<std::uint16_t>(value.size());
+        e += std::string(reinterpret_cast<const char*>(&n), 2);
+    }
+    return e + value;
+}
+
+std::string dicomUs(std::uint16_t v) {
+    return std::string(reinterpret_cast<const char*>(&v), 2);
+}
+
+/// The volume (identity direction) as DICOM Part 10 MR slices, one file per z, in LPS as DICOM states it:
+/// rows and columns along -x and -y of RAS, so row x column = +z and the slices stack along z.
+void writeDicomFolder(const Volume& v, const std::filesystem::path& dir) {
+    std::filesystem::create_directories(dir);
+    auto ds = [](double x) {
+        std::ostringstream os;
+        os.precision(12);
+        os << x;
+        return os.str();
+    };
+    const Dims d = v.dims();
+    for (std::size_t k = 0; k < d.z; ++k) {
+        std::string meta = dicomElement(0x0002, 0x0001, "OB", std::string("\0\1", 2)) +
+                           dicomElement(0x0002, 0x0002, "UI", "1.2.840.10008.5.1.4.1.1.4") +
+                           dicomElement(0x0002, 0x0003, "UI", "1.2.3." + std::to_string(k + 1)) +
+                           dicomElement(0x0002, 0x0010, "UI", "1.2.840.10008.1.2.1");
+        const std::uint32_t metaBytes = static_cast<std::uint32_t>(meta.size());
+        meta = dicomElement(0x0002, 0x0000, "UL", std::string(reinterpret_cast<const char*>(&metaBytes), 4)) +
+               meta;
+        const auto voxels = v.values<std::uint8_t>().subspan(k * d.x * d.y, d.x * d.y);
+        const std::string body =
+            dicomElement(0x0008, 0x0016, "UI", "1.2.840.10008.5.1.4.1.1.4") +
+            dicomElement(0x0008, 0x0018, "UI", "1.2.3." + std::to_string(k + 1)) +
+            dicomElement(0x0020, 0x000e, "UI", "1.2.3.99") +
+            dicomElement(0x0020, 0x0032, "DS",
+                         ds(-v.origin[0]) + "\\" + ds(-v.origin[1]) + "\\" +
+                             ds(v.origin[2] + static_cast<double>(k) * v.spacing[2])) +
+            dicomElement(0x0020, 0x0037, "DS", "-1\\0\\0\\0\\-1\\0") +
+            dicomElement(0x0028, 0x0002, "US", dicomUs(1)) +
+            dicomElement(0x0028, 0x0004, "CS", "MONOCHROME2") +
+            dicomElement(0x0028, 0x0010, "US", dicomUs(static_cast<std::uint16_t>(d.y))) +
+            dicomElement(0x0028, 0x0011, "US", dicomUs(static_cast<std::uint16_t>(d.x))) +
+            dicomElement(0x0028, 0x0030, "DS", ds(v.spacing[1]) + "\\" + ds(v.spacing[0])) +
+            dicomElement(0x0028, 0x0100, "US", dicomUs(8)) + dicomElement(0x0028, 0x0101, "US", dicomUs(8)) +
+            dicomElement(0x0028, 0x0102, "US", dicomUs(7)) + dicomElement(0x0028, 0x0103, "US", dicomUs(0)) +
+            dicomElement(0x7fe0, 0x0010, "OB",
+                         std::string(reinterpret_cast<const char*>(voxels.data()), voxels.size()));
+        // Named against the slice order: the reader sorts by position.
+        test::writeFile(dir / ("s" + std::to_string(d.z - k)), std::string(128, '\0') + "DICM" + meta + body);
+    }
 }
 
 /// Writes the input file of kind `in` under `dir`; returns its path and, in `decoded`, the data it holds
@@ -171,6 +239,9 @@ std::filesystem::path writeInput(Input in, const std::filesystem::path& dir, Vol
     case Input::Vdb:
         writeVolumeFile(v, dir / "phantom.vdb");
         return dir / "phantom.vdb";
+    case Input::DicomFolder:
+        writeDicomFolder(v, dir / "dicom");
+        return dir / "dicom";
     case Input::Nifti4dFrame: {
         std::vector<Volume> frames;
         for (std::size_t f = 0; f < kFrames; ++f)
@@ -397,8 +468,8 @@ TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
 
 INSTANTIATE_TEST_SUITE_P(Inputs, RenderMatrix,
                          ::testing::Values(Input::Raw, Input::Nrrd, Input::Nifti, Input::Nifti4dFrame,
-                                           Input::Vdb, Input::Vcz16, Input::Vcz32, Input::Vcz64,
-                                           Input::VczSeriesFrame, Input::VczLossyLodFull),
+                                           Input::Vdb, Input::DicomFolder, Input::Vcz16, Input::Vcz32,
+                                           Input::Vcz64, Input::VczSeriesFrame, Input::VczLossyLodFull),
                          [](const ::testing::TestParamInfo<Input>& i) { return inputName(i.param); });
 
 // What the compressed-brick renderer does not draw, by design: cubic filters and smoothing need the whole

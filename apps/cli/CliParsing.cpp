@@ -63,6 +63,8 @@ void RawReadFlags::add(CLI::App& cmd) {
     cmd.add_option("--endian", endian, "Raw input byte order")->check(CLI::IsMember({"little", "big"}));
     cmd.add_option("--header-bytes", headerBytes, "Raw input: bytes to skip before the voxels");
     cmd.add_option("--grid", vdbGrid, "OpenVDB input: grid name (default: the first scalar grid)");
+    cmd.add_option("--series", dicomSeries,
+                   "DICOM input: Series Instance UID to read when a folder holds several series");
     cmd.add_flag("--allow-external-data", allowExternalData,
                  "Let a header name data files outside its own directory (absolute paths, ../)");
 }
@@ -74,6 +76,7 @@ ReadOptions RawReadFlags::toReadOptions() const {
     o.endian = endian == "big" ? Endian::Big : Endian::Little;
     o.headerBytes = headerBytes;
     if (!vdbGrid.empty()) o.vdbGrid = vdbGrid;
+    if (!dicomSeries.empty()) o.dicomSeries = dicomSeries;
     o.allowExternalData = allowExternalData;
     return o;
 }

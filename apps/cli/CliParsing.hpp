@@ -20,10 +20,11 @@ std::pair<Dims, Dims> parseBox(const std::string& text, const std::string& what)
 /// Single-quotes `s` for /bin/sh (peer benchmarks run Python scripts through std::system).
 std::string shellQuote(const std::string& s);
 
-/// Input flags shared by commands: raw layout (--dims, --type, --endian, --header-bytes) and --grid (VDB).
+/// Input flags shared by commands: raw layout (--dims, --type, --endian, --header-bytes) --grid (VDB) and --series (DICOM).
 struct RawReadFlags {
     std::string dims, type, endian = "little";
-    std::string vdbGrid; ///< --grid: OpenVDB grid name
+    std::string vdbGrid;     ///< --grid: OpenVDB grid name
+    std::string dicomSeries; ///< --series: DICOM Series Instance UID
     std::size_t headerBytes = 0;
     bool allowExternalData = false; ///< --allow-external-data: header data files outside its directory
     void add(CLI::App& cmd);

@@ -5,11 +5,13 @@
 #include "core/MemoryBudget.hpp"
 #include "core/PrintableMessage.hpp"
 
+#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
 #include <bit>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -204,6 +206,18 @@ std::size_t checkedVoxelCount(const Dims& dims, std::size_t frames, const fs::pa
 std::size_t checkedByteCount(std::size_t voxels, std::size_t sampleBytes, const fs::path& file) {
     if (voxels > kMaxPayloadBytes / sampleBytes) fail(file, "payload size overflows");
     return voxels * sampleBytes;
+}
+
+bool writeAll(int fd, const void* data, std::size_t n) noexcept {
+    const auto* p = static_cast<const char*>(data);
+    while (n > 0) {
+        const ssize_t w = ::write(fd, p, n);
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) return false;
+        p += w;
+        n -= static_cast<std::size_t>(w);
+    }
+    return true;
 }
 
 bool hostIsLittleEndian() noexcept {

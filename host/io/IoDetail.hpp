@@ -120,6 +120,9 @@ std::vector<std::byte> deflateBytes(std::span<const std::byte> data, Wrapper wra
 /// Writes `bytes` to `path` atomically, gzip-compressed when the name ends in `.gz`.
 void writeFileAtomically(const std::filesystem::path& path, std::span<const std::byte> bytes);
 
+/// Writes all `n` bytes to a pipe or socket, retrying after signals; false when the other end is gone.
+bool writeAll(int fd, const void* data, std::size_t n) noexcept;
+
 bool hostIsLittleEndian() noexcept;
 Endian hostEndian() noexcept;
 /// Copy of a volume's bytes in the requested byte order.
@@ -224,6 +227,12 @@ TimeSeries readVdb(ReadContext& ctx);
 TimeSeries readInviwoDat(ReadContext& ctx);
 TimeSeries readVoreenVvd(ReadContext& ctx);
 TimeSeries readNpy(ReadContext& ctx);
+/// True when `path` is a DICOM Part 10 file ("DICM" after the 128-byte preamble).
+bool isDicomFile(const std::filesystem::path& path);
+/// One DICOM series from a folder, a glob pattern of slice files, or one slice (its folder's files of the
+/// same series); options.dicomSeries picks among several. `filesRead` gets the series' files.
+TimeSeries readDicom(const std::filesystem::path& input, const ReadOptions& options,
+                     std::vector<std::filesystem::path>& filesRead);
 
 void writeRaw(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);
 void writeNrrd(const Volume& volume, const std::filesystem::path& path, const WriteOptions& options);

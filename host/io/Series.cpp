@@ -60,7 +60,13 @@ void expandOne(const std::string& input, const ReadOptions& options, std::vector
     std::error_code ec;
     const fs::path p(input);
     if (!fs::exists(p, ec) && hasGlobPattern(input)) {
-        for (fs::path& f : expandGlob(input))
+        std::vector<fs::path> files = expandGlob(input);
+        // A pattern of DICOM slices names one volume (a series), not one frame per file.
+        if (io::isDicomFile(files.front())) {
+            out.push_back({p, NAN});
+            return;
+        }
+        for (fs::path& f : files)
             out.push_back({std::move(f), NAN});
         return;
     }

@@ -1,6 +1,8 @@
 // volcl-vdb-reader: the OpenVDB reader service; each .vdb grid is decoded in a forked reader of its own.
 #include "core/Error.hpp"
+#include "core/MemoryBudget.hpp"
 #include "core/runtime/RuntimeModule.hpp"
+#include "host/io/IoDetail.hpp"
 #include "host/io/VdbModule.hpp"
 #include "host/io/VdbReader.hpp"
 
@@ -16,7 +18,6 @@
 #include <link.h>
 #include <signal.h>
 #include <sys/prctl.h>
-#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -25,36 +26,7 @@ namespace {
 
 using volcl::io::VdbReplyStatus;
 
-bool writeAll(int fd, const void* data, std::size_t n) {
-    const auto* p = static_cast<const char*>(data);
-    while (n > 0) {
-        const ssize_t w = ::write(fd, p, n);
-        if (w < 0 && errno == EINTR) continue;
-        if (w <= 0) return false;
-        p += w;
-        n -= static_cast<std::size_t>(w);
-    }
-    return true;
-}
-
-// Caps the address space at what is mapped now (this program, libopenvdb and its libraries, and a
-// sanitizer's shadow where there is one) plus twice the memory budget: the dense box and the grid it comes
-// from. Sizes inside the grid data are libopenvdb's to trust, and a forged one made it allocate and touch
-// 5 GB from an 11 KB file; past the cap the allocation fails and the read ends as a corrupt file.
-void capAddressSpace(unsigned long long budget) {
-    std::FILE* statm = std::fopen("/proc/self/statm", "r");
-    unsigned long long pages = 0;
-    const bool known = statm && std::fscanf(statm, "%llu", &pages) == 1;
-    if (statm) std::fclose(statm);
-    rlimit limit{};
-    if (!known || ::getrlimit(RLIMIT_AS, &limit) != 0) return;
-    const unsigned long long cap =
-        pages * static_cast<unsigned long long>(::sysconf(_SC_PAGESIZE)) + 2ull * budget;
-    if (limit.rlim_max != RLIM_INFINITY && cap > limit.rlim_max) return;
-    if (limit.rlim_cur != RLIM_INFINITY && cap > limit.rlim_cur) return;
-    limit.rlim_cur = static_cast<rlim_t>(cap);
-    (void)::setrlimit(RLIMIT_AS, &limit);
-}
+using volcl::io::writeAll;
 
 bool sendFailure(VdbReplyStatus status, const std::string& message) {
     const std::uint64_t n = message.size();
@@ -76,7 +48,7 @@ bool readAndSend(const volcl::io::VdbModule* vdb, const std::string& loadError, 
                  unsigned long long budget, const char* grid) {
     try {
         if (!vdb) throw volcl::IoError(loadError);
-        capAddressSpace(budget);
+        volcl::capAddressSpace(budget);
         volcl::ReadOptions options;
         options.memoryBudget = static_cast<std::size_t>(budget);
         if (grid) options.vdbGrid = grid;

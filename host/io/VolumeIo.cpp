@@ -4,6 +4,7 @@
 #include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
 #include "host/io/IoDetail.hpp"
+#include "host/io/Series.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -40,6 +41,8 @@ std::string_view volumeFormatName(VolumeFormat f) noexcept {
         return "Voreen vvd";
     case VolumeFormat::Npy:
         return "numpy npy";
+    case VolumeFormat::Dicom:
+        return "DICOM";
     }
     return "unknown";
 }
@@ -61,7 +64,8 @@ std::optional<VolumeFormat> formatFromExtension(std::string_view name) {
         {".vti", VolumeFormat::VtkXmlImage}, {".vtk", VolumeFormat::VtkLegacy},
         {".slc", VolumeFormat::Slc},         {".vdb", VolumeFormat::Vdb},
         {".dat", VolumeFormat::InviwoDat},   {".vvd", VolumeFormat::VoreenVvd},
-        {".npy", VolumeFormat::Npy},
+        {".npy", VolumeFormat::Npy},         {".dcm", VolumeFormat::Dicom},
+        {".dicom", VolumeFormat::Dicom},
     };
     for (const Ext& e : table)
         if (endsWithI(name, e.suffix)) return e.format;
@@ -84,6 +88,7 @@ std::optional<VolumeFormat> formatFromMagic(const fs::path& path) {
     if (n >= 4 && std::memcmp(head, "\x20\x42\x44\x56", 4) == 0) return VolumeFormat::Vdb;
     if (h.starts_with("11111")) return VolumeFormat::Slc;
     if (h.starts_with("\x93NUMPY")) return VolumeFormat::Npy;
+    if (n >= 132 && h.substr(128, 4) == "DICM") return VolumeFormat::Dicom;
     if (n >= 348) {
         std::int32_t sz = 0;
         std::memcpy(&sz, head, 4);
@@ -98,9 +103,12 @@ std::optional<VolumeFormat> formatFromMagic(const fs::path& path) {
 } // namespace
 
 VolumeFormat detectVolumeFormat(const fs::path& path) {
+    std::error_code ec;
+    // A folder, or a pattern naming files, is a DICOM series (no other format spans several files so).
+    if (fs::is_directory(path, ec) || (!fs::exists(path, ec) && hasGlobPattern(path.string())))
+        return VolumeFormat::Dicom;
     const std::string name = path.filename().string();
     if (auto f = formatFromExtension(name)) return *f;
-    std::error_code ec;
     if (fs::is_regular_file(path, ec)) {
         if (auto f = formatFromMagic(path)) return *f;
         if (parseRawFileName(name)) return VolumeFormat::Raw;
@@ -111,18 +119,23 @@ VolumeFormat detectVolumeFormat(const fs::path& path) {
     throw IoError(
         path.string() +
         ": unknown volume format (supported: .raw .raw.gz .nrrd .nhdr .mhd .mha .nii .nii.gz .vti .vtk "
-        ".slc .vdb .dat .vvd .npy)");
+        ".slc .vdb .dat .vvd .npy, DICOM files or folders)");
 }
 
 TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options,
                           std::vector<fs::path>& filesRead) {
     // A series a killed volcl left half moved is completed first: a reader never sees it mixed.
     completeInterruptedCommit(path);
-    // Before any format probe opens it: a FIFO would block the first read, a device never end.
-    requireRegularFile(path);
+    const VolumeFormat format = detectVolumeFormat(path);
+    // Before any format probe opens it: a FIFO would block the first read, a device never end. (A DICOM
+    // input may be a folder or a pattern; each of its files is checked as it is listed.)
+    std::error_code ec;
+    if (format != VolumeFormat::Dicom || (fs::exists(path, ec) && !fs::is_directory(path, ec)))
+        requireRegularFile(path);
     io::ReadContext ctx(path, options);
+    std::vector<fs::path> dicomFiles;
     TimeSeries series;
-    switch (detectVolumeFormat(path)) {
+    switch (format) {
     case VolumeFormat::Raw:
         series = io::readRaw(ctx);
         break;
@@ -156,6 +169,9 @@ TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options,
     case VolumeFormat::Npy:
         series = io::readNpy(ctx);
         break;
+    case VolumeFormat::Dicom:
+        series = io::readDicom(path, options, dicomFiles);
+        break;
     }
     if (series.frames.empty()) throw IoError(path.string() + ": contains no volume");
     // Every format's geometry passes one check: a NaN spacing or origin would poison every position.
@@ -168,7 +184,7 @@ TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options,
                 io::fail(path, "origin " + io::formatDouble(v.origin[a]) + " is not finite");
         }
     series.validate();
-    filesRead = ctx.files();
+    filesRead = format == VolumeFormat::Dicom ? std::move(dicomFiles) : ctx.files();
     return series;
 }
 

@@ -25,6 +25,7 @@ enum class VolumeFormat : std::uint8_t {
     InviwoDat,   ///< Inviwo .dat text header + raw file
     VoreenVvd,   ///< Voreen .vvd XML header + raw file
     Npy,         ///< numpy .npy (versions 1.0-3.0): a[z, y, x] or a series a[t, z, y, x]; no grid
+    Dicom,       ///< DICOM series through GDCM: a folder, a glob pattern of slices, or one slice (its series)
 };
 
 std::string_view volumeFormatName(VolumeFormat f) noexcept;
@@ -48,6 +49,9 @@ struct ReadOptions {
     /// (niftiStoredValuesExact) gives its stored integers unscaled; without it (and for other datatypes)
     /// every reader gives data units, float32(stored * slope + inter).
     bool niftiStoredValues = false;
+    /// DICOM only: the Series Instance UID to read when the input holds several series (without it a
+    /// folder of several series is refused with their UIDs; a slice file gives its own series).
+    std::optional<std::string> dicomSeries;
 };
 
 /// Reads every frame of a volume file (a 3D file gives one frame). Validates header against payload:

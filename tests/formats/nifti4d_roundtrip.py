@@ -18,22 +18,7 @@ except ImportError as e:
     print(f"skipped: {e} (apt-get install python3-nibabel)")
     sys.exit(77)
 
-VOLCL, WORK = sys.argv[1], sys.argv[2]
-SHARED = sys.argv[3] if len(sys.argv) > 3 else ""
-failures = []
-
-
-def volcl(*args):
-    r = subprocess.run([VOLCL, "--quiet", *args], capture_output=True, text=True)
-    if r.returncode != 0:
-        raise SystemExit(f"volcl {' '.join(args)} failed ({r.returncode}): {r.stderr.strip()}")
-    return r.stdout
-
-
-def check(cond, what):
-    print(("ok   " if cond else "FAIL ") + what)
-    if not cond:
-        failures.append(what)
+from cli_checks import SHARED, VOLCL, WORK, check, finish, volcl  # noqa: E402
 
 
 def path(name):
@@ -229,6 +214,4 @@ render_in_data_units("int16_scaled")
 lossy_bound_in_data_units()
 series_case("float32", np.float32)
 functional_series()
-if failures:
-    print(f"{len(failures)} check(s) failed")
-    sys.exit(1)
+finish()
