@@ -37,7 +37,7 @@ typedef struct VolclEllipsoid {
    -D defines, so changing the camera or the TF never rebuilds a kernel. Vectors are xyz + one spare float;
    every struct is a multiple of 16 bytes of 4-byte fields, so host and device agree on the layout. */
 #define VOLCL_MAX_LIGHTS 4
-#define VOLCL_MAX_CLIP_PLANES 4
+#define VOLCL_MAX_CLIP_PLANES 8
 #define VOLCL_MAX_ISOSURFACES 4
 
 /* Light kinds (VolclLightingParams::lightPos[i][3]). */
@@ -199,12 +199,12 @@ typedef struct VolclMeshRenderParams {
 
 #ifndef __OPENCL_VERSION__
 static_assert(sizeof(VolclMeshParams) == 80, "VolclMeshParams layout must match OpenCL C");
-static_assert(sizeof(VolclMeshRenderParams) == 80 + 80 + 16 + 32 + 176 + 96 + 80,
+static_assert(sizeof(VolclMeshRenderParams) == 80 + 144 + 16 + 32 + 176 + 96 + 80,
               "VolclMeshRenderParams layout must match OpenCL C");
 static_assert(sizeof(VolclEllipsoid) == 64, "VolclEllipsoid layout must match OpenCL C");
 static_assert(sizeof(VolclTfKnot) == 48, "VolclTfKnot layout must match OpenCL C");
 static_assert(sizeof(VolclCameraParams) == 80, "VolclCameraParams layout must match OpenCL C");
-static_assert(sizeof(VolclClipParams) == 80, "VolclClipParams layout must match OpenCL C");
+static_assert(sizeof(VolclClipParams) == 144, "VolclClipParams layout must match OpenCL C");
 static_assert(sizeof(VolclMarchParams) == 16, "VolclMarchParams layout must match OpenCL C");
 static_assert(sizeof(VolclTfParams) == 32, "VolclTfParams layout must match OpenCL C");
 static_assert(sizeof(VolclLightingParams) == 176, "VolclLightingParams layout must match OpenCL C");
@@ -215,7 +215,7 @@ static_assert(sizeof(VolclFogParams) == 80, "VolclFogParams layout must match Op
 static_assert(sizeof(VolclLightVolumeParams) == 32, "VolclLightVolumeParams layout must match OpenCL C");
 static_assert(sizeof(VolclLightSweepParams) == 96 + 32 + 32 + 48,
               "VolclLightSweepParams layout must match OpenCL C");
-static_assert(sizeof(VolclGridRenderParams) == 80 + 80 + 16 + 32 + 176 + 96 + 96 + 80 + 32,
+static_assert(sizeof(VolclGridRenderParams) == 80 + 144 + 16 + 32 + 176 + 96 + 96 + 80 + 32,
               "VolclGridRenderParams layout must match OpenCL C");
 #endif
 

@@ -93,7 +93,11 @@ CostReport measureEffectCosts(VolumeRenderer& r, int rounds, long maxPixels) {
         {"shadows", plan.shadows, [](Scene& s) { s.effects.shadows = false; }},
         {"scattering", plan.scattering, [](Scene& s) { s.effects.scattering = false; }},
         {"fog", plan.fog, [](Scene& s) { s.effects.fog.enabled = false; }},
-        {"clipping", plan.clipping, [](Scene& s) { s.effects.clipPlanes.clear(); }},
+        {"clipping", plan.clipping,
+         [](Scene& s) {
+             s.effects.clipPlanes.clear();
+             s.effects.cropBox.reset();
+         }},
         {"isosurfaces", !plan.isosurfaces.empty() && base.mode == RenderMode::Dvr,
          [](Scene& s) { s.effects.isosurfaces.clear(); }},
         {"pre-integration", base.preintegration != Preintegration::None && base.mode == RenderMode::Dvr,

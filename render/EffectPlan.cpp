@@ -25,6 +25,8 @@ void planFog(const Scene& scene, const WorldBox& bounds, EffectPlan& p) {
         flat = flat || !(box.extent[a] > 0.0);
     if (scene.mode == RenderMode::Mip)
         p.dropped.push_back("fog: mode mip takes a maximum, not a ray integral");
+    else if (scene.mode == RenderMode::Emission)
+        p.dropped.push_back("fog: mode emission absorbs nothing, so fog would only add light");
     else if (f.density <= 0.0)
         p.dropped.push_back("fog: density 0");
     else if (flat)
@@ -82,11 +84,16 @@ struct PlanInput {
 void planMode(const PlanInput& in, EffectPlan& p) {
     const Scene& scene = in.scene;
     const RenderMode mode = scene.mode;
-    p.defines.set("MODE", static_cast<long long>(mode == RenderMode::Dvr   ? 0
-                                                 : mode == RenderMode::Mip ? 1
-                                                 : mode == RenderMode::Iso ? 2
-                                                                           : 3));
+    p.defines.set("MODE", static_cast<long long>(mode == RenderMode::Dvr    ? 0
+                                                 : mode == RenderMode::Mip  ? 1
+                                                 : mode == RenderMode::Iso  ? 2
+                                                 : mode == RenderMode::Xray ? 3
+                                                                            : 4));
     p.compiled.push_back("mode " + in.modeName);
+    if (mode == RenderMode::Emission)
+        p.compiled.push_back(
+            "emission only: integral of the TF colour x opacity per unit distance along the ray, "
+            "no absorption (alpha 0: the light adds to the background)");
     if (mode == RenderMode::Mip) {
         p.defines.set("MIP_COLOR", static_cast<long long>(scene.mipColor == MipColor::Grey ? 0
                                                           : scene.mipColor == MipColor::Tf ? 1
@@ -235,7 +242,8 @@ bool planPathTracer(const PlanInput& in, EffectPlan& p) {
     if (scene.earlyTermination < 1.0)
         p.dropped.push_back("early termination: paths end by leaving the volume or Russian roulette");
     if (fx.shadows) p.dropped.push_back("shadows: the path tracer traces its own shadow rays");
-    if (!fx.clipPlanes.empty()) p.dropped.push_back("clip planes: the path tracer does not clip");
+    if (!fx.clipPlanes.empty() || fx.cropBox)
+        p.dropped.push_back("clip planes and crop box: the path tracer does not clip");
     if (!fx.isosurfaces.empty()) p.dropped.push_back("isosurfaces: the path tracer draws no surfaces");
     if (scene.preintegration != Preintegration::None)
         p.dropped.push_back("pre-integration: the path tracer samples free paths, not segments");
@@ -271,9 +279,12 @@ void planSingleScattering(const PlanInput& in, EffectPlan& p) {
     }
 }
 
-/// Clip planes: those that keep the whole box are dropped.
+/// Clip planes and the crop box's faces: those that keep the whole box are dropped.
 void planClipping(const Scene& scene, const WorldBox& bounds, EffectPlan& p) {
-    const std::vector<ClipPlane>& planes = scene.effects.clipPlanes;
+    const std::vector<ClipPlane> planes = activeClipPlanes(scene.effects);
+    const std::size_t userPlanes = scene.effects.clipPlanes.size();
+    static constexpr const char* kCropFaces[] = {"x >= x0", "x <= x1", "y >= y0",
+                                                 "y <= y1", "z >= z0", "z <= z1"};
     const Vec3 lo = bounds.origin, hi = bounds.hi();
     for (std::size_t i = 0; i < planes.size(); ++i) {
         const ClipPlane& pl = planes[i];
@@ -283,7 +294,10 @@ void planClipping(const Scene& scene, const WorldBox& bounds, EffectPlan& p) {
             if (dot(pl.normal, corner) + pl.offset < 0.0) allKept = false;
         }
         if (allKept)
-            p.dropped.push_back("clip plane " + std::to_string(i) + ": keeps the whole volume");
+            p.dropped.push_back((i < userPlanes
+                                     ? "clip plane " + std::to_string(i)
+                                     : "crop box face " + std::string(kCropFaces[i - userPlanes])) +
+                                ": keeps the whole volume");
         else
             p.clipPlanes.push_back(pl);
     }
@@ -298,7 +312,10 @@ void planClipping(const Scene& scene, const WorldBox& bounds, EffectPlan& p) {
 /// Pre-integrated segments: dvr only.
 void planPreintegration(const PlanInput& in, EffectPlan& p) {
     const Scene& scene = in.scene;
-    if (scene.mode != RenderMode::Dvr)
+    if (scene.mode == RenderMode::Emission)
+        p.dropped.push_back("pre-integration: mode emission takes midpoint samples (no 1D emission table is "
+                            "built; a finer step is its accuracy knob)");
+    else if (scene.mode != RenderMode::Dvr)
         p.dropped.push_back("pre-integration: mode " + in.modeName + " integrates no segments");
     else {
         p.defines.set("PREINT", scene.preintegration == Preintegration::Table2d ? 2LL : 3LL);
@@ -402,7 +419,7 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
             p.compiled.push_back("shadows: secondary marching toward each light");
         }
     }
-    if (!fx.clipPlanes.empty()) planClipping(scene, bounds, p);
+    if (!fx.clipPlanes.empty() || fx.cropBox) planClipping(scene, bounds, p);
     if (scene.preintegration != Preintegration::None) planPreintegration(in, p);
     if (fx.fog.enabled) planFog(scene, bounds, p);
     planTableEffects(scene, p);

@@ -37,6 +37,8 @@ VolclCameraParams cameraParams(const Camera& cam, int width, int height) {
     return p;
 }
 
+static_assert(kMaxClipPlanes == VOLCL_MAX_CLIP_PLANES, "the scene's plane limit is the kernels'");
+
 VolclClipParams clipParams(const std::vector<ClipPlane>& planes) {
     VolclClipParams p{};
     p.count = volcl_uint(std::min<std::size_t>(planes.size(), VOLCL_MAX_CLIP_PLANES));

@@ -162,10 +162,23 @@ ImageBuffer RenderInput::renderReference(const TransferFunction& tf, const Scene
 }
 
 Scene RenderInput::resolved(const Scene& scene) const {
-    if (!scene.stepVoxels) return scene;
+    const bool cropInVoxels = scene.effects.cropBox && scene.effects.cropBox->voxels;
+    if (!scene.stepVoxels && !cropInVoxels) return scene;
     Scene s = scene;
     resolveStep(s, cellLength());
+    resolveCropBox(s);
     return s;
+}
+
+std::string RenderInput::resolveCropBox(Scene& scene) const {
+    if (!scene.effects.cropBox || !scene.effects.cropBox->voxels) return {};
+    if (mesh_)
+        throw UsageError(
+            "effects.crop_box in voxels: a mesh has no voxel grid (give the box in world units)");
+    const VczHeader* h = vcz_ ? &vcz_->header() : nullptr;
+    const std::array<double, 3> origin = h ? h->origin : volume_->origin;
+    const std::array<double, 3> spacing = h ? h->spacing : volume_->spacing;
+    return volcl::resolveCropBox(scene, origin, spacing);
 }
 
 std::unique_ptr<VolumeRenderer> RenderInput::makeRenderer(ComputeContext& cc, const TransferFunction& tf,

@@ -71,6 +71,9 @@ public:
     /// `scene` with a step in voxels (Scene::stepVoxels) turned into world units for this input; the renderer,
     /// reference and plan made here all use it, so a scene file's `"0.5vox"` means the same everywhere.
     Scene resolved(const Scene& scene) const;
+    /// Turns a crop box in voxels (CropBox::voxels) into world units of this grid or .vcz (index i at origin +
+    /// spacing i); returns the note (empty when there was nothing to turn). Throws UsageError for a mesh.
+    std::string resolveCropBox(Scene& scene) const;
     /// Smallest and largest finite data value.
     ValueRange valueRange() const;
     /// One line for progress messages: "180x216x180 uint8", "51040 tets, 17344 points".

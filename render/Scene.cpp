@@ -106,6 +106,8 @@ std::string_view renderModeName(RenderMode m) {
         return "iso";
     case RenderMode::Xray:
         return "xray";
+    case RenderMode::Emission:
+        return "emission";
     }
     return "dvr";
 }
@@ -115,7 +117,9 @@ RenderMode parseRenderMode(std::string_view s) {
     if (s == "mip") return RenderMode::Mip;
     if (s == "iso") return RenderMode::Iso;
     if (s == "xray") return RenderMode::Xray;
-    throw UsageError("render mode '" + std::string(s) + "' is unknown (expected dvr, mip, iso, xray)");
+    if (s == "emission") return RenderMode::Emission;
+    throw UsageError("render mode '" + std::string(s) +
+                     "' is unknown (expected dvr, mip, iso, xray, emission)");
 }
 
 std::string_view preintegrationName(Preintegration p) {
@@ -464,6 +468,23 @@ void parseClipPlanes(const json& planes, SceneEffects& fx) {
     }
 }
 
+/// "effects.crop_box": {"box": [[x0, y0, z0], [x1, y1, z1]], "units": "world" | "voxels"}.
+CropBox parseCropBox(const json& c) {
+    if (!c.is_object()) throw UsageError("scene: 'effects.crop_box' must be an object with 'box'");
+    checkKeys(c, "effects.crop_box", {"box", "units"});
+    if (!c.contains("box")) throw UsageError("scene: effects.crop_box needs 'box'");
+    const json& b = c["box"];
+    if (!b.is_array() || b.size() != 2)
+        throw UsageError("scene: 'effects.crop_box.box' must be [[x0, y0, z0], [x1, y1, z1]]");
+    CropBox box;
+    box.lo = vec<3>(b[0], "effects.crop_box.box[0]");
+    box.hi = vec<3>(b[1], "effects.crop_box.box[1]");
+    if (c.contains("units"))
+        box.voxels =
+            choice(c["units"], "effects.crop_box.units", "voxels", true, "world", false, "world, voxels");
+    return box;
+}
+
 /// "effects.isosurfaces": value and colour per surface.
 void parseIsosurfaces(const json& surfaces, SceneEffects& fx) {
     if (!surfaces.is_array()) throw UsageError("scene: 'effects.isosurfaces' must be an array");
@@ -483,7 +504,7 @@ void parseIsosurfaces(const json& surfaces, SceneEffects& fx) {
 void parseEffects(const json& e, const std::filesystem::path& baseDir, SceneEffects& fx) {
     checkKeys(e, "effects",
               {"shading", "gradient", "shadows", "shadow_step", "shadow_method", "light_volume_cell",
-               "shadow_head_tolerance", "scattering", "clip_planes", "isosurfaces", "fog",
+               "shadow_head_tolerance", "scattering", "clip_planes", "crop_box", "isosurfaces", "fog",
                "isosurface_method"});
     if (e.contains("shading")) parseShading(e["shading"], fx);
     if (e.contains("gradient")) try {
@@ -502,6 +523,7 @@ void parseEffects(const json& e, const std::filesystem::path& baseDir, SceneEffe
         fx.headLightToleranceDeg = num(e["shadow_head_tolerance"], "effects.shadow_head_tolerance");
     if (e.contains("scattering")) parseScattering(e["scattering"], fx);
     if (e.contains("clip_planes")) parseClipPlanes(e["clip_planes"], fx);
+    if (e.contains("crop_box")) fx.cropBox = parseCropBox(e["crop_box"]);
     if (e.contains("isosurfaces")) parseIsosurfaces(e["isosurfaces"], fx);
     if (e.contains("fog")) fx.fog = parseFog(e["fog"], baseDir);
     if (e.contains("isosurface_method"))
@@ -630,6 +652,9 @@ std::string Scene::toJson() const {
         for (const auto& p : effects.clipPlanes)
             e["clip_planes"].push_back({{"normal", p.normal}, {"offset", p.offset}});
     }
+    if (effects.cropBox)
+        e["crop_box"] = {{"box", {effects.cropBox->lo, effects.cropBox->hi}},
+                         {"units", effects.cropBox->voxels ? "voxels" : "world"}};
     if (!effects.isosurfaces.empty()) {
         e["isosurfaces"] = json::array();
         for (const auto& i : effects.isosurfaces)
@@ -757,7 +782,16 @@ void Scene::validate() const {
     need(e.octaves >= 0 && e.octaves <= 8, "effects.scattering.octaves must be in [0, 8]");
     for (double c : e.environment)
         need(std::isfinite(c) && c >= 0.0, "effects.scattering.environment must be finite and >= 0");
-    need(e.clipPlanes.size() <= 4, "at most 4 clipping planes");
+    const std::size_t planes = e.clipPlanes.size() + (e.cropBox ? kCropBoxPlanes : 0);
+    need(planes <= kMaxClipPlanes,
+         "at most " + std::to_string(kMaxClipPlanes) + " clipping planes, a crop box counting " +
+             std::to_string(kCropBoxPlanes) + " (got " + std::to_string(planes) + ")");
+    if (e.cropBox)
+        for (int a = 0; a < 3; ++a)
+            need(std::isfinite(e.cropBox->lo[a]) && std::isfinite(e.cropBox->hi[a]) &&
+                     e.cropBox->lo[a] <= e.cropBox->hi[a],
+                 "effects.crop_box must be [[x0, y0, z0], [x1, y1, z1]] with x0 <= x1, y0 <= y1, z0 <= z1 "
+                 "(finite)");
     for (const auto& p : e.clipPlanes)
         need(norm(p.normal) > 0.0, "clipping plane normal must be non-zero");
     need(e.isosurfaces.size() <= 4, "at most 4 iso-surfaces");
@@ -816,6 +850,82 @@ StepSpec parseStepSpec(const std::string& text, const std::string& what) {
         throw UsageError(what + " '" + text +
                          "' is not a step: a number > 0 in world units (0.01) or voxels (0.5vox)");
     return out;
+}
+
+CropBox parseCropBoxSpec(const std::string& text, const std::string& what) {
+    const std::string form =
+        " must be x0,y0,z0:x1,y1,z1 (world units) or x0,y0,z0:x1,y1,z1vox (voxel indices)";
+    CropBox box;
+    std::string body = text;
+    if (body.size() > 3 && body.compare(body.size() - 3, 3, "vox") == 0) {
+        box.voxels = true;
+        body.resize(body.size() - 3);
+    }
+    const std::size_t colon = body.find(':');
+    if (colon == std::string::npos || body.find(':', colon + 1) != std::string::npos)
+        throw UsageError(what + " '" + text + "'" + form);
+    auto corner = [&](const std::string& part) {
+        Vec3 v{};
+        std::size_t at = 0;
+        for (int a = 0; a < 3; ++a) {
+            const std::size_t comma = a < 2 ? part.find(',', at) : part.size();
+            if (comma == std::string::npos) throw UsageError(what + " '" + text + "'" + form);
+            const std::string item = part.substr(at, comma - at);
+            std::size_t used = 0;
+            try {
+                v[a] = std::stod(item, &used);
+            } catch (const std::exception&) {
+                used = 0;
+            }
+            if (used == 0 || used != item.size() || !std::isfinite(v[a]))
+                throw UsageError(what + " '" + text + "'" + form);
+            at = comma + 1;
+        }
+        return v;
+    };
+    box.lo = corner(body.substr(0, colon));
+    box.hi = corner(body.substr(colon + 1));
+    for (int a = 0; a < 3; ++a)
+        if (box.lo[a] > box.hi[a])
+            throw UsageError(what + " '" + text +
+                             "' is inverted: x0 <= x1, y0 <= y1 and z0 <= z1 are needed");
+    return box;
+}
+
+std::string resolveCropBox(Scene& scene, const Vec3& origin, const Vec3& spacing) {
+    if (!scene.effects.cropBox || !scene.effects.cropBox->voxels) return {};
+    CropBox& box = *scene.effects.cropBox;
+    for (int a = 0; a < 3; ++a) {
+        box.lo[a] = origin[a] + spacing[a] * box.lo[a];
+        box.hi[a] = origin[a] + spacing[a] * box.hi[a];
+    }
+    box.voxels = false;
+    return "crop box in world units: " + shortNumber(box.lo[0]) + "," + shortNumber(box.lo[1]) + "," +
+           shortNumber(box.lo[2]) + ":" + shortNumber(box.hi[0]) + "," + shortNumber(box.hi[1]) + "," +
+           shortNumber(box.hi[2]);
+}
+
+std::vector<ClipPlane> cropBoxPlanes(const CropBox& box) {
+    std::vector<ClipPlane> planes;
+    for (int a = 0; a < 3; ++a) {
+        Vec3 n{0, 0, 0};
+        n[a] = 1.0;
+        planes.push_back({n, -box.lo[a]}); // x_a - lo >= 0
+        n[a] = -1.0;
+        planes.push_back({n, box.hi[a]}); // hi - x_a >= 0
+    }
+    return planes;
+}
+
+std::vector<ClipPlane> activeClipPlanes(const SceneEffects& effects) {
+    std::vector<ClipPlane> planes = effects.clipPlanes;
+    if (!effects.cropBox) return planes;
+    if (effects.cropBox->voxels)
+        throw UsageError("effects.crop_box in voxels needs a grid's spacing: render it through its input "
+                         "(RenderInput), or give the box in world units");
+    for (const ClipPlane& p : cropBoxPlanes(*effects.cropBox))
+        planes.push_back(p);
+    return planes;
 }
 
 std::string resolveStep(Scene& scene, double cellLength) {

@@ -15,7 +15,9 @@ namespace volcl {
 
 struct Scene;
 
-enum class RenderMode { Dvr, Mip, Iso, Xray };
+/// Emission: the emission-only model, the integral of the TF's colour x opacity per unit distance along the
+/// ray with no absorption (docs/rendering.md, "Emission only").
+enum class RenderMode { Dvr, Mip, Iso, Xray, Emission };
 enum class Preintegration { None, Table2d, Table3d };
 enum class Projection { Orthographic, Perspective };
 enum class LightKind { Directional, Point, Head };
@@ -117,6 +119,19 @@ struct ClipPlane {
     double offset = 0.0;
 };
 
+/// Clip planes a frame may have, the crop box's six included (the kernels' VOLCL_MAX_CLIP_PLANES).
+inline constexpr std::size_t kMaxClipPlanes = 8;
+inline constexpr std::size_t kCropBoxPlanes = 6;
+
+/// A cropping box (effects.crop_box, --crop-box): keeps lo <= x <= hi on every axis, in the frame the clip
+/// planes and cameras live in (the volume's index-aligned frame, origin + diag(spacing) (i, j, k)), or in
+/// voxel indices (i, j, k) until resolveCropBox() turns them into that frame's units. It is six clip planes,
+/// counted against kMaxClipPlanes; a box outside the data renders the background.
+struct CropBox {
+    Vec3 lo{0, 0, 0}, hi{0, 0, 0};
+    bool voxels = false;
+};
+
 /// Fog (docs/media.md): with h = dot(p, normalize(up)), extinction `density` where h <= base and
 /// density * exp(-(h - base) / falloff) above (falloff 0: none above), emission color * extinction, only
 /// inside `box` (absent: the volume's box). A height map replaces `base` per texel of the ground plane.
@@ -166,6 +181,7 @@ struct SceneEffects {
     bool emission = true;      ///< the TF's emission c * tau adds to the scattered light
     int octaves = 0; ///< single scattering: > 0 approximates multiple scattering by that many octaves
     std::vector<ClipPlane> clipPlanes;
+    std::optional<CropBox> cropBox;
     std::vector<IsoLayer> isosurfaces;
     FogEffect fog;
 };
@@ -249,6 +265,21 @@ StepSpec parseStepSpec(const std::string& text, const std::string& what);
 /// or a mesh's approximate cell length, and clears stepVoxels. Returns the note saying so (empty when the
 /// step was already in world units).
 std::string resolveStep(Scene& scene, double cellLength);
+
+/// A crop box as written on a command line (`x0,y0,z0:x1,y1,z1`, a `vox` suffix for voxel indices). Throws
+/// UsageError naming `what`.
+CropBox parseCropBoxSpec(const std::string& text, const std::string& what);
+
+/// Turns a crop box in voxels into the units of a grid with `origin` and `spacing` (index i lies at
+/// origin + spacing i); returns the note saying so (empty when the box was already in world units).
+std::string resolveCropBox(Scene& scene, const Vec3& origin, const Vec3& spacing);
+
+/// The six planes of a crop box in world units, in the order x >= lo, x <= hi, y >= lo, ... .
+std::vector<ClipPlane> cropBoxPlanes(const CropBox& box);
+
+/// Every plane that clips the frame: the scene's clip planes, then the crop box's six. Throws UsageError when
+/// the crop box is still in voxels (resolveCropBox() has not seen the input).
+std::vector<ClipPlane> activeClipPlanes(const SceneEffects& effects);
 
 /// Fills in what a scene leaves to defaults, before planning: iso mode shades when nothing says otherwise,
 /// and shading (or scattering, or shadows) with no lit light gets a head light. Returns one line per change

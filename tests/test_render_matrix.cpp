@@ -359,6 +359,22 @@ std::vector<Combo> combos(const WorldBox& box) {
     add("mip", RenderMode::Mip, false, Preintegration::None, false);
     out.back().scene.window = std::array<double, 2>{150.0, 140.0};
     add("xray", RenderMode::Xray, false, Preintegration::None, false);
+    add("emission", RenderMode::Emission, false, Preintegration::None, false);
+    // A crop box (world units, the middle of the box) with two more clip planes: the full eight planes, on
+    // shaded 2D pre-integrated dvr with iso layers, and on emission.
+    const Vec3 lo = box.origin, ext = box.extent;
+    const CropBox crop{{lo[0] + 0.15 * ext[0], lo[1] + 0.2 * ext[1], lo[2] + 0.1 * ext[2]},
+                       {lo[0] + 0.8 * ext[0], lo[1] + 0.85 * ext[1], lo[2] + 0.7 * ext[2]}};
+    const Vec3 centre{lo[0] + 0.5 * ext[0], lo[1] + 0.5 * ext[1], lo[2] + 0.5 * ext[2]};
+    const std::vector<ClipPlane> twoPlanes = {{{1, 1, 0}, -(centre[0] + centre[1]) + 0.3 * ext[0]},
+                                              {{0, -1, 1}, centre[1] - centre[2] + 0.4 * ext[1]}};
+    add("dvr+iso shaded preint 2d, crop box + 2 clip planes", RenderMode::Dvr, true, Preintegration::Table2d,
+        true);
+    out.back().scene.effects.cropBox = crop;
+    out.back().scene.effects.clipPlanes = twoPlanes;
+    add("emission, crop box + 2 clip planes", RenderMode::Emission, false, Preintegration::None, false);
+    out.back().scene.effects.cropBox = crop;
+    out.back().scene.effects.clipPlanes = twoPlanes;
     return out;
 }
 

@@ -715,6 +715,8 @@ TEST(ViewerEndToEnd, ReadBackEqualsRenderAfterResizesAndToggles) {
     EXPECT_NE(s.compiledSummary().find("isosurfaces"), std::string::npos);
     s.apply(ViewerAction::CycleMode); // xray
     expectMatchesRender(s, p, v, tf, 64, 48, "xray");
+    s.apply(ViewerAction::CycleMode); // emission
+    expectMatchesRender(s, p, v, tf, 64, 48, "emission");
     s.apply(ViewerAction::CycleMode); // back to dvr
     s.apply(ViewerAction::CycleTfPreset);
     EXPECT_EQ(s.tfPresetName(), "grey ramp");

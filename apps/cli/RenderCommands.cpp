@@ -51,7 +51,8 @@ void writeRendered(const ImageBuffer& img, const std::filesystem::path& out, con
 
 void addRenderCommands(CLI::App& app, GlobalOptions& global) {
     auto* cmd = app.add_subcommand(
-        "render", "Ray-march a volume or ray-cast a tetrahedral mesh: dvr, mip, iso or xray, to EXR or PNG");
+        "render",
+        "Ray-march a volume or ray-cast a tetrahedral mesh: dvr, mip, iso, xray or emission, to EXR or PNG");
     struct Args {
         SceneFlags scene;
         std::string out;

@@ -71,7 +71,7 @@ void SceneFlags::add(CLI::App* cmd) {
                     "diagonal / cube root of the cell count)")
         ->capture_default_str();
     cmd->add_option("--frame", frame, "Frame K (0-based) of a time series input")->default_str("0");
-    cmd->add_option("--mode", mode, "dvr, mip, iso or xray")
+    cmd->add_option("--mode", mode, "dvr, mip, iso, xray or emission (emission only, no absorption)")
         ->default_str(std::string(renderModeName(d.mode)));
     cmd->add_option("--step", step,
                     "Sampling distance: D in world units, or Nvox in voxels of the finest spacing (a mesh: "
@@ -168,7 +168,14 @@ void SceneFlags::add(CLI::App* cmd) {
     cmd->add_option("--scattering-order", scatteringOrder, "single (ray marcher) or multiple (path tracer)")
         ->check(CLI::IsMember({"single", "multiple"}));
     cmd->add_option("--samples", samples, "Path-tracer samples per pixel (multiple scattering)");
-    cmd->add_option("--clip", clips, "Clipping plane nx,ny,nz,offset keeping n.x + offset >= 0 (repeatable)");
+    cmd->add_option(
+        "--clip", clips,
+        "Clipping plane nx,ny,nz,offset keeping n.x + offset >= 0 (repeatable; at most 8 planes, a "
+        "crop box counting 6)");
+    cmd->add_option(
+        "--crop-box", cropBox,
+        "Cropping box x0,y0,z0:x1,y1,z1 in world units (the frame of --clip and --eye), or with a vox "
+        "suffix in voxel indices (x0,y0,z0:x1,y1,z1vox); its six faces count as clip planes");
     cmd->add_option(
            "--method", method,
            "Grids: raymarch, shear-warp (orthographic preview) or drc (discrete ray casting preview); "
@@ -311,6 +318,7 @@ Scene SceneFlags::build() const {
         const auto v = parseNumbers(text, 4, "--clip");
         s.effects.clipPlanes.push_back({{v[0], v[1], v[2]}, v[3]});
     }
+    if (!cropBox.empty()) s.effects.cropBox = parseCropBoxSpec(cropBox, "--crop-box");
     if (s.volume.empty()) throw UsageError("no volume: give --volume or a scene with \"volume\"");
     s.validate();
     return s;
@@ -362,6 +370,7 @@ std::vector<std::string> SceneFlags::finish(Scene& s, const RenderInput& in) con
     std::vector<std::string> notes;
     const WorldBox box = in.bounds();
     if (std::string note = resolveStep(s, in.cellLength()); !note.empty()) notes.push_back(std::move(note));
+    if (std::string note = in.resolveCropBox(s); !note.empty()) notes.push_back(std::move(note));
     // Refuse impossible steps before any other default is applied or reported: the error is the only line,
     // naming the scene file the steps came from when there is one.
     try {

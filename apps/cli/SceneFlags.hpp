@@ -38,6 +38,8 @@ struct SceneFlags {
     std::optional<std::size_t> frame; ///< --frame K of a time series input
     bool noSkipping = false, sobel = false, shadows = false, noShading = false;
     std::string step; ///< --step: world units, or voxels with a `vox` suffix (parseStepSpec)
+    std::string
+        cropBox; ///< --crop-box x0,y0,z0:x1,y1,z1, a `vox` suffix for voxel indices (parseCropBoxSpec)
     std::string shading, scattering, scatteringOrder, shadowMethod;
     std::string gradient;                 ///< --gradient central|sobel|cache|cache-nearest
     CLI::Option* shadingOption = nullptr; ///< --shading: given bare (default coefficients) or with a value

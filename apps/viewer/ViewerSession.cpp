@@ -189,7 +189,7 @@ std::string ViewerSession::apply(ViewerAction action) {
     switch (action) {
     case ViewerAction::CycleMode: {
         static constexpr RenderMode order[] = {RenderMode::Dvr, RenderMode::Mip, RenderMode::Iso,
-                                               RenderMode::Xray};
+                                               RenderMode::Xray, RenderMode::Emission};
         std::size_t i = 0;
         while (order[i] != base_.mode)
             ++i;
@@ -218,12 +218,14 @@ std::string ViewerSession::apply(ViewerAction action) {
                (fx.scattering ? ensureLight() : "");
         break;
     case ViewerAction::ToggleClipping:
-        if (!fx.clipPlanes.empty()) {
+        if (!fx.clipPlanes.empty() || fx.cropBox) {
             fx.clipPlanes.clear();
+            fx.cropBox.reset();
             what = "clipping off";
-        } else if (!original_.effects.clipPlanes.empty()) {
+        } else if (!original_.effects.clipPlanes.empty() || original_.effects.cropBox) {
             fx.clipPlanes = original_.effects.clipPlanes;
-            what = "clipping on (the scene's planes)";
+            fx.cropBox = original_.effects.cropBox;
+            what = "clipping on (the scene's planes and crop box)";
         } else {
             const Vec3 centre = camera_.camera().target;
             fx.clipPlanes.push_back({{1, 0, 0}, -centre[0]});

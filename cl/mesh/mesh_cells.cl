@@ -4,9 +4,9 @@
    boundary face it leaves by. Where tets may overlap (MESH_OVERLAPS) a ray walks from every entry along its line
    and counts the union of the walks' intervals. Each cell segment has a linear scalar: dvr
    looks it up in the 3D pre-integration table (PREINT 3) or point-samples it every render.step (no PREINT);
-   iso crossings are exact; mip takes the segment ends; xray integrates tau exactly. Everything runs in the
+   iso crossings are exact; mip takes the segment ends; xray integrates tau and emission c tau exactly. Everything runs in the
    mesh's normalised frame (VolclMeshParams).
-   Defines: MODE (0 dvr, 1 mip, 2 iso, 3 xray), MIP_COLOR, PREINT, ISO_COUNT, SHADING, CLIPPING, SKIPPING,
+   Defines: MODE (0 dvr, 1 mip, 2 iso, 3 xray, 4 emission), MIP_COLOR, PREINT, ISO_COUNT, SHADING, CLIPPING, SKIPPING,
    EARLY_TERMINATION, SMOOTH_NORMALS (shading takes the tet's interpolated vertex normals, `normals`, instead of
    its constant gradient), MESH_OVERLAPS (tets may overlap: folded tets, interpenetrating components; see
    ray_advance), NAN_COLOR (the mesh has NaN cells, marked by a NaN field; NAN_R/G/B/TAU: the NaN
@@ -219,6 +219,31 @@ inline float segment_depth(const MeshData* M, const VolclTfParams* T, float sa, 
     return (tau_integral_at(M, T->knotCount, sb) - tau_integral_at(M, T->knotCount, sa)) / (sb - sa) * len;
 }
 
+#if MODE == 4
+/* Integral of c tau over a segment of world length len with s linear from sa to sb (emission only): c and tau
+   are linear in s between knots, so their product is quadratic there and Simpson's rule on each piece between
+   knots is exact. */
+inline float3 segment_emission(const MeshData* M, const VolclTfParams* T, float sa, float sb, float len) {
+    const float lo = fmin(sa, sb), hi = fmax(sa, sb);
+    if (!(hi > lo)) {
+        const float4 e = tf_sample(M->knots, T->knotCount, sa);
+        return e.xyz * (e.w * len);
+    }
+    float3 sum = (float3)(0.0f);
+    float s0 = lo;
+    for (uint k = 0; k <= T->knotCount && s0 < hi; ++k) {
+        const float s1 = k < T->knotCount ? fmin(M->knots[k].s, hi) : hi;
+        if (!(s1 > s0)) continue;
+        const float4 e0 = tf_sample(M->knots, T->knotCount, s0);
+        const float4 em = tf_sample(M->knots, T->knotCount, 0.5f * (s0 + s1));
+        const float4 e1 = tf_sample(M->knots, T->knotCount, s1);
+        sum += (s1 - s0) * (e0.xyz * e0.w + 4.0f * em.xyz * em.w + e1.xyz * e1.w);
+        s0 = s1;
+    }
+    return sum * (len / (6.0f * (hi - lo)));
+}
+#endif
+
 /* Lit colour of straight colour c as K c + S (affine in c) for a sample at normalised x with the tet's
    normalised gradient g. */
 inline void light_affine(const VolclLightingParams* Lp, const VolclCameraParams* C, float3 eye, float3 rayDir,
@@ -392,6 +417,8 @@ inline void cell_segment(const MeshData* M, const VolclMeshRenderParams* Pc, con
     st->inside = 1;
 #elif MODE == 3
     if (b > a) st->xray += segment_depth(M, T, sa, sb, (b - a) * Pc->mesh.scale);
+#elif MODE == 4
+    if (b > a) st->rgb += segment_emission(M, T, sa, sb, (b - a) * Pc->mesh.scale);
 #else
     if (!(b > a)) return;
     float u0 = 0.0f;
@@ -680,6 +707,8 @@ inline float4 ray_result(const RayWalk* w, const MeshData* M, const VolclMeshRen
 #elif MODE == 3
     const float a = -expm1(-st->xray);
     return (float4)(a, a, a, a);
+#elif MODE == 4
+    return (float4)(st->rgb, 0.0f);
 #else
     return (float4)(st->rgb, st->alpha);
 #endif

@@ -1,4 +1,4 @@
-/* Ray marcher: DVR (point sampled or pre-integrated), MIP, x-ray, iso-surfaces; effects only when -D asks. */
+/* Ray marcher: DVR (point sampled or pre-integrated), MIP, x-ray, emission, iso-surfaces; effects only when -D asks. */
 #include "common/camera_rays.h"
 #include "common/grid_sample.h"
 #include "common/shading.h"
@@ -9,7 +9,7 @@
 
 /* Compile-time features (the host defines exactly those a scene needs: planEffects in render/EffectPlan.cpp,
    VOXEL_TYPE and CORNER_VOXELS from render/grid/GridRenderer.cpp):
-   MODE          0 dvr, 1 mip, 2 iso, 3 xray
+   MODE          0 dvr, 1 mip, 2 iso, 3 xray, 4 emission
    PREINT        0 point sampling, 2 2D table at the render step, 3 3D table over segment lengths
    SKIPPING      empty-space skipping with the macrocell grid
    EARLY_TERMINATION  stop when opacity reaches march.earlyTermination
@@ -292,6 +292,27 @@ inline float4 xray_ray(__global const voxel_t* vol, __global const VolclTfKnot* 
 }
 #endif
 
+#if MODE == 4
+/* Emission only: the integral of the TF's emission c(s) tau(s) along the ray (midpoint samples), without
+   absorption. Alpha is 0: the light adds to the background. */
+inline float4 emission_ray(__global const voxel_t* vol, __global const VolclTfKnot* knots,
+                           const VolclGridRenderParams* P, const Ray* r, float tEnter, float tExit,
+                           float step, int nseg) {
+    float3 sum = (float3)(0.0f);
+    for (int k = 0; k < nseg; ++k) {
+        const float t0 = tEnter + (float)k * step, t1 = fmin(t0 + step, tExit);
+        const float len = t1 - t0;
+        const float s = sample_volume(vol, &P->grid, ray_at(r, t0 + 0.5f * len));
+#ifdef NAN_COLOR
+        if (!isfinite(s)) continue; /* emission ignores samples that are not finite */
+#endif
+        const float4 e = tf_sample(knots, P->tf.knotCount, s);
+        sum += e.xyz * (e.w * len);
+    }
+    return (float4)(sum, 0.0f);
+}
+#endif
+
 #if MODE == 0 && PREINT == 0
 /* A dvr segment [t0, t1] of length len sampled at its midpoint (lit when the scene has lights) and
    composited into (rgb, T), with the fog over it. */
@@ -446,6 +467,9 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
 
 #elif MODE == 3 /* ---------------- x-ray: absorption only ---------------- */
     result = xray_ray(vol, knots, P, &r, tEnter, tExit, step, nseg FOG_ARGS);
+
+#elif MODE == 4 /* ---------------- emission only ---------------- */
+    result = emission_ray(vol, knots, P, &r, tEnter, tExit, step, nseg);
 
 #else /* ---------------- dvr and iso: front-to-back compositing ---------------- */
 #if PREINT != 0 || ISO_COUNT > 0

@@ -181,7 +181,7 @@ def render(volume: Union[Volume, np.ndarray, str, "os.PathLike[str]"], tf: Optio
     down +z at the whole box, or the front view for a file placed in patient axes, as ``volcl render``),
     or ``view`` (front | back | left | right | top | bottom | iso, framed as ParaView's reset camera, in
     world axes: patient RAS for NIfTI, NRRD and MetaImage files, so front shows the face whatever the
-    storage order); ``mode`` (dvr | mip | iso | xray), ``step`` (a number: world units; "Nvox": voxels of the finest
+    storage order); ``mode`` (dvr | mip | iso | xray | emission), ``step`` (a number: world units; "Nvox": voxels of the finest
     spacing; default half a voxel),
     ``preintegration`` (none | 2d | 3d), ``early_termination``, ``lights``, ``effects``; ``options``
     adds further keys of the scene's "render" object. The GIL is released while the kernel runs.

@@ -22,8 +22,8 @@ namespace {
 class ReferenceTracer {
 public:
     ReferenceTracer(const Volume& v, const TransferFunction& tf, const Scene& s, const ReferenceOptions& o)
-        : vol_(v), tf_(tf), scene_(s), h_(o.step), values_(v.toFloat()),
-          cam_(s.camera ? *s.camera : defaultCamera(v)), lighting_(s, cam_) {
+        : vol_(v), tf_(tf), scene_(s), clipPlanes_(activeClipPlanes(s.effects)), h_(o.step),
+          values_(v.toFloat()), cam_(s.camera ? *s.camera : defaultCamera(v)), lighting_(s, cam_) {
         const Dims& d = v.dims();
         n_ = {d.x, d.y, d.z};
         gradMin_ = grid_detail::gradientThreshold(v);
@@ -37,7 +37,8 @@ public:
         else if (s.smoothing > 0.0)
             values_ = smoothedVolume(v, s.smoothing).toFloat(); // as the kernel reads them: float voxels
         window_ = mipWindow(s, grid_detail::valueRange(v));
-        if (s.effects.fog.enabled && s.mode != RenderMode::Mip) fog_.emplace(s.effects.fog, gridBounds(v));
+        if (s.effects.fog.enabled && s.mode != RenderMode::Mip && s.mode != RenderMode::Emission)
+            fog_.emplace(s.effects.fog, gridBounds(v));
     }
 
     const Camera& camera() const noexcept { return cam_; }
@@ -48,7 +49,7 @@ public:
         if (fog_) return traceWithFog(ray, o, d);
         double t0 = 0.0, t1 = std::numeric_limits<double>::infinity();
         if (!clipBox(o, d, t0, t1)) return emptyReferencePixel();
-        if (!clipToPlanes(scene_.effects.clipPlanes, ray, t0, t1)) return emptyReferencePixel();
+        if (!clipToPlanes(clipPlanes_, ray, t0, t1)) return emptyReferencePixel();
         if (!(t1 > t0)) return emptyReferencePixel();
         const double L = t1 - t0;
         const long n = std::max(1L, long(std::ceil(L / h_)));
@@ -74,6 +75,16 @@ public:
                 depth += tf_.extinctionAt(sample(at(t0 + (double(k) + 0.5) * h))) * h;
             const double a = 1.0 - std::exp(-depth);
             return {a, a, a, a, inf()};
+        }
+        if (scene_.mode == RenderMode::Emission) { // c tau summed at the midpoints, nothing absorbed
+            Vec3 sum{0, 0, 0};
+            for (long k = 0; k < n; ++k) {
+                const double s = sample(at(t0 + (double(k) + 0.5) * h));
+                if (!std::isfinite(s)) continue;
+                const auto c = tf_.colorAt(s);
+                sum = add(sum, scale(Vec3{c[0], c[1], c[2]}, tf_.extinctionAt(s) * h));
+            }
+            return {sum[0], sum[1], sum[2], 0.0, inf()};
         }
         Vec3 rgb{0, 0, 0};
         double T = 1.0, depth = inf();
@@ -112,8 +123,7 @@ private:
     /// midpoint rule never straddles a jump).
     ReferencePixel traceWithFog(const CameraRay& ray, const Vec3& o, const Vec3& d) const {
         double t0 = 0.0, t1 = inf();
-        const bool vol =
-            clipBox(o, d, t0, t1) && clipToPlanes(scene_.effects.clipPlanes, ray, t0, t1) && t1 > t0;
+        const bool vol = clipBox(o, d, t0, t1) && clipToPlanes(clipPlanes_, ray, t0, t1) && t1 > t0;
         double f0 = 0.0, f1 = inf();
         const bool fog = fog_->clip(ray.origin, ray.direction, f0, f1);
         if (!vol && !fog) return emptyReferencePixel();
@@ -423,6 +433,7 @@ private:
     const Volume& vol_;
     const TransferFunction& tf_;
     const Scene& scene_;
+    std::vector<ClipPlane> clipPlanes_; ///< the scene's clip planes and its crop box's
     double h_;
     std::vector<float> values_;
     std::array<std::size_t, 3> n_{};

@@ -81,7 +81,7 @@ EffectPlan planKBuffer(const Scene& scene, const mesh::TetMesh& mesh, int k, con
         p.compiled.push_back("early termination at alpha >= " + formatNumber(scene.earlyTermination));
     if (fx.shadows) p.dropped.push_back("shadows" + why);
     if (fx.scattering) p.dropped.push_back("scattering" + why);
-    if (!fx.clipPlanes.empty()) p.dropped.push_back("clip planes" + why);
+    if (!fx.clipPlanes.empty() || fx.cropBox) p.dropped.push_back("clip planes and crop box" + why);
     if (scene.window) p.dropped.push_back("window: mode dvr is not mip");
     planNanColor(scene, meshHasNonFinite(mesh), p);
     return p;

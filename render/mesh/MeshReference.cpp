@@ -106,7 +106,8 @@ class MeshTracer {
 public:
     MeshTracer(const mesh::TetMesh& m, const TransferFunction& tf, const Scene& s)
         : m_(m), tf_(tf), scene_(unshadowed(s)), cam_(s.camera ? *s.camera : defaultCamera(meshBounds(m))),
-          lighting_(scene_, cam_), breakpoints_(tf.breakpoints()), bvh_(mesh_detail::buildBoundaryBvh(m)) {
+          lighting_(scene_, cam_), clipPlanes_(activeClipPlanes(s.effects)), breakpoints_(tf.breakpoints()),
+          bvh_(mesh_detail::buildBoundaryBvh(m)) {
         const bool marching = s.mode == RenderMode::Dvr || s.mode == RenderMode::Iso;
         if (marching)
             for (const auto& iso : s.effects.isosurfaces)
@@ -125,8 +126,7 @@ public:
         Pixel px;
         px.c0 = 0.0;
         px.c1 = std::numeric_limits<double>::infinity();
-        if (!clipToPlanes(scene_.effects.clipPlanes, ray, px.c0, px.c1) || !(px.c1 > px.c0))
-            return emptyReferencePixel();
+        if (!clipToPlanes(clipPlanes_, ray, px.c0, px.c1) || !(px.c1 > px.c0)) return emptyReferencePixel();
         const Vec3& o = ray.origin;
         const Vec3& d = ray.direction;
         std::vector<FaceId> recent;
@@ -212,6 +212,7 @@ private:
                 const double a = -std::expm1(-xray);
                 return {a, a, a, a, inf};
             }
+            if (tr.scene_.mode == RenderMode::Emission) return {rgb[0], rgb[1], rgb[2], 0.0, inf};
             return {rgb[0], rgb[1], rgb[2], 1.0 - T, depth};
         }
     };
@@ -249,6 +250,15 @@ private:
             if (len > 0.0)
                 for (const auto& p : preint::segmentPieces(tf_, breakpoints_, sa, sb))
                     px.xray += len * p.h * 0.5 * (p.tauA + p.tauB);
+            return;
+        case RenderMode::
+            Emission: // c and tau linear on a piece: the integral of their product in closed form
+            if (len > 0.0)
+                for (const auto& p : preint::segmentPieces(tf_, breakpoints_, sa, sb))
+                    for (int c = 0; c < 3; ++c)
+                        px.rgb[c] += len * p.h *
+                                     ((p.cA[c] * p.tauA + p.cB[c] * p.tauB) / 3.0 +
+                                      (p.cA[c] * p.tauB + p.cB[c] * p.tauA) / 6.0);
             return;
         default:
             break;
@@ -306,6 +316,7 @@ private:
     Scene scene_;
     Camera cam_;
     ReferenceLighting lighting_;
+    std::vector<ClipPlane> clipPlanes_; ///< the scene's clip planes and its crop box's
     std::vector<double> breakpoints_;
     mesh_detail::BoundaryBvh bvh_;
     std::vector<IsoLayer> isos_;

@@ -35,6 +35,32 @@ TEST(Cli, UsageErrorsExitTwo) {
     EXPECT_EQ(test::runVolcl("info x.raw --type double", dir).exitCode, 2);
 }
 
+TEST(Cli, CropBoxRefusalsExitTwoAndABoxOutsideRendersTheBackground) {
+    auto dir = test::tempDir("cli_crop_box");
+    Volume v({6, 6, 6}, ScalarType::UInt8);
+    std::fill(v.values<std::uint8_t>().begin(), v.values<std::uint8_t>().end(), std::uint8_t(200));
+    writeVolumeFile(v, dir / "a.nrrd");
+    const std::string render = "render --volume " + (dir / "a.nrrd").string() + " --width 8 --height 8 -o ";
+    for (const std::string bad : {"--crop-box 4,0,0:3,5,5", "--crop-box 0,0,0:5,5",
+                                  "--crop-box 0,0,0:1,1,1vox "
+                                  "--clip 1,0,0,0 --clip 0,1,0,0 "
+                                  "--clip 0,0,1,0"}) {
+        test::RunResult r = test::runVolcl(render + (dir / "bad.exr").string() + " " + bad, dir);
+        EXPECT_EQ(r.exitCode, 2) << bad;
+        EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
+        EXPECT_FALSE(std::filesystem::exists(dir / "bad.exr")) << bad;
+    }
+    for (const std::string mode : {"dvr", "emission"}) {
+        const auto out = dir / (mode + ".exr");
+        test::RunResult r =
+            test::runVolcl(render + out.string() + " --mode " + mode + " --crop-box 20,20,20:30,30,30", dir);
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        const ImageBuffer img = readImage(out);
+        for (float p : img.pixels)
+            EXPECT_EQ(p, 0.0f) << mode;
+    }
+}
+
 TEST(Cli, MissingFileExitsOneWithOneLine) {
     auto dir = test::tempDir("cli_missing");
     test::RunResult r = test::runVolcl("info " + (dir / "nope.nrrd").string(), dir);

@@ -200,10 +200,13 @@ both pre2d pre2d.exr "${R[@]}" --preintegration 2d --table-size 32
 both pre3d pre3d.exr "${R[@]}" --preintegration 3d --table-size 16 --table-lengths 4
 both cubic cubic.exr "${R[@]}" --filter cubic --smoothing 1
 both clip clip.exr "${R[@]}" --clip 1,0,0,-4 --projection perspective
+# Eight clip planes: a crop box in voxels and two planes; the emission-only mode, cropped.
+both crop crop.exr "${R[@]}" --crop-box 1,2,1:7,6.5,8vox --clip 1,0,0,-4 --clip 0,1,1,-6
+both emission emission.exr "${R[@]}" --mode emission --crop-box 0,1,0:6,8,8
 both fog fog.exr "$volcl" -q render --scene "$work/in/fog_scene.json" --volume "$ml" --tf "$tf" --width 12 \
   --height 10
 for i in dvr dvr_noskip mip xray iso shading shading_cache shading_nearest shading_cache_pre2d shadows shadows_dir \
-  shadows_point shadows_rays scatter pre2d pre3d cubic clip fog; do
+  shadows_point shadows_rays scatter pre2d pre3d cubic clip crop emission fog; do
   same_image "$i.exr" 1e-4
 done
 both pathtrace pathtrace.exr "${R[@]}" --scattering 0.8,0.3 --scattering-order multiple --samples 2
@@ -254,6 +257,8 @@ M=("$volcl" -q render --volume "$work/in/cubes.vtk" --tf "$tf" --width 12 --heig
 # reads as 255, not 1 (tests/oclgrind/vector_compare_lane.cl), and 16 of the 120 pixels stay empty; -O2 keeps it
 # scalar.
 OCLGRIND_BUILD_OPTIONS=-O2 both cells cells.exr "${M[@]}" --method cells
+OCLGRIND_BUILD_OPTIONS=-O2 both cells_emission cells_emission.exr "${M[@]}" --method cells --mode emission \
+  --crop-box 0.2,0.1,0.3:1.6,1.8,1.5
 # The k-buffer with the device radix sort (centroid) and with the default face order of this convex mesh (the
 # host's MPVO order through kb_gather).
 both kbuffer kbuffer.exr "${M[@]}" --method kbuffer --k 4 --sort centroid
@@ -261,6 +266,7 @@ both kbuffer_order kbuffer_order.exr "${M[@]}" --method kbuffer --k 2
 # Projected tetrahedra: the tile rectangles, the k-buffer's binning and the tile compositing, with a clip plane.
 both pt pt.exr "${M[@]}" --method pt --sort centroid --clip 1,0.3,0,-0.4
 same_image cells.exr 1e-4
+same_image cells_emission.exr 1e-4
 same_image kbuffer.exr 1e-4
 same_image kbuffer_order.exr 1e-4
 same_image pt.exr 1e-4
