@@ -60,7 +60,7 @@ TEST(GradientTf, JsonRoundTripAndClassification) {
     ASSERT_EQ(tf.widgets.size(), 2u);
     EXPECT_EQ(tf.widgets[1].shape, TfWidgetShape::Gaussian);
     EXPECT_DOUBLE_EQ(tf.gradientOpacityAt(2.0), 0.75);
-    EXPECT_DOUBLE_EQ(tf.gradientOpacityAt(100.0), 0.5);                                   // beyond the points
+    EXPECT_DOUBLE_EQ(tf.gradientOpacityAt(100.0), 0.5); // beyond the points
     EXPECT_DOUBLE_EQ(tf.gradientOpacityAt(std::numeric_limits<double>::quiet_NaN()), 0.5); // no gradient
     // In the box at g = 2: tau 0.01 * 0.75 + 0.1 (the Gaussian adds its tail).
     const auto c = tf.classify(30.0, 2.0);
@@ -68,7 +68,8 @@ TEST(GradientTf, JsonRoundTripAndClassification) {
     EXPECT_NEAR(c[3], 0.0075 + 0.1 + gauss, 1e-12);
     EXPECT_NEAR(c[0], (0.2 * 0.0075 + 1.0 * 0.1) / c[3], 1e-12);
     // Beyond the box's gradient range only the value axis and the Gaussian's tail remain.
-    EXPECT_NEAR(tf.classify(30.0, 5.0)[3], 0.005 + 0.2 * std::exp(-0.5 * ((16.0 / 3) * (16.0 / 3) + 9.0)), 1e-12);
+    EXPECT_NEAR(tf.classify(30.0, 5.0)[3], 0.005 + 0.2 * std::exp(-0.5 * ((16.0 / 3) * (16.0 / 3) + 9.0)),
+                1e-12);
     const TransferFunction back = TransferFunction::fromJson(tf.toJson());
     EXPECT_EQ(back.toJson(), tf.toJson());
     // The value axis rescales with an explicit range; the gradient axis is absolute.
@@ -99,10 +100,8 @@ TEST(GradientTf, BadJsonIsRefusedAtLoad) {
              tfWith(R"("widgets": [{"type": "ellipse"}])"),
              tfWith(R"("widgets": [{"type": "box", "value": [1, 2], "gradient": [-2, -1], "color": [1, 1, 1],
                      "extinction": 1}])"), // below every gradient magnitude
-             tfWith(R"("gradient_opacity": [[0, 1.5]])"),
-             tfWith(R"("gradient_opacity": [[2, 1], [1, 0.5]])"),
-             tfWith(R"("gradient_opacity": [[-1, 1]])"),
-             tfWith(R"("gradient_opacity": [])"),
+             tfWith(R"("gradient_opacity": [[0, 1.5]])"), tfWith(R"("gradient_opacity": [[2, 1], [1, 0.5]])"),
+             tfWith(R"("gradient_opacity": [[-1, 1]])"), tfWith(R"("gradient_opacity": [])"),
              std::string(R"({"widgets": [{)" + box + R"(, "extinction": 1}]})"), // no domain
          })
         EXPECT_THROW(TransferFunction::fromJson(bad), DataError) << bad;
@@ -116,9 +115,11 @@ TEST(GradientTf, LinearRampMatchesClosedForm) {
     const TransferFunction tf = TransferFunction::fromJson(kRampTf);
     auto oracleAt = [](double z) -> std::array<double, 4> {
         const double s = 2.0 * z;
-        const double tau1 = (s < 8.0 ? 0.0 : s < 8.5 ? 0.02 * (s - 8.0) : s <= 56.0 ? 0.01
-                             : s < 56.5               ? 0.01 - 0.02 * (s - 56.0)
-                                                      : 0.0) *
+        const double tau1 = (s < 8.0     ? 0.0
+                             : s < 8.5   ? 0.02 * (s - 8.0)
+                             : s <= 56.0 ? 0.01
+                             : s < 56.5  ? 0.01 - 0.02 * (s - 56.0)
+                                         : 0.0) *
                             0.75;
         const double box = s >= 20.0 && s <= 40.0 ? 0.1 : 0.0;
         const double gauss = 0.2 * std::exp(-0.5 * ((s - 46.0) / 3.0) * ((s - 46.0) / 3.0));
@@ -170,7 +171,8 @@ TEST(GradientTf, SphereShellByGradientMatchesChordLengths) {
         for (int x = 0; x < w; ++x) {
             const double px = ((x + 0.5) / w - 0.5) * h, py = ((y + 0.5) / w - 0.5) * h;
             const double d2 = px * px + py * py;
-            const double len = 2.0 * (std::sqrt(std::max(0.0, 144.0 - d2)) - std::sqrt(std::max(0.0, 64.0 - d2)));
+            const double len =
+                2.0 * (std::sqrt(std::max(0.0, 144.0 - d2)) - std::sqrt(std::max(0.0, 64.0 - d2)));
             const double a = 1.0 - std::exp(-0.3 * len);
             worstKernel = std::max(worstKernel, std::abs(img.at(x, y, 3) - a));
             sumKernel += std::abs(img.at(x, y, 3) - a);

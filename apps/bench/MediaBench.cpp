@@ -11,6 +11,7 @@
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 namespace volcl::cli {
@@ -214,11 +215,14 @@ void benchFog(ComputeContext& cc, const RenderInput& input, const TransferFuncti
 }
 
 void benchGradientTf(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
-                     const Scene& scene, const std::vector<double>& steps, double referenceStep, int runs,
+                     const std::optional<TransferFunction>& peer, const Scene& scene,
+                     const std::vector<double>& steps, double referenceStep, int runs,
                      const std::filesystem::path& csv) {
     if (!tf.usesGradient())
         throw UsageError("bench render --gradient-tf: the TF (--tf) has no gradient_opacity or widgets");
-    TransferFunction valueAxis = tf;
+    if (peer && peer->usesGradient())
+        throw UsageError("bench render --gradient-tf-peer: the peer must be a 1D TF (no gradient terms)");
+    TransferFunction valueAxis = peer ? *peer : tf;
     valueAxis.gradientOpacity.clear();
     valueAxis.widgets.clear();
     Scene plain = scene;
@@ -231,7 +235,8 @@ void benchGradientTf(ComputeContext& cc, const RenderInput& input, const Transfe
         vs.push_back(std::move(v));
         tfs.push_back(&t);
     };
-    add("value axis alone, step " + formatNumber(plain.step), valueAxis, plain);
+    add((peer ? "1D peer TF, step " : "value axis alone, step ") + formatNumber(plain.step), valueAxis,
+        plain);
     for (double st : steps) {
         Scene s = plain;
         s.step = st;

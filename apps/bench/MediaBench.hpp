@@ -8,6 +8,7 @@
 #include "render/Scene.hpp"
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,12 +29,13 @@ void benchTables(ComputeContext& cc, const RenderInput& input, const TransferFun
 void benchFog(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, const Scene& scene,
               double referenceStep, int runs, const std::filesystem::path& csv);
 
-/// A gradient TF's cost (`bench render --gradient-tf`): the TF's value axis alone (its 1D part, the peer) at the
-/// scene's step against the gradient TF at each of `steps` (world units), point sampled, no skipping,
+/// A gradient TF's cost (`bench render --gradient-tf`): a 1D peer (`peer`, else the TF's value axis alone) at
+/// the scene's step against the gradient TF at each of `steps` (world units), point sampled, no skipping,
 /// interleaved, median of `runs` frames; each against the double reference of its own TF at `referenceStep`.
 /// Prints a table with the load and writes CSV rows when `csv` is not empty.
 void benchGradientTf(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
-                     const Scene& scene, const std::vector<double>& steps, double referenceStep, int runs,
+                     const std::optional<TransferFunction>& peer, const Scene& scene,
+                     const std::vector<double>& steps, double referenceStep, int runs,
                      const std::filesystem::path& csv);
 
 } // namespace volcl::cli

@@ -36,6 +36,7 @@
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include <unistd.h>
@@ -73,7 +74,7 @@ struct BenchArgs {
     std::string csv, vtkImage;
     bool effects = false, vtk = false, sweep = true, filters = false, tables = false, fog = false;
     bool gradientTf = false;
-    std::string gradientTfCsv;
+    std::string gradientTfCsv, gradientTfPeer;
     bool scattering = false, tiers = false, shadows = false;
     TierBenchOptions tier;
     bool skipSweep = false;
@@ -358,7 +359,11 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
         std::vector<double> steps;
         for (double st : parseNumbers(a.steps, 0, "--steps"))
             steps.push_back(st * sp);
-        benchGradientTf(cc, input, tf, scene, steps, a.referenceStep * sp, a.runs, a.gradientTfCsv);
+        const std::optional<TransferFunction> peer =
+            a.gradientTfPeer.empty()
+                ? std::nullopt
+                : std::optional<TransferFunction>(TransferFunction::fromFile(a.gradientTfPeer));
+        benchGradientTf(cc, input, tf, peer, scene, steps, a.referenceStep * sp, a.runs, a.gradientTfCsv);
     }
     if (a.tables || a.fog) {
         const Volume* g = input.grid();
@@ -471,6 +476,10 @@ void addRenderBench(CLI::App& bench, GlobalOptions& global) {
                 "A gradient TF (--tf with gradient_opacity or widgets): its value axis alone against the "
                 "gradient TF at each --steps, interleaved, RMSE vs the reference of each");
     b->add_option("--gradient-tf-csv", ba->gradientTfCsv, "--gradient-tf: write the rows as CSV");
+    b->add_option(
+        "--gradient-tf-peer", ba->gradientTfPeer,
+        "--gradient-tf: a 1D TF (canonical JSON, data units) timed as the peer instead of the gradient "
+        "TF's value axis, e.g. the best 1D TF of the same feature");
     b->add_flag(
         "--shading-sweep", ba->shading,
         "Blinn-Phong per gradient kind (cache, cache-nearest, central, sobel) and an iso layer against "
