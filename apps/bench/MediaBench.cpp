@@ -237,6 +237,13 @@ void benchGradientTf(ComputeContext& cc, const RenderInput& input, const Transfe
     };
     add((peer ? "1D peer TF, step " : "value axis alone, step ") + formatNumber(plain.step), valueAxis,
         plain);
+    // The same 1D frame on the per-ray kernel with central differences (what a gradient TF runs on): a shaded
+    // 1D frame otherwise takes the packet kernel and the gradient cache.
+    Scene perRay = plain;
+    perRay.effects.gradient = GradientKind::Central;
+    add((peer ? "1D peer TF, central differences, step " : "value axis alone, central differences, step ") +
+            formatNumber(plain.step),
+        valueAxis, perRay);
     for (double st : steps) {
         Scene s = plain;
         s.step = st;

@@ -46,6 +46,21 @@ inline float4 tf_sample(__global const VolclTfKnot* knots, uint count, float s) 
    opacity (knots after the value axis's, factor in channel 3), then each widget adds its extinction of its
    colour; the colour is the extinction-weighted mean. A gradient that is not finite (beside a NaN voxel)
    counts as beyond every widget and takes the gradient opacity's last value; a NaN colour stays. */
+/* Whether a sample of value s (e = tf_sample() there) can take anything from the gradient terms: its value axis
+   extinction is non-zero and a gradient opacity scales it, or s lies within a widget's reach along the value
+   axis (a box's range; a Gaussian's centre +- 6 sigma, beyond which it adds under 1.6e-8 of its extinction).
+   Elsewhere the sample is e and its gradient is not read: most samples of a CT (air) cost one fetch. */
+inline bool tf_gradient_needed(__global const VolclTfKnot* knots, const VolclTfParams* T, float s, float4 e) {
+    if (e.w > 0.0f && T->gradientKnotCount > 0) return true;
+    __global const VolclTfWidget* w =
+        (__global const VolclTfWidget*)(knots + T->knotCount + T->gradientKnotCount);
+    for (uint i = 0; i < T->widgetCount; ++i) {
+        if (w[i].shape == 0 ? s >= w[i].a[0] && s <= w[i].a[1] : fabs((s - w[i].a[0]) * w[i].a[1]) <= 6.0f)
+            return true;
+    }
+    return false;
+}
+
 inline float4 tf_gradient(__global const VolclTfKnot* knots, const VolclTfParams* T, float s, float4 e,
                           float gm) {
 #ifdef NAN_COLOR

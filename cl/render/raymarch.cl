@@ -304,8 +304,9 @@ inline void dvr_point_segment(__global const voxel_t* vol, __global const VolclT
     const float3 pm = ray_at(r, tm);
 #ifdef TF_GRADIENT
     const float s = sample_volume(vol, &P->grid, pm);
-    const float4 e = tf_gradient(knots, &P->tf, s, tf_sample(knots, P->tf.knotCount, s),
-                                 length(gradient(vol, &P->grid, pm)));
+    float4 e = tf_sample(knots, P->tf.knotCount, s);
+    if (tf_gradient_needed(knots, &P->tf, s, e))
+        e = tf_gradient(knots, &P->tf, s, e, length(gradient(vol, &P->grid, pm)));
 #else
     const float4 e = tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, pm));
 #endif
