@@ -108,6 +108,11 @@ std::array<double, 4> rightRgbt(const TransferFunction& tf, double s) {
     return {c[0], c[1], c[2], t[0]};
 }
 
+/// Finite, and finite once stored as float (what kernels read).
+bool finiteInFloat(double v) {
+    return std::isfinite(v) && std::abs(v) <= kFloatMax;
+}
+
 float toFloatSaturated(double v) {
     return static_cast<float>(std::clamp(v, -kFloatMax, kFloatMax));
 }
@@ -558,7 +563,6 @@ std::string TransferFunction::toJson() const {
 }
 
 void TransferFunction::validate() const {
-    auto finiteInFloat = [](double v) { return std::isfinite(v) && std::abs(v) <= kFloatMax; };
     if (!(finiteInFloat(domain[0]) && finiteInFloat(domain[1])))
         throw DataError("transfer function: domain is not finite");
     if (!(domain[0] < domain[1]))
@@ -593,16 +597,16 @@ void TransferFunction::validate() const {
 }
 
 void TransferFunction::validateGradientTerms() const {
-    auto finiteInFloat = [](double v) { return std::isfinite(v) && std::abs(v) <= kFloatMax; };
     for (std::size_t i = 0; i < gradientOpacity.size(); ++i) {
         const auto& p = gradientOpacity[i];
-        const std::string where = "transfer function: gradient_opacity[" + std::to_string(i) + "]";
+        // The point's name is built only for a message (as in validate()).
+        auto where = [i] { return "transfer function: gradient_opacity[" + std::to_string(i) + "]"; };
         if (!finiteInFloat(p.g) || p.g < 0.0)
-            throw DataError(where + ": gradient magnitude " + describe(p.g) + " must be finite and >= 0");
+            throw DataError(where() + ": gradient magnitude " + describe(p.g) + " must be finite and >= 0");
         if (!(p.factor >= 0.0 && p.factor <= 1.0))
-            throw DataError(where + ": factor " + describe(p.factor) + " is outside [0, 1]");
+            throw DataError(where() + ": factor " + describe(p.factor) + " is outside [0, 1]");
         if (i > 0 && p.g < gradientOpacity[i - 1].g)
-            throw DataError(where + ": g = " + describe(p.g) + " is below the previous point's " +
+            throw DataError(where() + ": g = " + describe(p.g) + " is below the previous point's " +
                             describe(gradientOpacity[i - 1].g) + " (points must be sorted)");
     }
     if (widgets.size() > kMaxTfWidgets)
