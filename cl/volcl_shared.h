@@ -21,6 +21,17 @@ typedef struct VolclTfKnot {
     float pad[3];
 } VolclTfKnot;
 
+/* One widget of a 2D transfer function (host/tf/TransferFunction.hpp, TfWidget), stored in the knot buffer
+   after the gradient-opacity knots, one knot's 48 bytes each. shape 0 (box): w = 1 on [a[0], a[1]] x
+   [a[2], a[3]] of (value, gradient magnitude); shape 1 (Gaussian): a = (centre value, 1 / sigma value,
+   centre gradient, 1 / sigma gradient). Adds extinction rgbTau[3] * w of colour rgbTau[0..2]. */
+typedef struct VolclTfWidget {
+    float rgbTau[4];
+    float a[4];
+    volcl_uint shape;
+    volcl_uint pad[3];
+} VolclTfWidget;
+
 /* One ellipsoid of the 3D Shepp-Logan phantom: p' = rot * p; inside when
    sum(((p' - centre) * invSemiAxis)^2) <= 1; adds `value` to the density. */
 typedef struct VolclEllipsoid {
@@ -72,12 +83,14 @@ typedef struct VolclMarchParams {
     float step, earlyTermination, windowLo, windowInvWidth;
 } VolclMarchParams;
 
-/* Transfer function (knots in their own buffer) and pre-integration table geometry. */
+/* Transfer function (knots in their own buffer) and pre-integration table geometry. A gradient TF
+   (TF_GRADIENT) keeps gradientKnotCount gradient-opacity knots and widgetCount VolclTfWidget records after the
+   knotCount knots of the value axis. */
 typedef struct VolclTfParams {
-    volcl_uint knotCount, tableSize, tableLengths, pad0;
+    volcl_uint knotCount, tableSize, tableLengths, gradientKnotCount;
     float domainLo, domainHi;
     float tableMaxLength; /* segment length of the 2D table, of the last slice of the 3D table */
-    float pad1;
+    volcl_uint widgetCount;
 } VolclTfParams;
 
 /* Lights, Blinn-Phong and single-scattering coefficients, shadow rays. */
@@ -203,6 +216,7 @@ static_assert(sizeof(VolclMeshRenderParams) == 80 + 144 + 16 + 32 + 176 + 96 + 8
               "VolclMeshRenderParams layout must match OpenCL C");
 static_assert(sizeof(VolclEllipsoid) == 64, "VolclEllipsoid layout must match OpenCL C");
 static_assert(sizeof(VolclTfKnot) == 48, "VolclTfKnot layout must match OpenCL C");
+static_assert(sizeof(VolclTfWidget) == sizeof(VolclTfKnot), "a VolclTfWidget fills one knot's record");
 static_assert(sizeof(VolclCameraParams) == 80, "VolclCameraParams layout must match OpenCL C");
 static_assert(sizeof(VolclClipParams) == 144, "VolclClipParams layout must match OpenCL C");
 static_assert(sizeof(VolclMarchParams) == 16, "VolclMarchParams layout must match OpenCL C");

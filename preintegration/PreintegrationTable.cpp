@@ -507,6 +507,9 @@ PreintegrationGenerator::~PreintegrationGenerator() = default;
 void PreintegrationGenerator::generate(const TransferFunction& tf, const TableSpec& spec,
                                        const GeneratorOptions& o, PreintegrationTable& t) {
     tf.validate();
+    if (tf.usesGradient())
+        throw UsageError("pre-integration tables have no gradient axis: a transfer function with "
+                         "gradient_opacity or widgets is point sampled (docs/transfer-functions.md)");
     t.spec = spec;
     t.lengthValues = spec.lengthValues();
     t.domain = tf.domain;

@@ -1,6 +1,7 @@
 // Effect planning shared by every renderer: the scene's requests against the data's box and value range.
 #include "render/EffectPlan.hpp"
 
+#include "core/Error.hpp"
 #include "core/Format.hpp"
 #include "core/MemoryBudget.hpp"
 #include "render/VecMath.hpp"
@@ -459,7 +460,7 @@ void planNanColor(const Scene& scene, bool hasNonFinite, EffectPlan& plan) {
 
 bool packetServesLit(const Scene& scene, const EffectPlan& p) {
     return scene.mode == RenderMode::Dvr && p.isosurfaces.empty() && !p.scattering && !p.pathTracing &&
-           (!p.shadows || p.shadowVolume) && !p.preintLighting;
+           !p.gradientTf && (!p.shadows || p.shadowVolume) && !p.preintLighting;
 }
 
 void planGradientCache(const Scene& scene, std::size_t bytes, std::uint64_t maxAllocBytes,
@@ -489,6 +490,48 @@ void planGradientCache(const Scene& scene, std::size_t bytes, std::uint64_t maxA
                              (g == GradientKind::CacheNearest
                                   ? "nearest node's gradient (one fetch)"
                                   : "trilinear blend of the eight nodes' gradients"));
+    }
+}
+
+void checkGradientTf(const Scene& scene, const TransferFunction& tf, bool rendererDraws,
+                     std::string_view renderer) {
+    if (!tf.usesGradient()) return;
+    const std::string what = "a transfer function with gradient_opacity or widgets";
+    if (!rendererDraws)
+        throw UsageError(what + " renders on regular grids and .vcz bricks only, not with " +
+                         std::string(renderer));
+    if (scene.mode != RenderMode::Dvr)
+        throw UsageError(what + " needs mode dvr (mode " + std::string(renderModeName(scene.mode)) + ")");
+    if (scene.preintegration != Preintegration::None)
+        throw UsageError(what + " is point sampled: pre-integration tables have no gradient axis (use "
+                                "--preintegration none)");
+    if (!scene.effects.isosurfaces.empty()) throw UsageError(what + " cannot be combined with iso-surfaces");
+    if (scene.effects.shadows) throw UsageError(what + " cannot be combined with shadows");
+    if (scene.effects.scattering) throw UsageError(what + " cannot be combined with scattering");
+}
+
+void planGradientTf(const TransferFunction& tf, EffectPlan& plan) {
+    if (!tf.usesGradient()) return;
+    plan.gradientTf = true;
+    plan.defines.set("TF_GRADIENT");
+    if (plan.gradientCache) {
+        plan.gradientCache = 0;
+        plan.defines.erase("GRADIENT_CACHE");
+        std::erase_if(plan.compiled, [](const std::string& c) { return c.rfind("gradient: cache", 0) == 0; });
+        plan.dropped.push_back("gradient cache: a gradient transfer function takes the per-ray kernel, with "
+                               "central differences");
+    }
+    plan.compiled.push_back("gradient transfer function: " + std::to_string(tf.widgets.size()) +
+                            " widget(s)" + (tf.gradientOpacity.empty() ? "" : ", gradient opacity") +
+                            "; gradient magnitude by central differences per sample, per-ray kernel");
+    if (!tf.widgets.empty() && plan.skipping) {
+        plan.skipping = false;
+        plan.defines.erase("SKIPPING");
+        std::erase_if(plan.compiled,
+                      [](const std::string& c) { return c.rfind("empty-space skipping:", 0) == 0; });
+        plan.dropped.push_back(
+            "empty-space skipping: the TF's widgets classify by gradient, which macrocells do "
+            "not bound");
     }
 }
 

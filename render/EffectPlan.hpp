@@ -25,6 +25,7 @@ struct EffectPlan {
     bool preintLighting = false;      ///< PREINT_LIGHTING: shading through the pre-integrated lighting table
     bool isoTable = false;            ///< ISO_TABLE: iso-surfaces from the iso-surface table
     bool pathTracing = false;         ///< multiple scattering: the path tracer renders the frame
+    bool gradientTf = false;          ///< TF_GRADIENT: the TF classifies by gradient magnitude too
     int gradientCache = 0;   ///< GRADIENT_CACHE: 1 trilinear blend, 2 nearest node, 3 exact blend (grids)
     double colorScale = 1.0; ///< ambient-only shading folded into the TF colours
     std::vector<IsoLayer> isosurfaces; ///< the ones that can appear
@@ -66,5 +67,18 @@ bool packetServesLit(const Scene& scene, const EffectPlan& p);
 /// grid's exact form.
 void planGradientCache(const Scene& scene, std::size_t bytes, std::uint64_t maxAllocBytes,
                        std::string_view how, EffectPlan& p, int trilinearDefine = 1);
+
+class TransferFunction;
+
+/// A gradient TF (TransferFunction::usesGradient()) is drawn by the grid and brick ray marchers' per-ray kernel
+/// in dvr with point sampling; UsageError, before anything changes, for any other renderer (`rendererDraws`
+/// false, naming `renderer`) or scene: pre-integration (its tables have no gradient axis), other modes,
+/// iso-surfaces, shadows, scattering. Nothing for a TF without gradient terms.
+void checkGradientTf(const Scene& scene, const TransferFunction& tf, bool rendererDraws,
+                     std::string_view renderer);
+
+/// A gradient TF: TF_GRADIENT and its line in the report; with widgets, empty-space skipping is dropped (a
+/// macrocell the value axis maps to zero may hold a widget's boundary). Nothing for a TF without them.
+void planGradientTf(const TransferFunction& tf, EffectPlan& plan);
 
 } // namespace volcl

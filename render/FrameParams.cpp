@@ -74,6 +74,10 @@ VolclTfParams tfParams(const Scene& scene, const TransferFunction& tf, std::size
     p.domainHi = static_cast<float>(tf.domain[1]);
     p.tableMaxLength = static_cast<float>(scene.step);
     p.tableLengths = volcl_uint(std::max(tableLengths, 1));
+    if (tf.usesGradient()) {
+        p.gradientKnotCount = volcl_uint(tf.packGradientOpacityKnots().size());
+        p.widgetCount = volcl_uint(tf.widgets.size());
+    }
     return p;
 }
 

@@ -137,6 +137,7 @@ EffectPlan RenderInput::planEffects(const Scene& sceneAsGiven, const TransferFun
         EffectPlan p = volcl::planEffects(scene, bounds(), valueRange(), "macrocells over the brick index");
         p.defines.set("VOXEL_TYPE", 0LL);
         planNanColor(scene, !vczNonFiniteBricks(vcz_->header(), frame_).empty(), p);
+        planGradientTf(tf, p);
         return p;
     }
     if (mesh_ && scene.meshMethod != MeshMethod::Cells) { // no device here: the plan as on a CPU device
@@ -148,7 +149,9 @@ EffectPlan RenderInput::planEffects(const Scene& sceneAsGiven, const TransferFun
                            scene.meshSort ? *scene.meshSort : defaultKBufferSort(*mesh_));
     }
     if (mesh_) return planMeshEffects(scene, *mesh_);
-    return volcl::planEffects(scene, *volume_, tf);
+    EffectPlan p = volcl::planEffects(scene, *volume_, tf);
+    planGradientTf(tf, p);
+    return p;
 }
 
 ImageBuffer RenderInput::renderReference(const TransferFunction& tf, const Scene& sceneAsGiven,

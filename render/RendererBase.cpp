@@ -10,6 +10,9 @@
 namespace volcl {
 namespace {
 
+/// What the renderers that do not draw gradient TFs are, for checkGradientTf's message.
+constexpr std::string_view kNoGradientTf = "the tetrahedral-mesh renderers or the viewer's preview";
+
 bool sameCamera(const Camera& a, const Camera& b) {
     return a.projection == b.projection && a.eye == b.eye && a.target == b.target && a.up == b.up &&
            a.height == b.height && a.fovYDeg == b.fovYDeg && a.mirrored == b.mirrored;
@@ -36,12 +39,14 @@ RendererBase::RendererBase(ComputeContext& cc, const TransferFunction& tf, const
 void RendererBase::start(const WorldBox& box, const ValueRange& range) {
     box_ = box;
     range_ = range;
+    checkGradientTf(scene_, tf_, drawsGradientTf(), kNoGradientTf);
     admitScene(scene_);
     replan(true);
 }
 
 void RendererBase::setScene(const Scene& scene) {
     scene.validate();
+    checkGradientTf(scene, tf_, drawsGradientTf(), kNoGradientTf);
     admitScene(scene);
     scene_ = scene;
     replan(false);
@@ -49,6 +54,7 @@ void RendererBase::setScene(const Scene& scene) {
 
 void RendererBase::setTransferFunction(const TransferFunction& tf) {
     tf.validate();
+    checkGradientTf(scene_, tf, drawsGradientTf(), kNoGradientTf);
     tf_ = tf;
     replan(true);
 }
@@ -70,16 +76,25 @@ void RendererBase::replan(bool tfChanged) {
     camera_ = scene_.camera ? *scene_.camera : defaultCamera(bounds());
     const double previousColorScale = plan_.colorScale;
     plan_ = planEffects(scene_);
+    planGradientTf(tf_, plan_);
     tableMs_ = 0.0;
     TransferFunction shaded = tf_;
-    if (plan_.colorScale != 1.0)
+    if (plan_.colorScale != 1.0) {
         for (auto& c : shaded.color)
             for (double& v : c.rgb)
                 v *= plan_.colorScale;
+        for (auto& w : shaded.widgets)
+            for (double& v : w.rgb)
+                v *= plan_.colorScale;
+    }
     const bool knotsChanged = tfChanged || previousColorScale != plan_.colorScale || hostKnots_.empty();
     if (knotsChanged) {
         hostKnots_ = shaded.packKnots();
-        knots_ = cc_.upload(hostKnots_, CL_MEM_READ_ONLY);
+        // A gradient TF's records follow the value axis's knots in the same buffer (VolclTfParams).
+        std::vector<VolclTfKnot> device = hostKnots_;
+        const auto gradient = shaded.packGradientRecords();
+        device.insert(device.end(), gradient.begin(), gradient.end());
+        knots_ = cc_.upload(device, CL_MEM_READ_ONLY);
     }
     rebuild({shaded, tfChanged, knotsChanged});
 }

@@ -93,6 +93,8 @@ protected:
     virtual void rebuild(const Rebuild& change) = 0;
     /// The camera or image size moved (same step); `sameView`: neither did.
     virtual void viewChanged(bool sameView) { (void)sameView; }
+    /// True for renderers whose kernels classify by gradient magnitude (TF_GRADIENT, checkGradientTf()).
+    virtual bool drawsGradientTf() const { return false; }
     /// False for renderers whose frames do not depend on render.step (no re-plan on a new step).
     virtual bool stepNeedsRebuild() const { return true; }
 

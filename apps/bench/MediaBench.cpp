@@ -3,6 +3,7 @@
 
 #include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
+#include "core/Format.hpp"
 #include "core/runtime/Timing.hpp"
 #include "render/Reference.hpp"
 
@@ -10,6 +11,7 @@
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 namespace volcl::cli {
@@ -43,6 +45,28 @@ void writeCsv(const std::filesystem::path& csv, const std::string& text) {
 
 Light defaultLight() {
     return {LightKind::Directional, {0.4, 0.6, -0.7}, {1, 1, 1}, 1.0};
+}
+
+/// Prints and writes (CSV) each variant's median time, its ratio to the first variant's, its RMSE against the
+/// double reference of its TF (`tfs[i]`) at `referenceStep`, and its defines.
+void reportAgainstFirst(const RenderInput& input, const std::vector<const TransferFunction*>& tfs,
+                        std::vector<Variant>& vs, double referenceStep, const std::filesystem::path& csv) {
+    const double firstMs = median(vs[0].ms);
+    std::ostringstream rows;
+    rows << "variant,ms_per_frame,ratio_to_plain,rmse_rgba,defines\n"; // the first row is the plain peer
+    for (std::size_t i = 0; i < vs.size(); ++i) {
+        Variant& v = vs[i];
+        const ImageBuffer ref = input.renderReference(*tfs[i], v.scene, {.step = referenceStep});
+        v.rmse = imageRmse(v.renderer->render(), ref);
+        const double ms = median(v.ms);
+        std::cout << "  " << std::left << std::setw(42) << v.name << std::right << std::fixed << std::setw(9)
+                  << std::setprecision(2) << ms << "  " << std::setprecision(3) << ms / firstMs << "  "
+                  << std::scientific << v.rmse << std::fixed << "  ["
+                  << v.renderer->plan().defines.toOptions() << "]\n";
+        rows << '"' << v.name << "\"," << ms << ',' << ms / firstMs << ',' << v.rmse << ",\""
+             << v.renderer->plan().defines.toOptions() << "\"\n";
+    }
+    writeCsv(csv, rows.str());
 }
 
 } // namespace
@@ -183,25 +207,54 @@ void benchFog(ComputeContext& cc, const RenderInput& input, const TransferFuncti
     p.preintegration = Preintegration::Table2d;
     add("exponential fog, 2D pre-integration", p);
     timeInterleaved(vs, runs);
-    const double plainMs = median(vs[0].ms);
-    std::ostringstream rows;
-    rows << "variant,ms_per_frame,ratio_to_plain,rmse_rgba,defines\n";
     std::cout << "fog cost, " << scene.width << "x" << scene.height << ", step " << scene.step
               << ", median of " << runs
               << " interleaved frames; RMSE vs the double reference with the same fog (step " << referenceStep
               << ")\n";
-    for (auto& v : vs) {
-        const ImageBuffer ref = input.renderReference(tf, v.scene, {.step = referenceStep});
-        v.rmse = imageRmse(v.renderer->render(), ref);
-        const double ms = median(v.ms);
-        std::cout << "  " << std::left << std::setw(42) << v.name << std::right << std::fixed << std::setw(9)
-                  << std::setprecision(2) << ms << "  " << std::setprecision(3) << ms / plainMs << "  "
-                  << std::scientific << v.rmse << std::fixed << "  ["
-                  << v.renderer->plan().defines.toOptions() << "]\n";
-        rows << '"' << v.name << "\"," << ms << ',' << ms / plainMs << ',' << v.rmse << ",\""
-             << v.renderer->plan().defines.toOptions() << "\"\n";
+    reportAgainstFirst(input, std::vector<const TransferFunction*>(vs.size(), &tf), vs, referenceStep, csv);
+}
+
+void benchGradientTf(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
+                     const std::optional<TransferFunction>& peer, const Scene& scene,
+                     const std::vector<double>& steps, double referenceStep, int runs,
+                     const std::filesystem::path& csv) {
+    if (!tf.usesGradient())
+        throw UsageError("bench render --gradient-tf: the TF (--tf) has no gradient_opacity or widgets");
+    if (peer && peer->usesGradient())
+        throw UsageError("bench render --gradient-tf-peer: the peer must be a 1D TF (no gradient terms)");
+    TransferFunction valueAxis = peer ? *peer : tf;
+    valueAxis.gradientOpacity.clear();
+    valueAxis.widgets.clear();
+    Scene plain = scene;
+    plain.preintegration = Preintegration::None;
+    plain.skipping = SkipMode::Off;
+    std::vector<Variant> vs;
+    std::vector<const TransferFunction*> tfs;
+    auto add = [&](std::string name, const TransferFunction& t, const Scene& s) {
+        Variant v{std::move(name), s, input.makeRenderer(cc, t, s), {}, 0.0, 0.0};
+        vs.push_back(std::move(v));
+        tfs.push_back(&t);
+    };
+    add((peer ? "1D peer TF, step " : "value axis alone, step ") + formatNumber(plain.step), valueAxis,
+        plain);
+    // The same 1D frame on the per-ray kernel with central differences (what a gradient TF runs on): a shaded
+    // 1D frame otherwise takes the packet kernel and the gradient cache.
+    Scene perRay = plain;
+    perRay.effects.gradient = GradientKind::Central;
+    add((peer ? "1D peer TF, central differences, step " : "value axis alone, central differences, step ") +
+            formatNumber(plain.step),
+        valueAxis, perRay);
+    for (double st : steps) {
+        Scene s = plain;
+        s.step = st;
+        add("gradient TF, step " + formatNumber(st), tf, s);
     }
-    writeCsv(csv, rows.str());
+    timeInterleaved(vs, runs);
+    std::cout << "gradient transfer function cost, " << scene.width << "x" << scene.height << ", median of "
+              << runs << " interleaved frames, load " << loadAverageText()
+              << "; RMSE vs the double reference of the same TF (step " << referenceStep
+              << "); ratio to the first row\n";
+    reportAgainstFirst(input, tfs, vs, referenceStep, csv);
 }
 
 } // namespace volcl::cli

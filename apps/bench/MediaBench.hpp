@@ -1,5 +1,5 @@
-// `volcl bench render --tables` and `--fog`: the table paths against the per-sample paths, and the fog's
-// cost against the plain frame, in accuracy and time.
+// `volcl bench render --tables`, `--fog` and `--gradient-tf`: the table paths against the per-sample paths, the
+// fog's and a gradient TF's cost against the plain frame, in accuracy and time.
 #pragma once
 
 #include "core/runtime/ClRuntime.hpp"
@@ -8,6 +8,7 @@
 #include "render/Scene.hpp"
 
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,5 +28,14 @@ void benchTables(ComputeContext& cc, const RenderInput& input, const TransferFun
 /// double reference with fog. Prints a table and writes CSV rows when `csv` is not empty.
 void benchFog(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf, const Scene& scene,
               double referenceStep, int runs, const std::filesystem::path& csv);
+
+/// A gradient TF's cost (`bench render --gradient-tf`): a 1D peer (`peer`, else the TF's value axis alone) at
+/// the scene's step against the gradient TF at each of `steps` (world units), point sampled, no skipping,
+/// interleaved, median of `runs` frames; each against the double reference of its own TF at `referenceStep`.
+/// Prints a table with the load and writes CSV rows when `csv` is not empty.
+void benchGradientTf(ComputeContext& cc, const RenderInput& input, const TransferFunction& tf,
+                     const std::optional<TransferFunction>& peer, const Scene& scene,
+                     const std::vector<double>& steps, double referenceStep, int runs,
+                     const std::filesystem::path& csv);
 
 } // namespace volcl::cli

@@ -36,6 +36,7 @@
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include <unistd.h>
@@ -72,6 +73,8 @@ struct BenchArgs {
     double referenceStep = 0.05;
     std::string csv, vtkImage;
     bool effects = false, vtk = false, sweep = true, filters = false, tables = false, fog = false;
+    bool gradientTf = false;
+    std::string gradientTfCsv, gradientTfPeer;
     bool scattering = false, tiers = false, shadows = false;
     TierBenchOptions tier;
     bool skipSweep = false;
@@ -350,6 +353,18 @@ void benchRender(const BenchArgs& a, GlobalOptions& global) {
         benchSkipping(cc, input, tf, scene, o);
     }
     if (a.filters) benchFilters(cc, input, tf, scene, a.runs, a.sweep || a.vtk ? std::string() : a.csv);
+    if (a.gradientTf) {
+        const Volume* g = input.grid();
+        const double sp = g ? std::min({g->spacing[0], g->spacing[1], g->spacing[2]}) : 1.0;
+        std::vector<double> steps;
+        for (double st : parseNumbers(a.steps, 0, "--steps"))
+            steps.push_back(st * sp);
+        const std::optional<TransferFunction> peer =
+            a.gradientTfPeer.empty()
+                ? std::nullopt
+                : std::optional<TransferFunction>(TransferFunction::fromFile(a.gradientTfPeer));
+        benchGradientTf(cc, input, tf, peer, scene, steps, a.referenceStep * sp, a.runs, a.gradientTfCsv);
+    }
     if (a.tables || a.fog) {
         const Volume* g = input.grid();
         const double sp = g ? std::min({g->spacing[0], g->spacing[1], g->spacing[2]}) : 1.0;
@@ -457,6 +472,14 @@ void addRenderBench(CLI::App& bench, GlobalOptions& global) {
     b->add_flag("--fog", ba->fog,
                 "Fog (constant and exponential layer) against the plain frame: time ratio and RMSE vs the "
                 "reference");
+    b->add_flag("--gradient-tf", ba->gradientTf,
+                "A gradient TF (--tf with gradient_opacity or widgets): its value axis alone against the "
+                "gradient TF at each --steps, interleaved, RMSE vs the reference of each");
+    b->add_option("--gradient-tf-csv", ba->gradientTfCsv, "--gradient-tf: write the rows as CSV");
+    b->add_option(
+        "--gradient-tf-peer", ba->gradientTfPeer,
+        "--gradient-tf: a 1D TF (canonical JSON, data units) timed as the peer instead of the gradient "
+        "TF's value axis, e.g. the best 1D TF of the same feature");
     b->add_flag(
         "--shading-sweep", ba->shading,
         "Blinn-Phong per gradient kind (cache, cache-nearest, central, sobel) and an iso layer against "

@@ -8,16 +8,19 @@
 #include "core/AtomicFile.hpp"
 #include "core/Error.hpp"
 #include "core/runtime/ClRuntime.hpp"
+#include "host/image/ImageIo.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <sstream>
@@ -27,6 +30,64 @@ namespace volcl::cli {
 namespace {
 
 constexpr std::size_t kHistogramBins = 16;
+/// Bins per axis of `info --histogram2d`.
+constexpr int kHistogram2dBins = 256;
+
+/// `info --histogram2d`: the value x gradient-magnitude histogram of frame 0, the map to pick 2D transfer
+/// function widgets on (docs/transfer-functions.md). Gradients by central differences (one-sided at the faces)
+/// in data value per world unit. Image x: value bins over the finite value range; y: gradient bins from 0
+/// (bottom row) to the 99.5th percentile of the magnitudes (the rest clamp into the top row); grey level
+/// log(1 + count) / log(1 + largest count). Prints the axes.
+void writeHistogram2d(std::ostream& out, const Volume& v, const std::filesystem::path& path) {
+    const Dims d = v.dims();
+    const std::vector<float> f = v.toFloat();
+    std::vector<float> gm(f.size(), std::numeric_limits<float>::quiet_NaN());
+    auto diff = [&](std::size_t i, std::size_t n, std::size_t stride, std::size_t at, double h) {
+        const std::size_t lo = i > 0 ? at - stride : at, hi = i + 1 < n ? at + stride : at;
+        const double span = double((i + 1 < n ? 1 : 0) + (i > 0 ? 1 : 0)) * h;
+        return span > 0.0 ? (double(f[hi]) - double(f[lo])) / span : 0.0;
+    };
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    std::vector<float> finiteGm;
+    for (std::size_t k = 0; k < d.z; ++k)
+        for (std::size_t j = 0; j < d.y; ++j)
+            for (std::size_t i = 0; i < d.x; ++i) {
+                const std::size_t at = v.index(i, j, k);
+                const double gx = diff(i, d.x, 1, at, v.spacing[0]), gy = diff(j, d.y, d.x, at, v.spacing[1]),
+                             gz = diff(k, d.z, d.x * d.y, at, v.spacing[2]);
+                const double g = std::sqrt(gx * gx + gy * gy + gz * gz);
+                if (!std::isfinite(f[at]) || !std::isfinite(g)) continue;
+                gm[at] = float(g);
+                finiteGm.push_back(float(g));
+                lo = std::min(lo, double(f[at]));
+                hi = std::max(hi, double(f[at]));
+            }
+    if (finiteGm.empty()) throw DataError(path.string() + ": no finite voxel to histogram");
+    const std::size_t q = std::min(finiteGm.size() - 1, std::size_t(0.995 * double(finiteGm.size())));
+    std::nth_element(finiteGm.begin(), finiteGm.begin() + std::ptrdiff_t(q), finiteGm.end());
+    double gmax = finiteGm[q];
+    if (!(gmax > 0.0)) gmax = 1.0;
+    if (!(hi > lo)) hi = lo + 1.0;
+    const int n = kHistogram2dBins;
+    std::vector<double> counts(std::size_t(n) * std::size_t(n), 0.0);
+    for (std::size_t at = 0; at < f.size(); ++at) {
+        if (std::isnan(gm[at])) continue;
+        const int x = std::clamp(int((double(f[at]) - lo) / (hi - lo) * n), 0, n - 1);
+        const int y = std::clamp(int(double(gm[at]) / gmax * n), 0, n - 1);
+        counts[std::size_t(y) * std::size_t(n) + std::size_t(x)] += 1.0;
+    }
+    const double top = std::log1p(*std::max_element(counts.begin(), counts.end()));
+    ImageBuffer img(n, n, {"R", "G", "B"});
+    for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+            const float g = float(std::log1p(counts[std::size_t(y) * std::size_t(n) + std::size_t(x)]) / top);
+            for (int c = 0; c < 3; ++c)
+                img.at(x, n - 1 - y, c) = g;
+        }
+    writeImage(img, path);
+    out << "histogram2d: " << n << "x" << n << " -> " << path.string() << "; x: value " << lo << " .. " << hi
+        << ", y (bottom to top): gradient magnitude 0 .. " << gmax << " per world unit (99.5th percentile)\n";
+}
 
 // Statistics over every frame of a series, so a 4D file reports its whole range.
 VolumeStats seriesStats(const TimeSeries& ts, bool quiet) {
@@ -143,15 +204,23 @@ void addInfo(CLI::App& app, GlobalOptions& global) {
     auto file = std::make_shared<std::string>();
     auto json = std::make_shared<bool>(false);
     auto bricks = std::make_shared<bool>(false);
+    auto histogram2d = std::make_shared<std::string>();
     auto raw = std::make_shared<RawReadFlags>();
     auto meshFlags = std::make_shared<MeshReadFlags>();
     cmd->add_option("file", *file, "Volume or mesh file")->required();
+    cmd->add_option(
+        "--histogram2d", *histogram2d,
+        "Also write the value x gradient-magnitude histogram of frame 0 as an image (PNG or EXR), "
+        "to pick 2D transfer-function widgets");
     cmd->add_flag("--json", *json, "Print JSON instead of text");
     cmd->add_flag("--bricks", *bricks,
                   "A .vcz: list every brick (origin, dims, bytes, range) of every frame");
     raw->add(*cmd);
     meshFlags->add(*cmd);
-    cmd->callback([file, json, bricks, raw, meshFlags, &global] {
+    cmd->callback([file, json, bricks, histogram2d, raw, meshFlags, &global] {
+        if (!histogram2d->empty() && (meshcodec::isVcmFile(*file) || mesh::detectMeshFormat(*file) ||
+                                      std::filesystem::path(*file).extension() == ".vcz"))
+            throw UsageError("--histogram2d takes a volume file (decode a .vcz first), not " + *file);
         if (meshcodec::isVcmFile(*file)) {
             printVcmInfo(std::cout, *file, *meshFlags, *json);
             return;
@@ -166,6 +235,8 @@ void addInfo(CLI::App& app, GlobalOptions& global) {
         }
         TimeSeries ts = readVolumeFile(*file, raw->toReadOptions());
         printVolumeInfo(std::cout, *file, ts, *json, global.quiet);
+        if (!histogram2d->empty())
+            writeHistogram2d(*json ? std::cerr : std::cout, ts.frames.at(0), *histogram2d);
     });
 }
 

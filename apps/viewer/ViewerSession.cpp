@@ -298,7 +298,8 @@ std::string ViewerSession::apply(ViewerAction action) {
 GridMethod ViewerSession::previewTier() const {
     if (!adaptive_.options().previewTiers || !adaptive_.options().enabled || !input_.grid())
         return GridMethod::Raymarch;
-    if (!finite_) return GridMethod::Raymarch;
+    // The preview tiers classify by value alone: a gradient TF stays with the ray marcher.
+    if (!finite_ || presets_[presetIndex_].tf.usesGradient()) return GridMethod::Raymarch;
     const Scene s = currentScene();
     const GridMethod m =
         s.camera->projection == Projection::Orthographic ? GridMethod::ShearWarp : GridMethod::Drc;

@@ -40,6 +40,62 @@ inline float4 tf_sample(__global const VolclTfKnot* knots, uint count, float s) 
     return v + d * g;
 }
 
+#ifdef TF_GRADIENT
+/* A gradient TF (host/tf/TransferFunction.hpp, classify()): e = tf_sample() at value s, gm the sample's world
+   gradient magnitude (data value per world unit). The value axis's extinction is scaled by the gradient
+   opacity (knots after the value axis's, factor in channel 3), then each widget adds its extinction of its
+   colour; the colour is the extinction-weighted mean. A gradient that is not finite (beside a NaN voxel)
+   counts as beyond every widget and takes the gradient opacity's last value; a NaN colour stays. */
+/* Whether a sample of value s (e = tf_sample() there) can take anything from the gradient terms: its value axis
+   extinction is non-zero and a gradient opacity scales it, or s lies within a widget's reach along the value
+   axis (a box's range; a Gaussian's centre +- 6 sigma, beyond which it adds under 1.6e-8 of its extinction).
+   Elsewhere the sample is e and its gradient is not read: most samples of a CT (air) cost one fetch. */
+inline bool tf_gradient_needed(__global const VolclTfKnot* knots, const VolclTfParams* T, float s, float4 e) {
+    if (e.w > 0.0f && T->gradientKnotCount > 0) return true;
+    __global const VolclTfWidget* w =
+        (__global const VolclTfWidget*)(knots + T->knotCount + T->gradientKnotCount);
+    for (uint i = 0; i < T->widgetCount; ++i) {
+        if (w[i].shape == 0 ? s >= w[i].a[0] && s <= w[i].a[1] : fabs((s - w[i].a[0]) * w[i].a[1]) <= 6.0f)
+            return true;
+    }
+    return false;
+}
+
+inline float4 tf_gradient(__global const VolclTfKnot* knots, const VolclTfParams* T, float s, float4 e,
+                          float gm) {
+#ifdef NAN_COLOR
+    if (!isfinite(s)) return e;
+#endif
+    if (!isfinite(gm)) gm = INFINITY;
+    float tau = e.w;
+    if (T->gradientKnotCount > 0) {
+        __global const VolclTfKnot* gk = knots + T->knotCount;
+        __global const VolclTfKnot* kn = gk + tf_find_interval(gk, T->gradientKnotCount, gm);
+        const float d = gm > kn->s ? fmin(gm - kn->s, FLT_MAX) : 0.0f;
+        tau *= kn->value[3] + d * kn->slope[3];
+    }
+    float3 sum = e.xyz * tau;
+    if (isfinite(s) && isfinite(gm)) {
+        __global const VolclTfWidget* w =
+            (__global const VolclTfWidget*)(knots + T->knotCount + T->gradientKnotCount);
+        for (uint i = 0; i < T->widgetCount; ++i) {
+            const float4 a = (float4)(w[i].a[0], w[i].a[1], w[i].a[2], w[i].a[3]);
+            float wt;
+            if (w[i].shape == 0) {
+                wt = s >= a.x && s <= a.y && gm >= a.z && gm <= a.w ? 1.0f : 0.0f;
+            } else {
+                const float u = (s - a.x) * a.y, v = (gm - a.z) * a.w;
+                wt = exp(-0.5f * (u * u + v * v));
+            }
+            const float t = w[i].rgbTau[3] * wt;
+            sum += (float3)(w[i].rgbTau[0], w[i].rgbTau[1], w[i].rgbTau[2]) * t;
+            tau += t;
+        }
+    }
+    return tau > 0.0f ? (float4)(sum / tau, tau) : (float4)(e.xyz, 0.0f);
+}
+#endif
+
 /* Pre-integration (PREINT 2: 2D table at the fixed length T->tableMaxLength; PREINT 3: 3D table over
    segment lengths). The table's slices are tableSize x tableSize nodes over [domainLo, domainHi], front
    value fastest-but-one, back value fastest. */

@@ -28,7 +28,9 @@
    ISO_TABLE     (mode iso) surfaces from the iso-surface table (slice 0 of the table buffer) per segment
    GRADIENT_CACHE  (packet kernel, SHADING) gradients from the gradient cache (common/gradient_cache.h):
                  1 trilinear blend of the eight voxels' cached gradients, 2 the nearest voxel's, 3 the
-                 trilinear blend of the exact form (integer voxels spanning at most 511) */
+                 trilinear blend of the exact form (integer voxels spanning at most 511)
+   TF_GRADIENT   (dvr, point sampling) a gradient TF (common/tf_lookup.h, tf_gradient()): each sample also reads
+                 its gradient magnitude (the gradient() of SHADING's kind); the per-ray kernel only */
 #ifndef MODE
 #define MODE 0
 #endif
@@ -48,7 +50,7 @@
 #include "common/gradient_cache.h"
 #endif
 /* The packet kernel serves dvr without iso-surfaces, unlit or Blinn-Phong shaded from the gradient cache. */
-#if MODE == 0 && ISO_COUNT == 0 &&                                                                           \
+#if MODE == 0 && ISO_COUNT == 0 && !defined(TF_GRADIENT) &&                                                  \
     (!defined(NEEDS_LIGHTS) || (defined(GRADIENT_CACHE) && defined(SHADING) && !defined(SCATTERING) &&       \
                                 (!defined(SHADOWS) || defined(SHADOW_VOLUME)) && !defined(PREINT_LIGHTING)))
 #define PACKET_KERNEL 1
@@ -321,7 +323,14 @@ inline void dvr_point_segment(__global const voxel_t* vol, __global const VolclT
                               float3* rgb, float* T FOG_PARAMS SHADOW_PARAMS) {
     const float tm = t0 + 0.5f * len;
     const float3 pm = ray_at(r, tm);
+#ifdef TF_GRADIENT
+    const float s = sample_volume(vol, &P->grid, pm);
+    float4 e = tf_sample(knots, P->tf.knotCount, s);
+    if (tf_gradient_needed(knots, &P->tf, s, e))
+        e = tf_gradient(knots, &P->tf, s, e, length(gradient(vol, &P->grid, pm)));
+#else
     const float4 e = tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, pm));
+#endif
     const float a = 1.0f - exp(-e.w * len);
     float3 c = e.xyz;
 #ifdef NEEDS_LIGHTS

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <set>
@@ -107,6 +108,11 @@ std::array<double, 4> rightRgbt(const TransferFunction& tf, double s) {
     return {c[0], c[1], c[2], t[0]};
 }
 
+/// Finite, and finite once stored as float (what kernels read).
+bool finiteInFloat(double v) {
+    return std::isfinite(v) && std::abs(v) <= kFloatMax;
+}
+
 float toFloatSaturated(double v) {
     return static_cast<float>(std::clamp(v, -kFloatMax, kFloatMax));
 }
@@ -133,6 +139,74 @@ double paraViewOpacity(double x1, double y1, double x2, double y2, double midpoi
 // Sub-intervals used to follow a curved (hermite) ParaView opacity segment with linear pieces.
 constexpr int kParaViewCurveSamples = 64;
 
+std::array<double, 2> pairOf(const json& j, const char* key, const std::string& where) {
+    if (!j.contains(key) || !j[key].is_array() || j[key].size() != 2)
+        throw DataError(where + ": '" + key + "' must be [a, b]");
+    return {number(j[key][0], where + ": " + key), number(j[key][1], where + ": " + key)};
+}
+
+/// The gradient terms of a canonical TF: `gradient_opacity` [[g, factor], ...] and `widgets` (box:
+/// value, gradient ranges; gaussian: center, sigma; both color [r, g, b] and extinction).
+void readGradientTerms(const json& j, TransferFunction& tf) {
+    if (j.contains("gradient_opacity")) {
+        const auto& go = j["gradient_opacity"];
+        if (!go.is_array())
+            throw DataError("transfer function: 'gradient_opacity' must be an array of [g, factor]");
+        checkPointCount(go.size(), "transfer function: 'gradient_opacity'");
+        std::size_t i = 0;
+        for (const auto& p : go) {
+            const std::string where = "transfer function: gradient_opacity[" + std::to_string(i++) + "]";
+            if (!p.is_array() || p.size() != 2) throw DataError(where + ": expected [g, factor]");
+            tf.gradientOpacity.push_back({number(p[0], where), number(p[1], where)});
+        }
+        if (tf.gradientOpacity.empty())
+            throw DataError("transfer function: 'gradient_opacity' has no points");
+    }
+    if (j.contains("widgets")) {
+        const auto& ws = j["widgets"];
+        if (!ws.is_array()) throw DataError("transfer function: 'widgets' must be an array of objects");
+        if (ws.size() > kMaxTfWidgets)
+            throw DataError("transfer function: " + std::to_string(ws.size()) + " widgets, more than the " +
+                            std::to_string(kMaxTfWidgets) + " a transfer function may have");
+        std::size_t i = 0;
+        for (const auto& w : ws) {
+            const std::string where = "transfer function: widgets[" + std::to_string(i++) + "]";
+            if (!w.is_object()) throw DataError(where + ": expected an object");
+            TfWidget out;
+            const std::string type =
+                w.contains("type") && w["type"].is_string() ? w["type"].get<std::string>() : "";
+            const bool box = type == "box";
+            if (!box && type != "gaussian")
+                throw DataError(where + ": 'type' must be \"box\" or \"gaussian\"");
+            for (const auto& [key, value] : w.items()) {
+                (void)value;
+                const bool known =
+                    key == "type" || key == "color" || key == "extinction" || key == "name" ||
+                    (box ? key == "value" || key == "gradient" : key == "center" || key == "sigma");
+                if (!known)
+                    throw DataError(where + ": unknown key '" + key + "' (a " + type + " takes type, " +
+                                    (box ? "value, gradient" : "center, sigma") +
+                                    ", color, extinction, name)");
+            }
+            if (box) {
+                out.shape = TfWidgetShape::Box;
+                out.valueRange = pairOf(w, "value", where);
+                out.gradientRange = pairOf(w, "gradient", where);
+            } else {
+                out.shape = TfWidgetShape::Gaussian;
+                out.center = pairOf(w, "center", where);
+                out.sigma = pairOf(w, "sigma", where);
+            }
+            if (!w.contains("color") || !w["color"].is_array() || w["color"].size() != 3)
+                throw DataError(where + ": 'color' must be [r, g, b]");
+            for (std::size_t c = 0; c < 3; ++c)
+                out.rgb[c] = number(w["color"][c], where + ": color");
+            if (!w.contains("extinction")) throw DataError(where + ": missing 'extinction'");
+            out.tau = number(w["extinction"], where + ": extinction");
+            tf.widgets.push_back(out);
+        }
+    }
+}
 } // namespace
 
 TransferFunction TransferFunction::fromJson(std::string_view text, double opacityUnitDistance) {
@@ -146,10 +220,23 @@ TransferFunction TransferFunction::fromJson(std::string_view text, double opacit
 
     TransferFunction tf;
     for (const auto& [key, value] : j.items()) {
-        if (key != "domain" && key != "color" && key != "extinction" && key != "name")
+        if (key != "domain" && key != "color" && key != "extinction" && key != "name" &&
+            key != "gradient_opacity" && key != "widgets")
             throw DataError("transfer function: unknown key '" + key +
-                            "' (expected domain, color, extinction, name)");
+                            "' (expected domain, color, extinction, gradient_opacity, widgets, name)");
         (void)value;
+    }
+    readGradientTerms(j, tf);
+    // A TF of widgets alone: the value axis adds nothing (black, tau 0) over the domain.
+    if (!tf.widgets.empty() && !j.contains("color") && !j.contains("extinction")) {
+        if (!j.contains("domain"))
+            throw DataError("transfer function: widgets without 'color' and 'extinction' need a 'domain'");
+        const auto& d = j["domain"];
+        if (!d.is_array() || d.size() != 2) throw DataError("transfer function: 'domain' must be [lo, hi]");
+        const double lo = number(d[0], "transfer function: domain"),
+                     hi = number(d[1], "transfer function: domain");
+        j["color"] = json::array({json::array({lo, 0.0, 0.0, 0.0}), json::array({hi, 0.0, 0.0, 0.0})});
+        j["extinction"] = json::array({json::array({lo, 0.0}), json::array({hi, 0.0})});
     }
     for (const char* key : {"color", "extinction"})
         if (!j.contains(key) || !j[key].is_array())
@@ -178,7 +265,8 @@ TransferFunction TransferFunction::fromJson(std::string_view text, double opacit
         tf.domain = {std::min(tf.color.front().s, tf.extinction.front().s),
                      std::max(tf.color.back().s, tf.extinction.back().s)};
     }
-    tf.normalized = spansUnitRange(tf.domain[0], tf.domain[1]);
+    // Gradient magnitudes are absolute (data value per world unit): such a TF is never refitted silently.
+    tf.normalized = spansUnitRange(tf.domain[0], tf.domain[1]) && !tf.usesGradient();
     tf.validate();
     return tf;
 }
@@ -319,6 +407,11 @@ TransferFunction TransferFunction::rescaled(std::array<double, 2> range) const {
         p.s = map(p.s);
     for (auto& p : out.extinction)
         p.s = map(p.s);
+    for (auto& w : out.widgets) {
+        w.valueRange = {map(w.valueRange[0]), map(w.valueRange[1])};
+        w.center[0] = map(w.center[0]);
+        w.sigma[0] *= k;
+    }
     out.domain = range;
     out.normalized = false;
     out.validate();
@@ -443,11 +536,33 @@ std::string TransferFunction::toJson() const {
     j["extinction"] = json::array();
     for (const auto& p : extinction)
         j["extinction"].push_back({p.s, p.tau});
+    if (!gradientOpacity.empty()) {
+        j["gradient_opacity"] = json::array();
+        for (const auto& p : gradientOpacity)
+            j["gradient_opacity"].push_back({p.g, p.factor});
+    }
+    if (!widgets.empty()) {
+        j["widgets"] = json::array();
+        for (const auto& w : widgets) {
+            json o;
+            if (w.shape == TfWidgetShape::Box) {
+                o["type"] = "box";
+                o["value"] = {w.valueRange[0], w.valueRange[1]};
+                o["gradient"] = {w.gradientRange[0], w.gradientRange[1]};
+            } else {
+                o["type"] = "gaussian";
+                o["center"] = {w.center[0], w.center[1]};
+                o["sigma"] = {w.sigma[0], w.sigma[1]};
+            }
+            o["color"] = {w.rgb[0], w.rgb[1], w.rgb[2]};
+            o["extinction"] = w.tau;
+            j["widgets"].push_back(o);
+        }
+    }
     return j.dump(2);
 }
 
 void TransferFunction::validate() const {
-    auto finiteInFloat = [](double v) { return std::isfinite(v) && std::abs(v) <= kFloatMax; };
     if (!(finiteInFloat(domain[0]) && finiteInFloat(domain[1])))
         throw DataError("transfer function: domain is not finite");
     if (!(domain[0] < domain[1]))
@@ -478,6 +593,134 @@ void TransferFunction::validate() const {
             throw DataError(where() + ": s = " + describe(p.s) + " is below the previous point's " +
                             describe(extinction[i - 1].s) + " (points must be sorted)");
     }
+    validateGradientTerms();
+}
+
+void TransferFunction::validateGradientTerms() const {
+    for (std::size_t i = 0; i < gradientOpacity.size(); ++i) {
+        const auto& p = gradientOpacity[i];
+        // The point's name is built only for a message (as in validate()).
+        auto where = [i] { return "transfer function: gradient_opacity[" + std::to_string(i) + "]"; };
+        if (!finiteInFloat(p.g) || p.g < 0.0)
+            throw DataError(where() + ": gradient magnitude " + describe(p.g) + " must be finite and >= 0");
+        if (!(p.factor >= 0.0 && p.factor <= 1.0))
+            throw DataError(where() + ": factor " + describe(p.factor) + " is outside [0, 1]");
+        if (i > 0 && p.g < gradientOpacity[i - 1].g)
+            throw DataError(where() + ": g = " + describe(p.g) + " is below the previous point's " +
+                            describe(gradientOpacity[i - 1].g) + " (points must be sorted)");
+    }
+    if (widgets.size() > kMaxTfWidgets)
+        throw DataError("transfer function: " + std::to_string(widgets.size()) + " widgets, more than " +
+                        std::to_string(kMaxTfWidgets));
+    for (std::size_t i = 0; i < widgets.size(); ++i) {
+        const TfWidget& w = widgets[i];
+        const std::string where = "transfer function: widgets[" + std::to_string(i) + "]";
+        for (double c : w.rgb)
+            if (!finiteInFloat(c) || c < 0.0)
+                throw DataError(where + ": colour " + describe(c) + " must be finite and >= 0");
+        if (!finiteInFloat(w.tau) || w.tau < 0.0)
+            throw DataError(where + ": extinction " + describe(w.tau) + " must be finite and >= 0");
+        if (w.shape == TfWidgetShape::Box) {
+            for (const auto& [r, axis] :
+                 {std::pair{w.valueRange, "value"}, std::pair{w.gradientRange, "gradient"}}) {
+                if (!finiteInFloat(r[0]) || !finiteInFloat(r[1]))
+                    throw DataError(where + ": " + axis + " range is not finite");
+                // A box of zero width covers no area: it would classify nothing (or, in float, a sliver).
+                if (!(r[0] < r[1]))
+                    throw DataError(where + ": " + axis + " range [" + describe(r[0]) + ", " +
+                                    describe(r[1]) + "] has zero width (needs lo < hi)");
+            }
+            if (w.gradientRange[1] <= 0.0)
+                throw DataError(where + ": gradient range ends at " + describe(w.gradientRange[1]) +
+                                ", below every gradient magnitude");
+        } else {
+            if (!finiteInFloat(w.center[0]) || !finiteInFloat(w.center[1]))
+                throw DataError(where + ": center is not finite");
+            // 1 / sigma must be a finite float: the kernel multiplies by it.
+            for (double sg : w.sigma)
+                if (!(finiteInFloat(sg) && sg > 0.0 && std::isfinite(static_cast<float>(1.0 / sg)) &&
+                      static_cast<float>(sg) > 0.0f))
+                    throw DataError(where + ": sigma " + describe(sg) +
+                                    " must be finite and > 0 (zero width)");
+        }
+    }
+}
+
+double TfWidget::weight(double s, double g) const {
+    if (!std::isfinite(s) || !std::isfinite(g)) return 0.0;
+    if (shape == TfWidgetShape::Box)
+        return s >= valueRange[0] && s <= valueRange[1] && g >= gradientRange[0] && g <= gradientRange[1]
+                   ? 1.0
+                   : 0.0;
+    const double u = (s - center[0]) / sigma[0], v = (g - center[1]) / sigma[1];
+    return std::exp(-0.5 * (u * u + v * v));
+}
+
+double TransferFunction::gradientOpacityAt(double g) const {
+    if (gradientOpacity.empty()) return 1.0;
+    if (!std::isfinite(g)) return gradientOpacity.back().factor;
+    // Same rule as the value axis (valueAt): the left value at a point, constant beyond the ends.
+    const auto& pts = gradientOpacity;
+    if (g <= pts.front().g) return pts.front().factor;
+    if (g > pts.back().g) return pts.back().factor;
+    auto it = std::lower_bound(pts.begin(), pts.end(), g,
+                               [](const GradientOpacityPoint& p, double x) { return p.g < x; });
+    const auto& b = *it;
+    const auto& a = *(it - 1);
+    return a.factor + (g - a.g) / (b.g - a.g) * (b.factor - a.factor);
+}
+
+std::array<double, 4> TransferFunction::classify(double s, double g) const {
+    const auto c = colorAt(s);
+    const double t1 = extinctionAt(s) * gradientOpacityAt(g);
+    std::array<double, 4> sum{c[0] * t1, c[1] * t1, c[2] * t1, t1};
+    for (const auto& w : widgets) {
+        const double t = w.tau * w.weight(s, g);
+        for (std::size_t k = 0; k < 3; ++k)
+            sum[k] += w.rgb[k] * t;
+        sum[3] += t;
+    }
+    if (!(sum[3] > 0.0)) return {c[0], c[1], c[2], 0.0};
+    return {sum[0] / sum[3], sum[1] / sum[3], sum[2] / sum[3], sum[3]};
+}
+
+std::vector<VolclTfKnot> TransferFunction::packGradientOpacityKnots() const {
+    if (gradientOpacity.empty()) return {};
+    // The 1D machinery over g: the factor rides in the extinction channel, colour is unused.
+    TransferFunction f;
+    const double lo = gradientOpacity.front().g, hi = gradientOpacity.back().g;
+    f.domain = {lo, hi > lo ? hi : lo + 1.0};
+    f.color = {{lo, {1.0, 1.0, 1.0}}};
+    for (const auto& p : gradientOpacity)
+        f.extinction.push_back({p.g, p.factor});
+    return f.packKnots();
+}
+
+std::vector<VolclTfKnot> TransferFunction::packGradientRecords() const {
+    std::vector<VolclTfKnot> out = packGradientOpacityKnots();
+    for (const auto& w : widgets) {
+        VolclTfWidget r{};
+        for (std::size_t c = 0; c < 3; ++c)
+            r.rgbTau[c] = static_cast<float>(w.rgb[c]);
+        r.rgbTau[3] = static_cast<float>(w.tau);
+        if (w.shape == TfWidgetShape::Box) {
+            r.shape = 0;
+            r.a[0] = static_cast<float>(w.valueRange[0]);
+            r.a[1] = static_cast<float>(w.valueRange[1]);
+            r.a[2] = static_cast<float>(w.gradientRange[0]);
+            r.a[3] = static_cast<float>(w.gradientRange[1]);
+        } else {
+            r.shape = 1;
+            r.a[0] = static_cast<float>(w.center[0]);
+            r.a[1] = static_cast<float>(1.0 / w.sigma[0]);
+            r.a[2] = static_cast<float>(w.center[1]);
+            r.a[3] = static_cast<float>(1.0 / w.sigma[1]);
+        }
+        VolclTfKnot k{};
+        std::memcpy(&k, &r, sizeof r);
+        out.push_back(k);
+    }
+    return out;
 }
 
 std::array<double, 3> TransferFunction::colorAt(double s) const {

@@ -33,6 +33,28 @@ struct ExtinctionPoint {
     double s;
     double tau;
 };
+/// A factor in [0, 1] on the 1D extinction at gradient magnitude g (VTK's gradient opacity).
+struct GradientOpacityPoint {
+    double g;
+    double factor;
+};
+/// Most widgets a 2D transfer function may hold: every sample of a gradient-classified ray visits each one.
+inline constexpr std::size_t kMaxTfWidgets = 64;
+enum class TfWidgetShape { Box, Gaussian };
+/// One widget of a 2D transfer function over (value s, gradient magnitude g): it adds extinction
+/// tau * w(s, g) of colour rgb. A box has w = 1 on [value lo, hi] x [gradient lo, hi] (ends included), 0
+/// elsewhere; a Gaussian w = exp(-((s - cs) / sigma_s)^2 / 2 - ((g - cg) / sigma_g)^2 / 2).
+struct TfWidget {
+    TfWidgetShape shape = TfWidgetShape::Box;
+    std::array<double, 2> valueRange{0.0, 0.0};    ///< box
+    std::array<double, 2> gradientRange{0.0, 0.0}; ///< box
+    std::array<double, 2> center{0.0, 0.0};        ///< Gaussian: (value, gradient magnitude)
+    std::array<double, 2> sigma{1.0, 1.0};         ///< Gaussian: (value, gradient magnitude), > 0
+    std::array<double, 3> rgb{1.0, 1.0, 1.0};
+    double tau = 0.0;
+    /// w(s, g) in double; 0 when s or g is not finite (a sample beside a NaN voxel has no gradient).
+    double weight(double s, double g) const;
+};
 
 /// Piecewise-linear colour c(s) and extinction tau(s) in data units, constant beyond the end points.
 /// Two points at the same s form a step: at s exactly the earlier point's value holds, above it the later.
@@ -49,6 +71,12 @@ public:
     std::vector<ExtinctionPoint> extinction; ///< sorted by s, tau >= 0
     /// The points were authored on [0, 1] (a normalised preset): fittedTo() maps them onto the data range.
     bool normalized = false;
+    /// Gradient terms (JSON keys `gradient_opacity` and `widgets`). Gradient magnitudes are in data value
+    /// per world unit (per mm for medical volumes), never rescaled. The extinction of a sample of value s
+    /// and gradient magnitude g is tau(s) * gradientOpacityAt(g) + sum of the widgets' tau_i * w_i(s, g),
+    /// its colour the extinction-weighted mean of the terms' colours (classify()).
+    std::vector<GradientOpacityPoint> gradientOpacity; ///< sorted by g, g >= 0, factor in [0, 1]
+    std::vector<TfWidget> widgets;
 
     /// Canonical JSON, ParaView colour-map JSON (detected by keys), a built-in preset named
     /// `preset:NAME` (see builtinPresetNames()), or a 1D RGBA strip image (.png/.exr; `stripDomain` gives
@@ -90,8 +118,22 @@ public:
     TransferFunction fittedTo(std::array<double, 2> dataRange,
                               std::optional<std::array<double, 2>> explicitRange = std::nullopt) const;
 
-    /// Checks ordering, finiteness, tau >= 0, domain lo < hi, at least one point each. Throws DataError.
+    /// Checks ordering, finiteness, tau >= 0, domain lo < hi, at least one point each, and the gradient
+    /// terms (factors in [0, 1], widgets of non-zero width). Throws DataError.
     void validate() const;
+
+    /// True when the classification reads the gradient magnitude (gradient_opacity or widgets).
+    bool usesGradient() const noexcept { return !gradientOpacity.empty() || !widgets.empty(); }
+    /// The gradient-opacity factor at g (1 without points); a g that is not finite takes the last point's.
+    double gradientOpacityAt(double g) const;
+    /// Exact (r, g, b, tau) of a sample of value s and gradient magnitude g (the references' classification).
+    std::array<double, 4> classify(double s, double g) const;
+    /// Records that follow the 1D knots in the kernels' knot buffer (cl/common/tf_lookup.h, tf_gradient()):
+    /// gradientKnotCount knots of the gradient opacity (factor in channel 3), then one VolclTfWidget per
+    /// widget in a knot's 48 bytes.
+    std::vector<VolclTfKnot> packGradientRecords() const;
+    /// Knots of the gradient opacity alone (empty without it): what packGradientRecords() starts with.
+    std::vector<VolclTfKnot> packGradientOpacityKnots() const;
 
     /// Exact double-precision values (used by references).
     std::array<double, 3> colorAt(double s) const;
@@ -105,6 +147,9 @@ public:
     std::vector<VolclTfKnot> packKnots() const;
     /// Float evaluation identical, bit for bit, to tf_sample() in kernels: (r, g, b, tau).
     static std::array<float, 4> sampleFloat(const std::vector<VolclTfKnot>& knots, float s);
+
+private:
+    void validateGradientTerms() const;
 };
 
 } // namespace volcl

@@ -82,6 +82,7 @@ private:
     struct Impl;
     /// Refuses cubic filters and smoothing (they need the whole grid) and steps too small for the box.
     void admitScene(const Scene& next) override;
+    bool drawsGradientTf() const override { return true; }
     void rebuild(const Rebuild& change) override;
     void viewChanged(bool sameView) override;
     /// A pool for the budget, with a gradient word region after the samples when `words`.

@@ -100,10 +100,9 @@ public:
             if (scene_.mode == RenderMode::Dvr) {
                 const double tm = 0.5 * (ta + tb);
                 const Vec3 pm = at(tm);
-                const double s = sample(pm);
-                const double a = 1.0 - std::exp(-tf_.extinctionAt(s) * h);
+                const auto c0 = classify(pm);
+                const double a = 1.0 - std::exp(-c0[3] * h);
                 if (a > 0.0) {
-                    const auto c0 = tf_.colorAt(s);
                     const Vec3 c =
                         light(ray, add(ray.origin, scale(ray.direction, tm)), pm, {c0[0], c0[1], c0[2]});
                     rgb = add(rgb, scale(c, T * a));
@@ -161,10 +160,9 @@ private:
                 Vec3 cv{0, 0, 0};
                 if (vol && tm >= t0 && tm <= t1 && scene_.mode != RenderMode::Iso) {
                     const Vec3 pm = at(tm);
-                    const double s = sample(pm);
-                    tau = tf_.extinctionAt(s);
+                    const auto c0 = classify(pm);
+                    tau = c0[3];
                     if (tau > 0.0 && scene_.mode == RenderMode::Dvr) {
-                        const auto c0 = tf_.colorAt(s);
                         cv = light(ray, xw, pm, {c0[0], c0[1], c0[2]});
                     }
                 }
@@ -213,6 +211,18 @@ private:
     double sample(const Vec3& p) const {
         if (spline_) return bsplineValue(*spline_, p);
         return grid_detail::trilinear(values_, n_, p);
+    }
+
+    /// (r, g, b, tau) of the sample at voxel point p: the TF at its value, and at its gradient magnitude (data
+    /// value per world unit) when the TF has gradient terms.
+    std::array<double, 4> classify(const Vec3& p) const {
+        const double s = sample(p);
+        if (tf_.usesGradient()) {
+            const Vec3 g = gradient(p);
+            return tf_.classify(s, std::sqrt(dot(g, g)));
+        }
+        const auto c = tf_.colorAt(s);
+        return {c[0], c[1], c[2], tf_.extinctionAt(s)};
     }
 
     Vec3 gradient(const Vec3& p) const {
@@ -452,6 +462,7 @@ ImageBuffer referenceRender(const Volume& volume, const TransferFunction& tf, co
                             const ReferenceOptions& options) {
     scene.validate();
     tf.validate();
+    checkGradientTf(scene, tf, true, {});
     if (!(options.step > 0.0)) throw UsageError("reference step must be > 0");
     // The NaN colour's rules live in the kernels only (docs/rendering.md, "NaN and Inf").
     if (const std::size_t n = grid_detail::nonFiniteCount(volume))

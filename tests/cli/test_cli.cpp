@@ -149,6 +149,58 @@ TEST(Cli, InfoJsonHasContractFields) {
     EXPECT_EQ(j["range"], nlohmann::json({0.0, 1000.0}));
 }
 
+TEST(Cli, InfoHistogram2dOfARampIsOneRow) {
+    // s = 2 z on unit spacing: every voxel's gradient magnitude is 2 (one-sided at the faces too), so the
+    // whole histogram sits in the top row (the gradient axis ends at the 99.5th percentile, 2).
+    auto dir = test::tempDir("cli_histogram2d");
+    const Volume v = test::makeFloatVolume({4, 3, 9}, [](double, double, double z) { return 2.0 * z; });
+    writeVolumeFile(v, dir / "ramp.nrrd");
+    test::RunResult r = test::runVolcl(
+        "info " + (dir / "ramp.nrrd").string() + " --histogram2d " + (dir / "h.png").string(), dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(test::has(r.out, "gradient magnitude 0 .. 2 per world unit")) << r.out;
+    const ImageBuffer h = readImage(dir / "h.png");
+    ASSERT_EQ(h.width, 256);
+    double top = 0.0, rest = 0.0;
+    for (int y = 0; y < h.height; ++y)
+        for (int x = 0; x < h.width; ++x)
+            (y == 0 ? top : rest) += h.at(x, y, 0);
+    EXPECT_GT(top, 0.0);
+    EXPECT_EQ(rest, 0.0);
+    // A mesh or a .vcz is refused with one line, before any output.
+    test::writeFile(dir / "x.vcz", "not a vcz");
+    r = test::runVolcl("info " + (dir / "x.vcz").string() + " --histogram2d " + (dir / "g.png").string(),
+                       dir);
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "g.png"));
+}
+
+TEST(Cli, GradientTfRefusalsAreOneLine) {
+    auto dir = test::tempDir("cli_gradient_tf");
+    const Volume v = test::makeFloatVolume({6, 6, 6}, [](double x, double, double) { return x; });
+    writeVolumeFile(v, dir / "v.nrrd");
+    test::writeFile(dir / "zero.json", R"({"domain": [0, 5], "widgets": [{"type": "box", "value": [2, 2],
+        "gradient": [0, 1], "color": [1, 1, 1], "extinction": 1}]})");
+    test::writeFile(dir / "ok.json", R"({"domain": [0, 5], "widgets": [{"type": "box", "value": [1, 4],
+        "gradient": [0.5, 2], "color": [1, 1, 1], "extinction": 1}]})");
+    const std::string base = "render --volume " + (dir / "v.nrrd").string() + " --width 8 --height 8 -o ";
+    test::RunResult r =
+        test::runVolcl(base + (dir / "a.png").string() + " --tf " + (dir / "zero.json").string(), dir);
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
+    EXPECT_TRUE(test::has(r.err, "zero.json")) << r.err;
+    r = test::runVolcl(base + (dir / "b.png").string() + " --tf " + (dir / "ok.json").string() +
+                           " --preintegration 2d",
+                       dir);
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
+    r = test::runVolcl(base + (dir / "c.png").string() + " --tf " + (dir / "ok.json").string(), dir);
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    for (const char* f : {"a.png", "b.png"})
+        EXPECT_FALSE(std::filesystem::exists(dir / f)) << f;
+    EXPECT_TRUE(std::filesystem::exists(dir / "c.png"));
+}
+
 TEST(Cli, DevicesListsPocl) {
     auto dir = test::tempDir("cli_devices");
     test::RunResult r = test::runVolcl("devices", dir);

@@ -132,6 +132,7 @@ gtest phantoms test_phantoms \
 gtest runtime test_runtime 'Runtime.CopyKernelRoundTripsDataWithOddSizes:Runtime.OversizedBufferIsRefused:'\
 'Runtime.DeviceProfileIsChosenByDeviceKind:Runtime.EventTimingIsPositiveAndBandwidthMeasurable'
 gtest tf_sample test_tf 'TransferFunction.HostAndKernelSamplingAreBitIdentical'
+gtest tf_gradient test_render_tf2d 'GradientTf.FlatDataHasGradientZero:GradientTf.NanVoxelsStayFiniteAndLocal'
 gtest motion test_motion_compensation 'MotionCompensation.TinyVolumeMatchesTheReferenceOnBothKernels'
 gtest plain test_render 'Render.PlainKernelMatchesBaseline'
 gtest light_volume test_shadow_volume 'LightVolume.KernelMatchesItsReference'
@@ -221,10 +222,23 @@ for i in shearwarp shearwarp_iso drc drc_persp; do
   same_image "$i.exr" 1e-4
 done
 
+# A gradient TF (tf_gradient in common/tf_lookup.h: gradient-opacity knots and both widget shapes after the value
+# knots), on the grid and, below, on the bricks.
+tf2d=$work/in/gradient_tf.json
+printf '%s\n' '{"domain": [0, 1], "color": [[0, 0.2, 0.4, 1], [1, 1, 0.8, 0.6]], "extinction": [[0, 0], [1, 2]],' \
+  '"gradient_opacity": [[0, 0.3], [2, 1]], "widgets": [{"type": "box", "value": [0.3, 0.7], "gradient": [0.5, 50],' \
+  '"color": [1, 0.2, 0.2], "extinction": 3}, {"type": "gaussian", "center": [0.6, 2], "sigma": [0.2, 5],' \
+  '"color": [0.2, 1, 0.2], "extinction": 2}]}' >"$tf2d"
+both tf2d tf2d.exr "$volcl" -q render --volume "$ml" --tf "$tf2d" --width 12 --height 10 --shading 0.2,0.7,0.3,32
+same_image tf2d.exr 1e-4
+
 echo "== compressed-brick renderer"
 both bricks bricks.exr "$volcl" -q render --volume "$work/ocl/ll_marschner_brick.vcz" --tf "$tf" --width 12 \
   --height 10
 same_image bricks.exr 1e-4
+both bricks_tf2d bricks_tf2d.exr "$volcl" -q render --volume "$work/ocl/ll_marschner_brick.vcz" --tf "$tf2d" \
+  --width 12 --height 10
+same_image bricks_tf2d.exr 1e-4
 both bricks_iso bricks_iso.exr "$volcl" -q render --volume "$work/ocl/ll_marschner_brick.vcz" --tf "$tf" \
   --width 12 --height 10 --mode iso --iso 0.5
 same_image bricks_iso.exr 1e-4
