@@ -411,6 +411,9 @@ TimeSeries readSeriesHere(const fs::path& input, const ReadOptions& options, std
             hi = std::max(hi, r);
         }
     }
+    // The model type depends on every slice's rescaled range, so each slice's stored samples are converted to
+    // double twice (range above, store below) rather than kept as doubles: that would be 8 bytes per voxel
+    // beside the volume, and the conversion costs far less than GDCM's decode.
     Volume v(dims, rescaledType(*stored, integral, lo, hi));
     for (std::size_t k = 0; k < slices.size(); ++k) {
         const std::vector<double> values = decodeToDouble(pixels[k], *stored, hostEndian());
