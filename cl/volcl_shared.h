@@ -24,12 +24,17 @@ typedef struct VolclTfKnot {
 /* One widget of a 2D transfer function (host/tf/TransferFunction.hpp, TfWidget), stored in the knot buffer
    after the gradient-opacity knots, one knot's 48 bytes each. shape 0 (box): w = 1 on [a[0], a[1]] x
    [a[2], a[3]] of (value, gradient magnitude); shape 1 (Gaussian): a = (centre value, 1 / sigma value,
-   centre gradient, 1 / sigma gradient). Adds extinction rgbTau[3] * w of colour rgbTau[0..2]. */
+   centre gradient, 1 / sigma gradient). Adds extinction rgbTau[3] * w of colour rgbTau[0..2]. Shape 2
+   (ParaView box) on the box a: opacity rgbTau[3] * ParaView's Gaussian (TfWidget::extinction), extinction
+   -ln(1 - opacity) * invUnitDistance, at most VOLCL_MAX_IMPORTED_EXTINCTION * invUnitDistance. */
+#define VOLCL_PARAVIEW_BOX_SIGMA 0.3f
+#define VOLCL_MAX_IMPORTED_EXTINCTION 1000.0f
 typedef struct VolclTfWidget {
     float rgbTau[4];
     float a[4];
     volcl_uint shape;
-    volcl_uint pad[3];
+    float invUnitDistance;
+    volcl_uint pad[2];
 } VolclTfWidget;
 
 /* One ellipsoid of the 3D Shepp-Logan phantom: p' = rot * p; inside when

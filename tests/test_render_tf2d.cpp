@@ -150,6 +150,59 @@ TEST(GradientTf, LinearRampMatchesClosedForm) {
     EXPECT_LT(test::maxAbsDiff(steepImg, plainImg), 1e-5);
 }
 
+// ParaView's box (imported from its state files): a Gaussian of opacity inside the box, sigma 0.3 of the box on each
+// axis, read as opacity per unit distance. On the ramp s = 2 z (g = 2) the closed form along z is the oracle.
+TEST(GradientTf, ParaViewBoxOnARampMatchesClosedForm) {
+    const char* json = R"({"domain": [0, 64], "widgets": [{"type": "paraview_box", "value": [10, 50],
+        "gradient": [1, 4], "color": [1, 0.5, 0.25], "opacity": 0.9, "unit_distance": 2}]})";
+    const TransferFunction tf = TransferFunction::fromJson(json);
+    ASSERT_EQ(tf.widgets.size(), 1u);
+    EXPECT_EQ(tf.widgets[0].shape, TfWidgetShape::ParaViewBox);
+    EXPECT_EQ(TransferFunction::fromJson(tf.toJson()).toJson(), tf.toJson());
+    auto oracleTau = [](double s, double g) {
+        if (s < 10.0 || s > 50.0 || g < 1.0 || g > 4.0) return 0.0;
+        const double u = (s - 30.0) / 12.0, v = (g - 2.5) / 0.9;
+        return -std::log(1.0 - 0.9 * std::exp(-0.5 * (u * u + v * v))) / 2.0;
+    };
+    for (double s : {5.0, 10.0, 22.0, 30.0, 49.0, 51.0})
+        for (double g : {0.5, 1.0, 2.5, 3.9, 4.5})
+            EXPECT_NEAR(tf.classify(s, g)[3], oracleTau(s, g), 1e-12) << s << ", " << g;
+    // An opacity of 1 at the centre is an extinction of kMaxImportedExtinction per unit distance, not infinity.
+    const TransferFunction full = TransferFunction::fromJson(R"({"domain": [0, 64], "widgets": [{"type":
+        "paraview_box", "value": [10, 50], "gradient": [1, 4], "color": [1, 1, 1], "opacity": 1}]})");
+    EXPECT_EQ(full.classify(30.0, 2.5)[3], kMaxImportedExtinction);
+
+    const Dims n{9, 9, 33};
+    const Volume v = makeFloatVolume(n, [](double, double, double z) { return float(2.0 * z); });
+    const auto want = integrate(
+        [&](double z) -> std::array<double, 4> {
+            const double tau = oracleTau(2.0 * z, 2.0);
+            return {1.0, 0.5, 0.25, tau};
+        },
+        0.0, 32.0);
+    Scene s = orthoScene(n, 4.0, 4, 4);
+    s.step = 0.02;
+    const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
+    const ImageBuffer ref = referenceRender(v, tf, s, {.step = 0.02});
+    for (int c = 0; c < 4; ++c) {
+        EXPECT_NEAR(img.at(1, 2, c), want[std::size_t(c)], 3e-3) << "kernel, channel " << c;
+        EXPECT_NEAR(ref.at(1, 2, c), want[std::size_t(c)], 3e-3) << "reference, channel " << c;
+    }
+    EXPECT_GT(want[3], 0.5);
+    // Refused at load: opacity outside [0, 1], a unit distance of 0, an extinction (a ParaView box has none).
+    for (const std::string& bad : {
+             std::string(R"({"domain": [0, 9], "widgets": [{"type": "paraview_box", "value": [1, 2],
+                 "gradient": [0, 1], "color": [1, 1, 1], "opacity": 1.5}]})"),
+             std::string(R"({"domain": [0, 9], "widgets": [{"type": "paraview_box", "value": [1, 2],
+                 "gradient": [0, 1], "color": [1, 1, 1], "opacity": 0.5, "unit_distance": 0}]})"),
+             std::string(R"({"domain": [0, 9], "widgets": [{"type": "paraview_box", "value": [1, 2],
+                 "gradient": [0, 1], "color": [1, 1, 1], "opacity": 0.5, "extinction": 1}]})"),
+             std::string(R"({"domain": [0, 9], "widgets": [{"type": "paraview_box", "value": [2, 2],
+                 "gradient": [0, 1], "color": [1, 1, 1], "opacity": 0.5}]})"),
+         })
+        EXPECT_THROW(TransferFunction::fromJson(bad), DataError) << bad;
+}
+
 TEST(GradientTf, SphereShellByGradientMatchesChordLengths) {
     // A distance field from the centre: |gradient| = 1 off the centre. A box on values [8, 12] and gradients
     // [0.8, 1.2] is the shell between radii 8 and 12; the oracle is its chord length through each pixel.

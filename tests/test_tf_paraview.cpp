@@ -1,5 +1,7 @@
 // ParaView colour maps against VTK: colour spaces, normalised presets fitted to the data, opacity unit
-// distance, built-in presets, colour-only defaults.
+// distance, built-in presets, colour-only defaults; ParaView 2D transfer functions from state files against pvbatch.
+#include "TestUtil.hpp"
+
 #include "core/Error.hpp"
 #include "host/tf/BuiltinPresets.hpp"
 #include "host/tf/ColorSpaces.hpp"
@@ -7,12 +9,16 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
+
 #include <sys/wait.h>
 
 namespace {
@@ -232,4 +238,146 @@ TEST(ParaViewImport, DefaultTransferFunctionIsParaViewsGreyAndOpacityRamp) {
     EXPECT_NEAR(tf.extinctionAt(hi) * d, volcl::kMaxImportedExtinction, 1e-9);
     // Constant data: a unit range centred on the value.
     EXPECT_EQ(TransferFunction::paraViewDefault({7.0, 7.0}, 1.0).domain, (std::array<double, 2>{6.5, 7.5}));
+}
+
+namespace {
+
+/// Runs tests/paraview/tf2d_state.py in pvbatch (on a private Xvfb) into `dir`: ParaView's state file and its own
+/// 2D function sampled at its texels. False, with the reason in `why`, when ParaView's Python is absent.
+bool paraViewFunction2D(const std::filesystem::path& dir, std::string& why) {
+    const std::filesystem::path modules = VOLCL_PARAVIEW_PYTHON;
+    if (std::system("command -v pvbatch >/dev/null 2>&1") != 0) {
+        why = "pvbatch is not installed";
+        return false;
+    }
+    if (!std::filesystem::exists(modules / "paraview/simple.py")) {
+        why = "ParaView's Python modules are not in " + modules.string() + " (scripts/paraview-python.sh)";
+        return false;
+    }
+    std::filesystem::create_directories(dir);
+    const std::string src = VOLCL_SOURCE_DIR;
+    const std::string cmd = "PYTHONPATH='" + modules.string() + "' bash '" + src +
+                            "/tests/paraview/with_xvfb.sh' pvbatch '" + src +
+                            "/tests/paraview/tf2d_state.py' '" + dir.string() + "' >'" +
+                            (dir / "log.txt").string() + "' 2>&1";
+    const int status = std::system(cmd.c_str());
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
+        << "pvbatch failed: " << volcl::test::readFile(dir / "log.txt");
+    return true;
+}
+
+} // namespace
+
+// A state saved by ParaView 5.11 with three boxes (two apart, one overlapping the second): volcl's reading of
+// it against ParaView's own function of those boxes (vtkPVTransferFunction2D at 256 x 256 texels). ParaView
+// draws each box as a 128 x 128 uint8 texture of its Gaussian, so opacities agree within the texel steps
+// (1/255 and one box texel of the Gaussian's slope); colours are the box's within 1/255. Where boxes
+// overlap, ParaView's "over" of opacities is a sum of extinctions, as volcl adds widgets.
+TEST(ParaViewImport, TwoDimensionalStateMatchesParaViewsFunction) {
+    const std::filesystem::path dir = tmpDir() / "tf2d_state";
+    std::string why;
+    if (!paraViewFunction2D(dir, why)) GTEST_SKIP() << why << ": no ParaView reference";
+    const TransferFunction tf = TransferFunction::fromFile(dir / "state.pvsm");
+    ASSERT_EQ(tf.widgets.size(), 3u);
+    for (const auto& w : tf.widgets) {
+        EXPECT_EQ(w.shape, volcl::TfWidgetShape::ParaViewBox);
+        EXPECT_EQ(w.unitDistance, 2.5); // the representation's ScalarOpacityUnitDistance
+    }
+    EXPECT_EQ(tf.domain[0], 37.0);
+    EXPECT_EQ(tf.domain[1], 277.0);
+    std::ifstream in(dir / "function.txt");
+    double s = 0, g = 0, r = 0, gr = 0, b = 0, a = 0;
+    std::size_t texels = 0, inside = 0, overlap = 0;
+    double worstAlpha = 0.0, worstColour = 0.0, worstOverlap = 0.0;
+    // Texels within two box texels of an edge are left out: ParaView rounds box edges to its texels.
+    auto nearEdge = [](const volcl::TfWidget& w, double x, double y) {
+        const double ex = 2.0 * (w.valueRange[1] - w.valueRange[0]) / 128 + 240.0 / 256,
+                     ey = 2.0 * (w.gradientRange[1] - w.gradientRange[0]) / 128 + 60.0 / 256;
+        return std::abs(x - w.valueRange[0]) < ex || std::abs(x - w.valueRange[1]) < ex ||
+               std::abs(y - w.gradientRange[0]) < ey || std::abs(y - w.gradientRange[1]) < ey;
+    };
+    while (in >> s >> g >> r >> gr >> b >> a) {
+        ++texels;
+        int covering = 0;
+        bool edge = false;
+        for (const auto& w : tf.widgets) {
+            edge = edge || nearEdge(w, s, g);
+            covering += w.extinction(s, g) > 0.0;
+        }
+        if (edge) continue;
+        const auto c = tf.classify(s, g);
+        const double alpha = 1.0 - std::exp(-c[3] * 2.5);
+        if (covering == 0) {
+            EXPECT_EQ(a, 0.0) << s << ", " << g;
+            EXPECT_EQ(c[3], 0.0) << s << ", " << g;
+        } else if (covering == 1) {
+            ++inside;
+            worstAlpha = std::max(worstAlpha, std::abs(alpha - a));
+            worstColour =
+                std::max({worstColour, std::abs(c[0] - r), std::abs(c[1] - gr), std::abs(c[2] - b)});
+        } else {
+            ++overlap;
+            worstOverlap = std::max(worstOverlap, std::abs(alpha - a));
+        }
+    }
+    EXPECT_EQ(texels, 256u * 256u);
+    EXPECT_GT(inside, 5000u);
+    EXPECT_GT(overlap, 500u);
+    EXPECT_LT(worstAlpha, 0.02);
+    EXPECT_LT(worstColour, 1.0 / 255 + 1e-6);
+    EXPECT_LT(worstOverlap, 0.02);
+    std::printf(
+        "ParaView 2D function vs volcl: %zu texels in one box (opacity within %.4f, colour %.4f), %zu in "
+        "two (opacity within %.4f)\n",
+        inside, worstAlpha, worstColour, overlap, worstOverlap);
+}
+
+// A state volcl cannot read as one 2D function is refused with what it holds.
+TEST(ParaViewImport, TwoDimensionalStateRefusals) {
+    auto state = [](const std::string& body) {
+        return "<ParaView><ServerManagerState>" + body + "</ServerManagerState></ParaView>";
+    };
+    auto function = [](const std::string& id, const std::string& boxes) {
+        std::string e;
+        std::istringstream in(boxes);
+        double v = 0;
+        for (int i = 0; in >> v; ++i)
+            e += "<Element index=\"" + std::to_string(i) + "\" value=\"" + std::to_string(v) + "\"/>";
+        return "<Proxy group=\"transfer_2d_functions\" type=\"TransferFunction2D\" id=\"" + id +
+               "\"><Property name=\"Boxes\">" + e + "</Property></Proxy>";
+    };
+    auto user = [](const std::string& id, int gradient) {
+        return "<Proxy group=\"representations\" type=\"UniformGridRepresentation\" id=\"r" + id +
+               "\"><Property name=\"UseTransfer2D\"><Element index=\"0\" value=\"1\"/></Property>"
+               "<Property name=\"TransferFunction2D\"><Proxy value=\"" +
+               id +
+               "\"/></Property>"
+               "<Property name=\"UseGradientForTransfer2D\"><Element index=\"0\" value=\"" +
+               std::to_string(gradient) + "\"/></Property></Proxy>";
+    };
+    const std::string box = "10 1 20 3 1 0.5 0.2 0.6";
+    // Read: one function, in use or the only one with boxes.
+    EXPECT_EQ(TransferFunction::fromParaViewState(state(function("7", box) + user("7", 1)), "s.pvsm")
+                  .widgets.size(),
+              1u);
+    EXPECT_EQ(TransferFunction::fromParaViewState(state(function("7", box) + function("8", "")), "s.pvsm")
+                  .widgets.size(),
+              1u);
+    for (const auto& [xml, why] : std::vector<std::pair<std::string, std::string>>{
+             {"<VTKFile/>", "not a ParaView state"},
+             {state(""), "0 2D transfer functions"},
+             {state(function("7", box) + function("8", box)), "2 2D transfer functions with boxes"},
+             {state(function("7", box) + function("8", box) + user("7", 1) + user("8", 1)), "2 2D transfer"},
+             {state(function("7", box) + user("7", 0)), "another array"},
+             {state(function("7", "10 1 20 3 1 0.5 0.2")), "groups of 8"},
+             {state(function("7", "10 1 20 3 1 1.5 0.2 0.6")), "outside [0, 1]"},
+             {state(function("7", "10 1 0 3 1 0.5 0.2 0.6")), "zero width"},
+         }) {
+        try {
+            TransferFunction::fromParaViewState(xml, "s.pvsm");
+            ADD_FAILURE() << "accepted: " << xml;
+        } catch (const volcl::Error& e) {
+            EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+        }
+    }
 }

@@ -55,7 +55,7 @@ inline bool tf_gradient_needed(__global const VolclTfKnot* knots, const VolclTfP
     __global const VolclTfWidget* w =
         (__global const VolclTfWidget*)(knots + T->knotCount + T->gradientKnotCount);
     for (uint i = 0; i < T->widgetCount; ++i) {
-        if (w[i].shape == 0 ? s >= w[i].a[0] && s <= w[i].a[1] : fabs((s - w[i].a[0]) * w[i].a[1]) <= 6.0f)
+        if (w[i].shape != 1 ? s >= w[i].a[0] && s <= w[i].a[1] : fabs((s - w[i].a[0]) * w[i].a[1]) <= 6.0f)
             return true;
     }
     return false;
@@ -80,14 +80,21 @@ inline float4 tf_gradient(__global const VolclTfKnot* knots, const VolclTfParams
             (__global const VolclTfWidget*)(knots + T->knotCount + T->gradientKnotCount);
         for (uint i = 0; i < T->widgetCount; ++i) {
             const float4 a = (float4)(w[i].a[0], w[i].a[1], w[i].a[2], w[i].a[3]);
-            float wt;
-            if (w[i].shape == 0) {
-                wt = s >= a.x && s <= a.y && gm >= a.z && gm <= a.w ? 1.0f : 0.0f;
-            } else {
+            float t;
+            if (w[i].shape == 1) {
                 const float u = (s - a.x) * a.y, v = (gm - a.z) * a.w;
-                wt = exp(-0.5f * (u * u + v * v));
+                t = w[i].rgbTau[3] * exp(-0.5f * (u * u + v * v));
+            } else if (!(s >= a.x && s <= a.y && gm >= a.z && gm <= a.w)) {
+                t = 0.0f;
+            } else if (w[i].shape == 0) {
+                t = w[i].rgbTau[3];
+            } else {
+                /* ParaView's box: its Gaussian of opacity (sigma 0.3 of the box), as extinction. */
+                const float u = (s - 0.5f * (a.x + a.y)) / (VOLCL_PARAVIEW_BOX_SIGMA * (a.y - a.x)),
+                            v = (gm - 0.5f * (a.z + a.w)) / (VOLCL_PARAVIEW_BOX_SIGMA * (a.w - a.z));
+                const float op = fmin(w[i].rgbTau[3] * exp(-0.5f * (u * u + v * v)), 1.0f);
+                t = fmin(-log1p(-op), VOLCL_MAX_IMPORTED_EXTINCTION) * w[i].invUnitDistance;
             }
-            const float t = w[i].rgbTau[3] * wt;
             sum += (float3)(w[i].rgbTau[0], w[i].rgbTau[1], w[i].rgbTau[2]) * t;
             tau += t;
         }

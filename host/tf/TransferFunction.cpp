@@ -175,21 +175,23 @@ void readGradientTerms(const json& j, TransferFunction& tf) {
             TfWidget out;
             const std::string type =
                 w.contains("type") && w["type"].is_string() ? w["type"].get<std::string>() : "";
-            const bool box = type == "box";
+            const bool paraView = type == "paraview_box";
+            const bool box = type == "box" || paraView;
             if (!box && type != "gaussian")
-                throw DataError(where + ": 'type' must be \"box\" or \"gaussian\"");
+                throw DataError(where + ": 'type' must be \"box\", \"gaussian\" or \"paraview_box\"");
             for (const auto& [key, value] : w.items()) {
                 (void)value;
                 const bool known =
-                    key == "type" || key == "color" || key == "extinction" || key == "name" ||
+                    key == "type" || key == "color" || key == "name" ||
+                    (paraView ? key == "opacity" || key == "unit_distance" : key == "extinction") ||
                     (box ? key == "value" || key == "gradient" : key == "center" || key == "sigma");
                 if (!known)
                     throw DataError(where + ": unknown key '" + key + "' (a " + type + " takes type, " +
-                                    (box ? "value, gradient" : "center, sigma") +
-                                    ", color, extinction, name)");
+                                    (box ? "value, gradient" : "center, sigma") + ", color, " +
+                                    (paraView ? "opacity, unit_distance" : "extinction") + ", name)");
             }
             if (box) {
-                out.shape = TfWidgetShape::Box;
+                out.shape = paraView ? TfWidgetShape::ParaViewBox : TfWidgetShape::Box;
                 out.valueRange = pairOf(w, "value", where);
                 out.gradientRange = pairOf(w, "gradient", where);
             } else {
@@ -201,8 +203,15 @@ void readGradientTerms(const json& j, TransferFunction& tf) {
                 throw DataError(where + ": 'color' must be [r, g, b]");
             for (std::size_t c = 0; c < 3; ++c)
                 out.rgb[c] = number(w["color"][c], where + ": color");
-            if (!w.contains("extinction")) throw DataError(where + ": missing 'extinction'");
-            out.tau = number(w["extinction"], where + ": extinction");
+            if (paraView) {
+                if (!w.contains("opacity")) throw DataError(where + ": missing 'opacity'");
+                out.opacity = number(w["opacity"], where + ": opacity");
+                if (w.contains("unit_distance"))
+                    out.unitDistance = number(w["unit_distance"], where + ": unit_distance");
+            } else {
+                if (!w.contains("extinction")) throw DataError(where + ": missing 'extinction'");
+                out.tau = number(w["extinction"], where + ": extinction");
+            }
             tf.widgets.push_back(out);
         }
     }
@@ -495,6 +504,13 @@ TransferFunction TransferFunction::fromFile(const std::filesystem::path& path,
     const std::string name = path.string();
     if (!std::filesystem::is_regular_file(path)) throw IoError(name + ": transfer function file not found");
     try {
+        if (ext == ".pvsm") {
+            std::ifstream in(path, std::ios::binary);
+            std::ostringstream text;
+            text << in.rdbuf();
+            if (!in.good() && !in.eof()) throw IoError(name + ": cannot read ParaView state");
+            return fromParaViewState(text.str(), name, opacityUnitDistance);
+        }
         if (ext == ".json") {
             std::ifstream in(path, std::ios::binary);
             std::ostringstream text;
@@ -524,7 +540,8 @@ TransferFunction TransferFunction::fromFile(const std::filesystem::path& path,
     } catch (const DataError& e) {
         throw DataError(name + ": " + e.what());
     }
-    throw IoError(name + ": unknown transfer function format '" + ext + "' (expected .json, .png or .exr)");
+    throw IoError(name + ": unknown transfer function format '" + ext +
+                  "' (expected .json, .pvsm, .png or .exr)");
 }
 
 std::string TransferFunction::toJson() const {
@@ -545,17 +562,22 @@ std::string TransferFunction::toJson() const {
         j["widgets"] = json::array();
         for (const auto& w : widgets) {
             json o;
-            if (w.shape == TfWidgetShape::Box) {
-                o["type"] = "box";
-                o["value"] = {w.valueRange[0], w.valueRange[1]};
-                o["gradient"] = {w.gradientRange[0], w.gradientRange[1]};
-            } else {
+            if (w.shape == TfWidgetShape::Gaussian) {
                 o["type"] = "gaussian";
                 o["center"] = {w.center[0], w.center[1]};
                 o["sigma"] = {w.sigma[0], w.sigma[1]};
+            } else {
+                o["type"] = w.shape == TfWidgetShape::Box ? "box" : "paraview_box";
+                o["value"] = {w.valueRange[0], w.valueRange[1]};
+                o["gradient"] = {w.gradientRange[0], w.gradientRange[1]};
             }
             o["color"] = {w.rgb[0], w.rgb[1], w.rgb[2]};
-            o["extinction"] = w.tau;
+            if (w.shape == TfWidgetShape::ParaViewBox) {
+                o["opacity"] = w.opacity;
+                o["unit_distance"] = w.unitDistance;
+            } else {
+                o["extinction"] = w.tau;
+            }
             j["widgets"].push_back(o);
         }
     }
@@ -620,7 +642,16 @@ void TransferFunction::validateGradientTerms() const {
                 throw DataError(where + ": colour " + describe(c) + " must be finite and >= 0");
         if (!finiteInFloat(w.tau) || w.tau < 0.0)
             throw DataError(where + ": extinction " + describe(w.tau) + " must be finite and >= 0");
-        if (w.shape == TfWidgetShape::Box) {
+        if (w.shape == TfWidgetShape::ParaViewBox) {
+            if (!(w.opacity >= 0.0 && w.opacity <= 1.0))
+                throw DataError(where + ": opacity " + describe(w.opacity) + " is outside [0, 1]");
+            // 1 / unitDistance must be a finite float: the kernel multiplies by it.
+            if (!(finiteInFloat(w.unitDistance) && w.unitDistance > 0.0 &&
+                  std::isfinite(static_cast<float>(1.0 / w.unitDistance))))
+                throw DataError(where + ": unit distance " + describe(w.unitDistance) +
+                                " must be finite and > 0");
+        }
+        if (w.shape != TfWidgetShape::Gaussian) {
             for (const auto& [r, axis] :
                  {std::pair{w.valueRange, "value"}, std::pair{w.gradientRange, "gradient"}}) {
                 if (!finiteInFloat(r[0]) || !finiteInFloat(r[1]))
@@ -646,14 +677,26 @@ void TransferFunction::validateGradientTerms() const {
     }
 }
 
-double TfWidget::weight(double s, double g) const {
+// The kernels' copies (cl/volcl_shared.h) of the ParaView box's constants.
+static_assert(static_cast<float>(kParaViewBoxSigma) == VOLCL_PARAVIEW_BOX_SIGMA);
+static_assert(static_cast<float>(kMaxImportedExtinction) == VOLCL_MAX_IMPORTED_EXTINCTION);
+
+double TfWidget::extinction(double s, double g) const {
     if (!std::isfinite(s) || !std::isfinite(g)) return 0.0;
-    if (shape == TfWidgetShape::Box)
-        return s >= valueRange[0] && s <= valueRange[1] && g >= gradientRange[0] && g <= gradientRange[1]
-                   ? 1.0
-                   : 0.0;
-    const double u = (s - center[0]) / sigma[0], v = (g - center[1]) / sigma[1];
-    return std::exp(-0.5 * (u * u + v * v));
+    if (shape == TfWidgetShape::Gaussian) {
+        const double u = (s - center[0]) / sigma[0], v = (g - center[1]) / sigma[1];
+        return tau * std::exp(-0.5 * (u * u + v * v));
+    }
+    const bool inside =
+        s >= valueRange[0] && s <= valueRange[1] && g >= gradientRange[0] && g <= gradientRange[1];
+    if (!inside) return 0.0;
+    if (shape == TfWidgetShape::Box) return tau;
+    const double u = (s - 0.5 * (valueRange[0] + valueRange[1])) /
+                     (kParaViewBoxSigma * (valueRange[1] - valueRange[0])),
+                 v = (g - 0.5 * (gradientRange[0] + gradientRange[1])) /
+                     (kParaViewBoxSigma * (gradientRange[1] - gradientRange[0]));
+    const double a = opacity * std::exp(-0.5 * (u * u + v * v));
+    return std::min(-std::log1p(-std::min(a, 1.0)), kMaxImportedExtinction) / unitDistance;
 }
 
 double TransferFunction::gradientOpacityAt(double g) const {
@@ -675,7 +718,7 @@ std::array<double, 4> TransferFunction::classify(double s, double g) const {
     const double t1 = extinctionAt(s) * gradientOpacityAt(g);
     std::array<double, 4> sum{c[0] * t1, c[1] * t1, c[2] * t1, t1};
     for (const auto& w : widgets) {
-        const double t = w.tau * w.weight(s, g);
+        const double t = w.extinction(s, g);
         for (std::size_t k = 0; k < 3; ++k)
             sum[k] += w.rgb[k] * t;
         sum[3] += t;
@@ -702,9 +745,10 @@ std::vector<VolclTfKnot> TransferFunction::packGradientRecords() const {
         VolclTfWidget r{};
         for (std::size_t c = 0; c < 3; ++c)
             r.rgbTau[c] = static_cast<float>(w.rgb[c]);
-        r.rgbTau[3] = static_cast<float>(w.tau);
-        if (w.shape == TfWidgetShape::Box) {
-            r.shape = 0;
+        r.rgbTau[3] = static_cast<float>(w.shape == TfWidgetShape::ParaViewBox ? w.opacity : w.tau);
+        if (w.shape != TfWidgetShape::Gaussian) {
+            r.shape = w.shape == TfWidgetShape::Box ? 0 : 2;
+            r.invUnitDistance = static_cast<float>(1.0 / w.unitDistance);
             r.a[0] = static_cast<float>(w.valueRange[0]);
             r.a[1] = static_cast<float>(w.valueRange[1]);
             r.a[2] = static_cast<float>(w.gradientRange[0]);

@@ -40,20 +40,29 @@ struct GradientOpacityPoint {
 };
 /// Most widgets a 2D transfer function may hold: every sample of a gradient-classified ray visits each one.
 inline constexpr std::size_t kMaxTfWidgets = 64;
-enum class TfWidgetShape { Box, Gaussian };
+enum class TfWidgetShape { Box, Gaussian, ParaViewBox };
+/// The Gaussian of a ParaView 2D transfer-function box has this sigma, as a fraction of the box's width and
+/// height on each axis (vtkPVTransferFunction2DBox: GaussianSigmaFactor 30 % of its 128-texel texture).
+inline constexpr double kParaViewBoxSigma = 0.3;
 /// One widget of a 2D transfer function over (value s, gradient magnitude g): it adds extinction
-/// tau * w(s, g) of colour rgb. A box has w = 1 on [value lo, hi] x [gradient lo, hi] (ends included), 0
-/// elsewhere; a Gaussian w = exp(-((s - cs) / sigma_s)^2 / 2 - ((g - cg) / sigma_g)^2 / 2).
+/// extinction(s, g) of colour rgb. A box adds tau on [value lo, hi] x [gradient lo, hi] (ends included), 0
+/// elsewhere; a Gaussian tau * exp(-((s - cs) / sigma_s)^2 / 2 - ((g - cg) / sigma_g)^2 / 2). A ParaView box
+/// (imported from a ParaView state) is ParaView's: inside its range an opacity
+/// a = opacity * exp(-(u^2 + v^2) / 2), u and v the offsets from the box's centre over kParaViewBoxSigma of
+/// its width and height, taken as opacity per unitDistance: tau = -ln(1 - a) / unitDistance.
 struct TfWidget {
     TfWidgetShape shape = TfWidgetShape::Box;
-    std::array<double, 2> valueRange{0.0, 0.0};    ///< box
-    std::array<double, 2> gradientRange{0.0, 0.0}; ///< box
+    std::array<double, 2> valueRange{0.0, 0.0};    ///< box, ParaView box
+    std::array<double, 2> gradientRange{0.0, 0.0}; ///< box, ParaView box
     std::array<double, 2> center{0.0, 0.0};        ///< Gaussian: (value, gradient magnitude)
     std::array<double, 2> sigma{1.0, 1.0};         ///< Gaussian: (value, gradient magnitude), > 0
     std::array<double, 3> rgb{1.0, 1.0, 1.0};
-    double tau = 0.0;
-    /// w(s, g) in double; 0 when s or g is not finite (a sample beside a NaN voxel has no gradient).
-    double weight(double s, double g) const;
+    double tau = 0.0;          ///< box, Gaussian
+    double opacity = 0.0;      ///< ParaView box: the opacity at its centre, in [0, 1]
+    double unitDistance = 1.0; ///< ParaView box: the world length its opacity holds over
+    /// The extinction the widget adds at (s, g), in double; 0 when s or g is not finite (a sample beside a
+    /// NaN voxel has no gradient).
+    double extinction(double s, double g) const;
 };
 
 /// Piecewise-linear colour c(s) and extinction tau(s) in data units, constant beyond the end points.
@@ -78,7 +87,8 @@ public:
     std::vector<GradientOpacityPoint> gradientOpacity; ///< sorted by g, g >= 0, factor in [0, 1]
     std::vector<TfWidget> widgets;
 
-    /// Canonical JSON, ParaView colour-map JSON (detected by keys), a built-in preset named
+    /// Canonical JSON, ParaView colour-map JSON (detected by keys), a ParaView state (.pvsm: its 2D transfer
+    /// function, fromParaViewState()), a built-in preset named
     /// `preset:NAME` (see builtinPresetNames()), or a 1D RGBA strip image (.png/.exr; `stripDomain` gives
     /// its data range). `opacityUnitDistance` is the world length over which an imported opacity a holds
     /// (ParaView's scalar opacity unit distance): tau = -ln(1 - a) / unitDistance. Throws
@@ -90,6 +100,13 @@ public:
     /// ParaView colour map: RGBPoints interpolated in its ColorSpace (RGB, HSV, Lab, Diverging, Step) as
     /// ParaView draws it (followed by RGB knots to 1e-4), opacity Points with midpoint and sharpness.
     static TransferFunction fromParaView(std::string_view json, double opacityUnitDistance = 1.0);
+    /// The 2D transfer function of a ParaView state file (.pvsm): its boxes as ParaView boxes (colour and
+    /// opacity come from the 2D function alone in ParaView's 2D mode), the opacity unit distance of the
+    /// representation that uses it (else `opacityUnitDistance`). Refuses a state with no 2D function in use
+    /// or several, and one whose second axis is another array instead of the gradient magnitude. `name`
+    /// names the file in messages.
+    static TransferFunction fromParaViewState(std::string_view xml, const std::string& name,
+                                              double opacityUnitDistance = 1.0);
     /// A built-in preset (`cool-to-warm`, `viridis`, ...), normalised to [0, 1]. Throws UsageError naming
     /// the known presets.
     static TransferFunction builtinPreset(std::string_view name, double opacityUnitDistance = 1.0);

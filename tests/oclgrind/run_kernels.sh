@@ -222,13 +222,14 @@ for i in shearwarp shearwarp_iso drc drc_persp; do
   same_image "$i.exr" 1e-4
 done
 
-# A gradient TF (tf_gradient in common/tf_lookup.h: gradient-opacity knots and both widget shapes after the value
-# knots), on the grid and, below, on the bricks.
+# A gradient TF (tf_gradient in common/tf_lookup.h: gradient-opacity knots and the three widget shapes after the
+# value knots), on the grid and, below, on the bricks.
 tf2d=$work/in/gradient_tf.json
 printf '%s\n' '{"domain": [0, 1], "color": [[0, 0.2, 0.4, 1], [1, 1, 0.8, 0.6]], "extinction": [[0, 0], [1, 2]],' \
   '"gradient_opacity": [[0, 0.3], [2, 1]], "widgets": [{"type": "box", "value": [0.3, 0.7], "gradient": [0.5, 50],' \
   '"color": [1, 0.2, 0.2], "extinction": 3}, {"type": "gaussian", "center": [0.6, 2], "sigma": [0.2, 5],' \
-  '"color": [0.2, 1, 0.2], "extinction": 2}]}' >"$tf2d"
+  '"color": [0.2, 1, 0.2], "extinction": 2}, {"type": "paraview_box", "value": [0.1, 0.9], "gradient": [0, 8],' \
+  '"color": [0.3, 0.3, 1], "opacity": 0.8, "unit_distance": 0.5}]}' >"$tf2d"
 both tf2d tf2d.exr "$volcl" -q render --volume "$ml" --tf "$tf2d" --width 12 --height 10 --shading 0.2,0.7,0.3,32
 same_image tf2d.exr 1e-4
 
