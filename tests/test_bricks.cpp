@@ -851,10 +851,25 @@ TEST(BrickRender, ProgressiveFramesRefineToTheFullQualityRender) {
     const auto reader = encode(v, lossless(16, 2));
     const TransferFunction tf = rampTf(0, 220, 1.0);
     constexpr std::size_t kPerFrame = 4;
-    for (const LodMode lod : {LodMode::Full, LodMode::Auto}) {
+    // Where refinement meets other features: lod full and auto, MIP (nothing hidden), shading from the gradient
+    // cache (its words rebuilt as bricks change level).
+    struct Case {
+        const char* name;
+        LodMode lod;
+        RenderMode mode;
+        bool shaded;
+    };
+    for (const Case& k : {Case{"full", LodMode::Full, RenderMode::Dvr, false},
+                          Case{"auto", LodMode::Auto, RenderMode::Dvr, false},
+                          Case{"full mip", LodMode::Full, RenderMode::Mip, false},
+                          Case{"full shaded, gradient cache", LodMode::Full, RenderMode::Dvr, true}}) {
+        const LodMode lod = k.lod;
         Scene s = obliqueScene(v, 64);
         s.lod = lod;
+        s.mode = k.mode;
+        if (k.shaded) test::shadeWithHeadLight(s, GradientKind::Cache);
         BrickRenderer r(cc, reader, 0, tf, s);
+        if (k.shaded) ASSERT_EQ(r.plan().gradientCache, 1) << r.plan().explain();
         r.setRefineBudget(kPerFrame); // no share of the kernel time: exactly kPerFrame per frame
         const std::size_t brickVoxels = 16 * 16 * 16, coarseVoxels = 4 * 4 * 4;
         Camera c = *s.camera;
@@ -863,7 +878,7 @@ TEST(BrickRender, ProgressiveFramesRefineToTheFullQualityRender) {
             r.setView(c, s.width, s.height, s.step);
             (void)r.render();
             const BrickStats& st = r.lastStats();
-            EXPECT_LE(st.decoded, kPerFrame + st.coarseFirst) << lodModeName(lod) << " frame " << moving;
+            EXPECT_LE(st.decoded, kPerFrame + st.coarseFirst) << k.name << " frame " << moving;
             EXPECT_LE(st.voxelsDecoded, kPerFrame * brickVoxels + st.visited * coarseVoxels);
             if (moving == 0) {
                 EXPECT_TRUE(r.refining())
@@ -884,11 +899,11 @@ TEST(BrickRender, ProgressiveFramesRefineToTheFullQualityRender) {
             ++still;
         } while (r.refining() && still < 100);
         EXPECT_FALSE(r.refining());
-        EXPECT_LE(std::size_t(still), (workingSet + kPerFrame - 1) / kPerFrame + 1) << lodModeName(lod);
-        EXPECT_LE(maxAbsDiff(last, target), 1e-6) << lodModeName(lod);
+        EXPECT_LE(std::size_t(still), (workingSet + kPerFrame - 1) / kPerFrame + 1) << k.name;
+        EXPECT_LE(maxAbsDiff(last, target), 1e-6) << k.name;
         for (double e : error)
-            EXPECT_LE(e, error.front() + 1e-7) << lodModeName(lod);
-        std::cout << lodModeName(lod) << ": working set " << workingSet << " bricks, " << still
+            EXPECT_LE(e, error.front() + 1e-7) << k.name;
+        std::cout << k.name << ": working set " << workingSet << " bricks, " << still
                   << " still frames to full quality, RMSE to it per still frame:";
         for (double e : error)
             std::cout << ' ' << e;
