@@ -65,6 +65,9 @@ public:
     virtual double lastTableMilliseconds() const noexcept = 0;
     /// One line on the renderer's acceleration structures for `--explain` ("macrocells: 512, 40.0% empty").
     virtual std::string statistics() const = 0;
+    /// True while the last render() drew the current view from data it is still refining (compressed bricks
+    /// decoded a few per frame): a viewer keeps rendering the still view until it is false.
+    virtual bool refining() const noexcept { return false; }
 
 protected:
     /// `scene` with a setView() call's camera, image size and step: what every renderer's setView starts from.

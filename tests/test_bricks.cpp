@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <iostream>
 #include <memory>
 
 namespace volcl {
@@ -833,6 +834,80 @@ TEST(BrickRender, MappedFileRendersBitForBitAsTheFileInMemory) {
     } catch (const IoError& e) {
         EXPECT_NE(std::string(e.what()).find("flipped.vcz"), std::string::npos) << e.what();
         EXPECT_NE(std::string(e.what()).find("brick 7"), std::string::npos) << e.what();
+    }
+}
+
+// Progressive refinement (the viewer's form): a scripted camera moves for three frames, then stops. Each frame
+// decodes at most N bricks at their chosen level (largest on screen first) and draws the rest from a coarser
+// level held or decoded first at the coarsest level, so the first frame costs a bound of work, not the working
+// set; once the camera stops the frames refine to the full-quality render within ceil(working set / N) frames,
+// never further from it than the first still frame.
+TEST(BrickRender, ProgressiveFramesRefineToTheFullQualityRender) {
+    ComputeContext& cc = computeContext();
+    const Volume v = toU8(test::makeFloatVolume({70, 45, 38}, [](double x, double y, double z) {
+        const double r = std::sqrt((x - 35) * (x - 35) + (y - 22) * (y - 22) + (z - 19) * (z - 19));
+        return r < 20 ? 220 - 6 * r + 3 * std::sin(x) : 0;
+    }));
+    const auto reader = encode(v, lossless(16, 2));
+    const TransferFunction tf = rampTf(0, 220, 1.0);
+    constexpr std::size_t kPerFrame = 4;
+    // Where refinement meets other features: lod full and auto, MIP (nothing hidden), shading from the gradient
+    // cache (its words rebuilt as bricks change level).
+    struct Case {
+        const char* name;
+        LodMode lod;
+        RenderMode mode;
+        bool shaded;
+    };
+    for (const Case& k : {Case{"full", LodMode::Full, RenderMode::Dvr, false},
+                          Case{"auto", LodMode::Auto, RenderMode::Dvr, false},
+                          Case{"full mip", LodMode::Full, RenderMode::Mip, false},
+                          Case{"full shaded, gradient cache", LodMode::Full, RenderMode::Dvr, true}}) {
+        const LodMode lod = k.lod;
+        Scene s = obliqueScene(v, 64);
+        s.lod = lod;
+        s.mode = k.mode;
+        if (k.shaded) test::shadeWithHeadLight(s, GradientKind::Cache);
+        BrickRenderer r(cc, reader, 0, tf, s);
+        if (k.shaded) ASSERT_EQ(r.plan().gradientCache, 1) << r.plan().explain();
+        r.setRefineBudget(kPerFrame); // no share of the kernel time: exactly kPerFrame per frame
+        const std::size_t brickVoxels = 16 * 16 * 16, coarseVoxels = 4 * 4 * 4;
+        Camera c = *s.camera;
+        for (int moving = 0; moving < 3; ++moving) {
+            c.eye[0] += 10.0;
+            r.setView(c, s.width, s.height, s.step);
+            (void)r.render();
+            const BrickStats& st = r.lastStats();
+            EXPECT_LE(st.decoded, kPerFrame + st.coarseFirst) << k.name << " frame " << moving;
+            EXPECT_LE(st.voxelsDecoded, kPerFrame * brickVoxels + st.visited * coarseVoxels);
+            if (moving == 0) {
+                EXPECT_TRUE(r.refining())
+                    << "the first frame waits for no more than " << kPerFrame << " bricks";
+                EXPECT_GT(st.coarseFirst, 0u);
+            }
+        }
+        BrickRenderer full(cc, reader, 0, tf, s);
+        full.setView(c, s.width, s.height, s.step);
+        const ImageBuffer target = full.render();
+        const std::size_t workingSet = full.lastStats().visited;
+        std::vector<double> error;
+        ImageBuffer last;
+        int still = 0;
+        do {
+            last = r.render();
+            error.push_back(rmse(last, target));
+            ++still;
+        } while (r.refining() && still < 100);
+        EXPECT_FALSE(r.refining());
+        EXPECT_LE(std::size_t(still), (workingSet + kPerFrame - 1) / kPerFrame + 1) << k.name;
+        EXPECT_LE(maxAbsDiff(last, target), 1e-6) << k.name;
+        for (double e : error)
+            EXPECT_LE(e, error.front() + 1e-7) << k.name;
+        std::cout << k.name << ": working set " << workingSet << " bricks, " << still
+                  << " still frames to full quality, RMSE to it per still frame:";
+        for (double e : error)
+            std::cout << ' ' << e;
+        std::cout << '\n';
     }
 }
 

@@ -6,6 +6,7 @@
 #include "core/MappedFile.hpp"
 
 #include "core/Error.hpp"
+#include "core/MemoryBudget.hpp"
 #include "core/runtime/Timing.hpp"
 #include "wavelet/BrickVoxels.hpp"
 #include "wavelet/FrameDecoder.hpp"
@@ -417,7 +418,9 @@ VczReader::VczReader(std::vector<std::byte> bytes, std::string name)
 
 VczReader::VczReader(const std::filesystem::path& path)
     : mapped_(std::make_shared<const MappedFile>(path)), bytes_(mapped_->bytes()), name_(path.string()) {
-    header_ = readVczHeader(bytes_, name_);
+    // A mapped file is read brick by brick: what it holds is the index and one brick, whatever the frame's
+    // size; decode() checks the frame or region it is asked for.
+    header_ = readVczHeader(bytes_, name_, 0, VczHeaderUse::Bricks);
 }
 
 VczReader::VczReader(const VczReader& other)
@@ -487,6 +490,9 @@ Volume VczReader::decode(ComputeContext& cc, const DecodeOptions& o) const {
     const Dims outDims{e.x - a.x, e.y - a.y, e.z - a.z};
     if (outDims.count() == 0)
         throw UsageError(name_ + ": the region holds no sample at level " + std::to_string(o.level));
+    checkVczDecodeBudget(h, outDims, 0, name_,
+                         "a decoded " + std::to_string(outDims.x) + "x" + std::to_string(outDims.y) + "x" +
+                             std::to_string(outDims.z) + " region");
     std::vector<std::size_t> which;
     for (std::size_t b = 0; b < h.brickCount(); ++b) {
         const Dims bo = h.brickOrigin(b), bd = h.brickDims(b);
@@ -569,6 +575,9 @@ Volume VczReader::decodeFrame(ComputeContext& cc, std::size_t frame, std::span<c
             v = decode(cc, o);
         } else {
             Stopwatch total;
+            // The float residual and the frame predicted from it (the voxel type's bytes bound neither).
+            checkMemoryBudget(h.dims.count() * (sizeof(float) + scalarSize(h.type)), 0, name_,
+                              "a motion-compensated frame and its residual");
             Volume residual(h.dims, ScalarType::Float32);
             residual.spacing = h.spacing;
             residual.origin = h.origin;

@@ -392,7 +392,8 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
         o.level = a->level;
         o.frame = a->frame;
         o.threads = std::max(1u, a->threads);
-        VczReader r(readFileBytes(a->in), a->in);
+        // Mapped: a region of a file whose frame exceeds the memory budget decodes (decode() budgets the region).
+        VczReader r{std::filesystem::path(a->in)};
         const std::size_t n = r.header().frames.size();
         const bool pattern = a->out.find('%') != std::string::npos;
         // A series without --frame goes whole into a format that holds frames; never silently frame 0.

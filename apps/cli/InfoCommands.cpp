@@ -350,7 +350,7 @@ void addConvert(CLI::App& app, GlobalOptions& global) {
             }
         };
         if (std::filesystem::path(a->in).extension() == ".vcz") { // frames decoded whole
-            const VczReader r(readFileBytes(a->in), a->in);
+            const VczReader r{std::filesystem::path(a->in)}; // mapped: the frame is budgeted when decoded
             checkNotSameFile({std::filesystem::path(a->in)}, volumeFilesWritten(a->out));
             checkSeriesTarget(r.header().frames.size());
             // The .vcz's NIfTI header (and its stored integers' scale) goes into the output as decode does.

@@ -54,7 +54,7 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json, bool li
     // after its checksum, so memory holds the header and index whatever the file's size.
     const MappedFile file(path);
     const std::span<const std::byte> bytes = file.bytes();
-    const VczHeader h = readVczHeader(bytes, path);
+    const VczHeader h = readVczHeader(bytes, path, 0, VczHeaderUse::Bricks); // never decodes a frame
     // Every payload's checksum (XXH3, cheap next to reading the file): a corrupt brick is exit 1, not a
     // listing. Payloads are not decoded; `volcl decode` finds a checksummed payload that does not decode.
     for (std::size_t f = 0; f < h.frames.size(); ++f) {

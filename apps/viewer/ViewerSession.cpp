@@ -6,6 +6,7 @@
 #include "core/Volume.hpp"
 #include "core/runtime/Timing.hpp"
 #include "render/VecMath.hpp"
+#include "render/bricks/BrickRenderer.hpp"
 #include "render/grid/GridDetail.hpp"
 #include "render/grid/GridRenderer.hpp"
 #include "render/grid/PreviewRenderer.hpp"
@@ -342,6 +343,10 @@ ViewerFrame ViewerSession::renderRaymarch(Scene s, const QualityLevel& want, int
 
     // A k-buffer mesh drops internal faces for the level (the boundary always stays).
     auto* kbuffer = dynamic_cast<KBufferRenderer*>(renderer_.get());
+    // Compressed bricks refine a view over frames instead of waiting for its whole working set.
+    if (auto* bricks = dynamic_cast<BrickRenderer*>(renderer_.get()))
+        bricks->setRefineBudget(cc_.profile().rayMarch.refineBricksPerFrame,
+                                cc_.profile().rayMarch.refineKernelShare);
     if (kbuffer) kbuffer->setLodFraction(want.faceFraction);
     f.level.faceFraction = kbuffer ? want.faceFraction : 1.0;
 

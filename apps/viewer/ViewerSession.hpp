@@ -104,8 +104,9 @@ public:
     /// (1 - p / kRefinePasses) of the preview at full resolution plus p / kRefinePasses of the ray marcher's
     /// frame, so the image improves without a jump and is the ray marcher's own from pass kRefinePasses.
     static constexpr int kRefinePasses = 4;
-    /// The view stopped after preview-tier frames and the ray marcher's frame is not fully shown yet.
-    bool refining() const noexcept { return refinePass_ > 0 || previewShown_; }
+    /// The view stopped after preview-tier frames and the ray marcher's frame is not fully shown yet, or the
+    /// renderer still refines it (compressed bricks decoded a few per frame).
+    bool refining() const noexcept { return refinePass_ > 0 || previewShown_ || renderer_->refining(); }
     /// The preview tier a moving view of the current scene renders with (Raymarch: none; see
     /// AdaptiveQualityOptions::previewTiers).
     GridMethod previewTier() const;

@@ -62,6 +62,11 @@ struct DeviceProfile {
         std::size_t skipProbePixels = 0;
         int skipProbeRounds = 0;
         unsigned skipEdgeFactors[3] = {0, 0, 0};
+        /// The viewer's compressed bricks: bricks decoded at their chosen level per frame while a view refines
+        /// (the others drawn from a coarser level already held, or their coarsest level decoded first), and
+        /// more while their predicted decode time stays within this share of the last frame's kernel time.
+        std::size_t refineBricksPerFrame = 0;
+        double refineKernelShare = 0.0;
     } rayMarch;
 
     /// Preview tiers of grids (render/shearwarp.cl, render/drc.cl).

@@ -62,6 +62,8 @@ public:
     const BuddyAllocator& allocator() const noexcept { return alloc_; }
     /// The entry for `key`, marked most recently used; nullptr when absent.
     const CachedBrick* touch(const Key& key);
+    /// Whether `key` is resident (its place in the LRU order unchanged).
+    bool holds(const Key& key) const { return entries_.count(key) != 0; }
     /// Space for `floats` samples under `key`, evicting least recently used entries not in `pinned`;
     /// nothing when even that does not free a block.
     std::optional<CachedBrick> insert(const Key& key, std::size_t floats, const std::set<Key>& pinned);

@@ -3,6 +3,7 @@
 
 #include "cl/volcl_shared.h"
 #include "core/Error.hpp"
+#include "core/MemoryBudget.hpp"
 #include "core/Volume.hpp"
 #include "core/runtime/Timing.hpp"
 #include "preintegration/PreintegrationTable.hpp"
@@ -65,6 +66,8 @@ void BrickStats::add(const BrickStats& f) {
     decodeMs += f.decodeMs;
     gradientBricks += f.gradientBricks;
     gradientMs += f.gradientMs;
+    pending += f.pending;
+    coarseFirst += f.coarseFirst;
 }
 
 std::string BrickStats::summary() const {
@@ -74,6 +77,9 @@ std::string BrickStats::summary() const {
        << bytesDecoded << " (" << voxelsDecoded << " voxels), peak cache " << std::fixed
        << std::setprecision(2) << double(peakPoolBytes) / (1024.0 * 1024.0) << " MB, evictions " << evictions;
     if (coarsened) os << ", coarsened to fit the budget " << coarsened;
+    if (pending)
+        os << ", drawn coarser while refining " << pending << " (" << coarseFirst
+           << " at their coarsest level first)";
     if (repacks) os << ", pool repacked " << repacks << " (" << moved << " bricks moved, not decoded)";
     os << ", decode " << std::setprecision(1) << decodeMs << " ms";
     if (gradientBricks)
@@ -273,10 +279,18 @@ void BrickRenderer::makePool(bool words) {
         throw UsageError("render.cache_mb " + std::to_string(scene_.cacheMb) +
                          " is below one brick at the coarsest level (" +
                          std::to_string(double(granule * sizeof(float)) / (1024.0 * 1024.0)) + " MB)");
+    // What the brick path holds of the file: this pool (host memory on a CPU device) and the index; never the
+    // decoded frame, which may be larger than memory.
+    const BuddyAllocator planned(granule, top, count);
+    checkMemoryBudget((m.pageFloats() + (words ? 2 : 1) * planned.capacity()) * sizeof(float) +
+                          h.brickCount() * h.frames.size() * sizeof(VczBrickEntry),
+                      0, reader_->name(),
+                      "the brick pool of render.cache_mb " + std::to_string(scene_.cacheMb) +
+                          " with the index");
     if (m.pageFloats() + (words ? 2 : 1) * count * sized.blockFloats(top) > kMaxPoolFloats)
         throw UsageError("render.cache_mb " + std::to_string(scene_.cacheMb) +
                          " exceeds the 16 GiB the page table addresses");
-    m.cache.emplace(BuddyAllocator(granule, top, count));
+    m.cache.emplace(planned);
     // With words the device writes the pool too (cl/render/brick_gradient_cache.cl); the samples only the host.
     m.pool = cc_.allocate<float>(m.pageFloats() + (words ? 2 : 1) * m.cache->allocator().capacity(),
                                  words ? CL_MEM_READ_WRITE : CL_MEM_READ_ONLY);
@@ -359,6 +373,43 @@ BrickSelection BrickRenderer::fitBudget(BrickSelection s, const BrickView& view,
     }
     last_.coarsened = coarsened;
     return s;
+}
+
+std::vector<int> BrickRenderer::progressiveLevels(const BrickSelection& s, const BrickView& view) {
+    Impl& m = *impl_;
+    const VczHeader& h = *m.h;
+    std::vector<int> draw(s.level.size(), 0); // bricks out of the working set: selectBricks drops them again
+    std::vector<std::pair<double, std::size_t>> missing; // (-pixels on screen, brick)
+    for (std::size_t b = 0; b < s.level.size(); ++b) {
+        if (s.level[b] < 0) continue;
+        draw[b] = s.level[b];
+        if (!m.cache->holds({frame_, b, s.level[b]})) missing.push_back({-brickPixels(h, b, view), b});
+    }
+    // Largest on screen first (nearest, for bricks of one size), then in brick order.
+    std::sort(missing.begin(), missing.end());
+    // Beyond the fixed count, bricks whose predicted decode fits the share of the last kernel time.
+    const double msPerByte = total_.bytesDecoded ? total_.decodeMs / double(total_.bytesDecoded) : 0.0;
+    double predictedMs = 0.0;
+    std::size_t now = std::min(refinePerFrame_, missing.size());
+    while (now < missing.size() && msPerByte > 0.0) {
+        predictedMs += msPerByte * double(h.bricks[frame_][missing[now].second].size);
+        if (predictedMs > refineKernelShare_ * lastMs_) break;
+        ++now;
+    }
+    for (std::size_t i = now; i < missing.size(); ++i) {
+        const std::size_t b = missing[i].second;
+        // A coarser level already held draws at no cost; else the coarsest, a fraction of the brick's samples.
+        int level = m.maxLevel;
+        for (int l = s.level[b] + 1; l < m.maxLevel; ++l)
+            if (m.cache->holds({frame_, b, l})) {
+                level = l;
+                break;
+            }
+        if (level == m.maxLevel && !m.cache->holds({frame_, b, level})) ++last_.coarseFirst;
+        draw[b] = level;
+        ++last_.pending;
+    }
+    return draw;
 }
 
 void BrickRenderer::loadBricks(const BrickSelection& s) {
@@ -503,6 +554,9 @@ ImageBuffer BrickRenderer::render() {
     s = fitBudget(std::move(s), view, culling);
     last_.reachable = s.reachable;
     last_.hidden = s.hidden;
+    if (refinePerFrame_ > 0)
+        s = selectBricks(h, m.stats ? &*m.stats : nullptr, frame_, m.maxLevel, culling, view,
+                         progressiveLevels(s, view));
     loadBricks(s);
     last_.evictions = m.cache->evictions() - evictionsBefore;
     std::vector<unsigned char> empty = s.empty;

@@ -30,6 +30,9 @@ struct BrickStats {
     std::size_t repacks = 0; ///< frames whose pool, fragmented by earlier frames' bricks, was placed afresh
     std::size_t moved = 0;   ///< bricks those repacks moved inside the pool instead of decoding them again
     std::size_t peakPoolBytes = 0; ///< most pool bytes in use
+    /// Progressive frames: bricks drawn coarser than their chosen level (refined by later frames), and of
+    /// those, bricks decoded at their coarsest level because no level of them was resident.
+    std::size_t pending = 0, coarseFirst = 0;
     double decodeMs = 0;
     std::size_t gradientBricks = 0; ///< bricks whose gradient-cache words were (re)built
     double gradientMs = 0;          ///< kernel time of those builds
@@ -67,6 +70,17 @@ public:
     /// benchmarks); an empty vector returns to render.lod. Reachability and the TF still decide what is
     /// decoded.
     void setForcedLevels(std::vector<int> levels) { forced_ = std::move(levels); }
+    /// Progressive refinement (the viewer): each render() decodes `bricks` bricks at their chosen level,
+    /// largest on screen first, and more while their predicted decode time (the payload bytes at the rate
+    /// measured so far) stays within `kernelShare` times the last frame's kernel time; it draws the others
+    /// from a coarser level already in the pool, or decodes their coarsest level first, and later frames of
+    /// the view refine them. 0 bricks (the default): every brick at its chosen level before the launch.
+    void setRefineBudget(std::size_t bricks, double kernelShare = 0.0) noexcept {
+        refinePerFrame_ = bricks;
+        refineKernelShare_ = kernelShare;
+    }
+    /// The last frame drew some brick coarser than chosen.
+    bool refining() const noexcept override { return last_.pending > 0; }
     /// Light-volume builds since construction (a camera move alone rebuilds none for directional lights).
     int lightVolumeBuilds() const noexcept;
     /// The last light-volume build's wall time, with the decode of every brick into its field when that build
@@ -94,11 +108,16 @@ private:
     /// Levels that fit the pool: coarsens the cheapest bricks until the working set fits.
     BrickSelection fitBudget(BrickSelection s, const BrickView& view, const TransferFunction& tf);
     void loadBricks(const BrickSelection& s);
+    /// Progressive frames: the levels to draw this frame (refinePerFrame_ bricks at `s`'s level, the others
+    /// at a resident coarser level or the coarsest), counting last_.pending and last_.coarseFirst.
+    std::vector<int> progressiveLevels(const BrickSelection& s, const BrickView& view);
     std::shared_ptr<const VczReader> reader_;
     std::size_t frame_;
     std::unique_ptr<Impl> impl_;
     BrickSelection selection_;
     std::vector<int> forced_;
+    std::size_t refinePerFrame_ = 0;
+    double refineKernelShare_ = 0.0;
     BrickStats last_, total_;
 };
 

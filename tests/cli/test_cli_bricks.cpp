@@ -5,6 +5,7 @@
 #include "../TestUtil.hpp"
 #include "../VczTestUtil.hpp"
 #include "CliRun.hpp"
+#include "core/MemoryBudget.hpp"
 #include "host/image/ImageIo.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "wavelet/container/VczFormat.hpp"
@@ -132,6 +133,97 @@ TEST(CliBricks, SeriesFrameAndCorruptedBrick) {
     EXPECT_NE(r.err.find("bad.vcz"), std::string::npos) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_FALSE(fs::exists(dir / "bad.exr"));
+}
+
+// A forged .vcz whose decoded frame (2048x2048x1023 float32, 16 GiB) is larger than the memory budget (half of
+// the machine's memory), its 256 payloads sparse zeros of `payloadBytes` each (their checksums match): what the
+// brick path holds is the index and a pool, so it opens; whole-frame decodes stay bounded by the frame's size.
+fs::path writeHugeSparseVcz(const fs::path& dir, std::uint64_t payloadBytes) {
+    const Volume small = test::makeFloatVolume({8, 8, 8}, [](double, double, double) { return 0.0; });
+    writeVolumeFile(small, dir / "small.nrrd");
+    const test::RunResult r = test::runVolcl(
+        "encode " + test::quoted(dir / "small.nrrd") + " -o " + test::quoted(dir / "small.vcz"), dir);
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    const std::string bytes = test::readFile(dir / "small.vcz");
+    VczHeader h = readVczHeader(std::as_bytes(std::span(bytes.data(), bytes.size())), "small.vcz");
+    h.metadata.erase("volcl:lod");
+    h.dims = {2048, 2048, 1023};
+    h.brick = {256, 256, 256};
+    const std::vector<std::uint8_t> zeros(payloadBytes, 0);
+    VczBrickEntry e;
+    e.size = payloadBytes;
+    e.checksum = vczChecksum(zeros);
+    h.bricks.assign(1, std::vector<VczBrickEntry>(h.brickCount(), e));
+    const std::size_t preamble = vczPreambleSize(h);
+    for (std::size_t b = 0; b < h.brickCount(); ++b)
+        h.bricks[0][b].offset = preamble + b * payloadBytes;
+    const std::vector<std::byte> head = writeVcz(h, {});
+    EXPECT_EQ(head.size(), preamble);
+    const fs::path out = dir / "huge.vcz";
+    test::writeFile(out, std::string_view(reinterpret_cast<const char*>(head.data()), head.size()));
+    fs::resize_file(out, preamble + h.brickCount() * payloadBytes); // a hole: no disk used
+    return out;
+}
+
+TEST(CliBricks, AVczLargerThanTheMemoryBudgetOpensForItsBricks) {
+    const fs::path dir = test::tempDir("cli_bricks_huge");
+    const fs::path vcz = writeHugeSparseVcz(dir, std::uint64_t(4) << 20); // a 1 GiB file
+    ASSERT_GT(std::size_t(2048) * 2048 * 1023 * sizeof(float), defaultMemoryBudget())
+        << "the forged frame must exceed this machine's memory budget";
+
+    test::RunResult r = test::runVolcl("info " + test::quoted(vcz), dir); // the index and every checksum
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("2048"), std::string::npos) << r.out;
+
+    // A whole-frame decode is refused before anything is allocated, one line naming the file.
+    r = test::runVolcl("--quiet convert " + test::quoted(vcz) + " -o " + test::quoted(dir / "whole.nrrd"),
+                       dir);
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_NE(r.err.find("huge.vcz"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("memory budget"), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(dir / "whole.nrrd"));
+
+    // Rendered from its bricks with a TF that hides its (indexed) values: nothing decoded, a transparent image.
+    test::writeFile(dir / "hide.json",
+                    R"({"domain": [0, 1], "color": [[0, 1, 1, 1], [1, 1, 1, 1]],
+                        "extinction": [[0, 0], [0.5, 0], [1, 1]]})");
+    const std::string cam = " --width 32 --height 32 --tf-range 0,1 --lod auto --cache-mb 64 --stats";
+    r = test::runVolcl("render --volume " + test::quoted(vcz) + " --tf " + test::quoted(dir / "hide.json") +
+                           cam + " -o " + test::quoted(dir / "hidden.exr"),
+                       dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.err.find("decoded 0"), std::string::npos) << r.err;
+    const ImageBuffer img = readImage(dir / "hidden.exr");
+    EXPECT_TRUE(std::all_of(img.pixels.begin(), img.pixels.end(), [](float v) { return v == 0.0f; }));
+
+    // A TF that shows them decodes bricks (a crop box keeps one 64 MiB brick in the working set): their zero
+    // payloads are refused naming the file and a brick.
+    test::writeFile(
+        dir / "show.json",
+        R"({"domain": [0, 1], "color": [[0, 1, 1, 1], [1, 1, 1, 1]], "extinction": [[0, 1], [1, 1]]})");
+    r = test::runVolcl("--quiet render --volume " + test::quoted(vcz) + " --tf " +
+                           test::quoted(dir / "show.json") +
+                           " --width 32 --height 32 --tf-range 0,1 --lod auto --cache-mb 128 --crop-box "
+                           "10,10,10:100,100,100vox -o " +
+                           test::quoted(dir / "shown.exr"),
+                       dir);
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_NE(r.err.find("huge.vcz"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("brick"), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(dir / "shown.exr"));
+
+    // What the brick path holds is budgeted: a pool as large as the whole frame is refused, naming the file.
+    r = test::runVolcl("--quiet render --volume " + test::quoted(vcz) + " --tf " +
+                           test::quoted(dir / "hide.json") +
+                           " --width 32 --height 32 --tf-range 0,1 --lod auto --cache-mb 1000000 -o " +
+                           test::quoted(dir / "pool.exr"),
+                       dir);
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_NE(r.err.find("huge.vcz"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("brick pool"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir / "pool.exr"));
 }
 
 } // namespace

@@ -439,6 +439,22 @@ std::size_t vczPreambleBound(const VczHeader& h, bool sizesKnown) {
     return preambleBytes(compactPreamble(b, 0, PreambleKind::Bound), 0) + kMaxVarintBytes;
 }
 
+void checkVczDecodeBudget(const VczHeader& h, Dims dims, std::size_t memoryBudget, const std::string& name,
+                          const std::string& what) {
+    // While it decodes a brick, a decoder holds the brick's coefficients as 32-bit values (4 times a uint8
+    // frame's voxels when the brick is the whole volume) and, for a brick with corrections, their decompressed
+    // list (up to a 5-byte varint and a voxel value per voxel) and the decoded entries: a forged brick size must
+    // not make these exhaust memory that the voxels' size fits in.
+    const Dims largest{std::min<std::size_t>(h.brick.x, h.dims.x), std::min<std::size_t>(h.brick.y, h.dims.y),
+                       std::min<std::size_t>(h.brick.z, h.dims.z)};
+    const std::size_t n = largest.count();
+    const std::size_t brickBytes =
+        n * (sizeof(std::int32_t) + sizeof(codec::Correction)) + codec::maxCorrectionListBytes(h.type, n);
+    checkMemoryBudget(dims.count() * scalarSize(h.type) + brickBytes, memoryBudget, name,
+                      what + " with the coefficients and corrections of a " + std::to_string(largest.x) +
+                          "x" + std::to_string(largest.y) + "x" + std::to_string(largest.z) + " brick");
+}
+
 std::vector<std::byte> writeVcz(const VczHeader& h, std::span<const std::vector<std::uint8_t>> payloads,
                                 std::size_t preambleSize) {
     if (h.frames.empty()) throw Error("internal: a .vcz without frames");
@@ -525,7 +541,7 @@ void readCompactSteps(Reader& r, VczHeader& h) {
 
 // The fields every version shares, validated. `compact`: version 6's varint sizes and steps forms.
 void readFixedFields(Reader& r, VczHeader& h, const std::string& name, std::size_t memoryBudget,
-                     bool compact) {
+                     VczHeaderUse use, bool compact) {
     auto size = [&] { return compact ? r.getVar() : r.get<std::uint64_t>(); };
     h.dims.x = size();
     h.dims.y = size();
@@ -573,21 +589,14 @@ void readFixedFields(Reader& r, VczHeader& h, const std::string& name, std::size
         r.fail("integer transform of float32 voxels (corrupt header)");
     if (h.transform == TransformKind::RawBits && h.type != ScalarType::Float32)
         r.fail("raw bit planes of integer voxels (corrupt header)");
-    checkMemoryBudget(h.dims.count() * scalarSize(h.type), memoryBudget, name,
-                      "a " + std::to_string(h.dims.x) + "x" + std::to_string(h.dims.y) + "x" +
-                          std::to_string(h.dims.z) + " frame");
-    // While it decodes a brick into the frame, a decoder holds the brick's coefficients as 32-bit values (4
-    // times a uint8 frame's voxels when the brick is the whole volume) and, for a brick with corrections,
-    // their decompressed list (up to a 5-byte varint and a voxel value per voxel) and the decoded entries:
-    // a forged brick size must not make these exhaust memory that the frame's size fits in.
-    const Dims largest{std::min<std::size_t>(h.brick.x, h.dims.x), std::min<std::size_t>(h.brick.y, h.dims.y),
-                       std::min<std::size_t>(h.brick.z, h.dims.z)};
-    const std::size_t n = largest.count();
-    const std::size_t brickBytes =
-        n * (sizeof(std::int32_t) + sizeof(codec::Correction)) + codec::maxCorrectionListBytes(h.type, n);
-    checkMemoryBudget(h.dims.count() * scalarSize(h.type) + brickBytes, memoryBudget, name,
-                      "a frame with the coefficients and corrections of a " + std::to_string(largest.x) +
-                          "x" + std::to_string(largest.y) + "x" + std::to_string(largest.z) + " brick");
+    if (use == VczHeaderUse::Frame) {
+        checkMemoryBudget(h.dims.count() * scalarSize(h.type), memoryBudget, name,
+                          "a " + std::to_string(h.dims.x) + "x" + std::to_string(h.dims.y) + "x" +
+                              std::to_string(h.dims.z) + " frame");
+        checkVczDecodeBudget(h, h.dims, memoryBudget, name, "a frame");
+    } else {
+        checkVczDecodeBudget(h, Dims{0, 0, 0}, memoryBudget, name, "decoding one brick");
+    }
     // Older encoders accepted --levels 0 for a wavelet transform and wrote files no decoder can read.
     if (h.transform != TransformKind::RawBits && h.levels == 0)
         r.fail("wavelet transform with 0 levels (written by an encoder that accepted --levels 0; re-encode "
@@ -826,7 +835,7 @@ std::size_t readCompactIndex(std::span<const std::uint8_t> file, std::size_t ind
 } // namespace
 
 VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string& name,
-                        std::size_t memoryBudget) {
+                        std::size_t memoryBudget, VczHeaderUse use) {
     const std::span<const std::uint8_t> file(reinterpret_cast<const std::uint8_t*>(fileBytes.data()),
                                              fileBytes.size());
     if (file.size() < kVczMagic.size() + 8 || !std::equal(kVczMagic.begin(), kVczMagic.end(), file.begin()))
@@ -849,7 +858,7 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
     VczHeader h;
     h.version = version;
     const bool compact = compactLayout(version);
-    readFixedFields(r, h, name, memoryBudget, version == kVczVersionCompact);
+    readFixedFields(r, h, name, memoryBudget, use, version == kVczVersionCompact);
     CompactIndexPlace compactIndex;
     if (compact) {
         compactIndex = readCompactTail(r, h, file.size(), version);
@@ -860,6 +869,12 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
     if (!compact) readMetadata(r, h);
     if (r.remaining() != 0) r.fail("unexpected trailing bytes");
 
+    // The index's entries are held by every reader (a forged brick grid must not exhaust memory either;
+    // the file's index bytes bound them too, at most 6x).
+    const long double indexBytes =
+        (long double)h.brickCount() * (long double)h.frames.size() * (long double)sizeof(VczBrickEntry);
+    checkMemoryBudget(indexBytes > 1e18L ? std::size_t(-1) : std::size_t(indexBytes), memoryBudget, name,
+                      "the brick index");
     const std::size_t indexStart = bodyStart + bodySize + 8;
     const std::size_t payloadEnd = compact ? readCompactIndex(file, indexStart, compactIndex, h, name)
                                            : readIndex(file, indexStart, h, name);

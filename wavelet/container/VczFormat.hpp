@@ -111,12 +111,24 @@ std::size_t vczPreambleSize(const VczHeader& header);
 /// single volume): only the brick ranges are bounded, by the voxel type's.
 std::size_t vczPreambleBound(const VczHeader& header, bool sizesKnown = false);
 
+/// What a reader of the header will hold, and so what its size claims are checked against the memory budget
+/// for: `Frame`, a whole decoded frame (with one brick's coefficients while decoding); `Bricks`, one brick at a
+/// time (its coefficients) and the index, as the brick renderer and `info` hold: a file whose decoded frame is
+/// larger than memory opens, and VczReader::decode checks the frame or region it is asked for instead.
+enum class VczHeaderUse { Frame, Bricks };
+
 /// Parses and validates magic, version, header checksum, index checksum, that every brick lies inside
 /// the file and that nothing follows the last one, and that the header's fields are a combination an
-/// encoder writes. A frame larger than `memoryBudget` bytes (0 = defaultMemoryBudget()) is refused as
-/// a forged size. Throws IoError naming `name` on any inconsistency; never reads out of bounds.
+/// encoder writes. What `use` holds (a frame, or a brick and the index) larger than `memoryBudget` bytes
+/// (0 = defaultMemoryBudget()) is refused as a forged size. Throws IoError naming `name` on any
+/// inconsistency; never reads out of bounds.
 VczHeader readVczHeader(std::span<const std::byte> file, const std::string& name,
-                        std::size_t memoryBudget = 0);
+                        std::size_t memoryBudget = 0, VczHeaderUse use = VczHeaderUse::Frame);
+
+/// Throws IoError naming `name` when decoding `dims` voxels of the header's type, with one brick's coefficients
+/// and corrections beside them, exceeds `memoryBudget` (0 = the default); `what` names the voxels.
+void checkVczDecodeBudget(const VczHeader& header, Dims dims, std::size_t memoryBudget,
+                          const std::string& name, const std::string& what);
 
 /// Payload of one brick after checking its checksum (IoError naming the brick on mismatch).
 std::span<const std::uint8_t> vczBrickPayload(std::span<const std::byte> file, const VczHeader& header,
