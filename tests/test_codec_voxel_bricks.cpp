@@ -110,25 +110,29 @@ void checkEveryMode(const Volume& v, const std::string& name) {
     for (const Mode m : {Mode{RateMode::Psnr, 40}, Mode{RateMode::Psnr, 50}, Mode{RateMode::Psnr, 60},
                          Mode{RateMode::MaxError, 2}, Mode{RateMode::RelError, 1e-2},
                          Mode{RateMode::PwRelError, 1e-2}, Mode{RateMode::Bpv, 1}}) {
-        const std::string what = name + " mode " + std::to_string(int(m.rate)) + " " + std::to_string(m.target);
+        const std::string what =
+            name + " mode " + std::to_string(int(m.rate)) + " " + std::to_string(m.target);
         const auto f = encode(v, test::smallBrickOptions(m.rate, m.target));
         EXPECT_LE(f.size(), lossless.size()) << what;
         const Volume d = decode(f);
         const double err = maxError(v, d);
         if (m.rate == RateMode::Psnr) EXPECT_GE(psnrInDouble(v, d), m.target - 1e-9) << what;
         if (m.rate == RateMode::MaxError) EXPECT_LE(err, m.target) << what;
-        if (m.rate == RateMode::Bpv) EXPECT_LE(double(f.size()) * 8, m.target * double(v.voxelCount()) + 1e-9) << what;
+        if (m.rate == RateMode::Bpv)
+            EXPECT_LE(double(f.size()) * 8, m.target * double(v.voxelCount()) + 1e-9) << what;
         if (m.rate == RateMode::PwRelError)
             for (std::size_t i = 0; i < v.voxelCount(); ++i)
-                ASSERT_LE(std::abs(voxel(v, i) - voxel(d, i)), m.target * std::abs(voxel(v, i)) + 1e-12) << what;
+                ASSERT_LE(std::abs(voxel(v, i) - voxel(d, i)), m.target * std::abs(voxel(v, i)) + 1e-12)
+                    << what;
     }
 }
 
 TEST(VoxelBricks, HardCasesRoundTripInEveryMode) {
     checkEveryMode(makeVolume<std::uint8_t>(ScalarType::UInt8, [](auto, auto, auto, auto&) { return 0; }),
                    "all-zero");
-    checkEveryMode(makeVolume<std::uint16_t>(ScalarType::UInt16, [](auto, auto, auto, auto&) { return 1234; }),
-                   "one value");
+    checkEveryMode(
+        makeVolume<std::uint16_t>(ScalarType::UInt16, [](auto, auto, auto, auto&) { return 1234; }),
+        "one value");
     checkEveryMode(makeVolume<std::uint8_t>(ScalarType::UInt8,
                                             [](std::size_t x, std::size_t y, std::size_t z, auto&) {
                                                 const double r = std::hypot(double(x) - 20, double(y) - 18,
@@ -143,9 +147,9 @@ TEST(VoxelBricks, HardCasesRoundTripInEveryMode) {
                    "0/255");
     checkEveryMode(labelVolume<std::uint16_t>(ScalarType::UInt16, 900), "uint16 900 labels");
     checkEveryMode(labelVolume<std::int16_t>(ScalarType::Int16, 40), "int16 labels");
-    checkEveryMode(makeVolume<std::uint8_t>(ScalarType::UInt8,
-                                            [](auto, auto, auto, auto& rng) { return rng() % 256; }),
-                   "uint8 noise");
+    checkEveryMode(
+        makeVolume<std::uint8_t>(ScalarType::UInt8, [](auto, auto, auto, auto& rng) { return rng() % 256; }),
+        "uint8 noise");
     checkEveryMode(makeVolume<std::uint8_t>(ScalarType::UInt8,
                                             [](std::size_t x, std::size_t, std::size_t, auto& rng) {
                                                 return x % 16 < 8 ? 7.0 : double(rng() % 200);
@@ -155,7 +159,8 @@ TEST(VoxelBricks, HardCasesRoundTripInEveryMode) {
 
 TEST(VoxelBricks, LabelVolumesUseThemAndStayExact) {
     // A label volume's bricks are voxel-coded (version 7) in lossless and lossy files, and decode exactly.
-    for (const auto& v : {labelVolume<std::uint16_t>(ScalarType::UInt16, 900), labelVolume<std::uint8_t>(ScalarType::UInt8, 60)}) {
+    for (const auto& v : {labelVolume<std::uint16_t>(ScalarType::UInt16, 900),
+                          labelVolume<std::uint8_t>(ScalarType::UInt8, 60)}) {
         for (RateMode r : {RateMode::Lossless, RateMode::Psnr}) {
             const auto f = encode(v, test::smallBrickOptions(r, r == RateMode::Psnr ? 50 : 0));
             EXPECT_EQ(versionOf(f), kVczVersionVoxelBricks);
@@ -163,9 +168,10 @@ TEST(VoxelBricks, LabelVolumesUseThemAndStayExact) {
         }
     }
     // Smooth data keeps the wavelet: version 6, as before.
-    const Volume smooth = makeVolume<std::uint8_t>(ScalarType::UInt8, [](std::size_t x, std::size_t y, std::size_t z, auto&) {
-        return 120 + 100 * std::sin(0.1 * double(x)) * std::cos(0.13 * double(y + z));
-    });
+    const Volume smooth =
+        makeVolume<std::uint8_t>(ScalarType::UInt8, [](std::size_t x, std::size_t y, std::size_t z, auto&) {
+            return 120 + 100 * std::sin(0.1 * double(x)) * std::cos(0.13 * double(y + z));
+        });
     EXPECT_EQ(versionOf(encode(smooth, test::smallBrickOptions(RateMode::Psnr, 40))), kVczVersionCompact);
 }
 
@@ -179,7 +185,8 @@ TEST(VoxelBricks, FloatLabelsAndNonFiniteVoxels) {
         EXPECT_TRUE(std::isnan(d.values<float>()[5]));
         EXPECT_EQ(d.values<float>()[kDims.count() - 3], -INFINITY);
         for (std::size_t i = 0; i < v.voxelCount(); ++i)
-            if (std::isfinite(v.values<float>()[i])) ASSERT_LE(std::abs(v.values<float>()[i] - d.values<float>()[i]), 0.01);
+            if (std::isfinite(v.values<float>()[i]))
+                ASSERT_LE(std::abs(v.values<float>()[i] - d.values<float>()[i]), 0.01);
     }
 }
 
@@ -205,13 +212,15 @@ TEST(VoxelBricks, LevelsAndRegionsMatchTheReference) {
         for (std::size_t bz = 0; bz < kDims.z; bz += 16)
             for (std::size_t by = 0; by < kDims.y; by += 16)
                 for (std::size_t bx = 0; bx < kDims.x; bx += 16) {
-                    const Dims bd{std::min<std::size_t>(16, kDims.x - bx), std::min<std::size_t>(16, kDims.y - by),
+                    const Dims bd{std::min<std::size_t>(16, kDims.x - bx),
+                                  std::min<std::size_t>(16, kDims.y - by),
                                   std::min<std::size_t>(16, kDims.z - bz)};
                     std::vector<std::int32_t> c(bd.count());
                     for (std::size_t z = 0; z < bd.z; ++z)
                         for (std::size_t y = 0; y < bd.y; ++y)
                             for (std::size_t x = 0; x < bd.x; ++x)
-                                c[(z * bd.y + y) * bd.x + x] = v.values<std::uint16_t>()[v.index(bx + x, by + y, bz + z)];
+                                c[(z * bd.y + y) * bd.x + x] =
+                                    v.values<std::uint16_t>()[v.index(bx + x, by + y, bz + z)];
                     reference::forward3d(std::span<std::int32_t>(c), bd, level, Wavelet::Cdf53);
                     for (auto& x : c) // the decoders clamp the low band to the voxel type
                         x = std::clamp(x, 0, 65535);
@@ -220,7 +229,8 @@ TEST(VoxelBricks, LevelsAndRegionsMatchTheReference) {
                     for (std::size_t z = 0; z < ld.z; ++z)
                         for (std::size_t y = 0; y < ld.y; ++y)
                             for (std::size_t x = 0; x < ld.x; ++x)
-                                ASSERT_EQ(double(d.values<std::uint16_t>()[d.index(bx / s + x, by / s + y, bz / s + z)]),
+                                ASSERT_EQ(double(d.values<std::uint16_t>()[d.index(bx / s + x, by / s + y,
+                                                                                   bz / s + z)]),
                                           double(c[(z * bd.y + y) * bd.x + x]));
                 }
     }
