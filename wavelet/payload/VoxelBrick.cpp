@@ -9,7 +9,6 @@
 #include <zstd.h>
 
 #include <algorithm>
-#include <cmath>
 #include <cstring>
 #include <memory>
 
@@ -25,10 +24,7 @@ constexpr int kCheapLevel = 1;
 constexpr int kThoroughLevel = 9;
 // A brick whose cheap coding exceeds the limit by more than this factor is not tried thoroughly.
 constexpr double kCheapSlack = 1.1;
-// A brick of up to 16-bit values whose order-0 entropy exceeds the limit by more than this factor is not
-// tried at all: zstd's matches beat the order-0 entropy on runs (labels: far below the limit anyway), not on
-// textured data, where the wavelet payload is the smaller one (a speed choice; the file stays correct).
-constexpr double kEntropySlack = 2.0;
+
 // Palettes hold at most 2^16 values (u16 indices); float bricks first count the distinct values of a
 // sample of this many voxels and take the raw coding when more than half of them differ.
 constexpr std::size_t kMaxPalette = 65536;
@@ -58,19 +54,6 @@ std::vector<std::uint8_t> zstdFrame(ZstdContext& z, std::span<const std::uint8_t
 }
 
 // The brick's distinct values, ascending, when there are at most kMaxPalette of them.
-// Order-0 entropy of the brick's values in bytes (values up to 16 bits).
-double orderZeroBytes(std::span<const std::int32_t> vox, ScalarType t) {
-    const std::int32_t offset = t == ScalarType::Int16 ? 32768 : 0;
-    std::vector<std::uint32_t> counts(65536, 0);
-    for (std::int32_t v : vox)
-        ++counts[std::size_t(v + offset)];
-    double bits = 0;
-    const double n = double(vox.size());
-    for (std::uint32_t c : counts)
-        if (c) bits -= double(c) * std::log2(double(c) / n);
-    return bits / 8;
-}
-
 std::optional<std::vector<std::int32_t>> palette(std::span<const std::int32_t> vox, ScalarType t) {
     std::vector<std::int32_t> values;
     if (t != ScalarType::Float32) {
@@ -174,8 +157,6 @@ std::optional<std::vector<std::uint8_t>> encodeVoxelBrick(const Volume& v, Dims 
     if (finiteOnly && v.type() == ScalarType::Float32 &&
         std::any_of(vox.begin(), vox.end(),
                     [](std::int32_t bits) { return (bits & 0x7f800000) == 0x7f800000; }))
-        return std::nullopt;
-    if (v.type() != ScalarType::Float32 && orderZeroBytes(vox, v.type()) > kEntropySlack * double(limit))
         return std::nullopt;
     const VoxelSymbols s = voxelSymbols(vox, v.type());
     if (s.prefix.size() >= limit) return std::nullopt;
