@@ -64,12 +64,17 @@ def sperr_bits(front, psnr):
     return None
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def psnr_bench_args(doc):
+    """The arguments of the equal-PSNR benchmarks: path to volcl, the PSNR targets, an optional CSV."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("volcl")
     ap.add_argument("--psnr", type=float, nargs="+", default=[40.0, 50.0, 60.0])
     ap.add_argument("--csv")
-    a = ap.parse_args()
+    return ap.parse_args()
+
+
+def main():
+    a = psnr_bench_args(__doc__)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for name, path, voxels in inputs(tmp):

@@ -207,6 +207,24 @@ def vcz_and_vdb_seeds(volcl):
             ("lossy_cdf53_fast.vcz", u8, ["--psnr", "40", "--wavelet", "cdf53", "--entropy", "fast", "--brick", "8", "--levels", "2"]),
             ("rawbits_float.vcz", f32, ["--lossless", "--brick", "8", "--levels", "1"]),
         ]
+        # Voxel-coded bricks (version 7): labels in few values (palette, u8 indices), uint16 labels in more than
+        # 256 values (u16 indices) in a lossy file, noise (raw byte planes).
+        labels = os.path.join(tmp, "l_16x16x16_uint8.raw")
+        with open(labels, "wb") as f:
+            f.write(bytes((x // 5 + 3 * (y // 6) + 7 * (z // 4)) % 9 for z in range(16) for y in range(16)
+                          for x in range(16)))
+        labels16 = os.path.join(tmp, "l_32x32x8_uint16.raw")
+        with open(labels16, "wb") as f:
+            f.write(struct.pack("<8192H", *[(x // 2 + 16 * (y // 2) + 256 * (z // 2)) * 37 % 700 for z in range(8)
+                                            for y in range(32) for x in range(32)]))
+        noise = os.path.join(tmp, "n_16x16x8_uint8.raw")
+        with open(noise, "wb") as f:
+            f.write(bytes((i * 2654435761 >> 13) % 256 for i in range(2048)))
+        runs += [
+            ("voxel_palette_u8.vcz", labels, ["--lossless", "--brick", "8", "--levels", "2", "--no-lod-stats"]),
+            ("voxel_palette_u16_psnr.vcz", labels16, ["--psnr", "50", "--brick", "32", "--levels", "2", "--no-lod-stats"]),
+            ("voxel_raw_noise.vcz", noise, ["--lossless", "--brick", "8", "--levels", "2", "--no-lod-stats"]),
+        ]
         for name, src, flags in runs:
             out = os.path.join(tmp, name)
             subprocess.run([volcl, "-q", "encode", src, "-o", out, *flags], check=True)

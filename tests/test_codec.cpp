@@ -558,7 +558,7 @@ TEST(CodecCompatibility, VersionTwoFilesAreReadOthersRefused) {
         const Volume v = decodeVolume(cc, bytes);
         const Volume old = decodeVolume(cc, withVersion(bytes, 2));
         EXPECT_TRUE(old == v) << seed;
-        for (std::uint32_t bad : {1u, 4u, 7u, 0xFFFFFFFFu}) {
+        for (std::uint32_t bad : {1u, 4u, 8u, 0xFFFFFFFFu}) {
             try {
                 decodeVolume(cc, withVersion(bytes, bad));
                 ADD_FAILURE() << seed << ": version " << bad << " accepted";

@@ -65,8 +65,12 @@ struct CodecProfile {
     double reconstruct = 0; ///< encoder: inverse transform and error check of the rate-control trials
     double assemble = 0;    ///< encoder: brick ranges and the container; decoder: placing bricks, corrections
     double predict = 0;     ///< decoder: P/B frames' motion compensation and the residual added to it
-    double total = 0;       ///< the whole call
-    int trials = 0;         ///< quantise + reconstruct rounds run by the rate control
+    /// Encoder: the size choices, bricks tried as voxels (palette or raw) against their wavelet payloads
+    /// and, for a lossy target, the lossless file it is compared with (docs/codec.md, "Never larger than
+    /// lossless").
+    double choose = 0;
+    double total = 0; ///< the whole call
+    int trials = 0;   ///< quantise + reconstruct rounds run by the rate control
     /// Decoder: bricks read from the file and decoded (uniform ones included), counted where the decoder
     /// takes them, so a distributed reader can prove each rank decodes only the bricks of its extent.
     std::size_t bricks = 0;

@@ -80,7 +80,7 @@ DecodeAhead::DecodeAhead(const VczReader& reader, std::size_t frame, std::shared
     if (!s.pool || frame >= h.frames.size() || h.frames[frame].type != FrameType::I ||
         h.transform == TransformKind::RawBits)
         return;
-    s.varying = codec::varyingBricks(h, frame, codec::allBricks(h));
+    s.varying = codec::varyingBricks(reader.bytes(), h, frame, codec::allBricks(h));
     s.out.corrections.resize(h.brickCount());
     s.thread = std::thread([&s] { s.run(); });
 }

@@ -6,10 +6,12 @@
 #include "wavelet/BrickVoxels.hpp"
 #include "wavelet/entropy/EntropyCoder.hpp"
 #include "wavelet/payload/BrickPayload.hpp"
+#include "wavelet/payload/VoxelBrick.hpp"
 #include "wavelet/quantise/Corrections.hpp"
 #include "wavelet/transform/BrickTransform.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <optional>
 
@@ -119,12 +121,21 @@ template <class V> std::optional<V> uniformValue(const VczHeader& h, const VczBr
 
 } // namespace
 
-std::vector<std::size_t> varyingBricks(const VczHeader& h, std::size_t frame,
+bool voxelCodedBrick(std::span<const std::byte> file, const VczHeader& h, std::size_t frame, std::size_t b) {
+    if (!h.voxelBricks) return false;
+    const VczBrickEntry& entry = h.bricks[frame][b];
+    // readVczHeader checked that every payload lies inside the file.
+    return entry.size > 0 && entry.offset < file.size() &&
+           std::to_integer<std::uint8_t>(file[entry.offset]) == 0;
+}
+
+std::vector<std::size_t> varyingBricks(std::span<const std::byte> file, const VczHeader& h, std::size_t frame,
                                        const std::vector<std::size_t>& which) {
     std::vector<std::size_t> varying;
     auto split = [&]<class V>() {
         for (std::size_t b : which)
-            if (!uniformValue<V>(h, h.bricks[frame][b])) varying.push_back(b);
+            if (!uniformValue<V>(h, h.bricks[frame][b]) && !voxelCodedBrick(file, h, frame, b))
+                varying.push_back(b);
     };
     switch (h.type) {
     case ScalarType::UInt8:
@@ -144,6 +155,39 @@ std::vector<std::size_t> varyingBricks(const VczHeader& h, std::size_t frame,
 }
 
 namespace {
+
+// Decodes voxel-coded brick b and places its part of [a, e) at `level`: the voxels themselves at level 0;
+// coarser, the low band of the file's forward transform of them (integer lifting: exactly what a wavelet
+// brick of the same voxels gives; float lifting: its unquantised form), or every 2^level-th voxel of a raw
+// file, as placeBrick decimates raw bricks.
+template <class V>
+void placeVoxelBrick(std::span<const std::byte> file, const VczHeader& h, std::size_t frame, std::size_t b,
+                     int level, Dims a, Dims e, std::span<V> out, Dims outDims, const std::string& name) {
+    const Dims d = h.brickDims(b);
+    std::vector<std::int32_t> vox = decodeVoxelBrick(vczBrickPayload(file, h, frame, b, name), h.type, d,
+                                                     name + ": brick " + std::to_string(b));
+    const std::vector<Correction> none;
+    if (h.transform != TransformKind::FloatLifting) {
+        if (level > 0 && h.transform == TransformKind::IntegerLifting)
+            reference::forward3d(std::span<std::int32_t>(vox), d, level, h.wavelet);
+        placeBrick(h, b, level, a, e, out, outDims, vox.data(), d.x, none);
+        return;
+    }
+    auto valueOf = [&](std::int32_t v) {
+        return h.type == ScalarType::Float32 ? std::bit_cast<float>(v) : static_cast<float>(v);
+    };
+    std::vector<float> values(vox.size());
+    if (level == 0) {
+        std::transform(vox.begin(), vox.end(), values.begin(), valueOf);
+    } else {
+        std::vector<double> low(vox.size());
+        std::transform(vox.begin(), vox.end(), low.begin(), valueOf);
+        reference::forward3d(std::span<double>(low), d, level, h.wavelet);
+        std::transform(low.begin(), low.end(), values.begin(),
+                       [](double v) { return static_cast<float>(v); });
+    }
+    placeBrick(h, b, level, a, e, out, outDims, values.data(), d.x, none);
+}
 
 // Entropy decodes the listed bricks of one frame on host threads, inverts them on the device down to
 // `level` and places each brick's part of [a, e) into `out` (zero on entry) straight from the mapped batch.
@@ -170,14 +214,23 @@ void decodeBricksInto(ComputeContext& cc, std::span<const std::byte> file, const
     // constant, so this is exact at every level. Their payload checksums are still verified. `out` starts
     // zeroed (a new Volume, whose large blocks are untouched zero pages), so zero bricks are not written at
     // all. Before the output is handed to the device below.
-    std::vector<std::size_t> varying;
+    std::vector<std::size_t> varying, voxelCoded;
     std::vector<std::pair<std::size_t, V>> uniform;
     for (std::size_t b : which) {
         if (const std::optional<V> v = uniformValue<V>(h, h.bricks[frame][b]))
             uniform.emplace_back(b, *v);
+        else if (voxelCodedBrick(file, h, frame, b))
+            voxelCoded.push_back(b);
         else
             varying.push_back(b);
     }
+    // Voxel-coded bricks are decoded and placed on host threads, also before the device sees the output.
+    if (!voxelCoded.empty())
+        timeStage(prof, &CodecProfile::entropy, [&] {
+            parallelFor(voxelCoded.size(), threads, [&](std::size_t k) {
+                placeVoxelBrick(file, h, frame, voxelCoded[k], level, a, e, out, outDims, name);
+            });
+        });
     if (!uniform.empty())
         timeStage(prof, &CodecProfile::assemble, [&] {
             parallelFor(uniform.size(), threads, [&](std::size_t k) {

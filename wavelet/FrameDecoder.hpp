@@ -25,10 +25,15 @@ std::vector<Correction> entropyDecodeBrick(std::span<const std::byte> file, cons
                                            std::size_t frame, std::size_t b, int level, std::int32_t* dst,
                                            std::size_t pitch, const std::string& name);
 
-/// The listed bricks of frame `frame` that must be decoded: all but those of lossless integer data whose index
-/// entry says every voxel holds one value (filled, not decoded).
-std::vector<std::size_t> varyingBricks(const VczHeader& h, std::size_t frame,
+/// The listed bricks of frame `frame` that go through the inverse transform: all but those of lossless integer
+/// data whose index entry says every voxel holds one value (filled, not decoded) and voxel-coded ones
+/// (decoded on the host).
+std::vector<std::size_t> varyingBricks(std::span<const std::byte> file, const VczHeader& h, std::size_t frame,
                                        const std::vector<std::size_t>& which);
+
+/// True when brick `b` of frame `frame` is voxel-coded (wavelet/payload/VoxelBrick.hpp): a file with
+/// VczHeader::voxelBricks whose payload starts with a section count of 0. Reads that byte only.
+bool voxelCodedBrick(std::span<const std::byte> file, const VczHeader& h, std::size_t frame, std::size_t b);
 
 /// Decodes the listed bricks of frame `frame` at `level` into `out` (zeroed, of `outDims`), which holds the
 /// level-`level` samples [a, e); `placeOnDevice` lets the inverse kernel write whole bricks' voxels itself.

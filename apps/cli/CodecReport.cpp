@@ -10,14 +10,14 @@ namespace volcl::cli {
 
 // Stage times of one encode or decode, so speed claims can name their bottleneck.
 void printProfile(const char* what, const CodecProfile& p, std::size_t searchTrials) {
-    const double staged =
-        p.gather + p.upload + p.transform + p.download + p.entropy + p.reconstruct + p.assemble + p.predict;
+    const double staged = p.gather + p.upload + p.transform + p.download + p.entropy + p.reconstruct +
+                          p.assemble + p.predict + p.choose;
     std::cerr << "    " << what << " ms: total " << formatFixed(p.total, 1) << " = gather "
               << formatFixed(p.gather, 1) << " upload " << formatFixed(p.upload, 1) << " transform "
               << formatFixed(p.transform, 1) << " download " << formatFixed(p.download, 1) << " entropy "
               << formatFixed(p.entropy, 1) << " reconstruct " << formatFixed(p.reconstruct, 1) << " assemble "
-              << formatFixed(p.assemble, 1) << " predict " << formatFixed(p.predict, 1) << " other "
-              << formatFixed(p.total - staged, 1);
+              << formatFixed(p.assemble, 1) << " predict " << formatFixed(p.predict, 1) << " choose "
+              << formatFixed(p.choose, 1) << " other " << formatFixed(p.total - staged, 1);
     if (p.trials > 0) std::cerr << " (" << p.trials << " quantisation rounds)";
     if (searchTrials > 0) std::cerr << " [target search: " << searchTrials << " rounds, not timed]";
     std::cerr << '\n';

@@ -54,6 +54,12 @@ def field(dtype, t: float = 0.0) -> np.ndarray:
     return v.astype(np.float32)
 
 
+def labels() -> np.ndarray:
+    """A piecewise-constant uint16 label volume in 700 values (boxes), whose bricks the encoder codes as voxels."""
+    z, y, x = np.meshgrid(*(np.arange(n) for n in SHAPE), indexing="ij")
+    return ((x // 4 + 7 * (y // 5) + 31 * (z // 3)) % 700).astype(np.uint16)
+
+
 def series(dtype) -> np.ndarray:
     return np.stack([field(dtype, t) for t in range(FRAMES)])
 
@@ -163,6 +169,31 @@ def test_cli_and_python_write_the_same_file_and_every_reader_agrees(tmp_path, dt
         assert 8 * cli_vcz.stat().st_size <= 1.5 * frames.size and 8 * plain.stat().st_size <= 1.5 * frames.size
 
 
+@pytest.mark.parametrize("mode", list(MODES))
+def test_voxel_coded_label_files_read_the_same_everywhere(tmp_path, mode):
+    """Labels: the encoder codes bricks as voxels (version 7) in every mode; no file exceeds the lossless one,
+    and every reader decodes it to the same voxels, within the mode's promise (HDF5's column:
+    test_hdf5_filter_chunks_are_the_python_codec_files)."""
+    a = labels()
+    inputs = write_inputs(tmp_path, a[None])
+    cli_flags, py_kwargs = MODES[mode]
+    if mode == "max_error":
+        cli_flags, py_kwargs = ["--max-error", "3"], {"max_error": 3.0}
+    cli_vcz = tmp_path / "cli.vcz"
+    run_cli("encode", *inputs, "-o", str(cli_vcz), *cli_flags, *COMMON[0])
+    volume = volcl.Volume(a, SPACING, ORIGIN)
+    assert volcl.encode(volume, lod_stats=True, **py_kwargs, **COMMON[1]) == cli_vcz.read_bytes()
+    lossless = volcl.encode(volume, lod_stats=True, **COMMON[1])
+    data = cli_vcz.read_bytes()
+    assert len(data) <= len(lossless)
+    assert int.from_bytes(data[8:12], "little") == 7  # voxel-coded bricks
+    ref = cli_decode(cli_vcz, 0, tmp_path).array
+    for name, got in (("volcl.decode", volcl.decode(data)), ("VczFile", volcl.VczFile(cli_vcz)[:, :, :]),
+                      ("volcl.read", volcl.read(cli_vcz).array)):
+        assert got.dtype == ref.dtype and got.tobytes() == ref.tobytes(), name
+    check_against_input(ref, a, mode, 3.0, f"labels {mode}")
+
+
 def test_nifti_metadata_of_a_cli_file_reads_in_python(tmp_path):
     """The command line stores a NIfTI source's header fields as text: Python shows them as JSON text."""
     src = tmp_path / "in.nrrd"
@@ -220,13 +251,17 @@ def chunk_options(shape3):
     return {"levels": levels, "brick": brick, "threads": 1}
 
 
-@pytest.mark.parametrize("dtype", [np.float32, np.uint16])
-@pytest.mark.parametrize("frames", [1, 3])
+# "labels": one chunk of a label volume, whose bricks are voxel-coded (version 7) inside the filter's chunk.
+@pytest.mark.parametrize("dtype, frames", [(np.float32, 1), (np.float32, 3), (np.uint16, 1), (np.uint16, 3),
+                                           ("labels", 1)])
 def test_hdf5_filter_chunks_are_the_python_codec_files(tmp_path, dtype, frames):
     if not SYSTEM_PYTHON.exists():
         pytest.skip("/usr/bin/python3 (Debian's, with h5py) is absent")
     plugin = hdf5_plugin_dir()
-    a = series(dtype)[:frames] if frames > 1 else field(dtype)
+    if dtype == "labels":
+        a, dtype = labels(), np.uint16
+    else:
+        a = series(dtype)[:frames] if frames > 1 else field(dtype)
     np.save(tmp_path / "a.npy", a)
     bound = 0.02 if dtype == np.float32 else 3.0
     env = {**os.environ, "HDF5_PLUGIN_PATH": str(plugin)}

@@ -474,7 +474,7 @@ std::vector<std::byte> writeVcz(const VczHeader& h, std::span<const std::vector<
     }
     Writer w;
     w.bytes.assign(kVczMagic.begin(), kVczMagic.end());
-    w.put<std::uint32_t>(kVczVersionCompact);
+    w.put<std::uint32_t>(h.voxelBricks ? kVczVersionVoxelBricks : kVczVersionCompact);
     w.put<std::uint32_t>(static_cast<std::uint32_t>(compact.body.size()));
     w.putBytes(compact.body);
     w.put<std::uint64_t>(vczChecksum(w.bytes));
@@ -722,7 +722,7 @@ CompactIndexPlace readCompactTail(Reader& r, VczHeader& h, std::size_t fileSize,
     if (m.remaining() != 0) m.fail("unexpected trailing bytes");
     CompactIndexPlace place;
     place.size = r.getVar();
-    if (version == kVczVersionCompact) place.padding = r.getVar();
+    if (version >= kVczVersionCompact) place.padding = r.getVar();
     return place;
 }
 
@@ -842,8 +842,8 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
         throw IoError(name + ": not a .vcz file (bad magic)");
     Reader pre(file.subspan(kVczMagic.size()), name, "header");
     const auto version = pre.get<std::uint32_t>();
-    if (version != kVczVersionCompact && version != kVczVersionSeries && version != kVczVersionPredicted &&
-        version != kVczVersion && version != 2)
+    if (version != kVczVersionVoxelBricks && version != kVczVersionCompact && version != kVczVersionSeries &&
+        version != kVczVersionPredicted && version != kVczVersion && version != 2)
         throw IoError(name + ": unsupported .vcz version " + std::to_string(version));
     const auto bodySize = pre.get<std::uint32_t>();
     const std::size_t bodyStart = kVczMagic.size() + 8;
@@ -857,8 +857,9 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
     Reader r(file.subspan(bodyStart, bodySize), name, "header");
     VczHeader h;
     h.version = version;
+    h.voxelBricks = version == kVczVersionVoxelBricks;
     const bool compact = compactLayout(version);
-    readFixedFields(r, h, name, memoryBudget, use, version == kVczVersionCompact);
+    readFixedFields(r, h, name, memoryBudget, use, version >= kVczVersionCompact);
     CompactIndexPlace compactIndex;
     if (compact) {
         compactIndex = readCompactTail(r, h, file.size(), version);

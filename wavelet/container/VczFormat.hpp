@@ -66,6 +66,9 @@ struct VczHeader {
     /// Format version of the file this header was read from (0: built in memory). Versions 5 and 6 store
     /// 32-bit payload checksums; the others 64-bit ones.
     std::uint32_t version = 0;
+    /// Some bricks may be coded as voxels (a payload whose first byte, the section count, is 0: palette or
+    /// raw voxels, lossless; wavelet/payload/VoxelBrick.hpp). Written as version 7, read from version 7 only.
+    bool voxelBricks = false;
 
     /// Bricks per axis and in total.
     Dims brickGrid() const noexcept;
@@ -94,6 +97,9 @@ inline constexpr std::uint32_t kVczVersionSeries = 5;
 /// header and index are then proportional to what it holds: hydrogen at 40 dB, 8 bricks, 1.3 KB less.
 /// Versions 2-5 are still read.
 inline constexpr std::uint32_t kVczVersionCompact = 6;
+/// Version 6's layout in a file where some bricks are coded as voxels (VczHeader::voxelBricks): written only
+/// then, so every other file stays version 6, byte for byte.
+inline constexpr std::uint32_t kVczVersionVoxelBricks = 7;
 
 /// Serialises the header and index (brick offsets must be final) followed by the payloads, which must
 /// lie in `payloads` in index order starting right after the index, each frame's auxiliary block right after

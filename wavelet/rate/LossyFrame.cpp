@@ -118,6 +118,7 @@ Trial LossyFrame::trial(std::optional<VoxelBound> bound, bool reconstruct) {
             tr.err.sumSq += e.sumSq;
             tr.err.maxErr = std::max(tr.err.maxErr, e.maxErr);
         }
+        tr.bricks = std::move(es);
     });
     return tr;
 }
@@ -206,6 +207,8 @@ FrameResult LossyStrategy::encodeFrame(const Volume& v, VczHeader& h, bool choos
     r.report.corrections = corr;
     r.report.maxError = c.best.err.maxErr;
     r.report.psnr = f.psnrOf(c.best);
+    for (const ErrorStats& e : c.best.bricks)
+        r.brickErrors.emplace_back(e.sumSq, e.maxErr);
     return r;
 }
 

@@ -35,6 +35,7 @@ struct VoxelBound {
 struct Trial {
     std::vector<std::vector<Correction>> corrections;
     ErrorStats err;
+    std::vector<ErrorStats> bricks; ///< err per brick (empty when not reconstructed)
 };
 
 /// The payloads of every brick of a frame.

@@ -15,6 +15,9 @@ namespace volcl::codec {
 struct FrameResult {
     CodedFrame coded;
     EncodeReport report;
+    /// Per brick, the sum of squared errors and the largest error the report's figures add up (empty when
+    /// the rate control did not reconstruct the frame).
+    std::vector<std::pair<double, double>> brickErrors;
 };
 
 /// A predicted frame's residual is coded against the frame it reconstructs: error bounds and PSNR are

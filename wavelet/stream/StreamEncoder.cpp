@@ -83,6 +83,8 @@ StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& sourc
             full.metadata = h.metadata;
             h = std::move(full);
         }
+        // A row's voxel-coded bricks (chosen by size, as in the whole-volume encode) make the file version 7.
+        if (rh.voxelBricks) h.voxelBricks = true;
         if (rh.transform != TransformKind::IntegerLifting)
             throw UsageError("streaming encode needs a reversible integer transform");
         for (std::size_t i = 0; i < perRow; ++i) {
