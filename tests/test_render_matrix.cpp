@@ -506,6 +506,50 @@ TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
         for (std::size_t ch = 0; ch < d.size(); ++ch)
             EXPECT_LE(d[ch], 1e-6) << "channel " << want.channels[ch];
     }
+    // A label map (a threshold of the data: 1 above 100, 2 above 170, on the data's grid) in replace mode: grids
+    // draw it as the grid renderer draws the decoded data, in dvr with point sampling, shaded or not, cropped
+    // and clipped; what labels refuse (other modes, pre-integration, iso layers, shadows) and compressed bricks
+    // (no label kernel) are refused in one line.
+    Volume labelVolume(decoded.dims(), ScalarType::UInt8);
+    labelVolume.spacing = decoded.spacing;
+    labelVolume.origin = decoded.origin;
+    labelVolume.direction = decoded.direction;
+    {
+        const std::vector<float> values = decoded.toFloat();
+        auto l = labelVolume.values<std::uint8_t>();
+        for (std::size_t i = 0; i < values.size(); ++i)
+            l[i] = values[i] > 170.0f ? 2 : values[i] > 100.0f ? 1 : 0;
+    }
+    LabelLayer layer;
+    layer.file = dir / "labels.nrrd";
+    writeVolumeFile(labelVolume, layer.file);
+    std::vector<Combo> labelCombos = combos(box);
+    labelCombos.push_back(labelCombos.front());
+    labelCombos.back().name = "dvr, crop box + 2 clip planes";
+    labelCombos.back().scene.effects.cropBox = labelCombos[labelCombos.size() - 2].scene.effects.cropBox;
+    labelCombos.back().scene.effects.clipPlanes =
+        labelCombos[labelCombos.size() - 2].scene.effects.clipPlanes;
+    for (Combo c : labelCombos) {
+        SCOPED_TRACE(inputName(in) + ", labels, " + c.name);
+        c.scene.labels = layer;
+        const bool draws = c.scene.mode == RenderMode::Dvr &&
+                           c.scene.preintegration == Preintegration::None &&
+                           c.scene.effects.isosurfaces.empty() && !c.scene.effects.shadows;
+        if (!draws || input.kind() != RenderInput::Kind::Grid) {
+            EXPECT_THROW(input.makeRenderer(cc, tf, c.scene), UsageError);
+            continue;
+        }
+        Scene oracle = c.scene;
+        oracle.skipping = SkipMode::Off;
+        const ImageBuffer want = GridRenderer(cc, decoded, tf, oracle).render();
+        const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, c.scene);
+        EXPECT_TRUE(r->plan().labels) << r->plan().explain();
+        const ImageBuffer got = r->render();
+        EXPECT_GT(colourMax(want), 0.05) << "the scene shows something";
+        const std::vector<double> d = channelDiff(want, got);
+        for (std::size_t ch = 0; ch < d.size(); ++ch)
+            EXPECT_LE(d[ch], 1e-6) << "channel " << want.channels[ch];
+    }
     // The preview tiers (render.method) on every input kind: grids draw as the tier draws the decoded data;
     // compressed bricks refuse them with one line (decode first).
     for (GridMethod m : {GridMethod::ShearWarp, GridMethod::Drc}) {
