@@ -84,7 +84,8 @@ Volume voxelisedLabels(Dims d, const Vec3& origin, const Vec3& spacing, const Di
 }
 
 /// Writes `v` (and the table as JSON when given) and returns the scene's label layer.
-LabelLayer writeLayer(const Volume& v, const std::string& name, LabelMode mode, const std::string& tableJson = {}) {
+LabelLayer writeLayer(const Volume& v, const std::string& name, LabelMode mode,
+                      const std::string& tableJson = {}) {
     const auto dir = tempDir("labels");
     LabelLayer l;
     l.file = dir / (name + ".nrrd");
@@ -177,7 +178,11 @@ const std::vector<LabelGrid> kGrids = {
     {"same grid", kDims, {0, 0, 0}, {1, 1, 1}, kIdentityDirection},
     {"shifted, anisotropic", {49, 27, 38}, {-0.35, 0.4, -0.2}, {0.7, 1.3, 0.9}, kIdentityDirection},
     // Rotated 0.5 rad about z around a corner outside the box, so it still covers [0, 32]^3.
-    {"rotated, anisotropic", {60, 60, 40}, {8.0, -10.0, -0.5}, {0.8, 0.9, 0.85}, {kC, -kS, 0, kS, kC, 0, 0, 0, 1}},
+    {"rotated, anisotropic",
+     {60, 60, 40},
+     {8.0, -10.0, -0.5},
+     {0.8, 0.9, 0.85},
+     {kC, -kS, 0, kS, kC, 0, 0, 0, 1}},
 };
 
 // The kernel against the double reference of the same classification: every mode and both boundaries, on
@@ -195,8 +200,8 @@ TEST(Labels, KernelMatchesItsReferenceOnEveryGridAndMode) {
                 // labels) is a step in the field, whose sampling error is of the order of the step.
                 Scene s = sphereScene(24);
                 s.step = 0.05;
-                s.labels = writeLayer(voxelisedLabels(g.dims, g.origin, g.spacing, g.direction), "spheres", mode,
-                                      kSphereTableJson);
+                s.labels = writeLayer(voxelisedLabels(g.dims, g.origin, g.spacing, g.direction), "spheres",
+                                      mode, kSphereTableJson);
                 s.labels->nearest = nearest;
                 GridRenderer r(computeContext(), v, tf, s);
                 const ImageBuffer img = r.render();
@@ -239,7 +244,8 @@ TEST(Labels, TinyCaseMatchesItsReference) {
     const TransferFunction tf = rampTf();
     for (bool same : {true, false})
         for (bool nearest : {false, true}) {
-            SCOPED_TRACE(std::string(same ? "same grid" : "other grid") + (nearest ? ", nearest" : ", smooth"));
+            SCOPED_TRACE(std::string(same ? "same grid" : "other grid") +
+                         (nearest ? ", nearest" : ", smooth"));
             Volume labels(same ? n : Dims{6, 9, 5}, ScalarType::UInt8);
             if (!same) {
                 labels.origin = {0.3, -0.5, 0.2};
@@ -335,7 +341,8 @@ TEST(Labels, AllHiddenCutsTheLabelledPartsAway) {
     const Volume v = ramp();
     const TransferFunction tf = rampTf();
     const Volume labels = voxelisedLabels(kDims, {0, 0, 0}, {1, 1, 1}, kIdentityDirection);
-    const std::string hidden = R"({"labels": [{"label": 1, "visible": false}, {"label": 2, "visible": false}]})";
+    const std::string hidden =
+        R"({"labels": [{"label": 1, "visible": false}, {"label": 2, "visible": false}]})";
     for (LabelMode mode : {LabelMode::Replace, LabelMode::Modulate, LabelMode::Alone}) {
         SCOPED_TRACE(labelModeName(mode));
         Scene s = sphereScene(24);
@@ -471,7 +478,8 @@ TEST(LabelTables, ReadsJsonSlicerItkSnapAndMricronFiles) {
     // Unlisted labels take the default palette: deterministic, distinct neighbours.
     EXPECT_EQ(fsl.entry(40).rgb, defaultLabelEntry(40).rgb);
     EXPECT_NE(defaultLabelEntry(1).rgb, defaultLabelEntry(2).rgb);
-    const LabelTable json = LabelTable::fromJson(R"({"labels": [{"label": 0, "visible": true, "opacity": 0.5}]})", "j");
+    const LabelTable json =
+        LabelTable::fromJson(R"({"labels": [{"label": 0, "visible": true, "opacity": 0.5}]})", "j");
     EXPECT_EQ(json.state(0), LabelState::Visible);
 }
 

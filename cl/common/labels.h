@@ -38,9 +38,9 @@ inline float4 label_sample(__global const ushort* lv, __global const float4* tab
 #ifdef LABEL_SAME_GRID
     const float3 q = p;
 #else
-    const float3 q = (float3)(dot(v3(L->toLabel[0]), p) + L->toLabel[0][3],
-                              dot(v3(L->toLabel[1]), p) + L->toLabel[1][3],
-                              dot(v3(L->toLabel[2]), p) + L->toLabel[2][3]);
+    const float3 q =
+        (float3)(dot(v3(L->toLabel[0]), p) + L->toLabel[0][3], dot(v3(L->toLabel[1]), p) + L->toLabel[1][3],
+                 dot(v3(L->toLabel[2]), p) + L->toLabel[2][3]);
 #endif
 #ifdef LABEL_NEAREST
     return label_class(table[label_at(lv, L, convert_int3(floor(q + 0.5f)))], tf);

@@ -37,7 +37,8 @@ std::array<std::array<double, 3>, 256> readLut(const std::filesystem::path& path
     std::array<std::array<double, 3>, 256> rgb{};
     for (int i = 0; i < 256; ++i)
         for (int c = 0; c < 3; ++c)
-            rgb[std::size_t(i)][std::size_t(c)] = double(static_cast<unsigned char>(bytes[std::size_t(c * 256 + i)])) / 255.0;
+            rgb[std::size_t(i)][std::size_t(c)] =
+                double(static_cast<unsigned char>(bytes[std::size_t(c * 256 + i)])) / 255.0;
     return rgb;
 }
 
@@ -80,7 +81,8 @@ void parseTextLine(const std::string& line, const std::string& where,
         tok.push_back(t);
     long id = 0;
     if (tok.empty() || !parseWhole(tok[0], id))
-        throw DataError(where + ": expected a label number first, got '" + (tok.empty() ? line : tok[0]) + "'");
+        throw DataError(where + ": expected a label number first, got '" + (tok.empty() ? line : tok[0]) +
+                        "'");
     checkLabel(id, where);
     LabelEntry e;
     if (q0 != std::string::npos) {
@@ -185,7 +187,8 @@ LabelTable LabelTable::fromJson(std::string_view text, const std::string& where)
                 if (!value.is_array() || value.size() != 3)
                     throw DataError(at + ".color must be [r, g, b] in [0, 1]");
                 for (std::size_t c = 0; c < 3; ++c) {
-                    if (!value[c].is_number() || !(value[c].get<double>() >= 0.0 && value[c].get<double>() <= 1.0))
+                    if (!value[c].is_number() ||
+                        !(value[c].get<double>() >= 0.0 && value[c].get<double>() <= 1.0))
                         throw DataError(at + ".color must be [r, g, b] in [0, 1]");
                     e.rgb[c] = value[c].get<double>();
                 }
@@ -230,7 +233,8 @@ LabelTable LabelTable::read(const std::filesystem::path& path) {
         if (!line.empty() && line.back() == '\r') line.pop_back();
         const auto first = line.find_first_not_of(" \t");
         if (first == std::string::npos || line[first] == '#') continue;
-        parseTextLine(line, path.string() + ": line " + std::to_string(lineNo), palette ? &*palette : nullptr, t);
+        parseTextLine(line, path.string() + ": line " + std::to_string(lineNo), palette ? &*palette : nullptr,
+                      t);
         ++entries;
     }
     if (entries == 0) throw DataError(path.string() + ": no labels in the label table");

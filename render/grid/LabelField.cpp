@@ -52,11 +52,13 @@ std::array<std::array<double, 4>, 3> labelTransform(const Volume& labels, const 
             double s = 0.0;
             for (int k = 0; k < 3; ++k)
                 s += dl[std::size_t(k * 3 + r)] * di[std::size_t(k * 3 + c)];
-            m[std::size_t(r)][std::size_t(c)] = s * intensity.spacing[std::size_t(c)] / labels.spacing[std::size_t(r)];
+            m[std::size_t(r)][std::size_t(c)] =
+                s * intensity.spacing[std::size_t(c)] / labels.spacing[std::size_t(r)];
         }
         double t = 0.0;
         for (int k = 0; k < 3; ++k)
-            t += dl[std::size_t(k * 3 + r)] * (intensity.origin[std::size_t(k)] - labels.origin[std::size_t(k)]);
+            t += dl[std::size_t(k * 3 + r)] *
+                 (intensity.origin[std::size_t(k)] - labels.origin[std::size_t(k)]);
         m[std::size_t(r)][3] = t / labels.spacing[std::size_t(r)];
     }
     return m;
@@ -64,7 +66,8 @@ std::array<std::array<double, 4>, 3> labelTransform(const Volume& labels, const 
 
 /// The classification a table entry gives a sample whose TF classification is `tf` (cl/common/labels.h's
 /// label_class).
-std::array<double, 4> labelClass(const std::array<float, 4>& e, LabelMode mode, const std::array<double, 4>& tf) {
+std::array<double, 4> labelClass(const std::array<float, 4>& e, LabelMode mode,
+                                 const std::array<double, 4>& tf) {
     if (e[3] < -1.5f) return mode == LabelMode::Alone ? std::array<double, 4>{0, 0, 0, 0} : tf;
     if (e[3] < 0.0f) return {0, 0, 0, 0};
     if (mode == LabelMode::Modulate) return {tf[0] * e[0], tf[1] * e[1], tf[2] * e[2], tf[3] * e[3]};

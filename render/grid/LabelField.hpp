@@ -16,8 +16,8 @@ class LabelTable;
 
 /// A label volume ready to sample from the intensity grid's voxel coordinates.
 struct LabelField {
-    std::vector<std::uint16_t> labels;          ///< x fastest
-    std::array<std::size_t, 3> dims{};         ///< of the label grid
+    std::vector<std::uint16_t> labels;              ///< x fastest
+    std::array<std::size_t, 3> dims{};              ///< of the label grid
     std::array<std::array<double, 4>, 3> toLabel{}; ///< label voxel q = toLabel (p, 1), p the intensity voxel
     /// Per label value 0..max, then one entry for "outside the label grid": (r, g, b, w) with w >= 0 a
     /// visible label's extinction per world unit (replace, alone) or its opacity factor (modulate), -1 hidden,
