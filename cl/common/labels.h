@@ -54,6 +54,11 @@ inline float4 label_sample(__global const ushort* lv, __global const float4* tab
         l[i] = label_at(lv, L, c + (int3)(ox, oy, oz));
         w[i] = (ox ? f.x : 1.0f - f.x) * (oy ? f.y : 1.0f - f.y) * (oz ? f.z : 1.0f - f.z);
     }
+    /* Inside one label (most samples): its classification whole, as the loop below would give it (indicator 1,
+       g(1) = 1; a colour without extinction adds nothing). */
+    if (l[1] == l[0] && l[2] == l[0] && l[3] == l[0] && l[4] == l[0] && l[5] == l[0] && l[6] == l[0] &&
+        l[7] == l[0])
+        return label_class(table[l[0]], tf);
     float tau = 0.0f, best = -1.0f;
     float3 rgb = (float3)(0.0f);
     for (int i = 0; i < 8; ++i) {
