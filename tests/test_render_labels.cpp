@@ -102,12 +102,7 @@ const char* kSphereTableJson = R"({"labels": [{"label": 1, "color": [1, 0.1, 0.1
                                              {"label": 2, "color": [0.1, 1, 0.1], "opacity": 0.15}]})";
 
 Scene sphereScene(int w) {
-    Scene s = orthoScene(kDims, 34.0, w, w);
-    Camera& c = *s.camera;
-    c.eye = {c.target[0] - 20.0, c.target[1] + 12.0, c.target[2] - 45.0};
-    s.step = 0.1;
-    s.skipping = SkipMode::Off;
-    return s;
+    return volcl::test::obliqueOrthoScene(kDims, 34.0, w, w, {-20.0, 12.0, -45.0}, 0.1);
 }
 
 /// The oracle: fine-step point sampling (step 0.01) of the analytic labels and the ramp along each pixel's ray

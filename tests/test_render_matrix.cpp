@@ -420,6 +420,13 @@ class RenderMatrix : public ::testing::TestWithParam<Input> {};
 
 // Float noise: every input renders the same float data through the same kernel source, so images agree to
 // the last bit or close; 1e-6 in every channel (RGBA and the iso depth Z) is the bound.
+/// What gradient TFs and labels draw in: point-sampled dvr without iso layers or shadows (the combos have no
+/// scattering).
+bool pointSampledDvr(const Scene& s) {
+    return s.mode == RenderMode::Dvr && s.preintegration == Preintegration::None &&
+           s.effects.isosurfaces.empty() && !s.effects.shadows;
+}
+
 TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
     const Input in = GetParam();
     ComputeContext& cc = computeContext();
@@ -488,10 +495,7 @@ TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
     const TransferFunction tf2d = matrixGradientTf();
     for (const Combo& c : combos(box)) {
         SCOPED_TRACE(inputName(in) + ", gradient TF, " + c.name);
-        const bool draws = c.scene.mode == RenderMode::Dvr &&
-                           c.scene.preintegration == Preintegration::None &&
-                           c.scene.effects.isosurfaces.empty() && !c.scene.effects.shadows;
-        if (!draws) {
+        if (!pointSampledDvr(c.scene)) {
             EXPECT_THROW(input.makeRenderer(cc, tf2d, c.scene), UsageError);
             continue;
         }
@@ -532,10 +536,7 @@ TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
     for (Combo c : labelCombos) {
         SCOPED_TRACE(inputName(in) + ", labels, " + c.name);
         c.scene.labels = layer;
-        const bool draws = c.scene.mode == RenderMode::Dvr &&
-                           c.scene.preintegration == Preintegration::None &&
-                           c.scene.effects.isosurfaces.empty() && !c.scene.effects.shadows;
-        if (!draws || input.kind() != RenderInput::Kind::Grid) {
+        if (!pointSampledDvr(c.scene) || input.kind() != RenderInput::Kind::Grid) {
             EXPECT_THROW(input.makeRenderer(cc, tf, c.scene), UsageError);
             continue;
         }
