@@ -427,6 +427,22 @@ bool pointSampledDvr(const Scene& s) {
            s.effects.isosurfaces.empty() && !s.effects.shadows;
 }
 
+/// Renders `scene` from `input` and with the grid renderer on `decoded` (never skipping); expects a scene that
+/// shows something and the same image within 1e-6 per channel. Returns the input renderer's plan.
+EffectPlan expectEqualsGridOracle(ComputeContext& cc, const RenderInput& input, const Volume& decoded,
+                                  const TransferFunction& tf, const Scene& scene) {
+    Scene oracle = scene;
+    oracle.skipping = SkipMode::Off;
+    const ImageBuffer want = GridRenderer(cc, decoded, tf, oracle).render();
+    const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, scene);
+    const ImageBuffer got = r->render();
+    EXPECT_GT(colourMax(want), 0.05) << "the scene shows something";
+    const std::vector<double> d = channelDiff(want, got);
+    for (std::size_t ch = 0; ch < d.size(); ++ch)
+        EXPECT_LE(d[ch], 1e-6) << "channel " << want.channels[ch];
+    return r->plan();
+}
+
 TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
     const Input in = GetParam();
     ComputeContext& cc = computeContext();
@@ -499,16 +515,7 @@ TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
             EXPECT_THROW(input.makeRenderer(cc, tf2d, c.scene), UsageError);
             continue;
         }
-        Scene oracle = c.scene;
-        oracle.skipping = SkipMode::Off;
-        const ImageBuffer want = GridRenderer(cc, decoded, tf2d, oracle).render();
-        const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf2d, c.scene);
-        EXPECT_EQ(r->plan().gradientCache, 0) << r->plan().explain();
-        const ImageBuffer got = r->render();
-        EXPECT_GT(colourMax(want), 0.05) << "the scene shows something";
-        const std::vector<double> d = channelDiff(want, got);
-        for (std::size_t ch = 0; ch < d.size(); ++ch)
-            EXPECT_LE(d[ch], 1e-6) << "channel " << want.channels[ch];
+        EXPECT_EQ(expectEqualsGridOracle(cc, input, decoded, tf2d, c.scene).gradientCache, 0);
     }
     // A label map (a threshold of the data: 1 above 100, 2 above 170, on the data's grid) in replace mode: grids
     // draw it as the grid renderer draws the decoded data, in dvr with point sampling, shaded or not, cropped
@@ -540,16 +547,7 @@ TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
             EXPECT_THROW(input.makeRenderer(cc, tf, c.scene), UsageError);
             continue;
         }
-        Scene oracle = c.scene;
-        oracle.skipping = SkipMode::Off;
-        const ImageBuffer want = GridRenderer(cc, decoded, tf, oracle).render();
-        const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, c.scene);
-        EXPECT_TRUE(r->plan().labels) << r->plan().explain();
-        const ImageBuffer got = r->render();
-        EXPECT_GT(colourMax(want), 0.05) << "the scene shows something";
-        const std::vector<double> d = channelDiff(want, got);
-        for (std::size_t ch = 0; ch < d.size(); ++ch)
-            EXPECT_LE(d[ch], 1e-6) << "channel " << want.channels[ch];
+        EXPECT_TRUE(expectEqualsGridOracle(cc, input, decoded, tf, c.scene).labels);
     }
     // The preview tiers (render.method) on every input kind: grids draw as the tier draws the decoded data;
     // compressed bricks refuse them with one line (decode first).
