@@ -13,6 +13,7 @@ set(VOLCL_KERNEL_FILES
   common/fog.h
   common/counter_rng.h
   common/light_volume.h
+  common/labels.h
   phantoms/phantoms.cl
   common/copy.cl
   render/tf_sample.cl

@@ -169,6 +169,14 @@ typedef struct VolclLightSweepParams {
 } VolclLightSweepParams;
 
 /* Everything a grid ray-marching frame needs besides buffers. */
+/* A label map (LABELS, cl/common/labels.h): label voxel coordinates q = toLabel (p, 1) from the grid's voxel
+   coordinates p (rows of a 3x4 matrix); dims: the label grid's nx, ny, nz and the table index meaning
+   "outside the label grid" (unlabelled). */
+typedef struct VolclLabelParams {
+    float toLabel[3][4];
+    volcl_uint dims[4];
+} VolclLabelParams;
+
 typedef struct VolclGridRenderParams {
     VolclCameraParams camera;
     VolclClipParams clip;
@@ -179,6 +187,7 @@ typedef struct VolclGridRenderParams {
     VolclGridParams grid;
     VolclFogParams fog;
     VolclLightVolumeParams lightVolume; /* SHADOW_VOLUME */
+    VolclLabelParams labels;            /* LABELS */
 } VolclGridRenderParams;
 
 /* The path tracer's per-launch parameters (cl/render/pathtrace.cl): samples firstSample .. firstSample +
@@ -234,7 +243,8 @@ static_assert(sizeof(VolclFogParams) == 80, "VolclFogParams layout must match Op
 static_assert(sizeof(VolclLightVolumeParams) == 32, "VolclLightVolumeParams layout must match OpenCL C");
 static_assert(sizeof(VolclLightSweepParams) == 96 + 32 + 32 + 48,
               "VolclLightSweepParams layout must match OpenCL C");
-static_assert(sizeof(VolclGridRenderParams) == 80 + 144 + 16 + 32 + 176 + 96 + 96 + 80 + 32,
+static_assert(sizeof(VolclLabelParams) == 64, "VolclLabelParams layout must match OpenCL C");
+static_assert(sizeof(VolclGridRenderParams) == 80 + 144 + 16 + 32 + 176 + 96 + 96 + 80 + 32 + 64,
               "VolclGridRenderParams layout must match OpenCL C");
 #endif
 

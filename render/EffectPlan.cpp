@@ -61,6 +61,37 @@ void planFog(const Scene& scene, const WorldBox& bounds, EffectPlan& p) {
     }
 }
 
+/// A label map (scene "labels"): LABELS 1 replace, 2 modulate, 3 alone (LABEL_NEAREST for the nearest-voxel
+/// boundary), per-ray kernel; skipping dropped (a macrocell the TF leaves empty may hold a visible label).
+void planLabels(const Scene& scene, EffectPlan& p) {
+    if (!scene.labels) return;
+    const LabelLayer& l = *scene.labels;
+    p.labels = true;
+    p.defines.set("LABELS", static_cast<long long>(l.mode == LabelMode::Replace    ? 1
+                                                   : l.mode == LabelMode::Modulate ? 2
+                                                                                   : 3));
+    if (l.nearest) p.defines.set("LABEL_NEAREST");
+    p.compiled.push_back(
+        "labels " + std::string(labelModeName(l.mode)) + " from " + l.file.filename().string() +
+        (l.table.empty() ? ", default palette" : ", table " + l.table.filename().string()) +
+        (l.nearest ? "; nearest voxel's label (staircase boundaries)"
+                   : "; smooth boundaries (each label weighted by its trilinear indicator)") +
+        ", looked up in world coordinates, per-ray kernel");
+    if (p.skipping) {
+        p.skipping = false;
+        p.defines.erase("SKIPPING");
+        std::erase_if(p.compiled,
+                      [](const std::string& c) { return c.rfind("empty-space skipping:", 0) == 0; });
+        p.dropped.push_back("empty-space skipping: macrocells bound the TF, not the labels");
+    }
+    if (p.gradientCache) {
+        p.gradientCache = 0;
+        p.defines.erase("GRADIENT_CACHE");
+        std::erase_if(p.compiled, [](const std::string& c) { return c.rfind("gradient: cache", 0) == 0; });
+        p.dropped.push_back("gradient cache: labels take the per-ray kernel, with central differences");
+    }
+}
+
 /// What the planning steps share: the scene, the data, and facts about the mode and the lights.
 struct PlanInput {
     PlanInput(const Scene& s, const WorldBox& b, const ValueRange& r)
@@ -425,6 +456,7 @@ EffectPlan planEffects(const Scene& scene, const WorldBox& bounds, const ValueRa
     if (fx.fog.enabled) planFog(scene, bounds, p);
     planTableEffects(scene, p);
     planAccelerations(in, skippingHow, p);
+    planLabels(scene, p);
     return p;
 }
 
@@ -460,7 +492,7 @@ void planNanColor(const Scene& scene, bool hasNonFinite, EffectPlan& plan) {
 
 bool packetServesLit(const Scene& scene, const EffectPlan& p) {
     return scene.mode == RenderMode::Dvr && p.isosurfaces.empty() && !p.scattering && !p.pathTracing &&
-           !p.gradientTf && (!p.shadows || p.shadowVolume) && !p.preintLighting;
+           !p.gradientTf && !p.labels && (!p.shadows || p.shadowVolume) && !p.preintLighting;
 }
 
 void planGradientCache(const Scene& scene, std::size_t bytes, std::uint64_t maxAllocBytes,
@@ -493,6 +525,26 @@ void planGradientCache(const Scene& scene, std::size_t bytes, std::uint64_t maxA
     }
 }
 
+namespace {
+
+/// What the per-ray kernel's extra classifications (gradient TFs, labels) draw in: point-sampled dvr without
+/// iso-surfaces, shadows or scattering; UsageError naming `what` (`plural`: "labels need", else "... needs")
+/// and the table `axis` pre-integration lacks otherwise.
+void requirePointSampledDvr(const Scene& scene, const std::string& what, bool plural, std::string_view axis) {
+    if (scene.mode != RenderMode::Dvr)
+        throw UsageError(what + (plural ? " need" : " needs") + " mode dvr (mode " +
+                         std::string(renderModeName(scene.mode)) + ")");
+    if (scene.preintegration != Preintegration::None)
+        throw UsageError(what + (plural ? " are" : " is") +
+                         " point sampled: pre-integration tables have no " + std::string(axis) +
+                         " axis (use --preintegration none)");
+    if (!scene.effects.isosurfaces.empty()) throw UsageError(what + " cannot be combined with iso-surfaces");
+    if (scene.effects.shadows) throw UsageError(what + " cannot be combined with shadows");
+    if (scene.effects.scattering) throw UsageError(what + " cannot be combined with scattering");
+}
+
+} // namespace
+
 void checkGradientTf(const Scene& scene, const TransferFunction& tf, bool rendererDraws,
                      std::string_view renderer) {
     if (!tf.usesGradient()) return;
@@ -500,14 +552,17 @@ void checkGradientTf(const Scene& scene, const TransferFunction& tf, bool render
     if (!rendererDraws)
         throw UsageError(what + " renders on regular grids and .vcz bricks only, not with " +
                          std::string(renderer));
-    if (scene.mode != RenderMode::Dvr)
-        throw UsageError(what + " needs mode dvr (mode " + std::string(renderModeName(scene.mode)) + ")");
-    if (scene.preintegration != Preintegration::None)
-        throw UsageError(what + " is point sampled: pre-integration tables have no gradient axis (use "
-                                "--preintegration none)");
-    if (!scene.effects.isosurfaces.empty()) throw UsageError(what + " cannot be combined with iso-surfaces");
-    if (scene.effects.shadows) throw UsageError(what + " cannot be combined with shadows");
-    if (scene.effects.scattering) throw UsageError(what + " cannot be combined with scattering");
+    requirePointSampledDvr(scene, what, false, "gradient");
+}
+
+void checkLabels(const Scene& scene, const TransferFunction& tf, bool rendererDraws) {
+    if (!scene.labels) return;
+    const std::string what = "labels (" + scene.labels->file.filename().string() + ")";
+    if (!rendererDraws)
+        throw UsageError(what + " render with the grid ray marcher only, not from .vcz bricks, meshes or "
+                                "preview tiers (decode a .vcz first: volcl decode)");
+    requirePointSampledDvr(scene, what, true, "label");
+    if (tf.usesGradient()) throw UsageError(what + " cannot be combined with a gradient transfer function");
 }
 
 void planGradientTf(const TransferFunction& tf, EffectPlan& plan) {

@@ -26,6 +26,7 @@ struct EffectPlan {
     bool isoTable = false;            ///< ISO_TABLE: iso-surfaces from the iso-surface table
     bool pathTracing = false;         ///< multiple scattering: the path tracer renders the frame
     bool gradientTf = false;          ///< TF_GRADIENT: the TF classifies by gradient magnitude too
+    bool labels = false;              ///< LABELS: a label map classifies the samples with the TF
     int gradientCache = 0;   ///< GRADIENT_CACHE: 1 trilinear blend, 2 nearest node, 3 exact blend (grids)
     double colorScale = 1.0; ///< ambient-only shading folded into the TF colours
     std::vector<IsoLayer> isosurfaces; ///< the ones that can appear
@@ -76,6 +77,11 @@ class TransferFunction;
 /// iso-surfaces, shadows, scattering. Nothing for a TF without gradient terms.
 void checkGradientTf(const Scene& scene, const TransferFunction& tf, bool rendererDraws,
                      std::string_view renderer);
+
+/// A label map (Scene::labels) is drawn by the grid ray marcher's per-ray kernel in dvr with point sampling;
+/// UsageError, one line naming the label file, for any other renderer (`rendererDraws` false) or scene:
+/// other modes, pre-integration, iso-surfaces, shadows, scattering, gradient TFs. Nothing without labels.
+void checkLabels(const Scene& scene, const TransferFunction& tf, bool rendererDraws);
 
 /// A gradient TF: TF_GRADIENT and its line in the report; with widgets, empty-space skipping is dropped (a
 /// macrocell the value axis maps to zero may hold a widget's boundary). Nothing for a TF without them.

@@ -40,6 +40,7 @@ void RendererBase::start(const WorldBox& box, const ValueRange& range) {
     box_ = box;
     range_ = range;
     checkGradientTf(scene_, tf_, drawsGradientTf(), kNoGradientTf);
+    checkLabels(scene_, tf_, drawsLabels());
     admitScene(scene_);
     replan(true);
 }
@@ -47,6 +48,7 @@ void RendererBase::start(const WorldBox& box, const ValueRange& range) {
 void RendererBase::setScene(const Scene& scene) {
     scene.validate();
     checkGradientTf(scene, tf_, drawsGradientTf(), kNoGradientTf);
+    checkLabels(scene, tf_, drawsLabels());
     admitScene(scene);
     scene_ = scene;
     replan(false);
@@ -55,6 +57,7 @@ void RendererBase::setScene(const Scene& scene) {
 void RendererBase::setTransferFunction(const TransferFunction& tf) {
     tf.validate();
     checkGradientTf(scene_, tf, drawsGradientTf(), kNoGradientTf);
+    checkLabels(scene_, tf, drawsLabels());
     tf_ = tf;
     replan(true);
 }

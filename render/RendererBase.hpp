@@ -95,6 +95,8 @@ protected:
     virtual void viewChanged(bool sameView) { (void)sameView; }
     /// True for renderers whose kernels classify by gradient magnitude (TF_GRADIENT, checkGradientTf()).
     virtual bool drawsGradientTf() const { return false; }
+    /// True for renderers whose kernels draw label maps (LABELS, checkLabels()).
+    virtual bool drawsLabels() const { return false; }
     /// False for renderers whose frames do not depend on render.step (no re-plan on a new step).
     virtual bool stepNeedsRebuild() const { return true; }
 

@@ -152,6 +152,17 @@ SkipMode parseSkipMode(std::string_view s) {
     throw UsageError("skipping '" + std::string(s) + "' is unknown (expected auto, on, off)");
 }
 
+std::string_view labelModeName(LabelMode m) {
+    return m == LabelMode::Replace ? "replace" : m == LabelMode::Modulate ? "modulate" : "alone";
+}
+
+LabelMode parseLabelMode(std::string_view s) {
+    if (s == "replace") return LabelMode::Replace;
+    if (s == "modulate") return LabelMode::Modulate;
+    if (s == "alone") return LabelMode::Alone;
+    throw UsageError("label mode '" + std::string(s) + "' is unknown (expected replace, modulate, alone)");
+}
+
 std::string_view gradientKindName(GradientKind g) {
     switch (g) {
     case GradientKind::Central:
@@ -535,7 +546,7 @@ void parseEffects(const json& e, const std::filesystem::path& baseDir, SceneEffe
 
 Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDir) {
     const json j = parse(text);
-    checkKeys(j, "the scene", {"volume", "tf", "camera", "image", "render", "lights", "effects"});
+    checkKeys(j, "the scene", {"volume", "tf", "camera", "image", "render", "lights", "effects", "labels"});
     Scene s;
     auto path = [&](const json& v, const char* where) {
         const std::string text = str(v, where);
@@ -551,6 +562,27 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
     if (j.contains("render")) parseRenderSettings(j["render"], s);
     if (j.contains("lights")) parseLights(j["lights"], s);
     if (j.contains("effects")) parseEffects(j["effects"], baseDir, s.effects);
+    if (j.contains("labels")) {
+        const json& l = j["labels"];
+        if (!l.is_object() || !l.contains("file"))
+            throw UsageError(
+                "scene: 'labels' must be an object with 'file' (and 'table', 'mode', 'boundary')");
+        checkKeys(l, "labels", {"file", "table", "mode", "boundary"});
+        LabelLayer layer;
+        layer.file = path(l["file"], "labels.file");
+        if (l.contains("table")) layer.table = path(l["table"], "labels.table");
+        if (l.contains("mode")) {
+            try {
+                layer.mode = parseLabelMode(str(l["mode"], "labels.mode"));
+            } catch (const UsageError& e) {
+                throw UsageError(std::string("scene: labels.mode: ") + e.what());
+            }
+        }
+        if (l.contains("boundary"))
+            layer.nearest =
+                choice(l["boundary"], "labels.boundary", "nearest", true, "smooth", false, "smooth, nearest");
+        s.labels = layer;
+    }
     return s;
 }
 
@@ -571,6 +603,12 @@ std::string Scene::toJson() const {
     json j;
     if (!volume.empty()) j["volume"] = volume.string();
     if (!tf.empty()) j["tf"] = tf.string();
+    if (labels) {
+        j["labels"] = {{"file", labels->file.string()},
+                       {"mode", std::string(labelModeName(labels->mode))},
+                       {"boundary", labels->nearest ? "nearest" : "smooth"}};
+        if (!labels->table.empty()) j["labels"]["table"] = labels->table.string();
+    }
     if (camera) {
         json c;
         c["projection"] = camera->projection == Projection::Perspective ? "perspective" : "orthographic";

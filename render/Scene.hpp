@@ -186,6 +186,23 @@ struct SceneEffects {
     FogEffect fog;
 };
 
+/// How a label map combines with the intensity volume's transfer function (docs/labels.md): the labels alone,
+/// the label colour and opacity replacing the TF's inside visible labels, or the TF's opacity scaled by the
+/// label's opacity and its colour by the label's colour.
+enum class LabelMode { Replace, Modulate, Alone };
+std::string_view labelModeName(LabelMode m);
+LabelMode
+parseLabelMode(std::string_view s); ///< "replace", "modulate", "alone"; throws UsageError naming `what`
+
+/// A label map over the scene's volume (scene "labels", --labels): an integer volume looked up in world
+/// coordinates, a label table (empty: the default palette) and the mode. `nearest`: the nearest voxel's label
+/// with full opacity (the staircase boundary, for comparison) instead of the smooth boundary.
+struct LabelLayer {
+    std::filesystem::path file, table;
+    LabelMode mode = LabelMode::Replace;
+    bool nearest = false;
+};
+
 /// A complete scene. Paths are resolved against the scene file's folder. Example:
 /// ```
 /// volcl::Scene s = volcl::Scene::fromFile("head.json");
@@ -234,6 +251,7 @@ struct Scene {
     std::optional<MeshSort> meshSort;
     std::vector<Light> lights;
     SceneEffects effects;
+    std::optional<LabelLayer> labels; ///< "labels": a label map drawn with the volume
 
     static Scene fromJson(std::string_view json, const std::filesystem::path& baseDir = {});
     static Scene fromFile(const std::filesystem::path& path);

@@ -142,6 +142,17 @@ inline Scene orthoScene(Dims n, double h, int w = 8, int ht = 8) {
     return s;
 }
 
+/// orthoScene() seen from its target + `offset` (an oblique view: all three axes show), sampled at `step`,
+/// without empty-space skipping (the references have none).
+inline Scene obliqueOrthoScene(Dims n, double h, int w, int ht, const Vec3& offset, double step) {
+    Scene s = orthoScene(n, h, w, ht);
+    Camera& c = *s.camera;
+    c.eye = {c.target[0] + offset[0], c.target[1] + offset[1], c.target[2] + offset[2]};
+    s.step = step;
+    s.skipping = SkipMode::Off;
+    return s;
+}
+
 /// Shades `s` with Blinn-Phong (the defaults) under one head light, gradients by `g`, at step 0.25, with no
 /// empty-space skipping (the double reference has none).
 inline void shadeWithHeadLight(Scene& s, GradientKind g) {

@@ -90,12 +90,7 @@ void expectLengthOracle(const ImageBuffer& img, const Scene& s, const Vec3& volu
 
 /// An oblique orthographic camera over a box of `n` voxels.
 Scene obliqueScene(Dims n, int w, int h) {
-    Scene s = orthoScene(n, 30.0, w, h);
-    Camera& c = *s.camera;
-    c.eye = {c.target[0] - 30.0, c.target[1] + 20.0, c.target[2] - 40.0};
-    s.step = 0.05;
-    s.skipping = SkipMode::Off;
-    return s;
+    return volcl::test::obliqueOrthoScene(n, 30.0, w, h, {-30.0, 20.0, -40.0}, 0.05);
 }
 
 TEST(CropBox, GridMatchesTheLengthInsideTheBoxInDvrAndEmission) {

@@ -420,6 +420,29 @@ class RenderMatrix : public ::testing::TestWithParam<Input> {};
 
 // Float noise: every input renders the same float data through the same kernel source, so images agree to
 // the last bit or close; 1e-6 in every channel (RGBA and the iso depth Z) is the bound.
+/// What gradient TFs and labels draw in: point-sampled dvr without iso layers or shadows (the combos have no
+/// scattering).
+bool pointSampledDvr(const Scene& s) {
+    return s.mode == RenderMode::Dvr && s.preintegration == Preintegration::None &&
+           s.effects.isosurfaces.empty() && !s.effects.shadows;
+}
+
+/// Renders `scene` from `input` and with the grid renderer on `decoded` (never skipping); expects a scene that
+/// shows something and the same image within 1e-6 per channel. Returns the input renderer's plan.
+EffectPlan expectEqualsGridOracle(ComputeContext& cc, const RenderInput& input, const Volume& decoded,
+                                  const TransferFunction& tf, const Scene& scene) {
+    Scene oracle = scene;
+    oracle.skipping = SkipMode::Off;
+    const ImageBuffer want = GridRenderer(cc, decoded, tf, oracle).render();
+    const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf, scene);
+    const ImageBuffer got = r->render();
+    EXPECT_GT(colourMax(want), 0.05) << "the scene shows something";
+    const std::vector<double> d = channelDiff(want, got);
+    for (std::size_t ch = 0; ch < d.size(); ++ch)
+        EXPECT_LE(d[ch], 1e-6) << "channel " << want.channels[ch];
+    return r->plan();
+}
+
 TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
     const Input in = GetParam();
     ComputeContext& cc = computeContext();
@@ -488,23 +511,43 @@ TEST_P(RenderMatrix, EqualsTheGridRenderOfTheDecodedData) {
     const TransferFunction tf2d = matrixGradientTf();
     for (const Combo& c : combos(box)) {
         SCOPED_TRACE(inputName(in) + ", gradient TF, " + c.name);
-        const bool draws = c.scene.mode == RenderMode::Dvr &&
-                           c.scene.preintegration == Preintegration::None &&
-                           c.scene.effects.isosurfaces.empty() && !c.scene.effects.shadows;
-        if (!draws) {
+        if (!pointSampledDvr(c.scene)) {
             EXPECT_THROW(input.makeRenderer(cc, tf2d, c.scene), UsageError);
             continue;
         }
-        Scene oracle = c.scene;
-        oracle.skipping = SkipMode::Off;
-        const ImageBuffer want = GridRenderer(cc, decoded, tf2d, oracle).render();
-        const std::unique_ptr<VolumeRenderer> r = input.makeRenderer(cc, tf2d, c.scene);
-        EXPECT_EQ(r->plan().gradientCache, 0) << r->plan().explain();
-        const ImageBuffer got = r->render();
-        EXPECT_GT(colourMax(want), 0.05) << "the scene shows something";
-        const std::vector<double> d = channelDiff(want, got);
-        for (std::size_t ch = 0; ch < d.size(); ++ch)
-            EXPECT_LE(d[ch], 1e-6) << "channel " << want.channels[ch];
+        EXPECT_EQ(expectEqualsGridOracle(cc, input, decoded, tf2d, c.scene).gradientCache, 0);
+    }
+    // A label map (a threshold of the data: 1 above 100, 2 above 170, on the data's grid) in replace mode: grids
+    // draw it as the grid renderer draws the decoded data, in dvr with point sampling, shaded or not, cropped
+    // and clipped; what labels refuse (other modes, pre-integration, iso layers, shadows) and compressed bricks
+    // (no label kernel) are refused in one line.
+    Volume labelVolume(decoded.dims(), ScalarType::UInt8);
+    labelVolume.spacing = decoded.spacing;
+    labelVolume.origin = decoded.origin;
+    labelVolume.direction = decoded.direction;
+    {
+        const std::vector<float> values = decoded.toFloat();
+        auto l = labelVolume.values<std::uint8_t>();
+        for (std::size_t i = 0; i < values.size(); ++i)
+            l[i] = values[i] > 170.0f ? 2 : values[i] > 100.0f ? 1 : 0;
+    }
+    LabelLayer layer;
+    layer.file = dir / "labels.nrrd";
+    writeVolumeFile(labelVolume, layer.file);
+    std::vector<Combo> labelCombos = combos(box);
+    labelCombos.push_back(labelCombos.front());
+    labelCombos.back().name = "dvr, crop box + 2 clip planes";
+    labelCombos.back().scene.effects.cropBox = labelCombos[labelCombos.size() - 2].scene.effects.cropBox;
+    labelCombos.back().scene.effects.clipPlanes =
+        labelCombos[labelCombos.size() - 2].scene.effects.clipPlanes;
+    for (Combo c : labelCombos) {
+        SCOPED_TRACE(inputName(in) + ", labels, " + c.name);
+        c.scene.labels = layer;
+        if (!pointSampledDvr(c.scene) || input.kind() != RenderInput::Kind::Grid) {
+            EXPECT_THROW(input.makeRenderer(cc, tf, c.scene), UsageError);
+            continue;
+        }
+        EXPECT_TRUE(expectEqualsGridOracle(cc, input, decoded, tf, c.scene).labels);
     }
     // The preview tiers (render.method) on every input kind: grids draw as the tier draws the decoded data;
     // compressed bricks refuse them with one line (decode first).

@@ -82,9 +82,17 @@ double maxDifference255(const ImageBuffer& a, const ImageBuffer& b) {
 TEST(ViewerCli, HeadlessPngEqualsRenderPng) {
     for (const std::string effects :
          {std::string(), std::string(R"(, "lights": [{"type": "directional", "direction": [-1, 1, -1]}],
-              "effects": {"shading": {"ambient": 0.3}, "clip_planes": [{"normal": [1, 0, 0], "offset": -12}]})")}) {
+              "effects": {"shading": {"ambient": 0.3}, "clip_planes": [{"normal": [1, 0, 0], "offset": -12}]})"),
+          // A label map (two shells of the blob) through the same renderer in the viewer.
+          std::string(R"(, "labels": {"file": "labels.nrrd", "mode": "replace"})")}) {
         const auto dir = test::tempDir("viewer_cli_equal");
         writeScene(dir, effects);
+        Volume labels({30, 26, 22}, ScalarType::UInt8);
+        for (std::size_t i = 0; i < labels.voxelCount(); ++i) {
+            const std::size_t x = i % 30;
+            labels.values<std::uint8_t>()[i] = x < 10 ? 1 : x > 20 ? 2 : 0;
+        }
+        writeVolumeFile(labels, dir / "labels.nrrd");
         const Outcome r = runVolcl("render --scene scene.json -o render.png", dir);
         ASSERT_EQ(r.code, 0) << r.err;
         const Outcome v = runVolcl("view scene.json --headless --frames 2 -o view.png", dir);

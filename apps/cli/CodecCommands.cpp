@@ -44,6 +44,7 @@ struct EncodeArgs {
     std::string out, wavelet, entropy = "dense", brick = "64", motion = "block";
     std::size_t gop = 10, bFrames = 0;
     bool lossless = false, profile = false, lodStats = true, globalShift = true, stream = false;
+    bool labels = false; ///< --labels: the input is a label map, coded losslessly
     double maxError = 0, relError = 0, pwRelError = 0, psnr = 0, bpv = 0, step = 0;
     int levels = 4;
     unsigned threads = 2;
@@ -219,6 +220,10 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         ->required();
     cmd->add_flag("--lossless", a->lossless,
                   "Bit-exact (default; a .vcm: float64 positions, float32 scalars)");
+    cmd->add_flag(
+        "--labels", a->labels,
+        "The input is a label map (as NIfTI intent NIFTI_INTENT_LABEL marks one): coded losslessly, "
+        "lossy rates refused");
     cmd->add_option(
         "--bits", a->bits,
         "A .vcm: quantisation bits per coordinate and scalar, 1-30 (default 16; error at most half a "
@@ -280,6 +285,14 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         ReadOptions ro = a->raw.toReadOptions();
         const NiftiSource nifti = niftiSourceOf(a->in, ro);
         ro.niftiStoredValues = nifti.stored;
+        // A label map's values are names, not measurements: a lossy code would turn one label into another.
+        constexpr int kNiftiIntentLabel = 1002;
+        if ((a->labels || (nifti.meta && nifti.meta->intentCode == kNiftiIntentLabel)) &&
+            o.rate != RateMode::Lossless)
+            throw UsageError(
+                a->in.front() + ": a label map (" +
+                (a->labels ? std::string("--labels") : std::string("NIfTI intent NIFTI_INTENT_LABEL")) +
+                ") is coded losslessly; drop the lossy rate");
         if (streamEncode(*a, withSourceMetadata(o, nifti), ro, global)) return;
         std::future<SeriesInput> reading =
             std::async(std::launch::async, [a, ro, &inputs] { return readSeriesInputs(a->in, ro, &inputs); });

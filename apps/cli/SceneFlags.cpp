@@ -176,6 +176,20 @@ void SceneFlags::add(CLI::App* cmd) {
         "--crop-box", cropBox,
         "Cropping box x0,y0,z0:x1,y1,z1 in world units (the frame of --clip and --eye), or with a vox "
         "suffix in voxel indices (x0,y0,z0:x1,y1,z1vox); its six faces count as clip planes");
+    cmd->add_option("--labels", labels,
+                    "Label map (uint8/uint16/int16 volume) drawn with the volume, looked up in world "
+                    "coordinates (docs/labels.md)");
+    cmd->add_option("--label-table", labelTable,
+                    "Label table: JSON, Slicer .ctbl/.txt, ITK-SNAP, FSL/mricron .txt or mricron .lut "
+                    "(default: a categorical palette, label 0 unlabelled)");
+    cmd->add_option("--label-mode", labelMode,
+                    "replace (label colour and opacity inside visible labels), modulate (TF opacity x label "
+                    "opacity, TF colour x label colour) or alone (the labels only)")
+        ->check(CLI::IsMember({"replace", "modulate", "alone"}));
+    cmd->add_option("--label-boundary", labelBoundary,
+                    "smooth (labels weighted by their trilinear indicator) or nearest (the nearest voxel's "
+                    "label: staircase boundaries)")
+        ->check(CLI::IsMember({"smooth", "nearest"}));
     cmd->add_option(
            "--method", method,
            "Grids: raymarch, shear-warp (orthographic preview) or drc (discrete ray casting preview); "
@@ -319,6 +333,16 @@ Scene SceneFlags::build() const {
         s.effects.clipPlanes.push_back({{v[0], v[1], v[2]}, v[3]});
     }
     if (!cropBox.empty()) s.effects.cropBox = parseCropBoxSpec(cropBox, "--crop-box");
+    if (!labels.empty()) {
+        if (!s.labels) s.labels = LabelLayer{};
+        s.labels->file = labels;
+    }
+    if ((!labelTable.empty() || !labelMode.empty() || !labelBoundary.empty()) && !s.labels)
+        throw UsageError(
+            "--label-table, --label-mode and --label-boundary need --labels (or a scene's labels)");
+    if (!labelTable.empty()) s.labels->table = labelTable;
+    if (!labelMode.empty()) s.labels->mode = parseLabelMode(labelMode);
+    if (!labelBoundary.empty()) s.labels->nearest = labelBoundary == "nearest";
     if (s.volume.empty()) throw UsageError("no volume: give --volume or a scene with \"volume\"");
     s.validate();
     return s;

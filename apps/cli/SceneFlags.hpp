@@ -41,6 +41,8 @@ struct SceneFlags {
     std::string
         cropBox; ///< --crop-box x0,y0,z0:x1,y1,z1, a `vox` suffix for voxel indices (parseCropBoxSpec)
     std::string shading, scattering, scatteringOrder, shadowMethod;
+    std::string labels, labelTable, labelMode,
+        labelBoundary;                    ///< --labels FILE, --label-table, --label-mode, --label-boundary
     std::string gradient;                 ///< --gradient central|sobel|cache|cache-nearest
     CLI::Option* shadingOption = nullptr; ///< --shading: given bare (default coefficients) or with a value
     std::optional<int> samples;

@@ -189,6 +189,7 @@ std::string ViewerSession::apply(ViewerAction action) {
     bool structural = true; // the next frame re-plans the renderer's effects
     switch (action) {
     case ViewerAction::CycleMode: {
+        if (base_.labels) return "labels draw in mode dvr only: the mode stays dvr";
         static constexpr RenderMode order[] = {RenderMode::Dvr, RenderMode::Mip, RenderMode::Iso,
                                                RenderMode::Xray, RenderMode::Emission};
         std::size_t i = 0;

@@ -6,6 +6,9 @@
 #ifdef FOG
 #include "common/fog.h"
 #endif
+#ifdef LABELS
+#include "common/labels.h"
+#endif
 
 /* Compile-time features (the host defines exactly those a scene needs: planEffects in render/EffectPlan.cpp,
    VOXEL_TYPE and CORNER_VOXELS from render/grid/GridRenderer.cpp):
@@ -30,7 +33,10 @@
                  1 trilinear blend of the eight voxels' cached gradients, 2 the nearest voxel's, 3 the
                  trilinear blend of the exact form (integer voxels spanning at most 511)
    TF_GRADIENT   (dvr, point sampling) a gradient TF (common/tf_lookup.h, tf_gradient()): each sample also reads
-                 its gradient magnitude (the gradient() of SHADING's kind); the per-ray kernel only */
+                 its gradient magnitude (the gradient() of SHADING's kind); the per-ray kernel only
+   LABELS        (dvr, point sampling) a label map classifies each sample with the TF (common/labels.h): 1 replace,
+                 2 modulate, 3 alone; LABEL_NEAREST the nearest label voxel's, LABEL_SAME_GRID the label grid is
+                 the volume's; the per-ray kernel only, with two more arguments (label voxels, label table) */
 #ifndef MODE
 #define MODE 0
 #endif
@@ -50,7 +56,7 @@
 #include "common/gradient_cache.h"
 #endif
 /* The packet kernel serves dvr without iso-surfaces, unlit or Blinn-Phong shaded from the gradient cache. */
-#if MODE == 0 && ISO_COUNT == 0 && !defined(TF_GRADIENT) &&                                                  \
+#if MODE == 0 && ISO_COUNT == 0 && !defined(TF_GRADIENT) && !defined(LABELS) &&                              \
     (!defined(NEEDS_LIGHTS) || (defined(GRADIENT_CACHE) && defined(SHADING) && !defined(SCATTERING) &&       \
                                 (!defined(SHADOWS) || defined(SHADOW_VOLUME)) && !defined(PREINT_LIGHTING)))
 #define PACKET_KERNEL 1
@@ -224,6 +230,15 @@ inline void iso_table_segment(__global const float4* table, __global const voxel
 }
 #endif
 
+#ifdef LABELS
+/* The label map's arguments of the kernel and of dvr_point_segment, present only with labels. */
+#define LABEL_PARAMS , __global const ushort *labelVol, __global const float4 *labelTable
+#define LABEL_ARGS , labelVol, labelTable
+#else
+#define LABEL_PARAMS
+#define LABEL_ARGS
+#endif
+
 #ifdef FOG
 /* The fog's arguments of the per-ray helpers below, present only when the kernel has fog. */
 #define FOG_PARAMS , __global const float *fogMap, const FogRay *fr
@@ -320,10 +335,13 @@ inline float4 emission_ray(__global const voxel_t* vol, __global const VolclTfKn
    composited into (rgb, T), with the fog over it. */
 inline void dvr_point_segment(__global const voxel_t* vol, __global const VolclTfKnot* knots,
                               const VolclGridRenderParams* P, const Ray* r, float t0, float t1, float len,
-                              float3* rgb, float* T FOG_PARAMS SHADOW_PARAMS) {
+                              float3* rgb, float* T FOG_PARAMS SHADOW_PARAMS LABEL_PARAMS) {
     const float tm = t0 + 0.5f * len;
     const float3 pm = ray_at(r, tm);
-#ifdef TF_GRADIENT
+#ifdef LABELS
+    const float4 e = label_sample(labelVol, labelTable, &P->labels, pm,
+                                  tf_sample(knots, P->tf.knotCount, sample_volume(vol, &P->grid, pm)));
+#elif defined(TF_GRADIENT)
     const float s = sample_volume(vol, &P->grid, pm);
     float4 e = tf_sample(knots, P->tf.knotCount, s);
     if (tf_gradient_needed(knots, &P->tf, s, e))
@@ -415,7 +433,7 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
                        __global const float4* table, __global const uchar* macroEmpty,
                        const VolclGridRenderParams params, __global float4* out, __global float* depthOut,
                        __global const float* fogMap, __global const float* lightVol,
-                       __global const uint* gradCache) {
+                       __global const uint* gradCache LABEL_PARAMS) {
     (void)gradCache; /* the packet kernel's */
     const uint x = get_global_id(0), y = get_global_id(1);
 #ifndef SHADOW_VOLUME
@@ -541,7 +559,7 @@ __kernel void raymarch(__global const voxel_t* vol, __global const VolclTfKnot* 
         fog_only(&P->fog, fogMap, &fr, r.oWorld, r.dWorld, t0, t1, &rgb, &T);
 #endif
 #if MODE == 0 && PREINT == 0
-        dvr_point_segment(vol, knots, P, &r, t0, t1, len, &rgb, &T FOG_ARGS SHADOW_ARGS);
+        dvr_point_segment(vol, knots, P, &r, t0, t1, len, &rgb, &T FOG_ARGS SHADOW_ARGS LABEL_ARGS);
 #elif MODE == 0
         dvr_preint_segment(vol, knots, table, P, &r, t0, t1, len, sPrev, sNext, &gPrev, &gPrevValid, &rgb,
                            &T FOG_ARGS SHADOW_ARGS);

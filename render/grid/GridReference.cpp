@@ -9,6 +9,7 @@
 #include "render/grid/BsplineField.hpp"
 #include "render/grid/GridDetail.hpp"
 #include "render/grid/GridRenderer.hpp"
+#include "render/grid/LabelField.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -39,6 +40,7 @@ public:
         window_ = mipWindow(s, grid_detail::valueRange(v));
         if (s.effects.fog.enabled && s.mode != RenderMode::Mip && s.mode != RenderMode::Emission)
             fog_.emplace(s.effects.fog, gridBounds(v));
+        if (s.labels) labels_ = loadLabelField(*s.labels, v);
     }
 
     const Camera& camera() const noexcept { return cam_; }
@@ -222,6 +224,7 @@ private:
             return tf_.classify(s, std::sqrt(dot(g, g)));
         }
         const auto c = tf_.colorAt(s);
+        if (labels_) return classifyLabels(*labels_, p, {c[0], c[1], c[2], tf_.extinctionAt(s)});
         return {c[0], c[1], c[2], tf_.extinctionAt(s)};
     }
 
@@ -454,6 +457,7 @@ private:
     std::optional<BsplineCoefficients<double>> spline_; ///< the cubic filters' coefficients
     std::array<double, 2> window_{0.0, 1.0};            ///< MIP window: lower end, width
     std::optional<FogField> fog_;                       ///< the scene's fog (not in mip mode)
+    std::optional<LabelField> labels_;                  ///< the scene's label map
 };
 
 } // namespace
@@ -463,6 +467,7 @@ ImageBuffer referenceRender(const Volume& volume, const TransferFunction& tf, co
     scene.validate();
     tf.validate();
     checkGradientTf(scene, tf, true, {});
+    checkLabels(scene, tf, true);
     if (!(options.step > 0.0)) throw UsageError("reference step must be > 0");
     // The NaN colour's rules live in the kernels only (docs/rendering.md, "NaN and Inf").
     if (const std::size_t n = grid_detail::nonFiniteCount(volume))

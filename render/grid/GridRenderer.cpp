@@ -15,6 +15,7 @@
 #include "render/grid/BsplineField.hpp"
 #include "render/grid/GradientCache.hpp"
 #include "render/grid/GridDetail.hpp"
+#include "render/grid/LabelField.hpp"
 #include "render/grid/LightVolume.hpp"
 #include "render/grid/PathTracer.hpp"
 
@@ -145,6 +146,11 @@ struct GridRenderer::Impl {
     SkipDecision skip;                    ///< the current scene's (auto), else edge and "render.skipping ..."
     SkipProbeTimer probeTimer;            ///< injected probe timing (tests); empty: launch the probe
     grid_detail::MacrocellGrid skipMacro; ///< auto's merged macrocells, when it chose a coarser edge
+    /// LABELS: the label map of the scene's labels (read when its file, table, mode or boundary change).
+    std::optional<LabelField> labels;
+    std::string labelKey;
+    DeviceBuffer<cl_ushort> labelVoxels;
+    DeviceBuffer<cl_float4> labelTable;
 };
 
 GridRenderer::GridRenderer(ComputeContext& cc, const Volume& volume, const TransferFunction& tf,
@@ -182,6 +188,21 @@ std::size_t GridRenderer::macrocellCount() const noexcept {
 
 void GridRenderer::admitScene(const Scene& next) {
     next.validateSteps(norm(bounds().extent));
+    Impl& m = *impl_;
+    if (!next.labels) return;
+    const LabelLayer& l = *next.labels;
+    const std::string key = l.file.string() + "|" + l.table.string() + "|" +
+                            std::string(labelModeName(l.mode)) + (l.nearest ? "|nearest" : "|smooth");
+    if (key == m.labelKey) return;
+    // Read and checked before anything changes: a bad label file leaves the renderer as it was.
+    LabelField field = loadLabelField(l, volume_);
+    std::vector<cl_float4> table(field.table.size());
+    for (std::size_t i = 0; i < table.size(); ++i)
+        table[i] = {{field.table[i][0], field.table[i][1], field.table[i][2], field.table[i][3]}};
+    m.labelVoxels = cc_.upload(field.labels, CL_MEM_READ_ONLY);
+    m.labelTable = cc_.upload(table, CL_MEM_READ_ONLY);
+    m.labels = std::move(field);
+    m.labelKey = key;
 }
 
 void GridRenderer::viewChanged(bool sameView) {
@@ -206,6 +227,18 @@ void GridRenderer::rebuild(const Rebuild& change) {
     m.packet = packetServesLit(scene_, plan_) && (!plan_.shading || cached);
     m.params = grid_detail::makeParams(scene_, camera_, volume_, m.range, tf_, plan_, macro, knotCount(),
                                        tableLengths());
+    if (plan_.labels) {
+        const LabelField& f = *m.labels;
+        for (std::size_t r = 0; r < 3; ++r)
+            for (std::size_t c = 0; c < 4; ++c)
+                m.params.labels.toLabel[r][c] = float(f.toLabel[r][c]);
+        m.params.labels.dims[0] = volcl_uint(f.dims[0]);
+        m.params.labels.dims[1] = volcl_uint(f.dims[1]);
+        m.params.labels.dims[2] = volcl_uint(f.dims[2]);
+        m.params.labels.dims[3] = volcl_uint(f.outside());
+        // A layout, like VOXEL_TYPE: the label grid is the volume's, so no transform per sample.
+        if (f.sameGrid) plan_.defines.set("LABEL_SAME_GRID");
+    }
     if (plan_.isoTable) {
         const std::array<double, 2> domain = isoTableDomain(m.range);
         m.params.tf.domainLo = float(domain[0]);
@@ -476,8 +509,13 @@ cl::Event GridRenderer::enqueueFrame(cl::Kernel& kernel, const cl::Buffer& voxel
                                      const VolclGridRenderParams& params, const DeviceBuffer<cl_float4>& out,
                                      const DeviceBuffer<float>& depth, std::size_t w, std::size_t h,
                                      bool packet) {
-    setArgs(kernel, voxels, knots(), table(), empty, params, out, depth, impl_->fog.buffer(cc_),
-            impl_->lightVolume.buffer(cc_), impl_->gradients ? impl_->gradients->words : impl_->noCache);
+    const cl::Buffer& gradients = impl_->gradients ? impl_->gradients->words.get() : impl_->noCache.get();
+    if (plan_.labels && !packet)
+        setArgs(kernel, voxels, knots(), table(), empty, params, out, depth, impl_->fog.buffer(cc_),
+                impl_->lightVolume.buffer(cc_), gradients, impl_->labelVoxels, impl_->labelTable);
+    else
+        setArgs(kernel, voxels, knots(), table(), empty, params, out, depth, impl_->fog.buffer(cc_),
+                impl_->lightVolume.buffer(cc_), gradients);
     // One ray per work-item, or one packet of 4x2 rays (see DeviceProfile::RayMarch for the tiles).
     const DeviceProfile::RayMarch& tuning = cc_.profile().rayMarch;
     return packet ? cc_.launch2d(kernel, (w + 3) / 4, (h + 1) / 2, tuning.packet)

@@ -79,6 +79,7 @@ private:
     struct Impl;
     void admitScene(const Scene& next) override;
     bool drawsGradientTf() const override { return true; }
+    bool drawsLabels() const override { return true; }
     void rebuild(const Rebuild& change) override;
     void viewChanged(bool sameView) override;
     /// The pre-integration (or lighting, or iso-surface) table the plan reads.

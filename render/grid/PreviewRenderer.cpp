@@ -22,6 +22,7 @@ std::string previewRefusal(const Scene& scene, GridMethod method) {
     const char* what = scene.mode != RenderMode::Dvr                  ? "a mode other than dvr"
                        : fx.shading                                   ? "shading"
                        : !fx.isosurfaces.empty()                      ? "iso-surfaces"
+                       : scene.labels                                 ? "labels"
                        : !fx.clipPlanes.empty() || fx.cropBox         ? "clip planes or a crop box"
                        : scene.preintegration != Preintegration::None ? "pre-integration"
                        : fx.fog.enabled                               ? "fog"

@@ -2,6 +2,7 @@
 #include "../TestUtil.hpp"
 #include "CliRun.hpp"
 #include "host/image/ImageIo.hpp"
+#include "host/io/NiftiMetadata.hpp"
 #include "host/io/VolumeIo.hpp"
 
 #include <sys/wait.h>
@@ -199,6 +200,68 @@ TEST(Cli, GradientTfRefusalsAreOneLine) {
     for (const char* f : {"a.png", "b.png"})
         EXPECT_FALSE(std::filesystem::exists(dir / f)) << f;
     EXPECT_TRUE(std::filesystem::exists(dir / "c.png"));
+}
+
+TEST(Cli, LabelRefusalsAreOneLineAndLabelMapsEncodeLosslessly) {
+    auto dir = test::tempDir("cli_labels");
+    const Volume v = test::makeFloatVolume({6, 6, 6}, [](double x, double, double) { return x; });
+    writeVolumeFile(v, dir / "v.nrrd");
+    Volume labels({6, 6, 6}, ScalarType::UInt8);
+    labels.values<std::uint8_t>()[100] = 3;
+    writeVolumeFile(labels, dir / "seg.nrrd");
+    test::writeFile(dir / "bad.txt", "1 liver 255 128 0 999\n");
+    test::writeFile(dir / "ok.json", R"({"labels": [{"label": 3, "color": [1, 0, 0]}]})");
+    const std::string base = "render --volume " + (dir / "v.nrrd").string() +
+                             " --width 8 --height 8 --labels " + (dir / "seg.nrrd").string() + " -o ";
+    // A bad table: exit 1, one line naming it, no image.
+    test::RunResult r =
+        test::runVolcl(base + (dir / "a.png").string() + " --label-table " + (dir / "bad.txt").string(), dir);
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
+    EXPECT_TRUE(test::has(r.err, "bad.txt")) << r.err;
+    // Labels in a mode they do not draw: a usage error.
+    r = test::runVolcl(base + (dir / "b.png").string() + " --mode mip", dir);
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
+    // --label-table without labels.
+    r = test::runVolcl("render --volume " + (dir / "v.nrrd").string() + " -o " + (dir / "c.png").string() +
+                           " --label-table " + (dir / "ok.json").string(),
+                       dir);
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    // A label map encodes losslessly; a lossy rate with --labels is refused in one line.
+    r = test::runVolcl("encode " + (dir / "seg.nrrd").string() + " --labels --psnr 40 -o " +
+                           (dir / "seg_lossy.vcz").string(),
+                       dir);
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
+    EXPECT_TRUE(test::has(r.err, "seg.nrrd")) << r.err;
+    r = test::runVolcl("encode " + (dir / "seg.nrrd").string() + " --labels -o " + (dir / "seg.vcz").string(),
+                       dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    // A NIfTI marked NIFTI_INTENT_LABEL (1002) is a label map without the flag.
+    WriteOptions wo;
+    wo.nifti = niftiMetadataForVolume(labels);
+    wo.nifti->intentCode = 1002;
+    writeVolumeFile(labels, dir / "seg.nii.gz", wo);
+    r = test::runVolcl("encode " + (dir / "seg.nii.gz").string() + " --max-error 0.5 -o " +
+                           (dir / "seg_lossy.vcz").string(),
+                       dir);
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_TRUE(test::has(r.err, "NIFTI_INTENT_LABEL")) << r.err;
+    // The brick renderer has no label kernel: --labels with a .vcz input is refused in one line.
+    r = test::runVolcl("render --volume " + (dir / "seg.vcz").string() + " --width 8 --height 8 --labels " +
+                           (dir / "seg.nrrd").string() + " -o " + (dir / "d.png").string(),
+                       dir);
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
+    EXPECT_TRUE(test::has(r.err, ".vcz")) << r.err;
+    r = test::runVolcl(base + (dir / "e.png").string() + " --label-table " + (dir / "ok.json").string() +
+                           " --label-mode alone",
+                       dir);
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    for (const char* f : {"a.png", "b.png", "c.png", "d.png", "seg_lossy.vcz"})
+        EXPECT_FALSE(std::filesystem::exists(dir / f)) << f;
+    EXPECT_TRUE(std::filesystem::exists(dir / "e.png"));
 }
 
 TEST(Cli, DevicesListsPocl) {

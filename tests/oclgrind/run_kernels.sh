@@ -133,6 +133,7 @@ gtest runtime test_runtime 'Runtime.CopyKernelRoundTripsDataWithOddSizes:Runtime
 'Runtime.DeviceProfileIsChosenByDeviceKind:Runtime.EventTimingIsPositiveAndBandwidthMeasurable'
 gtest tf_sample test_tf 'TransferFunction.HostAndKernelSamplingAreBitIdentical'
 gtest tf_gradient test_render_tf2d 'GradientTf.FlatDataHasGradientZero:GradientTf.NanVoxelsStayFiniteAndLocal'
+gtest labels test_render_labels 'Labels.TinyCaseMatchesItsReference'
 gtest motion test_motion_compensation 'MotionCompensation.TinyVolumeMatchesTheReferenceOnBothKernels'
 gtest plain test_render 'Render.PlainKernelMatchesBaseline'
 gtest light_volume test_shadow_volume 'LightVolume.KernelMatchesItsReference'
