@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
     rusage usage{};
     if (wait4(pid, &status, 0, &usage) != pid) return 127;
     std::FILE* out = std::fopen(argv[1], "w");
-    if (out == nullptr || std::fprintf(out, "%ld\n", usage.ru_maxrss) < 0 || std::fclose(out) != 0) return 127;
+    if (out == nullptr || std::fprintf(out, "%ld\n", usage.ru_maxrss) < 0 || std::fclose(out) != 0)
+        return 127;
     return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
 }
