@@ -261,7 +261,7 @@ void addInfo(CLI::App& app, GlobalOptions& global) {
         options.allChannels = !options.channel; // without --channel, a multi-channel file shows every channel
         std::size_t channels = 1;
         TimeSeries ts = readVolumeFile(*file, options, channels);
-        if (channels > 1) {
+        if (channels > 1 && options.allChannels) {
             printChannelsInfo(std::cout, *file, ts, *json, global.quiet);
             return;
         }

@@ -3,9 +3,9 @@
    extinctions and emissions of the channels summed per sample), 1 maximum (a MIP per channel, the TF colours
    of the maxima added), 2 direct colour (channels 0..2 are r, g, b; opacity from channel 3 or luminance
    through channel 0's TF). The scalar kernels never include this file. */
+#include "channels_shared.h"
 #include "common/camera_rays.h"
 #include "common/tf_lookup.h"
-#include "channels_shared.h"
 
 #pragma OPENCL FP_CONTRACT OFF
 
