@@ -407,26 +407,21 @@ std::string componentAxisKind(const NrrdHeader& h, long long dimension) {
 
 // The header without its axis 0 (the component axis): per-axis fields lose their first entry.
 NrrdHeader withoutFirstAxis(NrrdHeader h) {
+    // Entries 1.. of a field's list, joined by spaces.
+    auto dropFirst = [](const auto& entries) {
+        std::string rest;
+        for (std::size_t i = 1; i < entries.size(); ++i) {
+            if (i > 1) rest += ' ';
+            rest += entries[i];
+        }
+        return rest;
+    };
     for (const char* key :
          {"sizes", "spacings", "axis mins", "axis maxs", "kinds", "centers", "centerings", "thicknesses"})
-        if (auto it = h.fields.find(key); it != h.fields.end()) {
-            const auto w = splitWords(it->second);
-            std::string rest;
-            for (std::size_t i = 1; i < w.size(); ++i) {
-                if (i > 1) rest += ' ';
-                rest += w[i];
-            }
-            it->second = rest;
-        }
-    if (auto it = h.fields.find("space directions"); it != h.fields.end()) {
-        const auto v = splitVectors(it->second);
-        std::string rest;
-        for (std::size_t i = 1; i < v.size(); ++i) {
-            if (i > 1) rest += ' ';
-            rest += v[i];
-        }
-        it->second = rest;
-    }
+        if (auto it = h.fields.find(key); it != h.fields.end())
+            it->second = dropFirst(splitWords(it->second));
+    if (auto it = h.fields.find("space directions"); it != h.fields.end())
+        it->second = dropFirst(splitVectors(it->second));
     h.fields.erase("labels");
     h.fields.erase("units");
     h.fields["dimension"] = "3";
