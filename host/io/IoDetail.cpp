@@ -950,12 +950,17 @@ TimeSeries channelsAsRequested(std::vector<Volume> channels, ReadContext& ctx, s
         series.frames.push_back(std::move(channels[*o.channel]));
         return series;
     }
-    if (!o.allChannels)
+    requireChannelsWanted(ctx, count, kind);
+    series.frames = std::move(channels);
+    return series;
+}
+
+void requireChannelsWanted(const ReadContext& ctx, std::size_t count, std::string_view kind) {
+    const ReadOptions& o = ctx.options();
+    if (count > 1 && !o.channel && !o.allChannels)
         unsupported(ctx.file(), "has " + std::to_string(count) + " channels (" + std::string(kind) +
                                     "): choose one with --channel K (0 to " + std::to_string(count - 1) +
                                     "), or render them all with a scene's \"channels\"");
-    series.frames = std::move(channels);
-    return series;
 }
 
 void refuseFramesWithComponents(std::size_t frames, std::size_t components, const fs::path& file) {

@@ -104,6 +104,9 @@ TimeSeries decodeFrames(std::span<const std::byte> payload, SampleType st, Endia
 /// channel is the scalar file it is. `color`: the components are RGB(A) colour. Notes both in `ctx`.
 TimeSeries channelsAsRequested(std::vector<Volume> channels, ReadContext& ctx, std::string_view kind,
                                bool color = false);
+/// Refuses (DataError naming the file and the count, before any voxel is read) a file of `count` > 1 channels
+/// when the options ask for neither one channel nor all of them; channelsAsRequested() checks it again.
+void requireChannelsWanted(const ReadContext& ctx, std::size_t count, std::string_view kind);
 /// Refuses (DataError naming `file`) a file holding both time frames and `components` > 1 components.
 void refuseFramesWithComponents(std::size_t frames, std::size_t components,
                                 const std::filesystem::path& file);

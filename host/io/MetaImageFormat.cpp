@@ -180,6 +180,7 @@ TimeSeries readMetaImage(ReadContext& ctx) {
 
     const Dims dims{sizes[0], sizes[1], sizes[2]};
     refuseFramesWithComponents(sizes[3], components, path);
+    requireChannelsWanted(ctx, components, "ElementNumberOfChannels");
     const std::size_t frames = sizes[3] * components;
     const std::size_t payload = checkedByteCount(ctx.voxelCount(dims, frames, *st), sampleSize(*st), path);
     long long headerSize = 0;

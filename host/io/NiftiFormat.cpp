@@ -219,6 +219,7 @@ TimeSeries readNifti(ReadContext& ctx) {
 
     const Dims dims{sizes[0], sizes[1], sizes[2]};
     refuseFramesWithComponents(sizes[3], p.components, path);
+    requireChannelsWanted(ctx, p.components, p.interleaved ? "RGB datatype" : "dim[5]");
     const std::size_t frames = sizes[3] * p.components;
     const std::size_t payload = checkedByteCount(ctx.voxelCount(dims, frames, *st), sampleSize(*st), path);
     const std::size_t total = voxOffset + payload;

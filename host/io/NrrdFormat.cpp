@@ -439,6 +439,7 @@ TimeSeries readNrrd(ReadContext& ctx) {
     const std::string componentKind = componentAxisKind(full, fullDimension);
     std::size_t components = 1;
     if (!componentKind.empty()) components = requireSizes(full.require("sizes", path), 4, path, "sizes")[0];
+    requireChannelsWanted(ctx, components, componentKind);
     const NrrdHeader h = componentKind.empty() ? full : withoutFirstAxis(full);
 
     const long long dimension = requireInt(h.require("dimension", path), path, "dimension");

@@ -145,6 +145,7 @@ TimeSeries readVtkXmlImage(ReadContext& ctx) {
                               (active.empty() ? std::string() : " named '" + active + "'"));
     const std::size_t components = arrayValues(chosen);
     if (components > 4096) fail(path, "NumberOfComponents " + std::to_string(components) + " is implausible");
+    requireChannelsWanted(ctx, components, "NumberOfComponents");
     const std::string typeName = attr(chosen, "type").value_or("");
     const auto st = vtkXmlType(typeName);
     if (!st) unsupported(path, "array type '" + typeName + "' is not supported");
