@@ -75,12 +75,15 @@ TEST(CliChannels, InfoAndChannelSelection) {
 TEST(CliChannels, SceneRendersAsTheChannelRendererAndRefusesWhatItDoesNotDraw) {
     const auto dir = test::tempDir("cli_channels_render");
     const auto in = writeTwoChannels(dir);
-    writeText(dir / "a.json", R"({"color": [[0, 1, 0.3, 0.1], [255, 1, 0.3, 0.1]], "extinction": [[0, 0], [255, 0.3]]})");
-    writeText(dir / "b.json", R"({"color": [[0, 0.1, 0.4, 1], [255, 0.1, 0.4, 1]], "extinction": [[0, 0], [255, 0.2]]})");
+    writeText(dir / "a.json",
+              R"({"color": [[0, 1, 0.3, 0.1], [255, 1, 0.3, 0.1]], "extinction": [[0, 0], [255, 0.3]]})");
+    writeText(dir / "b.json",
+              R"({"color": [[0, 0.1, 0.4, 1], [255, 0.1, 0.4, 1]], "extinction": [[0, 0], [255, 0.2]]})");
     writeText(dir / "scene.json", R"({"volume": "two.nrrd", "channels": [{"tf": "a.json"}, {"tf": "b.json"}],
                                       "camera": {"eye": [9.5, 8.5, -40], "target": [9.5, 8.5, 7.5], "height": 20},
                                       "image": {"width": 24, "height": 20}})");
-    RunResult r = run("render --scene " + (dir / "scene.json").string() + " -o " + (dir / "out.exr").string(), dir);
+    RunResult r =
+        run("render --scene " + (dir / "scene.json").string() + " -o " + (dir / "out.exr").string(), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_TRUE(has(r.err, "2 channels, additive")) << r.err;
     const ImageBuffer cli = readImage(dir / "out.exr");
