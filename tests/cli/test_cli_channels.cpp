@@ -70,6 +70,23 @@ TEST(CliChannels, InfoAndChannelSelection) {
     EXPECT_EQ(one.values<std::uint8_t>()[one.index(0, 0, 7)], 200);
     r = run("info --channel 2 " + in.string(), dir);
     EXPECT_EQ(r.exitCode, 2) << r.err;
+    // The codec keeps one scalar volume per file: each channel encodes on its own, losslessly exact.
+    for (int c = 0; c < 2; ++c) {
+        const std::string k = std::to_string(c);
+        r = run("encode " + in.string() + " --channel " + k + " -o " + (dir / ("c" + k + ".vcz")).string(),
+                dir);
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        r = run("decode " + (dir / ("c" + k + ".vcz")).string() + " -o " +
+                    (dir / ("d" + k + ".nrrd")).string(),
+                dir);
+        ASSERT_EQ(r.exitCode, 0) << r.err;
+        ReadOptions o;
+        o.channel = std::size_t(c);
+        EXPECT_TRUE(readVolume(dir / ("d" + k + ".nrrd")) == readVolume(in, o)) << "channel " << c;
+    }
+    r = run("encode " + in.string() + " -o " + (dir / "all.vcz").string(), dir);
+    EXPECT_EQ(r.exitCode, 1);
+    EXPECT_FALSE(std::filesystem::exists(dir / "all.vcz"));
 }
 
 TEST(CliChannels, SceneRendersAsTheChannelRendererAndRefusesWhatItDoesNotDraw) {
