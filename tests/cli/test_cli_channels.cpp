@@ -15,10 +15,7 @@ namespace {
 
 using test::has;
 using test::RunResult;
-
-RunResult run(const std::string& args, const std::filesystem::path& dir) {
-    return test::runVolcl(args, dir);
-}
+using test::runVolcl;
 
 /// Two uint8 channels on 20 x 18 x 16 (a ball and a slab), one NRRD with a vector axis.
 std::filesystem::path writeTwoChannels(const std::filesystem::path& dir) {
@@ -48,43 +45,43 @@ void writeText(const std::filesystem::path& p, const std::string& text) {
 TEST(CliChannels, InfoAndChannelSelection) {
     const auto dir = test::tempDir("cli_channels_info");
     const auto in = writeTwoChannels(dir);
-    RunResult r = run("info " + in.string(), dir);
+    RunResult r = runVolcl("info " + in.string(), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_TRUE(has(r.out, "2 channels")) << r.out;
     EXPECT_TRUE(has(r.out, "channel 1:")) << r.out;
-    r = run("info --json " + in.string(), dir);
+    r = runVolcl("info --json " + in.string(), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_TRUE(has(r.out, "\"channels\"")) << r.out;
-    r = run("info --channel 1 " + in.string(), dir);
+    r = runVolcl("info --channel 1 " + in.string(), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_FALSE(has(r.out, "2 channels") || has(r.out, "channel 0:")) << r.out;
     // A scalar command without --channel: one line naming the file and the count, exit 1, no output.
-    r = run("convert " + in.string() + " -o " + (dir / "out.nii").string(), dir);
+    r = runVolcl("convert " + in.string() + " -o " + (dir / "out.nii").string(), dir);
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_TRUE(has(r.err, in.string()) && has(r.err, "has 2 channels") && has(r.err, "--channel")) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir / "out.nii"));
-    r = run("convert " + in.string() + " --channel 1 -o " + (dir / "one.nii").string(), dir);
+    r = runVolcl("convert " + in.string() + " --channel 1 -o " + (dir / "one.nii").string(), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const Volume one = readVolume(dir / "one.nii");
     EXPECT_EQ(one.values<std::uint8_t>()[one.index(0, 0, 7)], 200);
-    r = run("info --channel 2 " + in.string(), dir);
+    r = runVolcl("info --channel 2 " + in.string(), dir);
     EXPECT_EQ(r.exitCode, 2) << r.err;
     // The codec keeps one scalar volume per file: each channel encodes on its own, losslessly exact.
     for (int c = 0; c < 2; ++c) {
         const std::string k = std::to_string(c);
-        r = run("encode " + in.string() + " --channel " + k + " -o " + (dir / ("c" + k + ".vcz")).string(),
-                dir);
+        r = runVolcl(
+            "encode " + in.string() + " --channel " + k + " -o " + (dir / ("c" + k + ".vcz")).string(), dir);
         ASSERT_EQ(r.exitCode, 0) << r.err;
-        r = run("decode " + (dir / ("c" + k + ".vcz")).string() + " -o " +
-                    (dir / ("d" + k + ".nrrd")).string(),
-                dir);
+        r = runVolcl("decode " + (dir / ("c" + k + ".vcz")).string() + " -o " +
+                         (dir / ("d" + k + ".nrrd")).string(),
+                     dir);
         ASSERT_EQ(r.exitCode, 0) << r.err;
         ReadOptions o;
         o.channel = std::size_t(c);
         EXPECT_TRUE(readVolume(dir / ("d" + k + ".nrrd")) == readVolume(in, o)) << "channel " << c;
     }
-    r = run("encode " + in.string() + " -o " + (dir / "all.vcz").string(), dir);
+    r = runVolcl("encode " + in.string() + " -o " + (dir / "all.vcz").string(), dir);
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_FALSE(std::filesystem::exists(dir / "all.vcz"));
 }
@@ -99,8 +96,8 @@ TEST(CliChannels, SceneRendersAsTheChannelRendererAndRefusesWhatItDoesNotDraw) {
     writeText(dir / "scene.json", R"({"volume": "two.nrrd", "channels": [{"tf": "a.json"}, {"tf": "b.json"}],
                                       "camera": {"eye": [9.5, 8.5, -40], "target": [9.5, 8.5, 7.5], "height": 20},
                                       "image": {"width": 24, "height": 20}})");
-    RunResult r =
-        run("render --scene " + (dir / "scene.json").string() + " -o " + (dir / "out.exr").string(), dir);
+    RunResult r = runVolcl(
+        "render --scene " + (dir / "scene.json").string() + " -o " + (dir / "out.exr").string(), dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     EXPECT_TRUE(has(r.err, "2 channels, additive")) << r.err;
     const ImageBuffer cli = readImage(dir / "out.exr");
@@ -127,13 +124,13 @@ TEST(CliChannels, SceneRendersAsTheChannelRendererAndRefusesWhatItDoesNotDraw) {
     // Shading is refused in one line naming the scene file, exit 2, no output.
     writeText(dir / "lit.json", R"({"volume": "two.nrrd", "channels": [{"tf": "a.json"}, {"tf": "b.json"}],
                                     "effects": {"shading": {}}})");
-    r = run("render --scene " + (dir / "lit.json").string() + " -o " + (dir / "lit.png").string(), dir);
+    r = runVolcl("render --scene " + (dir / "lit.json").string() + " -o " + (dir / "lit.png").string(), dir);
     EXPECT_EQ(r.exitCode, 2);
     EXPECT_TRUE(has(r.err, "shading")) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_FALSE(std::filesystem::exists(dir / "lit.png"));
     // Rendering the file as one scalar volume without --channel: refused in one line, exit 1.
-    r = run("render --volume " + in.string() + " -o " + (dir / "plain.png").string(), dir);
+    r = runVolcl("render --volume " + in.string() + " -o " + (dir / "plain.png").string(), dir);
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_TRUE(has(r.err, "has 2 channels")) << r.err;
 }
