@@ -22,6 +22,8 @@ set(VOLCL_KERNEL_FILES
   render/raymarch.cl
   render/gradient_cache.cl
   render/raymarch_plain.cl
+  render/raymarch_channels.cl
+  render/channels_shared.h
   render/preview_shared.h
   render/preview_table.h
   render/shearwarp.cl

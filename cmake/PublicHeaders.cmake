@@ -6,6 +6,7 @@ set(VOLCL_PUBLIC_HEADERS
   core/MemoryBudget.hpp
   core/Version.hpp
   core/Volume.hpp
+  core/Channels.hpp
   core/ZeroedBytes.hpp
   host/image/ImageIo.hpp
   core/AtomicFile.hpp

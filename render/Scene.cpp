@@ -546,7 +546,9 @@ void parseEffects(const json& e, const std::filesystem::path& baseDir, SceneEffe
 
 Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDir) {
     const json j = parse(text);
-    checkKeys(j, "the scene", {"volume", "tf", "camera", "image", "render", "lights", "effects", "labels"});
+    checkKeys(j, "the scene",
+              {"volume", "tf", "camera", "image", "render", "lights", "effects", "labels", "channels",
+               "blend", "color"});
     Scene s;
     auto path = [&](const json& v, const char* where) {
         const std::string text = str(v, where);
@@ -557,6 +559,36 @@ Scene Scene::fromJson(std::string_view text, const std::filesystem::path& baseDi
     };
     if (j.contains("volume")) s.volume = path(j["volume"], "volume");
     if (j.contains("tf")) s.tf = path(j["tf"], "tf");
+    if (j.contains("channels")) {
+        if (!j["channels"].is_array() || j["channels"].empty())
+            throw UsageError("scene: channels must be a non-empty list of {\"tf\", \"visible\", \"volume\", "
+                             "\"channel\"}");
+        for (const json& c : j["channels"]) {
+            if (!c.is_object()) throw UsageError("scene: each of channels must be an object");
+            checkKeys(c, "a channel", {"tf", "visible", "volume", "channel"});
+            SceneChannel sc;
+            if (c.contains("tf")) sc.tf = path(c["tf"], "channels.tf");
+            if (c.contains("visible")) sc.visible = flag(c["visible"], "channels.visible");
+            if (c.contains("volume")) sc.volume = path(c["volume"], "channels.volume");
+            if (c.contains("channel")) {
+                if (!c["channel"].is_number_unsigned())
+                    throw UsageError("scene: channels.channel must be a channel index (0, 1, ...)");
+                sc.channel = c["channel"].get<std::size_t>();
+            }
+            s.channels.push_back(std::move(sc));
+        }
+    }
+    if (j.contains("blend")) {
+        s.channelBlend = str(j["blend"], "blend");
+        if (s.channelBlend != "additive" && s.channelBlend != "max")
+            throw UsageError("scene: blend '" + s.channelBlend + "' is unknown (expected additive, max)");
+    }
+    if (j.contains("color")) {
+        const std::string c = str(j["color"], "color");
+        if (c != "direct" && c != "tf")
+            throw UsageError("scene: color '" + c + "' is unknown (expected direct, tf)");
+        s.directColor = c == "direct";
+    }
     if (j.contains("camera")) parseCamera(j["camera"], s);
     if (j.contains("image")) parseImage(j["image"], s);
     if (j.contains("render")) parseRenderSettings(j["render"], s);
@@ -609,6 +641,16 @@ std::string Scene::toJson() const {
                        {"boundary", labels->nearest ? "nearest" : "smooth"}};
         if (!labels->table.empty()) j["labels"]["table"] = labels->table.string();
     }
+    for (const SceneChannel& c : channels) {
+        json e;
+        if (!c.tf.empty()) e["tf"] = c.tf.string();
+        e["visible"] = c.visible;
+        if (!c.volume.empty()) e["volume"] = c.volume.string();
+        if (c.channel) e["channel"] = *c.channel;
+        j["channels"].push_back(e);
+    }
+    if (!channels.empty()) j["blend"] = channelBlend;
+    if (directColor) j["color"] = "direct";
     if (camera) {
         json c;
         c["projection"] = camera->projection == Projection::Perspective ? "perspective" : "orthographic";
@@ -755,6 +797,10 @@ void Scene::validate() const {
     };
     need(width >= 1 && height >= 1 && width <= 16384 && height <= 16384,
          "image size " + std::to_string(width) + "x" + std::to_string(height) + " must be 1..16384 per side");
+    // The channel renderer has no label kernel, and labels colour one intensity volume, not a blend.
+    need(!(labels && multiChannel()),
+         "labels are drawn over a single-channel volume, not with \"channels\" or "
+         "direct colour");
     // Lengths reach the kernels as float: 1e30 leaves headroom below float's 3.4e38.
     need(std::isfinite(step) && step > 0.0 && step <= 1e30, "render.step must be in (0, 1e30]");
     need(!stepVoxels || (std::isfinite(*stepVoxels) && *stepVoxels > 0.0 && *stepVoxels <= 1e30),

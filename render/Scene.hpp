@@ -203,6 +203,17 @@ struct LabelLayer {
     bool nearest = false;
 };
 
+/// One channel of a multi-channel scene (`"channels"`, docs/channels.md): its transfer function (a file or
+/// "preset:NAME"; empty: ParaView's default over the channel's range), whether it shows, and where it comes
+/// from (default: the scene's volume, component = the entry's position; a file of its own gives its channel 0
+/// unless `channel` says otherwise).
+struct SceneChannel {
+    std::filesystem::path tf;
+    bool visible = true;
+    std::filesystem::path volume;
+    std::optional<std::size_t> channel;
+};
+
 /// A complete scene. Paths are resolved against the scene file's folder. Example:
 /// ```
 /// volcl::Scene s = volcl::Scene::fromFile("head.json");
@@ -211,8 +222,15 @@ struct LabelLayer {
 /// ```
 struct Scene {
     std::filesystem::path volume, tf; ///< volume: the data file; RenderInput::open picks its renderer
-    std::optional<Camera> camera;     ///< absent: defaultCamera() looks down +z at the data's whole box
-    CameraFieldsGiven cameraGiven;    ///< from a scene file: the fields it gave (the rest are fitted)
+    /// Multi-channel scenes: one entry per channel, blended by `channelBlend` ("additive" or "max");
+    /// `directColor` ("color": "direct") draws 3 or 4 channels as RGB(A), opacity through `tf`.
+    std::vector<SceneChannel> channels;
+    std::string channelBlend = "additive";
+    bool directColor = false;
+    /// The scene draws several channels (channels given, or direct colour).
+    bool multiChannel() const noexcept { return !channels.empty() || directColor; }
+    std::optional<Camera> camera;  ///< absent: defaultCamera() looks down +z at the data's whole box
+    CameraFieldsGiven cameraGiven; ///< from a scene file: the fields it gave (the rest are fitted)
     int width = 512, height = 512;
     std::array<double, 4> background{0, 0, 0, 1};
     /// Colour of samples that are not finite (NaN/Inf voxels): straight r, g, b and opacity per unit

@@ -422,6 +422,16 @@ TEST(Labels, RefusedWhereTheyDoNotApplyInOneLine) {
     Scene iso = s;
     iso.effects.isosurfaces = {IsoLayer{0.5, {1, 1, 1, 1}}};
     EXPECT_NE(refused(iso).find("iso-surfaces"), std::string::npos);
+    // Labels colour one intensity volume: a multi-channel scene with labels is refused when validated.
+    Scene channels = s;
+    channels.channels.resize(2);
+    try {
+        channels.validate();
+        FAIL() << "labels with channels accepted";
+    } catch (const UsageError& e) {
+        EXPECT_NE(std::string(e.what()).find("labels are drawn over a single-channel volume"),
+                  std::string::npos);
+    }
     // Renderers without a label kernel (.vcz bricks, meshes, previews) refuse in one line.
     try {
         checkLabels(s, tf, false);

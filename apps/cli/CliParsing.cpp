@@ -67,6 +67,10 @@ void RawReadFlags::add(CLI::App& cmd) {
                    "DICOM input: Series Instance UID to read when a folder holds several series");
     cmd.add_flag("--allow-external-data", allowExternalData,
                  "Let a header name data files outside its own directory (absolute paths, ../)");
+    cmd.add_option("--channel", channel,
+                   "Multi-channel input (vector/RGB NRRD, NIfTI dim[5] or RGB, .vti components, MetaImage "
+                   "channels): read channel K (0-based) as the scalar volume")
+        ->check(CLI::NonNegativeNumber);
 }
 
 ReadOptions RawReadFlags::toReadOptions() const {
@@ -78,6 +82,7 @@ ReadOptions RawReadFlags::toReadOptions() const {
     if (!vdbGrid.empty()) o.vdbGrid = vdbGrid;
     if (!dicomSeries.empty()) o.dicomSeries = dicomSeries;
     o.allowExternalData = allowExternalData;
+    if (channel >= 0) o.channel = static_cast<std::size_t>(channel);
     return o;
 }
 

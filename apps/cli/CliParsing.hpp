@@ -27,6 +27,7 @@ struct RawReadFlags {
     std::string dicomSeries; ///< --series: DICOM Series Instance UID
     std::size_t headerBytes = 0;
     bool allowExternalData = false; ///< --allow-external-data: header data files outside its directory
+    int channel = -1;               ///< --channel K: one channel of a multi-channel file (-1: not given)
     void add(CLI::App& cmd);
     ReadOptions toReadOptions() const;
 };

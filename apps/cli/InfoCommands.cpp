@@ -197,6 +197,30 @@ void printVolumeInfo(std::ostream& out, const std::string& path, const TimeSerie
 
 namespace {
 
+// A multi-channel file: each channel as a volume of its own (text: one block per channel; JSON: "channels").
+void printChannelsInfo(std::ostream& out, const std::string& path, const TimeSeries& channels, bool json,
+                       bool quiet) {
+    nlohmann::json all;
+    all["file"] = path;
+    all["channels"] = nlohmann::json::array();
+    for (std::size_t c = 0; c < channels.frames.size(); ++c) {
+        TimeSeries one;
+        one.frames.push_back(channels.frames[c]);
+        nlohmann::json j = infoJson(path, detectVolumeFormat(path), one, seriesStats(one, quiet));
+        j["channel"] = c;
+        all["channels"].push_back(j);
+    }
+    if (json) {
+        out << all.dump(2) << '\n';
+        return;
+    }
+    out << path << ": " << channels.frames.size() << " channels (--channel K reads one)\n";
+    for (const auto& j : all["channels"]) {
+        out << "channel " << j["channel"] << ":\n";
+        printInfoText(out, j);
+    }
+}
+
 // `volcl info`: a volume's dims, type, spacing and statistics; a mesh's or a .vcz's summary.
 void addInfo(CLI::App& app, GlobalOptions& global) {
     auto* cmd = app.add_subcommand(
@@ -233,7 +257,14 @@ void addInfo(CLI::App& app, GlobalOptions& global) {
             printVczInfo(std::cout, *file, *json, *bricks);
             return;
         }
-        TimeSeries ts = readVolumeFile(*file, raw->toReadOptions());
+        ReadOptions options = raw->toReadOptions();
+        options.allChannels = !options.channel; // without --channel, a multi-channel file shows every channel
+        std::size_t channels = 1;
+        TimeSeries ts = readVolumeFile(*file, options, channels);
+        if (channels > 1 && options.allChannels) {
+            printChannelsInfo(std::cout, *file, ts, *json, global.quiet);
+            return;
+        }
         printVolumeInfo(std::cout, *file, ts, *json, global.quiet);
         if (!histogram2d->empty())
             writeHistogram2d(*json ? std::cerr : std::cout, ts.frames.at(0), *histogram2d);

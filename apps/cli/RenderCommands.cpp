@@ -16,6 +16,7 @@
 #include "render/RenderInput.hpp"
 #include "render/Scene.hpp"
 #include "render/VolumeRenderer.hpp"
+#include "render/grid/ChannelRenderer.hpp"
 #include "wavelet/Codec.hpp"
 
 #include <array>
@@ -44,6 +45,34 @@ void writeRendered(const ImageBuffer& img, const std::filesystem::path& out, con
         writeImage(img, out, {.halfFloat = half});
     } else {
         writeImage(compositeOverSrgb(img, s.background), out);
+    }
+}
+
+// A multi-channel scene ("channels", "color": "direct"): every channel through the channel renderer.
+void renderChannels(const Scene& scene, const SceneFlags& flags, const std::string& out, bool half,
+                    const GlobalOptions& global) {
+    if (out.empty()) throw UsageError("render: --explain does not describe multi-channel scenes; give -o");
+    if (scene.volume.extension() == ".vcz")
+        throw UsageError(scene.volume.string() + ": multi-channel scenes read grid files, not .vcz");
+    const ChannelVolume cv = readSceneChannels(scene, flags.raw.toReadOptions());
+    for (const SceneChannel& c : scene.channels)
+        if (!c.volume.empty()) checkNotSameFile(c.volume, out);
+    Scene s = scene;
+    std::vector<std::string> notes;
+    for (auto& note : flags.finish(s, RenderInput::borrow(cv.channels.front())))
+        notes.push_back(std::move(note));
+    const double unit = RenderInput::borrow(cv.channels.front()).approximateCellLength();
+    const ChannelStyle style = sceneChannelStyle(s, cv, unit);
+    ComputeContext cc(global.device);
+    ChannelRenderer r(cc, cv, style, s);
+    const ImageBuffer img = r.render();
+    writeRendered(img, out, s, half);
+    if (!global.quiet) {
+        for (const auto& note : notes)
+            std::cerr << "volcl render: " << note << '\n';
+        std::cerr << "volcl render: " << s.width << "x" << s.height << " " << cv.count() << " channels, "
+                  << channelBlendName(style.blend) << ", step " << s.step << ": " << std::fixed
+                  << std::setprecision(1) << r.lastMilliseconds() << " ms kernel -> " << out << '\n';
     }
 }
 
@@ -83,6 +112,13 @@ void addRenderCommands(CLI::App& app, GlobalOptions& global) {
             outputExtension(a->out);
             checkOutputPath(a->out);
             checkNotSameFile(scene.volume, a->out);
+        }
+        if (scene.multiChannel()) {
+            try {
+                return renderChannels(scene, a->scene, a->out, a->half, global);
+            } catch (const UsageError& e) {
+                throw a->scene.namingSceneFile(e);
+            }
         }
         const std::vector<IsoLayer> isosAsGiven = scene.effects.isosurfaces; // data units
         std::vector<std::string> notes;

@@ -932,4 +932,41 @@ std::vector<std::byte> readDetachedPayload(const fs::path& header, const std::ve
     return out;
 }
 
+TimeSeries channelsAsRequested(std::vector<Volume> channels, ReadContext& ctx, std::string_view kind,
+                               bool color) {
+    const std::size_t count = channels.size();
+    ctx.noteChannels(count, color);
+    TimeSeries series;
+    const ReadOptions& o = ctx.options();
+    if (count == 1) {
+        series.frames = std::move(channels);
+        return series;
+    }
+    if (o.channel) {
+        if (*o.channel >= count)
+            throw UsageError(ctx.file().string() + ": --channel " + std::to_string(*o.channel) +
+                             " is past the " + std::to_string(count) + " channels (0 to " +
+                             std::to_string(count - 1) + ")");
+        series.frames.push_back(std::move(channels[*o.channel]));
+        return series;
+    }
+    requireChannelsWanted(ctx, count, kind);
+    series.frames = std::move(channels);
+    return series;
+}
+
+void requireChannelsWanted(const ReadContext& ctx, std::size_t count, std::string_view kind) {
+    const ReadOptions& o = ctx.options();
+    if (count > 1 && !o.channel && !o.allChannels)
+        unsupported(ctx.file(), "has " + std::to_string(count) + " channels (" + std::string(kind) +
+                                    "): choose one with --channel K (0 to " + std::to_string(count - 1) +
+                                    "), or render them all with a scene's \"channels\"");
+}
+
+void refuseFramesWithComponents(std::size_t frames, std::size_t components, const fs::path& file) {
+    if (frames > 1 && components > 1)
+        unsupported(file, std::to_string(frames) + " time frames of " + std::to_string(components) +
+                              " components each: multi-channel series are not supported");
+}
+
 } // namespace volcl::io

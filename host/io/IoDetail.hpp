@@ -2,6 +2,7 @@
 #pragma once
 
 #include "core/AtomicFile.hpp"
+#include "core/Channels.hpp"
 #include "core/Error.hpp"
 #include "core/Volume.hpp"
 #include "host/io/VolumeIo.hpp"
@@ -61,6 +62,14 @@ public:
     std::size_t voxelCount(const Dims& dims, std::size_t frames, SampleType st) const;
     /// Refuses `bytes` of memory for `what` above the budget.
     void claimMemory(std::size_t bytes, std::string_view what) const;
+    /// Components per voxel of the file (1 until a reader of a multi-channel file notes more) and whether
+    /// they are RGB(A) colour: channelsAsRequested() records them, readVolumeFile() checks --channel with them.
+    void noteChannels(std::size_t count, bool color) noexcept {
+        channels_ = count;
+        colorChannels_ = color;
+    }
+    std::size_t channels() const noexcept { return channels_; }
+    bool colorChannels() const noexcept { return colorChannels_; }
     /// The header followed by every data file resolved so far.
     const std::vector<std::filesystem::path>& files() const noexcept { return files_; }
 
@@ -68,6 +77,8 @@ private:
     std::filesystem::path file_;
     const ReadOptions& options_;
     std::vector<std::filesystem::path> files_;
+    std::size_t channels_ = 1;
+    bool colorChannels_ = false;
     std::filesystem::path headerDirectory_; ///< its real path, resolved by the first dataFile() that needs it
 };
 
@@ -87,6 +98,18 @@ std::vector<double> decodeToDouble(std::span<const std::byte> src, SampleType st
 TimeSeries decodeFrames(std::span<const std::byte> payload, SampleType st, Endian endian, const Dims& dims,
                         std::size_t frames, const std::array<double, 3>& spacing,
                         const std::array<double, 3>& origin);
+/// What a reader returns for a file of one time point whose voxels hold `channels.size()` components
+/// (`kind` names them in messages: "vector", "RGB-color"): the channel ReadOptions::channel asks for, every
+/// channel (ReadOptions::allChannels), or, asked for neither, a DataError naming `file` and the count. One
+/// channel is the scalar file it is. `color`: the components are RGB(A) colour. Notes both in `ctx`.
+TimeSeries channelsAsRequested(std::vector<Volume> channels, ReadContext& ctx, std::string_view kind,
+                               bool color = false);
+/// Refuses (DataError naming the file and the count, before any voxel is read) a file of `count` > 1 channels
+/// when the options ask for neither one channel nor all of them; channelsAsRequested() checks it again.
+void requireChannelsWanted(const ReadContext& ctx, std::size_t count, std::string_view kind);
+/// Refuses (DataError naming `file`) a file holding both time frames and `components` > 1 components.
+void refuseFramesWithComponents(std::size_t frames, std::size_t components,
+                                const std::filesystem::path& file);
 /// Refuses ASCII text too short to hold `count` values (each needs a character and a separator)
 /// before the caller allocates a volume for them.
 void requireAsciiCapacity(std::string_view text, std::size_t count, const std::filesystem::path& file);
@@ -239,6 +262,15 @@ void writeNrrd(const Volume& volume, const std::filesystem::path& path, const Wr
 /// A 4D NRRD of every frame (same dims and type): a fourth axis of kind `list` after the three spatial ones.
 void writeNrrdSeries(std::span<const Volume> frames, const std::filesystem::path& path,
                      const WriteOptions& options);
+/// Channels of one type as a 4D NRRD with a leading component axis (kind vector, RGB-color or RGBA-color).
+void writeNrrdChannels(const ChannelVolume& channels, const std::filesystem::path& path,
+                       const WriteOptions& options);
+/// Channels of one type as a 5D NIfTI (dim[4] = 1, dim[5] = channels, intent vector 1007).
+void writeNiftiChannels(const ChannelVolume& channels, const std::filesystem::path& path,
+                        const WriteOptions& options);
+/// Channels of one type as a .vti point-data array of NumberOfComponents = channels.
+void writeVtkXmlChannels(const ChannelVolume& channels, const std::filesystem::path& path,
+                         const WriteOptions& options);
 /// The data file a detached `.nhdr` writer made for the header now at `header` (`NAME.<16 hex>.raw`, named
 /// by a header that says "written by volcl"), which writing that header again removes; nullopt otherwise.
 std::optional<std::filesystem::path> nhdrOwnedDataFile(const std::filesystem::path& header);

@@ -1,5 +1,6 @@
 // MetaImage (.mhd header + data file, .mha with LOCAL data): raw or zlib, byte order, spacing, offset.
 #include "core/AtomicFile.hpp"
+#include "core/Channels.hpp"
 #include "host/io/IoDetail.hpp"
 
 #include <cmath>
@@ -76,9 +77,12 @@ TimeSeries readMetaImage(ReadContext& ctx) {
     if (ndims < 1 || ndims > 4) unsupported(path, "NDims " + std::to_string(ndims) + " (1 to 4 supported)");
     const auto sizes =
         requireSizes(require("dimsize", "DimSize"), static_cast<std::size_t>(ndims), path, "DimSize");
-    if (auto ch = field("elementnumberofchannels");
-        ch && requireInt(*ch, path, "ElementNumberOfChannels") != 1)
-        unsupported(path, "ElementNumberOfChannels " + *ch + ": only scalar volumes are supported");
+    std::size_t components = 1; // ElementNumberOfChannels: interleaved per voxel
+    if (auto ch = field("elementnumberofchannels")) {
+        const long long n = requireInt(*ch, path, "ElementNumberOfChannels");
+        if (n < 1 || n > 4096) fail(path, "ElementNumberOfChannels " + *ch + " is not 1 to 4096");
+        components = static_cast<std::size_t>(n);
+    }
     const std::string typeName = require("elementtype", "ElementType");
     const auto st = metaType(typeName);
     if (!st) unsupported(path, "ElementType " + typeName + " is not supported");
@@ -175,7 +179,9 @@ TimeSeries readMetaImage(ReadContext& ctx) {
             origin[a] = -origin[a];
 
     const Dims dims{sizes[0], sizes[1], sizes[2]};
-    const std::size_t frames = sizes[3];
+    refuseFramesWithComponents(sizes[3], components, path);
+    requireChannelsWanted(ctx, components, "ElementNumberOfChannels");
+    const std::size_t frames = sizes[3] * components;
     const std::size_t payload = checkedByteCount(ctx.voxelCount(dims, frames, *st), sampleSize(*st), path);
     long long headerSize = 0;
     if (auto hs = field("headersize")) headerSize = requireInt(*hs, path, "HeaderSize");
@@ -215,6 +221,17 @@ TimeSeries readMetaImage(ReadContext& ctx) {
         data = readDetachedPayload(path, files, payload,
                                    compressed ? PayloadEncoding::Compressed : PayloadEncoding::Raw,
                                    compressed ? 0 : headerSize, 0);
+    }
+    if (components > 1) {
+        TimeSeries whole =
+            decodeFrames(data, *st, endian, {components, dims.x * dims.y, dims.z}, 1, spacing, origin);
+        Volume grid(dims, ScalarType::UInt8);
+        grid.spacing = spacing;
+        grid.origin = origin;
+        grid.direction = direction;
+        grid.anatomical = anatomical;
+        return channelsAsRequested(splitInterleaved(whole.frames.front(), components, grid), ctx,
+                                   "ElementNumberOfChannels");
     }
     TimeSeries series = decodeFrames(data, *st, endian, dims, frames, spacing, origin);
     for (Volume& v : series.frames) {

@@ -64,6 +64,10 @@ struct ParsedHeader {
     Endian endian = Endian::Little;
     std::size_t sizes[7] = {1, 1, 1, 1, 1, 1, 1};
     SampleType sampleType = SampleType::UInt8;
+    /// Components per voxel: dim[5] (stored as whole volumes one after another) or 3/4 of an RGB24/RGBA32
+    /// datatype (interleaved per voxel).
+    std::size_t components = 1;
+    bool interleaved = false;
     NiftiMetadata meta;
 };
 
@@ -103,18 +107,30 @@ ParsedHeader parseHeader(std::span<const std::byte> head, const fs::path& path) 
             fail(path, "dim[" + std::to_string(i + 1) + "] = " + std::to_string(d) + " must be positive");
         p.sizes[i] = static_cast<std::size_t>(d);
     }
-    for (int i = 4; i < 7; ++i)
+    p.components = p.sizes[4]; // dim[5]: the components of a vector (or any) intent
+    for (int i = 5; i < 7; ++i)
         if (p.sizes[i] != 1)
             unsupported(path, "dimension " + std::to_string(i + 1) + " has size " +
                                   std::to_string(p.sizes[i]) + ": only 3D and 4D volumes are supported");
     const int datatype = h.get<std::int16_t>(70);
-    const auto st = niftiType(datatype);
+    constexpr int kRgb24 = 128, kRgba32 = 2304; // uint8 colour components, interleaved per voxel
+    if (datatype == kRgb24 || datatype == kRgba32) {
+        if (p.components != 1) unsupported(path, "RGB datatype with dim[5] components");
+        p.components = datatype == kRgb24 ? 3 : 4;
+        p.interleaved = true;
+        p.sampleType = SampleType::UInt8;
+        const int bitpix = h.get<std::int16_t>(72);
+        if (bitpix != static_cast<int>(8 * p.components))
+            fail(path,
+                 "bitpix " + std::to_string(bitpix) + " does not match datatype " + std::to_string(datatype));
+    }
+    const auto st = p.interleaved ? std::optional<SampleType>(SampleType::UInt8) : niftiType(datatype);
     if (!st)
         unsupported(path,
                     "datatype " + std::to_string(datatype) + " (complex, RGB or unknown) is not supported");
     p.sampleType = *st;
     const int bitpix = h.get<std::int16_t>(72);
-    if (bitpix != static_cast<int>(8 * sampleSize(*st)))
+    if (!p.interleaved && bitpix != static_cast<int>(8 * sampleSize(*st)))
         fail(path,
              "bitpix " + std::to_string(bitpix) + " does not match datatype " + std::to_string(datatype));
 
@@ -202,7 +218,9 @@ TimeSeries readNifti(ReadContext& ctx) {
     const std::size_t voxOffset = dataOffset(h, path);
 
     const Dims dims{sizes[0], sizes[1], sizes[2]};
-    const std::size_t frames = sizes[3];
+    refuseFramesWithComponents(sizes[3], p.components, path);
+    requireChannelsWanted(ctx, p.components, p.interleaved ? "RGB datatype" : "dim[5]");
+    const std::size_t frames = sizes[3] * p.components;
     const std::size_t payload = checkedByteCount(ctx.voxelCount(dims, frames, *st), sampleSize(*st), path);
     const std::size_t total = voxOffset + payload;
     std::vector<std::byte> inflated;
@@ -215,7 +233,16 @@ TimeSeries readNifti(ReadContext& ctx) {
                        std::to_string(file.size()) + " bytes, the header needs " + std::to_string(total));
     }
     TimeSeries series =
-        decodeFrames(all.subspan(voxOffset, payload), *st, endian, dims, frames, spacing, origin);
+        p.interleaved
+            ? decodeFrames(all.subspan(voxOffset, payload), *st, endian,
+                           {p.components, dims.x * dims.y, dims.z}, 1, spacing, origin)
+            : decodeFrames(all.subspan(voxOffset, payload), *st, endian, dims, frames, spacing, origin);
+    if (p.interleaved) {
+        Volume grid(dims, ScalarType::UInt8);
+        grid.spacing = spacing;
+        grid.origin = origin;
+        series.frames = splitInterleaved(series.frames.front(), p.components, grid);
+    }
 
     // The sform (else the qform) orients the grid in RAS; NIfTI is anatomical whatever its codes.
     const Direction3 direction = niftiDirection(p.meta);
@@ -228,6 +255,9 @@ TimeSeries readNifti(ReadContext& ctx) {
     if (p.meta.scales() && !(ctx.options().niftiStoredValues && niftiStoredValuesExact(p.meta)))
         for (Volume& v : series.frames)
             v = niftiDataUnits(v, p.meta);
+    if (p.components > 1)
+        return channelsAsRequested(std::move(series.frames), ctx, p.interleaved ? "RGB datatype" : "dim[5]",
+                                   p.interleaved);
     // pixdim[4] is the time step; xyzt_units says whether it is in s, ms or us. Times are in seconds.
     const double dt = p.meta.timeStep;
     if (frames > 1 && std::isfinite(dt) && dt > 0) {
@@ -245,7 +275,7 @@ std::optional<SlabLayout> niftiSlabLayout(ReadContext& ctx) {
     const bool gz = looksCompressed(magic);
     const std::vector<std::byte> head = readFilePrefix(path, kHeaderSize, gz);
     const ParsedHeader p = parseHeader(head, path);
-    if (p.sizes[3] != 1) return std::nullopt; // a series: read whole, frame by frame
+    if (p.sizes[3] != 1 || p.components != 1) return std::nullopt; // a series or channels: read whole
     // Values scaled to data units become float32; stored integers stream only when the caller keeps them.
     if (p.meta.scales() && !(ctx.options().niftiStoredValues && niftiStoredValuesExact(p.meta)))
         return std::nullopt;

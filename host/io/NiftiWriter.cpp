@@ -91,8 +91,12 @@ std::pair<float, std::uint8_t> timeStepOf(const NiftiMetadata& m, const std::vec
 
 } // namespace
 
-void writeNiftiSeries(std::span<const Volume> frames, const std::vector<double>& times, const fs::path& path,
-                      const WriteOptions& options) {
+namespace {
+
+// One NIfTI writer for a volume, a series (dim[4] = frames) and channels (`asChannels`: dim[4] = 1,
+// dim[5] = channels, intent vector): both store whole volumes one after another.
+void writeNiftiVolumes(std::span<const Volume> frames, const std::vector<double>& times, const fs::path& path,
+                       const WriteOptions& options, bool asChannels) {
     const Volume& first = frames.front();
     for (std::size_t d : {first.dims().x, first.dims().y, first.dims().z, frames.size()})
         if (d > static_cast<std::size_t>(std::numeric_limits<std::int16_t>::max()))
@@ -101,7 +105,8 @@ void writeNiftiSeries(std::span<const Volume> frames, const std::vector<double>&
                              "volume has " + std::to_string(d));
     for (const Volume& v : frames)
         if (v.dims() != first.dims() || v.type() != first.type())
-            throw UsageError(path.string() + ": the frames of a 4D NIfTI must share dims and voxel type");
+            throw UsageError(path.string() +
+                             ": the frames or channels of a NIfTI must share dims and voxel type");
     const NiftiMetadata m =
         options.nifti ? niftiMetadataOnGrid(*options.nifti, first) : niftiMetadataForVolume(first);
     // NIfTI-1 stores geometry as float32: a spacing that rounds to 0 or overflows to inf, or an origin
@@ -150,20 +155,24 @@ void writeNiftiSeries(std::span<const Volume> frames, const std::vector<double>&
     std::vector<std::byte> file(kDataOffset, std::byte{0});
     put<std::int32_t>(file, 0, static_cast<std::int32_t>(kHeaderSize));
     file[38] = std::byte{'r'};
-    const bool series = frames.size() > 1;
-    const std::int16_t dim[8] = {static_cast<std::int16_t>(series ? 4 : 3),
+    const bool series = frames.size() > 1 && !asChannels;
+    const auto count = static_cast<std::int16_t>(frames.size());
+    const std::int16_t dim[8] = {static_cast<std::int16_t>(asChannels ? 5
+                                                           : series   ? 4
+                                                                      : 3),
                                  static_cast<std::int16_t>(first.dims().x),
                                  static_cast<std::int16_t>(first.dims().y),
                                  static_cast<std::int16_t>(first.dims().z),
-                                 static_cast<std::int16_t>(frames.size()),
-                                 1,
+                                 asChannels ? std::int16_t{1} : count,
+                                 asChannels ? count : std::int16_t{1},
                                  1,
                                  1};
     for (int i = 0; i < 8; ++i)
         put(file, 40 + 2 * i, dim[i]);
     for (int i = 0; i < 3; ++i)
         put(file, 56 + 4 * i, m.intentP[i]);
-    put(file, 68, m.intentCode);
+    constexpr std::int16_t kIntentVector = 1007; // NIFTI_INTENT_VECTOR: dim[5] holds a voxel's components
+    put(file, 68, asChannels ? kIntentVector : m.intentCode);
     put(file, 70, niftiCode(type));
     put<std::int16_t>(file, 72, static_cast<std::int16_t>(8 * scalarSize(type)));
     const float pixdim[8] = {m.qfac, m.pixdim[0], m.pixdim[1], m.pixdim[2], timeStep, 0, 0, 0};
@@ -202,6 +211,20 @@ void writeNiftiSeries(std::span<const Volume> frames, const std::vector<double>&
     for (const Volume& v : data)
         writeVoxelsInOrder(out, v, Endian::Little);
     out.commit();
+}
+
+} // namespace
+
+void writeNiftiSeries(std::span<const Volume> frames, const std::vector<double>& times, const fs::path& path,
+                      const WriteOptions& options) {
+    writeNiftiVolumes(frames, times, path, options, false);
+}
+
+void writeNiftiChannels(const ChannelVolume& channels, const fs::path& path, const WriteOptions& options) {
+    for (const Volume& c : channels.channels)
+        if (c.type() != channels.channels.front().type())
+            throw UsageError(path.string() + ": channels of different types cannot share one NIfTI file");
+    writeNiftiVolumes(channels.channels, {}, path, options, true);
 }
 
 void writeNifti(const Volume& volume, const fs::path& path, const WriteOptions& options) {

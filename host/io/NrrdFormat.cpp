@@ -1,5 +1,6 @@
 // NRRD (.nrrd attached / .nhdr detached): raw, gzip and ascii encodings, data file patterns; writer.
 #include "core/AtomicFile.hpp"
+#include "core/Channels.hpp"
 #include "host/io/IoDetail.hpp"
 
 #include <algorithm>
@@ -392,12 +393,54 @@ TimeSeries asciiFrames(std::string_view asciiText, SampleType st, const Dims& di
     return series;
 }
 
+// The kind of axis 0 when it holds a voxel's components (vector, RGB-color, ...) of a 4D header, else empty.
+std::string componentAxisKind(const NrrdHeader& h, long long dimension) {
+    if (dimension != 4) return {};
+    const auto kinds = h.field("kinds");
+    if (!kinds) return {};
+    const auto k = splitWords(*kinds);
+    if (k.empty()) return {};
+    for (const char* kind : kNonScalarKinds)
+        if (iequals(k[0], kind)) return std::string(k[0]);
+    return {};
+}
+
+// The header without its axis 0 (the component axis): per-axis fields lose their first entry.
+NrrdHeader withoutFirstAxis(NrrdHeader h) {
+    // Entries 1.. of a field's list, joined by spaces.
+    auto dropFirst = [](const auto& entries) {
+        std::string rest;
+        for (std::size_t i = 1; i < entries.size(); ++i) {
+            if (i > 1) rest += ' ';
+            rest += entries[i];
+        }
+        return rest;
+    };
+    for (const char* key :
+         {"sizes", "spacings", "axis mins", "axis maxs", "kinds", "centers", "centerings", "thicknesses"})
+        if (auto it = h.fields.find(key); it != h.fields.end())
+            it->second = dropFirst(splitWords(it->second));
+    if (auto it = h.fields.find("space directions"); it != h.fields.end())
+        it->second = dropFirst(splitVectors(it->second));
+    h.fields.erase("labels");
+    h.fields.erase("units");
+    h.fields["dimension"] = "3";
+    return h;
+}
+
 } // namespace
 
 TimeSeries readNrrd(ReadContext& ctx) {
     const fs::path& path = ctx.file();
     const std::vector<std::byte> bytes = readFileBytes(path);
-    const NrrdHeader h = parseNrrdHeader(asText(bytes), path);
+    const NrrdHeader full = parseNrrdHeader(asText(bytes), path);
+    const long long fullDimension = requireInt(full.require("dimension", path), path, "dimension");
+    // A leading component axis (kinds: vector, RGB-color, ...) becomes channels; the rest is a 3D header.
+    const std::string componentKind = componentAxisKind(full, fullDimension);
+    std::size_t components = 1;
+    if (!componentKind.empty()) components = requireSizes(full.require("sizes", path), 4, path, "sizes")[0];
+    requireChannelsWanted(ctx, components, componentKind);
+    const NrrdHeader h = componentKind.empty() ? full : withoutFirstAxis(full);
 
     const long long dimension = requireInt(h.require("dimension", path), path, "dimension");
     if (dimension < 1 || dimension > 4)
@@ -416,7 +459,7 @@ TimeSeries readNrrd(ReadContext& ctx) {
                                           "': only scalar volumes are supported");
     }
     const Dims dims{sizes[0], sizes[1], sizes[2]};
-    const std::size_t frames = sizes[3];
+    const std::size_t frames = sizes[3] * components; // components: one frame of interleaved samples
     const std::size_t voxels = ctx.voxelCount(dims, frames, *st);
     const std::size_t payload = checkedByteCount(voxels, sampleSize(*st), path);
 
@@ -450,6 +493,21 @@ TimeSeries readNrrd(ReadContext& ctx) {
         data = readDetachedPayload(path, files, payload, encoding, byteSkip, lineSkip);
     } else {
         data = attachedPayload(bytes, h, payload, encoding, byteSkip, lineSkip, path);
+    }
+    if (components > 1) {
+        // Interleaved components decode as one frame {components, nx * ny, nz}, then split per channel.
+        const Dims packed{components, dims.x * dims.y, dims.z};
+        TimeSeries whole = encoding == PayloadEncoding::Ascii
+                               ? asciiFrames(asText(data), *st, packed, 1, voxels, g, path)
+                               : decodeFrames(data, *st, endian, packed, 1, g.spacing, g.origin);
+        Volume grid(dims, ScalarType::UInt8);
+        grid.spacing = g.spacing;
+        grid.origin = g.origin;
+        grid.direction = g.direction;
+        grid.anatomical = g.anatomical;
+        const bool color = iequals(componentKind, "RGB-color") || iequals(componentKind, "RGBA-color");
+        return channelsAsRequested(splitInterleaved(whole.frames.front(), components, grid), ctx,
+                                   componentKind, color);
     }
     TimeSeries series = encoding == PayloadEncoding::Ascii
                             ? asciiFrames(asText(data), *st, dims, frames, voxels, g, path)
@@ -618,11 +676,12 @@ std::optional<fs::path> nhdrOwnedDataFile(const fs::path& header) {
     return ownedDataFile(header, header);
 }
 
-void writeNrrdSeries(std::span<const Volume> frames, const fs::path& path, const WriteOptions& options) {
-    const Volume& volume = frames.front();
-    for (const Volume& v : frames)
-        if (v.dims() != volume.dims() || v.type() != volume.type())
-            throw UsageError(path.string() + ": the frames of a 4D NRRD must share dims and voxel type");
+namespace {
+
+// One NRRD writer for a volume, a series (frames after one another on a fourth axis) and channels (`frames`
+// is then the one interleaved volume; `grid` gives dims and geometry, `componentKind` axis 0's kind).
+void writeNrrdPayload(std::span<const Volume> frames, const Volume& volume, std::size_t components,
+                      std::string_view componentKind, const fs::path& path, const WriteOptions& options) {
     const bool detached = endsWithI(path.filename().string(), ".nhdr");
     const char* type = "uchar";
     switch (volume.type()) {
@@ -649,11 +708,13 @@ void writeNrrdSeries(std::span<const Volume> frames, const fs::path& path, const
         "NRRD0004\n# written by volcl; format: http://teem.sourceforge.net/nrrd/format.html\n";
     // An anatomical volume keeps its orientation as RAS space directions (origin and directions are RAS
     // in the volume model); `space` replaces `space dimension`, as the format requires.
-    header += "type: " + std::string(type) + "\ndimension: " + (series ? "4" : "3") +
+    const bool channels = components > 1;
+    header += "type: " + std::string(type) + "\ndimension: " + (series || channels ? "4" : "3") +
               (volume.anatomical ? "\nspace: right-anterior-superior\n" : "\nspace dimension: 3\n");
-    header += "sizes: " + std::to_string(d.x) + " " + std::to_string(d.y) + " " + std::to_string(d.z) +
+    header += "sizes: " + (channels ? std::to_string(components) + " " : std::string()) +
+              std::to_string(d.x) + " " + std::to_string(d.y) + " " + std::to_string(d.z) +
               (series ? " " + std::to_string(frames.size()) : "") + "\n";
-    header += "space directions:";
+    header += std::string("space directions:") + (channels ? " none" : "");
     for (std::size_t c = 0; c < 3; ++c) {
         const Direction3& m = volume.direction;
         // The identity writes (s,0,0) exactly: products with 0 and 1 are exact.
@@ -663,7 +724,8 @@ void writeNrrdSeries(std::span<const Volume> frames, const fs::path& path, const
     header += std::string(series ? " none" : "") + "\n";
     header +=
         "space origin: (" + formatDouble(o[0]) + "," + formatDouble(o[1]) + "," + formatDouble(o[2]) + ")\n";
-    header += std::string("kinds: domain domain domain") + (series ? " list" : "") + "\n";
+    header += "kinds: " + (channels ? std::string(componentKind) + " " : std::string()) +
+              "domain domain domain" + (series ? " list" : "") + "\n";
     if (scalarSize(volume.type()) > 1)
         header += std::string("endian: ") + (options.endian == Endian::Little ? "little" : "big") + "\n";
     header += std::string("encoding: ") + (gzip ? "gzip" : "raw") + "\n";
@@ -714,6 +776,26 @@ void writeNrrdSeries(std::span<const Volume> frames, const fs::path& path, const
             writeVoxelsInOrder(out, v, options.endian);
     }
     out.commit();
+}
+
+} // namespace
+
+void writeNrrdSeries(std::span<const Volume> frames, const fs::path& path, const WriteOptions& options) {
+    const Volume& volume = frames.front();
+    for (const Volume& v : frames)
+        if (v.dims() != volume.dims() || v.type() != volume.type())
+            throw UsageError(path.string() + ": the frames of a 4D NRRD must share dims and voxel type");
+    writeNrrdPayload(frames, volume, 1, {}, path, options);
+}
+
+void writeNrrdChannels(const ChannelVolume& channels, const fs::path& path, const WriteOptions& options) {
+    const std::size_t k = channels.count();
+    const std::string_view kind = channels.color && k == 3   ? "RGB-color"
+                                  : channels.color && k == 4 ? "RGBA-color"
+                                                             : "vector";
+    const Volume interleaved = interleaveChannels(channels.channels);
+    writeNrrdPayload(std::span<const Volume>(&interleaved, 1), channels.channels.front(), k, kind, path,
+                     options);
 }
 
 void writeNrrd(const Volume& volume, const fs::path& path, const WriteOptions& options) {

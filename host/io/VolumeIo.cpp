@@ -122,8 +122,16 @@ VolumeFormat detectVolumeFormat(const fs::path& path) {
         ".slc .vdb .dat .vvd .npy, DICOM files or folders)");
 }
 
-TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options,
-                          std::vector<fs::path>& filesRead) {
+namespace {
+
+// What a read found besides its frames: the file's components per voxel and whether they are colour.
+struct ChannelsFound {
+    std::size_t count = 1;
+    bool color = false;
+};
+
+TimeSeries readFrames(const fs::path& path, const ReadOptions& options, std::vector<fs::path>& filesRead,
+                      ChannelsFound& found) {
     // A series a killed volcl left half moved is completed first: a reader never sees it mixed.
     completeInterruptedCommit(path);
     const VolumeFormat format = detectVolumeFormat(path);
@@ -174,6 +182,10 @@ TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options,
         break;
     }
     if (series.frames.empty()) throw IoError(path.string() + ": contains no volume");
+    found = {ctx.channels(), ctx.colorChannels()};
+    if (options.channel && *options.channel > 0 && found.count == 1)
+        throw UsageError(path.string() + ": --channel " + std::to_string(*options.channel) +
+                         " of a file with one channel (only channel 0)");
     // Every format's geometry passes one check: a NaN spacing or origin would poison every position.
     for (const Volume& v : series.frames)
         for (int a = 0; a < 3; ++a) {
@@ -188,9 +200,41 @@ TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options,
     return series;
 }
 
+} // namespace
+
+TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options,
+                          std::vector<fs::path>& filesRead) {
+    ChannelsFound found;
+    return readFrames(path, options, filesRead, found);
+}
+
+TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options, std::size_t& channels) {
+    std::vector<fs::path> filesRead;
+    ChannelsFound found;
+    TimeSeries series = readFrames(path, options, filesRead, found);
+    channels = found.count;
+    return series;
+}
+
 TimeSeries readVolumeFile(const fs::path& path, const ReadOptions& options) {
     std::vector<fs::path> filesRead;
     return readVolumeFile(path, options, filesRead);
+}
+
+ChannelVolume readVolumeChannels(const fs::path& path, ReadOptions options) {
+    options.allChannels = true;
+    options.channel.reset();
+    std::vector<fs::path> filesRead;
+    ChannelsFound found;
+    TimeSeries series = readFrames(path, options, filesRead, found);
+    if (found.count == 1 && series.frames.size() > 1)
+        throw DataError(path.string() + ": " + std::to_string(series.frames.size()) +
+                        " time frames, not channels: choose a frame");
+    ChannelVolume out;
+    out.channels = std::move(series.frames);
+    out.color = found.color;
+    out.validate();
+    return out;
 }
 
 Volume readVolume(const fs::path& path, const ReadOptions& options) {
@@ -279,6 +323,17 @@ void writeSeriesFile(const TimeSeries& series, const fs::path& path, const Write
     } else {
         io::writeNrrdSeries(series.frames, path, options);
     }
+}
+
+void writeChannelsFile(const ChannelVolume& channels, const fs::path& path, const WriteOptions& options) {
+    channels.validate();
+    if (channels.count() == 1) return writeVolumeFile(channels.channels.front(), path, options);
+    const std::string name = path.filename().string();
+    if (isNrrdName(name)) return io::writeNrrdChannels(channels, path, options);
+    if (isNiftiName(name)) return io::writeNiftiChannels(channels, path, options);
+    if (io::endsWithI(name, ".vti")) return io::writeVtkXmlChannels(channels, path, options);
+    throw UsageError(path.string() + ": " + std::to_string(channels.count()) +
+                     " channels need a NRRD, NIfTI or VTI output (or --channel K for one)");
 }
 
 std::vector<fs::path> volumeFilesWritten(const fs::path& path) {

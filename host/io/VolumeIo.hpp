@@ -1,6 +1,7 @@
 // Reading and writing volume files: format detection, per-format readers and writers, raw options.
 #pragma once
 
+#include "core/Channels.hpp"
 #include "core/Volume.hpp"
 #include "host/io/NiftiMetadata.hpp"
 
@@ -52,6 +53,14 @@ struct ReadOptions {
     /// DICOM only: the Series Instance UID to read when the input holds several series (without it a
     /// folder of several series is refused with their UIDs; a slice file gives its own series).
     std::optional<std::string> dicomSeries;
+    /// A multi-channel file (NRRD vector/colour axis, NIfTI vector dim[5] or RGB24/RGBA32, .vti
+    /// NumberOfComponents, MetaImage ElementNumberOfChannels) reads as this channel (0-based) alone; without
+    /// it (and without allChannels) such a file is refused with one line naming its channel count. Channel
+    /// 0 of a scalar file is the file; a channel past the last is a UsageError.
+    std::optional<std::size_t> channel;
+    /// A multi-channel file reads as its channels, one frame each; a 4D file
+    /// with components is then refused (choose a channel). readVolumeChannels() sets it.
+    bool allChannels = false;
 };
 
 /// Reads every frame of a volume file (a 3D file gives one frame). Validates header against payload:
@@ -61,6 +70,13 @@ TimeSeries readVolumeFile(const std::filesystem::path& path, const ReadOptions& 
 /// caller can refuse to write over any of them (checkNotSameFile).
 TimeSeries readVolumeFile(const std::filesystem::path& path, const ReadOptions& options,
                           std::vector<std::filesystem::path>& filesRead);
+/// readVolumeFile() that also says how many components per voxel the file holds (`channels`, 1 for scalar
+/// files); with options.allChannels the frames of a multi-channel file are its channels.
+TimeSeries readVolumeFile(const std::filesystem::path& path, const ReadOptions& options,
+                          std::size_t& channels);
+/// Reads every channel of a volume file (a scalar file gives one channel); `options.allChannels` is set.
+/// Throws as readVolumeFile, and DataError for a file with both time frames and components.
+ChannelVolume readVolumeChannels(const std::filesystem::path& path, ReadOptions options = {});
 /// Reads a 3D volume; a 4D file gives its first frame.
 Volume readVolume(const std::filesystem::path& path, const ReadOptions& options = {});
 
@@ -94,6 +110,13 @@ bool formatHoldsSeries(const std::filesystem::path& path);
 /// the format holds one volume and the series has more.
 void writeSeriesFile(const TimeSeries& series, const std::filesystem::path& path,
                      const WriteOptions& options = {});
+
+/// Writes the channels into one file with a component axis: NRRD (a leading axis of kind `vector`, or
+/// `RGB-color`/`RGBA-color` when `channels.color` and 3/4 channels), NIfTI (dim[5] = channels, intent
+/// vector 1007) or VTI (NumberOfComponents). The channels must share one type. Throws UsageError for any
+/// other format.
+void writeChannelsFile(const ChannelVolume& channels, const std::filesystem::path& path,
+                       const WriteOptions& options = {});
 
 /// Every existing file writeVolumeFile(volume, path) replaces or removes: the path itself and, for a
 /// detached .nhdr, the data file its present header names when volcl made it (`NAME.<16 hex>.raw`). The

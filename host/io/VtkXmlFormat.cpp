@@ -1,5 +1,6 @@
 // VTK XML ImageData (.vti): inline ascii/base64 and appended raw/base64 arrays, zlib blocks, TimeStep.
 #include "core/AtomicFile.hpp"
+#include "core/Channels.hpp"
 #include "host/io/IoDetail.hpp"
 #include "host/io/VtkXmlArrays.hpp"
 #include "host/io/XmlDocument.hpp"
@@ -134,32 +135,49 @@ TimeSeries readVtkXmlImage(ReadContext& ctx) {
             break;
         }
     }
+    // Without an active or one-component array, the first array with components gives the channels.
+    if (!chosen && active.empty()) {
+        const auto arrays = childrenNamed(pointData[0], "DataArray");
+        if (!arrays.empty()) chosen = arrays.front();
+    }
     if (!chosen)
         unsupported(path, "no scalar point-data array" +
                               (active.empty() ? std::string() : " named '" + active + "'"));
-    if (arrayValues(chosen) != 1)
-        unsupported(path, "array '" + active + "' has " + attr(chosen, "NumberOfComponents").value_or("?") +
-                              " components: only scalars are supported");
+    const std::size_t components = arrayValues(chosen);
+    if (components > 4096) fail(path, "NumberOfComponents " + std::to_string(components) + " is implausible");
+    requireChannelsWanted(ctx, components, "NumberOfComponents");
     const std::string typeName = attr(chosen, "type").value_or("");
     const auto st = vtkXmlType(typeName);
     if (!st) unsupported(path, "array type '" + typeName + "' is not supported");
 
     // The payload is validated against the extent before the volume is allocated.
+    // Components are interleaved per point: they decode as one volume {components, nx * ny, nz}.
+    const std::size_t samplesTotal = components == 1 ? voxels : checkedVoxelCount(dims, components, path);
+    ctx.claimMemory(checkedByteCount(samplesTotal, 2 * sizeof(float), path), "the point data");
+    const Dims packed = components > 1 ? Dims{components, dims.x * dims.y, dims.z} : dims;
     Volume v;
     if (attr(chosen, "format").value_or("ascii") == "ascii") {
         const std::string samples = elementText(chosen);
-        requireAsciiCapacity(samples, voxels, path);
-        v = Volume(dims, volumeTypeFor(*st));
-        decodeAsciiSamples(samples, *st, v, 0, voxels, path);
+        requireAsciiCapacity(samples, samplesTotal, path);
+        v = Volume(packed, volumeTypeFor(*st));
+        decodeAsciiSamples(samples, *st, v, 0, samplesTotal, path);
     } else {
         const std::vector<std::byte> data =
-            decodeArray(chosen, checkedByteCount(voxels, sampleSize(*st), path));
-        v = Volume(dims, volumeTypeFor(*st));
+            decodeArray(chosen, checkedByteCount(samplesTotal, sampleSize(*st), path));
+        v = Volume(packed, volumeTypeFor(*st));
         decodeSamples(data, *st, L.endian, v);
     }
-    v.spacing = spacing;
-    v.origin = origin;
-    v.direction = direction;
+    Volume grid(dims, ScalarType::UInt8);
+    for (Volume* g : {&v, &grid}) {
+        g->spacing = spacing;
+        g->origin = origin;
+        g->direction = direction;
+    }
+    if (components > 1) {
+        const bool color =
+            attr(chosen, "Name").value_or("") == "RGBA" || attr(chosen, "Name").value_or("") == "RGB";
+        return channelsAsRequested(splitInterleaved(v, components, grid), ctx, "NumberOfComponents", color);
+    }
 
     TimeSeries series;
     series.frames.push_back(std::move(v));

@@ -62,11 +62,11 @@ std::string joined(std::span<const double> values) {
     return s;
 }
 
-} // namespace
-
-void writeVtkXmlImage(const Volume& volume, const fs::path& path, const WriteOptions& options) {
+// The point array `payload` (components per point, interleaved) on the grid of `volume`.
+void writeImageData(const Volume& volume, const Volume& payload, std::size_t components, const fs::path& path,
+                    const WriteOptions& options) {
     const VtkXmlEncodedArray encoded =
-        encodeVtkXmlArray(bytesInOrder(volume, Endian::Little), options.compress);
+        encodeVtkXmlArray(bytesInOrder(payload, Endian::Little), options.compress);
     const ImageGeometry g = geometry(volume, options);
     const std::string extent = "0 " + std::to_string(volume.dims().x - 1) + " 0 " +
                                std::to_string(volume.dims().y - 1) + " 0 " +
@@ -79,8 +79,9 @@ void writeVtkXmlImage(const Volume& volume, const fs::path& path, const WriteOpt
       << joined(g.spacing) << "\" Direction=\"" << joined(g.direction) << "\">\n"
       << "    <Piece Extent=\"" << extent << "\">\n"
       << "      <PointData Scalars=\"scalars\">\n"
-      << "        <DataArray type=\"" << vtkTypeName(volume.type())
-      << "\" Name=\"scalars\" format=\"appended\" offset=\"0\"/>\n"
+      << "        <DataArray type=\"" << vtkTypeName(volume.type()) << "\" Name=\"scalars\""
+      << (components > 1 ? " NumberOfComponents=\"" + std::to_string(components) + "\"" : std::string())
+      << " format=\"appended\" offset=\"0\"/>\n"
       << "      </PointData>\n      <CellData>\n      </CellData>\n    </Piece>\n  </ImageData>\n"
       << "  <AppendedData encoding=\"raw\">\n   _";
     AtomicFile out(path);
@@ -89,6 +90,17 @@ void writeVtkXmlImage(const Volume& volume, const fs::path& path, const WriteOpt
     out.write(encoded.data);
     out.write("\n  </AppendedData>\n</VTKFile>\n");
     out.commit();
+}
+
+} // namespace
+
+void writeVtkXmlImage(const Volume& volume, const fs::path& path, const WriteOptions& options) {
+    writeImageData(volume, volume, 1, path, options);
+}
+
+void writeVtkXmlChannels(const ChannelVolume& channels, const fs::path& path, const WriteOptions& options) {
+    writeImageData(channels.channels.front(), interleaveChannels(channels.channels), channels.count(), path,
+                   options);
 }
 
 } // namespace volcl::io

@@ -143,6 +143,9 @@ gtest gradient_cache test_gradient_cache \
 gtest nan test_render_nan 'RenderNan.DvrDrawsTheNanColourWhereTheRuleSays:'\
 'RenderNan.SkippingKeepsCellsWhereOnlyTheNanColourShows:RenderNan.MipAndXraySkipSamplesThatAreNotFinite:'\
 'RenderNan.IsoSurfacesNeedCellsWithFiniteCorners'
+# The multi-channel ray marcher: 4 channels of 4 types in every blend, and a NaN channel, against the reference.
+gtest channels test_channels 'ChannelRender.FourChannelsAndEveryBlendMatchTheReference:'\
+'ChannelRender.NanChannelFollowsTheNanRule'
 
 echo "== codec: both lifting paths, lossless and lossy, entropy coding, decode"
 for path in streaming brick; do
