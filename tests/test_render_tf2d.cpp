@@ -53,6 +53,20 @@ std::array<double, 4> integrate(const std::function<std::array<double, 4>(double
     return out;
 }
 
+/// The ramp scene (looking down z at a 9 x 9 x 33 grid, step 0.02) rendered by the kernel and the double reference:
+/// pixel (1, 2) of each within 3e-3 per channel of the oracle's `want`. Returns the scene.
+Scene expectRampPixel(const Volume& v, const TransferFunction& tf, const std::array<double, 4>& want) {
+    Scene s = orthoScene(v.dims(), 4.0, 4, 4);
+    s.step = 0.02;
+    const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
+    const ImageBuffer ref = referenceRender(v, tf, s, {.step = 0.02});
+    for (int c = 0; c < 4; ++c) {
+        EXPECT_NEAR(img.at(1, 2, c), want[std::size_t(c)], 3e-3) << "kernel, channel " << c;
+        EXPECT_NEAR(ref.at(1, 2, c), want[std::size_t(c)], 3e-3) << "reference, channel " << c;
+    }
+    return s;
+}
+
 TEST(GradientTf, JsonRoundTripAndClassification) {
     const TransferFunction tf = TransferFunction::fromJson(kRampTf);
     ASSERT_TRUE(tf.usesGradient());
@@ -128,14 +142,7 @@ TEST(GradientTf, LinearRampMatchesClosedForm) {
         return {(0.2 * tau1 + box) / tau, (0.2 * tau1 + 0.5 * box + gauss) / tau, tau1 / tau, tau};
     };
     const auto want = integrate(oracleAt, 0.0, 32.0);
-    Scene s = orthoScene(n, 4.0, 4, 4);
-    s.step = 0.02;
-    const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
-    const ImageBuffer ref = referenceRender(v, tf, s, {.step = 0.02});
-    for (int c = 0; c < 4; ++c) {
-        EXPECT_NEAR(img.at(1, 2, c), want[std::size_t(c)], 3e-3) << "kernel, channel " << c;
-        EXPECT_NEAR(ref.at(1, 2, c), want[std::size_t(c)], 3e-3) << "reference, channel " << c;
-    }
+    const Scene s = expectRampPixel(v, tf, want);
     EXPECT_GT(want[3], 0.5);
     // Beyond every widget's gradient range (s = 20 z: g = 20) only the value axis remains, at the gradient
     // opacity's last factor: the same image as that TF without widgets, scaled.
@@ -180,14 +187,7 @@ TEST(GradientTf, ParaViewBoxOnARampMatchesClosedForm) {
             return {1.0, 0.5, 0.25, tau};
         },
         0.0, 32.0);
-    Scene s = orthoScene(n, 4.0, 4, 4);
-    s.step = 0.02;
-    const ImageBuffer img = GridRenderer(computeContext(), v, tf, s).render();
-    const ImageBuffer ref = referenceRender(v, tf, s, {.step = 0.02});
-    for (int c = 0; c < 4; ++c) {
-        EXPECT_NEAR(img.at(1, 2, c), want[std::size_t(c)], 3e-3) << "kernel, channel " << c;
-        EXPECT_NEAR(ref.at(1, 2, c), want[std::size_t(c)], 3e-3) << "reference, channel " << c;
-    }
+    const Scene s = expectRampPixel(v, tf, want);
     EXPECT_GT(want[3], 0.5);
     // Refused at load: opacity outside [0, 1], a unit distance of 0, an extinction (a ParaView box has none).
     for (const std::string& bad : {

@@ -72,7 +72,8 @@ TransferFunction TransferFunction::fromParaViewState(std::string_view xml, const
     const pugi::xml_node root = doc.document_element();
     // ParaView writes <GenericParaViewApplication> (older versions <ParaView>) around <ServerManagerState>.
     if (io::elementsNamed(root, "ServerManagerState").empty())
-        throw DataError("not a ParaView state (no <ServerManagerState> under <" + std::string(root.name()) + ">)");
+        throw DataError("not a ParaView state (no <ServerManagerState> under <" + std::string(root.name()) +
+                        ">)");
     struct Function2D {
         std::vector<double> boxes, range;
     };
@@ -83,14 +84,16 @@ TransferFunction TransferFunction::fromParaViewState(std::string_view xml, const
     };
     std::vector<User> users;
     for (pugi::xml_node proxy : io::elementsNamed(root, "Proxy")) {
-        const std::string group = io::attr(proxy, "group").value_or(""), id = io::attr(proxy, "id").value_or("");
+        const std::string group = io::attr(proxy, "group").value_or(""),
+                          id = io::attr(proxy, "id").value_or("");
         if (group == "transfer_2d_functions") {
             const std::string where = "2D transfer function " + id;
             Function2D f;
             if (pugi::xml_node b = property(proxy, "Boxes")) f.boxes = numbers(b, where + " Boxes");
             if (pugi::xml_node r = property(proxy, "Range")) f.range = numbers(r, where + " Range");
             functions[id] = f;
-        } else if (group == "representations" && single(proxy, "UseTransfer2D", 0.0, "representation " + id)) {
+        } else if (group == "representations" &&
+                   single(proxy, "UseTransfer2D", 0.0, "representation " + id)) {
             const std::string where = "representation " + id;
             users.push_back({target(property(proxy, "TransferFunction2D")),
                              single(proxy, "ScalarOpacityUnitDistance", opacityUnitDistance, where),
@@ -163,7 +166,8 @@ TransferFunction TransferFunction::fromParaViewState(std::string_view xml, const
         tf.widgets.push_back(w);
     }
     // In ParaView's 2D mode colour and opacity come from the 2D function alone: the value axis adds nothing.
-    if (f.range.size() == 4 && std::isfinite(f.range[0]) && std::isfinite(f.range[1]) && f.range[0] < f.range[1])
+    if (f.range.size() == 4 && std::isfinite(f.range[0]) && std::isfinite(f.range[1]) &&
+        f.range[0] < f.range[1])
         lo = std::min(lo, f.range[0]), hi = std::max(hi, f.range[1]);
     tf.domain = {lo, hi};
     tf.color = {{lo, {0.0, 0.0, 0.0}}, {hi, {0.0, 0.0, 0.0}}};
