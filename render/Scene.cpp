@@ -822,6 +822,7 @@ void Scene::validate() const {
     need(budgetMs >= 0.0 && budgetMs <= 1e9, "render.budget_ms must be in [0, 1e9] (0: no budget)");
     need(std::isfinite(lodError) && lodError >= 0.0, "render.lod_error must be finite and >= 0");
     need(std::isfinite(cacheMb) && cacheMb > 0.0 && cacheMb <= 1e7, "render.cache_mb must be in (0, 1e7]");
+    need(!refineBricks || *refineBricks >= 1, "--refine-bricks must be at least 1");
     if (window)
         need(std::isfinite((*window)[0]) && std::isfinite((*window)[1]) && (*window)[1] > 0.0 &&
                  (*window)[1] <= 1e30 && std::abs((*window)[0]) <= 1e30,

@@ -261,6 +261,9 @@ struct Scene {
     LodMode lod = LodMode::Full;
     double lodError = 0.01;
     double cacheMb = 512.0;
+    /// `view --lod auto`: missing bricks decoded per still frame while it refines, exactly this many (absent:
+    /// the device profile's count plus those whose predicted decode fits its share of the last kernel time).
+    std::optional<std::size_t> refineBricks;
     MeshMethod meshMethod = MeshMethod::Cells;    ///< render.method (meshes only)
     GridMethod gridMethod = GridMethod::Raymarch; ///< render.method (grids only)
     int kBufferDepth = 6;                         ///< render.k: k-buffer entries per pixel, 2..8

@@ -126,6 +126,9 @@ void SceneFlags::add(CLI::App* cmd) {
         ->default_str(num(d.lodError));
     cmd->add_option("--cache-mb", cacheMb, "Compressed inputs: budget of the decoded-brick cache in MB")
         ->default_str(num(d.cacheMb));
+    cmd->add_option("--refine-bricks", refineBricks,
+                    "view of a .vcz with --lod auto: missing bricks decoded per frame while the view refines "
+                    "(default: 16, and more while their decode fits the last frame's kernel time)");
     cmd->add_option("--early-termination", earlyTermination, "Stop rays at this opacity (1 = never)")
         ->default_str(num(d.earlyTermination));
     cmd->add_flag("--no-skipping", noSkipping, "Disable empty-space skipping (as --skipping off)");
@@ -237,6 +240,7 @@ Scene SceneFlags::build() const {
     if (!lod.empty()) s.lod = parseLodMode(lod);
     if (lodError) s.lodError = *lodError;
     if (cacheMb) s.cacheMb = *cacheMb;
+    if (refineBricks) s.refineBricks = *refineBricks;
     if (!skipping.empty()) s.skipping = parseSkipMode(skipping);
     if (noSkipping) s.skipping = SkipMode::Off;
     if (tableSize) s.tableSize = *tableSize;

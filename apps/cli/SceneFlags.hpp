@@ -33,6 +33,7 @@ struct SceneFlags {
     std::string view, orbit, tfRange, tfUnitDistance = "auto";
     std::string filter, window, mipColor, lod, method, sort, skipping;
     std::optional<double> lodError, cacheMb;
+    std::optional<std::size_t> refineBricks;
     std::optional<double> smoothing, viewHeight, fov, earlyTermination, shadowStep;
     std::optional<int> width, height, tableSize, tableLengths, k, lightVolumeCell;
     std::optional<std::size_t> frame; ///< --frame K of a time series input

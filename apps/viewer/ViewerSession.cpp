@@ -346,8 +346,8 @@ ViewerFrame ViewerSession::renderRaymarch(Scene s, const QualityLevel& want, int
     auto* kbuffer = dynamic_cast<KBufferRenderer*>(renderer_.get());
     // Compressed bricks refine a view over frames instead of waiting for its whole working set.
     if (auto* bricks = dynamic_cast<BrickRenderer*>(renderer_.get()))
-        bricks->setRefineBudget(cc_.profile().rayMarch.refineBricksPerFrame,
-                                cc_.profile().rayMarch.refineKernelShare);
+        bricks->setRefineBudget(base_.refineBricks.value_or(cc_.profile().rayMarch.refineBricksPerFrame),
+                                base_.refineBricks ? 0.0 : cc_.profile().rayMarch.refineKernelShare);
     if (kbuffer) kbuffer->setLodFraction(want.faceFraction);
     f.level.faceFraction = kbuffer ? want.faceFraction : 1.0;
 
