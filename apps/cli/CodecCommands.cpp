@@ -274,7 +274,7 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
             return;
         }
         if (cmd->count("--bits")) throw UsageError("--bits applies to a .vcm output");
-        const CodecOptions o = toOptions(*a, *cmd);
+        CodecOptions o = toOptions(*a, *cmd);
         if (!isVcz(a->out)) throw UsageError("output " + a->out + " must end in .vcz");
         // A second thread reads the input while the OpenCL platform starts: in a one-shot run its start
         // (loading the driver's compiler libraries) is a fixed cost of the same order as reading a 35 MB
@@ -286,13 +286,21 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
         const NiftiSource nifti = niftiSourceOf(a->in, ro);
         ro.niftiStoredValues = nifti.stored;
         // A label map's values are names, not measurements: a lossy code would turn one label into another.
+        // It is coded losslessly, which meets any error bound or PSNR (palette bricks keep it small); a bit
+        // budget or a fixed quantiser cannot be honoured that way and is refused.
         constexpr int kNiftiIntentLabel = 1002;
         if ((a->labels || (nifti.meta && nifti.meta->intentCode == kNiftiIntentLabel)) &&
-            o.rate != RateMode::Lossless)
-            throw UsageError(
+            o.rate != RateMode::Lossless) {
+            const std::string what =
                 a->in.front() + ": a label map (" +
-                (a->labels ? std::string("--labels") : std::string("NIfTI intent NIFTI_INTENT_LABEL")) +
-                ") is coded losslessly; drop the lossy rate");
+                (a->labels ? std::string("--labels") : std::string("NIfTI intent NIFTI_INTENT_LABEL")) + ")";
+            if (o.rate == RateMode::Bpv || o.step)
+                throw UsageError(what + " is coded losslessly; a bit budget or --step does not apply");
+            o.rate = RateMode::Lossless;
+            o.target = 0;
+            o.wavelet.reset();
+            if (!global.quiet) std::cerr << "volcl encode: " << what << " is coded losslessly (exact)\n";
+        }
         if (streamEncode(*a, withSourceMetadata(o, nifti), ro, global)) return;
         std::future<SeriesInput> reading =
             std::async(std::launch::async, [a, ro, &inputs] { return readSeriesInputs(a->in, ro, &inputs); });

@@ -228,13 +228,27 @@ TEST(Cli, LabelRefusalsAreOneLineAndLabelMapsEncodeLosslessly) {
                            " --label-table " + (dir / "ok.json").string(),
                        dir);
     EXPECT_EQ(r.exitCode, 2) << r.err;
-    // A label map encodes losslessly; a lossy rate with --labels is refused in one line.
-    r = test::runVolcl("encode " + (dir / "seg.nrrd").string() + " --labels --psnr 40 -o " +
+    // A label map encodes losslessly: an error bound or PSNR is met exactly (with a note), a bit budget is
+    // refused in one line.
+    r = test::runVolcl("encode " + (dir / "seg.nrrd").string() + " --labels --bpv 0.5 -o " +
                            (dir / "seg_lossy.vcz").string(),
                        dir);
     EXPECT_EQ(r.exitCode, 2) << r.err;
     EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
     EXPECT_TRUE(test::has(r.err, "seg.nrrd")) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(dir / "seg_lossy.vcz"));
+    r = test::runVolcl("encode " + (dir / "seg.nrrd").string() + " --labels --psnr 40 -o " +
+                           (dir / "seg_exact.vcz").string(),
+                       dir);
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_TRUE(test::has(r.err, "coded losslessly")) << r.err;
+    ASSERT_EQ(test::runVolcl(
+                  "decode " + (dir / "seg_exact.vcz").string() + " -o " + (dir / "back.nrrd").string(), dir)
+                  .exitCode,
+              0);
+    const Volume back = readVolumeFile(dir / "back.nrrd").frames.at(0);
+    ASSERT_EQ(back.bytes().size(), labels.bytes().size());
+    EXPECT_TRUE(std::equal(labels.bytes().begin(), labels.bytes().end(), back.bytes().begin()));
     r = test::runVolcl("encode " + (dir / "seg.nrrd").string() + " --labels -o " + (dir / "seg.vcz").string(),
                        dir);
     ASSERT_EQ(r.exitCode, 0) << r.err;
@@ -243,9 +257,8 @@ TEST(Cli, LabelRefusalsAreOneLineAndLabelMapsEncodeLosslessly) {
     wo.nifti = niftiMetadataForVolume(labels);
     wo.nifti->intentCode = 1002;
     writeVolumeFile(labels, dir / "seg.nii.gz", wo);
-    r = test::runVolcl("encode " + (dir / "seg.nii.gz").string() + " --max-error 0.5 -o " +
-                           (dir / "seg_lossy.vcz").string(),
-                       dir);
+    r = test::runVolcl(
+        "encode " + (dir / "seg.nii.gz").string() + " --bpv 0.5 -o " + (dir / "seg_lossy.vcz").string(), dir);
     EXPECT_EQ(r.exitCode, 2) << r.err;
     EXPECT_TRUE(test::has(r.err, "NIFTI_INTENT_LABEL")) << r.err;
     // The brick renderer has no label kernel: --labels with a .vcz input is refused in one line.
