@@ -86,7 +86,9 @@ Volume voxelisedLabels(Dims d, const Vec3& origin, const Vec3& spacing, const Di
 /// Writes `v` (and the table as JSON when given) and returns the scene's label layer.
 LabelLayer writeLayer(const Volume& v, const std::string& name, LabelMode mode,
                       const std::string& tableJson = {}) {
-    const auto dir = tempDir("labels");
+    // One folder per test and layer: tempDir() empties its folder, and ctest runs the tests in parallel.
+    const auto dir = tempDir(std::string("labels_") +
+                             ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" + name);
     LabelLayer l;
     l.file = dir / (name + ".nrrd");
     writeVolumeFile(v, l.file);
