@@ -334,6 +334,18 @@ TEST(ParaViewImport, TwoDimensionalStateMatchesParaViewsFunction) {
 
 // A state volcl cannot read as one 2D function is refused with what it holds.
 TEST(ParaViewImport, TwoDimensionalStateRefusals) {
+    // A state file beyond 64 MiB is refused before it is read (a sparse file of 100 MiB).
+    const std::filesystem::path big = tmpDir() / "big.pvsm";
+    std::filesystem::remove(big);
+    std::ofstream(big).close();
+    std::filesystem::resize_file(big, std::uintmax_t(100) << 20);
+    try {
+        TransferFunction::fromFile(big);
+        ADD_FAILURE() << "a 100 MiB state was read";
+    } catch (const volcl::IoError& e) {
+        EXPECT_NE(std::string(e.what()).find("more than the 64 MiB"), std::string::npos) << e.what();
+    }
+    std::filesystem::remove(big);
     auto state = [](const std::string& body) {
         return "<ParaView><ServerManagerState>" + body + "</ServerManagerState></ParaView>";
     };

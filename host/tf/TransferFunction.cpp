@@ -505,6 +505,12 @@ TransferFunction TransferFunction::fromFile(const std::filesystem::path& path,
     if (!std::filesystem::is_regular_file(path)) throw IoError(name + ": transfer function file not found");
     try {
         if (ext == ".pvsm") {
+            // Bounded before it is read: ParaView states are kilobytes to a few megabytes.
+            constexpr std::uintmax_t kMaxStateBytes = std::uintmax_t(64) << 20;
+            if (std::filesystem::file_size(path) > kMaxStateBytes)
+                throw IoError(name + ": ParaView state of " +
+                              std::to_string(std::filesystem::file_size(path)) +
+                              " bytes, more than the 64 MiB a state file may have");
             std::ifstream in(path, std::ios::binary);
             std::ostringstream text;
             text << in.rdbuf();
