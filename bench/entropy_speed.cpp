@@ -10,6 +10,7 @@
 #include "wavelet/container/VczFormat.hpp"
 #include "wavelet/entropy/EntropyCoder.hpp"
 #include "wavelet/entropy/TestSwitches.hpp"
+#include "wavelet/payload/BrickPayload.hpp"
 
 #include <algorithm>
 #include <cstdint>
@@ -51,18 +52,13 @@ CodedVolume readCoefficients(const std::string& path) {
     v.steps = h.steps;
     v.bias = h.reconstructionBias;
     for (std::size_t b = 0; b < h.brickCount(); ++b) {
-        // Payload: u8 section count, u8 flags, u32 size per section and for the corrections, then the data.
         const auto p = vczBrickPayload(file, h, 0, b, path);
         const Dims d = h.brickDims(b);
         const auto layout = sectionLayout(d, h.levels);
+        const codec::ParsedPayload parsed = codec::parsePayload(p, layout.size(), path);
         std::vector<std::int32_t> c(d.count());
-        std::size_t pos = 2 + 4 * (layout.size() + 1);
-        for (std::size_t s = 0; s < layout.size(); ++s) {
-            std::uint32_t size;
-            std::memcpy(&size, p.data() + 2 + 4 * s, 4);
-            decodeSection(p.subspan(pos, size), c, d, layout, s, h.entropy, path.c_str());
-            pos += size;
-        }
+        decodeSections(parsed.sections, c, d, layout, h.entropy, path.c_str(), nullptr,
+                       parsed.setPartitioned);
         v.dims.push_back(d);
         v.coeffs.push_back(std::move(c));
     }
