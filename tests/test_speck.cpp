@@ -2,7 +2,8 @@
 // every section shape (random, sparse, all-zero, one coefficient, extreme magnitudes, partial edge bricks),
 // the per-section choice never larger than the dense coding, damaged sections (IoError or a clean decode,
 // never a crash; every truncation refused), payload flags, and the codec end to end: files with and without
-// set partitioning decode to the same voxels (full, level, region), within the bound computed in double.
+// set partitioning decode to the same voxels (full, level, region), within the bound computed in double; and
+// the transform extent chosen by coded size (64- or 128-voxel bricks).
 #include "core/Error.hpp"
 #include "tests/CodecTestOptions.hpp"
 #include "tests/TestUtil.hpp"
@@ -30,7 +31,7 @@ namespace {
 constexpr std::int32_t kMaxMagnitude = (1 << 30) - 1;
 
 // Every section shape: tiny, odd, flat and partial edge bricks, with 0 to 4 levels.
-const Dims kShapes[] = {{1, 1, 1},  {1, 7, 1},    {2, 3, 5},   {5, 1, 3},   {16, 16, 16},
+const Dims kShapes[] = {{1, 1, 1},   {1, 7, 1},  {2, 3, 5},    {5, 1, 3},   {16, 16, 16},
                         {17, 9, 33}, {31, 2, 1}, {64, 40, 24}, {64, 64, 7}, {3, 64, 64}};
 
 // Coefficients with `density` of them non-zero, magnitudes up to `maxMagnitude` (log-uniform), random signs.
@@ -91,7 +92,8 @@ TEST(Speck, RoundTripsOneCoefficientAnywhere) {
             for (std::int32_t v : {1, -1, -kMaxMagnitude, kMaxMagnitude, 12345}) {
                 std::vector<std::int32_t> c(d.count(), 0);
                 c[i] = v;
-                expectSpeckRoundTrip(c, d, levels, "index " + std::to_string(i) + " value " + std::to_string(v));
+                expectSpeckRoundTrip(c, d, levels,
+                                     "index " + std::to_string(i) + " value " + std::to_string(v));
             }
 }
 
@@ -152,9 +154,9 @@ TEST(Speck, DamagedSectionsAreRejectedWithoutCrashing) {
         std::vector<std::int32_t> out(d.count(), 0);
         // Every truncation is refused.
         for (std::size_t n = 0; n < bytes.size(); ++n)
-            EXPECT_THROW(decodeSection(std::span(bytes).first(n), out, d, layout, s, EntropyMode::Dense, "t",
-                                       true),
-                         IoError)
+            EXPECT_THROW(
+                decodeSection(std::span(bytes).first(n), out, d, layout, s, EntropyMode::Dense, "t", true),
+                IoError)
                 << "section " << s << " cut to " << n;
         // Appended bytes are refused.
         auto longer = bytes;
@@ -252,8 +254,9 @@ TEST(Speck, CodecFilesDecodeLikeDenseOnlyFilesWithinTheBound) {
     const Dims d{41, 35, 30}; // partial edge bricks with 16-voxel bricks
     const Volume v = smoothVolume(d);
     auto& ctx = test::computeContext();
-    for (const auto& [rate, target] : {std::pair{RateMode::MaxError, 0.5}, std::pair{RateMode::MaxError, 0.02},
-                                       std::pair{RateMode::Psnr, 40.0}, std::pair{RateMode::Psnr, 60.0}}) {
+    for (const auto& [rate, target] :
+         {std::pair{RateMode::MaxError, 0.5}, std::pair{RateMode::MaxError, 0.02},
+          std::pair{RateMode::Psnr, 40.0}, std::pair{RateMode::Psnr, 60.0}}) {
         const std::string what = "mode " + std::to_string(int(rate)) + " " + std::to_string(target);
         CodecOptions o = test::smallBrickOptions(rate, target);
         const auto withSpeck = encodeVolume(ctx, v, o);
@@ -292,6 +295,55 @@ TEST(Speck, CodecFilesDecodeLikeDenseOnlyFilesWithinTheBound) {
         }
         if (rate == RateMode::MaxError) EXPECT_LE(maxErr, target) << what;
         if (rate == RateMode::Psnr)
-            EXPECT_GE(20 * std::log10((hi - lo) / std::sqrt(se / double(v.voxelCount()))), target - 1e-9) << what;
+            EXPECT_GE(20 * std::log10((hi - lo) / std::sqrt(se / double(v.voxelCount()))), target - 1e-9)
+                << what;
     }
+}
+
+TEST(TransformExtent, DefaultOptionsKeepTheSmallerOfTwoBrickSizes) {
+    // Wider than one default brick: the encoder also tries 128-voxel bricks and keeps the smaller file.
+    const Dims d{150, 70, 20};
+    const Volume v = smoothVolume(d);
+    auto& ctx = test::computeContext();
+    for (double target : {40.0, 60.0}) {
+        CodecOptions o;
+        o.rate = RateMode::Psnr;
+        o.target = target;
+        const auto chosen = encodeVolume(ctx, v, o);
+        o.chooseExtent = false;
+        const auto small = encodeVolume(ctx, v, o);
+        o.brick = {128, 128, 128};
+        const auto large = encodeVolume(ctx, v, o);
+        EXPECT_EQ(chosen.size(), std::min(small.size(), large.size())) << target;
+        const VczHeader h = readVczHeader(chosen, "t");
+        EXPECT_EQ(h.brick.x, small.size() <= large.size() ? 64u : 128u) << target;
+        // Level and region decodes of the chosen file equal the matching parts of its full decode.
+        const Volume full = decodeVolume(ctx, chosen);
+        DecodeOptions ro;
+        ro.region = Region{{60, 10, 3}, {140, 65, 19}};
+        const Volume part = decodeVolume(ctx, chosen, ro);
+        for (std::size_t z = 3; z < 19; ++z)
+            for (std::size_t y = 10; y < 65; ++y)
+                for (std::size_t x = 60; x < 140; x += 7)
+                    ASSERT_EQ(part.values<float>()[part.index(x - 60, y - 10, z - 3)],
+                              full.values<float>()[full.index(x, y, z)]);
+        DecodeOptions lo;
+        lo.level = 2;
+        EXPECT_EQ(decodeVolume(ctx, chosen, lo).dims(), (Dims{38, 18, 5}));
+        // The PSNR in double.
+        double se = 0, lo2 = 1e300, hi = -1e300;
+        for (std::size_t i = 0; i < v.voxelCount(); ++i) {
+            const double a = v.values<float>()[i], e = a - double(full.values<float>()[i]);
+            se += e * e;
+            lo2 = std::min(lo2, a);
+            hi = std::max(hi, a);
+        }
+        EXPECT_GE(20 * std::log10((hi - lo2) / std::sqrt(se / double(v.voxelCount()))), target - 1e-9);
+    }
+    // An explicit brick is kept as given.
+    CodecOptions o;
+    o.rate = RateMode::Psnr;
+    o.target = 40;
+    o.chooseExtent = false;
+    EXPECT_EQ(readVczHeader(encodeVolume(ctx, v, o), "t").brick.x, 64u);
 }

@@ -60,9 +60,9 @@ inline int splitSet(const SpeckSet& s, SpeckSet* kids, int* slot) {
 }
 
 inline SpeckSet setOf(const SubbandBox& b) {
-    return {static_cast<std::uint32_t>(b.x0), static_cast<std::uint32_t>(b.y0), static_cast<std::uint32_t>(b.z0),
-            static_cast<std::uint32_t>(b.x1 - b.x0), static_cast<std::uint32_t>(b.y1 - b.y0),
-            static_cast<std::uint32_t>(b.z1 - b.z0)};
+    return {static_cast<std::uint32_t>(b.x0),        static_cast<std::uint32_t>(b.y0),
+            static_cast<std::uint32_t>(b.z0),        static_cast<std::uint32_t>(b.x1 - b.x0),
+            static_cast<std::uint32_t>(b.y1 - b.y0), static_cast<std::uint32_t>(b.z1 - b.z0)};
 }
 
 // Significance contexts: the set's size class (one coefficient, then 2-8, 9-64, 65-512, 513-4096, more),
