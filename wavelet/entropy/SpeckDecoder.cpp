@@ -30,12 +30,7 @@ public:
             } else {
                 b = top;
             }
-            atTop += b == top;
-            if (b == 0) continue;
-            if (sets[i].single())
-                coefficient(sets[i], b);
-            else
-                children(sets[i], b);
+            descend(*this, sets[i], b, top, atTop);
         }
     }
 

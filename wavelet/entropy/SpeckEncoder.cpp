@@ -24,12 +24,7 @@ public:
                     emit(m_.significance[speckContext(size, top - 1 - plane, atTop)], significant);
                     if (significant || plane == 0) break;
                 }
-            atTop += b == top;
-            if (b == 0) continue;
-            if (sets[i].single())
-                coefficient(sets[i], b);
-            else
-                children(sets[i], b);
+            descend(*this, sets[i], b, top, atTop);
         }
     }
 

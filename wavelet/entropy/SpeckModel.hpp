@@ -80,6 +80,17 @@ inline int speckContext(int sizeClass, int gap, int siblingsAtTop) {
            std::min(siblingsAtTop, kSpeckSiblings - 1);
 }
 
+/// The step after a member's bit length `b` is known, the same on both sides: counts it towards the
+/// siblings at the parent's `top`, then a significant member gives its coefficient or its children.
+template <class Side> void descend(Side& side, const SpeckSet& s, int b, int top, int& atTop) {
+    atTop += b == top;
+    if (b == 0) return;
+    if (s.single())
+        side.coefficient(s, b);
+    else
+        side.children(s, b);
+}
+
 /// encodeSectionSmallest tries set partitioning only on sections whose dense coding takes fewer bits per
 /// coefficient than this. Measured over the sections of hydrogen, Isabel step 30 (40 / 60 dB) and ch2better
 /// (50 dB), 834 sections under 2 bits: below 0.2 it won 94 of 440 sections and 4.1 % of their bytes (7 % below
