@@ -157,27 +157,36 @@ std::optional<std::vector<std::uint8_t>> encodeVoxelBrick(const Volume& v, Dims 
     VoxelBrickTrial& t = memo ? *memo : local;
     if (t.checked && (t.origin != o || t.dims != d)) t = VoxelBrickTrial{};
     std::vector<std::int32_t> vox;
+    auto voxels = [&]() -> const std::vector<std::int32_t>& {
+        if (vox.empty()) vox = regionVoxels<std::int32_t>(v, o, d);
+        return vox;
+    };
     if (!t.checked) {
-        vox = regionVoxels<std::int32_t>(v, o, d);
         t.origin = o;
         t.dims = d;
         t.checked = true;
-        t.nonFinite = v.type() == ScalarType::Float32 &&
-                      std::any_of(vox.begin(), vox.end(),
-                                  [](std::int32_t bits) { return (bits & 0x7f800000) == 0x7f800000; });
+        t.nonFinite = v.type() == ScalarType::Float32 && std::ranges::any_of(voxels(), [](std::int32_t bits) {
+                          return (bits & 0x7f800000) == 0x7f800000;
+                      });
     }
     if (finiteOnly && t.nonFinite) return std::nullopt;
-    if (t.prefix.empty()) {
-        if (vox.empty()) vox = regionVoxels<std::int32_t>(v, o, d);
-        VoxelSymbols s = voxelSymbols(vox, v.type());
-        t.prefix = std::move(s.prefix);
-        t.symbols = std::move(s.symbols);
-    }
+    // The symbols are made again when a frame is still to be coded: kept in the memo they would add a copy
+    // of the volume to an encode's memory.
+    std::vector<std::uint8_t> symbols;
+    auto symbolsToCode = [&]() -> const std::vector<std::uint8_t>& {
+        if (symbols.empty()) {
+            VoxelSymbols s = voxelSymbols(voxels(), v.type());
+            t.prefix = std::move(s.prefix);
+            symbols = std::move(s.symbols);
+        }
+        return symbols;
+    };
+    if (t.prefix.empty()) symbolsToCode();
     if (t.prefix.size() >= limit) return std::nullopt;
     ZstdContext z;
-    if (!t.cheap) t.cheap = zstdFrame(z, t.symbols, kCheapLevel);
+    if (!t.cheap) t.cheap = zstdFrame(z, symbolsToCode(), kCheapLevel);
     if (double(t.prefix.size() + t.cheap->size()) > kCheapSlack * double(limit)) return std::nullopt;
-    if (!t.thorough) t.thorough = zstdFrame(z, t.symbols, kThoroughLevel);
+    if (!t.thorough) t.thorough = zstdFrame(z, symbolsToCode(), kThoroughLevel);
     const std::vector<std::uint8_t>& best = t.cheap->size() < t.thorough->size() ? *t.cheap : *t.thorough;
     if (t.prefix.size() + best.size() >= limit) return std::nullopt;
     std::vector<std::uint8_t> out = t.prefix;

@@ -24,9 +24,9 @@ enum class VoxelBrickKind : std::uint8_t {
 /// What coding one brick's voxels measured, kept so that a second choice on the same voxels (the lossless
 /// file a lossy target is compared with) decides exactly as a fresh one would without coding them again.
 struct VoxelBrickTrial {
-    Dims origin, dims;                         ///< the brick measured (a different box starts afresh)
-    bool checked = false, nonFinite = false;   ///< voxels read; a float brick holds NaN or Inf
-    std::vector<std::uint8_t> prefix, symbols; ///< the payload's head and the bytes zstd codes
+    Dims origin, dims;                       ///< the brick measured (a different box starts afresh)
+    bool checked = false, nonFinite = false; ///< voxels read; a float brick holds NaN or Inf
+    std::vector<std::uint8_t> prefix;        ///< the payload's head (kind, palette)
     std::optional<std::vector<std::uint8_t>> cheap, thorough; ///< the zstd frames at the two levels
 };
 using VoxelBrickTrials = std::vector<VoxelBrickTrial>;
