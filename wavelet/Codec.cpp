@@ -224,10 +224,22 @@ CodecOptions losslessOptions(const CodecOptions& o) {
     return exact;
 }
 
+std::vector<std::byte> encodeVolumeWith(ComputeContext& cc, const Volume& volume, const CodecOptions& options,
+                                        EncodeReport* report, codec::VoxelBrickTrials* voxelTrials);
+
 } // namespace
 
 std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, const CodecOptions& options,
                                     EncodeReport* report) {
+    return encodeVolumeWith(cc, volume, options, report, nullptr);
+}
+
+namespace {
+
+// encodeVolume; `voxelTrials` keeps the voxel coding of each brick measured by an encode of the same volume
+// (the lossless file a lossy target is compared with and the lossy file share them).
+std::vector<std::byte> encodeVolumeWith(ComputeContext& cc, const Volume& volume, const CodecOptions& options,
+                                        EncodeReport* report, codec::VoxelBrickTrials* voxelTrials) {
     Stopwatch total;
     VczHeader h = planHeader(volume, options);
     // A lossy target never gives a file larger than the lossless one, which is exact and so meets every
@@ -238,9 +250,12 @@ std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, co
     EncodeReport losslessReport;
     double chooseMs = 0;
     const bool compareLossless = h.rate != RateMode::Lossless && !options.step;
+    // The two files code the same voxels: the second one's voxel trial reuses the first one's zstd passes.
+    codec::VoxelBrickTrials sharedTrials;
+    if (compareLossless && !voxelTrials) voxelTrials = &sharedTrials;
     auto encodeLossless = [&] {
         Stopwatch sw;
-        lossless = encodeVolume(cc, volume, losslessOptions(options), &losslessReport);
+        lossless = encodeVolumeWith(cc, volume, losslessOptions(options), &losslessReport, voxelTrials);
         chooseMs += sw.milliseconds();
     };
     auto takeLossless = [&] {
@@ -275,7 +290,8 @@ std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, co
     // Per brick, the smaller of the wavelet payload and the voxels coded as they are (exact, so within every
     // bound): flat regions of label volumes and masks stay flat, noise costs its entropy.
     codec::timeStage(&frame.report.profile, &CodecProfile::choose, [&] {
-        if (codec::codeSmallerBricksAsVoxels(volume, h, frame.coded.payloads, options.threads) > 0)
+        if (codec::codeSmallerBricksAsVoxels(volume, h, frame.coded.payloads, options.threads, voxelTrials) >
+            0)
             h.voxelBricks = true;
     });
     std::vector<codec::CodedFrame> coded;
@@ -319,8 +335,6 @@ std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, co
     }
     return bytes;
 }
-
-namespace {
 
 // False when a reference of `pf` holds a non-finite voxel: lossy frames of float voxels near FLT_MAX can
 // reconstruct beyond float's range, and nothing can be predicted from them.
