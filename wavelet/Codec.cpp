@@ -224,6 +224,9 @@ CodecOptions losslessOptions(const CodecOptions& o) {
     return exact;
 }
 
+std::vector<std::byte> encodeVolumeWith(ComputeContext& cc, const Volume& volume, const CodecOptions& options,
+                                        EncodeReport* report, codec::VoxelBrickTrials* voxelTrials);
+
 } // namespace
 
 namespace {
@@ -249,21 +252,18 @@ std::optional<Dims> extentTrial(const Volume& v, const CodecOptions& o) {
     return Dims{kExtentTrialBrick, kExtentTrialBrick, kExtentTrialBrick};
 }
 
-std::vector<std::byte> encodeAtExtent(ComputeContext& cc, const Volume& volume, const CodecOptions& options,
-                                      EncodeReport* report);
-
 } // namespace
 
 std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, const CodecOptions& options,
                                     EncodeReport* report) {
     const std::optional<Dims> larger = extentTrial(volume, options);
-    if (!larger) return encodeAtExtent(cc, volume, options, report);
+    if (!larger) return encodeVolumeWith(cc, volume, options, report, nullptr);
     Stopwatch total;
     EncodeReport first, second;
-    std::vector<std::byte> bytes = encodeAtExtent(cc, volume, options, &first);
+    std::vector<std::byte> bytes = encodeVolumeWith(cc, volume, options, &first, nullptr);
     CodecOptions o = options;
     o.brick = *larger;
-    std::vector<std::byte> other = encodeAtExtent(cc, volume, o, &second);
+    std::vector<std::byte> other = encodeVolumeWith(cc, volume, o, &second, nullptr);
     const bool takeLarger = other.size() < bytes.size();
     if (takeLarger) bytes = std::move(other);
     if (report) {
@@ -277,8 +277,10 @@ std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, co
 
 namespace {
 
-std::vector<std::byte> encodeAtExtent(ComputeContext& cc, const Volume& volume, const CodecOptions& options,
-                                      EncodeReport* report) {
+// encodeVolume; `voxelTrials` keeps the voxel coding of each brick measured by an encode of the same volume
+// (the lossless file a lossy target is compared with and the lossy file share them).
+std::vector<std::byte> encodeVolumeWith(ComputeContext& cc, const Volume& volume, const CodecOptions& options,
+                                        EncodeReport* report, codec::VoxelBrickTrials* voxelTrials) {
     Stopwatch total;
     VczHeader h = planHeader(volume, options);
     // A lossy target never gives a file larger than the lossless one, which is exact and so meets every
@@ -289,9 +291,12 @@ std::vector<std::byte> encodeAtExtent(ComputeContext& cc, const Volume& volume, 
     EncodeReport losslessReport;
     double chooseMs = 0;
     const bool compareLossless = h.rate != RateMode::Lossless && !options.step;
+    // The two files code the same voxels: the second one's voxel trial reuses the first one's zstd passes.
+    codec::VoxelBrickTrials sharedTrials;
+    if (compareLossless && !voxelTrials) voxelTrials = &sharedTrials;
     auto encodeLossless = [&] {
         Stopwatch sw;
-        lossless = encodeAtExtent(cc, volume, losslessOptions(options), &losslessReport);
+        lossless = encodeVolumeWith(cc, volume, losslessOptions(options), &losslessReport, voxelTrials);
         chooseMs += sw.milliseconds();
     };
     auto takeLossless = [&] {
@@ -326,7 +331,8 @@ std::vector<std::byte> encodeAtExtent(ComputeContext& cc, const Volume& volume, 
     // Per brick, the smaller of the wavelet payload and the voxels coded as they are (exact, so within every
     // bound): flat regions of label volumes and masks stay flat, noise costs its entropy.
     codec::timeStage(&frame.report.profile, &CodecProfile::choose, [&] {
-        if (codec::codeSmallerBricksAsVoxels(volume, h, frame.coded.payloads, options.threads) > 0)
+        if (codec::codeSmallerBricksAsVoxels(volume, h, frame.coded.payloads, options.threads, voxelTrials) >
+            0)
             h.voxelBricks = true;
     });
     std::vector<codec::CodedFrame> coded;
@@ -370,10 +376,6 @@ std::vector<std::byte> encodeAtExtent(ComputeContext& cc, const Volume& volume, 
     }
     return bytes;
 }
-
-} // namespace
-
-namespace {
 
 // False when a reference of `pf` holds a non-finite voxel: lossy frames of float voxels near FLT_MAX can
 // reconstruct beyond float's range, and nothing can be predicted from them.

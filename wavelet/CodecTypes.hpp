@@ -71,6 +71,8 @@ struct CodecProfile {
     double choose = 0;
     double total = 0; ///< the whole call
     int trials = 0;   ///< quantise + reconstruct rounds run by the rate control
+    /// Rounds on a sample of bricks (the --psnr estimate of the step, before its full rounds).
+    int sampleTrials = 0;
     /// Decoder: bricks read from the file and decoded (uniform ones included), counted where the decoder
     /// takes them, so a distributed reader can prove each rank decodes only the bricks of its extent.
     std::size_t bricks = 0;

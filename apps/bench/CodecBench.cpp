@@ -13,6 +13,7 @@
 #include "core/runtime/Timing.hpp"
 #include "host/io/VolumeIo.hpp"
 #include "wavelet/Codec.hpp"
+#include "wavelet/Metrics.hpp"
 #include "wavelet/container/LodStatistics.hpp"
 
 #include <nlohmann/json.hpp>
@@ -24,7 +25,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <iostream>
 #include <memory>
@@ -42,15 +45,17 @@ struct BenchData {
     std::string name;
     Volume volume;
     bool realScan = false; ///< CT/MRI: the lossless ratio goal against xz -9 applies
+    fs::path source;       ///< the file `volcl encode` reads it from (empty: the benchmark writes one)
 };
 
 std::vector<BenchData> loadBenchData(const fs::path& shared, const std::string& filter, bool withLarge) {
     std::vector<BenchData> out;
     auto want = [&](const std::string& n) { return filter.empty() || n.find(filter) != std::string::npos; };
-    auto add = [&](const std::string& name, const std::function<Volume()>& load, bool scan) {
+    auto add = [&](const std::string& name, const std::function<Volume()>& load, bool scan,
+                   const fs::path& source = {}) {
         if (!want(name)) return;
         try {
-            out.push_back({name, load(), scan});
+            out.push_back({name, load(), scan, source});
         } catch (const Error& e) {
             std::cerr << "volcl bench codec: skipping " << name << ": " << e.what() << '\n';
         }
@@ -95,7 +100,7 @@ std::vector<BenchData> loadBenchData(const fs::path& shared, const std::string& 
     const fs::path mri = "/usr/share/mricron/templates/ch2better.nii.gz";
     if (fs::exists(mri))
         add(
-            "ch2better-mri", [&] { return readVolume(mri); }, true);
+            "ch2better-mri", [&] { return readVolume(mri); }, true, mri);
     else if (want("ch2better-mri"))
         std::cerr << "volcl bench codec: " << mri << " is absent (apt-get install mricron-data): skipping\n";
     return out;
@@ -109,10 +114,9 @@ struct BenchRow {
     double encodeColdMBs = 0, decodeColdMBs = 0;
 };
 
-// Wall milliseconds of one run of this executable with `args` (stdout and stderr to /dev/null); throws
-// when it cannot start or does not exit with 0.
-double runSelfMilliseconds(const std::vector<std::string>& args) {
-    static const std::string exe = fs::read_symlink("/proc/self/exe").string();
+// Wall milliseconds of one run of `exe` with `args` (stdout and stderr to /dev/null); throws when it cannot
+// start or does not exit with 0.
+double runMilliseconds(const std::string& exe, const std::vector<std::string>& args) {
     std::vector<char*> argv;
     argv.push_back(const_cast<char*>(exe.c_str()));
     for (const std::string& s : args)
@@ -126,15 +130,21 @@ double runSelfMilliseconds(const std::vector<std::string>& args) {
     pid_t pid = 0;
     const int started = posix_spawn(&pid, exe.c_str(), &io, nullptr, argv.data(), environ);
     posix_spawn_file_actions_destroy(&io);
-    if (started != 0) throw Error("bench codec: cannot start " + exe + " for a cold run");
+    if (started != 0) throw Error("bench codec: cannot start " + exe);
     int status = 0;
     while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
     }
     const double ms = sw.milliseconds();
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-        throw Error("bench codec: cold run `volcl " + args.front() + " ...` failed (status " +
+        throw Error("bench codec: `" + exe + " " + args.front() + " ...` failed (status " +
                     std::to_string(status) + ")");
     return ms;
+}
+
+// One run of this executable (a fresh `volcl` process).
+double runSelfMilliseconds(const std::vector<std::string>& args) {
+    static const std::string exe = fs::read_symlink("/proc/self/exe").string();
+    return runMilliseconds(exe, args);
 }
 
 // Temporary files of the cold runs, removed however the benchmark ends.
@@ -160,7 +170,8 @@ struct BenchArgs {
     int runs = 3, levels = 4;
     std::size_t brick = 64;
     bool noXz = false, large = false;
-    bool cold = true; ///< lossless rows also time a fresh CLI process per run
+    bool cold = true;           ///< lossless rows also time a fresh CLI process per run
+    std::string zfpCli = "zfp"; ///< zfp's command-line tool for the one-shot rows (empty: none)
     std::vector<double> psnrs{30, 40, 50, 60, 70};
     std::vector<std::string> modes; ///< only rows whose mode contains one of these (empty: all)
     std::string coder;              ///< only this entropy coder's rows (empty: both)
@@ -188,19 +199,21 @@ struct OurTimes {
     double encMs = 0, decMs = 0, encColdMs = 0, decColdMs = 0, statsMs = 0;
 };
 
+// The arguments of a quiet `volcl` run on the benchmark's device: [--device D] -q `tail`.
+std::vector<std::string> quietCli(const DatasetRun& run, std::vector<std::string> tail) {
+    std::vector<std::string> all;
+    if (!run.global.device.empty()) all = {"--device", run.global.device};
+    all.push_back("-q");
+    all.insert(all.end(), tail.begin(), tail.end());
+    return all;
+}
+
 // Cold and warm runs interleaved, so both see the same load; the warm-up run of each side (kernel builds,
 // the on-disk program cache) is not timed. `bytes` is what `warmEncode` last wrote.
 OurTimes timeColdAndWarm(const DatasetRun& run, const std::string& coder, const std::vector<std::byte>& bytes,
                          const std::function<void()>& warmEncode, const std::function<void()>& warmDecode) {
     const BenchArgs& a = run.args;
-    std::vector<std::string> global0;
-    if (!run.global.device.empty()) global0 = {"--device", run.global.device};
-    auto with = [&](std::vector<std::string> tail) {
-        std::vector<std::string> all = global0;
-        all.push_back("-q");
-        all.insert(all.end(), tail.begin(), tail.end());
-        return all;
-    };
+    auto with = [&](std::vector<std::string> tail) { return quietCli(run, std::move(tail)); };
     const std::vector<std::string> enc =
         with({"encode", run.cold->volume.string(), "-o", run.cold->vcz.string(), "--lossless", "--entropy",
               coder, "--levels", std::to_string(a.levels), "--brick", std::to_string(a.brick)});
@@ -375,6 +388,133 @@ void benchAtPsnr(const DatasetRun& run, double p) {
               << '\n';
 }
 
+// The absolute path of `program` found on PATH (or `program` itself when it holds a slash), empty when absent.
+std::string findProgram(const std::string& program) {
+    if (program.empty()) return {};
+    if (program.find('/') != std::string::npos) return access(program.c_str(), X_OK) == 0 ? program : "";
+    const char* path = std::getenv("PATH");
+    std::istringstream dirs(path ? path : "");
+    for (std::string dir; std::getline(dirs, dir, ':');) {
+        const fs::path candidate = fs::path(dir.empty() ? "." : dir) / program;
+        if (access(candidate.c_str(), X_OK) == 0) return candidate.string();
+    }
+    return {};
+}
+
+// A user's one-shot commands at equal PSNR, each a fresh process, interleaved run by run and timed as wall
+// time (file read and write included): `volcl encode SOURCE -o F.vcz --psnr P` (default options, so the
+// level-of-detail statistics and the lossless comparison included) and `volcl decode F.vcz -o F.raw`,
+// against zfp's command-line tool compressing and decompressing the voxels as a raw float32 file at the
+// largest accuracy tolerance that reaches P (found once with libzfp, outside the timing; zfp has no
+// 8/16-bit mode). MB/s count the volume's own bytes for both. PSNR of each from its decoded file, zfp's
+// rounded to the voxel type as in the psnr rows.
+void benchOneShot(const DatasetRun& run, double p, const fs::path& tmp) {
+    const std::string zfp = findProgram(run.args.zfpCli);
+    if (!run.cold) return;
+    if (zfp.empty()) {
+        std::cerr << "  oneshot psnr" << p << ": zfp's command-line tool (" << run.args.zfpCli
+                  << ") is absent (apt-get install zfp): skipping\n";
+        return;
+    }
+    const Volume& v = run.data.volume;
+    const Dims d = v.dims();
+    const std::string stem = (tmp / ("volcl-bench-oneshot-" + std::to_string(getpid()))).string();
+    const std::string vcz = stem + ".vcz", dec = stem + "-decoded.raw", raw = stem + "-f32.raw",
+                      zfpFile = stem + ".zfp", zdec = stem + "-zfp.raw";
+    struct Cleanup {
+        std::vector<std::string> files;
+        ~Cleanup() {
+            std::error_code ec;
+            for (const std::string& f : files)
+                fs::remove(f, ec);
+        }
+    } cleanup{{vcz, dec, raw, zfpFile, zdec}};
+    {
+        const std::vector<float> f = v.toFloat();
+        std::ofstream out(raw, std::ios::binary);
+        out.write(reinterpret_cast<const char*>(f.data()),
+                  static_cast<std::streamsize>(f.size() * sizeof(float)));
+        if (!out) throw Error("bench codec: cannot write " + raw);
+    }
+    const double tolerance = zfpAtPsnr(v, p, 0).tolerance;
+    const std::string source = run.data.source.empty() ? run.cold->volume.string() : run.data.source.string();
+    auto ours = [&](std::vector<std::string> tail) { return quietCli(run, std::move(tail)); };
+    const std::vector<std::string> enc = ours({"encode", source, "-o", vcz, "--psnr", formatNumber(p)});
+    // The same without the level-of-detail statistics (a renderer's, not the codec's), to show their share.
+    const std::string vczNoStats = stem + "-no-lod-stats.vcz";
+    cleanup.files.push_back(vczNoStats);
+    const std::vector<std::string> encNoStats =
+        ours({"encode", source, "-o", vczNoStats, "--psnr", formatNumber(p), "--no-lod-stats"});
+    const std::vector<std::string> decArgs = ours({"decode", vcz, "-o", dec});
+    const std::vector<std::string> dims = {"-f",
+                                           "-3",
+                                           std::to_string(d.x),
+                                           std::to_string(d.y),
+                                           std::to_string(d.z),
+                                           "-a",
+                                           formatNumber(tolerance)};
+    std::vector<std::string> zenc = {"-q", "-i", raw, "-z", zfpFile},
+                             zdecArgs = {"-q", "-z", zfpFile, "-o", zdec};
+    zenc.insert(zenc.end(), dims.begin(), dims.end());
+    zdecArgs.insert(zdecArgs.end(), dims.begin(), dims.end());
+    const std::string loadBefore = loadAverage();
+    // Warm-up of each (page cache, the program cache of the kernels), not timed.
+    runSelfMilliseconds(enc);
+    runSelfMilliseconds(decArgs);
+    runMilliseconds(zfp, zenc);
+    runMilliseconds(zfp, zdecArgs);
+    std::vector<double> oe, on, od, ze, zd;
+    for (int i = 0; i < run.args.runs; ++i) {
+        on.push_back(runSelfMilliseconds(encNoStats));
+        oe.push_back(runSelfMilliseconds(enc));
+        ze.push_back(runMilliseconds(zfp, zenc));
+        od.push_back(runSelfMilliseconds(decArgs));
+        zd.push_back(runMilliseconds(zfp, zdecArgs));
+    }
+    const std::string loadAfter = loadAverage();
+    const double mb = run.megabytes();
+    auto rawOf = [&](ScalarType t) {
+        ReadOptions o;
+        o.dims = d;
+        o.type = t;
+        return o;
+    };
+    BenchRow r{run.data.name, "volcl-oneshot", "psnr" + formatFixed(p, 0)};
+    BenchRow z{run.data.name, "zfp-cli", r.mode};
+    r.bpv = double(fs::file_size(vcz)) * 8 / run.voxels();
+    z.bpv = double(fs::file_size(zfpFile)) * 8 / run.voxels();
+    r.ratio = double(v.byteSize()) / double(fs::file_size(vcz));
+    z.ratio = double(v.byteSize()) / double(fs::file_size(zfpFile));
+    r.psnr = psnr(v, readVolume(dec, rawOf(v.type())));
+    z.psnr = psnr(v, readVolume(zdec, rawOf(ScalarType::Float32)).convertedTo(v.type()));
+    r.encodeColdMBs = mb / (median(oe) / 1e3);
+    r.decodeColdMBs = mb / (median(od) / 1e3);
+    z.encodeColdMBs = mb / (median(ze) / 1e3);
+    z.decodeColdMBs = mb / (median(zd) / 1e3);
+    BenchRow n = r;
+    n.codec = "volcl-oneshot-no-lod-stats";
+    n.encodeColdMBs = mb / (median(on) / 1e3);
+    n.decodeColdMBs = 0;
+    n.bpv = double(fs::file_size(vczNoStats)) * 8 / run.voxels();
+    n.ratio = double(v.byteSize()) / double(fs::file_size(vczNoStats));
+    run.rows.push_back(r);
+    run.rows.push_back(n);
+    run.rows.push_back(z);
+    std::cerr << "  oneshot psnr" << p << " (fresh processes, medians of " << run.args.runs
+              << " interleaved runs, load " << loadBefore << " -> " << loadAfter << "): volcl encode "
+              << formatFixed(median(oe), 1) << " ms = " << formatFixed(r.encodeColdMBs, 1)
+              << " MB/s (--no-lod-stats " << formatFixed(median(on), 1)
+              << " ms = " << formatFixed(n.encodeColdMBs, 1) << " MB/s), decode "
+              << formatFixed(median(od), 1) << " ms = " << formatFixed(r.decodeColdMBs, 1) << " MB/s, "
+              << formatFixed(r.bpv, 3) << " bpv, PSNR " << formatFixed(r.psnr, 2) << " dB; zfp -a "
+              << formatNumber(tolerance) << " encode " << formatFixed(median(ze), 1)
+              << " ms = " << formatFixed(z.encodeColdMBs, 1) << " MB/s, decode " << formatFixed(median(zd), 1)
+              << " ms = " << formatFixed(z.decodeColdMBs, 1) << " MB/s, " << formatFixed(z.bpv, 3)
+              << " bpv, PSNR " << formatFixed(z.psnr, 2) << " dB; volcl/zfp speed: encode "
+              << formatFixed(r.encodeColdMBs / z.encodeColdMBs, 2) << "x, decode "
+              << formatFixed(r.decodeColdMBs / z.decodeColdMBs, 2) << "x\n";
+}
+
 // Transform only: one level of 3D 5/3 on the codec's bricks, against the copy kernel on the same
 // bytes; the brick-resident kernel (what the codec runs on CPUs) and the streaming passes (the
 // general path) measured in the same run. Appends one JSON object per kernel to `transforms`.
@@ -466,6 +606,9 @@ void benchDataset(const DatasetRun& run, const fs::path& tmp, nlohmann::json& tr
     if (!a.noXz && lossless) benchXz(run, tmp);
     for (double p : a.psnrs)
         if (a.wants("psnr" + formatFixed(p, 0))) benchAtPsnr(run, p);
+    // One-shot commands against zfp's tool only when asked for (--mode oneshot): fresh processes are slow.
+    for (double p : a.psnrs)
+        if (!a.modes.empty() && a.wants("oneshot-psnr" + formatFixed(p, 0))) benchOneShot(run, p, tmp);
     // The speed goal at 1-2 bits/voxel, with both entropy coders.
     for (EntropyMode m : {EntropyMode::Dense, EntropyMode::Fast})
         for (double bpv : {1.0, 2.0}) {
@@ -551,6 +694,11 @@ void addCodecBench(CLI::App& bench, GlobalOptions& global) {
     b->add_flag("--cold,!--no-cold", a->cold,
                 "Lossless rows also time a fresh `volcl encode`/`volcl decode` process per run, interleaved "
                 "with the warm in-process runs (default on)");
+    b->add_option(
+         "--zfp-cli", a->zfpCli,
+         "zfp's command-line tool for the one-shot rows (fresh `volcl encode/decode` processes against "
+         "it at equal PSNR; needs --cold)")
+        ->capture_default_str();
     b->add_flag("--large", a->large, "Include the 500x470x136 frog labels");
     b->add_option("--csv", a->csv, "CSV output file (default: stdout)");
     b->add_option("--json", a->json, "JSON output file");

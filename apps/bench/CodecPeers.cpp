@@ -51,6 +51,7 @@ ZfpResult runZfp(const Volume& v, std::optional<double> tolerance, int runs) {
     bitstream* bs = stream_open(buffer.data(), buffer.size());
     zfp_stream_set_bit_stream(zs, bs);
     ZfpResult r;
+    r.tolerance = tolerance.value_or(0.0);
     const bool omp = zfp_stream_set_execution(zs, zfp_exec_omp);
     r.encodeMs = medianMilliseconds(runs, [&] {
         zfp_stream_rewind(zs);

@@ -13,6 +13,7 @@ namespace volcl::cli {
 /// One zfp run: compressed size, the decode as float32, median encode and decode milliseconds.
 struct ZfpResult {
     std::size_t bytes = 0;
+    double tolerance = 0; ///< the fixed-accuracy tolerance (0: reversible)
     Volume decoded;
     double encodeMs = 0, decodeMs = 0;
 };

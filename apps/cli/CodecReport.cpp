@@ -18,7 +18,9 @@ void printProfile(const char* what, const CodecProfile& p, std::size_t searchTri
               << formatFixed(p.entropy, 1) << " reconstruct " << formatFixed(p.reconstruct, 1) << " assemble "
               << formatFixed(p.assemble, 1) << " predict " << formatFixed(p.predict, 1) << " choose "
               << formatFixed(p.choose, 1) << " other " << formatFixed(p.total - staged, 1);
-    if (p.trials > 0) std::cerr << " (" << p.trials << " quantisation rounds)";
+    if (p.trials > 0) std::cerr << " (" << p.trials << " quantisation rounds";
+    if (p.sampleTrials > 0) std::cerr << ", " << p.sampleTrials << " on a sample of bricks";
+    if (p.trials > 0) std::cerr << ")";
     if (searchTrials > 0) std::cerr << " [target search: " << searchTrials << " rounds, not timed]";
     std::cerr << '\n';
 }

@@ -155,21 +155,44 @@ VoxelSymbols voxelSymbols(std::span<const std::int32_t> vox, ScalarType t) {
 } // namespace
 
 std::optional<std::vector<std::uint8_t>> encodeVoxelBrick(const Volume& v, Dims o, Dims d, std::size_t limit,
-                                                          bool finiteOnly) {
-    const std::vector<std::int32_t> vox = regionVoxels<std::int32_t>(v, o, d);
-    if (finiteOnly && v.type() == ScalarType::Float32 &&
-        std::any_of(vox.begin(), vox.end(),
-                    [](std::int32_t bits) { return (bits & 0x7f800000) == 0x7f800000; }))
-        return std::nullopt;
-    const VoxelSymbols s = voxelSymbols(vox, v.type());
-    if (s.prefix.size() >= limit) return std::nullopt;
+                                                          bool finiteOnly, VoxelBrickTrial* memo) {
+    VoxelBrickTrial local;
+    VoxelBrickTrial& t = memo ? *memo : local;
+    if (t.checked && (t.origin != o || t.dims != d)) t = VoxelBrickTrial{};
+    std::vector<std::int32_t> vox;
+    auto voxels = [&]() -> const std::vector<std::int32_t>& {
+        if (vox.empty()) vox = regionVoxels<std::int32_t>(v, o, d);
+        return vox;
+    };
+    if (!t.checked) {
+        t.origin = o;
+        t.dims = d;
+        t.checked = true;
+        t.nonFinite = v.type() == ScalarType::Float32 && std::ranges::any_of(voxels(), [](std::int32_t bits) {
+                          return (bits & 0x7f800000) == 0x7f800000;
+                      });
+    }
+    if (finiteOnly && t.nonFinite) return std::nullopt;
+    // The symbols are made again when a frame is still to be coded: kept in the memo they would add a copy
+    // of the volume to an encode's memory.
+    std::vector<std::uint8_t> symbols;
+    auto symbolsToCode = [&]() -> const std::vector<std::uint8_t>& {
+        if (symbols.empty()) {
+            VoxelSymbols s = voxelSymbols(voxels(), v.type());
+            t.prefix = std::move(s.prefix);
+            symbols = std::move(s.symbols);
+        }
+        return symbols;
+    };
+    if (t.prefix.empty()) symbolsToCode();
+    if (t.prefix.size() >= limit) return std::nullopt;
     ZstdContext z;
-    const auto cheap = zstdFrame(z, s.symbols, kCheapLevel);
-    if (double(s.prefix.size() + cheap.size()) > kCheapSlack * double(limit)) return std::nullopt;
-    auto best = zstdFrame(z, s.symbols, kThoroughLevel);
-    if (cheap.size() < best.size()) best = cheap;
-    if (s.prefix.size() + best.size() >= limit) return std::nullopt;
-    std::vector<std::uint8_t> out = s.prefix;
+    if (!t.cheap) t.cheap = zstdFrame(z, symbolsToCode(), kCheapLevel);
+    if (double(t.prefix.size() + t.cheap->size()) > kCheapSlack * double(limit)) return std::nullopt;
+    if (!t.thorough) t.thorough = zstdFrame(z, symbolsToCode(), kThoroughLevel);
+    const std::vector<std::uint8_t>& best = t.cheap->size() < t.thorough->size() ? *t.cheap : *t.thorough;
+    if (t.prefix.size() + best.size() >= limit) return std::nullopt;
+    std::vector<std::uint8_t> out = t.prefix;
     out.insert(out.end(), best.begin(), best.end());
     return out;
 }
@@ -229,12 +252,14 @@ std::vector<std::int32_t> decodeVoxelBrick(std::span<const std::uint8_t> p, Scal
 }
 
 std::size_t codeSmallerBricksAsVoxels(const Volume& frame, const VczHeader& h,
-                                      std::vector<std::vector<std::uint8_t>>& payloads, unsigned threads) {
+                                      std::vector<std::vector<std::uint8_t>>& payloads, unsigned threads,
+                                      VoxelBrickTrials* memo) {
     std::vector<std::uint8_t> replaced(payloads.size(), 0);
     const bool finiteOnly = h.transform == TransformKind::FloatLifting;
+    if (memo) memo->resize(payloads.size());
     parallelFor(payloads.size(), threads, [&](std::size_t b) {
-        if (auto coded =
-                encodeVoxelBrick(frame, h.brickOrigin(b), h.brickDims(b), payloads[b].size(), finiteOnly)) {
+        if (auto coded = encodeVoxelBrick(frame, h.brickOrigin(b), h.brickDims(b), payloads[b].size(),
+                                          finiteOnly, memo ? &(*memo)[b] : nullptr)) {
             payloads[b] = std::move(*coded);
             replaced[b] = 1;
         }

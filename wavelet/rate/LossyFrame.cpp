@@ -52,7 +52,8 @@ void LossyFrame::setDelta(double delta) {
         h_.steps[i] = std::max({h_.steps[i], maxAbs_[i] / (kMaxQuantIndex - 2), kMinStep});
 }
 
-Trial LossyFrame::trial(std::optional<VoxelBound> bound, bool reconstruct) {
+Trial LossyFrame::trial(std::optional<VoxelBound> bound, bool reconstruct,
+                        const std::vector<std::size_t>* only) {
     const Volume& v = v_;
     const VczHeader& h = h_;
     const std::vector<std::vector<float>>& coeffs = coeffs_;
@@ -60,7 +61,7 @@ Trial LossyFrame::trial(std::optional<VoxelBound> bound, bool reconstruct) {
     Trial tr;
     const std::size_t n = coeffs.size();
     tr.corrections.resize(n);
-    ++prof->trials;
+    ++(only ? prof->sampleTrials : prof->trials);
     if (!reconstruct) {
         tr.err.sumSq = tr.err.maxErr = std::numeric_limits<double>::quiet_NaN();
         if (exact_) tr.corrections = *exact_;
@@ -69,7 +70,7 @@ Trial LossyFrame::trial(std::optional<VoxelBound> bound, bool reconstruct) {
     timeStage(prof, &CodecProfile::reconstruct, [&] {
         std::vector<ErrorStats> es(n);
         inverseBricks(
-            cc_, t_, h, allBricks(h), 0, o_.threads, nullptr,
+            cc_, t_, h, only ? *only : allBricks(h), 0, o_.threads, nullptr,
             {{&CodecProfile::reconstruct,
               [&](std::size_t b, float* dst, std::size_t pitch) {
                   requantiseInto(h, h.brickDims(b), coeffs[b].data(), dst, pitch, zeroBelow_);

@@ -60,8 +60,10 @@ public:
     double zeroBelow() const noexcept { return zeroBelow_; }
     /// Quantises with the header's steps, reconstructs like the decoder and measures the error; with
     /// `bound` it also lists the voxels to store exactly. With `reconstruct` false only the quantisation
-    /// runs (the error is NaN).
-    Trial trial(std::optional<VoxelBound> bound, bool reconstruct = true);
+    /// runs (the error is NaN). With `only`, just those bricks are reconstructed and measured (a sample
+    /// for an estimate: the others' error and corrections stay empty, so such a trial is never coded).
+    Trial trial(std::optional<VoxelBound> bound, bool reconstruct = true,
+                const std::vector<std::size_t>* only = nullptr);
     /// File size of the frame coded with the trial's corrections; with `payloads` it keeps them.
     std::size_t codedBytes(const Trial& tr, BrickPayloads* payloads);
     /// PSNR over the frame's value range of a trial's error (over the voxels not stored exactly by
