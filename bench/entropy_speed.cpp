@@ -5,11 +5,15 @@
 // When the SIMD dense coder is selected, each brick is also encoded and decoded with the scalar one (the
 // encoders must write the same bytes; VOLCL_DENSE_SCALAR=1 measures the scalar ones alone,
 // VOLCL_BENCH_SIMD_ONLY=1 the SIMD ones alone, e.g. for a profile; VOLCL_BENCH_ENCODE_ONLY=1 skips the timed
-// decodes, for profiles and counters of the encoder).
+// decodes, for profiles and counters of the encoder). Dense mode also codes every section with the
+// set-partitioning coder in the same runs and prints its bytes and speed beside the dense coder's.
 #include "core/Error.hpp"
 #include "wavelet/container/VczFormat.hpp"
 #include "wavelet/entropy/EntropyCoder.hpp"
+#include "wavelet/entropy/SpeckModel.hpp"
 #include "wavelet/entropy/TestSwitches.hpp"
+#include "wavelet/payload/BrickPayload.hpp"
+#include "wavelet/payload/VoxelBrick.hpp"
 
 #include <algorithm>
 #include <cstdint>
@@ -51,18 +55,14 @@ CodedVolume readCoefficients(const std::string& path) {
     v.steps = h.steps;
     v.bias = h.reconstructionBias;
     for (std::size_t b = 0; b < h.brickCount(); ++b) {
-        // Payload: u8 section count, u8 flags, u32 size per section and for the corrections, then the data.
         const auto p = vczBrickPayload(file, h, 0, b, path);
+        if (codec::isVoxelBrick(p)) continue; // coded as voxels: no coefficients
         const Dims d = h.brickDims(b);
         const auto layout = sectionLayout(d, h.levels);
+        const codec::ParsedPayload parsed = codec::parsePayload(p, layout.size(), path);
         std::vector<std::int32_t> c(d.count());
-        std::size_t pos = 2 + 4 * (layout.size() + 1);
-        for (std::size_t s = 0; s < layout.size(); ++s) {
-            std::uint32_t size;
-            std::memcpy(&size, p.data() + 2 + 4 * s, 4);
-            decodeSection(p.subspan(pos, size), c, d, layout, s, h.entropy, path.c_str());
-            pos += size;
-        }
+        decodeSections(parsed.sections, c, d, layout, h.entropy, path.c_str(), nullptr,
+                       parsed.setPartitioned);
         v.dims.push_back(d);
         v.coeffs.push_back(std::move(c));
     }
@@ -98,7 +98,8 @@ int main(int argc, char** argv) try {
         for (const auto& c : v.coeffs)
             n += c.size();
         std::vector<std::vector<std::vector<std::uint8_t>>> coded(v.coeffs.size());
-        std::vector<double> enc, dec, decScalar, ratio, encScalar, encRatio;
+        std::vector<double> enc, dec, decScalar, ratio, encScalar, encRatio, speckEnc, speckDec;
+        std::size_t speckBytes = 0;
         // Reference output: the coefficients, dequantised when the decoder dequantises.
         const Dequantiser dq{v.steps, v.bias};
         const Dequantiser* dqp = fast && v.lossy ? &dq : nullptr;
@@ -155,6 +156,29 @@ int main(int argc, char** argv) try {
                 }
             }
             setDenseDecoderScalar(forcedScalar);
+            // The set-partitioning coder on every section of the same bricks, in the same run (dense mode).
+            double sEnc = 0, sDec = 0;
+            speckBytes = 0;
+            for (std::size_t b = 0; b < v.coeffs.size() && !fast && !encodeOnly; ++b) {
+                const auto layout = sectionLayout(v.dims[b], v.levels);
+                std::vector<std::vector<std::uint8_t>> sp(layout.size());
+                t0 = threadSeconds();
+                for (std::size_t s = 0; s < layout.size(); ++s)
+                    if (!layout[s].empty()) entropy::encodeSpeck(v.coeffs[b], v.dims[b], layout[s], sp[s]);
+                sEnc += threadSeconds() - t0;
+                std::vector<std::int32_t> back(v.coeffs[b].size(), 0);
+                t0 = threadSeconds();
+                for (std::size_t s = 0; s < layout.size(); ++s)
+                    if (!layout[s].empty())
+                        decodeSection(sp[s], back, v.dims[b], layout, s, mode, "bench", true);
+                sDec += threadSeconds() - t0;
+                if (back != v.coeffs[b])
+                    throw Error(path + ": set-partitioning round trip differs in brick " + std::to_string(b));
+                for (const auto& x : sp)
+                    speckBytes += x.size();
+            }
+            speckEnc.push_back(sEnc);
+            speckDec.push_back(sDec);
             dec.push_back(tSimd);
             if (compare) decScalar.push_back(tScalar);
             if (compare) ratio.push_back(decScalar.back() / dec.back());
@@ -179,6 +203,20 @@ int main(int argc, char** argv) try {
                         path.c_str(), n, bytes, double(n * v.voxelBytes) / double(bytes),
                         fast ? "fast" : "dense", double(n) / enc[2] / 1e6, double(n) / dec[2] / 1e6,
                         double(n) / enc[0] / 1e6, double(n) / dec[0] / 1e6);
+        if (!fast && !encodeOnly) {
+            std::size_t denseBytes = 0;
+            for (const auto& brick : coded)
+                for (const auto& x : brick)
+                    denseBytes += x.size();
+            std::sort(speckEnc.begin(), speckEnc.end());
+            std::sort(speckDec.begin(), speckDec.end());
+            std::printf(
+                "  set partitioning on every section: %zu section bytes (dense %zu, %.3fx), encode %.1f / "
+                "decode %.1f Mcoef/s (best %.1f / %.1f)\n",
+                speckBytes, denseBytes, double(speckBytes) / double(denseBytes),
+                double(n) / speckEnc[2] / 1e6, double(n) / speckDec[2] / 1e6, double(n) / speckEnc[0] / 1e6,
+                double(n) / speckDec[0] / 1e6);
+        }
         if (compare) {
             std::sort(encScalar.begin(), encScalar.end());
             std::sort(encRatio.begin(), encRatio.end());

@@ -8,6 +8,7 @@
 #include "core/runtime/Timing.hpp"
 #include "wavelet/container/VczFormat.hpp"
 #include "wavelet/entropy/EntropyCoder.hpp"
+#include "wavelet/payload/BrickPayload.hpp"
 #include "wavelet/transform/LiftingTransform.hpp"
 
 #include <algorithm>
@@ -42,21 +43,14 @@ std::vector<std::byte> readFile(const std::string& path) {
 // One brick's coefficients entropy decoded into rows of `pitch` (lossy: dequantised float bit patterns).
 void decodeBrick(std::span<const std::byte> file, const VczHeader& h, std::size_t b, std::int32_t* dst,
                  std::size_t pitch, const std::string& path) {
-    // Payload: u8 section count, u8 flags, u32 size per section and for the corrections, then the data.
     const auto p = vczBrickPayload(file, h, 0, b, path);
     const Dims d = h.brickDims(b), storage{pitch, d.y, d.z};
     const auto layout = sectionLayout(d, h.levels);
-    std::vector<std::span<const std::uint8_t>> sections;
-    std::size_t pos = 2 + 4 * (layout.size() + 1);
-    for (std::size_t s = 0; s < layout.size(); ++s) {
-        std::uint32_t size;
-        std::memcpy(&size, p.data() + 2 + 4 * s, 4);
-        sections.push_back(p.subspan(pos, size));
-        pos += size;
-    }
+    const codec::ParsedPayload parsed = codec::parsePayload(p, layout.size(), path);
     const Dequantiser dq{h.steps, h.reconstructionBias};
-    decodeSections(sections, std::span<std::int32_t>(dst, storage.count()), storage, layout, h.entropy,
-                   path.c_str(), h.transform == TransformKind::FloatLifting ? &dq : nullptr);
+    decodeSections(parsed.sections, std::span<std::int32_t>(dst, storage.count()), storage, layout, h.entropy,
+                   path.c_str(), h.transform == TransformKind::FloatLifting ? &dq : nullptr,
+                   parsed.setPartitioned);
 }
 
 // CPU time of the whole process (the device's worker threads included), in milliseconds.

@@ -61,6 +61,7 @@ CodecOptions lossless(Wavelet w = Wavelet::Cdf53, EntropyMode m = EntropyMode::D
     o.entropy = m;
     o.brick = brick;
     o.levels = levels;
+    o.chooseExtent = false; // the brick asked for, also where it is the default
     return o;
 }
 
@@ -70,6 +71,7 @@ CodecOptions lossy(RateMode r, double target, Dims brick = {16, 16, 16}, int lev
     o.target = target;
     o.brick = brick;
     o.levels = levels;
+    o.chooseExtent = false; // the brick asked for, also where it is the default
     return o;
 }
 

@@ -38,6 +38,9 @@ struct CodecOptions {
     std::optional<Wavelet> wavelet;
     int levels = 4;
     Dims brick{64, 64, 64}; ///< each axis a multiple of 2^levels
+    /// With the default brick and levels: single volumes up to 16 M voxels are also coded with 128-voxel
+    /// bricks and the smaller file is kept (not for --bpv or a fixed step). False keeps `brick` as given.
+    bool chooseExtent = true;
     EntropyMode entropy = EntropyMode::Dense;
     /// Lossy only: use this base quantiser step instead of searching one for the target (the search
     /// encodes several trials; benchmarks time a fixed-step encode separately).

@@ -32,7 +32,8 @@ std::vector<Correction> entropyDecodeBrick(std::span<const std::byte> file, cons
     // Sections finer than the level are not decoded; the inverse never reads them, but keep them defined.
     if (stop > 0) std::fill(c.begin(), c.end(), 0);
     decodeSections(std::span(p.sections).first(layout.size() - std::size_t(stop)), c, storage, layout,
-                   h.entropy, what.c_str(), h.transform == TransformKind::FloatLifting ? &dq : nullptr);
+                   h.entropy, what.c_str(), h.transform == TransformKind::FloatLifting ? &dq : nullptr,
+                   p.setPartitioned);
     if (p.corrections.empty() || level != 0) return {};
     return decodeCorrections(p.corrections, h.type, d.count(), what);
 }

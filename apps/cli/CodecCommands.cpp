@@ -104,6 +104,7 @@ CodecOptions toOptions(const EncodeArgs& a, const CLI::App& cmd) {
         o.brick = {b, b, b};
     }
     o.levels = a.levels;
+    o.chooseExtent = !cmd.count("--brick") && !cmd.count("--levels");
     o.threads = std::max(1u, a.threads);
     if (a.motion == "block")
         o.motion = MotionMode::Block;
@@ -242,7 +243,8 @@ void addEncode(CLI::App& app, GlobalOptions& global) {
     cmd->add_option("--wavelet", a->wavelet,
                     "cdf53 | cdf97 | haar | cdf26 (default cdf53 lossless, cdf97 lossy)");
     cmd->add_option("--levels", a->levels, "Transform levels (default 4)");
-    cmd->add_option("--brick", a->brick, "Brick size B or X,Y,Z, multiples of 2^levels (default 64)");
+    cmd->add_option("--brick", a->brick,
+                    "Brick size B or X,Y,Z, multiples of 2^levels (default 64, or 128 where smaller)");
     cmd->add_option("--entropy", a->entropy,
                     "fast (zstd over byte planes) or dense (context-modelled rANS, default)");
     cmd->add_option("--threads", a->threads, "Host threads for entropy coding (default 2)");
@@ -477,6 +479,7 @@ void addDecode(CLI::App& app, GlobalOptions& global) {
 /// transform with a negligible error bound) and decoded at that level, so both sides share one low band.
 Volume levelView(ComputeContext& cc, const Volume& v, const VczHeader* like, const DecodeOptions& d) {
     CodecOptions o;
+    o.chooseExtent = false; // both sides must share one transform extent
     if (like) {
         o.wavelet = like->wavelet;
         o.levels = like->levels;

@@ -12,6 +12,10 @@
 #include "wavelet/entropy/BitIo.hpp"
 #include "wavelet/entropy/DenseModel.hpp"
 #include "wavelet/entropy/FastCoder.hpp"
+#include "wavelet/entropy/SpeckModel.hpp"
+#include "wavelet/entropy/TestSwitches.hpp"
+
+#include <atomic>
 
 namespace volcl {
 
@@ -32,10 +36,20 @@ EntropyMode parseEntropy(std::string_view name) {
 }
 
 namespace entropy {
+namespace {
+std::atomic<bool> gSetPartitioning{true}; // a test and measurement switch (TestSwitches.hpp)
+} // namespace
 void corrupt(const char* what, const char* why) {
     throw IoError(std::string(what) + ": " + why + " (corrupted data)");
 }
 } // namespace entropy
+
+void setSetPartitioningEnabled(bool on) noexcept {
+    entropy::gSetPartitioning.store(on, std::memory_order_relaxed);
+}
+bool setPartitioningEnabled() noexcept {
+    return entropy::gSetPartitioning.load(std::memory_order_relaxed);
+}
 
 std::vector<std::vector<SubbandBox>> sectionLayout(Dims brick, int levels) {
     std::vector<std::vector<SubbandBox>> layout(static_cast<std::size_t>(levels) + 1);
@@ -79,9 +93,29 @@ void encodeSection(std::span<const std::int32_t> coeffs, Dims brick,
     }
 }
 
+bool encodeSectionSmallest(std::span<const std::int32_t> coeffs, Dims brick,
+                           const std::vector<std::vector<SubbandBox>>& layout, std::size_t s,
+                           EntropyMode mode, std::vector<std::uint8_t>& out) {
+    const std::size_t start = out.size();
+    encodeSection(coeffs, brick, layout, s, mode, out);
+    std::size_t count = 0;
+    for (const SubbandBox& b : layout[s])
+        count += b.count();
+    const std::size_t dense = out.size() - start;
+    if (mode != EntropyMode::Dense || count == 0 || !setPartitioningEnabled() ||
+        double(dense) * 8.0 >= entropy::kSpeckTryBitsPerCoefficient * double(count))
+        return false;
+    std::vector<std::uint8_t> speck;
+    entropy::encodeSpeck(coeffs, brick, layout[s], speck);
+    if (speck.size() >= dense) return false;
+    out.resize(start);
+    out.insert(out.end(), speck.begin(), speck.end());
+    return true;
+}
+
 void decodeSection(std::span<const std::uint8_t> in, std::span<std::int32_t> coeffs, Dims brick,
                    const std::vector<std::vector<SubbandBox>>& layout, std::size_t s, EntropyMode mode,
-                   const char* what) {
+                   const char* what, bool setPartitioned) {
     std::size_t count = 0;
     for (const SubbandBox& b : layout[s])
         count += b.count();
@@ -89,7 +123,10 @@ void decodeSection(std::span<const std::uint8_t> in, std::span<std::int32_t> coe
         if (!in.empty()) entropy::corrupt(what, "unexpected data in an empty section");
         return;
     }
-    if (mode == EntropyMode::Dense) {
+    if (setPartitioned) {
+        if (mode != EntropyMode::Dense) entropy::corrupt(what, "set-partitioned section in a fast-mode file");
+        entropy::decodeSpeck(in, coeffs, brick, layout[s], what);
+    } else if (mode == EntropyMode::Dense) {
         entropy::decodeDense(in, coeffs, brick, layout, s, what);
     } else {
         entropy::decodeFast(in, coeffs, layout[s], brick, what, nullptr);
@@ -98,13 +135,13 @@ void decodeSection(std::span<const std::uint8_t> in, std::span<std::int32_t> coe
 
 void decodeSections(std::span<const std::span<const std::uint8_t>> sections, std::span<std::int32_t> coeffs,
                     Dims brick, const std::vector<std::vector<SubbandBox>>& layout, EntropyMode mode,
-                    const char* what, const Dequantiser* dq) {
+                    const char* what, const Dequantiser* dq, std::uint32_t setPartitioned) {
     for (std::size_t s = 0; s < sections.size(); ++s) {
-        if (mode == EntropyMode::Fast)
+        if (mode == EntropyMode::Fast && !(setPartitioned >> s & 1u))
             entropy::decodeFast(sections[s], coeffs, layout[s], brick, what,
                                 dq); // checks empty sections itself
         else
-            decodeSection(sections[s], coeffs, brick, layout, s, mode, what);
+            decodeSection(sections[s], coeffs, brick, layout, s, mode, what, setPartitioned >> s & 1u);
     }
     if (dq && mode == EntropyMode::Dense)
         for (std::size_t s = 0; s < sections.size(); ++s)

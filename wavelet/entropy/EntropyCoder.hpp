@@ -37,6 +37,14 @@ void encodeSection(std::span<const std::int32_t> coeffs, Dims brick,
                    const std::vector<std::vector<SubbandBox>>& layout, std::size_t s, EntropyMode mode,
                    std::vector<std::uint8_t>& out);
 
+/// Like encodeSection, and in dense mode the section is also coded by set partitioning
+/// (wavelet/entropy/SpeckModel.hpp) when its dense coding is sparse enough for that to have a chance
+/// (below kSpeckTryBitsPerCoefficient); the smaller coding is appended. Returns true when it is the
+/// set-partitioning one (the payload records it per section: decodeSection's `setPartitioned`).
+bool encodeSectionSmallest(std::span<const std::int32_t> coeffs, Dims brick,
+                           const std::vector<std::vector<SubbandBox>>& layout, std::size_t s,
+                           EntropyMode mode, std::vector<std::uint8_t>& out);
+
 /// Reconstruction of a row of quantisation indices: (|q| + bias) * step with the sign of q, 0 for q = 0.
 /// The one formula of the codec: the encoder checks its bounds on what this returns, the decoder writes it.
 /// `in` may be `out` reinterpreted (in place): each element is read before it is overwritten.
@@ -60,16 +68,18 @@ struct Dequantiser {
 };
 
 /// Decodes section `s` from `in` into its subbands of `coeffs` (earlier sections must be decoded: they
-/// give the parent context). Throws IoError naming `what` when the data are inconsistent.
+/// give the parent context). `setPartitioned`: the section was coded by set partitioning instead of by
+/// `mode`. Throws IoError naming `what` when the data are inconsistent.
 void decodeSection(std::span<const std::uint8_t> in, std::span<std::int32_t> coeffs, Dims brick,
                    const std::vector<std::vector<SubbandBox>>& layout, std::size_t s, EntropyMode mode,
-                   const char* what);
+                   const char* what, bool setPartitioned = false);
 
 /// Decodes sections 0 .. sections.size()-1 of a brick (as decodeSection). With `dq` the coefficients come
 /// out dequantised, as float bit patterns in `coeffs`: fast mode dequantises each row as it decodes it;
-/// dense mode after the last section (decoded coefficients are the next section's context).
+/// dense mode after the last section (decoded coefficients are the next section's context). Bit s of
+/// `setPartitioned` marks section s as coded by set partitioning (dense mode only).
 void decodeSections(std::span<const std::span<const std::uint8_t>> sections, std::span<std::int32_t> coeffs,
                     Dims brick, const std::vector<std::vector<SubbandBox>>& layout, EntropyMode mode,
-                    const char* what, const Dequantiser* dq);
+                    const char* what, const Dequantiser* dq, std::uint32_t setPartitioned = 0);
 
 } // namespace volcl

@@ -13,6 +13,11 @@ bool denseDecoderIsScalar() noexcept;
 /// write the same bytes (tests compare them). VOLCL_DENSE_SCALAR=1 forces the scalar encoder too.
 void setDenseEncoderScalar(bool force) noexcept;
 bool denseEncoderIsScalar() noexcept;
+/// Whether dense-mode sections may be coded by set partitioning where it is smaller (default: yes). Off,
+/// every payload is what the dense coder alone writes: tests compare the two files' voxels (the same
+/// integers are coded) and measurements the two coders' sizes and speeds.
+void setSetPartitioningEnabled(bool on) noexcept;
+bool setPartitioningEnabled() noexcept;
 /// For tests: whether the SIMD encoder's arithmetic stand-ins for the scalar coder's tables (magnitude
 /// symbol, the previous symbol's W, activity class) agree with the tables on every class of input; true
 /// where the CPU has no SIMD encoder.

@@ -32,6 +32,9 @@ StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& sourc
     if (source.dims.count() == 0) throw UsageError("cannot encode an empty volume");
     if (!source.fill) throw Error("internal: a volume source without a fill function");
 
+    // Every row is coded with the brick asked for: the whole file shares one brick grid.
+    CodecOptions rowOptions = options;
+    rowOptions.chooseExtent = false;
     // The whole volume's header: brick grid and index size follow from dims and options alone.
     VczHeader h;
     h.dims = source.dims;
@@ -70,7 +73,7 @@ StreamEncodeReport encodeStreaming(ComputeContext& cc, const VolumeSource& sourc
         row.anatomical = source.anatomical;
         source.fill(at, row);
         report.rowBytes = std::max(report.rowBytes, row.byteSize());
-        std::vector<std::byte> coded = encodeVolume(cc, row, options);
+        std::vector<std::byte> coded = encodeVolume(cc, row, rowOptions);
         const VczHeader rh = readVczHeader(coded, name);
         if (r == 0) {
             // Everything the options decide (wavelet, transform, levels, entropy, steps) as the encoder set
