@@ -323,6 +323,43 @@ TEST(GradientCache, PacketShadingWithPreintegrationClippingAndSkipping) {
     EXPECT_LT(imageRmse(r.render(), referenceRender(v, tf, s, {.step = 0.05})), 3e-3);
 }
 
+// One head light under an orthographic camera takes its own path in shade_packet ((g.v)^2 / |g|^2 and half
+// the exponent); the same light given as a directional light toward the eye takes the general light loop
+// (reciprocal square root, half vector). Both must give the same image: integer, odd and fractional
+// exponents, a coloured light, with and without shadows from the light volume.
+TEST(GradientCache, HeadLightPathMatchesTheLightLoop) {
+    const Dims n{24, 24, 24};
+    const Volume v = toUInt8(makeFloatVolume(n, [](double x, double y, double z) {
+        const double r =
+            std::sqrt((x - 11.5) * (x - 11.5) + (y - 11.5) * (y - 11.5) + (z - 11.5) * (z - 11.5));
+        return std::max(0.0, 250.0 - 22.0 * r);
+    }));
+    const TransferFunction tf = rampTf(0, 250, 0.8);
+    for (bool shadows : {false, true})
+        for (double shininess : {32.0, 5.0, 20.5, 0.0}) {
+            Scene head = shadedScene(n, 28, GradientKind::Cache);
+            head.effects.shininess = shininess;
+            head.effects.shadows = shadows;
+            head.lights[0].color = {1.0, 0.8, 0.5};
+            Scene dir = head;
+            const Vec3 e = head.camera->eye, t = head.camera->target;
+            dir.lights[0].kind = LightKind::Directional;
+            dir.lights[0].vector = {e[0] - t[0], e[1] - t[1], e[2] - t[2]}; // toward the eye (normalised)
+            GridRenderer rh(computeContext(), v, tf, head), rd(computeContext(), v, tf, dir);
+            EXPECT_EQ(rh.plan().gradientCache, 3) << rh.plan().explain();
+            EXPECT_EQ(rd.plan().gradientCache, 3) << rd.plan().explain();
+            const ImageBuffer a = rh.render(), b = rd.render();
+            double maxDiff = 0.0, maxValue = 0.0;
+            for (std::size_t i = 0; i < a.pixels.size(); ++i) {
+                ASSERT_TRUE(std::isfinite(a.pixels[i]));
+                maxDiff = std::max(maxDiff, double(std::fabs(a.pixels[i] - b.pixels[i])));
+                maxValue = std::max(maxValue, double(a.pixels[i]));
+            }
+            EXPECT_GT(maxValue, 0.1) << "the sphere is visible";
+            EXPECT_LT(maxDiff, 2e-5) << "shininess " << shininess << (shadows ? ", shadows" : "");
+        }
+}
+
 // Scenes the packet kernel does not take keep central differences, and say so.
 TEST(GradientCache, FallsBackToCentralDifferencesWithAReason) {
     const Dims n{12, 12, 12};

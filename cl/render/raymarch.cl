@@ -793,6 +793,28 @@ PACKET_INLINE void shade_packet(__global const uint* gradCache, const VolclGridR
        vector). A zero gradient (|g| <= gradientMin) is lit as facing the light. */
     const float8 gg = gx * gx + gy * gy + gz * gz;
     const int8 valid = gg > Lp->gradientMin * Lp->gradientMin;
+    const float8 a = Lp->ambient;
+    if (Lp->lightCount == 1u && Lp->lightPos[0][3] == VOLCL_LIGHT_HEAD && !P->camera.perspective) {
+        /* The default light alone (one head light, orthographic): L = H = V, so N.l = N.h = |g.v| / |g| =
+           sqrt(c2) with c2 = (g.v)^2 / |g|^2, and (N.h)^n = c2^(n/2): one division and one square root instead
+           of a reciprocal square root with its Newton step, one squaring less, and no light loop (measured:
+           bench/results/rendering/shading-variants-2-mri-512-load9.txt). */
+        const float8 gv = gx * vx->v + gy * vy->v + gz * vz->v;
+        const float8 c2 = select((float8)(0.0f), gv * gv / gg, valid);
+        float8 diffuse = select((float8)(1.0f), sqrt(c2), valid); /* flat: as facing the light */
+        float8 spec = select((float8)(0.0f), specular_power8(c2, 0.5f * Lp->shininess), valid);
+#ifdef SHADOW_VOLUME
+        const float8 vis = light_volume_sample8(lightVol, &P->lightVolume, 0, px, py, pz);
+        diffuse *= vis;
+        spec *= vis;
+#endif
+        const float3 lc = v3(Lp->lightColor[0]);
+        const float8 w = assoc ? Lp->specular * ea->v : (float8)(Lp->specular);
+        er->v = select(er->v, er->v * (a + Lp->diffuse * lc.x * diffuse) + w * lc.x * spec, lit);
+        eg->v = select(eg->v, eg->v * (a + Lp->diffuse * lc.y * diffuse) + w * lc.y * spec, lit);
+        eb->v = select(eb->v, eb->v * (a + Lp->diffuse * lc.z * diffuse) + w * lc.z * spec, lit);
+        return;
+    }
     float8 r = native_rsqrt(gg);
     r = r * (1.5f - 0.5f * gg * r * r); /* one Newton step: about 23 bits */
     const float8 gv = gx * vx->v + gy * vy->v + gz * vz->v;
@@ -855,7 +877,6 @@ PACKET_INLINE void shade_packet(__global const uint* gradCache, const VolclGridR
     }
     /* Associated colours: (c / w lit) * w, with the division cancelled: c (ambient + diffuse) + specular w. */
     const float8 w = assoc ? Lp->specular * ea->v : (float8)(Lp->specular);
-    const float8 a = Lp->ambient;
     er->v = select(er->v, er->v * (a + Lp->diffuse * dr) + w * sr, lit);
     eg->v = select(eg->v, eg->v * (a + Lp->diffuse * dg) + w * sg, lit);
     eb->v = select(eb->v, eb->v * (a + Lp->diffuse * db) + w * sb, lit);
