@@ -47,9 +47,8 @@ double smooth(std::size_t x, std::size_t y, std::size_t z) {
 std::vector<std::pair<std::string, Volume>> adversarialVolumes() {
     std::vector<std::pair<std::string, Volume>> out;
     std::uniform_real_distribution<double> u(-1, 1);
-    out.emplace_back("signed-zeros", doubleVolume([](std::size_t x, auto, auto, auto&) {
-                         return x % 2 ? -0.0 : 0.0;
-                     }));
+    out.emplace_back("signed-zeros",
+                     doubleVolume([](std::size_t x, auto, auto, auto&) { return x % 2 ? -0.0 : 0.0; }));
     out.emplace_back("constant", doubleVolume([](auto, auto, auto, auto&) { return -3.25000000000001; }));
     out.emplace_back("mixed-signs", doubleVolume([&](std::size_t x, std::size_t y, std::size_t z, auto& rng) {
                          // crosses zero everywhere, with detail below float32's precision
@@ -108,7 +107,8 @@ std::pair<double, double> finiteRange(std::span<const double> a) {
 }
 
 // The bound of `mode` on every voxel, in double; NaN/Inf and zeros bit for bit.
-void expectWithinBound(const Volume& in, const Volume& out, RateMode mode, double target, const std::string& what) {
+void expectWithinBound(const Volume& in, const Volume& out, RateMode mode, double target,
+                       const std::string& what) {
     ASSERT_EQ(out.type(), ScalarType::Float64) << what;
     const auto a = in.values<double>(), b = out.values<double>();
     const auto [lo, hi] = finiteRange(a);
@@ -118,8 +118,9 @@ void expectWithinBound(const Volume& in, const Volume& out, RateMode mode, doubl
     for (std::size_t i = 0; i < a.size(); ++i) {
         const double x = a[i], y = b[i];
         if (!std::isfinite(x) || x == 0) {
-            wrong += bitsOf(x) != bitsOf(y) && !(mode != RateMode::PwRelError && x == 0 && y != 0 &&
-                                                 std::abs(y) <= (mode == RateMode::MaxError ? target : INFINITY));
+            wrong +=
+                bitsOf(x) != bitsOf(y) && !(mode != RateMode::PwRelError && x == 0 && y != 0 &&
+                                            std::abs(y) <= (mode == RateMode::MaxError ? target : INFINITY));
             continue;
         }
         const double err = std::abs(x - y);
@@ -204,11 +205,13 @@ TEST(CodecFloat64, SmoothDataCompressesAndMeetsTheBoundWithFewExactVoxels) {
     for (RateMode mode : {RateMode::MaxError, RateMode::RelError, RateMode::PwRelError}) {
         const double target = mode == RateMode::MaxError ? 1.0 : 1e-3;
         EncodeReport rep;
-        const auto bytes = encodeVolume(test::computeContext(), v, test::smallBrickOptions(mode, target), &rep);
+        const auto bytes =
+            encodeVolume(test::computeContext(), v, test::smallBrickOptions(mode, target), &rep);
         expectWithinBound(v, decodeVolume(test::computeContext(), bytes), mode, target, modeName(mode));
         EXPECT_LT(bytes.size(), v.byteSize() / 4) << modeName(mode);
     }
-    const auto exact = encodeVolume(test::computeContext(), v, test::smallBrickOptions(RateMode::Lossless, 0));
+    const auto exact =
+        encodeVolume(test::computeContext(), v, test::smallBrickOptions(RateMode::Lossless, 0));
     EXPECT_LT(exact.size(), v.byteSize()) << "byte planes of the XOR residual compress";
 }
 
@@ -221,7 +224,8 @@ TEST(CodecFloat64, RegionsLevelsAndBricksDecode) {
         const Volume whole = r.decode(test::computeContext());
         DecodeOptions o;
         o.region = Region{{3, 2, 1}, {20, 17, 9}};
-        expectBitExact(whole.cropped(o.region->lo, o.region->hi), r.decode(test::computeContext(), o), "region");
+        expectBitExact(whole.cropped(o.region->lo, o.region->hi), r.decode(test::computeContext(), o),
+                       "region");
         o.region.reset();
         o.level = 1;
         const Volume coarse = r.decode(test::computeContext(), o);
@@ -235,11 +239,9 @@ TEST(CodecFloat64, RegionsLevelsAndBricksDecode) {
 TEST(CodecFloat64, SeriesKeepEveryFrame) {
     TimeSeries ts;
     for (unsigned k = 0; k < 3; ++k)
-        ts.frames.push_back(doubleVolume(
-            [k](std::size_t x, std::size_t y, std::size_t z, auto&) {
-                return smooth(x + k, y, z) * 1e5 + 1e-7 * double(z);
-            },
-            k));
+        ts.frames.push_back(doubleVolume([k](std::size_t x, std::size_t y, std::size_t z,
+                                             auto&) { return smooth(x + k, y, z) * 1e5 + 1e-7 * double(z); },
+                                         k));
     ts.times = {0.5, 1.0, 1.5};
     for (RateMode mode : {RateMode::Lossless, RateMode::RelError, RateMode::PwRelError}) {
         const double target = mode == RateMode::PwRelError ? 1e-2 : 1e-4;
@@ -259,7 +261,8 @@ TEST(CodecFloat64, SeriesKeepEveryFrame) {
 
 TEST(CodecFloat64, UnboundedModesAreRefusedAndFloat32FilesStayAsTheyWere) {
     const Volume v = adversarialVolumes()[2].second;
-    EXPECT_THROW(encodeVolume(test::computeContext(), v, test::smallBrickOptions(RateMode::Bpv, 2)), UsageError);
+    EXPECT_THROW(encodeVolume(test::computeContext(), v, test::smallBrickOptions(RateMode::Bpv, 2)),
+                 UsageError);
     CodecOptions step = test::smallBrickOptions(RateMode::MaxError, 1e-3);
     step.step = 0.01;
     EXPECT_THROW(encodeVolume(test::computeContext(), v, step), UsageError);
@@ -267,7 +270,8 @@ TEST(CodecFloat64, UnboundedModesAreRefusedAndFloat32FilesStayAsTheyWere) {
                  UsageError);
     // A float32 volume is coded as before: no float64 layer, version 6 or 7.
     const Volume f = v.convertedTo(ScalarType::Float32);
-    const auto bytes = encodeVolume(test::computeContext(), f, test::smallBrickOptions(RateMode::Lossless, 0));
+    const auto bytes =
+        encodeVolume(test::computeContext(), f, test::smallBrickOptions(RateMode::Lossless, 0));
     const VczReader r(bytes, "f32");
     EXPECT_FALSE(r.header().float64);
     EXPECT_LE(r.header().version, kVczVersionVoxelBricks);
@@ -276,7 +280,8 @@ TEST(CodecFloat64, UnboundedModesAreRefusedAndFloat32FilesStayAsTheyWere) {
 
 TEST(CodecFloat64, DamagedFloat64LayerIsAnIoError) {
     const Volume v = adversarialVolumes()[7].second;
-    const auto bytes = encodeVolume(test::computeContext(), v, test::smallBrickOptions(RateMode::Lossless, 0));
+    const auto bytes =
+        encodeVolume(test::computeContext(), v, test::smallBrickOptions(RateMode::Lossless, 0));
     const VczReader good(bytes, "f64");
     const VczFrame& frame = good.header().frames[0];
     ASSERT_GT(frame.auxSize, 0u);

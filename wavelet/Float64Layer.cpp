@@ -119,7 +119,8 @@ std::vector<Correction> float64Outliers(std::span<const double> voxels, std::spa
         if (!(sum <= allowedSum)) {
             std::vector<std::size_t> order(voxels.size());
             std::iota(order.begin(), order.end(), std::size_t(0));
-            std::sort(order.begin(), order.end(), [&](std::size_t p, std::size_t q) { return sq[p] > sq[q]; });
+            std::sort(order.begin(), order.end(),
+                      [&](std::size_t p, std::size_t q) { return sq[p] > sq[q]; });
             for (std::size_t i : order) {
                 if (sum <= allowedSum || sq[i] == 0) break;
                 if (exact[i]) continue;
@@ -154,7 +155,8 @@ void applyFloat64Layer(std::span<const std::uint8_t> layer, Dims frameDims, Dims
     if (n > kMaxFloat64LayerVoxels) throw IoError(what + ": float64 layer of a frame beyond 2^32 voxels");
     const std::span<const std::uint8_t> body = layer.subspan(1);
     if (layer[0] == std::uint8_t(Float64LayerKind::Corrections)) {
-        for (const Correction& c : decodeCorrections(body, ScalarType::Float64, n, what + ": float64 layer")) {
+        for (const Correction& c :
+             decodeCorrections(body, ScalarType::Float64, n, what + ": float64 layer")) {
             std::size_t at = 0;
             if (inBox(c.index, frameDims, a, e, outDims, at)) out[at] = c.value;
         }

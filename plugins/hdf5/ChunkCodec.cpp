@@ -51,7 +51,7 @@ unsigned typeCode(ScalarType t) {
     return unsigned(t);
 }
 ScalarType typeFromCode(unsigned code) {
-    if (code > unsigned(ScalarType::Float32))
+    if (code > unsigned(ScalarType::Float64))
         throw DataError("volcl HDF5 filter: unknown element type code " + std::to_string(code));
     return ScalarType(code);
 }
@@ -401,7 +401,9 @@ std::vector<std::byte> encodeChunk(ComputeContext& cc, const FilterParameters& p
             return encodeFrames(cc, p, chunk, false);
         }
     }
-    return encodeFrames(cc, p, chunk, p.rate != ChunkRate::Lossless);
+    // Float64 frames are coded whole: the frame boxes' fill holds 4 bytes, and the codec's float64 layer
+    // bounds every voxel of the frame, the edge chunks' padding included.
+    return encodeFrames(cc, p, chunk, p.rate != ChunkRate::Lossless && p.type != ScalarType::Float64);
 }
 
 void decodeChunk(ComputeContext& cc, const FilterParameters& p, std::span<const std::byte> stored,
