@@ -29,18 +29,11 @@ constexpr Dims kDims{21, 18, 13};
 
 Volume doubleVolume(const std::function<double(std::size_t, std::size_t, std::size_t, std::mt19937&)>& f,
                     unsigned seed = 11) {
-    Volume v(kDims, ScalarType::Float64);
-    std::mt19937 rng(seed);
-    auto s = v.values<double>();
-    for (std::size_t z = 0; z < kDims.z; ++z)
-        for (std::size_t y = 0; y < kDims.y; ++y)
-            for (std::size_t x = 0; x < kDims.x; ++x)
-                s[v.index(x, y, z)] = f(x, y, z, rng);
-    return v;
+    return test::generatedVolume<double>(kDims, f, seed);
 }
 
 double smooth(std::size_t x, std::size_t y, std::size_t z) {
-    return std::sin(0.4 * double(x)) * std::cos(0.3 * double(y)) + 0.2 * std::sin(0.5 * double(z));
+    return test::smoothWave(x, y, z);
 }
 
 // Adversarial float64 volumes, each named: float32 cannot hold most of them.
@@ -148,18 +141,10 @@ void expectWithinBound(const Volume& in, const Volume& out, RateMode mode, doubl
 }
 
 const char* modeName(RateMode m) {
-    switch (m) {
-    case RateMode::MaxError:
-        return "max-error";
-    case RateMode::RelError:
-        return "rel-error";
-    case RateMode::PwRelError:
-        return "pw-rel-error";
-    case RateMode::Psnr:
-        return "psnr";
-    default:
-        return "other";
-    }
+    return m == RateMode::MaxError   ? "max-error"
+           : m == RateMode::RelError ? "rel-error"
+           : m == RateMode::Psnr     ? "psnr"
+                                     : "pw-rel-error";
 }
 
 // A lossy target per mode: for max-error a thousandth of the volume's finite range (1 for flat volumes).

@@ -443,7 +443,7 @@ void decodeChunk(ComputeContext& cc, const FilterParameters& p, std::span<const 
     }
     const auto vcz = stored.subspan(headerBytes);
     VczReader reader(std::vector<std::byte>(vcz.begin(), vcz.end()), "HDF5 chunk");
-    if (!(reader.header().dims == d) || reader.header().type != p.type ||
+    if (!(reader.header().dims == d) || reader.header().voxelType() != p.type ||
         reader.header().frames.size() != p.frameCount())
         throw DataError("volcl HDF5 filter: the chunk's .vcz does not match the chunk shape or element type");
     const std::size_t frameBytes = d.count() * scalarSize(p.type);

@@ -32,9 +32,11 @@ Volume adversarial() {
 }
 
 bool bitsEqual(const Volume& a, const Volume& b) {
-    if (a.type() != ScalarType::Float64 || b.type() != ScalarType::Float64 || a.dims() != b.dims()) return false;
+    if (a.type() != ScalarType::Float64 || b.type() != ScalarType::Float64 || a.dims() != b.dims())
+        return false;
     for (std::size_t i = 0; i < a.voxelCount(); ++i)
-        if (std::bit_cast<std::uint64_t>(a.values<double>()[i]) != std::bit_cast<std::uint64_t>(b.values<double>()[i]))
+        if (std::bit_cast<std::uint64_t>(a.values<double>()[i]) !=
+            std::bit_cast<std::uint64_t>(b.values<double>()[i]))
             return false;
     return true;
 }
@@ -46,11 +48,12 @@ TEST(CliFloat64, LosslessRoundTripIsBitExactThroughEveryFloat64Format) {
     const Volume v = adversarial();
     for (const char* in : {"in.nii.gz", "in.nrrd", "in.npy", "in.vti"}) {
         writeVolumeFile(v, dir / in);
-        const auto r = test::runVolcl("encode " + test::quoted(dir / in) + " -o " + test::quoted(dir / "v.vcz"), dir);
+        const auto r =
+            test::runVolcl("encode " + test::quoted(dir / in) + " -o " + test::quoted(dir / "v.vcz"), dir);
         ASSERT_EQ(r.exitCode, 0) << in << ": " << r.err;
         for (const char* out : {"out.nii", "out.nrrd", "out.npy"}) {
-            const auto d =
-                test::runVolcl("decode " + test::quoted(dir / "v.vcz") + " -o " + test::quoted(dir / out), dir);
+            const auto d = test::runVolcl(
+                "decode " + test::quoted(dir / "v.vcz") + " -o " + test::quoted(dir / out), dir);
             ASSERT_EQ(d.exitCode, 0) << d.err;
             EXPECT_TRUE(bitsEqual(v, readVolume(dir / out))) << in << " -> " << out;
         }
@@ -64,10 +67,12 @@ TEST(CliFloat64, RelativeBoundsHoldOnEveryVoxelAndABitBudgetIsRefused) {
     const Volume v = adversarial();
     writeVolumeFile(v, dir / "in.nrrd");
     for (const char* flags : {"--rel-error 1e-4", "--pw-rel-error 1e-3"}) {
-        const auto r = test::runVolcl(
-            "encode " + test::quoted(dir / "in.nrrd") + " -o " + test::quoted(dir / "v.vcz") + " " + flags, dir);
+        const auto r = test::runVolcl("encode " + test::quoted(dir / "in.nrrd") + " -o " +
+                                          test::quoted(dir / "v.vcz") + " " + flags,
+                                      dir);
         ASSERT_EQ(r.exitCode, 0) << r.err;
-        ASSERT_EQ(test::runVolcl("decode " + test::quoted(dir / "v.vcz") + " -o " + test::quoted(dir / "o.nrrd"), dir)
+        ASSERT_EQ(test::runVolcl(
+                      "decode " + test::quoted(dir / "v.vcz") + " -o " + test::quoted(dir / "o.nrrd"), dir)
                       .exitCode,
                   0);
         const Volume o = readVolume(dir / "o.nrrd");
@@ -87,8 +92,8 @@ TEST(CliFloat64, RelativeBoundsHoldOnEveryVoxelAndABitBudgetIsRefused) {
         }
         EXPECT_EQ(wrong, 0u) << flags;
     }
-    const auto b =
-        test::runVolcl("encode " + test::quoted(dir / "in.nrrd") + " -o " + test::quoted(dir / "b.vcz") + " --bpv 2", dir);
+    const auto b = test::runVolcl(
+        "encode " + test::quoted(dir / "in.nrrd") + " -o " + test::quoted(dir / "b.vcz") + " --bpv 2", dir);
     EXPECT_EQ(b.exitCode, 2);
     EXPECT_TRUE(test::has(b.err, "float64")) << b.err;
     EXPECT_FALSE(std::filesystem::exists(dir / "b.vcz"));

@@ -456,7 +456,11 @@ void checkVczDecodeBudget(const VczHeader& h, Dims dims, std::size_t memoryBudge
     const std::size_t n = largest.count();
     const std::size_t brickBytes =
         n * (sizeof(std::int32_t) + sizeof(codec::Correction)) + codec::maxCorrectionListBytes(h.type, n);
-    checkMemoryBudget(dims.count() * scalarSize(h.type) + brickBytes, memoryBudget, name,
+    // A float64 file's region is decoded as its float32 layer, then widened; an exact float64 layer is expanded
+    // for the whole frame (8 bytes a voxel).
+    const std::size_t float64Bytes =
+        h.float64 && dims.count() > 0 ? dims.count() * 8 + h.dims.count() * 8 : 0;
+    checkMemoryBudget(dims.count() * scalarSize(h.type) + float64Bytes + brickBytes, memoryBudget, name,
                       what + " with the coefficients and corrections of a " + std::to_string(largest.x) +
                           "x" + std::to_string(largest.y) + "x" + std::to_string(largest.z) + " brick");
 }
@@ -598,7 +602,7 @@ void readFixedFields(Reader& r, VczHeader& h, const std::string& name, std::size
     if (h.transform == TransformKind::RawBits && h.type != ScalarType::Float32)
         r.fail("raw bit planes of integer voxels (corrupt header)");
     if (use == VczHeaderUse::Frame) {
-        checkMemoryBudget(h.dims.count() * scalarSize(h.type), memoryBudget, name,
+        checkMemoryBudget(h.dims.count() * scalarSize(h.voxelType()), memoryBudget, name,
                           "a " + std::to_string(h.dims.x) + "x" + std::to_string(h.dims.y) + "x" +
                               std::to_string(h.dims.z) + " frame");
         checkVczDecodeBudget(h, h.dims, memoryBudget, name, "a frame");

@@ -73,6 +73,8 @@ struct VczHeader {
     /// renderers and coarse levels read; each frame's auxiliary block holds the float64 layer that gives the
     /// voxels back (wavelet/Float64Layer.hpp). Voxel-coded bricks may occur, as in version 7.
     bool float64 = false;
+    /// The type of the voxels VczReader::decode gives: Float64 for a float64 file, else `type`.
+    ScalarType voxelType() const noexcept { return float64 ? ScalarType::Float64 : type; }
 
     /// Bricks per axis and in total.
     Dims brickGrid() const noexcept;
