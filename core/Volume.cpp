@@ -20,6 +20,8 @@ std::size_t scalarSize(ScalarType t) noexcept {
         return 2;
     case ScalarType::Float32:
         return 4;
+    case ScalarType::Float64:
+        return 8;
     }
     return 1;
 }
@@ -34,6 +36,8 @@ std::string_view scalarTypeName(ScalarType t) noexcept {
         return "int16";
     case ScalarType::Float32:
         return "float32";
+    case ScalarType::Float64:
+        return "float64";
     }
     return "?";
 }
@@ -45,7 +49,9 @@ ScalarType parseScalarType(std::string_view name) {
     if (n == "uint16" || n == "u16" || n == "ushort" || n == "unsigned short") return ScalarType::UInt16;
     if (n == "int16" || n == "i16" || n == "short") return ScalarType::Int16;
     if (n == "float32" || n == "float" || n == "f32") return ScalarType::Float32;
-    throw UsageError("unknown scalar type '" + std::string(name) + "' (use uint8, uint16, int16 or float32)");
+    if (n == "float64" || n == "double" || n == "f64") return ScalarType::Float64;
+    throw UsageError("unknown scalar type '" + std::string(name) +
+                     "' (use uint8, uint16, int16, float32 or float64)");
 }
 
 Direction3 orthonormalDirection(const Direction3& m) {
@@ -107,6 +113,8 @@ template <class F> decltype(auto) visitType(ScalarType t, F&& f) {
         return f(std::uint16_t{});
     case ScalarType::Int16:
         return f(std::int16_t{});
+    case ScalarType::Float64:
+        return f(double{});
     case ScalarType::Float32:
         break;
     }
@@ -148,7 +156,13 @@ Volume Volume::convertedTo(ScalarType target) const {
         auto dst = out.values<T>();
         for (std::size_t n = 0; n < dst.size(); ++n) {
             double v = valueAt(n);
-            if constexpr (std::is_floating_point_v<T>) {
+            if constexpr (std::is_same_v<T, float>) {
+                // Finite float64 values beyond float's range clamp to +/-FLT_MAX (a cast would be undefined);
+                // NaN and Inf stay NaN and Inf.
+                constexpr double kMax = std::numeric_limits<float>::max();
+                dst[n] =
+                    std::isfinite(v) ? static_cast<float>(std::clamp(v, -kMax, kMax)) : static_cast<float>(v);
+            } else if constexpr (std::is_floating_point_v<T>) {
                 dst[n] = static_cast<T>(v);
             } else {
                 // NaN has no integer value: it becomes 0 rather than undefined behaviour.

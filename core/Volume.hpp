@@ -13,12 +13,19 @@
 
 namespace volcl {
 
-/// Voxel types a volume can hold. float64 input is converted to Float32 by the readers.
-enum class ScalarType : std::uint8_t { UInt8, UInt16, Int16, Float32 };
+/// Voxel types a volume can hold. Float64 is kept by the readers, the writers and the codec; the OpenCL
+/// stages (transforms, renderers) work in float32 and narrow it where they take their input (docs/codec.md,
+/// "Float64 volumes").
+enum class ScalarType : std::uint8_t { UInt8, UInt16, Int16, Float32, Float64 };
 
 std::size_t scalarSize(ScalarType t) noexcept;
-std::string_view scalarTypeName(ScalarType t) noexcept; ///< "uint8", "uint16", "int16", "float32"
-/// Parses "uint8"/"u8"/"uchar", "uint16"/"u16"/"ushort", "int16"/"i16"/"short", "float32"/"float"/"f32".
+std::string_view scalarTypeName(ScalarType t) noexcept; ///< "uint8", "uint16", "int16", "float32", "float64"
+/// True for Float32 and Float64.
+constexpr bool isFloatType(ScalarType t) noexcept {
+    return t == ScalarType::Float32 || t == ScalarType::Float64;
+}
+/// Parses "uint8"/"u8"/"uchar", "uint16"/"u16"/"ushort", "int16"/"i16"/"short", "float32"/"float"/"f32",
+/// "float64"/"double"/"f64".
 /// Throws UsageError on anything else.
 ScalarType parseScalarType(std::string_view name);
 
@@ -34,6 +41,9 @@ template <> constexpr ScalarType scalarTypeOf<std::int16_t>() {
 }
 template <> constexpr ScalarType scalarTypeOf<float>() {
     return ScalarType::Float32;
+}
+template <> constexpr ScalarType scalarTypeOf<double>() {
+    return ScalarType::Float64;
 }
 
 struct Dims {

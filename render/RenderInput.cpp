@@ -24,7 +24,19 @@
 
 namespace volcl {
 
-RenderInput::RenderInput(std::shared_ptr<const Volume> volume) : volume_(std::move(volume)) {}
+Volume kernelVoxels(Volume v) {
+    // OpenCL 1.2 does not guarantee doubles (cl_khr_fp64 is optional): the kernels sample float32.
+    return v.type() == ScalarType::Float64 ? v.convertedTo(ScalarType::Float32) : v;
+}
+
+namespace {
+std::shared_ptr<const Volume> kernelGrid(std::shared_ptr<const Volume> v) {
+    if (!v || v->type() != ScalarType::Float64) return v;
+    return std::make_shared<const Volume>(kernelVoxels(*v));
+}
+} // namespace
+
+RenderInput::RenderInput(std::shared_ptr<const Volume> volume) : volume_(kernelGrid(std::move(volume))) {}
 
 RenderInput::RenderInput(std::shared_ptr<const mesh::TetMesh> mesh) : mesh_(std::move(mesh)) {}
 

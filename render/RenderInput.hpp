@@ -15,6 +15,11 @@ namespace volcl {
 class Volume;
 class VczReader;
 
+/// A grid as the renderers' kernels sample it: a float64 volume as float32 (finite values beyond float's range
+/// clamped), any other unchanged. The one place rendering narrows float64 (RenderInput and the channel
+/// renderer take their grids through it); readers, writers and the codec keep float64.
+Volume kernelVoxels(Volume v);
+
 /// The data a scene renders, opened once: a grid (a Volume from any reader), a frame of a compressed-brick
 /// .vcz file, or a tetrahedral mesh (any mesh reader; render.method picks its renderer), each with its own
 /// renderer, so the CLI and viewer need no change. A renderer made from an input borrows its data: keep the

@@ -26,18 +26,11 @@ constexpr Dims kDims{21, 18, 13};
 
 Volume floatVolume(const std::function<float(std::size_t, std::size_t, std::size_t, std::mt19937&)>& f,
                    unsigned seed = 7) {
-    Volume v(kDims, ScalarType::Float32);
-    std::mt19937 rng(seed);
-    auto s = v.values<float>();
-    for (std::size_t z = 0; z < kDims.z; ++z)
-        for (std::size_t y = 0; y < kDims.y; ++y)
-            for (std::size_t x = 0; x < kDims.x; ++x)
-                s[v.index(x, y, z)] = f(x, y, z, rng);
-    return v;
+    return test::generatedVolume<float>(kDims, f, seed);
 }
 
 double smooth(std::size_t x, std::size_t y, std::size_t z) {
-    return std::sin(0.4 * double(x)) * std::cos(0.3 * double(y)) + 0.2 * std::sin(0.5 * double(z));
+    return test::smoothWave(x, y, z);
 }
 
 // The adversarial float32 volumes, each named.

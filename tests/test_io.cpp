@@ -424,10 +424,10 @@ TEST(NrrdReader, EncodingsEndianGeometryAndDetachedForms) {
     writeFile(dir / "j.nrrd",
               "NRRD0004\ntype: double\ndimension: 3\nsizes: 3 1 1\nendian: little\nencoding: raw\n\n" +
                   packed(dbl));
-    const Volume j = readVolume(dir / "j.nrrd");
-    EXPECT_EQ(j.type(), ScalarType::Float32);
-    EXPECT_EQ(j.values<float>()[0], 0.1f);
-    EXPECT_EQ(j.values<float>()[1], -2.5e10f);
+    const Volume j = readVolume(dir / "j.nrrd"); // double stays float64, every bit
+    EXPECT_EQ(j.type(), ScalarType::Float64);
+    EXPECT_EQ(j.values<double>()[0], 0.1);
+    EXPECT_EQ(j.values<double>()[1], -2.5e10);
     // Unsupported but well-formed content is a DataError.
     writeFile(dir / "k.nrrd",
               "NRRD0004\ntype: float\ndimension: 4\nsizes: 3 2 2 2\nkinds: 3-vector domain domain domain\n"
@@ -561,13 +561,13 @@ TEST(NiftiReader, ThreeAndFourDBothEndiansScaling) {
     writeFile(dir / "e.nii",
               niftiHeader({3, 5, 4, 3, 1, 1, 1, 1}, 512, 16, 0, 0, 368) + std::string(16, 'E') + ramp);
     expectRamp(readVolume(dir / "e.nii"), kRampDims);
-    // datatype 64 (double) -> float32, 256 (int8) -> int16; RGB is refused.
+    // datatype 64 (double) stays float64 (1e300 too), 256 (int8) -> int16; RGB is refused.
     const std::vector<double> dv = {1.5, -2, 1e300};
     writeFile(dir / "f.nii", niftiHeader({3, 3, 1, 1, 1, 1, 1, 1}, 64, 64, 0, 0, 352) + packed(dv));
     const Volume f = readVolume(dir / "f.nii");
-    EXPECT_EQ(f.type(), ScalarType::Float32);
-    EXPECT_EQ(f.values<float>()[1], -2.0f);
-    EXPECT_TRUE(std::isinf(f.values<float>()[2]));
+    EXPECT_EQ(f.type(), ScalarType::Float64);
+    EXPECT_EQ(f.values<double>()[1], -2.0);
+    EXPECT_EQ(f.values<double>()[2], 1e300);
     writeFile(dir / "g.nii",
               niftiHeader({3, 2, 1, 1, 1, 1, 1, 1}, 256, 8, 0, 0, 352) + std::string("\xff\x80", 2));
     EXPECT_EQ(readVolume(dir / "g.nii").valueAt(1), -128);
@@ -685,7 +685,7 @@ TEST(VtiReader, InlineAppendedCompressedAndTimeStep) {
               doc("", "<DataArray type=\"Float64\" Name=\"f\" format=\"appended\" offset=\"0\"/>\n",
                   std::string(reinterpret_cast<const char*>(&nd), 4) + packed(dbl)));
     const Volume f64 = readVolume(dir / "f64.vti");
-    EXPECT_EQ(f64.type(), ScalarType::Float32);
+    EXPECT_EQ(f64.type(), ScalarType::Float64);
     expectRamp(f64, kRampDims);
     // Not ImageData, multi-component only, LZ4: DataError.
     writeFile(dir / "ug.vti", "<VTKFile type=\"UnstructuredGrid\"><UnstructuredGrid/></VTKFile>");

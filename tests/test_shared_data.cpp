@@ -136,12 +136,12 @@ TEST(SharedData, IsabelTimeSteps) {
         ASSERT_EQ(s.times.size(), 1u);
         EXPECT_EQ(s.times[0], t); // FieldData TimeStep
         const Volume& v = s.frames[0];
-        expectGrid(v, {125, 125, 25}, ScalarType::Float32, {4.0080321286, 4.0080321286, 4.0408163266});
+        expectGrid(v, {125, 125, 25}, ScalarType::Float64, {4.0080321286, 4.0080321286, 4.0408163266});
         const Range r = rangeOf(v);
         EXPECT_EQ(r.min, 0);
         EXPECT_GE(r.max, 56);
         EXPECT_LE(r.max, 79);
-        if (t == 2) EXPECT_NEAR(r.max, 68.245477692, 1e-5); // the file's RangeMax (Float64 -> float32)
+        if (t == 2) EXPECT_NEAR(r.max, 68.245477692, 1e-9); // the file's RangeMax (Float64, kept)
         ++files;
     }
     EXPECT_EQ(files, 12);

@@ -28,8 +28,10 @@ template <class V, class Fn> decltype(auto) visitTyped(V& v, Fn fn) { // V: Volu
         return fn(v.template values<std::int16_t>());
     case ScalarType::Float32:
         return fn(v.template values<float>());
+    case ScalarType::Float64:
+        break; // the wavelet stages take a float64 volume's float32 layer (wavelet/Float64Layer.hpp)
     }
-    throw Error("internal: unknown scalar type");
+    throw Error("internal: voxel type the wavelet stages do not take");
 }
 
 // Converts a reconstructed value to the voxel type: round to nearest (even) and clamp for integers.

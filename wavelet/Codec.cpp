@@ -9,6 +9,7 @@
 #include "core/MemoryBudget.hpp"
 #include "core/runtime/Timing.hpp"
 #include "wavelet/BrickVoxels.hpp"
+#include "wavelet/Float64Layer.hpp"
 #include "wavelet/FrameDecoder.hpp"
 #include "wavelet/RangeScan.hpp"
 #include "wavelet/StageTiming.hpp"
@@ -46,6 +47,7 @@ bool integerBoundBelowOne(const Volume& v, const CodecOptions& o) {
 // The header of an encoding of volumes like `v` with options `o_`: refuses invalid options.
 VczHeader planHeader(const Volume& v, const CodecOptions& o_) {
     if (v.empty()) throw UsageError("cannot encode an empty volume");
+    if (v.type() == ScalarType::Float64) throw Error("internal: float64 frames reach the float32 pipeline");
     // Level 0 would be a brick with no transform, which the decoders do not take: refused, not written.
     if (o_.levels < 1 || o_.levels > 8) throw UsageError("--levels must be between 1 and 8");
     const std::size_t m = std::size_t(1) << o_.levels;
@@ -254,8 +256,142 @@ std::optional<Dims> extentTrial(const Volume& v, const CodecOptions& o) {
 
 } // namespace
 
+namespace {
+
+// The float32 layer's options for a float64 target: the same target (the float64 layer stores exactly what
+// the layer leaves outside it, checked in double), every frame an I frame. Nullopt for a target the layer
+// cannot be lossy at: it is then lossless.
+std::optional<CodecOptions> float32LayerOptions(const CodecOptions& o) {
+    CodecOptions layer = o;
+    layer.motion = MotionMode::None;
+    if (o.rate == RateMode::Lossless) return std::nullopt;
+    if (o.rate == RateMode::Bpv || o.step)
+        throw UsageError(
+            "float64 volumes take --lossless, --max-error, --rel-error, --pw-rel-error or --psnr "
+            "(a bit budget or a fixed --step would not bound the float64 voxels)");
+    if (!(o.target > 0) || !std::isfinite(o.target))
+        throw UsageError("the rate target must be a positive number");
+    if (o.rate == RateMode::PwRelError && !(o.target < 1))
+        throw UsageError(
+            "the point-wise relative bound must be below 1 (a bound of |x| would not keep signs)");
+    // A bound beyond float's range (float64 data beyond it) is the widest the float32 coder takes.
+    if (o.rate == RateMode::MaxError)
+        layer.target = std::min(layer.target, double(std::numeric_limits<float>::max()) / 4);
+    return layer;
+}
+
+// Float64 frames: their float32 layer (each voxel narrowed, finite values beyond float's range clamped) coded
+// by the float32 pipeline as I frames, then per frame the float64 layer that gives back every voxel exactly
+// (lossless) or within the bound checked in double, in the frame's auxiliary block of a version 8 file.
+std::vector<std::byte> encodeFloat64(ComputeContext& cc, const TimeSeries& series,
+                                     const CodecOptions& options, EncodeReport* report,
+                                     std::vector<FrameReport>* frameReports) {
+    Stopwatch total;
+    series.validate();
+    TimeSeries narrowed;
+    narrowed.times = series.times;
+    for (const Volume& v : series.frames) {
+        if (v.voxelCount() > codec::kMaxFloat64LayerVoxels)
+            throw UsageError("a float64 frame of more than 2^32 voxels cannot be coded");
+        narrowed.frames.push_back(v.convertedTo(ScalarType::Float32));
+    }
+    const std::size_t n = series.frames.size();
+    const std::optional<CodecOptions> layerOptions = float32LayerOptions(options);
+    const bool exact = !layerOptions;
+    CodecOptions layerCodec = exact ? losslessOptions(options) : *layerOptions;
+    layerCodec.motion = MotionMode::None;
+    EncodeReport layerReport;
+    const std::vector<std::byte> layerBytes =
+        n == 1 ? encodeVolume(cc, narrowed.frames[0], layerCodec, &layerReport)
+               : encodeSeries(cc, narrowed, layerCodec);
+    const VczReader layerFile(layerBytes, "encoder");
+    VczHeader h = layerFile.header();
+    std::vector<codec::CodedFrame> frames(n);
+    std::size_t stored = 0;
+    for (std::size_t f = 0; f < n; ++f) {
+        const std::span<const double> x = series.frames[f].values<double>();
+        if (exact || h.rate == RateMode::Lossless) {
+            // The layer is the narrowed frame bit for bit (a lossy target may have found lossless smaller).
+            if (exact) {
+                frames[f].aux = codec::encodeExactLayer(x, narrowed.frames[f].values<float>());
+            } else {
+                const auto outliers = codec::float64Outliers(x, narrowed.frames[f].values<float>(),
+                                                             {options.rate, options.target});
+                stored += outliers.size();
+                frames[f].aux = codec::encodeCorrectionLayer(outliers);
+            }
+        } else {
+            DecodeOptions d;
+            d.frame = f;
+            const Volume decoded = layerFile.decode(cc, d);
+            const auto outliers =
+                codec::float64Outliers(x, decoded.values<float>(), {options.rate, options.target});
+            stored += outliers.size();
+            frames[f].aux = codec::encodeCorrectionLayer(outliers);
+        }
+        for (std::size_t b = 0; b < h.brickCount(); ++b) {
+            const auto payload = vczBrickPayload(layerBytes, h, f, b, "encoder");
+            frames[f].payloads.emplace_back(payload.begin(), payload.end());
+            frames[f].ranges.emplace_back(h.bricks[f][b].min, h.bricks[f][b].max);
+        }
+    }
+    h.float64 = true;
+    h.version = 0;
+    if (!exact) { // the float64 bound the file holds, whatever the layer's
+        h.rate = options.rate;
+        h.rateTarget = options.target;
+    }
+    h.valueMin = std::numeric_limits<double>::infinity();
+    h.valueMax = -h.valueMin;
+    for (const Volume& v : series.frames) {
+        const VolumeStats st = v.stats(1);
+        h.valueMin = std::min(h.valueMin, st.min);
+        h.valueMax = std::max(h.valueMax, st.max);
+    }
+    std::vector<std::byte> bytes = codec::assembleVcz(h, frames);
+    // What the decoder gives, measured against the input in double (a lossless file is exact).
+    const VczReader file(bytes, "encoder");
+    std::vector<FrameReport> reps(n);
+    for (std::size_t f = 0; f < n; ++f) {
+        reps[f].psnr = std::numeric_limits<double>::infinity();
+        if (exact) continue;
+        DecodeOptions d;
+        d.frame = f;
+        measureFrame(series.frames[f], file.decode(cc, d), reps[f]);
+    }
+    EncodeReport r = layerReport;
+    r.bytes = bytes.size();
+    r.bitsPerVoxel = double(bytes.size()) * 8 / double(series.frames[0].voxelCount() * n);
+    r.psnr = exact ? std::numeric_limits<double>::infinity() : reps[0].psnr;
+    r.maxError = exact ? 0 : reps[0].maxError;
+    r.corrections = stored;
+    // A lossy target never gives a file larger than the lossless one.
+    if (!exact) {
+        EncodeReport losslessReport;
+        std::vector<FrameReport> losslessFrames;
+        std::vector<std::byte> exactBytes =
+            encodeFloat64(cc, series, losslessOptions(options), &losslessReport, &losslessFrames);
+        if (exactBytes.size() <= bytes.size()) {
+            bytes = std::move(exactBytes);
+            r = losslessReport;
+            reps = std::move(losslessFrames);
+        }
+    }
+    r.profile.total = total.milliseconds();
+    if (report) *report = r;
+    if (frameReports) *frameReports = std::move(reps);
+    return bytes;
+}
+
+} // namespace
+
 std::vector<std::byte> encodeVolume(ComputeContext& cc, const Volume& volume, const CodecOptions& options,
                                     EncodeReport* report) {
+    if (volume.type() == ScalarType::Float64) {
+        TimeSeries one;
+        one.frames.push_back(volume);
+        return encodeFloat64(cc, one, options, report, nullptr);
+    }
     const std::optional<Dims> larger = extentTrial(volume, options);
     if (!larger) return encodeVolumeWith(cc, volume, options, report, nullptr);
     Stopwatch total;
@@ -497,6 +633,8 @@ std::vector<std::byte> encodeSeriesOnce(ComputeContext& cc, const TimeSeries& se
 
 std::vector<std::byte> encodeSeries(ComputeContext& cc, const TimeSeries& series, const CodecOptions& options,
                                     std::vector<FrameReport>* reports) {
+    if (!series.frames.empty() && series.frames[0].type() == ScalarType::Float64)
+        return encodeFloat64(cc, series, options, nullptr, reports);
     std::vector<FrameReport> rep;
     double step = 0;
     std::vector<std::byte> bytes = encodeSeriesOnce(cc, series, options, &rep, step);
@@ -598,6 +736,10 @@ Direction3 vczDirection(const VczHeader& h) {
 }
 
 Volume VczReader::decode(ComputeContext& cc, const DecodeOptions& o) const {
+    return decodeStored(cc, o, true);
+}
+
+Volume VczReader::decodeStored(ComputeContext& cc, const DecodeOptions& o, bool float64) const {
     const VczHeader& h = header_;
     const int maxLevel = h.transform == TransformKind::RawBits ? 16 : h.levels;
     if (o.level < 0 || o.level > maxLevel)
@@ -654,6 +796,17 @@ Volume VczReader::decode(ComputeContext& cc, const DecodeOptions& o) const {
     }
     codec::decodeFrameBricks(cc, bytes_, h, o.frame, which, o.level, o.threads, name_, o.profile, a, e, out,
                              outDims, o.placeOnDevice, nullptr, o.ahead);
+    if (float64 && h.float64) {
+        // The float32 layer widened; at full resolution the float64 layer gives the voxels back (a coarser
+        // level is the float32 layer's approximation).
+        Volume wide = out.convertedTo(ScalarType::Float64);
+        if (o.level == 0)
+            codec::timeStage(o.profile, &CodecProfile::assemble, [&] {
+                codec::applyFloat64Layer(vczFrameAux(bytes_, h, o.frame, name_), h.dims, a, e,
+                                         wide.values<double>(), outDims, name_);
+            });
+        out = std::move(wide);
+    }
     if (o.profile) o.profile->total += total.milliseconds();
     return out;
 }
@@ -745,7 +898,7 @@ Volume VczReader::decodeBrick(ComputeContext& cc, std::size_t frame, std::size_t
     opt.level = level;
     opt.frame = frame;
     opt.threads = 1;
-    Volume v = decode(cc, opt);
+    Volume v = decodeStored(cc, opt, false);
     // A mapped file's payload pages go back once decoded: the resident set holds the pool, not the file.
     if (mapped_ && header_.frames[frame].type == FrameType::I) {
         const VczBrickEntry& e = header_.bricks[frame][brick];

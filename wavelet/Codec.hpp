@@ -142,9 +142,12 @@ public:
     std::size_t fileSize() const noexcept { return bytes_.size(); }
     /// The file's bytes, as given.
     std::span<const std::byte> bytes() const noexcept { return bytes_; }
-    /// One brick at level `level` (its voxel origin is header().brickOrigin(brick) / 2^level).
+    /// One brick at level `level` (its voxel origin is header().brickOrigin(brick) / 2^level). Of a float64
+    /// file, the brick of its float32 layer (what the renderers sample).
     Volume decodeBrick(ComputeContext& cc, std::size_t frame, std::size_t brick, int level = 0) const;
-    /// The whole volume or a region, at full or reduced resolution. Output spacing grows by 2^level and
+    /// The whole volume or a region, at full or reduced resolution (a float64 file gives float64 voxels: at
+    /// full resolution the encoded ones, at a coarser level its float32 layer's approximation widened). Output
+    /// spacing grows by 2^level and
     /// the origin moves to the first kept sample. P/B frames decode at level 0 only (their prediction
     /// needs the whole reference frames), decoding the frames they reference first.
     Volume decode(ComputeContext& cc, const DecodeOptions& options = {}) const;
@@ -158,6 +161,8 @@ public:
                                           std::span<const Volume* const> decoded = {}) const;
 
 private:
+    /// decode(), or with `float64` false a float64 file's float32 layer.
+    Volume decodeStored(ComputeContext& cc, const DecodeOptions& options, bool float64) const;
     std::vector<std::byte> owned_;             ///< the bytes given (empty for a mapped file)
     std::shared_ptr<const MappedFile> mapped_; ///< the file, when mapped
     std::span<const std::byte> bytes_;         ///< either of the two

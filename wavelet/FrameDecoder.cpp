@@ -151,6 +151,8 @@ std::vector<std::size_t> varyingBricks(std::span<const std::byte> file, const Vc
     case ScalarType::Float32:
         split.template operator()<float>();
         break;
+    case ScalarType::Float64: // bricks hold a float64 volume's float32 layer: the header says Float32
+        throw Error("internal: float64 bricks");
     }
     return varying;
 }

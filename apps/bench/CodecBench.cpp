@@ -380,7 +380,7 @@ void benchAtPsnr(const DatasetRun& run, double p) {
     lo.target = p;
     benchOurs(run, "psnr" + formatFixed(p, 0), lo);
     const ZfpResult z = zfpAtPsnr(v, p, run.args.runs);
-    const bool integer = v.type() != ScalarType::Float32;
+    const bool integer = !isFloatType(v.type());
     const Volume zd = integer ? z.decoded.convertedTo(v.type()) : z.decoded;
     const BenchRow r = zfpRow(run, "psnr" + formatFixed(p, 0), z, zd, zd);
     run.rows.push_back(r);
@@ -591,7 +591,7 @@ void benchDataset(const DatasetRun& run, const fs::path& tmp, nlohmann::json& tr
     const Volume& v = run.data.volume;
     std::cerr << "== " << run.data.name << " " << v.dims().x << "x" << v.dims().y << "x" << v.dims().z << " "
               << scalarTypeName(v.type()) << '\n';
-    const bool integer = v.type() != ScalarType::Float32;
+    const bool integer = !isFloatType(v.type());
     CodecOptions o;
     o.rate = RateMode::Lossless;
     for (EntropyMode m : {EntropyMode::Dense, EntropyMode::Fast}) {

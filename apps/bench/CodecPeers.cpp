@@ -32,7 +32,7 @@ ZfpResult runZfp(const Volume& v, std::optional<double> tolerance, int runs) {
     const bool reversible = !tolerance;
     std::vector<std::int32_t> ints;
     std::vector<float> floats;
-    if (reversible && v.type() != ScalarType::Float32) {
+    if (reversible && !isFloatType(v.type())) {
         ints.resize(v.voxelCount());
         for (std::size_t i = 0; i < ints.size(); ++i)
             ints[i] = static_cast<std::int32_t>(v.valueAt(i));

@@ -180,7 +180,7 @@ bool streamEncode(const EncodeArgs& a, const CodecOptions& o, const ReadOptions&
     if (!reader)
         return refuse(a.in[0] + " is not a 3D raw, NRRD or NIfTI file with raw or gzip data in one file "
                                 "(or its values become float: scaled NIfTI)");
-    if (reader->type() == ScalarType::Float32)
+    if (isFloatType(reader->type()))
         return refuse(a.in[0] + " holds float voxels (kept as raw bits over the whole volume)");
     const std::size_t decoded = reader->dims().count() * scalarSize(reader->type());
     if (!a.stream && decoded <= kStreamEncodeAboveBytes) return false;
@@ -486,7 +486,7 @@ Volume levelView(ComputeContext& cc, const Volume& v, const VczHeader* like, con
         o.brick = like->brick;
     }
     const bool integer = !like || like->transform != TransformKind::FloatLifting;
-    if (integer && v.type() != ScalarType::Float32) {
+    if (integer && !isFloatType(v.type())) {
         o.rate = RateMode::Lossless;
     } else {
         const VolumeStats st = v.stats(1);

@@ -24,6 +24,7 @@
 #include <memory>
 #include <optional>
 #include <sstream>
+#include <type_traits>
 
 namespace volcl::cli {
 
@@ -339,7 +340,8 @@ void addConvert(CLI::App& app, GlobalOptions& global) {
     cmd->add_option("-o,--output", a->out,
                     "Output file: .raw, .nrrd, .nhdr, .nii, .nii.gz (3D or 4D), .vti or .vdb")
         ->required();
-    cmd->add_option("--to-type", a->type, "Convert voxels to uint8, uint16, int16 or float32 (clamped)");
+    cmd->add_option("--to-type", a->type,
+                    "Convert voxels to uint8, uint16, int16, float32 or float64 (clamped)");
     cmd->add_option("--crop", a->crop, "Keep the voxel box x0,y0,z0:x1,y1,z1 (half-open)");
     cmd->add_option("--frame", a->frame,
                     "Frame K of a time series (default: every frame, into a 4D .nii/.nii.gz or a printf "
@@ -416,13 +418,17 @@ void addConvert(CLI::App& app, GlobalOptions& global) {
         if (a->replaceNan) {
             if (!std::isfinite(*a->replaceNan)) throw UsageError("--replace-nan: the value must be finite");
             std::size_t replaced = 0;
-            for (Volume& v : ts.frames)
-                if (v.type() == ScalarType::Float32)
-                    for (float& x : v.values<float>())
-                        if (std::isnan(x)) {
-                            x = static_cast<float>(*a->replaceNan);
-                            ++replaced;
-                        }
+            auto replace = [&](auto values) {
+                for (auto& x : values)
+                    if (std::isnan(x)) {
+                        x = static_cast<std::remove_reference_t<decltype(x)>>(*a->replaceNan);
+                        ++replaced;
+                    }
+            };
+            for (Volume& v : ts.frames) {
+                if (v.type() == ScalarType::Float32) replace(v.values<float>());
+                if (v.type() == ScalarType::Float64) replace(v.values<double>());
+            }
             if (!global.quiet)
                 std::cerr << "volcl: replaced " << replaced << " NaN voxel(s) by " << *a->replaceNan << '\n';
         }

@@ -557,7 +557,10 @@ RenderInput SceneFlags::readSceneInput(const Scene& s, std::vector<std::string>&
         notes.push_back(
             "--lod auto: the stored integers of a scaled NIfTI are decoded whole to show data units");
     }
-    return RenderInput::fromVolume(readSceneVolume(s, notes, filesRead));
+    Volume v = readSceneVolume(s, notes, filesRead);
+    if (v.type() == ScalarType::Float64)
+        notes.push_back("float64 voxels are rendered as float32 (the kernels sample float32)");
+    return RenderInput::fromVolume(std::move(v));
 }
 
 TransferFunction SceneFlags::loadTf(const Scene& s, const Volume& v, std::vector<std::string>* notes) const {

@@ -106,7 +106,7 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json, bool li
     nlohmann::json j{{"file", path},
                      {"format", "vcz"},
                      {"dims", {h.dims.x, h.dims.y, h.dims.z}},
-                     {"type", std::string(scalarTypeName(h.type))},
+                     {"type", std::string(scalarTypeName(h.voxelType()))},
                      {"spacing", h.spacing},
                      {"origin", h.origin},
                      {"range", {h.valueMin, h.valueMax}},
@@ -133,7 +133,8 @@ void printVczInfo(std::ostream& out, const std::string& path, bool json, bool li
         << " levels, bricks " << h.brick.x << "x" << h.brick.y << "x" << h.brick.z << ")\n"
         << "  dims     " << h.dims.x << " x " << h.dims.y << " x " << h.dims.z << "  (" << h.frames.size()
         << " frames)\n"
-        << "  type     " << scalarTypeName(h.type) << '\n'
+        << "  type     " << scalarTypeName(h.voxelType())
+        << (h.float64 ? " (bricks and renderers: its float32 layer)" : "") << '\n'
         << std::setprecision(6) << "  spacing  " << h.spacing[0] << " x " << h.spacing[1] << " x "
         << h.spacing[2] << '\n'
         << "  origin   " << h.origin[0] << ", " << h.origin[1] << ", " << h.origin[2] << '\n'

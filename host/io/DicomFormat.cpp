@@ -373,6 +373,7 @@ ScalarType rescaledType(SampleType stored, bool integral, double lo, double hi) 
         case ScalarType::UInt16:
             return lo >= 0 && hi <= 65535;
         case ScalarType::Float32:
+        case ScalarType::Float64:
             return true;
         }
         return false;
@@ -435,6 +436,9 @@ TimeSeries readSeriesHere(const fs::path& input, const ReadOptions& options, std
             break;
         case ScalarType::Float32:
             store(v.values<float>());
+            break;
+        case ScalarType::Float64:
+            store(v.values<double>());
             break;
         }
     }

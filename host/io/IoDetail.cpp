@@ -76,6 +76,8 @@ ScalarType volumeTypeFor(SampleType t) noexcept {
         return ScalarType::Int16;
     case SampleType::UInt16:
         return ScalarType::UInt16;
+    case SampleType::Float64:
+        return ScalarType::Float64;
     default:
         return ScalarType::Float32;
     }
@@ -91,6 +93,8 @@ SampleType sampleTypeOf(ScalarType t) noexcept {
         return SampleType::Int16;
     case ScalarType::Float32:
         return SampleType::Float32;
+    case ScalarType::Float64:
+        return SampleType::Float64;
     }
     return SampleType::UInt8;
 }
@@ -269,6 +273,9 @@ void convertTo(const std::byte* src, std::size_t count, bool swap, Volume& dst, 
     case ScalarType::Float32:
         convertLoop<Src>(src, count, swap, dst.values<float>().data() + first);
         break;
+    case ScalarType::Float64:
+        convertLoop<Src>(src, count, swap, dst.values<double>().data() + first);
+        break;
     }
 }
 
@@ -398,6 +405,9 @@ void decodeAsciiSamples(std::string_view text, SampleType st, Volume& dst, std::
             break;
         case ScalarType::Float32:
             dst.values<float>()[i] = static_cast<float>(v);
+            break;
+        case ScalarType::Float64:
+            dst.values<double>()[i] = v;
             break;
         }
     };

@@ -35,7 +35,7 @@ enum class SampleType : std::uint8_t {
 
 std::size_t sampleSize(SampleType t) noexcept;
 std::string_view sampleTypeName(SampleType t) noexcept;
-/// int8 -> Int16 (exact); 32/64-bit integers and float64 -> Float32 (rounded); the rest keep their type.
+/// int8 -> Int16 (exact); 32/64-bit integers -> Float32 (rounded); the rest (float64 included) keep their type.
 ScalarType volumeTypeFor(SampleType t) noexcept;
 SampleType sampleTypeOf(ScalarType t) noexcept;
 

@@ -18,8 +18,11 @@ namespace {
 constexpr std::size_t kHeaderSize = 348, kDataOffset = 352; // 4 zero bytes: no extensions
 
 // NIfTI datatype codes of the model's types.
-constexpr std::pair<ScalarType, std::int16_t> kTypeCodes[] = {
-    {ScalarType::UInt8, 2}, {ScalarType::Int16, 4}, {ScalarType::UInt16, 512}, {ScalarType::Float32, 16}};
+constexpr std::pair<ScalarType, std::int16_t> kTypeCodes[] = {{ScalarType::UInt8, 2},
+                                                              {ScalarType::Int16, 4},
+                                                              {ScalarType::UInt16, 512},
+                                                              {ScalarType::Float32, 16},
+                                                              {ScalarType::Float64, 64}};
 
 std::int16_t niftiCode(ScalarType t) {
     for (const auto& [type, code] : kTypeCodes)
@@ -29,7 +32,7 @@ std::int16_t niftiCode(ScalarType t) {
 
 std::optional<ScalarType> integerTypeOfCode(std::int16_t c) {
     for (const auto& [type, code] : kTypeCodes)
-        if (code == c && type != ScalarType::Float32) return type;
+        if (code == c && !isFloatType(type)) return type;
     return std::nullopt;
 }
 
@@ -70,6 +73,7 @@ std::optional<Volume> unscaled(const Volume& v, ScalarType stored, double slope,
     case ScalarType::UInt16:
         return unscaled<std::uint16_t>(v, slope, inter);
     case ScalarType::Float32:
+    case ScalarType::Float64:
         break;
     }
     return std::nullopt;

@@ -184,6 +184,9 @@ void writeNpy(std::span<const Volume> frames, const fs::path& path, const WriteO
     case ScalarType::Float32:
         descr = options.endian == Endian::Little ? "<f4" : ">f4";
         break;
+    case ScalarType::Float64:
+        descr = options.endian == Endian::Little ? "<f8" : ">f8";
+        break;
     }
     const Dims& d = first.dims();
     std::string shape = "(";

@@ -697,6 +697,9 @@ void writeNrrdPayload(std::span<const Volume> frames, const Volume& volume, std:
     case ScalarType::Float32:
         type = "float";
         break;
+    case ScalarType::Float64:
+        type = "double";
+        break;
     }
     const Dims& d = volume.dims();
     const auto& s = volume.spacing;

@@ -203,6 +203,7 @@ TimeSeries readDense(const fs::path& path, const ReadOptions& options) {
             restoreIntegers<std::int16_t>(dense, result, path);
             break;
         case ScalarType::Float32:
+        case ScalarType::Float64:
             break;
         }
         result.spacing = dense.spacing;

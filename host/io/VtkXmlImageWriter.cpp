@@ -23,6 +23,8 @@ std::string_view vtkTypeName(ScalarType t) {
         return "Int16";
     case ScalarType::Float32:
         return "Float32";
+    case ScalarType::Float64:
+        return "Float64";
     }
     return "Float32";
 }

@@ -51,7 +51,7 @@ unsigned typeCode(ScalarType t) {
     return unsigned(t);
 }
 ScalarType typeFromCode(unsigned code) {
-    if (code > unsigned(ScalarType::Float32))
+    if (code > unsigned(ScalarType::Float64))
         throw DataError("volcl HDF5 filter: unknown element type code " + std::to_string(code));
     return ScalarType(code);
 }
@@ -401,7 +401,9 @@ std::vector<std::byte> encodeChunk(ComputeContext& cc, const FilterParameters& p
             return encodeFrames(cc, p, chunk, false);
         }
     }
-    return encodeFrames(cc, p, chunk, p.rate != ChunkRate::Lossless);
+    // Float64 frames are coded whole: the frame boxes' fill holds 4 bytes, and the codec's float64 layer
+    // bounds every voxel of the frame, the edge chunks' padding included.
+    return encodeFrames(cc, p, chunk, p.rate != ChunkRate::Lossless && p.type != ScalarType::Float64);
 }
 
 void decodeChunk(ComputeContext& cc, const FilterParameters& p, std::span<const std::byte> stored,
@@ -441,7 +443,7 @@ void decodeChunk(ComputeContext& cc, const FilterParameters& p, std::span<const 
     }
     const auto vcz = stored.subspan(headerBytes);
     VczReader reader(std::vector<std::byte>(vcz.begin(), vcz.end()), "HDF5 chunk");
-    if (!(reader.header().dims == d) || reader.header().type != p.type ||
+    if (!(reader.header().dims == d) || reader.header().voxelType() != p.type ||
         reader.header().frames.size() != p.frameCount())
         throw DataError("volcl HDF5 filter: the chunk's .vcz does not match the chunk shape or element type");
     const std::size_t frameBytes = d.count() * scalarSize(p.type);

@@ -40,13 +40,14 @@ std::optional<ScalarType> elementType(const Hdf5Runtime& h5, hid_t type, std::st
         return std::nullopt;
     }
     if (cls == H5T_FLOAT && size == 4) return ScalarType::Float32;
+    if (cls == H5T_FLOAT && size == 8) return ScalarType::Float64;
     if (cls == H5T_INTEGER) {
         const bool isSigned = h5.typeSign(type) == H5T_SGN_2;
         if (size == 1 && !isSigned) return ScalarType::UInt8;
         if (size == 2 && !isSigned) return ScalarType::UInt16;
         if (size == 2 && isSigned) return ScalarType::Int16;
     }
-    why = "the element type must be uint8, uint16, int16 or float32";
+    why = "the element type must be uint8, uint16, int16, float32 or float64";
     return std::nullopt;
 }
 
@@ -83,13 +84,21 @@ htri_t canApply(hid_t dcpl, hid_t type, hid_t /*space*/) {
     try { // nothing may unwind into HDF5's C code
         std::string why;
         hsize_t dims[H5S_MAX_RANK];
-        if (!elementType(*h5, type, why) || chunkDims(*h5, dcpl, dims, why) == 0) {
+        const auto element = elementType(*h5, type, why);
+        if (!element || chunkDims(*h5, dcpl, dims, why) == 0) {
             h5->error("H5Zvolcl can_apply", "volcl filter: " + why);
             return 0;
         }
         ChunkRate rate;
         double bound;
         parseUserValues(userParameters(*h5, dcpl), rate, bound);
+        if (*element == ScalarType::Float64 && rate == ChunkRate::Bpv) {
+            h5->error(
+                "H5Zvolcl can_apply",
+                "volcl filter: float64 datasets take the lossless or bounded rates (a bit budget would bound "
+                "no voxel)");
+            return 0;
+        }
         return 1;
     } catch (const std::exception& e) {
         h5->error("H5Zvolcl can_apply", e.what());

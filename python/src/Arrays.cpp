@@ -21,6 +21,8 @@ nb::dlpack::dtype dtypeOf(ScalarType type) {
         return nb::dtype<std::int16_t>();
     case ScalarType::Float32:
         return nb::dtype<float>();
+    case ScalarType::Float64:
+        return nb::dtype<double>();
     }
     return nb::dtype<std::uint8_t>();
 }
@@ -55,6 +57,8 @@ const char* numpyTypeName(ScalarType type) noexcept {
         return "int16";
     case ScalarType::Float32:
         return "float32";
+    case ScalarType::Float64:
+        return "float64";
     }
     return "uint8";
 }
@@ -84,7 +88,6 @@ Volume arrayToVolume(const InputArray& array, const std::array<double, 3>& spaci
     }
     const Dims dims{array.shape(2), array.shape(1), array.shape(0)};
     const nb::dlpack::dtype d = array.dtype();
-    const bool isFloat64 = d == nb::dtype<double>();
     ScalarType type = ScalarType::Float32;
     if (d == nb::dtype<std::uint8_t>())
         type = ScalarType::UInt8;
@@ -92,20 +95,15 @@ Volume arrayToVolume(const InputArray& array, const std::array<double, 3>& spaci
         type = ScalarType::UInt16;
     else if (d == nb::dtype<std::int16_t>())
         type = ScalarType::Int16;
-    else if (!(d == nb::dtype<float>()) && !isFloat64)
+    else if (d == nb::dtype<double>())
+        type = ScalarType::Float64;
+    else if (!(d == nb::dtype<float>()))
         throw UsageError("array dtype " + dtypeName(d) +
-                         " is not a volume type (uint8, uint16, int16, float32; float64 is converted)");
+                         " is not a volume type (uint8, uint16, int16, float32, float64)");
     Volume v(dims, type);
     v.spacing = spacing;
     v.origin = origin;
-    if (isFloat64) {
-        const double* in = static_cast<const double*>(array.data());
-        std::span<float> out = v.values<float>();
-        for (std::size_t i = 0; i < out.size(); ++i)
-            out[i] = static_cast<float>(in[i]);
-    } else {
-        std::memcpy(v.bytes().data(), array.data(), v.byteSize());
-    }
+    std::memcpy(v.bytes().data(), array.data(), v.byteSize());
     return v;
 }
 

@@ -30,7 +30,7 @@ using InputArray = nb::ndarray<nb::ro, nb::c_contig, nb::device::cpu>;
 
 /// The volume's voxels as a numpy array a[z, y, x] that owns the volume (no copy).
 nb::object volumeToArray(Volume volume);
-/// A numpy array a[z, y, x] (uint8, uint16, int16, float32; float64 converted to float32) as a Volume on
+/// A numpy array a[z, y, x] (uint8, uint16, int16, float32, float64) as a Volume on
 /// the given grid. Copies the voxels once: a Volume owns its storage. Throws UsageError for other dtypes
 /// or shapes.
 Volume arrayToVolume(const InputArray& array, const std::array<double, 3>& spacing,

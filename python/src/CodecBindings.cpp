@@ -119,7 +119,7 @@ nb::dict metadataDict(const std::map<std::string, std::string>& metadata) {
 nb::dict headerDict(const VczHeader& h) {
     nb::dict d;
     d["shape"] = std::array<std::size_t, 3>{h.dims.z, h.dims.y, h.dims.x};
-    d["dtype"] = numpyTypeName(h.type);
+    d["dtype"] = numpyTypeName(h.voxelType());
     d["spacing"] = h.spacing;
     d["origin"] = h.origin;
     d["wavelet"] = std::string(waveletName(h.wavelet));

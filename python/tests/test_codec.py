@@ -46,9 +46,47 @@ def test_psnr_target_is_met_within_half_a_db(mri):
     assert psnr >= 49.5
 
 
-def test_float64_input_is_converted_to_float32(smooth_float):
-    out = volcl.decode(volcl.encode(smooth_float.astype(np.float64)))
-    assert out.dtype == np.float32 and np.array_equal(out, smooth_float)
+def _adversarial_float64():
+    rng = np.random.default_rng(5)
+    z, y, x = np.mgrid[0:13, 0:18, 0:21]
+    smooth = np.sin(0.4 * x) * np.cos(0.3 * y) + 0.2 * np.sin(0.5 * z)
+    mixed = smooth + 1e-12 * rng.uniform(-1, 1, smooth.shape)  # detail below float32's precision
+    wide = np.where(x < 10, -1e300, 1e-300) * (2 + smooth)  # beyond float32's range both ways
+    special = 100 * smooth
+    r = rng.uniform(-1, 1, smooth.shape)
+    special[r > 0.95] = np.inf
+    special[r < -0.95] = -np.inf
+    special[np.abs(r) < 0.03] = np.frombuffer(np.uint64(0x7FF8000000001234).tobytes(), np.float64)[0]
+    special[(np.abs(r) >= 0.03) & (np.abs(r) < 0.06)] = -0.0
+    denormal = 1e-310 * (1.5 + smooth)
+    return {"mixed": mixed, "wide": wide, "special": special, "denormal": denormal}
+
+
+def _within(a, b, mode, target):
+    """Every voxel of b within the bound of a (NaN/Inf bit for bit, and zeros for the point-wise bound), in double."""
+    exact = ~np.isfinite(a) | ((a == 0) if mode == "pw_rel_error" else False)
+    assert np.array_equal(a[exact].view(np.uint64), b[exact].view(np.uint64))
+    x, d = a[~exact], np.abs(a[~exact] - b[~exact])
+    fin = a[np.isfinite(a)]
+    if mode == "max_error":
+        assert np.all(d <= target)
+    elif mode == "rel_error":
+        assert np.all(d <= target * fin.max() - target * fin.min())
+    elif mode == "pw_rel_error":
+        assert np.all(d <= target * np.abs(x))
+
+
+def test_float64_is_kept_bit_for_bit_and_every_bound_holds_in_double():
+    for name, a in _adversarial_float64().items():
+        out = volcl.decode(volcl.encode(a, brick=16, levels=3))
+        assert out.dtype == np.float64, name
+        assert np.array_equal(out.view(np.uint64), a.view(np.uint64)), name
+        for mode, target in (("rel_error", 1e-3), ("pw_rel_error", 1e-2)):
+            b = volcl.decode(volcl.encode(a, brick=16, levels=3, **{mode: target}))
+            assert b.dtype == np.float64
+            _within(a, b, mode, target)
+    with pytest.raises(volcl.UsageError, match="float64"):
+        volcl.encode(_adversarial_float64()["mixed"], bpv=2)
 
 
 def test_grid_and_metadata_are_kept(walnut):

@@ -47,5 +47,11 @@ def test_chunks_of_other_ranks_and_refused_dtypes():
         out = np.empty_like(a)
         codec.decode(codec.encode(a), out=out)
         assert np.array_equal(out, a)
-    with pytest.raises(TypeError, match="float64"):
-        codec.encode(np.zeros((4, 4, 4), np.float64))
+    # float64 chunks stay float64, bit for bit (NaN, -0 and values beyond float32's range included).
+    f = np.linspace(-1e300, 1e300, 4 * 5 * 6).reshape(4, 5, 6)
+    f[0, 0, :3] = (np.nan, -0.0, 1e-310)
+    back = codec.decode(codec.encode(f))
+    assert back.dtype == np.float64 and np.array_equal(back.view(np.uint64), f.view(np.uint64))
+    bounded = volcl.numcodecs.Volcl(pw_rel_error=1e-3)
+    g = np.exp(np.linspace(-30, 30, 8 * 8 * 8)).reshape(8, 8, 8)
+    assert np.all(np.abs(bounded.decode(bounded.encode(g)) - g) <= 1e-3 * g)

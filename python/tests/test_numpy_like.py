@@ -168,7 +168,8 @@ def test_npy_files_read_as_numpy_saved_them(tmp_path, descr, fortran, shape):
     path = tmp_path / "a.npy"
     np.save(path, a)
     v = volcl.read(path)
-    expected = {"u1": np.uint8, "i1": np.int16, "u2": np.uint16, "i2": np.int16}.get(descr[1:], np.float32)
+    expected = {"u1": np.uint8, "i1": np.int16, "u2": np.uint16, "i2": np.int16, "f8": np.float64}.get(descr[1:],
+                                                                                                    np.float32)
     assert v.array.dtype == expected and v.array.shape == shape and v.metadata["format"] == "numpy npy"
     assert np.array_equal(v.array, a.astype(expected))
 

@@ -68,6 +68,14 @@ def test_render_takes_arrays_views_and_presets(mri):
         volcl.render(mri, TF, view="sideways", width=8, height=8)
 
 
+def test_a_float64_array_renders_as_its_float32_narrowing(mri):
+    """Renderers sample float32: a float64 volume is narrowed where they take it, nowhere else."""
+    wide = mri.astype(np.float64) + 1e-9  # detail float32 cannot hold
+    a = volcl.render(volcl.Volume(wide), "preset:viridis", view="front", width=32, height=24)
+    b = volcl.render(volcl.Volume(wide.astype(np.float32)), "preset:viridis", view="front", width=32, height=24)
+    assert np.array_equal(a, b)
+
+
 def test_transfer_function_reads_canonical_and_paraview_json():
     tf = volcl.TransferFunction.from_json(TF)
     assert tf.domain == (0, 255) and tf.extinction_at(80) == pytest.approx(0.8)

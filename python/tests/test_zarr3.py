@@ -71,10 +71,15 @@ def test_codec_metadata_round_trips_and_bad_configurations_are_refused():
     assert volcl.zarr3.Volcl.from_dict(d) == codec
     with pytest.raises(ValueError, match="unknown parameter"):
         volcl.zarr3.Volcl.from_dict({"name": "volcl", "configuration": {"max_eror": 1}})
-    z = zarr.create_array(zarr.storage.MemoryStore(), shape=(8, 8, 8), chunks=(8, 8, 8), dtype=np.float64,
-                          compressors=[volcl.zarr3.Volcl()])
-    with pytest.raises(TypeError, match="float64"):
-        z[:] = np.ones((8, 8, 8))  # not the fill value: zarr skips chunks that equal it
+    # float64 arrays stay float64: lossless bit for bit, a relative bound on every voxel in double.
+    a = np.exp(np.linspace(-30, 30, 8 * 8 * 8)).reshape(8, 8, 8) * np.where(np.arange(8) % 2, -1, 1)
+    for codec, check in ((volcl.zarr3.Volcl(), lambda b: np.array_equal(b.view(np.uint64), a.view(np.uint64))),
+                         (volcl.zarr3.Volcl(pw_rel_error=1e-3), lambda b: np.all(np.abs(b - a) <= 1e-3 * np.abs(a)))):
+        z = zarr.create_array(zarr.storage.MemoryStore(), shape=(8, 8, 8), chunks=(8, 8, 8), dtype=np.float64,
+                              compressors=[codec])
+        z[:] = a
+        back = z[:]
+        assert back.dtype == np.float64 and check(back)
 
 
 def test_zarr_format_2_arrays_take_the_numcodecs_codec(tmp_path):

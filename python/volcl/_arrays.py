@@ -14,8 +14,9 @@ import numpy as np
 
 from . import _volcl
 
-#: numpy dtypes a volume can hold (float64 input is converted to float32).
-VOLUME_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.int16), np.dtype(np.float32))
+#: numpy dtypes a volume can hold (float64 is kept as float64; renderers sample it as float32).
+VOLUME_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.int16), np.dtype(np.float32),
+                 np.dtype(np.float64))
 
 _contexts: dict = {}
 _contexts_lock = threading.Lock()
@@ -35,17 +36,13 @@ def context(device: Optional[str] = None) -> "_volcl.Context":
         return ctx
 
 
-def volume_array(array: Any, *, allow_float64: bool = True) -> np.ndarray:
+def volume_array(array: Any) -> np.ndarray:
     """`array` as a C-contiguous, native-byte-order numpy array of a volume dtype (no copy when it is one)."""
     a = np.asarray(array)
     if a.dtype.byteorder not in ("=", "|"):
         a = a.astype(a.dtype.newbyteorder("="))
-    if a.dtype == np.float64 and allow_float64:
-        return np.ascontiguousarray(a)  # converted to float32 by the library, as every reader does
     if a.dtype not in VOLUME_DTYPES:
-        raise TypeError(
-            f"array dtype {a.dtype} is not a volume type (uint8, uint16, int16, float32"
-            + ("; float64 is converted)" if allow_float64 else ")"))
+        raise TypeError(f"array dtype {a.dtype} is not a volume type (uint8, uint16, int16, float32, float64)")
     return np.ascontiguousarray(a)
 
 

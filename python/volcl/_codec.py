@@ -61,7 +61,8 @@ def encode(data: Union[np.ndarray, Volume, Sequence[np.ndarray]], *, lossless: O
     ``report``, when a dict is given, receives what the encoder measured (bytes, bits_per_voxel, psnr,
     max_error, corrections, step, milliseconds) for a single volume.
 
-    float64 input is converted to float32 first. The GIL is released while the encoder runs.
+    float64 input stays float64 (lossless bit for bit; a bound holds in double on every voxel; a single
+    volume, not a series). The GIL is released while the encoder runs.
 
     Example::
 
@@ -413,8 +414,8 @@ def _index(f: VczFile, key: Any, series: bool, frame: int = 0) -> np.ndarray:
 
 def chunk_volume(chunk: np.ndarray) -> np.ndarray:
     """A zarr chunk as the 3D volume the codec compresses: fewer than three dimensions become a thin volume,
-    extra leading dimensions are stacked along z. float64 is refused (decoding gives float32)."""
-    a = _arrays.volume_array(chunk, allow_float64=False)
+    extra leading dimensions are stacked along z."""
+    a = _arrays.volume_array(chunk)
     if a.ndim < 3:
         return a.reshape((1,) * (3 - a.ndim) + a.shape)
     if a.ndim > 3:

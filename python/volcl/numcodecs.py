@@ -12,7 +12,8 @@ Each chunk becomes one .vcz (one volume: chunks of fewer than three dimensions a
 volumes, extra leading dimensions are stacked along z). Lossless by default; ``max_error`` bounds every
 voxel, ``rel_error`` every voxel by R x the value range of its chunk (the range zarr hands the codec),
 ``pw_rel_error`` every voxel by R x its magnitude, ``psnr`` and ``bpv`` set a quality or a size. The dtype must be a volume type (uint8, uint16,
-int16, float32): a float64 chunk is refused, since decoding would not give float64 back.
+int16, float32, float64): a float64 chunk decodes as float64, bit for bit when lossless and within the bound
+(checked in double) otherwise; ``bpv`` is refused for float64, as it would bound no voxel.
 """
 from __future__ import annotations
 

@@ -11,7 +11,8 @@ zarr finds the codec by name when it opens such an array (the ``zarr.codecs`` en
 registered on import of this module). Each chunk becomes one .vcz, as with :class:`volcl.numcodecs.Volcl`:
 the chunk's shape and dtype come from zarr's chunk spec, its bytes from the ``bytes`` codec before it,
 whose little-endian default the codec reads them in (a big-endian ``bytes`` codec still round-trips, but
-the lossy bounds would then apply to byte-swapped values). float64 arrays are refused.
+the lossy bounds would then apply to byte-swapped values). float64 arrays stay float64 (lossless bit for
+bit, a bound checked in double; ``bpv`` refused).
 """
 from __future__ import annotations
 

@@ -4,6 +4,7 @@
 #include "cl/render/channels_shared.h"
 #include "core/Error.hpp"
 #include "render/FrameParams.hpp"
+#include "render/RenderInput.hpp"
 #include "render/grid/GridDetail.hpp"
 #include "render/grid/GridRenderer.hpp"
 
@@ -27,8 +28,10 @@ int clTypeCode(ScalarType t) {
         return 3;
     case ScalarType::Float32:
         return 0;
+    case ScalarType::Float64: // narrowed by kernelVoxels before any kernel sees it
+        break;
     }
-    return 0;
+    throw Error("internal: float64 channel reached the kernel");
 }
 
 // DirectColor: the factor that takes a stored value to [0, 1] (floats are taken as stored).
@@ -41,6 +44,7 @@ double colorScaleOf(ScalarType t) {
     case ScalarType::Int16:
         return 1.0 / 32767.0;
     case ScalarType::Float32:
+    case ScalarType::Float64:
         return 1.0;
     }
     return 1.0;
@@ -105,6 +109,7 @@ ChannelVolume readSceneChannels(const Scene& scene, const ReadOptions& options) 
             throw DataError("channel " + std::to_string(i) + " has a different size than channel 0");
     // Files of one grid may state it apart in the last float digit: the first channel's geometry holds.
     for (Volume& v : out.channels) {
+        v = kernelVoxels(std::move(v));
         v.spacing = out.channels[0].spacing;
         v.origin = out.channels[0].origin;
         v.direction = out.channels[0].direction;

@@ -33,7 +33,7 @@ TEST(Cli, UsageErrorsExitTwo) {
     test::RunResult r = test::runVolcl("info", dir); // missing required file
     EXPECT_EQ(r.exitCode, 2);
     EXPECT_EQ(test::lineCount(r.err), 1u) << r.err;
-    EXPECT_EQ(test::runVolcl("info x.raw --type double", dir).exitCode, 2);
+    EXPECT_EQ(test::runVolcl("info x.raw --type int64", dir).exitCode, 2);
 }
 
 TEST(Cli, CropBoxRefusalsExitTwoAndABoxOutsideRendersTheBackground) {

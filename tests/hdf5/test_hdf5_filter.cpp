@@ -56,6 +56,9 @@ std::vector<std::byte> makeChunk(const FilterParameters& p, bool specials, unsig
         case ScalarType::Float32:
             reinterpret_cast<float*>(bytes.data())[i] = float(v * 1000 - 500);
             break;
+        case ScalarType::Float64: // detail below float32's precision
+            reinterpret_cast<double*>(bytes.data())[i] = v * 1000 - 500 + 1e-9 * noise(rng);
+            break;
         }
     }
     if (n >= 8) {
@@ -83,6 +86,17 @@ std::vector<std::byte> makeChunk(const FilterParameters& p, bool specials, unsig
                 put(n - 1, std::numeric_limits<float>::lowest());
             }
             break;
+        case ScalarType::Float64: // NaN with a payload, Inf, -0, subnormal, and beyond float32's range
+            if (specials) {
+                put(0, std::bit_cast<double>(0x7ff8000000001234ull));
+                put(1, std::numeric_limits<double>::infinity());
+                put(2, -std::numeric_limits<double>::infinity());
+                put(3, -0.0);
+                put(4, 1e-310);
+                put(5, 1e300);
+                put(n - 1, -1e-300);
+            }
+            break;
         }
     }
     return bytes;
@@ -98,6 +112,8 @@ double valueAt(const FilterParameters& p, std::span<const std::byte> b, std::siz
         return double(reinterpret_cast<const std::int16_t*>(b.data())[i]);
     case ScalarType::Float32:
         return double(reinterpret_cast<const float*>(b.data())[i]);
+    case ScalarType::Float64:
+        return reinterpret_cast<const double*>(b.data())[i];
     }
     return 0;
 }
@@ -183,7 +199,8 @@ TEST(Hdf5FilterParameters, PackedParametersRoundTripAndDamageIsRefused) {
 // --- chunk codec -------------------------------------------------------------------------------------------
 
 TEST(Hdf5ChunkCodec, LosslessIsExactForEveryTypeWithExtremeValues) {
-    for (ScalarType t : {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16, ScalarType::Float32}) {
+    for (ScalarType t : {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16, ScalarType::Float32,
+                         ScalarType::Float64}) {
         const auto p = params(t, {13, 17, 32});
         const auto chunk = makeChunk(p, true);
         std::size_t stored = 0;
@@ -212,6 +229,36 @@ TEST(Hdf5ChunkCodec, DegenerateChunkShapesRoundTrip) {
         const auto p = params(ScalarType::UInt8, d);
         const auto chunk = makeChunk(p, false, unsigned(d[2]));
         EXPECT_EQ(roundTrip(p, chunk), chunk) << d[0] << "x" << d[1] << "x" << d[2];
+    }
+}
+
+// Float64 chunks: every bounded rate on every voxel in double (NaN/Inf bit for bit), a 4D chunk included.
+TEST(Hdf5ChunkCodec, Float64BoundsHoldOnEveryVoxel) {
+    for (ChunkRate rate : {ChunkRate::MaxError, ChunkRate::RelError, ChunkRate::PwRelError}) {
+        const double bound = rate == ChunkRate::MaxError ? 0.05 : 1e-4;
+        for (std::vector<std::size_t> shape : {std::vector<std::size_t>{13, 17, 32}, {2, 8, 9, 10}}) {
+            const auto p = params(ScalarType::Float64, shape, rate, bound);
+            const auto chunk = makeChunk(p, true);
+            const auto back = roundTrip(p, chunk);
+            const std::size_t n = p.chunkBytes() / 8;
+            double lo = INFINITY, hi = -INFINITY;
+            for (std::size_t i = 0; i < n; ++i)
+                if (const double x = valueAt(p, chunk, i); std::isfinite(x))
+                    lo = std::min(lo, x), hi = std::max(hi, x);
+            std::size_t wrong = 0;
+            for (std::size_t i = 0; i < n; ++i) {
+                const double x = valueAt(p, chunk, i), y = valueAt(p, back, i);
+                const double allowed = rate == ChunkRate::MaxError   ? bound
+                                       : rate == ChunkRate::RelError ? bound * hi - bound * lo
+                                                                     : bound * std::abs(x);
+                if (!std::isfinite(x) || x == 0)
+                    wrong += std::bit_cast<std::uint64_t>(x) != std::bit_cast<std::uint64_t>(y) &&
+                             !(rate != ChunkRate::PwRelError && x == 0 && std::abs(y) <= allowed);
+                else
+                    wrong += !(std::abs(x - y) <= allowed);
+            }
+            EXPECT_EQ(wrong, 0u) << int(rate) << " " << shape.size() << "D";
+        }
     }
 }
 
@@ -493,6 +540,8 @@ hid_t fileTypeOf(ScalarType t) {
         return H5T_STD_I16LE;
     case ScalarType::Float32:
         return H5T_IEEE_F32LE;
+    case ScalarType::Float64:
+        return H5T_IEEE_F64LE;
     }
     return -1;
 }
@@ -528,8 +577,8 @@ TEST(Hdf5Filter, DatasetsOfEveryTypeReadBackExactWithPartialEdgeChunks) {
     const std::string path = (dir / "types.h5").string();
     const std::vector<hsize_t> dims{21, 40, 37}, chunk{8, 16, 16}; // partial chunks on every axis
     std::vector<std::vector<std::byte>> written;
-    const ScalarType types[] = {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16,
-                                ScalarType::Float32};
+    const ScalarType types[] = {ScalarType::UInt8, ScalarType::UInt16, ScalarType::Int16, ScalarType::Float32,
+                                ScalarType::Float64};
     {
         const hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
         ASSERT_GE(f, 0);
@@ -546,7 +595,7 @@ TEST(Hdf5Filter, DatasetsOfEveryTypeReadBackExactWithPartialEdgeChunks) {
     }
     const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
     ASSERT_GE(f, 0);
-    for (std::size_t i = 0; i < 4; ++i) {
+    for (std::size_t i = 0; i < std::size(types); ++i) {
         const hid_t d = H5Dopen2(f, std::string(scalarTypeName(types[i])).c_str(), H5P_DEFAULT);
         std::vector<std::byte> back(written[i].size());
         ASSERT_GE(H5Dread(d, fileTypeOf(types[i]), H5S_ALL, H5S_ALL, H5P_DEFAULT, back.data()), 0);
@@ -631,7 +680,6 @@ TEST(Hdf5Filter, UnsupportedDatasetsAreRefusedWithAMessage) {
         const char* message;
     };
     const Case cases[] = {
-        {"f64", H5T_IEEE_F64LE, {8, 8, 8}, {8, 8, 8}, "element type"},
         {"i32", H5T_STD_I32LE, {8, 8, 8}, {8, 8, 8}, "element type"},
         {"u16be", H5T_STD_U16BE, {8, 8, 8}, {8, 8, 8}, "big-endian"},
         {"plane", H5T_STD_U8LE, {8, 8}, {8, 8}, "3 (z, y, x) or 4"},

@@ -142,6 +142,13 @@ LodStatistics measureLodStatistics(ComputeContext& cc, const std::vector<std::by
     const VczReader reader(vcz, name);
     const VczHeader& h = reader.header();
     if (inputs.size() != h.frames.size()) throw Error("internal: LOD statistics need every input frame");
+    // Renderers sample a float64 file's float32 layer: its statistics are the narrowed voxels'.
+    std::vector<Volume> narrowed;
+    if (h.float64 || (!inputs.empty() && inputs[0].type() == ScalarType::Float64)) {
+        for (const Volume& v : inputs)
+            narrowed.push_back(v.convertedTo(ScalarType::Float32));
+        inputs = narrowed;
+    }
     const int levels = h.transform == TransformKind::RawBits ? 0 : h.levels;
     LodStatistics st;
     st.levels = h.levels;
@@ -161,6 +168,8 @@ LodStatistics measureLodStatistics(ComputeContext& cc, const std::vector<std::by
             o.level = l;
             o.frame = f;
             decoded[std::size_t(l)] = reader.decode(cc, o);
+            if (decoded[std::size_t(l)].type() == ScalarType::Float64)
+                decoded[std::size_t(l)] = decoded[std::size_t(l)].convertedTo(ScalarType::Float32);
         }
         auto levelVoxels = [&](int l) -> const Volume& {
             return l == 0 && h.rate == RateMode::Lossless ? input : decoded[std::size_t(l)];

@@ -387,6 +387,11 @@ void checkFrameReferences(const VczHeader& h, std::uint32_t version, const Reade
         std::all_of(h.frames.begin(), h.frames.end(),
                     [](const VczFrame& f) { return f.type == FrameType::I; }))
         r.fail("unsupported .vcz version 4 for a file of I frames only (corrupt header)");
+    // A float64 file's bricks are its float32 layer and every frame is an I frame.
+    if (h.float64 && (h.type != ScalarType::Float32 ||
+                      std::any_of(h.frames.begin(), h.frames.end(),
+                                  [](const VczFrame& f) { return f.type != FrameType::I; })))
+        r.fail("float64 layer beside bricks that are not float32 I frames (corrupt header)");
     auto anchor = [&](std::int32_t k) {
         return k >= 0 && k < n && h.frames[std::size_t(k)].type != FrameType::B;
     };
@@ -397,8 +402,9 @@ void checkFrameReferences(const VczHeader& h, std::uint32_t version, const Reade
             r.fail(which + ": P/B frame in a version " + std::to_string(version) + " file");
         if (e.type != FrameType::I && h.transform == TransformKind::RawBits)
             r.fail(which + ": P/B frame of raw float bit planes");
+        // An I frame's auxiliary block is its float64 layer in a float64 file, and absent otherwise.
         const bool ok =
-            e.type == FrameType::I ? e.reference0 == -1 && e.reference1 == -1 && e.auxSize == 0
+            e.type == FrameType::I ? e.reference0 == -1 && e.reference1 == -1 && (e.auxSize != 0) == h.float64
             : e.type == FrameType::P
                 ? anchor(e.reference0) && e.reference0 < f && e.reference1 == -1
                 : anchor(e.reference0) && e.reference0 < f && anchor(e.reference1) && e.reference1 > f;
@@ -450,7 +456,11 @@ void checkVczDecodeBudget(const VczHeader& h, Dims dims, std::size_t memoryBudge
     const std::size_t n = largest.count();
     const std::size_t brickBytes =
         n * (sizeof(std::int32_t) + sizeof(codec::Correction)) + codec::maxCorrectionListBytes(h.type, n);
-    checkMemoryBudget(dims.count() * scalarSize(h.type) + brickBytes, memoryBudget, name,
+    // A float64 file's region is decoded as its float32 layer, then widened; an exact float64 layer is expanded
+    // for the whole frame (8 bytes a voxel).
+    const std::size_t float64Bytes =
+        h.float64 && dims.count() > 0 ? dims.count() * 8 + h.dims.count() * 8 : 0;
+    checkMemoryBudget(dims.count() * scalarSize(h.type) + float64Bytes + brickBytes, memoryBudget, name,
                       what + " with the coefficients and corrections of a " + std::to_string(largest.x) +
                           "x" + std::to_string(largest.y) + "x" + std::to_string(largest.z) + " brick");
 }
@@ -474,7 +484,9 @@ std::vector<std::byte> writeVcz(const VczHeader& h, std::span<const std::vector<
     }
     Writer w;
     w.bytes.assign(kVczMagic.begin(), kVczMagic.end());
-    w.put<std::uint32_t>(h.voxelBricks ? kVczVersionVoxelBricks : kVczVersionCompact);
+    w.put<std::uint32_t>(h.float64       ? kVczVersionFloat64
+                         : h.voxelBricks ? kVczVersionVoxelBricks
+                                         : kVczVersionCompact);
     w.put<std::uint32_t>(static_cast<std::uint32_t>(compact.body.size()));
     w.putBytes(compact.body);
     w.put<std::uint64_t>(vczChecksum(w.bytes));
@@ -590,7 +602,7 @@ void readFixedFields(Reader& r, VczHeader& h, const std::string& name, std::size
     if (h.transform == TransformKind::RawBits && h.type != ScalarType::Float32)
         r.fail("raw bit planes of integer voxels (corrupt header)");
     if (use == VczHeaderUse::Frame) {
-        checkMemoryBudget(h.dims.count() * scalarSize(h.type), memoryBudget, name,
+        checkMemoryBudget(h.dims.count() * scalarSize(h.voxelType()), memoryBudget, name,
                           "a " + std::to_string(h.dims.x) + "x" + std::to_string(h.dims.y) + "x" +
                               std::to_string(h.dims.z) + " frame");
         checkVczDecodeBudget(h, h.dims, memoryBudget, name, "a frame");
@@ -842,8 +854,9 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
         throw IoError(name + ": not a .vcz file (bad magic)");
     Reader pre(file.subspan(kVczMagic.size()), name, "header");
     const auto version = pre.get<std::uint32_t>();
-    if (version != kVczVersionVoxelBricks && version != kVczVersionCompact && version != kVczVersionSeries &&
-        version != kVczVersionPredicted && version != kVczVersion && version != 2)
+    if (version != kVczVersionFloat64 && version != kVczVersionVoxelBricks && version != kVczVersionCompact &&
+        version != kVczVersionSeries && version != kVczVersionPredicted && version != kVczVersion &&
+        version != 2)
         throw IoError(name + ": unsupported .vcz version " + std::to_string(version));
     const auto bodySize = pre.get<std::uint32_t>();
     const std::size_t bodyStart = kVczMagic.size() + 8;
@@ -857,7 +870,8 @@ VczHeader readVczHeader(std::span<const std::byte> fileBytes, const std::string&
     Reader r(file.subspan(bodyStart, bodySize), name, "header");
     VczHeader h;
     h.version = version;
-    h.voxelBricks = version == kVczVersionVoxelBricks;
+    h.float64 = version == kVczVersionFloat64;
+    h.voxelBricks = version == kVczVersionVoxelBricks || h.float64;
     const bool compact = compactLayout(version);
     readFixedFields(r, h, name, memoryBudget, use, version >= kVczVersionCompact);
     CompactIndexPlace compactIndex;

@@ -69,6 +69,12 @@ struct VczHeader {
     /// Some bricks may be coded as voxels (a payload whose first byte, the section count, is 0: palette or
     /// raw voxels, lossless; wavelet/payload/VoxelBrick.hpp). Written as version 7, read from version 7 only.
     bool voxelBricks = false;
+    /// The voxels are float64 (version 8): the bricks (and `type`, Float32) hold their float32 layer, which
+    /// renderers and coarse levels read; each frame's auxiliary block holds the float64 layer that gives the
+    /// voxels back (wavelet/Float64Layer.hpp). Voxel-coded bricks may occur, as in version 7.
+    bool float64 = false;
+    /// The type of the voxels VczReader::decode gives: Float64 for a float64 file, else `type`.
+    ScalarType voxelType() const noexcept { return float64 ? ScalarType::Float64 : type; }
 
     /// Bricks per axis and in total.
     Dims brickGrid() const noexcept;
@@ -100,6 +106,9 @@ inline constexpr std::uint32_t kVczVersionCompact = 6;
 /// Version 6's layout in a file where some bricks are coded as voxels (VczHeader::voxelBricks): written only
 /// then, so every other file stays version 6, byte for byte.
 inline constexpr std::uint32_t kVczVersionVoxelBricks = 7;
+/// Version 7's layout in a file of float64 voxels (VczHeader::float64): every frame an I frame whose auxiliary
+/// block is the float64 layer. Written only then.
+inline constexpr std::uint32_t kVczVersionFloat64 = 8;
 
 /// Serialises the header and index (brick offsets must be final) followed by the payloads, which must
 /// lie in `payloads` in index order starting right after the index, each frame's auxiliary block right after

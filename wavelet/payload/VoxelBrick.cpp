@@ -97,6 +97,7 @@ std::int32_t getValue(const std::uint8_t* p, ScalarType t) {
     case ScalarType::Int16:
         return static_cast<std::int16_t>(std::uint16_t(p[0] | p[1] << 8));
     case ScalarType::Float32:
+    case ScalarType::Float64: // not a brick type (bricks hold a float64 volume's float32 layer)
         break;
     }
     std::uint32_t u;

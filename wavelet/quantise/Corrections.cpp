@@ -36,7 +36,7 @@ std::vector<std::uint8_t> encodeCorrections(const std::vector<Correction>& corr,
     for (const Correction& c : corr) {
         putVarint(raw, c.index - prev);
         prev = c.index;
-        std::uint8_t bytes[4];
+        std::uint8_t bytes[8];
         switch (type) {
         case ScalarType::UInt8:
             bytes[0] = static_cast<std::uint8_t>(c.value);
@@ -56,6 +56,9 @@ std::vector<std::uint8_t> encodeCorrections(const std::vector<Correction>& corr,
             std::memcpy(bytes, &v, 4);
             break;
         }
+        case ScalarType::Float64: // a float64 layer's voxels (wavelet/Float64Layer.hpp), bit for bit
+            std::memcpy(bytes, &c.value, 8);
+            break;
         }
         raw.insert(raw.end(), bytes, bytes + scalarSize(type));
     }
@@ -168,6 +171,9 @@ std::vector<Correction> decodeCorrections(std::span<const std::uint8_t> in, Scal
             c.value = v;
             break;
         }
+        case ScalarType::Float64:
+            std::memcpy(&c.value, b, 8);
+            break;
         }
         pos += scalarSize(type);
     }

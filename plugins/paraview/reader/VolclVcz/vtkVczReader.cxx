@@ -43,6 +43,8 @@ int vtkTypeOf(ScalarType t) {
         return VTK_SHORT;
     case ScalarType::Float32:
         return VTK_FLOAT;
+    case ScalarType::Float64:
+        return VTK_DOUBLE;
     }
     return VTK_FLOAT;
 }
@@ -142,7 +144,7 @@ int vtkVczReader::RequestInformation(vtkInformation*, vtkInformationVector**,
         outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), whole, 6);
         outInfo->Set(vtkDataObject::SPACING(), spacing, 3);
         outInfo->Set(vtkDataObject::ORIGIN(), h.origin[0], h.origin[1], h.origin[2]);
-        vtkDataObject::SetPointDataActiveScalarInfo(outInfo, vtkTypeOf(h.type), 1);
+        vtkDataObject::SetPointDataActiveScalarInfo(outInfo, vtkTypeOf(h.voxelType()), 1);
         // Pieces, not sub-extents: the reader picks brick-aligned slabs itself.
         outInfo->Set(vtkAlgorithm::CAN_HANDLE_PIECE_REQUEST(), 1);
         outInfo->Remove(vtkStreamingDemandDrivenPipeline::TIME_STEPS());
@@ -198,7 +200,7 @@ int vtkVczReader::RequestData(vtkInformation*, vtkInformationVector**, vtkInform
     const std::size_t planeSamples = d.x * d.y, sampleBytes = scalarSize(h.type);
     const std::size_t planes = own.empty() ? 0 : own.hi.z - own.lo.z + (sharesAbove ? 1 : 0);
     vtkSmartPointer<vtkDataArray> values;
-    values.TakeReference(vtkDataArray::CreateDataArray(vtkTypeOf(h.type)));
+    values.TakeReference(vtkDataArray::CreateDataArray(vtkTypeOf(h.voxelType())));
     values->SetName("values");
     values->SetNumberOfTuples(vtkIdType(planeSamples * planes));
     auto* dst = static_cast<std::byte*>(values->GetVoidPointer(0));
