@@ -146,7 +146,9 @@ TEST(Volume, ParseScalarTypeNames) {
     EXPECT_EQ(parseScalarType("UINT16"), ScalarType::UInt16);
     EXPECT_EQ(parseScalarType("short"), ScalarType::Int16);
     EXPECT_EQ(parseScalarType("float"), ScalarType::Float32);
-    EXPECT_THROW(parseScalarType("double"), UsageError);
+    EXPECT_EQ(parseScalarType("double"), ScalarType::Float64);
+    EXPECT_EQ(parseScalarType("f64"), ScalarType::Float64);
+    EXPECT_THROW(parseScalarType("int64"), UsageError);
 }
 
 TEST(TimeSeries, ValidatesGrid) {
